@@ -1,0 +1,39 @@
+"""Hysteresis Explorer numerical core: PI-family models, exact inverses, fitting, diagnosis.
+
+Import-light on purpose: no web or plotting libraries are imported here.
+"""
+
+from __future__ import annotations
+
+from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
+from .exceptions import (
+    ClippedInputWarning,
+    FitWarning,
+    HysteresisError,
+    NotFittedError,
+    NotInvertibleError,
+    ParameterError,
+)
+from .operators import dead_zone, play, play_bank, stop
+from .pi import PIModel, inverse_parameters
+
+__all__ = [
+    "Chain",
+    "ClippedInputWarning",
+    "FitWarning",
+    "HysteresisError",
+    "Model",
+    "NotFittedError",
+    "NotInvertibleError",
+    "PIModel",
+    "ParameterError",
+    "Response",
+    "dead_zone",
+    "inverse_parameters",
+    "model_from_dict",
+    "play",
+    "play_bank",
+    "register_model",
+    "registered_types",
+    "stop",
+]

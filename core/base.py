@@ -1,0 +1,258 @@
+"""The model algebra: every model is a causal operator with an explicit state.
+
+A :class:`Model` maps an input signal to an output signal, sample by sample, starting
+from a state and returning the state after the last sample. Models compose with
+:class:`Chain` (``a >> b`` feeds ``a``'s output into ``b``), and the inverse of a chain
+is the chain of inverses in reverse order. Memoryless maps, hysteresis operators and
+linear dynamics (delay, lag, resonance, ...) all implement the same interface, so later
+extensions plug into the same algebra and the same JSON documents.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ._typing import ArrayLike, Float1D
+from .exceptions import NotInvertibleError, ParameterError
+from .validation import as_input_signal
+
+__all__ = [
+    "Chain",
+    "Model",
+    "Response",
+    "model_from_dict",
+    "register_model",
+    "registered_types",
+]
+
+_REGISTRY: dict[str, type[Model]] = {}
+
+
+def register_model(cls: type[Model]) -> type[Model]:
+    """Class decorator: make ``cls`` loadable by :func:`model_from_dict` via ``cls.type_name``."""
+    name = cls.type_name
+    if name in _REGISTRY and _REGISTRY[name] is not cls:
+        raise ValueError(f"model type {name!r} registered twice")
+    _REGISTRY[name] = cls
+    return cls
+
+
+def registered_types() -> list[str]:
+    """Names of every model ``type`` that :func:`model_from_dict` understands."""
+    return sorted(_REGISTRY)
+
+
+def model_from_dict(d: dict[str, Any]) -> Model:
+    """Build a model from its ``to_dict()`` form, dispatching on ``d["type"]``.
+
+    Raises
+    ------
+    ParameterError
+        If ``d`` is not a mapping, has no known ``type``, or its fields are invalid.
+    """
+    if not isinstance(d, dict):
+        raise ParameterError(f"a model must be a JSON object, got {type(d).__name__}")
+    t = d.get("type")
+    if t not in _REGISTRY:
+        raise ParameterError(
+            f"unknown model type {t!r}; known types: {', '.join(registered_types())}"
+        )
+    return _REGISTRY[t].from_dict(d)
+
+
+@dataclass(frozen=True, eq=False)
+class Response:
+    """Result of :meth:`Model.simulate`.
+
+    Attributes
+    ----------
+    u : ndarray of shape (N,)
+        The input that was applied.
+    y : ndarray of shape (N,)
+        The output.
+    state : object
+        The model state after the last sample; pass it as ``state=`` to continue.
+    """
+
+    u: Float1D
+    y: Float1D
+    state: Any
+
+    def __iter__(self) -> Iterator[Any]:
+        """Allow ``u, y = model.simulate(u)``."""
+        return iter((self.u, self.y))
+
+
+class Model(ABC):
+    """Base class of every model (hysteresis operator, memoryless map, linear dynamics).
+
+    Subclasses are frozen dataclasses that validate in ``__post_init__`` and register
+    themselves with :func:`register_model`.
+    """
+
+    type_name: ClassVar[str] = ""
+    #: True when the output depends on the sample spacing ``dt`` (linear dynamics, delay).
+    needs_dt: ClassVar[bool] = False
+
+    # -- behaviour -----------------------------------------------------------------
+    @abstractmethod
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        """Map a validated input from ``state``; return ``(y, final_state)``."""
+
+    @abstractmethod
+    def default_state(self) -> Any:
+        """State used when :meth:`simulate` is called without ``state=``."""
+
+    def simulate(
+        self, u: ArrayLike, *, state: Any = None, dt: float | None = None
+    ) -> Response:
+        """Apply the model to an input signal.
+
+        Parameters
+        ----------
+        u : array_like of shape (N,)
+            Input samples (finite).
+        state : object, optional
+            State before the first sample, as returned in ``Response.state``; the
+            model's :meth:`default_state` when omitted.
+        dt : float, optional
+            Sample spacing in seconds; required by models with ``needs_dt``.
+
+        Returns
+        -------
+        Response
+            ``(u, y, state)``.
+        """
+        u = as_input_signal(u)
+        if self.needs_dt:
+            if dt is None or not np.isfinite(dt) or dt <= 0:
+                raise ParameterError(
+                    f"{type(self).__name__} has dynamics and needs the sample spacing "
+                    f"dt > 0 (seconds), got dt={dt!r}"
+                )
+        if state is None:
+            state = self.default_state()
+        y, st = self._run(u, state, dt)
+        return Response(u=u, y=y, state=st)
+
+    def __call__(self, u: ArrayLike, *, dt: float | None = None) -> Float1D:
+        """Shorthand for ``self.simulate(u, dt=dt).y``."""
+        return self.simulate(u, dt=dt).y
+
+    def inverse(self) -> Model:
+        """The exact inverse operator, such that ``self(self.inverse()(u)) == u``.
+
+        Raises
+        ------
+        NotInvertibleError
+            If the model has no inverse; the message says why.
+        """
+        raise NotInvertibleError(f"{type(self).__name__} has no analytical inverse")
+
+    # -- serialisation -------------------------------------------------------------
+    @abstractmethod
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description including ``"type": self.type_name``."""
+
+    @classmethod
+    @abstractmethod
+    def from_dict(cls, d: dict[str, Any]) -> Model:
+        """Inverse of :meth:`to_dict`; raises ``ParameterError`` on bad fields."""
+
+    # -- algebra -------------------------------------------------------------------
+    def __rshift__(self, other: Model) -> Chain:
+        """``a >> b`` is the chain that applies ``a`` then ``b``."""
+        if not isinstance(other, Model):
+            return NotImplemented
+        return Chain.of(self, other)
+
+    @property
+    def is_dynamic(self) -> bool:
+        """Whether the model (or any stage of it) needs ``dt``."""
+        return self.needs_dt
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class Chain(Model):
+    """Series composition: ``stages[0]`` first, its output feeding ``stages[1]``, ...
+
+    Typical use: input map → hysteresis → output map → linear dynamics. The inverse is
+    the chain of the stage inverses in reverse order.
+
+    Parameters
+    ----------
+    stages : tuple of Model
+        At least one stage.
+    """
+
+    type_name: ClassVar[str] = "chain"
+    stages: tuple[Model, ...]
+
+    def __post_init__(self) -> None:
+        stages = tuple(self.stages)
+        if not stages:
+            raise ParameterError("a chain needs at least one stage")
+        for i, s in enumerate(stages):
+            if not isinstance(s, Model):
+                raise ParameterError(f"chain stage {i} is {type(s).__name__}, not a Model")
+        object.__setattr__(self, "stages", stages)
+
+    @classmethod
+    def of(cls, *models: Model) -> Chain:
+        """Flatten nested chains into one chain."""
+        flat: list[Model] = []
+        for m in models:
+            flat.extend(m.stages if isinstance(m, Chain) else (m,))
+        return cls(tuple(flat))
+
+    @property
+    def needs_dt(self) -> bool:  # type: ignore[override]
+        return any(s.needs_dt for s in self.stages)
+
+    @property
+    def is_dynamic(self) -> bool:
+        return self.needs_dt
+
+    def default_state(self) -> tuple[Any, ...]:
+        return tuple(s.default_state() for s in self.stages)
+
+    def simulate(
+        self, u: ArrayLike, *, state: Any = None, dt: float | None = None
+    ) -> Response:
+        u = as_input_signal(u)
+        if state is None:
+            state = self.default_state()
+        if len(state) != len(self.stages):
+            raise ParameterError(
+                f"chain state has {len(state)} entries but the chain has {len(self.stages)} stages"
+            )
+        x = u
+        out_states = []
+        for stage, st in zip(self.stages, state, strict=True):
+            r = stage.simulate(x, state=st, dt=dt)
+            x = r.y
+            out_states.append(r.state)
+        return Response(u=u, y=x, state=tuple(out_states))
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        r = self.simulate(u, state=state, dt=dt)
+        return r.y, r.state
+
+    def inverse(self) -> Chain:
+        return Chain(tuple(s.inverse() for s in reversed(self.stages)))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"type": self.type_name, "stages": [s.to_dict() for s in self.stages]}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Chain:
+        stages = d.get("stages")
+        if not isinstance(stages, list) or not stages:
+            raise ParameterError("chain.stages must be a non-empty list of models")
+        return cls(tuple(model_from_dict(s) for s in stages))
