@@ -171,7 +171,9 @@ class PIModel(Model):
         kernels.pi_output_fast(u, self.thresholds, self.weights, self.p0, z, y)
         return y, z
 
-    def simulate_strict(self, u: ArrayLike, state: ArrayLike | None = None) -> tuple[Float1D, Float1D]:
+    def simulate_strict(
+        self, u: ArrayLike, state: ArrayLike | None = None
+    ) -> tuple[Float1D, Float1D]:
         """Deterministic (sequential-sum) evaluation; bit-identical to :mod:`core.reference`.
 
         Returns

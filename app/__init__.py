@@ -1,0 +1,1 @@
+"""Hysteresis Explorer application layer: command line, REST API, viser GUI, figures."""
