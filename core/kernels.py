@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import os
 
-
 __all__ = [
     "NUMBA_ENABLED",
     "pi_batch",
