@@ -1,0 +1,496 @@
+"""C99 code generation: the inverse compensator (and the forward model) for embedded use.
+
+The generated code runs sample by sample with no allocation: all state lives in a struct
+the caller owns, every constant is emitted with ``%.17g`` (exact round trip of IEEE doubles),
+and the API of a generated block ``<name>`` is::
+
+    typedef struct { ... } <name>_state;
+    void   <name>_init(<name>_state *st);            /* first use: same as reset */
+    void   <name>_reset(<name>_state *st);           /* back to the model's initial state */
+    double <name>_step(<name>_state *st, double u);  /* one sample in, one sample out */
+    void   <name>_run(<name>_state *st, const double *u, double *y, size_t n);
+
+:func:`generate_c` emits the inverse compensator as ``<prefix>_inv_*`` and, optionally, the
+forward model as ``<prefix>_fwd_*``. The generator is stage based: a model is flattened into
+its chain stages and each stage type contributes struct fields, constants, reset statements
+and step statements through an emitter registered with :func:`register_c_stage`, so new model
+types plug in without touching the rest. Stage types with an emitter: see
+:func:`supported_c_types`.
+"""
+
+from __future__ import annotations
+
+import re
+import textwrap
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .base import Chain, Model
+from .exceptions import ParameterError
+
+if TYPE_CHECKING:
+    from .paramset import ParameterSet
+
+__all__ = [
+    "CCode",
+    "CExportError",
+    "CStage",
+    "StageContext",
+    "c_identifier",
+    "c_double",
+    "export_c",
+    "generate_c",
+    "register_c_stage",
+    "supported_c_types",
+]
+
+_C_KEYWORDS = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto if "
+    "inline int long register restrict return short signed sizeof static struct switch typedef "
+    "union unsigned void volatile while _Bool _Complex _Imaginary".split()
+)
+
+
+class CExportError(ParameterError):
+    """The model cannot be exported to C (unsupported stage type, bad name, ...)."""
+
+
+def c_double(x: float) -> str:
+    """A C double literal with 17 significant digits (exact round trip).
+
+    Examples
+    --------
+    >>> c_double(0.1)
+    '0.10000000000000001'
+    >>> c_double(2.0)
+    '2.0'
+    """
+    v = float(x)
+    if not np.isfinite(v):
+        raise CExportError(f"cannot emit the non-finite constant {v!r} as C code")
+    s = format(v, ".17g")
+    if not any(c in s for c in ".en"):
+        s += ".0"
+    return s
+
+
+def _c_array(values: Sequence[float] | np.ndarray, per_line: int = 4) -> str:
+    items = [c_double(v) for v in np.asarray(values, dtype=np.float64).ravel()]
+    lines = [", ".join(items[i : i + per_line]) for i in range(0, len(items), per_line)]
+    return "{\n    " + ",\n    ".join(lines) + "\n}"
+
+
+@dataclass
+class CStage:
+    """C fragments of one stage, with identifiers already prefixed.
+
+    Attributes
+    ----------
+    title : str
+        One-line description for the comment above the stage.
+    fields : list of str
+        Declarations inside the state struct, e.g. ``"double s0_z[6];"``.
+    constants : list of str
+        File-scope ``static const`` definitions.
+    reset : list of str
+        Statements that put the state (``st->...``) back to its initial value.
+    step : list of str
+        Statements that read the current sample from the double ``x`` and overwrite ``x``
+        with the stage output (they may update ``st->...``).
+    """
+
+    title: str
+    fields: list[str] = field(default_factory=list)
+    constants: list[str] = field(default_factory=list)
+    reset: list[str] = field(default_factory=list)
+    step: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class StageContext:
+    """Naming and timing context handed to a stage emitter.
+
+    Attributes
+    ----------
+    field : str
+        Prefix of the stage's struct fields (``"s0_"``), unique within a block.
+    const : str
+        Prefix of the stage's file-scope constants (``"hyst_inv_s0_"``), unique in the file.
+    dt : float or None
+        Sample time in seconds for dynamic stages.
+    """
+
+    field: str
+    const: str
+    dt: float | None = None
+
+
+#: Emitter signature: ``(model, ctx) -> CStage``.
+Emitter = Callable[[Model, StageContext], CStage]
+_EMITTERS: dict[str, Emitter] = {}
+
+
+def register_c_stage(type_name: str) -> Callable[[Emitter], Emitter]:
+    """Decorator registering the C emitter of a model ``type`` (see :class:`CStage`)."""
+
+    def deco(fn: Emitter) -> Emitter:
+        _EMITTERS[type_name] = fn
+        return fn
+
+    return deco
+
+
+def supported_c_types() -> list[str]:
+    """Model types that :func:`generate_c` can emit (``chain`` of these included)."""
+    return sorted(_EMITTERS)
+
+
+# ----------------------------------------------------------------------------- stage emitters
+@register_c_stage("pi")
+def _emit_pi(model: Model, ctx: StageContext) -> CStage:
+    """Play-operator bank ``x <- p0 x + sum_i w_i z_i`` with ``z_i = clamp(z_i, x-r_i, x+r_i)``."""
+    from .pi import PIModel
+
+    assert isinstance(model, PIModel)
+    n = model.n
+    f, c = ctx.field, ctx.const
+    return CStage(
+        title=f"classical PI, {n} play operator(s)",
+        fields=[f"double {f}z[{n}];"],
+        constants=[
+            f"static const double {c}P0 = {c_double(model.p0)};",
+            f"static const double {c}R[{n}] = {_c_array(model.thresholds)};",
+            f"static const double {c}W[{n}] = {_c_array(model.weights)};",
+            f"static const double {c}Z0[{n}] = {_c_array(model.state0)};",
+        ],
+        reset=[
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    st->{f}z[i] = {c}Z0[i];",
+            "}",
+        ],
+        step=[
+            "double acc = 0.0;",
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    const double hi = x + {c}R[i];",
+            f"    const double lo = x - {c}R[i];",
+            f"    double zi = st->{f}z[i];",
+            "    if (zi > hi) zi = hi;",
+            "    if (zi < lo) zi = lo;",
+            f"    st->{f}z[i] = zi;",
+            f"    acc += {c}W[i] * zi;",
+            "}",
+            f"x = {c}P0 * x + acc;",
+        ],
+    )
+
+
+# ----------------------------------------------------------------------------- generation
+def _flatten(model: Model) -> list[Model]:
+    if isinstance(model, Chain):
+        out: list[Model] = []
+        for s in model.stages:
+            out.extend(_flatten(s))
+        return out
+    return [model]
+
+
+def _check_ident(name: str) -> str:
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) or name in _C_KEYWORDS:
+        raise CExportError(
+            f"C name {name!r} is not a valid C identifier; use letters, digits and underscores, "
+            "not starting with a digit (e.g. 'piezo_comp')"
+        )
+    return name
+
+
+def c_identifier(text: str) -> str:
+    """Turn a file stem such as ``"my-comp.v2"`` into a C identifier (``"my_comp_v2"``)."""
+    s = re.sub(r"[^A-Za-z0-9_]", "_", text) or "hyst"
+    if s[0].isdigit() or s in _C_KEYWORDS:
+        s = "h_" + s
+    return s
+
+
+def _type_of(m: Model) -> str:
+    return type(m).type_name
+
+
+def _emit_block(model: Model, name: str, dt: float | None, what: str) -> tuple[str, str]:
+    """(header part, source part) of one block ``name`` implementing ``model``."""
+    stages = _flatten(model)
+    if any(s.needs_dt for s in stages) and (dt is None or not dt > 0):
+        raise CExportError(
+            f"the {what} has dynamics (needs_dt); give the sample time, e.g. dt=1e-4 "
+            "(--dt on the command line)"
+        )
+    emitted: list[CStage] = []
+    for k, s in enumerate(stages):
+        t = _type_of(s)
+        emitter = _EMITTERS.get(t)
+        if emitter is None:
+            raise CExportError(
+                f"C export of model type {t!r} (stage {k} of the {what}) is not supported; "
+                f"supported stage types: {', '.join(supported_c_types())}"
+            )
+        emitted.append(emitter(s, StageContext(f"s{k}_", f"{name}_s{k}_", dt)))
+
+    fields = [f for st in emitted for f in st.fields] or ["int unused_; /* stateless */"]
+    h: list[str] = []
+    h.append(f"/* {what}: {len(stages)} stage(s): "
+             + " -> ".join(_type_of(s) for s in stages) + " */")
+    h.append("typedef struct {")
+    h.extend(f"    {f}" for f in fields)
+    h.append(f"}} {name}_state;")
+    h.append("")
+    h.append(f"/** Initialise the state before first use (same as {name}_reset). */")
+    h.append(f"void {name}_init({name}_state *st);")
+    h.append("/** Return the state to the model's initial state (state0). */")
+    h.append(f"void {name}_reset({name}_state *st);")
+    h.append("/** Process one sample: returns the output for input u. */")
+    h.append(f"double {name}_step({name}_state *st, double u);")
+    h.append(f"/** Process n samples: y[k] = {name}_step(st, u[k]); y may alias u. */")
+    h.append(f"void {name}_run({name}_state *st, const double *u, double *y, size_t n);")
+
+    src: list[str] = [f"/* ---- {what} ---- */"]
+    for k, st in enumerate(emitted):
+        src.append(f"/* stage {k}: {st.title} */")
+        src.extend(st.constants)
+    uses_i_reset = any("for (i" in line for st in emitted for line in st.reset)
+    uses_i_step = any("for (i" in line for st in emitted for line in st.step)
+    src.append("")
+    src.append(f"void {name}_reset({name}_state *st)")
+    src.append("{")
+    if uses_i_reset:
+        src.append("    unsigned i;")
+    body = [line for st in emitted for line in st.reset]
+    if not body:
+        src.append("    st->unused_ = 0;")
+    src.extend(f"    {line}" for line in body)
+    src.append("}")
+    src.append("")
+    src.append(f"void {name}_init({name}_state *st)")
+    src.append("{")
+    src.append(f"    {name}_reset(st);")
+    src.append("}")
+    src.append("")
+    src.append(f"double {name}_step({name}_state *st, double u)")
+    src.append("{")
+    src.append("    double x = u;")
+    if uses_i_step:
+        src.append("    unsigned i;")
+    if not any(st.step for st in emitted) or not any(st.fields for st in emitted):
+        src.append("    (void)st;")
+    for k, st in enumerate(emitted):
+        src.append(f"    {{ /* stage {k}: {st.title} */")
+        src.extend(f"        {line}" for line in st.step)
+        src.append("    }")
+    src.append("    return x;")
+    src.append("}")
+    src.append("")
+    src.append(f"void {name}_run({name}_state *st, const double *u, double *y, size_t n)")
+    src.append("{")
+    src.append("    size_t k;")
+    src.append("    for (k = 0; k < n; ++k) {")
+    src.append(f"        y[k] = {name}_step(st, u[k]);")
+    src.append("    }")
+    src.append("}")
+    return "\n".join(h), "\n".join(src)
+
+
+@dataclass(frozen=True)
+class CCode:
+    """Generated C99 code.
+
+    Attributes
+    ----------
+    name : str
+        Prefix of every public identifier (``<name>_inv_step``, ...) and the file stem.
+    header : str
+        Contents of ``<name>.h``.
+    source : str
+        Contents of ``<name>.c`` (it includes ``"<name>.h"``).
+    blocks : tuple of str
+        Generated block names, e.g. ``("hyst_inv", "hyst_fwd")``.
+    """
+
+    name: str
+    header: str
+    source: str
+    blocks: tuple[str, ...]
+
+    def write(self, directory: str | Path) -> tuple[Path, Path]:
+        """Write ``<name>.h`` and ``<name>.c`` into ``directory`` (created if needed).
+
+        Returns
+        -------
+        (Path, Path)
+            Header and source paths.
+        """
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        h = d / f"{self.name}.h"
+        c = d / f"{self.name}.c"
+        h.write_text(self.header, encoding="utf-8")
+        c.write_text(self.source, encoding="utf-8")
+        return h, c
+
+
+def _comment_safe(text: str) -> str:
+    return text.replace("*/", "* /").replace("/*", "/ *")
+
+
+def generate_c(
+    model: Model | ParameterSet,
+    name: str = "hyst",
+    *,
+    inverse: bool = True,
+    forward: bool = True,
+    dt: float | None = None,
+    description: str | None = None,
+) -> CCode:
+    """Generate C99 code for a model's inverse compensator and/or the model itself.
+
+    Parameters
+    ----------
+    model : Model or ParameterSet
+        The (forward) hysteresis model. Its inverse is computed with ``model.inverse()``.
+    name : str
+        C identifier used as prefix and file stem (default ``"hyst"``).
+    inverse : bool
+        Emit the compensator ``<name>_inv_*`` (requires an invertible model).
+    forward : bool
+        Emit the forward model ``<name>_fwd_*``.
+    dt : float, optional
+        Sample time in seconds, baked into dynamic stages (required when a stage has
+        ``needs_dt``).
+    description : str, optional
+        Free text put in the header comment (e.g. the provenance source).
+
+    Returns
+    -------
+    CCode
+
+    Raises
+    ------
+    CExportError
+        Bad name, nothing to emit, or a stage type without a C emitter.
+    NotInvertibleError
+        ``inverse=True`` and the model has no inverse.
+    """
+    from .paramset import ParameterSet
+
+    units = None
+    doc = None
+    if isinstance(model, ParameterSet):
+        units = model.units
+        description = description or model.provenance.source
+        doc = model.to_dict()["model"]
+        model = model.model
+    if not isinstance(model, Model):
+        raise CExportError(f"generate_c needs a Model or ParameterSet, got {type(model).__name__}")
+    _check_ident(name)
+    if not (inverse or forward):
+        raise CExportError("nothing to generate: pass inverse=True and/or forward=True")
+    blocks: list[tuple[str, Model, str]] = []
+    if inverse:
+        blocks.append((f"{name}_inv", model.inverse(), "inverse compensator"))
+    if forward:
+        blocks.append((f"{name}_fwd", model, "forward model"))
+
+    import json
+
+    guard = f"{name.upper()}_H_INCLUDED"
+    info = [
+        f"Generated by {_tool()} (core/export_c.py). C99, no allocation.",
+    ]
+    if description:
+        info.append(f"Source: {_comment_safe(description)}")
+    if units is not None:
+        info.append(
+            f"Units: forward model {units.input} -> {units.output}; "
+            f"compensator {units.output} -> {units.input}."
+        )
+    if dt is not None:
+        info.append(f"Sample time baked in: dt = {c_double(dt)} s.")
+    info.append("Forward model parameters (JSON):")
+    model_json = json.dumps(doc if doc is not None else model.to_dict())
+    info.extend(
+        "  " + _comment_safe(line)
+        for line in textwrap.wrap(model_json, 90, break_long_words=False, break_on_hyphens=False)
+    )
+    usage = [
+        "Usage (compensator before the actuator):",
+        f"  {name}_inv_state st; {name}_inv_init(&st);",
+        f"  each sample: drive = {name}_inv_step(&st, desired_output);",
+    ] if inverse else []
+    header_lines = ["/*"] + [f" * {line}".rstrip() for line in info + [""] + usage] + [" */"]
+    header_lines += [f"#ifndef {guard}", f"#define {guard}", "", "#include <stddef.h>", ""]
+    header_lines += ["#ifdef __cplusplus", 'extern "C" {', "#endif", ""]
+    source_lines = [
+        f"/* {name}.c: generated by {_tool()}; see {name}.h. */",
+        f'#include "{name}.h"',
+        "",
+    ]
+    for bname, bmodel, what in blocks:
+        h, s = _emit_block(bmodel, bname, dt, what)
+        header_lines += [h, ""]
+        source_lines += [s, ""]
+    header_lines += ["#ifdef __cplusplus", "}", "#endif", "", f"#endif /* {guard} */", ""]
+    return CCode(
+        name=name,
+        header="\n".join(header_lines),
+        source="\n".join(source_lines),
+        blocks=tuple(b[0] for b in blocks),
+    )
+
+
+def _tool() -> str:
+    from .paramset import tool_name
+
+    return tool_name()
+
+
+def export_c(
+    model: Model | ParameterSet,
+    path: str | Path,
+    *,
+    name: str | None = None,
+    inverse: bool = True,
+    forward: bool = True,
+    dt: float | None = None,
+) -> tuple[Path, Path]:
+    """Write ``<stem>.h`` and ``<stem>.c`` next to ``path``.
+
+    Parameters
+    ----------
+    model : Model or ParameterSet
+    path : str or Path
+        ``dir/stem.c``, ``dir/stem.h`` or ``dir/stem``; both files are written into ``dir``.
+    name : str, optional
+        C prefix; defaults to the stem made into a C identifier.
+    inverse, forward, dt
+        See :func:`generate_c`.
+
+    Returns
+    -------
+    (Path, Path)
+        Header and source paths.
+    """
+    p = Path(path)
+    stem = p.stem if p.suffix in (".c", ".h") else p.name
+    code = generate_c(
+        model, name or c_identifier(stem), inverse=inverse, forward=forward, dt=dt
+    )
+    d = p.parent
+    d.mkdir(parents=True, exist_ok=True)
+    h = d / f"{stem}.h"
+    c = d / f"{stem}.c"
+    h.write_text(code.header, encoding="utf-8")
+    c.write_text(code.source.replace(f'#include "{code.name}.h"', f'#include "{stem}.h"'),
+                 encoding="utf-8")
+    return h, c
+
