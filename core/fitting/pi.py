@@ -1,0 +1,530 @@
+"""Identification of the classical PI model: :class:`PIRegressor`.
+
+Model fitted::
+
+    y(t) ≈ c + p0·u(t) + Σ_i p_i Γ_{r_i}[u](t),    p0 >= ε > 0,  p_i >= 0
+
+With ``p0 > 0`` and every ``p_i >= 0`` all loop-segment slopes ``p0 + p_1 + ... + p_k`` are
+positive, so the fitted model is **always invertible** (paper 001 eq. 33-37). The weights
+come from non-negative least squares on the column-scaled Cholesky factor of the streamed
+Gram matrix (:mod:`core.fitting.gram`), the offset ``c`` is a free parameter eliminated
+exactly in the triangular factor, and ``p0 >= ε`` is handled by a shift of variables.
+
+Initial state: each recording starts with every play operator relaxed at the first input
+sample, ``z_i(0) = u[0]`` (as if the input had rested at ``u[0]``), both in ``fit`` and in
+``predict``. A recording whose true history is unknown should start with a rest period, or
+its first samples should be excluded from the loss with the ``train=`` mask: excluded
+samples still drive the operator states, so the memory is right when scoring starts.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._typing import ArrayLike, Float1D
+from ..exceptions import FitWarning, NotFittedError, ParameterError
+from ..pi import PIModel
+from ..validation import as_vector
+from ._data import Prepared, as_recordings, prepare
+from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
+from .metrics import FitReport, evaluate_fit
+from .thresholds import place_thresholds
+
+__all__ = ["DEFAULT_CANDIDATES", "LinearPIFit", "PIRegressor", "fit_linear_pi"]
+
+#: Numbers of operators tried when ``n_operators=None``.
+DEFAULT_CANDIDATES: tuple[int, ...] = (5, 10, 15, 20, 25, 30, 40)
+
+
+@dataclass(frozen=True, eq=False)
+class LinearPIFit:
+    """Result of :func:`fit_linear_pi`.
+
+    Attributes
+    ----------
+    offset : float
+        Output offset ``c`` (0 when not fitted).
+    p0 : float
+        Linear weight.
+    weights : ndarray of shape (n,)
+        Play weights.
+    extra : ndarray of shape (k,)
+        Weights of the extra memoryless columns.
+    sse : float
+        Training residual sum of squares.
+    cond : float
+        Condition number of the column-scaled Gram matrix.
+    solver : str
+    """
+
+    offset: float
+    p0: float
+    weights: Float1D
+    extra: Float1D
+    sse: float
+    cond: float
+    solver: str
+
+
+def fit_linear_pi(
+    segments: Sequence[Segment],
+    thresholds: Float1D,
+    *,
+    min_slope: float,
+    include_offset: bool = True,
+    train_labels: Sequence[int] = (0,),
+    gram: np.ndarray | None = None,
+    transform: Callable[[Float1D], Float1D] | None = None,
+    extra: Callable[[Float1D, Float1D], np.ndarray] | None = None,
+    extra_lower: Float1D | None = None,
+    chunk: int = DEFAULT_CHUNK,
+    allow_tsqr: bool = True,
+    constraint: str = "nonnegative",
+) -> LinearPIFit:
+    """Constrained least-squares weights of ``c + p0 x + Σ p_i Γ_{r_i}[x] + Σ e_j E_j``.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+        Labelled recordings.
+    thresholds : ndarray of shape (n,)
+        Play thresholds (units of ``x``).
+    min_slope : float
+        Lower bound ε > 0 of ``p0``.
+    include_offset : bool
+        Fit a free output offset ``c``.
+    train_labels : sequence of int
+        Labels summed into the training Gram matrix.
+    gram : ndarray of shape (L, m, m), optional
+        Pre-computed per-label Gram matrices from :func:`stream_gram` (same arguments).
+    transform, extra : callable, optional
+        See :func:`core.fitting.gram.stream_gram`.
+    extra_lower : ndarray of shape (k,), optional
+        Lower bounds of the extra weights (``-inf`` = free); required with ``extra``.
+    chunk : int
+        Samples per chunk.
+    allow_tsqr : bool
+        Recompute the factor by TSQR when the scaled Gram matrix is ill conditioned.
+    constraint : {"slopes", "nonnegative"}
+        Invertibility constraint, see :func:`constraint_transform`.
+
+    Returns
+    -------
+    LinearPIFit
+    """
+    r = np.asarray(thresholds, dtype=np.float64)
+    n = r.size
+    xl = np.zeros(0) if extra_lower is None else np.asarray(extra_lower, dtype=np.float64)
+    k = xl.size
+    kw: dict[str, Any] = {"transform": transform, "extra": extra, "n_extra": k, "chunk": chunk}
+    if gram is None:
+        n_lab = int(max(train_labels)) + 1
+        gram = stream_gram(segments, r, n_labels=n_lab, **kw)
+    G = np.sum(gram[list(train_labels)], axis=0)
+    T, lower = constraint_transform(n, k, min_slope, constraint)
+    lower[2 + n :] = xl
+    keep = np.ones(lower.size + 1, dtype=bool)
+    if not include_offset:
+        keep[0] = False
+    Tk = T[np.ix_(keep, keep)]
+    sol = solve_constrained(lower[keep[:-1]], gram=Tk.T @ G[np.ix_(keep, keep)] @ Tk)
+    solver = "gram-cholesky-nnls"
+    if sol.cond > COND_LIMIT and allow_tsqr:
+        R = stream_tsqr(segments, r, use_labels=train_labels, **kw)
+        sol = solve_constrained(lower[keep[:-1]], factor=R[np.ix_(keep, keep)] @ Tk)
+        solver = "tsqr-nnls"
+    theta = np.zeros(lower.size)
+    theta[keep[:-1]] = sol.theta
+    theta = T[:-1, :-1] @ theta
+    return LinearPIFit(
+        offset=float(theta[0]),
+        p0=float(theta[1]),
+        weights=theta[2 : 2 + n].copy(),
+        extra=theta[2 + n :].copy(),
+        sse=sol.sse,
+        cond=sol.cond,
+        solver=solver,
+    )
+
+
+def constraint_transform(
+    n: int, k: int, min_slope: float, constraint: str
+) -> tuple[np.ndarray, Float1D]:
+    """Change of variables and lower bounds that make the fitted PI model invertible.
+
+    The design columns are ``[1, x, z_1..z_n, E_1..E_k, y]`` with parameters
+    ``θ = (c, p0, p_1..p_n, e_1..e_k)``. The fit solves for ``φ`` with ``θ = T φ`` under
+    ``φ >= lower`` (the Gram matrix becomes ``Tᵀ G T``).
+
+    ``"slopes"``
+        ``φ`` holds the loop-segment slopes ``S_0 = p0, S_j = p0 + p_1 + ... + p_j``, all
+        bounded below by ε: exactly the invertibility condition of paper 001 (eq. 33-37).
+        Weights may be negative, so saturating (concave) loading curves such as B-H loops
+        or friction are representable, and the inverse slope never exceeds ``1/ε``.
+    ``"nonnegative"`` (default of :class:`PIRegressor`)
+        ``p0 >= ε`` and ``p_i >= 0``: the classical sufficient condition (slopes only grow
+        along a branch: hardening / convex loading curves, as in piezo actuators).
+
+    Parameters
+    ----------
+    n, k : int
+        Numbers of play operators and extra columns.
+    min_slope : float
+        ε > 0.
+    constraint : {"slopes", "nonnegative"}
+
+    Returns
+    -------
+    T : ndarray of shape (n + k + 3, n + k + 3)
+        Column transformation (the last row/column, for ``y``, is the identity).
+    lower : ndarray of shape (n + k + 2,)
+        Lower bounds of ``φ`` (``-inf`` = free).
+    """
+    m = n + k + 3
+    T = np.eye(m)
+    if constraint == "slopes":
+        # p_i = S_i - S_{i-1} for i = 1..n (rows/columns 2..n+1; p0 = S_0 is column 1)
+        for i in range(2, n + 2):
+            T[i, i - 1] = -1.0
+        lower = np.concatenate(([-np.inf], np.full(n + 1, min_slope), np.full(k, -np.inf)))
+    elif constraint == "nonnegative":
+        lower = np.concatenate(([-np.inf, min_slope], np.zeros(n), np.full(k, -np.inf)))
+    else:
+        raise ParameterError(
+            f"constraint must be 'slopes' or 'nonnegative', got {constraint!r}"
+        )
+    return T, lower
+
+
+def _cv_sse(gram: np.ndarray, n_blocks: int, lower: Float1D, T: np.ndarray) -> float:
+    """Blocked cross-validation: fit on all blocks but one, score the left-out block.
+
+    ``gram`` holds per-label Gram matrices (already restricted to the kept columns) and
+    ``T`` the constraint transform; labels ``0..n_blocks-1`` are the blocks.
+    """
+    total = 0.0
+    Gs = np.einsum("ji,bjk,kl->bil", T, gram[:n_blocks], T)
+    G_all = Gs.sum(axis=0)
+    for b in range(n_blocks):
+        sol = solve_constrained(lower, gram=G_all - Gs[b])
+        v = np.concatenate((sol.theta, [-1.0]))
+        total += float(v @ Gs[b] @ v)
+    return total
+
+
+def default_min_slope(prep: Prepared, rel: float = 1e-3) -> float:
+    """ε = ``rel`` × (output range / input range) on the training samples."""
+    u_tr = np.concatenate([u[m] for u, m in zip(prep.us, prep.train_masks, strict=True)])
+    y_tr = np.concatenate([y[m] for y, m in zip(prep.ys, prep.train_masks, strict=True)])
+    du = float(np.ptp(u_tr)) or float(np.ptp(np.concatenate(prep.us)))
+    return rel * float(np.ptp(y_tr)) / du
+
+
+class PIRegressor:
+    """Fit an invertible classical PI model (plus output offset) to input/output records.
+
+    Parameters
+    ----------
+    n_operators : int, optional
+        Number of play operators. ``None`` chooses it from ``candidates`` by blocked
+        cross-validation on the training samples: the smallest ``n`` whose CV RMSE is
+        within ``tolerance`` (2 %) of the best.
+    thresholds : {"uniform", "quantile"} or array_like of shape (n,)
+        Threshold placement rule (:func:`core.fitting.thresholds.place_thresholds`) or
+        explicit increasing thresholds (input units; then ``n_operators`` is their number).
+    r_max : float, optional
+        Widest threshold (input units); default 0.9 × the largest half-travel between
+        reversals.
+    include_offset : bool
+        Fit a free output offset ``c`` (output units), stored in ``offset_``.
+    validation : float
+        Fraction at the end of every recording held out for the report when ``fit`` gets
+        no ``train``/``test`` masks.
+    min_slope : float, optional
+        Lower bound ε of the constrained slopes (output per input unit); default 1e-3 ×
+        output range / input range. It bounds the inverse's slopes by ``1/ε``.
+    candidates : sequence of int
+        Values of ``n`` tried when ``n_operators`` is None.
+    cv_blocks : int
+        Number of contiguous blocks for cross-validation.
+    tolerance : float
+        Relative CV-RMSE tolerance for picking the smallest adequate ``n``.
+    chunk : int
+        Samples per streaming chunk.
+    constraint : {"nonnegative", "slopes"}
+        ``"nonnegative"`` (default): ``p0 >= ε`` and ``p_i >= 0`` (hardening loops, e.g.
+        piezo actuators); ``"slopes"``: every loop-segment slope ``p0 + p_1 + ... + p_j >= ε``
+        (the exact invertibility condition; weights may be negative, so saturating loops
+        such as B-H curves or friction fit).
+
+    Attributes
+    ----------
+    model_ : PIModel
+        Fitted model (without offset); ``state0`` is relaxed at the first training
+        recording's first input sample.
+    offset_ : float
+        Output offset; predictions are ``model_(u) + offset_``.
+    p0_, weights_, thresholds_ : float, ndarray of shape (n,), ndarray of shape (n,)
+    n_operators_ : int
+    cv_scores_ : dict of int to float or None
+        Cross-validation RMSE per candidate ``n`` (output units), when ``n`` was chosen.
+    report_ : FitReport
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0, 3, 3000)
+    >>> u = 2 * np.sin(2 * np.pi * t)
+    >>> true = PIModel(0.5, [0.4, 0.8, 1.2], [0.3, 0.2, 0.1])
+    >>> est = PIRegressor(thresholds=[0.4, 0.8, 1.2]).fit(u, true(u) + 1.0)
+    >>> round(est.offset_, 6), np.round(est.weights_, 6).tolist()
+    (1.0, [0.3, 0.2, 0.1])
+    """
+
+    def __init__(
+        self,
+        n_operators: int | None = None,
+        thresholds: str | ArrayLike = "uniform",
+        r_max: float | None = None,
+        include_offset: bool = True,
+        validation: float = 0.2,
+        min_slope: float | None = None,
+        candidates: Sequence[int] = DEFAULT_CANDIDATES,
+        cv_blocks: int = 5,
+        tolerance: float = 0.02,
+        chunk: int = DEFAULT_CHUNK,
+        constraint: str = "nonnegative",
+    ) -> None:
+        self.n_operators = n_operators
+        self.thresholds = thresholds
+        self.r_max = r_max
+        self.include_offset = include_offset
+        self.validation = validation
+        self.min_slope = min_slope
+        self.candidates = candidates
+        self.cv_blocks = cv_blocks
+        self.tolerance = tolerance
+        self.chunk = chunk
+        self.constraint = constraint
+
+    # ------------------------------------------------------------------ helpers
+    def _thresholds_for(self, prep: Prepared, n: int) -> Float1D:
+        if isinstance(self.thresholds, str):
+            return place_thresholds(prep.us, n, self.thresholds, self.r_max)
+        return as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
+
+    def _lower(self, n: int, eps: float) -> tuple[Float1D, np.ndarray, np.ndarray]:
+        T, lower = constraint_transform(n, 0, eps, self.constraint)
+        keep = np.ones(n + 3, dtype=bool)
+        keep[0] = bool(self.include_offset)
+        return lower[keep[:-1]], keep, T[np.ix_(keep, keep)]
+
+    # ------------------------------------------------------------------ API
+    def fit(
+        self,
+        u: ArrayLike | Sequence[ArrayLike],
+        y: ArrayLike | Sequence[ArrayLike],
+        *,
+        train: ArrayLike | Sequence[ArrayLike] | None = None,
+        test: ArrayLike | Sequence[ArrayLike] | None = None,
+    ) -> PIRegressor:
+        """Fit thresholds (by rule), weights and offset.
+
+        Parameters
+        ----------
+        u : array_like of shape (N,), or list of such
+            Input record(s) (input units). With a list, the play states restart at every
+            recording.
+        y : array_like of shape (N,), or list of such
+            Measured output(s) (output units), same lengths as ``u``.
+        train, test : array_like of bool, shape (N,), or list of such, optional
+            Samples used for fitting / held-out scoring (see
+            :func:`core.fitting._data.prepare` for the rules). Samples in neither still
+            drive the operator states.
+
+        Returns
+        -------
+        PIRegressor
+            ``self``.
+
+        Raises
+        ------
+        ParameterError
+            Bad inputs (mismatched lengths, NaN, constant input or output, too few
+            samples, bad thresholds).
+
+        Warns
+        -----
+        FitWarning
+            When a slope sits on its lower bound (the inverse is very steep there) or the
+            design is nearly collinear.
+        """
+        explicit = not isinstance(self.thresholds, str)
+        n_fixed = self.n_operators
+        if explicit:
+            r_exp = as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
+            if n_fixed is not None and n_fixed != r_exp.size:
+                raise ParameterError(
+                    f"n_operators = {n_fixed} but {r_exp.size} explicit thresholds were given"
+                )
+            n_fixed = r_exp.size
+        if n_fixed is not None and (int(n_fixed) != n_fixed or n_fixed < 1):
+            raise ParameterError(f"n_operators must be a positive integer, got {n_fixed!r}")
+        n_min = n_fixed if n_fixed is not None else min(self.candidates)
+        prep = prepare(
+            u, y, train, test, validation=self.validation, min_train=max(20, 3 * (n_min + 3))
+        )
+        eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
+        if not (np.isfinite(eps) and eps > 0):
+            raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
+        cv_scores: dict[int, float | None] = {}
+        if n_fixed is None:
+            K = int(self.cv_blocks)
+            segs = prep.segments(K)
+            best = None
+            results = {}
+            for n in sorted(set(int(c) for c in self.candidates)):
+                if prep.n_train < 3 * (n + 3) * K // (K - 1):
+                    cv_scores[n] = None
+                    continue
+                r = self._thresholds_for(prep, n)
+                gram = stream_gram(segs, r, n_labels=K + 1, chunk=self.chunk)
+                lower, keep, T = self._lower(n, eps)
+                sse = _cv_sse(gram[:, keep][:, :, keep], K, lower, T)
+                cv_scores[n] = float(np.sqrt(sse / prep.n_train))
+                results[n] = (r, gram)
+            valid = {n: s for n, s in cv_scores.items() if s is not None}
+            best_score = min(valid.values())
+            best = min(n for n, s in valid.items() if s <= (1 + self.tolerance) * best_score)
+            n = best
+            r, gram = results[n]
+            train_labels = tuple(range(K))
+            test_label = K
+        else:
+            n = int(n_fixed)
+            segs = prep.segments(1)
+            r = r_exp if explicit else self._thresholds_for(prep, n)
+            gram = stream_gram(segs, r, n_labels=2, chunk=self.chunk)
+            train_labels = (0,)
+            test_label = 1
+        fit = fit_linear_pi(
+            segs,
+            r,
+            min_slope=eps,
+            include_offset=self.include_offset,
+            train_labels=train_labels,
+            gram=gram,
+            chunk=self.chunk,
+            constraint=self.constraint,
+        )
+        if fit.cond > COND_LIMIT:
+            warnings.warn(
+                f"nearly collinear design (cond = {fit.cond:.2g}): some thresholds may exceed "
+                "the input travel of the data, so their operators never move",
+                FitWarning,
+                stacklevel=2,
+            )
+        slopes = np.cumsum(np.concatenate(([fit.p0], fit.weights)))
+        if float(slopes.min()) <= eps * (1 + 1e-9):
+            j = int(np.argmin(slopes))
+            warnings.warn(
+                f"loop slope S{j + 1} sits on its lower bound min_slope = {eps:.3g}: the fitted "
+                f"model is invertible but its inverse has slope up to {1 / eps:.3g} (input per "
+                "output unit); consider a larger min_slope if the inverse drives an actuator",
+                FitWarning,
+                stacklevel=2,
+            )
+        self.thresholds_ = np.asarray(r, dtype=np.float64)
+        self.p0_ = fit.p0
+        self.weights_ = fit.weights
+        self.offset_ = fit.offset
+        self.n_operators_ = n
+        self.cv_scores_ = cv_scores if n_fixed is None else {}
+        self.min_slope_ = eps
+        self.model_ = PIModel(fit.p0, r, fit.weights, np.full(n, float(prep.us[0][0])))
+        train_st, test_st, cmax, crmse = evaluate_fit(
+            self._model_for,
+            self.offset_,
+            segs,
+            train_labels=train_labels,
+            test_labels=(test_label,),
+        )
+        extra: dict[str, Any] = {"n_operators": n, "min_slope": eps, "offset": fit.offset}
+        if cv_scores:
+            extra["cv_rmse"] = cv_scores
+        self.report_ = FitReport(
+            model_type="pi",
+            n_parameters=n + 1 + int(self.include_offset),
+            train=train_st,
+            test=test_st,
+            compensation_max_abs=cmax,
+            compensation_rmse=crmse,
+            invertible=self.model_.is_invertible,
+            min_slope=float(np.min(self.model_.slopes)),
+            condition_number=fit.cond,
+            solver=fit.solver,
+            extra=extra,
+        )
+        return self
+
+    def _check(self) -> None:
+        if not hasattr(self, "model_"):
+            raise NotFittedError(
+                f"this {type(self).__name__} is not fitted yet; call fit(u, y) first"
+            )
+
+    def _model_for(self, u: Float1D) -> PIModel:
+        m = self.model_
+        return PIModel(m.p0, m.thresholds, m.weights, np.full(m.n, float(u[0])))
+
+    def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
+        """Model output ``model_(u) + offset_`` with operators relaxed at ``u[0]``.
+
+        Parameters
+        ----------
+        u : array_like of shape (N,), or list of such
+            Input record(s) (input units).
+
+        Returns
+        -------
+        ndarray of shape (N,), or list of such
+            Predicted output (output units).
+
+        Raises
+        ------
+        NotFittedError
+            Before :meth:`fit`.
+        """
+        self._check()
+        us, multi = as_recordings(u, "u")
+        out = [self._model_for(x)(x) + self.offset_ if x.size else x.copy() for x in us]
+        return out if multi else out[0]
+
+    def compensate(self, y_desired: ArrayLike) -> Float1D:
+        """Feed-forward command ``u = M⁻¹(y_desired - offset_)`` from the exact inverse.
+
+        The inverse starts consistently with the forward model relaxed at
+        ``M⁻¹``'s first output, so ``predict(compensate(y_d)) == y_d`` to round-off.
+
+        Parameters
+        ----------
+        y_desired : array_like of shape (N,)
+            Desired output (output units).
+
+        Returns
+        -------
+        ndarray of shape (N,)
+            Input command (input units).
+        """
+        self._check()
+        yd = np.asarray(as_recordings(y_desired, "y_desired")[0][0]) - self.offset_
+        if yd.size == 0:
+            return yd
+        S = float(self.model_.slopes[-1])
+        u0 = float(yd[0]) / S
+        return self._model_for(np.array([u0])).inverse()(yd)

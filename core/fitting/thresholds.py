@@ -1,0 +1,173 @@
+"""Placement of play-operator thresholds from the data.
+
+A play operator ``Γ_r`` only changes its output once the input has travelled ``2 r`` since the
+last reversal, so the useful thresholds lie between 0 and half of the largest travel between
+two reversals. Two rules are offered:
+
+``"uniform"``
+    ``r_i = r_max · i / n`` for ``i = 1..n``, with ``r_max`` a fraction (default 0.9) of the
+    largest half-travel between reversals (for a symmetric sine: of the input amplitude).
+``"quantile"``
+    Every travel between two reversals contributes uniformly to the half-travel interval
+    ``[0, a_s/2]`` it sweeps; thresholds are the quantiles ``i/(n+1)`` of that mixture. For a
+    constant-amplitude sine this reduces to uniform thresholds; for tapered or multi-amplitude
+    records (friction dampers, B-H loops at several amplitudes) operators crowd where many
+    small loops live.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .. import kernels
+from .._typing import Float1D
+from ..exceptions import ParameterError
+
+__all__ = ["half_travels", "place_thresholds", "reversal_indices"]
+
+#: Default fraction of the largest half-travel used as the widest threshold ("uniform").
+DEFAULT_R_FRACTION = 0.9
+
+
+def reversal_indices(u: Float1D, tol: float) -> np.ndarray:
+    """Indices of input reversals, ignoring wiggles smaller than ``tol``.
+
+    The input is first passed through a play operator of threshold ``tol / 2`` (a backlash
+    that hides noise of peak-to-peak size below ``tol``); a reversal is a sign change of the
+    filtered signal's increments.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        Input samples.
+    tol : float
+        Smallest travel (input units) that counts as a real reversal, ``tol >= 0``.
+
+    Returns
+    -------
+    ndarray of int, shape (K,)
+        Sample indices (into ``u``) of the turning points, first sample included.
+    """
+    if u.size < 2:
+        return np.zeros(1, dtype=np.int64)
+    v = np.empty((u.size, 1))
+    kernels.play_matrix(u, np.array([tol / 2.0]), np.array([u[0]]), v)
+    dv = np.diff(v[:, 0])
+    s = np.sign(dv)
+    nz = np.flatnonzero(s)
+    if nz.size == 0:
+        return np.zeros(1, dtype=np.int64)
+    sn = s[nz]
+    change = np.flatnonzero(sn[1:] != sn[:-1]) + 1
+    # the turning point is the last sample before the direction change (index nz[c-1] + 1)
+    turns = nz[change - 1] + 1
+    # the play lags the input by tol/2: the true extreme is the extreme of u in the segment
+    idx = [0]
+    bounds = np.concatenate(([0], turns, [u.size - 1]))
+    for j in range(turns.size):
+        lo, hi = int(bounds[j]), int(bounds[j + 2])
+        seg = u[lo : hi + 1]
+        k = int(np.argmax(seg) if sn[change[j] - 1] > 0 else np.argmin(seg))
+        idx.append(lo + k)
+    return np.unique(np.asarray(idx, dtype=np.int64))
+
+
+def half_travels(recordings: Sequence[Float1D], tol_fraction: float = 1e-3) -> Float1D:
+    """Half of the input travel between consecutive reversals, over all recordings.
+
+    Parameters
+    ----------
+    recordings : sequence of ndarray of shape (N_k,)
+        Input signals.
+    tol_fraction : float
+        Reversals smaller than this fraction of the overall input range are ignored.
+
+    Returns
+    -------
+    ndarray of shape (M,)
+        Half-travels ``|u(t_{j+1}) - u(t_j)| / 2`` (input units), ``M >= 1``; the last
+        (unfinished) travel of each recording is included.
+    """
+    lo = min(float(np.min(u)) for u in recordings)
+    hi = max(float(np.max(u)) for u in recordings)
+    tol = tol_fraction * (hi - lo)
+    out = []
+    for u in recordings:
+        idx = reversal_indices(u, tol)
+        ext = u[np.concatenate((idx, [u.size - 1]))] if idx[-1] != u.size - 1 else u[idx]
+        out.append(np.abs(np.diff(ext)) / 2.0)
+    a = np.concatenate(out) if out else np.zeros(0)
+    a = a[a > 0]
+    if a.size == 0:
+        raise ParameterError("the input never moves, so no play thresholds can be placed")
+    return a
+
+
+def place_thresholds(
+    recordings: Sequence[Float1D],
+    n: int,
+    rule: str = "uniform",
+    r_max: float | None = None,
+) -> Float1D:
+    """Choose ``n`` increasing play thresholds from the input data.
+
+    Parameters
+    ----------
+    recordings : sequence of ndarray of shape (N_k,)
+        Input signals (the travels between reversals are measured on them).
+    n : int
+        Number of play operators, ``n >= 1``.
+    rule : {"uniform", "quantile"}
+        Placement rule (see the module docstring).
+    r_max : float, optional
+        Widest threshold for ``"uniform"`` (input units); by default 0.9 times the largest
+        half-travel between reversals. For ``"quantile"`` it caps the thresholds.
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        Strictly increasing thresholds ``0 < r_1 < ... < r_n``.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown rule, ``n < 1``, ``r_max <= 0`` or an input without travel.
+    """
+    if int(n) != n or n < 1:
+        raise ParameterError(f"n_operators must be a positive integer, got {n!r}")
+    n = int(n)
+    a = half_travels(recordings)
+    a_max = float(a.max())
+    if r_max is not None and not (np.isfinite(r_max) and r_max > 0):
+        raise ParameterError(f"r_max = {r_max!r} must be a finite number > 0 (input units)")
+    if rule == "uniform":
+        top = DEFAULT_R_FRACTION * a_max if r_max is None else float(r_max)
+        return top * np.arange(1, n + 1) / n
+    if rule == "quantile":
+        # mixture of uniforms on [0, a_s]: CDF F(r) = sum_s min(r, a_s) / sum_s a_s
+        s = np.sort(a)
+        m = s.size
+        # F at the knots s_k: (sum_{j<k} s_j + (m - k) s_k) / total
+        csum = np.concatenate(([0.0], np.cumsum(s)[:-1]))
+        F = (csum + (m - np.arange(m)) * s) / s.sum()
+        knots_r = np.concatenate(([0.0], s))
+        knots_F = np.concatenate(([0.0], F))
+        if r_max is None:
+            q = np.arange(1, n + 1) / (n + 1)
+        else:  # spread the quantiles up to F(r_max) so that r_n = r_max
+            q = float(np.interp(r_max, knots_r, knots_F, right=1.0)) * np.arange(1, n + 1) / n
+        r = np.interp(q, knots_F, knots_r)
+        if r_max is not None and r_max > knots_r[-1]:
+            r[-1] = float(r_max)
+        # guarantee strict increase (ties happen when many travels are equal)
+        floor = 1e-9 * a_max
+        for i in range(1, n):
+            if r[i] <= r[i - 1] + floor:
+                r[i] = r[i - 1] + floor
+        r[0] = max(r[0], floor)
+        return r
+    raise ParameterError(
+        f"thresholds must be 'uniform', 'quantile' or an array of increasing values, got {rule!r}"
+    )
