@@ -40,7 +40,9 @@ __all__ = [
     "ParameterSetError",
     "Provenance",
     "Units",
+    "ensure_model_types_registered",
     "load_parameter_set",
+    "model_from_document",
     "tool_name",
 ]
 
@@ -295,8 +297,34 @@ def _check_generic(v: object, path: str) -> None:
                 _check_generic(x, f"{path}.{k}")
 
 
+#: Modules that register model types; imported before a document is checked so that every
+#: model type of the project is known even if the caller imported only :mod:`core.paramset`.
+_MODEL_MODULES = (
+    "core.pi",
+    "core.deadzone",
+    "core.gpi",
+    "core.digitized",
+    "core.lti",
+    "core.effects",
+)
+
+
+def ensure_model_types_registered() -> list[str]:
+    """Import every model module of the project that exists; return the registered types."""
+    import importlib
+
+    for mod in _MODEL_MODULES:
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:  # a module not written (yet) is fine
+            if exc.name != mod:
+                raise
+    return registered_types()
+
+
 def _check_model_tree(node: object, path: str) -> None:
     """Structural checks of a model node and everything nested in it (no construction)."""
+    ensure_model_types_registered()
     if not isinstance(node, Mapping):
         raise ParameterSetError(f"{path}: must be an object describing a model, got {_jtype(node)}")
     known = registered_types()
