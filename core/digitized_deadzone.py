@@ -1,0 +1,450 @@
+"""Digitized dead-zone operators and the digitized modified PI model (paper 000 sections 2.3-2.4).
+
+A dead-zone superposition ``γ(v) = Σ_{j=-m}^{m} η_j S_{ρ_j}[v]`` (paper 001 eq. 41-42) is a
+memoryless, piecewise-linear map. Its digitized form (paper 000 eq. 18-21) keeps the
+segments: ``S = [Δx; Δy]`` of shape (2, m), an origin ``(X_0, Y_0)`` and a state ``C``, the
+index of the current segment (1-based as in the paper). The state is not memory: it only
+saves the search for the segment, so the output never depends on it.
+
+Consistent reading of eq. 19-21 (printed indices are shifted, eq. 20 is missing and the
+printed "ΔX_C" of eq. 21 is ``X_C``): segment ``C`` starts at
+``X_C = X_0 + Σ_{i<C} Δx_i``, ``Y_C = Y_0 + Σ_{i<C} Δy_i`` and ``y = Y_C + (Δy_C/Δx_C)(x - X_C)``
+on ``[X_C, X_C + Δx_C]``; moving up adds ``(Δx_C, Δy_C)``, moving down subtracts the pair of
+the new (lower) segment. Beyond the ends the first and last segments are extended (the
+paper's rules stop at ``C = 1`` and ``C = m``), which is exact for a superposition whose
+thresholds all lie inside the range. The inverse swaps ``Δx`` and ``Δy`` (eq. 23).
+
+The digitized modified PI model (paper 000's experiment model, Kuhnen's order
+``y = S[H[v]]``: the dead zones act on the output of the PI part) is
+:class:`DigitizedModifiedPI`. Paper 001 uses the other order, ``P[γ[v]]``; for that, chain
+``DigitizedDeadZone >> DigitizedPI`` with :class:`core.base.Chain`.
+"""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ._typing import ArrayLike, Float1D, Float2D
+from .base import Chain, Model, Response, model_from_dict, register_model
+from .digitized import DigitizedPI
+from .exceptions import NotInvertibleError, ParameterError
+from .kernels import njit
+from .pi import PIModel
+from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
+
+__all__ = [
+    "DigitizedDeadZone",
+    "DigitizedModifiedPI",
+    "deadzone_output",
+]
+
+
+def _check_deadzone(thresholds: ArrayLike, weights: ArrayLike) -> tuple[Float1D, Float1D]:
+    rho = as_vector(thresholds, "thresholds", increasing=True)
+    eta = as_vector(weights, "weights", length=rho.size)
+    if not np.any(rho == 0.0):
+        raise ParameterError(
+            "thresholds must contain ρ_0 = 0 (the linear term, weight η_0); add 0 with its "
+            "weight (use weight 0 if there is no linear term)"
+        )
+    return rho, eta
+
+
+def deadzone_output(v: ArrayLike, thresholds: ArrayLike, weights: ArrayLike) -> Float1D:
+    """Classical dead-zone superposition ``Σ_j η_j S_{ρ_j}[v]`` (paper 001 eq. 41-42).
+
+    Parameters
+    ----------
+    v : array_like of shape (N,)
+        Input.
+    thresholds : array_like of shape (2m+1,)
+        ``ρ_{-m} < ... < ρ_0 = 0 < ... < ρ_m`` (input units).
+    weights : array_like of shape (2m+1,)
+        ``η_j`` (output units per input unit).
+
+    Returns
+    -------
+    ndarray of shape (N,)
+    """
+    v = as_input_signal(v, "v")
+    rho, eta = _check_deadzone(thresholds, weights)
+    y = np.zeros(v.size)
+    for r, e in zip(rho, eta, strict=True):
+        if r > 0:
+            y += e * np.maximum(v - r, 0.0)
+        elif r < 0:
+            y += e * np.minimum(v - r, 0.0)
+        else:
+            y += e * v
+    return y
+
+
+@njit(cache=True, nogil=True)
+def digitized_deadzone_kernel(u, dx, g, xl, yl, c, out):  # pragma: no cover - compiled
+    """Walk the segments (paper 000 section 2.3 rules 1-3) and interpolate.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+    dx, g : ndarray of shape (m,)
+        Segment lengths and slopes.
+    xl, yl : ndarray of shape (m,)
+        Left ends ``(X_C, Y_C)`` of the segments.
+    c : int
+        Current segment, 0-based.
+    out : ndarray of shape (N,)
+
+    Returns
+    -------
+    int
+        Segment of the last sample, 0-based.
+    """
+    m = dx.shape[0]
+    for t in range(u.shape[0]):
+        x = u[t]
+        while c < m - 1 and x > xl[c] + dx[c]:
+            c += 1
+        while c > 0 and x < xl[c]:
+            c -= 1
+        out[t] = yl[c] + g[c] * (x - xl[c])
+    return c
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class DigitizedDeadZone(Model):
+    """Digitized dead-zone superposition ``S = [Δx; Δy]`` (paper 000 eq. 18-21).
+
+    Parameters
+    ----------
+    dx : array_like of shape (m,)
+        Segment lengths ``Δx_C > 0`` (input units).
+    dy : array_like of shape (m,)
+        Output change of each segment (output units).
+    x0, y0 : float
+        Left end ``(X_0, Y_0)`` of segment 1.
+    state0 : int
+        Initial segment ``C``, ``1 <= C <= m`` (does not change the output).
+
+    Examples
+    --------
+    >>> s = DigitizedDeadZone([1.0, 1.0], [1.0, 3.0])
+    >>> s([0.5, 1.5, 3.0]).tolist()
+    [0.5, 2.5, 7.0]
+    """
+
+    type_name: ClassVar[str] = "digitized-deadzone"
+    dx: Float1D
+    dy: Float1D
+    x0: float = 0.0
+    y0: float = 0.0
+    state0: int = 1
+    _g: Float1D = field(init=False, repr=False)
+    _xl: Float1D = field(init=False, repr=False)
+    _yl: Float1D = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        dx = as_vector(self.dx, "dx", positive=True)
+        dy = as_vector(self.dy, "dy", length=dx.size)
+        object.__setattr__(self, "dx", dx)
+        object.__setattr__(self, "dy", dy)
+        object.__setattr__(self, "x0", as_finite_scalar(self.x0, "x0"))
+        object.__setattr__(self, "y0", as_finite_scalar(self.y0, "y0"))
+        object.__setattr__(self, "state0", self._check_segment(self.state0, "state0"))
+        g = dy / dx
+        if not np.isfinite(g).all():
+            raise ParameterError("dy / dx overflows; rescale dx and dy to moderate magnitudes")
+        object.__setattr__(self, "_g", frozen(g))
+        xl = self.x0 + np.concatenate(([0.0], np.cumsum(dx)[:-1]))
+        yl = self.y0 + np.concatenate(([0.0], np.cumsum(dy)[:-1]))
+        object.__setattr__(self, "_xl", frozen(xl))
+        object.__setattr__(self, "_yl", frozen(yl))
+
+    def _check_segment(self, c: Any, name: str) -> int:
+        m = self.dx.size
+        if isinstance(c, bool) or not isinstance(c, numbers.Integral) or not 1 <= int(c) <= m:
+            raise ParameterError(
+                f"{name} = {c!r} must be a segment index C with 1 <= C <= m = {m}"
+            )
+        return int(c)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_S(
+        cls, S: ArrayLike, origin: tuple[float, float] = (0.0, 0.0), state0: int = 1
+    ) -> DigitizedDeadZone:
+        """Build from the paired-property matrix ``S`` of shape (2, m) (eq. 18)."""
+        try:
+            s = np.asarray(S, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"S must be a numeric (2, m) array: {exc}") from exc
+        if s.ndim != 2 or s.shape[0] != 2:
+            raise ParameterError(
+                f"S must have shape (2, m): row 0 = Δx, row 1 = Δy; got shape {s.shape}"
+            )
+        if len(origin) != 2:
+            raise ParameterError("origin must be a pair (X0, Y0)")
+        return cls(s[0], s[1], origin[0], origin[1], state0)
+
+    @classmethod
+    def from_deadzone(
+        cls,
+        thresholds: ArrayLike,
+        weights: ArrayLike,
+        v_range: tuple[float, float] | None = None,
+    ) -> DigitizedDeadZone:
+        """Digitize a classical dead-zone superposition (paper 001 eq. 41-42).
+
+        Parameters
+        ----------
+        thresholds : array_like of shape (2m+1,)
+            Strictly increasing, containing ``ρ_0 = 0`` (input units).
+        weights : array_like of shape (2m+1,)
+            ``η_j``.
+        v_range : (float, float), optional
+            Input range ``(v_min, v_max)``; the segments are cut at the thresholds inside it
+            and the outer ones are extended beyond it. Default: the thresholds' span padded
+            by half of it on each side (1 if there is no nonzero threshold), which makes the
+            representation exact for every input.
+
+        Returns
+        -------
+        DigitizedDeadZone
+            Equal to the classical map on ``v_range``, and everywhere when every nonzero
+            threshold lies inside ``v_range``.
+        """
+        rho, eta = _check_deadzone(thresholds, weights)
+        bps = rho[rho != 0.0]
+        if v_range is None:
+            lo = min(float(rho[0]), 0.0)
+            hi = max(float(rho[-1]), 0.0)
+            pad = 0.5 * (hi - lo) if hi > lo else 1.0
+            v_min, v_max = lo - pad, hi + pad
+        else:
+            try:
+                v_min, v_max = (float(v) for v in v_range)
+            except (TypeError, ValueError) as exc:
+                raise ParameterError(f"v_range must be a pair (v_min, v_max): {exc}") from exc
+            if not (np.isfinite(v_min) and np.isfinite(v_max) and v_max > v_min):
+                raise ParameterError(
+                    f"v_range = ({v_min:g}, {v_max:g}) must be finite with v_min < v_max"
+                )
+        pts = np.concatenate(([v_min], bps[(bps > v_min) & (bps < v_max)], [v_max]))
+        ys = deadzone_output(pts, rho, eta)
+        return cls(np.diff(pts), np.diff(ys), v_min, float(ys[0]), 1)
+
+    @classmethod
+    def from_deadzone_map(
+        cls, dz: Any, v_range: tuple[float, float] | None = None
+    ) -> DigitizedDeadZone:
+        """Digitize an object with ``thresholds`` and ``weights`` (``core.deadzone.DeadZoneMap``).
+
+        See :meth:`from_deadzone` for ``v_range``.
+        """
+        try:
+            rho, eta = dz.thresholds, dz.weights
+        except AttributeError as exc:
+            raise ParameterError(
+                f"{type(dz).__name__} has no thresholds/weights; pass plain arrays to "
+                "from_deadzone instead"
+            ) from exc
+        return cls.from_deadzone(rho, eta, v_range)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def m(self) -> int:
+        """Number of segments."""
+        return int(self.dx.size)
+
+    @property
+    def S(self) -> Float2D:
+        """Paired properties ``[Δx; Δy]``, shape (2, m) (eq. 18)."""
+        return np.vstack((self.dx, self.dy))
+
+    @property
+    def slopes(self) -> Float1D:
+        """Segment slopes ``Δy_C / Δx_C``, shape (m,)."""
+        return self._g
+
+    @property
+    def breakpoints(self) -> Float2D:
+        """Segment ends ``(X, Y)``: shape (2, m+1), ``X_0 ... X_0 + ΣΔx``."""
+        x = self.x0 + np.concatenate(([0.0], np.cumsum(self.dx)))
+        y = self.y0 + np.concatenate(([0.0], np.cumsum(self.dy)))
+        return np.vstack((x, y))
+
+    @property
+    def is_invertible(self) -> bool:
+        """Whether every segment rises (``Δy_C > 0``)."""
+        return bool((self.dy > 0).all())
+
+    # ------------------------------------------------------------------ simulation
+    def default_state(self) -> int:
+        return self.state0
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, int]:
+        c = self._check_segment(state, "state")
+        y = np.empty(u.size)
+        c = digitized_deadzone_kernel(u, self.dx, self._g, self._xl, self._yl, c - 1, y)
+        return y, int(c) + 1
+
+    # ------------------------------------------------------------------ inverse
+    def inverse(self) -> DigitizedDeadZone:
+        """Inverse by exchanging ``Δx`` and ``Δy`` (eq. 23).
+
+        Raises
+        ------
+        NotInvertibleError
+            If some ``Δy_C <= 0`` (the map is not strictly increasing there).
+        """
+        bad = np.flatnonzero(self.dy <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise NotInvertibleError(
+                f"digitized dead zone is not invertible: Δy_{k + 1} = {self.dy[k]:g} must be "
+                "> 0 (every segment must rise; the partial slopes η_0 + Σ η_g must be > 0)"
+            )
+        return DigitizedDeadZone(self.dy, self.dx, self.y0, self.x0, self.state0)
+
+    # ------------------------------------------------------------------ serialisation
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "type": self.type_name,
+            "dx": self.dx.tolist(),
+            "dy": self.dy.tolist(),
+            "x0": self.x0,
+            "y0": self.y0,
+            "state0": self.state0,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DigitizedDeadZone:
+        missing = [k for k in ("dx", "dy") if k not in d]
+        if missing:
+            raise ParameterError(
+                f"digitized-deadzone model is missing field(s): {', '.join(missing)}"
+            )
+        return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0", 1))
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class DigitizedModifiedPI(Model):
+    """Digitized modified PI model ``y = S[H[v]]`` (paper 000's experiment model, Kuhnen order).
+
+    The digitized PI part ``H`` acts on the input and the digitized dead-zone part ``S`` on
+    its output. The inverse is ``H⁻¹[S⁻¹[y]]``, both by swapping (eq. 22-23).
+
+    Parameters
+    ----------
+    pi : DigitizedPI
+        Hysteresis part.
+    deadzone : DigitizedDeadZone
+        Memoryless output map.
+    """
+
+    type_name: ClassVar[str] = "digitized-mpi"
+    pi: DigitizedPI
+    deadzone: DigitizedDeadZone
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.pi, DigitizedPI):
+            raise ParameterError(f"pi must be a DigitizedPI, got {type(self.pi).__name__}")
+        if not isinstance(self.deadzone, DigitizedDeadZone):
+            raise ParameterError(
+                f"deadzone must be a DigitizedDeadZone, got {type(self.deadzone).__name__}"
+            )
+
+    @classmethod
+    def from_classical(
+        cls,
+        pi: PIModel,
+        u_range: tuple[float, float],
+        thresholds: ArrayLike,
+        weights: ArrayLike,
+        *,
+        refine: int = 1,
+    ) -> DigitizedModifiedPI:
+        """Digitize ``S[P[v]]`` with ``P`` a classical PI and ``S`` a dead-zone superposition.
+
+        Parameters
+        ----------
+        pi : PIModel
+            Classical PI part, digitized by :meth:`DigitizedPI.from_pi` over ``u_range``.
+        u_range : (float, float)
+            Input range of the PI part.
+        thresholds, weights : array_like of shape (2m+1,)
+            Dead-zone superposition (``ρ_0 = 0`` included); digitized exactly by
+            :meth:`DigitizedDeadZone.from_deadzone` on a range covering its thresholds and
+            the PI part's output range.
+        refine : int
+            Passed to :meth:`DigitizedPI.from_pi`.
+        """
+        h = DigitizedPI.from_pi(pi, u_range, refine=refine)
+        rho, _ = _check_deadzone(thresholds, weights)
+        lo = min(h.y_range[0], float(rho[0]))
+        hi = max(h.y_range[1], float(rho[-1]))
+        pad = 0.5 * (hi - lo)
+        s = DigitizedDeadZone.from_deadzone(thresholds, weights, (lo - pad, hi + pad))
+        return cls(h, s)
+
+    @property
+    def stages(self) -> tuple[Model, Model]:
+        """``(pi, deadzone)`` in the order they act."""
+        return (self.pi, self.deadzone)
+
+    def as_chain(self) -> Chain:
+        """The same model as a :class:`core.base.Chain` ``pi >> deadzone``."""
+        return Chain.of(self.pi, self.deadzone)
+
+    def default_state(self) -> tuple[Any, Any]:
+        return (self.pi.default_state(), self.deadzone.default_state())
+
+    def simulate(
+        self, u: ArrayLike, *, state: Any = None, dt: float | None = None
+    ) -> Response:
+        u = as_input_signal(u)
+        if state is None:
+            state = self.default_state()
+        if not isinstance(state, tuple | list) or len(state) != 2:
+            raise ParameterError(
+                "digitized-mpi state must be a pair (pi_state, deadzone_state) as returned "
+                "in Response.state"
+            )
+        r1 = self.pi.simulate(u, state=state[0])
+        r2 = self.deadzone.simulate(r1.y, state=state[1])
+        return Response(u=u, y=r2.y, state=(r1.state, r2.state))
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        r = self.simulate(u, state=state)
+        return r.y, r.state
+
+    def inverse(self) -> Chain:
+        """``S⁻¹ >> H⁻¹`` as a chain (eq. 22-23).
+
+        Raises
+        ------
+        NotInvertibleError
+            If either part is not invertible.
+        """
+        return Chain((self.deadzone.inverse(), self.pi.inverse()))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "type": self.type_name,
+            "pi": self.pi.to_dict(),
+            "deadzone": self.deadzone.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> DigitizedModifiedPI:
+        missing = [k for k in ("pi", "deadzone") if k not in d]
+        if missing:
+            raise ParameterError(f"digitized-mpi model is missing field(s): {', '.join(missing)}")
+        pi = model_from_dict(d["pi"])
+        dz = model_from_dict(d["deadzone"])
+        return cls(pi, dz)  # type: ignore[arg-type]
