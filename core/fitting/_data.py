@@ -13,7 +13,7 @@ from ..exceptions import ParameterError
 from ..validation import as_input_signal
 from .gram import Segment
 
-__all__ = ["Prepared", "as_recordings", "prepare"]
+__all__ = ["Prepared", "as_recordings", "masked_range", "prepare"]
 
 
 def _is_multi(x: Any) -> bool:
@@ -152,17 +152,26 @@ def prepare(
         raise ParameterError(
             f"too few training samples: {n_train} (need at least {min_train} for this model)"
         )
-    u_all = np.concatenate(us)
-    if float(np.ptp(u_all)) == 0.0:
+    if masked_range(us) == 0.0:
         raise ParameterError(
-            f"u is constant (every sample = {u_all[0]:g}); hysteresis needs input travel"
+            f"u is constant (every sample = {us[0][0]:g}); hysteresis needs input travel"
         )
-    y_tr = np.concatenate([b[m] for b, m in zip(ys, train_masks, strict=True)])
-    if float(np.ptp(y_tr)) == 0.0:
+    if masked_range(ys, train_masks) == 0.0:
         raise ParameterError(
-            f"y is constant on the training samples (= {y_tr[0]:g}); there is nothing to fit"
+            "y is constant on the training samples; there is nothing to fit"
         )
     return Prepared(us, ys, train_masks, test_masks, multi, n_train, n_test)
+
+
+def masked_range(xs: Sequence[Float1D], masks: Sequence[np.ndarray] | None = None) -> float:
+    """``max - min`` over several signals (optionally only where ``masks`` is true)."""
+    lo, hi = np.inf, -np.inf
+    for k, x in enumerate(xs):
+        v = x if masks is None else x[masks[k]]
+        if v.size:
+            lo = min(lo, float(v.min()))
+            hi = max(hi, float(v.max()))
+    return hi - lo if hi >= lo else 0.0
 
 
 def check_predict_input(u: ArrayLike) -> tuple[list[Float1D], bool]:

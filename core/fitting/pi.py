@@ -27,10 +27,12 @@ from typing import Any
 import numpy as np
 
 from .._typing import ArrayLike, Float1D
+from ..base import Chain
+from ..effects import Offset
 from ..exceptions import FitWarning, NotFittedError, ParameterError
 from ..pi import PIModel
 from ..validation import as_vector
-from ._data import Prepared, as_recordings, prepare
+from ._data import Prepared, as_recordings, masked_range, prepare
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, evaluate_fit
 from .thresholds import place_thresholds
@@ -219,10 +221,8 @@ def _cv_sse(gram: np.ndarray, n_blocks: int, lower: Float1D, T: np.ndarray) -> f
 
 def default_min_slope(prep: Prepared, rel: float = 1e-3) -> float:
     """ε = ``rel`` × (output range / input range) on the training samples."""
-    u_tr = np.concatenate([u[m] for u, m in zip(prep.us, prep.train_masks, strict=True)])
-    y_tr = np.concatenate([y[m] for y, m in zip(prep.ys, prep.train_masks, strict=True)])
-    du = float(np.ptp(u_tr)) or float(np.ptp(np.concatenate(prep.us)))
-    return rel * float(np.ptp(y_tr)) / du
+    du = masked_range(prep.us, prep.train_masks) or masked_range(prep.us)
+    return rel * masked_range(prep.ys, prep.train_masks) / du
 
 
 class PIRegressor:
@@ -269,6 +269,9 @@ class PIRegressor:
         recording's first input sample.
     offset_ : float
         Output offset; predictions are ``model_(u) + offset_``.
+    full_model_ : Chain
+        ``model_ >> Offset(offset_)``: serialisable (``to_dict``) and exactly invertible;
+        it reproduces ``predict`` for the first training recording's initial state.
     p0_, weights_, thresholds_ : float, ndarray of shape (n,), ndarray of shape (n,)
     n_operators_ : int
     cv_scores_ : dict of int to float or None
@@ -447,6 +450,7 @@ class PIRegressor:
         self.cv_scores_ = cv_scores if n_fixed is None else {}
         self.min_slope_ = eps
         self.model_ = PIModel(fit.p0, r, fit.weights, np.full(n, float(prep.us[0][0])))
+        self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
         train_st, test_st, cmax, crmse = evaluate_fit(
             self._model_for,
             self.offset_,

@@ -21,9 +21,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .. import kernels
 from .._typing import Float1D
 from ..exceptions import ParameterError
+from ..kernels import njit
 
 __all__ = ["half_travels", "place_thresholds", "reversal_indices"]
 
@@ -31,12 +31,64 @@ __all__ = ["half_travels", "place_thresholds", "reversal_indices"]
 DEFAULT_R_FRACTION = 0.9
 
 
+@njit(cache=True, nogil=True)
+def _turning_points(u, tol, out):  # pragma: no cover - compiled
+    """Write the indices of the turning points of ``u`` (hysteresis ``tol``) into ``out``.
+
+    Returns the number written. ``out[0] = 0`` (the first sample); afterwards an extreme is
+    confirmed once the input has moved back from it by more than ``tol``.
+    """
+    N = u.shape[0]
+    out[0] = 0
+    k = 1
+    direction = 0  # +1 rising, -1 falling, 0 undecided
+    ext_i = 0
+    ext_v = u[0]
+    lo_i = 0
+    hi_i = 0
+    for j in range(1, N):
+        v = u[j]
+        if direction == 0:
+            if v > u[hi_i]:
+                hi_i = j
+            if v < u[lo_i]:
+                lo_i = j
+            if u[hi_i] - u[0] > tol and u[hi_i] - u[0] >= u[0] - u[lo_i]:
+                direction = 1
+                ext_i = hi_i
+                ext_v = u[hi_i]
+            elif u[0] - u[lo_i] > tol:
+                direction = -1
+                ext_i = lo_i
+                ext_v = u[lo_i]
+        elif direction > 0:
+            if v >= ext_v:
+                ext_v = v
+                ext_i = j
+            elif ext_v - v > tol:
+                out[k] = ext_i
+                k += 1
+                direction = -1
+                ext_v = v
+                ext_i = j
+        else:
+            if v <= ext_v:
+                ext_v = v
+                ext_i = j
+            elif v - ext_v > tol:
+                out[k] = ext_i
+                k += 1
+                direction = 1
+                ext_v = v
+                ext_i = j
+    return k
+
+
 def reversal_indices(u: Float1D, tol: float) -> np.ndarray:
     """Indices of input reversals, ignoring wiggles smaller than ``tol``.
 
-    The input is first passed through a play operator of threshold ``tol / 2`` (a backlash
-    that hides noise of peak-to-peak size below ``tol``); a reversal is a sign change of the
-    filtered signal's increments.
+    A maximum (minimum) counts as a reversal once the input has fallen (risen) from it by
+    more than ``tol``: noise of peak-to-peak size below ``tol`` creates no reversal.
 
     Parameters
     ----------
@@ -50,28 +102,12 @@ def reversal_indices(u: Float1D, tol: float) -> np.ndarray:
     ndarray of int, shape (K,)
         Sample indices (into ``u``) of the turning points, first sample included.
     """
+    u = np.ascontiguousarray(u, dtype=np.float64)
     if u.size < 2:
         return np.zeros(1, dtype=np.int64)
-    v = np.empty((u.size, 1))
-    kernels.play_matrix(u, np.array([tol / 2.0]), np.array([u[0]]), v)
-    dv = np.diff(v[:, 0])
-    s = np.sign(dv)
-    nz = np.flatnonzero(s)
-    if nz.size == 0:
-        return np.zeros(1, dtype=np.int64)
-    sn = s[nz]
-    change = np.flatnonzero(sn[1:] != sn[:-1]) + 1
-    # the turning point is the last sample before the direction change (index nz[c-1] + 1)
-    turns = nz[change - 1] + 1
-    # the play lags the input by tol/2: the true extreme is the extreme of u in the segment
-    idx = [0]
-    bounds = np.concatenate(([0], turns, [u.size - 1]))
-    for j in range(turns.size):
-        lo, hi = int(bounds[j]), int(bounds[j + 2])
-        seg = u[lo : hi + 1]
-        k = int(np.argmax(seg) if sn[change[j] - 1] > 0 else np.argmin(seg))
-        idx.append(lo + k)
-    return np.unique(np.asarray(idx, dtype=np.int64))
+    out = np.empty(u.size, dtype=np.int64)
+    k = _turning_points(u, float(tol), out)
+    return out[:k].copy()
 
 
 def half_travels(recordings: Sequence[Float1D], tol_fraction: float = 1e-3) -> Float1D:
