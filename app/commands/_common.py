@@ -1,0 +1,278 @@
+"""Helpers shared by the ``hyst`` sub-commands: model files, CSV signals, JSON output, progress.
+
+Errors raised here are :class:`CommandError` (a :class:`~core.exceptions.ParameterError`),
+which :func:`app.cli.main` turns into ``hyst <command>: error: <message>`` and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from core.exceptions import ParameterError
+
+if TYPE_CHECKING:
+    from core.paramset import ParameterSet
+
+__all__ = [
+    "CommandError",
+    "Progress",
+    "add_json_flag",
+    "emit",
+    "read_columns",
+    "read_parameter_set",
+    "write_columns",
+]
+
+
+class CommandError(ParameterError):
+    """A command-line input is wrong (missing file, bad column, ...); the message says how."""
+
+
+def add_json_flag(parser: argparse.ArgumentParser) -> None:
+    """Add ``--json``: print a machine-readable summary on stdout instead of text."""
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print a machine-readable JSON summary on stdout (messages go to stderr)",
+    )
+
+
+def emit(args: argparse.Namespace, text: str, data: dict[str, Any]) -> None:
+    """Print ``data`` as JSON when ``--json`` was given, else ``text``, on stdout."""
+    if getattr(args, "json", False):
+        print(json.dumps(data, indent=2, allow_nan=False, default=_json_default))
+    else:
+        print(text)
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+class Progress:
+    """Progress messages on stderr (``hyst fit`` can take a while); silent when ``quiet``.
+
+    Parameters
+    ----------
+    command : str
+        Sub-command name used as prefix.
+    quiet : bool
+        Suppress all messages.
+    """
+
+    def __init__(self, command: str, quiet: bool = False) -> None:
+        self.command = command
+        self.quiet = quiet
+        self.t0 = time.perf_counter()
+
+    def __call__(self, message: str) -> None:
+        """Print ``[hyst <command> 1.2 s] message`` on stderr."""
+        if not self.quiet:
+            dt = time.perf_counter() - self.t0
+            print(f"[hyst {self.command} {dt:5.1f} s] {message}", file=sys.stderr, flush=True)
+
+
+def _existing_file(path: str | Path, what: str) -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise CommandError(f"{what} not found: {p} (check the path)")
+    if p.is_dir():
+        raise CommandError(f"{what} {p} is a directory; give a file")
+    return p
+
+
+def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> ParameterSet:
+    """Read a model file: a parameter-set document, or a bare ``Model.to_dict()`` object.
+
+    Parameters
+    ----------
+    path : str or Path
+        JSON file.
+    require_inverse : bool
+        Fail with ``NotInvertibleError`` when the model has no inverse.
+
+    Returns
+    -------
+    ParameterSet
+        A bare model is wrapped with default units and ``source`` = the file name.
+
+    Raises
+    ------
+    CommandError
+        Missing file.
+    ParameterSetError
+        Malformed document (the message names the file and the JSON path).
+    """
+    from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
+
+    p = _existing_file(path, "model file")
+    text = p.read_text(encoding="utf-8")
+    try:
+        doc = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise ParameterSetError(
+            f"{p}: not valid JSON: {exc.msg} at line {exc.lineno} column {exc.colno}"
+        ) from exc
+    except ValueError as exc:
+        raise ParameterSetError(f"{p}: {exc}") from exc
+    if isinstance(doc, dict) and "format" not in doc and "type" in doc:
+        from core.paramset import model_from_document
+
+        try:
+            model = model_from_document(doc, "model")
+        except ParameterSetError as exc:
+            raise ParameterSetError(f"{p}: {exc}") from exc
+        ps = ParameterSet.from_model(model, source=p.name)
+        if require_inverse:
+            ps.check_invertible()
+        return ps
+    try:
+        return load_parameter_set(doc, require_inverse=require_inverse)
+    except ParameterSetError as exc:
+        raise ParameterSetError(f"{p}: {exc}") from exc
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"JSON contains {name}; every parameter must be a finite number")
+
+
+# ----------------------------------------------------------------------------- CSV signals
+def read_columns(path: str | Path) -> tuple[list[str], np.ndarray]:
+    """Read a numeric CSV file with a header row.
+
+    Parameters
+    ----------
+    path : str or Path
+        Comma-separated file; the first row names the columns.
+
+    Returns
+    -------
+    names : list of str
+    data : ndarray of shape (N, C)
+
+    Raises
+    ------
+    CommandError
+        Missing file, no header, non-numeric cells (row and column named), ragged rows.
+    """
+    p = _existing_file(path, "CSV file")
+    with p.open(newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise CommandError(f"{p}: the file is empty; expected a header row and numeric rows")
+    header = [h.strip() for h in rows[0]]
+    if all(_is_float(h) for h in header):
+        raise CommandError(f"{p}: the first row must name the columns (e.g. t,u), got numbers")
+    data = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise CommandError(
+                f"{p}: line {i} has {len(row)} values but the header has {len(header)} columns"
+            )
+        for j, cell in enumerate(row):
+            try:
+                data[i - 2, j] = float(cell)
+            except ValueError:
+                raise CommandError(
+                    f"{p}: line {i}, column {header[j]!r}: {cell.strip()!r} is not a number"
+                ) from None
+    if data.shape[0] == 0:
+        raise CommandError(f"{p}: no data rows after the header")
+    return header, data
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def pick_column(
+    names: Sequence[str], wanted: str | None, defaults: Sequence[str], fallback: int | None,
+    what: str, path: str | Path,
+) -> int:
+    """Index of a column chosen by name (or 0-based number), by default names, or by position.
+
+    Raises
+    ------
+    CommandError
+        Naming the available columns.
+    """
+    if wanted is not None:
+        if wanted in names:
+            return list(names).index(wanted)
+        if wanted.isdigit() and int(wanted) < len(names):
+            return int(wanted)
+        raise CommandError(
+            f"{path}: no {what} column {wanted!r}; columns are: {', '.join(names)}"
+        )
+    for d in defaults:
+        if d in names:
+            return list(names).index(d)
+    if fallback is not None and fallback < len(names):
+        return fallback
+    raise CommandError(
+        f"{path}: cannot tell which column is the {what}; columns are: {', '.join(names)} "
+        f"(name it with --{what})"
+    )
+
+
+def write_columns(path: str | Path, names: Sequence[str], columns: Sequence[np.ndarray]) -> Path:
+    """Write columns as CSV with a header; shortest exact (round-trip) float text.
+
+    Creates parent directories. Returns the path written.
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    data = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns])
+    with p.open("w", encoding="utf-8", newline="") as fh:
+        fh.write(",".join(names) + "\n")
+        for row in data.tolist():
+            fh.write(",".join(repr(v) for v in row) + "\n")
+    return p
+
+
+def uniform_dt(t: np.ndarray, path: str | Path, rel_tol: float = 1e-3) -> float:
+    """The sample spacing of a uniformly sampled time column.
+
+    Raises
+    ------
+    CommandError
+        If ``t`` does not increase uniformly (within ``rel_tol``).
+    """
+    if t.size < 2:
+        raise CommandError(f"{path}: need at least two time samples to know dt; give --dt")
+    d = np.diff(t)
+    dt = float(np.median(d))
+    if not dt > 0 or np.max(np.abs(d - dt)) > rel_tol * dt:
+        raise CommandError(
+            f"{path}: the time column is not uniformly sampled (spacing between "
+            f"{d.min():g} and {d.max():g}); dynamic models need a constant dt: resample, or "
+            "give --dt"
+        )
+    return dt
+
+
+def unit_from_column(name: str) -> str | None:
+    """Unit suffix of a column name such as ``u_V`` (``"V"``) or ``y_um``; None if absent."""
+    if "_" in name:
+        unit = name.rsplit("_", 1)[1]
+        return unit or None
+    return None

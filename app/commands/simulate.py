@@ -1,0 +1,87 @@
+"""``hyst simulate MODEL.json --input IN.csv --output OUT.csv``: run a model on a signal."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from ._common import (
+    CommandError,
+    add_json_flag,
+    emit,
+    pick_column,
+    read_columns,
+    read_parameter_set,
+    uniform_dt,
+    write_columns,
+)
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``simulate`` sub-command."""
+    p = subparsers.add_parser(
+        "simulate",
+        help="apply a model to an input signal from a CSV file",
+        description=(
+            "Read IN.csv (header row; a time column and an input column, by default 't' and "
+            "'u' or the first two columns), apply the model from its initial state and write "
+            "OUT.csv with the input columns plus the output column. Dynamic models take dt "
+            "from the (uniform) time column or from --dt."
+        ),
+    )
+    p.add_argument("model", metavar="MODEL.json", help="parameter set (or bare model)")
+    p.add_argument("-i", "--input", required=True, metavar="IN.csv", help="input signal")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="result file")
+    p.add_argument("--time", metavar="COL", help="time column name (default: t, or column 0)")
+    p.add_argument("--input-column", "--u", dest="input_column", metavar="COL",
+                   help="input column name (default: u, or column 1)")
+    p.add_argument("--output-name", default="y", metavar="NAME",
+                   help="name of the output column written (default: y)")
+    p.add_argument("--dt", type=float, help="sample time in s (overrides the time column)")
+    p.add_argument("--inverse", action="store_true",
+                   help="apply the model's inverse (the compensator) instead of the model")
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Simulate and write the output CSV."""
+    ps = read_parameter_set(args.model, require_inverse=args.inverse)
+    model = ps.model.inverse() if args.inverse else ps.model
+    names, data = read_columns(args.input)
+    if len(names) == 1 and args.time is None:
+        it, iu = None, pick_column(names, args.input_column, ("u",), 0, "input", args.input)
+    else:
+        it = pick_column(names, args.time, ("t", "time", "t_s"), 0, "time", args.input)
+        iu = pick_column(names, args.input_column, ("u",), 1, "input", args.input)
+        if it == iu:
+            raise CommandError(
+                f"{args.input}: the time and input columns are both {names[iu]!r}; "
+                "name them with --time and --input-column"
+            )
+    t = data[:, it] if it is not None else None
+    u = data[:, iu]
+    dt = args.dt
+    if model.is_dynamic and dt is None:
+        if t is None:
+            raise CommandError(f"{args.input}: the model has dynamics; give --dt or a time column")
+        dt = uniform_dt(t, args.input)
+    if dt is not None and not (np.isfinite(dt) and dt > 0):
+        raise CommandError(f"--dt must be a positive number of seconds, got {dt}")
+    y = model(u, dt=dt)
+    if args.output_name in names:
+        raise CommandError(
+            f"{args.input} already has a column {args.output_name!r}; choose --output-name"
+        )
+    path = write_columns(args.output, [*names, args.output_name], [*data.T, y])
+    text = (
+        f"wrote {path}: {u.size} samples, {args.output_name} in "
+        f"[{y.min():.6g}, {y.max():.6g}] {ps.units.input if args.inverse else ps.units.output}"
+    )
+    emit(args, text, {"output": str(path), "n_samples": int(u.size), "dt": dt,
+                      "y_min": float(y.min()), "y_max": float(y.max())})
+    return 0
