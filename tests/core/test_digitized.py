@@ -547,3 +547,18 @@ def test_digit_conventions() -> None:
     d = DigitizedPI([1.0, 2.0, 7.0], [0.4, 2.0, 14.0], state0="011")
     assert d.state_point() == pytest.approx((3.0, 2.4))
     assert d.default_state().code == 3
+
+
+def test_deadzone_map_interop() -> None:
+    # a second implementation: core.deadzone.DeadZoneMap (searchsorted evaluation and the
+    # analytic inverse of paper 001 eq. 53-54) against the digitized walk and swap (eq. 23)
+    from core.deadzone import DeadZoneMap
+
+    g = DeadZoneMap.symmetric([0.5, 1.2, 2.0], 1.5, [-0.4, -0.3, 0.6])
+    s = DigitizedDeadZone.from_deadzone_map(g)
+    v = np.linspace(-6.0, 6.0, 1201)
+    np.testing.assert_allclose(s(v), g(v), atol=1e-12)
+    w = g(v)
+    np.testing.assert_allclose(s.inverse()(w), g.inverse()(w), atol=1e-12)
+    with pytest.raises(ParameterError, match="no thresholds/weights"):
+        DigitizedDeadZone.from_deadzone_map(object())
