@@ -1,0 +1,1122 @@
+"""Robust reading of measured recordings from CSV text (DAQ exports, scope dumps).
+
+:func:`read_csv` turns a file, a string or bytes into :class:`~core.recordings.Recording`
+objects. It works out the layout by itself and says what it did:
+
+* **Encoding**: UTF-8 (with or without BOM), UTF-16 with BOM, otherwise Latin-1 (noted).
+  NUL or other control bytes mean a binary file and are an error.
+* **Delimiter**: comma, semicolon, tab, ``|`` or runs of whitespace, chosen with
+  :class:`csv.Sniffer` and checked by splitting the first lines with every candidate: the
+  delimiter that gives a constant number (>= 2) of numeric fields wins.
+* **Decimal comma** (``1,5;2,7``) is detected when the delimiter is not a comma, or forced
+  with ``decimal=","``.
+* **Header**: present when the first row holds a non-numeric cell (or forced with
+  ``header=True/False``). An optional second row holding only units (``(s),(V)``, as
+  PicoScope writes) is read as units. Lines starting with ``#`` are comments.
+* **Units** come from column names: ``t_s``, ``u_V``, ``y_um``, ``velocity_in_per_s``
+  (underscore + a known unit), ``t [s]``, ``Force (kN)``, ``u/V`` (any unit). Time in
+  ``ms``, ``µs``, ``ns``, ``min`` or ``h`` is converted to seconds (noted).
+* **Columns** are picked by name (case- and unit-insensitive: ``"force"`` matches
+  ``Force (kN)``) or 0-based index. Defaults: a column named ``t``/``time`` is the time;
+  one named ``run``/``record``/``loop``/``trial`` splits the file into several
+  recordings; a sample-index column (``k``, ``index``, ``sample``) means "no time axis";
+  input and output are the columns named ``u``/``u_*``/``input`` and
+  ``y``/``y_*``/``output``, otherwise the next unused columns in file order. Without a
+  header the first three columns are time, input, output (two columns: input, output,
+  no time). Every other column is kept in ``Recording.extra``.
+
+Problems raise :class:`CSVError` (a :class:`~core.exceptions.ParameterError`, hence a
+``ValueError``) whose message says what is wrong, where (line, column) and what to do.
+Rows whose input or output is NaN/inf/empty are removed by default and every removal is
+listed with its line numbers in ``Recording.cleaning``; nothing is dropped silently.
+Uneven time stamps are an error unless you ask for ``resample=True`` (linear
+interpolation onto a uniform grid, noted) or ``uneven="keep"``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import IO, Literal
+
+import numpy as np
+
+from .exceptions import ParameterError
+from .recordings import Recording
+
+__all__ = [
+    "CSVError",
+    "CSVLayout",
+    "ColumnInfo",
+    "inspect_csv",
+    "parse_column_name",
+    "read_csv",
+    "read_csvs",
+    "read_recording",
+]
+
+#: Default size limit of one CSV (bytes).
+MAX_BYTES = 256 * 2**20
+#: Default limit on the number of data rows of one CSV.
+MAX_ROWS = 10_000_000
+#: Default smallest number of samples per recording.
+MIN_SAMPLES = 10
+
+ColumnSpec = int | str | None | Literal[False]
+Source = str | os.PathLike[str] | bytes | bytearray | IO[str] | IO[bytes]
+
+
+class CSVError(ParameterError):
+    """A CSV recording cannot be read as asked; the message says what, where and what to do.
+
+    Attributes
+    ----------
+    source : str
+        File path, ``"<text>"`` or ``"<bytes>"``.
+    line : int or None
+        1-based line of the problem in the file, when there is one.
+    column : str or None
+        Column name (or ``"column 3"``) of the problem, when there is one.
+    """
+
+    def __init__(
+        self, message: str, *, source: str = "", line: int | None = None,
+        column: str | None = None,
+    ) -> None:
+        super().__init__(message)
+        self.source = source
+        self.line = line
+        self.column = column
+
+
+# --------------------------------------------------------------------------- names/units
+_UNIT_TOKENS = frozenset(
+    """s ms us µs ns min h Hz kHz V mV uV µV kV A mA uA µA m mm um µm nm cm in ft mil
+    N kN mN uN µN lb lbf kip kips Pa kPa MPa GPa psi bar T mT uT µT G Am Apm Wb W mW
+    kW J rad deg g kg degC K C F pF nF uF µF Ohm ohm percent pct rpm""".split()
+)
+_UNIT_NORMALISE = {
+    "us": "µs", "uV": "µV", "uA": "µA", "um": "µm", "uN": "µN", "uT": "µT", "uF": "µF",
+    "Am": "A/m", "Apm": "A/m", "ohm": "Ohm", "percent": "%", "pct": "%", "kips": "kip",
+}
+_TIME_SCALE = {
+    "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+    "ms": 1e-3, "msec": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9,
+    "min": 60.0, "h": 3600.0,
+}
+_TIME_NAMES = frozenset({"t", "time", "times", "timestamp", "time_stamp", "zeit", "temps"})
+_RUN_NAMES = frozenset(
+    {"run", "run_id", "runid", "record", "recording", "loop", "trial", "experiment", "rep"}
+)
+_INDEX_NAMES = frozenset({"k", "i", "n", "idx", "index", "sample", "samples", "sample_index",
+                          "#", "no", "nr"})
+_INPUT_NAMES = frozenset({"u", "input", "in"})
+_OUTPUT_NAMES = frozenset({"y", "output", "out"})
+_NA_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "none", "-nan", "+nan", "#n/a"})
+_BRACKET = re.compile(r"^(.*?)\s*[\[(\{]\s*([^\])\}]*?)\s*[\])\}]\s*$")
+_SLASH = re.compile(r"^(.*?\S)\s*/\s*([^/\s]{1,12})$")
+_DECIMAL_COMMA = re.compile(r"^[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?$")
+
+
+def _norm_unit(unit: str) -> str:
+    unit = unit.strip()
+    unit = _UNIT_NORMALISE.get(unit, unit)
+    return unit
+
+
+def parse_column_name(raw: str) -> tuple[str, str]:
+    """Split a column header into ``(name, unit)``.
+
+    Recognised forms: ``"t [s]"``, ``"Force (kN)"``, ``"u/V"`` (any unit), and
+    ``"t_s"``, ``"y_um"``, ``"u_disp_in"``, ``"velocity_in_per_s"`` (an underscore suffix
+    that is a known unit, so ``"u_disp"`` stays a name). ``um``/``us``/... become
+    ``µm``/``µs``/..., ``Am`` becomes ``A/m``.
+
+    Parameters
+    ----------
+    raw : str
+        The header cell.
+
+    Returns
+    -------
+    name : str
+        The name without the unit (stripped; the raw text when nothing matched).
+    unit : str
+        The unit, ``""`` when none was found.
+
+    Examples
+    --------
+    >>> parse_column_name("y_um"), parse_column_name("Force (kN)")
+    (('y', 'µm'), ('Force', 'kN'))
+    """
+    s = raw.strip()
+    m = _BRACKET.match(s)
+    if m and m.group(1):
+        return m.group(1).strip(), _norm_unit(m.group(2))
+    m = _SLASH.match(s)
+    if m and "_" not in m.group(2):
+        return m.group(1).strip(), _norm_unit(m.group(2))
+    parts = s.split("_")
+    if len(parts) >= 4 and parts[-2] == "per" and parts[-3] in _UNIT_TOKENS \
+            and parts[-1] in _UNIT_TOKENS:
+        a, b = _norm_unit(parts[-3]), _norm_unit(parts[-1])
+        return "_".join(parts[:-3]), f"{a}/{b}"
+    if len(parts) >= 2 and parts[-1] in _UNIT_TOKENS and parts[0]:
+        return "_".join(parts[:-1]), _norm_unit(parts[-1])
+    return s, ""
+
+
+@dataclass(frozen=True)
+class ColumnInfo:
+    """One column of a CSV.
+
+    Attributes
+    ----------
+    index : int
+        0-based position.
+    raw : str
+        The header cell as written (``"column 3"`` without a header).
+    name : str
+        Name without the unit.
+    unit : str
+        Unit (``""`` if unknown).
+    """
+
+    index: int
+    raw: str
+    name: str
+    unit: str
+
+    @property
+    def key(self) -> str:
+        """Lower-case name used for matching."""
+        return self.name.lower()
+
+    def label(self) -> str:
+        """``'u_V' (column 1)`` for messages."""
+        return f"{self.raw!r} (column {self.index})"
+
+
+@dataclass(frozen=True)
+class CSVLayout:
+    """What :func:`inspect_csv` (and :func:`read_csv`) worked out about a CSV.
+
+    Attributes
+    ----------
+    source : str
+        File path, ``"<text>"`` or ``"<bytes>"``.
+    encoding : str
+        Encoding used to decode the bytes.
+    delimiter : str
+        ``","``, ``";"``, ``"\\t"``, ``"|"`` or ``"whitespace"``.
+    decimal : str
+        ``"."`` or ``","``.
+    header : bool
+        Whether the first row holds column names.
+    columns : tuple of ColumnInfo
+    n_rows : int
+        Number of data rows.
+    first_data_line : int
+        1-based line of the first data row.
+    notes : tuple of str
+        What was skipped or interpreted (comment lines, encoding fallback, unit row).
+    """
+
+    source: str
+    encoding: str
+    delimiter: str
+    decimal: str
+    header: bool
+    columns: tuple[ColumnInfo, ...]
+    n_rows: int
+    first_data_line: int
+    notes: tuple[str, ...]
+
+
+@dataclass
+class _Table:
+    layout: CSVLayout
+    rows: list[list[str]]
+    lines: np.ndarray  # 1-based line of each row
+
+
+# --------------------------------------------------------------------------- bytes → text
+def _load_bytes(source: Source, max_bytes: int) -> tuple[bytes | str, str, str]:
+    """Return ``(content, label, stem)``."""
+    too_big = (
+        "{label} is {size:,} bytes, more than max_bytes={mb:,}; pass a larger max_bytes= to "
+        "read it anyway, or cut / decimate the recording first"
+    )
+    if isinstance(source, (bytes, bytearray)):
+        label = "<bytes>"
+        if len(source) > max_bytes:
+            raise CSVError(too_big.format(label=label, size=len(source), mb=max_bytes),
+                           source=label)
+        return bytes(source), label, "recording"
+    if hasattr(source, "read"):
+        label = str(getattr(source, "name", "<stream>"))
+        data = source.read(max_bytes + 1)  # type: ignore[union-attr]
+        if len(data) > max_bytes:
+            raise CSVError(f"{label} is larger than max_bytes={max_bytes:,}; pass a larger "
+                           "max_bytes= to read it anyway", source=label)
+        return data, label, Path(label).stem if label != "<stream>" else "recording"
+    if isinstance(source, str) and ("\n" in source or "\r" in source):
+        label = "<text>"
+        if len(source) > max_bytes:
+            raise CSVError(too_big.format(label=label, size=len(source), mb=max_bytes),
+                           source=label)
+        return source, label, "recording"
+    if not isinstance(source, (str, os.PathLike)):
+        raise CSVError(
+            f"cannot read a CSV from a {type(source).__name__}; pass a path, the CSV text "
+            "(a str with newlines), bytes, or an open file"
+        )
+    path = Path(source)
+    label = str(path)
+    if not path.is_file():
+        hint = (
+            "; to parse CSV text pass a string that contains newlines"
+            if isinstance(source, str) else ""
+        )
+        raise CSVError(f"{label}: no such file{hint}", source=label)
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise CSVError(too_big.format(label=label, size=size, mb=max_bytes), source=label)
+    return path.read_bytes(), label, path.stem
+
+
+def _line_of_offset(data: bytes, offset: int) -> int:
+    return data.count(b"\n", 0, offset) + 1
+
+
+def _decode(data: bytes | str, encoding: str | None, label: str) -> tuple[str, str, list[str]]:
+    """Return ``(text, encoding, notes)``; reject binary content."""
+    notes: list[str] = []
+    if isinstance(data, str):
+        text, enc = data, "str"
+    else:
+        if len(data) == 0:
+            raise CSVError(
+                f"{label} is empty (0 bytes); export the recording again", source=label
+            )
+        if encoding is not None:
+            try:
+                text, enc = data.decode(encoding), encoding
+            except (UnicodeDecodeError, LookupError) as exc:
+                raise CSVError(
+                    f"{label} cannot be decoded as {encoding}: {exc}; leave encoding=None "
+                    "to detect it", source=label
+                ) from exc
+        elif data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+            text, enc = data.decode("utf-16"), "utf-16"
+        else:
+            nul = data.find(b"\x00")
+            if nul >= 0:
+                line = _line_of_offset(data, nul)
+                raise CSVError(
+                    f"{label} is not a text CSV: NUL byte at byte offset {nul} (line {line}); "
+                    "it looks like a binary file (e.g. a .tdms/.mat/.xlsx); export the "
+                    "recording as CSV text",
+                    source=label, line=line,
+                )
+            try:
+                text, enc = data.decode("utf-8-sig"), "utf-8"
+            except UnicodeDecodeError as exc:
+                line = _line_of_offset(data, exc.start)
+                text, enc = data.decode("latin-1"), "latin-1"
+                notes.append(
+                    f"decoded as Latin-1: not valid UTF-8 at byte {exc.start} (line {line})"
+                )
+    text = text.lstrip("\ufeff")
+    ctrl = re.search(r"[\x00-\x08\x0e-\x1f\x7f]", text)
+    if ctrl:
+        line = text.count("\n", 0, ctrl.start()) + 1
+        raise CSVError(
+            f"{label} is not a text CSV: control character {ctrl.group()!r} on line {line}; "
+            "it looks like binary data; export the recording as CSV text",
+            source=label, line=line,
+        )
+    return text, enc, notes
+
+
+# --------------------------------------------------------------------------- tokenising
+def _is_num(cell: str, decimal: str) -> bool:
+    c = cell.strip()
+    if c.lower() in _NA_TOKENS:
+        return True
+    if decimal == ",":
+        c = c.replace(",", ".")
+    try:
+        float(c)
+    except ValueError:
+        return False
+    return "_" not in c
+
+
+def _is_strict_num(cell: str, decimal: str) -> bool:
+    """A real number (not empty, not an NA token)."""
+    c = cell.strip()
+    return bool(c) and c.lower() not in _NA_TOKENS and _is_num(c, decimal)
+
+
+def _split(lines: Sequence[str], delimiter: str) -> list[list[str]]:
+    if delimiter == "whitespace":
+        return [ln.split() for ln in lines]
+    return [[c.strip() for c in row] for row in csv.reader(lines, delimiter=delimiter)]
+
+
+_DELIMS = (",", ";", "\t", "|", "whitespace")
+_DELIM_ALIASES = {
+    "whitespace": "whitespace", " ": "whitespace", "space": "whitespace", "\\s+": "whitespace",
+    "tab": "\t", "\\t": "\t", "\t": "\t", ",": ",", ";": ";", "|": "|",
+}
+
+
+def _detect_format(
+    sample: list[str], delimiter: str | None, decimal: str | None, label: str, line0: int
+) -> tuple[str, str]:
+    """Choose delimiter and decimal mark from the first content lines."""
+    if delimiter is not None:
+        if delimiter not in _DELIM_ALIASES:
+            raise CSVError(
+                f"delimiter={delimiter!r} is not supported; use ',', ';', '\\t', '|' or "
+                "'whitespace' (or None to detect it)", source=label
+            )
+        delims: tuple[str, ...] = (_DELIM_ALIASES[delimiter],)
+    else:
+        sniffed = None
+        try:
+            sniffed = csv.Sniffer().sniff("\n".join(sample[:20]), delimiters=",;\t|").delimiter
+        except csv.Error:
+            pass
+        delims = ((sniffed,) if sniffed else ()) + tuple(d for d in _DELIMS if d != sniffed)
+    if decimal not in (None, ".", ","):
+        raise CSVError(f"decimal={decimal!r} must be '.' or ',' (or None to detect it)",
+                       source=label)
+    best: tuple[tuple[float, ...], str, str] | None = None
+    body = sample[2:] if len(sample) > 4 else sample
+    for rank, d in enumerate(delims):
+        rows = _split(sample, d)
+        body_rows = _split(body, d)
+        counts = {len(r) for r in body_rows}
+        width = max(counts) if counts else 0
+        for dec in ((decimal,) if decimal else (".", ",")):
+            if d == "," and dec == ",":
+                continue
+            cells = [c for r in body_rows for c in r]
+            if not cells:
+                continue
+            frac = sum(_is_num(c, dec) for c in cells) / len(cells)
+            strict = sum(_is_strict_num(c, dec) for c in cells) / len(cells)
+            consistent = 1.0 if len(counts) == 1 and width >= 2 else 0.0
+            head_ok = 1.0 if rows and len(rows[0]) == width else 0.0
+            score = (consistent, round(frac, 3), strict, head_ok, -rank,
+                     0.0 if dec == "," else 1.0)
+            if best is None or score > best[0]:
+                best = (score, d, dec)
+    if best is None or best[0][0] == 0.0:
+        if delimiter == "," and decimal == ",":
+            raise CSVError("decimal=',' needs a delimiter other than ','", source=label)
+        first = sample[0] if sample else ""
+        if all(len(r) <= 1 for r in _split(sample, delims[0])):
+            raise CSVError(
+                f"{label}: line {line0} ({first[:60]!r}) has a single column with every "
+                "delimiter tried (',', ';', tab, '|', whitespace); a recording needs at "
+                "least an input and an output column; pass delimiter= if yours is unusual",
+                source=label, line=line0,
+            )
+        d = delims[0] if delimiter is not None else best[1] if best else ","
+        return d, (decimal or (best[2] if best else "."))
+    return best[1], best[2]
+
+
+def _table(
+    source: Source,
+    *,
+    delimiter: str | None,
+    decimal: str | None,
+    header: bool | None,
+    skiprows: int,
+    encoding: str | None,
+    max_bytes: int,
+    max_rows: int,
+) -> tuple[_Table, str]:
+    raw, label, stem = _load_bytes(source, max_bytes)
+    text, enc, notes = _decode(raw, encoding, label)
+    all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    content: list[str] = []
+    linenos: list[int] = []
+    n_comment = 0
+    blank_inside: list[int] = []
+    for i, ln in enumerate(all_lines):
+        if i < skiprows:
+            continue
+        s = ln.strip()
+        if not s:
+            if content:
+                blank_inside.append(i + 1)
+            continue
+        if s.startswith("#"):
+            n_comment += 1
+            continue
+        content.append(ln)
+        linenos.append(i + 1)
+        if len(content) > max_rows + 2:
+            raise CSVError(
+                f"{label} has more than max_rows={max_rows:,} rows (stopped at line {i + 1}); "
+                "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
+                source=label, line=i + 1,
+            )
+    if skiprows:
+        notes.append(f"skipped the first {skiprows} line(s) (skiprows={skiprows})")
+    if n_comment:
+        notes.append(f"skipped {n_comment} comment line(s) starting with '#'")
+    if not content:
+        what = "only blank lines" if n_comment == 0 else "only comment and blank lines"
+        raise CSVError(
+            f"{label} is empty: it holds {what}, no header and no data; export the "
+            "recording again", source=label,
+        )
+    blank_inside = [b for b in blank_inside if b < linenos[-1]]
+    if blank_inside:
+        notes.append(f"ignored {len(blank_inside)} blank line(s) inside the data "
+                     f"(line(s) {_lines_text(blank_inside)})")
+    d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0])
+    rows = _split(content, d)
+    # a delimiter at the end of every line makes an empty last column
+    if rows and all(len(r) >= 2 and r[-1] == "" for r in rows):
+        rows = [r[:-1] for r in rows]
+        notes.append(f"ignored the empty last column (every line ends with {d!r})")
+    first = rows[0]
+    if header is None:
+        has_header = not all(_is_num(c, dec) for c in first)
+    else:
+        has_header = bool(header)
+    start = 1 if has_header else 0
+    names = first if has_header else [f"column {j}" for j in range(len(first))]
+    unit_row: list[str] | None = None
+    if has_header and len(rows) > 1:
+        cand = rows[1]
+        if (len(cand) == len(names) and any(c for c in cand)
+                and not any(_is_strict_num(c, dec) for c in cand)
+                and (len(rows) == 2 or all(_is_num(c, dec) for c in rows[2]))):
+            unit_row = cand
+            start = 2
+            notes.append(f"read units from line {linenos[1]}: {', '.join(cand)}")
+    cols = []
+    seen: dict[str, int] = {}
+    for j, nm in enumerate(names):
+        nm = nm.strip() or f"column {j}"
+        base, unit = parse_column_name(nm)
+        if unit_row is not None and not unit and unit_row[j].strip():
+            unit = _norm_unit(unit_row[j].strip().strip("()[]{}"))
+        if base.lower() in seen:
+            notes.append(f"column {j} ({nm!r}) has the same name as column "
+                         f"{seen[base.lower()]}; pick it by index")
+        seen.setdefault(base.lower(), j)
+        cols.append(ColumnInfo(j, nm, base, unit))
+    data_rows = rows[start:]
+    data_lines = np.asarray(linenos[start:], dtype=np.int64)
+    if not data_rows:
+        if has_header:
+            raise CSVError(
+                f"{label} has only a header (line {linenos[0]}: {', '.join(names)}) and no "
+                "data rows; export the recording again with its samples",
+                source=label, line=linenos[0],
+            )
+    width = len(cols)
+    for r, ln in zip(data_rows, data_lines, strict=True):
+        if len(r) != width:
+            ref = f"the header (line {linenos[0]})" if has_header else f"line {linenos[0]}"
+            fix = (
+                "if the recording was cut off, delete the incomplete line"
+                if ln == data_lines[-1] else
+                "fix or delete that line; if the file starts with a preamble, pass skiprows="
+            )
+            raise CSVError(
+                f"{label}: line {ln} has {len(r)} field(s) but {ref} has {width} "
+                f"(delimiter {'whitespace' if d == 'whitespace' else repr(d)}); {fix}",
+                source=label, line=int(ln),
+            )
+    if len(data_rows) > max_rows:
+        raise CSVError(
+            f"{label} has {len(data_rows):,} data rows, more than max_rows={max_rows:,}; "
+            "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
+            source=label,
+        )
+    layout = CSVLayout(
+        source=label, encoding=enc, delimiter=d, decimal=dec, header=has_header,
+        columns=tuple(cols), n_rows=len(data_rows),
+        first_data_line=int(data_lines[0]) if data_rows else 0, notes=tuple(notes),
+    )
+    return _Table(layout, data_rows, data_lines), stem
+
+
+def inspect_csv(
+    source: Source,
+    *,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    header: bool | None = None,
+    skiprows: int = 0,
+    encoding: str | None = None,
+    max_bytes: int = MAX_BYTES,
+    max_rows: int = MAX_ROWS,
+) -> CSVLayout:
+    """Work out the layout of a CSV without converting it (for previews and pickers).
+
+    Parameters are those of :func:`read_csv`.
+
+    Returns
+    -------
+    CSVLayout
+        Delimiter, decimal mark, header, columns with units, number of rows.
+    """
+    return _table(
+        source, delimiter=delimiter, decimal=decimal, header=header, skiprows=skiprows,
+        encoding=encoding, max_bytes=max_bytes, max_rows=max_rows,
+    )[0].layout
+
+
+# --------------------------------------------------------------------------- columns
+def _available(cols: Sequence[ColumnInfo]) -> str:
+    return ", ".join(f"{c.index}: {c.raw!r}" for c in cols)
+
+
+def _find(spec: int | str, role: str, cols: Sequence[ColumnInfo], label: str) -> ColumnInfo:
+    if isinstance(spec, bool):
+        raise CSVError(f"{role}={spec!r}: give a column name or 0-based index", source=label)
+    if isinstance(spec, (int, np.integer)):
+        j = int(spec)
+        if not 0 <= j < len(cols):
+            raise CSVError(
+                f"{label}: {role}={j} is not a column index; the file has {len(cols)} "
+                f"columns (0..{len(cols) - 1}): {_available(cols)}", source=label,
+            )
+        return cols[j]
+    if not isinstance(spec, str):
+        raise CSVError(f"{role}={spec!r} must be a column name or a 0-based index",
+                       source=label)
+    want = spec.strip().lower()
+    hits = [c for c in cols if c.raw.strip().lower() == want]
+    if not hits:
+        key = parse_column_name(spec)[0].lower()
+        hits = [c for c in cols if c.key == key]
+    if not hits:
+        raise CSVError(
+            f"{label}: no column named {spec!r} for {role}; available columns: "
+            f"{_available(cols)} (names match without case and unit, or give the index)",
+            source=label, column=spec,
+        )
+    if len(hits) > 1:
+        raise CSVError(
+            f"{label}: {role}={spec!r} matches several columns ({_available(hits)}); "
+            "pick one by its 0-based index", source=label, column=spec,
+        )
+    return hits[0]
+
+
+def _by_name(cols: Iterable[ColumnInfo], names: frozenset[str],
+             prefixes: tuple[str, ...] = ()) -> ColumnInfo | None:
+    for c in cols:
+        if c.key in names or any(c.key.startswith(p) for p in prefixes):
+            return c
+    return None
+
+
+def _lines_text(lines: Sequence[int], limit: int = 10) -> str:
+    shown = ", ".join(str(int(x)) for x in lines[:limit])
+    more = len(lines) - limit
+    return shown + (f" and {more} more" if more > 0 else "")
+
+
+def _convert(
+    table: _Table, col: ColumnInfo, *, strict: bool, role: str
+) -> np.ndarray | None:
+    """Column as float64 (NA tokens → NaN). Non-numeric: error if strict, else None."""
+    dec = table.layout.decimal
+    cells = [r[col.index] for r in table.rows]
+    if dec == ",":
+        cells = [c.replace(",", ".") for c in cells]
+    try:
+        arr = np.asarray(cells, dtype=np.float64)
+        if not any("_" in c for c in cells[:1000]):
+            return arr
+    except ValueError:
+        pass
+    out = np.empty(len(cells))
+    for i, c in enumerate(cells):
+        s = c.strip()
+        if s.lower() in _NA_TOKENS:
+            out[i] = np.nan
+            continue
+        try:
+            if "_" in s:
+                raise ValueError(s)
+            out[i] = float(s)
+        except ValueError:
+            if not strict:
+                return None
+            line = int(table.lines[i])
+            original = table.rows[i][col.index]
+            hint = "fix or delete that row"
+            if dec == "." and _DECIMAL_COMMA.match(original.strip()):
+                hint = "it looks like a decimal comma: pass decimal=','"
+            elif i == 0 and not table.layout.header:
+                hint = "if that line holds column names, pass header=True"
+            raise CSVError(
+                f"{table.layout.source}: line {line}, column {col.label()} ({role}): "
+                f"{original!r} is not a number; {hint}",
+                source=table.layout.source, line=line, column=col.raw,
+            ) from None
+    return out
+
+
+# --------------------------------------------------------------------------- reader
+def read_csv(
+    source: Source,
+    *,
+    time: ColumnSpec = None,
+    input: ColumnSpec = None,  # noqa: A002 - mirrors the role name
+    output: ColumnSpec = None,
+    run: ColumnSpec = None,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    header: bool | None = None,
+    skiprows: int = 0,
+    encoding: str | None = None,
+    name: str | None = None,
+    fs: float | None = None,
+    time_unit: str | None = None,
+    nan: Literal["drop", "error"] = "drop",
+    max_dropped: float = 0.05,
+    min_samples: int = MIN_SAMPLES,
+    resample: bool | float = False,
+    uneven: Literal["error", "keep"] = "error",
+    citation: str = "",
+    max_bytes: int = MAX_BYTES,
+    max_rows: int = MAX_ROWS,
+) -> list[Recording]:
+    """Read one or several recordings from CSV text.
+
+    Parameters
+    ----------
+    source : path, str, bytes or open file
+        A path (``str`` without newline or ``os.PathLike``), the CSV text itself (a
+        ``str`` containing a newline), its bytes, or a file object.
+    time : int, str, False or None
+        Time column (name or 0-based index); ``False`` for none (the time axis is then
+        the sample index, or ``k / fs`` when ``fs`` is given); ``None`` to choose (see
+        the module docstring). A chosen column must strictly increase within each run.
+    input, output : int, str or None
+        Input and output columns; ``None`` to choose.
+    run : int, str, False or None
+        Column whose value identifies the run / record / loop: each distinct value becomes
+        its own :class:`Recording` (in order of first appearance) with ``run`` set.
+        ``None`` picks a column named ``run``/``record``/``loop``/``trial``/..., ``False``
+        disables it.
+    delimiter : {",", ";", "\\t", "|", "whitespace"}, optional
+        Detected when omitted.
+    decimal : {".", ","}, optional
+        Decimal mark, detected when omitted (``","`` needs another delimiter).
+    header : bool, optional
+        Whether the first row holds column names; detected when omitted.
+    skiprows : int
+        Lines to skip before the header (instrument preambles).
+    encoding : str, optional
+        Text encoding; detected when omitted.
+    name : str, optional
+        Recording name; the file stem by default (``" loop=3"`` is appended per run).
+    fs : float, optional
+        Sampling rate in Hz for files without a time column.
+    time_unit : str, optional
+        Unit of the time column when its name has none or the wrong one
+        (``s``, ``ms``, ``us``/``µs``, ``ns``, ``min``, ``h``); times are stored in s.
+    nan : {"drop", "error"}
+        What to do with rows whose input or output is empty, NaN or inf: drop them and list
+        their lines in ``Recording.cleaning`` (default), or raise.
+    max_dropped : float
+        Largest fraction of rows ``nan="drop"`` may remove before it raises instead.
+    min_samples : int
+        Fewest samples a recording may have after cleaning (default 10).
+    resample : bool or float
+        ``True``: recordings with uneven time stamps (or gaps left by dropped rows) are
+        linearly interpolated onto a uniform grid at their median spacing; a float: every
+        recording is resampled to that spacing in seconds. Both are noted in ``cleaning``.
+    uneven : {"error", "keep"}
+        Without ``resample``, uneven time stamps (any spacing more than 1 % plus the printed
+        resolution away from the mean) raise ``CSVError`` (default) or are kept as
+        measured (noted).
+    citation : str
+        Attribution stored in every returned recording.
+    max_bytes, max_rows : int
+        Size limits (default 256 MiB and 10 million rows); larger files raise ``CSVError``.
+
+    Returns
+    -------
+    list of Recording
+        One per run (one when there is no run column).
+
+    Raises
+    ------
+    CSVError
+        The message names the problem, the line and column, and the fix: empty file,
+        header only, binary content, non-numeric cells, ragged rows, unknown or twice
+        picked columns, too few samples, constant input, non-increasing / duplicated /
+        missing / uneven time stamps, too many NaN rows, size limits.
+
+    Examples
+    --------
+    >>> recs = read_csv("t_s,u_V,y_um\\n" + "".join(
+    ...     f"{k / 100},{(-1) ** (k // 5) * k},{k / 2}\\n" for k in range(20)))
+    >>> recs[0].units["output"], recs[0].fs
+    ('µm', 100.0)
+    """
+    if nan not in ("drop", "error"):
+        raise CSVError(f"nan={nan!r} must be 'drop' or 'error'")
+    if uneven not in ("error", "keep"):
+        raise CSVError(f"uneven={uneven!r} must be 'error' or 'keep'")
+    if not 0 <= max_dropped <= 1:
+        raise CSVError(f"max_dropped={max_dropped!r} must be a fraction between 0 and 1")
+    table, stem = _table(
+        source, delimiter=delimiter, decimal=decimal, header=header, skiprows=skiprows,
+        encoding=encoding, max_bytes=max_bytes, max_rows=max_rows,
+    )
+    lay = table.layout
+    label = lay.source
+    cols = list(lay.columns)
+    base_name = name or stem
+
+    # ---- roles
+    chosen: dict[str, ColumnInfo | None] = {}
+    for role, spec in (("run", run), ("time", time), ("input", input), ("output", output)):
+        if spec is None or spec is False:
+            chosen[role] = None
+        else:
+            chosen[role] = _find(spec, role, cols, label)
+    taken = {c.index: role for role, c in chosen.items() if c is not None}
+    for role, c in chosen.items():
+        if c is not None and taken[c.index] != role:
+            raise CSVError(
+                f"{label}: {taken[c.index]} and {role} both refer to column {c.label()}; "
+                "pick a different column for one of them", source=label, column=c.raw,
+            )
+
+    def free() -> list[ColumnInfo]:
+        used = {c.index for c in chosen.values() if c is not None}
+        return [c for c in cols if c.index not in used]
+
+    if run is None and lay.header:
+        chosen["run"] = _by_name(free(), _RUN_NAMES)
+    index_col = _by_name(free(), _INDEX_NAMES) if lay.header else None
+    notes_roles: list[str] = []
+    time_auto = False
+    if time is None:
+        named = _by_name(free(), _TIME_NAMES) if lay.header else None
+        if named is not None:
+            chosen["time"] = named
+        elif index_col is not None:
+            notes_roles.append(f"no time column: column {index_col.label()} is a sample index")
+        else:
+            cand = free()
+            needed = 1 + (input is None) + (output is None)
+            if len(cand) >= max(needed, 3 - (input is not None) - (output is not None)):
+                chosen["time"] = cand[0]
+                time_auto = True
+            else:
+                notes_roles.append("no time column: the time axis is the sample index")
+    for role, names, prefixes in (("input", _INPUT_NAMES, ("u_", "input_")),
+                                  ("output", _OUTPUT_NAMES, ("y_", "output_"))):
+        if chosen[role] is None:
+            pool = [c for c in free() if c is not index_col]
+            hit = _by_name(pool, names, prefixes) if lay.header else None
+            if hit is None:
+                # never take a column that another role's name claims
+                other = _OUTPUT_NAMES if role == "input" else _INPUT_NAMES
+                opre = ("y_", "output_") if role == "input" else ("u_", "input_")
+                pool2 = [c for c in pool if not (lay.header and _by_name([c], other, opre))]
+                hit = pool2[0] if pool2 else (pool[0] if pool else None)
+            if hit is None:
+                raise CSVError(
+                    f"{label}: no column left for the {role}; the file has {len(cols)} "
+                    f"column(s): {_available(cols)}; a recording needs an input and an "
+                    "output column", source=label,
+                )
+            chosen[role] = hit
+
+    # ---- conversion
+    tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
+    assert ucol is not None and ycol is not None
+    u_all = _convert(table, ucol, strict=True, role="input")
+    y_all = _convert(table, ycol, strict=True, role="output")
+    t_all = _convert(table, tcol, strict=True, role="time") if tcol is not None else None
+    assert u_all is not None and y_all is not None
+    t_scale, t_unit_note = 1.0, None
+    if tcol is not None:
+        unit = (time_unit or tcol.unit or "s").strip()
+        if unit not in _TIME_SCALE:
+            raise CSVError(
+                f"{label}: time column {tcol.label()} has unit {unit!r}, which is not a time "
+                f"unit ({', '.join(sorted(set(_TIME_SCALE)))}); pass time_unit= or pick "
+                "another column with time=", source=label, column=tcol.raw,
+            )
+        t_scale = _TIME_SCALE[unit]
+        if t_scale != 1.0:
+            t_unit_note = f"time converted from {unit} to s (×{t_scale:g})"
+    extras: dict[str, np.ndarray] = {}
+    extra_units: dict[str, str] = {}
+    extra_notes: list[str] = []
+    used = {c.index for c in (tcol, ucol, ycol, rcol) if c is not None}
+    for c in cols:
+        if c.index in used:
+            continue
+        key = c.name if c.name not in extras else f"{c.name}_{c.index}"
+        arr = _convert(table, c, strict=False, role="extra")
+        if arr is None:
+            extras[key] = np.asarray([r[c.index] for r in table.rows], dtype=str)
+            extra_notes.append(f"column {c.label()} is not numeric; kept as text in extra")
+        else:
+            extras[key] = arr
+        extra_units[key] = c.unit
+
+    # ---- runs
+    if rcol is not None:
+        labels = [r[rcol.index] for r in table.rows]
+        order: dict[str, list[int]] = {}
+        for i, v in enumerate(labels):
+            order.setdefault(v, []).append(i)
+        groups = [(k, np.asarray(v)) for k, v in order.items()]
+    else:
+        groups = [(None, np.arange(len(table.rows)))]
+
+    out = []
+    for run_id_raw, idx in groups:
+        run_id: str | int | None = run_id_raw
+        if run_id_raw is not None:
+            try:
+                run_id = int(run_id_raw)
+            except ValueError:
+                run_id = run_id_raw
+        rname = base_name if rcol is None else f"{base_name} {rcol.name}={run_id}"
+        where = "" if rcol is None else f" (run {rcol.name}={run_id})"
+        lines = table.lines[idx]
+        notes = list(lay.notes) + notes_roles + extra_notes
+        if t_unit_note:
+            notes.append(t_unit_note)
+        u, y = u_all[idx], y_all[idx]
+        ex = {k: v[idx] for k, v in extras.items()}
+        has_time = True
+        if tcol is not None:
+            assert t_all is not None
+            t = t_all[idx] * t_scale
+            t = _check_time(t, lines, tcol, table, idx, label, where, time_auto,
+                            t_scale=t_scale, uneven=uneven, resample=resample, notes=notes)
+        elif fs is not None:
+            if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+                raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
+            t = np.arange(idx.size) / float(fs)
+            notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
+        else:
+            t = np.arange(idx.size, dtype=np.float64)
+            has_time = False
+        # ---- NaN / inf in input and output
+        bad = ~(np.isfinite(u) & np.isfinite(y))
+        if bad.any():
+            first = int(np.flatnonzero(bad)[0])
+            which = ucol if not np.isfinite(u[first]) else ycol
+            cell = table.rows[idx[first]][which.index]
+            if nan == "error":
+                raise CSVError(
+                    f"{label}: line {lines[first]}, column {which.label()}: {cell!r} is not a "
+                    f"finite number{where} ({int(bad.sum())} such row(s)); fill in the value "
+                    "or pass nan='drop' to remove those rows",
+                    source=label, line=int(lines[first]), column=which.raw,
+                )
+            frac = bad.sum() / bad.size
+            if frac > max_dropped:
+                raise CSVError(
+                    f"{label}{where}: {int(bad.sum())} of {bad.size} rows ({100 * frac:.1f} %) "
+                    f"have an empty/NaN/inf input {ucol.raw!r} or output {ycol.raw!r} (first "
+                    f"at line {lines[first]}, column {which.raw!r}: {cell!r}); that is more "
+                    f"than max_dropped={max_dropped:g}; check the export or raise max_dropped",
+                    source=label, line=int(lines[first]), column=which.raw,
+                )
+            bad_lines = [int(x) for x in lines[bad]]
+            notes.append(
+                f"removed {len(bad_lines)} row(s) with empty/NaN/inf input or output at "
+                f"line(s) {_lines_text(bad_lines)}"
+            )
+            keep = ~bad
+            t, u, y, lines = t[keep], u[keep], y[keep], lines[keep]
+            ex = {k: v[keep] for k, v in ex.items()}
+        for k, v in ex.items():
+            if v.dtype.kind == "f" and not np.isfinite(v).all():
+                nb = int((~np.isfinite(v)).sum())
+                notes.append(f"extra channel {k!r} has {nb} empty/NaN/inf value(s) (kept)")
+        if u.size < min_samples:
+            span = f" (lines {lines[0]}..{lines[-1]})" if u.size else ""
+            raise CSVError(
+                f"{label}{where}: only {u.size} usable sample(s){span}, fewer than the "
+                f"minimum of {min_samples}; a hysteresis fit needs a longer recording (or "
+                "pass a lower min_samples=)",
+                source=label,
+            )
+        if np.ptp(u) == 0:
+            raise CSVError(
+                f"{label}{where}: the input column {ucol.label()} is constant "
+                f"({u[0]:g} {ucol.unit}) on all {u.size} samples: no excitation, nothing to "
+                "identify; pick the excitation column with input= (available: "
+                f"{_available(cols)})", source=label, column=ucol.raw,
+            )
+        columns = {"time": tcol.raw if tcol else "", "input": ucol.raw, "output": ycol.raw}
+        if rcol is not None:
+            columns["run"] = rcol.raw
+        rec = Recording(
+            t=t, u=u, y=y, name=rname,
+            units={"time": "s" if has_time else "sample", "input": ucol.unit,
+                   "output": ycol.unit},
+            columns=columns, extra=ex, extra_units=extra_units, source=label, run=run_id,
+            cleaning=tuple(notes), has_time=has_time, citation=citation, lines=lines,
+        )
+        if resample is not False and resample is not None:
+            if not has_time:
+                raise CSVError(
+                    f"{label}: resample= needs a time axis, but no time column was found; "
+                    "pass time= or fs=", source=label,
+                )
+            if resample is True:
+                if not rec.is_uniform:
+                    rec = rec.resampled()
+            else:
+                rec = rec.resampled(float(resample))
+        elif has_time and not rec.is_uniform and bad.any():
+            rec = _note(rec, "the removed rows leave gaps in the time axis; call "
+                             ".resampled() or read with resample=True for a uniform grid")
+        out.append(rec)
+    return out
+
+
+def _note(rec: Recording, note: str) -> Recording:
+    return replace(rec, cleaning=rec.cleaning + (note,))
+
+
+def _decimals(cells: Iterable[str]) -> int:
+    best = 0
+    for c in cells:
+        c = c.strip().lower().replace(",", ".")
+        if "e" in c:
+            return 0
+        if "." in c:
+            best = max(best, len(c) - c.index(".") - 1)
+    return best
+
+
+def _check_time(
+    t: np.ndarray, lines: np.ndarray, tcol: ColumnInfo, table: _Table, idx: np.ndarray,
+    label: str, where: str, auto: bool, *, t_scale: float, uneven: str,
+    resample: bool | float, notes: list[str],
+) -> np.ndarray:
+    """Validate a time column: present, strictly increasing, evenly spaced."""
+    miss = ~np.isfinite(t)
+    if miss.any():
+        ml = [int(x) for x in lines[miss]]
+        raise CSVError(
+            f"{label}: time stamp missing (empty/NaN/inf) in column {tcol.label()}{where} at "
+            f"line(s) {_lines_text(ml)}; fill in the time stamps, or pass time=False (sample "
+            "index) or fs= if the samples are evenly spaced",
+            source=label, line=ml[0], column=tcol.raw,
+        )
+    d = np.diff(t)
+    if (d <= 0).any():
+        i = int(np.flatnonzero(d <= 0)[0])
+        a, b = int(lines[i]), int(lines[i + 1])
+        what = "duplicated" if d[i] == 0 else "decreasing"
+        if auto:
+            raise CSVError(
+                f"{label}: column {tcol.label()} is not monotone increasing "
+                f"({what} at line {b}: {t[i + 1]:g} after {t[i]:g} at line {a}), so it cannot "
+                "be the time axis; pass time=<column> (name or index), or time=False if the "
+                "file has no time column, together with input= and output=",
+                source=label, line=b, column=tcol.raw,
+            )
+        raise CSVError(
+            f"{label}: time stamps must strictly increase, but line {b} has t = {t[i + 1]:g} "
+            f"s {'again' if d[i] == 0 else 'after'} t = {t[i]:g} s at line {a}{where} "
+            f"({what} time stamp in column {tcol.label()}); remove the duplicated/out-of-order "
+            "rows or sort the file by time",
+            source=label, line=b, column=tcol.raw,
+        )
+    if t.size >= 3:
+        mean = (t[-1] - t[0]) / (t.size - 1)
+        sample = [table.rows[i][tcol.index] for i in idx[:1000]]
+        dec = _decimals(sample)
+        res = 10.0 ** (-dec) * t_scale if dec else 0.0
+        dev = np.abs(d - mean)
+        if np.max(dev) > 0.01 * mean + res:
+            j = int(np.argmax(d))
+            k = int(np.argmin(d))
+            msg = (
+                f"time stamps in column {tcol.label()}{where} are uneven: spacing from "
+                f"{d.min():.6g} s (line {int(lines[k + 1])}) to {d.max():.6g} s (line "
+                f"{int(lines[j + 1])}), mean {mean:.6g} s"
+            )
+            if resample is False or resample is None:
+                if uneven == "error":
+                    raise CSVError(
+                        f"{label}: {msg}; pass resample=True to interpolate linearly onto a "
+                        "uniform grid (or resample=<dt in s>), or uneven='keep' if your model "
+                        "does not depend on dt",
+                        source=label, line=int(lines[j + 1]), column=tcol.raw,
+                    )
+                notes.append(msg + "; kept as measured (uneven='keep')")
+    return t
+
+
+def read_recording(source: Source, **kwargs: object) -> Recording:
+    """Read a CSV that holds exactly one recording; see :func:`read_csv` for the options.
+
+    Raises
+    ------
+    CSVError
+        If the file splits into several runs (the message lists them).
+    """
+    recs = read_csv(source, **kwargs)  # type: ignore[arg-type]
+    if len(recs) != 1:
+        col = recs[0].columns.get("run", "run")
+        ids = ", ".join(str(r.run) for r in recs[:10])
+        raise CSVError(
+            f"{recs[0].source} holds {len(recs)} recordings (run column {col!r}: {ids}"
+            f"{', ...' if len(recs) > 10 else ''}); use read_csv() to get all of them, or "
+            "pass run=False to read the file as one recording",
+            source=recs[0].source, column=col,
+        )
+    return recs[0]
+
+
+def read_csvs(
+    sources: Iterable[Source], **kwargs: object
+) -> list[Recording]:
+    """Read several CSV files (each may hold several runs) into one list, in order.
+
+    Parameters
+    ----------
+    sources : iterable of path, str or bytes
+        Anything :func:`read_csv` accepts.
+    **kwargs
+        Options of :func:`read_csv`, applied to every file.
+
+    Returns
+    -------
+    list of Recording
+    """
+    out: list[Recording] = []
+    for s in sources:
+        out.extend(read_csv(s, **kwargs))  # type: ignore[arg-type]
+    if not out:
+        raise CSVError("read_csvs() got no files; pass at least one path")
+    return out
