@@ -100,7 +100,12 @@ class CStage:
         Statements that put the state (``st->...``) back to its initial value.
     step : list of str
         Statements that read the current sample from the double ``x`` and overwrite ``x``
-        with the stage output (they may update ``st->...``).
+        with the stage output (they may update ``st->...``). The loop counter ``unsigned
+        i`` is declared by the caller when any line contains ``for (i``.
+    helpers : list of str
+        File-scope ``static`` helper functions (identifiers prefixed with ``ctx.const``).
+    needs_math : bool
+        Whether the code calls ``<math.h>`` functions (``tanh``, ``atanh``).
     """
 
     title: str
@@ -108,6 +113,8 @@ class CStage:
     constants: list[str] = field(default_factory=list)
     reset: list[str] = field(default_factory=list)
     step: list[str] = field(default_factory=list)
+    helpers: list[str] = field(default_factory=list)
+    needs_math: bool = False
 
 
 @dataclass(frozen=True)
@@ -188,13 +195,196 @@ def _emit_pi(model: Model, ctx: StageContext) -> CStage:
     )
 
 
+@register_c_stage("offset")
+def _emit_offset(model: Model, ctx: StageContext) -> CStage:
+    """Constant output offset ``x <- x + c``."""
+    c = float(model.offset)  # type: ignore[attr-defined]
+    return CStage(
+        title="output offset",
+        constants=[f"static const double {ctx.const}C = {c_double(c)};"],
+        step=[f"x = x + {ctx.const}C;"],
+    )
+
+
+@register_c_stage("deadzone")
+def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
+    """Dead-zone superposition, evaluated like the Python model: segment, anchor, slope."""
+    rho = np.asarray(model.thresholds)  # type: ignore[attr-defined]
+    slopes = np.asarray(model.slopes)  # type: ignore[attr-defined]
+    values = np.asarray(model.breakpoint_values)  # type: ignore[attr-defined]
+    k, c = rho.size, ctx.const
+    return CStage(
+        title=f"dead-zone superposition, {k} threshold(s), memoryless",
+        constants=[
+            f"static const double {c}RHO[{k}] = {_c_array(rho)};",
+            f"static const double {c}SLOPE[{k + 1}] = {_c_array(slopes)};",
+            f"static const double {c}VAL[{k}] = {_c_array(values)};",
+        ],
+        step=[
+            "unsigned seg = 0u;",
+            "unsigned anc;",
+            f"while (seg < {k}u && {c}RHO[seg] <= x) ++seg;",
+            "anc = seg > 0u ? seg - 1u : 0u;",
+            f"x = {c}VAL[anc] + {c}SLOPE[seg] * (x - {c}RHO[anc]);",
+        ],
+    )
+
+
+def _direction_step(f: str) -> list[str]:
+    """Update ``st->{f}dir`` from the input direction (a repeated sample keeps it)."""
+    return [
+        f"if (st->{f}has_prev) {{",
+        f"    if (x > st->{f}prev) st->{f}dir = 1;",
+        f"    else if (x < st->{f}prev) st->{f}dir = -1;",
+        "}",
+        f"st->{f}prev = x;",
+        f"st->{f}has_prev = 1;",
+    ]
+
+
+def _direction_state(model: Model, f: str) -> tuple[list[str], list[str]]:
+    d0 = int(model.direction0)  # type: ignore[attr-defined]
+    return (
+        [f"double {f}prev;", f"int {f}has_prev;", f"int {f}dir;"],
+        [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;", f"st->{f}dir = {d0};"],
+    )
+
+
+@register_c_stage("tanh-envelope")
+def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
+    """Direction-switching envelope ``c0 tanh(c1 x + c2) + c3`` (a while rising, b falling)."""
+    a = np.asarray(model.a)  # type: ignore[attr-defined]
+    b = np.asarray(model.b)  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    fields, reset = _direction_state(model, f)
+    return CStage(
+        title="tanh envelope (kappa_R rising, kappa_L falling)",
+        fields=fields,
+        constants=[
+            f"static const double {c}A[4] = {_c_array(a)};",
+            f"static const double {c}B[4] = {_c_array(b)};",
+        ],
+        reset=reset,
+        step=[
+            *_direction_step(f),
+            f"{{ const double *k = st->{f}dir > 0 ? {c}A : {c}B;",
+            "  x = k[0] * tanh(k[1] * x + k[2]) + k[3]; }",
+        ],
+        needs_math=True,
+    )
+
+
+@register_c_stage("tanh-envelope-inverse")
+def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
+    """Inverse envelope ``(atanh((x - c3)/c0) - c2)/c1``, clipped to its domain.
+
+    Samples outside ``|x - c3| < (1 - clip_margin)|c0|`` are clipped like the Python model;
+    ``st->{field}clipped`` counts them (the Python model warns instead).
+    """
+    a = np.asarray(model.a)  # type: ignore[attr-defined]
+    b = np.asarray(model.b)  # type: ignore[attr-defined]
+    lim = 1.0 - float(model.clip_margin)  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    fields, reset = _direction_state(model, f)
+    return CStage(
+        title="inverse tanh envelope (clips to its domain, counts clipped samples)",
+        fields=[*fields, f"unsigned long {f}clipped;"],
+        constants=[
+            f"static const double {c}A[4] = {_c_array(a)};",
+            f"static const double {c}B[4] = {_c_array(b)};",
+            f"static const double {c}LIM = {c_double(lim)};",
+        ],
+        reset=[*reset, f"st->{f}clipped = 0ul;"],
+        step=[
+            *_direction_step(f),
+            f"{{ const double *k = st->{f}dir > 0 ? {c}A : {c}B;",
+            "  double s = (x - k[3]) / k[0];",
+            f"  if (s > {c}LIM) {{ s = {c}LIM; ++st->{f}clipped; }}",
+            f"  else if (s < -{c}LIM) {{ s = -{c}LIM; ++st->{f}clipped; }}",
+            "  x = (atanh(s) - k[2]) / k[1]; }",
+        ],
+        needs_math=True,
+    )
+
+
+@register_c_stage("digitized")
+def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
+    """Digitized PI (paper 000): binary digits in the state, same snapping rule as Python."""
+    dx = np.asarray(model.dx)  # type: ignore[attr-defined]
+    dy = np.asarray(model.dy)  # type: ignore[attr-defined]
+    g = np.asarray(model.slopes)  # type: ignore[attr-defined]
+    d0 = np.asarray(model.state0, dtype=np.float64)  # type: ignore[attr-defined]
+    n, f, c = dx.size, ctx.field, ctx.const
+    return CStage(
+        title=f"digitized PI, {n} digit(s)",
+        fields=[f"unsigned char {f}b[{n}];"],
+        constants=[
+            f"static const double {c}DX[{n}] = {_c_array(dx)};",
+            f"static const double {c}DY[{n}] = {_c_array(dy)};",
+            f"static const double {c}G[{n}] = {_c_array(g)};",
+            f"static const unsigned char {c}B0[{n}] = {{"
+            + ", ".join(str(int(v)) for v in d0) + "};",
+            f"static const double {c}X0 = {c_double(model.x0)};",  # type: ignore[attr-defined]
+            f"static const double {c}Y0 = {c_double(model.y0)};",  # type: ignore[attr-defined]
+            f"static const double {c}TOL = {c_double(model.tol)};",  # type: ignore[attr-defined]
+        ],
+        helpers=[
+            "/* state point (X_B, Y_B) and lowest 0 / 1 digit of the digits b (-1: none) */",
+            f"static void {c}point(const unsigned char *b, double *xb, double *yb, int *lo0,",
+            "                     int *lo1)",
+            "{",
+            "    unsigned k;",
+            f"    *xb = {c}X0;",
+            f"    *yb = {c}Y0;",
+            "    *lo0 = -1;",
+            "    *lo1 = -1;",
+            f"    for (k = 0; k < {n}u; ++k) {{",
+            "        if (b[k]) {",
+            f"            *xb += {c}DX[k];",
+            f"            *yb += {c}DY[k];",
+            "            if (*lo1 < 0) *lo1 = (int)k;",
+            "        } else if (*lo0 < 0) {",
+            "            *lo0 = (int)k;",
+            "        }",
+            "    }",
+            "}",
+        ],
+        reset=[f"for (i = 0; i < {n}u; ++i) st->{f}b[i] = {c}B0[i];"],
+        step=[
+            "double xb, yb;",
+            "int lo0, lo1, moved = 0;",
+            f"{c}point(st->{f}b, &xb, &yb, &lo0, &lo1);",
+            f"while (lo0 >= 0 && x >= xb + {c}DX[lo0] - {c}TOL) {{",
+            f"    st->{f}b[lo0] = 1;",
+            "    moved = 1;",
+            f"    {c}point(st->{f}b, &xb, &yb, &lo0, &lo1);",
+            "}",
+            "if (!moved) {",
+            f"    while (lo1 >= 0 && x <= xb - {c}DX[lo1] + {c}TOL) {{",
+            f"        st->{f}b[lo1] = 0;",
+            f"        {c}point(st->{f}b, &xb, &yb, &lo0, &lo1);",
+            "    }",
+            "}",
+            "if (x >= xb) {",
+            f"    x = yb + {c}G[lo0 >= 0 ? lo0 : {n - 1}] * (x - xb);",
+            "} else {",
+            f"    x = yb + {c}G[lo1 >= 0 ? lo1 : {n - 1}] * (x - xb);",
+            "}",
+        ],
+    )
+
+
 # ----------------------------------------------------------------------------- generation
 def _flatten(model: Model) -> list[Model]:
+    """Stages in application order: chains and cascades (``as_chain()``) are expanded."""
     if isinstance(model, Chain):
         out: list[Model] = []
         for s in model.stages:
             out.extend(_flatten(s))
         return out
+    as_chain = getattr(model, "as_chain", None)
+    if callable(as_chain):
+        return _flatten(as_chain())
     return [model]
 
 
@@ -219,8 +409,10 @@ def _type_of(m: Model) -> str:
     return type(m).type_name
 
 
-def _emit_block(model: Model, name: str, dt: float | None, what: str) -> tuple[str, str]:
-    """(header part, source part) of one block ``name`` implementing ``model``."""
+def _emit_block(
+    model: Model, name: str, dt: float | None, what: str
+) -> tuple[str, str, bool]:
+    """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``."""
     stages = _flatten(model)
     if any(s.needs_dt for s in stages) and (dt is None or not dt > 0):
         raise CExportError(
@@ -259,6 +451,7 @@ def _emit_block(model: Model, name: str, dt: float | None, what: str) -> tuple[s
     for k, st in enumerate(emitted):
         src.append(f"/* stage {k}: {st.title} */")
         src.extend(st.constants)
+        src.extend(st.helpers)
     uses_i_reset = any("for (i" in line for st in emitted for line in st.reset)
     uses_i_step = any("for (i" in line for st in emitted for line in st.step)
     src.append("")
@@ -298,7 +491,7 @@ def _emit_block(model: Model, name: str, dt: float | None, what: str) -> tuple[s
     src.append(f"        y[k] = {name}_step(st, u[k]);")
     src.append("    }")
     src.append("}")
-    return "\n".join(h), "\n".join(src)
+    return "\n".join(h), "\n".join(src), any(st.needs_math for st in emitted)
 
 
 @dataclass(frozen=True)
@@ -430,13 +623,14 @@ def generate_c(
     header_lines = ["/*"] + [f" * {line}".rstrip() for line in info + [""] + usage] + [" */"]
     header_lines += [f"#ifndef {guard}", f"#define {guard}", "", "#include <stddef.h>", ""]
     header_lines += ["#ifdef __cplusplus", 'extern "C" {', "#endif", ""]
+    parts = [_emit_block(bmodel, bname, dt, what) for bname, bmodel, what in blocks]
     source_lines = [
         f"/* {name}.c: generated by {_tool()}; see {name}.h. */",
         f'#include "{name}.h"',
+        *(["#include <math.h>"] if any(p[2] for p in parts) else []),
         "",
     ]
-    for bname, bmodel, what in blocks:
-        h, s = _emit_block(bmodel, bname, dt, what)
+    for h, s, _ in parts:
         header_lines += [h, ""]
         source_lines += [s, ""]
     header_lines += ["#ifdef __cplusplus", "}", "#endif", "", f"#endif /* {guard} */", ""]

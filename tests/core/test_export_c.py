@@ -199,3 +199,58 @@ def test_errors_are_clear():
     with pytest.raises(CExportError, match=r"'made-up' \(stage 1 of the forward model\)"):
         generate_c(Chain.of(EX1, Unknown()), inverse=False)
     assert "pi" in supported_c_types()
+
+
+# ----------------------------------------------------------------------------- other stages
+def _other_models() -> dict[str, tuple[Model, float, bool]]:
+    """name -> (model, input amplitude, exact inverse); built from the modules that exist."""
+    out: dict[str, tuple[Model, float, bool]] = {}
+    from core.effects import Offset
+
+    out["pi_offset"] = (Chain.of(EX1, Offset(0.25)), 8.0, True)
+    try:
+        from core.deadzone import DeadZoneMap
+        from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI, paper001_example6
+    except ImportError:  # pragma: no cover - before the GPI modules exist
+        return out
+    g = DeadZoneMap.symmetric([0.8, 1.6, 2.5], 0.9, [0.4, -0.3, 0.2])
+    out["deadzone"] = (g, 4.0, True)
+    out["gpi_deadzone"] = (DeadZoneGPI(EX1, g), 3.0, True)
+    out["mpi"] = (ModifiedPI(EX1, g), 3.0, True)
+    out["gpi_tanh"] = (paper001_example6(), 8.0, True)
+    # counter-clockwise envelope (kappa_R <= kappa_L): the compensator is still exact
+    env = TanhEnvelope([6.0, 0.4, 0.0, -0.2], [6.0, 0.4, 0.0, 0.2])
+    out["gpi_tanh_2"] = (TanhGPI(PIModel(0.3, [0.5, 1.0], [0.2, 0.1]), env), 4.0, True)
+    try:
+        from core.digitized import DigitizedPI
+    except ImportError:  # pragma: no cover
+        return out
+    out["digitized"] = (DigitizedPI.from_pi(EX1, (-8.0, 8.0), refine=2), 8.0, False)
+    return out
+
+
+OTHER = _other_models()
+
+
+@needs_gcc
+@pytest.mark.parametrize("key", sorted(OTHER))
+def test_other_stage_types_match_python(key, tmp_path, rng):
+    import warnings
+
+    model, amp, exact = OTHER[key]
+    u = reversal_input(rng, 20_000, amp)
+    y_ref = model(u)
+    # keep the compensator's input inside the forward model's range (tanh domain)
+    u = np.clip(u, np.min(y_ref) * 0.95, np.max(y_ref) * 0.95) if "tanh" in key else u
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the Python inverse must not clip on this input
+        inv_py = model.inverse()(u)
+    out = build_and_run(tmp_path, model, f"m_{key}", u)
+    inv_c, round_trip_c, fwd_c = out[:-1].T
+    scale = max(1.0, float(np.max(np.abs(u))))
+    np.testing.assert_allclose(fwd_c, model(u), rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(inv_c, inv_py, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(round_trip_c, model(inv_py), rtol=0, atol=1e-9 * scale)
+    if exact:
+        np.testing.assert_allclose(round_trip_c, u, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_array_equal(out[-1], [inv_c[0], round_trip_c[0], fwd_c[0]])
