@@ -1,0 +1,563 @@
+"""The viser GUI: one private view per browser tab, bound to a session by code.
+
+Every browser tab gets its own controls (``client.gui``), so students never see each
+other's changes. A view is bound to a :class:`~app.state.Session`; typing another code
+re-binds it (that is how a student comes back after a reload, or how REST changes and
+teacher broadcasts reach the GUI). GUI edits build a new config and store it in the
+session; session changes (from any source) are pushed back into the controls under a
+re-entrancy guard and rendered by a :class:`~app.gui.render.LatestWinsWorker`.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import traceback
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from core.base import model_from_dict
+from core.exceptions import ParameterError
+from core.pi import PIModel
+
+from .. import figures as F
+from ..settings import Settings
+from ..state import (
+    Config,
+    CSVProblem,
+    Result,
+    Session,
+    SessionRegistry,
+    compute,
+    diagnose_recording,
+    export_bytes,
+    fit_recording,
+    get_preset,
+    parameter_set_model,
+    preset_names,
+    recording_from_csv,
+    signal_kinds,
+)
+from .render import LatestWinsWorker
+
+__all__ = ["ExplorerGui", "SessionView", "attach_gui"]
+
+#: Largest number of operators the GUI shows individual sliders for.
+GUI_MAX_SLIDERS = 25
+PLOTS = ("loop", "time", "operators", "loading", "inverse")
+_TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
+           "inverse": "Inverse", "fit": "Fit"}
+
+
+class SessionView:
+    """The controls and plots of one browser tab, bound to one session.
+
+    Parameters
+    ----------
+    gui : viser.GuiApi
+        ``client.gui`` (private to a tab) or ``server.gui`` (headless tests).
+    registry : SessionRegistry
+        Where sessions are looked up by code.
+    session : Session
+        The session shown first.
+    settings : Settings
+        Limits.
+    notify : callable, optional
+        ``notify(title, body, error)`` shows a toast (per client); ignored when ``None``.
+    download : callable, optional
+        ``download(filename, content)`` sends a file to this tab.
+    """
+
+    def __init__(
+        self,
+        gui: Any,
+        registry: SessionRegistry,
+        session: Session,
+        settings: Settings,
+        notify: Callable[[str, str, bool], None] | None = None,
+        download: Callable[[str, bytes], None] | None = None,
+    ) -> None:
+        self.gui = gui
+        self.registry = registry
+        self.session = session
+        self.settings = settings
+        self._notify = notify
+        self._download = download
+        self._syncing = threading.local()
+        self._lock = threading.RLock()
+        self.rendered_version = -1
+        self.last_result: Result | None = None
+        self._build()
+        self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
+        session.add_listener(self._on_session_change)
+        self._sync_controls(session.snapshot()[0])
+        self.worker.request()
+
+    # ------------------------------------------------------------------ layout
+    def _build(self) -> None:
+        g = self.gui
+        self.code_md = g.add_markdown("")
+        with g.add_folder("Session", expand_by_default=False):
+            self.code_in = g.add_text("Session code", initial_value="")
+            self.join_btn = g.add_button("Join / restore session")
+        tabs = g.add_tab_group()
+        with tabs.add_tab("Model"):
+            self.preset = g.add_dropdown("Preset", tuple(preset_names()),
+                                         initial_value=preset_names()[0])
+            self.load_preset = g.add_button("Load preset")
+            self.model_md = g.add_markdown("")
+            with g.add_folder("Classical PI") as self.pi_folder:
+                self.p0 = g.add_slider("p0", min=-0.5, max=3.0, step=0.001, initial_value=0.72)
+                self.n_ops = g.add_number("Operators n", 6, min=1,
+                                          max=self.settings.max_operators, step=1)
+                self.state0 = g.add_slider("Initial state", min=-5.0, max=5.0, step=0.01,
+                                           initial_value=0.0)
+                self.r_folder = g.add_folder("Thresholds r_i", expand_by_default=False)
+                self.w_folder = g.add_folder("Weights p_i", expand_by_default=True)
+            self.r_sliders: list[Any] = []
+            self.w_sliders: list[Any] = []
+            self.json_in = g.add_text("Model JSON (any type)", initial_value="", multiline=True)
+            self.json_btn = g.add_button("Apply model JSON")
+        with tabs.add_tab("Input"):
+            kinds = tuple(signal_kinds())
+            self.kind = g.add_dropdown("Signal", kinds, initial_value=kinds[0])
+            self.amp = g.add_slider("Amplitude", min=0.0, max=10.0, step=0.05, initial_value=4.0)
+            self.freq = g.add_slider("Frequency [Hz]", min=0.1, max=20.0, step=0.1,
+                                     initial_value=1.0)
+            self.offset = g.add_slider("Offset", min=-5.0, max=5.0, step=0.05, initial_value=0.0)
+            self.duration = g.add_slider("Duration [s]", min=0.5, max=20.0, step=0.5,
+                                         initial_value=2.0)
+            self.samples = g.add_number("Samples", 2000, min=10, max=self.settings.max_samples,
+                                        step=1)
+            self.use_rec = g.add_checkbox("Use uploaded recording", False)
+            self.signal_md = g.add_markdown("")
+        with tabs.add_tab("Inverse"):
+            self.mismatch = g.add_slider("Model mismatch", min=-0.5, max=0.5, step=0.01,
+                                         initial_value=0.0,
+                                         hint="plant thresholds ×(1+m), weights ×(1−m)")
+            self.inverse_md = g.add_markdown("")
+        with tabs.add_tab("Data"):
+            self.upload = g.add_upload_button("Upload CSV", mime_type="text/csv")
+            self.t_col = g.add_text("Time column", initial_value="")
+            self.u_col = g.add_text("Input column", initial_value="")
+            self.y_col = g.add_text("Output column", initial_value="")
+            self.remap = g.add_button("Apply column mapping")
+            self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
+            self.fit_n = g.add_number("Fit operators n", 10, min=1,
+                                      max=self.settings.max_operators, step=1)
+            self.fit_btn = g.add_button("Fit PI model")
+            self.diag_btn = g.add_button("Run diagnosis")
+            self.report_md = g.add_markdown("")
+        with tabs.add_tab("Export"):
+            self.dl_json = g.add_button("Download parameter set (JSON)")
+            self.dl_mat = g.add_button("Download .mat")
+            self.dl_c = g.add_button("Download C code")
+            self.ps_upload = g.add_upload_button("Upload parameter set", mime_type="*/*")
+            self.export_md = g.add_markdown("")
+        self.plot_tabs = g.add_tab_group()
+        self.plots: dict[str, Any] = {}
+        empty = F.message_figure("", "computing…")
+        for name in (*PLOTS, "fit"):
+            with self.plot_tabs.add_tab(_TITLES[name]):
+                self.plots[name] = g.add_plotly(empty, aspect=1.25 if name != "inverse" else 0.9)
+        self.status_md = g.add_markdown("")
+        self._wire()
+
+    def _wire(self) -> None:
+        for h in (self.p0, self.state0, self.mismatch, self.amp, self.freq, self.offset,
+                  self.duration, self.samples, self.kind, self.use_rec):
+            h.on_update(self._guarded(self._controls_changed))
+        self.n_ops.on_update(self._guarded(self._n_changed))
+        self.load_preset.on_click(self._guarded(self._preset_clicked))
+        self.json_btn.on_click(self._guarded(self._json_clicked))
+        self.join_btn.on_click(self._guarded(self._join_clicked))
+        self.upload.on_upload(self._guarded(self._csv_uploaded))
+        self.remap.on_click(self._guarded(self._remap_clicked))
+        self.fit_btn.on_click(self._guarded(self._fit_clicked))
+        self.diag_btn.on_click(self._guarded(self._diagnose_clicked))
+        self.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
+        for btn, fmt in ((self.dl_json, "json"), (self.dl_mat, "mat"), (self.dl_c, "c")):
+            btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+
+    def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
+        """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
+
+        def cb(event: Any) -> None:
+            if getattr(self._syncing, "on", False):
+                return
+            try:
+                fn(event)
+            except (ParameterError, CSVProblem, ValueError) as exc:
+                self._toast("Not applied", str(exc), True)
+            except Exception as exc:  # noqa: BLE001 - a GUI callback must never crash
+                traceback.print_exc()
+                self._toast("Unexpected error", repr(exc), True)
+
+        return cb
+
+    def _toast(self, title: str, body: str, error: bool = False) -> None:
+        if self._notify is not None:
+            self._notify(title, body, error)
+
+    # ------------------------------------------------------------------ store -> GUI
+    def _on_session_change(self, session: Session, config: Config, version: int) -> None:
+        if not getattr(self._syncing, "from_gui", False):
+            self._sync_controls(config)
+        self.worker.request()
+
+    def _set(self, handle: Any, value: Any) -> None:
+        if handle.value != value:
+            handle.value = value
+
+    def _sync_controls(self, cfg: Config) -> None:
+        """Push ``cfg`` into the controls without triggering write-back."""
+        self._syncing.on = True
+        try:
+            with self._lock:
+                self.code_md.content = (
+                    f"**Session code: `{self.session.code}`**  \n"
+                    "type it under *Session* after a reload to continue"
+                )
+                m = cfg.model
+                is_pi = m.get("type") == "pi"
+                self.pi_folder.visible = is_pi
+                if is_pi:
+                    r, w = list(m["thresholds"]), list(m["weights"])
+                    self._set(self.p0, float(np.clip(m["p0"], self.p0.min, self.p0.max)))
+                    self._set(self.n_ops, len(r))
+                    s0 = m.get("state0")
+                    self._set(self.state0, float(np.clip(np.mean(s0) if s0 else 0.0, -5, 5)))
+                    self._ensure_sliders(r, w)
+                self.json_in.value = json.dumps(m)
+                sig = cfg.signal
+                if sig.kind in self.kind.options:
+                    self._set(self.kind, sig.kind)
+                self._set(self.amp, float(np.clip(sig.amplitude, 0, self.amp.max)))
+                self._set(self.freq, float(np.clip(sig.frequency, 0.1, 20)))
+                self._set(self.offset, float(np.clip(sig.offset, -5, 5)))
+                self._set(self.duration, float(np.clip(sig.duration, 0.5, 20)))
+                self._set(self.samples, int(sig.samples))
+                self._set(self.mismatch, float(cfg.mismatch))
+                self._set(self.use_rec, bool(cfg.use_recording))
+        finally:
+            self._syncing.on = False
+
+    def _ensure_sliders(self, r: list[float], w: list[float]) -> None:
+        n = len(r)
+        show = n <= GUI_MAX_SLIDERS
+        if len(self.r_sliders) != (n if show else 0):
+            for h in (*self.r_sliders, *self.w_sliders):
+                h.remove()
+            self.r_sliders, self.w_sliders = [], []
+            if show:
+                rmax = max(10.0, 2 * max(r))
+                with self.r_folder:
+                    for i in range(n):
+                        h = self.gui.add_slider(f"r{i + 1}", min=0.001, max=rmax, step=0.001,
+                                                initial_value=r[i])
+                        h.on_update(self._guarded(self._controls_changed))
+                        self.r_sliders.append(h)
+                with self.w_folder:
+                    for i in range(n):
+                        h = self.gui.add_slider(f"p{i + 1}", min=-1.5, max=2.0, step=0.001,
+                                                initial_value=float(np.clip(w[i], -1.5, 2.0)))
+                        h.on_update(self._guarded(self._controls_changed))
+                        self.w_sliders.append(h)
+            return
+        for h, v in zip(self.r_sliders, r, strict=True):
+            if v > h.max:
+                h.max = 2 * v
+            self._set(h, float(v))
+        for h, v in zip(self.w_sliders, w, strict=True):
+            self._set(h, float(np.clip(v, h.min, h.max)))
+
+    # ------------------------------------------------------------------ GUI -> store
+    def _commit(self, fn: Callable[[Config], Config]) -> None:
+        """Validate and store a config change made in this view."""
+        cfg = fn(self.session.snapshot()[0])
+        try:
+            model_from_dict(cfg.model)
+            cfg.signal.validate(self.settings.max_samples)
+        except ParameterError as exc:
+            self.model_md.content = f"⚠️ **Not applied:** {exc}"
+            return
+        self._syncing.from_gui = True
+        try:
+            self.session.set_config(cfg)
+        finally:
+            self._syncing.from_gui = False
+
+    def _pi_from_controls(self, cfg: Config) -> dict[str, Any]:
+        m = dict(cfg.model)
+        if m.get("type") != "pi":
+            return m
+        m["p0"] = float(self.p0.value)
+        if self.r_sliders:
+            m["thresholds"] = [float(h.value) for h in self.r_sliders]
+            m["weights"] = [float(h.value) for h in self.w_sliders]
+        s0 = float(self.state0.value)
+        m.pop("state0", None)
+        if s0 != 0:
+            m["state0"] = s0
+        return m
+
+    def _controls_changed(self, event: Any) -> None:
+        def fn(cfg: Config) -> Config:
+            sig = replace(cfg.signal, kind=str(self.kind.value), amplitude=float(self.amp.value),
+                          frequency=float(self.freq.value), offset=float(self.offset.value),
+                          duration=float(self.duration.value), samples=int(self.samples.value))
+            return replace(cfg, model=self._pi_from_controls(cfg), signal=sig,
+                           mismatch=float(self.mismatch.value),
+                           use_recording=bool(self.use_rec.value))
+
+        self._commit(fn)
+
+    def _n_changed(self, event: Any) -> None:
+        n = int(self.n_ops.value)
+        if not 1 <= n <= self.settings.max_operators:
+            self.model_md.content = f"⚠️ n must be between 1 and {self.settings.max_operators}"
+            return
+
+        def fn(cfg: Config) -> Config:
+            m = cfg.model
+            rmax = float(m["thresholds"][-1]) if m.get("thresholds") else 2.7
+            total = float(np.sum(m.get("weights", [1.0])))
+            new = {"type": "pi", "p0": float(m.get("p0", self.p0.value)),
+                   "thresholds": (rmax * np.arange(1, n + 1) / n).tolist(),
+                   "weights": [total / n] * n}
+            return cfg.with_model(new)
+
+        self._syncing.from_gui = True
+        try:
+            self.session.update(fn)
+        finally:
+            self._syncing.from_gui = False
+        self._sync_controls(self.session.snapshot()[0])
+
+    def _preset_clicked(self, event: Any) -> None:
+        doc = get_preset(str(self.preset.value))
+        from ..routers.sessions import _with_preset
+
+        self.session.update(lambda c: _with_preset(c, doc))
+        self._toast("Preset loaded", doc.get("title", doc["name"]))
+
+    def _json_clicked(self, event: Any) -> None:
+        try:
+            doc = json.loads(self.json_in.value)
+            m = parameter_set_model(doc)
+        except (json.JSONDecodeError, ParameterError, ValueError, TypeError) as exc:
+            self.model_md.content = f"⚠️ **Model JSON not applied:** {exc}"
+            return
+        self.session.update(lambda c: c.with_model(m.to_dict()))
+
+    def _join_clicked(self, event: Any) -> None:
+        code = str(self.code_in.value).strip()
+        try:
+            new = self.registry.get_or_create(code)
+        except KeyError:
+            self._toast("Bad code", "a session code has 3-32 letters, digits, '-' or '_'", True)
+            return
+        self.bind(new)
+        self._toast("Session", f"now in session {new.code}")
+
+    def bind(self, session: Session) -> None:
+        """Show ``session`` in this view (re-binding listeners)."""
+        self.session.remove_listener(self._on_session_change)
+        self.session = session
+        session.add_listener(self._on_session_change)
+        self._sync_controls(session.snapshot()[0])
+        self.worker.request()
+
+    # ------------------------------------------------------------------ data
+    def _csv_uploaded(self, event: Any) -> None:
+        f = event.target.value
+        self._csv_text = f.content.decode("utf-8-sig", errors="replace")
+        self._csv_name = f.name
+        self._load_csv()
+
+    def _remap_clicked(self, event: Any) -> None:
+        if getattr(self, "_csv_text", None) is None:
+            self.data_md.content = "⚠️ upload a CSV first"
+            return
+        self._load_csv()
+
+    def _load_csv(self) -> None:
+        if len(self._csv_text) > self.settings.max_upload_bytes:
+            self.data_md.content = (
+                f"⚠️ file larger than {self.settings.max_upload_bytes} bytes")
+            return
+        try:
+            rec = recording_from_csv(
+                self._csv_text, t_col=self.t_col.value or None, u_col=self.u_col.value or None,
+                y_col=self.y_col.value or None, max_samples=self.settings.max_samples,
+                name=self._csv_name)
+        except CSVProblem as exc:
+            self.data_md.content = f"⚠️ **CSV not loaded:** {exc}"
+            return
+        with self.session.lock:
+            self.session.recording = rec
+            self.session.fitted = self.session.fit_report = self.session.diagnosis = None
+        head = "\n".join(f"| {a:.4g} | {b:.4g} | {c:.4g} |"
+                         for a, b, c in zip(rec.t[:5], rec.u[:5], rec.y[:5], strict=True))
+        self.data_md.content = (
+            f"✅ **{rec.name}**: {rec.n} samples, t = {rec.t[0]:.4g}…{rec.t[-1]:.4g} s\n\n"
+            f"| t | u | y |\n|---|---|---|\n{head}"
+        )
+        self.report_md.content = ""
+        self._commit(lambda c: replace(c, use_recording=True))
+
+    def _fit_clicked(self, event: Any) -> None:
+        rec = self.session.recording
+        if rec is None:
+            self.report_md.content = "⚠️ upload a recording first"
+            return
+        n = int(self.fit_n.value)
+        self.report_md.content = "fitting…"
+        model, report = fit_recording(rec, n)
+        with self.session.lock:
+            self.session.fitted = model.to_dict()
+            self.session.fit_report = report
+        self.session.update(lambda c: c.with_model(model.to_dict()))
+        self.plots["fit"].figure = F.fit_figure(rec, model(rec.u), f"fitted PI (n={n})")
+        self.report_md.content = (
+            f"**Fit (n = {n})**: RMS error {report['rms_error']:.4g}, "
+            f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
+        )
+
+    def _diagnose_clicked(self, event: Any) -> None:
+        rec = self.session.recording
+        if rec is None:
+            self.report_md.content = "⚠️ upload a recording first"
+            return
+        doc = self.session.fitted or self.session.snapshot()[0].model
+        rep = diagnose_recording(rec, model_from_dict(doc))
+        with self.session.lock:
+            self.session.diagnosis = rep
+        self.report_md.content = diagnosis_markdown(rep)
+
+    def _paramset_uploaded(self, event: Any) -> None:
+        f = event.target.value
+        try:
+            m = parameter_set_model(json.loads(f.content.decode("utf-8-sig")))
+        except (json.JSONDecodeError, UnicodeDecodeError, ParameterError, ValueError) as exc:
+            self.export_md.content = f"⚠️ **Parameter set not loaded:** {exc}"
+            return
+        self.session.update(lambda c: c.with_model(m.to_dict()))
+        self.export_md.content = f"✅ loaded {f.name} ({m.type_name})"
+
+    def _export(self, event: Any, fmt: str) -> None:
+        cfg = self.session.snapshot()[0]
+        fit = self.session.fit_report if self.session.fitted == cfg.model else None
+        name, payload = export_bytes(model_from_dict(cfg.model), fmt, self.session.code, fit)
+        client = getattr(event, "client", None)
+        if client is not None:
+            client.send_file_download(name, payload, save_immediately=True)
+        elif self._download is not None:
+            self._download(name, payload)
+        self.export_md.content = f"sent {name} ({len(payload)} bytes)"
+
+    # ------------------------------------------------------------------ render
+    def _render(self) -> None:
+        session = self.session
+        cfg, v = session.snapshot()
+        res = compute(cfg, version=v, recording=session.recording,
+                      max_operators=self.settings.max_operators,
+                      max_samples=self.settings.max_samples)
+        figs = {n: F.build(n, res, cfg.mismatch) for n in PLOTS}
+        if session is not self.session or self.session.snapshot()[1] != v:
+            return  # stale: a newer version is queued, skip sending this one
+        for n, fig in figs.items():
+            self.plots[n].figure = fig
+        self.last_result = res
+        self.rendered_version = v
+        m = res.model
+        pi = m if isinstance(m, PIModel) else None
+        lines = [f"**{m.type_name}** model, {getattr(m, 'n', '?')} operators"]
+        if pi is not None:
+            lines.append("slopes " + ", ".join(f"{s:.3g}" for s in pi.slopes))
+            lines.append(f"max loop width σ = {pi.max_loop_width:.4g}")
+        self.model_md.content = "  \n".join(lines) + (
+            f"  \n⚠️ {res.inverse_error}" if res.inverse_error else "")
+        if res.inverse_error:
+            self.inverse_md.content = f"⚠️ **No inverse:** {res.inverse_error}"
+        else:
+            err = res.y_comp - res.u
+            self.inverse_md.content = (f"RMS tracking error {np.sqrt(np.mean(err**2)):.4g}, "
+                                       f"max {np.max(np.abs(err)):.4g}")
+        self.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    def _render_error(self, exc: BaseException) -> None:
+        self.model_md.content = f"⚠️ **Cannot draw this model:** {exc}"
+
+    def close(self) -> None:
+        """Detach from the session and stop the worker."""
+        self.session.remove_listener(self._on_session_change)
+        self.worker.stop()
+
+
+def diagnosis_markdown(rep: dict[str, Any]) -> str:
+    """A diagnosis report as Markdown (findings first, then the numbers)."""
+    lines = ["### Diagnosis", f"*engine: {rep.get('engine', '?')}*", ""]
+    for f in rep.get("findings", []) or []:
+        lines.append(f"- {f if isinstance(f, str) else json.dumps(f)}")
+    for k, v in rep.items():
+        if k in ("findings", "engine") or isinstance(v, dict | list):
+            continue
+        lines.append(f"- **{k}**: {v:.4g}" if isinstance(v, float) else f"- **{k}**: {v}")
+    return "\n".join(lines)
+
+
+class ExplorerGui:
+    """Binds a viser server to the session registry: one :class:`SessionView` per tab.
+
+    Parameters
+    ----------
+    server : viser.ViserServer
+    registry : SessionRegistry
+    settings : Settings
+    """
+
+    def __init__(self, server: Any, registry: SessionRegistry, settings: Settings) -> None:
+        self.server = server
+        self.registry = registry
+        self.settings = settings
+        self.views: dict[int, SessionView] = {}
+        self._lock = threading.Lock()
+        server.gui.configure_theme(show_share_button=False, control_width="large",
+                                   titlebar_content=None, show_logo=False)
+        server.on_client_connect(self._connect)
+        server.on_client_disconnect(self._disconnect)
+
+    def _connect(self, client: Any) -> None:
+        client.gui.configure_theme(show_share_button=False, control_width="large",
+                                   show_logo=False)
+
+        def notify(title: str, body: str, error: bool) -> None:
+            client.add_notification(title, body, auto_close_seconds=6.0,
+                                    color="red" if error else None)
+
+        view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
+                           notify=notify)
+        with self._lock:
+            self.views[client.client_id] = view
+
+    def _disconnect(self, client: Any) -> None:
+        with self._lock:
+            view = self.views.pop(client.client_id, None)
+        if view is not None:
+            view.close()
+
+    def close(self) -> None:
+        """Stop every view's worker."""
+        with self._lock:
+            views, self.views = list(self.views.values()), {}
+        for v in views:
+            v.close()
+
+
+def attach_gui(server: Any, registry: SessionRegistry, settings: Settings) -> ExplorerGui:
+    """Give every browser tab connecting to ``server`` its own explorer view."""
+    return ExplorerGui(server, registry, settings)

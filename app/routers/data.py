@@ -1,0 +1,114 @@
+"""Recordings (raw CSV bodies, no multipart), fitting and diagnosis."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from fastapi import APIRouter, HTTPException, Query, Request
+from starlette.concurrency import run_in_threadpool
+
+from core.base import model_from_dict
+
+from .. import figures as F
+from ..schemas import FitIn
+from ..state import CSVProblem, csv_preview, diagnose_recording, fit_recording, recording_from_csv
+from .deps import SessionDep, SettingsDep, decode_text, read_body
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/api", tags=["data"])
+
+_CSV_TYPES = ("text/csv", "text/plain", "application/csv", "application/octet-stream")
+
+
+def _check_type(request: Request) -> None:
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if ctype not in _CSV_TYPES:
+        raise HTTPException(415, f"send the CSV as a raw text/csv body, not {ctype or 'nothing'}")
+
+
+def _csv_error(exc: CSVProblem) -> HTTPException:
+    return HTTPException(422, {"message": str(exc), "line": exc.line, "column": exc.column})
+
+
+@router.post("/csv/preview")
+async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]:
+    """Columns, first rows and row count of a CSV body (the column-mapping step)."""
+    _check_type(request)
+    text = decode_text(await read_body(request, settings.max_upload_bytes))
+    try:
+        return await run_in_threadpool(csv_preview, text, settings.max_samples)
+    except CSVProblem as exc:
+        raise _csv_error(exc) from None
+
+
+@router.post("/sessions/{code}/recording", status_code=201)
+async def upload_recording(
+    request: Request,
+    session: SessionDep,
+    settings: SettingsDep,
+    t_col: str | None = Query(None, description="time column (name or 0-based index)"),
+    u_col: str | None = Query(None, description="input column"),
+    y_col: str | None = Query(None, description="output column"),
+    dt: float = Query(1e-3, gt=0, description="sample spacing when there is no time column"),
+    name: str = Query("upload.csv", max_length=200),
+) -> dict[str, Any]:
+    """Store a recording from a raw ``text/csv`` body with an optional column mapping.
+
+    Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
+    """
+    _check_type(request)
+    text = decode_text(await read_body(request, settings.max_upload_bytes))
+    try:
+        rec = await run_in_threadpool(
+            lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
+                                       max_samples=settings.max_samples, name=name)
+        )
+    except CSVProblem as exc:
+        raise _csv_error(exc) from None
+    with session.lock:
+        session.recording = rec
+        session.fitted = session.fit_report = session.diagnosis = None
+    session.touch()
+    return {
+        "name": rec.name,
+        "samples": rec.n,
+        "t_range": [float(rec.t[0]), float(rec.t[-1])],
+        "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],
+        "y_range": [float(np.min(rec.y)), float(np.max(rec.y))],
+    }
+
+
+def _need_recording(session: Any) -> Any:
+    if session.recording is None:
+        raise HTTPException(409, "upload a recording first (POST /api/sessions/{code}/recording)")
+    return session.recording
+
+
+@router.post("/sessions/{code}/fit")
+def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
+    """Fit a model to the session's recording; returns the model, report and overlay figure."""
+    if body.n > settings.max_operators:
+        raise HTTPException(422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
+    rec = _need_recording(session)
+    model, report = fit_recording(rec, body.n, body.kind)
+    with session.lock:
+        session.fitted = model.to_dict()
+        session.fit_report = report
+        session.diagnosis = None
+    if body.apply:
+        session.update(lambda c: c.with_model(model.to_dict()))
+    fig = F.fit_figure(rec, model(rec.u), f"fitted PI (n={body.n})")
+    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+
+
+@router.post("/sessions/{code}/diagnose")
+def diagnose(session: SessionDep) -> dict[str, Any]:
+    """Diagnose the fitted model (else the current model) against the recording."""
+    rec = _need_recording(session)
+    doc = session.fitted or session.snapshot()[0].model
+    report = diagnose_recording(rec, model_from_dict(doc))
+    with session.lock:
+        session.diagnosis = report
+    return report

@@ -1,0 +1,65 @@
+"""Shared FastAPI dependencies: settings, the session registry, a session by code."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import Depends, HTTPException, Request
+
+from ..settings import Settings
+from ..state import Session, SessionRegistry
+
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "read_body"]
+
+
+def get_settings(request: Request) -> Settings:
+    """The app's :class:`Settings`."""
+    return request.app.state.settings
+
+
+def get_registry(request: Request) -> SessionRegistry:
+    """The app's :class:`SessionRegistry`."""
+    return request.app.state.registry
+
+
+def get_session(code: str, request: Request) -> Session:
+    """The session ``code`` or a 404."""
+    try:
+        return request.app.state.registry.get(code)
+    except KeyError:
+        raise HTTPException(404, f"no session with code {code!r}") from None
+
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+RegistryDep = Annotated[SessionRegistry, Depends(get_registry)]
+SessionDep = Annotated[Session, Depends(get_session)]
+
+
+async def read_body(request: Request, limit: int) -> bytes:
+    """The request body, or 413 if it is larger than ``limit`` bytes."""
+    declared = request.headers.get("content-length")
+    if declared is not None and declared.isdigit() and int(declared) > limit:
+        raise HTTPException(413, f"body of {declared} bytes exceeds the {limit}-byte limit")
+    chunks: list[bytes] = []
+    size = 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > limit:
+            raise HTTPException(413, f"body exceeds the {limit}-byte limit")
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def decode_text(body: bytes) -> str:
+    """UTF-8 (with or without BOM) or Latin-1 text of an uploaded file."""
+    try:
+        return body.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return body.decode("latin-1")
+
+
+def jsonable(x: Any) -> Any:
+    """Plain-JSON copy of ``x`` (numpy values converted)."""
+    from ..state import _jsonable
+
+    return _jsonable(x)

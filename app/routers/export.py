@@ -1,0 +1,55 @@
+"""Download the session's parameter set (JSON, .mat, C) and upload a saved one."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from fastapi import APIRouter, HTTPException, Request
+from fastapi.responses import Response
+
+from core.base import model_from_dict
+from core.exceptions import ParameterError
+
+from ..state import export_bytes, export_formats, parameter_set_model
+from .deps import SessionDep, SettingsDep, decode_text, read_body
+
+__all__ = ["export_formats", "router"]
+
+router = APIRouter(prefix="/api", tags=["export"])
+
+_MEDIA = {"json": "application/json", "mat": "application/octet-stream", "c": "text/x-csrc"}
+
+
+@router.get("/sessions/{code}/export/{fmt}")
+def export(fmt: str, session: SessionDep) -> Response:
+    """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
+    if fmt not in export_formats():
+        raise HTTPException(404, f"unknown export format {fmt!r}; known: {export_formats()}")
+    cfg, _ = session.snapshot()
+    fit = session.fit_report if session.fitted == cfg.model else None
+    name, payload = export_bytes(model_from_dict(cfg.model), fmt, session.code, fit)
+    return Response(payload, media_type=_MEDIA[fmt],
+                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+
+
+@router.put("/sessions/{code}/parameter-set")
+async def upload_parameter_set(
+    request: Request, session: SessionDep, settings: SettingsDep
+) -> dict[str, Any]:
+    """Continue from a saved parameter set (a JSON body as downloaded, or a bare model)."""
+    body = await read_body(request, settings.max_upload_bytes)
+    try:
+        doc = json.loads(decode_text(body))
+    except json.JSONDecodeError as exc:
+        raise HTTPException(422, f"not valid JSON: {exc}") from None
+    try:
+        model = parameter_set_model(doc)
+        if getattr(model, "n", 0) > settings.max_operators:
+            raise ParameterError(f"model has more than {settings.max_operators} operators")
+    except (ParameterError, ValueError, TypeError) as exc:
+        raise HTTPException(422, f"not a usable parameter set: {exc}") from None
+    session.update(lambda c: c.with_model(model.to_dict()))
+    return session.summary()
+
+

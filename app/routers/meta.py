@@ -1,0 +1,78 @@
+"""Health, capabilities, the viser URL and the vendored plotly.js."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from fastapi import APIRouter, HTTPException, Request
+from fastapi.responses import FileResponse
+
+from core.base import registered_types
+
+from ..state import get_preset, preset_names, signal_kinds
+from .deps import SettingsDep
+
+__all__ = ["router", "vendor_router"]
+
+router = APIRouter(prefix="/api", tags=["meta"])
+vendor_router = APIRouter(tags=["meta"])
+
+
+@router.get("/health")
+def health() -> dict[str, str]:
+    """Liveness probe."""
+    return {"status": "ok"}
+
+
+@router.get("/viser-url")
+def viser_url(request: Request) -> dict[str, Any]:
+    """Where the viser GUI listens (its port may differ from the requested one)."""
+    port = getattr(request.app.state, "viser_port", None)
+    if port is None:
+        return {"enabled": False, "url": None, "port": None}
+    host = request.url.hostname or "127.0.0.1"
+    return {"enabled": True, "url": f"http://{host}:{port}/", "port": port}
+
+
+@router.get("/capabilities")
+def capabilities(settings: SettingsDep) -> dict[str, Any]:
+    """Model types, signals, presets, figures, export formats and limits."""
+    from ..figures import FIGURES
+    from .export import export_formats
+
+    return {
+        "model_types": registered_types(),
+        "signals": signal_kinds(),
+        "presets": preset_names(),
+        "figures": list(FIGURES),
+        "export_formats": export_formats(),
+        "limits": {
+            "max_upload_bytes": settings.max_upload_bytes,
+            "max_samples": settings.max_samples,
+            "max_operators": settings.max_operators,
+        },
+    }
+
+
+@router.get("/presets")
+def list_presets() -> list[dict[str, Any]]:
+    """Every preset: name, title and model document."""
+    return [get_preset(n) for n in preset_names()]
+
+
+def plotly_js_path() -> Path:
+    """The plotly.min.js shipped inside the installed plotly package."""
+    import plotly
+
+    return Path(plotly.__file__).parent / "package_data" / "plotly.min.js"
+
+
+@vendor_router.get("/vendor/plotly.min.js", include_in_schema=False)
+def plotly_js() -> FileResponse:
+    """plotly.js from the plotly Python package (no CDN)."""
+    path = plotly_js_path()
+    if not path.exists():  # pragma: no cover - broken install
+        raise HTTPException(404, "plotly.min.js not found in the plotly package")
+    return FileResponse(path, media_type="text/javascript",
+                        headers={"Cache-Control": "public, max-age=86400"})

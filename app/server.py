@@ -1,0 +1,104 @@
+"""The explorer's FastAPI app; its lifespan starts the viser GUI server beside it.
+
+viser is not an ASGI app (it serves its own page and websocket on its own port), so both
+run in one process and share the :class:`~app.state.SessionRegistry`: a parameter change
+through REST shows up in the viser GUI of the same session code, and vice versa.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.responses import JSONResponse
+from fastapi.staticfiles import StaticFiles
+
+from core.exceptions import NotInvertibleError, ParameterError
+
+from .settings import STATIC_DIR, Settings
+from .state import CSVProblem, SessionRegistry, ensure_model_types
+
+__all__ = ["create_app"]
+
+log = logging.getLogger(__name__)
+
+
+def _start_viser(app: FastAPI, settings: Settings) -> Any:
+    """Start the viser server and bind the GUI to the registry; ``None`` if disabled."""
+    if settings.viser_port is None:
+        return None
+    import viser
+
+    from .gui.layout import attach_gui
+
+    server = viser.ViserServer(host=settings.host, port=settings.viser_port, verbose=False)
+    app.state.gui = attach_gui(server, app.state.registry, settings)
+    return server
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the explorer app.
+
+    Parameters
+    ----------
+    settings : Settings, optional
+        Addresses and limits; ``Settings()`` by default. ``viser_port=None`` runs the
+        REST API and static page without the viser GUI; ``viser_port=0`` picks a free port.
+
+    Returns
+    -------
+    FastAPI
+        The app; use it as a context manager (``TestClient``) or serve it with uvicorn.
+    """
+    settings = settings or Settings()
+    ensure_model_types()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        from .state import Config, compute
+
+        compute(Config())  # load the compiled kernels before the first user arrives
+        server = _start_viser(app, settings)
+        app.state.viser = server
+        app.state.viser_port = None if server is None else server.get_port()
+        try:
+            yield
+        finally:
+            gui = getattr(app.state, "gui", None)
+            if gui is not None:
+                gui.close()
+            if server is not None:
+                server.stop()
+
+    app = FastAPI(
+        title="Hysteresis Explorer",
+        version="0.1.0",
+        summary="Prandtl-Ishlinskii hysteresis models: simulate, invert, fit, diagnose, export.",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.registry = SessionRegistry(settings.max_sessions)
+    app.state.viser_port = None
+
+    @app.exception_handler(ParameterError)
+    @app.exception_handler(NotInvertibleError)
+    async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(CSVProblem)
+    async def _csv_error(request: Request, exc: CSVProblem) -> JSONResponse:
+        return JSONResponse(
+            status_code=422,
+            content={"detail": {"message": str(exc), "line": exc.line, "column": exc.column}},
+        )
+
+    from .routers import data, export, meta, sessions, simulate
+
+    for mod in (meta, simulate, sessions, data, export):
+        app.include_router(mod.router)
+    app.include_router(meta.vendor_router)
+    app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
+    return app

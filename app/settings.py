@@ -1,0 +1,61 @@
+"""Run-time settings of the explorer (``hyst serve``): addresses, ports and limits."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+__all__ = ["STATIC_DIR", "Settings"]
+
+#: Directory of the plain HTML/JS page, located from this file (never from the CWD).
+STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Addresses, ports and resource limits of one explorer process.
+
+    Parameters
+    ----------
+    host : str
+        Interface both servers bind; ``127.0.0.1`` (this machine only) by default,
+        ``0.0.0.0`` to let a class on the same network connect.
+    port : int
+        HTTP port of the FastAPI app (REST API, OpenAPI docs, static page).
+    viser_port : int or None
+        Port of the viser GUI server; ``0`` picks a free port, ``None`` disables viser
+        (REST and static page only).
+    max_upload_bytes : int
+        Largest accepted request body (CSV recordings, parameter sets), bytes.
+    max_samples : int
+        Largest number of samples of a simulated signal or an uploaded recording.
+    max_operators : int
+        Largest number of play operators of a model.
+    max_sessions : int
+        Sessions kept in memory; the least recently used one is dropped beyond it.
+    teacher_token : str or None
+        When set, pushing a preset to every session (``POST /api/broadcast``) needs the
+        header ``X-Teacher-Token`` with this value.
+    """
+
+    host: str = "127.0.0.1"
+    port: int = 8000
+    viser_port: int | None = 8080
+    max_upload_bytes: int = 5_000_000
+    max_samples: int = 200_000
+    max_operators: int = 100
+    max_sessions: int = 500
+    teacher_token: str | None = None
+
+    @classmethod
+    def from_env(cls, **overrides: object) -> Settings:
+        """Settings from ``HYST_<FIELD>`` environment variables, then ``overrides``."""
+        kw: dict[str, object] = {}
+        for f in fields(cls):
+            raw = os.environ.get(f"HYST_{f.name.upper()}")
+            if raw is None:
+                continue
+            kw[f.name] = raw if f.name in ("host", "teacher_token") else int(raw)
+        kw.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**kw)  # type: ignore[arg-type]
