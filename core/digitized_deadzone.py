@@ -392,6 +392,25 @@ class DigitizedModifiedPI(Model):
         s = DigitizedDeadZone.from_deadzone(thresholds, weights, (lo - pad, hi + pad))
         return cls(h, s)
 
+    @classmethod
+    def from_modified_pi(
+        cls, mpi: Any, u_range: tuple[float, float], *, refine: int = 1
+    ) -> DigitizedModifiedPI:
+        """Digitize a classical modified PI (``core.gpi.ModifiedPI``: ``pi`` and ``deadzone``).
+
+        The digitized model starts at the lower extreme of ``u_range`` (``mpi.pi.state0`` is
+        not used); see :meth:`from_classical`.
+        """
+        try:
+            pi, dz = mpi.pi, mpi.deadzone
+            rho, eta = dz.thresholds, dz.weights
+        except AttributeError as exc:
+            raise ParameterError(
+                f"{type(mpi).__name__} is not a modified PI (needs .pi and .deadzone with "
+                "thresholds/weights); use from_classical with plain arrays"
+            ) from exc
+        return cls.from_classical(pi, u_range, rho, eta, refine=refine)
+
     @property
     def stages(self) -> tuple[Model, Model]:
         """``(pi, deadzone)`` in the order they act."""

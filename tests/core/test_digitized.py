@@ -562,3 +562,51 @@ def test_deadzone_map_interop() -> None:
     np.testing.assert_allclose(s.inverse()(w), g.inverse()(w), atol=1e-12)
     with pytest.raises(ParameterError, match="no thresholds/weights"):
         DigitizedDeadZone.from_deadzone_map(object())
+
+
+def test_modified_pi_against_core_gpi() -> None:
+    # second implementation: core.gpi.ModifiedPI (classical S[P[v]]) started at the lower
+    # extreme equals the digitized modified PI on paths reversing at state points
+    from core.deadzone import DeadZoneMap
+    from core.gpi import ModifiedPI
+
+    pi = PIModel(0.4, [0.5, 1.5], [0.6, 1.0], 0.0 + np.array([0.5, 1.5]))
+    g = DeadZoneMap([-1.0, 0.0, 5.0, 12.0], [0.2, 1.0, 0.3, -0.6])
+    classical = ModifiedPI(pi, g)
+    m = DigitizedModifiedPI.from_modified_pi(classical, (0.0, 10.0))
+    u = ramp([0.0, 10.0, 7.0, 8.0, 0.0, 3.0, 2.0, 10.0], per=23)
+    np.testing.assert_allclose(m(u), classical(u), atol=1e-12)
+    with pytest.raises(ParameterError, match="not a modified PI"):
+        DigitizedModifiedPI.from_modified_pi(pi, (0.0, 10.0))
+
+
+@settings(max_examples=50, deadline=None)
+@given(dig_params, st.integers(0, 2**32 - 1))
+def test_inverse_round_trip_on_state_points(params, seed) -> None:
+    # inputs that hit state points exactly (and reverse there) are the delicate case for the
+    # snapping rule: forward and inverse must change state on the same samples
+    d = DigitizedPI(*params)
+    rng = np.random.default_rng(seed)
+    u = grid_walk(d, rng, 25, per=3)
+    inv = d.inverse()
+    scale = max(1.0, float(np.max(np.abs(u))))
+    np.testing.assert_allclose(inv(d(u)), u, rtol=0, atol=1e-9 * scale)
+    assert np.array_equal(inv.simulate(d(u)).state.digits, d.simulate(u).state.digits)
+
+
+def test_negative_weights_still_equal_on_state_points() -> None:
+    # the up/down rules and play_state are geometric: they hold for any weight signs
+    pi = PIModel(0.8, [0.4, 1.0, 1.7], [0.5, -0.3, 0.4])
+    d = DigitizedPI.from_pi(pi, (-2.0, 2.0))
+    rng = np.random.default_rng(9)
+    u = grid_walk(d, rng, 50)
+    np.testing.assert_allclose(d(u), lower_extreme(pi, -2.0)(u), atol=1e-12)
+
+
+def test_trace_codes_for_many_digits() -> None:
+    d = DigitizedPI(np.full(70, 0.1), np.linspace(0.01, 1.0, 70))
+    tr = d.trace(np.array([0.0, 7.0, 6.85]))  # down by more than Δx_1 = 0.1
+    assert tr.codes.dtype == object
+    assert tr.codes[-2] == 2**70 - 1  # all digits set at the top of the range
+    assert tr.codes[-1] == 2**70 - 2  # the first move down clears b1
+    assert tr.strings[-1] == "1" * 69 + "0"
