@@ -27,6 +27,7 @@ __all__ = [
     "Progress",
     "add_json_flag",
     "emit",
+    "existing_file",
     "read_columns",
     "read_parameter_set",
     "write_columns",
@@ -87,7 +88,7 @@ class Progress:
             print(f"[hyst {self.command} {dt:5.1f} s] {message}", file=sys.stderr, flush=True)
 
 
-def _existing_file(path: str | Path, what: str) -> Path:
+def existing_file(path: str | Path, what: str) -> Path:
     p = Path(path)
     if not p.exists():
         raise CommandError(f"{what} not found: {p} (check the path)")
@@ -120,7 +121,7 @@ def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> Pa
     """
     from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
 
-    p = _existing_file(path, "model file")
+    p = existing_file(path, "model file")
     text = p.read_text(encoding="utf-8")
     try:
         doc = json.loads(text, parse_constant=_reject_constant)
@@ -170,7 +171,7 @@ def read_columns(path: str | Path) -> tuple[list[str], np.ndarray]:
     CommandError
         Missing file, no header, non-numeric cells (row and column named), ragged rows.
     """
-    p = _existing_file(path, "CSV file")
+    p = existing_file(path, "CSV file")
     with p.open(newline="", encoding="utf-8") as fh:
         rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
     if not rows:

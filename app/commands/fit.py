@@ -10,15 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ._common import (
-    CommandError,
-    Progress,
-    add_json_flag,
-    emit,
-    pick_column,
-    read_columns,
-    unit_from_column,
-)
+from ._common import CommandError, Progress, add_json_flag, emit, existing_file
 
 __all__ = ["MODELS", "parse_window", "register", "run"]
 
@@ -38,8 +30,9 @@ def register(subparsers: Any) -> None:
         "fit",
         help="fit an invertible PI-family model to measured input/output recordings",
         description=(
-            "Read one or more CSV recordings (header row; time, input and output columns: by "
-            "default 't'/'u'/'y' or the first three columns), fit the chosen model and save "
+            "Read one or more CSV recordings (core.csvio: delimiter, header, units and "
+            "time/input/output columns are detected, a run/loop column splits a file into "
+            "several recordings), fit the chosen model and save "
             "it as a parameter set with the fit report (train / held-out RMSE, inverse "
             "check) in its provenance. Without --train/--test the last 20 %% of every "
             "recording is held out. Progress goes to stderr."
@@ -49,11 +42,16 @@ def register(subparsers: Any) -> None:
     p.add_argument("--model", default="pi", choices=tuple(MODELS), help="model family")
     p.add_argument("-n", "--n-operators", type=int, metavar="N",
                    help="number of play operators (default: chosen by cross-validation)")
-    p.add_argument("--time", metavar="COL", help="time column (default: t or column 0)")
+    p.add_argument("--constraint", choices=("nonnegative", "slopes"),
+                   help="pi: 'nonnegative' weights (default; hardening loops such as piezo "
+                        "actuators) or positive loop 'slopes' only (saturating loops: B-H, "
+                        "friction)")
+    p.add_argument("--time", metavar="COL",
+                   help="time column, name or 0-based index (default: detected)")
     p.add_argument("--input-column", metavar="COL",
-                   help="input column (default: u or column 1)")
+                   help="input column, name or 0-based index (default: u/u_*/input)")
     p.add_argument("--output-column", metavar="COL",
-                   help="output column (default: y or column 2)")
+                   help="output column, name or 0-based index (default: y/y_*/output)")
     p.add_argument("--train", metavar="T0:T1",
                    help="fit only samples with T0 <= t < T1 (either side may be empty)")
     p.add_argument("--test", metavar="T0:T1",
@@ -86,7 +84,14 @@ def parse_window(text: str, what: str) -> tuple[float, float]:
     return t0, t1
 
 
-def _estimator(name: str, n: int | None) -> Any:
+def _spec(col: str | None) -> int | str | None:
+    """Column option as read_csv wants it: a 0-based index when all digits, else the name."""
+    if col is None:
+        return None
+    return int(col) if col.isdigit() else col
+
+
+def _estimator(name: str, n: int | None, constraint: str | None = None) -> Any:
     import importlib
 
     fitting = importlib.import_module("core.fitting")
@@ -97,8 +102,12 @@ def _estimator(name: str, n: int | None) -> Any:
             "use --model pi"
         )
     kwargs: dict[str, Any] = {}
+    params = inspect.signature(cls).parameters
+    if constraint is not None:
+        if "constraint" not in params:
+            raise CommandError(f"--model {name} does not take --constraint")
+        kwargs["constraint"] = constraint
     if n is not None:
-        params = inspect.signature(cls).parameters
         key = next((k for k in ("n_operators", "n", "n_digits") if k in params), None)
         if key is None:
             raise CommandError(f"--model {name} does not take a number of operators (-n)")
@@ -115,33 +124,29 @@ def run(args: argparse.Namespace) -> int:
     test_w = parse_window(args.test, "test") if args.test else None
     if args.n_operators is not None and args.n_operators < 1:
         raise CommandError(f"-n must be a positive number of operators, got {args.n_operators}")
-    us, ys, trains, tests = [], [], [], []
-    cols: tuple[str, str, str] | None = None
+    from core.csvio import read_csv
+
+    recs = []
     for f in args.files:
-        names, data = read_columns(f)
-        it = pick_column(names, args.time, ("t", "time", "t_s"), 0, "time", f)
-        iu = pick_column(names, args.input_column, ("u",), 1, "input-column", f)
-        iy = pick_column(names, args.output_column, ("y",), 2, "output-column", f)
-        if len({it, iu, iy}) < 3:
-            raise CommandError(
-                f"{f}: time, input and output must be three different columns, got "
-                f"{names[it]!r}, {names[iu]!r}, {names[iy]!r}"
-            )
-        cols = cols or (names[it], names[iu], names[iy])
-        t = data[:, it]
-        us.append(data[:, iu])
-        ys.append(data[:, iy])
-        if train_w is not None:
-            trains.append((t >= train_w[0]) & (t < train_w[1]))
-        if test_w is not None:
-            tests.append((t >= test_w[0]) & (t < test_w[1]))
-        progress(f"read {f}: {t.size} samples, t = {t[0]:g} .. {t[-1]:g}, "
-                 f"u = {names[iu]}, y = {names[iy]}")
+        existing_file(f, "CSV file")
+        got = read_csv(f, time=_spec(args.time), input=_spec(args.input_column),
+                       output=_spec(args.output_column))
+        for r in got:
+            axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
+            progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
+                     f"u = {r.columns.get('input')}, y = {r.columns.get('output')}")
+            for note in r.cleaning:
+                progress(f"  note: {note}")
+        recs.extend(got)
+    us = [r.u for r in recs]
+    ys = [r.y for r in recs]
+    trains = [(r.t >= train_w[0]) & (r.t < train_w[1]) for r in recs] if train_w else []
+    tests = [(r.t >= test_w[0]) & (r.t < test_w[1]) for r in recs] if test_w else []
     for lab, masks in (("--train", trains), ("--test", tests)):
         if masks and not any(m.any() for m in masks):
             raise CommandError(f"{lab} window selects no samples; check it against the t column")
-    multi = len(us) > 1
-    est = _estimator(args.model, args.n_operators)
+    multi = len(recs) > 1
+    est = _estimator(args.model, args.n_operators, args.constraint)
     progress(f"fitting {args.model}" + (f" with n = {args.n_operators}" if args.n_operators
                                          else " (choosing n by cross-validation)"))
     kw: dict[str, Any] = {}
@@ -157,16 +162,17 @@ def run(args: argparse.Namespace) -> int:
         progress(f"warning: {m}")
     model = getattr(est, "full_model_", None) or est.model_
     report = est.report_.to_dict() if hasattr(est, "report_") else None
-    assert cols is not None
+    first = recs[0]
     units = {
-        "input": unit_from_column(cols[1]) or "V",
-        "output": unit_from_column(cols[2]) or "um",
-        "time": unit_from_column(cols[0]) or "s",
+        "input": first.units.get("input") or "V",
+        "output": first.units.get("output") or "um",
+        "time": first.units.get("time") or "s",
     }
     fit_info = {
         "model": args.model,
         "files": [Path(f).name for f in args.files],
-        "columns": {"time": cols[0], "input": cols[1], "output": cols[2]},
+        "recordings": [r.name for r in recs],
+        "columns": {k: first.columns.get(k, "") for k in ("time", "input", "output")},
         "train": args.train,
         "test": args.test,
         "n_operators": args.n_operators,

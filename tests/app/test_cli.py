@@ -259,7 +259,7 @@ def test_fit_recovers_a_known_model_and_records_provenance(tmp_path, capsys):
     assert summary["report"]["train"]["rmse_pct"] < 0.5
     assert summary["report"]["test"]["n_samples"] == 1500
     ps = load_parameter_set(tmp_path / "m.json")
-    assert ps.units.to_dict() == {"input": "V", "output": "um", "time": "s"}
+    assert ps.units.to_dict() == {"input": "V", "output": "µm", "time": "s"}
     assert ps.provenance.fit["columns"] == {"time": "t_s", "input": "u_V", "output": "y_um"}
     # the saved model is the one the report scored (offset included)
     data = np.genfromtxt(rec, delimiter=",", names=True)
@@ -298,7 +298,7 @@ def test_fit_errors(tmp_path, capsys):
     code, _, err = run(capsys, "fit", tmp_path / "nope.csv", "-o", tmp_path / "m.json")
     assert code == 2 and "CSV file not found" in err
     code, _, err = run(capsys, "fit", rec, "--output-column", "force", "-o", tmp_path / "m.json")
-    assert code == 2 and "no output-column column 'force'" in err
+    assert code == 2 and "no column named 'force' for output" in err
     with pytest.raises(SystemExit):
         main(["fit", str(rec), "--model", "neural-net", "-o", str(tmp_path / "m.json")])
     assert "invalid choice" in capsys.readouterr().err
@@ -319,3 +319,21 @@ def test_demo_prints_example1_and_writes_html(tmp_path, capsys):
     d = json.loads(out)
     assert d["max_loop_width"] == pytest.approx(1.518, abs=5e-4)
     assert d["compensation_max_abs_error"] < 1e-12
+
+
+def test_fit_splits_runs_and_accepts_constraint(tmp_path, capsys):
+    # one file, two runs told apart by a "loop" column (like the shared B-H loops)
+    k = np.arange(800)
+    true = PIModel(1.0, [0.5, 1.0, 1.5], [-0.3, -0.3, -0.2])  # saturating loop
+    rows = []
+    for run_id, amp in enumerate((3.0, 2.0)):
+        u = amp * np.sin(2 * np.pi * k / 400)
+        rows.append(np.column_stack([np.full(k.size, run_id), k * 1e-3, u, true(u)]))
+    rec = write_csv(tmp_path / "runs.csv", "loop,t,u,y", np.vstack(rows))
+    code, out, err = run(capsys, "fit", rec, "-n", "3", "--constraint", "slopes", "-o",
+                         tmp_path / "m.json", "--json")
+    assert code == 0, err
+    ps = load_parameter_set(tmp_path / "m.json")
+    assert len(ps.provenance.fit["recordings"]) == 2
+    slopes = ps.model.stages[0].slopes
+    assert (slopes > 0).all() and np.diff(slopes).min() < -0.1  # negative weights allowed
