@@ -86,13 +86,18 @@ def _tf_coefficients(num: list[float], den: list[float], dt: float) -> tuple[Flo
 
 
 def foh_filter(
-    x: Float1D, num: list[float], den: list[float], dt: float, zi: Float1D | None = None
+    x: Float1D,
+    num: list[float],
+    den: list[float],
+    dt: float,
+    zi: Float1D | None = None,
+    axis: int = 0,
 ) -> tuple[Float1D, Float1D]:
     """Filter ``x`` through the continuous transfer function ``num(s)/den(s)``.
 
     Parameters
     ----------
-    x : ndarray of shape (N,) or (N, m)
+    x : ndarray of shape (N,) or (N, m) (or (m, N) with ``axis=-1``)
         Samples (columns are filtered independently).
     num, den : list of float
         Polynomial coefficients in ``s``, highest power first; ``num(0)/den(0) = 1`` for the
@@ -100,7 +105,10 @@ def foh_filter(
     dt : float
         Sample spacing in seconds.
     zi : ndarray, optional
-        Direct-form-II-transposed state from a previous call; at rest at ``x[0]`` by default.
+        Direct-form-II-transposed state from a previous call; at rest at the first sample by
+        default.
+    axis : int
+        Time axis of a 2-D ``x`` (0 or -1).
 
     Returns
     -------
@@ -112,6 +120,12 @@ def foh_filter(
 
     b, a = _tf_coefficients(num, den, dt)
     x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 2 and axis in (-1, 1):
+        if x.shape[1] == 0:
+            return x.copy(), np.zeros((x.shape[0], a.size - 1)) if zi is None else zi
+        if zi is None:
+            zi = ss.lfilter_zi(b, a)[None, :] * x[:, :1]
+        return ss.lfilter(b, a, x, axis=-1, zi=zi)
     if x.shape[0] == 0:
         return x.copy(), (np.zeros((a.size - 1,) + x.shape[1:]) if zi is None else zi)
     if zi is None:

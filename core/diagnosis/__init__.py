@@ -1,0 +1,33 @@
+"""Missing-physics diagnosis: LOCATE where a PI model and a recording differ, SAY which physics
+was left out, MODEL it as an effect stage, SHOW the held-out improvement (or say the recordings
+cannot tell).
+
+The design follows ``shared/notes/missing-physics.md`` (catalog §3, engine §5); the effect
+models live in :mod:`core.effects`.
+
+Examples
+--------
+>>> from core.diagnosis import diagnose                                   # doctest: +SKIP
+>>> res = diagnose("piezo.csv", train=(3.3, 7.0), test=(7.0, 9.0))      # doctest: +SKIP
+>>> [e.name for e in res.effects], res.model                            # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from .data import Record, as_records, load_csv, split_masks
+from .engine import ACCEPT_RULE, DiagnosisResult, EffectFinding, diagnose
+from .structure import Fit, Structure, fit_structure
+
+__all__ = [
+    "ACCEPT_RULE",
+    "DiagnosisResult",
+    "EffectFinding",
+    "Fit",
+    "Record",
+    "Structure",
+    "as_records",
+    "diagnose",
+    "fit_structure",
+    "load_csv",
+    "split_masks",
+]

@@ -1,0 +1,922 @@
+"""The detection → attribution → validation engine (missing-physics notes §5).
+
+1. Baseline: PI (+ bias) at saturating threshold resolution, NNLS on the training rows.
+2. Residual battery and conditional-mean maps (LOCATE).
+3. Every testable effect is fitted in full on the training rows (separable least squares:
+   a search over its few nonlinear parameters with the linear weights re-solved inside) and
+   compared with the current model on the held-out rows.
+4. Acceptance (all must hold): held-out MSE reduction ≥ 5 % and ≥ 20 % of the current excess
+   over the white-noise floor; batch-means Diebold–Mariano z ≥ 3 (robust to coloured
+   residuals) or a batch sign test with p < 0.01 together with z ≥ 2.
+5. Inside a family of look-alike effects (delay / lag / resonance / rate; creep / drift) the
+   winner is named only when it clearly beats the runner-up on held-out data; otherwise the
+   finding is reported as *ambiguous*, with the experiment that would decide.
+6. The accepted effect joins the model and the search repeats until nothing passes.
+
+Effects that the recordings cannot excite are reported as *untestable* with the recording
+that would make them testable.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._typing import Float1D
+from ..base import Model
+from ..effects import EFFECT_TYPES
+from ..exceptions import ParameterError
+from .data import Record, as_records, split_masks, wipeout_index
+from .locate import Coordinates, coordinates, residual_maps, where_improved
+from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
+from .structure import Fit, Structure, _Cache, fit_structure, place_thresholds
+
+__all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
+
+#: Acceptance thresholds (documented in the JSON output).
+ACCEPT_RULE: dict[str, float] = {
+    "min_gain": 0.05,
+    "min_excess_share": 0.20,
+    "min_z": 3.0,
+    "sign_p": 0.01,
+    "sign_min_z": 2.0,
+    "family_margin": 0.10,
+}
+
+FAMILIES: dict[str, str] = {
+    "delay": "dynamics",
+    "lag": "dynamics",
+    "resonance": "dynamics",
+    "rate": "dynamics",
+    "creep": "slow",
+    "drift": "slow",
+    "asymmetry": "static",
+    "offset": "static-offset",
+    "initial-memory": "memory",
+}
+
+DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
+    frozenset({"delay", "lag"}): "full-stroke sines at >= 3 frequencies a decade apart (a lag "
+    "attenuates and its phase saturates, a delay's phase grows linearly with frequency)",
+    frozenset({"delay", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min): a delay "
+    "still lags, rate-dependent hysteresis fades; or a DAQ loop-back latency measurement",
+    frozenset({"lag", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min) and sines "
+    "at >= 3 frequencies: a lag acts on the reversible part too, rate-dependent hysteresis "
+    "does not",
+    frozenset({"resonance", "lag"}): "a step or a broadband multisine up to the suspected mode "
+    "(a resonance rings and overshoots, a lag does not)",
+    frozenset({"resonance", "delay"}): "a step or a broadband multisine up to the suspected mode",
+    frozenset({"resonance", "rate"}): "a step or a broadband multisine: a mode rings at f_d "
+    "whatever the hysteresis state",
+    frozenset({"creep", "drift"}): "an up-then-down staircase with holds of 3-30 s (creep follows "
+    "the sign of the last step, drift does not)",
+}
+
+EXPLANATIONS: dict[str, str] = {
+    "delay": "The measured output lags the model by a constant transport delay (DAQ latency, "
+    "zero-order hold, digital sensor filter). It acts on the whole output slope, reversible and "
+    "hysteretic alike.",
+    "lag": "The output follows the model through a first-order lag (amplifier output resistance "
+    "times stack capacitance, or the sensor bandwidth): an error proportional to the output "
+    "rate, with exponential transients after reversals.",
+    "resonance": "A lightly damped mechanical mode after the hysteresis (stack plus stage mass "
+    "on the flexure stiffness): ringing after steps and sharp reversals.",
+    "rate": "The hysteresis itself depends on the input rate: the play thresholds widen with "
+    "|du/dt| (rate-dependent PI), widening the loops at higher rates while the reversible part "
+    "is unaffected.",
+    "creep": "Logarithmic creep: after each input change the output keeps moving in the "
+    "direction of that change, about linearly in log(time), modelled by a bank of slow lags.",
+    "drift": "A slow additive drift in absolute time (thermal expansion, sensor zero drift), "
+    "continuous across steps and independent of the step direction.",
+    "asymmetry": "The loop is asymmetric/saturating: ascending and descending branches curve "
+    "differently (field-dependent d33, saturation); a static output map that classical "
+    "(odd-symmetric) PI cannot represent. Actuator and sensor nonlinearity cannot be separated "
+    "from (u, y) alone.",
+    "offset": "The sensor zero differs between recordings (an offset per recording).",
+    "initial-memory": "The actuator did not start from the assumed memory state: its history "
+    "before the record (a virtual prior excursion) sets the play states, and the error lives "
+    "before the input has swept its full range (the wipe-out time).",
+}
+
+EQUATIONS: dict[str, str] = {
+    "delay": "y(t) = y_PI(t - tau_d)",
+    "lag": "tau * dy/dt + y = y_PI",
+    "resonance": "y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
+    "rate": "y = p0 u + sum_i p_i Play[r_i + beta |du/dt|](u)",
+    "creep": "y = x + sum_j c_j (L_tau_j[x] - x),  tau_j L' + L = x",
+    "drift": "y = x + sum_k a_k P_k(2 t / T - 1)  (Legendre polynomials)",
+    "asymmetry": "y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3",
+    "offset": "y = x + c_k  (one offset per recording)",
+    "initial-memory": "play states at t=0 = Play[r_i](virtual history U_1, U_2, ...)",
+}
+
+UNTESTABLE_EXPERIMENT: dict[str, str] = {
+    "creep": "an up-then-down staircase with holds of 3-30 s (>= 2 decades of hold time)",
+    "drift": "a record of several minutes, or an identical 1 Hz reference cycle repeated every "
+    "60 s over >= 5 min",
+    "rate": "full-stroke sines (or triangles) at >= 2 rates a decade apart, same amplitude",
+    "offset": "several recordings (an offset per recording), or an independent zero reference",
+    "initial-memory": "data before the input first sweeps its full range (the wipe-out time)",
+    "asymmetry": "a full-range symmetric periodic excitation",
+}
+
+
+@dataclass
+class EffectFinding:
+    """One accepted effect (SAY / MODEL / SHOW)."""
+
+    name: str
+    parameters: dict[str, Any]
+    uncertainty: dict[str, Any]
+    where: dict[str, Any]
+    explanation: str
+    equation: str
+    heldout: HeldOut
+    heldout_rmse_before: float
+    heldout_rmse_after: float
+    score_lm: float
+    discriminators: dict[str, Any] = field(default_factory=dict)
+    ambiguous_with: list[str] = field(default_factory=list)
+    runner_up: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self, y_range: float) -> dict[str, Any]:
+        """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
+        h = self.heldout
+        return {
+            "name": self.name,
+            "family": FAMILIES[self.name],
+            "parameters": _jsonable(self.parameters),
+            "uncertainty": _jsonable(self.uncertainty),
+            "where": _jsonable(self.where),
+            "explanation": self.explanation,
+            "equation": self.equation,
+            "heldout_rmse_before": self.heldout_rmse_before,
+            "heldout_rmse_after": self.heldout_rmse_after,
+            "heldout_rmse_before_pct": 100 * self.heldout_rmse_before / y_range,
+            "heldout_rmse_after_pct": 100 * self.heldout_rmse_after / y_range,
+            "heldout_mse_reduction": h.gain,
+            "dm_z": h.z,
+            "sign_test_p": h.sign_p,
+            "score_lm": self.score_lm,
+            "discriminators": _jsonable(self.discriminators),
+            "ambiguous_with": list(self.ambiguous_with),
+            "runner_up": _jsonable(self.runner_up),
+        }
+
+
+@dataclass
+class DiagnosisResult:
+    """Outcome of :func:`diagnose`.
+
+    Attributes
+    ----------
+    records : list of Record
+    baseline, final : Fit
+        The baseline PI fit and the fit with every accepted effect.
+    effects : list of EffectFinding
+        Accepted effects in the order they were found.
+    untestable : list of dict
+        ``{"name", "reason", "experiment"}`` per effect the recordings cannot excite.
+    ambiguous : list of dict
+        ``{"effects", "chosen", "reason", "experiment"}`` per undecided pair.
+    rounds : list of dict
+        Every candidate tested in every round with its held-out statistics.
+    maps_before, maps_after : dict
+        Residual maps (LOCATE) of the baseline and the final model on all rows.
+    split : str
+        How the train/test rows were chosen.
+    """
+
+    records: list[Record]
+    train: list[np.ndarray]
+    test: list[np.ndarray]
+    baseline: Fit
+    final: Fit
+    effects: list[EffectFinding]
+    untestable: list[dict[str, str]]
+    ambiguous: list[dict[str, Any]]
+    rounds: list[dict[str, Any]]
+    maps_before: dict[str, Any]
+    maps_after: dict[str, Any]
+    split: str
+    noise_rms: float
+    elapsed_s: float
+    model_name: str = "pi"
+
+    @property
+    def model(self) -> Model:
+        """The final extended model (as fitted to the first recording)."""
+        return self.final.models[0]
+
+    @property
+    def y_range(self) -> float:
+        """Output range of all recordings (for % figures)."""
+        return float(max(r.y.max() for r in self.records) - min(r.y.min() for r in self.records))
+
+    def heldout_rmse(self, fit: Fit) -> float:
+        """Held-out RMSE of ``fit`` over every recording (output units)."""
+        e = np.concatenate([(r.y - p)[m] for r, p, m in zip(self.records, fit.pred, self.test,
+                                                               strict=True)])
+        return float(np.sqrt(np.mean(e * e)))
+
+    def per_recording(self, fit: Fit) -> list[dict[str, Any]]:
+        """Held-out and training RMSE per recording."""
+        out = []
+        for r, p, tr, te in zip(self.records, fit.pred, self.train, self.test, strict=True):
+            e = r.y - p
+            out.append(
+                {
+                    "recording": r.name,
+                    "heldout_rmse": float(np.sqrt(np.mean(e[te] ** 2))) if te.any() else None,
+                    "train_rmse": float(np.sqrt(np.mean(e[tr] ** 2))) if tr.any() else None,
+                }
+            )
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """Machine-readable result (the ``hyst diagnose --json`` document).
+
+        Keys
+        ----
+        ``format``, ``version``
+            ``"hysteresis-explorer/diagnosis"``, 1.
+        ``recordings``
+            Name, samples, dt of each recording; ``split`` says how train/test were chosen.
+        ``baseline``
+            ``model`` (``"pi"``), ``n_operators``, ``heldout_rmse`` (output units),
+            ``heldout_rmse_pct`` (% of the output range), ``per_recording``, ``noise_rms``,
+            ``ljung_box`` and the residual maps ``maps`` (LOCATE).
+        ``effects``
+            Accepted effects in order; each has ``name`` (an effect ``type``), ``parameters``,
+            ``uncertainty`` (1-sigma, autocorrelation-inflated), ``where`` (time windows,
+            input range, branch shares, summary), ``explanation``, ``equation``,
+            ``heldout_rmse_before``/``_after`` (output units, and ``_pct``),
+            ``heldout_mse_reduction``, ``dm_z``, ``sign_test_p``, ``score_lm``,
+            ``discriminators``, ``ambiguous_with``, ``runner_up``.
+        ``untestable``
+            ``[{"name", "reason", "experiment"}]``.
+        ``ambiguous``
+            ``[{"effects", "chosen", "reason", "experiment"}]``.
+        ``final``
+            ``effects`` (names), ``heldout_rmse`` (+ ``_pct``), ``per_recording``, ``model``
+            (the extended model's ``to_dict()``), ``maps``.
+        ``tested``
+            Every candidate of every round with its held-out gain, z and decision.
+        ``accept_rule``
+            The thresholds used.
+        """
+        yr = self.y_range
+        b = self.heldout_rmse(self.baseline)
+        f = self.heldout_rmse(self.final)
+        lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
+                                       zip(self.records, self.baseline.pred, self.test,
+                                           strict=True)]))
+        return {
+            "format": "hysteresis-explorer/diagnosis",
+            "version": 1,
+            "recordings": [{"name": r.name, "samples": r.n, "dt_s": r.dt} for r in self.records],
+            "split": self.split,
+            "baseline": {
+                "model": self.model_name,
+                "n_operators": len(self.baseline.structure.thresholds),
+                "heldout_rmse": b,
+                "heldout_rmse_pct": 100 * b / yr,
+                "per_recording": self.per_recording(self.baseline),
+                "noise_rms": self.noise_rms,
+                "ljung_box": {"Q": lb[0], "lags": lb[1]},
+                "model_dict": self.baseline.models[0].to_dict(),
+                "maps": _jsonable(self.maps_before),
+            },
+            "effects": [e.to_dict(yr) for e in self.effects],
+            "untestable": self.untestable,
+            "ambiguous": _jsonable(self.ambiguous),
+            "final": {
+                "effects": [e.name for e in self.effects],
+                "heldout_rmse": f,
+                "heldout_rmse_pct": 100 * f / yr,
+                "per_recording": self.per_recording(self.final),
+                "model": self.model.to_dict(),
+                "maps": _jsonable(self.maps_after),
+            },
+            "tested": _jsonable(self.rounds),
+            "accept_rule": ACCEPT_RULE,
+            "elapsed_s": self.elapsed_s,
+        }
+
+    def summary(self) -> str:
+        """Readable multi-line report."""
+        yr = self.y_range
+        b = self.heldout_rmse(self.baseline)
+        f = self.heldout_rmse(self.final)
+        lines = [
+            f"Recordings: {', '.join(f'{r.name} ({r.n} samples)' for r in self.records)}",
+            f"Split: {self.split}",
+            f"Baseline {self.model_name.upper()} ({len(self.baseline.structure.thresholds)} "
+            f"operators): held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range); "
+            f"white-noise floor {self.noise_rms:.3g}",
+        ]
+        if not self.effects:
+            lines.append("No missing physics detected: no effect improved the held-out fit "
+                         "significantly.")
+        for i, e in enumerate(self.effects, 1):
+            ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
+                                                if e.uncertainty.get(k) is not None else "")
+                           for k, v in e.parameters.items())
+            lines += [
+                f"{i}. {e.name}: {ps}",
+                f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} %, "
+                f"z = {e.heldout.z:.1f}, sign p = {e.heldout.sign_p:.2g}",
+                f"   where: {e.where.get('summary', '')}",
+                f"   why: {e.explanation}",
+                f"   added: {e.equation}",
+            ]
+            if e.ambiguous_with:
+                lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
+        lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
+        for a in self.ambiguous:
+            lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
+                         f"{a['experiment']}")
+        for u in self.untestable:
+            lines.append(f"Untestable: {u['name']}: {u['reason']}; would need {u['experiment']}")
+        return "\n".join(lines)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return [_jsonable(v) for v in x.tolist()]
+    if isinstance(x, np.floating | float):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, HeldOut):
+        return {"gain": x.gain, "z": _jsonable(x.z), "sign_p": x.sign_p}
+    return x
+
+
+# ----------------------------------------------------------------------------- context
+class _Ctx:
+    def __init__(self, records, train, test) -> None:
+        self.records: list[Record] = records
+        self.train: list[np.ndarray] = train
+        self.test: list[np.ndarray] = test
+        self.cache = _Cache()
+        self.coords: list[Coordinates] = coordinates(records)
+        self.n_train = sum(int(m.sum()) for m in train)
+
+    def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
+        f = fit_structure(s, self.records, self.train, self.cache,
+                          cur.x_pi if cur is not None else None)
+        assert isinstance(f, Fit)
+        return f
+
+    def rss(self, s: Structure, cur: Fit) -> float:
+        """Training RSS of the linear solve (bilinear regressors frozen at ``cur``)."""
+        v = fit_structure(s, self.records, self.train, self.cache, cur.x_pi, iterations=1,
+                          rss_only=True)
+        assert isinstance(v, float)
+        return v
+
+    def test_res(self, f: Fit) -> list[Float1D]:
+        return [(r.y - p)[m] for r, p, m in zip(self.records, f.pred, self.test, strict=True)]
+
+    def all_res(self, f: Fit) -> list[Float1D]:
+        return [r.y - p for r, p in zip(self.records, f.pred, strict=True)]
+
+
+def _scalar_search(ctx: _Ctx, make, grid: np.ndarray, cur: Fit) -> tuple[float, Fit, dict]:
+    """VarPro over one positive parameter: grid, then golden refinement in log space."""
+    import scipy.optimize as so
+
+    rss = []
+    for g in grid:
+        rss.append(ctx.rss(make(float(g)), cur))
+    i = int(np.argmin(rss))
+    lo = np.log(grid[max(i - 1, 0)])
+    hi = np.log(grid[min(i + 1, grid.size - 1)])
+    memo: dict[float, float] = {}
+
+    def f(lx: float) -> float:
+        if lx not in memo:
+            memo[lx] = ctx.rss(make(float(np.exp(lx))), cur)
+        return memo[lx]
+
+    if hi > lo:
+        r = so.minimize_scalar(f, bounds=(lo, hi), method="bounded",
+                               options={"xatol": 0.02, "maxiter": 14})
+        best = float(np.exp(r.x)) if r.fun < rss[i] else float(grid[i])
+    else:
+        best = float(grid[i])
+    # profile curvature in log space -> 1-sigma (inflated for autocorrelation)
+    lb = np.log(best)
+    h = 0.1
+    f0, fp, fm = f(lb), f(lb + h), f(lb - h)
+    curv = (fp - 2 * f0 + fm) / h**2
+    info = {"profile_curvature": curv, "rss": f0}
+    fit = ctx.fit(make(best), cur)
+    return best, fit, info
+
+
+def _sigma_from_curvature(ctx: _Ctx, fit: Fit, curv: float, value: float) -> float | None:
+    if not np.isfinite(curv) or curv <= 0:
+        return None
+    e = np.concatenate([(r.y - p)[m] for r, p, m in zip(ctx.records, fit.pred, ctx.train,
+                                                        strict=True)])
+    n = e.size
+    s2 = float(e @ e) / n
+    rho = float(np.corrcoef(e[1:], e[:-1])[0, 1]) if n > 3 else 0.0
+    rho = min(max(rho, 0.0), 0.999)
+    infl = (1 + rho) / (1 - rho)
+    var_log = 2.0 * s2 / curv * infl
+    return float(value * np.sqrt(var_log))
+
+
+# ----------------------------------------------------------------------------- candidates
+def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
+    """Fit effect ``name`` on top of ``cur``; returns (fit, parameters, uncertainty)."""
+    s = cur.structure
+    dts = [r.dt for r in ctx.records]
+    dt = min(dts)
+    dur = min(r.t[-1] - r.t[0] for r in ctx.records)
+    if name in ("delay", "lag"):
+        if s.dynamics:
+            return None
+        grid = np.geomspace(0.5 * dt, min(0.05, dur / 20), 14)
+        key = "delay_s" if name == "delay" else "tau_s"
+        best, fit, info = _scalar_search(
+            ctx, lambda v: s.with_(dynamics=(name, v)), grid, cur
+        )
+        return fit, {key: best}, {key: _sigma_from_curvature(ctx, fit, info["profile_curvature"],
+                                                             best)}
+    if name == "resonance":
+        if s.dynamics:
+            return None
+        import scipy.optimize as so
+
+        fmax = 0.35 / dt
+        fmin = max(5.0 / dur, 2.0)
+        fs = np.geomspace(fmin, fmax, 9)
+        zs = np.array([0.05, 0.2, 0.7])
+        best = (np.inf, fs[0], zs[0])
+        for f_ in fs:
+            for z_ in zs:
+                v = ctx.rss(s.with_(dynamics=("resonance", float(f_), float(z_))), cur)
+                if v < best[0]:
+                    best = (v, f_, z_)
+
+        def obj(p):
+            f_, z_ = float(np.exp(p[0])), float(np.exp(p[1]))
+            if not (fmin * 0.5 <= f_ <= 0.45 / dt and 0.005 <= z_ <= 2.0):
+                return np.inf
+            return ctx.rss(s.with_(dynamics=("resonance", f_, z_)), cur)
+
+        r = so.minimize(obj, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
+                        options={"maxfev": 24, "xatol": 0.02, "fatol": 1e-9})
+        f_, z_ = (float(np.exp(r.x[0])), float(np.exp(r.x[1]))) if r.fun < best[0] else (
+            float(best[1]), float(best[2]))
+        fit = ctx.fit(s.with_(dynamics=("resonance", f_, z_)), cur)
+        # 1-D curvatures for rough sigmas
+        unc = {}
+        for j, key, val in ((0, "freq_hz", f_), (1, "damping", z_)):
+            h = 0.05
+            p = np.array([np.log(f_), np.log(z_)])
+            pp, pm = p.copy(), p.copy()
+            pp[j] += h
+            pm[j] -= h
+            c = (obj(pp) - 2 * obj(p) + obj(pm)) / h**2
+            unc[key] = _sigma_from_curvature(ctx, fit, c, val)
+        return fit, {"freq_hz": f_, "damping": z_}, unc
+    if name == "rate":
+        if s.beta_s is not None:
+            return None
+        span = max(float(np.ptp(r.u)) for r in ctx.records)
+        rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
+        grid = np.geomspace(1e-3, 0.3, 12) * span / rmax
+        best, fit, info = _scalar_search(ctx, lambda v: s.with_(beta_s=v), grid, cur)
+        return fit, {"beta_s": best}, {"beta_s": _sigma_from_curvature(
+            ctx, fit, info["profile_curvature"], best)}
+    if name == "creep":
+        if s.creep_taus:
+            return None
+        lo = max(10 * dt, 0.01)
+        hi = max(r.t[-1] - r.t[0] for r in ctx.records)
+        taus = tuple(float(x) for x in 10.0 ** np.arange(np.ceil(np.log10(lo)),
+                                                         np.log10(hi) + 1e-9))
+        if len(taus) < 1:
+            return None
+        fit = ctx.fit(s.with_(creep_taus=taus), cur)
+        return fit, {"taus_s": list(taus), "weights": fit.creep_weights.tolist(),
+                     "gamma_per_decade": float(fit.creep_weights.sum() / len(taus))}, {}
+    if name == "drift":
+        if s.drift_degree:
+            return None
+        fit = ctx.fit(s.with_(drift_degree=2), cur)
+        return fit, {"coefficients": [c.tolist() for c in fit.drift_coef],
+                     "peak_to_peak": [float(np.ptp(m.stages[-1].drift(r.t - r.t[0])))
+                                      for m, r in zip(fit.models, ctx.records, strict=True)]}, {}
+    if name == "asymmetry":
+        if s.asymmetry:
+            return None
+        fit = ctx.fit(s.with_(asymmetry=True), cur)
+        return fit, {"a2": float(fit.asym_coef[0]), "a3": float(fit.asym_coef[1]),
+                     "center": fit.asym_center, "scale": fit.asym_scale}, {}
+    if name == "offset":
+        if s.offsets or len(ctx.records) < 2:
+            return None
+        fit = ctx.fit(s.with_(offsets=True), cur)
+        return fit, {"offsets": fit.bias.tolist()}, {}
+    if name == "initial-memory":
+        if any(s.history):
+            return None
+        return _initial_memory(ctx, cur)
+    raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
+
+
+def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
+    s = cur.structure
+    hist = list(s.history)
+    best_fit = cur
+    for k, rec in enumerate(ctx.records):
+        tw = wipeout_index(rec.u)
+        if not (ctx.train[k][:tw].any() or ctx.test[k][:tw].any()):
+            continue
+        lo, hi = float(rec.u.min()), float(rec.u.max())
+        span = hi - lo
+        levels = lo + span * np.linspace(0, 1, 9)
+        cands: list[tuple[float, ...]] = [(float(v),) for v in levels]
+        for a in (lo, hi):
+            for b in levels:
+                if abs(b - a) > 0.2 * span:
+                    cands.append((float(a), float(b)))
+        best = (ctx.rss(s.with_(history=tuple(hist)), best_fit), tuple(hist[k]))
+        for c in cands:
+            h2 = list(hist)
+            h2[k] = c
+            v = ctx.rss(s.with_(history=tuple(h2)), best_fit)
+            if v < best[0]:
+                best = (v, c)
+        hist[k] = best[1]
+    if not any(hist):
+        return None
+    fit = ctx.fit(s.with_(history=tuple(hist)), cur)
+    return fit, {"history": [list(h) for h in hist]}, {}
+
+
+def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
+    out = []
+    recs = ctx.records
+    # creep: holds after steps (>= 0.5 s) inside the train or test rows
+    has_hold = False
+    for rec, c, tr, te in zip(recs, ctx.coords, ctx.train, ctx.test, strict=True):
+        use = tr | te
+        for st in c.step_starts:
+            n_hold = int(np.argmax(~c.hold[st:]) if (~c.hold[st:]).any() else rec.n - st)
+            if n_hold * rec.dt >= 0.5 and use[st : st + n_hold].any():
+                has_hold = True
+    if not has_hold:
+        out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
+                    "train/test rows", "experiment": UNTESTABLE_EXPERIMENT["creep"]})
+    total = sum(float(r.t[-1] - r.t[0]) for r in recs)
+    if total < 20.0 and len(recs) == 1:
+        out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
+                    "a slow drift from the model's bias",
+                    "experiment": UNTESTABLE_EXPERIMENT["drift"]})
+    # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
+    peaks = []
+    from .data import reversal_points
+
+    for rec, c in zip(recs, ctx.coords, strict=True):
+        span = float(np.ptp(rec.u)) or 1.0
+        rv = reversal_points(rec.u, 0.01 * span)
+        rv = np.concatenate((rv, [rec.n - 1]))
+        for a, b in zip(rv[:-1], rv[1:], strict=True):
+            if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
+                peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
+    if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
+        out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
+                    "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
+                    "told from rate-independent loop width",
+                    "experiment": UNTESTABLE_EXPERIMENT["rate"]})
+    if len(recs) < 2:
+        out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
+                    "exactly by the model's bias", "experiment": UNTESTABLE_EXPERIMENT["offset"]})
+    if not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
+               for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
+        out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
+                    "input swept its full range, which wipes out the initial memory",
+                    "experiment": UNTESTABLE_EXPERIMENT["initial-memory"]})
+    return out
+
+
+def _discriminators(ctx: _Ctx, cur: Fit) -> dict[str, Any]:
+    """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
+    rows_e, rows = [], []
+    for rec, p, x, m in zip(ctx.records, cur.pred, cur.x_pi, ctx.train, strict=True):
+        dx = np.gradient(x, rec.dt)
+        ddx = np.gradient(dx, rec.dt)
+        du = np.gradient(rec.u, rec.dt)
+        vrev = cur.p0 * du
+        vhys = dx - vrev
+        B = ctx.cache.bank(ctx.records.index(rec), rec, np.asarray(cur.structure.thresholds),
+                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s)
+        step = max(1, int(m.sum() // 20000))
+        idx = np.flatnonzero(m)[::step]
+        rows_e.append((rec.y - p)[idx])
+        rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
+                                     ddx[idx])))
+    e = np.concatenate(rows_e)
+    X = np.concatenate(rows)
+    nb = X.shape[1] - 4
+    J0 = X[:, :nb]
+    Q, _ = np.linalg.qr(J0)
+
+    def part(a):
+        return a - Q @ (Q.T @ a)
+
+    er = part(e)
+    out: dict[str, Any] = {}
+    V = part(X[:, nb : nb + 2])
+    c = np.linalg.lstsq(V, er, rcond=None)[0]
+    out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
+    out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
+    G = part(X[:, nb + 2 :])
+    g = np.linalg.lstsq(G, er, rcond=None)[0]
+    out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
+    out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
+    return out
+
+
+# ----------------------------------------------------------------------------- main entry
+def diagnose(
+    recordings: Any,
+    model: str = "pi",
+    train: tuple[float, float] | None = None,
+    test: tuple[float, float] | None = None,
+    *,
+    n_operators: int = 25,
+    effects: Sequence[str] | None = None,
+    max_effects: int = 5,
+) -> DiagnosisResult:
+    """Locate, name, model and validate the physics a PI model leaves out.
+
+    Parameters
+    ----------
+    recordings : Record, (t, u, y) tuple, CSV path, object with t/u/y, or a list of those
+        Measured recordings (uniform sampling; t in seconds).
+    model : {"pi"}
+        Base model class.
+    train, test : (float, float), optional
+        Time ranges (seconds) of the training and held-out rows, applied to every recording.
+        By default each recording is cut into interleaved train/test blocks.
+    n_operators : int
+        Play operators of the baseline (uniform thresholds).
+    effects : sequence of str, optional
+        Effects to test (default: all of :data:`core.effects.EFFECT_TYPES`).
+    max_effects : int
+        Stop after this many accepted effects.
+
+    Returns
+    -------
+    DiagnosisResult
+        ``.to_dict()`` is the JSON document; ``.model`` the final extended model.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown model or effect, or unusable recordings/splits.
+    """
+    t_start = time.perf_counter()
+    if model != "pi":
+        raise ParameterError(f"model {model!r} is not supported by diagnose yet; use 'pi'")
+    todo = list(EFFECT_TYPES if effects is None else effects)
+    for e in todo:
+        if e not in EFFECT_TYPES:
+            raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
+    records = as_records(recordings)
+    trm, tem, desc = split_masks(records, train, test)
+    ctx = _Ctx(records, trm, tem)
+    r = place_thresholds(records, trm, n_operators)
+    base_s = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
+    base = ctx.fit(base_s)
+    cur = base
+    res0 = ctx.all_res(base)
+    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(res0, tem,
+                                                                          strict=True)])))
+    untest = _untestable(ctx)
+    untest_names = {u["name"] for u in untest}
+    todo = [e for e in todo if e not in untest_names]
+    findings: list[EffectFinding] = []
+    ambiguous: list[dict[str, Any]] = []
+    rounds: list[dict[str, Any]] = []
+    for rnd in range(max_effects):
+        cur_te = ctx.test_res(cur)
+        mse_cur = float(np.mean(np.concatenate(cur_te) ** 2))
+        cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
+        for name in todo:
+            got = _candidate(ctx, name, cur)
+            if got is None:
+                continue
+            fit, params, unc = got
+            h = heldout_comparison(cur_te, ctx.test_res(fit))
+            cands[name] = (fit, params, unc, h)
+        if not cands:
+            break
+        record = []
+        passing = []
+        for name, (_, params, _, h) in cands.items():
+            excess = mse_cur - noise**2
+            ok = (
+                h.gain >= ACCEPT_RULE["min_gain"]
+                and (h.mse_before - h.mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
+                and (h.z >= ACCEPT_RULE["min_z"]
+                     or (h.sign_p < ACCEPT_RULE["sign_p"] and h.z >= ACCEPT_RULE["sign_min_z"]))
+            )
+            record.append({"round": rnd + 1, "effect": name, "heldout_mse_reduction": h.gain,
+                           "dm_z": h.z, "sign_test_p": h.sign_p, "passes": bool(ok),
+                           "parameters": params})
+            if ok:
+                passing.append(name)
+        if not passing:
+            rounds.extend(record)
+            break
+        best = _choose(passing, {n: cands[n][3].gain for n in passing})
+        fit, params, unc, h = cands[best]
+        fam = FAMILIES[best]
+        amb: list[str] = []
+        runner: dict[str, Any] = {}
+        for other, (ofit, oparams, _, oh) in cands.items():
+            if other == best or FAMILIES[other] != fam:
+                continue
+            # runner-up explains nearly as much: compare the two directly on held-out rows
+            hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
+            if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
+                runner = {"effect": other, "heldout_mse_reduction": oh.gain,
+                          "z_best_vs_this": hh.z, "parameters": oparams}
+            if other in passing and (
+                oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * h.gain or hh.z < 3.0
+            ):
+                amb.append(other)
+        for rec_ in record:
+            rec_["decision"] = "accepted" if rec_["effect"] == best else (
+                "ambiguous" if rec_["effect"] in amb else ("passes" if rec_["passes"]
+                                                           else "rejected"))
+        rounds.extend(record)
+        disc = _discriminators(ctx, cur) if fam == "dynamics" else {}
+        if fam == "slow":
+            disc = _sign_locking(ctx, cur)
+        used = [tr | te for tr, te in zip(trm, tem, strict=True)]
+        where = where_improved(records, [e * u for e, u in zip(ctx.all_res(cur), used,
+                                                              strict=True)],
+                               [e * u for e, u in zip(ctx.all_res(fit), used, strict=True)],
+                               ctx.coords)
+        where["outside_train_test"] = _outside(records, ctx.all_res(cur), ctx.all_res(fit), used)
+        J0_lm = _score(ctx, cur, fit)
+        findings.append(
+            EffectFinding(
+                name=best,
+                parameters=params,
+                uncertainty=unc,
+                where=where,
+                explanation=EXPLANATIONS[best],
+                equation=EQUATIONS[best],
+                heldout=h,
+                heldout_rmse_before=float(np.sqrt(h.mse_before)),
+                heldout_rmse_after=float(np.sqrt(h.mse_after)),
+                score_lm=J0_lm,
+                discriminators=disc,
+                ambiguous_with=amb,
+                runner_up=runner,
+            )
+        )
+        for other in amb:
+            key = frozenset({best, other})
+            ambiguous.append({
+                "effects": [best, other],
+                "chosen": best,
+                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the held-out "
+                f"MSE against {100 * h.gain:.0f} % for {best}; the recordings do not separate them",
+                "experiment": DECIDING_EXPERIMENT.get(key, "recordings that excite both "
+                                                      "mechanisms differently"),
+            })
+        if best == "asymmetry":
+            ambiguous.append({
+                "effects": ["asymmetry", "sensor nonlinearity"],
+                "chosen": "asymmetry",
+                "reason": "a static output map: actuator asymmetry and sensor nonlinearity are "
+                "not separable from (u, y)",
+                "experiment": "an independent reference sensor",
+            })
+        cur = fit
+        todo = [e for e in todo if e != best and not (
+            FAMILIES[e] == "dynamics" and fam == "dynamics" and e != "rate")]
+    maps_before = residual_maps(records, res0, ctx.coords, [np.ones(r.n, bool) for r in records])
+    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords,
+                               [np.ones(r.n, bool) for r in records])
+    return DiagnosisResult(
+        records=records,
+        train=trm,
+        test=tem,
+        baseline=base,
+        final=cur,
+        effects=findings,
+        untestable=untest,
+        ambiguous=ambiguous,
+        rounds=rounds,
+        maps_before=maps_before,
+        maps_after=maps_after,
+        split=desc,
+        noise_rms=noise,
+        elapsed_s=time.perf_counter() - t_start,
+        model_name=model,
+    )
+
+
+def _outside(records, e0, e1, used) -> list[dict[str, Any]]:
+    """RMS before/after on the rows outside train and test (an independent check)."""
+    out = []
+    for r, a, b, m in zip(records, e0, e1, used, strict=True):
+        o = ~m
+        if o.sum() >= 10:
+            out.append({"recording": r.name, "samples": int(o.sum()),
+                        "rms_before": float(np.sqrt(np.mean(a[o] ** 2))),
+                        "rms_after": float(np.sqrt(np.mean(b[o] ** 2)))})
+    return out
+
+
+#: Disambiguation order of the families (notes §4.3): cheapest and most common first.
+FAMILY_PRIORITY: dict[str, int] = {
+    "memory": 0, "dynamics": 1, "slow": 2, "static": 3, "static-offset": 3,
+}
+
+
+def _choose(passing: list[str], gains: dict[str, float]) -> str:
+    """Highest-priority family with a passing effect (best gain inside the family), unless a
+    later family explains at least 1.5 times as much held-out MSE."""
+    by_fam: dict[str, str] = {}
+    for n in passing:
+        f = FAMILIES[n]
+        if f not in by_fam or gains[n] > gains[by_fam[f]]:
+            by_fam[f] = n
+    order = sorted(by_fam, key=lambda f: FAMILY_PRIORITY[f])
+    pick = by_fam[order[0]]
+    for f in order[1:]:
+        if gains[by_fam[f]] >= 1.5 * gains[pick]:
+            pick = by_fam[f]
+    return pick
+
+
+def _score(ctx: _Ctx, cur: Fit, new: Fit) -> float:
+    """LM statistic of the fitted effect direction (train rows, base partialled, HAC)."""
+    es, J, P = [], [], []
+    for k, (rec, p0, p1, m) in enumerate(zip(ctx.records, cur.pred, new.pred, ctx.train,
+                                               strict=True)):
+        step = max(1, int(m.sum() // 8000))
+        idx = np.flatnonzero(m)[::step]
+        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
+                           cur.structure.beta_s)
+        es.append((rec.y - p0)[idx])
+        J.append(np.column_stack((B[idx], np.ones(idx.size))))
+        P.append((p1 - p0)[idx])
+    stat, _ = score_test(np.concatenate(es), np.concatenate(J), np.concatenate(P), lags=20)
+    return stat
+
+
+def _sign_locking(ctx: _Ctx, cur: Fit) -> dict[str, Any]:
+    """Does the residual trend after each step follow the sign of that step (creep) or not?"""
+    signs, trends = [], []
+    for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
+        e = rec.y - p
+        for st in c.step_starts:
+            n_hold = int(np.argmax(~c.hold[st:]) if (~c.hold[st:]).any() else rec.n - st)
+            if n_hold * rec.dt < 0.5:
+                continue
+            seg = e[st : st + n_hold]
+            lt = np.log(np.arange(1, n_hold + 1) * rec.dt)
+            slope = float(np.polyfit(lt, seg, 1)[0])
+            pre = rec.u[max(st - int(0.01 / rec.dt), 0)]
+            signs.append(float(np.sign(rec.u[st + n_hold - 1] - pre)))
+            trends.append(slope)
+    if len(signs) < 2:
+        return {"steps_with_hold": len(signs)}
+    s = np.asarray(signs)
+    tr = np.asarray(trends)
+    agree = float(np.mean(np.sign(tr) == s))
+    return {"steps_with_hold": len(signs), "trend_follows_step_sign": agree}

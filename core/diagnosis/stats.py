@@ -1,0 +1,141 @@
+"""Statistics robust to coloured residuals: held-out loss comparison, score test, whiteness."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import comb, erf, sqrt
+
+import numpy as np
+
+from .._typing import Float1D
+
+__all__ = [
+    "HeldOut",
+    "heldout_comparison",
+    "ljung_box",
+    "newey_west_var",
+    "noise_floor",
+    "score_test",
+]
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Held-out comparison of two models on the same test rows.
+
+    Attributes
+    ----------
+    mse_before, mse_after : float
+        Mean squared errors (output units²).
+    gain : float
+        Relative MSE reduction ``1 - mse_after / mse_before``.
+    z : float
+        Diebold–Mariano statistic of the squared-error differences with a batch-means
+        (autocorrelation-robust) variance; ~N(0, 1) under equal accuracy.
+    sign_p : float
+        One-sided binomial p-value of the batch sign test (share of batches improved).
+    n_batches : int
+    """
+
+    mse_before: float
+    mse_after: float
+    gain: float
+    z: float
+    sign_p: float
+    n_batches: int
+
+    @property
+    def p_value(self) -> float:
+        """One-sided normal p-value of ``z``."""
+        return 0.5 * (1.0 - erf(self.z / sqrt(2.0)))
+
+
+def heldout_comparison(
+    e_before: list[Float1D], e_after: list[Float1D], n_batches: int = 20
+) -> HeldOut:
+    """Compare squared-error losses of two models on held-out residuals.
+
+    The loss differences ``d = e_before² - e_after²`` are cut into ``n_batches`` contiguous
+    batches (per recording, in time order); the batch means are nearly independent when the
+    batches are much longer than the residual correlation time, so the t-ratio of their mean
+    is a HAC (batch-means) Diebold–Mariano statistic.
+
+    Parameters
+    ----------
+    e_before, e_after : list of ndarray
+        Held-out residual segments (same lengths pairwise).
+    """
+    d = np.concatenate([a * a - b * b for a, b in zip(e_before, e_after, strict=True)])
+    mb = float(np.mean(np.concatenate(e_before) ** 2))
+    ma = float(np.mean(np.concatenate(e_after) ** 2))
+    nb = int(max(4, min(n_batches, d.size // 10)))
+    edges = np.linspace(0, d.size, nb + 1).astype(int)
+    means = np.array([d[edges[i] : edges[i + 1]].mean() for i in range(nb)])
+    sd = float(np.std(means, ddof=1))
+    if sd > 0:
+        z = float(np.mean(means) / (sd / np.sqrt(nb)))
+    else:
+        z = np.inf if means.mean() > 0 else 0.0
+    k = int(np.sum(means > 0))
+    sign_p = float(sum(comb(nb, j) for j in range(k, nb + 1)) / 2.0**nb)
+    gain = 1.0 - ma / mb if mb > 0 else 0.0
+    return HeldOut(mb, ma, gain, z, sign_p, nb)
+
+
+def newey_west_var(x: np.ndarray, lags: int) -> np.ndarray:
+    """Newey–West (Bartlett) long-run covariance of the rows of ``x`` (shape (N, q))."""
+    x = np.atleast_2d(x.T).T
+    x = x - x.mean(axis=0)
+    n = x.shape[0]
+    S = x.T @ x / n
+    for L in range(1, lags + 1):
+        G = x[L:].T @ x[:-L] / n
+        S += (1 - L / (lags + 1)) * (G + G.T)
+    return S
+
+
+def score_test(
+    e: Float1D, J0: np.ndarray, psi: np.ndarray, lags: int
+) -> tuple[float, int]:
+    """Score (LM) test of ``e`` on ``psi`` with the base Jacobian ``J0`` partialled out.
+
+    Frisch–Waugh–Lovell: regress ``e`` and ``psi`` on ``J0``; the statistic is
+    ``g' V^-1 g`` with ``g = psi_r' e_r / N`` and ``V`` the Newey–West long-run covariance of
+    ``psi_r * e_r``, ~χ²_q under "no effect" with coloured residuals.
+
+    Returns
+    -------
+    stat : float
+    q : int
+        Degrees of freedom (columns of ``psi``).
+    """
+    psi = np.atleast_2d(psi.T).T
+    coef = np.linalg.lstsq(J0, np.column_stack((e, psi)), rcond=None)[0]
+    R = np.column_stack((e, psi)) - J0 @ coef
+    er, pr = R[:, 0], R[:, 1:]
+    n = er.size
+    g = pr.T @ er / n
+    V = newey_west_var(pr * er[:, None], lags) / n
+    try:
+        stat = float(g @ np.linalg.solve(V + 1e-300 * np.eye(V.shape[0]), g))
+    except np.linalg.LinAlgError:
+        stat = float("nan")
+    return stat, psi.shape[1]
+
+
+def ljung_box(e: Float1D, h: int = 20) -> tuple[float, int]:
+    """Ljung–Box Q statistic of ``e`` over ``h`` lags (~χ²_h for white residuals)."""
+    e = e - e.mean()
+    n = e.size
+    c0 = float(e @ e)
+    if c0 == 0 or n <= h + 1:
+        return 0.0, h
+    q = sum((float(e[k:] @ e[:-k]) / c0) ** 2 / (n - k) for k in range(1, h + 1))
+    return float(n * (n + 2) * q), h
+
+
+def noise_floor(e: Float1D) -> float:
+    """White-noise level (output units, RMS) from first differences of the residual."""
+    if e.size < 3:
+        return 0.0
+    return float(np.std(np.diff(e)) / np.sqrt(2.0))

@@ -1,0 +1,398 @@
+"""Model structures (PI + a set of effects) and their separable least-squares fit.
+
+A :class:`Structure` says which effects are switched on and holds their few nonlinear
+parameters (delay, time constants, ω_n, ζ, β, virtual extrema). For fixed nonlinear
+parameters every structure is linear in its weights: the play weights ``p0, p_i >= 0``, the
+bias, and the effect weights (creep ``c_j >= 0``, asymmetry and drift coefficients), because
+linear dynamics after the PI commute with the weighted sum. :func:`fit_structure` solves that
+constrained linear problem on the training rows (NNLS after a QR reduction) and builds the exact
+:class:`~core.base.Chain`; predictions always come from simulating that chain, so the numbers
+the diagnosis reports are the numbers ``hyst simulate`` reproduces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from .._typing import Float1D
+from ..base import Chain, Model
+from ..effects import (
+    Asymmetry,
+    Creep,
+    Delay,
+    Drift,
+    InitialMemory,
+    Lag,
+    Offset,
+    RateDependentPI,
+    Resonance,
+    foh_filter,
+    rd_play_bank,
+)
+from ..operators import play_bank
+from ..pi import PIModel
+from .data import Record
+
+__all__ = ["Fit", "Structure", "fit_structure", "place_thresholds"]
+
+
+def place_thresholds(records: Sequence[Record], masks: Sequence[np.ndarray], n: int) -> Float1D:
+    """Uniform thresholds ``r_i = 0.95 · a_max · i / n`` with ``a_max`` the largest half-travel.
+
+    The half-travels are measured between input reversals inside the training rows.
+    """
+    from .data import reversal_points
+
+    a_max = 0.0
+    for r, m in zip(records, masks, strict=True):
+        u = r.u[m] if m.any() else r.u
+        span = float(u.max() - u.min())
+        if span <= 0:
+            continue
+        idx = reversal_points(u, 1e-3 * span)
+        ext = u[np.concatenate((idx, [u.size - 1]))]
+        a_max = max(a_max, float(np.max(np.abs(np.diff(ext)))) / 2.0)
+    if a_max <= 0:
+        from ..exceptions import ParameterError
+
+        raise ParameterError("the input never moves in the training data; nothing to fit")
+    return 0.95 * a_max * np.arange(1, n + 1) / n
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Which effects are on, with their nonlinear parameters.
+
+    Attributes
+    ----------
+    thresholds : tuple of float
+        Play thresholds (input units).
+    history : tuple
+        Per recording: virtual input extrema before the record (``()`` = none).
+    beta_s : float or None
+        Rate coefficient of the rate-dependent PI (``None`` = rate-independent).
+    asymmetry : bool
+        Quadratic + cubic output map.
+    creep_taus : tuple of float
+        Time constants of the creep lag bank (``()`` = no creep).
+    dynamics : tuple
+        ``()``, ``("delay", τ_d)``, ``("lag", τ)`` or ``("resonance", f_n, ζ)``.
+    drift_degree : int
+        Legendre degree of the drift in time per recording (0 = none).
+    offsets : bool
+        One offset per recording instead of one common bias.
+    """
+
+    thresholds: tuple[float, ...]
+    history: tuple[tuple[float, ...], ...]
+    beta_s: float | None = None
+    asymmetry: bool = False
+    creep_taus: tuple[float, ...] = ()
+    dynamics: tuple = ()
+    drift_degree: int = 0
+    offsets: bool = False
+
+    @property
+    def effects(self) -> list[str]:
+        """Names of the effects switched on, in pipeline order."""
+        out = []
+        if any(self.history):
+            out.append("initial-memory")
+        if self.beta_s is not None:
+            out.append("rate")
+        if self.asymmetry:
+            out.append("asymmetry")
+        if self.creep_taus:
+            out.append("creep")
+        if self.dynamics:
+            out.append(str(self.dynamics[0]))
+        if self.offsets:
+            out.append("offset")
+        if self.drift_degree:
+            out.append("drift")
+        return out
+
+    def with_(self, **kw: Any) -> Structure:
+        """Copy with some fields replaced."""
+        return replace(self, **kw)
+
+
+@dataclass
+class Fit:
+    """A fitted structure: weights, per-recording models and exact predictions."""
+
+    structure: Structure
+    p0: float
+    weights: Float1D
+    asym_coef: Float1D
+    asym_center: float
+    asym_scale: float
+    creep_weights: Float1D
+    bias: Float1D  # per recording
+    drift_coef: list[Float1D]
+    models: list[Model]
+    pred: list[Float1D]
+    x_pi: list[Float1D]  # PI-stage outputs (before the output map and dynamics)
+    train_rss: float
+    n_train: int
+    cov_scale: float = 1.0
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    def residuals(self, records: Sequence[Record]) -> list[Float1D]:
+        """Measured minus simulated output per recording."""
+        return [r.y - p for r, p in zip(records, self.pred, strict=True)]
+
+
+class _Cache:
+    """Play-bank outputs keyed by (recording, history, beta)."""
+
+    def __init__(self) -> None:
+        self.d: dict[Any, np.ndarray] = {}
+
+    def bank(self, k: int, rec: Record, r: np.ndarray, hist: tuple, beta: float | None):
+        key = (k, hist, beta, r.size, float(r[-1]))
+        B = self.d.get(key)
+        if B is None:
+            z0 = play_bank(np.asarray(hist), r)[1] if hist else np.zeros(r.size)
+            if beta is None:
+                P = play_bank(rec.u, r, z0)[0]
+            else:
+                P = rd_play_bank(rec.u, r, beta, rec.dt, z0)[0]
+            B = np.column_stack((rec.u, P))
+            if len(self.d) > 64:
+                self.d.clear()
+            self.d[key] = B
+        return B
+
+
+def _dyn_filter(x: np.ndarray, dyn: tuple, dt: float) -> np.ndarray:
+    if not dyn:
+        return x
+    kind = dyn[0]
+    if kind == "delay":
+        D = dyn[1] / dt
+        m = int(np.floor(D + 1e-12))
+        f = D - m
+        pad = np.repeat(x[:1], m + 1, axis=0)
+        ext = np.concatenate((pad, x), axis=0)
+        k = np.arange(x.shape[0])
+        return f * ext[k] + (1 - f) * ext[k + 1]
+    if kind == "lag":
+        return foh_filter(np.ascontiguousarray(x.T), [1.0], [dyn[1], 1.0], dt, axis=-1)[0].T
+    if kind == "resonance":
+        w = 2 * np.pi * dyn[1]
+        return foh_filter(
+            np.ascontiguousarray(x.T), [w * w], [1.0, 2 * dyn[2] * w, w * w], dt, axis=-1
+        )[0].T
+    raise ValueError(f"unknown dynamics {kind!r}")
+
+
+def _legendre_cols(t: np.ndarray, deg: int) -> np.ndarray:
+    s = 2.0 * (t - t[0]) / max(t[-1] - t[0], 1e-12) - 1.0
+    return np.column_stack(
+        [np.polynomial.legendre.legval(s, np.eye(deg + 1)[k]) for k in range(1, deg + 1)]
+    )
+
+
+def _solve(X: np.ndarray, y: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
+    """min ||X w - y|| with w[nonneg] >= 0 (QR reduction, NNLS on the split free columns)."""
+    import scipy.optimize as so
+
+    scale = np.sqrt(np.sum(X * X, axis=0))
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    Q, R = np.linalg.qr(Xs, mode="reduced")
+    qty = Q.T @ y
+    free = np.flatnonzero(~nonneg)
+    A = np.column_stack((R, -R[:, free])) if free.size else R
+    w, _ = so.nnls(A, qty, maxiter=50 * A.shape[1])
+    ws = w[: X.shape[1]].copy()
+    ws[free] -= w[X.shape[1] :]
+    return ws / scale
+
+
+def fit_structure(
+    s: Structure,
+    records: Sequence[Record],
+    train: Sequence[np.ndarray],
+    cache: _Cache | None = None,
+    x_init: Sequence[np.ndarray] | None = None,
+    iterations: int | None = None,
+    rss_only: bool = False,
+) -> Fit | float:
+    """Fit the linear weights of structure ``s`` on the training rows and simulate it exactly.
+
+    Parameters
+    ----------
+    s : Structure
+    records : sequence of Record
+    train : sequence of ndarray of bool
+        Training rows per recording.
+    cache : optional play-bank cache shared between calls.
+    rss_only : bool
+        Return only the training residual sum of squares of the linear solve (fast path for
+        the search over nonlinear parameters; no chain is built or simulated).
+    x_init : sequence of ndarray, optional
+        PI-stage outputs of a previous fit; the creep and asymmetry regressors are evaluated
+        on them (they are bilinear in the play weights) and refreshed ``iterations`` times.
+
+    Returns
+    -------
+    Fit, or float with ``rss_only``
+    """
+    cache = cache or _Cache()
+    r = np.asarray(s.thresholds)
+    nrec = len(records)
+    banks = [
+        cache.bank(k, rec, r, s.history[k], s.beta_s) for k, rec in enumerate(records)
+    ]
+    needs_x = s.asymmetry or bool(s.creep_taus)
+    if iterations is None:
+        iterations = 3 if needs_x else 1
+    x_prev = list(x_init) if x_init is not None else None
+    if rss_only:
+        # fast path: filter only up to the last training row, solve on <= 8000 rows
+        n_tr = sum(int(m.sum()) for m in train)
+        step = max(1, n_tr // 8000)
+        rows = []
+        for m in train:
+            idx = np.flatnonzero(m)
+            keep = np.zeros(int(idx[-1]) + 1 if idx.size else 0, dtype=bool)
+            keep[idx[::step]] = True
+            rows.append(keep)
+    else:
+        rows = list(train)
+    ys = np.concatenate([rec.y[: m.size][m] for rec, m in zip(records, rows, strict=True)])
+    ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
+    yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
+    center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
+    nb = r.size + 1
+    n_asym = 2 if s.asymmetry else 0
+    n_creep = len(s.creep_taus)
+    n_bias = nrec if s.offsets else 1
+    n_drift = s.drift_degree * nrec
+    w = None
+    for it in range(iterations):
+        if needs_x and x_prev is None:
+            # first pass without the bilinear regressors to get the PI-stage output
+            sub = s.with_(asymmetry=False, creep_taus=())
+            f0 = fit_structure(sub, records, train, cache)
+            x_prev = f0.x_pi  # type: ignore[union-attr]
+        blocks = []
+        for k, (rec, m) in enumerate(zip(records, rows, strict=True)):
+            last = m.size
+            cols = [banks[k][:last]]
+            if needs_x:
+                x = x_prev[k][:last]  # type: ignore[index]
+                if s.asymmetry:
+                    q = (x - center) / half
+                    cols.append(np.column_stack((q**2, q**3)))
+                if s.creep_taus:
+                    L = np.column_stack(
+                        [foh_filter(x, [1.0], [tau, 1.0], rec.dt)[0] - x for tau in s.creep_taus]
+                    )
+                    cols.append(L)
+            M = np.column_stack(cols)
+            M = _dyn_filter(M, s.dynamics, rec.dt)
+            bias = np.zeros((last, n_bias))
+            bias[:, k if s.offsets else 0] = 1.0
+            extra = [bias]
+            if s.drift_degree:
+                D = np.zeros((last, n_drift))
+                D[:, k * s.drift_degree : (k + 1) * s.drift_degree] = _legendre_cols(
+                    rec.t, s.drift_degree
+                )[:last]
+                extra.append(D)
+            blocks.append(np.column_stack([M] + extra)[m])
+        X = np.concatenate(blocks, axis=0)
+        nonneg = np.zeros(X.shape[1], dtype=bool)
+        nonneg[:nb] = True
+        nonneg[nb + n_asym : nb + n_asym + n_creep] = True
+        w = _solve(X, ys, nonneg)
+        if rss_only and it == iterations - 1:
+            return float(np.sum((X @ w - ys) ** 2))
+        if needs_x and it < iterations - 1:
+            x_prev = [banks[k] @ w[:nb] for k in range(nrec)]
+    assert w is not None
+    p0 = float(w[0])
+    pw = np.asarray(w[1:nb])
+    asym = np.asarray(w[nb : nb + n_asym])
+    creep = np.asarray(w[nb + n_asym : nb + n_asym + n_creep])
+    o = nb + n_asym + n_creep
+    bias = np.asarray(w[o : o + n_bias])
+    drift = [
+        np.asarray(w[o + n_bias + k * s.drift_degree : o + n_bias + (k + 1) * s.drift_degree])
+        for k in range(nrec)
+    ]
+    models, preds, xs = [], [], []
+    rss = 0.0
+    ntr = 0
+    for k, (rec, m) in enumerate(zip(records, train, strict=True)):
+        model = build_model(s, k, p0, pw, asym, center, half, creep, bias, drift, rec)
+        pred = model(rec.u, dt=rec.dt)
+        models.append(model)
+        preds.append(pred)
+        xs.append(banks[k] @ np.concatenate(([p0], pw)))
+        rss += float(np.sum((rec.y[m] - pred[m]) ** 2))
+        ntr += int(m.sum())
+    return Fit(
+        structure=s,
+        p0=p0,
+        weights=pw,
+        asym_coef=asym,
+        asym_center=center,
+        asym_scale=half,
+        creep_weights=creep,
+        bias=bias,
+        drift_coef=drift,
+        models=models,
+        pred=preds,
+        x_pi=xs,
+        train_rss=rss,
+        n_train=ntr,
+    )
+
+
+def build_model(
+    s: Structure,
+    k: int,
+    p0: float,
+    pw: Float1D,
+    asym: Float1D,
+    center: float,
+    half: float,
+    creep: Float1D,
+    bias: Float1D,
+    drift: list[Float1D],
+    rec: Record,
+) -> Model:
+    """The exact chain of structure ``s`` for recording ``k``."""
+    r = np.asarray(s.thresholds)
+    hyst: Model
+    if s.beta_s is None:
+        hyst = PIModel(max(p0, 0.0), r, np.maximum(pw, 0.0))
+    else:
+        hyst = RateDependentPI(max(p0, 0.0), r, np.maximum(pw, 0.0), s.beta_s)
+    if s.history[k]:
+        hyst = InitialMemory(hyst, list(s.history[k]))
+    stages: list[Model] = [hyst]
+    if s.asymmetry:
+        stages.append(Asymmetry(asym, center, half))
+    if s.creep_taus:
+        stages.append(Creep(list(s.creep_taus), np.maximum(creep, 0.0)))
+    if s.dynamics:
+        kind = s.dynamics[0]
+        if kind == "delay":
+            stages.append(Delay(s.dynamics[1]))
+        elif kind == "lag":
+            stages.append(Lag(s.dynamics[1]))
+        else:
+            stages.append(Resonance(s.dynamics[1], s.dynamics[2]))
+    stages.append(Offset(float(bias[k] if s.offsets else bias[0])))
+    if s.drift_degree:
+        stages.append(Drift(drift[k], float(rec.t[-1] - rec.t[0])))
+    return Chain.of(*stages)
