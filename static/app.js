@@ -129,14 +129,12 @@ async function pump() {
 
 async function draw() {
   const el = $("figure");
+  const name = state.fig === "fit" ? "loading" : state.fig;
+  const res = await api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  let f = res.figures[name];
   if (state.fig === "fit") {
-    const f = state.fitFigure || { data: [], layout: { title: { text: "Fit a model to see the overlay" } } };
-    await Plotly.react(el, f.data, f.layout, { responsive: true });
-    document.body.dataset.fig = "fit";
-    return;
+    f = state.fitFigure || { data: [], layout: { title: { text: "Fit a model to see the overlay" } } };
   }
-  const res = await api("GET", `/api/sessions/${state.code}/figures?name=${state.fig}`);
-  const f = res.figures[state.fig];
   await Plotly.react(el, f.data, f.layout, { responsive: true, displaylogo: false });
   const parts = [`${res.model_type}`, `n = ${res.n_operators ?? "?"}`];
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
