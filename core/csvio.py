@@ -262,8 +262,8 @@ def _load_bytes(source: Source, max_bytes: int) -> tuple[bytes | str, str, str]:
         label = str(getattr(source, "name", "<stream>"))
         data = source.read(max_bytes + 1)  # type: ignore[union-attr]
         if len(data) > max_bytes:
-            raise CSVError(f"{label} is larger than max_bytes={max_bytes:,}; pass a larger "
-                           "max_bytes= to read it anyway", source=label)
+            raise CSVError(f"{label} is more than max_bytes={max_bytes:,} bytes; pass a "
+                           "larger max_bytes= to read it anyway", source=label)
         return data, label, Path(label).stem if label != "<stream>" else "recording"
     if isinstance(source, str) and ("\n" in source or "\r" in source):
         label = "<text>"
@@ -350,6 +350,8 @@ def _is_num(cell: str, decimal: str) -> bool:
     if c.lower() in _NA_TOKENS:
         return True
     if decimal == ",":
+        if "." in c:
+            return False
         c = c.replace(",", ".")
     try:
         float(c)
@@ -488,6 +490,19 @@ def _table(
                      f"(line(s) {_lines_text(blank_inside)})")
     d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0])
     rows = _split(content, d)
+    if skiprows == 0 and len(rows) > 3:
+        # an instrument preamble: leading lines whose field count differs from the table's
+        width = len(rows[min(len(rows) - 1, 2)])
+        head = 0
+        while head < min(len(rows) - 2, 20) and len(rows[head]) != width:
+            head += 1
+        if 0 < head and all(len(r) == width for r in rows[head:head + 3]):
+            shown = "; ".join(repr(c[:40]) for c in content[:head][:3])
+            notes.append(
+                f"skipped {head} preamble line(s) before line {linenos[head]} whose field "
+                f"count differs from the table ({shown}); pass skiprows= to choose yourself"
+            )
+            rows, content, linenos = rows[head:], content[head:], linenos[head:]
     # a delimiter at the end of every line makes an empty last column
     if rows and all(len(r) >= 2 and r[-1] == "" for r in rows):
         rows = [r[:-1] for r in rows]
@@ -642,7 +657,8 @@ def _convert(
     dec = table.layout.decimal
     cells = [r[col.index] for r in table.rows]
     if dec == ",":
-        cells = [c.replace(",", ".") for c in cells]
+        # a "." in a decimal-comma file is an error, not a second decimal mark
+        cells = [c.replace(",", ".") if "." not in c else "?" for c in cells]
     try:
         arr = np.asarray(cells, dtype=np.float64)
         if not any("_" in c for c in cells[:1000]):
@@ -656,7 +672,7 @@ def _convert(
             out[i] = np.nan
             continue
         try:
-            if "_" in s:
+            if "_" in s or s == "?":
                 raise ValueError(s)
             out[i] = float(s)
         except ValueError:
@@ -665,7 +681,9 @@ def _convert(
             line = int(table.lines[i])
             original = table.rows[i][col.index]
             hint = "fix or delete that row"
-            if dec == "." and _DECIMAL_COMMA.match(original.strip()):
+            if dec == "," and "." in original:
+                hint = "the file uses decimal commas elsewhere; write it with a comma"
+            elif dec == "." and _DECIMAL_COMMA.match(original.strip()):
                 hint = "it looks like a decimal comma: pass decimal=','"
             elif i == 0 and not table.layout.header:
                 hint = "if that line holds column names, pass header=True"
@@ -799,7 +817,10 @@ def read_csv(
             chosen[role] = None
         else:
             chosen[role] = _find(spec, role, cols, label)
-    taken = {c.index: role for role, c in chosen.items() if c is not None}
+    taken: dict[int, str] = {}
+    for role, c in chosen.items():
+        if c is not None:
+            taken.setdefault(c.index, role)
     for role, c in chosen.items():
         if c is not None and taken[c.index] != role:
             raise CSVError(
@@ -852,9 +873,9 @@ def read_csv(
     # ---- conversion
     tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
     assert ucol is not None and ycol is not None
+    t_all = _convert(table, tcol, strict=True, role="time") if tcol is not None else None
     u_all = _convert(table, ucol, strict=True, role="input")
     y_all = _convert(table, ycol, strict=True, role="output")
-    t_all = _convert(table, tcol, strict=True, role="time") if tcol is not None else None
     assert u_all is not None and y_all is not None
     t_scale, t_unit_note = 1.0, None
     if tcol is not None:
@@ -1044,11 +1065,14 @@ def _check_time(
                 "file has no time column, together with input= and output=",
                 source=label, line=b, column=tcol.raw,
             )
+        step = (
+            f"line {b} repeats t = {t[i + 1]:g} s of line {a}" if d[i] == 0 else
+            f"line {b} has t = {t[i + 1]:g} s after t = {t[i]:g} s at line {a}"
+        )
         raise CSVError(
-            f"{label}: time stamps must strictly increase, but line {b} has t = {t[i + 1]:g} "
-            f"s {'again' if d[i] == 0 else 'after'} t = {t[i]:g} s at line {a}{where} "
-            f"({what} time stamp in column {tcol.label()}); remove the duplicated/out-of-order "
-            "rows or sort the file by time",
+            f"{label}: time stamps must strictly increase, but {step}{where} ({what} time "
+            f"stamp in column {tcol.label()}); remove the duplicated/out-of-order rows or sort "
+            "the file by time",
             source=label, line=b, column=tcol.raw,
         )
     if t.size >= 3:
