@@ -58,11 +58,27 @@ _UNIT_KEYS = ("input", "output", "time")
 _PROVENANCE_KEYS = ("created", "tool", "source", "fit", "notes")
 
 #: Field rules of the model types whose ``to_dict`` layout is known here. ``"number"`` is a
-#: finite JSON number, ``"numbers"`` a non-empty list of them, a trailing ``?`` marks an
-#: optional field. Types not listed are still checked generically (every number finite, every
-#: list homogeneous) and then validated by their own ``from_dict``.
+#: finite JSON number, ``"numbers"`` a non-empty list of them, ``"model"`` a nested model
+#: object, a trailing ``?`` marks an optional field. Types not listed are still checked
+#: generically (every number finite, every list homogeneous) and then validated by their own
+#: ``from_dict``.
 _FIELD_RULES: dict[str, dict[str, str]] = {
     "pi": {"p0": "number", "thresholds": "numbers", "weights": "numbers", "state0": "numbers?"},
+    "deadzone": {"thresholds": "numbers", "weights": "numbers"},
+    "tanh-envelope": {"a": "numbers", "b": "numbers", "direction0": "number?"},
+    "tanh-envelope-inverse": {
+        "a": "numbers", "b": "numbers", "direction0": "number?", "clip_margin": "number?",
+    },
+    "gpi-deadzone": {"pi": "model", "deadzone": "model"},
+    "mpi": {"pi": "model", "deadzone": "model"},
+    "gpi-tanh": {"pi": "model", "envelope": "model"},
+    "digitized": {"dx": "numbers", "dy": "numbers", "x0": "number?", "y0": "number?"},
+    "digitized-deadzone": {
+        "dx": "numbers", "dy": "numbers", "x0": "number?", "y0": "number?", "state0": "number?",
+    },
+    "digitized-mpi": {"pi": "model", "deadzone": "model"},
+    "lti": {"num": "numbers", "den": "numbers", "state0": "numbers?"},
+    "offset": {"offset": "number"},
 }
 
 
@@ -304,6 +320,7 @@ _MODEL_MODULES = (
     "core.deadzone",
     "core.gpi",
     "core.digitized",
+    "core.digitized_deadzone",
     "core.lti",
     "core.effects",
 )
@@ -354,6 +371,8 @@ def _check_model_tree(node: object, path: str) -> None:
             _check_number(node[key], f"{path}.{key}")
         elif kind == "numbers":
             _check_numbers(node[key], f"{path}.{key}")
+        elif kind == "model":
+            _check_model_tree(node[key], f"{path}.{key}")
     for key, v in node.items():
         if key != "type" and key not in rules:
             _check_generic(v, f"{path}.{key}")
@@ -378,6 +397,9 @@ def _build_model(node: Mapping[str, Any], path: str) -> Model:
             _build_model(s, f"{path}.stages[{i}]") for i, s in enumerate(node["stages"])
         )
         return Chain(stages)
+    for key, v in node.items():  # nested models first, so their errors carry their path
+        if key != "type" and isinstance(v, Mapping) and "type" in v:
+            _build_model(v, f"{path}.{key}")
     try:
         return model_from_dict(dict(node))
     except ParameterError as exc:

@@ -178,3 +178,74 @@ def test_value_objects_are_frozen():
     p2 = ps.with_provenance(notes="checked")
     assert p2.provenance.notes == "checked" and ps.provenance.notes is None
     assert Provenance(fit={"a": 1}).to_dict()["fit"] == {"a": 1}
+
+
+def _instances() -> dict[str, object]:
+    """One instance of every model type whose module exists, keyed by type name."""
+    from core.base import Chain
+
+    out: dict[str, object] = {"pi": EX1, "chain": Chain.of(EX1, PIModel(1.0, [0.5], [0.2]))}
+    try:
+        from core.effects import Delay, Lag, Offset, Resonance
+
+        out.update(offset=Offset(0.5), lag=Lag(0.01), resonance=Resonance(100.0, 0.1),
+                   delay=Delay(0.002))
+    except ImportError:  # pragma: no cover
+        pass
+    try:
+        from core.deadzone import DeadZoneMap
+        from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
+
+        g = DeadZoneMap.symmetric([0.8, 1.6], 0.9, [0.4, -0.3])
+        env = TanhEnvelope([6.0, 0.4, 0.0, -0.2], [6.0, 0.4, 0.0, 0.2], direction0=-1)
+        out.update({"deadzone": g, "gpi-deadzone": DeadZoneGPI(EX1, g), "mpi": ModifiedPI(EX1, g),
+                    "tanh-envelope": env, "tanh-envelope-inverse": env.inverse(),
+                    "gpi-tanh": TanhGPI(EX1, env)})
+    except ImportError:  # pragma: no cover
+        pass
+    try:
+        from core.digitized import DigitizedPI
+
+        out["digitized"] = DigitizedPI.from_pi(EX1, (-5.0, 5.0), state0="0110101")
+    except ImportError:  # pragma: no cover
+        pass
+    try:
+        from core.lti import LinearSystem
+
+        out["lti"] = LinearSystem([1.0], [1e-3, 1.0])
+    except ImportError:  # pragma: no cover
+        pass
+    return out
+
+
+INSTANCES = _instances()
+
+
+@pytest.mark.parametrize("type_name", sorted(INSTANCES))
+def test_every_model_type_round_trips(type_name):
+    model = INSTANCES[type_name]
+    doc = json.loads(ParameterSet.from_model(model).to_json())
+    assert doc["model"]["type"] == type_name
+    back = load_parameter_set(doc).model
+    assert type(back) is type(model)
+    assert back.to_dict() == model.to_dict()
+    u = 3 * np.sin(np.linspace(0, 6 * np.pi, 300))
+    dt = 1e-3 if model.is_dynamic else None
+    np.testing.assert_array_equal(back(u, dt=dt), model(u, dt=dt))
+
+
+def test_nested_model_errors_carry_their_path():
+    if "gpi-deadzone" not in INSTANCES:
+        pytest.skip("core.gpi not available")
+    d = ParameterSet.from_model(INSTANCES["gpi-deadzone"]).to_dict()
+    d["model"]["pi"]["weights"][1] = None
+    with pytest.raises(ParameterSetError, match=r"^model\.pi\.weights\[1\]: must be a number"):
+        load_parameter_set(d)
+    d = ParameterSet.from_model(INSTANCES["gpi-deadzone"]).to_dict()
+    d["model"]["deadzone"]["thresholds"] = [-1.0, 1.0, 2.0, 3.0, 4.0]
+    with pytest.raises(ParameterSetError, match=r"^model\.deadzone: .*rho_0 = 0"):
+        load_parameter_set(d)
+    d = ParameterSet.from_model(INSTANCES["gpi-deadzone"]).to_dict()
+    d["model"]["pi"] = {"type": "deadzone", "thresholds": [0.0], "weights": [1.0]}
+    with pytest.raises(ParameterSetError, match=r"^model: .*pi must be a PIModel"):
+        load_parameter_set(d)
