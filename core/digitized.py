@@ -802,3 +802,9 @@ class DigitizedPI(Model):
         if missing:
             raise ParameterError(f"digitized model is missing field(s): {', '.join(missing)}")
         return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0"))
+
+
+# Register the dead-zone and modified-PI types whenever this module is imported (core.paramset
+# imports "core.digitized" to load every model type). Module import only: no names, so the
+# circular import is safe in either order.
+from . import digitized_deadzone as _digitized_deadzone  # noqa: E402, F401
