@@ -1,0 +1,164 @@
+"""Self-contained HTML report of a missing-physics diagnosis (plotly.js inlined, no CDN).
+
+Sections: summary table (baseline → final held-out RMSE), one card per accepted effect (name,
+where, why, the equation added, parameters with uncertainty, held-out RMSE before/after),
+loops and residuals before/after, the residual maps (input level × branch, time since
+reversal), and the untestable / ambiguous lists.
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+import plotly.io as pio
+from plotly.subplots import make_subplots
+
+__all__ = ["figures", "write_report"]
+
+
+def _dec(n: int, limit: int = 6000) -> slice:
+    return slice(None, None, max(1, n // limit))
+
+
+def figures(res: Any) -> dict[str, go.Figure]:
+    """Plotly figures of a :class:`~core.diagnosis.DiagnosisResult`.
+
+    Returns
+    -------
+    dict
+        ``loops``, ``residuals``, ``maps`` figures.
+    """
+    recs = res.records
+    n = len(recs)
+    loops = make_subplots(rows=1, cols=n, subplot_titles=[r.name for r in recs])
+    resid = make_subplots(rows=n, cols=1, subplot_titles=[r.name for r in recs],
+                          shared_xaxes=False)
+    for k, r in enumerate(recs):
+        s = _dec(r.n)
+        eb = r.y - res.baseline.pred[k]
+        ef = r.y - res.final.pred[k]
+        show = k == 0
+        loops.add_trace(go.Scattergl(x=r.u[s], y=r.y[s], mode="lines", name="measured",
+                                     line={"color": "black", "width": 1}, showlegend=show),
+                        row=1, col=k + 1)
+        loops.add_trace(go.Scattergl(x=r.u[s], y=res.baseline.pred[k][s], mode="lines",
+                                     name="baseline PI", line={"color": "#d62728", "width": 1},
+                                     showlegend=show), row=1, col=k + 1)
+        loops.add_trace(go.Scattergl(x=r.u[s], y=res.final.pred[k][s], mode="lines",
+                                     name="PI + effects", line={"color": "#1f77b4", "width": 1},
+                                     showlegend=show), row=1, col=k + 1)
+        resid.add_trace(go.Scattergl(x=r.t[s], y=eb[s], mode="lines", name="residual, baseline",
+                                     line={"color": "#d62728", "width": 1}, showlegend=show),
+                        row=k + 1, col=1)
+        resid.add_trace(go.Scattergl(x=r.t[s], y=ef[s], mode="lines", name="residual, final",
+                                     line={"color": "#1f77b4", "width": 1}, showlegend=show),
+                        row=k + 1, col=1)
+        for m, color, label in ((res.test[k], "rgba(44,160,44,0.12)", "held-out"),):
+            idx = np.flatnonzero(m)
+            if idx.size:
+                resid.add_vrect(x0=float(r.t[idx[0]]), x1=float(r.t[idx[-1]]), fillcolor=color,
+                                line_width=0, annotation_text=label, row=k + 1, col=1)
+    loops.update_layout(title="Loops: measured, baseline PI and PI + accepted effects",
+                        height=420)
+    loops.update_xaxes(title_text="input")
+    loops.update_yaxes(title_text="output", col=1)
+    resid.update_layout(title="Residual (measured - simulated) in time; green = held-out rows",
+                        height=260 * n + 80)
+    maps = make_subplots(rows=1, cols=2, subplot_titles=[
+        "mean residual vs input level and branch", "mean residual vs time since reversal"])
+    for label, mp, dash in (("baseline", res.maps_before, "solid"),
+                            ("final", res.maps_after, "dot")):
+        for br, color in (("ascending", "#ff7f0e"), ("descending", "#9467bd")):
+            rows = mp.get("input_branch", {}).get(br, [])
+            if rows:
+                maps.add_trace(go.Scatter(
+                    x=[0.5 * (b["lo"] + b["hi"]) for b in rows], y=[b["mean"] for b in rows],
+                    mode="lines+markers", name=f"{label}, {br}",
+                    line={"color": color, "dash": dash}), row=1, col=1)
+        rows = mp.get("since_reversal", [])
+        if rows:
+            maps.add_trace(go.Scatter(
+                x=[np.sqrt(b["lo"] * b["hi"]) for b in rows], y=[b["rms"] for b in rows],
+                mode="lines+markers", name=f"{label}, RMS", line={"color": "#2ca02c",
+                                                                  "dash": dash}), row=1, col=2)
+    maps.update_xaxes(title_text="input", row=1, col=1)
+    maps.update_xaxes(title_text="time since reversal (s)", type="log", row=1, col=2)
+    maps.update_layout(title="LOCATE: residual maps before (solid) and after (dotted)",
+                       height=420)
+    return {"loops": loops, "residuals": resid, "maps": maps}
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return html.escape(str(v))
+
+
+def write_report(res: Any, path: str | Path) -> Path:
+    """Write the HTML report of ``res`` to ``path`` and return the path."""
+    d = res.to_dict()
+    yr = res.y_range
+    figs = figures(res)
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Hysteresis Explorer - "
+        "diagnosis</title><style>body{font-family:sans-serif;max-width:1200px;margin:auto;"
+        "padding:1em}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:4px 8px}"
+        ".card{border:1px solid #999;border-radius:6px;padding:0.6em 1em;margin:0.8em 0}"
+        "code{background:#f4f4f4;padding:1px 4px}</style></head><body>",
+        "<h1>Missing-physics diagnosis</h1>",
+        f"<p>Recordings: {', '.join(html.escape(r['name']) for r in d['recordings'])}. "
+        f"Split: {html.escape(d['split'])}.</p>",
+        "<table><tr><th></th><th>held-out RMSE</th><th>% of output range</th></tr>",
+        f"<tr><td>baseline PI ({d['baseline']['n_operators']} operators)</td>"
+        f"<td>{d['baseline']['heldout_rmse']:.4g}</td>"
+        f"<td>{d['baseline']['heldout_rmse_pct']:.3f}</td></tr>",
+        f"<tr><td>PI + {html.escape(', '.join(d['final']['effects']) or 'nothing')}</td>"
+        f"<td>{d['final']['heldout_rmse']:.4g}</td><td>{d['final']['heldout_rmse_pct']:.3f}"
+        "</td></tr></table>",
+    ]
+    if not res.effects:
+        parts.append("<p><b>No missing physics detected</b>: no effect improved the held-out "
+                     "fit significantly.</p>")
+    for i, e in enumerate(res.effects, 1):
+        rows = "".join(
+            f"<tr><td>{html.escape(k)}</td><td>{_fmt(v)}</td><td>"
+            f"{_fmt(e.uncertainty.get(k)) if e.uncertainty.get(k) is not None else ''}</td></tr>"
+            for k, v in e.parameters.items()
+        )
+        amb = (f"<p>Ambiguous with: {html.escape(', '.join(e.ambiguous_with))}</p>"
+               if e.ambiguous_with else "")
+        parts.append(
+            f"<div class='card'><h2>{i}. {html.escape(e.name)}</h2>"
+            f"<p><b>Why:</b> {html.escape(e.explanation)}</p>"
+            f"<p><b>Where:</b> {html.escape(e.where.get('summary', ''))}</p>"
+            f"<p><b>Added:</b> <code>{html.escape(e.equation)}</code></p>"
+            f"<table><tr><th>parameter</th><th>value</th><th>± 1σ</th></tr>{rows}</table>"
+            f"<p>Held-out RMSE {e.heldout_rmse_before:.4g} → {e.heldout_rmse_after:.4g} "
+            f"({100 * e.heldout_rmse_before / yr:.3f} % → {100 * e.heldout_rmse_after / yr:.3f} "
+            f"%); MSE reduction {100 * e.heldout.gain:.1f} %, DM z = {e.heldout.z:.2f}, sign "
+            f"test p = {e.heldout.sign_p:.2g}.</p>{amb}</div>"
+        )
+    if d["ambiguous"]:
+        parts.append("<h2>Ambiguous</h2><ul>" + "".join(
+            f"<li>{html.escape(' vs '.join(a['effects']))}: {html.escape(a['reason'])}. "
+            f"To decide: {html.escape(a['experiment'])}.</li>" for a in d["ambiguous"]) + "</ul>")
+    if d["untestable"]:
+        parts.append("<h2>Untestable with these recordings</h2><ul>" + "".join(
+            f"<li><b>{html.escape(u['name'])}</b>: {html.escape(u['reason'])}. Would need: "
+            f"{html.escape(u['experiment'])}.</li>" for u in d["untestable"]) + "</ul>")
+    first = True
+    for key in ("loops", "residuals", "maps"):
+        parts.append(pio.to_html(figs[key], full_html=False,
+                                 include_plotlyjs=True if first else False))
+        first = False
+    parts.append("</body></html>")
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text("\n".join(parts), encoding="utf-8")
+    return p
