@@ -47,6 +47,8 @@ ties; that literal reading makes ``h`` jump while the input is held.
 
 from __future__ import annotations
 
+import os
+import sys
 import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -100,6 +102,17 @@ def _envelope_params(x: object, name: str, branch: str) -> Float1D:
             f"give {name}0 and {name}1 the same sign"
         )
     return p
+
+
+def _caller_stacklevel() -> int:
+    """``stacklevel`` that makes a warning point at the first frame outside ``core/``."""
+    core_dir = os.path.dirname(os.path.abspath(__file__))
+    frame = sys._getframe(1)  # the function that calls warnings.warn
+    level = 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(core_dir):
+        frame = frame.f_back
+        level += 1
+    return level
 
 
 def _direction0(d: object) -> int:
@@ -318,7 +331,7 @@ class TanhEnvelopeInverse(Model):
             + "; ".join(parts)
             + ". Reduce the reference amplitude or refit the envelope.",
             ClippedInputWarning,
-            stacklevel=4,
+            stacklevel=_caller_stacklevel(),
         )
 
     def default_state(self) -> EnvelopeState:
