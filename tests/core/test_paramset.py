@@ -16,6 +16,7 @@ from core.paramset import (
     ParameterSetError,
     Provenance,
     Units,
+    ensure_model_types_registered,
     load_parameter_set,
 )
 from core.pi import PIModel
@@ -249,3 +250,20 @@ def test_nested_model_errors_carry_their_path():
     d["model"]["pi"] = {"type": "deadzone", "thresholds": [0.0], "weights": [1.0]}
     with pytest.raises(ParameterSetError, match=r"^model: .*pi must be a PIModel"):
         load_parameter_set(d)
+
+
+def test_json_examples_in_the_format_documentation_load(root):
+    import re
+
+    text = (root / "docs" / "parameter-set.md").read_text()
+    blocks = re.findall(r"```json\n(.*?)```", text, flags=re.S)
+    assert len(blocks) >= 6
+    for block in blocks:
+        d = json.loads(block)
+        if "format" in d:
+            ps = load_parameter_set(d)
+        else:
+            if d["type"] not in ensure_model_types_registered():
+                continue  # pragma: no cover - module not present
+            ps = load_parameter_set({"format": FORMAT, "version": 1, "model": d})
+        assert ps.model.to_dict()["type"] == (d.get("model") or d)["type"]
