@@ -383,3 +383,31 @@ def test_input_validation() -> None:
         EX1([0.0, 1.0, np.nan])
     with pytest.raises(ParameterError, match="state must have length 6"):
         EX1.simulate([0.0], state=[0.0])
+
+
+# ----------------------------------------------------------------------------- presets
+def test_presets_build_the_papers_models() -> None:
+    from core.presets import get_preset, list_presets
+
+    names = [p.name for p in list_presets()]
+    assert names[:5] == ["paper001-example1", "paper001-example1-m0=1",
+                         "paper001-example1-m0=-1", "paper001-example2",
+                         "paper001-example2-approx"]
+    assert all(p.title and p.description for p in list_presets())
+    ex1 = get_preset("paper001-example1")
+    assert ex1.to_dict() == EX1.to_dict() and ex1 is not get_preset("paper001-example1")
+    assert np.array_equal(get_preset("paper001-example1-m0=-1").state0, -np.ones(6))
+    assert np.array_equal(get_preset("paper001-example2").thresholds, EX1.inverse().thresholds)
+    approx = get_preset("paper001-example2-approx")
+    assert approx.p0 == P0_HAT and np.array_equal(approx.weights, P_HAT)
+    with pytest.raises(ParameterError, match="unknown preset 'ex1'; valid presets: paper001-ex"):
+        get_preset("ex1")
+    try:  # presets of optional modules appear when the module is there
+        import core.gpi  # noqa: F401
+    except ImportError:
+        return
+    assert "paper001-example4" in names and "paper001-example6" in names
+    u = np.sin(np.linspace(0, 12, 300)) * 3
+    for name in ("paper001-example4", "paper001-example6"):
+        m = get_preset(name)
+        assert np.all(np.isfinite(m(u)))
