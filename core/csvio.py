@@ -41,6 +41,7 @@ import os
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
+from datetime import datetime
 from pathlib import Path
 from typing import IO, Literal
 
@@ -113,8 +114,8 @@ _TIME_NAMES = frozenset({"t", "time", "times", "timestamp", "time_stamp", "zeit"
 _RUN_NAMES = frozenset(
     {"run", "run_id", "runid", "record", "recording", "loop", "trial", "experiment", "rep"}
 )
-_INDEX_NAMES = frozenset({"k", "i", "n", "idx", "index", "sample", "samples", "sample_index",
-                          "#", "no", "nr"})
+_INDEX_NAMES = frozenset({"k", "idx", "index", "sample", "samples", "sample_index", "#", "no",
+                          "nr"})
 _INPUT_NAMES = frozenset({"u", "input", "in"})
 _OUTPUT_NAMES = frozenset({"y", "output", "out"})
 _NA_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "none", "-nan", "+nan", "#n/a"})
@@ -405,35 +406,32 @@ def _detect_format(
     for rank, d in enumerate(delims):
         rows = _split(sample, d)
         body_rows = _split(body, d)
-        counts = {len(r) for r in body_rows}
-        width = max(counts) if counts else 0
+        widths = [len(r) for r in body_rows]
+        width = max(set(widths), key=widths.count) if widths else 0
+        share = widths.count(width) / len(widths) if widths else 0.0
+        cells = [c for r in body_rows for c in r]
         for dec in ((decimal,) if decimal else (".", ",")):
-            if d == "," and dec == ",":
-                continue
-            cells = [c for r in body_rows for c in r]
-            if not cells:
+            if d == "," and dec == "," or not cells:
                 continue
             frac = sum(_is_num(c, dec) for c in cells) / len(cells)
             strict = sum(_is_strict_num(c, dec) for c in cells) / len(cells)
-            consistent = 1.0 if len(counts) == 1 and width >= 2 else 0.0
             head_ok = 1.0 if rows and len(rows[0]) == width else 0.0
-            score = (consistent, round(frac, 3), strict, head_ok, -rank,
-                     0.0 if dec == "," else 1.0)
+            score = (float(width >= 2), float(share >= 0.9), round(frac, 3), strict, head_ok,
+                     -rank, 0.0 if dec == "," else 1.0)
             if best is None or score > best[0]:
                 best = (score, d, dec)
     if best is None or best[0][0] == 0.0:
         if delimiter == "," and decimal == ",":
             raise CSVError("decimal=',' needs a delimiter other than ','", source=label)
         first = sample[0] if sample else ""
-        if all(len(r) <= 1 for r in _split(sample, delims[0])):
-            raise CSVError(
-                f"{label}: line {line0} ({first[:60]!r}) has a single column with every "
-                "delimiter tried (',', ';', tab, '|', whitespace); a recording needs at "
-                "least an input and an output column; pass delimiter= if yours is unusual",
-                source=label, line=line0,
-            )
-        d = delims[0] if delimiter is not None else best[1] if best else ","
-        return d, (decimal or (best[2] if best else "."))
+        tried = repr(delims[0]) if delimiter is not None else "',', ';', tab, '|', whitespace"
+        raise CSVError(
+            f"{label}: line {line0} ({first[:60]!r}) has a single column with the delimiter(s) "
+            f"{tried}; a recording needs at least an input and an output column; "
+            + ("check delimiter=" if delimiter is not None else
+               "pass delimiter= if yours is unusual"),
+            source=label, line=line0,
+        )
     return best[1], best[2]
 
 
@@ -466,6 +464,10 @@ def _table(
         if s.startswith("#"):
             n_comment += 1
             continue
+        if not content and delimiter is None and re.fullmatch(r"sep=.", s):
+            delimiter = s[4]  # Excel's "sep=;" first line
+            notes.append(f"line {i + 1} {s!r} sets the delimiter")
+            continue
         content.append(ln)
         linenos.append(i + 1)
         if len(content) > max_rows + 2:
@@ -490,6 +492,21 @@ def _table(
                      f"(line(s) {_lines_text(blank_inside)})")
     d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0])
     rows = _split(content, d)
+    empty = [i for i, r in enumerate(rows) if not any(r)]
+    if empty:  # lines holding only delimiters (",,,")
+        notes.append(f"ignored {len(empty)} line(s) holding only delimiters (line(s) "
+                     f"{_lines_text([linenos[i] for i in empty])})")
+        drop = set(empty)
+        rows = [r for i, r in enumerate(rows) if i not in drop]
+        content = [c for i, c in enumerate(content) if i not in drop]
+        linenos = [n for i, n in enumerate(linenos) if i not in drop]
+        if not rows:
+            raise CSVError(f"{label} holds only delimiters, no data; export the recording "
+                           "again", source=label)
+    if d == "whitespace" and len(rows) > 1 and len(rows[0]) != len(rows[1]):
+        wide = [c.strip() for c in re.split(r"\s{2,}|\t", content[0].strip())]
+        if len(wide) == len(rows[1]):
+            rows[0] = wide  # names with single spaces inside, e.g. "t [s]   u [V]"
     if skiprows == 0 and len(rows) > 3:
         # an instrument preamble: leading lines whose field count differs from the table's
         width = len(rows[min(len(rows) - 1, 2)])
@@ -695,6 +712,37 @@ def _convert(
     return out
 
 
+def _convert_time(table: _Table, col: ColumnInfo) -> tuple[np.ndarray, str | None]:
+    """Time column as float64; ISO date-times become seconds since the first stamp."""
+    arr = _convert(table, col, strict=False, role="time")
+    if arr is not None:
+        return arr, None
+    stamps: list[datetime | None] = []
+    for r in table.rows:
+        c = r[col.index].strip()
+        if c.lower() in _NA_TOKENS:
+            stamps.append(None)
+            continue
+        try:
+            stamps.append(datetime.fromisoformat(c.replace(",", ".")))
+        except ValueError:
+            # not date-times either: report the first non-number
+            return _convert(table, col, strict=True, role="time"), None  # type: ignore[return-value]
+    valid = [s for s in stamps if s is not None]
+    if not valid:
+        return _convert(table, col, strict=True, role="time"), None  # type: ignore[return-value]
+    t0 = valid[0]
+    try:
+        out = np.array([np.nan if s is None else (s - t0).total_seconds() for s in stamps])
+    except TypeError as exc:  # naive and aware stamps mixed
+        raise CSVError(
+            f"{table.layout.source}: time column {col.label()} mixes date-times with and "
+            f"without a time zone ({exc}); write them all the same way",
+            source=table.layout.source, column=col.raw,
+        ) from None
+    return out, f"time column {col.raw!r} holds date-times; converted to seconds since {t0}"
+
+
 # --------------------------------------------------------------------------- reader
 def read_csv(
     source: Source,
@@ -835,6 +883,11 @@ def read_csv(
     if run is None and lay.header:
         chosen["run"] = _by_name(free(), _RUN_NAMES)
     index_col = _by_name(free(), _INDEX_NAMES) if lay.header else None
+    if index_col is not None:
+        # a sample index holds whole numbers that increase (within each run) and has no unit
+        k = _convert(table, index_col, strict=False, role="index")
+        if index_col.unit or k is None or not np.all(np.isfinite(k)) or np.any(k != np.round(k)):
+            index_col = None
     notes_roles: list[str] = []
     time_auto = False
     if time is None:
@@ -873,12 +926,12 @@ def read_csv(
     # ---- conversion
     tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
     assert ucol is not None and ycol is not None
-    t_all = _convert(table, tcol, strict=True, role="time") if tcol is not None else None
+    t_all, dt_note = _convert_time(table, tcol) if tcol is not None else (None, None)
     u_all = _convert(table, ucol, strict=True, role="input")
     y_all = _convert(table, ycol, strict=True, role="output")
     assert u_all is not None and y_all is not None
-    t_scale, t_unit_note = 1.0, None
-    if tcol is not None:
+    t_scale, t_unit_note = 1.0, dt_note
+    if tcol is not None and dt_note is None:
         unit = (time_unit or tcol.unit or "s").strip()
         if unit not in _TIME_SCALE:
             raise CSVError(

@@ -425,11 +425,13 @@ class Recording:
         base = {"time": "t", "input": "u", "output": "y"}[role]
         unit = self.units.get(role, "")
         if role == "time" and not self.has_time:
-            return "k"
+            return "sample"
         return f"{base} [{unit}]" if unit else base
 
     def to_csv(self, path: str | os.PathLike[str], *, comments: bool = True) -> Path:
         """Write ``t, u, y`` and the numeric extra channels as comma-separated text.
+
+        Without a time axis the first column is the sample index, named ``sample``.
 
         The header row carries the units (``t [s],u [V],y [µm],...``) and, with
         ``comments=True``, ``#`` lines before it record name, source, run, citation and
@@ -450,11 +452,14 @@ class Recording:
         p = Path(path)
         names = [self.column_header(r) for r in _ROLES]
         cols = [self.t, self.u, self.y]
+        text_channels = []
         for k, v in self.extra.items():
             if v.dtype.kind == "f":
                 unit = self.extra_units.get(k, "")
                 names.append(f"{k} [{unit}]" if unit else k)
                 cols.append(v)
+            else:
+                text_channels.append(k)
         data = np.column_stack(cols)
         with p.open("w", encoding="utf-8", newline="") as fh:
             if comments:
@@ -467,6 +472,8 @@ class Recording:
                     fh.write(f"# citation: {' '.join(self.citation.split())}\n")
                 for c in self.cleaning:
                     fh.write(f"# cleaning: {c}\n")
+                if text_channels:
+                    fh.write(f"# not written (text channels): {', '.join(text_channels)}\n")
             csv.writer(fh, lineterminator="\n").writerow(names)
             np.savetxt(fh, data, delimiter=",", fmt="%.17g")
         return p

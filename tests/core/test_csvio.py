@@ -568,3 +568,60 @@ def test_recording_validates_its_arrays():
     r = Recording([0, 1, 2], [0, 1, 2], [0, 1, 2])
     with pytest.raises(ValueError, match="read-only"):
         r.u[0] = 5.0
+
+
+# ------------------------------------------------------------------------------ more layouts
+def test_excel_sep_line_and_delimiter_only_rows():
+    text = "sep=;\n" + table(sep=";", dec=",") + ";;\n;;\n"
+    (r,) = read_csv(text)
+    np.testing.assert_allclose(r.u, U, atol=1e-6)
+    assert any("'sep=;' sets the delimiter" in c for c in r.cleaning)
+    assert any(f"2 line(s) holding only delimiters (line(s) {N + 3}, {N + 4})" in c
+               for c in r.cleaning)
+
+
+def test_iso_datetime_time_column_becomes_seconds():
+    body = "".join(f"2024-03-01 12:00:{10 + t:09.6f},{u:.6f},{y:.6f}\n"
+                   for t, u, y in zip(T, U, Y, strict=True))
+    (r,) = read_csv("timestamp,u,y\n" + body)
+    np.testing.assert_allclose(r.t, T, atol=1e-9)
+    assert any("holds date-times; converted to seconds since 2024-03-01 12:00:10" in c
+               for c in r.cleaning)
+    bad = with_line("timestamp,u,y\n" + body, 4, "yesterday,1,2")
+    with pytest.raises(CSVError, match=r"line 2, column 'timestamp'.*'2024-03-01 12:00:10"):
+        read_csv(bad)
+
+
+def test_whitespace_header_with_spaces_inside_names():
+    text = "t [s]    u [V]    y [um]\n" + table(header=None, sep="    ")
+    (r,) = read_csv(text)
+    assert dict(r.units) == {"time": "s", "input": "V", "output": "µm"}
+
+
+def test_a_column_called_n_with_a_unit_is_data_not_a_sample_index():
+    rows = [[t, u, y, 1500 + 10 * k] for k, (t, u, y) in enumerate(zip(T, U, Y, strict=True))]
+    (r,) = read_csv(table(header="t_s,u_V,y_um,n_rpm", rows=rows))
+    assert r.has_time and r.extra_units["n"] == "rpm"
+    rows = [[k, u, y] for k, (u, y) in enumerate(zip(U, Y, strict=True))]
+    (r,) = read_csv(table(header="index,u,y", rows=rows, fmt="{:.8g}"))
+    assert not r.has_time and list(r.extra) == ["index"]
+
+
+def test_mixed_decimal_marks_are_reported():
+    text = table(sep=";", dec=",")
+    text = with_line(text, 6, "0,04;1.5;2,0")
+    with pytest.raises(CSVError, match=r"line 6, column 'u_V'.*'1\.5' is not a number; the file "
+                                       r"uses decimal commas"):
+        read_csv(text)
+
+
+def test_recording_without_time_round_trips_through_csv(tmp_path):
+    rows = [[0, k, 5.0, 5 * np.cos(k / 3), np.tanh(np.cos(k / 3))] for k in range(20)]
+    (r,) = read_csv(table(header="loop,k,Hpk_Am,u_H_Am,y_B_T", rows=rows, fmt="{:.17g}"))
+    p = r.to_csv(tmp_path / "bh.csv")
+    header = [ln for ln in p.read_text(encoding="utf-8").splitlines() if ln[0] != "#"][0]
+    assert header == "sample,u [A/m],y [T],k,Hpk [A/m]"
+    (back,) = read_csv(p)
+    assert not back.has_time
+    np.testing.assert_array_equal(back.u, r.u)
+    np.testing.assert_array_equal(back.extra["Hpk"], r.extra["Hpk"])
