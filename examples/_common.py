@@ -36,5 +36,9 @@ def save(fig, out: Path, name: str) -> Path:  # fig: plotly.graph_objects.Figure
     """Write ``fig`` as self-contained HTML (plotly.js inlined, no CDN) and return its path."""
     path = out / f"{name}.html"
     fig.write_html(path, include_plotlyjs=True, full_html=True)
+    # The inlined plotly.js names a CDN folder for map topology data (unused by our
+    # figures); point it at a local folder so the page never refers to the network.
+    text = path.read_text(encoding="utf-8")
+    path.write_text(text.replace('"https://cdn.plot.ly/un/"', '"topojson/"'), encoding="utf-8")
     print(f"wrote {path}")
     return path

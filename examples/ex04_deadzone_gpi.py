@@ -18,8 +18,6 @@ Run: ``python examples/ex04_deadzone_gpi.py [--out DIR]`` (``HYST_QUICK=1`` for 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import plotly.graph_objects as go
 from _common import parse_out, quick, save
@@ -31,17 +29,6 @@ TAU_PRINTED = [1.906, 3.179, 3.809, 4.241, 4.524, 4.704, 4.816, 4.885, 4.928, 4.
 MU_PRINTED = [0.065, 0.122, 0.182, 0.305, 0.508, 0.84, 1.384, 2.248, 3.704, 6.179, 10.226]
 
 
-def save_html(fig: go.Figure, out: Path, name: str) -> Path:
-    """``_common.save``, then replace plotly.js's unused default ``topojsonURL`` (a CDN address).
-
-    The inlined plotly.js bundle names ``https://cdn.plot.ly/un/`` as the default map-data
-    URL of geo traces. No figure here has a map, but the HTML must not reference a CDN, so
-    the default becomes a relative path.
-    """
-    path = save(fig, out, name)
-    text = path.read_text(encoding="utf-8")
-    path.write_text(text.replace('"https://cdn.plot.ly/un/"', '"topojson/"'), encoding="utf-8")
-    return path
 
 
 def print_parameters(m: DeadZoneGPI) -> None:
@@ -134,7 +121,7 @@ def main() -> None:
     w = m.deadzone(v)
     print(f"v = 5 sin 2πt: w in [{w.min():.4f}, {w.max():.4f}], y_D in [{y.min():.4f}, "
           f"{y.max():.4f}]")
-    save_html(model_figure(m, t, v), out, "ex04_deadzone_gpi_model")
+    save(model_figure(m, t, v), out, "ex04_deadzone_gpi_model")
     u = 15 * np.sin(2 * np.pi * t)
     fig, err = inverse_figure(m, t, u)
     v_c = m.inverse()(u)
@@ -142,7 +129,7 @@ def main() -> None:
     print(f"compensation error max |P[γ[γ⁻¹[P⁻¹[u]]]] - u| = {err:.3e}")
     back = m.inverse()(y)
     print(f"other order max |Π⁻¹[Π[v]] - v| = {np.max(np.abs(back - v)):.3e}")
-    save_html(fig, out, "ex04_deadzone_gpi_inverse")
+    save(fig, out, "ex04_deadzone_gpi_inverse")
 
 
 if __name__ == "__main__":

@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import plotly.graph_objects as go
-from _common import parse_out, quick
-from ex04_deadzone_gpi import save_html
+from _common import parse_out, quick, save
 from plotly.subplots import make_subplots
 
 from core.gpi import paper001_example4
@@ -55,7 +54,7 @@ def main() -> None:
     fig.update_xaxes(title_text="t (s)", row=2, col=2)
     fig.update_layout(title=f"Dead-zone GPI, two-frequency input (paper 001 Example 5, Fig. 23);"
                       f" max |y_D − u| = {err:.1e}", height=800, width=1150)
-    save_html(fig, out, "ex05_deadzone_gpi_multifrequency")
+    save(fig, out, "ex05_deadzone_gpi_multifrequency")
 
 
 if __name__ == "__main__":

@@ -21,8 +21,7 @@ import warnings
 
 import numpy as np
 import plotly.graph_objects as go
-from _common import parse_out, quick
-from ex04_deadzone_gpi import save_html
+from _common import parse_out, quick, save
 from plotly.subplots import make_subplots
 
 from core.exceptions import ClippedInputWarning
@@ -108,14 +107,14 @@ def main() -> None:
     y = m(v)
     print(f"v = 5 sin 2πt: h in [{h.min():.4f}, {h.max():.4f}], y_H in [{y.min():.4f}, "
           f"{y.max():.4f}]")
-    save_html(model_figure(m, t, v), out, "ex06_tanh_gpi_model")
+    save(model_figure(m, t, v), out, "ex06_tanh_gpi_model")
 
     u = 10 * np.sin(2 * np.pi * t)
     fig, err = inverse_figure(m, t, u)
     d = m.pi.inverse()(u)
     print(f"u = 10 sin 2πt: d = P⁻¹[u] in [{d.min():.4f}, {d.max():.4f}] (inside |d| < 6)")
     print(f"compensation error max |P[κ[κ⁻¹[P⁻¹[u]]]] - u| = {err:.3e}")
-    save_html(fig, out, "ex06_tanh_gpi_inverse")
+    save(fig, out, "ex06_tanh_gpi_inverse")
 
     big = 30 * np.sin(2 * np.pi * t)
     with warnings.catch_warnings(record=True) as rec:
