@@ -273,6 +273,43 @@ class StateGraph:
         """Digit rows in paper notation ``b_n ... b_1``."""
         return [digit_string(row) for row in self.digits]
 
+    @property
+    def n(self) -> int:
+        """Number of digits."""
+        return int(self.digits.shape[1])
+
+    def hypercube_xy(self) -> Float2D:
+        """2-D projection of the n-cube: ``Σ_k b_k L_k (cos θ_k, sin θ_k)``.
+
+        ``θ_k = π (k-1)/n`` and ``L_k = 2**((k-1)/n)``; the unequal lengths keep all
+        ``2**n`` positions distinct (equal lengths make e.g. ``101`` and ``010`` coincide for
+        n = 3). An alternative to drawing the states at ``(x, y)``: every digit is one
+        direction, so states that differ in one digit are joined by parallel edges.
+
+        Returns
+        -------
+        ndarray of shape (2**n, 2)
+        """
+        k = np.arange(self.n)
+        theta = np.pi * k / self.n
+        e = np.column_stack((np.cos(theta), np.sin(theta))) * (2.0 ** (k / self.n))[:, None]
+        return self.digits @ e
+
+    def hypercube_edges(self) -> np.ndarray:
+        """All single-digit flips ``(code, code | 2**(k-1), k)`` (the n-cube's edges).
+
+        Returns
+        -------
+        ndarray of int64, shape (n * 2**(n-1), 3)
+        """
+        rows = [
+            (int(c), int(c) | (1 << k), k + 1)
+            for k in range(self.n)
+            for c in self.codes
+            if not (int(c) >> k) & 1
+        ]
+        return np.asarray(rows, dtype=np.int64).reshape(-1, 3)
+
 
 # ----------------------------------------------------------------------------- kernel
 @njit(cache=True, nogil=True)
@@ -423,7 +460,26 @@ class DigitizedPI(Model):
     def from_H(
         cls, H: ArrayLike, origin: tuple[float, float] = (0.0, 0.0), state0: Any = None
     ) -> DigitizedPI:
-        """Build from the paired-property matrix ``H`` of shape (2, n) (eq. 11)."""
+        """Build from the paired-property matrix ``H`` (eq. 11).
+
+        Parameters
+        ----------
+        H : array_like of shape (2, n)
+            Row 0 ``Δx`` (input units, > 0), row 1 ``Δy`` (output units).
+        origin : (float, float)
+            ``(X_0, Y_0)``.
+        state0 : optional
+            Initial digits (see :func:`as_digits`).
+
+        Returns
+        -------
+        DigitizedPI
+
+        Raises
+        ------
+        ParameterError
+            If ``H`` is not of shape (2, n) or its entries break the rules of ``dx``/``dy``.
+        """
         try:
             h = np.asarray(H, dtype=np.float64)
         except (TypeError, ValueError) as exc:
@@ -583,7 +639,18 @@ class DigitizedPI(Model):
         return (self._g - self._g[0]) * self.dx
 
     def state_point(self, state: Any = None) -> tuple[float, float]:
-        """``(X_B, Y_B)`` of a state (default: ``state0``), eq. 12-15 summed."""
+        """``(X_B, Y_B) = (X_0 + Σ b_k Δx_k, Y_0 + Σ b_k Δy_k)`` (eq. 12-15 summed).
+
+        Parameters
+        ----------
+        state : optional
+            Digits (see :func:`as_digits`); default ``state0``.
+
+        Returns
+        -------
+        (float, float)
+            Input and output units.
+        """
         d = as_digits(self.state0 if state is None else state, self.n, "state")
         return self._point(d)
 

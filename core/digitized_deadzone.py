@@ -177,7 +177,21 @@ class DigitizedDeadZone(Model):
     def from_S(
         cls, S: ArrayLike, origin: tuple[float, float] = (0.0, 0.0), state0: int = 1
     ) -> DigitizedDeadZone:
-        """Build from the paired-property matrix ``S`` of shape (2, m) (eq. 18)."""
+        """Build from the paired-property matrix ``S`` (eq. 18).
+
+        Parameters
+        ----------
+        S : array_like of shape (2, m)
+            Row 0 ``Δx`` (input units, > 0), row 1 ``Δy`` (output units).
+        origin : (float, float)
+            ``(X_0, Y_0)``, the left end of segment 1.
+        state0 : int
+            Initial segment ``C`` (1-based).
+
+        Returns
+        -------
+        DigitizedDeadZone
+        """
         try:
             s = np.asarray(S, dtype=np.float64)
         except (TypeError, ValueError) as exc:
@@ -253,6 +267,44 @@ class DigitizedDeadZone(Model):
                 "from_deadzone instead"
             ) from exc
         return cls.from_deadzone(rho, eta, v_range)
+
+    def to_deadzone(self) -> tuple[Float1D, Float1D, float]:
+        """The classical dead-zone superposition with the same segments, plus an offset.
+
+        ``y = offset + Σ_j η_j S_{ρ_j}[v]`` for every input (the outer segments extend like
+        the dead zones beyond the outermost thresholds). The interior segment ends become
+        the thresholds, ``η_0`` is the slope of the segment holding 0, a positive
+        threshold's weight is the slope increase across it and a negative one's the slope
+        increase towards more negative inputs.
+
+        Returns
+        -------
+        thresholds : ndarray of shape (K,)
+            Includes ``ρ_0 = 0``.
+        weights : ndarray of shape (K,)
+        offset : float
+            Output at ``v = 0``.
+
+        Raises
+        ------
+        ParameterError
+            If a segment ends exactly at 0 (a slope change at 0 has no dead-zone form).
+        """
+        ends = self.x0 + np.cumsum(self.dx)[:-1]
+        if np.any(ends == 0.0):
+            raise ParameterError(
+                "to_deadzone: a segment ends exactly at v = 0, where a slope change cannot be "
+                "written with dead-zone operators (ρ_0 = 0 is the linear term); shift x0"
+            )
+        g = self._g
+        neg, pos = ends < 0, ends > 0
+        i0 = int(np.count_nonzero(neg))  # segment holding 0
+        eta_neg = g[:i0] - g[1 : i0 + 1]
+        eta_pos = g[i0 + 1 :] - g[i0:-1]
+        rho = np.concatenate((ends[neg], [0.0], ends[pos]))
+        eta = np.concatenate((eta_neg, [g[i0]], eta_pos))
+        offset = float(self(np.zeros(1))[0])
+        return rho, eta, offset
 
     # ------------------------------------------------------------------ properties
     @property

@@ -7,8 +7,9 @@ its inverse (Δx and Δy swapped, eq. 22), the state table, the state sequence o
 and the difference to the classical model for an input with reversals inside segments,
 with its bound and how it shrinks when the segments are refined.
 
-Figures (one self-contained HTML): the loop (digitized vs classical, state points marked),
-the state graph drawn at the state points, the digit rows over time, and the error.
+Figures (self-contained HTML): the loop (digitized vs classical, state points marked),
+the state graph drawn at the state points, the digit rows over time, and the error; and
+the four states drawn as a square (``..._states.html``).
 
 Run: ``python examples/ex07_digitized_two_operators.py [--out DIR]`` (``HYST_QUICK=1`` for a
 short signal).
@@ -150,6 +151,33 @@ def build_figure(d: DigitizedPI, classical: PIModel, u: np.ndarray, title: str) 
     return fig
 
 
+def hypercube_figure(d: DigitizedPI, title: str) -> go.Figure:
+    """The 2**n states as the vertices of an n-cube drawn in 2-D (one direction per digit).
+
+    Gray: all single-digit flips; solid: up moves (set the lowest 0); dashed: down moves
+    (clear the lowest 1). Only these two moves exist, so most cube edges are used in one
+    direction only and some not at all.
+    """
+    g = d.state_graph()
+    xy = g.hypercube_xy()
+    fig = go.Figure()
+    for edges, name, style in (
+        (g.hypercube_edges(), "single-digit flip", {"color": "lightgray", "width": 1}),
+        (g.up, "up (set lowest 0)", {"color": "royalblue", "width": 2}),
+        (g.down, "down (clear lowest 1)", {"color": "darkorange", "width": 2, "dash": "dash"}),
+    ):
+        xs: list[float | None] = []
+        ys: list[float | None] = []
+        for a, b, _ in edges:
+            xs += [float(xy[a, 0]), float(xy[b, 0]), None]
+            ys += [float(xy[a, 1]), float(xy[b, 1]), None]
+        fig.add_trace(go.Scatter(x=xs, y=ys, mode="lines", name=name, line=style))
+    fig.add_trace(go.Scatter(x=xy[:, 0], y=xy[:, 1], mode="markers+text", text=g.strings,
+                             textposition="top center", name="states", marker={"size": 10}))
+    fig.update_layout(title=title, height=600, width=700, yaxis={"scaleanchor": "x"})
+    return fig
+
+
 def report_errors(pi: PIModel, u_range: tuple[float, float], u: np.ndarray) -> None:
     """Max |digitized − classical| and its bound for refined digitizations of the same model."""
     classical = classical_from_lower_extreme(pi, u_range[0])
@@ -184,6 +212,8 @@ def main() -> None:
     report_errors(pi, u_range, u)
     save_offline(build_figure(d, classical, u, "Digitized PI, two operators (paper 000 Fig. 3)"),
                  out, "ex07_digitized_two_operators")
+    save_offline(hypercube_figure(d, "Two digits: the 4 states as a square"), out,
+                 "ex07_digitized_two_operators_states")
 
 
 if __name__ == "__main__":

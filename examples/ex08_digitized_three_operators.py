@@ -8,7 +8,8 @@ for an input with interior reversals (with refinement). It then appends dead-zon
 operators on the output (paper 000's modified PI, Kuhnen order ``y = S[H[v]]``, section 2.3)
 and checks the swapped inverse as a feedforward compensator.
 
-Figures: ``ex08_digitized_three_operators.html`` (loop, state graph, digit rows, error) and
+Figures: ``ex08_digitized_three_operators.html`` (loop, state graph, digit rows, error),
+``ex08_digitized_three_operators_states.html`` (the 8 states as a cube) and
 ``ex08_digitized_modified_pi.html`` (modified PI loop and compensation).
 
 Run: ``python examples/ex08_digitized_three_operators.py [--out DIR]`` (``HYST_QUICK=1``).
@@ -23,6 +24,7 @@ from ex07_digitized_two_operators import (
     build_figure,
     classical_from_lower_extreme,
     compress,
+    hypercube_figure,
     print_tables,
     report_errors,
     save_offline,
@@ -77,6 +79,8 @@ def main() -> None:
     report_errors(pi, u_range, u)
     save_offline(build_figure(d, classical, u, "Digitized PI, three operators (paper 000 Fig. 4)"),
                  out, "ex08_digitized_three_operators")
+    save_offline(hypercube_figure(d, "Three digits: the 8 states as a cube"), out,
+                 "ex08_digitized_three_operators_states")
 
     # Modified PI: dead zones on the output (Kuhnen order), thresholds ρ with ρ0 = 0.
     rho = np.array([-2.0, 0.0, 4.0, 10.0])

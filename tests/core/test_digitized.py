@@ -610,3 +610,35 @@ def test_trace_codes_for_many_digits() -> None:
     assert tr.codes[-2] == 2**70 - 1  # all digits set at the top of the range
     assert tr.codes[-1] == 2**70 - 2  # the first move down clears b1
     assert tr.strings[-1] == "1" * 69 + "0"
+
+
+def test_deadzone_to_classical_round_trip() -> None:
+    rho = np.array([-2.5, -1.0, 0.0, 0.7, 2.0])
+    eta = np.array([0.4, -0.2, 1.1, 0.3, -0.5])
+    s = DigitizedDeadZone.from_deadzone(rho, eta)
+    r2, e2, off = s.to_deadzone()
+    np.testing.assert_allclose(r2, rho, atol=1e-15)
+    np.testing.assert_allclose(e2, eta, atol=1e-13)
+    assert off == pytest.approx(0.0, abs=1e-13)
+    # a digitized map with an offset and no threshold at 0
+    t = DigitizedDeadZone([1.0, 2.0, 1.5], [2.0, 1.0, 3.0], x0=-1.5, y0=0.25)
+    r3, e3, off3 = t.to_deadzone()
+    v = np.linspace(-4.0, 5.0, 181)
+    np.testing.assert_allclose(off3 + deadzone_output(v, r3, e3), t(v), atol=1e-12)
+    with pytest.raises(ParameterError, match="ends exactly at v = 0"):
+        DigitizedDeadZone([1.0, 1.0], [1.0, 2.0], x0=-1.0).to_deadzone()
+
+
+def test_hypercube_layout() -> None:
+    _, d = three_op()
+    g = d.state_graph()
+    e = g.hypercube_edges()
+    assert e.shape == (3 * 2**2, 3)  # n 2**(n-1) edges of the 3-cube
+    # every up/down neighbour edge of the model is an edge of the cube
+    cube = {(int(a), int(b)) for a, b, _ in e}
+    assert all((min(a, b), max(a, b)) in cube for a, b, _ in np.vstack((g.up, g.down)))
+    xy = g.hypercube_xy()
+    assert xy.shape == (8, 2)
+    assert len({tuple(np.round(p, 9)) for p in xy}) == 8  # distinct positions
+    big = DigitizedPI(np.ones(12), np.ones(12)).state_graph().hypercube_xy()
+    assert len({tuple(np.round(p, 9)) for p in big}) == 2**12
