@@ -337,3 +337,34 @@ def test_fit_splits_runs_and_accepts_constraint(tmp_path, capsys):
     assert len(ps.provenance.fit["recordings"]) == 2
     slopes = ps.model.stages[0].slopes
     assert (slopes > 0).all() and np.diff(slopes).min() < -0.1  # negative weights allowed
+
+
+@pytest.mark.parametrize("family", ["gpi-deadzone", "mpi", "gpi-tanh", "digitized"])
+def test_fit_other_model_families(family, tmp_path, capsys):
+    import importlib
+
+    from app.commands.fit import MODELS
+
+    if not hasattr(importlib.import_module("core.fitting"), MODELS[family]):
+        pytest.skip(f"core.fitting.{MODELS[family]} not available yet")
+    rec = synthetic_recording(tmp_path / "rec.csv", 3000)
+    code, out, err = run(capsys, "fit", rec, "--model", family, "-n", "4", "-o",
+                         tmp_path / "m.json", "--json")
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["report"]["invertible"] is True
+    ps = load_parameter_set(tmp_path / "m.json", require_inverse=True)
+    assert ps.provenance.fit["model"] == family
+    data = np.genfromtxt(rec, delimiter=",", names=True)
+    e = ps.model(data["u_V"]) - data["y_um"]
+    assert np.sqrt(np.mean(e**2)) < 0.05 * np.ptp(data["y_um"])
+    # the saved model can be inverted and exported to C by the other sub-commands
+    assert run(capsys, "invert", tmp_path / "m.json", "-o", tmp_path / "inv.json")[0] == 0
+    code, _, err = run(capsys, "export", tmp_path / "m.json", "-f", "c", "-o", tmp_path / "c.c")
+    assert code == 0, err
+    if shutil.which("gcc"):
+        res = subprocess.run(
+            ["gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-c",
+             str(tmp_path / "c.c"), "-o", str(tmp_path / "c.o")], capture_output=True, text=True,
+        )
+        assert res.returncode == 0, res.stderr
