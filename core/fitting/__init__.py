@@ -1,23 +1,37 @@
 """Identification: recordings in, invertible PI-family parameter sets and honest metrics out.
 
-* :class:`PIRegressor` — classical PI (weights by NNLS on streamed normal equations).
-* :class:`FitReport` — modelling, held-out, compensation and inverse-input errors.
-* :func:`place_thresholds` — uniform or travel-quantile threshold placement.
-* :func:`stream_gram` / :func:`solve_constrained` — the streaming linear-algebra layer.
+Estimators (sklearn style: ``fit(u, y)`` or ``fit(recording)``, ``predict(u)``, fitted
+attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), ``report_``):
+
+* :class:`PIRegressor` — classical PI; weights by NNLS on streamed normal equations.
+* :class:`DeadZoneGPIRegressor` — ``y = c + P[γ(v)]`` (paper 001 order), variable projection.
+* :class:`ModifiedPIRegressor` — Kuhnen's ``y = c0 + S[P[v] + c1]``, linear in parameters.
+* :class:`TanhGPIRegressor` — ``y = c + P[κ(v)]`` with the tanh envelope, variable projection.
+* :class:`DigitizedPIRegressor` — paper 000 digitized model from a classical fit.
+
+:class:`FitReport` holds training / held-out / compensation / inverse-input errors;
+:func:`place_thresholds`, :func:`stream_gram` and :func:`solve_constrained` are the
+building blocks.
 """
 
 from __future__ import annotations
 
+from .digitized import DigitizedPIRegressor
+from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
 from .pi import PIRegressor, fit_linear_pi
 from .thresholds import place_thresholds
 
 __all__ = [
+    "DeadZoneGPIRegressor",
+    "DigitizedPIRegressor",
     "FitReport",
+    "ModifiedPIRegressor",
     "PIRegressor",
     "PartStats",
     "Segment",
+    "TanhGPIRegressor",
     "fit_linear_pi",
     "place_thresholds",
     "solve_constrained",

@@ -13,7 +13,13 @@ from ..exceptions import ParameterError
 from ..validation import as_input_signal
 from .gram import Segment
 
-__all__ = ["Prepared", "as_recordings", "masked_range", "prepare"]
+__all__ = [
+    "Prepared",
+    "as_recordings",
+    "masked_range",
+    "prepare",
+    "unpack_recordings",
+]
 
 
 def _is_multi(x: Any) -> bool:
@@ -29,6 +35,32 @@ def as_recordings(u: Any, name: str = "u") -> tuple[list[Float1D], bool]:
     if _is_multi(u):
         return [as_input_signal(x, f"{name}[{k}]") for k, x in enumerate(u)], True
     return [as_input_signal(u, name)], False
+
+
+def _is_recording(x: Any) -> bool:
+    return all(hasattr(x, a) for a in ("t", "u", "y")) and not isinstance(x, np.ndarray)
+
+
+def unpack_recordings(u: Any, y: Any) -> tuple[Any, Any]:
+    """Allow ``fit(recording)`` / ``fit([rec1, rec2])`` (objects with ``t, u, y``).
+
+    Returns ``(u, y)`` unchanged when ``y`` is given.
+
+    Raises
+    ------
+    ParameterError
+        If ``y`` is missing and ``u`` is not a recording or a list of recordings.
+    """
+    if y is not None:
+        return u, y
+    if _is_recording(u):
+        return u.u, u.y
+    if isinstance(u, (list, tuple)) and u and all(_is_recording(r) for r in u):
+        return [r.u for r in u], [r.y for r in u]
+    raise ParameterError(
+        "y is missing: pass fit(u, y), or fit(recording) / fit([recordings]) with objects "
+        "that have t, u and y (core.recordings.Recording)"
+    )
 
 
 def _mask(m: Any, n: int, what: str, k: int) -> np.ndarray | None:
@@ -111,6 +143,7 @@ def prepare(
         Mismatched lengths or numbers of recordings, NaN/inf samples, too few training
         samples, a constant input or a constant output (each message names the problem).
     """
+    u, y = unpack_recordings(u, y)
     us, multi = as_recordings(u, "u")
     ys, multi_y = as_recordings(y, "y")
     if multi != multi_y or len(us) != len(ys):

@@ -51,7 +51,7 @@ DEFAULT_CHUNK = 8192
 COND_LIMIT = 1e10
 
 Transform = Callable[[Float1D], Float1D]
-Extra = Callable[[Float1D, Float1D], Float2D]
+Extra = Callable[[Float1D, Float1D, Float1D | None], Float2D]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,12 +70,16 @@ class Segment:
     z0 : ndarray of shape (n,), or None
         Play states before the first sample; ``None`` relaxes every operator at the first
         (transformed) input sample, ``z_i = x[0]``.
+    aux : ndarray of shape (N,), or None
+        Extra per-sample signal handed to the ``extra`` column callable (e.g. the measured
+        output when the regression target is a transformed output).
     """
 
     u: Float1D
     y: Float1D
     labels: np.ndarray | None = None
     z0: Float1D | None = None
+    aux: Float1D | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,7 +146,8 @@ def _iter_chunks(
             c = s1 - s0
             Z = zbuf[:c]
             kernels.play_matrix(xc, r, z, Z)
-            ec = extra(uc, seg.y[s0:s1]) if extra is not None else None
+            ac = None if seg.aux is None else seg.aux[s0:s1]
+            ec = extra(uc, seg.y[s0:s1], ac) if extra is not None else None
             W = _columns(xc, seg.y[s0:s1], ec, wbuf[:c])
             lab = None if seg.labels is None else seg.labels[s0:s1]
             yield Z, W, lab
@@ -182,12 +187,14 @@ def stream_gram(
     thresholds : ndarray of shape (n,)
         Play thresholds (units of the transformed input ``x``).
     n_labels : int
-        Number of Gram matrices (labels ``0..n_labels-1``; ``-1`` is skipped).
+        Number of Gram matrices (labels ``0..n_labels-1``; ``-1`` and labels
+        ``>= n_labels`` are skipped).
     transform : callable, optional
         Memoryless input map ``x = transform(u)`` applied per chunk before the play
         operators (e.g. a dead-zone or tanh envelope); identity by default.
     extra : callable, optional
-        ``extra(u_chunk, y_chunk) -> (rows, n_extra)`` memoryless extra columns.
+        ``extra(u_chunk, y_chunk, aux_chunk) -> (rows, n_extra)`` memoryless extra columns
+        (``aux_chunk`` is ``None`` when the segment has no ``aux``).
     n_extra : int
         Number of extra columns.
     chunk : int
@@ -210,9 +217,9 @@ def stream_gram(
         else:
             lo, hi = int(lab.min()), int(lab.max())
             if lo == hi:
-                groups = [] if lo < 0 else [(lo, None)]
+                groups = [] if (lo < 0 or lo >= n_labels) else [(lo, None)]
             else:
-                groups = [(g, lab == g) for g in range(max(lo, 0), hi + 1)]
+                groups = [(g, lab == g) for g in range(max(lo, 0), min(hi, n_labels - 1) + 1)]
         for g, sel in groups:
             if sel is None:
                 Zs, Ws = Z, W

@@ -82,7 +82,7 @@ def fit_linear_pi(
     train_labels: Sequence[int] = (0,),
     gram: np.ndarray | None = None,
     transform: Callable[[Float1D], Float1D] | None = None,
-    extra: Callable[[Float1D, Float1D], np.ndarray] | None = None,
+    extra: Callable[[Float1D, Float1D, Float1D | None], np.ndarray] | None = None,
     extra_lower: Float1D | None = None,
     chunk: int = DEFAULT_CHUNK,
     allow_tsqr: bool = True,
@@ -330,8 +330,8 @@ class PIRegressor:
     # ------------------------------------------------------------------ API
     def fit(
         self,
-        u: ArrayLike | Sequence[ArrayLike],
-        y: ArrayLike | Sequence[ArrayLike],
+        u: Any,
+        y: Any = None,
         *,
         train: ArrayLike | Sequence[ArrayLike] | None = None,
         test: ArrayLike | Sequence[ArrayLike] | None = None,
@@ -340,11 +340,13 @@ class PIRegressor:
 
         Parameters
         ----------
-        u : array_like of shape (N,), or list of such
+        u : array_like of shape (N,), or list of such, or Recording(s)
             Input record(s) (input units). With a list, the play states restart at every
-            recording.
-        y : array_like of shape (N,), or list of such
-            Measured output(s) (output units), same lengths as ``u``.
+            recording. A :class:`core.recordings.Recording` (or a list of them) may be
+            passed instead of ``(u, y)``.
+        y : array_like of shape (N,), or list of such, optional
+            Measured output(s) (output units), same lengths as ``u``; omitted with
+            recordings.
         train, test : array_like of bool, shape (N,), or list of such, optional
             Samples used for fitting / held-out scoring (see
             :func:`core.fitting._data.prepare` for the rules). Samples in neither still

@@ -25,7 +25,13 @@ from .._typing import Float1D
 from ..exceptions import ParameterError
 from ..kernels import njit
 
-__all__ = ["half_travels", "place_thresholds", "reversal_indices"]
+__all__ = [
+    "half_travels",
+    "place_thresholds",
+    "reversal_indices",
+    "thresholds_from_travels",
+    "travels_at",
+]
 
 #: Default fraction of the largest half-travel used as the widest threshold ("uniform").
 DEFAULT_R_FRACTION = 0.9
@@ -129,16 +135,7 @@ def half_travels(recordings: Sequence[Float1D], tol_fraction: float = 1e-3) -> F
     lo = min(float(np.min(u)) for u in recordings)
     hi = max(float(np.max(u)) for u in recordings)
     tol = tol_fraction * (hi - lo)
-    out = []
-    for u in recordings:
-        idx = reversal_indices(u, tol)
-        ext = u[np.concatenate((idx, [u.size - 1]))] if idx[-1] != u.size - 1 else u[idx]
-        out.append(np.abs(np.diff(ext)) / 2.0)
-    a = np.concatenate(out) if out else np.zeros(0)
-    a = a[a > 0]
-    if a.size == 0:
-        raise ParameterError("the input never moves, so no play thresholds can be placed")
-    return a
+    return travels_at(recordings, [reversal_indices(u, tol) for u in recordings])
 
 
 def place_thresholds(
@@ -171,10 +168,33 @@ def place_thresholds(
     ParameterError
         For an unknown rule, ``n < 1``, ``r_max <= 0`` or an input without travel.
     """
+    return thresholds_from_travels(half_travels(recordings), n, rule, r_max)
+
+
+def travels_at(signals: Sequence[Float1D], indices: Sequence[np.ndarray]) -> Float1D:
+    """Half-travels of ``signals`` between given reversal ``indices`` (one array per signal).
+
+    Used when a monotone map of the input (dead-zone, envelope) changes with the parameters
+    of a fit but its reversal samples do not.
+    """
+    out = []
+    for x, idx in zip(signals, indices, strict=True):
+        ext = x[np.concatenate((idx, [x.size - 1]))] if idx[-1] != x.size - 1 else x[idx]
+        out.append(np.abs(np.diff(ext)) / 2.0)
+    a = np.concatenate(out) if out else np.zeros(0)
+    a = a[a > 0]
+    if a.size == 0:
+        raise ParameterError("the input never moves, so no play thresholds can be placed")
+    return a
+
+
+def thresholds_from_travels(
+    a: Float1D, n: int, rule: str = "uniform", r_max: float | None = None
+) -> Float1D:
+    """Thresholds from half-travels ``a`` (see :func:`place_thresholds`)."""
     if int(n) != n or n < 1:
         raise ParameterError(f"n_operators must be a positive integer, got {n!r}")
     n = int(n)
-    a = half_travels(recordings)
     a_max = float(a.max())
     if r_max is not None and not (np.isfinite(r_max) and r_max > 0):
         raise ParameterError(f"r_max = {r_max!r} must be a finite number > 0 (input units)")
