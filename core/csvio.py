@@ -507,6 +507,12 @@ def _table(
         wide = [c.strip() for c in re.split(r"\s{2,}|\t", content[0].strip())]
         if len(wide) == len(rows[1]):
             rows[0] = wide  # names with single spaces inside, e.g. "t [s]   u [V]"
+    # a delimiter at the end of every data line makes an empty last column
+    if len(rows) > 1 and all(len(r) >= 2 and r[-1] == "" for r in rows[1:]) and (
+        rows[0][-1] == "" or len(rows[0]) == len(rows[1]) - 1
+    ):
+        rows = [r[:-1] if r[-1] == "" and len(r) == len(rows[1]) else r for r in rows]
+        notes.append(f"ignored the empty last column (every line ends with {d!r})")
     if skiprows == 0 and len(rows) > 3:
         # an instrument preamble: leading lines whose field count differs from the table's
         width = len(rows[min(len(rows) - 1, 2)])
@@ -520,10 +526,6 @@ def _table(
                 f"count differs from the table ({shown}); pass skiprows= to choose yourself"
             )
             rows, content, linenos = rows[head:], content[head:], linenos[head:]
-    # a delimiter at the end of every line makes an empty last column
-    if rows and all(len(r) >= 2 and r[-1] == "" for r in rows):
-        rows = [r[:-1] for r in rows]
-        notes.append(f"ignored the empty last column (every line ends with {d!r})")
     first = rows[0]
     if header is None:
         has_header = not all(_is_num(c, dec) for c in first)
@@ -678,7 +680,7 @@ def _convert(
         cells = [c.replace(",", ".") if "." not in c else "?" for c in cells]
     try:
         arr = np.asarray(cells, dtype=np.float64)
-        if not any("_" in c for c in cells[:1000]):
+        if not any("_" in c for c in cells):
             return arr
     except ValueError:
         pass
@@ -899,7 +901,11 @@ def read_csv(
         else:
             cand = free()
             needed = 1 + (input is None) + (output is None)
-            if len(cand) >= max(needed, 3 - (input is not None) - (output is not None)):
+            io_named = lay.header and cand and _by_name(
+                cand[:1], _INPUT_NAMES | _OUTPUT_NAMES, ("u_", "y_", "input_", "output_")
+            )
+            if not io_named and len(cand) >= max(needed,
+                                                 3 - (input is not None) - (output is not None)):
                 chosen["time"] = cand[0]
                 time_auto = True
             else:

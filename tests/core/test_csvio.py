@@ -7,6 +7,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from core.csvio import (
     CSVError,
@@ -625,3 +627,67 @@ def test_recording_without_time_round_trips_through_csv(tmp_path):
     assert not back.has_time
     np.testing.assert_array_equal(back.u, r.u)
     np.testing.assert_array_equal(back.extra["Hpk"], r.extra["Hpk"])
+
+
+def test_trailing_delimiter_on_data_lines_only_keeps_the_header():
+    body = "".join(f"{t:.2f},{u:.6f},{y:.6f},\n" for t, u, y in zip(T, U, Y, strict=True))
+    (r,) = read_csv("t_s,u_V,y_um\n" + body)
+    assert dict(r.columns) == {"time": "t_s", "input": "u_V", "output": "y_um"}
+    assert any("empty last column" in c for c in r.cleaning)
+
+
+def test_named_input_first_is_not_taken_as_time():
+    rows = [[u, y, 20.0] for u, y in zip(U, Y, strict=True)]
+    (r,) = read_csv(table(header="u,y,temp", rows=rows))
+    assert not r.has_time and r.columns["input"] == "u" and list(r.extra) == ["temp"]
+
+
+# ------------------------------------------------------------------------------ property test
+
+HEADERS = {
+    "suffix": ("t_{}", "u_V", "y_um"),
+    "bracket": ("t [{}]", "u [V]", "y [um]"),
+    "paren": ("Time ({})", "Input (V)", "Output (um)"),
+    "slash": ("t/{}", "u/V", "y/um"),
+}
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(10, 60),
+    seed=st.integers(0, 2**31),
+    sep=st.sampled_from([",", ";", "\t", "|", " "]),
+    comma=st.booleans(),
+    style=st.sampled_from([None, *HEADERS]),
+    tunit=st.sampled_from(["s", "ms"]),
+    eol=st.sampled_from(["\n", "\r\n"]),
+    comments=st.integers(0, 2),
+    encoding=st.sampled_from(["utf-8", "utf-8-sig", "utf-16", "latin-1"]),
+)
+def test_any_supported_layout_reads_back_the_values(
+    n, seed, sep, comma, style, tunit, eol, comments, encoding
+):
+    """Write the same samples in a random supported layout; the reader recovers them."""
+    rng = np.random.default_rng(seed)
+    dt = 0.001 * (1 + seed % 7)
+    t = np.arange(n) * dt
+    u = np.round(rng.normal(size=n) * 10, 4)
+    y = np.round(rng.normal(size=n), 4)
+    dec = "," if comma and sep != "," else "."
+    scale = 1000.0 if tunit == "ms" else 1.0
+    lines = [f"# comment {k}" for k in range(comments)]
+    if style is not None:
+        if sep == " " and style in ("bracket", "paren"):
+            style = "suffix"  # names with spaces need a non-space delimiter
+        lines.append(sep.join(h.format(tunit) for h in HEADERS[style]))
+    for a, b, c in zip(t * scale, u, y, strict=True):
+        lines.append(sep.join(f"{v:.6f}".replace(".", dec) for v in (a, b, c)))
+    data = eol.join(lines).encode(encoding) if encoding != "utf-8-sig" else (
+        b"\xef\xbb\xbf" + eol.join(lines).encode())
+    (r,) = read_csv(data, time_unit=None if style else tunit)
+    np.testing.assert_allclose(r.t, t, atol=1e-9)
+    np.testing.assert_array_equal(r.u, u)
+    np.testing.assert_array_equal(r.y, y)
+    assert r.has_time and r.fs == pytest.approx(1 / dt)
+    if style is not None:
+        assert (r.units["input"], r.units["output"]) == ("V", "µm")
