@@ -36,39 +36,26 @@ def _presets_module() -> Any:
         return None
 
 
-def _describe(obj: Any) -> str:
-    for attr in ("description", "title", "summary", "source"):
-        v = getattr(obj, attr, None)
+def _text(obj: Any, *keys: str) -> str:
+    for k in keys:
+        v = obj.get(k) if isinstance(obj, Mapping) else getattr(obj, k, None)
         if isinstance(v, str) and v:
             return v
-    if isinstance(obj, Mapping):
-        for key in ("description", "title", "source"):
-            if isinstance(obj.get(key), str):
-                return obj[key]
     return ""
 
 
-def available_presets() -> list[tuple[str, str]]:
-    """``(name, description)`` of every preset."""
+def available_presets() -> list[dict[str, str]]:
+    """``{"name", "title", "description"}`` of every preset, in the order to show them."""
     mod = _presets_module()
     if mod is None:
-        return [(k, v[0]) for k, v in _BUILTIN.items()]
-    items = mod.list_presets()
-    out: list[tuple[str, str]] = []
-    if isinstance(items, Mapping):
-        for k, v in items.items():
-            out.append((str(k), v if isinstance(v, str) else _describe(v)))
-        return out
-    for it in items:
+        return [{"name": k, "title": v[0], "description": ""} for k, v in _BUILTIN.items()]
+    out = []
+    for it in mod.list_presets():
         if isinstance(it, str):
-            out.append((it, ""))
-        elif isinstance(it, tuple | list) and len(it) >= 1:
-            out.append((str(it[0]), str(it[1]) if len(it) > 1 else ""))
+            out.append({"name": it, "title": "", "description": ""})
         else:
-            name = getattr(it, "name", None)
-            if name is None and isinstance(it, Mapping):
-                name = it.get("name")
-            out.append((str(name), _describe(it)))
+            out.append({"name": _text(it, "name"), "title": _text(it, "title"),
+                        "description": _text(it, "description")})
     return out
 
 
@@ -83,13 +70,13 @@ def load_preset(name: str) -> Any:
     from core.base import Model
     from core.paramset import ParameterSet, load_parameter_set, model_from_document
 
-    names = [n for n, _ in available_presets()]
-    if name not in names:
+    infos = {p["name"]: p for p in available_presets()}
+    if name not in infos:
         raise CommandError(
-            f"unknown preset {name!r}; known presets: {', '.join(names)} (see hyst preset --list)"
+            f"unknown preset {name!r}; known presets: {', '.join(infos)} (see hyst preset --list)"
         )
     mod = _presets_module()
-    desc = dict(available_presets()).get(name) or f"preset {name}"
+    desc = infos[name]["title"] or infos[name]["description"] or f"preset {name}"
     if mod is None:
         return ParameterSet.from_model(
             model_from_document(_BUILTIN[name][1]), source=f"hyst preset {name}: {desc}"
@@ -99,13 +86,6 @@ def load_preset(name: str) -> Any:
         return obj
     if isinstance(obj, Model):
         return ParameterSet.from_model(obj, source=f"hyst preset {name}: {desc}")
-    model = getattr(obj, "model", None)
-    if isinstance(model, Model):
-        units = getattr(obj, "units", None)
-        return ParameterSet.from_model(
-            model, units=units if isinstance(units, Mapping) else None,
-            source=f"hyst preset {name}: {_describe(obj) or desc}",
-        )
     if isinstance(obj, Mapping):
         if "format" in obj:
             return load_parameter_set(obj)
@@ -133,9 +113,11 @@ def run(args: argparse.Namespace) -> int:
     """List presets or write one."""
     if args.list:
         items = available_presets()
-        width = max(len(n) for n, _ in items)
-        text = "\n".join(f"{n:<{width}}  {d}" for n, d in items)
-        emit(args, text, {"presets": [{"name": n, "description": d} for n, d in items]})
+        width = max(len(p["name"]) for p in items)
+        text = "\n".join(
+            f"{p['name']:<{width}}  {p['title'] or p['description']}" for p in items
+        )
+        emit(args, text, {"presets": items})
         return 0
     if not args.name:
         raise CommandError("give a preset NAME (and --output MODEL.json), or --list")

@@ -76,14 +76,13 @@ def test_preset_list_and_write(tmp_path, capsys):
 def test_preset_paper001_example1_when_available(tmp_path, capsys):
     from app.commands.preset import available_presets
 
-    names = [n for n, _ in available_presets()]
-    name = next((n for n in names if "001" in n and ("1" in n.split("001")[-1])), None)
-    if name is None:
-        pytest.skip(f"no paper 001 Example 1 preset among {names}")
-    assert run(capsys, "preset", name, "-o", tmp_path / "e.json")[0] == 0
-    m = load_parameter_set(tmp_path / "e.json").model
-    if isinstance(m, PIModel):
-        np.testing.assert_allclose(m.slopes, [0.72, 1.32, 1.8, 2.16, 2.4, 2.52, 2.532])
+    names = [p["name"] for p in available_presets()]
+    assert "paper001-example1" in names
+    assert run(capsys, "preset", "paper001-example1", "-o", tmp_path / "e.json")[0] == 0
+    ps = load_parameter_set(tmp_path / "e.json")
+    assert isinstance(ps.model, PIModel)
+    np.testing.assert_allclose(ps.model.slopes, [0.72, 1.32, 1.8, 2.16, 2.4, 2.52, 2.532])
+    assert "Example 1" in ps.provenance.source
 
 
 def test_preset_errors(tmp_path, capsys):
