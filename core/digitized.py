@@ -46,8 +46,9 @@ previous state point (wiping-out). For one interior reversal at travel ``d`` int
 ``k`` it is at most ``(grad_k - p0) d <= (grad_k - p0) Δx_k``; with many reversals in
 different segments every play ``i`` (threshold ``r_i``, between digits ``i`` and ``i+1``)
 is off by at most ``D_i = max_{k>i} Δx_k``, so the error is at most
-``Σ_i |p_i| D_i`` (:meth:`DigitizedPI.reversal_error_bound`), which is ``>= max_k (grad_k -
-p0) Δx_k`` and equals it for a single segment. Both shrink as the segments get finer:
+``Σ_i |p_i| D_i`` (:meth:`DigitizedPI.reversal_error_bound`; tight on random inputs in the
+tests), which is ``>= max_k (grad_k - p0) Δx_k`` and equals it when all segments are equally
+long. Both shrink as the segments get finer:
 ``from_pi(..., refine=s)`` splits every segment into ``s`` equal parts (zero-weight plays
 added to the same classical model) and divides the bound by ``s``. Inputs must stay inside
 the range for these bounds (see the extrapolation rule above).
@@ -72,10 +73,12 @@ from .pi import PIModel
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
 __all__ = [
+    "MAX_GRAPH_DIGITS",
     "DigitizedPI",
     "DigitizedState",
     "DigitizedTrace",
     "StateGraph",
+    "as_digits",
     "digit_string",
     "digits_from_code",
     "digits_to_code",
