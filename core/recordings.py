@@ -16,7 +16,7 @@ from __future__ import annotations
 import csv
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Literal
@@ -182,6 +182,16 @@ class Recording:
                 raise ParameterError(f"lines has shape {li.shape}, expected ({n},) like t")
             li.flags.writeable = False
             object.__setattr__(self, "lines", li)
+
+    def __reduce__(self) -> tuple[Any, tuple[dict[str, Any]]]:
+        """Pickle / deepcopy support (the read-only mappings are stored as plain dicts)."""
+        state = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, MappingProxyType):
+                v = dict(v)
+            state[f.name] = v
+        return (_rebuild, (state,))
 
     # ------------------------------------------------------------------ properties
     @property
@@ -489,3 +499,8 @@ class Recording:
             f"u [{self.units['input']}], y [{self.units['output']}]{run}, "
             f"{len(self.cleaning)} cleaning note(s))"
         )
+
+
+def _rebuild(state: dict[str, Any]) -> Recording:
+    """Inverse of :meth:`Recording.__reduce__`."""
+    return Recording(**state)

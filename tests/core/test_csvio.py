@@ -560,6 +560,17 @@ def test_to_csv_round_trips_exactly(rec, tmp_path):
     assert "# cleaning: window t ∈ [1, 8) s" in p.read_text(encoding="utf-8")
 
 
+def test_recording_pickles_and_deep_copies(rec):
+    import copy
+    import pickle
+
+    w = rec.window(1.0, 2.0)
+    for back in (pickle.loads(pickle.dumps(w)), copy.deepcopy(w)):
+        np.testing.assert_array_equal(back.u, w.u)
+        np.testing.assert_array_equal(back.extra["temp"], w.extra["temp"])
+        assert dict(back.units) == dict(w.units) and back.cleaning == w.cleaning
+
+
 def test_recording_validates_its_arrays():
     with pytest.raises(ParameterError, match="Recording.y has 2 samples but t has 3"):
         Recording([0, 1, 2], [0, 1, 2], [0, 1])
