@@ -83,16 +83,19 @@ class CSVError(ParameterError):
         1-based line of the problem in the file, when there is one.
     column : str or None
         Column name (or ``"column 3"``) of the problem, when there is one.
+    column_index : int or None
+        0-based index of that column, when known.
     """
 
     def __init__(
         self, message: str, *, source: str = "", line: int | None = None,
-        column: str | None = None,
+        column: str | None = None, column_index: int | None = None,
     ) -> None:
         super().__init__(message)
         self.source = source
         self.line = line
         self.column = column
+        self.column_index = column_index
 
 
 # --------------------------------------------------------------------------- names/units
@@ -709,7 +712,7 @@ def _convert(
             raise CSVError(
                 f"{table.layout.source}: line {line}, column {col.label()} ({role}): "
                 f"{original!r} is not a number; {hint}",
-                source=table.layout.source, line=line, column=col.raw,
+                source=table.layout.source, line=line, column=col.raw, column_index=col.index,
             ) from None
     return out
 
@@ -740,7 +743,7 @@ def _convert_time(table: _Table, col: ColumnInfo) -> tuple[np.ndarray, str | Non
         raise CSVError(
             f"{table.layout.source}: time column {col.label()} mixes date-times with and "
             f"without a time zone ({exc}); write them all the same way",
-            source=table.layout.source, column=col.raw,
+            source=table.layout.source, column=col.raw, column_index=col.index,
         ) from None
     return out, f"time column {col.raw!r} holds date-times; converted to seconds since {t0}"
 
@@ -876,6 +879,7 @@ def read_csv(
             raise CSVError(
                 f"{label}: {taken[c.index]} and {role} both refer to column {c.label()}; "
                 "pick a different column for one of them", source=label, column=c.raw,
+                column_index=c.index,
             )
 
     def free() -> list[ColumnInfo]:
@@ -943,7 +947,7 @@ def read_csv(
             raise CSVError(
                 f"{label}: time column {tcol.label()} has unit {unit!r}, which is not a time "
                 f"unit ({', '.join(sorted(set(_TIME_SCALE)))}); pass time_unit= or pick "
-                "another column with time=", source=label, column=tcol.raw,
+                "another column with time=", source=label, column=tcol.raw, column_index=tcol.index,
             )
         t_scale = _TIME_SCALE[unit]
         if t_scale != 1.0:
@@ -1016,6 +1020,7 @@ def read_csv(
                     f"finite number{where} ({int(bad.sum())} such row(s)); fill in the value "
                     "or pass nan='drop' to remove those rows",
                     source=label, line=int(lines[first]), column=which.raw,
+                    column_index=which.index,
                 )
             frac = bad.sum() / bad.size
             if frac > max_dropped:
@@ -1025,6 +1030,7 @@ def read_csv(
                     f"at line {lines[first]}, column {which.raw!r}: {cell!r}); that is more "
                     f"than max_dropped={max_dropped:g}; check the export or raise max_dropped",
                     source=label, line=int(lines[first]), column=which.raw,
+                    column_index=which.index,
                 )
             bad_lines = [int(x) for x in lines[bad]]
             notes.append(
@@ -1051,7 +1057,7 @@ def read_csv(
                 f"{label}{where}: the input column {ucol.label()} is constant "
                 f"({u[0]:g} {ucol.unit}) on all {u.size} samples: no excitation, nothing to "
                 "identify; pick the excitation column with input= (available: "
-                f"{_available(cols)})", source=label, column=ucol.raw,
+                f"{_available(cols)})", source=label, column=ucol.raw, column_index=ucol.index,
             )
         columns = {"time": tcol.raw if tcol else "", "input": ucol.raw, "output": ycol.raw}
         if rcol is not None:
@@ -1109,7 +1115,7 @@ def _check_time(
             f"{label}: time stamp missing (empty/NaN/inf) in column {tcol.label()}{where} at "
             f"line(s) {_lines_text(ml)}; fill in the time stamps, or pass time=False (sample "
             "index) or fs= if the samples are evenly spaced",
-            source=label, line=ml[0], column=tcol.raw,
+            source=label, line=ml[0], column=tcol.raw, column_index=tcol.index,
         )
     d = np.diff(t)
     if (d <= 0).any():
@@ -1122,7 +1128,7 @@ def _check_time(
                 f"({what} at line {b}: {t[i + 1]:g} after {t[i]:g} at line {a}), so it cannot "
                 "be the time axis; pass time=<column> (name or index), or time=False if the "
                 "file has no time column, together with input= and output=",
-                source=label, line=b, column=tcol.raw,
+                source=label, line=b, column=tcol.raw, column_index=tcol.index,
             )
         step = (
             f"line {b} repeats t = {t[i + 1]:g} s of line {a}" if d[i] == 0 else
@@ -1132,7 +1138,7 @@ def _check_time(
             f"{label}: time stamps must strictly increase, but {step}{where} ({what} time "
             f"stamp in column {tcol.label()}); remove the duplicated/out-of-order rows or sort "
             "the file by time",
-            source=label, line=b, column=tcol.raw,
+            source=label, line=b, column=tcol.raw, column_index=tcol.index,
         )
     if t.size >= 3:
         mean = (t[-1] - t[0]) / (t.size - 1)
@@ -1155,6 +1161,7 @@ def _check_time(
                         "uniform grid (or resample=<dt in s>), or uneven='keep' if your model "
                         "does not depend on dt",
                         source=label, line=int(lines[j + 1]), column=tcol.raw,
+                        column_index=tcol.index,
                     )
                 notes.append(msg + "; kept as measured (uneven='keep')")
     return t

@@ -402,7 +402,7 @@ def test_non_numeric_cell_names_line_column_and_value():
     with pytest.raises(CSVError, match=r"line 17, column 'u_V' \(column 1\) \(input\): '12\.5V' "
                                        r"is not a number") as ei:
         read_csv(text)
-    assert (ei.value.line, ei.value.column) == (17, "u_V")
+    assert (ei.value.line, ei.value.column, ei.value.column_index) == (17, "u_V", 1)
     text = with_line(table(), 5, "0.030000,1.0,2,5")
     with pytest.raises(CSVError, match="line 5 has 4 field"):
         read_csv(text)
