@@ -84,9 +84,11 @@ def reversal_input(rng: np.random.Generator, n: int, amp: float) -> np.ndarray:
     return np.concatenate(out)[:n]
 
 
-def build_and_run(tmp: Path, model: Model | ParameterSet, name: str, u: np.ndarray) -> np.ndarray:
+def build_and_run(
+    tmp: Path, model: Model | ParameterSet, name: str, u: np.ndarray, dt: float | None = None
+) -> np.ndarray:
     """Generate, compile with gcc and run; returns (N+1, 3) outputs (last row: reset check)."""
-    code = generate_c(model, name)
+    code = generate_c(model, name, dt=dt)
     code.write(tmp)
     (tmp / "driver.c").write_text(DRIVER.replace("NAME", name))
     exe = tmp / "drv"
@@ -254,3 +256,22 @@ def test_other_stage_types_match_python(key, tmp_path, rng):
     if exact:
         np.testing.assert_allclose(round_trip_c, u, rtol=0, atol=1e-9 * scale)
     np.testing.assert_array_equal(out[-1], [inv_c[0], round_trip_c[0], fwd_c[0]])
+
+
+@needs_gcc
+def test_linear_dynamics_with_baked_in_dt(tmp_path, rng):
+    from core.lti import LinearSystem
+
+    g = LinearSystem([0.5, 1.0], [0.01, 1.0])  # biproper, minimum phase: invertible
+    model = Chain.of(EX1, g)
+    dt = 1e-4
+    u = reversal_input(rng, 20_000, 6.0)
+    out = build_and_run(tmp_path, model, "dyn", u, dt=dt)
+    inv_c, round_trip_c, fwd_c = out[:-1].T
+    np.testing.assert_allclose(fwd_c, model(u, dt=dt), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(inv_c, model.inverse()(u, dt=dt), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(round_trip_c, u, rtol=0, atol=1e-9)
+    with pytest.raises(CExportError, match="has dynamics .*give the sample time"):
+        generate_c(model)
+    strictly_proper = Chain.of(EX1, LinearSystem([1.0], [0.01, 1.0]))
+    assert "dt = 0.001" in generate_c(strictly_proper, inverse=False, dt=1e-3).source
