@@ -367,3 +367,15 @@ def test_fit_other_model_families(family, tmp_path, capsys):
              str(tmp_path / "c.c"), "-o", str(tmp_path / "c.o")], capture_output=True, text=True,
         )
         assert res.returncode == 0, res.stderr
+
+
+def test_export_c_of_a_dynamic_model_needs_dt(tmp_path, capsys):
+    from core.lti import LinearSystem
+
+    ps = ParameterSet.from_model(EX1 >> LinearSystem([0.5, 1.0], [0.01, 1.0]))
+    path = ps.save(tmp_path / "dyn.json")
+    code, _, err = run(capsys, "export", path, "-f", "c", "-o", tmp_path / "d.c")
+    assert code == 2 and "--dt" in err
+    code, _, err = run(capsys, "export", path, "-f", "c", "--dt", "1e-4", "-o", tmp_path / "d.c")
+    assert code == 0, err
+    assert "dt = 0.0001" in (tmp_path / "d.h").read_text()
