@@ -31,7 +31,7 @@ from ..base import Model
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from .data import Record, as_records, split_masks, wipeout_index
-from .locate import Coordinates, coordinates, residual_maps, where_improved
+from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
 from .structure import Fit, Structure, _Cache, fit_structure, place_thresholds
 
@@ -588,8 +588,8 @@ def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
     for rec, c, tr, te in zip(recs, ctx.coords, ctx.train, ctx.test, strict=True):
         use = tr | te
         for st in c.step_starts:
-            n_hold = int(np.argmax(~c.hold[st:]) if (~c.hold[st:]).any() else rec.n - st)
-            if n_hold * rec.dt >= 0.5 and use[st : st + n_hold].any():
+            h0, n_hold = hold_after(c, int(st), rec.dt)
+            if n_hold * rec.dt >= 0.5 and use[h0 : h0 + n_hold].any():
                 has_hold = True
     if not has_hold:
         out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
@@ -674,6 +674,7 @@ def diagnose(
     n_operators: int = 25,
     effects: Sequence[str] | None = None,
     max_effects: int = 5,
+    auto_resolution: bool = True,
 ) -> DiagnosisResult:
     """Locate, name, model and validate the physics a PI model leaves out.
 
@@ -688,6 +689,9 @@ def diagnose(
         By default each recording is cut into interleaved train/test blocks.
     n_operators : int
         Play operators of the baseline (uniform thresholds).
+    auto_resolution : bool
+        Also try twice as many operators and keep them if the held-out fit improves (≥ 2 %,
+        z ≥ 2): an under-resolved baseline must not be mistaken for missing physics.
     effects : sequence of str, optional
         Effects to test (default: all of :data:`core.effects.EFFECT_TYPES`).
     max_effects : int
@@ -713,9 +717,20 @@ def diagnose(
     records = as_records(recordings)
     trm, tem, desc = split_masks(records, train, test)
     ctx = _Ctx(records, trm, tem)
-    r = place_thresholds(records, trm, n_operators)
-    base_s = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
-    base = ctx.fit(base_s)
+    # under-resolution check (notes E13): double the grid while the held-out fit improves
+    base = None
+    for n_try in (n_operators, 2 * n_operators):
+        r = place_thresholds(records, trm, n_try)
+        s_try = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
+        f_try = ctx.fit(s_try)
+        if base is not None:
+            h = heldout_comparison(ctx.test_res(base), ctx.test_res(f_try))
+            if not (h.gain >= 0.02 and h.z >= 2.0):
+                break
+        base = f_try
+        if not auto_resolution:
+            break
+    assert base is not None
     cur = base
     res0 = ctx.all_res(base)
     noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(res0, tem,
@@ -904,8 +919,8 @@ def _sign_locking(ctx: _Ctx, cur: Fit) -> dict[str, Any]:
     signs, trends = [], []
     for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
         e = rec.y - p
-        for st in c.step_starts:
-            n_hold = int(np.argmax(~c.hold[st:]) if (~c.hold[st:]).any() else rec.n - st)
+        for st0 in c.step_starts:
+            st, n_hold = hold_after(c, int(st0), rec.dt)
             if n_hold * rec.dt < 0.5:
                 continue
             seg = e[st : st + n_hold]

@@ -15,7 +15,7 @@ import numpy as np
 from .._typing import Float1D
 from .data import Record, reversal_points
 
-__all__ = ["Coordinates", "coordinates", "residual_maps", "where_improved"]
+__all__ = ["Coordinates", "coordinates", "hold_after", "residual_maps", "where_improved"]
 
 
 class Coordinates:
@@ -56,6 +56,18 @@ class Coordinates:
             self.since_step = np.full(u.size, np.nan)
         self.hold = still
         self.tol = tol
+
+
+def hold_after(c: Coordinates, st: int, dt: float, within_s: float = 0.02) -> tuple[int, int]:
+    """Start index and length (samples) of the hold that begins within ``within_s`` of ``st``."""
+    w = max(1, int(round(within_s / dt)))
+    seg = c.hold[st : st + w]
+    if not seg.any():
+        return st, 0
+    h0 = st + int(np.argmax(seg))
+    rest = c.hold[h0:]
+    n = int(np.argmax(~rest)) if (~rest).any() else int(rest.size)
+    return h0, n
 
 
 def coordinates(records: Sequence[Record]) -> list[Coordinates]:

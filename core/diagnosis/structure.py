@@ -41,9 +41,10 @@ __all__ = ["Fit", "Structure", "fit_structure", "place_thresholds"]
 
 
 def place_thresholds(records: Sequence[Record], masks: Sequence[np.ndarray], n: int) -> Float1D:
-    """Uniform thresholds ``r_i = 0.95 · a_max · i / n`` with ``a_max`` the largest half-travel.
+    """Uniform thresholds ``r_i = 0.95 · a_max · i / n``.
 
-    The half-travels are measured between input reversals inside the training rows.
+    ``a_max`` is the largest half-travel between input reversals inside the training rows, or
+    the largest excursion from the first sample (plays start at rest there), if larger.
     """
     from .data import reversal_points
 
@@ -56,6 +57,8 @@ def place_thresholds(records: Sequence[Record], masks: Sequence[np.ndarray], n: 
         idx = reversal_points(u, 1e-3 * span)
         ext = u[np.concatenate((idx, [u.size - 1]))]
         a_max = max(a_max, float(np.max(np.abs(np.diff(ext)))) / 2.0)
+        # from the (virgin) initial state the first travel moves plays up to its full length
+        a_max = max(a_max, float(np.max(np.abs(r.u - r.u[0]))))
     if a_max <= 0:
         from ..exceptions import ParameterError
 
@@ -296,18 +299,20 @@ def fit_structure(
                         [foh_filter(x, [1.0], [tau, 1.0], rec.dt)[0] - x for tau in s.creep_taus]
                     )
                     cols.append(L)
-            M = np.column_stack(cols)
-            M = _dyn_filter(M, s.dynamics, rec.dt)
-            bias = np.zeros((last, n_bias))
+            M = cols[0] if len(cols) == 1 else np.column_stack(cols)
+            if s.dynamics:
+                M = _dyn_filter(M, s.dynamics, rec.dt)
+            nm = int(m.sum())
+            bias = np.zeros((nm, n_bias))
             bias[:, k if s.offsets else 0] = 1.0
             extra = [bias]
             if s.drift_degree:
-                D = np.zeros((last, n_drift))
+                D = np.zeros((nm, n_drift))
                 D[:, k * s.drift_degree : (k + 1) * s.drift_degree] = _legendre_cols(
                     rec.t, s.drift_degree
-                )[:last]
+                )[:last][m]
                 extra.append(D)
-            blocks.append(np.column_stack([M] + extra)[m])
+            blocks.append(np.column_stack([M[m]] + extra))
         X = np.concatenate(blocks, axis=0)
         nonneg = np.zeros(X.shape[1], dtype=bool)
         nonneg[:nb] = True
