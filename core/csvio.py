@@ -100,13 +100,13 @@ class CSVError(ParameterError):
 
 # --------------------------------------------------------------------------- names/units
 _UNIT_TOKENS = frozenset(
-    """s ms us µs ns min h Hz kHz V mV uV µV kV A mA uA µA m mm um µm nm cm in ft mil
+    """s sec ms us µs ns min h Hz kHz V mV uV µV kV A mA uA µA m mm um µm nm cm in ft mil
     N kN mN uN µN lb lbf kip kips Pa kPa MPa GPa psi bar T mT uT µT G Am Apm Wb W mW
     kW J rad deg g kg degC K C F pF nF uF µF Ohm ohm percent pct rpm""".split()
 )
 _UNIT_NORMALISE = {
     "us": "µs", "uV": "µV", "uA": "µA", "um": "µm", "uN": "µN", "uT": "µT", "uF": "µF",
-    "Am": "A/m", "Apm": "A/m", "ohm": "Ohm", "percent": "%", "pct": "%", "kips": "kip",
+    "sec": "s", "Am": "A/m", "Apm": "A/m", "ohm": "Ohm", "percent": "%", "pct": "%", "kips": "kip",
 }
 _TIME_SCALE = {
     "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,

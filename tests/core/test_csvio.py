@@ -131,7 +131,8 @@ def test_decimal_comma_small_example_and_forced():
         ("Force (kN)", "Force", "kN"), ("u/V", "u", "V"), ("u_disp_in", "u_disp", "in"),
         ("velocity_in_per_s", "velocity", "in/s"), ("u_H_Am", "u_H", "A/m"),
         ("y_B_T", "y_B", "T"), ("u_disp", "u_disp", ""), ("Time", "Time", ""),
-        ("  y [ mm ] ", "y", "mm"), ("act_force1_lb", "act_force1", "lb"), ("loop", "loop", ""),
+        ("  y [ mm ] ", "y", "mm"), ("Time_sec", "Time", "s"), ("Zeit/s", "Zeit", "s"),
+        ("act_force1_lb", "act_force1", "lb"), ("loop", "loop", ""),
     ],
 )
 def test_unit_suffixes_are_parsed(raw, name, unit):
