@@ -167,12 +167,12 @@ def test_play_state_matches_classical_history() -> None:
 
 
 def grid_walk(d: DigitizedPI, rng: np.random.Generator, moves: int, per: int = 5) -> np.ndarray:
-    """Input that reverses at state points only (runs of random up/down moves).
+    """Input that reverses at state points only (runs of random up/down moves from state0).
 
     Every state point passed is sampled exactly; between them the input is a ramp.
     """
-    digits = np.zeros(d.n, dtype=np.uint8)
-    points = [d.x0]
+    digits = np.array(d.state0)
+    points = [d.state_point()[0]]
     for _ in range(moves):
         up = rng.random() < 0.5
         for _ in range(int(rng.integers(1, 4))):
@@ -642,3 +642,22 @@ def test_hypercube_layout() -> None:
     assert len({tuple(np.round(p, 9)) for p in xy}) == 8  # distinct positions
     big = DigitizedPI(np.ones(12), np.ones(12)).state_graph().hypercube_xy()
     assert len({tuple(np.round(p, 9)) for p in big}) == 2**12
+
+
+@settings(max_examples=50, deadline=None)
+@given(dig_params, st.integers(0, 2**32 - 1))
+def test_any_digitized_model_equals_its_classical_form(params, seed) -> None:
+    # any H, origin and state: to_pi(state) + classical_offset reproduces the digitized
+    # output along paths that reverse at state points (play_state is the classical memory)
+    d = DigitizedPI(*params)
+    if d.n < 2:
+        return
+    rng = np.random.default_rng(seed)
+    st0 = d.default_state()
+    c = d.to_pi(st0)
+    v = grid_walk(d, rng, 20)
+    assert v[0] == st0.x_b  # starts at the state point of state0
+    scale = max(1.0, float(np.max(np.abs(d.y_range))))
+    np.testing.assert_allclose(
+        d.simulate(v, state=st0).y, c(v) + d.classical_offset, rtol=0, atol=1e-11 * scale
+    )
