@@ -388,10 +388,10 @@ class PIRegressor:
         if not (np.isfinite(eps) and eps > 0):
             raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
         cv_scores: dict[int, float | None] = {}
+        chosen: tuple[Float1D, np.ndarray] | None = None
         if n_fixed is None:
             K = int(self.cv_blocks)
             segs = prep.segments(K)
-            best = None
             results = {}
             for n in sorted(set(int(c) for c in self.candidates)):
                 if prep.n_train < 3 * (n + 3) * K // (K - 1):
@@ -404,14 +404,24 @@ class PIRegressor:
                 cv_scores[n] = float(np.sqrt(sse / prep.n_train))
                 results[n] = (r, gram)
             valid = {n: s for n, s in cv_scores.items() if s is not None}
-            best_score = min(valid.values())
-            best = min(n for n, s in valid.items() if s <= (1 + self.tolerance) * best_score)
-            n = best
-            r, gram = results[n]
-            train_labels = tuple(range(K))
-            test_label = K
+            if valid:
+                best_score = min(valid.values())
+                n = min(n for n, s in valid.items() if s <= (1 + self.tolerance) * best_score)
+                chosen = results[n]
+                train_labels: tuple[int, ...] = tuple(range(K))
+                test_label = K
+            else:  # too few samples to cross-validate: smallest candidate, no CV
+                n_fixed = min(int(c) for c in self.candidates)
+                warnings.warn(
+                    f"only {prep.n_train} training samples: too few for {K}-block "
+                    f"cross-validation, using n_operators = {n_fixed}",
+                    FitWarning,
+                    stacklevel=2,
+                )
+        if chosen is not None:
+            r, gram = chosen
         else:
-            n = int(n_fixed)
+            n = int(n_fixed)  # type: ignore[arg-type]
             segs = prep.segments(1)
             r = r_exp if explicit else self._thresholds_for(prep, n)
             gram = stream_gram(segs, r, n_labels=2, chunk=self.chunk)
@@ -449,7 +459,7 @@ class PIRegressor:
         self.weights_ = fit.weights
         self.offset_ = fit.offset
         self.n_operators_ = n
-        self.cv_scores_ = cv_scores if n_fixed is None else {}
+        self.cv_scores_ = cv_scores
         self.min_slope_ = eps
         self.model_ = PIModel(fit.p0, r, fit.weights, np.full(n, float(prep.us[0][0])))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))

@@ -140,3 +140,15 @@ def test_recording_objects_and_errors():
             cls().predict(u)
     with pytest.raises(NotFittedError):
         DigitizedPIRegressor().predict(u)
+
+
+def test_tanh_gpi_asymmetric_branches():
+    u = _input()
+    env = TanhEnvelope([1.0, 0.8, 0.1, 0.0], [1.0, 0.8, -0.1, 0.05])
+    y = TanhGPI(_relaxed(float(env(u[:1])[0])), env)(u)
+    est = TanhGPIRegressor(n_operators=10, asymmetric=True).fit(u, y)
+    a, b = est.envelope_.a, est.envelope_.b
+    np.testing.assert_allclose([a[1], b[1]], [0.8, 0.8], rtol=0.05)
+    np.testing.assert_allclose([a[2], b[2], b[3]], [0.1, -0.1, 0.05], atol=0.02)
+    sym = TanhGPIRegressor(n_operators=10).fit(u, y)
+    assert est.report_.test.rmse < 0.5 * sym.report_.test.rmse

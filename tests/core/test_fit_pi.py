@@ -231,3 +231,10 @@ def test_threshold_placement_rules():
     # reversal detection ignores noise smaller than the tolerance
     noisy = sine + 1e-4 * np.random.default_rng(0).normal(size=sine.size)
     assert reversal_indices(noisy, 1e-2).size == 8  # start (a peak) + 7 inner turning points
+
+
+def test_too_few_samples_for_cross_validation_falls_back_with_warning():
+    u = _tapered(33)  # 26 training samples: fits n = 5, too few for 5-block CV
+    with pytest.warns(FitWarning, match="cross-validation"):
+        est = PIRegressor().fit(u, TRUE(u))
+    assert est.n_operators_ == 5 and est.model_.is_invertible
