@@ -62,9 +62,9 @@ __all__ = [
 ]
 
 #: Default size limit of one CSV (bytes).
-MAX_BYTES = 256 * 2**20
+MAX_BYTES = 64 * 2**20
 #: Default limit on the number of data rows of one CSV.
-MAX_ROWS = 10_000_000
+MAX_ROWS = 2_000_000
 #: Default smallest number of samples per recording.
 MIN_SAMPLES = 10
 
@@ -202,7 +202,9 @@ class ColumnInfo:
         return self.name.lower()
 
     def label(self) -> str:
-        """``'u_V' (column 1)`` for messages."""
+        """``'u_V' (column 1)`` for messages (``column 1`` without a header)."""
+        if self.raw == f"column {self.index}":
+            return self.raw
         return f"{self.raw!r} (column {self.index})"
 
 
@@ -710,7 +712,7 @@ def _convert(
             elif i == 0 and not table.layout.header:
                 hint = "if that line holds column names, pass header=True"
             raise CSVError(
-                f"{table.layout.source}: line {line}, column {col.label()} ({role}): "
+                f"{table.layout.source}: line {line}, {role} column {col.label()}: "
                 f"{original!r} is not a number; {hint}",
                 source=table.layout.source, line=line, column=col.raw, column_index=col.index,
             ) from None
@@ -826,7 +828,8 @@ def read_csv(
     citation : str
         Attribution stored in every returned recording.
     max_bytes, max_rows : int
-        Size limits (default 256 MiB and 10 million rows); larger files raise ``CSVError``.
+        Size limits (default 64 MiB and 2 million rows, which keep the memory
+        of the text parse below about 1 GB); larger files raise ``CSVError``.
 
     Returns
     -------
