@@ -238,3 +238,16 @@ def test_too_few_samples_for_cross_validation_falls_back_with_warning():
     with pytest.warns(FitWarning, match="cross-validation"):
         est = PIRegressor().fit(u, TRUE(u))
     assert est.n_operators_ == 5 and est.model_.is_invertible
+
+
+def test_full_model_json_round_trip_reproduces_predictions(rng):
+    from core.base import model_from_dict
+
+    u = _tapered(3000)
+    y = TRUE(u) + 0.5 + 0.01 * rng.normal(size=u.size)
+    est = PIRegressor(n_operators=8).fit(u, y)
+    doc = json.loads(json.dumps(est.full_model_.to_dict()))
+    assert [s["type"] for s in doc["stages"]] == ["pi", "offset"]
+    loaded = model_from_dict(doc)
+    np.testing.assert_allclose(loaded(u), est.predict(u), atol=1e-12)
+    np.testing.assert_allclose(loaded(loaded.inverse()(y)), y, atol=1e-9)
