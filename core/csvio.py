@@ -7,23 +7,31 @@ objects. It works out the layout by itself and says what it did:
   NUL or other control bytes mean a binary file and are an error.
 * **Delimiter**: comma, semicolon, tab, ``|`` or runs of whitespace, chosen with
   :class:`csv.Sniffer` and checked by splitting the first lines with every candidate: the
-  delimiter that gives a constant number (>= 2) of numeric fields wins.
+  delimiter that gives a constant number (>= 2) of numeric fields wins. An Excel
+  ``sep=;`` first line sets it.
 * **Decimal comma** (``1,5;2,7``) is detected when the delimiter is not a comma, or forced
-  with ``decimal=","``.
+  with ``decimal=","``; a ``.`` in a decimal-comma file is then an error, not a number.
 * **Header**: present when the first row holds a non-numeric cell (or forced with
   ``header=True/False``). An optional second row holding only units (``(s),(V)``, as
-  PicoScope writes) is read as units. Lines starting with ``#`` are comments.
+  PicoScope writes) is read as units. Lines starting with ``#`` are comments; leading
+  instrument-preamble lines whose field count differs from the table are skipped (noted),
+  or skip them yourself with ``skiprows=``. Blank lines and lines of bare delimiters are
+  ignored (noted when inside the data), as is an empty last column from a trailing
+  delimiter.
 * **Units** come from column names: ``t_s``, ``u_V``, ``y_um``, ``velocity_in_per_s``
   (underscore + a known unit), ``t [s]``, ``Force (kN)``, ``u/V`` (any unit). Time in
-  ``ms``, ``µs``, ``ns``, ``min`` or ``h`` is converted to seconds (noted).
+  ``ms``, ``µs``, ``ns``, ``min`` or ``h`` is converted to seconds (noted); ISO date-times
+  (``2024-03-01 12:00:00.125``) become seconds since the first stamp (noted).
 * **Columns** are picked by name (case- and unit-insensitive: ``"force"`` matches
   ``Force (kN)``) or 0-based index. Defaults: a column named ``t``/``time`` is the time;
   one named ``run``/``record``/``loop``/``trial`` splits the file into several
   recordings; a sample-index column (``k``, ``index``, ``sample``) means "no time axis";
   input and output are the columns named ``u``/``u_*``/``input`` and
-  ``y``/``y_*``/``output``, otherwise the next unused columns in file order. Without a
-  header the first three columns are time, input, output (two columns: input, output,
-  no time). Every other column is kept in ``Recording.extra``.
+  ``y``/``y_*``/``output``, otherwise the next unused columns in file order. Without such
+  names the first three columns are time, input, output, and the first one must strictly
+  increase (else ``CSVError`` asks for ``time=`` or ``time=False``); with two columns they
+  are input and output without time (sample index, or ``k / fs`` with ``fs=``). Every other
+  column is kept in ``Recording.extra`` (as text when it is not numeric).
 
 Problems raise :class:`CSVError` (a :class:`~core.exceptions.ParameterError`, hence a
 ``ValueError``) whose message says what is wrong, where (line, column) and what to do.
@@ -800,7 +808,8 @@ def read_csv(
     header : bool, optional
         Whether the first row holds column names; detected when omitted.
     skiprows : int
-        Lines to skip before the header (instrument preambles).
+        Lines to skip before the header (instrument preambles; with 0, leading lines whose
+        field count differs from the table are skipped and noted).
     encoding : str, optional
         Text encoding; detected when omitted.
     name : str, optional
