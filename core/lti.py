@@ -103,7 +103,7 @@ class LinearSystem(Model):
     >>> g.dc_gain
     1.0
     >>> y = g([1.0] * 5, dt=0.01)                 # step response 1 - exp(-k dt/τ)
-    >>> round(float(y[2]), 6)
+    >>> round(float(y[1]), 6)
     0.632121
     """
 
