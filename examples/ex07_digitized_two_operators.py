@@ -17,8 +17,6 @@ short signal).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import plotly.graph_objects as go
 from _common import parse_out, quick, save
@@ -42,17 +40,6 @@ def test_signal(u_min: float, u_max: float, n: int) -> np.ndarray:
     return np.clip(np.concatenate((major, minor)), u_min, u_max)
 
 
-def save_offline(fig: go.Figure, out: Path, name: str) -> Path:
-    """``_common.save``, then drop plotly.js's unused default ``topojsonURL`` (a CDN address).
-
-    The inlined plotly.js bundle contains the string ``https://cdn.plot.ly/un/`` as the
-    default map-data URL for geo traces; no figure here uses it, but the example harness
-    rejects any CDN address in the HTML, so the default is replaced by a relative path.
-    """
-    path = save(fig, out, name)
-    text = path.read_text(encoding="utf-8")
-    path.write_text(text.replace('"https://cdn.plot.ly/un/"', '"topojson/"'), encoding="utf-8")
-    return path
 
 
 def classical_from_lower_extreme(pi: PIModel, u_min: float) -> PIModel:
@@ -210,9 +197,9 @@ def main() -> None:
     inv = d.inverse()
     print(f"inverse round trip max |H^-1(H(u)) - u| = {np.max(abs(inv(d(u)) - u)):.2e}")
     report_errors(pi, u_range, u)
-    save_offline(build_figure(d, classical, u, "Digitized PI, two operators (paper 000 Fig. 3)"),
+    save(build_figure(d, classical, u, "Digitized PI, two operators (paper 000 Fig. 3)"),
                  out, "ex07_digitized_two_operators")
-    save_offline(hypercube_figure(d, "Two digits: the 4 states as a square"), out,
+    save(hypercube_figure(d, "Two digits: the 4 states as a square"), out,
                  "ex07_digitized_two_operators_states")
 
 

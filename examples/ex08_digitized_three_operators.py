@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 import plotly.graph_objects as go
-from _common import parse_out, quick
+from _common import parse_out, quick, save
 from ex07_digitized_two_operators import (
     build_figure,
     classical_from_lower_extreme,
@@ -27,7 +27,6 @@ from ex07_digitized_two_operators import (
     hypercube_figure,
     print_tables,
     report_errors,
-    save_offline,
     test_signal,
 )
 from plotly.subplots import make_subplots
@@ -77,9 +76,9 @@ def main() -> None:
     print(f"signal with interior reversals: max |digitized - classical| = {np.max(abs(e)):.4f}"
           f" (bound {d.reversal_error_bound():.4f})")
     report_errors(pi, u_range, u)
-    save_offline(build_figure(d, classical, u, "Digitized PI, three operators (paper 000 Fig. 4)"),
+    save(build_figure(d, classical, u, "Digitized PI, three operators (paper 000 Fig. 4)"),
                  out, "ex08_digitized_three_operators")
-    save_offline(hypercube_figure(d, "Three digits: the 8 states as a cube"), out,
+    save(hypercube_figure(d, "Three digits: the 8 states as a cube"), out,
                  "ex08_digitized_three_operators_states")
 
     # Modified PI: dead zones on the output (Kuhnen order), thresholds ρ with ρ0 = 0.
@@ -100,7 +99,7 @@ def main() -> None:
     v_c = m.inverse()(x_d)
     rmse = float(np.sqrt(np.mean((m(v_c) - x_d) ** 2)))
     print(f"compensation of a changing-amplitude sine: RMSE {rmse:.2e} (exact inverse)")
-    save_offline(modified_pi_figure(m, v, x_d), out, "ex08_digitized_modified_pi")
+    save(modified_pi_figure(m, v, x_d), out, "ex08_digitized_modified_pi")
 
 
 if __name__ == "__main__":
