@@ -6,6 +6,9 @@ Import-light on purpose: no web or plotting libraries are imported here.
 from __future__ import annotations
 
 from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
+from .deadzone import DeadZoneMap
+from .digitized import DigitizedPI, DigitizedState, DigitizedTrace, StateGraph
+from .digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
 from .exceptions import (
     ClippedInputWarning,
     FitWarning,
@@ -14,11 +17,34 @@ from .exceptions import (
     NotInvertibleError,
     ParameterError,
 )
+from .gpi import (
+    DeadZoneGPI,
+    ModifiedPI,
+    TanhEnvelope,
+    TanhEnvelopeInverse,
+    TanhGPI,
+    paper001_example4,
+    paper001_example6,
+)
 from .operators import dead_zone, play, play_bank, stop
 from .pi import PIModel, inverse_parameters
 
 __all__ = [
     "Chain",
+    "DeadZoneGPI",
+    "DeadZoneMap",
+    "DigitizedDeadZone",
+    "DigitizedModifiedPI",
+    "DigitizedPI",
+    "DigitizedState",
+    "DigitizedTrace",
+    "ModifiedPI",
+    "StateGraph",
+    "TanhEnvelope",
+    "TanhEnvelopeInverse",
+    "TanhGPI",
+    "paper001_example4",
+    "paper001_example6",
     "ClippedInputWarning",
     "FitWarning",
     "HysteresisError",
