@@ -10,8 +10,10 @@ import argparse
 import csv
 import json
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -86,6 +88,25 @@ class Progress:
         if not self.quiet:
             dt = time.perf_counter() - self.t0
             print(f"[hyst {self.command} {dt:5.1f} s] {message}", file=sys.stderr, flush=True)
+
+    @contextmanager
+    def heartbeat(self, message: str, every: float = 5.0) -> Iterator[None]:
+        """While the block runs, repeat ``message`` every ``every`` seconds on stderr."""
+        stop = threading.Event()
+
+        def beat() -> None:
+            while not stop.wait(every):
+                self(message)
+
+        worker = threading.Thread(target=beat, daemon=True)
+        if not self.quiet:
+            worker.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            if worker.is_alive():
+                worker.join()
 
 
 def existing_file(path: str | Path, what: str) -> Path:

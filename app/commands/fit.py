@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         kw["train"] = trains if multi else trains[0]
     if tests:
         kw["test"] = tests if multi else tests[0]
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, progress.heartbeat("still fitting..."):
         warnings.simplefilter("always")
         est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
     msgs = [str(w.message) for w in caught]

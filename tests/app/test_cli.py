@@ -379,3 +379,22 @@ def test_export_c_of_a_dynamic_model_needs_dt(tmp_path, capsys):
     code, _, err = run(capsys, "export", path, "-f", "c", "--dt", "1e-4", "-o", tmp_path / "d.c")
     assert code == 0, err
     assert "dt = 0.0001" in (tmp_path / "d.h").read_text()
+
+
+def test_progress_heartbeat_repeats_on_stderr_until_the_block_ends(capsys):
+    import time
+
+    from app.commands._common import Progress
+
+    seen = ""
+    with Progress("fit").heartbeat("still fitting...", every=0.01):
+        deadline = time.monotonic() + 10.0
+        while seen.count("still fitting...") < 2 and time.monotonic() < deadline:
+            time.sleep(0.01)
+            seen += capsys.readouterr().err
+    assert seen.count("[hyst fit") >= 2
+    time.sleep(0.05)
+    assert "still fitting" not in capsys.readouterr().err  # stopped with the block
+    with Progress("fit", quiet=True).heartbeat("x", every=0.001):
+        time.sleep(0.02)
+    assert capsys.readouterr().err == ""
