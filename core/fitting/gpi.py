@@ -133,12 +133,13 @@ class _Base:
         solver: str,
         min_slope: float,
         extra: dict[str, Any],
+        invertible: bool = True,
     ) -> FitReport:
         segs = prep.segments(1)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ClippedInputWarning)
             tr, te, cmax, crmse = evaluate_fit(
-                model_for, 0.0, segs, train_labels=(0,), test_labels=(1,)
+                model_for, 0.0, segs, train_labels=(0,), test_labels=(1,), invertible=invertible
             )
         clipped = [w for w in caught if issubclass(w.category, ClippedInputWarning)]
         for w in caught:
@@ -153,7 +154,7 @@ class _Base:
             test=te,
             compensation_max_abs=cmax,
             compensation_rmse=crmse,
-            invertible=True,
+            invertible=invertible,
             min_slope=min_slope,
             condition_number=cond,
             solver=solver,
@@ -346,6 +347,7 @@ class DeadZoneGPIRegressor(_Base):
             prep, self._model_for, n + 1 + int(self.include_offset) + s0.size, "gpi-deadzone",
             fit.cond, "least_squares(γ slopes) + gram-cholesky-nnls(P)",
             float(min(slopes.min(), g.slopes.min())), extra,
+            invertible=self.model_.pi.is_invertible and g.is_invertible,
         )
         return self
 
@@ -509,6 +511,7 @@ class ModifiedPIRegressor(_Base):
             prep, self._model_for, n + 1 + int(self.include_offset) + knots.size, "mpi",
             fit.cond, fit.solver + " (Kuhnen generalized error)",
             float(min(slopes.min(), S.slopes.min())), extra,
+            invertible=self.model_.pi.is_invertible and S.is_invertible,
         )
         return self
 
@@ -654,7 +657,7 @@ class TanhGPIRegressor(_Base):
         self.report_ = self._report(
             prep, self._model_for, n + 1 + int(self.include_offset) + best.x.size, "gpi-tanh",
             fit.cond, "least_squares(envelope) + gram-cholesky-nnls(P)", float(slopes.min()),
-            extra,
+            extra, invertible=self.model_.pi.is_invertible,
         )
         return self
 
