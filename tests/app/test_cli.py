@@ -398,3 +398,14 @@ def test_progress_heartbeat_repeats_on_stderr_until_the_block_ends(capsys):
     with Progress("fit", quiet=True).heartbeat("x", every=0.001):
         time.sleep(0.02)
     assert capsys.readouterr().err == ""
+
+
+def test_every_preset_round_trips_through_its_parameter_set(tmp_path, capsys):
+    from core.presets import get_preset, list_presets
+
+    for info in list_presets():
+        path = tmp_path / f"{info.name}.json"
+        assert run(capsys, "preset", info.name, "-o", path)[0] == 0
+        ps = load_parameter_set(path)
+        assert ps.model.to_dict() == get_preset(info.name).to_dict()
+        assert ps.provenance.source == f"hyst preset {info.name}: {info.title}"
