@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -127,6 +129,14 @@ def test_registry_builds_every_signal_with_defaults() -> None:
         )
         for p in spec.params:  # the defaults lie inside the advertised ranges
             assert p.minimum <= float(p.default) <= p.maximum
+
+
+def test_registry_description_is_json() -> None:
+    doc = json.loads(json.dumps([s.to_dict() for s in list_signals()]))
+    sine_spec = next(d for d in doc if d["name"] == "sine")
+    amp = next(p for p in sine_spec["params"] if p["name"] == "amplitude")
+    assert amp == {"name": "amplitude", "default": 4.0, "min": 0.0, "max": 1e6,
+                   "unit": "input", "kind": "float", "description": "peak amplitude"}
 
 
 def test_registry_converts_strings_and_checks_ranges() -> None:
