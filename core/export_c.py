@@ -374,6 +374,37 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
     )
 
 
+@register_c_stage("digitized-deadzone")
+def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
+    """Digitized dead-zone superposition (paper 000): the current segment is the state."""
+    dx = np.asarray(model.dx)  # type: ignore[attr-defined]
+    dy = np.asarray(model.dy)  # type: ignore[attr-defined]
+    x0, y0 = float(model.x0), float(model.y0)  # type: ignore[attr-defined]
+    g = np.asarray(model.slopes)  # type: ignore[attr-defined]
+    xl = x0 + np.concatenate(([0.0], np.cumsum(dx)[:-1]))
+    yl = y0 + np.concatenate(([0.0], np.cumsum(dy)[:-1]))
+    m, f, c = dx.size, ctx.field, ctx.const
+    c0 = int(model.state0) - 1  # type: ignore[attr-defined]
+    return CStage(
+        title=f"digitized dead zone, {m} segment(s)",
+        fields=[f"unsigned {f}seg;"],
+        constants=[
+            f"static const double {c}DX[{m}] = {_c_array(dx)};",
+            f"static const double {c}G[{m}] = {_c_array(g)};",
+            f"static const double {c}XL[{m}] = {_c_array(xl)};",
+            f"static const double {c}YL[{m}] = {_c_array(yl)};",
+        ],
+        reset=[f"st->{f}seg = {c0}u;"],
+        step=[
+            f"unsigned k = st->{f}seg;",
+            f"while (k < {m - 1}u && x > {c}XL[k] + {c}DX[k]) ++k;",
+            f"while (k > 0u && x < {c}XL[k]) --k;",
+            f"st->{f}seg = k;",
+            f"x = {c}YL[k] + {c}G[k] * (x - {c}XL[k]);",
+        ],
+    )
+
+
 def _emit_state_space(
     Ad: np.ndarray, Bd: np.ndarray, C: np.ndarray, D: float, x0: np.ndarray,
     ctx: StageContext, title: str,

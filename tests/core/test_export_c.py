@@ -228,6 +228,14 @@ def _other_models() -> dict[str, tuple[Model, float, bool]]:
     except ImportError:  # pragma: no cover
         return out
     out["digitized"] = (DigitizedPI.from_pi(EX1, (-8.0, 8.0), refine=2), 8.0, False)
+    try:
+        from core.digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
+    except ImportError:  # pragma: no cover
+        return out
+    dzd = DigitizedDeadZone([1.0, 2.0, 3.0, 2.0], [2.0, 1.0, 0.5, 1.5], x0=-4.0, y0=-5.0)
+    out["digitized_deadzone"] = (dzd, 6.0, True)
+    dpi = DigitizedPI.from_pi(PIModel(0.6, [0.5, 1.0], [0.3, 0.2]), (-4.0, 4.0))
+    out["digitized_mpi"] = (DigitizedModifiedPI(dpi, dzd), 4.0, False)
     return out
 
 
