@@ -136,3 +136,22 @@ def test_serialisation_and_zpk() -> None:
     with pytest.raises(ParameterError, match="poles must come in complex-conjugate pairs"):
         LinearSystem.from_zpk([], [-1.0 + 2j], 1.0)
     assert Chain.of(g, g).needs_dt
+
+
+def test_eighth_order_butterworth_coefficients_spanning_1e34() -> None:
+    """Frequency scaling + balancing keep a badly scaled high-order system exact.
+
+    The denominator of an 8th-order 3 kHz Butterworth runs from 1 to 1.6e34; the plain
+    companion realization discretised with expm misplaces the poles by ~4e-4 and the DC
+    gain by ~2e-7 (measured), the scaled and balanced one by < 1e-12.
+    """
+    b, a = ss.butter(8, 2 * np.pi * 3000.0, analog=True)
+    g = LinearSystem(b, a)
+    dt = 1e-5
+    Ad, _, _, _ = g.discretize(dt)
+    ev = np.sort_complex(np.linalg.eigvals(Ad))
+    ex = np.sort_complex(np.exp(g.poles * dt))
+    assert np.max(np.abs(ev - ex)) < 1e-12
+    assert g(np.ones(20000), dt=dt)[-1] == pytest.approx(1.0, abs=1e-12)
+    # Butterworth: |G(j w_c)| = 1/sqrt(2) at the corner frequency
+    assert abs(g.frequency_response(3000.0)) == pytest.approx(2**-0.5, rel=1e-9)
