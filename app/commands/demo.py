@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -87,10 +89,20 @@ def run(args: argparse.Namespace) -> int:
         },
     )
     if not args.no_open:
-        import webbrowser
+        if _has_display():
+            import webbrowser
 
-        webbrowser.open(path.resolve().as_uri())
+            webbrowser.open(path.resolve().as_uri())
+        else:
+            print(f"no display: open {path.resolve().as_uri()} in a browser", file=sys.stderr)
     return 0
+
+
+def _has_display() -> bool:
+    """Whether a graphical browser can be opened (never start a console browser)."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
 def _write_html(

@@ -409,3 +409,18 @@ def test_every_preset_round_trips_through_its_parameter_set(tmp_path, capsys):
         ps = load_parameter_set(path)
         assert ps.model.to_dict() == get_preset(info.name).to_dict()
         assert ps.provenance.source == f"hyst preset {info.name}: {info.title}"
+
+
+def test_demo_opens_a_browser_only_with_a_display(tmp_path, capsys, monkeypatch):
+    import webbrowser
+
+    opened: list[str] = []
+    monkeypatch.setattr(webbrowser, "open", lambda url, *a, **k: opened.append(url) or True)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    code, _, err = run(capsys, "demo", "--out", tmp_path)
+    assert code == 0 and opened == [] and "no display: open file://" in err
+    monkeypatch.setenv("DISPLAY", ":0")
+    assert run(capsys, "demo", "--out", tmp_path)[0] == 0
+    assert opened == [(tmp_path / "demo.html").resolve().as_uri()]
