@@ -74,3 +74,13 @@ def test_read_mat_rejects_foreign_files(tmp_path):
     savemat(p, {"x": 1.0})
     with pytest.raises(ValueError, match="not written by hyst export"):
         read_mat(p)
+
+
+def test_every_model_type_exports_and_reads_back(tmp_path):
+    from tests.core.test_paramset import INSTANCES
+
+    for name, model in INSTANCES.items():
+        path = export_mat(model, tmp_path / f"{name}.mat")
+        d = loadmat(path, squeeze_me=True, struct_as_record=False)
+        assert d["model"].type == name
+        assert read_mat(path).model.to_dict() == model.to_dict()
