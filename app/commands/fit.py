@@ -34,7 +34,7 @@ def register(subparsers: Any) -> None:
             "time/input/output columns are detected, a run/loop column splits a file into "
             "several recordings), fit the chosen model and save "
             "it as a parameter set with the fit report (train / held-out RMSE, inverse "
-            "check) in its provenance. Without --train/--test the last 20 %% of every "
+            "check) in its provenance. Without --train/--test the last 20 % of every "
             "recording is held out. Progress goes to stderr."
         ),
     )
@@ -43,7 +43,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("-n", "--n-operators", type=int, metavar="N",
                    help="number of play operators (default: chosen by cross-validation)")
     p.add_argument("--constraint", choices=("nonnegative", "slopes"),
-                   help="pi: 'nonnegative' weights (default; hardening loops such as piezo "
+                   help="'nonnegative' weights (default; hardening loops such as piezo "
                         "actuators) or positive loop 'slopes' only (saturating loops: B-H, "
                         "friction)")
     p.add_argument("--time", metavar="COL",

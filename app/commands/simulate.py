@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("-i", "--input", required=True, metavar="IN.csv", help="input signal")
     p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="result file")
     p.add_argument("--time", metavar="COL", help="time column name (default: t, or column 0)")
-    p.add_argument("--input-column", "--u", dest="input_column", metavar="COL",
+    p.add_argument("--input-column", metavar="COL",
                    help="input column name (default: u, or column 1)")
     p.add_argument("--output-name", default="y", metavar="NAME",
                    help="name of the output column written (default: y)")
