@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from core.exceptions import NotInvertibleError
+
 from ._common import CommandError, add_json_flag, emit, read_parameter_set
 
 __all__ = ["FORMATS", "register", "run"]
@@ -54,10 +56,15 @@ def run(args: argparse.Namespace) -> int:
 
         if args.no_forward and args.no_inverse:
             raise CommandError("--no-forward and --no-inverse together leave nothing to export")
-        written = list(
-            export_c(ps, out, name=args.name, inverse=not args.no_inverse,
-                     forward=not args.no_forward, dt=args.dt)
-        )
+        try:
+            written = list(
+                export_c(ps, out, name=args.name, inverse=not args.no_inverse,
+                         forward=not args.no_forward, dt=args.dt)
+            )
+        except NotInvertibleError as exc:
+            raise NotInvertibleError(
+                f"{exc}; use --no-inverse to export only the forward model"
+            ) from exc
     names = ", ".join(str(w) for w in written)
     emit(args, f"wrote {names}", {"format": args.format, "files": [str(w) for w in written]})
     return 0

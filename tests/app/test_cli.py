@@ -175,7 +175,7 @@ def test_export_errors(ex1_file, tmp_path, capsys):
         tmp_path / "n.json"
     )
     code, _, err = run(capsys, "export", non_inv, "-f", "c", "-o", tmp_path / "n.c")
-    assert code == 2 and "not invertible" in err
+    assert code == 2 and "not invertible" in err and "use --no-inverse" in err
     code, _, err = run(capsys, "export", non_inv, "-f", "c", "--no-inverse", "-o",
                        tmp_path / "n.c")
     assert code == 0
