@@ -30,8 +30,10 @@ __all__ = [
     "add_json_flag",
     "emit",
     "existing_file",
+    "pick_column",
     "read_columns",
     "read_parameter_set",
+    "uniform_dt",
     "write_columns",
 ]
 
@@ -291,10 +293,3 @@ def uniform_dt(t: np.ndarray, path: str | Path, rel_tol: float = 1e-3) -> float:
         )
     return dt
 
-
-def unit_from_column(name: str) -> str | None:
-    """Unit suffix of a column name such as ``u_V`` (``"V"``) or ``y_um``; None if absent."""
-    if "_" in name:
-        unit = name.rsplit("_", 1)[1]
-        return unit or None
-    return None
