@@ -17,6 +17,14 @@ from .exceptions import (
     NotInvertibleError,
     ParameterError,
 )
+from .fitting import (
+    DeadZoneGPIRegressor,
+    DigitizedPIRegressor,
+    FitReport,
+    ModifiedPIRegressor,
+    PIRegressor,
+    TanhGPIRegressor,
+)
 from .gpi import (
     DeadZoneGPI,
     ModifiedPI,
@@ -32,7 +40,13 @@ from .pi import PIModel, inverse_parameters
 __all__ = [
     "Chain",
     "DeadZoneGPI",
+    "DeadZoneGPIRegressor",
     "DeadZoneMap",
+    "DigitizedPIRegressor",
+    "FitReport",
+    "ModifiedPIRegressor",
+    "PIRegressor",
+    "TanhGPIRegressor",
     "DigitizedDeadZone",
     "DigitizedModifiedPI",
     "DigitizedPI",
