@@ -265,6 +265,69 @@ def perturb(model: Model, mismatch: float) -> Model:
     )
 
 
+#: Largest number of digits the digitized view builds a state graph for (2**n states).
+MAX_GRAPH_DIGITS = 10
+
+
+@dataclass(frozen=True, eq=False)
+class Digitized:
+    """Digitized (binary-state) view of the run (paper 000).
+
+    Attributes
+    ----------
+    model : DigitizedPI
+        The digitized model (``H = [dx; dy]``, origin ``(x0, y0)``).
+    trace : DigitizedTrace
+        States visited by the input (digit rows, sample index of each state).
+    graph : StateGraph or None
+        All ``2**n`` states and their edges (``None`` beyond :data:`MAX_GRAPH_DIGITS`).
+    y : ndarray of shape (N,)
+        Digitized output.
+    y_classical : ndarray of shape (N,)
+        The equivalent classical PI (:meth:`DigitizedPI.to_pi`) on the same input.
+    """
+
+    model: Any
+    trace: Any
+    graph: Any
+    y: np.ndarray
+    y_classical: np.ndarray
+
+    @property
+    def H(self) -> np.ndarray:  # noqa: N802 - the paper's name
+        """Paired properties ``[Δx; Δy]``, shape ``(2, n)``."""
+        return np.vstack((self.model.dx, self.model.dy))
+
+    def state_at(self, k: int) -> int:
+        """Index of the trace row active at sample ``k``."""
+        return int(np.searchsorted(self.trace.sample, k, side="right") - 1)
+
+
+def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]:
+    """The digitized view of ``model`` driven by ``u``, or ``(None, reason)``."""
+    mod = optional("core.digitized")
+    if mod is None:
+        return None, "the digitized PI module is not installed"
+    dig = None
+    if type(model).__name__ == "DigitizedPI":
+        dig = model
+    else:
+        pi = pi_part(model)
+        if pi is None:
+            return None, "the digitized view needs a classical PI (or digitized) model"
+        lo, hi = float(np.min(u)), float(np.max(u))
+        if 0.5 * (hi - lo) <= pi.thresholds[-1]:
+            return None, (
+                f"the input's half span {0.5 * (hi - lo):.3g} must exceed the largest "
+                f"threshold {pi.thresholds[-1]:.3g}: raise the amplitude"
+            )
+        dig = mod.DigitizedPI.from_pi(pi, (lo, hi))
+    tr = dig.trace(u)
+    graph = dig.state_graph() if dig.n <= MAX_GRAPH_DIGITS else None
+    y_cl = dig.to_pi().simulate(u).y + float(dig.classical_offset)
+    return Digitized(dig, tr, graph, np.asarray(tr.y), y_cl), None
+
+
 @dataclass(frozen=True, eq=False)
 class Result:
     """Everything the figures show for one config (arrays of shape ``(N,)`` unless noted)."""
@@ -279,6 +342,7 @@ class Result:
     y_comp: np.ndarray | None = None  # plant(v): compensated output
     inverse_error: str | None = None
     y_measured: np.ndarray | None = None
+    digitized: Digitized | None = None
     messages: tuple[str, ...] = ()
     elapsed_ms: float = 0.0
 
@@ -325,9 +389,16 @@ def compute(
         inv_err = str(exc)
     except ValueError as exc:  # e.g. an input outside an inverse's domain
         inv_err = f"inverse unavailable: {exc}"
+    digi, digi_msg = None, None
+    try:
+        digi, digi_msg = digitize(model, u)
+    except (ParameterError, ValueError) as exc:
+        digi_msg = f"digitized view unavailable: {exc}"
     return Result(
         version=version,
         model=model,
+        digitized=digi,
+        messages=(digi_msg,) if digi_msg else (),
         t=t,
         u=u,
         y=y,

@@ -47,9 +47,11 @@ __all__ = ["ExplorerGui", "SessionView", "attach_gui"]
 
 #: Largest number of operators the GUI shows individual sliders for.
 GUI_MAX_SLIDERS = 25
-PLOTS = ("loop", "time", "operators", "loading", "inverse")
+PLOTS = ("loop", "time", "operators", "loading", "inverse", "digitized")
 _TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
-           "inverse": "Inverse", "fit": "Fit"}
+           "inverse": "Inverse", "digitized": "Digitized states", "fit": "Fit"}
+#: Largest number of digits drawn as a 3D hypercube in the viser scene.
+CUBE_MAX_DIGITS = 7
 
 
 class SessionView:
@@ -79,8 +81,15 @@ class SessionView:
         settings: Settings,
         notify: Callable[[str, str, bool], None] | None = None,
         download: Callable[[str, bytes], None] | None = None,
+        scene: Any = None,
     ) -> None:
         self.gui = gui
+        self.scene = scene
+        self._cube_key: tuple | None = None
+        self._cube_points: np.ndarray | None = None
+        self._marker: Any = None
+        self._play_stop = threading.Event()
+        self._play_thread: threading.Thread | None = None
         self.registry = registry
         self.session = session
         self.settings = settings
@@ -139,6 +148,11 @@ class SessionView:
                                          initial_value=0.0,
                                          hint="plant thresholds ×(1+m), weights ×(1−m)")
             self.inverse_md = g.add_markdown("")
+        with tabs.add_tab("Digitized"):
+            self.digi_md = g.add_markdown("")
+            self.digi_step = g.add_slider("State step", min=0, max=1, step=1, initial_value=0)
+            self.play_btn = g.add_button("Play the input")
+            self.stop_btn = g.add_button("Stop")
         with tabs.add_tab("Data"):
             self.upload = g.add_upload_button("Upload CSV", mime_type="text/csv")
             self.t_col = g.add_text("Time column", initial_value="")
@@ -157,12 +171,15 @@ class SessionView:
             self.dl_c = g.add_button("Download C code")
             self.ps_upload = g.add_upload_button("Upload parameter set", mime_type="*/*")
             self.export_md = g.add_markdown("")
-        self.plot_tabs = g.add_tab_group()
-        self.plots: dict[str, Any] = {}
-        empty = F.message_figure("", "computing…")
-        for name in (*PLOTS, "fit"):
-            with self.plot_tabs.add_tab(_TITLES[name]):
-                self.plots[name] = g.add_plotly(empty, aspect=1.25 if name != "inverse" else 0.9)
+        # One plot and a view selector: the browser draws a single plotly figure and the
+        # server builds only the figure on show (tabs would render every figure each time).
+        self.fit_figure: F.FigureJSON | None = None
+        self.panel = g.add_panel()
+        self.panel.float(x=10, y=10, width=700)
+        with self.panel.add_tab("Plots"):
+            self.view_dd = g.add_dropdown("View", tuple(_TITLES.values()),
+                                          initial_value=_TITLES["loop"])
+            self.plot = g.add_plotly(F.message_figure("", "computing…"), aspect=1.5)
         self.status_md = g.add_markdown("")
         self._wire()
 
@@ -171,6 +188,10 @@ class SessionView:
                   self.duration, self.samples, self.kind, self.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         self.n_ops.on_update(self._guarded(self._n_changed))
+        self.view_dd.on_update(self._guarded(lambda ev: self.worker.request()))
+        self.digi_step.on_update(self._guarded(self._step_changed))
+        self.play_btn.on_click(self._guarded(self._play_clicked))
+        self.stop_btn.on_click(self._guarded(lambda ev: self._play_stop.set()))
         self.load_preset.on_click(self._guarded(self._preset_clicked))
         self.json_btn.on_click(self._guarded(self._json_clicked))
         self.join_btn.on_click(self._guarded(self._join_clicked))
@@ -421,7 +442,8 @@ class SessionView:
             self.session.fitted = model.to_dict()
             self.session.fit_report = report
         self.session.update(lambda c: c.with_model(model.to_dict()))
-        self.plots["fit"].figure = F.fit_figure(rec, model(rec.u), f"fitted PI (n={n})")
+        self.fit_figure = F.fit_figure(rec, model(rec.u), f"fitted PI (n={n})")
+        self.view_dd.value = _TITLES["fit"]
         self.report_md.content = (
             f"**Fit (n = {n})**: RMS error {report['rms_error']:.4g}, "
             f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
@@ -460,17 +482,28 @@ class SessionView:
         self.export_md.content = f"sent {name} ({len(payload)} bytes)"
 
     # ------------------------------------------------------------------ render
+    @property
+    def figure_name(self) -> str:
+        """Key of the figure selected in the *View* dropdown."""
+        inv = {v: k for k, v in _TITLES.items()}
+        return inv.get(str(self.view_dd.value), "loop")
+
     def _render(self) -> None:
         session = self.session
         cfg, v = session.snapshot()
         res = compute(cfg, version=v, recording=session.recording,
                       max_operators=self.settings.max_operators,
                       max_samples=self.settings.max_samples)
-        figs = {n: F.build(n, res, cfg.mismatch) for n in PLOTS}
+        name = self.figure_name
+        if name == "fit":
+            fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
+        else:
+            fig = F.build(name, res, cfg.mismatch)
         if session is not self.session or self.session.snapshot()[1] != v:
             return  # stale: a newer version is queued, skip sending this one
-        for n, fig in figs.items():
-            self.plots[n].figure = fig
+        self.plot.aspect = {"inverse": 2.0, "fit": 2.0, "digitized": 1.3}.get(name, 1.5)
+        self.plot.figure = fig
+        self.shown_figure = name
         self.last_result = res
         self.rendered_version = v
         m = res.model
@@ -487,13 +520,132 @@ class SessionView:
             err = res.y_comp - res.u
             self.inverse_md.content = (f"RMS tracking error {np.sqrt(np.mean(err**2)):.4g}, "
                                        f"max {np.max(np.abs(err)):.4g}")
+        self._show_digitized(res)
         self.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    # ------------------------------------------------------------------ digitized view
+    def _show_digitized(self, res: Result) -> None:
+        d = res.digitized
+        self._play_stop.set()
+        if d is None:
+            self.digi_md.content = f"⚠️ {res.messages[0] if res.messages else 'unavailable'}"
+            self.digi_step.disabled = True
+            if self._marker is not None:
+                self._marker.visible = False
+            return
+        rows = len(d.trace.sample)
+        self.digi_step.disabled = False
+        self._syncing.on = True
+        try:
+            self.digi_step.max = max(1, rows - 1)
+            self.digi_step.value = rows - 1
+        finally:
+            self._syncing.on = False
+        self._draw_cube(d)
+        self._show_state(rows - 1)
+
+    def _show_state(self, k: int) -> None:
+        res = self.last_result
+        if res is None or res.digitized is None:
+            return
+        d = res.digitized
+        tr = d.trace
+        k = int(np.clip(k, 0, len(tr.sample) - 1))
+        digits = tr.digits[k]
+        row = " ".join(str(int(b)) for b in digits[::-1])
+        H = d.H
+        fmt = lambda a: " ".join(f"{v:.3g}" for v in a)  # noqa: E731
+        self.digi_md.content = (
+            f"**State {k}/{len(tr.sample) - 1}** at t = {res.t[tr.sample[k]]:.3f} s  \n"
+            f"digits b{d.model.n}…b1: `{row}`  \n"
+            f"state point (X, Y) = ({tr.x_b[k]:.4g}, {tr.y_b[k]:.4g})  \n"
+            f"H: Δx = [{fmt(H[0])}], Δy = [{fmt(H[1])}]  \n"
+            f"H⁻¹ swaps the rows (Δx ↔ Δy)  \n"
+            f"max |digitized − classical| = {np.max(np.abs(d.y - d.y_classical)):.3g}"
+        )
+        if self._marker is not None and self._cube_points is not None:
+            self._marker.position = tuple(self._embed(digits))
+            self._marker.visible = True
+
+    def _embed(self, digits: np.ndarray) -> np.ndarray:
+        n = digits.size
+        if n <= 3:
+            dirs = np.eye(3)[:n]
+        else:
+            a = 2 * np.pi * np.arange(n) / n
+            dirs = np.column_stack((np.cos(a), np.sin(a), 0.35 * (-1.0) ** np.arange(n)))
+        return np.asarray(digits, dtype=float) @ dirs
+
+    def _draw_cube(self, d: Any) -> None:
+        """The state hypercube in the 3D scene (small n); larger n use the 2D figure."""
+        if self.scene is None:
+            return
+        g = d.graph
+        n = d.model.n
+        key = (n,)
+        if g is None or n > CUBE_MAX_DIGITS:
+            if self._cube_key is not None:
+                self.scene.add_frame("/states", show_axes=False, visible=False)
+            self._cube_key = None
+            self._cube_points = None
+            if self._marker is not None:
+                self._marker.visible = False
+            return
+        if key == self._cube_key:
+            return
+        pts = np.array([self._embed(row) for row in g.digits])
+        self._cube_points = pts
+        self.scene.add_frame("/states", show_axes=False, visible=True)
+        self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
+                                   colors=(120, 120, 120), point_size=0.06,
+                                   point_shape="circle")
+        up = np.stack((pts[g.up[:, 0]], pts[g.up[:, 1]]), axis=1)
+        down = np.stack((pts[g.down[:, 0]], pts[g.down[:, 1]]), axis=1)
+        self.scene.add_line_segments("/states/up", up.astype(np.float32), colors=(31, 119, 180),
+                                     thickness=2.0, thickness_units="screen")
+        self.scene.add_line_segments("/states/down", (down + 0.01).astype(np.float32),
+                                     colors=(255, 127, 14), thickness=2.0,
+                                     thickness_units="screen")
+        if n <= 4:
+            for c, p in zip(g.strings, pts, strict=True):
+                self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.05))
+        self._marker = self.scene.add_icosphere("/states/current", radius=0.09,
+                                                color=(214, 39, 40))
+        self._cube_key = key
+
+    def _step_changed(self, event: Any) -> None:
+        self._show_state(int(self.digi_step.value))
+
+    def _play_clicked(self, event: Any) -> None:
+        res = self.last_result
+        if res is None or res.digitized is None:
+            return
+        self._play_stop.set()
+        if self._play_thread is not None:
+            self._play_thread.join(timeout=1)
+        self._play_stop = stop = threading.Event()
+        rows = len(res.digitized.trace.sample)
+
+        def play() -> None:
+            for k in range(rows):
+                if stop.wait(0.12 if rows < 300 else 0.03):
+                    return
+                self._syncing.on = True
+                try:
+                    self.digi_step.value = k
+                finally:
+                    self._syncing.on = False
+                self._show_state(k)
+
+        self._play_thread = threading.Thread(target=play, daemon=True, name="play")
+        self._play_thread.start()
 
     def _render_error(self, exc: BaseException) -> None:
         self.model_md.content = f"⚠️ **Cannot draw this model:** {exc}"
 
     def close(self) -> None:
         """Detach from the session and stop the worker."""
+        self._play_stop.set()
         self.session.remove_listener(self._on_session_change)
         self.worker.stop()
 
@@ -540,7 +692,7 @@ class ExplorerGui:
                                     color="red" if error else None)
 
         view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
-                           notify=notify)
+                           notify=notify, scene=client.scene)
         with self._lock:
             self.views[client.client_id] = view
 

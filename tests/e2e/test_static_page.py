@@ -38,7 +38,8 @@ def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
 
 
 def _loop_y(page: Any) -> list[float]:
-    return page.evaluate("() => document.getElementById('figure').data[0].y.slice(0, 400)")
+    return page.evaluate(
+        "() => Array.from(document.getElementById('figure')._fullData[0].y).slice(0, 400)")
 
 
 def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: Any) -> None:
@@ -58,11 +59,11 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
     after = _loop_y(page)
     assert not np.allclose(before, after)
     shot(page, "static-loop")
-    for fig in ("operators", "loading", "inverse", "time"):
+    for fig in ("operators", "loading", "inverse", "digitized", "time"):
         page.click(f"#tabs button[data-fig={fig}]")
         page.wait_for_function("f => document.body.dataset.fig === f", arg=fig)
         page.wait_for_timeout(300)
-        if fig in ("operators", "inverse"):
+        if fig in ("operators", "inverse", "digitized"):
             shot(page, f"static-{fig}")
     assert errors == []
     ctx.close()

@@ -1,0 +1,164 @@
+"""The viser GUI without a browser: handles driven on the server (callbacks fire inline)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from app import figures as F
+from app.gui.layout import SessionView, diagnosis_markdown
+from app.gui.render import LatestWinsWorker
+from app.settings import Settings
+from app.state import SessionRegistry
+from core.pi import PIModel
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[Any]:
+    import viser
+
+    s = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def view(server: Any) -> Iterator[SessionView]:
+    reg = SessionRegistry()
+    downloads: list[tuple[str, bytes]] = []
+    toasts: list[tuple[str, str, bool]] = []
+    v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: toasts.append(a),
+                    download=lambda n, b: downloads.append((n, b)), scene=server.scene)
+    v.downloads, v.toasts = downloads, toasts  # type: ignore[attr-defined]
+    assert v.worker.wait_idle(30)
+    yield v
+    v.close()
+
+
+def _idle(v: SessionView) -> None:
+    assert v.worker.wait_idle(30)
+
+
+def _loop_y(v: SessionView) -> np.ndarray:
+    assert v.shown_figure == "loop"
+    return F.values(v.plot.figure.data[0]["y"])
+
+
+def test_opens_on_example1_with_loop_drawn(view: SessionView) -> None:
+    assert view.rendered_version == 0
+    m = PIModel.from_dict(view.session.config.model)
+    assert m.p0 == 0.72 and m.n == 6
+    res = view.last_result
+    assert res is not None
+    np.testing.assert_allclose(res.y, m(res.u))
+    assert "1.518" in view.model_md.content  # max loop width of Example 1
+    assert res.digitized is not None and "digits" in view.digi_md.content
+
+
+def test_slider_updates_session_and_plot(view: SessionView) -> None:
+    before = _loop_y(view)
+    view.w_sliders[0].value = 1.2
+    _idle(view)
+    assert view.session.config.model["weights"][0] == 1.2
+    assert view.rendered_version == view.session.version
+    assert not np.allclose(before, _loop_y(view))
+
+
+def test_invalid_threshold_shows_message_keeps_model(view: SessionView) -> None:
+    view.r_sliders[0].value = 5.0
+    _idle(view)
+    assert "increasing" in view.model_md.content
+    assert view.session.config.model["thresholds"][0] == 0.45
+
+
+def test_non_invertible_weights_message(view: SessionView) -> None:
+    view.p0.value = -0.2
+    _idle(view)
+    assert "not invertible" in view.inverse_md.content
+    view.view_dd.value = "Inverse"
+    _idle(view)
+    assert view.shown_figure == "inverse"
+    assert "not invertible" in json.dumps(view.plot.figure.layout)
+
+
+def test_operator_count_rebuilds_sliders(view: SessionView) -> None:
+    view.n_ops.value = 12
+    _idle(view)
+    assert len(view.r_sliders) == 12 and len(view.session.config.model["weights"]) == 12
+
+
+def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
+    v0 = view.session.version
+    view.session.update(lambda c: c.with_model({"type": "pi", "p0": 1.1, "thresholds": [1.0, 2.0],
+                                                "weights": [0.3, 0.2]}))
+    _idle(view)
+    assert view.p0.value == pytest.approx(1.1) and len(view.w_sliders) == 2
+    assert view.session.version == v0 + 1  # the sync did not write back
+
+
+def test_csv_fit_diagnose_export(view: SessionView) -> None:
+    t = np.arange(800) * 1e-3
+    u = 3 * np.sin(2 * np.pi * 3 * t)
+    y = PIModel(0.7, [0.5, 1.0], [0.5, 0.4])(u)
+    text = "t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True))
+    view.upload._impl.value = SimpleNamespace(name="m.csv", content=text.encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert "800 samples" in view.data_md.content
+    view.fit_n.value = 6
+    view._fit_clicked(SimpleNamespace(client=None))
+    assert "RMS error" in view.report_md.content
+    _idle(view)
+    assert view.shown_figure == "fit" and "Fit overlay" in view.plot.figure.to_json()
+    view._diagnose_clicked(SimpleNamespace(client=None))
+    assert "Diagnosis" in view.report_md.content
+    view._export(SimpleNamespace(client=None), "json")
+    name, payload = view.downloads[-1]  # type: ignore[attr-defined]
+    assert name.endswith(".json") and "model" in json.loads(payload)
+
+
+def test_bad_csv_message(view: SessionView) -> None:
+    view.upload._impl.value = SimpleNamespace(name="bad.csv", content=b"t,u,y\n0,1,x\n")
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert "line 2" in view.data_md.content and "column 3" in view.data_md.content
+
+
+def test_join_other_session(view: SessionView) -> None:
+    view.code_in.value = "room-42"
+    view._join_clicked(SimpleNamespace(client=None))
+    _idle(view)
+    assert view.session.code == "room-42"
+    assert view.registry.get("room-42") is view.session
+
+
+def test_diagnosis_markdown() -> None:
+    md = diagnosis_markdown({"engine": "x", "findings": ["delay"], "rms_error": 0.5})
+    assert "- delay" in md and "rms_error" in md
+
+
+def test_latest_wins_worker_skips_stale_requests() -> None:
+    import threading
+    import time
+
+    gate = threading.Event()
+    calls: list[int] = []
+    state = {"v": 0}
+
+    def render() -> None:
+        calls.append(state["v"])
+        gate.wait(5)
+
+    w = LatestWinsWorker(render)
+    w.request()
+    time.sleep(0.05)
+    for v in range(1, 50):
+        state["v"] = v
+        w.request()
+    gate.set()
+    assert w.wait_idle(5)
+    w.stop()
+    assert calls[0] == 0 and calls[-1] == 49 and len(calls) <= 3

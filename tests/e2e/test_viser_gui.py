@@ -1,0 +1,80 @@
+"""The viser GUI in real Chromium: per-tab views, sliders, two students, screenshots."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+
+
+def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
+    ctx = browser.new_context(viewport={"width": 1500, "height": 900})
+    page = ctx.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_function(
+        "() => !document.body.innerText.includes('Connecting...')", timeout=60_000)
+    page.wait_for_selector("text=Session code", timeout=60_000)
+    return ctx, page, errors
+
+
+def _views(app: Any, n: int, timeout: float = 60.0) -> list[Any]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        views = list(app.state.gui.views.values())
+        if len(views) >= n and all(v.rendered_version >= 0 for v in views):
+            return views
+        time.sleep(0.1)
+    raise AssertionError(f"expected {n} rendered viser views, got {app.state.gui.views}")
+
+
+def _screenshot(page: Any, shot: Any, name: str) -> None:
+    page.wait_for_selector(".js-plotly-plot .main-svg", timeout=60_000)
+    close = page.locator("[class*='Notification-closeButton']")
+    for i in range(close.count()):  # headless-only "Software WebGL" toast
+        close.nth(i).click()
+    page.wait_for_timeout(800)
+    shot(page, name)
+
+
+def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any) -> None:
+    app = live_server["app"]
+    ctx_a, a, errors_a = _open(browser, live_server["viser_url"])
+    (view_a,) = _views(app, 1)
+    _screenshot(a, shot, "viser-loop")
+
+    ctx_b, b, errors_b = _open(browser, live_server["viser_url"])
+    views = _views(app, 2)
+    view_b = next(v for v in views if v is not view_a)
+    assert view_a.session is not view_b.session
+
+    # student A drags p0 with the keyboard; student B's session and controls do not move
+    slider = a.get_by_role("slider").first
+    slider.focus()
+    v0 = view_a.session.version
+    for _ in range(5):
+        slider.press("ArrowRight")
+    deadline = time.monotonic() + 30
+    while view_a.session.version == v0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert view_a.session.version > v0
+    assert view_a.worker.wait_idle(30)
+    assert view_a.rendered_version == view_a.session.version
+    assert view_b.session.version == 0
+    assert view_b.session.config.model["p0"] == pytest.approx(0.72)
+
+    # a change made through the session (REST, teacher push) reaches A's controls only
+    view_a.session.update(lambda c: c.with_model({**c.model, "p0": 1.25}))
+    assert view_a.worker.wait_idle(30)
+    assert view_a.p0.value == pytest.approx(1.25)
+    assert view_b.p0.value == pytest.approx(0.72)
+
+    view_a.view_dd.value = "Digitized states"
+    assert view_a.worker.wait_idle(30)
+    a.get_by_role("tab", name="Digitized").first.click()
+    _screenshot(a, shot, "viser-digitized")
+    assert errors_a == [] and errors_b == []
+    ctx_a.close()
+    ctx_b.close()
