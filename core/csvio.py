@@ -47,6 +47,7 @@ import csv
 import math
 import os
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from datetime import datetime
@@ -252,11 +253,72 @@ class CSVLayout:
     notes: tuple[str, ...]
 
 
-@dataclass
 class _Table:
-    layout: CSVLayout
-    rows: list[list[str]]
-    lines: np.ndarray  # 1-based line of each row
+    """Data rows of a CSV: kept as text lines, split / converted only when needed."""
+
+    def __init__(self, layout: CSVLayout, data: list[str], lines: np.ndarray,
+                 rows: list[list[str]] | None, quoted: bool) -> None:
+        self.layout = layout
+        self.data = data  # text of each data line
+        self.lines = lines  # 1-based line number of each data line
+        self._rows = rows
+        self._quoted = quoted
+        self._matrix: np.ndarray | None | bool = False  # False: not tried yet
+
+    @property
+    def rows(self) -> list[list[str]]:
+        """Every data line split into stripped cells."""
+        if self._rows is None:
+            self._rows = _split(self.data, self.layout.delimiter)
+        return self._rows
+
+    def cell(self, i: int, j: int) -> str:
+        """Cell ``j`` of data row ``i`` (stripped), without splitting every line."""
+        if self._rows is not None:
+            return self._rows[i][j]
+        return _split([self.data[i]], self.layout.delimiter)[0][j]
+
+    def column(self, j: int) -> list[str]:
+        return [r[j] for r in self.rows]
+
+    def matrix(self) -> np.ndarray | None:
+        """All cells as floats in one numpy parse, or None when any cell needs care.
+
+        The fast path for clean numeric tables; anything unusual (empty or NA cells, text,
+        quotes, mixed decimal marks) returns None and the cell-by-cell path handles it and
+        reports problems with their line and column.
+        """
+        if self._matrix is not False:
+            return self._matrix  # type: ignore[return-value]
+        self._matrix = None
+        lay = self.layout
+        if self._quoted or not self.data:
+            return None
+        block = "\n".join(self.data)
+        if lay.decimal == ",":
+            if "." in block:
+                return None
+            block = block.replace(",", ".")
+        if lay.delimiter == "whitespace":
+            sep = " "
+        else:
+            sep = ","
+            if lay.delimiter != ",":
+                block = block.replace(lay.delimiter, ",")
+            block = block.replace("\n", ",")
+        if "_" in block or "x" in block or "X" in block:
+            return None  # "1_000", "0x1f": let float() decide, cell by cell
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                arr = np.fromstring(block, sep=sep)
+        except (ValueError, DeprecationWarning):
+            return None
+        width = len(lay.columns)
+        if arr.size != len(self.data) * width:
+            return None
+        self._matrix = arr.reshape(len(self.data), width)
+        return self._matrix
 
 
 # --------------------------------------------------------------------------- bytes → text
@@ -347,11 +409,20 @@ def _decode(data: bytes | str, encoding: str | None, label: str) -> tuple[str, s
                     f"decoded as Latin-1: not valid UTF-8 at byte {exc.start} (line {line})"
                 )
     text = text.lstrip("\ufeff")
-    ctrl = re.search(r"[\x00-\x08\x0e-\x1f\x7f]", text)
-    if ctrl:
-        line = text.count("\n", 0, ctrl.start()) + 1
+    if isinstance(data, bytes) and enc in ("utf-8", "latin-1"):
+        # control bytes < 0x80 are the same characters in UTF-8 and Latin-1: check the bytes
+        b = np.frombuffer(data, dtype=np.uint8)
+        bad = np.flatnonzero(((b < 32) & ((b < 9) | (b > 13))) | (b == 127))
+        pos = int(bad[0]) if bad.size else -1
+        ctrl_char = chr(data[pos]) if bad.size else ""
+        line = _line_of_offset(data, pos) if bad.size else 0
+    else:
+        m = re.search(r"[\x00-\x08\x0e-\x1f\x7f]", text)
+        ctrl_char = m.group() if m else ""
+        line = text.count("\n", 0, m.start()) + 1 if m else 0
+    if ctrl_char:
         raise CSVError(
-            f"{label} is not a text CSV: control character {ctrl.group()!r} on line {line}; "
+            f"{label} is not a text CSV: control character {ctrl_char!r} on line {line}; "
             "it looks like binary data; export the recording as CSV text",
             source=label, line=line,
         )
@@ -462,33 +533,27 @@ def _table(
     raw, label, stem = _load_bytes(source, max_bytes)
     text, enc, notes = _decode(raw, encoding, label)
     all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    content: list[str] = []
-    linenos: list[int] = []
-    n_comment = 0
-    blank_inside: list[int] = []
-    for i, ln in enumerate(all_lines):
-        if i < skiprows:
-            continue
-        s = ln.strip()
-        if not s:
-            if content:
-                blank_inside.append(i + 1)
-            continue
-        if s.startswith("#"):
-            n_comment += 1
-            continue
-        if not content and delimiter is None and re.fullmatch(r"sep=.", s):
-            delimiter = s[4]  # Excel's "sep=;" first line
-            notes.append(f"line {i + 1} {s!r} sets the delimiter")
-            continue
-        content.append(ln)
-        linenos.append(i + 1)
-        if len(content) > max_rows + 2:
-            raise CSVError(
-                f"{label} has more than max_rows={max_rows:,} rows (stopped at line {i + 1}); "
-                "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
-                source=label, line=i + 1,
-            )
+    body = all_lines[skiprows:]
+    stripped = [ln.strip() for ln in body]
+    keep = [i for i, st in enumerate(stripped) if st and st[0] != "#"]
+    n_comment = sum(1 for st in stripped if st[:1] == "#")
+    if keep and delimiter is None and re.fullmatch(r"sep=.", stripped[keep[0]]):
+        delimiter = stripped[keep[0]][4]  # Excel's "sep=;" first line
+        notes.append(f"line {keep[0] + skiprows + 1} {stripped[keep[0]]!r} sets the delimiter")
+        keep = keep[1:]
+    if len(keep) > max_rows + 2:
+        stop = keep[max_rows + 2] + skiprows + 1
+        raise CSVError(
+            f"{label} has more than max_rows={max_rows:,} rows (stopped at line {stop}); "
+            "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
+            source=label, line=stop,
+        )
+    content = [body[i] for i in keep]
+    linenos = [i + skiprows + 1 for i in keep]
+    blank_inside = (
+        [keep[0] + k + skiprows + 1 for k, st in enumerate(stripped[keep[0]:keep[-1]]) if not st]
+        if keep else []
+    )
     if skiprows:
         notes.append(f"skipped the first {skiprows} line(s) (skiprows={skiprows})")
     if n_comment:
@@ -499,33 +564,36 @@ def _table(
             f"{label} is empty: it holds {what}, no header and no data; export the "
             "recording again", source=label,
         )
-    blank_inside = [b for b in blank_inside if b < linenos[-1]]
     if blank_inside:
         notes.append(f"ignored {len(blank_inside)} blank line(s) inside the data "
                      f"(line(s) {_lines_text(blank_inside)})")
     d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0])
-    rows = _split(content, d)
-    empty = [i for i, r in enumerate(rows) if not any(r)]
+    quoted = '"' in text
+    strip_chars = " \t" if d == "whitespace" else " \t" + d
+    empty = [i for i, ln in enumerate(content) if not ln.strip(strip_chars)]
     if empty:  # lines holding only delimiters (",,,")
         notes.append(f"ignored {len(empty)} line(s) holding only delimiters (line(s) "
                      f"{_lines_text([linenos[i] for i in empty])})")
         drop = set(empty)
-        rows = [r for i, r in enumerate(rows) if i not in drop]
         content = [c for i, c in enumerate(content) if i not in drop]
         linenos = [n for i, n in enumerate(linenos) if i not in drop]
-        if not rows:
+        if not content:
             raise CSVError(f"{label} holds only delimiters, no data; export the recording "
                            "again", source=label)
+    # a delimiter at the end of every data line makes an empty last column
+    if d != "whitespace" and len(content) > 1 and all(
+        ln.rstrip().endswith(d) for ln in content[1:]
+    ):
+        h0, h1 = _split(content[:2], d)
+        if h0[-1] == "" or len(h0) == len(h1) - 1:
+            content = [ln.rstrip()[:-1] if len(r) == len(h1) else ln
+                       for ln, r in zip(content, [h0] + [h1] * (len(content) - 1), strict=True)]
+            notes.append(f"ignored the empty last column (every line ends with {d!r})")
+    rows = _split(content[:64], d)  # the head: enough to find preamble, header, units
     if d == "whitespace" and len(rows) > 1 and len(rows[0]) != len(rows[1]):
         wide = [c.strip() for c in re.split(r"\s{2,}|\t", content[0].strip())]
         if len(wide) == len(rows[1]):
             rows[0] = wide  # names with single spaces inside, e.g. "t [s]   u [V]"
-    # a delimiter at the end of every data line makes an empty last column
-    if len(rows) > 1 and all(len(r) >= 2 and r[-1] == "" for r in rows[1:]) and (
-        rows[0][-1] == "" or len(rows[0]) == len(rows[1]) - 1
-    ):
-        rows = [r[:-1] if r[-1] == "" and len(r) == len(rows[1]) else r for r in rows]
-        notes.append(f"ignored the empty last column (every line ends with {d!r})")
     if skiprows == 0 and len(rows) > 3:
         # an instrument preamble: leading lines whose field count differs from the table's
         width = len(rows[min(len(rows) - 1, 2)])
@@ -567,41 +635,58 @@ def _table(
                          f"{seen[base.lower()]}; pick it by index")
         seen.setdefault(base.lower(), j)
         cols.append(ColumnInfo(j, nm, base, unit))
-    data_rows = rows[start:]
+    data = content[start:]
     data_lines = np.asarray(linenos[start:], dtype=np.int64)
-    if not data_rows:
-        if has_header:
-            raise CSVError(
-                f"{label} has only a header (line {linenos[0]}: {', '.join(names)}) and no "
-                "data rows; export the recording again with its samples",
-                source=label, line=linenos[0],
-            )
-    width = len(cols)
-    for r, ln in zip(data_rows, data_lines, strict=True):
-        if len(r) != width:
-            ref = f"the header (line {linenos[0]})" if has_header else f"line {linenos[0]}"
-            fix = (
-                "if the recording was cut off, delete the incomplete line"
-                if ln == data_lines[-1] else
-                "fix or delete that line; if the file starts with a preamble, pass skiprows="
-            )
-            raise CSVError(
-                f"{label}: line {ln} has {len(r)} field(s) but {ref} has {width} "
-                f"(delimiter {'whitespace' if d == 'whitespace' else repr(d)}); {fix}",
-                source=label, line=int(ln),
-            )
-    if len(data_rows) > max_rows:
+    if not data and has_header:
         raise CSVError(
-            f"{label} has {len(data_rows):,} data rows, more than max_rows={max_rows:,}; "
+            f"{label} has only a header (line {linenos[0]}: {', '.join(names)}) and no "
+            "data rows; export the recording again with its samples",
+            source=label, line=linenos[0],
+        )
+    if len(data) > max_rows:
+        raise CSVError(
+            f"{label} has {len(data):,} data rows, more than max_rows={max_rows:,}; "
             "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
             source=label,
         )
+    width = len(cols)
+    data_rows: list[list[str]] | None = None
+    if quoted or d == "whitespace":
+        data_rows = _split(data, d)
+        counts = np.fromiter((len(r) for r in data_rows), dtype=np.int64, count=len(data))
+    else:
+        counts = _field_counts(data, d)
+    ragged = np.flatnonzero(counts != width)
+    if ragged.size:
+        i = int(ragged[0])
+        ln = int(data_lines[i])
+        ref = f"the header (line {linenos[0]})" if has_header else f"line {linenos[0]}"
+        fix = (
+            "if the recording was cut off, delete the incomplete line"
+            if i == len(data) - 1 else
+            "fix or delete that line; if the file starts with a preamble, pass skiprows="
+        )
+        raise CSVError(
+            f"{label}: line {ln} has {int(counts[i])} field(s) but {ref} has {width} "
+            f"(delimiter {'whitespace' if d == 'whitespace' else repr(d)}); {fix}",
+            source=label, line=ln,
+        )
     layout = CSVLayout(
         source=label, encoding=enc, delimiter=d, decimal=dec, header=has_header,
-        columns=tuple(cols), n_rows=len(data_rows),
-        first_data_line=int(data_lines[0]) if data_rows else 0, notes=tuple(notes),
+        columns=tuple(cols), n_rows=len(data),
+        first_data_line=int(data_lines[0]) if data else 0, notes=tuple(notes),
     )
-    return _Table(layout, data_rows, data_lines), stem
+    return _Table(layout, data, data_lines, data_rows, quoted), stem
+
+
+def _field_counts(data: list[str], d: str) -> np.ndarray:
+    """Number of ``d``-separated fields on each line (vectorised over the bytes)."""
+    if not data:
+        return np.zeros(0, dtype=np.int64)
+    b = np.frombuffer("\n".join(data).encode("utf-8", "surrogatepass"), dtype=np.uint8)
+    nl = np.flatnonzero(b == 10)
+    line_of_delim = np.searchsorted(nl, np.flatnonzero(b == ord(d)))
+    return np.bincount(line_of_delim, minlength=len(data)).astype(np.int64) + 1
 
 
 def inspect_csv(
@@ -687,7 +772,10 @@ def _convert(
 ) -> np.ndarray | None:
     """Column as float64 (NA tokens → NaN). Non-numeric: error if strict, else None."""
     dec = table.layout.decimal
-    cells = [r[col.index] for r in table.rows]
+    m = table.matrix()
+    if m is not None:
+        return np.array(m[:, col.index])
+    cells = table.column(col.index)
     if dec == ",":
         # a "." in a decimal-comma file is an error, not a second decimal mark
         cells = [c.replace(",", ".") if "." not in c else "?" for c in cells]
@@ -733,8 +821,8 @@ def _convert_time(table: _Table, col: ColumnInfo) -> tuple[np.ndarray, str | Non
     if arr is not None:
         return arr, None
     stamps: list[datetime | None] = []
-    for r in table.rows:
-        c = r[col.index].strip()
+    for c in table.column(col.index):
+        c = c.strip()
         if c.lower() in _NA_TOKENS:
             stamps.append(None)
             continue
@@ -974,21 +1062,29 @@ def read_csv(
         key = c.name if c.name not in extras else f"{c.name}_{c.index}"
         arr = _convert(table, c, strict=False, role="extra")
         if arr is None:
-            extras[key] = np.asarray([r[c.index] for r in table.rows], dtype=str)
+            extras[key] = np.asarray(table.column(c.index), dtype=str)
             extra_notes.append(f"column {c.label()} is not numeric; kept as text in extra")
         else:
             extras[key] = arr
         extra_units[key] = c.unit
 
     # ---- runs
+    groups: list[tuple[str | None, np.ndarray]]
+    n_rows = len(table.data)
     if rcol is not None:
-        labels = [r[rcol.index] for r in table.rows]
-        order: dict[str, list[int]] = {}
-        for i, v in enumerate(labels):
-            order.setdefault(v, []).append(i)
-        groups = [(k, np.asarray(v)) for k, v in order.items()]
+        m = table.matrix()
+        if m is not None:  # numeric run ids: group without splitting the lines
+            _, first_i, inv = np.unique(m[:, rcol.index], return_index=True,
+                                        return_inverse=True)
+            groups = [(table.cell(int(first_i[g]), rcol.index), np.flatnonzero(inv == g))
+                      for g in np.argsort(first_i)]
+        else:
+            order: dict[str, list[int]] = {}
+            for i, v in enumerate(table.column(rcol.index)):
+                order.setdefault(v, []).append(i)
+            groups = [(k, np.asarray(v)) for k, v in order.items()]
     else:
-        groups = [(None, np.arange(len(table.rows)))]
+        groups = [(None, np.arange(n_rows))]
 
     out = []
     for run_id_raw, idx in groups:
@@ -1025,7 +1121,7 @@ def read_csv(
         if bad.any():
             first = int(np.flatnonzero(bad)[0])
             which = ucol if not np.isfinite(u[first]) else ycol
-            cell = table.rows[idx[first]][which.index]
+            cell = table.cell(int(idx[first]), which.index)
             if nan == "error":
                 raise CSVError(
                     f"{label}: line {lines[first]}, column {which.label()}: {cell!r} is not a "
@@ -1154,7 +1250,7 @@ def _check_time(
         )
     if t.size >= 3:
         mean = (t[-1] - t[0]) / (t.size - 1)
-        sample = [table.rows[i][tcol.index] for i in idx[:1000]]
+        sample = [table.cell(int(i), tcol.index) for i in idx[:1000]]
         dec = _decimals(sample)
         res = 10.0 ** (-dec) * t_scale if dec else 0.0
         dev = np.abs(d - mean)

@@ -703,3 +703,17 @@ def test_any_supported_layout_reads_back_the_values(
     assert r.has_time and r.fs == pytest.approx(1 / dt)
     if style is not None:
         assert (r.units["input"], r.units["output"]) == ("V", "µm")
+
+
+def test_quoted_cells_read_like_plain_ones():
+    body = "".join(f'"{t:.2f}","{u:.6f}","{y:.6f}"\n' for t, u, y in zip(T, U, Y, strict=True))
+    (r,) = read_csv('"t [s]","Force, measured (kN)","y"\n' + body, input=1, output=2)
+    assert r.units["input"] == "kN" and r.columns["input"] == "Force, measured (kN)"
+    np.testing.assert_allclose(r.u, U, atol=1e-6)
+
+
+def test_compensating_ragged_lines_are_still_found():
+    """One line short and one long keep the total cell count: the per-line check finds it."""
+    text = with_line(with_line(table(), 7, "0.05,1.0"), 9, "0.07,1.0,2.0,3.0")
+    with pytest.raises(CSVError, match=r"line 7 has 2 field\(s\) but the header"):
+        read_csv(text)
