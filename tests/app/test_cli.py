@@ -424,3 +424,19 @@ def test_demo_opens_a_browser_only_with_a_display(tmp_path, capsys, monkeypatch)
     monkeypatch.setenv("DISPLAY", ":0")
     assert run(capsys, "demo", "--out", tmp_path)[0] == 0
     assert opened == [(tmp_path / "demo.html").resolve().as_uri()]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "the file is empty"),
+        ("1,2\n3,4\n", "the first row must name the columns"),
+        ("t,u\n", "no data rows after the header"),
+        ("t,u\n0,1\n1,2,3\n", "line 3 has 3 values but the header has 2 columns"),
+    ],
+)
+def test_simulate_reports_bad_csv_layouts(text, message, ex1_file, tmp_path, capsys):
+    bad = tmp_path / "in.csv"
+    bad.write_text(text)
+    code, _, err = run(capsys, "simulate", ex1_file, "-i", bad, "-o", tmp_path / "o.csv")
+    assert code == 2 and message in err and "in.csv" in err
