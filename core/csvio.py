@@ -903,7 +903,8 @@ def read_csv(
     name : str, optional
         Recording name; the file stem by default (``" loop=3"`` is appended per run).
     fs : float, optional
-        Sampling rate in Hz for files without a time column.
+        Sampling rate in Hz for files without a time column (``t = k / fs``); an error
+        when a time column is in use (pass ``time=False`` to prefer ``fs``).
     time_unit : str, optional
         Unit of the time column when its name has none or the wrong one
         (``s``, ``ms``, ``us``/``µs``, ``ns``, ``min``, ``h``); times are stored in s.
@@ -1036,6 +1037,12 @@ def read_csv(
     # ---- conversion
     tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
     assert ucol is not None and ycol is not None
+    if fs is not None and tcol is not None:
+        raise CSVError(
+            f"{label}: fs={fs!r} was given but column {tcol.label()} is the time axis; pass "
+            "time=False to build the time from fs instead, or leave fs out",
+            source=label, column=tcol.raw, column_index=tcol.index,
+        )
     t_all, dt_note = _convert_time(table, tcol) if tcol is not None else (None, None)
     u_all = _convert(table, ucol, strict=True, role="input")
     y_all = _convert(table, ycol, strict=True, role="output")

@@ -89,6 +89,11 @@ def test_headerless_two_columns_are_input_output_without_time():
     (r2,) = read_csv(table(header=None, rows=rows), fs=250.0)
     assert r2.has_time and r2.fs == pytest.approx(250.0)
     assert any("fs = 250 Hz" in c for c in r2.cleaning)
+    with pytest.raises(CSVError, match=r"fs=250\.0 was given but column 't_s' \(column 0\) is the "
+                                       r"time axis; pass time=False"):
+        read_csv(table(), fs=250.0)
+    (r3,) = read_csv(table(), fs=250.0, time=False)
+    assert r3.fs == pytest.approx(250.0) and list(r3.extra) == ["t"]
     with pytest.raises(ParameterError, match="no time axis"):
         r.resampled()
 
