@@ -1047,6 +1047,10 @@ def read_csv(
     u_all = _convert(table, ucol, strict=True, role="input")
     y_all = _convert(table, ycol, strict=True, role="output")
     assert u_all is not None and y_all is not None
+    if time_unit is not None and (tcol is None or dt_note is not None):
+        why = "there is no time column" if tcol is None else "the time column holds date-times"
+        raise CSVError(f"{label}: time_unit={time_unit!r} was given but {why}; leave it out",
+                       source=label)
     t_scale, t_unit_note = 1.0, dt_note
     if tcol is not None and dt_note is None:
         unit = (time_unit or tcol.unit or "s").strip()

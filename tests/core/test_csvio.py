@@ -167,6 +167,8 @@ def test_time_in_milliseconds_is_converted_to_seconds():
     assert any("time converted from ms to s" in c for c in r.cleaning)
     (r2,) = read_csv(table(header="t,u,y", rows=rows, fmt="{:.4f}"), time_unit="ms")
     np.testing.assert_allclose(r2.t, r.t)
+    with pytest.raises(CSVError, match="time_unit='ms' was given but there is no time column"):
+        read_csv(table(), time=False, time_unit="ms")
 
 
 def test_named_input_and_output_columns_win_over_file_order():
