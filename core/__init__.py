@@ -17,6 +17,8 @@ from .exceptions import (
     NotInvertibleError,
     ParameterError,
 )
+from .export_c import CExportError, export_c, generate_c
+from .export_mat import export_mat, read_mat
 from .fitting import (
     DeadZoneGPIRegressor,
     DigitizedPIRegressor,
@@ -35,9 +37,20 @@ from .gpi import (
     paper001_example6,
 )
 from .operators import dead_zone, play, play_bank, stop
+from .paramset import ParameterSet, ParameterSetError, Provenance, Units, load_parameter_set
 from .pi import PIModel, inverse_parameters
 
 __all__ = [
+    "CExportError",
+    "ParameterSet",
+    "ParameterSetError",
+    "Provenance",
+    "Units",
+    "export_c",
+    "export_mat",
+    "generate_c",
+    "load_parameter_set",
+    "read_mat",
     "Chain",
     "DeadZoneGPI",
     "DeadZoneGPIRegressor",
