@@ -6,6 +6,8 @@ Import-light on purpose: no web or plotting libraries are imported here.
 from __future__ import annotations
 
 from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
+from .csvio import CSVError, inspect_csv, read_csv, read_csvs, read_recording
+from .datasets import dataset_info, list_datasets, load_dataset
 from .deadzone import DeadZoneMap
 from .digitized import DigitizedPI, DigitizedState, DigitizedTrace, StateGraph
 from .digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
@@ -39,8 +41,18 @@ from .gpi import (
 from .operators import dead_zone, play, play_bank, stop
 from .paramset import ParameterSet, ParameterSetError, Provenance, Units, load_parameter_set
 from .pi import PIModel, inverse_parameters
+from .recordings import Recording
 
 __all__ = [
+    "CSVError",
+    "Recording",
+    "dataset_info",
+    "inspect_csv",
+    "list_datasets",
+    "load_dataset",
+    "read_csv",
+    "read_csvs",
+    "read_recording",
     "CExportError",
     "ParameterSet",
     "ParameterSetError",
