@@ -347,6 +347,18 @@ class Result:
     elapsed_ms: float = 0.0
 
 
+class _Skip(Exception):
+    """Internal: a part of :func:`compute` that was not asked for."""
+
+
+def validate_config(config: Config, recording: Recording | None, max_operators: int,
+                    max_samples: int) -> None:
+    """Check ``config`` without simulating; raises :class:`ParameterError`."""
+    build_model(config.model, max_operators)
+    if not (config.use_recording and recording is not None):
+        config.signal.validate(max_samples)
+
+
 def compute(
     config: Config,
     *,
@@ -354,8 +366,13 @@ def compute(
     recording: Recording | None = None,
     max_operators: int = 100,
     max_samples: int = 200_000,
+    with_inverse: bool = True,
+    with_digitized: bool = True,
 ) -> Result:
     """Simulate ``config``: output, operator contributions and inverse compensation.
+
+    ``with_inverse`` / ``with_digitized`` skip the inverse-compensation run and the
+    digitized view when the figure on show does not need them.
 
     Raises
     ------
@@ -381,17 +398,22 @@ def compute(
     v = y_comp = None
     inv_err = None
     try:
+        if not with_inverse:
+            raise _Skip
         inv = model.inverse()
         # desired output = the signal; plant input v = P^-1(u); plant output P~(v)
         v = inv.simulate(u, dt=dt).y
         y_comp = perturb(model, config.mismatch).simulate(v, dt=dt).y
+    except _Skip:
+        pass
     except NotInvertibleError as exc:
         inv_err = str(exc)
     except ValueError as exc:  # e.g. an input outside an inverse's domain
         inv_err = f"inverse unavailable: {exc}"
     digi, digi_msg = None, None
     try:
-        digi, digi_msg = digitize(model, u)
+        if with_digitized:
+            digi, digi_msg = digitize(model, u)
     except (ParameterError, ValueError) as exc:
         digi_msg = f"digitized view unavailable: {exc}"
     return Result(

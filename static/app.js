@@ -140,6 +140,7 @@ async function draw() {
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
   if (res.inverse_error) parts.push(`⚠ ${res.inverse_error}`);
+  else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
   $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);

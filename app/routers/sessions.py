@@ -7,7 +7,7 @@ from typing import Any
 from fastapi import APIRouter, Header, HTTPException, Query
 
 from ..schemas import ConfigIn
-from ..state import Config, SignalSpec, compute, get_preset
+from ..state import Config, SignalSpec, compute, get_preset, validate_config
 from .deps import RegistryDep, SessionDep, SettingsDep
 from .simulate import result_payload
 
@@ -42,8 +42,7 @@ def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) ->
     """Change model, signal, mismatch or input source; validated before it is stored."""
     with session.lock:
         new = body.apply(session.config)
-        compute(new, recording=session.recording, max_operators=settings.max_operators,
-                max_samples=settings.max_samples)  # raises 422 on invalid parameters
+        validate_config(new, session.recording, settings.max_operators, settings.max_samples)
         session.set_config(new)
     return session.summary()
 
@@ -57,7 +56,8 @@ def session_figures(
     """Figures of the session's current config (``?name=loop&name=time``)."""
     cfg, v = session.snapshot()
     res = compute(cfg, version=v, recording=session.recording,
-                  max_operators=settings.max_operators, max_samples=settings.max_samples)
+                  max_operators=settings.max_operators, max_samples=settings.max_samples,
+                  with_inverse="inverse" in names, with_digitized="digitized" in names)
     return result_payload(res, names, cfg.mismatch, False)
 
 

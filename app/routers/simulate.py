@@ -51,5 +51,7 @@ def simulate(body: SimulateIn, settings: SettingsDep) -> dict[str, Any]:
     a message naming the parameter.
     """
     cfg = Config(model=body.model, signal=body.signal.to_spec(), mismatch=body.mismatch)
-    res = compute(cfg, max_operators=settings.max_operators, max_samples=settings.max_samples)
+    res = compute(cfg, max_operators=settings.max_operators, max_samples=settings.max_samples,
+                  with_inverse="inverse" in body.figures,
+                  with_digitized="digitized" in body.figures)
     return result_payload(res, body.figures, body.mismatch, body.include_data)
