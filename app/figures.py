@@ -28,6 +28,7 @@ from .state import Recording, Result, pi_part
 __all__ = [
     "MAX_POINTS",
     "FigureJSON",
+    "closed_loop_figure",
     "decimate_index",
     "digitized_figure",
     "fit_figure",
@@ -370,8 +371,43 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     return FigureJSON(data, lay)
 
 
+def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
+    """Paper 001 Fig. 16: reference vs plant output and tracking error, ± inverse."""
+    from .state import closed_loop
+
+    cl, msg = closed_loop(res, mismatch)
+    if cl is None:
+        return message_figure("Closed loop", msg or "unavailable")
+    colors = {"no compensation": _RED, "inverse feedforward": _GREEN,
+              "inverse + reference feedforward": _BLUE}
+    first = next(iter(cl.runs.values()))
+    idx = decimate_index(first.r)
+    t = _num(first.t[idx])
+    data = [_line(t, _num(first.r[idx]), "reference r", _GREY, xaxis="x", yaxis="y",
+                  line={"color": _GREY, "dash": "dash", "width": 1.5})]
+    parts = []
+    for name, run in cl.runs.items():
+        c = colors.get(name, _BLUE)
+        data.append(_line(t, _num(run.y_o[idx]), f"output, {name}", c, xaxis="x", yaxis="y"))
+        data.append(_line(t, _num(run.e[idx]), f"error, {name}", c, xaxis="x", yaxis="y2",
+                          showlegend=False))
+        parts.append(f"{name}: RMS {run.rms_error(0.0):.3g}")
+    title = "Closed loop (paper 001 Fig. 15-16, mismatch {:+.0%}): {}".format(
+        mismatch, "; ".join(parts))
+    if msg:
+        title += f" — {msg}"
+    lay = _layout(
+        title,
+        xaxis={"title": {"text": "t [s]"}, "anchor": "y2"},
+        yaxis={"title": {"text": "y_o"}, "domain": [0.45, 1.0]},
+        yaxis2={"title": {"text": "error r − y_o"}, "domain": [0.0, 0.37], "anchor": "x"},
+    )
+    lay["title"]["font"] = {"size": 12}
+    return FigureJSON(data, lay)
+
+
 #: Names of the figures :func:`build` can build.
-FIGURES = ("time", "loop", "operators", "loading", "inverse", "digitized")
+FIGURES = ("time", "loop", "operators", "loading", "inverse", "digitized", "closed-loop")
 
 
 def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
@@ -388,4 +424,6 @@ def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
         return inverse_figure(res, mismatch)
     if name == "digitized":
         return digitized_figure(res)
+    if name == "closed-loop":
+        return closed_loop_figure(res, mismatch)
     raise KeyError(name)

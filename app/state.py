@@ -433,6 +433,56 @@ def compute(
     )
 
 
+# ----------------------------------------------------------------------------- closed loop
+#: Sample rate of the closed-loop runs (paper 001's plant has poles near 3-4 kHz).
+CLOSED_LOOP_RATE = 50_000.0
+#: Longest closed-loop run, s (100,000 samples at 50 kHz).
+CLOSED_LOOP_MAX_S = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedLoop:
+    """Paper 001 Fig. 15-16: PI controller + ``G(s)`` (eq. 38) around the hysteresis.
+
+    Attributes
+    ----------
+    runs : dict
+        ``{"no compensation": ClosedLoopResult, "inverse feedforward": ...,
+        "inverse + reference feedforward": ...}``; the plant's hysteresis is the
+        (mismatch-perturbed) session model, the feedforward is the exact inverse of the
+        unperturbed model; the last run adds the reference to the controller output
+        (two-degree-of-freedom structure, not in the paper's Fig. 15).
+    """
+
+    runs: dict[str, Any]
+
+
+def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | None]:
+    """Closed-loop runs of ``res``'s model tracking ``res.u`` as the reference."""
+    mod = optional("core.closed_loop")
+    if mod is None:
+        return None, "the closed-loop module is not installed"
+    pi = res.model if isinstance(res.model, PIModel) else None
+    if pi is None:
+        return None, "the closed loop is simulated for classical PI models only"
+    dur = min(float(res.t[-1] - res.t[0]), CLOSED_LOOP_MAX_S)
+    tt = np.arange(0.0, dur, 1.0 / CLOSED_LOOP_RATE)
+    r = np.interp(tt + res.t[0], res.t, res.u)
+    plant_h = perturb(pi, mismatch)
+    runs: dict[str, Any] = {}
+    g = mod.paper001_plant()
+    runs["no compensation"] = mod.HammersteinLoop(plant_h, g).simulate(r, 1.0 / CLOSED_LOOP_RATE)
+    try:
+        ff = pi.inverse()
+    except NotInvertibleError as exc:
+        return ClosedLoop(runs), f"no inverse feedforward: {exc}"
+    runs["inverse feedforward"] = mod.HammersteinLoop(plant_h, g, feedforward=ff).simulate(
+        r, 1.0 / CLOSED_LOOP_RATE)
+    runs["inverse + reference feedforward"] = mod.HammersteinLoop(
+        plant_h, g, feedforward=ff, reference_feedforward=True).simulate(r, 1.0 / CLOSED_LOOP_RATE)
+    return ClosedLoop(runs), None
+
+
 # ----------------------------------------------------------------------------- sessions
 Listener = Callable[["Session", Config, int], None]
 
@@ -908,7 +958,12 @@ def get_preset(name: str) -> dict[str, Any]:
             p = mod.get_preset(name)
         except (KeyError, ValueError) as exc:
             raise KeyError(name) from exc
-        return _preset_doc(name, p)
+        doc = _preset_doc(name, p)
+        for info in mod.list_presets():
+            if getattr(info, "name", None) == name:
+                doc["title"] = str(getattr(info, "title", name))
+                doc["description"] = str(getattr(info, "description", ""))
+        return doc
     return _fallback_presets()[name]
 
 

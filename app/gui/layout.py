@@ -47,9 +47,10 @@ __all__ = ["ExplorerGui", "SessionView", "attach_gui"]
 
 #: Largest number of operators the GUI shows individual sliders for.
 GUI_MAX_SLIDERS = 25
-PLOTS = ("loop", "time", "operators", "loading", "inverse", "digitized")
+PLOTS = F.FIGURES
 _TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
-           "inverse": "Inverse", "digitized": "Digitized states", "fit": "Fit"}
+           "inverse": "Inverse", "digitized": "Digitized states", "closed-loop": "Closed loop",
+           "fit": "Fit"}
 #: Largest number of digits drawn as a 3D hypercube in the viser scene.
 CUBE_MAX_DIGITS = 7
 
@@ -501,7 +502,8 @@ class SessionView:
             fig = F.build(name, res, cfg.mismatch)
         if session is not self.session or self.session.snapshot()[1] != v:
             return  # stale: a newer version is queued, skip sending this one
-        self.plot.aspect = {"inverse": 2.0, "fit": 2.0, "digitized": 1.3}.get(name, 1.5)
+        self.plot.aspect = {"inverse": 2.0, "fit": 2.0, "digitized": 1.3,
+                            "closed-loop": 1.3}.get(name, 1.5)
         self.plot.figure = fig
         self.shown_figure = name
         self.last_result = res

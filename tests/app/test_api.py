@@ -119,6 +119,22 @@ def test_simulate_bad_json(client: TestClient) -> None:
     assert r.status_code == 422
 
 
+def test_closed_loop_and_digitized_figures(client: TestClient) -> None:
+    r = client.post("/api/simulate", json={"model": EX1, "figures": ["closed-loop", "digitized"],
+                                          "signal": {"duration": 1.0, "samples": 1000}})
+    assert r.status_code == 200
+    figs = r.json()["figures"]
+    title = figs["closed-loop"]["layout"]["title"]["text"]
+    assert "no compensation" in title and "inverse feedforward" in title
+    assert "Digitized PI: n = 7 digits" in figs["digitized"]["layout"]["title"]["text"]
+    for f in figs.values():
+        go.Figure(f)
+    # a model whose half span is below the largest threshold: a message, not an error
+    r = client.post("/api/simulate", json={"model": EX1, "figures": ["digitized"],
+                                          "signal": {"amplitude": 1.0}})
+    assert "raise the amplitude" in json.dumps(r.json()["figures"]["digitized"])
+
+
 def test_non_invertible_model_is_a_message_not_an_error(client: TestClient) -> None:
     r = client.post("/api/simulate", json={"model": {**EX1, "p0": -0.2}, "figures": ["inverse"]})
     assert r.status_code == 200
