@@ -79,6 +79,8 @@ function applyConfig(cfg) {
   $("kind").value = cfg.signal.kind;
   $("samples").value = cfg.signal.samples;
   $("mismatch").value = cfg.mismatch;
+  $("model-json").value = JSON.stringify(m, null, 1);
+  if (!isPI) $("json-edit").open = true;
   $("use-recording").checked = cfg.use_recording;
   document.querySelectorAll("aside input[type=range]").forEach(showOutput);
 }
@@ -284,6 +286,21 @@ async function main() {
   });
   $("join").addEventListener("click", () => openSession($("join-code").value.trim())
     .catch((e) => setMsg("model-msg", e.message)));
+  $("apply-json").addEventListener("click", async () => {
+    let model;
+    try { model = JSON.parse($("model-json").value); } catch (e) {
+      setMsg("model-msg", `Not valid JSON: ${e.message}`);
+      return;
+    }
+    try {
+      const s = await api("PATCH", `/api/sessions/${state.code}/config`, { model });
+      applyConfig(s.config);
+      setMsg("model-msg", "");
+      await draw();
+    } catch (e) {
+      setMsg("model-msg", `Not applied: ${e.message}`);
+    }
+  });
   $("csv-file").addEventListener("change", onCsvChosen);
   $("use-csv").addEventListener("click", useCsv);
   $("fit").addEventListener("click", fit);

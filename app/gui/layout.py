@@ -129,6 +129,9 @@ class SessionView:
                 self.w_folder = g.add_folder("Weights p_i", expand_by_default=True)
             self.r_sliders: list[Any] = []
             self.w_sliders: list[Any] = []
+            self.param_folder = g.add_folder("Model parameters", visible=False)
+            self.param_sliders: dict[str, Any] = {}
+            self._param_paths: tuple[str, ...] = ()
             self.json_in = g.add_text("Model JSON (any type)", initial_value="", multiline=True)
             self.json_btn = g.add_button("Apply model JSON")
         with tabs.add_tab("Input"):
@@ -253,6 +256,9 @@ class SessionView:
                     s0 = m.get("state0")
                     self._set(self.state0, float(np.clip(np.mean(s0) if s0 else 0.0, -5, 5)))
                     self._ensure_sliders(r, w)
+                self.param_folder.visible = not is_pi
+                if not is_pi:
+                    self._ensure_param_sliders(m)
                 self.json_in.value = json.dumps(m)
                 sig = cfg.signal
                 if sig.kind in self.kind.options:
@@ -295,6 +301,49 @@ class SessionView:
             self._set(h, float(v))
         for h, v in zip(self.w_sliders, w, strict=True):
             self._set(h, float(np.clip(v, h.min, h.max)))
+
+    def _ensure_param_sliders(self, m: dict[str, Any]) -> None:
+        """One slider per numeric parameter of a non-PI model (grouped by field)."""
+        leaves = numeric_leaves(m)
+        paths = tuple(p for p, _ in leaves)
+        if paths != self._param_paths:
+            for h in self.param_sliders.values():
+                h.remove()
+            for f in getattr(self, "_param_subfolders", []):
+                f.remove()
+            self.param_sliders, self._param_subfolders = {}, []
+            groups: dict[str, list[tuple[str, float]]] = {}
+            for path, v in leaves[:MAX_PARAM_SLIDERS]:
+                groups.setdefault(path.split("[")[0], []).append((path, v))
+            with self.param_folder:
+                for group, items in groups.items():
+                    folder = self.gui.add_folder(group, expand_by_default=len(items) <= 4)
+                    self._param_subfolders.append(folder)
+                    with folder:
+                        for path, v in items:
+                            span = max(1.0, 2 * abs(v))
+                            h = self.gui.add_slider(path.split(".")[-1], min=round(v - span, 3),
+                                                    max=round(v + span, 3), step=0.001,
+                                                    initial_value=round(v, 3), hint=path)
+                            h.on_update(self._guarded(self._params_changed))
+                            self.param_sliders[path] = h
+            self._param_paths = paths
+            return
+        for path, v in leaves[:MAX_PARAM_SLIDERS]:
+            h = self.param_sliders.get(path)
+            if h is not None:
+                if not h.min <= v <= h.max:
+                    h.min, h.max = v - max(1.0, 2 * abs(v)), v + max(1.0, 2 * abs(v))
+                self._set(h, float(v))
+
+    def _params_changed(self, event: Any) -> None:
+        def fn(cfg: Config) -> Config:
+            m = json.loads(json.dumps(cfg.model))
+            for path, h in self.param_sliders.items():
+                set_leaf(m, path, float(h.value))
+            return cfg.with_model(m)
+
+        self._commit(fn)
 
     # ------------------------------------------------------------------ GUI -> store
     def _commit(self, fn: Callable[[Config], Config]) -> None:
@@ -650,6 +699,41 @@ class SessionView:
         self._play_stop.set()
         self.session.remove_listener(self._on_session_change)
         self.worker.stop()
+
+
+#: Largest number of generic parameter sliders (non-PI models).
+MAX_PARAM_SLIDERS = 80
+
+
+def numeric_leaves(d: Any, prefix: str = "") -> list[tuple[str, float]]:
+    """``(path, value)`` of every number in a model document (``pi.weights[2]``, ...)."""
+    out: list[tuple[str, float]] = []
+    if isinstance(d, dict):
+        for k, v in d.items():
+            if k == "type":
+                continue
+            out += numeric_leaves(v, f"{prefix}.{k}" if prefix else str(k))
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            out += numeric_leaves(v, f"{prefix}[{i}]")
+    elif isinstance(d, int | float) and not isinstance(d, bool):
+        out.append((prefix, float(d)))
+    return out
+
+
+def set_leaf(d: Any, path: str, value: float) -> None:
+    """Set the number at ``path`` (as produced by :func:`numeric_leaves`) in place."""
+    import re
+
+    tokens = re.findall(r"[^.\[\]]+|\[\d+\]", path)
+    node = d
+    for tok in tokens[:-1]:
+        node = node[int(tok[1:-1])] if tok.startswith("[") else node[tok]
+    last = tokens[-1]
+    if last.startswith("["):
+        node[int(last[1:-1])] = value
+    else:
+        node[last] = value
 
 
 def diagnosis_markdown(rep: dict[str, Any]) -> str:

@@ -135,6 +135,35 @@ def test_join_other_session(view: SessionView) -> None:
     assert view.registry.get("room-42") is view.session
 
 
+def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
+    from app.state import get_preset
+
+    doc = get_preset("paper001-example4")
+    view.session.update(lambda c: c.with_model(doc["model"]))
+    _idle(view)
+    assert not view.pi_folder.visible and view.param_folder.visible
+    h = view.param_sliders["pi.p0"]
+    h.value = 0.8
+    _idle(view)
+    assert view.session.config.model["pi"]["p0"] == 0.8
+    # a non-monotone dead zone is refused with a message next to the controls
+    v = view.session.version
+    view.param_sliders["deadzone.thresholds[0]"].value = 2.9
+    _idle(view)
+    assert view.session.version == v
+    assert "Not applied" in view.model_md.content
+
+
+def test_numeric_leaves_round_trip() -> None:
+    from app.gui.layout import numeric_leaves, set_leaf
+
+    d = {"type": "x", "a": [1, 2.5], "b": {"c": 3.0, "flag": True}}
+    assert numeric_leaves(d) == [("a[0]", 1.0), ("a[1]", 2.5), ("b.c", 3.0)]
+    set_leaf(d, "a[1]", 7.0)
+    set_leaf(d, "b.c", -1.0)
+    assert d["a"][1] == 7.0 and d["b"]["c"] == -1.0
+
+
 def test_diagnosis_markdown() -> None:
     md = diagnosis_markdown({"engine": "x", "findings": ["delay"], "rms_error": 0.5})
     assert "- delay" in md and "rms_error" in md
