@@ -1,0 +1,194 @@
+"""Concealed-effect scenarios for the missing-physics benchmark (notes §7).
+
+Truth plant (B-PI of the notes): ``p0 = 0.55 um/V``, plays at ``r = 15, 30, ..., 135 V`` with
+``p_i = 0.12 exp(-0.02 r_i) um/V``, unipolar 0-150 V input (about 100 um stroke). Each scenario
+adds at most one hidden effect, at a magnitude that keeps the loop plot unremarkable, and
+produces three recordings a user would plausibly have:
+
+``decaying``
+    1 Hz sine around mid-range with amplitude decaying from full stroke (nested reversals),
+    2.5 kHz, 6 s.
+``multisine``
+    full-stroke sines, 2 cycles at 1 Hz, 10 at 10 Hz, 25 at 50 Hz, 40 at 100 Hz, then a 1 Hz
+    triangle, 5 kHz, 4.9 s.
+``staircase``
+    up-then-down staircase 0 → 150 → 0 V in 30 V steps ramped over 5 ms, 2 s holds, 1 kHz,
+    20 s.
+
+Noise models: ``white1`` 0.02 um, ``white2`` 0.1 um, ``coloured``: 0.02 um white + AR(1)
+(φ = 0.999, equal variance) + 50 Hz hum (0.5 σ) + 16-bit quantisation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core.base import Chain, Model
+from core.diagnosis import Record
+from core.effects import (
+    Asymmetry,
+    Creep,
+    Delay,
+    Drift,
+    InitialMemory,
+    Lag,
+    Offset,
+    RateDependentPI,
+    Resonance,
+)
+from core.pi import PIModel
+
+__all__ = ["EFFECTS", "LEVELS", "Scenario", "make_scenario", "truth_pi"]
+
+R_TRUE = np.arange(15.0, 136.0, 15.0)
+P0_TRUE = 0.55
+W_TRUE = 0.12 * np.exp(-0.02 * R_TRUE)
+STROKE_APPROX = 100.0  # um
+
+#: The hidden effects of the benchmark and their L2 ("concealed-moderate") magnitudes.
+LEVELS: dict[str, dict[str, Any]] = {
+    "delay": {"delay_s": 100e-6},
+    "lag": {"tau_s": 150e-6},
+    "resonance": {"freq_hz": 400.0, "damping": 0.05},
+    "rate": {"beta_s": 3e-4},
+    "creep": {"gamma": 0.0015},
+    "drift": {"amplitude": 0.4},
+    "asymmetry": {"a2": 0.3},
+    "offset": {"spread": 0.3},
+    "initial-memory": {"history": (150.0, 45.0)},
+}
+EFFECTS = tuple(LEVELS)
+
+
+def truth_pi() -> PIModel:
+    """The B-PI truth plant."""
+    return PIModel(P0_TRUE, R_TRUE, W_TRUE)
+
+
+def _signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
+    out = []
+    fs = 2500.0
+    t = np.arange(0, 6.0, 1 / fs)
+    amp = 75.0 * np.exp(-t / 4.0)
+    u = 75.0 - amp * np.cos(2 * np.pi * 1.0 * t)
+    u = np.concatenate((np.zeros(int(0.2 * fs)), np.linspace(0, 0, 0)[:0], u))
+    u[: int(0.2 * fs)] = u[int(0.2 * fs)]
+    out.append(("decaying", np.arange(u.size) / fs, u))
+    fs = 5000.0
+    segs = []
+    for f, cyc in ((1.0, 2), (10.0, 10), (50.0, 25), (100.0, 40)):
+        tt = np.arange(0, cyc / f, 1 / fs)
+        segs.append(75.0 - 75.0 * np.cos(2 * np.pi * f * tt))
+    tt = np.arange(0, 1.0, 1 / fs)
+    tri = 150.0 * (1 - np.abs(2 * ((tt * 1.0) % 1.0) - 1))
+    segs.append(tri)
+    u = np.concatenate(segs)
+    out.append(("multisine", np.arange(u.size) / fs, u))
+    fs = 1000.0
+    levels = [0, 30, 60, 90, 120, 150, 120, 90, 60, 30, 0]
+    parts = []
+    prev = 0.0
+    for lv in levels:
+        ramp = np.linspace(prev, lv, 6)[1:]
+        parts.append(ramp)
+        parts.append(np.full(int(2.0 * fs) - 5, float(lv)))
+        prev = lv
+    u = np.concatenate(parts)
+    out.append(("staircase", np.arange(u.size) / fs, u))
+    return out
+
+
+def _plant(effect: str | None, k: int, t: np.ndarray, rng: np.random.Generator) -> Model:
+    pi = truth_pi()
+    lv = LEVELS.get(effect or "", {})
+    stages: list[Model] = []
+    if effect == "rate":
+        stages.append(RateDependentPI(P0_TRUE, R_TRUE, W_TRUE, lv["beta_s"]))
+    elif effect == "initial-memory" and k == 0:
+        stages.append(InitialMemory(pi, list(lv["history"])))
+    else:
+        stages.append(pi)
+    if effect == "asymmetry":
+        stages.append(Asymmetry([lv["a2"], 0.0], 0.5 * STROKE_APPROX * 1.05, 50.0))
+    if effect == "creep":
+        taus = [0.01, 0.1, 1.0, 10.0, 100.0]
+        stages.append(Creep(taus, [lv["gamma"]] * len(taus)))
+    if effect == "delay":
+        stages.append(Delay(lv["delay_s"]))
+    if effect == "lag":
+        stages.append(Lag(lv["tau_s"]))
+    if effect == "resonance":
+        stages.append(Resonance(lv["freq_hz"], lv["damping"]))
+    if effect == "offset":
+        stages.append(Offset(lv["spread"] * (-1.0, 1.0, 0.3)[k]))
+    if effect == "drift":
+        span = float(t[-1] - t[0])
+        # a ramp plus a slow wander, expressed on the Legendre basis of the drift model
+        s = 2 * (t - t[0]) / span - 1
+        d = lv["amplitude"] * (0.5 * s + 0.3 * np.sin(1.3 * s + rng.uniform(0, 2)))
+        coef = np.polynomial.legendre.legfit(s, d, 4)[1:]
+        stages.append(Drift(coef, span))
+    return Chain.of(*stages)
+
+
+def _noise(kind: str, n: int, fs: float, rng: np.random.Generator) -> np.ndarray:
+    if kind == "white1":
+        return 0.02 * rng.standard_normal(n)
+    if kind == "white2":
+        return 0.1 * rng.standard_normal(n)
+    if kind == "coloured":
+        import scipy.signal as ss
+
+        w = 0.02 * rng.standard_normal(n)
+        phi = 0.999
+        ar = ss.lfilter([1.0], [1.0, -phi], rng.standard_normal(n)) * np.sqrt(1 - phi**2) * 0.02
+        t = np.arange(n) / fs
+        hum = 0.01 * np.sin(2 * np.pi * 50 * t + rng.uniform(0, 6.28))
+        return w + ar + hum
+    raise ValueError(f"unknown noise {kind!r}")
+
+
+@dataclass
+class Scenario:
+    """A generated scenario: recordings, truth and concealment numbers."""
+
+    effect: str | None
+    noise: str
+    seed: int
+    records: list[Record]
+    truth: list[Model]
+    concealment_pct: float
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0) -> Scenario:
+    """Generate one scenario (``effect=None`` is a null scenario).
+
+    ``concealment_pct`` is the max |δ| (raw effect before any refit) over the 1 Hz and
+    10 Hz parts of the multisine recording and the decaying recording, in % of the stroke.
+    """
+    rng = np.random.default_rng(seed)
+    recs, truths = [], []
+    worst = 0.0
+    for k, (name, t, u) in enumerate(_signals()):
+        dt = float(t[1] - t[0])
+        m = _plant(effect, k, t, rng)
+        y_clean = m(u, dt=dt)
+        y0 = truth_pi()(u)
+        stroke = float(np.ptp(y0)) or 1.0
+        if name == "multisine":
+            seg = slice(0, int(3.0 / dt))  # 1 Hz + 10 Hz parts
+        else:
+            seg = slice(None)
+        if name != "staircase":
+            worst = max(worst, float(np.max(np.abs(y_clean[seg] - y0[seg]))) / stroke * 100)
+        y = y_clean + _noise(noise, u.size, 1 / dt, rng)
+        if noise == "coloured":
+            lsb = 2 * STROKE_APPROX / 2**16
+            y = np.round(y / lsb) * lsb
+        recs.append(Record(t, u, y, name))
+        truths.append(m)
+    return Scenario(effect, noise, seed, recs, truths, worst)
