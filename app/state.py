@@ -645,7 +645,11 @@ def normalise_code(code: str) -> str:
 
 # ----------------------------------------------------------------------------- data services
 class CSVProblem(ValueError):
-    """A CSV upload could not be read; ``line``/``column`` locate the problem (1-based)."""
+    """A CSV upload could not be read.
+
+    ``line`` is the 1-based line of the file, ``column`` the 0-based column index (as in the
+    messages of :mod:`core.csvio`: ``'y' (column 2)`` is the third column).
+    """
 
     def __init__(self, message: str, line: int | None = None, column: int | None = None):
         super().__init__(message)
@@ -709,15 +713,15 @@ def parse_table(text: str, max_samples: int) -> tuple[list[str], np.ndarray]:
                 v = float(c)
             except ValueError:
                 raise CSVProblem(
-                    f"line {lineno}, column {j + 1} ({header[j]!r}): {c!r} is not a number",
+                    f"line {lineno}, column {header[j]!r} (column {j}): {c!r} is not a number",
                     line=lineno,
-                    column=j + 1,
+                    column=j,
                 ) from None
             if not np.isfinite(v):
                 raise CSVProblem(
-                    f"line {lineno}, column {j + 1} ({header[j]!r}): value is not finite",
+                    f"line {lineno}, column {header[j]!r} (column {j}): value is not finite",
                     line=lineno,
-                    column=j + 1,
+                    column=j,
                 )
             out[k, j] = v
     return header, out
@@ -753,11 +757,18 @@ def recording_from_csv(
     are used, else the columns in order (``t, u, y`` for three or more, ``u, y`` for two,
     with ``t = k * dt``).
 
+    With :mod:`core.csvio` the core reader does the work (delimiter, decimal comma,
+    header, unit suffixes, preambles; the first run when the file holds several); the
+    built-in parser below is the fallback.
+
     Raises
     ------
     CSVProblem
         On unreadable content or a mapping that names a missing column.
     """
+    mod = optional("core.csvio")
+    if mod is not None and hasattr(mod, "read_csv"):
+        return _core_recording(mod, text, t_col, u_col, y_col, dt, max_samples, name)
     header, tab = parse_table(text, max_samples)
     low = [h.lower() for h in header]
 
@@ -789,8 +800,48 @@ def recording_from_csv(
     return Recording(t=t.copy(), u=tab[:, ju].copy(), y=tab[:, jy].copy(), name=name)
 
 
+def _spec(c: str | int | None) -> str | int | None:
+    if c is None or c == "":
+        return None
+    return int(c) if isinstance(c, int) or str(c).isdigit() else str(c)
+
+
+def _csv_problem(exc: Exception) -> CSVProblem:
+    col = getattr(exc, "column_index", None)
+    return CSVProblem(str(exc), line=getattr(exc, "line", None),
+                      column=None if col is None else int(col))
+
+
+def _core_recording(mod: ModuleType, text: str, t_col: Any, u_col: Any, y_col: Any, dt: float,
+                    max_samples: int, name: str) -> Recording:
+    try:
+        recs = mod.read_csv(text, time=_spec(t_col), input=_spec(u_col), output=_spec(y_col),
+                            name=name, max_rows=max_samples)
+    except ParameterError as exc:
+        raise _csv_problem(exc) from None
+    rec = recs[0]
+    t = np.asarray(rec.t, dtype=np.float64)
+    cols = getattr(rec, "columns", {}) or {}
+    if cols.get("time") is None:
+        t = np.arange(t.size) * dt
+    label = name if len(recs) == 1 else f"{name} (run 1 of {len(recs)})"
+    return Recording(t=t, u=np.asarray(rec.u, dtype=np.float64),
+                     y=np.asarray(rec.y, dtype=np.float64), name=label)
+
+
 def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
     """Header, the first ``rows`` rows and the row count of a CSV (mapping step)."""
+    mod = optional("core.csvio")
+    if mod is not None and hasattr(mod, "inspect_csv"):
+        try:
+            lay = mod.inspect_csv(text, max_rows=max_samples)
+        except ParameterError as exc:
+            raise _csv_problem(exc) from None
+        lines = text.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
+        d = None if lay.delimiter == "whitespace" else lay.delimiter
+        return {"columns": [c.raw for c in lay.columns],
+                "rows": [[c.strip() for c in (ln.split(d) if d else ln.split())] for ln in lines],
+                "n_rows": int(lay.n_rows), "notes": list(lay.notes)}
     header, tab = parse_table(text, max_samples)
     return {"columns": header, "rows": tab[:rows].tolist(), "n_rows": int(tab.shape[0])}
 

@@ -235,11 +235,11 @@ def test_upload_with_column_mapping(client: TestClient, code: str) -> None:
 @pytest.mark.parametrize(
     ("text", "line", "column"),
     [
-        ("t,u,y\n0,1,2\n0.001,1,abc\n0.002,1,2\n", 3, 3),
+        ("t,u,y\n0,1,2\n0.001,1,abc\n0.002,1,2\n", 3, 2),
         ("t,u,y\n0,1,2\n0.001,1\n", 3, None),
         ("", None, None),
         ("t,u,y\n", 1, None),
-        ("t,u,y\n0,1,2\n0,1,2\n0.1,2,3\n", None, None),
+        ("t,u,y\n0,1,2\n0,1,2\n0.1,2,3\n", 3, 0),
     ],
 )
 def test_bad_csv_is_422_with_location(client: TestClient, code: str, text: str,

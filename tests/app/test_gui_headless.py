@@ -124,7 +124,7 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
 def test_bad_csv_message(view: SessionView) -> None:
     view.upload._impl.value = SimpleNamespace(name="bad.csv", content=b"t,u,y\n0,1,x\n")
     view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
-    assert "line 2" in view.data_md.content and "column 3" in view.data_md.content
+    assert "line 2" in view.data_md.content and "'y' (column 2)" in view.data_md.content
 
 
 def test_join_other_session(view: SessionView) -> None:

@@ -82,7 +82,7 @@ def test_csv_upload_fit_diagnosis_download(browser: Any, live_server: dict, shot
         page.wait_for_function(
             "() => document.getElementById('csv-msg').textContent.includes('not loaded')")
     msg = page.inner_text("#csv-msg")
-    assert "line 3" in msg and "column 3" in msg, msg
+    assert "line 3" in msg and "(column 2)" in msg, msg
 
     page.set_input_files("#csv-file", str(_good_csv(tmp_path / "good.csv")))
     page.wait_for_selector("#mapping:not([hidden])")

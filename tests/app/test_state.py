@@ -1,0 +1,132 @@
+"""Explorer state (no web imports): sessions, registry, compute, CSV fallback, figures."""
+
+from __future__ import annotations
+
+import sys
+import threading
+
+import numpy as np
+import plotly.graph_objects as go
+import pytest
+
+from app import figures as F
+from app import state as S
+from core.exceptions import ParameterError
+from core.pi import PIModel
+
+
+def test_state_module_has_no_web_imports() -> None:
+    import subprocess
+
+    code = ("import sys, app.state; "
+            "print([m for m in ('viser', 'fastapi', 'plotly') if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_default_config_is_paper001_example1() -> None:
+    res = S.compute(S.Config())
+    m = PIModel.from_dict(S.EXAMPLE1)
+    np.testing.assert_allclose(res.u, 4 * np.sin(2 * np.pi * res.t), atol=1e-12)
+    np.testing.assert_allclose(res.y, m(res.u))
+    np.testing.assert_allclose(res.contributions.sum(axis=1) + m.p0 * res.u, res.y, atol=1e-12)
+    np.testing.assert_allclose(res.y_comp, res.u, atol=1e-9)  # P(P^-1(u)) = u
+
+
+def test_perturb_changes_the_plant_only_when_asked() -> None:
+    m = PIModel.from_dict(S.EXAMPLE1)
+    assert S.perturb(m, 0.0) is m
+    p = S.perturb(m, 0.2)
+    np.testing.assert_allclose(p.thresholds, 1.2 * m.thresholds)
+    np.testing.assert_allclose(p.weights, 0.8 * m.weights)
+
+
+def test_registry_codes_lru_and_broadcast() -> None:
+    reg = S.SessionRegistry(max_sessions=3)
+    a = reg.create()
+    assert len(a.code) == 6 and reg.get(a.code.upper()) is a
+    b, c = reg.create(), reg.get_or_create("Class-1")
+    assert c.code == "class-1"
+    reg.get(a.code)  # a is now the most recent
+    reg.create()  # evicts b
+    with pytest.raises(KeyError):
+        reg.get(b.code)
+    with pytest.raises(KeyError):
+        reg.get_or_create("x")
+    model = {**S.EXAMPLE1, "p0": 1.0}
+    assert reg.push_model(model) == 3
+    assert all(s.config.model["p0"] == 1.0 for s in reg.all())
+
+
+def test_session_listeners_and_versions() -> None:
+    s = S.Session(code="abc")
+    seen: list[int] = []
+    cb = lambda sess, cfg, v: seen.append(v)  # noqa: E731
+    s.add_listener(cb)
+    s.set_config(S.Config(mismatch=0.1))
+    s.update(lambda c: S.Config(mismatch=0.2))
+    s.touch()
+    s.remove_listener(cb)
+    s.set_config(S.Config())
+    assert seen == [1, 2, 3] and s.version == 4
+
+
+def test_concurrent_updates_are_not_lost() -> None:
+    s = S.Session(code="abc")
+
+    def bump() -> None:
+        for _ in range(200):
+            s.update(lambda c: S.Config(mismatch=c.mismatch + 0.001))
+
+    threads = [threading.Thread(target=bump) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert s.version == 800 and s.config.mismatch == pytest.approx(0.8)
+
+
+def test_signal_validation_messages() -> None:
+    with pytest.raises(ParameterError, match="samples"):
+        S.SignalSpec(samples=10**7).validate(1000)
+    with pytest.raises(ParameterError, match="kind"):
+        S.SignalSpec(kind="nope").validate(1000)
+    with pytest.raises(ParameterError, match="operators"):
+        S.build_model({"type": "pi", "p0": 1, "thresholds": [1, 2, 3], "weights": [1, 1, 1]}, 2)
+
+
+def test_every_signal_kind_builds() -> None:
+    for kind in S.signal_kinds():
+        t, u = S.make_signal(S.SignalSpec(kind=kind, samples=500))
+        assert t.shape == u.shape and np.isfinite(u).all()
+
+
+def test_fallback_csv_parser_locates_errors() -> None:
+    header, tab = S.parse_table("a;b;c\n1;2;3\n4;5;6\n", 10)
+    assert header == ["a", "b", "c"] and tab.shape == (2, 3)
+    with pytest.raises(S.CSVProblem) as e:
+        S.parse_table("1,2\n3,x\n", 10)
+    assert e.value.line == 2 and e.value.column == 1
+    with pytest.raises(S.CSVProblem, match="at most"):
+        S.parse_table("1,2\n" * 20, 10)
+
+
+def test_decimate_keeps_reversals() -> None:
+    t = np.linspace(0, 1, 20_000)
+    u = np.sin(2 * np.pi * 7 * t)
+    idx = F.decimate_index(u, 500)
+    assert idx[0] == 0 and idx[-1] == u.size - 1 and idx.size < 700
+    turns = np.flatnonzero(np.diff(np.sign(np.diff(u))) != 0) + 1
+    assert set(turns) <= set(idx)
+
+
+def test_typed_arrays_round_trip_and_figures_validate() -> None:
+    res = S.compute(S.Config(signal=S.SignalSpec(samples=3000)))
+    for name in F.FIGURES:
+        fig = F.build(name, res, 0.1)
+        go.Figure(fig.to_dict())
+    loop = F.loop_figure(res).to_dict()["data"][0]
+    np.testing.assert_allclose(F.values(loop["x"]), res.u[F.decimate_index(res.u)], rtol=1e-6)
+    with pytest.raises(KeyError):
+        F.build("nope", res)
