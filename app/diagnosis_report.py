@@ -141,8 +141,8 @@ def write_report(res: Any, path: str | Path) -> Path:
             f"<table><tr><th>parameter</th><th>value</th><th>± 1σ</th></tr>{rows}</table>"
             f"<p>Held-out RMSE {e.heldout_rmse_before:.4g} → {e.heldout_rmse_after:.4g} "
             f"({100 * e.heldout_rmse_before / yr:.3f} % → {100 * e.heldout_rmse_after / yr:.3f} "
-            f"%); MSE reduction {100 * e.heldout.gain:.1f} %, DM z = {e.heldout.z:.2f}, sign "
-            f"test p = {e.heldout.sign_p:.2g}.</p>{amb}</div>"
+            f"%); MSE reduction {100 * e.heldout.gain:.1f} %, DM z = {e.heldout.z:.2f}, "
+            f"signed-rank p = {e.heldout.sign_p:.2g}.</p>{amb}</div>"
         )
     if d["ambiguous"]:
         parts.append("<h2>Ambiguous</h2><ul>" + "".join(
@@ -160,5 +160,8 @@ def write_report(res: Any, path: str | Path) -> Path:
     parts.append("</body></html>")
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text("\n".join(parts), encoding="utf-8")
+    # plotly.js carries a default CDN URL for topojson maps (unused here): neutralise it so
+    # the report makes no network reference at all
+    text = "\n".join(parts).replace('"https://cdn.plot.ly/un/"', '"topojson/"')
+    p.write_text(text, encoding="utf-8")
     return p

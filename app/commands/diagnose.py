@@ -16,7 +16,7 @@ untestable, look-alikes that the recordings cannot separate as ambiguous.
                    "where": {"time_windows", "input_range", "branch", "summary", ...},
                    "explanation": "...", "equation": "...",
                    "heldout_rmse_before": ..., "heldout_rmse_after": ..., "dm_z": ...,
-                   "sign_test_p": ..., "heldout_mse_reduction": ..., "ambiguous_with": [...],
+                   "signed_rank_p": ..., "heldout_mse_reduction": ..., "ambiguous_with": [...],
                    ...}],
       "untestable": [{"name", "reason", "experiment"}],
       "ambiguous": [{"effects", "chosen", "reason", "experiment"}],

@@ -58,7 +58,7 @@ LEVELS: dict[str, dict[str, Any]] = {
     "drift": {"amplitude": 0.4},
     "asymmetry": {"a2": 0.3},
     "offset": {"spread": 0.3},
-    "initial-memory": {"history": (150.0, 45.0)},
+    "initial-memory": {"history": (30.0, 0.0)},
 }
 EFFECTS = tuple(LEVELS)
 

@@ -7,8 +7,9 @@
    compared with the current model on the held-out rows.
 4. Acceptance (all must hold): held-out MSE reduction ≥ 5 % and ≥ 20 % of the current excess
    over the white-noise floor; batch-means Diebold–Mariano z ≥ 3 (robust to coloured
-   residuals) or, when the effect lives in a few segments (where DM is conservative), a batch
-   sign test with p < 0.01.
+   residuals) or, when the effect lives in a few segments (where DM is conservative), a
+   Wilcoxon signed-rank test of the batch means with p < 0.01 / K (Bonferroni over the K
+   effects tested in the round).
    An initial memory state can only change the rows before the wipe-out time, so
    ``initial-memory`` (1-2 virtual extrema picked from a grid on the training rows) is judged
    on those rows and must not worsen the held-out rows.
@@ -163,7 +164,7 @@ class EffectFinding:
             "heldout_rmse_after_pct": 100 * self.heldout_rmse_after / y_range,
             "heldout_mse_reduction": h.gain,
             "dm_z": h.z,
-            "sign_test_p": h.sign_p,
+            "signed_rank_p": h.sign_p,
             "score_lm": self.score_lm,
             "discriminators": _jsonable(self.discriminators),
             "ambiguous_with": list(self.ambiguous_with),
@@ -334,7 +335,7 @@ class DiagnosisResult:
                 f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
                 f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
                 f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} %, "
-                f"z = {e.heldout.z:.1f}, sign p = {e.heldout.sign_p:.2g}",
+                f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}",
                 f"   where: {e.where.get('summary', '')}",
                 f"   why: {e.explanation}",
                 f"   added: {e.equation}",
@@ -799,10 +800,11 @@ def diagnose(
             ok = (
                 h.gain >= ACCEPT_RULE["min_gain"]
                 and (h.mse_before - h.mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
-                and (h.z >= ACCEPT_RULE["min_z"] or h.sign_p < ACCEPT_RULE["sign_p"])
+                and (h.z >= ACCEPT_RULE["min_z"]
+                     or h.sign_p < ACCEPT_RULE["sign_p"] / len(cands))
             )
             record.append({"round": rnd + 1, "effect": name, "heldout_mse_reduction": h.gain,
-                           "dm_z": h.z, "sign_test_p": h.sign_p, "passes": bool(ok),
+                           "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
                            "parameters": params})
             if ok:
                 passing.append(name)
@@ -913,7 +915,7 @@ def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) 
         h = heldout_comparison(ctx.test_res(fit), ctx.test_res(f2))
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
         rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
-                       "dm_z": h.z, "sign_test_p": h.sign_p, "passes": bool(ok),
+                       "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
                        "decision": "accepted" if ok else "rejected", "parameters": {}})
         if not ok:
             break
@@ -942,7 +944,7 @@ def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: li
             continue
         hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
         rounds.append({"round": rnd, "effect": f"recheck:{other}", "heldout_mse_reduction":
-                       oh.gain, "dm_z": hh.z, "sign_test_p": hh.sign_p, "passes": False,
+                       oh.gain, "dm_z": hh.z, "signed_rank_p": hh.sign_p, "passes": False,
                        "decision": "ambiguous" if (hh.z < 3.0 and hh.sign_p >= 0.01)
                        else "rejected", "parameters": results[other][1]})
         if hh.z < 3.0 and hh.sign_p >= 0.01:
@@ -962,7 +964,7 @@ def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: li
             "effects": [best, other],
             "chosen": best,
             "reason": f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
-            "sign test p >= 0.01) at the final resolution",
+            "signed-rank p >= 0.01) at the final resolution",
             "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
                                                   "recordings at more frequencies"),
         })

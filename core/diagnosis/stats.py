@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import comb, erf, sqrt
+from math import erf, sqrt
 
 import numpy as np
 
@@ -16,6 +16,7 @@ __all__ = [
     "newey_west_var",
     "noise_floor",
     "score_test",
+    "signed_rank_p",
 ]
 
 
@@ -33,7 +34,8 @@ class HeldOut:
         Diebold–Mariano statistic of the squared-error differences with a batch-means
         (autocorrelation-robust) variance; ~N(0, 1) under equal accuracy.
     sign_p : float
-        One-sided binomial p-value of the batch sign test (share of batches improved).
+        One-sided p-value of the Wilcoxon signed-rank test of the batch means (robust when
+        the improvement is concentrated in a few batches, where DM is conservative).
     n_batches : int
     """
 
@@ -51,7 +53,7 @@ class HeldOut:
 
 
 def heldout_comparison(
-    e_before: list[Float1D], e_after: list[Float1D], n_batches: int = 20
+    e_before: list[Float1D], e_after: list[Float1D], n_batches: int = 40
 ) -> HeldOut:
     """Compare squared-error losses of two models on held-out residuals.
 
@@ -76,10 +78,20 @@ def heldout_comparison(
         z = float(np.mean(means) / (sd / np.sqrt(nb)))
     else:
         z = np.inf if means.mean() > 0 else 0.0
-    k = int(np.sum(means > 0))
-    sign_p = float(sum(comb(nb, j) for j in range(k, nb + 1)) / 2.0**nb)
+    sign_p = signed_rank_p(means)
     gain = 1.0 - ma / mb if mb > 0 else 0.0
     return HeldOut(mb, ma, gain, z, sign_p, nb)
+
+
+def signed_rank_p(x: np.ndarray) -> float:
+    """One-sided (greater than zero) Wilcoxon signed-rank p-value of ``x``."""
+    from scipy.stats import wilcoxon
+
+    x = np.asarray(x, dtype=np.float64)
+    x = x[x != 0]
+    if x.size < 4:
+        return 1.0
+    return float(wilcoxon(x, alternative="greater").pvalue)
 
 
 def newey_west_var(x: np.ndarray, lags: int) -> np.ndarray:
