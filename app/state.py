@@ -508,6 +508,7 @@ class Session:
     fitted: dict[str, Any] | None = None
     fit_report: dict[str, Any] | None = None
     diagnosis: dict[str, Any] | None = None
+    diagnosis_result: Any = None
     last_access: float = field(default_factory=time.monotonic)
     lock: threading.RLock = field(default_factory=threading.RLock, repr=False)
     _listeners: list[Listener] = field(default_factory=list, repr=False)
@@ -907,6 +908,20 @@ def _jsonable(x: Any) -> Any:
     return x
 
 
+def diagnosis_html(result: Any) -> str | None:
+    """The self-contained HTML report (``app.diagnosis_report``) of a diagnosis result."""
+    res = result
+    mod = optional("app.diagnosis_report")
+    if res is None or mod is None or not hasattr(mod, "write_report"):
+        return None
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = mod.write_report(res, Path(tmp) / "report.html")
+        return Path(path).read_text(encoding="utf-8")
+
+
 def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
     """Findings (accepted effects, ambiguities, untestable effects) of a diagnosis document."""
     findings: list[str] = []
@@ -931,7 +946,15 @@ def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
 
 
 def diagnose_recording(rec: Recording, model: Model) -> dict[str, Any]:
-    """Diagnosis report of ``model`` against ``rec`` (``core.diagnosis`` when available).
+    """Diagnosis report of ``model`` against ``rec`` (see :func:`run_diagnosis`)."""
+    return run_diagnosis(rec, model)[0]
+
+
+def run_diagnosis(rec: Recording, model: Model) -> tuple[dict[str, Any], Any]:
+    """Diagnosis of ``rec`` (``core.diagnosis`` when available): ``(report, result)``.
+
+    ``result`` is the core's ``DiagnosisResult`` (``None`` for the fallback); the report
+    holds the findings, the held-out RMSE before and after, and the core's JSON document.
 
     The fallback reports residual statistics and two simple signatures: a residual that
     correlates with the input's rate (dynamics / creep) and one that correlates with
@@ -942,8 +965,9 @@ def diagnose_recording(rec: Recording, model: Model) -> dict[str, Any]:
     if fn is not None:
         pi = pi_part(model)
         n = int(min(25, max(4, pi.n if pi is not None else 10)))
-        d = _jsonable(fn((rec.t, rec.u, rec.y), "pi", n_operators=n).to_dict())
-        return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}
+        result = fn((rec.t, rec.u, rec.y), "pi", n_operators=n)
+        d = _jsonable(result.to_dict())
+        return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
     y_fit = model(rec.u)
     res = rec.y - y_fit
     du = np.gradient(rec.u, rec.t)
@@ -970,7 +994,7 @@ def diagnose_recording(rec: Recording, model: Model) -> dict[str, Any]:
         "corr_rate": c_rate,
         "corr_u_squared": c_sq,
         "findings": findings,
-    }
+    }, None
 
 
 # ----------------------------------------------------------------------------- presets

@@ -227,7 +227,9 @@ async function diagnose() {
     const nums = Object.entries(r).filter(([, v]) => typeof v === "number")
       .map(([k, v]) => `<li>${k}: ${v.toPrecision(4)}</li>`);
     $("report").innerHTML = `<div id="diagnosis"><h3>Diagnosis</h3><p><em>${r.engine || ""}</em></p>` +
-      `<ul>${items.join("")}${nums.join("")}</ul></div>`;
+      `<ul>${items.join("")}${nums.join("")}</ul>` +
+      (r.document ? `<a href="/api/sessions/${state.code}/diagnosis/report.html" target="_blank">full report (HTML)</a>` : "") +
+      "</div>";
   } catch (e) {
     setMsg("csv-msg", `Diagnosis failed: ${e.message}`);
   }

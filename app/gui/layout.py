@@ -32,13 +32,14 @@ from ..state import (
     Session,
     SessionRegistry,
     compute,
-    diagnose_recording,
+    diagnosis_html,
     export_bytes,
     fit_recording,
     get_preset,
     parameter_set_model,
     preset_names,
     recording_from_csv,
+    run_diagnosis,
     signal_kinds,
 )
 from .render import LatestWinsWorker
@@ -113,6 +114,10 @@ class SessionView:
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="")
             self.join_btn = g.add_button("Join / restore session")
+            self.teacher_token = g.add_text("Teacher token", initial_value="",
+                                            hint="needed when the server was started with "
+                                                 "--teacher-token")
+            self.push_btn = g.add_button("Teacher: push this model to every session")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
             self.preset = g.add_dropdown("Preset", tuple(preset_names()),
@@ -168,6 +173,7 @@ class SessionView:
                                       max=self.settings.max_operators, step=1)
             self.fit_btn = g.add_button("Fit PI model")
             self.diag_btn = g.add_button("Run diagnosis")
+            self.report_btn = g.add_button("Download diagnosis report (HTML)", disabled=True)
             self.report_md = g.add_markdown("")
         with tabs.add_tab("Export"):
             self.dl_json = g.add_button("Download parameter set (JSON)")
@@ -199,10 +205,12 @@ class SessionView:
         self.load_preset.on_click(self._guarded(self._preset_clicked))
         self.json_btn.on_click(self._guarded(self._json_clicked))
         self.join_btn.on_click(self._guarded(self._join_clicked))
+        self.push_btn.on_click(self._guarded(self._push_clicked))
         self.upload.on_upload(self._guarded(self._csv_uploaded))
         self.remap.on_click(self._guarded(self._remap_clicked))
         self.fit_btn.on_click(self._guarded(self._fit_clicked))
         self.diag_btn.on_click(self._guarded(self._diagnose_clicked))
+        self.report_btn.on_click(self._guarded(self._report_clicked))
         self.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((self.dl_json, "json"), (self.dl_mat, "mat"), (self.dl_c, "c")):
             btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
@@ -434,6 +442,14 @@ class SessionView:
         self.bind(new)
         self._toast("Session", f"now in session {new.code}")
 
+    def _push_clicked(self, event: Any) -> None:
+        token = self.settings.teacher_token
+        if token and self.teacher_token.value != token:
+            self._toast("Not pushed", "wrong teacher token", True)
+            return
+        n = self.registry.push_model(self.session.snapshot()[0].model)
+        self._toast("Pushed", f"model sent to {n} sessions")
+
     def bind(self, session: Session) -> None:
         """Show ``session`` in this view (re-binding listeners)."""
         self.session.remove_listener(self._on_session_change)
@@ -505,10 +521,26 @@ class SessionView:
             self.report_md.content = "⚠️ upload a recording first"
             return
         doc = self.session.fitted or self.session.snapshot()[0].model
-        rep = diagnose_recording(rec, model_from_dict(doc))
+        self.report_md.content = "diagnosing (about a second)…"
+        rep, result = run_diagnosis(rec, model_from_dict(doc))
         with self.session.lock:
-            self.session.diagnosis = rep
+            self.session.diagnosis, self.session.diagnosis_result = rep, result
         self.report_md.content = diagnosis_markdown(rep)
+        self.report_btn.disabled = result is None
+
+    def _report_clicked(self, event: Any) -> None:
+        text = diagnosis_html(self.session.diagnosis_result)
+        if text is None:
+            self.report_md.content += "\n\n⚠️ run the diagnosis first"
+            return
+        self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
+
+    def _send(self, event: Any, name: str, payload: bytes) -> None:
+        client = getattr(event, "client", None)
+        if client is not None:
+            client.send_file_download(name, payload, save_immediately=True)
+        elif self._download is not None:
+            self._download(name, payload)
 
     def _paramset_uploaded(self, event: Any) -> None:
         f = event.target.value
@@ -524,11 +556,7 @@ class SessionView:
         cfg = self.session.snapshot()[0]
         fit = self.session.fit_report if self.session.fitted == cfg.model else None
         name, payload = export_bytes(model_from_dict(cfg.model), fmt, self.session.code, fit)
-        client = getattr(event, "client", None)
-        if client is not None:
-            client.send_file_download(name, payload, save_immediately=True)
-        elif self._download is not None:
-            self._download(name, payload)
+        self._send(event, name, payload)
         self.export_md.content = f"sent {name} ({len(payload)} bytes)"
 
     # ------------------------------------------------------------------ render

@@ -6,13 +6,21 @@ from typing import Any
 
 import numpy as np
 from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
 from core.base import model_from_dict
 
 from .. import figures as F
 from ..schemas import FitIn
-from ..state import CSVProblem, csv_preview, diagnose_recording, fit_recording, recording_from_csv
+from ..state import (
+    CSVProblem,
+    csv_preview,
+    diagnosis_html,
+    fit_recording,
+    recording_from_csv,
+    run_diagnosis,
+)
 from .deps import SessionDep, SettingsDep, decode_text, read_body
 
 __all__ = ["router"]
@@ -108,7 +116,19 @@ def diagnose(session: SessionDep) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against the recording."""
     rec = _need_recording(session)
     doc = session.fitted or session.snapshot()[0].model
-    report = diagnose_recording(rec, model_from_dict(doc))
+    report, result = run_diagnosis(rec, model_from_dict(doc))
     with session.lock:
-        session.diagnosis = report
+        session.diagnosis, session.diagnosis_result = report, result
     return report
+
+
+@router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)
+def diagnosis_report(session: SessionDep) -> HTMLResponse:
+    """The last diagnosis as a self-contained HTML report (plotly.js inlined, no CDN)."""
+    if session.diagnosis_result is None:
+        raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
+    text = diagnosis_html(session.diagnosis_result)
+    if text is None:
+        raise HTTPException(501, "the HTML diagnosis report is not available")
+    return HTMLResponse(text, headers={
+        "Content-Disposition": f'inline; filename="diagnosis-{session.code}.html"'})

@@ -220,8 +220,12 @@ def test_upload_fit_diagnose(client: TestClient, code: str) -> None:
     go.Figure(fit.json()["figure"])
     s = client.get(f"/api/sessions/{code}").json()
     assert s["fitted"] == s["config"]["model"]
+    assert client.get(f"/api/sessions/{code}/diagnosis/report.html").status_code == 409
     d = client.post(f"/api/sessions/{code}/diagnose")
-    assert d.status_code == 200 and "engine" in d.json()
+    assert d.status_code == 200 and d.json()["findings"]
+    html = client.get(f"/api/sessions/{code}/diagnosis/report.html")
+    assert html.status_code == 200 and "diagnosis" in html.text.lower()
+    assert "<script src=\"http" not in html.text  # plotly.js inlined, nothing remote
 
 
 def test_upload_with_column_mapping(client: TestClient, code: str) -> None:

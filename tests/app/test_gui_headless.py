@@ -116,6 +116,8 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
     assert view.shown_figure == "fit" and "Fit overlay" in view.plot.figure.to_json()
     view._diagnose_clicked(SimpleNamespace(client=None))
     assert "Diagnosis" in view.report_md.content
+    view._report_clicked(SimpleNamespace(client=None))
+    assert view.downloads[-1][0].endswith(".html")  # type: ignore[attr-defined]
     view._export(SimpleNamespace(client=None), "json")
     name, payload = view.downloads[-1]  # type: ignore[attr-defined]
     assert name.endswith(".json") and "model" in json.loads(payload)
@@ -162,6 +164,14 @@ def test_numeric_leaves_round_trip() -> None:
     set_leaf(d, "a[1]", 7.0)
     set_leaf(d, "b.c", -1.0)
     assert d["a"][1] == 7.0 and d["b"]["c"] == -1.0
+
+
+def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
+    other = view.registry.create()
+    view.p0.value = 1.3
+    _idle(view)
+    view._push_clicked(SimpleNamespace(client=None))
+    assert other.config.model["p0"] == 1.3
 
 
 def test_diagnosis_markdown() -> None:
