@@ -1,0 +1,64 @@
+"""Missing-physics diagnosis of the real piezo recording: what does classical PI leave out?
+
+Data: ``shared/data/piezo/piezo_150V_1Hz.csv`` (Chandra et al. 2023, MIT licence): commanded
+voltage (V) to displacement (µm), 5 kHz; rest at 0 V, a jump to about -87 V, then a ±150 V
+1 Hz sine. Train on t ∈ [3.3, 7) s, held-out t ∈ [7, 9] s (the whole record is simulated from
+t = 0 so the play memory sees the full history).
+
+``core.diagnosis.diagnose`` fits a PI baseline (25 operators, NNLS), maps where the residual
+lives, fits every testable effect of ``core.effects`` in full and keeps only those that improve
+the held-out rows significantly (batch-means Diebold–Mariano z ≥ 3 or a Wilcoxon signed-rank
+test over held-out batches, plus ≥ 5 % MSE reduction). It prints what it found, where, why,
+the equation added and what the recording cannot tell (untestable / ambiguous effects).
+
+Figures: ``ex10_diagnose_piezo_loops.html`` (measured, baseline PI and PI + effects),
+``ex10_diagnose_piezo_residuals.html`` (residual over time before/after, held-out shaded),
+``ex10_diagnose_piezo_maps.html`` (LOCATE maps before/after) and the full report
+``ex10_diagnose_piezo_report.html``.
+
+Run: ``python examples/ex10_diagnose_piezo.py [--out DIR]``. ``HYST_QUICK=1`` runs the same
+diagnosis on the record decimated to 1 kHz with fewer candidate effects (for the tests).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from _common import ROOT, parse_out, quick, save
+
+from app.diagnosis_report import figures, write_report
+from core.diagnosis import Record, diagnose
+
+DATA = ROOT.parent / "shared" / "data" / "piezo" / "piezo_150V_1Hz.csv"
+
+
+def main() -> None:
+    out = parse_out(__doc__.splitlines()[0])
+    d = np.loadtxt(DATA, delimiter=",", skiprows=1)
+    t, u, y = d[:, 0], d[:, 1], d[:, 2]
+    kwargs: dict = {}
+    if quick():
+        t, u, y = t[::5], u[::5], y[::5]
+        kwargs = {"effects": ["initial-memory", "lag", "asymmetry"], "n_operators": 15,
+                  "auto_resolution": False}
+    rec = Record(t, u, y, "piezo_150V_1Hz")
+    res = diagnose([rec], train=(3.3, 7.0), test=(7.0, 9.0), **kwargs)
+    print(res.summary())
+    yr = res.y_range
+    b, f = res.heldout_rmse(res.baseline), res.heldout_rmse(res.final)
+    print(f"\nheld-out RMSE: baseline PI {100 * b / yr:.3f} % -> PI + "
+          f"{' + '.join(e.name for e in res.effects) or 'nothing'} {100 * f / yr:.3f} % of the "
+          f"output range (published sparse-regression ODE, Chandra et al. 2023: 0.233 %)")
+    pre = rec.t < 3.25
+    e0 = rec.y[pre] - res.baseline.pred[0][pre]
+    e1 = rec.y[pre] - res.final.pred[0][pre]
+    print(f"pre-roll at 0 V (t < 3.25 s, never used for fitting): mean residual "
+          f"{e0.mean():+.3f} um (baseline) -> {e1.mean():+.3f} um (final)")
+    figs = figures(res)
+    for key, fig in figs.items():
+        save(fig, out, f"ex10_diagnose_piezo_{key}")
+    p = write_report(res, out / "ex10_diagnose_piezo_report.html")
+    print(f"wrote {p}")
+
+
+if __name__ == "__main__":
+    main()
