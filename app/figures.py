@@ -258,6 +258,10 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
               yaxis="y3"),
     ]
     rms = float(np.sqrt(np.mean(err**2)))
+    span = float(np.ptp(res.u)) or 1.0
+    err_axis: dict[str, Any] = {"title": {"text": "y − y_d"}, "anchor": "x3"}
+    if float(np.max(np.abs(err))) < 1e-9 * span:  # exact inverse: do not zoom into rounding
+        err_axis["range"] = [-0.05 * span, 0.05 * span]
     lay = _layout(
         f"Inverse compensation (mismatch {mismatch:+.0%}, RMS error {rms:.3g})",
         xaxis={"domain": [0, 0.3], "title": {"text": "desired y_d"}, "anchor": "y"},
@@ -265,7 +269,7 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
         xaxis2={"domain": [0.36, 0.64], "title": {"text": "desired y_d"}, "anchor": "y2"},
         yaxis2={"title": {"text": "achieved y"}, "anchor": "x2"},
         xaxis3={"domain": [0.72, 1.0], "title": {"text": "t [s]"}, "anchor": "y3"},
-        yaxis3={"title": {"text": "y − y_d"}, "anchor": "x3"},
+        yaxis3=err_axis,
     )
     return FigureJSON(data, lay)
 

@@ -59,6 +59,13 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
     after = _loop_y(page)
     assert not np.allclose(before, after)
     shot(page, "static-loop")
+    mismatch = page.locator("#mismatch")
+    mismatch.focus()
+    version = page.get_attribute("body", "data-ready")
+    for _ in range(20):
+        mismatch.press("ArrowRight")  # +0.20: the plant differs from the model
+    page.wait_for_function(
+        "v => document.body.dataset.ready !== v", arg=version, timeout=10_000)
     for fig in ("operators", "loading", "inverse", "digitized", "time"):
         page.click(f"#tabs button[data-fig={fig}]")
         page.wait_for_function("f => document.body.dataset.fig === f", arg=fig)
