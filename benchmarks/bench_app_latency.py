@@ -11,8 +11,10 @@ Cases, median and 95th percentile of ``--repeat`` iterations, taken round-robin:
 
 * ``loop view``: :func:`app.state.compute` + the loop figure + ``to_json`` (what one slider
   step costs in the GUI and in ``GET /api/sessions/{code}/figures``).
-* ``every view``: the same with all six figures (time, loop, operators, loading,
-  inverse, digitized) built and serialised.
+* ``every view``: the same with the six interactive figures (time, loop, operators,
+  loading, inverse, digitized) built and serialised.
+* ``closed-loop view``: the closed-loop figure alone (three runs of paper 001's loop at
+  50 kHz over 2 s, 100,000 samples each); built only while that view is on show.
 * ``REST round trip``: ``PATCH .../config`` + ``GET .../figures?name=loop`` through
   FastAPI's TestClient (validation, routing, JSON response), in process.
 * baseline ``go.Figure``: the loop view built as a validated ``plotly.graph_objects``
@@ -65,7 +67,12 @@ def loop_view(cfg: Config) -> int:
 
 def every_view(cfg: Config) -> int:
     res = compute(cfg)
-    return sum(len(F.build(n, res).to_json()) for n in F.FIGURES)
+    return sum(len(F.build(n, res).to_json()) for n in F.FIGURES if n != "closed-loop")
+
+
+def closed_loop_view(cfg: Config) -> int:
+    res = compute(cfg, with_inverse=False, with_digitized=False)
+    return len(F.closed_loop_figure(res).to_json())
 
 
 def baseline_go(cfg: Config) -> int:
@@ -112,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
     reps = 30 if args.quick else args.repeat
     cfg = base_config()
     rest, client = make_rest()
-    cases = {"loop view": loop_view, "every view": every_view, "REST round trip": rest,
+    cases = {"loop view": loop_view, "every view": every_view,
+             "closed-loop view": closed_loop_view, "REST round trip": rest,
              "baseline go.Figure": baseline_go}
     for fn in cases.values():  # warm-up: numba kernels, imports
         fn(drag(cfg, 0))
