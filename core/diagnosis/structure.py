@@ -300,9 +300,9 @@ def fit_structure(
             keep[idx[::step]] = True
             rows.append(keep)
     else:
-        # full fit: at most ~20000 training rows (neighbouring samples are nearly redundant)
+        # full fit: at most ~15000 training rows (neighbouring samples are nearly redundant)
         n_tr = sum(int(m.sum()) for m in train)
-        step = max(1, n_tr // 20000)
+        step = max(1, n_tr // 15000)
         if step == 1:
             rows = list(train)
         else:
