@@ -89,6 +89,7 @@ class SessionView:
         self.scene = scene
         self._cube_key: tuple | None = None
         self._cube_points: np.ndarray | None = None
+        self._cube_center = np.zeros(3)
         self._marker: Any = None
         self._play_stop = threading.Event()
         self._play_thread: threading.Thread | None = None
@@ -189,7 +190,9 @@ class SessionView:
         with self.panel.add_tab("Plots"):
             self.view_dd = g.add_dropdown("View", tuple(_TITLES.values()),
                                           initial_value=_TITLES["loop"])
-            self.plot = g.add_plotly(F.message_figure("", "computing…"), aspect=1.5)
+            # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
+            # says width/height; measured in Chromium: height = width * aspect).
+            self.plot = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72)
         self.status_md = g.add_markdown("")
         self._wire()
 
@@ -579,8 +582,8 @@ class SessionView:
             fig = F.build(name, res, cfg.mismatch)
         if session is not self.session or self.session.snapshot()[1] != v:
             return  # stale: a newer version is queued, skip sending this one
-        self.plot.aspect = {"inverse": 2.0, "fit": 2.0, "digitized": 1.3,
-                            "closed-loop": 1.3}.get(name, 1.5)
+        self.plot.aspect = {"inverse": 0.5, "fit": 0.5, "digitized": 0.8,
+                            "closed-loop": 0.75}.get(name, 0.72)
         self.plot.figure = fig
         self.shown_figure = name
         self.last_result = res
@@ -643,7 +646,7 @@ class SessionView:
             f"max |digitized − classical| = {np.max(np.abs(d.y - d.y_classical)):.3g}"
         )
         if self._marker is not None and self._cube_points is not None:
-            self._marker.position = tuple(self._embed(digits))
+            self._marker.position = tuple(self._embed(digits) - self._cube_center)
             self._marker.visible = True
 
     def _embed(self, digits: np.ndarray) -> np.ndarray:
@@ -672,7 +675,9 @@ class SessionView:
             return
         if key == self._cube_key:
             return
-        pts = np.array([self._embed(row) for row in g.digits])
+        raw = np.array([self._embed(row) for row in g.digits])
+        self._cube_center = raw.mean(axis=0)
+        pts = raw - self._cube_center  # centred on the scene origin (camera target)
         self._cube_points = pts
         self.scene.add_frame("/states", show_axes=False, visible=True)
         self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
