@@ -88,6 +88,9 @@ class Structure:
         Legendre degree of the drift in time per recording (0 = none).
     offsets : bool
         One offset per recording instead of one common bias.
+    free_weights : bool
+        Play weights of either sign (``p0 >= 0`` only): saturating loops such as friction need
+        negative weights; by default ``p_i >= 0`` (hardening loops, invertible).
     """
 
     thresholds: tuple[float, ...]
@@ -98,6 +101,7 @@ class Structure:
     dynamics: tuple = ()
     drift_degree: int = 0
     offsets: bool = False
+    free_weights: bool = False
 
     @property
     def effects(self) -> list[str]:
@@ -357,7 +361,7 @@ def fit_structure(
             blocks.append(np.column_stack([M[m]] + extra))
         X = np.concatenate(blocks, axis=0)
         nonneg = np.zeros(X.shape[1], dtype=bool)
-        nonneg[:nb] = True
+        nonneg[: 1 if s.free_weights else nb] = True
         nonneg[nb + n_asym : nb + n_asym + n_creep] = True
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
@@ -425,9 +429,10 @@ def build_model(
     r = np.asarray(s.thresholds)
     hyst: Model
     if s.beta_s is None:
-        hyst = PIModel(max(p0, 0.0), r, np.maximum(pw, 0.0))
+        hyst = PIModel(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0))
     else:
-        hyst = RateDependentPI(max(p0, 0.0), r, np.maximum(pw, 0.0), s.beta_s)
+        hyst = RateDependentPI(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0),
+                               s.beta_s)
     if s.history[k]:
         hyst = InitialMemory(hyst, list(s.history[k]))
     stages: list[Model] = [hyst]
