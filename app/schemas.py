@@ -100,6 +100,6 @@ class FitIn(BaseModel):
     """Fit request on the session's uploaded recording."""
 
     model_config = ConfigDict(extra="forbid")
-    kind: str = Field("pi", description="model kind to fit")
+    kind: str = Field("pi", description="model kind to fit, see GET /api/capabilities")
     n: int = Field(10, ge=1, description="number of play operators (limit: max_operators)")
     apply: bool = Field(True, description="make the fitted model the session's model")

@@ -847,16 +847,33 @@ def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
     return {"columns": header, "rows": tab[:rows].tolist(), "n_rows": int(tab.shape[0])}
 
 
-def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
-    """Fit a PI model with ``n`` operators to ``rec``; returns ``(model, report)``.
+#: Model kinds the explorer can fit, and the :mod:`core.fitting` estimator of each.
+FIT_KINDS: dict[str, str] = {
+    "pi": "PIRegressor",
+    "gpi-deadzone": "DeadZoneGPIRegressor",
+    "mpi": "ModifiedPIRegressor",
+    "gpi-tanh": "TanhGPIRegressor",
+    "digitized": "DigitizedPIRegressor",
+}
 
-    Uses :mod:`core.fitting`'s ``PIRegressor`` when available, else a bounded linear
+
+def fit_kinds() -> list[str]:
+    """Fit kinds available now (``pi`` always, the others with :mod:`core.fitting`)."""
+    mod = optional("core.fitting")
+    return [k for k, c in FIT_KINDS.items() if k == "pi" or hasattr(mod, c)]
+
+
+def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
+    """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
+
+    Uses the :mod:`core.fitting` estimator of :data:`FIT_KINDS` (the model includes the
+    fitted output offset, as a chain); without it, for ``pi`` only, a bounded linear
     least-squares fit (``p0, p_i >= 0``) on thresholds ``r_i = i * max|u| / (n + 1)``.
     """
-    if kind != "pi":
-        raise ParameterError(f"fit kind {kind!r} is not available; use 'pi'")
+    if kind not in fit_kinds():
+        raise ParameterError(f"fit kind {kind!r} is not available; use one of {fit_kinds()}")
     mod = optional("core.fitting")
-    reg_cls = getattr(mod, "PIRegressor", None) if mod is not None else None
+    reg_cls = getattr(mod, FIT_KINDS[kind], None) if mod is not None else None
     if reg_cls is not None:
         import inspect
 
@@ -888,7 +905,8 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
         "rms_error": float(np.sqrt(np.mean(res**2))),
         "max_error": float(np.max(np.abs(res))),
         "nrmse_percent": float(100 * np.sqrt(np.mean(res**2)) / rng),
-        "n_operators": int(getattr(model, "n", n)),
+        "n_operators": int(n),
+        "kind": kind,
     }
     return model, report
 

@@ -206,7 +206,8 @@ async function useCsv() {
 
 async function fit() {
   try {
-    const r = await api("POST", `/api/sessions/${state.code}/fit`, { n: Number($("fit-n").value) });
+    const r = await api("POST", `/api/sessions/${state.code}/fit`,
+      { n: Number($("fit-n").value), kind: $("fit-kind").value });
     state.fitFigure = r.figure;
     const rep = r.report;
     $("report").innerHTML = `<p class="msg ok">Fit: RMS error ${rep.rms_error.toPrecision(4)}, ` +
@@ -259,6 +260,7 @@ async function main() {
   const caps = await api("GET", "/api/capabilities");
   $("kind").replaceChildren(...caps.signals.map((s) => new Option(s, s)));
   $("preset").replaceChildren(...caps.presets.map((p) => new Option(p, p)));
+  $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(k, k)));
   $("samples").max = caps.limits.max_samples;
   $("n").max = caps.limits.max_operators;
   const v = await api("GET", "/api/viser-url");

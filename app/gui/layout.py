@@ -34,6 +34,7 @@ from ..state import (
     compute,
     diagnosis_html,
     export_bytes,
+    fit_kinds,
     fit_recording,
     get_preset,
     parameter_set_model,
@@ -172,7 +173,9 @@ class SessionView:
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=self.settings.max_operators, step=1)
-            self.fit_btn = g.add_button("Fit PI model")
+            kinds = tuple(fit_kinds())
+            self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
+            self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")
             self.report_btn = g.add_button("Download diagnosis report (HTML)", disabled=True)
             self.report_md = g.add_markdown("")
@@ -505,16 +508,17 @@ class SessionView:
             self.report_md.content = "⚠️ upload a recording first"
             return
         n = int(self.fit_n.value)
+        kind = str(self.fit_kind.value)
         self.report_md.content = "fitting…"
-        model, report = fit_recording(rec, n)
+        model, report = fit_recording(rec, n, kind)
         with self.session.lock:
             self.session.fitted = model.to_dict()
             self.session.fit_report = report
         self.session.update(lambda c: c.with_model(model.to_dict()))
-        self.fit_figure = F.fit_figure(rec, model(rec.u), f"fitted PI (n={n})")
+        self.fit_figure = F.fit_figure(rec, model(rec.u), f"fitted {kind} (n={n})")
         self.view_dd.value = _TITLES["fit"]
         self.report_md.content = (
-            f"**Fit (n = {n})**: RMS error {report['rms_error']:.4g}, "
+            f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
             f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
         )
 

@@ -107,7 +107,7 @@ def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, An
         session.diagnosis = None
     if body.apply:
         session.update(lambda c: c.with_model(model.to_dict()))
-    fig = F.fit_figure(rec, model(rec.u), f"fitted PI (n={body.n})")
+    fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
     return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
 
 

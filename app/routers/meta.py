@@ -10,7 +10,7 @@ from fastapi.responses import FileResponse
 
 from core.base import registered_types
 
-from ..state import get_preset, preset_names, signal_kinds
+from ..state import fit_kinds, get_preset, preset_names, signal_kinds
 from .deps import SettingsDep
 
 __all__ = ["router", "vendor_router"]
@@ -47,6 +47,7 @@ def capabilities(settings: SettingsDep) -> dict[str, Any]:
         "presets": preset_names(),
         "figures": list(FIGURES),
         "export_formats": export_formats(),
+        "fit_kinds": fit_kinds(),
         "limits": {
             "max_upload_bytes": settings.max_upload_bytes,
             "max_samples": settings.max_samples,

@@ -228,6 +228,18 @@ def test_upload_fit_diagnose(client: TestClient, code: str) -> None:
     assert "<script src=\"http" not in html.text  # plotly.js inlined, nothing remote
 
 
+@pytest.mark.parametrize("kind", ["gpi-deadzone", "mpi", "gpi-tanh", "digitized"])
+def test_fit_other_model_kinds(client: TestClient, code: str, kind: str) -> None:
+    if kind not in client.get("/api/capabilities").json()["fit_kinds"]:
+        pytest.skip(f"{kind} fitting not available")
+    _upload(client, code, _csv(800))
+    r = client.post(f"/api/sessions/{code}/fit", json={"n": 6, "kind": kind})
+    assert r.status_code == 200, r.text
+    assert r.json()["report"]["kind"] == kind
+    assert client.get(f"/api/sessions/{code}/figures", params={"name": "loop"}).status_code == 200
+    assert client.post(f"/api/sessions/{code}/fit", json={"kind": "nope"}).status_code == 422
+
+
 def test_upload_with_column_mapping(client: TestClient, code: str) -> None:
     text = _csv(50, header="a,b,c")
     r = _upload(client, code, text, t_col="0", u_col="b", y_col="c")
