@@ -23,7 +23,7 @@ import numpy as np
 
 from core.base import Model
 
-from .state import Recording, Result, pi_part
+from .state import Recording, Result, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",
@@ -94,33 +94,6 @@ def values(arr: Any) -> np.ndarray:
     if isinstance(arr, dict) and "bdata" in arr:
         return np.frombuffer(base64.b64decode(arr["bdata"]), dtype=np.dtype(arr["dtype"]))
     return np.asarray(arr, dtype=np.float64)
-
-
-def decimate_index(u: np.ndarray, max_points: int = MAX_POINTS) -> np.ndarray:
-    """Indices of at most about ``max_points`` samples, always keeping input reversals.
-
-    Parameters
-    ----------
-    u : ndarray of shape (N,)
-        The input whose turning points must survive (loop corners).
-    max_points : int
-        Target number of points.
-
-    Returns
-    -------
-    ndarray of int
-        Sorted unique indices including ``0`` and ``N - 1``.
-    """
-    n = int(u.size)
-    if n <= max_points:
-        return np.arange(n)
-    stride = int(np.ceil(n / max_points))
-    base = np.arange(0, n, stride)
-    d = np.sign(np.diff(u))
-    turns = np.flatnonzero(d[1:] * d[:-1] < 0) + 1
-    if turns.size > max_points // 2:
-        turns = turns[:: int(np.ceil(2 * turns.size / max_points))]
-    return np.unique(np.concatenate((base, turns, [n - 1])))
 
 
 def _layout(title: str, **kw: Any) -> dict[str, Any]:
@@ -199,15 +172,15 @@ def loop_figure(res: Result) -> FigureJSON:
 def operators_figure(res: Result) -> FigureJSON:
     """Stacked contributions ``p0 u`` and ``p_i Γ_{r_i}[u]``; their sum is ``y``."""
     m = pi_part(res.model)
-    if res.contributions is None or m is None:
+    if res.contributions is None or res.contrib_idx is None or m is None:
         return message_figure("Operator outputs", "Only available for classical PI models")
-    idx = decimate_index(res.u, MAX_POINTS_STACKED)
+    idx = res.contrib_idx
     t = _num(res.t[idx])
     data = [_line(t, _num(m.p0 * res.u[idx]), "p0·u", _GREY, stackgroup="c",
                   line={"width": 0.5})]
     for i in range(m.n):
         data.append({"type": "scatter", "mode": "lines", "x": t,
-                     "y": _num(res.contributions[idx, i]), "stackgroup": "c",
+                     "y": _num(res.contributions[:, i]), "stackgroup": "c",
                      "name": f"p{i + 1}·Γ(r={m.thresholds[i]:.3g})", "line": {"width": 0.5}})
     data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
                       line={"color": "#000000", "width": 1.5, "dash": "dot"}))

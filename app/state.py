@@ -337,7 +337,8 @@ class Result:
     t: np.ndarray
     u: np.ndarray
     y: np.ndarray
-    contributions: np.ndarray | None = None  # (N, n): p_i * Γ_{r_i}[u]
+    contributions: np.ndarray | None = None  # (M, n): p_i * Γ_{r_i}[u] at contrib_idx
+    contrib_idx: np.ndarray | None = None  # (M,) sample indices of the contribution rows
     v: np.ndarray | None = None  # inverse's output (plant input) for desired output u
     y_comp: np.ndarray | None = None  # plant(v): compensated output
     inverse_error: str | None = None
@@ -345,6 +346,64 @@ class Result:
     digitized: Digitized | None = None
     messages: tuple[str, ...] = ()
     elapsed_ms: float = 0.0
+
+
+def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
+    """Indices of at most about ``max_points`` samples, always keeping input reversals.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        The input whose turning points must survive (loop corners).
+    max_points : int
+        Target number of points.
+
+    Returns
+    -------
+    ndarray of int
+        Sorted unique indices including ``0`` and ``N - 1``.
+    """
+    n = int(u.size)
+    if n <= max_points:
+        return np.arange(n)
+    stride = int(np.ceil(n / max_points))
+    base = np.arange(0, n, stride)
+    d = np.sign(np.diff(u))
+    turns = np.flatnonzero(d[1:] * d[:-1] < 0) + 1
+    if turns.size > max_points // 2:
+        turns = turns[:: int(np.ceil(2 * turns.size / max_points))]
+    return np.unique(np.concatenate((base, turns, [n - 1])))
+
+
+#: Rows of the operator-contribution matrix kept for the stacked plot.
+CONTRIB_ROWS = 400
+#: Samples per chunk when the play-operator matrix is computed piecewise.
+CONTRIB_CHUNK = 20_000
+
+
+def operator_contributions(pi: PIModel, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``p_i Γ_{r_i}[u]`` at about :data:`CONTRIB_ROWS` samples (reversals kept).
+
+    The play states are carried from chunk to chunk, so memory stays at
+    ``CONTRIB_CHUNK × n`` floats whatever the signal length.
+
+    Returns
+    -------
+    idx : ndarray of int, shape (M,)
+        Sample indices.
+    contrib : ndarray of shape (M, n)
+    """
+    from core.operators import play_bank
+
+    idx = decimate_index(u, CONTRIB_ROWS)
+    out = np.empty((idx.size, pi.n))
+    z = np.array(pi.state0, dtype=np.float64)
+    for start in range(0, u.size, CONTRIB_CHUNK):
+        stop = min(u.size, start + CONTRIB_CHUNK)
+        Y, z = play_bank(u[start:stop], pi.thresholds, z)
+        sel = (idx >= start) & (idx < stop)
+        out[sel] = Y[idx[sel] - start]
+    return idx, out * pi.weights
 
 
 class _Skip(Exception):
@@ -391,10 +450,10 @@ def compute(
     if u.size > max_samples:
         raise ParameterError(f"the input has {u.size} samples; at most {max_samples} allowed")
     y = model.simulate(u, dt=dt).y
-    contrib = None
+    contrib = contrib_idx = None
     pi = pi_part(model)
     if pi is not None:
-        contrib = pi.operator_outputs(u) * pi.weights
+        contrib_idx, contrib = operator_contributions(pi, u)
     v = y_comp = None
     inv_err = None
     try:
@@ -425,6 +484,7 @@ def compute(
         u=u,
         y=y,
         contributions=contrib,
+        contrib_idx=contrib_idx,
         v=v,
         y_comp=y_comp,
         inverse_error=inv_err,

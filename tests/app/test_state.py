@@ -30,7 +30,9 @@ def test_default_config_is_paper001_example1() -> None:
     m = PIModel.from_dict(S.EXAMPLE1)
     np.testing.assert_allclose(res.u, 4 * np.sin(2 * np.pi * res.t), atol=1e-12)
     np.testing.assert_allclose(res.y, m(res.u))
-    np.testing.assert_allclose(res.contributions.sum(axis=1) + m.p0 * res.u, res.y, atol=1e-12)
+    k = res.contrib_idx
+    np.testing.assert_allclose(res.contributions.sum(axis=1) + m.p0 * res.u[k], res.y[k],
+                               atol=1e-12)
     np.testing.assert_allclose(res.y_comp, res.u, atol=1e-9)  # P(P^-1(u)) = u
 
 
@@ -112,6 +114,14 @@ def test_fallback_csv_parser_locates_errors() -> None:
         S.parse_table("1,2\n" * 20, 10)
 
 
+def test_chunked_contributions_match_the_full_matrix() -> None:
+    m = PIModel(0.5, [0.3, 0.8, 1.9], [0.4, 0.3, 0.2], [0.1, -0.2, 0.3])
+    t = np.linspace(0, 5, 47_001)
+    u = 3 * np.sin(2 * np.pi * 3 * t) * np.exp(-0.3 * t)
+    idx, c = S.operator_contributions(m, u)
+    np.testing.assert_allclose(c, (m.operator_outputs(u) * m.weights)[idx], atol=1e-12)
+
+
 def test_decimate_keeps_reversals() -> None:
     t = np.linspace(0, 1, 20_000)
     u = np.sin(2 * np.pi * 7 * t)
@@ -128,5 +138,7 @@ def test_typed_arrays_round_trip_and_figures_validate() -> None:
         go.Figure(fig.to_dict())
     loop = F.loop_figure(res).to_dict()["data"][0]
     np.testing.assert_allclose(F.values(loop["x"]), res.u[F.decimate_index(res.u)], rtol=1e-6)
+    ops = F.operators_figure(res).to_dict()
+    assert len(ops["data"]) == 6 + 2  # p0 u, six operators, the sum
     with pytest.raises(KeyError):
         F.build("nope", res)
