@@ -22,10 +22,13 @@ def register(subparsers: Any) -> None:
             "127.0.0.1 by default; use --host 0.0.0.0 to let a class on the same network in."
         ),
     )
-    p.add_argument("--host", default="127.0.0.1", help="interface to bind (default 127.0.0.1)")
-    p.add_argument("--port", type=int, default=8000, help="HTTP port (default 8000)")
-    p.add_argument("--viser-port", type=int, default=8080,
-                   help="viser GUI port (default 8080; next free one if busy; 0 = any)")
+    p.add_argument("--host", default=None,
+                   help="interface to bind (default 127.0.0.1; env HYST_HOST)")
+    p.add_argument("--port", type=int, default=None,
+                   help="HTTP port (default 8000; env HYST_PORT; 0 = any free port)")
+    p.add_argument("--viser-port", type=int, default=None,
+                   help="viser GUI port (default 8080, the next free one if busy; "
+                        "env HYST_VISER_PORT; 0 = any free port)")
     p.add_argument("--no-viser", action="store_true", help="REST API and web page only")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.add_argument("--teacher-token", default=None,
@@ -63,10 +66,11 @@ def run(args: argparse.Namespace) -> int:
     settings = Settings.from_env(
         host=args.host,
         port=args.port,
+        viser_port=args.viser_port,
         teacher_token=args.teacher_token,
     )
-    settings = Settings(**{**settings.__dict__,
-                           "viser_port": None if args.no_viser else args.viser_port})
+    if args.no_viser:
+        settings = Settings(**{**settings.__dict__, "viser_port": None})
     app = create_app(settings)
     config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning")
     server = uvicorn.Server(config)

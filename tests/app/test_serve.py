@@ -21,7 +21,17 @@ def test_serve_arguments() -> None:
     assert (args.host, args.port, args.viser_port, args.no_browser) == ("0.0.0.0", 9000, 9001,
                                                                           True)
     defaults = build_parser().parse_args(["serve"])
-    assert defaults.host == "127.0.0.1" and callable(defaults.func)
+    assert defaults.host is None and callable(defaults.func)  # Settings: 127.0.0.1
+
+
+def test_settings_from_env(monkeypatch) -> None:  # noqa: ANN001
+    from app.settings import Settings
+
+    monkeypatch.setenv("HYST_VISER_PORT", "9123")
+    monkeypatch.setenv("HYST_MAX_OPERATORS", "12")
+    s = Settings.from_env(port=None, host="0.0.0.0")
+    assert (s.host, s.port, s.viser_port, s.max_operators) == ("0.0.0.0", 8000, 9123, 12)
+    assert Settings().host == "127.0.0.1"
 
 
 def test_serve_starts_prints_urls_and_serves() -> None:
