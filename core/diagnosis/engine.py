@@ -932,7 +932,8 @@ def diagnose(
                 "not separable from (u, y)",
                 "experiment": "an independent reference sensor",
             })
-        cur = _refine_resolution(ctx, fit, 4 * n_operators, rounds, rnd + 1)
+        cur = _refine_resolution(ctx, fit, 4 * n_operators, rounds, rnd + 1) if (
+            auto_resolution) else fit
         if fam == "dynamics" and best != "rate":
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         todo = [e for e in todo if e != best and not (
