@@ -13,6 +13,9 @@ def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
     page = ctx.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("request", lambda r: errors.append(f"external request {r.url}")
+            if not r.url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "data:", "blob:"))
+            else None)
     page.goto(url)
     page.wait_for_function(
         "() => !document.body.innerText.includes('Connecting...')", timeout=60_000)
