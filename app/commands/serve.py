@@ -44,7 +44,7 @@ def _announce(server: Any, app: Any, host: str, open_browser: bool) -> None:
     shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
     port = server.servers[0].sockets[0].getsockname()[1]
     web = f"http://{shown}:{port}/"
-    print(f"Hysteresis Explorer web page: {web}   (API docs: {web}docs)", flush=True)
+    print(f"Hysteresis Explorer web page: {web}   (API reference: {web}api.html)", flush=True)
     vport = getattr(app.state, "viser_port", None)
     gui = f"http://{shown}:{vport}/" if vport else None
     if gui:

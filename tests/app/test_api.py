@@ -72,6 +72,7 @@ def test_static_page_and_vendored_plotly(client: TestClient) -> None:
     js = client.get("/vendor/plotly.min.js")
     assert js.status_code == 200 and len(js.content) > 1_000_000
     assert client.get("/app.js").status_code == 200
+    assert "/openapi.json" in client.get("/api.html").text  # offline API reference
     assert client.get("/openapi.json").json()["info"]["title"] == "Hysteresis Explorer"
 
 

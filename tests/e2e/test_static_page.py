@@ -119,6 +119,19 @@ def test_csv_upload_fit_diagnosis_download(browser: Any, live_server: dict, shot
     ctx.close()
 
 
+def test_offline_api_reference(browser: Any, live_server: dict) -> None:
+    ctx = browser.new_context()
+    page = ctx.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(live_server["url"] + "api.html")
+    page.wait_for_selector("body[data-ready]", timeout=20_000)
+    text = page.inner_text("#ops")
+    assert "/api/simulate" in text and "SimulateIn" in text
+    assert errors == []
+    ctx.close()
+
+
 def test_two_students_are_isolated(browser: Any, live_server: dict) -> None:
     ctx_a, a, _ = _open(browser, live_server["url"])
     ctx_b, b, _ = _open(browser, live_server["url"])
