@@ -6,6 +6,7 @@ Import-light on purpose: no web or plotting libraries are imported here.
 from __future__ import annotations
 
 from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
+from .closed_loop import ClosedLoopResult, HammersteinLoop, paper001_loop, simulate_fig16
 from .csvio import CSVError, inspect_csv, read_csv, read_csvs, read_recording
 from .datasets import dataset_info, list_datasets, load_dataset
 from .deadzone import DeadZoneMap
@@ -38,12 +39,27 @@ from .gpi import (
     paper001_example4,
     paper001_example6,
 )
+from .lti import InverseLinearSystem, LinearSystem
 from .operators import dead_zone, play, play_bank, stop
 from .paramset import ParameterSet, ParameterSetError, Provenance, Units, load_parameter_set
 from .pi import PIModel, inverse_parameters
+from .presets import PresetInfo, get_preset, list_presets
 from .recordings import Recording
+from .signals import SIGNALS, build_signal, list_signals
 
 __all__ = [
+    "SIGNALS",
+    "ClosedLoopResult",
+    "HammersteinLoop",
+    "InverseLinearSystem",
+    "LinearSystem",
+    "PresetInfo",
+    "build_signal",
+    "get_preset",
+    "list_presets",
+    "list_signals",
+    "paper001_loop",
+    "simulate_fig16",
     "CSVError",
     "Recording",
     "dataset_info",

@@ -874,6 +874,27 @@ class DigitizedPI(Model):
         return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0"))
 
 
+def paper000_two_operators() -> DigitizedPI:
+    """The two-digit case of paper 000 Fig. 3, as used in ``examples/ex07``.
+
+    p0 = 0.5 and one play with r1 = 1, p1 = 1, over the input range [-3, 3] (u_A = 3):
+    Δx = (2, 4), Δy = (1, 6).
+    """
+    from .pi import PIModel
+
+    return DigitizedPI.from_pi(PIModel(0.5, [1.0], [1.0]), (-3.0, 3.0))
+
+
+def paper000_three_operators() -> DigitizedPI:
+    """The three-digit case of paper 000 Fig. 4, as used in ``examples/ex08``.
+
+    p0 = 0.4, r = (0.5, 1.5), p = (0.6, 1.0) over the input range [0, 10] (u_A = 5).
+    """
+    from .pi import PIModel
+
+    return DigitizedPI.from_pi(PIModel(0.4, [0.5, 1.5], [0.6, 1.0]), (0.0, 10.0))
+
+
 # Register the dead-zone and modified-PI types whenever this module is imported (core.paramset
 # imports "core.digitized" to load every model type). Module import only: no names, so the
 # circular import is safe in either order.

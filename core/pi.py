@@ -51,8 +51,9 @@ def inverse_parameters(
     S = p0 + np.cumsum(p)  # S[i] = p0 + p_1 + ... + p_{i+1}  (slope S_{i+2})
     if (S <= 0).any():
         i = int(np.flatnonzero(S <= 0)[0])
+        terms = " + ".join(["p0"] + [f"p{g}" for g in range(1, i + 2)])
         raise NotInvertibleError(
-            f"PI model is not invertible: slope S{i + 2} = p0 + p1 + ... + p{i + 1} = {S[i]:g} "
+            f"PI model is not invertible: slope S{i + 2} = {terms} = {S[i]:g} "
             "must be > 0 (every loop segment must rise)"
         )
     S_prev = np.concatenate(([p0], S[:-1]))
