@@ -1,15 +1,21 @@
-"""The viser GUI in real Chromium: per-tab views, sliders, two students, screenshots."""
+"""The viser GUI in real Chromium: per-tab views, sliders, two students, CSV upload, fit,
+download, screenshots."""
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
+
+from core.pi import PIModel
 
 
 def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
-    ctx = browser.new_context(viewport={"width": 1500, "height": 900})
+    ctx = browser.new_context(viewport={"width": 1500, "height": 900}, accept_downloads=True)
     page = ctx.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
@@ -42,7 +48,8 @@ def _screenshot(page: Any, shot: Any, name: str) -> None:
     shot(page, name)
 
 
-def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any) -> None:
+def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
+                                tmp_path: Any) -> None:
     app = live_server["app"]
     ctx_a, a, errors_a = _open(browser, live_server["viser_url"])
     (view_a,) = _views(app, 1)
@@ -73,6 +80,33 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any) -> N
     assert view_a.worker.wait_idle(30)
     assert view_a.p0.value == pytest.approx(1.25)
     assert view_b.p0.value == pytest.approx(0.72)
+
+    # upload a recording, fit, download the parameter set: all through A's own GUI
+    t = np.arange(1000) * 1e-3
+    u = 3.0 * np.sin(2 * np.pi * 2 * t)
+    y = PIModel(0.7, [0.5, 1.0, 1.5], [0.5, 0.4, 0.3])(u)
+    csv = tmp_path / "rec.csv"
+    csv.write_text("t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y,
+                                                                           strict=True)))
+    a.get_by_role("tab", name="Data").first.click()
+    with a.expect_file_chooser() as fc:
+        a.get_by_role("button", name="Upload CSV").first.click()
+    fc.value.set_files(str(csv))
+    deadline = time.monotonic() + 30
+    while view_a.session.recording is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert view_a.session.recording is not None and view_a.session.recording.n == 1000
+    assert view_b.session.recording is None
+    a.get_by_role("button", name="Fit model").first.click()
+    deadline = time.monotonic() + 30
+    while view_a.session.fitted is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert view_a.session.fitted is not None
+    a.get_by_role("tab", name="Export").first.click()
+    with a.expect_download(timeout=30_000) as dl:
+        a.get_by_role("button", name="Download parameter set (JSON)").first.click()
+    doc = json.loads(Path(dl.value.path()).read_text())
+    assert doc["model"] == view_a.session.config.model
 
     view_a.view_dd.value = "Digitized states"
     assert view_a.worker.wait_idle(30)
