@@ -46,6 +46,15 @@ def main() -> None:
     rec = Record(t, u, y, "piezo_150V_1Hz")
     res = diagnose([rec], train=(3.3, 7.0), test=(7.0, 9.0), **kwargs)
     print(res.summary())
+    if res.suggestive:
+        # what the best suggestive effect would add if the user accepted it (not a claim)
+        sg = max(res.suggestive, key=lambda g: g["heldout_mse_reduction"])
+        best = sg["effect"]
+        fit, params = res.with_effect(best)
+        v = res.heldout_rmse(fit)
+        print(f"\nnot claimed, for comparison: PI + {' + '.join(e.name for e in res.effects)}"
+              f" + {best} {params} -> held-out {100 * v / res.y_range:.3f} % of the output "
+              f"range (the 2 held-out cycles cannot make it significant: z = {sg['dm_z']:.2f})")
     if not quick():
         # robustness: let the engine refine the play grid itself (under-resolution check)
         auto = diagnose([rec], train=(3.3, 7.0), test=(7.0, 9.0))

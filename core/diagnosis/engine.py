@@ -235,6 +235,26 @@ class DiagnosisResult:
             and not str(r["effect"]).startswith(("resolution", "recheck"))
         ]
 
+    def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
+        """Fit effect ``name`` on top of the final model although it was not claimed.
+
+        For a user who wants to try a *suggestive* effect (one that improved the held-out fit
+        but failed the significance rule). Nothing here is a claim; the held-out RMSE of the
+        returned fit is :meth:`heldout_rmse`.
+
+        Returns
+        -------
+        fit : Fit
+        parameters : dict
+        """
+        if name not in EFFECT_TYPES:
+            raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
+        ctx = _Ctx(self.records, self.train, self.test)
+        got = _candidate(ctx, name, self.final)
+        if got is None:
+            raise ParameterError(f"effect {name!r} is already in the model or not applicable")
+        return got[0], got[1]
+
     @property
     def _req(self) -> Fit:
         return self.requested if self.requested is not None else self.baseline

@@ -73,6 +73,16 @@ def test_hidden_lag_is_named_fitted_and_improves_heldout() -> None:
     assert any(s.type_name == "lag" for s in res.model.stages)
     y = res.model(recs[0].u, dt=recs[0].dt)
     np.testing.assert_allclose(y, res.final.pred[0], atol=1e-9)
+    with pytest.raises(ParameterError, match="already"):
+        res.with_effect("lag")  # one linear-dynamics stage only
+
+
+def test_with_effect_refits_an_unclaimed_effect_on_null_data() -> None:
+    res = diagnose(_records(noise=0.02, seed=11), n_operators=10, effects=["offset"])
+    fit, params = res.with_effect("lag")
+    assert params["tau_s"] > 0
+    # on clean data the extra lag cannot help the held-out fit noticeably
+    assert res.heldout_rmse(fit) > 0.97 * res.heldout_rmse(res.final)
 
 
 def test_asymmetry_is_found_and_reported_as_not_separable_from_sensor_map() -> None:
