@@ -24,6 +24,7 @@ def _good_csv(path: Path) -> Path:
 def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
     ctx = browser.new_context(viewport={"width": 1400, "height": 860}, accept_downloads=True)
     page = ctx.new_page()
+    page.set_default_timeout(60_000)  # the 2 shared vCPUs can be very busy
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
@@ -31,8 +32,8 @@ def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
     page.on("request", lambda r: external.append(r.url)
             if not r.url.startswith(("http://127.0.0.1", "data:", "blob:")) else None)
     page.goto(url)
-    page.wait_for_selector("body[data-ready]", timeout=20_000)
-    page.wait_for_selector("#figure .main-svg", timeout=20_000)
+    page.wait_for_selector("body[data-ready]", timeout=60_000)
+    page.wait_for_selector("#figure .main-svg", timeout=60_000)
     assert not external, external
     return ctx, page, errors
 
@@ -52,9 +53,9 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
     for _ in range(30):
         slider.press("ArrowRight")
     page.wait_for_function(
-        "v => document.body.dataset.ready !== v", arg=version, timeout=10_000)
+        "v => document.body.dataset.ready !== v", arg=version, timeout=30_000)
     page.wait_for_function(
-        "() => !document.querySelector('#status').textContent.includes('…')", timeout=5_000)
+        "() => !document.querySelector('#status').textContent.includes('…')", timeout=30_000)
     page.wait_for_timeout(400)
     after = _loop_y(page)
     assert not np.allclose(before, after)
@@ -65,7 +66,7 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
     for _ in range(20):
         mismatch.press("ArrowRight")  # +0.20: the plant differs from the model
     page.wait_for_function(
-        "v => document.body.dataset.ready !== v", arg=version, timeout=10_000)
+        "v => document.body.dataset.ready !== v", arg=version, timeout=30_000)
     for fig in ("operators", "loading", "inverse", "digitized", "time"):
         page.click(f"#tabs button[data-fig={fig}]")
         page.wait_for_function("f => document.body.dataset.fig === f", arg=fig)
@@ -99,7 +100,7 @@ def test_csv_upload_fit_diagnosis_download(browser: Any, live_server: dict, shot
         "() => document.getElementById('csv-msg').textContent.includes('1500 samples')")
     page.fill("#fit-n", "8")
     page.click("#fit")
-    page.wait_for_function("() => document.body.dataset.fig === 'fit'", timeout=20_000)
+    page.wait_for_function("() => document.body.dataset.fig === 'fit'", timeout=60_000)
     page.wait_for_selector("#report .ok")
     assert "RMS error" in page.inner_text("#report")
     page.wait_for_timeout(300)
@@ -125,7 +126,7 @@ def test_offline_api_reference(browser: Any, live_server: dict) -> None:
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(live_server["url"] + "api.html")
-    page.wait_for_selector("body[data-ready]", timeout=20_000)
+    page.wait_for_selector("body[data-ready]", timeout=60_000)
     text = page.inner_text("#ops")
     assert "/api/simulate" in text and "SimulateIn" in text
     assert errors == []
@@ -138,11 +139,12 @@ def test_two_students_are_isolated(browser: Any, live_server: dict) -> None:
     code_a, code_b = a.inner_text("#code"), b.inner_text("#code")
     assert code_a != code_b
     p0_b = b.input_value("#p0")
+    v = a.get_attribute("body", "data-ready")
     a.locator("#p0").focus()
     for _ in range(20):
         a.locator("#p0").press("ArrowRight")
-    v = a.get_attribute("body", "data-ready")
-    a.wait_for_function("v => document.body.dataset.ready !== v", arg=v, timeout=10_000)
+    a.wait_for_function("v => document.body.dataset.ready !== v", arg=v, timeout=30_000)
+    a.wait_for_function("() => Number(document.getElementById('p0').value) > 0.73")
     reg = live_server["app"].state.registry
     assert reg.get(code_a).config.model["p0"] != pytest.approx(0.72)
     assert reg.get(code_b).config.model["p0"] == pytest.approx(0.72)

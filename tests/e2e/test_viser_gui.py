@@ -17,6 +17,7 @@ from core.pi import PIModel
 def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
     ctx = browser.new_context(viewport={"width": 1500, "height": 900}, accept_downloads=True)
     page = ctx.new_page()
+    page.set_default_timeout(60_000)  # the 2 shared vCPUs can be very busy
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.on("request", lambda r: errors.append(f"external request {r.url}")
