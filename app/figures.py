@@ -327,6 +327,11 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     err = d.y - d.y_classical
     data.append(_line(_num(res.t[idx]), _num(err[idx]), "digitized − classical", _RED,
                       xaxis="x3", yaxis="y3"))
+    span = float(np.ptp(d.y)) or 1.0
+    err_axis: dict[str, Any] = {"domain": [0.22, 0.56], "anchor": "x3",
+                                "title": {"text": "error"}}
+    if float(np.max(np.abs(err))) < 1e-9 * span:  # identical: do not zoom into rounding
+        err_axis["range"] = [-0.05 * span, 0.05 * span]
     H = d.H
     txt = _matrix_text("H", H) + "<br>" + _matrix_text("H⁻¹", H[::-1])
     bound = float(d.model.reversal_error_bound())
@@ -339,7 +344,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
         yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits"}},
         xaxis3={"domain": [0.58, 1.0], "anchor": "y3", "matches": "x2",
                 "title": {"text": "t [s]"}},
-        yaxis3={"domain": [0.22, 0.56], "anchor": "x3", "title": {"text": "error"}},
+        yaxis3=err_axis,
         annotations=[{"text": txt, "showarrow": False, "xref": "paper", "yref": "paper",
                       "x": 0.0, "y": 0.0, "xanchor": "left", "yanchor": "top", "align": "left",
                       "font": {"family": "monospace", "size": 10}}],

@@ -82,13 +82,17 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     assert view_a.p0.value == pytest.approx(1.25)
     assert view_b.p0.value == pytest.approx(0.72)
 
+    view_a.view_dd.value = "Digitized states"
+    assert view_a.worker.wait_idle(30)
+    a.get_by_role("tab", name="Digitized").first.click()
+    _screenshot(a, shot, "viser-digitized")
     # upload a recording, fit, download the parameter set: all through A's own GUI
     t = np.arange(1000) * 1e-3
     u = 3.0 * np.sin(2 * np.pi * 2 * t)
     y = PIModel(0.7, [0.5, 1.0, 1.5], [0.5, 0.4, 0.3])(u)
     csv = tmp_path / "rec.csv"
-    csv.write_text("t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y,
-                                                                           strict=True)))
+    rows = (f"{ti},{ui},{yi}" for ti, ui, yi in zip(t, u, y, strict=True))
+    csv.write_text("t,u,y\n" + "\n".join(rows))
     a.get_by_role("tab", name="Data").first.click()
     with a.expect_file_chooser() as fc:
         a.get_by_role("button", name="Upload CSV").first.click()
@@ -109,10 +113,6 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     doc = json.loads(Path(dl.value.path()).read_text())
     assert doc["model"] == view_a.session.config.model
 
-    view_a.view_dd.value = "Digitized states"
-    assert view_a.worker.wait_idle(30)
-    a.get_by_role("tab", name="Digitized").first.click()
-    _screenshot(a, shot, "viser-digitized")
     assert errors_a == [] and errors_b == []
     ctx_a.close()
     ctx_b.close()
