@@ -238,7 +238,9 @@ def test_tanh_gpi_counterclockwise_envelope(pi: PIModel, env: tuple, s: list[flo
     np.testing.assert_allclose(m(vv), u, rtol=0, atol=tol(u))
 
     v = (2.5 * np.asarray(s) - c2) / c1
-    assume(np.all(np.diff(v) != 0))  # held inputs after a reversal keep the mismatch
+    # held inputs after a reversal keep the mismatch; steps below the rounding level of the
+    # envelope (e.g. 1e-63 after 0) make the direction of the envelope output undefined
+    assume(np.all(np.abs(np.diff(v)) > 1e-9 * (1 + np.abs(v[1:]))))
     with warnings.catch_warnings():
         # at a mismatched reversal kappa_R^-1 may see kappa_L(v) outside its domain
         warnings.simplefilter("ignore", ClippedInputWarning)
