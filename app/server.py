@@ -13,7 +13,7 @@ from contextlib import asynccontextmanager
 from typing import Any
 
 from fastapi import FastAPI, Request
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 
 from core.exceptions import NotInvertibleError, ParameterError
@@ -78,8 +78,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         version="0.1.0",
         summary="Prandtl-Ishlinskii hysteresis models: simulate, invert, fit, diagnose, export.",
         lifespan=lifespan,
+        # FastAPI's Swagger/ReDoc pages load their scripts from a CDN; nothing here may use
+        # the network, so /docs points at the offline reference rendered from /openapi.json.
+        docs_url=None,
+        redoc_url=None,
     )
     app.state.settings = settings
+
+    @app.get("/docs", include_in_schema=False)
+    def _docs() -> RedirectResponse:
+        return RedirectResponse("/api.html")
+
     app.state.registry = SessionRegistry(settings.max_sessions)
     app.state.viser_port = None
 

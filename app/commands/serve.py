@@ -17,8 +17,9 @@ def register(subparsers: Any) -> None:
         "serve",
         help="start the browser explorer (REST API, web page and viser GUI)",
         description=(
-            "Start the Hysteresis Explorer: a FastAPI server (REST API with docs at /docs and "
-            "a plain web page at /) and a viser GUI on a second port, in one process. Binds "
+            "Start the Hysteresis Explorer: a FastAPI server (REST API with an offline "
+            "reference at /api.html, and a plain web page at /) and a viser GUI on a second "
+            "port, in one process. Binds "
             "127.0.0.1 by default; use --host 0.0.0.0 to let a class on the same network in."
         ),
     )
