@@ -144,6 +144,14 @@ def write_report(res: Any, path: str | Path) -> Path:
             f"%); MSE reduction {100 * e.heldout.gain:.1f} %, DM z = {e.heldout.z:.2f}, "
             f"signed-rank p = {e.heldout.sign_p:.2g}.</p>{amb}</div>"
         )
+    if d.get("suggestive"):
+        parts.append("<h2>Suggestive, not claimed</h2><p>These improved the held-out fit by at "
+                     "least 5 % but failed the significance rule; a targeted recording would "
+                     "decide.</p><ul>" + "".join(
+                         f"<li>{html.escape(g['effect'])}: held-out MSE "
+                         f"-{100 * g['heldout_mse_reduction']:.0f} %, DM z = {g['dm_z']:.2f}, "
+                         f"signed-rank p = {g['signed_rank_p']:.2g}</li>"
+                         for g in d["suggestive"]) + "</ul>")
     if d["ambiguous"]:
         parts.append("<h2>Ambiguous</h2><ul>" + "".join(
             f"<li>{html.escape(' vs '.join(a['effects']))}: {html.escape(a['reason'])}. "
