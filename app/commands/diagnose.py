@@ -71,6 +71,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--test", type=_range, metavar="T0:T1", help="held-out time range (s)")
     p.add_argument("--operators", type=int, default=25, metavar="N",
                    help="play operators of the baseline (default: 25)")
+    p.add_argument("--fixed-grid", action="store_true",
+                   help="keep exactly --operators plays (no automatic grid refinement)")
     p.add_argument("--effects", metavar="LIST",
                    help="comma-separated effects to test (default: all)")
     p.add_argument("--json", action="store_true",
@@ -147,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
             raise ParameterError(f"recording {f!r} does not exist")
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     res = diagnose(list(args.files), model=args.model, train=args.train, test=args.test,
-                   n_operators=args.operators, effects=effects)
+                   n_operators=args.operators, effects=effects,
+                   auto_resolution=not args.fixed_grid)
     if args.save_model:
         p = save_model(res, args.save_model, _units(args.files[0]),
                        source="hyst diagnose " + " ".join(Path(f).name for f in args.files))

@@ -78,11 +78,12 @@ def test_json_is_one_object_with_effects_and_save_model_simulates(lag_files, tmp
 
 def test_readable_report_without_json(lag_files, capsys) -> None:
     code = main(["diagnose", str(lag_files[1]), "--operators", "10", "--effects", "lag,drift",
-                 "--train", "0:1.5", "--test", "1.5:2.5"])
+                 "--train", "0:1.5", "--test", "1.5:2.5", "--fixed-grid"])
     out, _ = capsys.readouterr()
     assert code == 0
     assert "Baseline PI" in out and "held-out RMSE" in out
     assert "Untestable: drift" in out
+    assert "Baseline PI (10 operators)" in out  # --fixed-grid keeps the requested grid
 
 
 @pytest.mark.parametrize(
