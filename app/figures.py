@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from core.base import Model
+from core.recordings import Recording
 
-from .state import Recording, Result, decimate_index, pi_part
+from .compute import Result, closed_loop, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",
@@ -355,8 +356,6 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
 
 def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     """Paper 001 Fig. 16: reference vs plant output and tracking error, ± inverse."""
-    from .state import closed_loop
-
     cl, msg = closed_loop(res, mismatch)
     if cl is None:
         return message_figure("Closed loop", msg or "unavailable")

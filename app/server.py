@@ -16,10 +16,12 @@ from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 
+from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
+from core.paramset import ensure_model_types_registered
 
 from .settings import STATIC_DIR, Settings
-from .state import CSVProblem, SessionRegistry, ensure_model_types
+from .state import Config, SessionRegistry
 
 __all__ = ["create_app"]
 
@@ -54,11 +56,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         The app; use it as a context manager (``TestClient``) or serve it with uvicorn.
     """
     settings = settings or Settings()
-    ensure_model_types()
+    ensure_model_types_registered()
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        from .state import Config, compute
+        from .compute import compute
 
         compute(Config())  # load the compiled kernels before the first user arrives
         server = _start_viser(app, settings)
@@ -97,11 +99,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
 
-    @app.exception_handler(CSVProblem)
-    async def _csv_error(request: Request, exc: CSVProblem) -> JSONResponse:
+    @app.exception_handler(CSVError)
+    async def _csv_error(request: Request, exc: CSVError) -> JSONResponse:
+        # line 1-based, column 0-based (the index, not the name: CSVError.column_index)
         return JSONResponse(
             status_code=422,
-            content={"detail": {"message": str(exc), "line": exc.line, "column": exc.column}},
+            content={"detail": {"message": str(exc), "line": exc.line,
+                                "column": exc.column_index}},
         )
 
     from .routers import data, export, meta, sessions, simulate

@@ -22,27 +22,15 @@ import numpy as np
 from core.base import model_from_dict
 from core.exceptions import ParameterError
 from core.pi import PIModel
+from core.presets import list_presets
+from core.signals import SIGNALS
 
 from .. import figures as F
+from ..compute import Result, compute, preset_doc
+from ..data import FIT_KINDS, diagnosis_html, fit_recording, recording_from_csv, run_diagnosis
+from ..exports import export_bytes, parameter_set_model
 from ..settings import Settings
-from ..state import (
-    Config,
-    CSVProblem,
-    Result,
-    Session,
-    SessionRegistry,
-    compute,
-    diagnosis_html,
-    export_bytes,
-    fit_kinds,
-    fit_recording,
-    get_preset,
-    parameter_set_model,
-    preset_names,
-    recording_from_csv,
-    run_diagnosis,
-    signal_kinds,
-)
+from ..state import Config, Session, SessionRegistry
 from .render import LatestWinsWorker
 
 __all__ = ["ExplorerGui", "SessionView", "attach_gui"]
@@ -122,8 +110,8 @@ class SessionView:
             self.push_btn = g.add_button("Teacher: push this model to every session")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
-            self.preset = g.add_dropdown("Preset", tuple(preset_names()),
-                                         initial_value=preset_names()[0])
+            names = tuple(p.name for p in list_presets())
+            self.preset = g.add_dropdown("Preset", names, initial_value=names[0])
             self.load_preset = g.add_button("Load preset")
             self.model_md = g.add_markdown("")
             with g.add_folder("Classical PI") as self.pi_folder:
@@ -142,7 +130,7 @@ class SessionView:
             self.json_in = g.add_text("Model JSON (any type)", initial_value="", multiline=True)
             self.json_btn = g.add_button("Apply model JSON")
         with tabs.add_tab("Input"):
-            kinds = tuple(signal_kinds())
+            kinds = tuple(SIGNALS)
             self.kind = g.add_dropdown("Signal", kinds, initial_value=kinds[0])
             self.amp = g.add_slider("Amplitude", min=0.0, max=10.0, step=0.05, initial_value=4.0)
             self.freq = g.add_slider("Frequency [Hz]", min=0.1, max=20.0, step=0.1,
@@ -173,7 +161,7 @@ class SessionView:
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=self.settings.max_operators, step=1)
-            kinds = tuple(fit_kinds())
+            kinds = tuple(FIT_KINDS)
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")
@@ -229,7 +217,7 @@ class SessionView:
                 return
             try:
                 fn(event)
-            except (ParameterError, CSVProblem, ValueError) as exc:
+            except (ParameterError, ValueError) as exc:
                 self._toast("Not applied", str(exc), True)
             except Exception as exc:  # noqa: BLE001 - a GUI callback must never crash
                 traceback.print_exc()
@@ -423,11 +411,9 @@ class SessionView:
         self._sync_controls(self.session.snapshot()[0])
 
     def _preset_clicked(self, event: Any) -> None:
-        doc = get_preset(str(self.preset.value))
-        from ..routers.sessions import _with_preset
-
-        self.session.update(lambda c: _with_preset(c, doc))
-        self._toast("Preset loaded", doc.get("title", doc["name"]))
+        doc = preset_doc(str(self.preset.value))
+        self.session.update(lambda c: c.with_model(doc["model"]))
+        self._toast("Preset loaded", doc["title"])
 
     def _json_clicked(self, event: Any) -> None:
         try:
@@ -487,7 +473,7 @@ class SessionView:
                 self._csv_text, t_col=self.t_col.value or None, u_col=self.u_col.value or None,
                 y_col=self.y_col.value or None, max_samples=self.settings.max_samples,
                 name=self._csv_name)
-        except CSVProblem as exc:
+        except ParameterError as exc:  # core.csvio.CSVError names the line and the column
             self.data_md.content = f"⚠️ **CSV not loaded:** {exc}"
             return
         with self.session.lock:
@@ -496,7 +482,7 @@ class SessionView:
         head = "\n".join(f"| {a:.4g} | {b:.4g} | {c:.4g} |"
                          for a, b, c in zip(rec.t[:5], rec.u[:5], rec.y[:5], strict=True))
         self.data_md.content = (
-            f"✅ **{rec.name}**: {rec.n} samples, t = {rec.t[0]:.4g}…{rec.t[-1]:.4g} s\n\n"
+            f"✅ **{rec.name}**: {rec.n_samples} samples, t = {rec.t[0]:.4g}…{rec.t[-1]:.4g} s\n\n"
             f"| t | u | y |\n|---|---|---|\n{head}"
         )
         self.report_md.content = ""
@@ -533,13 +519,14 @@ class SessionView:
         with self.session.lock:
             self.session.diagnosis, self.session.diagnosis_result = rep, result
         self.report_md.content = diagnosis_markdown(rep)
-        self.report_btn.disabled = result is None
+        self.report_btn.disabled = False
 
     def _report_clicked(self, event: Any) -> None:
-        text = diagnosis_html(self.session.diagnosis_result)
-        if text is None:
+        result = self.session.diagnosis_result
+        if result is None:
             self.report_md.content += "\n\n⚠️ run the diagnosis first"
             return
+        text = diagnosis_html(result)
         self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
 
     def _send(self, event: Any, name: str, payload: bytes) -> None:

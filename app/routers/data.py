@@ -12,15 +12,8 @@ from starlette.concurrency import run_in_threadpool
 from core.base import model_from_dict
 
 from .. import figures as F
+from ..data import csv_preview, diagnosis_html, fit_recording, recording_from_csv, run_diagnosis
 from ..schemas import FitIn
-from ..state import (
-    CSVProblem,
-    csv_preview,
-    diagnosis_html,
-    fit_recording,
-    recording_from_csv,
-    run_diagnosis,
-)
 from .deps import SessionDep, SettingsDep, decode_text, read_body
 
 __all__ = ["router"]
@@ -36,19 +29,15 @@ def _check_type(request: Request) -> None:
         raise HTTPException(415, f"send the CSV as a raw text/csv body, not {ctype or 'nothing'}")
 
 
-def _csv_error(exc: CSVProblem) -> HTTPException:
-    return HTTPException(422, {"message": str(exc), "line": exc.line, "column": exc.column})
-
-
 @router.post("/csv/preview")
 async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]:
-    """Columns, first rows and row count of a CSV body (the column-mapping step)."""
+    """Columns, first rows and row count of a CSV body (the column-mapping step).
+
+    Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
+    """
     _check_type(request)
     text = decode_text(await read_body(request, settings.max_upload_bytes))
-    try:
-        return await run_in_threadpool(csv_preview, text, settings.max_samples)
-    except CSVProblem as exc:
-        raise _csv_error(exc) from None
+    return await run_in_threadpool(csv_preview, text, settings.max_samples)
 
 
 @router.post("/sessions/{code}/recording", status_code=201)
@@ -68,20 +57,17 @@ async def upload_recording(
     """
     _check_type(request)
     text = decode_text(await read_body(request, settings.max_upload_bytes))
-    try:
-        rec = await run_in_threadpool(
-            lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
-                                       max_samples=settings.max_samples, name=name)
-        )
-    except CSVProblem as exc:
-        raise _csv_error(exc) from None
+    rec = await run_in_threadpool(
+        lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
+                                   max_samples=settings.max_samples, name=name)
+    )
     with session.lock:
         session.recording = rec
         session.fitted = session.fit_report = session.diagnosis = None
     session.touch()
     return {
         "name": rec.name,
-        "samples": rec.n,
+        "samples": rec.n_samples,
         "t_range": [float(rec.t[0]), float(rec.t[-1])],
         "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],
         "y_range": [float(np.min(rec.y)), float(np.max(rec.y))],
@@ -128,7 +114,5 @@ def diagnosis_report(session: SessionDep) -> HTMLResponse:
     if session.diagnosis_result is None:
         raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
     text = diagnosis_html(session.diagnosis_result)
-    if text is None:
-        raise HTTPException(501, "the HTML diagnosis report is not available")
     return HTMLResponse(text, headers={
         "Content-Disposition": f'inline; filename="diagnosis-{session.code}.html"'})

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
@@ -56,10 +56,3 @@ def decode_text(body: bytes) -> str:
         return body.decode("utf-8-sig")
     except UnicodeDecodeError:
         return body.decode("latin-1")
-
-
-def jsonable(x: Any) -> Any:
-    """Plain-JSON copy of ``x`` (numpy values converted)."""
-    from ..state import _jsonable
-
-    return _jsonable(x)

@@ -11,10 +11,10 @@ from fastapi.responses import Response
 from core.base import model_from_dict
 from core.exceptions import ParameterError
 
-from ..state import export_bytes, export_formats, parameter_set_model
+from ..exports import EXPORT_FORMATS, export_bytes, parameter_set_model
 from .deps import SessionDep, SettingsDep, decode_text, read_body
 
-__all__ = ["export_formats", "router"]
+__all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["export"])
 
@@ -24,8 +24,8 @@ _MEDIA = {"json": "application/json", "mat": "application/octet-stream", "c": "t
 @router.get("/sessions/{code}/export/{fmt}")
 def export(fmt: str, session: SessionDep) -> Response:
     """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
-    if fmt not in export_formats():
-        raise HTTPException(404, f"unknown export format {fmt!r}; known: {export_formats()}")
+    if fmt not in EXPORT_FORMATS:
+        raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
     cfg, _ = session.snapshot()
     fit = session.fit_report if session.fitted == cfg.model else None
     name, payload = export_bytes(model_from_dict(cfg.model), fmt, session.code, fit)

@@ -9,8 +9,12 @@ from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse
 
 from core.base import registered_types
+from core.presets import list_presets
+from core.signals import SIGNALS
 
-from ..state import fit_kinds, get_preset, preset_names, signal_kinds
+from ..compute import preset_doc
+from ..data import FIT_KINDS
+from ..exports import EXPORT_FORMATS
 from .deps import SettingsDep
 
 __all__ = ["router", "vendor_router"]
@@ -39,15 +43,14 @@ def viser_url(request: Request) -> dict[str, Any]:
 def capabilities(settings: SettingsDep) -> dict[str, Any]:
     """Model types, signals, presets, figures, export formats and limits."""
     from ..figures import FIGURES
-    from .export import export_formats
 
     return {
         "model_types": registered_types(),
-        "signals": signal_kinds(),
-        "presets": preset_names(),
+        "signals": list(SIGNALS),
+        "presets": [p.name for p in list_presets()],
         "figures": list(FIGURES),
-        "export_formats": export_formats(),
-        "fit_kinds": fit_kinds(),
+        "export_formats": list(EXPORT_FORMATS),
+        "fit_kinds": list(FIT_KINDS),
         "limits": {
             "max_upload_bytes": settings.max_upload_bytes,
             "max_samples": settings.max_samples,
@@ -57,9 +60,9 @@ def capabilities(settings: SettingsDep) -> dict[str, Any]:
 
 
 @router.get("/presets")
-def list_presets() -> list[dict[str, Any]]:
-    """Every preset: name, title and model document."""
-    return [get_preset(n) for n in preset_names()]
+def presets() -> list[dict[str, Any]]:
+    """Every preset: name, title, description and model document."""
+    return [preset_doc(p.name) for p in list_presets()]
 
 
 def plotly_js_path() -> Path:

@@ -6,8 +6,10 @@ from typing import Any
 
 from fastapi import APIRouter, Header, HTTPException, Query
 
+from core.exceptions import ParameterError
+
+from ..compute import compute, preset_doc, validate_config
 from ..schemas import ConfigIn
-from ..state import Config, SignalSpec, compute, get_preset, validate_config
 from .deps import RegistryDep, SessionDep, SettingsDep
 from .simulate import result_payload
 
@@ -63,28 +65,17 @@ def session_figures(
 
 @router.post("/sessions/{code}/preset/{name}")
 def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
-    """Load preset ``name`` (model and, if the preset has one, signal)."""
-    doc = _preset(name)
-    session.update(lambda c: _with_preset(c, doc))
+    """Load the model of preset ``name`` (see ``GET /api/presets``)."""
+    model = _preset(name)["model"]
+    session.update(lambda c: c.with_model(model))
     return session.summary()
 
 
 def _preset(name: str) -> dict[str, Any]:
     try:
-        return get_preset(name)
-    except KeyError:
+        return preset_doc(name)
+    except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
-
-
-def _with_preset(cfg: Config, doc: dict[str, Any]) -> Config:
-    from dataclasses import replace
-
-    cfg = cfg.with_model(doc["model"])
-    sig = doc.get("signal")
-    if isinstance(sig, dict):
-        fields = {k: v for k, v in sig.items() if k in SignalSpec.__dataclass_fields__}
-        cfg = replace(cfg, signal=replace(cfg.signal, **fields))
-    return cfg
 
 
 @router.post("/broadcast/{name}")
@@ -97,8 +88,4 @@ def broadcast_preset(
     """Teacher: push preset ``name`` to every session (needs ``X-Teacher-Token`` if set)."""
     if settings.teacher_token and x_teacher_token != settings.teacher_token:
         raise HTTPException(403, "pushing to all sessions needs the teacher token")
-    doc = _preset(name)
-    sessions = registry.all()
-    for s in sessions:
-        s.update(lambda c: _with_preset(c, doc))
-    return {"preset": name, "sessions": len(sessions)}
+    return {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}

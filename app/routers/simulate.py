@@ -7,8 +7,9 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 
 from .. import figures as F
+from ..compute import Result, compute, pi_part
 from ..schemas import SimulateIn, SimulateOut
-from ..state import Config, Result, compute, pi_part
+from ..state import Config
 from .deps import SettingsDep
 
 __all__ = ["result_payload", "router"]

@@ -138,9 +138,9 @@ def test_join_other_session(view: SessionView) -> None:
 
 
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
-    from app.state import get_preset
+    from app.compute import preset_doc
 
-    doc = get_preset("paper001-example4")
+    doc = preset_doc("paper001-example4")
     view.session.update(lambda c: c.with_model(doc["model"]))
     _idle(view)
     assert not view.pi_folder.visible and view.param_folder.visible

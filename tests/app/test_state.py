@@ -1,7 +1,8 @@
-"""Explorer state (no web imports): sessions, registry, compute, CSV fallback, figures."""
+"""Explorer services (no web imports): sessions, registry, compute, CSV, exports, figures."""
 
 from __future__ import annotations
 
+import json
 import sys
 import threading
 
@@ -9,16 +10,21 @@ import numpy as np
 import plotly.graph_objects as go
 import pytest
 
+from app import compute as C
+from app import data as D
+from app import exports as E
 from app import figures as F
 from app import state as S
+from core.csvio import CSVError
 from core.exceptions import ParameterError
 from core.pi import PIModel
+from core.signals import SIGNALS
 
 
-def test_state_module_has_no_web_imports() -> None:
+def test_service_modules_have_no_web_imports() -> None:
     import subprocess
 
-    code = ("import sys, app.state; "
+    code = ("import sys, app.state, app.compute, app.data, app.exports; "
             "print([m for m in ('viser', 'fastapi', 'plotly') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
@@ -26,7 +32,7 @@ def test_state_module_has_no_web_imports() -> None:
 
 
 def test_default_config_is_paper001_example1() -> None:
-    res = S.compute(S.Config())
+    res = C.compute(S.Config())
     m = PIModel.from_dict(S.EXAMPLE1)
     np.testing.assert_allclose(res.u, 4 * np.sin(2 * np.pi * res.t), atol=1e-12)
     np.testing.assert_allclose(res.y, m(res.u))
@@ -38,8 +44,8 @@ def test_default_config_is_paper001_example1() -> None:
 
 def test_perturb_changes_the_plant_only_when_asked() -> None:
     m = PIModel.from_dict(S.EXAMPLE1)
-    assert S.perturb(m, 0.0) is m
-    p = S.perturb(m, 0.2)
+    assert C.perturb(m, 0.0) is m
+    p = C.perturb(m, 0.2)
     np.testing.assert_allclose(p.thresholds, 1.2 * m.thresholds)
     np.testing.assert_allclose(p.weights, 0.8 * m.weights)
 
@@ -95,30 +101,50 @@ def test_signal_validation_messages() -> None:
     with pytest.raises(ParameterError, match="kind"):
         S.SignalSpec(kind="nope").validate(1000)
     with pytest.raises(ParameterError, match="operators"):
-        S.build_model({"type": "pi", "p0": 1, "thresholds": [1, 2, 3], "weights": [1, 1, 1]}, 2)
+        C.build_model({"type": "pi", "p0": 1, "thresholds": [1, 2, 3], "weights": [1, 1, 1]}, 2)
 
 
 def test_every_signal_kind_builds() -> None:
-    for kind in S.signal_kinds():
-        t, u = S.make_signal(S.SignalSpec(kind=kind, samples=500))
+    for kind in SIGNALS:
+        t, u = C.make_signal(S.SignalSpec(kind=kind, samples=500))
         assert t.shape == u.shape and np.isfinite(u).all()
 
 
-def test_fallback_csv_parser_locates_errors() -> None:
-    header, tab = S.parse_table("a;b;c\n1;2;3\n4;5;6\n", 10)
-    assert header == ["a", "b", "c"] and tab.shape == (2, 3)
-    with pytest.raises(S.CSVProblem) as e:
-        S.parse_table("1,2\n3,x\n", 10)
-    assert e.value.line == 2 and e.value.column == 1
-    with pytest.raises(S.CSVProblem, match="at most"):
-        S.parse_table("1,2\n" * 20, 10)
+def test_csv_recordings_come_from_core_csvio() -> None:
+    rows = "".join(f"{k},{(-1) ** (k // 4) * k},{k / 2}\n" for k in range(12))
+    two = "".join(f"{(-1) ** (k // 4) * k},{k / 2}\n" for k in range(12))
+    rec = D.recording_from_csv("a,b\n" + two, dt=0.5)
+    np.testing.assert_allclose(rec.t, 0.5 * np.arange(12))  # no time column: t = k dt
+    assert rec.n_samples == 12 and rec.units["time"] == "s"
+    prev = D.csv_preview("t,u,y\n" + rows, 100, rows=2)
+    assert prev["columns"] == ["t", "u", "y"] and prev["n_rows"] == 12 and len(prev["rows"]) == 2
+    with pytest.raises(CSVError) as e:
+        D.recording_from_csv("t,u,y\n" + rows + "12,x,1\n")
+    assert e.value.line == 14 and e.value.column_index == 1
+    with pytest.raises(CSVError, match="zz"):
+        D.recording_from_csv("t,u,y\n" + rows, u_col="zz")
+
+
+def test_exports_use_the_core_parameter_set() -> None:
+    from core.paramset import FORMAT
+
+    m = PIModel.from_dict(S.EXAMPLE1)
+    name, payload = E.export_bytes(m, "json", "abc")
+    doc = json.loads(payload)
+    assert name == "hysteresis-pi-abc.json" and doc["format"] == FORMAT
+    assert E.parameter_set_model(doc).to_dict() == m.to_dict()
+    assert E.parameter_set_model(S.EXAMPLE1).to_dict() == m.to_dict()  # a bare model
+    name, c = E.export_bytes(m, "c")
+    assert b"hyst_inv_step" in c and b"hyst_fwd_step" in c
+    with pytest.raises(ParameterError, match="format"):
+        E.export_bytes(m, "xls")
 
 
 def test_chunked_contributions_match_the_full_matrix() -> None:
     m = PIModel(0.5, [0.3, 0.8, 1.9], [0.4, 0.3, 0.2], [0.1, -0.2, 0.3])
     t = np.linspace(0, 5, 47_001)
     u = 3 * np.sin(2 * np.pi * 3 * t) * np.exp(-0.3 * t)
-    idx, c = S.operator_contributions(m, u)
+    idx, c = C.operator_contributions(m, u)
     np.testing.assert_allclose(c, (m.operator_outputs(u) * m.weights)[idx], atol=1e-12)
 
 
@@ -132,7 +158,7 @@ def test_decimate_keeps_reversals() -> None:
 
 
 def test_typed_arrays_round_trip_and_figures_validate() -> None:
-    res = S.compute(S.Config(signal=S.SignalSpec(samples=3000)))
+    res = C.compute(S.Config(signal=S.SignalSpec(samples=3000)))
     for name in F.FIGURES:
         fig = F.build(name, res, 0.1)
         go.Figure(fig.to_dict())

@@ -100,7 +100,7 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     deadline = time.monotonic() + 30
     while view_a.session.recording is None and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert view_a.session.recording is not None and view_a.session.recording.n == 1000
+    assert view_a.session.recording is not None and view_a.session.recording.n_samples == 1000
     assert view_b.session.recording is None
     a.get_by_role("button", name="Fit model").first.click()
     deadline = time.monotonic() + 30

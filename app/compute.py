@@ -1,0 +1,378 @@
+"""Simulation results of an explorer config: model, signal, inverse, digitized and closed loop.
+
+:func:`compute` turns a :class:`~app.state.Config` into a :class:`Result` with everything the
+figures need; :func:`closed_loop` runs paper 001's control loop for the closed-loop view.
+No viser / fastapi / plotly imports.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from core.base import Chain, Model, model_from_dict
+from core.closed_loop import HammersteinLoop, paper001_plant
+from core.digitized import DigitizedPI
+from core.exceptions import NotInvertibleError, ParameterError
+from core.operators import play_bank
+from core.pi import PIModel
+from core.presets import get_preset, list_presets
+from core.recordings import Recording
+from core.signals import SIGNALS
+
+from .state import Config, SignalSpec
+
+__all__ = [
+    "CLOSED_LOOP_MAX_S",
+    "MAX_GRAPH_DIGITS",
+    "ClosedLoop",
+    "Digitized",
+    "Result",
+    "build_model",
+    "closed_loop",
+    "compute",
+    "decimate_index",
+    "make_signal",
+    "operator_contributions",
+    "perturb",
+    "pi_part",
+    "preset_doc",
+    "validate_config",
+]
+
+
+def make_signal(spec: SignalSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Sample times ``t`` (s) and input ``u`` of ``spec``.
+
+    The :data:`core.signals.SIGNALS` generator is called with the parameters it accepts
+    (``amplitude``, ``frequency``/``f0``, ``offset``, ``duration`` and the sample rate
+    ``(samples - 1) / duration``); signals without a duration (staircase) choose their own
+    length.
+    """
+    gen = SIGNALS[spec.kind]
+    names = {p.name for p in gen.params}
+    kw: dict[str, Any] = {"sample_rate": (spec.samples - 1) / spec.duration}
+    for key in ("amplitude", "frequency", "offset", "duration"):
+        kw[key] = getattr(spec, key)
+    if "frequency" not in names:
+        kw["f0"] = spec.frequency
+    t, u = gen.build(**{k: v for k, v in kw.items() if k in names})
+    return np.asarray(t, dtype=np.float64), np.asarray(u, dtype=np.float64)
+
+
+def preset_doc(name: str) -> dict[str, Any]:
+    """``{"name", "title", "description", "model"}`` of the :mod:`core.presets` preset ``name``.
+
+    Raises
+    ------
+    ParameterError
+        If ``name`` is unknown (the message lists the valid names).
+    """
+    model = get_preset(name).to_dict()
+    info = next(p for p in list_presets() if p.name == name)
+    return {"name": name, "title": info.title, "description": info.description, "model": model}
+
+
+def build_model(d: dict[str, Any], max_operators: int) -> Model:
+    """Validated model from its dict form, enforcing the operator limit."""
+    m = model_from_dict(d)
+    n = getattr(m, "n", None)
+    if isinstance(n, int) and n > max_operators:
+        raise ParameterError(
+            f"model has {n} operators; the explorer allows at most {max_operators}"
+        )
+    return m
+
+
+def pi_part(model: Model) -> PIModel | None:
+    """The classical PI model inside ``model`` (itself, or a chain stage), else ``None``."""
+    if isinstance(model, PIModel):
+        return model
+    stages = getattr(model, "stages", ())
+    for st in stages:
+        if isinstance(st, PIModel):
+            return st
+    return None
+
+
+def perturb(model: Model, mismatch: float) -> Model:
+    """The "real plant" used against an inverse built from ``model``.
+
+    Thresholds are scaled by ``1 + mismatch`` and the play weights by ``1 - mismatch``
+    (``p0`` is kept), so ``mismatch = 0`` returns ``model`` and ``±0.2`` gives a plant whose
+    loop is visibly wider or narrower than the model's. Non-PI models are returned as is.
+    """
+    if mismatch == 0:
+        return model
+    if isinstance(model, Chain):
+        return Chain(tuple(perturb(st, mismatch) for st in model.stages))
+    if not isinstance(model, PIModel):
+        return model
+    return PIModel(
+        model.p0, model.thresholds * (1 + mismatch), model.weights * (1 - mismatch), model.state0
+    )
+
+
+#: Largest number of digits the digitized view builds a state graph for (2**n states).
+MAX_GRAPH_DIGITS = 10
+
+
+@dataclass(frozen=True, eq=False)
+class Digitized:
+    """Digitized (binary-state) view of the run (paper 000).
+
+    Attributes
+    ----------
+    model : DigitizedPI
+        The digitized model (``H = [dx; dy]``, origin ``(x0, y0)``).
+    trace : DigitizedTrace
+        States visited by the input (digit rows, sample index of each state).
+    graph : StateGraph or None
+        All ``2**n`` states and their edges (``None`` beyond :data:`MAX_GRAPH_DIGITS`).
+    y : ndarray of shape (N,)
+        Digitized output.
+    y_classical : ndarray of shape (N,)
+        The equivalent classical PI (:meth:`DigitizedPI.to_pi`) on the same input.
+    """
+
+    model: Any
+    trace: Any
+    graph: Any
+    y: np.ndarray
+    y_classical: np.ndarray
+
+    @property
+    def H(self) -> np.ndarray:  # noqa: N802 - the paper's name
+        """Paired properties ``[Δx; Δy]``, shape ``(2, n)``."""
+        return np.vstack((self.model.dx, self.model.dy))
+
+    def state_at(self, k: int) -> int:
+        """Index of the trace row active at sample ``k``."""
+        return int(np.searchsorted(self.trace.sample, k, side="right") - 1)
+
+
+def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]:
+    """The digitized view of ``model`` driven by ``u``, or ``(None, reason)``."""
+    if isinstance(model, DigitizedPI):
+        dig = model
+    else:
+        pi = pi_part(model)
+        if pi is None:
+            return None, "the digitized view needs a classical PI (or digitized) model"
+        lo, hi = float(np.min(u)), float(np.max(u))
+        if 0.5 * (hi - lo) <= pi.thresholds[-1]:
+            return None, (
+                f"the input's half span {0.5 * (hi - lo):.3g} must exceed the largest "
+                f"threshold {pi.thresholds[-1]:.3g}: raise the amplitude"
+            )
+        dig = DigitizedPI.from_pi(pi, (lo, hi))
+    tr = dig.trace(u)
+    graph = dig.state_graph() if dig.n <= MAX_GRAPH_DIGITS else None
+    y_cl = dig.to_pi().simulate(u).y + float(dig.classical_offset)
+    return Digitized(dig, tr, graph, np.asarray(tr.y), y_cl), None
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """Everything the figures show for one config (arrays of shape ``(N,)`` unless noted)."""
+
+    version: int
+    model: Model
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    contributions: np.ndarray | None = None  # (M, n): p_i * Γ_{r_i}[u] at contrib_idx
+    contrib_idx: np.ndarray | None = None  # (M,) sample indices of the contribution rows
+    v: np.ndarray | None = None  # inverse's output (plant input) for desired output u
+    y_comp: np.ndarray | None = None  # plant(v): compensated output
+    inverse_error: str | None = None
+    y_measured: np.ndarray | None = None
+    digitized: Digitized | None = None
+    messages: tuple[str, ...] = ()
+    elapsed_ms: float = 0.0
+
+
+def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
+    """Indices of at most about ``max_points`` samples, always keeping input reversals.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        The input whose turning points must survive (loop corners).
+    max_points : int
+        Target number of points.
+
+    Returns
+    -------
+    ndarray of int
+        Sorted unique indices including ``0`` and ``N - 1``.
+    """
+    n = int(u.size)
+    if n <= max_points:
+        return np.arange(n)
+    stride = int(np.ceil(n / max_points))
+    base = np.arange(0, n, stride)
+    d = np.sign(np.diff(u))
+    turns = np.flatnonzero(d[1:] * d[:-1] < 0) + 1
+    if turns.size > max_points // 2:
+        turns = turns[:: int(np.ceil(2 * turns.size / max_points))]
+    return np.unique(np.concatenate((base, turns, [n - 1])))
+
+
+#: Rows of the operator-contribution matrix kept for the stacked plot.
+CONTRIB_ROWS = 400
+#: Samples per chunk when the play-operator matrix is computed piecewise.
+CONTRIB_CHUNK = 20_000
+
+
+def operator_contributions(pi: PIModel, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``p_i Γ_{r_i}[u]`` at about :data:`CONTRIB_ROWS` samples (reversals kept).
+
+    The play states are carried from chunk to chunk, so memory stays at
+    ``CONTRIB_CHUNK × n`` floats whatever the signal length.
+
+    Returns
+    -------
+    idx : ndarray of int, shape (M,)
+        Sample indices.
+    contrib : ndarray of shape (M, n)
+    """
+    idx = decimate_index(u, CONTRIB_ROWS)
+    out = np.empty((idx.size, pi.n))
+    z = np.array(pi.state0, dtype=np.float64)
+    for start in range(0, u.size, CONTRIB_CHUNK):
+        stop = min(u.size, start + CONTRIB_CHUNK)
+        Y, z = play_bank(u[start:stop], pi.thresholds, z)
+        sel = (idx >= start) & (idx < stop)
+        out[sel] = Y[idx[sel] - start]
+    return idx, out * pi.weights
+
+
+def validate_config(config: Config, recording: Recording | None, max_operators: int,
+                    max_samples: int) -> None:
+    """Check ``config`` without simulating; raises :class:`ParameterError`."""
+    build_model(config.model, max_operators)
+    if not (config.use_recording and recording is not None):
+        config.signal.validate(max_samples)
+
+
+def compute(
+    config: Config,
+    *,
+    version: int = 0,
+    recording: Recording | None = None,
+    max_operators: int = 100,
+    max_samples: int = 200_000,
+    with_inverse: bool = True,
+    with_digitized: bool = True,
+) -> Result:
+    """Simulate ``config``: output, operator contributions and inverse compensation.
+
+    ``with_inverse`` / ``with_digitized`` skip the inverse-compensation run and the
+    digitized view when the figure on show does not need them.
+
+    Raises
+    ------
+    ParameterError
+        If the model or the signal is invalid (the message names the field).
+    """
+    t0 = time.perf_counter()
+    model = build_model(config.model, max_operators)
+    y_meas = None
+    if config.use_recording and recording is not None:
+        t, u, y_meas = recording.t, recording.u, recording.y
+    else:
+        config.signal.validate(max_samples)
+        t, u = make_signal(config.signal)
+    dt = float(t[1] - t[0]) if t.size > 1 else None
+    if u.size > max_samples:
+        raise ParameterError(f"the input has {u.size} samples; at most {max_samples} allowed")
+    y = model.simulate(u, dt=dt).y
+    contrib = contrib_idx = None
+    pi = pi_part(model)
+    if pi is not None:
+        contrib_idx, contrib = operator_contributions(pi, u)
+    v = y_comp = None
+    inv_err = None
+    if with_inverse:
+        try:
+            inv = model.inverse()
+            # desired output = the signal; plant input v = P^-1(u); plant output P~(v)
+            v = inv.simulate(u, dt=dt).y
+            y_comp = perturb(model, config.mismatch).simulate(v, dt=dt).y
+        except NotInvertibleError as exc:
+            inv_err = str(exc)
+        except ValueError as exc:  # e.g. an input outside an inverse's domain
+            inv_err = f"inverse unavailable: {exc}"
+    digi, digi_msg = None, None
+    try:
+        if with_digitized:
+            digi, digi_msg = digitize(model, u)
+    except (ParameterError, ValueError) as exc:
+        digi_msg = f"digitized view unavailable: {exc}"
+    return Result(
+        version=version,
+        model=model,
+        digitized=digi,
+        messages=(digi_msg,) if digi_msg else (),
+        t=t,
+        u=u,
+        y=y,
+        contributions=contrib,
+        contrib_idx=contrib_idx,
+        v=v,
+        y_comp=y_comp,
+        inverse_error=inv_err,
+        y_measured=y_meas,
+        elapsed_ms=1e3 * (time.perf_counter() - t0),
+    )
+
+
+# ----------------------------------------------------------------------------- closed loop
+#: Sample rate of the closed-loop runs (paper 001's plant has poles near 3-4 kHz).
+CLOSED_LOOP_RATE = 50_000.0
+#: Longest closed-loop run, s (100,000 samples at 50 kHz).
+CLOSED_LOOP_MAX_S = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedLoop:
+    """Paper 001 Fig. 15-16: PI controller + ``G(s)`` (eq. 38) around the hysteresis.
+
+    Attributes
+    ----------
+    runs : dict
+        ``{"no compensation": ClosedLoopResult, "inverse feedforward": ...,
+        "inverse + reference feedforward": ...}``; the plant's hysteresis is the
+        (mismatch-perturbed) session model, the feedforward is the exact inverse of the
+        unperturbed model; the last run adds the reference to the controller output
+        (two-degree-of-freedom structure, not in the paper's Fig. 15).
+    """
+
+    runs: dict[str, Any]
+
+
+def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | None]:
+    """Closed-loop runs of ``res``'s model tracking ``res.u`` as the reference."""
+    pi = res.model if isinstance(res.model, PIModel) else None
+    if pi is None:
+        return None, "the closed loop is simulated for classical PI models only"
+    dur = min(float(res.t[-1] - res.t[0]), CLOSED_LOOP_MAX_S)
+    tt = np.arange(0.0, dur, 1.0 / CLOSED_LOOP_RATE)
+    r = np.interp(tt + res.t[0], res.t, res.u)
+    plant_h = perturb(pi, mismatch)
+    runs: dict[str, Any] = {}
+    g = paper001_plant()
+    runs["no compensation"] = HammersteinLoop(plant_h, g).simulate(r, 1.0 / CLOSED_LOOP_RATE)
+    try:
+        ff = pi.inverse()
+    except NotInvertibleError as exc:
+        return ClosedLoop(runs), f"no inverse feedforward: {exc}"
+    runs["inverse feedforward"] = HammersteinLoop(plant_h, g, feedforward=ff).simulate(
+        r, 1.0 / CLOSED_LOOP_RATE)
+    runs["inverse + reference feedforward"] = HammersteinLoop(
+        plant_h, g, feedforward=ff, reference_feedforward=True).simulate(r, 1.0 / CLOSED_LOOP_RATE)
+    return ClosedLoop(runs), None

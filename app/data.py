@@ -1,0 +1,184 @@
+"""Recordings, fits and diagnoses of the explorer (no viser / fastapi imports).
+
+CSV uploads are read by :mod:`core.csvio` (its :class:`~core.csvio.CSVError` names the line
+and the column; the server maps it to a 422 ``{message, line, column}``), fits use the
+estimators of :mod:`core.fitting` and the diagnosis is :func:`core.diagnosis.diagnose`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from core import fitting
+from core.base import Model
+from core.csvio import inspect_csv, read_csv
+from core.exceptions import ParameterError
+from core.recordings import Recording
+
+from .compute import pi_part
+
+__all__ = [
+    "FIT_KINDS",
+    "csv_preview",
+    "diagnosis_html",
+    "fit_recording",
+    "recording_from_csv",
+    "run_diagnosis",
+]
+
+
+def _column(c: str | int | None) -> str | int | None:
+    """A column of the mapping step as :func:`core.csvio.read_csv` wants it."""
+    if c is None or c == "":
+        return None
+    return int(c) if isinstance(c, int) or str(c).isdigit() else str(c)
+
+
+def recording_from_csv(
+    text: str,
+    *,
+    t_col: str | int | None = None,
+    u_col: str | int | None = None,
+    y_col: str | int | None = None,
+    dt: float = 1e-3,
+    max_samples: int = 200_000,
+    name: str = "upload.csv",
+) -> Recording:
+    """Read an uploaded CSV with :func:`core.csvio.read_csv` and an optional column mapping.
+
+    Columns are names or 0-based indices (digit strings count as indices); unmapped roles
+    are chosen by the core reader. A file without a time column gets ``t = k * dt``. When
+    the file holds several runs, the first one is used (its name says so).
+
+    Raises
+    ------
+    core.csvio.CSVError
+        With the 1-based ``line`` and the 0-based ``column_index`` of the problem.
+    """
+    recs = read_csv(text, time=_column(t_col), input=_column(u_col), output=_column(y_col),
+                    name=name, max_rows=max_samples)
+    rec = recs[0]
+    if not rec.has_time:
+        rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})
+    if len(recs) > 1:
+        rec = replace(rec, name=f"{name} (run 1 of {len(recs)})")
+    return rec
+
+
+def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
+    """Columns, the first ``rows`` data rows (as text) and the row count of a CSV.
+
+    Raises
+    ------
+    core.csvio.CSVError
+        If :func:`core.csvio.inspect_csv` cannot work out the layout.
+    """
+    lay = inspect_csv(text, max_rows=max_samples)
+    lines = text.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
+    d = None if lay.delimiter == "whitespace" else lay.delimiter
+    return {"columns": [c.raw for c in lay.columns],
+            "rows": [[c.strip() for c in (ln.split(d) if d else ln.split())] for ln in lines],
+            "n_rows": int(lay.n_rows), "notes": list(lay.notes)}
+
+
+#: Model kinds the explorer can fit, and the :mod:`core.fitting` estimator of each.
+FIT_KINDS: dict[str, type] = {
+    "pi": fitting.PIRegressor,
+    "gpi-deadzone": fitting.DeadZoneGPIRegressor,
+    "mpi": fitting.ModifiedPIRegressor,
+    "gpi-tanh": fitting.TanhGPIRegressor,
+    "digitized": fitting.DigitizedPIRegressor,
+}
+
+
+def _finite(x: Any) -> Any:
+    """``x`` with non-finite floats replaced by ``None`` (JSON has no NaN/inf)."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
+    """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
+
+    The model is the estimator's ``full_model_`` (the fitted output offset included, as a
+    chain); the report is its ``report_`` plus the errors on the whole recording.
+
+    Raises
+    ------
+    ParameterError
+        If ``kind`` is not one of :data:`FIT_KINDS`.
+    """
+    if kind not in FIT_KINDS:
+        raise ParameterError(f"fit kind {kind!r} is not available; use one of {list(FIT_KINDS)}")
+    est = FIT_KINDS[kind](n_operators=n).fit(rec.u, rec.y)
+    model = est.full_model_
+    res = rec.y - model(rec.u)
+    rms = float(np.sqrt(np.mean(res**2)))
+    report = {
+        **_finite(est.report_.to_dict()),
+        "rms_error": rms,
+        "max_error": float(np.max(np.abs(res))),
+        "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
+        "n_operators": int(n),
+        "kind": kind,
+    }
+    return model, report
+
+
+def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
+    """Findings (accepted effects, ambiguities, untestable effects) of a diagnosis document."""
+    findings: list[str] = []
+    for e in d.get("effects", []):
+        params = ", ".join(f"{k} = {v:.4g}" for k, v in (e.get("parameters") or {}).items()
+                           if isinstance(v, int | float))
+        where = (e.get("where") or {}).get("summary", "")
+        findings.append(f"{e.get('name')} ({e.get('family', '')}): {params}. {where}".strip())
+    if not findings:
+        findings.append("no missing physics detected: the PI model explains the data")
+    for a in d.get("ambiguous", []):
+        findings.append(f"ambiguous {' vs '.join(a.get('effects', []))}: {a.get('experiment', '')}")
+    for u in d.get("untestable", []):
+        findings.append(f"untestable {u.get('name')}: {u.get('reason', '')}")
+    base, final = d.get("baseline", {}), d.get("final", {})
+    return {
+        "findings": findings,
+        "baseline_rmse_pct": base.get("heldout_rmse_pct"),
+        "final_rmse_pct": final.get("heldout_rmse_pct"),
+        "effects": final.get("effects", []),
+    }
+
+
+def run_diagnosis(rec: Recording, model: Model) -> tuple[dict[str, Any], Any]:
+    """:func:`core.diagnosis.diagnose` of ``rec``: ``(report, result)``.
+
+    The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
+    ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
+    held-out RMSE before and after, and the core's JSON document.
+    """
+    from core.diagnosis import diagnose
+
+    pi = pi_part(model)
+    n = int(min(25, max(4, pi.n if pi is not None else 10)))
+    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n)
+    d = result.to_dict()
+    return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
+
+
+def diagnosis_html(result: Any) -> str:
+    """The self-contained HTML report (:mod:`app.diagnosis_report`) of a diagnosis result."""
+    import tempfile
+    from pathlib import Path
+
+    from .diagnosis_report import write_report
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return write_report(result, Path(tmp) / "report.html").read_text(encoding="utf-8")

@@ -1,0 +1,76 @@
+"""Parameter-set documents and download bytes of the explorer's model (no web imports).
+
+The document is :class:`core.paramset.ParameterSet`, ``.mat`` files come from
+:func:`core.export_mat.export_mat` and C code from :func:`core.export_c.generate_c`.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from core.base import Model
+from core.exceptions import NotInvertibleError, ParameterError
+from core.export_c import generate_c
+from core.export_mat import export_mat
+from core.paramset import ParameterSet, load_parameter_set, model_from_document
+
+__all__ = ["EXPORT_FORMATS", "export_bytes", "parameter_set", "parameter_set_model"]
+
+#: Download formats of a parameter set.
+EXPORT_FORMATS = ("json", "mat", "c")
+
+
+def parameter_set(model: Model, fit: dict[str, Any] | None = None) -> ParameterSet:
+    """``model`` as a parameter set with the explorer as its source (and the fit report)."""
+    return ParameterSet.from_model(model, source="hysteresis explorer", fit=fit)
+
+
+def parameter_set_model(doc: Any) -> Model:
+    """The model inside an uploaded document: a parameter set (with ``"format"``), a
+    ``{"model": ...}`` wrapper or a bare model document (the JSON editor).
+
+    Raises
+    ------
+    ParameterError
+        If the document is malformed (the message names the JSON path).
+    """
+    if not isinstance(doc, dict):
+        raise ParameterError("a parameter set must be a JSON object")
+    if "format" in doc:
+        return load_parameter_set(doc).model
+    return model_from_document(doc["model"] if "model" in doc else doc)
+
+
+def export_bytes(
+    model: Model, fmt: str, code: str = "", fit: dict[str, Any] | None = None
+) -> tuple[str, bytes]:
+    """``(filename, content)`` of ``model`` exported as ``json``, ``mat`` or ``c``.
+
+    ``c`` is one file: the generated header followed by the source (the inverse compensator
+    and the forward model when the model is invertible, the forward model only otherwise).
+
+    Raises
+    ------
+    ParameterError
+        For an unknown format, or a model stage without a C emitter.
+    """
+    stem = f"hysteresis-{model.type_name}{'-' + code if code else ''}"
+    ps = parameter_set(model, fit)
+    if fmt == "json":
+        return f"{stem}.json", ps.to_json().encode()
+    if fmt == "mat":
+        with tempfile.TemporaryDirectory() as tmp:
+            return f"{stem}.mat", export_mat(ps, Path(tmp) / "p.mat").read_bytes()
+    if fmt == "c":
+        try:
+            model.inverse()
+            invertible = True
+        except (NotInvertibleError, ParameterError):
+            invertible = False
+        cc = generate_c(ps, "hyst", inverse=invertible, forward=True)
+        src = cc.source.replace(f'#include "{cc.name}.h"', f"/* {cc.name}.h inlined above */")
+        text = f"/* ===== {cc.name}.h ===== */\n{cc.header}\n/* ===== {cc.name}.c ===== */\n{src}"
+        return f"{stem}.c", text.encode()
+    raise ParameterError(f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
