@@ -166,3 +166,15 @@ def test_heldout_comparison_and_score_test() -> None:
     assert q == 1
     assert s_null < 10.8  # chi2_1 at 0.1 %
     assert s_eff > 50
+
+
+def test_benchmark_subset_creep_is_not_mistaken_for_drift() -> None:
+    """One cell of benchmarks/diagnosis: hidden creep with an up-then-down staircase."""
+    from benchmarks.diagnosis.generator import make_scenario
+
+    sc = make_scenario("creep", "white1", seed=3)
+    res = diagnose(sc.records, effects=["creep", "drift"], auto_resolution=False)
+    assert [e.name for e in res.effects][:1] == ["creep"]
+    assert res.effects[0].parameters["gamma_per_decade"] == pytest.approx(0.0015, rel=0.5)
+    # sign locking: the residual trend after each hold follows the sign of the step
+    assert res.effects[0].discriminators["trend_follows_step_sign"] >= 0.8
