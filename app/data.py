@@ -19,6 +19,7 @@ from core.csvio import inspect_csv, read_csv
 from core.exceptions import ParameterError
 from core.recordings import Recording
 
+from .commands.fit import MODELS
 from .compute import pi_part
 
 __all__ = [
@@ -85,14 +86,8 @@ def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
             "n_rows": int(lay.n_rows), "notes": list(lay.notes)}
 
 
-#: Model kinds the explorer can fit, and the :mod:`core.fitting` estimator of each.
-FIT_KINDS: dict[str, type] = {
-    "pi": fitting.PIRegressor,
-    "gpi-deadzone": fitting.DeadZoneGPIRegressor,
-    "mpi": fitting.ModifiedPIRegressor,
-    "gpi-tanh": fitting.TanhGPIRegressor,
-    "digitized": fitting.DigitizedPIRegressor,
-}
+#: Model kinds the explorer can fit (those of ``hyst fit --model``) and their estimators.
+FIT_KINDS: dict[str, type] = {kind: getattr(fitting, cls) for kind, cls in MODELS.items()}
 
 
 def _finite(x: Any) -> Any:

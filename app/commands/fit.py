@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import inspect
 import warnings
 from pathlib import Path
 from typing import Any
@@ -92,27 +91,15 @@ def _spec(col: str | None) -> int | str | None:
 
 
 def _estimator(name: str, n: int | None, constraint: str | None = None) -> Any:
-    import importlib
+    """The :mod:`core.fitting` estimator of ``--model name`` (``None`` options left default)."""
+    from core import fitting
 
-    fitting = importlib.import_module("core.fitting")
-    cls = getattr(fitting, MODELS[name], None)
-    if cls is None:
-        raise CommandError(
-            f"--model {name}: this installation has no core.fitting.{MODELS[name]} yet; "
-            "use --model pi"
-        )
     kwargs: dict[str, Any] = {}
-    params = inspect.signature(cls).parameters
     if constraint is not None:
-        if "constraint" not in params:
-            raise CommandError(f"--model {name} does not take --constraint")
         kwargs["constraint"] = constraint
     if n is not None:
-        key = next((k for k in ("n_operators", "n", "n_digits") if k in params), None)
-        if key is None:
-            raise CommandError(f"--model {name} does not take a number of operators (-n)")
-        kwargs[key] = n
-    return cls(**kwargs)
+        kwargs["n_operators"] = n
+    return getattr(fitting, MODELS[name])(**kwargs)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -160,8 +147,8 @@ def run(args: argparse.Namespace) -> int:
     msgs = [str(w.message) for w in caught]
     for m in msgs:
         progress(f"warning: {m}")
-    model = getattr(est, "full_model_", None) or est.model_
-    report = est.report_.to_dict() if hasattr(est, "report_") else None
+    model = est.full_model_
+    report = est.report_.to_dict()
     first = recs[0]
     units = {
         "input": first.units.get("input") or "V",
@@ -185,8 +172,7 @@ def run(args: argparse.Namespace) -> int:
     )
     path = ps.save(args.output)
     progress(f"wrote {path}")
-    summary = est.report_.summary() if hasattr(est.report_, "summary") else ""
-    emit(args, f"{summary}\nwrote {path}",
+    emit(args, f"{est.report_.summary()}\nwrote {path}",
          {"output": str(path), "model": ps.model.to_dict(), "units": units, "report": report,
           "warnings": msgs})
     return 0

@@ -340,12 +340,6 @@ def test_fit_splits_runs_and_accepts_constraint(tmp_path, capsys):
 
 @pytest.mark.parametrize("family", ["gpi-deadzone", "mpi", "gpi-tanh", "digitized"])
 def test_fit_other_model_families(family, tmp_path, capsys):
-    import importlib
-
-    from app.commands.fit import MODELS
-
-    if not hasattr(importlib.import_module("core.fitting"), MODELS[family]):
-        pytest.skip(f"core.fitting.{MODELS[family]} not available yet")
     rec = synthetic_recording(tmp_path / "rec.csv", 3000)
     code, out, err = run(capsys, "fit", rec, "--model", family, "-n", "4", "-o",
                          tmp_path / "m.json", "--json")
