@@ -10,8 +10,20 @@ from .closed_loop import ClosedLoopResult, HammersteinLoop, paper001_loop, simul
 from .csvio import CSVError, inspect_csv, read_csv, read_csvs, read_recording
 from .datasets import dataset_info, list_datasets, load_dataset
 from .deadzone import DeadZoneMap
+from .diagnosis import DiagnosisResult, diagnose
 from .digitized import DigitizedPI, DigitizedState, DigitizedTrace, StateGraph
 from .digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
+from .effects import (
+    Asymmetry,
+    Creep,
+    Delay,
+    Drift,
+    InitialMemory,
+    Lag,
+    Offset,
+    RateDependentPI,
+    Resonance,
+)
 from .exceptions import (
     ClippedInputWarning,
     FitWarning,
@@ -48,6 +60,17 @@ from .recordings import Recording
 from .signals import SIGNALS, build_signal, list_signals
 
 __all__ = [
+    "Asymmetry",
+    "Creep",
+    "Delay",
+    "DiagnosisResult",
+    "Drift",
+    "InitialMemory",
+    "Lag",
+    "Offset",
+    "RateDependentPI",
+    "Resonance",
+    "diagnose",
     "SIGNALS",
     "ClosedLoopResult",
     "HammersteinLoop",
