@@ -17,6 +17,7 @@ from core.base import Chain, Model, model_from_dict
 from core.closed_loop import HammersteinLoop, paper001_plant
 from core.digitized import DigitizedPI
 from core.exceptions import NotInvertibleError, ParameterError
+from core.fitting.thresholds import reversal_indices
 from core.operators import play_bank
 from core.pi import PIModel
 from core.presets import get_preset, list_presets
@@ -215,8 +216,7 @@ def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
         return np.arange(n)
     stride = int(np.ceil(n / max_points))
     base = np.arange(0, n, stride)
-    d = np.sign(np.diff(u))
-    turns = np.flatnonzero(d[1:] * d[:-1] < 0) + 1
+    turns = reversal_indices(u, 0.0)
     if turns.size > max_points // 2:
         turns = turns[:: int(np.ceil(2 * turns.size / max_points))]
     return np.unique(np.concatenate((base, turns, [n - 1])))
