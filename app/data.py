@@ -14,21 +14,25 @@ from typing import Any
 import numpy as np
 
 from core import fitting
-from core.base import Model
+from core.base import Model, model_from_dict
 from core.csvio import inspect_csv, read_csv
 from core.exceptions import ParameterError
 from core.recordings import Recording
 
 from .commands.fit import MODELS
 from .compute import pi_part
+from .state import Session
 
 __all__ = [
     "FIT_KINDS",
     "csv_preview",
+    "diagnose_session",
     "diagnosis_html",
     "fit_recording",
+    "fit_session",
     "recording_from_csv",
     "run_diagnosis",
+    "store_recording",
 ]
 
 
@@ -68,6 +72,15 @@ def recording_from_csv(
     if len(recs) > 1:
         rec = replace(rec, name=f"{name} (run 1 of {len(recs)})")
     return rec
+
+
+def store_recording(session: Session, rec: Recording) -> None:
+    """Give ``session`` the recording ``rec``; its fit and diagnosis are dropped."""
+    with session.lock:
+        session.recording = rec
+        session.fitted = session.fit_report = None
+        session.diagnosis = session.diagnosis_result = None
+    session.touch()
 
 
 def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
@@ -129,6 +142,23 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
     return model, report
 
 
+def fit_session(session: Session, n: int, kind: str = "pi",
+                apply: bool = True) -> tuple[Model, dict[str, Any]]:
+    """Fit ``session``'s recording (see :func:`fit_recording`) and store the fit.
+
+    The diagnosis is dropped; with ``apply`` the fitted model becomes the session's model.
+    The caller checks that the session has a recording.
+    """
+    model, report = fit_recording(session.recording, n, kind)
+    doc = model.to_dict()
+    with session.lock:
+        session.fitted, session.fit_report = doc, report
+        session.diagnosis = session.diagnosis_result = None
+    if apply:
+        session.update(lambda c: c.with_model(doc))
+    return model, report
+
+
 def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
     """Findings (accepted effects, ambiguities, untestable effects) of a diagnosis document."""
     findings: list[str] = []
@@ -166,6 +196,19 @@ def run_diagnosis(rec: Recording, model: Model) -> tuple[dict[str, Any], Any]:
     result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n)
     d = result.to_dict()
     return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
+
+
+def diagnose_session(session: Session) -> dict[str, Any]:
+    """Diagnose the fitted model (else the current model) against ``session``'s recording.
+
+    Stores and returns the report (see :func:`run_diagnosis`); the caller checks that the
+    session has a recording.
+    """
+    doc = session.fitted or session.snapshot()[0].model
+    report, result = run_diagnosis(session.recording, model_from_dict(doc))
+    with session.lock:
+        session.diagnosis, session.diagnosis_result = report, result
+    return report
 
 
 def diagnosis_html(result: Any) -> str:

@@ -10,13 +10,21 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from core.base import Model
+from core.base import Model, model_from_dict
 from core.exceptions import NotInvertibleError, ParameterError
 from core.export_c import generate_c
 from core.export_mat import export_mat
 from core.paramset import ParameterSet, load_parameter_set, model_from_document
 
-__all__ = ["EXPORT_FORMATS", "export_bytes", "parameter_set", "parameter_set_model"]
+from .state import Session
+
+__all__ = [
+    "EXPORT_FORMATS",
+    "export_bytes",
+    "export_session",
+    "parameter_set",
+    "parameter_set_model",
+]
 
 #: Download formats of a parameter set.
 EXPORT_FORMATS = ("json", "mat", "c")
@@ -74,3 +82,11 @@ def export_bytes(
         text = f"/* ===== {cc.name}.h ===== */\n{cc.header}\n/* ===== {cc.name}.c ===== */\n{src}"
         return f"{stem}.c", text.encode()
     raise ParameterError(f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
+
+
+def export_session(session: Session, fmt: str) -> tuple[str, bytes]:
+    """:func:`export_bytes` of ``session``'s current model (with the fit report when the
+    model is the fitted one)."""
+    cfg, _ = session.snapshot()
+    fit = session.fit_report if session.fitted == cfg.model else None
+    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit)

@@ -19,16 +19,22 @@ from typing import Any
 
 import numpy as np
 
-from core.base import model_from_dict
 from core.exceptions import ParameterError
 from core.pi import PIModel
 from core.presets import list_presets
 from core.signals import SIGNALS
 
 from .. import figures as F
-from ..compute import Result, compute, preset_doc
-from ..data import FIT_KINDS, diagnosis_html, fit_recording, recording_from_csv, run_diagnosis
-from ..exports import export_bytes, parameter_set_model
+from ..compute import Result, compute, preset_doc, validate_config
+from ..data import (
+    FIT_KINDS,
+    diagnose_session,
+    diagnosis_html,
+    fit_session,
+    recording_from_csv,
+    store_recording,
+)
+from ..exports import export_session, parameter_set_model
 from ..settings import Settings
 from ..state import Config, Session, SessionRegistry
 from .render import LatestWinsWorker
@@ -352,8 +358,8 @@ class SessionView:
         """Validate and store a config change made in this view."""
         cfg = fn(self.session.snapshot()[0])
         try:
-            model_from_dict(cfg.model)
-            cfg.signal.validate(self.settings.max_samples)
+            validate_config(cfg, self.session.recording, self.settings.max_operators,
+                            self.settings.max_samples)
         except ParameterError as exc:
             self.model_md.content = f"⚠️ **Not applied:** {exc}"
             return
@@ -476,9 +482,7 @@ class SessionView:
         except ParameterError as exc:  # core.csvio.CSVError names the line and the column
             self.data_md.content = f"⚠️ **CSV not loaded:** {exc}"
             return
-        with self.session.lock:
-            self.session.recording = rec
-            self.session.fitted = self.session.fit_report = self.session.diagnosis = None
+        store_recording(self.session, rec)
         head = "\n".join(f"| {a:.4g} | {b:.4g} | {c:.4g} |"
                          for a, b, c in zip(rec.t[:5], rec.u[:5], rec.y[:5], strict=True))
         self.data_md.content = (
@@ -496,11 +500,7 @@ class SessionView:
         n = int(self.fit_n.value)
         kind = str(self.fit_kind.value)
         self.report_md.content = "fitting…"
-        model, report = fit_recording(rec, n, kind)
-        with self.session.lock:
-            self.session.fitted = model.to_dict()
-            self.session.fit_report = report
-        self.session.update(lambda c: c.with_model(model.to_dict()))
+        model, report = fit_session(self.session, n, kind)
         self.fit_figure = F.fit_figure(rec, model(rec.u), f"fitted {kind} (n={n})")
         self.view_dd.value = _TITLES["fit"]
         self.report_md.content = (
@@ -513,11 +513,8 @@ class SessionView:
         if rec is None:
             self.report_md.content = "⚠️ upload a recording first"
             return
-        doc = self.session.fitted or self.session.snapshot()[0].model
         self.report_md.content = "diagnosing (about a second)…"
-        rep, result = run_diagnosis(rec, model_from_dict(doc))
-        with self.session.lock:
-            self.session.diagnosis, self.session.diagnosis_result = rep, result
+        rep = diagnose_session(self.session)
         self.report_md.content = diagnosis_markdown(rep)
         self.report_btn.disabled = False
 
@@ -547,9 +544,7 @@ class SessionView:
         self.export_md.content = f"✅ loaded {f.name} ({m.type_name})"
 
     def _export(self, event: Any, fmt: str) -> None:
-        cfg = self.session.snapshot()[0]
-        fit = self.session.fit_report if self.session.fitted == cfg.model else None
-        name, payload = export_bytes(model_from_dict(cfg.model), fmt, self.session.code, fit)
+        name, payload = export_session(self.session, fmt)
         self._send(event, name, payload)
         self.export_md.content = f"sent {name} ({len(payload)} bytes)"
 

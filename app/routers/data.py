@@ -9,10 +9,15 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from core.base import model_from_dict
-
 from .. import figures as F
-from ..data import csv_preview, diagnosis_html, fit_recording, recording_from_csv, run_diagnosis
+from ..data import (
+    csv_preview,
+    diagnose_session,
+    diagnosis_html,
+    fit_session,
+    recording_from_csv,
+    store_recording,
+)
 from ..schemas import FitIn
 from .deps import SessionDep, SettingsDep, decode_text, read_body
 
@@ -61,10 +66,7 @@ async def upload_recording(
         lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
                                    max_samples=settings.max_samples, name=name)
     )
-    with session.lock:
-        session.recording = rec
-        session.fitted = session.fit_report = session.diagnosis = None
-    session.touch()
+    store_recording(session, rec)
     return {
         "name": rec.name,
         "samples": rec.n_samples,
@@ -86,13 +88,7 @@ def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, An
     if body.n > settings.max_operators:
         raise HTTPException(422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
     rec = _need_recording(session)
-    model, report = fit_recording(rec, body.n, body.kind)
-    with session.lock:
-        session.fitted = model.to_dict()
-        session.fit_report = report
-        session.diagnosis = None
-    if body.apply:
-        session.update(lambda c: c.with_model(model.to_dict()))
+    model, report = fit_session(session, body.n, body.kind, body.apply)
     fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
     return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
 
@@ -100,12 +96,8 @@ def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, An
 @router.post("/sessions/{code}/diagnose")
 def diagnose(session: SessionDep) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against the recording."""
-    rec = _need_recording(session)
-    doc = session.fitted or session.snapshot()[0].model
-    report, result = run_diagnosis(rec, model_from_dict(doc))
-    with session.lock:
-        session.diagnosis, session.diagnosis_result = report, result
-    return report
+    _need_recording(session)
+    return diagnose_session(session)
 
 
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)

@@ -8,10 +8,9 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import Response
 
-from core.base import model_from_dict
 from core.exceptions import ParameterError
 
-from ..exports import EXPORT_FORMATS, export_bytes, parameter_set_model
+from ..exports import EXPORT_FORMATS, export_session, parameter_set_model
 from .deps import SessionDep, SettingsDep, decode_text, read_body
 
 __all__ = ["router"]
@@ -26,9 +25,7 @@ def export(fmt: str, session: SessionDep) -> Response:
     """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
     if fmt not in EXPORT_FORMATS:
         raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
-    cfg, _ = session.snapshot()
-    fit = session.fit_report if session.fitted == cfg.model else None
-    name, payload = export_bytes(model_from_dict(cfg.model), fmt, session.code, fit)
+    name, payload = export_session(session, fmt)
     return Response(payload, media_type=_MEDIA[fmt],
                     headers={"Content-Disposition": f'attachment; filename="{name}"'})
 

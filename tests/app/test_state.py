@@ -168,3 +168,19 @@ def test_typed_arrays_round_trip_and_figures_validate() -> None:
     assert len(ops["data"]) == 6 + 2  # p0 u, six operators, the sum
     with pytest.raises(KeyError):
         F.build("nope", res)
+
+
+def test_session_services_store_fit_export_and_clear() -> None:
+    from core.recordings import Recording
+
+    s = S.Session(code="abc")
+    t = np.arange(600) * 1e-3
+    u = 3 * np.sin(2 * np.pi * 3 * t)
+    rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))
+    D.store_recording(s, rec)
+    model, report = D.fit_session(s, 6)
+    assert s.fitted == s.config.model == model.to_dict() and report["nrmse_percent"] < 2
+    _, payload = E.export_session(s, "json")
+    assert json.loads(payload)["provenance"]["fit"]["kind"] == "pi"  # the fit travels along
+    D.store_recording(s, rec)
+    assert s.fitted is s.fit_report is s.diagnosis is s.diagnosis_result is None
