@@ -19,6 +19,7 @@ from core.csvio import inspect_csv, read_csv
 from core.exceptions import ParameterError
 from core.recordings import Recording
 
+from .commands._common import column_spec
 from .commands.fit import MODELS
 from .compute import pi_part
 from .state import Session
@@ -34,13 +35,6 @@ __all__ = [
     "run_diagnosis",
     "store_recording",
 ]
-
-
-def _column(c: str | int | None) -> str | int | None:
-    """A column of the mapping step as :func:`core.csvio.read_csv` wants it."""
-    if c is None or c == "":
-        return None
-    return int(c) if isinstance(c, int) or str(c).isdigit() else str(c)
 
 
 def recording_from_csv(
@@ -64,8 +58,8 @@ def recording_from_csv(
     core.csvio.CSVError
         With the 1-based ``line`` and the 0-based ``column_index`` of the problem.
     """
-    recs = read_csv(text, time=_column(t_col), input=_column(u_col), output=_column(y_col),
-                    name=name, max_rows=max_samples)
+    recs = read_csv(text, time=column_spec(t_col), input=column_spec(u_col),
+                    output=column_spec(y_col), name=name, max_rows=max_samples)
     rec = recs[0]
     if not rec.has_time:
         rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})

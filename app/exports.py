@@ -14,7 +14,12 @@ from core.base import Model, model_from_dict
 from core.exceptions import NotInvertibleError, ParameterError
 from core.export_c import generate_c
 from core.export_mat import export_mat
-from core.paramset import ParameterSet, load_parameter_set, model_from_document
+from core.paramset import (
+    ParameterSet,
+    ParameterSetError,
+    load_parameter_set,
+    model_from_document,
+)
 
 from .state import Session
 
@@ -23,6 +28,7 @@ __all__ = [
     "export_bytes",
     "export_session",
     "parameter_set",
+    "parameter_set_from_document",
     "parameter_set_model",
 ]
 
@@ -35,20 +41,36 @@ def parameter_set(model: Model, fit: dict[str, Any] | None = None) -> ParameterS
     return ParameterSet.from_model(model, source="hysteresis explorer", fit=fit)
 
 
-def parameter_set_model(doc: Any) -> Model:
-    """The model inside an uploaded document: a parameter set (with ``"format"``), a
-    ``{"model": ...}`` wrapper or a bare model document (the JSON editor).
+def parameter_set_from_document(
+    doc: Any, *, source: str | None = None, require_inverse: bool = False
+) -> ParameterSet:
+    """A parameter set from a parsed JSON document (an upload, ``hyst`` model files).
+
+    A document with ``"format"`` is a full parameter set (:func:`core.paramset.load_parameter_set`);
+    otherwise it is a ``{"model": ...}`` wrapper or a bare ``Model.to_dict()`` document (the
+    JSON editor, hand-written files), wrapped with default units and ``source``.
 
     Raises
     ------
-    ParameterError
+    ParameterSetError
         If the document is malformed (the message names the JSON path).
+    NotInvertibleError
+        ``require_inverse`` and the model has no inverse.
     """
     if not isinstance(doc, dict):
-        raise ParameterError("a parameter set must be a JSON object")
+        raise ParameterSetError("a parameter set must be a JSON object")
     if "format" in doc:
-        return load_parameter_set(doc).model
-    return model_from_document(doc["model"] if "model" in doc else doc)
+        return load_parameter_set(doc, require_inverse=require_inverse)
+    model = model_from_document(doc["model"] if "model" in doc else doc)
+    ps = ParameterSet.from_model(model, source=source)
+    if require_inverse:
+        ps.check_invertible()
+    return ps
+
+
+def parameter_set_model(doc: Any) -> Model:
+    """The model of :func:`parameter_set_from_document` ``(doc)``."""
+    return parameter_set_from_document(doc).model
 
 
 def export_bytes(

@@ -28,6 +28,7 @@ __all__ = [
     "CommandError",
     "Progress",
     "add_json_flag",
+    "column_spec",
     "emit",
     "existing_file",
     "pick_column",
@@ -142,7 +143,9 @@ def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> Pa
     ParameterSetError
         Malformed document (the message names the file and the JSON path).
     """
-    from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
+    from core.paramset import ParameterSetError
+
+    from ..exports import parameter_set_from_document
 
     p = existing_file(path, "model file")
     text = p.read_text(encoding="utf-8")
@@ -154,19 +157,8 @@ def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> Pa
         ) from exc
     except ValueError as exc:
         raise ParameterSetError(f"{p}: {exc}") from exc
-    if isinstance(doc, dict) and "format" not in doc and "type" in doc:
-        from core.paramset import model_from_document
-
-        try:
-            model = model_from_document(doc, "model")
-        except ParameterSetError as exc:
-            raise ParameterSetError(f"{p}: {exc}") from exc
-        ps = ParameterSet.from_model(model, source=p.name)
-        if require_inverse:
-            ps.check_invertible()
-        return ps
     try:
-        return load_parameter_set(doc, require_inverse=require_inverse)
+        return parameter_set_from_document(doc, source=p.name, require_inverse=require_inverse)
     except ParameterSetError as exc:
         raise ParameterSetError(f"{p}: {exc}") from exc
 
@@ -176,6 +168,14 @@ def _reject_constant(name: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- CSV signals
+def column_spec(col: str | int | None) -> int | str | None:
+    """A column option as :func:`core.csvio.read_csv` wants it: a 0-based index when it is
+    all digits, else the name; ``None`` (or ``""``) lets the reader choose."""
+    if col is None or col == "":
+        return None
+    return int(col) if isinstance(col, int) or str(col).isdigit() else str(col)
+
+
 def read_columns(path: str | Path) -> tuple[list[str], np.ndarray]:
     """Read a numeric CSV file with a header row.
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ._common import CommandError, Progress, add_json_flag, emit, existing_file
+from ._common import CommandError, Progress, add_json_flag, column_spec, emit, existing_file
 
 __all__ = ["MODELS", "parse_window", "register", "run"]
 
@@ -83,13 +83,6 @@ def parse_window(text: str, what: str) -> tuple[float, float]:
     return t0, t1
 
 
-def _spec(col: str | None) -> int | str | None:
-    """Column option as read_csv wants it: a 0-based index when all digits, else the name."""
-    if col is None:
-        return None
-    return int(col) if col.isdigit() else col
-
-
 def _estimator(name: str, n: int | None, constraint: str | None = None) -> Any:
     """The :mod:`core.fitting` estimator of ``--model name`` (``None`` options left default)."""
     from core import fitting
@@ -116,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
     recs = []
     for f in args.files:
         existing_file(f, "CSV file")
-        got = read_csv(f, time=_spec(args.time), input=_spec(args.input_column),
-                       output=_spec(args.output_column))
+        got = read_csv(f, time=column_spec(args.time), input=column_spec(args.input_column),
+                       output=column_spec(args.output_column))
         for r in got:
             axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
             progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
