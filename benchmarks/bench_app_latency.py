@@ -9,7 +9,7 @@ is ≤ 30 ms per update. Every iteration changes one weight, as a drag does.
 
 Cases, median and 95th percentile of ``--repeat`` iterations, taken round-robin:
 
-* ``loop view``: :func:`app.state.compute` + the loop figure + ``to_json`` (what one slider
+* ``loop view``: :func:`app.compute.compute` + the loop figure + ``to_json`` (what one slider
   step costs in the GUI and in ``GET /api/sessions/{code}/figures``).
 * ``every view``: the same with the six interactive figures (time, loop, operators,
   loading, inverse, digitized) built and serialised.
@@ -42,7 +42,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np  # noqa: E402
 
 from app import figures as F  # noqa: E402
-from app.state import Config, SignalSpec, compute  # noqa: E402
+from app.compute import compute  # noqa: E402
+from app.state import Config, SignalSpec  # noqa: E402
 
 N_SAMPLES, N_OPS = 4000, 25
 
