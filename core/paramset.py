@@ -79,6 +79,17 @@ _FIELD_RULES: dict[str, dict[str, str]] = {
     "digitized-mpi": {"pi": "model", "deadzone": "model"},
     "lti": {"num": "numbers", "den": "numbers", "state0": "numbers?"},
     "offset": {"offset": "number"},
+    "delay": {"delay_s": "number"},
+    "lag": {"tau_s": "number"},
+    "resonance": {"freq_hz": "number", "damping": "number"},
+    "creep": {"taus_s": "numbers", "weights": "numbers"},
+    "drift": {"coefficients": "numbers", "span_s": "number"},
+    "asymmetry": {"coefficients": "numbers", "center": "number", "scale": "number"},
+    "rate": {
+        "p0": "number", "thresholds": "numbers", "weights": "numbers", "beta_s": "number",
+        "state0": "numbers?",
+    },
+    "initial-memory": {"history": "numbers", "model": "model"},
 }
 
 

@@ -194,6 +194,18 @@ def _instances() -> dict[str, object]:
     except ImportError:  # pragma: no cover
         pass
     try:
+        from core.effects import Asymmetry, Creep, Drift, InitialMemory, RateDependentPI
+
+        out.update({
+            "creep": Creep([0.01, 0.1], [0.02, 0.01]),
+            "drift": Drift([0.1, -0.05], 2.0),
+            "asymmetry": Asymmetry([0.1, 0.02], 0.5, 2.0),
+            "rate": RateDependentPI(1.0, [0.5, 1.0], [0.3, 0.2], 1e-3),
+            "initial-memory": InitialMemory(EX1, [2.0, -1.0]),
+        })
+    except ImportError:  # pragma: no cover
+        pass
+    try:
         from core.deadzone import DeadZoneMap
         from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 
@@ -267,3 +279,32 @@ def test_json_examples_in_the_format_documentation_load(root):
                 continue  # pragma: no cover - module not present
             ps = load_parameter_set({"format": FORMAT, "version": 1, "model": d})
         assert ps.model.to_dict()["type"] == (d.get("model") or d)["type"]
+
+
+@pytest.mark.parametrize(
+    ("type_name", "field", "value", "message"),
+    [
+        ("delay", "delay_s", "1 ms", r"^model\.stages\[1\]\.delay_s: must be a number"),
+        ("lag", "tau_s", None, r"^model\.stages\[1\]\.tau_s: missing \(required by model type"),
+        ("resonance", "damping", [0.1], r"^model\.stages\[1\]\.damping: must be a number"),
+        ("creep", "weights", [0.1, "x"], r"^model\.stages\[1\]\.weights\[1\]: must be a number"),
+        ("drift", "coefficients", [], r"^model\.stages\[1\]\.coefficients: must not be empty"),
+        ("asymmetry", "scale", True, r"^model\.stages\[1\]\.scale: must be a number"),
+        ("rate", "beta_s", None, r"^model\.stages\[1\]\.beta_s: missing"),
+        ("rate", "state0", [0.0, "a"], r"^model\.stages\[1\]\.state0\[1\]: must be a number"),
+        ("initial-memory", "model", 3, r"^model\.stages\[1\]\.model: must be an object"),
+        ("initial-memory", "history", 1.0, r"^model\.stages\[1\]\.history: must be an array"),
+    ],
+)
+def test_bad_effect_fields_name_the_json_path(type_name, field, value, message):
+    from core.base import Chain
+
+    stage = INSTANCES[type_name].to_dict()
+    if value is None:
+        stage.pop(field)
+    else:
+        stage[field] = value
+    d = ParameterSet.from_model(Chain.of(EX1, INSTANCES["offset"])).to_dict()
+    d["model"]["stages"][1] = stage
+    with pytest.raises(ParameterSetError, match=message):
+        load_parameter_set(d)
