@@ -74,7 +74,38 @@ def _need(d: dict[str, Any], *keys: str, kind: str) -> None:
 
 # ----------------------------------------------------------------------------- linear filters
 def _tf_coefficients(num: list[float], den: list[float], dt: float) -> tuple[Float1D, Float1D]:
-    """First-order-hold discretisation of ``num(s)/den(s)`` (exact for piecewise-linear input)."""
+    """First-order-hold discretisation of ``num(s)/den(s)`` (exact for piecewise-linear input).
+
+    Memoised on the exact float values (the diagnosis filters thousands of regressor
+    columns with a few distinct transfer functions); copies are returned.
+    """
+    b, a, _ = _tf_memo(num, den, dt)
+    return b.copy(), a.copy()
+
+
+_TF_MEMO: dict[tuple, tuple[Float1D, Float1D, Float1D]] = {}
+
+
+def _tf_memo(num: list[float], den: list[float], dt: float) -> tuple[Float1D, Float1D, Float1D]:
+    """``(b, a, lfilter_zi(b, a))``, memoised; the arrays are shared: do not modify them."""
+    import scipy.signal as ss
+
+    key = (tuple(float(v) for v in num), tuple(float(v) for v in den), float(dt))
+    got = _TF_MEMO.get(key)
+    if got is None:
+        b, a = _tf_coefficients_uncached(list(key[0]), list(key[1]), key[2])
+        got = (b, a, ss.lfilter_zi(b, a))
+        for arr in got:
+            arr.setflags(write=False)
+        if len(_TF_MEMO) >= 4096:
+            _TF_MEMO.pop(next(iter(_TF_MEMO)))
+        _TF_MEMO[key] = got
+    return got
+
+
+def _tf_coefficients_uncached(
+    num: list[float], den: list[float], dt: float
+) -> tuple[Float1D, Float1D]:
     import scipy.signal as ss
 
     b, a, _ = ss.cont2discrete((num, den), dt, method="foh")
@@ -118,18 +149,18 @@ def foh_filter(
     """
     import scipy.signal as ss
 
-    b, a = _tf_coefficients(num, den, dt)
+    b, a, zi_unit = _tf_memo(num, den, dt)
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 2 and axis in (-1, 1):
         if x.shape[1] == 0:
             return x.copy(), np.zeros((x.shape[0], a.size - 1)) if zi is None else zi
         if zi is None:
-            zi = ss.lfilter_zi(b, a)[None, :] * x[:, :1]
+            zi = zi_unit[None, :] * x[:, :1]
         return ss.lfilter(b, a, x, axis=-1, zi=zi)
     if x.shape[0] == 0:
         return x.copy(), (np.zeros((a.size - 1,) + x.shape[1:]) if zi is None else zi)
     if zi is None:
-        zi0 = ss.lfilter_zi(b, a)
+        zi0 = zi_unit
         zi = zi0[:, None] * x[0][None, :] if x.ndim == 2 else zi0 * x[0]
     y, zf = ss.lfilter(b, a, x, axis=0, zi=zi)
     return y, zf

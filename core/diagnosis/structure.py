@@ -160,6 +160,17 @@ class _Cache:
     def __init__(self) -> None:
         self.d: dict[Any, np.ndarray] = {}
         self.v: dict[Any, np.ndarray] = {}
+        self.p: dict[Any, np.ndarray] = {}
+
+    def projected(self, B: np.ndarray, V: np.ndarray, key: Any) -> np.ndarray:
+        """``B @ V`` memoised on ``key`` (recording, basis key and row count)."""
+        P = self.p.get(key)
+        if P is None:
+            P = B @ V
+            if len(self.p) >= 16:
+                self.p.pop(next(iter(self.p)))
+            self.p[key] = P
+        return P
 
     def basis(self, banks: list[np.ndarray], train: Sequence[np.ndarray], key: Any) -> np.ndarray:
         V = self.v.get(key)
@@ -288,8 +299,9 @@ def fit_structure(
     ]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
+    vkey = (s.history, s.beta_s, r.size, float(r[-1]))
     if rss_only and reduce:
-        V = cache.basis(banks, train, (s.history, s.beta_s, r.size, float(r[-1])))
+        V = cache.basis(banks, train, vkey)
     if iterations is None:
         iterations = 3 if needs_x else 1
     x_prev = list(x_init) if x_init is not None else None
@@ -334,7 +346,8 @@ def fit_structure(
         blocks = []
         for k, (rec, m) in enumerate(zip(records, rows, strict=True)):
             last = m.size
-            cols = [banks[k][:last] if V is None else banks[k][:last] @ V]
+            cols = [banks[k][:last] if V is None else cache.projected(
+                banks[k][:last], V, (k, vkey, last, id(V)))]
             if needs_x:
                 x = x_prev[k][:last]  # type: ignore[index]
                 if s.asymmetry:
