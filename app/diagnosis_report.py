@@ -122,6 +122,19 @@ def write_report(res: Any, path: str | Path) -> Path:
         f"<td>{d['final']['heldout_rmse']:.4g}</td><td>{d['final']['heldout_rmse_pct']:.3f}"
         "</td></tr></table>",
     ]
+    lb, lf = d["baseline"].get("leave_one_recording_out"), d["final"].get(
+        "leave_one_recording_out")
+    if lb and lf:
+        parts.append(
+            "<h2>Leave-one-recording-out</h2><p>" + html.escape(lb["rule"]) + ".</p>"
+            "<table><tr><th>held-out recording</th><th>baseline RMSE</th><th>final RMSE</th>"
+            "</tr>" + "".join(
+                f"<tr><td>{html.escape(a['recording'])}</td><td>{a['rmse']:.4g}</td>"
+                f"<td>{b['rmse']:.4g}</td></tr>"
+                for a, b in zip(lb["per_recording"], lf["per_recording"], strict=True))
+            + f"<tr><td><b>all</b></td><td>{lb['rmse']:.4g}</td><td>{lf['rmse']:.4g} "
+            f"(MSE {-100 * lf['mse_reduction'] + 0.0:+.1f} %)</td></tr></table>"
+        )
     if not res.effects:
         parts.append("<p><b>No missing physics detected</b>: no effect improved the held-out "
                      "fit significantly.</p>")

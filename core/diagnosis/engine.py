@@ -38,7 +38,7 @@ from ..exceptions import ParameterError
 from .data import Record, as_records, split_masks, wipeout_index
 from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
-from .structure import Fit, Structure, _Cache, fit_structure, place_thresholds
+from .structure import Fit, Structure, _Cache, build_model, fit_structure, place_thresholds
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -196,6 +196,10 @@ class DiagnosisResult:
         Residual maps (LOCATE) of the baseline and the final model on all rows.
     split : str
         How the train/test rows were chosen.
+    loro_baseline, loro_final : dict or None
+        Leave-one-recording-out scores of the baseline and the final structure (see
+        :func:`leave_one_recording_out`); ``None`` with one recording or an explicit
+        train/test window.
     """
 
     records: list[Record]
@@ -214,6 +218,8 @@ class DiagnosisResult:
     elapsed_s: float
     model_name: str = "pi"
     requested: Fit | None = None
+    loro_baseline: dict[str, Any] | None = None
+    loro_final: dict[str, Any] | None = None
 
     @property
     def model(self) -> Model:
@@ -296,7 +302,11 @@ class DiagnosisResult:
         ``baseline``
             ``model`` (``"pi"``), ``n_operators``, ``heldout_rmse`` (output units),
             ``heldout_rmse_pct`` (% of the output range), ``per_recording``, ``noise_rms``,
-            ``ljung_box`` and the residual maps ``maps`` (LOCATE).
+            ``ljung_box``, the residual maps ``maps`` (LOCATE) and
+            ``leave_one_recording_out`` (with >= 2 recordings and the default interleaved
+            split, else ``null``): ``{"rule", "rmse", "rmse_pct", "per_recording": [{
+            "recording", "samples", "rmse", "rmse_pct"}]}``, each recording predicted by the
+            structure refitted on the other recordings only.
         ``effects``
             Accepted effects in order; each has ``name`` (an effect ``type``), ``parameters``,
             ``uncertainty`` (1-sigma, autocorrelation-inflated), ``where`` (time windows,
@@ -310,7 +320,8 @@ class DiagnosisResult:
             ``[{"effects", "chosen", "reason", "experiment"}]``.
         ``final``
             ``effects`` (names), ``heldout_rmse`` (+ ``_pct``), ``per_recording``, ``model``
-            (the extended model's ``to_dict()``), ``maps``.
+            (the extended model's ``to_dict()``), ``maps``, ``leave_one_recording_out``
+            (as in ``baseline``, plus ``mse_reduction`` against the baseline's).
         ``suggestive``
             Effects of the last round with >= 5 % held-out MSE reduction that failed the
             significance rule (not claimed).
@@ -345,6 +356,7 @@ class DiagnosisResult:
                 "ljung_box": {"Q": lb[0], "lags": lb[1]},
                 "model_dict": self.baseline.models[0].to_dict(),
                 "maps": _jsonable(self.maps_before),
+                "leave_one_recording_out": _jsonable(self.loro_baseline),
             },
             "effects": [e.to_dict(yr) for e in self.effects],
             "untestable": self.untestable,
@@ -356,6 +368,7 @@ class DiagnosisResult:
                 "per_recording": self.per_recording(self.final),
                 "model": self.model.to_dict(),
                 "maps": _jsonable(self.maps_after),
+                "leave_one_recording_out": _jsonable(self.loro_final),
             },
             "suggestive": _jsonable(self.suggestive),
             "tested": _jsonable(self.rounds),
@@ -401,6 +414,15 @@ class DiagnosisResult:
             if e.ambiguous_with:
                 lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
         lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
+        if self.loro_baseline is not None and self.loro_final is not None:
+            lb_, lf_ = self.loro_baseline, self.loro_final
+            per = ", ".join(f"{a['recording']} {a['rmse']:.4g} -> {b_['rmse']:.4g}"
+                            for a, b_ in zip(lb_["per_recording"], lf_["per_recording"],
+                                             strict=True))
+            lines.append(f"Leave-one-recording-out RMSE (each recording predicted by the model "
+                         f"refitted on the others): baseline {lb_['rmse']:.4g} -> final "
+                         f"{lf_['rmse']:.4g} (MSE {-100 * lf_['mse_reduction'] + 0.0:+.1f} %); "
+                         f"{per}")
         for sg in self.suggestive:
             lines.append(f"Suggestive, not claimed: {sg['effect']} (held-out MSE "
                          f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
@@ -958,6 +980,13 @@ def diagnose(
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         todo = [e for e in todo if e != best and not (
             FAMILIES[e] == "dynamics" and fam == "dynamics" and e != "rate")]
+    loro_b = loro_f = None
+    if len(records) >= 2 and train is None and test is None:
+        loro_b = leave_one_recording_out(ctx, base.structure)
+        loro_f = loro_b if cur.structure == base.structure else leave_one_recording_out(
+            ctx, cur.structure)
+        loro_f = dict(loro_f, mse_reduction=1.0 - loro_f["rmse"] ** 2 / max(
+            loro_b["rmse"] ** 2, 1e-300))
     maps_before = residual_maps(records, res0, ctx.coords, [np.ones(r.n, bool) for r in records])
     maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords,
                                [np.ones(r.n, bool) for r in records])
@@ -978,7 +1007,56 @@ def diagnose(
         noise_rms=noise,
         elapsed_s=time.perf_counter() - t_start,
         model_name=model,
+        loro_baseline=loro_b,
+        loro_final=loro_f,
     )
+
+
+#: How :func:`leave_one_recording_out` treats what belongs to one recording.
+LORO_RULE = (
+    "each recording in turn is predicted (all its rows) by the structure refitted (linear "
+    "weights) on the train and test rows of the other recordings; the nonlinear parameters "
+    "(delay, time constants, beta, ...) stay at the values the diagnosis found; what belongs "
+    "to one recording cannot be learnt for an unseen one: the held-out recording starts from "
+    "the virgin memory state, gets no drift, and its offset is the mean of the others'"
+)
+
+
+def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
+    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
+
+    Returns
+    -------
+    dict
+        ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
+        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of all
+        recordings; ``rmse`` pools every sample of every recording.
+    """
+    recs = ctx.records
+    yr = float(max(r.y.max() for r in recs) - min(r.y.min() for r in recs)) or 1.0
+    per = []
+    sse = 0.0
+    n_all = 0
+    for j, rec in enumerate(recs):
+        sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
+        masks = [np.zeros(r.n, dtype=bool) if k == j else (tr | te)
+                 for k, (r, tr, te) in enumerate(zip(recs, ctx.train, ctx.test, strict=True))]
+        f = fit_structure(sj, recs, masks, ctx.cache)
+        assert isinstance(f, Fit)
+        bias = np.array(f.bias, dtype=float)
+        if sj.offsets:
+            bias[j] = float(np.mean(np.delete(bias, j)))
+        drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
+        model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
+                            f.creep_weights, bias, drift, rec)
+        e = rec.y - model(rec.u, dt=rec.dt)
+        ej = float(e @ e)
+        sse += ej
+        n_all += rec.n
+        rm = float(np.sqrt(ej / rec.n))
+        per.append({"recording": rec.name, "samples": rec.n, "rmse": rm, "rmse_pct": 100 * rm / yr})
+    rmse = float(np.sqrt(sse / max(n_all, 1)))
+    return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
 def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:

@@ -74,6 +74,11 @@ def test_json_is_one_object_with_effects_and_save_model_simulates(lag_files, tmp
     html = report.read_text(encoding="utf-8")
     assert "cdn.plot.ly" not in html and '<script src="http' not in html
     assert "Plotly.newPlot" in html and "lag" in html
+    # two recordings: leave-one-recording-out scores in the JSON and the report
+    lo = doc["final"]["leave_one_recording_out"]
+    assert [p["recording"] for p in lo["per_recording"]] == ["rec0", "rec1"]
+    assert lo["rmse"] < doc["baseline"]["leave_one_recording_out"]["rmse"]
+    assert "Leave-one-recording-out" in html
 
 
 def test_readable_report_without_json(lag_files, capsys) -> None:

@@ -10,7 +10,7 @@ import pytest
 from core.base import Chain, Model
 from core.diagnosis import Record, diagnose, split_masks
 from core.diagnosis.stats import heldout_comparison, score_test
-from core.diagnosis.structure import place_thresholds
+from core.diagnosis.structure import fit_structure, place_thresholds
 from core.effects import Asymmetry, InitialMemory, Lag
 from core.exceptions import ParameterError
 from core.pi import PIModel
@@ -117,6 +117,11 @@ def test_json_document_has_the_documented_blocks() -> None:
     assert d["final"]["heldout_rmse"] < d["baseline"]["heldout_rmse"]
     assert d["final"]["model"]["type"] == "chain"
     assert "lag" in res.summary()
+    for block in ("baseline", "final"):
+        lo = d[block]["leave_one_recording_out"]
+        assert [p["recording"] for p in lo["per_recording"]] == ["decay", "multi"]
+        assert lo["rmse"] > 0 and "rule" in lo
+    assert "mse_reduction" in d["final"]["leave_one_recording_out"]
 
 
 def test_explicit_time_split_and_tuple_input() -> None:
@@ -126,6 +131,31 @@ def test_explicit_time_split_and_tuple_input() -> None:
     assert res.split.startswith("train t in [0, 1.5)")
     assert res.test[0][r.t >= 1.6].all() and not res.train[0][r.t >= 1.6].any()
     assert {u["name"] for u in res.untestable} >= {"offset", "drift"}
+    # leave-one-recording-out needs several recordings and the default split
+    assert res.loro_baseline is None and res.loro_final is None
+    assert res.to_dict()["final"]["leave_one_recording_out"] is None
+
+
+def test_leave_one_recording_out_matches_a_refit_on_the_other_recording() -> None:
+    """Each recording predicted by the final structure refitted on the other one alone."""
+    recs = _records(extra=Lag(1e-3))
+    res = diagnose(recs, n_operators=10, effects=["lag", "delay"])
+    assert [e.name for e in res.effects] == ["lag"]
+    lb, lf = res.loro_baseline, res.loro_final
+    assert lb is not None and lf is not None
+    # the lag transfers to the unseen recording: better on each held-out recording
+    for a, b in zip(lb["per_recording"], lf["per_recording"], strict=True):
+        assert b["rmse"] < a["rmse"]
+    assert lf["mse_reduction"] == pytest.approx(1 - lf["rmse"] ** 2 / lb["rmse"] ** 2)
+    # independent route: fit on a one-recording list, simulate the fitted chain on the other
+    s = res.final.structure
+    for j in (0, 1):
+        k = 1 - j
+        f = fit_structure(s.with_(history=((),)), [recs[k]], [res.train[k] | res.test[k]])
+        e = recs[j].y - f.models[0](recs[j].u, dt=recs[j].dt)
+        assert lf["per_recording"][j]["rmse"] == pytest.approx(np.sqrt(np.mean(e * e)),
+                                                               rel=1e-6)
+    assert "Leave-one-recording-out" in res.summary()
 
 
 @pytest.mark.parametrize(
