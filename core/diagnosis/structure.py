@@ -343,7 +343,9 @@ def fit_structure(
             sub = s.with_(asymmetry=False, creep_taus=())
             f0 = fit_structure(sub, records, train, cache)
             x_prev = f0.x_pi  # type: ignore[union-attr]
-        blocks = []
+        X = None  # filled block by block (no intermediate copies)
+        o = 0
+        n_rows = sum(int(m.sum()) for m in rows)
         for k, (rec, m) in enumerate(zip(records, rows, strict=True)):
             last = m.size
             cols = [banks[k][:last] if V is None else cache.projected(
@@ -362,17 +364,20 @@ def fit_structure(
             if s.dynamics:
                 M = _dyn_filter(M, s.dynamics, rec.dt)
             nm = int(m.sum())
-            bias = np.zeros((nm, n_bias))
-            bias[:, k if s.offsets else 0] = 1.0
-            extra = [bias]
+            nM = M.shape[1]
+            if X is None:
+                X = np.empty((n_rows, nM + n_bias + n_drift))
+            blk = X[o : o + nm]
+            blk[:, :nM] = M[m]
+            blk[:, nM:] = 0.0
+            blk[:, nM + (k if s.offsets else 0)] = 1.0
             if s.drift_degree:
-                D = np.zeros((nm, n_drift))
-                D[:, k * s.drift_degree : (k + 1) * s.drift_degree] = _legendre_cols(
+                c0 = nM + n_bias + k * s.drift_degree
+                blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(
                     rec.t, s.drift_degree
                 )[:last][m]
-                extra.append(D)
-            blocks.append(np.column_stack([M[m]] + extra))
-        X = np.concatenate(blocks, axis=0)
+            o += nm
+        assert X is not None
         nonneg = np.zeros(X.shape[1], dtype=bool)
         nonneg[: 1 if s.free_weights else nb] = True
         nonneg[nb + n_asym : nb + n_asym + n_creep] = True
