@@ -1,6 +1,6 @@
 """Missing-physics diagnosis of the real piezo recording: what does classical PI leave out?
 
-Data: ``shared/data/piezo/piezo_150V_1Hz.csv`` (Chandra et al. 2023, MIT licence): commanded
+Data: ``examples/data/piezo/piezo_150V_1Hz.csv`` (Chandra et al. 2023, MIT licence): commanded
 voltage (V) to displacement (µm), 5 kHz; rest at 0 V, a jump to about -87 V, then a ±150 V
 1 Hz sine. Train on t ∈ [3.3, 7) s, held-out t ∈ [7, 9] s (the whole record is simulated from
 t = 0 so the play memory sees the full history).
@@ -24,19 +24,17 @@ diagnosis on the record decimated to 1 kHz with fewer candidate effects (for the
 
 from __future__ import annotations
 
-import numpy as np
-from _common import ROOT, parse_out, quick, save
+from _common import parse_out, quick, save
 
 from app.diagnosis_report import figures, write_report
+from core.datasets import load_dataset
 from core.diagnosis import Record, diagnose
-
-DATA = ROOT.parent / "shared" / "data" / "piezo" / "piezo_150V_1Hz.csv"
 
 
 def main() -> None:
     out = parse_out(__doc__.splitlines()[0])
-    d = np.loadtxt(DATA, delimiter=",", skiprows=1)
-    t, u, y = d[:, 0], d[:, 1], d[:, 2]
+    rec = load_dataset("piezo-150V-1Hz")
+    t, u, y = rec.t, rec.u, rec.y
     # the baseline of the task: plain PI with 25 operators (grid fixed)
     kwargs: dict = {"n_operators": 25, "auto_resolution": False}
     if quick():

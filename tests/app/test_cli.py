@@ -16,7 +16,7 @@ from core.paramset import ParameterSet, load_parameter_set
 from core.pi import PIModel
 
 ROOT = Path(__file__).resolve().parents[2]
-PIEZO = ROOT.parent / "shared" / "data" / "piezo" / "piezo_150V_1Hz.csv"
+PIEZO = ROOT / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
 EX1 = PIModel(0.72, [0.45 * i for i in range(1, 7)], [0.6, 0.48, 0.36, 0.24, 0.12, 0.012])
 COMMANDS = ("demo", "export", "fit", "invert", "preset", "simulate")
 
@@ -277,7 +277,7 @@ def test_fit_progress_goes_to_stderr(tmp_path, capsys):
     assert "[hyst fit" not in out and "train: RMSE" in out
 
 
-@pytest.mark.skipif(not PIEZO.exists(), reason="shared piezo recording not present")
+@pytest.mark.skipif(not PIEZO.exists(), reason="shipped piezo recording missing")
 def test_fit_real_piezo_recording(tmp_path, capsys):
     code, out, _ = run(capsys, "fit", PIEZO, "-n", "8", "--test", "8:", "-o",
                        tmp_path / "p.json", "--json")

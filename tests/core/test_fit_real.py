@@ -1,18 +1,16 @@
-"""Fits on real measured recordings (shared/data): piezo, friction damper, B-H loops."""
+"""Fits on real measured recordings (the shipped copies in examples/data): piezo, friction
+damper, B-H loops."""
 
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from core.datasets import DATA_DIR as DATA
 from core.exceptions import FitWarning
 from core.fitting.pi import PIRegressor
-
-DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
-pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason=f"shared data not found at {DATA}")
 
 
 def _load(rel: str) -> np.ndarray:
