@@ -31,10 +31,12 @@ __all__ = [
     "column_spec",
     "emit",
     "existing_file",
+    "parse_window",
     "pick_column",
     "read_columns",
     "read_parameter_set",
     "uniform_dt",
+    "window_arg",
     "write_columns",
 ]
 
@@ -293,3 +295,35 @@ def uniform_dt(t: np.ndarray, path: str | Path, rel_tol: float = 1e-3) -> float:
         )
     return dt
 
+
+def parse_window(text: str, what: str) -> tuple[float, float]:
+    """Parse ``"T0:T1"`` (either side may be empty) into ``(t0, t1)``.
+
+    Raises
+    ------
+    CommandError
+        Naming the option and the expected form.
+    """
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise CommandError(f"--{what} {text!r}: expected T0:T1 in seconds, e.g. 0:8 or 8:")
+    try:
+        t0 = float(parts[0]) if parts[0].strip() else -np.inf
+        t1 = float(parts[1]) if parts[1].strip() else np.inf
+    except ValueError:
+        raise CommandError(f"--{what} {text!r}: T0 and T1 must be numbers, e.g. 0:8") from None
+    if not t0 < t1:
+        raise CommandError(f"--{what} {text!r}: T0 must be smaller than T1")
+    return t0, t1
+
+
+def window_arg(what: str) -> Any:
+    """An argparse ``type=`` for ``--<what> T0:T1`` that reports errors as usage errors."""
+
+    def convert(text: str) -> tuple[float, float]:
+        try:
+            return parse_window(text, what)
+        except CommandError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return convert

@@ -38,19 +38,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ._common import window_arg
+
 __all__ = ["register", "run"]
-
-
-def _range(text: str) -> tuple[float, float]:
-    try:
-        a, b = (float(x) for x in text.split(":"))
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(
-            f"expected T0:T1 in seconds (e.g. 3.3:7), got {text!r}"
-        ) from exc
-    if not b > a:
-        raise argparse.ArgumentTypeError(f"T1 must be larger than T0 in {text!r}")
-    return a, b
 
 
 def register(subparsers: Any) -> None:
@@ -67,8 +57,10 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("files", nargs="+", metavar="FILE.csv", help="recordings")
     p.add_argument("--model", default="pi", choices=["pi"], help="base model (default: pi)")
-    p.add_argument("--train", type=_range, metavar="T0:T1", help="training time range (s)")
-    p.add_argument("--test", type=_range, metavar="T0:T1", help="held-out time range (s)")
+    p.add_argument("--train", type=window_arg("train"), metavar="T0:T1",
+                   help="training time range (s)")
+    p.add_argument("--test", type=window_arg("test"), metavar="T0:T1",
+                   help="held-out time range (s)")
     p.add_argument("--operators", type=int, default=25, metavar="N",
                    help="play operators of the baseline (default: 25)")
     p.add_argument("--fixed-grid", action="store_true",

@@ -7,11 +7,17 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from ._common import (
+    CommandError,
+    Progress,
+    add_json_flag,
+    column_spec,
+    emit,
+    existing_file,
+    parse_window,
+)
 
-from ._common import CommandError, Progress, add_json_flag, column_spec, emit, existing_file
-
-__all__ = ["MODELS", "parse_window", "register", "run"]
+__all__ = ["MODELS", "register", "run"]
 
 #: ``--model`` choice -> estimator class name in :mod:`core.fitting`.
 MODELS = {
@@ -60,27 +66,6 @@ def register(subparsers: Any) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     add_json_flag(p)
     p.set_defaults(func=run)
-
-
-def parse_window(text: str, what: str) -> tuple[float, float]:
-    """Parse ``"T0:T1"`` (either side may be empty) into ``(t0, t1)``.
-
-    Raises
-    ------
-    CommandError
-        Naming the option and the expected form.
-    """
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise CommandError(f"--{what} {text!r}: expected T0:T1 in seconds, e.g. 0:8 or 8:")
-    try:
-        t0 = float(parts[0]) if parts[0].strip() else -np.inf
-        t1 = float(parts[1]) if parts[1].strip() else np.inf
-    except ValueError:
-        raise CommandError(f"--{what} {text!r}: T0 and T1 must be numbers, e.g. 0:8") from None
-    if not t0 < t1:
-        raise CommandError(f"--{what} {text!r}: T0 must be smaller than T1")
-    return t0, t1
 
 
 def _estimator(name: str, n: int | None, constraint: str | None = None) -> Any:

@@ -107,4 +107,4 @@ def test_errors_exit_2_with_a_message(lag_files, capsys, argv, msg) -> None:
 def test_bad_range_is_rejected_by_the_parser(lag_files, capsys) -> None:
     with pytest.raises(SystemExit):
         main(["diagnose", str(lag_files[0]), "--train", "5:1", "--test", "1:2"])
-    assert "T1 must be larger" in capsys.readouterr().err
+    assert "T0 must be smaller than T1" in capsys.readouterr().err
