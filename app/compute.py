@@ -80,12 +80,22 @@ def preset_doc(name: str) -> dict[str, Any]:
 def build_model(d: dict[str, Any], max_operators: int) -> Model:
     """Validated model from its dict form, enforcing the operator limit."""
     m = model_from_dict(d)
-    n = getattr(m, "n", None)
-    if isinstance(n, int) and n > max_operators:
+    n = operator_count(m)
+    if n is not None and n > max_operators:
         raise ParameterError(
             f"model has {n} operators; the explorer allows at most {max_operators}"
         )
     return m
+
+
+def operator_count(model: Model) -> int | None:
+    """Hysteresis operators (plays or digits) in ``model`` and its stages; ``None`` if none."""
+    n = getattr(model, "n", None)
+    if isinstance(n, int):
+        return n
+    counts = [operator_count(st) for st in getattr(model, "stages", ())]
+    counts = [c for c in counts if c is not None]
+    return sum(counts) if counts else None
 
 
 def pi_part(model: Model) -> PIModel | None:

@@ -7,7 +7,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 
 from .. import figures as F
-from ..compute import Result, compute, pi_part
+from ..compute import Result, compute, operator_count, pi_part
 from ..schemas import SimulateIn, SimulateOut
 from ..state import Config
 from .deps import SettingsDep
@@ -27,7 +27,7 @@ def result_payload(
     m = res.model
     out: dict[str, Any] = {
         "model_type": m.type_name,
-        "n_operators": getattr(m, "n", None),
+        "n_operators": operator_count(m),
         "inverse_error": res.inverse_error,
         "figures": {n: F.build(n, res, mismatch).to_dict() for n in names},
         "elapsed_ms": res.elapsed_ms,

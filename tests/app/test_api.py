@@ -99,6 +99,11 @@ def test_simulate_example1_matches_core(client: TestClient) -> None:
         ({"model": {"type": "nope"}}, 422, "unknown model type"),
         ({"model": {"type": "pi", "p0": 1, "thresholds": list(np.arange(1.0, 42)),
                     "weights": [0.1] * 41}}, 422, "at most 40"),
+        # a chain may not bypass the operator limit
+        ({"model": {"type": "chain", "stages": [
+            {"type": "pi", "p0": 1, "thresholds": list(np.arange(1.0, 42)),
+             "weights": [0.1] * 41},
+            {"type": "offset", "offset": 0.5}]}}, 422, "at most 40"),
         ({"model": EX1, "signal": {"samples": 50_000}}, 422, "samples"),
         ({"model": EX1, "signal": {"duration": -1}}, 422, "duration"),
         ({"model": EX1, "signal": {"kind": "square-ish"}}, 422, "unknown"),
@@ -112,6 +117,13 @@ def test_simulate_rejects_out_of_range(client: TestClient, payload: dict, status
     r = client.post("/api/simulate", json=payload)
     assert r.status_code == status
     assert text in json.dumps(r.json()).lower()
+
+
+def test_chain_reports_its_operator_count(client: TestClient) -> None:
+    chain = {"type": "chain", "stages": [EX1, {"type": "offset", "offset": 0.5}]}
+    r = client.post("/api/simulate", json={"model": chain})
+    assert r.status_code == 200
+    assert r.json()["model_type"] == "chain" and r.json()["n_operators"] == 6
 
 
 def test_simulate_bad_json(client: TestClient) -> None:
