@@ -23,6 +23,7 @@ import plotly.graph_objects as go
 from _common import parse_out, quick, save
 from plotly.subplots import make_subplots
 
+from core.base import Model
 from core.gpi import PAPER001_EX4_ETA, DeadZoneGPI, paper001_example4
 
 TAU_PRINTED = [1.906, 3.179, 3.809, 4.241, 4.524, 4.704, 4.816, 4.885, 4.928, 4.954, 4.97]
@@ -85,28 +86,32 @@ def model_figure(m: DeadZoneGPI, t: np.ndarray, v: np.ndarray) -> go.Figure:
     return fig
 
 
-def inverse_figure(m: DeadZoneGPI, t: np.ndarray, u: np.ndarray) -> tuple[go.Figure, float]:
-    """Fig. 22: u, x = P⁻¹[u], v = γ⁻¹[x]; loop u → v; tracking; y_D against u."""
-    x = m.pi.inverse()(u)
+def inverse_figure(
+    m: Model, t: np.ndarray, u: np.ndarray, *, x_name: str = "x", stage: str = "γ",
+    out: str = "y_D", title: str = "Inverse dead-zone GPI Π⁻¹ = γ⁻¹∘P⁻¹ (Fig. 22)",
+) -> tuple[go.Figure, float]:
+    """Fig. 22 (and Fig. 25 for the tanh GPI): u, x = P⁻¹[u], v = stage⁻¹[x]; loop u → v;
+    tracking; the output against u. ``m`` is a GPI whose ``pi`` runs after ``stage``."""
+    x = m.pi.inverse()(u)  # type: ignore[attr-defined]
     v = m.inverse()(u)
     y = m(v)
     err = float(np.max(np.abs(y - u)))
     fig = make_subplots(rows=2, cols=2, subplot_titles=(
-        "(a) reference u, x = P⁻¹[u], control input v = γ⁻¹[x]", "(b) inverse loop u → v",
-        "(c) tracking: u and compensated y_D", "(d) compensated characteristic u → y_D"))
-    for name, s in (("u", u), ("x = P⁻¹[u]", x), ("v = γ⁻¹[x]", v)):
+        f"(a) reference u, {x_name} = P⁻¹[u], control input v = {stage}⁻¹[{x_name}]",
+        "(b) inverse loop u → v",
+        f"(c) tracking: u and compensated {out}", f"(d) compensated characteristic u → {out}"))
+    for name, s in (("u", u), (f"{x_name} = P⁻¹[u]", x), (f"v = {stage}⁻¹[{x_name}]", v)):
         fig.add_trace(go.Scatter(x=t, y=s, name=name, line={"width": 1.5}), 1, 1)
     fig.add_trace(go.Scatter(x=u, y=v, name="Π⁻¹ loop", line={"width": 1.5}), 1, 2)
     fig.add_trace(go.Scatter(x=t, y=u, name="reference u", line={"width": 1.5}), 2, 1)
-    fig.add_trace(go.Scatter(x=t, y=y, name="compensated y_D",
+    fig.add_trace(go.Scatter(x=t, y=y, name=f"compensated {out}",
                              line={"width": 1.5, "dash": "dot"}), 2, 1)
-    fig.add_trace(go.Scatter(x=u, y=y, name="y_D vs u", line={"width": 1.5}), 2, 2)
+    fig.add_trace(go.Scatter(x=u, y=y, name=f"{out} vs u", line={"width": 1.5}), 2, 2)
     fig.update_xaxes(title_text="t (s)", row=1, col=1)
     fig.update_xaxes(title_text="u", row=1, col=2)
     fig.update_xaxes(title_text="t (s)", row=2, col=1)
     fig.update_xaxes(title_text="u", row=2, col=2)
-    fig.update_layout(title=f"Inverse dead-zone GPI Π⁻¹ = γ⁻¹∘P⁻¹ (Fig. 22); max |y_D − u| = "
-                      f"{err:.2e}", height=800, width=1150)
+    fig.update_layout(title=f"{title}; max |{out} − u| = {err:.2e}", height=800, width=1150)
     return fig, err
 
 

@@ -22,6 +22,7 @@ import warnings
 import numpy as np
 import plotly.graph_objects as go
 from _common import parse_out, quick, save
+from ex04_deadzone_gpi import inverse_figure
 from plotly.subplots import make_subplots
 
 from core.exceptions import ClippedInputWarning
@@ -43,31 +44,6 @@ def model_figure(m: TanhGPI, t: np.ndarray, v: np.ndarray) -> go.Figure:
     fig.update_layout(title="Tanh GPI y_H = P[κ[v]], κ = 6 tanh(0.4 v) (paper 001 Example 6, "
                       "Fig. 24)", height=500, width=1150)
     return fig
-
-
-def inverse_figure(m: TanhGPI, t: np.ndarray, u: np.ndarray) -> tuple[go.Figure, float]:
-    """Fig. 25: u, d = P⁻¹[u], v = κ⁻¹[d]; loop u → v; tracking; y_H against u."""
-    d = m.pi.inverse()(u)
-    v = m.inverse()(u)
-    y = m(v)
-    err = float(np.max(np.abs(y - u)))
-    fig = make_subplots(rows=2, cols=2, subplot_titles=(
-        "(a) reference u, d = P⁻¹[u], control input v = κ⁻¹[d]", "(b) inverse loop u → v",
-        "(c) tracking: u and compensated y_H", "(d) compensated characteristic u → y_H"))
-    for name, s in (("u", u), ("d = P⁻¹[u]", d), ("v = κ⁻¹[d]", v)):
-        fig.add_trace(go.Scatter(x=t, y=s, name=name, line={"width": 1.5}), 1, 1)
-    fig.add_trace(go.Scatter(x=u, y=v, name="Π⁻¹ loop", line={"width": 1.5}), 1, 2)
-    fig.add_trace(go.Scatter(x=t, y=u, name="reference u", line={"width": 1.5}), 2, 1)
-    fig.add_trace(go.Scatter(x=t, y=y, name="compensated y_H",
-                             line={"width": 1.5, "dash": "dot"}), 2, 1)
-    fig.add_trace(go.Scatter(x=u, y=y, name="y_H vs u", line={"width": 1.5}), 2, 2)
-    fig.update_xaxes(title_text="t (s)", row=1, col=1)
-    fig.update_xaxes(title_text="u", row=1, col=2)
-    fig.update_xaxes(title_text="t (s)", row=2, col=1)
-    fig.update_xaxes(title_text="u", row=2, col=2)
-    fig.update_layout(title=f"Inverse tanh GPI Π⁻¹ = κ⁻¹∘P⁻¹ (Fig. 25); max |y_H − u| = "
-                      f"{err:.2e}", height=800, width=1150)
-    return fig, err
 
 
 def asymmetric_envelope_demo(m: TanhGPI, t: np.ndarray) -> None:
@@ -110,7 +86,8 @@ def main() -> None:
     save(model_figure(m, t, v), out, "ex06_tanh_gpi_model")
 
     u = 10 * np.sin(2 * np.pi * t)
-    fig, err = inverse_figure(m, t, u)
+    fig, err = inverse_figure(m, t, u, x_name="d", stage="κ", out="y_H",
+                              title="Inverse tanh GPI Π⁻¹ = κ⁻¹∘P⁻¹ (Fig. 25)")
     d = m.pi.inverse()(u)
     print(f"u = 10 sin 2πt: d = P⁻¹[u] in [{d.min():.4f}, {d.max():.4f}] (inside |d| < 6)")
     print(f"compensation error max |P[κ[κ⁻¹[P⁻¹[u]]]] - u| = {err:.3e}")
