@@ -33,6 +33,13 @@ objects. It works out the layout by itself and says what it did:
   are input and output without time (sample index, or ``k / fs`` with ``fs=``). Every other
   column is kept in ``Recording.extra`` (as text when it is not numeric).
 
+**Input-only files** (a signal to simulate, no output column) are read by
+:func:`read_input` into an :class:`InputSignal`: the same encoding, delimiter, header,
+unit, time and cell checks with the same messages, a one-column file is accepted (that
+column is the input), no column is taken as the output (a column named ``y`` is kept as
+an other column, never picked as the input while another is free), and a constant input
+or a single sample is allowed.
+
 Problems raise :class:`CSVError` (a :class:`~core.exceptions.ParameterError`, hence a
 ``ValueError``) whose message says what is wrong, where (line, column) and what to do.
 Rows whose input or output is NaN/inf/empty are removed by default and every removal is
@@ -63,10 +70,12 @@ __all__ = [
     "CSVError",
     "CSVLayout",
     "ColumnInfo",
+    "InputSignal",
     "inspect_csv",
     "parse_column_name",
     "read_csv",
     "read_csvs",
+    "read_input",
     "read_recording",
 ]
 
@@ -378,7 +387,8 @@ def _decode(data: bytes | str, encoding: str | None, label: str) -> tuple[str, s
     else:
         if len(data) == 0:
             raise CSVError(
-                f"{label} is empty (0 bytes); export the recording again", source=label
+                f"{label}: the file is empty (0 bytes); export the recording again",
+                source=label,
             )
         if encoding is not None:
             try:
@@ -465,9 +475,13 @@ _DELIM_ALIASES = {
 
 
 def _detect_format(
-    sample: list[str], delimiter: str | None, decimal: str | None, label: str, line0: int
+    sample: list[str], delimiter: str | None, decimal: str | None, label: str, line0: int,
+    min_columns: int = 2,
 ) -> tuple[str, str]:
-    """Choose delimiter and decimal mark from the first content lines."""
+    """Choose delimiter and decimal mark from the first content lines.
+
+    With ``min_columns=1`` (input-only signals) a table of one column is accepted.
+    """
     if delimiter is not None:
         if delimiter not in _DELIM_ALIASES:
             raise CSVError(
@@ -504,6 +518,8 @@ def _detect_format(
                      -rank, 0.0 if dec == "," else 1.0)
             if best is None or score > best[0]:
                 best = (score, d, dec)
+    if best is not None and best[0][0] == 0.0 and min_columns <= 1:
+        return best[1], best[2]
     if best is None or best[0][0] == 0.0:
         if delimiter == "," and decimal == ",":
             raise CSVError("decimal=',' needs a delimiter other than ','", source=label)
@@ -529,6 +545,7 @@ def _table(
     encoding: str | None,
     max_bytes: int,
     max_rows: int,
+    min_columns: int = 2,
 ) -> tuple[_Table, str]:
     raw, label, stem = _load_bytes(source, max_bytes)
     text, enc, notes = _decode(raw, encoding, label)
@@ -567,7 +584,7 @@ def _table(
     if blank_inside:
         notes.append(f"ignored {len(blank_inside)} blank line(s) inside the data "
                      f"(line(s) {_lines_text(blank_inside)})")
-    d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0])
+    d, dec = _detect_format(content[:60], delimiter, decimal, label, linenos[0], min_columns)
     quoted = '"' in text
     strip_chars = " \t" if d == "whitespace" else " \t" + d
     empty = [i for i, ln in enumerate(content) if not ln.strip(strip_chars)]
@@ -640,7 +657,7 @@ def _table(
     if not data and has_header:
         raise CSVError(
             f"{label} has only a header (line {linenos[0]}: {', '.join(names)}) and no "
-            "data rows; export the recording again with its samples",
+            "data rows after the header; export the recording again with its samples",
             source=label, line=linenos[0],
         )
     if len(data) > max_rows:
@@ -699,10 +716,15 @@ def inspect_csv(
     encoding: str | None = None,
     max_bytes: int = MAX_BYTES,
     max_rows: int = MAX_ROWS,
+    min_columns: int = 2,
 ) -> CSVLayout:
     """Work out the layout of a CSV without converting it (for previews and pickers).
 
-    Parameters are those of :func:`read_csv`.
+    Parameters are those of :func:`read_csv`, and:
+
+    min_columns : int
+        Fewest columns the table must have: 2 for recordings (input and output, the
+        default), 1 for input-only signals (see :func:`read_input`).
 
     Returns
     -------
@@ -711,7 +733,7 @@ def inspect_csv(
     """
     return _table(
         source, delimiter=delimiter, decimal=decimal, header=header, skiprows=skiprows,
-        encoding=encoding, max_bytes=max_bytes, max_rows=max_rows,
+        encoding=encoding, max_bytes=max_bytes, max_rows=max_rows, min_columns=min_columns,
     )[0].layout
 
 
@@ -846,6 +868,127 @@ def _convert_time(table: _Table, col: ColumnInfo) -> tuple[np.ndarray, str | Non
     return out, f"time column {col.raw!r} holds date-times; converted to seconds since {t0}"
 
 
+def _choose_roles(
+    table: _Table, *, time: ColumnSpec, input: ColumnSpec,  # noqa: A002 - role name
+    output: ColumnSpec, run: ColumnSpec, with_output: bool,
+) -> tuple[dict[str, ColumnInfo | None], list[str], bool]:
+    """Pick the run, time, input (and output) columns; see the module docstring.
+
+    Returns
+    -------
+    chosen : dict
+        ``"run"``, ``"time"``, ``"input"`` (and ``"output"`` when ``with_output``) to the
+        column, or None for run / time when there is none.
+    notes : list of str
+        How a missing time axis was interpreted.
+    time_auto : bool
+        Whether the time column was taken by position (it must then increase, else the
+        error asks for ``time=``).
+    """
+    lay = table.layout
+    label = lay.source
+    cols = list(lay.columns)
+    chosen: dict[str, ColumnInfo | None] = {}
+    specs: list[tuple[str, ColumnSpec]] = [("run", run), ("time", time), ("input", input)]
+    if with_output:
+        specs.append(("output", output))
+    for role, spec in specs:
+        if spec is None or spec is False:
+            chosen[role] = None
+        else:
+            chosen[role] = _find(spec, role, cols, label)
+    taken: dict[int, str] = {}
+    for role, c in chosen.items():
+        if c is not None:
+            taken.setdefault(c.index, role)
+    for role, c in chosen.items():
+        if c is not None and taken[c.index] != role:
+            raise CSVError(
+                f"{label}: {taken[c.index]} and {role} both refer to column {c.label()}; "
+                "pick a different column for one of them", source=label, column=c.raw,
+                column_index=c.index,
+            )
+
+    def free() -> list[ColumnInfo]:
+        used = {c.index for c in chosen.values() if c is not None}
+        return [c for c in cols if c.index not in used]
+
+    if run is None and lay.header:
+        chosen["run"] = _by_name(free(), _RUN_NAMES)
+    index_col = _by_name(free(), _INDEX_NAMES) if lay.header else None
+    if index_col is not None:
+        # a sample index holds whole numbers that increase (within each run) and has no unit
+        k = _convert(table, index_col, strict=False, role="index")
+        if index_col.unit or k is None or not np.all(np.isfinite(k)) or np.any(k != np.round(k)):
+            index_col = None
+    notes_roles: list[str] = []
+    time_auto = False
+    want_output = with_output and output is None
+    if time is None:
+        named = _by_name(free(), _TIME_NAMES) if lay.header else None
+        if named is not None:
+            chosen["time"] = named
+        elif index_col is not None:
+            notes_roles.append(f"no time column: column {index_col.label()} is a sample index")
+        else:
+            cand = free()
+            needed = 1 + (input is None) + want_output
+            least = 2 + with_output - (input is not None) - (with_output and output is not None)
+            io_named = lay.header and cand and _by_name(
+                cand[:1], _INPUT_NAMES | _OUTPUT_NAMES, ("u_", "y_", "input_", "output_")
+            )
+            if not io_named and len(cand) >= max(needed, least):
+                chosen["time"] = cand[0]
+                time_auto = True
+            else:
+                notes_roles.append("no time column: the time axis is the sample index")
+    roles = [("input", _INPUT_NAMES, ("u_", "input_"))]
+    if with_output:
+        roles.append(("output", _OUTPUT_NAMES, ("y_", "output_")))
+    for role, names, prefixes in roles:
+        if chosen[role] is None:
+            pool = [c for c in free() if c is not index_col]
+            hit = _by_name(pool, names, prefixes) if lay.header else None
+            if hit is None:
+                # never take a column that another role's name claims
+                other = _OUTPUT_NAMES if role == "input" else _INPUT_NAMES
+                opre = ("y_", "output_") if role == "input" else ("u_", "input_")
+                pool2 = [c for c in pool if not (lay.header and _by_name([c], other, opre))]
+                hit = pool2[0] if pool2 else (pool[0] if pool else None)
+            if hit is None:
+                need = ("a recording needs an input and an output column" if with_output
+                        else "pick the input column with input=")
+                raise CSVError(
+                    f"{label}: no column left for the {role}; the file has {len(cols)} "
+                    f"column(s): {_available(cols)}; {need}", source=label,
+                )
+            chosen[role] = hit
+    return chosen, notes_roles, time_auto
+
+
+def _time_scale(
+    label: str, tcol: ColumnInfo | None, time_unit: str | None, dt_note: str | None
+) -> tuple[float, str | None]:
+    """Factor from the time column's unit to seconds, and the note saying so."""
+    if time_unit is not None and (tcol is None or dt_note is not None):
+        why = "there is no time column" if tcol is None else "the time column holds date-times"
+        raise CSVError(f"{label}: time_unit={time_unit!r} was given but {why}; leave it out",
+                       source=label)
+    t_scale, t_unit_note = 1.0, dt_note
+    if tcol is not None and dt_note is None:
+        unit = (time_unit or tcol.unit or "s").strip()
+        if unit not in _TIME_SCALE:
+            raise CSVError(
+                f"{label}: time column {tcol.label()} has unit {unit!r}, which is not a time "
+                f"unit ({', '.join(sorted(set(_TIME_SCALE)))}); pass time_unit= or pick "
+                "another column with time=", source=label, column=tcol.raw, column_index=tcol.index,
+            )
+        t_scale = _TIME_SCALE[unit]
+        if t_scale != 1.0:
+            t_unit_note = f"time converted from {unit} to s (×{t_scale:g})"
+    return t_scale, t_unit_note
+
+
 # --------------------------------------------------------------------------- reader
 def read_csv(
     source: Source,
@@ -883,7 +1026,9 @@ def read_csv(
         the sample index, or ``k / fs`` when ``fs`` is given); ``None`` to choose (see
         the module docstring). A chosen column must strictly increase within each run.
     input, output : int, str or None
-        Input and output columns; ``None`` to choose.
+        Input and output columns; ``None`` to choose. For a file without an output
+        column (a signal to simulate) use :func:`read_input`; ``output=False`` raises
+        ``CSVError`` saying so.
     run : int, str, False or None
         Column whose value identifies the run / record / loop: each distinct value becomes
         its own :class:`Recording` (in order of first appearance) with ``run`` set.
@@ -949,12 +1094,12 @@ def read_csv(
     >>> recs[0].units["output"], recs[0].fs
     ('µm', 100.0)
     """
-    if nan not in ("drop", "error"):
-        raise CSVError(f"nan={nan!r} must be 'drop' or 'error'")
-    if uneven not in ("error", "keep"):
-        raise CSVError(f"uneven={uneven!r} must be 'error' or 'keep'")
-    if not 0 <= max_dropped <= 1:
-        raise CSVError(f"max_dropped={max_dropped!r} must be a fraction between 0 and 1")
+    if output is False:
+        raise CSVError(
+            "output=False: read_csv() reads recordings, which need an output column; read a "
+            "file that holds only the input (and time) with read_input()"
+        )
+    _check_options(nan, uneven, max_dropped)
     table, stem = _table(
         source, delimiter=delimiter, decimal=decimal, header=header, skiprows=skiprows,
         encoding=encoding, max_bytes=max_bytes, max_rows=max_rows,
@@ -965,74 +1110,9 @@ def read_csv(
     base_name = name or stem
 
     # ---- roles
-    chosen: dict[str, ColumnInfo | None] = {}
-    for role, spec in (("run", run), ("time", time), ("input", input), ("output", output)):
-        if spec is None or spec is False:
-            chosen[role] = None
-        else:
-            chosen[role] = _find(spec, role, cols, label)
-    taken: dict[int, str] = {}
-    for role, c in chosen.items():
-        if c is not None:
-            taken.setdefault(c.index, role)
-    for role, c in chosen.items():
-        if c is not None and taken[c.index] != role:
-            raise CSVError(
-                f"{label}: {taken[c.index]} and {role} both refer to column {c.label()}; "
-                "pick a different column for one of them", source=label, column=c.raw,
-                column_index=c.index,
-            )
-
-    def free() -> list[ColumnInfo]:
-        used = {c.index for c in chosen.values() if c is not None}
-        return [c for c in cols if c.index not in used]
-
-    if run is None and lay.header:
-        chosen["run"] = _by_name(free(), _RUN_NAMES)
-    index_col = _by_name(free(), _INDEX_NAMES) if lay.header else None
-    if index_col is not None:
-        # a sample index holds whole numbers that increase (within each run) and has no unit
-        k = _convert(table, index_col, strict=False, role="index")
-        if index_col.unit or k is None or not np.all(np.isfinite(k)) or np.any(k != np.round(k)):
-            index_col = None
-    notes_roles: list[str] = []
-    time_auto = False
-    if time is None:
-        named = _by_name(free(), _TIME_NAMES) if lay.header else None
-        if named is not None:
-            chosen["time"] = named
-        elif index_col is not None:
-            notes_roles.append(f"no time column: column {index_col.label()} is a sample index")
-        else:
-            cand = free()
-            needed = 1 + (input is None) + (output is None)
-            io_named = lay.header and cand and _by_name(
-                cand[:1], _INPUT_NAMES | _OUTPUT_NAMES, ("u_", "y_", "input_", "output_")
-            )
-            if not io_named and len(cand) >= max(needed,
-                                                 3 - (input is not None) - (output is not None)):
-                chosen["time"] = cand[0]
-                time_auto = True
-            else:
-                notes_roles.append("no time column: the time axis is the sample index")
-    for role, names, prefixes in (("input", _INPUT_NAMES, ("u_", "input_")),
-                                  ("output", _OUTPUT_NAMES, ("y_", "output_"))):
-        if chosen[role] is None:
-            pool = [c for c in free() if c is not index_col]
-            hit = _by_name(pool, names, prefixes) if lay.header else None
-            if hit is None:
-                # never take a column that another role's name claims
-                other = _OUTPUT_NAMES if role == "input" else _INPUT_NAMES
-                opre = ("y_", "output_") if role == "input" else ("u_", "input_")
-                pool2 = [c for c in pool if not (lay.header and _by_name([c], other, opre))]
-                hit = pool2[0] if pool2 else (pool[0] if pool else None)
-            if hit is None:
-                raise CSVError(
-                    f"{label}: no column left for the {role}; the file has {len(cols)} "
-                    f"column(s): {_available(cols)}; a recording needs an input and an "
-                    "output column", source=label,
-                )
-            chosen[role] = hit
+    chosen, notes_roles, time_auto = _choose_roles(
+        table, time=time, input=input, output=output, run=run, with_output=True
+    )
 
     # ---- conversion
     tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
@@ -1047,22 +1127,7 @@ def read_csv(
     u_all = _convert(table, ucol, strict=True, role="input")
     y_all = _convert(table, ycol, strict=True, role="output")
     assert u_all is not None and y_all is not None
-    if time_unit is not None and (tcol is None or dt_note is not None):
-        why = "there is no time column" if tcol is None else "the time column holds date-times"
-        raise CSVError(f"{label}: time_unit={time_unit!r} was given but {why}; leave it out",
-                       source=label)
-    t_scale, t_unit_note = 1.0, dt_note
-    if tcol is not None and dt_note is None:
-        unit = (time_unit or tcol.unit or "s").strip()
-        if unit not in _TIME_SCALE:
-            raise CSVError(
-                f"{label}: time column {tcol.label()} has unit {unit!r}, which is not a time "
-                f"unit ({', '.join(sorted(set(_TIME_SCALE)))}); pass time_unit= or pick "
-                "another column with time=", source=label, column=tcol.raw, column_index=tcol.index,
-            )
-        t_scale = _TIME_SCALE[unit]
-        if t_scale != 1.0:
-            t_unit_note = f"time converted from {unit} to s (×{t_scale:g})"
+    t_scale, t_unit_note = _time_scale(label, tcol, time_unit, dt_note)
     extras: dict[str, np.ndarray] = {}
     extra_units: dict[str, str] = {}
     extra_notes: list[str] = []
@@ -1206,6 +1271,15 @@ def read_csv(
     return out
 
 
+def _check_options(nan: str, uneven: str, max_dropped: float) -> None:
+    if nan not in ("drop", "error"):
+        raise CSVError(f"nan={nan!r} must be 'drop' or 'error'")
+    if uneven not in ("error", "keep"):
+        raise CSVError(f"uneven={uneven!r} must be 'error' or 'keep'")
+    if not 0 <= max_dropped <= 1:
+        raise CSVError(f"max_dropped={max_dropped!r} must be a fraction between 0 and 1")
+
+
 def _note(rec: Recording, note: str) -> Recording:
     return replace(rec, cleaning=rec.cleaning + (note,))
 
@@ -1224,7 +1298,7 @@ def _decimals(cells: Iterable[str]) -> int:
 def _check_time(
     t: np.ndarray, lines: np.ndarray, tcol: ColumnInfo, table: _Table, idx: np.ndarray,
     label: str, where: str, auto: bool, *, t_scale: float, uneven: str,
-    resample: bool | float, notes: list[str],
+    resample: bool | float, notes: list[str], roles: str = "input= and output=",
 ) -> np.ndarray:
     """Validate a time column: present, strictly increasing, evenly spaced."""
     miss = ~np.isfinite(t)
@@ -1246,7 +1320,7 @@ def _check_time(
                 f"{label}: column {tcol.label()} is not monotone increasing "
                 f"({what} at line {b}: {t[i + 1]:g} after {t[i]:g} at line {a}), so it cannot "
                 "be the time axis; pass time=<column> (name or index), or time=False if the "
-                "file has no time column, together with input= and output=",
+                f"file has no time column, together with {roles}",
                 source=label, line=b, column=tcol.raw, column_index=tcol.index,
             )
         step = (
@@ -1284,6 +1358,263 @@ def _check_time(
                     )
                 notes.append(msg + "; kept as measured (uneven='keep')")
     return t
+
+
+@dataclass(frozen=True, eq=False)
+class InputSignal:
+    """An input signal read by :func:`read_input` (a CSV without an output column).
+
+    Attributes
+    ----------
+    t : ndarray of shape (N,)
+        Sample times in seconds, strictly increasing; the sample index ``0, 1, ...`` when
+        ``has_time`` is False.
+    u : ndarray of shape (N,)
+        Input samples (finite), in ``units["input"]``.
+    name : str
+        The file stem, or the ``name=`` given.
+    units : mapping
+        ``"time"`` (``"s"``, or ``"sample"`` without a time axis) and ``"input"`` (the
+        unit of the input column, ``""`` when unknown).
+    columns : mapping
+        Column headers of the roles ``"time"`` (``""`` when none) and ``"input"``.
+    values : tuple of ndarray of shape (N,)
+        Every column of the file for the kept rows, in file order (aligned with
+        ``layout.columns``), as written: float64 (NaN for empty / NA cells), or text for
+        columns that are not numeric; the time column before any unit conversion.
+    extra : mapping of str to ndarray of shape (N,)
+        The columns other than time and input (float64 or text), keyed by name without
+        unit like :attr:`Recording.extra <core.recordings.Recording.extra>`.
+    extra_units : mapping of str to str
+        Units of the ``extra`` columns.
+    layout : CSVLayout
+        Delimiter, decimal mark, header and columns of the file.
+    source : str
+        File path, ``"<text>"`` or ``"<bytes>"``.
+    cleaning : tuple of str
+        Everything done to the raw data (removed rows with their lines, unit conversions).
+    has_time : bool
+        Whether ``t`` is a time axis (from a time column or ``fs=``).
+    lines : ndarray of int, shape (N,)
+        1-based source line of each sample.
+    """
+
+    t: np.ndarray
+    u: np.ndarray
+    name: str
+    units: dict[str, str]
+    columns: dict[str, str]
+    values: tuple[np.ndarray, ...]
+    extra: dict[str, np.ndarray]
+    extra_units: dict[str, str]
+    layout: CSVLayout
+    source: str
+    cleaning: tuple[str, ...]
+    has_time: bool
+    lines: np.ndarray
+
+    def __post_init__(self) -> None:
+        for a in (self.t, self.u, self.lines, *self.values, *self.extra.values()):
+            a.flags.writeable = False
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples ``N``."""
+        return int(self.u.size)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Column headers as written, in file order (``"column 0"``, ... without a header)."""
+        return tuple(c.raw for c in self.layout.columns)
+
+
+def read_input(
+    source: Source,
+    *,
+    time: ColumnSpec = None,
+    input: ColumnSpec = None,  # noqa: A002 - mirrors the role name
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    header: bool | None = None,
+    skiprows: int = 0,
+    encoding: str | None = None,
+    name: str | None = None,
+    fs: float | None = None,
+    time_unit: str | None = None,
+    nan: Literal["drop", "error"] = "drop",
+    max_dropped: float = 0.05,
+    min_samples: int = 1,
+    uneven: Literal["error", "keep"] = "error",
+    max_bytes: int = MAX_BYTES,
+    max_rows: int = MAX_ROWS,
+) -> InputSignal:
+    """Read an input signal (no output column) from CSV text, e.g. to simulate a model.
+
+    The layout is worked out and checked exactly as by :func:`read_csv` (encoding,
+    delimiter, decimal mark, header, unit row, preamble, ragged rows, non-numeric cells,
+    time column), with the same :class:`CSVError` messages. The differences: no column
+    is the output (all columns but time and input are kept in ``extra`` and ``values``),
+    a file of one column is accepted (it is the input), there is no run column, and a
+    constant input or a single sample is allowed.
+
+    Parameters
+    ----------
+    source : path, str, bytes or open file
+        As for :func:`read_csv`.
+    time : int, str, False or None
+        Time column (name or 0-based index), ``False`` for none, ``None`` to choose: a
+        column named ``t``/``time``/..., else the first column when there are at least two
+        and it is not named like an input or output (it must then strictly increase, else
+        the error asks for ``time=``).
+    input : int, str or None
+        Input column; ``None`` picks the column named ``u``/``u_*``/``input``, else the
+        first unused column not named like an output.
+    delimiter, decimal, header, skiprows, encoding, name, fs, time_unit
+        As for :func:`read_csv`.
+    nan : {"drop", "error"}
+        Rows whose input is empty, NaN or inf: removed and listed in ``cleaning``
+        (default), or ``CSVError`` naming the first one's line and column.
+    max_dropped : float
+        Largest fraction of rows ``nan="drop"`` may remove before it raises instead.
+    min_samples : int
+        Fewest samples the signal may have after cleaning (default 1).
+    uneven : {"error", "keep"}
+        Uneven time stamps raise ``CSVError`` (default) or are kept as measured (noted).
+    max_bytes, max_rows : int
+        Size limits, as for :func:`read_csv`.
+
+    Returns
+    -------
+    InputSignal
+        Time in s (or the sample index), input, and every column as written.
+
+    Raises
+    ------
+    CSVError
+        The message names the problem, the line and column, and the fix (see
+        :func:`read_csv`).
+
+    Examples
+    --------
+    >>> sig = read_input("t_ms,u_V\\n0,0\\n1,2.5\\n2,-1\\n")
+    >>> sig.t.tolist(), sig.u.tolist(), sig.units["input"]
+    ([0.0, 0.001, 0.002], [0.0, 2.5, -1.0], 'V')
+    """
+    _check_options(nan, uneven, max_dropped)
+    if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 1:
+        raise CSVError(f"min_samples={min_samples!r} must be a whole number >= 1")
+    table, stem = _table(
+        source, delimiter=delimiter, decimal=decimal, header=header, skiprows=skiprows,
+        encoding=encoding, max_bytes=max_bytes, max_rows=max_rows, min_columns=1,
+    )
+    lay = table.layout
+    label = lay.source
+    chosen, notes, time_auto = _choose_roles(
+        table, time=time, input=input, output=None, run=False, with_output=False
+    )
+    tcol, ucol = chosen["time"], chosen["input"]
+    assert ucol is not None
+    if fs is not None and tcol is not None:
+        raise CSVError(
+            f"{label}: fs={fs!r} was given but column {tcol.label()} is the time axis; pass "
+            "time=False to build the time from fs instead, or leave fs out",
+            source=label, column=tcol.raw, column_index=tcol.index,
+        )
+    t_raw, dt_note = _convert_time(table, tcol) if tcol is not None else (None, None)
+    u = _convert(table, ucol, strict=True, role="input")
+    assert u is not None
+    t_scale, t_unit_note = _time_scale(label, tcol, time_unit, dt_note)
+    notes = list(lay.notes) + notes
+    if t_unit_note:
+        notes.append(t_unit_note)
+    values: list[np.ndarray] = []
+    extras: dict[str, np.ndarray] = {}
+    extra_units: dict[str, str] = {}
+    for c in lay.columns:
+        if c is ucol:
+            values.append(u)
+            continue
+        if c is tcol and dt_note is None:
+            assert t_raw is not None
+            values.append(t_raw)
+            continue
+        arr = _convert(table, c, strict=False, role="extra")
+        if arr is None:
+            arr = np.asarray(table.column(c.index), dtype=str)
+            if c is not tcol:
+                notes.append(f"column {c.label()} is not numeric; kept as text in extra")
+        values.append(arr)
+        if c is not tcol:
+            key = c.name if c.name not in extras else f"{c.name}_{c.index}"
+            extras[key] = arr
+            extra_units[key] = c.unit
+    lines = table.lines
+    idx = np.arange(len(table.data))
+    has_time = True
+    if tcol is not None:
+        assert t_raw is not None
+        t = _check_time(t_raw * t_scale, lines, tcol, table, idx, label, "", time_auto,
+                        t_scale=t_scale, uneven=uneven, resample=False, notes=notes,
+                        roles="input=")
+    elif fs is not None:
+        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
+        t = idx / float(fs)
+        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
+    else:
+        t = idx.astype(np.float64)
+        has_time = False
+    bad = ~np.isfinite(u)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        cell = table.cell(first, ucol.index)
+        line = int(lines[first])
+        if nan == "error":
+            raise CSVError(
+                f"{label}: line {line}, input column {ucol.label()}: {cell!r} is not "
+                f"a finite number ({int(bad.sum())} such row(s)); fill in the value or pass "
+                "nan='drop' to remove those rows",
+                source=label, line=line, column=ucol.raw, column_index=ucol.index,
+            )
+        frac = bad.sum() / bad.size
+        if frac > max_dropped:
+            raise CSVError(
+                f"{label}: {int(bad.sum())} of {bad.size} rows ({100 * frac:.1f} %) have an "
+                f"empty/NaN/inf input {ucol.raw!r} (first at line {line}: {cell!r}); "
+                f"that is more than max_dropped={max_dropped:g}; check the export or raise "
+                "max_dropped",
+                source=label, line=line, column=ucol.raw, column_index=ucol.index,
+            )
+        notes.append(
+            f"removed {int(bad.sum())} row(s) with empty/NaN/inf input at line(s) "
+            f"{_lines_text([int(x) for x in lines[bad]])}"
+        )
+        if has_time and tcol is not None:
+            notes.append("the removed rows leave gaps in the time axis")
+        keep = ~bad
+        t, u, lines = t[keep], u[keep], lines[keep]
+        values = [v[keep] for v in values]
+        extras = {k: v[keep] for k, v in extras.items()}
+    for k, v in extras.items():
+        if v.dtype.kind == "f" and not np.isfinite(v).all():
+            nb = int((~np.isfinite(v)).sum())
+            notes.append(f"extra channel {k!r} has {nb} empty/NaN/inf value(s) (kept)")
+    if u.size < min_samples:
+        span = f" (lines {lines[0]}..{lines[-1]})" if u.size else ""
+        raise CSVError(
+            f"{label}: only {u.size} usable sample(s){span}, fewer than min_samples="
+            f"{min_samples}; give a longer signal (or pass a lower min_samples=)",
+            source=label,
+        )
+    return InputSignal(
+        t=np.array(t, dtype=np.float64), u=np.array(u, dtype=np.float64),
+        name=name or stem,
+        units={"time": "s" if has_time else "sample", "input": ucol.unit},
+        columns={"time": tcol.raw if tcol is not None else "", "input": ucol.raw},
+        values=tuple(np.array(v) for v in values), extra=extras, extra_units=extra_units,
+        layout=lay, source=label, cleaning=tuple(notes), has_time=has_time,
+        lines=np.array(lines, dtype=np.int64),
+    )
 
 
 def read_recording(source: Source, **kwargs: object) -> Recording:

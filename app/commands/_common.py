@@ -33,7 +33,6 @@ __all__ = [
     "existing_file",
     "parse_window",
     "pick_column",
-    "read_columns",
     "read_parameter_set",
     "uniform_dt",
     "window_arg",
@@ -178,58 +177,6 @@ def column_spec(col: str | int | None) -> int | str | None:
     return int(col) if isinstance(col, int) or str(col).isdigit() else str(col)
 
 
-def read_columns(path: str | Path) -> tuple[list[str], np.ndarray]:
-    """Read a numeric CSV file with a header row.
-
-    Parameters
-    ----------
-    path : str or Path
-        Comma-separated file; the first row names the columns.
-
-    Returns
-    -------
-    names : list of str
-    data : ndarray of shape (N, C)
-
-    Raises
-    ------
-    CommandError
-        Missing file, no header, non-numeric cells (row and column named), ragged rows.
-    """
-    p = existing_file(path, "CSV file")
-    with p.open(newline="", encoding="utf-8") as fh:
-        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
-    if not rows:
-        raise CommandError(f"{p}: the file is empty; expected a header row and numeric rows")
-    header = [h.strip() for h in rows[0]]
-    if all(_is_float(h) for h in header):
-        raise CommandError(f"{p}: the first row must name the columns (e.g. t,u), got numbers")
-    data = np.empty((len(rows) - 1, len(header)))
-    for i, row in enumerate(rows[1:], start=2):
-        if len(row) != len(header):
-            raise CommandError(
-                f"{p}: line {i} has {len(row)} values but the header has {len(header)} columns"
-            )
-        for j, cell in enumerate(row):
-            try:
-                data[i - 2, j] = float(cell)
-            except ValueError:
-                raise CommandError(
-                    f"{p}: line {i}, column {header[j]!r}: {cell.strip()!r} is not a number"
-                ) from None
-    if data.shape[0] == 0:
-        raise CommandError(f"{p}: no data rows after the header")
-    return header, data
-
-
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
-
-
 def pick_column(
     names: Sequence[str], wanted: str | None, defaults: Sequence[str], fallback: int | None,
     what: str, path: str | Path,
@@ -261,17 +208,40 @@ def pick_column(
 
 
 def write_columns(path: str | Path, names: Sequence[str], columns: Sequence[np.ndarray]) -> Path:
-    """Write columns as CSV with a header; shortest exact (round-trip) float text.
+    """Write columns as CSV with a header row.
 
-    Creates parent directories. Returns the path written.
+    Parameters
+    ----------
+    path : str or Path
+        Destination file (overwritten); parent directories are created.
+    names : sequence of str
+        Column headers (quoted only when they hold a comma or a quote).
+    columns : sequence of ndarray of shape (N,)
+        Numeric columns are written as the shortest exact (round-trip) float text; text
+        columns (e.g. date-times copied from an input file) verbatim.
+
+    Returns
+    -------
+    Path
+        The path written.
     """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    data = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns])
+    arrays = [np.asarray(c) for c in columns]
     with p.open("w", encoding="utf-8", newline="") as fh:
-        fh.write(",".join(names) + "\n")
-        for row in data.tolist():
-            fh.write(",".join(repr(v) for v in row) + "\n")
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(names)
+        if all(a.dtype.kind in "biuf" for a in arrays):
+            data = np.column_stack([a.astype(np.float64) for a in arrays])
+            for row in data.tolist():
+                fh.write(",".join(repr(v) for v in row) + "\n")
+        else:
+            cells = [
+                [repr(v) for v in a.astype(np.float64).tolist()] if a.dtype.kind in "biuf"
+                else [str(v) for v in a.tolist()]
+                for a in arrays
+            ]
+            writer.writerows(zip(*cells, strict=True))
     return p
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 import numpy as np
@@ -11,8 +12,8 @@ from ._common import (
     CommandError,
     add_json_flag,
     emit,
+    existing_file,
     pick_column,
-    read_columns,
     read_parameter_set,
     uniform_dt,
     write_columns,
@@ -28,9 +29,11 @@ def register(subparsers: Any) -> None:
         help="apply a model to an input signal from a CSV file",
         description=(
             "Read IN.csv (header row; a time column and an input column, by default 't' and "
-            "'u' or the first two columns), apply the model from its initial state and write "
-            "OUT.csv with the input columns plus the output column. Dynamic models take dt "
-            "from the (uniform) time column or from --dt."
+            "'u' or the first two columns; other columns, e.g. a measured 'y', are copied "
+            "through; delimiter, decimal comma, comment lines and units are handled as by "
+            "hyst fit), apply the model from its initial state and write OUT.csv with the "
+            "input columns plus the output column. Dynamic models take dt from the "
+            "(uniform) time column, in s or with its unit (t_ms, t [us]), or from --dt."
         ),
     )
     p.add_argument("model", metavar="MODEL.json", help="parameter set (or bare model)")
@@ -49,10 +52,21 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Simulate and write the output CSV."""
+    """Simulate and write the output CSV.
+
+    The input file is read by :func:`core.csvio.read_input` (its ``CSVError`` names the
+    line, the column and the fix); every column is written back as read, followed by the
+    model output, one row per input sample.
+    """
+    from core.csvio import inspect_csv, read_input
+
     ps = read_parameter_set(args.model, require_inverse=args.inverse)
     model = ps.model.inverse() if args.inverse else ps.model
-    names, data = read_columns(args.input)
+    src = existing_file(args.input, "CSV file")
+    layout = inspect_csv(src, min_columns=1)
+    if not layout.header:
+        raise CommandError(f"{src}: the first row must name the columns (e.g. t,u), got numbers")
+    names = [c.raw for c in layout.columns]
     if len(names) == 1 and args.time is None:
         it, iu = None, pick_column(names, args.input_column, ("u",), 0, "input", args.input)
     else:
@@ -63,25 +77,31 @@ def run(args: argparse.Namespace) -> int:
                 f"{args.input}: the time and input columns are both {names[iu]!r}; "
                 "name them with --time and --input-column"
             )
-    t = data[:, it] if it is not None else None
-    u = data[:, iu]
-    dt = args.dt
-    if model.is_dynamic and dt is None:
-        if t is None:
-            raise CommandError(f"{args.input}: the model has dynamics; give --dt or a time column")
-        dt = uniform_dt(t, args.input)
-    if dt is not None and not (np.isfinite(dt) and dt > 0):
-        raise CommandError(f"--dt must be a positive number of seconds, got {dt}")
-    y = model(u, dt=dt)
     if args.output_name in names:
         raise CommandError(
             f"{args.input} already has a column {args.output_name!r}; choose --output-name"
         )
-    path = write_columns(args.output, [*names, args.output_name], [*data.T, y])
+    dt = args.dt
+    if dt is not None and not (np.isfinite(dt) and dt > 0):
+        raise CommandError(f"--dt must be a positive number of seconds, got {dt}")
+    need_time = model.is_dynamic and dt is None
+    if need_time and it is None:
+        raise CommandError(f"{args.input}: the model has dynamics; give --dt or a time column")
+    # the time column is only checked (increasing, unit, uniform) when dt comes from it
+    sig = read_input(src, time=it if need_time else False, input=iu, header=True,
+                     nan="error", uneven="keep")
+    if need_time:
+        dt = uniform_dt(sig.t, args.input)
+    for note in sig.cleaning:
+        print(f"hyst simulate: note: {note}", file=sys.stderr)
+    u = sig.u
+    y = model(u, dt=dt)
+    path = write_columns(args.output, [*names, args.output_name], [*sig.values, y])
     text = (
         f"wrote {path}: {u.size} samples, {args.output_name} in "
         f"[{y.min():.6g}, {y.max():.6g}] {ps.units.input if args.inverse else ps.units.output}"
     )
     emit(args, text, {"output": str(path), "n_samples": int(u.size), "dt": dt,
-                      "y_min": float(y.min()), "y_max": float(y.max())})
+                      "y_min": float(y.min()), "y_max": float(y.max()),
+                      "notes": list(sig.cleaning)})
     return 0

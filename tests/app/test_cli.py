@@ -232,7 +232,9 @@ def test_simulate_errors(ex1_file, tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("t,u\n0,1\n0.1,abc\n")
     code, _, err = run(capsys, "simulate", ex1_file, "-i", bad, "-o", tmp_path / "o.csv")
-    assert code == 2 and "line 3, column 'u': 'abc' is not a number" in err
+    # core.csvio's message: line, role and column, the cell, what to do
+    assert code == 2 and "line 3, input column 'u' (column 1): 'abc' is not a number" in err
+    assert "fix or delete that row" in err
     ok = write_csv(tmp_path / "ok.csv", "time,drive", np.array([[0, 1.0], [1, 2.0]]))
     code, _, err = run(capsys, "simulate", ex1_file, "-i", ok, "-o", tmp_path / "o.csv",
                        "--input-column", "volts")
@@ -427,7 +429,7 @@ def test_demo_opens_a_browser_only_with_a_display(tmp_path, capsys, monkeypatch)
         ("", "the file is empty"),
         ("1,2\n3,4\n", "the first row must name the columns"),
         ("t,u\n", "no data rows after the header"),
-        ("t,u\n0,1\n1,2,3\n", "line 3 has 3 values but the header has 2 columns"),
+        ("t,u\n0,1\n1,2,3\n", "line 3 has 3 field(s) but the header (line 1) has 2"),
     ],
 )
 def test_simulate_reports_bad_csv_layouts(text, message, ex1_file, tmp_path, capsys):
