@@ -146,6 +146,13 @@ def write_report(res: Any, path: str | Path) -> Path:
         )
         amb = (f"<p>Ambiguous with: {html.escape(', '.join(e.ambiguous_with))}</p>"
                if e.ambiguous_with else "")
+        cf = e.crossfit
+        if cf:
+            amb = (f"<p>Significance with the cross-fitted training blocks (test rows + "
+                   f"{cf['folds']} blocks, each predicted by a fit without it): DM z = "
+                   f"{cf['dm_z_pooled']:.2f}, signed-rank p = {cf['signed_rank_p_pooled']:.2g}; "
+                   "MSE reduction per block " + ", ".join(
+                       f"{100 * g:+.0f} %" for g in cf["fold_mse_reductions"]) + "</p>" + amb)
         parts.append(
             f"<div class='card'><h2>{i}. {html.escape(e.name)}</h2>"
             f"<p><b>Why:</b> {html.escape(e.explanation)}</p>"
@@ -163,7 +170,9 @@ def write_report(res: Any, path: str | Path) -> Path:
                      "decide.</p><ul>" + "".join(
                          f"<li>{html.escape(g['effect'])}: held-out MSE "
                          f"-{100 * g['heldout_mse_reduction']:.0f} %, DM z = {g['dm_z']:.2f}, "
-                         f"signed-rank p = {g['signed_rank_p']:.2g}</li>"
+                         f"signed-rank p = {g['signed_rank_p']:.2g}"
+                         + (f"; with the cross-fitted training blocks DM z = "
+                            f"{g['dm_z_pooled']:.2f}" if "dm_z_pooled" in g else "") + "</li>"
                          for g in d["suggestive"]) + "</ul>")
     if d["ambiguous"]:
         parts.append("<h2>Ambiguous</h2><ul>" + "".join(

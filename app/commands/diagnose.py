@@ -17,7 +17,8 @@ untestable, look-alikes that the recordings cannot separate as ambiguous.
                    "explanation": "...", "equation": "...",
                    "heldout_rmse_before": ..., "heldout_rmse_after": ..., "dm_z": ...,
                    "signed_rank_p": ..., "heldout_mse_reduction": ..., "ambiguous_with": [...],
-                   ...}],
+                   "crossfit": {"folds", "dm_z_pooled", "signed_rank_p_pooled",
+                                "fold_mse_reductions", "parameter_cv", ...} or null, ...}],
       "untestable": [{"name", "reason", "experiment"}],
       "ambiguous": [{"effects", "chosen", "reason", "experiment"}],
       "final": {"effects", "heldout_rmse", "heldout_rmse_pct", "per_recording", "model", "maps"},
@@ -65,6 +66,9 @@ def register(subparsers: Any) -> None:
                    help="play operators of the baseline (default: 25)")
     p.add_argument("--fixed-grid", action="store_true",
                    help="keep exactly --operators plays (no automatic grid refinement)")
+    p.add_argument("--no-crossfit", action="store_true",
+                   help="with --train/--test, judge significance on the test rows only (by "
+                   "default the training window's cross-fitted blocks are added)")
     p.add_argument("--effects", metavar="LIST",
                    help="comma-separated effects to test (default: all)")
     p.add_argument("--json", action="store_true",
@@ -142,7 +146,8 @@ def run(args: argparse.Namespace) -> int:
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     res = diagnose(list(args.files), model=args.model, train=args.train, test=args.test,
                    n_operators=args.operators, effects=effects,
-                   auto_resolution=not args.fixed_grid)
+                   auto_resolution=not args.fixed_grid,
+                   crossfit=False if args.no_crossfit else None)
     if args.save_model:
         p = save_model(res, args.save_model, _units(args.files[0]),
                        source="hyst diagnose " + " ".join(Path(f).name for f in args.files))

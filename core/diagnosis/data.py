@@ -13,7 +13,15 @@ from .._typing import Float1D
 from ..exceptions import ParameterError
 from ..validation import as_input_signal
 
-__all__ = ["Record", "as_records", "load_csv", "split_masks", "reversal_points", "wipeout_index"]
+__all__ = [
+    "Record",
+    "as_records",
+    "crossfit_folds",
+    "load_csv",
+    "reversal_points",
+    "split_masks",
+    "wipeout_index",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -200,3 +208,57 @@ def wipeout_index(u: Float1D, frac: float = 0.98) -> int:
     if a.size == 0 or b.size == 0:
         return u.size
     return int(max(a[0], b[0]))
+
+
+def crossfit_folds(
+    records: Sequence[Record],
+    train: Sequence[np.ndarray],
+    min_block_s: float = 0.5,
+    max_blocks: int = 8,
+) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
+    """Blocked cross-validation folds over the training rows (after the wipe-out time).
+
+    The training rows of each recording that come after its wipe-out time
+    (:func:`wipeout_index`) are cut into contiguous blocks of at least ``min_block_s``
+    seconds (at most ``max_blocks`` in all); each fold holds one block out. Rows before the
+    wipe-out time are kept in every fold's training rows: their prediction depends on the
+    unknown initial memory state, which is judged separately.
+
+    Parameters
+    ----------
+    records : sequence of Record
+    train : sequence of ndarray of bool
+        Training rows per recording.
+    min_block_s : float
+        Shortest block (s).
+    max_blocks : int
+        Largest number of folds.
+
+    Returns
+    -------
+    list of (train_masks, block_masks)
+        Per fold, the training masks without the block and the block masks (per recording).
+        Empty when fewer than two blocks fit.
+    """
+    spans = []
+    for k, (r, m) in enumerate(zip(records, train, strict=True)):
+        keep = m.copy()
+        keep[: wipeout_index(r.u)] = False
+        idx = np.flatnonzero(keep)
+        if idx.size:
+            spans.append((k, idx, idx.size * r.dt))
+    total = sum(s for _, _, s in spans)
+    nb_total = int(min(max_blocks, total // min_block_s))
+    if nb_total < 2:
+        return []
+    folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = []
+    for k, idx, dur in spans:
+        nb = int(round(nb_total * dur / total))
+        if nb < 1 or dur < min_block_s:
+            continue
+        edges = np.linspace(0, idx.size, nb + 1).astype(int)
+        for i in range(nb):
+            blocks = [np.zeros(r.n, dtype=bool) for r in records]
+            blocks[k][idx[edges[i] : edges[i + 1]]] = True
+            folds.append(([m & ~b for m, b in zip(train, blocks, strict=True)], blocks))
+    return folds if len(folds) >= 2 else []

@@ -10,6 +10,12 @@
    residuals) or, when the effect lives in a few segments (where DM is conservative), a
    Wilcoxon signed-rank test of the batch means with p < 0.01 / K (Bonferroni over the K
    effects tested in the round).
+   With explicit train/test windows the significance test also uses the training window:
+   blocked cross-fitting (each training block after the wipe-out time predicted by the
+   current model and by the candidate, both refitted without that block, the candidate's
+   nonlinear parameters searched anew) adds those blocks to the held-out rows, and the
+   nonlinear parameters must agree across folds (coefficient of variation < 30 %). The
+   effect-size rules and all reported held-out RMSE stay on the test rows.
    An initial memory state can only change the rows before the wipe-out time, so
    ``initial-memory`` (1-2 virtual extrema picked from a grid on the training rows) is judged
    on those rows and must not worsen the held-out rows.
@@ -35,7 +41,7 @@ from .._typing import Float1D
 from ..base import Model
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
-from .data import Record, as_records, split_masks, wipeout_index
+from .data import Record, as_records, crossfit_folds, split_masks, wipeout_index
 from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
 from .structure import Fit, Structure, _Cache, build_model, fit_structure, place_thresholds
@@ -49,6 +55,7 @@ ACCEPT_RULE: dict[str, float] = {
     "min_z": 3.0,
     "sign_p": 0.01,
     "family_margin": 0.10,
+    "max_param_cv": 0.30,
 }
 
 FAMILIES: dict[str, str] = {
@@ -146,6 +153,8 @@ class EffectFinding:
     discriminators: dict[str, Any] = field(default_factory=dict)
     ambiguous_with: list[str] = field(default_factory=list)
     runner_up: dict[str, Any] = field(default_factory=dict)
+    crossfit: dict[str, Any] | None = None
+    uncertainty_method: str = "profile curvature"
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -155,6 +164,7 @@ class EffectFinding:
             "family": FAMILIES[self.name],
             "parameters": _jsonable(self.parameters),
             "uncertainty": _jsonable(self.uncertainty),
+            "uncertainty_method": self.uncertainty_method,
             "where": _jsonable(self.where),
             "explanation": self.explanation,
             "equation": self.equation,
@@ -169,6 +179,7 @@ class EffectFinding:
             "discriminators": _jsonable(self.discriminators),
             "ambiguous_with": list(self.ambiguous_with),
             "runner_up": _jsonable(self.runner_up),
+            "crossfit": _jsonable(self.crossfit),
         }
 
 
@@ -235,7 +246,8 @@ class DiagnosisResult:
         last = max(r["round"] for r in self.rounds)
         return [
             {k: r[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
-                               "parameters")}
+                               "parameters", "dm_z_pooled", "signed_rank_p_pooled",
+                               "parameter_cv") if k in r}
             for r in self.rounds
             if r["round"] == last and not r["passes"] and r["heldout_mse_reduction"] >= 0.05
             and not str(r["effect"]).startswith(("resolution", "recheck"))
@@ -407,6 +419,12 @@ class DiagnosisResult:
                 f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
                 f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} %, "
                 f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}",
+            ] + ([
+                f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
+                f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
+                f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
+                + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
+            ] if e.crossfit else []) + [
                 f"   where: {e.where.get('summary', '')}",
                 f"   why: {e.explanation}",
                 f"   added: {e.equation}",
@@ -424,10 +442,14 @@ class DiagnosisResult:
                          f"{lf_['rmse']:.4g} (MSE {-100 * lf_['mse_reduction'] + 0.0:+.1f} %); "
                          f"{per}")
         for sg in self.suggestive:
+            pooled = (f"; with the cross-fitted blocks z = {sg['dm_z_pooled']:.2f}, "
+                      f"p = {sg['signed_rank_p_pooled']:.2g}, parameter CV across folds "
+                      + ", ".join(f"{k} {100 * v:.0f} %" for k, v in sg["parameter_cv"].items())
+                      if "dm_z_pooled" in sg else "")
             lines.append(f"Suggestive, not claimed: {sg['effect']} (held-out MSE "
                          f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
-                         f"signed-rank p = {sg['signed_rank_p']:.2g}: below the significance "
-                         "rule)")
+                         f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
+                         "acceptance rule)")
         for a in self.ambiguous:
             lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
                          f"{a['experiment']}")
@@ -463,13 +485,19 @@ def _jsonable(x: Any) -> Any:
 
 # ----------------------------------------------------------------------------- context
 class _Ctx:
-    def __init__(self, records, train, test) -> None:
+    def __init__(self, records, train, test, folds=None, parent: _Ctx | None = None) -> None:
         self.records: list[Record] = records
         self.train: list[np.ndarray] = train
         self.test: list[np.ndarray] = test
         self.cache = _Cache()
-        self.coords: list[Coordinates] = coordinates(records)
+        if parent is not None:
+            # play banks do not depend on the rows used; share them (bases are re-derived)
+            self.cache.d = parent.cache.d
+        self.coords: list[Coordinates] = (coordinates(records) if parent is None
+                                          else parent.coords)
         self.n_train = sum(int(m.sum()) for m in train)
+        #: blocked cross-validation folds over the training rows (explicit windows only)
+        self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         f = fit_structure(s, self.records, self.train, self.cache,
@@ -572,7 +600,9 @@ def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
         import scipy.optimize as so
 
         fmax = 0.35 / dt
-        fmin = max(5.0 / dur, 2.0)
+        # a mode at or near the excitation frequency is a phase/gain fudge of the loop
+        # itself, not a resonance (it fits the training rows and wrecks the held-out ones)
+        fmin = max(5.0 / dur, 2.0, 3.0 * _excitation_hz(ctx.records))
         fs = np.geomspace(fmin, fmax, 7)
         zs = np.array([0.05, 0.2, 0.7])
         best = (np.inf, fs[0], zs[0])
@@ -650,6 +680,20 @@ def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
     raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
 
 
+def _excitation_hz(records: Sequence[Record]) -> float:
+    """Slowest fundamental over the recordings: half the number of input reversals per
+    second (reversals larger than 10 % of the input range)."""
+    from .data import reversal_points
+
+    rates = []
+    for r in records:
+        dur = float(r.t[-1] - r.t[0])
+        span = float(np.ptp(r.u))
+        if dur > 0 and span > 0:
+            rates.append(0.5 * (reversal_points(r.u, 0.1 * span).size - 1) / dur)
+    return min(rates) if rates else 0.0
+
+
 def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
     s = cur.structure
     hist = list(s.history)
@@ -692,6 +736,120 @@ def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
         return None
     fit = ctx.fit(s.with_(history=tuple(hist)), cur)
     return fit, {"history": [list(h) for h in hist]}, {}
+
+
+#: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
+_SCALAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
+
+
+def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
+    """Held-out evidence from the training window itself, by blocked cross-fitting.
+
+    For each fold of ``ctx.folds`` the current structure's linear weights are re-solved
+    without the block and effect ``name`` is fitted anew on top (its nonlinear parameters
+    searched again), then both predict the block. The block residuals of all folds are
+    pooled with the test rows into one Diebold–Mariano / signed-rank comparison.
+
+    Returns
+    -------
+    dict or None
+        ``pooled`` (HeldOut over test rows + blocks), ``folds``, ``fold_gains``,
+        ``fold_parameters`` and ``parameter_cv`` (coefficient of variation across folds of
+        each scalar nonlinear parameter); ``None`` without folds.
+    """
+    if not ctx.folds:
+        return None
+    eb, ea = list(ctx.test_res(cur)), list(ctx.test_res(fit))
+    n_test = sum(e.size for e in eb)
+    gains, params = [], []
+    for tr_f, blk in ctx.folds:
+        fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+        cur_f = fc.fit(cur.structure, cur)
+        got = _candidate(fc, name, cur_f)
+        if got is None:
+            return None
+        b0, b1 = fc.test_res(cur_f), fc.test_res(got[0])
+        eb += b0
+        ea += b1
+        m0 = float(np.mean(np.concatenate(b0) ** 2))
+        m1 = float(np.mean(np.concatenate(b1) ** 2))
+        gains.append(1.0 - m1 / m0 if m0 > 0 else 0.0)
+        params.append(got[1])
+    n_all = sum(e.size for e in eb)
+    pooled = heldout_comparison(eb, ea, n_batches=int(round(40 * n_all / max(n_test, 1))))
+    cv: dict[str, float] = {}
+    for key in _SCALAR_PARAMS:
+        vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
+        if vals.size == len(params) and vals.size >= 2 and np.mean(vals) != 0:
+            cv[key] = float(np.std(vals, ddof=1) / abs(np.mean(vals)))
+    return {"pooled": pooled, "folds": len(ctx.folds), "fold_gains": gains,
+            "fold_parameters": params, "parameter_cv": cv}
+
+
+#: Effects whose parameters are linear weights (one least-squares solve, cheap to refit).
+_LINEAR_EFFECTS = ("creep", "drift", "asymmetry", "offset")
+
+
+def _jackknife(param_sets: list[dict[str, Any]]) -> dict[str, Any]:
+    """Block-jackknife 1-sigma of every numeric parameter from delete-one-block fits.
+
+    ``sd = sqrt((K - 1) / K * sum_k (theta_k - mean)^2)`` elementwise; parameters fixed by
+    design (identical in every fold, e.g. creep time constants) are left out.
+    """
+    out: dict[str, Any] = {}
+    k = len(param_sets)
+    if k < 2:
+        return out
+    for key in param_sets[0]:
+        try:
+            a = np.asarray([p[key] for p in param_sets], dtype=np.float64)
+        except (TypeError, ValueError, KeyError):
+            continue
+        if a.shape[0] != k or not np.all(np.isfinite(a)) or np.all(a == a[0]):
+            continue
+        sd = np.sqrt((k - 1) / k * np.sum((a - a.mean(axis=0)) ** 2, axis=0))
+        out[key] = sd.tolist() if sd.ndim else float(sd)
+    return out
+
+
+def _effect_uncertainty(ctx: _Ctx, name: str, cur: Fit, unc: dict[str, Any],
+                        cf: dict[str, Any] | None, train: list[np.ndarray]
+                        ) -> tuple[dict[str, Any], str]:
+    """1-sigma uncertainties of an accepted effect's parameters, and how they were obtained.
+
+    Block jackknife over training blocks (:func:`core.diagnosis.data.crossfit_folds`): free
+    when the effect was cross-fitted for its significance test, otherwise refitted for the
+    linear effects (one solve per fold). Dynamics found without cross-fitting keep their
+    profile-curvature sigmas (inflated for autocorrelation); the initial memory has none.
+    """
+    params = cf["fold_parameters"] if cf is not None else None
+    if params is None and name in _LINEAR_EFFECTS:
+        folds = ctx.folds or crossfit_folds(ctx.records, train)
+        params = []
+        for tr_f, blk in folds:
+            fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+            got = _candidate(fc, name, fc.fit(cur.structure, cur))
+            if got is None:
+                params = None
+                break
+            params.append(got[1])
+    jk = _jackknife(params) if params else {}
+    if jk:
+        return {**unc, **jk}, f"block jackknife over {len(params)} training blocks"
+    if any(v is not None for v in unc.values()):
+        return unc, "profile curvature (inflated for residual autocorrelation)"
+    return unc, "none"
+
+
+def _cf_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:
+    """JSON-ready summary of :func:`_crossfit` (``None`` when it was not used)."""
+    if cf is None:
+        return None
+    p: HeldOut = cf["pooled"]
+    return {"folds": cf["folds"], "dm_z_pooled": p.z, "signed_rank_p_pooled": p.sign_p,
+            "mse_reduction_pooled": p.gain, "batches": p.n_batches,
+            "fold_mse_reductions": cf["fold_gains"], "fold_parameters": cf["fold_parameters"],
+            "parameter_cv": cf["parameter_cv"]}
 
 
 def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
@@ -789,6 +947,7 @@ def diagnose(
     effects: Sequence[str] | None = None,
     max_effects: int = 5,
     auto_resolution: bool = True,
+    crossfit: bool | None = None,
 ) -> DiagnosisResult:
     """Locate, name, model and validate the physics a PI model leaves out.
 
@@ -810,6 +969,16 @@ def diagnose(
         Effects to test (default: all of :data:`core.effects.EFFECT_TYPES`).
     max_effects : int
         Stop after this many accepted effects.
+    crossfit : bool, optional
+        Add blocked cross-fitting evidence from the training window to the significance test
+        (:func:`core.diagnosis.data.crossfit_folds`): a candidate that passes the effect-size
+        rules on the test rows is refitted with each training block held out in turn, and the
+        Diebold–Mariano / signed-rank tests run on the test rows and those blocks together;
+        its nonlinear parameters must also agree across folds (coefficient of variation
+        below 30 %). Default: on with explicit ``train``/``test`` windows (one contiguous
+        test window holds few independent batches), off for the interleaved split (its test
+        blocks already span every recording). The effect-size rules and every reported
+        held-out RMSE use the test rows only.
 
     Returns
     -------
@@ -830,7 +999,11 @@ def diagnose(
             raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
     records = as_records(recordings)
     trm, tem, desc = split_masks(records, train, test)
-    ctx = _Ctx(records, trm, tem)
+    if crossfit is None:
+        crossfit = train is not None and test is not None
+    ctx = _Ctx(records, trm, tem, folds=crossfit_folds(records, trm) if crossfit else None)
+    if ctx.folds:
+        desc += f"; significance also on {len(ctx.folds)} cross-fitted training blocks"
     # under-resolution check (notes E13): double the grid while the held-out MSE drops by
     # >= 2 % (model selection of a nuisance, not a physics claim: no significance needed)
     # saturating loops (friction) need play weights of either sign: switch when the
@@ -891,17 +1064,41 @@ def diagnose(
             break
         record = []
         passing = []
-        for name, (_, params, _, h) in cands.items():
-            excess = mse_cur - noise**2
-            ok = (
-                h.gain >= ACCEPT_RULE["min_gain"]
-                and (h.mse_before - h.mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
-                and (h.z >= ACCEPT_RULE["min_z"]
-                     or h.sign_p < ACCEPT_RULE["sign_p"] / len(cands))
-            )
-            record.append({"round": rnd + 1, "effect": name, "heldout_mse_reduction": h.gain,
-                           "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
-                           "parameters": params})
+        cfs: dict[str, dict[str, Any]] = {}
+        excess = mse_cur - noise**2
+        size_ok = {n: c[3].gain >= ACCEPT_RULE["min_gain"] and (
+            c[3].mse_before - c[3].mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
+            for n, c in cands.items()}
+        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"}
+        skip = _cannot_win(cands, size_ok, needs_cf, len(cands))
+        for name, (fit_, params, _, h) in cands.items():
+            sig = h
+            stable = True
+            row: dict[str, Any] = {"round": rnd + 1, "effect": name,
+                                   "heldout_mse_reduction": h.gain, "dm_z": h.z,
+                                   "signed_rank_p": h.sign_p, "evidence": "test rows"}
+            if name in skip:
+                row.update({"passes": False, "decision": "deferred", "parameters": params,
+                            "evidence": "not needed: an effect of a higher-priority family "
+                            "passed and explains at least 2/3 as much"})
+                record.append(row)
+                continue
+            if name in needs_cf:
+                cf = _crossfit(ctx, name, cur, fit_)
+                if cf is not None:
+                    cfs[name] = cf
+                    sig = cf["pooled"]
+                    stable = all(v < ACCEPT_RULE["max_param_cv"]
+                                 for v in cf["parameter_cv"].values())
+                    row.update({"evidence": f"test rows + {cf['folds']} cross-fitted blocks",
+                                "dm_z_pooled": sig.z, "signed_rank_p_pooled": sig.sign_p,
+                                "mse_reduction_pooled": sig.gain,
+                                "fold_mse_reductions": cf["fold_gains"],
+                                "parameter_cv": cf["parameter_cv"]})
+            ok = size_ok[name] and stable and (sig.z >= ACCEPT_RULE["min_z"]
+                                         or sig.sign_p < ACCEPT_RULE["sign_p"] / len(cands))
+            row.update({"passes": bool(ok), "parameters": params})
+            record.append(row)
             if ok:
                 passing.append(name)
         if not passing:
@@ -925,6 +1122,8 @@ def diagnose(
             ):
                 amb.append(other)
         for rec_ in record:
+            if rec_.get("decision") == "deferred":
+                continue
             rec_["decision"] = "accepted" if rec_["effect"] == best else (
                 "ambiguous" if rec_["effect"] in amb else ("passes" if rec_["passes"]
                                                            else "rejected"))
@@ -939,11 +1138,13 @@ def diagnose(
                                ctx.coords)
         where["outside_train_test"] = _outside(records, ctx.all_res(cur), ctx.all_res(fit), used)
         J0_lm = _score(ctx, cur, fit)
+        unc, unc_how = _effect_uncertainty(ctx, best, cur, unc, cfs.get(best), trm)
         findings.append(
             EffectFinding(
                 name=best,
                 parameters=params,
                 uncertainty=unc,
+                uncertainty_method=unc_how,
                 where=where,
                 explanation=EXPLANATIONS[best],
                 equation=EQUATIONS[best],
@@ -954,6 +1155,7 @@ def diagnose(
                 discriminators=disc,
                 ambiguous_with=amb,
                 runner_up=runner,
+                crossfit=_cf_summary(cfs.get(best)),
             )
         )
         for other in amb:
@@ -1158,6 +1360,32 @@ def _choose(passing: list[str], gains: dict[str, float]) -> str:
         if gains[by_fam[f]] >= 1.5 * gains[pick]:
             pick = by_fam[f]
     return pick
+
+
+def _cannot_win(cands: dict[str, tuple], size_ok: dict[str, bool], needs_cf: set[str],
+                n_tests: int) -> set[str]:
+    """Candidates whose cross-fitting can be skipped: :func:`_choose` could not pick them.
+
+    When an effect that needs no cross-fitting already passes in the highest-priority family
+    that has passing effects, a later family can only be picked with at least 1.5 times that
+    family's best gain (:func:`_choose`); families below that bound are left undecided
+    ("deferred") in this round and are tested again in the next one.
+    """
+    sure = [n for n in cands if size_ok[n] and n not in needs_cf and (
+        cands[n][3].z >= ACCEPT_RULE["min_z"]
+        or cands[n][3].sign_p < ACCEPT_RULE["sign_p"] / n_tests)]
+    if not sure or not needs_cf:
+        return set()
+    top = min(FAMILY_PRIORITY[FAMILIES[n]] for n in sure)
+    if any(FAMILY_PRIORITY[FAMILIES[n]] <= top for n in needs_cf):
+        return set()
+    fam_top = {FAMILIES[n] for n in sure if FAMILY_PRIORITY[FAMILIES[n]] == top}
+    bound = 1.5 * max(cands[n][3].gain for n in sure if FAMILIES[n] in fam_top)
+    best_of_family: dict[str, float] = {}
+    for n in needs_cf:
+        f = FAMILIES[n]
+        best_of_family[f] = max(best_of_family.get(f, -np.inf), cands[n][3].gain)
+    return {n for n in needs_cf if best_of_family[FAMILIES[n]] < bound}
 
 
 def _score(ctx: _Ctx, cur: Fit, new: Fit) -> float:
