@@ -7,7 +7,15 @@ from __future__ import annotations
 
 from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
 from .closed_loop import ClosedLoopResult, HammersteinLoop, paper001_loop, simulate_fig16
-from .csvio import CSVError, inspect_csv, read_csv, read_csvs, read_recording
+from .csvio import (
+    CSVError,
+    InputSignal,
+    inspect_csv,
+    read_csv,
+    read_csvs,
+    read_input,
+    read_recording,
+)
 from .datasets import dataset_info, list_datasets, load_dataset
 from .deadzone import DeadZoneMap
 from .diagnosis import DiagnosisResult, diagnose
@@ -84,6 +92,7 @@ __all__ = [
     "paper001_loop",
     "simulate_fig16",
     "CSVError",
+    "InputSignal",
     "Recording",
     "dataset_info",
     "inspect_csv",
@@ -91,6 +100,7 @@ __all__ = [
     "load_dataset",
     "read_csv",
     "read_csvs",
+    "read_input",
     "read_recording",
     "CExportError",
     "ParameterSet",

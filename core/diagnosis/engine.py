@@ -1180,6 +1180,14 @@ def diagnose(
             auto_resolution) else fit
         if fam == "dynamics" and best != "rate":
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
+            if best in ("lag", "delay") and "creep" in untest_names:
+                ambiguous.append({
+                    "effects": [findings[-1].name, "creep"],
+                    "chosen": findings[-1].name,
+                    "reason": "without holds, the fast end of a creep relaxation spectrum acts "
+                    "as a lag at the excitation frequency; creep itself was untestable",
+                    "experiment": UNTESTABLE_EXPERIMENT["creep"],
+                })
         todo = [e for e in todo if e != best and not (
             FAMILIES[e] == "dynamics" and fam == "dynamics" and e != "rate")]
     loro_b = loro_f = None
