@@ -155,6 +155,8 @@ class EffectFinding:
     runner_up: dict[str, Any] = field(default_factory=dict)
     crossfit: dict[str, Any] | None = None
     uncertainty_method: str = "profile curvature"
+    structure: Structure | None = None
+    loro: dict[str, Any] | None = None
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -165,6 +167,7 @@ class EffectFinding:
             "parameters": _jsonable(self.parameters),
             "uncertainty": _jsonable(self.uncertainty),
             "uncertainty_method": self.uncertainty_method,
+            "leave_one_recording_out": _jsonable(self.loro),
             "where": _jsonable(self.where),
             "explanation": self.explanation,
             "equation": self.equation,
@@ -325,7 +328,13 @@ class DiagnosisResult:
             input range, branch shares, summary), ``explanation``, ``equation``,
             ``heldout_rmse_before``/``_after`` (output units, and ``_pct``),
             ``heldout_mse_reduction``, ``dm_z``, ``sign_test_p``, ``score_lm``,
-            ``discriminators``, ``ambiguous_with``, ``runner_up``.
+            ``discriminators``, ``ambiguous_with``, ``runner_up``, ``crossfit`` (with
+            explicit windows: ``folds``, ``dm_z_pooled``, ``signed_rank_p_pooled``,
+            ``mse_reduction_pooled``, ``fold_mse_reductions``, ``fold_parameters``,
+            ``parameter_cv``; else ``null``), ``uncertainty_method`` and
+            ``leave_one_recording_out`` (``{"rmse_before", "rmse_after", "mse_reduction",
+            "per_recording"}``: the structure up to this effect against the one before it,
+            scored as in ``baseline``; ``null`` when not scored).
         ``untestable``
             ``[{"name", "reason", "experiment"}]``.
         ``ambiguous``
@@ -429,6 +438,10 @@ class DiagnosisResult:
                 f"   why: {e.explanation}",
                 f"   added: {e.equation}",
             ]
+            if e.loro is not None:
+                lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
+                             f"{e.loro['rmse_after']:.4g} (MSE "
+                             f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
             if e.ambiguous_with:
                 lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
         lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
@@ -1180,6 +1193,8 @@ def diagnose(
             auto_resolution) else fit
         if fam == "dynamics" and best != "rate":
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
+        findings[-1].structure = cur.structure
+        if fam == "dynamics" and best != "rate":
             if best in ("lag", "delay") and "creep" in untest_names:
                 ambiguous.append({
                     "effects": [findings[-1].name, "creep"],
@@ -1197,6 +1212,23 @@ def diagnose(
             ctx, cur.structure)
         loro_f = dict(loro_f, mse_reduction=1.0 - loro_f["rmse"] ** 2 / max(
             loro_b["rmse"] ** 2, 1e-300))
+        # each accepted effect in turn: the structure up to and including it, against the
+        # structure just before it (what that effect adds on unseen recordings)
+        prev = loro_b
+        for fnd in findings:
+            st = fnd.structure
+            lo = loro_f if st == cur.structure else (
+                leave_one_recording_out(ctx, st) if st is not None else None)
+            if lo is None:
+                continue
+            fnd.loro = {"rmse_before": prev["rmse"], "rmse_after": lo["rmse"],
+                        "mse_reduction": 1.0 - lo["rmse"] ** 2 / max(prev["rmse"] ** 2, 1e-300),
+                        "per_recording": [
+                            {"recording": a["recording"], "rmse_before": a["rmse"],
+                             "rmse_after": b_["rmse"]}
+                            for a, b_ in zip(prev["per_recording"], lo["per_recording"],
+                                             strict=True)]}
+            prev = lo
     maps_before = residual_maps(records, res0, ctx.coords, [np.ones(r.n, bool) for r in records])
     maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords,
                                [np.ones(r.n, bool) for r in records])

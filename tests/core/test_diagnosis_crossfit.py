@@ -87,3 +87,17 @@ def test_null_with_explicit_windows_claims_nothing_and_crossfit_can_be_switched_
                    effects=["lag"], crossfit=False)
     assert "cross-fitted" not in off.split
     assert all("dm_z_pooled" not in r for r in off.rounds)
+
+
+def test_each_accepted_effect_is_scored_leave_one_recording_out() -> None:
+    res = diagnose(_records(extra=Lag(0.004), noise=0.01, seed=3), n_operators=10,
+                   auto_resolution=False, effects=["delay", "lag", "drift"])
+    assert res.effects and res.loro_baseline is not None and res.loro_final is not None
+    first, last = res.effects[0], res.effects[-1]
+    assert first.loro is not None and last.loro is not None
+    assert first.loro["rmse_before"] == pytest.approx(res.loro_baseline["rmse"])
+    assert last.loro["rmse_after"] == pytest.approx(res.loro_final["rmse"])
+    assert first.loro["rmse_after"] < first.loro["rmse_before"]  # the lag helps unseen records
+    assert len(first.loro["per_recording"]) == 2
+    assert first.to_dict(res.y_range)["leave_one_recording_out"]["mse_reduction"] > 0.05
+    assert "leave-one-recording-out RMSE" in res.summary()
