@@ -146,6 +146,7 @@ def write_report(res: Any, path: str | Path) -> Path:
         )
         amb = (f"<p>Ambiguous with: {html.escape(', '.join(e.ambiguous_with))}</p>"
                if e.ambiguous_with else "")
+        amb = "".join(f"<p><b>Caveat:</b> {html.escape(c)}</p>" for c in e.caveats) + amb
         cf = e.crossfit
         if cf:
             amb = (f"<p>Significance with the cross-fitted training blocks (test rows + "

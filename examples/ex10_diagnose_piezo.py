@@ -7,8 +7,10 @@ t = 0 so the play memory sees the full history).
 
 ``core.diagnosis.diagnose`` fits a PI baseline (25 operators, NNLS), maps where the residual
 lives, fits every testable effect of ``core.effects`` in full and keeps only those that improve
-the held-out rows significantly (batch-means Diebold–Mariano z ≥ 3 or a Wilcoxon signed-rank
-test over held-out batches, plus ≥ 5 % MSE reduction). It prints what it found, where, why,
+the held-out rows significantly (≥ 5 % MSE reduction on t ∈ [7, 9] s, and a batch-means
+Diebold–Mariano z ≥ 3 or a Wilcoxon signed-rank test over the held-out batches, which with
+this explicit window also include the training window's cross-fitted blocks: each 0.6 s
+block after the wipe-out time predicted by a fit without it). It prints what it found, where, why,
 the equation added and what the recording cannot tell (untestable / ambiguous effects).
 A second run lets the engine refine the play grid itself (2x / 4x operators while the held-out
 fit improves) and prints what survives there.

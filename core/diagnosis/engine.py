@@ -56,6 +56,7 @@ ACCEPT_RULE: dict[str, float] = {
     "sign_p": 0.01,
     "family_margin": 0.10,
     "max_param_cv": 0.30,
+    "outside_worse": 1.25,
 }
 
 FAMILIES: dict[str, str] = {
@@ -157,6 +158,7 @@ class EffectFinding:
     uncertainty_method: str = "profile curvature"
     structure: Structure | None = None
     loro: dict[str, Any] | None = None
+    caveats: list[str] = field(default_factory=list)
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -168,6 +170,7 @@ class EffectFinding:
             "uncertainty": _jsonable(self.uncertainty),
             "uncertainty_method": self.uncertainty_method,
             "leave_one_recording_out": _jsonable(self.loro),
+            "caveats": list(self.caveats),
             "where": _jsonable(self.where),
             "explanation": self.explanation,
             "equation": self.equation,
@@ -331,7 +334,8 @@ class DiagnosisResult:
             ``discriminators``, ``ambiguous_with``, ``runner_up``, ``crossfit`` (with
             explicit windows: ``folds``, ``dm_z_pooled``, ``signed_rank_p_pooled``,
             ``mse_reduction_pooled``, ``fold_mse_reductions``, ``fold_parameters``,
-            ``parameter_cv``; else ``null``), ``uncertainty_method`` and
+            ``parameter_cv``; else ``null``), ``uncertainty_method``, ``caveats`` (e.g. the rows
+            outside train/test got more than 25 % worse) and
             ``leave_one_recording_out`` (``{"rmse_before", "rmse_after", "mse_reduction",
             "per_recording"}``: the structure up to this effect against the one before it,
             scored as in ``baseline``; ``null`` when not scored).
@@ -438,6 +442,7 @@ class DiagnosisResult:
                 f"   why: {e.explanation}",
                 f"   added: {e.equation}",
             ]
+            lines += [f"   caveat: {c}" for c in e.caveats]
             if e.loro is not None:
                 lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
                              f"{e.loro['rmse_after']:.4g} (MSE "
@@ -1150,6 +1155,14 @@ def diagnose(
                                [e * u for e, u in zip(ctx.all_res(fit), used, strict=True)],
                                ctx.coords)
         where["outside_train_test"] = _outside(records, ctx.all_res(cur), ctx.all_res(fit), used)
+        caveats = [
+            f"outside the train/test rows ({o['recording']}, {o['samples']} samples) the RMS "
+            f"residual grows from {o['rms_before']:.4g} to {o['rms_after']:.4g}: the effect as "
+            "fitted does not hold for what those rows contain (a step, a hold, another "
+            "amplitude); trust it for inputs like the training ones"
+            for o in where["outside_train_test"]
+            if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
+        ]
         J0_lm = _score(ctx, cur, fit)
         unc, unc_how = _effect_uncertainty(ctx, best, cur, unc, cfs.get(best), trm)
         findings.append(
@@ -1169,6 +1182,7 @@ def diagnose(
                 ambiguous_with=amb,
                 runner_up=runner,
                 crossfit=_cf_summary(cfs.get(best)),
+                caveats=caveats,
             )
         )
         for other in amb:
