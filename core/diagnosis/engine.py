@@ -514,12 +514,14 @@ class _Ctx:
         self.coords: list[Coordinates] = (coordinates(records) if parent is None
                                           else parent.coords)
         self.n_train = sum(int(m.sum()) for m in train)
+        #: refreshes of the bilinear (creep, asymmetry) regressors per fit; None = default
+        self.iterations: int | None = None
         #: blocked cross-validation folds over the training rows (explicit windows only)
         self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         f = fit_structure(s, self.records, self.train, self.cache,
-                          cur.x_pi if cur is not None else None)
+                          cur.x_pi if cur is not None else None, iterations=self.iterations)
         assert isinstance(f, Fit)
         return f
 
@@ -842,10 +844,12 @@ def _effect_uncertainty(ctx: _Ctx, name: str, cur: Fit, unc: dict[str, Any],
     """
     params = cf["fold_parameters"] if cf is not None else None
     if params is None and name in _LINEAR_EFFECTS:
-        folds = ctx.folds or crossfit_folds(ctx.records, train)
+        # four blocks bound the cost (the jackknife needs few; a diagnosis stays <= 30 s)
+        folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=4)
         params = []
         for tr_f, blk in folds:
             fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+            fc.iterations = 1  # bilinear regressors frozen at the full fit (linearised jackknife)
             got = _candidate(fc, name, fc.fit(cur.structure, cur))
             if got is None:
                 params = None
