@@ -2,8 +2,9 @@
 
 Truth plant (B-PI of the notes): ``p0 = 0.55 um/V``, plays at ``r = 15, 30, ..., 135 V`` with
 ``p_i = 0.12 exp(-0.02 r_i) um/V``, unipolar 0-150 V input (about 100 um stroke). Each scenario
-adds at most one hidden effect, at a magnitude that keeps the loop plot unremarkable, and
-produces three recordings a user would plausibly have:
+adds at most one hidden effect, at one of three magnitude levels (:data:`MAGNITUDES`: L1
+subtle, L2 the original benchmark magnitude, L3 obvious), and produces three recordings a
+user would plausibly have:
 
 ``decaying``
     1 Hz sine around mid-range with amplitude decaying from full stroke (nested reversals),
@@ -41,26 +42,71 @@ from core.effects import (
 )
 from core.pi import PIModel
 
-__all__ = ["EFFECTS", "LEVELS", "Scenario", "make_scenario", "truth_pi"]
+__all__ = ["EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "Scenario", "magnitude",
+           "make_scenario", "scenario_id", "truth_pi"]
 
 R_TRUE = np.arange(15.0, 136.0, 15.0)
 P0_TRUE = 0.55
 W_TRUE = 0.12 * np.exp(-0.02 * R_TRUE)
 STROKE_APPROX = 100.0  # um
 
-#: The hidden effects of the benchmark and their L2 ("concealed-moderate") magnitudes.
-LEVELS: dict[str, dict[str, Any]] = {
-    "delay": {"delay_s": 100e-6},
-    "lag": {"tau_s": 150e-6},
-    "resonance": {"freq_hz": 400.0, "damping": 0.05},
-    "rate": {"beta_s": 3e-4},
-    "creep": {"gamma": 0.0015},
-    "drift": {"amplitude": 0.4},
-    "asymmetry": {"a2": 0.3},
-    "offset": {"spread": 0.3},
-    "initial-memory": {"history": (30.0, 0.0)},
+#: Magnitude of every hidden effect per level. L2 ("concealed-moderate") is the original
+#: benchmark magnitude and must stay unchanged (old results stay comparable); L1 ("subtle")
+#: is a third to a fifth of L2 (some runs near the detection limit, notes §7.2); L3
+#: ("obvious") about 3x L2. Resonance scales by its frequency (the quasi-static error of a
+#: mode goes as (f / f_n)^2); initial memory by the prior excursion U0 (the truth plant's
+#: lowest threshold is 15 V, so the memory error is w_15 (U0 - 15) + w_30 (U0 - 30)+ ...).
+MAGNITUDES: dict[str, dict[str, dict[str, Any]]] = {
+    "L1": {
+        "delay": {"delay_s": 20e-6},
+        "lag": {"tau_s": 30e-6},
+        "resonance": {"freq_hz": 900.0, "damping": 0.05},
+        "rate": {"beta_s": 6e-5},
+        "creep": {"gamma": 0.0005},
+        "drift": {"amplitude": 0.13},
+        "asymmetry": {"a2": 0.06},
+        "offset": {"spread": 0.1},
+        "initial-memory": {"history": (20.0, 0.0)},
+    },
+    "L2": {
+        "delay": {"delay_s": 100e-6},
+        "lag": {"tau_s": 150e-6},
+        "resonance": {"freq_hz": 400.0, "damping": 0.05},
+        "rate": {"beta_s": 3e-4},
+        "creep": {"gamma": 0.0015},
+        "drift": {"amplitude": 0.4},
+        "asymmetry": {"a2": 0.3},
+        "offset": {"spread": 0.3},
+        "initial-memory": {"history": (30.0, 0.0)},
+    },
+    "L3": {
+        "delay": {"delay_s": 300e-6},
+        "lag": {"tau_s": 450e-6},
+        "resonance": {"freq_hz": 230.0, "damping": 0.05},
+        "rate": {"beta_s": 9e-4},
+        "creep": {"gamma": 0.0045},
+        "drift": {"amplitude": 1.2},
+        "asymmetry": {"a2": 0.9},
+        "offset": {"spread": 0.9},
+        "initial-memory": {"history": (45.0, 0.0)},
+    },
 }
+LEVEL_NAMES = tuple(MAGNITUDES)
+#: The L2 magnitudes (the original table; kept under its old name).
+LEVELS: dict[str, dict[str, Any]] = MAGNITUDES["L2"]
 EFFECTS = tuple(LEVELS)
+
+
+def magnitude(effect: str | None, level: str = "L2") -> dict[str, Any]:
+    """The truth parameters of ``effect`` at ``level`` (empty for a null scenario)."""
+    if level not in MAGNITUDES:
+        raise ValueError(f"unknown level {level!r}; known: {', '.join(LEVEL_NAMES)}")
+    return dict(MAGNITUDES[level].get(effect or "", {}))
+
+
+def scenario_id(effect: str | None, level: str, noise: str, seed: int) -> str:
+    """Reproducible id ``effect/level/noise/seed`` (nulls have level ``-``)."""
+    return f"{effect or 'null'}/{level if effect else '-'}/{noise}/{seed}"
 
 
 def truth_pi() -> PIModel:
@@ -101,9 +147,10 @@ def _signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
     return out
 
 
-def _plant(effect: str | None, k: int, t: np.ndarray, rng: np.random.Generator) -> Model:
+def _plant(effect: str | None, k: int, t: np.ndarray, rng: np.random.Generator,
+           level: str = "L2", params: dict[str, Any] | None = None) -> Model:
     pi = truth_pi()
-    lv = LEVELS.get(effect or "", {})
+    lv = magnitude(effect, level) if params is None else dict(params)
     stages: list[Model] = []
     if effect == "rate":
         stages.append(RateDependentPI(P0_TRUE, R_TRUE, W_TRUE, lv["beta_s"]))
@@ -158,24 +205,31 @@ class Scenario:
     effect: str | None
     noise: str
     seed: int
+    level: str
+    params: dict[str, Any]
     records: list[Record]
     truth: list[Model]
     concealment_pct: float
     extras: dict[str, Any] = field(default_factory=dict)
 
 
-def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0) -> Scenario:
+def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0,
+                  level: str = "L2", params: dict[str, Any] | None = None) -> Scenario:
     """Generate one scenario (``effect=None`` is a null scenario).
 
-    ``concealment_pct`` is the max |δ| (raw effect before any refit) over the 1 Hz and
+    ``level`` picks the magnitude from :data:`MAGNITUDES`; ``params`` overrides it (for
+    calibration). The noise realisation depends on ``seed`` only, so the same seed gives the
+    same noise at every level (and for every effect except drift, which draws its wander
+    phase first). ``concealment_pct`` is the max |δ| (raw effect before any refit) over the 1 Hz and
     10 Hz parts of the multisine recording and the decaying recording, in % of the stroke.
     """
     rng = np.random.default_rng(seed)
+    lv = magnitude(effect, level) if params is None else dict(params)
     recs, truths = [], []
     worst = 0.0
     for k, (name, t, u) in enumerate(_signals()):
         dt = float(t[1] - t[0])
-        m = _plant(effect, k, t, rng)
+        m = _plant(effect, k, t, rng, params=lv)
         y_clean = m(u, dt=dt)
         y0 = truth_pi()(u)
         stroke = float(np.ptp(y0)) or 1.0
@@ -191,4 +245,4 @@ def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0) -> S
             y = np.round(y / lsb) * lsb
         recs.append(Record(t, u, y, name))
         truths.append(m)
-    return Scenario(effect, noise, seed, recs, truths, worst)
+    return Scenario(effect, noise, seed, level, lv, recs, truths, worst)

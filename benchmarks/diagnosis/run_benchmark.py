@@ -1,10 +1,13 @@
-"""Concealed-effect benchmark of ``core.diagnosis`` (notes §7): prints the confusion matrix,
-top-1 accuracy, null false-positive rate and held-out gap closure.
+"""Concealed-effect benchmark of ``core.diagnosis`` (notes §7): per magnitude level and noise
+model, top-1 accuracy, abstention, wrong confident names, gap closure, spurious claims, null
+false positives, a per-effect table and the confusion matrices.
 
 Usage::
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
-        [--seeds 3] [--nulls 12] [--noise white1,white2,coloured] [--workers 2] [--json out.json]
+        [--levels L1,L2,L3] [--seeds 3] [--nulls 12] [--noise white1,white2,coloured] \
+        [--workers 2] [--json out.json]
+    .venv/bin/python benchmarks/diagnosis/run_benchmark.py --rescore out.json   # tables only
 
 Scoring (notes §7.2, §7.6):
 
@@ -12,8 +15,12 @@ Scoring (notes §7.2, §7.6):
 * a scenario whose *oracle* (the true effect structure with its true nonlinear parameters,
   fitted on the training rows) improves the held-out MSE by < 5 % is "not detectable": there,
   abstaining is correct and is counted as such;
-* false positive: any effect claimed on a null scenario;
-* gap closure ``GC = (RMSE_base - RMSE_final) / (RMSE_base - RMSE_oracle)`` on held-out rows.
+* wrong confident name: the first accepted effect is not the hidden one and the engine did
+  not report it as ambiguous with the hidden one;
+* spurious claim: an accepted effect other than the hidden one (on a null: any claim, the
+  false positive);
+* gap closure ``GC = (RMSE_base - RMSE_final) / (RMSE_base - RMSE_oracle)`` on held-out rows
+  (detectable runs); "do no harm" is GC >= -0.05.
 """
 
 from __future__ import annotations
@@ -21,9 +28,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import subprocess
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -31,18 +39,28 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import numpy as np  # noqa: E402
 
-from benchmarks.diagnosis.generator import EFFECTS, LEVELS, make_scenario  # noqa: E402
+from benchmarks.diagnosis.generator import (  # noqa: E402
+    EFFECTS,
+    LEVEL_NAMES,
+    magnitude,
+    make_scenario,
+    scenario_id,
+)
 from core.diagnosis import diagnose  # noqa: E402
 from core.diagnosis.data import split_masks  # noqa: E402
 from core.diagnosis.structure import Structure, fit_structure, place_thresholds  # noqa: E402
 
 
-def oracle_rmse(records, effect: str | None, n_ops: int) -> tuple[float, float]:
-    """Held-out RMSE of the baseline structure and of the true-effect structure."""
+def oracle_rmse(records, effect: str | None, n_ops: int,
+                lv: dict | None = None) -> tuple[float, float]:
+    """Held-out RMSE of the baseline structure and of the true-effect structure.
+
+    ``lv``: the true parameters of the effect (default: its L2 magnitude).
+    """
     tr, te, _ = split_masks(records)
     r = place_thresholds(records, tr, n_ops)
     base = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
-    lv = LEVELS.get(effect or "", {})
+    lv = magnitude(effect, "L2") if lv is None else lv
     s = base
     if effect in ("delay", "lag"):
         s = base.with_(dynamics=(effect, next(iter(lv.values()))))
@@ -71,23 +89,61 @@ def oracle_rmse(records, effect: str | None, n_ops: int) -> tuple[float, float]:
     return b, (rmse(s) if effect else b)
 
 
-def run_one(args: tuple[str | None, str, int]) -> dict:
-    effect, noise, seed = args
-    sc = make_scenario(effect, noise, seed)
+DETECTABLE = 0.05  # oracle held-out MSE reduction (notes §7.2)
+HARM = -0.05  # "do no harm" floor of the gap closure (notes §7.6)
+
+
+def _r(x: float, nd: int = 4) -> float:
+    return float(f"{x:.{nd}g}")
+
+
+def _engine_version() -> str:
+    """Commit of the engine the run used (``+dirty`` if ``core/`` has uncommitted edits)."""
+    root = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, text=True,
+                              capture_output=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "core"], cwd=root,
+                               text=True, capture_output=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")
+
+
+def run_one(args: tuple) -> dict:
+    effect, noise, seed, level = (*args, "L2")[:4]  # (effect, noise, seed[, level])
+    sc = make_scenario(effect, noise, seed, level=level)
     t0 = time.perf_counter()
     res = diagnose(sc.records)
     el = time.perf_counter() - t0
-    base, oracle = oracle_rmse(sc.records, effect, len(res.final.structure.thresholds))
+    base, oracle = oracle_rmse(sc.records, effect, len(res.final.structure.thresholds),
+                               sc.params)
     b = res.heldout_rmse(res.baseline)
     f = res.heldout_rmse(res.final)
     found = [e.name for e in res.effects]
+    claims = [{"name": e.name, "gain": _r(e.heldout.gain), "z": _r(e.heldout.z),
+               "sign_p": _r(e.heldout.sign_p, 3),
+               "params": {k: (_r(v) if isinstance(v, float) else v)
+                          for k, v in e.parameters.items()
+                          if isinstance(v, (int, float, str))},
+               "ambiguous_with": list(e.ambiguous_with)} for e in res.effects]
+    hidden_r1 = next(({"gain": _r(r["heldout_mse_reduction"]), "z": _r(r["dm_z"]),
+                       "sign_p": _r(r["signed_rank_p"], 3), "passes": bool(r["passes"])}
+                      for r in res.rounds if r.get("round") == 1 and r.get("effect") == effect),
+                     None)
     return {
+        "id": scenario_id(effect, level, noise, seed),
         "effect": effect or "null",
+        "level": level if effect else "-",
         "noise": noise,
         "seed": seed,
+        "params": {k: (list(v) if isinstance(v, tuple) else v) for k, v in sc.params.items()},
         "found": found,
         "top1": found[0] if found else "none",
         "ambiguous": [a["effects"] for a in res.ambiguous],
+        "claims": claims,
+        "hidden_round1": hidden_r1,
+        "n_operators": len(res.final.structure.thresholds),
         "rmse_base": b,
         "rmse_final": f,
         "rmse_oracle": oracle,
@@ -101,90 +157,201 @@ def _stat(f, x) -> float:
     return float(f(x)) if len(x) else float("nan")
 
 
+def _gc(r: dict) -> float | None:
+    den = r["rmse_base"] - r["rmse_oracle"]
+    return (r["rmse_base"] - r["rmse_final"]) / den if den > 0 else None
+
+
+def _spurious(r: dict) -> list[str]:
+    return [n for n in r["found"] if n != r["effect"]]
+
+
+def _wrong_confident(r: dict) -> bool:
+    if r["top1"] in ("none", r["effect"]):
+        return False
+    amb = r.get("claims", [{}])[0].get("ambiguous_with", []) if r.get("claims") else []
+    return r["effect"] not in amb and not any(
+        r["effect"] in a and r["top1"] in a for a in r.get("ambiguous", []))
+
+
+def _named_or_ambiguous(r: dict) -> bool:
+    """The hidden effect is named first, or the first name is flagged ambiguous with it."""
+    return r["top1"] == r["effect"] or (r["top1"] != "none" and not _wrong_confident(r))
+
+
+def _cell(rs: list[dict]) -> dict:
+    """Scores of one group of effect runs."""
+    det = [r for r in rs if r["oracle_gain"] >= DETECTABLE]
+    und = [r for r in rs if r["oracle_gain"] < DETECTABLE]
+    gcs = [g for g in map(_gc, det) if g is not None]
+    return {
+        "runs": len(rs),
+        "detectable": len(det),
+        "top1_ok": sum(r["top1"] == r["effect"] for r in det),
+        "named_or_ambiguous": sum(map(_named_or_ambiguous, det)),
+        "undetectable": len(und),
+        "abstained": sum(not r["found"] for r in und),
+        "claimed_hidden_undetectable": sum(r["top1"] == r["effect"] for r in und),
+        "wrong_confident": sum(map(_wrong_confident, rs)),
+        "gc_median": _stat(np.median, gcs),
+        "gc_min": _stat(np.min, gcs),
+        "harm": sum(g < HARM for g in gcs),
+        "spurious_runs": sum(bool(_spurious(r)) for r in rs),
+        "spurious_second": sum(bool(_spurious(r)) and r["effect"] in r["found"] for r in rs),
+        "oracle_gain_median": _stat(np.median, [r["oracle_gain"] for r in rs]),
+        "conceal_median": _stat(np.median, [r["concealment_pct"] for r in rs]),
+    }
+
+
+def _frac(a: int, b: int) -> str:
+    return f"{a}/{b}" if b else "-"
+
+
 def summarise(rows: list[dict]) -> str:
+    for r in rows:
+        r.setdefault("level", "L2" if r["effect"] != "null" else "-")
+    eff = [r for r in rows if r["effect"] != "null"]
+    nulls = [r for r in rows if r["effect"] == "null"]
+    levels = [lv for lv in LEVEL_NAMES if any(r["level"] == lv for r in eff)]
+    noises = list(dict.fromkeys(r["noise"] for r in rows))
+    lines = []
     labels = list(EFFECTS) + ["null"]
     cols = list(EFFECTS) + ["none"]
-    conf = {a: dict.fromkeys(cols, 0) for a in labels}
-    for r in rows:
-        conf[r["effect"]][r["top1"] if r["top1"] in cols else "none"] += 1
     w = 15
-    lines = ["Confusion matrix (rows: hidden effect, columns: first effect named)",
-             " " * w + "".join(f"{c[:6]:>7}" for c in cols)]
-    for a in labels:
-        lines.append(f"{a:<{w}}" + "".join(f"{conf[a][c]:>7}" for c in cols))
-    eff = [r for r in rows if r["effect"] != "null"]
-    det = [r for r in eff if r["oracle_gain"] >= 0.05]
-    ok = [r for r in det if r["top1"] == r["effect"]]
-    abst = [r for r in eff if r["oracle_gain"] < 0.05]
-    abst_ok = [r for r in abst if r["top1"] == "none"]
-    nulls = [r for r in rows if r["effect"] == "null"]
-    fp = [r for r in nulls if r["found"]]
-    gcs = []
-    for r in det:
-        den = r["rmse_base"] - r["rmse_oracle"]
-        if den > 0:
-            gcs.append((r["rmse_base"] - r["rmse_final"]) / den)
-    lines += [
-        "",
-        f"runs: {len(rows)} ({len(eff)} with a hidden effect, {len(nulls)} null)",
-        f"detectable (oracle held-out gain >= 5 %): {len(det)}; not detectable: {len(abst)} "
-        f"(correct abstentions {len(abst_ok)}/{len(abst)})",
-        f"top-1 accuracy on detectable concealed single effects: {len(ok)}/{len(det)} = "
-        f"{100 * len(ok) / max(len(det), 1):.1f} %",
-        f"false-positive rate on null scenarios: {len(fp)}/{len(nulls)} = "
-        f"{100 * len(fp) / max(len(nulls), 1):.1f} %",
-        f"held-out gap closure (detectable runs): median {_stat(np.median, gcs):.3f}, "
-        f"mean {_stat(np.mean, gcs):.3f}, min {_stat(np.min, gcs):.3f}",
-        f"concealment (max |effect| on the 1-10 Hz loops, % of stroke): median "
-        f"{np.median([r['concealment_pct'] for r in eff]):.3f}, max "
-        f"{np.max([r['concealment_pct'] for r in eff]):.3f}",
-        f"diagnosis time per scenario: median {np.median([r['elapsed_s'] for r in rows]):.1f} s",
-    ]
-    per = {}
-    for r in eff:
-        per.setdefault(r["effect"], []).append(r)
-    lines.append("")
-    lines.append(f"{'effect':<15}{'runs':>5}{'top1 ok':>8}{'oracle gain':>12}{'GC':>8}"
-                 f"{'conceal %':>10}")
-    for e, rs in per.items():
-        g = [(x["rmse_base"] - x["rmse_final"]) / (x["rmse_base"] - x["rmse_oracle"])
-             for x in rs if x["rmse_base"] > x["rmse_oracle"]]
-        lines.append(f"{e:<15}{len(rs):>5}{sum(x['top1'] == e for x in rs):>8}"
-                     f"{np.mean([x['oracle_gain'] for x in rs]):>12.3f}"
-                     f"{np.mean(g) if g else float('nan'):>8.2f}"
-                     f"{np.mean([x['concealment_pct'] for x in rs]):>10.3f}")
+    for lv in levels + (["-"] if nulls else []):
+        sub = [r for r in rows if r["level"] == lv]
+        conf = {a: dict.fromkeys(cols, 0) for a in labels}
+        for r in sub:
+            conf[r["effect"]][r["top1"] if r["top1"] in cols else "none"] += 1
+        title = f"level {lv}" if lv != "-" else "null scenarios"
+        lines += [f"Confusion matrix, {title} (rows: hidden effect, columns: first effect named)",
+                  " " * w + "".join(f"{c[:6]:>7}" for c in cols)]
+        for a in labels:
+            if sum(conf[a].values()):
+                lines.append(f"{a:<{w}}" + "".join(f"{conf[a][c]:>7}" for c in cols))
+        lines.append("")
+    hdr = (f"{'level':<6}{'noise':<10}{'runs':>5}{'top1/det':>10}{'+amb':>6}{'abstain/undet':>15}"
+           f"{'wrong conf':>11}{'GC med':>8}{'GC min':>8}{'harm':>5}{'spurious':>9}"
+           f"{'2nd':>5}")
+    lines += ["Per level and noise model (effect runs; det = oracle held-out gain >= 5 %; +amb:",
+              "detectable runs named first or with the first name flagged ambiguous with it)", hdr]
+    for lv in levels:
+        for nz in noises + ["all"]:
+            rs = [r for r in eff if r["level"] == lv and (nz == "all" or r["noise"] == nz)]
+            if not rs:
+                continue
+            c = _cell(rs)
+            lines.append(
+                f"{lv:<6}{nz:<10}{c['runs']:>5}{_frac(c['top1_ok'], c['detectable']):>10}"
+                f"{c['named_or_ambiguous']:>6}{_frac(c['abstained'], c['undetectable']):>15}"
+                f"{c['wrong_confident']:>11}"
+                f"{c['gc_median']:>8.3f}{c['gc_min']:>8.3f}{c['harm']:>5}"
+                f"{c['spurious_runs']:>9}{c['spurious_second']:>5}")
+    if nulls:
+        lines += ["", "Null scenarios (any claim = false positive)",
+                  f"{'noise':<10}{'runs':>5}{'claims':>8}  claimed effects"]
+        for nz in noises:
+            rs = [r for r in nulls if r["noise"] == nz]
+            if rs:
+                names = [n for r in rs for n in r["found"]]
+                lines.append(f"{nz:<10}{len(rs):>5}{sum(bool(r['found']) for r in rs):>8}  "
+                             + (", ".join(f"{n} x{names.count(n)}" for n in dict.fromkeys(names))
+                                or "-"))
+    lines += ["", "Per effect and level (all noise models pooled)",
+              f"{'effect':<15}{'level':<6}{'runs':>5}{'top1/det':>10}{'+amb':>6}"
+              f"{'abstain/undet':>15}"
+              f"{'wrong conf':>11}{'spurious':>9}{'oracle gain':>12}{'GC med':>8}"
+              f"{'GC min':>8}{'conceal %':>10}"]
+    for e in EFFECTS:
+        for lv in levels:
+            rs = [r for r in eff if r["effect"] == e and r["level"] == lv]
+            if not rs:
+                continue
+            c = _cell(rs)
+            lines.append(
+                f"{e:<15}{lv:<6}{c['runs']:>5}{_frac(c['top1_ok'], c['detectable']):>10}"
+                f"{c['named_or_ambiguous']:>6}{_frac(c['abstained'], c['undetectable']):>15}"
+                f"{c['wrong_confident']:>11}"
+                f"{c['spurious_runs']:>9}{c['oracle_gain_median']:>12.3f}"
+                f"{c['gc_median']:>8.3f}{c['gc_min']:>8.3f}{c['conceal_median']:>10.3f}")
+    bad = [r for r in rows if _spurious(r) or (r["effect"] != "null" and (
+        (r["oracle_gain"] >= DETECTABLE and r["top1"] != r["effect"])
+        or (r["oracle_gain"] < DETECTABLE and r["found"])
+        or ((_gc(r) or 0.0) < HARM and r["oracle_gain"] >= DETECTABLE)))]
+    if bad:
+        lines += ["", "Runs that are not clean (id, oracle gain, claims as name(held-out gain, z))"]
+        for r in sorted(bad, key=lambda r: r["id"]):
+            cl = ", ".join(f"{c['name']}({c['gain']:.3f}, z {c['z']:.1f})"
+                           for c in r.get("claims", [])) or "none"
+            g = _gc(r)
+            lines.append(f"  {r.get('id', r['effect'])}: oracle {r['oracle_gain']:.3f}"
+                         + (f", GC {g:.2f}" if g is not None and r["effect"] != "null" else "")
+                         + f"; {cl}")
+    lines += ["", f"diagnosis time per scenario: median "
+              f"{np.median([r['elapsed_s'] for r in rows]):.1f} s"]
     return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--levels", default="L2", help="comma-separated magnitude levels (L1,L2,L3)")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--nulls", type=int, default=12, help="null scenarios per noise model")
     ap.add_argument("--noise", default="white1,coloured")
     ap.add_argument("--effects", default=",".join(EFFECTS))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--rescore", type=Path, help="print the tables of an earlier --json file")
     a = ap.parse_args(argv)
+    if a.rescore:
+        print(summarise(json.loads(a.rescore.read_text())))
+        return 0
+    levels = a.levels.split(",")
+    for lv in levels:
+        magnitude(None, lv)  # validates
+    # seed-major order, nulls spread over the seed rounds: an interrupted run still covers
+    # every cell and has some nulls of every noise model
     jobs = []
-    for noise in a.noise.split(","):
-        for e in a.effects.split(","):
-            for s in range(a.seeds):
-                jobs.append((e, noise, 100 + s))
-        for s in range(a.nulls):
-            jobs.append((None, noise, 1000 + s))
+    rounds = max(a.seeds, 1)
+    per = -(-a.nulls // rounds)
+    for s in range(rounds):
+        for noise in a.noise.split(","):
+            if s < a.seeds:
+                for lv in levels:
+                    for e in a.effects.split(","):
+                        jobs.append((e, noise, 100 + s, lv))
+            for k in range(s * per, min((s + 1) * per, a.nulls)):
+                jobs.append((None, noise, 1000 + k, "L2"))
+    engine = _engine_version()
+    print(f"{len(jobs)} runs, engine {engine}", flush=True)
+    partial = a.json.with_suffix(".partial.jsonl") if a.json else None
     t0 = time.perf_counter()
+    rows = []
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        rows = list(ex.map(run_one, jobs))
-    for r in rows:
-        found = ",".join(r["found"]) or "-"
-        print(f"{r['effect']:<15}{r['noise']:<10}{r['seed']:>5}  found={found:<30}"
-              f" base={r['rmse_base']:.4f} final={r['rmse_final']:.4f}"
-              f" oracle={r['rmse_oracle']:.4f} conceal={r['concealment_pct']:.3f}%")
+        futs = [ex.submit(run_one, j) for j in jobs]
+        for fut in as_completed(futs):
+            r = fut.result()
+            r["engine"] = engine
+            rows.append(r)
+            found = ",".join(r["found"]) or "-"
+            print(f"{r['id']:<32} found={found:<30} base={r['rmse_base']:.4f} "
+                  f"final={r['rmse_final']:.4f} oracle={r['rmse_oracle']:.4f} "
+                  f"gain={r['oracle_gain']:.3f} conceal={r['concealment_pct']:.3f}% "
+                  f"{r['elapsed_s']:.0f}s [{len(rows)}/{len(jobs)} "
+                  f"{time.perf_counter() - t0:.0f}s]", flush=True)
+            if partial:
+                with partial.open("a") as fh:
+                    fh.write(json.dumps(r) + "\n")
+    order = {j: k for k, j in enumerate(jobs)}
+    rows.sort(key=lambda r: order[(None if r["effect"] == "null" else r["effect"], r["noise"],
+                                   r["seed"], "L2" if r["effect"] == "null" else r["level"])])
     print()
     print(summarise(rows))
     print(f"\ntotal {time.perf_counter() - t0:.0f} s")
     if a.json:
         a.json.write_text(json.dumps(rows, indent=1))
+        if partial and partial.exists():
+            partial.unlink()
     return 0
 
 
