@@ -41,7 +41,14 @@ from .._typing import Float1D
 from ..base import Model
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
-from .data import Record, as_records, crossfit_folds, split_masks, wipeout_index
+from .data import (
+    Record,
+    as_records,
+    crossfit_folds,
+    reversal_points,
+    split_masks,
+    wipeout_index,
+)
 from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
 from .structure import Fit, Structure, _Cache, build_model, fit_structure, place_thresholds
@@ -703,8 +710,6 @@ def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
 def _excitation_hz(records: Sequence[Record]) -> float:
     """Slowest fundamental over the recordings: half the number of input reversals per
     second (reversals larger than 10 % of the input range)."""
-    from .data import reversal_points
-
     rates = []
     for r in records:
         dur = float(r.t[-1] - r.t[0])
@@ -758,6 +763,16 @@ def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
     return fit, {"history": [list(h) for h in hist]}, {}
 
 
+def _fold_fits(ctx: _Ctx, folds: list, name: str, cur: Fit, iterations: int | None = None):
+    """Per fold: (fold context, current structure refitted without the block, effect ``name``
+    fitted on top of it or ``None``)."""
+    for tr_f, blk in folds:
+        fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+        fc.iterations = iterations
+        cur_f = fc.fit(cur.structure, cur)
+        yield fc, cur_f, _candidate(fc, name, cur_f)
+
+
 #: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
 _SCALAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
 
@@ -782,10 +797,7 @@ def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None
     eb, ea = list(ctx.test_res(cur)), list(ctx.test_res(fit))
     n_test = sum(e.size for e in eb)
     gains, params = [], []
-    for tr_f, blk in ctx.folds:
-        fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
-        cur_f = fc.fit(cur.structure, cur)
-        got = _candidate(fc, name, cur_f)
+    for fc, cur_f, got in _fold_fits(ctx, ctx.folds, name, cur):
         if got is None:
             return None
         b0, b1 = fc.test_res(cur_f), fc.test_res(got[0])
@@ -847,10 +859,8 @@ def _effect_uncertainty(ctx: _Ctx, name: str, cur: Fit, unc: dict[str, Any],
         # four blocks bound the cost (the jackknife needs few; a diagnosis stays <= 30 s)
         folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=4)
         params = []
-        for tr_f, blk in folds:
-            fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
-            fc.iterations = 1  # bilinear regressors frozen at the full fit (linearised jackknife)
-            got = _candidate(fc, name, fc.fit(cur.structure, cur))
+        # bilinear regressors frozen at the full fit (linearised jackknife)
+        for _, _, got in _fold_fits(ctx, folds, name, cur, iterations=1):
             if got is None:
                 params = None
                 break
@@ -895,8 +905,6 @@ def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
                     "experiment": UNTESTABLE_EXPERIMENT["drift"]})
     # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
     peaks = []
-    from .data import reversal_points
-
     for rec, c in zip(recs, ctx.coords, strict=True):
         span = float(np.ptp(rec.u)) or 1.0
         rv = reversal_points(rec.u, 0.01 * span)
