@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 from types import ModuleType
 from typing import ClassVar
 
-from ..commands._common import CommandError
+from ..commands._common import CommandError, parse_window
 
 __all__ = ["DiagnoseOptions", "FitOptions", "Options", "command_args", "command_module"]
 
@@ -66,7 +66,12 @@ class _Options:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def validate(self) -> None:
-        """Check the options with the single-file command's parser (raises CommandError)."""
+        """Check the options with the single-file command's parser and window rule (raises
+        CommandError)."""
+        for what in ("train", "test"):
+            text = getattr(self, what)
+            if text is not None:
+                parse_window(text, what)
         command_args(self.kind, ["recording.csv", *self.argv(), *_OUTPUT_ARGS[self.kind]])
 
     def to_dict(self) -> dict[str, object]:

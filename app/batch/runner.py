@@ -22,11 +22,17 @@ from .options import DiagnoseOptions, FitOptions, Options
 from .results import BatchResult, RecordingResult, from_outcome, write_json
 from .single import Outcome, run_recording
 
-__all__ = ["run_batch"]
+__all__ = ["LOCAL_CLUSTER_QUIET", "run_batch"]
 
 #: Environment of local worker processes: one BLAS/OpenMP thread each (one task per core).
 _WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                "NUMBA_NUM_THREADS": "1"}
+
+
+#: No dashboard, and the scheduler's HTTP endpoint on a free loopback port (it defaults to
+#: 8787, which another cluster on the machine may hold).
+LOCAL_CLUSTER_QUIET: dict[str, Any] = {
+    "dashboard_address": None, "scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
 
 
 @contextlib.contextmanager
@@ -50,7 +56,7 @@ def _client(scheduler: str | None, workers: int, processes: bool) -> Iterator[An
         raise CommandError(f"--workers must be at least 1, got {workers}")
     kw: dict[str, Any] = {"env": _WORKER_ENV} if processes else {}
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
-                      dashboard_address=None, **kw) as cluster, Client(cluster) as client:
+                      **LOCAL_CLUSTER_QUIET, **kw) as cluster, Client(cluster) as client:
         yield client
 
 
