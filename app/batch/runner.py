@@ -24,9 +24,10 @@ from .single import Outcome, run_recording
 
 __all__ = ["LOCAL_CLUSTER_QUIET", "run_batch"]
 
-#: Environment of local worker processes: one BLAS/OpenMP thread each (one task per core).
+#: Environment of local worker processes: one BLAS/OpenMP thread each (one task per core),
+#: and no statistical profiler (it samples every thread's stack every 10 ms, holding the GIL).
 _WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-               "NUMBA_NUM_THREADS": "1"}
+               "NUMBA_NUM_THREADS": "1", "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False"}
 
 
 #: No dashboard, and the scheduler's HTTP endpoint on a free loopback port (it defaults to

@@ -6,7 +6,7 @@ Usage::
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
         [--levels L1,L2,L3] [--seeds 3] [--nulls 12] [--noise white1,white2,coloured] \
-        [--workers 2] [--json out.json]
+        [--workers 2] [--scheduler local|tcp://HOST:PORT] [--json out.json]
     .venv/bin/python benchmarks/diagnosis/run_benchmark.py --rescore out.json   # tables only
 
 Scoring (notes §7.2, §7.6):
@@ -31,7 +31,7 @@ import os
 import subprocess
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -39,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import numpy as np  # noqa: E402
 
+from benchmarks.diagnosis.dask_runner import executor  # noqa: E402
 from benchmarks.diagnosis.generator import (  # noqa: E402
     EFFECTS,
     LEVEL_NAMES,
@@ -300,6 +301,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--noise", default="white1,coloured")
     ap.add_argument("--effects", default=",".join(EFFECTS))
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="run the scenarios on Dask: a scheduler address, or 'local' for a "
+                         "LocalCluster of --workers processes (default: a process pool)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--rescore", type=Path, help="print the tables of an earlier --json file")
     a = ap.parse_args(argv)
@@ -327,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     partial = a.json.with_suffix(".partial.jsonl") if a.json else None
     t0 = time.perf_counter()
     rows = []
-    with ProcessPoolExecutor(max_workers=a.workers) as ex:
+    with executor(a.workers, a.scheduler) as ex:
         futs = [ex.submit(run_one, j) for j in jobs]
         for fut in as_completed(futs):
             r = fut.result()
