@@ -22,12 +22,14 @@ from .options import DiagnoseOptions, FitOptions, Options
 from .results import BatchResult, RecordingResult, from_outcome, write_json
 from .single import Outcome, run_recording
 
-__all__ = ["LOCAL_CLUSTER_QUIET", "run_batch"]
+__all__ = ["LOCAL_CLUSTER_QUIET", "connect", "run_batch"]
 
-#: Environment of local worker processes: one BLAS/OpenMP thread each (one task per core),
-#: and no statistical profiler (it samples every thread's stack every 10 ms, holding the GIL).
+#: Environment of local worker processes: one BLAS/OpenMP thread each (one task per core).
 _WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-               "NUMBA_NUM_THREADS": "1", "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False"}
+               "NUMBA_NUM_THREADS": "1"}
+#: Dask configuration of local workers (the Nanny hands it to each worker process): no
+#: statistical profiler, which samples every thread's stack every 10 ms holding the GIL.
+_WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 
 #: No dashboard, and the scheduler's HTTP endpoint on a free loopback port (it defaults to
@@ -37,8 +39,16 @@ LOCAL_CLUSTER_QUIET: dict[str, Any] = {
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | None, workers: int, processes: bool) -> Iterator[Any]:
-    """A ``distributed.Client`` on ``scheduler``, or on a new LocalCluster."""
+def connect(scheduler: str | None, workers: int, processes: bool = True) -> Iterator[Any]:
+    """A ``distributed.Client`` on the scheduler at ``scheduler`` (``tcp://HOST:PORT``), or
+    on a new LocalCluster of ``workers`` single-thread workers (processes, or threads of this
+    process with ``processes=False``) that closes with the context.
+
+    Raises
+    ------
+    CommandError
+        Unreachable scheduler, or ``workers < 1``.
+    """
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -55,9 +65,12 @@ def _client(scheduler: str | None, workers: int, processes: bool) -> Iterator[An
         return
     if workers < 1:
         raise CommandError(f"--workers must be at least 1, got {workers}")
+    import dask
+
     kw: dict[str, Any] = {"env": _WORKER_ENV} if processes else {}
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
-                      **LOCAL_CLUSTER_QUIET, **kw) as cluster, Client(cluster) as client:
+    with dask.config.set(_WORKER_CONFIG), LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=processes, **LOCAL_CLUSTER_QUIET,
+            **kw) as cluster, Client(cluster) as client:
         yield client
 
 
@@ -171,7 +184,7 @@ def run_batch(
              + (f", {n_bad0} unreadable" if n_bad0 else ""))
     nthreads = workers
     if todo:
-        with _client(scheduler, workers, processes) as client:
+        with connect(scheduler, workers, processes) as client:
             nthreads = max(1, sum(client.nthreads().values()))
             progress(f"Dask: {len(client.nthreads())} workers, {nthreads} threads"
                      + (f" at {scheduler}" if scheduler else " (local)"))

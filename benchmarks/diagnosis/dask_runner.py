@@ -25,18 +25,9 @@ def executor(workers: int, scheduler: str | None = None) -> Iterator[Executor]:
         with ProcessPoolExecutor(max_workers=workers) as ex:
             yield ex
         return
-    from distributed import Client, LocalCluster
+    from app.batch.runner import connect
 
-    from app.batch.runner import LOCAL_CLUSTER_QUIET
-
-    with contextlib.ExitStack() as stack:
-        if scheduler == "local":
-            cluster = stack.enter_context(LocalCluster(
-                n_workers=workers, threads_per_worker=1, **LOCAL_CLUSTER_QUIET,
-                env={"OPENBLAS_NUM_THREADS": "1"}))
-            client = stack.enter_context(Client(cluster))
-        else:
-            client = stack.enter_context(Client(scheduler, timeout="10s"))
+    with connect(None if scheduler == "local" else scheduler, workers) as client:
         print(f"Dask: {len(client.nthreads())} workers at {client.scheduler.address}",
               flush=True)
         yield client.get_executor(pure=False)
