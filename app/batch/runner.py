@@ -74,6 +74,17 @@ def connect(scheduler: str | None, workers: int, processes: bool = True) -> Iter
         yield client
 
 
+def _cluster_error(exc: BaseException) -> str:
+    """A one-line message for a task the Dask cluster itself could not run."""
+    first = (str(exc).strip().splitlines() or [""])[0]
+    hint = ""
+    if "deserializ" in first.lower() or isinstance(exc, ImportError):
+        hint = (" (the scheduler and every worker must be able to import "
+                "hysteresis-explorer: install it there, or start them with "
+                "PYTHONPATH=<repository root>)")
+    return f"the Dask cluster could not run this recording: {type(exc).__name__}: {first}{hint}"
+
+
 def _outputs(folder: Path, name: str, kind: str) -> list[Path]:
     """The files a recording writes: the parameter set and, for diagnose, the diagnosis."""
     out = [folder / f"{name}.json"]
@@ -227,9 +238,8 @@ def _run(client: Any, kind: str, argv: list[str], todo: list[tuple[Path, str, st
         p, name, sha = meta.pop(fut.key)
         try:
             outcome: Outcome = fut.result()
-        except Exception as exc:  # noqa: BLE001 - the worker itself failed (e.g. cannot import)
-            outcome = Outcome(False, error=f"the Dask worker could not run this recording: "
-                                           f"{type(exc).__name__}: {exc}")
+        except Exception as exc:  # noqa: BLE001 - the cluster failed (e.g. cannot import)
+            outcome = Outcome(False, error=_cluster_error(exc))
         fut.release()
         row = from_outcome(kind, str(p), name, outcome)
         if outcome.ok:
