@@ -27,6 +27,8 @@ from .summary import MIN_FOR_OUTLIERS, OUTLIER_Z, fleet_metrics, robust_outliers
 
 __all__ = ["write_report"]
 
+#: Most outlier rows listed (largest |z| first).
+MAX_OUTLIER_ROWS = 40
 #: Most distributions drawn (errors first, then the parameters most recordings have).
 MAX_PANELS = 12
 
@@ -52,7 +54,8 @@ def _distributions(metrics: dict[str, dict[str, float]], flagged: set[tuple[str,
                    ) -> go.Figure | None:
     errors = [k for k in metrics if "RMSE" in k]
     params = sorted((k for k in metrics if "RMSE" not in k), key=lambda k: -len(metrics[k]))
-    keys = [k for k in errors + params if len(metrics[k]) >= 2][:MAX_PANELS]
+    n_max = max(len(v) for v in metrics.values()) if metrics else 0
+    keys = [k for k in errors + params if len(metrics[k]) >= max(2, min(5, n_max))][:MAX_PANELS]
     if not keys:
         return None
     cols = 3
@@ -81,7 +84,8 @@ def _effects_figure(counts: Counter[str]) -> go.Figure:
     names = [n for n, _ in counts.most_common()]
     fig = go.Figure(go.Bar(x=[_e(n) for n in names], y=[counts[n] for n in names],
                            marker_color="#59a14f"))
-    fig.update_layout(title="Accepted effects across the fleet (recordings)", height=340,
+    fig.update_layout(title="Accepted effects across the fleet (recordings)", height=300,
+                      margin={"t": 50, "b": 40},
                       yaxis_title="recordings")
     return fig
 
@@ -124,11 +128,23 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
         f"<span class='{'bad' if bad else ''}'>{len(bad)} failed</span>. Each recording: "
         f"<code>{_e(cmd)}</code>. Written {_e(datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC'))}"
         ".</p>",
-        "<h2>Distributions</h2>",
     ]
-    dist = _distributions(metrics, flagged)
-    parts.append(figure(dist) if dist is not None
-                 else "<p>Too few successful recordings for distributions.</p>")
+    parts.append("<h2>Effects across the fleet</h2>")
+    if kind == "diagnose":
+        counts = Counter(e for r in ok for e in r.effects)
+        if counts:
+            parts.append("<table><tr><th>effect</th><th>recordings</th><th>share</th>"
+                         "<th>recordings (first 10)</th></tr>" + "".join(
+                             f"<tr><td>{_e(n)}</td><td class='num'>{c}</td>"
+                             f"<td class='num'>{100 * c / len(ok):.0f} %</td><td>"
+                             + ", ".join([_link(r.name) for r in ok if n in r.effects][:10])
+                             + "</td></tr>" for n, c in counts.most_common()) + "</table>")
+            parts.append(figure(_effects_figure(counts)))
+        parts.append(f"<p>{sum(not r.effects for r in ok)} of {len(ok)} recordings: no effect "
+                     "beyond the PI model.</p>")
+    else:
+        parts.append("<p class='note'>A fit batch does not look for missing physics; run "
+                     "<code>hyst batch diagnose</code> for that.</p>")
     parts.append("<h2>Outliers</h2>")
     if outliers:
         parts.append(
@@ -138,26 +154,16 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
             + "".join(f"<tr class='outlier'><td>{_link(o.name)}</td><td>{_e(o.metric)}</td>"
                       f"<td class='num'>{_g(o.value)}</td><td class='num'>{_g(o.median)}</td>"
                       f"<td class='num'>{_g(o.mad)}</td><td class='num'>{o.z:+.1f}</td></tr>"
-                      for o in outliers) + "</table>")
+                      for o in outliers[:MAX_OUTLIER_ROWS]) + "</table>"
+            + (f"<p class='note'>... and {len(outliers) - MAX_OUTLIER_ROWS} more.</p>"
+               if len(outliers) > MAX_OUTLIER_ROWS else ""))
     else:
         parts.append(f"<p>No robust outliers (|z| > {OUTLIER_Z}; a metric needs at least "
                      f"{MIN_FOR_OUTLIERS} recordings and a non-zero spread).</p>")
-    parts.append("<h2>Effects across the fleet</h2>")
-    if kind == "diagnose":
-        counts = Counter(e for r in ok for e in r.effects)
-        if counts:
-            parts.append(figure(_effects_figure(counts)))
-            parts.append("<table><tr><th>effect</th><th>recordings</th><th>share</th>"
-                         "<th>recordings (first 10)</th></tr>" + "".join(
-                             f"<tr><td>{_e(n)}</td><td class='num'>{c}</td>"
-                             f"<td class='num'>{100 * c / len(ok):.0f} %</td><td>"
-                             + ", ".join([_link(r.name) for r in ok if n in r.effects][:10])
-                             + "</td></tr>" for n, c in counts.most_common()) + "</table>")
-        parts.append(f"<p>{sum(not r.effects for r in ok)} of {len(ok)} recordings: no effect "
-                     "beyond the PI model.</p>")
-    else:
-        parts.append("<p class='note'>A fit batch does not look for missing physics; run "
-                     "<code>hyst batch diagnose</code> for that.</p>")
+    parts.append("<h2>Distributions</h2>")
+    dist = _distributions(metrics, flagged)
+    parts.append(figure(dist) if dist is not None
+                 else "<p>Too few successful recordings for distributions.</p>")
     if bad:
         parts.append("<h2 class='bad'>Failed recordings</h2><table><tr><th>recording</th>"
                      "<th>file</th><th>error</th></tr>" + "".join(
