@@ -36,7 +36,7 @@ class Outcome:
     parameter_set : str
         Text of the parameter-set JSON the command wrote (empty on failure).
     diagnosis : str
-        For ``diagnose``: the ``--json`` document (one line of JSON); else empty.
+        For ``diagnose``: the ``--json`` document (one JSON object); else empty.
     samples : int
         Samples in the file (all recordings it holds); 0 when it could not be read.
     messages : str
@@ -99,7 +99,7 @@ def run_recording(kind: str, filename: str, content: bytes, argv: list[str]) -> 
             args = command_args(kind, [str(src), *argv, *extra])
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
                 command_module(kind).run(args)
-            diagnosis = out.getvalue().strip().splitlines()[-1] if kind == "diagnose" else ""
+            diagnosis = out.getvalue().strip() if kind == "diagnose" else ""  # one JSON object
             return Outcome(True, parameter_set=model.read_text(encoding="utf-8"),
                            diagnosis=diagnosis, samples=_samples(kind, args, diagnosis),
                            messages=err.getvalue(), elapsed_s=time.perf_counter() - t0)
