@@ -244,3 +244,13 @@ def test_outliers_follow_median_mad_and_report_escapes(tmp_path):
     assert "<script>alert" not in page and "<img src=x" not in page
     assert "&lt;script&gt;alert(1)&lt;/script&gt;" in page
     assert "href='#rec-r6'" in page
+
+
+def test_diagnosis_benchmark_executor_runs_on_a_scheduler(scheduler):
+    from concurrent.futures import as_completed
+
+    from benchmarks.diagnosis.dask_runner import executor
+
+    with executor(1, scheduler) as ex:
+        futs = [ex.submit(pow, k, 2) for k in range(5)]
+        assert sorted(f.result() for f in as_completed(futs)) == [0, 1, 4, 9, 16]
