@@ -8,14 +8,14 @@ estimators of :mod:`core.fitting` and the diagnosis is :func:`core.diagnosis.dia
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from core import fitting
 from core.base import Model, model_from_dict
-from core.csvio import inspect_csv, read_csv
+from core.csvio import CSVError, inspect_csv_text, read_csv_text
 from core.exceptions import ParameterError
 from core.recordings import Recording
 
@@ -26,46 +26,93 @@ from .state import Session
 
 __all__ = [
     "FIT_KINDS",
+    "Upload",
     "csv_preview",
     "diagnose_session",
     "diagnosis_html",
     "fit_recording",
     "fit_session",
+    "read_upload",
     "recording_from_csv",
     "run_diagnosis",
     "store_recording",
 ]
 
 
-def recording_from_csv(
-    text: str,
+@dataclass(frozen=True, eq=False)
+class Upload:
+    """An uploaded recording and what the file held.
+
+    Attributes
+    ----------
+    recording : Recording
+        The recording kept (its ``cleaning`` notes say what was removed or chosen).
+    runs : tuple of str
+        Run ids of the file's run column in file order (empty without one).
+    """
+
+    recording: Recording
+    runs: tuple[str, ...] = ()
+
+
+def read_upload(
+    content: str | bytes,
     *,
     t_col: str | int | None = None,
     u_col: str | int | None = None,
     y_col: str | int | None = None,
+    run: str | None = None,
     dt: float = 1e-3,
     max_samples: int = 200_000,
     name: str = "upload.csv",
-) -> Recording:
-    """Read an uploaded CSV with :func:`core.csvio.read_csv` and an optional column mapping.
+) -> Upload:
+    """Read uploaded CSV *content* (never a path) with an optional column mapping.
 
+    The content goes through :func:`core.csvio.read_csv_text`, so bytes are decoded as the
+    command line decodes a file (UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1).
     Columns are names or 0-based indices (digit strings count as indices); unmapped roles
-    are chosen by the core reader. A file without a time column gets ``t = k * dt``. When
-    the file holds several runs, the first one is used (its name says so).
+    are chosen by the core reader. A file without a time column gets ``t = k * dt``. A file
+    with a run column holds several recordings: ``run`` chooses one by its id, ``"all"``
+    reads every row as one recording in file order; without ``run`` the first run is kept.
+    Either way a cleaning note says which run was kept and how to choose another.
 
     Raises
     ------
     core.csvio.CSVError
-        With the 1-based ``line`` and the 0-based ``column_index`` of the problem.
+        With the 1-based ``line`` and the 0-based ``column_index`` of the problem, or when
+        ``run`` names no run of the file.
     """
-    recs = read_csv(text, time=column_spec(t_col), input=column_spec(u_col),
-                    output=column_spec(y_col), name=name, max_rows=max_samples)
-    rec = recs[0]
+    recs = read_csv_text(content, time=column_spec(t_col), input=column_spec(u_col),
+                         output=column_spec(y_col), run=False if run == "all" else None,
+                         name=name, max_rows=max_samples)
+    runs = tuple(str(r.run) for r in recs) if len(recs) > 1 or recs[0].run is not None else ()
+    if run not in (None, "all"):
+        if str(run) not in runs:
+            raise CSVError(
+                f"run={run!r} is not in this file; its runs are {', '.join(runs) or 'none'}"
+                " (or pass run=all to read every row as one recording)"
+            )
+        rec = recs[runs.index(str(run))]
+    else:
+        rec = recs[0]
+    if run == "all":
+        rec = replace(rec, cleaning=(*rec.cleaning, "read every row as one recording "
+                                     "(run=all): a run column, if any, was not used"))
+    elif len(runs) > 1:
+        col = rec.columns.get("run", "run")
+        rec = replace(rec, name=f"{name} (run {rec.run}; {runs.index(str(rec.run)) + 1} of "
+                                f"{len(runs)})",
+                      cleaning=(*rec.cleaning, f"the file holds {len(runs)} runs (column "
+                                f"{col!r}: {', '.join(runs)}); kept run {rec.run}; pass "
+                                "run=<id> to choose another or run=all to read every row"))
     if not rec.has_time:
         rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})
-    if len(recs) > 1:
-        rec = replace(rec, name=f"{name} (run 1 of {len(recs)})")
-    return rec
+    return Upload(rec, runs)
+
+
+def recording_from_csv(content: str | bytes, **kwargs: Any) -> Recording:
+    """The recording of :func:`read_upload` ``(content, **kwargs)``."""
+    return read_upload(content, **kwargs).recording
 
 
 def store_recording(session: Session, rec: Recording) -> None:
@@ -77,20 +124,23 @@ def store_recording(session: Session, rec: Recording) -> None:
     session.touch()
 
 
-def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
-    """Columns, the first ``rows`` data rows (as text) and the row count of a CSV.
+def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[str, Any]:
+    """Columns, the first ``rows`` data rows (as text), row count and notes of CSV content.
 
     Raises
     ------
     core.csvio.CSVError
-        If :func:`core.csvio.inspect_csv` cannot work out the layout.
+        If :func:`core.csvio.inspect_csv_text` cannot work out the layout.
     """
-    lay = inspect_csv(text, max_rows=max_samples)
-    lines = text.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
+    lay = inspect_csv_text(content, max_rows=max_samples)
+    if isinstance(content, bytes):
+        enc = {"utf-8": "utf-8-sig"}.get(lay.encoding, lay.encoding)
+        content = content.decode(enc)
+    lines = content.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
     d = None if lay.delimiter == "whitespace" else lay.delimiter
     return {"columns": [c.raw for c in lay.columns],
             "rows": [[c.strip() for c in (ln.split(d) if d else ln.split())] for ln in lines],
-            "n_rows": int(lay.n_rows), "notes": list(lay.notes)}
+            "n_rows": int(lay.n_rows), "encoding": lay.encoding, "notes": list(lay.notes)}
 
 
 #: Model kinds the explorer can fit (those of ``hyst fit --model``) and their estimators.

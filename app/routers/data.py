@@ -15,11 +15,11 @@ from ..data import (
     diagnose_session,
     diagnosis_html,
     fit_session,
-    recording_from_csv,
+    read_upload,
     store_recording,
 )
 from ..schemas import FitIn
-from .deps import SessionDep, SettingsDep, decode_text, read_body
+from .deps import SessionDep, SettingsDep, read_body
 
 __all__ = ["router"]
 
@@ -41,8 +41,8 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
     """
     _check_type(request)
-    text = decode_text(await read_body(request, settings.max_upload_bytes))
-    return await run_in_threadpool(csv_preview, text, settings.max_samples)
+    body = await read_body(request, settings.max_upload_bytes)
+    return await run_in_threadpool(csv_preview, body, settings.max_samples)
 
 
 @router.post("/sessions/{code}/recording", status_code=201)
@@ -53,23 +53,33 @@ async def upload_recording(
     t_col: str | None = Query(None, description="time column (name or 0-based index)"),
     u_col: str | None = Query(None, description="input column"),
     y_col: str | None = Query(None, description="output column"),
-    dt: float = Query(1e-3, gt=0, description="sample spacing when there is no time column"),
+    run: str | None = Query(None, max_length=200,
+                            description="run id to keep when the file has a run column, "
+                                        "or 'all' to read every row as one recording"),
+    dt: float = Query(1e-3, gt=0, le=3600,
+                      description="sample spacing when there is no time column"),
     name: str = Query("upload.csv", max_length=200),
 ) -> dict[str, Any]:
     """Store a recording from a raw ``text/csv`` body with an optional column mapping.
 
+    The body is CSV content, never a file name. The response lists the cleaning notes
+    (removed rows, skipped lines, the run kept) and the file's runs.
     Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
     """
     _check_type(request)
-    text = decode_text(await read_body(request, settings.max_upload_bytes))
-    rec = await run_in_threadpool(
-        lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
-                                   max_samples=settings.max_samples, name=name)
+    body = await read_body(request, settings.max_upload_bytes)
+    up = await run_in_threadpool(
+        lambda: read_upload(body, t_col=t_col, u_col=u_col, y_col=y_col, run=run, dt=dt,
+                            max_samples=settings.max_samples, name=name)
     )
+    rec = up.recording
     store_recording(session, rec)
     return {
         "name": rec.name,
         "samples": rec.n_samples,
+        "notes": list(rec.cleaning),
+        "runs": list(up.runs),
+        "run": None if rec.run is None else str(rec.run),
         "t_range": [float(rec.t[0]), float(rec.t[-1])],
         "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],
         "y_range": [float(np.min(rec.y)), float(np.max(rec.y))],
