@@ -12,6 +12,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from typing import Any
 
+import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
@@ -20,6 +21,7 @@ from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
+from .security import Guard
 from .settings import STATIC_DIR, Settings
 from .state import Config, SessionRegistry
 
@@ -99,6 +101,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
 
+    @app.exception_handler(RecursionError)
+    async def _too_deep(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=422, content={
+            "detail": "the input is nested too deeply to process; flatten it"})
+
+    @app.exception_handler(ArithmeticError)
+    @app.exception_handler(np.linalg.LinAlgError)
+    async def _numeric(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=422, content={
+            "detail": f"these parameter values cannot be computed ({exc}); use values of "
+                      "ordinary size (see the limits in GET /api/capabilities)"})
+
     @app.exception_handler(CSVError)
     async def _csv_error(request: Request, exc: CSVError) -> JSONResponse:
         # line 1-based, column 0-based (the index, not the name: CSVError.column_index)
@@ -114,4 +128,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
+    app.add_middleware(Guard, max_body=settings.max_upload_bytes,
+                       max_json_depth=settings.limits.max_json_depth, static_dir=STATIC_DIR)
     return app

@@ -6,6 +6,8 @@ import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+from .services.cost import Limits
+
 __all__ = ["STATIC_DIR", "Settings"]
 
 #: Directory of the plain HTML/JS page, located from this file (never from the CWD).
@@ -59,3 +61,9 @@ class Settings:
             kw[f.name] = raw if f.name in ("host", "teacher_token") else int(raw)
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**kw)  # type: ignore[arg-type]
+
+    @property
+    def limits(self) -> Limits:
+        """The cost limits of one request (:class:`app.services.cost.Limits`)."""
+        return Limits(max_operators=self.max_operators, max_samples=self.max_samples,
+                      max_work=max(Limits.max_work, 125 * self.max_samples))

@@ -19,11 +19,16 @@ from ..data import (
     store_recording,
 )
 from ..schemas import FitIn
-from .deps import SessionDep, SettingsDep, read_body
+from .deps import SessionDep, SettingsDep, attachment, read_body
 
 __all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["data"])
+
+#: Policy of the self-contained diagnosis report (inline plotly.js, sandboxed, no network).
+REPORT_CSP = ("default-src 'none'; script-src 'unsafe-inline' 'unsafe-eval'; "
+              "style-src 'unsafe-inline'; img-src data: blob:; font-src data:; "
+              "sandbox allow-scripts allow-downloads; frame-ancestors 'none'")
 
 _CSV_TYPES = ("text/csv", "text/plain", "application/csv", "application/octet-stream")
 
@@ -116,5 +121,8 @@ def diagnosis_report(session: SessionDep) -> HTMLResponse:
     if session.diagnosis_result is None:
         raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
     text = diagnosis_html(session.diagnosis_result)
+    # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
+    # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={
-        "Content-Disposition": f'inline; filename="diagnosis-{session.code}.html"'})
+        **attachment(f"diagnosis-{session.code}.html", "inline"),
+        "Content-Security-Policy": REPORT_CSP})

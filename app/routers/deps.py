@@ -9,7 +9,7 @@ from fastapi import Depends, HTTPException, Request
 from ..settings import Settings
 from ..state import Session, SessionRegistry
 
-__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "read_body"]
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "read_body"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -48,6 +48,20 @@ async def read_body(request: Request, limit: int) -> bytes:
             raise HTTPException(413, f"body exceeds the {limit}-byte limit")
         chunks.append(chunk)
     return b"".join(chunks)
+
+
+def attachment(filename: str, disposition: str = "attachment") -> dict[str, str]:
+    """A ``Content-Disposition`` header safe for any file name (RFC 6266 / 5987).
+
+    Header values are Latin-1, so the plain ``filename=`` gets an ASCII fallback (other
+    characters become ``_``) and ``filename*=`` carries the UTF-8 name percent-encoded.
+    """
+    from urllib.parse import quote
+
+    ascii_name = "".join(c if c.isascii() and (c.isalnum() or c in "._-") else "_"
+                         for c in filename) or "download"
+    return {"Content-Disposition":
+            f"{disposition}; filename=\"{ascii_name}\"; filename*=UTF-8''{quote(filename)}"}
 
 
 def decode_text(body: bytes) -> str:

@@ -11,7 +11,8 @@ from fastapi.responses import Response
 from core.exceptions import ParameterError
 
 from ..exports import EXPORT_FORMATS, export_session, parameter_set_model
-from .deps import SessionDep, SettingsDep, decode_text, read_body
+from ..services.cost import check_document, check_model
+from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
 
 __all__ = ["router"]
 
@@ -26,8 +27,7 @@ def export(fmt: str, session: SessionDep) -> Response:
     if fmt not in EXPORT_FORMATS:
         raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
     name, payload = export_session(session, fmt)
-    return Response(payload, media_type=_MEDIA[fmt],
-                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+    return Response(payload, media_type=_MEDIA[fmt], headers=attachment(name))
 
 
 @router.put("/sessions/{code}/parameter-set")
@@ -40,11 +40,14 @@ async def upload_parameter_set(
         doc = json.loads(decode_text(body))
     except json.JSONDecodeError as exc:
         raise HTTPException(422, f"not valid JSON: {exc}") from None
+    limits = settings.limits
+    cfg, _ = session.snapshot()
+    samples = cfg.signal.samples
     try:
+        check_document(doc, limits)
         model = parameter_set_model(doc)
-        if getattr(model, "n", 0) > settings.max_operators:
-            raise ParameterError(f"model has more than {settings.max_operators} operators")
-    except (ParameterError, ValueError, TypeError) as exc:
+        check_model(model, samples, cfg.signal.duration / max(1, samples - 1), limits)
+    except (ParameterError, ValueError, TypeError, KeyError) as exc:
         raise HTTPException(422, f"not a usable parameter set: {exc}") from None
     session.update(lambda c: c.with_model(model.to_dict()))
     return session.summary()

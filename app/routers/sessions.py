@@ -10,6 +10,7 @@ from core.exceptions import ParameterError
 
 from ..compute import compute, preset_doc, validate_config
 from ..schemas import ConfigIn
+from ..services.cost import check_config
 from .deps import RegistryDep, SessionDep, SettingsDep
 from .simulate import result_payload
 
@@ -44,6 +45,7 @@ def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) ->
     """Change model, signal, mismatch or input source; validated before it is stored."""
     with session.lock:
         new = body.apply(session.config)
+        check_config(new, session.recording, settings.limits)
         validate_config(new, session.recording, settings.max_operators, settings.max_samples)
         session.set_config(new)
     return session.summary()
@@ -57,6 +59,7 @@ def session_figures(
 ) -> dict[str, Any]:
     """Figures of the session's current config (``?name=loop&name=time``)."""
     cfg, v = session.snapshot()
+    check_config(cfg, session.recording, settings.limits)
     res = compute(cfg, version=v, recording=session.recording,
                   max_operators=settings.max_operators, max_samples=settings.max_samples,
                   with_inverse="inverse" in names, with_digitized="digitized" in names)

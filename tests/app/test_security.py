@@ -103,3 +103,120 @@ def test_run_column_is_chosen_and_said(client: TestClient, code: str) -> None:
     assert r2.status_code == 201 and r2.json()["run"] == "2"
     bad = upload(client, code, body, run="7")
     assert bad.status_code == 422 and "1, 2" in bad.json()["detail"]["message"]
+
+
+# ------------------------------------------------------------------ 6. no input yields a 500
+def nested(depth: int) -> dict:
+    d: dict = PI
+    for _ in range(depth):
+        d = {"type": "chain", "stages": [d]}
+    return d
+
+
+def raw_nested(depth: int) -> bytes:
+    return (b'{"model":' + b'{"type":"chain","stages":[' * depth + b'{"type":"pi","p0":1,'
+            b'"thresholds":[0.5],"weights":[1]}' + b"]}" * depth + b"}")
+
+
+@pytest.mark.parametrize("depth", [15, 300, 100_000])
+def test_deep_nesting_is_refused_before_recursion(client: TestClient, code: str,
+                                                  depth: int) -> None:
+    """Failure 6: chains 300 deep were stored and broke the session; deeper ones raised
+    RecursionError."""
+    for url, method in ((f"/api/sessions/{code}/config", "PATCH"), ("/api/simulate", "POST")):
+        r = client.request(method, url, content=raw_nested(depth),
+                           headers={"Content-Type": "application/json"})
+        assert r.status_code == 422, (depth, r.text[:200])
+        assert "nested" in r.text
+    r = client.put(f"/api/sessions/{code}/parameter-set", content=raw_nested(depth))
+    assert r.status_code == 422 and "nested" in r.text
+    assert client.get(f"/api/sessions/{code}/figures").status_code == 200
+    assert client.get(f"/api/sessions/{code}/export/json").status_code == 200
+
+
+@pytest.mark.parametrize(
+    ("stage", "words"),
+    [
+        ({"type": "delay", "delay_s": 1e300}, "delay_s"),
+        ({"type": "delay", "delay_s": 1e5}, "delay_s"),
+        ({"type": "lag", "tau_s": 5e-324}, "tau_s"),
+        ({"type": "resonance", "freq_hz": 1e-9, "damping": 0.1}, "freq_hz"),
+        ({"type": "lti", "num": [1.0], "den": [1.0] * 1501}, "lti order 1500"),
+        ({"type": "creep", "taus_s": list(range(1, 101)), "weights": [0.01] * 100}, "creep"),
+        ({"type": "creep", "taus_s": list(range(1, 100_001)),
+          "weights": [0.0] * 100_000}, "numbers"),
+        ({"type": "rate", "p0": 1, "thresholds": list(np.arange(1, 151) / 100),
+          "weights": [0.01] * 150, "beta_s": 0.1}, "151 operators"),
+        ({"type": "initial-memory", "history": [1, -1],
+          "model": {"type": "pi", "p0": 1, "thresholds": list(np.arange(1, 151) / 100),
+                    "weights": [0.01] * 150}}, "151 operators"),
+    ],
+)
+def test_every_model_type_has_a_bounded_cost(client: TestClient, code: str, stage: dict,
+                                             words: str) -> None:
+    """Failures 3 and 6: the operator limit skipped rate/initial-memory/creep; extreme
+    delays, lags and resonances were 500s or took gigabytes."""
+    model = {"type": "chain", "stages": [PI, stage]}
+    r = client.post("/api/simulate", json={"model": model, "figures": ["time"]})
+    assert r.status_code == 422, r.text[:300]
+    assert words in r.json()["detail"]
+    r = client.patch(f"/api/sessions/{code}/config", json={"model": model})
+    assert r.status_code == 422
+    assert client.get(f"/api/sessions/{code}").json()["config"]["model"]["type"] == "pi"
+
+
+def test_limits_are_published(client: TestClient) -> None:
+    lim = client.get("/api/capabilities").json()["limits"]
+    for key in ("max_operators", "max_samples", "max_model_depth", "max_creep_terms",
+                "max_lti_order", "max_work", "max_json_depth"):
+        assert lim[key] > 0
+
+
+def test_download_names_are_header_safe() -> None:
+    """Failure 6: a non-Latin-1 session code broke every export (header encoding)."""
+    from app.routers.deps import attachment
+
+    h = attachment("hysteresis-pi-ßcode-日本.json")["Content-Disposition"]
+    h.encode("latin-1")  # what the ASGI server needs
+    assert 'filename="hysteresis-pi-_code-__.json"' in h
+    assert "filename*=UTF-8''hysteresis-pi-%C3%9Fcode-%E6%97%A5%E6%9C%AC.json" in h
+
+
+def test_unhandled_errors_are_json_and_keep_the_connection(tmp_path: Path) -> None:
+    """Failure 6: after a 500 the connection was reset."""
+    from app.security import Guard
+
+    async def boom(scope, receive, send):  # noqa: ANN001, ANN202
+        raise RuntimeError("bug")
+
+    c = TestClient(Guard(boom, max_body=100, max_json_depth=5, static_dir=tmp_path))
+    for _ in range(2):  # the same connection answers again
+        r = c.get("/x")
+        assert r.status_code == 500 and "internal error" in r.json()["detail"]
+        assert r.headers["x-content-type-options"] == "nosniff"
+
+
+# ------------------------------------------------------------------ 2./4. headers and origin
+def test_security_headers(client: TestClient) -> None:
+    """Failure 2: no CSP, X-Frame-Options or nosniff."""
+    for url in ("/", "/api/health", "/api.html", "/app.js"):
+        h = client.get(url).headers
+        csp = h["content-security-policy"]
+        assert "default-src 'self'" in csp and "frame-ancestors 'none'" in csp
+        script_src = csp.split("script-src")[1].split(";")[0]
+        assert "'self'" in script_src and "unsafe" not in script_src
+        assert h["x-content-type-options"] == "nosniff" and h["x-frame-options"] == "DENY"
+    assert "'sha256-" in client.get("/api.html").headers["content-security-policy"]
+
+
+def test_foreign_origins_cannot_change_state(client: TestClient, code: str) -> None:
+    """Failure 4: POST /api/sessions was accepted from a foreign Origin."""
+    evil = {"Origin": "http://evil.example"}
+    assert client.post("/api/sessions", headers=evil).status_code == 403
+    assert client.patch(f"/api/sessions/{code}/config", json={"mismatch": 0.1},
+                        headers=evil).status_code == 403
+    assert client.post("/api/sessions", headers={"Sec-Fetch-Site": "cross-site"}
+                       ).status_code == 403
+    assert client.post("/api/sessions", headers={"Origin": "http://testserver"}
+                       ).status_code == 201
+    assert client.get(f"/api/sessions/{code}", headers=evil).status_code == 200
