@@ -199,7 +199,9 @@ def fit_session(session: Session, n: int, kind: str = "pi",
         session.fitted, session.fit_report = doc, report
         session.diagnosis = session.diagnosis_result = None
     if apply:
-        session.update(lambda c: c.with_model(doc))
+        session.update(lambda c: c.with_model(doc))  # stores the fit too
+    else:
+        session.save(recording=False)
     return model, report
 
 
@@ -252,6 +254,7 @@ def diagnose_session(session: Session) -> dict[str, Any]:
     report, result = run_diagnosis(session.recording, model_from_dict(doc))
     with session.lock:
         session.diagnosis, session.diagnosis_result = report, result
+        session.save(recording=False)
     return report
 
 

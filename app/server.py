@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,8 +23,10 @@ from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
 from .security import Guard
+from .services.ratelimit import RateLimiter
+from .services.store import SessionStore
 from .settings import STATIC_DIR, Settings
-from .state import Config, SessionRegistry
+from .state import Config, SessionRegistry, StoreFullError
 
 __all__ = ["create_app"]
 
@@ -57,8 +60,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     FastAPI
         The app; use it as a context manager (``TestClient``) or serve it with uvicorn.
     """
-    settings = settings or Settings()
+    settings, generated = (settings or Settings()).with_teacher_token()
+    if generated:
+        log.warning("the server is reachable beyond loopback: broadcasting needs a teacher "
+                    "token; one was generated (see `hyst serve`, which prints it)")
     ensure_model_types_registered()
+    store = SessionStore(
+        ":memory:" if not settings.state_dir else Path(settings.state_dir) / "sessions.sqlite3",
+        max_bytes=settings.max_store_mb * 1_000_000)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -76,6 +85,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 gui.close()
             if server is not None:
                 server.stop()
+            store.close()
 
     app = FastAPI(
         title="Hysteresis Explorer",
@@ -93,13 +103,20 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     def _docs() -> RedirectResponse:
         return RedirectResponse("/api.html")
 
-    app.state.registry = SessionRegistry(settings.max_sessions)
+    app.state.registry = SessionRegistry(settings.max_sessions, store)
+    # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
+    app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
+    app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
     app.state.viser_port = None
 
     @app.exception_handler(ParameterError)
     @app.exception_handler(NotInvertibleError)
     async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(StoreFullError)
+    async def _full(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=503, content={"detail": str(exc)})
 
     @app.exception_handler(RecursionError)
     async def _too_deep(request: Request, exc: Exception) -> JSONResponse:

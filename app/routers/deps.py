@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hmac
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
@@ -9,7 +10,8 @@ from fastapi import Depends, HTTPException, Request
 from ..settings import Settings
 from ..state import Session, SessionRegistry
 
-__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "read_body"]
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "read_body",
+           "teacher_ok"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -22,12 +24,33 @@ def get_registry(request: Request) -> SessionRegistry:
     return request.app.state.registry
 
 
+def client_key(request: Request) -> str:
+    """The client's address (the rate limits are per client)."""
+    return request.client.host if request.client else "unknown"
+
+
 def get_session(code: str, request: Request) -> Session:
-    """The session ``code`` or a 404."""
+    """The session ``code``; 404 if there is none, 429 after too many unknown codes."""
+    key = client_key(request)
+    limiter = request.app.state.lookup_limiter
+    if not limiter.allowed(key):
+        raise HTTPException(429, "too many unknown session codes from this computer; wait "
+                                 "a minute and check the code",
+                            headers={"Retry-After": str(limiter.retry_after(key))})
     try:
         return request.app.state.registry.get(code)
     except KeyError:
-        raise HTTPException(404, f"no session with code {code!r}") from None
+        limiter.take(key)
+        raise HTTPException(404, "no such session: check the code (it looks like "
+                                 "abcd-efgh-jkmn-pqrs) or start a new session") from None
+
+
+def teacher_ok(settings: Settings, token: str | None) -> bool:
+    """Whether ``token`` is the teacher token (constant-time comparison)."""
+    if not settings.teacher_token or token is None:
+        return False
+    return hmac.compare_digest(token.encode("utf-8", "replace"),
+                               settings.teacher_token.encode("utf-8"))
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

@@ -220,3 +220,89 @@ def test_foreign_origins_cannot_change_state(client: TestClient, code: str) -> N
     assert client.post("/api/sessions", headers={"Origin": "http://testserver"}
                        ).status_code == 201
     assert client.get(f"/api/sessions/{code}", headers=evil).status_code == 200
+
+
+# ------------------------------------------------------------------ 5. credentials
+def test_codes_are_long_random_and_made_by_the_server(client: TestClient) -> None:
+    """Failure 5: 6-character codes (30 bits); PUT /api/sessions/abc created a session."""
+    import math
+
+    from app.state import CODE_ALPHABET, CODE_LENGTH
+
+    assert CODE_LENGTH * math.log2(len(set(CODE_ALPHABET))) >= 64
+    codes = {client.post("/api/sessions").json()["code"] for _ in range(20)}
+    assert len(codes) == 20 and all(len(c.replace("-", "")) == CODE_LENGTH for c in codes)
+    r = client.put("/api/sessions/abc")
+    assert r.status_code == 404 and "no such session" in r.json()["detail"]
+    assert client.get("/api/sessions/abc").status_code == 404
+
+
+def test_failed_lookups_are_rate_limited(tmp_path: Path) -> None:
+    """Failure 5: 2,860 guesses a minute, never a 429."""
+    with TestClient(create_app(settings(tmp_path))) as c:
+        good = c.post("/api/sessions").json()["code"]
+        codes = [c.get(f"/api/sessions/{'abcd' * 3}{k:04d}") for k in range(40)]
+        statuses = [r.status_code for r in codes]
+        assert statuses[:20] == [404] * 20 and set(statuses[20:]) == {429}
+        assert int(codes[-1].headers["retry-after"]) >= 1
+        assert c.get(f"/api/sessions/{good}").status_code == 429  # guessing is paused
+
+
+def test_session_flood_cannot_evict_a_class(tmp_path: Path) -> None:
+    """Failure 4: 600 POST /api/sessions in 1.5 s evicted idle sessions (a teacher's too)."""
+    with TestClient(create_app(settings(tmp_path, max_sessions=50))) as c:
+        teacher = c.post("/api/sessions").json()["code"]
+        assert upload(c, teacher, csv_text()).status_code == 201
+        assert c.post(f"/api/sessions/{teacher}/fit", json={"n": 4}).status_code == 200
+        statuses = [c.post("/api/sessions").status_code for _ in range(600)]
+        assert statuses.count(201) <= 210 and statuses.count(429) >= 390  # 200 + 1 a second
+        s = c.get(f"/api/sessions/{teacher}").json()
+        assert s["recording"]["samples"] == 300 and s["fitted"] is not None
+
+
+def test_broadcast_beyond_loopback_needs_the_token(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    """Failure 5: with --host 0.0.0.0 and no token anyone could broadcast; `!=` compare."""
+    import hmac
+
+    calls: list[int] = []
+    real = hmac.compare_digest
+    monkeypatch.setattr(hmac, "compare_digest",
+                        lambda a, b: calls.append(1) or real(a, b))
+    app = create_app(settings(tmp_path, host="0.0.0.0"))
+    token = app.state.settings.teacher_token
+    assert token and len(token) >= 20
+    with TestClient(app) as c:
+        assert c.post("/api/broadcast/paper001-example1").status_code == 403
+        assert c.post("/api/broadcast/paper001-example1",
+                      headers={"X-Teacher-Token": "guess"}).status_code == 403
+        ok = c.post("/api/broadcast/paper001-example1", headers={"X-Teacher-Token": token})
+        assert ok.status_code == 200
+    assert calls, "the token must be compared with hmac.compare_digest"
+
+
+def test_public_host_says_what_it_exposes(capsys) -> None:  # noqa: ANN001
+    from types import SimpleNamespace
+
+    from app.commands.serve import _announce
+
+    sock = SimpleNamespace(getsockname=lambda: ("0.0.0.0", 8123))
+    server = SimpleNamespace(started=True, should_exit=False,
+                             servers=[SimpleNamespace(sockets=[sock])])
+    app = SimpleNamespace(state=SimpleNamespace(viser_port=8124))
+    s, generated = Settings(host="0.0.0.0", state_dir="/tmp/x").with_teacher_token()
+    _announce(server, app, s, generated, False)
+    out = capsys.readouterr().out
+    assert "WARNING: listening on 0.0.0.0" in out and "8123" in out and "8124" in out
+    assert f"Teacher token (needed to push presets to every session): {s.teacher_token}" in out
+
+
+def test_teacher_token_from_file_or_env(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001
+    from app.cli import build_parser
+    from app.commands.serve import _token
+
+    f = tmp_path / "token"
+    f.write_text("from-a-file\n")
+    args = build_parser().parse_args(["serve", "--teacher-token-file", str(f)])
+    assert _token(args) == "from-a-file"
+    monkeypatch.setenv("HYST_TEACHER_TOKEN", "from-env")
+    assert Settings.from_env(teacher_token=None).teacher_token == "from-env"
