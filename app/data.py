@@ -7,7 +7,9 @@ estimators of :mod:`core.fitting` and the diagnosis is :func:`core.diagnosis.dia
 
 from __future__ import annotations
 
+import inspect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -228,30 +230,37 @@ def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def run_diagnosis(rec: Recording, model: Model) -> tuple[dict[str, Any], Any]:
+def run_diagnosis(rec: Recording, model: Model,
+                  progress: Callable[..., None] | None = None) -> tuple[dict[str, Any], Any]:
     """:func:`core.diagnosis.diagnose` of ``rec``: ``(report, result)``.
 
     The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
     ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
-    held-out RMSE before and after, and the core's JSON document.
+    held-out RMSE before and after, and the core's JSON document. ``progress`` is passed
+    on when the installed :func:`~core.diagnosis.diagnose` accepts one (it may raise to
+    stop the diagnosis: that is how a job is cancelled).
     """
     from core.diagnosis import diagnose
 
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
-    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n)
+    kw: dict[str, Any] = {}
+    if progress is not None and "progress" in inspect.signature(diagnose).parameters:
+        kw["progress"] = progress
+    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, **kw)
     d = result.to_dict()
     return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
 
 
-def diagnose_session(session: Session) -> dict[str, Any]:
+def diagnose_session(session: Session,
+                     progress: Callable[..., None] | None = None) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against ``session``'s recording.
 
     Stores and returns the report (see :func:`run_diagnosis`); the caller checks that the
     session has a recording.
     """
     doc = session.fitted or session.snapshot()[0].model
-    report, result = run_diagnosis(session.recording, model_from_dict(doc))
+    report, result = run_diagnosis(session.recording, model_from_dict(doc), progress)
     with session.lock:
         session.diagnosis, session.diagnosis_result = report, result
         session.save(recording=False)

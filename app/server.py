@@ -23,6 +23,7 @@ from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
 from .security import Guard
+from .services.jobs import JobManager
 from .services.ratelimit import RateLimiter
 from .services.store import SessionStore
 from .settings import STATIC_DIR, Settings
@@ -85,6 +86,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 gui.close()
             if server is not None:
                 server.stop()
+            app.state.jobs.cancel_all()
             store.close()
 
     app = FastAPI(
@@ -104,6 +106,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return RedirectResponse("/api.html")
 
     app.state.registry = SessionRegistry(settings.max_sessions, store)
+    app.state.jobs = JobManager(max_workers=settings.max_jobs)
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
@@ -139,9 +142,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                 "column": exc.column_index}},
         )
 
-    from .routers import data, export, meta, sessions, simulate
+    from .routers import data, export, jobs, meta, sessions, simulate
 
-    for mod in (meta, simulate, sessions, data, export):
+    for mod in (meta, simulate, sessions, data, jobs, export):
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")

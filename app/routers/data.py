@@ -9,17 +9,10 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from .. import figures as F
-from ..data import (
-    csv_preview,
-    diagnose_session,
-    diagnosis_html,
-    fit_session,
-    read_upload,
-    store_recording,
-)
+from ..data import csv_preview, diagnosis_html, read_upload, store_recording
 from ..schemas import FitIn
 from .deps import SessionDep, SettingsDep, attachment, read_body
+from .jobs import start_job, wait_for
 
 __all__ = ["router"]
 
@@ -91,28 +84,25 @@ async def upload_recording(
     }
 
 
-def _need_recording(session: Any) -> Any:
-    if session.recording is None:
-        raise HTTPException(409, "upload a recording first (POST /api/sessions/{code}/recording)")
-    return session.recording
-
-
 @router.post("/sessions/{code}/fit")
-def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
-    """Fit a model to the session's recording; returns the model, report and overlay figure."""
-    if body.n > settings.max_operators:
-        raise HTTPException(422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
-    rec = _need_recording(session)
-    model, report = fit_session(session, body.n, body.kind, body.apply)
-    fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
-    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+async def fit(body: FitIn, request: Request, session: SessionDep,
+              settings: SettingsDep) -> dict[str, Any]:
+    """Fit a model to the session's recording; returns the model, report and overlay figure.
+
+    Runs as a job of the bounded queue (see :mod:`app.routers.jobs`) and waits for it;
+    the job is cancelled if the client hangs up.
+    """
+    job = start_job(request, session, settings, "fit", body.model_dump())
+    return await wait_for(request, job)
 
 
 @router.post("/sessions/{code}/diagnose")
-def diagnose(session: SessionDep) -> dict[str, Any]:
-    """Diagnose the fitted model (else the current model) against the recording."""
-    _need_recording(session)
-    return diagnose_session(session)
+async def diagnose(request: Request, session: SessionDep,
+                   settings: SettingsDep) -> dict[str, Any]:
+    """Diagnose the fitted model (else the current model) against the recording (a job of
+    the bounded queue, waited for; cancelled if the client hangs up)."""
+    job = start_job(request, session, settings, "diagnose", {})
+    return await wait_for(request, job)
 
 
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)

@@ -109,6 +109,9 @@ def test_kill_9_and_restart_lose_nothing_and_sigterm_is_quick(tmp_path: Path) ->
     try:
         s = _call(web + f"api/sessions/{code}")
         assert s["recording"]["samples"] == 400 and s["fitted"] == fit["model"]
+        job = _call(web + f"api/sessions/{code}/jobs", "POST", b'{"kind": "diagnose"}')
+        assert job["kind"] == "diagnose"  # SIGTERM arrives while it runs
+        time.sleep(0.5)
     finally:
         t0 = time.monotonic()
         proc.send_signal(signal.SIGTERM)
