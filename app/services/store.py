@@ -208,14 +208,23 @@ class SessionStore:
                                   else pickle.dumps(state.diagnosis_result))
         with self._lock:
             db = self._db
+            if not blobs:  # a config change: one statement, one implicit commit
+                cur = db.execute(
+                    "UPDATE sessions SET last_used=?, teacher=?, version=?, config=?, fitted=?,"
+                    " fit_report=?, diagnosis=?, size=? + (SELECT COALESCE(SUM(length(data)),"
+                    " 0) FROM blobs WHERE code=?) WHERE code=?",
+                    (state.last_used, int(state.teacher), state.version, *row_text,
+                     sum(len(t) for t in row_text if t), state.code, state.code))
+                if cur.rowcount == 1:
+                    return
             db.execute("BEGIN IMMEDIATE")
             try:
                 for kind, data in blobs.items():
                     if data is None:
                         db.execute("DELETE FROM blobs WHERE code=? AND kind=?",
                                    (state.code, kind))
-                old = {k: len(v) for k, v in db.execute(
-                    "SELECT kind, data FROM blobs WHERE code=?", (state.code,))}
+                old = dict(db.execute(
+                    "SELECT kind, length(data) FROM blobs WHERE code=?", (state.code,)))
                 old.update({k: len(v) for k, v in blobs.items() if v is not None})
                 size = sum(len(t) for t in row_text if t) + sum(old.values())
                 db.execute(
