@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hmac
 import ipaddress
 import os
 import secrets
@@ -91,6 +92,14 @@ class Settings:
         if self.teacher_token or not self.public:
             return self, False
         return replace(self, teacher_token=secrets.token_urlsafe(18)), True
+
+    def teacher_ok(self, token: str | None) -> bool:
+        """Whether ``token`` is the teacher token (constant-time comparison; the GUI and
+        the API both use this)."""
+        if not self.teacher_token or token is None:
+            return False
+        return hmac.compare_digest(str(token).encode("utf-8", "replace"),
+                                   self.teacher_token.encode("utf-8"))
 
     @property
     def limits(self) -> Limits:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hmac
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
@@ -10,8 +9,7 @@ from fastapi import Depends, HTTPException, Request
 from ..settings import Settings
 from ..state import Session, SessionRegistry
 
-__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "read_body",
-           "teacher_ok"]
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "read_body"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -45,12 +43,6 @@ def get_session(code: str, request: Request) -> Session:
                                  "abcd-efgh-jkmn-pqrs) or start a new session") from None
 
 
-def teacher_ok(settings: Settings, token: str | None) -> bool:
-    """Whether ``token`` is the teacher token (constant-time comparison)."""
-    if not settings.teacher_token or token is None:
-        return False
-    return hmac.compare_digest(token.encode("utf-8", "replace"),
-                               settings.teacher_token.encode("utf-8"))
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

@@ -11,7 +11,7 @@ from fastapi.responses import Response
 from core.exceptions import ParameterError
 
 from ..exports import EXPORT_FORMATS, export_session, parameter_set_model
-from ..services.cost import check_document, check_model
+from ..services.cost import check_config, check_document
 from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
 
 __all__ = ["router"]
@@ -40,13 +40,11 @@ async def upload_parameter_set(
         doc = json.loads(decode_text(body))
     except json.JSONDecodeError as exc:
         raise HTTPException(422, f"not valid JSON: {exc}") from None
-    limits = settings.limits
-    cfg, _ = session.snapshot()
-    samples = cfg.signal.samples
     try:
-        check_document(doc, limits)
+        check_document(doc, settings.limits)
         model = parameter_set_model(doc)
-        check_model(model, samples, cfg.signal.duration / max(1, samples - 1), limits)
+        check_config(session.snapshot()[0].with_model(model.to_dict()), session.recording,
+                     settings.limits)
     except (ParameterError, ValueError, TypeError, KeyError) as exc:
         raise HTTPException(422, f"not a usable parameter set: {exc}") from None
     session.update(lambda c: c.with_model(model.to_dict()))

@@ -11,7 +11,7 @@ from core.exceptions import ParameterError
 from ..compute import compute, preset_doc, validate_config
 from ..schemas import ConfigIn
 from ..services.cost import check_config
-from .deps import RegistryDep, SessionDep, SettingsDep, client_key, teacher_ok
+from .deps import RegistryDep, SessionDep, SettingsDep, client_key
 from .simulate import result_payload
 
 __all__ = ["router"]
@@ -38,7 +38,7 @@ def create_session(
         raise HTTPException(429, "too many new sessions from this computer; wait a little "
                                  "or rejoin your session with its code",
                             headers={"Retry-After": str(limiter.retry_after(key))})
-    return registry.create(teacher=teacher_ok(settings, x_teacher_token)).summary()
+    return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
 
 
 @router.get("/sessions/{code}")
@@ -107,6 +107,6 @@ def broadcast_preset(
     Needs ``X-Teacher-Token`` whenever the server has a token, which it always has when
     reachable beyond loopback (compared in constant time).
     """
-    if settings.teacher_token and not teacher_ok(settings, x_teacher_token):
+    if settings.teacher_token and not settings.teacher_ok(x_teacher_token):
         raise HTTPException(403, "pushing to all sessions needs the teacher token")
     return {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
