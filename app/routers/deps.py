@@ -6,10 +6,12 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
+from ..services.ratelimit import RateLimiter
 from ..settings import Settings
 from ..state import Session, SessionRegistry
 
-__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "read_body"]
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
+           "read_body"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -27,14 +29,18 @@ def client_key(request: Request) -> str:
     return request.client.host if request.client else "unknown"
 
 
+def rate_limited(limiter: RateLimiter, key: str, message: str) -> HTTPException:
+    """The 429 of ``limiter`` for client ``key`` (with ``Retry-After``)."""
+    return HTTPException(429, message, headers={"Retry-After": str(limiter.retry_after(key))})
+
+
 def get_session(code: str, request: Request) -> Session:
     """The session ``code``; 404 if there is none, 429 after too many unknown codes."""
     key = client_key(request)
     limiter = request.app.state.lookup_limiter
     if not limiter.allowed(key):
-        raise HTTPException(429, "too many unknown session codes from this computer; wait "
-                                 "a minute and check the code",
-                            headers={"Retry-After": str(limiter.retry_after(key))})
+        raise rate_limited(limiter, key, "too many unknown session codes from this computer; "
+                                         "wait a minute and check the code")
     try:
         return request.app.state.registry.get(code)
     except KeyError:

@@ -11,7 +11,7 @@ from core.exceptions import ParameterError
 from ..compute import compute, preset_doc, validate_config
 from ..schemas import ConfigIn
 from ..services.cost import check_config
-from .deps import RegistryDep, SessionDep, SettingsDep, client_key
+from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited
 from .simulate import result_payload
 
 __all__ = ["router"]
@@ -35,9 +35,8 @@ def create_session(
     key = client_key(request)
     limiter = request.app.state.create_limiter
     if not limiter.take(key):
-        raise HTTPException(429, "too many new sessions from this computer; wait a little "
-                                 "or rejoin your session with its code",
-                            headers={"Retry-After": str(limiter.retry_after(key))})
+        raise rate_limited(limiter, key, "too many new sessions from this computer; wait a "
+                                         "little or rejoin your session with its code")
     return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
 
 
