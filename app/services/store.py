@@ -245,6 +245,8 @@ class SessionStore:
             except BaseException:
                 db.execute("ROLLBACK")
                 raise
+        if any(v is not None for v in blobs.values()):
+            self.evict()  # a recording or a diagnosis may have pushed the store over budget
 
     def touch(self, code: str, when: float | None = None) -> None:
         """Record a use of ``code`` (for the one-hour eviction protection)."""

@@ -99,3 +99,34 @@ def test_sync_endpoints_run_through_the_queue(tmp_path: Path) -> None:
         upload(c, code, csv_text(400))
         assert c.post(f"/api/sessions/{code}/fit", json={"n": 3}).status_code == 200
         assert app.state.jobs.running() == 0
+
+
+def test_a_running_diagnosis_stops_at_its_next_progress_report(monkeypatch) -> None:  # noqa: ANN001
+    """The diagnosis gets ``progress=`` when core.diagnosis.diagnose accepts it; a cancelled
+    job's callback raises there, so the work stops instead of running to the end."""
+    import core.diagnosis as cd
+
+    real = cd.diagnose
+    reports: list[float] = []
+
+    def diagnose(data, baseline, *, n_operators, progress=None):  # noqa: ANN001, ANN202
+        for k in range(200):
+            progress(k / 200, f"step {k}")
+            reports.append(k / 200)
+            time.sleep(0.01)
+        return real(data, baseline, n_operators=n_operators)
+
+    monkeypatch.setattr(cd, "diagnose", diagnose)
+    app = create_app(Settings(viser_port=None))
+    with TestClient(app) as c:
+        code = c.post("/api/sessions").json()["code"]
+        upload(c, code, csv_text(400))
+        job = c.post(f"/api/sessions/{code}/jobs", json={"kind": "diagnose"}).json()["id"]
+        deadline = time.monotonic() + 30
+        while not reports and time.monotonic() < deadline:
+            time.sleep(0.02)
+        seen = c.get(f"/api/sessions/{code}/jobs/{job}").json()
+        assert seen["state"] == "running" and 0 < seen["progress"] < 1
+        c.delete(f"/api/sessions/{code}/jobs/{job}")
+        end = _poll(c, code, job)
+        assert end["state"] == "cancelled" and len(reports) < 150

@@ -51,7 +51,7 @@ def test_state_round_trips_through_the_file(tmp_path: Path) -> None:
 
 
 def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -> None:
-    store = SessionStore(tmp_path / "s.sqlite3", max_bytes=50_000)
+    store = SessionStore(tmp_path / "s.sqlite3", max_bytes=10**9)
     now = time.time()
     big = recording(2000)  # ~ 60 kB as .npz
     for code, age, teacher in (("old", 7200, False), ("older", 9000, False),
@@ -59,10 +59,15 @@ def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -
         store.save(SessionState(code=code, config=Config().to_dict(), recording=big,
                                 teacher=teacher, last_used=now - age))
     assert store.size() > 4 * 50_000
+    store.max_bytes = 50_000
     evicted = store.evict(now)
     assert evicted == ["older", "old"]  # least recently used first, only those > 1 h
     assert set(store.codes()) == {"teach", "recent"}
     assert store.full()  # over budget with only protected sessions: refuse new ones
+    store.save(SessionState(code="new", config=Config().to_dict(), recording=big,
+                            last_used=now - 7200))
+    store.save(SessionState(code="newer", config=Config().to_dict(), recording=big))
+    assert "new" not in store.codes() and "newer" in store.codes()  # evicted on save
 
 
 def _serve(state: Path) -> tuple[subprocess.Popen, str]:
