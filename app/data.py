@@ -200,10 +200,9 @@ def fit_session(session: Session, n: int, kind: str = "pi",
     with session.lock:
         session.fitted, session.fit_report = doc, report
         session.diagnosis = session.diagnosis_result = None
+        session.save(recording=False)  # the fit, and the old diagnosis gone
     if apply:
-        session.update(lambda c: c.with_model(doc))  # stores the fit too
-    else:
-        session.save(recording=False)
+        session.update(lambda c: c.with_model(doc))
     return model, report
 
 

@@ -1,11 +1,12 @@
 """Explorer sessions shared by the viser GUI and the REST API (no viser / fastapi imports).
 
-A :class:`Session` is one student's sandbox, keyed by a short user-visible code that
-survives page reloads. Its :class:`Config` (model, input signal, mismatch) is an immutable
-value replaced as a whole; every replacement bumps ``version`` and notifies listeners
-(the GUI render workers) outside the lock. :mod:`app.compute` turns a config into the
-arrays the figures show; :mod:`app.data` and :mod:`app.exports` handle recordings, fits,
-diagnoses and downloads.
+A :class:`Session` is one student's sandbox, keyed by a server-made code (79 random bits)
+that survives page reloads and restarts: every change is written through to the SQLite
+:class:`~app.services.store.SessionStore`. Its :class:`Config` (model, input signal,
+mismatch) is an immutable value replaced as a whole; every replacement bumps ``version``
+and notifies listeners (the GUI render workers) outside the lock. :mod:`app.compute` turns
+a config into the arrays the figures show; :mod:`app.data` and :mod:`app.exports` handle
+recordings, fits, diagnoses and downloads.
 """
 
 from __future__ import annotations
