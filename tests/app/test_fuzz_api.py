@@ -56,7 +56,7 @@ def test_simulate_never_500(client: TestClient, model: dict, samples: int,
 @FUZZ
 @given(model=models)
 def test_session_config_and_parameter_set_never_500(client: TestClient, model: dict) -> None:
-    code = client.post("/api/sessions").json()["code"]
+    code = client.app.state.registry.create().code  # (POST /api/sessions is rate-limited)
     r = client.patch(f"/api/sessions/{code}/config", json={"model": model})
     assert r.status_code < 500, (model, r.text[:300])
     r = client.put(f"/api/sessions/{code}/parameter-set", json=model)
@@ -69,7 +69,7 @@ def test_session_config_and_parameter_set_never_500(client: TestClient, model: d
 @given(body=st.one_of(st.binary(max_size=400), st.text(alphabet=",;\t\n\"#0123456789.e-naAt ",
                                                        max_size=400)))
 def test_csv_never_500(client: TestClient, body: bytes | str) -> None:
-    code = client.post("/api/sessions").json()["code"]
+    code = client.app.state.registry.create().code  # (POST /api/sessions is rate-limited)
     for url in ("/api/csv/preview", f"/api/sessions/{code}/recording"):
         r = client.post(url, content=body, headers={"Content-Type": "text/csv"})
         assert r.status_code < 500, (body, r.text[:300])
