@@ -7,15 +7,17 @@ estimators of :mod:`core.fitting` and the diagnosis is :func:`core.diagnosis.dia
 
 from __future__ import annotations
 
+import inspect
 import math
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from core import fitting
 from core.base import Model, model_from_dict
-from core.csvio import inspect_csv, read_csv
+from core.csvio import CSVError, inspect_csv_text, read_csv_text
 from core.exceptions import ParameterError
 from core.recordings import Recording
 
@@ -26,46 +28,93 @@ from .state import Session
 
 __all__ = [
     "FIT_KINDS",
+    "Upload",
     "csv_preview",
     "diagnose_session",
     "diagnosis_html",
     "fit_recording",
     "fit_session",
+    "read_upload",
     "recording_from_csv",
     "run_diagnosis",
     "store_recording",
 ]
 
 
-def recording_from_csv(
-    text: str,
+@dataclass(frozen=True, eq=False)
+class Upload:
+    """An uploaded recording and what the file held.
+
+    Attributes
+    ----------
+    recording : Recording
+        The recording kept (its ``cleaning`` notes say what was removed or chosen).
+    runs : tuple of str
+        Run ids of the file's run column in file order (empty without one).
+    """
+
+    recording: Recording
+    runs: tuple[str, ...] = ()
+
+
+def read_upload(
+    content: str | bytes,
     *,
     t_col: str | int | None = None,
     u_col: str | int | None = None,
     y_col: str | int | None = None,
+    run: str | None = None,
     dt: float = 1e-3,
     max_samples: int = 200_000,
     name: str = "upload.csv",
-) -> Recording:
-    """Read an uploaded CSV with :func:`core.csvio.read_csv` and an optional column mapping.
+) -> Upload:
+    """Read uploaded CSV *content* (never a path) with an optional column mapping.
 
+    The content goes through :func:`core.csvio.read_csv_text`, so bytes are decoded as the
+    command line decodes a file (UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1).
     Columns are names or 0-based indices (digit strings count as indices); unmapped roles
-    are chosen by the core reader. A file without a time column gets ``t = k * dt``. When
-    the file holds several runs, the first one is used (its name says so).
+    are chosen by the core reader. A file without a time column gets ``t = k * dt``. A file
+    with a run column holds several recordings: ``run`` chooses one by its id, ``"all"``
+    reads every row as one recording in file order; without ``run`` the first run is kept.
+    Either way a cleaning note says which run was kept and how to choose another.
 
     Raises
     ------
     core.csvio.CSVError
-        With the 1-based ``line`` and the 0-based ``column_index`` of the problem.
+        With the 1-based ``line`` and the 0-based ``column_index`` of the problem, or when
+        ``run`` names no run of the file.
     """
-    recs = read_csv(text, time=column_spec(t_col), input=column_spec(u_col),
-                    output=column_spec(y_col), name=name, max_rows=max_samples)
-    rec = recs[0]
+    recs = read_csv_text(content, time=column_spec(t_col), input=column_spec(u_col),
+                         output=column_spec(y_col), run=False if run == "all" else None,
+                         name=name, max_rows=max_samples)
+    runs = tuple(str(r.run) for r in recs) if len(recs) > 1 or recs[0].run is not None else ()
+    if run not in (None, "all"):
+        if str(run) not in runs:
+            raise CSVError(
+                f"run={run!r} is not in this file; its runs are {', '.join(runs) or 'none'}"
+                " (or pass run=all to read every row as one recording)"
+            )
+        rec = recs[runs.index(str(run))]
+    else:
+        rec = recs[0]
+    if run == "all":
+        rec = replace(rec, cleaning=(*rec.cleaning, "read every row as one recording "
+                                     "(run=all): a run column, if any, was not used"))
+    elif len(runs) > 1:
+        col = rec.columns.get("run", "run")
+        rec = replace(rec, name=f"{name} (run {rec.run}; {runs.index(str(rec.run)) + 1} of "
+                                f"{len(runs)})",
+                      cleaning=(*rec.cleaning, f"the file holds {len(runs)} runs (column "
+                                f"{col!r}: {', '.join(runs)}); kept run {rec.run}; pass "
+                                "run=<id> to choose another or run=all to read every row"))
     if not rec.has_time:
         rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})
-    if len(recs) > 1:
-        rec = replace(rec, name=f"{name} (run 1 of {len(recs)})")
-    return rec
+    return Upload(rec, runs)
+
+
+def recording_from_csv(content: str | bytes, **kwargs: Any) -> Recording:
+    """The recording of :func:`read_upload` ``(content, **kwargs)``."""
+    return read_upload(content, **kwargs).recording
 
 
 def store_recording(session: Session, rec: Recording) -> None:
@@ -77,20 +126,23 @@ def store_recording(session: Session, rec: Recording) -> None:
     session.touch()
 
 
-def csv_preview(text: str, max_samples: int, rows: int = 5) -> dict[str, Any]:
-    """Columns, the first ``rows`` data rows (as text) and the row count of a CSV.
+def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[str, Any]:
+    """Columns, the first ``rows`` data rows (as text), row count and notes of CSV content.
 
     Raises
     ------
     core.csvio.CSVError
-        If :func:`core.csvio.inspect_csv` cannot work out the layout.
+        If :func:`core.csvio.inspect_csv_text` cannot work out the layout.
     """
-    lay = inspect_csv(text, max_rows=max_samples)
-    lines = text.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
+    lay = inspect_csv_text(content, max_rows=max_samples)
+    if isinstance(content, bytes):
+        enc = {"utf-8": "utf-8-sig"}.get(lay.encoding, lay.encoding)
+        content = content.decode(enc)
+    lines = content.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
     d = None if lay.delimiter == "whitespace" else lay.delimiter
     return {"columns": [c.raw for c in lay.columns],
             "rows": [[c.strip() for c in (ln.split(d) if d else ln.split())] for ln in lines],
-            "n_rows": int(lay.n_rows), "notes": list(lay.notes)}
+            "n_rows": int(lay.n_rows), "encoding": lay.encoding, "notes": list(lay.notes)}
 
 
 #: Model kinds the explorer can fit (those of ``hyst fit --model``) and their estimators.
@@ -148,6 +200,7 @@ def fit_session(session: Session, n: int, kind: str = "pi",
     with session.lock:
         session.fitted, session.fit_report = doc, report
         session.diagnosis = session.diagnosis_result = None
+        session.save(recording=False)  # the fit, and the old diagnosis gone
     if apply:
         session.update(lambda c: c.with_model(doc))
     return model, report
@@ -176,32 +229,40 @@ def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def run_diagnosis(rec: Recording, model: Model) -> tuple[dict[str, Any], Any]:
+def run_diagnosis(rec: Recording, model: Model,
+                  progress: Callable[..., None] | None = None) -> tuple[dict[str, Any], Any]:
     """:func:`core.diagnosis.diagnose` of ``rec``: ``(report, result)``.
 
     The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
     ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
-    held-out RMSE before and after, and the core's JSON document.
+    held-out RMSE before and after, and the core's JSON document. ``progress`` is passed
+    on when the installed :func:`~core.diagnosis.diagnose` accepts one (it may raise to
+    stop the diagnosis: that is how a job is cancelled).
     """
     from core.diagnosis import diagnose
 
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
-    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n)
+    kw: dict[str, Any] = {}
+    if progress is not None and "progress" in inspect.signature(diagnose).parameters:
+        kw["progress"] = progress
+    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, **kw)
     d = result.to_dict()
     return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
 
 
-def diagnose_session(session: Session) -> dict[str, Any]:
+def diagnose_session(session: Session,
+                     progress: Callable[..., None] | None = None) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against ``session``'s recording.
 
     Stores and returns the report (see :func:`run_diagnosis`); the caller checks that the
     session has a recording.
     """
     doc = session.fitted or session.snapshot()[0].model
-    report, result = run_diagnosis(session.recording, model_from_dict(doc))
+    report, result = run_diagnosis(session.recording, model_from_dict(doc), progress)
     with session.lock:
         session.diagnosis, session.diagnosis_result = report, result
+        session.save(recording=False)
     return report
 
 

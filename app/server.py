@@ -10,8 +10,10 @@ from __future__ import annotations
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
@@ -20,8 +22,12 @@ from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
+from .security import Guard
+from .services.jobs import JobManager
+from .services.ratelimit import RateLimiter
+from .services.store import SessionStore
 from .settings import STATIC_DIR, Settings
-from .state import Config, SessionRegistry
+from .state import Config, SessionRegistry, StoreFullError
 
 __all__ = ["create_app"]
 
@@ -55,8 +61,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     FastAPI
         The app; use it as a context manager (``TestClient``) or serve it with uvicorn.
     """
-    settings = settings or Settings()
+    settings, generated = (settings or Settings()).with_teacher_token()
+    if generated:
+        log.warning("the server is reachable beyond loopback: broadcasting needs a teacher "
+                    "token; one was generated (see `hyst serve`, which prints it)")
     ensure_model_types_registered()
+    store = SessionStore(
+        ":memory:" if not settings.state_dir else Path(settings.state_dir) / "sessions.sqlite3",
+        max_bytes=settings.max_store_mb * 1_000_000)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -74,6 +86,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 gui.close()
             if server is not None:
                 server.stop()
+            app.state.jobs.cancel_all()
+            store.close()
 
     app = FastAPI(
         title="Hysteresis Explorer",
@@ -91,13 +105,33 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     def _docs() -> RedirectResponse:
         return RedirectResponse("/api.html")
 
-    app.state.registry = SessionRegistry(settings.max_sessions)
+    app.state.registry = SessionRegistry(settings.max_sessions, store)
+    app.state.jobs = JobManager(max_workers=settings.max_jobs)
+    # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
+    app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
+    app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
     app.state.viser_port = None
 
     @app.exception_handler(ParameterError)
     @app.exception_handler(NotInvertibleError)
     async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
+
+    @app.exception_handler(StoreFullError)
+    async def _full(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=503, content={"detail": str(exc)})
+
+    @app.exception_handler(RecursionError)
+    async def _too_deep(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=422, content={
+            "detail": "the input is nested too deeply to process; flatten it"})
+
+    @app.exception_handler(ArithmeticError)
+    @app.exception_handler(np.linalg.LinAlgError)
+    async def _numeric(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse(status_code=422, content={
+            "detail": f"these parameter values cannot be computed ({exc}); use values of "
+                      "ordinary size (see the limits in GET /api/capabilities)"})
 
     @app.exception_handler(CSVError)
     async def _csv_error(request: Request, exc: CSVError) -> JSONResponse:
@@ -108,10 +142,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                 "column": exc.column_index}},
         )
 
-    from .routers import data, export, meta, sessions, simulate
+    from .routers import data, export, jobs, meta, sessions, simulate
 
-    for mod in (meta, simulate, sessions, data, export):
+    for mod in (meta, simulate, sessions, data, jobs, export):
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
+    app.add_middleware(Guard, max_body=settings.max_upload_bytes,
+                       max_json_depth=settings.limits.max_json_depth, static_dir=STATIC_DIR)
     return app

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import hmac
+import ipaddress
 import os
-from dataclasses import dataclass, fields
+import secrets
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
-__all__ = ["STATIC_DIR", "Settings"]
+from .services.cost import Limits
+
+__all__ = ["STATIC_DIR", "Settings", "is_loopback"]
 
 #: Directory of the plain HTML/JS page, located from this file (never from the CWD).
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
@@ -36,7 +41,15 @@ class Settings:
         Sessions kept in memory; the least recently used one is dropped beyond it.
     teacher_token : str or None
         When set, pushing a preset to every session (``POST /api/broadcast``) needs the
-        header ``X-Teacher-Token`` with this value.
+        header ``X-Teacher-Token`` with this value (compared in constant time). A server
+        reachable beyond loopback always has one (:meth:`with_teacher_token`).
+    state_dir : str or None
+        Directory of the session database (``sessions.sqlite3``); ``None`` keeps sessions
+        in memory only (tests). ``hyst serve`` defaults to the per-user data directory.
+    max_store_mb : int
+        Size budget of the stored sessions, MB (see :mod:`app.services.store`).
+    max_jobs : int
+        Fits and diagnoses running at once (each session runs one at a time).
     """
 
     host: str = "127.0.0.1"
@@ -47,6 +60,9 @@ class Settings:
     max_operators: int = 100
     max_sessions: int = 500
     teacher_token: str | None = None
+    state_dir: str | None = None
+    max_store_mb: int = 1000
+    max_jobs: int = 2
 
     @classmethod
     def from_env(cls, **overrides: object) -> Settings:
@@ -56,6 +72,47 @@ class Settings:
             raw = os.environ.get(f"HYST_{f.name.upper()}")
             if raw is None:
                 continue
-            kw[f.name] = raw if f.name in ("host", "teacher_token") else int(raw)
+            kw[f.name] = raw if f.name in ("host", "teacher_token", "state_dir") else int(raw)
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**kw)  # type: ignore[arg-type]
+
+    @property
+    def public(self) -> bool:
+        """Whether the server is reachable beyond this machine (not a loopback address)."""
+        return not is_loopback(self.host)
+
+    def with_teacher_token(self) -> tuple[Settings, bool]:
+        """These settings with a teacher token when the server is public and has none.
+
+        Returns
+        -------
+        (Settings, bool)
+            The settings, and whether a token was generated (``secrets.token_urlsafe``).
+        """
+        if self.teacher_token or not self.public:
+            return self, False
+        return replace(self, teacher_token=secrets.token_urlsafe(18)), True
+
+    def teacher_ok(self, token: str | None) -> bool:
+        """Whether ``token`` is the teacher token (constant-time comparison; the GUI and
+        the API both use this)."""
+        if not self.teacher_token or token is None:
+            return False
+        return hmac.compare_digest(str(token).encode("utf-8", "replace"),
+                                   self.teacher_token.encode("utf-8"))
+
+    @property
+    def limits(self) -> Limits:
+        """The cost limits of one request (:class:`app.services.cost.Limits`)."""
+        return Limits(max_operators=self.max_operators, max_samples=self.max_samples,
+                      max_work=max(Limits.max_work, 125 * self.max_samples))
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (an address or ``localhost``) only accepts this machine's clients."""
+    if host in ("localhost", ""):
+        return host == "localhost"
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False

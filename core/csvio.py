@@ -40,6 +40,15 @@ column is the input), no column is taken as the output (a column named ``y`` is 
 an other column, never picked as the input while another is free), and a constant input
 or a single sample is allowed.
 
+**Text or path, never guessed from the content**: :func:`read_csv_text`,
+:func:`inspect_csv_text` and :func:`read_input_text` read content (``str`` or ``bytes``, e.g.
+an HTTP request body) and never touch the file system, whatever the content looks like;
+pass a :class:`pathlib.Path` (or any ``os.PathLike``) to :func:`read_csv` & co. to read a
+file. A plain ``str`` given to :func:`read_csv` is still read as a path when it holds no
+line break (the command line's convenience); code that handles untrusted content must use
+the ``*_text`` readers. Lines longer than :data:`MAX_LINE_CHARS` and unclosed quotes are
+errors naming the line (a recording row is a few numbers).
+
 Problems raise :class:`CSVError` (a :class:`~core.exceptions.ParameterError`, hence a
 ``ValueError``) whose message says what is wrong, where (line, column) and what to do.
 Rows whose input or output is NaN/inf/empty are removed by default and every removal is
@@ -69,13 +78,17 @@ from .recordings import Recording
 __all__ = [
     "CSVError",
     "CSVLayout",
+    "CSVText",
     "ColumnInfo",
     "InputSignal",
     "inspect_csv",
+    "inspect_csv_text",
     "parse_column_name",
     "read_csv",
+    "read_csv_text",
     "read_csvs",
     "read_input",
+    "read_input_text",
     "read_recording",
 ]
 
@@ -85,9 +98,29 @@ MAX_BYTES = 64 * 2**20
 MAX_ROWS = 2_000_000
 #: Default smallest number of samples per recording.
 MIN_SAMPLES = 10
+#: Longest accepted line (characters); a recording row is a few numbers.
+MAX_LINE_CHARS = 100_000
 
 ColumnSpec = int | str | None | Literal[False]
-Source = str | os.PathLike[str] | bytes | bytearray | IO[str] | IO[bytes]
+
+
+@dataclass(frozen=True)
+class CSVText:
+    """CSV content that is read as content, never as a file name (e.g. an upload).
+
+    Parameters
+    ----------
+    content : str or bytes
+        The CSV text, or its bytes (the encoding is then detected as for a file).
+    name : str
+        Label used in messages, ``"<text>"`` by default.
+    """
+
+    content: str | bytes
+    name: str = "<text>"
+
+
+Source = str | os.PathLike[str] | bytes | bytearray | IO[str] | IO[bytes] | CSVText
 
 
 class CSVError(ParameterError):
@@ -337,6 +370,15 @@ def _load_bytes(source: Source, max_bytes: int) -> tuple[bytes | str, str, str]:
         "{label} is {size:,} bytes, more than max_bytes={mb:,}; pass a larger max_bytes= to "
         "read it anyway, or cut / decimate the recording first"
     )
+    if isinstance(source, CSVText):
+        content = source.content
+        if not isinstance(content, (str, bytes, bytearray)):
+            raise CSVError(f"CSV content must be str or bytes, not {type(content).__name__}")
+        if len(content) > max_bytes:
+            raise CSVError(too_big.format(label=source.name, size=len(content), mb=max_bytes),
+                           source=source.name)
+        data = content if isinstance(content, str) else bytes(content)
+        return data, source.name, "recording"
     if isinstance(source, (bytes, bytearray)):
         label = "<bytes>"
         if len(source) > max_bytes:
@@ -464,7 +506,10 @@ def _is_strict_num(cell: str, decimal: str) -> bool:
 def _split(lines: Sequence[str], delimiter: str) -> list[list[str]]:
     if delimiter == "whitespace":
         return [ln.split() for ln in lines]
-    return [[c.strip() for c in row] for row in csv.reader(lines, delimiter=delimiter)]
+    try:
+        return [[c.strip() for c in row] for row in csv.reader(lines, delimiter=delimiter)]
+    except csv.Error as exc:  # defensive: lines are length-checked and quotes balanced
+        raise CSVError(f"the CSV cannot be split into cells: {exc}") from None
 
 
 _DELIMS = (",", ";", "\t", "|", "whitespace")
@@ -492,7 +537,8 @@ def _detect_format(
     else:
         sniffed = None
         try:
-            sniffed = csv.Sniffer().sniff("\n".join(sample[:20]), delimiters=",;\t|").delimiter
+            head = "\n".join(ln[:2000] for ln in sample[:20])  # bounded sniffing cost
+            sniffed = csv.Sniffer().sniff(head, delimiters=",;\t|").delimiter
         except csv.Error:
             pass
         delims = ((sniffed,) if sniffed else ()) + tuple(d for d in _DELIMS if d != sniffed)
@@ -567,6 +613,7 @@ def _table(
         )
     content = [body[i] for i in keep]
     linenos = [i + skiprows + 1 for i in keep]
+    _check_lines(content, linenos, label)
     blank_inside = (
         [keep[0] + k + skiprows + 1 for k, st in enumerate(stripped[keep[0]:keep[-1]]) if not st]
         if keep else []
@@ -694,6 +741,26 @@ def _table(
         first_data_line=int(data_lines[0]) if data else 0, notes=tuple(notes),
     )
     return _Table(layout, data, data_lines, data_rows, quoted), stem
+
+
+def _check_lines(content: Sequence[str], linenos: Sequence[int], label: str) -> None:
+    """Reject over-long lines and unclosed quotes before any splitting (bounded work)."""
+    if not content:
+        return
+    lengths = np.fromiter(map(len, content), dtype=np.int64, count=len(content))
+    if lengths.max() > MAX_LINE_CHARS:
+        i = int(np.argmax(lengths > MAX_LINE_CHARS))
+        raise CSVError(
+            f"{label}: line {linenos[i]} is {int(lengths[i]):,} characters long, more than "
+            f"{MAX_LINE_CHARS:,}; a recording has one sample per line (are the line breaks "
+            "missing, or is this not a CSV recording?)", source=label, line=linenos[i],
+        )
+    for ln, n in zip(content, linenos, strict=True):
+        if ln.count('"') % 2:
+            raise CSVError(
+                f'{label}: line {n} has an unclosed quote (an odd number of \'"\'); close '
+                "the quoted cell on the same line or remove the quote", source=label, line=n,
+            )
 
 
 def _field_counts(data: list[str], d: str) -> np.ndarray:
@@ -1615,6 +1682,41 @@ def read_input(
         layout=lay, source=label, cleaning=tuple(notes), has_time=has_time,
         lines=np.array(lines, dtype=np.int64),
     )
+
+
+def read_csv_text(content: str | bytes, *, name: str = "<text>",
+                  **kwargs: object) -> list[Recording]:
+    """:func:`read_csv` of CSV *content* (never a file name; e.g. an HTTP upload body).
+
+    Parameters
+    ----------
+    content : str or bytes
+        The CSV text or its bytes (bytes: UTF-8 with or without BOM, UTF-16 with BOM,
+        else Latin-1, as for a file).
+    name : str
+        Label in messages and the recordings' default name.
+    **kwargs
+        Options of :func:`read_csv`.
+
+    Returns
+    -------
+    list of Recording
+    """
+    kwargs.setdefault("name", None if name == "<text>" else name)
+    return read_csv(CSVText(content, name), **kwargs)  # type: ignore[arg-type]
+
+
+def inspect_csv_text(content: str | bytes, *, name: str = "<text>",
+                     **kwargs: object) -> CSVLayout:
+    """:func:`inspect_csv` of CSV *content* (never a file name); see :func:`read_csv_text`."""
+    return inspect_csv(CSVText(content, name), **kwargs)  # type: ignore[arg-type]
+
+
+def read_input_text(content: str | bytes, *, name: str = "<text>",
+                    **kwargs: object) -> InputSignal:
+    """:func:`read_input` of CSV *content* (never a file name); see :func:`read_csv_text`."""
+    kwargs.setdefault("name", None if name == "<text>" else name)
+    return read_input(CSVText(content, name), **kwargs)  # type: ignore[arg-type]
 
 
 def read_recording(source: Source, **kwargs: object) -> Recording:

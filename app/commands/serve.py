@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import threading
 import time
 import webbrowser
+from pathlib import Path
 from typing import Any
 
 __all__ = ["register", "run"]
+
+#: Seconds a SIGTERM/Ctrl+C waits for open requests before the process exits anyway.
+SHUTDOWN_S = 3.0
 
 
 def register(subparsers: Any) -> None:
@@ -19,8 +25,10 @@ def register(subparsers: Any) -> None:
         description=(
             "Start the Hysteresis Explorer: a FastAPI server (REST API with an offline "
             "reference at /api.html, and a plain web page at /) and a viser GUI on a second "
-            "port, in one process. Binds "
-            "127.0.0.1 by default; use --host 0.0.0.0 to let a class on the same network in."
+            "port, in one process. Binds 127.0.0.1 by default; use --host 0.0.0.0 to let a "
+            "class on the same network in (a teacher token is then required to broadcast, "
+            "and generated and printed if you give none). Sessions are stored in SQLite "
+            "under --state-dir and survive a restart."
         ),
     )
     p.add_argument("--host", default=None,
@@ -32,16 +40,43 @@ def register(subparsers: Any) -> None:
                         "env HYST_VISER_PORT; 0 = any free port)")
     p.add_argument("--no-viser", action="store_true", help="REST API and web page only")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    p.add_argument("--teacher-token-file", default=None, type=Path,
+                   help="file holding the teacher token needed to push presets to every "
+                        "session (or set env HYST_TEACHER_TOKEN)")
     p.add_argument("--teacher-token", default=None,
-                   help="require this X-Teacher-Token header to push presets to all sessions")
+                   help="the teacher token itself (visible to other users in `ps`: prefer "
+                        "--teacher-token-file or HYST_TEACHER_TOKEN)")
+    p.add_argument("--state-dir", default=None, type=Path,
+                   help="directory of the session database (default: the per-user data "
+                        "directory, ~/.local/share/hysteresis-explorer; env HYST_STATE_DIR)")
+    p.add_argument("--max-store-mb", type=int, default=None,
+                   help="size budget of the stored sessions in MB (default 1000); beyond "
+                        "it sessions unused for an hour are evicted, never a teacher's")
     p.set_defaults(func=run)
 
 
-def _announce(server: Any, app: Any, host: str, open_browser: bool) -> None:
+def _token(args: argparse.Namespace) -> str | None:
+    if args.teacher_token_file is not None:
+        try:
+            tok = args.teacher_token_file.read_text(encoding="utf-8").strip()
+        except OSError as exc:
+            raise SystemExit(f"hyst serve: cannot read --teacher-token-file: {exc}") from None
+        if not tok:
+            raise SystemExit(f"hyst serve: {args.teacher_token_file} is empty")
+        return tok
+    if args.teacher_token is not None:
+        print("Note: --teacher-token is visible to other users of this machine (ps); "
+              "prefer --teacher-token-file or HYST_TEACHER_TOKEN.", file=sys.stderr)
+    return args.teacher_token
+
+
+def _announce(server: Any, app: Any, settings: Any, generated: bool,
+              open_browser: bool) -> None:
     while not server.started and not server.should_exit:
         time.sleep(0.05)
     if not server.started:
         return
+    host = settings.host
     shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
     port = server.servers[0].sockets[0].getsockname()[1]
     web = f"http://{shown}:{port}/"
@@ -50,32 +85,65 @@ def _announce(server: Any, app: Any, host: str, open_browser: bool) -> None:
     gui = f"http://{shown}:{vport}/" if vport else None
     if gui:
         print(f"Hysteresis Explorer GUI (viser): {gui}", flush=True)
-    if host in ("0.0.0.0", "::"):
-        print("Listening on every interface: students use this machine's address.", flush=True)
+    print(f"Sessions are stored in {settings.state_dir} (they survive a restart).",
+          flush=True)
+    if settings.public:
+        print(f"WARNING: listening on {host}: every computer that can reach this one may open "
+              f"the web page (port {port})" + (f" and the viser GUI (port {vport})" if vport
+                                               else "") +
+              ", create sessions and join one whose code it knows. Use it on a trusted "
+              "class network only.", flush=True)
+        if generated:
+            print(f"Teacher token (needed to push presets to every session): "
+                  f"{settings.teacher_token}", flush=True)
+        else:
+            print("Broadcasting needs the teacher token you gave.", flush=True)
     print("Press Ctrl+C to stop.", flush=True)
     if open_browser:
         webbrowser.open(gui or web)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Start both servers and block until Ctrl+C."""
+    """Start both servers and block until Ctrl+C or SIGTERM (stops within a few seconds)."""
     import uvicorn
 
     from ..server import create_app
+    from ..services.store import default_state_dir
     from ..settings import Settings
 
     settings = Settings.from_env(
         host=args.host,
         port=args.port,
         viser_port=args.viser_port,
-        teacher_token=args.teacher_token,
+        teacher_token=_token(args),
+        state_dir=None if args.state_dir is None else str(args.state_dir),
+        max_store_mb=args.max_store_mb,
     )
+    if not settings.state_dir:
+        settings = Settings(**{**settings.__dict__, "state_dir": str(default_state_dir())})
     if args.no_viser:
         settings = Settings(**{**settings.__dict__, "viser_port": None})
+    settings, generated = settings.with_teacher_token()
     app = create_app(settings)
-    config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning")
+    config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
+                            timeout_graceful_shutdown=int(SHUTDOWN_S))
     server = uvicorn.Server(config)
-    threading.Thread(target=_announce, args=(server, app, settings.host, not args.no_browser),
-                     daemon=True).start()
+    threading.Thread(target=_announce, args=(server, app, settings, generated,
+                                             not args.no_browser), daemon=True).start()
+
+    def _hard_stop() -> None:  # a worker thread stuck in numerics must not keep us alive
+        time.sleep(SHUTDOWN_S + 1.5)
+        os._exit(0)
+
+    uvicorn_exit = server.handle_exit
+
+    def _on_signal(signum: int, frame: Any) -> None:
+        jobs = getattr(app.state, "jobs", None)
+        if jobs is not None:
+            jobs.cancel_all()
+        threading.Thread(target=_hard_stop, daemon=True).start()
+        uvicorn_exit(signum, frame)
+
+    server.handle_exit = _on_signal  # type: ignore[method-assign]
     server.run()
     return 0

@@ -9,21 +9,19 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from .. import figures as F
-from ..data import (
-    csv_preview,
-    diagnose_session,
-    diagnosis_html,
-    fit_session,
-    recording_from_csv,
-    store_recording,
-)
+from ..data import csv_preview, diagnosis_html, read_upload, store_recording
 from ..schemas import FitIn
-from .deps import SessionDep, SettingsDep, decode_text, read_body
+from .deps import SessionDep, SettingsDep, attachment, read_body
+from .jobs import start_job, wait_for
 
 __all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["data"])
+
+#: Policy of the self-contained diagnosis report (inline plotly.js, sandboxed, no network).
+REPORT_CSP = ("default-src 'none'; script-src 'unsafe-inline' 'unsafe-eval'; "
+              "style-src 'unsafe-inline'; img-src data: blob:; font-src data:; "
+              "sandbox allow-scripts allow-downloads; frame-ancestors 'none'")
 
 _CSV_TYPES = ("text/csv", "text/plain", "application/csv", "application/octet-stream")
 
@@ -41,8 +39,8 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
     """
     _check_type(request)
-    text = decode_text(await read_body(request, settings.max_upload_bytes))
-    return await run_in_threadpool(csv_preview, text, settings.max_samples)
+    body = await read_body(request, settings.max_upload_bytes)
+    return await run_in_threadpool(csv_preview, body, settings.max_samples)
 
 
 @router.post("/sessions/{code}/recording", status_code=201)
@@ -53,51 +51,58 @@ async def upload_recording(
     t_col: str | None = Query(None, description="time column (name or 0-based index)"),
     u_col: str | None = Query(None, description="input column"),
     y_col: str | None = Query(None, description="output column"),
-    dt: float = Query(1e-3, gt=0, description="sample spacing when there is no time column"),
+    run: str | None = Query(None, max_length=200,
+                            description="run id to keep when the file has a run column, "
+                                        "or 'all' to read every row as one recording"),
+    dt: float = Query(1e-3, gt=0, le=3600,
+                      description="sample spacing when there is no time column"),
     name: str = Query("upload.csv", max_length=200),
 ) -> dict[str, Any]:
     """Store a recording from a raw ``text/csv`` body with an optional column mapping.
 
+    The body is CSV content, never a file name. The response lists the cleaning notes
+    (removed rows, skipped lines, the run kept) and the file's runs.
     Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
     """
     _check_type(request)
-    text = decode_text(await read_body(request, settings.max_upload_bytes))
-    rec = await run_in_threadpool(
-        lambda: recording_from_csv(text, t_col=t_col, u_col=u_col, y_col=y_col, dt=dt,
-                                   max_samples=settings.max_samples, name=name)
+    body = await read_body(request, settings.max_upload_bytes)
+    up = await run_in_threadpool(
+        lambda: read_upload(body, t_col=t_col, u_col=u_col, y_col=y_col, run=run, dt=dt,
+                            max_samples=settings.max_samples, name=name)
     )
+    rec = up.recording
     store_recording(session, rec)
     return {
         "name": rec.name,
         "samples": rec.n_samples,
+        "notes": list(rec.cleaning),
+        "runs": list(up.runs),
+        "run": None if rec.run is None else str(rec.run),
         "t_range": [float(rec.t[0]), float(rec.t[-1])],
         "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],
         "y_range": [float(np.min(rec.y)), float(np.max(rec.y))],
     }
 
 
-def _need_recording(session: Any) -> Any:
-    if session.recording is None:
-        raise HTTPException(409, "upload a recording first (POST /api/sessions/{code}/recording)")
-    return session.recording
-
-
 @router.post("/sessions/{code}/fit")
-def fit(body: FitIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
-    """Fit a model to the session's recording; returns the model, report and overlay figure."""
-    if body.n > settings.max_operators:
-        raise HTTPException(422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
-    rec = _need_recording(session)
-    model, report = fit_session(session, body.n, body.kind, body.apply)
-    fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
-    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+async def fit(body: FitIn, request: Request, session: SessionDep,
+              settings: SettingsDep) -> dict[str, Any]:
+    """Fit a model to the session's recording; returns the model, report and overlay figure.
+
+    Runs as a job of the bounded queue (see :mod:`app.routers.jobs`) and waits for it;
+    the job is cancelled if the client hangs up.
+    """
+    job = start_job(request, session, settings, "fit", body.model_dump())
+    return await wait_for(request, job)
 
 
 @router.post("/sessions/{code}/diagnose")
-def diagnose(session: SessionDep) -> dict[str, Any]:
-    """Diagnose the fitted model (else the current model) against the recording."""
-    _need_recording(session)
-    return diagnose_session(session)
+async def diagnose(request: Request, session: SessionDep,
+                   settings: SettingsDep) -> dict[str, Any]:
+    """Diagnose the fitted model (else the current model) against the recording (a job of
+    the bounded queue, waited for; cancelled if the client hangs up)."""
+    job = start_job(request, session, settings, "diagnose", {})
+    return await wait_for(request, job)
 
 
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)
@@ -106,5 +111,8 @@ def diagnosis_report(session: SessionDep) -> HTMLResponse:
     if session.diagnosis_result is None:
         raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
     text = diagnosis_html(session.diagnosis_result)
+    # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
+    # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={
-        "Content-Disposition": f'inline; filename="diagnosis-{session.code}.html"'})
+        **attachment(f"diagnosis-{session.code}.html", "inline"),
+        "Content-Security-Policy": REPORT_CSP})

@@ -6,10 +6,12 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
+from ..services.ratelimit import RateLimiter
 from ..settings import Settings
 from ..state import Session, SessionRegistry
 
-__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "read_body"]
+__all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
+           "read_body"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -22,12 +24,31 @@ def get_registry(request: Request) -> SessionRegistry:
     return request.app.state.registry
 
 
+def client_key(request: Request) -> str:
+    """The client's address (the rate limits are per client)."""
+    return request.client.host if request.client else "unknown"
+
+
+def rate_limited(limiter: RateLimiter, key: str, message: str) -> HTTPException:
+    """The 429 of ``limiter`` for client ``key`` (with ``Retry-After``)."""
+    return HTTPException(429, message, headers={"Retry-After": str(limiter.retry_after(key))})
+
+
 def get_session(code: str, request: Request) -> Session:
-    """The session ``code`` or a 404."""
+    """The session ``code``; 404 if there is none, 429 after too many unknown codes."""
+    key = client_key(request)
+    limiter = request.app.state.lookup_limiter
+    if not limiter.allowed(key):
+        raise rate_limited(limiter, key, "too many unknown session codes from this computer; "
+                                         "wait a minute and check the code")
     try:
         return request.app.state.registry.get(code)
     except KeyError:
-        raise HTTPException(404, f"no session with code {code!r}") from None
+        limiter.take(key)
+        raise HTTPException(404, "no such session: check the code (it looks like "
+                                 "abcd-efgh-jkmn-pqrs) or start a new session") from None
+
+
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]
@@ -48,6 +69,20 @@ async def read_body(request: Request, limit: int) -> bytes:
             raise HTTPException(413, f"body exceeds the {limit}-byte limit")
         chunks.append(chunk)
     return b"".join(chunks)
+
+
+def attachment(filename: str, disposition: str = "attachment") -> dict[str, str]:
+    """A ``Content-Disposition`` header safe for any file name (RFC 6266 / 5987).
+
+    Header values are Latin-1, so the plain ``filename=`` gets an ASCII fallback (other
+    characters become ``_``) and ``filename*=`` carries the UTF-8 name percent-encoded.
+    """
+    from urllib.parse import quote
+
+    ascii_name = "".join(c if c.isascii() and (c.isalnum() or c in "._-") else "_"
+                         for c in filename) or "download"
+    return {"Content-Disposition":
+            f"{disposition}; filename=\"{ascii_name}\"; filename*=UTF-8''{quote(filename)}"}
 
 
 def decode_text(body: bytes) -> str:

@@ -11,7 +11,8 @@ from fastapi.responses import Response
 from core.exceptions import ParameterError
 
 from ..exports import EXPORT_FORMATS, export_session, parameter_set_model
-from .deps import SessionDep, SettingsDep, decode_text, read_body
+from ..services.cost import check_config, check_document
+from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
 
 __all__ = ["router"]
 
@@ -26,8 +27,7 @@ def export(fmt: str, session: SessionDep) -> Response:
     if fmt not in EXPORT_FORMATS:
         raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
     name, payload = export_session(session, fmt)
-    return Response(payload, media_type=_MEDIA[fmt],
-                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+    return Response(payload, media_type=_MEDIA[fmt], headers=attachment(name))
 
 
 @router.put("/sessions/{code}/parameter-set")
@@ -41,10 +41,11 @@ async def upload_parameter_set(
     except json.JSONDecodeError as exc:
         raise HTTPException(422, f"not valid JSON: {exc}") from None
     try:
+        check_document(doc, settings.limits)
         model = parameter_set_model(doc)
-        if getattr(model, "n", 0) > settings.max_operators:
-            raise ParameterError(f"model has more than {settings.max_operators} operators")
-    except (ParameterError, ValueError, TypeError) as exc:
+        check_config(session.snapshot()[0].with_model(model.to_dict()), session.recording,
+                     settings.limits)
+    except (ParameterError, ValueError, TypeError, KeyError) as exc:
         raise HTTPException(422, f"not a usable parameter set: {exc}") from None
     session.update(lambda c: c.with_model(model.to_dict()))
     return session.summary()

@@ -51,11 +51,8 @@ def capabilities(settings: SettingsDep) -> dict[str, Any]:
         "figures": list(FIGURES),
         "export_formats": list(EXPORT_FORMATS),
         "fit_kinds": list(FIT_KINDS),
-        "limits": {
-            "max_upload_bytes": settings.max_upload_bytes,
-            "max_samples": settings.max_samples,
-            "max_operators": settings.max_operators,
-        },
+        "limits": {"max_upload_bytes": settings.max_upload_bytes,
+                   **settings.limits.to_dict()},
     }
 
 

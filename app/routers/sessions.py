@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Header, HTTPException, Query
+from fastapi import APIRouter, Header, HTTPException, Query, Request
 
 from core.exceptions import ParameterError
 
 from ..compute import compute, preset_doc, validate_config
 from ..schemas import ConfigIn
-from .deps import RegistryDep, SessionDep, SettingsDep
+from ..services.cost import check_config
+from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited
 from .simulate import result_payload
 
 __all__ = ["router"]
@@ -19,9 +20,24 @@ router = APIRouter(prefix="/api", tags=["sessions"])
 
 
 @router.post("/sessions", status_code=201)
-def create_session(registry: RegistryDep) -> dict[str, Any]:
-    """Create a session with the default config (paper 001 Example 1); returns its code."""
-    return registry.create().summary()
+def create_session(
+    request: Request,
+    registry: RegistryDep,
+    settings: SettingsDep,
+    x_teacher_token: str | None = Header(default=None),
+) -> dict[str, Any]:
+    """Create a session with the default config (paper 001 Example 1); returns its code.
+
+    Codes are made by the server only (79 random bits). Each client may create 200
+    sessions at once, then one a second (429 beyond). With a valid ``X-Teacher-Token``
+    the session is the teacher's and is never evicted.
+    """
+    key = client_key(request)
+    limiter = request.app.state.create_limiter
+    if not limiter.take(key):
+        raise rate_limited(limiter, key, "too many new sessions from this computer; wait a "
+                                         "little or rejoin your session with its code")
+    return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
 
 
 @router.get("/sessions/{code}")
@@ -31,12 +47,10 @@ def get_session(session: SessionDep) -> dict[str, Any]:
 
 
 @router.put("/sessions/{code}")
-def join_session(code: str, registry: RegistryDep) -> dict[str, Any]:
-    """Get or create the session with a chosen code (3-32 letters, digits, - or _)."""
-    try:
-        return registry.get_or_create(code).summary()
-    except KeyError:
-        raise HTTPException(422, "a session code has 3-32 letters, digits, '-' or '_'") from None
+def join_session(session: SessionDep) -> dict[str, Any]:
+    """Rejoin an existing session by its code (404 "no such session" otherwise; codes are
+    created only by ``POST /api/sessions``)."""
+    return session.summary()
 
 
 @router.patch("/sessions/{code}/config")
@@ -44,6 +58,7 @@ def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) ->
     """Change model, signal, mismatch or input source; validated before it is stored."""
     with session.lock:
         new = body.apply(session.config)
+        check_config(new, session.recording, settings.limits)
         validate_config(new, session.recording, settings.max_operators, settings.max_samples)
         session.set_config(new)
     return session.summary()
@@ -57,6 +72,7 @@ def session_figures(
 ) -> dict[str, Any]:
     """Figures of the session's current config (``?name=loop&name=time``)."""
     cfg, v = session.snapshot()
+    check_config(cfg, session.recording, settings.limits)
     res = compute(cfg, version=v, recording=session.recording,
                   max_operators=settings.max_operators, max_samples=settings.max_samples,
                   with_inverse="inverse" in names, with_digitized="digitized" in names)
@@ -85,7 +101,11 @@ def broadcast_preset(
     settings: SettingsDep,
     x_teacher_token: str | None = Header(default=None),
 ) -> dict[str, Any]:
-    """Teacher: push preset ``name`` to every session (needs ``X-Teacher-Token`` if set)."""
-    if settings.teacher_token and x_teacher_token != settings.teacher_token:
+    """Teacher: push preset ``name`` to every session used in the last hour.
+
+    Needs ``X-Teacher-Token`` whenever the server has a token, which it always has when
+    reachable beyond loopback (compared in constant time).
+    """
+    if settings.teacher_token and not settings.teacher_ok(x_teacher_token):
         raise HTTPException(403, "pushing to all sessions needs the teacher token")
     return {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}

@@ -9,6 +9,7 @@ from fastapi import APIRouter, HTTPException
 from .. import figures as F
 from ..compute import Result, compute, operator_count, pi_part
 from ..schemas import SimulateIn, SimulateOut
+from ..services.cost import check_config
 from ..state import Config
 from .deps import SettingsDep
 
@@ -52,6 +53,7 @@ def simulate(body: SimulateIn, settings: SettingsDep) -> dict[str, Any]:
     a message naming the parameter.
     """
     cfg = Config(model=body.model, signal=body.signal.to_spec(), mismatch=body.mismatch)
+    check_config(cfg, None, settings.limits)  # bounded cost, checked before any work
     res = compute(cfg, max_operators=settings.max_operators, max_samples=settings.max_samples,
                   with_inverse="inverse" in body.figures,
                   with_digitized="digitized" in body.figures)

@@ -130,11 +130,14 @@ def test_bad_csv_message(view: SessionView) -> None:
 
 
 def test_join_other_session(view: SessionView) -> None:
-    view.code_in.value = "room-42"
+    other = view.registry.create()  # codes are made by the server only (issue 10)
+    view.code_in.value = other.code.upper()
     view._join_clicked(SimpleNamespace(client=None))
     _idle(view)
-    assert view.session.code == "room-42"
-    assert view.registry.get("room-42") is view.session
+    assert view.session is other
+    view.code_in.value = "room-42"  # unknown: refused, never a blank new session
+    view._join_clicked(SimpleNamespace(client=None))
+    assert view.session is other
 
 
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:

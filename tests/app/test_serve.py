@@ -34,11 +34,12 @@ def test_settings_from_env(monkeypatch) -> None:  # noqa: ANN001
     assert Settings().host == "127.0.0.1"
 
 
-def test_serve_starts_prints_urls_and_serves() -> None:
+def test_serve_starts_prints_urls_and_serves(tmp_path: Path) -> None:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "app", "serve", "--no-browser", "--port", "0", "--viser-port",
-         "0"], cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+         "0", "--state-dir", str(tmp_path)], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True)
     try:
         web = gui = None
         deadline = time.monotonic() + 60

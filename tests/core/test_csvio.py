@@ -724,3 +724,46 @@ def test_compensating_ragged_lines_are_still_found():
     text = with_line(with_line(table(), 7, "0.05,1.0"), 9, "0.07,1.0,2.0,3.0")
     with pytest.raises(CSVError, match=r"line 7 has 2 field\(s\) but the header"):
         read_csv(text)
+
+
+# ----------------------------------------------------------------- content, never a path
+def test_text_readers_never_open_a_file(tmp_path):
+    """A body that is the name of a readable numeric file is read as content, not opened."""
+    secret = tmp_path / "secret.csv"
+    secret.write_text(table())
+    from core.csvio import inspect_csv_text, read_csv_text
+
+    for body in (str(secret), str(secret).encode(), str(tmp_path / "missing.csv")):
+        with pytest.raises(CSVError) as err:
+            read_csv_text(body)
+        assert "no such file" not in str(err.value)
+        assert "single column" in str(err.value)
+        with pytest.raises(CSVError):
+            inspect_csv_text(body)
+    (r,) = read_csv(secret)  # a Path is still a file
+    assert r.n_samples == len(T)
+
+
+def test_text_reader_decodes_bytes_like_a_file():
+    from core.csvio import read_csv_text
+
+    data = table().encode("utf-16")  # with BOM, as Windows tools write it
+    (r,) = read_csv_text(data)
+    (ref,) = read_csv(table())
+    np.testing.assert_array_equal(r.u, ref.u)
+    np.testing.assert_allclose(r.u, U, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        ("a,b\n\"" + "x" * 200_000 + "\",1\n1,2\n", r"line 2 is 200,004 characters long"),
+        ("1,2," * 1_200_000, r"line 1 is 4,800,000 characters"),
+        ('t,u,y\n"0,1,2\n0.1,2,3\n', r"line 2 has an unclosed quote"),
+    ],
+)
+def test_hostile_layouts_are_csv_errors(body, match):
+    from core.csvio import inspect_csv_text
+
+    with pytest.raises(CSVError, match=match):
+        inspect_csv_text(body)

@@ -1,0 +1,140 @@
+"""Fits and diagnoses as queued, cancellable jobs (``/api/sessions/{code}/jobs``).
+
+Contract: ``POST`` ``{"kind": "fit" | "diagnose", "params": {...}}`` → 202
+``{"id", "kind", "state"}``; ``GET .../jobs/{id}`` → ``{"id", "kind", "state", "progress",
+"message", "result", "error"}``; ``DELETE .../jobs/{id}`` cancels. ``params`` are the bodies
+of the synchronous ``POST .../fit`` (``FitIn``) and ``POST .../diagnose`` (none). A job
+nobody polls for 30 s is cancelled. The synchronous endpoints (:mod:`app.routers.data`) run
+through the same queue and cancel their job when the client hangs up.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, Literal
+
+from fastapi import APIRouter, HTTPException, Request
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .. import figures as F
+from ..data import diagnose_session, fit_session
+from ..schemas import FitIn
+from ..services.jobs import Job, JobBusy, JobManager, Progress
+from ..settings import Settings
+from ..state import Session
+from .deps import SessionDep, SettingsDep
+
+__all__ = ["JobIn", "router", "start_job", "wait_for"]
+
+router = APIRouter(prefix="/api", tags=["jobs"])
+
+
+class JobIn(BaseModel):
+    """A fit or diagnosis request."""
+
+    model_config = ConfigDict(extra="forbid")
+    kind: Literal["fit", "diagnose"]
+    params: dict[str, Any] = Field(default_factory=dict,
+                                   description="the body of POST .../fit, or {} to diagnose")
+
+
+def _need_recording(session: Session) -> None:
+    if session.recording is None:
+        raise HTTPException(409, "upload a recording first (POST /api/sessions/{code}/recording)")
+
+
+def _fit_work(session: Session, body: FitIn) -> Any:
+    def work(progress: Progress) -> dict[str, Any]:
+        progress(0.05, f"fitting a {body.kind} model with {body.n} operators")
+        model, report = fit_session(session, body.n, body.kind, body.apply)
+        progress(0.9, "building the figure")
+        rec = session.recording
+        fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
+        return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+    return work
+
+
+def _diagnose_work(session: Session) -> Any:
+    def work(progress: Progress) -> dict[str, Any]:
+        progress(0.01, "diagnosing")
+
+        def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
+            progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
+
+        return diagnose_session(session, report)
+    return work
+
+
+def start_job(request: Request, session: Session, settings: Settings, kind: str,
+              params: dict[str, Any]) -> Job:
+    """Validate ``params`` (cost limits included) and queue the job; HTTP errors otherwise."""
+    _need_recording(session)
+    if kind == "fit":
+        try:
+            body = FitIn(**params)
+        except ValidationError as exc:
+            raise HTTPException(422, exc.errors(include_url=False, include_context=False)
+                                ) from None
+        if body.n > settings.max_operators:
+            raise HTTPException(
+                422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
+        work = _fit_work(session, body)
+    else:
+        if params:
+            raise HTTPException(422, "a diagnosis takes no parameters (params: {})")
+        work = _diagnose_work(session)
+    jobs: JobManager = request.app.state.jobs
+    try:
+        return jobs.submit(session.code, kind, work)
+    except JobBusy as exc:
+        raise HTTPException(409, str(exc)) from None
+
+
+async def wait_for(request: Request, job: Job, timeout_s: float = 300.0) -> Any:
+    """Wait for ``job`` while the client is connected; its result, or the HTTP error."""
+    jobs: JobManager = request.app.state.jobs
+    waited = 0.0
+    while not jobs.wait(job, 0):
+        if await request.is_disconnected():
+            jobs.cancel(job.code, job.id)
+            raise HTTPException(499, "the client went away; the job was cancelled")
+        if waited > timeout_s:
+            jobs.cancel(job.code, job.id)
+            raise HTTPException(504, f"the {job.kind} took longer than {timeout_s:g} s and "
+                                     "was cancelled; use a shorter recording")
+        await asyncio.sleep(0.05)
+        waited += 0.05
+    v = job.view()
+    if v.state == "done":
+        return v.result
+    if v.state == "failed":
+        raise HTTPException(422, f"the {job.kind} failed: {v.error}")
+    raise HTTPException(409, f"the {job.kind} was cancelled: {v.message}")
+
+
+@router.post("/sessions/{code}/jobs", status_code=202)
+def create_job(body: JobIn, request: Request, session: SessionDep,
+               settings: SettingsDep) -> dict[str, Any]:
+    """Queue a fit or a diagnosis of the session's recording; poll it with GET."""
+    job = start_job(request, session, settings, body.kind, body.params)
+    return {"id": job.id, "kind": job.kind, "state": job.view().state}
+
+
+def _job(request: Request, session: Session, job_id: str) -> Job:
+    try:
+        return request.app.state.jobs.get(session.code, job_id)
+    except KeyError:
+        raise HTTPException(404, f"no job {job_id[:40]!r} in this session") from None
+
+
+@router.get("/sessions/{code}/jobs/{job_id}")
+def get_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
+    """State, progress (0..1), message, and the result once done (the error if failed)."""
+    return _job(request, session, job_id).view().to_dict()
+
+
+@router.delete("/sessions/{code}/jobs/{job_id}")
+def cancel_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
+    """Cancel a queued or running job (a finished one is left as it is)."""
+    _job(request, session, job_id)
+    return request.app.state.jobs.cancel(session.code, job_id).view().to_dict()

@@ -1,0 +1,277 @@
+"""The cost model: every request's work is bounded and checked before any work starts.
+
+Two steps, both cheap and non-recursive where the input is hostile:
+
+1. :func:`json_depth` / :func:`check_document` look at the raw JSON (bytes or the parsed
+   document) *before* a model is built: nesting depth, how many numbers, LTI order. A chain
+   nested 300 deep or an LTI of order 1,500 is refused here, before ``model_from_dict``
+   recurses or realises anything.
+2. :func:`check_model` looks at the built model and the run it is asked for (number of
+   samples, sample spacing ``dt``): play operators over every type that has them (``pi``,
+   ``rate``, ``initial-memory``, ``digitized``, the GPI family), creep terms, LTI order,
+   delay in samples, time constants against ``dt``, and the total work
+   ``samples x (operators + creep terms + LTI order + stages)``.
+
+Every refusal is a :class:`~core.exceptions.ParameterError` (a 422 in the API) naming the
+quantity, its value, the limit and what to change. The limits are :class:`Limits`, shown by
+``GET /api/capabilities`` and in the README.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from core.base import Model
+from core.exceptions import ParameterError
+
+__all__ = ["Cost", "Limits", "check_config", "check_document", "check_model", "checked_model",
+           "json_depth"]
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Upper bounds of one request's work.
+
+    Parameters
+    ----------
+    max_operators : int
+        Play operators (or digits) summed over every stage of a model.
+    max_samples : int
+        Samples of a simulated signal or an uploaded recording.
+    max_json_depth : int
+        Nesting of a JSON body (objects and arrays).
+    max_model_depth : int
+        Nesting of models inside models (chains of chains, wrappers).
+    max_numbers : int
+        Numbers in one model document (all arrays together).
+    max_creep_terms : int
+        Lags of a creep stage, summed over the model.
+    max_lti_order : int
+        Order (denominator degree) of an ``lti`` stage.
+    min_tau_per_dt, max_tau_per_dt : float
+        Time constants (lag ``tau_s``, creep ``taus_s``, ``1 / (2 pi freq_hz)`` of a
+        resonance) relative to the sample spacing ``dt``: outside this range the stage is
+        either a no-op or numerically singular.
+    max_work : int
+        ``samples x (operators + creep terms + LTI order + stages)`` of one simulation.
+    """
+
+    max_operators: int = 100
+    max_samples: int = 200_000
+    max_json_depth: int = 40
+    max_model_depth: int = 10
+    max_numbers: int = 20_000
+    max_creep_terms: int = 50
+    max_lti_order: int = 20
+    min_tau_per_dt: float = 1e-9
+    max_tau_per_dt: float = 1e6
+    max_work: int = 25_000_000
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (``GET /api/capabilities``)."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class Cost:
+    """What one simulation of a model costs (see :func:`check_model`)."""
+
+    operators: int
+    creep_terms: int
+    lti_order: int
+    delay_samples: int
+    stages: int
+    work: int
+
+
+# ----------------------------------------------------------------------------- raw JSON
+def json_depth(body: bytes) -> int:
+    """Largest nesting depth of the JSON text ``body`` (vectorised, never recursive).
+
+    Brackets inside strings do not count. Invalid JSON still gets a depth (the parser
+    rejects it afterwards); the point is to refuse deep bodies before a recursive parser
+    or model builder sees them.
+    """
+    if not body:
+        return 0
+    b = body.replace(b"\\\\", b"__").replace(b'\\"', b"__")
+    a = np.frombuffer(b, dtype=np.uint8)
+    in_str = np.cumsum(a == ord('"')) % 2 == 1
+    step = np.zeros(a.size, dtype=np.int32)
+    step[(a == ord("{")) | (a == ord("["))] = 1
+    step[(a == ord("}")) | (a == ord("]"))] = -1
+    step[in_str] = 0
+    return int(np.cumsum(step).max(initial=0))
+
+
+def check_document(doc: Any, limits: Limits) -> None:
+    """Refuse a model document that is too deep, too big or of too high an LTI order.
+
+    Walks ``doc`` with an explicit stack (no recursion), so any parsed JSON is safe.
+
+    Raises
+    ------
+    ParameterError
+        Naming the limit that was exceeded.
+    """
+    numbers = 0
+    stack: list[tuple[Any, int, int]] = [(doc, 1, 0)]  # (node, json depth, model depth)
+    while stack:
+        node, depth, mdepth = stack.pop()
+        if depth > limits.max_json_depth:
+            raise ParameterError(
+                f"the model document is nested more than {limits.max_json_depth} levels "
+                "deep; flatten the chain (a chain's stages may be listed in one chain)")
+        if isinstance(node, dict):
+            if "type" in node:
+                mdepth += 1
+                if mdepth > limits.max_model_depth:
+                    raise ParameterError(
+                        f"models are nested more than {limits.max_model_depth} deep (chains "
+                        "inside chains); list the stages in one chain instead")
+                if node.get("type") == "lti" and isinstance(node.get("den"), list):
+                    order = len(node["den"]) - 1
+                    if order > limits.max_lti_order:
+                        raise ParameterError(
+                            f"lti order {order} exceeds the limit of {limits.max_lti_order}; "
+                            "use a lower-order model (or a chain of low-order stages)")
+            stack.extend((v, depth + 1, mdepth) for v in node.values())
+        elif isinstance(node, list):
+            numbers += sum(1 for v in node if isinstance(v, int | float))
+            if numbers > limits.max_numbers:
+                raise ParameterError(
+                    f"the model document holds more than {limits.max_numbers:,} numbers; "
+                    "the explorer's models are smaller (fewer operators or terms)")
+            stack.extend((v, depth + 1, mdepth) for v in node if isinstance(v, dict | list))
+
+
+# ----------------------------------------------------------------------------- built model
+def _children(m: Model) -> list[Model]:
+    """Sub-models of ``m``, found from its dataclass fields (each type declares them once)."""
+    out: list[Model] = []
+    for f in dataclasses.fields(m):
+        v = getattr(m, f.name, None)
+        if isinstance(v, Model):
+            out.append(v)
+        elif isinstance(v, tuple | list):
+            out.extend(x for x in v if isinstance(x, Model))
+    return out
+
+
+def _operators(m: Model) -> int:
+    n = getattr(type(m), "n", None)
+    if isinstance(n, property):
+        return int(m.n)  # type: ignore[attr-defined]
+    th = getattr(m, "thresholds", None)
+    return int(np.size(th)) if th is not None else 0
+
+
+def _time_constants(m: Model) -> list[tuple[str, float]]:
+    name = m.type_name
+    if name == "lag":
+        return [("lag tau_s", float(m.tau_s))]  # type: ignore[attr-defined]
+    if name == "resonance":
+        return [("resonance 1/(2 pi freq_hz)", 1.0 / (2 * math.pi * float(m.freq_hz)))]  # type: ignore[attr-defined]
+    if name == "creep":
+        return [("creep taus_s", float(t)) for t in m.taus_s]  # type: ignore[attr-defined]
+    return []
+
+
+def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
+    """Cost of simulating ``model`` on ``samples`` samples spaced ``dt`` seconds.
+
+    Raises
+    ------
+    ParameterError
+        When a limit of :class:`Limits` is exceeded (the message names it and the fix).
+    """
+    ops = creep = order = delay = stages = 0
+    todo, depth_of = [model], {id(model): 1}
+    while todo:
+        m = todo.pop()
+        stages += 1
+        d = depth_of[id(m)]
+        if d > limits.max_model_depth:
+            raise ParameterError(f"models are nested more than {limits.max_model_depth} deep")
+        kids = _children(m)
+        for k in kids:
+            depth_of[id(k)] = d + 1
+        todo.extend(kids)
+        ops += _operators(m)
+        if m.type_name == "creep":
+            creep += int(np.size(m.taus_s))  # type: ignore[attr-defined]
+        if m.type_name == "lti":
+            order += int(np.size(m.den)) - 1  # type: ignore[attr-defined]
+        if m.type_name == "delay":
+            d_s = float(m.delay_s)  # type: ignore[attr-defined]
+            if d_s / dt > limits.max_samples:
+                raise ParameterError(
+                    f"delay_s = {d_s:.3g} s is {d_s / dt:.3g} samples (dt = {dt:.3g} s); the "
+                    f"explorer allows at most {limits.max_samples:,}: shorten delay_s")
+            delay = max(delay, int(math.ceil(d_s / dt)))
+        for what, tau in _time_constants(m):
+            r = tau / dt
+            if not limits.min_tau_per_dt <= r <= limits.max_tau_per_dt:
+                raise ParameterError(
+                    f"{what} = {tau:.3g} s is {r:.3g} sample spacings (dt = {dt:.3g} s); it "
+                    f"must be between {limits.min_tau_per_dt:g} and {limits.max_tau_per_dt:g} "
+                    "dt: change the time constant or the sample spacing")
+    if ops > limits.max_operators:
+        raise ParameterError(
+            f"model has {ops} operators; the explorer allows at most {limits.max_operators}")
+    if creep > limits.max_creep_terms:
+        raise ParameterError(
+            f"creep has {creep} terms; the explorer allows at most {limits.max_creep_terms} "
+            "(one lag per decade of time is enough)")
+    if order > limits.max_lti_order:
+        raise ParameterError(
+            f"lti order {order} exceeds the limit of {limits.max_lti_order}")
+    if samples > limits.max_samples:
+        raise ParameterError(
+            f"{samples:,} samples exceed the limit of {limits.max_samples:,}")
+    work = samples * (ops + creep + order + stages)
+    if work > limits.max_work:
+        raise ParameterError(
+            f"this run costs {work:,} units (samples x (operators + creep terms + lti order + "
+            f"stages) = {samples:,} x {ops + creep + order + stages}), more than "
+            f"{limits.max_work:,}: use fewer samples or a smaller model")
+    return Cost(ops, creep, order, delay, stages, work)
+
+
+def checked_model(doc: Any, samples: int, dt: float, limits: Limits) -> tuple[Model, Cost]:
+    """Build the model of ``doc`` only after :func:`check_document`, then :func:`check_model`.
+
+    Raises
+    ------
+    ParameterError
+        When a limit is exceeded or the document is not a valid model.
+    """
+    from core.base import model_from_dict
+
+    check_document(doc, limits)
+    if not isinstance(doc, dict):
+        raise ParameterError("a model must be a JSON object with a 'type' field")
+    model = model_from_dict(doc)
+    return model, check_model(model, samples, dt, limits)
+
+
+def check_config(cfg: Any, recording: Any, limits: Limits) -> Cost:
+    """Cost of computing the figures of an :class:`app.state.Config` (see :func:`check_model`).
+
+    The run is the recording's input when ``cfg.use_recording`` and there is one, else the
+    config's signal (``samples`` samples over ``duration`` seconds).
+    """
+    if cfg.use_recording and recording is not None:
+        samples = int(recording.n_samples)
+        dt = float(recording.dt) if getattr(recording, "dt", None) else 1.0
+    else:
+        samples = int(cfg.signal.samples)
+        dt = float(cfg.signal.duration) / max(1, samples - 1)
+    if not (math.isfinite(dt) and dt > 0):
+        raise ParameterError(f"the sample spacing {dt!r} s must be a positive number")
+    return checked_model(cfg.model, samples, dt, limits)[1]

@@ -1,0 +1,347 @@
+"""Durable session state in SQLite (stdlib ``sqlite3``): nothing is lost when the server dies.
+
+Every change of a session (config, recording, fit, diagnosis) is written and committed
+before the request that made it returns, so ``kill -9`` and a restart with the same
+``--state-dir`` bring every session back under its code. The database is one file,
+``sessions.sqlite3``, in WAL mode (a killed writer never corrupts it).
+
+Eviction is by a stated size budget (``max_bytes``, the sum of the stored rows): when the
+store is larger, the least recently used sessions are deleted, but **never one used in the
+last** ``protect_s`` **seconds (one hour)** and **never a teacher's session**. If only such
+sessions remain, the store stays over budget and :meth:`SessionStore.full` says so (the
+API then refuses new sessions with 503 rather than dropping a class).
+
+The typed state is :class:`SessionState` (a frozen dataclass); recordings are stored as
+``.npz`` arrays plus JSON metadata, the diagnosis result (a core ``DiagnosisResult``, needed
+for the HTML report) as a pickle written only by this server into its own state directory.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import pickle
+import sqlite3
+import threading
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.recordings import Recording
+
+__all__ = ["SessionState", "SessionStore", "default_state_dir", "recording_from_blob",
+           "recording_to_blob"]
+
+#: Sessions used within this many seconds are never evicted.
+PROTECT_S = 3600.0
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS sessions (
+    code TEXT PRIMARY KEY,
+    created REAL NOT NULL,
+    last_used REAL NOT NULL,
+    teacher INTEGER NOT NULL DEFAULT 0,
+    version INTEGER NOT NULL,
+    config TEXT NOT NULL,
+    fitted TEXT,
+    fit_report TEXT,
+    diagnosis TEXT,
+    size INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE IF NOT EXISTS blobs (
+    code TEXT NOT NULL REFERENCES sessions(code) ON DELETE CASCADE,
+    kind TEXT NOT NULL,
+    data BLOB NOT NULL,
+    PRIMARY KEY (code, kind)
+);
+CREATE INDEX IF NOT EXISTS sessions_last_used ON sessions(last_used);
+"""
+
+
+def default_state_dir() -> Path:
+    """The per-user data directory (``$XDG_DATA_HOME/hysteresis-explorer``, else
+    ``~/.local/share/hysteresis-explorer``; ``%LOCALAPPDATA%`` on Windows)."""
+    base = os.environ.get("XDG_DATA_HOME") or os.environ.get("LOCALAPPDATA")
+    root = Path(base) if base else Path.home() / ".local" / "share"
+    return root / "hysteresis-explorer"
+
+
+@dataclass(frozen=True, eq=False)
+class SessionState:
+    """Everything the store keeps of one session.
+
+    Attributes
+    ----------
+    code : str
+        The session code (its only key).
+    config : dict
+        The :class:`app.state.Config` in its ``to_dict()`` form.
+    version : int
+        Config version.
+    recording : Recording or None
+        Uploaded recording.
+    fitted, fit_report, diagnosis : dict or None
+        Fitted model document, fit report and diagnosis report.
+    diagnosis_result : object
+        The core ``DiagnosisResult`` (for the HTML report), or ``None``.
+    teacher : bool
+        A teacher's session (never evicted).
+    created, last_used : float
+        Wall-clock times, s since the epoch.
+    """
+
+    code: str
+    config: dict[str, Any]
+    version: int = 0
+    recording: Recording | None = None
+    fitted: dict[str, Any] | None = None
+    fit_report: dict[str, Any] | None = None
+    diagnosis: dict[str, Any] | None = None
+    diagnosis_result: Any = None
+    teacher: bool = False
+    created: float = field(default_factory=time.time)
+    last_used: float = field(default_factory=time.time)
+
+
+def recording_to_blob(rec: Recording) -> bytes:
+    """``rec`` as bytes (``.npz`` with the arrays and a JSON ``meta`` entry)."""
+    arrays = {"t": rec.t, "u": rec.u, "y": rec.y}
+    if rec.lines is not None:
+        arrays["lines"] = np.asarray(rec.lines)
+    extra_text: dict[str, list[str]] = {}
+    for k, v in rec.extra.items():
+        if np.asarray(v).dtype.kind in "biuf":
+            arrays[f"extra:{k}"] = np.asarray(v, dtype=np.float64)
+        else:
+            extra_text[k] = [str(x) for x in v]
+    meta = {"name": rec.name, "units": dict(rec.units), "columns": dict(rec.columns),
+            "extra_units": dict(rec.extra_units), "source": rec.source, "run": rec.run,
+            "cleaning": list(rec.cleaning), "has_time": rec.has_time,
+            "citation": rec.citation, "extra_text": extra_text}
+    buf = io.BytesIO()
+    np.savez(buf, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **arrays)
+    return buf.getvalue()
+
+
+def recording_from_blob(data: bytes) -> Recording:
+    """Inverse of :func:`recording_to_blob`."""
+    with np.load(io.BytesIO(data), allow_pickle=False) as z:
+        meta = json.loads(bytes(z["meta"]).decode())
+        extra: dict[str, np.ndarray] = {k[6:]: z[k] for k in z.files if k.startswith("extra:")}
+        extra.update({k: np.asarray(v, dtype=str) for k, v in meta["extra_text"].items()})
+        return Recording(
+            t=z["t"], u=z["u"], y=z["y"], name=meta["name"], units=meta["units"],
+            columns=meta["columns"], extra=extra, extra_units=meta["extra_units"],
+            source=meta["source"], run=meta["run"], cleaning=tuple(meta["cleaning"]),
+            has_time=meta["has_time"], citation=meta["citation"],
+            lines=z["lines"] if "lines" in z.files else None,
+        )
+
+
+def _dump(x: Any) -> str | None:
+    return None if x is None else json.dumps(x, allow_nan=False, default=_jsonable)
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(f"cannot store {type(x).__name__}")
+
+
+def _load(s: str | None) -> Any:
+    return None if s is None else json.loads(s)
+
+
+class SessionStore:
+    """Sessions in one SQLite file, committed on each change (thread-safe).
+
+    Parameters
+    ----------
+    path : str or Path
+        Database file, or ``":memory:"`` (tests; nothing survives the process).
+    max_bytes : int
+        Size budget of the stored sessions (rows and blobs), bytes.
+    protect_s : float
+        Sessions used within this many seconds are never evicted.
+    """
+
+    def __init__(self, path: str | Path, max_bytes: int = 1_000_000_000,
+                 protect_s: float = PROTECT_S) -> None:
+        self.path = str(path)
+        self.max_bytes = int(max_bytes)
+        self.protect_s = float(protect_s)
+        if self.path != ":memory:":
+            Path(self.path).parent.mkdir(parents=True, exist_ok=True)
+        self._lock = threading.Lock()
+        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None,
+                                   timeout=30.0)
+        with self._lock:
+            if self.path != ":memory:":
+                self._db.execute("PRAGMA journal_mode=WAL")
+                self._db.execute("PRAGMA synchronous=NORMAL")  # durable against kill -9
+                os.chmod(self.path, 0o600)
+            self._db.execute("PRAGMA foreign_keys=ON")
+            self._db.executescript(_SCHEMA)
+
+    # ------------------------------------------------------------------ writes
+    def save(self, state: SessionState, *, recording: bool = True,
+             results: bool = True) -> None:
+        """Insert or replace ``state`` and commit.
+
+        ``recording=False`` / ``results=False`` leave the stored recording / diagnosis
+        blob as they are (a config change need not rewrite a recording).
+        """
+        cfg = _dump(state.config) or "{}"
+        row_text = [cfg, _dump(state.fitted), _dump(state.fit_report), _dump(state.diagnosis)]
+        blobs: dict[str, bytes | None] = {}
+        if recording:
+            blobs["recording"] = (None if state.recording is None
+                                  else recording_to_blob(state.recording))
+        if results:
+            blobs["diagnosis"] = (None if state.diagnosis_result is None
+                                  else pickle.dumps(state.diagnosis_result))
+        with self._lock:
+            db = self._db
+            if not blobs:  # a config change: one statement, one implicit commit
+                cur = db.execute(
+                    "UPDATE sessions SET last_used=?, teacher=?, version=?, config=?, fitted=?,"
+                    " fit_report=?, diagnosis=?, size=? + (SELECT COALESCE(SUM(length(data)),"
+                    " 0) FROM blobs WHERE code=?) WHERE code=?",
+                    (state.last_used, int(state.teacher), state.version, *row_text,
+                     sum(len(t) for t in row_text if t), state.code, state.code))
+                if cur.rowcount == 1:
+                    return
+            db.execute("BEGIN IMMEDIATE")
+            try:
+                for kind, data in blobs.items():
+                    if data is None:
+                        db.execute("DELETE FROM blobs WHERE code=? AND kind=?",
+                                   (state.code, kind))
+                old = dict(db.execute(
+                    "SELECT kind, length(data) FROM blobs WHERE code=?", (state.code,)))
+                old.update({k: len(v) for k, v in blobs.items() if v is not None})
+                size = sum(len(t) for t in row_text if t) + sum(old.values())
+                db.execute(
+                    "INSERT INTO sessions (code, created, last_used, teacher, version, config,"
+                    " fitted, fit_report, diagnosis, size) VALUES (?,?,?,?,?,?,?,?,?,?) "
+                    "ON CONFLICT(code) DO UPDATE SET last_used=excluded.last_used, "
+                    "teacher=excluded.teacher, version=excluded.version, "
+                    "config=excluded.config, fitted=excluded.fitted, "
+                    "fit_report=excluded.fit_report, diagnosis=excluded.diagnosis, "
+                    "size=excluded.size",
+                    (state.code, state.created, state.last_used, int(state.teacher),
+                     state.version, *row_text, size))
+                for kind, data in blobs.items():
+                    if data is not None:
+                        db.execute("INSERT OR REPLACE INTO blobs (code, kind, data) "
+                                   "VALUES (?,?,?)", (state.code, kind, data))
+                db.execute("COMMIT")
+            except BaseException:
+                db.execute("ROLLBACK")
+                raise
+        if any(v is not None for v in blobs.values()):
+            self.evict()  # a recording or a diagnosis may have pushed the store over budget
+
+    def touch(self, code: str, when: float | None = None) -> None:
+        """Record a use of ``code`` (for the one-hour eviction protection)."""
+        with self._lock:
+            self._db.execute("UPDATE sessions SET last_used=? WHERE code=?",
+                             (time.time() if when is None else when, code))
+
+    def delete(self, code: str) -> None:
+        """Remove ``code`` and its blobs."""
+        with self._lock:
+            self._db.execute("DELETE FROM sessions WHERE code=?", (code,))
+
+    # ------------------------------------------------------------------ reads
+    def load(self, code: str) -> SessionState | None:
+        """The stored session ``code``, or ``None``."""
+        with self._lock:
+            row = self._db.execute(
+                "SELECT code, created, last_used, teacher, version, config, fitted, "
+                "fit_report, diagnosis FROM sessions WHERE code=?", (code,)).fetchone()
+            blobs = dict(self._db.execute("SELECT kind, data FROM blobs WHERE code=?",
+                                          (code,)).fetchall()) if row else {}
+        if row is None:
+            return None
+        rec = recording_from_blob(blobs["recording"]) if "recording" in blobs else None
+        diag = pickle.loads(blobs["diagnosis"]) if "diagnosis" in blobs else None  # noqa: S301 - own file
+        return SessionState(
+            code=row[0], created=row[1], last_used=row[2], teacher=bool(row[3]),
+            version=row[4], config=json.loads(row[5]), fitted=_load(row[6]),
+            fit_report=_load(row[7]), diagnosis=_load(row[8]), recording=rec,
+            diagnosis_result=diag,
+        )
+
+    def exists(self, code: str) -> bool:
+        """Whether ``code`` is stored."""
+        with self._lock:
+            return self._db.execute("SELECT 1 FROM sessions WHERE code=?",
+                                    (code,)).fetchone() is not None
+
+    def codes(self, since: float = 0.0) -> list[str]:
+        """Stored codes used at or after ``since`` (s since the epoch), most recent first."""
+        with self._lock:
+            return [r[0] for r in self._db.execute(
+                "SELECT code FROM sessions WHERE last_used>=? ORDER BY last_used DESC",
+                (since,))]
+
+    def size(self) -> int:
+        """Bytes held (rows and blobs), the quantity the budget bounds."""
+        with self._lock:
+            return int(self._db.execute("SELECT COALESCE(SUM(size), 0) FROM sessions"
+                                        ).fetchone()[0])
+
+    def __len__(self) -> int:
+        with self._lock:
+            return int(self._db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0])
+
+    # ------------------------------------------------------------------ budget
+    def evict(self, now: float | None = None) -> list[str]:
+        """Delete least recently used sessions until the store fits ``max_bytes``.
+
+        Never a session used within ``protect_s`` seconds, never a teacher's.
+
+        Returns
+        -------
+        list of str
+            The evicted codes.
+        """
+        now = time.time() if now is None else now
+        out: list[str] = []
+        with self._lock:
+            total = int(self._db.execute("SELECT COALESCE(SUM(size), 0) FROM sessions"
+                                         ).fetchone()[0])
+            if total <= self.max_bytes:
+                return out
+            rows = self._db.execute(
+                "SELECT code, size FROM sessions WHERE teacher=0 AND last_used<? "
+                "ORDER BY last_used", (now - self.protect_s,)).fetchall()
+            for code, size in rows:
+                if total <= self.max_bytes:
+                    break
+                self._db.execute("DELETE FROM sessions WHERE code=?", (code,))
+                total -= int(size)
+                out.append(code)
+        return out
+
+    def full(self) -> bool:
+        """Over budget even after :meth:`evict` (only protected sessions are left)."""
+        self.evict()
+        return self.size() > self.max_bytes
+
+    def close(self) -> None:
+        """Close the database (every change is already committed)."""
+        with self._lock:
+            self._db.close()
+
+
+def with_use(state: SessionState, when: float | None = None) -> SessionState:
+    """``state`` marked as used at ``when`` (now by default)."""
+    return replace(state, last_used=time.time() if when is None else when)
