@@ -521,7 +521,7 @@ def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
         bank = model.bank(ctx.dt)
     m, f, c = bank.c.size, ctx.field, ctx.const
     consts = [
-        f"static const double {c}G0 = {c_double(bank.g0)};",
+        *([] if inverse else [f"static const double {c}G0 = {c_double(bank.g0)};"]),
         f"static const double {c}C[{m}] = {_c_array(bank.c)};",
         f"static const double {c}B0[{m}] = {_c_array(bank.b0)};",
         f"static const double {c}B1[{m}] = {_c_array(bank.b1)};",
@@ -894,8 +894,7 @@ def _emit_block(
     src.append("    double x = u;")
     if uses_i_step:
         src.append("    unsigned i;")
-    if not any(st.step for st in emitted) or not any(st.fields for st in emitted):
-        src.append("    (void)st;")
+    src.append("    (void)st;")
     for k, st in enumerate(emitted):
         src.append(f"    {{ /* stage {k}: {st.title} */")
         src.extend(f"        {line}" for line in st.step)

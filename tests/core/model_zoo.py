@@ -66,7 +66,7 @@ def _zoo() -> dict[str, Model]:
         "tanh-envelope-inverse": env.inverse(),
         "gpi-tanh": TanhGPI(EX1, env),
         "digitized": dig,
-        "lti": LinearSystem([1.0], [1e-3, 1.0]),
+        "lti": LinearSystem([5e-4, 1.0], [1e-3, 1.0]),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)
