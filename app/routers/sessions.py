@@ -8,7 +8,7 @@ from fastapi import APIRouter, Header, HTTPException, Query
 
 from core.exceptions import ParameterError
 
-from ..compute import compute, preset_doc, validate_config
+from ..compute import compute, diagnosed_model, preset_doc, validate_config
 from ..schemas import ConfigIn
 from .deps import RegistryDep, SessionDep, SettingsDep
 from .simulate import result_payload
@@ -59,7 +59,8 @@ def session_figures(
     cfg, v = session.snapshot()
     res = compute(cfg, version=v, recording=session.recording,
                   max_operators=settings.max_operators, max_samples=settings.max_samples,
-                  with_inverse="inverse" in names, with_digitized="digitized" in names)
+                  with_inverse="inverse" in names, with_digitized="digitized" in names,
+                  diagnosed=diagnosed_model(session))
     return result_payload(res, names, cfg.mismatch, False)
 
 
