@@ -37,3 +37,15 @@ def test_inverse_and_closed_loop_views_use_the_diagnosed_model() -> None:
     n = run.v.size
     assert n < pi_run.v.size  # the diagnosed loop runs a shorter window
     assert np.max(np.abs(run.v - pi_run.v[:n])) > 1e-3
+
+
+def test_explorer_c_download_of_a_diagnosed_chain_bakes_in_the_sample_time() -> None:
+    from app.exports import export_bytes
+    from core.effects import Delay, Resonance
+
+    ext = Chain.of(PIModel(1.0, [0.5], [0.2]), Creep([0.01, 0.1], [0.05, 0.05]),
+                   Resonance(300.0, 0.05), Delay(3e-4))
+    name, payload = export_bytes(ext, "c", dt=1e-4)
+    text = payload.decode()
+    assert name.endswith(".c") and "hyst_inv_step" in text and "hyst_fwd_step" in text
+    assert "#define HYST_INV_PREVIEW 3" in text
