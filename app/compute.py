@@ -200,6 +200,8 @@ class Result:
     v: np.ndarray | None = None  # inverse's output (plant input) for desired output u
     y_comp: np.ndarray | None = None  # plant(v): compensated output
     inverse_error: str | None = None
+    #: The diagnosed (extended) model the inverse and closed-loop views compensate, if any.
+    diagnosed: Model | None = None
     y_measured: np.ndarray | None = None
     digitized: Digitized | None = None
     messages: tuple[str, ...] = ()
@@ -278,11 +280,14 @@ def compute(
     max_samples: int = 200_000,
     with_inverse: bool = True,
     with_digitized: bool = True,
+    diagnosed: Model | None = None,
 ) -> Result:
     """Simulate ``config``: output, operator contributions and inverse compensation.
 
     ``with_inverse`` / ``with_digitized`` skip the inverse-compensation run and the
-    digitized view when the figure on show does not need them.
+    digitized view when the figure on show does not need them. ``diagnosed`` (the session's
+    diagnosed extended model, :func:`diagnosed_model`) is the model the inverse view then
+    compensates instead of the config's model.
 
     Raises
     ------
@@ -308,11 +313,12 @@ def compute(
     v = y_comp = None
     inv_err = None
     if with_inverse:
+        comp = model if diagnosed is None else diagnosed
         try:
-            inv = model.inverse()
+            inv = comp.inverse()
             # desired output = the signal; plant input v = P^-1(u); plant output P~(v)
             v = inv.simulate(u, dt=dt).y
-            y_comp = perturb(model, config.mismatch).simulate(v, dt=dt).y
+            y_comp = perturb(comp, config.mismatch).simulate(v, dt=dt).y
         except NotInvertibleError as exc:
             inv_err = str(exc)
         except ValueError as exc:  # e.g. an input outside an inverse's domain
@@ -336,6 +342,7 @@ def compute(
         v=v,
         y_comp=y_comp,
         inverse_error=inv_err,
+        diagnosed=diagnosed,
         y_measured=y_meas,
         elapsed_ms=1e3 * (time.perf_counter() - t0),
     )
@@ -346,6 +353,16 @@ def compute(
 CLOSED_LOOP_RATE = 50_000.0
 #: Longest closed-loop run, s (100,000 samples at 50 kHz).
 CLOSED_LOOP_MAX_S = 2.0
+#: Longest closed-loop run of a diagnosed (extended) model, s.
+DIAGNOSED_LOOP_MAX_S = 0.02
+
+
+def diagnosed_model(session: Any) -> Model | None:
+    """The session's diagnosed extended model when the diagnosis added effects, else None."""
+    result = getattr(session, "diagnosis_result", None)
+    if result is None or not getattr(result, "effects", None):
+        return None
+    return result.model
 
 
 @dataclass(frozen=True, eq=False)
@@ -366,11 +383,15 @@ class ClosedLoop:
 
 
 def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | None]:
-    """Closed-loop runs of ``res``'s model tracking ``res.u`` as the reference."""
-    pi = res.model if isinstance(res.model, PIModel) else None
+    """Closed-loop runs of ``res``'s model (the diagnosed one when the session holds it)
+    tracking ``res.u`` as the reference."""
+    pi = res.diagnosed if res.diagnosed is not None else (
+        res.model if isinstance(res.model, PIModel) else None)
     if pi is None:
-        return None, "the closed loop is simulated for classical PI models only"
-    dur = min(float(res.t[-1] - res.t[0]), CLOSED_LOOP_MAX_S)
+        return None, "the closed loop is simulated for classical PI and diagnosed models only"
+    # a diagnosed chain runs sample by sample in Python: a shorter run
+    dur = min(float(res.t[-1] - res.t[0]),
+              CLOSED_LOOP_MAX_S if isinstance(pi, PIModel) else DIAGNOSED_LOOP_MAX_S)
     tt = np.arange(0.0, dur, 1.0 / CLOSED_LOOP_RATE)
     r = np.interp(tt + res.t[0], res.t, res.u)
     plant_h = perturb(pi, mismatch)
@@ -385,4 +406,7 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
         r, 1.0 / CLOSED_LOOP_RATE)
     runs["inverse + reference feedforward"] = HammersteinLoop(
         plant_h, g, feedforward=ff, reference_feedforward=True).simulate(r, 1.0 / CLOSED_LOOP_RATE)
-    return ClosedLoop(runs), None
+    note = None if isinstance(pi, PIModel) else (
+        f"closed loop of the diagnosed model over its first {1e3 * dur:g} ms (its effects run "
+        "sample by sample)")
+    return ClosedLoop(runs), note

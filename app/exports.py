@@ -74,12 +74,14 @@ def parameter_set_model(doc: Any) -> Model:
 
 
 def export_bytes(
-    model: Model, fmt: str, code: str = "", fit: dict[str, Any] | None = None
+    model: Model, fmt: str, code: str = "", fit: dict[str, Any] | None = None,
+    dt: float | None = None,
 ) -> tuple[str, bytes]:
     """``(filename, content)`` of ``model`` exported as ``json``, ``mat`` or ``c``.
 
     ``c`` is one file: the generated header followed by the source (the inverse compensator
-    and the forward model when the model is invertible, the forward model only otherwise).
+    and the forward model when the model is invertible, the forward model only otherwise);
+    ``dt`` (s) is the sample time baked into dynamic stages (creep, lag, resonance, ...).
 
     Raises
     ------
@@ -99,7 +101,8 @@ def export_bytes(
             invertible = True
         except (NotInvertibleError, ParameterError):
             invertible = False
-        cc = generate_c(ps, "hyst", inverse=invertible, forward=True)
+        cc = generate_c(ps, "hyst", inverse=invertible, forward=True,
+                        dt=dt if model.is_dynamic else None)
         src = cc.source.replace(f'#include "{cc.name}.h"', f"/* {cc.name}.h inlined above */")
         text = f"/* ===== {cc.name}.h ===== */\n{cc.header}\n/* ===== {cc.name}.c ===== */\n{src}"
         return f"{stem}.c", text.encode()
@@ -108,7 +111,13 @@ def export_bytes(
 
 def export_session(session: Session, fmt: str) -> tuple[str, bytes]:
     """:func:`export_bytes` of ``session``'s current model (with the fit report when the
-    model is the fitted one)."""
+    model is the fitted one); dynamic models get the sample time of the session's
+    recording, else of its signal."""
     cfg, _ = session.snapshot()
     fit = session.fit_report if session.fitted == cfg.model else None
-    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit)
+    rec = session.recording
+    if rec is not None and rec.t.size > 1:
+        dt = float(rec.t[1] - rec.t[0])
+    else:
+        dt = cfg.signal.duration / max(cfg.signal.samples - 1, 1)
+    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit, dt=dt)

@@ -22,15 +22,22 @@ from .diagnosis import DiagnosisResult, diagnose
 from .digitized import DigitizedPI, DigitizedState, DigitizedTrace, StateGraph
 from .digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
 from .effects import (
+    Advance,
     Asymmetry,
+    AsymmetryInverse,
     Creep,
+    CreepInverse,
     Delay,
     Drift,
     InitialMemory,
     Lag,
+    LagInverse,
     Offset,
     RateDependentPI,
+    RateDependentPIInverse,
     Resonance,
+    ResonanceInverse,
+    causal_form,
 )
 from .exceptions import (
     ClippedInputWarning,
@@ -68,6 +75,13 @@ from .recordings import Recording
 from .signals import SIGNALS, build_signal, list_signals
 
 __all__ = [
+    "Advance",
+    "AsymmetryInverse",
+    "CreepInverse",
+    "LagInverse",
+    "RateDependentPIInverse",
+    "ResonanceInverse",
+    "causal_form",
     "Asymmetry",
     "Creep",
     "Delay",

@@ -13,7 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -23,14 +23,48 @@ from .validation import as_input_signal
 
 __all__ = [
     "Chain",
+    "Field",
     "Model",
     "Response",
+    "model_class",
     "model_from_dict",
     "register_model",
     "registered_types",
 ]
 
 _REGISTRY: dict[str, type[Model]] = {}
+
+#: Kinds of a model field in its JSON form.
+FieldKind = Literal["number", "numbers", "model", "models", "any"]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One field of a model type's JSON form, declared once on the class (``fields``).
+
+    The generic :meth:`Model.from_dict`/:meth:`Model.to_dict`, the parameter-set validation
+    (JSON-path errors), the MAT export and the explorer's controls all read these.
+
+    Attributes
+    ----------
+    name : str
+        JSON key, equal to the dataclass field / constructor keyword.
+    kind : {"number", "numbers", "model", "models", "any"}
+        A finite number, a non-empty array of them, a nested model, a non-empty array of
+        models, or anything (checked generically, then by the model itself).
+    optional : bool
+        May be missing or ``null``.
+    default : object
+        Value that :meth:`Model.to_dict` omits for an optional field (``None`` always is).
+    doc : str
+        One line for users, with units (shown by the explorer and in error messages).
+    """
+
+    name: str
+    kind: FieldKind
+    optional: bool = False
+    default: Any = None
+    doc: str = ""
 
 
 def register_model(cls: type[Model]) -> type[Model]:
@@ -40,6 +74,15 @@ def register_model(cls: type[Model]) -> type[Model]:
         raise ValueError(f"model type {name!r} registered twice")
     _REGISTRY[name] = cls
     return cls
+
+
+def model_class(name: str) -> type[Model]:
+    """The class registered under ``name`` (``ParameterError`` naming the known types)."""
+    if name not in _REGISTRY:
+        raise ParameterError(
+            f"unknown model type {name!r}; known types: {', '.join(registered_types())}"
+        )
+    return _REGISTRY[name]
 
 
 def registered_types() -> list[str]:
@@ -58,6 +101,8 @@ def model_from_dict(d: dict[str, Any]) -> Model:
     if not isinstance(d, dict):
         raise ParameterError(f"a model must be a JSON object, got {type(d).__name__}")
     t = d.get("type")
+    if t not in _REGISTRY and isinstance(t, str):
+        from . import models  # noqa: F401  (registers every model type of the project)
     if t not in _REGISTRY:
         raise ParameterError(
             f"unknown model type {t!r}; known types: {', '.join(registered_types())}"
@@ -144,6 +189,15 @@ class Model(ABC):
         """Shorthand for ``self.simulate(u, dt=dt).y``."""
         return self.simulate(u, dt=dt).y
 
+    def preview_samples(self, dt: float | None) -> int:
+        """Samples of the input needed ahead of time (0 for a causal model).
+
+        Non-zero only for the inverse of a delay (:class:`core.effects.Advance`) and chains
+        holding one: a real-time compensator must be fed the desired trajectory this many
+        samples ahead (see :func:`core.effects.causal_form`).
+        """
+        return 0
+
     def inverse(self) -> Model:
         """The exact inverse operator, such that ``self(self.inverse()(u)) == u``.
 
@@ -155,14 +209,50 @@ class Model(ABC):
         raise NotInvertibleError(f"{type(self).__name__} has no analytical inverse")
 
     # -- serialisation -------------------------------------------------------------
-    @abstractmethod
+    #: The JSON fields of this type, declared once (see :class:`Field`).
+    fields: ClassVar[tuple[Field, ...]] = ()
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready description including ``"type": self.type_name``."""
+        """JSON-ready description including ``"type": self.type_name`` (from ``fields``)."""
+        d: dict[str, Any] = {"type": self.type_name}
+        for f in self.fields:
+            v = getattr(self, f.name)
+            if f.optional and (v is None or (f.default is not None and _same(v, f.default))):
+                continue
+            if f.kind == "model":
+                v = v.to_dict()
+            elif f.kind == "models":
+                v = [m.to_dict() for m in v]
+            elif isinstance(v, np.ndarray):
+                v = v.tolist()
+            elif isinstance(v, np.generic):
+                v = v.item()
+            d[f.name] = v
+        return d
 
     @classmethod
-    @abstractmethod
     def from_dict(cls, d: dict[str, Any]) -> Model:
-        """Inverse of :meth:`to_dict`; raises ``ParameterError`` on bad fields."""
+        """Inverse of :meth:`to_dict` (from ``fields``); raises ``ParameterError`` on bad fields."""
+        if not isinstance(d, dict):
+            raise ParameterError(f"a {cls.type_name!r} model must be a JSON object")
+        missing = [f.name for f in cls.fields if not f.optional and d.get(f.name) is None]
+        if missing:
+            raise ParameterError(
+                f"{cls.type_name} model is missing field(s): {', '.join(missing)}"
+            )
+        kw: dict[str, Any] = {}
+        for f in cls.fields:
+            v = d.get(f.name)
+            if v is None:
+                continue
+            if f.kind == "model":
+                v = model_from_dict(v)
+            elif f.kind == "models":
+                if not isinstance(v, list) or not v:
+                    raise ParameterError(f"{f.name} must be a non-empty list of models")
+                v = tuple(model_from_dict(x) for x in v)
+            kw[f.name] = v
+        return cls(**kw)
 
     # -- algebra -------------------------------------------------------------------
     def __rshift__(self, other: Model) -> Chain:
@@ -192,6 +282,9 @@ class Chain(Model):
     """
 
     type_name: ClassVar[str] = "chain"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("stages", "models", doc="the stages, applied first to last"),
+    )
     stages: tuple[Model, ...]
 
     def __post_init__(self) -> None:
@@ -247,12 +340,20 @@ class Chain(Model):
     def inverse(self) -> Chain:
         return Chain(tuple(s.inverse() for s in reversed(self.stages)))
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"type": self.type_name, "stages": [s.to_dict() for s in self.stages]}
+    def preview_samples(self, dt: float | None) -> int:
+        return sum(s.preview_samples(dt) for s in self.stages)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Chain:
-        stages = d.get("stages")
+        stages = d.get("stages") if isinstance(d, dict) else None
         if not isinstance(stages, list) or not stages:
             raise ParameterError("chain.stages must be a non-empty list of models")
         return cls(tuple(model_from_dict(s) for s in stages))
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether a field value equals a declared default (numbers or arrays)."""
+    try:
+        return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+    except (TypeError, ValueError):
+        return False

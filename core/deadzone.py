@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Model, register_model
+from .base import Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .operators import dead_zone
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
@@ -75,6 +75,10 @@ class DeadZoneMap(Model):
     """
 
     type_name: ClassVar[str] = "deadzone"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("thresholds", "numbers", doc="dead-zone thresholds (output units), with 0"),
+        Field("weights", "numbers", doc="dead-zone weights"),
+    )
     thresholds: Float1D
     weights: Float1D
 

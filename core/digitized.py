@@ -66,7 +66,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Model, register_model
+from .base import Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import njit
 from .pi import PIModel
@@ -438,6 +438,13 @@ class DigitizedPI(Model):
     """
 
     type_name: ClassVar[str] = "digitized"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("dx", "numbers", doc="digit widths in x (input units)"),
+        Field("dy", "numbers", doc="digit heights in y (output units)"),
+        Field("x0", "number", optional=True, doc="origin x"),
+        Field("y0", "number", optional=True, doc="origin y"),
+        Field("state0", "any", optional=True, doc="initial digits (a 0/1 string or list)"),
+    )
     dx: Float1D
     dy: Float1D
     x0: float = 0.0
@@ -893,9 +900,3 @@ def paper000_three_operators() -> DigitizedPI:
     from .pi import PIModel
 
     return DigitizedPI.from_pi(PIModel(0.4, [0.5, 1.5], [0.6, 1.0]), (0.0, 10.0))
-
-
-# Register the dead-zone and modified-PI types whenever this module is imported (core.paramset
-# imports "core.digitized" to load every model type). Module import only: no names, so the
-# circular import is safe in either order.
-from . import digitized_deadzone as _digitized_deadzone  # noqa: E402, F401

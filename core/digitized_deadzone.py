@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Chain, Model, Response, model_from_dict, register_model
+from .base import Chain, Field, Model, Response, model_from_dict, register_model
 from .digitized import DigitizedPI
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import njit
@@ -138,6 +138,13 @@ class DigitizedDeadZone(Model):
     """
 
     type_name: ClassVar[str] = "digitized-deadzone"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("dx", "numbers", doc="segment widths (input units)"),
+        Field("dy", "numbers", doc="segment heights (output units)"),
+        Field("x0", "number", optional=True, doc="origin x"),
+        Field("y0", "number", optional=True, doc="origin y"),
+        Field("state0", "number", optional=True, doc="initial segment (1-based)"),
+    )
     dx: Float1D
     dy: Float1D
     x0: float = 0.0
@@ -400,6 +407,10 @@ class DigitizedModifiedPI(Model):
     """
 
     type_name: ClassVar[str] = "digitized-mpi"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("pi", "model", doc="the digitized PI part"),
+        Field("deadzone", "model", doc="the digitized dead-zone map"),
+    )
     pi: DigitizedPI
     deadzone: DigitizedDeadZone
 

@@ -464,6 +464,331 @@ def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
                              f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}")
 
 
+# ----------------------------------------------------------------------------- effects
+def _first_sample(f: str, init: list[str]) -> list[str]:
+    """Statements run once, at the first sample (models start "at rest at the first input")."""
+    return [f"if (!st->{f}started) {{", *(f"    {line}" for line in init),
+            f"    st->{f}started = 1;", "}"]
+
+
+@register_c_stage("resonance")
+@register_c_stage("resonance-inverse")
+def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
+    """FOH-discretised transfer function, direct form II transposed (as ``lfilter``)."""
+    from .effects import _tf_memo
+
+    assert ctx.dt is not None
+    num, den = model._tf()  # type: ignore[attr-defined]
+    b, a, zi = _tf_memo(num, den, ctx.dt)
+    n, f, c = a.size - 1, ctx.field, ctx.const
+    step = [
+        *_first_sample(f, [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}ZI[i] * x;"]),
+        f"{{ const double y = {c}B[0] * x + st->{f}z[0];",
+        f"  for (i = 0; i + 1 < {n}u; ++i) "
+        f"st->{f}z[i] = {c}B[i + 1] * x + st->{f}z[i + 1] - {c}A[i + 1] * y;",
+        f"  st->{f}z[{n - 1}] = {c}B[{n}] * x - {c}A[{n}] * y;",
+        "  x = y; }",
+    ]
+    return CStage(
+        title=f"{model.type_name} (FOH, dt = {ctx.dt:g} s), order {n}",
+        fields=[f"double {f}z[{n}];", f"int {f}started;"],
+        constants=[
+            f"static const double {c}B[{n + 1}] = {_c_array(b)};",
+            f"static const double {c}A[{n + 1}] = {_c_array(a)};",
+            f"static const double {c}ZI[{n}] = {_c_array(zi)};",
+        ],
+        reset=[f"st->{f}started = 0;", f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = 0.0;"],
+        step=step,
+    )
+
+
+@register_c_stage("lag")
+@register_c_stage("creep")
+@register_c_stage("lag-inverse")
+@register_c_stage("creep-inverse")
+def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
+    """Bank of first-order lags ``y = g0 x + sum c_j L_j[x]`` or its exact per-sample inverse."""
+    from .effects import Creep, CreepInverse, Lag, LagInverse
+
+    assert ctx.dt is not None
+    inverse = isinstance(model, LagInverse | CreepInverse)
+    if isinstance(model, CreepInverse):
+        bank = model.checked_bank(ctx.dt)
+    elif isinstance(model, LagInverse):
+        bank = Lag(model.tau_s).bank(ctx.dt)
+    else:
+        assert isinstance(model, Lag | Creep)
+        bank = model.bank(ctx.dt)
+    m, f, c = bank.c.size, ctx.field, ctx.const
+    consts = [
+        *([] if inverse else [f"static const double {c}G0 = {c_double(bank.g0)};"]),
+        f"static const double {c}C[{m}] = {_c_array(bank.c)};",
+        f"static const double {c}B0[{m}] = {_c_array(bank.b0)};",
+        f"static const double {c}B1[{m}] = {_c_array(bank.b1)};",
+        f"static const double {c}A1[{m}] = {_c_array(bank.a1)};",
+        f"static const double {c}ZI[{m}] = {_c_array(bank.zi)};",
+    ]
+    init = [f"for (i = 0; i < {m}u; ++i) st->{f}s[i] = {c}ZI[i] * x;"]
+    update = [
+        f"for (i = 0; i < {m}u; ++i) {{",
+        f"    const double l = {c}B0[i] * x + st->{f}s[i];",
+        f"    st->{f}s[i] = {c}B1[i] * x - {c}A1[i] * l;",
+    ]
+    if inverse:
+        consts.append(f"static const double {c}GAIN = {c_double(bank.gain0)};")
+        step = [
+            *_first_sample(f, init),
+            "{ double acc = x;",
+            f"  for (i = 0; i < {m}u; ++i) acc -= {c}C[i] * st->{f}s[i];",
+            f"  x = acc / {c}GAIN; }}",
+            *update, "}",
+        ]
+    else:
+        step = [
+            *_first_sample(f, init),
+            f"{{ double acc = {c}G0 * x;",
+            *(f"  {line}" for line in update),
+            f"      acc += {c}C[i] * l;",
+            "  }",
+            "  x = acc; }",
+        ]
+    return CStage(
+        title=f"{model.type_name}: {m} first-order lag(s) (FOH, dt = {ctx.dt:g} s)",
+        fields=[f"double {f}s[{m}];", f"int {f}started;"],
+        constants=consts,
+        reset=[f"st->{f}started = 0;", f"for (i = 0; i < {m}u; ++i) st->{f}s[i] = 0.0;"],
+        step=step,
+    )
+
+
+@register_c_stage("delay")
+def _emit_delay(model: Model, ctx: StageContext) -> CStage:
+    """Fractional delay ``m + f`` samples: ring buffer of the last ``m + 2`` inputs."""
+    from .effects import _delay_split
+
+    assert ctx.dt is not None
+    m, frac = _delay_split(model.delay_s, ctx.dt)  # type: ignore[attr-defined]
+    size, f, c = m + 2, ctx.field, ctx.const
+    return CStage(
+        title=f"delay of {m} + {frac:.6g} sample(s) (dt = {ctx.dt:g} s)",
+        fields=[f"double {f}h[{size}];", f"unsigned {f}pos;", f"int {f}started;"],
+        constants=[f"static const double {c}F = {c_double(frac)};"],
+        reset=[f"st->{f}started = 0;", f"st->{f}pos = 0u;",
+               f"for (i = 0; i < {size}u; ++i) st->{f}h[i] = 0.0;"],
+        step=[
+            *_first_sample(f, [f"for (i = 0; i < {size}u; ++i) st->{f}h[i] = x;"]),
+            f"st->{f}h[st->{f}pos] = x;",
+            f"{{ const double newer = st->{f}h[(st->{f}pos + {size - m}u) % {size}u];",
+            f"  const double older = st->{f}h[(st->{f}pos + {size - m - 1}u) % {size}u];",
+            f"  st->{f}pos = (st->{f}pos + 1u) % {size}u;",
+            f"  x = {c}F * older + (1.0 - {c}F) * newer; }}",
+        ],
+    )
+
+
+@register_c_stage("advance")
+def _emit_advance(model: Model, ctx: StageContext) -> CStage:
+    """An advance only exists with preview: emitted through :func:`core.effects.causal_form`."""
+    raise CExportError(
+        "an 'advance' (inverse of a delay) needs the future; export the forward model's "
+        "inverse (the compensator applies the preview: <name>_INV_PREVIEW)"
+    )
+
+
+@register_c_stage("drift")
+def _emit_drift(model: Model, ctx: StageContext) -> CStage:
+    """Legendre drift in time ``x + sum a_k P_k(clamp(2 t / T - 1))``, ``t = start + k dt``."""
+    assert ctx.dt is not None
+    a = np.asarray(model.coefficients)  # type: ignore[attr-defined]
+    n, f, c = a.size, ctx.field, ctx.const
+    return CStage(
+        title=f"drift, Legendre degree {n}",
+        fields=[f"double {f}k;"],
+        constants=[
+            f"static const double {c}A[{n}] = {_c_array(a)};",
+            f"static const double {c}T = {c_double(model.span_s)};",  # type: ignore[attr-defined]
+            f"static const double {c}T0 = {c_double(model.start_s)};",  # type: ignore[attr-defined]
+            f"static const double {c}DT = {c_double(ctx.dt)};",
+        ],
+        reset=[f"st->{f}k = 0.0;"],
+        step=[
+            f"{{ double s = 2.0 * ({c}T0 + st->{f}k * {c}DT) / {c}T - 1.0;",
+            "  double p0 = 1.0, p1, acc = 0.0;",
+            "  if (s > 1.0) s = 1.0;",
+            "  if (s < -1.0) s = -1.0;",
+            "  p1 = s;",
+            f"  for (i = 0; i < {n}u; ++i) {{",
+            f"      acc += {c}A[i] * p1;",
+            "      { const double p2 = ((2.0 * (i + 1) + 1.0) * s * p1 - (i + 1) * p0) / (i + 2);",
+            "        p0 = p1; p1 = p2; }",
+            "  }",
+            f"  st->{f}k += 1.0;",
+            "  x = x + acc; }",
+        ],
+    )
+
+
+def _asym_consts(model: Model, c: str) -> list[str]:
+    a = np.asarray(model.coefficients)  # type: ignore[attr-defined]
+    return [
+        f"static const double {c}A[{a.size}] = {_c_array(a)};",
+        f"static const double {c}CTR = {c_double(model.center)};",  # type: ignore[attr-defined]
+        f"static const double {c}S = {c_double(model.scale)};",  # type: ignore[attr-defined]
+    ]
+
+
+def _asym_helper(model: Model, c: str) -> list[str]:
+    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
+    return [
+        f"static double {c}map(double x)",
+        "{",
+        f"    const double q = (x - {c}CTR) / {c}S;",
+        "    double acc = 0.0;",
+        "    int k;",
+        f"    for (k = {n - 1}; k >= 0; --k) acc = (acc + {c}A[k]) * q;",
+        "    return x + acc * q;",
+        "}",
+    ]
+
+
+@register_c_stage("asymmetry")
+def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
+    """Polynomial output map ``x + sum a_k ((x - c)/s)^k`` (Horner form)."""
+    c = ctx.const
+    return CStage(title="asymmetry output map", constants=_asym_consts(model, c),
+                  helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"])
+
+
+@register_c_stage("asymmetry-inverse")
+def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
+    """Inverse output map: clip to the monotone range, bracket, 80 bisection steps."""
+    from .effects import _bisect_steps
+
+    lo, hi = model.forward.monotone_range()  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    step = ["{ double lo, hi; int j, done = 0;"]
+    if np.isfinite(lo):
+        step += [f"  if (x < {c}map({c}LO)) {{ x = {c}LO; ++st->{f}clipped; done = 1; }}",
+                 f"  lo = {c}LO;"]
+    else:
+        step += [f"  lo = {c}CTR - {c}S;",
+                 "  for (j = 0; j < 64; ++j)",
+                 f"      if ({c}map(lo) > x) lo = {c}CTR - 2.0 * ({c}CTR - lo);"]
+    if np.isfinite(hi):
+        step += [f"  if (!done && x > {c}map({c}HI)) {{ x = {c}HI; ++st->{f}clipped; done = 1; }}",
+                 f"  hi = {c}HI;"]
+    else:
+        step += [f"  hi = {c}CTR + {c}S;",
+                 "  for (j = 0; j < 64; ++j)",
+                 f"      if ({c}map(hi) < x) hi = {c}CTR + 2.0 * (hi - {c}CTR);"]
+    step += [
+        "  if (!done) {",
+        f"    for (j = 0; j < {_bisect_steps()}; ++j) {{",
+        "        const double mid = 0.5 * (lo + hi);",
+        f"        if ({c}map(mid) < x) lo = mid; else hi = mid;",
+        "    }",
+        "    x = 0.5 * (lo + hi);",
+        "  } }",
+    ]
+    consts = _asym_consts(model, c)
+    if np.isfinite(lo):
+        consts.append(f"static const double {c}LO = {c_double(lo)};")
+    if np.isfinite(hi):
+        consts.append(f"static const double {c}HI = {c_double(hi)};")
+    return CStage(
+        title="inverse asymmetry map (clips to its range, counts clipped samples)",
+        fields=[f"unsigned long {f}clipped;"], constants=consts,
+        helpers=_asym_helper(model, c), reset=[f"st->{f}clipped = 0ul;"], step=step,
+    )
+
+
+def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], list[str]]:
+    """Constants, reset and the helper ``eval(x, st)`` of a rate-dependent PI stage."""
+    assert ctx.dt is not None
+    n, f, c = model.thresholds.size, ctx.field, ctx.const  # type: ignore[attr-defined]
+    consts = [
+        f"static const double {c}P0 = {c_double(model.p0)};",  # type: ignore[attr-defined]
+        f"static const double {c}R[{n}] = {_c_array(model.thresholds)};",  # type: ignore[attr-defined]
+        f"static const double {c}W[{n}] = {_c_array(model.weights)};",  # type: ignore[attr-defined]
+        f"static const double {c}Z0[{n}] = {_c_array(model.state0)};",  # type: ignore[attr-defined]
+        f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};",  # type: ignore[attr-defined]
+    ]
+    reset = [f"st->{f}has_prev = 0;", f"st->{f}up = 0.0;",
+             f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"]
+    helper = [
+        "/* rate-dependent play bank at input x: output, and the new plays into z (if any) */",
+        f"static double {c}eval(double x, const double *zin, double up, int has_prev, double *z)",
+        "{",
+        "    unsigned i;",
+        f"    const double extra = has_prev ? {c}K * fabs(x - up) : 0.0;",
+        f"    double acc = {c}P0 * x;",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        const double ri = {c}R[i] + extra;",
+        "        double zi = zin[i];",
+        "        if (zi > x + ri) zi = x + ri;",
+        "        if (zi < x - ri) zi = x - ri;",
+        "        if (z) z[i] = zi;",
+        f"        acc += {c}W[i] * zi;",
+        "    }",
+        "    return acc;",
+        "}",
+    ]
+    return consts, reset, helper
+
+
+@register_c_stage("rate")
+def _emit_rate(model: Model, ctx: StageContext) -> CStage:
+    """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
+    f, c = ctx.field, ctx.const
+    n = model.thresholds.size  # type: ignore[attr-defined]
+    consts, reset, helper = _rate_parts(model, ctx)
+    return CStage(
+        title=f"rate-dependent PI, {n} play operator(s)",
+        fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
+        constants=consts, reset=reset, helpers=helper,
+        step=["{ const double xin = x;",
+              f"  x = {c}eval(xin, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
+              f"  st->{f}up = xin;",
+              f"  st->{f}has_prev = 1; }}"],
+        needs_math=True,
+    )
+
+
+@register_c_stage("rate-inverse")
+def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
+    """Per-sample bisection of the rate-dependent PI (as ``RateDependentPIInverse``)."""
+    assert ctx.dt is not None
+    m_lo, m_hi = model.checked_slopes(ctx.dt)  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    n = model.thresholds.size  # type: ignore[attr-defined]
+    consts, reset, helper = _rate_parts(model, ctx)
+    consts += [f"static const double {c}MLO = {c_double(m_lo)};",
+               f"static const double {c}MHI = {c_double(m_hi)};"]
+    return CStage(
+        title=f"inverse rate-dependent PI, {n} play operator(s), per-sample bisection",
+        fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
+        constants=consts, reset=reset, helpers=helper,
+        step=[
+            f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
+            f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
+            "  double lo, hi; int j;",
+            f"  if (x >= f0) {{ lo = ref + (x - f0) / {c}MHI; hi = ref + (x - f0) / {c}MLO; }}",
+            f"  else {{ lo = ref + (x - f0) / {c}MLO; hi = ref + (x - f0) / {c}MHI; }}",
+            "  for (j = 0; j < 100; ++j) {",
+            "      const double mid = 0.5 * (lo + hi);",
+            "      if (mid == lo || mid == hi) break;",
+            f"      if ({c}eval(mid, st->{f}z, st->{f}up, st->{f}has_prev, 0) < x) lo = mid;",
+            "      else hi = mid;",
+            "  }",
+            "  x = 0.5 * (lo + hi);",
+            f"  (void){c}eval(x, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
+            f"  st->{f}up = x;",
+            f"  st->{f}has_prev = 1; }}",
+        ],
+        needs_math=True,
+    )
+
+
 # ----------------------------------------------------------------------------- generation
 def _flatten(model: Model) -> list[Model]:
     """Stages in application order: chains and cascades (``as_chain()``) are expanded."""
@@ -476,6 +801,10 @@ def _flatten(model: Model) -> list[Model]:
     if callable(as_chain):
         return _flatten(as_chain())
     return [model]
+
+
+def _has_advance(model: Model) -> bool:
+    return any(_type_of(s) == "advance" for s in _flatten(model))
 
 
 def _check_ident(name: str) -> str:
@@ -565,8 +894,7 @@ def _emit_block(
     src.append("    double x = u;")
     if uses_i_step:
         src.append("    unsigned i;")
-    if not any(st.step for st in emitted) or not any(st.fields for st in emitted):
-        src.append("    (void)st;")
+    src.append("    (void)st;")
     for k, st in enumerate(emitted):
         src.append(f"    {{ /* stage {k}: {st.title} */")
         src.extend(f"        {line}" for line in st.step)
@@ -679,8 +1007,20 @@ def generate_c(
     if not (inverse or forward):
         raise CExportError("nothing to generate: pass inverse=True and/or forward=True")
     blocks: list[tuple[str, Model, str]] = []
+    preview = 0
     if inverse:
-        blocks.append((f"{name}_inv", model.inverse(), "inverse compensator"))
+        from .effects import causal_form
+
+        inv = model.inverse()
+        if _has_advance(inv):
+            if dt is None or not dt > 0:
+                raise CExportError(
+                    "the compensator inverts a delay and needs the sample time to size its "
+                    "preview; give dt (--dt on the command line)"
+                )
+            form = causal_form(inv, dt)
+            inv, preview = form.model, form.preview
+        blocks.append((f"{name}_inv", inv, "inverse compensator"))
     if forward:
         blocks.append((f"{name}_fwd", model, "forward model"))
 
@@ -709,10 +1049,19 @@ def generate_c(
         "Usage (compensator before the actuator):",
         f"  {name}_inv_state st; {name}_inv_init(&st);",
         f"  each sample: drive = {name}_inv_step(&st, desired_output);",
+        *([f"PREVIEW: the model has a delay; feed the desired output {preview} sample(s)",
+           f"  ahead ({name.upper()}_INV_PREVIEW): step k takes desired[k + {preview}] and",
+           "  returns the drive for sample k (the first calls are warm-up)."] if preview else []),
     ] if inverse else []
     header_lines = ["/*"] + [f" * {line}".rstrip() for line in info + [""] + usage] + [" */"]
     header_lines += [f"#ifndef {guard}", f"#define {guard}", "", "#include <stddef.h>", ""]
     header_lines += ["#ifdef __cplusplus", 'extern "C" {', "#endif", ""]
+    if inverse:
+        header_lines += [
+            "/** Samples of the desired trajectory the compensator needs ahead (0: none). */",
+            f"#define {name.upper()}_INV_PREVIEW {preview}",
+            "",
+        ]
     parts = [_emit_block(bmodel, bname, dt, what) for bname, bmodel, what in blocks]
     source_lines = [
         f"/* {name}.c: generated by {_tool()}; see {name}.h. */",

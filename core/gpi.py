@@ -56,7 +56,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D
-from .base import Chain, Model, model_from_dict, register_model
+from .base import Chain, Field, Model, model_from_dict, register_model
 from .deadzone import DeadZoneMap
 from .exceptions import ClippedInputWarning, ParameterError
 from .pi import PIModel
@@ -191,6 +191,11 @@ class TanhEnvelope(Model):
     """
 
     type_name: ClassVar[str] = "tanh-envelope"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("a", "numbers", doc="rising-branch envelope c0..c3"),
+        Field("b", "numbers", doc="falling-branch envelope c0..c3"),
+        Field("direction0", "number", optional=True, doc="initial direction (+1 or -1)"),
+    )
     a: Float1D
     b: Float1D
     direction0: int = 1
@@ -267,6 +272,12 @@ class TanhEnvelopeInverse(Model):
     """
 
     type_name: ClassVar[str] = "tanh-envelope-inverse"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("a", "numbers", doc="rising-branch envelope c0..c3"),
+        Field("b", "numbers", doc="falling-branch envelope c0..c3"),
+        Field("direction0", "number", optional=True, doc="initial direction (+1 or -1)"),
+        Field("clip_margin", "number", optional=True, doc="domain margin of atanh"),
+    )
     a: Float1D
     b: Float1D
     direction0: int = 1
@@ -462,6 +473,10 @@ class DeadZoneGPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "gpi-deadzone"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("pi", "model", doc="the PI part"),
+        Field("deadzone", "model", doc="the dead-zone output map"),
+    )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),
         ("deadzone", DeadZoneMap),
@@ -498,6 +513,10 @@ class ModifiedPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "mpi"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("pi", "model", doc="the PI part"),
+        Field("deadzone", "model", doc="the dead-zone output map"),
+    )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),
         ("deadzone", DeadZoneMap),
@@ -534,6 +553,10 @@ class TanhGPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "gpi-tanh"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("pi", "model", doc="the PI part"),
+        Field("envelope", "model", doc="the tanh envelope"),
+    )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),
         ("envelope", TanhEnvelope),

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Model, register_model
+from .base import Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_vector, frozen
 
@@ -108,6 +108,11 @@ class LinearSystem(Model):
     """
 
     type_name: ClassVar[str] = "lti"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("num", "numbers", doc="numerator in s, highest power first"),
+        Field("den", "numbers", doc="denominator in s, highest power first"),
+        Field("state0", "numbers", optional=True, doc="initial state"),
+    )
     needs_dt: ClassVar[bool] = True
     num: Float1D
     den: Float1D
@@ -376,6 +381,9 @@ class InverseLinearSystem(Model):
     """
 
     type_name: ClassVar[str] = "lti_inverse"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("system", "model", doc="the biproper system being inverted"),
+    )
     needs_dt: ClassVar[bool] = True
     system: LinearSystem
 

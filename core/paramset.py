@@ -29,7 +29,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from .base import Chain, Model, model_from_dict, registered_types
+from .base import Chain, Model, model_class, model_from_dict, registered_types
 from .exceptions import NotInvertibleError, ParameterError
 
 __all__ = [
@@ -56,42 +56,6 @@ SUPPORTED_VERSIONS: tuple[int, ...] = (1,)
 _TOP_KEYS = ("format", "version", "model", "units", "provenance")
 _UNIT_KEYS = ("input", "output", "time")
 _PROVENANCE_KEYS = ("created", "tool", "source", "fit", "notes")
-
-#: Field rules of the model types whose ``to_dict`` layout is known here. ``"number"`` is a
-#: finite JSON number, ``"numbers"`` a non-empty list of them, ``"model"`` a nested model
-#: object, a trailing ``?`` marks an optional field. Types not listed are still checked
-#: generically (every number finite, every list homogeneous) and then validated by their own
-#: ``from_dict``.
-_FIELD_RULES: dict[str, dict[str, str]] = {
-    "pi": {"p0": "number", "thresholds": "numbers", "weights": "numbers", "state0": "numbers?"},
-    "deadzone": {"thresholds": "numbers", "weights": "numbers"},
-    "tanh-envelope": {"a": "numbers", "b": "numbers", "direction0": "number?"},
-    "tanh-envelope-inverse": {
-        "a": "numbers", "b": "numbers", "direction0": "number?", "clip_margin": "number?",
-    },
-    "gpi-deadzone": {"pi": "model", "deadzone": "model"},
-    "mpi": {"pi": "model", "deadzone": "model"},
-    "gpi-tanh": {"pi": "model", "envelope": "model"},
-    "digitized": {"dx": "numbers", "dy": "numbers", "x0": "number?", "y0": "number?"},
-    "digitized-deadzone": {
-        "dx": "numbers", "dy": "numbers", "x0": "number?", "y0": "number?", "state0": "number?",
-    },
-    "digitized-mpi": {"pi": "model", "deadzone": "model"},
-    "lti": {"num": "numbers", "den": "numbers", "state0": "numbers?"},
-    "offset": {"offset": "number"},
-    "delay": {"delay_s": "number"},
-    "lag": {"tau_s": "number"},
-    "resonance": {"freq_hz": "number", "damping": "number"},
-    "creep": {"taus_s": "numbers", "weights": "numbers"},
-    "drift": {"coefficients": "numbers", "span_s": "number"},
-    "asymmetry": {"coefficients": "numbers", "center": "number", "scale": "number"},
-    "rate": {
-        "p0": "number", "thresholds": "numbers", "weights": "numbers", "beta_s": "number",
-        "state0": "numbers?",
-    },
-    "initial-memory": {"history": "numbers", "model": "model"},
-}
-
 
 class ParameterSetError(ParameterError):
     """A parameter-set document is malformed; the message starts with the JSON path."""
@@ -324,29 +288,10 @@ def _check_generic(v: object, path: str) -> None:
                 _check_generic(x, f"{path}.{k}")
 
 
-#: Modules that register model types; imported before a document is checked so that every
-#: model type of the project is known even if the caller imported only :mod:`core.paramset`.
-_MODEL_MODULES = (
-    "core.pi",
-    "core.deadzone",
-    "core.gpi",
-    "core.digitized",
-    "core.digitized_deadzone",
-    "core.lti",
-    "core.effects",
-)
-
-
 def ensure_model_types_registered() -> list[str]:
-    """Import every model module of the project that exists; return the registered types."""
-    import importlib
+    """Import every model module (:mod:`core.models`); return the registered types."""
+    from . import models  # noqa: F401
 
-    for mod in _MODEL_MODULES:
-        try:
-            importlib.import_module(mod)
-        except ModuleNotFoundError as exc:  # a module not written (yet) is fine
-            if exc.name != mod:
-                raise
     return registered_types()
 
 
@@ -363,30 +308,33 @@ def _check_model_tree(node: object, path: str) -> None:
         raise ParameterSetError(
             f"{path}.type: unknown model type {_show(t)}; known model types: {', '.join(known)}"
         )
-    if t == "chain":
-        stages = node.get("stages")
-        if not isinstance(stages, list) or not stages:
-            raise ParameterSetError(f"{path}.stages: must be a non-empty array of models")
-        for i, s in enumerate(stages):
-            _check_model_tree(s, f"{path}.stages[{i}]")
-        return
-    rules = _FIELD_RULES.get(t, {})
-    for key, rule in rules.items():
-        optional = rule.endswith("?")
-        kind = rule.rstrip("?")
+    fields = {f.name: f for f in model_class(t).fields}
+    for key, f in fields.items():
+        where = f"{path}.{key}"
         if key not in node or node[key] is None:
-            if optional:
+            if f.optional:
                 continue
-            raise ParameterSetError(f"{path}.{key}: missing (required by model type {t!r})")
-        if kind == "number":
-            _check_number(node[key], f"{path}.{key}")
-        elif kind == "numbers":
-            _check_numbers(node[key], f"{path}.{key}")
-        elif kind == "model":
-            _check_model_tree(node[key], f"{path}.{key}")
-    for key, v in node.items():
-        if key != "type" and key not in rules:
-            _check_generic(v, f"{path}.{key}")
+            raise ParameterSetError(f"{where}: missing (required by model type {t!r})")
+        v = node[key]
+        if f.kind == "number":
+            _check_number(v, where)
+        elif f.kind == "numbers":
+            _check_numbers(v, where)
+        elif f.kind == "model":
+            _check_model_tree(v, where)
+        elif f.kind == "models":
+            if not isinstance(v, list) or not v:
+                raise ParameterSetError(f"{where}: must be a non-empty array of models")
+            for i, s in enumerate(v):
+                _check_model_tree(s, f"{where}[{i}]")
+        else:
+            _check_generic(v, where)
+    for key in node:
+        if key != "type" and key not in fields:
+            raise ParameterSetError(
+                f"{path}.{key}: unknown field of model type {t!r}; its fields: "
+                f"{', '.join(fields) or '(none)'}"
+            )
 
 
 def _with_path(exc: Exception, node: Mapping[str, Any], path: str) -> str:

@@ -9,7 +9,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D
-from .base import Model, register_model
+from .base import Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
@@ -90,6 +90,12 @@ class PIModel(Model):
     """
 
     type_name: ClassVar[str] = "pi"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("p0", "number", doc="weight of the linear term"),
+        Field("thresholds", "numbers", doc="play thresholds r_i (input units), increasing"),
+        Field("weights", "numbers", doc="play weights p_i"),
+        Field("state0", "numbers", optional=True, doc="play outputs before the first sample"),
+    )
     p0: float
     thresholds: Float1D
     weights: Float1D

@@ -12,25 +12,21 @@ Built in (paper 001, Al Janaideh et al. 2023):
 * ``paper001-example2-approx``: the *estimated* model ``P̂`` of Example 2 (``r̂``, ``p̂``);
   its inverse is the approximate compensator ``P̂⁻¹``.
 
-Presets of other modules are included when those modules exist (imported lazily, so a
-missing or broken module never breaks this one):
-
-* ``core.gpi``: ``paper001_example4()`` (dead-zone GPI) and ``paper001_example6()`` (tanh GPI);
-* ``core.digitized``: ``paper000_two_operators()`` and ``paper000_three_operators()``;
-* any of ``core.gpi``, ``core.digitized``, ``core.digitized_deadzone``, ``core.effects`` may
-  also define ``PRESETS = {name: (title, description, factory)}``.
+Paper 001 Examples 4 and 6 (``core.gpi``: dead-zone and tanh GPI) and the digitized models
+of paper 000 (``core.digitized``) are presets too. Every preset inverts and exports (tested).
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from .base import Model
+from .digitized import paper000_three_operators, paper000_two_operators
 from .exceptions import ParameterError
+from .gpi import paper001_example4, paper001_example6
 from .pi import PIModel
 
 __all__ = [
@@ -112,56 +108,39 @@ _BUILTIN: dict[str, tuple[str, str, Callable[[], Model]]] = {
     ),
 }
 
-# (module, function, preset name, title, description) of presets living in other modules
-_EXTERNAL: tuple[tuple[str, str, str, str, str], ...] = (
-    ("core.gpi", "paper001_example4", "paper001-example4",
-     "Paper 001 Example 4: dead-zone GPI",
-     "Generalized PI y = P[γ[v]] with 23 mirrored dead zones and p_i = 0.65 exp(-7.75e-4 r_i)."),
-    ("core.gpi", "paper001_example6", "paper001-example6",
-     "Paper 001 Example 6: tanh-envelope GPI",
-     "Example 4's PI after the envelope κ(v) = 6 tanh(0.4 v)."),
-    ("core.digitized", "paper000_two_operators", "paper000-two-operators",
-     "Paper 000: digitized PI, two operators",
-     "Digitized representation of a PI model with two play operators (paper 000 Fig. 3)."),
-    ("core.digitized", "paper000_three_operators", "paper000-three-operators",
-     "Paper 000: digitized PI, three operators",
-     "Digitized representation of a PI model with three play operators."),
-)
-_PRESET_MODULES = ("core.gpi", "core.digitized", "core.digitized_deadzone", "core.effects")
-
-
-def _module(name: str) -> object | None:
-    try:
-        return importlib.import_module(name)
-    except Exception:  # a module being written in parallel may be missing or broken
-        return None
-
-
-def _registry() -> dict[str, tuple[str, str, Callable[[], Model]]]:
-    reg = dict(_BUILTIN)
-    for mod_name, fn, name, title, desc in _EXTERNAL:
-        mod = _module(mod_name)
-        factory = getattr(mod, fn, None) if mod is not None else None
-        if callable(factory):
-            reg[name] = (title, desc, factory)
-    for mod_name in _PRESET_MODULES:
-        mod = _module(mod_name)
-        extra = getattr(mod, "PRESETS", None) if mod is not None else None
-        if isinstance(extra, dict):
-            for name, entry in extra.items():
-                if name not in reg and isinstance(entry, tuple) and len(entry) == 3:
-                    reg[str(name)] = entry
-    return reg
+_BUILTIN.update({
+    "paper001-example4": (
+        "Paper 001 Example 4: dead-zone GPI",
+        "Generalized PI y = P[γ[v]] with 23 mirrored dead zones and "
+        "p_i = 0.65 exp(-7.75e-4 r_i).",
+        paper001_example4,
+    ),
+    "paper001-example6": (
+        "Paper 001 Example 6: tanh-envelope GPI",
+        "Example 4's PI after the envelope κ(v) = 6 tanh(0.4 v).",
+        paper001_example6,
+    ),
+    "paper000-two-operators": (
+        "Paper 000: digitized PI, two operators",
+        "Digitized representation of a PI model with two play operators (paper 000 Fig. 3).",
+        paper000_two_operators,
+    ),
+    "paper000-three-operators": (
+        "Paper 000: digitized PI, three operators",
+        "Digitized representation of a PI model with three play operators.",
+        paper000_three_operators,
+    ),
+})
 
 
 def list_presets() -> list[PresetInfo]:
-    """Every available preset (built-in first, then those of optional modules).
+    """Every preset, paper 001 first.
 
     Returns
     -------
     list of PresetInfo
     """
-    return [PresetInfo(name, title, desc) for name, (title, desc, _) in _registry().items()]
+    return [PresetInfo(name, title, desc) for name, (title, desc, _) in _BUILTIN.items()]
 
 
 def get_preset(name: str) -> Model:
@@ -172,7 +151,7 @@ def get_preset(name: str) -> Model:
     ParameterError
         If ``name`` is unknown; the message lists the valid names.
     """
-    reg = _registry()
+    reg = _BUILTIN
     entry = reg.get(name)
     if entry is None:
         raise ParameterError(f"unknown preset {name!r}; valid presets: {', '.join(reg)}")

@@ -15,7 +15,8 @@ EXAMPLES = sorted(p for p in (ROOT / "examples").glob("ex*.py"))
 
 @pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_example_runs(script: Path, tmp_path: Path) -> None:
-    env = {**os.environ, "HYST_QUICK": "1", "HYST_EXAMPLES_OUT": str(tmp_path)}
+    env = {**os.environ, "HYST_QUICK": "1", "HYST_EXAMPLES_OUT": str(tmp_path),
+           "PYTHONPATH": str(ROOT)}  # the checkout's code, not an installed copy
     proc = subprocess.run(
         [sys.executable, str(script), "--out", str(tmp_path)],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,

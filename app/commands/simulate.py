@@ -95,6 +95,11 @@ def run(args: argparse.Namespace) -> int:
     for note in sig.cleaning:
         print(f"hyst simulate: note: {note}", file=sys.stderr)
     u = sig.u
+    preview = model.preview_samples(dt) if dt else 0
+    if preview:
+        print(f"hyst simulate: note: the inverse compensates a delay with a preview of "
+              f"{preview} sample(s): it reads the known trajectory ahead (the last {preview} "
+              "sample(s) hold the final value)", file=sys.stderr)
     y = model(u, dt=dt)
     path = write_columns(args.output, [*names, args.output_name], [*sig.values, y])
     text = (
@@ -102,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
         f"[{y.min():.6g}, {y.max():.6g}] {ps.units.input if args.inverse else ps.units.output}"
     )
     emit(args, text, {"output": str(path), "n_samples": int(u.size), "dt": dt,
+                      "preview_samples": preview,
                       "y_min": float(y.min()), "y_max": float(y.max()),
                       "notes": list(sig.cleaning)})
     return 0

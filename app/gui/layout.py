@@ -25,7 +25,7 @@ from core.presets import list_presets
 from core.signals import SIGNALS
 
 from .. import figures as F
-from ..compute import Result, compute, preset_doc, validate_config
+from ..compute import Result, compute, diagnosed_model, preset_doc, validate_config
 from ..data import (
     FIT_KINDS,
     diagnose_session,
@@ -560,7 +560,8 @@ class SessionView:
         cfg, v = session.snapshot()
         res = compute(cfg, version=v, recording=session.recording,
                       max_operators=self.settings.max_operators,
-                      max_samples=self.settings.max_samples)
+                      max_samples=self.settings.max_samples,
+                      diagnosed=diagnosed_model(session))
         name = self.figure_name
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")

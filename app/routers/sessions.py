@@ -8,7 +8,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 
 from core.exceptions import ParameterError
 
-from ..compute import compute, preset_doc, validate_config
+from ..compute import compute, diagnosed_model, preset_doc, validate_config
 from ..schemas import ConfigIn
 from ..services.cost import check_config
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited
@@ -75,7 +75,8 @@ def session_figures(
     check_config(cfg, session.recording, settings.limits)
     res = compute(cfg, version=v, recording=session.recording,
                   max_operators=settings.max_operators, max_samples=settings.max_samples,
-                  with_inverse="inverse" in names, with_digitized="digitized" in names)
+                  with_inverse="inverse" in names, with_digitized="digitized" in names,
+                  diagnosed=diagnosed_model(session))
     return result_payload(res, names, cfg.mismatch, False)
 
 

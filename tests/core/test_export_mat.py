@@ -84,3 +84,14 @@ def test_every_model_type_exports_and_reads_back(tmp_path):
         d = loadmat(path, squeeze_me=True, struct_as_record=False)
         assert d["model"].type == name
         assert read_mat(path).model.to_dict() == model.to_dict()
+
+
+def test_every_registered_type_exports_with_its_inverse(tmp_path):
+    from tests.core.model_zoo import ZOO
+
+    for name, model in ZOO.items():
+        path = export_mat(model, tmp_path / f"{name}.mat")
+        d = loadmat(path, squeeze_me=True, struct_as_record=False)
+        assert d["model"].type == name
+        assert d["inverse"].type == model.inverse().type_name, name
+        assert read_mat(path).model.to_dict() == model.to_dict()

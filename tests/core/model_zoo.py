@@ -1,0 +1,77 @@
+"""One instance of every registered model type (shared by the JSON, MAT and C export tests).
+
+``ZOO[type_name]`` is a model of that type; a new ``@register_model`` type must be added here
+(``test_every_registered_type_has_an_instance`` fails until it is).
+"""
+
+from __future__ import annotations
+
+from core.base import Chain, Model
+from core.deadzone import DeadZoneMap
+from core.digitized import DigitizedPI
+from core.digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
+from core.effects import (
+    Advance,
+    Asymmetry,
+    AsymmetryInverse,
+    Creep,
+    CreepInverse,
+    Delay,
+    Drift,
+    InitialMemory,
+    Lag,
+    LagInverse,
+    Offset,
+    RateDependentPI,
+    Resonance,
+    ResonanceInverse,
+)
+from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
+from core.lti import LinearSystem
+from core.pi import PIModel
+
+#: Paper 001, Example 1 (input about ±4).
+EX1 = PIModel(0.72, [0.45 * i for i in range(1, 7)], [0.6, 0.48, 0.36, 0.24, 0.12, 0.012])
+#: Sample spacing used with the dynamic models (s).
+DT = 1e-4
+
+
+def _zoo() -> dict[str, Model]:
+    g = DeadZoneMap.symmetric([0.8, 1.6], 0.9, [0.4, -0.3])
+    env = TanhEnvelope([6.0, 0.4, 0.0, -0.2], [6.0, 0.4, 0.0, 0.2], direction0=-1)
+    rate = RateDependentPI(1.0, [0.5, 1.0], [0.3, 0.2], 2e-5)
+    dig = DigitizedPI.from_pi(EX1, (-5.0, 5.0), state0="0110101")
+    out: dict[str, Model] = {
+        "pi": EX1,
+        "chain": Chain.of(EX1, Creep([0.01, 0.1], [0.02, 0.01]), Offset(0.2)),
+        "offset": Offset(0.5),
+        "lag": Lag(1e-3),
+        "lag-inverse": LagInverse(1e-3),
+        "resonance": Resonance(300.0, 0.1),
+        "resonance-inverse": ResonanceInverse(300.0, 0.1, 900.0),
+        "delay": Delay(2.5e-4),
+        "advance": Advance(2.5e-4),
+        "creep": Creep([0.01, 0.1, 1.0], [0.02, 0.01, 0.03]),
+        "creep-inverse": CreepInverse([0.01, 0.1, 1.0], [0.02, 0.01, 0.03]),
+        "drift": Drift([0.1, -0.05], 2.0),
+        "asymmetry": Asymmetry([0.1, 0.02], 0.5, 2.0),
+        "asymmetry-inverse": AsymmetryInverse([0.1, 0.02], 0.5, 2.0),
+        "rate": rate,
+        "rate-inverse": rate.inverse(),
+        "initial-memory": InitialMemory(EX1, [2.0, -1.0]),
+        "deadzone": g,
+        "gpi-deadzone": DeadZoneGPI(EX1, g),
+        "mpi": ModifiedPI(EX1, g),
+        "tanh-envelope": env,
+        "tanh-envelope-inverse": env.inverse(),
+        "gpi-tanh": TanhGPI(EX1, env),
+        "digitized": dig,
+        "lti": LinearSystem([5e-4, 1.0], [1e-3, 1.0]),
+    }
+    out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
+    out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)
+    out["digitized-mpi"] = DigitizedModifiedPI.from_modified_pi(ModifiedPI(EX1, g), (-5.0, 5.0))
+    return out
+
+
+ZOO = _zoo()
