@@ -30,7 +30,8 @@ from _common import parse_out, quick, save
 
 from app.diagnosis_report import figures, write_report
 from core.datasets import load_dataset
-from core.diagnosis import Record, diagnose
+from core.diagnosis import diagnose
+from core.recordings import Recording
 
 
 def main() -> None:
@@ -43,7 +44,7 @@ def main() -> None:
         t, u, y = t[::5], u[::5], y[::5]
         kwargs = {"effects": ["initial-memory", "lag", "asymmetry"], "n_operators": 15,
                   "auto_resolution": False}
-    rec = Record(t, u, y, "piezo_150V_1Hz")
+    rec = Recording(t, u, y, "piezo_150V_1Hz")
     res = diagnose([rec], train=(3.3, 7.0), test=(7.0, 9.0), **kwargs)
     print(res.summary())
     if res.suggestive:

@@ -30,8 +30,8 @@ that would make them testable.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Sequence
+import time as _time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,19 +39,15 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Model
+from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
-from .data import (
-    Record,
-    as_records,
-    crossfit_folds,
-    reversal_points,
-    split_masks,
-    wipeout_index,
-)
+from ..fitting.thresholds import reversal_indices, wipeout_index
+from ..recordings import Recording
+from .data import as_records, crossfit_folds, split_masks
 from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
-from .structure import Fit, Structure, _Cache, build_model, fit_structure, place_thresholds
+from .structure import Fit, Structure, _Cache, baseline_thresholds, build_model, fit_structure
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -202,7 +198,7 @@ class DiagnosisResult:
 
     Attributes
     ----------
-    records : list of Record
+    records : list of Recording
     baseline, final : Fit
         The baseline PI fit (at the resolution chosen by the under-resolution check) and the
         fit with every accepted effect.
@@ -226,7 +222,7 @@ class DiagnosisResult:
         train/test window.
     """
 
-    records: list[Record]
+    records: list[Recording]
     train: list[np.ndarray]
     test: list[np.ndarray]
     baseline: Fit
@@ -371,7 +367,9 @@ class DiagnosisResult:
         return {
             "format": "hysteresis-explorer/diagnosis",
             "version": 1,
-            "recordings": [{"name": r.name, "samples": r.n, "dt_s": r.dt} for r in self.records],
+            "recordings": [{"name": r.name, "samples": r.n_samples, "dt_s": r.dt,
+                            "time_axis": r.has_time, "cleaning": list(r.cleaning)}
+                           for r in self.records],
             "split": self.split,
             "baseline": {
                 "model": self.model_name,
@@ -414,7 +412,7 @@ class DiagnosisResult:
         b = self.heldout_rmse(self.baseline)
         f = self.heldout_rmse(self.final)
         lines = [
-            f"Recordings: {', '.join(f'{r.name} ({r.n} samples)' for r in self.records)}",
+            f"Recordings: {', '.join(f'{r.name} ({r.n_samples} samples)' for r in self.records)}",
             f"Split: {self.split}",
             f"Baseline {self.model_name.upper()} ({len(self.baseline.structure.thresholds)} "
             f"operators{', weights of free sign' if self.baseline.structure.free_weights else ''}"
@@ -511,7 +509,7 @@ def _jsonable(x: Any) -> Any:
 # ----------------------------------------------------------------------------- context
 class _Ctx:
     def __init__(self, records, train, test, folds=None, parent: _Ctx | None = None) -> None:
-        self.records: list[Record] = records
+        self.records: list[Recording] = records
         self.train: list[np.ndarray] = train
         self.test: list[np.ndarray] = test
         self.cache = _Cache()
@@ -548,7 +546,7 @@ class _Ctx:
         """The pre-wipe-out rows: the only rows an initial memory state affects."""
         out = []
         for r in self.records:
-            m = np.zeros(r.n, dtype=bool)
+            m = np.zeros(r.n_samples, dtype=bool)
             m[: wipeout_index(r.u)] = True
             out.append(m)
         return out
@@ -707,7 +705,7 @@ def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
     raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
 
 
-def _excitation_hz(records: Sequence[Record]) -> float:
+def _excitation_hz(records: Sequence[Recording]) -> float:
     """Slowest fundamental over the recordings: half the number of input reversals per
     second (reversals larger than 10 % of the input range)."""
     rates = []
@@ -715,7 +713,7 @@ def _excitation_hz(records: Sequence[Record]) -> float:
         dur = float(r.t[-1] - r.t[0])
         span = float(np.ptp(r.u))
         if dur > 0 and span > 0:
-            rates.append(0.5 * (reversal_points(r.u, 0.1 * span).size - 1) / dur)
+            rates.append(0.5 * (reversal_indices(r.u, 0.1 * span).size - 1) / dur)
     return min(rates) if rates else 0.0
 
 
@@ -884,7 +882,24 @@ def _cf_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:
             "parameter_cv": cf["parameter_cv"]}
 
 
+#: Effects that depend on time (untestable on recordings indexed by sample only).
+TIME_EFFECTS = ("delay", "lag", "resonance", "rate", "creep", "drift")
+
+
 def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
+    recs = ctx.records
+    untimed = [r.name for r in recs if not r.has_time]
+    if untimed:
+        why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
+               "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
+               "rate or frequency cannot be told apart from the loop itself")
+        out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
+                "stamps (or --time COLUMN, or the sampling rate)"} for n in TIME_EFFECTS]
+        return out + [u for u in _untestable_timed(ctx) if u["name"] not in TIME_EFFECTS]
+    return _untestable_timed(ctx)
+
+
+def _untestable_timed(ctx: _Ctx) -> list[dict[str, str]]:
     out = []
     recs = ctx.records
     # creep: holds after steps (>= 0.5 s) inside the train or test rows
@@ -907,8 +922,8 @@ def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
     peaks = []
     for rec, c in zip(recs, ctx.coords, strict=True):
         span = float(np.ptp(rec.u)) or 1.0
-        rv = reversal_points(rec.u, 0.01 * span)
-        rv = np.concatenate((rv, [rec.n - 1]))
+        rv = reversal_indices(rec.u, 0.01 * span)
+        rv = np.concatenate((rv, [rec.n_samples - 1]))
         for a, b in zip(rv[:-1], rv[1:], strict=True):
             if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
                 peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
@@ -978,13 +993,21 @@ def diagnose(
     max_effects: int = 5,
     auto_resolution: bool = True,
     crossfit: bool | None = None,
+    time: ColumnSpec = None,
+    input: ColumnSpec = None,  # noqa: A002 - mirrors csvio's role name
+    output: ColumnSpec = None,
+    run: ColumnSpec = None,
+    resample: bool | float = False,
+    progress: Callable[[float, str], None] | None = None,
 ) -> DiagnosisResult:
     """Locate, name, model and validate the physics a PI model leaves out.
 
     Parameters
     ----------
-    recordings : Record, (t, u, y) tuple, CSV path, object with t/u/y, or a list of those
-        Measured recordings (uniform sampling; t in seconds).
+    recordings : Recording, (t, u, y) tuple, CSV path, object with t/u/y, or a list of those
+        Measured recordings (t in seconds, or the sample index for quasi-static loops
+        without a time axis). CSV files are read by :func:`core.csvio.read_csv`, like
+        ``hyst fit``; a run/loop column gives several recordings.
     model : {"pi"}
         Base model class.
     train, test : (float, float), optional
@@ -1009,6 +1032,14 @@ def diagnose(
         test window holds few independent batches), off for the interleaved split (its test
         blocks already span every recording). The effect-size rules and every reported
         held-out RMSE use the test rows only.
+    time, input, output, run : int, str, False or None
+        Columns of CSV files (name or 0-based index; see :func:`core.csvio.read_csv`).
+    resample : bool or float
+        ``True``: interpolate uneven recordings (gaps too) onto a uniform grid; a float:
+        resample to that spacing (s). Without it small time-stamp jitter is resampled with a
+        note and a gap is an error naming where it is (:func:`core.diagnosis.as_records`).
+    progress : callable ``(fraction, message)``, optional
+        Called as the diagnosis advances, ``fraction`` in [0, 1].
 
     Returns
     -------
@@ -1020,14 +1051,21 @@ def diagnose(
     ParameterError
         For an unknown model or effect, or unusable recordings/splits.
     """
-    t_start = time.perf_counter()
+    t_start = _time.perf_counter()
     if model != "pi":
         raise ParameterError(f"model {model!r} is not supported by diagnose yet; use 'pi'")
     todo = list(EFFECT_TYPES if effects is None else effects)
     for e in todo:
         if e not in EFFECT_TYPES:
             raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
-    records = as_records(recordings)
+    def say(frac: float, msg: str) -> None:
+        if progress is not None:
+            progress(float(min(max(frac, 0.0), 1.0)), msg)
+
+    records = as_records(recordings, time=time, input=input, output=output, run=run,
+                         resample=resample)
+    say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
+        "fitting the baseline")
     trm, tem, desc = split_masks(records, train, test)
     if crossfit is None:
         crossfit = train is not None and test is not None
@@ -1038,14 +1076,14 @@ def diagnose(
     # >= 2 % (model selection of a nuisance, not a physics claim: no significance needed)
     # saturating loops (friction) need play weights of either sign: switch when the
     # sign-constrained PI is clearly worse on the held-out rows (MSE at least halved)
-    r = place_thresholds(records, trm, n_operators)
+    r = baseline_thresholds(records, trm, n_operators)
     s0 = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
     free = heldout_comparison(ctx.test_res(f_nn), ctx.test_res(f_free)).gain >= 0.5
     base = None
     requested = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
-        r = place_thresholds(records, trm, n_try)
+        r = baseline_thresholds(records, trm, n_try)
         s_try = Structure(tuple(float(x) for x in r), tuple(() for _ in records),
                           free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
@@ -1063,6 +1101,7 @@ def diagnose(
     res0 = ctx.all_res(base)
     noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(res0, tem,
                                                                           strict=True)])))
+    say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     untest = _untestable(ctx)
     untest_names = {u["name"] for u in untest}
     todo = [e for e in todo if e not in untest_names]
@@ -1073,7 +1112,10 @@ def diagnose(
         cur_te = ctx.test_res(cur)
         mse_cur = float(np.mean(np.concatenate(cur_te) ** 2))
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
-        for name in todo:
+        span = 0.8 / max(max_effects, 1)
+        for i, name in enumerate(todo):
+            say(0.1 + span * (rnd + 0.5 * i / max(len(todo), 1)),
+                f"round {rnd + 1}: fitting {name}")
             got = _candidate(ctx, name, cur)
             if got is None:
                 continue
@@ -1114,6 +1156,7 @@ def diagnose(
                 record.append(row)
                 continue
             if name in needs_cf:
+                say(0.1 + span * (rnd + 0.5), f"round {rnd + 1}: cross-fitting {name}")
                 cf = _crossfit(ctx, name, cur, fit_)
                 if cf is not None:
                     cfs[name] = cf
@@ -1231,6 +1274,8 @@ def diagnose(
                 })
         todo = [e for e in todo if e != best and not (
             FAMILIES[e] == "dynamics" and fam == "dynamics" and e != "rate")]
+    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in findings)})"
+                                          if findings else ""))
     loro_b = loro_f = None
     if len(records) >= 2 and train is None and test is None:
         loro_b = leave_one_recording_out(ctx, base.structure)
@@ -1255,9 +1300,10 @@ def diagnose(
                             for a, b_ in zip(prev["per_recording"], lo["per_recording"],
                                              strict=True)]}
             prev = lo
-    maps_before = residual_maps(records, res0, ctx.coords, [np.ones(r.n, bool) for r in records])
-    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords,
-                               [np.ones(r.n, bool) for r in records])
+    everywhere = [np.ones(r.n_samples, bool) for r in records]
+    maps_before = residual_maps(records, res0, ctx.coords, everywhere)
+    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere)
+    say(1.0, "done")
     return DiagnosisResult(
         records=records,
         train=trm,
@@ -1273,7 +1319,7 @@ def diagnose(
         maps_after=maps_after,
         split=desc,
         noise_rms=noise,
-        elapsed_s=time.perf_counter() - t_start,
+        elapsed_s=_time.perf_counter() - t_start,
         model_name=model,
         loro_baseline=loro_b,
         loro_final=loro_f,
@@ -1307,7 +1353,7 @@ def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
     n_all = 0
     for j, rec in enumerate(recs):
         sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
-        masks = [np.zeros(r.n, dtype=bool) if k == j else (tr | te)
+        masks = [np.zeros(r.n_samples, dtype=bool) if k == j else (tr | te)
                  for k, (r, tr, te) in enumerate(zip(recs, ctx.train, ctx.test, strict=True))]
         f = fit_structure(sj, recs, masks, ctx.cache)
         assert isinstance(f, Fit)
@@ -1320,9 +1366,10 @@ def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
         e = rec.y - model(rec.u, dt=rec.dt)
         ej = float(e @ e)
         sse += ej
-        n_all += rec.n
-        rm = float(np.sqrt(ej / rec.n))
-        per.append({"recording": rec.name, "samples": rec.n, "rmse": rm, "rmse_pct": 100 * rm / yr})
+        n_all += rec.n_samples
+        rm = float(np.sqrt(ej / rec.n_samples))
+        per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
+                    "rmse_pct": 100 * rm / yr})
     rmse = float(np.sqrt(sse / max(n_all, 1)))
     return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
@@ -1332,7 +1379,7 @@ def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) 
     while the held-out fit improves (≥ 2 % and z ≥ 2 or sign p < 0.01)."""
     while len(fit.structure.thresholds) * 2 <= n_max:
         n2 = 2 * len(fit.structure.thresholds)
-        r = place_thresholds(ctx.records, ctx.train, n2)
+        r = baseline_thresholds(ctx.records, ctx.train, n2)
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
         h = heldout_comparison(ctx.test_res(fit), ctx.test_res(f2))
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)

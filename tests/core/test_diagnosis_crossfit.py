@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.diagnosis import Record, diagnose
+from core.diagnosis import diagnose
 from core.diagnosis.data import crossfit_folds, wipeout_index
 from core.diagnosis.engine import _jackknife
 from core.effects import Lag
+from core.recordings import Recording
 from tests.core.test_diagnosis import _records
 
 
@@ -17,7 +18,7 @@ def test_folds_are_disjoint_blocks_of_the_training_rows_after_the_wipeout_time()
     train = [(r.t >= 0.0) & (r.t < 2.0) for r in recs]
     folds = crossfit_folds(recs, train)
     assert 2 <= len(folds) <= 8
-    covered = [np.zeros(r.n, dtype=bool) for r in recs]
+    covered = [np.zeros(r.n_samples, dtype=bool) for r in recs]
     for tr_f, blk in folds:
         for k, r in enumerate(recs):
             assert not (covered[k] & blk[k]).any()  # disjoint
@@ -82,7 +83,7 @@ def test_null_with_explicit_windows_claims_nothing_and_crossfit_can_be_switched_
     res = diagnose(recs, train=(0.0, 2.0), test=(2.0, 2.5), n_operators=10,
                    auto_resolution=False, effects=["delay", "lag", "drift", "asymmetry"])
     assert res.effects == []
-    off = diagnose([Record(r.t, r.u, r.y, r.name) for r in recs], train=(0.0, 2.0),
+    off = diagnose([Recording(r.t, r.u, r.y, r.name) for r in recs], train=(0.0, 2.0),
                    test=(2.0, 2.5), n_operators=10, auto_resolution=False,
                    effects=["lag"], crossfit=False)
     assert "cross-fitted" not in off.split
