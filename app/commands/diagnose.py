@@ -25,7 +25,8 @@ untestable, look-alikes that the recordings cannot separate as ambiguous.
       "tested": [...], "accept_rule": {...}, "elapsed_s": ...
     }
 
-RMSE values are in output units; ``*_pct`` in % of the output range of all recordings.
+RMSE values are in output units; ``*_pct`` in % of the output range of the scored rows (the
+held-out rows; every row for leave-one-recording-out), as in the ``hyst fit`` report.
 ``--save-model`` writes a parameter set (``hysteresis-explorer/parameter-set`` v1) whose model
 is the extended chain fitted to the first recording, so ``hyst simulate`` predicts new inputs
 with the accepted effects.

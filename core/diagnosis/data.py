@@ -141,8 +141,10 @@ def split_masks(
     """Boolean train/test masks per recording.
 
     With explicit ``train``/``test`` time ranges ``(t0, t1)`` (seconds, half-open) they are
-    applied to every recording. Otherwise each recording is cut into ``n_blocks`` interleaved
-    blocks (at least ``min_block_s`` long), alternating train/test, starting with train.
+    applied to every recording; ``train`` alone leaves no test rows (the diagnosis then
+    selects and scores by cross-fitting the training rows). Otherwise each recording is cut
+    into ``n_blocks`` interleaved blocks (at least ``min_block_s`` long), alternating
+    train/test, starting with train.
 
     Returns
     -------
@@ -151,19 +153,20 @@ def split_masks(
     """
     trm, tem = [], []
     if train is not None or test is not None:
-        if train is None or test is None:
-            raise ParameterError("give both --train T0:T1 and --test T0:T1, or neither")
+        if train is None:
+            raise ParameterError("--test T0:T1 needs --train T0:T1 too (the rows to fit on)")
         for r in records:
-            a = (r.t >= train[0]) & (r.t < train[1])
-            b = (r.t >= test[0]) & (r.t <= test[1])
-            trm.append(a)
-            tem.append(b)
-        if sum(int(m.sum()) for m in trm) < 50 or sum(int(m.sum()) for m in tem) < 20:
+            trm.append((r.t >= train[0]) & (r.t < train[1]))
+            tem.append((r.t >= test[0]) & (r.t <= test[1]) if test is not None
+                       else np.zeros(r.n_samples, dtype=bool))
+        if sum(int(m.sum()) for m in trm) < 50 or (
+                test is not None and sum(int(m.sum()) for m in tem) < 20):
             raise ParameterError(
                 f"train {train} / test {test} select too few samples; the recordings span "
                 + ", ".join(f"{r.t[0]:g}..{r.t[-1]:g} s" for r in records)
             )
-        desc = f"train t in [{train[0]:g}, {train[1]:g}) s, test t in [{test[0]:g}, {test[1]:g}] s"
+        desc = f"train t in [{train[0]:g}, {train[1]:g}) s, " + (
+            f"test t in [{test[0]:g}, {test[1]:g}] s" if test is not None else "no test window")
         return trm, tem, desc
     for r in records:
         dur = r.t[-1] - r.t[0]

@@ -42,8 +42,12 @@ from ..base import Model
 from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
+from ..fitting.metrics import percent_of_range
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
+from .acceptance import RULE, decide
+from .acceptance import size_ok as effect_size_ok
+from .adequacy import Adequacy, assess
 from .data import as_records, crossfit_folds, split_masks
 from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
 from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
@@ -51,16 +55,8 @@ from .structure import Fit, Structure, _Cache, baseline_thresholds, build_model,
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
-#: Acceptance thresholds (documented in the JSON output).
-ACCEPT_RULE: dict[str, float] = {
-    "min_gain": 0.05,
-    "min_excess_share": 0.20,
-    "min_z": 3.0,
-    "sign_p": 0.01,
-    "family_margin": 0.10,
-    "max_param_cv": 0.30,
-    "outside_worse": 1.25,
-}
+#: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
+ACCEPT_RULE: dict[str, float] = RULE.as_dict()
 
 FAMILIES: dict[str, str] = {
     "delay": "dynamics",
@@ -162,6 +158,8 @@ class EffectFinding:
     structure: Structure | None = None
     loro: dict[str, Any] | None = None
     caveats: list[str] = field(default_factory=list)
+    #: the rows the acceptance statistics (``heldout``) were computed on
+    evidence: str = "test rows"
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -184,6 +182,7 @@ class EffectFinding:
             "heldout_mse_reduction": h.gain,
             "dm_z": h.z,
             "signed_rank_p": h.sign_p,
+            "evidence": self.evidence,
             "score_lm": self.score_lm,
             "discriminators": _jsonable(self.discriminators),
             "ambiguous_with": list(self.ambiguous_with),
@@ -240,6 +239,11 @@ class DiagnosisResult:
     requested: Fit | None = None
     loro_baseline: dict[str, Any] | None = None
     loro_final: dict[str, Any] | None = None
+    #: strict hold-out: baseline and final RMSE on the cross-fitted training blocks (the
+    #: rows the selection used, so optimistic for the final model); else ``None``
+    crossval: dict[str, Any] | None = None
+    #: base-model adequacy verdict (noise floor, loop-shape classes tried)
+    adequacy: Adequacy | None = None
 
     @property
     def model(self) -> Model:
@@ -288,14 +292,17 @@ class DiagnosisResult:
 
     @property
     def y_range(self) -> float:
-        """Output range of all recordings (for % figures)."""
-        return float(max(r.y.max() for r in self.records) - min(r.y.min() for r in self.records))
+        """Output range of the held-out rows, all recordings pooled: the denominator of every
+        held-out "% of range" (:func:`core.fitting.metrics.percent_of_range`, as in the fit
+        reports)."""
+        ys = [r.y[m] for r, m in zip(self.records, self.test, strict=True) if m.any()]
+        return 100.0 / percent_of_range(1.0, ys or [r.y for r in self.records])
 
     def heldout_rmse(self, fit: Fit) -> float:
-        """Held-out RMSE of ``fit`` over every recording (output units)."""
-        e = np.concatenate([(r.y - p)[m] for r, p, m in zip(self.records, fit.pred, self.test,
-                                                               strict=True)])
-        return float(np.sqrt(np.mean(e * e)))
+        """Held-out RMSE of ``fit`` over every recording (output units); NaN without a test
+        window."""
+        return float(np.sqrt(_mse([(r.y - p)[m] for r, p, m in zip(
+            self.records, fit.pred, self.test, strict=True)])))
 
     def per_recording(self, fit: Fit) -> list[dict[str, Any]]:
         """Held-out and training RMSE per recording."""
@@ -361,12 +368,15 @@ class DiagnosisResult:
         yr = self.y_range
         b = self.heldout_rmse(self.baseline)
         f = self.heldout_rmse(self.final)
+        rows = self.test if any(m.any() for m in self.test) else self.train
         lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
-                                       zip(self.records, self.baseline.pred, self.test,
+                                       zip(self.records, self.baseline.pred, rows,
                                            strict=True)]))
-        return {
+        return _jsonable({
             "format": "hysteresis-explorer/diagnosis",
             "version": 1,
+            "crossval": self.crossval,
+            "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
             "recordings": [{"name": r.name, "samples": r.n_samples, "dt_s": r.dt,
                             "time_axis": r.has_time, "cleaning": list(r.cleaning)}
                            for r in self.records],
@@ -404,7 +414,7 @@ class DiagnosisResult:
             "tested": _jsonable(self.rounds),
             "accept_rule": ACCEPT_RULE,
             "elapsed_s": self.elapsed_s,
-        }
+        })
 
     def summary(self) -> str:
         """Readable multi-line report."""
@@ -416,33 +426,47 @@ class DiagnosisResult:
             f"Split: {self.split}",
             f"Baseline {self.model_name.upper()} ({len(self.baseline.structure.thresholds)} "
             f"operators{', weights of free sign' if self.baseline.structure.free_weights else ''}"
-            f"): held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range); "
-            f"white-noise floor {self.noise_rms:.3g}",
+            "): " + (f"held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range)"
+                     if np.isfinite(b) else "no test window")
+            + f"; white-noise floor {self.noise_rms:.3g}",
         ]
         nq = len(self._req.structure.thresholds)
         if nq != len(self.baseline.structure.thresholds):
             q = self.heldout_rmse(self._req)
             lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "
                          f"({100 * q / yr:.3f} %); under-resolved, the grid was refined")
-        if not self.effects:
+        ad = self.adequacy
+        if not self.effects and (ad is None or ad.adequate):
             lines.append("No missing physics detected: no effect improved the held-out fit "
-                         "significantly.")
+                         "significantly, and the residual is at the noise floor.")
+        elif not self.effects:
+            lines.append("No effect of the list improved the held-out fit significantly.")
         for i, e in enumerate(self.effects, 1):
             ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
                                                 if e.uncertainty.get(k) is not None else "")
                            for k, v in e.parameters.items())
-            lines += [
-                f"{i}. {e.name}: {ps}",
-                f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
-                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
-                f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} %, "
-                f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}",
-            ] + ([
+            if e.evidence == "test rows":
+                evidence = [
+                    f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                    f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                    f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} "
+                    f"%, z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+            else:
+                evidence = [
+                    f"   accepted on {e.evidence}: MSE -{100 * e.heldout.gain:.1f} %, "
+                    f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+                if np.isfinite(e.heldout_rmse_after):
+                    evidence.append(
+                        f"   test window (scored only, never used for selection): RMSE "
+                        f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                        f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                        f"{100 * e.heldout_rmse_after / yr:.3f} %)")
+            lines += [f"{i}. {e.name}: {ps}", *evidence] + ([
                 f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
                 f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
                 f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
                 + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
-            ] if e.crossfit else []) + [
+            ] if e.crossfit and e.evidence == "test rows" else []) + [
                 f"   where: {e.where.get('summary', '')}",
                 f"   why: {e.explanation}",
                 f"   added: {e.equation}",
@@ -454,7 +478,17 @@ class DiagnosisResult:
                              f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
             if e.ambiguous_with:
                 lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
-        lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
+        if np.isfinite(f):
+            lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
+        else:
+            lines.append("Final: no test window (nothing held out to score)")
+        if self.crossval is not None:
+            cv = self.crossval
+            lines.append(
+                f"Cross-fitted training blocks ({cv['folds']}, the rows the selection used, so "
+                f"optimistic for the final model): RMSE baseline {cv['baseline_rmse']:.4g} "
+                f"({cv['baseline_rmse'] * cv['pct_of']:.3f} %) -> final {cv['final_rmse']:.4g} "
+                f"({cv['final_rmse'] * cv['pct_of']:.3f} %)")
         if self.loro_baseline is not None and self.loro_final is not None:
             lb_, lf_ = self.loro_baseline, self.loro_final
             per = ", ".join(f"{a['recording']} {a['rmse']:.4g} -> {b_['rmse']:.4g}"
@@ -473,12 +507,20 @@ class DiagnosisResult:
                          f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
                          f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
                          "acceptance rule)")
+        if ad is not None and not ad.adequate:
+            lines.append(f"Base model: {ad.text}")
         for a in self.ambiguous:
             lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
                          f"{a['experiment']}")
         for u in self.untestable:
             lines.append(f"Untestable: {u['name']}: {u['reason']}; would need {u['experiment']}")
         return "\n".join(lines)
+
+
+def _mse(es: Sequence[Float1D]) -> float:
+    """Mean squared value of the pooled residuals (NaN when there are none)."""
+    e = np.concatenate(list(es)) if es else np.zeros(0)
+    return float(np.mean(e * e)) if e.size else float("nan")
 
 
 def _fmt(v: Any) -> str:
@@ -523,6 +565,8 @@ class _Ctx:
         self.iterations: int | None = None
         #: blocked cross-validation folds over the training rows (explicit windows only)
         self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
+        #: strict hold-out: decisions rest on the folds only, the test rows are only scored
+        self.strict = False
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         f = fit_structure(s, self.records, self.train, self.cache,
@@ -723,7 +767,7 @@ def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
     best_fit = cur
     for k, rec in enumerate(ctx.records):
         tw = wipeout_index(rec.u)
-        if not (ctx.train[k][:tw].any() or ctx.test[k][:tw].any()):
+        if not (ctx.train[k][:tw].any() or (ctx.test[k][:tw].any() and not ctx.strict)):
             continue
         lo, hi = float(rec.u.min()), float(rec.u.max())
         span = hi - lo
@@ -761,6 +805,37 @@ def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
     return fit, {"history": [list(h) for h in hist]}, {}
 
 
+def _screen(fit: Fit, cur: Fit) -> HeldOut:
+    """In-sample training-RSS reduction of ``fit`` over ``cur`` (a screen, no significance):
+    an effect that cannot reduce the training error by ``min_gain`` cannot pass held out."""
+    b = cur.train_rss / max(cur.n_train, 1)
+    a = fit.train_rss / max(fit.n_train, 1)
+    return HeldOut(b, a, 1.0 - a / b if b > 0 else 0.0, 0.0, 1.0, 0)
+
+
+def _evidence_label(ctx: _Ctx, name: str, cf: dict[str, Any] | None) -> str:
+    if name == "initial-memory":
+        return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
+                if ctx.strict else "rows before the wipe-out time")
+    if ctx.strict:
+        return (f"{cf['folds']} cross-fitted training blocks" if cf is not None else
+                "training-RSS screen (below the effect-size rule, not cross-fitted)")
+    return "test rows"
+
+
+def _compare(ctx: _Ctx, a: Fit, b: Fit) -> HeldOut:
+    """Held-out comparison of two fitted structures (linear weights refitted per fold):
+    on the test rows, or with strict hold-out on the cross-fitted training blocks."""
+    if not ctx.strict:
+        return heldout_comparison(ctx.test_res(a), ctx.test_res(b))
+    eb, ea = [], []
+    for tr_f, blk in ctx.folds:
+        fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+        eb += fc.test_res(fc.fit(a.structure, a))
+        ea += fc.test_res(fc.fit(b.structure, b))
+    return heldout_comparison(eb, ea)
+
+
 def _fold_fits(ctx: _Ctx, folds: list, name: str, cur: Fit, iterations: int | None = None):
     """Per fold: (fold context, current structure refitted without the block, effect ``name``
     fitted on top of it or ``None``)."""
@@ -792,7 +867,7 @@ def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None
     """
     if not ctx.folds:
         return None
-    eb, ea = list(ctx.test_res(cur)), list(ctx.test_res(fit))
+    eb, ea = ([], []) if ctx.strict else (list(ctx.test_res(cur)), list(ctx.test_res(fit)))
     n_test = sum(e.size for e in eb)
     gains, params = [], []
     for fc, cur_f, got in _fold_fits(ctx, ctx.folds, name, cur):
@@ -806,14 +881,15 @@ def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None
         gains.append(1.0 - m1 / m0 if m0 > 0 else 0.0)
         params.append(got[1])
     n_all = sum(e.size for e in eb)
-    pooled = heldout_comparison(eb, ea, n_batches=int(round(40 * n_all / max(n_test, 1))))
+    pooled = heldout_comparison(eb, ea, n_batches=40 if ctx.strict else int(
+        round(40 * n_all / max(n_test, 1))))
     cv: dict[str, float] = {}
     for key in _SCALAR_PARAMS:
         vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
         if vals.size == len(params) and vals.size >= 2 and np.mean(vals) != 0:
             cv[key] = float(np.std(vals, ddof=1) / abs(np.mean(vals)))
     return {"pooled": pooled, "folds": len(ctx.folds), "fold_gains": gains,
-            "fold_parameters": params, "parameter_cv": cv}
+            "fold_parameters": params, "parameter_cv": cv, "before": eb, "after": ea}
 
 
 #: Effects whose parameters are linear weights (one least-squares solve, cheap to refit).
@@ -1058,6 +1134,7 @@ def diagnose(
     for e in todo:
         if e not in EFFECT_TYPES:
             raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
+
     def say(frac: float, msg: str) -> None:
         if progress is not None:
             progress(float(min(max(frac, 0.0), 1.0)), msg)
@@ -1068,9 +1145,22 @@ def diagnose(
         "fitting the baseline")
     trm, tem, desc = split_masks(records, train, test)
     if crossfit is None:
-        crossfit = train is not None and test is not None
+        crossfit = train is not None
     ctx = _Ctx(records, trm, tem, folds=crossfit_folds(records, trm) if crossfit else None)
-    if ctx.folds:
+    # strict hold-out: with an explicit test window every decision (baseline grid, free
+    # weights, effects, look-alikes) rests on cross-fitted training blocks; the test window
+    # is only scored
+    ctx.strict = bool(ctx.folds) and train is not None
+    if train is not None and test is None and not ctx.strict:
+        raise ParameterError(
+            "without a test window the effects are selected by cross-fitting blocks of the "
+            "training rows, but the training rows after the wipe-out time are too short for "
+            "two blocks of 0.5 s; give a longer --train window, or a --test window"
+            + (" (and do not turn cross-fitting off)" if crossfit is False else ""))
+    if ctx.strict:
+        desc += (f"; selection by cross-fitting {len(ctx.folds)} training blocks, the test "
+                 "window is never used for selection")
+    elif ctx.folds:
         desc += f"; significance also on {len(ctx.folds)} cross-fitted training blocks"
     # under-resolution check (notes E13): double the grid while the held-out MSE drops by
     # >= 2 % (model selection of a nuisance, not a physics claim: no significance needed)
@@ -1079,7 +1169,7 @@ def diagnose(
     r = baseline_thresholds(records, trm, n_operators)
     s0 = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
-    free = heldout_comparison(ctx.test_res(f_nn), ctx.test_res(f_free)).gain >= 0.5
+    free = _compare(ctx, f_nn, f_free).gain >= 0.5
     base = None
     requested = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
@@ -1090,7 +1180,7 @@ def diagnose(
         if base is None:
             requested = f_try
         else:
-            h = heldout_comparison(ctx.test_res(base), ctx.test_res(f_try))
+            h = _compare(ctx, base, f_try)
             if h.gain < 0.02:
                 break
         base = f_try
@@ -1099,8 +1189,8 @@ def diagnose(
     assert base is not None
     cur = base
     res0 = ctx.all_res(base)
-    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(res0, tem,
-                                                                          strict=True)])))
+    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(
+        res0, trm if ctx.strict else tem, strict=True)])))
     say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     untest = _untestable(ctx)
     untest_names = {u["name"] for u in untest}
@@ -1110,8 +1200,9 @@ def diagnose(
     rounds: list[dict[str, Any]] = []
     for rnd in range(max_effects):
         cur_te = ctx.test_res(cur)
-        mse_cur = float(np.mean(np.concatenate(cur_te) ** 2))
+        mse_cur = _mse(cur_te)
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
+        cfs: dict[str, dict[str, Any]] = {}
         span = 0.8 / max(max_effects, 1)
         for i, name in enumerate(todo):
             say(0.1 + span * (rnd + 0.5 * i / max(len(todo), 1)),
@@ -1120,7 +1211,25 @@ def diagnose(
             if got is None:
                 continue
             fit, params, unc = got
-            if name == "initial-memory":
+            if ctx.strict and name != "initial-memory":
+                h = _screen(fit, cur)
+                if h.gain >= ACCEPT_RULE["min_gain"]:
+                    say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
+                        f"round {rnd + 1}: cross-fitting {name}")
+                    cf = _crossfit(ctx, name, cur, fit)
+                    if cf is not None:
+                        cfs[name] = cf
+                        h = cf["pooled"]
+            elif name == "initial-memory" and ctx.strict:
+                # judged on the training rows before the wipe-out (the only rows an initial
+                # state changes): in-sample, 1-2 parameters
+                mm = [a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)]
+                h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(fit, mm))
+                # and it must not make the cross-fitted blocks (after the wipe-out) worse
+                if _compare(ctx, cur, fit).gain < -0.01:
+                    h = HeldOut(h.mse_before, h.mse_after, h.gain, min(h.z, 0.0), 1.0,
+                                h.n_batches)
+            elif name == "initial-memory":
                 # judged on the pre-wipe-out rows (the only rows an initial state changes);
                 # it must not make the held-out rows worse
                 mm = ctx.memory_masks
@@ -1136,19 +1245,24 @@ def diagnose(
             break
         record = []
         passing = []
-        cfs: dict[str, dict[str, Any]] = {}
-        excess = mse_cur - noise**2
-        size_ok = {n: c[3].gain >= ACCEPT_RULE["min_gain"] and (
-            c[3].mse_before - c[3].mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
-            for n, c in cands.items()}
-        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"}
+        excess = {n: (c[3].mse_before if ctx.strict else mse_cur) - noise**2
+                  for n, c in cands.items()}
+        size_ok = {n: effect_size_ok(c[3], excess[n]) for n, c in cands.items()}
+        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
+                    and not ctx.strict}
         skip = _cannot_win(cands, size_ok, needs_cf, len(cands))
         for name, (fit_, params, _, h) in cands.items():
             sig = h
-            stable = True
+            cv: dict[str, float] = {}
             row: dict[str, Any] = {"round": rnd + 1, "effect": name,
                                    "heldout_mse_reduction": h.gain, "dm_z": h.z,
-                                   "signed_rank_p": h.sign_p, "evidence": "test rows"}
+                                   "signed_rank_p": h.sign_p, "evidence": _evidence_label(
+                                       ctx, name, cfs.get(name))}
+            if name in cfs and ctx.strict:
+                cf = cfs[name]
+                cv = cf["parameter_cv"]
+                row.update({"fold_mse_reductions": cf["fold_gains"],
+                            "parameter_cv": cf["parameter_cv"]})
             if name in skip:
                 row.update({"passes": False, "decision": "deferred", "parameters": params,
                             "evidence": "not needed: an effect of a higher-priority family "
@@ -1161,16 +1275,16 @@ def diagnose(
                 if cf is not None:
                     cfs[name] = cf
                     sig = cf["pooled"]
-                    stable = all(v < ACCEPT_RULE["max_param_cv"]
-                                 for v in cf["parameter_cv"].values())
+                    cv = cf["parameter_cv"]
                     row.update({"evidence": f"test rows + {cf['folds']} cross-fitted blocks",
                                 "dm_z_pooled": sig.z, "signed_rank_p_pooled": sig.sign_p,
                                 "mse_reduction_pooled": sig.gain,
                                 "fold_mse_reductions": cf["fold_gains"],
                                 "parameter_cv": cf["parameter_cv"]})
-            ok = size_ok[name] and stable and (sig.z >= ACCEPT_RULE["min_z"]
-                                         or sig.sign_p < ACCEPT_RULE["sign_p"] / len(cands))
-            row.update({"passes": bool(ok), "parameters": params})
+            dec = decide(h, excess[name], len(cands), cv, significance=sig)
+            ok = dec.passes
+            row.update({"passes": bool(ok), "parameters": params,
+                        "reasons": list(dec.reasons)})
             record.append(row)
             if ok:
                 passing.append(name)
@@ -1186,7 +1300,13 @@ def diagnose(
             if other == best or FAMILIES[other] != fam:
                 continue
             # runner-up explains nearly as much: compare the two directly on held-out rows
-            hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
+            # (with strict hold-out: on the cross-fitted blocks)
+            if ctx.strict:
+                if other not in cfs or best not in cfs:
+                    continue
+                hh = heldout_comparison(cfs[other]["after"], cfs[best]["after"])
+            else:
+                hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
             if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
                 runner = {"effect": other, "heldout_mse_reduction": oh.gain,
                           "z_best_vs_this": hh.z, "parameters": oparams}
@@ -1231,13 +1351,14 @@ def diagnose(
                 equation=EQUATIONS[best],
                 heldout=h,
                 heldout_rmse_before=float(np.sqrt(mse_cur)),
-                heldout_rmse_after=float(np.sqrt(np.mean(np.concatenate(ctx.test_res(fit)) ** 2))),
+                heldout_rmse_after=float(np.sqrt(_mse(ctx.test_res(fit)))),
                 score_lm=J0_lm,
                 discriminators=disc,
                 ambiguous_with=amb,
                 runner_up=runner,
                 crossfit=_cf_summary(cfs.get(best)),
                 caveats=caveats,
+                evidence=_evidence_label(ctx, best, cfs.get(best)),
             )
         )
         for other in amb:
@@ -1245,8 +1366,9 @@ def diagnose(
             ambiguous.append({
                 "effects": [best, other],
                 "chosen": best,
-                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the held-out "
-                f"MSE against {100 * h.gain:.0f} % for {best}; the recordings do not separate them",
+                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the "
+                f"{'cross-fitted' if ctx.strict else 'held-out'} MSE against "
+                f"{100 * h.gain:.0f} % for {best}; the recordings do not separate them",
                 "experiment": DECIDING_EXPERIMENT.get(key, "recordings that excite both "
                                                       "mechanisms differently"),
             })
@@ -1260,7 +1382,7 @@ def diagnose(
             })
         cur = _refine_resolution(ctx, fit, 4 * n_operators, rounds, rnd + 1) if (
             auto_resolution) else fit
-        if fam == "dynamics" and best != "rate":
+        if fam == "dynamics" and best != "rate" and not ctx.strict:
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         findings[-1].structure = cur.structure
         if fam == "dynamics" and best != "rate":
@@ -1303,6 +1425,19 @@ def diagnose(
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     maps_before = residual_maps(records, res0, ctx.coords, everywhere)
     maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere)
+    say(0.92, "judging the base model against the noise floor")
+    tried = [str(r["effect"]) for r in rounds if r["round"] == 1 and ":" not in str(r["effect"])]
+    adequacy = assess(records, trm, tem, cur.pred, noise, tried or list(todo),
+                      base.structure.free_weights)
+    crossval = None
+    if ctx.strict:
+        cv = _compare(ctx, base, cur)
+        crossval = {"folds": len(ctx.folds), "baseline_rmse": float(np.sqrt(cv.mse_before)),
+                    "final_rmse": float(np.sqrt(cv.mse_after)),
+                    # % of the output range of the block rows (per unit RMSE)
+                    "pct_of": percent_of_range(1.0, [
+                        r.y[np.any([blk[k] for _, blk in ctx.folds], axis=0)]
+                        for k, r in enumerate(records)])}
     say(1.0, "done")
     return DiagnosisResult(
         records=records,
@@ -1323,6 +1458,8 @@ def diagnose(
         model_name=model,
         loro_baseline=loro_b,
         loro_final=loro_f,
+        crossval=crossval,
+        adequacy=adequacy,
     )
 
 
@@ -1343,11 +1480,11 @@ def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
     -------
     dict
         ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
-        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of all
-        recordings; ``rmse`` pools every sample of every recording.
+        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of the
+        scored rows (all rows of all recordings); ``rmse`` pools every sample of every recording.
     """
     recs = ctx.records
-    yr = float(max(r.y.max() for r in recs) - min(r.y.min() for r in recs)) or 1.0
+    yr = 100.0 / percent_of_range(1.0, [r.y for r in recs])  # every row is scored
     per = []
     sse = 0.0
     n_all = 0
@@ -1381,7 +1518,7 @@ def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) 
         n2 = 2 * len(fit.structure.thresholds)
         r = baseline_thresholds(ctx.records, ctx.train, n2)
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
-        h = heldout_comparison(ctx.test_res(fit), ctx.test_res(f2))
+        h = _compare(ctx, fit, f2)
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
         rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
                        "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
@@ -1426,7 +1563,7 @@ def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: li
         finding.explanation = EXPLANATIONS[best]
         finding.equation = EQUATIONS[best]
     finding.ambiguous_with = amb
-    finding.heldout_rmse_after = float(np.sqrt(np.mean(np.concatenate(ctx.test_res(fit)) ** 2)))
+    finding.heldout_rmse_after = float(np.sqrt(_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not (set(a["effects"]) <= {"delay", "lag",
                                                                       "resonance"})]
     for other in amb:

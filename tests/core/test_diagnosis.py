@@ -164,7 +164,7 @@ def test_leave_one_recording_out_matches_a_refit_on_the_other_recording() -> Non
     [
         ({"model": "preisach"}, "not supported"),
         ({"effects": ["magic"]}, "unknown effect"),
-        ({"train": (0.0, 1.0)}, "both"),
+        ({"test": (0.0, 1.0)}, "needs --train"),
         ({"train": (50.0, 60.0), "test": (60.0, 70.0)}, "too few"),
     ],
 )
