@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from ._common import Progress, existing_file, window_arg
-from .fit import add_read_options, read_kwargs
+from .fit import add_read_options, read_kwargs, say_read
 
 __all__ = ["register", "run"]
 
@@ -121,12 +121,7 @@ def run(args: argparse.Namespace) -> int:
         existing_file(f, "recording")
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     recs = as_records([Path(f) for f in args.files], **read_kwargs(args))
-    for r in recs:
-        axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
-        progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
-                 f"u = {r.columns.get('input', 'u')}, y = {r.columns.get('output', 'y')}")
-        for note in r.cleaning:
-            progress(f"  note: {note}")
+    say_read(progress, recs)
     res = diagnose(recs, model=args.model, train=args.train, test=args.test,
                    n_operators=args.operators, effects=effects,
                    auto_resolution=not args.fixed_grid,

@@ -17,7 +17,7 @@ from ._common import (
     parse_window,
 )
 
-__all__ = ["MODELS", "add_read_options", "read_kwargs", "register", "run"]
+__all__ = ["MODELS", "add_read_options", "read_kwargs", "register", "run", "say_read"]
 
 #: ``--model`` choice -> estimator class name in :mod:`core.fitting`.
 MODELS = {
@@ -69,6 +69,16 @@ def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     return {"time": _spec(args.time), "input": _spec(args.input_column),
             "output": _spec(args.output_column), "run": _spec(args.run_column),
             "resample": resample}
+
+
+def say_read(progress: Progress, recs: list[Any]) -> None:
+    """Report each recording read (samples, time axis, columns, cleaning notes) on stderr."""
+    for r in recs:
+        axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
+        progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
+                 f"u = {r.columns.get('input', 'u')}, y = {r.columns.get('output', 'y')}")
+        for note in r.cleaning:
+            progress(f"  note: {note}")
 
 
 def register(subparsers: Any) -> None:
@@ -140,14 +150,8 @@ def run(args: argparse.Namespace) -> int:
     recs = []
     for f in args.files:
         existing_file(f, "CSV file")
-        got = read_csv(Path(f), **read_kwargs(args))
-        for r in got:
-            axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
-            progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
-                     f"u = {r.columns.get('input')}, y = {r.columns.get('output')}")
-            for note in r.cleaning:
-                progress(f"  note: {note}")
-        recs.extend(got)
+        recs.extend(read_csv(Path(f), **read_kwargs(args)))
+    say_read(progress, recs)
     us = [r.u for r in recs]
     ys = [r.y for r in recs]
     trains = [(r.t >= train_w[0]) & (r.t < train_w[1]) for r in recs] if train_w else []
