@@ -151,3 +151,10 @@ def test_quasi_static_loops_without_time_axis_are_diagnosed(capsys) -> None:
     assert {"lag", "creep", "delay", "drift"} <= set(why) and "no time axis" in why["lag"]
     assert "asymmetry" in {t["effect"] for t in doc["tested"]}
     assert "%" in cap.err  # progress on stderr
+    # the PI family misses the saturating loop well above the noise floor: the verdict says so
+    # and names the loop shape that the generalized fits of ex13 reach (1.3-4.6 % of range)
+    ad = doc["adequacy"]
+    assert not ad["adequate"] and ad["pct"] > 5.0
+    best = min(ad["loop_shapes"], key=lambda f: f["pct"])
+    assert best["pct"] <= 4.6 and "saturation" in best["physics"]
+    assert "saturation" in ad["text"] and "not adequate" in ad["text"]
