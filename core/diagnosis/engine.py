@@ -55,6 +55,34 @@ from .structure import Fit, Structure, baseline_thresholds, build_model, fit_str
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
+def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
+    """Smallest gain with which ``name`` could still be chosen over the leading passing
+    family (:func:`_choose`: a later family needs 1.5 times its gain); 0 when unbounded."""
+    if lead is None:
+        return 0.0
+    fam = EFFECTS[name].family
+    if fam == lead[0] or FAMILY_PRIORITY[fam] <= FAMILY_PRIORITY[lead[0]]:
+        return 0.0
+    return 1.5 * lead[1]
+
+
+def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[str, float]:
+    """The leading passing family after ``name`` passed with ``gain``."""
+    fam = EFFECTS[name].family
+    if lead is None or FAMILY_PRIORITY[fam] < FAMILY_PRIORITY[lead[0]] or (
+            fam == lead[0] and gain > lead[1]):
+        return fam, gain
+    return lead
+
+
+def _deferred_row(rnd: int, name: str, params: dict | None = None) -> dict[str, Any]:
+    return {"round": rnd + 1, "effect": name, "heldout_mse_reduction": float("nan"),
+            "dm_z": float("nan"), "signed_rank_p": float("nan"), "passes": False,
+            "decision": "deferred", "parameters": params or {},
+            "evidence": "not needed: an effect of a higher-priority family passed, and this "
+            "one could not explain 1.5 times as much"}
+
+
 def _screen(fit: Fit, cur: Fit) -> HeldOut:
     """In-sample training-RSS reduction of ``fit`` over ``cur`` (a screen, no significance):
     an effect that cannot reduce the training error by ``min_gain`` cannot pass held out."""
@@ -450,7 +478,18 @@ def diagnose(
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
         cfs: dict[str, dict[str, Any]] = {}
         span = 0.8 / max(max_effects, 1)
-        for i, name in enumerate(todo):
+        # strict: highest-priority families first; once one passes, a later family can only be
+        # chosen with 1.5 times its gain (_choose), so hopeless candidates are deferred to the
+        # next round without their (costly) cross-fitting
+        order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
+            ctx.strict) else todo
+        lead: tuple[str, float] | None = None
+        pre_deferred: list[dict[str, Any]] = []
+        for i, name in enumerate(order):
+            bound = _lead_bound(lead, name)
+            if bound > 1.0:
+                pre_deferred.append(_deferred_row(rnd, name))
+                continue
             say(0.1 + span * (rnd + 0.5 * i / max(len(todo), 1)),
                 f"round {rnd + 1}: fitting {name}")
             got = build_candidate(ctx, name, cur)
@@ -459,6 +498,9 @@ def diagnose(
             fit, params, unc = got
             if ctx.strict and name != "initial-memory":
                 h = _screen(fit, cur)
+                if h.gain < bound:
+                    pre_deferred.append(_deferred_row(rnd, name, params))
+                    continue
                 if h.gain >= ACCEPT_RULE["min_gain"]:
                     say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
                         f"round {rnd + 1}: cross-fitting {name}")
@@ -487,9 +529,12 @@ def diagnose(
             else:
                 h = heldout_comparison(cur_te, ctx.test_res(fit))
             cands[name] = (fit, params, unc, h)
+            if ctx.strict and decide(h, h.mse_before - noise**2, len(todo), cfs.get(
+                    name, {}).get("parameter_cv")).passes:
+                lead = _new_lead(lead, name, h.gain)
         if not cands:
             break
-        record = []
+        record = list(pre_deferred)
         passing = []
         excess = {n: (c[3].mse_before if ctx.strict else mse_cur) - noise**2
                   for n, c in cands.items()}
