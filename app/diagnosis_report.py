@@ -38,7 +38,7 @@ def figures(res: Any) -> dict[str, go.Figure]:
     resid = make_subplots(rows=n, cols=1, subplot_titles=[r.name for r in recs],
                           shared_xaxes=False)
     for k, r in enumerate(recs):
-        s = _dec(r.n)
+        s = _dec(r.n_samples)
         eb = r.y - res.baseline.pred[k]
         ef = r.y - res.final.pred[k]
         show = k == 0

@@ -25,7 +25,8 @@ untestable, look-alikes that the recordings cannot separate as ambiguous.
       "tested": [...], "accept_rule": {...}, "elapsed_s": ...
     }
 
-RMSE values are in output units; ``*_pct`` in % of the output range of all recordings.
+RMSE values are in output units; ``*_pct`` in % of the output range of the scored rows (the
+held-out rows; every row for leave-one-recording-out), as in the ``hyst fit`` report.
 ``--save-model`` writes a parameter set (``hysteresis-explorer/parameter-set`` v1) whose model
 is the extended chain fitted to the first recording, so ``hyst simulate`` predicts new inputs
 with the accepted effects.
@@ -39,7 +40,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ._common import window_arg
+from ._common import Progress, existing_file, window_arg
+from .fit import add_read_options, read_kwargs, say_read
 
 __all__ = ["register", "run"]
 
@@ -52,12 +54,16 @@ def register(subparsers: Any) -> None:
         description=(
             "Fit a PI model, locate where it and the recordings differ, name the missing "
             "physics (delay, lag, resonance, rate, creep, drift, asymmetry, offset, "
-            "initial-memory), fit it and show the held-out improvement. CSV files: header "
-            "row, columns time (s), input, output."
+            "initial-memory, ...), fit it and show the held-out improvement. CSV files are "
+            "read like hyst fit (core.csvio: delimiter, decimal mark, units and columns "
+            "detected; a run/loop column splits a file; files without a time axis are "
+            "diagnosed for the rate-independent effects). Progress goes to stderr."
         ),
     )
     p.add_argument("files", nargs="+", metavar="FILE.csv", help="recordings")
     p.add_argument("--model", default="pi", choices=["pi"], help="base model (default: pi)")
+    add_read_options(p)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--train", type=window_arg("train"), metavar="T0:T1",
                    help="training time range (s)")
     p.add_argument("--test", type=window_arg("test"), metavar="T0:T1",
@@ -80,26 +86,14 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _units(path: str) -> dict[str, str]:
-    """Units from a header like ``t_s,u_V,y_um`` (defaults V, um, s)."""
-    try:
-        head = Path(path).read_text(encoding="utf-8", errors="replace").splitlines()[0]
-    except (OSError, IndexError):
-        return {"input": "V", "output": "um", "time": "s"}
-    cols = [c.strip() for c in head.split(",")]
+def save_model(result: Any, path: str | Path, source: str) -> Path:
+    """Write the final model of ``result`` as a parameter-set document (units from the first
+    recording when the parameter-set validator knows them)."""
+    from core.paramset import ParameterSet
 
-    def unit(c: str, default: str) -> str:
-        return c.rsplit("_", 1)[1] if "_" in c else default
-
-    return {
-        "input": unit(cols[1], "V") if len(cols) > 1 else "V",
-        "output": unit(cols[2], "um") if len(cols) > 2 else "um",
-        "time": unit(cols[0], "s") if cols else "s",
-    }
-
-
-def save_model(result: Any, path: str | Path, units: dict[str, str], source: str) -> Path:
-    """Write the final model of ``result`` as a parameter-set document."""
+    first = result.records[0]
+    units = {"input": first.units.get("input") or "V", "output": first.units.get("output")
+             or "um", "time": first.units.get("time") or "s"}
     summary = {
         "kind": "diagnosis",
         "effects": [e.name for e in result.effects],
@@ -111,45 +105,30 @@ def save_model(result: Any, path: str | Path, units: dict[str, str], source: str
         ", ".join(e.name for e in result.effects) or "none"
     )
     try:
-        from core.paramset import ParameterSet
-
-        try:
-            ps = ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
-                                         notes=notes)
-        except ValueError:  # units the parameter-set validator does not know
-            ps = ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
-        return ps.save(path)
-    except ImportError:  # pragma: no cover - paramset not available
-        from datetime import UTC, datetime
-
-        doc = {
-            "format": "hysteresis-explorer/parameter-set",
-            "version": 1,
-            "model": result.model.to_dict(),
-            "units": units,
-            "provenance": {"created": datetime.now(UTC).isoformat(), "tool": "hyst diagnose",
-                           "source": source, "fit": summary, "notes": notes},
-        }
-        p = Path(path)
-        p.write_text(json.dumps(doc, indent=2), encoding="utf-8")
-        return p
+        ps = ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
+                                     notes=notes)
+    except ValueError:  # units the parameter-set validator does not know
+        ps = ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
+    return ps.save(path)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
-    from core.diagnosis import diagnose
-    from core.exceptions import ParameterError
+    from core.diagnosis import as_records, diagnose
 
+    progress = Progress("diagnose", quiet=args.quiet)
     for f in args.files:
-        if not Path(f).is_file():
-            raise ParameterError(f"recording {f!r} does not exist")
+        existing_file(f, "recording")
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
-    res = diagnose(list(args.files), model=args.model, train=args.train, test=args.test,
+    recs = as_records([Path(f) for f in args.files], **read_kwargs(args))
+    say_read(progress, recs)
+    res = diagnose(recs, model=args.model, train=args.train, test=args.test,
                    n_operators=args.operators, effects=effects,
                    auto_resolution=not args.fixed_grid,
-                   crossfit=False if args.no_crossfit else None)
+                   crossfit=False if args.no_crossfit else None,
+                   progress=lambda frac, msg: progress(f"{100 * frac:3.0f} % {msg}"))
     if args.save_model:
-        p = save_model(res, args.save_model, _units(args.files[0]),
+        p = save_model(res, args.save_model,
                        source="hyst diagnose " + " ".join(Path(f).name for f in args.files))
         print(f"wrote {p}", file=sys.stderr)
     if args.report:

@@ -17,7 +17,7 @@ from ._common import (
     parse_window,
 )
 
-__all__ = ["MODELS", "register", "run"]
+__all__ = ["MODELS", "add_read_options", "read_kwargs", "register", "run", "say_read"]
 
 #: ``--model`` choice -> estimator class name in :mod:`core.fitting`.
 MODELS = {
@@ -27,6 +27,58 @@ MODELS = {
     "gpi-tanh": "TanhGPIRegressor",
     "digitized": "DigitizedPIRegressor",
 }
+
+
+def add_read_options(p: argparse.ArgumentParser) -> None:
+    """The CSV options ``hyst fit`` and ``hyst diagnose`` share (one reader: core.csvio)."""
+    p.add_argument("--time", metavar="COL",
+                   help="time column, name or 0-based index (default: detected); 'none' for "
+                        "files without one (the sample index is used)")
+    p.add_argument("--input-column", metavar="COL",
+                   help="input column, name or 0-based index (default: u/u_*/input)")
+    p.add_argument("--output-column", metavar="COL",
+                   help="output column, name or 0-based index (default: y/y_*/output)")
+    p.add_argument("--run-column", metavar="COL",
+                   help="column whose value splits the file into recordings (default: a "
+                        "column named run/record/loop/trial; 'none' to disable)")
+    p.add_argument("--resample", nargs="?", const="auto", metavar="DT",
+                   help="interpolate uneven time stamps onto a uniform grid (at the median "
+                        "spacing, or every DT seconds)")
+
+
+def _spec(value: str | None) -> Any:
+    if value is not None and value.strip().lower() == "none":
+        return False
+    return column_spec(value)
+
+
+def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of :func:`core.csvio.read_csv` from :func:`add_read_options`."""
+    resample: bool | float = False
+    if args.resample is not None:
+        if args.resample == "auto":
+            resample = True
+        else:
+            try:
+                resample = float(args.resample)
+            except ValueError:
+                raise CommandError(f"--resample {args.resample!r}: expected a spacing in "
+                                   "seconds, e.g. --resample 0.0002, or no value") from None
+            if not resample > 0:
+                raise CommandError(f"--resample {args.resample}: the spacing must be > 0 s")
+    return {"time": _spec(args.time), "input": _spec(args.input_column),
+            "output": _spec(args.output_column), "run": _spec(args.run_column),
+            "resample": resample}
+
+
+def say_read(progress: Progress, recs: list[Any]) -> None:
+    """Report each recording read (samples, time axis, columns, cleaning notes) on stderr."""
+    for r in recs:
+        axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
+        progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
+                 f"u = {r.columns.get('input', 'u')}, y = {r.columns.get('output', 'y')}")
+        for note in r.cleaning:
+            progress(f"  note: {note}")
 
 
 def register(subparsers: Any) -> None:
@@ -51,16 +103,17 @@ def register(subparsers: Any) -> None:
                    help="'nonnegative' weights (default; hardening loops such as piezo "
                         "actuators) or positive loop 'slopes' only (saturating loops: B-H, "
                         "friction)")
-    p.add_argument("--time", metavar="COL",
-                   help="time column, name or 0-based index (default: detected)")
-    p.add_argument("--input-column", metavar="COL",
-                   help="input column, name or 0-based index (default: u/u_*/input)")
-    p.add_argument("--output-column", metavar="COL",
-                   help="output column, name or 0-based index (default: y/y_*/output)")
+    add_read_options(p)
     p.add_argument("--train", metavar="T0:T1",
                    help="fit only samples with T0 <= t < T1 (either side may be empty)")
     p.add_argument("--test", metavar="T0:T1",
                    help="held-out samples for the report, T0 <= t < T1")
+    p.add_argument("--initial-memory", choices=("exclude", "keep"), default="exclude",
+                   help="the memory state at the start of a recording is unknown: 'exclude' "
+                        "(default) leaves the training rows before the wipe-out time (until "
+                        "the input first reaches both ends of its range) out of the weight "
+                        "fit; 'keep' fits them from the relaxed state (recordings that start "
+                        "at rest). The PI model only; the report says what was done")
     p.add_argument("-o", "--output", required=True, metavar="MODEL.json",
                    help="where to write the fitted parameter set")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
@@ -68,11 +121,14 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _estimator(name: str, n: int | None, constraint: str | None = None) -> Any:
+def _estimator(name: str, n: int | None, constraint: str | None = None,
+               initial_memory: str = "keep") -> Any:
     """The :mod:`core.fitting` estimator of ``--model name`` (``None`` options left default)."""
     from core import fitting
 
     kwargs: dict[str, Any] = {}
+    if name == "pi":
+        kwargs["initial_memory"] = initial_memory
     if constraint is not None:
         kwargs["constraint"] = constraint
     if n is not None:
@@ -94,15 +150,8 @@ def run(args: argparse.Namespace) -> int:
     recs = []
     for f in args.files:
         existing_file(f, "CSV file")
-        got = read_csv(f, time=column_spec(args.time), input=column_spec(args.input_column),
-                       output=column_spec(args.output_column))
-        for r in got:
-            axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
-            progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
-                     f"u = {r.columns.get('input')}, y = {r.columns.get('output')}")
-            for note in r.cleaning:
-                progress(f"  note: {note}")
-        recs.extend(got)
+        recs.extend(read_csv(Path(f), **read_kwargs(args)))
+    say_read(progress, recs)
     us = [r.u for r in recs]
     ys = [r.y for r in recs]
     trains = [(r.t >= train_w[0]) & (r.t < train_w[1]) for r in recs] if train_w else []
@@ -111,7 +160,8 @@ def run(args: argparse.Namespace) -> int:
         if masks and not any(m.any() for m in masks):
             raise CommandError(f"{lab} window selects no samples; check it against the t column")
     multi = len(recs) > 1
-    est = _estimator(args.model, args.n_operators, args.constraint)
+    est = _estimator(args.model, args.n_operators, args.constraint,
+                     getattr(args, "initial_memory", "keep"))
     progress(f"fitting {args.model}" + (f" with n = {args.n_operators}" if args.n_operators
                                          else " (choosing n by cross-validation)"))
     kw: dict[str, Any] = {}
@@ -125,6 +175,9 @@ def run(args: argparse.Namespace) -> int:
     msgs = [str(w.message) for w in caught]
     for m in msgs:
         progress(f"warning: {m}")
+    mem = est.report_.extra.get("initial_memory")
+    if isinstance(mem, dict):
+        progress(mem["summary"])
     model = est.full_model_
     report = est.report_.to_dict()
     first = recs[0]

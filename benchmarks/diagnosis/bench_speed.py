@@ -30,12 +30,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks.diagnosis.generator import _noise, _plant, make_scenario  # noqa: E402
-from core.diagnosis import Record, diagnose  # noqa: E402
+from core.diagnosis import diagnose
+from core.recordings import Recording  # noqa: E402
 
 TARGET_S = 30.0
 
 
-def four_recordings(effect: str | None, seed: int = 0) -> list[Record]:
+def four_recordings(effect: str | None, seed: int = 0) -> list[Recording]:
     """The three benchmark recordings plus a 38 k-sample fourth one (100 k samples in all)."""
     sc = make_scenario(effect, "white1", seed)
     rng = np.random.default_rng(seed + 1000)
@@ -44,7 +45,7 @@ def four_recordings(effect: str | None, seed: int = 0) -> list[Record]:
     amp = 75.0 * np.exp(-t / 5.0)
     u = 75.0 - amp * np.cos(2 * np.pi * 1.0 * t)
     y = _plant(effect, 1, t, rng)(u, dt=1 / fs) + _noise("white1", u.size, fs, rng)
-    return [*sc.records, Record(t, u, y, "decaying-5k")]
+    return [*sc.records, Recording(t, u, y, "decaying-5k")]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -58,15 +59,15 @@ def main(argv: list[str] | None = None) -> int:
     if a.quick:
         a.effects = "null"
     warm = make_scenario(None, "white1", 0).records[0]
-    diagnose(Record(warm.t[:3000], warm.u[:3000], warm.y[:3000], "warm-up"),
+    diagnose(Recording(warm.t[:3000], warm.u[:3000], warm.y[:3000], "warm-up"),
              effects=("delay",), auto_resolution=False)
     worst = 0.0
     for eff in a.effects.split(","):
         recs = four_recordings(None if eff == "null" else eff)
         if a.quick:
-            recs = [Record(r.t[: r.n // 5], r.u[: r.n // 5], r.y[: r.n // 5], r.name)
+            recs = [r.window(None, r.t[r.n_samples // 5])
                     for r in recs]
-        n = sum(r.n for r in recs)
+        n = sum(r.n_samples for r in recs)
         times = []
         for _ in range(a.repeat):
             t0 = time.perf_counter()

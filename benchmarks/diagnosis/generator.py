@@ -28,7 +28,6 @@ from typing import Any
 import numpy as np
 
 from core.base import Chain, Model
-from core.diagnosis import Record
 from core.effects import (
     Asymmetry,
     Creep,
@@ -41,6 +40,7 @@ from core.effects import (
     Resonance,
 )
 from core.pi import PIModel
+from core.recordings import Recording
 
 __all__ = ["EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "Scenario", "magnitude",
            "make_scenario", "scenario_id", "truth_pi"]
@@ -207,7 +207,7 @@ class Scenario:
     seed: int
     level: str
     params: dict[str, Any]
-    records: list[Record]
+    records: list[Recording]
     truth: list[Model]
     concealment_pct: float
     extras: dict[str, Any] = field(default_factory=dict)
@@ -243,6 +243,6 @@ def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0,
         if noise == "coloured":
             lsb = 2 * STROKE_APPROX / 2**16
             y = np.round(y / lsb) * lsb
-        recs.append(Record(t, u, y, name))
+        recs.append(Recording(t, u, y, name))
         truths.append(m)
     return Scenario(effect, noise, seed, level, lv, recs, truths, worst)

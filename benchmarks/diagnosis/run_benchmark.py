@@ -49,7 +49,7 @@ from benchmarks.diagnosis.generator import (  # noqa: E402
 )
 from core.diagnosis import diagnose  # noqa: E402
 from core.diagnosis.data import split_masks  # noqa: E402
-from core.diagnosis.structure import Structure, fit_structure, place_thresholds  # noqa: E402
+from core.diagnosis.structure import Structure, baseline_thresholds, fit_structure  # noqa: E402
 
 
 def oracle_rmse(records, effect: str | None, n_ops: int,
@@ -59,7 +59,7 @@ def oracle_rmse(records, effect: str | None, n_ops: int,
     ``lv``: the true parameters of the effect (default: its L2 magnitude).
     """
     tr, te, _ = split_masks(records)
-    r = place_thresholds(records, tr, n_ops)
+    r = baseline_thresholds(records, tr, n_ops)
     base = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
     lv = magnitude(effect, "L2") if lv is None else lv
     s = base

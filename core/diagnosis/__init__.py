@@ -14,7 +14,7 @@ Examples
 
 from __future__ import annotations
 
-from .data import Record, as_records, load_csv, split_masks
+from .data import as_records, split_masks
 from .engine import ACCEPT_RULE, DiagnosisResult, EffectFinding, diagnose
 from .structure import Fit, Structure, fit_structure
 
@@ -23,11 +23,9 @@ __all__ = [
     "DiagnosisResult",
     "EffectFinding",
     "Fit",
-    "Record",
     "Structure",
     "as_records",
     "diagnose",
     "fit_structure",
-    "load_csv",
     "split_masks",
 ]

@@ -3,123 +3,126 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._typing import Float1D
+from ..csvio import ColumnSpec, read_csv
 from ..exceptions import ParameterError
-from ..validation import as_input_signal
+from ..fitting.thresholds import wipeout_index
+from ..recordings import Recording
 
 __all__ = [
-    "Record",
+    "GAP_FACTOR",
     "as_records",
     "crossfit_folds",
-    "load_csv",
-    "reversal_points",
     "split_masks",
     "wipeout_index",
 ]
 
+#: A spacing more than this many times the median one is a gap, not jitter: an error.
+GAP_FACTOR = 2.0
 
-@dataclass(frozen=True, eq=False)
-class Record:
-    """One recording ``(t, u, y)`` on a uniform time grid.
+#: Fewest samples a recording needs to be diagnosed.
+MIN_SAMPLES = 20
 
-    Attributes
+
+def as_records(
+    data: Any,
+    *,
+    time: ColumnSpec = None,
+    input: ColumnSpec = None,  # noqa: A002 - mirrors csvio's role name
+    output: ColumnSpec = None,
+    run: ColumnSpec = None,
+    resample: bool | float = False,
+) -> list[Recording]:
+    """Normalise the accepted inputs of :func:`~core.diagnosis.diagnose` to recordings.
+
+    Files are read by :func:`core.csvio.read_csv` (the reader ``hyst fit`` uses: delimiter,
+    decimal mark, header, units, time / input / output / run columns detected or chosen);
+    a run or loop column gives one recording per run.
+
+    Parameters
     ----------
-    t : ndarray of shape (N,)
-        Time in seconds (uniformly spaced).
-    u, y : ndarray of shape (N,)
-        Input and measured output.
-    name : str
-        Label used in reports (file stem).
+    data : Recording, (t, u, y) tuple, CSV path, object with ``t``, ``u``, ``y``, or a list
+        The recordings.
+    time, input, output, run : int, str, False or None
+        Column choices for CSV files (see :func:`core.csvio.read_csv`).
+    resample : bool or float
+        ``True``: put uneven recordings (gaps included) on a uniform grid at their median
+        spacing; a float: resample every recording to that spacing (s). By default small
+        time-stamp jitter (every spacing below ``GAP_FACTOR`` times the median) is resampled
+        with a cleaning note and a larger gap is an error that says where it is.
+
+    Returns
+    -------
+    list of Recording
+        Uniformly sampled (or without a time axis), at least 20 samples each.
+
+    Raises
+    ------
+    ParameterError
+        Unreadable files, too few samples, or a gap in the time stamps.
     """
-
-    t: Float1D
-    u: Float1D
-    y: Float1D
-    name: str = "recording"
-
-    def __post_init__(self) -> None:
-        t = as_input_signal(self.t, "t")
-        u = as_input_signal(self.u, "u")
-        y = as_input_signal(self.y, "y")
-        if not (t.size == u.size == y.size):
-            raise ParameterError(
-                f"recording {self.name!r}: t, u and y must have the same length, got "
-                f"{t.size}, {u.size}, {y.size}"
-            )
-        if t.size < 20:
-            raise ParameterError(f"recording {self.name!r} has {t.size} samples; need >= 20")
-        d = np.diff(t)
-        dt = float(np.median(d))
-        if dt <= 0 or np.max(np.abs(d - dt)) > 0.01 * dt:
-            raise ParameterError(
-                f"recording {self.name!r}: time must increase uniformly (dt = {dt:g} s, largest "
-                f"deviation {np.max(np.abs(d - dt)):g} s); resample it onto a uniform grid first"
-            )
-        object.__setattr__(self, "t", t)
-        object.__setattr__(self, "u", u)
-        object.__setattr__(self, "y", y)
-
-    @property
-    def dt(self) -> float:
-        """Sample spacing in seconds."""
-        return float((self.t[-1] - self.t[0]) / (self.t.size - 1))
-
-    @property
-    def n(self) -> int:
-        """Number of samples."""
-        return int(self.t.size)
-
-
-def load_csv(path: str | Path) -> Record:
-    """Read a recording CSV (header row; columns time, input, output, ...).
-
-    Uses :mod:`core.csvio` when available, else plain numpy (first three columns).
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise ParameterError(f"recording file {str(p)!r} does not exist")
-    try:
-        data = np.loadtxt(p, delimiter=",", skiprows=1, usecols=(0, 1, 2), ndmin=2)
-    except ValueError as exc:
-        raise ParameterError(
-            f"{p.name}: expected a CSV with a header row and numeric columns time, input, "
-            f"output: {exc}"
-        ) from exc
-    return Record(data[:, 0], data[:, 1], data[:, 2], p.stem)
-
-
-def as_records(data: Any) -> list[Record]:
-    """Normalise the accepted inputs of :func:`~core.diagnosis.diagnose` to a list of records.
-
-    Accepts a :class:`Record`, an object with ``t``, ``u``, ``y`` attributes (e.g.
-    ``core.recordings.Recording``), a ``(t, u, y)`` tuple, a CSV path, or a list of those.
-    """
-    if isinstance(data, Record | str | Path) or _is_triplet(data) or hasattr(data, "u"):
+    if isinstance(data, Recording | str | Path) or _is_triplet(data) or hasattr(data, "u"):
         data = [data]
     if not isinstance(data, Sequence) or len(data) == 0:
         raise ParameterError("diagnose needs at least one recording (t, u, y)")
-    out = []
+    out: list[Recording] = []
     for i, d in enumerate(data):
-        if isinstance(d, Record):
-            out.append(d)
-        elif isinstance(d, str | Path):
-            out.append(load_csv(d))
+        if isinstance(d, str | Path):
+            p = Path(d)
+            if not p.is_file():
+                raise ParameterError(f"recording file {str(p)!r} does not exist")
+            got = read_csv(p, time=time, input=input, output=output, run=run,
+                           resample=resample if resample is not False else False,
+                           uneven="keep" if resample is False else "error")
+        elif isinstance(d, Recording):
+            got = [d.resampled(float(resample)) if _is_float(resample) and d.has_time else d]
         elif hasattr(d, "u") and hasattr(d, "y") and hasattr(d, "t"):
-            out.append(Record(d.t, d.u, d.y, str(getattr(d, "name", f"recording{i + 1}"))))
+            got = [Recording(d.t, d.u, d.y, str(getattr(d, "name", f"recording{i + 1}")))]
         elif _is_triplet(d):
-            out.append(Record(d[0], d[1], d[2], f"recording{i + 1}"))
+            got = [Recording(d[0], d[1], d[2], f"recording{i + 1}")]
         else:
             raise ParameterError(
-                f"recording {i} is a {type(d).__name__}; pass (t, u, y) arrays, a Record or a "
-                "CSV path"
+                f"recording {i} is a {type(d).__name__}; pass (t, u, y) arrays, a Recording "
+                "or a CSV path"
             )
+        out.extend(_uniform(r, resample) for r in got)
     return out
+
+
+def _is_float(x: Any) -> bool:
+    return isinstance(x, float | int) and not isinstance(x, bool)
+
+
+def _uniform(r: Recording, resample: bool | float) -> Recording:
+    """``r`` on a uniform time grid: jitter resampled with a note, a gap an error."""
+    if r.n_samples < MIN_SAMPLES:
+        raise ParameterError(
+            f"recording {r.name!r} has {r.n_samples} samples; the diagnosis needs at least "
+            f"{MIN_SAMPLES}"
+        )
+    if not r.has_time or r.is_uniform:
+        return r
+    d = np.diff(r.t)
+    med = float(np.median(d))
+    j = int(np.argmax(d))
+    if d[j] > GAP_FACTOR * med and resample is False:
+        line = f" (line {int(r.lines[j + 1])} of the file)" if r.lines is not None else ""
+        raise ParameterError(
+            f"recording {r.name!r}: the time stamps jump by {d[j]:.6g} s from t = "
+            f"{r.t[j]:.6g} s to t = {r.t[j + 1]:.6g} s{line}, {d[j] / med:.3g} times the usual "
+            f"spacing of {med:.6g} s; the diagnosis needs evenly spaced samples: cut the "
+            "recording at the gap into two files, or pass --resample (resample=True) to "
+            "interpolate across it"
+        )
+    rr = r.resampled()
+    note = (f"time-stamp jitter (spacing {d.min():.6g} to {d.max():.6g} s) resampled onto the "
+            f"median spacing {med:.6g} s for the diagnosis")
+    return replace(rr, cleaning=rr.cleaning[:-1] + (note,))
 
 
 def _is_triplet(d: Any) -> bool:
@@ -129,7 +132,7 @@ def _is_triplet(d: Any) -> bool:
 
 
 def split_masks(
-    records: Sequence[Record],
+    records: Sequence[Recording],
     train: tuple[float, float] | None = None,
     test: tuple[float, float] | None = None,
     n_blocks: int = 8,
@@ -138,8 +141,10 @@ def split_masks(
     """Boolean train/test masks per recording.
 
     With explicit ``train``/``test`` time ranges ``(t0, t1)`` (seconds, half-open) they are
-    applied to every recording. Otherwise each recording is cut into ``n_blocks`` interleaved
-    blocks (at least ``min_block_s`` long), alternating train/test, starting with train.
+    applied to every recording; ``train`` alone leaves no test rows (the diagnosis then
+    selects and scores by cross-fitting the training rows). Otherwise each recording is cut
+    into ``n_blocks`` interleaved blocks (at least ``min_block_s`` long), alternating
+    train/test, starting with train.
 
     Returns
     -------
@@ -148,70 +153,33 @@ def split_masks(
     """
     trm, tem = [], []
     if train is not None or test is not None:
-        if train is None or test is None:
-            raise ParameterError("give both --train T0:T1 and --test T0:T1, or neither")
+        if train is None:
+            raise ParameterError("--test T0:T1 needs --train T0:T1 too (the rows to fit on)")
         for r in records:
-            a = (r.t >= train[0]) & (r.t < train[1])
-            b = (r.t >= test[0]) & (r.t <= test[1])
-            trm.append(a)
-            tem.append(b)
-        if sum(int(m.sum()) for m in trm) < 50 or sum(int(m.sum()) for m in tem) < 20:
+            trm.append((r.t >= train[0]) & (r.t < train[1]))
+            tem.append((r.t >= test[0]) & (r.t <= test[1]) if test is not None
+                       else np.zeros(r.n_samples, dtype=bool))
+        if sum(int(m.sum()) for m in trm) < 50 or (
+                test is not None and sum(int(m.sum()) for m in tem) < 20):
             raise ParameterError(
                 f"train {train} / test {test} select too few samples; the recordings span "
                 + ", ".join(f"{r.t[0]:g}..{r.t[-1]:g} s" for r in records)
             )
-        desc = f"train t in [{train[0]:g}, {train[1]:g}) s, test t in [{test[0]:g}, {test[1]:g}] s"
+        desc = f"train t in [{train[0]:g}, {train[1]:g}) s, " + (
+            f"test t in [{test[0]:g}, {test[1]:g}] s" if test is not None else "no test window")
         return trm, tem, desc
     for r in records:
         dur = r.t[-1] - r.t[0]
         nb = int(max(2, min(n_blocks, dur // min_block_s)))
-        idx = np.minimum((np.arange(r.n) * nb) // r.n, nb - 1)
+        idx = np.minimum((np.arange(r.n_samples) * nb) // r.n_samples, nb - 1)
         trm.append(idx % 2 == 0)
         tem.append(idx % 2 == 1)
     desc = f"interleaved blocks ({n_blocks} per recording, alternating train/test)"
     return trm, tem, desc
 
 
-def reversal_points(u: Float1D, tol: float) -> np.ndarray:
-    """Indices of input reversals (turning points), ignoring wiggles smaller than ``tol``."""
-    idx = [0]
-    direction = 0
-    ext = float(u[0])
-    ext_i = 0
-    for k in range(1, u.size):
-        v = float(u[k])
-        if direction >= 0 and v > ext:
-            ext, ext_i = v, k
-            if direction == 0 and v - u[0] > tol:
-                direction = 1
-        elif direction <= 0 and v < ext:
-            ext, ext_i = v, k
-            if direction == 0 and u[0] - v > tol:
-                direction = -1
-        if direction == 1 and ext - v > tol:
-            idx.append(ext_i)
-            direction, ext, ext_i = -1, v, k
-        elif direction == -1 and v - ext > tol:
-            idx.append(ext_i)
-            direction, ext, ext_i = 1, v, k
-    return np.unique(np.asarray(idx, dtype=np.int64))
-
-
-def wipeout_index(u: Float1D, frac: float = 0.98) -> int:
-    """First sample after which the input has visited both ends of its range (t_w)."""
-    lo, hi = float(u.min()), float(u.max())
-    span = hi - lo
-    if span <= 0:
-        return 0
-    a = np.flatnonzero(u >= hi - (1 - frac) * span)
-    b = np.flatnonzero(u <= lo + (1 - frac) * span)
-    if a.size == 0 or b.size == 0:
-        return u.size
-    return int(max(a[0], b[0]))
-
-
 def crossfit_folds(
-    records: Sequence[Record],
+    records: Sequence[Recording],
     train: Sequence[np.ndarray],
     min_block_s: float = 0.5,
     max_blocks: int = 8,
@@ -226,7 +194,7 @@ def crossfit_folds(
 
     Parameters
     ----------
-    records : sequence of Record
+    records : sequence of Recording
     train : sequence of ndarray of bool
         Training rows per recording.
     min_block_s : float
@@ -258,7 +226,7 @@ def crossfit_folds(
             continue
         edges = np.linspace(0, idx.size, nb + 1).astype(int)
         for i in range(nb):
-            blocks = [np.zeros(r.n, dtype=bool) for r in records]
+            blocks = [np.zeros(r.n_samples, dtype=bool) for r in records]
             blocks[k][idx[edges[i] : edges[i + 1]]] = True
             folds.append(([m & ~b for m, b in zip(train, blocks, strict=True)], blocks))
     return folds if len(folds) >= 2 else []

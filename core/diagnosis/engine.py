@@ -30,754 +30,105 @@ that would make them testable.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+import time as _time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from .._typing import Float1D
-from ..base import Model
+from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
-from .data import (
-    Record,
-    as_records,
-    crossfit_folds,
-    reversal_points,
-    split_masks,
-    wipeout_index,
-)
-from .locate import Coordinates, coordinates, hold_after, residual_maps, where_improved
-from .stats import HeldOut, heldout_comparison, ljung_box, noise_floor, score_test
-from .structure import Fit, Structure, _Cache, build_model, fit_structure, place_thresholds
+from ..fitting.metrics import percent_of_range
+from ..fitting.thresholds import reversal_indices, wipeout_index
+from .acceptance import decide
+from .acceptance import size_ok as effect_size_ok
+from .adequacy import assess
+from .candidates import build_candidate
+from .context import FitContext
+from .data import as_records, crossfit_folds, split_masks
+from .locate import hold_after, residual_maps, where_improved
+from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
+from .specs import DECIDING_EXPERIMENT, EFFECTS, FAMILY_PRIORITY, time_effects
+from .stats import HeldOut, heldout_comparison, noise_floor, score_test
+from .structure import Fit, Structure, baseline_thresholds, build_model, fit_structure
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
-#: Acceptance thresholds (documented in the JSON output).
-ACCEPT_RULE: dict[str, float] = {
-    "min_gain": 0.05,
-    "min_excess_share": 0.20,
-    "min_z": 3.0,
-    "sign_p": 0.01,
-    "family_margin": 0.10,
-    "max_param_cv": 0.30,
-    "outside_worse": 1.25,
-}
-
-FAMILIES: dict[str, str] = {
-    "delay": "dynamics",
-    "lag": "dynamics",
-    "resonance": "dynamics",
-    "rate": "dynamics",
-    "creep": "slow",
-    "drift": "slow",
-    "asymmetry": "static",
-    "offset": "static-offset",
-    "initial-memory": "memory",
-}
-
-DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
-    frozenset({"delay", "lag"}): "full-stroke sines at >= 3 frequencies a decade apart (a lag "
-    "attenuates and its phase saturates, a delay's phase grows linearly with frequency)",
-    frozenset({"delay", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min): a delay "
-    "still lags, rate-dependent hysteresis fades; or a DAQ loop-back latency measurement",
-    frozenset({"lag", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min) and sines "
-    "at >= 3 frequencies: a lag acts on the reversible part too, rate-dependent hysteresis "
-    "does not",
-    frozenset({"resonance", "lag"}): "a step or a broadband multisine up to the suspected mode "
-    "(a resonance rings and overshoots, a lag does not)",
-    frozenset({"resonance", "delay"}): "a step or a broadband multisine up to the suspected mode",
-    frozenset({"resonance", "rate"}): "a step or a broadband multisine: a mode rings at f_d "
-    "whatever the hysteresis state",
-    frozenset({"creep", "drift"}): "an up-then-down staircase with holds of 3-30 s (creep follows "
-    "the sign of the last step, drift does not)",
-}
-
-EXPLANATIONS: dict[str, str] = {
-    "delay": "The measured output lags the model by a constant transport delay (DAQ latency, "
-    "zero-order hold, digital sensor filter). It acts on the whole output slope, reversible and "
-    "hysteretic alike.",
-    "lag": "The output follows the model through a first-order lag (amplifier output resistance "
-    "times stack capacitance, or the sensor bandwidth): an error proportional to the output "
-    "rate, with exponential transients after reversals.",
-    "resonance": "A lightly damped mechanical mode after the hysteresis (stack plus stage mass "
-    "on the flexure stiffness): ringing after steps and sharp reversals.",
-    "rate": "The hysteresis itself depends on the input rate: the play thresholds widen with "
-    "|du/dt| (rate-dependent PI), widening the loops at higher rates while the reversible part "
-    "is unaffected.",
-    "creep": "Logarithmic creep: after each input change the output keeps moving in the "
-    "direction of that change, about linearly in log(time), modelled by a bank of slow lags.",
-    "drift": "A slow additive drift in absolute time (thermal expansion, sensor zero drift), "
-    "continuous across steps and independent of the step direction.",
-    "asymmetry": "The loop is asymmetric/saturating: ascending and descending branches curve "
-    "differently (field-dependent d33, saturation); a static output map that classical "
-    "(odd-symmetric) PI cannot represent. Actuator and sensor nonlinearity cannot be separated "
-    "from (u, y) alone.",
-    "offset": "The sensor zero differs between recordings (an offset per recording).",
-    "initial-memory": "The actuator did not start from the assumed memory state: its history "
-    "before the record (a virtual prior excursion) sets the play states, and the error lives "
-    "before the input has swept its full range (the wipe-out time).",
-}
-
-EQUATIONS: dict[str, str] = {
-    "delay": "y(t) = y_PI(t - tau_d)",
-    "lag": "tau * dy/dt + y = y_PI",
-    "resonance": "y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
-    "rate": "y = p0 u + sum_i p_i Play[r_i + beta |du/dt|](u)",
-    "creep": "y = x + sum_j c_j (L_tau_j[x] - x),  tau_j L' + L = x",
-    "drift": "y = x + sum_k a_k P_k(2 t / T - 1)  (Legendre polynomials)",
-    "asymmetry": "y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3",
-    "offset": "y = x + c_k  (one offset per recording)",
-    "initial-memory": "play states at t=0 = Play[r_i](virtual history U_1, U_2, ...)",
-}
-
-UNTESTABLE_EXPERIMENT: dict[str, str] = {
-    "creep": "an up-then-down staircase with holds of 3-30 s (>= 2 decades of hold time)",
-    "drift": "a record of several minutes, or an identical 1 Hz reference cycle repeated every "
-    "60 s over >= 5 min",
-    "rate": "full-stroke sines (or triangles) at >= 2 rates a decade apart, same amplitude",
-    "offset": "several recordings (an offset per recording), or an independent zero reference",
-    "initial-memory": "data before the input first sweeps its full range (the wipe-out time)",
-    "asymmetry": "a full-range symmetric periodic excitation",
-}
+def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
+    """Smallest gain with which ``name`` could still be chosen over the leading passing
+    family (:func:`_choose`: a later family needs 1.5 times its gain); 0 when unbounded."""
+    if lead is None:
+        return 0.0
+    fam = EFFECTS[name].family
+    if fam == lead[0] or FAMILY_PRIORITY[fam] <= FAMILY_PRIORITY[lead[0]]:
+        return 0.0
+    return 1.5 * lead[1]
 
 
-@dataclass
-class EffectFinding:
-    """One accepted effect (SAY / MODEL / SHOW)."""
-
-    name: str
-    parameters: dict[str, Any]
-    uncertainty: dict[str, Any]
-    where: dict[str, Any]
-    explanation: str
-    equation: str
-    heldout: HeldOut
-    heldout_rmse_before: float
-    heldout_rmse_after: float
-    score_lm: float
-    discriminators: dict[str, Any] = field(default_factory=dict)
-    ambiguous_with: list[str] = field(default_factory=list)
-    runner_up: dict[str, Any] = field(default_factory=dict)
-    crossfit: dict[str, Any] | None = None
-    uncertainty_method: str = "profile curvature"
-    structure: Structure | None = None
-    loro: dict[str, Any] | None = None
-    caveats: list[str] = field(default_factory=list)
-
-    def to_dict(self, y_range: float) -> dict[str, Any]:
-        """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
-        h = self.heldout
-        return {
-            "name": self.name,
-            "family": FAMILIES[self.name],
-            "parameters": _jsonable(self.parameters),
-            "uncertainty": _jsonable(self.uncertainty),
-            "uncertainty_method": self.uncertainty_method,
-            "leave_one_recording_out": _jsonable(self.loro),
-            "caveats": list(self.caveats),
-            "where": _jsonable(self.where),
-            "explanation": self.explanation,
-            "equation": self.equation,
-            "heldout_rmse_before": self.heldout_rmse_before,
-            "heldout_rmse_after": self.heldout_rmse_after,
-            "heldout_rmse_before_pct": 100 * self.heldout_rmse_before / y_range,
-            "heldout_rmse_after_pct": 100 * self.heldout_rmse_after / y_range,
-            "heldout_mse_reduction": h.gain,
-            "dm_z": h.z,
-            "signed_rank_p": h.sign_p,
-            "score_lm": self.score_lm,
-            "discriminators": _jsonable(self.discriminators),
-            "ambiguous_with": list(self.ambiguous_with),
-            "runner_up": _jsonable(self.runner_up),
-            "crossfit": _jsonable(self.crossfit),
-        }
+def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[str, float]:
+    """The leading passing family after ``name`` passed with ``gain``."""
+    fam = EFFECTS[name].family
+    if lead is None or FAMILY_PRIORITY[fam] < FAMILY_PRIORITY[lead[0]] or (
+            fam == lead[0] and gain > lead[1]):
+        return fam, gain
+    return lead
 
 
-@dataclass
-class DiagnosisResult:
-    """Outcome of :func:`diagnose`.
-
-    Attributes
-    ----------
-    records : list of Record
-    baseline, final : Fit
-        The baseline PI fit (at the resolution chosen by the under-resolution check) and the
-        fit with every accepted effect.
-    requested : Fit
-        The PI fit with the requested number of operators.
-    effects : list of EffectFinding
-        Accepted effects in the order they were found.
-    untestable : list of dict
-        ``{"name", "reason", "experiment"}`` per effect the recordings cannot excite.
-    ambiguous : list of dict
-        ``{"effects", "chosen", "reason", "experiment"}`` per undecided pair.
-    rounds : list of dict
-        Every candidate tested in every round with its held-out statistics.
-    maps_before, maps_after : dict
-        Residual maps (LOCATE) of the baseline and the final model on all rows.
-    split : str
-        How the train/test rows were chosen.
-    loro_baseline, loro_final : dict or None
-        Leave-one-recording-out scores of the baseline and the final structure (see
-        :func:`leave_one_recording_out`); ``None`` with one recording or an explicit
-        train/test window.
-    """
-
-    records: list[Record]
-    train: list[np.ndarray]
-    test: list[np.ndarray]
-    baseline: Fit
-    final: Fit
-    effects: list[EffectFinding]
-    untestable: list[dict[str, str]]
-    ambiguous: list[dict[str, Any]]
-    rounds: list[dict[str, Any]]
-    maps_before: dict[str, Any]
-    maps_after: dict[str, Any]
-    split: str
-    noise_rms: float
-    elapsed_s: float
-    model_name: str = "pi"
-    requested: Fit | None = None
-    loro_baseline: dict[str, Any] | None = None
-    loro_final: dict[str, Any] | None = None
-
-    @property
-    def model(self) -> Model:
-        """The final extended model (as fitted to the first recording)."""
-        return self.final.models[0]
-
-    @property
-    def suggestive(self) -> list[dict[str, Any]]:
-        """Effects of the last round that improved the held-out MSE by >= 5 % but failed the
-        significance test: worth a targeted experiment, not claimed."""
-        if not self.rounds:
-            return []
-        last = max(r["round"] for r in self.rounds)
-        return [
-            {k: r[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
-                               "parameters", "dm_z_pooled", "signed_rank_p_pooled",
-                               "parameter_cv") if k in r}
-            for r in self.rounds
-            if r["round"] == last and not r["passes"] and r["heldout_mse_reduction"] >= 0.05
-            and not str(r["effect"]).startswith(("resolution", "recheck"))
-        ]
-
-    def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
-        """Fit effect ``name`` on top of the final model although it was not claimed.
-
-        For a user who wants to try a *suggestive* effect (one that improved the held-out fit
-        but failed the significance rule). Nothing here is a claim; the held-out RMSE of the
-        returned fit is :meth:`heldout_rmse`.
-
-        Returns
-        -------
-        fit : Fit
-        parameters : dict
-        """
-        if name not in EFFECT_TYPES:
-            raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
-        ctx = _Ctx(self.records, self.train, self.test)
-        got = _candidate(ctx, name, self.final)
-        if got is None:
-            raise ParameterError(f"effect {name!r} is already in the model or not applicable")
-        return got[0], got[1]
-
-    @property
-    def _req(self) -> Fit:
-        return self.requested if self.requested is not None else self.baseline
-
-    @property
-    def y_range(self) -> float:
-        """Output range of all recordings (for % figures)."""
-        return float(max(r.y.max() for r in self.records) - min(r.y.min() for r in self.records))
-
-    def heldout_rmse(self, fit: Fit) -> float:
-        """Held-out RMSE of ``fit`` over every recording (output units)."""
-        e = np.concatenate([(r.y - p)[m] for r, p, m in zip(self.records, fit.pred, self.test,
-                                                               strict=True)])
-        return float(np.sqrt(np.mean(e * e)))
-
-    def per_recording(self, fit: Fit) -> list[dict[str, Any]]:
-        """Held-out and training RMSE per recording."""
-        out = []
-        for r, p, tr, te in zip(self.records, fit.pred, self.train, self.test, strict=True):
-            e = r.y - p
-            out.append(
-                {
-                    "recording": r.name,
-                    "heldout_rmse": float(np.sqrt(np.mean(e[te] ** 2))) if te.any() else None,
-                    "train_rmse": float(np.sqrt(np.mean(e[tr] ** 2))) if tr.any() else None,
-                }
-            )
-        return out
-
-    def to_dict(self) -> dict[str, Any]:
-        """Machine-readable result (the ``hyst diagnose --json`` document).
-
-        Keys
-        ----
-        ``format``, ``version``
-            ``"hysteresis-explorer/diagnosis"``, 1.
-        ``recordings``
-            Name, samples, dt of each recording; ``split`` says how train/test were chosen.
-        ``baseline``
-            ``model`` (``"pi"``), ``n_operators``, ``heldout_rmse`` (output units),
-            ``heldout_rmse_pct`` (% of the output range), ``per_recording``, ``noise_rms``,
-            ``ljung_box``, the residual maps ``maps`` (LOCATE) and
-            ``leave_one_recording_out`` (with >= 2 recordings and the default interleaved
-            split, else ``null``): ``{"rule", "rmse", "rmse_pct", "per_recording": [{
-            "recording", "samples", "rmse", "rmse_pct"}]}``, each recording predicted by the
-            structure refitted on the other recordings only.
-        ``effects``
-            Accepted effects in order; each has ``name`` (an effect ``type``), ``parameters``,
-            ``uncertainty`` (1-sigma, autocorrelation-inflated), ``where`` (time windows,
-            input range, branch shares, summary), ``explanation``, ``equation``,
-            ``heldout_rmse_before``/``_after`` (output units, and ``_pct``),
-            ``heldout_mse_reduction``, ``dm_z``, ``sign_test_p``, ``score_lm``,
-            ``discriminators``, ``ambiguous_with``, ``runner_up``, ``crossfit`` (with
-            explicit windows: ``folds``, ``dm_z_pooled``, ``signed_rank_p_pooled``,
-            ``mse_reduction_pooled``, ``fold_mse_reductions``, ``fold_parameters``,
-            ``parameter_cv``; else ``null``), ``uncertainty_method``, ``caveats`` (e.g. the rows
-            outside train/test got more than 25 % worse) and
-            ``leave_one_recording_out`` (``{"rmse_before", "rmse_after", "mse_reduction",
-            "per_recording"}``: the structure up to this effect against the one before it,
-            scored as in ``baseline``; ``null`` when not scored).
-        ``untestable``
-            ``[{"name", "reason", "experiment"}]``.
-        ``ambiguous``
-            ``[{"effects", "chosen", "reason", "experiment"}]``.
-        ``final``
-            ``effects`` (names), ``heldout_rmse`` (+ ``_pct``), ``per_recording``, ``model``
-            (the extended model's ``to_dict()``), ``maps``, ``leave_one_recording_out``
-            (as in ``baseline``, plus ``mse_reduction`` against the baseline's).
-        ``suggestive``
-            Effects of the last round with >= 5 % held-out MSE reduction that failed the
-            significance rule (not claimed).
-        ``tested``
-            Every candidate of every round with its held-out gain, z and decision.
-        ``accept_rule``
-            The thresholds used.
-        """
-        yr = self.y_range
-        b = self.heldout_rmse(self.baseline)
-        f = self.heldout_rmse(self.final)
-        lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
-                                       zip(self.records, self.baseline.pred, self.test,
-                                           strict=True)]))
-        return {
-            "format": "hysteresis-explorer/diagnosis",
-            "version": 1,
-            "recordings": [{"name": r.name, "samples": r.n, "dt_s": r.dt} for r in self.records],
-            "split": self.split,
-            "baseline": {
-                "model": self.model_name,
-                "n_operators": len(self.baseline.structure.thresholds),
-                "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
-                else "nonnegative",
-                "heldout_rmse": b,
-                "heldout_rmse_pct": 100 * b / yr,
-                "requested_n_operators": len(self._req.structure.thresholds),
-                "requested_heldout_rmse": self.heldout_rmse(self._req),
-                "requested_heldout_rmse_pct": 100 * self.heldout_rmse(self._req) / yr,
-                "per_recording": self.per_recording(self.baseline),
-                "noise_rms": self.noise_rms,
-                "ljung_box": {"Q": lb[0], "lags": lb[1]},
-                "model_dict": self.baseline.models[0].to_dict(),
-                "maps": _jsonable(self.maps_before),
-                "leave_one_recording_out": _jsonable(self.loro_baseline),
-            },
-            "effects": [e.to_dict(yr) for e in self.effects],
-            "untestable": self.untestable,
-            "ambiguous": _jsonable(self.ambiguous),
-            "final": {
-                "effects": [e.name for e in self.effects],
-                "heldout_rmse": f,
-                "heldout_rmse_pct": 100 * f / yr,
-                "per_recording": self.per_recording(self.final),
-                "model": self.model.to_dict(),
-                "maps": _jsonable(self.maps_after),
-                "leave_one_recording_out": _jsonable(self.loro_final),
-            },
-            "suggestive": _jsonable(self.suggestive),
-            "tested": _jsonable(self.rounds),
-            "accept_rule": ACCEPT_RULE,
-            "elapsed_s": self.elapsed_s,
-        }
-
-    def summary(self) -> str:
-        """Readable multi-line report."""
-        yr = self.y_range
-        b = self.heldout_rmse(self.baseline)
-        f = self.heldout_rmse(self.final)
-        lines = [
-            f"Recordings: {', '.join(f'{r.name} ({r.n} samples)' for r in self.records)}",
-            f"Split: {self.split}",
-            f"Baseline {self.model_name.upper()} ({len(self.baseline.structure.thresholds)} "
-            f"operators{', weights of free sign' if self.baseline.structure.free_weights else ''}"
-            f"): held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range); "
-            f"white-noise floor {self.noise_rms:.3g}",
-        ]
-        nq = len(self._req.structure.thresholds)
-        if nq != len(self.baseline.structure.thresholds):
-            q = self.heldout_rmse(self._req)
-            lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "
-                         f"({100 * q / yr:.3f} %); under-resolved, the grid was refined")
-        if not self.effects:
-            lines.append("No missing physics detected: no effect improved the held-out fit "
-                         "significantly.")
-        for i, e in enumerate(self.effects, 1):
-            ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
-                                                if e.uncertainty.get(k) is not None else "")
-                           for k, v in e.parameters.items())
-            lines += [
-                f"{i}. {e.name}: {ps}",
-                f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
-                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
-                f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} %, "
-                f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}",
-            ] + ([
-                f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
-                f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
-                f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
-                + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
-            ] if e.crossfit else []) + [
-                f"   where: {e.where.get('summary', '')}",
-                f"   why: {e.explanation}",
-                f"   added: {e.equation}",
-            ]
-            lines += [f"   caveat: {c}" for c in e.caveats]
-            if e.loro is not None:
-                lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
-                             f"{e.loro['rmse_after']:.4g} (MSE "
-                             f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
-            if e.ambiguous_with:
-                lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
-        lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
-        if self.loro_baseline is not None and self.loro_final is not None:
-            lb_, lf_ = self.loro_baseline, self.loro_final
-            per = ", ".join(f"{a['recording']} {a['rmse']:.4g} -> {b_['rmse']:.4g}"
-                            for a, b_ in zip(lb_["per_recording"], lf_["per_recording"],
-                                             strict=True))
-            lines.append(f"Leave-one-recording-out RMSE (each recording predicted by the model "
-                         f"refitted on the others): baseline {lb_['rmse']:.4g} -> final "
-                         f"{lf_['rmse']:.4g} (MSE {-100 * lf_['mse_reduction'] + 0.0:+.1f} %); "
-                         f"{per}")
-        for sg in self.suggestive:
-            pooled = (f"; with the cross-fitted blocks z = {sg['dm_z_pooled']:.2f}, "
-                      f"p = {sg['signed_rank_p_pooled']:.2g}, parameter CV across folds "
-                      + ", ".join(f"{k} {100 * v:.0f} %" for k, v in sg["parameter_cv"].items())
-                      if "dm_z_pooled" in sg else "")
-            lines.append(f"Suggestive, not claimed: {sg['effect']} (held-out MSE "
-                         f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
-                         f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
-                         "acceptance rule)")
-        for a in self.ambiguous:
-            lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
-                         f"{a['experiment']}")
-        for u in self.untestable:
-            lines.append(f"Untestable: {u['name']}: {u['reason']}; would need {u['experiment']}")
-        return "\n".join(lines)
+def _deferred_row(rnd: int, name: str, params: dict | None = None) -> dict[str, Any]:
+    return {"round": rnd + 1, "effect": name, "heldout_mse_reduction": float("nan"),
+            "dm_z": float("nan"), "signed_rank_p": float("nan"), "passes": False,
+            "decision": "deferred", "parameters": params or {},
+            "evidence": "not needed: an effect of a higher-priority family passed, and this "
+            "one could not explain 1.5 times as much"}
 
 
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_fmt(x) for x in v) + "]"
-    return str(v)
+def _screen(fit: Fit, cur: Fit) -> HeldOut:
+    """In-sample training-RSS reduction of ``fit`` over ``cur`` (a screen, no significance):
+    an effect that cannot reduce the training error by ``min_gain`` cannot pass held out."""
+    b = cur.train_rss / max(cur.n_train, 1)
+    a = fit.train_rss / max(fit.n_train, 1)
+    return HeldOut(b, a, 1.0 - a / b if b > 0 else 0.0, 0.0, 1.0, 0)
 
 
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
-    if isinstance(x, np.floating | float):
-        v = float(x)
-        return v if np.isfinite(v) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, HeldOut):
-        return {"gain": x.gain, "z": _jsonable(x.z), "sign_p": x.sign_p}
-    return x
-
-
-# ----------------------------------------------------------------------------- context
-class _Ctx:
-    def __init__(self, records, train, test, folds=None, parent: _Ctx | None = None) -> None:
-        self.records: list[Record] = records
-        self.train: list[np.ndarray] = train
-        self.test: list[np.ndarray] = test
-        self.cache = _Cache()
-        if parent is not None:
-            # play banks do not depend on the rows used; share them (bases are re-derived)
-            self.cache.d = parent.cache.d
-        self.coords: list[Coordinates] = (coordinates(records) if parent is None
-                                          else parent.coords)
-        self.n_train = sum(int(m.sum()) for m in train)
-        #: refreshes of the bilinear (creep, asymmetry) regressors per fit; None = default
-        self.iterations: int | None = None
-        #: blocked cross-validation folds over the training rows (explicit windows only)
-        self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
-
-    def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
-        f = fit_structure(s, self.records, self.train, self.cache,
-                          cur.x_pi if cur is not None else None, iterations=self.iterations)
-        assert isinstance(f, Fit)
-        return f
-
-    def rss(self, s: Structure, cur: Fit) -> float:
-        """Training RSS of the linear solve (bilinear regressors frozen at ``cur``)."""
-        v = fit_structure(s, self.records, self.train, self.cache, cur.x_pi, iterations=1,
-                          rss_only=True)
-        assert isinstance(v, float)
-        return v
-
-    def test_res(self, f: Fit, masks: list[np.ndarray] | None = None) -> list[Float1D]:
-        ms = self.test if masks is None else masks
-        return [(r.y - p)[m] for r, p, m in zip(self.records, f.pred, ms, strict=True)]
-
-    @property
-    def memory_masks(self) -> list[np.ndarray]:
-        """The pre-wipe-out rows: the only rows an initial memory state affects."""
-        out = []
-        for r in self.records:
-            m = np.zeros(r.n, dtype=bool)
-            m[: wipeout_index(r.u)] = True
-            out.append(m)
-        return out
-
-    def all_res(self, f: Fit) -> list[Float1D]:
-        return [r.y - p for r, p in zip(self.records, f.pred, strict=True)]
-
-
-def _scalar_search(ctx: _Ctx, make, grid: np.ndarray, cur: Fit) -> tuple[float, Fit, dict]:
-    """VarPro over one positive parameter: grid, then golden refinement in log space."""
-    import scipy.optimize as so
-
-    rss = []
-    for g in grid:
-        rss.append(ctx.rss(make(float(g)), cur))
-    i = int(np.argmin(rss))
-    lo = np.log(grid[max(i - 1, 0)])
-    hi = np.log(grid[min(i + 1, grid.size - 1)])
-    memo: dict[float, float] = {}
-
-    def f(lx: float) -> float:
-        if lx not in memo:
-            memo[lx] = ctx.rss(make(float(np.exp(lx))), cur)
-        return memo[lx]
-
-    if hi > lo:
-        r = so.minimize_scalar(f, bounds=(lo, hi), method="bounded",
-                               options={"xatol": 0.03, "maxiter": 9})
-        best = float(np.exp(r.x)) if r.fun < rss[i] else float(grid[i])
-    else:
-        best = float(grid[i])
-    # profile curvature in log space -> 1-sigma (inflated for autocorrelation)
-    lb = np.log(best)
-    h = 0.1
-    f0, fp, fm = f(lb), f(lb + h), f(lb - h)
-    curv = (fp - 2 * f0 + fm) / h**2
-    info = {"profile_curvature": curv, "rss": f0}
-    fit = ctx.fit(make(best), cur)
-    return best, fit, info
-
-
-def _sigma_from_curvature(ctx: _Ctx, fit: Fit, curv: float, value: float) -> float | None:
-    if not np.isfinite(curv) or curv <= 0:
-        return None
-    e = np.concatenate([(r.y - p)[m] for r, p, m in zip(ctx.records, fit.pred, ctx.train,
-                                                        strict=True)])
-    n = e.size
-    s2 = float(e @ e) / n
-    rho = float(np.corrcoef(e[1:], e[:-1])[0, 1]) if n > 3 else 0.0
-    rho = min(max(rho, 0.0), 0.999)
-    infl = (1 + rho) / (1 - rho)
-    var_log = 2.0 * s2 / curv * infl
-    return float(value * np.sqrt(var_log))
-
-
-# ----------------------------------------------------------------------------- candidates
-def _candidate(ctx: _Ctx, name: str, cur: Fit) -> tuple[Fit, dict, dict] | None:
-    """Fit effect ``name`` on top of ``cur``; returns (fit, parameters, uncertainty)."""
-    s = cur.structure
-    dts = [r.dt for r in ctx.records]
-    dt = min(dts)
-    dur = min(r.t[-1] - r.t[0] for r in ctx.records)
-    if name in ("delay", "lag"):
-        if s.dynamics:
-            return None
-        grid = np.geomspace(1e-4 * dt, min(0.05, dur / 20), 18)
-        key = "delay_s" if name == "delay" else "tau_s"
-        best, fit, info = _scalar_search(
-            ctx, lambda v: s.with_(dynamics=(name, v)), grid, cur
-        )
-        return fit, {key: best}, {key: _sigma_from_curvature(ctx, fit, info["profile_curvature"],
-                                                             best)}
-    if name == "resonance":
-        if s.dynamics:
-            return None
-        import scipy.optimize as so
-
-        fmax = 0.35 / dt
-        # a mode at or near the excitation frequency is a phase/gain fudge of the loop
-        # itself, not a resonance (it fits the training rows and wrecks the held-out ones)
-        fmin = max(5.0 / dur, 2.0, 3.0 * _excitation_hz(ctx.records))
-        fs = np.geomspace(fmin, fmax, 7)
-        zs = np.array([0.05, 0.2, 0.7])
-        best = (np.inf, fs[0], zs[0])
-        for f_ in fs:
-            for z_ in zs:
-                v = ctx.rss(s.with_(dynamics=("resonance", float(f_), float(z_))), cur)
-                if v < best[0]:
-                    best = (v, f_, z_)
-
-        def obj(p):
-            f_, z_ = float(np.exp(p[0])), float(np.exp(p[1]))
-            if not (fmin * 0.5 <= f_ <= 0.45 / dt and 0.005 <= z_ <= 2.0):
-                return np.inf
-            return ctx.rss(s.with_(dynamics=("resonance", f_, z_)), cur)
-
-        r = so.minimize(obj, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
-                        options={"maxfev": 16, "xatol": 0.03, "fatol": 1e-9})
-        f_, z_ = (float(np.exp(r.x[0])), float(np.exp(r.x[1]))) if r.fun < best[0] else (
-            float(best[1]), float(best[2]))
-        fit = ctx.fit(s.with_(dynamics=("resonance", f_, z_)), cur)
-        # 1-D curvatures for rough sigmas
-        unc = {}
-        for j, key, val in ((0, "freq_hz", f_), (1, "damping", z_)):
-            h = 0.05
-            p = np.array([np.log(f_), np.log(z_)])
-            pp, pm = p.copy(), p.copy()
-            pp[j] += h
-            pm[j] -= h
-            c = (obj(pp) - 2 * obj(p) + obj(pm)) / h**2
-            unc[key] = _sigma_from_curvature(ctx, fit, c, val)
-        return fit, {"freq_hz": f_, "damping": z_}, unc
-    if name == "rate":
-        if s.beta_s is not None:
-            return None
-        span = max(float(np.ptp(r.u)) for r in ctx.records)
-        rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
-        grid = np.geomspace(1e-5, 0.3, 12) * span / rmax
-        best, fit, info = _scalar_search(ctx, lambda v: s.with_(beta_s=v), grid, cur)
-        return fit, {"beta_s": best}, {"beta_s": _sigma_from_curvature(
-            ctx, fit, info["profile_curvature"], best)}
-    if name == "creep":
-        if s.creep_taus:
-            return None
-        lo = max(10 * dt, 0.01)
-        hi = max(r.t[-1] - r.t[0] for r in ctx.records)
-        taus = tuple(float(x) for x in 10.0 ** np.arange(np.ceil(np.log10(lo)),
-                                                         np.log10(hi) + 1e-9))
-        if len(taus) < 1:
-            return None
-        fit = ctx.fit(s.with_(creep_taus=taus), cur)
-        return fit, {"taus_s": list(taus), "weights": fit.creep_weights.tolist(),
-                     "gamma_per_decade": float(fit.creep_weights.sum() / len(taus))}, {}
-    if name == "drift":
-        if s.drift_degree:
-            return None
-        fit = ctx.fit(s.with_(drift_degree=2), cur)
-        return fit, {"coefficients": [c.tolist() for c in fit.drift_coef],
-                     "peak_to_peak": [float(np.ptp(m.stages[-1].drift(r.t - r.t[0])))
-                                      for m, r in zip(fit.models, ctx.records, strict=True)]}, {}
-    if name == "asymmetry":
-        if s.asymmetry:
-            return None
-        fit = ctx.fit(s.with_(asymmetry=True), cur)
-        return fit, {"a2": float(fit.asym_coef[0]), "a3": float(fit.asym_coef[1]),
-                     "center": fit.asym_center, "scale": fit.asym_scale}, {}
-    if name == "offset":
-        if s.offsets or len(ctx.records) < 2:
-            return None
-        fit = ctx.fit(s.with_(offsets=True), cur)
-        return fit, {"offsets": fit.bias.tolist()}, {}
+def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None) -> str:
     if name == "initial-memory":
-        if any(s.history):
-            return None
-        return _initial_memory(ctx, cur)
-    raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
+        return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
+                if ctx.strict else "rows before the wipe-out time")
+    if ctx.strict:
+        return (f"{cf['folds']} cross-fitted training blocks" if cf is not None else
+                "training-RSS screen (below the effect-size rule, not cross-fitted)")
+    return "test rows"
 
 
-def _excitation_hz(records: Sequence[Record]) -> float:
-    """Slowest fundamental over the recordings: half the number of input reversals per
-    second (reversals larger than 10 % of the input range)."""
-    rates = []
-    for r in records:
-        dur = float(r.t[-1] - r.t[0])
-        span = float(np.ptp(r.u))
-        if dur > 0 and span > 0:
-            rates.append(0.5 * (reversal_points(r.u, 0.1 * span).size - 1) / dur)
-    return min(rates) if rates else 0.0
+def _compare(ctx: FitContext, a: Fit, b: Fit) -> HeldOut:
+    """Held-out comparison of two fitted structures (linear weights refitted per fold):
+    on the test rows, or with strict hold-out on the cross-fitted training blocks."""
+    if not ctx.strict:
+        return heldout_comparison(ctx.test_res(a), ctx.test_res(b))
+    eb, ea = [], []
+    for tr_f, blk in ctx.folds:
+        fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
+        eb += fc.test_res(fc.fit(a.structure, a))
+        ea += fc.test_res(fc.fit(b.structure, b))
+    return heldout_comparison(eb, ea)
 
 
-def _initial_memory(ctx: _Ctx, cur: Fit) -> tuple[Fit, dict, dict] | None:
-    s = cur.structure
-    hist = list(s.history)
-    best_fit = cur
-    for k, rec in enumerate(ctx.records):
-        tw = wipeout_index(rec.u)
-        if not (ctx.train[k][:tw].any() or ctx.test[k][:tw].any()):
-            continue
-        lo, hi = float(rec.u.min()), float(rec.u.max())
-        span = hi - lo
-        levels = lo + span * np.linspace(-0.25, 1.25, 7)
-        cands: list[tuple[float, ...]] = [(float(v),) for v in levels]
-        for a in (lo - 0.25 * span, lo, hi, hi + 0.25 * span):
-            for b in levels[1:-1]:
-                if abs(b - a) > 0.2 * span:
-                    cands.append((float(a), float(b)))
-        best = (ctx.rss(s.with_(history=tuple(hist)), best_fit), tuple(hist[k]))
-        for c in cands:
-            h2 = list(hist)
-            h2[k] = c
-            v = ctx.rss(s.with_(history=tuple(h2)), best_fit)
-            if v < best[0]:
-                best = (v, c)
-        if best[1]:
-            import scipy.optimize as so
-
-            def obj(x, k=k):
-                h2 = list(hist)
-                h2[k] = tuple(float(v) for v in x)
-                return ctx.rss(s.with_(history=tuple(h2)), best_fit)
-
-            x0 = np.asarray(best[1], dtype=float)
-            rr = so.minimize(obj, x0, method="Nelder-Mead",
-                             options={"maxfev": 8 * x0.size, "initial_simplex": np.vstack(
-                                 [x0] + [x0 + 0.08 * span * np.eye(x0.size)[i]
-                                         for i in range(x0.size)])})
-            best = (rr.fun, tuple(float(v) for v in rr.x)) if rr.fun < best[0] else best
-        hist[k] = best[1]
-    if not any(hist):
-        return None
-    fit = ctx.fit(s.with_(history=tuple(hist)), cur)
-    return fit, {"history": [list(h) for h in hist]}, {}
-
-
-def _fold_fits(ctx: _Ctx, folds: list, name: str, cur: Fit, iterations: int | None = None):
+def _fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: int | None = None):
     """Per fold: (fold context, current structure refitted without the block, effect ``name``
     fitted on top of it or ``None``)."""
     for tr_f, blk in folds:
-        fc = _Ctx(ctx.records, tr_f, blk, parent=ctx)
+        fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
         fc.iterations = iterations
         cur_f = fc.fit(cur.structure, cur)
-        yield fc, cur_f, _candidate(fc, name, cur_f)
+        yield fc, cur_f, build_candidate(fc, name, cur_f)
 
 
 #: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
 _SCALAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
 
 
-def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
+def _crossfit(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
     """Held-out evidence from the training window itself, by blocked cross-fitting.
 
     For each fold of ``ctx.folds`` the current structure's linear weights are re-solved
@@ -794,7 +145,7 @@ def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None
     """
     if not ctx.folds:
         return None
-    eb, ea = list(ctx.test_res(cur)), list(ctx.test_res(fit))
+    eb, ea = ([], []) if ctx.strict else (list(ctx.test_res(cur)), list(ctx.test_res(fit)))
     n_test = sum(e.size for e in eb)
     gains, params = [], []
     for fc, cur_f, got in _fold_fits(ctx, ctx.folds, name, cur):
@@ -808,14 +159,15 @@ def _crossfit(ctx: _Ctx, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None
         gains.append(1.0 - m1 / m0 if m0 > 0 else 0.0)
         params.append(got[1])
     n_all = sum(e.size for e in eb)
-    pooled = heldout_comparison(eb, ea, n_batches=int(round(40 * n_all / max(n_test, 1))))
+    pooled = heldout_comparison(eb, ea, n_batches=40 if ctx.strict else int(
+        round(40 * n_all / max(n_test, 1))))
     cv: dict[str, float] = {}
     for key in _SCALAR_PARAMS:
         vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
         if vals.size == len(params) and vals.size >= 2 and np.mean(vals) != 0:
             cv[key] = float(np.std(vals, ddof=1) / abs(np.mean(vals)))
     return {"pooled": pooled, "folds": len(ctx.folds), "fold_gains": gains,
-            "fold_parameters": params, "parameter_cv": cv}
+            "fold_parameters": params, "parameter_cv": cv, "before": eb, "after": ea}
 
 
 #: Effects whose parameters are linear weights (one least-squares solve, cheap to refit).
@@ -844,7 +196,7 @@ def _jackknife(param_sets: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def _effect_uncertainty(ctx: _Ctx, name: str, cur: Fit, unc: dict[str, Any],
+def _effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any],
                         cf: dict[str, Any] | None, train: list[np.ndarray]
                         ) -> tuple[dict[str, Any], str]:
     """1-sigma uncertainties of an accepted effect's parameters, and how they were obtained.
@@ -884,7 +236,20 @@ def _cf_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:
             "parameter_cv": cf["parameter_cv"]}
 
 
-def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
+def _untestable(ctx: FitContext) -> list[dict[str, str]]:
+    recs = ctx.records
+    untimed = [r.name for r in recs if not r.has_time]
+    if untimed:
+        why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
+               "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
+               "rate or frequency cannot be told apart from the loop itself")
+        out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
+                "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
+        return out + [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
+    return _untestable_timed(ctx)
+
+
+def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     out = []
     recs = ctx.records
     # creep: holds after steps (>= 0.5 s) inside the train or test rows
@@ -897,18 +262,18 @@ def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
                 has_hold = True
     if not has_hold:
         out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
-                    "train/test rows", "experiment": UNTESTABLE_EXPERIMENT["creep"]})
+                    "train/test rows", "experiment": EFFECTS["creep"].experiment})
     total = sum(float(r.t[-1] - r.t[0]) for r in recs)
     if total < 20.0 and len(recs) == 1:
         out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
                     "a slow drift from the model's bias",
-                    "experiment": UNTESTABLE_EXPERIMENT["drift"]})
+                    "experiment": EFFECTS["drift"].experiment})
     # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
     peaks = []
     for rec, c in zip(recs, ctx.coords, strict=True):
         span = float(np.ptp(rec.u)) or 1.0
-        rv = reversal_points(rec.u, 0.01 * span)
-        rv = np.concatenate((rv, [rec.n - 1]))
+        rv = reversal_indices(rec.u, 0.01 * span)
+        rv = np.concatenate((rv, [rec.n_samples - 1]))
         for a, b in zip(rv[:-1], rv[1:], strict=True):
             if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
                 peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
@@ -916,19 +281,19 @@ def _untestable(ctx: _Ctx) -> list[dict[str, str]]:
         out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
                     "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
                     "told from rate-independent loop width",
-                    "experiment": UNTESTABLE_EXPERIMENT["rate"]})
+                    "experiment": EFFECTS["rate"].experiment})
     if len(recs) < 2:
         out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
-                    "exactly by the model's bias", "experiment": UNTESTABLE_EXPERIMENT["offset"]})
+                    "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
     if not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
                for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
         out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
                     "input swept its full range, which wipes out the initial memory",
-                    "experiment": UNTESTABLE_EXPERIMENT["initial-memory"]})
+                    "experiment": EFFECTS["initial-memory"].experiment})
     return out
 
 
-def _discriminators(ctx: _Ctx, cur: Fit) -> dict[str, Any]:
+def _discriminators(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
     rows_e, rows = [], []
     for rec, p, x, m in zip(ctx.records, cur.pred, cur.x_pi, ctx.train, strict=True):
@@ -978,13 +343,21 @@ def diagnose(
     max_effects: int = 5,
     auto_resolution: bool = True,
     crossfit: bool | None = None,
+    time: ColumnSpec = None,
+    input: ColumnSpec = None,  # noqa: A002 - mirrors csvio's role name
+    output: ColumnSpec = None,
+    run: ColumnSpec = None,
+    resample: bool | float = False,
+    progress: Callable[[float, str], None] | None = None,
 ) -> DiagnosisResult:
     """Locate, name, model and validate the physics a PI model leaves out.
 
     Parameters
     ----------
-    recordings : Record, (t, u, y) tuple, CSV path, object with t/u/y, or a list of those
-        Measured recordings (uniform sampling; t in seconds).
+    recordings : Recording, (t, u, y) tuple, CSV path, object with t/u/y, or a list of those
+        Measured recordings (t in seconds, or the sample index for quasi-static loops
+        without a time axis). CSV files are read by :func:`core.csvio.read_csv`, like
+        ``hyst fit``; a run/loop column gives several recordings.
     model : {"pi"}
         Base model class.
     train, test : (float, float), optional
@@ -1009,6 +382,14 @@ def diagnose(
         test window holds few independent batches), off for the interleaved split (its test
         blocks already span every recording). The effect-size rules and every reported
         held-out RMSE use the test rows only.
+    time, input, output, run : int, str, False or None
+        Columns of CSV files (name or 0-based index; see :func:`core.csvio.read_csv`).
+    resample : bool or float
+        ``True``: interpolate uneven recordings (gaps too) onto a uniform grid; a float:
+        resample to that spacing (s). Without it small time-stamp jitter is resampled with a
+        note and a gap is an error naming where it is (:func:`core.diagnosis.as_records`).
+    progress : callable ``(fraction, message)``, optional
+        Called as the diagnosis advances, ``fraction`` in [0, 1].
 
     Returns
     -------
@@ -1020,39 +401,60 @@ def diagnose(
     ParameterError
         For an unknown model or effect, or unusable recordings/splits.
     """
-    t_start = time.perf_counter()
+    t_start = _time.perf_counter()
     if model != "pi":
         raise ParameterError(f"model {model!r} is not supported by diagnose yet; use 'pi'")
     todo = list(EFFECT_TYPES if effects is None else effects)
     for e in todo:
         if e not in EFFECT_TYPES:
             raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
-    records = as_records(recordings)
+
+    def say(frac: float, msg: str) -> None:
+        if progress is not None:
+            progress(float(min(max(frac, 0.0), 1.0)), msg)
+
+    records = as_records(recordings, time=time, input=input, output=output, run=run,
+                         resample=resample)
+    say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
+        "fitting the baseline")
     trm, tem, desc = split_masks(records, train, test)
     if crossfit is None:
-        crossfit = train is not None and test is not None
-    ctx = _Ctx(records, trm, tem, folds=crossfit_folds(records, trm) if crossfit else None)
-    if ctx.folds:
+        crossfit = train is not None
+    ctx = FitContext(records, trm, tem, folds=crossfit_folds(records, trm) if crossfit else None)
+    # strict hold-out: with an explicit test window every decision (baseline grid, free
+    # weights, effects, look-alikes) rests on cross-fitted training blocks; the test window
+    # is only scored
+    ctx.strict = bool(ctx.folds) and train is not None
+    if train is not None and test is None and not ctx.strict:
+        raise ParameterError(
+            "without a test window the effects are selected by cross-fitting blocks of the "
+            "training rows, but the training rows after the wipe-out time are too short for "
+            "two blocks of 0.5 s; give a longer --train window, or a --test window"
+            + (" (and do not turn cross-fitting off)" if crossfit is False else ""))
+    if ctx.strict:
+        desc += (f"; selection by cross-fitting {len(ctx.folds)} training blocks, the test "
+                 "window is never used for selection")
+    elif ctx.folds:
         desc += f"; significance also on {len(ctx.folds)} cross-fitted training blocks"
     # under-resolution check (notes E13): double the grid while the held-out MSE drops by
     # >= 2 % (model selection of a nuisance, not a physics claim: no significance needed)
     # saturating loops (friction) need play weights of either sign: switch when the
     # sign-constrained PI is clearly worse on the held-out rows (MSE at least halved)
-    r = place_thresholds(records, trm, n_operators)
+    r = baseline_thresholds(records, trm, n_operators)
     s0 = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
-    free = heldout_comparison(ctx.test_res(f_nn), ctx.test_res(f_free)).gain >= 0.5
+    free = _compare(ctx, f_nn, f_free).gain >= 0.5
     base = None
     requested = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
-        r = place_thresholds(records, trm, n_try)
+        r = baseline_thresholds(records, trm, n_try)
         s_try = Structure(tuple(float(x) for x in r), tuple(() for _ in records),
                           free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
         else:
-            h = heldout_comparison(ctx.test_res(base), ctx.test_res(f_try))
+            h = _compare(ctx, base, f_try)
             if h.gain < 0.02:
                 break
         base = f_try
@@ -1061,8 +463,9 @@ def diagnose(
     assert base is not None
     cur = base
     res0 = ctx.all_res(base)
-    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(res0, tem,
-                                                                          strict=True)])))
+    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(
+        res0, trm if ctx.strict else tem, strict=True)])))
+    say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     untest = _untestable(ctx)
     untest_names = {u["name"] for u in untest}
     todo = [e for e in todo if e not in untest_names]
@@ -1071,14 +474,50 @@ def diagnose(
     rounds: list[dict[str, Any]] = []
     for rnd in range(max_effects):
         cur_te = ctx.test_res(cur)
-        mse_cur = float(np.mean(np.concatenate(cur_te) ** 2))
+        mse_cur = pooled_mse(cur_te)
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
-        for name in todo:
-            got = _candidate(ctx, name, cur)
+        cfs: dict[str, dict[str, Any]] = {}
+        span = 0.8 / max(max_effects, 1)
+        # strict: highest-priority families first; once one passes, a later family can only be
+        # chosen with 1.5 times its gain (_choose), so hopeless candidates are deferred to the
+        # next round without their (costly) cross-fitting
+        order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
+            ctx.strict) else todo
+        lead: tuple[str, float] | None = None
+        pre_deferred: list[dict[str, Any]] = []
+        for i, name in enumerate(order):
+            bound = _lead_bound(lead, name)
+            if bound > 1.0:
+                pre_deferred.append(_deferred_row(rnd, name))
+                continue
+            say(0.1 + span * (rnd + 0.5 * i / max(len(todo), 1)),
+                f"round {rnd + 1}: fitting {name}")
+            got = build_candidate(ctx, name, cur)
             if got is None:
                 continue
             fit, params, unc = got
-            if name == "initial-memory":
+            if ctx.strict and name != "initial-memory":
+                h = _screen(fit, cur)
+                if h.gain < bound:
+                    pre_deferred.append(_deferred_row(rnd, name, params))
+                    continue
+                if h.gain >= ACCEPT_RULE["min_gain"]:
+                    say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
+                        f"round {rnd + 1}: cross-fitting {name}")
+                    cf = _crossfit(ctx, name, cur, fit)
+                    if cf is not None:
+                        cfs[name] = cf
+                        h = cf["pooled"]
+            elif name == "initial-memory" and ctx.strict:
+                # judged on the training rows before the wipe-out (the only rows an initial
+                # state changes): in-sample, 1-2 parameters
+                mm = [a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)]
+                h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(fit, mm))
+                # and it must not make the cross-fitted blocks (after the wipe-out) worse
+                if _compare(ctx, cur, fit).gain < -0.01:
+                    h = HeldOut(h.mse_before, h.mse_after, h.gain, min(h.z, 0.0), 1.0,
+                                h.n_batches)
+            elif name == "initial-memory":
                 # judged on the pre-wipe-out rows (the only rows an initial state changes);
                 # it must not make the held-out rows worse
                 mm = ctx.memory_masks
@@ -1090,23 +529,31 @@ def diagnose(
             else:
                 h = heldout_comparison(cur_te, ctx.test_res(fit))
             cands[name] = (fit, params, unc, h)
+            if ctx.strict and decide(h, h.mse_before - noise**2, len(todo), cfs.get(
+                    name, {}).get("parameter_cv")).passes:
+                lead = _new_lead(lead, name, h.gain)
         if not cands:
             break
-        record = []
+        record = list(pre_deferred)
         passing = []
-        cfs: dict[str, dict[str, Any]] = {}
-        excess = mse_cur - noise**2
-        size_ok = {n: c[3].gain >= ACCEPT_RULE["min_gain"] and (
-            c[3].mse_before - c[3].mse_after) >= ACCEPT_RULE["min_excess_share"] * max(excess, 0)
-            for n, c in cands.items()}
-        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"}
+        excess = {n: (c[3].mse_before if ctx.strict else mse_cur) - noise**2
+                  for n, c in cands.items()}
+        size_ok = {n: effect_size_ok(c[3], excess[n]) for n, c in cands.items()}
+        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
+                    and not ctx.strict}
         skip = _cannot_win(cands, size_ok, needs_cf, len(cands))
         for name, (fit_, params, _, h) in cands.items():
             sig = h
-            stable = True
+            cv: dict[str, float] = {}
             row: dict[str, Any] = {"round": rnd + 1, "effect": name,
                                    "heldout_mse_reduction": h.gain, "dm_z": h.z,
-                                   "signed_rank_p": h.sign_p, "evidence": "test rows"}
+                                   "signed_rank_p": h.sign_p, "evidence": _evidence_label(
+                                       ctx, name, cfs.get(name))}
+            if name in cfs and ctx.strict:
+                cf = cfs[name]
+                cv = cf["parameter_cv"]
+                row.update({"fold_mse_reductions": cf["fold_gains"],
+                            "parameter_cv": cf["parameter_cv"]})
             if name in skip:
                 row.update({"passes": False, "decision": "deferred", "parameters": params,
                             "evidence": "not needed: an effect of a higher-priority family "
@@ -1114,20 +561,21 @@ def diagnose(
                 record.append(row)
                 continue
             if name in needs_cf:
+                say(0.1 + span * (rnd + 0.5), f"round {rnd + 1}: cross-fitting {name}")
                 cf = _crossfit(ctx, name, cur, fit_)
                 if cf is not None:
                     cfs[name] = cf
                     sig = cf["pooled"]
-                    stable = all(v < ACCEPT_RULE["max_param_cv"]
-                                 for v in cf["parameter_cv"].values())
+                    cv = cf["parameter_cv"]
                     row.update({"evidence": f"test rows + {cf['folds']} cross-fitted blocks",
                                 "dm_z_pooled": sig.z, "signed_rank_p_pooled": sig.sign_p,
                                 "mse_reduction_pooled": sig.gain,
                                 "fold_mse_reductions": cf["fold_gains"],
                                 "parameter_cv": cf["parameter_cv"]})
-            ok = size_ok[name] and stable and (sig.z >= ACCEPT_RULE["min_z"]
-                                         or sig.sign_p < ACCEPT_RULE["sign_p"] / len(cands))
-            row.update({"passes": bool(ok), "parameters": params})
+            dec = decide(h, excess[name], len(cands), cv, significance=sig)
+            ok = dec.passes
+            row.update({"passes": bool(ok), "parameters": params,
+                        "reasons": list(dec.reasons)})
             record.append(row)
             if ok:
                 passing.append(name)
@@ -1136,14 +584,20 @@ def diagnose(
             break
         best = _choose(passing, {n: cands[n][3].gain for n in passing})
         fit, params, unc, h = cands[best]
-        fam = FAMILIES[best]
+        fam = EFFECTS[best].family
         amb: list[str] = []
         runner: dict[str, Any] = {}
         for other, (ofit, oparams, _, oh) in cands.items():
-            if other == best or FAMILIES[other] != fam:
+            if other == best or EFFECTS[other].family != fam:
                 continue
             # runner-up explains nearly as much: compare the two directly on held-out rows
-            hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
+            # (with strict hold-out: on the cross-fitted blocks)
+            if ctx.strict:
+                if other not in cfs or best not in cfs:
+                    continue
+                hh = heldout_comparison(cfs[other]["after"], cfs[best]["after"])
+            else:
+                hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
             if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
                 runner = {"effect": other, "heldout_mse_reduction": oh.gain,
                           "z_best_vs_this": hh.z, "parameters": oparams}
@@ -1184,17 +638,18 @@ def diagnose(
                 uncertainty=unc,
                 uncertainty_method=unc_how,
                 where=where,
-                explanation=EXPLANATIONS[best],
-                equation=EQUATIONS[best],
+                explanation=EFFECTS[best].explanation,
+                equation=EFFECTS[best].equation,
                 heldout=h,
                 heldout_rmse_before=float(np.sqrt(mse_cur)),
-                heldout_rmse_after=float(np.sqrt(np.mean(np.concatenate(ctx.test_res(fit)) ** 2))),
+                heldout_rmse_after=float(np.sqrt(pooled_mse(ctx.test_res(fit)))),
                 score_lm=J0_lm,
                 discriminators=disc,
                 ambiguous_with=amb,
                 runner_up=runner,
                 crossfit=_cf_summary(cfs.get(best)),
                 caveats=caveats,
+                evidence=_evidence_label(ctx, best, cfs.get(best)),
             )
         )
         for other in amb:
@@ -1202,8 +657,9 @@ def diagnose(
             ambiguous.append({
                 "effects": [best, other],
                 "chosen": best,
-                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the held-out "
-                f"MSE against {100 * h.gain:.0f} % for {best}; the recordings do not separate them",
+                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the "
+                f"{'cross-fitted' if ctx.strict else 'held-out'} MSE against "
+                f"{100 * h.gain:.0f} % for {best}; the recordings do not separate them",
                 "experiment": DECIDING_EXPERIMENT.get(key, "recordings that excite both "
                                                       "mechanisms differently"),
             })
@@ -1217,7 +673,7 @@ def diagnose(
             })
         cur = _refine_resolution(ctx, fit, 4 * n_operators, rounds, rnd + 1) if (
             auto_resolution) else fit
-        if fam == "dynamics" and best != "rate":
+        if fam == "dynamics" and best != "rate" and not ctx.strict:
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         findings[-1].structure = cur.structure
         if fam == "dynamics" and best != "rate":
@@ -1227,10 +683,12 @@ def diagnose(
                     "chosen": findings[-1].name,
                     "reason": "without holds, the fast end of a creep relaxation spectrum acts "
                     "as a lag at the excitation frequency; creep itself was untestable",
-                    "experiment": UNTESTABLE_EXPERIMENT["creep"],
+                    "experiment": EFFECTS["creep"].experiment,
                 })
         todo = [e for e in todo if e != best and not (
-            FAMILIES[e] == "dynamics" and fam == "dynamics" and e != "rate")]
+            EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
+    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in findings)})"
+                                          if findings else ""))
     loro_b = loro_f = None
     if len(records) >= 2 and train is None and test is None:
         loro_b = leave_one_recording_out(ctx, base.structure)
@@ -1255,9 +713,23 @@ def diagnose(
                             for a, b_ in zip(prev["per_recording"], lo["per_recording"],
                                              strict=True)]}
             prev = lo
-    maps_before = residual_maps(records, res0, ctx.coords, [np.ones(r.n, bool) for r in records])
-    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords,
-                               [np.ones(r.n, bool) for r in records])
+    everywhere = [np.ones(r.n_samples, bool) for r in records]
+    maps_before = residual_maps(records, res0, ctx.coords, everywhere)
+    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere)
+    say(0.92, "judging the base model against the noise floor")
+    tried = [str(r["effect"]) for r in rounds if r["round"] == 1 and ":" not in str(r["effect"])]
+    adequacy = assess(records, trm, tem, cur.pred, noise, tried or list(todo),
+                      base.structure.free_weights)
+    crossval = None
+    if ctx.strict:
+        cv = _compare(ctx, base, cur)
+        crossval = {"folds": len(ctx.folds), "baseline_rmse": float(np.sqrt(cv.mse_before)),
+                    "final_rmse": float(np.sqrt(cv.mse_after)),
+                    # % of the output range of the block rows (per unit RMSE)
+                    "pct_of": percent_of_range(1.0, [
+                        r.y[np.any([blk[k] for _, blk in ctx.folds], axis=0)]
+                        for k, r in enumerate(records)])}
+    say(1.0, "done")
     return DiagnosisResult(
         records=records,
         train=trm,
@@ -1273,10 +745,12 @@ def diagnose(
         maps_after=maps_after,
         split=desc,
         noise_rms=noise,
-        elapsed_s=time.perf_counter() - t_start,
+        elapsed_s=_time.perf_counter() - t_start,
         model_name=model,
         loro_baseline=loro_b,
         loro_final=loro_f,
+        crossval=crossval,
+        adequacy=adequacy,
     )
 
 
@@ -1290,24 +764,24 @@ LORO_RULE = (
 )
 
 
-def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
+def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
     """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
 
     Returns
     -------
     dict
         ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
-        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of all
-        recordings; ``rmse`` pools every sample of every recording.
+        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of the
+        scored rows (all rows of all recordings); ``rmse`` pools every sample of every recording.
     """
     recs = ctx.records
-    yr = float(max(r.y.max() for r in recs) - min(r.y.min() for r in recs)) or 1.0
+    yr = 100.0 / percent_of_range(1.0, [r.y for r in recs])  # every row is scored
     per = []
     sse = 0.0
     n_all = 0
     for j, rec in enumerate(recs):
         sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
-        masks = [np.zeros(r.n, dtype=bool) if k == j else (tr | te)
+        masks = [np.zeros(r.n_samples, dtype=bool) if k == j else (tr | te)
                  for k, (r, tr, te) in enumerate(zip(recs, ctx.train, ctx.test, strict=True))]
         f = fit_structure(sj, recs, masks, ctx.cache)
         assert isinstance(f, Fit)
@@ -1320,21 +794,22 @@ def leave_one_recording_out(ctx: _Ctx, s: Structure) -> dict[str, Any]:
         e = rec.y - model(rec.u, dt=rec.dt)
         ej = float(e @ e)
         sse += ej
-        n_all += rec.n
-        rm = float(np.sqrt(ej / rec.n))
-        per.append({"recording": rec.name, "samples": rec.n, "rmse": rm, "rmse_pct": 100 * rm / yr})
+        n_all += rec.n_samples
+        rm = float(np.sqrt(ej / rec.n_samples))
+        per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
+                    "rmse_pct": 100 * rm / yr})
     rmse = float(np.sqrt(sse / max(n_all, 1)))
     return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
-def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
+def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
     """Once an effect is in, the baseline may turn out under-resolved: double the play grid
     while the held-out fit improves (≥ 2 % and z ≥ 2 or sign p < 0.01)."""
     while len(fit.structure.thresholds) * 2 <= n_max:
         n2 = 2 * len(fit.structure.thresholds)
-        r = place_thresholds(ctx.records, ctx.train, n2)
+        r = baseline_thresholds(ctx.records, ctx.train, n2)
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
-        h = heldout_comparison(ctx.test_res(fit), ctx.test_res(f2))
+        h = _compare(ctx, fit, f2)
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
         rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
                        "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
@@ -1345,7 +820,7 @@ def _refine_resolution(ctx: _Ctx, fit: Fit, n_max: int, rounds: list, rnd: int) 
     return fit
 
 
-def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: list,
+def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguous: list,
                       rounds: list, rnd: int) -> Fit:
     """Re-compare delay / lag / resonance at the refined resolution and keep the best."""
     base = ctx.fit(cur.structure.with_(dynamics=()), cur)
@@ -1355,7 +830,7 @@ def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: li
     for alt in ("delay", "lag", "resonance"):
         if alt in results:
             continue
-        got = _candidate(ctx, alt, base)
+        got = build_candidate(ctx, alt, base)
         if got is not None:
             results[alt] = (got[0], got[1], got[2], heldout_comparison(te0, ctx.test_res(got[0])))
     best = min(results, key=lambda n: results[n][3].mse_after)
@@ -1376,10 +851,10 @@ def _recheck_dynamics(ctx: _Ctx, cur: Fit, finding: EffectFinding, ambiguous: li
         finding.name = best
         finding.parameters = params
         finding.uncertainty = unc
-        finding.explanation = EXPLANATIONS[best]
-        finding.equation = EQUATIONS[best]
+        finding.explanation = EFFECTS[best].explanation
+        finding.equation = EFFECTS[best].equation
     finding.ambiguous_with = amb
-    finding.heldout_rmse_after = float(np.sqrt(np.mean(np.concatenate(ctx.test_res(fit)) ** 2)))
+    finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not (set(a["effects"]) <= {"delay", "lag",
                                                                       "resonance"})]
     for other in amb:
@@ -1406,18 +881,12 @@ def _outside(records, e0, e1, used) -> list[dict[str, Any]]:
     return out
 
 
-#: Disambiguation order of the families (notes §4.3): cheapest and most common first.
-FAMILY_PRIORITY: dict[str, int] = {
-    "memory": 0, "dynamics": 1, "slow": 2, "static": 3, "static-offset": 3,
-}
-
-
 def _choose(passing: list[str], gains: dict[str, float]) -> str:
     """Highest-priority family with a passing effect (best gain inside the family), unless a
     later family explains at least 1.5 times as much held-out MSE."""
     by_fam: dict[str, str] = {}
     for n in passing:
-        f = FAMILIES[n]
+        f = EFFECTS[n].family
         if f not in by_fam or gains[n] > gains[by_fam[f]]:
             by_fam[f] = n
     order = sorted(by_fam, key=lambda f: FAMILY_PRIORITY[f])
@@ -1442,19 +911,19 @@ def _cannot_win(cands: dict[str, tuple], size_ok: dict[str, bool], needs_cf: set
         or cands[n][3].sign_p < ACCEPT_RULE["sign_p"] / n_tests)]
     if not sure or not needs_cf:
         return set()
-    top = min(FAMILY_PRIORITY[FAMILIES[n]] for n in sure)
-    if any(FAMILY_PRIORITY[FAMILIES[n]] <= top for n in needs_cf):
+    top = min(FAMILY_PRIORITY[EFFECTS[n].family] for n in sure)
+    if any(FAMILY_PRIORITY[EFFECTS[n].family] <= top for n in needs_cf):
         return set()
-    fam_top = {FAMILIES[n] for n in sure if FAMILY_PRIORITY[FAMILIES[n]] == top}
-    bound = 1.5 * max(cands[n][3].gain for n in sure if FAMILIES[n] in fam_top)
+    fam_top = {EFFECTS[n].family for n in sure if FAMILY_PRIORITY[EFFECTS[n].family] == top}
+    bound = 1.5 * max(cands[n][3].gain for n in sure if EFFECTS[n].family in fam_top)
     best_of_family: dict[str, float] = {}
     for n in needs_cf:
-        f = FAMILIES[n]
+        f = EFFECTS[n].family
         best_of_family[f] = max(best_of_family.get(f, -np.inf), cands[n][3].gain)
-    return {n for n in needs_cf if best_of_family[FAMILIES[n]] < bound}
+    return {n for n in needs_cf if best_of_family[EFFECTS[n].family] < bound}
 
 
-def _score(ctx: _Ctx, cur: Fit, new: Fit) -> float:
+def _score(ctx: FitContext, cur: Fit, new: Fit) -> float:
     """LM statistic of the fitted effect direction (train rows, base partialled, HAC)."""
     es, J, P = [], [], []
     for k, (rec, p0, p1, m) in enumerate(zip(ctx.records, cur.pred, new.pred, ctx.train,
@@ -1470,7 +939,7 @@ def _score(ctx: _Ctx, cur: Fit, new: Fit) -> float:
     return stat
 
 
-def _sign_locking(ctx: _Ctx, cur: Fit) -> dict[str, Any]:
+def _sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     """Does the residual trend after each step follow the sign of that step (creep) or not?"""
     signs, trends = [], []
     for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from .._typing import Float1D
-from .data import Record, reversal_points
+from ..fitting.thresholds import reversal_indices
+from ..recordings import Recording
 
 __all__ = ["Coordinates", "coordinates", "hold_after", "residual_maps", "where_improved"]
 
@@ -21,7 +22,7 @@ __all__ = ["Coordinates", "coordinates", "hold_after", "residual_maps", "where_i
 class Coordinates:
     """Conditioning variables of one recording (all arrays of shape (N,))."""
 
-    def __init__(self, rec: Record) -> None:
+    def __init__(self, rec: Recording) -> None:
         u, dt = rec.u, rec.dt
         span = float(np.ptp(u)) or 1.0
         k = max(1, int(round(0.002 / dt)))  # ~2 ms smoothing of the derivative
@@ -30,7 +31,7 @@ class Coordinates:
         tol = 1e-3 * span
         still = np.abs(self.rate) * dt < 1e-4 * span
         self.branch = np.where(still, 0, np.sign(self.rate)).astype(int)
-        rev = reversal_points(u, 0.01 * span)
+        rev = reversal_indices(u, 0.01 * span)
         self.t = rec.t
         idx = np.searchsorted(rev, np.arange(u.size), side="right") - 1
         self.since_reversal = (np.arange(u.size) - rev[np.maximum(idx, 0)]) * dt
@@ -70,7 +71,7 @@ def hold_after(c: Coordinates, st: int, dt: float, within_s: float = 0.02) -> tu
     return h0, n
 
 
-def coordinates(records: Sequence[Record]) -> list[Coordinates]:
+def coordinates(records: Sequence[Recording]) -> list[Coordinates]:
     """:class:`Coordinates` of every recording."""
     return [Coordinates(r) for r in records]
 
@@ -95,7 +96,7 @@ def _binned(x: Float1D, e: Float1D, edges: Float1D) -> list[dict[str, float]]:
 
 
 def residual_maps(
-    records: Sequence[Record],
+    records: Sequence[Recording],
     residuals: Sequence[Float1D],
     coords: Sequence[Coordinates],
     masks: Sequence[np.ndarray],
@@ -141,12 +142,14 @@ def residual_maps(
     return out
 
 
-def _spectrum(records: Sequence[Record], residuals: Sequence[Float1D]) -> list[dict[str, float]]:
+def _spectrum(records: Sequence[Recording], residuals: Sequence[Float1D]) -> list[dict[str, float]]:
     import scipy.signal as ss
 
-    rec, e = max(zip(records, residuals, strict=True), key=lambda p: p[0].n)
+    if not all(r.has_time for r in records):
+        return []  # no time axis: no frequency
+    rec, e = max(zip(records, residuals, strict=True), key=lambda p: p[0].n_samples)
     fs = 1.0 / rec.dt
-    nper = int(min(rec.n // 4, 2 ** int(np.log2(max(16, rec.n // 8)))))
+    nper = int(min(rec.n_samples // 4, 2 ** int(np.log2(max(16, rec.n_samples // 8)))))
     if nper < 16:
         return []
     f, P = ss.welch(e - e.mean(), fs=fs, nperseg=nper)
@@ -159,7 +162,7 @@ def _spectrum(records: Sequence[Record], residuals: Sequence[Float1D]) -> list[d
 
 
 def where_improved(
-    records: Sequence[Record],
+    records: Sequence[Recording],
     e_before: Sequence[Float1D],
     e_after: Sequence[Float1D],
     coords: Sequence[Coordinates],
@@ -181,8 +184,8 @@ def where_improved(
     for rec, a, b, c in zip(records, e_before, e_after, coords, strict=True):
         d = a * a - b * b
         total += float(np.clip(d, 0, None).sum())
-        nw = max(10, min(200, rec.n // 50))
-        edges = np.linspace(0, rec.n, nw + 1).astype(int)
+        nw = max(10, min(200, rec.n_samples // 50))
+        edges = np.linspace(0, rec.n_samples, nw + 1).astype(int)
         for i in range(nw):
             s = float(d[edges[i] : edges[i + 1]].sum())
             rows.append((s, rec.name, float(rec.t[edges[i]]), float(rec.t[edges[i + 1] - 1])))

@@ -33,37 +33,36 @@ from ..effects import (
     foh_filter,
     rd_play_bank,
 )
+from ..exceptions import ParameterError
+from ..fitting.gram import solve_constrained
+from ..fitting.thresholds import half_travels
+from ..fitting.thresholds import place_thresholds as fit_thresholds
 from ..operators import play_bank
 from ..pi import PIModel
-from .data import Record
+from ..recordings import Recording
 
-__all__ = ["Fit", "Structure", "fit_structure", "place_thresholds"]
+__all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
 
 
-def place_thresholds(records: Sequence[Record], masks: Sequence[np.ndarray], n: int) -> Float1D:
-    """Uniform thresholds ``r_i = 0.95 · a_max · i / n``.
+def baseline_thresholds(
+    records: Sequence[Recording], masks: Sequence[np.ndarray], n: int
+) -> Float1D:
+    """Uniform thresholds ``r_i = 0.95 · a_max · i / n`` (:func:`core.fitting.place_thresholds`).
 
-    ``a_max`` is the largest half-travel between input reversals inside the training rows, or
-    the largest excursion from the first sample (plays start at rest there), if larger.
+    ``a_max`` is the largest half-travel between input reversals inside the training rows
+    (:func:`core.fitting.thresholds.half_travels`), or the largest excursion from the first
+    sample (plays start at rest there), if larger.
     """
-    from .data import reversal_points
-
     a_max = 0.0
     for r, m in zip(records, masks, strict=True):
         u = r.u[m] if m.any() else r.u
-        span = float(u.max() - u.min())
-        if span <= 0:
-            continue
-        idx = reversal_points(u, 1e-3 * span)
-        ext = u[np.concatenate((idx, [u.size - 1]))]
-        a_max = max(a_max, float(np.max(np.abs(np.diff(ext)))) / 2.0)
+        if float(np.ptp(u)) > 0:
+            a_max = max(a_max, float(half_travels([u]).max()))
         # from the (virgin) initial state the first travel moves plays up to its full length
         a_max = max(a_max, float(np.max(np.abs(r.u - r.u[0]))))
     if a_max <= 0:
-        from ..exceptions import ParameterError
-
         raise ParameterError("the input never moves in the training data; nothing to fit")
-    return 0.95 * a_max * np.arange(1, n + 1) / n
+    return fit_thresholds([r.u for r in records], n, "uniform", r_max=0.95 * a_max)
 
 
 @dataclass(frozen=True)
@@ -149,7 +148,7 @@ class Fit:
     cov_scale: float = 1.0
     extras: dict[str, Any] = field(default_factory=dict)
 
-    def residuals(self, records: Sequence[Record]) -> list[Float1D]:
+    def residuals(self, records: Sequence[Recording]) -> list[Float1D]:
         """Measured minus simulated output per recording."""
         return [r.y - p for r, p in zip(records, self.pred, strict=True)]
 
@@ -181,7 +180,7 @@ class _Cache:
             self.v[key] = V
         return V
 
-    def bank(self, k: int, rec: Record, r: np.ndarray, hist: tuple, beta: float | None):
+    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None):
         key = (k, hist, beta, r.size, float(r[-1]))
         B = self.d.get(key)
         if B is None:
@@ -240,26 +239,9 @@ def _legendre_cols(t: np.ndarray, deg: int) -> np.ndarray:
     )
 
 
-def _solve(X: np.ndarray, y: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
-    """min ||X w - y|| with w[nonneg] >= 0 (QR reduction, NNLS on the split free columns)."""
-    import scipy.optimize as so
-
-    scale = np.sqrt(np.sum(X * X, axis=0))
-    scale[scale == 0] = 1.0
-    Xs = X / scale
-    Q, R = np.linalg.qr(Xs, mode="reduced")
-    qty = Q.T @ y
-    free = np.flatnonzero(~nonneg)
-    A = np.column_stack((R, -R[:, free])) if free.size else R
-    w, _ = so.nnls(A, qty, maxiter=50 * A.shape[1])
-    ws = w[: X.shape[1]].copy()
-    ws[free] -= w[X.shape[1] :]
-    return ws / scale
-
-
 def fit_structure(
     s: Structure,
-    records: Sequence[Record],
+    records: Sequence[Recording],
     train: Sequence[np.ndarray],
     cache: _Cache | None = None,
     x_init: Sequence[np.ndarray] | None = None,
@@ -272,7 +254,7 @@ def fit_structure(
     Parameters
     ----------
     s : Structure
-    records : sequence of Record
+    records : sequence of Recording
     train : sequence of ndarray of bool
         Training rows per recording.
     cache : optional play-bank cache shared between calls.
@@ -385,7 +367,9 @@ def fit_structure(
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             w = np.linalg.lstsq(X, ys, rcond=None)[0]
             return float(np.sum((X @ w - ys) ** 2))
-        w = _solve(X, ys, nonneg)
+        # the fitting's constrained solver on the triangular factor of [X, y]
+        R = np.linalg.qr(np.column_stack((X, ys)), mode="r")
+        w = solve_constrained(np.where(nonneg, 0.0, -np.inf), factor=R).theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X @ w - ys) ** 2))
         if needs_x and it < iterations - 1:
@@ -441,7 +425,7 @@ def build_model(
     creep: Float1D,
     bias: Float1D,
     drift: list[Float1D],
-    rec: Record,
+    rec: Recording,
 ) -> Model:
     """The exact chain of structure ``s`` for recording ``k``."""
     r = np.asarray(s.thresholds)

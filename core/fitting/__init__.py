@@ -21,7 +21,7 @@ from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
 from .pi import PIRegressor, fit_linear_pi
-from .thresholds import place_thresholds
+from .thresholds import place_thresholds, reversal_indices, wipeout_index
 
 __all__ = [
     "DeadZoneGPIRegressor",
@@ -34,7 +34,9 @@ __all__ = [
     "TanhGPIRegressor",
     "fit_linear_pi",
     "place_thresholds",
+    "reversal_indices",
     "solve_constrained",
     "stream_gram",
     "stream_tsqr",
+    "wipeout_index",
 ]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -16,6 +16,7 @@ from .gram import Segment
 __all__ = [
     "Prepared",
     "as_recordings",
+    "exclude_before_wipeout",
     "masked_range",
     "prepare",
     "unpack_recordings",
@@ -194,6 +195,55 @@ def prepare(
             "y is constant on the training samples; there is nothing to fit"
         )
     return Prepared(us, ys, train_masks, test_masks, multi, n_train, n_test)
+
+
+#: Fewest training rows (fraction) that must remain after leaving out the pre-wipe-out rows.
+MIN_KEPT_AFTER_WIPEOUT = 1.0 / 3.0
+
+
+def exclude_before_wipeout(prep: Prepared, rule: str) -> tuple[Prepared, dict[str, Any]]:
+    """Leave the training rows before each recording's wipe-out time out of the fit.
+
+    Parameters
+    ----------
+    prep : Prepared
+    rule : {"exclude", "keep"}
+        ``"exclude"``: drop them when at least :data:`MIN_KEPT_AFTER_WIPEOUT` of the training
+        rows remain; ``"keep"``: leave the masks unchanged.
+
+    Returns
+    -------
+    prepared : Prepared
+        With the new training masks (and counts).
+    note : dict
+        ``{"rule", "excluded_train_rows", "wipeout_index", "summary"}``: what was done, for
+        the fit report.
+    """
+    from .thresholds import wipeout_index
+
+    if rule not in ("exclude", "keep"):
+        raise ParameterError(f"initial_memory must be 'exclude' or 'keep', got {rule!r}")
+    tws = [wipeout_index(u) for u in prep.us]
+    pre = [m & (np.arange(m.size) < tw) for m, tw in zip(prep.train_masks, tws, strict=True)]
+    n_pre = int(sum(int(p.sum()) for p in pre))
+    kept = prep.n_train - n_pre
+    note: dict[str, Any] = {"rule": rule, "excluded_train_rows": 0, "wipeout_index": tws}
+    if rule == "keep" or n_pre == 0:
+        note["summary"] = ("initial memory: every training row fitted from the relaxed state"
+                           if n_pre else "initial memory: no training row before the "
+                           "wipe-out time")
+        return prep, note
+    if kept < MIN_KEPT_AFTER_WIPEOUT * prep.n_train:
+        note["summary"] = (f"initial memory: kept the {n_pre} training rows before the "
+                           f"wipe-out time (leaving them out would keep only {kept} of "
+                           f"{prep.n_train}); they assume the relaxed state")
+        return prep, note
+    masks = [m & ~p for m, p in zip(prep.train_masks, pre, strict=True)]
+    note["excluded_train_rows"] = n_pre
+    note["summary"] = (f"initial memory unknown: the {n_pre} training rows before the "
+                       "wipe-out time (until the input first reached both ends of its range) "
+                       "were left out of the weight fit; they only drive the operator states")
+    return replace(prep, train_masks=masks, n_train=kept), note
 
 
 def masked_range(xs: Sequence[Float1D], masks: Sequence[np.ndarray] | None = None) -> float:

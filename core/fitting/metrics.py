@@ -27,7 +27,7 @@ from .._typing import Float1D
 from ..base import Model
 from .gram import Segment
 
-__all__ = ["FitReport", "PartStats", "evaluate_fit"]
+__all__ = ["FitReport", "PartStats", "evaluate_fit", "percent_of_range"]
 
 #: Samples per chunk of the evaluation pass.
 EVAL_CHUNK = 65536
@@ -132,6 +132,9 @@ class FitReport:
                 f"{self.test.output_range:.4g}), max |e| {self.test.max_abs:.4g}, "
                 f"n = {self.test.n_samples}"
             )
+        mem = self.extra.get("initial_memory")
+        if isinstance(mem, dict) and mem.get("excluded_train_rows"):
+            lines.append(f"  {mem['summary']}")
         part = self.test if self.test is not None else self.train
         lines.append(
             f"  inverse: invertible={self.invertible}, min slope {self.min_slope:.4g}, "
@@ -151,6 +154,17 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, np.generic):
         return x.item()
     return x
+
+
+def percent_of_range(rmse: float, ys: Sequence[Float1D]) -> float:
+    """``100 * rmse / (max - min)`` of the measured outputs ``ys`` of the scored rows.
+
+    The one definition of "% of range" (fit reports, the diagnosis): the range of the rows
+    the RMSE is computed on, over every recording pooled. ``inf`` for a constant output.
+    """
+    lo = min((float(np.min(y)) for y in ys if np.size(y)), default=np.inf)
+    hi = max((float(np.max(y)) for y in ys if np.size(y)), default=-np.inf)
+    return 100.0 * rmse / (hi - lo) if hi > lo else float("inf")
 
 
 class _Acc:

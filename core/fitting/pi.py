@@ -32,7 +32,7 @@ from ..effects import Offset
 from ..exceptions import FitWarning, NotFittedError, ParameterError
 from ..pi import PIModel
 from ..validation import as_vector
-from ._data import Prepared, as_recordings, masked_range, prepare
+from ._data import Prepared, as_recordings, exclude_before_wipeout, masked_range, prepare
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, evaluate_fit
 from .thresholds import place_thresholds
@@ -261,6 +261,15 @@ class PIRegressor:
         piezo actuators); ``"slopes"``: every loop-segment slope ``p0 + p_1 + ... + p_j >= ε``
         (the exact invertibility condition; weights may be negative, so saturating loops
         such as B-H curves or friction fit).
+    initial_memory : {"exclude", "keep"}
+        The play states at the start of a recording are unknown (a recording that starts in
+        the middle of the actuator's history), and only the rows before the wipe-out time
+        (:func:`core.fitting.thresholds.wipeout_index`: the input has reached both ends of
+        its range) depend on them. ``"exclude"`` (``hyst fit``'s default) leaves those
+        training rows out of the weight fit when at least a third of the training rows
+        remain (they still drive the operator states); ``"keep"`` (default here, for
+        recordings known to start relaxed, e.g. simulated ones) fits every training row from
+        the relaxed state. ``report_.extra["initial_memory"]`` says what was done.
 
     Attributes
     ----------
@@ -302,6 +311,7 @@ class PIRegressor:
         tolerance: float = 0.02,
         chunk: int = DEFAULT_CHUNK,
         constraint: str = "nonnegative",
+        initial_memory: str = "keep",
     ) -> None:
         self.n_operators = n_operators
         self.thresholds = thresholds
@@ -314,6 +324,7 @@ class PIRegressor:
         self.tolerance = tolerance
         self.chunk = chunk
         self.constraint = constraint
+        self.initial_memory = initial_memory
 
     # ------------------------------------------------------------------ helpers
     def _thresholds_for(self, prep: Prepared, n: int) -> Float1D:
@@ -384,6 +395,8 @@ class PIRegressor:
         prep = prepare(
             u, y, train, test, validation=self.validation, min_train=max(20, 3 * (n_min + 3))
         )
+        prep_all = prep
+        prep, memory_note = exclude_before_wipeout(prep, self.initial_memory)
         eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
         if not (np.isfinite(eps) and eps > 0):
             raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
@@ -463,16 +476,21 @@ class PIRegressor:
         self.min_slope_ = eps
         self.model_ = PIModel(fit.p0, r, fit.weights, np.full(n, float(prep.us[0][0])))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
+        # scored on the whole training window (rows before the wipe-out time included, when
+        # they were left out of the weight fit)
+        ev_segs, ev_train, ev_test = (segs, train_labels, test_label) if prep is prep_all else (
+            prep_all.segments(1), (0,), 1)
         train_st, test_st, cmax, crmse = evaluate_fit(
             self._model_for,
             self.offset_,
-            segs,
-            train_labels=train_labels,
-            test_labels=(test_label,),
+            ev_segs,
+            train_labels=ev_train,
+            test_labels=(ev_test,),
         )
         extra: dict[str, Any] = {"n_operators": n, "min_slope": eps, "offset": fit.offset}
         if cv_scores:
             extra["cv_rmse"] = cv_scores
+        extra["initial_memory"] = memory_note
         self.report_ = FitReport(
             model_type="pi",
             n_parameters=n + 1 + int(self.include_offset),

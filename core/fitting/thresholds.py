@@ -31,6 +31,7 @@ __all__ = [
     "reversal_indices",
     "thresholds_from_travels",
     "travels_at",
+    "wipeout_index",
 ]
 
 #: Default fraction of the largest half-travel used as the widest threshold ("uniform").
@@ -114,6 +115,38 @@ def reversal_indices(u: Float1D, tol: float) -> np.ndarray:
     out = np.empty(u.size, dtype=np.int64)
     k = _turning_points(u, float(tol), out)
     return out[:k].copy()
+
+
+def wipeout_index(u: Float1D, frac: float = 0.98) -> int:
+    """First sample after which the input has visited both ends of its range (``t_w``).
+
+    Once the input has reached (within ``1 - frac`` of the range) both its largest and its
+    smallest value, every play operator of a PI model with thresholds below half the range
+    has been driven into a state fixed by the input alone: the unknown initial memory is
+    wiped out and only the rows before this index depend on it.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        Input samples.
+    frac : float
+        Fraction of the range that counts as "reached an end", ``0 < frac <= 1``.
+
+    Returns
+    -------
+    int
+        Index ``t_w`` (``0`` for a constant input; ``N`` when one end is never reached).
+    """
+    u = np.asarray(u, dtype=np.float64)
+    lo, hi = float(u.min()), float(u.max())
+    span = hi - lo
+    if span <= 0:
+        return 0
+    a = np.flatnonzero(u >= hi - (1 - frac) * span)
+    b = np.flatnonzero(u <= lo + (1 - frac) * span)
+    if a.size == 0 or b.size == 0:
+        return int(u.size)
+    return int(max(a[0], b[0]))
 
 
 def half_travels(recordings: Sequence[Float1D], tol_fraction: float = 1e-3) -> Float1D:

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.diagnosis import Record, diagnose, split_masks
+from core.diagnosis import as_records, diagnose, split_masks
 from core.diagnosis.stats import heldout_comparison, score_test
-from core.diagnosis.structure import fit_structure, place_thresholds
+from core.diagnosis.structure import baseline_thresholds, fit_structure
 from core.effects import Asymmetry, InitialMemory, Lag
 from core.exceptions import ParameterError
 from core.pi import PIModel
+from core.recordings import Recording
 
 FS = 2000.0
 
@@ -29,14 +30,14 @@ def _inputs() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 def _truth() -> PIModel:
-    recs = [Record(t, u, u, n) for n, t, u in _inputs()]
+    recs = [Recording(t, u, u, n) for n, t, u in _inputs()]
     tr, _, _ = split_masks(recs)
-    r = place_thresholds(recs, tr, 10)
+    r = baseline_thresholds(recs, tr, 10)
     return PIModel(0.4, r, 0.05 * np.exp(-r / 30.0))
 
 
 def _records(extra: Model | None = None, first_only: Model | None = None,
-             noise: float = 0.01, seed: int = 1) -> list[Record]:
+             noise: float = 0.01, seed: int = 1) -> list[Recording]:
     rng = np.random.default_rng(seed)
     pi = _truth()
     out = []
@@ -45,7 +46,7 @@ def _records(extra: Model | None = None, first_only: Model | None = None,
         if extra is not None:
             m = Chain.of(m, extra)
         y = m(u, dt=1 / FS) + noise * rng.standard_normal(u.size)
-        out.append(Record(t, u, y, name))
+        out.append(Recording(t, u, y, name))
     return out
 
 
@@ -163,7 +164,7 @@ def test_leave_one_recording_out_matches_a_refit_on_the_other_recording() -> Non
     [
         ({"model": "preisach"}, "not supported"),
         ({"effects": ["magic"]}, "unknown effect"),
-        ({"train": (0.0, 1.0)}, "both"),
+        ({"test": (0.0, 1.0)}, "needs --train"),
         ({"train": (50.0, 60.0), "test": (60.0, 70.0)}, "too few"),
     ],
 )
@@ -172,11 +173,19 @@ def test_bad_arguments_are_explained(kwargs, msg) -> None:
         diagnose(_records()[:1], **kwargs)
 
 
-def test_record_validation() -> None:
+def test_recordings_jitter_is_resampled_and_a_gap_is_located() -> None:
     with pytest.raises(ParameterError, match="same length"):
-        Record(np.arange(30.0), np.zeros(30), np.zeros(29))
-    with pytest.raises(ParameterError, match="uniformly"):
-        Record(np.r_[np.arange(20.0), 30.0], np.zeros(21), np.zeros(21))
+        as_records((np.arange(30.0), np.zeros(30), np.zeros(29)))
+    u = np.sin(np.arange(41.0))
+    with pytest.raises(ParameterError, match=r"jump by 11 s from t = 29 s to t = 40 s"):
+        as_records((np.r_[np.arange(30.0), 40 + np.arange(11.0)], u, u))
+    rng = np.random.default_rng(0)
+    t = 0.01 * np.arange(200) + rng.uniform(-2e-4, 2e-4, 200)
+    (r,) = as_records((t, np.sin(t * 20), np.cos(t * 20)))
+    assert r.is_uniform and "jitter" in r.cleaning[-1]
+    assert np.isclose(r.dt, np.median(np.diff(t)))
+    (g,) = as_records((np.r_[np.arange(30.0), 40 + np.arange(11.0)], u, u), resample=True)
+    assert g.is_uniform and g.n_samples == 51
 
 
 def test_heldout_comparison_and_score_test() -> None:

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.diagnosis import Record, diagnose
+from core.diagnosis import diagnose
 from core.diagnosis.data import crossfit_folds, wipeout_index
 from core.diagnosis.engine import _jackknife
 from core.effects import Lag
+from core.recordings import Recording
 from tests.core.test_diagnosis import _records
 
 
@@ -17,7 +18,7 @@ def test_folds_are_disjoint_blocks_of_the_training_rows_after_the_wipeout_time()
     train = [(r.t >= 0.0) & (r.t < 2.0) for r in recs]
     folds = crossfit_folds(recs, train)
     assert 2 <= len(folds) <= 8
-    covered = [np.zeros(r.n, dtype=bool) for r in recs]
+    covered = [np.zeros(r.n_samples, dtype=bool) for r in recs]
     for tr_f, blk in folds:
         for k, r in enumerate(recs):
             assert not (covered[k] & blk[k]).any()  # disjoint
@@ -57,7 +58,7 @@ def test_lag_with_explicit_windows_is_confirmed_on_cross_fitted_blocks() -> None
     recs = _records(extra=Lag(tau), noise=0.01, seed=3)
     res = diagnose(recs, train=(0.0, 2.0), test=(2.0, 2.5), n_operators=10,
                    auto_resolution=False, effects=["delay", "lag", "drift", "asymmetry"])
-    assert "cross-fitted" in res.split
+    assert "selection by cross-fitting" in res.split
     names = [e.name for e in res.effects]
     assert names and names[0] in ("lag", "delay")
     e = res.effects[0]
@@ -72,9 +73,31 @@ def test_lag_with_explicit_windows_is_confirmed_on_cross_fitted_blocks() -> None
     assert 0 < e.uncertainty[key] < 0.5 * e.parameters[key]
     d = e.to_dict(res.y_range)
     assert d["crossfit"]["dm_z_pooled"] >= 3.0 or d["crossfit"]["signed_rank_p_pooled"] < 0.01
-    # the rounds record both the test-only and the pooled statistics
+    # strict hold-out: the acceptance statistics are those of the cross-fitted blocks alone
     row = next(r for r in res.rounds if r["effect"] == e.name and r.get("decision") == "accepted")
-    assert "dm_z_pooled" in row and row["evidence"].startswith("test rows + ")
+    assert row["evidence"] == f"{cf['folds']} cross-fitted training blocks"
+    assert row["dm_z"] == pytest.approx(cf["dm_z_pooled"])
+    assert e.heldout_rmse_after < 0.5 * e.heldout_rmse_before  # the test window, scored once
+
+
+def test_strict_holdout_selection_never_reads_the_test_window() -> None:
+    """Replacing the measured output inside the test window by garbage changes no decision
+    and no parameter (only the scored held-out numbers): selection rests on the training
+    rows alone."""
+    recs = _records(extra=Lag(0.004), noise=0.01, seed=3)
+    kw = dict(train=(0.0, 2.0), test=(2.0, 2.5), n_operators=10, auto_resolution=False,
+              effects=["delay", "lag", "asymmetry"])
+    res = diagnose(recs, **kw)
+    rng = np.random.default_rng(0)
+    bad = [Recording(r.t, r.u, np.where(r.t >= 2.0, rng.normal(0, 50, r.t.size), r.y), r.name)
+           for r in recs]
+    res2 = diagnose(bad, **kw)
+    assert [e.name for e in res2.effects] == [e.name for e in res.effects] != []
+    for a, b in zip(res.effects, res2.effects, strict=True):
+        assert a.parameters == pytest.approx(b.parameters)
+    assert [(r["effect"], r["passes"], r.get("decision")) for r in res2.rounds] == [
+        (r["effect"], r["passes"], r.get("decision")) for r in res.rounds]
+    assert res2.heldout_rmse(res2.final) > 10 * res.heldout_rmse(res.final)
 
 
 def test_null_with_explicit_windows_claims_nothing_and_crossfit_can_be_switched_off() -> None:
@@ -82,10 +105,10 @@ def test_null_with_explicit_windows_claims_nothing_and_crossfit_can_be_switched_
     res = diagnose(recs, train=(0.0, 2.0), test=(2.0, 2.5), n_operators=10,
                    auto_resolution=False, effects=["delay", "lag", "drift", "asymmetry"])
     assert res.effects == []
-    off = diagnose([Record(r.t, r.u, r.y, r.name) for r in recs], train=(0.0, 2.0),
+    off = diagnose([Recording(r.t, r.u, r.y, r.name) for r in recs], train=(0.0, 2.0),
                    test=(2.0, 2.5), n_operators=10, auto_resolution=False,
                    effects=["lag"], crossfit=False)
-    assert "cross-fitted" not in off.split
+    assert "cross-fitting" not in off.split
     assert all("dm_z_pooled" not in r for r in off.rounds)
 
 

@@ -1,0 +1,139 @@
+"""Acceptance of a candidate effect: the rules, and a typed decision that says which held.
+
+A candidate is accepted when **all** of these hold (missing-physics notes §5, N1):
+
+1. *Effect size*: its held-out MSE reduction is at least ``min_gain`` (5 %), and at least
+   ``min_excess_share`` (20 %) of the current model's excess over the white-noise floor.
+2. *Significance*: the batch-means Diebold–Mariano statistic ``z >= min_z`` (3), or the
+   Wilcoxon signed-rank test of the batch means gives ``p < sign_p / K`` (Bonferroni over the
+   ``K`` candidates tested in the round).
+3. *Fold agreement*: with cross-fitting, each nonlinear parameter's coefficient of variation
+   across the folds is below ``max_param_cv`` (30 %).
+
+The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
+computed on (test rows, cross-fitted training blocks) is the engine's business.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+
+from .stats import HeldOut
+
+__all__ = ["RULE", "AcceptRule", "Decision", "decide", "size_ok"]
+
+
+@dataclass(frozen=True)
+class AcceptRule:
+    """Thresholds of the acceptance rules (documented in the JSON output).
+
+    Attributes
+    ----------
+    min_gain : float
+        Smallest relative held-out MSE reduction.
+    min_excess_share : float
+        Smallest share of the excess MSE over the noise floor that must be removed.
+    min_z : float
+        Diebold–Mariano z that suffices on its own.
+    sign_p : float
+        Signed-rank level before the Bonferroni division by the number of candidates.
+    family_margin : float
+        A look-alike within this relative margin of the winner's gain is ambiguous.
+    max_param_cv : float
+        Largest coefficient of variation of a nonlinear parameter across folds.
+    outside_worse : float
+        RMS ratio on the rows outside train/test above which a caveat is printed.
+    """
+
+    min_gain: float = 0.05
+    min_excess_share: float = 0.20
+    min_z: float = 3.0
+    sign_p: float = 0.01
+    family_margin: float = 0.10
+    max_param_cv: float = 0.30
+    outside_worse: float = 1.25
+
+    def as_dict(self) -> dict[str, float]:
+        """The thresholds by name."""
+        return asdict(self)
+
+
+#: The rule the engine uses.
+RULE = AcceptRule()
+
+
+@dataclass(frozen=True)
+class Decision:
+    """Outcome of :func:`decide` for one candidate.
+
+    Attributes
+    ----------
+    passes : bool
+        Every rule holds.
+    size_ok, significant, stable : bool
+        Effect-size rules; significance (DM or Bonferroni signed-rank); fold agreement.
+    reasons : tuple of str
+        Why it failed, in words (empty when it passes).
+    """
+
+    passes: bool
+    size_ok: bool
+    significant: bool
+    stable: bool
+    reasons: tuple[str, ...]
+
+
+def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE) -> bool:
+    """Effect-size rules only (``excess``: current MSE minus the noise floor², units²)."""
+    return h.gain >= rule.min_gain and (
+        h.mse_before - h.mse_after) >= rule.min_excess_share * max(excess, 0.0)
+
+
+def decide(
+    h: HeldOut,
+    excess: float,
+    n_tests: int,
+    param_cv: Mapping[str, float] | None = None,
+    rule: AcceptRule = RULE,
+    significance: HeldOut | None = None,
+) -> Decision:
+    """Apply every acceptance rule to the held-out comparison ``h`` of one candidate.
+
+    Parameters
+    ----------
+    h : HeldOut
+        Current model vs the candidate on the evidence rows.
+    excess : float
+        Current MSE minus the white-noise floor squared (output units²).
+    n_tests : int
+        Candidates tested in the round (Bonferroni divisor), ``>= 1``.
+    param_cv : mapping of str to float, optional
+        Coefficient of variation of each nonlinear parameter across cross-fitting folds.
+    rule : AcceptRule
+    significance : HeldOut, optional
+        Comparison for the significance rule when it differs from ``h`` (test rows pooled
+        with cross-fitted blocks); the effect-size rules always use ``h``.
+
+    Returns
+    -------
+    Decision
+    """
+    reasons = []
+    sz = size_ok(h, excess, rule)
+    if h.gain < rule.min_gain:
+        reasons.append(f"MSE reduction {100 * h.gain:.1f} % < {100 * rule.min_gain:.0f} %")
+    elif not sz:
+        reasons.append(f"removes less than {100 * rule.min_excess_share:.0f} % of the excess "
+                       "over the noise floor")
+    g = h if significance is None else significance
+    level = rule.sign_p / max(int(n_tests), 1)
+    sig = g.z >= rule.min_z or g.sign_p < level
+    if not sig:
+        reasons.append(f"not significant (z = {g.z:.2f} < {rule.min_z:g} and signed-rank "
+                       f"p = {g.sign_p:.2g} >= {level:.2g})")
+    unstable = {k: v for k, v in (param_cv or {}).items() if not v < rule.max_param_cv}
+    if unstable:
+        reasons.append("parameters disagree across folds (" + ", ".join(
+            f"{k} CV {100 * v:.0f} %" for k, v in unstable.items()) + ")")
+    return Decision(sz and sig and not unstable, sz, sig, not unstable, tuple(reasons))

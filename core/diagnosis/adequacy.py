@@ -1,0 +1,219 @@
+"""Base-model adequacy: is what is left at the noise floor, and if not, which loop shape helps?
+
+"No missing physics" may only be said when the final residual is at the white-noise floor.
+When it stays well above it (:data:`INADEQUATE_RATIO` times), the verdict says so in words:
+how much of the range is still missed, where, what was tried, and which model class of the
+core explains more of it. The loop-shape classes are fitted with the identification's own
+estimators (:mod:`core.fitting`), so what they find stays in the model algebra:
+
+* Kuhnen's modified PI (``ModifiedPIRegressor``): an output superposition of one-sided
+  dead-zones, i.e. saturation and one-sided output maps;
+* the dead-zone GPI (``DeadZoneGPIRegressor``): a threshold / dead band at the input;
+* the tanh-envelope GPI (``TanhGPIRegressor``): saturation of the loop branches.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..recordings import Recording
+
+__all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "where_residual"]
+
+#: Final RMS residual over the white-noise floor above which the base model is inadequate.
+INADEQUATE_RATIO = 2.0
+
+#: Longest recording set (samples) the loop-shape fits are run on (their cost is linear).
+MAX_SAMPLES = 60_000
+
+#: Loop-shape classes: (``hyst fit --model`` name, estimator, physics in words).
+LOOP_SHAPES: tuple[tuple[str, str, str], ...] = (
+    ("mpi", "ModifiedPIRegressor", "saturation or a one-sided output map (Kuhnen's "
+     "superposition of output dead-zones)"),
+    ("gpi-deadzone", "DeadZoneGPIRegressor", "a threshold / dead band at the input "
+     "(dead-zone GPI)"),
+    ("gpi-tanh", "TanhGPIRegressor", "saturation of the loop branches (tanh-envelope GPI)"),
+)
+
+
+@dataclass(frozen=True)
+class LoopShapeFit:
+    """One loop-shape model class fitted on the training rows.
+
+    Attributes
+    ----------
+    model : str
+        ``hyst fit --model`` name.
+    physics : str
+        What the class represents, in words.
+    rmse : float
+        RMSE on the scored rows (output units).
+    pct : float
+        The same in % of the output range of the scored rows.
+    model_dict : dict
+        The fitted model (``to_dict()``, offsets included).
+    """
+
+    model: str
+    physics: str
+    rmse: float
+    pct: float
+    model_dict: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """The base-model adequacy verdict.
+
+    Attributes
+    ----------
+    adequate : bool
+        The final residual is within :data:`INADEQUATE_RATIO` of the noise floor.
+    residual_rmse, noise_rms : float
+        Final RMS residual and white-noise floor on the scored rows (output units).
+    pct : float
+        Final RMSE in % of the output range of the scored rows.
+    scored : str
+        Which rows were scored.
+    loop_shapes : tuple of LoopShapeFit
+        The loop-shape classes tried (empty when adequate or too long).
+    text : str
+        The verdict in words.
+    """
+
+    adequate: bool
+    residual_rmse: float
+    noise_rms: float
+    pct: float
+    scored: str
+    loop_shapes: tuple[LoopShapeFit, ...]
+    text: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"adequate": self.adequate, "residual_rmse": self.residual_rmse,
+                "noise_rms": self.noise_rms, "pct": self.pct, "scored": self.scored,
+                "loop_shapes": [{"model": f.model, "physics": f.physics, "rmse": f.rmse,
+                                 "pct": f.pct, "model_dict": f.model_dict}
+                                for f in self.loop_shapes],
+                "text": self.text}
+
+
+def _fit_shape(cls_name: str, records: Sequence[Recording], train, test, free: bool):
+    from .. import fitting
+
+    est = getattr(fitting, cls_name)(constraint="slopes" if free else "nonnegative")
+    us = [r.u for r in records]
+    ys = [r.y for r in records]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est.fit(us, ys, train=list(train), test=list(test))
+    pred = est.predict(us)
+    return est, pred
+
+
+def where_residual(records: Sequence[Recording], pred: Sequence[np.ndarray],
+                   rows: Sequence[np.ndarray]) -> str:
+    """Where the residual concentrates: input-level decile and branch, in words."""
+    u = np.concatenate([r.u[m] for r, m in zip(records, rows, strict=True)])
+    du = np.concatenate([np.gradient(r.u)[m] for r, m in zip(records, rows, strict=True)])
+    e = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, pred, rows, strict=True)])
+    if e.size < 20:
+        return ""
+    edges = np.quantile(u, np.linspace(0, 1, 11))
+    k = np.clip(np.searchsorted(edges, u, side="right") - 1, 0, 9)
+    rms = np.array([np.sqrt(np.mean(e[k == j] ** 2)) if np.any(k == j) else 0.0
+                    for j in range(10)])
+    j = int(np.argmax(rms))
+    tot = float(np.sqrt(np.mean(e * e)))
+    up, dn = e[du > 0], e[du < 0]
+    br = ""
+    if up.size and dn.size:
+        a, b = float(np.sqrt(np.mean(up**2))), float(np.sqrt(np.mean(dn**2)))
+        br = (f"; ascending branch RMS {a:.3g}, descending {b:.3g}"
+              + (" (one-sided)" if max(a, b) > 1.5 * min(a, b) else ""))
+    return (f"largest at input {edges[j]:.4g}..{edges[j + 1]:.4g} (RMS {rms[j]:.3g}, "
+            f"{rms[j] / tot:.1f} times the average){br}")
+
+
+def assess(
+    records: Sequence[Recording],
+    train: Sequence[np.ndarray],
+    test: Sequence[np.ndarray],
+    final_pred: Sequence[np.ndarray],
+    noise_rms: float,
+    tried: Sequence[str],
+    free_weights: bool,
+) -> Adequacy:
+    """Judge the final model against the noise floor and try the loop-shape classes.
+
+    Parameters
+    ----------
+    records, train, test : the diagnosis' recordings and row masks
+        The test rows are scored; without any, the training rows (in-sample, said so).
+    final_pred : sequence of ndarray
+        The final model's prediction per recording.
+    noise_rms : float
+        White-noise floor (output units).
+    tried : sequence of str
+        Effects tested.
+    free_weights : bool
+        The baseline needed play weights of either sign (saturating loop): the loop-shape
+        classes are then fitted with the loop-slope constraint.
+
+    Returns
+    -------
+    Adequacy
+    """
+    has_test = any(m.any() for m in test)
+    rows = test if has_test else train
+    scored = "the held-out rows" if has_test else "the training rows (in-sample)"
+    ys = [r.y[m] for r, m in zip(records, rows, strict=True)]
+    e = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, final_pred, rows, strict=True)])
+    rmse = float(np.sqrt(np.mean(e * e)))
+    from ..fitting.metrics import percent_of_range
+
+    pct = percent_of_range(rmse, ys)
+    ratio = rmse / noise_rms if noise_rms > 0 else np.inf
+    where = where_residual(records, final_pred, rows)
+    if ratio <= INADEQUATE_RATIO:
+        return Adequacy(True, rmse, noise_rms, pct, scored, (), (
+            f"the final residual ({rmse:.4g}, {pct:.3f} % of range) is at the white-noise "
+            f"floor ({noise_rms:.3g}): no missing physics left to find in these recordings"))
+    shapes: list[LoopShapeFit] = []
+    n_all = sum(r.n_samples for r in records)
+    if n_all <= MAX_SAMPLES:
+        for model, cls_name, physics in LOOP_SHAPES:
+            try:
+                est, pred = _fit_shape(cls_name, records, train, rows, free_weights)
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+                continue
+            es = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, pred, rows,
+                                                                 strict=True)])
+            r_ = float(np.sqrt(np.mean(es * es)))
+            shapes.append(LoopShapeFit(model, physics, r_, percent_of_range(r_, ys),
+                                       est.full_model_.to_dict()))
+    shapes.sort(key=lambda f: f.rmse)
+    text = (f"the base model is not adequate: the final model still misses {pct:.2f} % of the "
+            f"output range on {scored} (RMS {rmse:.4g}, {ratio:.1f} times the white-noise floor "
+            f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
+            f"{', '.join(tried) or 'no effect'}.")
+    better = [f for f in shapes if f.rmse < 0.8 * rmse]
+    if better:
+        b = better[0]
+        text += (f" The loop shape is the likely cause: {b.physics} reaches {b.pct:.2f} % of "
+                 f"range on the same rows (hyst fit --model {b.model}"
+                 + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ").")
+    elif shapes:
+        text += (" No loop-shape class does clearly better (" + ", ".join(
+            f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
+            "models tried; recordings that separate time, rate and level would tell.")
+    else:
+        text += (" The loop-shape classes (hyst fit --model mpi, gpi-deadzone, gpi-tanh) were "
+                 "not tried on recordings this long; fit them to compare.")
+    return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)

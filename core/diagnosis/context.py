@@ -1,0 +1,66 @@
+"""The fitting context of a diagnosis: recordings, row masks, folds, caches."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._typing import Float1D
+from ..fitting.thresholds import wipeout_index
+from ..recordings import Recording
+from .locate import Coordinates, coordinates
+from .structure import Fit, Structure, _Cache, fit_structure
+
+__all__ = ["FitContext"]
+
+
+class FitContext:
+    """Recordings, train/test rows, cross-fitting folds and the shared play-bank cache of one
+    diagnosis; :meth:`fit` solves a structure on the training rows."""
+
+    def __init__(self, records, train, test, folds=None, parent: FitContext | None = None) -> None:
+        self.records: list[Recording] = records
+        self.train: list[np.ndarray] = train
+        self.test: list[np.ndarray] = test
+        self.cache = _Cache()
+        if parent is not None:
+            # play banks do not depend on the rows used; share them (bases are re-derived)
+            self.cache.d = parent.cache.d
+        self.coords: list[Coordinates] = (coordinates(records) if parent is None
+                                          else parent.coords)
+        self.n_train = sum(int(m.sum()) for m in train)
+        #: refreshes of the bilinear (creep, asymmetry) regressors per fit; None = default
+        self.iterations: int | None = None
+        #: blocked cross-validation folds over the training rows (explicit windows only)
+        self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
+        #: strict hold-out: decisions rest on the folds only, the test rows are only scored
+        self.strict = False
+
+    def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
+        f = fit_structure(s, self.records, self.train, self.cache,
+                          cur.x_pi if cur is not None else None, iterations=self.iterations)
+        assert isinstance(f, Fit)
+        return f
+
+    def rss(self, s: Structure, cur: Fit) -> float:
+        """Training RSS of the linear solve (bilinear regressors frozen at ``cur``)."""
+        v = fit_structure(s, self.records, self.train, self.cache, cur.x_pi, iterations=1,
+                          rss_only=True)
+        assert isinstance(v, float)
+        return v
+
+    def test_res(self, f: Fit, masks: list[np.ndarray] | None = None) -> list[Float1D]:
+        ms = self.test if masks is None else masks
+        return [(r.y - p)[m] for r, p, m in zip(self.records, f.pred, ms, strict=True)]
+
+    @property
+    def memory_masks(self) -> list[np.ndarray]:
+        """The pre-wipe-out rows: the only rows an initial memory state affects."""
+        out = []
+        for r in self.records:
+            m = np.zeros(r.n_samples, dtype=bool)
+            m[: wipeout_index(r.u)] = True
+            out.append(m)
+        return out
+
+    def all_res(self, f: Fit) -> list[Float1D]:
+        return [r.y - p for r, p in zip(self.records, f.pred, strict=True)]

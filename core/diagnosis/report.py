@@ -1,0 +1,124 @@
+"""The readable text report of a diagnosis."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .engine import DiagnosisResult
+
+__all__ = ["summary_text"]
+
+
+def summary_text(res: DiagnosisResult) -> str:
+    """The readable multi-line report of a diagnosis (``hyst diagnose`` without ``--json``)."""
+    yr = res.y_range
+    b = res.heldout_rmse(res.baseline)
+    f = res.heldout_rmse(res.final)
+    lines = [
+        f"Recordings: {', '.join(f'{r.name} ({r.n_samples} samples)' for r in res.records)}",
+        f"Split: {res.split}",
+        f"Baseline {res.model_name.upper()} ({len(res.baseline.structure.thresholds)} "
+        f"operators{', weights of free sign' if res.baseline.structure.free_weights else ''}"
+        "): " + (f"held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range)"
+                 if np.isfinite(b) else "no test window")
+        + f"; white-noise floor {res.noise_rms:.3g}",
+    ]
+    nq = len(res._req.structure.thresholds)
+    if nq != len(res.baseline.structure.thresholds):
+        q = res.heldout_rmse(res._req)
+        lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "
+                     f"({100 * q / yr:.3f} %); under-resolved, the grid was refined")
+    ad = res.adequacy
+    if not res.effects and (ad is None or ad.adequate):
+        lines.append("No missing physics detected: no effect improved the held-out fit "
+                     "significantly, and the residual is at the noise floor.")
+    elif not res.effects:
+        lines.append("No effect of the list improved the held-out fit significantly.")
+    for i, e in enumerate(res.effects, 1):
+        ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
+                                            if e.uncertainty.get(k) is not None else "")
+                       for k, v in e.parameters.items())
+        if e.evidence == "test rows":
+            evidence = [
+                f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} "
+                f"%, z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+        else:
+            evidence = [
+                f"   accepted on {e.evidence}: MSE -{100 * e.heldout.gain:.1f} %, "
+                f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+            if np.isfinite(e.heldout_rmse_after):
+                evidence.append(
+                    f"   test window (scored only, never used for selection): RMSE "
+                    f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                    f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                    f"{100 * e.heldout_rmse_after / yr:.3f} %)")
+        lines += [f"{i}. {e.name}: {ps}", *evidence] + ([
+            f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
+            f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
+            f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
+            + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
+        ] if e.crossfit and e.evidence == "test rows" else []) + [
+            f"   where: {e.where.get('summary', '')}",
+            f"   why: {e.explanation}",
+            f"   added: {e.equation}",
+        ]
+        lines += [f"   caveat: {c}" for c in e.caveats]
+        if e.loro is not None:
+            lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
+                         f"{e.loro['rmse_after']:.4g} (MSE "
+                         f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
+        if e.ambiguous_with:
+            lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
+    if np.isfinite(f):
+        lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
+    else:
+        lines.append("Final: no test window (nothing held out to score)")
+    if res.crossval is not None:
+        cv = res.crossval
+        lines.append(
+            f"Cross-fitted training blocks ({cv['folds']}, the rows the selection used, so "
+            f"optimistic for the final model): RMSE baseline {cv['baseline_rmse']:.4g} "
+            f"({cv['baseline_rmse'] * cv['pct_of']:.3f} %) -> final {cv['final_rmse']:.4g} "
+            f"({cv['final_rmse'] * cv['pct_of']:.3f} %)")
+    if res.loro_baseline is not None and res.loro_final is not None:
+        lb_, lf_ = res.loro_baseline, res.loro_final
+        per = ", ".join(f"{a['recording']} {a['rmse']:.4g} -> {b_['rmse']:.4g}"
+                        for a, b_ in zip(lb_["per_recording"], lf_["per_recording"],
+                                         strict=True))
+        lines.append(f"Leave-one-recording-out RMSE (each recording predicted by the model "
+                     f"refitted on the others): baseline {lb_['rmse']:.4g} -> final "
+                     f"{lf_['rmse']:.4g} (MSE {-100 * lf_['mse_reduction'] + 0.0:+.1f} %); "
+                     f"{per}")
+    for sg in res.suggestive:
+        pooled = (f"; with the cross-fitted blocks z = {sg['dm_z_pooled']:.2f}, "
+                  f"p = {sg['signed_rank_p_pooled']:.2g}, parameter CV across folds "
+                  + ", ".join(f"{k} {100 * v:.0f} %" for k, v in sg["parameter_cv"].items())
+                  if "dm_z_pooled" in sg else "")
+        lines.append(f"Suggestive, not claimed: {sg['effect']} (held-out MSE "
+                     f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
+                     f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
+                     "acceptance rule)")
+    if ad is not None and not ad.adequate:
+        lines.append(f"Base model: {ad.text}")
+    for a in res.ambiguous:
+        lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
+                     f"{a['experiment']}")
+    groups: dict[tuple[str, str], list[str]] = {}
+    for u in res.untestable:  # effects untestable for the same reason share one line
+        groups.setdefault((u["reason"], u["experiment"]), []).append(u["name"])
+    for (reason, experiment), names in groups.items():
+        lines.append(f"Untestable: {', '.join(names)}: {reason}; would need {experiment}")
+    return "\n".join(lines)
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)

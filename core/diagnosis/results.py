@@ -1,0 +1,341 @@
+"""Results of a diagnosis: one finding per accepted effect and the whole outcome (JSON via
+``to_dict``, text via ``summary``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._typing import Float1D
+from ..base import Model
+from ..effects import EFFECT_TYPES
+from ..exceptions import ParameterError
+from ..fitting.metrics import percent_of_range
+from ..recordings import Recording
+from .acceptance import RULE
+from .adequacy import Adequacy
+from .candidates import build_candidate
+from .context import FitContext
+from .specs import EFFECTS
+from .stats import HeldOut, ljung_box
+from .structure import Fit, Structure
+
+__all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "pooled_mse"]
+
+
+#: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
+ACCEPT_RULE: dict[str, float] = RULE.as_dict()
+
+@dataclass
+class EffectFinding:
+    """One accepted effect (SAY / MODEL / SHOW)."""
+
+    name: str
+    parameters: dict[str, Any]
+    uncertainty: dict[str, Any]
+    where: dict[str, Any]
+    explanation: str
+    equation: str
+    heldout: HeldOut
+    heldout_rmse_before: float
+    heldout_rmse_after: float
+    score_lm: float
+    discriminators: dict[str, Any] = field(default_factory=dict)
+    ambiguous_with: list[str] = field(default_factory=list)
+    runner_up: dict[str, Any] = field(default_factory=dict)
+    crossfit: dict[str, Any] | None = None
+    uncertainty_method: str = "profile curvature"
+    structure: Structure | None = None
+    loro: dict[str, Any] | None = None
+    caveats: list[str] = field(default_factory=list)
+    #: the rows the acceptance statistics (``heldout``) were computed on
+    evidence: str = "test rows"
+
+    def to_dict(self, y_range: float) -> dict[str, Any]:
+        """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
+        h = self.heldout
+        return {
+            "name": self.name,
+            "family": EFFECTS[self.name].family,
+            "parameters": _jsonable(self.parameters),
+            "uncertainty": _jsonable(self.uncertainty),
+            "uncertainty_method": self.uncertainty_method,
+            "leave_one_recording_out": _jsonable(self.loro),
+            "caveats": list(self.caveats),
+            "where": _jsonable(self.where),
+            "explanation": self.explanation,
+            "equation": self.equation,
+            "heldout_rmse_before": self.heldout_rmse_before,
+            "heldout_rmse_after": self.heldout_rmse_after,
+            "heldout_rmse_before_pct": 100 * self.heldout_rmse_before / y_range,
+            "heldout_rmse_after_pct": 100 * self.heldout_rmse_after / y_range,
+            "heldout_mse_reduction": h.gain,
+            "dm_z": h.z,
+            "signed_rank_p": h.sign_p,
+            "evidence": self.evidence,
+            "score_lm": self.score_lm,
+            "discriminators": _jsonable(self.discriminators),
+            "ambiguous_with": list(self.ambiguous_with),
+            "runner_up": _jsonable(self.runner_up),
+            "crossfit": _jsonable(self.crossfit),
+        }
+
+
+@dataclass
+class DiagnosisResult:
+    """Outcome of :func:`diagnose`.
+
+    Attributes
+    ----------
+    records : list of Recording
+    baseline, final : Fit
+        The baseline PI fit (at the resolution chosen by the under-resolution check) and the
+        fit with every accepted effect.
+    requested : Fit
+        The PI fit with the requested number of operators.
+    effects : list of EffectFinding
+        Accepted effects in the order they were found.
+    untestable : list of dict
+        ``{"name", "reason", "experiment"}`` per effect the recordings cannot excite.
+    ambiguous : list of dict
+        ``{"effects", "chosen", "reason", "experiment"}`` per undecided pair.
+    rounds : list of dict
+        Every candidate tested in every round with its held-out statistics.
+    maps_before, maps_after : dict
+        Residual maps (LOCATE) of the baseline and the final model on all rows.
+    split : str
+        How the train/test rows were chosen.
+    loro_baseline, loro_final : dict or None
+        Leave-one-recording-out scores of the baseline and the final structure (see
+        :func:`leave_one_recording_out`); ``None`` with one recording or an explicit
+        train/test window.
+    """
+
+    records: list[Recording]
+    train: list[np.ndarray]
+    test: list[np.ndarray]
+    baseline: Fit
+    final: Fit
+    effects: list[EffectFinding]
+    untestable: list[dict[str, str]]
+    ambiguous: list[dict[str, Any]]
+    rounds: list[dict[str, Any]]
+    maps_before: dict[str, Any]
+    maps_after: dict[str, Any]
+    split: str
+    noise_rms: float
+    elapsed_s: float
+    model_name: str = "pi"
+    requested: Fit | None = None
+    loro_baseline: dict[str, Any] | None = None
+    loro_final: dict[str, Any] | None = None
+    #: strict hold-out: baseline and final RMSE on the cross-fitted training blocks (the
+    #: rows the selection used, so optimistic for the final model); else ``None``
+    crossval: dict[str, Any] | None = None
+    #: base-model adequacy verdict (noise floor, loop-shape classes tried)
+    adequacy: Adequacy | None = None
+
+    @property
+    def model(self) -> Model:
+        """The final extended model (as fitted to the first recording)."""
+        return self.final.models[0]
+
+    @property
+    def suggestive(self) -> list[dict[str, Any]]:
+        """Effects of the last round that improved the held-out MSE by >= 5 % but failed the
+        significance test: worth a targeted experiment, not claimed."""
+        if not self.rounds:
+            return []
+        last = max(r["round"] for r in self.rounds)
+        return [
+            {k: r[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
+                               "parameters", "dm_z_pooled", "signed_rank_p_pooled",
+                               "parameter_cv") if k in r}
+            for r in self.rounds
+            if r["round"] == last and not r["passes"] and r["heldout_mse_reduction"] >= 0.05
+            and not str(r["effect"]).startswith(("resolution", "recheck"))
+        ]
+
+    def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
+        """Fit effect ``name`` on top of the final model although it was not claimed.
+
+        For a user who wants to try a *suggestive* effect (one that improved the held-out fit
+        but failed the significance rule). Nothing here is a claim; the held-out RMSE of the
+        returned fit is :meth:`heldout_rmse`.
+
+        Returns
+        -------
+        fit : Fit
+        parameters : dict
+        """
+        if name not in EFFECT_TYPES:
+            raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
+        ctx = FitContext(self.records, self.train, self.test)
+        got = build_candidate(ctx, name, self.final)
+        if got is None:
+            raise ParameterError(f"effect {name!r} is already in the model or not applicable")
+        return got[0], got[1]
+
+    @property
+    def _req(self) -> Fit:
+        return self.requested if self.requested is not None else self.baseline
+
+    @property
+    def y_range(self) -> float:
+        """Output range of the held-out rows, all recordings pooled: the denominator of every
+        held-out "% of range" (:func:`core.fitting.metrics.percent_of_range`, as in the fit
+        reports)."""
+        ys = [r.y[m] for r, m in zip(self.records, self.test, strict=True) if m.any()]
+        return 100.0 / percent_of_range(1.0, ys or [r.y for r in self.records])
+
+    def heldout_rmse(self, fit: Fit) -> float:
+        """Held-out RMSE of ``fit`` over every recording (output units); NaN without a test
+        window."""
+        return float(np.sqrt(pooled_mse([(r.y - p)[m] for r, p, m in zip(
+            self.records, fit.pred, self.test, strict=True)])))
+
+    def per_recording(self, fit: Fit) -> list[dict[str, Any]]:
+        """Held-out and training RMSE per recording."""
+        out = []
+        for r, p, tr, te in zip(self.records, fit.pred, self.train, self.test, strict=True):
+            e = r.y - p
+            out.append(
+                {
+                    "recording": r.name,
+                    "heldout_rmse": float(np.sqrt(np.mean(e[te] ** 2))) if te.any() else None,
+                    "train_rmse": float(np.sqrt(np.mean(e[tr] ** 2))) if tr.any() else None,
+                }
+            )
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """Machine-readable result (the ``hyst diagnose --json`` document).
+
+        Keys
+        ----
+        ``format``, ``version``
+            ``"hysteresis-explorer/diagnosis"``, 1.
+        ``recordings``
+            Name, samples, dt of each recording; ``split`` says how train/test were chosen.
+        ``baseline``
+            ``model`` (``"pi"``), ``n_operators``, ``heldout_rmse`` (output units),
+            ``heldout_rmse_pct`` (% of the output range), ``per_recording``, ``noise_rms``,
+            ``ljung_box``, the residual maps ``maps`` (LOCATE) and
+            ``leave_one_recording_out`` (with >= 2 recordings and the default interleaved
+            split, else ``null``): ``{"rule", "rmse", "rmse_pct", "per_recording": [{
+            "recording", "samples", "rmse", "rmse_pct"}]}``, each recording predicted by the
+            structure refitted on the other recordings only.
+        ``effects``
+            Accepted effects in order; each has ``name`` (an effect ``type``), ``parameters``,
+            ``uncertainty`` (1-sigma, autocorrelation-inflated), ``where`` (time windows,
+            input range, branch shares, summary), ``explanation``, ``equation``,
+            ``heldout_rmse_before``/``_after`` (output units, and ``_pct``),
+            ``heldout_mse_reduction``, ``dm_z``, ``sign_test_p``, ``score_lm``,
+            ``discriminators``, ``ambiguous_with``, ``runner_up``, ``crossfit`` (with
+            explicit windows: ``folds``, ``dm_z_pooled``, ``signed_rank_p_pooled``,
+            ``mse_reduction_pooled``, ``fold_mse_reductions``, ``fold_parameters``,
+            ``parameter_cv``; else ``null``), ``uncertainty_method``, ``caveats`` (e.g. the rows
+            outside train/test got more than 25 % worse) and
+            ``leave_one_recording_out`` (``{"rmse_before", "rmse_after", "mse_reduction",
+            "per_recording"}``: the structure up to this effect against the one before it,
+            scored as in ``baseline``; ``null`` when not scored).
+        ``untestable``
+            ``[{"name", "reason", "experiment"}]``.
+        ``ambiguous``
+            ``[{"effects", "chosen", "reason", "experiment"}]``.
+        ``final``
+            ``effects`` (names), ``heldout_rmse`` (+ ``_pct``), ``per_recording``, ``model``
+            (the extended model's ``to_dict()``), ``maps``, ``leave_one_recording_out``
+            (as in ``baseline``, plus ``mse_reduction`` against the baseline's).
+        ``suggestive``
+            Effects of the last round with >= 5 % held-out MSE reduction that failed the
+            significance rule (not claimed).
+        ``tested``
+            Every candidate of every round with its held-out gain, z and decision.
+        ``accept_rule``
+            The thresholds used.
+        """
+        yr = self.y_range
+        b = self.heldout_rmse(self.baseline)
+        f = self.heldout_rmse(self.final)
+        rows = self.test if any(m.any() for m in self.test) else self.train
+        lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
+                                       zip(self.records, self.baseline.pred, rows,
+                                           strict=True)]))
+        return _jsonable({
+            "format": "hysteresis-explorer/diagnosis",
+            "version": 1,
+            "crossval": self.crossval,
+            "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+            "recordings": [{"name": r.name, "samples": r.n_samples, "dt_s": r.dt,
+                            "time_axis": r.has_time, "cleaning": list(r.cleaning)}
+                           for r in self.records],
+            "split": self.split,
+            "baseline": {
+                "model": self.model_name,
+                "n_operators": len(self.baseline.structure.thresholds),
+                "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
+                else "nonnegative",
+                "heldout_rmse": b,
+                "heldout_rmse_pct": 100 * b / yr,
+                "requested_n_operators": len(self._req.structure.thresholds),
+                "requested_heldout_rmse": self.heldout_rmse(self._req),
+                "requested_heldout_rmse_pct": 100 * self.heldout_rmse(self._req) / yr,
+                "per_recording": self.per_recording(self.baseline),
+                "noise_rms": self.noise_rms,
+                "ljung_box": {"Q": lb[0], "lags": lb[1]},
+                "model_dict": self.baseline.models[0].to_dict(),
+                "maps": _jsonable(self.maps_before),
+                "leave_one_recording_out": _jsonable(self.loro_baseline),
+            },
+            "effects": [e.to_dict(yr) for e in self.effects],
+            "untestable": self.untestable,
+            "ambiguous": _jsonable(self.ambiguous),
+            "final": {
+                "effects": [e.name for e in self.effects],
+                "heldout_rmse": f,
+                "heldout_rmse_pct": 100 * f / yr,
+                "per_recording": self.per_recording(self.final),
+                "model": self.model.to_dict(),
+                "maps": _jsonable(self.maps_after),
+                "leave_one_recording_out": _jsonable(self.loro_final),
+            },
+            "suggestive": _jsonable(self.suggestive),
+            "tested": _jsonable(self.rounds),
+            "accept_rule": ACCEPT_RULE,
+            "elapsed_s": self.elapsed_s,
+        })
+
+    def summary(self) -> str:
+        """Readable multi-line report (:func:`core.diagnosis.report.summary_text`)."""
+        from .report import summary_text
+
+        return summary_text(self)
+
+
+def pooled_mse(es: Sequence[Float1D]) -> float:
+    """Mean squared value of the pooled residuals (NaN when there are none)."""
+    e = np.concatenate(list(es)) if es else np.zeros(0)
+    return float(np.mean(e * e)) if e.size else float("nan")
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return [_jsonable(v) for v in x.tolist()]
+    if isinstance(x, np.floating | float):
+        v = float(x)
+        return v if np.isfinite(v) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, HeldOut):
+        return {"gain": x.gain, "z": _jsonable(x.z), "sign_p": x.sign_p}
+    return x
+
+
