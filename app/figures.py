@@ -109,6 +109,18 @@ def _layout(title: str, **kw: Any) -> dict[str, Any]:
     return lay
 
 
+def _unit(units: dict[str, str] | None, role: str) -> str:
+    """The unit of ``role`` ("time", "input", "output"): the recording's, else s / a.u."""
+    u = (units or {}).get(role, "")
+    return u or ("s" if role == "time" else "a.u.")
+
+
+def _ax(units: dict[str, str] | None, role: str, label: str | None = None) -> dict[str, Any]:
+    """An axis title with quantity and unit, e.g. ``input u [V]``."""
+    text = label or {"time": "time t", "input": "input u", "output": "output y"}[role]
+    return {"text": f"{text} [{_unit(units, role)}]"}
+
+
 def _line(x: Any, y: Any, name: str, color: str, **kw: Any) -> dict[str, Any]:
     tr = {"type": "scatter", "mode": "lines", "x": x, "y": y, "name": name,
           "line": {"color": color, "width": 2}}
@@ -141,11 +153,12 @@ def time_figure(res: Result) -> FigureJSON:
     if res.y_measured is not None:
         data.append(_line(t, _num(res.y_measured[idx]), "measured y", _GREY, xaxis="x",
                           yaxis="y2", line={"color": _GREY, "width": 1, "dash": "dot"}))
+    un = res.units
     lay = _layout(
         "Input and output in time",
-        xaxis={"title": {"text": "t [s]"}, "anchor": "y"},
-        yaxis={"title": {"text": "u"}, "domain": [0.55, 1.0]},
-        yaxis2={"title": {"text": "y"}, "domain": [0.0, 0.45], "anchor": "x"},
+        xaxis={"title": _ax(un, "time"), "anchor": "y"},
+        yaxis={"title": _ax(un, "input"), "domain": [0.55, 1.0]},
+        yaxis2={"title": _ax(un, "output"), "domain": [0.0, 0.45], "anchor": "x"},
     )
     return FigureJSON(data, lay)
 
@@ -165,32 +178,50 @@ def loop_figure(res: Result) -> FigureJSON:
         data.append(_line(_num(r), _num(pi.loading_curve(r)), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     title = f"Hysteresis loop ({type(m).__name__}, n = {getattr(m, 'n', '?')})"
-    lay = _layout(title, xaxis={"title": {"text": "input u"}},
-                  yaxis={"title": {"text": "output y"}})
+    lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
+                  yaxis={"title": _ax(res.units, "output")})
     return FigureJSON(data, lay)
 
 
 def operators_figure(res: Result) -> FigureJSON:
-    """Stacked contributions ``p0 u`` and ``p_i Γ_{r_i}[u]``; their sum is ``y``."""
+    """Stacked contributions ``p0 w`` and ``p_i Γ_{r_i}[w]``; their sum is ``y``.
+
+    ``w`` is the PI's own input (:attr:`Result.pi_u`): ``u`` for a classical PI, the
+    dead-zoned or enveloped input of a generalized PI, so the stack always adds up to the
+    PI's output (``y`` when the PI is the last stage).
+    """
     m = pi_part(res.model)
     if res.contributions is None or res.contrib_idx is None or m is None:
         return message_figure("Operator outputs", "Only available for classical PI models")
     idx = res.contrib_idx
     t = _num(res.t[idx])
-    data = [_line(t, _num(m.p0 * res.u[idx]), "p0·u", _GREY, stackgroup="c",
-                  line={"width": 0.5})]
+    w = res.u if res.pi_u is None else res.pi_u
+    mapped = w is not res.u
+    stages = getattr(res.model, "stages", ())
+    pi_last = not stages or stages[-1] is m
+    data = [_line(t, _num(m.p0 * w[idx]), "p0·γ(u)" if mapped else "p0·u", _GREY,
+                  stackgroup="c", line={"width": 0.5})]
     for i in range(m.n):
         data.append({"type": "scatter", "mode": "lines", "x": t,
                      "y": _num(res.contributions[:, i]), "stackgroup": "c",
                      "name": f"p{i + 1}·Γ(r={m.thresholds[i]:.3g})", "line": {"width": 0.5}})
-    data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
-                      line={"color": "#000000", "width": 1.5, "dash": "dot"}))
-    lay = _layout("Operator contributions (stacked)", xaxis={"title": {"text": "t [s]"}},
-                  yaxis={"title": {"text": "contribution to y"}}, showlegend=m.n <= 12)
+    if pi_last:
+        data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
+                          line={"color": "#000000", "width": 1.5, "dash": "dot"}))
+    else:  # a map after the PI: the stack is the PI's output, not y
+        pi_y = m.simulate(w).y
+        data.append(_line(t, _num(pi_y[idx]), "PI output (sum)", "#000000",
+                          line={"color": "#000000", "width": 1.5, "dash": "dot"}))
+    title = ("Operator contributions (stacked, on the PI's input γ(u))" if mapped
+             else "Operator contributions (stacked)")
+    lay = _layout(title, xaxis={"title": _ax(res.units, "time")},
+                  yaxis={"title": _ax(res.units, "output", "contribution to y")},
+                  showlegend=m.n <= 12)
     return FigureJSON(data, lay)
 
 
-def loading_figure(model: Model, u_max: float | None = None) -> FigureJSON:
+def loading_figure(model: Model, u_max: float | None = None,
+                   units: dict[str, str] | None = None) -> FigureJSON:
     """Initial loading curve φ(r) with each segment's slope and the maximum loop width."""
     pi = pi_part(model)
     if pi is None:
@@ -210,8 +241,9 @@ def loading_figure(model: Model, u_max: float | None = None) -> FigureJSON:
     ann.append({"x": 0.02, "y": 0.98, "xref": "paper", "yref": "paper", "showarrow": False,
                 "xanchor": "left", "align": "left",
                 "text": f"max loop width σ = {model.max_loop_width:.4g}<br>{inv}"})
-    lay = _layout("Initial loading curve", xaxis={"title": {"text": "r (input travel)"}},
-                  yaxis={"title": {"text": "φ(r)"}}, annotations=ann)
+    lay = _layout("Initial loading curve",
+                  xaxis={"title": _ax(units, "input", "input travel r")},
+                  yaxis={"title": _ax(units, "output", "loading curve φ(r)")}, annotations=ann)
     return FigureJSON(data, lay)
 
 
@@ -233,19 +265,36 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     ]
     rms = float(np.sqrt(np.mean(err**2)))
     span = float(np.ptp(res.u)) or 1.0
-    err_axis: dict[str, Any] = {"title": {"text": "y − y_d"}, "anchor": "x3"}
+    un = res.units
+    err_axis: dict[str, Any] = {"title": _ax(un, "output", "error y − y_d"), "anchor": "x3"}
     if float(np.max(np.abs(err))) < 1e-9 * span:  # exact inverse: do not zoom into rounding
         err_axis["range"] = [-0.05 * span, 0.05 * span]
+    yd_title = _ax(un, "output", "desired y_d")
     lay = _layout(
         f"Inverse compensation (mismatch {mismatch:+.0%}, RMS error {rms:.3g})",
-        xaxis={"domain": [0, 0.3], "title": {"text": "desired y_d"}, "anchor": "y"},
-        yaxis={"title": {"text": "plant input v"}, "anchor": "x"},
-        xaxis2={"domain": [0.36, 0.64], "title": {"text": "desired y_d"}, "anchor": "y2"},
-        yaxis2={"title": {"text": "achieved y"}, "anchor": "x2"},
-        xaxis3={"domain": [0.72, 1.0], "title": {"text": "t [s]"}, "anchor": "y3"},
+        xaxis={"domain": [0, 0.3], "title": yd_title, "anchor": "y"},
+        yaxis={"title": _ax(un, "input", "plant input v"), "anchor": "x"},
+        xaxis2={"domain": [0.36, 0.64], "title": yd_title, "anchor": "y2"},
+        yaxis2={"title": _ax(un, "output", "achieved y"), "anchor": "x2"},
+        xaxis3={"domain": [0.72, 1.0], "title": _ax(un, "time"), "anchor": "y3"},
         yaxis3=err_axis,
     )
+    if res.inverse_warning:
+        lay["annotations"] = [{
+            "text": "⚠ the inverse clipped part of the input: " + _wrap(res.inverse_warning),
+            "showarrow": False, "xref": "paper", "yref": "paper", "x": 0.0, "y": 1.0,
+            "xanchor": "left", "yanchor": "top", "align": "left",
+            "font": {"color": _RED, "size": 11}, "bgcolor": "rgba(255,255,255,0.85)"}]
+        lay["meta"] = {"notes": [f"The inverse clipped part of the input: {res.inverse_warning}"]}
     return FigureJSON(data, lay)
+
+
+def _wrap(text: str, width: int = 90) -> str:
+    """``text`` with ``<br>`` line breaks about every ``width`` characters (annotations)."""
+    import textwrap
+
+    safe = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return "<br>".join(textwrap.wrap(safe, width))
 
 
 def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJSON:
@@ -259,12 +308,13 @@ def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJ
         _line(t, _num(res[idx]), "residual y − ŷ", _RED, xaxis="x2", yaxis="y2"),
     ]
     rms = float(np.sqrt(np.mean(res**2)))
+    un = dict(rec.units)
     lay = _layout(
-        f"Fit overlay and residual (RMS {rms:.3g})",
-        xaxis={"domain": [0, 0.46], "title": {"text": "u"}, "anchor": "y"},
-        yaxis={"title": {"text": "y"}, "anchor": "x"},
-        xaxis2={"domain": [0.54, 1.0], "title": {"text": "t [s]"}, "anchor": "y2"},
-        yaxis2={"title": {"text": "residual"}, "anchor": "x2"},
+        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})",
+        xaxis={"domain": [0, 0.46], "title": _ax(un, "input"), "anchor": "y"},
+        yaxis={"title": _ax(un, "output"), "anchor": "x"},
+        xaxis2={"domain": [0.54, 1.0], "title": _ax(un, "time"), "anchor": "y2"},
+        yaxis2={"title": _ax(un, "output", "residual y − ŷ"), "anchor": "x2"},
     )
     return FigureJSON(data, lay)
 
@@ -305,7 +355,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
         show_text = n <= 5
         data.append({"type": "scatter", "mode": "markers+text" if show_text else "markers",
                      "x": _num(g.x), "y": _num(g.y), "text": g.strings,
-                     "textposition": "top left", "textfont": {"size": 9},
+                     "textposition": "top left", "textfont": {"size": 12},
                      "name": f"{2**n} states", "marker": {"size": 5 if n > 6 else 7,
                                                           "color": _GREY},
                      "hovertext": g.strings, "xaxis": "x", "yaxis": "y"})
@@ -313,6 +363,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                       xaxis="x", yaxis="y", marker={"size": 5}))
     data.append({"type": "scatter", "mode": "markers+text", "x": [float(tr.x_b[k])],
                  "y": [float(tr.y_b[k])], "text": [cur], "textposition": "bottom right",
+                 "textfont": {"size": 14, "color": _RED},
                  "name": "current state", "marker": {"size": 14, "color": _RED,
                                                      "symbol": "circle-open",
                                                      "line": {"width": 3}},
@@ -329,22 +380,29 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     data.append(_line(_num(res.t[idx]), _num(err[idx]), "digitized − classical", _RED,
                       xaxis="x3", yaxis="y3"))
     span = float(np.ptp(d.y)) or 1.0
+    un = res.units
     err_axis: dict[str, Any] = {"domain": [0.22, 0.56], "anchor": "x3",
-                                "title": {"text": "error"}}
+                                "title": _ax(un, "output", "error")}
     if float(np.max(np.abs(err))) < 1e-9 * span:  # identical: do not zoom into rounding
         err_axis["range"] = [-0.05 * span, 0.05 * span]
+    t_k = float(res.t[min(int(tr.sample[k]), res.t.size - 1)])
     H = d.H
     txt = _matrix_text("H", H) + "<br>" + _matrix_text("H⁻¹", H[::-1])
     bound = float(d.model.reversal_error_bound())
     lay = _layout(
         f"Digitized PI: n = {n} digits, state {cur} (max |error| "
         f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g})",
-        xaxis={"domain": [0, 0.5], "title": {"text": "X (input)"}, "anchor": "y"},
-        yaxis={"domain": [0.22, 1.0], "title": {"text": "Y (output)"}, "anchor": "x"},
+        xaxis={"domain": [0, 0.5], "title": _ax(un, "input", "state X (input)"),
+               "anchor": "y"},
+        yaxis={"domain": [0.22, 1.0], "title": _ax(un, "output", "state Y (output)"),
+               "anchor": "x"},
         xaxis2={"domain": [0.58, 1.0], "anchor": "y2", "showticklabels": False},
-        yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits"}},
+        yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits b_i"}},
         xaxis3={"domain": [0.58, 1.0], "anchor": "y3", "matches": "x2",
-                "title": {"text": "t [s]"}},
+                "title": _ax(un, "time")},
+        # the current state's time, across the digit rows and the error
+        shapes=[{"type": "line", "xref": "x2", "yref": "paper", "x0": t_k, "x1": t_k,
+                 "y0": 0.22, "y1": 1.0, "line": {"color": _RED, "width": 2}}],
         yaxis3=err_axis,
         annotations=[{"text": txt, "showarrow": False, "xref": "paper", "yref": "paper",
                       "x": 0.0, "y": 0.0, "xanchor": "left", "yanchor": "top", "align": "left",
@@ -379,9 +437,10 @@ def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
         title += f" — {msg}"
     lay = _layout(
         title,
-        xaxis={"title": {"text": "t [s]"}, "anchor": "y2"},
-        yaxis={"title": {"text": "y_o"}, "domain": [0.45, 1.0]},
-        yaxis2={"title": {"text": "error r − y_o"}, "domain": [0.0, 0.37], "anchor": "x"},
+        xaxis={"title": _ax(res.units, "time"), "anchor": "y2"},
+        yaxis={"title": _ax(res.units, "output", "plant output y_o"), "domain": [0.45, 1.0]},
+        yaxis2={"title": _ax(res.units, "output", "error r − y_o"), "domain": [0.0, 0.37],
+                "anchor": "x"},
     )
     lay["title"]["font"] = {"size": 12}
     return FigureJSON(data, lay)
@@ -400,7 +459,7 @@ def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
     if name == "operators":
         return operators_figure(res)
     if name == "loading":
-        return loading_figure(res.model, float(np.max(np.abs(res.u))) or None)
+        return loading_figure(res.model, float(np.max(np.abs(res.u))) or None, res.units)
     if name == "inverse":
         return inverse_figure(res, mismatch)
     if name == "digitized":

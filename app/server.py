@@ -113,5 +113,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for mod in (meta, simulate, sessions, data, export):
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
+    from .routers.events import router as events_router  # live pushes (SSE), teacher
+
+    app.include_router(events_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     return app

@@ -9,6 +9,7 @@ from fastapi import APIRouter, Header, HTTPException, Query
 from core.exceptions import ParameterError
 
 from ..compute import compute, preset_doc, validate_config
+from ..events import HUB
 from ..schemas import ConfigIn
 from .deps import RegistryDep, SessionDep, SettingsDep
 from .simulate import result_payload
@@ -88,4 +89,6 @@ def broadcast_preset(
     """Teacher: push preset ``name`` to every session (needs ``X-Teacher-Token`` if set)."""
     if settings.teacher_token and x_teacher_token != settings.teacher_token:
         raise HTTPException(403, "pushing to all sessions needs the teacher token")
-    return {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
+    out = {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
+    HUB.broadcast({"kind": "push", "preset": name})
+    return out
