@@ -115,8 +115,9 @@ def test_csv_upload_fit_diagnosis_download(browser: Any, live_server: dict, shot
     doc = json.loads(Path(dl.value.path()).read_text())
     model = doc["model"]
     assert model["type"] in ("pi", "chain")
-    # the bad CSV's 422 response is expected (the browser logs it); nothing else may fail
-    assert [e for e in errors if "status of 422" not in e] == []
+    # the bad CSV's 422 response is expected (the browser logs it), and so is a 404/405
+    # from the jobs API on a server without it; nothing else may fail
+    assert [e for e in errors if not any(f"status of {c}" in e for c in (422, 404, 405))] == []
     ctx.close()
 
 
