@@ -16,6 +16,9 @@ const PLOT_CONFIG = {
   responsive: true, displaylogo: false, showLink: false, showSendToCloud: false,
   showEditInChartStudio: false, plotlyServerURL: "", linkText: "",
   modeBarButtonsToRemove: ["sendDataToCloud", "sendChartToCloud", "editInChartStudio"],
+  // SVG is written straight from the plot; PNG would load a blob: image, which the
+  // server's Content-Security-Policy (default-src 'self') blocks
+  toImageButtonOptions: { format: "svg", filename: "hysteresis-explorer" },
 };
 
 const VIEW_HELP = {
