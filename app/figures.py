@@ -101,7 +101,7 @@ def _layout(title: str, **kw: Any) -> dict[str, Any]:
     lay: dict[str, Any] = {
         "title": {"text": title, "font": {"size": 14}},
         "margin": {"l": 55, "r": 15, "t": 40, "b": 45},
-        "legend": {"orientation": "h", "y": -0.18},
+        "legend": {"orientation": "h", "y": -0.22},
         "template": "plotly_white",
         "uirevision": "keep",
     }
@@ -381,7 +381,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                       xaxis="x3", yaxis="y3"))
     span = float(np.ptp(d.y)) or 1.0
     un = res.units
-    err_axis: dict[str, Any] = {"domain": [0.22, 0.56], "anchor": "x3",
+    err_axis: dict[str, Any] = {"domain": [0.3, 0.56], "anchor": "x3",
                                 "title": _ax(un, "output", "error")}
     if float(np.max(np.abs(err))) < 1e-9 * span:  # identical: do not zoom into rounding
         err_axis["range"] = [-0.05 * span, 0.05 * span]
@@ -394,19 +394,22 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
         f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g})",
         xaxis={"domain": [0, 0.5], "title": _ax(un, "input", "state X (input)"),
                "anchor": "y"},
-        yaxis={"domain": [0.22, 1.0], "title": _ax(un, "output", "state Y (output)"),
+        yaxis={"domain": [0.3, 1.0], "title": _ax(un, "output", "state Y (output)"),
                "anchor": "x"},
         xaxis2={"domain": [0.58, 1.0], "anchor": "y2", "showticklabels": False},
         yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits b_i"}},
         xaxis3={"domain": [0.58, 1.0], "anchor": "y3", "matches": "x2",
                 "title": _ax(un, "time")},
         # the current state's time, across the digit rows and the error
-        shapes=[{"type": "line", "xref": "x2", "yref": "paper", "x0": t_k, "x1": t_k,
-                 "y0": 0.22, "y1": 1.0, "line": {"color": _RED, "width": 2}}],
+        shapes=[{"type": "line", "xref": xr, "yref": f"{yr} domain", "x0": t_k, "x1": t_k,
+                 "y0": 0, "y1": 1, "line": {"color": _RED, "width": 2}}
+                for xr, yr in (("x2", "y2"), ("x3", "y3"))],
         yaxis3=err_axis,
         annotations=[{"text": txt, "showarrow": False, "xref": "paper", "yref": "paper",
-                      "x": 0.0, "y": 0.0, "xanchor": "left", "yanchor": "top", "align": "left",
+                      "x": 0.0, "y": 0.15, "xanchor": "left", "yanchor": "top", "align": "left",
                       "font": {"family": "monospace", "size": 10}}],
+        legend={"orientation": "h", "x": 0.56, "y": 0.15, "xanchor": "left", "yanchor": "top",
+                "font": {"size": 10}},
         margin={"l": 55, "r": 15, "t": 40, "b": 10},
     )
     return FigureJSON(data, lay)
@@ -444,6 +447,54 @@ def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     )
     lay["title"]["font"] = {"size": 12}
     return FigureJSON(data, lay)
+
+
+def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:
+    """``fig`` with its side-by-side panels stacked top to bottom (narrow plots).
+
+    Panels are the groups of axes whose x axes share a horizontal domain; each gets a
+    band of the height, in order of appearance, and every x axis spans the full width.
+    ``compact`` (a phone) also drops the legend and the monospace side notes (the
+    digitized view's matrices, which the GUI prints as text). Returns the new figure and
+    the number of bands (1: ``fig`` itself, unchanged). The web page does the same in
+    ``static/app.js::fitLayout``.
+    """
+    lay = fig.layout
+    xs = [k for k in lay if k.startswith("xaxis") and isinstance(lay[k], dict)]
+    cols: list[tuple[float, ...]] = []
+    col_of: dict[str, int] = {}
+    for k in xs:
+        d = tuple(lay[k].get("domain", (0.0, 1.0)))
+        if d not in cols:
+            cols.append(d)
+        col_of[k] = cols.index(d)
+    if len(cols) < 2:
+        return fig, 1
+    new = json.loads(json.dumps(lay))
+    band = 1.0 / len(cols)
+    gap = 0.12 * band
+    for k in xs:
+        new[k]["domain"] = [0.0, 1.0]
+    for k in [k for k in new if k.startswith("yaxis") and isinstance(new[k], dict)]:
+        anchor = str(new[k].get("anchor", "x"))
+        c = col_of.get("xaxis" + (anchor[1:] if anchor.startswith("x") else ""), 0)
+        a, b = new[k].get("domain", (0.0, 1.0))
+        top = 1.0 - c * band
+        bottom = top - band + gap
+        new[k]["domain"] = [bottom + a * (top - bottom), bottom + b * (top - bottom)]
+    new["margin"] = {**new.get("margin", {}), "l": 50, "r": 10}
+    # side notes in monospace (the digitized view's matrices) have no room left
+    new["annotations"] = [a for a in new.get("annotations", [])
+                          if a.get("font", {}).get("family") != "monospace"]
+    if compact:
+        new["showlegend"] = False
+    elif "legend" in new:
+        new["legend"] = {**new["legend"], "x": 0.0, "y": -0.06, "xanchor": "left",
+                         "yanchor": "top"}
+        new["margin"]["b"] = max(int(new["margin"].get("b", 45)), 70)
+    if "title" in new:
+        new["title"] = {**new["title"], "font": {"size": 11}}
+    return FigureJSON(fig.data, new), len(cols)
 
 
 #: Names of the figures :func:`build` can build.

@@ -239,6 +239,9 @@ function fitLayout(layout) {
     lay[k].domain = [bottom + a * (top - bottom), bottom + b * (top - bottom)];
   }
   lay.margin = { ...(lay.margin || {}), l: 50, r: 10 };
+  // side notes in monospace (the digitized view's matrices) have no room left
+  lay.annotations = (lay.annotations || []).filter((a) => !(a.font && a.font.family === "monospace"));
+  lay.showlegend = false;
   if (lay.title) lay.title = { ...lay.title, font: { size: 11 } };
   return lay;
 }

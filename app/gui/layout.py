@@ -65,8 +65,8 @@ PLOT_CONFIG = {"displaylogo": False, "showLink": False, "showSendToCloud": False
                "showEditInChartStudio": False, "plotlyServerURL": "",
                "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
                                           "editInChartStudio"]}
-#: Seconds per state of the digitized animation at speed 1.
-PLAY_STEP_S = 0.5
+#: Browser widths (CSS px) below which the plot moves into the control sheet.
+NARROW_PX = 700
 
 
 class SessionView:
@@ -130,6 +130,13 @@ class SessionView:
     def _build(self) -> None:
         g = self.gui
         self.code_md = g.add_markdown("")
+        # viser shows no floating panel on a phone: there the plot lives at the top of
+        # the control sheet instead (see :meth:`set_narrow`)
+        with g.add_folder("Plot", visible=False) as self.narrow_folder:
+            self._dd_narrow = g.add_dropdown("View", tuple(_TITLES.values()),
+                                             initial_value=_TITLES["loop"])
+            self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
+                                             aspect=0.9, config=PLOT_CONFIG)
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="")
             self.join_btn = g.add_button("Join / restore session")
@@ -230,12 +237,14 @@ class SessionView:
         self.panel = g.add_panel()
         self.panel.float(x=10, y=10, width=470)
         with self.panel.add_tab("Plots"):
-            self.view_dd = g.add_dropdown("View", tuple(_TITLES.values()),
-                                          initial_value=_TITLES["loop"])
+            self._dd_wide = g.add_dropdown("View", tuple(_TITLES.values()),
+                                           initial_value=_TITLES["loop"])
             # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
             # says width/height; measured in Chromium: height = width * aspect).
-            self.plot = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
-                                     config=PLOT_CONFIG)
+            self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
+                                           config=PLOT_CONFIG)
+        self.narrow = False
+        self.view_dd, self.plot = self._dd_wide, self._plot_wide
         self.status_md = g.add_markdown("")
         self._wire()
 
@@ -244,7 +253,8 @@ class SessionView:
                   self.duration, self.samples, self.kind, self.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         self.n_ops.on_update(self._guarded(self._n_changed))
-        self.view_dd.on_update(self._guarded(lambda ev: self.worker.request()))
+        for dd in (self._dd_wide, self._dd_narrow):
+            dd.on_update(self._guarded(self._view_chosen))
         self.digi_step.on_update(self._guarded(self._step_changed))
         self.play_btn.on_click(self._guarded(self._play_clicked))
         self.stop_btn.on_click(self._guarded(lambda ev: self._play_stop.set()))
@@ -263,6 +273,32 @@ class SessionView:
         self.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((self.dl_json, "json"), (self.dl_mat, "mat"), (self.dl_c, "c")):
             btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+
+    def _view_chosen(self, event: Any) -> None:
+        other = self._dd_narrow if self.view_dd is self._dd_wide else self._dd_wide
+        self._syncing.on = True
+        try:
+            other.value = self.view_dd.value = event.target.value
+        finally:
+            self._syncing.on = False
+        self.worker.request()
+
+    def set_narrow(self, narrow: bool) -> None:
+        """Show the plot in the control sheet (phones) or in the floating panel."""
+        if narrow == self.narrow:
+            return
+        self.narrow = narrow
+        self.narrow_folder.visible = narrow
+        self.panel.visible = not narrow
+        value = self.view_dd.value
+        self.view_dd, self.plot = ((self._dd_narrow, self._plot_narrow) if narrow
+                                   else (self._dd_wide, self._plot_wide))
+        self._syncing.on = True
+        try:
+            self.view_dd.value = value
+        finally:
+            self._syncing.on = False
+        self.worker.request()
 
     def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
         """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
@@ -649,8 +685,16 @@ class SessionView:
             fig = F.build(name, res, cfg.mismatch)
         if session is not self.session or self.session.snapshot()[1] != v:
             return  # stale: a newer version is queued, skip sending this one
-        self.plot.aspect = {"inverse": 0.5, "fit": 0.5, "digitized": 0.8,
-                            "closed-loop": 0.75}.get(name, 0.72)
+        aspect = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0,
+                  "closed-loop": 0.75}.get(name, 0.72)
+        # side-by-side panels are stacked: the floating panel is narrow (it leaves the
+        # 3D scene in view), a phone's control sheet narrower still
+        fig, bands = F.stack_columns(fig, compact=self.narrow)
+        if self.narrow:
+            aspect = max(0.9, 0.8 * bands)
+        elif bands > 1:
+            aspect = min(1.35, 0.68 * bands)
+        self.plot.aspect = aspect
         self.plot.figure = fig
         self.shown_figure = name
         d = res.digitized
@@ -734,7 +778,8 @@ class SessionView:
             now = time.monotonic()
             if force or now - self._state_sent >= 0.1 or k == len(tr.sample) - 1:
                 # the loop plot's current state and the digit rows' time line follow
-                self.plot.figure = F.digitized_figure(res, highlight=k)
+                fig = F.digitized_figure(res, highlight=k)
+                self.plot.figure = F.stack_columns(fig, compact=self.narrow)[0]
                 self._state_sent, self._shown_state = now, k
 
     def _step_by(self, d: int) -> None:
@@ -807,8 +852,9 @@ class SessionView:
         direction /= np.linalg.norm(direction)
         try:
             self.camera.up_direction = (0.0, 0.0, 1.0)
-            self.camera.look_at = (0.0, 0.0, 0.0)
+            # viser moves look_at with the position: set the target afterwards
             self.camera.position = tuple(3.2 * radius * direction)
+            self.camera.look_at = (0.0, 0.0, 0.0)
         except Exception:  # noqa: BLE001 - a camera of a closing tab
             pass
 
@@ -930,6 +976,14 @@ class ExplorerGui:
 
         view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
                            notify=notify, scene=client.scene, camera=client.camera)
+
+        def on_camera(camera: Any) -> None:
+            width = getattr(camera, "image_width", 0) or 0
+            if width:
+                view.set_narrow(width < NARROW_PX)
+
+        client.camera.on_update(on_camera)
+        on_camera(client.camera)
         with self._lock:
             self.views[client.client_id] = view
 

@@ -52,6 +52,12 @@ def _clean(page: Any, log: dict[str, list[str]]) -> None:
     assert log["errors"] == []
 
 
+def _text_has(page: Any, elem: str, text: str) -> None:
+    """Wait until the element with id ``elem`` contains ``text``."""
+    page.wait_for_function("([e, t]) => document.getElementById(e).textContent.includes(t)",
+                           arg=[elem, text])
+
+
 def _redrawn(page: Any, version: str | None) -> None:
     page.wait_for_function("v => document.body.dataset.ready !== v", arg=version)
 
@@ -155,7 +161,8 @@ def test_reupload_exported_parameter_set(browser: Any, live_server: dict,
     doc = json.loads(saved.read_text())
     assert doc["format"] == "hysteresis-explorer/parameter-set"
     page.click("#new-session")
-    page.wait_for_function("() => !document.getElementById('model-json').value.includes('deadzone')")
+    page.wait_for_function(
+        "() => !document.getElementById('model-json').value.includes('deadzone')")
     page.set_input_files("#ps-file", str(saved))
     page.wait_for_function("() => document.getElementById('export-msg').textContent.length > 0")
     assert page.inner_text("#export-msg").startswith("Loaded"), page.inner_text("#export-msg")
@@ -183,12 +190,13 @@ def test_deadzone_operators_stack_to_y_and_clipping_inverse_is_said(
     shot(page, "web-operators-deadzone")
     # a tanh GPI whose envelope bounds the output at ±2: the inverse clips, the page says so
     code = page.inner_text("#code")
-    model = json.loads(page.evaluate("""async () => JSON.stringify(
-      (await (await fetch('/api/presets')).json()).find(p => p.name === 'paper001-example6').model)"""))
+    from app.compute import preset_doc
+
+    model = preset_doc("paper001-example6")["model"]
     model["envelope"]["a"] = model["envelope"]["b"] = [2.0, 0.4, 0.0, 0.0]
-    page.evaluate("""async ([code, model]) => fetch(`/api/sessions/${code}/config`, {method: 'PATCH',
-      headers: {'Content-Type': 'application/json'}, body: JSON.stringify({model})})""",
-                  [code, model])
+    page.evaluate("""async ([code, model]) => fetch(`/api/sessions/${code}/config`,
+      {method: 'PATCH', headers: {'Content-Type': 'application/json'},
+       body: JSON.stringify({model})})""", [code, model])
     page.click("#tabs button[data-fig=inverse]")
     page.wait_for_function("() => document.getElementById('notes').textContent.includes('clipped')")
     assert "samples were outside the domain" in page.inner_text("#notes")
@@ -214,11 +222,11 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
     t.fill("#teacher-token", "wrong")
     t.select_option("#teacher-preset", "paper000-three-operators")
     t.click("#teacher-push")
-    t.wait_for_function("() => document.getElementById('teacher-msg').textContent.includes('token')")
+    _text_has(t, "teacher-msg", "token")
     assert _session(app, a).config.model["type"] == "pi"
     t.fill("#teacher-token", TEACHER_TOKEN)
     t.click("#teacher-push")
-    t.wait_for_function("() => document.getElementById('teacher-msg').textContent.includes('Pushed')")
+    _text_has(t, "teacher-msg", "Pushed")
     for page in (a, b):
         page.wait_for_selector("#live-note:not([hidden])", timeout=30_000)
         assert "pushed" in page.inner_text("#live-note")
@@ -235,7 +243,7 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
     assert sa.config.model["type"] == "digitized"
     assert sa.config.signal.amplitude == pytest.approx(5.45)
     t.click("#teacher-refresh")
-    t.wait_for_function("() => document.getElementById('teacher-msg').textContent.includes('open pages')")
+    _text_has(t, "teacher-msg", "open pages")
     msg = t.inner_text("#teacher-msg")
     assert a.inner_text("#code") in msg and b.inner_text("#code") in msg
     for page, log in ((a, log_a), (b, log_b), (t, log_t)):
