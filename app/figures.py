@@ -472,7 +472,7 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
         return fig, 1
     new = json.loads(json.dumps(lay))
     band = 1.0 / len(cols)
-    gap = 0.12 * band
+    gap = 0.25 * band  # room for tick labels and an axis title
     for k in xs:
         new[k]["domain"] = [0.0, 1.0]
     for k in [k for k in new if k.startswith("yaxis") and isinstance(new[k], dict)]:

@@ -229,7 +229,7 @@ function fitLayout(layout) {
   fig.classList.toggle("tall", stack);
   if (!stack) return layout;
   const lay = structuredClone(layout);
-  const band = 1 / cols.length, gap = 0.12 * band;
+  const band = 1 / cols.length, gap = 0.25 * band;  // room for tick labels and a title
   for (const k of xs) lay[k].domain = [0, 1];
   for (const k of keys.filter((k) => /^yaxis\d*$/.test(k))) {
     const anchor = String(lay[k].anchor || "x");
@@ -301,6 +301,7 @@ async function onPushed(info) {
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
   const p = state.presets.find((x) => x.name === info.preset);
+  if (p) { $("preset").value = p.name; showPresetDesc(); }
   const what = p ? p.title : info.preset ? info.preset : "a new input";
   const note = $("live-note");
   note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
