@@ -248,7 +248,7 @@ class Result:
     units: dict[str, str] = field(default_factory=dict)  # "time", "input", "output"
 
 
-def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
+def decimate_index(u: np.ndarray, max_points: int = 800) -> np.ndarray:
     """Indices of at most about ``max_points`` samples, always keeping input reversals.
 
     Parameters
@@ -275,7 +275,7 @@ def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
 
 
 #: Rows of the operator-contribution matrix kept for the stacked plot.
-CONTRIB_ROWS = 400
+CONTRIB_ROWS = 300
 #: Samples per chunk when the play-operator matrix is computed piecewise.
 CONTRIB_CHUNK = 20_000
 
@@ -401,8 +401,8 @@ def compute(
 # ----------------------------------------------------------------------------- closed loop
 #: Sample rate of the closed-loop runs (paper 001's plant has poles near 3-4 kHz).
 CLOSED_LOOP_RATE = 50_000.0
-#: Longest closed-loop run, s (100,000 samples at 50 kHz).
-CLOSED_LOOP_MAX_S = 2.0
+#: Longest closed-loop run, s (50,000 samples at 50 kHz: one period of the 1 Hz default).
+CLOSED_LOOP_MAX_S = 1.0
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,6 +5,8 @@
 // new Option), never as markup; the page needs no inline script or style (CSP
 // "default-src 'self'").
 
+import { quickPlot } from "/quickplot.js";
+
 const $ = (id) => document.getElementById(id);
 const state = {
   code: null, config: null, fig: "loop", fitFigure: null, busy: false, dirty: false,
@@ -246,6 +248,29 @@ function fitLayout(layout) {
   return lay;
 }
 
+// plotly.js is loaded after the first figure is on screen (quickplot.js draws it);
+// from then on every figure is drawn by plotly
+let plotlyLoading = null;
+function loadPlotly() {
+  plotlyLoading ??= new Promise((resolve, reject) => {
+    const s = Object.assign(document.createElement("script"), { src: "/vendor/plotly.min.js" });
+    s.addEventListener("load", resolve);
+    s.addEventListener("error", () => reject(new Error("the plotting library did not load")));
+    document.head.append(s);
+  });
+  return plotlyLoading;
+}
+
+async function render(el, f) {
+  state.shown = f;
+  if (!window.Plotly) {
+    quickPlot(el, f.data, fitLayout(f.layout));
+    return;
+  }
+  if (el.querySelector(":scope > .quick-plot")) el.replaceChildren();
+  await Plotly.react(el, f.data, fitLayout(f.layout), PLOT_CONFIG);
+}
+
 async function draw() {
   const el = $("figure");
   const name = state.fig === "fit" ? "loading" : state.fig;
@@ -254,7 +279,7 @@ async function draw() {
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
   }
-  await Plotly.react(el, f.data, fitLayout(f.layout), PLOT_CONFIG);
+  await render(el, f);
   const parts = [`${res.model_type}`, `n = ${res.n_operators ?? "?"}`];
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
@@ -621,8 +646,8 @@ async function main() {
   }
 }
 
-function start() {
-  main().catch((e) => setMsg("model-msg", `Start-up failed: ${e.message}`));
-}
-// plotly.min.js is deferred; module scripts run after it, but stay safe if it is late
-if (window.Plotly) start(); else window.addEventListener("load", start);
+main()
+  .then(() => new Promise((r) => requestAnimationFrame(() => setTimeout(r, 0))))
+  .then(loadPlotly)
+  .then(() => state.shown && render($("figure"), state.shown))
+  .catch((e) => setMsg("model-msg", `Start-up failed: ${e.message}`));
