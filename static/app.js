@@ -538,8 +538,10 @@ async function loadPreset() {
 async function teacherPush() {
   state.token = $("teacher-token").value;
   try {
-    const r = await api("POST", "/api/teacher/push",
-      { preset: $("teacher-preset").value, use_preset_input: $("teacher-input").checked });
+    const mode = $("teacher-input").value;
+    const body = { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
+    if (mode === "mine") body.signal = readConfig().signal;
+    const r = await api("POST", "/api/teacher/push", body);
     setMsg("teacher-msg", `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
   } catch (e) {
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : `Not pushed: ${e.message}`);

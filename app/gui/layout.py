@@ -524,12 +524,21 @@ class SessionView:
     def _join_clicked(self, event: Any) -> None:
         code = str(self.code_in.value).strip()
         try:
-            new = self.registry.get_or_create(code)
+            existed = True
+            try:
+                new = self.registry.get(code)
+            except KeyError:
+                existed = False
+                new = self.registry.get_or_create(code)
         except KeyError:
             self._toast("Bad code", "a session code has 3-32 letters, digits, '-' or '_'", True)
             return
         self.bind(new)
-        self._toast("Session", f"now in session {new.code}")
+        if existed:
+            self._toast("Session", f"now in session {new.code}")
+        else:  # say so: a mistyped code must not look like a lost session
+            self._toast("New session", f"no session had the code {new.code!r}: a new, empty "
+                        "one was opened under it. Check the spelling if you meant to rejoin.")
 
     def _push_clicked(self, event: Any) -> None:
         token = self.settings.teacher_token
