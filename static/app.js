@@ -10,7 +10,7 @@ import { quickPlot } from "/quickplot.js";
 const $ = (id) => document.getElementById(id);
 const state = {
   code: null, config: null, fig: "loop", fitFigure: null, busy: false, dirty: false,
-  presets: [], caps: null, events: null, job: null,
+  presets: [], caps: null, events: null, job: null, lastInput: -Infinity, settle: null,
 };
 
 // plotly's toolbar without anything that talks to an outside service
@@ -187,6 +187,7 @@ function readConfig() {
 }
 
 function onControlChange() {
+  state.lastInput = performance.now();
   state.dirty = true;
   pump();
 }
@@ -199,8 +200,16 @@ async function pump() {
     while (state.dirty) {
       state.dirty = false;
       const cfg = readConfig();
+      // store the change and, for a simulated input, compute the figure from the same
+      // config at the same time (one round trip instead of two)
+      const stored = api("PATCH", `/api/sessions/${state.code}/config`, cfg);
+      const name = state.fig === "fit" ? "loading" : state.fig;
+      const figure = cfg.use_recording || state.fig === "fit" ? null
+        : api("POST", "/api/simulate", { model: cfg.model, signal: cfg.signal,
+          mismatch: cfg.mismatch, figures: [name] });
+      if (figure) figure.catch(() => null);  // a refused config is reported by the PATCH
       try {
-        const s = await api("PATCH", `/api/sessions/${state.code}/config`, cfg);
+        const s = await stored;
         state.config = s.config;
         state.version = s.version;
         setMsg("model-msg", "");
@@ -208,7 +217,7 @@ async function pump() {
         setMsg("model-msg", `Not applied: ${e.message}`);
         continue;
       }
-      await draw();
+      await draw(figure ? figure.then((r) => ({ ...r, version: state.version })) : undefined);
     }
   } finally {
     state.busy = false;
@@ -261,25 +270,60 @@ function loadPlotly() {
   return plotlyLoading;
 }
 
-async function render(el, f) {
-  state.shown = f;
-  if (!window.Plotly) {
-    quickPlot(el, f.data, fitLayout(f.layout));
-    return;
+// While a control is being moved, plotly's redraw (30-200 ms for these figures) is the
+// slow part of a step: the frames of a drag are drawn by quickplot.js over the plot, and
+// plotly redraws once the control has rested for SETTLE_MS (keeping zoom and toolbar).
+const SETTLE_MS = 350;
+
+function zoomed(layout) {
+  const fl = $("figure")._fullLayout;
+  if (!fl) return layout;
+  const lay = { ...layout };
+  for (const k of Object.keys(lay)) {
+    if (/^[xy]axis\d*$/.test(k) && fl[k] && fl[k].autorange === false && Array.isArray(fl[k].range)) {
+      lay[k] = { ...lay[k], range: fl[k].range.slice() };
+    }
   }
-  if (el.querySelector(":scope > .quick-plot")) el.replaceChildren();
-  await Plotly.react(el, f.data, fitLayout(f.layout), PLOT_CONFIG);
+  return lay;
 }
 
-async function draw() {
+async function render(el, f, { live = false } = {}) {
+  state.shown = f;
+  const layout = fitLayout(f.layout);
+  const old = el.querySelector(":scope > .quick-plot");
+  if (!window.Plotly || live) {
+    const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
+    if (window.Plotly) {
+      svg.classList.add("overlay");
+      if (old) old.replaceWith(svg); else el.append(svg);
+      clearTimeout(state.settle);
+      state.settle = setTimeout(() => {
+        render(el, state.shown).catch((e) => setMsg("model-msg", e.message));
+      }, SETTLE_MS);
+    } else {
+      el.replaceChildren(svg);
+    }
+    return;
+  }
+  clearTimeout(state.settle);
+  if (old && !old.classList.contains("overlay")) el.replaceChildren();
+  const t0 = performance.now();
+  await Plotly.react(el, f.data, layout, PLOT_CONFIG);
+  if (old && old.classList.contains("overlay")) old.remove();
+  document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);
+  document.body.dataset.settled = document.body.dataset.ready || "";
+}
+
+async function draw(pending) {
   const el = $("figure");
   const name = state.fig === "fit" ? "loading" : state.fig;
-  const res = await api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  const res = await (pending || api("GET", `/api/sessions/${state.code}/figures?name=${name}`));
   let f = res.figures[name];
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
   }
-  await render(el, f);
+  const live = performance.now() - state.lastInput < SETTLE_MS;
+  await render(el, f, { live });
   const parts = [`${res.model_type}`, `n = ${res.n_operators ?? "?"}`];
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
@@ -290,6 +334,7 @@ async function draw() {
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);
+  if (!live) document.body.dataset.settled = String(res.version);
 }
 
 // ---------------------------------------------------------------- session
@@ -553,7 +598,7 @@ async function teacherRefresh() {
   try {
     const r = await api("GET", "/api/teacher/connected");
     const codes = r.codes ? `: ${r.codes.join(", ")}` : "";
-    setMsg("teacher-msg", `${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions${codes}`, true);
+    setMsg("teacher-msg", `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions${codes}`, true);
   } catch (e) {
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : e.message);
   }

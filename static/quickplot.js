@@ -41,7 +41,7 @@ function axisKey(ref, letter) {
   return `${letter}axis${suffix}`;
 }
 
-/** Draw figure ``{data, layout}`` into ``el`` as SVG; returns the svg element. */
+/** Figure ``{data, layout}`` as an SVG element the size of ``el`` (not inserted). */
 export function quickPlot(el, data, layout) {
   const W = el.clientWidth || 600, H = el.clientHeight || 400;
   const m = { l: 60, r: 15, t: 40, b: 50, ...(layout.margin || {}) };
@@ -61,15 +61,15 @@ export function quickPlot(el, data, layout) {
     const key = `${xk}|${yk}`;
     if (!panels.has(key)) panels.set(key, { xk, yk, traces: [] });
     const x = values(tr.x), y0 = values(tr.y);
-    let y = y0;
+    let y = y0, base = null;
     if (tr.stackgroup) {
-      const base = stacks.get(tr.stackgroup);
-      y = Float64Array.from(y0, (v, j) => v + (base ? base[j] : 0));
+      base = stacks.get(tr.stackgroup) || new Float64Array(y0.length);
+      y = Float64Array.from(y0, (v, j) => v + base[j]);
       stacks.set(tr.stackgroup, y);
     }
     const color = (tr.line && tr.line.color) || (tr.marker && tr.marker.color) || COLORS[i % COLORS.length];
     panels.get(key).traces.push({ x, y, color, mode: tr.mode || "lines", dash: tr.line && tr.line.dash,
-      width: (tr.line && tr.line.width) || 2, shape: tr.line && tr.line.shape });
+      width: (tr.line && tr.line.width) || 2, shape: tr.line && tr.line.shape, base });
   });
   for (const { xk, yk, traces } of panels.values()) {
     const xa = layout[xk] || {}, ya = layout[yk] || {};
@@ -120,6 +120,13 @@ export function quickPlot(el, data, layout) {
         d += `${pen ? "L" : "M"}${sx(a).toFixed(1)},${sy(b).toFixed(1)}`;
         pen = true;
       }
+      if (t.base) {  // a stacked band: fill down to the band below
+        let back = "";
+        for (let j = t.x.length - 1; j >= 0; j--) {
+          if (Number.isFinite(t.x[j]) && Number.isFinite(t.base[j])) back += `L${sx(t.x[j]).toFixed(1)},${sy(t.base[j]).toFixed(1)}`;
+        }
+        g.append(node("path", { d: `${d}${back}Z`, fill: t.color, "fill-opacity": 0.5, stroke: "none" }));
+      }
       if (t.mode.includes("lines")) {
         g.append(node("path", { d, fill: "none", stroke: t.color, "stroke-width": t.width,
           "stroke-dasharray": t.dash === "dash" ? "6,4" : t.dash === "dot" ? "2,3" : "none" }));
@@ -142,6 +149,5 @@ export function quickPlot(el, data, layout) {
         "font-size": 12, "font-family": "sans-serif", fill: "#333" }, line.replace(/<[^>]*>/g, "")));
     });
   }
-  el.replaceChildren(svg);
   return svg;
 }

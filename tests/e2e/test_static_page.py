@@ -56,7 +56,9 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
         "v => document.body.dataset.ready !== v", arg=version, timeout=30_000)
     page.wait_for_function(
         "() => !document.querySelector('#status').textContent.includes('…')", timeout=30_000)
-    page.wait_for_timeout(400)
+    # the frames of a drag are drawn by the page's SVG plotter; plotly redraws at rest
+    page.wait_for_function(
+        "() => document.body.dataset.settled === document.body.dataset.ready", timeout=30_000)
     after = _loop_y(page)
     assert not np.allclose(before, after)
     shot(page, "static-loop")
