@@ -10,7 +10,7 @@ import numpy as np
 
 from core.pi import PIModel
 
-from .test_viser_gui import _open, _screenshot
+from .test_viser_gui import _open, _screenshot, upload_csv
 
 
 def _new_view(app: Any, known: set[int]) -> Any:
@@ -21,21 +21,6 @@ def _new_view(app: Any, known: set[int]) -> Any:
             return new[0]
         time.sleep(0.1)
     raise AssertionError("no new viser view")
-
-
-def _open_sized(browser: Any, url: str, width: int, height: int) -> tuple[Any, Any, list[str]]:
-    ctx = browser.new_context(viewport={"width": width, "height": height},
-                              accept_downloads=True)
-    page = ctx.new_page()
-    page.set_default_timeout(60_000)
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.on("request", lambda r: errors.append(f"external request {r.url}")
-            if not r.url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "data:", "blob:"))
-            else None)
-    page.goto(url)
-    page.wait_for_selector("text=Session code")
-    return ctx, page, errors
 
 
 def _plot_box(page: Any) -> dict[str, float]:
@@ -51,7 +36,7 @@ def _plot_box(page: Any) -> dict[str, float]:
 def test_phone_shows_a_plot(browser: Any, live_server: dict, shot: Any) -> None:
     app = live_server["app"]
     known = set(app.state.gui.views)
-    ctx, page, errors = _open_sized(browser, live_server["viser_url"], 390, 844)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 390, 844)
     view = _new_view(app, known)
     deadline = time.monotonic() + 30
     while not view.narrow and time.monotonic() < deadline:
@@ -68,7 +53,7 @@ def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
                                               shot: Any) -> None:
     app = live_server["app"]
     known = set(app.state.gui.views)
-    ctx, page, errors = _open_sized(browser, live_server["viser_url"], 1280, 800)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1280, 800)
     view = _new_view(app, known)
     from types import SimpleNamespace
 
@@ -108,15 +93,7 @@ def test_markup_in_a_csv_is_not_drawn(browser: Any, live_server: dict, tmp_path:
     t = np.arange(300) * 1e-3
     u = 3.0 * np.sin(2 * np.pi * 4 * t)
     y = PIModel(0.7, [0.5, 1.0], [0.5, 0.4])(u)
-    csv = tmp_path / "<img src=x onerror=alert(1)>.csv"
-    csv.write_text("t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True)))
-    page.get_by_role("tab", name="Data").first.click()
-    with page.expect_file_chooser() as fc:
-        page.get_by_role("button", name="Upload CSV").first.click()
-    fc.value.set_files(str(csv))
-    deadline = time.monotonic() + 30
-    while view.session.recording is None and time.monotonic() < deadline:
-        time.sleep(0.1)
+    upload_csv(page, view, tmp_path / "<img src=x onerror=alert(1)>.csv", t, u, y)
     assert view.session.recording is not None
     page.wait_for_selector("text=<img src=x onerror=alert(1)>.csv")
     assert page.locator("img[src=x]").count() == 0

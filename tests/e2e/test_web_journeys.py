@@ -62,6 +62,13 @@ def _redrawn(page: Any, version: str | None) -> None:
     page.wait_for_function("v => document.body.dataset.ready !== v", arg=version)
 
 
+def _load_preset(page: Any, name: str) -> None:
+    page.select_option("#preset", name)
+    v = page.get_attribute("body", "data-ready")
+    page.click("#load-preset")
+    _redrawn(page, v)
+
+
 def _session(app: Any, page: Any) -> Any:
     return app.state.registry.get(page.inner_text("#code"))
 
@@ -150,10 +157,7 @@ def test_reupload_exported_parameter_set(browser: Any, live_server: dict,
                                          tmp_path: Path) -> None:
     app = live_server["app"]
     ctx, page, log = _open(browser, live_server["url"])
-    page.select_option("#preset", "paper001-example4")
-    v = page.get_attribute("body", "data-ready")
-    page.click("#load-preset")
-    _redrawn(page, v)
+    _load_preset(page, "paper001-example4")
     with page.expect_download() as dl:
         page.click("#dl-json")
     saved = tmp_path / "saved.json"
@@ -174,10 +178,7 @@ def test_reupload_exported_parameter_set(browser: Any, live_server: dict,
 def test_deadzone_operators_stack_to_y_and_clipping_inverse_is_said(
         browser: Any, live_server: dict, shot: Any) -> None:
     ctx, page, log = _open(browser, live_server["url"])
-    page.select_option("#preset", "paper001-example4")
-    v = page.get_attribute("body", "data-ready")
-    page.click("#load-preset")
-    _redrawn(page, v)
+    _load_preset(page, "paper001-example4")
     page.click("#tabs button[data-fig=operators]")
     page.wait_for_function("() => document.body.dataset.fig === 'operators'")
     stack, total = page.evaluate("""() => {
