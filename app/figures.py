@@ -486,7 +486,9 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
             cols.append(d)
         col_of[k] = cols.index(d)
     if len(cols) < 2:
-        return fig, 1
+        if not compact:
+            return fig, 1
+        return FigureJSON(fig.data, {**lay, "showlegend": False}), 1
     new = json.loads(json.dumps(lay))
     band = 1.0 / len(cols)
     gap = 0.25 * band  # room for tick labels and an axis title
