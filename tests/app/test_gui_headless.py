@@ -246,3 +246,17 @@ def test_latest_wins_worker_skips_stale_requests() -> None:
     assert w.wait_idle(5)
     w.stop()
     assert calls[0] == 0 and calls[-1] == 49 and len(calls) <= 3
+
+
+def test_recording_units_label_the_axes(view: SessionView) -> None:
+    rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
+    view.upload._impl.value = SimpleNamespace(
+        name="piezo.csv", content=f"t [s],u [V],y [µm]\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert view.session.recording is not None
+    assert view.session.recording.units["input"] == "V"
+    _idle(view)
+    lay = view.plot.figure.layout
+    assert lay["xaxis"]["title"]["text"] == "input u [V]"
+    assert lay["yaxis"]["title"]["text"] == "output y [µm]"
+    assert "| u [V] |" in view.data_md.content
