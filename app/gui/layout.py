@@ -115,6 +115,7 @@ class SessionView:
         self._download = download
         self._syncing = threading.local()
         self._lock = threading.RLock()
+        self._work_lock = threading.Lock()
         self.rendered_version = -1
         self.last_result: Result | None = None
         self.shown_figure = ""
@@ -626,15 +627,24 @@ class SessionView:
 
     @contextmanager
     def _busy(self, what: str) -> Iterator[None]:
-        """Disable fit and diagnosis while ``what`` runs; the report says "working…"."""
+        """Disable fit and diagnosis while ``what`` runs; the report says "working…".
+
+        A click that arrives before the browser has greyed the buttons out is refused
+        (a ``ValueError``, shown as a toast) instead of starting a second run.
+        """
+        if not self._work_lock.acquire(blocking=False):
+            raise ValueError("a fit or diagnosis is already running: wait for it to finish")
         for b in (self.fit_btn, self.diag_btn):
             b.disabled = True
         self.report_md.content = f"⏳ **working… {what}**"
         try:
             yield
         finally:
+            if self.report_md.content.startswith("⏳"):
+                self.report_md.content = ""  # it failed: the toast says why
             for b in (self.fit_btn, self.diag_btn):
                 b.disabled = False
+            self._work_lock.release()
 
     def _report_clicked(self, event: Any) -> None:
         result = self.session.diagnosis_result

@@ -260,3 +260,18 @@ def test_recording_units_label_the_axes(view: SessionView) -> None:
     assert lay["xaxis"]["title"]["text"] == "input u [V]"
     assert lay["yaxis"]["title"]["text"] == "output y [µm]"
     assert "| u [V] |" in view.data_md.content
+
+
+def test_second_fit_while_one_runs_is_refused(view: SessionView) -> None:
+    rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
+    view.upload._impl.value = SimpleNamespace(name="r.csv", content=f"t,u,y\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    view._work_lock.acquire()  # a diagnosis is running
+    try:
+        view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
+    finally:
+        view._work_lock.release()
+    assert view.session.fitted is None
+    assert any("already running" in body for _, body, _ in view.toasts)
+    view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
+    assert view.session.fitted is not None and not view.fit_btn.disabled
