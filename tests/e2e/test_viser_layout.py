@@ -80,6 +80,12 @@ def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
     cur = next(t for t in view.plot.figure.data if t["name"] == "current state")
     assert cur["x"] == [float(tr.x_b[last - 1])]
     assert f"State {last - 1}/" in view.digi_md.content
+    # the plot toolbar offers nothing that uploads the chart
+    page.hover(".js-plotly-plot")
+    page.wait_for_selector(".modebar-btn")
+    titles = page.locator(".modebar-btn").evaluate_all(
+        "els => els.map(e => e.getAttribute('data-title') || '')")
+    assert titles and not any("Share" in t or "Cloud" in t or "Studio" in t for t in titles)
     _screenshot(page, shot, "viser-digitized-cube")
     assert errors == []
     ctx.close()
