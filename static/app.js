@@ -296,6 +296,7 @@ async function render(el, f, { live = false } = {}) {
     if (window.Plotly) {
       svg.classList.add("overlay");
       if (old) old.replaceWith(svg); else el.append(svg);
+      el.classList.add("live");  // plotly's own SVG is hidden (not repainted) meanwhile
       clearTimeout(state.settle);
       state.settle = setTimeout(() => {
         render(el, state.shown).catch((e) => setMsg("model-msg", e.message));
@@ -310,6 +311,7 @@ async function render(el, f, { live = false } = {}) {
   const t0 = performance.now();
   await Plotly.react(el, f.data, layout, PLOT_CONFIG);
   if (old && old.classList.contains("overlay")) old.remove();
+  el.classList.remove("live");
   document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);
   document.body.dataset.settled = document.body.dataset.ready || "";
 }
