@@ -8,7 +8,8 @@ No viser / fastapi / plotly imports.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,7 @@ import numpy as np
 from core.base import Chain, Model, model_from_dict
 from core.closed_loop import HammersteinLoop, paper001_plant
 from core.digitized import DigitizedPI
-from core.exceptions import NotInvertibleError, ParameterError
+from core.exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from core.fitting.thresholds import reversal_indices
 from core.operators import play_bank
 from core.pi import PIModel
@@ -39,8 +40,10 @@ __all__ = [
     "make_signal",
     "operator_contributions",
     "perturb",
+    "pi_input",
     "pi_part",
     "preset_doc",
+    "preset_input",
     "validate_config",
 ]
 
@@ -64,17 +67,37 @@ def make_signal(spec: SignalSpec) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(t, dtype=np.float64), np.asarray(u, dtype=np.float64)
 
 
+def preset_input(model: Model) -> SignalSpec:
+    """The input signal that suits ``model`` when it is loaded as a preset.
+
+    A digitized PI (paper 000) is driven across its whole loop: its digits flip between
+    ``x0`` and ``x0 + Σ Δx``, so the sine spans that interval with a 10 % margin on each
+    side (paper 000's three-operator example: 0…10). Every other preset keeps the default
+    ±4 sine of paper 001 Example 1.
+    """
+    if isinstance(model, DigitizedPI):
+        lo = float(model.x0)
+        hi = lo + float(np.sum(model.dx))
+        span = hi - lo
+        return SignalSpec(amplitude=round(0.55 * span, 3), offset=round(0.5 * (lo + hi), 3))
+    return SignalSpec()
+
+
 def preset_doc(name: str) -> dict[str, Any]:
-    """``{"name", "title", "description", "model"}`` of the :mod:`core.presets` preset ``name``.
+    """``{"name", "title", "description", "model", "input"}`` of the preset ``name``.
+
+    ``input`` is the :func:`preset_input` signal as a dict (the fields of
+    :class:`~app.state.SignalSpec`).
 
     Raises
     ------
     ParameterError
         If ``name`` is unknown (the message lists the valid names).
     """
-    model = get_preset(name).to_dict()
+    m = get_preset(name)
     info = next(p for p in list_presets() if p.name == name)
-    return {"name": name, "title": info.title, "description": info.description, "model": model}
+    return {"name": name, "title": info.title, "description": info.description,
+            "model": m.to_dict(), "input": preset_input(m).__dict__.copy()}
 
 
 def build_model(d: dict[str, Any], max_operators: int) -> Model:
@@ -107,6 +130,22 @@ def pi_part(model: Model) -> PIModel | None:
         if isinstance(st, PIModel):
             return st
     return None
+
+
+def pi_input(model: Model, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+    """The signal that drives the classical PI inside ``model``.
+
+    For a bare PI that is ``u``; for a chain or a generalized PI whose stages put a map
+    before the PI (the dead-zone GPI's ``γ``, a tanh envelope), it is the output of those
+    stages, so the operators can be stacked on what they really see.
+    """
+    stages = getattr(model, "stages", ())
+    w = u
+    for st in stages:
+        if isinstance(st, PIModel):
+            return w
+        w = st.simulate(w, dt=dt).y
+    return u
 
 
 def perturb(model: Model, mismatch: float) -> Model:
@@ -206,9 +245,12 @@ class Result:
     digitized: Digitized | None = None
     messages: tuple[str, ...] = ()
     elapsed_ms: float = 0.0
+    pi_u: np.ndarray | None = None  # (N,) input of the PI stage (u unless a map precedes it)
+    inverse_warning: str | None = None  # the inverse ran but clipped part of the input
+    units: dict[str, str] = field(default_factory=dict)  # "time", "input", "output"
 
 
-def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
+def decimate_index(u: np.ndarray, max_points: int = 800) -> np.ndarray:
     """Indices of at most about ``max_points`` samples, always keeping input reversals.
 
     Parameters
@@ -235,7 +277,7 @@ def decimate_index(u: np.ndarray, max_points: int = 1500) -> np.ndarray:
 
 
 #: Rows of the operator-contribution matrix kept for the stacked plot.
-CONTRIB_ROWS = 400
+CONTRIB_ROWS = 300
 #: Samples per chunk when the play-operator matrix is computed piecewise.
 CONTRIB_CHUNK = 20_000
 
@@ -280,14 +322,17 @@ def compute(
     max_samples: int = 200_000,
     with_inverse: bool = True,
     with_digitized: bool = True,
+    with_operators: bool = True,
     diagnosed: Model | None = None,
 ) -> Result:
     """Simulate ``config``: output, operator contributions and inverse compensation.
 
-    ``with_inverse`` / ``with_digitized`` skip the inverse-compensation run and the
-    digitized view when the figure on show does not need them. ``diagnosed`` (the session's
-    diagnosed extended model, :func:`diagnosed_model`) is the model the inverse view then
-    compensates instead of the config's model.
+    ``with_inverse`` / ``with_digitized`` / ``with_operators`` skip the
+    inverse-compensation run, the digitized view and the operator contributions when the
+    figure on show does not need them. An inverse that had to clip part of its input (a
+    tanh envelope's bounded domain) still runs; ``Result.inverse_warning`` says so.
+    ``diagnosed`` (the session's diagnosed extended model, :func:`diagnosed_model`) is the
+    model the inverse view then compensates instead of the config's model.
 
     Raises
     ------
@@ -297,8 +342,10 @@ def compute(
     t0 = time.perf_counter()
     model = build_model(config.model, max_operators)
     y_meas = None
+    units = {"time": "s", "input": "", "output": ""}
     if config.use_recording and recording is not None:
         t, u, y_meas = recording.t, recording.u, recording.y
+        units.update({k: v for k, v in recording.units.items() if v})
     else:
         config.signal.validate(max_samples)
         t, u = make_signal(config.signal)
@@ -306,18 +353,25 @@ def compute(
     if u.size > max_samples:
         raise ParameterError(f"the input has {u.size} samples; at most {max_samples} allowed")
     y = model.simulate(u, dt=dt).y
-    contrib = contrib_idx = None
+    contrib = contrib_idx = w = None
     pi = pi_part(model)
-    if pi is not None:
-        contrib_idx, contrib = operator_contributions(pi, u)
+    if pi is not None and with_operators:
+        w = pi_input(model, u, dt)
+        contrib_idx, contrib = operator_contributions(pi, w)
     v = y_comp = None
-    inv_err = None
+    inv_err = inv_warn = None
     if with_inverse:
         comp = model if diagnosed is None else diagnosed
         try:
             inv = comp.inverse()
             # desired output = the signal; plant input v = P^-1(u); plant output P~(v)
-            v = inv.simulate(u, dt=dt).y
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", ClippedInputWarning)
+                v = inv.simulate(u, dt=dt).y
+            clipped = [str(c.message) for c in caught
+                       if issubclass(c.category, ClippedInputWarning)]
+            if clipped:
+                inv_warn = clipped[0]
             y_comp = perturb(comp, config.mismatch).simulate(v, dt=dt).y
         except NotInvertibleError as exc:
             inv_err = str(exc)
@@ -339,10 +393,13 @@ def compute(
         y=y,
         contributions=contrib,
         contrib_idx=contrib_idx,
+        pi_u=w,
         v=v,
         y_comp=y_comp,
         inverse_error=inv_err,
         diagnosed=diagnosed,
+        inverse_warning=inv_warn,
+        units=units,
         y_measured=y_meas,
         elapsed_ms=1e3 * (time.perf_counter() - t0),
     )
@@ -351,8 +408,8 @@ def compute(
 # ----------------------------------------------------------------------------- closed loop
 #: Sample rate of the closed-loop runs (paper 001's plant has poles near 3-4 kHz).
 CLOSED_LOOP_RATE = 50_000.0
-#: Longest closed-loop run, s (100,000 samples at 50 kHz).
-CLOSED_LOOP_MAX_S = 2.0
+#: Longest closed-loop run, s (50,000 samples at 50 kHz: one period of the 1 Hz default).
+CLOSED_LOOP_MAX_S = 1.0
 #: Longest closed-loop run of a diagnosed (extended) model, s.
 DIAGNOSED_LOOP_MAX_S = 0.02
 

@@ -42,9 +42,9 @@ __all__ = [
 ]
 
 #: Largest number of points sent per trace.
-MAX_POINTS = 1500
-#: Points per stacked operator-contribution trace.
-MAX_POINTS_STACKED = 400
+MAX_POINTS = 800
+#: Most filled bands in the operators view (neighbouring operators are summed beyond).
+MAX_BANDS = 12
 
 _BLUE, _ORANGE, _GREEN, _RED, _GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#7f7f7f"
 
@@ -101,12 +101,24 @@ def _layout(title: str, **kw: Any) -> dict[str, Any]:
     lay: dict[str, Any] = {
         "title": {"text": title, "font": {"size": 14}},
         "margin": {"l": 55, "r": 15, "t": 40, "b": 45},
-        "legend": {"orientation": "h", "y": -0.18},
+        "legend": {"orientation": "h", "y": -0.22},
         "template": "plotly_white",
         "uirevision": "keep",
     }
     lay.update(kw)
     return lay
+
+
+def _unit(units: dict[str, str] | None, role: str) -> str:
+    """The unit of ``role`` ("time", "input", "output"): the recording's, else s / a.u."""
+    u = (units or {}).get(role, "")
+    return u or ("s" if role == "time" else "a.u.")
+
+
+def _ax(units: dict[str, str] | None, role: str, label: str | None = None) -> dict[str, Any]:
+    """An axis title with quantity and unit, e.g. ``input u [V]``."""
+    text = label or {"time": "time t", "input": "input u", "output": "output y"}[role]
+    return {"text": f"{text} [{_unit(units, role)}]"}
 
 
 def _line(x: Any, y: Any, name: str, color: str, **kw: Any) -> dict[str, Any]:
@@ -132,7 +144,7 @@ def message_figure(title: str, message: str) -> FigureJSON:
 
 def time_figure(res: Result) -> FigureJSON:
     """Input ``u(t)`` (top) and output ``y(t)`` (bottom), plus the measurement if any."""
-    idx = decimate_index(res.u)
+    idx = decimate_index(res.u, MAX_POINTS)
     t = _num(res.t[idx])
     data = [
         _line(t, _num(res.u[idx]), "input u", _BLUE, xaxis="x", yaxis="y"),
@@ -141,18 +153,19 @@ def time_figure(res: Result) -> FigureJSON:
     if res.y_measured is not None:
         data.append(_line(t, _num(res.y_measured[idx]), "measured y", _GREY, xaxis="x",
                           yaxis="y2", line={"color": _GREY, "width": 1, "dash": "dot"}))
+    un = res.units
     lay = _layout(
         "Input and output in time",
-        xaxis={"title": {"text": "t [s]"}, "anchor": "y"},
-        yaxis={"title": {"text": "u"}, "domain": [0.55, 1.0]},
-        yaxis2={"title": {"text": "y"}, "domain": [0.0, 0.45], "anchor": "x"},
+        xaxis={"title": _ax(un, "time"), "anchor": "y"},
+        yaxis={"title": _ax(un, "input"), "domain": [0.55, 1.0]},
+        yaxis2={"title": _ax(un, "output"), "domain": [0.0, 0.45], "anchor": "x"},
     )
     return FigureJSON(data, lay)
 
 
 def loop_figure(res: Result) -> FigureJSON:
     """The hysteresis loop ``y`` against ``u`` with the initial loading curve."""
-    idx = decimate_index(res.u)
+    idx = decimate_index(res.u, MAX_POINTS)
     data = [_line(_num(res.u[idx]), _num(res.y[idx]), "loop y(u)", _ORANGE)]
     if res.y_measured is not None:
         data.append(_line(_num(res.u[idx]), _num(res.y_measured[idx]), "measured", _GREY,
@@ -165,32 +178,55 @@ def loop_figure(res: Result) -> FigureJSON:
         data.append(_line(_num(r), _num(pi.loading_curve(r)), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     title = f"Hysteresis loop ({type(m).__name__}, n = {getattr(m, 'n', '?')})"
-    lay = _layout(title, xaxis={"title": {"text": "input u"}},
-                  yaxis={"title": {"text": "output y"}})
+    lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
+                  yaxis={"title": _ax(res.units, "output")})
     return FigureJSON(data, lay)
 
 
 def operators_figure(res: Result) -> FigureJSON:
-    """Stacked contributions ``p0 u`` and ``p_i Γ_{r_i}[u]``; their sum is ``y``."""
+    """Stacked contributions ``p0 w`` and ``p_i Γ_{r_i}[w]``; their sum is ``y``.
+
+    ``w`` is the PI's own input (:attr:`Result.pi_u`): ``u`` for a classical PI, the
+    dead-zoned or enveloped input of a generalized PI, so the stack always adds up to the
+    PI's output (``y`` when the PI is the last stage).
+    """
     m = pi_part(res.model)
     if res.contributions is None or res.contrib_idx is None or m is None:
         return message_figure("Operator outputs", "Only available for classical PI models")
     idx = res.contrib_idx
     t = _num(res.t[idx])
-    data = [_line(t, _num(m.p0 * res.u[idx]), "p0·u", _GREY, stackgroup="c",
-                  line={"width": 0.5})]
-    for i in range(m.n):
+    w = res.u if res.pi_u is None else res.pi_u
+    mapped = w is not res.u
+    stages = getattr(res.model, "stages", ())
+    pi_last = not stages or stages[-1] is m
+    data = [_line(t, _num(m.p0 * w[idx]), "p0·γ(u)" if mapped else "p0·u", _GREY,
+                  stackgroup="c", line={"width": 0.5})]
+    # beyond MAX_BANDS operators neighbours share a band (their sum): a stack of 25
+    # hairline bands is unreadable, and each filled band costs the browser ~3 ms
+    for grp in np.array_split(np.arange(m.n), min(m.n, MAX_BANDS)):
+        a, b = int(grp[0]), int(grp[-1])
+        name = (f"p{a + 1}·Γ(r={m.thresholds[a]:.3g})" if a == b else
+                f"p{a + 1}…p{b + 1}·Γ(r={m.thresholds[a]:.3g}…{m.thresholds[b]:.3g})")
         data.append({"type": "scatter", "mode": "lines", "x": t,
-                     "y": _num(res.contributions[:, i]), "stackgroup": "c",
-                     "name": f"p{i + 1}·Γ(r={m.thresholds[i]:.3g})", "line": {"width": 0.5}})
-    data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
-                      line={"color": "#000000", "width": 1.5, "dash": "dot"}))
-    lay = _layout("Operator contributions (stacked)", xaxis={"title": {"text": "t [s]"}},
-                  yaxis={"title": {"text": "contribution to y"}}, showlegend=m.n <= 12)
+                     "y": _num(res.contributions[:, grp].sum(axis=1)), "stackgroup": "c",
+                     "name": name, "line": {"width": 0.5}})
+    if pi_last:
+        data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
+                          line={"color": "#000000", "width": 1.5, "dash": "dot"}))
+    else:  # a map after the PI: the stack is the PI's output, not y
+        pi_y = m.simulate(w).y
+        data.append(_line(t, _num(pi_y[idx]), "PI output (sum)", "#000000",
+                          line={"color": "#000000", "width": 1.5, "dash": "dot"}))
+    title = ("Operator contributions (stacked, on the PI's input γ(u))" if mapped
+             else "Operator contributions (stacked)")
+    lay = _layout(title, xaxis={"title": _ax(res.units, "time")},
+                  yaxis={"title": _ax(res.units, "output", "contribution to y")},
+                  showlegend=True)
     return FigureJSON(data, lay)
 
 
-def loading_figure(model: Model, u_max: float | None = None) -> FigureJSON:
+def loading_figure(model: Model, u_max: float | None = None,
+                   units: dict[str, str] | None = None) -> FigureJSON:
     """Initial loading curve φ(r) with each segment's slope and the maximum loop width."""
     pi = pi_part(model)
     if pi is None:
@@ -210,8 +246,9 @@ def loading_figure(model: Model, u_max: float | None = None) -> FigureJSON:
     ann.append({"x": 0.02, "y": 0.98, "xref": "paper", "yref": "paper", "showarrow": False,
                 "xanchor": "left", "align": "left",
                 "text": f"max loop width σ = {model.max_loop_width:.4g}<br>{inv}"})
-    lay = _layout("Initial loading curve", xaxis={"title": {"text": "r (input travel)"}},
-                  yaxis={"title": {"text": "φ(r)"}}, annotations=ann)
+    lay = _layout("Initial loading curve",
+                  xaxis={"title": _ax(units, "input", "input travel r")},
+                  yaxis={"title": _ax(units, "output", "loading curve φ(r)")}, annotations=ann)
     return FigureJSON(data, lay)
 
 
@@ -219,7 +256,7 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     """Inverse loop, ``P∘P⁻¹`` against the identity and the tracking error."""
     if res.v is None or res.y_comp is None:
         return message_figure("Inverse compensation", res.inverse_error or "no inverse")
-    idx = decimate_index(res.u)
+    idx = decimate_index(res.u, MAX_POINTS)
     yd, v, yc = res.u[idx], res.v[idx], res.y_comp[idx]
     err = res.y_comp - res.u
     lim = [float(np.min(yd)), float(np.max(yd))]
@@ -233,24 +270,41 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     ]
     rms = float(np.sqrt(np.mean(err**2)))
     span = float(np.ptp(res.u)) or 1.0
-    err_axis: dict[str, Any] = {"title": {"text": "y − y_d"}, "anchor": "x3"}
+    un = res.units
+    err_axis: dict[str, Any] = {"title": _ax(un, "output", "error y − y_d"), "anchor": "x3"}
     if float(np.max(np.abs(err))) < 1e-9 * span:  # exact inverse: do not zoom into rounding
         err_axis["range"] = [-0.05 * span, 0.05 * span]
+    yd_title = _ax(un, "output", "desired y_d")
     lay = _layout(
         f"Inverse compensation (mismatch {mismatch:+.0%}, RMS error {rms:.3g})",
-        xaxis={"domain": [0, 0.3], "title": {"text": "desired y_d"}, "anchor": "y"},
-        yaxis={"title": {"text": "plant input v"}, "anchor": "x"},
-        xaxis2={"domain": [0.36, 0.64], "title": {"text": "desired y_d"}, "anchor": "y2"},
-        yaxis2={"title": {"text": "achieved y"}, "anchor": "x2"},
-        xaxis3={"domain": [0.72, 1.0], "title": {"text": "t [s]"}, "anchor": "y3"},
+        xaxis={"domain": [0, 0.3], "title": yd_title, "anchor": "y"},
+        yaxis={"title": _ax(un, "input", "plant input v"), "anchor": "x"},
+        xaxis2={"domain": [0.36, 0.64], "title": yd_title, "anchor": "y2"},
+        yaxis2={"title": _ax(un, "output", "achieved y"), "anchor": "x2"},
+        xaxis3={"domain": [0.72, 1.0], "title": _ax(un, "time"), "anchor": "y3"},
         yaxis3=err_axis,
     )
+    if res.inverse_warning:
+        lay["annotations"] = [{
+            "text": "⚠ the inverse clipped part of the input: " + _wrap(res.inverse_warning),
+            "showarrow": False, "xref": "paper", "yref": "paper", "x": 0.0, "y": 1.0,
+            "xanchor": "left", "yanchor": "top", "align": "left",
+            "font": {"color": _RED, "size": 11}, "bgcolor": "rgba(255,255,255,0.85)"}]
+        lay["meta"] = {"notes": [f"The inverse clipped part of the input: {res.inverse_warning}"]}
     return FigureJSON(data, lay)
+
+
+def _wrap(text: str, width: int = 90) -> str:
+    """``text`` with ``<br>`` line breaks about every ``width`` characters (annotations)."""
+    import textwrap
+
+    safe = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return "<br>".join(textwrap.wrap(safe, width))
 
 
 def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJSON:
     """Measured vs fitted output over time and the residual, plus the loop overlay."""
-    idx = decimate_index(rec.u)
+    idx = decimate_index(rec.u, MAX_POINTS)
     t = _num(rec.t[idx])
     res = rec.y - y_fit
     data = [
@@ -259,12 +313,13 @@ def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJ
         _line(t, _num(res[idx]), "residual y − ŷ", _RED, xaxis="x2", yaxis="y2"),
     ]
     rms = float(np.sqrt(np.mean(res**2)))
+    un = dict(rec.units)
     lay = _layout(
-        f"Fit overlay and residual (RMS {rms:.3g})",
-        xaxis={"domain": [0, 0.46], "title": {"text": "u"}, "anchor": "y"},
-        yaxis={"title": {"text": "y"}, "anchor": "x"},
-        xaxis2={"domain": [0.54, 1.0], "title": {"text": "t [s]"}, "anchor": "y2"},
-        yaxis2={"title": {"text": "residual"}, "anchor": "x2"},
+        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})",
+        xaxis={"domain": [0, 0.46], "title": _ax(un, "input"), "anchor": "y"},
+        yaxis={"title": _ax(un, "output"), "anchor": "x"},
+        xaxis2={"domain": [0.54, 1.0], "title": _ax(un, "time"), "anchor": "y2"},
+        yaxis2={"title": _ax(un, "output", "residual y − ŷ"), "anchor": "x2"},
     )
     return FigureJSON(data, lay)
 
@@ -305,7 +360,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
         show_text = n <= 5
         data.append({"type": "scatter", "mode": "markers+text" if show_text else "markers",
                      "x": _num(g.x), "y": _num(g.y), "text": g.strings,
-                     "textposition": "top left", "textfont": {"size": 9},
+                     "textposition": "top left", "textfont": {"size": 12},
                      "name": f"{2**n} states", "marker": {"size": 5 if n > 6 else 7,
                                                           "color": _GREY},
                      "hovertext": g.strings, "xaxis": "x", "yaxis": "y"})
@@ -313,42 +368,65 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                       xaxis="x", yaxis="y", marker={"size": 5}))
     data.append({"type": "scatter", "mode": "markers+text", "x": [float(tr.x_b[k])],
                  "y": [float(tr.y_b[k])], "text": [cur], "textposition": "bottom right",
+                 "textfont": {"size": 14, "color": _RED},
                  "name": "current state", "marker": {"size": 14, "color": _RED,
                                                      "symbol": "circle-open",
                                                      "line": {"width": 3}},
                  "xaxis": "x", "yaxis": "y"})
-    # digit rows over time (state j active from sample[j])
-    cols = decimate_index(res.u, MAX_POINTS_STACKED)
-    rows = np.searchsorted(tr.sample, cols, side="right") - 1
-    z = tr.digits[rows].T.astype(int)  # (n, len(cols))
-    data.append({"type": "heatmap", "x": _num(res.t[cols]), "y": [f"b{i + 1}" for i in range(n)],
-                 "z": z.tolist(), "colorscale": [[0, "#f4f4f4"], [1, _BLUE]], "showscale": False,
-                 "zmin": 0, "zmax": 1, "name": "digits", "xaxis": "x2", "yaxis": "y2"})
-    idx = decimate_index(res.u)
+    # digit rows over time, drawn like a logic analyser: row i sits at height i and
+    # steps up by 0.7 while b_{i+1} = 1 (state j is active from sample[j]). One trace
+    # with gaps between the rows: cheap to draw, and no image (a heatmap would be an
+    # inline data: image, which a strict Content-Security-Policy blocks).
+    t_rows = res.t[np.minimum(tr.sample, res.t.size - 1)]
+    t_rows = np.append(t_rows, res.t[-1])
+    bits = np.vstack((tr.digits, tr.digits[-1:])).astype(float)  # (rows + 1, n)
+    m = t_rows.size
+    xs = np.full((n, m + 1), np.nan)
+    ys = np.full((n, m + 1), np.nan)
+    xs[:, :m] = t_rows
+    ys[:, :m] = np.arange(n)[:, None] + 0.7 * bits.T
+    data.append({"type": "scatter", "mode": "lines", "x": _num(xs.ravel()),
+                 "y": _num(ys.ravel()), "name": "digits", "line": {"shape": "hv",
+                                                                    "color": _BLUE, "width": 2},
+                 "connectgaps": False, "hoverinfo": "skip", "xaxis": "x2", "yaxis": "y2"})
+    idx = decimate_index(res.u, MAX_POINTS)
     err = d.y - d.y_classical
     data.append(_line(_num(res.t[idx]), _num(err[idx]), "digitized − classical", _RED,
                       xaxis="x3", yaxis="y3"))
     span = float(np.ptp(d.y)) or 1.0
-    err_axis: dict[str, Any] = {"domain": [0.22, 0.56], "anchor": "x3",
-                                "title": {"text": "error"}}
+    un = res.units
+    err_axis: dict[str, Any] = {"domain": [0.3, 0.56], "anchor": "x3",
+                                "title": _ax(un, "output", "error")}
     if float(np.max(np.abs(err))) < 1e-9 * span:  # identical: do not zoom into rounding
         err_axis["range"] = [-0.05 * span, 0.05 * span]
+    t_k = float(res.t[min(int(tr.sample[k]), res.t.size - 1)])
     H = d.H
     txt = _matrix_text("H", H) + "<br>" + _matrix_text("H⁻¹", H[::-1])
     bound = float(d.model.reversal_error_bound())
     lay = _layout(
         f"Digitized PI: n = {n} digits, state {cur} (max |error| "
         f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g})",
-        xaxis={"domain": [0, 0.5], "title": {"text": "X (input)"}, "anchor": "y"},
-        yaxis={"domain": [0.22, 1.0], "title": {"text": "Y (output)"}, "anchor": "x"},
+        xaxis={"domain": [0, 0.5], "title": _ax(un, "input", "state X (input)"),
+               "anchor": "y"},
+        yaxis={"domain": [0.3, 1.0], "title": _ax(un, "output", "state Y (output)"),
+               "anchor": "x"},
         xaxis2={"domain": [0.58, 1.0], "anchor": "y2", "showticklabels": False},
-        yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits"}},
+        yaxis2={"domain": [0.62, 1.0], "anchor": "x2", "title": {"text": "digits b_i"},
+                "tickvals": list(range(n)) if n <= 12 else list(range(0, n, 4)),
+                "ticktext": [f"b{i + 1}" for i in (range(n) if n <= 12 else range(0, n, 4))],
+                "range": [-0.3, n], "zeroline": False, "showgrid": False},
         xaxis3={"domain": [0.58, 1.0], "anchor": "y3", "matches": "x2",
-                "title": {"text": "t [s]"}},
+                "title": _ax(un, "time")},
+        # the current state's time, across the digit rows and the error
+        shapes=[{"type": "line", "xref": xr, "yref": f"{yr} domain", "x0": t_k, "x1": t_k,
+                 "y0": 0, "y1": 1, "line": {"color": _RED, "width": 2}}
+                for xr, yr in (("x2", "y2"), ("x3", "y3"))],
         yaxis3=err_axis,
         annotations=[{"text": txt, "showarrow": False, "xref": "paper", "yref": "paper",
-                      "x": 0.0, "y": 0.0, "xanchor": "left", "yanchor": "top", "align": "left",
+                      "x": 0.0, "y": 0.15, "xanchor": "left", "yanchor": "top", "align": "left",
                       "font": {"family": "monospace", "size": 10}}],
+        legend={"orientation": "h", "x": 0.56, "y": 0.15, "xanchor": "left", "yanchor": "top",
+                "font": {"size": 10}},
         margin={"l": 55, "r": 15, "t": 40, "b": 10},
     )
     return FigureJSON(data, lay)
@@ -362,7 +440,7 @@ def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
     colors = {"no compensation": _RED, "inverse feedforward": _GREEN,
               "inverse + reference feedforward": _BLUE}
     first = next(iter(cl.runs.values()))
-    idx = decimate_index(first.r)
+    idx = decimate_index(first.r, MAX_POINTS)
     t = _num(first.t[idx])
     data = [_line(t, _num(first.r[idx]), "reference r", _GREY, xaxis="x", yaxis="y",
                   line={"color": _GREY, "dash": "dash", "width": 1.5})]
@@ -379,12 +457,63 @@ def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
         title += f" — {msg}"
     lay = _layout(
         title,
-        xaxis={"title": {"text": "t [s]"}, "anchor": "y2"},
-        yaxis={"title": {"text": "y_o"}, "domain": [0.45, 1.0]},
-        yaxis2={"title": {"text": "error r − y_o"}, "domain": [0.0, 0.37], "anchor": "x"},
+        xaxis={"title": _ax(res.units, "time"), "anchor": "y2"},
+        yaxis={"title": _ax(res.units, "output", "plant output y_o"), "domain": [0.45, 1.0]},
+        yaxis2={"title": _ax(res.units, "output", "error r − y_o"), "domain": [0.0, 0.37],
+                "anchor": "x"},
     )
     lay["title"]["font"] = {"size": 12}
     return FigureJSON(data, lay)
+
+
+def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:
+    """``fig`` with its side-by-side panels stacked top to bottom (narrow plots).
+
+    Panels are the groups of axes whose x axes share a horizontal domain; each gets a
+    band of the height, in order of appearance, and every x axis spans the full width.
+    ``compact`` (a phone) also drops the legend and the monospace side notes (the
+    digitized view's matrices, which the GUI prints as text). Returns the new figure and
+    the number of bands (1: ``fig`` itself, unchanged). The web page does the same in
+    ``static/app.js::fitLayout``.
+    """
+    lay = fig.layout
+    xs = [k for k in lay if k.startswith("xaxis") and isinstance(lay[k], dict)]
+    cols: list[tuple[float, ...]] = []
+    col_of: dict[str, int] = {}
+    for k in xs:
+        d = tuple(lay[k].get("domain", (0.0, 1.0)))
+        if d not in cols:
+            cols.append(d)
+        col_of[k] = cols.index(d)
+    if len(cols) < 2:
+        if not compact:
+            return fig, 1
+        return FigureJSON(fig.data, {**lay, "showlegend": False}), 1
+    new = json.loads(json.dumps(lay))
+    band = 1.0 / len(cols)
+    gap = 0.25 * band  # room for tick labels and an axis title
+    for k in xs:
+        new[k]["domain"] = [0.0, 1.0]
+    for k in [k for k in new if k.startswith("yaxis") and isinstance(new[k], dict)]:
+        anchor = str(new[k].get("anchor", "x"))
+        c = col_of.get("xaxis" + (anchor[1:] if anchor.startswith("x") else ""), 0)
+        a, b = new[k].get("domain", (0.0, 1.0))
+        top = 1.0 - c * band
+        bottom = top - band + gap
+        new[k]["domain"] = [bottom + a * (top - bottom), bottom + b * (top - bottom)]
+    new["margin"] = {**new.get("margin", {}), "l": 50, "r": 10}
+    # side notes in monospace (the digitized view's matrices) have no room left
+    new["annotations"] = [a for a in new.get("annotations", [])
+                          if a.get("font", {}).get("family") != "monospace"]
+    if compact:
+        new["showlegend"] = False
+    elif "legend" in new:
+        new["legend"] = {**new["legend"], "x": 0.0, "y": -0.06, "xanchor": "left",
+                         "yanchor": "top"}
+        new["margin"]["b"] = max(int(new["margin"].get("b", 45)), 70)
+    if "title" in new:
+        new["title"] = {**new["title"], "font": {"size": 11}}
+    return FigureJSON(fig.data, new), len(cols)
 
 
 #: Names of the figures :func:`build` can build.
@@ -400,7 +529,7 @@ def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
     if name == "operators":
         return operators_figure(res)
     if name == "loading":
-        return loading_figure(res.model, float(np.max(np.abs(res.u))) or None)
+        return loading_figure(res.model, float(np.max(np.abs(res.u))) or None, res.units)
     if name == "inverse":
         return inverse_figure(res, mismatch)
     if name == "digitized":

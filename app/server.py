@@ -147,6 +147,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for mod in (meta, simulate, sessions, data, jobs, export):
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
+    from .routers.events import router as events_router  # live pushes (SSE), teacher
+
+    app.include_router(events_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
                        max_json_depth=settings.limits.max_json_depth, static_dir=STATIC_DIR)

@@ -1,26 +1,104 @@
 // Hysteresis Explorer web page: talks to the REST API, draws figures with Plotly.react.
 // Latest value wins: while a request is in flight, further changes only mark the state
 // dirty, and one follow-up request carries the newest values.
+// Every string from the server or a file is put in the page as text (textContent,
+// new Option), never as markup; the page needs no inline script or style (CSP
+// "default-src 'self'").
+
+import { quickPlot } from "/quickplot.js";
 
 const $ = (id) => document.getElementById(id);
-const state = { code: null, config: null, fig: "loop", fitFigure: null, busy: false, dirty: false };
+const state = {
+  code: null, config: null, fig: "loop", fitFigure: null, busy: false, dirty: false,
+  presets: [], caps: null, events: null, job: null, lastInput: -Infinity, settle: null,
+};
+
+// plotly's toolbar without anything that talks to an outside service
+const PLOT_CONFIG = {
+  responsive: true, displaylogo: false, showLink: false, showSendToCloud: false,
+  showEditInChartStudio: false, plotlyServerURL: "", linkText: "",
+  modeBarButtonsToRemove: ["sendDataToCloud", "sendChartToCloud", "editInChartStudio"],
+  // SVG is written straight from the plot; PNG would load a blob: image, which the
+  // server's Content-Security-Policy (default-src 'self') blocks
+  toImageButtonOptions: { format: "svg", filename: "hysteresis-explorer" },
+};
+
+const VIEW_HELP = {
+  loop: "Output against input: the area inside the loop is the hysteresis. Dashed: the initial loading curve.",
+  time: "Input u(t) on top, the model's output y(t) below (and the measurement when a recording is used).",
+  operators: "Each play operator's share of the output, stacked; together with p0·u they add up to y.",
+  loading: "The initial loading curve φ(r) and its slopes: all slopes > 0 means the model can be inverted.",
+  inverse: "Left: the inverse model's output. Middle: plant after inverse against the wanted output (ideal: the diagonal). Right: the tracking error.",
+  digitized: "Paper 000's digitized view: each operator is one binary digit; the state moves on a hypercube as the input rises and falls.",
+  "closed-loop": "Paper 001 Fig. 15–16: a PI controller around the hysteretic plant, without and with the inverse as feedforward.",
+  fit: "The fitted model against the uploaded recording, and the residual.",
+};
+
+// ---------------------------------------------------------------- messages
+// Server messages are written for the command line too; a few parts of them name
+// arguments or endpoints a page user never sees, so they are rewritten here.
+const REWRITES = [
+  [/: no such file; to parse CSV text pass a string that contains newlines/,
+    " holds a single line: a recording needs a header line and one line per sample"],
+  [/;?\s*pass skiprows= to choose yourself/, "; delete the lines above the table"],
+  [/if the file starts with a preamble, pass skiprows=/, "if notes stand above the table, delete them"],
+  [/pass header=True/, "give the file a header line with the column names"],
+  [/pass a larger max_rows= to read it anyway, or cut \/ decimate the recording/, "cut or decimate the recording"],
+  [/;?\s*pass a larger max_bytes= to (read it anyway|)/, "; make the file smaller "],
+  [/\s*\((GET|POST|PUT|PATCH|DELETE) \/api[^)]*\)/g, ""],
+  [/max_operators/g, "the operator limit"],
+  [/max_samples/g, "the sample limit"],
+];
+const STATUS_TEXT = {
+  404: "The server does not know this (it may have been restarted).",
+  405: "This server does not offer that action (is it an older version?).",
+  413: "The file is too large for this server.",
+  415: "The file type is not accepted: upload a CSV text file.",
+  429: "Too many requests at once: wait a moment and try again.",
+  500: "The server hit an unexpected problem. Try again; if it repeats, tell whoever runs it.",
+  503: "The server is busy: try again in a moment.",
+};
+
+function plain(text) {
+  let t = String(text ?? "");
+  for (const [re, rep] of REWRITES) t = t.replace(re, rep);
+  return t.trim();
+}
+
+function detailText(d) {
+  if (typeof d === "string") return d;
+  if (Array.isArray(d)) {  // FastAPI validation errors: [{loc, msg}]
+    return d.map((e) => `${(e.loc || []).filter((x) => x !== "body").join(".")}: ${e.msg}`).join("; ");
+  }
+  if (d && d.message) return d.message;
+  return d === null || d === undefined ? "" : JSON.stringify(d);
+}
+
+class ApiError extends Error {
+  constructor(status, message) { super(message); this.status = status; }
+}
 
 async function api(method, path, body, type = "application/json") {
   const opts = { method, headers: {} };
   if (body !== undefined) {
     opts.headers["Content-Type"] = type;
-    opts.body = type === "application/json" ? JSON.stringify(body) : body;
+    opts.body = typeof body === "string" ? body : JSON.stringify(body);
   }
-  const r = await fetch(path, opts);
+  if (state.token && path.startsWith("/api/teacher")) opts.headers["X-Teacher-Token"] = state.token;
+  let r;
+  try {
+    r = await fetch(path, opts);
+  } catch {
+    throw new ApiError(0, "The explorer server cannot be reached: is it still running?");
+  }
   const text = await r.text();
   let data = null;
   try { data = text ? JSON.parse(text) : null; } catch { data = text; }
   if (!r.ok) {
-    const d = data && data.detail !== undefined ? data.detail : data;
-    const msg = typeof d === "string" ? d : (d && d.message) ? d.message : JSON.stringify(d);
-    const err = new Error(msg);
-    err.status = r.status;
-    throw err;
+    const raw = detailText(data && data.detail !== undefined ? data.detail : data);
+    const generic = !raw || /^(Not Found|Method Not Allowed|Internal Server Error)$/.test(raw);
+    const msg = generic || r.status >= 500 ? STATUS_TEXT[r.status] || `Request failed (${r.status}).` : plain(raw);
+    throw new ApiError(r.status, msg);
   }
   return data;
 }
@@ -29,6 +107,12 @@ function setMsg(id, text, ok = false) {
   const el = $(id);
   el.textContent = text || "";
   el.classList.toggle("ok", ok);
+}
+
+function el(tag, props = {}, ...kids) {
+  const e = Object.assign(document.createElement(tag), props);
+  e.append(...kids.filter((k) => k !== null && k !== undefined && k !== ""));
+  return e;
 }
 
 function showOutput(input) {
@@ -42,7 +126,7 @@ function buildOperatorSliders(model) {
   rDiv.replaceChildren(); wDiv.replaceChildren();
   const n = model.thresholds.length;
   if (n > 25) {
-    wDiv.textContent = `${n} operators: edit them through the API or the viser GUI.`;
+    wDiv.textContent = `${n} operators: edit them in the model JSON, through the API or in the viser GUI.`;
     return;
   }
   const rmax = Math.max(10, 2 * Math.max(...model.thresholds));
@@ -65,8 +149,9 @@ function slider(name, min, max, step, value, group) {
   return label;
 }
 
-function applyConfig(cfg) {
+function applyConfig(cfg, version) {
   state.config = cfg;
+  if (version !== undefined) state.version = version;
   const m = cfg.model;
   const isPI = m.type === "pi";
   $("pi-controls").hidden = !isPI;
@@ -102,6 +187,7 @@ function readConfig() {
 }
 
 function onControlChange() {
+  state.lastInput = performance.now();
   state.dirty = true;
   pump();
 }
@@ -114,49 +200,185 @@ async function pump() {
     while (state.dirty) {
       state.dirty = false;
       const cfg = readConfig();
+      // store the change and, for a simulated input, compute the figure from the same
+      // config at the same time (one round trip instead of two)
+      const stored = api("PATCH", `/api/sessions/${state.code}/config`, cfg);
+      const name = state.fig === "fit" ? "loading" : state.fig;
+      const figure = cfg.use_recording || state.fig === "fit" ? null
+        : api("POST", "/api/simulate", { model: cfg.model, signal: cfg.signal,
+          mismatch: cfg.mismatch, figures: [name] });
+      if (figure) figure.catch(() => null);  // a refused config is reported by the PATCH
       try {
-        const s = await api("PATCH", `/api/sessions/${state.code}/config`, cfg);
+        const s = await stored;
         state.config = s.config;
+        state.version = s.version;
         setMsg("model-msg", "");
       } catch (e) {
         setMsg("model-msg", `Not applied: ${e.message}`);
         continue;
       }
-      await draw();
+      await draw(figure ? figure.then((r) => ({ ...r, version: state.version })) : undefined);
     }
   } finally {
     state.busy = false;
   }
 }
 
-async function draw() {
+// On a phone the side-by-side panels of a figure are stacked: the axes of each column
+// (x axes sharing a horizontal domain) get a band of the height, top to bottom.
+function fitLayout(layout) {
+  const fig = $("figure");
+  const keys = Object.keys(layout);
+  const xs = keys.filter((k) => /^xaxis\d*$/.test(k));
+  const cols = [], colOf = {};
+  for (const k of xs) {
+    const d = JSON.stringify(layout[k].domain || [0, 1]);
+    if (!cols.includes(d)) cols.push(d);
+    colOf[k] = cols.indexOf(d);
+  }
+  const stack = fig.clientWidth < 600 && cols.length > 1;
+  fig.classList.toggle("tall", stack);
+  if (!stack) return layout;
+  const lay = structuredClone(layout);
+  const band = 1 / cols.length, gap = 0.25 * band;  // room for tick labels and a title
+  for (const k of xs) lay[k].domain = [0, 1];
+  for (const k of keys.filter((k) => /^yaxis\d*$/.test(k))) {
+    const anchor = String(lay[k].anchor || "x");
+    const c = colOf["xaxis" + (anchor.startsWith("x") ? anchor.slice(1) : "")] ?? 0;
+    const [a, b] = lay[k].domain || [0, 1];
+    const top = 1 - c * band, bottom = top - band + gap;
+    lay[k].domain = [bottom + a * (top - bottom), bottom + b * (top - bottom)];
+  }
+  lay.margin = { ...(lay.margin || {}), l: 50, r: 10 };
+  // side notes in monospace (the digitized view's matrices) have no room left
+  lay.annotations = (lay.annotations || []).filter((a) => !(a.font && a.font.family === "monospace"));
+  lay.showlegend = false;
+  if (lay.title) lay.title = { ...lay.title, font: { size: 11 } };
+  return lay;
+}
+
+// plotly.js is loaded after the first figure is on screen (quickplot.js draws it);
+// from then on every figure is drawn by plotly
+let plotlyLoading = null;
+function loadPlotly() {
+  plotlyLoading ??= new Promise((resolve, reject) => {
+    const s = Object.assign(document.createElement("script"), { src: "/vendor/plotly.min.js" });
+    s.addEventListener("load", resolve);
+    s.addEventListener("error", () => reject(new Error("the plotting library did not load")));
+    document.head.append(s);
+  });
+  return plotlyLoading;
+}
+
+// While a control is being moved, plotly's redraw (30-200 ms for these figures) is the
+// slow part of a step: the frames of a drag are drawn by quickplot.js over the plot, and
+// plotly redraws once the control has rested for SETTLE_MS (keeping zoom and toolbar).
+const SETTLE_MS = 350;
+
+function zoomed(layout) {
+  const fl = $("figure")._fullLayout;
+  if (!fl) return layout;
+  const lay = { ...layout };
+  for (const k of Object.keys(lay)) {
+    if (/^[xy]axis\d*$/.test(k) && fl[k] && fl[k].autorange === false && Array.isArray(fl[k].range)) {
+      lay[k] = { ...lay[k], range: fl[k].range.slice() };
+    }
+  }
+  return lay;
+}
+
+async function render(el, f, { live = false } = {}) {
+  state.shown = f;
+  const layout = fitLayout(f.layout);
+  const old = el.querySelector(":scope > .quick-plot");
+  if (!window.Plotly || live) {
+    const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
+    if (window.Plotly) {
+      svg.classList.add("overlay");
+      if (old) old.replaceWith(svg); else el.append(svg);
+      el.classList.add("live");  // plotly's own SVG is hidden (not repainted) meanwhile
+      clearTimeout(state.settle);
+      state.settle = setTimeout(() => {
+        render(el, state.shown).catch((e) => setMsg("model-msg", e.message));
+      }, SETTLE_MS);
+    } else {
+      el.replaceChildren(svg);
+    }
+    return;
+  }
+  clearTimeout(state.settle);
+  if (old && !old.classList.contains("overlay")) el.replaceChildren();
+  const t0 = performance.now();
+  await Plotly.react(el, f.data, layout, PLOT_CONFIG);
+  if (old && old.classList.contains("overlay")) old.remove();
+  el.classList.remove("live");
+  document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);
+  document.body.dataset.settled = document.body.dataset.ready || "";
+}
+
+async function draw(pending) {
   const el = $("figure");
   const name = state.fig === "fit" ? "loading" : state.fig;
-  const res = await api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  const res = await (pending || api("GET", `/api/sessions/${state.code}/figures?name=${name}`));
   let f = res.figures[name];
   if (state.fig === "fit") {
-    f = state.fitFigure || { data: [], layout: { title: { text: "Fit a model to see the overlay" } } };
+    f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
   }
-  await Plotly.react(el, f.data, f.layout, { responsive: true, displaylogo: false });
+  const live = performance.now() - state.lastInput < SETTLE_MS;
+  await render(el, f, { live });
   const parts = [`${res.model_type}`, `n = ${res.n_operators ?? "?"}`];
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
-  if (res.inverse_error) parts.push(`⚠ ${res.inverse_error}`);
+  if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
   else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
   $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
+  const notes = (f.layout && f.layout.meta && f.layout.meta.notes) || [];
+  $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);
+  if (!live) document.body.dataset.settled = String(res.version);
 }
 
 // ---------------------------------------------------------------- session
-async function openSession(code) {
-  const s = code ? await api("PUT", `/api/sessions/${encodeURIComponent(code)}`)
-                 : await api("POST", "/api/sessions");
+async function openSession(code, { create = false } = {}) {
+  let s;
+  if (!code) s = await api("POST", "/api/sessions");
+  else if (create) s = await api("PUT", `/api/sessions/${encodeURIComponent(code)}`);
+  else s = await api("GET", `/api/sessions/${encodeURIComponent(code)}`);
   state.code = s.code;
   localStorage.setItem("hyst-session", s.code);
   $("code").textContent = s.code;
-  for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${s.code}/export/${f}`;
-  applyConfig(s.config);
+  for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${encodeURIComponent(s.code)}/export/${f}`;
+  applyConfig(s.config, s.version);
+  listen();
+  await draw();
+}
+
+// Live events: a teacher push reloads the session; the note says what happened.
+function listen() {
+  if (state.events) state.events.close();
+  if (!window.EventSource) return;
+  const es = new EventSource(`/api/sessions/${encodeURIComponent(state.code)}/events`);
+  es.addEventListener("push", (ev) => {
+    let info = {};
+    try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
+    onPushed(info).catch((e) => setMsg("model-msg", e.message));
+  });
+  state.events = es;
+}
+
+async function onPushed(info) {
+  const s = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}`);
+  applyConfig(s.config, s.version);
+  // a change of ours still in flight was based on the old model: send the pushed one
+  if (state.busy) state.dirty = true;
+  const p = state.presets.find((x) => x.name === info.preset);
+  if (p) { $("preset").value = p.name; showPresetDesc(); }
+  const what = p ? p.title : info.preset ? info.preset : "a new input";
+  const note = $("live-note");
+  note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
+    ` at ${new Date().toLocaleTimeString()}. Your sliders now start from it.`;
+  note.hidden = false;
   await draw();
 }
 
@@ -170,15 +392,15 @@ async function onCsvChosen(ev) {
   csvName = file.name;
   try {
     const p = await api("POST", "/api/csv/preview", csvText, "text/csv");
-    const head = `<tr>${p.columns.map((c) => `<th>${c}</th>`).join("")}</tr>`;
-    const rows = p.rows.map((r) => `<tr>${r.map((v) => `<td>${v}</td>`).join("")}</tr>`).join("");
-    $("preview").innerHTML = head + rows;
+    const head = el("tr", {}, ...p.columns.map((c) => el("th", { textContent: String(c) })));
+    const rows = p.rows.map((r) => el("tr", {}, ...r.map((v) => el("td", { textContent: String(v) }))));
+    $("preview").replaceChildren(head, ...rows);
     for (const [id, guess] of [["t-col", 0], ["u-col", 1], ["y-col", 2]]) {
       const sel = $(id);
-      sel.replaceChildren(...(id === "t-col" ? [new Option("(none: 1 ms)", "")] : []),
-        ...p.columns.map((c, i) => new Option(c, String(i))));
+      sel.replaceChildren(...(id === "t-col" ? [new Option("(none: 1 ms spacing)", "")] : []),
+        ...p.columns.map((c, i) => new Option(String(c), String(i))));
       const named = { "t-col": ["t", "time"], "u-col": ["u", "input"], "y-col": ["y", "output"] }[id];
-      const idx = p.columns.findIndex((c) => named.includes(c.toLowerCase()));
+      const idx = p.columns.findIndex((c) => named.includes(String(c).toLowerCase()));
       sel.value = String(idx >= 0 ? idx : Math.min(guess, p.columns.length - 1));
     }
     $("mapping").hidden = false;
@@ -190,7 +412,7 @@ async function onCsvChosen(ev) {
 }
 
 async function useCsv() {
-  const q = new URLSearchParams({ name: csvName });
+  const q = new URLSearchParams({ name: csvName.slice(0, 200) });
   for (const [id, key] of [["t-col", "t_col"], ["u-col", "u_col"], ["y-col", "y_col"]]) {
     if ($(id).value !== "") q.set(key, $(id).value);
   }
@@ -204,33 +426,114 @@ async function useCsv() {
   }
 }
 
-async function fit() {
+// Long work (fit, diagnosis): one at a time, the buttons are disabled and a note counts
+// the seconds. A server with the jobs API runs it as a job (progress, cancel); an older
+// one answers the plain endpoint.
+async function runJob(kind, params, syncPath, syncBody) {
+  if (state.job) return null;
+  const buttons = [$("fit"), $("diagnose")];
+  buttons.forEach((b) => { b.disabled = true; });
+  const busy = $("busy"), bar = $("job-progress"), cancel = $("cancel-job");
+  const t0 = performance.now();
+  const label = kind === "fit" ? "Fitting" : "Diagnosing";
+  let progress = null, message = "";
+  const tick = () => {
+    const s = ((performance.now() - t0) / 1000).toFixed(0);
+    busy.textContent = `${label}… working, ${s} s${message ? ` (${message})` : ""}`;
+  };
+  state.job = { kind };
+  busy.hidden = false;
+  tick();
+  const timer = setInterval(tick, 500);
   try {
-    const r = await api("POST", `/api/sessions/${state.code}/fit`,
-      { n: Number($("fit-n").value), kind: $("fit-kind").value });
+    let job;
+    if (state.noJobs) return await api("POST", syncPath, syncBody);
+    try {
+      job = await api("POST", `/api/sessions/${state.code}/jobs`, { kind, params });
+    } catch (e) {
+      if (e.status !== 404 && e.status !== 405) throw e;
+      state.noJobs = true;  // a server without the jobs API: its plain endpoints
+      return await api("POST", syncPath, syncBody);
+    }
+    state.job.id = job.id;
+    cancel.hidden = false;
+    bar.hidden = false;
+    for (;;) {
+      await new Promise((r) => setTimeout(r, 400));
+      job = await api("GET", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+      progress = typeof job.progress === "number" ? job.progress : null;
+      if (progress !== null) bar.value = progress;
+      message = job.message ? plain(job.message) : "";
+      if (job.state === "done") return job.result;
+      if (job.state === "failed") throw new ApiError(422, plain(job.error || "the job failed"));
+      if (job.state === "cancelled") throw new ApiError(0, "cancelled");
+    }
+  } finally {
+    clearInterval(timer);
+    busy.hidden = true;
+    bar.hidden = true;
+    cancel.hidden = true;
+    buttons.forEach((b) => { b.disabled = false; });
+    state.job = null;
+  }
+}
+
+async function cancelJob() {
+  const job = state.job;
+  if (!job || !job.id) return;
+  try {
+    await api("DELETE", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+  } catch (e) {
+    setMsg("csv-msg", `Not cancelled: ${e.message}`);
+  }
+}
+
+async function fit() {
+  const params = { n: Number($("fit-n").value), kind: $("fit-kind").value };
+  try {
+    const r = await runJob("fit", params, `/api/sessions/${state.code}/fit`, params);
+    if (!r) return;
     state.fitFigure = r.figure;
     const rep = r.report;
-    $("report").innerHTML = `<p class="msg ok">Fit: RMS error ${rep.rms_error.toPrecision(4)}, ` +
-      `${rep.nrmse_percent.toPrecision(3)} % of range</p>`;
+    $("report").replaceChildren(el("p", {
+      className: "msg ok",
+      textContent: `Fit: RMS error ${rep.rms_error.toPrecision(4)}, ${rep.nrmse_percent.toPrecision(3)} % of range`,
+    }));
     const s = await api("GET", `/api/sessions/${state.code}`);
-    applyConfig(s.config);
+    applyConfig(s.config, s.version);
     selectFigure("fit");
   } catch (e) {
-    $("report").innerHTML = "";
+    $("report").replaceChildren();
     setMsg("csv-msg", `Fit failed: ${e.message}`);
   }
 }
 
+function finding(f) {
+  if (typeof f === "string") return f;
+  if (f && typeof f === "object") {
+    const head = [f.effect || f.name || f.title, f.verdict || f.status].filter(Boolean).join(": ");
+    const body = f.message || f.summary || f.text || "";
+    if (head || body) return [head, body].filter(Boolean).join(" — ");
+  }
+  return JSON.stringify(f);
+}
+
 async function diagnose() {
   try {
-    const r = await api("POST", `/api/sessions/${state.code}/diagnose`);
-    const items = (r.findings || []).map((f) => `<li>${typeof f === "string" ? f : JSON.stringify(f)}</li>`);
+    const r = await runJob("diagnose", {}, `/api/sessions/${state.code}/diagnose`, undefined);
+    if (!r) return;
+    const items = (r.findings || []).map((f) => el("li", { textContent: finding(f) }));
     const nums = Object.entries(r).filter(([, v]) => typeof v === "number")
-      .map(([k, v]) => `<li>${k}: ${v.toPrecision(4)}</li>`);
-    $("report").innerHTML = `<div id="diagnosis"><h3>Diagnosis</h3><p><em>${r.engine || ""}</em></p>` +
-      `<ul>${items.join("")}${nums.join("")}</ul>` +
-      (r.document ? `<a href="/api/sessions/${state.code}/diagnosis/report.html" target="_blank">full report (HTML)</a>` : "") +
-      "</div>";
+      .map(([k, v]) => el("li", { textContent: `${k.replace(/_/g, " ")}: ${v.toPrecision(4)}` }));
+    const box = el("div", { id: "diagnosis" }, el("h3", { textContent: "Diagnosis" }),
+      el("p", {}, el("em", { textContent: String(r.engine || "") })), el("ul", {}, ...items, ...nums));
+    if (r.document) {
+      box.append(el("a", {
+        href: `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/report.html`,
+        target: "_blank", rel: "noopener", textContent: "full report (HTML)",
+      }));
+    }
+    $("report").replaceChildren(box);
   } catch (e) {
     setMsg("csv-msg", `Diagnosis failed: ${e.message}`);
   }
@@ -240,30 +543,84 @@ async function onParamSetChosen(ev) {
   const file = ev.target.files[0];
   if (!file) return;
   try {
+    // the file's text is the body as it is (a saved parameter set or a bare model)
     const s = await api("PUT", `/api/sessions/${state.code}/parameter-set`, await file.text());
-    applyConfig(s.config);
+    applyConfig(s.config, s.version);
     await draw();
     setMsg("export-msg", `Loaded ${file.name}`, true);
   } catch (e) {
     setMsg("export-msg", `Not loaded: ${e.message}`);
+  } finally {
+    ev.target.value = "";
   }
 }
 
 function selectFigure(name) {
   state.fig = name;
   document.querySelectorAll("#tabs button").forEach((b) => b.classList.toggle("active", b.dataset.fig === name));
+  $("view-help").textContent = VIEW_HELP[name] || "";
   draw().catch((e) => setMsg("model-msg", e.message));
+}
+
+function showPresetDesc() {
+  const p = state.presets.find((x) => x.name === $("preset").value);
+  $("preset-desc").textContent = p ? p.description : "";
+}
+
+async function loadPreset() {
+  const p = state.presets.find((x) => x.name === $("preset").value);
+  if (!p) return;
+  try {
+    const s = await api("PATCH", `/api/sessions/${state.code}/config`,
+      { model: p.model, signal: p.input, use_recording: false });
+    applyConfig(s.config, s.version);
+    setMsg("model-msg", `Loaded: ${p.title}`, true);
+    await draw();
+  } catch (e) {
+    setMsg("model-msg", `Not loaded: ${e.message}`);
+  }
+}
+
+// ---------------------------------------------------------------- teacher
+async function teacherPush() {
+  state.token = $("teacher-token").value;
+  try {
+    const mode = $("teacher-input").value;
+    const body = { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
+    if (mode === "mine") body.signal = readConfig().signal;
+    const r = await api("POST", "/api/teacher/push", body);
+    setMsg("teacher-msg", `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
+  } catch (e) {
+    setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : `Not pushed: ${e.message}`);
+  }
+}
+
+async function teacherRefresh() {
+  state.token = $("teacher-token").value;
+  try {
+    const r = await api("GET", "/api/teacher/connected");
+    const codes = r.codes ? `: ${r.codes.join(", ")}` : "";
+    setMsg("teacher-msg", `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions${codes}`, true);
+  } catch (e) {
+    setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : e.message);
+  }
 }
 
 // ---------------------------------------------------------------- start
 async function main() {
-  const caps = await api("GET", "/api/capabilities");
-  $("kind").replaceChildren(...caps.signals.map((s) => new Option(s, s)));
-  $("preset").replaceChildren(...caps.presets.map((p) => new Option(p, p)));
+  const [caps, presets, v] = await Promise.all([
+    api("GET", "/api/capabilities"), api("GET", "/api/presets"), api("GET", "/api/viser-url")]);
+  state.caps = caps;
+  state.presets = presets;
+  $("kind").replaceChildren(...caps.signals.map((s) => new Option(s.replace(/_/g, " "), s)));
+  for (const id of ["preset", "teacher-preset"]) {
+    $(id).replaceChildren(...presets.map((p) => new Option(p.title, p.name)));
+  }
+  showPresetDesc();
   $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(k, k)));
   $("samples").max = caps.limits.max_samples;
   $("n").max = caps.limits.max_operators;
-  const v = await api("GET", "/api/viser-url");
+  $("fit-n").max = caps.limits.max_operators;
   if (v.enabled) {
     const link = $("viser-link");
     link.href = `${location.protocol}//${location.hostname}:${v.port}/`;
@@ -283,13 +640,23 @@ async function main() {
     buildOperatorSliders(m);
     onControlChange();
   });
-  $("load-preset").addEventListener("click", async () => {
-    const s = await api("POST", `/api/sessions/${state.code}/preset/${$("preset").value}`);
-    applyConfig(s.config);
-    await draw();
-  });
-  $("join").addEventListener("click", () => openSession($("join-code").value.trim())
-    .catch((e) => setMsg("model-msg", e.message)));
+  $("preset").addEventListener("change", showPresetDesc);
+  $("load-preset").addEventListener("click", loadPreset);
+  const join = async () => {
+    const code = $("join-code").value.trim();
+    if (!code) { setMsg("model-msg", "Type the session code first."); return; }
+    try {
+      await openSession(code);
+      setMsg("model-msg", `Joined session ${code}.`, true);
+    } catch (e) {
+      setMsg("model-msg", e.status === 404 || e.status === 422
+        ? `No session "${code}" on this server: check the code (it is shown at the top of the page that uses it).`
+        : e.message);
+    }
+  };
+  $("join").addEventListener("click", join);
+  $("join-code").addEventListener("keydown", (e) => { if (e.key === "Enter") join(); });
+  $("new-session").addEventListener("click", () => openSession(null).catch((e) => setMsg("model-msg", e.message)));
   $("apply-json").addEventListener("click", async () => {
     let model;
     try { model = JSON.parse($("model-json").value); } catch (e) {
@@ -298,7 +665,7 @@ async function main() {
     }
     try {
       const s = await api("PATCH", `/api/sessions/${state.code}/config`, { model });
-      applyConfig(s.config);
+      applyConfig(s.config, s.version);
       setMsg("model-msg", "");
       await draw();
     } catch (e) {
@@ -309,14 +676,27 @@ async function main() {
   $("use-csv").addEventListener("click", useCsv);
   $("fit").addEventListener("click", fit);
   $("diagnose").addEventListener("click", diagnose);
+  $("cancel-job").addEventListener("click", cancelJob);
   $("ps-file").addEventListener("change", onParamSetChosen);
+  $("teacher-push").addEventListener("click", teacherPush);
+  $("teacher-refresh").addEventListener("click", teacherRefresh);
   document.querySelectorAll("#tabs button").forEach((b) => b.addEventListener("click", () => selectFigure(b.dataset.fig)));
+  $("view-help").textContent = VIEW_HELP[state.fig];
   const saved = localStorage.getItem("hyst-session");
   try {
     await openSession(saved);
-  } catch {
+  } catch (e) {
+    if (saved && e.status === 404) {
+      const note = $("live-note");
+      note.textContent = `Your previous session "${saved}" is no longer on the server (it may have been restarted): this is a new one.`;
+      note.hidden = false;
+    }
     await openSession(null);
   }
 }
 
-main().catch((e) => setMsg("model-msg", `Start-up failed: ${e.message}`));
+main()
+  .then(() => new Promise((r) => requestAnimationFrame(() => setTimeout(r, 0))))
+  .then(loadPlotly)
+  .then(() => state.shown && render($("figure"), state.shown))
+  .catch((e) => setMsg("model-msg", `Start-up failed: ${e.message}`));

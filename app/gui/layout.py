@@ -12,20 +12,30 @@ from __future__ import annotations
 
 import json
 import threading
+import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from core.exceptions import ParameterError
+from core.exceptions import NotInvertibleError, ParameterError
 from core.pi import PIModel
 from core.presets import list_presets
 from core.signals import SIGNALS
 
 from .. import figures as F
-from ..compute import Result, compute, diagnosed_model, preset_doc, validate_config
+from ..compute import (
+    Result,
+    build_model,
+    compute,
+    diagnosed_model,
+    operator_count,
+    preset_doc,
+    validate_config,
+)
 from ..data import (
     FIT_KINDS,
     diagnose_session,
@@ -34,10 +44,12 @@ from ..data import (
     recording_from_csv,
     store_recording,
 )
+from ..events import HUB
 from ..exports import export_session, parameter_set_model
 from ..settings import Settings
-from ..state import Config, Session, SessionRegistry
+from ..state import Config, Session, SessionRegistry, SignalSpec
 from .render import LatestWinsWorker
+from .text import md_text
 
 __all__ = ["ExplorerGui", "SessionView", "attach_gui"]
 
@@ -49,6 +61,13 @@ _TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": 
            "fit": "Fit"}
 #: Largest number of digits drawn as a 3D hypercube in the viser scene.
 CUBE_MAX_DIGITS = 7
+#: plotly's toolbar without anything that talks to an outside service.
+PLOT_CONFIG = {"displaylogo": False, "showLink": False, "showSendToCloud": False,
+               "showEditInChartStudio": False, "plotlyServerURL": "",
+               "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
+                                          "editInChartStudio"]}
+#: Browser widths (CSS px) below which the plot moves into the control sheet.
+NARROW_PX = 700
 
 
 class SessionView:
@@ -79,9 +98,11 @@ class SessionView:
         notify: Callable[[str, str, bool], None] | None = None,
         download: Callable[[str, bytes], None] | None = None,
         scene: Any = None,
+        camera: Any = None,
     ) -> None:
         self.gui = gui
         self.scene = scene
+        self.camera = camera
         self._cube_key: tuple | None = None
         self._cube_points: np.ndarray | None = None
         self._cube_center = np.zeros(3)
@@ -95,8 +116,12 @@ class SessionView:
         self._download = download
         self._syncing = threading.local()
         self._lock = threading.RLock()
+        self._work_lock = threading.Lock()
         self.rendered_version = -1
         self.last_result: Result | None = None
+        self.shown_figure = ""
+        self._shown_state = -1
+        self._state_sent = 0.0
         self._build()
         self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
         session.add_listener(self._on_session_change)
@@ -107,18 +132,31 @@ class SessionView:
     def _build(self) -> None:
         g = self.gui
         self.code_md = g.add_markdown("")
+        # viser shows no floating panel on a phone: there the plot lives at the top of
+        # the control sheet instead (see :meth:`set_narrow`)
+        with g.add_folder("Plot", visible=False) as self.narrow_folder:
+            self._dd_narrow = g.add_dropdown("View", tuple(_TITLES.values()),
+                                             initial_value=_TITLES["loop"])
+            self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
+                                             aspect=0.9, config=PLOT_CONFIG)
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="")
             self.join_btn = g.add_button("Join / restore session")
+            # viser 1.1 has no password field: the token is typed here and the field is
+            # cleared after each push, so a projector shows it for a moment at most
             self.teacher_token = g.add_text("Teacher token", initial_value="",
                                             hint="needed when the server was started with "
-                                                 "--teacher-token")
+                                                 "--teacher-token; cleared after use")
             self.push_btn = g.add_button("Teacher: push this model to every session")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
-            names = tuple(p.name for p in list_presets())
-            self.preset = g.add_dropdown("Preset", names, initial_value=names[0])
-            self.load_preset = g.add_button("Load preset")
+            g.add_markdown("*A PI model adds play operators (width r_i, weight p_i) to a "
+                           "linear term p0·u. Start from a preset from the papers.*")
+            self._preset_names = {p.title: p.name for p in list_presets()}
+            titles = tuple(self._preset_names)
+            self.preset = g.add_dropdown("Preset", titles, initial_value=titles[0])
+            self.preset_md = g.add_markdown("")
+            self.load_preset = g.add_button("Load preset (model and its input)")
             self.model_md = g.add_markdown("")
             with g.add_folder("Classical PI") as self.pi_folder:
                 self.p0 = g.add_slider("p0", min=-0.5, max=3.0, step=0.001, initial_value=0.72)
@@ -136,6 +174,8 @@ class SessionView:
             self.json_in = g.add_text("Model JSON (any type)", initial_value="", multiline=True)
             self.json_btn = g.add_button("Apply model JSON")
         with tabs.add_tab("Input"):
+            g.add_markdown("*The signal u(t) that drives the model; its amplitude must exceed "
+                           "the widest operator for the loop to open fully.*")
             kinds = tuple(SIGNALS)
             self.kind = g.add_dropdown("Signal", kinds, initial_value=kinds[0])
             self.amp = g.add_slider("Amplitude", min=0.0, max=10.0, step=0.05, initial_value=4.0)
@@ -149,16 +189,27 @@ class SessionView:
             self.use_rec = g.add_checkbox("Use uploaded recording", False)
             self.signal_md = g.add_markdown("")
         with tabs.add_tab("Inverse"):
+            g.add_markdown("*The inverse turns a wanted output into the input that makes it; "
+                           "mismatch makes the real plant differ from the model.*")
             self.mismatch = g.add_slider("Model mismatch", min=-0.5, max=0.5, step=0.01,
                                          initial_value=0.0,
                                          hint="plant thresholds ×(1+m), weights ×(1−m)")
             self.inverse_md = g.add_markdown("")
         with tabs.add_tab("Digitized"):
+            g.add_markdown("*Paper 000: each operator is one binary digit; the red ball is "
+                           "the current state on the cube. Choose the Digitized view.*")
             self.digi_md = g.add_markdown("")
             self.digi_step = g.add_slider("State step", min=0, max=1, step=1, initial_value=0)
-            self.play_btn = g.add_button("Play the input")
-            self.stop_btn = g.add_button("Stop")
+            with g.add_folder("Playback"):
+                self.play_speed = g.add_slider("Speed (states/s)", min=0.25, max=8.0,
+                                               step=0.25, initial_value=2.0)
+                self.prev_btn = g.add_button("◀ Step back")
+                self.next_btn = g.add_button("Step forward ▶")
+                self.play_btn = g.add_button("Play from the start")
+                self.stop_btn = g.add_button("Stop")
         with tabs.add_tab("Data"):
+            g.add_markdown("*Upload a recording (CSV: time, input, output), then fit a model "
+                           "or run the diagnosis, which names what a PI model misses.*")
             self.upload = g.add_upload_button("Upload CSV", mime_type="text/csv")
             self.t_col = g.add_text("Time column", initial_value="")
             self.u_col = g.add_text("Input column", initial_value="")
@@ -182,14 +233,20 @@ class SessionView:
         # One plot and a view selector: the browser draws a single plotly figure and the
         # server builds only the figure on show (tabs would render every figure each time).
         self.fit_figure: F.FigureJSON | None = None
+        # The plot panel floats at the left of a wide screen, leaving the 3D cube (at the
+        # scene origin, centre of the canvas) in view; on a narrow screen viser docks
+        # panels, and the plot is also in the control sheet's "Plot" tab below.
         self.panel = g.add_panel()
-        self.panel.float(x=10, y=10, width=700)
+        self.panel.float(x=10, y=10, width=470)
         with self.panel.add_tab("Plots"):
-            self.view_dd = g.add_dropdown("View", tuple(_TITLES.values()),
-                                          initial_value=_TITLES["loop"])
+            self._dd_wide = g.add_dropdown("View", tuple(_TITLES.values()),
+                                           initial_value=_TITLES["loop"])
             # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
             # says width/height; measured in Chromium: height = width * aspect).
-            self.plot = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72)
+            self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
+                                           config=PLOT_CONFIG)
+        self.narrow = False
+        self.view_dd, self.plot = self._dd_wide, self._plot_wide
         self.status_md = g.add_markdown("")
         self._wire()
 
@@ -198,10 +255,14 @@ class SessionView:
                   self.duration, self.samples, self.kind, self.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         self.n_ops.on_update(self._guarded(self._n_changed))
-        self.view_dd.on_update(self._guarded(lambda ev: self.worker.request()))
+        for dd in (self._dd_wide, self._dd_narrow):
+            dd.on_update(self._guarded(self._view_chosen))
         self.digi_step.on_update(self._guarded(self._step_changed))
         self.play_btn.on_click(self._guarded(self._play_clicked))
         self.stop_btn.on_click(self._guarded(lambda ev: self._play_stop.set()))
+        self.prev_btn.on_click(self._guarded(lambda ev: self._step_by(-1)))
+        self.next_btn.on_click(self._guarded(lambda ev: self._step_by(1)))
+        self.preset.on_update(self._guarded(self._preset_chosen))
         self.load_preset.on_click(self._guarded(self._preset_clicked))
         self.json_btn.on_click(self._guarded(self._json_clicked))
         self.join_btn.on_click(self._guarded(self._join_clicked))
@@ -214,6 +275,32 @@ class SessionView:
         self.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((self.dl_json, "json"), (self.dl_mat, "mat"), (self.dl_c, "c")):
             btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+
+    def _view_chosen(self, event: Any) -> None:
+        other = self._dd_narrow if self.view_dd is self._dd_wide else self._dd_wide
+        self._syncing.on = True
+        try:
+            other.value = self.view_dd.value = event.target.value
+        finally:
+            self._syncing.on = False
+        self.worker.request()
+
+    def set_narrow(self, narrow: bool) -> None:
+        """Show the plot in the control sheet (phones) or in the floating panel."""
+        if narrow == self.narrow:
+            return
+        self.narrow = narrow
+        self.narrow_folder.visible = narrow
+        self.panel.visible = not narrow
+        value = self.view_dd.value
+        self.view_dd, self.plot = ((self._dd_narrow, self._plot_narrow) if narrow
+                                   else (self._dd_wide, self._plot_wide))
+        self._syncing.on = True
+        try:
+            self.view_dd.value = value
+        finally:
+            self._syncing.on = False
+        self.worker.request()
 
     def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
         """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
@@ -361,7 +448,7 @@ class SessionView:
             validate_config(cfg, self.session.recording, self.settings.max_operators,
                             self.settings.max_samples)
         except ParameterError as exc:
-            self.model_md.content = f"⚠️ **Not applied:** {exc}"
+            self.model_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
             return
         self._syncing.from_gui = True
         try:
@@ -416,9 +503,15 @@ class SessionView:
             self._syncing.from_gui = False
         self._sync_controls(self.session.snapshot()[0])
 
+    def _preset_chosen(self, event: Any) -> None:
+        doc = preset_doc(self._preset_names[str(self.preset.value)])
+        self.preset_md.content = f"*{md_text(doc['description'])}*"
+
     def _preset_clicked(self, event: Any) -> None:
-        doc = preset_doc(str(self.preset.value))
-        self.session.update(lambda c: c.with_model(doc["model"]))
+        doc = preset_doc(self._preset_names[str(self.preset.value)])
+        sig = SignalSpec(**doc["input"])
+        self.session.update(lambda c: replace(c.with_model(doc["model"]), signal=sig,
+                                              use_recording=False))
         self._toast("Preset loaded", doc["title"])
 
     def _json_clicked(self, event: Any) -> None:
@@ -426,26 +519,38 @@ class SessionView:
             doc = json.loads(self.json_in.value)
             m = parameter_set_model(doc)
         except (json.JSONDecodeError, ParameterError, ValueError, TypeError) as exc:
-            self.model_md.content = f"⚠️ **Model JSON not applied:** {exc}"
+            self.model_md.content = f"⚠️ **Model JSON not applied:** {md_text(exc)}"
             return
         self.session.update(lambda c: c.with_model(m.to_dict()))
 
     def _join_clicked(self, event: Any) -> None:
         code = str(self.code_in.value).strip()
         try:
-            new = self.registry.get_or_create(code)
+            existed = True
+            try:
+                new = self.registry.get(code)
+            except KeyError:
+                existed = False
+                new = self.registry.get_or_create(code)
         except KeyError:
             self._toast("Bad code", "a session code has 3-32 letters, digits, '-' or '_'", True)
             return
         self.bind(new)
-        self._toast("Session", f"now in session {new.code}")
+        if existed:
+            self._toast("Session", f"now in session {new.code}")
+        else:  # say so: a mistyped code must not look like a lost session
+            self._toast("New session", f"no session had the code {new.code!r}: a new, empty "
+                        "one was opened under it. Check the spelling if you meant to rejoin.")
 
     def _push_clicked(self, event: Any) -> None:
         token = self.settings.teacher_token
-        if token and self.teacher_token.value != token:
+        given = str(self.teacher_token.value)
+        self.teacher_token.value = ""
+        if token and given != token:
             self._toast("Not pushed", "wrong teacher token", True)
             return
         n = self.registry.push_model(self.session.snapshot()[0].model)
+        HUB.broadcast({"kind": "push", "preset": None, "title": "the teacher's model"})
         self._toast("Pushed", f"model sent to {n} sessions")
 
     def bind(self, session: Session) -> None:
@@ -480,14 +585,17 @@ class SessionView:
                 y_col=self.y_col.value or None, max_samples=self.settings.max_samples,
                 name=self._csv_name)
         except ParameterError as exc:  # core.csvio.CSVError names the line and the column
-            self.data_md.content = f"⚠️ **CSV not loaded:** {exc}"
+            self.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
             return
         store_recording(self.session, rec)
         head = "\n".join(f"| {a:.4g} | {b:.4g} | {c:.4g} |"
                          for a, b, c in zip(rec.t[:5], rec.u[:5], rec.y[:5], strict=True))
         self.data_md.content = (
-            f"✅ **{rec.name}**: {rec.n_samples} samples, t = {rec.t[0]:.4g}…{rec.t[-1]:.4g} s\n\n"
-            f"| t | u | y |\n|---|---|---|\n{head}"
+            f"✅ **{md_text(rec.name)}**: {rec.n_samples} samples, "
+            f"t = {rec.t[0]:.4g}…{rec.t[-1]:.4g} s\n\n"
+            f"| t [{md_text(rec.units.get('time') or 's')}] "
+            f"| u [{md_text(rec.units.get('input') or 'a.u.')}] "
+            f"| y [{md_text(rec.units.get('output') or 'a.u.')}] |\n|---|---|---|\n{head}"
         )
         self.report_md.content = ""
         self._commit(lambda c: replace(c, use_recording=True))
@@ -499,8 +607,8 @@ class SessionView:
             return
         n = int(self.fit_n.value)
         kind = str(self.fit_kind.value)
-        self.report_md.content = "fitting…"
-        model, report = fit_session(self.session, n, kind)
+        with self._busy("fitting"):
+            model, report = fit_session(self.session, n, kind)
         self.fit_figure = F.fit_figure(rec, model(rec.u), f"fitted {kind} (n={n})")
         self.view_dd.value = _TITLES["fit"]
         self.report_md.content = (
@@ -513,10 +621,31 @@ class SessionView:
         if rec is None:
             self.report_md.content = "⚠️ upload a recording first"
             return
-        self.report_md.content = "diagnosing (about a second)…"
-        rep = diagnose_session(self.session)
+        with self._busy("diagnosing (10–40 s for a long recording)"):
+            rep = diagnose_session(self.session)
         self.report_md.content = diagnosis_markdown(rep)
         self.report_btn.disabled = False
+
+    @contextmanager
+    def _busy(self, what: str) -> Iterator[None]:
+        """Disable fit and diagnosis while ``what`` runs; the report says "working…".
+
+        A click that arrives before the browser has greyed the buttons out is refused
+        (a ``ValueError``, shown as a toast) instead of starting a second run.
+        """
+        if not self._work_lock.acquire(blocking=False):
+            raise ValueError("a fit or diagnosis is already running: wait for it to finish")
+        for b in (self.fit_btn, self.diag_btn):
+            b.disabled = True
+        self.report_md.content = f"⏳ **working… {what}**"
+        try:
+            yield
+        finally:
+            if self.report_md.content.startswith("⏳"):
+                self.report_md.content = ""  # it failed: the toast says why
+            for b in (self.fit_btn, self.diag_btn):
+                b.disabled = False
+            self._work_lock.release()
 
     def _report_clicked(self, event: Any) -> None:
         result = self.session.diagnosis_result
@@ -538,15 +667,15 @@ class SessionView:
         try:
             m = parameter_set_model(json.loads(f.content.decode("utf-8-sig")))
         except (json.JSONDecodeError, UnicodeDecodeError, ParameterError, ValueError) as exc:
-            self.export_md.content = f"⚠️ **Parameter set not loaded:** {exc}"
+            self.export_md.content = f"⚠️ **Parameter set not loaded:** {md_text(exc)}"
             return
         self.session.update(lambda c: c.with_model(m.to_dict()))
-        self.export_md.content = f"✅ loaded {f.name} ({m.type_name})"
+        self.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"
 
     def _export(self, event: Any, fmt: str) -> None:
         name, payload = export_session(self.session, fmt)
         self._send(event, name, payload)
-        self.export_md.content = f"sent {name} ({len(payload)} bytes)"
+        self.export_md.content = f"sent {md_text(name)} ({len(payload)} bytes)"
 
     # ------------------------------------------------------------------ render
     @property
@@ -558,21 +687,39 @@ class SessionView:
     def _render(self) -> None:
         session = self.session
         cfg, v = session.snapshot()
+        name = self.figure_name
+        # only what the view on show needs; the digitized state also drives the 3D cube,
+        # so it is kept up to date while the cube is small enough to draw
+        small = (operator_count(build_model(cfg.model, self.settings.max_operators)) or 0
+                 ) <= CUBE_MAX_DIGITS
         res = compute(cfg, version=v, recording=session.recording,
                       max_operators=self.settings.max_operators,
                       max_samples=self.settings.max_samples,
+                      with_inverse=name == "inverse",
+                      with_digitized=name == "digitized" or (small and self.scene is not None)
+                      or self.scene is None,
+                      with_operators=name == "operators",
                       diagnosed=diagnosed_model(session))
-        name = self.figure_name
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
         else:
             fig = F.build(name, res, cfg.mismatch)
         if session is not self.session or self.session.snapshot()[1] != v:
             return  # stale: a newer version is queued, skip sending this one
-        self.plot.aspect = {"inverse": 0.5, "fit": 0.5, "digitized": 0.8,
-                            "closed-loop": 0.75}.get(name, 0.72)
+        aspect = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0,
+                  "closed-loop": 0.75}.get(name, 0.72)
+        # side-by-side panels are stacked: the floating panel is narrow (it leaves the
+        # 3D scene in view), a phone's control sheet narrower still
+        fig, bands = F.stack_columns(fig, compact=self.narrow)
+        if self.narrow:
+            aspect = max(0.9, 0.8 * bands)
+        elif bands > 1:
+            aspect = min(1.35, 0.68 * bands)
+        self.plot.aspect = aspect
         self.plot.figure = fig
         self.shown_figure = name
+        d = res.digitized
+        self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1
         self.last_result = res
         self.rendered_version = v
         m = res.model
@@ -582,13 +729,25 @@ class SessionView:
             lines.append("slopes " + ", ".join(f"{s:.3g}" for s in pi.slopes))
             lines.append(f"max loop width σ = {pi.max_loop_width:.4g}")
         self.model_md.content = "  \n".join(lines) + (
-            f"  \n⚠️ {res.inverse_error}" if res.inverse_error else "")
-        if res.inverse_error:
-            self.inverse_md.content = f"⚠️ **No inverse:** {res.inverse_error}"
-        else:
+            f"  \n⚠️ {md_text(res.inverse_error)}" if res.inverse_error else "")
+        inv_err = res.inverse_error
+        if inv_err is None and res.y_comp is None:
+            try:
+                m.inverse()
+            except (NotInvertibleError, ValueError) as exc:
+                inv_err = str(exc)
+        if inv_err:
+            self.inverse_md.content = f"⚠️ **No inverse:** {md_text(inv_err)}"
+        elif res.y_comp is not None:
             err = res.y_comp - res.u
             self.inverse_md.content = (f"RMS tracking error {np.sqrt(np.mean(err**2)):.4g}, "
                                        f"max {np.max(np.abs(err)):.4g}")
+            if res.inverse_warning:
+                self.inverse_md.content += (
+                    f"  \n⚠️ **The inverse clipped part of the input:** "
+                    f"{md_text(res.inverse_warning)}")
+        else:
+            self.inverse_md.content = "*choose the Inverse view to compute the compensation*"
         self._show_digitized(res)
         self.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
 
@@ -597,7 +756,8 @@ class SessionView:
         d = res.digitized
         self._play_stop.set()
         if d is None:
-            self.digi_md.content = f"⚠️ {res.messages[0] if res.messages else 'unavailable'}"
+            why = res.messages[0] if res.messages else "choose the Digitized view"
+            self.digi_md.content = f"⚠️ {md_text(why)}"
             self.digi_step.disabled = True
             if self._marker is not None:
                 self._marker.visible = False
@@ -613,7 +773,7 @@ class SessionView:
         self._draw_cube(d)
         self._show_state(rows - 1)
 
-    def _show_state(self, k: int) -> None:
+    def _show_state(self, k: int, force: bool = False) -> None:
         res = self.last_result
         if res is None or res.digitized is None:
             return
@@ -635,6 +795,24 @@ class SessionView:
         if self._marker is not None and self._cube_points is not None:
             self._marker.position = tuple(self._embed(digits) - self._cube_center)
             self._marker.visible = True
+        if self.shown_figure == "digitized" and k != self._shown_state:
+            now = time.monotonic()
+            if force or now - self._state_sent >= 0.1 or k == len(tr.sample) - 1:
+                # the loop plot's current state and the digit rows' time line follow
+                fig = F.digitized_figure(res, highlight=k)
+                self.plot.figure = F.stack_columns(fig, compact=self.narrow)[0]
+                self._state_sent, self._shown_state = now, k
+
+    def _step_by(self, d: int) -> None:
+        """Stop the animation and move ``d`` states along the trace."""
+        self._play_stop.set()
+        k = int(np.clip(int(self.digi_step.value) + d, 0, self.digi_step.max))
+        self._syncing.on = True
+        try:
+            self.digi_step.value = k
+        finally:
+            self._syncing.on = False
+        self._show_state(k, force=True)
 
     def _embed(self, digits: np.ndarray) -> np.ndarray:
         n = digits.size
@@ -679,13 +857,30 @@ class SessionView:
                                      thickness_units="screen")
         if n <= 4:
             for c, p in zip(g.strings, pts, strict=True):
-                self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.05))
+                self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.06),
+                                     font_screen_scale=1.6, anchor="bottom-left")
         self._marker = self.scene.add_icosphere("/states/current", radius=0.09,
                                                 color=(214, 39, 40))
         self._cube_key = key
+        self._aim_camera(pts)
+
+    def _aim_camera(self, pts: np.ndarray) -> None:
+        """Look at the cube from off its diagonal, so no two vertices overlap (000/111)."""
+        if self.camera is None:
+            return
+        radius = float(np.max(np.linalg.norm(pts, axis=1))) or 1.0
+        direction = np.array([0.55, -1.0, 0.45])
+        direction /= np.linalg.norm(direction)
+        try:
+            self.camera.up_direction = (0.0, 0.0, 1.0)
+            # viser moves look_at with the position: set the target afterwards
+            self.camera.position = tuple(3.2 * radius * direction)
+            self.camera.look_at = (0.0, 0.0, 0.0)
+        except Exception:  # noqa: BLE001 - a camera of a closing tab
+            pass
 
     def _step_changed(self, event: Any) -> None:
-        self._show_state(int(self.digi_step.value))
+        self._show_state(int(self.digi_step.value), force=True)
 
     def _play_clicked(self, event: Any) -> None:
         res = self.last_result
@@ -699,7 +894,8 @@ class SessionView:
 
         def play() -> None:
             for k in range(rows):
-                if stop.wait(0.12 if rows < 300 else 0.03):
+                # read the speed at every step, so the slider acts during playback
+                if stop.wait(1.0 / max(0.25, float(self.play_speed.value))):
                     return
                 self._syncing.on = True
                 try:
@@ -712,7 +908,7 @@ class SessionView:
         self._play_thread.start()
 
     def _render_error(self, exc: BaseException) -> None:
-        self.model_md.content = f"⚠️ **Cannot draw this model:** {exc}"
+        self.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
 
     def close(self) -> None:
         """Detach from the session and stop the worker."""
@@ -758,13 +954,15 @@ def set_leaf(d: Any, path: str, value: float) -> None:
 
 def diagnosis_markdown(rep: dict[str, Any]) -> str:
     """A diagnosis report as Markdown (findings first, then the numbers)."""
-    lines = ["### Diagnosis", f"*engine: {rep.get('engine', '?')}*", ""]
+    lines = ["### Diagnosis", f"*engine: {md_text(rep.get('engine', '?'))}*", ""]
     for f in rep.get("findings", []) or []:
-        lines.append(f"- {f if isinstance(f, str) else json.dumps(f)}")
+        lines.append(f"- {md_text(f if isinstance(f, str) else json.dumps(f))}")
     for k, v in rep.items():
         if k in ("findings", "engine") or isinstance(v, dict | list):
             continue
-        lines.append(f"- **{k}**: {v:.4g}" if isinstance(v, float) else f"- **{k}**: {v}")
+        key = md_text(str(k).replace("_", " "))
+        lines.append(f"- **{key}**: {v:.4g}" if isinstance(v, float)
+                     else f"- **{key}**: {md_text(v)}")
     return "\n".join(lines)
 
 
@@ -798,7 +996,15 @@ class ExplorerGui:
                                     color="red" if error else None)
 
         view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
-                           notify=notify, scene=client.scene)
+                           notify=notify, scene=client.scene, camera=client.camera)
+
+        def on_camera(camera: Any) -> None:
+            width = getattr(camera, "image_width", 0) or 0
+            if width:
+                view.set_narrow(width < NARROW_PX)
+
+        client.camera.on_update(on_camera)
+        on_camera(client.camera)
         with self._lock:
             self.views[client.client_id] = view
 

@@ -9,6 +9,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 from core.exceptions import ParameterError
 
 from ..compute import compute, diagnosed_model, preset_doc, validate_config
+from ..events import HUB
 from ..schemas import ConfigIn
 from ..services.cost import check_config
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited
@@ -109,4 +110,6 @@ def broadcast_preset(
     """
     if settings.teacher_token and not settings.teacher_ok(x_teacher_token):
         raise HTTPException(403, "pushing to all sessions needs the teacher token")
-    return {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
+    out = {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
+    HUB.broadcast({"kind": "push", "preset": name})
+    return out

@@ -67,7 +67,7 @@ def test_capabilities_and_presets(client: TestClient) -> None:
 
 def test_static_page_and_vendored_plotly(client: TestClient) -> None:
     page = client.get("/")
-    assert page.status_code == 200 and "/vendor/plotly.min.js" in page.text
+    assert page.status_code == 200 and "/vendor/plotly.min.js" in client.get("/app.js").text
     assert "cdn" not in page.text.lower()
     js = client.get("/vendor/plotly.min.js")
     assert js.status_code == 200 and len(js.content) > 1_000_000

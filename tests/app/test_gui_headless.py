@@ -13,6 +13,7 @@ import pytest
 from app import figures as F
 from app.gui.layout import SessionView, diagnosis_markdown
 from app.gui.render import LatestWinsWorker
+from app.gui.text import md_text
 from app.settings import Settings
 from app.state import SessionRegistry
 from core.pi import PIModel
@@ -126,7 +127,51 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
 def test_bad_csv_message(view: SessionView) -> None:
     view.upload._impl.value = SimpleNamespace(name="bad.csv", content=b"t,u,y\n0,1,x\n")
     view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
-    assert "line 2" in view.data_md.content and "'y' (column 2)" in view.data_md.content
+    assert "line 2" in view.data_md.content and md_text("'y' (column 2)") in view.data_md.content
+
+
+def test_markup_in_csv_name_and_cells_is_text(view: SessionView) -> None:
+    evil = "<img src=x onerror=alert(1)>"
+    view.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
+                                              content=f"t,u,y\n0,1,{evil}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert "<img" not in view.data_md.content and "&lt;img" in view.data_md.content
+    rows = "\n".join(f"{k * 1e-3},{np.sin(k / 9)},{np.sin(k / 9)}" for k in range(50))
+    view.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
+                                              content=f"t,{evil},y\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert view.session.recording is not None
+    assert "<img" not in view.data_md.content and "&lt;img" in view.data_md.content
+
+
+def test_deadzone_operators_stack_on_the_dead_zoned_input(view: SessionView) -> None:
+    from app.compute import preset_doc
+
+    view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
+    view.view_dd.value = "Operators"
+    _idle(view)
+    fig = view.plot.figure
+    parts = [F.values(t["y"]) for t in fig.data if t.get("stackgroup")]
+    total = next(F.values(t["y"]) for t in fig.data if t["name"] == "y (sum)")
+    np.testing.assert_allclose(np.sum(parts, axis=0), total, atol=1e-4 * np.ptp(total))
+
+
+def test_digitized_preset_input_spans_its_loop_and_steps(view: SessionView) -> None:
+    title = next(t for t, n in view._preset_names.items() if n == "paper000-three-operators")
+    view.preset.value = title
+    view._preset_clicked(SimpleNamespace(client=None))
+    view.view_dd.value = "Digitized states"
+    _idle(view)
+    sig = view.session.config.signal
+    assert sig.offset - sig.amplitude < 0 and sig.offset + sig.amplitude > 10  # 0…10 spanned
+    last = int(view.digi_step.value)
+    view._step_by(-1)
+    assert int(view.digi_step.value) == last - 1
+    assert f"State {last - 1}/" in view.digi_md.content
+    # the figure's current-state marker follows the step
+    cur = next(t for t in view.plot.figure.data if t["name"] == "current state")
+    tr = view.last_result.digitized.trace
+    assert cur["x"] == [float(tr.x_b[last - 1])]
 
 
 def test_join_other_session(view: SessionView) -> None:
@@ -179,7 +224,7 @@ def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
 
 def test_diagnosis_markdown() -> None:
     md = diagnosis_markdown({"engine": "x", "findings": ["delay"], "rms_error": 0.5})
-    assert "- delay" in md and "rms_error" in md
+    assert "- delay" in md and "rms error" in md
 
 
 def test_latest_wins_worker_skips_stale_requests() -> None:
@@ -204,3 +249,32 @@ def test_latest_wins_worker_skips_stale_requests() -> None:
     assert w.wait_idle(5)
     w.stop()
     assert calls[0] == 0 and calls[-1] == 49 and len(calls) <= 3
+
+
+def test_recording_units_label_the_axes(view: SessionView) -> None:
+    rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
+    view.upload._impl.value = SimpleNamespace(
+        name="piezo.csv", content=f"t [s],u [V],y [µm]\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    assert view.session.recording is not None
+    assert view.session.recording.units["input"] == "V"
+    _idle(view)
+    lay = view.plot.figure.layout
+    assert lay["xaxis"]["title"]["text"] == "input u [V]"
+    assert lay["yaxis"]["title"]["text"] == "output y [µm]"
+    assert "| u [V] |" in view.data_md.content
+
+
+def test_second_fit_while_one_runs_is_refused(view: SessionView) -> None:
+    rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
+    view.upload._impl.value = SimpleNamespace(name="r.csv", content=f"t,u,y\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    view._work_lock.acquire()  # a diagnosis is running
+    try:
+        view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
+    finally:
+        view._work_lock.release()
+    assert view.session.fitted is None
+    assert any("already running" in body for _, body, _ in view.toasts)
+    view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
+    assert view.session.fitted is not None and not view.fit_btn.disabled

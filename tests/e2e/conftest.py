@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import tempfile
 import threading
 import time
 from collections.abc import Iterator
@@ -13,7 +14,14 @@ from typing import Any
 import pytest
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-SCREENSHOTS = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
+#: Where browser tests write screenshots: a temporary folder, so a test run never changes
+#: tracked files (``python -m tests.e2e.refresh_screenshots`` refreshes docs/screenshots).
+SCREENSHOTS = Path(os.environ.get("HYST_SCREENSHOTS") or Path(tempfile.gettempdir())
+                   / "hyst-e2e-screenshots")
+#: The strict policy the static page must work under.
+CSP = "default-src 'self'"
+#: Teacher token of the test server.
+TEACHER_TOKEN = "class-7b"
 ARGS = [
     "--no-sandbox",
     "--disable-gpu",
@@ -49,7 +57,12 @@ def browser() -> Iterator[Any]:
 
 @pytest.fixture(scope="session")
 def live_server() -> Iterator[dict[str, Any]]:
-    """The explorer (REST + static page + viser on a free port) served by uvicorn."""
+    """The explorer (REST + static page + viser on a free port) served by uvicorn.
+
+    Every response carries ``Content-Security-Policy: default-src 'self'`` (plus the
+    websocket of the viser port), so a page that needs inline script, inline style
+    elements, ``eval`` or an outside host fails the tests.
+    """
     if CHROMIUM is None:
         pytest.skip("chromium not installed")
     import uvicorn
@@ -57,7 +70,15 @@ def live_server() -> Iterator[dict[str, Any]]:
     from app.server import create_app
     from app.settings import Settings
 
-    app = create_app(Settings(viser_port=0, port=0))
+    app = create_app(Settings(viser_port=0, port=0, teacher_token=TEACHER_TOKEN))
+
+    @app.middleware("http")
+    async def _csp(request: Any, call_next: Any) -> Any:
+        response = await call_next(request)
+        if "content-security-policy" not in response.headers:
+            response.headers["Content-Security-Policy"] = CSP
+        return response
+
     config = uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning")
     server = uvicorn.Server(config)
     th = threading.Thread(target=server.run, daemon=True)
@@ -79,7 +100,7 @@ def live_server() -> Iterator[dict[str, Any]]:
 
 @pytest.fixture
 def shot() -> Any:
-    """``shot(page, name)`` saves ``docs/screenshots/<name>.png``."""
+    """``shot(page, name)`` saves ``<SCREENSHOTS>/<name>.png`` (a temporary folder)."""
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
 
     def save(page: Any, name: str) -> Path:

@@ -56,7 +56,9 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
         "v => document.body.dataset.ready !== v", arg=version, timeout=30_000)
     page.wait_for_function(
         "() => !document.querySelector('#status').textContent.includes('…')", timeout=30_000)
-    page.wait_for_timeout(400)
+    # the frames of a drag are drawn by the page's SVG plotter; plotly redraws at rest
+    page.wait_for_function(
+        "() => document.body.dataset.settled === document.body.dataset.ready", timeout=30_000)
     after = _loop_y(page)
     assert not np.allclose(before, after)
     shot(page, "static-loop")
@@ -115,8 +117,9 @@ def test_csv_upload_fit_diagnosis_download(browser: Any, live_server: dict, shot
     doc = json.loads(Path(dl.value.path()).read_text())
     model = doc["model"]
     assert model["type"] in ("pi", "chain")
-    # the bad CSV's 422 response is expected (the browser logs it); nothing else may fail
-    assert [e for e in errors if "status of 422" not in e] == []
+    # the bad CSV's 422 response is expected (the browser logs it), and so is a 404/405
+    # from the jobs API on a server without it; nothing else may fail
+    assert [e for e in errors if not any(f"status of {c}" in e for c in (422, 404, 405))] == []
     ctx.close()
 
 

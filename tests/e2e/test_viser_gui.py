@@ -14,8 +14,10 @@ import pytest
 from core.pi import PIModel
 
 
-def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
-    ctx = browser.new_context(viewport={"width": 1500, "height": 900}, accept_downloads=True)
+def _open(browser: Any, url: str, width: int = 1500, height: int = 900
+          ) -> tuple[Any, Any, list[str]]:
+    ctx = browser.new_context(viewport={"width": width, "height": height},
+                              accept_downloads=True)
     page = ctx.new_page()
     page.set_default_timeout(60_000)  # the 2 shared vCPUs can be very busy
     errors: list[str] = []
@@ -38,6 +40,19 @@ def _views(app: Any, n: int, timeout: float = 60.0) -> list[Any]:
             return views
         time.sleep(0.1)
     raise AssertionError(f"expected {n} rendered viser views, got {app.state.gui.views}")
+
+
+def upload_csv(page: Any, view: Any, path: Path, t: Any, u: Any, y: Any) -> None:
+    """Write ``t, u, y`` to ``path`` and upload it through the Data tab of ``page``."""
+    path.write_text("t,u,y\n" + "\n".join(
+        f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True)))
+    page.get_by_role("tab", name="Data").first.click()
+    with page.expect_file_chooser() as fc:
+        page.get_by_role("button", name="Upload CSV").first.click()
+    fc.value.set_files(str(path))
+    deadline = time.monotonic() + 30
+    while view.session.recording is None and time.monotonic() < deadline:
+        time.sleep(0.1)
 
 
 def _screenshot(page: Any, shot: Any, name: str) -> None:
@@ -90,16 +105,7 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     t = np.arange(1000) * 1e-3
     u = 3.0 * np.sin(2 * np.pi * 2 * t)
     y = PIModel(0.7, [0.5, 1.0, 1.5], [0.5, 0.4, 0.3])(u)
-    csv = tmp_path / "rec.csv"
-    rows = (f"{ti},{ui},{yi}" for ti, ui, yi in zip(t, u, y, strict=True))
-    csv.write_text("t,u,y\n" + "\n".join(rows))
-    a.get_by_role("tab", name="Data").first.click()
-    with a.expect_file_chooser() as fc:
-        a.get_by_role("button", name="Upload CSV").first.click()
-    fc.value.set_files(str(csv))
-    deadline = time.monotonic() + 30
-    while view_a.session.recording is None and time.monotonic() < deadline:
-        time.sleep(0.1)
+    upload_csv(a, view_a, tmp_path / "rec.csv", t, u, y)
     assert view_a.session.recording is not None and view_a.session.recording.n_samples == 1000
     assert view_b.session.recording is None
     a.get_by_role("button", name="Fit model").first.click()

@@ -1,0 +1,152 @@
+"""Live events (server-sent events) and the teacher's push to every session.
+
+``GET /api/sessions/{code}/events`` is a ``text/event-stream`` that an open page keeps:
+every teacher push arrives as an ``event: push`` with an ``id`` and a JSON ``data`` line,
+and the page reloads its session from ``GET /api/sessions/{code}``. A stream ends after
+:data:`STREAM_S` seconds (so a server shutdown never waits long for open pages); the
+browser's ``EventSource`` reconnects with ``Last-Event-ID`` and gets what it missed.
+
+``POST /api/teacher/push`` gives every session a preset's model and, optionally, an input
+signal (the preset's own default input when ``use_preset_input``); ``GET
+/api/teacher/connected`` says how many pages listen. Both need ``X-Teacher-Token`` when the
+server was started with ``--teacher-token``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import json
+from collections.abc import AsyncIterator
+from dataclasses import replace
+from typing import Any
+
+from fastapi import APIRouter, Header, HTTPException
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, Field
+
+from core.exceptions import ParameterError
+
+from ..compute import preset_doc
+from ..events import HUB
+from ..schemas import SignalIn
+from ..state import SignalSpec
+from .deps import RegistryDep, SessionDep, SettingsDep
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/api", tags=["events"])
+
+#: Longest life of one stream, s (the browser reconnects at once).
+STREAM_S = 10.0
+
+
+@router.get("/sessions/{code}/events")
+async def session_events(
+    session: SessionDep,
+    last_event_id: str | None = Header(default=None),
+) -> StreamingResponse:
+    """Server-sent events of session ``code`` (teacher pushes) for about 10 s, then the
+    browser reconnects (``Last-Event-ID`` replays what it missed)."""
+    last = int(last_event_id) if last_event_id and last_event_id.isdigit() else None
+    try:
+        sub = HUB.subscribe(session.code, last)
+    except OverflowError:
+        raise HTTPException(503, "too many open live pages; try again later") from None
+
+    async def stream() -> AsyncIterator[str]:
+        loop = asyncio.get_running_loop()
+        end = loop.time() + STREAM_S
+        try:
+            yield "retry: 500\n: connected\n\n"
+            while (left := end - loop.time()) > 0:
+                try:
+                    event = await sub.get(left)
+                except TimeoutError:
+                    return
+                if event is None:  # the hub closed
+                    return
+                yield (f"id: {event['id']}\nevent: {event.get('kind', 'message')}\n"
+                       f"data: {json.dumps(event)}\n\n")
+        finally:
+            HUB.unsubscribe(sub)
+
+    return StreamingResponse(stream(), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+class PushIn(BaseModel):
+    """What the teacher pushes to every session."""
+
+    preset: str | None = Field(None, description="preset name (see GET /api/presets)")
+    signal: SignalIn | None = Field(None, description="input signal for every session")
+    use_preset_input: bool = Field(
+        False, description="give every session the preset's own default input")
+
+
+def _check_token(settings: Any, token: str | None) -> bool:
+    """Whether ``token`` is the teacher token; 403 when one is set and it differs."""
+    want = settings.teacher_token
+    if not want:
+        return False
+    if token is None or not hmac.compare_digest(token.encode(), want.encode()):
+        raise HTTPException(403, "this needs the teacher token (the one the server was "
+                                 "started with)")
+    return True
+
+
+@router.post("/teacher/push")
+def teacher_push(
+    body: PushIn,
+    registry: RegistryDep,
+    settings: SettingsDep,
+    x_teacher_token: str | None = Header(default=None),
+) -> dict[str, Any]:
+    """Teacher: give every session a preset's model and/or an input signal, live."""
+    _check_token(settings, x_teacher_token)
+    if body.preset is None and body.signal is None:
+        raise HTTPException(422, "choose a preset or an input signal to push")
+    model = signal = None
+    title = None
+    if body.preset is not None:
+        try:
+            doc = preset_doc(body.preset)
+        except ParameterError:
+            raise HTTPException(404, f"no preset named {body.preset!r}") from None
+        model, title = doc["model"], doc["title"]
+        if body.use_preset_input and body.signal is None:
+            signal = SignalSpec(**doc["input"])
+    if body.signal is not None:
+        signal = body.signal.to_spec()
+        try:
+            signal.validate(settings.max_samples)
+        except ParameterError as exc:
+            raise HTTPException(422, str(exc)) from None
+
+    def change(cfg: Any) -> Any:
+        new = cfg if model is None else cfg.with_model(model)
+        return new if signal is None else replace(new, signal=signal, use_recording=False)
+
+    sessions = registry.all()
+    for s in sessions:
+        s.update(change)
+    event = {"kind": "push", "preset": body.preset, "title": title,
+             "signal": signal is not None}
+    pages = HUB.broadcast(event)
+    return {"preset": body.preset, "sessions": len(sessions), "pages": pages}
+
+
+@router.get("/teacher/connected")
+def teacher_connected(
+    registry: RegistryDep,
+    settings: SettingsDep,
+    x_teacher_token: str | None = Header(default=None),
+) -> dict[str, Any]:
+    """Teacher: how many pages listen live, and (with a teacher token) to which sessions."""
+    with_codes = _check_token(settings, x_teacher_token)
+    conn = HUB.connected()
+    out: dict[str, Any] = {"pages": sum(conn.values()), "sessions_live": len(conn),
+                           "sessions": len(registry.all())}
+    if with_codes:
+        out["codes"] = sorted(conn)
+    return out

@@ -1,0 +1,85 @@
+"""The in-process event hub (thread-safe publish into asyncio queues) and the teacher API."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+
+import pytest
+from fastapi.testclient import TestClient
+
+from app.events import QUEUE_SIZE, EventHub
+from app.server import create_app
+from app.settings import Settings
+
+
+def test_publish_from_many_threads_reaches_the_right_pages() -> None:
+    hub = EventHub()
+
+    async def run() -> tuple[list[int], list[int], dict[str, int]]:
+        a, b = hub.subscribe("a"), hub.subscribe("b")
+        threads = [threading.Thread(target=lambda k=k: hub.publish("a", {"k": k}))
+                   for k in range(20)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        hub.broadcast({"k": 99})
+        got_a = [(await a.get(2))["k"] for _ in range(21)]
+        got_b = [(await b.get(2))["k"] for _ in range(1)]
+        conn = hub.connected()
+        hub.unsubscribe(a)
+        hub.unsubscribe(b)
+        return got_a, got_b, conn
+
+    got_a, got_b, conn = asyncio.run(run())
+    assert sorted(got_a) == [*range(20), 99] and got_b == [99]
+    assert conn == {"a": 1, "b": 1} and hub.connected() == {}
+
+
+def test_reconnect_replays_missed_events_and_slow_pages_are_bounded() -> None:
+    hub = EventHub(max_subscribers=1)
+
+    async def run() -> tuple[list[int], int]:
+        first = hub.subscribe("a")
+        ev = [hub.broadcast({"k": k}) for k in range(3)]
+        assert ev == [1, 1, 1]
+        seen = (await first.get(1))["id"]
+        hub.unsubscribe(first)
+        hub.publish("b", {"k": "other"})  # not for "a"
+        again = hub.subscribe("a", last_id=seen)
+        replay = [(await again.get(1))["k"] for _ in range(2)]
+        with pytest.raises(OverflowError):
+            hub.subscribe("c")
+        for k in range(QUEUE_SIZE + 10):
+            again.deliver({"k": k})
+        size = again.queue.qsize()
+        hub.unsubscribe(again)
+        return replay, size
+
+    replay, size = asyncio.run(run())
+    assert replay == [1, 2]
+    assert size == QUEUE_SIZE
+
+
+def test_teacher_push_needs_the_token_and_changes_every_session() -> None:
+    with TestClient(create_app(Settings(viser_port=None, teacher_token="t0k"))) as client:
+        codes = [client.post("/api/sessions").json()["code"] for _ in range(2)]
+        body = {"preset": "paper000-three-operators", "use_preset_input": True}
+        assert client.post("/api/teacher/push", json=body).status_code == 403
+        assert client.post("/api/teacher/push", json=body,
+                           headers={"X-Teacher-Token": "nope"}).status_code == 403
+        r = client.post("/api/teacher/push", json=body, headers={"X-Teacher-Token": "t0k"})
+        assert r.status_code == 200 and r.json()["sessions"] == 2
+        for code in codes:
+            cfg = client.get(f"/api/sessions/{code}").json()["config"]
+            assert cfg["model"]["type"] == "digitized"
+            assert cfg["signal"]["offset"] == 5.0 and cfg["signal"]["amplitude"] == 5.5
+        bad = client.post("/api/teacher/push", json={"preset": "nope"},
+                          headers={"X-Teacher-Token": "t0k"})
+        assert bad.status_code == 404
+        empty = client.post("/api/teacher/push", json={}, headers={"X-Teacher-Token": "t0k"})
+        assert empty.status_code == 422
+        conn = client.get("/api/teacher/connected", headers={"X-Teacher-Token": "t0k"}).json()
+        assert conn["sessions"] == 2 and conn["codes"] == []
+        assert client.get("/api/sessions/zzzz-none/events").status_code == 404

@@ -1,0 +1,107 @@
+"""The viser GUI at a phone's and a laptop's size, and markup in a CSV it is given."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.pi import PIModel
+
+from .test_viser_gui import _open, _screenshot, upload_csv
+
+
+def _new_view(app: Any, known: set[int]) -> Any:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        new = [v for k, v in app.state.gui.views.items() if k not in known]
+        if new and new[0].rendered_version >= 0:
+            return new[0]
+        time.sleep(0.1)
+    raise AssertionError("no new viser view")
+
+
+def _plot_box(page: Any) -> dict[str, float]:
+    page.wait_for_function("""() => [...document.querySelectorAll('.js-plotly-plot')]
+      .some(e => e.getBoundingClientRect().width > 150)""", timeout=60_000)
+    return page.evaluate("""() => {
+      const r = [...document.querySelectorAll('.js-plotly-plot')]
+        .map(e => e.getBoundingClientRect()).find(r => r.width > 150);
+      return {left: r.left, right: r.right, top: r.top, width: r.width, height: r.height};
+    }""")
+
+
+def test_phone_shows_a_plot(browser: Any, live_server: dict, shot: Any) -> None:
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 390, 844)
+    view = _new_view(app, known)
+    deadline = time.monotonic() + 30
+    while not view.narrow and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert view.narrow
+    box = _plot_box(page)
+    assert box["right"] <= 390 and box["width"] >= 200 and box["height"] >= 150
+    _screenshot(page, shot, "viser-phone")
+    assert errors == []
+    ctx.close()
+
+
+def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
+                                              shot: Any) -> None:
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1280, 800)
+    view = _new_view(app, known)
+    from types import SimpleNamespace
+
+    title = next(t for t, n in view._preset_names.items() if n == "paper000-three-operators")
+    view.preset.value = title
+    view._preset_clicked(SimpleNamespace(client=None))
+    view.view_dd.value = "Digitized states"
+    assert view.worker.wait_idle(30)
+    assert not view.narrow
+    box = _plot_box(page)
+    # the cube is drawn at the scene origin, the centre of the canvas: the plot panel
+    # ends well left of it
+    assert box["right"] < 0.42 * 1280
+    # the camera is off the cube's diagonal: 000 and 111 project to different points
+    cam = np.asarray(view.camera.position) - np.asarray(view.camera.look_at)
+    pts = view._cube_points
+    d = cam / np.linalg.norm(cam)
+    p000, p111 = pts[0] - d * (pts[0] @ d), pts[-1] - d * (pts[-1] @ d)
+    assert np.linalg.norm(p000 - p111) > 0.5
+    # stepping back moves the state, the 3D marker and the plot's marker together
+    last = int(view.digi_step.value)
+    view._step_by(-1)
+    tr = view.last_result.digitized.trace
+    cur = next(t for t in view.plot.figure.data if t["name"] == "current state")
+    assert cur["x"] == [float(tr.x_b[last - 1])]
+    assert f"State {last - 1}/" in view.digi_md.content
+    # the plot toolbar offers nothing that uploads the chart
+    page.hover(".js-plotly-plot")
+    page.wait_for_selector(".modebar-btn")
+    titles = page.locator(".modebar-btn").evaluate_all(
+        "els => els.map(e => e.getAttribute('data-title') || '')")
+    assert titles and not any("Share" in t or "Cloud" in t or "Studio" in t for t in titles)
+    _screenshot(page, shot, "viser-digitized-cube")
+    assert errors == []
+    ctx.close()
+
+
+def test_markup_in_a_csv_is_not_drawn(browser: Any, live_server: dict, tmp_path: Path) -> None:
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    t = np.arange(300) * 1e-3
+    u = 3.0 * np.sin(2 * np.pi * 4 * t)
+    y = PIModel(0.7, [0.5, 1.0], [0.5, 0.4])(u)
+    upload_csv(page, view, tmp_path / "<img src=x onerror=alert(1)>.csv", t, u, y)
+    assert view.session.recording is not None
+    page.wait_for_selector("text=<img src=x onerror=alert(1)>.csv")
+    assert page.locator("img[src=x]").count() == 0
+    assert errors == []
+    ctx.close()
