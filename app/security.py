@@ -9,9 +9,9 @@ and errors raised anywhere below it):
 * **Foreign origins**: a state-changing request whose ``Origin`` (or ``Sec-Fetch-Site:
   cross-site``) is not this server is refused with 403, so another web page open in a
   student's browser cannot create, change or wipe sessions.
-* **Headers**: a strict Content-Security-Policy (``default-src 'self'``; inline blocks of
-  the static HTML pages' inline scripts are allowed by their SHA-256 hash only, computed
-  at start-up; styles may be inline, as plotly.js needs),
+* **Headers**: a strict Content-Security-Policy (``default-src 'self'``; scripts only from
+  the server's own files — ``static/`` has no inline script, a test keeps it so; styles may
+  be inline, as plotly.js needs),
   ``frame-ancestors 'none'`` and ``X-Frame-Options: DENY``, ``X-Content-Type-Options:
   nosniff``, ``Referrer-Policy: no-referrer``.
 * **No crash**: an exception that reaches this layer becomes a JSON 500 saying what to do,
@@ -20,19 +20,15 @@ and errors raised anywhere below it):
 
 from __future__ import annotations
 
-import base64
-import hashlib
 import json
 import logging
-import re
 from collections.abc import Awaitable, Callable, MutableMapping
-from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
 from .services.cost import json_depth
 
-__all__ = ["BASE_CSP", "Guard", "inline_hashes"]
+__all__ = ["CSP", "Guard"]
 
 log = logging.getLogger(__name__)
 
@@ -42,37 +38,12 @@ Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
-#: The policy of every response (pages add hashes of their own inline scripts). Styles allow
-#: inline: plotly.js inserts its own style elements and attributes at run time (styles
-#: cannot run code; scripts stay 'self' + hashes only).
-BASE_CSP = ("default-src 'self'; script-src 'self'{script}; style-src 'self' 'unsafe-inline'; "
-            "img-src 'self' data: blob:; font-src 'self' data:; connect-src 'self'; "
-            "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
+#: The policy of every response. Styles allow inline: plotly.js inserts its own style
+#: elements and attributes at run time (styles cannot run code; scripts stay 'self').
+CSP = ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+       "img-src 'self' data: blob:; font-src 'self' data:; connect-src 'self'; "
+       "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
 _UNSAFE = frozenset({"POST", "PUT", "PATCH", "DELETE"})
-_INLINE = re.compile(rb"<(script|style)\b([^>]*)>(.*?)</\1\s*>", re.S | re.I)
-
-
-def inline_hashes(static_dir: Path) -> dict[str, tuple[list[str], list[str]]]:
-    """``{"/page.html": (script hashes, style hashes)}`` of the inline blocks of each page."""
-    out: dict[str, tuple[list[str], list[str]]] = {}
-    for page in sorted(static_dir.glob("*.html")):
-        scripts: list[str] = []
-        styles: list[str] = []
-        for m in _INLINE.finditer(page.read_bytes()):
-            if m.group(1).lower() == b"script" and b"src=" in m.group(2).lower():
-                continue
-            digest = base64.b64encode(hashlib.sha256(m.group(3)).digest()).decode()
-            (scripts if m.group(1).lower() == b"script" else styles).append(
-                f"'sha256-{digest}'")
-        out[f"/{page.name}"] = (scripts, styles)
-        if page.name == "index.html":
-            out["/"] = (scripts, styles)
-    return out
-
-
-def _csp(scripts: list[str], styles: list[str]) -> str:
-    del styles  # inline styles are allowed as a whole (see BASE_CSP)
-    return BASE_CSP.format(script="".join(" " + h for h in scripts))
 
 
 def _json(status: int, detail: Any) -> tuple[int, bytes]:
@@ -90,17 +61,12 @@ class Guard:
         Largest accepted request body, bytes.
     max_json_depth : int
         Deepest accepted JSON nesting.
-    static_dir : Path
-        Directory of the static HTML pages (for the inline-block hashes).
     """
 
-    def __init__(self, app: ASGIApp, *, max_body: int, max_json_depth: int,
-                 static_dir: Path) -> None:
+    def __init__(self, app: ASGIApp, *, max_body: int, max_json_depth: int) -> None:
         self.app = app
         self.max_body = max_body
         self.max_json_depth = max_json_depth
-        self.pages = {k: _csp(*v) for k, v in inline_hashes(static_dir).items()}
-        self.default_csp = _csp([], [])
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -108,7 +74,6 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1")
                    for k, v in scope.get("headers", [])}
-        csp = self.pages.get(scope.get("path", ""), self.default_csp)
         started = False
 
         async def send_guarded(message: Message) -> None:
@@ -118,7 +83,7 @@ class Guard:
                 hs = list(message.get("headers", []))
                 have = {k.lower() for k, _ in hs}
                 extra = {
-                    b"content-security-policy": csp.encode(),
+                    b"content-security-policy": CSP.encode(),
                     b"x-content-type-options": b"nosniff",
                     b"x-frame-options": b"DENY",
                     b"referrer-policy": b"no-referrer",

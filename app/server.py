@@ -152,5 +152,5 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(events_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
-                       max_json_depth=settings.limits.max_json_depth, static_dir=STATIC_DIR)
+                       max_json_depth=settings.limits.max_json_depth)
     return app
