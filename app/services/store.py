@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 import os
 import pickle
 import sqlite3
@@ -158,6 +159,16 @@ def _load(s: str | None) -> Any:
     return None if s is None else json.loads(s)
 
 
+def _unpickle(data: bytes) -> Any:
+    """A stored diagnosis result, or ``None`` when it no longer loads (written by another
+    version of the code: its text report, stored separately, is kept)."""
+    try:
+        return pickle.loads(data)  # noqa: S301 - written only by this server, file mode 0600
+    except Exception:  # noqa: BLE001 - any unpickling failure means "not restorable"
+        logging.getLogger(__name__).warning("a stored diagnosis result could not be restored")
+        return None
+
+
 class SessionStore:
     """Sessions in one SQLite file, committed on each change (thread-safe).
 
@@ -271,7 +282,7 @@ class SessionStore:
         if row is None:
             return None
         rec = recording_from_blob(blobs["recording"]) if "recording" in blobs else None
-        diag = pickle.loads(blobs["diagnosis"]) if "diagnosis" in blobs else None  # noqa: S301 - own file
+        diag = _unpickle(blobs["diagnosis"]) if "diagnosis" in blobs else None
         return SessionState(
             code=row[0], created=row[1], last_used=row[2], teacher=bool(row[3]),
             version=row[4], config=json.loads(row[5]), fitted=_load(row[6]),
