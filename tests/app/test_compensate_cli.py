@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,11 +14,27 @@ from scipy.io import loadmat
 from app.cli import main
 from core.base import Chain
 from core.effects import Delay, Resonance
+from core.models import fit_kinds
 from core.paramset import ParameterSet, load_parameter_set
 from core.presets import list_presets
 from tests.core.model_zoo import EX1, ZOO
 
 CASES = sorted(ZOO) + [f"preset:{p.name}" for p in list_presets()]
+#: A shipped recording (1 Hz friction damper loops, 7 168 samples, CC BY 4.0).
+DAMPER = (Path(__file__).resolve().parents[2] / "examples" / "data" / "friction_damper"
+          / "1Hz30lbtension0.5amplitude.csv")
+GCC = shutil.which("gcc")
+#: Reads "u yd" lines; prints the C forward model of u and the C compensator of yd.
+DRIVER = """#include <stdio.h>
+#include "comp.h"
+int main(void) {
+    comp_fwd_state f; comp_inv_state i; double u, yd;
+    comp_fwd_init(&f); comp_inv_init(&i);
+    while (scanf("%lf %lf", &u, &yd) == 2)
+        printf("%.17g %.17g\\n", comp_fwd_step(&f, u), comp_inv_step(&i, yd));
+    return 0;
+}
+"""
 
 
 def _write(tmp_path, name: str):
@@ -45,6 +64,43 @@ def test_invert_and_export_succeed_on_every_type_and_preset(name, tmp_path, caps
     m = tmp_path / "comp.mat"
     assert main(["export", str(src), "--format", "mat", "-o", str(m)]) == 0
     assert loadmat(m, squeeze_me=True, struct_as_record=False)["model"].type == model.type_name
+
+
+@pytest.mark.parametrize("kind", fit_kinds())
+def test_every_fit_kind_fitted_on_a_recording_inverts_and_exports(kind, tmp_path, capsys) -> None:
+    """``hyst fit --model KIND`` on a shipped recording -> ``invert``, C (compiled strictly,
+    run, matched against Python) and MAT, for every kind the registry declares."""
+    src, inv = tmp_path / "model.json", tmp_path / "inv.json"
+    assert main(["fit", str(DAMPER), "--model", kind, "-n", "6", "-o", str(src), "-q"]) == 0
+    capsys.readouterr()
+    model = load_parameter_set(src).model
+    assert main(["invert", str(src), "-o", str(inv)]) == 0, capsys.readouterr().err
+    comp = load_parameter_set(inv).model
+    data = np.genfromtxt(DAMPER, delimiter=",", names=True)
+    u = data["u_disp_in"]
+    y = model(u)
+    span = float(np.ptp(y))
+    yd = y[0] + 0.9 * (y - y[0])  # a desired trajectory inside the fitted output range
+    # the compensator makes the fitted model follow the desired trajectory
+    assert np.max(np.abs(model(comp(yd)) - yd)) < 1e-9 * span
+    c = tmp_path / "comp.c"
+    assert main(["export", str(src), "--format", "c", "-o", str(c)]) == 0, capsys.readouterr().err
+    m = tmp_path / "comp.mat"
+    assert main(["export", str(src), "--format", "mat", "-o", str(m)]) == 0
+    assert loadmat(m, squeeze_me=True, struct_as_record=False)["model"].type == model.type_name
+    if GCC is None:
+        pytest.skip("gcc not installed")
+    (tmp_path / "main.c").write_text(DRIVER)
+    exe = tmp_path / "comp"
+    res = subprocess.run([GCC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2",
+                          str(c), str(tmp_path / "main.c"), "-o", str(exe), "-lm"],
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    lines = "\n".join(f"{a:.17g} {b:.17g}" for a, b in zip(u, yd, strict=True))
+    out = subprocess.run([str(exe)], input=lines, capture_output=True, text=True, check=True)
+    got = np.loadtxt(out.stdout.splitlines())
+    np.testing.assert_allclose(got[:, 0], y, rtol=0, atol=1e-9 * span)
+    np.testing.assert_allclose(got[:, 1], comp(yd), rtol=0, atol=1e-9 * float(np.ptp(u)))
 
 
 def test_invert_states_the_resonance_bound_and_the_delay_preview(tmp_path, capsys) -> None:
