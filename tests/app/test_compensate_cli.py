@@ -133,3 +133,44 @@ def test_simulate_inverse_uses_the_known_trajectory_ahead(tmp_path, capsys) -> N
     # the drive leads: the delayed plant then follows the desired trajectory exactly
     y = plant(drive, dt=1e-4)
     np.testing.assert_allclose(y[3:-3], yd[3:-3], rtol=0, atol=1e-12)
+
+
+DYNAMICS = [(), ("delay", 2.5e-4), ("lag", 1e-3), ("resonance", 300.0, 0.1)]
+
+
+@pytest.mark.parametrize("rate", [None, 2e-5], ids=["pi", "rate"])
+@pytest.mark.parametrize("dynamics", DYNAMICS, ids=lambda d: d[0] if d else "static")
+def test_every_chain_layout_the_diagnosis_writes_inverts_and_exports(rate, dynamics, tmp_path,
+                                                                     capsys) -> None:
+    """The diagnosis' own model builder (``hyst diagnose --save-model`` writes its chain) with
+    every effect switched on, per hysteresis kind and dynamics: invert, C (compiled) and MAT."""
+    from core.diagnosis.structure import Structure, build_model
+    from core.recordings import Recording
+
+    s = Structure(thresholds=tuple(EX1.thresholds), history=((2.0, -1.0),), beta_s=rate,
+                  asymmetry=True, creep_taus=(0.01, 0.1, 1.0), dynamics=dynamics,
+                  drift_degree=2)
+    t = np.arange(2000) * 1e-4
+    rec = Recording(t=t, u=3 * np.sin(2 * np.pi * 5 * t), y=np.zeros_like(t))
+    model = build_model(s, 0, float(EX1.p0), EX1.weights, np.array([0.1, 0.02]), 0.5, 2.0,
+                        np.array([0.02, 0.01, 0.03]), np.array([0.2]), [np.array([0.1, -0.05])],
+                        rec)
+    expected = {"initial-memory", "asymmetry", "creep", "offset", "drift",
+                *(dynamics[:1] or ())}
+    assert expected <= {st.type_name for st in model.stages}
+    src = tmp_path / "model.json"
+    ParameterSet.from_model(model, source="diagnosis layout").save(src)
+    inv = tmp_path / "inv.json"
+    assert main(["invert", str(src), "-o", str(inv), "--dt", "1e-4"]) == 0
+    assert load_parameter_set(inv).model.to_dict() == model.inverse().to_dict()
+    c = tmp_path / "comp.c"
+    assert main(["export", str(src), "--format", "c", "-o", str(c), "--dt", "1e-4"]) == 0, \
+        capsys.readouterr().err
+    m = tmp_path / "comp.mat"
+    assert main(["export", str(src), "--format", "mat", "-o", str(m)]) == 0
+    assert loadmat(m, squeeze_me=True, struct_as_record=False)["model"].type == "chain"
+    if GCC is None:
+        pytest.skip("gcc not installed")
+    res = subprocess.run([GCC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-c",
+                          str(c), "-o", str(tmp_path / "comp.o")], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
