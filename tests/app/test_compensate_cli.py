@@ -174,3 +174,33 @@ def test_every_chain_layout_the_diagnosis_writes_inverts_and_exports(rate, dynam
     res = subprocess.run([GCC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-c",
                           str(c), "-o", str(tmp_path / "comp.o")], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
+
+
+DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
+_NOT_INVERTIBLE = "the diagnosis writes a PI that is not invertible ({}); core/diagnosis to fix"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("recording", [
+    "piezo/piezo_150V_1Hz.csv",
+    "bh_loops/MnZn_ferrite.csv",
+    pytest.param("bh_loops/M130-27s_GO_steel.csv", marks=pytest.mark.xfail(
+        strict=True, reason=_NOT_INVERTIBLE.format("p0 clipped to 0"))),
+    pytest.param("friction_damper/1Hz30lbtension0.5amplitude.csv", marks=pytest.mark.xfail(
+        strict=True, reason=_NOT_INVERTIBLE.format("free-sign weights, falling segments"))),
+])
+def test_diagnose_save_model_of_shipped_recordings_inverts_and_exports(recording, tmp_path,
+                                                                       capsys) -> None:
+    src = tmp_path / "model.json"
+    assert main(["diagnose", str(DATA / recording), "--save-model", str(src), "-q"]) == 0
+    capsys.readouterr()
+    code = main(["invert", str(src), "-o", str(tmp_path / "inv.json"), "--dt", "1e-4"])
+    assert code == 0, capsys.readouterr().err
+    c = tmp_path / "comp.c"
+    assert main(["export", str(src), "--format", "c", "-o", str(c), "--dt", "1e-4"]) == 0
+    assert main(["export", str(src), "--format", "mat", "-o", str(tmp_path / "c.mat")]) == 0
+    if GCC is not None:
+        res = subprocess.run([GCC, "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror",
+                              "-c", str(c), "-o", str(tmp_path / "c.o")], capture_output=True,
+                             text=True)
+        assert res.returncode == 0, res.stderr
