@@ -15,23 +15,21 @@ from typing import Any
 
 import numpy as np
 
-from core import fitting
 from core.base import Model, model_from_dict
 from core.csvio import CSVError, inspect_csv_text, read_csv_text
-from core.exceptions import ParameterError
+from core.models import estimator_class, fit_kinds
 from core.recordings import Recording
 
 from .commands._common import column_spec
-from .commands.fit import MODELS
 from .compute import pi_part
 from .state import Session
 
 __all__ = [
-    "FIT_KINDS",
     "Upload",
     "csv_preview",
     "diagnose_session",
     "diagnosis_html",
+    "fit_kinds",
     "fit_recording",
     "fit_session",
     "read_upload",
@@ -145,10 +143,6 @@ def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[s
             "n_rows": int(lay.n_rows), "encoding": lay.encoding, "notes": list(lay.notes)}
 
 
-#: Model kinds the explorer can fit (those of ``hyst fit --model``) and their estimators.
-FIT_KINDS: dict[str, type] = {kind: getattr(fitting, cls) for kind, cls in MODELS.items()}
-
-
 def _finite(x: Any) -> Any:
     """``x`` with non-finite floats replaced by ``None`` (JSON has no NaN/inf)."""
     if isinstance(x, dict):
@@ -169,11 +163,10 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
     Raises
     ------
     ParameterError
-        If ``kind`` is not one of :data:`FIT_KINDS`.
+        If ``kind`` is not one of :func:`fit_kinds` (those of ``hyst fit --model``, declared
+        by the model registry).
     """
-    if kind not in FIT_KINDS:
-        raise ParameterError(f"fit kind {kind!r} is not available; use one of {list(FIT_KINDS)}")
-    est = FIT_KINDS[kind](n_operators=n).fit(rec.u, rec.y)
+    est = estimator_class(kind)(n_operators=n).fit(rec.u, rec.y)
     model = est.full_model_
     res = rec.y - model(rec.u)
     rms = float(np.sqrt(np.mean(res**2)))

@@ -143,6 +143,10 @@ class Model(ABC):
     type_name: ClassVar[str] = ""
     #: True when the output depends on the sample spacing ``dt`` (linear dynamics, delay).
     needs_dt: ClassVar[bool] = False
+    #: ``"module:Class"`` of the estimator that fits this type (``model_`` of this type),
+    #: which makes ``type_name`` a fit kind (``hyst fit --model``, the explorer's fit menu:
+    #: :func:`core.models.fit_kinds`); ``None`` for types that are not fitted on their own.
+    estimator: ClassVar[str | None] = None
 
     # -- behaviour -----------------------------------------------------------------
     @abstractmethod

@@ -438,6 +438,7 @@ class DigitizedPI(Model):
     """
 
     type_name: ClassVar[str] = "digitized"
+    estimator: ClassVar[str | None] = "core.fitting:DigitizedPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("dx", "numbers", doc="digit widths in x (input units)"),
         Field("dy", "numbers", doc="digit heights in y (output units)"),

@@ -473,6 +473,7 @@ class DeadZoneGPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "gpi-deadzone"
+    estimator: ClassVar[str | None] = "core.fitting:DeadZoneGPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("pi", "model", doc="the PI part"),
         Field("deadzone", "model", doc="the dead-zone output map"),
@@ -513,6 +514,7 @@ class ModifiedPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "mpi"
+    estimator: ClassVar[str | None] = "core.fitting:ModifiedPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("pi", "model", doc="the PI part"),
         Field("deadzone", "model", doc="the dead-zone output map"),
@@ -553,6 +555,7 @@ class TanhGPI(_Cascade):
     """
 
     type_name: ClassVar[str] = "gpi-tanh"
+    estimator: ClassVar[str | None] = "core.fitting:TanhGPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("pi", "model", doc="the PI part"),
         Field("envelope", "model", doc="the tanh envelope"),

@@ -4,20 +4,28 @@ Each model class declares itself once: ``@register_model`` with its ``type_name`
 ``fields`` (:class:`core.base.Field`). Everything else derives from that declaration: loading
 (``model_from_dict``), the parameter-set validation with JSON-path errors
 (:mod:`core.paramset`), the C emitters (looked up by type in :mod:`core.export_c`), the MAT
-export and the explorer's controls (:func:`model_types`).
+export, the explorer's controls (:func:`model_types`) and the fit kinds of ``hyst fit
+--model``, ``hyst batch fit`` and the explorer's fit menu (:func:`fit_kinds`: the types that
+declare an ``estimator``).
 
 A new model module is added to the import list below (and nowhere else).
 """
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 
 # every module that defines @register_model types, imported for its registrations
 from . import deadzone, digitized, digitized_deadzone, effects, gpi, lti, pi  # noqa: F401
 from .base import Field, Model, model_class, registered_types
+from .exceptions import ParameterError
 
-__all__ = ["ModelType", "model_type", "model_types"]
+__all__ = ["DEFAULT_FIT_KIND", "ModelType", "estimator_class", "fit_kinds", "model_type",
+           "model_types"]
+
+#: The fit kind used when none is chosen (listed first by :func:`fit_kinds`).
+DEFAULT_FIT_KIND = "pi"
 
 
 @dataclass(frozen=True)
@@ -39,6 +47,9 @@ class ModelType:
     c_export : bool
         Whether :func:`core.export_c.generate_c` can emit it (directly or through
         ``as_chain()``).
+    estimator : str or None
+        ``"module:Class"`` of the estimator that fits it (the class's own ``estimator``
+        declaration, not inherited); ``None`` if it is not a fit kind.
     """
 
     name: str
@@ -47,6 +58,7 @@ class ModelType:
     fields: tuple[Field, ...]
     needs_dt: bool
     c_export: bool
+    estimator: str | None = None
 
 
 def model_type(name: str) -> ModelType:
@@ -63,9 +75,33 @@ def model_type(name: str) -> ModelType:
         needs_dt=needs_dt if isinstance(needs_dt, bool) else False,
         c_export=name in supported_c_types() or callable(getattr(cls, "as_chain", None))
         or name == "chain",
+        estimator=cls.__dict__.get("estimator"),
     )
 
 
 def model_types() -> list[ModelType]:
     """Every registered model type, sorted by name."""
     return [model_type(n) for n in registered_types()]
+
+
+def fit_kinds() -> tuple[str, ...]:
+    """Names of the model types that declare an estimator: :data:`DEFAULT_FIT_KIND` first,
+    the others by name (the choices of ``hyst fit --model`` and the explorer's fit menu)."""
+    kinds = [t.name for t in model_types() if t.estimator]
+    return tuple(sorted(kinds, key=lambda k: (k != DEFAULT_FIT_KIND, k)))
+
+
+def estimator_class(kind: str) -> type:
+    """The estimator class declared by fit kind ``kind`` (see :func:`fit_kinds`).
+
+    Raises
+    ------
+    ParameterError
+        If ``kind`` is not a fit kind; the message lists those there are.
+    """
+    kinds = fit_kinds()
+    if kind not in kinds:
+        raise ParameterError(f"fit kind {kind!r} is not available; use one of "
+                             f"{', '.join(kinds)}")
+    module, _, name = str(model_type(kind).estimator).partition(":")
+    return getattr(importlib.import_module(module), name)

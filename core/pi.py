@@ -90,6 +90,7 @@ class PIModel(Model):
     """
 
     type_name: ClassVar[str] = "pi"
+    estimator: ClassVar[str | None] = "core.fitting:PIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("p0", "number", doc="weight of the linear term"),
         Field("thresholds", "numbers", doc="play thresholds r_i (input units), increasing"),

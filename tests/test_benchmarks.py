@@ -10,7 +10,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SCRIPTS = ["bench_kernels.py", "bench_fit.py", "bench_app_latency.py"]
+#: bench_batch.py --quick starts two LocalClusters and fits 20 recordings three times (~45 s).
+SCRIPTS = ["bench_kernels.py", "bench_fit.py", "bench_app_latency.py",
+           pytest.param("bench_batch.py", marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("script", SCRIPTS)

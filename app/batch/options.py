@@ -92,7 +92,7 @@ class FitOptions(_Options):
     Parameters
     ----------
     model : str
-        ``--model``: ``pi``, ``gpi-deadzone``, ``mpi``, ``gpi-tanh`` or ``digitized``.
+        ``--model``: one of :func:`core.models.fit_kinds` (``pi`` by default).
     n_operators : int or None
         ``-n``: play operators (default: chosen by cross-validation).
     constraint : str or None

@@ -57,7 +57,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def register(subparsers: Any) -> None:
     """Add ``batch fit`` and ``batch diagnose``."""
-    from .fit import MODELS
+    from .fit import add_model_option
 
     p = subparsers.add_parser(
         "batch", help="fit or diagnose many recordings on Dask (local or a cluster)",
@@ -66,7 +66,7 @@ def register(subparsers: Any) -> None:
     f = sub.add_parser("fit", help="hyst fit on every recording",
                        description="Run hyst fit on every recording (options as in hyst fit).")
     _common(f)
-    f.add_argument("--model", default="pi", choices=tuple(MODELS), help="model family")
+    add_model_option(f)
     f.add_argument("-n", "--n-operators", type=_positive("-n"), metavar="N",
                    help="play operators (default: chosen by cross-validation per recording)")
     f.add_argument("--constraint", choices=("nonnegative", "slopes"),

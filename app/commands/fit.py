@@ -17,16 +17,7 @@ from ._common import (
     parse_window,
 )
 
-__all__ = ["MODELS", "add_read_options", "read_kwargs", "register", "run", "say_read"]
-
-#: ``--model`` choice -> estimator class name in :mod:`core.fitting`.
-MODELS = {
-    "pi": "PIRegressor",
-    "gpi-deadzone": "DeadZoneGPIRegressor",
-    "mpi": "ModifiedPIRegressor",
-    "gpi-tanh": "TanhGPIRegressor",
-    "digitized": "DigitizedPIRegressor",
-}
+__all__ = ["add_model_option", "add_read_options", "read_kwargs", "register", "run", "say_read"]
 
 
 def add_read_options(p: argparse.ArgumentParser) -> None:
@@ -81,6 +72,14 @@ def say_read(progress: Progress, recs: list[Any]) -> None:
             progress(f"  note: {note}")
 
 
+def add_model_option(p: argparse.ArgumentParser) -> None:
+    """``--model KIND``: the fit kinds declared by the model registry (``fit_kinds()``)."""
+    from core.models import DEFAULT_FIT_KIND, fit_kinds
+
+    p.add_argument("--model", default=DEFAULT_FIT_KIND, choices=fit_kinds(),
+                   help="model family to fit (default: %(default)s)")
+
+
 def register(subparsers: Any) -> None:
     """Add the ``fit`` sub-command."""
     p = subparsers.add_parser(
@@ -96,7 +95,7 @@ def register(subparsers: Any) -> None:
         ),
     )
     p.add_argument("files", nargs="+", metavar="FILE.csv", help="recording(s)")
-    p.add_argument("--model", default="pi", choices=tuple(MODELS), help="model family")
+    add_model_option(p)
     p.add_argument("-n", "--n-operators", type=int, metavar="N",
                    help="number of play operators (default: chosen by cross-validation)")
     p.add_argument("--constraint", choices=("nonnegative", "slopes"),
@@ -123,17 +122,20 @@ def register(subparsers: Any) -> None:
 
 def _estimator(name: str, n: int | None, constraint: str | None = None,
                initial_memory: str = "keep") -> Any:
-    """The :mod:`core.fitting` estimator of ``--model name`` (``None`` options left default)."""
-    from core import fitting
+    """The estimator of ``--model name`` (``None`` options left default)."""
+    import inspect
 
+    from core.models import estimator_class
+
+    cls = estimator_class(name)
     kwargs: dict[str, Any] = {}
-    if name == "pi":
+    if "initial_memory" in inspect.signature(cls).parameters:
         kwargs["initial_memory"] = initial_memory
     if constraint is not None:
         kwargs["constraint"] = constraint
     if n is not None:
         kwargs["n_operators"] = n
-    return getattr(fitting, MODELS[name])(**kwargs)
+    return cls(**kwargs)
 
 
 def run(args: argparse.Namespace) -> int:

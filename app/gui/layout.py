@@ -37,9 +37,9 @@ from ..compute import (
     validate_config,
 )
 from ..data import (
-    FIT_KINDS,
     diagnose_session,
     diagnosis_html,
+    fit_kinds,
     fit_session,
     recording_from_csv,
     store_recording,
@@ -218,7 +218,7 @@ class SessionView:
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=self.settings.max_operators, step=1)
-            kinds = tuple(FIT_KINDS)
+            kinds = fit_kinds()
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")

@@ -13,7 +13,7 @@ from core.presets import list_presets
 from core.signals import SIGNALS
 
 from ..compute import preset_doc
-from ..data import FIT_KINDS
+from ..data import fit_kinds
 from ..exports import EXPORT_FORMATS
 from .deps import SettingsDep
 
@@ -50,7 +50,7 @@ def capabilities(settings: SettingsDep) -> dict[str, Any]:
         "presets": [p.name for p in list_presets()],
         "figures": list(FIGURES),
         "export_formats": list(EXPORT_FORMATS),
-        "fit_kinds": list(FIT_KINDS),
+        "fit_kinds": list(fit_kinds()),
         "limits": {"max_upload_bytes": settings.max_upload_bytes,
                    **settings.limits.to_dict()},
     }

@@ -9,6 +9,11 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
 * :class:`TanhGPIRegressor` — ``y = c + P[κ(v)]`` with the tanh envelope, variable projection.
 * :class:`DigitizedPIRegressor` — paper 000 digitized model from a classical fit.
 
+Each model class names its estimator once (``estimator = "core.fitting:PIRegressor"`` on
+:class:`core.pi.PIModel`, ...); :func:`core.models.fit_kinds` and
+:func:`core.models.estimator_class` derive the fit kinds of the command line and the explorer
+from those declarations, so a new estimator is registered by declaring it on its model class.
+
 :class:`FitReport` holds training / held-out / compensation / inverse-input errors;
 :func:`place_thresholds`, :func:`stream_gram` and :func:`solve_constrained` are the
 building blocks.
