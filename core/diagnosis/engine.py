@@ -40,10 +40,11 @@ from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
-from ..fitting.thresholds import reversal_indices, wipeout_index
+from ..fitting.thresholds import wipeout_index
 from .acceptance import decide
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
+from .between import between_recordings, leave_one_recording_out, rates_differ, recording_rates
 from .candidates import build_candidate
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
@@ -51,7 +52,7 @@ from .locate import hold_after, residual_maps, where_improved
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
 from .specs import DECIDING_EXPERIMENT, EFFECTS, FAMILY_PRIORITY, time_effects
 from .stats import HeldOut, heldout_comparison, noise_floor, score_test
-from .structure import Fit, Structure, baseline_thresholds, build_model, fit_structure
+from .structure import Fit, Structure, baseline_thresholds
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -269,14 +270,7 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
                     "a slow drift from the model's bias",
                     "experiment": EFFECTS["drift"].experiment})
     # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
-    peaks = []
-    for rec, c in zip(recs, ctx.coords, strict=True):
-        span = float(np.ptp(rec.u)) or 1.0
-        rv = reversal_indices(rec.u, 0.01 * span)
-        rv = np.concatenate((rv, [rec.n_samples - 1]))
-        for a, b in zip(rv[:-1], rv[1:], strict=True):
-            if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
-                peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
+    peaks = [p for ps in recording_rates(ctx) for p in ps]
     if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
         out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
                     "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
@@ -467,6 +461,9 @@ def diagnose(
         res0, trm if ctx.strict else tem, strict=True)])))
     say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     untest = _untestable(ctx)
+    # rate-dependent effects between recordings at different rates (default split only: with
+    # explicit windows the others' test rows would be fitted)
+    between = train is None and test is None and rates_differ(ctx)
     untest_names = {u["name"] for u in untest}
     todo = [e for e in todo if e not in untest_names]
     findings: list[EffectFinding] = []
@@ -477,6 +474,7 @@ def diagnose(
         mse_cur = pooled_mse(cur_te)
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
         cfs: dict[str, dict[str, Any]] = {}
+        btw: dict[str, dict[str, Any]] = {}
         span = 0.8 / max(max_effects, 1)
         # strict: highest-priority families first; once one passes, a later family can only be
         # chosen with 1.5 times its gain (_choose), so hopeless candidates are deferred to the
@@ -526,6 +524,14 @@ def diagnose(
                 if h_te.gain < -0.01:
                     h = HeldOut(h.mse_before, h.mse_after, min(h.gain, h_te.gain), min(h.z, 0.0),
                                 1.0, h.n_batches)
+            elif between and EFFECTS[name].between_recordings:
+                say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
+                    f"round {rnd + 1}: predicting each recording from the others ({name})")
+                bt = between_recordings(ctx, name, cur)
+                if bt is None:
+                    continue
+                btw[name] = bt
+                h = bt["pooled"]
             else:
                 h = heldout_comparison(cur_te, ctx.test_res(fit))
             cands[name] = (fit, params, unc, h)
@@ -536,7 +542,7 @@ def diagnose(
             break
         record = list(pre_deferred)
         passing = []
-        excess = {n: (c[3].mse_before if ctx.strict else mse_cur) - noise**2
+        excess = {n: (c[3].mse_before if ctx.strict or n in btw else mse_cur) - noise**2
                   for n, c in cands.items()}
         size_ok = {n: effect_size_ok(c[3], excess[n]) for n, c in cands.items()}
         needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
@@ -554,6 +560,12 @@ def diagnose(
                 cv = cf["parameter_cv"]
                 row.update({"fold_mse_reductions": cf["fold_gains"],
                             "parameter_cv": cf["parameter_cv"]})
+            if name in btw:
+                cv = btw[name]["parameter_cv"]
+                row.update({"evidence": f"each of {btw[name]['folds']} recordings predicted "
+                            "from the others (leave-one-recording-out)",
+                            "per_recording": btw[name]["per_recording"],
+                            "parameter_cv": cv})
             if name in skip:
                 row.update({"passes": False, "decision": "deferred", "parameters": params,
                             "evidence": "not needed: an effect of a higher-priority family "
@@ -752,54 +764,6 @@ def diagnose(
         crossval=crossval,
         adequacy=adequacy,
     )
-
-
-#: How :func:`leave_one_recording_out` treats what belongs to one recording.
-LORO_RULE = (
-    "each recording in turn is predicted (all its rows) by the structure refitted (linear "
-    "weights) on the train and test rows of the other recordings; the nonlinear parameters "
-    "(delay, time constants, beta, ...) stay at the values the diagnosis found; what belongs "
-    "to one recording cannot be learnt for an unseen one: the held-out recording starts from "
-    "the virgin memory state, gets no drift, and its offset is the mean of the others'"
-)
-
-
-def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
-    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
-
-    Returns
-    -------
-    dict
-        ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
-        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of the
-        scored rows (all rows of all recordings); ``rmse`` pools every sample of every recording.
-    """
-    recs = ctx.records
-    yr = 100.0 / percent_of_range(1.0, [r.y for r in recs])  # every row is scored
-    per = []
-    sse = 0.0
-    n_all = 0
-    for j, rec in enumerate(recs):
-        sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
-        masks = [np.zeros(r.n_samples, dtype=bool) if k == j else (tr | te)
-                 for k, (r, tr, te) in enumerate(zip(recs, ctx.train, ctx.test, strict=True))]
-        f = fit_structure(sj, recs, masks, ctx.cache)
-        assert isinstance(f, Fit)
-        bias = np.array(f.bias, dtype=float)
-        if sj.offsets:
-            bias[j] = float(np.mean(np.delete(bias, j)))
-        drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
-        model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
-                            f.creep_weights, bias, drift, rec)
-        e = rec.y - model(rec.u, dt=rec.dt)
-        ej = float(e @ e)
-        sse += ej
-        n_all += rec.n_samples
-        rm = float(np.sqrt(ej / rec.n_samples))
-        per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
-                    "rmse_pct": 100 * rm / yr})
-    rmse = float(np.sqrt(sse / max(n_all, 1)))
-    return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
 def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:

@@ -30,6 +30,11 @@ class Effect:
         The recording that would make it testable when it is not.
     time_dependent : bool
         Needs a time axis (untestable on index-only recordings).
+    between_recordings : bool
+        Changes the loop from one excitation rate to the next: with several recordings at
+        different rates it is judged by predicting each recording from the others
+        (:func:`core.diagnosis.between.between_recordings`), not on rows of the recordings
+        it was fitted to.
     """
 
     name: str
@@ -38,6 +43,7 @@ class Effect:
     equation: str
     experiment: str | None = None
     time_dependent: bool = False
+    between_recordings: bool = False
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -90,6 +96,7 @@ EFFECTS: dict[str, Effect] = {
             'full-stroke sines (or triangles) at >= 2 rates a decade apart, same amplitude'
         ),
         time_dependent=True,
+        between_recordings=True,
     ),
     "creep": Effect(
         "creep",
