@@ -49,6 +49,7 @@ from .candidates import build_candidate
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
 from .locate import hold_after, residual_maps, where_improved
+from .periodic import steady_state_history
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
 from .specs import DECIDING_EXPERIMENT, EFFECTS, FAMILY_PRIORITY, time_effects
 from .stats import HeldOut, heldout_comparison, noise_floor, score_test
@@ -92,7 +93,11 @@ def _screen(fit: Fit, cur: Fit) -> HeldOut:
     return HeldOut(b, a, 1.0 - a / b if b > 0 else 0.0, 0.0, 1.0, 0)
 
 
-def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None) -> str:
+def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
+                    bt: dict[str, Any] | None = None) -> str:
+    if bt is not None:
+        return (f"each of {bt['folds']} recordings predicted from the others "
+                "(leave-one-recording-out, parameters searched without it)")
     if name == "initial-memory":
         return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
                 if ctx.strict else "rows before the wipe-out time")
@@ -279,8 +284,16 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     if len(recs) < 2:
         out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
                     "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
-    if not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
-               for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
+    steady = [r.name for r in recs if r.has_time and steady_state_history(r)]
+    if len(steady) == len(recs):
+        out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
+                    f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
+                    "repeated, the output already periodic): the memory at the first sample is "
+                    "the one the cycle leaves, and the model starts from it",
+                    "experiment": "a recording that starts before the first full sweep, from a "
+                    "known (e.g. demagnetised) state"})
+    elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
+                 for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
         out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
                     "input swept its full range, which wipes out the initial memory",
                     "experiment": EFFECTS["initial-memory"].experiment})
@@ -435,15 +448,16 @@ def diagnose(
     # saturating loops (friction) need play weights of either sign: switch when the
     # sign-constrained PI is clearly worse on the held-out rows (MSE at least halved)
     r = baseline_thresholds(records, trm, n_operators)
-    s0 = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
+    # periodic steady-state recordings start from the memory their own cycle leaves
+    hist0 = tuple(steady_state_history(rec) if rec.has_time else () for rec in records)
+    s0 = Structure(tuple(float(x) for x in r), hist0)
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
     free = _compare(ctx, f_nn, f_free).gain >= 0.5
     base = None
     requested = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
         r = baseline_thresholds(records, trm, n_try)
-        s_try = Structure(tuple(float(x) for x in r), tuple(() for _ in records),
-                          free_weights=free)
+        s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
@@ -562,8 +576,7 @@ def diagnose(
                             "parameter_cv": cf["parameter_cv"]})
             if name in btw:
                 cv = btw[name]["parameter_cv"]
-                row.update({"evidence": f"each of {btw[name]['folds']} recordings predicted "
-                            "from the others (leave-one-recording-out)",
+                row.update({"evidence": _evidence_label(ctx, name, None, btw[name]),
                             "per_recording": btw[name]["per_recording"],
                             "parameter_cv": cv})
             if name in skip:
@@ -661,7 +674,7 @@ def diagnose(
                 runner_up=runner,
                 crossfit=_cf_summary(cfs.get(best)),
                 caveats=caveats,
-                evidence=_evidence_label(ctx, best, cfs.get(best)),
+                evidence=_evidence_label(ctx, best, cfs.get(best), btw.get(best)),
             )
         )
         for other in amb:

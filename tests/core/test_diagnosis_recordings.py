@@ -11,7 +11,9 @@ from core.diagnosis import diagnose
 from core.diagnosis.between import between_recordings, left_out_residual
 from core.diagnosis.context import FitContext
 from core.diagnosis.data import split_masks
+from core.diagnosis.periodic import steady_state_history
 from core.diagnosis.structure import Structure, baseline_thresholds
+from core.effects import InitialMemory
 from core.recordings import Recording
 
 #: beta (s) of the rate-dependent plant: the loop area grows by about 2/3, 0.5 -> 4 Hz
@@ -50,8 +52,9 @@ def test_rate_independent_plant_at_four_frequencies_claims_nothing() -> None:
     res = diagnose(make_periodic_set(None).records)
     assert res.effects == []
     row = _rate_row(res)
-    # tested between recordings (not silently skipped) and rejected there
+    # tested between recordings (not silently skipped), rejected there, and said so
     assert "leave-one-recording-out" in row["evidence"] and not row["passes"]
+    assert "Tested between recordings, not claimed: rate" in res.summary()
 
 
 def test_between_recordings_never_uses_the_left_out_recording() -> None:
@@ -99,4 +102,26 @@ def test_periodic_steady_state_yields_no_initial_memory() -> None:
     rec = Recording(t[keep] - t[keep][0], u[keep], y[keep] + 0.02 * rng.standard_normal(
         t[keep].size), name="steady")
     res = diagnose(rec, effects=["initial-memory", "offset", "asymmetry"])
-    assert "initial-memory" not in [f.name for f in res.effects]
+    assert res.effects == []
+    un = {u["name"]: u["reason"] for u in res.untestable}
+    assert "periodic steady state" in un["initial-memory"]
+    # the baseline starts from the cycle's own memory: its residual is at the noise floor
+    assert res.heldout_rmse(res.baseline) < 1.5 * 0.02
+
+
+def test_virgin_start_of_a_periodic_input_is_not_steady_state() -> None:
+    """The same input from the virgin state: the first period differs, no virtual history."""
+    sc = make_periodic_set(None, freqs=(1.0,), cycles=3)
+    assert steady_state_history(sc.records[0]) == ()
+    fs = 40.0
+    t = np.arange(240) / fs
+    rng = np.random.default_rng(5)
+    for phase in (0.0, 1.0, 2.5, 4.0):  # starting on either branch, near an extreme or not
+        u = 75.0 - 75.0 * np.cos(2 * np.pi * t + phase)
+        y = truth_pi()(u) + 0.02 * rng.standard_normal(u.size)
+        assert steady_state_history(Recording(t, u, y)) == ()  # virgin start
+        h = steady_state_history(Recording(t[80:] - t[80], u[80:], y[80:]))
+        # the cycle's extremes; started from them the truth reproduces the steady record
+        assert sorted(h) == pytest.approx([0.0, 150.0], abs=2.0)
+        np.testing.assert_allclose(InitialMemory(truth_pi(), list(h))(u[80:]), y[80:],
+                                   atol=0.3)
