@@ -51,7 +51,13 @@ from .data import as_records, crossfit_folds, split_masks
 from .locate import hold_after, residual_maps, where_improved
 from .periodic import steady_state_history
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
-from .specs import DECIDING_EXPERIMENT, EFFECTS, FAMILY_PRIORITY, time_effects
+from .specs import (
+    DECIDING_EXPERIMENT,
+    EFFECTS,
+    FAMILY_PRIORITY,
+    UNTESTABLE_LOOKALIKES,
+    time_effects,
+)
 from .stats import HeldOut, heldout_comparison, noise_floor, score_test
 from .structure import Fit, Structure, baseline_thresholds
 
@@ -701,15 +707,12 @@ def diagnose(
         if fam == "dynamics" and best != "rate" and not ctx.strict:
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         findings[-1].structure = cur.structure
-        if fam == "dynamics" and best != "rate":
-            if best in ("lag", "delay") and "creep" in untest_names:
-                ambiguous.append({
-                    "effects": [findings[-1].name, "creep"],
-                    "chosen": findings[-1].name,
-                    "reason": "without holds, the fast end of a creep relaxation spectrum acts "
-                    "as a lag at the excitation frequency; creep itself was untestable",
-                    "experiment": EFFECTS["creep"].experiment,
-                })
+        named = findings[-1].name  # the dynamics recheck may rename it
+        for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
+            if named in names and hidden in untest_names:
+                ambiguous.append({"effects": [named, hidden], "chosen": named,
+                                  "reason": why.format(best=named),
+                                  "experiment": EFFECTS[hidden].experiment})
         todo = [e for e in todo if e != best and not (
             EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
     say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in findings)})"

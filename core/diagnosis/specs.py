@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "Effect", "time_effects"]
+__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "UNTESTABLE_LOOKALIKES", "Effect",
+           "time_effects"]
 
 
 @dataclass(frozen=True)
@@ -193,4 +194,14 @@ DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
 #: Disambiguation order of the families (notes §4.3): cheapest and most common first.
 FAMILY_PRIORITY: dict[str, int] = {
     "memory": 0, "dynamics": 1, "slow": 2, "static": 3, "static-offset": 3,
+}
+
+#: An untestable effect -> (accepted effects it would look like, why): an accepted look-alike
+#: is reported ambiguous with it, with the experiment that makes it testable.
+UNTESTABLE_LOOKALIKES: dict[str, tuple[frozenset[str], str]] = {
+    "creep": (frozenset({"lag", "delay"}), "without holds, the fast end of a creep relaxation "
+              "spectrum acts as a lag at the excitation frequency; creep itself was untestable"),
+    "rate": (frozenset({"delay", "lag", "resonance"}), "at a single excitation rate, "
+             "rate-dependent hysteresis widens the loop as a {best} does; rate itself was "
+             "untestable"),
 }

@@ -89,6 +89,11 @@ def test_single_frequency_recordings_leave_rate_untestable() -> None:
     assert "rate" in un and "single rate" in un["rate"]["reason"]
     assert "rate" not in [f.name for f in res.effects]
     assert "Untestable: " in res.summary() and "rate" in res.summary()
+    # what the one-rate loop widening was attributed to is reported ambiguous with rate
+    for f in res.effects:
+        if f.name in ("delay", "lag", "resonance"):
+            assert any(a["effects"] == [f.name, "rate"] for a in res.ambiguous)
+    assert any(f.name in ("delay", "lag", "resonance") for f in res.effects)
 
 
 def test_periodic_steady_state_yields_no_initial_memory() -> None:
