@@ -298,6 +298,7 @@ def summarise(rows: list[dict]) -> str:
 #: Short periodic recordings (``make_periodic_set``): class -> (beta_s, frequencies).
 PERIODIC_CLASSES: dict[str, tuple[float | None, tuple[float, ...]]] = {
     "null (PI, 4 frequencies)": (None, PERIODIC_FREQS),
+    "weaker rate (loop area +3 %)": (0.0006, PERIODIC_FREQS),
     "weak rate (loop area +9 %)": (0.002, PERIODIC_FREQS),
     "rate (loop area +2/3)": (0.025, PERIODIC_FREQS),
     "rate, one frequency (untestable)": (0.025, (1.0, 1.0, 1.0, 1.0)),
@@ -322,6 +323,10 @@ def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[di
                     "found": [f.name for f in res.effects],
                     "suggestive": [g["effect"] for g in res.suggestive],
                     "untestable": [u["name"] for u in res.untestable],
+                    "ambiguous_with_rate": [a["effects"][0] for a in res.ambiguous
+                                            if "rate" in a["effects"][1:]],
+                    "rate_per_recording": None if row is None else [
+                        p["mse_reduction"] for p in row.get("per_recording", [])],
                     "rate_loro_gain": None if row is None else row["heldout_mse_reduction"],
                     "rate_loro_z": None if row is None else row["dm_z"],
                     "elapsed_s": time.perf_counter() - t0})
@@ -336,13 +341,15 @@ def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[di
 def summarise_periodic(rows: list[dict]) -> str:
     """Per-class table of the periodic runs: rate claimed / suggestive / untestable, others."""
     lines = ["| class | noise | runs | rate claimed | rate suggestive | rate untestable | "
-             "other names | median s |", "|---|---|---|---|---|---|---|---|"]
+             "other names (ambiguous with rate) | median s |", "|---|---|---|---|---|---|---|---|"]
     keys = sorted({(r["class"], r["noise"]) for r in rows},
                   key=lambda k: (list(PERIODIC_CLASSES).index(k[0]), k[1]))
     for cls, noise in keys:
         rs = [r for r in rows if r["class"] == cls and r["noise"] == noise]
         n = len(rs)
-        other = sorted({e for r in rs for e in r["found"] if e != "rate"})
+        other = sorted({e + (" (ambiguous)" if all(e in r["ambiguous_with_rate"] for r in rs
+                                                  if e in r["found"]) else "")
+                        for r in rs for e in r["found"] if e != "rate"})
         lines.append(
             f"| {cls} | {noise:g} | {n} | {sum('rate' in r['found'] for r in rs)}/{n} | "
             f"{sum('rate' in r['suggestive'] for r in rs)}/{n} | "

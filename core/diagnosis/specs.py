@@ -60,6 +60,7 @@ EFFECTS: dict[str, Effect] = {
         equation='y(t) = y_PI(t - tau_d)',
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "lag": Effect(
         "lag",
@@ -72,6 +73,7 @@ EFFECTS: dict[str, Effect] = {
         equation='tau * dy/dt + y = y_PI',
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "resonance": Effect(
         "resonance",
@@ -83,6 +85,7 @@ EFFECTS: dict[str, Effect] = {
         equation="y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "rate": Effect(
         "rate",

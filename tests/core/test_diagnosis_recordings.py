@@ -130,3 +130,20 @@ def test_virgin_start_of_a_periodic_input_is_not_steady_state() -> None:
         assert sorted(h) == pytest.approx([0.0, 150.0], abs=2.0)
         np.testing.assert_allclose(InitialMemory(truth_pi(), list(h))(u[80:]), y[80:],
                                    atol=0.3)
+
+
+def test_friction_damper_at_two_rates_rate_tested_between_recordings_not_claimed() -> None:
+    """Real recordings (a friction damper, rate-independent Coulomb-like sliding) at 0.25 and
+    2 Hz: rate is tested by predicting each from the other, and not claimed."""
+    from core.diagnosis.data import as_records
+
+    d = "examples/data/friction_damper/"
+    cols = {"time": "t_s", "input": "u_disp_in", "output": "y_force_kip"}
+    slow = as_records(d + "0.25Hz30lbtension0.5amplitude.csv", **cols)[0].window(0, 8.5)
+    fast = as_records(d + "2Hz30lbtension0.5amplitude.csv", **cols)[0]
+    res = diagnose([slow, fast], n_operators=15, effects=["rate", "delay", "lag"])
+    assert "rate" not in [f.name for f in res.effects]
+    assert "rate" not in {u["name"] for u in res.untestable}
+    row = _rate_row(res)
+    assert "leave-one-recording-out" in row["evidence"] and not row["passes"]
+    assert [p["recording"] for p in row["per_recording"]] == [slow.name, fast.name]
