@@ -18,6 +18,7 @@ from ..fitting.metrics import percent_of_range
 from ..fitting.thresholds import reversal_indices
 from .candidates import build_candidate
 from .context import FitContext
+from .periodic import steady_state_history
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit, Structure, build_model, fit_structure
 
@@ -33,7 +34,8 @@ LORO_RULE = (
     "weights) on the train and test rows of the other recordings; the nonlinear parameters "
     "(delay, time constants, beta, ...) stay at the values the diagnosis found; what belongs "
     "to one recording cannot be learnt for an unseen one: the held-out recording starts from "
-    "the virgin memory state, gets no drift, and its offset is the mean of the others'"
+    "the virgin memory state (a periodic steady-state recording from the memory its own cycle "
+    "leaves), gets no drift, and its offset is the mean of the others'"
 )
 
 
@@ -88,7 +90,9 @@ def left_out_residual(ctx: FitContext, s: Structure, j: int) -> Float1D:
     on the train and test rows of the other recordings (rule: :data:`LORO_RULE`)."""
     recs = ctx.records
     rec = recs[j]
-    sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
+    # a periodic steady-state recording keeps the memory its own cycle leaves
+    own = s.history[j] if s.history[j] and s.history[j] == steady_state_history(rec) else ()
+    sj = s.with_(history=tuple(own if k == j else h for k, h in enumerate(s.history)))
     f = fit_structure(sj, recs, _others(ctx, j), ctx.cache)
     assert isinstance(f, Fit)
     bias = np.array(f.bias, dtype=float)
