@@ -246,3 +246,44 @@ def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0,
         recs.append(Recording(t, u, y, name))
         truths.append(m)
     return Scenario(effect, noise, seed, level, lv, recs, truths, worst)
+
+
+# ----------------------------------------------------------------------------- periodic sets
+#: Frequencies (Hz) of the short periodic recordings of :func:`make_periodic_set`.
+PERIODIC_FREQS = (0.5, 1.0, 2.0, 4.0)
+
+
+def loop_area(u: np.ndarray, y: np.ndarray) -> float:
+    """Area enclosed by the closed loop ``(u, y)`` of one period (shoelace formula)."""
+    return float(0.5 * abs(np.dot(u, np.roll(y, -1)) - np.dot(y, np.roll(u, -1))))
+
+
+def make_periodic_set(beta_s: float | None, freqs: tuple[float, ...] = PERIODIC_FREQS,
+                      cycles: int = 3, samples_per_cycle: int = 40, noise: float = 0.02,
+                      seed: int = 0) -> Scenario:
+    """Several short periodic recordings (full-stroke cosines), one per frequency.
+
+    Each recording holds ``cycles`` periods of ``samples_per_cycle`` samples (the sampling
+    rate follows the frequency), a user's "a few cycles at a few rates". The plant is the
+    B-PI truth, rate-dependent (:class:`~core.effects.RateDependentPI`, ``beta_s`` in s)
+    unless ``beta_s`` is None. ``extras["loop_area"]`` lists the noise-free steady-state
+    loop area of the last cycle per recording (input units x output units).
+    """
+    rng = np.random.default_rng(seed)
+    plant: Model = truth_pi() if beta_s is None else RateDependentPI(
+        P0_TRUE, R_TRUE, W_TRUE, beta_s)
+    recs, truths, areas = [], [], []
+    for f in freqs:
+        fs = samples_per_cycle * f
+        t = np.arange(cycles * samples_per_cycle) / fs
+        u = 75.0 - 75.0 * np.cos(2 * np.pi * f * t)
+        y_clean = plant(u, dt=1 / fs)
+        last = slice(-samples_per_cycle, None)
+        areas.append(loop_area(u[last], y_clean[last]))
+        y = y_clean + noise * rng.standard_normal(u.size)
+        recs.append(Recording(t, u, y, name=f"sine-{f:g}Hz"))
+        truths.append(plant)
+    return Scenario(effect=None if beta_s is None else "rate", noise=f"white{noise:g}",
+                    seed=seed, level="-", params={} if beta_s is None else {"beta_s": beta_s},
+                    records=recs, truth=truths, concealment_pct=0.0,
+                    extras={"loop_area": areas, "freqs_hz": list(freqs)})

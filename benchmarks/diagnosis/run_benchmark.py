@@ -43,7 +43,9 @@ from benchmarks.diagnosis.dask_runner import executor  # noqa: E402
 from benchmarks.diagnosis.generator import (  # noqa: E402
     EFFECTS,
     LEVEL_NAMES,
+    PERIODIC_FREQS,
     magnitude,
+    make_periodic_set,
     make_scenario,
     scenario_id,
 )
@@ -293,6 +295,69 @@ def summarise(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+#: Short periodic recordings (``make_periodic_set``): class -> (beta_s, frequencies).
+PERIODIC_CLASSES: dict[str, tuple[float | None, tuple[float, ...]]] = {
+    "null (PI, 4 frequencies)": (None, PERIODIC_FREQS),
+    "weaker rate (loop area +3 %)": (0.0006, PERIODIC_FREQS),
+    "weak rate (loop area +9 %)": (0.002, PERIODIC_FREQS),
+    "rate (loop area +2/3)": (0.025, PERIODIC_FREQS),
+    "rate, one frequency (untestable)": (0.025, (1.0, 1.0, 1.0, 1.0)),
+}
+
+
+def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[dict]:
+    """Short periodic recordings at several frequencies (3 cycles x 40 samples each)."""
+    rows = []
+    for cls, (beta, freqs) in PERIODIC_CLASSES.items():
+        for noise in noises:
+            for seed in range(seeds):
+                sc = make_periodic_set(beta, freqs=freqs, noise=noise, seed=200 + seed)
+                t0 = time.perf_counter()
+                res = diagnose(sc.records)
+                row = next((r for r in res.rounds if r["round"] == 1 and r["effect"] == "rate"),
+                           None)
+                area = sc.extras["loop_area"]
+                rows.append({
+                    "class": cls, "noise": noise, "seed": 200 + seed,
+                    "area_growth": area[-1] / area[0] - 1.0,
+                    "found": [f.name for f in res.effects],
+                    "suggestive": [g["effect"] for g in res.suggestive],
+                    "untestable": [u["name"] for u in res.untestable],
+                    "ambiguous_with_rate": [a["effects"][0] for a in res.ambiguous
+                                            if "rate" in a["effects"][1:]],
+                    "rate_per_recording": None if row is None else [
+                        p["mse_reduction"] for p in row.get("per_recording", [])],
+                    "rate_loro_gain": None if row is None else row["heldout_mse_reduction"],
+                    "rate_loro_z": None if row is None else row["dm_z"],
+                    "elapsed_s": time.perf_counter() - t0})
+                r = rows[-1]
+                print(f"{cls:<34} noise={noise:<5} seed={r['seed']} found="
+                      f"{','.join(r['found']) or '-':<12} suggestive="
+                      f"{','.join(r['suggestive']) or '-':<8} rate-untestable="
+                      f"{'rate' in r['untestable']} {r['elapsed_s']:.1f}s", flush=True)
+    return rows
+
+
+def summarise_periodic(rows: list[dict]) -> str:
+    """Per-class table of the periodic runs: rate claimed / suggestive / untestable, others."""
+    lines = ["| class | noise | runs | rate claimed | rate suggestive | rate untestable | "
+             "other names (ambiguous with rate) | median s |", "|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(r["class"], r["noise"]) for r in rows},
+                  key=lambda k: (list(PERIODIC_CLASSES).index(k[0]), k[1]))
+    for cls, noise in keys:
+        rs = [r for r in rows if r["class"] == cls and r["noise"] == noise]
+        n = len(rs)
+        other = sorted({e + (" (ambiguous)" if all(e in r["ambiguous_with_rate"] for r in rs
+                                                  if e in r["found"]) else "")
+                        for r in rs for e in r["found"] if e != "rate"})
+        lines.append(
+            f"| {cls} | {noise:g} | {n} | {sum('rate' in r['found'] for r in rs)}/{n} | "
+            f"{sum('rate' in r['suggestive'] for r in rs)}/{n} | "
+            f"{sum('rate' in r['untestable'] for r in rs)}/{n} | {', '.join(other) or '-'} | "
+            f"{np.median([r['elapsed_s'] for r in rs]):.1f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--levels", default="L2", help="comma-separated magnitude levels (L1,L2,L3)")
@@ -306,7 +371,17 @@ def main(argv: list[str] | None = None) -> int:
                          "LocalCluster of --workers processes (default: a process pool)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--rescore", type=Path, help="print the tables of an earlier --json file")
+    ap.add_argument("--periodic", type=int, metavar="SEEDS",
+                    help="run only the short periodic recordings at several frequencies "
+                         "(evidence between recordings), SEEDS per class and noise")
     a = ap.parse_args(argv)
+    if a.periodic:
+        rows = run_periodic(a.periodic)
+        print()
+        print(summarise_periodic(rows))
+        if a.json:
+            a.json.write_text(json.dumps(rows, indent=1))
+        return 0
     if a.rescore:
         print(summarise(json.loads(a.rescore.read_text())))
         return 0

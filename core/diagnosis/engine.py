@@ -40,18 +40,26 @@ from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
-from ..fitting.thresholds import reversal_indices, wipeout_index
+from ..fitting.thresholds import wipeout_index
 from .acceptance import decide
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
+from .between import between_recordings, leave_one_recording_out, rates_differ, recording_rates
 from .candidates import build_candidate
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
 from .locate import hold_after, residual_maps, where_improved
+from .periodic import steady_state_history
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
-from .specs import DECIDING_EXPERIMENT, EFFECTS, FAMILY_PRIORITY, time_effects
+from .specs import (
+    DECIDING_EXPERIMENT,
+    EFFECTS,
+    FAMILY_PRIORITY,
+    UNTESTABLE_LOOKALIKES,
+    time_effects,
+)
 from .stats import HeldOut, heldout_comparison, noise_floor, score_test
-from .structure import Fit, Structure, baseline_thresholds, build_model, fit_structure
+from .structure import Fit, Structure, baseline_thresholds
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -91,7 +99,11 @@ def _screen(fit: Fit, cur: Fit) -> HeldOut:
     return HeldOut(b, a, 1.0 - a / b if b > 0 else 0.0, 0.0, 1.0, 0)
 
 
-def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None) -> str:
+def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
+                    bt: dict[str, Any] | None = None) -> str:
+    if bt is not None:
+        return (f"each of {bt['folds']} recordings predicted from the others "
+                "(leave-one-recording-out, parameters searched without it)")
     if name == "initial-memory":
         return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
                 if ctx.strict else "rows before the wipe-out time")
@@ -269,14 +281,7 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
                     "a slow drift from the model's bias",
                     "experiment": EFFECTS["drift"].experiment})
     # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
-    peaks = []
-    for rec, c in zip(recs, ctx.coords, strict=True):
-        span = float(np.ptp(rec.u)) or 1.0
-        rv = reversal_indices(rec.u, 0.01 * span)
-        rv = np.concatenate((rv, [rec.n_samples - 1]))
-        for a, b in zip(rv[:-1], rv[1:], strict=True):
-            if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
-                peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
+    peaks = [p for ps in recording_rates(ctx) for p in ps]
     if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
         out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
                     "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
@@ -285,8 +290,16 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     if len(recs) < 2:
         out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
                     "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
-    if not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
-               for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
+    steady = [r.name for r in recs if steady_state_history(r)]
+    if len(steady) == len(recs):
+        out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
+                    f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
+                    "repeated, the output already periodic): the memory at the first sample is "
+                    "the one the cycle leaves, and the model starts from it",
+                    "experiment": "a recording that starts before the first full sweep, from a "
+                    "known (e.g. demagnetised) state"})
+    elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
+                 for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
         out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
                     "input swept its full range, which wipes out the initial memory",
                     "experiment": EFFECTS["initial-memory"].experiment})
@@ -441,15 +454,16 @@ def diagnose(
     # saturating loops (friction) need play weights of either sign: switch when the
     # sign-constrained PI is clearly worse on the held-out rows (MSE at least halved)
     r = baseline_thresholds(records, trm, n_operators)
-    s0 = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
+    # periodic steady-state recordings start from the memory their own cycle leaves
+    hist0 = tuple(steady_state_history(rec) for rec in records)
+    s0 = Structure(tuple(float(x) for x in r), hist0)
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
     free = _compare(ctx, f_nn, f_free).gain >= 0.5
     base = None
     requested = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
         r = baseline_thresholds(records, trm, n_try)
-        s_try = Structure(tuple(float(x) for x in r), tuple(() for _ in records),
-                          free_weights=free)
+        s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
@@ -467,6 +481,9 @@ def diagnose(
         res0, trm if ctx.strict else tem, strict=True)])))
     say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     untest = _untestable(ctx)
+    # rate-dependent effects between recordings at different rates (default split only: with
+    # explicit windows the others' test rows would be fitted)
+    between = train is None and test is None and rates_differ(ctx)
     untest_names = {u["name"] for u in untest}
     todo = [e for e in todo if e not in untest_names]
     findings: list[EffectFinding] = []
@@ -477,6 +494,7 @@ def diagnose(
         mse_cur = pooled_mse(cur_te)
         cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
         cfs: dict[str, dict[str, Any]] = {}
+        btw: dict[str, dict[str, Any]] = {}
         span = 0.8 / max(max_effects, 1)
         # strict: highest-priority families first; once one passes, a later family can only be
         # chosen with 1.5 times its gain (_choose), so hopeless candidates are deferred to the
@@ -526,6 +544,14 @@ def diagnose(
                 if h_te.gain < -0.01:
                     h = HeldOut(h.mse_before, h.mse_after, min(h.gain, h_te.gain), min(h.z, 0.0),
                                 1.0, h.n_batches)
+            elif between and EFFECTS[name].between_recordings:
+                say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
+                    f"round {rnd + 1}: predicting each recording from the others ({name})")
+                bt = between_recordings(ctx, name, cur)
+                if bt is None:
+                    continue
+                btw[name] = bt
+                h = bt["pooled"]
             else:
                 h = heldout_comparison(cur_te, ctx.test_res(fit))
             cands[name] = (fit, params, unc, h)
@@ -536,7 +562,7 @@ def diagnose(
             break
         record = list(pre_deferred)
         passing = []
-        excess = {n: (c[3].mse_before if ctx.strict else mse_cur) - noise**2
+        excess = {n: (c[3].mse_before if ctx.strict or n in btw else mse_cur) - noise**2
                   for n, c in cands.items()}
         size_ok = {n: effect_size_ok(c[3], excess[n]) for n, c in cands.items()}
         needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
@@ -554,6 +580,11 @@ def diagnose(
                 cv = cf["parameter_cv"]
                 row.update({"fold_mse_reductions": cf["fold_gains"],
                             "parameter_cv": cf["parameter_cv"]})
+            if name in btw:
+                cv = btw[name]["parameter_cv"]
+                row.update({"evidence": _evidence_label(ctx, name, None, btw[name]),
+                            "per_recording": btw[name]["per_recording"],
+                            "parameter_cv": cv})
             if name in skip:
                 row.update({"passes": False, "decision": "deferred", "parameters": params,
                             "evidence": "not needed: an effect of a higher-priority family "
@@ -596,12 +627,16 @@ def diagnose(
                 if other not in cfs or best not in cfs:
                     continue
                 hh = heldout_comparison(cfs[other]["after"], cfs[best]["after"])
+            elif other in btw and best in btw:  # on the left-out recordings
+                hh = heldout_comparison(btw[other]["after"], btw[best]["after"])
             else:
                 hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
             if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
                 runner = {"effect": other, "heldout_mse_reduction": oh.gain,
                           "z_best_vs_this": hh.z, "parameters": oparams}
-            if other in passing and (
+            # between recordings (few folds) a look-alike that explains as much but failed only
+            # significance or fold agreement cannot be ruled out either
+            if (other in passing or (other in btw and size_ok[other])) and (
                 oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * h.gain or hh.z < 3.0
             ):
                 amb.append(other)
@@ -649,7 +684,7 @@ def diagnose(
                 runner_up=runner,
                 crossfit=_cf_summary(cfs.get(best)),
                 caveats=caveats,
-                evidence=_evidence_label(ctx, best, cfs.get(best)),
+                evidence=_evidence_label(ctx, best, cfs.get(best), btw.get(best)),
             )
         )
         for other in amb:
@@ -676,15 +711,12 @@ def diagnose(
         if fam == "dynamics" and best != "rate" and not ctx.strict:
             cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
         findings[-1].structure = cur.structure
-        if fam == "dynamics" and best != "rate":
-            if best in ("lag", "delay") and "creep" in untest_names:
-                ambiguous.append({
-                    "effects": [findings[-1].name, "creep"],
-                    "chosen": findings[-1].name,
-                    "reason": "without holds, the fast end of a creep relaxation spectrum acts "
-                    "as a lag at the excitation frequency; creep itself was untestable",
-                    "experiment": EFFECTS["creep"].experiment,
-                })
+        named = findings[-1].name  # the dynamics recheck may rename it
+        for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
+            if named in names and hidden in untest_names:
+                ambiguous.append({"effects": [named, hidden], "chosen": named,
+                                  "reason": why.format(best=named),
+                                  "experiment": EFFECTS[hidden].experiment})
         todo = [e for e in todo if e != best and not (
             EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
     say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in findings)})"
@@ -752,54 +784,6 @@ def diagnose(
         crossval=crossval,
         adequacy=adequacy,
     )
-
-
-#: How :func:`leave_one_recording_out` treats what belongs to one recording.
-LORO_RULE = (
-    "each recording in turn is predicted (all its rows) by the structure refitted (linear "
-    "weights) on the train and test rows of the other recordings; the nonlinear parameters "
-    "(delay, time constants, beta, ...) stay at the values the diagnosis found; what belongs "
-    "to one recording cannot be learnt for an unseen one: the held-out recording starts from "
-    "the virgin memory state, gets no drift, and its offset is the mean of the others'"
-)
-
-
-def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
-    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
-
-    Returns
-    -------
-    dict
-        ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
-        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of the
-        scored rows (all rows of all recordings); ``rmse`` pools every sample of every recording.
-    """
-    recs = ctx.records
-    yr = 100.0 / percent_of_range(1.0, [r.y for r in recs])  # every row is scored
-    per = []
-    sse = 0.0
-    n_all = 0
-    for j, rec in enumerate(recs):
-        sj = s.with_(history=tuple(() if k == j else h for k, h in enumerate(s.history)))
-        masks = [np.zeros(r.n_samples, dtype=bool) if k == j else (tr | te)
-                 for k, (r, tr, te) in enumerate(zip(recs, ctx.train, ctx.test, strict=True))]
-        f = fit_structure(sj, recs, masks, ctx.cache)
-        assert isinstance(f, Fit)
-        bias = np.array(f.bias, dtype=float)
-        if sj.offsets:
-            bias[j] = float(np.mean(np.delete(bias, j)))
-        drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
-        model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
-                            f.creep_weights, bias, drift, rec)
-        e = rec.y - model(rec.u, dt=rec.dt)
-        ej = float(e @ e)
-        sse += ej
-        n_all += rec.n_samples
-        rm = float(np.sqrt(ej / rec.n_samples))
-        per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
-                    "rmse_pct": 100 * rm / yr})
-    rmse = float(np.sqrt(sse / max(n_all, 1)))
-    return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
 def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:

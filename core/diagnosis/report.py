@@ -103,6 +103,15 @@ def summary_text(res: DiagnosisResult) -> str:
                      f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
                      f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
                      "acceptance rule)")
+    shown = {sg["effect"] for sg in res.suggestive} | {e.name for e in res.effects}
+    for row in res.rounds:  # judged between recordings and not claimed: say so
+        if row["round"] == 1 and "per_recording" in row and row["effect"] not in shown:
+            per = ", ".join(f"{p['recording']} {-100 * p['mse_reduction'] + 0.0:+.0f} %"
+                            for p in row["per_recording"])
+            lines.append(f"Tested between recordings, not claimed: {row['effect']} (each "
+                         "recording predicted from the others with its parameters searched "
+                         f"on them: MSE {-100 * row['heldout_mse_reduction'] + 0.0:+.1f} % "
+                         f"pooled, z = {row['dm_z']:.2f}; {per})")
     if ad is not None and not ad.adequate:
         lines.append(f"Base model: {ad.text}")
     for a in res.ambiguous:

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "Effect", "time_effects"]
+__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "UNTESTABLE_LOOKALIKES", "Effect",
+           "time_effects"]
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,11 @@ class Effect:
         The recording that would make it testable when it is not.
     time_dependent : bool
         Needs a time axis (untestable on index-only recordings).
+    between_recordings : bool
+        Changes the loop from one excitation rate to the next: with several recordings at
+        different rates it is judged by predicting each recording from the others
+        (:func:`core.diagnosis.between.between_recordings`), not on rows of the recordings
+        it was fitted to.
     """
 
     name: str
@@ -38,6 +44,7 @@ class Effect:
     equation: str
     experiment: str | None = None
     time_dependent: bool = False
+    between_recordings: bool = False
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -53,6 +60,7 @@ EFFECTS: dict[str, Effect] = {
         equation='y(t) = y_PI(t - tau_d)',
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "lag": Effect(
         "lag",
@@ -65,6 +73,7 @@ EFFECTS: dict[str, Effect] = {
         equation='tau * dy/dt + y = y_PI',
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "resonance": Effect(
         "resonance",
@@ -76,6 +85,7 @@ EFFECTS: dict[str, Effect] = {
         equation="y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
         experiment=None,
         time_dependent=True,
+        between_recordings=True,
     ),
     "rate": Effect(
         "rate",
@@ -90,6 +100,7 @@ EFFECTS: dict[str, Effect] = {
             'full-stroke sines (or triangles) at >= 2 rates a decade apart, same amplitude'
         ),
         time_dependent=True,
+        between_recordings=True,
     ),
     "creep": Effect(
         "creep",
@@ -186,4 +197,14 @@ DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
 #: Disambiguation order of the families (notes §4.3): cheapest and most common first.
 FAMILY_PRIORITY: dict[str, int] = {
     "memory": 0, "dynamics": 1, "slow": 2, "static": 3, "static-offset": 3,
+}
+
+#: An untestable effect -> (accepted effects it would look like, why): an accepted look-alike
+#: is reported ambiguous with it, with the experiment that makes it testable.
+UNTESTABLE_LOOKALIKES: dict[str, tuple[frozenset[str], str]] = {
+    "creep": (frozenset({"lag", "delay"}), "without holds, the fast end of a creep relaxation "
+              "spectrum acts as a lag at the excitation frequency; creep itself was untestable"),
+    "rate": (frozenset({"delay", "lag", "resonance"}), "at a single excitation rate, "
+             "rate-dependent hysteresis widens the loop as a {best} does; rate itself was "
+             "untestable"),
 }

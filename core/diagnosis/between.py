@@ -1,0 +1,178 @@
+"""Evidence between recordings: each recording predicted from the others.
+
+A rate-dependent effect changes the loop from one excitation rate to the next. With several
+short periodic recordings at different frequencies, the honest test of such an effect is
+whether a model fitted on the other recordings (its nonlinear parameters searched there too)
+predicts the held-out recording better than the current model fitted on the same others.
+The held-out recording is never used for selection.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._typing import Float1D
+from ..fitting.metrics import percent_of_range
+from ..fitting.thresholds import reversal_indices
+from .candidates import build_candidate
+from .context import FitContext
+from .periodic import steady_state_history
+from .stats import HeldOut, heldout_comparison
+from .structure import Fit, Structure, build_model, fit_structure
+
+__all__ = ["LORO_RULE", "between_recordings", "leave_one_recording_out", "recording_rates",
+           "rates_differ"]
+
+#: Per-recording excitation rates must span this factor for a between-recordings test.
+MIN_RATE_RATIO = 1.5
+
+#: How :func:`leave_one_recording_out` treats what belongs to one recording.
+LORO_RULE = (
+    "each recording in turn is predicted (all its rows) by the structure refitted (linear "
+    "weights) on the train and test rows of the other recordings; the nonlinear parameters "
+    "(delay, time constants, beta, ...) stay at the values the diagnosis found; what belongs "
+    "to one recording cannot be learnt for an unseen one: the held-out recording starts from "
+    "the virgin memory state (a periodic steady-state recording from the memory its own cycle "
+    "leaves), gets no drift, and its offset is the mean of the others'"
+)
+
+
+def recording_rates(ctx: FitContext) -> list[list[float]]:
+    """Mean input rate |Δu|/Δt (input units/s) of each large travel between reversals
+    (> 20 % of the recording's input range, not mostly a hold), per recording."""
+    out = []
+    for rec, c in zip(ctx.records, ctx.coords, strict=True):
+        span = float(np.ptp(rec.u)) or 1.0
+        rv = reversal_indices(rec.u, 0.01 * span)
+        rv = np.concatenate((rv, [rec.n_samples - 1]))
+        peaks = []
+        for a, b in zip(rv[:-1], rv[1:], strict=True):
+            if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
+                peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
+        out.append(peaks)
+    return out
+
+
+def rates_differ(ctx: FitContext) -> bool:
+    """Several timed recordings, each at one rate (at least 2/3 of its travels within
+    ±25 % of its median rate: tapered starts and ends allowed), whose median rates span at
+    least :data:`MIN_RATE_RATIO` between recordings.
+
+    Recordings that each sweep several rates (a multisine, a staircase) keep the test rows
+    inside every recording as evidence: predicting the one recording that excites fast
+    dynamics from the others would test extrapolation, not the effect.
+    """
+    if len(ctx.records) < 2 or not all(r.has_time for r in ctx.records):
+        return False
+    rates = recording_rates(ctx)
+    if not all(_one_rate(p) for p in rates):
+        return False
+    med = [float(np.median(p)) for p in rates]
+    return max(med) >= MIN_RATE_RATIO * max(min(med), 1e-300)
+
+
+def _one_rate(p: list[float]) -> bool:
+    if not p:
+        return False
+    m = float(np.median(p))
+    return float(np.mean(np.abs(np.asarray(p) - m) <= 0.25 * m)) >= 2 / 3
+
+
+def _others(ctx: FitContext, j: int) -> list[np.ndarray]:
+    return [np.zeros(r.n_samples, dtype=bool) if k == j else (tr | te)
+            for k, (r, tr, te) in enumerate(zip(ctx.records, ctx.train, ctx.test, strict=True))]
+
+
+def left_out_residual(ctx: FitContext, s: Structure, j: int) -> Float1D:
+    """Residual on every row of recording ``j`` of structure ``s`` refitted (linear weights)
+    on the train and test rows of the other recordings (rule: :data:`LORO_RULE`)."""
+    recs = ctx.records
+    rec = recs[j]
+    # a periodic steady-state recording keeps the memory its own cycle leaves
+    own = s.history[j] if s.history[j] and s.history[j] == steady_state_history(rec) else ()
+    sj = s.with_(history=tuple(own if k == j else h for k, h in enumerate(s.history)))
+    f = fit_structure(sj, recs, _others(ctx, j), ctx.cache)
+    assert isinstance(f, Fit)
+    bias = np.array(f.bias, dtype=float)
+    if sj.offsets:
+        bias[j] = float(np.mean(np.delete(bias, j)))
+    drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
+    model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
+                        f.creep_weights, bias, drift, rec)
+    return rec.y - model(rec.u, dt=rec.dt)
+
+
+def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
+    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
+
+    Returns
+    -------
+    dict
+        ``{"rule", "rmse", "rmse_pct", "per_recording": [{"recording", "samples", "rmse",
+        "rmse_pct"}]}``; RMSE in output units, ``_pct`` in % of the output range of the
+        scored rows (all rows of all recordings); ``rmse`` pools every sample of every recording.
+    """
+    recs = ctx.records
+    yr = 100.0 / percent_of_range(1.0, [r.y for r in recs])  # every row is scored
+    per = []
+    sse = 0.0
+    n_all = 0
+    for j, rec in enumerate(recs):
+        e = left_out_residual(ctx, s, j)
+        ej = float(e @ e)
+        sse += ej
+        n_all += rec.n_samples
+        rm = float(np.sqrt(ej / rec.n_samples))
+        per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
+                    "rmse_pct": 100 * rm / yr})
+    rmse = float(np.sqrt(sse / max(n_all, 1)))
+    return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
+
+
+def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] | None:
+    """Leave-one-recording-out test of effect ``name`` on top of ``cur``.
+
+    For each recording ``j``: the current structure is refitted on the other recordings, the
+    effect's nonlinear parameters are searched on the others' training rows only
+    (:func:`~core.diagnosis.candidates.build_candidate` on a context without ``j``), and both
+    structures, refitted on the others' rows, predict every row of ``j``.
+
+    Returns
+    -------
+    dict or None
+        ``{"pooled": HeldOut over all left-out recordings, "per_recording": [{"recording",
+        "mse_reduction", "parameters"}], "parameter_cv": {name: CV}, "folds": n}``; None when
+        the effect does not apply on some subset.
+    """
+    recs = ctx.records
+    before: list[Float1D] = []
+    after: list[Float1D] = []
+    per: list[dict[str, Any]] = []
+    params: list[dict[str, Any]] = []
+    for j, rec in enumerate(recs):
+        none = np.zeros(rec.n_samples, dtype=bool)
+        tr = [none if k == j else m for k, m in enumerate(ctx.train)]
+        te = [none if k == j else m for k, m in enumerate(ctx.test)]
+        sub = FitContext(recs, tr, te, parent=ctx)
+        got = build_candidate(sub, name, sub.fit(cur.structure, cur))
+        if got is None:
+            return None
+        fit, p, _ = got
+        e0 = left_out_residual(ctx, cur.structure, j)
+        e1 = left_out_residual(ctx, fit.structure, j)
+        before.append(e0)
+        after.append(e1)
+        params.append(p)
+        per.append({"recording": rec.name, "parameters": p,
+                    "mse_reduction": 1.0 - float(e1 @ e1) / max(float(e0 @ e0), 1e-300)})
+    cv: dict[str, float] = {}
+    for key in params[0]:
+        v = np.array([q[key] for q in params if isinstance(q.get(key), int | float)], float)
+        if v.size == len(params) and np.all(np.isfinite(v)):
+            m = float(np.mean(np.abs(v)))
+            cv[key] = float(np.std(v, ddof=1) / m) if m > 0 else 0.0
+    pooled: HeldOut = heldout_comparison(before, after)
+    return {"pooled": pooled, "per_recording": per, "parameter_cv": cv, "folds": len(recs),
+            "before": before, "after": after}

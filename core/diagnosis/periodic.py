@@ -1,0 +1,62 @@
+"""Periodic steady-state recordings: one input cycle repeated, the output already periodic.
+
+Such a recording did not start from the virgin memory state: its memory at the first sample
+is the one its own cycle leaves. Starting the model virgin would leave an error before the
+wipe-out time that an ``initial-memory`` finding would then "explain" (an artefact); instead
+the baseline starts from the cycle's own extrema.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..fitting.thresholds import reversal_indices, wipeout_index
+from ..recordings import Recording
+
+__all__ = ["STEADY_TOL", "steady_state_history"]
+
+#: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
+#: difference of the later periods, within which the first period counts as steady state.
+STEADY_TOL = 0.002
+
+
+def steady_state_history(rec: Recording) -> tuple[float, ...]:
+    """Virtual input history that puts the memory in the recording's periodic steady state.
+
+    Returns ``(first, second)``: the cycle's two extremes in the order the input last visits
+    them before one period has elapsed; empty when the input is not one cycle repeated (at
+    least three periods, ``u(t + T)`` within 2 % of the input range of ``u(t)`` over the
+    whole record) or when the output of the first period differs from the second's by more
+    than 1.5 times the second's difference from the third plus :data:`STEADY_TOL` of the
+    output range, on the rows before the wipe-out time (a virgin start, or a transient).
+    """
+    u, y = rec.u, rec.y
+    span = float(np.ptp(u))
+    if span <= 0:
+        return ()
+    rv = reversal_indices(u, 0.1 * span)
+    rv = rv[(rv > 0) & (rv < u.size - 1)]
+    if rv.size < 4:
+        return ()
+    period = int(rv[2] - rv[0])
+    if period < 4 or 3 * period > u.size:
+        return ()
+    ext = u[rv]
+    if np.ptp(ext[::2]) > 0.02 * span or np.ptp(ext[1::2]) > 0.02 * span:
+        return ()
+    # the whole record is the one cycle repeated (not a sweep, not a decaying sine)
+    if np.sqrt(np.mean((u[:-period] - u[period:]) ** 2)) > 0.02 * span:
+        return ()
+    # the first period's output repeats as well as the later periods repeat each other
+    # (noise), plus STEADY_TOL of the output range
+    yr = float(np.ptp(y)) or 1.0
+    # (on the rows before the wipe-out time: the only rows an initial memory changes)
+    w = max(min(wipeout_index(u), period), 2)
+    d12 = float(np.sqrt(np.mean((y[:w] - y[period : period + w]) ** 2)))
+    d23 = float(np.sqrt(np.mean((y[period : period + w] - y[2 * period : 2 * period + w]) ** 2)))
+    if d12 > 1.5 * d23 + STEADY_TOL * yr:
+        return ()
+    seg = u[1 : period + 1]
+    i_hi, i_lo = int(np.argmax(seg)), int(np.argmin(seg))
+    hi, lo = float(seg[i_hi]), float(seg[i_lo])
+    return (hi, lo) if i_hi < i_lo else (lo, hi)
