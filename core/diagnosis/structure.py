@@ -313,6 +313,9 @@ def fit_structure(
     ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
     yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
     center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
+    ulo = min(float(rec.u[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
+    uhi = max(float(rec.u[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
+    eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     nb = r.size + 1
     n_asym = 2 if s.asymmetry else 0
     n_creep = len(s.creep_taus)
@@ -360,18 +363,27 @@ def fit_structure(
                 )[:last][m]
             o += nm
         assert X is not None
-        nonneg = np.zeros(X.shape[1], dtype=bool)
-        nonneg[: 1 if s.free_weights else nb] = True
-        nonneg[nb + n_asym : nb + n_asym + n_creep] = True
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             w = np.linalg.lstsq(X, ys, rcond=None)[0]
             return float(np.sum((X @ w - ys) ** 2))
+        # an invertible PI stage (as the fitting's constraint_transform): free weights solve
+        # for the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns
+        # X_j - X_{j+1}), classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
+        lower = np.full(X.shape[1], -np.inf)
+        lower[:nb] = eps
+        if s.free_weights:
+            X[:, : nb - 1] -= X[:, 1:nb]
+        else:
+            lower[1:nb] = 0.0
+        lower[nb + n_asym : nb + n_asym + n_creep] = 0.0
         # the fitting's constrained solver on the triangular factor of [X, y]
         R = np.linalg.qr(np.column_stack((X, ys)), mode="r")
-        w = solve_constrained(np.where(nonneg, 0.0, -np.inf), factor=R).theta
+        w = solve_constrained(lower, factor=R).theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X @ w - ys) ** 2))
+        if s.free_weights:
+            w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
             x_prev = [banks[k] @ w[:nb] for k in range(nrec)]
     assert w is not None

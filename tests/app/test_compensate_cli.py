@@ -177,17 +177,14 @@ def test_every_chain_layout_the_diagnosis_writes_inverts_and_exports(rate, dynam
 
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
-_NOT_INVERTIBLE = "the diagnosis writes a PI that is not invertible ({}); core/diagnosis to fix"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("recording", [
     "piezo/piezo_150V_1Hz.csv",
     "bh_loops/MnZn_ferrite.csv",
-    pytest.param("bh_loops/M130-27s_GO_steel.csv", marks=pytest.mark.xfail(
-        strict=True, reason=_NOT_INVERTIBLE.format("p0 clipped to 0"))),
-    pytest.param("friction_damper/1Hz30lbtension0.5amplitude.csv", marks=pytest.mark.xfail(
-        strict=True, reason=_NOT_INVERTIBLE.format("free-sign weights, falling segments"))),
+    "bh_loops/M130-27s_GO_steel.csv",
+    "friction_damper/1Hz30lbtension0.5amplitude.csv",
 ])
 def test_diagnose_save_model_of_shipped_recordings_inverts_and_exports(recording, tmp_path,
                                                                        capsys) -> None:
