@@ -439,7 +439,8 @@ async function runJob(kind, params, syncPath, syncBody) {
   let progress = null, message = "";
   const tick = () => {
     const s = ((performance.now() - t0) / 1000).toFixed(0);
-    busy.textContent = `${label}… working, ${s} s${message ? ` (${message})` : ""}`;
+    const pct = progress === null ? "" : `${Math.round(100 * progress)} %, `;
+    busy.textContent = `${label}… working, ${pct}${s} s${message ? ` (${message})` : ""}`;
   };
   state.job = { kind };
   busy.hidden = false;
@@ -456,35 +457,70 @@ async function runJob(kind, params, syncPath, syncBody) {
       return await api("POST", syncPath, syncBody);
     }
     state.job.id = job.id;
+    const jobPath = `/api/sessions/${encodeURIComponent(state.code)}/jobs/${encodeURIComponent(job.id)}`;
+    bar.value = 0;
+    cancel.disabled = false;
+    cancel.textContent = "Cancel";
     cancel.hidden = false;
     bar.hidden = false;
+    let misses = 0;
     for (;;) {
       await new Promise((r) => setTimeout(r, 400));
-      job = await api("GET", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+      try {
+        job = await api("GET", jobPath);
+        misses = 0;
+      } catch (e) {
+        // a busy server or a dropped connection: keep asking a few times, then give up
+        // (and cancel the job, so the session is free for the next one)
+        if (e.status === 404 || ++misses >= 5) {
+          api("DELETE", jobPath).catch(() => null);
+          throw e;
+        }
+        continue;
+      }
       progress = typeof job.progress === "number" ? job.progress : null;
       if (progress !== null) bar.value = progress;
       message = job.message ? plain(job.message) : "";
+      tick();
       if (job.state === "done") return job.result;
       if (job.state === "failed") throw new ApiError(422, plain(job.error || "the job failed"));
-      if (job.state === "cancelled") throw new ApiError(0, "cancelled");
+      if (job.state === "cancelled") throw new JobCancelled(plain(job.message));
     }
   } finally {
     clearInterval(timer);
     busy.hidden = true;
     bar.hidden = true;
     cancel.hidden = true;
+    cancel.disabled = false;
     buttons.forEach((b) => { b.disabled = false; });
     state.job = null;
   }
 }
 
+class JobCancelled extends Error {}
+
+// The job stops at its next progress report; runJob's polling sees it end "cancelled".
 async function cancelJob() {
   const job = state.job;
   if (!job || !job.id) return;
+  const cancel = $("cancel-job");
+  cancel.disabled = true;
+  cancel.textContent = "Cancelling…";
   try {
-    await api("DELETE", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+    await api("DELETE", `/api/sessions/${encodeURIComponent(state.code)}/jobs/${encodeURIComponent(job.id)}`);
   } catch (e) {
+    cancel.disabled = false;
+    cancel.textContent = "Cancel";
     setMsg("csv-msg", `Not cancelled: ${e.message}`);
+  }
+}
+
+// What a failed or cancelled fit / diagnosis says under the Data section.
+function jobFailed(what, e) {
+  if (e instanceof JobCancelled) {
+    setMsg("csv-msg", `${what} cancelled: nothing was changed.`, true);
+  } else {
+    setMsg("csv-msg", `${what} failed: ${e.message}`);
   }
 }
 
@@ -504,7 +540,7 @@ async function fit() {
     selectFigure("fit");
   } catch (e) {
     $("report").replaceChildren();
-    setMsg("csv-msg", `Fit failed: ${e.message}`);
+    jobFailed("Fit", e);
   }
 }
 
@@ -535,7 +571,7 @@ async function diagnose() {
     }
     $("report").replaceChildren(box);
   } catch (e) {
-    setMsg("csv-msg", `Diagnosis failed: ${e.message}`);
+    jobFailed("Diagnosis", e);
   }
 }
 
