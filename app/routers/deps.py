@@ -11,7 +11,7 @@ from ..settings import Settings
 from ..state import Session, SessionRegistry
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
-           "read_body"]
+           "read_body", "require_teacher"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -49,6 +49,20 @@ def get_session(code: str, request: Request) -> Session:
                                  "abcd-efgh-jkmn-pqrs) or start a new session") from None
 
 
+def require_teacher(settings: Settings, token: str | None) -> None:
+    """403 unless ``token`` is the teacher token (:meth:`Settings.teacher_ok`, constant time).
+
+    A server that has a token always needs it; one reachable beyond loopback always has
+    one (:meth:`Settings.with_teacher_token`) and is refused outright without. Only a
+    loopback server started without a token lets everyone on this machine teach.
+    """
+    if settings.teacher_token:
+        if not settings.teacher_ok(token):
+            raise HTTPException(403, "this needs the teacher token (the one the server was "
+                                     "started with)")
+    elif settings.public:
+        raise HTTPException(403, "this server is reachable beyond this machine but has no "
+                                 "teacher token; restart it with --teacher-token-file")
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

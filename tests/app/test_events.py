@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
@@ -83,3 +84,49 @@ def test_teacher_push_needs_the_token_and_changes_every_session() -> None:
         conn = client.get("/api/teacher/connected", headers={"X-Teacher-Token": "t0k"}).json()
         assert conn["sessions"] == 2 and conn["codes"] == []
         assert client.get("/api/sessions/zzzz-none/events").status_code == 404
+
+
+def test_teacher_routes_follow_the_broadcast_rule(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beyond loopback a token is generated and needed, compared by Settings.teacher_ok."""
+    calls: list[str | None] = []
+    real = Settings.teacher_ok
+    monkeypatch.setattr(Settings, "teacher_ok",
+                        lambda self, tok: calls.append(tok) or real(self, tok))
+    app = create_app(Settings(viser_port=None, host="0.0.0.0"))
+    token = app.state.settings.teacher_token
+    push = {"preset": "paper000-three-operators"}
+    with TestClient(app) as client:
+        code = client.post("/api/sessions").json()["code"]
+        for headers in ({}, {"X-Teacher-Token": "guess"}, {"X-Teacher-Token": token[:-1]}):
+            assert client.post("/api/teacher/push", json=push, headers=headers
+                               ).status_code == 403
+            assert client.get("/api/teacher/connected", headers=headers).status_code == 403
+        assert client.get(f"/api/sessions/{code}").json()["config"]["model"]["type"] == "pi"
+        ok = {"X-Teacher-Token": token}
+        assert client.post("/api/teacher/push", json=push, headers=ok).json()["sessions"] == 1
+        assert "codes" in client.get("/api/teacher/connected", headers=ok).json()
+    assert calls.count(token) == 2 and "guess" in calls
+    # a server that somehow lost its token beyond loopback refuses instead of opening up
+    from dataclasses import replace
+
+    app.state.settings = replace(app.state.settings, teacher_token=None)
+    with TestClient(app) as client:
+        assert client.post("/api/teacher/push", json=push).status_code == 403
+
+
+def test_a_push_is_stored_and_survives_a_restart(tmp_path: Path) -> None:
+    """The push is committed for every session used in the last hour, also those only in
+    the store (not in memory) after a restart; a reload then shows the pushed model."""
+    cfg = Settings(viser_port=None, teacher_token="t0k", state_dir=str(tmp_path))
+    with TestClient(create_app(cfg)) as client:
+        before = client.post("/api/sessions").json()["code"]
+    # a restart: the session is only in the store now
+    with TestClient(create_app(cfg)) as client:
+        r = client.post("/api/teacher/push", headers={"X-Teacher-Token": "t0k"},
+                        json={"preset": "paper000-three-operators", "use_preset_input": True})
+        assert r.json()["sessions"] == 1
+        assert client.get(f"/api/sessions/{before}").json()["config"]["model"]["type"] \
+            == "digitized"
+    with TestClient(create_app(cfg)) as client:  # and another restart keeps it
+        got = client.get(f"/api/sessions/{before}").json()["config"]
+        assert got["model"]["type"] == "digitized" and got["signal"]["offset"] == 5.0
