@@ -50,19 +50,12 @@ def get_session(code: str, request: Request) -> Session:
 
 
 def require_teacher(settings: Settings, token: str | None) -> None:
-    """403 unless ``token`` is the teacher token (:meth:`Settings.teacher_ok`, constant time).
-
-    A server that has a token always needs it; one reachable beyond loopback always has
-    one (:meth:`Settings.with_teacher_token`) and is refused outright without. Only a
-    loopback server started without a token lets everyone on this machine teach.
-    """
-    if settings.teacher_token:
-        if not settings.teacher_ok(token):
-            raise HTTPException(403, "this needs the teacher token (the one the server was "
-                                     "started with)")
-    elif settings.public:
-        raise HTTPException(403, "this server is reachable beyond this machine but has no "
-                                 "teacher token; restart it with --teacher-token-file")
+    """403 unless ``token`` may push to every session (:meth:`Settings.may_teach`: the
+    teacher token, compared in constant time, whenever the server has one; a server
+    reachable beyond loopback always has one)."""
+    if not settings.may_teach(token):
+        raise HTTPException(403, "this needs the teacher token (the one the server was "
+                                 "started with)")
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]
