@@ -46,6 +46,8 @@ const REWRITES = [
   [/pass a larger max_rows= to read it anyway, or cut \/ decimate the recording/, "cut or decimate the recording"],
   [/;?\s*pass a larger max_bytes= to (read it anyway|)/, "; make the file smaller "],
   [/\s*\((GET|POST|PUT|PATCH|DELETE) \/api[^)]*\)/g, ""],
+  [/;\s*pass run=<id> to choose another or run=all to read every row/, "; choose another run below"],
+  [/\s*\(run=all\)/, ""],
   [/max_operators/g, "the operator limit"],
   [/max_samples/g, "the sample limit"],
 ];
@@ -397,13 +399,21 @@ async function onCsvChosen(ev) {
     $("preview").replaceChildren(head, ...rows);
     for (const [id, guess] of [["t-col", 0], ["u-col", 1], ["y-col", 2]]) {
       const sel = $(id);
-      sel.replaceChildren(...(id === "t-col" ? [new Option("(none: 1 ms spacing)", "")] : []),
+      sel.replaceChildren(...(id === "t-col" ? [new Option("(automatic: time column, else 1 ms steps)", "")] : []),
         ...p.columns.map((c, i) => new Option(String(c), String(i))));
-      const named = { "t-col": ["t", "time"], "u-col": ["u", "input"], "y-col": ["y", "output"] }[id];
-      const idx = p.columns.findIndex((c) => named.includes(String(c).toLowerCase()));
-      sel.value = String(idx >= 0 ? idx : Math.min(guess, p.columns.length - 1));
+      // "u", "input", or a name with a unit such as "u_V" / "y_um" / "t_s"
+      const [role, word] = { "t-col": ["t", "time"], "u-col": ["u", "input"], "y-col": ["y", "output"] }[id];
+      const idx = p.columns.findIndex((c) => {
+        const name = String(c).toLowerCase();
+        return name === role || name === word || name.startsWith(`${role}_`) || name.startsWith(`${word}_`);
+      });
+      const roleNamed = p.columns.some((c) => /^(u|y|input|output)(_|$)/i.test(String(c)));
+      const fallback = id === "t-col" && roleNamed ? "" : String(Math.min(guess, p.columns.length - 1));
+      sel.value = idx >= 0 ? String(idx) : fallback;
     }
     $("mapping").hidden = false;
+    $("runs").hidden = true;
+    $("csv-notes").replaceChildren(...(p.notes || []).map((n) => el("li", { textContent: plain(n) })));
     setMsg("csv-msg", `${p.n_rows} rows, ${p.columns.length} columns: check the mapping`, true);
   } catch (e) {
     $("mapping").hidden = true;
@@ -411,19 +421,33 @@ async function onCsvChosen(ev) {
   }
 }
 
-async function useCsv() {
+// The upload says what the reader cleaned (removed rows, skipped lines, the run kept);
+// a file with a run column gets a picker: one run, or every row as one recording.
+async function useCsv(run) {
   const q = new URLSearchParams({ name: csvName.slice(0, 200) });
   for (const [id, key] of [["t-col", "t_col"], ["u-col", "u_col"], ["y-col", "y_col"]]) {
     if ($(id).value !== "") q.set(key, $(id).value);
   }
+  if (typeof run === "string") q.set("run", run);
   try {
-    const r = await api("POST", `/api/sessions/${state.code}/recording?${q}`, csvText, "text/csv");
+    const r = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/recording?${q}`, csvText, "text/csv");
     setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples`, true);
+    $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
+    showRuns(r.runs || [], run === "all" ? "all" : r.run);
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {
     setMsg("csv-msg", `CSV not loaded: ${e.message}`);
   }
+}
+
+function showRuns(runs, kept) {
+  const pick = $("run-pick");
+  $("runs").hidden = runs.length < 2;
+  if (runs.length < 2) return;
+  pick.replaceChildren(...runs.map((r) => new Option(`run ${r}`, String(r))),
+    new Option(`all ${runs.length} runs as one recording`, "all"));
+  pick.value = kept === null || kept === undefined ? String(runs[0]) : String(kept);
 }
 
 // Long work (fit, diagnosis): one at a time, the buttons are disabled and a note counts
@@ -686,7 +710,7 @@ async function main() {
       setMsg("model-msg", `Joined session ${code}.`, true);
     } catch (e) {
       setMsg("model-msg", e.status === 404 || e.status === 422
-        ? `No session "${code}" on this server: check the code (it is shown at the top of the page that uses it).`
+        ? `No session "${code}" on this server: the code may be mistyped (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of the page that uses it) or the session has expired. You are still in session ${state.code}.`
         : e.message);
     }
   };
@@ -709,7 +733,8 @@ async function main() {
     }
   });
   $("csv-file").addEventListener("change", onCsvChosen);
-  $("use-csv").addEventListener("click", useCsv);
+  $("use-csv").addEventListener("click", () => useCsv());
+  $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));
   $("fit").addEventListener("click", fit);
   $("diagnose").addEventListener("click", diagnose);
   $("cancel-job").addEventListener("click", cancelJob);
@@ -724,7 +749,7 @@ async function main() {
   } catch (e) {
     if (saved && e.status === 404) {
       const note = $("live-note");
-      note.textContent = `Your previous session "${saved}" is no longer on the server (it may have been restarted): this is a new one.`;
+      note.textContent = `Your previous session "${saved}" is not on this server (the code is mistyped or the session expired): a new session was started. To rejoin another session, type its code in the Join box.`;
       note.hidden = false;
     }
     await openSession(null);
