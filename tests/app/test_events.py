@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import threading
 from pathlib import Path
+from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
@@ -12,6 +13,26 @@ from fastapi.testclient import TestClient
 from app.events import QUEUE_SIZE, EventHub
 from app.server import create_app
 from app.settings import Settings
+
+
+def _run(make: Any) -> Any:
+    """``asyncio.run(make())`` in a thread of its own (a browser test's playwright may hold
+    a running loop in this one when the test folders run in another order)."""
+    out: list[Any] = []
+
+    def go() -> None:
+        try:
+            out.append(asyncio.run(make()))
+        except BaseException as exc:  # re-raised in the test's thread
+            out.append(exc)
+
+    th = threading.Thread(target=go)
+    th.start()
+    th.join(60)
+    assert out, "the coroutine did not finish"
+    if isinstance(out[0], BaseException):
+        raise out[0]
+    return out[0]
 
 
 def test_publish_from_many_threads_reaches_the_right_pages() -> None:
@@ -33,7 +54,7 @@ def test_publish_from_many_threads_reaches_the_right_pages() -> None:
         hub.unsubscribe(b)
         return got_a, got_b, conn
 
-    got_a, got_b, conn = asyncio.run(run())
+    got_a, got_b, conn = _run(run)
     assert sorted(got_a) == [*range(20), 99] and got_b == [99]
     assert conn == {"a": 1, "b": 1} and hub.connected() == {}
 
@@ -58,7 +79,7 @@ def test_reconnect_replays_missed_events_and_slow_pages_are_bounded() -> None:
         hub.unsubscribe(again)
         return replay, size
 
-    replay, size = asyncio.run(run())
+    replay, size = _run(run)
     assert replay == [1, 2]
     assert size == QUEUE_SIZE
 
