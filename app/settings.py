@@ -101,6 +101,15 @@ class Settings:
         return hmac.compare_digest(str(token).encode("utf-8", "replace"),
                                    self.teacher_token.encode("utf-8"))
 
+    def may_teach(self, token: str | None) -> bool:
+        """Whether a request with ``token`` may push to every session: with a teacher token
+        only when it matches (:meth:`teacher_ok`); without one only on a loopback server
+        (a public one always has a token, :meth:`with_teacher_token`). The REST API and
+        the viser GUI both use this rule."""
+        if self.teacher_token:
+            return self.teacher_ok(token)
+        return not self.public
+
     @property
     def limits(self) -> Limits:
         """The cost limits of one request (:class:`app.services.cost.Limits`)."""

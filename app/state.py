@@ -371,9 +371,9 @@ class SessionRegistry:
         with self._lock:
             return list(self._sessions.values())
 
-    def push_model(self, model: dict[str, Any]) -> int:
-        """Teacher broadcast: give ``model`` to every session used in the last hour
-        (stored or in memory); returns how many changed."""
+    def update_recent(self, fn: Callable[[Config], Config]) -> int:
+        """Teacher push: apply ``fn`` to the config of every session used in the last hour
+        (stored or in memory; each change committed); returns how many changed."""
         recent = self.store.codes(since=time.time() - self.store.protect_s)
         codes = list(dict.fromkeys([*recent, *(s.code for s in self.all())]))
         n = 0
@@ -382,9 +382,13 @@ class SessionRegistry:
                 s = self.get(code)
             except KeyError:
                 continue
-            s.update(lambda c: c.with_model(model))
+            s.update(fn)
             n += 1
         return n
+
+    def push_model(self, model: dict[str, Any]) -> int:
+        """Teacher broadcast: give ``model`` to every session used in the last hour."""
+        return self.update_recent(lambda c: c.with_model(model))
 
     def __len__(self) -> int:
         return len(self.store)

@@ -46,6 +46,8 @@ const REWRITES = [
   [/pass a larger max_rows= to read it anyway, or cut \/ decimate the recording/, "cut or decimate the recording"],
   [/;?\s*pass a larger max_bytes= to (read it anyway|)/, "; make the file smaller "],
   [/\s*\((GET|POST|PUT|PATCH|DELETE) \/api[^)]*\)/g, ""],
+  [/;\s*pass run=<id> to choose another or run=all to read every row/, "; choose another run below"],
+  [/\s*\(run=all\)/, ""],
   [/max_operators/g, "the operator limit"],
   [/max_samples/g, "the sample limit"],
 ];
@@ -397,13 +399,21 @@ async function onCsvChosen(ev) {
     $("preview").replaceChildren(head, ...rows);
     for (const [id, guess] of [["t-col", 0], ["u-col", 1], ["y-col", 2]]) {
       const sel = $(id);
-      sel.replaceChildren(...(id === "t-col" ? [new Option("(none: 1 ms spacing)", "")] : []),
+      sel.replaceChildren(...(id === "t-col" ? [new Option("(automatic: time column, else 1 ms steps)", "")] : []),
         ...p.columns.map((c, i) => new Option(String(c), String(i))));
-      const named = { "t-col": ["t", "time"], "u-col": ["u", "input"], "y-col": ["y", "output"] }[id];
-      const idx = p.columns.findIndex((c) => named.includes(String(c).toLowerCase()));
-      sel.value = String(idx >= 0 ? idx : Math.min(guess, p.columns.length - 1));
+      // "u", "input", or a name with a unit such as "u_V" / "y_um" / "t_s"
+      const [role, word] = { "t-col": ["t", "time"], "u-col": ["u", "input"], "y-col": ["y", "output"] }[id];
+      const idx = p.columns.findIndex((c) => {
+        const name = String(c).toLowerCase();
+        return name === role || name === word || name.startsWith(`${role}_`) || name.startsWith(`${word}_`);
+      });
+      const roleNamed = p.columns.some((c) => /^(u|y|input|output)(_|$)/i.test(String(c)));
+      const fallback = id === "t-col" && roleNamed ? "" : String(Math.min(guess, p.columns.length - 1));
+      sel.value = idx >= 0 ? String(idx) : fallback;
     }
     $("mapping").hidden = false;
+    $("runs").hidden = true;
+    $("csv-notes").replaceChildren(...(p.notes || []).map((n) => el("li", { textContent: plain(n) })));
     setMsg("csv-msg", `${p.n_rows} rows, ${p.columns.length} columns: check the mapping`, true);
   } catch (e) {
     $("mapping").hidden = true;
@@ -411,19 +421,33 @@ async function onCsvChosen(ev) {
   }
 }
 
-async function useCsv() {
+// The upload says what the reader cleaned (removed rows, skipped lines, the run kept);
+// a file with a run column gets a picker: one run, or every row as one recording.
+async function useCsv(run) {
   const q = new URLSearchParams({ name: csvName.slice(0, 200) });
   for (const [id, key] of [["t-col", "t_col"], ["u-col", "u_col"], ["y-col", "y_col"]]) {
     if ($(id).value !== "") q.set(key, $(id).value);
   }
+  if (typeof run === "string") q.set("run", run);
   try {
-    const r = await api("POST", `/api/sessions/${state.code}/recording?${q}`, csvText, "text/csv");
+    const r = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/recording?${q}`, csvText, "text/csv");
     setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples`, true);
+    $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
+    showRuns(r.runs || [], run === "all" ? "all" : r.run);
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {
     setMsg("csv-msg", `CSV not loaded: ${e.message}`);
   }
+}
+
+function showRuns(runs, kept) {
+  const pick = $("run-pick");
+  $("runs").hidden = runs.length < 2;
+  if (runs.length < 2) return;
+  pick.replaceChildren(...runs.map((r) => new Option(`run ${r}`, String(r))),
+    new Option(`all ${runs.length} runs as one recording`, "all"));
+  pick.value = kept === null || kept === undefined ? String(runs[0]) : String(kept);
 }
 
 // Long work (fit, diagnosis): one at a time, the buttons are disabled and a note counts
@@ -439,7 +463,8 @@ async function runJob(kind, params, syncPath, syncBody) {
   let progress = null, message = "";
   const tick = () => {
     const s = ((performance.now() - t0) / 1000).toFixed(0);
-    busy.textContent = `${label}… working, ${s} s${message ? ` (${message})` : ""}`;
+    const pct = progress === null ? "" : `${Math.round(100 * progress)} %, `;
+    busy.textContent = `${label}… working, ${pct}${s} s${message ? ` (${message})` : ""}`;
   };
   state.job = { kind };
   busy.hidden = false;
@@ -456,35 +481,70 @@ async function runJob(kind, params, syncPath, syncBody) {
       return await api("POST", syncPath, syncBody);
     }
     state.job.id = job.id;
+    const jobPath = `/api/sessions/${encodeURIComponent(state.code)}/jobs/${encodeURIComponent(job.id)}`;
+    bar.value = 0;
+    cancel.disabled = false;
+    cancel.textContent = "Cancel";
     cancel.hidden = false;
     bar.hidden = false;
+    let misses = 0;
     for (;;) {
       await new Promise((r) => setTimeout(r, 400));
-      job = await api("GET", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+      try {
+        job = await api("GET", jobPath);
+        misses = 0;
+      } catch (e) {
+        // a busy server or a dropped connection: keep asking a few times, then give up
+        // (and cancel the job, so the session is free for the next one)
+        if (e.status === 404 || ++misses >= 5) {
+          api("DELETE", jobPath).catch(() => null);
+          throw e;
+        }
+        continue;
+      }
       progress = typeof job.progress === "number" ? job.progress : null;
       if (progress !== null) bar.value = progress;
       message = job.message ? plain(job.message) : "";
+      tick();
       if (job.state === "done") return job.result;
       if (job.state === "failed") throw new ApiError(422, plain(job.error || "the job failed"));
-      if (job.state === "cancelled") throw new ApiError(0, "cancelled");
+      if (job.state === "cancelled") throw new JobCancelled(plain(job.message));
     }
   } finally {
     clearInterval(timer);
     busy.hidden = true;
     bar.hidden = true;
     cancel.hidden = true;
+    cancel.disabled = false;
     buttons.forEach((b) => { b.disabled = false; });
     state.job = null;
   }
 }
 
+class JobCancelled extends Error {}
+
+// The job stops at its next progress report; runJob's polling sees it end "cancelled".
 async function cancelJob() {
   const job = state.job;
   if (!job || !job.id) return;
+  const cancel = $("cancel-job");
+  cancel.disabled = true;
+  cancel.textContent = "Cancelling…";
   try {
-    await api("DELETE", `/api/sessions/${state.code}/jobs/${encodeURIComponent(job.id)}`);
+    await api("DELETE", `/api/sessions/${encodeURIComponent(state.code)}/jobs/${encodeURIComponent(job.id)}`);
   } catch (e) {
+    cancel.disabled = false;
+    cancel.textContent = "Cancel";
     setMsg("csv-msg", `Not cancelled: ${e.message}`);
+  }
+}
+
+// What a failed or cancelled fit / diagnosis says under the Data section.
+function jobFailed(what, e) {
+  if (e instanceof JobCancelled) {
+    setMsg("csv-msg", `${what} cancelled: nothing was changed.`, true);
+  } else {
+    setMsg("csv-msg", `${what} failed: ${e.message}`);
   }
 }
 
@@ -504,7 +564,7 @@ async function fit() {
     selectFigure("fit");
   } catch (e) {
     $("report").replaceChildren();
-    setMsg("csv-msg", `Fit failed: ${e.message}`);
+    jobFailed("Fit", e);
   }
 }
 
@@ -535,7 +595,7 @@ async function diagnose() {
     }
     $("report").replaceChildren(box);
   } catch (e) {
-    setMsg("csv-msg", `Diagnosis failed: ${e.message}`);
+    jobFailed("Diagnosis", e);
   }
 }
 
@@ -650,7 +710,7 @@ async function main() {
       setMsg("model-msg", `Joined session ${code}.`, true);
     } catch (e) {
       setMsg("model-msg", e.status === 404 || e.status === 422
-        ? `No session "${code}" on this server: check the code (it is shown at the top of the page that uses it).`
+        ? `No session "${code}" on this server: the code may be mistyped (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of the page that uses it) or the session has expired. You are still in session ${state.code}.`
         : e.message);
     }
   };
@@ -673,7 +733,8 @@ async function main() {
     }
   });
   $("csv-file").addEventListener("change", onCsvChosen);
-  $("use-csv").addEventListener("click", useCsv);
+  $("use-csv").addEventListener("click", () => useCsv());
+  $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));
   $("fit").addEventListener("click", fit);
   $("diagnose").addEventListener("click", diagnose);
   $("cancel-job").addEventListener("click", cancelJob);
@@ -688,7 +749,7 @@ async function main() {
   } catch (e) {
     if (saved && e.status === 404) {
       const note = $("live-note");
-      note.textContent = `Your previous session "${saved}" is no longer on the server (it may have been restarted): this is a new one.`;
+      note.textContent = `Your previous session "${saved}" is not on this server (the code is mistyped or the session expired): a new session was started. To rejoin another session, type its code in the Join box.`;
       note.hidden = false;
     }
     await openSession(null);

@@ -46,6 +46,7 @@ from ..data import (
 )
 from ..events import HUB
 from ..exports import export_session, parameter_set_model
+from ..services.ratelimit import RateLimiter
 from ..settings import Settings
 from ..state import Config, Session, SessionRegistry, SignalSpec
 from .render import LatestWinsWorker
@@ -112,6 +113,8 @@ class SessionView:
         self.registry = registry
         self.session = session
         self.settings = settings
+        # failed joins of this tab, as the REST API limits unknown codes per client
+        self._lookups = RateLimiter(burst=20, per_minute=20)
         self._notify = notify
         self._download = download
         self._syncing = threading.local()
@@ -525,28 +528,28 @@ class SessionView:
 
     def _join_clicked(self, event: Any) -> None:
         code = str(self.code_in.value).strip()
-        try:
-            existed = True
-            try:
-                new = self.registry.get(code)
-            except KeyError:
-                existed = False
-                new = self.registry.get_or_create(code)
+        if not code:
+            self._toast("Session", "type the session code first", True)
+            return
+        if not self._lookups.allowed("join"):
+            self._toast("Not joined", "too many unknown session codes: wait a minute and "
+                        "check the code", True)
+            return
+        try:  # codes are made by the server only: an unknown one is never a new session
+            new = self.registry.get(code)
         except KeyError:
-            self._toast("Bad code", "a session code has 3-32 letters, digits, '-' or '_'", True)
+            self._lookups.take("join")
+            self._toast("No such session", f"no session has the code {code[:40]!r}: check "
+                        "it (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of "
+                        "the page that uses it), or it has expired", True)
             return
         self.bind(new)
-        if existed:
-            self._toast("Session", f"now in session {new.code}")
-        else:  # say so: a mistyped code must not look like a lost session
-            self._toast("New session", f"no session had the code {new.code!r}: a new, empty "
-                        "one was opened under it. Check the spelling if you meant to rejoin.")
+        self._toast("Session", f"now in session {new.code}")
 
     def _push_clicked(self, event: Any) -> None:
-        token = self.settings.teacher_token
         given = str(self.teacher_token.value)
         self.teacher_token.value = ""
-        if token and given != token:
+        if not self.settings.may_teach(given or None):
             self._toast("Not pushed", "wrong teacher token", True)
             return
         n = self.registry.push_model(self.session.snapshot()[0].model)

@@ -11,7 +11,7 @@ from ..settings import Settings
 from ..state import Session, SessionRegistry
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
-           "read_body"]
+           "read_body", "require_teacher"]
 
 
 def get_settings(request: Request) -> Settings:
@@ -49,6 +49,13 @@ def get_session(code: str, request: Request) -> Session:
                                  "abcd-efgh-jkmn-pqrs) or start a new session") from None
 
 
+def require_teacher(settings: Settings, token: str | None) -> None:
+    """403 unless ``token`` may push to every session (:meth:`Settings.may_teach`: the
+    teacher token, compared in constant time, whenever the server has one; a server
+    reachable beyond loopback always has one)."""
+    if not settings.may_teach(token):
+        raise HTTPException(403, "this needs the teacher token (the one the server was "
+                                 "started with)")
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]

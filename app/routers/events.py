@@ -8,14 +8,16 @@ browser's ``EventSource`` reconnects with ``Last-Event-ID`` and gets what it mis
 
 ``POST /api/teacher/push`` gives every session a preset's model and, optionally, an input
 signal (the preset's own default input when ``use_preset_input``); ``GET
-/api/teacher/connected`` says how many pages listen. Both need ``X-Teacher-Token`` when the
-server was started with ``--teacher-token``.
+/api/teacher/connected`` says how many pages listen, and to which sessions. Both follow
+``/api/broadcast``'s rule (:func:`~app.routers.deps.require_teacher`): ``X-Teacher-Token``,
+compared in constant time, whenever the server has a token, which it always has when
+reachable beyond loopback. A push is committed to every session used in the last hour
+(the store, not only the sessions in memory), so a reload or a restart keeps it.
 """
 
 from __future__ import annotations
 
 import asyncio
-import hmac
 import json
 from collections.abc import AsyncIterator
 from dataclasses import replace
@@ -31,7 +33,7 @@ from ..compute import preset_doc
 from ..events import HUB
 from ..schemas import SignalIn
 from ..state import SignalSpec
-from .deps import RegistryDep, SessionDep, SettingsDep
+from .deps import RegistryDep, SessionDep, SettingsDep, require_teacher
 
 __all__ = ["router"]
 
@@ -84,17 +86,6 @@ class PushIn(BaseModel):
         False, description="give every session the preset's own default input")
 
 
-def _check_token(settings: Any, token: str | None) -> bool:
-    """Whether ``token`` is the teacher token; 403 when one is set and it differs."""
-    want = settings.teacher_token
-    if not want:
-        return False
-    if token is None or not hmac.compare_digest(token.encode(), want.encode()):
-        raise HTTPException(403, "this needs the teacher token (the one the server was "
-                                 "started with)")
-    return True
-
-
 @router.post("/teacher/push")
 def teacher_push(
     body: PushIn,
@@ -103,7 +94,7 @@ def teacher_push(
     x_teacher_token: str | None = Header(default=None),
 ) -> dict[str, Any]:
     """Teacher: give every session a preset's model and/or an input signal, live."""
-    _check_token(settings, x_teacher_token)
+    require_teacher(settings, x_teacher_token)
     if body.preset is None and body.signal is None:
         raise HTTPException(422, "choose a preset or an input signal to push")
     model = signal = None
@@ -127,13 +118,11 @@ def teacher_push(
         new = cfg if model is None else cfg.with_model(model)
         return new if signal is None else replace(new, signal=signal, use_recording=False)
 
-    sessions = registry.all()
-    for s in sessions:
-        s.update(change)
+    n = registry.update_recent(change)  # stored: a reload or a restart keeps the push
     event = {"kind": "push", "preset": body.preset, "title": title,
              "signal": signal is not None}
     pages = HUB.broadcast(event)
-    return {"preset": body.preset, "sessions": len(sessions), "pages": pages}
+    return {"preset": body.preset, "sessions": n, "pages": pages}
 
 
 @router.get("/teacher/connected")
@@ -142,11 +131,8 @@ def teacher_connected(
     settings: SettingsDep,
     x_teacher_token: str | None = Header(default=None),
 ) -> dict[str, Any]:
-    """Teacher: how many pages listen live, and (with a teacher token) to which sessions."""
-    with_codes = _check_token(settings, x_teacher_token)
+    """Teacher: how many pages listen live, and to which sessions (the codes)."""
+    require_teacher(settings, x_teacher_token)
     conn = HUB.connected()
-    out: dict[str, Any] = {"pages": sum(conn.values()), "sessions_live": len(conn),
-                           "sessions": len(registry.all())}
-    if with_codes:
-        out["codes"] = sorted(conn)
-    return out
+    return {"pages": sum(conn.values()), "sessions_live": len(conn),
+            "sessions": len(registry.all()), "codes": sorted(conn)}

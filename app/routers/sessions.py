@@ -12,7 +12,7 @@ from ..compute import compute, diagnosed_model, preset_doc, validate_config
 from ..events import HUB
 from ..schemas import ConfigIn
 from ..services.cost import check_config
-from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited
+from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
 from .simulate import result_payload
 
 __all__ = ["router"]
@@ -108,8 +108,7 @@ def broadcast_preset(
     Needs ``X-Teacher-Token`` whenever the server has a token, which it always has when
     reachable beyond loopback (compared in constant time).
     """
-    if settings.teacher_token and not settings.teacher_ok(x_teacher_token):
-        raise HTTPException(403, "pushing to all sessions needs the teacher token")
+    require_teacher(settings, x_teacher_token)
     out = {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
     HUB.broadcast({"kind": "push", "preset": name})
     return out

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from pathlib import Path
+from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
@@ -11,6 +13,26 @@ from fastapi.testclient import TestClient
 from app.events import QUEUE_SIZE, EventHub
 from app.server import create_app
 from app.settings import Settings
+
+
+def _run(make: Any) -> Any:
+    """``asyncio.run(make())`` in a thread of its own (a browser test's playwright may hold
+    a running loop in this one when the test folders run in another order)."""
+    out: list[Any] = []
+
+    def go() -> None:
+        try:
+            out.append(asyncio.run(make()))
+        except BaseException as exc:  # re-raised in the test's thread
+            out.append(exc)
+
+    th = threading.Thread(target=go)
+    th.start()
+    th.join(60)
+    assert out, "the coroutine did not finish"
+    if isinstance(out[0], BaseException):
+        raise out[0]
+    return out[0]
 
 
 def test_publish_from_many_threads_reaches_the_right_pages() -> None:
@@ -32,7 +54,7 @@ def test_publish_from_many_threads_reaches_the_right_pages() -> None:
         hub.unsubscribe(b)
         return got_a, got_b, conn
 
-    got_a, got_b, conn = asyncio.run(run())
+    got_a, got_b, conn = _run(run)
     assert sorted(got_a) == [*range(20), 99] and got_b == [99]
     assert conn == {"a": 1, "b": 1} and hub.connected() == {}
 
@@ -57,7 +79,7 @@ def test_reconnect_replays_missed_events_and_slow_pages_are_bounded() -> None:
         hub.unsubscribe(again)
         return replay, size
 
-    replay, size = asyncio.run(run())
+    replay, size = _run(run)
     assert replay == [1, 2]
     assert size == QUEUE_SIZE
 
@@ -83,3 +105,49 @@ def test_teacher_push_needs_the_token_and_changes_every_session() -> None:
         conn = client.get("/api/teacher/connected", headers={"X-Teacher-Token": "t0k"}).json()
         assert conn["sessions"] == 2 and conn["codes"] == []
         assert client.get("/api/sessions/zzzz-none/events").status_code == 404
+
+
+def test_teacher_routes_follow_the_broadcast_rule(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Beyond loopback a token is generated and needed, compared by Settings.teacher_ok."""
+    calls: list[str | None] = []
+    real = Settings.teacher_ok
+    monkeypatch.setattr(Settings, "teacher_ok",
+                        lambda self, tok: calls.append(tok) or real(self, tok))
+    app = create_app(Settings(viser_port=None, host="0.0.0.0"))
+    token = app.state.settings.teacher_token
+    push = {"preset": "paper000-three-operators"}
+    with TestClient(app) as client:
+        code = client.post("/api/sessions").json()["code"]
+        for headers in ({}, {"X-Teacher-Token": "guess"}, {"X-Teacher-Token": token[:-1]}):
+            assert client.post("/api/teacher/push", json=push, headers=headers
+                               ).status_code == 403
+            assert client.get("/api/teacher/connected", headers=headers).status_code == 403
+        assert client.get(f"/api/sessions/{code}").json()["config"]["model"]["type"] == "pi"
+        ok = {"X-Teacher-Token": token}
+        assert client.post("/api/teacher/push", json=push, headers=ok).json()["sessions"] == 1
+        assert "codes" in client.get("/api/teacher/connected", headers=ok).json()
+    assert calls.count(token) == 2 and "guess" in calls
+    # a server that somehow lost its token beyond loopback refuses instead of opening up
+    from dataclasses import replace
+
+    app.state.settings = replace(app.state.settings, teacher_token=None)
+    with TestClient(app) as client:
+        assert client.post("/api/teacher/push", json=push).status_code == 403
+
+
+def test_a_push_is_stored_and_survives_a_restart(tmp_path: Path) -> None:
+    """The push is committed for every session used in the last hour, also those only in
+    the store (not in memory) after a restart; a reload then shows the pushed model."""
+    cfg = Settings(viser_port=None, teacher_token="t0k", state_dir=str(tmp_path))
+    with TestClient(create_app(cfg)) as client:
+        before = client.post("/api/sessions").json()["code"]
+    # a restart: the session is only in the store now
+    with TestClient(create_app(cfg)) as client:
+        r = client.post("/api/teacher/push", headers={"X-Teacher-Token": "t0k"},
+                        json={"preset": "paper000-three-operators", "use_preset_input": True})
+        assert r.json()["sessions"] == 1
+        assert client.get(f"/api/sessions/{before}").json()["config"]["model"]["type"] \
+            == "digitized"
+    with TestClient(create_app(cfg)) as client:  # and another restart keeps it
+        got = client.get(f"/api/sessions/{before}").json()["config"]
+        assert got["model"]["type"] == "digitized" and got["signal"]["offset"] == 5.0

@@ -180,9 +180,18 @@ def test_join_other_session(view: SessionView) -> None:
     view._join_clicked(SimpleNamespace(client=None))
     _idle(view)
     assert view.session is other
-    view.code_in.value = "room-42"  # unknown: refused, never a blank new session
-    view._join_clicked(SimpleNamespace(client=None))
-    assert view.session is other
+    n = len(view.registry)
+    for typed in ("room-42", "abcd-efgh-jkmn-pqrs"):  # malformed, well-formed but unknown
+        view.code_in.value = typed
+        view._join_clicked(SimpleNamespace(client=None))
+        title, body, error = view.toasts[-1]
+        assert title == "No such session" and error, view.toasts[-1]
+        assert "3-32" not in body and "abcd-efgh-jkmn-pqrs" in body and "expired" in body
+        assert view.session is other  # refused, never a blank new session
+    assert len(view.registry) == n
+    for _ in range(25):  # unknown codes are rate-limited, as on the REST API
+        view._join_clicked(SimpleNamespace(client=None))
+    assert "too many" in view.toasts[-1][1]
 
 
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
@@ -220,6 +229,30 @@ def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
     _idle(view)
     view._push_clicked(SimpleNamespace(client=None))
     assert other.config.model["p0"] == 1.3
+
+
+def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """The GUI's push uses Settings.teacher_ok (constant time) and the REST rule: a public
+    server without a token refuses."""
+    calls: list[str | None] = []
+    real = Settings.teacher_ok
+    monkeypatch.setattr(Settings, "teacher_ok",
+                        lambda self, tok: calls.append(tok) or real(self, tok))
+    other = view.registry.create()
+    view.p0.value = 1.1
+    _idle(view)
+    for settings, token, pushed in ((Settings(teacher_token="s3cret"), "nope", False),
+                                    (Settings(teacher_token="s3cret"), "", False),
+                                    (Settings(host="0.0.0.0"), "", False),
+                                    (Settings(teacher_token="s3cret"), "s3cret", True)):
+        view.settings = settings
+        view.teacher_token.value = token
+        view._push_clicked(SimpleNamespace(client=None))
+        assert view.teacher_token.value == ""  # never left on a projector
+        assert (other.config.model["p0"] == 1.1) is pushed, (settings, token)
+        assert view.toasts[-1][0] == ("Pushed" if pushed else "Not pushed")
+    assert calls == ["nope", None, "s3cret"]
 
 
 def test_diagnosis_markdown() -> None:
