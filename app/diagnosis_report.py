@@ -17,6 +17,8 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.subplots import make_subplots
 
+from .figures import PLOT_CONFIG
+
 __all__ = ["figures", "write_report"]
 
 
@@ -186,7 +188,8 @@ def write_report(res: Any, path: str | Path) -> Path:
     first = True
     for key in ("loops", "residuals", "maps"):
         parts.append(pio.to_html(figs[key], full_html=False,
-                                 include_plotlyjs=True if first else False))
+                                 include_plotlyjs=True if first else False,
+                                 config=PLOT_CONFIG))
         first = False
     parts.append("</body></html>")
     p = Path(path)

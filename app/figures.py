@@ -28,6 +28,7 @@ from .compute import Result, closed_loop, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",
+    "PLOT_CONFIG",
     "FigureJSON",
     "closed_loop_figure",
     "decimate_index",
@@ -43,6 +44,11 @@ __all__ = [
 
 #: Largest number of points sent per trace.
 MAX_POINTS = 800
+#: plotly's toolbar without anything that talks to an outside service.
+PLOT_CONFIG = {"displaylogo": False, "showLink": False, "showSendToCloud": False,
+               "showEditInChartStudio": False, "plotlyServerURL": "",
+               "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
+                                          "editInChartStudio"]}
 #: Most filled bands in the operators view (neighbouring operators are summed beyond).
 MAX_BANDS = 12
 

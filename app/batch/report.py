@@ -21,6 +21,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.subplots import make_subplots
 
+from ..figures import PLOT_CONFIG
 from .options import DiagnoseOptions, FitOptions
 from .results import RecordingResult
 from .summary import MIN_FOR_OUTLIERS, OUTLIER_Z, fleet_metrics, robust_outliers
@@ -116,7 +117,8 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
     plotly_js = [True]  # inline plotly.js with the first figure only
 
     def figure(fig: go.Figure) -> str:
-        out = pio.to_html(fig, full_html=False, include_plotlyjs=plotly_js[0])
+        out = pio.to_html(fig, full_html=False, include_plotlyjs=plotly_js[0],
+                          config=PLOT_CONFIG)
         plotly_js[0] = False
         return out
 

@@ -62,11 +62,6 @@ _TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": 
            "fit": "Fit"}
 #: Largest number of digits drawn as a 3D hypercube in the viser scene.
 CUBE_MAX_DIGITS = 7
-#: plotly's toolbar without anything that talks to an outside service.
-PLOT_CONFIG = {"displaylogo": False, "showLink": False, "showSendToCloud": False,
-               "showEditInChartStudio": False, "plotlyServerURL": "",
-               "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
-                                          "editInChartStudio"]}
 #: Browser widths (CSS px) below which the plot moves into the control sheet.
 NARROW_PX = 700
 
@@ -141,7 +136,7 @@ class SessionView:
             self._dd_narrow = g.add_dropdown("View", tuple(_TITLES.values()),
                                              initial_value=_TITLES["loop"])
             self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
-                                             aspect=0.9, config=PLOT_CONFIG)
+                                             aspect=0.9, config=F.PLOT_CONFIG)
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="")
             self.join_btn = g.add_button("Join / restore session")
@@ -247,7 +242,7 @@ class SessionView:
             # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
             # says width/height; measured in Chromium: height = width * aspect).
             self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
-                                           config=PLOT_CONFIG)
+                                           config=F.PLOT_CONFIG)
         self.narrow = False
         self.view_dd, self.plot = self._dd_wide, self._plot_wide
         self.status_md = g.add_markdown("")

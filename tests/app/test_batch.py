@@ -244,6 +244,7 @@ def test_outliers_follow_median_mad_and_report_escapes(tmp_path):
     assert "<script>alert" not in page and "<img src=x" not in page
     assert "&lt;script&gt;alert(1)&lt;/script&gt;" in page
     assert "href='#rec-r6'" in page
+    assert '"displaylogo": false' in page and '"showSendToCloud": false' in page  # stays local
 
 
 def test_diagnosis_benchmark_executor_runs_on_a_scheduler(scheduler):

@@ -47,6 +47,8 @@ def test_json_is_one_object_with_effects_and_save_model_simulates(lag_files, tmp
     out, err = capsys.readouterr()
     assert code == 0, err
     doc = json.loads(out)  # exactly one JSON object on stdout
+    page = report.read_text(encoding="utf-8")  # its toolbar has nothing that leaves the machine
+    assert '"displaylogo": false' in page and '"showSendToCloud": false' in page
     assert [e["name"] for e in doc["effects"]][:1] == ["lag"]
     e = doc["effects"][0]
     for key in ("name", "parameters", "where", "explanation", "heldout_rmse_before",
