@@ -22,9 +22,13 @@ class FitContext:
         self.train: list[np.ndarray] = train
         self.test: list[np.ndarray] = test
         self.cache = _Cache()
+        #: full fits memoised by (training rows, structure, refreshes, bilinear start): the
+        #: folds refit the same current structure for every candidate and comparison
+        self._fits: dict = {}
         if parent is not None:
             # play banks do not depend on the rows used; share them (bases are re-derived)
             self.cache.d = parent.cache.d
+            self._fits = parent._fits
         self.coords: list[Coordinates] = (coordinates(records) if parent is None
                                           else parent.coords)
         self.n_train = sum(int(m.sum()) for m in train)
@@ -36,9 +40,25 @@ class FitContext:
         self.strict = False
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
-        f = fit_structure(s, self.records, self.train, self.cache,
-                          cur.x_pi if cur is not None else None, iterations=self.iterations)
+        """Fit ``s`` on the training rows (bilinear regressors started from ``cur``).
+
+        Deterministic, so memoised: the key holds the identities of the row masks and of
+        ``cur``'s PI-stage outputs (used only by creep and asymmetry), and the entry keeps
+        references to them so that those identities cannot be reused while it lives.
+        """
+        x_init = cur.x_pi if cur is not None else None
+        uses_x = s.asymmetry or bool(s.creep_taus)
+        key = (tuple(id(m) for m in self.train), s, self.iterations,
+               id(x_init) if uses_x else None)
+        hit = self._fits.get(key)
+        if hit is not None:
+            return hit[2]
+        f = fit_structure(s, self.records, self.train, self.cache, x_init,
+                          iterations=self.iterations)
         assert isinstance(f, Fit)
+        if len(self._fits) >= 48:
+            self._fits.pop(next(iter(self._fits)))
+        self._fits[key] = (list(self.train), x_init, f)
         return f
 
     def rss(self, s: Structure, cur: Fit) -> float:

@@ -162,10 +162,11 @@ class _Cache:
         self.p: dict[Any, np.ndarray] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any) -> np.ndarray:
-        """``B @ V`` memoised on ``key`` (recording, basis key and row count)."""
+        """``B @ V`` memoised on ``key`` (recording, basis key and row count), stored
+        column-major so that the dynamics filter its columns without a transposed copy."""
         P = self.p.get(key)
         if P is None:
-            P = B @ V
+            P = np.asfortranarray(B @ V)
             if len(self.p) >= 16:
                 self.p.pop(next(iter(self.p)))
             self.p[key] = P
@@ -222,13 +223,13 @@ def _dyn_filter(x: np.ndarray, dyn: tuple, dt: float) -> np.ndarray:
         ext = np.concatenate((pad, x), axis=0)
         k = np.arange(x.shape[0])
         return f * ext[k] + (1 - f) * ext[k + 1]
+    # one contiguous line per column for the filters (column-major input is used as is)
+    xt = x.T if x.strides[0] == x.itemsize else np.ascontiguousarray(x.T)
     if kind == "lag":
-        return foh_filter(np.ascontiguousarray(x.T), [1.0], [dyn[1], 1.0], dt, axis=-1)[0].T
+        return foh_filter(xt, [1.0], [dyn[1], 1.0], dt, axis=-1)[0].T
     if kind == "resonance":
         w = 2 * np.pi * dyn[1]
-        return foh_filter(
-            np.ascontiguousarray(x.T), [w * w], [1.0, 2 * dyn[2] * w, w * w], dt, axis=-1
-        )[0].T
+        return foh_filter(xt, [w * w], [1.0, 2 * dyn[2] * w, w * w], dt, axis=-1)[0].T
     raise ValueError(f"unknown dynamics {kind!r}")
 
 
