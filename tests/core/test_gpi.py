@@ -261,6 +261,9 @@ def test_tanh_gpi_clockwise_envelope(pi: PIModel, env: tuple, s: list[float]) ->
     inv = m.inverse()
     c0, c1, c2, c3 = lower
     v = (2.5 * np.asarray(s) - c2) / c1
+    # steps below the rounding level of the envelope (e.g. 5.6e-16 after 0) make the
+    # direction of the envelope output undefined (as in the test above)
+    assume(np.all(np.abs(np.diff(v)) > 1e-9 * (1 + np.abs(v[1:]))))
     np.testing.assert_allclose(inv(m(v)), v, rtol=0, atol=tol(v) * 10)
 
     lo, hi = max(lower[3], upper[3]) - c0, min(lower[3], upper[3]) + c0

@@ -59,7 +59,11 @@ def _screenshot(page: Any, shot: Any, name: str) -> None:
     page.wait_for_selector(".js-plotly-plot .main-svg", timeout=60_000)
     close = page.locator("[class*='Notification-closeButton']")
     for i in range(close.count()):  # headless-only "Software WebGL" toast
-        close.nth(i).click()
+        try:  # a toast may close (and leave the DOM) on its own while we reach for it
+            close.nth(i).click(timeout=5_000)
+        except Exception as exc:  # playwright's TimeoutError; the page itself is checked below
+            if type(exc).__name__ != "TimeoutError":
+                raise
     page.wait_for_timeout(800)
     shot(page, name)
 
