@@ -44,9 +44,10 @@ __all__ = [
 
 #: Largest number of points sent per trace.
 MAX_POINTS = 800
-#: plotly's toolbar without anything that talks to an outside service.
-PLOT_CONFIG = {"displaylogo": False, "showLink": False, "showSendToCloud": False,
-               "showEditInChartStudio": False, "plotlyServerURL": "",
+#: plotly's toolbar without anything that talks to an outside service (``showLink`` and
+#: ``showEditInChartStudio`` are off by default in plotly.js, and plotly.py's HTML writer
+#: warns about them, so they are left out).
+PLOT_CONFIG = {"displaylogo": False, "showSendToCloud": False, "plotlyServerURL": "",
                "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
                                           "editInChartStudio"]}
 #: Most filled bands in the operators view (neighbouring operators are summed beyond).
