@@ -30,13 +30,15 @@ from ..effects import (
     Offset,
     RateDependentPI,
     Resonance,
+    _tf_memo,
     foh_filter,
     rd_play_bank,
 )
 from ..exceptions import ParameterError
-from ..fitting.gram import solve_constrained
+from ..fitting.gram import COND_LIMIT, solve_constrained
 from ..fitting.thresholds import half_travels
 from ..fitting.thresholds import place_thresholds as fit_thresholds
+from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
 from ..recordings import Recording
@@ -162,11 +164,11 @@ class _Cache:
         self.p: dict[Any, np.ndarray] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any) -> np.ndarray:
-        """``B @ V`` memoised on ``key`` (recording, basis key and row count), stored
-        column-major so that the dynamics filter its columns without a transposed copy."""
+        """``B @ V`` memoised on ``key`` (recording, basis key and row count), row-major
+        (the dynamics filter runs time outer, columns inner)."""
         P = self.p.get(key)
         if P is None:
-            P = np.asfortranarray(B @ V)
+            P = np.ascontiguousarray(B @ V)
             if len(self.p) >= 16:
                 self.p.pop(next(iter(self.p)))
             self.p[key] = P
@@ -211,26 +213,90 @@ def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
     return (scale[:, None] * vec[:, :q]).copy()
 
 
-def _dyn_filter(x: np.ndarray, dyn: tuple, dt: float) -> np.ndarray:
+@njit(cache=True, nogil=True)
+def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
+    """Direct-form-II-transposed filter ``b/a`` (order 1 or 2) of the columns of ``x``.
+
+    ``x`` is row-major ``(N, m)``, the filter starts in the steady state of ``x[0]``
+    (state ``zi * x[0]``, as :func:`core.effects.foh_filter`), and only the increasing rows
+    ``rows`` are written to ``out`` ``(rows.size, m)``. Time is the outer loop so that the
+    ``m`` independent recursions vectorise; the operation order is scipy's ``lfilter``.
+    """
+    m = x.shape[1]
+    order = a.size - 1
+    b0 = b[0]
+    b1 = b[1]
+    a1 = a[1]
+    b2 = b[2] if order == 2 else 0.0
+    a2 = a[2] if order == 2 else 0.0
+    z0 = np.empty(m)
+    z1 = np.zeros(m)
+    for j in range(m):
+        z0[j] = zi[0] * x[0, j]
+        if order == 2:
+            z1[j] = zi[1] * x[0, j]
+    k = 0
+    for i in range(rows[-1] + 1 if rows.size else 0):
+        take = rows[k] == i
+        for j in range(m):
+            xi = x[i, j]
+            yi = b0 * xi + z0[j]
+            if order == 2:
+                z0[j] = z1[j] + xi * b1 - yi * a1
+                z1[j] = xi * b2 - yi * a2
+            else:
+                z0[j] = xi * b1 - yi * a1
+            if take:
+                out[k, j] = yi
+        if take:
+            k += 1
+    return out
+
+
+def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray) -> np.ndarray:
+    """Rows ``rows`` (increasing indices) of the columns of ``x`` passed through the
+    output dynamics ``dyn`` (delay: linear interpolation; lag, resonance: the first-order-
+    hold discretisation of :func:`core.effects.foh_filter`, at rest in the steady state of
+    the first sample). ``x`` is ``(N, m)``; returns ``(rows.size, m)``."""
     if not dyn:
-        return x
+        return x[rows]
     kind = dyn[0]
     if kind == "delay":
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
         f = D - m
-        pad = np.repeat(x[:1], m + 1, axis=0)
-        ext = np.concatenate((pad, x), axis=0)
-        k = np.arange(x.shape[0])
-        return f * ext[k] + (1 - f) * ext[k + 1]
-    # one contiguous line per column for the filters (column-major input is used as is)
-    xt = x.T if x.strides[0] == x.itemsize else np.ascontiguousarray(x.T)
+        # x delayed by D samples, held at x[0] before the start
+        return f * x[np.maximum(rows - m - 1, 0)] + (1 - f) * x[np.maximum(rows - m, 0)]
     if kind == "lag":
-        return foh_filter(xt, [1.0], [dyn[1], 1.0], dt, axis=-1)[0].T
-    if kind == "resonance":
+        num, den = [1.0], [dyn[1], 1.0]
+    elif kind == "resonance":
         w = 2 * np.pi * dyn[1]
-        return foh_filter(xt, [w * w], [1.0, 2 * dyn[2] * w, w * w], dt, axis=-1)[0].T
-    raise ValueError(f"unknown dynamics {kind!r}")
+        num, den = [w * w], [1.0, 2 * dyn[2] * w, w * w]
+    else:
+        raise ValueError(f"unknown dynamics {kind!r}")
+    b, a, zi = _tf_memo(num, den, dt)
+    xc = np.ascontiguousarray(x, dtype=np.float64)
+    return _iir_rows(b, a, zi, xc, rows.astype(np.int64), np.empty((rows.size, xc.shape[1])))
+
+
+def _unconstrained_rss(Xa: np.ndarray) -> float:
+    """Residual sum of squares of the unconstrained least-squares fit of the last column of
+    ``Xa`` on the others: Cholesky of the column-scaled normal equations, or ``lstsq`` when
+    they are ill conditioned (condition number above :data:`core.fitting.gram.COND_LIMIT`)."""
+    A, y = Xa[:, :-1], Xa[:, -1]
+    d = np.sqrt(np.einsum("ij,ij->j", A, A))
+    d[d == 0] = 1.0
+    As = A / d
+    G = As.T @ As
+    sv = np.linalg.eigvalsh(G)
+    if sv[0] > 0 and sv[-1] <= COND_LIMIT * sv[0]:
+        L = np.linalg.cholesky(G)
+        z = np.linalg.solve(L, As.T @ y)
+        w = np.linalg.solve(L.T, z)
+        e = As @ w - y
+    else:
+        e = A @ np.linalg.lstsq(A, y, rcond=None)[0] - y
+    return float(e @ e)
 
 
 def _legendre_cols(t: np.ndarray, deg: int) -> np.ndarray:
@@ -288,29 +354,14 @@ def fit_structure(
     if iterations is None:
         iterations = 3 if needs_x else 1
     x_prev = list(x_init) if x_init is not None else None
-    if rss_only:
-        # fast path: filter only up to the last training row, solve on <= 8000 rows
-        n_tr = sum(int(m.sum()) for m in train)
-        step = max(1, n_tr // 8000)
-        rows = []
-        for m in train:
-            idx = np.flatnonzero(m)
-            keep = np.zeros(int(idx[-1]) + 1 if idx.size else 0, dtype=bool)
-            keep[idx[::step]] = True
-            rows.append(keep)
-    else:
-        # full fit: at most ~15000 training rows (neighbouring samples are nearly redundant)
-        n_tr = sum(int(m.sum()) for m in train)
-        step = max(1, n_tr // 15000)
-        if step == 1:
-            rows = list(train)
-        else:
-            rows = []
-            for m in train:
-                keep = np.zeros(m.size, dtype=bool)
-                keep[np.flatnonzero(m)[::step]] = True
-                rows.append(keep)
-    ys = np.concatenate([rec.y[: m.size][m] for rec, m in zip(records, rows, strict=True)])
+    # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
+    # (neighbouring samples are nearly redundant); every signal is formed only up to the
+    # last of them (the dynamics are causal)
+    n_tr = sum(int(m.sum()) for m in train)
+    step = max(1, n_tr // (8000 if rss_only else 15000))
+    rows = [np.flatnonzero(m)[::step] for m in train]
+    ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
+    ys = np.concatenate([rec.y[idx] for rec, idx in zip(records, rows, strict=True)])
     ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
     yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
     center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
@@ -322,6 +373,17 @@ def fit_structure(
     n_creep = len(s.creep_taus)
     n_bias = nrec if s.offsets else 1
     n_drift = s.drift_degree * nrec
+    # PI-stage columns (play bank, or its reduced basis) through the dynamics at the solved
+    # rows: the same in every refresh of the bilinear regressors
+    pis = []
+    for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
+        P = banks[k][:last] if V is None else cache.projected(
+            banks[k][:last], V, (k, vkey, last, id(V)))
+        pis.append(_dyn_rows(P, s.dynamics, rec.dt, idx))
+    nq = pis[0].shape[1]
+    nM = nq + n_asym + n_creep
+    ncol = nM + n_bias + n_drift
+    n_rows = ys.size
     w = None
     for it in range(iterations):
         if needs_x and x_prev is None:
@@ -329,60 +391,53 @@ def fit_structure(
             sub = s.with_(asymmetry=False, creep_taus=())
             f0 = fit_structure(sub, records, train, cache)
             x_prev = f0.x_pi  # type: ignore[union-attr]
-        X = None  # filled block by block (no intermediate copies)
+        # design matrix with the output as its last column, filled block by block
+        X = np.empty((n_rows, ncol + 1))
         o = 0
-        n_rows = sum(int(m.sum()) for m in rows)
-        for k, (rec, m) in enumerate(zip(records, rows, strict=True)):
-            last = m.size
-            cols = [banks[k][:last] if V is None else cache.projected(
-                banks[k][:last], V, (k, vkey, last, id(V)))]
+        for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
+            nm = idx.size
+            blk = X[o : o + nm]
+            blk[:, :nq] = pis[k]
             if needs_x:
                 x = x_prev[k][:last]  # type: ignore[index]
+                cols = []
                 if s.asymmetry:
                     q = (x - center) / half
                     cols.append(np.column_stack((q**2, q**3)))
                 if s.creep_taus:
-                    L = np.column_stack(
+                    cols.append(np.column_stack(
                         [foh_filter(x, [1.0], [tau, 1.0], rec.dt)[0] - x for tau in s.creep_taus]
-                    )
-                    cols.append(L)
-            M = cols[0] if len(cols) == 1 else np.column_stack(cols)
-            if s.dynamics:
-                M = _dyn_filter(M, s.dynamics, rec.dt)
-            nm = int(m.sum())
-            nM = M.shape[1]
-            if X is None:
-                X = np.empty((n_rows, nM + n_bias + n_drift))
-            blk = X[o : o + nm]
-            blk[:, :nM] = M[m]
-            blk[:, nM:] = 0.0
+                    ))
+                blk[:, nq:nM] = _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols),
+                                          s.dynamics, rec.dt, idx)
+            blk[:, nM:ncol] = 0.0
             blk[:, nM + (k if s.offsets else 0)] = 1.0
             if s.drift_degree:
                 c0 = nM + n_bias + k * s.drift_degree
-                blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(
-                    rec.t, s.drift_degree
-                )[:last][m]
+                blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(rec.t, s.drift_degree)[idx]
+            blk[:, ncol] = ys[o : o + nm]
             o += nm
-        assert X is not None
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
-            w = np.linalg.lstsq(X, ys, rcond=None)[0]
-            return float(np.sum((X @ w - ys) ** 2))
+            return _unconstrained_rss(X)
         # an invertible PI stage (as the fitting's constraint_transform): free weights solve
         # for the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns
         # X_j - X_{j+1}), classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
-        lower = np.full(X.shape[1], -np.inf)
+        lower = np.full(ncol, -np.inf)
         lower[:nb] = eps
         if s.free_weights:
             X[:, : nb - 1] -= X[:, 1:nb]
         else:
             lower[1:nb] = 0.0
         lower[nb + n_asym : nb + n_asym + n_creep] = 0.0
-        # the fitting's constrained solver on the triangular factor of [X, y]
-        R = np.linalg.qr(np.column_stack((X, ys)), mode="r")
-        w = solve_constrained(lower, factor=R).theta
+        # the fitting's constrained solver, as core.fitting does it: from the augmented Gram
+        # matrix, or from the triangular factor of [X, y] when that is ill conditioned
+        sol = solve_constrained(lower, gram=X.T @ X)
+        if sol.cond > COND_LIMIT:
+            sol = solve_constrained(lower, factor=np.linalg.qr(X, mode="r"))
+        w = sol.theta
         if rss_only and it == iterations - 1:
-            return float(np.sum((X @ w - ys) ** 2))
+            return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         if s.free_weights:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
