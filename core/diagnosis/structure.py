@@ -189,10 +189,10 @@ class _Cache:
         if B is None:
             z0 = play_bank(np.asarray(hist), r)[1] if hist else np.zeros(r.size)
             if beta is None:
-                P = play_bank(rec.u, r, z0)[0]
+                # [u, plays] in one pass: a play of threshold 0 outputs its input exactly
+                B = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
             else:
-                P = rd_play_bank(rec.u, r, beta, rec.dt, z0)[0]
-            B = np.column_stack((rec.u, P))
+                B = np.column_stack((rec.u, rd_play_bank(rec.u, r, beta, rec.dt, z0)[0]))
             if len(self.d) >= 6:
                 self.d.pop(next(iter(self.d)))
             self.d[key] = B
@@ -283,19 +283,18 @@ def _unconstrained_rss(Xa: np.ndarray) -> float:
     """Residual sum of squares of the unconstrained least-squares fit of the last column of
     ``Xa`` on the others: Cholesky of the column-scaled normal equations, or ``lstsq`` when
     they are ill conditioned (condition number above :data:`core.fitting.gram.COND_LIMIT`)."""
-    A, y = Xa[:, :-1], Xa[:, -1]
-    d = np.sqrt(np.einsum("ij,ij->j", A, A))
+    G = Xa.T @ Xa
+    p = G.shape[0] - 1
+    d = np.sqrt(np.diag(G)[:p])
     d[d == 0] = 1.0
-    As = A / d
-    G = As.T @ As
-    sv = np.linalg.eigvalsh(G)
-    if sv[0] > 0 and sv[-1] <= COND_LIMIT * sv[0]:
-        L = np.linalg.cholesky(G)
-        z = np.linalg.solve(L, As.T @ y)
-        w = np.linalg.solve(L.T, z)
-        e = As @ w - y
+    Gs = G[:p, :p] / d[:, None] / d[None, :]
+    ev = np.linalg.eigvalsh(Gs)
+    if ev[0] > 0 and ev[-1] <= COND_LIMIT * ev[0]:
+        L = np.linalg.cholesky(Gs)
+        w = np.linalg.solve(L.T, np.linalg.solve(L, G[:p, p] / d)) / d
     else:
-        e = A @ np.linalg.lstsq(A, y, rcond=None)[0] - y
+        w = np.linalg.lstsq(Xa[:, :p], Xa[:, p], rcond=None)[0]
+    e = Xa @ np.append(w, -1.0)
     return float(e @ e)
 
 
