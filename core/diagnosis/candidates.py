@@ -47,11 +47,12 @@ def _scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit) -> tuple[f
     else:
         best = float(grid[i])
     # profile curvature in log space -> 1-sigma (inflated for autocorrelation)
-    lb = np.log(best)
-    h = 0.1
-    f0, fp, fm = f(lb), f(lb + h), f(lb - h)
-    curv = (fp - 2 * f0 + fm) / h**2
-    info = {"profile_curvature": curv, "rss": f0}
+    curv = np.nan
+    if ctx.uncertainty:
+        lb = np.log(best)
+        h = 0.1
+        curv = (f(lb + h) - 2 * f(lb) + f(lb - h)) / h**2
+    info = {"profile_curvature": curv}
     fit = ctx.fit(make(best), cur)
     return best, fit, info
 
@@ -184,8 +185,8 @@ def _build_resonance(ctx: FitContext, cur: Fit) -> Candidate | None:
         float(best[1]), float(best[2]))
     fit = ctx.fit(s.with_(dynamics=("resonance", f_, z_)), cur)
     # 1-D curvatures for rough sigmas
-    unc = {}
-    for j, key, val in ((0, "freq_hz", f_), (1, "damping", z_)):
+    unc: dict = {}
+    for j, key, val in ((0, "freq_hz", f_), (1, "damping", z_)) if ctx.uncertainty else ():
         h = 0.05
         p = np.array([np.log(f_), np.log(z_)])
         pp, pm = p.copy(), p.copy()

@@ -38,6 +38,9 @@ class FitContext:
         self.folds: list[tuple[list[np.ndarray], list[np.ndarray]]] = list(folds or [])
         #: strict hold-out: decisions rest on the folds only, the test rows are only scored
         self.strict = False
+        #: estimate the candidates' parameter uncertainties (profile curvature); off where
+        #: only the parameters are used (cross-fitting folds)
+        self.uncertainty = True
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         """Fit ``s`` on the training rows (bilinear regressors started from ``cur``).

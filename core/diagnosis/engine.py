@@ -132,6 +132,7 @@ def _fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: in
     for tr_f, blk in folds:
         fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
         fc.iterations = iterations
+        fc.uncertainty = False  # only the folds' parameters are used
         cur_f = fc.fit(cur.structure, cur)
         yield fc, cur_f, build_candidate(fc, name, cur_f)
 
