@@ -183,16 +183,25 @@ class _Cache:
             self.v[key] = V
         return V
 
-    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None):
+    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
+             upto: int | None = None) -> np.ndarray:
+        """``[u, plays]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``.
+
+        With ``upto``, only the first ``upto`` rows are needed: a bank not in the cache is then
+        computed that far and not stored (a search over histories meets each one once).
+        """
         key = (k, hist, beta, r.size, float(r[-1]))
         B = self.d.get(key)
         if B is None:
+            u = rec.u if upto is None else rec.u[:upto]
             z0 = play_bank(np.asarray(hist), r)[1] if hist else np.zeros(r.size)
             if beta is None:
                 # [u, plays] in one pass: a play of threshold 0 outputs its input exactly
-                B = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
+                B = play_bank(u, np.r_[0.0, r], np.r_[0.0, z0])[0]
             else:
-                B = np.column_stack((rec.u, rd_play_bank(rec.u, r, beta, rec.dt, z0)[0]))
+                B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
+            if upto is not None:
+                return B
             if len(self.d) >= 6:
                 self.d.pop(next(iter(self.d)))
             self.d[key] = B
@@ -253,6 +262,20 @@ def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True, nogil=True)
+def _delay_rows(x, rows, m, f, out):  # pragma: no cover - compiled
+    """Rows ``rows`` of ``x`` delayed by ``m + f`` samples (``0 <= f < 1``), linearly
+    interpolated and held at ``x[0]`` before the start:
+    ``out[k] = f x[rows[k] - m - 1] + (1 - f) x[rows[k] - m]``."""
+    g = 1 - f
+    for k in range(rows.size):
+        i1 = max(rows[k] - m - 1, 0)
+        i2 = max(rows[k] - m, 0)
+        for j in range(x.shape[1]):
+            out[k, j] = f * x[i1, j] + g * x[i2, j]
+    return out
+
+
 def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray) -> np.ndarray:
     """Rows ``rows`` (increasing indices) of the columns of ``x`` passed through the
     output dynamics ``dyn`` (delay: linear interpolation; lag, resonance: the first-order-
@@ -264,9 +287,9 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray) -> np.ndar
     if kind == "delay":
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
-        f = D - m
-        # x delayed by D samples, held at x[0] before the start
-        return f * x[np.maximum(rows - m - 1, 0)] + (1 - f) * x[np.maximum(rows - m, 0)]
+        xc = np.ascontiguousarray(x, dtype=np.float64)
+        return _delay_rows(xc, rows.astype(np.int64), m, D - m,
+                           np.empty((rows.size, xc.shape[1])))
     if kind == "lag":
         num, den = [1.0], [dyn[1], 1.0]
     elif kind == "resonance":
@@ -342,8 +365,16 @@ def fit_structure(
     cache = cache or _Cache()
     r = np.asarray(s.thresholds)
     nrec = len(records)
+    # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
+    # (neighbouring samples are nearly redundant); every signal is formed only up to the
+    # last of them (the dynamics are causal)
+    n_tr = sum(int(m.sum()) for m in train)
+    step = max(1, n_tr // (8000 if rss_only else 15000))
+    rows = [np.flatnonzero(m)[::step] for m in train]
+    ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
     banks = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s) for k, rec in enumerate(records)
+        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=ends[k] if rss_only else None)
+        for k, rec in enumerate(records)
     ]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
@@ -353,13 +384,6 @@ def fit_structure(
     if iterations is None:
         iterations = 3 if needs_x else 1
     x_prev = list(x_init) if x_init is not None else None
-    # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
-    # (neighbouring samples are nearly redundant); every signal is formed only up to the
-    # last of them (the dynamics are causal)
-    n_tr = sum(int(m.sum()) for m in train)
-    step = max(1, n_tr // (8000 if rss_only else 15000))
-    rows = [np.flatnonzero(m)[::step] for m in train]
-    ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
     ys = np.concatenate([rec.y[idx] for rec, idx in zip(records, rows, strict=True)])
     ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
     yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
@@ -376,6 +400,9 @@ def fit_structure(
     # rows: the same in every refresh of the bilinear regressors
     pis = []
     for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
+        if V is not None and not s.dynamics:
+            pis.append(banks[k][idx] @ V)  # only the solved rows are needed
+            continue
         P = banks[k][:last] if V is None else cache.projected(
             banks[k][:last], V, (k, vkey, last, id(V)))
         pis.append(_dyn_rows(P, s.dynamics, rec.dt, idx))
