@@ -276,20 +276,24 @@ def _delay_rows(x, rows, m, f, out):  # pragma: no cover - compiled
     return out
 
 
-def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray) -> np.ndarray:
+def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
+              out: np.ndarray | None = None) -> np.ndarray:
     """Rows ``rows`` (increasing indices) of the columns of ``x`` passed through the
     output dynamics ``dyn`` (delay: linear interpolation; lag, resonance: the first-order-
     hold discretisation of :func:`core.effects.foh_filter`, at rest in the steady state of
-    the first sample). ``x`` is ``(N, m)``; returns ``(rows.size, m)``."""
+    the first sample). ``x`` is ``(N, m)``; written to ``out`` ``(rows.size, m)`` (a new
+    array by default), which is returned."""
+    if out is None:
+        out = np.empty((rows.size, x.shape[1]))
     if not dyn:
-        return x[rows]
+        out[...] = x[rows]
+        return out
     kind = dyn[0]
+    xc = np.ascontiguousarray(x, dtype=np.float64)
     if kind == "delay":
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
-        xc = np.ascontiguousarray(x, dtype=np.float64)
-        return _delay_rows(xc, rows.astype(np.int64), m, D - m,
-                           np.empty((rows.size, xc.shape[1])))
+        return _delay_rows(xc, rows.astype(np.int64), m, D - m, out)
     if kind == "lag":
         num, den = [1.0], [dyn[1], 1.0]
     elif kind == "resonance":
@@ -298,8 +302,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray) -> np.ndar
     else:
         raise ValueError(f"unknown dynamics {kind!r}")
     b, a, zi = _tf_memo(num, den, dt)
-    xc = np.ascontiguousarray(x, dtype=np.float64)
-    return _iir_rows(b, a, zi, xc, rows.astype(np.int64), np.empty((rows.size, xc.shape[1])))
+    return _iir_rows(b, a, zi, xc, rows.astype(np.int64), out)
 
 
 def _unconstrained_rss(Xa: np.ndarray) -> float:
@@ -396,20 +399,42 @@ def fit_structure(
     n_creep = len(s.creep_taus)
     n_bias = nrec if s.offsets else 1
     n_drift = s.drift_degree * nrec
-    # PI-stage columns (play bank, or its reduced basis) through the dynamics at the solved
-    # rows: the same in every refresh of the bilinear regressors
-    pis = []
-    for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
-        if V is not None and not s.dynamics:
-            pis.append(banks[k][idx] @ V)  # only the solved rows are needed
-            continue
-        P = banks[k][:last] if V is None else cache.projected(
-            banks[k][:last], V, (k, vkey, last, id(V)))
-        pis.append(_dyn_rows(P, s.dynamics, rec.dt, idx))
-    nq = pis[0].shape[1]
+    dts = [rec.dt for rec in records]
+    nq = r.size + 1 if V is None else V.shape[1]
     nM = nq + n_asym + n_creep
     ncol = nM + n_bias + n_drift
-    n_rows = ys.size
+    # design matrix with the output as its last column, filled block by block; the PI-stage
+    # columns (play bank, or its reduced basis, through the dynamics), bias, drift and output
+    # are the same in every refresh of the bilinear regressors, so they are filled once
+    X = np.empty((ys.size, ncol + 1))
+    blocks = []
+    o = 0
+    for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
+        blk = X[o : o + idx.size]
+        blocks.append(blk)
+        if V is not None and not s.dynamics:
+            blk[:, :nq] = banks[k][idx] @ V  # only the solved rows are needed
+        else:
+            P = banks[k][:last] if V is None else cache.projected(
+                banks[k][:last], V, (k, vkey, last, id(V)))
+            _dyn_rows(P, s.dynamics, dts[k], idx, out=blk[:, :nq])
+        blk[:, nM:ncol] = 0.0
+        blk[:, nM + (k if s.offsets else 0)] = 1.0
+        if s.drift_degree:
+            c0 = nM + n_bias + k * s.drift_degree
+            blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(rec.t, s.drift_degree)[idx]
+        blk[:, ncol] = ys[o : o + idx.size]
+        o += idx.size
+    # an invertible PI stage (as the fitting's constraint_transform): free weights solve for
+    # the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns X_j - X_{j+1}),
+    # classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
+    lower = np.full(ncol, -np.inf)
+    lower[:nb] = eps
+    if s.free_weights and V is None:
+        X[:, : nb - 1] -= X[:, 1:nb]
+    elif not s.free_weights:
+        lower[1:nb] = 0.0
+    lower[nb + n_asym : nb + n_asym + n_creep] = 0.0
     w = None
     for it in range(iterations):
         if needs_x and x_prev is None:
@@ -417,14 +442,8 @@ def fit_structure(
             sub = s.with_(asymmetry=False, creep_taus=())
             f0 = fit_structure(sub, records, train, cache)
             x_prev = f0.x_pi  # type: ignore[union-attr]
-        # design matrix with the output as its last column, filled block by block
-        X = np.empty((n_rows, ncol + 1))
-        o = 0
-        for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
-            nm = idx.size
-            blk = X[o : o + nm]
-            blk[:, :nq] = pis[k]
-            if needs_x:
+        if needs_x:
+            for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
                 x = x_prev[k][:last]  # type: ignore[index]
                 cols = []
                 if s.asymmetry:
@@ -432,30 +451,13 @@ def fit_structure(
                     cols.append(np.column_stack((q**2, q**3)))
                 if s.creep_taus:
                     cols.append(np.column_stack(
-                        [foh_filter(x, [1.0], [tau, 1.0], rec.dt)[0] - x for tau in s.creep_taus]
+                        [foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x for tau in s.creep_taus]
                     ))
-                blk[:, nq:nM] = _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols),
-                                          s.dynamics, rec.dt, idx)
-            blk[:, nM:ncol] = 0.0
-            blk[:, nM + (k if s.offsets else 0)] = 1.0
-            if s.drift_degree:
-                c0 = nM + n_bias + k * s.drift_degree
-                blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(rec.t, s.drift_degree)[idx]
-            blk[:, ncol] = ys[o : o + nm]
-            o += nm
+                _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
+                          dts[k], idx, out=blocks[k][:, nq:nM])
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return _unconstrained_rss(X)
-        # an invertible PI stage (as the fitting's constraint_transform): free weights solve
-        # for the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns
-        # X_j - X_{j+1}), classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
-        lower = np.full(ncol, -np.inf)
-        lower[:nb] = eps
-        if s.free_weights:
-            X[:, : nb - 1] -= X[:, 1:nb]
-        else:
-            lower[1:nb] = 0.0
-        lower[nb + n_asym : nb + n_asym + n_creep] = 0.0
         # the fitting's constrained solver, as core.fitting does it: from the augmented Gram
         # matrix, or from the triangular factor of [X, y] when that is ill conditioned
         sol = solve_constrained(lower, gram=X.T @ X)
@@ -484,7 +486,7 @@ def fit_structure(
     ntr = 0
     for k, (rec, m) in enumerate(zip(records, train, strict=True)):
         model = build_model(s, k, p0, pw, asym, center, half, creep, bias, drift, rec)
-        pred = model(rec.u, dt=rec.dt)
+        pred = model(rec.u, dt=dts[k])
         models.append(model)
         preds.append(pred)
         xs.append(banks[k] @ np.concatenate(([p0], pw)))
