@@ -5,7 +5,8 @@ parameters (delay, time constants, ω_n, ζ, β, virtual extrema). For fixed non
 parameters every structure is linear in its weights: the play weights ``p0, p_i >= 0``, the
 bias, and the effect weights (creep ``c_j >= 0``, asymmetry and drift coefficients), because
 linear dynamics after the PI commute with the weighted sum. :func:`fit_structure` solves that
-constrained linear problem on the training rows (NNLS after a QR reduction) and builds the exact
+constrained linear problem on the training rows (:func:`core.fitting.gram.solve_constrained` on the
+augmented Gram matrix, or on its QR factor when that is ill conditioned) and builds the exact
 :class:`~core.base.Chain`; predictions always come from simulating that chain, so the numbers
 the diagnosis reports are the numbers ``hyst simulate`` reproduces.
 """
