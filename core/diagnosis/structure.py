@@ -374,10 +374,13 @@ def fit_structure(
     # last of them (the dynamics are causal)
     n_tr = sum(int(m.sum()) for m in train)
     step = max(1, n_tr // (8000 if rss_only else 15000))
-    rows = [np.flatnonzero(m)[::step] for m in train]
+    idx_all = [np.flatnonzero(m) for m in train]
+    rows = [idx[::step] for idx in idx_all]
     ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
+    # the reduced basis is taken on every training row: the bank reaches the last of them
+    upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
     banks = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=ends[k] if rss_only else None)
+        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None)
         for k, rec in enumerate(records)
     ]
     needs_x = s.asymmetry or bool(s.creep_taus)

@@ -217,3 +217,26 @@ def test_benchmark_subset_creep_is_not_mistaken_for_drift() -> None:
     assert res.effects[0].parameters["gamma_per_decade"] == pytest.approx(0.0015, rel=0.5)
     # sign locking: the residual trend after each hold follows the sign of the step
     assert res.effects[0].discriminators["trend_follows_step_sign"] >= 0.8
+
+
+def test_ranking_solve_of_a_new_history_or_rate_covers_every_training_row() -> None:
+    """The ranking solves of a history or rate not in the play-bank cache build the bank only
+    up to the last training row. With 16 000 training rows or more the solved rows are
+    subsampled and the reduced basis is taken on a coarser subsample of the training rows,
+    which can reach past the last solved row: the bank must cover it, and the RSS equal the one
+    computed from the full bank that a structure fit leaves in the cache."""
+    from core.diagnosis.structure import Structure, _Cache
+
+    t = np.arange(36001) * 1e-3
+    u = 40.0 * np.sin(2 * np.pi * 0.5 * t) * (1 - np.exp(-t))
+    rec = Recording(t, u, PIModel(0.5, [4.0, 12.0], [0.4, 0.2])(u), "sine")
+    # 26 001 rows: every 3rd is solved on (the last, 26 000, is not), every 13th spans the basis
+    train = [t <= 26.0005]
+    r = tuple(float(v) for v in baseline_thresholds([rec], train, 8))
+    x_init = [0.8 * u]
+    for s in (Structure(r, ((30.0, -10.0),)), Structure(r, ((),), beta_s=1e-3)):
+        fresh = fit_structure(s, [rec], train, _Cache(), x_init, iterations=1, rss_only=True)
+        cache = _Cache()
+        fit_structure(s, [rec], train, cache)  # leaves the full bank in the cache
+        cached = fit_structure(s, [rec], train, cache, x_init, iterations=1, rss_only=True)
+        assert fresh == pytest.approx(cached, rel=1e-12)
