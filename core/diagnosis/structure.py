@@ -286,7 +286,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     array by default), which is returned."""
     if out is None:
         out = np.empty((rows.size, x.shape[1]))
-    if not dyn:
+    if not dyn or not rows.size:
         out[...] = x[rows]
         return out
     kind = dyn[0]
