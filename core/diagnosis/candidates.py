@@ -11,11 +11,13 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..deadzone import DeadZoneMap
 from ..exceptions import ParameterError
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 from .context import FitContext
-from .structure import Fit
+from .shapes import apply_shape, dead_zone_stage, describe_shape, shape_thresholds, tanh_stage
+from .structure import Fit, Structure
 
 __all__ = ["BUILDERS", "Candidate", "build_candidate", "excitation_hz"]
 
@@ -264,6 +266,147 @@ def _build_initial_memory(ctx: FitContext, cur: Fit) -> Candidate | None:
     return initial_memory_search(ctx, cur)
 
 
+# ----------------------------------------------------------------------------- loop shapes
+def _shape_input_range(ctx: FitContext, shape: tuple) -> tuple[float, float]:
+    """Range of the current play-bank input (the input through ``shape``) on the training
+    rows."""
+    vs = [apply_shape(shape, r.u)[m] for r, m in zip(ctx.records, ctx.train, strict=True)
+          if m.any()]
+    return min(float(v.min()) for v in vs), max(float(v.max()) for v in vs)
+
+
+def _with_stage(ctx: FitContext, s: Structure, stage: tuple) -> Structure:
+    """``s`` with ``stage`` added to its loop shape and the play grid re-placed (same number
+    of operators) on the mapped input. A dead zone acts on the input itself, first; a
+    saturation last (a thresholded, saturating drive: ``w = tanh(a1 γ(u) + a2)``)."""
+    shape = (stage, *s.shape) if stage[0] == "deadzone" else (*s.shape, stage)
+    r = shape_thresholds(shape, ctx.records, ctx.train, len(s.thresholds))
+    return s.with_(shape=shape, thresholds=tuple(float(x) for x in r))
+
+
+def _nelder_mead(f, x0: np.ndarray, step: float, maxfev: int) -> tuple[np.ndarray, float]:
+    import scipy.optimize as so
+
+    x0 = np.asarray(x0, dtype=float)
+    simplex = np.vstack([x0] + [x0 + step * np.eye(x0.size)[i] for i in range(x0.size)])
+    r = so.minimize(f, x0, method="Nelder-Mead",
+                    options={"maxfev": maxfev, "initial_simplex": simplex, "xatol": 1e-3,
+                             "fatol": 1e-12})
+    return np.asarray(r.x), float(r.fun)
+
+
+def _build_saturation(ctx: FitContext, cur: Fit) -> Candidate | None:
+    """Saturation: the plays driven by ``w = tanh(a1 v + a2)`` (single-branch tanh envelope
+    of the tanh GPI; ``v`` = the input, or the output of a dead zone already found).
+
+    VarPro over the envelope's scale and centre in normalised input coordinates
+    ``a1 v + a2 = e^phi0 (v - v_c) / v_s + phi1`` (the parametrisation of
+    :class:`core.fitting.TanhGPIRegressor`): a 5 x 5 grid, then Nelder-Mead.
+    """
+    s = cur.structure
+    if any(st[0] == "tanh" for st in s.shape):
+        return None
+    lo, hi = _shape_input_range(ctx, s.shape)
+    if not hi > lo:
+        return None
+    vc, vs = 0.5 * (lo + hi), 0.5 * (hi - lo)
+
+    def make(phi) -> Structure:
+        a1 = float(np.exp(phi[0])) / vs
+        return _with_stage(ctx, s, tanh_stage(a1, float(phi[1]) - a1 * vc))
+
+    memo: dict[tuple[float, float], float] = {}
+
+    def f(phi) -> float:
+        key = (round(float(phi[0]), 6), round(float(phi[1]), 6))
+        if not (np.log(0.05) <= key[0] <= np.log(8.0) and -2.5 <= key[1] <= 2.5):
+            return np.inf
+        if key not in memo:
+            memo[key] = ctx.rss(make(key), cur)
+        return memo[key]
+
+    grid = [(p0, p1) for p0 in np.log([0.3, 0.7, 1.2, 2.0, 3.5])
+            for p1 in (-1.0, -0.5, 0.0, 0.5, 1.0)]
+    start = min(grid, key=f)
+    x, _ = _nelder_mead(f, np.asarray(start), 0.2, 30)
+    phi = x if f(x) <= f(start) else np.asarray(start)
+    st = make(phi)
+    fit = ctx.fit(st, cur)
+    stage = st.shape[-1]
+    return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
+
+
+def _piecewise_map(breaks: Sequence[float], slopes: Sequence[float]) -> DeadZoneMap:
+    """Continuous piecewise-linear map with ``slopes[j]`` on the j-th segment between the
+    sorted ``breaks`` (one more slope than breaks), as a dead-zone superposition (``w(0) = 0``,
+    the slope of the segment holding 0 is its linear weight)."""
+    b = np.asarray(breaks, dtype=float)
+    sl = np.asarray(slopes, dtype=float)
+    j0 = int(np.searchsorted(b, 0.0, side="right"))  # segment holding 0
+    rho, eta = [0.0], [float(sl[j0])]
+    for j, bj in enumerate(b):
+        if bj > 0:
+            rho.append(float(bj))
+            eta.append(float(sl[j + 1] - sl[j]))
+        elif bj < 0:
+            rho.append(float(bj))
+            eta.append(float(sl[j] - sl[j + 1]))
+    order = np.argsort(rho)
+    return DeadZoneMap(np.asarray(rho)[order], np.asarray(eta)[order])
+
+
+def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
+    """Threshold / dead band: the plays driven by ``w = γ(u)``, a dead-zone superposition
+    with two breakpoints ``d_lo < d_hi`` and the slopes ``s_lo, 1, s_hi`` of its three
+    segments (a dead band is a segment of small slope; one-sided when only one side has one).
+
+    VarPro over ``(d_lo, d_hi, log s_lo, log s_hi)``: each side alone on a grid of
+    breakpoints and slopes, the best two combined, then Nelder-Mead. The map is strictly
+    increasing (slopes in [1/50, 50] of the middle segment), so the dead-zone GPI inverts.
+    """
+    s = cur.structure
+    if any(st[0] == "deadzone" for st in s.shape):
+        return None
+    lo, hi = _shape_input_range(ctx, ())  # the dead zone acts on the input itself
+    span = hi - lo
+    if not span > 0:
+        return None
+    lim = np.log(50.0)
+
+    def gamma(x) -> DeadZoneMap:
+        q = np.sort(np.clip(np.asarray(x[:2], dtype=float), 0.02, 0.98))
+        if q[1] - q[0] < 0.02:
+            q[1] = q[0] + 0.02
+        d = lo + span * q
+        if np.any(np.abs(d) < 1e-9 * span):  # 0 is the map's own anchor, not a breakpoint
+            d = d + 1e-6 * span
+        return _piecewise_map(d, [float(np.exp(x[2])), 1.0, float(np.exp(x[3]))])
+
+    memo: dict[tuple[float, ...], float] = {}
+
+    def f(x) -> float:
+        key = tuple(round(float(v), 6) for v in x)
+        if not (0.0 < key[0] < 1.0 and 0.0 < key[1] < 1.0 and abs(key[2]) <= lim
+                and abs(key[3]) <= lim):
+            return np.inf
+        if key not in memo:
+            memo[key] = ctx.rss(_with_stage(ctx, s, dead_zone_stage(gamma(key))), cur)
+        return memo[key]
+
+    slopes = np.log([0.05, 0.3, 3.0, 20.0])
+    low = min(((q, 0.9, ls, 0.0) for q in (0.15, 0.3, 0.45) for ls in slopes), key=f)
+    high = min(((0.1, q, 0.0, ls) for q in (0.55, 0.7, 0.85) for ls in slopes), key=f)
+    both = (low[0], high[1], low[2], high[3])
+    start = min((low, high, both), key=f)
+    x, _ = _nelder_mead(f, np.asarray(start), 0.1, 40)
+    x = x if f(x) <= f(start) else np.asarray(start)
+    g = gamma(x)
+    st = _with_stage(ctx, s, dead_zone_stage(g))
+    fit = ctx.fit(st, cur)
+    return fit, {"thresholds": g.thresholds.tolist(), "weights": g.weights.tolist(),
+                 **describe_shape(st.shape[0], lo, hi)}, {}
+
+
 #: Candidate builders by effect name (each fits its effect on top of ``cur``).
 BUILDERS: dict[str, Callable[[FitContext, Fit], Candidate | None]] = {
     "delay": _build_delay,
@@ -275,6 +418,8 @@ BUILDERS: dict[str, Callable[[FitContext, Fit], Candidate | None]] = {
     "asymmetry": _build_asymmetry,
     "offset": _build_offset,
     "initial-memory": _build_initial_memory,
+    "saturation": _build_saturation,
+    "dead-zone": _build_dead_zone,
 }
 
 

@@ -40,6 +40,7 @@ from ..fitting.thresholds import place_thresholds as fit_thresholds
 from ..operators import play_bank
 from ..pi import PIModel
 from ..recordings import Recording
+from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
 
@@ -101,11 +102,12 @@ class Structure:
     drift_degree: int = 0
     offsets: bool = False
     free_weights: bool = False
+    shape: tuple = ()
 
     @property
     def effects(self) -> list[str]:
         """Names of the effects switched on, in pipeline order."""
-        out = []
+        out = shape_effects(self.shape)
         if any(self.history):
             out.append("initial-memory")
         if self.beta_s is not None:
@@ -181,16 +183,20 @@ class _Cache:
             self.v[key] = V
         return V
 
-    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None):
-        key = (k, hist, beta, r.size, float(r[-1]))
+    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
+             shape: tuple = ()):
+        """``[w, plays(w)]`` of recording ``k``, ``w`` = the input through the loop shape."""
+        key = (k, hist, beta, r.size, float(r[-1]), shape)
         B = self.d.get(key)
         if B is None:
-            z0 = play_bank(np.asarray(hist), r)[1] if hist else np.zeros(r.size)
+            u = apply_shape(shape, rec.u) if shape else rec.u
+            z0 = (play_bank(apply_shape(shape, np.asarray(hist)), r)[1] if hist
+                  else np.zeros(r.size))
             if beta is None:
-                P = play_bank(rec.u, r, z0)[0]
+                P = play_bank(u, r, z0)[0]
             else:
-                P = rd_play_bank(rec.u, r, beta, rec.dt, z0)[0]
-            B = np.column_stack((rec.u, P))
+                P = rd_play_bank(u, r, beta, rec.dt, z0)[0]
+            B = np.column_stack((u, P))
             if len(self.d) >= 6:
                 self.d.pop(next(iter(self.d)))
             self.d[key] = B
@@ -278,11 +284,11 @@ def fit_structure(
     r = np.asarray(s.thresholds)
     nrec = len(records)
     banks = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s) for k, rec in enumerate(records)
+        cache.bank(k, rec, r, s.history[k], s.beta_s, s.shape) for k, rec in enumerate(records)
     ]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
-    vkey = (s.history, s.beta_s, r.size, float(r[-1]))
+    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape)
     if rss_only and reduce:
         V = cache.basis(banks, train, vkey)
     if iterations is None:
@@ -314,8 +320,9 @@ def fit_structure(
     ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
     yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
     center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
-    ulo = min(float(rec.u[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
-    uhi = max(float(rec.u[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
+    # input range of the play bank (the loop-shape map's output when there is one)
+    ulo = min(float(B[: m.size, 0][m].min()) for B, m in zip(banks, train, strict=True) if m.any())
+    uhi = max(float(B[: m.size, 0][m].max()) for B, m in zip(banks, train, strict=True) if m.any())
     eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     nb = r.size + 1
     n_asym = 2 if s.asymmetry else 0
@@ -448,7 +455,13 @@ def build_model(
     else:
         hyst = RateDependentPI(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0),
                                s.beta_s)
-    if s.history[k]:
+    if s.shape:
+        # the plays run on the mapped input: their initial memory is the mapped history
+        if s.history[k]:
+            hyst = InitialMemory(hyst, apply_shape(s.shape, np.asarray(s.history[k]))
+                                 ).with_state()
+        hyst = hysteresis_model(s.shape, hyst)
+    elif s.history[k]:
         hyst = InitialMemory(hyst, list(s.history[k]))
     stages: list[Model] = [hyst]
     if s.asymmetry:
