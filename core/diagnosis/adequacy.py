@@ -196,11 +196,12 @@ def assess(
     from .shapes import SHAPE_EFFECTS
 
     shape = [e for e in found if e in SHAPE_EFFECTS.values()]
-    with_shape = (f" with the loop shape the search found ({', '.join(shape)})" if shape
+    with_shape = (f" (with the loop shape the search found: {', '.join(shape)})" if shape
                   else "")
     if ratio <= INADEQUATE_RATIO:
         return Adequacy(True, rmse, noise_rms, pct, scored, (), (
-            f"the final residual{with_shape} ({rmse:.4g}, {pct:.3f} % of range, "
+            f"the final model{with_shape} is adequate: its residual ({rmse:.4g}, "
+            f"{pct:.3f} % of range, "
             f"{ratio:.1f} times the floor) is at the white-noise floor ({noise_rms:.3g}): no "
             "missing physics left to find in these recordings"))
     shapes: list[LoopShapeFit] = []

@@ -16,7 +16,14 @@ from ..exceptions import ParameterError
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 from .context import FitContext
-from .shapes import apply_shape, dead_zone_stage, describe_shape, shape_thresholds, tanh_stage
+from .shapes import (
+    DEAD_BAND_SLOPE,
+    apply_shape,
+    dead_zone_stage,
+    describe_shape,
+    shape_thresholds,
+    tanh_stage,
+)
 from .structure import Fit, Structure
 
 __all__ = ["BUILDERS", "Candidate", "build_candidate", "excitation_hz"]
@@ -306,6 +313,19 @@ def _build_saturation(ctx: FitContext, cur: Fit) -> Candidate | None:
     s = cur.structure
     if any(st[0] == "tanh" for st in s.shape):
         return None
+    got = _tanh_search(ctx, s, cur)
+    if got is None:
+        return None
+    st, lo, hi = got
+    fit = ctx.fit(st, cur)
+    stage = st.shape[-1]
+    return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
+
+
+def _tanh_search(ctx: FitContext, s: Structure, cur: Fit
+                 ) -> tuple[Structure, float, float] | None:
+    """``s`` with the best tanh stage appended (see :func:`_build_saturation`), and the
+    range of the tanh's input on the training rows."""
     lo, hi = _shape_input_range(ctx, s.shape)
     if not hi > lo:
         return None
@@ -330,10 +350,7 @@ def _build_saturation(ctx: FitContext, cur: Fit) -> Candidate | None:
     start = min(grid, key=f)
     x, _ = _nelder_mead(f, np.asarray(start), 0.2, 30)
     phi = x if f(x) <= f(start) else np.asarray(start)
-    st = make(phi)
-    fit = ctx.fit(st, cur)
-    stage = st.shape[-1]
-    return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
+    return make(phi), lo, hi
 
 
 def _piecewise_map(breaks: Sequence[float], slopes: Sequence[float]) -> DeadZoneMap:
@@ -355,56 +372,81 @@ def _piecewise_map(breaks: Sequence[float], slopes: Sequence[float]) -> DeadZone
     return DeadZoneMap(np.asarray(rho)[order], np.asarray(eta)[order])
 
 
+#: Slope range of a dead band relative to the rest of the input map (a flat dead band is
+#: slope 0; the lower bound keeps the map strictly increasing, so the model inverts).
+DEAD_BAND_SLOPES = (0.01, DEAD_BAND_SLOPE)
+
+
+def _dead_band_map(kind: str, q: Sequence[float], log_s: float, lo: float, span: float
+                   ) -> DeadZoneMap:
+    """Input map with one dead band of slope ``e^log_s`` (the other segments slope 1):
+    ``kind`` ``"low"`` (below ``lo + q0 span``), ``"high"`` (above it) or ``"middle"``
+    (between ``lo + q0 span`` and ``lo + q1 span``)."""
+    sd = float(np.exp(log_s))
+    qs = np.clip(np.asarray(q, dtype=float), 0.02, 0.98)
+    if kind == "middle":
+        qs = np.sort(qs)
+        qs[1] = max(qs[1], qs[0] + 0.02)
+        d, slopes = lo + span * qs, [1.0, sd, 1.0]
+    else:
+        d, slopes = lo + span * qs[:1], ([sd, 1.0] if kind == "low" else [1.0, sd])
+    d = np.where(np.abs(d) < 1e-9 * span, d + 1e-6 * span, d)  # 0 anchors the map itself
+    return _piecewise_map(d, slopes)
+
+
 def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Threshold / dead band: the plays driven by ``w = γ(u)``, a dead-zone superposition
-    with two breakpoints ``d_lo < d_hi`` and the slopes ``s_lo, 1, s_hi`` of its three
-    segments (a dead band is a segment of small slope; one-sided when only one side has one).
+    that is flat-ish (slope in :data:`DEAD_BAND_SLOPES` of the rest) on one stretch of the
+    input: below a threshold, above one (one-sided), or between two (a central dead band).
 
-    VarPro over ``(d_lo, d_hi, log s_lo, log s_hi)``: each side alone on a grid of
-    breakpoints and slopes, the best two combined, then Nelder-Mead. The map is strictly
-    increasing (slopes in [1/50, 50] of the middle segment), so the dead-zone GPI inverts.
+    A map whose two ends both flatten is a saturation, not a dead band: that is the
+    ``saturation`` candidate's, so the two name different physics (look-alikes only where a
+    single end flattens). VarPro over the band's edges and log-slope: a grid per kind, then
+    Nelder-Mead on the best kind.
     """
-    s = cur.structure
-    if any(st[0] == "deadzone" for st in s.shape):
+    if any(st[0] == "deadzone" for st in cur.structure.shape):
         return None
+    # a saturation found earlier may have bent its tail to mimic the dead band: search the
+    # band without it, then the saturation again on top of the band
+    tanh_before = any(st[0] == "tanh" for st in cur.structure.shape)
+    s = cur.structure.with_(shape=tuple(st for st in cur.structure.shape if st[0] != "tanh"))
     lo, hi = _shape_input_range(ctx, ())  # the dead zone acts on the input itself
     span = hi - lo
     if not span > 0:
         return None
-    lim = np.log(50.0)
+    ls_lo, ls_hi = np.log(DEAD_BAND_SLOPES)
+    memo: dict[tuple, float] = {}
 
-    def gamma(x) -> DeadZoneMap:
-        q = np.sort(np.clip(np.asarray(x[:2], dtype=float), 0.02, 0.98))
-        if q[1] - q[0] < 0.02:
-            q[1] = q[0] + 0.02
-        d = lo + span * q
-        if np.any(np.abs(d) < 1e-9 * span):  # 0 is the map's own anchor, not a breakpoint
-            d = d + 1e-6 * span
-        return _piecewise_map(d, [float(np.exp(x[2])), 1.0, float(np.exp(x[3]))])
-
-    memo: dict[tuple[float, ...], float] = {}
-
-    def f(x) -> float:
-        key = tuple(round(float(v), 6) for v in x)
-        if not (0.0 < key[0] < 1.0 and 0.0 < key[1] < 1.0 and abs(key[2]) <= lim
-                and abs(key[3]) <= lim):
+    def f(kind: str, x) -> float:
+        key = (kind, *(round(float(v), 6) for v in x))
+        if not (all(0.0 < v < 1.0 for v in key[1:-1]) and ls_lo <= key[-1] <= ls_hi):
             return np.inf
         if key not in memo:
-            memo[key] = ctx.rss(_with_stage(ctx, s, dead_zone_stage(gamma(key))), cur)
+            g = _dead_band_map(kind, key[1:-1], key[-1], lo, span)
+            memo[key] = ctx.rss(_with_stage(ctx, s, dead_zone_stage(g)), cur)
         return memo[key]
 
-    slopes = np.log([0.05, 0.3, 3.0, 20.0])
-    low = min(((q, 0.9, ls, 0.0) for q in (0.15, 0.3, 0.45) for ls in slopes), key=f)
-    high = min(((0.1, q, 0.0, ls) for q in (0.55, 0.7, 0.85) for ls in slopes), key=f)
-    both = (low[0], high[1], low[2], high[3])
-    start = min((low, high, both), key=f)
-    x, _ = _nelder_mead(f, np.asarray(start), 0.1, 40)
-    x = x if f(x) <= f(start) else np.asarray(start)
-    g = gamma(x)
+    ls = np.log([0.02, 0.1, 0.3])
+    grid = ([("low", (q, v)) for q in (0.15, 0.3, 0.45) for v in ls]
+            + [("high", (q, v)) for q in (0.55, 0.7, 0.85) for v in ls]
+            + [("middle", (a, b, v)) for a, b in ((0.35, 0.65), (0.2, 0.5), (0.5, 0.8))
+               for v in ls])
+    kind, x0 = min(grid, key=lambda c: f(*c))
+    x, _ = _nelder_mead(lambda v: f(kind, v), np.asarray(x0), 0.08, 12 * len(x0))
+    x = x if f(kind, x) <= f(kind, x0) else np.asarray(x0)
+    g = _dead_band_map(kind, x[:-1], x[-1], lo, span)
     st = _with_stage(ctx, s, dead_zone_stage(g))
+    params: dict = {}
+    if tanh_before:
+        got = _tanh_search(ctx, st, cur)
+        if got is None:
+            return None
+        st = got[0]
+        params = {"saturation_refitted": {"a1": st.shape[-1][1], "a2": st.shape[-1][2]}}
     fit = ctx.fit(st, cur)
-    return fit, {"thresholds": g.thresholds.tolist(), "weights": g.weights.tolist(),
-                 **describe_shape(st.shape[0], lo, hi)}, {}
+    return fit, {"side": kind, "thresholds": g.thresholds.tolist(),
+                 "weights": g.weights.tolist(), **describe_shape(st.shape[0], lo, hi),
+                 **params}, {}
 
 
 #: Candidate builders by effect name (each fits its effect on top of ``cur``).

@@ -146,8 +146,9 @@ def describe_shape(stage: tuple, u_lo: float, u_hi: float) -> dict[str, float | 
             "dead_band": dead_band_words(brk, rel, u_lo, u_hi)}
 
 
-#: A segment whose slope is below this share of the steepest one is called a dead band.
-DEAD_BAND_SLOPE = 0.25
+#: A segment whose slope is at most this share of the steepest one is called a dead band
+#: (the upper bound of the ``dead-zone`` candidate's band slope).
+DEAD_BAND_SLOPE = 0.5
 
 
 def dead_band_words(breaks: np.ndarray, rel: np.ndarray, u_lo: float, u_hi: float) -> str:
@@ -156,7 +157,7 @@ def dead_band_words(breaks: np.ndarray, rel: np.ndarray, u_lo: float, u_hi: floa
     out = []
     for j, r in enumerate(rel):
         a, b = edges[j], edges[j + 1]
-        if r < DEAD_BAND_SLOPE and b > a:
+        if r <= DEAD_BAND_SLOPE and b > a:
             side = ("below" if j == 0 else "above" if j == rel.size - 1 else "between")
             where = (f"below {b:.4g}" if side == "below" else f"above {a:.4g}"
                      if side == "above" else f"between {a:.4g} and {b:.4g}")
