@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -111,7 +112,7 @@ def shape_thresholds(
     return baseline_thresholds(mapped, masks, n)  # type: ignore[arg-type]
 
 
-def describe_shape(stage: tuple, u_lo: float, u_hi: float) -> dict[str, float | list]:
+def describe_shape(stage: tuple, u_lo: float, u_hi: float) -> dict[str, Any]:
     """The physics of one fitted stage, in input units, for the report.
 
     ``saturation``: the input ``u_half`` at which the map has lost half of its slope on
@@ -122,10 +123,14 @@ def describe_shape(stage: tuple, u_lo: float, u_hi: float) -> dict[str, float | 
         a1, a2 = stage[1], stage[2]
         uc = -a2 / a1
         half = float(np.arctanh(np.sqrt(0.5))) / a1
+        s_lo = float(1 - np.tanh(a1 * u_lo + a2) ** 2)
+        s_hi = float(1 - np.tanh(a1 * u_hi + a2) ** 2)
         return {"center": float(uc), "half_slope_below": float(uc - half),
-                "half_slope_above": float(uc + half),
-                "slope_at_input_min": float(1 - np.tanh(a1 * u_lo + a2) ** 2),
-                "slope_at_input_max": float(1 - np.tanh(a1 * u_hi + a2) ** 2)}
+                "half_slope_above": float(uc + half), "slope_at_input_min": s_lo,
+                "slope_at_input_max": s_hi,
+                "saturation": f"the loop's slope falls to half below {uc - half:.4g} and above "
+                f"{uc + half:.4g}; at the input extremes it is {100 * s_lo:.2g} % and "
+                f"{100 * s_hi:.2g} % of the slope at the centre {uc:.4g}"}
     g = stage_map(stage)
     assert isinstance(g, DeadZoneMap)
     t = np.asarray(g.thresholds, dtype=np.float64)

@@ -197,3 +197,4 @@ def test_shape_maps_are_the_core_models() -> None:
     assert d["breakpoints"] == [-1.0, 2.0]
     assert np.allclose(d["relative_slopes"], [1.0, 1 / 1.5, 0.1 / 1.5])
     assert "dead band above 2" in d["dead_band"]
+
