@@ -322,10 +322,11 @@ def _build_saturation(ctx: FitContext, cur: Fit) -> Candidate | None:
     return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
 
 
-def _tanh_search(ctx: FitContext, s: Structure, cur: Fit
+def _tanh_search(ctx: FitContext, s: Structure, cur: Fit, refine: bool | None = None
                  ) -> tuple[Structure, float, float] | None:
     """``s`` with the best tanh stage appended (see :func:`_build_saturation`), and the
-    range of the tanh's input on the training rows."""
+    range of the tanh's input on the training rows. ``refine``: polish the grid point
+    (``None``: only when it is worth it, :func:`_worth_refining`)."""
     lo, hi = _shape_input_range(ctx, s.shape)
     if not hi > lo:
         return None
@@ -348,9 +349,21 @@ def _tanh_search(ctx: FitContext, s: Structure, cur: Fit
     grid = [(p0, p1) for p0 in np.log([0.3, 0.7, 1.2, 2.0, 3.5])
             for p1 in (-1.0, -0.5, 0.0, 0.5, 1.0)]
     start = min(grid, key=f)
-    x, _ = _nelder_mead(f, np.asarray(start), 0.2, 30)
-    phi = x if f(x) <= f(start) else np.asarray(start)
+    phi = np.asarray(start)
+    if refine or (refine is None and _worth_refining(ctx, f(start), s, cur)):
+        x, _ = _nelder_mead(f, phi, 0.2, 24)
+        phi = x if f(x) <= f(start) else phi
     return make(phi), lo, hi
+
+
+def _worth_refining(ctx: FitContext, rss_grid: float, ref: Structure, cur: Fit) -> bool:
+    """Whether the best grid point of a shape search already lowers the training RSS of
+    ``ref`` (the search's own fast path) by the smallest effect size of the acceptance
+    rules: otherwise the candidate cannot pass, and it is reported at the grid point
+    without a refinement."""
+    from .acceptance import RULE
+
+    return rss_grid < (1.0 - RULE.min_gain) * ctx.rss(ref, cur)
 
 
 def _piecewise_map(breaks: Sequence[float], slopes: Sequence[float]) -> DeadZoneMap:
@@ -426,19 +439,21 @@ def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
             memo[key] = ctx.rss(_with_stage(ctx, s, dead_zone_stage(g)), cur)
         return memo[key]
 
-    ls = np.log([0.02, 0.1, 0.3])
+    ls = np.log([0.03, 0.2])
     grid = ([("low", (q, v)) for q in (0.15, 0.3, 0.45) for v in ls]
             + [("high", (q, v)) for q in (0.55, 0.7, 0.85) for v in ls]
             + [("middle", (a, b, v)) for a, b in ((0.35, 0.65), (0.2, 0.5), (0.5, 0.8))
                for v in ls])
     kind, x0 = min(grid, key=lambda c: f(*c))
-    x, _ = _nelder_mead(lambda v: f(kind, v), np.asarray(x0), 0.08, 12 * len(x0))
-    x = x if f(kind, x) <= f(kind, x0) else np.asarray(x0)
+    x = np.asarray(x0)
+    if _worth_refining(ctx, f(kind, x0), s, cur):
+        x1, _ = _nelder_mead(lambda v: f(kind, v), x, 0.08, 10 * len(x0))
+        x = x1 if f(kind, x1) <= f(kind, x0) else x
     g = _dead_band_map(kind, x[:-1], x[-1], lo, span)
     st = _with_stage(ctx, s, dead_zone_stage(g))
     params: dict = {}
     if tanh_before:
-        got = _tanh_search(ctx, st, cur)
+        got = _tanh_search(ctx, st, cur, refine=True)
         if got is None:
             return None
         st = got[0]
