@@ -223,8 +223,8 @@ def _one_branch(ctx: Any) -> str | None:
     first branch, so saturation or a dead band cannot be told from the PI itself)."""
     from ..fitting.thresholds import reversal_indices
 
-    span = max(float(np.ptp(r.u[m])) for r, m in zip(ctx.records, ctx.train, strict=True)
-               if m.any())
+    span = max((float(np.ptp(r.u[m])) for r, m in zip(ctx.records, ctx.train, strict=True)
+                if m.any()), default=0.0)
     n = 0
     for r, m in zip(ctx.records, ctx.train, strict=True):
         rev = np.unique(np.r_[0, reversal_indices(r.u, 0.1 * span), r.n_samples - 1])

@@ -91,6 +91,10 @@ class Structure:
     free_weights : bool
         Play weights of either sign (``p0 >= 0`` only): saturating loops such as friction need
         negative weights; by default ``p_i >= 0`` (hardening loops, invertible).
+    shape : tuple
+        Loop-shape input maps the plays run on (:mod:`core.diagnosis.shapes`; ``()`` =
+        classical PI); ``thresholds`` are then in the units of the mapped input, and an
+        initial memory is the mapped history (the model's ``state0``).
     """
 
     thresholds: tuple[float, ...]
