@@ -26,7 +26,7 @@ from .shapes import (
 )
 from .structure import Fit, Structure
 
-__all__ = ["BUILDERS", "Candidate", "build_candidate", "excitation_hz"]
+__all__ = ["BUILDERS", "Candidate", "build_candidate", "excitation_hz", "search_context"]
 
 #: ``(fit, parameters, uncertainty)`` of one candidate effect.
 Candidate = tuple[Fit, dict, dict]
@@ -282,6 +282,41 @@ def _shape_input_range(ctx: FitContext, shape: tuple) -> tuple[float, float]:
     return min(float(v.min()) for v in vs), max(float(v.max()) for v in vs)
 
 
+#: Recordings longer than this (samples, all pooled) are searched on a decimated copy.
+SEARCH_SAMPLES = 12_000
+
+
+def search_context(ctx: FitContext, cur: Fit) -> tuple[FitContext, Fit]:
+    """Where a loop-shape search evaluates its trial maps: ``ctx`` itself, or an exact
+    decimation of it for long recordings.
+
+    Play operators are rate independent and the loop-shape maps strictly increasing, so
+    the play outputs at the samples kept are exact when every input reversal is kept
+    (between two kept samples the input is monotone). Every ``k``-th sample plus every
+    reversal, the first and the last are kept, with their train/test rows; the search
+    ranks its trial maps there, and the candidate is fitted on ``ctx`` itself. Structures
+    whose other parts depend on the time axis (dynamics, creep, rate) are searched on
+    ``ctx`` (a decimated time axis would change them).
+    """
+    s = cur.structure
+    n = sum(r.n_samples for r in ctx.records)
+    if n <= SEARCH_SAMPLES or s.dynamics or s.creep_taus or s.beta_s is not None:
+        return ctx, cur
+    step = int(np.ceil(n / SEARCH_SAMPLES))
+    recs, tr, te = [], [], []
+    for r, a, b in zip(ctx.records, ctx.train, ctx.test, strict=True):
+        keep = np.zeros(r.n_samples, dtype=bool)
+        keep[::step] = True
+        keep[[0, -1]] = True
+        keep[reversal_indices(r.u, 0.0)] = True
+        recs.append(Recording(r.t[keep], r.u[keep], r.y[keep], name=r.name,
+                              has_time=r.has_time))
+        tr.append(a[keep])
+        te.append(b[keep])
+    sub = FitContext(recs, tr, te)
+    return sub, sub.fit(s)
+
+
 def _with_stage(ctx: FitContext, s: Structure, stage: tuple) -> Structure:
     """``s`` with ``stage`` added to its loop shape and the play grid re-placed (same number
     of operators) on the mapped input. A dead zone acts on the input itself, first; a
@@ -313,10 +348,12 @@ def _build_saturation(ctx: FitContext, cur: Fit) -> Candidate | None:
     s = cur.structure
     if any(st[0] == "tanh" for st in s.shape):
         return None
-    got = _tanh_search(ctx, s, cur)
+    sctx, scur = search_context(ctx, cur)
+    got = _tanh_search(sctx, s, scur)
     if got is None:
         return None
     st, lo, hi = got
+    st = _with_stage(ctx, s, st.shape[-1])  # the play grid placed on all training rows
     fit = ctx.fit(st, cur)
     stage = st.shape[-1]
     return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
@@ -424,6 +461,7 @@ def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
     tanh_before = any(st[0] == "tanh" for st in cur.structure.shape)
     s = cur.structure.with_(shape=tuple(st for st in cur.structure.shape if st[0] != "tanh"))
     lo, hi = _shape_input_range(ctx, ())  # the dead zone acts on the input itself
+    sctx, cur_s = search_context(ctx, cur)
     span = hi - lo
     if not span > 0:
         return None
@@ -436,7 +474,7 @@ def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
             return np.inf
         if key not in memo:
             g = _dead_band_map(kind, key[1:-1], key[-1], lo, span)
-            memo[key] = ctx.rss(_with_stage(ctx, s, dead_zone_stage(g)), cur)
+            memo[key] = sctx.rss(_with_stage(sctx, s, dead_zone_stage(g)), cur_s)
         return memo[key]
 
     ls = np.log([0.03, 0.2])
@@ -446,18 +484,21 @@ def _build_dead_zone(ctx: FitContext, cur: Fit) -> Candidate | None:
                for v in ls])
     kind, x0 = min(grid, key=lambda c: f(*c))
     x = np.asarray(x0)
-    if _worth_refining(ctx, f(kind, x0), s, cur):
+    if _worth_refining(sctx, f(kind, x0), s, cur_s):
         x1, _ = _nelder_mead(lambda v: f(kind, v), x, 0.08, 10 * len(x0))
         x = x1 if f(kind, x1) <= f(kind, x0) else x
     g = _dead_band_map(kind, x[:-1], x[-1], lo, span)
-    st = _with_stage(ctx, s, dead_zone_stage(g))
+    st = _with_stage(sctx, s, dead_zone_stage(g))
     params: dict = {}
     if tanh_before:
-        got = _tanh_search(ctx, st, cur, refine=True)
+        got = _tanh_search(sctx, st, cur_s, refine=True)
         if got is None:
             return None
         st = got[0]
         params = {"saturation_refitted": {"a1": st.shape[-1][1], "a2": st.shape[-1][2]}}
+    # the play grid placed on all training rows
+    st = st.with_(thresholds=tuple(float(v) for v in shape_thresholds(
+        st.shape, ctx.records, ctx.train, len(st.thresholds))))
     fit = ctx.fit(st, cur)
     return fit, {"side": kind, "thresholds": g.thresholds.tolist(),
                  "weights": g.weights.tolist(), **describe_shape(st.shape[0], lo, hi),

@@ -198,3 +198,30 @@ def test_shape_maps_are_the_core_models() -> None:
     assert np.allclose(d["relative_slopes"], [1.0, 1 / 1.5, 0.1 / 1.5])
     assert "dead band above 2" in d["dead_band"]
 
+
+
+def test_search_context_keeps_play_outputs_exact() -> None:
+    """Long recordings are searched on every k-th sample plus every reversal: the loop-shape
+    play bank at the kept samples equals the full-rate one (rate independence), and
+    structures with time-dependent parts are searched on the full recording."""
+    from core.diagnosis.candidates import search_context
+    from core.diagnosis.context import FitContext
+    from core.diagnosis.data import split_masks
+    from core.diagnosis.structure import Structure, baseline_thresholds
+
+    t = np.arange(0, 6.0, 2e-4)
+    u = 4 * np.sin(2 * np.pi * 1.3 * t) * (1 + 0.3 * np.sin(2 * np.pi * 0.21 * t))
+    rec = Recording(t, u, np.tanh(u), name="long")
+    tr, te, _ = split_masks([rec], None, None)
+    ctx = FitContext([rec], tr, te)
+    r = baseline_thresholds([rec], tr, 12)
+    shape = (("tanh", 0.4, 0.1),)
+    s = Structure(tuple(float(x) for x in r), ((),), shape=shape)
+    cur = ctx.fit(s)
+    sub, _ = search_context(ctx, cur)
+    assert sub.records[0].n_samples < rec.n_samples / 2
+    keep = np.isin(t, sub.records[0].t)
+    full = ctx.cache.bank(0, rec, r, (), None, shape)
+    dec = sub.cache.bank(0, sub.records[0], r, (), None, shape)
+    assert np.array_equal(full[keep], dec)
+    assert search_context(ctx, ctx.fit(s.with_(dynamics=("lag", 1e-3))))[0] is ctx
