@@ -91,6 +91,10 @@ EFFECT_TYPES: tuple[str, ...] = (
     "asymmetry",
     "offset",
     "initial-memory",
+    # loop shapes: the PI stage driven through a memoryless input map (core.gpi: gpi-tanh,
+    # gpi-deadzone), see core.diagnosis.shapes
+    "saturation",
+    "dead-zone",
 )
 
 

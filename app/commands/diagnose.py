@@ -54,7 +54,8 @@ def register(subparsers: Any) -> None:
         description=(
             "Fit a PI model, locate where it and the recordings differ, name the missing "
             "physics (delay, lag, resonance, rate, creep, drift, asymmetry, offset, "
-            "initial-memory, ...), fit it and show the held-out improvement. CSV files are "
+            "initial-memory, saturation, dead-zone), fit it and show the held-out improvement. "
+            "CSV files are "
             "read like hyst fit (core.csvio: delimiter, decimal mark, units and columns "
             "detected; a run/loop column splits a file; files without a time axis are "
             "diagnosed for the rate-independent effects). Progress goes to stderr."

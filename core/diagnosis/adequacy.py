@@ -1,15 +1,16 @@
-"""Base-model adequacy: is what is left at the noise floor, and if not, which loop shape helps?
+"""Base-model adequacy: is what is left at the noise floor, and if not, which model class helps?
 
 "No missing physics" may only be said when the final residual is at the white-noise floor.
 When it stays well above it (:data:`INADEQUATE_RATIO` times), the verdict says so in words:
 how much of the range is still missed, where, what was tried, and which model class of the
-core explains more of it. The loop-shape classes are fitted with the identification's own
-estimators (:mod:`core.fitting`), so what they find stays in the model algebra:
-
-* Kuhnen's modified PI (``ModifiedPIRegressor``): an output superposition of one-sided
-  dead-zones, i.e. saturation and one-sided output maps;
-* the dead-zone GPI (``DeadZoneGPIRegressor``): a threshold / dead band at the input;
-* the tanh-envelope GPI (``TanhGPIRegressor``): saturation of the loop branches.
+core explains more of it. The classes tried are the fit kinds of the model registry
+(:func:`core.models.fit_kinds`, every type that declares an estimator) other than the base
+PI, each fitted by its own estimator (:mod:`core.fitting`) on the training rows: Kuhnen's
+modified PI (an output superposition of one-sided dead zones), the dead-zone GPI (a threshold
+/ dead band at the input), the tanh-envelope GPI (saturation), the digitized PI, and any
+type registered later. The loop shapes the diagnosis itself models (``saturation``,
+``dead-zone``: :mod:`core.diagnosis.shapes`) are candidates of the effect search; this verdict
+is the check that the final model is not still far from what the generalized fits reach.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import numpy as np
 
 from ..recordings import Recording
 
-__all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "where_residual"]
+__all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "loop_shape_kinds",
+           "where_residual"]
 
 #: Final RMS residual over the white-noise floor above which the base model is inadequate.
 INADEQUATE_RATIO = 2.0
@@ -31,14 +33,21 @@ INADEQUATE_RATIO = 2.0
 #: Longest recording set (samples) the loop-shape fits are run on (their cost is linear).
 MAX_SAMPLES = 60_000
 
-#: Loop-shape classes: (``hyst fit --model`` name, estimator, physics in words).
-LOOP_SHAPES: tuple[tuple[str, str, str], ...] = (
-    ("mpi", "ModifiedPIRegressor", "saturation or a one-sided output map (Kuhnen's "
-     "superposition of output dead-zones)"),
-    ("gpi-deadzone", "DeadZoneGPIRegressor", "a threshold / dead band at the input "
-     "(dead-zone GPI)"),
-    ("gpi-tanh", "TanhGPIRegressor", "saturation of the loop branches (tanh-envelope GPI)"),
-)
+#: What a fit kind represents, in words, where the registry title does not say it.
+PHYSICS: dict[str, str] = {
+    "mpi": "saturation or a one-sided output map (Kuhnen's superposition of output "
+           "dead-zones)",
+    "gpi-deadzone": "a threshold / dead band at the input (dead-zone GPI)",
+    "gpi-tanh": "saturation of the loop branches (tanh-envelope GPI)",
+}
+
+
+def loop_shape_kinds() -> tuple[tuple[str, str], ...]:
+    """``(fit kind, physics in words)`` of every registered fit kind except the base PI."""
+    from ..models import DEFAULT_FIT_KIND, fit_kinds, model_type
+
+    return tuple((k, PHYSICS.get(k, model_type(k).title)) for k in fit_kinds()
+                 if k != DEFAULT_FIT_KIND)
 
 
 @dataclass(frozen=True)
@@ -104,10 +113,10 @@ class Adequacy:
                 "text": self.text}
 
 
-def _fit_shape(cls_name: str, records: Sequence[Recording], train, test, free: bool):
-    from .. import fitting
+def _fit_shape(kind: str, records: Sequence[Recording], train, test, free: bool):
+    from ..models import estimator_class
 
-    est = getattr(fitting, cls_name)(constraint="slopes" if free else "nonnegative")
+    est = estimator_class(kind)(constraint="slopes" if free else "nonnegative")
     us = [r.u for r in records]
     ys = [r.y for r in records]
     with warnings.catch_warnings():
@@ -149,6 +158,7 @@ def assess(
     noise_rms: float,
     tried: Sequence[str],
     free_weights: bool,
+    found: Sequence[str] = (),
 ) -> Adequacy:
     """Judge the final model against the noise floor and try the loop-shape classes.
 
@@ -165,6 +175,8 @@ def assess(
     free_weights : bool
         The baseline needed play weights of either sign (saturating loop): the loop-shape
         classes are then fitted with the loop-slope constraint.
+    found : sequence of str
+        Effects in the final model (a loop shape among them is named in the verdict).
 
     Returns
     -------
@@ -181,16 +193,23 @@ def assess(
     pct = percent_of_range(rmse, ys)
     ratio = rmse / noise_rms if noise_rms > 0 else np.inf
     where = where_residual(records, final_pred, rows)
+    from .shapes import SHAPE_EFFECTS
+
+    shape = [e for e in found if e in SHAPE_EFFECTS.values()]
+    with_shape = (f" (with the loop shape the search found: {', '.join(shape)})" if shape
+                  else "")
     if ratio <= INADEQUATE_RATIO:
         return Adequacy(True, rmse, noise_rms, pct, scored, (), (
-            f"the final residual ({rmse:.4g}, {pct:.3f} % of range) is at the white-noise "
-            f"floor ({noise_rms:.3g}): no missing physics left to find in these recordings"))
+            f"the final model{with_shape} is adequate: its residual ({rmse:.4g}, "
+            f"{pct:.3f} % of range, "
+            f"{ratio:.1f} times the floor) is at the white-noise floor ({noise_rms:.3g}): no "
+            "missing physics left to find in these recordings"))
     shapes: list[LoopShapeFit] = []
     n_all = sum(r.n_samples for r in records)
     if n_all <= MAX_SAMPLES:
-        for model, cls_name, physics in LOOP_SHAPES:
+        for model, physics in loop_shape_kinds():
             try:
-                est, pred = _fit_shape(cls_name, records, train, rows, free_weights)
+                est, pred = _fit_shape(model, records, train, rows, free_weights)
             except (ValueError, ArithmeticError, np.linalg.LinAlgError):
                 continue
             es = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, pred, rows,
@@ -199,7 +218,8 @@ def assess(
             shapes.append(LoopShapeFit(model, physics, r_, percent_of_range(r_, ys),
                                        est.full_model_.to_dict()))
     shapes.sort(key=lambda f: f.rmse)
-    text = (f"the base model is not adequate: the final model still misses {pct:.2f} % of the "
+    text = (f"the base model is not adequate: the final model{with_shape} still misses "
+            f"{pct:.2f} % of the "
             f"output range on {scored} (RMS {rmse:.4g}, {ratio:.1f} times the white-noise floor "
             f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
             f"{', '.join(tried) or 'no effect'}.")
@@ -214,6 +234,7 @@ def assess(
             f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
             "models tried; recordings that separate time, rate and level would tell.")
     else:
-        text += (" The loop-shape classes (hyst fit --model mpi, gpi-deadzone, gpi-tanh) were "
-                 "not tried on recordings this long; fit them to compare.")
+        text += (" The other model classes (hyst fit --model "
+                 + ", ".join(k for k, _ in loop_shape_kinds())
+                 + ") were not tried on recordings this long; fit them to compare.")
     return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)

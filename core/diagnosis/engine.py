@@ -51,11 +51,13 @@ from .data import as_records, crossfit_folds, split_masks
 from .locate import hold_after, residual_maps, where_improved
 from .periodic import steady_state_history
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
+from .shapes import shape_thresholds
 from .specs import (
     DECIDING_EXPERIMENT,
     EFFECTS,
     FAMILY_PRIORITY,
     UNTESTABLE_LOOKALIKES,
+    spec_untestable,
     time_effects,
 )
 from .stats import HeldOut, heldout_comparison, noise_floor, score_test
@@ -258,8 +260,10 @@ def _untestable(ctx: FitContext) -> list[dict[str, str]]:
                "rate or frequency cannot be told apart from the loop itself")
         out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
                 "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
-        return out + [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
-    return _untestable_timed(ctx)
+        out += [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
+    else:
+        out = _untestable_timed(ctx)
+    return out + spec_untestable(ctx, {u["name"] for u in out})
 
 
 def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
@@ -317,7 +321,8 @@ def _discriminators(ctx: FitContext, cur: Fit) -> dict[str, Any]:
         vrev = cur.p0 * du
         vhys = dx - vrev
         B = ctx.cache.bank(ctx.records.index(rec), rec, np.asarray(cur.structure.thresholds),
-                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s)
+                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s,
+                           cur.structure.shape)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
         rows_e.append((rec.y - p)[idx])
@@ -752,7 +757,7 @@ def diagnose(
     say(0.92, "judging the base model against the noise floor")
     tried = [str(r["effect"]) for r in rounds if r["round"] == 1 and ":" not in str(r["effect"])]
     adequacy = assess(records, trm, tem, cur.pred, noise, tried or list(todo),
-                      base.structure.free_weights)
+                      base.structure.free_weights, found=cur.structure.effects)
     crossval = None
     if ctx.strict:
         cv = _compare(ctx, base, cur)
@@ -792,7 +797,7 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
     while the held-out fit improves (≥ 2 % and z ≥ 2 or sign p < 0.01)."""
     while len(fit.structure.thresholds) * 2 <= n_max:
         n2 = 2 * len(fit.structure.thresholds)
-        r = baseline_thresholds(ctx.records, ctx.train, n2)
+        r = shape_thresholds(fit.structure.shape, ctx.records, ctx.train, n2)  # w units
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
         h = _compare(ctx, fit, f2)
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
@@ -916,7 +921,7 @@ def _score(ctx: FitContext, cur: Fit, new: Fit) -> float:
         step = max(1, int(m.sum() // 8000))
         idx = np.flatnonzero(m)[::step]
         B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
-                           cur.structure.beta_s)
+                           cur.structure.beta_s, cur.structure.shape)
         es.append((rec.y - p0)[idx])
         J.append(np.column_stack((B[idx], np.ones(idx.size))))
         P.append((p1 - p0)[idx])

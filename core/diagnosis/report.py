@@ -112,7 +112,7 @@ def summary_text(res: DiagnosisResult) -> str:
                          "recording predicted from the others with its parameters searched "
                          f"on them: MSE {-100 * row['heldout_mse_reduction'] + 0.0:+.1f} % "
                          f"pooled, z = {row['dm_z']:.2f}; {per})")
-    if ad is not None and not ad.adequate:
+    if ad is not None and (not ad.adequate or res.effects):
         lines.append(f"Base model: {ad.text}")
     for a in res.ambiguous:
         lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "

@@ -6,10 +6,14 @@ The engine, the reports and the untestable rules read these; the candidate build
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
-__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "UNTESTABLE_LOOKALIKES", "Effect",
-           "time_effects"]
+import numpy as np
+
+__all__ = ["DECIDING_EXPERIMENT", "EFFECTS", "FAMILY_PRIORITY", "UNTESTABLE_LOOKALIKES",
+           "UNTESTABLE_RULES", "Effect", "spec_untestable", "time_effects"]
 
 
 @dataclass(frozen=True)
@@ -36,6 +40,9 @@ class Effect:
         different rates it is judged by predicting each recording from the others
         (:func:`core.diagnosis.between.between_recordings`), not on rows of the recordings
         it was fitted to.
+    untestable : str or None
+        Rule of :data:`UNTESTABLE_RULES` that says when the recordings cannot test it
+        (``None``: the engine's own rules, or always testable).
     """
 
     name: str
@@ -45,6 +52,7 @@ class Effect:
     experiment: str | None = None
     time_dependent: bool = False
     between_recordings: bool = False
+    untestable: str | None = None
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -134,14 +142,51 @@ EFFECTS: dict[str, Effect] = {
         "asymmetry",
         "static",
         explanation=(
-            'The loop is asymmetric/saturating: ascending and descending branches curve '
-            'differently (field-dependent d33, saturation); a static output map that '
+            'The loop is asymmetric: ascending and descending branches curve differently '
+            '(field-dependent d33, an even-order nonlinearity); a static output map that '
             'classical (odd-symmetric) PI cannot represent. Actuator and sensor '
-            'nonlinearity cannot be separated from (u, y) alone.'
+            'nonlinearity cannot be separated from (u, y) alone. (A loop that flattens '
+            'at both ends at every amplitude is saturation, a flat stretch is a dead-zone; '
+            'the three are look-alikes, told apart by the better held-out model.)'
         ),
         equation='y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3',
         experiment='a full-range symmetric periodic excitation',
         time_dependent=False,
+    ),
+    "saturation": Effect(
+        "saturation",
+        "static",
+        explanation=(
+            'The loop saturates: towards the input extremes both branches flatten, at every '
+            'amplitude (magnetic saturation, a stroke limit, a saturating drive). A PI is '
+            'built from straight plays and obeys the Masing rules, so it cannot saturate '
+            'loops of several amplitudes at once; the tanh-envelope GPI drives the plays '
+            'through a saturating input map.'
+        ),
+        equation='y = p0 w + sum_i p_i Play[r_i](w),  w = tanh(a1 u + a2)  (gpi-tanh)',
+        experiment=(
+            'loops (or reversals) of several amplitudes, or a travel covering the input range '
+            'back and forth'
+        ),
+        untestable="one-branch",
+    ),
+    "dead-zone": Effect(
+        "dead-zone",
+        "static",
+        explanation=(
+            'A threshold / dead band: over part of the input range (below a threshold, on one '
+            'side, or around the centre) the output hardly responds, then follows the input '
+            'again (a thresholded actuator, backlash-like play at the input, a one-sided '
+            'drive). The dead-zone GPI drives the plays through a piecewise-linear input map '
+            'whose flat segment is the dead band.'
+        ),
+        equation='y = p0 w + sum_i p_i Play[r_i](w),  w = gamma(u) (dead-zone '
+                 'superposition, gpi-deadzone)',
+        experiment=(
+            'loops (or reversals) of several amplitudes, or a travel covering the input range '
+            'back and forth'
+        ),
+        untestable="one-branch",
     ),
     "offset": Effect(
         "offset",
@@ -172,6 +217,46 @@ EFFECTS: dict[str, Effect] = {
 }
 
 
+def _one_branch(ctx: Any) -> str | None:
+    """Loop shapes need a loop: at least one travel up and one down, each over half of the
+    input range, inside the training rows (on a single branch any monotone curve is a PI's
+    first branch, so saturation or a dead band cannot be told from the PI itself)."""
+    from ..fitting.thresholds import reversal_indices
+
+    span = max((float(np.ptp(r.u[m])) for r, m in zip(ctx.records, ctx.train, strict=True)
+                if m.any()), default=0.0)
+    n = 0
+    for r, m in zip(ctx.records, ctx.train, strict=True):
+        rev = np.unique(np.r_[0, reversal_indices(r.u, 0.1 * span), r.n_samples - 1])
+        for a, b in zip(rev[:-1], rev[1:], strict=True):
+            if abs(r.u[b] - r.u[a]) >= 0.5 * span and m[a : b + 1].any():
+                n += 1
+    if n >= 2:
+        return None
+    return ("the training rows hold no loop (fewer than two travels over half of the input "
+            "range, one up and one down): on a single branch any monotone curve is a PI "
+            "branch, so the loop shape cannot be told from the PI itself")
+
+
+#: Untestable rules by name: ``rule(ctx) -> reason or None`` (``ctx`` a
+#: :class:`core.diagnosis.context.FitContext`).
+UNTESTABLE_RULES: dict[str, Callable[[Any], str | None]] = {"one-branch": _one_branch}
+
+
+def spec_untestable(ctx: Any, already: set[str] | frozenset[str] = frozenset()
+                    ) -> list[dict[str, str]]:
+    """``{"name", "reason", "experiment"}`` of every effect whose spec rule says the
+    recordings of ``ctx`` cannot test it (effects in ``already`` are skipped)."""
+    out = []
+    for name, e in EFFECTS.items():
+        if e.untestable is None or name in already:
+            continue
+        why = UNTESTABLE_RULES[e.untestable](ctx)
+        if why:
+            out.append({"name": name, "reason": why, "experiment": e.experiment or ""})
+    return out
+
+
 def time_effects() -> tuple[str, ...]:
     """Names of the effects that need a time axis."""
     return tuple(n for n, e in EFFECTS.items() if e.time_dependent)
@@ -190,6 +275,13 @@ DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
     frozenset({"resonance", "delay"}): "a step or a broadband multisine up to the suspected mode",
     frozenset({"resonance", "rate"}): "a step or a broadband multisine: a mode rings at f_d "
     "whatever the hysteresis state",
+    frozenset({"saturation", "dead-zone"}): "loops of a larger amplitude (a saturation keeps "
+    "flattening towards the extremes, a dead band has a fixed width after which the slope "
+    "recovers)",
+    frozenset({"saturation", "asymmetry"}): "symmetric loops of several amplitudes (saturation "
+    "flattens both ends of every loop alike, an asymmetric map bends one side more)",
+    frozenset({"dead-zone", "asymmetry"}): "loops of several amplitudes and offsets (a dead "
+    "band stays at the same input level, an output map follows the output level)",
     frozenset({"creep", "drift"}): "an up-then-down staircase with holds of 3-30 s (creep follows "
     "the sign of the last step, drift does not)",
 }

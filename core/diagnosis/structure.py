@@ -43,6 +43,7 @@ from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
 from ..recordings import Recording
+from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
 
@@ -93,6 +94,10 @@ class Structure:
     free_weights : bool
         Play weights of either sign (``p0 >= 0`` only): saturating loops such as friction need
         negative weights; by default ``p_i >= 0`` (hardening loops, invertible).
+    shape : tuple
+        Loop-shape input maps the plays run on (:mod:`core.diagnosis.shapes`; ``()`` =
+        classical PI); ``thresholds`` are then in the units of the mapped input, and an
+        initial memory is the mapped history (the model's ``state0``).
     """
 
     thresholds: tuple[float, ...]
@@ -104,11 +109,12 @@ class Structure:
     drift_degree: int = 0
     offsets: bool = False
     free_weights: bool = False
+    shape: tuple = ()
 
     @property
     def effects(self) -> list[str]:
         """Names of the effects switched on, in pipeline order."""
-        out = []
+        out = shape_effects(self.shape)
         if any(self.history):
             out.append("initial-memory")
         if self.beta_s is not None:
@@ -185,19 +191,23 @@ class _Cache:
         return V
 
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
-             upto: int | None = None) -> np.ndarray:
-        """``[u, plays]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``.
+             shape: tuple = (), upto: int | None = None) -> np.ndarray:
+        """``[w, plays(w)]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``;
+        ``w`` is the input through the loop shape ``shape`` (the input itself without one).
 
         With ``upto``, only the first ``upto`` rows are needed: a bank not in the cache is then
         computed that far and not stored (a search over histories meets each one once).
         """
-        key = (k, hist, beta, r.size, float(r[-1]))
+        key = (k, hist, beta, r.size, float(r[-1]), shape)
         B = self.d.get(key)
         if B is None:
             u = rec.u if upto is None else rec.u[:upto]
-            z0 = play_bank(np.asarray(hist), r)[1] if hist else np.zeros(r.size)
+            if shape:
+                u = apply_shape(shape, u)
+            z0 = (play_bank(apply_shape(shape, np.asarray(hist)) if shape else np.asarray(hist),
+                            r)[1] if hist else np.zeros(r.size))
             if beta is None:
-                # [u, plays] in one pass: a play of threshold 0 outputs its input exactly
+                # [w, plays] in one pass: a play of threshold 0 outputs its input exactly
                 B = play_bank(u, np.r_[0.0, r], np.r_[0.0, z0])[0]
             else:
                 B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
@@ -380,12 +390,13 @@ def fit_structure(
     # the reduced basis is taken on every training row: the bank reaches the last of them
     upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
     banks = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None)
+        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
+                   shape=s.shape)
         for k, rec in enumerate(records)
     ]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
-    vkey = (s.history, s.beta_s, r.size, float(r[-1]))
+    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape)
     if rss_only and reduce:
         V = cache.basis(banks, train, vkey)
     if iterations is None:
@@ -395,8 +406,11 @@ def fit_structure(
     ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
     yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
     center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
-    ulo = min(float(rec.u[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
-    uhi = max(float(rec.u[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
+    # input range of the play bank (the loop-shape map's output when there is one)
+    # (a bank may stop at its last training row)
+    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(banks, train, strict=True) if m.any()]
+    ulo = min(float(w.min()) for w in w_tr)
+    uhi = max(float(w.max()) for w in w_tr)
     eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     nb = r.size + 1
     n_asym = 2 if s.asymmetry else 0
@@ -535,7 +549,13 @@ def build_model(
     else:
         hyst = RateDependentPI(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0),
                                s.beta_s)
-    if s.history[k]:
+    if s.shape:
+        # the plays run on the mapped input: their initial memory is the mapped history
+        if s.history[k]:
+            hyst = InitialMemory(hyst, apply_shape(s.shape, np.asarray(s.history[k]))
+                                 ).with_state()
+        hyst = hysteresis_model(s.shape, hyst)
+    elif s.history[k]:
         hyst = InitialMemory(hyst, list(s.history[k]))
     stages: list[Model] = [hyst]
     if s.asymmetry:
