@@ -50,8 +50,9 @@ MAX_POINTS = 800
 PLOT_CONFIG = {"displaylogo": False, "showSendToCloud": False, "plotlyServerURL": "",
                "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
                                           "editInChartStudio"]}
-#: Most filled bands in the operators view (neighbouring operators are summed beyond).
-MAX_BANDS = 12
+#: Most filled bands in the operators view (neighbouring operators are summed beyond,
+#: and the legend names the operators of each band).
+MAX_BANDS = 8
 
 _BLUE, _ORANGE, _GREEN, _RED, _GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#7f7f7f"
 
@@ -206,17 +207,21 @@ def operators_figure(res: Result) -> FigureJSON:
     mapped = w is not res.u
     stages = getattr(res.model, "stages", ())
     pi_last = not stages or stages[-1] is m
-    data = [_line(t, _num(m.p0 * w[idx]), "p0·γ(u)" if mapped else "p0·u", _GREY,
-                  stackgroup="c", line={"width": 0.5})]
+    # bands are fills without an outline (mode "none"): the colour change shows each
+    # band's edge, and the browser paints one path per band instead of two
+    data = [{"type": "scatter", "mode": "none", "x": t, "y": _num(m.p0 * w[idx]),
+             "name": "p0·γ(u)" if mapped else "p0·u", "stackgroup": "c",
+             "line": {"color": _GREY}}]
     # beyond MAX_BANDS operators neighbours share a band (their sum): a stack of 25
     # hairline bands is unreadable, and each filled band costs the browser ~3 ms
-    for grp in np.array_split(np.arange(m.n), min(m.n, MAX_BANDS)):
+    groups = np.array_split(np.arange(m.n), min(m.n, MAX_BANDS))
+    for grp in groups:
         a, b = int(grp[0]), int(grp[-1])
         name = (f"p{a + 1}·Γ(r={m.thresholds[a]:.3g})" if a == b else
                 f"p{a + 1}…p{b + 1}·Γ(r={m.thresholds[a]:.3g}…{m.thresholds[b]:.3g})")
-        data.append({"type": "scatter", "mode": "lines", "x": t,
+        data.append({"type": "scatter", "mode": "none", "x": t,
                      "y": _num(res.contributions[:, grp].sum(axis=1)), "stackgroup": "c",
-                     "name": name, "line": {"width": 0.5}})
+                     "name": name})
     if pi_last:
         data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
                           line={"color": "#000000", "width": 1.5, "dash": "dot"}))
@@ -229,6 +234,9 @@ def operators_figure(res: Result) -> FigureJSON:
     lay = _layout(title, xaxis={"title": _ax(res.units, "time")},
                   yaxis={"title": _ax(res.units, "output", "contribution to y")},
                   showlegend=True)
+    if len(groups) < m.n:
+        lay["legend"] = {**lay["legend"], "title": {
+            "text": f"{m.n} operators in {len(groups)} bands (neighbours summed):"}}
     return FigureJSON(data, lay)
 
 
