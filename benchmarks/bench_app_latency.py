@@ -66,24 +66,25 @@ def drag(cfg: Config, k: int) -> Config:
 
 
 def loop_view(cfg: Config) -> int:
-    res = compute(cfg)
+    res = compute(cfg, views=("loop",))
     return len(F.loop_figure(res).to_json())
 
 
 def every_view(cfg: Config) -> int:
-    res = compute(cfg)
-    return sum(len(F.build(n, res).to_json()) for n in F.FIGURES if n != "closed-loop")
+    views = [n for n in F.FIGURES if n != "closed-loop"]
+    res = compute(cfg, views=views)
+    return sum(len(F.build(n, res).to_json()) for n in views)
 
 
 def closed_loop_view(cfg: Config) -> int:
-    res = compute(cfg, with_inverse=False, with_digitized=False)
+    res = compute(cfg, views=("closed-loop",))
     return len(F.closed_loop_figure(res).to_json())
 
 
 def baseline_go(cfg: Config) -> int:
     import plotly.graph_objects as go
 
-    res = compute(cfg)
+    res = compute(cfg, views=("loop",))
     m = res.model
     r = np.linspace(-4, 4, 201)
     fig = go.Figure(
@@ -119,7 +120,7 @@ def make_rest():  # noqa: ANN201 - returns a closure
 def make_gui():  # noqa: ANN201 - returns a closure
     import viser
 
-    from app.gui.layout import SessionView
+    from app.gui.controller import SessionView
     from app.settings import Settings
     from app.state import SessionRegistry
 
