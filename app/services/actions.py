@@ -1,4 +1,4 @@
-"""What the routers, the viser GUI and the command line do to a session (no web imports).
+"""What the REST routers and the viser GUI do to a session (no web imports).
 
 Each function is one transition of a :class:`~app.services.sessions.Session` (load a
 preset, set the config, load a parameter set, upload a recording, fit, diagnose, export,
