@@ -209,8 +209,7 @@ def operators_figure(res: Result) -> FigureJSON:
     # bands are fills without an outline (mode "none"): the colour change shows each
     # band's edge, and the browser paints one path per band instead of two
     data = [{"type": "scatter", "mode": "none", "x": t, "y": _num(m.p0 * w[idx]),
-             "name": "p0·γ(u)" if mapped else "p0·u", "stackgroup": "c",
-             "line": {"color": _GREY}}]
+             "name": "p0·γ(u)" if mapped else "p0·u", "stackgroup": "c"}]
     # beyond MAX_BANDS operators neighbours share a band (their sum): a stack of 25
     # hairline bands is unreadable, and each filled band costs the browser ~3 ms
     groups = np.array_split(np.arange(m.n), min(m.n, MAX_BANDS))
@@ -234,7 +233,8 @@ def operators_figure(res: Result) -> FigureJSON:
                   showlegend=True)
     if len(groups) < m.n:
         lay["legend"] = {**lay["legend"], "title": {
-            "text": f"{m.n} operators in {len(groups)} bands (neighbours summed):"}}
+            "text": f"{m.n} operators in {len(groups)} bands (neighbours summed)",
+            "side": "top"}}
     return FigureJSON(data, lay)
 
 
