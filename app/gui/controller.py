@@ -256,15 +256,22 @@ class SessionView:
             set_value(ui.use_rec, bool(cfg.use_recording))
 
     # ------------------------------------------------------------------ GUI -> session
-    def _commit(self, fn: Callable[[Config], Config]) -> None:
-        """Check and store a config change made in this view (a message if refused)."""
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        """Store a change made in this view: its controls are not synced back from it."""
         self._syncing.from_gui = True
         try:
-            actions.change_config(self.session, fn, self.settings)
-        except ParameterError as exc:
-            self.ui.model_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
+            yield
         finally:
             self._syncing.from_gui = False
+
+    def _commit(self, fn: Callable[[Config], Config]) -> None:
+        """Check and store a config change made in this view (a message if refused)."""
+        with self._writing():
+            try:
+                actions.change_config(self.session, fn, self.settings)
+            except ParameterError as exc:
+                self.ui.model_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
 
     def _pi_from_controls(self, cfg: Config) -> dict[str, Any]:
         ui = self.ui
@@ -304,21 +311,13 @@ class SessionView:
         self._commit(fn)
 
     def _n_changed(self, event: Any) -> None:
-        n = int(self.ui.n_ops.value)
-        if not 1 <= n <= self.settings.max_operators:
-            self.ui.model_md.content = f"⚠️ n must be between 1 and {self.settings.max_operators}"
-            return
-        p0 = float(self.ui.p0.value)
-
-        def fn(cfg: Config) -> Config:
-            m = cfg.model
-            rmax = float(m["thresholds"][-1]) if m.get("thresholds") else 2.7
-            total = float(np.sum(m.get("weights", [1.0])))
-            return cfg.with_model({"type": "pi", "p0": float(m.get("p0", p0)),
-                                   "thresholds": (rmax * np.arange(1, n + 1) / n).tolist(),
-                                   "weights": [total / n] * n})
-
-        self._commit(fn)
+        with self._writing():
+            try:
+                actions.set_operator_count(self.session, int(self.ui.n_ops.value),
+                                           self.settings)
+            except ParameterError as exc:
+                self.ui.model_md.content = f"⚠️ {md_text(exc)}"
+                return
         self._sync_controls(self.session.snapshot()[0])
 
     def _preset_chosen(self, event: Any) -> None:

@@ -14,6 +14,8 @@ from collections.abc import Callable, Collection
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
 from core.base import Model
 from core.exceptions import ParameterError
 from core.recordings import Recording
@@ -49,6 +51,7 @@ __all__ = [
     "result_payload",
     "session_figures",
     "session_result",
+    "set_operator_count",
     "simulate",
     "upload",
 ]
@@ -71,6 +74,30 @@ def change_config(session: Session, fn: Callable[[Config], Config],
         check_config(new, session.recording, settings.limits)
         validate_config(new, session.recording, settings.max_operators, settings.max_samples)
         return session.set_config(new)
+
+
+def set_operator_count(session: Session, n: int, settings: Settings) -> int:
+    """Give the session a classical PI of ``n`` operators: thresholds evenly spaced up to
+    the current widest one (2.7 without one), the current total weight shared equally and
+    ``p0`` kept. Returns the new version.
+
+    Raises
+    ------
+    ParameterError
+        If ``n`` is not between 1 and the operator limit.
+    """
+    if not 1 <= n <= settings.max_operators:
+        raise ParameterError(f"n must be between 1 and {settings.max_operators}")
+
+    def fn(cfg: Config) -> Config:
+        m = cfg.model
+        rmax = float(m["thresholds"][-1]) if m.get("thresholds") else 2.7
+        total = float(np.sum(m.get("weights", [1.0])))
+        return cfg.with_model({"type": "pi", "p0": float(m.get("p0", 0.72)),
+                               "thresholds": (rmax * np.arange(1, n + 1) / n).tolist(),
+                               "weights": [total / n] * n})
+
+    return change_config(session, fn, settings)
 
 
 def load_preset(session: Session, name: str, *, with_input: bool) -> dict[str, Any]:
