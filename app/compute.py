@@ -93,7 +93,7 @@ def preset_doc(name: str) -> dict[str, Any]:
     """``{"name", "title", "description", "model", "input"}`` of the preset ``name``.
 
     ``input`` is the :func:`preset_input` signal as a dict (the fields of
-    :class:`~app.state.SignalSpec`).
+    :class:`~app.services.config.SignalSpec`).
 
     Raises
     ------

@@ -1,7 +1,7 @@
 """The explorer's FastAPI app; its lifespan starts the viser GUI server beside it.
 
 viser is not an ASGI app (it serves its own page and websocket on its own port), so both
-run in one process and share the :class:`~app.state.SessionRegistry`: a parameter change
+run in one process and share the :class:`~app.services.sessions.SessionRegistry`: a parameter change
 through REST shows up in the viser GUI of the same session code, and vice versa.
 """
 
