@@ -412,7 +412,8 @@ class SessionView:
         n = int(ui.fit_n.value)
         kind = str(ui.fit_kind.value)
         with self._busy("fitting"):
-            model, report = actions.fit(self.session, n, kind, apply=True)
+            model, report = actions.fit(self.session, n, kind, apply=True,
+                                        settings=self.settings)
         self.fit_figure = actions.fit_figure(rec, model, f"fitted {kind} (n={n})")
         ui.view_dd.value = TITLES["fit"]
         ui.report_md.content = (

@@ -2,10 +2,11 @@
 
 Each function is one transition of a :class:`~app.services.sessions.Session` (load a
 preset, set the config, load a parameter set, upload a recording, fit, diagnose, export,
-the teacher's push) or one read of its results (figures). Every one checks its input and
-its cost before any work and raises :class:`~core.exceptions.ParameterError` (or
-:class:`~core.csvio.CSVError`, a subclass) with a message for the user; the callers only
-translate arguments and errors (HTTP status codes, toasts).
+the teacher's push) or one read of its results (figures). Configs and parameter sets are
+checked against the cost limits (:mod:`.cost`) before any work; a refusal is a
+:class:`~core.exceptions.ParameterError` (or :class:`~core.csvio.CSVError`, a subclass)
+with a message for the user. The callers only translate arguments and errors (HTTP status
+codes, toasts).
 """
 
 from __future__ import annotations
