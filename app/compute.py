@@ -233,7 +233,7 @@ def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]
 
 @dataclass(frozen=True, eq=False)
 class Loading:
-    """The initial loading curve ``φ(r)`` of a classical PI (paper 001, eq. 7).
+    """The initial loading curve ``φ(r)`` of a classical PI (paper 001, eq. 22).
 
     Attributes
     ----------
