@@ -18,7 +18,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import replace
 from typing import Any
 
@@ -189,13 +189,17 @@ class SessionView:
         return cb
 
     @contextmanager
-    def _quiet(self) -> Iterator[None]:
-        """Set widgets without their callbacks writing back."""
-        self._syncing.on = True
+    def _flag(self, name: str) -> Iterator[None]:
+        """Raise this thread's flag ``name`` while the block runs."""
+        setattr(self._syncing, name, True)
         try:
             yield
         finally:
-            self._syncing.on = False
+            setattr(self._syncing, name, False)
+
+    def _quiet(self) -> AbstractContextManager[None]:
+        """Set widgets without their callbacks writing back."""
+        return self._flag("on")
 
     def _toast(self, title: str, body: str, error: bool = False) -> None:
         if self._notify is not None:
@@ -256,14 +260,9 @@ class SessionView:
             set_value(ui.use_rec, bool(cfg.use_recording))
 
     # ------------------------------------------------------------------ GUI -> session
-    @contextmanager
-    def _writing(self) -> Iterator[None]:
+    def _writing(self) -> AbstractContextManager[None]:
         """Store a change made in this view: its controls are not synced back from it."""
-        self._syncing.from_gui = True
-        try:
-            yield
-        finally:
-            self._syncing.from_gui = False
+        return self._flag("from_gui")
 
     def _commit(self, fn: Callable[[Config], Config]) -> None:
         """Check and store a config change made in this view (a message if refused)."""
