@@ -104,7 +104,7 @@ class Session:
         """Replace the state with ``changes`` applied and store it; with ``notify`` (a
         change the plots show) also bump the version and tell the listeners."""
         with self.lock:
-            st = replace(self._state, **changes,
+            st = replace(self._state, **changes, last_used=time.time(),
                          version=self._state.version + (1 if notify else 0))
             if self._store is not None:
                 self._store.save(st, recording=recording, results=results)
@@ -119,6 +119,7 @@ class Session:
         """Commit the whole state to the store (no-op without one)."""
         if self._store is not None:
             with self.lock:
+                self._state = replace(self._state, last_used=time.time())
                 self._store.save(self._state)
 
     def set_config(self, config: Config) -> int:

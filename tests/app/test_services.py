@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,22 @@ def test_a_session_holds_one_frozen_state_replaced_by_each_transition(tmp_path: 
     again = SessionStore(tmp_path / "s.sqlite3").load(s.code)
     assert isinstance(again.config, Config) and again.config.to_dict() == after.config.to_dict()
     assert again.version == after.version and again.fitted == after.fitted
+
+
+def test_every_change_marks_the_session_used_in_the_store() -> None:
+    """The store's eviction protection and the teacher's push go by the last use: a
+    session changed through a GUI view (never looked up by code) must count as used."""
+    store = SessionStore(":memory:")
+    s = SessionRegistry(store=store).create()
+    time.sleep(0.01)
+    later = time.time()
+    assert s.code not in store.codes(since=later)
+    s.set_config(Config(mismatch=0.1))
+    assert s.code in store.codes(since=later)
+    time.sleep(0.01)
+    later = time.time()
+    s.set_diagnosis({"text": "r"}, None)
+    assert s.code in store.codes(since=later)
 
 
 def test_only_the_requested_views_are_computed() -> None:
