@@ -53,7 +53,7 @@ PLOT_CONFIG = {"displaylogo": False, "showSendToCloud": False, "plotlyServerURL"
                                           "editInChartStudio"]}
 #: Most filled bands in the operators view (neighbouring operators are summed beyond,
 #: and the legend names the operators of each band).
-MAX_BANDS = 8
+MAX_BANDS = 6
 
 _BLUE, _ORANGE, _GREEN, _RED, _GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#7f7f7f"
 

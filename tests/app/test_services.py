@@ -106,7 +106,7 @@ def test_operators_view_groups_many_operators_into_outline_free_bands() -> None:
     bands = [t for t in fig["data"] if t.get("stackgroup")]
     assert len(bands) == 1 + F.MAX_BANDS  # p0 u and the operator bands
     assert all(t["mode"] == "none" for t in bands)  # fills only: one path per band
-    assert "25 operators in 8 bands" in fig["layout"]["legend"]["title"]["text"]
+    assert f"25 operators in {F.MAX_BANDS} bands" in fig["layout"]["legend"]["title"]["text"]
     total = next(F.values(t["y"]) for t in fig["data"] if t["name"] == "y (sum)")
     np.testing.assert_allclose(np.sum([F.values(t["y"]) for t in bands], axis=0), total,
                                atol=1e-5 * np.ptp(total))
