@@ -1,15 +1,18 @@
 """Simulation results of an explorer config: model, signal, inverse, digitized and closed loop.
 
-:func:`compute` turns a :class:`~app.state.Config` into a :class:`Result` with everything the
-figures need; :func:`closed_loop` runs paper 001's control loop for the closed-loop view.
-No viser / fastapi / plotly imports.
+:func:`compute` turns a :class:`~app.services.config.Config` into a :class:`Result` with
+everything the figures of the requested views need, and nothing for the views not on show
+(the inverse, the perturbed plant, the digitized trace and state graph, the operator
+contributions, the loading curve and paper 001's closed loop are each computed only for
+their view); :mod:`app.figures` only draws a result. No viser / fastapi / plotly imports.
 """
 
 from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from collections.abc import Collection
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -25,18 +28,21 @@ from core.presets import get_preset, list_presets
 from core.recordings import Recording
 from core.signals import SIGNALS
 
-from .state import Config, SignalSpec
+from .services.config import Config, SignalSpec
 
 __all__ = [
     "CLOSED_LOOP_MAX_S",
     "MAX_GRAPH_DIGITS",
+    "VIEWS",
     "ClosedLoop",
     "Digitized",
+    "Loading",
     "Result",
     "build_model",
     "closed_loop",
     "compute",
     "decimate_index",
+    "inverse_problem",
     "make_signal",
     "operator_contributions",
     "perturb",
@@ -87,7 +93,7 @@ def preset_doc(name: str) -> dict[str, Any]:
     """``{"name", "title", "description", "model", "input"}`` of the preset ``name``.
 
     ``input`` is the :func:`preset_input` signal as a dict (the fields of
-    :class:`~app.state.SignalSpec`).
+    :class:`~app.services.config.SignalSpec`).
 
     Raises
     ------
@@ -226,6 +232,56 @@ def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]
 
 
 @dataclass(frozen=True, eq=False)
+class Loading:
+    """The initial loading curve ``φ(r)`` of a classical PI (paper 001, eq. 22).
+
+    Attributes
+    ----------
+    knots : ndarray of shape (K,)
+        ``0``, the thresholds below ``r_max`` and ``r_max``, input units.
+    phi : ndarray of shape (K,)
+        ``φ`` at the knots, output units.
+    slopes : ndarray of shape (n,)
+        Slope of each segment.
+    max_loop_width : float
+        Widest loop ``σ``, output units.
+    invertible : bool
+        Every slope positive.
+    curve_u, curve_y : ndarray of shape (201,)
+        The curve over ``[-|u|max, |u|max]`` (the loop view's overlay), ``y = φ`` odd
+        extension; ``None`` when the PI is a stage of a larger model.
+    """
+
+    knots: np.ndarray
+    phi: np.ndarray
+    slopes: np.ndarray
+    max_loop_width: float
+    invertible: bool
+    curve_u: np.ndarray | None = None
+    curve_y: np.ndarray | None = None
+
+
+def loading(model: Model, u_max: float | None) -> Loading | None:
+    """The :class:`Loading` of ``model``'s classical PI up to ``u_max`` (default: 1.25 times
+    the widest threshold), or ``None`` when it has none."""
+    pi = pi_part(model)
+    if pi is None:
+        return None
+    rmax = float(u_max or 1.25 * pi.thresholds[-1])
+    knots = np.concatenate(([0.0], pi.thresholds[pi.thresholds < rmax], [rmax]))
+    cu = cy = None
+    if pi is model:
+        cu = np.linspace(-(u_max or 1.0), u_max or 1.0, 201)
+        cy = pi.loading_curve(cu)
+    return Loading(knots, pi.loading_curve(knots), pi.slopes, float(pi.max_loop_width),
+                   bool(pi.is_invertible), cu, cy)
+
+
+#: The views (figures) a result can be computed for.
+VIEWS = ("time", "loop", "operators", "loading", "inverse", "digitized", "closed-loop")
+
+
+@dataclass(frozen=True, eq=False)
 class Result:
     """Everything the figures show for one config (arrays of shape ``(N,)`` unless noted)."""
 
@@ -246,8 +302,14 @@ class Result:
     messages: tuple[str, ...] = ()
     elapsed_ms: float = 0.0
     pi_u: np.ndarray | None = None  # (N,) input of the PI stage (u unless a map precedes it)
+    pi_y: np.ndarray | None = None  # (N,) output of the PI stage when a map follows it
     inverse_warning: str | None = None  # the inverse ran but clipped part of the input
     units: dict[str, str] = field(default_factory=dict)  # "time", "input", "output"
+    loading: Loading | None = None  # the PI's loading curve (loop and loading views)
+    closed_loop: ClosedLoop | None = None  # paper 001's closed loop (its view only)
+    closed_loop_note: str | None = None  # why it is missing, or what it is limited to
+    mismatch: float = 0.0  # the config's plant mismatch
+    views: frozenset[str] = frozenset()  # the views this result was computed for
 
 
 def decimate_index(u: np.ndarray, max_points: int = 800) -> np.ndarray:
@@ -316,29 +378,33 @@ def validate_config(config: Config, recording: Recording | None, max_operators: 
 def compute(
     config: Config,
     *,
+    views: Collection[str] = VIEWS,
     version: int = 0,
     recording: Recording | None = None,
     max_operators: int = 100,
     max_samples: int = 200_000,
-    with_inverse: bool = True,
-    with_digitized: bool = True,
-    with_operators: bool = True,
     diagnosed: Model | None = None,
 ) -> Result:
-    """Simulate ``config``: output, operator contributions and inverse compensation.
+    """Simulate ``config`` and compute what the figures of ``views`` need.
 
-    ``with_inverse`` / ``with_digitized`` / ``with_operators`` skip the
-    inverse-compensation run, the digitized view and the operator contributions when the
-    figure on show does not need them. An inverse that had to clip part of its input (a
+    ``views`` (names of :data:`VIEWS`; all by default) selects the work beyond the
+    model's output: the inverse-compensation run and the perturbed plant (``"inverse"``),
+    the digitized trace and state graph (``"digitized"``), the operator contributions
+    (``"operators"``), the loading curve (``"loop"``, ``"loading"``) and paper 001's
+    closed loop (``"closed-loop"``). An inverse that had to clip part of its input (a
     tanh envelope's bounded domain) still runs; ``Result.inverse_warning`` says so.
     ``diagnosed`` (the session's diagnosed extended model, :func:`diagnosed_model`) is the
-    model the inverse view then compensates instead of the config's model.
+    model the inverse and closed-loop views then compensate instead of the config's model.
 
     Raises
     ------
     ParameterError
         If the model or the signal is invalid (the message names the field).
     """
+    views = frozenset(views)
+    with_inverse = "inverse" in views
+    with_digitized = "digitized" in views
+    with_operators = "operators" in views
     t0 = time.perf_counter()
     model = build_model(config.model, max_operators)
     y_meas = None
@@ -353,11 +419,14 @@ def compute(
     if u.size > max_samples:
         raise ParameterError(f"the input has {u.size} samples; at most {max_samples} allowed")
     y = model.simulate(u, dt=dt).y
-    contrib = contrib_idx = w = None
+    contrib = contrib_idx = w = pi_y = None
     pi = pi_part(model)
     if pi is not None and with_operators:
         w = pi_input(model, u, dt)
         contrib_idx, contrib = operator_contributions(pi, w)
+        stages = getattr(model, "stages", ())
+        if stages and stages[-1] is not pi:  # a map after the PI: the stack is its output
+            pi_y = pi.simulate(w).y
     v = y_comp = None
     inv_err = inv_warn = None
     if with_inverse:
@@ -383,7 +452,7 @@ def compute(
             digi, digi_msg = digitize(model, u)
     except (ParameterError, ValueError) as exc:
         digi_msg = f"digitized view unavailable: {exc}"
-    return Result(
+    res = Result(
         version=version,
         model=model,
         digitized=digi,
@@ -394,6 +463,7 @@ def compute(
         contributions=contrib,
         contrib_idx=contrib_idx,
         pi_u=w,
+        pi_y=pi_y,
         v=v,
         y_comp=y_comp,
         inverse_error=inv_err,
@@ -401,8 +471,15 @@ def compute(
         inverse_warning=inv_warn,
         units=units,
         y_measured=y_meas,
-        elapsed_ms=1e3 * (time.perf_counter() - t0),
+        mismatch=float(config.mismatch),
+        views=views,
+        loading=(loading(model, float(np.max(np.abs(u))) or None)
+                 if views & {"loop", "loading"} else None),
     )
+    if "closed-loop" in views:
+        cl, note = closed_loop(res, config.mismatch)
+        res = replace(res, closed_loop=cl, closed_loop_note=note)
+    return replace(res, elapsed_ms=1e3 * (time.perf_counter() - t0))
 
 
 # ----------------------------------------------------------------------------- closed loop
@@ -467,3 +544,15 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
         f"closed loop of the diagnosed model over its first {1e3 * dur:g} ms (its effects run "
         "sample by sample)")
     return ClosedLoop(runs), note
+
+
+def inverse_problem(res: Result) -> str | None:
+    """Why ``res``'s model has no usable inverse, or ``None``; without the inverse view
+    computed, only whether the inverse can be built (nothing is simulated)."""
+    if res.inverse_error is not None or "inverse" in res.views:
+        return res.inverse_error
+    try:
+        res.model.inverse()
+    except (NotInvertibleError, ValueError) as exc:
+        return str(exc)
+    return None

@@ -20,9 +20,9 @@ from core.csvio import CSVError, inspect_csv_text, read_csv_text
 from core.models import estimator_class, fit_kinds
 from core.recordings import Recording
 
-from .commands._common import column_spec
 from .compute import pi_part
-from .state import Session
+from .services.columns import column_spec
+from .services.sessions import Session
 
 __all__ = [
     "Upload",
@@ -117,11 +117,7 @@ def recording_from_csv(content: str | bytes, **kwargs: Any) -> Recording:
 
 def store_recording(session: Session, rec: Recording) -> None:
     """Give ``session`` the recording ``rec``; its fit and diagnosis are dropped."""
-    with session.lock:
-        session.recording = rec
-        session.fitted = session.fit_report = None
-        session.diagnosis = session.diagnosis_result = None
-    session.touch()
+    session.set_recording(rec)
 
 
 def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[str, Any]:
@@ -189,13 +185,7 @@ def fit_session(session: Session, n: int, kind: str = "pi",
     The caller checks that the session has a recording.
     """
     model, report = fit_recording(session.recording, n, kind)
-    doc = model.to_dict()
-    with session.lock:
-        session.fitted, session.fit_report = doc, report
-        session.diagnosis = session.diagnosis_result = None
-        session.save(recording=False)  # the fit, and the old diagnosis gone
-    if apply:
-        session.update(lambda c: c.with_model(doc))
+    session.set_fit(model.to_dict(), report, apply=apply)
     return model, report
 
 
@@ -253,9 +243,7 @@ def diagnose_session(session: Session,
     """
     doc = session.fitted or session.snapshot()[0].model
     report, result = run_diagnosis(session.recording, model_from_dict(doc), progress)
-    with session.lock:
-        session.diagnosis, session.diagnosis_result = report, result
-        session.save(recording=False)
+    session.set_diagnosis(report, result)
     return report
 
 

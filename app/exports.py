@@ -21,7 +21,7 @@ from core.paramset import (
     model_from_document,
 )
 
-from .state import Session
+from .services.sessions import Session
 
 __all__ = [
     "EXPORT_FORMATS",

@@ -1,5 +1,7 @@
 """Plotly figure builders shared by the viser GUI and the REST API / static page.
 
+Every builder is a pure function of computed results (:class:`app.compute.Result`, a
+recording and a fitted output): nothing here simulates, inverts or evaluates a model.
 Figures are built as plain plotly JSON (``{"data": [...], "layout": {...}}``) and wrapped
 in :class:`FigureJSON`, which serialises once. The viser plot handle only needs
 ``figure.to_json()``, REST returns :meth:`FigureJSON.to_dict`, and the static page hands
@@ -21,10 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from core.base import Model
 from core.recordings import Recording
 
-from .compute import Result, closed_loop, decimate_index, pi_part
+from .compute import VIEWS, Loading, Result, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",
@@ -50,8 +51,9 @@ MAX_POINTS = 800
 PLOT_CONFIG = {"displaylogo": False, "showSendToCloud": False, "plotlyServerURL": "",
                "modeBarButtonsToRemove": ["sendDataToCloud", "sendChartToCloud",
                                           "editInChartStudio"]}
-#: Most filled bands in the operators view (neighbouring operators are summed beyond).
-MAX_BANDS = 12
+#: Most filled bands in the operators view (neighbouring operators are summed beyond,
+#: and the legend names the operators of each band).
+MAX_BANDS = 6
 
 _BLUE, _ORANGE, _GREEN, _RED, _GREY = "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#7f7f7f"
 
@@ -178,11 +180,9 @@ def loop_figure(res: Result) -> FigureJSON:
         data.append(_line(_num(res.u[idx]), _num(res.y_measured[idx]), "measured", _GREY,
                           line={"color": _GREY, "width": 1, "dash": "dot"}))
     m = res.model
-    pi = pi_part(m)
-    if pi is not None and pi is m:
-        umax = float(np.max(np.abs(res.u))) or 1.0
-        r = np.linspace(-umax, umax, 201)
-        data.append(_line(_num(r), _num(pi.loading_curve(r)), "initial loading curve", _GREEN,
+    ld = res.loading
+    if ld is not None and ld.curve_u is not None:
+        data.append(_line(_num(ld.curve_u), _num(ld.curve_y), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     title = f"Hysteresis loop ({type(m).__name__}, n = {getattr(m, 'n', '?')})"
     lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
@@ -206,60 +206,60 @@ def operators_figure(res: Result) -> FigureJSON:
     mapped = w is not res.u
     stages = getattr(res.model, "stages", ())
     pi_last = not stages or stages[-1] is m
-    data = [_line(t, _num(m.p0 * w[idx]), "p0·γ(u)" if mapped else "p0·u", _GREY,
-                  stackgroup="c", line={"width": 0.5})]
+    # bands are fills without an outline (mode "none"): the colour change shows each
+    # band's edge, and the browser paints one path per band instead of two
+    data = [{"type": "scatter", "mode": "none", "x": t, "y": _num(m.p0 * w[idx]),
+             "name": "p0·γ(u)" if mapped else "p0·u", "stackgroup": "c"}]
     # beyond MAX_BANDS operators neighbours share a band (their sum): a stack of 25
     # hairline bands is unreadable, and each filled band costs the browser ~3 ms
-    for grp in np.array_split(np.arange(m.n), min(m.n, MAX_BANDS)):
+    groups = np.array_split(np.arange(m.n), min(m.n, MAX_BANDS))
+    for grp in groups:
         a, b = int(grp[0]), int(grp[-1])
         name = (f"p{a + 1}·Γ(r={m.thresholds[a]:.3g})" if a == b else
                 f"p{a + 1}…p{b + 1}·Γ(r={m.thresholds[a]:.3g}…{m.thresholds[b]:.3g})")
-        data.append({"type": "scatter", "mode": "lines", "x": t,
+        data.append({"type": "scatter", "mode": "none", "x": t,
                      "y": _num(res.contributions[:, grp].sum(axis=1)), "stackgroup": "c",
-                     "name": name, "line": {"width": 0.5}})
+                     "name": name})
     if pi_last:
         data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
                           line={"color": "#000000", "width": 1.5, "dash": "dot"}))
     else:  # a map after the PI: the stack is the PI's output, not y
-        pi_y = m.simulate(w).y
-        data.append(_line(t, _num(pi_y[idx]), "PI output (sum)", "#000000",
+        data.append(_line(t, _num(res.pi_y[idx]), "PI output (sum)", "#000000",
                           line={"color": "#000000", "width": 1.5, "dash": "dot"}))
     title = ("Operator contributions (stacked, on the PI's input γ(u))" if mapped
              else "Operator contributions (stacked)")
     lay = _layout(title, xaxis={"title": _ax(res.units, "time")},
                   yaxis={"title": _ax(res.units, "output", "contribution to y")},
                   showlegend=True)
+    if len(groups) < m.n:
+        lay["legend"] = {**lay["legend"], "title": {
+            "text": f"{m.n} operators in {len(groups)} bands (neighbours summed)",
+            "side": "top"}}
     return FigureJSON(data, lay)
 
 
-def loading_figure(model: Model, u_max: float | None = None,
-                   units: dict[str, str] | None = None) -> FigureJSON:
+def loading_figure(ld: Loading | None, units: dict[str, str] | None = None) -> FigureJSON:
     """Initial loading curve φ(r) with each segment's slope and the maximum loop width."""
-    pi = pi_part(model)
-    if pi is None:
+    if ld is None:
         return message_figure("Initial loading curve", "Only available for classical PI models")
-    model = pi
-    rmax = float(u_max or 1.25 * model.thresholds[-1])
-    knots = np.concatenate(([0.0], model.thresholds[model.thresholds < rmax], [rmax]))
-    phi = model.loading_curve(knots)
+    knots, phi = ld.knots, ld.phi
     data = [_line(_num(knots), _num(phi), "φ(r)", _GREEN, mode="lines+markers")]
-    slopes = model.slopes
     ann = []
     for i in range(knots.size - 1):
         xm, ym = 0.5 * (knots[i] + knots[i + 1]), 0.5 * (phi[i] + phi[i + 1])
-        ann.append({"x": xm, "y": ym, "text": f"S{i + 1}={slopes[i]:.3g}", "showarrow": False,
-                    "yshift": 12, "font": {"size": 10}})
-    inv = "invertible" if model.is_invertible else "NOT invertible (a slope ≤ 0)"
+        ann.append({"x": xm, "y": ym, "text": f"S{i + 1}={ld.slopes[i]:.3g}",
+                    "showarrow": False, "yshift": 12, "font": {"size": 10}})
+    inv = "invertible" if ld.invertible else "NOT invertible (a slope ≤ 0)"
     ann.append({"x": 0.02, "y": 0.98, "xref": "paper", "yref": "paper", "showarrow": False,
                 "xanchor": "left", "align": "left",
-                "text": f"max loop width σ = {model.max_loop_width:.4g}<br>{inv}"})
+                "text": f"max loop width σ = {ld.max_loop_width:.4g}<br>{inv}"})
     lay = _layout("Initial loading curve",
                   xaxis={"title": _ax(units, "input", "input travel r")},
                   yaxis={"title": _ax(units, "output", "loading curve φ(r)")}, annotations=ann)
     return FigureJSON(data, lay)
 
 
-def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
+def inverse_figure(res: Result) -> FigureJSON:
     """Inverse loop, ``P∘P⁻¹`` against the identity and the tracking error."""
     if res.v is None or res.y_comp is None:
         return message_figure("Inverse compensation", res.inverse_error or "no inverse")
@@ -283,7 +283,7 @@ def inverse_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
         err_axis["range"] = [-0.05 * span, 0.05 * span]
     yd_title = _ax(un, "output", "desired y_d")
     lay = _layout(
-        f"Inverse compensation (mismatch {mismatch:+.0%}, RMS error {rms:.3g})",
+        f"Inverse compensation (mismatch {res.mismatch:+.0%}, RMS error {rms:.3g})",
         xaxis={"domain": [0, 0.3], "title": yd_title, "anchor": "y"},
         yaxis={"title": _ax(un, "input", "plant input v"), "anchor": "x"},
         xaxis2={"domain": [0.36, 0.64], "title": yd_title, "anchor": "y2"},
@@ -439,9 +439,9 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     return FigureJSON(data, lay)
 
 
-def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
+def closed_loop_figure(res: Result) -> FigureJSON:
     """Paper 001 Fig. 16: reference vs plant output and tracking error, ± inverse."""
-    cl, msg = closed_loop(res, mismatch)
+    cl, msg = res.closed_loop, res.closed_loop_note
     if cl is None:
         return message_figure("Closed loop", msg or "unavailable")
     colors = {"no compensation": _RED, "inverse feedforward": _GREEN,
@@ -459,7 +459,7 @@ def closed_loop_figure(res: Result, mismatch: float = 0.0) -> FigureJSON:
                           showlegend=False))
         parts.append(f"{name}: RMS {run.rms_error(0.0):.3g}")
     title = "Closed loop (paper 001 Fig. 15-16, mismatch {:+.0%}): {}".format(
-        mismatch, "; ".join(parts))
+        res.mismatch, "; ".join(parts))
     if msg:
         title += f" — {msg}"
     lay = _layout(
@@ -523,12 +523,20 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
     return FigureJSON(fig.data, new), len(cols)
 
 
-#: Names of the figures :func:`build` can build.
-FIGURES = ("time", "loop", "operators", "loading", "inverse", "digitized", "closed-loop")
+#: Names of the figures :func:`build` can build (one per view of :func:`app.compute.compute`).
+FIGURES = VIEWS
 
 
-def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
-    """Build the figure ``name`` (one of :data:`FIGURES`) from ``res``."""
+def build(name: str, res: Result) -> FigureJSON:
+    """Build the figure ``name`` (one of :data:`FIGURES`) from ``res``.
+
+    ``res`` must have been computed for that view (``compute(..., views=[name])``); a
+    figure of a view it was not computed for says so.
+    """
+    if name not in FIGURES:
+        raise KeyError(name)
+    if name not in res.views:
+        return message_figure(name, f"the {name} view was not computed for this result")
     if name == "time":
         return time_figure(res)
     if name == "loop":
@@ -536,11 +544,9 @@ def build(name: str, res: Result, mismatch: float = 0.0) -> FigureJSON:
     if name == "operators":
         return operators_figure(res)
     if name == "loading":
-        return loading_figure(res.model, float(np.max(np.abs(res.u))) or None, res.units)
+        return loading_figure(res.loading, res.units)
     if name == "inverse":
-        return inverse_figure(res, mismatch)
+        return inverse_figure(res)
     if name == "digitized":
         return digitized_figure(res)
-    if name == "closed-loop":
-        return closed_loop_figure(res, mismatch)
-    raise KeyError(name)
+    return closed_loop_figure(res)

@@ -1,7 +1,7 @@
 """The explorer's FastAPI app; its lifespan starts the viser GUI server beside it.
 
 viser is not an ASGI app (it serves its own page and websocket on its own port), so both
-run in one process and share the :class:`~app.state.SessionRegistry`: a parameter change
+run in one process and share the :class:`~app.services.sessions.SessionRegistry`: a parameter change
 through REST shows up in the viser GUI of the same session code, and vice versa.
 """
 
@@ -23,11 +23,12 @@ from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
 from .security import Guard
+from .services.config import Config
 from .services.jobs import JobManager
 from .services.ratelimit import RateLimiter
+from .services.sessions import SessionRegistry, StoreFullError
 from .services.store import SessionStore
 from .settings import STATIC_DIR, Settings
-from .state import Config, SessionRegistry, StoreFullError
 
 __all__ = ["create_app"]
 
@@ -40,7 +41,7 @@ def _start_viser(app: FastAPI, settings: Settings) -> Any:
         return None
     import viser
 
-    from .gui.layout import attach_gui
+    from .gui.explorer import attach_gui
 
     server = viser.ViserServer(host=settings.host, port=settings.viser_port, verbose=False)
     app.state.gui = attach_gui(server, app.state.registry, settings)
@@ -74,7 +75,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         from .compute import compute
 
-        compute(Config())  # load the compiled kernels before the first user arrives
+        compute(Config())  # every view once: the compiled kernels load before any user
         server = _start_viser(app, settings)
         app.state.viser = server
         app.state.viser_port = None if server is None else server.get_port()

@@ -15,7 +15,7 @@ Cases, median and 95th percentile of ``--repeat`` iterations, taken round-robin:
   loading, inverse, digitized) built and serialised.
 * ``closed-loop view``: the closed-loop figure alone (three runs of paper 001's loop at
   50 kHz over 2 s, 100,000 samples each); built only while that view is on show.
-* ``viser GUI step``: a headless :class:`app.gui.layout.SessionView` on a real
+* ``viser GUI step``: a headless :class:`app.gui.controller.SessionView` on a real
   ``ViserServer``: assigning a weight slider's value (what a browser message does) until
   the render worker has sent the new loop figure (callback, validation, session update,
   simulate, inverse, digitized view, figure, JSON, websocket queue).
@@ -43,7 +43,7 @@ import numpy as np  # noqa: E402
 
 from app import figures as F  # noqa: E402
 from app.compute import compute  # noqa: E402
-from app.state import Config, SignalSpec  # noqa: E402
+from app.services.config import Config, SignalSpec  # noqa: E402
 
 N_SAMPLES, N_OPS = 4000, 25
 
@@ -66,24 +66,25 @@ def drag(cfg: Config, k: int) -> Config:
 
 
 def loop_view(cfg: Config) -> int:
-    res = compute(cfg)
+    res = compute(cfg, views=("loop",))
     return len(F.loop_figure(res).to_json())
 
 
 def every_view(cfg: Config) -> int:
-    res = compute(cfg)
-    return sum(len(F.build(n, res).to_json()) for n in F.FIGURES if n != "closed-loop")
+    views = [n for n in F.FIGURES if n != "closed-loop"]
+    res = compute(cfg, views=views)
+    return sum(len(F.build(n, res).to_json()) for n in views)
 
 
 def closed_loop_view(cfg: Config) -> int:
-    res = compute(cfg, with_inverse=False, with_digitized=False)
+    res = compute(cfg, views=("closed-loop",))
     return len(F.closed_loop_figure(res).to_json())
 
 
 def baseline_go(cfg: Config) -> int:
     import plotly.graph_objects as go
 
-    res = compute(cfg)
+    res = compute(cfg, views=("loop",))
     m = res.model
     r = np.linspace(-4, 4, 201)
     fig = go.Figure(
@@ -119,9 +120,9 @@ def make_rest():  # noqa: ANN201 - returns a closure
 def make_gui():  # noqa: ANN201 - returns a closure
     import viser
 
-    from app.gui.layout import SessionView
+    from app.gui.controller import SessionView
+    from app.services.sessions import SessionRegistry
     from app.settings import Settings
-    from app.state import SessionRegistry
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     reg = SessionRegistry()

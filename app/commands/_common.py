@@ -21,6 +21,8 @@ import numpy as np
 
 from core.exceptions import ParameterError
 
+from ..services.columns import column_spec
+
 if TYPE_CHECKING:
     from core.paramset import ParameterSet
 
@@ -169,14 +171,6 @@ def _reject_constant(name: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- CSV signals
-def column_spec(col: str | int | None) -> int | str | None:
-    """A column option as :func:`core.csvio.read_csv` wants it: a 0-based index when it is
-    all digits, else the name; ``None`` (or ``""``) lets the reader choose."""
-    if col is None or col == "":
-        return None
-    return int(col) if isinstance(col, int) or str(col).isdigit() else str(col)
-
-
 def pick_column(
     names: Sequence[str], wanted: str | None, defaults: Sequence[str], fallback: int | None,
     what: str, path: str | Path,

@@ -9,8 +9,9 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from ..data import csv_preview, diagnosis_html, read_upload, store_recording
+from ..data import csv_preview, diagnosis_html
 from ..schemas import FitIn
+from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
 
@@ -67,11 +68,10 @@ async def upload_recording(
     _check_type(request)
     body = await read_body(request, settings.max_upload_bytes)
     up = await run_in_threadpool(
-        lambda: read_upload(body, t_col=t_col, u_col=u_col, y_col=y_col, run=run, dt=dt,
-                            max_samples=settings.max_samples, name=name)
+        lambda: actions.upload(session, body, settings, t_col=t_col, u_col=u_col,
+                               y_col=y_col, run=run, dt=dt, name=name)
     )
     rec = up.recording
-    store_recording(session, rec)
     return {
         "name": rec.name,
         "samples": rec.n_samples,

@@ -7,8 +7,8 @@ from typing import Annotated
 from fastapi import Depends, HTTPException, Request
 
 from ..services.ratelimit import RateLimiter
+from ..services.sessions import Session, SessionRegistry
 from ..settings import Settings
-from ..state import Session, SessionRegistry
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
            "read_body", "require_teacher"]

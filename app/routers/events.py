@@ -20,7 +20,6 @@ from __future__ import annotations
 import asyncio
 import json
 from collections.abc import AsyncIterator
-from dataclasses import replace
 from typing import Any
 
 from fastapi import APIRouter, Header, HTTPException
@@ -32,7 +31,8 @@ from core.exceptions import ParameterError
 from ..compute import preset_doc
 from ..events import HUB
 from ..schemas import SignalIn
-from ..state import SignalSpec
+from ..services import actions
+from ..services.config import SignalSpec
 from .deps import RegistryDep, SessionDep, SettingsDep, require_teacher
 
 __all__ = ["router"]
@@ -113,15 +113,9 @@ def teacher_push(
             signal.validate(settings.max_samples)
         except ParameterError as exc:
             raise HTTPException(422, str(exc)) from None
-
-    def change(cfg: Any) -> Any:
-        new = cfg if model is None else cfg.with_model(model)
-        return new if signal is None else replace(new, signal=signal, use_recording=False)
-
-    n = registry.update_recent(change)  # stored: a reload or a restart keeps the push
-    event = {"kind": "push", "preset": body.preset, "title": title,
-             "signal": signal is not None}
-    pages = HUB.broadcast(event)
+    # stored: a reload or a restart keeps the push
+    n, pages = actions.push(registry, model=model, signal=signal, note={
+        "preset": body.preset, "title": title, "signal": signal is not None})
     return {"preset": body.preset, "sessions": n, "pages": pages}
 
 

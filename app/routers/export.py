@@ -10,8 +10,8 @@ from fastapi.responses import Response
 
 from core.exceptions import ParameterError
 
-from ..exports import EXPORT_FORMATS, export_session, parameter_set_model
-from ..services.cost import check_config, check_document
+from ..exports import EXPORT_FORMATS
+from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
 
 __all__ = ["router"]
@@ -26,7 +26,7 @@ def export(fmt: str, session: SessionDep) -> Response:
     """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
     if fmt not in EXPORT_FORMATS:
         raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
-    name, payload = export_session(session, fmt)
+    name, payload = actions.export(session, fmt)
     return Response(payload, media_type=_MEDIA[fmt], headers=attachment(name))
 
 
@@ -41,13 +41,9 @@ async def upload_parameter_set(
     except json.JSONDecodeError as exc:
         raise HTTPException(422, f"not valid JSON: {exc}") from None
     try:
-        check_document(doc, settings.limits)
-        model = parameter_set_model(doc)
-        check_config(session.snapshot()[0].with_model(model.to_dict()), session.recording,
-                     settings.limits)
-    except (ParameterError, ValueError, TypeError, KeyError) as exc:
+        actions.load_parameter_set(session, doc, settings)
+    except (ParameterError, ValueError) as exc:
         raise HTTPException(422, f"not a usable parameter set: {exc}") from None
-    session.update(lambda c: c.with_model(model.to_dict()))
     return session.summary()
 
 

@@ -8,12 +8,10 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 
 from core.exceptions import ParameterError
 
-from ..compute import compute, diagnosed_model, preset_doc, validate_config
-from ..events import HUB
+from ..compute import preset_doc
 from ..schemas import ConfigIn
-from ..services.cost import check_config
+from ..services import actions
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
-from .simulate import result_payload
 
 __all__ = ["router"]
 
@@ -57,11 +55,7 @@ def join_session(session: SessionDep) -> dict[str, Any]:
 @router.patch("/sessions/{code}/config")
 def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
     """Change model, signal, mismatch or input source; validated before it is stored."""
-    with session.lock:
-        new = body.apply(session.config)
-        check_config(new, session.recording, settings.limits)
-        validate_config(new, session.recording, settings.max_operators, settings.max_samples)
-        session.set_config(new)
+    actions.change_config(session, body.apply, settings)
     return session.summary()
 
 
@@ -71,29 +65,19 @@ def session_figures(
     settings: SettingsDep,
     names: list[str] = Query(default=["loop"], alias="name"),  # noqa: B008
 ) -> dict[str, Any]:
-    """Figures of the session's current config (``?name=loop&name=time``)."""
-    cfg, v = session.snapshot()
-    check_config(cfg, session.recording, settings.limits)
-    res = compute(cfg, version=v, recording=session.recording,
-                  max_operators=settings.max_operators, max_samples=settings.max_samples,
-                  with_inverse="inverse" in names, with_digitized="digitized" in names,
-                  diagnosed=diagnosed_model(session))
-    return result_payload(res, names, cfg.mismatch, False)
+    """Figures of the session's current config (``?name=loop&name=time``); only what the
+    named figures show is computed."""
+    return actions.session_figures(session, names, settings)
 
 
 @router.post("/sessions/{code}/preset/{name}")
 def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
     """Load the model of preset ``name`` (see ``GET /api/presets``)."""
-    model = _preset(name)["model"]
-    session.update(lambda c: c.with_model(model))
-    return session.summary()
-
-
-def _preset(name: str) -> dict[str, Any]:
     try:
-        return preset_doc(name)
+        actions.load_preset(session, name, with_input=False)
     except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
+    return session.summary()
 
 
 @router.post("/broadcast/{name}")
@@ -109,6 +93,9 @@ def broadcast_preset(
     reachable beyond loopback (compared in constant time).
     """
     require_teacher(settings, x_teacher_token)
-    out = {"preset": name, "sessions": registry.push_model(_preset(name)["model"])}
-    HUB.broadcast({"kind": "push", "preset": name})
-    return out
+    try:
+        model = preset_doc(name)["model"]
+    except ParameterError:
+        raise HTTPException(404, f"no preset named {name!r}") from None
+    n, _ = actions.push(registry, model=model, note={"preset": name})
+    return {"preset": name, "sessions": n}

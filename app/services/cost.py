@@ -261,7 +261,8 @@ def checked_model(doc: Any, samples: int, dt: float, limits: Limits) -> tuple[Mo
 
 
 def check_config(cfg: Any, recording: Any, limits: Limits) -> Cost:
-    """Cost of computing the figures of an :class:`app.state.Config` (see :func:`check_model`).
+    """Cost of computing the figures of a :class:`~app.services.config.Config` (see
+    :func:`check_model`).
 
     The run is the recording's input when ``cfg.use_recording`` and there is one, else the
     config's signal (``samples`` samples over ``duration`` seconds).

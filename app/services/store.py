@@ -34,6 +34,8 @@ import numpy as np
 
 from core.recordings import Recording
 
+from .config import Config, config_from_dict
+
 __all__ = ["SessionState", "SessionStore", "default_state_dir", "recording_from_blob",
            "recording_to_blob"]
 
@@ -73,16 +75,19 @@ def default_state_dir() -> Path:
 
 @dataclass(frozen=True, eq=False)
 class SessionState:
-    """Everything the store keeps of one session.
+    """Everything one session holds: the one typed session state of the explorer.
+
+    A live :class:`~app.services.sessions.Session` holds one of these and replaces it as
+    a whole on every transition; the store keeps it.
 
     Attributes
     ----------
     code : str
         The session code (its only key).
-    config : dict
-        The :class:`app.state.Config` in its ``to_dict()`` form.
+    config : Config
+        Model, input signal, mismatch and input source.
     version : int
-        Config version.
+        Bumped on every change; render workers skip stale versions.
     recording : Recording or None
         Uploaded recording.
     fitted, fit_report, diagnosis : dict or None
@@ -96,7 +101,7 @@ class SessionState:
     """
 
     code: str
-    config: dict[str, Any]
+    config: Config = field(default_factory=Config)
     version: int = 0
     recording: Recording | None = None
     fitted: dict[str, Any] | None = None
@@ -208,7 +213,7 @@ class SessionStore:
         ``recording=False`` / ``results=False`` leave the stored recording / diagnosis
         blob as they are (a config change need not rewrite a recording).
         """
-        cfg = _dump(state.config) or "{}"
+        cfg = _dump(state.config.to_dict()) or "{}"
         row_text = [cfg, _dump(state.fitted), _dump(state.fit_report), _dump(state.diagnosis)]
         blobs: dict[str, bytes | None] = {}
         if recording:
@@ -285,7 +290,7 @@ class SessionStore:
         diag = _unpickle(blobs["diagnosis"]) if "diagnosis" in blobs else None
         return SessionState(
             code=row[0], created=row[1], last_used=row[2], teacher=bool(row[3]),
-            version=row[4], config=json.loads(row[5]), fitted=_load(row[6]),
+            version=row[4], config=config_from_dict(json.loads(row[5])), fitted=_load(row[6]),
             fit_report=_load(row[7]), diagnosis=_load(row[8]), recording=rec,
             diagnosis_result=diag,
         )

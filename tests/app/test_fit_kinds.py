@@ -108,7 +108,7 @@ def test_a_new_registered_fittable_type_appears_everywhere(probe_registered, tmp
 def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
     import viser
 
-    from app.gui.layout import SessionView
+    from app.gui.controller import SessionView
     from app.state import SessionRegistry
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)

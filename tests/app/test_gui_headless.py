@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from app import figures as F
-from app.gui.layout import SessionView, diagnosis_markdown
+from app.gui.controller import SessionView
 from app.gui.render import LatestWinsWorker
-from app.gui.text import md_text
+from app.gui.text import diagnosis_markdown, md_text
 from app.settings import Settings
 from app.state import SessionRegistry
 from core.pi import PIModel

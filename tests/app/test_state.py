@@ -162,7 +162,7 @@ def test_decimate_keeps_reversals() -> None:
 def test_typed_arrays_round_trip_and_figures_validate() -> None:
     res = C.compute(S.Config(signal=S.SignalSpec(samples=3000)))
     for name in F.FIGURES:
-        fig = F.build(name, res, 0.1)
+        fig = F.build(name, res)
         go.Figure(fig.to_dict())
     loop = F.loop_figure(res).to_dict()["data"][0]
     np.testing.assert_allclose(F.values(loop["x"]), res.u[F.decimate_index(res.u)], rtol=1e-6)

@@ -57,7 +57,7 @@ def test_a_diagnosis_result_that_no_longer_loads_keeps_the_session(tmp_path: Pat
 
     db = tmp_path / "s.sqlite3"
     store = SessionStore(db)
-    st = SessionState(code="abcdefghjkmnpqrs", config={}, recording=recording(),
+    st = SessionState(code="abcdefghjkmnpqrs", config=Config(), recording=recording(),
                       diagnosis={"text": "report"},
                       diagnosis_result={"effects": []})
     store.save(st)
@@ -76,7 +76,7 @@ def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -
     big = recording(2000)  # ~ 60 kB as .npz
     for code, age, teacher in (("old", 7200, False), ("older", 9000, False),
                                ("teach", 99_999, True), ("recent", 600, False)):
-        store.save(SessionState(code=code, config=Config().to_dict(), recording=big,
+        store.save(SessionState(code=code, config=Config(), recording=big,
                                 teacher=teacher, last_used=now - age))
     assert store.size() > 4 * 50_000
     store.max_bytes = 50_000
@@ -84,9 +84,9 @@ def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -
     assert evicted == ["older", "old"]  # least recently used first, only those > 1 h
     assert set(store.codes()) == {"teach", "recent"}
     assert store.full()  # over budget with only protected sessions: refuse new ones
-    store.save(SessionState(code="new", config=Config().to_dict(), recording=big,
+    store.save(SessionState(code="new", config=Config(), recording=big,
                             last_used=now - 7200))
-    store.save(SessionState(code="newer", config=Config().to_dict(), recording=big))
+    store.save(SessionState(code="newer", config=Config(), recording=big))
     assert "new" not in store.codes() and "newer" in store.codes()  # evicted on save
 
 

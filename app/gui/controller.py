@@ -1,0 +1,592 @@
+"""The viser GUI's controller: one tab's widgets bound to one session through the services.
+
+Every browser tab gets its own controls (``client.gui``, see :mod:`app.gui.layout`), so
+students never see each other's changes. A :class:`SessionView` is bound to a
+:class:`~app.services.sessions.Session`; typing another code re-binds it (that is how a
+student comes back after a reload, or how REST changes and teacher pushes reach the GUI).
+Control callbacks call :mod:`app.services.actions` (the transitions the REST routers
+call too); session changes from any source are pushed back into the controls under a
+re-entrancy guard and drawn by a :class:`~app.gui.render.LatestWinsWorker`, which computes
+only the view on show. The 3D state cube is :mod:`app.gui.scene`, the digitized playback
+:mod:`app.gui.playback`.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from core.exceptions import ParameterError
+
+from .. import figures as F
+from ..compute import Result, build_model, inverse_problem, operator_count, preset_doc
+from ..data import diagnosis_html
+from ..services import actions
+from ..services.config import Config
+from ..services.ratelimit import RateLimiter
+from ..services.sessions import Session, SessionRegistry
+from ..settings import Settings
+from .layout import TITLES, Widgets, set_leaf, set_value
+from .playback import Playback
+from .render import LatestWinsWorker
+from .scene import CUBE_MAX_DIGITS, StateCube
+from .text import (
+    diagnosis_markdown,
+    inverse_markdown,
+    md_text,
+    model_markdown,
+    recording_markdown,
+    state_markdown,
+)
+
+__all__ = ["SessionView"]
+
+#: Plot height / width of each view in the floating panel.
+ASPECT = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0, "closed-loop": 0.75}
+#: Shortest interval between two redraws of the digitized figure during playback, s.
+STATE_REDRAW_S = 0.1
+
+
+class SessionView:
+    """The controls and plots of one browser tab, bound to one session.
+
+    Parameters
+    ----------
+    gui : viser.GuiApi
+        ``client.gui`` (private to a tab) or ``server.gui`` (headless tests).
+    registry : SessionRegistry
+        Where sessions are looked up by code.
+    session : Session
+        The session shown first.
+    settings : Settings
+        Limits.
+    notify : callable, optional
+        ``notify(title, body, error)`` shows a toast (per client); ignored when ``None``.
+    download : callable, optional
+        ``download(filename, content)`` sends a file to this tab.
+    scene, camera : optional
+        The tab's 3D scene and camera (the digitized state cube).
+
+    Notes
+    -----
+    The widgets are :attr:`ui` (:class:`~app.gui.layout.Widgets`); ``view.plot`` and
+    the other widget names read through to it.
+    """
+
+    def __init__(
+        self,
+        gui: Any,
+        registry: SessionRegistry,
+        session: Session,
+        settings: Settings,
+        notify: Callable[[str, str, bool], None] | None = None,
+        download: Callable[[str, bytes], None] | None = None,
+        scene: Any = None,
+        camera: Any = None,
+    ) -> None:
+        self.registry = registry
+        self.session = session
+        self.settings = settings
+        self.camera = camera
+        self.ui = Widgets(gui, settings)
+        self.cube = StateCube(scene, camera)
+        self.playback = Playback(lambda: float(self.ui.play_speed.value), self._play_step)
+        # failed joins of this tab, as the REST API limits unknown codes per client
+        self._lookups = RateLimiter(burst=20, per_minute=20)
+        self._notify = notify
+        self._download = download
+        self._syncing = threading.local()
+        self._lock = threading.RLock()
+        self._work_lock = threading.Lock()
+        self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
+        self.fit_figure: F.FigureJSON | None = None
+        self.rendered_version = -1
+        self.last_result: Result | None = None
+        self.shown_figure = ""
+        self._shown_state = -1
+        self._state_sent = 0.0
+        self._wire()
+        self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
+        session.add_listener(self._on_session_change)
+        self._sync_controls(session.snapshot()[0])
+        self.worker.request()
+
+    def __getattr__(self, name: str) -> Any:
+        """Widgets by name (``view.plot`` is ``view.ui.plot``)."""
+        ui = self.__dict__.get("ui")
+        if ui is not None and not name.startswith("__") and hasattr(ui, name):
+            return getattr(ui, name)
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    @property
+    def narrow(self) -> bool:
+        """Whether the plot is in the control sheet (a phone) instead of the panel."""
+        return self.ui.narrow
+
+    @property
+    def figure_name(self) -> str:
+        """Key of the figure selected in the *View* dropdown."""
+        return self.ui.figure_name
+
+    @property
+    def _preset_names(self) -> dict[str, str]:
+        return self.ui.preset_names
+
+    @property
+    def _cube_points(self) -> np.ndarray | None:
+        return self.cube.points
+
+    # ------------------------------------------------------------------ wiring
+    def _wire(self) -> None:
+        ui = self.ui
+        for h in (ui.p0, ui.state0, ui.mismatch, ui.amp, ui.freq, ui.offset,
+                  ui.duration, ui.samples, ui.kind, ui.use_rec):
+            h.on_update(self._guarded(self._controls_changed))
+        ui.n_ops.on_update(self._guarded(self._n_changed))
+        for dd in ui.view_dropdowns:
+            dd.on_update(self._guarded(self._view_chosen))
+        ui.digi_step.on_update(self._guarded(self._step_changed))
+        ui.play_btn.on_click(self._guarded(self._play_clicked))
+        ui.stop_btn.on_click(self._guarded(lambda ev: self.playback.stop()))
+        ui.prev_btn.on_click(self._guarded(lambda ev: self._step_by(-1)))
+        ui.next_btn.on_click(self._guarded(lambda ev: self._step_by(1)))
+        ui.preset.on_update(self._guarded(self._preset_chosen))
+        ui.load_preset.on_click(self._guarded(self._preset_clicked))
+        ui.json_btn.on_click(self._guarded(self._json_clicked))
+        ui.join_btn.on_click(self._guarded(self._join_clicked))
+        ui.push_btn.on_click(self._guarded(self._push_clicked))
+        ui.upload.on_upload(self._guarded(self._csv_uploaded))
+        ui.remap.on_click(self._guarded(self._remap_clicked))
+        ui.fit_btn.on_click(self._guarded(self._fit_clicked))
+        ui.diag_btn.on_click(self._guarded(self._diagnose_clicked))
+        ui.report_btn.on_click(self._guarded(self._report_clicked))
+        ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
+        for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
+            btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+
+    def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
+        """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
+
+        def cb(event: Any) -> None:
+            if getattr(self._syncing, "on", False):
+                return
+            try:
+                fn(event)
+            except (ParameterError, ValueError) as exc:
+                self._toast("Not applied", str(exc), True)
+            except Exception as exc:  # noqa: BLE001 - a GUI callback must never crash
+                traceback.print_exc()
+                self._toast("Unexpected error", repr(exc), True)
+
+        return cb
+
+    @contextmanager
+    def _flag(self, name: str) -> Iterator[None]:
+        """Raise this thread's flag ``name`` while the block runs."""
+        setattr(self._syncing, name, True)
+        try:
+            yield
+        finally:
+            setattr(self._syncing, name, False)
+
+    def _quiet(self) -> AbstractContextManager[None]:
+        """Set widgets without their callbacks writing back."""
+        return self._flag("on")
+
+    def _toast(self, title: str, body: str, error: bool = False) -> None:
+        if self._notify is not None:
+            self._notify(title, body, error)
+
+    def _view_chosen(self, event: Any) -> None:
+        with self._quiet():
+            for dd in self.ui.view_dropdowns:
+                dd.value = event.target.value
+        self.worker.request()
+
+    def set_narrow(self, narrow: bool) -> None:
+        """Show the plot in the control sheet (phones) or in the floating panel."""
+        value = self.ui.view_dd.value
+        if not self.ui.use_narrow(narrow):
+            return
+        with self._quiet():
+            self.ui.view_dd.value = value
+        self.worker.request()
+
+    # ------------------------------------------------------------------ session -> GUI
+    def _on_session_change(self, session: Session, config: Config, version: int) -> None:
+        if not getattr(self._syncing, "from_gui", False):
+            self._sync_controls(config)
+        self.worker.request()
+
+    def _sync_controls(self, cfg: Config) -> None:
+        """Push ``cfg`` into the controls without triggering write-back."""
+        ui = self.ui
+        with self._quiet(), self._lock:
+            ui.code_md.content = (
+                f"**Session code: `{self.session.code}`**  \n"
+                "type it under *Session* after a reload to continue"
+            )
+            m = cfg.model
+            is_pi = m.get("type") == "pi"
+            ui.pi_folder.visible = is_pi
+            if is_pi:
+                r, w = list(m["thresholds"]), list(m["weights"])
+                set_value(ui.p0, float(np.clip(m["p0"], ui.p0.min, ui.p0.max)))
+                set_value(ui.n_ops, len(r))
+                s0 = m.get("state0")
+                set_value(ui.state0, float(np.clip(np.mean(s0) if s0 else 0.0, -5, 5)))
+                ui.ensure_pi_sliders(r, w, self._guarded(self._controls_changed))
+            ui.param_folder.visible = not is_pi
+            if not is_pi:
+                ui.ensure_param_sliders(m, self._guarded(self._params_changed))
+            ui.json_in.value = json.dumps(m)
+            sig = cfg.signal
+            if sig.kind in ui.kind.options:
+                set_value(ui.kind, sig.kind)
+            set_value(ui.amp, float(np.clip(sig.amplitude, 0, ui.amp.max)))
+            set_value(ui.freq, float(np.clip(sig.frequency, 0.1, 20)))
+            set_value(ui.offset, float(np.clip(sig.offset, -5, 5)))
+            set_value(ui.duration, float(np.clip(sig.duration, 0.5, 20)))
+            set_value(ui.samples, int(sig.samples))
+            set_value(ui.mismatch, float(cfg.mismatch))
+            set_value(ui.use_rec, bool(cfg.use_recording))
+
+    # ------------------------------------------------------------------ GUI -> session
+    def _writing(self) -> AbstractContextManager[None]:
+        """Store a change made in this view: its controls are not synced back from it."""
+        return self._flag("from_gui")
+
+    def _commit(self, fn: Callable[[Config], Config]) -> None:
+        """Check and store a config change made in this view (a message if refused)."""
+        with self._writing():
+            try:
+                actions.change_config(self.session, fn, self.settings)
+            except ParameterError as exc:
+                self.ui.model_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
+
+    def _pi_from_controls(self, cfg: Config) -> dict[str, Any]:
+        ui = self.ui
+        m = dict(cfg.model)
+        if m.get("type") != "pi":
+            return m
+        m["p0"] = float(ui.p0.value)
+        if ui.r_sliders:
+            m["thresholds"] = [float(h.value) for h in ui.r_sliders]
+            m["weights"] = [float(h.value) for h in ui.w_sliders]
+        s0 = float(ui.state0.value)
+        m.pop("state0", None)
+        if s0 != 0:
+            m["state0"] = s0
+        return m
+
+    def _controls_changed(self, event: Any) -> None:
+        ui = self.ui
+
+        def fn(cfg: Config) -> Config:
+            sig = replace(cfg.signal, kind=str(ui.kind.value), amplitude=float(ui.amp.value),
+                          frequency=float(ui.freq.value), offset=float(ui.offset.value),
+                          duration=float(ui.duration.value), samples=int(ui.samples.value))
+            return replace(cfg, model=self._pi_from_controls(cfg), signal=sig,
+                           mismatch=float(ui.mismatch.value),
+                           use_recording=bool(ui.use_rec.value))
+
+        self._commit(fn)
+
+    def _params_changed(self, event: Any) -> None:
+        def fn(cfg: Config) -> Config:
+            m = json.loads(json.dumps(cfg.model))
+            for path, h in self.ui.param_sliders.items():
+                set_leaf(m, path, float(h.value))
+            return cfg.with_model(m)
+
+        self._commit(fn)
+
+    def _n_changed(self, event: Any) -> None:
+        with self._writing():
+            try:
+                actions.set_operator_count(self.session, int(self.ui.n_ops.value),
+                                           self.settings)
+            except ParameterError as exc:
+                self.ui.model_md.content = f"⚠️ {md_text(exc)}"
+                return
+        self._sync_controls(self.session.snapshot()[0])
+
+    def _preset_chosen(self, event: Any) -> None:
+        doc = preset_doc(self.ui.preset_names[str(self.ui.preset.value)])
+        self.ui.preset_md.content = f"*{md_text(doc['description'])}*"
+
+    def _preset_clicked(self, event: Any) -> None:
+        doc = actions.load_preset(self.session, self.ui.preset_names[str(self.ui.preset.value)],
+                                  with_input=True)
+        self._toast("Preset loaded", doc["title"])
+
+    def _json_clicked(self, event: Any) -> None:
+        try:
+            actions.load_parameter_set(self.session, json.loads(self.ui.json_in.value),
+                                       self.settings)
+        except (json.JSONDecodeError, ParameterError, ValueError, TypeError) as exc:
+            self.ui.model_md.content = f"⚠️ **Model JSON not applied:** {md_text(exc)}"
+
+    def _join_clicked(self, event: Any) -> None:
+        code = str(self.ui.code_in.value).strip()
+        if not code:
+            self._toast("Session", "type the session code first", True)
+            return
+        if not self._lookups.allowed("join"):
+            self._toast("Not joined", "too many unknown session codes: wait a minute and "
+                        "check the code", True)
+            return
+        try:  # codes are made by the server only: an unknown one is never a new session
+            new = self.registry.get(code)
+        except KeyError:
+            self._lookups.take("join")
+            self._toast("No such session", f"no session has the code {code[:40]!r}: check "
+                        "it (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of "
+                        "the page that uses it), or it has expired", True)
+            return
+        self.bind(new)
+        self._toast("Session", f"now in session {new.code}")
+
+    def _push_clicked(self, event: Any) -> None:
+        given = str(self.ui.teacher_token.value)
+        self.ui.teacher_token.value = ""
+        if not self.settings.may_teach(given or None):
+            self._toast("Not pushed", "wrong teacher token", True)
+            return
+        n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
+                            note={"preset": None, "title": "the teacher's model"})
+        self._toast("Pushed", f"model sent to {n} sessions")
+
+    def bind(self, session: Session) -> None:
+        """Show ``session`` in this view (re-binding listeners)."""
+        self.session.remove_listener(self._on_session_change)
+        self.session = session
+        session.add_listener(self._on_session_change)
+        self._sync_controls(session.snapshot()[0])
+        self.worker.request()
+
+    # ------------------------------------------------------------------ data
+    def _csv_uploaded(self, event: Any) -> None:
+        f = event.target.value
+        self._csv = (f.content.decode("utf-8-sig", errors="replace"), f.name)
+        self._load_csv()
+
+    def _remap_clicked(self, event: Any) -> None:
+        if self._csv is None:
+            self.ui.data_md.content = "⚠️ upload a CSV first"
+            return
+        self._load_csv()
+
+    def _load_csv(self) -> None:
+        ui = self.ui
+        text, name = self._csv
+        if len(text) > self.settings.max_upload_bytes:
+            ui.data_md.content = f"⚠️ file larger than {self.settings.max_upload_bytes} bytes"
+            return
+        try:
+            up = actions.upload(self.session, text, self.settings, t_col=ui.t_col.value or None,
+                                u_col=ui.u_col.value or None, y_col=ui.y_col.value or None,
+                                name=name)
+        except ParameterError as exc:  # core.csvio.CSVError names the line and the column
+            ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
+            return
+        ui.data_md.content = recording_markdown(up.recording)
+        ui.report_md.content = ""
+        self._commit(lambda c: replace(c, use_recording=True))
+
+    def _fit_clicked(self, event: Any) -> None:
+        ui = self.ui
+        rec = self.session.recording
+        if rec is None:
+            ui.report_md.content = "⚠️ upload a recording first"
+            return
+        n = int(ui.fit_n.value)
+        kind = str(ui.fit_kind.value)
+        with self._busy("fitting"):
+            model, report = actions.fit(self.session, n, kind, apply=True,
+                                        settings=self.settings)
+        self.fit_figure = actions.fit_figure(rec, model, f"fitted {kind} (n={n})")
+        ui.view_dd.value = TITLES["fit"]
+        ui.report_md.content = (
+            f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
+            f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
+        )
+
+    def _diagnose_clicked(self, event: Any) -> None:
+        if self.session.recording is None:
+            self.ui.report_md.content = "⚠️ upload a recording first"
+            return
+        with self._busy("diagnosing (10–40 s for a long recording)"):
+            rep = actions.diagnose(self.session)
+        self.ui.report_md.content = diagnosis_markdown(rep)
+        self.ui.report_btn.disabled = False
+
+    @contextmanager
+    def _busy(self, what: str) -> Iterator[None]:
+        """Disable fit and diagnosis while ``what`` runs; the report says "working…".
+
+        A click that arrives before the browser has greyed the buttons out is refused
+        (a ``ValueError``, shown as a toast) instead of starting a second run.
+        """
+        ui = self.ui
+        if not self._work_lock.acquire(blocking=False):
+            raise ValueError("a fit or diagnosis is already running: wait for it to finish")
+        for b in (ui.fit_btn, ui.diag_btn):
+            b.disabled = True
+        ui.report_md.content = f"⏳ **working… {what}**"
+        try:
+            yield
+        finally:
+            if ui.report_md.content.startswith("⏳"):
+                ui.report_md.content = ""  # it failed: the toast says why
+            for b in (ui.fit_btn, ui.diag_btn):
+                b.disabled = False
+            self._work_lock.release()
+
+    def _report_clicked(self, event: Any) -> None:
+        result = self.session.diagnosis_result
+        if result is None:
+            self.ui.report_md.content += "\n\n⚠️ run the diagnosis first"
+            return
+        text = diagnosis_html(result)
+        self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
+
+    def _send(self, event: Any, name: str, payload: bytes) -> None:
+        client = getattr(event, "client", None)
+        if client is not None:
+            client.send_file_download(name, payload, save_immediately=True)
+        elif self._download is not None:
+            self._download(name, payload)
+
+    def _paramset_uploaded(self, event: Any) -> None:
+        f = event.target.value
+        try:
+            m = actions.load_parameter_set(self.session,
+                                           json.loads(f.content.decode("utf-8-sig")),
+                                           self.settings)
+        except (json.JSONDecodeError, UnicodeDecodeError, ParameterError, ValueError) as exc:
+            self.ui.export_md.content = f"⚠️ **Parameter set not loaded:** {md_text(exc)}"
+            return
+        self.ui.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"
+
+    def _export(self, event: Any, fmt: str) -> None:
+        name, payload = actions.export(self.session, fmt)
+        self._send(event, name, payload)
+        self.ui.export_md.content = f"sent {md_text(name)} ({len(payload)} bytes)"
+
+    # ------------------------------------------------------------------ render
+    def _views(self, cfg: Config, name: str) -> set[str]:
+        """What to compute: the view on show, and the digitized states while the 3D cube
+        can show them (a small enough model)."""
+        views = set() if name == "fit" else {name}
+        if self.cube.scene is not None and (operator_count(
+                build_model(cfg.model, self.settings.max_operators)) or 0) <= CUBE_MAX_DIGITS:
+            views.add("digitized")
+        return views
+
+    def _render(self) -> None:
+        ui = self.ui
+        session = self.session
+        cfg, v = session.snapshot()
+        name = ui.figure_name
+        res = actions.session_result(session, self._views(cfg, name), self.settings)
+        if name == "fit":
+            fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
+        else:
+            fig = F.build(name, res)
+        if session is not self.session or self.session.snapshot()[1] != v:
+            return  # stale: a newer version is queued, skip sending this one
+        aspect = ASPECT.get(name, 0.72)
+        # side-by-side panels are stacked: the floating panel is narrow (it leaves the
+        # 3D scene in view), a phone's control sheet narrower still
+        fig, bands = F.stack_columns(fig, compact=ui.narrow)
+        if ui.narrow:
+            aspect = max(0.9, 0.8 * bands)
+        elif bands > 1:
+            aspect = min(1.35, 0.68 * bands)
+        ui.plot.aspect = aspect
+        ui.plot.figure = fig
+        self.shown_figure = name
+        d = res.digitized
+        self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1
+        self.last_result = res
+        self.rendered_version = v
+        ui.model_md.content = model_markdown(res)
+        ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
+        self._show_digitized(res)
+        ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    def _render_error(self, exc: BaseException) -> None:
+        self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
+
+    # ------------------------------------------------------------------ digitized view
+    def _show_digitized(self, res: Result) -> None:
+        ui = self.ui
+        d = res.digitized
+        self.playback.stop()
+        if d is None:
+            why = res.messages[0] if res.messages else "choose the Digitized view"
+            ui.digi_md.content = f"⚠️ {md_text(why)}"
+            ui.digi_step.disabled = True
+            self.cube.hide_marker()
+            return
+        rows = len(d.trace.sample)
+        ui.digi_step.disabled = False
+        with self._quiet():
+            ui.digi_step.max = max(1, rows - 1)
+            ui.digi_step.value = rows - 1
+        self.cube.draw(d)
+        self._show_state(rows - 1)
+
+    def _show_state(self, k: int, force: bool = False) -> None:
+        res = self.last_result
+        if res is None or res.digitized is None:
+            return
+        tr = res.digitized.trace
+        k = int(np.clip(k, 0, len(tr.sample) - 1))
+        self.ui.digi_md.content = state_markdown(res, k)
+        self.cube.show_state(tr.digits[k])
+        if self.shown_figure == "digitized" and k != self._shown_state:
+            now = time.monotonic()
+            if force or now - self._state_sent >= STATE_REDRAW_S or k == len(tr.sample) - 1:
+                # the loop plot's current state and the digit rows' time line follow
+                fig = F.digitized_figure(res, highlight=k)
+                self.ui.plot.figure = F.stack_columns(fig, compact=self.ui.narrow)[0]
+                self._state_sent, self._shown_state = now, k
+
+    def _step_by(self, d: int) -> None:
+        """Stop the animation and move ``d`` states along the trace."""
+        self.playback.stop()
+        step = self.ui.digi_step
+        k = int(np.clip(int(step.value) + d, 0, step.max))
+        with self._quiet():
+            step.value = k
+        self._show_state(k, force=True)
+
+    def _step_changed(self, event: Any) -> None:
+        self._show_state(int(self.ui.digi_step.value), force=True)
+
+    def _play_clicked(self, event: Any) -> None:
+        res = self.last_result
+        if res is None or res.digitized is None:
+            return
+        self.playback.start(len(res.digitized.trace.sample))
+
+    def _play_step(self, k: int) -> None:
+        with self._quiet():
+            self.ui.digi_step.value = k
+        self._show_state(k)
+
+    def close(self) -> None:
+        """Detach from the session and stop the worker and the playback."""
+        self.playback.stop()
+        self.session.remove_listener(self._on_session_change)
+        self.worker.stop()

@@ -1,0 +1,125 @@
+"""The digitized PI's state hypercube in a viser 3D scene (paper 000).
+
+Each of the ``n`` digits is one axis direction: a state ``b_n … b_1`` sits at the sum of
+the directions of its set digits, so the ``2**n`` states are the vertices of a (projected)
+hypercube and the up / down edges of the state graph are its edges. A red ball marks the
+current state; the camera looks at the cube from off its diagonal, so no two vertices
+overlap (000 and 111 of the three-operator example).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..compute import Digitized
+
+__all__ = ["CUBE_MAX_DIGITS", "StateCube", "embed"]
+
+#: Largest number of digits drawn as a 3D hypercube (more: the 2D figure only).
+CUBE_MAX_DIGITS = 7
+#: Largest number of digits whose vertices get a text label.
+LABEL_MAX_DIGITS = 4
+
+
+def embed(digits: np.ndarray) -> np.ndarray:
+    """3D position of the state with digit row ``digits`` (shape ``(n,)`` of 0/1).
+
+    Up to three digits use the unit axes (a cube); more use directions spread around a
+    circle with alternating heights, so every vertex of the projected hypercube is apart.
+    """
+    n = digits.size
+    if n <= 3:
+        dirs = np.eye(3)[:n]
+    else:
+        a = 2 * np.pi * np.arange(n) / n
+        dirs = np.column_stack((np.cos(a), np.sin(a), 0.35 * (-1.0) ** np.arange(n)))
+    return np.asarray(digits, dtype=float) @ dirs
+
+
+class StateCube:
+    """The state hypercube of one tab's scene, drawn once per digit count.
+
+    Parameters
+    ----------
+    scene : viser.SceneApi or None
+        The tab's scene (``None``: nothing is drawn, e.g. headless tests without one).
+    camera : viser.CameraHandle or None
+        The tab's camera, aimed at the cube when it is drawn.
+    """
+
+    def __init__(self, scene: Any, camera: Any = None) -> None:
+        self.scene = scene
+        self.camera = camera
+        self._key: tuple[int, ...] | None = None
+        #: Vertex positions of the drawn cube, shape ``(2**n, 3)`` (centred), or ``None``.
+        self.points: np.ndarray | None = None
+        self._center = np.zeros(3)
+        self._marker: Any = None
+
+    def draw(self, d: Digitized) -> None:
+        """Draw ``d``'s state graph (a no-op when it is already drawn); beyond
+        :data:`CUBE_MAX_DIGITS` digits, or without a graph, the cube is hidden."""
+        if self.scene is None:
+            return
+        g = d.graph
+        n = d.model.n
+        if g is None or n > CUBE_MAX_DIGITS:
+            if self._key is not None:
+                self.scene.add_frame("/states", show_axes=False, visible=False)
+            self._key = None
+            self.points = None
+            self.hide_marker()
+            return
+        if (n,) == self._key:
+            return
+        raw = np.array([embed(row) for row in g.digits])
+        self._center = raw.mean(axis=0)
+        pts = raw - self._center  # centred on the scene origin (camera target)
+        self.points = pts
+        self.scene.add_frame("/states", show_axes=False, visible=True)
+        self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
+                                   colors=(120, 120, 120), point_size=0.06,
+                                   point_shape="circle")
+        up = np.stack((pts[g.up[:, 0]], pts[g.up[:, 1]]), axis=1)
+        down = np.stack((pts[g.down[:, 0]], pts[g.down[:, 1]]), axis=1)
+        self.scene.add_line_segments("/states/up", up.astype(np.float32), colors=(31, 119, 180),
+                                     thickness=2.0, thickness_units="screen")
+        self.scene.add_line_segments("/states/down", (down + 0.01).astype(np.float32),
+                                     colors=(255, 127, 14), thickness=2.0,
+                                     thickness_units="screen")
+        if n <= LABEL_MAX_DIGITS:
+            for c, p in zip(g.strings, pts, strict=True):
+                self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.06),
+                                     font_screen_scale=1.6, anchor="bottom-left")
+        self._marker = self.scene.add_icosphere("/states/current", radius=0.09,
+                                                color=(214, 39, 40))
+        self._key = (n,)
+        self._aim_camera(pts)
+
+    def show_state(self, digits: np.ndarray) -> None:
+        """Move the red ball to the state with digit row ``digits``."""
+        if self._marker is not None and self.points is not None:
+            self._marker.position = tuple(embed(digits) - self._center)
+            self._marker.visible = True
+
+    def hide_marker(self) -> None:
+        """Hide the red ball (no digitized view)."""
+        if self._marker is not None:
+            self._marker.visible = False
+
+    def _aim_camera(self, pts: np.ndarray) -> None:
+        """Look at the cube from off its diagonal, so no two vertices overlap (000/111)."""
+        if self.camera is None:
+            return
+        radius = float(np.max(np.linalg.norm(pts, axis=1))) or 1.0
+        direction = np.array([0.55, -1.0, 0.45])
+        direction /= np.linalg.norm(direction)
+        try:
+            self.camera.up_direction = (0.0, 0.0, 1.0)
+            # viser moves look_at with the position: set the target afterwards
+            self.camera.position = tuple(3.2 * radius * direction)
+            self.camera.look_at = (0.0, 0.0, 0.0)
+        except Exception:  # noqa: BLE001 - a camera of a closing tab
+            pass

@@ -1,0 +1,269 @@
+"""What the REST routers and the viser GUI do to a session (no web imports).
+
+Each function is one transition of a :class:`~app.services.sessions.Session` (load a
+preset, set the config, load a parameter set, upload a recording, fit, diagnose, export,
+the teacher's push) or one read of its results (figures). Configs and parameter sets are
+checked against the cost limits (:mod:`.cost`) before any work; a refusal is a
+:class:`~core.exceptions.ParameterError` (or :class:`~core.csvio.CSVError`, a subclass)
+with a message for the user. The callers only translate arguments and errors (HTTP status
+codes, toasts).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Collection
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from core.base import Model
+from core.exceptions import ParameterError
+from core.recordings import Recording
+
+from .. import figures as F
+from ..compute import (
+    Result,
+    compute,
+    diagnosed_model,
+    operator_count,
+    pi_part,
+    preset_doc,
+    validate_config,
+)
+from ..data import Upload, diagnose_session, fit_session, read_upload
+from ..events import HUB
+from ..exports import export_session, parameter_set_model
+from ..settings import Settings
+from .config import Config, SignalSpec
+from .cost import check_config, check_document
+from .sessions import Session, SessionRegistry
+
+__all__ = [
+    "change_config",
+    "check_figure_names",
+    "diagnose",
+    "export",
+    "fit",
+    "fit_figure",
+    "load_parameter_set",
+    "load_preset",
+    "push",
+    "result_payload",
+    "session_figures",
+    "session_result",
+    "set_operator_count",
+    "simulate",
+    "upload",
+]
+
+
+# ----------------------------------------------------------------------------- config
+def change_config(session: Session, fn: Callable[[Config], Config],
+                  settings: Settings) -> int:
+    """Apply ``fn`` to the session's config, check its cost and validity, store it.
+
+    Returns the new version. Nothing is stored when the new config is refused.
+
+    Raises
+    ------
+    ParameterError
+        Naming the field out of range or the limit exceeded.
+    """
+    with session.lock:
+        new = fn(session.config)
+        check_config(new, session.recording, settings.limits)
+        validate_config(new, session.recording, settings.max_operators, settings.max_samples)
+        return session.set_config(new)
+
+
+def set_operator_count(session: Session, n: int, settings: Settings) -> int:
+    """Give the session a classical PI of ``n`` operators: thresholds evenly spaced up to
+    the current widest one (2.7 without one), the current total weight shared equally and
+    ``p0`` kept. Returns the new version.
+
+    Raises
+    ------
+    ParameterError
+        If ``n`` is not between 1 and the operator limit.
+    """
+    if not 1 <= n <= settings.max_operators:
+        raise ParameterError(f"n must be between 1 and {settings.max_operators}")
+
+    def fn(cfg: Config) -> Config:
+        m = cfg.model
+        rmax = float(m["thresholds"][-1]) if m.get("thresholds") else 2.7
+        total = float(np.sum(m.get("weights", [1.0])))
+        return cfg.with_model({"type": "pi", "p0": float(m.get("p0", 0.72)),
+                               "thresholds": (rmax * np.arange(1, n + 1) / n).tolist(),
+                               "weights": [total / n] * n})
+
+    return change_config(session, fn, settings)
+
+
+def load_preset(session: Session, name: str, *, with_input: bool) -> dict[str, Any]:
+    """Give the session preset ``name``'s model (and, ``with_input``, its own input
+    signal instead of an uploaded recording); returns the preset document.
+
+    Raises
+    ------
+    ParameterError
+        If there is no such preset (the message lists the names).
+    """
+    doc = preset_doc(name)
+    if with_input:
+        sig = SignalSpec(**doc["input"])
+        session.update(lambda c: replace(c.with_model(doc["model"]), signal=sig,
+                                         use_recording=False))
+    else:
+        session.update(lambda c: c.with_model(doc["model"]))
+    return doc
+
+
+def load_parameter_set(session: Session, doc: Any, settings: Settings) -> Model:
+    """Continue from a saved parameter set (parsed JSON: a downloaded set or a bare model).
+
+    Raises
+    ------
+    ParameterError
+        If the document is not a usable parameter set or exceeds a cost limit.
+    """
+    try:
+        check_document(doc, settings.limits)
+        model = parameter_set_model(doc)
+        d = model.to_dict()
+        check_config(session.config.with_model(d), session.recording, settings.limits)
+    except (TypeError, KeyError) as exc:
+        raise ParameterError(str(exc)) from None
+    session.update(lambda c: c.with_model(d))
+    return model
+
+
+# ----------------------------------------------------------------------------- data
+def upload(session: Session, content: str | bytes, settings: Settings,
+           **mapping: Any) -> Upload:
+    """Read uploaded CSV content (never a path; see :func:`app.data.read_upload` for the
+    column ``mapping``) and make it the session's recording (its fit and diagnosis are
+    dropped).
+
+    Raises
+    ------
+    core.csvio.CSVError
+        Naming the line and the column.
+    """
+    up = read_upload(content, max_samples=settings.max_samples, **mapping)
+    session.set_recording(up.recording)
+    return up
+
+
+def _need_recording(session: Session, what: str) -> None:
+    if session.recording is None:
+        raise ParameterError(f"upload a recording first: there is nothing to {what}")
+
+
+def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
+        settings: Settings | None = None) -> tuple[Model, dict[str, Any]]:
+    """Fit a ``kind`` model with ``n`` operators to the session's recording and store it
+    (``apply``: it becomes the session's model). See :func:`app.data.fit_session`."""
+    _need_recording(session, "fit")
+    if settings is not None and not 1 <= n <= settings.max_operators:
+        raise ParameterError(f"the number of operators must be between 1 and "
+                             f"{settings.max_operators}, got {n}")
+    return fit_session(session, n, kind, apply)
+
+
+def diagnose(session: Session, progress: Callable[..., None] | None = None) -> dict[str, Any]:
+    """Diagnose the session's recording and store the report (see
+    :func:`app.data.diagnose_session`)."""
+    _need_recording(session, "diagnose")
+    return diagnose_session(session, progress)
+
+
+def fit_figure(recording: Recording, model: Model, label: str) -> F.FigureJSON:
+    """The overlay of ``model`` run on ``recording``'s input against its output."""
+    return F.fit_figure(recording, model(recording.u), label)
+
+
+def export(session: Session, fmt: str) -> tuple[str, bytes]:
+    """``(filename, content)`` of the session's model as ``json``, ``mat`` or ``c``."""
+    return export_session(session, fmt)
+
+
+# ----------------------------------------------------------------------------- teacher
+def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
+         signal: SignalSpec | None = None, note: dict[str, Any] | None = None
+         ) -> tuple[int, int]:
+    """The teacher's push: ``model`` and/or ``signal`` to every session used in the last
+    hour (each committed, so a reload or a restart keeps it), then the event
+    ``{"kind": "push", **note}`` to every open page. Returns ``(sessions changed, pages
+    told)``.
+
+    Raises
+    ------
+    ParameterError
+        If there is nothing to push.
+    """
+    if model is None and signal is None:
+        raise ParameterError("choose a preset or an input signal to push")
+
+    def change(cfg: Config) -> Config:
+        new = cfg if model is None else cfg.with_model(model)
+        return new if signal is None else replace(new, signal=signal, use_recording=False)
+
+    n = registry.update_recent(change)
+    return n, HUB.broadcast({"kind": "push", **(note or {})})
+
+
+# ----------------------------------------------------------------------------- figures
+def check_figure_names(names: Collection[str]) -> None:
+    """Refuse names that are not figures (before any work)."""
+    unknown = [n for n in names if n not in F.FIGURES]
+    if unknown:
+        raise ParameterError(f"unknown figure(s) {unknown}; known: {list(F.FIGURES)}")
+
+
+def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
+    """The session's current config computed for ``views`` only (cost checked first)."""
+    cfg, v = session.snapshot()
+    check_config(cfg, session.recording, settings.limits)
+    return compute(cfg, views=views, version=v, recording=session.recording,
+                   max_operators=settings.max_operators, max_samples=settings.max_samples,
+                   diagnosed=diagnosed_model(session))
+
+
+def result_payload(res: Result, names: Collection[str],
+                   include_data: bool = False) -> dict[str, Any]:
+    """The JSON body of ``/api/simulate`` and the session figure endpoints."""
+    m = res.model
+    out: dict[str, Any] = {
+        "model_type": m.type_name,
+        "n_operators": operator_count(m),
+        "inverse_error": res.inverse_error,
+        "figures": {n: F.build(n, res).to_dict() for n in names},
+        "elapsed_ms": res.elapsed_ms,
+        "version": res.version,
+    }
+    pi = pi_part(m)
+    if pi is not None:
+        out.update(slopes=pi.slopes.tolist(), max_loop_width=pi.max_loop_width,
+                   invertible=pi.is_invertible)
+    if include_data:
+        out["data"] = {"t": res.t.tolist(), "u": res.u.tolist(), "y": res.y.tolist()}
+    return out
+
+
+def session_figures(session: Session, names: Collection[str],
+                    settings: Settings) -> dict[str, Any]:
+    """Figures ``names`` of the session's current config (only their views computed)."""
+    check_figure_names(names)
+    return result_payload(session_result(session, names, settings), names)
+
+
+def simulate(config: Config, names: Collection[str], settings: Settings,
+             include_data: bool = False) -> dict[str, Any]:
+    """Figures ``names`` of a config that belongs to no session (stateless)."""
+    check_figure_names(names)
+    check_config(config, None, settings.limits)  # bounded cost, checked before any work
+    res = compute(config, views=names, max_operators=settings.max_operators,
+                  max_samples=settings.max_samples)
+    return result_payload(res, names, include_data)
