@@ -42,7 +42,7 @@ from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from ..fitting.thresholds import wipeout_index
-from .acceptance import decide
+from .acceptance import Decision, decide, earns_place, split_supports_transport
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
 from .between import between_recordings, leave_one_recording_out, rates_differ, recording_rates
@@ -430,6 +430,7 @@ def diagnose(
                 # only: with explicit windows the others' test rows would be fitted)
                 between=train is None and test is None and rates_differ(ctx), say=say)
     todo = [e for e in todo if e not in run_.untestable_names]
+    run_.rate_testable = "rate" in todo
     cur = base
     for rnd in range(max_effects):
         cands, rows = _search(run_, cur, todo, rnd)
@@ -515,9 +516,16 @@ class _Run:
     max_effects: int
     between: bool
     say: _Progress
+    #: rate-dependent hysteresis is among the effects tested (acceptance rule 5 applies)
+    rate_testable: bool = False
     findings: list[EffectFinding] = field(default_factory=list)
     ambiguous: list[dict[str, Any]] = field(default_factory=list)
     rounds: list[RoundRow] = field(default_factory=list)
+    #: training-block folds of acceptance rule 4 (built on first use)
+    earn_folds: list | None = None
+    #: memo of rule 5: the fit the split was computed for, and its verdict
+    split_for: Fit | None = None
+    split: bool = True
 
     @property
     def untestable_names(self) -> set[str]:
@@ -707,10 +715,56 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
         cv = (c.crossfit["parameter_cv"] if c.crossfit else
               c.between["parameter_cv"] if c.between else {})
         dec = decide(c.heldout, excess[name], len(cands), cv, significance=c.evidence_rows)
-        rows.append(_row(ctx, rnd, c, passes=dec.passes, reasons=dec.reasons))
+        decision = None
+        if dec.passes and name in _TRANSPORT and run.rate_testable and not _split_ok(run, cur):
+            dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
+            decision = "contradicted"
+        elif dec.passes and run.findings and _needs_earning(ctx, c):
+            run.step(rnd, 0.6, f"cross-fitting {name} against the accepted effects")
+            dec = _earns(run, cur, c, len(cands))
+            decision = None if dec.passes else "not earned"
+        rows.append(_row(ctx, rnd, c, passes=dec.passes, reasons=dec.reasons, decision=decision))
         if dec.passes:
             passing.append(name)
     return cands, rows, passing
+
+
+#: Effects that act on the whole output slope (acceptance rule 5).
+_TRANSPORT = ("delay", "lag")
+
+_SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
+                 "would: the reversible/hysteretic split points to rate-dependent hysteresis")
+
+
+def _split_ok(run: _Run, cur: Fit) -> bool:
+    """Acceptance rule 5 on the current model's residual (memoised per current fit)."""
+    if run.split_for is not cur:
+        d = _discriminators(run.ctx, cur)
+        run.split_for, run.split = cur, split_supports_transport(d["a_rev_s"], d["a_hys_s"])
+    return run.split
+
+
+def _needs_earning(ctx: FitContext, c: _Candidate) -> bool:
+    """Acceptance rule 4 applies: a further effect judged on the test rows (not already on
+    cross-fitted blocks alone, between recordings, or on the pre-wipe-out rows)."""
+    return not ctx.strict and c.between is None and c.name != "initial-memory"
+
+
+def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int) -> Decision:
+    """Acceptance rule 4: cross-fit ``c`` against the model holding the accepted effects on
+    training blocks alone (:func:`~core.diagnosis.acceptance.earns_place`)."""
+    ctx = run.ctx
+    if run.earn_folds is None:
+        run.earn_folds = ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
+    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
+    sub.strict = True  # the blocks alone: the test rows chose the effects before this one
+    cf = _crossfit(sub, c.name, cur, c.fit)
+    accepted = tuple(f.name for f in run.findings)
+    if cf is None:
+        return Decision(False, True, False, True, (f"as a further effect on top of "
+                        f"{', '.join(accepted)} it cannot be cross-fitted (too few training "
+                        "blocks)",))
+    return earns_place(cf["pooled"], n_tests, cf["parameter_cv"], accepted)
 
 
 def _row(ctx: FitContext, rnd: int, c: _Candidate, passes: bool, decision: str | None = None,
@@ -740,7 +794,7 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
     ctx = run.ctx
     c = cands[best]
     amb, runner = _lookalikes(ctx, c, cands, passing)
-    run.rounds.extend(r if r.decision == "deferred" else replace(r, decision=(
+    run.rounds.extend(r if r.decision in _KEPT_DECISIONS else replace(r, decision=(
         "accepted" if r.effect == best else "ambiguous" if r.effect in amb else
         "passes" if r.passes else "rejected")) for r in rows)
     run.findings.append(_finding(run, cur, c, amb, runner))
@@ -770,6 +824,8 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
         run.rounds.extend(RoundRow.from_dict(d) for d in refine)
     if c.family == "dynamics" and best != "rate" and not ctx.strict:
         new = _recheck_dynamics(ctx, new, run.findings[-1], run.ambiguous, run.rounds, rnd + 1)
+    elif not ctx.strict:
+        new = _recheck_earlier_dynamics(run, new, rnd)
     run.findings[-1].structure = new.structure
     named = run.findings[-1].name  # the dynamics recheck may rename it
     for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
@@ -777,6 +833,27 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
             run.ambiguous.append({"effects": [named, hidden], "chosen": named,
                                   "reason": why.format(best=named),
                                   "experiment": EFFECTS[hidden].experiment})
+    return new
+
+
+#: Decisions of the acceptance rules that :func:`_accept` keeps as they are.
+_KEPT_DECISIONS = ("deferred", "contradicted", "not earned")
+
+
+def _recheck_earlier_dynamics(run: _Run, new: Fit, rnd: int) -> Fit:
+    """Look-alikes against the model that holds every accepted effect: once a slow or static
+    effect joins, an earlier delay / lag / resonance finding is compared again with its
+    look-alikes (on top of the new model), renamed if one now predicts the held-out rows
+    better, and reported ambiguous with those it does not beat."""
+    earlier = next((f for f in run.findings[:-1] if f.name in ("delay", "lag", "resonance")),
+                   None)
+    if earlier is None:
+        return new
+    old, rmse_after = earlier.name, earlier.heldout_rmse_after
+    new = _recheck_dynamics(run.ctx, new, earlier, run.ambiguous, run.rounds, rnd + 1)
+    earlier.heldout_rmse_after = rmse_after  # its own step's score stays
+    if earlier.name != old and earlier.structure is not None:
+        earlier.structure = earlier.structure.with_(dynamics=new.structure.dynamics)
     return new
 
 
@@ -948,7 +1025,12 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
         if undecided:
             amb.append(other)
     if best != finding.name:
-        ambiguous[:] = [a for a in ambiguous if a["chosen"] != finding.name]
+        # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
+        # the new name
+        old = finding.name
+        ambiguous[:] = [dict(a, effects=[best if e == old else e for e in a["effects"]],
+                             chosen=best, reason=a["reason"].replace(old, best))
+                        if a["chosen"] == old else a for a in ambiguous]
         finding.name = best
         finding.parameters = params
         finding.uncertainty = unc
