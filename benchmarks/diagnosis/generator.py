@@ -43,9 +43,10 @@ from core.effects import (
 from core.pi import PIModel
 from core.recordings import Recording
 
-__all__ = ["COMBOS", "EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "SHAPES", "WEAK",
-           "Scenario", "magnitude", "make_combo", "make_periodic_set", "make_scenario",
-           "make_shape", "make_single_staircase", "make_weak", "scenario_id", "truth_pi"]
+__all__ = ["AMPLITUDES", "COMBOS", "EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "SHAPES",
+           "WEAK", "Scenario", "magnitude", "make_amplitude_set", "make_combo",
+           "make_periodic_set", "make_scenario", "make_shape", "make_single_staircase",
+           "make_weak", "scenario_id", "truth_pi"]
 
 R_TRUE = np.arange(15.0, 136.0, 15.0)
 P0_TRUE = 0.55
@@ -380,3 +381,33 @@ def make_periodic_set(beta_s: float | None, freqs: tuple[float, ...] = PERIODIC_
                     seed=seed, level="-", params={} if beta_s is None else {"beta_s": beta_s},
                     records=recs, truth=truths, concealment_pct=0.0,
                     extras={"loop_area": areas, "freqs_hz": list(freqs)})
+
+
+#: Input amplitudes (fraction of the 0-150 V range, peak to peak) of :func:`make_amplitude_set`.
+AMPLITUDES = (0.25, 0.5, 0.75, 1.0)
+
+
+def make_amplitude_set(a2: float | None, amps: tuple[float, ...] = AMPLITUDES,
+                       freq: float = 1.0, cycles: int = 3, samples_per_cycle: int = 60,
+                       noise: float = 0.02, seed: int = 0) -> Scenario:
+    """Several short periodic recordings at one frequency and different amplitudes (cosines
+    from 0 V up to ``amp x 150 V``), one per amplitude: a user's "a few loops of growing
+    size". The plant is the B-PI truth followed by the quadratic output map of the
+    asymmetry scenarios (``a2`` um at the range ends) unless ``a2`` is None."""
+    rng = np.random.default_rng(seed)
+    stages: list[Model] = [truth_pi()]
+    if a2 is not None:
+        stages.append(Asymmetry([a2, 0.0], 0.5 * STROKE_APPROX * 1.05, 50.0))
+    plant = Chain.of(*stages)
+    recs, truths = [], []
+    for a in amps:
+        fs = samples_per_cycle * freq
+        t = np.arange(cycles * samples_per_cycle) / fs
+        u = 75.0 * a * (1 - np.cos(2 * np.pi * freq * t))
+        y = plant(u, dt=1 / fs) + noise * rng.standard_normal(u.size)
+        recs.append(Recording(t, u, y, name=f"sine-{100 * a:g}%"))
+        truths.append(plant)
+    return Scenario(effect=None if a2 is None else "asymmetry", noise=f"white{noise:g}",
+                    seed=seed, level="-", params={} if a2 is None else {"a2": a2},
+                    records=recs, truth=truths, concealment_pct=0.0,
+                    extras={"amplitudes": list(amps)})

@@ -45,7 +45,14 @@ from ..fitting.thresholds import wipeout_index
 from .acceptance import Decision, decide, earns_place, split_supports_transport
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
-from .between import between_recordings, leave_one_recording_out, rates_differ, recording_rates
+from .between import (
+    NONLINEAR_PARAMS,
+    BetweenPlan,
+    between_plan,
+    between_recordings,
+    leave_one_recording_out,
+    recording_rates,
+)
 from .candidates import build_candidate
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
@@ -137,7 +144,7 @@ def _fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: in
 
 
 #: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
-_SCALAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
+_SCALAR_PARAMS = NONLINEAR_PARAMS
 
 
 def _crossfit(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
@@ -294,8 +301,9 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     if len(steady) == len(recs):
         out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
                     f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
-                    "repeated, the output already periodic): the memory at the first sample is "
-                    "the one the cycle leaves, and the model starts from it",
+                    "repeated, the output already periodic, or a single closed loop): the "
+                    "memory at the first sample is the one the cycle leaves, and the model "
+                    "starts from it",
                     "experiment": "a recording that starts before the first full sweep, from a "
                     "known (e.g. demagnetised) state"})
     elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
@@ -426,9 +434,7 @@ def diagnose(
     base, requested = _baseline(ctx, n_operators, auto_resolution)
     say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
     run_ = _Run(ctx, _noise_rms(ctx, base), _untestable(ctx), max_effects,
-                # rate-dependent effects between recordings at different rates (default split
-                # only: with explicit windows the others' test rows would be fitted)
-                between=train is None and test is None and rates_differ(ctx), say=say)
+                between_plan(ctx, windows=train is not None or test is not None), say=say)
     todo = [e for e in todo if e not in run_.untestable_names]
     run_.rate_testable = "rate" in todo
     cur = base
@@ -462,7 +468,7 @@ def diagnose(
         maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro_b, loro_final=loro_f,
-        crossval=_crossval(ctx, base, cur), adequacy=adequacy)
+        crossval=_crossval(ctx, base, cur), adequacy=adequacy, between=run_.between)
 
 
 # ----------------------------------------------------------------------------- engine steps
@@ -514,7 +520,8 @@ class _Run:
     noise: float
     untestable: list[dict[str, str]]
     max_effects: int
-    between: bool
+    #: rate- / amplitude-dependent effects judged by predicting each recording from the others
+    between: BetweenPlan
     say: _Progress
     #: rate-dependent hysteresis is among the effects tested (acceptance rule 5 applies)
     rate_testable: bool = False
@@ -576,7 +583,8 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
     Saturating loops (friction) need play weights of either sign: switch when the
     sign-constrained PI is clearly worse on the held-out rows (MSE at least halved). Then the
     under-resolution check (notes E13): double the grid while the held-out MSE drops by
-    >= 2 % (model selection of a nuisance, not a physics claim: no significance needed).
+    >= 2 % (model selection of a nuisance, not a physics claim: no significance needed),
+    keeping at least two training rows per weight.
     Periodic steady-state recordings start from the memory their own cycle leaves.
     """
     records, trm = ctx.records, ctx.train
@@ -588,6 +596,8 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
     base: Fit | None = None
     requested: Fit | None = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
+        if base is not None and 2 * (n_try + 2) > ctx.n_train:
+            break  # at least two training rows per weight (a short single loop)
         r = baseline_thresholds(records, trm, n_try)
         s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
@@ -677,7 +687,9 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
             h = HeldOut(h.mse_before, h.mse_after, h.gain if ctx.strict else min(h.gain, worse),
                         min(h.z, 0.0), 1.0, h.n_batches)
         return replace(c, heldout=h)
-    if run.between and EFFECTS[name].between_recordings:
+    spec = EFFECTS[name]
+    if (run.between.rate and spec.between_recordings) or (
+            run.between.amplitude and spec.amplitude_dependent):
         run.step(rnd, frac, f"predicting each recording from the others ({name})")
         bt = between_recordings(ctx, name, cur)
         return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)

@@ -17,6 +17,7 @@ from ..fitting.metrics import percent_of_range
 from ..recordings import Recording
 from .acceptance import RULE
 from .adequacy import Adequacy
+from .between import BetweenPlan
 from .candidates import build_candidate
 from .context import FitContext
 from .specs import EFFECTS
@@ -224,6 +225,8 @@ class DiagnosisResult:
     crossval: dict[str, Any] | None = None
     #: base-model adequacy verdict (noise floor, loop-shape classes tried)
     adequacy: Adequacy | None = None
+    #: which effects were judged by predicting each recording from the others, why not
+    between: BetweenPlan | None = None
 
     @property
     def model(self) -> Model:
@@ -345,6 +348,11 @@ class DiagnosisResult:
             Every candidate of every round with its held-out gain, z and decision.
         ``accept_rule``
             The thresholds used.
+        ``between_recordings``
+            ``{"rate": {"tested", "reason"}, "amplitude": {"tested", "reason"}}``: whether
+            rate-dependent effects (recordings at different rates) and amplitude-dependent
+            ones (recordings at different amplitudes, e.g. B-H loops) were judged by
+            predicting each recording from the others, and why not.
         """
         yr = self.y_range
         b = self.heldout_rmse(self.baseline)
@@ -358,6 +366,7 @@ class DiagnosisResult:
             "version": 1,
             "crossval": self.crossval,
             "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+            "between_recordings": None if self.between is None else self.between.to_dict(),
             "recordings": [{"name": r.name, "samples": r.n_samples, "dt_s": r.dt,
                             "time_axis": r.has_time, "cleaning": list(r.cleaning)}
                            for r in self.records],

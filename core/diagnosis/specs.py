@@ -36,6 +36,11 @@ class Effect:
         different rates it is judged by predicting each recording from the others
         (:func:`core.diagnosis.between.between_recordings`), not on rows of the recordings
         it was fitted to.
+    amplitude_dependent : bool
+        Changes the loop from one input amplitude to the next beyond what the PI's own
+        memory does (a static output map, a loop-shape nonlinearity): with several
+        recordings of one amplitude each, at different amplitudes, it is judged by
+        predicting each recording from the others.
     """
 
     name: str
@@ -45,6 +50,7 @@ class Effect:
     experiment: str | None = None
     time_dependent: bool = False
     between_recordings: bool = False
+    amplitude_dependent: bool = False
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -142,6 +148,7 @@ EFFECTS: dict[str, Effect] = {
         equation='y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3',
         experiment='a full-range symmetric periodic excitation',
         time_dependent=False,
+        amplitude_dependent=True,
     ),
     "offset": Effect(
         "offset",

@@ -99,3 +99,72 @@ def test_round_rows_are_typed_and_round_trip() -> None:
     assert row["decision"] == "accepted" and "reasons" in row and "dm_z_pooled" not in row
     with pytest.raises(AttributeError):
         row.passes = False  # type: ignore[misc]
+
+
+# ----------------------------------------------------------------------------- amplitudes
+def test_amplitude_dependence_judged_between_recordings() -> None:
+    """Four short periodic recordings at 25-100 % of the input range, the truth's quadratic
+    output map: each recording predicted from the others (never from its own rows)."""
+    from benchmarks.diagnosis.generator import make_amplitude_set
+
+    res = diagnose(make_amplitude_set(0.9, seed=300).records)
+    assert res.between is not None and res.between.amplitude
+    assert [f.name for f in res.effects] == ["asymmetry"]
+    row = next(r for r in res.rounds if r.round == 1 and r.effect == "asymmetry")
+    assert "leave-one-recording-out" in row.evidence and len(row.detail("per_recording")) == 4
+    null = diagnose(make_amplitude_set(None, seed=300).records)
+    assert null.effects == []
+    doc = null.to_dict()["between_recordings"]
+    assert doc["amplitude"] == {"tested": True, "reason": ""}
+
+
+def test_amplitude_test_untestable_with_reason() -> None:
+    from core.diagnosis.between import amplitudes_differ
+    from core.diagnosis.context import FitContext
+    from core.diagnosis.data import split_masks
+
+    def ctx(recs):
+        tr, te, _ = split_masks(recs)
+        return FitContext(recs, tr, te)
+
+    from benchmarks.diagnosis.generator import make_amplitude_set
+
+    same = make_amplitude_set(None, amps=(1.0, 1.0)).records
+    ok, why = amplitudes_differ(ctx(same))
+    assert not ok and "one input amplitude" in why
+    ok, why = amplitudes_differ(ctx(same[:1]))
+    assert not ok and why == "a single recording"
+    from benchmarks.diagnosis.generator import make_scenario
+
+    decaying = make_scenario(None).records[:1] + same[:1]
+    ok, why = amplitudes_differ(ctx(decaying))
+    assert not ok and "decaying sweeps several amplitudes" in why
+
+
+def test_single_closed_loop_is_steady_state_not_initial_memory() -> None:
+    """One closed loop cut from a periodic steady state (from the bottom of the cycle, where
+    the virgin state differs from the cycle's own): recognised as steady state, so the
+    memory at its first sample is the cycle's and initial-memory is untestable, not an
+    artefact to claim."""
+    import numpy as np
+
+    from benchmarks.diagnosis.generator import truth_pi
+    from core.diagnosis.periodic import closed_loop_history, steady_state_history
+    from core.recordings import Recording
+
+    n = 200
+    t = np.arange(3 * n + 1) / n
+    u = 75 - 75 * np.cos(2 * np.pi * t)
+    y = truth_pi()(u) + 0.02 * np.random.default_rng(0).standard_normal(u.size)
+    rec = Recording(t[: n + 1], u[2 * n :], y[2 * n :], "loop")
+    assert steady_state_history(rec) == closed_loop_history(rec) == (150.0, 0.0)
+    # the cycle's memory reproduces the truth's steady state from the first sample on
+    pred = truth_pi()(np.concatenate(([0.0, 150.0], rec.u)))[2:]
+    assert np.max(np.abs(pred - truth_pi()(u)[2 * n :])) < 1e-9
+    res = diagnose([rec])
+    assert res.effects == []
+    why = {x["name"]: x["reason"] for x in res.untestable}
+    assert "single closed loop" in why["initial-memory"]
+    # an open cycle (the output does not return) is not a closed loop
+    assert closed_loop_history(Recording(rec.t, rec.u, rec.y + np.linspace(0, 5, rec.n_samples),
+                                         "open")) == ()
