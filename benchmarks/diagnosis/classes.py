@@ -1,5 +1,6 @@
 """Issue-8 benchmark classes of the diagnosis: two effects at once, weak effects,
-single-recording users, short periodic recordings at several frequencies, loop shapes.
+single-recording users (a staircase with holds, a single closed loop), short periodic
+recordings at several frequencies and at several amplitudes, loop shapes.
 
 Each run is one scenario of :mod:`benchmarks.diagnosis.generator` diagnosed with the default
 settings (``diagnose(records)``: interleaved train/test blocks). Scores per class
@@ -32,6 +33,8 @@ from benchmarks.diagnosis.generator import (
     PERIODIC_FREQS,
     SHAPES,
     Scenario,
+    make_amplitude_set,
+    make_closed_loop,
     make_combo,
     make_periodic_set,
     make_shape,
@@ -55,8 +58,9 @@ CLASSES: dict[str, tuple[str, ...]] = {
     "two effects": tuple("+".join(c) for c in COMBOS),
     "weak": ("rate", "delay", "creep", "asymmetry", "lag", "resonance", "drift",
              "initial-memory"),
-    "single recording": ("null", "creep"),
+    "single recording": ("null", "creep", "closed loop"),
     "periodic": tuple(PERIODIC_CASES),
+    "amplitudes": ("null, 4 amplitudes", "asymmetry, 4 amplitudes"),
     "loop shape": tuple(SHAPES),
 }
 
@@ -67,6 +71,7 @@ QUICK: dict[str, tuple[str, ...]] = {
     "single recording": ("null", "creep"),
     "periodic": ("null, 4 frequencies", "rate, loop area +3 % (weak)",
                  "rate, loop area +2/3"),
+    "amplitudes": ("asymmetry, 4 amplitudes",),
     "loop shape": tuple(SHAPES),
 }
 
@@ -84,6 +89,7 @@ def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
             for case in cases:
                 for nz in noises:
                     out.append((cls, case, nz, (200 if cls == "periodic" else
+                                                300 if cls == "amplitudes" else
                                                 0 if cls == "single recording" else 100) + s))
     return out
 
@@ -93,8 +99,13 @@ def _scenario(cls: str, case: str, noise: str, seed: int) -> Scenario:
         return make_combo(tuple(case.split("+")), noise, seed)
     if cls == "weak":
         return make_weak(case, noise, seed)
+    if cls == "single recording" and case == "closed loop":
+        return make_closed_loop(noise, seed)
     if cls == "single recording":
         return make_single_staircase(None if case == "null" else case, noise, seed)
+    if cls == "amplitudes":
+        return make_amplitude_set(None if case.startswith("null") else 0.9,
+                                  noise=0.02 if noise == "white1" else 0.1, seed=seed)
     if cls == "periodic":
         beta, freqs = PERIODIC_CASES[case]
         return make_periodic_set(beta, freqs=freqs, noise=0.02 if noise == "white1" else 0.1,
@@ -107,6 +118,8 @@ def _scenario(cls: str, case: str, noise: str, seed: int) -> Scenario:
 def _hidden(cls: str, case: str, sc: Scenario) -> dict[str, dict[str, Any]]:
     if cls == "periodic":
         return {"rate": dict(sc.params)} if sc.params else {}
+    if cls == "amplitudes":
+        return {"asymmetry": dict(sc.params)} if sc.params else {}
     return dict(sc.extras.get("hidden", {}))
 
 

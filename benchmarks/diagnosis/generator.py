@@ -44,7 +44,7 @@ from core.pi import PIModel
 from core.recordings import Recording
 
 __all__ = ["AMPLITUDES", "COMBOS", "EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "SHAPES",
-           "WEAK", "Scenario", "magnitude", "make_amplitude_set", "make_combo",
+           "WEAK", "Scenario", "magnitude", "make_amplitude_set", "make_closed_loop", "make_combo",
            "make_periodic_set", "make_scenario", "make_shape", "make_single_staircase",
            "make_weak", "scenario_id", "truth_pi"]
 
@@ -411,3 +411,16 @@ def make_amplitude_set(a2: float | None, amps: tuple[float, ...] = AMPLITUDES,
                     seed=seed, level="-", params={} if a2 is None else {"a2": a2},
                     records=recs, truth=truths, concealment_pct=0.0,
                     extras={"amplitudes": list(amps)})
+
+
+def make_closed_loop(noise: str = "white1", seed: int = 0, samples: int = 200) -> Scenario:
+    """A single closed loop (one 1 Hz full-stroke cycle, as a measured B-H loop is): cut from
+    the periodic steady state of the B-PI truth, starting at the bottom of the cycle, where
+    the virgin memory differs from the cycle's own. No hidden effect: an ``initial-memory``
+    claim would be an artefact."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(3 * samples + 1) / samples
+    u = 75.0 - 75.0 * np.cos(2 * np.pi * t)
+    y = truth_pi()(u)[2 * samples:] + _noise(noise, samples + 1, float(samples), rng)
+    rec = Recording(t[: samples + 1], u[2 * samples:], y, "closed loop")
+    return Scenario(None, noise, seed, "-", {}, [rec], [truth_pi()], 0.0)

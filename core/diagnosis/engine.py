@@ -19,10 +19,20 @@
    An initial memory state can only change the rows before the wipe-out time, so
    ``initial-memory`` (1-2 virtual extrema picked from a grid on the training rows) is judged
    on those rows and must not worsen the held-out rows.
+   A further effect (once effects are accepted) must pass again on cross-fitted training
+   blocks alone against the model holding the accepted ones (acceptance rule 4), and a delay
+   or lag is not named when the reversible/hysteretic split of the residual points to
+   rate-dependent hysteresis (rule 5; :mod:`core.diagnosis.acceptance`).
 5. Inside a family of look-alike effects (delay / lag / resonance / rate; creep / drift) the
    winner is named only when it clearly beats the runner-up on held-out data; otherwise the
-   finding is reported as *ambiguous*, with the experiment that would decide.
+   finding is reported as *ambiguous*, with the experiment that would decide. An earlier
+   delay / lag / resonance finding is compared with its look-alikes again once a later
+   effect joins the model.
 6. The accepted effect joins the model and the search repeats until nothing passes.
+
+The loop itself is :func:`diagnose`: read → baseline → rounds of :func:`_search` (fit every
+candidate, collect its evidence), :func:`_judge` (acceptance rules, typed rows) and
+:func:`_accept` (finding, look-alikes, refinement) → final scoring → adequacy → result.
 
 Effects that the recordings cannot excite are reported as *untestable* with the recording
 that would make them testable.
@@ -458,6 +468,7 @@ def diagnose(
     tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
     adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
                       base.structure.free_weights)
+    crossval = _crossval(ctx, base, cur)
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
@@ -468,7 +479,7 @@ def diagnose(
         maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro_b, loro_final=loro_f,
-        crossval=_crossval(ctx, base, cur), adequacy=adequacy, between=run_.between)
+        crossval=crossval, adequacy=adequacy, between=run_.between)
 
 
 # ----------------------------------------------------------------------------- engine steps
