@@ -30,7 +30,6 @@ import numpy as np
 
 from benchmarks.diagnosis.generator import (
     COMBOS,
-    PERIODIC_FREQS,
     SHAPES,
     Scenario,
     make_amplitude_set,
@@ -41,17 +40,12 @@ from benchmarks.diagnosis.generator import (
     make_single_staircase,
     make_weak,
 )
+from benchmarks.diagnosis.run_benchmark import PERIODIC_CLASSES
 
 __all__ = ["CLASSES", "jobs", "run_class_job", "summarise_classes"]
 
 #: Short periodic recordings: case -> (beta_s, frequencies); 3 cycles x 40 samples each.
-PERIODIC_CASES: dict[str, tuple[float | None, tuple[float, ...]]] = {
-    "null, 4 frequencies": (None, PERIODIC_FREQS),
-    "rate, loop area +3 % (weak)": (0.0006, PERIODIC_FREQS),
-    "rate, loop area +9 %": (0.002, PERIODIC_FREQS),
-    "rate, loop area +2/3": (0.025, PERIODIC_FREQS),
-    "rate, one frequency (untestable)": (0.025, (1.0, 1.0, 1.0, 1.0)),
-}
+PERIODIC_CASES = PERIODIC_CLASSES
 
 #: Class -> cases (the quick subset is the first entries of each, see :func:`jobs`).
 CLASSES: dict[str, tuple[str, ...]] = {
@@ -69,8 +63,8 @@ QUICK: dict[str, tuple[str, ...]] = {
     "two effects": CLASSES["two effects"],
     "weak": ("rate", "delay", "creep", "asymmetry"),
     "single recording": ("null", "creep"),
-    "periodic": ("null, 4 frequencies", "rate, loop area +3 % (weak)",
-                 "rate, loop area +2/3"),
+    "periodic": ("null (PI, 4 frequencies)", "weaker rate (loop area +3 %)",
+                 "rate (loop area +2/3)"),
     "amplitudes": ("asymmetry, 4 amplitudes",),
     "loop shape": tuple(SHAPES),
 }

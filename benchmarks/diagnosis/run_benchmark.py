@@ -424,26 +424,20 @@ def main(argv: list[str] | None = None) -> int:
                         jobs.append((e, noise, 100 + s, lv))
             for k in range(s * per, min((s + 1) * per, a.nulls)):
                 jobs.append((None, noise, 1000 + k, "L2"))
-    engine = _engine_version()
-    print(f"{len(jobs)} runs, engine {engine}", flush=True)
     partial = a.json.with_suffix(".partial.jsonl") if a.json else None
+
+    def line(r: dict, done: int, elapsed: float) -> str:
+        if partial:
+            with partial.open("a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        return (f"{r['id']:<32} found={','.join(r['found']) or '-':<30} "
+                f"base={r['rmse_base']:.4f} final={r['rmse_final']:.4f} "
+                f"oracle={r['rmse_oracle']:.4f} gain={r['oracle_gain']:.3f} "
+                f"conceal={r['concealment_pct']:.3f}% {r['elapsed_s']:.0f}s "
+                f"[{done}/{len(jobs)} {elapsed:.0f}s]")
+
     t0 = time.perf_counter()
-    rows = []
-    with executor(a.workers, a.scheduler) as ex:
-        futs = [ex.submit(run_one, j) for j in jobs]
-        for fut in as_completed(futs):
-            r = fut.result()
-            r["engine"] = engine
-            rows.append(r)
-            found = ",".join(r["found"]) or "-"
-            print(f"{r['id']:<32} found={found:<30} base={r['rmse_base']:.4f} "
-                  f"final={r['rmse_final']:.4f} oracle={r['rmse_oracle']:.4f} "
-                  f"gain={r['oracle_gain']:.3f} conceal={r['concealment_pct']:.3f}% "
-                  f"{r['elapsed_s']:.0f}s [{len(rows)}/{len(jobs)} "
-                  f"{time.perf_counter() - t0:.0f}s]", flush=True)
-            if partial:
-                with partial.open("a") as fh:
-                    fh.write(json.dumps(r) + "\n")
+    rows = _execute(a, run_one, jobs, line)
     order = {j: k for k, j in enumerate(jobs)}
     rows.sort(key=lambda r: order[(None if r["effect"] == "null" else r["effect"], r["noise"],
                                    r["seed"], "L2" if r["effect"] == "null" else r["level"])])
@@ -455,6 +449,22 @@ def main(argv: list[str] | None = None) -> int:
         if partial and partial.exists():
             partial.unlink()
     return 0
+
+
+def _execute(a: argparse.Namespace, fn, jobs: list, line) -> list[dict]:
+    """Run ``fn`` over ``jobs`` on the executor of ``--workers`` / ``--scheduler``, printing
+    ``line(row, done, elapsed)`` as each finishes; rows carry the engine commit."""
+    engine = _engine_version()
+    print(f"{len(jobs)} runs, engine {engine}", flush=True)
+    t0 = time.perf_counter()
+    rows: list[dict] = []
+    with executor(a.workers, a.scheduler) as ex:
+        for fut in as_completed([ex.submit(fn, j) for j in jobs]):
+            r = fut.result()
+            r["engine"] = engine
+            rows.append(r)
+            print(line(r, len(rows), time.perf_counter() - t0), flush=True)
+    return rows
 
 
 def _run_classes(a: argparse.Namespace) -> int:
@@ -469,19 +479,11 @@ def _run_classes(a: argparse.Namespace) -> int:
             raise SystemExit(f"unknown class {n!r}; known: {', '.join(CLASSES)}")
     todo = jobs(a.quick, seeds=1 if a.quick else a.seeds,
                 noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names)
-    engine = _engine_version()
-    print(f"{len(todo)} runs, engine {engine}", flush=True)
     t0 = time.perf_counter()
-    rows = []
-    with executor(a.workers, a.scheduler) as ex:
-        futs = [ex.submit(run_class_job, j) for j in todo]
-        for fut in as_completed(futs):
-            r = fut.result()
-            r["engine"] = engine
-            rows.append(r)
-            print(f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
-                  f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s "
-                  f"[{len(rows)}/{len(todo)} {time.perf_counter() - t0:.0f}s]", flush=True)
+    rows = _execute(a, run_class_job, todo, lambda r, done, el: (
+        f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
+        f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s [{done}/{len(todo)} "
+        f"{el:.0f}s]"))
     print()
     print(summarise_classes(rows))
     print(f"\ntotal {time.perf_counter() - t0:.0f} s (target: a few minutes for --quick)")
