@@ -10,10 +10,14 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
 3. *Fold agreement*: with cross-fitting, each nonlinear parameter's coefficient of variation
    across the folds is below ``max_param_cv`` (30 %).
 4. *A further effect earns its place* (:func:`earns_place`): once effects are accepted, a
-   candidate that passes 1-3 on the test rows must pass them again on blocked cross-fitted
+   candidate that passes 1-3 on the test rows must pass 1-2 again on blocked cross-fitted
    training blocks alone (the model holding the accepted effects and that model plus the
-   candidate refitted without each block, the candidate's nonlinear parameters searched
-   anew): the test rows have already been used to choose the effects before it.
+   candidate refitted without each block, the candidate's nonlinear parameters kept): the
+   test rows have already been used to choose the effects before it.
+6. *Effects that hide each other* (the engine's ``_lookahead``): when nothing passes, the
+   largest candidate that failed significance alone is put in tentatively; if another
+   effect passes on top of it (rules 1-5), the first is judged again on top of that one and
+   accepted when it passes there.
 5. *Transport look-alikes* (:func:`split_supports_transport`): a delay or a lag acts on the
    whole output slope, the reversible (``r = 0``) part included. When rate-dependent
    hysteresis is testable too, a delay or lag is named only if the residual's regression on

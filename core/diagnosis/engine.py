@@ -452,7 +452,10 @@ def diagnose(
         cands, rows = _search(run_, cur, todo, rnd)
         if not cands:
             break
-        cands, rows, passing = _judge(run_, cur, cands, rows, rnd)
+        cands, rows, passing = _judge(run_, cur, cands, rows, rnd,
+                                      tuple(f.name for f in run_.findings))
+        if not passing:  # two effects that hide each other (acceptance rule 6)?
+            cands, rows, passing = _lookahead(run_, cur, cands, rows, todo, rnd)
         if not passing:
             run_.rounds.extend(rows)
             break
@@ -512,6 +515,11 @@ class _Candidate:
     between: dict[str, Any] | None = None
     #: meets the effect-size rules (set by :func:`_judge`)
     size_ok: bool = False
+    #: the acceptance decision and the row's decision word (set by :func:`_judge`)
+    decision: Decision | None = None
+    verdict: str | None = None
+    #: judged on top of this other candidate (acceptance rule 6), else None
+    given: str | None = None
 
     @property
     def family(self) -> str:
@@ -707,12 +715,16 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
     return replace(c, heldout=heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)))
 
 
-def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow], rnd: int
+def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow], rnd: int,
+           accepted: tuple[str, ...], n_tests: int | None = None
            ) -> tuple[dict[str, _Candidate], list[RoundRow], list[str]]:
     """Apply the acceptance rules (:func:`~core.diagnosis.acceptance.decide`) to every
-    candidate of the round; returns the candidates (with any cross-fitting added), the
-    round's rows and the names that pass."""
+    candidate of the round on top of ``cur`` (which holds the ``accepted`` effects);
+    ``n_tests``: the Bonferroni divisor (default: the number of candidates). Returns the
+    candidates (with any cross-fitting and their decisions added), the round's rows and the
+    names that pass."""
     ctx = run.ctx
+    n_tests = len(cands) if n_tests is None else n_tests
     mse_cur = pooled_mse(ctx.test_res(cur))
     excess = {n: (c.heldout.mse_before if ctx.strict or c.between else mse_cur) - run.noise**2
               for n, c in cands.items()}
@@ -721,7 +733,7 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
     size_ok = {n: c.size_ok for n, c in cands.items()}
     needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
                 and not ctx.strict}
-    skip = _cannot_win({n: c.heldout for n, c in cands.items()}, size_ok, needs_cf, len(cands))
+    skip = _cannot_win({n: c.heldout for n, c in cands.items()}, size_ok, needs_cf, n_tests)
     rows = list(rows)
     passing: list[str] = []
     for name, c in list(cands.items()):
@@ -737,15 +749,16 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
                 c = cands[name] = replace(c, crossfit=cf)
         cv = (c.crossfit["parameter_cv"] if c.crossfit else
               c.between["parameter_cv"] if c.between else {})
-        dec = decide(c.heldout, excess[name], len(cands), cv, significance=c.evidence_rows)
+        dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
         if dec.passes and name in _TRANSPORT and run.rate_testable and not _split_ok(run, cur):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
             decision = "contradicted"
-        elif dec.passes and run.findings and _needs_earning(ctx, c):
+        elif dec.passes and accepted and _needs_earning(ctx, c):
             run.step(rnd, 0.6, f"cross-fitting {name} against the accepted effects")
-            dec = _earns(run, cur, c, len(cands))
+            dec = _earns(run, cur, c, n_tests, accepted)
             decision = None if dec.passes else "not earned"
+        cands[name] = replace(c, decision=dec, verdict=decision)
         rows.append(_row(ctx, rnd, c, passes=dec.passes, reasons=dec.reasons, decision=decision))
         if dec.passes:
             passing.append(name)
@@ -773,21 +786,66 @@ def _needs_earning(ctx: FitContext, c: _Candidate) -> bool:
     return not ctx.strict and c.between is None and c.name != "initial-memory"
 
 
-def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int) -> Decision:
-    """Acceptance rule 4: cross-fit ``c`` against the model holding the accepted effects on
-    training blocks alone (:func:`~core.diagnosis.acceptance.earns_place`)."""
+def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str, ...]
+           ) -> Decision:
+    """Acceptance rule 4: ``c`` against the model holding the ``accepted`` effects on
+    training blocks alone (:func:`~core.diagnosis.acceptance.earns_place`): both refitted
+    (linear weights) without each block, the candidate's nonlinear parameters kept at their
+    fitted values (an effect excited in one segment only, as a resonance by the fast sines,
+    cannot be re-identified without it)."""
     ctx = run.ctx
     if run.earn_folds is None:
         run.earn_folds = ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
-    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
-    sub.strict = True  # the blocks alone: the test rows chose the effects before this one
-    cf = _crossfit(sub, c.name, cur, c.fit)
-    accepted = tuple(f.name for f in run.findings)
-    if cf is None:
+    if not run.earn_folds:
         return Decision(False, True, False, True, (f"as a further effect on top of "
                         f"{', '.join(accepted)} it cannot be cross-fitted (too few training "
                         "blocks)",))
-    return earns_place(cf["pooled"], n_tests, cf["parameter_cv"], accepted)
+    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
+    sub.strict = True  # the blocks alone: the test rows chose the effects before this one
+    return earns_place(_compare(sub, cur, c.fit), n_tests, None, accepted)
+
+
+def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow],
+               todo: list[str], rnd: int
+               ) -> tuple[dict[str, _Candidate], list[RoundRow], list[str]]:
+    """Acceptance rule 6: two effects that hide each other.
+
+    When nothing passes on top of ``cur``, the candidate ``t`` with the largest held-out
+    gain that failed the significance rule alone (effect size and fold agreement met) is
+    put in tentatively and the others are judged on top of it (every rule, rule 4 included).
+    If one of them, ``p``, passes there, ``t`` is judged again on top of ``p`` (fitted on
+    ``cur``) as a first effect would be, with the round's Bonferroni divisor. ``t`` is
+    accepted when it passes there: each of the two earns its place against the model
+    holding the other (``p`` is then judged in the next round as usual). Not used with
+    strict hold-out. Returns ``(cands, rows, passing)``, with ``passing = []`` otherwise.
+    """
+    ctx, none = run.ctx, (cands, rows, [])
+    held = [c for c in cands.values() if c.decision is not None and c.verdict is None
+            and c.decision.size_ok and c.decision.stable and not c.decision.significant
+            and c.name != "initial-memory"]
+    if ctx.strict or not held:
+        return none
+    t = max(held, key=lambda c: c.heldout.gain)
+    run.step(rnd, 0.8, f"the others on top of {t.name}")
+    sub, sub_rows = _search(run, t.fit, _remaining(todo, t.name), rnd)
+    ok = _judge(run, t.fit, sub, sub_rows, rnd, (t.name,))[2] if sub else []
+    p = _choose(ok, {n: sub[n].heldout.gain for n in ok}) if ok else None
+    if p is None or p not in cands:
+        return none
+    base_p = cands[p].fit
+    got = build_candidate(ctx, t.name, base_p)
+    tt = None if got is None else _evidence(
+        run, base_p, _Candidate(t.name, *got, heldout=_screen(got[0], base_p)), rnd, 0.9)
+    if tt is None:
+        return none
+    # judged as a first effect would be (test rows, the round's Bonferroni divisor), on top of p
+    tj, t_rows, t_ok = _judge(run, base_p, {t.name: tt}, [], rnd, (), n_tests=len(cands))
+    if not t_ok:
+        return none
+    c = replace(t, heldout=tj[t.name].heldout, decision=tj[t.name].decision, given=p)
+    row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
+                  f"hide each other; {p} passes on top of {t.name})")
+    return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]
 
 
 def _row(ctx: FitContext, rnd: int, c: _Candidate, passes: bool, decision: str | None = None,
@@ -951,7 +1009,8 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         runner_up=runner,
         crossfit=_cf_summary(c.crossfit),
         caveats=caveats,
-        evidence=_evidence_label(ctx, c.name, c.crossfit, c.between),
+        evidence=_evidence_label(ctx, c.name, c.crossfit, c.between) + (
+            f", judged on top of {c.given}" if c.given else ""),
     )
 
 
