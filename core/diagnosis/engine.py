@@ -52,7 +52,13 @@ from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from ..fitting.thresholds import wipeout_index
-from .acceptance import Decision, decide, earns_place, split_supports_transport
+from .acceptance import (
+    Decision,
+    decide,
+    earns_place,
+    split_supports_transport,
+    trend_follows_steps,
+)
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
 from .between import (
@@ -754,6 +760,9 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
         if dec.passes and name in _TRANSPORT and run.rate_testable and not _split_ok(run, cur):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
             decision = "contradicted"
+        elif dec.passes and name == "creep" and not _locking_ok(run, cur):
+            dec = replace(dec, passes=False, reasons=(_LOCKING_REASON,))
+            decision = "contradicted"
         elif dec.passes and accepted and _needs_earning(ctx, c):
             run.step(rnd, 0.6, f"cross-fitting {name} against the accepted effects")
             dec = _earns(run, cur, c, n_tests, accepted)
@@ -778,6 +787,16 @@ def _split_ok(run: _Run, cur: Fit) -> bool:
         d = _discriminators(run.ctx, cur)
         run.split_for, run.split = cur, split_supports_transport(d["a_rev_s"], d["a_hys_s"])
     return run.split
+
+
+_LOCKING_REASON = ("the residual trend after the holds does not follow the sign of the step "
+                   "before them as creep would (a drift continues across steps)")
+
+
+def _locking_ok(run: _Run, cur: Fit) -> bool:
+    """Acceptance rule 7 on the current model's residual."""
+    d = _sign_locking(run.ctx, cur)
+    return trend_follows_steps(d.get("trend_follows_step_sign"), d["steps_with_hold"])
 
 
 def _needs_earning(ctx: FitContext, c: _Candidate) -> bool:

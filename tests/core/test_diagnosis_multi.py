@@ -184,3 +184,36 @@ def test_two_effects_that_hide_each_other_are_both_found() -> None:
     r1 = [r for r in res.rounds if r.round == 1 and ":" not in r.effect]
     assert [r.effect for r in r1 if r.passes] == ["resonance"]
     assert res.effects[0].parameters["freq_hz"] == pytest.approx(400.0, rel=0.03)
+
+
+def test_sign_locking_rule_values() -> None:
+    """Shares measured on the benchmark (10 holds): hidden creep 0.9-1.0, hidden drift
+    0.5-0.7; fewer than 4 holds decide nothing."""
+    from core.diagnosis.acceptance import trend_follows_steps
+
+    assert trend_follows_steps(1.0, 10) and trend_follows_steps(0.9, 10)
+    assert not trend_follows_steps(0.7, 10) and not trend_follows_steps(0.5, 10)
+    assert trend_follows_steps(0.0, 3) and trend_follows_steps(None, 0)
+
+
+@pytest.fixture(scope="module")
+def weak_drift():
+    """A weak additive drift (0.045 um scale) in the three benchmark recordings."""
+    from benchmarks.diagnosis.generator import make_weak
+
+    return make_weak("drift", "white1", 100).records
+
+
+@pytest.mark.slow
+def test_weak_drift_is_not_named_creep(weak_drift) -> None:
+    res = diagnose(weak_drift)
+    assert "creep" not in [f.name for f in res.effects]
+    creep = next(r for r in res.rounds if r.round == 1 and r.effect == "creep")
+    assert creep.decision == "contradicted" and "sign of the step" in creep.reasons[0]
+
+
+@pytest.mark.slow
+def test_without_rule_7_the_weak_drift_is_named_creep(weak_drift, monkeypatch) -> None:
+    monkeypatch.setattr(engine, "trend_follows_steps", lambda share, holds: True)
+    res = diagnose(weak_drift)
+    assert [f.name for f in res.effects][:1] == ["creep"]
