@@ -14,20 +14,20 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
    training blocks alone (the model holding the accepted effects and that model plus the
    candidate refitted without each block, the candidate's nonlinear parameters kept): the
    test rows have already been used to choose the effects before it.
-7. *Creep follows the step sign* (:func:`trend_follows_steps`): creep is named only when the
-   residual trend after the holds follows the sign of the step before them in at least
-   ``min_sign_locking`` (80 %) of the holds (with at least 4 holds); a drift continues
-   across steps whatever their sign (about half follow it; notes §4.2).
-6. *Effects that hide each other* (the engine's ``_lookahead``): when nothing passes, the
-   largest candidate that failed significance alone is put in tentatively; if another
-   effect passes on top of it (rules 1-5), the first is judged again on top of that one and
-   accepted when it passes there.
 5. *Transport look-alikes* (:func:`split_supports_transport`): a delay or a lag acts on the
    whole output slope, the reversible (``r = 0``) part included. When rate-dependent
    hysteresis is testable too, a delay or lag is named only if the residual's regression on
    the reversible and hysteretic slopes gives the reversible one at least
    ``min_rev_share`` (15 %) of the hysteretic coefficient, with the same sign (notes §4.1:
    about 1 for a delay or lag before the refit, about 0 for rate-dependent thresholds).
+6. *Effects that hide each other* (the engine's ``_lookahead``): when nothing passes, the
+   largest candidate that failed significance alone is put in tentatively; if another
+   effect passes on top of it (rules 1-5, 7), the first is judged again on top of that one and
+   accepted when it passes there.
+7. *Creep follows the step sign* (:func:`trend_follows_steps`): creep is named only when the
+   residual trend after the holds follows the sign of the step before them in at least
+   ``min_sign_locking`` (80 %) of the holds (with at least 4 holds); a drift continues
+   across steps whatever their sign (about half follow it; notes §4.2).
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.

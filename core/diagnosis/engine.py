@@ -22,7 +22,9 @@
    A further effect (once effects are accepted) must pass again on cross-fitted training
    blocks alone against the model holding the accepted ones (acceptance rule 4), and a delay
    or lag is not named when the reversible/hysteretic split of the residual points to
-   rate-dependent hysteresis (rule 5; :mod:`core.diagnosis.acceptance`).
+   rate-dependent hysteresis (rule 5), creep only when the trend after the holds follows the
+   step sign (rule 7); when nothing passes, two effects that hide each other are each judged
+   on top of the other (rule 6; :mod:`core.diagnosis.acceptance`).
 5. Inside a family of look-alike effects (delay / lag / resonance / rate; creep / drift) the
    winner is named only when it clearly beats the runner-up on held-out data; otherwise the
    finding is reported as *ambiguous*, with the experiment that would decide. An earlier
