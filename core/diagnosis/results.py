@@ -55,7 +55,9 @@ class RoundRow:
         ``accepted``, ``ambiguous`` (a look-alike the recordings do not separate from the
         accepted one), ``passes`` (passed, another effect was chosen), ``rejected``,
         ``deferred`` (not needed this round), ``not earned`` (passed on the test rows as a
-        further effect but not against the model holding the accepted ones, cross-fitted).
+        further effect but not against the model holding the accepted ones, cross-fitted),
+        ``contradicted`` (passed, but the discriminator of its look-alikes points elsewhere:
+        the reversible/hysteretic split for a delay or lag, the step-sign locking for creep).
     parameters : dict
         The candidate's fitted parameters.
     evidence : str or None
