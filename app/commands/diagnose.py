@@ -22,7 +22,10 @@ untestable, look-alikes that the recordings cannot separate as ambiguous.
       "untestable": [{"name", "reason", "experiment"}],
       "ambiguous": [{"effects", "chosen", "reason", "experiment"}],
       "final": {"effects", "heldout_rmse", "heldout_rmse_pct", "per_recording", "model", "maps"},
-      "tested": [...], "accept_rule": {...}, "elapsed_s": ...
+      "tested": [{"round", "effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
+                  "passes", "decision", "parameters", "evidence", "reasons", ...}],
+      "between_recordings": {"rate": {"tested", "reason"}, "amplitude": {"tested", "reason"}},
+      "accept_rule": {...}, "elapsed_s": ...
     }
 
 RMSE values are in output units; ``*_pct`` in % of the output range of the scored rows (the

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from core.base import Chain, Model
+from core.deadzone import DeadZoneMap
 from core.effects import (
     Asymmetry,
     Creep,
@@ -42,8 +43,10 @@ from core.effects import (
 from core.pi import PIModel
 from core.recordings import Recording
 
-__all__ = ["EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "Scenario", "magnitude",
-           "make_scenario", "scenario_id", "truth_pi"]
+__all__ = ["AMPLITUDES", "COMBOS", "EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "SHAPES",
+           "WEAK", "Scenario", "magnitude", "make_amplitude_set", "make_closed_loop", "make_combo",
+           "make_periodic_set", "make_scenario", "make_shape", "make_single_staircase",
+           "make_weak", "scenario_id", "truth_pi"]
 
 R_TRUE = np.arange(15.0, 136.0, 15.0)
 P0_TRUE = 0.55
@@ -149,33 +152,53 @@ def _signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 def _plant(effect: str | None, k: int, t: np.ndarray, rng: np.random.Generator,
            level: str = "L2", params: dict[str, Any] | None = None) -> Model:
-    pi = truth_pi()
+    """Truth plant of recording ``k`` with one hidden effect (or none)."""
     lv = magnitude(effect, level) if params is None else dict(params)
+    return _plant_of({effect: lv} if effect else {}, k, t, rng)
+
+
+def _plant_of(hidden: dict[str, dict[str, Any]], k: int, t: np.ndarray,
+              rng: np.random.Generator) -> Model:
+    """Truth plant of recording ``k`` with every effect of ``hidden`` (name -> parameters),
+    stages in the physical order: input map, hysteresis, output maps, slow effects,
+    dynamics, sensor."""
+    pi = truth_pi()
     stages: list[Model] = []
-    if effect == "rate":
-        stages.append(RateDependentPI(P0_TRUE, R_TRUE, W_TRUE, lv["beta_s"]))
-    elif effect == "initial-memory" and k == 0:
-        stages.append(InitialMemory(pi, list(lv["history"])))
+    if "dead-zone" in hidden:
+        # a one-sided dead band on the input (a thresholded actuator): slope eta0 below
+        # the threshold, 1 above it
+        lv = hidden["dead-zone"]
+        stages.append(DeadZoneMap([0.0, lv["threshold_v"]],
+                                  [lv["eta0"], 1.0 - lv["eta0"]]))
+    if "rate" in hidden:
+        stages.append(RateDependentPI(P0_TRUE, R_TRUE, W_TRUE, hidden["rate"]["beta_s"]))
+    elif "initial-memory" in hidden and k == 0:
+        stages.append(InitialMemory(pi, list(hidden["initial-memory"]["history"])))
     else:
         stages.append(pi)
-    if effect == "asymmetry":
-        stages.append(Asymmetry([lv["a2"], 0.0], 0.5 * STROKE_APPROX * 1.05, 50.0))
-    if effect == "creep":
+    if "saturation" in hidden:
+        # the output slope drops by `drop` above `knee_um` (a saturating loop top)
+        lv = hidden["saturation"]
+        stages.append(DeadZoneMap([0.0, lv["knee_um"]], [1.0, -lv["drop"]]))
+    if "asymmetry" in hidden:
+        stages.append(Asymmetry([hidden["asymmetry"]["a2"], 0.0], 0.5 * STROKE_APPROX * 1.05,
+                                50.0))
+    if "creep" in hidden:
         taus = [0.01, 0.1, 1.0, 10.0, 100.0]
-        stages.append(Creep(taus, [lv["gamma"]] * len(taus)))
-    if effect == "delay":
-        stages.append(Delay(lv["delay_s"]))
-    if effect == "lag":
-        stages.append(Lag(lv["tau_s"]))
-    if effect == "resonance":
-        stages.append(Resonance(lv["freq_hz"], lv["damping"]))
-    if effect == "offset":
-        stages.append(Offset(lv["spread"] * (-1.0, 1.0, 0.3)[k]))
-    if effect == "drift":
+        stages.append(Creep(taus, [hidden["creep"]["gamma"]] * len(taus)))
+    if "delay" in hidden:
+        stages.append(Delay(hidden["delay"]["delay_s"]))
+    if "lag" in hidden:
+        stages.append(Lag(hidden["lag"]["tau_s"]))
+    if "resonance" in hidden:
+        stages.append(Resonance(hidden["resonance"]["freq_hz"], hidden["resonance"]["damping"]))
+    if "offset" in hidden:
+        stages.append(Offset(hidden["offset"]["spread"] * (-1.0, 1.0, 0.3)[k % 3]))
+    if "drift" in hidden:
         span = float(t[-1] - t[0])
         # a ramp plus a slow wander, expressed on the Legendre basis of the drift model
         s = 2 * (t - t[0]) / span - 1
-        d = lv["amplitude"] * (0.5 * s + 0.3 * np.sin(1.3 * s + rng.uniform(0, 2)))
+        d = hidden["drift"]["amplitude"] * (0.5 * s + 0.3 * np.sin(1.3 * s + rng.uniform(0, 2)))
         coef = np.polynomial.legendre.legfit(s, d, 4)[1:]
         stages.append(Drift(coef, span))
     return Chain.of(*stages)
@@ -223,13 +246,19 @@ def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0,
     phase first). ``concealment_pct`` is the max |δ| (raw effect before any refit) over the 1 Hz and
     10 Hz parts of the multisine recording and the decaying recording, in % of the stroke.
     """
-    rng = np.random.default_rng(seed)
     lv = magnitude(effect, level) if params is None else dict(params)
+    return _scenario({effect: lv} if effect else {}, noise, seed, level)
+
+
+def _scenario(hidden: dict[str, dict[str, Any]], noise: str, seed: int, level: str,
+              signals: list[tuple[str, np.ndarray, np.ndarray]] | None = None) -> Scenario:
+    """The recordings of :func:`_signals` (or ``signals``) through the plant with ``hidden``."""
+    rng = np.random.default_rng(seed)
     recs, truths = [], []
     worst = 0.0
-    for k, (name, t, u) in enumerate(_signals()):
+    for k, (name, t, u) in enumerate(_signals() if signals is None else signals):
         dt = float(t[1] - t[0])
-        m = _plant(effect, k, t, rng, params=lv)
+        m = _plant_of(hidden, k, t, rng)
         y_clean = m(u, dt=dt)
         y0 = truth_pi()(u)
         stroke = float(np.ptp(y0)) or 1.0
@@ -245,7 +274,72 @@ def make_scenario(effect: str | None, noise: str = "white1", seed: int = 0,
             y = np.round(y / lsb) * lsb
         recs.append(Recording(t, u, y, name))
         truths.append(m)
-    return Scenario(effect, noise, seed, level, lv, recs, truths, worst)
+    effect = "+".join(hidden) if hidden else None
+    params = next(iter(hidden.values())) if len(hidden) == 1 else {
+        f"{e}.{k}": v for e, lv in hidden.items() for k, v in lv.items()}
+    return Scenario(effect, noise, seed, level, params, recs, truths, worst,
+                    extras={"hidden": {e: dict(lv) for e, lv in hidden.items()}})
+
+
+# ----------------------------------------------------------------------------- issue-8 classes
+#: Two hidden effects at once (issue 8, failure 4: creep + delay, resonance + drift,
+#: creep + asymmetry; plus lag + drift and delay + initial-memory), each at its L2 magnitude.
+COMBOS: tuple[tuple[str, str], ...] = (
+    ("creep", "delay"), ("resonance", "drift"), ("creep", "asymmetry"), ("lag", "drift"),
+    ("delay", "initial-memory"),
+)
+
+
+def make_combo(effects: tuple[str, ...], noise: str = "white1", seed: int = 0,
+               level: str = "L2") -> Scenario:
+    """The three recordings through a plant with every effect of ``effects`` at ``level``;
+    ``scenario.effect`` is the names joined by ``+``, ``extras["hidden"]`` their parameters."""
+    return _scenario({e: magnitude(e, level) for e in effects}, noise, seed, level)
+
+
+#: Weak effects (level "weak"): about a third of L1, at or below the detection limit at
+#: 0.02 um noise; abstaining or a "suggestive" mention is right there, a wrong name is not.
+WEAK: dict[str, dict[str, Any]] = {
+    "delay": {"delay_s": 7e-6},
+    "lag": {"tau_s": 10e-6},
+    "resonance": {"freq_hz": 1600.0, "damping": 0.05},
+    "rate": {"beta_s": 2e-5},
+    "creep": {"gamma": 0.00017},
+    "drift": {"amplitude": 0.045},
+    "asymmetry": {"a2": 0.02},
+    "initial-memory": {"history": (17.0, 0.0)},
+}
+
+
+def make_weak(effect: str, noise: str = "white1", seed: int = 0) -> Scenario:
+    """One hidden effect at its :data:`WEAK` magnitude (level ``"weak"``)."""
+    return _scenario({effect: dict(WEAK[effect])}, noise, seed, "weak")
+
+
+def make_single_staircase(effect: str | None, noise: str = "white1", seed: int = 0,
+                          level: str = "L2") -> Scenario:
+    """A single-recording user (issue 8, failure 4): only the up-then-down staircase with
+    holds (30 V steps ramped over 5 ms, 2 s holds, 1 kHz, 22 s), the recording one makes to
+    look for creep; ``effect`` None (no hidden effect) or one effect at ``level``."""
+    sig = [s for s in _signals() if s[0] == "staircase"]
+    return _scenario({effect: magnitude(effect, level)} if effect else {}, noise, seed, level,
+                     signals=sig)
+
+
+#: Loop-shape scenarios (issue 8, failure 2): the expected effect name and the truth.
+#: ``saturation``: the output slope drops by 45 % above 60 um (about 60 % of the stroke);
+#: ``dead-zone``: a one-sided dead band, input slope 5 % below 25 V (a thresholded actuator).
+SHAPES: dict[str, dict[str, Any]] = {
+    "saturation": {"knee_um": 60.0, "drop": 0.45},
+    "dead-zone": {"threshold_v": 25.0, "eta0": 0.05},
+}
+
+
+def make_shape(kind: str, noise: str = "white1", seed: int = 0) -> Scenario:
+    """The three recordings through the B-PI with a loop-shape map (:data:`SHAPES`), built from
+    the core's own :class:`~core.deadzone.DeadZoneMap` (input side for the dead band, output
+    side for the saturation)."""
+    return _scenario({kind: dict(SHAPES[kind])}, noise, seed, "shape")
 
 
 # ----------------------------------------------------------------------------- periodic sets
@@ -287,3 +381,46 @@ def make_periodic_set(beta_s: float | None, freqs: tuple[float, ...] = PERIODIC_
                     seed=seed, level="-", params={} if beta_s is None else {"beta_s": beta_s},
                     records=recs, truth=truths, concealment_pct=0.0,
                     extras={"loop_area": areas, "freqs_hz": list(freqs)})
+
+
+#: Input amplitudes (fraction of the 0-150 V range, peak to peak) of :func:`make_amplitude_set`.
+AMPLITUDES = (0.25, 0.5, 0.75, 1.0)
+
+
+def make_amplitude_set(a2: float | None, amps: tuple[float, ...] = AMPLITUDES,
+                       freq: float = 1.0, cycles: int = 3, samples_per_cycle: int = 60,
+                       noise: float = 0.02, seed: int = 0) -> Scenario:
+    """Several short periodic recordings at one frequency and different amplitudes (cosines
+    from 0 V up to ``amp x 150 V``), one per amplitude: a user's "a few loops of growing
+    size". The plant is the B-PI truth followed by the quadratic output map of the
+    asymmetry scenarios (``a2`` um at the range ends) unless ``a2`` is None."""
+    rng = np.random.default_rng(seed)
+    stages: list[Model] = [truth_pi()]
+    if a2 is not None:
+        stages.append(Asymmetry([a2, 0.0], 0.5 * STROKE_APPROX * 1.05, 50.0))
+    plant = Chain.of(*stages)
+    recs, truths = [], []
+    for a in amps:
+        fs = samples_per_cycle * freq
+        t = np.arange(cycles * samples_per_cycle) / fs
+        u = 75.0 * a * (1 - np.cos(2 * np.pi * freq * t))
+        y = plant(u, dt=1 / fs) + noise * rng.standard_normal(u.size)
+        recs.append(Recording(t, u, y, name=f"sine-{100 * a:g}%"))
+        truths.append(plant)
+    return Scenario(effect=None if a2 is None else "asymmetry", noise=f"white{noise:g}",
+                    seed=seed, level="-", params={} if a2 is None else {"a2": a2},
+                    records=recs, truth=truths, concealment_pct=0.0,
+                    extras={"amplitudes": list(amps)})
+
+
+def make_closed_loop(noise: str = "white1", seed: int = 0, samples: int = 200) -> Scenario:
+    """A single closed loop (one 1 Hz full-stroke cycle, as a measured B-H loop is): cut from
+    the periodic steady state of the B-PI truth, starting at the bottom of the cycle, where
+    the virgin memory differs from the cycle's own. No hidden effect: an ``initial-memory``
+    claim would be an artefact."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(3 * samples + 1) / samples
+    u = 75.0 - 75.0 * np.cos(2 * np.pi * t)
+    y = truth_pi()(u)[2 * samples:] + _noise(noise, samples + 1, float(samples), rng)
+    rec = Recording(t[: samples + 1], u[2 * samples:], y, "closed loop")
+    return Scenario(None, noise, seed, "-", {}, [rec], [truth_pi()], 0.0)

@@ -8,6 +8,9 @@ Usage::
         [--levels L1,L2,L3] [--seeds 3] [--nulls 12] [--noise white1,white2,coloured] \
         [--workers 2] [--scheduler local|tcp://HOST:PORT] [--json out.json]
     .venv/bin/python benchmarks/diagnosis/run_benchmark.py --rescore out.json   # tables only
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py --quick
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
+        --classes all --seeds 3 --noise white1,coloured --json classes.json
 
 Scoring (notes §7.2, §7.6):
 
@@ -55,32 +58,21 @@ from core.diagnosis.structure import Structure, baseline_thresholds, fit_structu
 
 
 def oracle_rmse(records, effect: str | None, n_ops: int,
-                lv: dict | None = None) -> tuple[float, float]:
+                lv: dict | None = None, hidden: dict | None = None) -> tuple[float, float]:
     """Held-out RMSE of the baseline structure and of the true-effect structure.
 
-    ``lv``: the true parameters of the effect (default: its L2 magnitude).
+    ``lv``: the true parameters of the effect (default: its L2 magnitude); ``hidden``
+    (name -> parameters) instead gives several effects at once. Effects the diagnosis
+    structure cannot hold (loop-shape maps) are left out of the oracle.
     """
     tr, te, _ = split_masks(records)
     r = baseline_thresholds(records, tr, n_ops)
     base = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
-    lv = magnitude(effect, "L2") if lv is None else lv
+    if hidden is None:
+        hidden = {effect: magnitude(effect, "L2") if lv is None else lv} if effect else {}
     s = base
-    if effect in ("delay", "lag"):
-        s = base.with_(dynamics=(effect, next(iter(lv.values()))))
-    elif effect == "resonance":
-        s = base.with_(dynamics=("resonance", lv["freq_hz"], lv["damping"]))
-    elif effect == "rate":
-        s = base.with_(beta_s=lv["beta_s"])
-    elif effect == "creep":
-        s = base.with_(creep_taus=(0.01, 0.1, 1.0, 10.0, 100.0))
-    elif effect == "drift":
-        s = base.with_(drift_degree=4)
-    elif effect == "asymmetry":
-        s = base.with_(asymmetry=True)
-    elif effect == "offset":
-        s = base.with_(offsets=True)
-    elif effect == "initial-memory":
-        s = base.with_(history=(tuple(lv["history"]),) + tuple(() for _ in records[1:]))
+    for name, p in hidden.items():
+        s = _with_true(s, name, p, len(records))
 
     def rmse(st):
         f = fit_structure(st, records, tr)
@@ -89,7 +81,28 @@ def oracle_rmse(records, effect: str | None, n_ops: int,
         return float(np.sqrt(np.mean(e * e)))
 
     b = rmse(base)
-    return b, (rmse(s) if effect else b)
+    return b, (rmse(s) if s != base else b)
+
+
+def _with_true(s: Structure, effect: str, lv: dict, n_rec: int) -> Structure:
+    """``s`` with the true structure of ``effect`` (true nonlinear parameters)."""
+    if effect in ("delay", "lag"):
+        return s.with_(dynamics=(effect, next(iter(lv.values()))))
+    if effect == "resonance":
+        return s.with_(dynamics=("resonance", lv["freq_hz"], lv["damping"]))
+    if effect == "rate":
+        return s.with_(beta_s=lv["beta_s"])
+    if effect == "creep":
+        return s.with_(creep_taus=(0.01, 0.1, 1.0, 10.0, 100.0))
+    if effect == "drift":
+        return s.with_(drift_degree=4)
+    if effect == "asymmetry":
+        return s.with_(asymmetry=True)
+    if effect == "offset":
+        return s.with_(offsets=True)
+    if effect == "initial-memory":
+        return s.with_(history=(tuple(lv["history"]),) + tuple(() for _ in range(n_rec - 1)))
+    return s  # loop-shape maps: not representable in the diagnosis structure here
 
 
 DETECTABLE = 0.05  # oracle held-out MSE reduction (notes §7.2)
@@ -374,7 +387,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--periodic", type=int, metavar="SEEDS",
                     help="run only the short periodic recordings at several frequencies "
                          "(evidence between recordings), SEEDS per class and noise")
+    ap.add_argument("--quick", action="store_true",
+                    help="the quick subset of the issue-8 classes (two effects, weak effects, "
+                         "single recording, short periodic recordings, loop shapes): a few "
+                         "minutes")
+    ap.add_argument("--classes", metavar="NAMES",
+                    help="run the issue-8 classes (comma-separated names of "
+                         "benchmarks/diagnosis/classes.py CLASSES, or 'all'); with --seeds "
+                         "and --noise")
     a = ap.parse_args(argv)
+    if a.quick or a.classes:
+        return _run_classes(a)
     if a.periodic:
         rows = run_periodic(a.periodic)
         print()
@@ -401,26 +424,20 @@ def main(argv: list[str] | None = None) -> int:
                         jobs.append((e, noise, 100 + s, lv))
             for k in range(s * per, min((s + 1) * per, a.nulls)):
                 jobs.append((None, noise, 1000 + k, "L2"))
-    engine = _engine_version()
-    print(f"{len(jobs)} runs, engine {engine}", flush=True)
     partial = a.json.with_suffix(".partial.jsonl") if a.json else None
+
+    def line(r: dict, done: int, elapsed: float) -> str:
+        if partial:
+            with partial.open("a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        return (f"{r['id']:<32} found={','.join(r['found']) or '-':<30} "
+                f"base={r['rmse_base']:.4f} final={r['rmse_final']:.4f} "
+                f"oracle={r['rmse_oracle']:.4f} gain={r['oracle_gain']:.3f} "
+                f"conceal={r['concealment_pct']:.3f}% {r['elapsed_s']:.0f}s "
+                f"[{done}/{len(jobs)} {elapsed:.0f}s]")
+
     t0 = time.perf_counter()
-    rows = []
-    with executor(a.workers, a.scheduler) as ex:
-        futs = [ex.submit(run_one, j) for j in jobs]
-        for fut in as_completed(futs):
-            r = fut.result()
-            r["engine"] = engine
-            rows.append(r)
-            found = ",".join(r["found"]) or "-"
-            print(f"{r['id']:<32} found={found:<30} base={r['rmse_base']:.4f} "
-                  f"final={r['rmse_final']:.4f} oracle={r['rmse_oracle']:.4f} "
-                  f"gain={r['oracle_gain']:.3f} conceal={r['concealment_pct']:.3f}% "
-                  f"{r['elapsed_s']:.0f}s [{len(rows)}/{len(jobs)} "
-                  f"{time.perf_counter() - t0:.0f}s]", flush=True)
-            if partial:
-                with partial.open("a") as fh:
-                    fh.write(json.dumps(r) + "\n")
+    rows = _execute(a, run_one, jobs, line)
     order = {j: k for k, j in enumerate(jobs)}
     rows.sort(key=lambda r: order[(None if r["effect"] == "null" else r["effect"], r["noise"],
                                    r["seed"], "L2" if r["effect"] == "null" else r["level"])])
@@ -431,6 +448,47 @@ def main(argv: list[str] | None = None) -> int:
         a.json.write_text(json.dumps(rows, indent=1))
         if partial and partial.exists():
             partial.unlink()
+    return 0
+
+
+def _execute(a: argparse.Namespace, fn, jobs: list, line) -> list[dict]:
+    """Run ``fn`` over ``jobs`` on the executor of ``--workers`` / ``--scheduler``, printing
+    ``line(row, done, elapsed)`` as each finishes; rows carry the engine commit."""
+    engine = _engine_version()
+    print(f"{len(jobs)} runs, engine {engine}", flush=True)
+    t0 = time.perf_counter()
+    rows: list[dict] = []
+    with executor(a.workers, a.scheduler) as ex:
+        for fut in as_completed([ex.submit(fn, j) for j in jobs]):
+            r = fut.result()
+            r["engine"] = engine
+            rows.append(r)
+            print(line(r, len(rows), time.perf_counter() - t0), flush=True)
+    return rows
+
+
+def _run_classes(a: argparse.Namespace) -> int:
+    from benchmarks.diagnosis.classes import CLASSES, jobs, run_class_job, summarise_classes
+
+    if a.rescore:
+        print(summarise_classes(json.loads(a.rescore.read_text())))
+        return 0
+    names = None if a.classes in (None, "all") else tuple(a.classes.split(","))
+    for n in names or ():
+        if n not in CLASSES:
+            raise SystemExit(f"unknown class {n!r}; known: {', '.join(CLASSES)}")
+    todo = jobs(a.quick, seeds=1 if a.quick else a.seeds,
+                noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names)
+    t0 = time.perf_counter()
+    rows = _execute(a, run_class_job, todo, lambda r, done, el: (
+        f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
+        f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s [{done}/{len(todo)} "
+        f"{el:.0f}s]"))
+    print()
+    print(summarise_classes(rows))
+    print(f"\ntotal {time.perf_counter() - t0:.0f} s (target: a few minutes for --quick)")
+    if a.json:
+        a.json.write_text(json.dumps(rows, indent=1))
     return 0
 
 

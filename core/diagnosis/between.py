@@ -1,14 +1,18 @@
 """Evidence between recordings: each recording predicted from the others.
 
-A rate-dependent effect changes the loop from one excitation rate to the next. With several
-short periodic recordings at different frequencies, the honest test of such an effect is
-whether a model fitted on the other recordings (its nonlinear parameters searched there too)
-predicts the held-out recording better than the current model fitted on the same others.
-The held-out recording is never used for selection.
+A rate-dependent effect changes the loop from one excitation rate to the next, an
+amplitude-dependent one (a static output map, a loop-shape nonlinearity) from one input
+amplitude to the next. With several short periodic recordings (or closed loops) at different
+frequencies or amplitudes, the honest test of such an effect is whether a model fitted on the
+other recordings (its nonlinear parameters searched there too) predicts the held-out
+recording better than the current model fitted on the same others. The held-out recording is
+never used for selection. :func:`between_plan` says which of the two tests apply, and why
+not when they do not.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,11 +26,20 @@ from .periodic import steady_state_history
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit, Structure, build_model, fit_structure
 
-__all__ = ["LORO_RULE", "between_recordings", "leave_one_recording_out", "recording_rates",
-           "rates_differ"]
+__all__ = ["LORO_RULE", "NONLINEAR_PARAMS", "BetweenPlan", "amplitudes_differ", "between_plan",
+           "between_recordings", "leave_one_recording_out", "recording_amplitudes",
+           "recording_rates", "rates_differ"]
 
 #: Per-recording excitation rates must span this factor for a between-recordings test.
 MIN_RATE_RATIO = 1.5
+
+#: Per-recording input amplitudes (peak to peak) must span this factor for the
+#: between-recordings test of amplitude-dependent effects.
+MIN_AMPLITUDE_RATIO = 1.5
+
+#: Nonlinear parameters whose agreement across folds (or left-out recordings) is checked;
+#: linear weights and data-derived scalings (an output map's centre and scale) are not.
+NONLINEAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
 
 #: How :func:`leave_one_recording_out` treats what belongs to one recording.
 LORO_RULE = (
@@ -71,6 +84,84 @@ def rates_differ(ctx: FitContext) -> bool:
         return False
     med = [float(np.median(p)) for p in rates]
     return max(med) >= MIN_RATE_RATIO * max(min(med), 1e-300)
+
+
+def recording_amplitudes(ctx: FitContext) -> list[list[float]]:
+    """Input excursion |Δu| (input units) of each large travel between reversals (> 20 % of
+    the recording's input range), per recording."""
+    out = []
+    for rec in ctx.records:
+        span = float(np.ptp(rec.u)) or 1.0
+        rv = np.concatenate(([0], reversal_indices(rec.u, 0.01 * span), [rec.n_samples - 1]))
+        out.append([abs(float(rec.u[b] - rec.u[a])) for a, b in zip(rv[:-1], rv[1:], strict=True)
+                    if abs(rec.u[b] - rec.u[a]) > 0.2 * span])
+    return out
+
+
+def amplitudes_differ(ctx: FitContext) -> tuple[bool, str]:
+    """Several recordings, each of one input amplitude (every large travel within ±10 % of
+    its median: a periodic recording or a closed loop), whose amplitudes span at least
+    :data:`MIN_AMPLITUDE_RATIO`. Returns whether they do, and why not in words."""
+    if len(ctx.records) < 2:
+        return False, "a single recording"
+    amps = recording_amplitudes(ctx)
+    several = [r.name for r, a in zip(ctx.records, amps, strict=True) if not _one_amplitude(a)]
+    if several:
+        return False, (f"{', '.join(several)} {'sweeps' if len(several) == 1 else 'sweep'} "
+                       "several amplitudes (a decaying sine, a staircase), so the rows inside "
+                       "each recording are the evidence")
+    med = [float(np.median(a)) for a in amps]
+    if max(med) < MIN_AMPLITUDE_RATIO * max(min(med), 1e-300):
+        return False, (f"the recordings share one input amplitude (within a factor "
+                       f"{MIN_AMPLITUDE_RATIO:g})")
+    return True, ""
+
+
+def _one_amplitude(a: list[float]) -> bool:
+    if not a:
+        return False
+    m = float(np.median(a))
+    return bool(np.all(np.abs(np.asarray(a) - m) <= 0.1 * m))
+
+
+@dataclass(frozen=True)
+class BetweenPlan:
+    """Which effects are judged by predicting each recording from the others.
+
+    Attributes
+    ----------
+    rate, amplitude : bool
+        Rate-dependent (recordings at different rates) / amplitude-dependent effects
+        (recordings at different amplitudes) are judged between recordings.
+    rate_reason, amplitude_reason : str
+        Why not, in words (empty when they are).
+    """
+
+    rate: bool
+    amplitude: bool
+    rate_reason: str
+    amplitude_reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form: ``{"rate": {"tested", "reason"}, "amplitude": {"tested", "reason"}}``."""
+        return {"rate": {"tested": self.rate, "reason": self.rate_reason},
+                "amplitude": {"tested": self.amplitude, "reason": self.amplitude_reason}}
+
+
+def between_plan(ctx: FitContext, windows: bool) -> BetweenPlan:
+    """The between-recordings tests that apply (none with explicit train/test ``windows``:
+    the others' test rows would be fitted)."""
+    if windows:
+        why = "explicit train/test windows (the other recordings' test rows would be fitted)"
+        return BetweenPlan(False, False, why, why)
+    rate = rates_differ(ctx)
+    amp, amp_why = amplitudes_differ(ctx)
+    rate_why = "" if rate else (
+        "a single recording" if len(ctx.records) < 2 else
+        "some recordings have no time axis" if not all(r.has_time for r in ctx.records) else
+        "the recordings do not each excite one rate, at rates at least "
+        f"{MIN_RATE_RATIO:g}x apart")
+    return BetweenPlan(rate, amp, rate_why, amp_why)
 
 
 def _one_rate(p: list[float]) -> bool:
@@ -168,7 +259,7 @@ def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] |
         per.append({"recording": rec.name, "parameters": p,
                     "mse_reduction": 1.0 - float(e1 @ e1) / max(float(e0 @ e0), 1e-300)})
     cv: dict[str, float] = {}
-    for key in params[0]:
+    for key in (k for k in params[0] if k in NONLINEAR_PARAMS):
         v = np.array([q[key] for q in params if isinstance(q.get(key), int | float)], float)
         if v.size == len(params) and np.all(np.isfinite(v)):
             m = float(np.mean(np.abs(v)))

@@ -19,10 +19,22 @@
    An initial memory state can only change the rows before the wipe-out time, so
    ``initial-memory`` (1-2 virtual extrema picked from a grid on the training rows) is judged
    on those rows and must not worsen the held-out rows.
+   A further effect (once effects are accepted) must pass again on cross-fitted training
+   blocks alone against the model holding the accepted ones (acceptance rule 4), and a delay
+   or lag is not named when the reversible/hysteretic split of the residual points to
+   rate-dependent hysteresis (rule 5), creep only when the trend after the holds follows the
+   step sign (rule 7); when nothing passes, two effects that hide each other are each judged
+   on top of the other (rule 6; :mod:`core.diagnosis.acceptance`).
 5. Inside a family of look-alike effects (delay / lag / resonance / rate; creep / drift) the
    winner is named only when it clearly beats the runner-up on held-out data; otherwise the
-   finding is reported as *ambiguous*, with the experiment that would decide.
+   finding is reported as *ambiguous*, with the experiment that would decide. An earlier
+   delay / lag / resonance finding is compared with its look-alikes again once a later
+   effect joins the model.
 6. The accepted effect joins the model and the search repeats until nothing passes.
+
+The loop itself is :func:`diagnose`: read → baseline → rounds of :func:`_search` (fit every
+candidate, collect its evidence), :func:`_judge` (acceptance rules, typed rows) and
+:func:`_accept` (finding, look-alikes, refinement) → final scoring → adequacy → result.
 
 Effects that the recordings cannot excite are reported as *untestable* with the recording
 that would make them testable.
@@ -32,6 +44,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -41,16 +54,29 @@ from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from ..fitting.thresholds import wipeout_index
-from .acceptance import decide
+from .acceptance import (
+    Decision,
+    decide,
+    earns_place,
+    split_supports_transport,
+    trend_follows_steps,
+)
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
-from .between import between_recordings, leave_one_recording_out, rates_differ, recording_rates
+from .between import (
+    NONLINEAR_PARAMS,
+    BetweenPlan,
+    between_plan,
+    between_recordings,
+    leave_one_recording_out,
+    recording_rates,
+)
 from .candidates import build_candidate
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
 from .locate import hold_after, residual_maps, where_improved
 from .periodic import steady_state_history
-from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, pooled_mse
+from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, RoundRow, pooled_mse
 from .shapes import shape_thresholds
 from .specs import (
     DECIDING_EXPERIMENT,
@@ -85,12 +111,11 @@ def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[s
     return lead
 
 
-def _deferred_row(rnd: int, name: str, params: dict | None = None) -> dict[str, Any]:
-    return {"round": rnd + 1, "effect": name, "heldout_mse_reduction": float("nan"),
-            "dm_z": float("nan"), "signed_rank_p": float("nan"), "passes": False,
-            "decision": "deferred", "parameters": params or {},
-            "evidence": "not needed: an effect of a higher-priority family passed, and this "
-            "one could not explain 1.5 times as much"}
+def _deferred_row(rnd: int, name: str, params: dict | None = None) -> RoundRow:
+    return RoundRow(rnd + 1, name, float("nan"), float("nan"), float("nan"), False,
+                    "deferred", params or {},
+                    "not needed: an effect of a higher-priority family passed, and this "
+                    "one could not explain 1.5 times as much")
 
 
 def _screen(fit: Fit, cur: Fit) -> HeldOut:
@@ -140,7 +165,7 @@ def _fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: in
 
 
 #: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
-_SCALAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
+_SCALAR_PARAMS = NONLINEAR_PARAMS
 
 
 def _crossfit(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
@@ -299,8 +324,9 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     if len(steady) == len(recs):
         out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
                     f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
-                    "repeated, the output already periodic): the memory at the first sample is "
-                    "the one the cycle leaves, and the model starts from it",
+                    "repeated, the output already periodic, or a single closed loop): the "
+                    "memory at the first sample is the one the cycle leaves, and the model "
+                    "starts from it",
                     "experiment": "a recording that starts before the first full sweep, from a "
                     "known (e.g. demagnetised) state"})
     elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
@@ -400,7 +426,8 @@ def diagnose(
         below 30 %). Default: on with explicit ``train``/``test`` windows (one contiguous
         test window holds few independent batches), off for the interleaved split (its test
         blocks already span every recording). The effect-size rules and every reported
-        held-out RMSE use the test rows only.
+        held-out RMSE use the test rows only. A further effect (after the first) is always
+        cross-fitted against the model holding the accepted ones (:func:`_earns_place`).
     time, input, output, run : int, str, False or None
         Columns of CSV files (name or 0-based index; see :func:`core.csvio.read_csv`).
     resample : bool or float
@@ -421,21 +448,146 @@ def diagnose(
         For an unknown model or effect, or unusable recordings/splits.
     """
     t_start = _time.perf_counter()
+    todo = _effects_to_test(model, effects)
+    say = _Progress(progress)
+    records = as_records(recordings, time=time, input=input, output=output, run=run,
+                         resample=resample)
+    say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
+        "fitting the baseline")
+    ctx, split = _context(records, train, test, crossfit)
+    base, requested = _baseline(ctx, n_operators, auto_resolution)
+    say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
+    run_ = _Run(ctx, _noise_rms(ctx, base), _untestable(ctx), max_effects,
+                between_plan(ctx, windows=train is not None or test is not None), say=say)
+    todo = [e for e in todo if e not in run_.untestable_names]
+    run_.rate_testable = "rate" in todo
+    cur = base
+    for rnd in range(max_effects):
+        cands, rows = _search(run_, cur, todo, rnd)
+        if not cands:
+            break
+        cands, rows, passing = _judge(run_, cur, cands, rows, rnd,
+                                      tuple(f.name for f in run_.findings))
+        if not passing:  # two effects that hide each other (acceptance rule 6)?
+            cands, rows, passing = _lookahead(run_, cur, cands, rows, todo, rnd)
+        if not passing:
+            run_.rounds.extend(rows)
+            break
+        best = _choose(passing, {n: cands[n].heldout.gain for n in passing})
+        cur = _accept(run_, cur, cands, passing, best, rows, rnd,
+                      4 * n_operators if auto_resolution else 0)
+        todo = _remaining(todo, best)
+    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
+                                          if run_.findings else ""))
+    loro_b, loro_f = (_loro_scores(ctx, base, cur, run_.findings)
+                      if len(records) >= 2 and train is None and test is None else (None, None))
+    say(0.92, "judging the base model against the noise floor")
+    tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
+    adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
+                      base.structure.free_weights, found=cur.structure.effects)
+    crossval = _crossval(ctx, base, cur)
+    say(1.0, "done")
+    everywhere = [np.ones(r.n_samples, bool) for r in records]
+    return DiagnosisResult(
+        records=records, train=ctx.train, test=ctx.test, baseline=base, final=cur,
+        requested=requested, effects=run_.findings, untestable=run_.untestable,
+        ambiguous=run_.ambiguous, rounds=run_.rounds,
+        maps_before=residual_maps(records, ctx.all_res(base), ctx.coords, everywhere),
+        maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
+        split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
+        model_name=model, loro_baseline=loro_b, loro_final=loro_f,
+        crossval=crossval, adequacy=adequacy, between=run_.between)
+
+
+# ----------------------------------------------------------------------------- engine steps
+class _Progress:
+    """``progress(fraction, message)`` with the fraction clipped to [0, 1] (or nothing)."""
+
+    def __init__(self, progress: Callable[[float, str], None] | None) -> None:
+        self.progress = progress
+
+    def __call__(self, frac: float, msg: str) -> None:
+        if self.progress is not None:
+            self.progress(float(min(max(frac, 0.0), 1.0)), msg)
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """One effect fitted on top of the current model, with its evidence.
+
+    ``heldout`` holds the effect-size statistics (test rows; with strict hold-out, or between
+    recordings, the pooled evidence rows), ``crossfit`` the output of :func:`_crossfit` and
+    ``between`` that of :func:`~core.diagnosis.between.between_recordings` when used.
+    """
+
+    name: str
+    fit: Fit
+    parameters: dict[str, Any]
+    uncertainty: dict[str, Any]
+    heldout: HeldOut
+    crossfit: dict[str, Any] | None = None
+    between: dict[str, Any] | None = None
+    #: meets the effect-size rules (set by :func:`_judge`)
+    size_ok: bool = False
+    #: the acceptance decision and the row's decision word (set by :func:`_judge`)
+    decision: Decision | None = None
+    verdict: str | None = None
+    #: judged on top of this other candidate (acceptance rule 6), else None
+    given: str | None = None
+
+    @property
+    def family(self) -> str:
+        return EFFECTS[self.name].family
+
+    @property
+    def evidence_rows(self) -> HeldOut:
+        """The comparison the significance rule uses (cross-fitted when available)."""
+        return self.crossfit["pooled"] if self.crossfit is not None else self.heldout
+
+
+@dataclass
+class _Run:
+    """What one diagnosis accumulates over its rounds (findings, ambiguities, rows)."""
+
+    ctx: FitContext
+    noise: float
+    untestable: list[dict[str, str]]
+    max_effects: int
+    #: rate- / amplitude-dependent effects judged by predicting each recording from the others
+    between: BetweenPlan
+    say: _Progress
+    #: rate-dependent hysteresis is among the effects tested (acceptance rule 5 applies)
+    rate_testable: bool = False
+    findings: list[EffectFinding] = field(default_factory=list)
+    ambiguous: list[dict[str, Any]] = field(default_factory=list)
+    rounds: list[RoundRow] = field(default_factory=list)
+    #: training-block folds of acceptance rule 4 (built on first use)
+    earn_folds: list | None = None
+    #: memo of rule 5: the fit the split was computed for, and its verdict
+    split_for: Fit | None = None
+    split: bool = True
+
+    @property
+    def untestable_names(self) -> set[str]:
+        return {u["name"] for u in self.untestable}
+
+    def step(self, rnd: int, frac: float, msg: str) -> None:
+        """Progress inside round ``rnd`` (``frac`` of the round done)."""
+        self.say(0.1 + 0.8 / max(self.max_effects, 1) * (rnd + frac), f"round {rnd + 1}: {msg}")
+
+
+def _effects_to_test(model: str, effects: Sequence[str] | None) -> list[str]:
     if model != "pi":
         raise ParameterError(f"model {model!r} is not supported by diagnose yet; use 'pi'")
     todo = list(EFFECT_TYPES if effects is None else effects)
     for e in todo:
         if e not in EFFECT_TYPES:
             raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
+    return todo
 
-    def say(frac: float, msg: str) -> None:
-        if progress is not None:
-            progress(float(min(max(frac, 0.0), 1.0)), msg)
 
-    records = as_records(recordings, time=time, input=input, output=output, run=run,
-                         resample=resample)
-    say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
-        "fitting the baseline")
+def _context(records: list, train, test, crossfit: bool | None) -> tuple[FitContext, str]:
+    """Train/test rows, cross-fitting folds and the split description."""
     trm, tem, desc = split_masks(records, train, test)
     if crossfit is None:
         crossfit = train is not None
@@ -455,341 +607,490 @@ def diagnose(
                  "window is never used for selection")
     elif ctx.folds:
         desc += f"; significance also on {len(ctx.folds)} cross-fitted training blocks"
-    # under-resolution check (notes E13): double the grid while the held-out MSE drops by
-    # >= 2 % (model selection of a nuisance, not a physics claim: no significance needed)
-    # saturating loops (friction) need play weights of either sign: switch when the
-    # sign-constrained PI is clearly worse on the held-out rows (MSE at least halved)
+    return ctx, desc
+
+
+def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple[Fit, Fit]:
+    """Baseline PI fit and the fit at the requested resolution.
+
+    Saturating loops (friction) need play weights of either sign: switch when the
+    sign-constrained PI is clearly worse on the held-out rows (MSE at least halved). Then the
+    under-resolution check (notes E13): double the grid while the held-out MSE drops by
+    >= 2 % (model selection of a nuisance, not a physics claim: no significance needed),
+    keeping at least two training rows per weight.
+    Periodic steady-state recordings start from the memory their own cycle leaves.
+    """
+    records, trm = ctx.records, ctx.train
     r = baseline_thresholds(records, trm, n_operators)
-    # periodic steady-state recordings start from the memory their own cycle leaves
     hist0 = tuple(steady_state_history(rec) for rec in records)
     s0 = Structure(tuple(float(x) for x in r), hist0)
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
     free = _compare(ctx, f_nn, f_free).gain >= 0.5
-    base = None
-    requested = None
+    base: Fit | None = None
+    requested: Fit | None = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
+        if base is not None and 2 * (n_try + 2) > ctx.n_train:
+            break  # at least two training rows per weight (a short single loop)
         r = baseline_thresholds(records, trm, n_try)
         s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
-        else:
-            h = _compare(ctx, base, f_try)
-            if h.gain < 0.02:
-                break
+        elif _compare(ctx, base, f_try).gain < 0.02:
+            break
         base = f_try
         if not auto_resolution:
             break
-    assert base is not None
-    cur = base
-    res0 = ctx.all_res(base)
-    noise = float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(
-        res0, trm if ctx.strict else tem, strict=True)])))
-    say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
-    untest = _untestable(ctx)
-    # rate-dependent effects between recordings at different rates (default split only: with
-    # explicit windows the others' test rows would be fitted)
-    between = train is None and test is None and rates_differ(ctx)
-    untest_names = {u["name"] for u in untest}
-    todo = [e for e in todo if e not in untest_names]
-    findings: list[EffectFinding] = []
-    ambiguous: list[dict[str, Any]] = []
-    rounds: list[dict[str, Any]] = []
-    for rnd in range(max_effects):
-        cur_te = ctx.test_res(cur)
-        mse_cur = pooled_mse(cur_te)
-        cands: dict[str, tuple[Fit, dict, dict, HeldOut]] = {}
-        cfs: dict[str, dict[str, Any]] = {}
-        btw: dict[str, dict[str, Any]] = {}
-        span = 0.8 / max(max_effects, 1)
-        # strict: highest-priority families first; once one passes, a later family can only be
-        # chosen with 1.5 times its gain (_choose), so hopeless candidates are deferred to the
-        # next round without their (costly) cross-fitting
-        order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
-            ctx.strict) else todo
-        lead: tuple[str, float] | None = None
-        pre_deferred: list[dict[str, Any]] = []
-        for i, name in enumerate(order):
-            bound = _lead_bound(lead, name)
-            if bound > 1.0:
-                pre_deferred.append(_deferred_row(rnd, name))
-                continue
-            say(0.1 + span * (rnd + 0.5 * i / max(len(todo), 1)),
-                f"round {rnd + 1}: fitting {name}")
-            got = build_candidate(ctx, name, cur)
-            if got is None:
-                continue
-            fit, params, unc = got
-            if ctx.strict and name != "initial-memory":
-                h = _screen(fit, cur)
-                if h.gain < bound:
-                    pre_deferred.append(_deferred_row(rnd, name, params))
-                    continue
-                if h.gain >= ACCEPT_RULE["min_gain"]:
-                    say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
-                        f"round {rnd + 1}: cross-fitting {name}")
-                    cf = _crossfit(ctx, name, cur, fit)
-                    if cf is not None:
-                        cfs[name] = cf
-                        h = cf["pooled"]
-            elif name == "initial-memory" and ctx.strict:
-                # judged on the training rows before the wipe-out (the only rows an initial
-                # state changes): in-sample, 1-2 parameters
-                mm = [a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)]
-                h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(fit, mm))
-                # and it must not make the cross-fitted blocks (after the wipe-out) worse
-                if _compare(ctx, cur, fit).gain < -0.01:
-                    h = HeldOut(h.mse_before, h.mse_after, h.gain, min(h.z, 0.0), 1.0,
-                                h.n_batches)
-            elif name == "initial-memory":
-                # judged on the pre-wipe-out rows (the only rows an initial state changes);
-                # it must not make the held-out rows worse
-                mm = ctx.memory_masks
-                h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(fit, mm))
-                h_te = heldout_comparison(cur_te, ctx.test_res(fit))
-                if h_te.gain < -0.01:
-                    h = HeldOut(h.mse_before, h.mse_after, min(h.gain, h_te.gain), min(h.z, 0.0),
-                                1.0, h.n_batches)
-            elif between and EFFECTS[name].between_recordings:
-                say(0.1 + span * (rnd + 0.5 * (i + 0.5) / max(len(todo), 1)),
-                    f"round {rnd + 1}: predicting each recording from the others ({name})")
-                bt = between_recordings(ctx, name, cur)
-                if bt is None:
-                    continue
-                btw[name] = bt
-                h = bt["pooled"]
-            else:
-                h = heldout_comparison(cur_te, ctx.test_res(fit))
-            cands[name] = (fit, params, unc, h)
-            if ctx.strict and decide(h, h.mse_before - noise**2, len(todo), cfs.get(
-                    name, {}).get("parameter_cv")).passes:
-                lead = _new_lead(lead, name, h.gain)
-        if not cands:
-            break
-        record = list(pre_deferred)
-        passing = []
-        excess = {n: (c[3].mse_before if ctx.strict or n in btw else mse_cur) - noise**2
-                  for n, c in cands.items()}
-        size_ok = {n: effect_size_ok(c[3], excess[n]) for n, c in cands.items()}
-        needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
-                    and not ctx.strict}
-        skip = _cannot_win(cands, size_ok, needs_cf, len(cands))
-        for name, (fit_, params, _, h) in cands.items():
-            sig = h
-            cv: dict[str, float] = {}
-            row: dict[str, Any] = {"round": rnd + 1, "effect": name,
-                                   "heldout_mse_reduction": h.gain, "dm_z": h.z,
-                                   "signed_rank_p": h.sign_p, "evidence": _evidence_label(
-                                       ctx, name, cfs.get(name))}
-            if name in cfs and ctx.strict:
-                cf = cfs[name]
-                cv = cf["parameter_cv"]
-                row.update({"fold_mse_reductions": cf["fold_gains"],
-                            "parameter_cv": cf["parameter_cv"]})
-            if name in btw:
-                cv = btw[name]["parameter_cv"]
-                row.update({"evidence": _evidence_label(ctx, name, None, btw[name]),
-                            "per_recording": btw[name]["per_recording"],
-                            "parameter_cv": cv})
-            if name in skip:
-                row.update({"passes": False, "decision": "deferred", "parameters": params,
-                            "evidence": "not needed: an effect of a higher-priority family "
-                            "passed and explains at least 2/3 as much"})
-                record.append(row)
-                continue
-            if name in needs_cf:
-                say(0.1 + span * (rnd + 0.5), f"round {rnd + 1}: cross-fitting {name}")
-                cf = _crossfit(ctx, name, cur, fit_)
-                if cf is not None:
-                    cfs[name] = cf
-                    sig = cf["pooled"]
-                    cv = cf["parameter_cv"]
-                    row.update({"evidence": f"test rows + {cf['folds']} cross-fitted blocks",
-                                "dm_z_pooled": sig.z, "signed_rank_p_pooled": sig.sign_p,
-                                "mse_reduction_pooled": sig.gain,
-                                "fold_mse_reductions": cf["fold_gains"],
-                                "parameter_cv": cf["parameter_cv"]})
-            dec = decide(h, excess[name], len(cands), cv, significance=sig)
-            ok = dec.passes
-            row.update({"passes": bool(ok), "parameters": params,
-                        "reasons": list(dec.reasons)})
-            record.append(row)
-            if ok:
-                passing.append(name)
-        if not passing:
-            rounds.extend(record)
-            break
-        best = _choose(passing, {n: cands[n][3].gain for n in passing})
-        fit, params, unc, h = cands[best]
-        fam = EFFECTS[best].family
-        amb: list[str] = []
-        runner: dict[str, Any] = {}
-        for other, (ofit, oparams, _, oh) in cands.items():
-            if other == best or EFFECTS[other].family != fam:
-                continue
-            # runner-up explains nearly as much: compare the two directly on held-out rows
-            # (with strict hold-out: on the cross-fitted blocks)
-            if ctx.strict:
-                if other not in cfs or best not in cfs:
-                    continue
-                hh = heldout_comparison(cfs[other]["after"], cfs[best]["after"])
-            elif other in btw and best in btw:  # on the left-out recordings
-                hh = heldout_comparison(btw[other]["after"], btw[best]["after"])
-            else:
-                hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
-            if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
-                runner = {"effect": other, "heldout_mse_reduction": oh.gain,
-                          "z_best_vs_this": hh.z, "parameters": oparams}
-            # between recordings (few folds) a look-alike that explains as much but failed only
-            # significance or fold agreement cannot be ruled out either
-            if (other in passing or (other in btw and size_ok[other])) and (
-                oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * h.gain or hh.z < 3.0
-            ):
-                amb.append(other)
-        for rec_ in record:
-            if rec_.get("decision") == "deferred":
-                continue
-            rec_["decision"] = "accepted" if rec_["effect"] == best else (
-                "ambiguous" if rec_["effect"] in amb else ("passes" if rec_["passes"]
-                                                           else "rejected"))
-        rounds.extend(record)
-        disc = _discriminators(ctx, cur) if fam == "dynamics" else {}
-        if fam == "slow":
-            disc = _sign_locking(ctx, cur)
-        used = [tr | te for tr, te in zip(trm, tem, strict=True)]
-        where = where_improved(records, [e * u for e, u in zip(ctx.all_res(cur), used,
-                                                              strict=True)],
-                               [e * u for e, u in zip(ctx.all_res(fit), used, strict=True)],
-                               ctx.coords)
-        where["outside_train_test"] = _outside(records, ctx.all_res(cur), ctx.all_res(fit), used)
-        caveats = [
-            f"outside the train/test rows ({o['recording']}, {o['samples']} samples) the RMS "
-            f"residual grows from {o['rms_before']:.4g} to {o['rms_after']:.4g}: the effect as "
-            "fitted does not hold for what those rows contain (a step, a hold, another "
-            "amplitude); trust it for inputs like the training ones"
-            for o in where["outside_train_test"]
-            if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
-        ]
-        J0_lm = _score(ctx, cur, fit)
-        unc, unc_how = _effect_uncertainty(ctx, best, cur, unc, cfs.get(best), trm)
-        findings.append(
-            EffectFinding(
-                name=best,
-                parameters=params,
-                uncertainty=unc,
-                uncertainty_method=unc_how,
-                where=where,
-                explanation=EFFECTS[best].explanation,
-                equation=EFFECTS[best].equation,
-                heldout=h,
-                heldout_rmse_before=float(np.sqrt(mse_cur)),
-                heldout_rmse_after=float(np.sqrt(pooled_mse(ctx.test_res(fit)))),
-                score_lm=J0_lm,
-                discriminators=disc,
-                ambiguous_with=amb,
-                runner_up=runner,
-                crossfit=_cf_summary(cfs.get(best)),
-                caveats=caveats,
-                evidence=_evidence_label(ctx, best, cfs.get(best), btw.get(best)),
-            )
-        )
-        for other in amb:
-            key = frozenset({best, other})
-            ambiguous.append({
-                "effects": [best, other],
-                "chosen": best,
-                "reason": f"{other} explains {100 * cands[other][3].gain:.0f} % of the "
-                f"{'cross-fitted' if ctx.strict else 'held-out'} MSE against "
-                f"{100 * h.gain:.0f} % for {best}; the recordings do not separate them",
-                "experiment": DECIDING_EXPERIMENT.get(key, "recordings that excite both "
-                                                      "mechanisms differently"),
-            })
-        if best == "asymmetry":
-            ambiguous.append({
-                "effects": ["asymmetry", "sensor nonlinearity"],
-                "chosen": "asymmetry",
-                "reason": "a static output map: actuator asymmetry and sensor nonlinearity are "
-                "not separable from (u, y)",
-                "experiment": "an independent reference sensor",
-            })
-        cur = _refine_resolution(ctx, fit, 4 * n_operators, rounds, rnd + 1) if (
-            auto_resolution) else fit
-        if fam == "dynamics" and best != "rate" and not ctx.strict:
-            cur = _recheck_dynamics(ctx, cur, findings[-1], ambiguous, rounds, rnd + 1)
-        findings[-1].structure = cur.structure
-        named = findings[-1].name  # the dynamics recheck may rename it
-        for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
-            if named in names and hidden in untest_names:
-                ambiguous.append({"effects": [named, hidden], "chosen": named,
+    assert base is not None and requested is not None
+    return base, requested
+
+
+def _noise_rms(ctx: FitContext, base: Fit) -> float:
+    """White-noise floor of the baseline residual (training rows with strict hold-out)."""
+    return float(np.sqrt(np.mean([noise_floor(e[m]) ** 2 for e, m in zip(
+        ctx.all_res(base), ctx.train if ctx.strict else ctx.test, strict=True)])))
+
+
+def _search(run: _Run, cur: Fit, todo: list[str], rnd: int
+            ) -> tuple[dict[str, _Candidate], list[RoundRow]]:
+    """Fit every effect of ``todo`` on top of ``cur`` and collect its evidence.
+
+    With strict hold-out the highest-priority families go first; once one passes, a later
+    family can only be chosen with 1.5 times its gain (:func:`_choose`), so hopeless
+    candidates are deferred to the next round without their (costly) cross-fitting.
+    Returns the candidates and the rows of the deferred ones.
+    """
+    ctx = run.ctx
+    order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
+        ctx.strict) else todo
+    lead: tuple[str, float] | None = None
+    cands: dict[str, _Candidate] = {}
+    deferred: list[RoundRow] = []
+    for i, name in enumerate(order):
+        bound = _lead_bound(lead, name)
+        if bound > 1.0:
+            deferred.append(_deferred_row(rnd, name))
+            continue
+        frac = 0.5 * i / max(len(todo), 1)
+        run.step(rnd, frac, f"fitting {name}")
+        got = build_candidate(ctx, name, cur)
+        if got is None:
+            continue
+        c = _Candidate(name, *got, heldout=_screen(got[0], cur))
+        if ctx.strict and name != "initial-memory" and c.heldout.gain < bound:
+            deferred.append(_deferred_row(rnd, name, c.parameters))
+            continue
+        c = _evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
+        if c is None:
+            continue
+        cands[name] = c
+        cv = (c.crossfit or {}).get("parameter_cv")
+        if ctx.strict and decide(c.heldout, c.heldout.mse_before - run.noise**2, len(todo),
+                                 cv).passes:
+            lead = _new_lead(lead, name, c.heldout.gain)
+    return cands, deferred
+
+
+def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Candidate | None:
+    """The held-out evidence of candidate ``c`` (``None``: not applicable on some subset).
+
+    * strict hold-out: the training-RSS screen, then cross-fitting when it can pass;
+    * ``initial-memory``: the rows before the wipe-out time (the only rows an initial state
+      changes; with strict hold-out the training ones, in-sample, 1-2 parameters), and it
+      must not make the held-out (cross-fitted) rows worse;
+    * rate-dependent effects between recordings at different rates: each recording
+      predicted from the others;
+    * otherwise the test rows.
+    """
+    ctx, name = run.ctx, c.name
+    if ctx.strict and name != "initial-memory":
+        if c.heldout.gain >= ACCEPT_RULE["min_gain"]:
+            run.step(rnd, frac, f"cross-fitting {name}")
+            cf = _crossfit(ctx, name, cur, c.fit)
+            if cf is not None:
+                return replace(c, heldout=cf["pooled"], crossfit=cf)
+        return c
+    if name == "initial-memory":
+        mm = ([a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)] if ctx.strict
+              else ctx.memory_masks)
+        h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(c.fit, mm))
+        worse = (_compare(ctx, cur, c.fit).gain if ctx.strict
+                 else heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)).gain)
+        if worse < -0.01:
+            h = HeldOut(h.mse_before, h.mse_after, h.gain if ctx.strict else min(h.gain, worse),
+                        min(h.z, 0.0), 1.0, h.n_batches)
+        return replace(c, heldout=h)
+    spec = EFFECTS[name]
+    if (run.between.rate and spec.between_recordings) or (
+            run.between.amplitude and spec.amplitude_dependent):
+        run.step(rnd, frac, f"predicting each recording from the others ({name})")
+        bt = between_recordings(ctx, name, cur)
+        return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
+    return replace(c, heldout=heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)))
+
+
+def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow], rnd: int,
+           accepted: tuple[str, ...], n_tests: int | None = None
+           ) -> tuple[dict[str, _Candidate], list[RoundRow], list[str]]:
+    """Apply the acceptance rules (:func:`~core.diagnosis.acceptance.decide`) to every
+    candidate of the round on top of ``cur`` (which holds the ``accepted`` effects);
+    ``n_tests``: the Bonferroni divisor (default: the number of candidates). Returns the
+    candidates (with any cross-fitting and their decisions added), the round's rows and the
+    names that pass."""
+    ctx = run.ctx
+    n_tests = len(cands) if n_tests is None else n_tests
+    mse_cur = pooled_mse(ctx.test_res(cur))
+    excess = {n: (c.heldout.mse_before if ctx.strict or c.between else mse_cur) - run.noise**2
+              for n, c in cands.items()}
+    cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n]))
+             for n, c in cands.items()}
+    size_ok = {n: c.size_ok for n, c in cands.items()}
+    needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
+                and not ctx.strict}
+    skip = _cannot_win({n: c.heldout for n, c in cands.items()}, size_ok, needs_cf, n_tests)
+    rows = list(rows)
+    passing: list[str] = []
+    for name, c in list(cands.items()):
+        if name in skip:
+            rows.append(_row(ctx, rnd, c, passes=False, decision="deferred",
+                             evidence="not needed: an effect of a higher-priority family "
+                             "passed and explains at least 2/3 as much"))
+            continue
+        if name in needs_cf:
+            run.step(rnd, 0.5, f"cross-fitting {name}")
+            cf = _crossfit(ctx, name, cur, c.fit)
+            if cf is not None:
+                c = cands[name] = replace(c, crossfit=cf)
+        cv = (c.crossfit["parameter_cv"] if c.crossfit else
+              c.between["parameter_cv"] if c.between else {})
+        dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
+        decision = None
+        if dec.passes and name in _TRANSPORT and run.rate_testable and not _split_ok(run, cur):
+            dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
+            decision = "contradicted"
+        elif dec.passes and name == "creep" and not _locking_ok(run, cur):
+            dec = replace(dec, passes=False, reasons=(_LOCKING_REASON,))
+            decision = "contradicted"
+        elif dec.passes and accepted and _needs_earning(ctx, c):
+            run.step(rnd, 0.6, f"cross-fitting {name} against the accepted effects")
+            dec = _earns(run, cur, c, n_tests, accepted)
+            decision = None if dec.passes else "not earned"
+        cands[name] = replace(c, decision=dec, verdict=decision)
+        rows.append(_row(ctx, rnd, c, passes=dec.passes, reasons=dec.reasons, decision=decision))
+        if dec.passes:
+            passing.append(name)
+    return cands, rows, passing
+
+
+#: Effects that act on the whole output slope (acceptance rule 5).
+_TRANSPORT = ("delay", "lag")
+
+_SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
+                 "would: the reversible/hysteretic split points to rate-dependent hysteresis")
+
+
+def _split_ok(run: _Run, cur: Fit) -> bool:
+    """Acceptance rule 5 on the current model's residual (memoised per current fit)."""
+    if run.split_for is not cur:
+        d = _discriminators(run.ctx, cur)
+        run.split_for, run.split = cur, split_supports_transport(d["a_rev_s"], d["a_hys_s"])
+    return run.split
+
+
+_LOCKING_REASON = ("the residual trend after the holds does not follow the sign of the step "
+                   "before them as creep would (a drift continues across steps)")
+
+
+def _locking_ok(run: _Run, cur: Fit) -> bool:
+    """Acceptance rule 7 on the current model's residual."""
+    d = _sign_locking(run.ctx, cur)
+    return trend_follows_steps(d.get("trend_follows_step_sign"), d["steps_with_hold"])
+
+
+def _needs_earning(ctx: FitContext, c: _Candidate) -> bool:
+    """Acceptance rule 4 applies: a further effect judged on the test rows (not already on
+    cross-fitted blocks alone, between recordings, or on the pre-wipe-out rows)."""
+    return not ctx.strict and c.between is None and c.name != "initial-memory"
+
+
+def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str, ...]
+           ) -> Decision:
+    """Acceptance rule 4: ``c`` against the model holding the ``accepted`` effects on
+    training blocks alone (:func:`~core.diagnosis.acceptance.earns_place`): both refitted
+    (linear weights) without each block, the candidate's nonlinear parameters kept at their
+    fitted values (an effect excited in one segment only, as a resonance by the fast sines,
+    cannot be re-identified without it)."""
+    ctx = run.ctx
+    if run.earn_folds is None:
+        run.earn_folds = (ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
+                          # a recording too short for 0.5 s blocks: four shorter ones
+                          or crossfit_folds(ctx.records, ctx.train, min_block_s=1e-12,
+                                            max_blocks=4))
+    if not run.earn_folds:
+        return Decision(False, True, False, True, (f"as a further effect on top of "
+                        f"{', '.join(accepted)} it cannot be cross-fitted (too few training "
+                        "blocks)",))
+    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
+    sub.strict = True  # the blocks alone: the test rows chose the effects before this one
+    return earns_place(_compare(sub, cur, c.fit), n_tests, None, accepted)
+
+
+def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow],
+               todo: list[str], rnd: int
+               ) -> tuple[dict[str, _Candidate], list[RoundRow], list[str]]:
+    """Acceptance rule 6: two effects that hide each other.
+
+    When nothing passes on top of ``cur``, the candidate ``t`` with the largest held-out
+    gain that failed the significance rule alone (effect size and fold agreement met) is
+    put in tentatively and the others are judged on top of it (every rule, rule 4 included).
+    If one of them, ``p``, passes there, ``t`` is judged again on top of ``p`` (fitted on
+    ``cur``) as a first effect would be, with the round's Bonferroni divisor. ``t`` is
+    accepted when it passes there: each of the two earns its place against the model
+    holding the other (``p`` is then judged in the next round as usual). Not used with
+    strict hold-out. Returns ``(cands, rows, passing)``, with ``passing = []`` otherwise.
+    """
+    ctx, none = run.ctx, (cands, rows, [])
+    held = [c for c in cands.values() if c.decision is not None and c.verdict is None
+            and c.decision.size_ok and c.decision.stable and not c.decision.significant
+            and c.name != "initial-memory"]
+    if ctx.strict or not held:
+        return none
+    t = max(held, key=lambda c: c.heldout.gain)
+    run.step(rnd, 0.8, f"the others on top of {t.name}")
+    sub, sub_rows = _search(run, t.fit, _remaining(todo, t.name), rnd)
+    ok = _judge(run, t.fit, sub, sub_rows, rnd, (t.name,))[2] if sub else []
+    p = _choose(ok, {n: sub[n].heldout.gain for n in ok}) if ok else None
+    if p is None or p not in cands:
+        return none
+    base_p = cands[p].fit
+    got = build_candidate(ctx, t.name, base_p)
+    tt = None if got is None else _evidence(
+        run, base_p, _Candidate(t.name, *got, heldout=_screen(got[0], base_p)), rnd, 0.9)
+    if tt is None:
+        return none
+    # judged as a first effect would be (test rows, the round's Bonferroni divisor), on top of p
+    tj, t_rows, t_ok = _judge(run, base_p, {t.name: tt}, [], rnd, (), n_tests=len(cands))
+    if not t_ok:
+        return none
+    c = replace(t, heldout=tj[t.name].heldout, decision=tj[t.name].decision, given=p)
+    row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
+                  f"hide each other; {p} passes on top of {t.name})")
+    return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]
+
+
+def _row(ctx: FitContext, rnd: int, c: _Candidate, passes: bool, decision: str | None = None,
+         evidence: str | None = None, reasons: tuple[str, ...] | None = None) -> RoundRow:
+    """The round row of candidate ``c`` (cross-fitting and between-recordings details)."""
+    h, cf, bt = c.heldout, c.crossfit, c.between
+    extra: dict[str, Any] = {}
+    label = _evidence_label(ctx, c.name, cf, bt)
+    if cf is not None:
+        extra.update(fold_mse_reductions=cf["fold_gains"], parameter_cv=cf["parameter_cv"])
+        if not ctx.strict:  # the test rows pooled with the cross-fitted blocks
+            p = cf["pooled"]
+            label = f"test rows + {cf['folds']} cross-fitted blocks"
+            extra.update(dm_z_pooled=p.z, signed_rank_p_pooled=p.sign_p,
+                         mse_reduction_pooled=p.gain)
+    if bt is not None:
+        extra.update(per_recording=bt["per_recording"], parameter_cv=bt["parameter_cv"])
+    return RoundRow(rnd + 1, c.name, h.gain, h.z, h.sign_p, bool(passes), decision,
+                    c.parameters, evidence or label, reasons, tuple(extra.items()))
+
+
+def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str], best: str,
+            rows: list[RoundRow], rnd: int, n_max: int) -> Fit:
+    """Accept ``best``: record the round's decisions, the finding (where, discriminators,
+    uncertainty, caveats), the look-alikes it is ambiguous with; refine the resolution and,
+    for dynamics, re-compare the look-alikes at it. Returns the new current fit."""
+    ctx = run.ctx
+    c = cands[best]
+    amb, runner = _lookalikes(ctx, c, cands, passing)
+    run.rounds.extend(r if r.decision in _KEPT_DECISIONS else replace(r, decision=(
+        "accepted" if r.effect == best else "ambiguous" if r.effect in amb else
+        "passes" if r.passes else "rejected")) for r in rows)
+    run.findings.append(_finding(run, cur, c, amb, runner))
+    for other in amb:
+        run.ambiguous.append({
+            "effects": [best, other],
+            "chosen": best,
+            "reason": f"{other} explains {100 * cands[other].heldout.gain:.0f} % of the "
+            f"{'cross-fitted' if ctx.strict else 'held-out'} MSE against "
+            f"{100 * c.heldout.gain:.0f} % for {best}; the recordings do not separate them",
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
+                                                  "recordings that excite both "
+                                                  "mechanisms differently"),
+        })
+    if best == "asymmetry":
+        run.ambiguous.append({
+            "effects": ["asymmetry", "sensor nonlinearity"],
+            "chosen": "asymmetry",
+            "reason": "a static output map: actuator asymmetry and sensor nonlinearity are "
+            "not separable from (u, y)",
+            "experiment": "an independent reference sensor",
+        })
+    new = c.fit
+    if n_max:
+        refine: list[dict[str, Any]] = []
+        new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
+        run.rounds.extend(RoundRow.from_dict(d) for d in refine)
+    if c.family == "dynamics" and best != "rate" and not ctx.strict:
+        new = _recheck_dynamics(ctx, new, run.findings[-1], run.ambiguous, run.rounds, rnd + 1)
+    elif not ctx.strict:
+        new = _recheck_earlier_dynamics(run, new, rnd)
+    run.findings[-1].structure = new.structure
+    named = run.findings[-1].name  # the dynamics recheck may rename it
+    for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
+        if named in names and hidden in run.untestable_names:
+            run.ambiguous.append({"effects": [named, hidden], "chosen": named,
                                   "reason": why.format(best=named),
                                   "experiment": EFFECTS[hidden].experiment})
-        todo = [e for e in todo if e != best and not (
-            EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
-    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in findings)})"
-                                          if findings else ""))
-    loro_b = loro_f = None
-    if len(records) >= 2 and train is None and test is None:
-        loro_b = leave_one_recording_out(ctx, base.structure)
-        loro_f = loro_b if cur.structure == base.structure else leave_one_recording_out(
-            ctx, cur.structure)
-        loro_f = dict(loro_f, mse_reduction=1.0 - loro_f["rmse"] ** 2 / max(
-            loro_b["rmse"] ** 2, 1e-300))
-        # each accepted effect in turn: the structure up to and including it, against the
-        # structure just before it (what that effect adds on unseen recordings)
-        prev = loro_b
-        for fnd in findings:
-            st = fnd.structure
-            lo = loro_f if st == cur.structure else (
-                leave_one_recording_out(ctx, st) if st is not None else None)
-            if lo is None:
+    return new
+
+
+#: Decisions of the acceptance rules that :func:`_accept` keeps as they are.
+_KEPT_DECISIONS = ("deferred", "contradicted", "not earned")
+
+
+def _recheck_earlier_dynamics(run: _Run, new: Fit, rnd: int) -> Fit:
+    """Look-alikes against the model that holds every accepted effect: once a slow or static
+    effect joins, an earlier delay / lag / resonance finding is compared again with its
+    look-alikes (on top of the new model), renamed if one now predicts the held-out rows
+    better, and reported ambiguous with those it does not beat."""
+    earlier = next((f for f in run.findings[:-1] if f.name in ("delay", "lag", "resonance")),
+                   None)
+    if earlier is None:
+        return new
+    old, rmse_after = earlier.name, earlier.heldout_rmse_after
+    new = _recheck_dynamics(run.ctx, new, earlier, run.ambiguous, run.rounds, rnd + 1)
+    earlier.heldout_rmse_after = rmse_after  # its own step's score stays
+    if earlier.name != old and earlier.structure is not None:
+        earlier.structure = earlier.structure.with_(dynamics=new.structure.dynamics)
+    return new
+
+
+def _lookalikes(ctx: FitContext, c: _Candidate, cands: dict[str, _Candidate],
+                passing: list[str]) -> tuple[list[str], dict[str, Any]]:
+    """Same-family candidates the recordings do not separate from the chosen ``c``, and the
+    runner-up.
+
+    A runner-up is compared with the winner directly on held-out rows (strict hold-out: on
+    the cross-fitted blocks; between recordings: on the left-out recordings). It is
+    ambiguous when it passed too (or, between recordings, met the effect-size rules: with
+    few folds a look-alike that failed only significance or fold agreement cannot be ruled
+    out) and explains nearly as much or is not significantly worse.
+    """
+    amb: list[str] = []
+    runner: dict[str, Any] = {}
+    for other, o in cands.items():
+        if other == c.name or o.family != c.family:
+            continue
+        if ctx.strict:
+            if o.crossfit is None or c.crossfit is None:
                 continue
-            fnd.loro = {"rmse_before": prev["rmse"], "rmse_after": lo["rmse"],
-                        "mse_reduction": 1.0 - lo["rmse"] ** 2 / max(prev["rmse"] ** 2, 1e-300),
-                        "per_recording": [
-                            {"recording": a["recording"], "rmse_before": a["rmse"],
-                             "rmse_after": b_["rmse"]}
-                            for a, b_ in zip(prev["per_recording"], lo["per_recording"],
-                                             strict=True)]}
-            prev = lo
-    everywhere = [np.ones(r.n_samples, bool) for r in records]
-    maps_before = residual_maps(records, res0, ctx.coords, everywhere)
-    maps_after = residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere)
-    say(0.92, "judging the base model against the noise floor")
-    tried = [str(r["effect"]) for r in rounds if r["round"] == 1 and ":" not in str(r["effect"])]
-    adequacy = assess(records, trm, tem, cur.pred, noise, tried or list(todo),
-                      base.structure.free_weights, found=cur.structure.effects)
-    crossval = None
-    if ctx.strict:
-        cv = _compare(ctx, base, cur)
-        crossval = {"folds": len(ctx.folds), "baseline_rmse": float(np.sqrt(cv.mse_before)),
-                    "final_rmse": float(np.sqrt(cv.mse_after)),
-                    # % of the output range of the block rows (per unit RMSE)
-                    "pct_of": percent_of_range(1.0, [
-                        r.y[np.any([blk[k] for _, blk in ctx.folds], axis=0)]
-                        for k, r in enumerate(records)])}
-    say(1.0, "done")
-    return DiagnosisResult(
-        records=records,
-        train=trm,
-        test=tem,
-        baseline=base,
-        final=cur,
-        requested=requested,
-        effects=findings,
-        untestable=untest,
-        ambiguous=ambiguous,
-        rounds=rounds,
-        maps_before=maps_before,
-        maps_after=maps_after,
-        split=desc,
-        noise_rms=noise,
-        elapsed_s=_time.perf_counter() - t_start,
-        model_name=model,
-        loro_baseline=loro_b,
-        loro_final=loro_f,
-        crossval=crossval,
-        adequacy=adequacy,
+            hh = heldout_comparison(o.crossfit["after"], c.crossfit["after"])
+        elif o.between is not None and c.between is not None:
+            hh = heldout_comparison(o.between["after"], c.between["after"])
+        else:
+            hh = heldout_comparison(ctx.test_res(o.fit), ctx.test_res(c.fit))
+        oh = o.heldout
+        if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
+            runner = {"effect": other, "heldout_mse_reduction": oh.gain,
+                      "z_best_vs_this": hh.z, "parameters": o.parameters}
+        if (other in passing or (o.between is not None and o.size_ok)) and (
+                oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * c.heldout.gain or hh.z < 3.0):
+            amb.append(other)
+    return amb, runner
+
+
+def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[str, Any]
+             ) -> EffectFinding:
+    """The finding of accepted candidate ``c`` (SAY / MODEL / SHOW)."""
+    ctx, records = run.ctx, run.ctx.records
+    disc = (_discriminators(ctx, cur) if c.family == "dynamics" else
+            _sign_locking(ctx, cur) if c.family == "slow" else {})
+    used = [tr | te for tr, te in zip(ctx.train, ctx.test, strict=True)]
+    where = where_improved(records, [e * u for e, u in zip(ctx.all_res(cur), used, strict=True)],
+                           [e * u for e, u in zip(ctx.all_res(c.fit), used, strict=True)],
+                           ctx.coords)
+    where["outside_train_test"] = _outside(records, ctx.all_res(cur), ctx.all_res(c.fit), used)
+    caveats = [
+        f"outside the train/test rows ({o['recording']}, {o['samples']} samples) the RMS "
+        f"residual grows from {o['rms_before']:.4g} to {o['rms_after']:.4g}: the effect as "
+        "fitted does not hold for what those rows contain (a step, a hold, another "
+        "amplitude); trust it for inputs like the training ones"
+        for o in where["outside_train_test"]
+        if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
+    ]
+    unc, unc_how = _effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
+    return EffectFinding(
+        name=c.name,
+        parameters=c.parameters,
+        uncertainty=unc,
+        uncertainty_method=unc_how,
+        where=where,
+        explanation=EFFECTS[c.name].explanation,
+        equation=EFFECTS[c.name].equation,
+        heldout=c.heldout,
+        heldout_rmse_before=float(np.sqrt(pooled_mse(ctx.test_res(cur)))),
+        heldout_rmse_after=float(np.sqrt(pooled_mse(ctx.test_res(c.fit)))),
+        score_lm=_score(ctx, cur, c.fit),
+        discriminators=disc,
+        ambiguous_with=amb,
+        runner_up=runner,
+        crossfit=_cf_summary(c.crossfit),
+        caveats=caveats,
+        evidence=_evidence_label(ctx, c.name, c.crossfit, c.between) + (
+            f", judged on top of {c.given}" if c.given else ""),
     )
+
+
+def _remaining(todo: list[str], best: str) -> list[str]:
+    """Effects still to test after ``best`` joined the model (one dynamics effect besides
+    ``rate``: the structure holds one linear block after the hysteresis)."""
+    fam = EFFECTS[best].family
+    return [e for e in todo if e != best and not (
+        EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
+
+
+def _loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFinding]
+                 ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Leave-one-recording-out scores of the baseline and the final structure, and (into each
+    finding's ``loro``) of the structure up to and including each accepted effect against
+    the structure just before it (what that effect adds on unseen recordings)."""
+    loro_b = leave_one_recording_out(ctx, base.structure)
+    loro_f = loro_b if cur.structure == base.structure else leave_one_recording_out(
+        ctx, cur.structure)
+    loro_f = dict(loro_f, mse_reduction=1.0 - loro_f["rmse"] ** 2 / max(
+        loro_b["rmse"] ** 2, 1e-300))
+    prev = loro_b
+    for fnd in findings:
+        st = fnd.structure
+        lo = loro_f if st == cur.structure else (
+            leave_one_recording_out(ctx, st) if st is not None else None)
+        if lo is None:
+            continue
+        fnd.loro = {"rmse_before": prev["rmse"], "rmse_after": lo["rmse"],
+                    "mse_reduction": 1.0 - lo["rmse"] ** 2 / max(prev["rmse"] ** 2, 1e-300),
+                    "per_recording": [
+                        {"recording": a["recording"], "rmse_before": a["rmse"],
+                         "rmse_after": b_["rmse"]}
+                        for a, b_ in zip(prev["per_recording"], lo["per_recording"],
+                                         strict=True)]}
+        prev = lo
+    return loro_b, loro_f
+
+
+def _crossval(ctx: FitContext, base: Fit, cur: Fit) -> dict[str, Any] | None:
+    """Strict hold-out: baseline and final RMSE on the cross-fitted training blocks."""
+    if not ctx.strict:
+        return None
+    cv = _compare(ctx, base, cur)
+    return {"folds": len(ctx.folds), "baseline_rmse": float(np.sqrt(cv.mse_before)),
+            "final_rmse": float(np.sqrt(cv.mse_after)),
+            # % of the output range of the block rows (per unit RMSE)
+            "pct_of": percent_of_range(1.0, [
+                r.y[np.any([blk[k] for _, blk in ctx.folds], axis=0)]
+                for k, r in enumerate(ctx.records)])}
 
 
 def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
@@ -811,7 +1112,7 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
 
 
 def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguous: list,
-                      rounds: list, rnd: int) -> Fit:
+                      rounds: list[RoundRow], rnd: int) -> Fit:
     """Re-compare delay / lag / resonance at the refined resolution and keep the best."""
     base = ctx.fit(cur.structure.with_(dynamics=()), cur)
     te0 = ctx.test_res(base)
@@ -830,14 +1131,18 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
         if other == best:
             continue
         hh = heldout_comparison(ctx.test_res(ofit), ctx.test_res(fit))
-        rounds.append({"round": rnd, "effect": f"recheck:{other}", "heldout_mse_reduction":
-                       oh.gain, "dm_z": hh.z, "signed_rank_p": hh.sign_p, "passes": False,
-                       "decision": "ambiguous" if (hh.z < 3.0 and hh.sign_p >= 0.01)
-                       else "rejected", "parameters": results[other][1]})
-        if hh.z < 3.0 and hh.sign_p >= 0.01:
+        undecided = hh.z < 3.0 and hh.sign_p >= 0.01
+        rounds.append(RoundRow(rnd, f"recheck:{other}", oh.gain, hh.z, hh.sign_p, False,
+                               "ambiguous" if undecided else "rejected", results[other][1]))
+        if undecided:
             amb.append(other)
     if best != finding.name:
-        ambiguous[:] = [a for a in ambiguous if a["chosen"] != finding.name]
+        # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
+        # the new name
+        old = finding.name
+        ambiguous[:] = [dict(a, effects=[best if e == old else e for e in a["effects"]],
+                             chosen=best, reason=a["reason"].replace(old, best))
+                        if a["chosen"] == old else a for a in ambiguous]
         finding.name = best
         finding.parameters = params
         finding.uncertainty = unc
@@ -887,7 +1192,7 @@ def _choose(passing: list[str], gains: dict[str, float]) -> str:
     return pick
 
 
-def _cannot_win(cands: dict[str, tuple], size_ok: dict[str, bool], needs_cf: set[str],
+def _cannot_win(held: dict[str, HeldOut], size_ok: dict[str, bool], needs_cf: set[str],
                 n_tests: int) -> set[str]:
     """Candidates whose cross-fitting can be skipped: :func:`_choose` could not pick them.
 
@@ -896,20 +1201,20 @@ def _cannot_win(cands: dict[str, tuple], size_ok: dict[str, bool], needs_cf: set
     family's best gain (:func:`_choose`); families below that bound are left undecided
     ("deferred") in this round and are tested again in the next one.
     """
-    sure = [n for n in cands if size_ok[n] and n not in needs_cf and (
-        cands[n][3].z >= ACCEPT_RULE["min_z"]
-        or cands[n][3].sign_p < ACCEPT_RULE["sign_p"] / n_tests)]
+    sure = [n for n in held if size_ok[n] and n not in needs_cf and (
+        held[n].z >= ACCEPT_RULE["min_z"]
+        or held[n].sign_p < ACCEPT_RULE["sign_p"] / n_tests)]
     if not sure or not needs_cf:
         return set()
     top = min(FAMILY_PRIORITY[EFFECTS[n].family] for n in sure)
     if any(FAMILY_PRIORITY[EFFECTS[n].family] <= top for n in needs_cf):
         return set()
     fam_top = {EFFECTS[n].family for n in sure if FAMILY_PRIORITY[EFFECTS[n].family] == top}
-    bound = 1.5 * max(cands[n][3].gain for n in sure if EFFECTS[n].family in fam_top)
+    bound = 1.5 * max(held[n].gain for n in sure if EFFECTS[n].family in fam_top)
     best_of_family: dict[str, float] = {}
     for n in needs_cf:
         f = EFFECTS[n].family
-        best_of_family[f] = max(best_of_family.get(f, -np.inf), cands[n][3].gain)
+        best_of_family[f] = max(best_of_family.get(f, -np.inf), held[n].gain)
     return {n for n in needs_cf if best_of_family[EFFECTS[n].family] < bound}
 
 

@@ -1,4 +1,6 @@
-"""Periodic steady-state recordings: one input cycle repeated, the output already periodic.
+"""Periodic steady-state recordings: one input cycle repeated, the output already periodic,
+or a single closed loop (one cycle whose input and output return to where they started, as
+a measured B-H loop).
 
 Such a recording did not start from the virgin memory state: its memory at the first sample
 is the one its own cycle leaves. Starting the model virgin would leave an error before the
@@ -13,11 +15,15 @@ import numpy as np
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 
-__all__ = ["STEADY_TOL", "steady_state_history"]
+__all__ = ["CLOSED_TOL", "STEADY_TOL", "closed_loop_history", "steady_state_history"]
 
 #: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
 #: difference of the later periods, within which the first period counts as steady state.
 STEADY_TOL = 0.002
+
+#: A single cycle is a closed loop when its last sample is within this fraction of the input
+#: range and of the output range of its first sample.
+CLOSED_TOL = 0.02
 
 
 def steady_state_history(rec: Recording) -> tuple[float, ...]:
@@ -37,10 +43,10 @@ def steady_state_history(rec: Recording) -> tuple[float, ...]:
     rv = reversal_indices(u, 0.1 * span)
     rv = rv[(rv > 0) & (rv < u.size - 1)]
     if rv.size < 4:
-        return ()
+        return closed_loop_history(rec)
     period = int(rv[2] - rv[0])
     if period < 4 or 3 * period > u.size:
-        return ()
+        return closed_loop_history(rec)
     ext = u[rv]
     if np.ptp(ext[::2]) > 0.02 * span or np.ptp(ext[1::2]) > 0.02 * span:
         return ()
@@ -58,5 +64,32 @@ def steady_state_history(rec: Recording) -> tuple[float, ...]:
         return ()
     seg = u[1 : period + 1]
     i_hi, i_lo = int(np.argmax(seg)), int(np.argmin(seg))
+    hi, lo = float(seg[i_hi]), float(seg[i_lo])
+    return (hi, lo) if i_hi < i_lo else (lo, hi)
+
+
+def closed_loop_history(rec: Recording) -> tuple[float, ...]:
+    """Virtual input history of a single closed loop (e.g. one measured B-H loop).
+
+    The recording is one cycle: at most two large input reversals (> 10 % of the input
+    range) inside it, and its last sample within :data:`CLOSED_TOL` of the input range and
+    of the output range of its first sample. A closed loop is its own steady state: the
+    memory at its first sample is the one the cycle leaves at its last. Returns the cycle's
+    two extremes in the order the input visits them (empty when it is not a closed loop).
+    """
+    u, y = rec.u, rec.y
+    span, yr = float(np.ptp(u)), float(np.ptp(y))
+    if span <= 0 or u.size < 8:
+        return ()
+    rv = reversal_indices(u, 0.1 * span)
+    rv = rv[(rv > 0) & (rv < u.size - 1)]
+    if not 1 <= rv.size <= 2:
+        return ()
+    if abs(u[-1] - u[0]) > CLOSED_TOL * span or abs(y[-1] - y[0]) > CLOSED_TOL * yr:
+        return ()
+    seg = u[1:]
+    i_hi, i_lo = int(np.argmax(seg)), int(np.argmin(seg))
+    if float(seg[i_hi] - seg[i_lo]) < 0.9 * span:
+        return ()
     hi, lo = float(seg[i_hi]), float(seg[i_lo])
     return (hi, lo) if i_hi < i_lo else (lo, hi)

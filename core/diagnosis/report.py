@@ -112,6 +112,12 @@ def summary_text(res: DiagnosisResult) -> str:
                          "recording predicted from the others with its parameters searched "
                          f"on them: MSE {-100 * row['heldout_mse_reduction'] + 0.0:+.1f} % "
                          f"pooled, z = {row['dm_z']:.2f}; {per})")
+    bp = res.between
+    if bp is not None and len(res.records) >= 2:
+        lines.append("Between recordings (each predicted from the others): rate-dependent "
+                     + ("effects tested" if bp.rate else f"effects not tested ({bp.rate_reason})")
+                     + "; amplitude-dependent " + ("effects tested" if bp.amplitude else
+                                                    f"effects not tested ({bp.amplitude_reason})"))
     if ad is not None and (not ad.adequate or res.effects):
         lines.append(f"Base model: {ad.text}")
     for a in res.ambiguous:

@@ -17,17 +17,107 @@ from ..fitting.metrics import percent_of_range
 from ..recordings import Recording
 from .acceptance import RULE
 from .adequacy import Adequacy
+from .between import BetweenPlan
 from .candidates import build_candidate
 from .context import FitContext
 from .specs import EFFECTS
 from .stats import HeldOut, ljung_box
 from .structure import Fit, Structure
 
-__all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "pooled_mse"]
+__all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "RoundRow", "pooled_mse"]
 
 
 #: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
 ACCEPT_RULE: dict[str, float] = RULE.as_dict()
+
+#: Optional keys of a round row's JSON form, in the order they are written.
+_ROW_EXTRA = ("fold_mse_reductions", "parameter_cv", "per_recording", "dm_z_pooled",
+              "signed_rank_p_pooled", "mse_reduction_pooled")
+
+
+@dataclass(frozen=True)
+class RoundRow:
+    """One candidate of one round of the diagnosis, with its held-out statistics and the
+    decision about it (a row of ``tested`` in the JSON document).
+
+    Attributes
+    ----------
+    round : int
+        1-based round of the forward selection (refinement rows carry the round they follow).
+    effect : str
+        Effect name, or ``resolution:N`` / ``recheck:NAME`` for the refinement steps.
+    heldout_mse_reduction, dm_z, signed_rank_p : float
+        Effect-size and significance statistics on the evidence rows (``evidence``); NaN for a
+        deferred candidate.
+    passes : bool
+        Every acceptance rule holds (:func:`core.diagnosis.acceptance.decide`).
+    decision : str
+        ``accepted``, ``ambiguous`` (a look-alike the recordings do not separate from the
+        accepted one), ``passes`` (passed, another effect was chosen), ``rejected``,
+        ``deferred`` (not needed this round), ``not earned`` (passed on the test rows as a
+        further effect but not against the model holding the accepted ones, cross-fitted),
+        ``contradicted`` (passed, but the discriminator of its look-alikes points elsewhere:
+        the reversible/hysteretic split for a delay or lag, the step-sign locking for creep).
+    parameters : dict
+        The candidate's fitted parameters.
+    evidence : str or None
+        The rows the statistics were computed on.
+    reasons : tuple of str or None
+        Why it failed, in words.
+    extra : tuple of (str, object)
+        Cross-fitting / between-recordings details (keys of :data:`_ROW_EXTRA`).
+    """
+
+    round: int
+    effect: str
+    heldout_mse_reduction: float
+    dm_z: float
+    signed_rank_p: float
+    passes: bool
+    decision: str | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+    evidence: str | None = None
+    reasons: tuple[str, ...] | None = None
+    extra: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RoundRow:
+        """A row from its JSON form (e.g. the refinement rows of the engine helpers)."""
+        return cls(int(d["round"]), str(d["effect"]), float(d["heldout_mse_reduction"]),
+                   float(d["dm_z"]), float(d["signed_rank_p"]), bool(d["passes"]),
+                   d.get("decision"), dict(d.get("parameters", {})), d.get("evidence"),
+                   None if d.get("reasons") is None else tuple(d["reasons"]),
+                   tuple((k, d[k]) for k in _ROW_EXTRA if k in d))
+
+    def detail(self, key: str, default: Any = None) -> Any:
+        """One of the :attr:`extra` details by name."""
+        return dict(self.extra).get(key, default)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form (a row of ``tested``, see :meth:`DiagnosisResult.to_dict`)."""
+        d: dict[str, Any] = {"round": self.round, "effect": self.effect,
+                             "heldout_mse_reduction": self.heldout_mse_reduction,
+                             "dm_z": self.dm_z, "signed_rank_p": self.signed_rank_p}
+        if self.evidence is not None:
+            d["evidence"] = self.evidence
+        d.update(self.extra)
+        d.update({"passes": self.passes, "parameters": self.parameters})
+        if self.reasons is not None:
+            d["reasons"] = list(self.reasons)
+        if self.decision is not None:
+            d["decision"] = self.decision
+        return d
+
+    # read-only mapping view of the JSON form, for callers that index rows by key
+    def __getitem__(self, key: str) -> Any:
+        return self.to_dict()[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.to_dict()
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.to_dict().get(key, default)
+
 
 @dataclass
 class EffectFinding:
@@ -102,8 +192,8 @@ class DiagnosisResult:
         ``{"name", "reason", "experiment"}`` per effect the recordings cannot excite.
     ambiguous : list of dict
         ``{"effects", "chosen", "reason", "experiment"}`` per undecided pair.
-    rounds : list of dict
-        Every candidate tested in every round with its held-out statistics.
+    rounds : list of RoundRow
+        Every candidate tested in every round with its held-out statistics and decision.
     maps_before, maps_after : dict
         Residual maps (LOCATE) of the baseline and the final model on all rows.
     split : str
@@ -122,7 +212,7 @@ class DiagnosisResult:
     effects: list[EffectFinding]
     untestable: list[dict[str, str]]
     ambiguous: list[dict[str, Any]]
-    rounds: list[dict[str, Any]]
+    rounds: list[RoundRow]
     maps_before: dict[str, Any]
     maps_after: dict[str, Any]
     split: str
@@ -137,6 +227,8 @@ class DiagnosisResult:
     crossval: dict[str, Any] | None = None
     #: base-model adequacy verdict (noise floor, loop-shape classes tried)
     adequacy: Adequacy | None = None
+    #: which effects were judged by predicting each recording from the others, why not
+    between: BetweenPlan | None = None
 
     @property
     def model(self) -> Model:
@@ -149,14 +241,15 @@ class DiagnosisResult:
         significance test: worth a targeted experiment, not claimed."""
         if not self.rounds:
             return []
-        last = max(r["round"] for r in self.rounds)
+        last = max(r.round for r in self.rounds)
         return [
-            {k: r[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
+            {k: d[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
                                "parameters", "dm_z_pooled", "signed_rank_p_pooled",
-                               "parameter_cv") if k in r}
+                               "parameter_cv") if k in d}
             for r in self.rounds
-            if r["round"] == last and not r["passes"] and r["heldout_mse_reduction"] >= 0.05
-            and not str(r["effect"]).startswith(("resolution", "recheck"))
+            if r.round == last and not r.passes and r.heldout_mse_reduction >= 0.05
+            and not r.effect.startswith(("resolution", "recheck"))
+            for d in (r.to_dict(),)
         ]
 
     def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
@@ -257,6 +350,11 @@ class DiagnosisResult:
             Every candidate of every round with its held-out gain, z and decision.
         ``accept_rule``
             The thresholds used.
+        ``between_recordings``
+            ``{"rate": {"tested", "reason"}, "amplitude": {"tested", "reason"}}``: whether
+            rate-dependent effects (recordings at different rates) and amplitude-dependent
+            ones (recordings at different amplitudes, e.g. B-H loops) were judged by
+            predicting each recording from the others, and why not.
         """
         yr = self.y_range
         b = self.heldout_rmse(self.baseline)
@@ -270,6 +368,7 @@ class DiagnosisResult:
             "version": 1,
             "crossval": self.crossval,
             "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+            "between_recordings": None if self.between is None else self.between.to_dict(),
             "recordings": [{"name": r.name, "samples": r.n_samples, "dt_s": r.dt,
                             "time_axis": r.has_time, "cleaning": list(r.cleaning)}
                            for r in self.records],
@@ -304,7 +403,7 @@ class DiagnosisResult:
                 "leave_one_recording_out": _jsonable(self.loro_final),
             },
             "suggestive": _jsonable(self.suggestive),
-            "tested": _jsonable(self.rounds),
+            "tested": _jsonable([r.to_dict() for r in self.rounds]),
             "accept_rule": ACCEPT_RULE,
             "elapsed_s": self.elapsed_s,
         })

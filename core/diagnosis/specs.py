@@ -43,6 +43,11 @@ class Effect:
     untestable : str or None
         Rule of :data:`UNTESTABLE_RULES` that says when the recordings cannot test it
         (``None``: the engine's own rules, or always testable).
+    amplitude_dependent : bool
+        Changes the loop from one input amplitude to the next beyond what the PI's own
+        memory does (a static output map, a loop-shape nonlinearity): with several
+        recordings of one amplitude each, at different amplitudes, it is judged by
+        predicting each recording from the others.
     """
 
     name: str
@@ -53,6 +58,7 @@ class Effect:
     time_dependent: bool = False
     between_recordings: bool = False
     untestable: str | None = None
+    amplitude_dependent: bool = False
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -152,6 +158,7 @@ EFFECTS: dict[str, Effect] = {
         equation='y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3',
         experiment='a full-range symmetric periodic excitation',
         time_dependent=False,
+        amplitude_dependent=True,
     ),
     "saturation": Effect(
         "saturation",
