@@ -8,19 +8,13 @@ import threading
 import pytest
 from fastapi.testclient import TestClient
 
-from app.server import create_app
 from app.services.jobs import JobManager
-from app.settings import Settings
 
+from . import test_security_jobs as jobs_api
 from .test_security import csv_text, upload
 from .test_security_jobs import _poll
 
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
-    app = create_app(Settings(viser_port=None, state_dir=str(tmp_path_factory.mktemp("s"))))
-    with TestClient(app) as c:
-        yield c
+client = jobs_api.client  # the jobs tests' module-scoped server fixture
 
 
 def test_list_shows_the_running_job_then_its_end(client: TestClient) -> None:

@@ -8,6 +8,8 @@ operators view of a dead-zone GPI, a clipping inverse said in the page, the busy
 from __future__ import annotations
 
 import json
+import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 from typing import Any
@@ -68,6 +70,27 @@ def _load_preset(page: Any, name: str) -> None:
     v = page.get_attribute("body", "data-ready")
     page.click("#load-preset")
     _redrawn(page, v)
+
+
+def _listening(url: str, *pages: Any, timeout: float = 60.0) -> None:
+    """Wait until the server has an open event stream for each page's session (asked
+    through ``GET /api/teacher/connected``; a server without it gets 2 s)."""
+    codes = {p.inner_text("#code") for p in pages}
+    req = urllib.request.Request(url + "api/teacher/connected",
+                                 headers={"X-Teacher-Token": TEACHER_TOKEN})
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(req, timeout=10) as r:
+                if codes <= set(json.load(r).get("codes") or []):
+                    return
+        except urllib.error.HTTPError as exc:
+            if exc.code == 404:
+                time.sleep(2.0)
+                return
+            raise
+        time.sleep(0.2)
+    raise AssertionError(f"no event stream open for {codes}")
 
 
 def _session(app: Any, page: Any) -> Any:
@@ -228,7 +251,7 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
     for _ in range(5):
         a.locator("#p-p1").press("ArrowRight")
     _redrawn(a, va)
-    a.wait_for_timeout(800)  # let the pages' event streams open
+    _listening(live_server["url"], a, b)
     t.click("#teacher summary")
     assert t.get_attribute("#teacher-token", "type") == "password"
     t.fill("#teacher-token", "wrong")
@@ -270,7 +293,7 @@ def test_broadcast_reaches_open_pages_and_is_kept(browser: Any, live_server: dic
     app = live_server["app"]
     pages = [_open(browser, live_server["url"]) for _ in range(2)]
     (ctx_a, a, _), (ctx_b, b, _) = pages
-    a.wait_for_timeout(800)  # the pages' event streams open
+    _listening(live_server["url"], a, b)
     req = urllib.request.Request(
         live_server["url"] + "api/broadcast/paper000-three-operators", method="POST",
         headers={"X-Teacher-Token": TEACHER_TOKEN})
