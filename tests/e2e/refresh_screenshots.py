@@ -24,6 +24,7 @@ TESTS = [
     "tests/e2e/test_web_journeys.py::test_phone_viewport_plot_usable",
     "tests/e2e/test_web_journeys.py::test_teacher_push_reaches_two_students_live",
     "tests/e2e/test_web_journeys.py::test_deadzone_operators_stack_to_y",
+    "tests/e2e/test_jobs_page.py::test_diagnosis_progress_and_cancel",
     "tests/e2e/test_viser_gui.py",
     "tests/e2e/test_viser_layout.py::test_phone_shows_a_plot",
     "tests/e2e/test_viser_layout.py::test_laptop_panel_leaves_the_cube_in_view",
