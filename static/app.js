@@ -461,7 +461,8 @@ async function runJob(kind, params, syncPath, syncBody, running = null) {
   buttons.forEach((b) => { b.disabled = true; });
   const busy = $("busy"), bar = $("job-progress"), cancel = $("cancel-job");
   const t0 = performance.now();
-  const label = kind === "fit" ? "Fitting" : "Diagnosing";
+  const label = (kind === "fit" ? "Fitting" : "Diagnosing") +
+    (running ? " (started before this page was loaded)" : "");
   let progress = null, message = "";
   const tick = () => {
     const s = ((performance.now() - t0) / 1000).toFixed(0);

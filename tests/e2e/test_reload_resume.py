@@ -34,7 +34,7 @@ def test_reload_during_a_diagnosis_follows_it(browser: Any, live_server: dict,
     page.wait_for_selector("#job-progress:not([hidden])", timeout=30_000)
     page.wait_for_selector("#cancel-job:not([hidden])")
     assert _buttons(page) == [True, True]
-    _text_has(page, "busy", "Diagnosing")
+    _text_has(page, "busy", "Diagnosing (started before this page was loaded)")
     page.wait_for_function("() => document.getElementById('job-progress').value > 0.02",
                            timeout=120_000)
     page.locator("#busy").scroll_into_view_if_needed()
