@@ -121,6 +121,11 @@ class EventHub:
             subs = [s for group in self._subs.values() for s in group]
         return self._send(subs, ev)
 
+    def newest_id(self) -> int:
+        """The id of the newest event so far (0 before the first)."""
+        with self._lock:
+            return self._recent[-1][1]["id"] if self._recent else 0
+
     def connected(self) -> dict[str, int]:
         """Open streams per session code."""
         with self._lock:

@@ -151,7 +151,7 @@ function slider(name, min, max, step, value, group) {
   return label;
 }
 
-function applyConfig(cfg, version) {
+function applyConfig(cfg, version, { fresh = false } = {}) {
   state.config = cfg;
   if (version !== undefined) state.version = version;
   const m = cfg.model;
@@ -170,6 +170,7 @@ function applyConfig(cfg, version) {
   if (!isPI) $("json-edit").open = true;
   $("use-recording").checked = cfg.use_recording;
   document.querySelectorAll("aside input[type=range]").forEach(showOutput);
+  syncPreset(m, { fresh });
 }
 
 function readConfig() {
@@ -351,9 +352,10 @@ async function openSession(code, { create = false } = {}) {
   localStorage.setItem("hyst-session", s.code);
   $("code").textContent = s.code;
   for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${encodeURIComponent(s.code)}/export/${f}`;
-  applyConfig(s.config, s.version);
+  applyConfig(s.config, s.version, { fresh: true });
   listen();
   await draw();
+  resumeJob().catch((e) => setMsg("csv-msg", e.message));
 }
 
 // Live events: a teacher push reloads the session; the note says what happened.
@@ -375,7 +377,6 @@ async function onPushed(info) {
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
   const p = state.presets.find((x) => x.name === info.preset);
-  if (p) { $("preset").value = p.name; showPresetDesc(); }
   const what = p ? p.title : info.preset ? info.preset : "a new input";
   const note = $("live-note");
   note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
@@ -452,14 +453,16 @@ function showRuns(runs, kept) {
 
 // Long work (fit, diagnosis): one at a time, the buttons are disabled and a note counts
 // the seconds. A server with the jobs API runs it as a job (progress, cancel); an older
-// one answers the plain endpoint.
-async function runJob(kind, params, syncPath, syncBody) {
+// one answers the plain endpoint. ``running`` is a job already queued or running (found
+// by resumeJob after a reload): it is followed instead of starting a new one.
+async function runJob(kind, params, syncPath, syncBody, running = null) {
   if (state.job) return null;
   const buttons = [$("fit"), $("diagnose")];
   buttons.forEach((b) => { b.disabled = true; });
   const busy = $("busy"), bar = $("job-progress"), cancel = $("cancel-job");
   const t0 = performance.now();
-  const label = kind === "fit" ? "Fitting" : "Diagnosing";
+  const label = (kind === "fit" ? "Fitting" : "Diagnosing") +
+    (running ? " (started before this page was loaded)" : "");
   let progress = null, message = "";
   const tick = () => {
     const s = ((performance.now() - t0) / 1000).toFixed(0);
@@ -471,18 +474,20 @@ async function runJob(kind, params, syncPath, syncBody) {
   tick();
   const timer = setInterval(tick, 500);
   try {
-    let job;
-    if (state.noJobs) return await api("POST", syncPath, syncBody);
-    try {
-      job = await api("POST", `/api/sessions/${state.code}/jobs`, { kind, params });
-    } catch (e) {
-      if (e.status !== 404 && e.status !== 405) throw e;
-      state.noJobs = true;  // a server without the jobs API: its plain endpoints
-      return await api("POST", syncPath, syncBody);
+    let job = running;
+    if (!job && state.noJobs) return await api("POST", syncPath, syncBody);
+    if (!job) {
+      try {
+        job = await api("POST", `/api/sessions/${state.code}/jobs`, { kind, params });
+      } catch (e) {
+        if (e.status !== 404 && e.status !== 405) throw e;
+        state.noJobs = true;  // a server without the jobs API: its plain endpoints
+        return await api("POST", syncPath, syncBody);
+      }
     }
     state.job.id = job.id;
     const jobPath = `/api/sessions/${encodeURIComponent(state.code)}/jobs/${encodeURIComponent(job.id)}`;
-    bar.value = 0;
+    bar.value = typeof job.progress === "number" ? job.progress : 0;
     cancel.disabled = false;
     cancel.textContent = "Cancel";
     cancel.hidden = false;
@@ -523,6 +528,22 @@ async function runJob(kind, params, syncPath, syncBody) {
 
 class JobCancelled extends Error {}
 
+// A page opened (or reloaded) while its session has a fit or diagnosis queued or running
+// follows that job: progress, Cancel, and its result when it is done.
+async function resumeJob() {
+  if (state.job || state.noJobs) return;
+  let r;
+  try {
+    r = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/jobs?limit=1`);
+  } catch {
+    return;  // an older server without the list: nothing to follow
+  }
+  const job = r && Array.isArray(r.jobs) ? r.jobs[0] : null;
+  if (!job || (job.state !== "queued" && job.state !== "running")) return;
+  if (job.kind === "fit") await fit(job);
+  else if (job.kind === "diagnose") await diagnose(job);
+}
+
 // The job stops at its next progress report; runJob's polling sees it end "cancelled".
 async function cancelJob() {
   const job = state.job;
@@ -548,10 +569,10 @@ function jobFailed(what, e) {
   }
 }
 
-async function fit() {
+async function fit(running = null) {
   const params = { n: Number($("fit-n").value), kind: $("fit-kind").value };
   try {
-    const r = await runJob("fit", params, `/api/sessions/${state.code}/fit`, params);
+    const r = await runJob("fit", params, `/api/sessions/${state.code}/fit`, params, running);
     if (!r) return;
     state.fitFigure = r.figure;
     const rep = r.report;
@@ -578,9 +599,9 @@ function finding(f) {
   return JSON.stringify(f);
 }
 
-async function diagnose() {
+async function diagnose(running = null) {
   try {
-    const r = await runJob("diagnose", {}, `/api/sessions/${state.code}/diagnose`, undefined);
+    const r = await runJob("diagnose", {}, `/api/sessions/${state.code}/diagnose`, undefined, running);
     if (!r) return;
     const items = (r.findings || []).map((f) => el("li", { textContent: finding(f) }));
     const nums = Object.entries(r).filter(([, v]) => typeof v === "number")
@@ -624,12 +645,54 @@ function selectFigure(name) {
 
 function showPresetDesc() {
   const p = state.presets.find((x) => x.name === $("preset").value);
-  $("preset-desc").textContent = p ? p.description : "";
+  let text = p ? p.description : "";
+  if (p && state.presetChanged) text = `The session's model started from this preset and was changed since. ${text}`;
+  else if (!p && $("preset").value === CHANGED) text = "The session's model is not one of the presets (changed with the sliders, the JSON, a fit or a saved set); pick a preset to start over.";
+  $("preset-desc").textContent = text;
+}
+
+// The preset dropdown shows the session's preset (after a reload, a rejoin or a push):
+// the preset whose model is the session's; on a freshly opened page whose model was
+// changed, the preset this browser last loaded into the session, else "a changed model".
+const CHANGED = "";
+function canonical(v) {
+  if (Array.isArray(v)) return `[${v.map(canonical).join(",")}]`;
+  if (v && typeof v === "object") {
+    return `{${Object.keys(v).sort().map((k) => `${JSON.stringify(k)}:${canonical(v[k])}`).join(",")}}`;
+  }
+  return JSON.stringify(v);
+}
+
+function syncPreset(model, { fresh = false } = {}) {
+  const key = `hyst-preset:${state.code}`;
+  const want = canonical(model);
+  const match = state.presets.find((p) => canonical(p.model) === want);
+  const sel = $("preset");
+  const placeholder = sel.querySelector(`option[value="${CHANGED}"]`);
+  let name = null;
+  state.presetChanged = false;
+  if (match) {
+    name = match.name;
+    localStorage.setItem(key, name);
+  } else if (fresh) {
+    const remembered = localStorage.getItem(key);
+    if (state.presets.some((p) => p.name === remembered)) {
+      name = remembered;
+      state.presetChanged = true;
+    } else {
+      name = CHANGED;
+    }
+  }
+  if (name === null) return;
+  if (name === CHANGED && !placeholder) sel.prepend(new Option("(a changed model)", CHANGED));
+  if (name !== CHANGED && placeholder) placeholder.remove();
+  sel.value = name;
+  showPresetDesc();
 }
 
 async function loadPreset() {
   const p = state.presets.find((x) => x.name === $("preset").value);
-  if (!p) return;
+  if (!p) { setMsg("model-msg", "Pick a preset in the list first."); return; }
   try {
     const s = await api("PATCH", `/api/sessions/${state.code}/config`,
       { model: p.model, signal: p.input, use_recording: false });
@@ -700,7 +763,7 @@ async function main() {
     buildOperatorSliders(m);
     onControlChange();
   });
-  $("preset").addEventListener("change", showPresetDesc);
+  $("preset").addEventListener("change", () => { state.presetChanged = false; showPresetDesc(); });
   $("load-preset").addEventListener("click", loadPreset);
   const join = async () => {
     const code = $("join-code").value.trim();
@@ -735,8 +798,8 @@ async function main() {
   $("csv-file").addEventListener("change", onCsvChosen);
   $("use-csv").addEventListener("click", () => useCsv());
   $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));
-  $("fit").addEventListener("click", fit);
-  $("diagnose").addEventListener("click", diagnose);
+  $("fit").addEventListener("click", () => fit());
+  $("diagnose").addEventListener("click", () => diagnose());
   $("cancel-job").addEventListener("click", cancelJob);
   $("ps-file").addEventListener("change", onParamSetChosen);
   $("teacher-push").addEventListener("click", teacherPush);

@@ -51,6 +51,9 @@ async def session_events(
     """Server-sent events of session ``code`` (teacher pushes) for about 10 s, then the
     browser reconnects (``Last-Event-ID`` replays what it missed)."""
     last = int(last_event_id) if last_event_id and last_event_id.isdigit() else None
+    # the stream starts with an id, so a page that got no event yet reconnects with a
+    # Last-Event-ID too, and a push sent while it reconnects is replayed, not lost
+    start = HUB.newest_id() if last is None else last
     try:
         sub = HUB.subscribe(session.code, last)
     except OverflowError:
@@ -60,7 +63,7 @@ async def session_events(
         loop = asyncio.get_running_loop()
         end = loop.time() + STREAM_S
         try:
-            yield "retry: 500\n: connected\n\n"
+            yield f"id: {start}\nretry: 500\n: connected\n\n"
             while (left := end - loop.time()) > 0:
                 try:
                     event = await sub.get(left)

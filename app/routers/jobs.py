@@ -2,7 +2,9 @@
 
 Contract: ``POST`` ``{"kind": "fit" | "diagnose", "params": {...}}`` → 202
 ``{"id", "kind", "state"}``; ``GET .../jobs/{id}`` → ``{"id", "kind", "state", "progress",
-"message", "result", "error"}``; ``DELETE .../jobs/{id}`` cancels. ``params`` are the bodies
+"message", "result", "error"}``; ``DELETE .../jobs/{id}`` cancels; ``GET .../jobs?limit=``
+→ ``{"jobs": [...]}``, the session's newest jobs first (the queued or running one
+included, without results), so a page reloaded during a job can follow it. ``params`` are the bodies
 of the synchronous ``POST .../fit`` (``FitIn``) and ``POST .../diagnose`` (none). A job
 nobody polls for 30 s is cancelled. The synchronous endpoints (:mod:`app.routers.data`) run
 through the same queue and cancel their job when the client hangs up.
@@ -13,7 +15,7 @@ from __future__ import annotations
 import asyncio
 from typing import Any, Literal
 
-from fastapi import APIRouter, HTTPException, Request
+from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from .. import figures as F
@@ -118,6 +120,21 @@ def create_job(body: JobIn, request: Request, session: SessionDep,
     """Queue a fit or a diagnosis of the session's recording; poll it with GET."""
     job = start_job(request, session, settings, body.kind, body.params)
     return {"id": job.id, "kind": job.kind, "state": job.view().state}
+
+
+#: The most jobs a list returns.
+MAX_LISTED = 20
+
+
+@router.get("/sessions/{code}/jobs")
+def list_jobs(request: Request, session: SessionDep,
+              limit: int = Query(10, ge=1, le=MAX_LISTED,
+                                 description="how many of the newest jobs")
+              ) -> dict[str, Any]:
+    """The session's newest jobs, newest first, without their results (GET one for it)."""
+    jobs: JobManager = request.app.state.jobs
+    return {"jobs": [j.view().to_dict(with_result=False)
+                     for j in jobs.recent(session.code, limit)]}
 
 
 def _job(request: Request, session: Session, job_id: str) -> Job:

@@ -38,7 +38,7 @@ class JobBusy(RuntimeError):
 
 @dataclass(frozen=True)
 class JobView:
-    """What ``GET /api/sessions/{code}/jobs/{id}`` returns."""
+    """What ``GET /api/sessions/{code}/jobs/{id}`` returns (the list leaves ``result`` out)."""
 
     id: str
     kind: str
@@ -48,11 +48,13 @@ class JobView:
     result: Any
     error: str | None
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (the API contract)."""
-        return {"id": self.id, "kind": self.kind, "state": self.state,
-                "progress": self.progress, "message": self.message, "result": self.result,
-                "error": self.error}
+    def to_dict(self, with_result: bool = True) -> dict[str, Any]:
+        """JSON-ready form (the API contract); ``with_result=False`` leaves the result out."""
+        d = {"id": self.id, "kind": self.kind, "state": self.state,
+             "progress": self.progress, "message": self.message, "error": self.error}
+        if with_result:
+            d["result"] = self.result
+        return d
 
 
 @dataclass(eq=False)
@@ -137,6 +139,22 @@ class JobManager:
                 raise KeyError(job_id)
             job.seen = time.monotonic()
             return job
+
+    def recent(self, code: str, limit: int = 10) -> list[Job]:
+        """The newest ``limit`` jobs of session ``code``, newest first.
+
+        Queued and running jobs are always listed (a session has at most one); finished
+        ones are those still remembered. Listing counts as asking for the unfinished job
+        (a page reloaded during a job finds it and follows it), so it is not cancelled
+        as abandoned.
+        """
+        now = time.monotonic()
+        with self._lock:
+            mine = [j for j in reversed(self._jobs.values()) if j.code == code][:max(0, limit)]
+            for j in mine:
+                if j.state not in _FINAL:
+                    j.seen = now
+            return mine
 
     def cancel(self, code: str, job_id: str) -> Job:
         """Cancel a job (a no-op once it finished); ``KeyError`` if unknown."""

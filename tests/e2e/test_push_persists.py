@@ -19,7 +19,7 @@ from typing import Any
 import pytest
 
 from .conftest import TEACHER_TOKEN
-from .test_web_journeys import _clean, _open, _text_has
+from .test_web_journeys import _clean, _listening, _open, _text_has
 
 ROOT = Path(__file__).resolve().parents[2]
 PUSHED = "() => document.getElementById('model-json').value.includes('digitized')"
@@ -77,7 +77,7 @@ def test_push_survives_reload_and_kill(browser: Any, explorer: Explorer, shot: A
     ctx_s, student, log_s = _open(browser, explorer.url)
     ctx_t, teacher, log_t = _open(browser, explorer.url)
     code = student.inner_text("#code")
-    student.wait_for_timeout(800)  # the student's event stream opens
+    _listening(explorer.url, student)  # the student's event stream is open
     teacher.click("#teacher summary")
     teacher.fill("#teacher-token", TEACHER_TOKEN)
     teacher.select_option("#teacher-preset", "paper000-three-operators")

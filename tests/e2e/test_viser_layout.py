@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import time
+import urllib.request
 from pathlib import Path
 from typing import Any
 
@@ -33,16 +35,61 @@ def _plot_box(page: Any) -> dict[str, float]:
     }""")
 
 
+def _three_operators(url: str, view: Any) -> None:
+    """Give ``view``'s session paper 000's three-operator preset through the REST API (as
+    a push does) and show its digitized view."""
+    preset = next(p for p in json.load(urllib.request.urlopen(url + "api/presets", timeout=30))
+                  if p["name"] == "paper000-three-operators")
+    body = json.dumps({"model": preset["model"], "signal": preset.get("input"),
+                       "use_recording": False}).encode()
+    req = urllib.request.Request(f"{url}api/sessions/{view.session.code}/config", data=body,
+                                 method="PATCH", headers={"Content-Type": "application/json"})
+    urllib.request.urlopen(req, timeout=30).close()
+    view.view_dd.value = "Digitized states"
+    assert view.worker.wait_idle(30)
+
+
+def test_digitized_cube_camera_and_step_controls(browser: Any, live_server: dict) -> None:
+    """Every vertex of the 3-operator cube apart in the browser's camera; the state is
+    stepped with buttons and played at a chosen speed."""
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    clients_before = set(app.state.viser.get_clients())
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1280, 800)
+    view = _new_view(app, known)
+    _three_operators(live_server["url"], view)
+    page.get_by_role("tab", name="Digitized").first.click()
+    # the camera the browser reports (viser's public client API) is off the cube's diagonal
+    (client,) = [c for k, c in app.state.viser.get_clients().items() if k not in clients_before]
+    deadline = time.monotonic() + 30
+    pts = view._cube_points
+    while time.monotonic() < deadline:
+        cam = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
+        d = cam / np.linalg.norm(cam)
+        p000, p111 = pts[0] - d * (pts[0] @ d), pts[-1] - d * (pts[-1] @ d)
+        if np.linalg.norm(p000 - p111) > 0.5:
+            break
+        time.sleep(0.2)
+    assert np.linalg.norm(p000 - p111) > 0.5, (client.camera.position, client.camera.look_at)
+    # step back with the button: the page's state line ("State k/N") goes to k - 1
+    shown = "() => (document.body.innerText.match(/State (\\d+)\\/\\d+/) || [])[1] ?? null"
+    page.wait_for_function(f"({shown})() !== null")
+    k = int(page.evaluate(shown))
+    page.get_by_role("button", name="Step back").first.click()
+    page.wait_for_function(f"k => ({shown})() === String(k - 1)", arg=k)
+    page.get_by_role("button", name="Step forward").first.click()
+    page.wait_for_function(f"k => ({shown})() === String(k)", arg=k)
+    assert page.locator("text=Speed (states/s)").count() >= 1
+    assert errors == []
+    ctx.close()
+
+
 def test_phone_shows_a_plot(browser: Any, live_server: dict, shot: Any) -> None:
     app = live_server["app"]
     known = set(app.state.gui.views)
     ctx, page, errors = _open(browser, live_server["viser_url"], 390, 844)
-    view = _new_view(app, known)
-    deadline = time.monotonic() + 30
-    while not view.narrow and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert view.narrow
-    box = _plot_box(page)
+    _new_view(app, known)
+    box = _plot_box(page)  # waits until a plot is drawn at a readable width
     assert box["right"] <= 390 and box["width"] >= 200 and box["height"] >= 150
     _screenshot(page, shot, "viser-phone")
     assert errors == []
@@ -55,14 +102,7 @@ def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
     known = set(app.state.gui.views)
     ctx, page, errors = _open(browser, live_server["viser_url"], 1280, 800)
     view = _new_view(app, known)
-    from types import SimpleNamespace
-
-    title = next(t for t, n in view._preset_names.items() if n == "paper000-three-operators")
-    view.preset.value = title
-    view._preset_clicked(SimpleNamespace(client=None))
-    view.view_dd.value = "Digitized states"
-    assert view.worker.wait_idle(30)
-    assert not view.narrow
+    _three_operators(live_server["url"], view)
     box = _plot_box(page)
     # the cube is drawn at the scene origin, the centre of the canvas: the plot panel
     # ends well left of it

@@ -8,6 +8,9 @@ operators view of a dead-zone GPI, a clipping inverse said in the page, the busy
 from __future__ import annotations
 
 import json
+import time
+import urllib.error
+import urllib.request
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +70,27 @@ def _load_preset(page: Any, name: str) -> None:
     v = page.get_attribute("body", "data-ready")
     page.click("#load-preset")
     _redrawn(page, v)
+
+
+def _listening(url: str, *pages: Any, timeout: float = 60.0) -> None:
+    """Wait until the server has an open event stream for each page's session (asked
+    through ``GET /api/teacher/connected``; a server without it gets 2 s)."""
+    codes = {p.inner_text("#code") for p in pages}
+    req = urllib.request.Request(url + "api/teacher/connected",
+                                 headers={"X-Teacher-Token": TEACHER_TOKEN})
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with urllib.request.urlopen(req, timeout=10) as r:
+                if codes <= set(json.load(r).get("codes") or []):
+                    return
+        except urllib.error.HTTPError as exc:
+            if exc.code == 404:
+                time.sleep(2.0)
+                return
+            raise
+        time.sleep(0.2)
+    raise AssertionError(f"no event stream open for {codes}")
 
 
 def _session(app: Any, page: Any) -> Any:
@@ -164,19 +188,22 @@ def test_reupload_exported_parameter_set(browser: Any, live_server: dict,
     saved.write_text(Path(dl.value.path()).read_text())
     doc = json.loads(saved.read_text())
     assert doc["format"] == "hysteresis-explorer/parameter-set"
-    page.click("#new-session")
-    page.wait_for_function(
-        "() => !document.getElementById('model-json').value.includes('deadzone')")
-    page.set_input_files("#ps-file", str(saved))
-    page.wait_for_function("() => document.getElementById('export-msg').textContent.length > 0")
-    assert page.inner_text("#export-msg").startswith("Loaded"), page.inner_text("#export-msg")
-    assert _session(app, page).config.model == doc["model"]
-    _clean(page, log)
+    # the next day, another browser (a session of its own) continues from the saved file
+    ctx_b, later, log_b = _open(browser, live_server["url"])
+    assert "deadzone" not in later.input_value("#model-json")
+    later.set_input_files("#ps-file", str(saved))
+    later.wait_for_function(
+        "() => document.getElementById('export-msg').textContent.length > 0")
+    assert later.inner_text("#export-msg").startswith("Loaded"), later.inner_text("#export-msg")
+    assert _session(app, later).config.model == doc["model"]
+    assert json.loads(later.input_value("#model-json")) == doc["model"]
+    for p, lg in ((page, log), (later, log_b)):
+        _clean(p, lg)
     ctx.close()
+    ctx_b.close()
 
 
-def test_deadzone_operators_stack_to_y_and_clipping_inverse_is_said(
-        browser: Any, live_server: dict, shot: Any) -> None:
+def test_deadzone_operators_stack_to_y(browser: Any, live_server: dict, shot: Any) -> None:
     ctx, page, log = _open(browser, live_server["url"])
     _load_preset(page, "paper001-example4")
     page.click("#tabs button[data-fig=operators]")
@@ -189,6 +216,12 @@ def test_deadzone_operators_stack_to_y_and_clipping_inverse_is_said(
     }""")
     assert np.max(np.abs(np.subtract(stack, total))) < 1e-3 * np.ptp(total)
     shot(page, "web-operators-deadzone")
+    _clean(page, log)
+    ctx.close()
+
+
+def test_clipping_inverse_is_said_in_the_page(browser: Any, live_server: dict) -> None:
+    ctx, page, log = _open(browser, live_server["url"])
     # a tanh GPI whose envelope bounds the output at ±2: the inverse clips, the page says so
     code = page.inner_text("#code")
     from app.compute import preset_doc
@@ -199,7 +232,8 @@ def test_deadzone_operators_stack_to_y_and_clipping_inverse_is_said(
       {method: 'PATCH', headers: {'Content-Type': 'application/json'},
        body: JSON.stringify({model})})""", [code, model])
     page.click("#tabs button[data-fig=inverse]")
-    page.wait_for_function("() => document.getElementById('notes').textContent.includes('clipped')")
+    page.wait_for_function(
+        "() => (document.getElementById('notes')?.textContent ?? '').includes('clipped')")
     assert "samples were outside the domain" in page.inner_text("#notes")
     _clean(page, log)
     ctx.close()
@@ -217,7 +251,7 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
     for _ in range(5):
         a.locator("#p-p1").press("ArrowRight")
     _redrawn(a, va)
-    a.wait_for_timeout(800)  # let the pages' event streams open
+    _listening(live_server["url"], a, b)
     t.click("#teacher summary")
     assert t.get_attribute("#teacher-token", "type") == "password"
     t.fill("#teacher-token", "wrong")
@@ -253,6 +287,35 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
         ctx.close()
 
 
+def test_broadcast_reaches_open_pages_and_is_kept(browser: Any, live_server: dict) -> None:
+    """A push over REST (``POST /api/broadcast/{name}``, the teacher's token) reaches two
+    open pages at once, and a student's next slider move keeps the pushed model."""
+    app = live_server["app"]
+    pages = [_open(browser, live_server["url"]) for _ in range(2)]
+    (ctx_a, a, _), (ctx_b, b, _) = pages
+    _listening(live_server["url"], a, b)
+    req = urllib.request.Request(
+        live_server["url"] + "api/broadcast/paper000-three-operators", method="POST",
+        headers={"X-Teacher-Token": TEACHER_TOKEN})
+    with urllib.request.urlopen(req, timeout=30) as r:
+        assert r.status == 200
+    for page in (a, b):
+        page.wait_for_function(
+            "() => document.getElementById('model-json').value.includes('digitized')",
+            timeout=30_000)
+    # the next change of a student is made to the pushed model
+    va = a.get_attribute("body", "data-ready")
+    a.locator("#amplitude").focus()
+    a.locator("#amplitude").press("ArrowLeft")
+    _redrawn(a, va)
+    a.wait_for_timeout(300)
+    assert _session(app, a).config.model["type"] == "digitized"
+    assert _session(app, b).config.model["type"] == "digitized"
+    for (ctx, page, log) in pages:
+        _clean(page, log)
+        ctx.close()
+
+
 def test_busy_state_blocks_double_submission(browser: Any, live_server: dict,
                                              tmp_path: Path) -> None:
     app = live_server["app"]
@@ -269,7 +332,8 @@ def test_busy_state_blocks_double_submission(browser: Any, live_server: dict,
     page.wait_for_function("() => document.getElementById('csv-msg').textContent.includes('1500')")
     page.click("#diagnose")
     state = page.evaluate("""() => [document.getElementById('diagnose').disabled,
-      document.getElementById('fit').disabled, document.getElementById('busy').textContent]""")
+      document.getElementById('fit').disabled,
+      document.getElementById('busy')?.textContent ?? '']""")
     assert state[0] and state[1] and "working" in state[2]
     page.click("#fit", force=True)  # disabled: ignored
     page.wait_for_selector("#diagnosis", timeout=120_000)
