@@ -22,8 +22,8 @@ from .. import figures as F
 from ..data import diagnose_session, fit_session
 from ..schemas import FitIn
 from ..services.jobs import Job, JobBusy, JobManager, Progress
+from ..services.sessions import Session
 from ..settings import Settings
-from ..state import Session
 from .deps import SessionDep, SettingsDep
 
 __all__ = ["JobIn", "router", "start_job", "wait_for"]

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from app.compute import closed_loop, compute, diagnosed_model
-from app.state import Config
+from app.services.config import Config
 from core.base import Chain
 from core.effects import Creep
 from core.pi import PIModel

@@ -109,7 +109,7 @@ def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
     import viser
 
     from app.gui.controller import SessionView
-    from app.state import SessionRegistry
+    from app.services.sessions import SessionRegistry
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:

@@ -14,8 +14,8 @@ from app import figures as F
 from app.gui.controller import SessionView
 from app.gui.render import LatestWinsWorker
 from app.gui.text import diagnosis_markdown, md_text
+from app.services.sessions import SessionRegistry
 from app.settings import Settings
-from app.state import SessionRegistry
 from core.pi import PIModel
 
 

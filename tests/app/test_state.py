@@ -14,7 +14,8 @@ from app import compute as C
 from app import data as D
 from app import exports as E
 from app import figures as F
-from app import state as S
+from app.services import config as S
+from app.services import sessions as SS
 from core.csvio import CSVError
 from core.exceptions import ParameterError
 from core.pi import PIModel
@@ -24,7 +25,7 @@ from core.signals import SIGNALS
 def test_service_modules_have_no_web_imports() -> None:
     import subprocess
 
-    code = ("import sys, app.state, app.compute, app.data, app.exports; "
+    code = ("import sys, app.services.sessions, app.compute, app.data, app.exports; "
             "print([m for m in ('viser', 'fastapi', 'plotly') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
@@ -51,7 +52,7 @@ def test_perturb_changes_the_plant_only_when_asked() -> None:
 
 
 def test_registry_codes_lru_and_broadcast() -> None:
-    reg = S.SessionRegistry(max_sessions=3)
+    reg = SS.SessionRegistry(max_sessions=3)
     a = reg.create()
     assert len(a.code.replace("-", "")) == 16 and reg.get(a.code.upper()) is a
     b = reg.create()
@@ -70,7 +71,7 @@ def test_registry_codes_lru_and_broadcast() -> None:
 
 
 def test_session_listeners_and_versions() -> None:
-    s = S.Session(code="abc")
+    s = SS.Session(code="abc")
     seen: list[int] = []
     cb = lambda sess, cfg, v: seen.append(v)  # noqa: E731
     s.add_listener(cb)
@@ -83,7 +84,7 @@ def test_session_listeners_and_versions() -> None:
 
 
 def test_concurrent_updates_are_not_lost() -> None:
-    s = S.Session(code="abc")
+    s = SS.Session(code="abc")
 
     def bump() -> None:
         for _ in range(200):
@@ -175,7 +176,7 @@ def test_typed_arrays_round_trip_and_figures_validate() -> None:
 def test_session_services_store_fit_export_and_clear() -> None:
     from core.recordings import Recording
 
-    s = S.Session(code="abc")
+    s = SS.Session(code="abc")
     t = np.arange(600) * 1e-3
     u = 3 * np.sin(2 * np.pi * 3 * t)
     rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))

@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.services.config import Config
+from app.services.sessions import SessionRegistry
 from app.services.store import SessionState, SessionStore
-from app.state import Config, SessionRegistry
 from core.recordings import Recording
 
 ROOT = Path(__file__).resolve().parents[2]
