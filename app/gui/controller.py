@@ -235,6 +235,11 @@ class SessionView:
                 "type it under *Session* after a reload to continue"
             )
             m = cfg.model
+            preset = actions.matching_preset(m)
+            if preset is not None:  # a joined session shows the preset it holds
+                title = next(t for t, n in ui.preset_names.items() if n == preset)
+                set_value(ui.preset, title)
+                ui.preset_md.content = f"*{md_text(preset_doc(preset)['description'])}*"
             is_pi = m.get("type") == "pi"
             ui.pi_folder.visible = is_pi
             if is_pi:

@@ -11,14 +11,17 @@ codes, toasts).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Collection
 from dataclasses import replace
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from core.base import Model
 from core.exceptions import ParameterError
+from core.presets import list_presets
 from core.recordings import Recording
 
 from .. import figures as F
@@ -118,6 +121,19 @@ def load_preset(session: Session, name: str, *, with_input: bool) -> dict[str, A
     else:
         session.update(lambda c: c.with_model(doc["model"]))
     return doc
+
+
+@lru_cache(maxsize=1)
+def _preset_keys() -> tuple[tuple[str, str], ...]:
+    return tuple((json.dumps(preset_doc(p.name)["model"], sort_keys=True), p.name)
+                 for p in list_presets())
+
+
+def matching_preset(model: dict[str, Any]) -> str | None:
+    """Name of the preset whose model is ``model`` (dict form), or None when the model was
+    changed since (or never came from a preset)."""
+    key = json.dumps(model, sort_keys=True)
+    return next((name for k, name in _preset_keys() if k == key), None)
 
 
 def load_parameter_set(session: Session, doc: Any, settings: Settings) -> Model:

@@ -194,6 +194,24 @@ def test_join_other_session(view: SessionView) -> None:
     assert "too many" in view.toasts[-1][1]
 
 
+def test_join_shows_the_sessions_preset(view: SessionView) -> None:
+    """A view joining a session that holds Example 4 shows that preset, not the first one;
+    a model changed since names no preset (the dropdown keeps what it showed)."""
+    from app.services import actions
+
+    other = view.registry.create()
+    actions.load_preset(other, "paper001-example4", with_input=True)
+    title = next(t for t, n in view.ui.preset_names.items() if n == "paper001-example4")
+    assert view.preset.value != title
+    view.code_in.value = other.code
+    view._join_clicked(SimpleNamespace(client=None))
+    _idle(view)
+    assert view.session is other and view.preset.value == title
+    assert "dead zones" in view.preset_md.content
+    changed = dict(other.config.model, p0=0.5)
+    assert actions.matching_preset(changed) is None
+
+
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
     from app.compute import preset_doc
 
