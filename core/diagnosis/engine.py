@@ -53,7 +53,6 @@ from ..csvio import ColumnSpec
 from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
-from ..fitting.thresholds import wipeout_index
 from .acceptance import (
     Decision,
     decide,
@@ -64,17 +63,23 @@ from .acceptance import (
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess
 from .between import (
-    NONLINEAR_PARAMS,
     BetweenPlan,
     between_plan,
     between_recordings,
     leave_one_recording_out,
-    recording_rates,
 )
 from .candidates import build_candidate
 from .context import FitContext
+from .crossfitting import (
+    compare_heldout,
+    crossfit_candidate,
+    crossfit_summary,
+    effect_uncertainty,
+    screen_gain,
+)
 from .data import as_records, crossfit_folds, split_masks
-from .locate import hold_after, residual_maps, where_improved
+from .locate import residual_maps, where_improved
+from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
 from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, RoundRow, pooled_mse
 from .shapes import shape_thresholds
@@ -83,10 +88,8 @@ from .specs import (
     EFFECTS,
     FAMILY_PRIORITY,
     UNTESTABLE_LOOKALIKES,
-    spec_untestable,
-    time_effects,
 )
-from .stats import HeldOut, heldout_comparison, noise_floor, score_test
+from .stats import HeldOut, heldout_comparison, noise_floor
 from .structure import Fit, Structure, baseline_thresholds
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
@@ -118,14 +121,6 @@ def _deferred_row(rnd: int, name: str, params: dict | None = None) -> RoundRow:
                     "one could not explain 1.5 times as much")
 
 
-def _screen(fit: Fit, cur: Fit) -> HeldOut:
-    """In-sample training-RSS reduction of ``fit`` over ``cur`` (a screen, no significance):
-    an effect that cannot reduce the training error by ``min_gain`` cannot pass held out."""
-    b = cur.train_rss / max(cur.n_train, 1)
-    a = fit.train_rss / max(fit.n_train, 1)
-    return HeldOut(b, a, 1.0 - a / b if b > 0 else 0.0, 0.0, 1.0, 0)
-
-
 def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
                     bt: dict[str, Any] | None = None) -> str:
     if bt is not None:
@@ -138,242 +133,6 @@ def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
         return (f"{cf['folds']} cross-fitted training blocks" if cf is not None else
                 "training-RSS screen (below the effect-size rule, not cross-fitted)")
     return "test rows"
-
-
-def _compare(ctx: FitContext, a: Fit, b: Fit) -> HeldOut:
-    """Held-out comparison of two fitted structures (linear weights refitted per fold):
-    on the test rows, or with strict hold-out on the cross-fitted training blocks."""
-    if not ctx.strict:
-        return heldout_comparison(ctx.test_res(a), ctx.test_res(b))
-    eb, ea = [], []
-    for tr_f, blk in ctx.folds:
-        fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
-        eb += fc.test_res(fc.fit(a.structure, a))
-        ea += fc.test_res(fc.fit(b.structure, b))
-    return heldout_comparison(eb, ea)
-
-
-def _fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: int | None = None):
-    """Per fold: (fold context, current structure refitted without the block, effect ``name``
-    fitted on top of it or ``None``)."""
-    for tr_f, blk in folds:
-        fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
-        fc.iterations = iterations
-        fc.uncertainty = False  # only the folds' parameters are used
-        cur_f = fc.fit(cur.structure, cur)
-        yield fc, cur_f, build_candidate(fc, name, cur_f)
-
-
-#: Nonlinear parameters whose spread across cross-fitting folds is checked (notes §5, rule 4).
-_SCALAR_PARAMS = NONLINEAR_PARAMS
-
-
-def _crossfit(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
-    """Held-out evidence from the training window itself, by blocked cross-fitting.
-
-    For each fold of ``ctx.folds`` the current structure's linear weights are re-solved
-    without the block and effect ``name`` is fitted anew on top (its nonlinear parameters
-    searched again), then both predict the block. The block residuals of all folds are
-    pooled with the test rows into one Diebold–Mariano / signed-rank comparison.
-
-    Returns
-    -------
-    dict or None
-        ``pooled`` (HeldOut over test rows + blocks), ``folds``, ``fold_gains``,
-        ``fold_parameters`` and ``parameter_cv`` (coefficient of variation across folds of
-        each scalar nonlinear parameter); ``None`` without folds.
-    """
-    if not ctx.folds:
-        return None
-    eb, ea = ([], []) if ctx.strict else (list(ctx.test_res(cur)), list(ctx.test_res(fit)))
-    n_test = sum(e.size for e in eb)
-    gains, params = [], []
-    for fc, cur_f, got in _fold_fits(ctx, ctx.folds, name, cur):
-        if got is None:
-            return None
-        b0, b1 = fc.test_res(cur_f), fc.test_res(got[0])
-        eb += b0
-        ea += b1
-        m0 = float(np.mean(np.concatenate(b0) ** 2))
-        m1 = float(np.mean(np.concatenate(b1) ** 2))
-        gains.append(1.0 - m1 / m0 if m0 > 0 else 0.0)
-        params.append(got[1])
-    n_all = sum(e.size for e in eb)
-    pooled = heldout_comparison(eb, ea, n_batches=40 if ctx.strict else int(
-        round(40 * n_all / max(n_test, 1))))
-    cv: dict[str, float] = {}
-    for key in _SCALAR_PARAMS:
-        vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
-        if vals.size == len(params) and vals.size >= 2 and np.mean(vals) != 0:
-            cv[key] = float(np.std(vals, ddof=1) / abs(np.mean(vals)))
-    return {"pooled": pooled, "folds": len(ctx.folds), "fold_gains": gains,
-            "fold_parameters": params, "parameter_cv": cv, "before": eb, "after": ea}
-
-
-#: Effects whose parameters are linear weights (one least-squares solve, cheap to refit).
-_LINEAR_EFFECTS = ("creep", "drift", "asymmetry", "offset")
-
-
-def _jackknife(param_sets: list[dict[str, Any]]) -> dict[str, Any]:
-    """Block-jackknife 1-sigma of every numeric parameter from delete-one-block fits.
-
-    ``sd = sqrt((K - 1) / K * sum_k (theta_k - mean)^2)`` elementwise; parameters fixed by
-    design (identical in every fold, e.g. creep time constants) are left out.
-    """
-    out: dict[str, Any] = {}
-    k = len(param_sets)
-    if k < 2:
-        return out
-    for key in param_sets[0]:
-        try:
-            a = np.asarray([p[key] for p in param_sets], dtype=np.float64)
-        except (TypeError, ValueError, KeyError):
-            continue
-        if a.shape[0] != k or not np.all(np.isfinite(a)) or np.all(a == a[0]):
-            continue
-        sd = np.sqrt((k - 1) / k * np.sum((a - a.mean(axis=0)) ** 2, axis=0))
-        out[key] = sd.tolist() if sd.ndim else float(sd)
-    return out
-
-
-def _effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any],
-                        cf: dict[str, Any] | None, train: list[np.ndarray]
-                        ) -> tuple[dict[str, Any], str]:
-    """1-sigma uncertainties of an accepted effect's parameters, and how they were obtained.
-
-    Block jackknife over training blocks (:func:`core.diagnosis.data.crossfit_folds`): free
-    when the effect was cross-fitted for its significance test, otherwise refitted for the
-    linear effects (one solve per fold). Dynamics found without cross-fitting keep their
-    profile-curvature sigmas (inflated for autocorrelation); the initial memory has none.
-    """
-    params = cf["fold_parameters"] if cf is not None else None
-    if params is None and name in _LINEAR_EFFECTS:
-        # four blocks bound the cost (the jackknife needs few; a diagnosis stays <= 30 s)
-        folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=4)
-        params = []
-        # bilinear regressors frozen at the full fit (linearised jackknife)
-        for _, _, got in _fold_fits(ctx, folds, name, cur, iterations=1):
-            if got is None:
-                params = None
-                break
-            params.append(got[1])
-    jk = _jackknife(params) if params else {}
-    if jk:
-        return {**unc, **jk}, f"block jackknife over {len(params)} training blocks"
-    if any(v is not None for v in unc.values()):
-        return unc, "profile curvature (inflated for residual autocorrelation)"
-    return unc, "none"
-
-
-def _cf_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:
-    """JSON-ready summary of :func:`_crossfit` (``None`` when it was not used)."""
-    if cf is None:
-        return None
-    p: HeldOut = cf["pooled"]
-    return {"folds": cf["folds"], "dm_z_pooled": p.z, "signed_rank_p_pooled": p.sign_p,
-            "mse_reduction_pooled": p.gain, "batches": p.n_batches,
-            "fold_mse_reductions": cf["fold_gains"], "fold_parameters": cf["fold_parameters"],
-            "parameter_cv": cf["parameter_cv"]}
-
-
-def _untestable(ctx: FitContext) -> list[dict[str, str]]:
-    recs = ctx.records
-    untimed = [r.name for r in recs if not r.has_time]
-    if untimed:
-        why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
-               "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
-               "rate or frequency cannot be told apart from the loop itself")
-        out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
-                "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
-        out += [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
-    else:
-        out = _untestable_timed(ctx)
-    return out + spec_untestable(ctx, {u["name"] for u in out})
-
-
-def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
-    out = []
-    recs = ctx.records
-    # creep: holds after steps (>= 0.5 s) inside the train or test rows
-    has_hold = False
-    for rec, c, tr, te in zip(recs, ctx.coords, ctx.train, ctx.test, strict=True):
-        use = tr | te
-        for st in c.step_starts:
-            h0, n_hold = hold_after(c, int(st), rec.dt)
-            if n_hold * rec.dt >= 0.5 and use[h0 : h0 + n_hold].any():
-                has_hold = True
-    if not has_hold:
-        out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
-                    "train/test rows", "experiment": EFFECTS["creep"].experiment})
-    total = sum(float(r.t[-1] - r.t[0]) for r in recs)
-    if total < 20.0 and len(recs) == 1:
-        out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
-                    "a slow drift from the model's bias",
-                    "experiment": EFFECTS["drift"].experiment})
-    # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
-    peaks = [p for ps in recording_rates(ctx) for p in ps]
-    if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
-        out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
-                    "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
-                    "told from rate-independent loop width",
-                    "experiment": EFFECTS["rate"].experiment})
-    if len(recs) < 2:
-        out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
-                    "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
-    steady = [r.name for r in recs if steady_state_history(r)]
-    if len(steady) == len(recs):
-        out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
-                    f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
-                    "repeated, the output already periodic, or a single closed loop): the "
-                    "memory at the first sample is the one the cycle leaves, and the model "
-                    "starts from it",
-                    "experiment": "a recording that starts before the first full sweep, from a "
-                    "known (e.g. demagnetised) state"})
-    elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
-                 for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
-        out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
-                    "input swept its full range, which wipes out the initial memory",
-                    "experiment": EFFECTS["initial-memory"].experiment})
-    return out
-
-
-def _discriminators(ctx: FitContext, cur: Fit) -> dict[str, Any]:
-    """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
-    rows_e, rows = [], []
-    for rec, p, x, m in zip(ctx.records, cur.pred, cur.x_pi, ctx.train, strict=True):
-        dx = np.gradient(x, rec.dt)
-        ddx = np.gradient(dx, rec.dt)
-        du = np.gradient(rec.u, rec.dt)
-        vrev = cur.p0 * du
-        vhys = dx - vrev
-        B = ctx.cache.bank(ctx.records.index(rec), rec, np.asarray(cur.structure.thresholds),
-                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s,
-                           cur.structure.shape)
-        step = max(1, int(m.sum() // 20000))
-        idx = np.flatnonzero(m)[::step]
-        rows_e.append((rec.y - p)[idx])
-        rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
-                                     ddx[idx])))
-    e = np.concatenate(rows_e)
-    X = np.concatenate(rows)
-    nb = X.shape[1] - 4
-    J0 = X[:, :nb]
-    Q, _ = np.linalg.qr(J0)
-
-    def part(a):
-        return a - Q @ (Q.T @ a)
-
-    er = part(e)
-    out: dict[str, Any] = {}
-    V = part(X[:, nb : nb + 2])
-    c = np.linalg.lstsq(V, er, rcond=None)[0]
-    out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
-    out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
-    G = part(X[:, nb + 2 :])
-    g = np.linalg.lstsq(G, er, rcond=None)[0]
-    out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
-    out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
-    return out
 
 
 # ----------------------------------------------------------------------------- main entry
@@ -457,7 +216,7 @@ def diagnose(
     ctx, split = _context(records, train, test, crossfit)
     base, requested = _baseline(ctx, n_operators, auto_resolution)
     say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
-    run_ = _Run(ctx, _noise_rms(ctx, base), _untestable(ctx), max_effects,
+    run_ = _Run(ctx, _noise_rms(ctx, base), untestable_effects(ctx), max_effects,
                 between_plan(ctx, windows=train is not None or test is not None), say=say)
     todo = [e for e in todo if e not in run_.untestable_names]
     run_.rate_testable = "rate" in todo
@@ -516,7 +275,7 @@ class _Candidate:
     """One effect fitted on top of the current model, with its evidence.
 
     ``heldout`` holds the effect-size statistics (test rows; with strict hold-out, or between
-    recordings, the pooled evidence rows), ``crossfit`` the output of :func:`_crossfit` and
+    recordings, the pooled evidence rows), ``crossfit`` the output of :func:`crossfit_candidate` and
     ``between`` that of :func:`~core.diagnosis.between.between_recordings` when used.
     """
 
@@ -625,7 +384,7 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
     hist0 = tuple(steady_state_history(rec) for rec in records)
     s0 = Structure(tuple(float(x) for x in r), hist0)
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
-    free = _compare(ctx, f_nn, f_free).gain >= 0.5
+    free = compare_heldout(ctx, f_nn, f_free).gain >= 0.5
     base: Fit | None = None
     requested: Fit | None = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
@@ -636,7 +395,7 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
-        elif _compare(ctx, base, f_try).gain < 0.02:
+        elif compare_heldout(ctx, base, f_try).gain < 0.02:
             break
         base = f_try
         if not auto_resolution:
@@ -676,7 +435,7 @@ def _search(run: _Run, cur: Fit, todo: list[str], rnd: int
         got = build_candidate(ctx, name, cur)
         if got is None:
             continue
-        c = _Candidate(name, *got, heldout=_screen(got[0], cur))
+        c = _Candidate(name, *got, heldout=screen_gain(got[0], cur))
         if ctx.strict and name != "initial-memory" and c.heldout.gain < bound:
             deferred.append(_deferred_row(rnd, name, c.parameters))
             continue
@@ -706,7 +465,7 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
     if ctx.strict and name != "initial-memory":
         if c.heldout.gain >= ACCEPT_RULE["min_gain"]:
             run.step(rnd, frac, f"cross-fitting {name}")
-            cf = _crossfit(ctx, name, cur, c.fit)
+            cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
                 return replace(c, heldout=cf["pooled"], crossfit=cf)
         return c
@@ -714,7 +473,7 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
         mm = ([a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)] if ctx.strict
               else ctx.memory_masks)
         h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(c.fit, mm))
-        worse = (_compare(ctx, cur, c.fit).gain if ctx.strict
+        worse = (compare_heldout(ctx, cur, c.fit).gain if ctx.strict
                  else heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)).gain)
         if worse < -0.01:
             h = HeldOut(h.mse_before, h.mse_after, h.gain if ctx.strict else min(h.gain, worse),
@@ -758,7 +517,7 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
             continue
         if name in needs_cf:
             run.step(rnd, 0.5, f"cross-fitting {name}")
-            cf = _crossfit(ctx, name, cur, c.fit)
+            cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
                 c = cands[name] = replace(c, crossfit=cf)
         cv = (c.crossfit["parameter_cv"] if c.crossfit else
@@ -792,7 +551,7 @@ _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a
 def _split_ok(run: _Run, cur: Fit) -> bool:
     """Acceptance rule 5 on the current model's residual (memoised per current fit)."""
     if run.split_for is not cur:
-        d = _discriminators(run.ctx, cur)
+        d = lookalike_evidence(run.ctx, cur)
         run.split_for, run.split = cur, split_supports_transport(d["a_rev_s"], d["a_hys_s"])
     return run.split
 
@@ -803,7 +562,7 @@ _LOCKING_REASON = ("the residual trend after the holds does not follow the sign 
 
 def _locking_ok(run: _Run, cur: Fit) -> bool:
     """Acceptance rule 7 on the current model's residual."""
-    d = _sign_locking(run.ctx, cur)
+    d = sign_locking(run.ctx, cur)
     return trend_follows_steps(d.get("trend_follows_step_sign"), d["steps_with_hold"])
 
 
@@ -832,7 +591,7 @@ def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str
                         "blocks)",))
     sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
     sub.strict = True  # the blocks alone: the test rows chose the effects before this one
-    return earns_place(_compare(sub, cur, c.fit), n_tests, None, accepted)
+    return earns_place(compare_heldout(sub, cur, c.fit), n_tests, None, accepted)
 
 
 def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow],
@@ -865,7 +624,7 @@ def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[Rou
     base_p = cands[p].fit
     got = build_candidate(ctx, t.name, base_p)
     tt = None if got is None else _evidence(
-        run, base_p, _Candidate(t.name, *got, heldout=_screen(got[0], base_p)), rnd, 0.9)
+        run, base_p, _Candidate(t.name, *got, heldout=screen_gain(got[0], base_p)), rnd, 0.9)
     if tt is None:
         return none
     # judged as a first effect would be (test rows, the round's Bonferroni divisor), on top of p
@@ -1006,8 +765,8 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
              ) -> EffectFinding:
     """The finding of accepted candidate ``c`` (SAY / MODEL / SHOW)."""
     ctx, records = run.ctx, run.ctx.records
-    disc = (_discriminators(ctx, cur) if c.family == "dynamics" else
-            _sign_locking(ctx, cur) if c.family == "slow" else {})
+    disc = (lookalike_evidence(ctx, cur) if c.family == "dynamics" else
+            sign_locking(ctx, cur) if c.family == "slow" else {})
     used = [tr | te for tr, te in zip(ctx.train, ctx.test, strict=True)]
     where = where_improved(records, [e * u for e, u in zip(ctx.all_res(cur), used, strict=True)],
                            [e * u for e, u in zip(ctx.all_res(c.fit), used, strict=True)],
@@ -1021,7 +780,7 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         for o in where["outside_train_test"]
         if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
     ]
-    unc, unc_how = _effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
+    unc, unc_how = effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
     return EffectFinding(
         name=c.name,
         parameters=c.parameters,
@@ -1033,11 +792,11 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         heldout=c.heldout,
         heldout_rmse_before=float(np.sqrt(pooled_mse(ctx.test_res(cur)))),
         heldout_rmse_after=float(np.sqrt(pooled_mse(ctx.test_res(c.fit)))),
-        score_lm=_score(ctx, cur, c.fit),
+        score_lm=score_statistic(ctx, cur, c.fit),
         discriminators=disc,
         ambiguous_with=amb,
         runner_up=runner,
-        crossfit=_cf_summary(c.crossfit),
+        crossfit=crossfit_summary(c.crossfit),
         caveats=caveats,
         evidence=_evidence_label(ctx, c.name, c.crossfit, c.between) + (
             f", judged on top of {c.given}" if c.given else ""),
@@ -1084,7 +843,7 @@ def _crossval(ctx: FitContext, base: Fit, cur: Fit) -> dict[str, Any] | None:
     """Strict hold-out: baseline and final RMSE on the cross-fitted training blocks."""
     if not ctx.strict:
         return None
-    cv = _compare(ctx, base, cur)
+    cv = compare_heldout(ctx, base, cur)
     return {"folds": len(ctx.folds), "baseline_rmse": float(np.sqrt(cv.mse_before)),
             "final_rmse": float(np.sqrt(cv.mse_after)),
             # % of the output range of the block rows (per unit RMSE)
@@ -1100,7 +859,7 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
         n2 = 2 * len(fit.structure.thresholds)
         r = shape_thresholds(fit.structure.shape, ctx.records, ctx.train, n2)  # w units
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
-        h = _compare(ctx, fit, f2)
+        h = compare_heldout(ctx, fit, f2)
         ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
         rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
                        "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
@@ -1218,40 +977,3 @@ def _cannot_win(held: dict[str, HeldOut], size_ok: dict[str, bool], needs_cf: se
     return {n for n in needs_cf if best_of_family[EFFECTS[n].family] < bound}
 
 
-def _score(ctx: FitContext, cur: Fit, new: Fit) -> float:
-    """LM statistic of the fitted effect direction (train rows, base partialled, HAC)."""
-    es, J, P = [], [], []
-    for k, (rec, p0, p1, m) in enumerate(zip(ctx.records, cur.pred, new.pred, ctx.train,
-                                               strict=True)):
-        step = max(1, int(m.sum() // 8000))
-        idx = np.flatnonzero(m)[::step]
-        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
-                           cur.structure.beta_s, cur.structure.shape)
-        es.append((rec.y - p0)[idx])
-        J.append(np.column_stack((B[idx], np.ones(idx.size))))
-        P.append((p1 - p0)[idx])
-    stat, _ = score_test(np.concatenate(es), np.concatenate(J), np.concatenate(P), lags=20)
-    return stat
-
-
-def _sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
-    """Does the residual trend after each step follow the sign of that step (creep) or not?"""
-    signs, trends = [], []
-    for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
-        e = rec.y - p
-        for st0 in c.step_starts:
-            st, n_hold = hold_after(c, int(st0), rec.dt)
-            if n_hold * rec.dt < 0.5:
-                continue
-            seg = e[st : st + n_hold]
-            lt = np.log(np.arange(1, n_hold + 1) * rec.dt)
-            slope = float(np.polyfit(lt, seg, 1)[0])
-            pre = rec.u[max(st - int(0.01 / rec.dt), 0)]
-            signs.append(float(np.sign(rec.u[st + n_hold - 1] - pre)))
-            trends.append(slope)
-    if len(signs) < 2:
-        return {"steps_with_hold": len(signs)}
-    s = np.asarray(signs)
-    tr = np.asarray(trends)
-    agree = float(np.mean(np.sign(tr) == s))
-    return {"steps_with_hold": len(signs), "trend_follows_step_sign": agree}

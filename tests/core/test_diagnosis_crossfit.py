@@ -7,7 +7,7 @@ import pytest
 
 from core.diagnosis import diagnose
 from core.diagnosis.data import crossfit_folds, wipeout_index
-from core.diagnosis.engine import _jackknife
+from core.diagnosis.crossfitting import block_jackknife
 from core.effects import Lag
 from core.recordings import Recording
 from tests.core.test_diagnosis import _records
@@ -46,7 +46,7 @@ def test_jackknife_of_a_mean_is_the_standard_error() -> None:
     x = np.array([1.0, 4.0, 2.5, 3.0, -1.0, 0.5])
     loo = [{"m": float(np.delete(x, k).mean()), "v": [float(np.delete(x, k).mean()), 2.0],
             "fixed": 7.0} for k in range(x.size)]
-    jk = _jackknife(loo)
+    jk = block_jackknife(loo)
     se = float(np.std(x, ddof=1) / np.sqrt(x.size))
     assert jk["m"] == pytest.approx(se, rel=1e-12)
     assert jk["v"] == pytest.approx([se, 0.0], abs=1e-12)

@@ -1,0 +1,171 @@
+"""What the recordings can test, and the evidence that separates look-alike effects.
+
+``untestable`` lists the effects the recordings cannot excite (with the reason and the
+experiment that would decide); ``discriminators`` (reversible/hysteretic split of the
+residual rate, g2/g1²), ``sign_locking`` (creep vs drift after holds) and ``score``
+(an LM score statistic of a candidate against the current model) feed the look-alike
+rules of the engine.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..fitting.thresholds import wipeout_index
+from .between import (
+    recording_rates,
+)
+from .context import FitContext
+from .locate import hold_after
+from .periodic import steady_state_history
+from .specs import (
+    EFFECTS,
+    spec_untestable,
+    time_effects,
+)
+from .stats import score_test
+from .structure import Fit
+
+
+def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
+    """Effects the recordings of ``ctx`` cannot excite, each ``{"name", "reason",
+    "experiment"}`` (the recording that would make it testable)."""
+    recs = ctx.records
+    untimed = [r.name for r in recs if not r.has_time]
+    if untimed:
+        why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
+               "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
+               "rate or frequency cannot be told apart from the loop itself")
+        out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
+                "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
+        out += [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
+    else:
+        out = _untestable_timed(ctx)
+    return out + spec_untestable(ctx, {u["name"] for u in out})
+
+
+def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
+    """The time-dependent rules (holds, rates, bandwidth) of :func:`untestable_effects`."""
+    out = []
+    recs = ctx.records
+    # creep: holds after steps (>= 0.5 s) inside the train or test rows
+    has_hold = False
+    for rec, c, tr, te in zip(recs, ctx.coords, ctx.train, ctx.test, strict=True):
+        use = tr | te
+        for st in c.step_starts:
+            h0, n_hold = hold_after(c, int(st), rec.dt)
+            if n_hold * rec.dt >= 0.5 and use[h0 : h0 + n_hold].any():
+                has_hold = True
+    if not has_hold:
+        out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
+                    "train/test rows", "experiment": EFFECTS["creep"].experiment})
+    total = sum(float(r.t[-1] - r.t[0]) for r in recs)
+    if total < 20.0 and len(recs) == 1:
+        out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
+                    "a slow drift from the model's bias",
+                    "experiment": EFFECTS["drift"].experiment})
+    # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
+    peaks = [p for ps in recording_rates(ctx) for p in ps]
+    if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
+        out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
+                    "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
+                    "told from rate-independent loop width",
+                    "experiment": EFFECTS["rate"].experiment})
+    if len(recs) < 2:
+        out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
+                    "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
+    steady = [r.name for r in recs if steady_state_history(r)]
+    if len(steady) == len(recs):
+        out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
+                    f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
+                    "repeated, the output already periodic, or a single closed loop): the "
+                    "memory at the first sample is the one the cycle leaves, and the model "
+                    "starts from it",
+                    "experiment": "a recording that starts before the first full sweep, from a "
+                    "known (e.g. demagnetised) state"})
+    elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
+                 for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
+        out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
+                    "input swept its full range, which wipes out the initial memory",
+                    "experiment": EFFECTS["initial-memory"].experiment})
+    return out
+
+
+def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
+    """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
+    rows_e, rows = [], []
+    for rec, p, x, m in zip(ctx.records, cur.pred, cur.x_pi, ctx.train, strict=True):
+        dx = np.gradient(x, rec.dt)
+        ddx = np.gradient(dx, rec.dt)
+        du = np.gradient(rec.u, rec.dt)
+        vrev = cur.p0 * du
+        vhys = dx - vrev
+        B = ctx.cache.bank(ctx.records.index(rec), rec, np.asarray(cur.structure.thresholds),
+                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s,
+                           cur.structure.shape)
+        step = max(1, int(m.sum() // 20000))
+        idx = np.flatnonzero(m)[::step]
+        rows_e.append((rec.y - p)[idx])
+        rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
+                                     ddx[idx])))
+    e = np.concatenate(rows_e)
+    X = np.concatenate(rows)
+    nb = X.shape[1] - 4
+    J0 = X[:, :nb]
+    Q, _ = np.linalg.qr(J0)
+
+    def part(a):
+        return a - Q @ (Q.T @ a)
+
+    er = part(e)
+    out: dict[str, Any] = {}
+    V = part(X[:, nb : nb + 2])
+    c = np.linalg.lstsq(V, er, rcond=None)[0]
+    out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
+    out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
+    G = part(X[:, nb + 2 :])
+    g = np.linalg.lstsq(G, er, rcond=None)[0]
+    out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
+    out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
+    return out
+
+
+def score_statistic(ctx: FitContext, cur: Fit, new: Fit) -> float:
+    """LM statistic of the fitted effect direction (train rows, base partialled, HAC)."""
+    es, J, P = [], [], []
+    for k, (rec, p0, p1, m) in enumerate(zip(ctx.records, cur.pred, new.pred, ctx.train,
+                                               strict=True)):
+        step = max(1, int(m.sum() // 8000))
+        idx = np.flatnonzero(m)[::step]
+        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
+                           cur.structure.beta_s, cur.structure.shape)
+        es.append((rec.y - p0)[idx])
+        J.append(np.column_stack((B[idx], np.ones(idx.size))))
+        P.append((p1 - p0)[idx])
+    stat, _ = score_test(np.concatenate(es), np.concatenate(J), np.concatenate(P), lags=20)
+    return stat
+
+
+def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
+    """Does the residual trend after each step follow the sign of that step (creep) or not?"""
+    signs, trends = [], []
+    for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
+        e = rec.y - p
+        for st0 in c.step_starts:
+            st, n_hold = hold_after(c, int(st0), rec.dt)
+            if n_hold * rec.dt < 0.5:
+                continue
+            seg = e[st : st + n_hold]
+            lt = np.log(np.arange(1, n_hold + 1) * rec.dt)
+            slope = float(np.polyfit(lt, seg, 1)[0])
+            pre = rec.u[max(st - int(0.01 / rec.dt), 0)]
+            signs.append(float(np.sign(rec.u[st + n_hold - 1] - pre)))
+            trends.append(slope)
+    if len(signs) < 2:
+        return {"steps_with_hold": len(signs)}
+    s = np.asarray(signs)
+    tr = np.asarray(trends)
+    agree = float(np.mean(np.sign(tr) == s))
+    return {"steps_with_hold": len(signs), "trend_follows_step_sign": agree}
