@@ -354,7 +354,8 @@ def solve_constrained(
     R = R * sgn[:, None]
     Rp = R[:p, :p]
     sv = np.linalg.svd(Rp, compute_uv=False)
-    cond = float((sv[0] / sv[-1]) ** 2) if sv[-1] > 0 else float("inf")
+    ratio = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    cond = ratio * ratio if ratio < 1e150 else float("inf")  # no overflow warning
     zb = R[nf:p, p]
     Rb = R[nf:p, nf:p]
     if p - nf > 0:
