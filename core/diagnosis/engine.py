@@ -734,14 +734,16 @@ def _lookalikes(ctx: FitContext, c: _Candidate, cands: dict[str, _Candidate],
 
     A runner-up is compared with the winner directly on held-out rows (strict hold-out: on
     the cross-fitted blocks; between recordings: on the left-out recordings). It is
-    ambiguous when it passed too (or, between recordings, met the effect-size rules: with
-    few folds a look-alike that failed only significance or fold agreement cannot be ruled
-    out) and explains nearly as much or is not significantly worse.
+    ambiguous when it passed too (or, between recordings or as a declared look-alike of
+    another family (:attr:`Effect.lookalikes`), met the effect-size rules: a look-alike that
+    failed only significance or fold agreement cannot be ruled out) and explains nearly as
+    much or is not significantly worse.
     """
     amb: list[str] = []
     runner: dict[str, Any] = {}
     for other, o in cands.items():
-        if other == c.name or o.family != c.family:
+        cross = other in EFFECTS[c.name].lookalikes  # declared look-alike of another family
+        if other == c.name or (o.family != c.family and not cross):
             continue
         if ctx.strict:
             if o.crossfit is None or c.crossfit is None:
@@ -755,7 +757,7 @@ def _lookalikes(ctx: FitContext, c: _Candidate, cands: dict[str, _Candidate],
         if not runner or oh.gain > runner.get("heldout_mse_reduction", -np.inf):
             runner = {"effect": other, "heldout_mse_reduction": oh.gain,
                       "z_best_vs_this": hh.z, "parameters": o.parameters}
-        if (other in passing or (o.between is not None and o.size_ok)) and (
+        if (other in passing or ((o.between is not None or cross) and o.size_ok)) and (
                 oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * c.heldout.gain or hh.z < 3.0):
             amb.append(other)
     return amb, runner

@@ -48,6 +48,12 @@ class Effect:
         memory does (a static output map, a loop-shape nonlinearity): with several
         recordings of one amplitude each, at different amplitudes, it is judged by
         predicting each recording from the others.
+    lookalikes : tuple of str
+        Effects of another family that the recordings may not separate from this one (an
+        offset per recording and a slow drift in absolute time, across recordings taken one
+        after the other): when this effect is chosen, such a candidate that meets the
+        effect-size rules and explains nearly as much is reported ambiguous with it, even if
+        it failed only the significance rule.
     """
 
     name: str
@@ -59,6 +65,7 @@ class Effect:
     between_recordings: bool = False
     untestable: str | None = None
     amplitude_dependent: bool = False
+    lookalikes: tuple[str, ...] = ()
 
 
 #: Every effect the diagnosis tests, in the order of the notes' catalogue.
@@ -138,6 +145,7 @@ EFFECTS: dict[str, Effect] = {
             'continuous across steps and independent of the step direction.'
         ),
         equation='y = x + sum_k a_k P_k(2 t / T - 1)  (Legendre polynomials)',
+        lookalikes=("offset",),
         experiment=(
             'a record of several minutes, or an identical 1 Hz reference cycle repeated '
             'every 60 s over >= 5 min'
@@ -202,6 +210,7 @@ EFFECTS: dict[str, Effect] = {
             'The sensor zero differs between recordings (an offset per recording).'
         ),
         equation='y = x + c_k  (one offset per recording)',
+        lookalikes=("drift",),
         experiment=(
             'several recordings (an offset per recording), or an independent zero reference'
         ),
@@ -289,6 +298,8 @@ DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
     "flattens both ends of every loop alike, an asymmetric map bends one side more)",
     frozenset({"dead-zone", "asymmetry"}): "loops of several amplitudes and offsets (a dead "
     "band stays at the same input level, an output map follows the output level)",
+    frozenset({"offset", "drift"}): "a zero-input hold at the start and the end of every "
+    "recording (an offset stays the same within a recording, a drift moves it)",
     frozenset({"creep", "drift"}): "an up-then-down staircase with holds of 3-30 s (creep follows "
     "the sign of the last step, drift does not)",
 }

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from core.diagnosis import diagnose
-from core.diagnosis.data import crossfit_folds, wipeout_index
 from core.diagnosis.crossfitting import block_jackknife
+from core.diagnosis.data import crossfit_folds, wipeout_index
 from core.effects import Lag
 from core.recordings import Recording
 from tests.core.test_diagnosis import _records

@@ -210,6 +210,24 @@ def test_weak_drift_is_not_named_creep(weak_drift) -> None:
     assert "creep" not in [f.name for f in res.effects]
     creep = next(r for r in res.rounds if r.round == 1 and r.effect == "creep")
     assert creep.decision == "contradicted" and "sign of the step" in creep.reasons[0]
+    # no wrong name: what is claimed is the drift or is reported ambiguous with it (an
+    # offset per recording explains as much of a slow drift as the drift itself here)
+    for f in res.effects:
+        assert f.name == "drift" or "drift" in f.ambiguous_with, (f.name, f.ambiguous_with)
+    assert all(a["experiment"].startswith("a zero-input hold") for a in res.ambiguous
+               if set(a["effects"]) == {"offset", "drift"})
+
+
+@pytest.mark.slow
+def test_without_the_offset_drift_lookalike_the_weak_drift_is_named_offset(
+        weak_drift, monkeypatch) -> None:
+    from dataclasses import replace
+
+    from core.diagnosis import specs
+
+    monkeypatch.setitem(specs.EFFECTS, "offset", replace(specs.EFFECTS["offset"], lookalikes=()))
+    res = diagnose(weak_drift)
+    assert [(f.name, f.ambiguous_with) for f in res.effects] == [("offset", [])]
 
 
 @pytest.mark.slow
