@@ -96,15 +96,15 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
 def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
     rows_e, rows = [], []
-    for rec, p, x, m in zip(ctx.records, cur.pred, cur.x_pi, ctx.train, strict=True):
+    for k, (rec, p, x, m) in enumerate(zip(ctx.records, cur.pred, cur.x_pi, ctx.train,
+                                           strict=True)):
         dx = np.gradient(x, rec.dt)
         ddx = np.gradient(dx, rec.dt)
         du = np.gradient(rec.u, rec.dt)
         vrev = cur.p0 * du
         vhys = dx - vrev
-        B = ctx.cache.bank(ctx.records.index(rec), rec, np.asarray(cur.structure.thresholds),
-                           cur.structure.history[ctx.records.index(rec)], cur.structure.beta_s,
-                           cur.structure.shape)
+        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds),
+                           cur.structure.history[k], cur.structure.beta_s, cur.structure.shape)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
         rows_e.append((rec.y - p)[idx])

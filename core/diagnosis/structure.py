@@ -201,11 +201,8 @@ class _Cache:
         key = (k, hist, beta, r.size, float(r[-1]), shape)
         B = self.d.get(key)
         if B is None:
-            u = rec.u if upto is None else rec.u[:upto]
-            if shape:
-                u = apply_shape(shape, u)
-            z0 = (play_bank(apply_shape(shape, np.asarray(hist)) if shape else np.asarray(hist),
-                            r)[1] if hist else np.zeros(r.size))
+            u = apply_shape(shape, rec.u if upto is None else rec.u[:upto])
+            z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
             if beta is None:
                 # [w, plays] in one pass: a play of threshold 0 outputs its input exactly
                 B = play_bank(u, np.r_[0.0, r], np.r_[0.0, z0])[0]
