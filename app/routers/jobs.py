@@ -18,9 +18,8 @@ from typing import Any, Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from .. import figures as F
-from ..data import diagnose_session, fit_session
 from ..schemas import FitIn
+from ..services import actions
 from ..services.jobs import Job, JobBusy, JobManager, Progress
 from ..services.sessions import Session
 from ..settings import Settings
@@ -48,10 +47,9 @@ def _need_recording(session: Session) -> None:
 def _fit_work(session: Session, body: FitIn) -> Any:
     def work(progress: Progress) -> dict[str, Any]:
         progress(0.05, f"fitting a {body.kind} model with {body.n} operators")
-        model, report = fit_session(session, body.n, body.kind, body.apply)
+        model, report = actions.fit(session, body.n, body.kind, apply=body.apply)
         progress(0.9, "building the figure")
-        rec = session.recording
-        fig = F.fit_figure(rec, model(rec.u), f"fitted {body.kind} (n={body.n})")
+        fig = actions.fit_figure(session.recording, model, f"fitted {body.kind} (n={body.n})")
         return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
     return work
 
@@ -63,7 +61,7 @@ def _diagnose_work(session: Session) -> Any:
         def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
             progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
 
-        return diagnose_session(session, report)
+        return actions.diagnose(session, report)
     return work
 
 
