@@ -245,6 +245,7 @@ def diagnose(
     adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
                       base.structure.free_weights, found=cur.structure.effects)
     crossval = _crossval(ctx, base, cur)
+    refit = _refit_everywhere(ctx, cur) if train is None and test is None else None
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
@@ -255,7 +256,15 @@ def diagnose(
         maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro_b, loro_final=loro_f,
-        crossval=crossval, adequacy=adequacy, between=run_.between)
+        crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit)
+
+
+def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:
+    """The selected structure refitted on every row (train and test blocks): the interleaved
+    test blocks served selection and scoring; the saved model uses all the data."""
+    every = [a | b for a, b in zip(ctx.train, ctx.test, strict=True)]
+    full = FitContext(ctx.records, every, [np.zeros_like(m) for m in every], parent=ctx)
+    return full.fit(cur.structure, cur)
 
 
 # ----------------------------------------------------------------------------- engine steps

@@ -229,11 +229,23 @@ class DiagnosisResult:
     adequacy: Adequacy | None = None
     #: which effects were judged by predicting each recording from the others, why not
     between: BetweenPlan | None = None
+    #: the final structure refitted on every row the user gave (train and test blocks of
+    #: the interleaved split, after selection, as a grid search refits its best estimator);
+    #: ``None`` with explicit windows (the test window is the user's own hold-out)
+    refit: Fit | None = None
+
+    @property
+    def saved_fit(self) -> Fit:
+        """The fit behind :attr:`model`: :attr:`refit` when there is one, else :attr:`final`."""
+        return self.refit if self.refit is not None else self.final
 
     @property
     def model(self) -> Model:
-        """The final extended model (as fitted to the first recording)."""
-        return self.final.models[0]
+        """The final extended model (as fitted to the first recording), refitted on every
+        row the user gave when no train/test windows were given (:attr:`refit`); the
+        held-out scores of the report are those of :attr:`final` (fitted on the training
+        rows only)."""
+        return self.saved_fit.models[0]
 
     @property
     def suggestive(self) -> list[dict[str, Any]]:
@@ -399,6 +411,10 @@ class DiagnosisResult:
                 "heldout_rmse_pct": 100 * f / yr,
                 "per_recording": self.per_recording(self.final),
                 "model": self.model.to_dict(),
+                "model_fitted_on": ("every row (the training and the test blocks), refitted "
+                                    "after selection; the held-out scores above are those of "
+                                    "the fit on the training blocks") if self.refit is not None
+                else "the training rows",
                 "maps": _jsonable(self.maps_after),
                 "leave_one_recording_out": _jsonable(self.loro_final),
             },
