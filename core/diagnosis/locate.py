@@ -16,7 +16,7 @@ from .._typing import Float1D
 from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
 
-__all__ = ["Coordinates", "coordinates", "hold_after", "residual_maps", "where_improved"]
+__all__ = ["Coordinates", "coordinates", "residual_maps", "where_improved"]
 
 
 class Coordinates:
@@ -57,18 +57,37 @@ class Coordinates:
             self.since_step = np.full(u.size, np.nan)
         self.hold = still
         self.tol = tol
+        self.holds = _holds_after_change(u, still, dt, span)
 
 
-def hold_after(c: Coordinates, st: int, dt: float, within_s: float = 0.02) -> tuple[int, int]:
-    """Start index and length (samples) of the hold that begins within ``within_s`` of ``st``."""
-    w = max(1, int(round(within_s / dt)))
-    seg = c.hold[st : st + w]
-    if not seg.any():
-        return st, 0
-    h0 = st + int(np.argmax(seg))
-    rest = c.hold[h0:]
-    n = int(np.argmax(~rest)) if (~rest).any() else int(rest.size)
-    return h0, n
+def _holds_after_change(u: Float1D, still: np.ndarray, dt: float, span: float,
+                        min_s: float = 0.5, moved: float = 0.02, settle: float = 0.005
+                        ) -> list[tuple[int, int, float]]:
+    """Holds of at least ``min_s`` seconds that follow an input change (a step or a ramp).
+
+    A hold is a run of still samples whose input stays within ``settle`` of the range from
+    its final value (a slow ramp sampled fast can look still: the hold starts where the
+    input has settled); it follows an input change when the input moved by more than
+    ``moved`` of its range since the previous hold (or the first sample). Returns
+    ``(start, length, sign of the change)`` per hold, the relaxation / creep test whatever
+    the shape of the change before it.
+    """
+    out: list[tuple[int, int, float]] = []
+    if u.size < 2:
+        return out
+    edges = np.flatnonzero(np.diff(np.r_[0, still.astype(np.int8), 0]))
+    prev = float(u[0])
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        seg = u[a:b]
+        off = np.abs(seg - seg[-1]) > settle * span
+        h0 = a + (int(np.flatnonzero(off)[-1]) + 1 if off.any() else 0)
+        n = int(b - h0)
+        change = float(u[h0]) - prev
+        if n * dt >= min_s and abs(change) > moved * span:
+            out.append((int(h0), n, float(np.sign(change))))
+        if n * dt >= min_s:
+            prev = float(u[b - 1])
+    return out
 
 
 def coordinates(records: Sequence[Recording]) -> list[Coordinates]:

@@ -18,7 +18,6 @@ from .between import (
     recording_rates,
 )
 from .context import FitContext
-from .locate import hold_after
 from .periodic import steady_state_history
 from .specs import (
     EFFECTS,
@@ -50,17 +49,15 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
     """The time-dependent rules (holds, rates, bandwidth) of :func:`untestable_effects`."""
     out = []
     recs = ctx.records
-    # creep: holds after steps (>= 0.5 s) inside the train or test rows
-    has_hold = False
-    for rec, c, tr, te in zip(recs, ctx.coords, ctx.train, ctx.test, strict=True):
-        use = tr | te
-        for st in c.step_starts:
-            h0, n_hold = hold_after(c, int(st), rec.dt)
-            if n_hold * rec.dt >= 0.5 and use[h0 : h0 + n_hold].any():
-                has_hold = True
+    # creep: holds (>= 0.5 s) after an input change (a step or a ramp: the creep /
+    # relaxation test) inside the train or test rows
+    has_hold = any((tr | te)[h0 : h0 + n].any()
+                   for c, tr, te in zip(ctx.coords, ctx.train, ctx.test, strict=True)
+                   for h0, n, _ in c.holds)
     if not has_hold:
-        out.append({"name": "creep", "reason": "no step followed by a hold of >= 0.5 s inside the "
-                    "train/test rows", "experiment": EFFECTS["creep"].experiment})
+        out.append({"name": "creep", "reason": "no hold of >= 0.5 s after an input change (a "
+                    "step or a ramp) inside the train/test rows",
+                    "experiment": EFFECTS["creep"].experiment})
     total = sum(float(r.t[-1] - r.t[0]) for r in recs)
     if total < 20.0 and len(recs) == 1:
         out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
@@ -153,16 +150,11 @@ def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     signs, trends = [], []
     for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
         e = rec.y - p
-        for st0 in c.step_starts:
-            st, n_hold = hold_after(c, int(st0), rec.dt)
-            if n_hold * rec.dt < 0.5:
-                continue
+        for st, n_hold, sign in c.holds:
             seg = e[st : st + n_hold]
             lt = np.log(np.arange(1, n_hold + 1) * rec.dt)
-            slope = float(np.polyfit(lt, seg, 1)[0])
-            pre = rec.u[max(st - int(0.01 / rec.dt), 0)]
-            signs.append(float(np.sign(rec.u[st + n_hold - 1] - pre)))
-            trends.append(slope)
+            signs.append(sign)
+            trends.append(float(np.polyfit(lt, seg, 1)[0]))
     if len(signs) < 2:
         return {"steps_with_hold": len(signs)}
     s = np.asarray(signs)

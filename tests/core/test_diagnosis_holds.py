@@ -1,0 +1,72 @@
+"""Holds after an input change (a step or a ramp) make creep testable (issue 16, failure 2):
+the ramp-and-hold relaxation test is the standard creep experiment."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.base import Chain
+from core.diagnosis import diagnose
+from core.diagnosis.locate import Coordinates
+from core.effects import Creep
+from core.pi import PIModel
+from core.recordings import Recording
+
+
+def _rec(t: np.ndarray, u: np.ndarray) -> Recording:
+    return Recording(t, u, u, "r")
+
+
+def test_holds_follow_steps_and_ramps_not_sines() -> None:
+    fs = 100.0
+    t = np.arange(0, 30, 1 / fs)
+    # ramp up over 4 s, hold 6 s, ramp down over 10 s (slow), hold to the end
+    u = np.interp(t, [0, 4, 10, 20, 30], [0, 2, 2, 0.5, 0.5])
+    holds = Coordinates(_rec(t, u)).holds
+    assert [(round(h0 / fs, 1), s) for h0, _, s in holds] == [(4.0, 1.0), (20.0, -1.0)]
+    assert holds[0][1] / fs >= 5.9
+    sine = Coordinates(_rec(t, np.sin(2 * np.pi * t))).holds
+    assert sine == []
+    # a step sampled fast
+    fs = 1000.0
+    t = np.arange(0, 3, 1 / fs)
+    u = np.where(t < 1, 0.0, np.where(t < 2, 1.0, 0.3))
+    assert [(round(h0 / fs, 2), s) for h0, _, s in Coordinates(_rec(t, u)).holds] == [
+        (1.0, 1.0), (2.0, -1.0)]
+
+
+def _relaxation_records(plant, seed: int = 0) -> list[Recording]:
+    """A ramp to a level in 4 s then a 10 min hold, plus load-unload ramps at three rates."""
+    rng = np.random.default_rng(seed)
+    recs = []
+    fs = 10.0
+    t = np.arange(0, 604, 1 / fs)
+    u = np.minimum(t / 4, 1.0) * 2.0
+    recs.append(Recording(t, u, plant(u, dt=1 / fs) + 0.003 * rng.standard_normal(t.size),
+                          "relax"))
+    for period in (2.0, 10.0, 50.0):
+        fs = 200 / period
+        t = np.arange(0, 3 * period, 1 / fs)
+        u = 2.0 * (1 - np.abs(((t / period) % 1) * 2 - 1))
+        recs.append(Recording(t, u, plant(u, dt=1 / fs) + 0.003 * rng.standard_normal(t.size),
+                              f"ramps {period:g} s"))
+    return recs
+
+
+def _pi() -> PIModel:
+    r = np.linspace(0.1, 1.8, 8)
+    return PIModel(0.3, r, 0.08 * np.exp(-r))
+
+
+def test_ramp_and_hold_relaxation_is_a_creep_test() -> None:
+    """Before: creep 'untestable: no step followed by a hold', offset and drift claimed."""
+    plant = Chain.of(_pi(), Creep([1.0, 10.0, 100.0], [0.05, 0.05, 0.05]))
+    res = diagnose(_relaxation_records(plant))
+    assert "creep" not in {u["name"] for u in res.untestable}
+    assert [e.name for e in res.effects][:1] == ["creep"]
+    assert "drift" not in [e.name for e in res.effects]
+
+
+def test_ramp_and_hold_without_creep_claims_nothing() -> None:
+    res = diagnose(_relaxation_records(_pi(), seed=3))
+    assert res.effects == []
