@@ -16,6 +16,14 @@ settings (``diagnose(records)``: interleaved train/test blocks). Scores per clas
 * **GC**: held-out gap closure against the oracle (true structure, true nonlinear
   parameters) where the oracle can be built (not for the loop-shape maps).
 
+The ``non-PI base`` class (:mod:`benchmarks.diagnosis.families`: Bouc-Wen, Preisach with a
+bias-dependent density, Duhem, Maxwell-slip, each with one hidden effect or none) runs only
+when asked for (``--families`` or ``--classes "non-PI base"``), not in the plain ``--quick``
+run. There a wrong name is an accepted dynamic/time effect that is not hidden (delay, lag,
+resonance, rate, creep, drift, offset, initial-memory); a loop-shape or memory name is the
+base-class difference. Every run also scores the **parameter recovery** of the hidden
+effects it found (``row["recovery"]``: found vs truth, reported 1-sigma, relative error).
+
 Loop-shape scenarios expect the names ``saturation`` / ``dead-zone`` (effect candidates added
 on another branch): until those exist the class scores misses, and the adequacy verdict
 (``adequate`` False: the residual stays above the noise floor) is the other thing checked.
@@ -28,6 +36,15 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.diagnosis.families import (
+    BASES,
+    FAMILY_EFFECTS,
+    RATE_BASES,
+    jsonable,
+    make_family,
+    parameter_recovery,
+    wrong_names_base,
+)
 from benchmarks.diagnosis.generator import (
     COMBOS,
     SHAPES,
@@ -42,10 +59,21 @@ from benchmarks.diagnosis.generator import (
 )
 from benchmarks.diagnosis.run_benchmark import PERIODIC_CLASSES
 
-__all__ = ["CLASSES", "jobs", "run_class_job", "summarise_classes"]
+__all__ = ["CLASSES", "FAMILY_CASES", "FAMILY_CLASS", "jobs", "recovery_table", "run_class_job",
+           "summarise_classes", "summarise_families"]
 
 #: Short periodic recordings: case -> (beta_s, frequencies); 3 cycles x 40 samples each.
 PERIODIC_CASES = PERIODIC_CLASSES
+
+#: Non-PI base families (``families.py``): ``base/effect/size`` (nulls ``base/null``).
+FAMILY_CASES: tuple[str, ...] = tuple(
+    f"{b}/null" for b in BASES) + tuple(
+    f"{b}/{e}/{sz}" for sz in ("large", "small") for b in BASES for e in FAMILY_EFFECTS
+    if e != "rate" or b in RATE_BASES)
+#: White noise of the family scenarios per noise name (fraction of the 100 um stroke).
+FAMILY_NOISE = {"white1": 0.002, "white2": 0.003, "coloured": 0.002}
+#: Class of the non-PI bases: nulls there may name a loop shape or memory, not a time effect.
+FAMILY_CLASS = "non-PI base"
 
 #: Class -> cases (the quick subset is the first entries of each, see :func:`jobs`).
 CLASSES: dict[str, tuple[str, ...]] = {
@@ -56,6 +84,7 @@ CLASSES: dict[str, tuple[str, ...]] = {
     "periodic": tuple(PERIODIC_CASES),
     "amplitudes": ("null, 4 amplitudes", "asymmetry, 4 amplitudes"),
     "loop shape": tuple(SHAPES),
+    FAMILY_CLASS: FAMILY_CASES,
 }
 
 #: Cases of the ``--quick`` subset (a few minutes on 2 cores).
@@ -67,6 +96,15 @@ QUICK: dict[str, tuple[str, ...]] = {
                  "rate (loop area +2/3)"),
     "amplitudes": ("asymmetry, 4 amplitudes",),
     "loop shape": tuple(SHAPES),
+    # only with --families / --classes "non-PI base" (not part of the plain --quick run)
+    FAMILY_CLASS: tuple(f"{b}/null" for b in BASES) + (
+        "preisach/creep/large", "preisach/delay/large", "preisach/resonance/large",
+        "preisach/rate/large", "bouc-wen-1/creep/large", "bouc-wen-1/delay/large",
+        "bouc-wen-1/resonance/large", "bouc-wen-2/creep/large", "bouc-wen-3/lag/large",
+        "duhem/creep/large", "duhem/resonance/large", "duhem/lag/large", "duhem/drift/large",
+        "maxwell-slip/creep/large", "maxwell-slip/delay/large", "maxwell-slip/resonance/large",
+        "maxwell-slip/drift/large", "preisach/lag/large", "preisach/drift/large",
+        "bouc-wen-1/creep/small", "bouc-wen-1/delay/small", "preisach/delay/small"),
 }
 
 
@@ -80,11 +118,14 @@ def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
         for cls, cases in table.items():
             if classes and cls not in classes:
                 continue
+            if cls == FAMILY_CLASS and not classes:
+                continue  # the non-PI class runs only when asked for
             for case in cases:
                 for nz in noises:
                     out.append((cls, case, nz, (200 if cls == "periodic" else
                                                 300 if cls == "amplitudes" else
-                                                0 if cls == "single recording" else 100) + s))
+                                                0 if cls == "single recording" else
+                                                500 if cls == FAMILY_CLASS else 100) + s))
     return out
 
 
@@ -106,6 +147,9 @@ def _scenario(cls: str, case: str, noise: str, seed: int) -> Scenario:
                                  seed=seed)
     if cls == "loop shape":
         return make_shape(case, noise, seed)
+    if cls == FAMILY_CLASS:
+        base, effect, size = (*case.split("/"), "large")[:3]
+        return make_family(base, effect, size, FAMILY_NOISE[noise], seed)
     raise ValueError(f"unknown class {cls!r}")
 
 
@@ -132,14 +176,17 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
     base, oracle = oracle_rmse(sc.records, None, n_ops, hidden=hidden)
     b, f = res.heldout_rmse(res.baseline), res.heldout_rmse(res.final)
     found = [e.name for e in res.effects]
+    claims = [{"name": e.name, "gain": float(e.heldout.gain), "z": float(e.heldout.z),
+               "sign_p": float(e.heldout.sign_p), "ambiguous_with": list(e.ambiguous_with),
+               "parameters": jsonable(e.parameters), "uncertainty": jsonable(e.uncertainty)}
+              for e in res.effects]
     return {
         "class": cls, "case": case, "noise": noise, "seed": seed,
         "id": f"{cls}/{case}/{noise}/{seed}",
         "hidden": list(hidden),
         "found": found,
-        "claims": [{"name": e.name, "gain": float(e.heldout.gain), "z": float(e.heldout.z),
-                    "sign_p": float(e.heldout.sign_p), "ambiguous_with": list(e.ambiguous_with)}
-                   for e in res.effects],
+        "claims": claims,
+        "recovery": parameter_recovery(claims, hidden),
         "suggestive": [g["effect"] for g in res.suggestive],
         "ambiguous": [list(a["effects"]) for a in res.ambiguous],
         "untestable": [u["name"] for u in res.untestable],
@@ -148,7 +195,8 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
         "rmse_base": b, "rmse_final": f,
         "rmse_oracle": oracle if oracle != base else None,
         "oracle_gain": (1 - oracle**2 / base**2) if oracle != base else None,
-        "extras": {k: v for k, v in sc.extras.items() if k != "hidden"},
+        "extras": jsonable({k: v for k, v in sc.extras.items() if k != "hidden"}),
+        "truth": jsonable(hidden),
         "elapsed_s": el,
     }
 
@@ -162,7 +210,11 @@ def _amb_with_hidden(r: dict[str, Any], name: str) -> bool:
 
 
 def wrong_names(r: dict[str, Any]) -> list[str]:
-    """Accepted effects that are not hidden and not reported ambiguous with a hidden one."""
+    """Accepted effects that are not hidden and not reported ambiguous with a hidden one; on
+    a non-PI base only dynamic/time effects count (a loop-shape or memory name is the base
+    difference, :func:`~benchmarks.diagnosis.families.wrong_names_base`)."""
+    if r["class"] == FAMILY_CLASS:
+        return wrong_names_base(r["found"], r["hidden"], lambda n: _amb_with_hidden(r, n))
     return [n for n in r["found"] if n not in r["hidden"] and not _amb_with_hidden(r, n)]
 
 
@@ -221,5 +273,68 @@ def summarise_classes(rows: list[dict[str, Any]]) -> str:
                          + (f"; wrong: {', '.join(wrong_names(r))}" if wrong_names(r) else "")
                          + (f"; suggestive: {', '.join(r['suggestive'])}" if r["suggestive"]
                             else ""))
+    fam = [r for r in rows if r["class"] == FAMILY_CLASS]
+    if fam:
+        lines += ["", summarise_families(fam)]
+    rec = recovery_table(rows)
+    if rec:
+        lines += ["", rec]
+    return "\n".join(lines)
+
+
+def _g(x: float | None) -> str:
+    return "-" if x is None else f"{x:.3g}"
+
+
+def recovery_table(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of the parameter recovery (found vs truth) of every run that found a
+    hidden effect with a comparable parameter (``row["recovery"]``)."""
+    out = []
+    for r in sorted(rows, key=lambda r: r["id"]):
+        for q in r.get("recovery", []):
+            out.append(f"| {r['id']} | {q['effect']} | {q['quantity']} | {_g(q['truth'])} | "
+                       f"{_g(q['found'])} | {_g(q['sigma'])} | "
+                       + (f"{100 * q['rel_err']:+.1f} %" if q["rel_err"] is not None else "-")
+                       + " | " + ({None: "-", True: "yes", False: "no"}[q["within"]]) + " |")
+    if not out:
+        return ""
+    return "\n".join(["Parameter recovery (found effects that are hidden; sigma: reported "
+                      "1-sigma uncertainty)", "",
+                      "| run | effect | quantity | truth | found | sigma | rel. error | "
+                      "within sigma |", "|---|---|---|---|---|---|---|---|"] + out)
+
+
+def summarise_families(rows: list[dict[str, Any]]) -> str:
+    """Per-run table of the non-PI base class: named effects, top-1, wrong names (dynamic or
+    time effects that are not hidden) and the found vs true parameters."""
+    lines = ["| base | effect | size | named (first to last) | top-1 | wrong name | "
+             "params found vs truth | adequate | s |", "|---|---|---|---|---|---|---|---|---|"]
+    n_eff = n_top = n_null = n_null_wrong = 0
+    for r in sorted(rows, key=lambda r: FAMILY_CASES.index(r["case"])
+                    if r["case"] in FAMILY_CASES else 999):
+        base, effect, size = (*r["case"].split("/"), "-")[:3]
+        top = bool(r["found"]) and r["found"][0] in r["hidden"]
+        wrong = wrong_names(r)
+        if r["hidden"]:
+            n_eff += 1
+            n_top += top
+        else:
+            n_null += 1
+            n_null_wrong += bool(wrong)
+        named = ", ".join(c["name"] + (f" (amb. {'/'.join(c['ambiguous_with'])})"
+                                       if c["ambiguous_with"] else "") for c in r["claims"])
+        if r["suggestive"]:
+            named += ("; " if named else "") + "suggestive: " + ", ".join(r["suggestive"])
+        pars = "; ".join(f"{q['quantity']} {_g(q['found'])}"
+                         + (f" ± {_g(q['sigma'])}" if q["sigma"] is not None else "")
+                         + f" vs {_g(q['truth'])} ({100 * q['rel_err']:+.0f} %)"
+                         for q in r.get("recovery", []) if q["rel_err"] is not None)
+        lines.append(f"| {base} | {effect} | {size} | {named or 'none'} | "
+                     + ("yes" if top else "no" if r["hidden"] else "-")
+                     + f" | {', '.join(wrong) or '-'} | {pars or '-'} | "
+                     + {None: "-", True: "yes", False: "no"}[r["adequate"]]
+                     + f" | {r['elapsed_s']:.0f} |")
+    lines += ["", f"non-PI bases: top-1 {n_top}/{n_eff} effect runs; nulls with a wrong "
+              f"(dynamic/time) name {n_null_wrong}/{n_null}"]
     return "\n".join(lines)
 

@@ -11,6 +11,8 @@ Usage::
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py --quick
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
         --classes all --seeds 3 --noise white1,coloured --json classes.json
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
+        --families [quick|all] --json families.json        # non-PI truth plants
 
 Scoring (notes §7.2, §7.6):
 
@@ -43,6 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 import numpy as np  # noqa: E402
 
 from benchmarks.diagnosis.dask_runner import executor  # noqa: E402
+from benchmarks.diagnosis.families import jsonable, parameter_recovery  # noqa: E402
 from benchmarks.diagnosis.generator import (  # noqa: E402
     EFFECTS,
     LEVEL_NAMES,
@@ -143,6 +146,10 @@ def run_one(args: tuple) -> dict:
                           for k, v in e.parameters.items()
                           if isinstance(v, (int, float, str))},
                "ambiguous_with": list(e.ambiguous_with)} for e in res.effects]
+    recovery = parameter_recovery(
+        [{"name": e.name, "parameters": jsonable(e.parameters),
+          "uncertainty": jsonable(e.uncertainty)} for e in res.effects],
+        {effect: sc.params} if effect else {})
     hidden_r1 = next(({"gain": _r(r["heldout_mse_reduction"]), "z": _r(r["dm_z"]),
                        "sign_p": _r(r["signed_rank_p"], 3), "passes": bool(r["passes"])}
                       for r in res.rounds if r.get("round") == 1 and r.get("effect") == effect),
@@ -159,6 +166,7 @@ def run_one(args: tuple) -> dict:
         "ambiguous": [a["effects"] for a in res.ambiguous],
         "claims": claims,
         "hidden_round1": hidden_r1,
+        "recovery": recovery,
         "n_operators": len(res.final.structure.thresholds),
         "rmse_base": b,
         "rmse_final": f,
@@ -303,6 +311,23 @@ def summarise(rows: list[dict]) -> str:
             lines.append(f"  {r.get('id', r['effect'])}: oracle {r['oracle_gain']:.3f}"
                          + (f", GC {g:.2f}" if g is not None and r["effect"] != "null" else "")
                          + f"; {cl}")
+    rec = [(r, q) for r in eff for q in r.get("recovery", [])]
+    if rec:
+        lines += ["", "Parameter recovery (runs that found the hidden effect; rel. error of the "
+                  "found parameter; within: |found - truth| <= reported 1-sigma)",
+                  f"{'effect':<15}{'level':<6}{'quantity':<13}{'found':>6}{'truth':>11}"
+                  f"{'median found':>14}{'med |rel err|':>15}{'max |rel err|':>15}"
+                  f"{'within/sigma':>14}"]
+        keys = dict.fromkeys((r["effect"], r["level"], q["quantity"]) for r, q in rec)
+        for e, lv, qn in sorted(keys, key=lambda k: (list(EFFECTS).index(k[0]), k[1], k[2])):
+            qs = [q for r, q in rec if (r["effect"], r["level"], q["quantity"]) == (e, lv, qn)]
+            errs = [abs(q["rel_err"]) for q in qs if q["rel_err"] is not None]
+            sig = [q for q in qs if q["within"] is not None]
+            lines.append(
+                f"{e:<15}{lv:<6}{qn:<13}{len(qs):>6}{qs[0]['truth']:>11.4g}"
+                f"{np.median([q['found'] for q in qs]):>14.4g}"
+                f"{_stat(np.median, errs):>15.3f}{_stat(np.max, errs):>15.3f}"
+                f"{_frac(sum(q['within'] for q in sig), len(sig)):>14}")
     lines += ["", f"diagnosis time per scenario: median "
               f"{np.median([r['elapsed_s'] for r in rows]):.1f} s"]
     return "\n".join(lines)
@@ -391,11 +416,17 @@ def main(argv: list[str] | None = None) -> int:
                     help="the quick subset of the issue-8 classes (two effects, weak effects, "
                          "single recording, short periodic recordings, loop shapes): a few "
                          "minutes")
+    ap.add_argument("--families", nargs="?", const="quick", choices=("quick", "all"),
+                    help="the non-PI base families (families.py: Bouc-Wen, Preisach, Duhem, "
+                         "Maxwell-slip x hidden effects): the quick subset (default, a few "
+                         "minutes) or all cases; with --seeds and --noise for 'all'")
     ap.add_argument("--classes", metavar="NAMES",
                     help="run the issue-8 classes (comma-separated names of "
                          "benchmarks/diagnosis/classes.py CLASSES, or 'all'); with --seeds "
                          "and --noise")
     a = ap.parse_args(argv)
+    if a.families:
+        a.classes, a.quick = "non-PI base", a.families == "quick"
     if a.quick or a.classes:
         return _run_classes(a)
     if a.periodic:

@@ -1,0 +1,619 @@
+"""Truth plants beyond the PI family for the missing-physics benchmark (notes §7.7, E10).
+
+Every plant of :mod:`benchmarks.diagnosis.generator` is a Prandtl–Ishlinskii model
+underneath; real actuators are not. This module adds base hysteresis families that the
+diagnosis' PI baseline cannot represent exactly, the recordings a user would have of them,
+the hidden effects of the benchmark applied after the base (``core.effects`` models), and
+the parameter-recovery score of a diagnosis against the truth.
+
+Base families (:data:`BASES`; input ``u`` in V over 0-150 V, output ``y`` in um, each scaled
+by its ``gain`` so that a 0 → 150 → 0 V sweep spans :data:`STROKE` = 100 um):
+
+``bouc-wen-1`` / ``-2`` / ``-3``
+    rate-independent Bouc-Wen, :class:`BoucWen` (three parameter sets: n = 1, 2, 1.5 and
+    different beta / gamma ratios).
+``preisach``
+    a relay bank with a density that depends on the bias (α + β)/2, :class:`Preisach`
+    (non-congruent minor loops, E10).
+``duhem``
+    the rate-independent Coleman–Hodgdon Duhem model, :class:`Duhem`.
+``maxwell-slip``
+    elasto-slide elements in parallel plus a spring, :class:`MaxwellSlip` (a saturating,
+    stop-type loop).
+
+Scenarios: :func:`make_family` ``(base, effect, size, noise, seed)`` → a
+:class:`~benchmarks.diagnosis.generator.Scenario` with four recordings (slow sines, fast
+sines, a decaying sine around mid range, an up-then-down staircase with holds; 68.5 k
+samples), white noise, and at most one hidden effect at size ``"large"`` or ``"small"``
+(:data:`FAMILY_EFFECTS`). Truth: ``scenario.params`` (the effect's parameters),
+``extras["hidden"]`` (effect name → parameters), ``extras["base"]`` / ``["base_params"]``.
+
+Scoring helpers: :func:`parameter_recovery` (found vs truth per parameter, with the reported
+1-sigma uncertainty), :func:`wrong_names_base` (names that are wrong on a non-PI base).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from benchmarks.diagnosis.generator import Scenario
+from core.base import Model
+from core.effects import Creep, Delay, Drift, Lag, Resonance
+from core.recordings import Recording
+
+__all__ = ["BASES", "FAMILY_EFFECTS", "SIZES", "STROKE", "TIME_EFFECTS", "BoucWen", "Duhem",
+           "MaxwellSlip", "Preisach", "family_signals", "make_base", "make_family",
+           "parameter_recovery", "recovery_quantities", "wrong_names_base"]
+
+U_MAX = 150.0  # V
+STROKE = 100.0  # um, of a 0 -> 150 -> 0 V sweep after scaling
+
+
+# ----------------------------------------------------------------------------- kernels
+@njit(cache=True)
+def _bw_rhs(z, s, alpha, beta, gamma, n):  # pragma: no cover - compiled
+    sz = s * z
+    sg = 1.0 if sz > 0.0 else (-1.0 if sz < 0.0 else 0.0)
+    return alpha - (beta * sg + gamma) * abs(z) ** n
+
+
+@njit(cache=True)
+def _bouc_wen_z(u, alpha, beta, gamma, n, h, z0):  # pragma: no cover - compiled
+    """z along the input path: RK4 in x with sub-steps of at most ``h`` input units."""
+    z = z0
+    out = np.empty(u.size)
+    out[0] = z
+    for k in range(1, u.size):
+        du = u[k] - u[k - 1]
+        if du != 0.0:
+            m = max(1, int(math.ceil(abs(du) / h)))
+            dx = du / m
+            s = 1.0 if du > 0.0 else -1.0
+            for _ in range(m):
+                k1 = _bw_rhs(z, s, alpha, beta, gamma, n)
+                k2 = _bw_rhs(z + 0.5 * dx * k1, s, alpha, beta, gamma, n)
+                k3 = _bw_rhs(z + 0.5 * dx * k2, s, alpha, beta, gamma, n)
+                k4 = _bw_rhs(z + dx * k3, s, alpha, beta, gamma, n)
+                z += dx * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+        out[k] = z
+    return out
+
+
+@njit(cache=True)
+def _relays(u, rate, alpha, beta, w, state):  # pragma: no cover - compiled
+    """Sum of w_i R_i[u] with relay i up (1) once u >= alpha_i + rate_k, down (0) once
+    u <= beta_i - rate_k (``rate`` = beta_s |du/dt|, zero for the rate-independent bank)."""
+    out = np.empty(u.size)
+    for k in range(u.size):
+        uk = u[k]
+        r = rate[k]
+        acc = 0.0
+        for i in range(alpha.size):
+            if uk >= alpha[i] + r:
+                state[i] = 1
+            elif uk <= beta[i] - r:
+                state[i] = 0
+            if state[i]:
+                acc += w[i]
+        out[k] = acc
+    return out
+
+
+@njit(cache=True)
+def _duhem(u, a, alpha, b0, b2, uc, ur, h, y0):  # pragma: no cover - compiled
+    """Coleman–Hodgdon dy/du = alpha sgn(du) (a u - y) + g(u), RK4 sub-steps in u."""
+    y = y0
+    out = np.empty(u.size)
+    out[0] = y
+    for k in range(1, u.size):
+        du = u[k] - u[k - 1]
+        if du != 0.0:
+            m = max(1, int(math.ceil(abs(du) / h)))
+            dx = du / m
+            s = 1.0 if du > 0.0 else -1.0
+            x = u[k - 1]
+            for _ in range(m):
+                c = (x - uc) / ur
+                k1 = s * alpha * (a * x - y) + b0 + b2 * c * c
+                xm = x + 0.5 * dx
+                cm = (xm - uc) / ur
+                gm = b0 + b2 * cm * cm
+                k2 = s * alpha * (a * xm - (y + 0.5 * dx * k1)) + gm
+                k3 = s * alpha * (a * xm - (y + 0.5 * dx * k2)) + gm
+                xe = x + dx
+                ce = (xe - uc) / ur
+                k4 = s * alpha * (a * xe - (y + dx * k3)) + b0 + b2 * ce * ce
+                y += dx * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+                x = xe
+        out[k] = y
+    return out
+
+
+@njit(cache=True)
+def _maxwell_slip(u, d, delta):  # pragma: no cover - compiled
+    """Element deflections: delta_i follows du until |delta_i| = d_i (then it slides)."""
+    out = np.empty((u.size, d.size))
+    for k in range(u.size):
+        du = u[k] - u[k - 1] if k > 0 else 0.0
+        for i in range(d.size):
+            v = delta[i] + du
+            if v > d[i]:
+                v = d[i]
+            elif v < -d[i]:
+                v = -d[i]
+            delta[i] = v
+            out[k, i] = v
+    return out
+
+
+# ----------------------------------------------------------------------------- base plants
+@dataclass
+class BoucWen:
+    """Rate-independent Bouc-Wen actuator ``y = gain (k u - c z)``.
+
+    The hysteretic variable follows the Bouc-Wen law written in the input, not in time,
+
+        dz/du = alpha - (beta sign(du z) + gamma) |z|^n,
+
+    integrated along the input path (RK4 with sub-steps of at most ``h_v`` V, so large input
+    increments such as the ramped steps of a staircase are integrated accurately); the output
+    therefore depends on the sequence of input values only (rate-independent). ``z``
+    saturates at ``(alpha / (beta + gamma))^(1/n)``; ``beta > |gamma|`` gives the usual
+    counter-clockwise piezo loop (``y`` below on the way up).
+
+    Parameters
+    ----------
+    k : float
+        Reversible slope (um/V before ``gain``).
+    c : float
+        Weight of the hysteretic variable (um/V before ``gain``).
+    alpha : float
+        Initial slope of z (dimensionless).
+    beta, gamma : float
+        Shape parameters (V^-n).
+    n : float
+        Smoothness exponent (dimensionless, >= 1).
+    gain : float
+        Output scale (dimensionless; :func:`make_base` sets it for a 100 um stroke).
+    h_v : float
+        Largest integration sub-step (V).
+    z0 : float
+        Initial hysteretic variable (V).
+    """
+
+    k: float
+    c: float
+    alpha: float
+    beta: float
+    gamma: float
+    n: float
+    gain: float = 1.0
+    h_v: float = 0.25
+    z0: float = 0.0
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        z = _bouc_wen_z(u, self.alpha, self.beta, self.gamma, self.n, self.h_v, self.z0)
+        return self.gain * (self.k * u - self.c * z)
+
+
+@dataclass
+class Preisach:
+    """General Preisach model: a bank of relays on a triangle grid plus a reversible term,
+
+        y = gain (k_rev u + sum_{alpha_i > beta_i} mu(alpha_i, beta_i) R_{alpha_i beta_i}[u]),
+
+    relay ``R`` switches up (1) when ``u >= alpha``, down (0) when ``u <= beta``, and keeps
+    its state in between (all relays down at the start: the virgin state at 0 V). The grid is
+    ``n_grid`` x ``n_grid`` cells over 0-150 V on each axis, one relay per cell below the
+    diagonal (4950 relays for 100) at a fixed random point of its cell (``grid_seed``), so
+    that the output has no visible steps where a whole row of relays would switch at once.
+    The density depends on the bias ``m = (alpha + beta) / 2`` and the half-width
+    ``r = (alpha - beta) / 2``,
+
+        mu = exp(-r / width_v) (floor + exp(-((m - bias_v) / bias_width_v)^2)),
+
+    centred off mid range, so minor loops of equal amplitude at different bias levels are
+    not congruent (a PI's density depends on ``r`` only; notes E10).
+
+    ``beta_s`` > 0 makes the relays rate-dependent (``alpha + beta_s |du/dt|`` up,
+    ``beta - beta_s |du/dt|`` down, the Preisach analogue of the benchmark's
+    ``RateDependentPI``; needs ``dt``); 0 is rate-independent.
+
+    Parameters
+    ----------
+    k_rev : float
+        Reversible slope (um/V before ``gain``).
+    hyst : float
+        Total relay weight (um before ``gain``; the weights are normalised to sum to it).
+    width_v, bias_v, bias_width_v : float
+        Density decay in the half-width, bias centre and bias width (V).
+    floor : float
+        Bias-independent part of the density (dimensionless).
+    n_grid : int
+        Grid cells per axis.
+    grid_seed : int
+        Seed of the relay positions inside their cells.
+    beta_s : float
+        Rate coefficient (s).
+    gain : float
+        Output scale (dimensionless).
+    """
+
+    k_rev: float = 0.5
+    hyst: float = 55.0
+    width_v: float = 25.0
+    bias_v: float = 45.0
+    bias_width_v: float = 40.0
+    floor: float = 0.25
+    n_grid: int = 100
+    grid_seed: int = 7
+    beta_s: float = 0.0
+    gain: float = 1.0
+
+    def grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(alpha, beta, weight)`` of every relay."""
+        h = U_MAX / self.n_grid
+        i, j = np.meshgrid(np.arange(self.n_grid), np.arange(self.n_grid), indexing="ij")
+        keep = i > j
+        # one relay per grid cell, at a fixed pseudo-random point of its cell (a stratified
+        # grid: rows of relays do not all switch at one input value)
+        jit = np.random.default_rng(self.grid_seed).uniform(0.0, 1.0, (2, int(keep.sum())))
+        a, b = (i[keep] + jit[0]) * h, (j[keep] + jit[1]) * h
+        r, m = (a - b) / 2, (a + b) / 2
+        mu = np.exp(-r / self.width_v) * (self.floor
+                                          + np.exp(-((m - self.bias_v) / self.bias_width_v) ** 2))
+        return a, b, self.hyst * mu / mu.sum()
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        a, b, w = self.grid()
+        if self.beta_s:
+            if dt is None:
+                raise ValueError("a rate-dependent Preisach needs dt")
+            rate = self.beta_s * np.abs(np.gradient(u, dt))
+        else:
+            rate = np.zeros(u.size)
+        y = _relays(u, rate, a, b, w, np.zeros(a.size, dtype=np.int8))
+        return self.gain * (self.k_rev * u + y)
+
+
+@dataclass
+class Duhem:
+    """Rate-independent Duhem model in the Coleman–Hodgdon form,
+
+        dy/du = alpha sgn(du) (a u - y) + g(u),   g(u) = b0 + b2 ((u - uc) / ur)^2,
+
+    integrated along the input path (RK4 sub-steps of at most ``h_v`` V), output
+    ``gain * y``. After a reversal the branch relaxes exponentially (rate ``alpha`` per volt)
+    towards the anhysteretic line shifted by ``±(a - g) / alpha``; minor loops need not close
+    (no wiping-out property), unlike a PI or Preisach model.
+
+    Parameters
+    ----------
+    a : float
+        Slope of the anhysteretic line (um/V before ``gain``).
+    alpha : float
+        Relaxation rate (1/V).
+    b0, b2 : float
+        Branch slope at ``uc`` and its quadratic increase towards ``uc ± ur`` (um/V).
+    uc, ur : float
+        Centre and half-range of the slope variation (V).
+    gain : float
+        Output scale (dimensionless).
+    h_v : float
+        Largest integration sub-step (V).
+    """
+
+    a: float = 1.0
+    alpha: float = 0.03
+    b0: float = 0.72
+    b2: float = 0.2
+    uc: float = 75.0
+    ur: float = 75.0
+    gain: float = 1.0
+    h_v: float = 0.25
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        y = _duhem(u, self.a, self.alpha, self.b0, self.b2, self.uc, self.ur, self.h_v,
+                   0.0)
+        return self.gain * y
+
+
+@dataclass
+class MaxwellSlip:
+    """Maxwell-slip friction model: N elasto-slide elements in parallel with a spring,
+
+        y = gain (k0 u + sum_i k_i delta_i),   d delta_i = du while |delta_i| < d_i,
+
+    element ``i`` (stiffness ``k_i``, slip force ``F_i = k_i d_i``) deflects with the input
+    until its deflection reaches ``±d_i`` and then slides. Each element is a stop operator,
+    so the loop saturates: after a reversal the tangent stiffness is ``k0 + sum k_i`` and it
+    drops to ``k0`` once every element slides (travel > ``2 max d_i``). In play form it is a
+    PI with *negative* play weights, outside the diagnosis' monotone PI.
+
+    Parameters
+    ----------
+    k0 : float
+        Parallel spring (um/V before ``gain``).
+    k : sequence of float
+        Element stiffnesses (um/V before ``gain``).
+    d : sequence of float
+        Slip deflections (V of input travel).
+    gain : float
+        Output scale (dimensionless).
+    """
+
+    k0: float = 0.45
+    k: tuple[float, ...] = (0.08, 0.07, 0.06, 0.05, 0.04, 0.035, 0.03, 0.025)
+    d: tuple[float, ...] = (3.0, 6.0, 10.0, 15.0, 21.0, 28.0, 36.0, 45.0)
+    gain: float = 1.0
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        d = np.asarray(self.d, dtype=np.float64)
+        dl = _maxwell_slip(u, d, np.zeros(d.size))
+        return self.gain * (self.k0 * u + dl @ np.asarray(self.k, dtype=np.float64))
+
+
+#: Base family name -> unscaled plant (``make_base`` scales it to a 100 um stroke).
+BASES: dict[str, Any] = {
+    "bouc-wen-1": lambda: BoucWen(k=1.0, c=0.4, alpha=1.0, beta=0.03, gamma=0.01, n=1.0),
+    "bouc-wen-2": lambda: BoucWen(k=1.0, c=0.3, alpha=1.0, beta=4e-4, gamma=-1e-4, n=2.0),
+    "bouc-wen-3": lambda: BoucWen(k=1.0, c=0.35, alpha=1.0, beta=0.004, gamma=0.002, n=1.5),
+    "preisach": lambda: Preisach(),
+    "duhem": lambda: Duhem(),
+    "maxwell-slip": lambda: MaxwellSlip(),
+}
+
+
+def _sweep() -> np.ndarray:
+    return np.concatenate((np.linspace(0, U_MAX, 601), np.linspace(U_MAX, 0, 601)[1:]))
+
+
+def make_base(name: str, **overrides: Any) -> Any:
+    """The base plant ``name`` of :data:`BASES` (``overrides`` replace its parameters), with
+    ``gain`` set so that a 0 → 150 → 0 V sweep spans :data:`STROKE` um."""
+    if name not in BASES:
+        raise ValueError(f"unknown base {name!r}; known: {', '.join(BASES)}")
+    p = BASES[name]()
+    for k, v in overrides.items():
+        setattr(p, k, v)
+    p.gain = 1.0
+    p.gain = STROKE / float(np.ptp(p(_sweep(), dt=1e-3)))
+    return p
+
+
+# ----------------------------------------------------------------------------- recordings
+def family_signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The four recordings ``(name, t, u)``: 68.5 k samples in all.
+
+    ``slow``: 3 cycles of a full-stroke 1 Hz cosine (0-150 V), 2 kHz, 3 s;
+    ``fast``: full-stroke cosines, 10 cycles at 20 Hz, 25 at 50 Hz, 50 at 100 Hz, 10 kHz, 1.5 s;
+    ``decaying``: a 1 Hz cosine around 75 V, amplitude 75 V e^(-t/3), 2.5 kHz, 8 s;
+    ``staircase``: 0 → 150 → 0 V in 30 V steps ramped over 5 ms, 2.5 s holds, 1 kHz, 27.5 s.
+    """
+    out = []
+    fs = 2000.0
+    t = np.arange(0, 3.0, 1 / fs)
+    out.append(("slow", t, 75.0 - 75.0 * np.cos(2 * np.pi * t)))
+    fs = 10000.0
+    segs = []
+    for f, cyc in ((20.0, 10), (50.0, 25), (100.0, 50)):
+        tt = np.arange(0, cyc / f, 1 / fs)
+        segs.append(75.0 - 75.0 * np.cos(2 * np.pi * f * tt))
+    u = np.concatenate(segs)
+    out.append(("fast", np.arange(u.size) / fs, u))
+    fs = 2500.0
+    t = np.arange(0, 8.0, 1 / fs)
+    out.append(("decaying", t, 75.0 - 75.0 * np.exp(-t / 3.0) * np.cos(2 * np.pi * t)))
+    fs = 1000.0
+    parts, prev = [], 0.0
+    for lv in (0, 30, 60, 90, 120, 150, 120, 90, 60, 30, 0):
+        parts.append(np.linspace(prev, lv, 6)[1:])
+        parts.append(np.full(int(2.5 * fs) - 5, float(lv)))
+        prev = float(lv)
+    u = np.concatenate(parts)
+    out.append(("staircase", np.arange(u.size) / fs, u))
+    return out
+
+
+# ----------------------------------------------------------------------------- hidden effects
+SIZES = ("large", "small")
+#: Creep lags (s) and the total creep fraction at size "large" (split equally).
+CREEP_TAUS = (0.005, 0.1, 5.0)
+
+#: Hidden effect -> size -> truth parameters. "small" is about a third of "large" (the
+#: resonance by its quasi-static error, which goes as (f / f_n)^2: f_n x sqrt(3)).
+FAMILY_EFFECTS: dict[str, dict[str, dict[str, Any]]] = {
+    "creep": {"large": {"taus_s": list(CREEP_TAUS), "weights": [0.02, 0.02, 0.02]},
+              "small": {"taus_s": list(CREEP_TAUS), "weights": [0.02 / 3] * 3}},
+    "delay": {"large": {"delay_s": 1e-3}, "small": {"delay_s": 1e-3 / 3}},
+    "lag": {"large": {"tau_s": 1e-3}, "small": {"tau_s": 1e-3 / 3}},
+    "resonance": {"large": {"freq_hz": 200.0, "damping": 0.05},
+                  "small": {"freq_hz": 200.0 * math.sqrt(3.0), "damping": 0.05}},
+    "rate": {"large": {"beta_s": 3e-4}, "small": {"beta_s": 1e-4}},
+    "drift": {"large": {"amplitude": 1.0}, "small": {"amplitude": 1.0 / 3}},
+}
+#: Bases for which a rate effect is meaningful (the relays' thresholds widen with rate, as the
+#: PI's plays do in ``RateDependentPI``); for the others ``rate`` is skipped.
+RATE_BASES = ("preisach",)
+
+
+def _effect_stage(effect: str, lv: dict[str, Any], t: np.ndarray,
+                  rng: np.random.Generator) -> Model:
+    if effect == "creep":
+        return Creep(lv["taus_s"], lv["weights"])
+    if effect == "delay":
+        return Delay(lv["delay_s"])
+    if effect == "lag":
+        return Lag(lv["tau_s"])
+    if effect == "resonance":
+        return Resonance(lv["freq_hz"], lv["damping"])
+    if effect == "drift":
+        span = float(t[-1] - t[0])
+        s = 2 * (t - t[0]) / span - 1
+        d = lv["amplitude"] * (0.5 * s + 0.3 * np.sin(1.3 * s + rng.uniform(0, 2)))
+        return Drift(np.polynomial.legendre.legfit(s, d, 4)[1:], span)
+    raise ValueError(f"unknown effect {effect!r}")
+
+
+def make_family(base: str, effect: str | None = None, size: str = "large",
+                noise: float = 0.002, seed: int = 0) -> Scenario:
+    """The four recordings of :func:`family_signals` through base family ``base`` followed by
+    one hidden ``effect`` (``None`` or ``"null"``: none) at ``size``.
+
+    ``noise`` is the white noise sigma as a fraction of the stroke (0.002: 0.2 um). The
+    noise depends on ``seed`` only (its own stream), the drift's wander phase on a second
+    stream. ``concealment_pct`` is the max |effect| over the slow and decaying recordings in
+    % of the stroke. ``extras``: ``hidden`` (name -> truth parameters), ``base``,
+    ``base_params``, ``size``, ``family_id`` (``base/effect/size/seed``).
+    """
+    effect = None if effect in (None, "null") else effect
+    if size not in SIZES:
+        raise ValueError(f"unknown size {size!r}; known: {', '.join(SIZES)}")
+    if effect is not None and effect not in FAMILY_EFFECTS:
+        raise ValueError(f"unknown effect {effect!r}; known: {', '.join(FAMILY_EFFECTS)}")
+    if effect == "rate" and base not in RATE_BASES:
+        raise ValueError(f"rate is not meaningful for base {base!r} (only {RATE_BASES})")
+    lv = dict(FAMILY_EFFECTS[effect][size]) if effect else {}
+    plant = make_base(base)
+    rng_noise = np.random.default_rng([seed, 0])
+    rng_drift = np.random.default_rng([seed, 1])
+    sigma = noise * STROKE
+    recs, truths, worst = [], [], 0.0
+    for name, t, u in family_signals():
+        dt = float(t[1] - t[0])
+        y0 = plant(u, dt=dt)
+        if effect == "rate":
+            p_rate = make_base(base, beta_s=lv["beta_s"])
+            p_rate.gain = plant.gain
+            y_clean = p_rate(u, dt=dt)
+            truths.append(p_rate)
+        elif effect:
+            stage = _effect_stage(effect, lv, t, rng_drift)
+            y_clean = stage(y0, dt=dt)
+            truths.append((plant, stage))
+        else:
+            y_clean = y0
+            truths.append(plant)
+        if name in ("slow", "decaying"):
+            worst = max(worst, float(np.max(np.abs(y_clean - y0))) / STROKE * 100)
+        y = y_clean + sigma * rng_noise.standard_normal(u.size)
+        recs.append(Recording(t, u, y, name))
+    base_params = {k: (list(v) if isinstance(v, tuple) else v)
+                   for k, v in asdict(plant).items()}
+    return Scenario(effect, f"white{100 * noise:g}%", seed, size if effect else "-", lv, recs,
+                    truths, worst,
+                    extras={"hidden": {effect: lv} if effect else {}, "base": base,
+                            "base_params": base_params, "size": size,
+                            "family_id": f"{base}/{effect or 'null'}/"
+                                         f"{size if effect else '-'}/{seed}"})
+
+
+# ----------------------------------------------------------------------------- scoring
+#: Dynamic / time effects: naming one that is not hidden is wrong on any base. Loop-shape
+#: names (saturation, dead-zone, asymmetry) and a level-dependent memory are the base-class
+#: difference and are not counted as wrong on a non-PI base.
+TIME_EFFECTS = ("delay", "lag", "resonance", "rate", "creep", "drift", "offset",
+                "initial-memory")
+
+
+def wrong_names_base(found: list[str], hidden: list[str],
+                     ambiguous_with_hidden: Any = None) -> list[str]:
+    """Accepted dynamic/time effects that are not hidden (and, with
+    ``ambiguous_with_hidden(name)``, not reported ambiguous with a hidden one)."""
+    return [n for n in found if n in TIME_EFFECTS and n not in hidden
+            and not (ambiguous_with_hidden is not None and ambiguous_with_hidden(n))]
+
+
+def _num(x: Any) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def recovery_quantities(effect: str, params: dict[str, Any],
+                        unc: dict[str, Any] | None = None
+                        ) -> dict[str, tuple[float | None, float | None]]:
+    """Comparable quantities of an effect, ``{quantity: (value, 1-sigma or None)}``.
+
+    delay ``delay_s``; lag ``tau_s``; resonance ``freq_hz`` and ``damping``; rate ``beta_s``;
+    creep ``creep_total`` = the sum of the lag weights (the fraction of a step that creeps;
+    its sigma from the diagnosis' ``gamma_per_decade`` sigma times the number of lags, or the
+    weights' sigmas in quadrature). Truth creep given as ``gamma`` per lag over the
+    generator's five lags is converted the same way.
+    """
+    unc = unc or {}
+    out: dict[str, tuple[float | None, float | None]] = {}
+    if effect == "creep":
+        w = params.get("weights")
+        if w is not None:
+            total = float(np.sum(w))
+            n = len(w)
+        elif "gamma" in params:  # generator truth: gamma per lag, five lags
+            n = 5
+            total = float(params["gamma"]) * n
+        else:
+            return out
+        s = _num(unc.get("gamma_per_decade"))
+        if s is not None and "gamma_per_decade" in params and "taus_s" in params:
+            s = s * len(params["taus_s"])
+        elif isinstance(unc.get("weights"), (list, tuple)):
+            s = float(np.sqrt(np.sum(np.square(unc["weights"]))))
+        else:
+            s = None
+        out["creep_total"] = (total, s)
+        return out
+    keys = {"delay": ("delay_s",), "lag": ("tau_s",), "resonance": ("freq_hz", "damping"),
+            "rate": ("beta_s",)}.get(effect, ())
+    for k in keys:
+        if k in params:
+            out[k] = (_num(params[k]), _num(unc.get(k)))
+    return out
+
+
+def parameter_recovery(claims: list[dict[str, Any]], hidden: dict[str, dict[str, Any]]
+                       ) -> list[dict[str, Any]]:
+    """One row per parameter of every accepted effect that is hidden: ``effect``,
+    ``quantity``, ``truth``, ``found``, ``sigma`` (the reported 1-sigma or None),
+    ``rel_err`` = (found - truth) / truth, ``within`` = |found - truth| <= sigma (None
+    without a sigma). ``claims``: dicts with ``name``, ``parameters``, ``uncertainty``."""
+    rows = []
+    for c in claims:
+        name = c["name"]
+        if name not in hidden:
+            continue
+        truth = recovery_quantities(name, hidden[name])
+        found = recovery_quantities(name, c.get("parameters") or {}, c.get("uncertainty"))
+        for q, (tv, _) in truth.items():
+            fv, s = found.get(q, (None, None))
+            if tv is None or fv is None:
+                continue
+            rows.append({"effect": name, "quantity": q, "truth": tv, "found": fv, "sigma": s,
+                         "rel_err": (fv - tv) / tv if tv else None,
+                         "within": None if s is None else bool(abs(fv - tv) <= s)})
+    return rows
+
+
+def jsonable(x: Any) -> Any:
+    """Numbers, lists and dicts of ``x`` as plain JSON types (numpy converted)."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return float(x)
+    if isinstance(x, (np.integer, int)) and not isinstance(x, bool):
+        return int(x)
+    if isinstance(x, (str, bool)) or x is None:
+        return x
+    return str(x)

@@ -1,0 +1,122 @@
+"""The non-PI truth plants of benchmarks/diagnosis/families.py against independent
+properties (rate independence, wiping out, non-congruent minor loops, closing loops,
+saturating stiffness) and the parameter-recovery score."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.diagnosis.families import (
+    BASES,
+    STROKE,
+    make_base,
+    make_family,
+    parameter_recovery,
+    wrong_names_base,
+)
+from benchmarks.diagnosis.generator import truth_pi
+
+
+def _path(nodes: list[float], per_volt: float) -> np.ndarray:
+    """Piecewise-linear input through ``nodes`` (every reversal is a sample)."""
+    parts = [np.array([nodes[0]])]
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        n = max(1, round(abs(b - a) * per_volt))
+        parts.append(np.linspace(a, b, n + 1)[1:])
+    return np.concatenate(parts)
+
+
+NODES = [0.0, 120.0, 30.0, 100.0, 50.0, 150.0, 10.0, 80.0, 60.0]
+
+
+@pytest.mark.parametrize("name", list(BASES))
+def test_rate_independent_and_scaled(name: str) -> None:
+    p = make_base(name)
+    coarse, fine = _path(NODES, 0.5), _path(NODES, 1.0)
+    assert fine.size == 2 * coarse.size - 1  # fine = coarse with a sample between each pair
+    y_c, y_f = p(coarse, dt=1e-3), p(fine, dt=1e-3)
+    np.testing.assert_allclose(y_f[::2], y_c, atol=1e-3)  # um, on a 100 um stroke
+    # the time step does not matter either (rate-independent)
+    np.testing.assert_allclose(p(coarse, dt=1e-5), y_c, atol=1e-12)
+    sweep = np.concatenate((np.linspace(0, 150, 301), np.linspace(150, 0, 301)))
+    assert np.ptp(p(sweep)) == pytest.approx(STROKE, rel=1e-6)
+
+
+def test_preisach_wiping_out_and_non_congruent_minor_loops() -> None:
+    p = make_base("preisach")
+    # wiping out: 90 V erases the 80 / 50 V reversal pair
+    a = p(_path([0.0, 100.0, 30.0, 80.0, 50.0, 90.0], 4.0))
+    b = p(_path([0.0, 100.0, 30.0, 90.0], 4.0))
+    assert a[-1] == pytest.approx(b[-1], abs=1e-12)
+    c = p(_path([0.0, 100.0, 30.0, 80.0, 50.0, 75.0], 4.0))
+    assert abs(c[-1] - p(_path([0.0, 100.0, 30.0, 75.0], 4.0))[-1]) > 1e-3  # 75 < 80: kept
+
+    def minor_height(plant, bias: float) -> float:
+        u = _path([0.0, 150.0, bias + 15, bias - 15, bias + 15, bias - 15, bias + 15], 4.0)
+        y = plant(u)
+        bottom = u.size - 1 - 120  # the last reversal (30 V at 4 samples per volt)
+        assert u[bottom] == pytest.approx(bias - 15)
+        return float(y[-1] - y[bottom])  # height of the last ascending minor branch
+
+    lo, hi = minor_height(p, 40.0), minor_height(p, 110.0)
+    assert abs(lo - hi) / max(lo, hi) > 0.1  # bias-dependent density: not congruent
+    pi = truth_pi()  # control: the PI's minor loops of equal amplitude are congruent
+    assert minor_height(pi, 40.0) == pytest.approx(minor_height(pi, 110.0), rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["bouc-wen-1", "bouc-wen-2", "bouc-wen-3"])
+def test_bouc_wen_loop_closes_on_periodic_input(name: str) -> None:
+    p = make_base(name)
+    n = 400
+    u = 75.0 - 75.0 * np.cos(2 * np.pi * np.arange(6 * n + 1) / n)
+    y = p(u)
+    assert np.max(np.abs(y[5 * n:] - y[4 * n:5 * n + 1])) < 1e-3 * STROKE  # closed
+    assert abs(y[5 * n + n // 4] - y[5 * n + 3 * n // 4]) > 0.05 * STROKE  # hysteretic
+
+
+def test_maxwell_slip_stiffness_drops_after_all_elements_slip() -> None:
+    p = make_base("maxwell-slip")
+    u = np.concatenate((np.linspace(0, 150, 1501), np.linspace(150, 0, 1501)[1:]))
+    y = p(u)
+    down = np.diff(y[1500:]) / np.diff(u[1500:])  # tangent stiffness on the way down
+    k_all, k_slid = p.gain * (p.k0 + sum(p.k)), p.gain * p.k0
+    assert down[0] == pytest.approx(k_all, rel=1e-9)  # every element sticks after reversal
+    assert down[-1] == pytest.approx(k_slid, rel=1e-9)  # all slide after 2 max(d) travel
+    assert np.all(np.diff(down) <= 1e-12)  # monotone softening: a saturating branch
+    # travel beyond 2 * max(d): stiffness stays at k0
+    assert np.allclose(down[int(20 * 2 * max(p.d)):], k_slid)
+
+
+def test_family_scenario_and_recovery_score() -> None:
+    sc = make_family("duhem", "delay", "large", seed=3)
+    assert [r.name for r in sc.records] == ["slow", "fast", "decaying", "staircase"]
+    assert 60_000 <= sum(r.y.size for r in sc.records) <= 80_000
+    assert sc.extras["hidden"] == {"delay": {"delay_s": 1e-3}}
+    assert sc.extras["base"] == "duhem"
+    again = make_family("duhem", "delay", "large", seed=3)
+    assert np.array_equal(sc.records[1].y, again.records[1].y)
+    null = make_family("duhem", None, seed=3)
+    diff = sc.records[3].y - null.records[3].y
+    assert np.median(np.abs(diff)) == 0.0  # same noise; the delay is zero during the holds
+    rec = parameter_recovery(
+        [{"name": "creep", "parameters": {"taus_s": [0.01, 1.0], "weights": [0.03, 0.02],
+                                          "gamma_per_decade": 0.025},
+          "uncertainty": {"gamma_per_decade": 0.004}},
+         {"name": "lag", "parameters": {"tau_s": 1e-3}}],
+        {"creep": {"taus_s": [0.005, 0.1, 5.0], "weights": [0.02] * 3}})
+    assert len(rec) == 1 and rec[0]["quantity"] == "creep_total"
+    assert rec[0]["found"] == pytest.approx(0.05) and rec[0]["sigma"] == pytest.approx(0.008)
+    assert rec[0]["rel_err"] == pytest.approx(-1 / 6) and rec[0]["within"] is False
+    assert wrong_names_base(["saturation", "lag", "creep"], ["creep"]) == ["lag"]
+
+
+def test_family_class_runs_only_when_asked_for() -> None:
+    from benchmarks.diagnosis.classes import FAMILY_CASES, FAMILY_CLASS, QUICK, jobs
+
+    assert all(j[0] != FAMILY_CLASS for j in jobs(True))  # the plain --quick is unchanged
+    fam = jobs(True, classes=(FAMILY_CLASS,))
+    assert len(fam) == len(QUICK[FAMILY_CLASS]) and {j[3] for j in fam} == {500}
+    assert set(QUICK[FAMILY_CLASS]) <= set(FAMILY_CASES)
+    assert not any(c.split("/")[1] == "rate" and not c.startswith("preisach")
+                   for c in FAMILY_CASES)
