@@ -42,7 +42,7 @@ import numpy as np
 
 from .stats import HeldOut
 
-__all__ = ["RULE", "AcceptRule", "Decision", "decide", "earns_place", "size_ok",
+__all__ = ["RULE", "AcceptRule", "Decision", "decide", "earns_place", "generalises", "size_ok",
            "split_supports_transport", "trend_follows_steps"]
 
 
@@ -72,6 +72,10 @@ class AcceptRule:
     min_sign_locking : float
         Smallest share of holds whose residual trend follows the preceding step's sign, for
         creep.
+    max_loro_loss : float
+        With several recordings (no windows), largest relative worsening of the
+        leave-one-recording-out MSE an accepted effect may cause; beyond it the effect is
+        recording-specific, not physics (:func:`generalises`).
     """
 
     min_gain: float = 0.05
@@ -83,6 +87,7 @@ class AcceptRule:
     outside_worse: float = 1.25
     min_rev_share: float = 0.15
     min_sign_locking: float = 0.80
+    max_loro_loss: float = 0.05
 
     def as_dict(self) -> dict[str, float]:
         """The thresholds by name."""
@@ -211,6 +216,14 @@ def split_supports_transport(a_rev_s: float, a_hys_s: float, rule: AcceptRule = 
     if not (np.isfinite(a_rev_s) and np.isfinite(a_hys_s)) or a_hys_s == 0.0:
         return True  # no hysteretic rate term to compare with: nothing contradicts it
     return a_rev_s / a_hys_s >= rule.min_rev_share
+
+
+def generalises(loro_mse_reduction: float | None, rule: AcceptRule = RULE) -> bool:
+    """Rule 8: an accepted effect must not make the prediction of unseen recordings worse:
+    its leave-one-recording-out MSE reduction (each recording predicted by the structure
+    refitted on the others, with and without the effect) is at least ``-max_loro_loss``.
+    ``None`` (one recording, or explicit windows) cannot contradict it."""
+    return loro_mse_reduction is None or loro_mse_reduction >= -rule.max_loro_loss
 
 
 def trend_follows_steps(share: float | None, holds: int, rule: AcceptRule = RULE) -> bool:

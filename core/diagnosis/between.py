@@ -24,11 +24,20 @@ from .candidates import build_candidate
 from .context import FitContext
 from .periodic import steady_state_history
 from .stats import HeldOut, heldout_comparison
-from .structure import Fit, Structure, build_model, fit_structure
+from .structure import Fit, Structure, _legendre_cols, build_model, fit_structure
 
-__all__ = ["LORO_RULE", "NONLINEAR_PARAMS", "BetweenPlan", "amplitudes_differ", "between_plan",
-           "between_recordings", "leave_one_recording_out", "recording_amplitudes",
+__all__ = ["LORO_RULE", "NONLINEAR_PARAMS", "SHARED_RULE", "BetweenPlan", "amplitudes_differ",
+           "between_plan", "between_recordings", "leave_one_recording_out", "recording_amplitudes",
            "recording_rates", "rates_differ"]
+
+#: The leave-one-recording-out variant that judges whether a per-recording effect (an offset,
+#: a drift) generalises (acceptance rule 8): its values cannot be known for an unseen
+#: recording, so every structure compared gets the left-out recording's own level.
+SHARED_RULE = (
+    "each recording in turn is predicted by the structure refitted on the other recordings, "
+    "with its own level (offset and a drift of the same degree, fitted on its own rows) for "
+    "every structure compared alike: only what the recordings share is judged"
+)
 
 #: Per-recording excitation rates must span this factor for a between-recordings test.
 MIN_RATE_RATIO = 1.5
@@ -176,9 +185,15 @@ def _others(ctx: FitContext, j: int) -> list[np.ndarray]:
             for k, (r, tr, te) in enumerate(zip(ctx.records, ctx.train, ctx.test, strict=True))]
 
 
-def left_out_residual(ctx: FitContext, s: Structure, j: int) -> Float1D:
+def left_out_residual(ctx: FitContext, s: Structure, j: int,
+                      own_level: int | None = None) -> Float1D:
     """Residual on every row of recording ``j`` of structure ``s`` refitted (linear weights)
-    on the train and test rows of the other recordings (rule: :data:`LORO_RULE`)."""
+    on the train and test rows of the other recordings (rule: :data:`LORO_RULE`).
+
+    With ``own_level`` (a Legendre degree, 0 = a constant), the level of recording ``j`` (its
+    own offset and a drift of that degree in time) is fitted on its own rows instead, for
+    every structure alike: what is compared is then only the shared part of the model
+    (:data:`SHARED_RULE`)."""
     recs = ctx.records
     rec = recs[j]
     # a periodic steady-state recording keeps the memory its own cycle leaves
@@ -192,11 +207,19 @@ def left_out_residual(ctx: FitContext, s: Structure, j: int) -> Float1D:
     drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
     model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
                         f.creep_weights, bias, drift, rec)
-    return rec.y - model(rec.u, dt=rec.dt)
+    e = rec.y - model(rec.u, dt=rec.dt)
+    if own_level is None:
+        return e
+    X = np.ones((rec.n_samples, 1))
+    if own_level > 0:
+        X = np.column_stack((X, _legendre_cols(rec.t, own_level)))
+    return e - X @ np.linalg.lstsq(X, e, rcond=None)[0]
 
 
-def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
-    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`).
+def leave_one_recording_out(ctx: FitContext, s: Structure, own_level: int | None = None
+                            ) -> dict[str, Any]:
+    """Leave-one-recording-out score of structure ``s`` (rule: :data:`LORO_RULE`; with
+    ``own_level``, :data:`SHARED_RULE`, see :func:`left_out_residual`).
 
     Returns
     -------
@@ -211,7 +234,7 @@ def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
     sse = 0.0
     n_all = 0
     for j, rec in enumerate(recs):
-        e = left_out_residual(ctx, s, j)
+        e = left_out_residual(ctx, s, j, own_level)
         ej = float(e @ e)
         sse += ej
         n_all += rec.n_samples
@@ -219,7 +242,8 @@ def leave_one_recording_out(ctx: FitContext, s: Structure) -> dict[str, Any]:
         per.append({"recording": rec.name, "samples": rec.n_samples, "rmse": rm,
                     "rmse_pct": 100 * rm / yr})
     rmse = float(np.sqrt(sse / max(n_all, 1)))
-    return {"rule": LORO_RULE, "rmse": rmse, "rmse_pct": 100 * rmse / yr, "per_recording": per}
+    return {"rule": LORO_RULE if own_level is None else SHARED_RULE, "rmse": rmse,
+            "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
 def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] | None:

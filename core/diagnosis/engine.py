@@ -57,6 +57,7 @@ from .acceptance import (
     Decision,
     decide,
     earns_place,
+    generalises,
     split_supports_transport,
     trend_follows_steps,
 )
@@ -81,7 +82,14 @@ from .data import as_records, crossfit_folds, split_masks
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
-from .results import ACCEPT_RULE, DiagnosisResult, EffectFinding, RoundRow, pooled_mse
+from .results import (
+    ACCEPT_RULE,
+    DiagnosisResult,
+    EffectFinding,
+    RecordingSpecific,
+    RoundRow,
+    pooled_mse,
+)
 from .shapes import shape_thresholds
 from .specs import (
     DECIDING_EXPERIMENT,
@@ -240,6 +248,9 @@ def diagnose(
                                           if run_.findings else ""))
     loro_b, loro_f = (_loro_scores(ctx, base, cur, run_.findings)
                       if len(records) >= 2 and train is None and test is None else (None, None))
+    specific: list[RecordingSpecific] = []
+    if loro_b is not None:
+        cur, loro_f, specific = _drop_recording_specific(run_, base, cur, loro_b, loro_f)
     say(0.92, "judging the base model against the noise floor")
     tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
     adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
@@ -256,7 +267,8 @@ def diagnose(
         maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro_b, loro_final=loro_f,
-        crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit)
+        crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit,
+        recording_specific=specific)
 
 
 def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:
@@ -848,6 +860,61 @@ def _loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFind
                                          strict=True)]}
         prev = lo
     return loro_b, loro_f
+
+
+def _drop_recording_specific(run: _Run, base: Fit, cur: Fit, loro_b: dict[str, Any],
+                             loro_f: dict[str, Any]
+                             ) -> tuple[Fit, dict[str, Any], list[RecordingSpecific]]:
+    """Acceptance rule 8 (:func:`~core.diagnosis.acceptance.generalises`): an accepted effect
+    whose leave-one-recording-out MSE gets worse explains the recordings it was fitted on but
+    not unseen ones. It is taken out of the findings and the final model (refitted without
+    it) and reported as recording-specific with the numbers; look-alike notes that chose it
+    go with it. Returns the final fit, its leave-one-recording-out score and the list."""
+    ctx = run.ctx
+    drop: list[tuple[EffectFinding, dict[str, Any]]] = []
+    prev = base.structure
+    for f in run.findings:
+        lo, st = f.loro, f.structure
+        if lo is not None and st is not None and (
+                st.offsets != prev.offsets or st.drift_degree != prev.drift_degree):
+            # a per-recording level (offset, drift) cannot be known for an unseen recording:
+            # judge what it does to the shared part, each left-out recording with its own level
+            a = leave_one_recording_out(ctx, prev, st.drift_degree)
+            b = leave_one_recording_out(ctx, st, st.drift_degree)
+            lo = {"rule": a["rule"], "rmse_before": a["rmse"], "rmse_after": b["rmse"],
+                  "mse_reduction": 1.0 - b["rmse"] ** 2 / max(a["rmse"] ** 2, 1e-300),
+                  "per_recording": [{"recording": x["recording"], "rmse_before": x["rmse"],
+                                     "rmse_after": y["rmse"]}
+                                    for x, y in zip(a["per_recording"], b["per_recording"],
+                                                    strict=True)]}
+            f.loro = dict(f.loro or {}, shared=lo)
+        if lo is not None and not generalises(lo["mse_reduction"]):
+            drop.append((f, lo))
+        prev = st if st is not None else prev
+    if not drop:
+        return cur, loro_f, []
+    s = cur.structure
+    out = []
+    for f, lo in drop:
+        s = s.without(f.name, base.structure)
+        worse = (lo["rmse_after"] / max(lo["rmse_before"], 1e-300)) ** 2
+        per = (" (one per recording: it differs between the recordings)"
+               if f.name in ("offset", "drift") else "")
+        out.append(RecordingSpecific(
+            f.name, dict(f.parameters), float(lo["mse_reduction"]), float(lo["rmse_before"]),
+            float(lo["rmse_after"]), tuple(lo.get("per_recording", ())),
+            f"{f.name}{per} improved the recordings it was fitted on, but predicting each "
+            f"recording from the others with it is {worse:.3g} times worse in MSE "
+            f"(leave-one-recording-out {-100 * lo['mse_reduction']:+.0f} %): it does not "
+            "generalise, so it is specific to these recordings (or stands in for a misfit "
+            "of the base model), not claimed as physics and not in the final model"))
+    names = {f.name for f, _ in drop}
+    run.findings[:] = [f for f in run.findings if f.name not in names]
+    run.ambiguous[:] = [a for a in run.ambiguous if a.get("chosen") not in names]
+    cur = ctx.fit(s, cur)
+    lo = loro_b if s == base.structure else leave_one_recording_out(ctx, s)
+    loro_f = dict(lo, mse_reduction=1.0 - lo["rmse"] ** 2 / max(loro_b["rmse"] ** 2, 1e-300))
+    return cur, loro_f, out
 
 
 def _crossval(ctx: FitContext, base: Fit, cur: Fit) -> dict[str, Any] | None:

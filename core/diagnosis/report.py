@@ -36,7 +36,9 @@ def summary_text(res: DiagnosisResult) -> str:
         lines.append("No missing physics detected: no effect improved the held-out fit "
                      "significantly, and the residual is at the noise floor.")
     elif not res.effects:
-        lines.append("No effect of the list improved the held-out fit significantly.")
+        lines.append("No effect of the list improved the held-out fit significantly"
+                     + (" and generalised to unseen recordings." if res.recording_specific
+                        else "."))
     for i, e in enumerate(res.effects, 1):
         ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
                                             if e.uncertainty.get(k) is not None else "")
@@ -103,7 +105,13 @@ def summary_text(res: DiagnosisResult) -> str:
                      f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
                      f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
                      "acceptance rule)")
-    shown = {sg["effect"] for sg in res.suggestive} | {e.name for e in res.effects}
+    for rs in res.recording_specific:
+        per = ", ".join(f"{p['recording']} {p['rmse_before']:.4g} -> {p['rmse_after']:.4g}"
+                        for p in rs.per_recording)
+        lines.append(f"Recording-specific, not claimed: {rs.text}"
+                     + (f"; left-out RMSE {per}" if per else ""))
+    shown = ({sg["effect"] for sg in res.suggestive} | {e.name for e in res.effects}
+             | {rs.name for rs in res.recording_specific})
     for row in res.rounds:  # judged between recordings and not claimed: say so
         if row["round"] == 1 and "per_recording" in row and row["effect"] not in shown:
             per = ", ".join(f"{p['recording']} {-100 * p['mse_reduction'] + 0.0:+.0f} %"

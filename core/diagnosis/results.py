@@ -174,6 +174,43 @@ class EffectFinding:
         }
 
 
+@dataclass(frozen=True)
+class RecordingSpecific:
+    """An effect that passed the acceptance rules on the recordings it was fitted on but made
+    the prediction of unseen recordings worse (leave-one-recording-out): reported with the
+    numbers, not claimed as physics, and taken out of the final model.
+
+    Attributes
+    ----------
+    name : str
+    parameters : dict
+        As fitted (per recording for an offset or a drift).
+    loro_mse_reduction : float
+        Leave-one-recording-out MSE reduction of the effect (negative: worse).
+    loro_rmse_before, loro_rmse_after : float
+        Pooled leave-one-recording-out RMSE without and with it (output units).
+    per_recording : tuple of dict
+        ``{"recording", "rmse_before", "rmse_after"}`` per left-out recording.
+    text : str
+        What it means, in words.
+    """
+
+    name: str
+    parameters: dict[str, Any]
+    loro_mse_reduction: float
+    loro_rmse_before: float
+    loro_rmse_after: float
+    per_recording: tuple[dict[str, Any], ...]
+    text: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "parameters": _jsonable(self.parameters),
+                "leave_one_recording_out_mse_reduction": self.loro_mse_reduction,
+                "leave_one_recording_out_rmse_before": self.loro_rmse_before,
+                "leave_one_recording_out_rmse_after": self.loro_rmse_after,
+                "per_recording": _jsonable(list(self.per_recording)), "text": self.text}
+
+
 @dataclass
 class DiagnosisResult:
     """Outcome of :func:`diagnose`.
@@ -233,6 +270,9 @@ class DiagnosisResult:
     #: the interleaved split, after selection, as a grid search refits its best estimator);
     #: ``None`` with explicit windows (the test window is the user's own hold-out)
     refit: Fit | None = None
+    #: effects that passed on the recordings they were fitted on but did not generalise to
+    #: unseen recordings (leave-one-recording-out worse): not claimed, not in the model
+    recording_specific: list[RecordingSpecific] = field(default_factory=list)
 
     @property
     def saved_fit(self) -> Fit:
@@ -404,6 +444,7 @@ class DiagnosisResult:
             },
             "effects": [e.to_dict(yr) for e in self.effects],
             "untestable": self.untestable,
+            "recording_specific": [r.to_dict() for r in self.recording_specific],
             "ambiguous": _jsonable(self.ambiguous),
             "final": {
                 "effects": [e.name for e in self.effects],

@@ -135,6 +135,20 @@ class Structure:
         """Copy with some fields replaced."""
         return replace(self, **kw)
 
+    def without(self, name: str, base: Structure) -> Structure:
+        """Copy with effect ``name`` switched off (its fields as in ``base``, the structure
+        it was added to); loop shapes are part of the hysteresis and stay."""
+        if name not in _EFFECT_FIELDS:
+            raise ValueError(f"effect {name!r} cannot be switched off in a structure")
+        f = _EFFECT_FIELDS[name]
+        return replace(self, **{f: getattr(base, f)})
+
+
+#: the Structure field that switches each effect on (see :attr:`Structure.effects`)
+_EFFECT_FIELDS = {"initial-memory": "history", "rate": "beta_s", "asymmetry": "asymmetry",
+                  "creep": "creep_taus", "delay": "dynamics", "lag": "dynamics",
+                  "resonance": "dynamics", "offset": "offsets", "drift": "drift_degree"}
+
 
 @dataclass
 class Fit:
@@ -475,9 +489,22 @@ def fit_structure(
             return _unconstrained_rss(X)
         # the fitting's constrained solver, as core.fitting does it: from the augmented Gram
         # matrix, or from the triangular factor of [X, y] when that is ill conditioned
-        sol = solve_constrained(lower, gram=X.T @ X)
+        # pseudo rows: a column without any solved row (the offset or drift of a recording
+        # left out, e.g. leave-one-recording-out) is pinned at 0, as if never there, and the
+        # unbounded weights (bias, drift, output map) get a ridge 1e-9 of the largest column
+        # energy, which changes nothing measurable but bounds a direction that the rows
+        # leave (nearly) undetermined (before: offsets of 1e12 when one recording was left out)
+        G = X.T @ X
+        dg = np.diag(G)[:ncol]
+        lam = np.where(dg == 0, 1.0, np.where(np.isfinite(lower), 0.0,
+                                              1e-9 * float(dg.max(initial=0.0))))
+        pin = (np.sqrt(lam)[:, None] * np.eye(ncol + 1)[:ncol])[lam > 0]
+        if pin.size:
+            G += pin.T @ pin
+        sol = solve_constrained(lower, gram=G)
         if sol.cond > COND_LIMIT:
-            sol = solve_constrained(lower, factor=np.linalg.qr(X, mode="r"))
+            sol = solve_constrained(lower, factor=np.linalg.qr(
+                np.vstack((X, pin)) if pin.size else X, mode="r"))
         w = sol.theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))

@@ -63,7 +63,7 @@ def test_rule_thresholds_are_the_documented_ones() -> None:
     assert RULE.as_dict() == {"min_gain": 0.05, "min_excess_share": 0.20, "min_z": 3.0,
                               "sign_p": 0.01, "family_margin": 0.10, "max_param_cv": 0.30,
                               "outside_worse": 1.25, "min_rev_share": 0.15,
-                              "min_sign_locking": 0.80}
+                              "min_sign_locking": 0.80, "max_loro_loss": 0.05}
 
 
 def _ar1(rng: np.random.Generator, n: int, rho: float) -> np.ndarray:
