@@ -42,6 +42,7 @@ from ..fitting.thresholds import place_thresholds as fit_thresholds
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
+from ..preisach import PreisachModel, level_segments
 from ..recordings import Recording
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
@@ -98,6 +99,11 @@ class Structure:
         Loop-shape input maps the plays run on (:mod:`core.diagnosis.shapes`; ``()`` =
         classical PI); ``thresholds`` are then in the units of the mapped input, and an
         initial memory is the mapped history (the model's ``state0``).
+    levels : tuple of float
+        Interior level knots of a Preisach base (:class:`~core.preisach.PreisachModel`,
+        level-dependent memory, E10): each play output (the input itself for the
+        reversible part) is split into level segments with weights of their own, so the
+        relay density varies along the relay centre; ``()`` = a PI base.
     """
 
     thresholds: tuple[float, ...]
@@ -110,6 +116,12 @@ class Structure:
     offsets: bool = False
     free_weights: bool = False
     shape: tuple = ()
+    levels: tuple[float, ...] = ()
+
+    @property
+    def base_kind(self) -> str:
+        """The base hysteresis: ``"preisach"`` (level-dependent memory) or ``"pi"``."""
+        return "preisach" if self.levels else "pi"
 
     @property
     def effects(self) -> list[str]:
@@ -228,6 +240,24 @@ class _Cache:
                 self.d.pop(next(iter(self.d)))
             self.d[key] = B
         return B
+
+
+    def levelled(self, k: int, B: np.ndarray, s: Structure, partial: bool) -> np.ndarray:
+        """The bank ``B`` ``(N, n + 1)`` of recording ``k`` split into the level segments of
+        ``s.levels`` (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column
+        ``i m + j`` = segment ``j`` of play ``i``; memoised unless ``partial``."""
+        key = ("levels", k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
+               s.shape, s.levels, B.shape[0])
+        L = self.d.get(key)
+        if L is None:
+            n, m = B.shape[1], len(s.levels) + 1
+            L = level_segments(B.reshape(-1), s.levels).reshape(B.shape[0], n * m)
+            if partial:
+                return L
+            if len(self.d) >= 6:
+                self.d.pop(next(iter(self.d)))
+            self.d[key] = L
+        return L
 
 
 def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
@@ -400,14 +430,16 @@ def fit_structure(
     ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
     # the reduced basis is taken on every training row: the bank reaches the last of them
     upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
-    banks = [
+    raw = [
         cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
                    shape=s.shape)
         for k, rec in enumerate(records)
     ]
+    banks = raw if not s.levels else [
+        cache.levelled(k, B, s, rss_only) for k, B in enumerate(raw)]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
-    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape)
+    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels)
     if rss_only and reduce:
         V = cache.basis(banks, train, vkey)
     if iterations is None:
@@ -419,17 +451,18 @@ def fit_structure(
     center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
     # input range of the play bank (the loop-shape map's output when there is one)
     # (a bank may stop at its last training row)
-    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(banks, train, strict=True) if m.any()]
+    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
     ulo = min(float(w.min()) for w in w_tr)
     uhi = max(float(w.max()) for w in w_tr)
     eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
-    nb = r.size + 1
+    n_lev = len(s.levels) + 1
+    nb = (r.size + 1) * n_lev
     n_asym = 2 if s.asymmetry else 0
     n_creep = len(s.creep_taus)
     n_bias = nrec if s.offsets else 1
     n_drift = s.drift_degree * nrec
     dts = [rec.dt for rec in records]
-    nq = r.size + 1 if V is None else V.shape[1]
+    nq = nb if V is None else V.shape[1]
     nM = nq + n_asym + n_creep
     ncol = nM + n_bias + n_drift
     # design matrix with the output as its last column, filled block by block; the PI-stage
@@ -459,7 +492,11 @@ def fit_structure(
     # classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
     lower = np.full(ncol, -np.inf)
     lower[:nb] = eps
-    if s.free_weights and V is None:
+    if s.levels:
+        # Preisach base: every segment of the reversible part rises (>= eps), the level
+        # segments of the plays are a nonnegative relay density
+        lower[n_lev:nb] = 0.0
+    elif s.free_weights and V is None:
         X[:, : nb - 1] -= X[:, 1:nb]
     elif not s.free_weights:
         lower[1:nb] = 0.0
@@ -568,7 +605,10 @@ def build_model(
     """The exact chain of structure ``s`` for recording ``k``."""
     r = np.asarray(s.thresholds)
     hyst: Model
-    if s.beta_s is None:
+    if s.levels:
+        W = np.maximum(np.r_[p0, pw], 0.0).reshape(r.size + 1, len(s.levels) + 1)
+        hyst = PreisachModel(np.r_[0.0, r], W, knots=np.asarray(s.levels))
+    elif s.beta_s is None:
         hyst = PIModel(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0))
     else:
         hyst = RateDependentPI(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0),
