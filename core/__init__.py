@@ -55,6 +55,7 @@ from .fitting import (
     FitReport,
     ModifiedPIRegressor,
     PIRegressor,
+    PreisachRegressor,
     TanhGPIRegressor,
 )
 from .gpi import (
@@ -70,6 +71,7 @@ from .lti import InverseLinearSystem, LinearSystem
 from .operators import dead_zone, play, play_bank, stop
 from .paramset import ParameterSet, ParameterSetError, Provenance, Units, load_parameter_set
 from .pi import PIModel, inverse_parameters
+from .preisach import PreisachInverse, PreisachModel
 from .presets import PresetInfo, get_preset, list_presets
 from .recordings import Recording
 from .signals import SIGNALS, build_signal, list_signals
@@ -155,6 +157,9 @@ __all__ = [
     "NotInvertibleError",
     "PIModel",
     "ParameterError",
+    "PreisachInverse",
+    "PreisachModel",
+    "PreisachRegressor",
     "Response",
     "dead_zone",
     "inverse_parameters",

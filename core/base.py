@@ -35,7 +35,7 @@ __all__ = [
 _REGISTRY: dict[str, type[Model]] = {}
 
 #: Kinds of a model field in its JSON form.
-FieldKind = Literal["number", "numbers", "model", "models", "any"]
+FieldKind = Literal["number", "numbers", "matrix", "model", "models", "any"]
 
 
 @dataclass(frozen=True)
@@ -49,9 +49,10 @@ class Field:
     ----------
     name : str
         JSON key, equal to the dataclass field / constructor keyword.
-    kind : {"number", "numbers", "model", "models", "any"}
-        A finite number, a non-empty array of them, a nested model, a non-empty array of
-        models, or anything (checked generically, then by the model itself).
+    kind : {"number", "numbers", "matrix", "model", "models", "any"}
+        A finite number, a non-empty array of them, a non-empty array of equal-length
+        non-empty arrays of them (a 2-D array, row by row), a nested model, a non-empty
+        array of models, or anything (checked generically, then by the model itself).
     optional : bool
         May be missing or ``null``.
     default : object

@@ -42,6 +42,7 @@ delay          :class:`Advance`           non-causal: needs ``preview_samples(dt
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import warnings
 from dataclasses import dataclass
@@ -54,6 +55,7 @@ from ._typing import ArrayLike, Float1D
 from .base import Chain, Field, Model, register_model
 from .exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from .pi import PIModel
+from .preisach import PreisachModel
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
 __all__ = [
@@ -1265,6 +1267,10 @@ class RateDependentPIInverse(Model):
 
 
 # ----------------------------------------------------------------------------- initial memory
+#: Models made of a bank of play operators with ``thresholds`` and ``state0`` fields.
+_PLAY_BANK_MODELS = (PIModel, RateDependentPI, PreisachModel)
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
 class InitialMemory(Model):
@@ -1278,8 +1284,8 @@ class InitialMemory(Model):
 
     Parameters
     ----------
-    model : PIModel or RateDependentPI
-        The hysteresis model.
+    model : PIModel, RateDependentPI or PreisachModel
+        The hysteresis model: a bank of play operators with ``thresholds`` and ``state0``.
     history : array_like of shape (m,)
         Virtual input extrema (input units), applied in order before the first sample.
     """
@@ -1287,16 +1293,16 @@ class InitialMemory(Model):
     type_name: ClassVar[str] = "initial-memory"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("history", "numbers", doc="virtual input extrema before the record"),
-        Field("model", "model", doc="the hysteresis model ('pi' or 'rate')"),
+        Field("model", "model", doc="the hysteresis model ('pi', 'rate' or 'preisach')"),
     )
     model: Model
     history: Float1D
 
     def __post_init__(self) -> None:
-        if not isinstance(self.model, PIModel | RateDependentPI):
+        if not isinstance(self.model, _PLAY_BANK_MODELS):
             raise ParameterError(
-                "initial-memory wraps a 'pi' or 'rate' model (a bank of play operators), got "
-                f"{type(self.model).__name__}"
+                "initial-memory wraps a 'pi', 'rate' or 'preisach' model (a bank of play "
+                f"operators), got {type(self.model).__name__}"
             )
         object.__setattr__(self, "history", as_vector(self.history, "history"))
 
@@ -1315,11 +1321,7 @@ class InitialMemory(Model):
 
     def with_state(self) -> Model:
         """The wrapped model with ``state0`` set to :attr:`play_state`."""
-        m = self.model
-        z = self.play_state
-        if isinstance(m, RateDependentPI):
-            return RateDependentPI(m.p0, m.thresholds, m.weights, m.beta_s, z)
-        return PIModel(m.p0, m.thresholds, m.weights, z)  # type: ignore[attr-defined]
+        return dataclasses.replace(self.model, state0=self.play_state)  # type: ignore[type-var]
 
     def as_chain(self) -> Chain:
         """The one-stage chain of :meth:`with_state` (how the C export sees it)."""

@@ -789,6 +789,136 @@ def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
     )
 
 
+def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], list[str]]:
+    """Constants, reset and helpers (``level``, ``eval``) of a Preisach play bank."""
+    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    consts = [
+        f"static const double {c}R[{n}] = {_c_array(model.thresholds)};",  # type: ignore[attr-defined]
+        f"static const double {c}W[{n * m}] = {_c_array(model.weights)};",  # type: ignore[attr-defined]
+        f"static const double {c}Z0[{n}] = {_c_array(model.state0)};",  # type: ignore[attr-defined]
+    ]
+    level = [
+        "/* contribution W[i][:] . seg(z) of play i at output z (level segments) */",
+        f"static double {c}level(double z, unsigned i)",
+        "{",
+        f"    const double *w = {c}W + i * {m}u;",
+    ]
+    if m == 1:
+        level += ["    return w[0] * z;", "}"]
+    else:
+        consts.append(f"static const double {c}E[{m - 1}] = {_c_array(model.knots)};")  # type: ignore[attr-defined]
+        level.append(f"    double acc = w[0] * (z < {c}E[0] ? z : {c}E[0]);")
+        if m > 2:
+            level += [
+                "    unsigned j;",
+                f"    for (j = 1; j < {m - 1}u; ++j) {{",
+                f"        double s = z > {c}E[j - 1] ? z : {c}E[j - 1];",
+                f"        if (s > {c}E[j]) s = {c}E[j];",
+                f"        acc += w[j] * (s - {c}E[j - 1]);",
+                "    }",
+            ]
+        level += [
+            f"    acc += w[{m - 1}] * ((z > {c}E[{m - 2}] ? z : {c}E[{m - 2}]) - {c}E[{m - 2}]);",
+            "    return acc;",
+            "}",
+        ]
+    helpers = level + [
+        "/* output at input x from the plays zin; the new plays go to zout (if any) */",
+        f"static double {c}eval(double x, const double *zin, double *zout)",
+        "{",
+        "    unsigned i;",
+        "    double acc = 0.0;",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        "        double zi = zin[i];",
+        f"        if (zi > x + {c}R[i]) zi = x + {c}R[i];",
+        f"        if (zi < x - {c}R[i]) zi = x - {c}R[i];",
+        "        if (zout) zout[i] = zi;",
+        f"        acc += {c}level(zi, i);",
+        "    }",
+        "    return acc;",
+        "}",
+    ]
+    reset = [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"]
+    return consts, reset, helpers
+
+
+@register_c_stage("preisach")
+def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
+    """Preisach play bank ``x <- sum_i sum_j W[i][j] seg_j(z_i)`` (as ``preisach_output``)."""
+    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    consts, reset, helpers = _preisach_parts(model, ctx)
+    return CStage(
+        title=f"Preisach model, {n} play operator(s) x {m} level segment(s)",
+        fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
+        step=[f"x = {c}eval(x, st->{f}z, st->{f}z);"],
+    )
+
+
+@register_c_stage("preisach-inverse")
+def _emit_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
+    """Exact per-sample inverse of the Preisach model (as ``core.kernels.preisach_inverse``)."""
+    fwd = model.model  # type: ignore[attr-defined]
+    n, m = fwd.n, fwd.n_segments
+    f, c = ctx.field, ctx.const
+    k = 2 * n * m
+    consts, reset, helpers = _preisach_parts(fwd, ctx)
+    w = np.asarray(fwd.weights)
+    consts += [f"static const double {c}SLO = {c_double(float(np.sum(w[:, 0])))};",
+               f"static const double {c}SHI = {c_double(float(np.sum(w[:, -1])))};"]
+    knots = [
+        f"        for (j = 0; j < {m - 1}u; ++j) {{",
+        f"            b[q++] = {c}E[j] - {c}R[i];",
+        f"            b[q++] = {c}E[j] + {c}R[i];",
+        "        }",
+    ] if m > 1 else []
+    helpers += [
+        "/* the input whose output from the plays z is y (exact, on its linear piece);"
+        " advances z */",
+        f"static double {c}solve(double y, double *z)",
+        "{",
+        f"    double b[{k}];",
+        "    double f0, f1, uk;",
+        "    unsigned i, q = 0u;",
+        *(["    unsigned j;"] if m > 1 else []),
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        b[q++] = z[i] - {c}R[i];",
+        f"        b[q++] = z[i] + {c}R[i];",
+        *knots,
+        "    }",
+        f"    for (i = 1; i < {k}u; ++i) {{ /* insertion sort of the candidate kinks */",
+        "        const double v = b[i];",
+        "        q = i;",
+        "        while (q > 0u && b[q - 1] > v) { b[q] = b[q - 1]; --q; }",
+        "        b[q] = v;",
+        "    }",
+        f"    f0 = {c}eval(b[0], z, 0);",
+        f"    f1 = {c}eval(b[{k - 1}], z, 0);",
+        "    if (y < f0) {",
+        f"        uk = b[0] + (y - f0) / {c}SLO;",
+        "    } else if (y >= f1) {",
+        f"        uk = b[{k - 1}] + (y - f1) / {c}SHI;",
+        "    } else {",
+        f"        unsigned lo = 0u, hi = {k - 1}u;",
+        "        while (hi - lo > 1u) {",
+        "            const unsigned mid = (lo + hi) / 2u;",
+        f"            const double fm = {c}eval(b[mid], z, 0);",
+        "            if (fm <= y) { lo = mid; f0 = fm; } else { hi = mid; f1 = fm; }",
+        "        }",
+        "        uk = b[lo] + (y - f0) * (b[hi] - b[lo]) / (f1 - f0);",
+        "    }",
+        f"    (void){c}eval(uk, z, z);",
+        "    return uk;",
+        "}",
+    ]
+    return CStage(
+        title=f"inverse Preisach model, {n} play operator(s) x {m} level segment(s), exact",
+        fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
+        step=[f"x = {c}solve(x, st->{f}z);"],
+    )
+
+
 # ----------------------------------------------------------------------------- generation
 def _flatten(model: Model) -> list[Model]:
     """Stages in application order: chains and cascades (``as_chain()``) are expanded."""

@@ -5,6 +5,10 @@ LLVM vectorise across the independent operators (see ``shared/notes/perf-baselin
 Every kernel takes the operator state before the first sample and returns the state
 after the last, so long or streamed records can be processed in chunks.
 
+The Preisach kernels (:func:`preisach_output`, :func:`preisach_inverse`, model in
+:mod:`core.preisach`) run the same play update and sum each play's piecewise-linear level
+function ``F_i(z) = sum_j W[i, j] seg_j(z)`` sequentially.
+
 Two PI-output kernels exist:
 
 * :func:`pi_output_fast` sums the weighted operators with ``fastmath={'reassoc'}`` so the
@@ -27,6 +31,8 @@ __all__ = [
     "pi_output_fast",
     "pi_output_strict",
     "play_matrix",
+    "preisach_inverse",
+    "preisach_output",
 ]
 
 NUMBA_ENABLED = os.environ.get("HYST_DISABLE_NUMBA", "") not in ("1", "true", "yes")
@@ -152,3 +158,140 @@ def pi_batch(u, R, W, p0, Z, out):  # pragma: no cover - compiled
                 Z[s, i] = zi
                 acc += W[s, i] * zi
             out[s, k] = p0[s] * uk + acc
+
+
+@njit(cache=True, nogil=True)
+def _level_sum(zi, e, W, i):  # pragma: no cover - compiled
+    """``F_i(zi) = sum_j W[i, j] seg_j(zi)`` of one play output (see :mod:`core.preisach`)."""
+    m = W.shape[1]
+    if m == 1:
+        return W[i, 0] * zi
+    acc = W[i, 0] * min(zi, e[0])
+    for j in range(1, m - 1):
+        acc += W[i, j] * (min(max(zi, e[j - 1]), e[j]) - e[j - 1])
+    acc += W[i, m - 1] * (max(zi, e[m - 2]) - e[m - 2])
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def _preisach_at(x, r, e, W, z):  # pragma: no cover - compiled
+    """Preisach output for input ``x`` from play states ``z`` (``z`` is not changed)."""
+    acc = 0.0
+    for i in range(r.shape[0]):
+        zi = z[i]
+        if zi > x + r[i]:
+            zi = x + r[i]
+        if zi < x - r[i]:
+            zi = x - r[i]
+        acc += _level_sum(zi, e, W, i)
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def preisach_output(u, r, e, W, z, out):  # pragma: no cover - compiled
+    """Preisach output ``y = sum_i F_i(Γ_{r_i}[u])`` in the play form, summed sequentially.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        Input samples.
+    r : ndarray of shape (n,)
+        Thresholds, ``r >= 0``.
+    e : ndarray of shape (m - 1,)
+        Increasing level knots (input units); may be empty when ``m == 1``.
+    W : ndarray of shape (n, m)
+        Weight of play ``i`` on level segment ``j``.
+    z : ndarray of shape (n,)
+        Play outputs before the first sample; updated in place to the final state.
+    out : ndarray of shape (N,)
+    """
+    n = r.shape[0]
+    for k in range(u.shape[0]):
+        uk = u[k]
+        acc = 0.0
+        for i in range(n):
+            lo = uk - r[i]
+            hi = uk + r[i]
+            zi = z[i]
+            if zi > hi:
+                zi = hi
+            if zi < lo:
+                zi = lo
+            z[i] = zi
+            acc += _level_sum(zi, e, W, i)
+        out[k] = acc
+
+
+@njit(cache=True, nogil=True)
+def preisach_inverse(y, r, e, W, z, b, out):  # pragma: no cover - compiled
+    """Exact per-sample inverse of :func:`preisach_output` (``W >= 0``, ``W[0] > 0``, r[0] = 0).
+
+    Given the play states, the output is a continuous, strictly increasing, piecewise-linear
+    function of the current input whose kinks lie among the points ``z_i ± r_i`` (a play
+    starts to move) and ``e_j ± r_i`` (a moving play crosses a level knot). Those points are
+    sorted into ``b``; a binary search on the output at them brackets ``y_k`` on one linear
+    piece, where the input is solved for exactly; below the first (above the last) point the
+    slope is ``sum_i W[i, 0]`` (``sum_i W[i, m-1]``). The plays then advance to that input.
+
+    Parameters
+    ----------
+    y : ndarray of shape (N,)
+        Desired outputs.
+    r, e, W
+        As in :func:`preisach_output`.
+    z : ndarray of shape (n,)
+        Play states, updated in place.
+    b : ndarray of shape (2 n m,)
+        Work buffer for the candidate kinks.
+    out : ndarray of shape (N,)
+        Inputs written.
+    """
+    n = r.shape[0]
+    m = W.shape[1]
+    s_lo = 0.0
+    s_hi = 0.0
+    for i in range(n):
+        s_lo += W[i, 0]
+        s_hi += W[i, m - 1]
+    K = b.shape[0]
+    for k in range(y.shape[0]):
+        yk = y[k]
+        q = 0
+        for i in range(n):
+            b[q] = z[i] - r[i]
+            b[q + 1] = z[i] + r[i]
+            q += 2
+            for j in range(m - 1):
+                b[q] = e[j] - r[i]
+                b[q + 1] = e[j] + r[i]
+                q += 2
+        b.sort()
+        f_first = _preisach_at(b[0], r, e, W, z)
+        f_last = _preisach_at(b[K - 1], r, e, W, z)
+        if yk < f_first:
+            uk = b[0] + (yk - f_first) / s_lo
+        elif yk >= f_last:
+            uk = b[K - 1] + (yk - f_last) / s_hi
+        else:
+            lo = 0
+            hi = K - 1
+            f_lo = f_first
+            f_hi = f_last
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                f_mid = _preisach_at(b[mid], r, e, W, z)
+                if f_mid <= yk:
+                    lo = mid
+                    f_lo = f_mid
+                else:
+                    hi = mid
+                    f_hi = f_mid
+            uk = b[lo] + (yk - f_lo) * (b[hi] - b[lo]) / (f_hi - f_lo)
+        for i in range(n):
+            zi = z[i]
+            if zi > uk + r[i]:
+                zi = uk + r[i]
+            if zi < uk - r[i]:
+                zi = uk - r[i]
+            z[i] = zi
+        out[k] = uk

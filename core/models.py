@@ -17,7 +17,7 @@ import importlib
 from dataclasses import dataclass
 
 # every module that defines @register_model types, imported for its registrations
-from . import deadzone, digitized, digitized_deadzone, effects, gpi, lti, pi  # noqa: F401
+from . import deadzone, digitized, digitized_deadzone, effects, gpi, lti, pi, preisach  # noqa: F401
 from .base import Field, Model, model_class, registered_types
 from .exceptions import ParameterError
 

@@ -124,6 +124,23 @@ def _check_numbers(v: object, path: str) -> None:
         _check_number(x, f"{path}[{i}]")
 
 
+def _check_matrix(v: object, path: str) -> None:
+    """A non-empty array of equal-length, non-empty arrays of finite numbers (row by row)."""
+    if not isinstance(v, list | tuple):
+        raise ParameterSetError(
+            f"{path}: must be an array of rows (arrays of numbers), got {_jtype(v)} {_show(v)}"
+        )
+    if not v:
+        raise ParameterSetError(f"{path}: must not be empty")
+    for i, row in enumerate(v):
+        _check_numbers(row, f"{path}[{i}]")
+        if len(row) != len(v[0]):
+            raise ParameterSetError(
+                f"{path}[{i}]: has {len(row)} number(s) but {path}[0] has {len(v[0])}; "
+                "every row must have the same length"
+            )
+
+
 @dataclass(frozen=True)
 class Units:
     """Physical units of a parameter set (free text, e.g. ``"V"``, ``"um"``, ``"s"``).
@@ -320,6 +337,8 @@ def _check_model_tree(node: object, path: str) -> None:
             _check_number(v, where)
         elif f.kind == "numbers":
             _check_numbers(v, where)
+        elif f.kind == "matrix":
+            _check_matrix(v, where)
         elif f.kind == "model":
             _check_model_tree(v, where)
         elif f.kind == "models":
@@ -342,7 +361,7 @@ def _with_path(exc: Exception, node: Mapping[str, Any], path: str) -> str:
     msg = str(exc)
     keys = sorted((k for k in node if k != "type"), key=len, reverse=True)
     for k in keys:
-        m = re.match(rf"{re.escape(k)}(\[\d+\])?(?=[\s:=]|$)[:\s]*", msg)
+        m = re.match(rf"{re.escape(k)}((?:\[\d+\])*)(?=[\s:=]|$)[:\s]*", msg)
         if m:
             head, rest = f"{path}.{k}{m.group(1) or ''}", msg[m.end():]
             return f"{head} {rest}" if rest.startswith("=") else f"{head}: {rest}"

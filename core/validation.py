@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._typing import ArrayLike, Float1D
+from ._typing import ArrayLike, Float1D, Float2D
 from .exceptions import ParameterError
 
 __all__ = [
     "as_finite_scalar",
     "as_input_signal",
+    "as_matrix",
     "as_vector",
     "frozen",
 ]
@@ -88,6 +89,64 @@ def as_vector(
                 f"{name} must be strictly increasing, but {name}[{i}] = {a[i]:g} "
                 f">= {name}[{i + 1}] = {a[i + 1]:g}; sort them and remove duplicates"
             )
+    return frozen(a)
+
+
+def as_matrix(
+    x: ArrayLike,
+    name: str,
+    *,
+    shape: tuple[int, int] | None = None,
+    nonnegative: bool = False,
+) -> Float2D:
+    """Convert ``x`` to a finite read-only float64 matrix and check the named rules.
+
+    Parameters
+    ----------
+    x : array_like of shape (n, m)
+        Values to check (a list of equal-length rows).
+    name : str
+        Parameter name used in error messages (entries are named ``name[i][j]``, the JSON
+        path of the entry).
+    shape : tuple of int, optional
+        Required shape ``(n, m)``.
+    nonnegative : bool
+        Require every entry ``>= 0``.
+
+    Returns
+    -------
+    ndarray of shape (n, m)
+
+    Raises
+    ------
+    ParameterError
+        Naming ``name`` (and the entry) and the rule that failed.
+    """
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(
+            f"{name} must be a matrix of numbers (a list of equal-length rows): {exc}"
+        ) from exc
+    if a.ndim != 2:
+        raise ParameterError(
+            f"{name} must be two-dimensional (a list of rows), got shape {a.shape}"
+        )
+    if a.size == 0:
+        raise ParameterError(f"{name} must not be empty, got shape {a.shape}")
+    if shape is not None and a.shape != tuple(shape):
+        raise ParameterError(
+            f"{name} must have shape {tuple(shape)} (rows, columns), got {a.shape}"
+        )
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i, j = (int(v) for v in np.argwhere(bad)[0])
+        raise ParameterError(
+            f"{name}[{i}][{j}] = {a[i, j]} is not finite; every value must be a number"
+        )
+    if nonnegative and (a < 0).any():
+        i, j = (int(v) for v in np.argwhere(a < 0)[0])
+        raise ParameterError(f"{name}[{i}][{j}] = {a[i, j]:g} is negative; {name} must be >= 0")
     return frozen(a)
 
 

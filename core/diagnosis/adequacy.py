@@ -39,6 +39,8 @@ PHYSICS: dict[str, str] = {
            "dead-zones)",
     "gpi-deadzone": "a threshold / dead band at the input (dead-zone GPI)",
     "gpi-tanh": "saturation of the loop branches (tanh-envelope GPI)",
+    "preisach": "level-dependent memory: minor loops whose width changes with the bias level "
+                "(Preisach density varying along (alpha+beta)/2)",
 }
 
 

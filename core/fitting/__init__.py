@@ -8,6 +8,8 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
 * :class:`ModifiedPIRegressor` — Kuhnen's ``y = c0 + S[P[v] + c1]``, linear in parameters.
 * :class:`TanhGPIRegressor` — ``y = c + P[κ(v)]`` with the tanh envelope, variable projection.
 * :class:`DigitizedPIRegressor` — paper 000 digitized model from a classical fit.
+* :class:`PreisachRegressor` — level-dependent Preisach model (play form), NNLS on streamed
+  normal equations of its level-segment columns.
 
 Each model class names its estimator once (``estimator = "core.fitting:PIRegressor"`` on
 :class:`core.pi.PIModel`, ...); :func:`core.models.fit_kinds` and
@@ -26,6 +28,7 @@ from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
 from .pi import PIRegressor, fit_linear_pi
+from .preisach import PreisachRegressor
 from .thresholds import place_thresholds, reversal_indices, wipeout_index
 
 __all__ = [
@@ -35,6 +38,7 @@ __all__ = [
     "ModifiedPIRegressor",
     "PIRegressor",
     "PartStats",
+    "PreisachRegressor",
     "Segment",
     "TanhGPIRegressor",
     "fit_linear_pi",

@@ -44,10 +44,10 @@ def test_every_slider_is_a_declared_number_field(name: str) -> None:
     seen: set[tuple[str, str]] = set()
     for path, _ in leaves:
         owner, kind = _field_of_leaf(doc, path)
-        assert kind in ("number", "numbers", "any"), (path, kind)
+        assert kind in ("number", "numbers", "matrix", "any"), (path, kind)
         seen.add((owner, [t for t in _TOKENS.findall(path) if t[0] != "["][-1]))
     # and every declared number field of the top-level type present in the document has one
-    top = {f.name for f in model_type(name).fields if f.kind in ("number", "numbers")
+    top = {f.name for f in model_type(name).fields if f.kind in ("number", "numbers", "matrix")
            and doc.get(f.name) is not None}
     assert top <= {f for o, f in seen if o == name}
     # a slider writes back where it was read

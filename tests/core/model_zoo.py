@@ -29,9 +29,17 @@ from core.effects import (
 from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from core.lti import LinearSystem
 from core.pi import PIModel
+from core.preisach import PreisachModel
 
 #: Paper 001, Example 1 (input about ±4).
 EX1 = PIModel(0.72, [0.45 * i for i in range(1, 7)], [0.6, 0.48, 0.36, 0.24, 0.12, 0.012])
+#: A level-dependent Preisach model (input about ±3): minor loops widen with the bias.
+PREISACH = PreisachModel(
+    [0.0, 0.5, 1.0, 1.5],
+    [[0.8, 0.7, 0.9], [0.2, 0.35, 0.5], [0.1, 0.2, 0.3], [0.05, 0.05, 0.15]],
+    knots=[-1.0, 1.0],
+    state0=[0.0, 0.2, -0.3, 0.1],
+)
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
 
@@ -67,6 +75,8 @@ def _zoo() -> dict[str, Model]:
         "gpi-tanh": TanhGPI(EX1, env),
         "digitized": dig,
         "lti": LinearSystem([5e-4, 1.0], [1e-3, 1.0]),
+        "preisach": PREISACH,
+        "preisach-inverse": PREISACH.inverse(),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)

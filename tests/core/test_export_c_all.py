@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.effects import Delay, Lag, Resonance, causal_form
+from core.effects import Delay, InitialMemory, Lag, Resonance, causal_form
 from core.export_c import CExportError, generate_c
 from core.models import model_types
 from core.pi import PIModel
-from tests.core.model_zoo import DT, EX1, ZOO
+from tests.core.model_zoo import DT, EX1, PREISACH, ZOO
 
 GCC = shutil.which("gcc")
 CFLAGS = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2"]
@@ -34,7 +34,7 @@ EXACT = {
     "pi", "chain", "offset", "lag", "lag-inverse", "creep", "creep-inverse", "drift",
     "asymmetry", "asymmetry-inverse", "rate", "rate-inverse", "initial-memory", "deadzone",
     "gpi-deadzone", "mpi", "tanh-envelope", "gpi-tanh", "lti",
-    "lti_inverse", "digitized-deadzone",
+    "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse",
 }
 #: Extra chains the diagnosis writes: the PI baseline followed by each accepted effect.
 DIAGNOSED = {
@@ -43,6 +43,7 @@ DIAGNOSED = {
     "diag-resonance": Chain.of(EX1, Resonance(400.0, 0.05)),
     "diag-asym-drift": Chain.of(EX1, ZOO["asymmetry"], ZOO["drift"]),
     "diag-rate-memory": Chain.of(ZOO["initial-memory"], ZOO["creep"]),
+    "diag-preisach-memory": Chain.of(InitialMemory(PREISACH, [2.5, -1.5]), ZOO["offset"]),
 }
 CASES: dict[str, Model] = {**ZOO, **DIAGNOSED}
 

@@ -1,0 +1,296 @@
+"""A Preisach model with a level-dependent density, in the play form (missing-physics E10).
+
+Why plays describe a Preisach model
+-----------------------------------
+A relay with switching thresholds ``β <= α`` has half-width ``r = (α - β)/2`` and centre
+``s = (α + β)/2``. Driven by ``u`` it is "up" once ``u`` has risen above ``s + r`` and "down"
+once ``u`` has fallen below ``s - r``. The play ``z = Γ_r[u]`` follows ``u - r`` while ``u``
+rises and ``u + r`` while it falls, so ``z > s`` exactly when the relay is up: every relay of
+half-width ``r`` is read off the one play of threshold ``r``.
+
+With the relay density ``μ(r, s)`` the Preisach output is an integral over relays. For the
+relays of one band of half-widths around ``r_i`` the contribution is a function of the play
+output alone, ``F_i(z_i) = ∫ 2 μ_i(s) 1{s < z_i} ds + const``, whose slope at ``z = s`` is
+(twice) the density of relays centred at ``s``. This module takes ``μ_i`` piecewise constant
+in the centre ``s`` between level knots ``e_0 < ... < e_{m-2}``, so ``F_i`` is piecewise
+linear with slope ``W[i, j]`` on segment ``j``::
+
+    y(t) = Σ_i Σ_j W[i, j] seg_j(z_i(t)),     z_i = Γ_{r_i}[u]
+
+    seg_0(z)     = min(z, e_0)                          (slope 1 below e_0)
+    seg_j(z)     = clip(z, e_{j-1}, e_j) - e_{j-1}      (slope 1 on [e_{j-1}, e_j])
+    seg_{m-1}(z) = max(z, e_{m-2}) - e_{m-2}            (slope 1 above e_{m-2})
+
+(``seg_0(z) = z`` when ``m = 1``). The segments sum to ``z``, so a weight row that is the
+same on every segment is a PI play, and ``W[i, :] = p_i`` with ``r_0 = 0`` is the PI model
+``p0 = W[0, 0]`` (:meth:`PreisachModel.from_pi`). With ``W >= 0`` the density is
+non-negative: a discrete Preisach model whose minor loops of equal amplitude need not be
+congruent at different bias levels (a minor loop around ``s`` opens plays whose outputs sit
+in the segments near ``s``), which the PI model cannot represent.
+
+Inverse
+-------
+Given the play states, the output is a continuous, piecewise-linear, non-decreasing function
+of the current input; with the reversible play ``r_0 = 0`` and every ``W[0, j] > 0`` it is
+strictly increasing and onto, so each desired output has exactly one input. The inverse
+(:class:`PreisachInverse`) solves for it sample by sample on the linear piece that holds it
+(:func:`core.kernels.preisach_inverse`) and advances the plays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from . import kernels
+from ._typing import ArrayLike, Float1D, Float2D
+from .base import Field, Model, register_model
+from .exceptions import NotInvertibleError, ParameterError
+from .pi import PIModel
+from .validation import as_matrix, as_vector, frozen
+
+__all__ = ["PreisachInverse", "PreisachModel", "level_segments"]
+
+
+def level_segments(z: ArrayLike, knots: ArrayLike) -> Float2D:
+    """The level-segment functions ``seg_j(z)`` (see the module docstring).
+
+    Parameters
+    ----------
+    z : array_like of shape (M,)
+        Play outputs (input units).
+    knots : array_like of shape (m - 1,)
+        Increasing level knots (input units); empty for one segment.
+
+    Returns
+    -------
+    ndarray of shape (M, m)
+        ``seg_j(z)``; the rows sum to ``z``.
+    """
+    z = np.asarray(z, dtype=np.float64).reshape(-1)
+    e = np.asarray(knots, dtype=np.float64).reshape(-1)
+    m = e.size + 1
+    out = np.empty((z.size, m))
+    if m == 1:
+        out[:, 0] = z
+        return out
+    out[:, 0] = np.minimum(z, e[0])
+    for j in range(1, m - 1):
+        out[:, j] = np.clip(z, e[j - 1], e[j]) - e[j - 1]
+    out[:, m - 1] = np.maximum(z, e[m - 2]) - e[m - 2]
+    return out
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class PreisachModel(Model):
+    """Preisach model ``y = Σ_i Σ_j W[i, j] seg_j(Γ_{r_i}[u])`` (level-dependent density).
+
+    Parameters
+    ----------
+    thresholds : array_like of shape (n,)
+        Play thresholds ``0 <= r_0 < r_1 < ... < r_{n-1}`` (input units); ``r_0 = 0`` is
+        the reversible part (a play of threshold 0 is the identity).
+    weights : array_like of shape (n, m)
+        ``W[i, j] >= 0``: slope of play ``i``'s contribution while its output lies in level
+        segment ``j`` (output units per input unit), i.e. twice the relay density of
+        half-width band ``i`` centred in segment ``j``.
+    knots : array_like of shape (m - 1,), optional
+        Strictly increasing interior level knots (input units); empty (default) for one
+        segment, which is a PI model.
+    state0 : array_like of shape (n,), optional
+        Play outputs before the first sample (as :class:`core.pi.PIModel`: zeros by
+        default, a scalar is broadcast to every play).
+
+    Examples
+    --------
+    >>> m = PreisachModel([0.0, 0.5], [[1.0, 1.0], [0.2, 0.6]], knots=[0.0])
+    >>> m.is_invertible, m.n, m.n_segments
+    (True, 2, 2)
+    """
+
+    type_name: ClassVar[str] = "preisach"
+    estimator: ClassVar[str | None] = "core.fitting:PreisachRegressor"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("thresholds", "numbers",
+              doc="play thresholds r_i (input units), increasing, r_0 may be 0"),
+        Field("weights", "matrix",
+              doc="W[i][j] >= 0: slope of play i on level segment j (output per input unit)"),
+        Field("knots", "numbers", optional=True, default=(),
+              doc="interior level knots e_j (input units), increasing; none = PI"),
+        Field("state0", "numbers", optional=True, doc="play outputs before the first sample"),
+    )
+    thresholds: Float1D
+    weights: Float2D
+    knots: Float1D = ()  # type: ignore[assignment]
+    state0: Float1D | None = None
+
+    def __post_init__(self) -> None:
+        r = as_vector(self.thresholds, "thresholds", nonnegative=True, increasing=True)
+        e = as_vector(self.knots, "knots", min_length=0, increasing=True)
+        w = as_matrix(self.weights, "weights", nonnegative=True)
+        if w.shape != (r.size, e.size + 1):
+            raise ParameterError(
+                f"weights must have shape ({r.size}, {e.size + 1}): one row per threshold "
+                f"({r.size}) and one column per level segment (len(knots) + 1 = {e.size + 1}), "
+                f"got {w.shape}"
+            )
+        object.__setattr__(self, "thresholds", r)
+        object.__setattr__(self, "knots", e)
+        object.__setattr__(self, "weights", w)
+        if self.state0 is None:
+            s0 = frozen(np.zeros(r.size))
+        else:
+            s = np.asarray(self.state0, dtype=np.float64)
+            s0 = as_vector(np.full(r.size, float(s)) if s.ndim == 0 else s, "state0", length=r.size)
+        object.__setattr__(self, "state0", s0)
+
+    @classmethod
+    def from_pi(cls, pi: PIModel, knots: ArrayLike = ()) -> PreisachModel:
+        """The Preisach form of a PI model with non-negative weights (same output).
+
+        ``thresholds = (0, r_1, ..., r_n)``, every segment of row 0 weighted ``p0`` and of
+        row ``i`` weighted ``p_i``; the plays start at the PI model's ``state0`` (the
+        reversible play's state is irrelevant: it equals the input after one sample).
+
+        Raises
+        ------
+        ParameterError
+            If a PI weight or ``p0`` is negative (a Preisach density is non-negative).
+        """
+        e = as_vector(knots, "knots", min_length=0, increasing=True)
+        p = np.concatenate(([pi.p0], pi.weights))
+        return cls(
+            np.concatenate(([0.0], pi.thresholds)),
+            np.repeat(p[:, None], e.size + 1, axis=1),
+            e,
+            np.concatenate(([0.0], pi.state0)),
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def n(self) -> int:
+        """Number of play operators (threshold bands)."""
+        return int(self.thresholds.size)
+
+    @property
+    def n_segments(self) -> int:
+        """Number of level segments ``m = len(knots) + 1``."""
+        return int(self.knots.size + 1)
+
+    @property
+    def is_invertible(self) -> bool:
+        """Whether ``r_0 == 0`` and every reversible weight ``W[0, j] > 0`` (branches rise)."""
+        return bool(self.thresholds[0] == 0 and (self.weights[0] > 0).all())
+
+    def check_invertible(self) -> None:
+        """Raise ``NotInvertibleError`` naming the failed rule (see :attr:`is_invertible`)."""
+        if self.thresholds[0] != 0:
+            raise NotInvertibleError(
+                f"Preisach model is not invertible: thresholds[0] = {self.thresholds[0]:g} "
+                "must be 0 (the reversible play makes every branch strictly increasing)"
+            )
+        bad = np.flatnonzero(self.weights[0] <= 0)
+        if bad.size:
+            j = int(bad[0])
+            raise NotInvertibleError(
+                f"Preisach model is not invertible: weights[0][{j}] = "
+                f"{self.weights[0, j]:g} must be > 0 (the reversible slope on level segment "
+                f"{j}; with it 0 the output is flat there after a reversal)"
+            )
+
+    def level_functions(self, z: ArrayLike) -> Float2D:
+        """Each play's contribution ``F_i(z) = Σ_j W[i, j] seg_j(z)``, shape ``(M, n)``.
+
+        Parameters
+        ----------
+        z : array_like of shape (M,)
+            Play output values (input units).
+        """
+        return level_segments(z, self.knots) @ self.weights.T
+
+    def output_bound(self, u_max: float) -> float:
+        """Upper bound on ``|y|`` for ``|u| <= u_max`` from any state (after the first sample).
+
+        Each play output lies in ``[u - r_i, u + r_i]`` and ``F_i`` is non-decreasing, so
+        ``|y| <= Σ_i max(|F_i(u_max + r_i)|, |F_i(-u_max - r_i)|)``.
+        """
+        a = abs(float(u_max)) + self.thresholds
+        hi = np.diag(self.level_functions(a))
+        lo = np.diag(self.level_functions(-a))
+        return float(np.sum(np.maximum(np.abs(hi), np.abs(lo))))
+
+    # ------------------------------------------------------------------ simulation
+    def default_state(self) -> Float1D:
+        return np.array(self.state0, copy=True)
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Float1D]:
+        z = np.array(as_vector(state, "state", length=self.n), copy=True)
+        y = np.empty(u.size)
+        kernels.preisach_output(u, self.thresholds, self.knots, self.weights, z, y)
+        return y, z
+
+    def operator_outputs(self, u: ArrayLike, state: ArrayLike | None = None) -> Float2D:
+        """Each play operator's output, shape ``(N, n)``."""
+        from .operators import play_bank
+
+        return play_bank(u, self.thresholds, self.state0 if state is None else state)[0]
+
+    # ------------------------------------------------------------------ inverse
+    def inverse(self) -> PreisachInverse:
+        """The exact inverse, solved sample by sample from the same play states.
+
+        Raises
+        ------
+        NotInvertibleError
+            If ``thresholds[0] != 0`` or some ``weights[0][j] <= 0`` (the message names it).
+        """
+        return PreisachInverse(self)
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class PreisachInverse(Model):
+    """Exact inverse of a :class:`PreisachModel`, solved sample by sample.
+
+    Its state is the forward model's play states (started at the forward ``state0``): for
+    each desired output the unique input that produces it from the current states is found
+    on the linear piece that holds it (:func:`core.kernels.preisach_inverse`), then the plays
+    advance to that input, so ``model(PreisachInverse(model)(y)) == y`` to round-off.
+
+    Parameters
+    ----------
+    model : PreisachModel
+        The invertible forward model (``thresholds[0] == 0``, every ``weights[0][j] > 0``).
+    """
+
+    type_name: ClassVar[str] = "preisach-inverse"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("model", "model", doc="the Preisach model being inverted"),
+    )
+    model: PreisachModel
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, PreisachModel):
+            raise ParameterError(
+                f"preisach-inverse.model must be a 'preisach' model, got "
+                f"{type(self.model).__name__}"
+            )
+        self.model.check_invertible()
+
+    def default_state(self) -> Float1D:
+        return self.model.default_state()
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Float1D]:
+        m = self.model
+        z = np.array(as_vector(state, "state", length=m.n), copy=True)
+        x = np.empty(u.size)
+        buf = np.empty(2 * m.n * m.n_segments)
+        kernels.preisach_inverse(u, m.thresholds, m.knots, m.weights, z, buf, x)
+        return x, z
+
+    def inverse(self) -> PreisachModel:
+        """The forward model."""
+        return self.model
