@@ -273,6 +273,8 @@ class DiagnosisResult:
     #: effects that passed on the recordings they were fitted on but did not generalise to
     #: unseen recordings (leave-one-recording-out worse): not claimed, not in the model
     recording_specific: list[RecordingSpecific] = field(default_factory=list)
+    #: how the base hysteresis was chosen (PI or a Preisach with level-dependent memory)
+    base_choice: Any = None
 
     @property
     def saved_fit(self) -> Fit:

@@ -104,6 +104,10 @@ class Structure:
         level-dependent memory, E10): each play output (the input itself for the
         reversible part) is split into level segments with weights of their own, so the
         relay density varies along the relay centre; ``()`` = a PI base.
+    level_smooth : float
+        Smoothness penalty of a Preisach base: squared differences of the weights of
+        neighbouring level segments of each play, relative to the mean energy of the
+        hysteresis columns (0 = none).
     """
 
     thresholds: tuple[float, ...]
@@ -117,6 +121,7 @@ class Structure:
     free_weights: bool = False
     shape: tuple = ()
     levels: tuple[float, ...] = ()
+    level_smooth: float = 0.0
 
     @property
     def base_kind(self) -> str:
@@ -376,6 +381,20 @@ def _unconstrained_rss(Xa: np.ndarray) -> float:
     return float(e @ e)
 
 
+def _level_penalty(n_play: int, m: int, ncol: int, lam: float) -> np.ndarray:
+    """Pseudo rows ``sqrt(lam) (W[i, j] - W[i, j - 1])`` of a Preisach base (column
+    ``i m + j``), zero in the output column; ``(n_play (m - 1), ncol + 1)``."""
+    P = np.zeros((n_play * (m - 1), ncol + 1))
+    q = np.sqrt(lam)
+    row = 0
+    for i in range(n_play):
+        for j in range(1, m):
+            P[row, i * m + j] = q
+            P[row, i * m + j - 1] = -q
+            row += 1
+    return P
+
+
 def _legendre_cols(t: np.ndarray, deg: int) -> np.ndarray:
     s = 2.0 * (t - t[0]) / max(t[-1] - t[0], 1e-12) - 1.0
     return np.column_stack(
@@ -536,6 +555,11 @@ def fit_structure(
         lam = np.where(dg == 0, 1.0, np.where(np.isfinite(lower), 0.0,
                                               1e-9 * float(dg.max(initial=0.0))))
         pin = (np.sqrt(lam)[:, None] * np.eye(ncol + 1)[:ncol])[lam > 0]
+        if s.levels and s.level_smooth > 0:
+            # a Preisach base: the density of neighbouring level segments of each play is
+            # pulled together (towards a PI), so cells excited by few rows do not overfit
+            pin = np.vstack((pin, _level_penalty(r.size + 1, n_lev, ncol,
+                                                 s.level_smooth * float(dg[:nb].mean()))))
         if pin.size:
             G += pin.T @ pin
         sol = solve_constrained(lower, gram=G)
