@@ -20,14 +20,20 @@ def summary_text(res: DiagnosisResult) -> str:
     lines = [
         f"Recordings: {', '.join(f'{r.name} ({r.n_samples} samples)' for r in res.records)}",
         f"Split: {res.split}",
-        f"Baseline {res.model_name.upper()} ({len(res.baseline.structure.thresholds)} "
-        f"operators{', weights of free sign' if res.baseline.structure.free_weights else ''}"
+        f"Baseline {res.baseline.structure.base_kind.upper()} "
+        f"({len(res.baseline.structure.thresholds)} operators"
+        + (f" x {len(res.baseline.structure.levels) + 1} level segments"
+           if res.baseline.structure.levels else "")
+        + f"{', weights of free sign' if res.baseline.structure.free_weights else ''}"
         "): " + (f"held-out RMSE {b:.4g} ({100 * b / yr:.3f} % of output range)"
                  if np.isfinite(b) else "no test window")
         + f"; white-noise floor {res.noise_rms:.3g}",
     ]
     nq = len(res._req.structure.thresholds)
-    if nq != len(res.baseline.structure.thresholds):
+    bc = res.base_choice
+    if bc is not None and bc.kind != "pi":
+        lines.insert(2, f"Base: {bc.text}")
+    elif nq != len(res.baseline.structure.thresholds):
         q = res.heldout_rmse(res._req)
         lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "
                      f"({100 * q / yr:.3f} %); under-resolved, the grid was refined")

@@ -428,7 +428,8 @@ class DiagnosisResult:
                            for r in self.records],
             "split": self.split,
             "baseline": {
-                "model": self.model_name,
+                "model": self.baseline.structure.base_kind,
+                "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
                 "n_operators": len(self.baseline.structure.thresholds),
                 "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
                 else "nonnegative",
