@@ -154,6 +154,7 @@ def diagnose(
     effects: Sequence[str] | None = None,
     max_effects: int = 5,
     auto_resolution: bool = True,
+    base: str = "auto",
     crossfit: bool | None = None,
     time: ColumnSpec = None,
     input: ColumnSpec = None,  # noqa: A002 - mirrors csvio's role name
@@ -177,6 +178,10 @@ def diagnose(
         By default each recording is cut into interleaved train/test blocks.
     n_operators : int
         Play operators of the baseline (uniform thresholds).
+    base : {"auto", "pi"}
+        ``"auto"``: a Preisach base (level-dependent memory) replaces the PI when it predicts
+        each recording (or half of one) from the rest clearly better (:func:`_choose_base`);
+        ``"pi"``: always the PI.
     auto_resolution : bool
         Also try 2x and 4x as many operators and keep them while the held-out fit improves
         (≥ 2 %, z ≥ 2): an under-resolved baseline must not be mistaken for missing physics.
@@ -222,14 +227,17 @@ def diagnose(
     say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
         "fitting the baseline")
     ctx, split = _context(records, train, test, crossfit)
-    base, requested = _baseline(ctx, n_operators, auto_resolution)
-    base, base_choice = _choose_base(ctx, base, n_operators)
-    say(0.1, f"baseline: {len(base.structure.thresholds)} operators")
-    run_ = _Run(ctx, _noise_rms(ctx, base), untestable_effects(ctx), max_effects,
+    base_fit, requested = _baseline(ctx, n_operators, auto_resolution)
+    if base not in ("auto", "pi"):
+        raise ParameterError(f"base {base!r} is not known; use 'auto' or 'pi'")
+    base_fit, base_choice = (_choose_base(ctx, base_fit, n_operators) if base == "auto"
+                             else (base_fit, BaseChoice("pi", (), 0)))
+    say(0.1, f"baseline: {len(base_fit.structure.thresholds)} operators")
+    run_ = _Run(ctx, _noise_rms(ctx, base_fit), untestable_effects(ctx), max_effects,
                 between_plan(ctx, windows=train is not None or test is not None), say=say)
     todo = [e for e in todo if e not in run_.untestable_names]
     run_.rate_testable = "rate" in todo
-    cur = base
+    cur = base_fit
     for rnd in range(max_effects):
         cands, rows = _search(run_, cur, todo, rnd)
         if not cands:
@@ -247,24 +255,24 @@ def diagnose(
         todo = _remaining(todo, best)
     say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
                                           if run_.findings else ""))
-    loro_b, loro_f = (_loro_scores(ctx, base, cur, run_.findings)
+    loro_b, loro_f = (_loro_scores(ctx, base_fit, cur, run_.findings)
                       if len(records) >= 2 and train is None and test is None else (None, None))
     specific: list[RecordingSpecific] = []
     if loro_b is not None:
-        cur, loro_f, specific = _drop_recording_specific(run_, base, cur, loro_b, loro_f)
+        cur, loro_f, specific = _drop_recording_specific(run_, base_fit, cur, loro_b, loro_f)
     say(0.92, "judging the base model against the noise floor")
     tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
     adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
-                      base.structure.free_weights, found=cur.structure.effects)
-    crossval = _crossval(ctx, base, cur)
+                      base_fit.structure.free_weights, found=cur.structure.effects)
+    crossval = _crossval(ctx, base_fit, cur)
     refit = _refit_everywhere(ctx, cur) if train is None and test is None else None
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
-        records=records, train=ctx.train, test=ctx.test, baseline=base, final=cur,
+        records=records, train=ctx.train, test=ctx.test, baseline=base_fit, final=cur,
         requested=requested, effects=run_.findings, untestable=run_.untestable,
         ambiguous=run_.ambiguous, rounds=run_.rounds,
-        maps_before=residual_maps(records, ctx.all_res(base), ctx.coords, everywhere),
+        maps_before=residual_maps(records, ctx.all_res(base_fit), ctx.coords, everywhere),
         maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro_b, loro_final=loro_f,
@@ -426,10 +434,12 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
     return base, requested
 
 
-#: A Preisach base replaces the PI one when it lowers the cross-fitted training-block MSE by
-#: at least this share (a choice of the base, like the resolution: no significance needed,
-#: but a margin so that a PI plant keeps its PI).
-PREISACH_MIN_GAIN = 0.10
+#: A Preisach base replaces the PI one when it lowers the MSE of predicting each recording
+#: (or each half of one) from the rest by at least this share (a choice of the base, like
+#: the resolution: no significance needed, but a margin). Measured gains (each recording
+#: predicted from the others): the benchmark's Preisach plants 0.88-0.98, Duhem 0.25-0.55,
+#: Bouc-Wen and B-PI <= 0.06; only a large gain switches the base.
+PREISACH_MIN_GAIN = 0.65
 #: (level segments, smoothness) of the Preisach bases tried (uniform level knots over the
 #: training input range; on the benchmark's Bouc-Wen, Preisach and Duhem nulls the
 #: cross-fitted gains vary by < 0.1 over smoothness 0.01-0.1, 3-5 segments)
@@ -473,14 +483,28 @@ class BaseChoice:
                 "folds": self.folds, "text": self.text}
 
 
+def _base_folds(ctx: FitContext) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
+    """Folds of the base choice, which must predict away from the rows it was fitted on:
+    each recording from the others. With one recording there are none and the PI stays:
+    blocks of one recording let a base with many level cells interpolate (on the real piezo,
+    interleaved blocks and halves both favoured a Preisach base, gain 0.5-0.6, whose final
+    model was worse on the later test window: 0.168 % against 0.149 %)."""
+    recs, tr = ctx.records, ctx.train
+    if len(recs) < 2:
+        return []
+    none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
+    return [([none[k] if k == j else m for k, m in enumerate(tr)],
+             [m if k == j else none[k] for k, m in enumerate(tr)])
+            for j in range(len(recs)) if tr[j].any()]
+
+
 def _choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, BaseChoice]:
     """Cross-validate a Preisach base (level-dependent memory) against the PI base on
     training blocks (:func:`core.diagnosis.data.crossfit_folds`; the test rows are not
     used), so that concealed effects are judged against a base that is not itself the
     largest error. Keeps the PI unless the Preisach lowers the block MSE by
     :data:`PREISACH_MIN_GAIN`."""
-    folds = (ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
-             or crossfit_folds(ctx.records, ctx.train, min_block_s=1e-12, max_blocks=4))
+    folds = _base_folds(ctx)
     s0 = base.structure
     if not folds or s0.shape or s0.beta_s is not None:
         return base, BaseChoice("pi", (), len(folds))
@@ -587,35 +611,7 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
         run.step(rnd, frac, f"predicting each recording from the others ({name})")
         bt = between_recordings(ctx, name, cur)
         return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
-    return replace(c, heldout=_where_it_lives(ctx, cur, c.fit))
-
-
-#: Share of the test rows, those where a candidate changes the prediction most, on which its
-#: significance is also tested (:func:`_where_it_lives`).
-WHERE_SHARE = 0.2
-
-
-def _where_it_lives(ctx: FitContext, cur: Fit, new: Fit) -> HeldOut:
-    """Held-out comparison on the test rows, with the significance also tested where the
-    effect lives: the :data:`WHERE_SHARE` of the test rows where the candidate changes the
-    prediction most (holds for creep, the fast segments and the milliseconds after
-    reversals and steps for delay, lag, resonance). The rows are chosen from the two
-    models' predictions alone (not from the measured output), so the test stays valid; the
-    better of the two tests counts, its signed-rank p doubled (Bonferroni over the two row
-    sets). The effect size (MSE reduction) stays that of all the test rows."""
-    h = heldout_comparison(ctx.test_res(cur), ctx.test_res(new))
-    d = [np.abs(a - b)[m] for a, b, m in zip(new.pred, cur.pred, ctx.test, strict=True)]
-    pooled = np.concatenate(d) if d else np.zeros(0)
-    if pooled.size < 50 or not np.any(pooled > 0):
-        return h
-    cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
-    where = [m & (np.abs(a - b) >= cut) for a, b, m in zip(new.pred, cur.pred, ctx.test,
-                                                           strict=True)]
-    hw = heldout_comparison(ctx.test_res(cur, where), ctx.test_res(new, where))
-    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
-        return h
-    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+    return replace(c, heldout=heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)))
 
 
 def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow], rnd: int,
