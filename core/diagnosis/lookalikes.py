@@ -27,6 +27,11 @@ from .specs import (
 from .stats import score_test
 from .structure import Fit
 
+#: A single recording shorter than this (s) cannot test a drift: a polynomial in time over
+#: it is as well a slow wander of the sensor noise (issue 16, failure 4: a 22 s staircase of
+#: a plant without any hidden effect got ``drift`` under white and coloured noise, 2 of 18).
+SINGLE_DRIFT_S = 60.0
+
 
 def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
     """Effects the recordings of ``ctx`` cannot excite, each ``{"name", "reason",
@@ -59,9 +64,10 @@ def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
                     "step or a ramp) inside the train/test rows",
                     "experiment": EFFECTS["creep"].experiment})
     total = sum(float(r.t[-1] - r.t[0]) for r in recs)
-    if total < 20.0 and len(recs) == 1:
+    if total < SINGLE_DRIFT_S and len(recs) == 1:
         out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
-                    "a slow drift from the model's bias",
+                    "a slow drift from the model's bias and from slow sensor noise (a "
+                    "drift must repeat across recordings, or span minutes)",
                     "experiment": EFFECTS["drift"].experiment})
     # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
     peaks = [p for ps in recording_rates(ctx) for p in ps]
