@@ -28,6 +28,7 @@ class FitContext:
         if parent is not None:
             # play banks do not depend on the rows used; share them (bases are re-derived)
             self.cache.d = parent.cache.d
+            self.cache.lv = parent.cache.lv
             self._fits = parent._fits
         self.coords: list[Coordinates] = (coordinates(records) if parent is None
                                           else parent.coords)

@@ -200,6 +200,7 @@ class _Cache:
         self.d: dict[Any, np.ndarray] = {}
         self.v: dict[Any, np.ndarray] = {}
         self.p: dict[Any, np.ndarray] = {}
+        self.lv: dict[Any, np.ndarray] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any) -> np.ndarray:
         """``B @ V`` memoised on ``key`` (recording, basis key and row count), row-major
@@ -247,21 +248,21 @@ class _Cache:
         return B
 
 
-    def levelled(self, k: int, B: np.ndarray, s: Structure, partial: bool) -> np.ndarray:
+    def levelled(self, k: int, B: np.ndarray, s: Structure) -> np.ndarray:
         """The bank ``B`` ``(N, n + 1)`` of recording ``k`` split into the level segments of
         ``s.levels`` (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column
-        ``i m + j`` = segment ``j`` of play ``i``; memoised unless ``partial``."""
-        key = ("levels", k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
+        ``i m + j`` = segment ``j`` of play ``i``; memoised."""
+        key = (k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
                s.shape, s.levels, B.shape[0])
-        L = self.d.get(key)
+        L = self.lv.get(key)
         if L is None:
             n, m = B.shape[1], len(s.levels) + 1
             L = level_segments(B.reshape(-1), s.levels).reshape(B.shape[0], n * m)
-            if partial:
-                return L
-            if len(self.d) >= 6:
-                self.d.pop(next(iter(self.d)))
-            self.d[key] = L
+            # kept apart from the play banks (a search over one recording's history meets
+            # the other recordings' levelled banks again and again)
+            if len(self.lv) >= 8:
+                self.lv.pop(next(iter(self.lv)))
+            self.lv[key] = L
         return L
 
 
@@ -454,8 +455,7 @@ def fit_structure(
                    shape=s.shape)
         for k, rec in enumerate(records)
     ]
-    banks = raw if not s.levels else [
-        cache.levelled(k, B, s, rss_only) for k, B in enumerate(raw)]
+    banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
     vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels)
