@@ -128,6 +128,23 @@ def _fit_shape(kind: str, records: Sequence[Recording], train, test, free: bool)
     return est, pred
 
 
+def fold_mse(kind: str, records: Sequence[Recording], folds, free: bool = False) -> float:
+    """Pooled MSE of fit kind ``kind`` (its own ``core.fitting`` estimator) over ``folds``,
+    each ``(train masks, block masks)``: fitted without the block, scored on it; NaN when
+    the estimator cannot fit a fold."""
+    sse, n = 0.0, 0
+    for tr, blk in folds:
+        try:
+            _, pred = _fit_shape(kind, records, tr, blk, free)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError):
+            return float("nan")
+        for r, p_, m in zip(records, pred, blk, strict=True):
+            e = (r.y - p_)[m]
+            sse += float(e @ e)
+            n += int(m.sum())
+    return sse / n if n else float("nan")
+
+
 def where_residual(records: Sequence[Recording], pred: Sequence[np.ndarray],
                    rows: Sequence[np.ndarray]) -> str:
     """Where the residual concentrates: input-level decile and branch, in words."""

@@ -62,7 +62,7 @@ from .acceptance import (
     trend_follows_steps,
 )
 from .acceptance import size_ok as effect_size_ok
-from .adequacy import assess
+from .adequacy import assess, fold_mse
 from .between import (
     BetweenPlan,
     between_plan,
@@ -536,6 +536,19 @@ def _choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Bas
             best, best_gain = fp, gain
     if best is base:
         return base, BaseChoice("pi", tuple(tried), len(folds))
+    h_best = compare_heldout(sub, base, best)
+    # Kuhnen's modified PI (a PI followed by one-sided output dead-zones: a static output
+    # map), fitted by its own estimator on the same folds
+    mse_mpi = fold_mse("mpi", ctx.records, folds, s0.free_weights)
+    if np.isfinite(mse_mpi):
+        over = 1.0 - h_best.mse_after / max(mse_mpi, 1e-300)
+        tried.append({"base": "mpi (static output map)", "operators": 0, "level_segments": 1,
+                      "smoothness": 0.0,
+                      "cv_mse_reduction": float(1.0 - mse_mpi / max(h_best.mse_before,
+                                                                    1e-300)),
+                      "preisach_mse_reduction_over_it": float(over)})
+        if over < PREISACH_OVER_MAP:
+            return base, BaseChoice("pi", tuple(tried), len(folds))
     for name in ("asymmetry", "saturation", "dead-zone"):
         got = build_candidate(ctx, name, base)
         if got is None:
