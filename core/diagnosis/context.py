@@ -21,15 +21,18 @@ class FitContext:
         self.records: list[Recording] = records
         self.train: list[np.ndarray] = train
         self.test: list[np.ndarray] = test
-        self.cache = _Cache()
         #: full fits memoised by (training rows, structure, refreshes, bilinear start): the
         #: folds refit the same current structure for every candidate and comparison
         self._fits: dict = {}
-        if parent is not None:
-            # play banks do not depend on the rows used; share them (bases are re-derived)
-            self.cache.d = parent.cache.d
-            self.cache.lv = parent.cache.lv
+        #: the caches of the sub-contexts of one diagnosis by their training masks (the
+        #: cross-fitting folds recur for every candidate and comparison)
+        self._caches: dict = {}
+        if parent is None:
+            self.cache = _Cache()
+        else:
             self._fits = parent._fits
+            self._caches = parent._caches
+            self.cache = self._sub_cache(parent.cache)
         self.coords: list[Coordinates] = (coordinates(records) if parent is None
                                           else parent.coords)
         self.n_train = sum(int(m.sum()) for m in train)
@@ -42,6 +45,24 @@ class FitContext:
         #: estimate the candidates' parameter uncertainties (profile curvature); off where
         #: only the parameters are used (cross-fitting folds)
         self.uncertainty = True
+
+    def _sub_cache(self, parent: _Cache) -> _Cache:
+        """The cache of a sub-context: play banks and projections do not depend on the rows
+        used and are shared with ``parent``; the bases and row layouts do, so they are
+        shared only with earlier sub-contexts on the same recordings and training masks
+        (the registry entry keeps those alive, so their identities stay unique)."""
+        key = (tuple(id(r) for r in self.records), tuple(id(m) for m in self.train))
+        hit = self._caches.get(key)
+        if (hit is not None and all(a is b for a, b in zip(hit[0], self.records, strict=True))
+                and all(a is b for a, b in zip(hit[1], self.train, strict=True))
+                and hit[2].d is parent.d):
+            return hit[2]
+        c = _Cache()
+        c.d, c.p, c.lv = parent.d, parent.p, parent.lv
+        if len(self._caches) >= 16:
+            self._caches.pop(next(iter(self._caches)))
+        self._caches[key] = (list(self.records), list(self.train), c)
+        return c
 
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         """Fit ``s`` on the training rows (bilinear regressors started from ``cur``).

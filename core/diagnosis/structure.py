@@ -194,24 +194,81 @@ class Fit:
 
 
 class _Cache:
-    """Play-bank outputs keyed by (recording, history, beta), and their reduced bases."""
+    """Play-bank outputs keyed by (recording, history, beta), their reduced bases, the
+    projections of the banks on those bases and the row layout of the training rows."""
 
     def __init__(self) -> None:
         self.d: dict[Any, np.ndarray] = {}
         self.v: dict[Any, np.ndarray] = {}
-        self.p: dict[Any, np.ndarray] = {}
+        #: projections ``B @ V``: may be shared between the caches of one diagnosis (the
+        #: entry holds ``V``, whose identity is part of the key)
+        self.p: dict[Any, tuple[np.ndarray, np.ndarray]] = {}
+        #: row layout per (records, training masks, fast path), entries hold both
+        self.rows: dict[Any, tuple] = {}
+        #: play banks split into the level segments of a Preisach base
         self.lv: dict[Any, np.ndarray] = {}
 
-    def projected(self, B: np.ndarray, V: np.ndarray, key: Any) -> np.ndarray:
-        """``B @ V`` memoised on ``key`` (recording, basis key and row count), row-major
-        (the dynamics filter runs time outer, columns inner)."""
-        P = self.p.get(key)
+    def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
+                  w: np.ndarray | None = None) -> np.ndarray:
+        """``B @ V`` memoised on ``key`` (recording, basis key and row count) and the identity
+        of ``V``, row-major (the dynamics filter runs time outer, columns inner).
+
+        ``w``: the play-bank input on the rows of ``B`` (rate-independent plays only): where
+        it repeats (a hold, a flat stretch before the excitation) the plays do not move and
+        the row of ``B`` repeats exactly, so only the distinct rows are multiplied.
+        """
+        key = (key, id(V))
+        hit = self.p.get(key)
+        if hit is not None and hit[0] is V:
+            return hit[1]
+        P = None
+        if w is not None and w.size > 1:
+            new = np.empty(w.size, dtype=bool)
+            new[0] = True
+            np.not_equal(w[1:], w[:-1], out=new[1:])
+            if np.count_nonzero(new) < 0.9 * w.size:
+                P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-            if len(self.p) >= 16:
-                self.p.pop(next(iter(self.p)))
-            self.p[key] = P
+        if len(self.p) >= 16:
+            self.p.pop(next(iter(self.p)))
+        self.p[key] = (V, P)
         return P
+
+    def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
+               rss_only: bool) -> tuple:
+        """The solved rows of :func:`fit_structure` and what depends only on them: ``(rows,
+        sel, ends, upto, ys, ylo, yhi, center, half, dts)``. Deterministic in the recordings
+        (read-only arrays) and the training masks, so memoised on the identities of both
+        (the entry keeps them alive, so those identities cannot be reused meanwhile)."""
+        key = (tuple(id(r) for r in records), tuple(id(m) for m in train), rss_only)
+        hit = self.rows.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], records, strict=True)) and all(
+                a is b for a, b in zip(hit[1], train, strict=True)):
+            return hit[2]
+        # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
+        # (neighbouring samples are nearly redundant); every signal is formed only up to the
+        # last of them (the dynamics are causal)
+        n_tr = sum(int(m.sum()) for m in train)
+        step = max(1, n_tr // (8000 if rss_only else 15000))
+        idx_all = [np.flatnonzero(m) for m in train]
+        rows = [idx[::step] for idx in idx_all]
+        ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
+        # the reduced basis is taken on every training row: the bank reaches the last of them
+        upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
+        ys = np.concatenate([rec.y[idx] for rec, idx in zip(records, rows, strict=True)])
+        ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True)
+                  if m.any())
+        yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True)
+                  if m.any())
+        center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
+        dts = [rec.dt for rec in records]
+        sel = [_row_selector(idx) for idx in rows]
+        out = (rows, sel, ends, upto, ys, ylo, yhi, center, half, dts)
+        if len(self.rows) >= 8:
+            self.rows.pop(next(iter(self.rows)))
+        self.rows[key] = (list(records), list(train), out)
+        return out
 
     def basis(self, banks: list[np.ndarray], train: Sequence[np.ndarray], key: Any) -> np.ndarray:
         V = self.v.get(key)
@@ -264,6 +321,16 @@ class _Cache:
                 self.lv.pop(next(iter(self.lv)))
             self.lv[key] = L
         return L
+
+
+def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
+    """Index ``B[sel]`` equal to ``B[idx]`` for increasing indices ``idx``: a slice (a strided
+    view, no gather) when they are evenly spaced, as in a single training window."""
+    if idx.size > 1:
+        d = np.diff(idx)
+        if d[0] > 0 and np.all(d == d[0]):
+            return slice(int(idx[0]), int(idx[-1]) + 1, int(d[0]))
+    return idx
 
 
 def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
@@ -351,7 +418,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if kind == "delay":
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
-        return _delay_rows(xc, rows.astype(np.int64), m, D - m, out)
+        return _delay_rows(xc, np.asarray(rows, dtype=np.int64), m, D - m, out)
     if kind == "lag":
         num, den = [1.0], [dyn[1], 1.0]
     elif kind == "resonance":
@@ -360,7 +427,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     else:
         raise ValueError(f"unknown dynamics {kind!r}")
     b, a, zi = _tf_memo(num, den, dt)
-    return _iir_rows(b, a, zi, xc, rows.astype(np.int64), out)
+    return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
 
 
 def _unconstrained_rss(Xa: np.ndarray) -> float:
@@ -440,16 +507,8 @@ def fit_structure(
     cache = cache or _Cache()
     r = np.asarray(s.thresholds)
     nrec = len(records)
-    # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
-    # (neighbouring samples are nearly redundant); every signal is formed only up to the
-    # last of them (the dynamics are causal)
-    n_tr = sum(int(m.sum()) for m in train)
-    step = max(1, n_tr // (8000 if rss_only else 15000))
-    idx_all = [np.flatnonzero(m) for m in train]
-    rows = [idx[::step] for idx in idx_all]
-    ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
-    # the reduced basis is taken on every training row: the bank reaches the last of them
-    upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
+    rows, sel, ends, upto, ys, ylo, yhi, center, half, dts = cache.layout(records, train,
+                                                                         rss_only)
     raw = [
         cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
                    shape=s.shape)
@@ -464,10 +523,6 @@ def fit_structure(
     if iterations is None:
         iterations = 3 if needs_x else 1
     x_prev = list(x_init) if x_init is not None else None
-    ys = np.concatenate([rec.y[idx] for rec, idx in zip(records, rows, strict=True)])
-    ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True) if m.any())
-    yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True) if m.any())
-    center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
     # input range of the play bank (the loop-shape map's output when there is one)
     # (a bank may stop at its last training row)
     w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
@@ -480,7 +535,6 @@ def fit_structure(
     n_creep = len(s.creep_taus)
     n_bias = nrec if s.offsets else 1
     n_drift = s.drift_degree * nrec
-    dts = [rec.dt for rec in records]
     nq = nb if V is None else V.shape[1]
     nM = nq + n_asym + n_creep
     ncol = nM + n_bias + n_drift
@@ -494,10 +548,13 @@ def fit_structure(
         blk = X[o : o + idx.size]
         blocks.append(blk)
         if V is not None and not s.dynamics:
-            blk[:, :nq] = banks[k][idx] @ V  # only the solved rows are needed
+            # only the solved rows are needed (a strided view when they are evenly spaced,
+            # as in a single training window: the same product without gathering them)
+            blk[:, :nq] = banks[k][sel[k]] @ V
         else:
             P = banks[k][:last] if V is None else cache.projected(
-                banks[k][:last], V, (k, vkey, last, id(V)))
+                banks[k][:last], V, (k, vkey, last),
+                w=raw[k][:last, 0] if s.beta_s is None else None)
             _dyn_rows(P, s.dynamics, dts[k], idx, out=blk[:, :nq])
         blk[:, nM:ncol] = 0.0
         blk[:, nM + (k if s.offsets else 0)] = 1.0
