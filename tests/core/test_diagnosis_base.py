@@ -76,3 +76,13 @@ def test_a_static_output_map_is_named_not_taken_for_level_dependent_memory(make,
     assert any(t.get("preisach_mse_reduction_over_it", 1.0) < 0.3
                for t in res.base_choice.tried)
     assert [e.name for e in res.effects][:1] == [name]
+
+
+def test_a_delay_that_lives_in_the_fast_recording_is_named() -> None:
+    """Maxwell-slip (friction) plant with a 1 ms delay: the delay removes 61 % of the held-out
+    MSE, but almost all of it in the fast sines, so the Diebold-Mariano z on all the test
+    rows is 2.8 and the signed-rank p 0.38: before, only "suggestive". Tested also on the
+    20 % of the test rows where it changes the prediction most, it is named, within 25 %."""
+    res = diagnose(make_family("maxwell-slip", "delay", "large", seed=500).records)
+    assert [e.name for e in res.effects][:1] == ["delay"]
+    assert res.effects[0].parameters["delay_s"] == pytest.approx(1e-3, rel=0.25)
