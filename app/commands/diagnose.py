@@ -66,6 +66,11 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("files", nargs="+", metavar="FILE.csv", help="recordings")
     p.add_argument("--model", default="pi", choices=["pi"], help="base model (default: pi)")
+    p.add_argument("--base", default="auto", choices=["auto", "pi"],
+                   help="base hysteresis the effects are judged against: 'auto' (default) "
+                   "replaces the PI by a Preisach model (level-dependent memory) when that "
+                   "predicts each recording from the others clearly better, also than a PI "
+                   "with a static output map; 'pi' keeps the PI")
     add_read_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--train", type=window_arg("train"), metavar="T0:T1",
@@ -127,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     recs = as_records([Path(f) for f in args.files], **read_kwargs(args))
     say_read(progress, recs)
     res = diagnose(recs, model=args.model, train=args.train, test=args.test,
-                   n_operators=args.operators, effects=effects,
+                   n_operators=args.operators, effects=effects, base=args.base,
                    auto_resolution=not args.fixed_grid,
                    crossfit=False if args.no_crossfit else None,
                    progress=lambda frac, msg: progress(f"{100 * frac:3.0f} % {msg}"))

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -160,3 +162,32 @@ def test_quasi_static_loops_without_time_axis_are_diagnosed(capsys) -> None:
     best = min(ad["loop_shapes"], key=lambda f: f["pct"])
     assert best["pct"] <= 4.6 and "saturation" in best["physics"]
     assert "saturation" in ad["text"] and "not adequate" in ad["text"]
+
+
+def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_path,
+                                                                           capsys) -> None:
+    """Issue 16 from the command line: four recordings of a Preisach actuator (the
+    benchmark's relay bank, density off-centre); the report names the base, the saved model
+    inverts (hyst invert) and compiles (hyst export --format c); --base pi keeps the PI."""
+    from benchmarks.diagnosis.families import make_family
+
+    sc = make_family("preisach", None, "large", seed=500)
+    files = [_write(tmp_path / f"{r.name}.csv", r.t, r.u, r.y) for r in sc.records]
+    model = tmp_path / "m.json"
+    assert main(["diagnose", *map(str, files), "--json", "-q", "--save-model",
+                 str(model)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["baseline"]["model"] == "preisach"
+    assert "level-dependent memory" in doc["baseline"]["base_choice"]["text"]
+    assert doc["effects"] == []
+    inv = tmp_path / "inv.json"
+    assert main(["invert", str(model), "-o", str(inv)]) == 0
+    assert main(["export", str(model), "--format", "c", "-o", str(tmp_path / "m")]) == 0
+    if shutil.which("gcc"):
+        res = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-c",
+                              str(tmp_path / "m.c"), "-o", str(tmp_path / "m.o")],
+                             capture_output=True, text=True)
+        assert res.returncode == 0, res.stderr
+    capsys.readouterr()
+    assert main(["diagnose", *map(str, files), "--json", "-q", "--base", "pi"]) == 0
+    assert json.loads(capsys.readouterr().out)["baseline"]["model"] == "pi"
