@@ -225,3 +225,18 @@ def test_search_context_keeps_play_outputs_exact() -> None:
     dec = sub.cache.bank(0, sub.records[0], r, (), None, shape)
     assert np.array_equal(full[keep], dec)
     assert search_context(ctx, ctx.fit(s.with_(dynamics=("lag", 1e-3))))[0] is ctx
+
+
+def test_long_recordings_still_compare_the_other_model_classes(monkeypatch) -> None:
+    """Issue 16: "not tried on recordings this long" is not an answer. With the row limit
+    set below this recording's training rows, the other classes are fitted on every k-th
+    training row (the memory still runs over every sample) and compared all the same."""
+    from core.diagnosis import adequacy
+
+    rec, _ = _thresholded_actuator()
+    monkeypatch.setattr(adequacy, "MAX_SAMPLES", 500)
+    res = diagnose(rec, effects=["delay"])
+    ad = res.adequacy
+    assert not ad.adequate
+    assert {f.model for f in ad.loop_shapes} >= {"mpi", "gpi-tanh", "preisach"}
+    assert "this long" not in ad.text and "th training row" in ad.text
