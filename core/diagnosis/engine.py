@@ -84,6 +84,7 @@ from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untes
 from .periodic import steady_state_history
 from .results import (
     ACCEPT_RULE,
+    BaseChoice,
     DiagnosisResult,
     EffectFinding,
     RecordingSpecific,
@@ -448,43 +449,6 @@ PREISACH_OVER_MAP = 0.3
 #: training input range; on the benchmark's Bouc-Wen, Preisach and Duhem nulls the
 #: cross-fitted gains vary by < 0.1 over smoothness 0.01-0.1, 3-5 segments)
 PREISACH_GRID: tuple[tuple[int, float], ...] = ((3, 0.1), (5, 0.01))
-
-
-@dataclass(frozen=True)
-class BaseChoice:
-    """How the base hysteresis was chosen (cross-validation on the training rows).
-
-    Attributes
-    ----------
-    kind : str
-        ``"pi"`` or ``"preisach"`` (level-dependent memory, E10).
-    tried : tuple of dict
-        ``{"base", "operators", "level_segments", "cv_mse_reduction"}`` per alternative,
-        its cross-fitted training-block MSE reduction against the PI base.
-    folds : int
-        Training blocks of the cross-validation.
-    """
-
-    kind: str
-    tried: tuple[dict[str, Any], ...]
-    folds: int
-
-    @property
-    def text(self) -> str:
-        alts = "; ".join(f"{t['base']} ({t['operators']} plays x {t['level_segments']} level "
-                         f"segments) {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %"
-                         for t in self.tried)
-        if self.kind == "preisach":
-            return ("level-dependent memory (E10): a Preisach base whose relay density varies "
-                    "with the input level fits the training rows better than any PI "
-                    f"(cross-fitted on {self.folds} training blocks, MSE against the PI: "
-                    f"{alts}); the effects are judged against it")
-        return (f"PI (cross-fitted on {self.folds} training blocks, MSE of the alternatives "
-                f"against it: {alts or 'none tried'})")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "tried": [dict(t) for t in self.tried],
-                "folds": self.folds, "text": self.text}
 
 
 def _base_folds(ctx: FitContext) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
@@ -1056,12 +1020,13 @@ def _drop_recording_specific(run: _Run, base: Fit, cur: Fit, loro_b: dict[str, A
     it) and reported as recording-specific with the numbers; look-alike notes that chose it
     go with it. Returns the final fit, its leave-one-recording-out score and the list."""
     ctx = run.ctx
-    drop: list[tuple[EffectFinding, dict[str, Any]]] = []
+    drop: list[tuple[EffectFinding, dict[str, Any], bool]] = []
     prev = base.structure
     for f in run.findings:
         lo, st = f.loro, f.structure
-        if lo is not None and st is not None and (
-                st.offsets != prev.offsets or st.drift_degree != prev.drift_degree):
+        per_rec = st is not None and (st.offsets != prev.offsets
+                                      or st.drift_degree != prev.drift_degree)
+        if lo is not None and st is not None and per_rec:
             # a per-recording level (offset, drift) cannot be known for an unseen recording:
             # judge what it does to the shared part, each left-out recording with its own level
             a = leave_one_recording_out(ctx, prev, st.drift_degree)
@@ -1074,17 +1039,16 @@ def _drop_recording_specific(run: _Run, base: Fit, cur: Fit, loro_b: dict[str, A
                                                     strict=True)]}
             f.loro = dict(f.loro or {}, shared=lo)
         if lo is not None and not generalises(lo["mse_reduction"]):
-            drop.append((f, lo))
+            drop.append((f, lo, per_rec))
         prev = st if st is not None else prev
     if not drop:
         return cur, loro_f, []
     s = cur.structure
     out = []
-    for f, lo in drop:
+    for f, lo, per_rec in drop:
         s = s.without(f.name, base.structure)
         worse = (lo["rmse_after"] / max(lo["rmse_before"], 1e-300)) ** 2
-        per = (" (one per recording: it differs between the recordings)"
-               if f.name in ("offset", "drift") else "")
+        per = " (one per recording: it differs between the recordings)" if per_rec else ""
         out.append(RecordingSpecific(
             f.name, dict(f.parameters), float(lo["mse_reduction"]), float(lo["rmse_before"]),
             float(lo["rmse_after"]), tuple(lo.get("per_recording", ())),
@@ -1093,7 +1057,7 @@ def _drop_recording_specific(run: _Run, base: Fit, cur: Fit, loro_b: dict[str, A
             f"(leave-one-recording-out {-100 * lo['mse_reduction']:+.0f} %): it does not "
             "generalise, so it is specific to these recordings (or stands in for a misfit "
             "of the base model), not claimed as physics and not in the final model"))
-    names = {f.name for f, _ in drop}
+    names = {f.name for f, _, _ in drop}
     run.findings[:] = [f for f in run.findings if f.name not in names]
     run.ambiguous[:] = [a for a in run.ambiguous if a.get("chosen") not in names]
     cur = ctx.fit(s, cur)

@@ -24,7 +24,8 @@ from .specs import EFFECTS
 from .stats import HeldOut, ljung_box
 from .structure import Fit, Structure
 
-__all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "RoundRow", "pooled_mse"]
+__all__ = ["ACCEPT_RULE", "BaseChoice", "DiagnosisResult", "EffectFinding", "RecordingSpecific",
+           "RoundRow", "pooled_mse"]
 
 
 #: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
@@ -175,6 +176,52 @@ class EffectFinding:
 
 
 @dataclass(frozen=True)
+class BaseChoice:
+    """How the base hysteresis was chosen (each recording predicted from the others).
+
+    Attributes
+    ----------
+    kind : str
+        ``"pi"`` or ``"preisach"`` (level-dependent memory, E10).
+    tried : tuple of dict
+        Per alternative ``{"base", "operators", "level_segments", "smoothness",
+        "cv_mse_reduction"}``: its MSE reduction against the PI base on the left-out
+        recordings; the static-map alternatives also ``"preisach_mse_reduction_over_it"``.
+    folds : int
+        Left-out recordings.
+    """
+
+    kind: str
+    tried: tuple[dict[str, Any], ...]
+    folds: int
+
+    @property
+    def text(self) -> str:
+        def one(t: dict[str, Any]) -> str:
+            if t["base"] == "preisach":
+                return (f"preisach ({t['operators']} plays x {t['level_segments']} level "
+                        f"segments) MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
+            return (f"{t['base']} MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %, the "
+                    f"Preisach {-100 * t['preisach_mse_reduction_over_it'] + 0.0:+.0f} % "
+                    "against it")
+
+        alts = "; ".join(one(t) for t in self.tried)
+        how = f"each of {self.folds} recordings predicted from the others"
+        if self.kind == "preisach":
+            return ("level-dependent memory (E10): a Preisach base whose relay density varies "
+                    f"with the input level predicts the recordings clearly better than the PI "
+                    f"and than a PI with a static output map ({how}, against the PI: {alts}); "
+                    "the effects are judged against it")
+        if not self.tried:
+            return "PI (no alternative base tried: it needs two or more recordings)"
+        return f"PI ({how}, against the PI: {alts})"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "tried": [dict(t) for t in self.tried],
+                "folds": self.folds, "text": self.text}
+
+
+@dataclass(frozen=True)
 class RecordingSpecific:
     """An effect that passed the acceptance rules on the recordings it was fitted on but made
     the prediction of unseen recordings worse (leave-one-recording-out): reported with the
@@ -274,7 +321,7 @@ class DiagnosisResult:
     #: unseen recordings (leave-one-recording-out worse): not claimed, not in the model
     recording_specific: list[RecordingSpecific] = field(default_factory=list)
     #: how the base hysteresis was chosen (PI or a Preisach with level-dependent memory)
-    base_choice: Any = None
+    base_choice: BaseChoice | None = None
 
     @property
     def saved_fit(self) -> Fit:
