@@ -243,6 +243,10 @@ def diagnose_session(session: Session,
     """
     doc = session.fitted or session.snapshot()[0].model
     report, result = run_diagnosis(session.recording, model_from_dict(doc), progress)
+    if progress is not None:
+        # the last point where a cancelled job stops: a cancel that came while the report
+        # was being built must not leave the result in the session
+        progress(1.0, "storing the diagnosis")
     session.set_diagnosis(report, result)
     return report
 

@@ -130,3 +130,39 @@ def test_a_running_diagnosis_stops_at_its_next_progress_report(monkeypatch) -> N
         c.delete(f"/api/sessions/{code}/jobs/{job}")
         end = _poll(c, code, job)
         assert end["state"] == "cancelled" and len(reports) < 150
+
+
+def test_a_diagnosis_cancelled_after_its_last_report_leaves_the_session_alone(
+        monkeypatch) -> None:  # noqa: ANN001
+    """The cancel arrives after the diagnosis' last progress report, while the report is
+    being built: the job ends cancelled and the session holds no diagnosis (before: the
+    result was stored in the session although the job said "cancelled"; the browser test of
+    Cancel failed on it whenever the click came that late)."""
+    import core.diagnosis as cd
+
+    real = cd.diagnose
+    box: dict[str, str] = {}
+
+    def diagnose(data, baseline, *, n_operators, progress=None):  # noqa: ANN001, ANN202
+        res = real(data, baseline, n_operators=n_operators)
+        progress(1.0, "done")  # the diagnosis' own last report
+        box["cancel"] = "now"
+        deadline = time.monotonic() + 10
+        while "cancelled" not in box and time.monotonic() < deadline:
+            time.sleep(0.01)  # the user's cancel lands here
+        return res
+
+    monkeypatch.setattr(cd, "diagnose", diagnose)
+    app = create_app(Settings(viser_port=None))
+    with TestClient(app) as c:
+        code = c.post("/api/sessions").json()["code"]
+        upload(c, code, csv_text(400))
+        job = c.post(f"/api/sessions/{code}/jobs", json={"kind": "diagnose"}).json()["id"]
+        deadline = time.monotonic() + 60
+        while "cancel" not in box and time.monotonic() < deadline:
+            time.sleep(0.02)
+        c.delete(f"/api/sessions/{code}/jobs/{job}")
+        box["cancelled"] = "yes"
+        end = _poll(c, code, job)
+        assert end["state"] == "cancelled"
+        assert app.state.registry.get(code).diagnosis is None
