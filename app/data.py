@@ -197,8 +197,16 @@ def _diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
                            if isinstance(v, int | float))
         where = (e.get("where") or {}).get("summary", "")
         findings.append(f"{e.get('name')} ({e.get('family', '')}): {params}. {where}".strip())
+    base_doc = d.get("baseline", {})
     if not findings:
-        findings.append("no missing physics detected: the PI model explains the data")
+        findings.append("no missing physics detected: the "
+                        + ("Preisach" if base_doc.get("model") == "preisach" else "PI")
+                        + " model explains the data")
+    choice = base_doc.get("base_choice") or {}
+    if choice.get("kind") == "preisach":
+        findings.append(f"base: {choice.get('text', '')}")
+    for r in d.get("recording_specific", []):
+        findings.append(f"recording-specific, not claimed: {r.get('text', '')}")
     for a in d.get("ambiguous", []):
         findings.append(f"ambiguous {' vs '.join(a.get('effects', []))}: {a.get('experiment', '')}")
     for u in d.get("untestable", []):
