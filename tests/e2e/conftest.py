@@ -109,3 +109,23 @@ def shot() -> Any:
         return path
 
     return save
+
+
+@pytest.fixture()
+def slow_diagnosis(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The diagnosis pauses 0.5 s at each progress report, so that it is still running when
+    the page reacts (a Cancel or a reload); otherwise a fast machine finishes the piezo
+    diagnosis before the click and the test measures the race, not the page."""
+    import core.diagnosis as cd
+
+    real = cd.diagnose
+
+    def diagnose(*args: Any, progress: Any = None, **kw: Any) -> Any:
+        def slow(frac: float, msg: str = "") -> None:
+            time.sleep(0.5)
+            if progress is not None:
+                progress(frac, msg)
+
+        return real(*args, progress=slow, **kw)
+
+    monkeypatch.setattr(cd, "diagnose", diagnose)

@@ -36,7 +36,8 @@ def _job(app: Any, code: str) -> Any:
     return jobs[-1]
 
 
-def test_diagnosis_progress_and_cancel(browser: Any, live_server: dict, shot: Any) -> None:
+def test_diagnosis_progress_and_cancel(browser: Any, live_server: dict, shot: Any,
+                                       slow_diagnosis: None) -> None:
     app = live_server["app"]
     ctx, page, log = _open(browser, live_server["url"])
     _upload(page, PIEZO, "50001")

@@ -21,7 +21,7 @@ def _reload(page: Any) -> None:
 
 
 def test_reload_during_a_diagnosis_follows_it(browser: Any, live_server: dict,
-                                              shot: Any) -> None:
+                                              shot: Any, slow_diagnosis: None) -> None:
     app = live_server["app"]
     ctx, page, log = _open(browser, live_server["url"])
     _upload(page, PIEZO, "50001")
