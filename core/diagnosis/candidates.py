@@ -97,6 +97,12 @@ def initial_memory_search(ctx: FitContext, cur: Fit) -> tuple[Fit, dict, dict] |
     s = cur.structure
     hist = list(s.history)
     best_fit = cur
+    # the virtual extrema found are kept inside the input range of the recordings: an
+    # excursion beyond every recorded input cannot be checked against anything the actuator
+    # was seen to do (on a Bouc-Wen plant a history below the whole range imitated its
+    # virgin curve: initial memory claimed on a plant that had none)
+    u_lo = min(float(r.u.min()) for r in ctx.records)
+    u_hi = max(float(r.u.max()) for r in ctx.records)
     for k, rec in enumerate(ctx.records):
         tw = wipeout_index(rec.u)
         if not (ctx.train[k][:tw].any() or (ctx.test[k][:tw].any() and not ctx.strict)):
@@ -130,11 +136,21 @@ def initial_memory_search(ctx: FitContext, cur: Fit) -> tuple[Fit, dict, dict] |
                                  [x0] + [x0 + 0.08 * span * np.eye(x0.size)[i]
                                          for i in range(x0.size)])})
             best = (rr.fun, tuple(float(v) for v in rr.x)) if rr.fun < best[0] else best
-        hist[k] = best[1]
+        hist[k] = _inside(best[1], u_lo, u_hi)
     if not any(hist):
         return None
     fit = ctx.fit(s.with_(history=tuple(hist)), cur)
     return fit, {"history": [list(h) for h in hist]}, {}
+
+
+def _inside(history: tuple[float, ...], lo: float, hi: float) -> tuple[float, ...]:
+    """``history`` clipped to ``[lo, hi]``, without the repeated values clipping makes."""
+    out: list[float] = []
+    for v in history:
+        c = float(min(max(v, lo), hi))
+        if not out or c != out[-1]:
+            out.append(c)
+    return tuple(out)
 
 
 def _one_time_constant(ctx: FitContext, cur: Fit, kind: str, key: str) -> Candidate | None:

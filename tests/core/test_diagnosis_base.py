@@ -86,3 +86,12 @@ def test_a_delay_that_lives_in_the_fast_recording_is_named() -> None:
     res = diagnose(make_family("maxwell-slip", "delay", "large", seed=500).records)
     assert [e.name for e in res.effects][:1] == ["delay"]
     assert res.effects[0].parameters["delay_s"] == pytest.approx(1e-3, rel=0.25)
+
+
+def test_a_virgin_curve_unlike_the_pis_is_not_an_initial_memory() -> None:
+    """Bouc-Wen n = 2 null: its virgin curve differs from every PI's; the history search
+    imitated it with a virtual excursion to -34.5 V, below every recorded input (0-150 V),
+    and claimed initial-memory on a plant that had none. Virtual extrema now stay inside
+    the recorded input range."""
+    res = diagnose(make_family("bouc-wen-2", None, "large", seed=500).records)
+    assert "initial-memory" not in [e.name for e in res.effects]
