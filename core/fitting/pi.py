@@ -29,10 +29,11 @@ import numpy as np
 from .._typing import ArrayLike, Float1D
 from ..base import Chain
 from ..effects import Offset
-from ..exceptions import FitWarning, NotFittedError, ParameterError
+from ..exceptions import FitWarning, ParameterError
 from ..pi import PIModel
 from ..validation import as_vector
 from ._data import Prepared, as_recordings, exclude_before_wipeout, masked_range, prepare
+from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, evaluate_fit
 from .thresholds import place_thresholds
@@ -225,7 +226,7 @@ def default_min_slope(prep: Prepared, rel: float = 1e-3) -> float:
     return rel * masked_range(prep.ys, prep.train_masks) / du
 
 
-class PIRegressor:
+class PIRegressor(RelaxedPredictor):
     """Fit an invertible classical PI model (plus output offset) to input/output records.
 
     Parameters
@@ -506,38 +507,9 @@ class PIRegressor:
         )
         return self
 
-    def _check(self) -> None:
-        if not hasattr(self, "model_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(u, y) first"
-            )
-
     def _model_for(self, u: Float1D) -> PIModel:
         m = self.model_
         return PIModel(m.p0, m.thresholds, m.weights, np.full(m.n, float(u[0])))
-
-    def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
-        """Model output ``model_(u) + offset_`` with operators relaxed at ``u[0]``.
-
-        Parameters
-        ----------
-        u : array_like of shape (N,), or list of such
-            Input record(s) (input units).
-
-        Returns
-        -------
-        ndarray of shape (N,), or list of such
-            Predicted output (output units).
-
-        Raises
-        ------
-        NotFittedError
-            Before :meth:`fit`.
-        """
-        self._check()
-        us, multi = as_recordings(u, "u")
-        out = [self._model_for(x)(x) + self.offset_ if x.size else x.copy() for x in us]
-        return out if multi else out[0]
 
     def compensate(self, y_desired: ArrayLike) -> Float1D:
         """Feed-forward command ``u = M⁻¹(y_desired - offset_)`` from the exact inverse.

@@ -30,10 +30,11 @@ from .. import kernels
 from .._typing import ArrayLike, Float1D
 from ..base import Chain
 from ..effects import Offset
-from ..exceptions import FitWarning, NotFittedError, ParameterError
+from ..exceptions import FitWarning, ParameterError
 from ..preisach import PreisachModel, level_segments
 from ..validation import as_vector
-from ._data import Prepared, as_recordings, exclude_before_wipeout, prepare
+from ._data import Prepared, exclude_before_wipeout, prepare
+from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained
 from .metrics import FitReport, evaluate_fit
 from .pi import default_min_slope
@@ -154,7 +155,7 @@ def _positive_int(v: Any, name: str) -> int:
     return int(v)
 
 
-class PreisachRegressor:
+class PreisachRegressor(RelaxedPredictor):
     """Fit an invertible level-dependent Preisach model (plus output offset).
 
     Parameters
@@ -381,35 +382,6 @@ class PreisachRegressor:
         )
         return self
 
-    def _check(self) -> None:
-        if not hasattr(self, "model_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(u, y) first"
-            )
-
     def _model_for(self, u: Float1D) -> PreisachModel:
         m = self.model_
         return PreisachModel(m.thresholds, m.weights, m.knots, np.full(m.n, float(u[0])))
-
-    def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
-        """Model output ``model_(u) + offset_`` with the plays relaxed at ``u[0]``.
-
-        Parameters
-        ----------
-        u : array_like of shape (N,), or list of such
-            Input record(s) (input units).
-
-        Returns
-        -------
-        ndarray of shape (N,), or list of such
-            Predicted output (output units).
-
-        Raises
-        ------
-        NotFittedError
-            Before :meth:`fit`.
-        """
-        self._check()
-        us, multi = as_recordings(u, "u")
-        out = [self._model_for(x)(x) + self.offset_ if x.size else x.copy() for x in us]
-        return out if multi else out[0]
