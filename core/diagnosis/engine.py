@@ -485,7 +485,7 @@ def _choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Bas
     lo, hi = min(float(x.min()) for x in w), max(float(x.max()) for x in w)
     n_p = max(4, min(25, n_operators))
     r = baseline_thresholds(ctx.records, ctx.train, n_p)
-    best, best_gain, tried = base, 0.0, []
+    best, h_best, tried = base, None, []
     for m, smooth in PREISACH_GRID:
         if 2 * ((n_p + 1) * m + 2) > ctx.n_train:
             continue  # at least two training rows per weight
@@ -493,14 +493,13 @@ def _choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Bas
         sp = Structure(tuple(float(x) for x in r), s0.history, levels=knots,
                        level_smooth=smooth)
         fp = ctx.fit(sp)
-        gain = compare_heldout(sub, base, fp).gain
+        h = compare_heldout(sub, base, fp)
         tried.append({"base": "preisach", "operators": n_p, "level_segments": m,
-                      "smoothness": smooth, "cv_mse_reduction": float(gain)})
-        if gain >= PREISACH_MIN_GAIN and gain > best_gain:
-            best, best_gain = fp, gain
-    if best is base:
+                      "smoothness": smooth, "cv_mse_reduction": float(h.gain)})
+        if h.gain >= PREISACH_MIN_GAIN and (h_best is None or h.gain > h_best.gain):
+            best, h_best = fp, h
+    if h_best is None:
         return base, BaseChoice("pi", tuple(tried), len(folds))
-    h_best = compare_heldout(sub, base, best)
     # Kuhnen's modified PI (a PI followed by one-sided output dead-zones: a static output
     # map), fitted by its own estimator on the same folds
     mse_mpi = fold_mse("mpi", ctx.records, folds, s0.free_weights)

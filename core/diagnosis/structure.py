@@ -304,7 +304,6 @@ class _Cache:
             self.d[key] = B
         return B
 
-
     def levelled(self, k: int, B: np.ndarray, s: Structure) -> np.ndarray:
         """The bank ``B`` ``(N, n + 1)`` of recording ``k`` split into the level segments of
         ``s.levels`` (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column
