@@ -1,5 +1,5 @@
-"""The real piezo recording (shipped copy): the diagnosis table of the README, pinned for both
-hold-out protocols. Output range = max - min of the measured y on [7, 9] s (39.31 um), the
+"""The real piezo recording (shipped copy): the diagnosis table of docs/diagnosis.md, pinned
+for both hold-out protocols. Output range = max - min of the measured y on [7, 9] s (39.31 um), the
 fit reports' definition."""
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The tests whose screenshots the README and docs/explorer.md show.
+#: The tests whose screenshots docs/serve.md and docs/explorer.md show.
 TESTS = [
     "tests/e2e/test_static_page.py::test_page_loads_slider_updates_plot",
     "tests/e2e/test_static_page.py::test_csv_upload_fit_diagnosis_download",
