@@ -13,6 +13,7 @@ __all__ = [
     "NotFittedError",
     "NotInvertibleError",
     "ParameterError",
+    "UnsupportedOptionError",
 ]
 
 
@@ -22,6 +23,11 @@ class HysteresisError(Exception):
 
 class ParameterError(HysteresisError, ValueError):
     """A parameter or input violates a rule; the message names both."""
+
+
+class UnsupportedOptionError(ParameterError):
+    """A valid option that this estimator (fit kind) cannot use; the message says which
+    values it can use."""
 
 
 class NotInvertibleError(HysteresisError, ValueError):

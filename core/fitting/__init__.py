@@ -11,6 +11,13 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
 * :class:`PreisachRegressor` — level-dependent Preisach model (play form), NNLS on streamed
   normal equations of its level-segment columns.
 
+Every estimator takes the same option keywords (``n_operators``, ``constraint``,
+``initial_memory``; a value a kind cannot use raises
+:class:`~core.exceptions.UnsupportedOptionError`). :func:`fit_recordings` is the one fitting
+entry point of ``hyst fit``, the explorer and ``hyst batch fit``: recordings, fit kind,
+options and :class:`TimeWindow` s in, a frozen :class:`FitOutcome` (model, report, warnings,
+parameter-set document) out.
+
 Each model class names its estimator once (``estimator = "core.fitting:PIRegressor"`` on
 :class:`core.pi.PIModel`, ...); :func:`core.models.fit_kinds` and
 :func:`core.models.estimator_class` derive the fit kinds of the command line and the explorer
@@ -24,6 +31,7 @@ building blocks.
 from __future__ import annotations
 
 from .digitized import DigitizedPIRegressor
+from .entry import EmptyWindowError, FitOutcome, TimeWindow, fit_recordings
 from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
@@ -34,6 +42,8 @@ from .thresholds import place_thresholds, reversal_indices, wipeout_index
 __all__ = [
     "DeadZoneGPIRegressor",
     "DigitizedPIRegressor",
+    "EmptyWindowError",
+    "FitOutcome",
     "FitReport",
     "ModifiedPIRegressor",
     "PIRegressor",
@@ -41,7 +51,9 @@ __all__ = [
     "PreisachRegressor",
     "Segment",
     "TanhGPIRegressor",
+    "TimeWindow",
     "fit_linear_pi",
+    "fit_recordings",
     "place_thresholds",
     "reversal_indices",
     "solve_constrained",

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from .._typing import ArrayLike, Float1D
-from ..exceptions import ParameterError
+from ..exceptions import ParameterError, UnsupportedOptionError
 from ..validation import as_input_signal
 from .gram import Segment
 
@@ -199,6 +199,33 @@ def prepare(
 
 #: Fewest training rows (fraction) that must remain after leaving out the pre-wipe-out rows.
 MIN_KEPT_AFTER_WIPEOUT = 1.0 / 3.0
+
+
+#: The ``initial_memory`` rules of the estimators that can leave the pre-wipe-out rows out.
+INITIAL_MEMORY_RULES: tuple[str, ...] = ("exclude", "keep")
+
+
+def check_initial_memory(estimator: Any) -> None:
+    """Check ``estimator.initial_memory`` against its class's ``initial_memory_rules``.
+
+    Every estimator takes ``initial_memory``; those that always fit from the relaxed state
+    declare ``initial_memory_rules = ("keep",)``.
+
+    Raises
+    ------
+    ParameterError
+        Not one of ``"exclude"``, ``"keep"``.
+    UnsupportedOptionError
+        A rule the estimator cannot apply (the message names the ones it can).
+    """
+    rule = estimator.initial_memory
+    allowed = type(estimator).initial_memory_rules
+    if rule not in INITIAL_MEMORY_RULES:
+        raise ParameterError(f"initial_memory must be 'exclude' or 'keep', got {rule!r}")
+    if rule not in allowed:
+        raise UnsupportedOptionError(
+            f"{type(estimator).__name__} cannot use initial_memory={rule!r}: it fits every "
+            f"training row from the relaxed state; use {' or '.join(map(repr, allowed))}")
 
 
 def exclude_before_wipeout(prep: Prepared, rule: str) -> tuple[Prepared, dict[str, Any]]:

@@ -17,7 +17,7 @@ has swept the range (the piezo record from 3.3 s), or expect an initial transien
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from ..base import Chain
 from ..digitized import DigitizedPI
 from ..effects import Offset
 from ..exceptions import NotFittedError, ParameterError
-from ._data import as_recordings, prepare, unpack_recordings
+from ._data import as_recordings, check_initial_memory, prepare, unpack_recordings
 from .gram import DEFAULT_CHUNK
 from .metrics import FitReport, evaluate_fit
 from .pi import PIRegressor
@@ -47,6 +47,10 @@ class DigitizedPIRegressor:
         discretisation error; ``(n + 1) * refine`` digits).
     thresholds, include_offset, validation, min_slope, constraint, chunk
         As in :class:`~core.fitting.pi.PIRegressor`.
+    initial_memory : {"keep"}
+        Taken by every estimator (one signature, :func:`core.fitting.fit_recordings`);
+        the digits start relaxed, so ``"exclude"`` raises
+        :class:`~core.exceptions.UnsupportedOptionError`.
 
     Attributes
     ----------
@@ -63,6 +67,9 @@ class DigitizedPIRegressor:
         own test RMSE and the reversal error bound.
     """
 
+    #: The digitized fit starts every recording relaxed: ``initial_memory="keep"`` only.
+    initial_memory_rules: ClassVar[tuple[str, ...]] = ("keep",)
+
     def __init__(
         self,
         n_operators: int | None = None,
@@ -73,6 +80,7 @@ class DigitizedPIRegressor:
         min_slope: float | None = None,
         constraint: str = "nonnegative",
         chunk: int = DEFAULT_CHUNK,
+        initial_memory: str = "keep",
     ) -> None:
         self.n_operators = n_operators
         self.refine = refine
@@ -82,6 +90,7 @@ class DigitizedPIRegressor:
         self.min_slope = min_slope
         self.constraint = constraint
         self.chunk = chunk
+        self.initial_memory = initial_memory
 
     def fit(
         self,
@@ -105,6 +114,7 @@ class DigitizedPIRegressor:
             digits need non-decreasing slopes for the stated error bound; the conversion
             itself still works).
         """
+        check_initial_memory(self)
         u, y = unpack_recordings(u, y)
         if int(self.refine) != self.refine or self.refine < 1:
             raise ParameterError(f"refine must be a positive integer, got {self.refine!r}")

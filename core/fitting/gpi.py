@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -40,7 +40,7 @@ from ..exceptions import ClippedInputWarning, FitWarning, NotFittedError, Parame
 from ..gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from ..operators import dead_zone
 from ..pi import PIModel
-from ._data import Prepared, as_recordings, masked_range, prepare
+from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
 from .gram import DEFAULT_CHUNK, Segment
 from .metrics import FitReport, evaluate_fit
 from .pi import LinearPIFit, PIRegressor, fit_linear_pi
@@ -56,6 +56,9 @@ def _relaxed(p0: float, r: Float1D, w: Float1D, x0: float) -> PIModel:
 class _Base:
     """Shared plumbing: input checks, classical start, PI solve on a transformed input."""
 
+    #: These fits start every recording relaxed: ``initial_memory="keep"`` only.
+    initial_memory_rules: ClassVar[tuple[str, ...]] = ("keep",)
+    initial_memory: str
     n_operators: int | None
     thresholds: str
     include_offset: bool
@@ -66,6 +69,7 @@ class _Base:
 
     # -------------------------------------------------------------- common steps
     def _prepare(self, u: Any, y: Any, train: Any, test: Any) -> Prepared:
+        check_initial_memory(self)
         n_min = self.n_operators or 5
         return prepare(
             u, y, train, test, validation=self.validation, min_train=max(30, 4 * (n_min + 8))
@@ -234,6 +238,10 @@ class DeadZoneGPIRegressor(_Base):
         Evaluation budget of ``least_squares``.
     chunk : int
         Samples per streaming chunk.
+    initial_memory : {"keep"}
+        Taken by every estimator (one signature, :func:`core.fitting.fit_recordings`);
+        this fit starts every recording relaxed, so ``"exclude"`` raises
+        :class:`~core.exceptions.UnsupportedOptionError`.
 
     Attributes
     ----------
@@ -259,6 +267,7 @@ class DeadZoneGPIRegressor(_Base):
         constraint: str = "nonnegative",
         max_nfev: int = 100,
         chunk: int = DEFAULT_CHUNK,
+        initial_memory: str = "keep",
     ) -> None:
         self.n_operators = n_operators
         self.n_deadzones = n_deadzones
@@ -270,6 +279,7 @@ class DeadZoneGPIRegressor(_Base):
         self.constraint = constraint
         self.max_nfev = max_nfev
         self.chunk = chunk
+        self.initial_memory = initial_memory
 
     def fit(
         self,
@@ -383,6 +393,10 @@ class ModifiedPIRegressor(_Base):
         Invertibility constraint of P.
     chunk : int
         Samples per streaming chunk.
+    initial_memory : {"keep"}
+        Taken by every estimator (one signature, :func:`core.fitting.fit_recordings`);
+        this fit starts every recording relaxed, so ``"exclude"`` raises
+        :class:`~core.exceptions.UnsupportedOptionError`.
 
     Attributes
     ----------
@@ -410,6 +424,7 @@ class ModifiedPIRegressor(_Base):
         deadzone_min_slope: float = 0.05,
         constraint: str = "nonnegative",
         chunk: int = DEFAULT_CHUNK,
+        initial_memory: str = "keep",
     ) -> None:
         self.n_operators = n_operators
         self.n_deadzones = n_deadzones
@@ -420,6 +435,7 @@ class ModifiedPIRegressor(_Base):
         self.deadzone_min_slope = deadzone_min_slope
         self.constraint = constraint
         self.chunk = chunk
+        self.initial_memory = initial_memory
 
     def fit(
         self,
@@ -539,7 +555,7 @@ class TanhGPIRegressor(_Base):
     asymmetric : bool
         Fit separate rising / falling branches (then the inverse is exact only one way;
         see :mod:`core.gpi`).
-    thresholds, include_offset, validation, min_slope, constraint, max_nfev, chunk
+    thresholds, include_offset, validation, min_slope, constraint, max_nfev, chunk, initial_memory
         As in :class:`DeadZoneGPIRegressor`.
 
     Attributes
@@ -562,6 +578,7 @@ class TanhGPIRegressor(_Base):
         constraint: str = "nonnegative",
         max_nfev: int = 60,
         chunk: int = DEFAULT_CHUNK,
+        initial_memory: str = "keep",
     ) -> None:
         self.n_operators = n_operators
         self.asymmetric = asymmetric
@@ -572,6 +589,7 @@ class TanhGPIRegressor(_Base):
         self.constraint = constraint
         self.max_nfev = max_nfev
         self.chunk = chunk
+        self.initial_memory = initial_memory
 
     def _envelope(self, phi: Float1D) -> TanhEnvelope:
         a = np.array([1.0, np.exp(phi[0]) / self._vs, phi[1] - np.exp(phi[0]) * self._vc / self._vs,

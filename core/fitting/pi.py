@@ -22,7 +22,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -32,7 +32,14 @@ from ..effects import Offset
 from ..exceptions import FitWarning, ParameterError
 from ..pi import PIModel
 from ..validation import as_vector
-from ._data import Prepared, as_recordings, exclude_before_wipeout, masked_range, prepare
+from ._data import (
+    INITIAL_MEMORY_RULES,
+    Prepared,
+    as_recordings,
+    exclude_before_wipeout,
+    masked_range,
+    prepare,
+)
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, evaluate_fit
@@ -298,6 +305,9 @@ class PIRegressor(RelaxedPredictor):
     >>> round(est.offset_, 6), np.round(est.weights_, 6).tolist()
     (1.0, [0.3, 0.2, 0.1])
     """
+
+    #: Both rules: the pre-wipe-out rows can be left out of the weight fit.
+    initial_memory_rules: ClassVar[tuple[str, ...]] = INITIAL_MEMORY_RULES
 
     def __init__(
         self,

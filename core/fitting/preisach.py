@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from ..effects import Offset
 from ..exceptions import FitWarning, ParameterError
 from ..preisach import PreisachModel, level_segments
 from ..validation import as_vector
-from ._data import Prepared, exclude_before_wipeout, prepare
+from ._data import INITIAL_MEMORY_RULES, Prepared, exclude_before_wipeout, prepare
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained
 from .metrics import FitReport, evaluate_fit
@@ -224,6 +224,9 @@ class PreisachRegressor(RelaxedPredictor):
     >>> round(est.offset_, 6), np.round(est.weights_[:, 0], 6).tolist()
     (1.0, [0.5, 0.3, 0.2, 0.1])
     """
+
+    #: Both rules: the pre-wipe-out rows can be left out of the weight fit.
+    initial_memory_rules: ClassVar[tuple[str, ...]] = INITIAL_MEMORY_RULES
 
     def __init__(
         self,

@@ -1,0 +1,244 @@
+"""One fitting entry point: recordings and options in, a typed outcome out.
+
+:func:`fit_recordings` is what ``hyst fit``, the explorer's fit and ``hyst batch fit`` call:
+it builds the estimator of a fit kind (:func:`core.models.estimator_class`) with the one
+keyword set every estimator takes (``n_operators``, ``constraint``, ``initial_memory``),
+turns the time windows into masks, fits, records the warnings the fit raised and builds the
+parameter-set document (:class:`core.paramset.ParameterSet`) with the fit report in its
+provenance. Reading files and printing are the callers' business.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import ParameterError
+from ..recordings import Recording
+
+if TYPE_CHECKING:
+    from ..base import Model
+    from ..paramset import ParameterSet
+    from .metrics import FitReport
+
+__all__ = ["EmptyWindowError", "FitOutcome", "TimeWindow", "fit_recordings"]
+
+#: ``warnings.catch_warnings`` changes process-wide state (Python < 3.14), so fits in
+#: threads of one process take turns recording their warnings; each outcome then holds
+#: exactly the warnings of its own fit.
+_WARNINGS_LOCK = threading.Lock()
+
+
+class EmptyWindowError(ParameterError):
+    """A training or test window selects no sample of any recording.
+
+    Attributes
+    ----------
+    which : {"train", "test"}
+        The window that is empty.
+    """
+
+    def __init__(self, which: str, window: TimeWindow) -> None:
+        super().__init__(f"the {which} window {window.text} selects no samples; check it "
+                         "against the t column")
+        self.which = which
+
+
+@dataclass(frozen=True)
+class TimeWindow:
+    """The samples with ``start <= t < stop`` (s); either side may be open.
+
+    Parameters
+    ----------
+    start, stop : float
+        Window edges in seconds (``-inf`` / ``inf``: open).
+    label : str, optional
+        The text the window was given as (``"0:8"``), kept verbatim in the provenance;
+        default: formatted from the edges.
+
+    Raises
+    ------
+    ParameterError
+        Unless ``start < stop``.
+    """
+
+    start: float = -math.inf
+    stop: float = math.inf
+    label: str | None = None
+
+    def __post_init__(self) -> None:
+        if not float(self.start) < float(self.stop):
+            raise ParameterError(f"time window {self.start}:{self.stop}: the start must be "
+                                 "smaller than the stop")
+
+    @property
+    def text(self) -> str:
+        """``label``, else ``"T0:T1"`` with an open side left empty."""
+        if self.label is not None:
+            return self.label
+        edge = [f"{x:g}" if math.isfinite(x) else "" for x in (self.start, self.stop)]
+        return ":".join(edge)
+
+    def mask(self, t: np.ndarray) -> np.ndarray:
+        """Boolean mask of shape ``t.shape``: ``start <= t < stop`` (``t`` in s)."""
+        return (t >= self.start) & (t < self.stop)
+
+
+@dataclass(frozen=True, eq=False)
+class FitOutcome:
+    """What :func:`fit_recordings` returns.
+
+    Attributes
+    ----------
+    kind : str
+        The fit kind (one of :func:`core.models.fit_kinds`).
+    model : Model
+        The estimator's ``full_model_`` (the fitted output offset included; exact
+        ``inverse()``), input in the recordings' input unit, output in their output unit.
+    report : FitReport
+        Training / held-out errors (output units and % of the output range), inverse check,
+        solver and model-specific numbers (``report.extra``).
+    warnings : tuple of str
+        The messages of the warnings the fit raised (e.g. :class:`~core.exceptions.FitWarning`).
+    memory_note : str
+        What was done about the unknown initial memory (``report.extra["initial_memory"]
+        ["summary"]``); empty for kinds that do not report it.
+    parameter_set : ParameterSet
+        The document ``hyst fit`` writes: the model, the first recording's units and the fit
+        provenance (kind, files, recordings, columns, windows, ``n``, report, warnings).
+    estimator : object
+        The fitted estimator (its other fitted attributes, e.g. ``cv_scores_``).
+    """
+
+    kind: str
+    model: Model
+    report: FitReport
+    warnings: tuple[str, ...]
+    memory_note: str
+    parameter_set: ParameterSet
+    estimator: Any
+
+    def summary(self) -> str:
+        """The readable fit report (what ``hyst fit`` prints)."""
+        return self.report.summary()
+
+
+def _initial_memory_rule(cls: type, rule: str | None) -> str:
+    """``rule``, or for ``None`` ``"exclude"`` where ``cls`` can apply it, else ``"keep"``."""
+    if rule is not None:
+        return rule
+    return "exclude" if "exclude" in cls.initial_memory_rules else "keep"  # type: ignore[attr-defined]
+
+
+def _masks(recs: Sequence[Recording], window: TimeWindow | None,
+           which: str) -> list[np.ndarray]:
+    if window is None:
+        return []
+    masks = [window.mask(r.t) for r in recs]
+    if not any(m.any() for m in masks):
+        raise EmptyWindowError(which, window)
+    return masks
+
+
+def fit_recordings(
+    recordings: Recording | Sequence[Recording],
+    kind: str | None = None,
+    *,
+    n_operators: int | None = None,
+    constraint: str | None = None,
+    train: TimeWindow | None = None,
+    test: TimeWindow | None = None,
+    initial_memory: str | None = None,
+    files: Sequence[str] | None = None,
+    source: str | None = None,
+) -> FitOutcome:
+    """Fit a model of fit kind ``kind`` to recordings.
+
+    Parameters
+    ----------
+    recordings : Recording or sequence of Recording
+        The recordings (``t`` in s, ``u`` and ``y`` of shape ``(n_samples,)`` each); several
+        are fitted jointly, each starting from the relaxed state.
+    kind : str, optional
+        One of :func:`core.models.fit_kinds` (``hyst fit --model``); default
+        :data:`core.models.DEFAULT_FIT_KIND`.
+    n_operators : int, optional
+        Play operators (thresholds); ``None``: chosen by cross-validation.
+    constraint : {"nonnegative", "slopes"}, optional
+        Invertibility constraint; ``None``: ``"nonnegative"``.
+    train, test : TimeWindow, optional
+        Training and held-out samples; without them the estimator holds out the last 20 %
+        of every recording.
+    initial_memory : {"exclude", "keep"}, optional
+        ``"exclude"`` leaves the training rows before the wipe-out time out of the weight
+        fit, ``"keep"`` fits them from the relaxed state. ``None`` (``hyst fit``'s default):
+        ``"exclude"`` for the kinds that can apply it (``estimator.initial_memory_rules``),
+        else ``"keep"``.
+    files : sequence of str, optional
+        File names for the provenance; default: the recordings' names.
+    source : str, optional
+        The provenance's ``source``; default ``"fit " + files``.
+
+    Returns
+    -------
+    FitOutcome
+
+    Raises
+    ------
+    ParameterError
+        An unknown kind, an empty window (:class:`EmptyWindowError`) or a bad option; an
+        ``initial_memory`` the kind cannot use raises
+        :class:`~core.exceptions.UnsupportedOptionError`.
+    """
+    from ..models import DEFAULT_FIT_KIND, estimator_class
+    from ..paramset import ParameterSet
+
+    recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
+    if not recs:
+        raise ParameterError("fit_recordings needs at least one recording")
+    kind = DEFAULT_FIT_KIND if kind is None else kind
+    cls = estimator_class(kind)
+    trains = _masks(recs, train, "train")
+    tests = _masks(recs, test, "test")
+    est = cls(n_operators=n_operators, constraint=constraint or "nonnegative",
+              initial_memory=_initial_memory_rule(cls, initial_memory))
+    multi = len(recs) > 1
+    kw: dict[str, Any] = {}
+    if trains:
+        kw["train"] = trains if multi else trains[0]
+    if tests:
+        kw["test"] = tests if multi else tests[0]
+    us = [r.u for r in recs]
+    ys = [r.y for r in recs]
+    with _WARNINGS_LOCK, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
+    msgs = tuple(str(w.message) for w in caught)
+    mem = est.report_.extra.get("initial_memory")
+    report_doc = est.report_.to_dict()
+    first = recs[0]
+    names = [r.name for r in recs] if files is None else list(files)
+    units = {"input": first.units.get("input") or "V",
+             "output": first.units.get("output") or "um",
+             "time": first.units.get("time") or "s"}
+    fit_info = {
+        "model": kind,
+        "files": names,
+        "recordings": [r.name for r in recs],
+        "columns": {k: first.columns.get(k, "") for k in ("time", "input", "output")},
+        "train": None if train is None else train.text,
+        "test": None if test is None else test.text,
+        "n_operators": n_operators,
+        "report": report_doc,
+        "warnings": list(msgs),
+    }
+    ps = ParameterSet.from_model(est.full_model_, units=units,
+                                 source=source or "fit " + " ".join(names), fit=fit_info)
+    return FitOutcome(kind, est.full_model_, est.report_, msgs,
+                      mem["summary"] if isinstance(mem, dict) else "", ps, est)
