@@ -7,7 +7,6 @@ estimators of :mod:`core.fitting` and the diagnosis is :func:`core.diagnosis.dia
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -17,7 +16,8 @@ import numpy as np
 
 from core.base import Model, model_from_dict
 from core.csvio import CSVError, inspect_csv_text, read_csv_text
-from core.models import estimator_class, fit_kinds
+from core.fitting import fit_recordings
+from core.models import fit_kinds
 from core.recordings import Recording
 
 from .compute import pi_part
@@ -153,8 +153,10 @@ def _finite(x: Any) -> Any:
 def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
     """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
 
-    The model is the estimator's ``full_model_`` (the fitted output offset included, as a
-    chain); the report is its ``report_`` plus the errors on the whole recording.
+    The fit is :func:`core.fitting.fit_recordings` (the one entry point ``hyst fit`` and
+    ``hyst batch fit`` use; every training row fitted from the relaxed state, the last 20 %
+    held out). The model is its ``model`` (the fitted output offset included, as a chain);
+    the report is its ``report`` plus the errors on the whole recording.
 
     Raises
     ------
@@ -162,12 +164,12 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
         If ``kind`` is not one of :func:`fit_kinds` (those of ``hyst fit --model``, declared
         by the model registry).
     """
-    est = estimator_class(kind)(n_operators=n).fit(rec.u, rec.y)
-    model = est.full_model_
+    out = fit_recordings([rec], kind, n_operators=n, initial_memory="keep")
+    model = out.model
     res = rec.y - model(rec.u)
     rms = float(np.sqrt(np.mean(res**2)))
     report = {
-        **_finite(est.report_.to_dict()),
+        **_finite(out.report.to_dict()),
         "rms_error": rms,
         "max_error": float(np.max(np.abs(res))),
         "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
@@ -227,17 +229,14 @@ def run_diagnosis(rec: Recording, model: Model,
     The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
     ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
     held-out RMSE before and after, and the core's JSON document. ``progress`` is passed
-    on when the installed :func:`~core.diagnosis.diagnose` accepts one (it may raise to
-    stop the diagnosis: that is how a job is cancelled).
+    on to :func:`~core.diagnosis.diagnose` (it may raise to stop the diagnosis: that is how
+    a job is cancelled).
     """
     from core.diagnosis import diagnose
 
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
-    kw: dict[str, Any] = {}
-    if progress is not None and "progress" in inspect.signature(diagnose).parameters:
-        kw["progress"] = progress
-    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, **kw)
+    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
     d = result.to_dict()
     return {"engine": "core.diagnosis", **_diagnosis_summary(d), "document": d}, result
 

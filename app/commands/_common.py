@@ -12,7 +12,7 @@ import json
 import sys
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -82,18 +82,27 @@ class Progress:
         Sub-command name used as prefix.
     quiet : bool
         Suppress all messages.
+    sink : callable, optional
+        Receives each line instead of stderr (a batch worker keeps the messages of its own
+        recording: ``lines.append``).
     """
 
-    def __init__(self, command: str, quiet: bool = False) -> None:
+    def __init__(self, command: str, quiet: bool = False,
+                 sink: Callable[[str], object] | None = None) -> None:
         self.command = command
         self.quiet = quiet
+        self.sink = sink
         self.t0 = time.perf_counter()
 
     def __call__(self, message: str) -> None:
-        """Print ``[hyst <command> 1.2 s] message`` on stderr."""
+        """Print ``[hyst <command> 1.2 s] message`` on stderr (or give it to ``sink``)."""
         if not self.quiet:
             dt = time.perf_counter() - self.t0
-            print(f"[hyst {self.command} {dt:5.1f} s] {message}", file=sys.stderr, flush=True)
+            line = f"[hyst {self.command} {dt:5.1f} s] {message}"
+            if self.sink is not None:
+                self.sink(line)
+            else:
+                print(line, file=sys.stderr, flush=True)
 
     @contextmanager
     def heartbeat(self, message: str, every: float = 5.0) -> Iterator[None]:

@@ -40,13 +40,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._common import Progress, existing_file, window_arg
 from .fit import add_read_options, read_kwargs, say_read
 
-__all__ = ["register", "run"]
+if TYPE_CHECKING:
+    from core.paramset import ParameterSet
+
+__all__ = ["diagnose_files", "diagnosis_json", "diagnosis_source", "model_document", "register",
+           "run", "save_model"]
 
 
 def register(subparsers: Any) -> None:
@@ -95,9 +100,9 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def save_model(result: Any, path: str | Path, source: str) -> Path:
-    """Write the final model of ``result`` as a parameter-set document (units from the first
-    recording when the parameter-set validator knows them)."""
+def model_document(result: Any, source: str) -> ParameterSet:
+    """The final model of ``result`` as a parameter set (units from the first recording when
+    the parameter-set validator knows them): what ``--save-model`` writes."""
     from core.paramset import ParameterSet
 
     first = result.records[0]
@@ -114,31 +119,58 @@ def save_model(result: Any, path: str | Path, source: str) -> Path:
         ", ".join(e.name for e in result.effects) or "none"
     )
     try:
-        ps = ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
-                                     notes=notes)
+        return ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
+                                       notes=notes)
     except ValueError:  # units the parameter-set validator does not know
-        ps = ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
-    return ps.save(path)
+        return ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
+
+
+def save_model(result: Any, path: str | Path, source: str) -> Path:
+    """Write :func:`model_document` of ``result`` to ``path``."""
+    return model_document(result, source).save(path)
+
+
+def diagnosis_source(files: Sequence[str | Path]) -> str:
+    """The provenance ``source`` of a diagnosis of ``files``."""
+    return "hyst diagnose " + " ".join(Path(f).name for f in files)
+
+
+def diagnosis_json(result: Any) -> str:
+    """The ``--json`` document of ``result`` (one JSON object, one line)."""
+    return json.dumps(result.to_dict(), allow_nan=False)
+
+
+def diagnose_files(files: Sequence[str | Path], read_kw: dict[str, Any], progress: Progress, *,
+                   model: str = "pi", base: str = "auto",
+                   train: tuple[float, float] | None = None,
+                   test: tuple[float, float] | None = None, operators: int = 25,
+                   fixed_grid: bool = False, no_crossfit: bool = False,
+                   effects: str | None = None) -> Any:
+    """Read ``files`` and run :func:`core.diagnosis.diagnose` with the options of
+    ``hyst diagnose`` (``effects``: the comma-separated ``--effects`` text); progress and the
+    read notes go to ``progress``. Returns the ``DiagnosisResult``."""
+    from core.diagnosis import as_records, diagnose
+
+    for f in files:
+        existing_file(f, "recording")
+    chosen = [e.strip() for e in effects.split(",")] if effects else None
+    recs = as_records([Path(f) for f in files], **read_kw)
+    say_read(progress, recs)
+    return diagnose(recs, model=model, train=train, test=test, n_operators=operators,
+                    effects=chosen, base=base, auto_resolution=not fixed_grid,
+                    crossfit=False if no_crossfit else None,
+                    progress=lambda frac, msg: progress(f"{100 * frac:3.0f} % {msg}"))
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
-    from core.diagnosis import as_records, diagnose
-
     progress = Progress("diagnose", quiet=args.quiet)
-    for f in args.files:
-        existing_file(f, "recording")
-    effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
-    recs = as_records([Path(f) for f in args.files], **read_kwargs(args))
-    say_read(progress, recs)
-    res = diagnose(recs, model=args.model, train=args.train, test=args.test,
-                   n_operators=args.operators, effects=effects, base=args.base,
-                   auto_resolution=not args.fixed_grid,
-                   crossfit=False if args.no_crossfit else None,
-                   progress=lambda frac, msg: progress(f"{100 * frac:3.0f} % {msg}"))
+    res = diagnose_files(args.files, read_kwargs(args), progress, model=args.model,
+                         base=args.base, train=args.train, test=args.test,
+                         operators=args.operators, fixed_grid=args.fixed_grid,
+                         no_crossfit=args.no_crossfit, effects=args.effects)
     if args.save_model:
-        p = save_model(res, args.save_model,
-                       source="hyst diagnose " + " ".join(Path(f).name for f in args.files))
+        p = save_model(res, args.save_model, source=diagnosis_source(args.files))
         print(f"wrote {p}", file=sys.stderr)
     if args.report:
         from app.diagnosis_report import write_report
@@ -146,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
         p = write_report(res, args.report)
         print(f"wrote {p}", file=sys.stderr)
     if args.json:
-        print(json.dumps(res.to_dict(), allow_nan=False))
+        print(diagnosis_json(res))
     else:
         print(res.summary())
     return 0

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._common import (
     CommandError,
@@ -17,7 +18,13 @@ from ._common import (
     parse_window,
 )
 
-__all__ = ["add_model_option", "add_read_options", "read_kwargs", "register", "run", "say_read"]
+if TYPE_CHECKING:
+    from core.fitting import TimeWindow
+    from core.recordings import Recording
+
+__all__ = ["add_model_option", "add_read_options", "check_n_operators",
+           "csv_read_kwargs", "fit_errors", "fit_source",
+           "read_kwargs", "read_recordings", "register", "run", "say_read", "time_window"]
 
 
 def add_read_options(p: argparse.ArgumentParser) -> None:
@@ -45,21 +52,81 @@ def _spec(value: str | None) -> Any:
 
 def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`core.csvio.read_csv` from :func:`add_read_options`."""
-    resample: bool | float = False
-    if args.resample is not None:
-        if args.resample == "auto":
-            resample = True
+    return csv_read_kwargs(args.time, args.input_column, args.output_column, args.run_column,
+                           args.resample)
+
+
+def csv_read_kwargs(time: str | None = None, input_column: str | None = None,
+                    output_column: str | None = None, run_column: str | None = None,
+                    resample: str | None = None) -> dict[str, Any]:
+    """Keyword arguments of :func:`core.csvio.read_csv` from the option texts of
+    :func:`add_read_options` (``None``: the option was not given)."""
+    spacing: bool | float = False
+    if resample is not None:
+        if resample == "auto":
+            spacing = True
         else:
             try:
-                resample = float(args.resample)
+                spacing = float(resample)
             except ValueError:
-                raise CommandError(f"--resample {args.resample!r}: expected a spacing in "
+                raise CommandError(f"--resample {resample!r}: expected a spacing in "
                                    "seconds, e.g. --resample 0.0002, or no value") from None
-            if not resample > 0:
-                raise CommandError(f"--resample {args.resample}: the spacing must be > 0 s")
-    return {"time": _spec(args.time), "input": _spec(args.input_column),
-            "output": _spec(args.output_column), "run": _spec(args.run_column),
-            "resample": resample}
+            if not spacing > 0:
+                raise CommandError(f"--resample {resample}: the spacing must be > 0 s")
+    return {"time": _spec(time), "input": _spec(input_column),
+            "output": _spec(output_column), "run": _spec(run_column), "resample": spacing}
+
+
+def read_recordings(files: Sequence[str | Path], read_kw: dict[str, Any]) -> list[Recording]:
+    """Every recording of ``files`` (:func:`core.csvio.read_csv` with ``read_kw``), in order.
+
+    Raises
+    ------
+    CommandError
+        A file that does not exist or is a folder.
+    """
+    from core.csvio import read_csv
+
+    recs: list[Recording] = []
+    for f in files:
+        existing_file(f, "CSV file")
+        recs.extend(read_csv(Path(f), **read_kw))
+    return recs
+
+
+def time_window(text: str | None, what: str) -> TimeWindow | None:
+    """The :class:`~core.fitting.TimeWindow` of ``--<what> T0:T1`` (``None`` without one)."""
+    from core.fitting import TimeWindow
+
+    if text is None:
+        return None
+    t0, t1 = parse_window(text, what)
+    return TimeWindow(t0, t1, text)
+
+
+def fit_source(files: Sequence[str | Path]) -> dict[str, Any]:
+    """The provenance of a ``hyst fit`` of ``files``: ``{"files", "source"}`` of
+    :func:`core.fitting.fit_recordings`."""
+    names = [Path(f).name for f in files]
+    return {"files": names, "source": "hyst fit " + " ".join(names)}
+
+
+def check_n_operators(n: object) -> None:
+    """``-n``: ``None`` (chosen by cross-validation) or a positive integer (CommandError)."""
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+        raise CommandError(f"-n must be a positive number of operators, got {n}")
+
+
+@contextmanager
+def fit_errors() -> Iterator[None]:
+    """Report an empty window as ``hyst fit`` does (``--train window selects no samples``)."""
+    from core.fitting import EmptyWindowError
+
+    try:
+        yield
+    except EmptyWindowError as exc:
+        raise CommandError(f"--{exc.which} window selects no samples; check it against the "
+                           "t column") from None
 
 
 def say_read(progress: Progress, recs: list[Any]) -> None:
@@ -107,12 +174,13 @@ def register(subparsers: Any) -> None:
                    help="fit only samples with T0 <= t < T1 (either side may be empty)")
     p.add_argument("--test", metavar="T0:T1",
                    help="held-out samples for the report, T0 <= t < T1")
-    p.add_argument("--initial-memory", choices=("exclude", "keep"), default="exclude",
+    p.add_argument("--initial-memory", choices=("exclude", "keep"),
                    help="the memory state at the start of a recording is unknown: 'exclude' "
-                        "(default) leaves the training rows before the wipe-out time (until "
-                        "the input first reaches both ends of its range) out of the weight "
-                        "fit; 'keep' fits them from the relaxed state (recordings that start "
-                        "at rest). The PI model only; the report says what was done")
+                        "(default for the pi and preisach models) leaves the training rows "
+                        "before the wipe-out time (until the input first reaches both ends of "
+                        "its range) out of the weight fit; 'keep' (what the other models do, "
+                        "their only choice) fits them from the relaxed state (recordings that "
+                        "start at rest). The report says what was done")
     p.add_argument("-o", "--output", required=True, metavar="MODEL.json",
                    help="where to write the fitted parameter set")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
@@ -120,92 +188,30 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _estimator(name: str, n: int | None, constraint: str | None = None,
-               initial_memory: str = "keep") -> Any:
-    """The estimator of ``--model name`` (``None`` options left default)."""
-    import inspect
-
-    from core.models import estimator_class
-
-    cls = estimator_class(name)
-    kwargs: dict[str, Any] = {}
-    if "initial_memory" in inspect.signature(cls).parameters:
-        kwargs["initial_memory"] = initial_memory
-    if constraint is not None:
-        kwargs["constraint"] = constraint
-    if n is not None:
-        kwargs["n_operators"] = n
-    return cls(**kwargs)
-
-
 def run(args: argparse.Namespace) -> int:
     """Fit and save."""
-    from core.paramset import ParameterSet
+    from core.fitting import fit_recordings
 
     progress = Progress("fit", quiet=args.quiet or args.json)
-    train_w = parse_window(args.train, "train") if args.train else None
-    test_w = parse_window(args.test, "test") if args.test else None
-    if args.n_operators is not None and args.n_operators < 1:
-        raise CommandError(f"-n must be a positive number of operators, got {args.n_operators}")
-    from core.csvio import read_csv
-
-    recs = []
-    for f in args.files:
-        existing_file(f, "CSV file")
-        recs.extend(read_csv(Path(f), **read_kwargs(args)))
+    train_w = time_window(args.train, "train")
+    test_w = time_window(args.test, "test")
+    check_n_operators(args.n_operators)
+    recs = read_recordings(args.files, read_kwargs(args))
     say_read(progress, recs)
-    us = [r.u for r in recs]
-    ys = [r.y for r in recs]
-    trains = [(r.t >= train_w[0]) & (r.t < train_w[1]) for r in recs] if train_w else []
-    tests = [(r.t >= test_w[0]) & (r.t < test_w[1]) for r in recs] if test_w else []
-    for lab, masks in (("--train", trains), ("--test", tests)):
-        if masks and not any(m.any() for m in masks):
-            raise CommandError(f"{lab} window selects no samples; check it against the t column")
-    multi = len(recs) > 1
-    est = _estimator(args.model, args.n_operators, args.constraint,
-                     getattr(args, "initial_memory", "keep"))
     progress(f"fitting {args.model}" + (f" with n = {args.n_operators}" if args.n_operators
                                          else " (choosing n by cross-validation)"))
-    kw: dict[str, Any] = {}
-    if trains:
-        kw["train"] = trains if multi else trains[0]
-    if tests:
-        kw["test"] = tests if multi else tests[0]
-    with warnings.catch_warnings(record=True) as caught, progress.heartbeat("still fitting..."):
-        warnings.simplefilter("always")
-        est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
-    msgs = [str(w.message) for w in caught]
-    for m in msgs:
+    with fit_errors(), progress.heartbeat("still fitting..."):
+        out = fit_recordings(recs, args.model, n_operators=args.n_operators,
+                             constraint=args.constraint, train=train_w, test=test_w,
+                             initial_memory=args.initial_memory, **fit_source(args.files))
+    for m in out.warnings:
         progress(f"warning: {m}")
-    mem = est.report_.extra.get("initial_memory")
-    if isinstance(mem, dict):
-        progress(mem["summary"])
-    model = est.full_model_
-    report = est.report_.to_dict()
-    first = recs[0]
-    units = {
-        "input": first.units.get("input") or "V",
-        "output": first.units.get("output") or "um",
-        "time": first.units.get("time") or "s",
-    }
-    fit_info = {
-        "model": args.model,
-        "files": [Path(f).name for f in args.files],
-        "recordings": [r.name for r in recs],
-        "columns": {k: first.columns.get(k, "") for k in ("time", "input", "output")},
-        "train": args.train,
-        "test": args.test,
-        "n_operators": args.n_operators,
-        "report": report,
-        "warnings": msgs,
-    }
-    ps = ParameterSet.from_model(
-        model, units=units, source="hyst fit " + " ".join(Path(f).name for f in args.files),
-        fit=fit_info,
-    )
+    if out.memory_note:
+        progress(out.memory_note)
+    ps = out.parameter_set
     path = ps.save(args.output)
     progress(f"wrote {path}")
-    emit(args, f"{est.report_.summary()}\nwrote {path}",
-         {"output": str(path), "model": ps.model.to_dict(), "units": units, "report": report,
-          "warnings": msgs})
+    emit(args, f"{out.summary()}\nwrote {path}",
+         {"output": str(path), "model": ps.model.to_dict(), "units": ps.units.to_dict(),
+          "report": out.report.to_dict(), "warnings": list(out.warnings)})
     return 0
