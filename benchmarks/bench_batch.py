@@ -106,9 +106,9 @@ def main(argv: list[str] | None = None) -> int:
             startup = time.perf_counter() - t0
             addr = {"1 worker": c1.scheduler.address, "2 workers": c2.scheduler.address}
             # warm-up: imports and compiled kernels in this process and in every worker
-            run_recording("fit", files[0].name, files[0].read_bytes(), opts.argv())
+            run_recording("fit", files[0].name, files[0].read_bytes(), opts)
             for c in (c1, c2):
-                c.run(run_recording, "fit", files[0].name, files[0].read_bytes(), opts.argv())
+                c.run(run_recording, "fit", files[0].name, files[0].read_bytes(), opts)
             pool.map(_spin, [10, 10])
             for k, chunk in enumerate(chunks):  # rounds: machine noise hits every case alike
                 one, two = available_parallelism(pool)
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
                 spins[1] += two
                 t = time.perf_counter()
                 for f in chunk:
-                    out = run_recording("fit", f.name, f.read_bytes(), opts.argv())
+                    out = run_recording("fit", f.name, f.read_bytes(), opts)
                     assert out.ok, out.error
                 times["serial"] += time.perf_counter() - t
                 for case, address in addr.items():

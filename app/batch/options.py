@@ -1,64 +1,34 @@
 """What a batch runs on every recording: the options of ``hyst fit`` or ``hyst diagnose``.
 
-Each options class turns itself into the argument list of the single-file command, and the
-command's own parser checks it (:func:`command_args`), so a batch accepts exactly what the
-single-file command accepts and reports bad options before any work starts.
+Each options class checks itself with the single-file command's rules (:meth:`validate`:
+fit kinds, constraints, ``T0:T1`` windows), so bad options are reported before any work
+starts; the worker hands the options straight to :func:`core.fitting.fit_recordings` or
+:func:`core.diagnosis.diagnose` (:mod:`app.batch.single`). :meth:`command_line` is the
+equivalent single-file command, shown in the fleet report.
 """
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 from dataclasses import asdict, dataclass
-from types import ModuleType
 from typing import ClassVar
 
 from ..commands._common import CommandError, parse_window
 
-__all__ = ["DiagnoseOptions", "FitOptions", "Options", "command_args", "command_module"]
-
-
-class _RaisingParser(argparse.ArgumentParser):
-    """An argparse parser that raises :class:`CommandError` instead of exiting."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise CommandError(message)
-
-
-def command_module(kind: str) -> ModuleType:
-    """The single-file command module of ``kind`` (``"fit"`` or ``"diagnose"``)."""
-    if kind == "fit":
-        from ..commands import fit
-
-        return fit
-    if kind == "diagnose":
-        from ..commands import diagnose
-
-        return diagnose
-    raise CommandError(f"unknown batch kind {kind!r}; use 'fit' or 'diagnose'")
-
-
-def command_args(kind: str, argv: list[str]) -> argparse.Namespace:
-    """Parse ``hyst <kind> argv...`` with the single-file command's own parser.
-
-    Raises
-    ------
-    CommandError
-        With argparse's message when an option is invalid.
-    """
-    parser = _RaisingParser(prog="hyst", add_help=False)
-    sub = parser.add_subparsers(dest="command")
-    command_module(kind).register(sub)
-    return parser.parse_args([kind, *argv])
+__all__ = ["DiagnoseOptions", "FitOptions", "Options"]
 
 
 @dataclass(frozen=True)
 class _Options:
     kind: ClassVar[str]
 
-    def argv(self) -> list[str]:  # pragma: no cover - overridden
+    def flags(self) -> list[str]:  # pragma: no cover - overridden
         raise NotImplementedError
+
+    def command_line(self) -> str:
+        """The equivalent single-file command, ``hyst <kind> FILE <options>`` (for display)."""
+        return " ".join(["hyst", self.kind, "FILE", *self.flags()])
 
     def key(self) -> str:
         """Hash of the kind and every option (part of the resume key)."""
@@ -66,19 +36,18 @@ class _Options:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def validate(self) -> None:
-        """Check the options with the single-file command's parser and window rule (raises
-        CommandError)."""
+        """Check the options with the single-file command's rules (raises CommandError)."""
         for what in ("train", "test"):
             text = getattr(self, what)
             if text is not None:
                 parse_window(text, what)
-        command_args(self.kind, ["recording.csv", *self.argv(), *_OUTPUT_ARGS[self.kind]])
+        self._check()
+
+    def _check(self) -> None:  # pragma: no cover - overridden
+        raise NotImplementedError
 
     def to_dict(self) -> dict[str, object]:
         return {"kind": self.kind, **asdict(self)}
-
-
-_OUTPUT_ARGS = {"fit": ["-o", "model.json"], "diagnose": ["--save-model", "model.json"]}
 
 
 def _opt(flag: str, value: object) -> list[str]:
@@ -113,8 +82,19 @@ class FitOptions(_Options):
     train: str | None = None
     test: str | None = None
 
-    def argv(self) -> list[str]:
-        """The ``hyst fit`` options (without the file and ``-o``)."""
+    def _check(self) -> None:
+        from core.models import fit_kinds
+
+        from ..commands.fit import check_n_operators
+
+        if self.model not in fit_kinds():
+            raise CommandError(f"--model {self.model!r}: choose one of {', '.join(fit_kinds())}")
+        check_n_operators(self.n_operators)
+        if self.constraint not in (None, "nonnegative", "slopes"):
+            raise CommandError(f"--constraint {self.constraint!r}: choose nonnegative or slopes")
+
+    def flags(self) -> list[str]:
+        """The ``hyst fit`` options (without the file and ``-o``), for display."""
         return [
             "--model", self.model, *_opt("-n", self.n_operators),
             *_opt("--constraint", self.constraint), *_opt("--time", self.time),
@@ -150,8 +130,14 @@ class DiagnoseOptions(_Options):
     train: str | None = None
     test: str | None = None
 
-    def argv(self) -> list[str]:
-        """The ``hyst diagnose`` options (without the file, ``--json`` and ``--save-model``)."""
+    def _check(self) -> None:
+        n = self.operators
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise CommandError(f"--operators must be a positive integer, got {n!r}")
+
+    def flags(self) -> list[str]:
+        """The ``hyst diagnose`` options (without the file, ``--json`` and ``--save-model``),
+        for display."""
         return [
             "--operators", str(self.operators), *(["--fixed-grid"] if self.fixed_grid else []),
             *(["--no-crossfit"] if self.no_crossfit else []),

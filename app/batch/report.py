@@ -113,7 +113,7 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
     outliers = robust_outliers(metrics)
     flagged = {(o.name, o.metric) for o in outliers}
     heading = title or f"Batch {kind}: {len(rows)} recordings"
-    cmd = " ".join(["hyst", kind, "FILE", *options.argv()])
+    cmd = options.command_line()
     plotly_js = [True]  # inline plotly.js with the first figure only
 
     def figure(fig: go.Figure) -> str:

@@ -174,7 +174,6 @@ def run_batch(
     names = output_names(paths)
     manifest = Manifest.load(folder)
     okey = opts.key()
-    argv = opts.argv()
     t0 = time.perf_counter()
     results: dict[str, RecordingResult] = {}
     todo: list[tuple[Path, str, str]] = []
@@ -205,7 +204,7 @@ def run_batch(
             nthreads = max(1, sum(client.nthreads().values()))
             progress(f"Dask: {len(client.nthreads())} workers, {nthreads} threads"
                      + (f" at {scheduler}" if scheduler else " (local)"))
-            _run(client, kind, argv, todo, folder, manifest, okey, results, progress,
+            _run(client, opts, todo, folder, manifest, okey, results, progress,
                  nthreads, t_start=time.perf_counter())
     ordered = tuple(results[n] for n in names)
     summary = write_summary(folder / "summary.csv", ordered)
@@ -217,12 +216,13 @@ def run_batch(
     return res
 
 
-def _run(client: Any, kind: str, argv: list[str], todo: list[tuple[Path, str, str]],
+def _run(client: Any, opts: Options, todo: list[tuple[Path, str, str]],
          folder: Path, manifest: Manifest, okey: str, results: dict[str, RecordingResult],
          progress: Progress, nthreads: int, t_start: float) -> None:
     """Submit ``todo`` with a bounded window and store every outcome as it arrives."""
     from distributed import as_completed
 
+    kind = opts.kind
     window = max(2, 2 * nthreads)
     pending = iter(todo)
     meta: dict[str, tuple[Path, str, str]] = {}
@@ -232,7 +232,7 @@ def _run(client: Any, kind: str, argv: list[str], todo: list[tuple[Path, str, st
             p, name, sha = next(pending)
         except StopIteration:
             return None
-        fut = client.submit(run_recording, kind, p.name, p.read_bytes(), argv, pure=False,
+        fut = client.submit(run_recording, kind, p.name, p.read_bytes(), opts, pure=False,
                             key=f"hyst-{kind}-{name}-{sha[:12]}")
         meta[fut.key] = (p, name, sha)
         return fut

@@ -1,24 +1,26 @@
-"""One recording of a batch, run on a Dask worker: the single-file command itself.
+"""One recording of a batch, run on a Dask worker: the single-file command's own steps.
 
 :func:`run_recording` writes the recording's bytes under its own file name into a private
-temporary folder and runs ``hyst fit FILE -o MODEL.json`` or ``hyst diagnose FILE --json
---save-model MODEL.json`` in-process, through the command's own parser and ``run`` function.
-The parameter set a batch stores is therefore what the single-file command writes, by
-construction, and the worker needs no shared file system: bytes in, documents out.
+temporary folder and runs what ``hyst fit FILE -o MODEL.json`` or ``hyst diagnose FILE
+--json --save-model MODEL.json`` runs, as function calls: the command's reader
+(:func:`app.commands.fit.read_recordings` / :func:`app.commands.diagnose.diagnose_files`),
+the one fitting entry point :func:`core.fitting.fit_recordings` or
+:func:`core.diagnosis.diagnose`, and the command's document builders. Nothing is parsed
+from an argument list and nothing goes through ``sys.stdout`` / ``sys.stderr``, so thread
+workers (``processes=False``) never see each other's output. The parameter set a batch
+stores is what the single-file command writes, and the worker needs no shared file system:
+bytes in, documents out.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
-import json
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-from .options import command_args, command_module
+from ..commands._common import Progress
+from .options import DiagnoseOptions, FitOptions, Options
 
 __all__ = ["Outcome", "run_recording"]
 
@@ -34,13 +36,13 @@ class Outcome:
     error : str
         The command's user-facing error message (empty on success).
     parameter_set : str
-        Text of the parameter-set JSON the command wrote (empty on failure).
+        Text of the parameter-set JSON the command writes (empty on failure).
     diagnosis : str
         For ``diagnose``: the ``--json`` document (one JSON object); else empty.
     samples : int
         Samples in the file (all recordings it holds); 0 when it could not be read.
     messages : str
-        Anything the command printed on stderr (warnings, notes).
+        The lines the command prints on stderr (read notes, warnings, progress).
     elapsed_s : float
         Wall time on the worker (s).
     """
@@ -54,20 +56,59 @@ class Outcome:
     elapsed_s: float = 0.0
 
 
-def _samples(kind: str, args: Any, diagnosis: str) -> int:
-    """Samples in the recording(s) the command read."""
-    if kind == "diagnose":
-        return sum(int(r["samples"]) for r in json.loads(diagnosis)["recordings"])
-    from core.csvio import read_csv
+def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
+    """``hyst fit src`` with ``opts``: the parameter set it writes."""
+    from core.fitting import fit_recordings
 
-    from ..commands._common import column_spec
+    from ..commands.fit import (
+        check_n_operators,
+        csv_read_kwargs,
+        fit_errors,
+        fit_source,
+        read_recordings,
+        say_read,
+        time_window,
+    )
 
-    recs = read_csv(args.files[0], time=column_spec(args.time),
-                    input=column_spec(args.input_column), output=column_spec(args.output_column))
-    return sum(r.n_samples for r in recs)
+    train, test = time_window(opts.train, "train"), time_window(opts.test, "test")
+    check_n_operators(opts.n_operators)
+    recs = read_recordings([src], csv_read_kwargs(opts.time, opts.input_column,
+                                                  opts.output_column))
+    say_read(progress, recs)
+    with fit_errors():
+        out = fit_recordings(recs, opts.model, n_operators=opts.n_operators,
+                             constraint=opts.constraint, train=train, test=test,
+                             **fit_source([src]))
+    for m in out.warnings:
+        progress(f"warning: {m}")
+    if out.memory_note:
+        progress(out.memory_note)
+    return Outcome(True, parameter_set=out.parameter_set.to_json() + "\n",
+                   samples=sum(r.n_samples for r in recs))
 
 
-def run_recording(kind: str, filename: str, content: bytes, argv: list[str]) -> Outcome:
+def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
+    """``hyst diagnose src --json --save-model`` with ``opts``: both documents."""
+    from ..commands._common import parse_window
+    from ..commands.diagnose import (
+        diagnose_files,
+        diagnosis_json,
+        diagnosis_source,
+        model_document,
+    )
+    from ..commands.fit import csv_read_kwargs
+
+    res = diagnose_files(
+        [src], csv_read_kwargs(), progress, operators=opts.operators,
+        train=parse_window(opts.train, "train") if opts.train is not None else None,
+        test=parse_window(opts.test, "test") if opts.test is not None else None,
+        fixed_grid=opts.fixed_grid, no_crossfit=opts.no_crossfit, effects=opts.effects)
+    return Outcome(True, parameter_set=model_document(res, diagnosis_source([src])).to_json()
+                   + "\n", diagnosis=diagnosis_json(res),
+                   samples=sum(r.n_samples for r in res.records))
+
+
+def run_recording(kind: str, filename: str, content: bytes, options: Options) -> Outcome:
     """Run the single-file command ``kind`` on one recording.
 
     Parameters
@@ -79,34 +120,39 @@ def run_recording(kind: str, filename: str, content: bytes, argv: list[str]) -> 
         the provenance it writes is the same as for a single-file run.
     content : bytes
         The file's bytes.
-    argv : list of str
-        The command's options (see :meth:`FitOptions.argv`).
+    options : FitOptions or DiagnoseOptions
+        The command's options (of ``kind``).
 
     Returns
     -------
     Outcome
         Never raises for a bad recording: the error is in :attr:`Outcome.error`.
+        :attr:`Outcome.messages` holds the lines the command prints on stderr.
     """
     t0 = time.perf_counter()
-    out, err = io.StringIO(), io.StringIO()
+    lines: list[str] = []
+    progress = Progress(kind, sink=lines.append)
     with tempfile.TemporaryDirectory(prefix="hyst-batch-") as tmp:
         src = Path(tmp) / Path(filename).name
         src.write_bytes(content)
-        model = Path(tmp) / "model.out.json"
-        extra = ["-o", str(model), "-q"] if kind == "fit" else [
-            "--json", "--save-model", str(model)]
         try:
-            args = command_args(kind, [str(src), *argv, *extra])
-            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-                command_module(kind).run(args)
-            diagnosis = out.getvalue().strip() if kind == "diagnose" else ""  # one JSON object
-            return Outcome(True, parameter_set=model.read_text(encoding="utf-8"),
-                           diagnosis=diagnosis, samples=_samples(kind, args, diagnosis),
-                           messages=err.getvalue(), elapsed_s=time.perf_counter() - t0)
+            if kind == "fit" and isinstance(options, FitOptions):
+                out = _fit(src, options, progress)
+            elif kind == "diagnose" and isinstance(options, DiagnoseOptions):
+                out = _diagnose(src, options, progress)
+            else:
+                raise ValueError(f"batch kind {kind!r} does not match {type(options).__name__}")
+            return Outcome(True, parameter_set=out.parameter_set, diagnosis=out.diagnosis,
+                           samples=out.samples, messages=_text(lines),
+                           elapsed_s=time.perf_counter() - t0)
         except (ValueError, OSError) as exc:  # what `hyst` reports as "error: ..."
             msg = str(exc).replace(str(src), filename).replace(tmp + "/", "")
-            return Outcome(False, error=msg, messages=err.getvalue(),
+            return Outcome(False, error=msg, messages=_text(lines),
                            elapsed_s=time.perf_counter() - t0)
         except Exception as exc:  # noqa: BLE001 - one bad recording never stops the batch
             return Outcome(False, error=f"internal error ({type(exc).__name__}): {exc}",
-                           messages=err.getvalue(), elapsed_s=time.perf_counter() - t0)
+                           messages=_text(lines), elapsed_s=time.perf_counter() - t0)
+
+
+def _text(lines: list[str]) -> str:
+    return "".join(f"{line}\n" for line in lines)
