@@ -1,0 +1,76 @@
+"""``core.fitting.fit_recordings``: one keyword set for every estimator, typed outcome."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from core.exceptions import ParameterError, UnsupportedOptionError
+from core.fitting import EmptyWindowError, FitOutcome, PIRegressor, TimeWindow, fit_recordings
+from core.models import estimator_class, fit_kinds
+from core.pi import PIModel
+from core.recordings import Recording
+
+TRUTH = PIModel(0.5, [0.4, 0.8, 1.2], [0.3, 0.2, 0.1])
+
+
+def _rec(name: str = "r", amp: float = 2.0) -> Recording:
+    t = np.linspace(0.0, 3.0, 3000)
+    u = amp * np.sin(2 * np.pi * t) * np.exp(-t / 2.0)
+    return Recording(t, u, TRUTH(u) + 1.0, name, units={"input": "V", "output": "um"})
+
+
+@pytest.mark.parametrize("kind", fit_kinds())
+def test_every_estimator_takes_the_same_keywords(kind):
+    cls = estimator_class(kind)
+    est = cls(n_operators=3, constraint="nonnegative", initial_memory="keep")
+    assert (est.n_operators, est.constraint, est.initial_memory) == (3, "nonnegative", "keep")
+    assert "keep" in cls.initial_memory_rules
+    if "exclude" not in cls.initial_memory_rules:
+        with pytest.raises(UnsupportedOptionError, match="initial_memory='exclude'"):
+            cls(n_operators=3, initial_memory="exclude").fit(_rec().u, _rec().y)
+    with pytest.raises(ParameterError, match="'exclude' or 'keep'"):
+        cls(n_operators=3, initial_memory="forget").fit(_rec().u, _rec().y)
+
+
+def test_outcome_matches_the_estimator_and_its_document():
+    rec = _rec()
+    out = fit_recordings(rec, n_operators=3, initial_memory="keep")
+    assert isinstance(out, FitOutcome) and out.kind == "pi"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        out.kind = "mpi"  # type: ignore[misc]
+    est = PIRegressor(n_operators=3).fit(rec.u, rec.y)  # a second, direct fit
+    np.testing.assert_allclose(out.model(rec.u), est.full_model_(rec.u), rtol=0, atol=1e-12)
+    assert out.report.test.rmse == pytest.approx(est.report_.test.rmse, rel=1e-12)
+    doc = out.parameter_set.to_dict()
+    fit = doc["provenance"]["fit"]
+    assert fit["model"] == "pi" and fit["recordings"] == ["r"] and fit["files"] == ["r"]
+    assert fit["n_operators"] == 3 and fit["train"] is None and fit["warnings"] == []
+    assert doc["units"] == {"input": "V", "output": "um", "time": "s"}
+    assert fit["report"]["train"]["rmse"] == pytest.approx(est.report_.train.rmse, rel=1e-12)
+
+
+def test_default_initial_memory_is_exclude_where_the_kind_can():
+    rec = _rec()
+    pi = fit_recordings(rec, "pi", n_operators=3)
+    assert pi.report.extra["initial_memory"]["rule"] == "exclude"
+    mpi = fit_recordings(rec, "mpi", n_operators=3)  # relaxed start only: no error
+    assert mpi.memory_note == ""
+
+
+def test_windows_and_several_recordings():
+    recs = [_rec("a"), _rec("b", 1.5)]
+    out = fit_recordings(recs, n_operators=3, initial_memory="keep",
+                         train=TimeWindow(stop=2.0), test=TimeWindow(2.0, label="2:"))
+    fit = out.parameter_set.to_dict()["provenance"]["fit"]
+    assert (fit["train"], fit["test"]) == (":2", "2:")
+    assert out.report.test.n_samples == sum(int((r.t >= 2.0).sum()) for r in recs)
+    with pytest.raises(EmptyWindowError, match="train window 5:6 selects no samples") as exc:
+        fit_recordings(recs, train=TimeWindow(5.0, 6.0))
+    assert exc.value.which == "train" and isinstance(exc.value, ValueError)
+    with pytest.raises(ParameterError, match="start must be smaller"):
+        TimeWindow(1.0, 1.0)
+    with pytest.raises(ParameterError, match="fit kind|unknown|not one of"):
+        fit_recordings(recs, "no-such-kind")
