@@ -23,24 +23,9 @@ from app.batch.runner import LOCAL_CLUSTER_QUIET
 from app.batch.summary import robust_outliers
 from app.cli import main
 from app.commands._common import CommandError
-from core.effects import Lag
-from core.pi import PIModel
+from tests.app.recordings import assert_same_document, read_json, write_recording
 
-FS = 2000.0
-TRUTH = PIModel(0.4, [6.0, 12.0, 18.0, 24.0, 30.0, 36.0, 42.0, 48.0, 54.0, 60.0],
-                0.05 * np.exp(-np.arange(1, 11) * 6.0 / 30.0))
-
-
-def _write(path: Path, amp: float, seed: int, lag: float = 0.0) -> Path:
-    rng = np.random.default_rng(seed)
-    t = np.arange(0, 2.0, 1 / FS)
-    u = amp * np.sin(2 * np.pi * 2.0 * t) * np.exp(-t / 1.5)
-    model = TRUTH >> Lag(lag) if lag else TRUTH
-    y = model(u, dt=1 / FS) + 0.01 * rng.standard_normal(u.size)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savetxt(path, np.column_stack((t, u, y)), delimiter=",", header="t_s,u_V,y_um",
-               comments="", fmt="%.10g")
-    return path
+_write = write_recording
 
 
 @pytest.fixture(scope="module")
@@ -66,32 +51,8 @@ def scheduler():
         yield cluster.scheduler_address
 
 
-def _numbers(x, prefix=""):
-    """Flatten a JSON document into ``{path: number}`` (strings kept as they are)."""
-    if isinstance(x, dict):
-        out = {}
-        for k, v in x.items():
-            out.update(_numbers(v, f"{prefix}/{k}"))
-        return out
-    if isinstance(x, list):
-        out = {}
-        for i, v in enumerate(x):
-            out.update(_numbers(v, f"{prefix}/{i}"))
-        return out
-    return {prefix: x}
-
-
 def _assert_same_document(batch: Path, single: Path) -> None:
-    a = _numbers(json.loads(batch.read_text()))
-    b = _numbers(json.loads(single.read_text()))
-    a.pop("/provenance/created")
-    b.pop("/provenance/created")
-    assert a.keys() == b.keys()
-    for k, v in b.items():
-        if isinstance(v, float):
-            assert a[k] == pytest.approx(v, rel=1e-9, abs=1e-9), k
-        else:
-            assert a[k] == v, k
+    assert_same_document(read_json(batch), read_json(single))
 
 
 def _rows(path: Path) -> dict[str, dict[str, str]]:

@@ -13,7 +13,6 @@ import re
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from app.batch import DiagnoseOptions, FitOptions
@@ -21,46 +20,12 @@ from app.batch.single import run_recording
 from app.cli import main
 from app.data import fit_recording, recording_from_csv
 from core.csvio import read_csv
-from core.effects import Lag
 from core.fitting import TimeWindow, fit_recordings
-from core.pi import PIModel
+from tests.app.recordings import assert_same_document, write_recording
 
-FS = 2000.0
-TRUTH = PIModel(0.4, [6.0, 12.0, 18.0, 24.0, 30.0, 36.0, 42.0, 48.0],
-                0.05 * np.exp(-np.arange(1, 9) * 6.0 / 30.0))
 APP = Path(__file__).resolve().parents[2] / "app"
-
-
-def _write(path: Path, amp: float, seed: int, lag: float = 0.0) -> Path:
-    rng = np.random.default_rng(seed)
-    t = np.arange(0, 2.0, 1 / FS)
-    u = amp * np.sin(2 * np.pi * 2.0 * t) * np.exp(-t / 1.5)
-    model = TRUTH >> Lag(lag) if lag else TRUTH
-    y = model(u, dt=1 / FS) + 0.01 * rng.standard_normal(u.size)
-    np.savetxt(path, np.column_stack((t, u, y)), delimiter=",", header="t_s,u_V,y_um",
-               comments="", fmt="%.10g")
-    return path
-
-
-def _numbers(x, prefix=""):
-    """``{json path: leaf}`` of a document."""
-    if isinstance(x, dict):
-        return {k: v for key, val in x.items() for k, v in _numbers(val, f"{prefix}/{key}").items()}
-    if isinstance(x, list):
-        return {k: v for i, val in enumerate(x) for k, v in _numbers(val, f"{prefix}/{i}").items()}
-    return {prefix: x}
-
-
-def _assert_same(doc: dict, ref: dict) -> None:
-    a, b = _numbers(doc), _numbers(ref)
-    for d in (a, b):
-        d.pop("/provenance/created", None)
-    assert a.keys() == b.keys()
-    for k, v in b.items():
-        if isinstance(v, float):
-            assert a[k] == pytest.approx(v, rel=1e-9, abs=1e-12), k
-        else:
-            assert a[k] == v, k
+_write = write_recording
+_assert_same = assert_same_document
 
 
 def _cli_fit(src: Path, out: Path, *extra: str) -> dict:
