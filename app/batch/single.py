@@ -66,6 +66,7 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
         fit_errors,
         fit_source,
         read_recordings,
+        say_fit,
         say_read,
         time_window,
     )
@@ -79,10 +80,7 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
         out = fit_recordings(recs, opts.model, n_operators=opts.n_operators,
                              constraint=opts.constraint, train=train, test=test,
                              **fit_source([src]))
-    for m in out.warnings:
-        progress(f"warning: {m}")
-    if out.memory_note:
-        progress(out.memory_note)
+    say_fit(progress, out)
     return Outcome(True, parameter_set=out.parameter_set.to_json() + "\n",
                    samples=sum(r.n_samples for r in recs))
 

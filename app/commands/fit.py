@@ -19,12 +19,13 @@ from ._common import (
 )
 
 if TYPE_CHECKING:
-    from core.fitting import TimeWindow
+    from core.fitting import FitOutcome, TimeWindow
     from core.recordings import Recording
 
 __all__ = ["add_model_option", "add_read_options", "check_n_operators",
            "csv_read_kwargs", "fit_errors", "fit_source",
-           "read_kwargs", "read_recordings", "register", "run", "say_read", "time_window"]
+           "read_kwargs", "read_recordings", "register", "run", "say_fit", "say_read",
+           "time_window"]
 
 
 def add_read_options(p: argparse.ArgumentParser) -> None:
@@ -139,6 +140,14 @@ def say_read(progress: Progress, recs: list[Any]) -> None:
             progress(f"  note: {note}")
 
 
+def say_fit(progress: Progress, out: FitOutcome) -> None:
+    """Report the fit's warnings and what was done about the initial memory."""
+    for m in out.warnings:
+        progress(f"warning: {m}")
+    if out.memory_note:
+        progress(out.memory_note)
+
+
 def add_model_option(p: argparse.ArgumentParser) -> None:
     """``--model KIND``: the fit kinds declared by the model registry (``fit_kinds()``)."""
     from core.models import DEFAULT_FIT_KIND, fit_kinds
@@ -204,10 +213,7 @@ def run(args: argparse.Namespace) -> int:
         out = fit_recordings(recs, args.model, n_operators=args.n_operators,
                              constraint=args.constraint, train=train_w, test=test_w,
                              initial_memory=args.initial_memory, **fit_source(args.files))
-    for m in out.warnings:
-        progress(f"warning: {m}")
-    if out.memory_note:
-        progress(out.memory_note)
+    say_fit(progress, out)
     ps = out.parameter_set
     path = ps.save(args.output)
     progress(f"wrote {path}")
