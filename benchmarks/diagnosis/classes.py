@@ -178,7 +178,8 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
     found = [e.name for e in res.effects]
     claims = [{"name": e.name, "gain": float(e.heldout.gain), "z": float(e.heldout.z),
                "sign_p": float(e.heldout.sign_p), "ambiguous_with": list(e.ambiguous_with),
-               "parameters": jsonable(e.parameters), "uncertainty": jsonable(e.uncertainty)}
+               "parameters": jsonable(e.parameters), "uncertainty": jsonable(e.uncertainty),
+               "ambiguous_parameters": list(e.ambiguous_parameters)}
               for e in res.effects]
     return {
         "class": cls, "case": case, "noise": noise, "seed": seed,
@@ -295,13 +296,15 @@ def recovery_table(rows: list[dict[str, Any]]) -> str:
             out.append(f"| {r['id']} | {q['effect']} | {q['quantity']} | {_g(q['truth'])} | "
                        f"{_g(q['found'])} | {_g(q['sigma'])} | "
                        + (f"{100 * q['rel_err']:+.1f} %" if q["rel_err"] is not None else "-")
-                       + " | " + ({None: "-", True: "yes", False: "no"}[q["within"]]) + " |")
+                       + " | " + ({None: "-", True: "yes", False: "no"}[q["within"]])
+                       + " | " + ("yes" if q.get("ambiguous") else "no") + " |")
     if not out:
         return ""
     return "\n".join(["Parameter recovery (found effects that are hidden; sigma: reported "
                       "1-sigma uncertainty)", "",
                       "| run | effect | quantity | truth | found | sigma | rel. error | "
-                      "within sigma |", "|---|---|---|---|---|---|---|---|"] + out)
+                      "within sigma | said ambiguous |",
+                      "|---|---|---|---|---|---|---|---|---|"] + out)
 
 
 def summarise_families(rows: list[dict[str, Any]]) -> str:
@@ -327,6 +330,7 @@ def summarise_families(rows: list[dict[str, Any]]) -> str:
             named += ("; " if named else "") + "suggestive: " + ", ".join(r["suggestive"])
         pars = "; ".join(f"{q['quantity']} {_g(q['found'])}"
                          + (f" ± {_g(q['sigma'])}" if q["sigma"] is not None else "")
+                         + (" (said ambiguous)" if q.get("ambiguous") else "")
                          + f" vs {_g(q['truth'])} ({100 * q['rel_err']:+.0f} %)"
                          for q in r.get("recovery", []) if q["rel_err"] is not None)
         lines.append(f"| {base} | {effect} | {size} | {named or 'none'} | "

@@ -586,7 +586,9 @@ def parameter_recovery(claims: list[dict[str, Any]], hidden: dict[str, dict[str,
     """One row per parameter of every accepted effect that is hidden: ``effect``,
     ``quantity``, ``truth``, ``found``, ``sigma`` (the reported 1-sigma or None),
     ``rel_err`` = (found - truth) / truth, ``within`` = |found - truth| <= sigma (None
-    without a sigma). ``claims``: dicts with ``name``, ``parameters``, ``uncertainty``."""
+    without a sigma), ``ambiguous`` (the diagnosis said the parameter is ambiguous rather
+    than a number), ``honest`` = within or ambiguous. ``claims``: dicts with ``name``,
+    ``parameters``, ``uncertainty`` and optionally ``ambiguous_parameters``."""
     rows = []
     for c in claims:
         name = c["name"]
@@ -594,14 +596,19 @@ def parameter_recovery(claims: list[dict[str, Any]], hidden: dict[str, dict[str,
             continue
         truth = recovery_quantities(name, hidden[name])
         found = recovery_quantities(name, c.get("parameters") or {}, c.get("uncertainty"))
+        amb = set(c.get("ambiguous_parameters") or ())
         for q, (tv, _) in truth.items():
             fv, s = found.get(q, (None, None))
             if tv is None or fv is None:
                 continue
+            within = None if s is None else bool(abs(fv - tv) <= s)
+            ambiguous = q in amb
             rows.append({"effect": name, "quantity": q, "truth": tv, "found": fv, "sigma": s,
-                         "rel_err": (fv - tv) / tv if tv else None,
-                         "within": None if s is None else bool(abs(fv - tv) <= s)})
+                         "rel_err": (fv - tv) / tv if tv else None, "within": within,
+                         "ambiguous": ambiguous,
+                         "honest": True if ambiguous else within})
     return rows
+
 
 
 def jsonable(x: Any) -> Any:

@@ -148,7 +148,8 @@ def run_one(args: tuple) -> dict:
                "ambiguous_with": list(e.ambiguous_with)} for e in res.effects]
     recovery = parameter_recovery(
         [{"name": e.name, "parameters": jsonable(e.parameters),
-          "uncertainty": jsonable(e.uncertainty)} for e in res.effects],
+          "uncertainty": jsonable(e.uncertainty),
+          "ambiguous_parameters": list(e.ambiguous_parameters)} for e in res.effects],
         {effect: sc.params} if effect else {})
     hidden_r1 = next(({"gain": _r(r["heldout_mse_reduction"]), "z": _r(r["dm_z"]),
                        "sign_p": _r(r["signed_rank_p"], 3), "passes": bool(r["passes"])}
@@ -314,10 +315,11 @@ def summarise(rows: list[dict]) -> str:
     rec = [(r, q) for r in eff for q in r.get("recovery", [])]
     if rec:
         lines += ["", "Parameter recovery (runs that found the hidden effect; rel. error of the "
-                  "found parameter; within: |found - truth| <= reported 1-sigma)",
+                  "found parameter; within: |found - truth| <= reported 1-sigma; "
+                  "honest: within or said ambiguous)",
                   f"{'effect':<15}{'level':<6}{'quantity':<13}{'found':>6}{'truth':>11}"
                   f"{'median found':>14}{'med |rel err|':>15}{'max |rel err|':>15}"
-                  f"{'within/sigma':>14}"]
+                  f"{'within/sigma':>14}{'honest':>9}"]
         keys = dict.fromkeys((r["effect"], r["level"], q["quantity"]) for r, q in rec)
         for e, lv, qn in sorted(keys, key=lambda k: (list(EFFECTS).index(k[0]), k[1], k[2])):
             qs = [q for r, q in rec if (r["effect"], r["level"], q["quantity"]) == (e, lv, qn)]
@@ -327,7 +329,8 @@ def summarise(rows: list[dict]) -> str:
                 f"{e:<15}{lv:<6}{qn:<13}{len(qs):>6}{qs[0]['truth']:>11.4g}"
                 f"{np.median([q['found'] for q in qs]):>14.4g}"
                 f"{_stat(np.median, errs):>15.3f}{_stat(np.max, errs):>15.3f}"
-                f"{_frac(sum(q['within'] for q in sig), len(sig)):>14}")
+                f"{_frac(sum(q['within'] for q in sig), len(sig)):>14}"
+                f"{_frac(sum(bool(q.get('honest')) for q in qs), len(qs)):>9}")
     lines += ["", f"diagnosis time per scenario: median "
               f"{np.median([r['elapsed_s'] for r in rows]):.1f} s"]
     return "\n".join(lines)

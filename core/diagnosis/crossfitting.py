@@ -18,7 +18,7 @@ from .candidates import build_candidate
 from .context import FitContext
 from .data import crossfit_folds
 from .stats import HeldOut, heldout_comparison
-from .structure import Fit
+from .structure import Fit, Structure
 
 
 def screen_gain(fit: Fit, cur: Fit) -> HeldOut:
@@ -152,6 +152,112 @@ def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any]
     if any(v is not None for v in unc.values()):
         return unc, "profile curvature (inflated for residual autocorrelation)"
     return unc, "none"
+
+
+#: Largest relative 1-sigma (sigma / |value|) of a parameter reported as a number; beyond it
+#: the parameter is "ambiguous". The resonance frequency is held to 10 %, the rest to 25 %.
+AMBIGUOUS_REL_SIGMA: dict[str, float] = {"freq_hz": 0.10}
+AMBIGUOUS_REL_SIGMA_DEFAULT = 0.25
+
+
+#: Training-MSE reduction an effect must bring in one recording alone for that recording's
+#: estimate to count in :func:`recording_spread`.
+SPREAD_MIN_GAIN = 0.2
+#: Training rows per weight (play or level segment, creep lag, bias and
+#: map terms) a recording needs to be fitted alone.
+SPREAD_ROWS_PER_WEIGHT = 10
+
+
+def recording_spread(ctx: FitContext, name: str, cur: Fit, without: Structure
+                     ) -> dict[str, Any] | None:
+    """Do the recordings agree on effect ``name``'s nonlinear parameters?
+
+    The effect is fitted on each recording's training rows alone (the structure ``without``
+    it refitted there, the effect searched anew on top), each estimate with its own
+    noise-driven 1-sigma. When the base hysteresis is not what the model fits, its misfit
+    pulls the parameters differently in each recording, by more than those sigmas: the
+    Birge ratio ``R = sqrt(chi2 / (n - 1))`` of the estimates about their weighted mean
+    (weights ``1 / sigma_j**2``) measures it; the weighted mean's standard error widened by
+    ``max(1, R)`` is the sigma the recordings allow (:func:`combine_uncertainty`).
+
+    Returns
+    -------
+    dict or None
+        ``per_recording`` (per recording with training rows: its estimates, or ``None``
+        where the effect does not show there: training-MSE reduction below
+        :data:`SPREAD_MIN_GAIN`), ``sigma_per_recording``, ``training_mse_reduction``, and
+        per parameter (from the recordings whose sigma is known) ``birge_ratio`` and
+        ``sigma_between``; ``None`` with fewer than two recordings that have
+        :data:`SPREAD_ROWS_PER_WEIGHT` training rows per weight.
+    """
+    recs, tr = ctx.records, ctx.train
+    none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
+    # a recording fitted alone needs rows for every weight (short periodic records do not)
+    need = SPREAD_ROWS_PER_WEIGHT * (len(without.thresholds) * (len(without.levels) + 1)
+                                     + len(without.creep_taus) + 4)
+    only = [[m if k == j else none[k] for k, m in enumerate(tr)]
+            for j in range(len(recs)) if tr[j].sum() >= need]
+    if len(only) < 2:
+        return None
+    est: list[dict[str, Any] | None] = []
+    sig: list[dict[str, Any]] = []
+    gains: list[float] = []
+    for masks in only:
+        fc = FitContext(recs, masks, none, parent=ctx)
+        fc.uncertainty = True
+        cur_j = fc.fit(without, cur)
+        got = build_candidate(fc, name, cur_j)
+        gain = 0.0 if got is None else screen_gain(got[0], cur_j).gain
+        gains.append(gain)
+        # where the effect does not show, its parameters are noise with a meaningless sigma
+        if got is None or gain < SPREAD_MIN_GAIN:
+            est.append(None)
+            sig.append({})
+            continue
+        est.append({k: v for k, v in got[1].items() if k in NONLINEAR_PARAMS})
+        sig.append({k: v for k, v in got[2].items() if k in NONLINEAR_PARAMS})
+    birge: dict[str, float] = {}
+    between: dict[str, float] = {}
+    for key in NONLINEAR_PARAMS:
+        pairs = [(e[key], s[key]) for e, s in zip(est, sig, strict=True)
+                 if e is not None and isinstance(e.get(key), float)
+                 and isinstance(s.get(key), float) and s[key] > 0]
+        if len(pairs) < 2:
+            continue
+        v, sd = (np.array(x) for x in zip(*pairs, strict=True))
+        w = 1.0 / sd**2
+        mu = float(np.sum(w * v) / np.sum(w))
+        birge[key] = float(np.sqrt(np.sum(w * (v - mu) ** 2) / (len(v) - 1)))
+        between[key] = max(birge[key], 1.0) / float(np.sqrt(np.sum(w)))
+    return {"per_recording": est, "sigma_per_recording": sig, "training_mse_reduction": gains,
+            "birge_ratio": birge, "sigma_between": between}
+
+
+def combine_uncertainty(unc: dict[str, Any], spread: dict[str, Any] | None
+                        ) -> dict[str, Any]:
+    """The full fit's 1-sigmas, or the recordings' where larger: the standard error of their
+    weighted mean widened by the Birge ratio, ``max(1, R) / sqrt(sum_j 1 / sigma_j**2)``
+    (:func:`recording_spread`)."""
+    if not spread:
+        return unc
+    out = dict(unc)
+    for k, s in spread["sigma_between"].items():
+        u = out.get(k)
+        out[k] = max(u, s) if isinstance(u, float) else s
+    return out
+
+
+def ambiguous_parameters(params: dict[str, Any], unc: dict[str, Any]) -> list[str]:
+    """Nonlinear parameters whose 1-sigma exceeds :data:`AMBIGUOUS_REL_SIGMA` of their value:
+    the data do not fix them to a number."""
+    out = []
+    for k, v in params.items():
+        s = unc.get(k)
+        if k not in NONLINEAR_PARAMS or not isinstance(s, float) or not isinstance(v, float):
+            continue
+        if np.isfinite(s) and s > AMBIGUOUS_REL_SIGMA.get(k, AMBIGUOUS_REL_SIGMA_DEFAULT) * abs(v):
+            out.append(k)
+    return out
 
 
 def crossfit_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:

@@ -46,9 +46,7 @@ def summary_text(res: DiagnosisResult) -> str:
                      + (" and generalised to unseen recordings." if res.recording_specific
                         else "."))
     for i, e in enumerate(res.effects, 1):
-        ps = ", ".join(f"{k} = {_fmt(v)}" + (f" ± {_fmt(e.uncertainty[k])}"
-                                            if e.uncertainty.get(k) is not None else "")
-                       for k, v in e.parameters.items())
+        ps = ", ".join(_param_text(e, k, v) for k, v in e.parameters.items())
         if e.evidence == "test rows":
             evidence = [
                 f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
@@ -151,3 +149,12 @@ def _fmt(v: Any) -> str:
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return str(v)
+
+
+def _param_text(e: Any, k: str, v: Any) -> str:
+    """``k = v ± sigma``, or ``k ambiguous (estimate v ± sigma)`` for a parameter the data do
+    not fix to a number."""
+    s = e.uncertainty.get(k)
+    if k in e.ambiguous_parameters:
+        return f"{k} ambiguous (estimate {_fmt(v)} ± {_fmt(s)})"
+    return f"{k} = {_fmt(v)}" + (f" ± {_fmt(s)}" if s is not None else "")

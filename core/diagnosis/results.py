@@ -144,6 +144,12 @@ class EffectFinding:
     caveats: list[str] = field(default_factory=list)
     #: the rows the acceptance statistics (``heldout``) were computed on
     evidence: str = "test rows"
+    #: leave-one-recording-out estimates and their jackknife sigmas
+    #: (:func:`~core.diagnosis.crossfitting.recording_spread`), with several recordings
+    recording_spread: dict[str, Any] | None = None
+    #: parameters the data do not fix to a number (1-sigma beyond
+    #: :data:`~core.diagnosis.crossfitting.AMBIGUOUS_REL_SIGMA` of the value)
+    ambiguous_parameters: list[str] = field(default_factory=list)
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -154,6 +160,8 @@ class EffectFinding:
             "parameters": _jsonable(self.parameters),
             "uncertainty": _jsonable(self.uncertainty),
             "uncertainty_method": self.uncertainty_method,
+            "ambiguous_parameters": list(self.ambiguous_parameters),
+            "recording_spread": _jsonable(self.recording_spread),
             "leave_one_recording_out": _jsonable(self.loro),
             "caveats": list(self.caveats),
             "where": _jsonable(self.where),
