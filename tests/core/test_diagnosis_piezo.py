@@ -1,4 +1,4 @@
-"""The real piezo recording (shipped copy): the diagnosis table of docs/diagnosis.md, pinned
+"""The real piezo recording (shipped copy): the diagnosis table of docs/pages/diagnose.md, pinned
 for both hold-out protocols. Output range = max - min of the measured y on [7, 9] s (39.31 um), the
 fit reports' definition."""
 
