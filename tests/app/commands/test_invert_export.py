@@ -21,7 +21,7 @@ from tests.core.model_zoo import EX1, ZOO
 
 CASES = sorted(ZOO) + [f"preset:{p.name}" for p in list_presets()]
 #: A shipped recording (1 Hz friction damper loops, 7 168 samples, CC BY 4.0).
-DAMPER = (Path(__file__).resolve().parents[2] / "examples" / "data" / "friction_damper"
+DAMPER = (Path(__file__).resolve().parents[3] / "examples" / "data" / "friction_damper"
           / "1Hz30lbtension0.5amplitude.csv")
 GCC = shutil.which("gcc")
 #: Reads "u yd" lines; prints the C forward model of u and the C compensator of yd.
@@ -176,7 +176,7 @@ def test_every_chain_layout_the_diagnosis_writes_inverts_and_exports(rate, dynam
     assert res.returncode == 0, res.stderr
 
 
-DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
+DATA = Path(__file__).resolve().parents[3] / "examples" / "data"
 
 
 @pytest.mark.slow

@@ -25,7 +25,7 @@ from core.models import fit_kinds
 from core.pi import PIModel
 from core.recordings import Recording
 
-BH = Path(__file__).parents[2] / "examples" / "data" / "bh_loops"
+BH = Path(__file__).parents[3] / "examples" / "data" / "bh_loops"
 SHAPES = {"saturation", "dead-zone"}
 
 

@@ -10,7 +10,7 @@ from core.diagnosis.crossfitting import block_jackknife
 from core.diagnosis.data import crossfit_folds, wipeout_index
 from core.effects import Lag
 from core.recordings import Recording
-from tests.core.test_diagnosis import _records
+from tests.core.diagnosis.test_diagnosis import _records
 
 
 def test_folds_are_disjoint_blocks_of_the_training_rows_after_the_wipeout_time() -> None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from app.cli import main
 
-BH = Path(__file__).parents[2] / "examples" / "data" / "bh_loops"
+BH = Path(__file__).parents[3] / "examples" / "data" / "bh_loops"
 
 
 def test_cli_saved_loop_shape_model_inverts_and_exports(tmp_path, capsys) -> None:

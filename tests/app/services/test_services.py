@@ -24,7 +24,7 @@ from core.pi import PIModel
 from core.presets import get_preset
 from core.recordings import Recording
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_a_session_holds_one_frozen_state_replaced_by_each_transition(tmp_path: Path) -> None:

@@ -145,7 +145,7 @@ def test_reads_what_hyst_fit_reads_semicolon_decimal_comma_units_and_column_orde
 def test_quasi_static_loops_without_time_axis_are_diagnosed(capsys) -> None:
     """The shipped B-H loops (loop column, no time axis): rate-independent effects are tested,
     time-dependent ones reported untestable with the reason."""
-    f = Path(__file__).parents[2] / "examples/data/bh_loops/MnZn_ferrite.csv"
+    f = Path(__file__).parents[3] / "examples/data/bh_loops/MnZn_ferrite.csv"
     assert main(["diagnose", str(f), "--json", "--effects", "asymmetry,lag,creep",
                  "--operators", "10", "--fixed-grid"]) == 0
     cap = capsys.readouterr()

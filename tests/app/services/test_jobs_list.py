@@ -9,10 +9,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.services.jobs import JobManager
-
-from . import test_security_jobs as jobs_api
-from .test_security import csv_text, upload
-from .test_security_jobs import _poll
+from tests.app import test_security_jobs as jobs_api
+from tests.app.test_security import csv_text, upload
+from tests.app.test_security_jobs import _poll
 
 client = jobs_api.client  # the jobs tests' module-scoped server fixture
 

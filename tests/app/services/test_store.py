@@ -19,7 +19,7 @@ from app.services.sessions import SessionRegistry
 from app.services.store import SessionState, SessionStore
 from core.recordings import Recording
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def recording(n: int = 500) -> Recording:

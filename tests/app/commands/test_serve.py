@@ -12,7 +12,7 @@ from pathlib import Path
 
 from app.cli import build_parser
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_serve_arguments() -> None:
