@@ -13,7 +13,7 @@ Measures, single-threaded, in one run:
 * the first-call time of a fresh process: ``import core`` and the first PI evaluation with a
   warm numba cache (median of 3 subprocesses).
 
-Targets (docs/architecture.md, shared/notes/perf-baseline.md): PI output <= 1 ns/update and
+Targets (docs/pages/architecture.md, shared/notes/perf-baseline.md): PI output <= 1 ns/update and
 >= 100x the numpy loop; first call <= 1.5 s. Input as in perf-baseline: a decaying 5 Hz
 sine plus 37 Hz and 211 Hz components plus 1 % noise; ``r_i = i/n * 0.9 max|u|``.
 

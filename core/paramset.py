@@ -13,7 +13,7 @@ version number, physical units and provenance (when and how it was made, fit met
     }
 
 Loading validates the whole document and reports the first problem with its JSON path
-(``model.weights[3]: must be a number, got "abc"``). See ``docs/parameter-set.md``.
+(``model.weights[3]: must be a number, got "abc"``). See ``docs/pages/parameter-set.md``.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ Two steps, both cheap and non-recursive where the input is hostile:
 
 Every refusal is a :class:`~core.exceptions.ParameterError` (a 422 in the API) naming the
 quantity, its value, the limit and what to change. The limits are :class:`Limits`, shown by
-``GET /api/capabilities`` and in docs/serve.md.
+``GET /api/capabilities`` and in docs/pages/serve.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The piezo diagnosis of docs/diagnosis.md against a plain ``hyst fit`` of the same file, same run.
+"""The piezo diagnosis of docs/pages/diagnose.md against a plain ``hyst fit`` of the file.
 
 Targets (issue 8): ``hyst diagnose piezo_150V_1Hz.csv --train 3.3:7 --test 7:9`` in <= 10 s
 on an idle machine, and <= 6 times the wall time of ``hyst fit piezo_150V_1Hz.csv`` (default

@@ -267,7 +267,7 @@ def test_nested_model_errors_carry_their_path():
 def test_json_examples_in_the_format_documentation_load(root):
     import re
 
-    text = (root / "docs" / "parameter-set.md").read_text()
+    text = (root / "docs" / "pages" / "parameter-set.md").read_text()
     blocks = re.findall(r"```json\n(.*?)```", text, flags=re.S)
     assert len(blocks) >= 6
     for block in blocks:

@@ -15,7 +15,7 @@ import pytest
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 #: Where browser tests write screenshots: a temporary folder, so a test run never changes
-#: tracked files (``python -m tests.e2e.refresh_screenshots`` refreshes docs/screenshots).
+#: tracked files (``python -m tests.e2e.refresh_screenshots`` refreshes docs/pages/screenshots).
 SCREENSHOTS = Path(os.environ.get("HYST_SCREENSHOTS") or Path(tempfile.gettempdir())
                    / "hyst-e2e-screenshots")
 #: The strict policy the static page must work under.

@@ -1,10 +1,10 @@
-"""Refresh ``docs/screenshots/`` from the browser tests.
+"""Refresh ``docs/pages/screenshots/`` from the browser tests.
 
 Run: ``.venv/bin/python -m tests.e2e.refresh_screenshots`` (from the repository root).
 
 The browser tests always write their screenshots to a temporary folder, so a test run
 never changes tracked files; this command runs the tests that take the documented
-screenshots with ``HYST_SCREENSHOTS`` pointing at ``docs/screenshots/``. Look at the
+screenshots with ``HYST_SCREENSHOTS`` pointing at ``docs/pages/screenshots/``. Look at the
 PNGs before committing them.
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The tests whose screenshots docs/serve.md and docs/explorer.md show.
+#: The tests whose screenshots docs/pages/serve.md and docs/pages/explore.md show.
 TESTS = [
     "tests/e2e/test_static_page.py::test_page_loads_slider_updates_plot",
     "tests/e2e/test_static_page.py::test_csv_upload_fit_diagnosis_download",
@@ -32,8 +32,8 @@ TESTS = [
 
 
 def main() -> int:
-    """Run :data:`TESTS` with screenshots going to ``docs/screenshots/``."""
-    out = ROOT / "docs" / "screenshots"
+    """Run :data:`TESTS` with screenshots going to ``docs/pages/screenshots/``."""
+    out = ROOT / "docs" / "pages" / "screenshots"
     out.mkdir(parents=True, exist_ok=True)
     os.environ["HYST_SCREENSHOTS"] = str(out)
     os.chdir(ROOT)

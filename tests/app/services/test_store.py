@@ -1,0 +1,151 @@
+"""Sessions survive: the SQLite store, its eviction rules, and kill -9 of a real server."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.services.config import Config
+from app.services.sessions import SessionRegistry
+from app.services.store import SessionState, SessionStore
+from core.recordings import Recording
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def recording(n: int = 500) -> Recording:
+    t = np.arange(n) * 1e-3
+    u = np.sin(2 * np.pi * 4 * t)
+    return Recording(t, u, 0.5 * u, name="r", units={"input": "V", "output": "µm"},
+                     extra={"temp": np.full(n, 21.5), "tag": np.array(["a"] * n)},
+                     cleaning=("removed 1 row(s) at line(s) 7",), run=2,
+                     lines=np.arange(n) + 2)
+
+
+def test_state_round_trips_through_the_file(tmp_path: Path) -> None:
+    db = tmp_path / "s.sqlite3"
+    reg = SessionRegistry(store=SessionStore(db))
+    s = reg.create()
+    from app.data import fit_session, store_recording
+
+    store_recording(s, recording())
+    fit_session(s, 4)
+    s.update(lambda c: c.with_model({**c.model, "p0": 0.5}))
+    reg.store.close()
+    again = SessionRegistry(store=SessionStore(db)).get(s.code)  # a "restarted server"
+    assert again.config.to_dict() == s.config.to_dict() and again.version == s.version
+    r, r0 = again.recording, s.recording
+    np.testing.assert_array_equal(r.u, r0.u)
+    np.testing.assert_array_equal(r.lines, r0.lines)
+    assert r.cleaning == r0.cleaning and r.run == 2 and r.units == r0.units
+    assert list(r.extra["tag"][:2]) == ["a", "a"] and r.extra["temp"][0] == 21.5
+    assert again.fitted == s.fitted and again.fit_report == s.fit_report
+
+
+def test_a_diagnosis_result_that_no_longer_loads_keeps_the_session(tmp_path: Path) -> None:
+    """A stored result written by another version of the code (here: bytes that are no
+    pickle) must not break the session: the recording, config and text report come back."""
+    import sqlite3
+
+    db = tmp_path / "s.sqlite3"
+    store = SessionStore(db)
+    st = SessionState(code="abcdefghjkmnpqrs", config=Config(), recording=recording(),
+                      diagnosis={"text": "report"},
+                      diagnosis_result={"effects": []})
+    store.save(st)
+    store.close()
+    with sqlite3.connect(db) as raw:
+        assert raw.execute("UPDATE blobs SET data=? WHERE kind='diagnosis'",
+                           (b"not a pickle",)).rowcount == 1
+    again = SessionStore(db).load(st.code)
+    assert again is not None and again.diagnosis_result is None
+    assert again.diagnosis == {"text": "report"} and again.recording is not None
+
+
+def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -> None:
+    store = SessionStore(tmp_path / "s.sqlite3", max_bytes=10**9)
+    now = time.time()
+    big = recording(2000)  # ~ 60 kB as .npz
+    for code, age, teacher in (("old", 7200, False), ("older", 9000, False),
+                               ("teach", 99_999, True), ("recent", 600, False)):
+        store.save(SessionState(code=code, config=Config(), recording=big,
+                                teacher=teacher, last_used=now - age))
+    assert store.size() > 4 * 50_000
+    store.max_bytes = 50_000
+    evicted = store.evict(now)
+    assert evicted == ["older", "old"]  # least recently used first, only those > 1 h
+    assert set(store.codes()) == {"teach", "recent"}
+    assert store.full()  # over budget with only protected sessions: refuse new ones
+    store.save(SessionState(code="new", config=Config(), recording=big,
+                            last_used=now - 7200))
+    store.save(SessionState(code="newer", config=Config(), recording=big))
+    assert "new" not in store.codes() and "newer" in store.codes()  # evicted on save
+
+
+def _serve(state: Path) -> tuple[subprocess.Popen, str]:
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "serve", "--no-browser", "--no-viser", "--port", "0",
+         "--state-dir", str(state)], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True)
+    assert proc.stdout is not None
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if "web page:" in line:
+            return proc, line.split("web page:")[1].split()[0]
+        if not line and proc.poll() is not None:
+            break
+    proc.kill()
+    raise AssertionError("serve did not start")
+
+
+def _call(url: str, method: str = "GET", body: bytes | None = None,
+          ctype: str = "application/json") -> dict:
+    req = urllib.request.Request(url, data=body, method=method,
+                                 headers={"Content-Type": ctype})
+    with urllib.request.urlopen(req, timeout=30) as r:
+        return json.load(r)
+
+
+def test_kill_9_and_restart_lose_nothing_and_sigterm_is_quick(tmp_path: Path) -> None:
+    """Failure 8: kill -9 lost every session, recording and fit; failure 3: SIGTERM hung."""
+    proc, web = _serve(tmp_path)
+    try:
+        code = _call(web + "api/sessions", "POST")["code"]
+        t = np.arange(400) * 1e-3
+        rows = "\n".join(f"{a:.4f},{np.sin(25 * a):.6f},{0.5 * np.sin(25 * a):.6f}"
+                         for a in t)
+        _call(web + f"api/sessions/{code}/recording", "POST", f"t,u,y\n{rows}\n".encode(),
+              "text/csv")
+        fit = _call(web + f"api/sessions/{code}/fit", "POST", b'{"n": 4, "apply": false}')
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    proc, web = _serve(tmp_path)
+    try:
+        s = _call(web + f"api/sessions/{code}")
+        assert s["recording"]["samples"] == 400 and s["fitted"] == fit["model"]
+        job = _call(web + f"api/sessions/{code}/jobs", "POST", b'{"kind": "diagnose"}')
+        assert job["kind"] == "diagnose"  # SIGTERM arrives while it runs
+        time.sleep(0.5)
+    finally:
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=20)
+        assert time.monotonic() - t0 <= 5.0
+
+
+@pytest.mark.parametrize("bad", ["", "abc", "abcd-efgh-ijkl-mnop", "ß" * 16])
+def test_malformed_codes_are_unknown(bad: str) -> None:
+    with pytest.raises(KeyError):
+        SessionRegistry().get(bad)

@@ -1,0 +1,72 @@
+"""The real piezo recording (shipped copy): the diagnosis table of docs/pages/diagnose.md, pinned
+for both hold-out protocols. Output range = max - min of the measured y on [7, 9] s (39.31 um), the
+fit reports' definition."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.datasets import load_dataset
+from core.diagnosis import diagnose
+
+
+@pytest.fixture(scope="module")
+def piezo():
+    rec = load_dataset("piezo-150V-1Hz")
+    test = (rec.t >= 7.0) & (rec.t <= 9.0)
+    return rec, test, float(np.ptp(rec.y[test]))
+
+
+def _pct(rec, model, first, test, yr) -> float:
+    """% of range on [7, 9] s of ``model`` simulated from sample ``first`` on."""
+    e = (rec.y[first:] - model(rec.u[first:], dt=rec.dt))[test[first:]]
+    return 100.0 * float(np.sqrt(np.mean(e * e))) / yr
+
+
+@pytest.mark.slow
+def test_windowed_protocol_test_window_scored_once(piezo) -> None:
+    """--train 3.3:7 --test 7:9 on the whole file (fixed 25-operator grid): selection by
+    cross-fitting the training window, the test window only scored. Measured 2026-12-01:
+    PI 0.286 %, + initial-memory 0.184 %, + lag (tau 8.1 ms) 0.149 %."""
+    rec, test, yr = piezo
+    res = diagnose(rec, train=(3.3, 7.0), test=(7.0, 9.0), n_operators=25,
+                   auto_resolution=False)
+    assert "never used for selection" in res.split
+    assert [e.name for e in res.effects][:2] == ["initial-memory", "lag"]
+    assert 0.006 < res.effects[1].parameters["tau_s"] < 0.010
+    assert 100 * res.heldout_rmse(res.baseline) / res.y_range == pytest.approx(0.286, abs=0.01)
+    final = _pct(rec, res.model, 0, test, yr)
+    assert final == pytest.approx(100 * res.heldout_rmse(res.final) / res.y_range, rel=1e-9)
+    assert final <= 0.15
+
+
+@pytest.mark.slow
+def test_strict_protocol_only_the_training_rows_exist(piezo) -> None:
+    """The tool gets only the rows t in [3.3, 7) s (it never sees t >= 7 s; the recording
+    starts mid-history) and the default automatic grid; the diagnosed model, simulated from
+    3.3 s on, predicts [7, 9] s within 0.15 % of range. Measured: 0.146 %."""
+    rec, test, yr = piezo
+    res = diagnose(rec.window(3.3, 7.0), train=(-np.inf, np.inf), n_operators=25)
+    assert res.crossval is not None and not np.isfinite(res.heldout_rmse(res.final))
+    assert res.effects and res.effects[0].name == "initial-memory"
+    assert res.effects[0].evidence.startswith("training rows before the wipe-out")
+    first = int(np.searchsorted(rec.t, 3.3 - 1e-9))
+    assert _pct(rec, res.model, first, test, yr) <= 0.15
+
+
+@pytest.mark.slow
+def test_no_windows_the_saved_model_is_refitted_on_every_row(piezo) -> None:
+    """Issue 16, failure 6: only the rows t in [3.3, 7) s and no windows. The interleaved test
+    blocks serve selection; the saved model is the selected structure refitted on every row
+    (before: fitted on the training blocks only, 0.158 % on [7, 9] s; now 0.148 %)."""
+    rec, test, yr = piezo
+    res = diagnose(rec.window(3.3, 7.0))
+    assert res.refit is not None and res.refit.structure == res.final.structure
+    assert res.refit.n_train > res.final.n_train
+    first = int(np.searchsorted(rec.t, 3.3 - 1e-9))
+    saved = _pct(rec, res.model, first, test, yr)
+    assert saved < _pct(rec, res.final.models[0], first, test, yr)
+    assert saved <= 0.15
+    doc = res.to_dict()
+    assert doc["final"]["model_fitted_on"].startswith("every row")
