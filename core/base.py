@@ -203,6 +203,12 @@ class Model(ABC):
         """
         return 0
 
+    def time_constants(self) -> tuple[tuple[str, float], ...]:
+        """``(label, seconds)`` of each time constant of this stage (not of its children),
+        which a fixed-step simulation must resolve: checked against the sample spacing by
+        the explorer's cost model. Empty by default."""
+        return ()
+
     def inverse(self) -> Model:
         """The exact inverse operator, such that ``self(self.inverse()(u)) == u``.
 

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -59,7 +60,6 @@ from .preisach import PreisachModel
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
 __all__ = [
-    "EFFECT_TYPES",
     "Advance",
     "Asymmetry",
     "AsymmetryInverse",
@@ -77,27 +77,13 @@ __all__ = [
     "RateDependentPIInverse",
     "Resonance",
     "ResonanceInverse",
+    "bisect_steps",
     "causal_form",
+    "delay_split",
+    "discretised_tf",
     "foh_filter",
     "rd_play_bank",
 ]
-
-#: The effect names, in the order the diagnosis reports them.
-EFFECT_TYPES: tuple[str, ...] = (
-    "delay",
-    "lag",
-    "resonance",
-    "rate",
-    "creep",
-    "drift",
-    "asymmetry",
-    "offset",
-    "initial-memory",
-    # loop shapes: the PI stage driven through a memoryless input map (core.gpi: gpi-tanh,
-    # gpi-deadzone), see core.diagnosis.shapes
-    "saturation",
-    "dead-zone",
-)
 
 
 njit = kernels.njit
@@ -110,11 +96,12 @@ def _tf_coefficients(num: list[float], den: list[float], dt: float) -> tuple[Flo
     Memoised on the exact float values (the diagnosis filters thousands of regressor
     columns with a few distinct transfer functions); copies are returned.
     """
-    b, a, _ = _tf_memo(num, den, dt)
+    b, a, _ = discretised_tf(num, den, dt)
     return b.copy(), a.copy()
 
 
-def _tf_memo(num: list[float], den: list[float], dt: float) -> tuple[Float1D, Float1D, Float1D]:
+def discretised_tf(num: list[float], den: list[float], dt: float
+                   ) -> tuple[Float1D, Float1D, Float1D]:
     """``(b, a, lfilter_zi(b, a))``, memoised; the arrays are shared: do not modify them.
 
     Thread-safe: the cache is :func:`functools.lru_cache` on the exact float values (the
@@ -182,7 +169,7 @@ def foh_filter(
     """
     import scipy.signal as ss
 
-    b, a, zi_unit = _tf_memo(num, den, dt)
+    b, a, zi_unit = discretised_tf(num, den, dt)
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 2 and axis in (-1, 1):
         if x.shape[1] == 0:
@@ -289,7 +276,7 @@ class LagBank:
         """Discretise lags ``taus_s`` (s) with weights at ``dt`` (s)."""
         b0, b1, a1, zi = [], [], [], []
         for tau in np.asarray(taus_s, dtype=np.float64):
-            b, a, z = _tf_memo([1.0], [float(tau), 1.0], float(dt))
+            b, a, z = discretised_tf([1.0], [float(tau), 1.0], float(dt))
             b0.append(b[0])
             b1.append(b[1])
             a1.append(a[1])
@@ -350,6 +337,10 @@ class Lag(_LinearStage):
     def bank(self, dt: float) -> LagBank:
         """This lag as a :class:`LagBank` at ``dt``."""
         return LagBank.of([self.tau_s], [1.0], 0.0, dt)
+
+    def time_constants(self) -> tuple[tuple[str, float], ...]:
+        """The lag's time constant (s)."""
+        return (("lag tau_s", float(self.tau_s)),)
 
     def inverse(self) -> LagInverse:
         """The exact inverse of the discretised lag (its FOH zero lies in (-1, 0))."""
@@ -428,6 +419,10 @@ class Resonance(_LinearStage):
         w = 2.0 * np.pi * self.freq_hz
         return [w * w], [1.0, 2.0 * self.damping * w, w * w]
 
+    def time_constants(self) -> tuple[tuple[str, float], ...]:
+        """The mode's ``1 / (2 pi f_n)`` (s)."""
+        return (("resonance 1/(2 pi freq_hz)", 1.0 / (2 * math.pi * float(self.freq_hz))),)
+
     def inverse(self, bandwidth_hz: float | None = None) -> ResonanceInverse:
         """Inverse with a third-order roll-off at ``bandwidth_hz`` (default ``4 f_n``).
 
@@ -505,7 +500,7 @@ class ResonanceInverse(_LinearStage):
 
 
 # ----------------------------------------------------------------------------- delay
-def _delay_split(delay_s: float, dt: float) -> tuple[int, float]:
+def delay_split(delay_s: float, dt: float) -> tuple[int, float]:
     """``(m, f)``: the delay in samples ``m + f`` with ``0 <= f < 1``."""
     D = delay_s / dt
     m = int(np.floor(D + 1e-12))
@@ -544,7 +539,7 @@ class Delay(Model):
         return None
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        m, f = _delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
+        m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
         if state is None:
             hist = np.full(m + 1, u[0] if u.size else 0.0)
         else:
@@ -599,14 +594,14 @@ class Advance(Model):
     def preview_samples(self, dt: float | None) -> int:
         if dt is None or not dt > 0:
             raise ParameterError("the inverse of a delay needs the sample spacing dt > 0 (s)")
-        m, f = _delay_split(self.delay_s, float(dt))
+        m, f = delay_split(self.delay_s, float(dt))
         return m + (1 if f > 0 else 0)
 
     def default_state(self) -> Any:
         return None
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        m, f = _delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
+        m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
         if not u.size:
             return u.copy(), None
         ext = np.concatenate((u, np.full(m + 1, u[-1])))
@@ -615,7 +610,7 @@ class Advance(Model):
 
     def causal(self, dt: float) -> Delay:
         """The causal delay this stage becomes when its input is previewed."""
-        m, f = _delay_split(self.delay_s, float(dt))
+        m, f = delay_split(self.delay_s, float(dt))
         return Delay((self.preview_samples(dt) - (m + f)) * float(dt))
 
     def inverse(self) -> Delay:
@@ -662,6 +657,10 @@ class Creep(Model):
             return float(self.weights.sum())
         decades = np.log10(self.taus_s[-1] / self.taus_s[0]) + 1.0
         return float(self.weights.sum() / decades)
+
+    def time_constants(self) -> tuple[tuple[str, float], ...]:
+        """Each lag's time constant (s)."""
+        return tuple(("creep taus_s", float(t)) for t in self.taus_s)
 
     def bank(self, dt: float) -> LagBank:
         """This operator as a :class:`LagBank` at ``dt`` (``g0 = 1 - Σ c_j``)."""
@@ -809,7 +808,7 @@ class Drift(Model):
 
 
 # ----------------------------------------------------------------------------- output maps
-def _bisect_steps() -> int:
+def bisect_steps() -> int:
     """Bisection steps of the memoryless inverse maps (bracket width × 2⁻⁸⁰ ≈ 1e-24)."""
     return 80
 
@@ -952,7 +951,7 @@ class AsymmetryInverse(Model):
             if not np.isfinite(x_hi):
                 grow = _poly_map(hi, coef, c, s) < y
                 hi = np.where(grow, c + 2.0 * (hi - c), hi)
-        for _ in range(_bisect_steps()):
+        for _ in range(bisect_steps()):
             mid = 0.5 * (lo + hi)
             less = _poly_map(mid, coef, c, s) < y
             lo = np.where(less, mid, lo)

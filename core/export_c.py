@@ -30,7 +30,33 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .base import Chain, Model
+from .deadzone import DeadZoneMap
+from .digitized import DigitizedPI
+from .digitized_deadzone import DigitizedDeadZone
+from .effects import (
+    Advance,
+    Asymmetry,
+    AsymmetryInverse,
+    Creep,
+    CreepInverse,
+    Delay,
+    Drift,
+    Lag,
+    LagInverse,
+    Offset,
+    RateDependentPI,
+    RateDependentPIInverse,
+    Resonance,
+    ResonanceInverse,
+    bisect_steps,
+    delay_split,
+    discretised_tf,
+)
 from .exceptions import ParameterError
+from .gpi import TanhEnvelope, TanhEnvelopeInverse
+from .lti import InverseLinearSystem, LinearSystem
+from .pi import PIModel
+from .preisach import PreisachInverse, PreisachModel
 
 if TYPE_CHECKING:
     from .paramset import ParameterSet
@@ -45,6 +71,7 @@ __all__ = [
     "export_c",
     "generate_c",
     "register_c_stage",
+    "emitter_for",
     "supported_c_types",
 ]
 
@@ -138,29 +165,35 @@ class StageContext:
 
 #: Emitter signature: ``(model, ctx) -> CStage``.
 Emitter = Callable[[Model, StageContext], CStage]
-_EMITTERS: dict[str, Emitter] = {}
+_EMITTERS: dict[type[Model], Emitter] = {}
 
 
-def register_c_stage(type_name: str) -> Callable[[Emitter], Emitter]:
-    """Decorator registering the C emitter of a model ``type`` (see :class:`CStage`)."""
+def register_c_stage(cls: type[Model]) -> Callable[[Emitter], Emitter]:
+    """Decorator registering the C emitter of model class ``cls`` (see :class:`CStage`);
+    :func:`emitter_for` dispatches on the class (a subclass uses its parent's emitter
+    unless it registers its own)."""
 
     def deco(fn: Emitter) -> Emitter:
-        _EMITTERS[type_name] = fn
+        _EMITTERS[cls] = fn
         return fn
 
     return deco
 
 
+def emitter_for(model: Model) -> Emitter | None:
+    """The C emitter of ``model``'s class or of its nearest registered base class."""
+    return next((_EMITTERS[c] for c in type(model).__mro__ if c in _EMITTERS), None)
+
+
 def supported_c_types() -> list[str]:
     """Model types that :func:`generate_c` can emit (``chain`` of these included)."""
-    return sorted(_EMITTERS)
+    return sorted(c.type_name for c in _EMITTERS)
 
 
 # ----------------------------------------------------------------------------- stage emitters
-@register_c_stage("pi")
+@register_c_stage(PIModel)
 def _emit_pi(model: Model, ctx: StageContext) -> CStage:
     """Play-operator bank ``x <- p0 x + sum_i w_i z_i`` with ``z_i = clamp(z_i, x-r_i, x+r_i)``."""
-    from .pi import PIModel
 
     assert isinstance(model, PIModel)
     n = model.n
@@ -195,7 +228,7 @@ def _emit_pi(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("offset")
+@register_c_stage(Offset)
 def _emit_offset(model: Model, ctx: StageContext) -> CStage:
     """Constant output offset ``x <- x + c``."""
     c = float(model.offset)  # type: ignore[attr-defined]
@@ -206,7 +239,7 @@ def _emit_offset(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("deadzone")
+@register_c_stage(DeadZoneMap)
 def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
     """Dead-zone superposition, evaluated like the Python model: segment, anchor, slope."""
     rho = np.asarray(model.thresholds)  # type: ignore[attr-defined]
@@ -250,7 +283,7 @@ def _direction_state(model: Model, f: str) -> tuple[list[str], list[str]]:
     )
 
 
-@register_c_stage("tanh-envelope")
+@register_c_stage(TanhEnvelope)
 def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
     """Direction-switching envelope ``c0 tanh(c1 x + c2) + c3`` (a while rising, b falling)."""
     a = np.asarray(model.a)  # type: ignore[attr-defined]
@@ -274,7 +307,7 @@ def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("tanh-envelope-inverse")
+@register_c_stage(TanhEnvelopeInverse)
 def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
     """Inverse envelope ``(atanh((x - c3)/c0) - c2)/c1``, clipped to its domain.
 
@@ -307,7 +340,7 @@ def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("digitized")
+@register_c_stage(DigitizedPI)
 def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
     """Digitized PI (paper 000): binary digits in the state, same snapping rule as Python."""
     dx = np.asarray(model.dx)  # type: ignore[attr-defined]
@@ -374,7 +407,7 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("digitized-deadzone")
+@register_c_stage(DigitizedDeadZone)
 def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
     """Digitized dead-zone superposition (paper 000): the current segment is the state."""
     dx = np.asarray(model.dx)  # type: ignore[attr-defined]
@@ -441,7 +474,7 @@ def _emit_state_space(
     )
 
 
-@register_c_stage("lti")
+@register_c_stage(LinearSystem)
 def _emit_lti(model: Model, ctx: StageContext) -> CStage:
     """Linear system, exact ZOH at the ``dt`` given to :func:`generate_c`."""
     assert ctx.dt is not None
@@ -451,7 +484,7 @@ def _emit_lti(model: Model, ctx: StageContext) -> CStage:
                              f"linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}")
 
 
-@register_c_stage("lti_inverse")
+@register_c_stage(InverseLinearSystem)
 def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
     """Sampled inverse of a biproper linear system (carries the forward state)."""
     assert ctx.dt is not None
@@ -471,15 +504,14 @@ def _first_sample(f: str, init: list[str]) -> list[str]:
             f"    st->{f}started = 1;", "}"]
 
 
-@register_c_stage("resonance")
-@register_c_stage("resonance-inverse")
+@register_c_stage(Resonance)
+@register_c_stage(ResonanceInverse)
 def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
     """FOH-discretised transfer function, direct form II transposed (as ``lfilter``)."""
-    from .effects import _tf_memo
 
     assert ctx.dt is not None
     num, den = model._tf()  # type: ignore[attr-defined]
-    b, a, zi = _tf_memo(num, den, ctx.dt)
+    b, a, zi = discretised_tf(num, den, ctx.dt)
     n, f, c = a.size - 1, ctx.field, ctx.const
     step = [
         *_first_sample(f, [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}ZI[i] * x;"]),
@@ -502,13 +534,12 @@ def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("lag")
-@register_c_stage("creep")
-@register_c_stage("lag-inverse")
-@register_c_stage("creep-inverse")
+@register_c_stage(Lag)
+@register_c_stage(Creep)
+@register_c_stage(LagInverse)
+@register_c_stage(CreepInverse)
 def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
     """Bank of first-order lags ``y = g0 x + sum c_j L_j[x]`` or its exact per-sample inverse."""
-    from .effects import Creep, CreepInverse, Lag, LagInverse
 
     assert ctx.dt is not None
     inverse = isinstance(model, LagInverse | CreepInverse)
@@ -561,13 +592,12 @@ def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("delay")
+@register_c_stage(Delay)
 def _emit_delay(model: Model, ctx: StageContext) -> CStage:
     """Fractional delay ``m + f`` samples: ring buffer of the last ``m + 2`` inputs."""
-    from .effects import _delay_split
 
     assert ctx.dt is not None
-    m, frac = _delay_split(model.delay_s, ctx.dt)  # type: ignore[attr-defined]
+    m, frac = delay_split(model.delay_s, ctx.dt)  # type: ignore[attr-defined]
     size, f, c = m + 2, ctx.field, ctx.const
     return CStage(
         title=f"delay of {m} + {frac:.6g} sample(s) (dt = {ctx.dt:g} s)",
@@ -586,7 +616,7 @@ def _emit_delay(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("advance")
+@register_c_stage(Advance)
 def _emit_advance(model: Model, ctx: StageContext) -> CStage:
     """An advance only exists with preview: emitted through :func:`core.effects.causal_form`."""
     raise CExportError(
@@ -595,7 +625,7 @@ def _emit_advance(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("drift")
+@register_c_stage(Drift)
 def _emit_drift(model: Model, ctx: StageContext) -> CStage:
     """Legendre drift in time ``x + sum a_k P_k(clamp(2 t / T - 1))``, ``t = start + k dt``."""
     assert ctx.dt is not None
@@ -651,7 +681,7 @@ def _asym_helper(model: Model, c: str) -> list[str]:
     ]
 
 
-@register_c_stage("asymmetry")
+@register_c_stage(Asymmetry)
 def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
     """Polynomial output map ``x + sum a_k ((x - c)/s)^k`` (Horner form)."""
     c = ctx.const
@@ -659,10 +689,9 @@ def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
                   helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"])
 
 
-@register_c_stage("asymmetry-inverse")
+@register_c_stage(AsymmetryInverse)
 def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
     """Inverse output map: clip to the monotone range, bracket, 80 bisection steps."""
-    from .effects import _bisect_steps
 
     lo, hi = model.forward.monotone_range()  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
@@ -683,7 +712,7 @@ def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
                  f"      if ({c}map(hi) < x) hi = {c}CTR + 2.0 * (hi - {c}CTR);"]
     step += [
         "  if (!done) {",
-        f"    for (j = 0; j < {_bisect_steps()}; ++j) {{",
+        f"    for (j = 0; j < {bisect_steps()}; ++j) {{",
         "        const double mid = 0.5 * (lo + hi);",
         f"        if ({c}map(mid) < x) lo = mid; else hi = mid;",
         "    }",
@@ -736,7 +765,7 @@ def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], 
     return consts, reset, helper
 
 
-@register_c_stage("rate")
+@register_c_stage(RateDependentPI)
 def _emit_rate(model: Model, ctx: StageContext) -> CStage:
     """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
     f, c = ctx.field, ctx.const
@@ -754,7 +783,7 @@ def _emit_rate(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("rate-inverse")
+@register_c_stage(RateDependentPIInverse)
 def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
     """Per-sample bisection of the rate-dependent PI (as ``RateDependentPIInverse``)."""
     assert ctx.dt is not None
@@ -843,7 +872,7 @@ def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[st
     return consts, reset, helpers
 
 
-@register_c_stage("preisach")
+@register_c_stage(PreisachModel)
 def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
     """Preisach play bank ``x <- sum_i sum_j W[i][j] seg_j(z_i)`` (as ``preisach_output``)."""
     n, m = model.n, model.n_segments  # type: ignore[attr-defined]
@@ -856,7 +885,7 @@ def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-@register_c_stage("preisach-inverse")
+@register_c_stage(PreisachInverse)
 def _emit_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
     """Exact per-sample inverse of the Preisach model (as ``core.kernels.preisach_inverse``)."""
     fwd = model.model  # type: ignore[attr-defined]
@@ -934,7 +963,7 @@ def _flatten(model: Model) -> list[Model]:
 
 
 def _has_advance(model: Model) -> bool:
-    return any(_type_of(s) == "advance" for s in _flatten(model))
+    return any(isinstance(s, Advance) for s in _flatten(model))
 
 
 def _check_ident(name: str) -> str:
@@ -971,7 +1000,7 @@ def _emit_block(
     emitted: list[CStage] = []
     for k, s in enumerate(stages):
         t = _type_of(s)
-        emitter = _EMITTERS.get(t)
+        emitter = emitter_for(s)
         if emitter is None:
             raise CExportError(
                 f"C export of model type {t!r} (stage {k} of the {what}) is not supported; "

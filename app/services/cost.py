@@ -171,17 +171,6 @@ def _operators(m: Model) -> int:
     return int(np.size(th)) if th is not None else 0
 
 
-def _time_constants(m: Model) -> list[tuple[str, float]]:
-    name = m.type_name
-    if name == "lag":
-        return [("lag tau_s", float(m.tau_s))]  # type: ignore[attr-defined]
-    if name == "resonance":
-        return [("resonance 1/(2 pi freq_hz)", 1.0 / (2 * math.pi * float(m.freq_hz)))]  # type: ignore[attr-defined]
-    if name == "creep":
-        return [("creep taus_s", float(t)) for t in m.taus_s]  # type: ignore[attr-defined]
-    return []
-
-
 def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
     """Cost of simulating ``model`` on ``samples`` samples spaced ``dt`` seconds.
 
@@ -214,7 +203,7 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
                     f"delay_s = {d_s:.3g} s is {d_s / dt:.3g} samples (dt = {dt:.3g} s); the "
                     f"explorer allows at most {limits.max_samples:,}: shorten delay_s")
             delay = max(delay, int(math.ceil(d_s / dt)))
-        for what, tau in _time_constants(m):
+        for what, tau in m.time_constants():
             r = tau / dt
             if not limits.min_tau_per_dt <= r <= limits.max_tau_per_dt:
                 raise ParameterError(

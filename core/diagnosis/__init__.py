@@ -14,6 +14,7 @@ Examples
 
 from __future__ import annotations
 
+from . import effects  # noqa: F401  (registers every diagnosable effect)
 from .data import as_records, split_masks
 from .engine import ACCEPT_RULE, DiagnosisResult, EffectFinding, diagnose
 from .structure import Fit, Structure, fit_structure

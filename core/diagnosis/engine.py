@@ -50,7 +50,6 @@ from typing import Any
 import numpy as np
 
 from ..csvio import ColumnSpec
-from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from .acceptance import (
@@ -85,6 +84,7 @@ from .data import as_records, crossfit_folds, split_masks
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
+from .registry import EFFECTS, output_dynamics
 from .results import (
     ACCEPT_RULE,
     BaseChoice,
@@ -95,12 +95,7 @@ from .results import (
     pooled_mse,
 )
 from .shapes import shape_thresholds
-from .specs import (
-    DECIDING_EXPERIMENT,
-    EFFECTS,
-    FAMILY_PRIORITY,
-    UNTESTABLE_LOOKALIKES,
-)
+from .specs import DECIDING_EXPERIMENT, FAMILY_PRIORITY
 from .stats import HeldOut, heldout_comparison, noise_floor
 from .structure import Fit, Structure, baseline_thresholds
 
@@ -138,7 +133,7 @@ def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
     if bt is not None:
         return (f"each of {bt['folds']} recordings predicted from the others "
                 "(leave-one-recording-out, parameters searched without it)")
-    if name == "initial-memory":
+    if EFFECTS[name].before_wipeout:
         return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
                 if ctx.strict else "rows before the wipe-out time")
     if ctx.strict:
@@ -190,7 +185,7 @@ def diagnose(
         Also try 2x and 4x as many operators and keep them while the held-out fit improves
         (≥ 2 %, z ≥ 2): an under-resolved baseline must not be mistaken for missing physics.
     effects : sequence of str, optional
-        Effects to test (default: all of :data:`core.effects.EFFECT_TYPES`).
+        Effects to test (default: all of :data:`core.diagnosis.registry.EFFECTS`).
     max_effects : int
         Stop after this many accepted effects.
     crossfit : bool, optional
@@ -375,10 +370,10 @@ class _Run:
 def _effects_to_test(model: str, effects: Sequence[str] | None) -> list[str]:
     if model != "pi":
         raise ParameterError(f"model {model!r} is not supported by diagnose yet; use 'pi'")
-    todo = list(EFFECT_TYPES if effects is None else effects)
+    todo = list(EFFECTS if effects is None else effects)
     for e in todo:
-        if e not in EFFECT_TYPES:
-            raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECT_TYPES)}")
+        if e not in EFFECTS:
+            raise ParameterError(f"unknown effect {e!r}; known: {', '.join(EFFECTS)}")
     return todo
 
 
@@ -518,7 +513,7 @@ def _choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Bas
                       "preisach_mse_reduction_over_it": float(over)})
         if over < PREISACH_OVER_MAP:
             return base, BaseChoice("pi", tuple(tried), len(folds))
-    for name in ("asymmetry", "saturation", "dead-zone"):
+    for name in (n for n, e in EFFECTS.items() if e.family == "static"):
         got = build_candidate(ctx, name, base)
         if got is None:
             continue
@@ -565,7 +560,7 @@ def _search(run: _Run, cur: Fit, todo: list[str], rnd: int
         if got is None:
             continue
         c = _Candidate(name, *got, heldout=screen_gain(got[0], cur))
-        if ctx.strict and name != "initial-memory" and c.heldout.gain < bound:
+        if ctx.strict and not EFFECTS[name].before_wipeout and c.heldout.gain < bound:
             deferred.append(_deferred_row(rnd, name, c.parameters))
             continue
         c = _evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
@@ -591,14 +586,14 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
     * otherwise the test rows.
     """
     ctx, name = run.ctx, c.name
-    if ctx.strict and name != "initial-memory":
+    if ctx.strict and not EFFECTS[name].before_wipeout:
         if c.heldout.gain >= ACCEPT_RULE["min_gain"]:
             run.step(rnd, frac, f"cross-fitting {name}")
             cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
                 return replace(c, heldout=cf["pooled"], crossfit=cf)
         return c
-    if name == "initial-memory":
+    if EFFECTS[name].before_wipeout:
         mm = ([a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)] if ctx.strict
               else ctx.memory_masks)
         h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(c.fit, mm))
@@ -615,7 +610,7 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
         bt = between_recordings(ctx, name, cur)
         return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
     h = heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit))
-    if spec.family == "dynamics" and name != "rate":
+    if spec.dynamics is not None:
         h = _where_it_lives(ctx, cur, c.fit, h)
     return replace(c, heldout=h)
 
@@ -668,7 +663,7 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
     cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n]))
              for n, c in cands.items()}
     size_ok = {n: c.size_ok for n, c in cands.items()}
-    needs_cf = {n for n in cands if size_ok[n] and ctx.folds and n != "initial-memory"
+    needs_cf = {n for n in cands if size_ok[n] and ctx.folds and not EFFECTS[n].before_wipeout
                 and not ctx.strict}
     skip = _cannot_win({n: c.heldout for n, c in cands.items()}, size_ok, needs_cf, n_tests)
     rows = list(rows)
@@ -688,10 +683,11 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
               c.between["parameter_cv"] if c.between else {})
         dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
-        if dec.passes and name in _TRANSPORT and run.rate_testable and not _split_ok(run, cur):
+        if (dec.passes and EFFECTS[name].transport and run.rate_testable
+                and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
             decision = "contradicted"
-        elif dec.passes and name == "creep" and not _locking_ok(run, cur):
+        elif dec.passes and EFFECTS[name].sign_locked and not _locking_ok(run, cur):
             dec = replace(dec, passes=False, reasons=(_LOCKING_REASON,))
             decision = "contradicted"
         elif dec.passes and accepted and _needs_earning(ctx, c):
@@ -704,9 +700,6 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
             passing.append(name)
     return cands, rows, passing
 
-
-#: Effects that act on the whole output slope (acceptance rule 5).
-_TRANSPORT = ("delay", "lag")
 
 _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
                  "would: the reversible/hysteretic split points to rate-dependent hysteresis")
@@ -733,7 +726,7 @@ def _locking_ok(run: _Run, cur: Fit) -> bool:
 def _needs_earning(ctx: FitContext, c: _Candidate) -> bool:
     """Acceptance rule 4 applies: a further effect judged on the test rows (not already on
     cross-fitted blocks alone, between recordings, or on the pre-wipe-out rows)."""
-    return not ctx.strict and c.between is None and c.name != "initial-memory"
+    return not ctx.strict and c.between is None and not EFFECTS[c.name].before_wipeout
 
 
 def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str, ...]
@@ -775,7 +768,7 @@ def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[Rou
     ctx, none = run.ctx, (cands, rows, [])
     held = [c for c in cands.values() if c.decision is not None and c.verdict is None
             and c.decision.size_ok and c.decision.stable and not c.decision.significant
-            and c.name != "initial-memory"]
+            and not EFFECTS[c.name].before_wipeout]
     if ctx.strict or not held:
         return none
     t = max(held, key=lambda c: c.heldout.gain)
@@ -826,7 +819,7 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
     uncertainty, caveats), the look-alikes it is ambiguous with; refine the resolution and,
     for dynamics, re-compare the look-alikes at it. Returns the new current fit."""
     ctx = run.ctx
-    c = cands[best]
+    c, c_spec = cands[best], EFFECTS[best]
     amb, runner = _lookalikes(ctx, c, cands, passing)
     run.rounds.extend(r if r.decision in _KEPT_DECISIONS else replace(r, decision=(
         "accepted" if r.effect == best else "ambiguous" if r.effect in amb else
@@ -843,31 +836,30 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
                                                   "recordings that excite both "
                                                   "mechanisms differently"),
         })
-    if best == "asymmetry":
-        run.ambiguous.append({
-            "effects": ["asymmetry", "sensor nonlinearity"],
-            "chosen": "asymmetry",
-            "reason": "a static output map: actuator asymmetry and sensor nonlinearity are "
-            "not separable from (u, y)",
-            "experiment": "an independent reference sensor",
-        })
+    if c_spec.inseparable_from is not None:
+        other, why, experiment = c_spec.inseparable_from
+        run.ambiguous.append({"effects": [best, other], "chosen": best, "reason": why,
+                              "experiment": experiment})
     new = c.fit
     if n_max:
         refine: list[dict[str, Any]] = []
         new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
         run.rounds.extend(RoundRow.from_dict(d) for d in refine)
-    if c.family == "dynamics" and best != "rate" and not ctx.strict:
+    if c_spec.dynamics is not None and not ctx.strict:
         new = _recheck_dynamics(ctx, new, run.findings[-1], run.ambiguous, run.rounds, rnd + 1)
     elif not ctx.strict:
         new = _recheck_earlier_dynamics(run, new, rnd)
     run.findings[-1].structure = new.structure
     named = run.findings[-1].name  # the dynamics recheck may rename it
-    for hidden, (names, why) in UNTESTABLE_LOOKALIKES.items():
+    for hidden, e in EFFECTS.items():
+        if e.mimicked_by is None:
+            continue
+        names, why = e.mimicked_by
         if named in names and hidden in run.untestable_names:
             run.ambiguous.append({"effects": [named, hidden], "chosen": named,
                                   "reason": why.format(best=named),
                                   "experiment": EFFECTS[hidden].experiment})
-    if (named in ("delay", "lag", "resonance") and new.structure.levels
+    if (EFFECTS[named].dynamics is not None and new.structure.levels
             and run.rate_testable):
         # rate-dependent plays are not modelled on a Preisach base: say so rather than
         # let the dynamics stand in for them unchallenged
@@ -890,7 +882,7 @@ def _recheck_earlier_dynamics(run: _Run, new: Fit, rnd: int) -> Fit:
     effect joins, an earlier delay / lag / resonance finding is compared again with its
     look-alikes (on top of the new model), renamed if one now predicts the held-out rows
     better, and reported ambiguous with those it does not beat."""
-    earlier = next((f for f in run.findings[:-1] if f.name in ("delay", "lag", "resonance")),
+    earlier = next((f for f in run.findings[:-1] if EFFECTS[f.name].dynamics is not None),
                    None)
     if earlier is None:
         return new
@@ -986,7 +978,7 @@ def _remaining(todo: list[str], best: str) -> list[str]:
     ``rate``: the structure holds one linear block after the hysteresis)."""
     fam = EFFECTS[best].family
     return [e for e in todo if e != best and not (
-        EFFECTS[e].family == "dynamics" and fam == "dynamics" and e != "rate")]
+        EFFECTS[e].dynamics is not None and fam == "dynamics")]
 
 
 def _loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFinding]
@@ -1017,8 +1009,6 @@ def _loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFind
     return loro_b, loro_f
 
 
-#: The parameters of each output dynamics stage, in the order of ``Structure.dynamics``.
-DYNAMICS_PARAMS = {"delay": ("delay_s",), "lag": ("tau_s",), "resonance": ("freq_hz", "damping")}
 #: Relative resolution (log units) of the final polish of a dynamics stage's parameters.
 POLISH_XATOL = 0.002
 
@@ -1031,10 +1021,11 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
     import scipy.optimize as so
 
     dyn = cur.structure.dynamics
-    keys = DYNAMICS_PARAMS.get(dyn[0]) if dyn else None
     f = next((f for f in findings if f.name == (dyn[0] if dyn else None)), None)
-    if keys is None or f is None:
+    spec = EFFECTS[dyn[0]].dynamics if dyn else None
+    if spec is None or f is None:
         return cur
+    keys = spec.params
     dt = min(r.dt for r in ctx.records)
     x0 = np.log(np.asarray(dyn[1:], dtype=float))
 
@@ -1042,8 +1033,7 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
         return (dyn[0], *(float(v) for v in np.exp(lx)))
 
     def obj(lx: np.ndarray) -> float:
-        v = np.exp(lx)
-        if dyn[0] == "resonance" and not (v[0] <= 0.45 / dt and 0.005 <= v[1] <= 2.0):
+        if not spec.valid(tuple(float(v) for v in np.exp(lx)), dt):
             return np.inf
         return ctx.rss(cur.structure.with_(dynamics=stage(lx)), cur)
 
@@ -1069,10 +1059,6 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
     return ctx.fit(cur.structure.with_(dynamics=new), cur)
 
 
-#: Effects whose nonlinear parameters are estimated on each recording alone.
-SPREAD_EFFECTS = ("delay", "lag", "resonance", "rate")
-
-
 def _spread_over_recordings(ctx: FitContext, base: Fit, cur: Fit,
                             findings: list[EffectFinding]) -> None:
     """Widen each finding's 1-sigmas by the recordings' disagreement about its parameters
@@ -1080,7 +1066,7 @@ def _spread_over_recordings(ctx: FitContext, base: Fit, cur: Fit,
     stay ambiguous: a base misfit biases them differently per recording, which the
     noise-driven sigmas cannot show."""
     for f in findings:
-        if f.name not in SPREAD_EFFECTS:
+        if EFFECTS[f.name].family != "dynamics":  # the ones with nonlinear parameters
             continue
         sp = recording_spread(ctx, f.name, cur, cur.structure.without(f.name, base.structure))
         if sp is None or not sp["sigma_between"]:
@@ -1185,7 +1171,7 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
     te0 = ctx.test_res(base)
     results = {finding.name: (cur, finding.parameters, finding.uncertainty,
                               heldout_comparison(te0, ctx.test_res(cur)))}
-    for alt in ("delay", "lag", "resonance"):
+    for alt in output_dynamics():
         if alt in results:
             continue
         got = build_candidate(ctx, alt, base)
@@ -1218,8 +1204,7 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
         finding.equation = EFFECTS[best].equation
     finding.ambiguous_with = amb
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
-    ambiguous[:] = [a for a in ambiguous if not (set(a["effects"]) <= {"delay", "lag",
-                                                                      "resonance"})]
+    ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:
         ambiguous.append({
             "effects": [best, other],

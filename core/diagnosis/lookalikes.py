@@ -19,11 +19,8 @@ from .between import (
 )
 from .context import FitContext
 from .periodic import steady_state_history
-from .specs import (
-    EFFECTS,
-    spec_untestable,
-    time_effects,
-)
+from .registry import EFFECTS
+from .specs import spec_untestable, time_effects
 from .stats import score_test
 from .structure import Fit
 

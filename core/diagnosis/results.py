@@ -11,7 +11,6 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Model
-from ..effects import EFFECT_TYPES
 from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from ..recordings import Recording
@@ -20,7 +19,7 @@ from .adequacy import Adequacy
 from .between import BetweenPlan
 from .candidates import build_candidate
 from .context import FitContext
-from .specs import EFFECTS
+from .registry import EFFECTS
 from .stats import HeldOut, ljung_box
 from .structure import Fit, Structure
 
@@ -373,8 +372,8 @@ class DiagnosisResult:
         fit : Fit
         parameters : dict
         """
-        if name not in EFFECT_TYPES:
-            raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECT_TYPES)}")
+        if name not in EFFECTS:
+            raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}")
         ctx = FitContext(self.records, self.train, self.test)
         got = build_candidate(ctx, name, self.final)
         if got is None:

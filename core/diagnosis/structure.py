@@ -24,14 +24,11 @@ from ..base import Chain, Model
 from ..effects import (
     Asymmetry,
     Creep,
-    Delay,
     Drift,
     InitialMemory,
-    Lag,
     Offset,
     RateDependentPI,
-    Resonance,
-    _tf_memo,
+    discretised_tf,
     foh_filter,
     rd_play_bank,
 )
@@ -44,6 +41,7 @@ from ..operators import play_bank
 from ..pi import PIModel
 from ..preisach import PreisachModel, level_segments
 from ..recordings import Recording
+from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
@@ -153,18 +151,13 @@ class Structure:
         return replace(self, **kw)
 
     def without(self, name: str, base: Structure) -> Structure:
-        """Copy with effect ``name`` switched off (its fields as in ``base``, the structure
-        it was added to); loop shapes are part of the hysteresis and stay."""
-        if name not in _EFFECT_FIELDS:
+        """Copy with effect ``name`` switched off (its field, the registry's
+        :attr:`~core.diagnosis.registry.DiagnosableEffect.structure_field`, as in ``base``,
+        the structure it was added to); loop shapes are part of the hysteresis and stay."""
+        f = EFFECTS[name].structure_field if name in EFFECTS else None
+        if f is None:
             raise ValueError(f"effect {name!r} cannot be switched off in a structure")
-        f = _EFFECT_FIELDS[name]
         return replace(self, **{f: getattr(base, f)})
-
-
-#: the Structure field that switches each effect on (see :attr:`Structure.effects`)
-_EFFECT_FIELDS = {"initial-memory": "history", "rate": "beta_s", "asymmetry": "asymmetry",
-                  "creep": "creep_taus", "delay": "dynamics", "lag": "dynamics",
-                  "resonance": "dynamics", "offset": "offsets", "drift": "drift_degree"}
 
 
 @dataclass
@@ -412,20 +405,16 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if not dyn or not rows.size:
         out[...] = x[rows]
         return out
-    kind = dyn[0]
+    stage = EFFECTS[dyn[0]].dynamics
+    if stage is None:
+        raise ValueError(f"unknown dynamics {dyn[0]!r}")
     xc = np.ascontiguousarray(x, dtype=np.float64)
-    if kind == "delay":
+    if stage.transfer is None:  # a pure (fractional) transport delay
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
         return _delay_rows(xc, np.asarray(rows, dtype=np.int64), m, D - m, out)
-    if kind == "lag":
-        num, den = [1.0], [dyn[1], 1.0]
-    elif kind == "resonance":
-        w = 2 * np.pi * dyn[1]
-        num, den = [w * w], [1.0, 2 * dyn[2] * w, w * w]
-    else:
-        raise ValueError(f"unknown dynamics {kind!r}")
-    b, a, zi = _tf_memo(num, den, dt)
+    num, den = stage.transfer(tuple(dyn[1:]))
+    b, a, zi = discretised_tf(num, den, dt)
     return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
 
 
@@ -710,13 +699,9 @@ def build_model(
     if s.creep_taus:
         stages.append(Creep(list(s.creep_taus), np.maximum(creep, 0.0)))
     if s.dynamics:
-        kind = s.dynamics[0]
-        if kind == "delay":
-            stages.append(Delay(s.dynamics[1]))
-        elif kind == "lag":
-            stages.append(Lag(s.dynamics[1]))
-        else:
-            stages.append(Resonance(s.dynamics[1], s.dynamics[2]))
+        dyn = EFFECTS[s.dynamics[0]].dynamics
+        assert dyn is not None
+        stages.append(dyn.model(tuple(s.dynamics[1:])))
     stages.append(Offset(float(bias[k] if s.offsets else bias[0])))
     if s.drift_degree:
         stages.append(Drift(drift[k], float(rec.t[-1] - rec.t[0])))

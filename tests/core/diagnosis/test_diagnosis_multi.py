@@ -233,9 +233,10 @@ def test_without_the_offset_drift_lookalike_the_weak_drift_is_named_offset(
         weak_drift, monkeypatch) -> None:
     from dataclasses import replace
 
-    from core.diagnosis import specs
+    from core.diagnosis import registry
 
-    monkeypatch.setitem(specs.EFFECTS, "offset", replace(specs.EFFECTS["offset"], lookalikes=()))
+    monkeypatch.setitem(registry.EFFECTS, "offset",
+                        replace(registry.EFFECTS["offset"], lookalikes=()))
     res = diagnose(weak_drift)
     assert [(f.name, f.ambiguous_with) for f in res.effects] == [("offset", [])]
 

@@ -1,0 +1,33 @@
+"""A pure transport delay after the hysteresis (DAQ latency, zero-order hold, digital filters)."""
+
+from __future__ import annotations
+
+from ...effects import Delay
+from ..candidates import Candidate, one_time_constant
+from ..context import FitContext
+from ..registry import DiagnosableEffect, OutputDynamics, register
+from ..structure import Fit
+
+
+def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
+    """A pure transport delay ``tau_d``."""
+    return one_time_constant(ctx, cur, "delay", "delay_s")
+
+
+register(DiagnosableEffect(
+    "delay",
+    family="dynamics",
+    explanation=(
+        'The measured output lags the model by a constant transport delay (DAQ latency, '
+        'zero-order hold, digital sensor filter). It acts on the whole output slope, '
+        'reversible and hysteretic alike.'
+    ),
+    equation='y(t) = y_PI(t - tau_d)',
+    time_dependent=True,
+    between_recordings=True,
+    build=_build,
+    model_type=Delay,
+    structure_field="dynamics",
+    dynamics=OutputDynamics(("delay_s",), model=lambda v: Delay(v[0])),
+    transport=True,
+))

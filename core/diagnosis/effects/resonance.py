@@ -1,0 +1,86 @@
+"""A lightly damped mechanical mode after the hysteresis (second-order low-pass)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...effects import Resonance
+from ..candidates import Candidate, excitation_hz, sigma_from_curvature
+from ..context import FitContext
+from ..registry import DiagnosableEffect, OutputDynamics, register
+from ..structure import Fit
+
+
+def _valid(v: tuple[float, ...], dt: float) -> bool:
+    """Below 0.45 of the sampling rate, damping 0.005-2."""
+    return v[0] <= 0.45 / dt and 0.005 <= v[1] <= 2.0
+
+
+def _transfer(v: tuple[float, ...]) -> tuple[list[float], list[float]]:
+    """``w_n^2 / (s^2 + 2 zeta w_n s + w_n^2)`` with ``w_n = 2 pi freq_hz``."""
+    w = 2 * np.pi * v[0]
+    return [w * w], [1.0, 2 * v[1] * w, w * w]
+
+
+def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
+    """A second-order mode after the PI: grid over (f_n, zeta), then Nelder-Mead."""
+    s = cur.structure
+    dt = min(r.dt for r in ctx.records)
+    dur = min(r.t[-1] - r.t[0] for r in ctx.records)
+    if s.dynamics:
+        return None
+    import scipy.optimize as so
+
+    fmax = 0.35 / dt
+    # a mode at or near the excitation frequency is a phase/gain fudge of the loop
+    # itself, not a resonance (it fits the training rows and wrecks the held-out ones)
+    fmin = max(5.0 / dur, 2.0, 3.0 * excitation_hz(ctx.records))
+    fs = np.geomspace(fmin, fmax, 7)
+    zs = np.array([0.05, 0.2, 0.7])
+    best = (np.inf, fs[0], zs[0])
+    for f_ in fs:
+        for z_ in zs:
+            v = ctx.rss(s.with_(dynamics=("resonance", float(f_), float(z_))), cur)
+            if v < best[0]:
+                best = (v, f_, z_)
+
+    def obj(p):
+        f_, z_ = float(np.exp(p[0])), float(np.exp(p[1]))
+        if not (fmin * 0.5 <= f_ <= 0.45 / dt and 0.005 <= z_ <= 2.0):
+            return np.inf
+        return ctx.rss(s.with_(dynamics=("resonance", f_, z_)), cur)
+
+    r = so.minimize(obj, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
+                    options={"maxfev": 16, "xatol": 0.03, "fatol": 1e-9})
+    f_, z_ = (float(np.exp(r.x[0])), float(np.exp(r.x[1]))) if r.fun < best[0] else (
+        float(best[1]), float(best[2]))
+    fit = ctx.fit(s.with_(dynamics=("resonance", f_, z_)), cur)
+    # 1-D curvatures for rough sigmas
+    unc: dict = {}
+    for j, key, val in ((0, "freq_hz", f_), (1, "damping", z_)) if ctx.uncertainty else ():
+        h = 0.05
+        p = np.array([np.log(f_), np.log(z_)])
+        pp, pm = p.copy(), p.copy()
+        pp[j] += h
+        pm[j] -= h
+        c = (obj(pp) - 2 * obj(p) + obj(pm)) / h**2
+        unc[key] = sigma_from_curvature(ctx, fit, c, val)
+    return fit, {"freq_hz": f_, "damping": z_}, unc
+
+
+register(DiagnosableEffect(
+    "resonance",
+    family="dynamics",
+    explanation=(
+        'A lightly damped mechanical mode after the hysteresis (stack plus stage mass '
+        'on the flexure stiffness): ringing after steps and sharp reversals.'
+    ),
+    equation="y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
+    time_dependent=True,
+    between_recordings=True,
+    build=_build,
+    model_type=Resonance,
+    structure_field="dynamics",
+    dynamics=OutputDynamics(("freq_hz", "damping"), model=lambda v: Resonance(v[0], v[1]),
+                            transfer=_transfer, valid=_valid),
+))

@@ -1,0 +1,168 @@
+"""The registry of diagnosable effects: each effect declares itself once.
+
+An effect is one :class:`DiagnosableEffect` registered with :func:`register` by its own module
+in :mod:`core.diagnosis.effects`: what it is (family, explanation, equation, the experiment
+that makes it testable), the model class of the stage it adds, how it is searched (the
+candidate builder), which :class:`~core.diagnosis.structure.Structure` field switches it on,
+when the recordings cannot test it and what it looks like then, and for output dynamics the
+stage's parameters, model and transfer function. The engine, the structure fit, the reports
+and the untestable rules read this registry; none of them names an effect.
+
+Adding an effect: write ``core/diagnosis/effects/NAME.py`` with its builder and one
+``register(DiagnosableEffect(...))``, import it in ``core/diagnosis/effects/__init__.py``
+(the order there is the order the effects are tried in), and test it
+(``docs/pages/architecture.md`` has the recipe).
+
+This module imports nothing from the diagnosis, so every other module may import it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..base import Model
+
+__all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "effect", "output_dynamics",
+           "register"]
+
+
+@dataclass(frozen=True)
+class OutputDynamics:
+    """An output dynamics stage: the structure holds it as ``(name, *values)``.
+
+    Attributes
+    ----------
+    params : tuple of str
+        Parameter names, in the order of the values after the name.
+    model : callable
+        ``model(values) -> Model``: the :mod:`core.effects` stage.
+    transfer : callable or None
+        ``transfer(values) -> (num, den)``: continuous-time transfer function coefficients
+        (highest power first), discretised by first-order hold; ``None`` for a pure
+        (fractional) transport delay whose only value is the delay (s).
+    valid : callable
+        ``valid(values, dt) -> bool``: the values the search may take at sample spacing
+        ``dt`` (s).
+    """
+
+    params: tuple[str, ...]
+    model: Callable[[tuple[float, ...]], Model]
+    transfer: Callable[[tuple[float, ...]], tuple[list[float], list[float]]] | None = None
+    valid: Callable[[tuple[float, ...], float], bool] = lambda values, dt: True
+
+
+@dataclass(frozen=True)
+class DiagnosableEffect:
+    """Everything the diagnosis knows about one effect.
+
+    Attributes
+    ----------
+    name : str
+        Effect name (the ``--effects`` value, the JSON ``name``).
+    family : str
+        Look-alike family (``"dynamics"``, ``"slow"``, ``"static"``, ``"static-offset"``,
+        ``"memory"``): inside a family the winner must beat the runner-up.
+    explanation : str
+        The physics in words (SAY).
+    equation : str
+        What is added to the model (MODEL).
+    build : callable
+        ``build(ctx, cur) -> (fit, parameters, uncertainty)`` or ``None``: the effect fitted
+        on top of the current fit (``None`` when it is already there or does not apply).
+    model_type : type
+        The :mod:`core` model class of the stage the effect adds to the saved model.
+    structure_field : str or None
+        The :class:`~core.diagnosis.structure.Structure` field that switches it on; ``None``
+        for loop shapes, which are part of the hysteresis and never switched off.
+    experiment : str or None
+        The recording that would make it testable when it is not.
+    time_dependent : bool
+        Needs a time axis (untestable on index-only recordings).
+    between_recordings : bool
+        Changes the loop from one excitation rate to the next: with several recordings at
+        different rates it is judged by predicting each recording from the others
+        (:func:`core.diagnosis.between.between_recordings`).
+    amplitude_dependent : bool
+        Changes the loop from one input amplitude to the next beyond what the PI's own
+        memory does: with several recordings of one amplitude each it is judged by
+        predicting each recording from the others.
+    lookalikes : tuple of str
+        Effects of another family that the recordings may not separate from this one: when
+        this effect is chosen, such a candidate that meets the effect-size rules and
+        explains nearly as much is reported ambiguous with it.
+    untestable : callable or None
+        ``untestable(ctx) -> reason or None``: when the recordings cannot test it (``None``:
+        the engine's own rules, or always testable).
+    mimicked_by : tuple or None
+        ``(names, why)``: when this effect is untestable, an accepted effect of ``names``
+        may be it in disguise; ``why`` (with ``{best}`` for the accepted one) says how.
+    before_wipeout : bool
+        Its evidence lives before the wipe-out time (the unknown initial memory): judged on
+        those rows, never cross-fitted or compared with further effects on the test rows.
+    dynamics : OutputDynamics or None
+        For output dynamics (delay, lag, resonance): the stage.
+    transport : bool
+        Acts on the whole output slope, reversible and hysteretic alike (a delay, a lag):
+        acceptance rule 5 checks the reversible/hysteretic split before naming it.
+    sign_locked : bool
+        Follows the sign of the last input step (creep): acceptance rule 7 checks the
+        residual trend after the holds.
+    inseparable_from : tuple or None
+        ``(other, reason, experiment)``: a cause that (u, y) can never separate from this
+        effect, reported ambiguous with it whenever it is chosen.
+    """
+
+    name: str
+    family: str
+    explanation: str
+    equation: str
+    build: Callable[[Any, Any], Any]
+    model_type: type
+    structure_field: str | None
+    experiment: str | None = None
+    time_dependent: bool = False
+    between_recordings: bool = False
+    amplitude_dependent: bool = False
+    lookalikes: tuple[str, ...] = ()
+    untestable: Callable[[Any], str | None] | None = None
+    mimicked_by: tuple[frozenset[str], str] | None = None
+    before_wipeout: bool = False
+    dynamics: OutputDynamics | None = None
+    transport: bool = False
+    sign_locked: bool = False
+    inseparable_from: tuple[str, str, str] | None = None
+
+
+#: Every registered effect by name, in the order they are tried.
+EFFECTS: dict[str, DiagnosableEffect] = {}
+
+
+def register(e: DiagnosableEffect) -> DiagnosableEffect:
+    """Add ``e`` to :data:`EFFECTS` (a name may be registered once)."""
+    if e.name in EFFECTS:
+        raise ValueError(f"effect {e.name!r} is registered twice")
+    EFFECTS[e.name] = e
+    return e
+
+
+def effect(name: str) -> DiagnosableEffect:
+    """The registered effect ``name``.
+
+    Raises
+    ------
+    KeyError
+        With the known names, when ``name`` is not registered.
+    """
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
+
+
+def output_dynamics() -> tuple[str, ...]:
+    """Names of the registered output dynamics stages (their look-alikes are re-compared at
+    the refined resolution)."""
+    return tuple(n for n, e in EFFECTS.items() if e.dynamics is not None)
