@@ -21,7 +21,7 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.subplots import make_subplots
 
-from ..figures import PLOT_CONFIG
+from ..services.figures import PLOT_CONFIG
 from .options import DiagnoseOptions, FitOptions
 from .results import RecordingResult
 from .summary import MIN_FOR_OUTLIERS, OUTLIER_Z, fleet_metrics, robust_outliers

@@ -9,11 +9,10 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from ..data import csv_preview, diagnosis_html
-from ..schemas import FitIn
 from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
+from .schemas import FitIn
 
 __all__ = ["router"]
 
@@ -41,7 +40,7 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     """
     _check_type(request)
     body = await read_body(request, settings.max_upload_bytes)
-    return await run_in_threadpool(csv_preview, body, settings.max_samples)
+    return await run_in_threadpool(actions.preview_csv, body, settings)
 
 
 @router.post("/sessions/{code}/recording", status_code=201)
@@ -108,9 +107,9 @@ async def diagnose(request: Request, session: SessionDep,
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)
 def diagnosis_report(session: SessionDep) -> HTMLResponse:
     """The last diagnosis as a self-contained HTML report (plotly.js inlined, no CDN)."""
-    if session.diagnosis_result is None:
+    text = actions.diagnosis_report(session)
+    if text is None:
         raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
-    text = diagnosis_html(session.diagnosis_result)
     # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
     # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={

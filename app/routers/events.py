@@ -26,14 +26,12 @@ from fastapi import APIRouter, Header, HTTPException
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
-from core.exceptions import ParameterError
-
-from ..compute import preset_doc
-from ..events import HUB
-from ..schemas import SignalIn
 from ..services import actions
 from ..services.config import SignalSpec
+from ..services.errors import ParameterError
+from ..services.events import HUB
 from .deps import RegistryDep, SessionDep, SettingsDep, require_teacher
+from .schemas import SignalIn
 
 __all__ = ["router"]
 
@@ -104,7 +102,7 @@ def teacher_push(
     title = None
     if body.preset is not None:
         try:
-            doc = preset_doc(body.preset)
+            doc = actions.preset_doc(body.preset)
         except ParameterError:
             raise HTTPException(404, f"no preset named {body.preset!r}") from None
         model, title = doc["model"], doc["title"]

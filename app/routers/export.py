@@ -8,10 +8,9 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import Response
 
-from core.exceptions import ParameterError
-
-from ..exports import EXPORT_FORMATS
 from ..services import actions
+from ..services.errors import ParameterError
+from ..services.exports import EXPORT_FORMATS
 from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
 
 __all__ = ["router"]

@@ -18,12 +18,12 @@ from typing import Any, Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..schemas import FitIn
 from ..services import actions
 from ..services.jobs import Job, JobBusy, JobManager, Progress
 from ..services.sessions import Session
-from ..settings import Settings
+from ..services.settings import Settings
 from .deps import SessionDep, SettingsDep
+from .schemas import FitIn
 
 __all__ = ["JobIn", "router", "start_job", "wait_for"]
 

@@ -8,13 +8,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse
 
-from core.base import registered_types
-from core.presets import list_presets
-from core.signals import SIGNALS
-
-from ..compute import preset_doc
-from ..data import fit_kinds
-from ..exports import EXPORT_FORMATS
+from ..services import catalog
 from .deps import SettingsDep
 
 __all__ = ["router", "vendor_router"]
@@ -42,24 +36,13 @@ def viser_url(request: Request) -> dict[str, Any]:
 @router.get("/capabilities")
 def capabilities(settings: SettingsDep) -> dict[str, Any]:
     """Model types, signals, presets, figures, export formats and limits."""
-    from ..figures import FIGURES
-
-    return {
-        "model_types": registered_types(),
-        "signals": list(SIGNALS),
-        "presets": [p.name for p in list_presets()],
-        "figures": list(FIGURES),
-        "export_formats": list(EXPORT_FORMATS),
-        "fit_kinds": list(fit_kinds()),
-        "limits": {"max_upload_bytes": settings.max_upload_bytes,
-                   **settings.limits.to_dict()},
-    }
+    return catalog.capabilities(settings)
 
 
 @router.get("/presets")
 def presets() -> list[dict[str, Any]]:
     """Every preset: name, title, description and model document."""
-    return [preset_doc(p.name) for p in list_presets()]
+    return catalog.presets()
 
 
 def plotly_js_path() -> Path:

@@ -6,12 +6,10 @@ from typing import Any
 
 from fastapi import APIRouter, Header, HTTPException, Query, Request
 
-from core.exceptions import ParameterError
-
-from ..compute import preset_doc
-from ..schemas import ConfigIn
 from ..services import actions
+from ..services.errors import ParameterError
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
+from .schemas import ConfigIn
 
 __all__ = ["router"]
 
@@ -94,7 +92,7 @@ def broadcast_preset(
     """
     require_teacher(settings, x_teacher_token)
     try:
-        model = preset_doc(name)["model"]
+        model = actions.preset_doc(name)["model"]
     except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
     n, _ = actions.push(registry, model=model, note={"preset": name})

@@ -10,12 +10,13 @@ import numpy as np
 import plotly.graph_objects as go
 import pytest
 
-from app import compute as C
-from app import data as D
-from app import exports as E
-from app import figures as F
 from app.services import config as S
+from app.services import exports as E
+from app.services import figures as F
+from app.services import fitting as FT
+from app.services import recordings as D
 from app.services import sessions as SS
+from app.services import simulation as C
 from core.csvio import CSVError
 from core.exceptions import ParameterError
 from core.pi import PIModel
@@ -25,7 +26,9 @@ from core.signals import SIGNALS
 def test_service_modules_have_no_web_imports() -> None:
     import subprocess
 
-    code = ("import sys, app.services.sessions, app.compute, app.data, app.exports; "
+    code = ("import sys, app.services.sessions, app.services.simulation, "
+            "app.services.recordings, app.services.fitting, app.services.diagnosis, "
+            "app.services.exports; "
             "print([m for m in ('viser', 'fastapi', 'plotly') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
@@ -181,7 +184,7 @@ def test_session_services_store_fit_export_and_clear() -> None:
     u = 3 * np.sin(2 * np.pi * 3 * t)
     rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))
     D.store_recording(s, rec)
-    model, report = D.fit_session(s, 6)
+    model, report = FT.fit_session(s, 6)
     assert s.fitted == s.config.model == model.to_dict() and report["nrmse_percent"] < 2
     _, payload = E.export_session(s, "json")
     assert json.loads(payload)["provenance"]["fit"]["kind"] == "pi"  # the fit travels along

@@ -25,7 +25,7 @@ import numpy as np
 
 from core.recordings import Recording
 
-from .compute import VIEWS, Loading, Result, decimate_index, pi_part
+from .simulation import VIEWS, Loading, Result, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",

@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .services.config import Config, SignalSpec
+from ..services.config import Config, SignalSpec
 
 __all__ = [
     "ConfigIn",
