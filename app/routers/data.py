@@ -12,7 +12,7 @@ from starlette.concurrency import run_in_threadpool
 from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
-from .schemas import FitIn
+from .schemas import CsvPreviewOut, DiagnosisOut, FitIn, FitOut, RecordingOut
 
 __all__ = ["router"]
 
@@ -32,7 +32,7 @@ def _check_type(request: Request) -> None:
         raise HTTPException(415, f"send the CSV as a raw text/csv body, not {ctype or 'nothing'}")
 
 
-@router.post("/csv/preview")
+@router.post("/csv/preview", response_model=CsvPreviewOut, response_model_exclude_unset=True)
 async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]:
     """Columns, first rows and row count of a CSV body (the column-mapping step).
 
@@ -43,7 +43,8 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     return await run_in_threadpool(actions.preview_csv, body, settings)
 
 
-@router.post("/sessions/{code}/recording", status_code=201)
+@router.post("/sessions/{code}/recording", status_code=201,
+             response_model=RecordingOut, response_model_exclude_unset=True)
 async def upload_recording(
     request: Request,
     session: SessionDep,
@@ -83,7 +84,7 @@ async def upload_recording(
     }
 
 
-@router.post("/sessions/{code}/fit")
+@router.post("/sessions/{code}/fit", response_model=FitOut, response_model_exclude_unset=True)
 async def fit(body: FitIn, request: Request, session: SessionDep,
               settings: SettingsDep) -> dict[str, Any]:
     """Fit a model to the session's recording; returns the model, report and overlay figure.
@@ -95,7 +96,8 @@ async def fit(body: FitIn, request: Request, session: SessionDep,
     return await wait_for(request, job)
 
 
-@router.post("/sessions/{code}/diagnose")
+@router.post("/sessions/{code}/diagnose",
+             response_model=DiagnosisOut, response_model_exclude_unset=True)
 async def diagnose(request: Request, session: SessionDep,
                    settings: SettingsDep) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against the recording (a job of

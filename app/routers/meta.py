@@ -10,6 +10,7 @@ from fastapi.responses import FileResponse
 
 from ..services import catalog
 from .deps import SettingsDep
+from .schemas import CapabilitiesOut, HealthOut, PresetOut, ViserUrlOut
 
 __all__ = ["router", "vendor_router"]
 
@@ -17,13 +18,13 @@ router = APIRouter(prefix="/api", tags=["meta"])
 vendor_router = APIRouter(tags=["meta"])
 
 
-@router.get("/health")
+@router.get("/health", response_model=HealthOut, response_model_exclude_unset=True)
 def health() -> dict[str, str]:
     """Liveness probe."""
     return {"status": "ok"}
 
 
-@router.get("/viser-url")
+@router.get("/viser-url", response_model=ViserUrlOut, response_model_exclude_unset=True)
 def viser_url(request: Request) -> dict[str, Any]:
     """Where the viser GUI listens (its port may differ from the requested one)."""
     port = getattr(request.app.state, "viser_port", None)
@@ -33,13 +34,13 @@ def viser_url(request: Request) -> dict[str, Any]:
     return {"enabled": True, "url": f"http://{host}:{port}/", "port": port}
 
 
-@router.get("/capabilities")
+@router.get("/capabilities", response_model=CapabilitiesOut, response_model_exclude_unset=True)
 def capabilities(settings: SettingsDep) -> dict[str, Any]:
     """Model types, signals, presets, figures, export formats and limits."""
     return catalog.capabilities(settings)
 
 
-@router.get("/presets")
+@router.get("/presets", response_model=list[PresetOut], response_model_exclude_unset=True)
 def presets() -> list[dict[str, Any]]:
     """Every preset: name, title, description and model document."""
     return catalog.presets()

@@ -9,14 +9,15 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 from ..services import actions
 from ..services.errors import ParameterError
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
-from .schemas import ConfigIn
+from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut
 
 __all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["sessions"])
 
 
-@router.post("/sessions", status_code=201)
+@router.post("/sessions", status_code=201,
+             response_model=SessionOut, response_model_exclude_unset=True)
 def create_session(
     request: Request,
     registry: RegistryDep,
@@ -37,27 +38,29 @@ def create_session(
     return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
 
 
-@router.get("/sessions/{code}")
+@router.get("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 def get_session(session: SessionDep) -> dict[str, Any]:
     """The session's config, version, recording and fit summary."""
     return session.summary()
 
 
-@router.put("/sessions/{code}")
+@router.put("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 def join_session(session: SessionDep) -> dict[str, Any]:
     """Rejoin an existing session by its code (404 "no such session" otherwise; codes are
     created only by ``POST /api/sessions``)."""
     return session.summary()
 
 
-@router.patch("/sessions/{code}/config")
+@router.patch("/sessions/{code}/config",
+              response_model=SessionOut, response_model_exclude_unset=True)
 def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
     """Change model, signal, mismatch or input source; validated before it is stored."""
     actions.change_config(session, body.apply, settings)
     return session.summary()
 
 
-@router.get("/sessions/{code}/figures")
+@router.get("/sessions/{code}/figures",
+            response_model=FiguresOut, response_model_exclude_unset=True)
 def session_figures(
     session: SessionDep,
     settings: SettingsDep,
@@ -68,7 +71,8 @@ def session_figures(
     return actions.session_figures(session, names, settings)
 
 
-@router.post("/sessions/{code}/preset/{name}")
+@router.post("/sessions/{code}/preset/{name}",
+             response_model=SessionOut, response_model_exclude_unset=True)
 def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
     """Load the model of preset ``name`` (see ``GET /api/presets``)."""
     try:
@@ -78,7 +82,7 @@ def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
     return session.summary()
 
 
-@router.post("/broadcast/{name}")
+@router.post("/broadcast/{name}", response_model=BroadcastOut, response_model_exclude_unset=True)
 def broadcast_preset(
     name: str,
     registry: RegistryDep,
