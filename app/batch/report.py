@@ -185,7 +185,7 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
             f"<td class='{'' if r.ok else 'bad'}'>{_e(r.status)}</td></tr>")
     parts.append("</table></body></html>")
     # plotly.js carries a default CDN URL for topojson maps (unused here): neutralise it so
-    # the report makes no network reference at all (as app/diagnosis_report.py does)
+    # the report makes no network reference at all (as app/services/diagnosis_report.py does)
     text = "\n".join(parts).replace('"https://cdn.plot.ly/un/"', '"topojson/"')
     p = Path(path)
     p.write_text(text, encoding="utf-8")

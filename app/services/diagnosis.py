@@ -107,7 +107,7 @@ def diagnose_session(session: Session,
 
 
 def diagnosis_html(result: Any) -> str:
-    """The self-contained HTML report (:mod:`app.diagnosis_report`) of a diagnosis result."""
+    """The self-contained HTML report (:mod:`.diagnosis_report`) of a diagnosis result."""
     import tempfile
     from pathlib import Path
 
