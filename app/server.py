@@ -27,10 +27,13 @@ from .services.config import Config
 from .services.jobs import JobManager
 from .services.ratelimit import RateLimiter
 from .services.sessions import SessionRegistry, StoreFullError
+from .services.settings import Settings
 from .services.store import SessionStore
-from .settings import STATIC_DIR, Settings
 
-__all__ = ["create_app"]
+__all__ = ["STATIC_DIR", "create_app"]
+
+#: Directory of the plain HTML/JS page, located from this file (never from the CWD).
+STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
 
 log = logging.getLogger(__name__)
 
@@ -73,7 +76,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        from .compute import compute
+        from .services.simulation import compute
 
         compute(Config())  # every view once: the compiled kernels load before any user
         server = _start_viser(app, settings)

@@ -9,8 +9,8 @@ is ≤ 30 ms per update. Every iteration changes one weight, as a drag does.
 
 Cases, median and 95th percentile of ``--repeat`` iterations, taken round-robin:
 
-* ``loop view``: :func:`app.compute.compute` + the loop figure + ``to_json`` (what one slider
-  step costs in the GUI and in ``GET /api/sessions/{code}/figures``).
+* ``loop view``: :func:`app.services.simulation.compute` + the loop figure + ``to_json``
+  (what one slider step costs in the GUI and in ``GET /api/sessions/{code}/figures``).
 * ``every view``: the same with the six interactive figures (time, loop, operators,
   loading, inverse, digitized) built and serialised.
 * ``closed-loop view``: the closed-loop figure alone (three runs of paper 001's loop at
@@ -41,9 +41,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
 
-from app import figures as F  # noqa: E402
-from app.compute import compute  # noqa: E402
+from app.services import figures as F  # noqa: E402
 from app.services.config import Config, SignalSpec  # noqa: E402
+from app.services.simulation import compute  # noqa: E402
 
 N_SAMPLES, N_OPS = 4000, 25
 
@@ -99,7 +99,7 @@ def make_rest():  # noqa: ANN201 - returns a closure
     from fastapi.testclient import TestClient
 
     from app.server import create_app
-    from app.settings import Settings
+    from app.services.settings import Settings
 
     client = TestClient(create_app(Settings(viser_port=None)))
     client.__enter__()
@@ -122,7 +122,7 @@ def make_gui():  # noqa: ANN201 - returns a closure
 
     from app.gui.controller import SessionView
     from app.services.sessions import SessionRegistry
-    from app.settings import Settings
+    from app.services.settings import Settings
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     reg = SessionRegistry()

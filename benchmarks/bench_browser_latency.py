@@ -80,7 +80,7 @@ def serve() -> tuple[str, Any]:
     import uvicorn
 
     from app.server import create_app
-    from app.settings import Settings
+    from app.services.settings import Settings
 
     app = create_app(Settings(viser_port=None, port=0))
     server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))

@@ -22,6 +22,7 @@ ALLOWED = {
     "tests/test_benchmark_families.py": "checks benchmarks/diagnosis/families.py's plants",
     "tests/test_import_hygiene.py": "a rule over every core module",
     "tests/test_layout.py": "this rule",
+    "tests/test_layers.py": "the import-linter contracts over core and app",
     "tests/app/test_fit_kinds.py": "the registry's fit kinds in the CLI, batch, API and GUI",
 }
 

@@ -14,7 +14,7 @@ import json
 from dataclasses import asdict, dataclass
 from typing import ClassVar
 
-from ..commands._common import CommandError, parse_window
+from ..services.inputs import CommandError, parse_window
 
 __all__ = ["DiagnoseOptions", "FitOptions", "Options"]
 
@@ -85,7 +85,7 @@ class FitOptions(_Options):
     def _check(self) -> None:
         from core.models import fit_kinds
 
-        from ..commands.fit import check_n_operators
+        from ..services.fitting import check_n_operators
 
         if self.model not in fit_kinds():
             raise CommandError(f"--model {self.model!r}: choose one of {', '.join(fit_kinds())}")

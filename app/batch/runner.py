@@ -16,7 +16,8 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..commands._common import CommandError, Progress
+from ..services.inputs import CommandError
+from ..services.progress import Progress
 from .files import Manifest, content_hash, expand, output_names
 from .options import DiagnoseOptions, FitOptions, Options
 from .results import BatchResult, RecordingResult, from_outcome, write_json

@@ -3,7 +3,8 @@
 :func:`run_recording` writes the recording's bytes under its own file name into a private
 temporary folder and runs what ``hyst fit FILE -o MODEL.json`` or ``hyst diagnose FILE
 --json --save-model MODEL.json`` runs, as function calls: the command's reader
-(:func:`app.commands.fit.read_recordings` / :func:`app.commands.diagnose.diagnose_files`),
+(:func:`app.services.recordings.read_recordings` /
+:func:`app.services.diagnosis.diagnose_files`, which ``hyst fit`` / ``hyst diagnose`` call too),
 the one fitting entry point :func:`core.fitting.fit_recordings` or
 :func:`core.diagnosis.diagnose`, and the command's document builders. Nothing is parsed
 from an argument list and nothing goes through ``sys.stdout`` / ``sys.stderr``, so thread
@@ -19,7 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..commands._common import Progress
+from ..services.progress import Progress
 from .options import DiagnoseOptions, FitOptions, Options
 
 __all__ = ["Outcome", "run_recording"]
@@ -60,16 +61,14 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
     """``hyst fit src`` with ``opts``: the parameter set it writes."""
     from core.fitting import fit_recordings
 
-    from ..commands.fit import (
+    from ..services.fitting import (
         check_n_operators,
-        csv_read_kwargs,
         fit_errors,
         fit_source,
-        read_recordings,
         say_fit,
-        say_read,
         time_window,
     )
+    from ..services.recordings import csv_read_kwargs, read_recordings, say_read
 
     train, test = time_window(opts.train, "train"), time_window(opts.test, "test")
     check_n_operators(opts.n_operators)
@@ -87,14 +86,14 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
 
 def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
     """``hyst diagnose src --json --save-model`` with ``opts``: both documents."""
-    from ..commands._common import parse_window
-    from ..commands.diagnose import (
+    from ..services.diagnosis import (
         diagnose_files,
         diagnosis_json,
         diagnosis_source,
         model_document,
     )
-    from ..commands.fit import csv_read_kwargs
+    from ..services.inputs import parse_window
+    from ..services.recordings import csv_read_kwargs
 
     res = diagnose_files(
         [src], csv_read_kwargs(), progress, operators=opts.operators,

@@ -9,19 +9,15 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import sys
-import threading
-import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from core.exceptions import ParameterError
-
 from ..services.columns import column_spec
+from ..services.inputs import CommandError, existing_file, parse_window
+from ..services.progress import Progress
 
 if TYPE_CHECKING:
     from core.paramset import ParameterSet
@@ -40,10 +36,6 @@ __all__ = [
     "window_arg",
     "write_columns",
 ]
-
-
-class CommandError(ParameterError):
-    """A command-line input is wrong (missing file, bad column, ...); the message says how."""
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -73,66 +65,6 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
 
 
-class Progress:
-    """Progress messages on stderr (``hyst fit`` can take a while); silent when ``quiet``.
-
-    Parameters
-    ----------
-    command : str
-        Sub-command name used as prefix.
-    quiet : bool
-        Suppress all messages.
-    sink : callable, optional
-        Receives each line instead of stderr (a batch worker keeps the messages of its own
-        recording: ``lines.append``).
-    """
-
-    def __init__(self, command: str, quiet: bool = False,
-                 sink: Callable[[str], object] | None = None) -> None:
-        self.command = command
-        self.quiet = quiet
-        self.sink = sink
-        self.t0 = time.perf_counter()
-
-    def __call__(self, message: str) -> None:
-        """Print ``[hyst <command> 1.2 s] message`` on stderr (or give it to ``sink``)."""
-        if not self.quiet:
-            dt = time.perf_counter() - self.t0
-            line = f"[hyst {self.command} {dt:5.1f} s] {message}"
-            if self.sink is not None:
-                self.sink(line)
-            else:
-                print(line, file=sys.stderr, flush=True)
-
-    @contextmanager
-    def heartbeat(self, message: str, every: float = 5.0) -> Iterator[None]:
-        """While the block runs, repeat ``message`` every ``every`` seconds on stderr."""
-        stop = threading.Event()
-
-        def beat() -> None:
-            while not stop.wait(every):
-                self(message)
-
-        worker = threading.Thread(target=beat, daemon=True)
-        if not self.quiet:
-            worker.start()
-        try:
-            yield
-        finally:
-            stop.set()
-            if worker.is_alive():
-                worker.join()
-
-
-def existing_file(path: str | Path, what: str) -> Path:
-    p = Path(path)
-    if not p.exists():
-        raise CommandError(f"{what} not found: {p} (check the path)")
-    if p.is_dir():
-        raise CommandError(f"{what} {p} is a directory; give a file")
-    return p
-
-
 def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> ParameterSet:
     """Read a model file: a parameter-set document, or a bare ``Model.to_dict()`` object.
 
@@ -157,7 +89,7 @@ def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> Pa
     """
     from core.paramset import ParameterSetError
 
-    from ..exports import parameter_set_from_document
+    from ..services.exports import parameter_set_from_document
 
     p = existing_file(path, "model file")
     text = p.read_text(encoding="utf-8")
@@ -267,27 +199,6 @@ def uniform_dt(t: np.ndarray, path: str | Path, rel_tol: float = 1e-3) -> float:
             "give --dt"
         )
     return dt
-
-
-def parse_window(text: str, what: str) -> tuple[float, float]:
-    """Parse ``"T0:T1"`` (either side may be empty) into ``(t0, t1)``.
-
-    Raises
-    ------
-    CommandError
-        Naming the option and the expected form.
-    """
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise CommandError(f"--{what} {text!r}: expected T0:T1 in seconds, e.g. 0:8 or 8:")
-    try:
-        t0 = float(parts[0]) if parts[0].strip() else -np.inf
-        t1 = float(parts[1]) if parts[1].strip() else np.inf
-    except ValueError:
-        raise CommandError(f"--{what} {text!r}: T0 and T1 must be numbers, e.g. 0:8") from None
-    if not t0 < t1:
-        raise CommandError(f"--{what} {text!r}: T0 must be smaller than T1")
-    return t0, t1
 
 
 def window_arg(what: str) -> Any:

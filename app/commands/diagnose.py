@@ -38,20 +38,14 @@ with the accepted effects.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from collections.abc import Sequence
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from ._common import Progress, existing_file, window_arg
-from .fit import add_read_options, read_kwargs, say_read
+from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
+from ._common import Progress, window_arg
+from .fit import add_read_options, read_kwargs
 
-if TYPE_CHECKING:
-    from core.paramset import ParameterSet
-
-__all__ = ["diagnose_files", "diagnosis_json", "diagnosis_source", "model_document", "register",
-           "run", "save_model"]
+__all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
@@ -100,68 +94,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def model_document(result: Any, source: str) -> ParameterSet:
-    """The final model of ``result`` as a parameter set (units from the first recording when
-    the parameter-set validator knows them): what ``--save-model`` writes."""
-    from core.paramset import ParameterSet
-
-    first = result.records[0]
-    units = {"input": first.units.get("input") or "V", "output": first.units.get("output")
-             or "um", "time": first.units.get("time") or "s"}
-    summary = {
-        "kind": "diagnosis",
-        "effects": [e.name for e in result.effects],
-        "heldout_rmse_baseline": result.heldout_rmse(result.baseline),
-        "heldout_rmse_final": result.heldout_rmse(result.final),
-        "split": result.split,
-    }
-    notes = "model fitted to the first recording; effects: " + (
-        ", ".join(e.name for e in result.effects) or "none"
-    )
-    try:
-        return ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
-                                       notes=notes)
-    except ValueError:  # units the parameter-set validator does not know
-        return ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
-
-
-def save_model(result: Any, path: str | Path, source: str) -> Path:
-    """Write :func:`model_document` of ``result`` to ``path``."""
-    return model_document(result, source).save(path)
-
-
-def diagnosis_source(files: Sequence[str | Path]) -> str:
-    """The provenance ``source`` of a diagnosis of ``files``."""
-    return "hyst diagnose " + " ".join(Path(f).name for f in files)
-
-
-def diagnosis_json(result: Any) -> str:
-    """The ``--json`` document of ``result`` (one JSON object, one line)."""
-    return json.dumps(result.to_dict(), allow_nan=False)
-
-
-def diagnose_files(files: Sequence[str | Path], read_kw: dict[str, Any], progress: Progress, *,
-                   model: str = "pi", base: str = "auto",
-                   train: tuple[float, float] | None = None,
-                   test: tuple[float, float] | None = None, operators: int = 25,
-                   fixed_grid: bool = False, no_crossfit: bool = False,
-                   effects: str | None = None) -> Any:
-    """Read ``files`` and run :func:`core.diagnosis.diagnose` with the options of
-    ``hyst diagnose`` (``effects``: the comma-separated ``--effects`` text); progress and the
-    read notes go to ``progress``. Returns the ``DiagnosisResult``."""
-    from core.diagnosis import as_records, diagnose
-
-    for f in files:
-        existing_file(f, "recording")
-    chosen = [e.strip() for e in effects.split(",")] if effects else None
-    recs = as_records([Path(f) for f in files], **read_kw)
-    say_read(progress, recs)
-    return diagnose(recs, model=model, train=train, test=test, n_operators=operators,
-                    effects=chosen, base=base, auto_resolution=not fixed_grid,
-                    crossfit=False if no_crossfit else None,
-                    progress=lambda frac, msg: progress(f"{100 * frac:3.0f} % {msg}"))
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
     progress = Progress("diagnose", quiet=args.quiet)
@@ -173,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         p = save_model(res, args.save_model, source=diagnosis_source(args.files))
         print(f"wrote {p}", file=sys.stderr)
     if args.report:
-        from app.diagnosis_report import write_report
+        from ..services.diagnosis_report import write_report
 
         p = write_report(res, args.report)
         print(f"wrote {p}", file=sys.stderr)

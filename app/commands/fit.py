@@ -3,29 +3,19 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from ._common import (
-    CommandError,
-    Progress,
-    add_json_flag,
-    column_spec,
-    emit,
-    existing_file,
-    parse_window,
+from ..services.fitting import (
+    check_n_operators,
+    fit_errors,
+    fit_source,
+    say_fit,
+    time_window,
 )
+from ..services.recordings import csv_read_kwargs, read_recordings, say_read
+from ._common import Progress, add_json_flag, emit
 
-if TYPE_CHECKING:
-    from core.fitting import FitOutcome, TimeWindow
-    from core.recordings import Recording
-
-__all__ = ["add_model_option", "add_read_options", "check_n_operators",
-           "csv_read_kwargs", "fit_errors", "fit_source",
-           "read_kwargs", "read_recordings", "register", "run", "say_fit", "say_read",
-           "time_window"]
+__all__ = ["add_model_option", "add_read_options", "read_kwargs", "register", "run"]
 
 
 def add_read_options(p: argparse.ArgumentParser) -> None:
@@ -45,107 +35,10 @@ def add_read_options(p: argparse.ArgumentParser) -> None:
                         "spacing, or every DT seconds)")
 
 
-def _spec(value: str | None) -> Any:
-    if value is not None and value.strip().lower() == "none":
-        return False
-    return column_spec(value)
-
-
 def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """Keyword arguments of :func:`core.csvio.read_csv` from :func:`add_read_options`."""
     return csv_read_kwargs(args.time, args.input_column, args.output_column, args.run_column,
                            args.resample)
-
-
-def csv_read_kwargs(time: str | None = None, input_column: str | None = None,
-                    output_column: str | None = None, run_column: str | None = None,
-                    resample: str | None = None) -> dict[str, Any]:
-    """Keyword arguments of :func:`core.csvio.read_csv` from the option texts of
-    :func:`add_read_options` (``None``: the option was not given)."""
-    spacing: bool | float = False
-    if resample is not None:
-        if resample == "auto":
-            spacing = True
-        else:
-            try:
-                spacing = float(resample)
-            except ValueError:
-                raise CommandError(f"--resample {resample!r}: expected a spacing in "
-                                   "seconds, e.g. --resample 0.0002, or no value") from None
-            if not spacing > 0:
-                raise CommandError(f"--resample {resample}: the spacing must be > 0 s")
-    return {"time": _spec(time), "input": _spec(input_column),
-            "output": _spec(output_column), "run": _spec(run_column), "resample": spacing}
-
-
-def read_recordings(files: Sequence[str | Path], read_kw: dict[str, Any]) -> list[Recording]:
-    """Every recording of ``files`` (:func:`core.csvio.read_csv` with ``read_kw``), in order.
-
-    Raises
-    ------
-    CommandError
-        A file that does not exist or is a folder.
-    """
-    from core.csvio import read_csv
-
-    recs: list[Recording] = []
-    for f in files:
-        existing_file(f, "CSV file")
-        recs.extend(read_csv(Path(f), **read_kw))
-    return recs
-
-
-def time_window(text: str | None, what: str) -> TimeWindow | None:
-    """The :class:`~core.fitting.TimeWindow` of ``--<what> T0:T1`` (``None`` without one)."""
-    from core.fitting import TimeWindow
-
-    if text is None:
-        return None
-    t0, t1 = parse_window(text, what)
-    return TimeWindow(t0, t1, text)
-
-
-def fit_source(files: Sequence[str | Path]) -> dict[str, Any]:
-    """The provenance of a ``hyst fit`` of ``files``: ``{"files", "source"}`` of
-    :func:`core.fitting.fit_recordings`."""
-    names = [Path(f).name for f in files]
-    return {"files": names, "source": "hyst fit " + " ".join(names)}
-
-
-def check_n_operators(n: object) -> None:
-    """``-n``: ``None`` (chosen by cross-validation) or a positive integer (CommandError)."""
-    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-        raise CommandError(f"-n must be a positive number of operators, got {n}")
-
-
-@contextmanager
-def fit_errors() -> Iterator[None]:
-    """Report an empty window as ``hyst fit`` does (``--train window selects no samples``)."""
-    from core.fitting import EmptyWindowError
-
-    try:
-        yield
-    except EmptyWindowError as exc:
-        raise CommandError(f"--{exc.which} window selects no samples; check it against the "
-                           "t column") from None
-
-
-def say_read(progress: Progress, recs: list[Any]) -> None:
-    """Report each recording read (samples, time axis, columns, cleaning notes) on stderr."""
-    for r in recs:
-        axis = f"t = {r.t[0]:g} .. {r.t[-1]:g} s" if r.has_time else "no time axis"
-        progress(f"read {r.name}: {r.n_samples} samples, {axis}, "
-                 f"u = {r.columns.get('input', 'u')}, y = {r.columns.get('output', 'y')}")
-        for note in r.cleaning:
-            progress(f"  note: {note}")
-
-
-def say_fit(progress: Progress, out: FitOutcome) -> None:
-    """Report the fit's warnings and what was done about the initial memory."""
-    for m in out.warnings:
-        progress(f"warning: {m}")
-    if out.memory_note:
-        progress(out.memory_note)
 
 
 def add_model_option(p: argparse.ArgumentParser) -> None:

@@ -24,16 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from core.exceptions import ParameterError
-
-from .. import figures as F
-from ..compute import Result, build_model, inverse_problem, operator_count, preset_doc
-from ..data import diagnosis_html
 from ..services import actions
+from ..services import figures as F
 from ..services.config import Config
+from ..services.errors import ParameterError
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import Session, SessionRegistry
-from ..settings import Settings
+from ..services.settings import Settings
+from ..services.simulation import Result, inverse_problem, operator_count
 from .layout import TITLES, Widgets, set_leaf, set_value
 from .playback import Playback
 from .render import LatestWinsWorker
@@ -239,7 +237,7 @@ class SessionView:
             if preset is not None:  # a joined session shows the preset it holds
                 title = next(t for t, n in ui.preset_names.items() if n == preset)
                 set_value(ui.preset, title)
-                ui.preset_md.content = f"*{md_text(preset_doc(preset)['description'])}*"
+                ui.preset_md.content = f"*{md_text(actions.preset_doc(preset)['description'])}*"
             is_pi = m.get("type") == "pi"
             ui.pi_folder.visible = is_pi
             if is_pi:
@@ -325,7 +323,7 @@ class SessionView:
         self._sync_controls(self.session.snapshot()[0])
 
     def _preset_chosen(self, event: Any) -> None:
-        doc = preset_doc(self.ui.preset_names[str(self.ui.preset.value)])
+        doc = actions.preset_doc(self.ui.preset_names[str(self.ui.preset.value)])
         self.ui.preset_md.content = f"*{md_text(doc['description'])}*"
 
     def _preset_clicked(self, event: Any) -> None:
@@ -457,11 +455,10 @@ class SessionView:
             self._work_lock.release()
 
     def _report_clicked(self, event: Any) -> None:
-        result = self.session.diagnosis_result
-        if result is None:
+        text = actions.diagnosis_report(self.session)
+        if text is None:
             self.ui.report_md.content += "\n\n⚠️ run the diagnosis first"
             return
-        text = diagnosis_html(result)
         self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
 
     def _send(self, event: Any, name: str, payload: bytes) -> None:
@@ -488,21 +485,21 @@ class SessionView:
         self.ui.export_md.content = f"sent {md_text(name)} ({len(payload)} bytes)"
 
     # ------------------------------------------------------------------ render
-    def _views(self, cfg: Config, name: str) -> set[str]:
+    def _views(self, session: Session, name: str) -> set[str]:
         """What to compute: the view on show, and the digitized states while the 3D cube
-        can show them (a small enough model)."""
+        can show them (a small enough model: the session's model, parsed once per config)."""
         views = set() if name == "fit" else {name}
         if self.cube.scene is not None and (operator_count(
-                build_model(cfg.model, self.settings.max_operators)) or 0) <= CUBE_MAX_DIGITS:
+                actions.session_model(session, self.settings)) or 0) <= CUBE_MAX_DIGITS:
             views.add("digitized")
         return views
 
     def _render(self) -> None:
         ui = self.ui
         session = self.session
-        cfg, v = session.snapshot()
+        v = session.snapshot()[1]
         name = ui.figure_name
-        res = actions.session_result(session, self._views(cfg, name), self.settings)
+        res = actions.session_result(session, self._views(session, name), self.settings)
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
         else:

@@ -6,7 +6,7 @@ import threading
 from typing import Any
 
 from ..services.sessions import SessionRegistry
-from ..settings import Settings
+from ..services.settings import Settings
 from .controller import SessionView
 from .layout import NARROW_PX
 

@@ -14,12 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from core.presets import list_presets
-from core.signals import SIGNALS
-
-from .. import figures as F
-from ..data import fit_kinds
-from ..settings import Settings
+from ..services import catalog
+from ..services import figures as F
+from ..services.settings import Settings
 
 __all__ = [
     "GUI_MAX_SLIDERS",
@@ -89,7 +86,7 @@ class Widgets:
         with tabs.add_tab("Model"):
             g.add_markdown("*A PI model adds play operators (width r_i, weight p_i) to a "
                            "linear term p0·u. Start from a preset from the papers.*")
-            self.preset_names = {p.title: p.name for p in list_presets()}
+            self.preset_names = catalog.preset_titles()
             titles = tuple(self.preset_names)
             self.preset = g.add_dropdown("Preset", titles, initial_value=titles[0])
             self.preset_md = g.add_markdown("")
@@ -109,7 +106,7 @@ class Widgets:
         with tabs.add_tab("Input"):
             g.add_markdown("*The signal u(t) that drives the model; its amplitude must exceed "
                            "the widest operator for the loop to open fully.*")
-            kinds = tuple(SIGNALS)
+            kinds = catalog.signal_kinds()
             self.kind = g.add_dropdown("Signal", kinds, initial_value=kinds[0])
             self.amp = g.add_slider("Amplitude", min=0.0, max=10.0, step=0.05, initial_value=4.0)
             self.freq = g.add_slider("Frequency [Hz]", min=0.1, max=20.0, step=0.1,
@@ -151,7 +148,7 @@ class Widgets:
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=settings.max_operators, step=1)
-            kinds = fit_kinds()
+            kinds = catalog.fit_kinds()
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")

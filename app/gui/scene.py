@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..compute import Digitized
+from ..services.simulation import Digitized
 
 __all__ = ["CUBE_MAX_DIGITS", "StateCube", "embed"]
 

@@ -14,10 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from core.pi import PIModel
-from core.recordings import Recording
-
-from ..compute import Result
+from ..services.recordings import Recording
+from ..services.simulation import Result, pi_part
 
 __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown",
            "recording_markdown", "state_markdown"]
@@ -42,7 +40,7 @@ def model_markdown(res: Result) -> str:
     """Type, operator count, slopes and maximum loop width of ``res``'s model."""
     m = res.model
     lines = [f"**{m.type_name}** model, {getattr(m, 'n', '?')} operators"]
-    if isinstance(m, PIModel):
+    if pi_part(m) is m:  # a classical PI itself
         lines.append("slopes " + ", ".join(f"{s:.3g}" for s in m.slopes))
         lines.append(f"max loop width σ = {m.max_loop_width:.4g}")
     text = "  \n".join(lines)

@@ -9,11 +9,10 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from ..data import csv_preview, diagnosis_html
-from ..schemas import FitIn
 from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
+from .schemas import CsvPreviewOut, DiagnosisOut, FitIn, FitOut, RecordingOut
 
 __all__ = ["router"]
 
@@ -33,7 +32,7 @@ def _check_type(request: Request) -> None:
         raise HTTPException(415, f"send the CSV as a raw text/csv body, not {ctype or 'nothing'}")
 
 
-@router.post("/csv/preview")
+@router.post("/csv/preview", response_model=CsvPreviewOut, response_model_exclude_unset=True)
 async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]:
     """Columns, first rows and row count of a CSV body (the column-mapping step).
 
@@ -41,10 +40,11 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     """
     _check_type(request)
     body = await read_body(request, settings.max_upload_bytes)
-    return await run_in_threadpool(csv_preview, body, settings.max_samples)
+    return await run_in_threadpool(actions.preview_csv, body, settings)
 
 
-@router.post("/sessions/{code}/recording", status_code=201)
+@router.post("/sessions/{code}/recording", status_code=201,
+             response_model=RecordingOut, response_model_exclude_unset=True)
 async def upload_recording(
     request: Request,
     session: SessionDep,
@@ -84,7 +84,7 @@ async def upload_recording(
     }
 
 
-@router.post("/sessions/{code}/fit")
+@router.post("/sessions/{code}/fit", response_model=FitOut, response_model_exclude_unset=True)
 async def fit(body: FitIn, request: Request, session: SessionDep,
               settings: SettingsDep) -> dict[str, Any]:
     """Fit a model to the session's recording; returns the model, report and overlay figure.
@@ -96,7 +96,8 @@ async def fit(body: FitIn, request: Request, session: SessionDep,
     return await wait_for(request, job)
 
 
-@router.post("/sessions/{code}/diagnose")
+@router.post("/sessions/{code}/diagnose",
+             response_model=DiagnosisOut, response_model_exclude_unset=True)
 async def diagnose(request: Request, session: SessionDep,
                    settings: SettingsDep) -> dict[str, Any]:
     """Diagnose the fitted model (else the current model) against the recording (a job of
@@ -108,9 +109,9 @@ async def diagnose(request: Request, session: SessionDep,
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)
 def diagnosis_report(session: SessionDep) -> HTMLResponse:
     """The last diagnosis as a self-contained HTML report (plotly.js inlined, no CDN)."""
-    if session.diagnosis_result is None:
+    text = actions.diagnosis_report(session)
+    if text is None:
         raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
-    text = diagnosis_html(session.diagnosis_result)
     # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
     # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={

@@ -8,7 +8,7 @@ from fastapi import Depends, HTTPException, Request
 
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import Session, SessionRegistry
-from ..settings import Settings
+from ..services.settings import Settings
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
            "read_body", "require_teacher"]

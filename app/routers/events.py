@@ -26,14 +26,12 @@ from fastapi import APIRouter, Header, HTTPException
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
-from core.exceptions import ParameterError
-
-from ..compute import preset_doc
-from ..events import HUB
-from ..schemas import SignalIn
 from ..services import actions
 from ..services.config import SignalSpec
+from ..services.errors import ParameterError
+from ..services.events import HUB
 from .deps import RegistryDep, SessionDep, SettingsDep, require_teacher
+from .schemas import ConnectedOut, PushOut, SignalIn
 
 __all__ = ["router"]
 
@@ -43,7 +41,9 @@ router = APIRouter(prefix="/api", tags=["events"])
 STREAM_S = 10.0
 
 
-@router.get("/sessions/{code}/events")
+@router.get("/sessions/{code}/events", response_class=StreamingResponse, responses={200: {
+    "description": "server-sent events: `event: push` with an `id` and a JSON `data` line",
+    "content": {"text/event-stream": {}}}})
 async def session_events(
     session: SessionDep,
     last_event_id: str | None = Header(default=None),
@@ -89,7 +89,7 @@ class PushIn(BaseModel):
         False, description="give every session the preset's own default input")
 
 
-@router.post("/teacher/push")
+@router.post("/teacher/push", response_model=PushOut, response_model_exclude_unset=True)
 def teacher_push(
     body: PushIn,
     registry: RegistryDep,
@@ -104,7 +104,7 @@ def teacher_push(
     title = None
     if body.preset is not None:
         try:
-            doc = preset_doc(body.preset)
+            doc = actions.preset_doc(body.preset)
         except ParameterError:
             raise HTTPException(404, f"no preset named {body.preset!r}") from None
         model, title = doc["model"], doc["title"]
@@ -122,7 +122,7 @@ def teacher_push(
     return {"preset": body.preset, "sessions": n, "pages": pages}
 
 
-@router.get("/teacher/connected")
+@router.get("/teacher/connected", response_model=ConnectedOut, response_model_exclude_unset=True)
 def teacher_connected(
     registry: RegistryDep,
     settings: SettingsDep,

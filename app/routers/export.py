@@ -8,11 +8,11 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import Response
 
-from core.exceptions import ParameterError
-
-from ..exports import EXPORT_FORMATS
 from ..services import actions
+from ..services.errors import ParameterError
+from ..services.exports import EXPORT_FORMATS
 from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
+from .schemas import SessionOut
 
 __all__ = ["router"]
 
@@ -21,7 +21,9 @@ router = APIRouter(prefix="/api", tags=["export"])
 _MEDIA = {"json": "application/json", "mat": "application/octet-stream", "c": "text/x-csrc"}
 
 
-@router.get("/sessions/{code}/export/{fmt}")
+@router.get("/sessions/{code}/export/{fmt}", response_class=Response, responses={200: {
+    "description": "the parameter set as a download",
+    "content": {media: {} for media in _MEDIA.values()}}})
 def export(fmt: str, session: SessionDep) -> Response:
     """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
     if fmt not in EXPORT_FORMATS:
@@ -30,7 +32,8 @@ def export(fmt: str, session: SessionDep) -> Response:
     return Response(payload, media_type=_MEDIA[fmt], headers=attachment(name))
 
 
-@router.put("/sessions/{code}/parameter-set")
+@router.put("/sessions/{code}/parameter-set",
+            response_model=SessionOut, response_model_exclude_unset=True)
 async def upload_parameter_set(
     request: Request, session: SessionDep, settings: SettingsDep
 ) -> dict[str, Any]:

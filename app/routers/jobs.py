@@ -18,12 +18,12 @@ from typing import Any, Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..schemas import FitIn
 from ..services import actions
 from ..services.jobs import Job, JobBusy, JobManager, Progress
 from ..services.sessions import Session
-from ..settings import Settings
+from ..services.settings import Settings
 from .deps import SessionDep, SettingsDep
+from .schemas import FitIn, JobCreatedOut, JobListOut, JobOut
 
 __all__ = ["JobIn", "router", "start_job", "wait_for"]
 
@@ -112,7 +112,8 @@ async def wait_for(request: Request, job: Job, timeout_s: float = 300.0) -> Any:
     raise HTTPException(409, f"the {job.kind} was cancelled: {v.message}")
 
 
-@router.post("/sessions/{code}/jobs", status_code=202)
+@router.post("/sessions/{code}/jobs", status_code=202,
+             response_model=JobCreatedOut, response_model_exclude_unset=True)
 def create_job(body: JobIn, request: Request, session: SessionDep,
                settings: SettingsDep) -> dict[str, Any]:
     """Queue a fit or a diagnosis of the session's recording; poll it with GET."""
@@ -124,7 +125,7 @@ def create_job(body: JobIn, request: Request, session: SessionDep,
 MAX_LISTED = 20
 
 
-@router.get("/sessions/{code}/jobs")
+@router.get("/sessions/{code}/jobs", response_model=JobListOut, response_model_exclude_unset=True)
 def list_jobs(request: Request, session: SessionDep,
               limit: int = Query(10, ge=1, le=MAX_LISTED,
                                  description="how many of the newest jobs")
@@ -142,13 +143,15 @@ def _job(request: Request, session: Session, job_id: str) -> Job:
         raise HTTPException(404, f"no job {job_id[:40]!r} in this session") from None
 
 
-@router.get("/sessions/{code}/jobs/{job_id}")
+@router.get("/sessions/{code}/jobs/{job_id}",
+            response_model=JobOut, response_model_exclude_unset=True)
 def get_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
     """State, progress (0..1), message, and the result once done (the error if failed)."""
     return _job(request, session, job_id).view().to_dict()
 
 
-@router.delete("/sessions/{code}/jobs/{job_id}")
+@router.delete("/sessions/{code}/jobs/{job_id}",
+               response_model=JobOut, response_model_exclude_unset=True)
 def cancel_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
     """Cancel a queued or running job (a finished one is left as it is)."""
     _job(request, session, job_id)

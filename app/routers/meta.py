@@ -8,14 +8,9 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse
 
-from core.base import registered_types
-from core.presets import list_presets
-from core.signals import SIGNALS
-
-from ..compute import preset_doc
-from ..data import fit_kinds
-from ..exports import EXPORT_FORMATS
+from ..services import catalog
 from .deps import SettingsDep
+from .schemas import CapabilitiesOut, HealthOut, PresetOut, ViserUrlOut
 
 __all__ = ["router", "vendor_router"]
 
@@ -23,13 +18,13 @@ router = APIRouter(prefix="/api", tags=["meta"])
 vendor_router = APIRouter(tags=["meta"])
 
 
-@router.get("/health")
+@router.get("/health", response_model=HealthOut, response_model_exclude_unset=True)
 def health() -> dict[str, str]:
     """Liveness probe."""
     return {"status": "ok"}
 
 
-@router.get("/viser-url")
+@router.get("/viser-url", response_model=ViserUrlOut, response_model_exclude_unset=True)
 def viser_url(request: Request) -> dict[str, Any]:
     """Where the viser GUI listens (its port may differ from the requested one)."""
     port = getattr(request.app.state, "viser_port", None)
@@ -39,27 +34,16 @@ def viser_url(request: Request) -> dict[str, Any]:
     return {"enabled": True, "url": f"http://{host}:{port}/", "port": port}
 
 
-@router.get("/capabilities")
+@router.get("/capabilities", response_model=CapabilitiesOut, response_model_exclude_unset=True)
 def capabilities(settings: SettingsDep) -> dict[str, Any]:
     """Model types, signals, presets, figures, export formats and limits."""
-    from ..figures import FIGURES
-
-    return {
-        "model_types": registered_types(),
-        "signals": list(SIGNALS),
-        "presets": [p.name for p in list_presets()],
-        "figures": list(FIGURES),
-        "export_formats": list(EXPORT_FORMATS),
-        "fit_kinds": list(fit_kinds()),
-        "limits": {"max_upload_bytes": settings.max_upload_bytes,
-                   **settings.limits.to_dict()},
-    }
+    return catalog.capabilities(settings)
 
 
-@router.get("/presets")
+@router.get("/presets", response_model=list[PresetOut], response_model_exclude_unset=True)
 def presets() -> list[dict[str, Any]]:
     """Every preset: name, title, description and model document."""
-    return [preset_doc(p.name) for p in list_presets()]
+    return catalog.presets()
 
 
 def plotly_js_path() -> Path:

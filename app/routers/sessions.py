@@ -6,19 +6,18 @@ from typing import Any
 
 from fastapi import APIRouter, Header, HTTPException, Query, Request
 
-from core.exceptions import ParameterError
-
-from ..compute import preset_doc
-from ..schemas import ConfigIn
 from ..services import actions
+from ..services.errors import ParameterError
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
+from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut
 
 __all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["sessions"])
 
 
-@router.post("/sessions", status_code=201)
+@router.post("/sessions", status_code=201,
+             response_model=SessionOut, response_model_exclude_unset=True)
 def create_session(
     request: Request,
     registry: RegistryDep,
@@ -39,27 +38,29 @@ def create_session(
     return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
 
 
-@router.get("/sessions/{code}")
+@router.get("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 def get_session(session: SessionDep) -> dict[str, Any]:
     """The session's config, version, recording and fit summary."""
     return session.summary()
 
 
-@router.put("/sessions/{code}")
+@router.put("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 def join_session(session: SessionDep) -> dict[str, Any]:
     """Rejoin an existing session by its code (404 "no such session" otherwise; codes are
     created only by ``POST /api/sessions``)."""
     return session.summary()
 
 
-@router.patch("/sessions/{code}/config")
+@router.patch("/sessions/{code}/config",
+              response_model=SessionOut, response_model_exclude_unset=True)
 def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
     """Change model, signal, mismatch or input source; validated before it is stored."""
     actions.change_config(session, body.apply, settings)
     return session.summary()
 
 
-@router.get("/sessions/{code}/figures")
+@router.get("/sessions/{code}/figures",
+            response_model=FiguresOut, response_model_exclude_unset=True)
 def session_figures(
     session: SessionDep,
     settings: SettingsDep,
@@ -70,7 +71,8 @@ def session_figures(
     return actions.session_figures(session, names, settings)
 
 
-@router.post("/sessions/{code}/preset/{name}")
+@router.post("/sessions/{code}/preset/{name}",
+             response_model=SessionOut, response_model_exclude_unset=True)
 def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
     """Load the model of preset ``name`` (see ``GET /api/presets``)."""
     try:
@@ -80,7 +82,7 @@ def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
     return session.summary()
 
 
-@router.post("/broadcast/{name}")
+@router.post("/broadcast/{name}", response_model=BroadcastOut, response_model_exclude_unset=True)
 def broadcast_preset(
     name: str,
     registry: RegistryDep,
@@ -94,7 +96,7 @@ def broadcast_preset(
     """
     require_teacher(settings, x_teacher_token)
     try:
-        model = preset_doc(name)["model"]
+        model = actions.preset_doc(name)["model"]
     except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
     n, _ = actions.push(registry, model=model, note={"preset": name})

@@ -6,10 +6,10 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from ..schemas import SimulateIn, SimulateOut
 from ..services import actions
 from ..services.config import Config
 from .deps import SettingsDep
+from .schemas import SimulateIn, SimulateOut
 
 __all__ = ["router"]
 

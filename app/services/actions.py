@@ -24,9 +24,19 @@ from core.exceptions import ParameterError
 from core.presets import list_presets
 from core.recordings import Recording
 
-from .. import figures as F
-from ..compute import (
+from . import figures as F
+from .config import Config, SignalSpec
+from .cost import CheckedModel, check_config, check_document, checked_config
+from .diagnosis import diagnose_session, diagnosis_html
+from .events import HUB
+from .exports import export_session, parameter_set_model
+from .fitting import fit_session
+from .recordings import Upload, csv_preview, read_upload
+from .sessions import Session, SessionRegistry
+from .settings import Settings
+from .simulation import (
     Result,
+    check_operator_limit,
     compute,
     diagnosed_model,
     operator_count,
@@ -34,26 +44,24 @@ from ..compute import (
     preset_doc,
     validate_config,
 )
-from ..data import Upload, diagnose_session, fit_session, read_upload
-from ..events import HUB
-from ..exports import export_session, parameter_set_model
-from ..settings import Settings
-from .config import Config, SignalSpec
-from .cost import check_config, check_document
-from .sessions import Session, SessionRegistry
 
 __all__ = [
     "change_config",
     "check_figure_names",
+    "checked_model",
     "diagnose",
+    "diagnosis_report",
     "export",
     "fit",
     "fit_figure",
     "load_parameter_set",
     "load_preset",
+    "preset_doc",
+    "preview_csv",
     "push",
     "result_payload",
     "session_figures",
+    "session_model",
     "session_result",
     "set_operator_count",
     "simulate",
@@ -62,6 +70,28 @@ __all__ = [
 
 
 # ----------------------------------------------------------------------------- config
+def checked_model(cfg: Config, recording: Recording | None,
+                  settings: Settings) -> CheckedModel:
+    """The model of ``cfg`` built once from its document, checked against the cost limits
+    (run on ``recording`` when ``cfg.use_recording``) and the operator limit.
+
+    Raises
+    ------
+    ParameterError
+        Naming the limit exceeded or the invalid field of the model.
+    """
+    checked = checked_config(cfg, recording, settings.limits)
+    check_operator_limit(checked.model, settings.max_operators)
+    return checked
+
+
+def session_model(session: Session, settings: Settings) -> Model:
+    """The session's current model, parsed and checked once per config (kept in its state,
+    :meth:`~app.services.sessions.Session.checked`)."""
+    return session.checked(settings.limits,
+                           lambda cfg, rec: checked_model(cfg, rec, settings))[2]
+
+
 def change_config(session: Session, fn: Callable[[Config], Config],
                   settings: Settings) -> int:
     """Apply ``fn`` to the session's config, check its cost and validity, store it.
@@ -75,9 +105,10 @@ def change_config(session: Session, fn: Callable[[Config], Config],
     """
     with session.lock:
         new = fn(session.config)
-        check_config(new, session.recording, settings.limits)
-        validate_config(new, session.recording, settings.max_operators, settings.max_samples)
-        return session.set_config(new)
+        checked = checked_model(new, session.recording, settings)
+        validate_config(new, session.recording, settings.max_operators, settings.max_samples,
+                        model=checked.model)
+        return session.set_config(new, checked)
 
 
 def set_operator_count(session: Session, n: int, settings: Settings) -> int:
@@ -158,7 +189,7 @@ def load_parameter_set(session: Session, doc: Any, settings: Settings) -> Model:
 # ----------------------------------------------------------------------------- data
 def upload(session: Session, content: str | bytes, settings: Settings,
            **mapping: Any) -> Upload:
-    """Read uploaded CSV content (never a path; see :func:`app.data.read_upload` for the
+    """Read uploaded CSV content (never a path; see :func:`.recordings.read_upload` for the
     column ``mapping``) and make it the session's recording (its fit and diagnosis are
     dropped).
 
@@ -180,7 +211,7 @@ def _need_recording(session: Session, what: str) -> None:
 def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
         settings: Settings | None = None) -> tuple[Model, dict[str, Any]]:
     """Fit a ``kind`` model with ``n`` operators to the session's recording and store it
-    (``apply``: it becomes the session's model). See :func:`app.data.fit_session`."""
+    (``apply``: it becomes the session's model). See :func:`.fitting.fit_session`."""
     _need_recording(session, "fit")
     if settings is not None and not 1 <= n <= settings.max_operators:
         raise ParameterError(f"the number of operators must be between 1 and "
@@ -190,9 +221,22 @@ def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
 
 def diagnose(session: Session, progress: Callable[..., None] | None = None) -> dict[str, Any]:
     """Diagnose the session's recording and store the report (see
-    :func:`app.data.diagnose_session`)."""
+    :func:`.diagnosis.diagnose_session`)."""
     _need_recording(session, "diagnose")
     return diagnose_session(session, progress)
+
+
+def diagnosis_report(session: Session) -> str | None:
+    """The session's last diagnosis as a self-contained HTML report, or ``None`` before
+    one."""
+    result = session.diagnosis_result
+    return None if result is None else diagnosis_html(result)
+
+
+def preview_csv(content: str | bytes, settings: Settings) -> dict[str, Any]:
+    """Columns, first rows, row count and notes of CSV content (the column-mapping step;
+    see :func:`.recordings.csv_preview`)."""
+    return csv_preview(content, settings.max_samples)
 
 
 def fit_figure(recording: Recording, model: Model, label: str) -> F.FigureJSON:
@@ -239,12 +283,13 @@ def check_figure_names(names: Collection[str]) -> None:
 
 
 def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
-    """The session's current config computed for ``views`` only (cost checked first)."""
-    cfg, v = session.snapshot()
-    check_config(cfg, session.recording, settings.limits)
+    """The session's current config computed for ``views`` only (cost checked first; the
+    model is the one the session keeps for its config, parsed once)."""
+    cfg, v, model = session.checked(settings.limits,
+                                    lambda c, rec: checked_model(c, rec, settings))
     return compute(cfg, views=views, version=v, recording=session.recording,
                    max_operators=settings.max_operators, max_samples=settings.max_samples,
-                   diagnosed=diagnosed_model(session))
+                   diagnosed=diagnosed_model(session), model=model)
 
 
 def result_payload(res: Result, names: Collection[str],
@@ -279,7 +324,9 @@ def simulate(config: Config, names: Collection[str], settings: Settings,
              include_data: bool = False) -> dict[str, Any]:
     """Figures ``names`` of a config that belongs to no session (stateless)."""
     check_figure_names(names)
-    check_config(config, None, settings.limits)  # bounded cost, checked before any work
+    # bounded cost, checked before any work; the model is built once
+    model = check_operator_limit(checked_config(config, None, settings.limits).model,
+                                 settings.max_operators)
     res = compute(config, views=names, max_operators=settings.max_operators,
-                  max_samples=settings.max_samples)
+                  max_samples=settings.max_samples, model=model)
     return result_payload(res, names, include_data)

@@ -82,7 +82,7 @@ class Config:
         The input signal.
     mismatch : float
         Relative plant perturbation for the inverse-compensation view, see
-        :func:`app.compute.perturb`.
+        :func:`app.services.simulation.perturb`.
     use_recording : bool
         Drive the model with the uploaded recording's input instead of ``signal``.
     """

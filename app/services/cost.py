@@ -29,8 +29,8 @@ import numpy as np
 from core.base import Model
 from core.exceptions import ParameterError
 
-__all__ = ["Cost", "Limits", "check_config", "check_document", "check_model", "checked_model",
-           "json_depth"]
+__all__ = ["CheckedModel", "Cost", "Limits", "check_config", "check_document", "check_model",
+           "checked_config", "checked_model", "json_depth"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,20 @@ class Cost:
     delay_samples: int
     stages: int
     work: int
+
+
+@dataclass(frozen=True, eq=False)
+class CheckedModel:
+    """A config's model, built once from its document and checked against ``limits``.
+
+    A session keeps the one of its current config and recording
+    (:attr:`app.services.store.SessionState.checked`), so a render neither parses nor
+    checks the model again.
+    """
+
+    model: Model
+    cost: Cost
+    limits: Limits
 
 
 # ----------------------------------------------------------------------------- raw JSON
@@ -256,6 +270,17 @@ def check_config(cfg: Any, recording: Any, limits: Limits) -> Cost:
     The run is the recording's input when ``cfg.use_recording`` and there is one, else the
     config's signal (``samples`` samples over ``duration`` seconds).
     """
+    return checked_config(cfg, recording, limits).cost
+
+
+def checked_config(cfg: Any, recording: Any, limits: Limits) -> CheckedModel:
+    """The model of ``cfg`` built once and its cost checked (:func:`check_config`).
+
+    Raises
+    ------
+    ParameterError
+        When a limit is exceeded or the document is not a valid model.
+    """
     if cfg.use_recording and recording is not None:
         samples = int(recording.n_samples)
         dt = float(recording.dt) if getattr(recording, "dt", None) else 1.0
@@ -264,4 +289,5 @@ def check_config(cfg: Any, recording: Any, limits: Limits) -> Cost:
         dt = float(cfg.signal.duration) / max(1, samples - 1)
     if not (math.isfinite(dt) and dt > 0):
         raise ParameterError(f"the sample spacing {dt!r} s must be a positive number")
-    return checked_model(cfg.model, samples, dt, limits)[1]
+    model, cost = checked_model(cfg.model, samples, dt, limits)
+    return CheckedModel(model, cost, limits)

@@ -19,9 +19,11 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
+from core.base import Model
 from core.recordings import Recording
 
 from .config import Config
+from .cost import CheckedModel, Limits
 from .store import SessionState, SessionStore
 
 __all__ = [
@@ -98,11 +100,36 @@ class Session:
             self.last_access = time.monotonic()
             return self._state.config, self._state.version
 
+    def checked(self, limits: Limits,
+                check: Callable[[Config, Recording | None], CheckedModel]
+                ) -> tuple[Config, int, Model]:
+        """``(config, version, model)``: the current config's model parsed and checked once.
+
+        The state keeps the :class:`~app.services.cost.CheckedModel` of its config and
+        recording; ``check(config, recording)`` builds it only when there is none for
+        ``limits`` yet (a new config, a new recording, other limits). Keeping it is no
+        transition: the version stays and nothing is stored.
+
+        Raises
+        ------
+        ParameterError
+            From ``check``: the model is invalid or over a limit (nothing is kept).
+        """
+        with self.lock:
+            self.last_access = time.monotonic()
+            st = self._state
+            if st.checked is None or st.checked.limits != limits:
+                st = self._state = replace(st, checked=check(st.config, st.recording))
+            return st.config, st.version, st.checked.model
+
     # ------------------------------------------------------------------ transitions
     def _commit(self, changes: dict[str, Any], *, recording: bool, results: bool,
                 notify: bool = True) -> int:
         """Replace the state with ``changes`` applied and store it; with ``notify`` (a
-        change the plots show) also bump the version and tell the listeners."""
+        change the plots show) also bump the version and tell the listeners. A new config
+        or recording drops the checked model unless ``changes`` gives the new one."""
+        if ("config" in changes or "recording" in changes) and "checked" not in changes:
+            changes = {**changes, "checked": None}
         with self.lock:
             st = replace(self._state, **changes, last_used=time.time(),
                          version=self._state.version + (1 if notify else 0))
@@ -122,9 +149,11 @@ class Session:
                 self._state = replace(self._state, last_used=time.time())
                 self._store.save(self._state)
 
-    def set_config(self, config: Config) -> int:
-        """Replace the config; returns the new version."""
-        return self._commit({"config": config}, recording=False, results=False)
+    def set_config(self, config: Config, checked: CheckedModel | None = None) -> int:
+        """Replace the config (with ``checked``, its model already parsed and checked);
+        returns the new version."""
+        return self._commit({"config": config, "checked": checked}, recording=False,
+                            results=False)
 
     def update(self, fn: Callable[[Config], Config]) -> int:
         """Atomically apply ``fn`` to the current config (read-modify-write)."""

@@ -35,6 +35,7 @@ import numpy as np
 from core.recordings import Recording
 
 from .config import Config, config_from_dict
+from .cost import CheckedModel
 
 __all__ = ["SessionState", "SessionStore", "default_state_dir", "recording_from_blob",
            "recording_to_blob"]
@@ -94,6 +95,10 @@ class SessionState:
         Fitted model document, fit report and diagnosis report.
     diagnosis_result : object
         The core ``DiagnosisResult`` (for the HTML report), or ``None``.
+    checked : CheckedModel or None
+        The config's model, parsed once and cost-checked for this config and recording
+        (``None`` until first needed; dropped whenever the config or the recording
+        changes; never stored: it is rebuilt from the config).
     teacher : bool
         A teacher's session (never evicted).
     created, last_used : float
@@ -108,6 +113,7 @@ class SessionState:
     fit_report: dict[str, Any] | None = None
     diagnosis: dict[str, Any] | None = None
     diagnosis_result: Any = None
+    checked: CheckedModel | None = None
     teacher: bool = False
     created: float = field(default_factory=time.time)
     last_used: float = field(default_factory=time.time)

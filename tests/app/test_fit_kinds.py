@@ -17,9 +17,9 @@ from fastapi.testclient import TestClient
 
 import core.base
 from app.cli import main
-from app.data import fit_recording
 from app.server import create_app
-from app.settings import Settings
+from app.services.fitting import fit_recording
+from app.services.settings import Settings
 from core.base import register_model
 from core.fitting import PIRegressor
 from core.models import DEFAULT_FIT_KIND, estimator_class, fit_kinds, model_class

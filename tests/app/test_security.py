@@ -15,7 +15,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
-from app.settings import Settings
+from app.services.settings import Settings
 from core.pi import PIModel
 
 ROOT = Path(__file__).resolve().parents[2]

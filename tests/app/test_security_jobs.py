@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 
 from app.server import create_app
 from app.services.jobs import JobBusy, JobManager
-from app.settings import Settings
+from app.services.settings import Settings
 
 from .test_security import csv_text, upload
 

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.server import create_app
-from app.settings import Settings
+from app.services.settings import Settings
 
 TYPES = ["pi", "chain", "rate", "creep", "lag", "resonance", "delay", "lti", "deadzone",
          "initial-memory", "offset", "drift", "asymmetry", "digitized", "mpi", "gpi-tanh"]

@@ -7,7 +7,7 @@ import re
 from fastapi.testclient import TestClient
 
 from app.server import create_app
-from app.settings import Settings
+from app.services.settings import Settings
 
 
 def test_docs_redirect_to_offline_reference_without_cdn() -> None:

@@ -68,7 +68,7 @@ def live_server() -> Iterator[dict[str, Any]]:
     import uvicorn
 
     from app.server import create_app
-    from app.settings import Settings
+    from app.services.settings import Settings
 
     app = create_app(Settings(viser_port=0, port=0, teacher_token=TEACHER_TOKEN))
 

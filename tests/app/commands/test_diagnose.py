@@ -180,7 +180,9 @@ def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_p
     assert doc["baseline"]["model"] == "preisach"
     assert "level-dependent memory" in doc["baseline"]["base_choice"]["text"]
     assert doc["effects"] == []
-    from app.data import _diagnosis_summary  # the findings the web page and batch show
+    from app.services.diagnosis import (
+        diagnosis_summary as _diagnosis_summary,  # the findings the web page and batch show
+    )
 
     found = _diagnosis_summary(doc)["findings"]
     assert found[0].endswith("the Preisach model explains the data")

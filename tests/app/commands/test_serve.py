@@ -25,7 +25,7 @@ def test_serve_arguments() -> None:
 
 
 def test_settings_from_env(monkeypatch) -> None:  # noqa: ANN001
-    from app.settings import Settings
+    from app.services.settings import Settings
 
     monkeypatch.setenv("HYST_VISER_PORT", "9123")
     monkeypatch.setenv("HYST_MAX_OPERATORS", "12")

@@ -10,12 +10,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app import figures as F
 from app.gui.controller import SessionView
 from app.gui.render import LatestWinsWorker
 from app.gui.text import diagnosis_markdown, md_text
+from app.services import figures as F
 from app.services.sessions import SessionRegistry
-from app.settings import Settings
+from app.services.settings import Settings
 from core.pi import PIModel
 
 
@@ -145,7 +145,7 @@ def test_markup_in_csv_name_and_cells_is_text(view: SessionView) -> None:
 
 
 def test_deadzone_operators_stack_on_the_dead_zoned_input(view: SessionView) -> None:
-    from app.compute import preset_doc
+    from app.services.simulation import preset_doc
 
     view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
     view.view_dd.value = "Operators"
@@ -213,7 +213,7 @@ def test_join_shows_the_sessions_preset(view: SessionView) -> None:
 
 
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
-    from app.compute import preset_doc
+    from app.services.simulation import preset_doc
 
     doc = preset_doc("paper001-example4")
     view.session.update(lambda c: c.with_model(doc["model"]))

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app import figures as F
-from app.compute import compute
 from app.services import actions
+from app.services import figures as F
 from app.services.config import Config, SignalSpec
 from app.services.sessions import Session, SessionRegistry
+from app.services.settings import Settings
+from app.services.simulation import compute
 from app.services.store import SessionState, SessionStore
-from app.settings import Settings
 from core.base import Model
 from core.closed_loop import HammersteinLoop
 from core.pi import PIModel

@@ -35,7 +35,8 @@ def test_state_round_trips_through_the_file(tmp_path: Path) -> None:
     db = tmp_path / "s.sqlite3"
     reg = SessionRegistry(store=SessionStore(db))
     s = reg.create()
-    from app.data import fit_session, store_recording
+    from app.services.fitting import fit_session
+    from app.services.recordings import store_recording
 
     store_recording(s, recording())
     fit_session(s, 4)

@@ -6,8 +6,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from app.compute import closed_loop, compute, diagnosed_model
 from app.services.config import Config
+from app.services.simulation import closed_loop, compute, diagnosed_model
 from core.base import Chain
 from core.effects import Creep
 from core.pi import PIModel
@@ -40,7 +40,7 @@ def test_inverse_and_closed_loop_views_use_the_diagnosed_model() -> None:
 
 
 def test_explorer_c_download_of_a_diagnosed_chain_bakes_in_the_sample_time() -> None:
-    from app.exports import export_bytes
+    from app.services.exports import export_bytes
     from core.effects import Delay, Resonance
 
     ext = Chain.of(PIModel(1.0, [0.5], [0.2]), Creep([0.01, 0.1], [0.05, 0.05]),

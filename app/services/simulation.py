@@ -1,10 +1,10 @@
-"""Simulation results of an explorer config: model, signal, inverse, digitized and closed loop.
+"""Simulation of an explorer config: model, signal, inverse, digitized and closed loop.
 
 :func:`compute` turns a :class:`~app.services.config.Config` into a :class:`Result` with
 everything the figures of the requested views need, and nothing for the views not on show
 (the inverse, the perturbed plant, the digitized trace and state graph, the operator
 contributions, the loading curve and paper 001's closed loop are each computed only for
-their view); :mod:`app.figures` only draws a result. No viser / fastapi / plotly imports.
+their view); :mod:`app.services.figures` only draws a result. No viser / fastapi / plotly imports.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from core.presets import get_preset, list_presets
 from core.recordings import Recording
 from core.signals import SIGNALS
 
-from .services.config import Config, SignalSpec
+from .config import Config, SignalSpec
 
 __all__ = [
     "CLOSED_LOOP_MAX_S",
@@ -39,6 +39,7 @@ __all__ = [
     "Loading",
     "Result",
     "build_model",
+    "check_operator_limit",
     "closed_loop",
     "compute",
     "decimate_index",
@@ -108,7 +109,11 @@ def preset_doc(name: str) -> dict[str, Any]:
 
 def build_model(d: dict[str, Any], max_operators: int) -> Model:
     """Validated model from its dict form, enforcing the operator limit."""
-    m = model_from_dict(d)
+    return check_operator_limit(model_from_dict(d), max_operators)
+
+
+def check_operator_limit(m: Model, max_operators: int) -> Model:
+    """``m``, after checking its :func:`operator_count` against ``max_operators``."""
     n = operator_count(m)
     if n is not None and n > max_operators:
         raise ParameterError(
@@ -368,9 +373,13 @@ def operator_contributions(pi: PIModel, u: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def validate_config(config: Config, recording: Recording | None, max_operators: int,
-                    max_samples: int) -> None:
-    """Check ``config`` without simulating; raises :class:`ParameterError`."""
-    build_model(config.model, max_operators)
+                    max_samples: int, model: Model | None = None) -> None:
+    """Check ``config`` without simulating (``model``: its model, already built); raises
+    :class:`ParameterError`."""
+    if model is None:
+        build_model(config.model, max_operators)
+    else:
+        check_operator_limit(model, max_operators)
     if not (config.use_recording and recording is not None):
         config.signal.validate(max_samples)
 
@@ -384,6 +393,7 @@ def compute(
     max_operators: int = 100,
     max_samples: int = 200_000,
     diagnosed: Model | None = None,
+    model: Model | None = None,
 ) -> Result:
     """Simulate ``config`` and compute what the figures of ``views`` need.
 
@@ -395,6 +405,9 @@ def compute(
     tanh envelope's bounded domain) still runs; ``Result.inverse_warning`` says so.
     ``diagnosed`` (the session's diagnosed extended model, :func:`diagnosed_model`) is the
     model the inverse and closed-loop views then compensate instead of the config's model.
+    ``model`` is the config's model when the caller has built and checked it already (a
+    session keeps it, :meth:`~app.services.sessions.Session.checked`); it is then not
+    parsed again.
 
     Raises
     ------
@@ -406,7 +419,7 @@ def compute(
     with_digitized = "digitized" in views
     with_operators = "operators" in views
     t0 = time.perf_counter()
-    model = build_model(config.model, max_operators)
+    model = build_model(config.model, max_operators) if model is None else model
     y_meas = None
     units = {"time": "s", "input": "", "output": ""}
     if config.use_recording and recording is not None:

@@ -1,4 +1,4 @@
-"""Pure figure builders (``app.figures``): decimation keeps reversals, figures validate."""
+"""Pure figure builders (``app.services.figures``): decimation keeps reversals, figures validate."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import numpy as np
 import plotly.graph_objects as go
 import pytest
 
-from app import compute as C
-from app import figures as F
 from app.services import config as S
+from app.services import figures as F
+from app.services import simulation as C
 
 
 def test_decimate_keeps_reversals() -> None:

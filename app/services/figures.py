@@ -1,6 +1,6 @@
 """Plotly figure builders shared by the viser GUI and the REST API / static page.
 
-Every builder is a pure function of computed results (:class:`app.compute.Result`, a
+Every builder is a pure function of computed results (:class:`app.services.simulation.Result`, a
 recording and a fitted output): nothing here simulates, inverts or evaluates a model.
 Figures are built as plain plotly JSON (``{"data": [...], "layout": {...}}``) and wrapped
 in :class:`FigureJSON`, which serialises once. The viser plot handle only needs
@@ -25,7 +25,7 @@ import numpy as np
 
 from core.recordings import Recording
 
-from .compute import VIEWS, Loading, Result, decimate_index, pi_part
+from .simulation import VIEWS, Loading, Result, decimate_index, pi_part
 
 __all__ = [
     "MAX_POINTS",
@@ -523,7 +523,8 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
     return FigureJSON(fig.data, new), len(cols)
 
 
-#: Names of the figures :func:`build` can build (one per view of :func:`app.compute.compute`).
+#: Names of the figures :func:`build` can build (one per view of
+#: :func:`app.services.simulation.compute`).
 FIGURES = VIEWS
 
 

@@ -1,4 +1,4 @@
-"""Session exports (``app.exports``) use the core parameter set."""
+"""Session exports (``app.services.exports``) use the core parameter set."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from app import exports as E
 from app.services import config as S
+from app.services import exports as E
 from core.exceptions import ParameterError
 from core.pi import PIModel
 

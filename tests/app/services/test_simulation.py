@@ -1,4 +1,4 @@
-"""The explorer computation (``app.compute``): default config, perturbation, signals.
+"""The explorer computation (``app.services.simulation``): default config, perturbation, signals.
 
 Also: operator contributions in chunks, and no web import below the routers."""
 
@@ -9,8 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from app import compute as C
 from app.services import config as S
+from app.services import simulation as C
 from core.exceptions import ParameterError
 from core.pi import PIModel
 from core.signals import SIGNALS
@@ -19,7 +19,9 @@ from core.signals import SIGNALS
 def test_service_modules_have_no_web_imports() -> None:
     import subprocess
 
-    code = ("import sys, app.services.sessions, app.compute, app.data, app.exports; "
+    code = ("import sys, app.services.sessions, app.services.simulation, "
+            "app.services.recordings, app.services.fitting, app.services.diagnosis, "
+            "app.services.exports; "
             "print([m for m in ('viser', 'fastapi', 'plotly') if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)

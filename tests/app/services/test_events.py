@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 from fastapi.testclient import TestClient
 
-from app.events import QUEUE_SIZE, EventHub
 from app.server import create_app
-from app.settings import Settings
+from app.services.events import QUEUE_SIZE, EventHub
+from app.services.settings import Settings
 
 
 def _run(make: Any) -> Any:

@@ -1,4 +1,5 @@
-"""A session's recordings and fits (``app.data``): CSV via ``core.csvio``, store, fit, clear."""
+"""A session's recordings and fits (``app.services.recordings``, ``app.services.fitting``):
+CSV via ``core.csvio``, store, fit, clear."""
 
 from __future__ import annotations
 
@@ -7,9 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from app import data as D
-from app import exports as E
 from app.services import config as S
+from app.services import exports as E
+from app.services import fitting as FT
+from app.services import recordings as D
 from app.services import sessions as SS
 from core.csvio import CSVError
 from core.pi import PIModel
@@ -38,7 +40,7 @@ def test_session_services_store_fit_export_and_clear() -> None:
     u = 3 * np.sin(2 * np.pi * 3 * t)
     rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))
     D.store_recording(s, rec)
-    model, report = D.fit_session(s, 6)
+    model, report = FT.fit_session(s, 6)
     assert s.fitted == s.config.model == model.to_dict() and report["nrmse_percent"] < 2
     _, payload = E.export_session(s, "json")
     assert json.loads(payload)["provenance"]["fit"]["kind"] == "pi"  # the fit travels along

@@ -21,7 +21,7 @@ from core.paramset import (
     model_from_document,
 )
 
-from .services.sessions import Session
+from .sessions import Session
 
 __all__ = [
     "EXPORT_FORMATS",

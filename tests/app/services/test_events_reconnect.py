@@ -10,7 +10,7 @@ from fastapi.testclient import TestClient
 
 from app.routers import events
 from app.server import create_app
-from app.settings import Settings
+from app.services.settings import Settings
 
 
 def test_a_push_between_two_streams_is_replayed(monkeypatch: pytest.MonkeyPatch) -> None:

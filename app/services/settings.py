@@ -7,14 +7,10 @@ import ipaddress
 import os
 import secrets
 from dataclasses import dataclass, fields, replace
-from pathlib import Path
 
-from .services.cost import Limits
+from .cost import Limits
 
-__all__ = ["STATIC_DIR", "Settings", "is_loopback"]
-
-#: Directory of the plain HTML/JS page, located from this file (never from the CWD).
-STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+__all__ = ["Settings", "is_loopback"]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,329 @@
+"""Pydantic request/response models of the REST API (the only module using pydantic).
+
+The routers declare the response models (``response_model=...``) so that ``/openapi.json``
+describes every JSON response. They are served with ``response_model_exclude_unset=True``:
+a response holds exactly the keys the services returned, in the order declared here (the
+services' order), and numbers keep their type (:data:`Number` where a value may be an int
+or a float), so the bytes are what they were before the models were declared.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..services.config import Config, SignalSpec
+
+__all__ = [
+    "BroadcastOut",
+    "CapabilitiesOut",
+    "ConfigIn",
+    "ConnectedOut",
+    "CsvPreviewOut",
+    "DiagnosisOut",
+    "FigureOut",
+    "FiguresOut",
+    "FitIn",
+    "FitOut",
+    "HealthOut",
+    "JobCreatedOut",
+    "JobListOut",
+    "JobOut",
+    "PresetOut",
+    "PushOut",
+    "RecordingOut",
+    "SessionOut",
+    "SignalIn",
+    "SimulateIn",
+    "SimulateOut",
+    "ViserUrlOut",
+]
+
+#: A JSON number that keeps its type (an int stays an int, a float a float).
+Number = int | float
+
+
+class SignalIn(BaseModel):
+    """Input signal ``offset + amplitude * shape(frequency t)`` on ``[0, duration]``."""
+
+    model_config = ConfigDict(extra="forbid")
+    kind: str = Field("sine", description="signal name, see GET /api/capabilities")
+    amplitude: float = Field(4.0, ge=-1e6, le=1e6, description="input units")
+    frequency: float = Field(1.0, ge=0, le=1e5, description="Hz")
+    offset: float = Field(0.0, ge=-1e6, le=1e6, description="input units")
+    duration: float = Field(2.0, gt=0, le=3600, description="s")
+    samples: int = Field(2000, ge=2, description="number of samples (limit: max_samples)")
+
+    def to_spec(self) -> SignalSpec:
+        """The core-side value object."""
+        return SignalSpec(**self.model_dump())
+
+
+class ConfigIn(BaseModel):
+    """Partial update of a session's config (omitted fields keep their value)."""
+
+    model_config = ConfigDict(extra="forbid")
+    model: dict[str, Any] | None = Field(
+        None, description="a model document with a 'type' field, e.g. {'type': 'pi', ...}"
+    )
+    signal: SignalIn | None = None
+    mismatch: float | None = Field(None, ge=-0.9, le=0.9, description="plant perturbation")
+    use_recording: bool | None = None
+
+    def apply(self, cfg: Config) -> Config:
+        """``cfg`` with the given fields replaced."""
+        from dataclasses import replace
+
+        kw: dict[str, Any] = {}
+        if self.model is not None:
+            kw["model"] = dict(self.model)
+        if self.signal is not None:
+            kw["signal"] = self.signal.to_spec()
+        if self.mismatch is not None:
+            kw["mismatch"] = float(self.mismatch)
+        if self.use_recording is not None:
+            kw["use_recording"] = self.use_recording
+        return replace(cfg, **kw)
+
+
+class SimulateIn(BaseModel):
+    """Stateless simulation request."""
+
+    model_config = ConfigDict(extra="forbid")
+    model: dict[str, Any] = Field(..., description="model document with a 'type' field")
+    signal: SignalIn = Field(default_factory=SignalIn)
+    mismatch: float = Field(0.0, ge=-0.9, le=0.9)
+    figures: list[str] = Field(
+        default_factory=lambda: ["loop"],
+        description="figures to build: time, loop, operators, loading, inverse",
+    )
+    include_data: bool = Field(False, description="also return t, u, y arrays")
+
+
+class FigureOut(BaseModel):
+    """A plotly figure (hand it to Plotly.react)."""
+
+    data: list[dict[str, Any]]
+    layout: dict[str, Any]
+
+
+class SimulateOut(BaseModel):
+    """Simulation result: model properties, figures and optionally the raw signals."""
+
+    model_type: str
+    n_operators: int | None = None
+    slopes: list[float] | None = None
+    max_loop_width: float | None = None
+    invertible: bool | None = None
+    inverse_error: str | None = None
+    figures: dict[str, FigureOut] = Field(default_factory=dict)
+    data: dict[str, list[float]] | None = None
+    elapsed_ms: float
+
+
+class FitIn(BaseModel):
+    """Fit request on the session's uploaded recording."""
+
+    model_config = ConfigDict(extra="forbid")
+    kind: str = Field("pi", description="model kind to fit, see GET /api/capabilities")
+    n: int = Field(10, ge=1, description="number of play operators (limit: max_operators)")
+    apply: bool = Field(True, description="make the fitted model the session's model")
+
+
+# ----------------------------------------------------------------------------- responses
+class HealthOut(BaseModel):
+    """Liveness."""
+
+    status: str = Field(description="'ok'")
+
+
+class ViserUrlOut(BaseModel):
+    """Where the viser GUI listens."""
+
+    enabled: bool
+    url: str | None = Field(None, description="http://host:port/ or null when disabled")
+    port: int | None = None
+
+
+class LimitsOut(BaseModel):
+    """The limits of one request (see docs/serve.md, *Server safety*)."""
+
+    max_upload_bytes: int
+    max_operators: int
+    max_samples: int
+    max_json_depth: int
+    max_model_depth: int
+    max_numbers: int
+    max_creep_terms: int
+    max_lti_order: int
+    min_tau_per_dt: Number
+    max_tau_per_dt: Number
+    max_work: int
+
+
+class CapabilitiesOut(BaseModel):
+    """What the server offers and its limits."""
+
+    model_types: list[str]
+    signals: list[str]
+    presets: list[str]
+    figures: list[str]
+    export_formats: list[str]
+    fit_kinds: list[str]
+    limits: LimitsOut
+
+
+class SignalOut(BaseModel):
+    """An input signal (the fields of :class:`SignalIn`)."""
+
+    kind: str
+    amplitude: Number
+    frequency: Number
+    offset: Number
+    duration: Number
+    samples: int
+
+
+class PresetOut(BaseModel):
+    """A preset of the papers: its model and the input that suits it."""
+
+    name: str
+    title: str
+    description: str
+    model: dict[str, Any] = Field(description="model document with a 'type' field")
+    input: SignalOut
+
+
+class ConfigOut(BaseModel):
+    """A session's config."""
+
+    model: dict[str, Any] = Field(description="model document with a 'type' field")
+    signal: SignalOut
+    mismatch: Number
+    use_recording: bool
+
+
+class RecordingSummaryOut(BaseModel):
+    """The session's recording."""
+
+    name: str
+    samples: int
+
+
+class SessionOut(BaseModel):
+    """A session: its code, version, config, recording and fitted model."""
+
+    code: str = Field(description="the session code, abcd-efgh-jkmn-pqrs")
+    version: int = Field(description="bumped on every change")
+    config: ConfigOut
+    recording: RecordingSummaryOut | None = None
+    fitted: dict[str, Any] | None = Field(None, description="the fitted model document")
+    has_diagnosis: bool
+
+
+class FiguresOut(BaseModel):
+    """Figures of a session's config and the properties of its model."""
+
+    model_type: str
+    n_operators: int | None = None
+    inverse_error: str | None = None
+    figures: dict[str, FigureOut] = Field(default_factory=dict)
+    elapsed_ms: Number
+    version: int
+    slopes: list[Number] | None = Field(None, description="classical PI models only")
+    max_loop_width: Number | None = None
+    invertible: bool | None = None
+    data: dict[str, list[Number]] | None = None
+
+
+class BroadcastOut(BaseModel):
+    """A preset pushed to every session."""
+
+    preset: str
+    sessions: int = Field(description="sessions changed")
+
+
+class PushOut(BaseModel):
+    """The teacher's push."""
+
+    preset: str | None = None
+    sessions: int = Field(description="sessions changed (used in the last hour)")
+    pages: int = Field(description="open pages told at once")
+
+
+class ConnectedOut(BaseModel):
+    """Pages that listen live."""
+
+    pages: int
+    sessions_live: int = Field(description="sessions with an open page")
+    sessions: int = Field(description="sessions in memory")
+    codes: list[str]
+
+
+class CsvPreviewOut(BaseModel):
+    """The layout of a CSV body (the column-mapping step)."""
+
+    columns: list[str]
+    rows: list[list[str]] = Field(description="the first data rows, as text")
+    n_rows: int
+    encoding: str
+    notes: list[str]
+
+
+class RecordingOut(BaseModel):
+    """The recording stored from an upload."""
+
+    name: str
+    samples: int
+    notes: list[str] = Field(description="cleaning notes: removed rows, the run kept, ...")
+    runs: list[str] = Field(description="run ids of the file's run column (empty without)")
+    run: str | None = None
+    t_range: list[Number]
+    u_range: list[Number]
+    y_range: list[Number]
+
+
+class FitOut(BaseModel):
+    """A fit: the model, its report and the overlay figure."""
+
+    model: dict[str, Any] = Field(description="the fitted model document")
+    report: dict[str, Any] = Field(description="errors, held-out RMSE, kind, n_operators")
+    figure: FigureOut
+
+
+class DiagnosisOut(BaseModel):
+    """A diagnosis: findings, held-out RMSE before and after, and the core's document."""
+
+    engine: str
+    findings: list[str]
+    baseline_rmse_pct: Number | None = None
+    final_rmse_pct: Number | None = None
+    effects: list[Any]
+    document: dict[str, Any] = Field(description="core.diagnosis DiagnosisResult.to_dict()")
+
+
+class JobCreatedOut(BaseModel):
+    """A queued job."""
+
+    id: str
+    kind: Literal["fit", "diagnose"]
+    state: str
+
+
+class JobOut(BaseModel):
+    """A job's state, progress (0..1), message, error and (once done) result."""
+
+    id: str
+    kind: Literal["fit", "diagnose"]
+    state: str = Field(description="queued, running, done, failed or cancelled")
+    progress: Number
+    message: str
+    error: str | None = None
+    result: Any = Field(None, description="FitOut or DiagnosisOut once done")
+
+
+class JobListOut(BaseModel):
+    """The session's newest jobs, newest first (without their results)."""
+
+    jobs: list[JobOut]

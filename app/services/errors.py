@@ -1,0 +1,11 @@
+"""The errors the services raise with a message for the user; the interfaces translate them
+(a 422, 503 or a toast) and import them from here, not from :mod:`core`."""
+
+from __future__ import annotations
+
+from core.csvio import CSVError
+from core.exceptions import NotInvertibleError, ParameterError
+
+from .sessions import StoreFullError
+
+__all__ = ["CSVError", "NotInvertibleError", "ParameterError", "StoreFullError"]
