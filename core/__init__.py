@@ -5,6 +5,7 @@ Import-light on purpose: no web or plotting libraries are imported here.
 
 from __future__ import annotations
 
+from . import models  # noqa: F401  (imports and registers every model type)
 from .base import Chain, Model, Response, model_from_dict, register_model, registered_types
 from .closed_loop import ClosedLoopResult, HammersteinLoop, paper001_loop, simulate_fig16
 from .csvio import (

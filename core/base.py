@@ -102,8 +102,6 @@ def model_from_dict(d: dict[str, Any]) -> Model:
     if not isinstance(d, dict):
         raise ParameterError(f"a model must be a JSON object, got {type(d).__name__}")
     t = d.get("type")
-    if t not in _REGISTRY and isinstance(t, str):
-        from . import models  # noqa: F401  (registers every model type of the project)
     if t not in _REGISTRY:
         raise ParameterError(
             f"unknown model type {t!r}; known types: {', '.join(registered_types())}"

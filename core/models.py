@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from . import deadzone, digitized, digitized_deadzone, effects, gpi, lti, pi, preisach  # noqa: F401
 from .base import Field, Model, model_class, registered_types
 from .exceptions import ParameterError
+from .export_c import supported_c_types
 
 __all__ = ["DEFAULT_FIT_KIND", "ModelType", "estimator_class", "fit_kinds", "model_type",
            "model_types"]
@@ -63,8 +64,6 @@ class ModelType:
 
 def model_type(name: str) -> ModelType:
     """The declaration of model type ``name`` (``ParameterError`` if unknown)."""
-    from .export_c import supported_c_types
-
     cls = model_class(name)
     needs_dt = cls.__dict__.get("needs_dt", getattr(cls, "needs_dt", False))
     return ModelType(

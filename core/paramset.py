@@ -306,9 +306,8 @@ def _check_generic(v: object, path: str) -> None:
 
 
 def ensure_model_types_registered() -> list[str]:
-    """Import every model module (:mod:`core.models`); return the registered types."""
-    from . import models  # noqa: F401
-
+    """The registered model types (importing :mod:`core` imports every model module, through
+    :mod:`core.models`)."""
     return registered_types()
 
 

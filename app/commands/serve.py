@@ -108,8 +108,8 @@ def run(args: argparse.Namespace) -> int:
     import uvicorn
 
     from ..server import create_app
+    from ..services.settings import Settings
     from ..services.store import default_state_dir
-    from ..settings import Settings
 
     settings = Settings.from_env(
         host=args.host,

@@ -57,7 +57,8 @@ from benchmarks.diagnosis.generator import (  # noqa: E402
 )
 from core.diagnosis import diagnose  # noqa: E402
 from core.diagnosis.data import split_masks  # noqa: E402
-from core.diagnosis.structure import Structure, baseline_thresholds, fit_structure  # noqa: E402
+from core.diagnosis.grid import baseline_thresholds  # noqa: E402
+from core.diagnosis.structure import Structure, fit_structure  # noqa: E402
 
 
 def oracle_rmse(records, effect: str | None, n_ops: int,

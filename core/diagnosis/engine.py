@@ -81,6 +81,7 @@ from .crossfitting import (
     screen_gain,
 )
 from .data import as_records, crossfit_folds, split_masks
+from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
@@ -97,7 +98,7 @@ from .results import (
 from .shapes import shape_thresholds
 from .specs import DECIDING_EXPERIMENT, FAMILY_PRIORITY
 from .stats import HeldOut, heldout_comparison, noise_floor
-from .structure import Fit, Structure, baseline_thresholds
+from .structure import Fit, Structure
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from .engine import DiagnosisResult
+    from .results import DiagnosisResult
 
 __all__ = ["summary_text"]
 

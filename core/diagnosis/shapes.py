@@ -35,6 +35,7 @@ from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
 from ..gpi import DeadZoneGPI, TanhEnvelope, TanhGPI
 from ..pi import PIModel
+from .grid import baseline_thresholds
 
 __all__ = ["DEAD_BAND_SLOPE", "SHAPE_EFFECTS", "apply_shape", "dead_band_words",
            "dead_zone_stage", "describe_shape", "hysteresis_model", "shape_effects",
@@ -106,8 +107,6 @@ def shape_thresholds(
 ) -> Float1D:
     """``n`` play thresholds in the units of ``w``, by the baseline's rule
     (:func:`core.diagnosis.structure.baseline_thresholds` on the mapped inputs)."""
-    from .structure import baseline_thresholds
-
     mapped = [SimpleNamespace(u=apply_shape(shape, r.u)) for r in records]
     return baseline_thresholds(mapped, masks, n)  # type: ignore[arg-type]
 

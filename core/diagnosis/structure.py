@@ -32,40 +32,17 @@ from ..effects import (
     foh_filter,
     rd_play_bank,
 )
-from ..exceptions import ParameterError
 from ..fitting.gram import COND_LIMIT, solve_constrained
-from ..fitting.thresholds import half_travels
-from ..fitting.thresholds import place_thresholds as fit_thresholds
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
 from ..preisach import PreisachModel, level_segments
 from ..recordings import Recording
+from .grid import baseline_thresholds
 from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
-
-
-def baseline_thresholds(
-    records: Sequence[Recording], masks: Sequence[np.ndarray], n: int
-) -> Float1D:
-    """Uniform thresholds ``r_i = 0.95 · a_max · i / n`` (:func:`core.fitting.place_thresholds`).
-
-    ``a_max`` is the largest half-travel between input reversals inside the training rows
-    (:func:`core.fitting.thresholds.half_travels`), or the largest excursion from the first
-    sample (plays start at rest there), if larger.
-    """
-    a_max = 0.0
-    for r, m in zip(records, masks, strict=True):
-        u = r.u[m] if m.any() else r.u
-        if float(np.ptp(u)) > 0:
-            a_max = max(a_max, float(half_travels([u]).max()))
-        # from the (virgin) initial state the first travel moves plays up to its full length
-        a_max = max(a_max, float(np.max(np.abs(r.u - r.u[0]))))
-    if a_max <= 0:
-        raise ParameterError("the input never moves in the training data; nothing to fit")
-    return fit_thresholds([r.u for r in records], n, "uniform", r_max=0.95 * a_max)
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,9 @@ from core.diagnosis import diagnose
 from core.diagnosis.between import between_recordings, left_out_residual
 from core.diagnosis.context import FitContext
 from core.diagnosis.data import split_masks
+from core.diagnosis.grid import baseline_thresholds
 from core.diagnosis.periodic import steady_state_history
-from core.diagnosis.structure import Structure, baseline_thresholds
+from core.diagnosis.structure import Structure
 from core.effects import InitialMemory
 from core.recordings import Recording
 

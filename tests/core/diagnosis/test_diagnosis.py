@@ -9,8 +9,9 @@ import pytest
 
 from core.base import Chain, Model
 from core.diagnosis import as_records, diagnose, split_masks
+from core.diagnosis.grid import baseline_thresholds
 from core.diagnosis.stats import heldout_comparison, score_test
-from core.diagnosis.structure import baseline_thresholds, fit_structure
+from core.diagnosis.structure import fit_structure
 from core.effects import Asymmetry, InitialMemory, Lag
 from core.exceptions import ParameterError
 from core.pi import PIModel

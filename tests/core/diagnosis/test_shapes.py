@@ -207,7 +207,8 @@ def test_search_context_keeps_play_outputs_exact() -> None:
     from core.diagnosis.candidates import search_context
     from core.diagnosis.context import FitContext
     from core.diagnosis.data import split_masks
-    from core.diagnosis.structure import Structure, baseline_thresholds
+    from core.diagnosis.grid import baseline_thresholds
+    from core.diagnosis.structure import Structure
 
     t = np.arange(0, 6.0, 2e-4)
     u = 4 * np.sin(2 * np.pi * 1.3 * t) * (1 + 0.3 * np.sin(2 * np.pi * 0.21 * t))
