@@ -47,6 +47,7 @@ from benchmarks.diagnosis.families import (
 )
 from benchmarks.diagnosis.generator import (
     COMBOS,
+    PERIODIC_CLASSES,
     SHAPES,
     Scenario,
     make_amplitude_set,
@@ -57,7 +58,6 @@ from benchmarks.diagnosis.generator import (
     make_single_staircase,
     make_weak,
 )
-from benchmarks.diagnosis.run_benchmark import PERIODIC_CLASSES
 
 __all__ = ["CLASSES", "FAMILY_CASES", "FAMILY_CLASS", "jobs", "recovery_table", "run_class_job",
            "summarise_classes", "summarise_families"]
@@ -163,7 +163,7 @@ def _hidden(cls: str, case: str, sc: Scenario) -> dict[str, dict[str, Any]]:
 
 def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
     """Diagnose one class scenario and return its JSON row."""
-    from benchmarks.diagnosis.run_benchmark import oracle_rmse
+    from benchmarks.diagnosis.oracle import oracle_rmse
     from core.diagnosis import diagnose
 
     cls, case, noise, seed = job

@@ -424,3 +424,13 @@ def make_closed_loop(noise: str = "white1", seed: int = 0, samples: int = 200) -
     y = truth_pi()(u)[2 * samples:] + _noise(noise, samples + 1, float(samples), rng)
     rec = Recording(t[: samples + 1], u[2 * samples:], y, "closed loop")
     return Scenario(None, noise, seed, "-", {}, [rec], [truth_pi()], 0.0)
+
+
+#: Short periodic recordings (``make_periodic_set``): class -> (beta_s, frequencies).
+PERIODIC_CLASSES: dict[str, tuple[float | None, tuple[float, ...]]] = {
+    "null (PI, 4 frequencies)": (None, PERIODIC_FREQS),
+    "weaker rate (loop area +3 %)": (0.0006, PERIODIC_FREQS),
+    "weak rate (loop area +9 %)": (0.002, PERIODIC_FREQS),
+    "rate (loop area +2/3)": (0.025, PERIODIC_FREQS),
+    "rate, one frequency (untestable)": (0.025, (1.0, 1.0, 1.0, 1.0)),
+}

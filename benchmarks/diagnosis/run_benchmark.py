@@ -49,65 +49,14 @@ from benchmarks.diagnosis.families import jsonable, parameter_recovery  # noqa: 
 from benchmarks.diagnosis.generator import (  # noqa: E402
     EFFECTS,
     LEVEL_NAMES,
-    PERIODIC_FREQS,
+    PERIODIC_CLASSES,
     magnitude,
     make_periodic_set,
     make_scenario,
     scenario_id,
 )
+from benchmarks.diagnosis.oracle import oracle_rmse  # noqa: E402
 from core.diagnosis import diagnose  # noqa: E402
-from core.diagnosis.data import split_masks  # noqa: E402
-from core.diagnosis.grid import baseline_thresholds  # noqa: E402
-from core.diagnosis.structure import Structure, fit_structure  # noqa: E402
-
-
-def oracle_rmse(records, effect: str | None, n_ops: int,
-                lv: dict | None = None, hidden: dict | None = None) -> tuple[float, float]:
-    """Held-out RMSE of the baseline structure and of the true-effect structure.
-
-    ``lv``: the true parameters of the effect (default: its L2 magnitude); ``hidden``
-    (name -> parameters) instead gives several effects at once. Effects the diagnosis
-    structure cannot hold (loop-shape maps) are left out of the oracle.
-    """
-    tr, te, _ = split_masks(records)
-    r = baseline_thresholds(records, tr, n_ops)
-    base = Structure(tuple(float(x) for x in r), tuple(() for _ in records))
-    if hidden is None:
-        hidden = {effect: magnitude(effect, "L2") if lv is None else lv} if effect else {}
-    s = base
-    for name, p in hidden.items():
-        s = _with_true(s, name, p, len(records))
-
-    def rmse(st):
-        f = fit_structure(st, records, tr)
-        e = np.concatenate([(rec.y - p)[m] for rec, p, m in zip(records, f.pred, te,
-                                                                strict=True)])
-        return float(np.sqrt(np.mean(e * e)))
-
-    b = rmse(base)
-    return b, (rmse(s) if s != base else b)
-
-
-def _with_true(s: Structure, effect: str, lv: dict, n_rec: int) -> Structure:
-    """``s`` with the true structure of ``effect`` (true nonlinear parameters)."""
-    if effect in ("delay", "lag"):
-        return s.with_(dynamics=(effect, next(iter(lv.values()))))
-    if effect == "resonance":
-        return s.with_(dynamics=("resonance", lv["freq_hz"], lv["damping"]))
-    if effect == "rate":
-        return s.with_(beta_s=lv["beta_s"])
-    if effect == "creep":
-        return s.with_(creep_taus=(0.01, 0.1, 1.0, 10.0, 100.0))
-    if effect == "drift":
-        return s.with_(drift_degree=4)
-    if effect == "asymmetry":
-        return s.with_(asymmetry=True)
-    if effect == "offset":
-        return s.with_(offsets=True)
-    if effect == "initial-memory":
-        return s.with_(history=(tuple(lv["history"]),) + tuple(() for _ in range(n_rec - 1)))
-    return s  # loop-shape maps: not representable in the diagnosis structure here
-
 
 DETECTABLE = 0.05  # oracle held-out MSE reduction (notes §7.2)
 HARM = -0.05  # "do no harm" floor of the gap closure (notes §7.6)
@@ -335,16 +284,6 @@ def summarise(rows: list[dict]) -> str:
     lines += ["", f"diagnosis time per scenario: median "
               f"{np.median([r['elapsed_s'] for r in rows]):.1f} s"]
     return "\n".join(lines)
-
-
-#: Short periodic recordings (``make_periodic_set``): class -> (beta_s, frequencies).
-PERIODIC_CLASSES: dict[str, tuple[float | None, tuple[float, ...]]] = {
-    "null (PI, 4 frequencies)": (None, PERIODIC_FREQS),
-    "weaker rate (loop area +3 %)": (0.0006, PERIODIC_FREQS),
-    "weak rate (loop area +9 %)": (0.002, PERIODIC_FREQS),
-    "rate (loop area +2/3)": (0.025, PERIODIC_FREQS),
-    "rate, one frequency (untestable)": (0.025, (1.0, 1.0, 1.0, 1.0)),
-}
 
 
 def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[dict]:
