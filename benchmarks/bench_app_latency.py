@@ -130,10 +130,10 @@ def make_gui():  # noqa: ANN201 - returns a closure
     view.worker.wait_idle(60)
 
     def gui(c: Config) -> int:
-        view.w_sliders[3].value = c.model["weights"][3]
+        view.ui.w_sliders[3].value = c.model["weights"][3]
         view.worker.wait_idle(60)
         assert view.rendered_version == view.session.version
-        return len(view.plot.figure.to_json())
+        return len(view.ui.plot.figure.to_json())
 
     def close() -> None:
         view.close()

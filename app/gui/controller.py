@@ -75,8 +75,7 @@ class SessionView:
 
     Notes
     -----
-    The widgets are :attr:`ui` (:class:`~app.gui.layout.Widgets`); ``view.plot`` and
-    the other widget names read through to it.
+    The widgets are :attr:`ui` (:class:`~app.gui.layout.Widgets`): ``view.ui.plot``.
     """
 
     def __init__(
@@ -116,13 +115,6 @@ class SessionView:
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
         self.worker.request()
-
-    def __getattr__(self, name: str) -> Any:
-        """Widgets by name (``view.plot`` is ``view.ui.plot``)."""
-        ui = self.__dict__.get("ui")
-        if ui is not None and not name.startswith("__") and hasattr(ui, name):
-            return getattr(ui, name)
-        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     @property
     def narrow(self) -> bool:

@@ -117,8 +117,8 @@ def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
         v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
                         download=lambda n, b: None, scene=server.scene)
         try:
-            assert tuple(v.fit_kind.options) == fit_kinds()
-            assert "probe-pi" in v.fit_kind.options and v.fit_kind.value == "pi"
+            assert tuple(v.ui.fit_kind.options) == fit_kinds()
+            assert "probe-pi" in v.ui.fit_kind.options and v.ui.fit_kind.value == "pi"
         finally:
             v.close()
     finally:

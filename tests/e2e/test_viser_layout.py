@@ -45,7 +45,7 @@ def _three_operators(url: str, view: Any) -> None:
     req = urllib.request.Request(f"{url}api/sessions/{view.session.code}/config", data=body,
                                  method="PATCH", headers={"Content-Type": "application/json"})
     urllib.request.urlopen(req, timeout=30).close()
-    view.view_dd.value = "Digitized states"
+    view.ui.view_dd.value = "Digitized states"
     assert view.worker.wait_idle(30)
 
 
@@ -114,12 +114,12 @@ def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
     p000, p111 = pts[0] - d * (pts[0] @ d), pts[-1] - d * (pts[-1] @ d)
     assert np.linalg.norm(p000 - p111) > 0.5
     # stepping back moves the state, the 3D marker and the plot's marker together
-    last = int(view.digi_step.value)
+    last = int(view.ui.digi_step.value)
     view._step_by(-1)
     tr = view.last_result.digitized.trace
-    cur = next(t for t in view.plot.figure.data if t["name"] == "current state")
+    cur = next(t for t in view.ui.plot.figure.data if t["name"] == "current state")
     assert cur["x"] == [float(tr.x_b[last - 1])]
-    assert f"State {last - 1}/" in view.digi_md.content
+    assert f"State {last - 1}/" in view.ui.digi_md.content
     # the plot toolbar offers nothing that uploads the chart
     page.hover(".js-plotly-plot")
     page.wait_for_selector(".modebar-btn")

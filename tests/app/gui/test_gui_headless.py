@@ -47,7 +47,7 @@ def _idle(v: SessionView) -> None:
 
 def _loop_y(v: SessionView) -> np.ndarray:
     assert v.shown_figure == "loop"
-    return F.values(v.plot.figure.data[0]["y"])
+    return F.values(v.ui.plot.figure.data[0]["y"])
 
 
 def test_opens_on_example1_with_loop_drawn(view: SessionView) -> None:
@@ -57,13 +57,13 @@ def test_opens_on_example1_with_loop_drawn(view: SessionView) -> None:
     res = view.last_result
     assert res is not None
     np.testing.assert_allclose(res.y, m(res.u))
-    assert "1.518" in view.model_md.content  # max loop width of Example 1
-    assert res.digitized is not None and "digits" in view.digi_md.content
+    assert "1.518" in view.ui.model_md.content  # max loop width of Example 1
+    assert res.digitized is not None and "digits" in view.ui.digi_md.content
 
 
 def test_slider_updates_session_and_plot(view: SessionView) -> None:
     before = _loop_y(view)
-    view.w_sliders[0].value = 1.2
+    view.ui.w_sliders[0].value = 1.2
     _idle(view)
     assert view.session.config.model["weights"][0] == 1.2
     assert view.rendered_version == view.session.version
@@ -71,26 +71,26 @@ def test_slider_updates_session_and_plot(view: SessionView) -> None:
 
 
 def test_invalid_threshold_shows_message_keeps_model(view: SessionView) -> None:
-    view.r_sliders[0].value = 5.0
+    view.ui.r_sliders[0].value = 5.0
     _idle(view)
-    assert "increasing" in view.model_md.content
+    assert "increasing" in view.ui.model_md.content
     assert view.session.config.model["thresholds"][0] == 0.45
 
 
 def test_non_invertible_weights_message(view: SessionView) -> None:
-    view.p0.value = -0.2
+    view.ui.p0.value = -0.2
     _idle(view)
-    assert "not invertible" in view.inverse_md.content
-    view.view_dd.value = "Inverse"
+    assert "not invertible" in view.ui.inverse_md.content
+    view.ui.view_dd.value = "Inverse"
     _idle(view)
     assert view.shown_figure == "inverse"
-    assert "not invertible" in json.dumps(view.plot.figure.layout)
+    assert "not invertible" in json.dumps(view.ui.plot.figure.layout)
 
 
 def test_operator_count_rebuilds_sliders(view: SessionView) -> None:
-    view.n_ops.value = 12
+    view.ui.n_ops.value = 12
     _idle(view)
-    assert len(view.r_sliders) == 12 and len(view.session.config.model["weights"]) == 12
+    assert len(view.ui.r_sliders) == 12 and len(view.session.config.model["weights"]) == 12
 
 
 def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
@@ -98,7 +98,7 @@ def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
     view.session.update(lambda c: c.with_model({"type": "pi", "p0": 1.1, "thresholds": [1.0, 2.0],
                                                 "weights": [0.3, 0.2]}))
     _idle(view)
-    assert view.p0.value == pytest.approx(1.1) and len(view.w_sliders) == 2
+    assert view.ui.p0.value == pytest.approx(1.1) and len(view.ui.w_sliders) == 2
     assert view.session.version == v0 + 1  # the sync did not write back
 
 
@@ -107,16 +107,16 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
     u = 3 * np.sin(2 * np.pi * 3 * t)
     y = PIModel(0.7, [0.5, 1.0], [0.5, 0.4])(u)
     text = "t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True))
-    view.upload._impl.value = SimpleNamespace(name="m.csv", content=text.encode())
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
-    assert "800 samples" in view.data_md.content
-    view.fit_n.value = 6
+    view.ui.upload._impl.value = SimpleNamespace(name="m.csv", content=text.encode())
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
+    assert "800 samples" in view.ui.data_md.content
+    view.ui.fit_n.value = 6
     view._fit_clicked(SimpleNamespace(client=None))
-    assert "RMS error" in view.report_md.content
+    assert "RMS error" in view.ui.report_md.content
     _idle(view)
-    assert view.shown_figure == "fit" and "Fit overlay" in view.plot.figure.to_json()
+    assert view.shown_figure == "fit" and "Fit overlay" in view.ui.plot.figure.to_json()
     view._diagnose_clicked(SimpleNamespace(client=None))
-    assert "Diagnosis" in view.report_md.content
+    assert "Diagnosis" in view.ui.report_md.content
     view._report_clicked(SimpleNamespace(client=None))
     assert view.downloads[-1][0].endswith(".html")  # type: ignore[attr-defined]
     view._export(SimpleNamespace(client=None), "json")
@@ -125,32 +125,33 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
 
 
 def test_bad_csv_message(view: SessionView) -> None:
-    view.upload._impl.value = SimpleNamespace(name="bad.csv", content=b"t,u,y\n0,1,x\n")
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
-    assert "line 2" in view.data_md.content and md_text("'y' (column 2)") in view.data_md.content
+    view.ui.upload._impl.value = SimpleNamespace(name="bad.csv", content=b"t,u,y\n0,1,x\n")
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
+    md = view.ui.data_md.content
+    assert "line 2" in md and md_text("'y' (column 2)") in md
 
 
 def test_markup_in_csv_name_and_cells_is_text(view: SessionView) -> None:
     evil = "<img src=x onerror=alert(1)>"
-    view.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
+    view.ui.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
                                               content=f"t,u,y\n0,1,{evil}\n".encode())
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
-    assert "<img" not in view.data_md.content and "&lt;img" in view.data_md.content
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
+    assert "<img" not in view.ui.data_md.content and "&lt;img" in view.ui.data_md.content
     rows = "\n".join(f"{k * 1e-3},{np.sin(k / 9)},{np.sin(k / 9)}" for k in range(50))
-    view.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
+    view.ui.upload._impl.value = SimpleNamespace(name=f"{evil}.csv",
                                               content=f"t,{evil},y\n{rows}\n".encode())
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
     assert view.session.recording is not None
-    assert "<img" not in view.data_md.content and "&lt;img" in view.data_md.content
+    assert "<img" not in view.ui.data_md.content and "&lt;img" in view.ui.data_md.content
 
 
 def test_deadzone_operators_stack_on_the_dead_zoned_input(view: SessionView) -> None:
     from app.services.simulation import preset_doc
 
     view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
-    view.view_dd.value = "Operators"
+    view.ui.view_dd.value = "Operators"
     _idle(view)
-    fig = view.plot.figure
+    fig = view.ui.plot.figure
     parts = [F.values(t["y"]) for t in fig.data if t.get("stackgroup")]
     total = next(F.values(t["y"]) for t in fig.data if t["name"] == "y (sum)")
     np.testing.assert_allclose(np.sum(parts, axis=0), total, atol=1e-4 * np.ptp(total))
@@ -158,31 +159,31 @@ def test_deadzone_operators_stack_on_the_dead_zoned_input(view: SessionView) -> 
 
 def test_digitized_preset_input_spans_its_loop_and_steps(view: SessionView) -> None:
     title = next(t for t, n in view._preset_names.items() if n == "paper000-three-operators")
-    view.preset.value = title
+    view.ui.preset.value = title
     view._preset_clicked(SimpleNamespace(client=None))
-    view.view_dd.value = "Digitized states"
+    view.ui.view_dd.value = "Digitized states"
     _idle(view)
     sig = view.session.config.signal
     assert sig.offset - sig.amplitude < 0 and sig.offset + sig.amplitude > 10  # 0…10 spanned
-    last = int(view.digi_step.value)
+    last = int(view.ui.digi_step.value)
     view._step_by(-1)
-    assert int(view.digi_step.value) == last - 1
-    assert f"State {last - 1}/" in view.digi_md.content
+    assert int(view.ui.digi_step.value) == last - 1
+    assert f"State {last - 1}/" in view.ui.digi_md.content
     # the figure's current-state marker follows the step
-    cur = next(t for t in view.plot.figure.data if t["name"] == "current state")
+    cur = next(t for t in view.ui.plot.figure.data if t["name"] == "current state")
     tr = view.last_result.digitized.trace
     assert cur["x"] == [float(tr.x_b[last - 1])]
 
 
 def test_join_other_session(view: SessionView) -> None:
     other = view.registry.create()  # codes are made by the server only (issue 10)
-    view.code_in.value = other.code.upper()
+    view.ui.code_in.value = other.code.upper()
     view._join_clicked(SimpleNamespace(client=None))
     _idle(view)
     assert view.session is other
     n = len(view.registry)
     for typed in ("room-42", "abcd-efgh-jkmn-pqrs"):  # malformed, well-formed but unknown
-        view.code_in.value = typed
+        view.ui.code_in.value = typed
         view._join_clicked(SimpleNamespace(client=None))
         title, body, error = view.toasts[-1]
         assert title == "No such session" and error, view.toasts[-1]
@@ -202,12 +203,12 @@ def test_join_shows_the_sessions_preset(view: SessionView) -> None:
     other = view.registry.create()
     actions.load_preset(other, "paper001-example4", with_input=True)
     title = next(t for t, n in view.ui.preset_names.items() if n == "paper001-example4")
-    assert view.preset.value != title
-    view.code_in.value = other.code
+    assert view.ui.preset.value != title
+    view.ui.code_in.value = other.code
     view._join_clicked(SimpleNamespace(client=None))
     _idle(view)
-    assert view.session is other and view.preset.value == title
-    assert "dead zones" in view.preset_md.content
+    assert view.session is other and view.ui.preset.value == title
+    assert "dead zones" in view.ui.preset_md.content
     changed = dict(other.config.model, p0=0.5)
     assert actions.matching_preset(changed) is None
 
@@ -218,17 +219,17 @@ def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
     doc = preset_doc("paper001-example4")
     view.session.update(lambda c: c.with_model(doc["model"]))
     _idle(view)
-    assert not view.pi_folder.visible and view.param_folder.visible
-    h = view.param_sliders["pi.p0"]
+    assert not view.ui.pi_folder.visible and view.ui.param_folder.visible
+    h = view.ui.param_sliders["pi.p0"]
     h.value = 0.8
     _idle(view)
     assert view.session.config.model["pi"]["p0"] == 0.8
     # a non-monotone dead zone is refused with a message next to the controls
     v = view.session.version
-    view.param_sliders["deadzone.thresholds[0]"].value = 2.9
+    view.ui.param_sliders["deadzone.thresholds[0]"].value = 2.9
     _idle(view)
     assert view.session.version == v
-    assert "Not applied" in view.model_md.content
+    assert "Not applied" in view.ui.model_md.content
 
 
 def test_numeric_leaves_round_trip() -> None:
@@ -243,7 +244,7 @@ def test_numeric_leaves_round_trip() -> None:
 
 def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
     other = view.registry.create()
-    view.p0.value = 1.3
+    view.ui.p0.value = 1.3
     _idle(view)
     view._push_clicked(SimpleNamespace(client=None))
     assert other.config.model["p0"] == 1.3
@@ -258,16 +259,16 @@ def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
     monkeypatch.setattr(Settings, "teacher_ok",
                         lambda self, tok: calls.append(tok) or real(self, tok))
     other = view.registry.create()
-    view.p0.value = 1.1
+    view.ui.p0.value = 1.1
     _idle(view)
     for settings, token, pushed in ((Settings(teacher_token="s3cret"), "nope", False),
                                     (Settings(teacher_token="s3cret"), "", False),
                                     (Settings(host="0.0.0.0"), "", False),
                                     (Settings(teacher_token="s3cret"), "s3cret", True)):
         view.settings = settings
-        view.teacher_token.value = token
+        view.ui.teacher_token.value = token
         view._push_clicked(SimpleNamespace(client=None))
-        assert view.teacher_token.value == ""  # never left on a projector
+        assert view.ui.teacher_token.value == ""  # never left on a projector
         assert (other.config.model["p0"] == 1.1) is pushed, (settings, token)
         assert view.toasts[-1][0] == ("Pushed" if pushed else "Not pushed")
     assert calls == ["nope", None, "s3cret"]
@@ -304,22 +305,22 @@ def test_latest_wins_worker_skips_stale_requests() -> None:
 
 def test_recording_units_label_the_axes(view: SessionView) -> None:
     rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
-    view.upload._impl.value = SimpleNamespace(
+    view.ui.upload._impl.value = SimpleNamespace(
         name="piezo.csv", content=f"t [s],u [V],y [µm]\n{rows}\n".encode())
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
     assert view.session.recording is not None
     assert view.session.recording.units["input"] == "V"
     _idle(view)
-    lay = view.plot.figure.layout
+    lay = view.ui.plot.figure.layout
     assert lay["xaxis"]["title"]["text"] == "input u [V]"
     assert lay["yaxis"]["title"]["text"] == "output y [µm]"
-    assert "| u [V] |" in view.data_md.content
+    assert "| u [V] |" in view.ui.data_md.content
 
 
 def test_second_fit_while_one_runs_is_refused(view: SessionView) -> None:
     rows = "\n".join(f"{k * 1e-3},{3 * np.sin(k / 20)},{2 * np.sin(k / 20)}" for k in range(300))
-    view.upload._impl.value = SimpleNamespace(name="r.csv", content=f"t,u,y\n{rows}\n".encode())
-    view._csv_uploaded(SimpleNamespace(target=view.upload, client=None))
+    view.ui.upload._impl.value = SimpleNamespace(name="r.csv", content=f"t,u,y\n{rows}\n".encode())
+    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
     view._work_lock.acquire()  # a diagnosis is running
     try:
         view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
@@ -328,4 +329,4 @@ def test_second_fit_while_one_runs_is_refused(view: SessionView) -> None:
     assert view.session.fitted is None
     assert any("already running" in body for _, body, _ in view.toasts)
     view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
-    assert view.session.fitted is not None and not view.fit_btn.disabled
+    assert view.session.fitted is not None and not view.ui.fit_btn.disabled
