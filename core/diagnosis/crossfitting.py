@@ -17,6 +17,7 @@ from .between import (
 from .candidates import build_candidate
 from .context import FitContext
 from .data import crossfit_folds
+from .registry import EFFECTS
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit, Structure
 
@@ -99,9 +100,6 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
             "fold_parameters": params, "parameter_cv": cv, "before": eb, "after": ea}
 
 
-#: Effects whose parameters are linear weights (one least-squares solve, cheap to refit).
-LINEAR_EFFECTS = ("creep", "drift", "asymmetry", "offset")
-
 
 def block_jackknife(param_sets: list[dict[str, Any]]) -> dict[str, Any]:
     """Block-jackknife 1-sigma of every numeric parameter from delete-one-block fits.
@@ -136,7 +134,7 @@ def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any]
     profile-curvature sigmas (inflated for autocorrelation); the initial memory has none.
     """
     params = cf["fold_parameters"] if cf is not None else None
-    if params is None and name in LINEAR_EFFECTS:
+    if params is None and EFFECTS[name].linear:
         # four blocks bound the cost (the jackknife needs few; a diagnosis stays <= 30 s)
         folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=4)
         params = []

@@ -85,7 +85,7 @@ from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
-from .registry import EFFECTS, output_dynamics
+from .registry import EFFECTS, output_dynamics, rate_effect
 from .results import (
     ACCEPT_RULE,
     BaseChoice,
@@ -236,7 +236,7 @@ def diagnose(
     run_ = _Run(ctx, _noise_rms(ctx, base_fit), untestable_effects(ctx), max_effects,
                 between_plan(ctx, windows=train is not None or test is not None), say=say)
     todo = [e for e in todo if e not in run_.untestable_names]
-    run_.rate_testable = "rate" in todo
+    run_.rate_testable = rate_effect() in todo
     cur = base_fit
     for rnd in range(max_effects):
         cands, rows = _search(run_, cur, todo, rnd)
@@ -864,13 +864,14 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
             and run.rate_testable):
         # rate-dependent plays are not modelled on a Preisach base: say so rather than
         # let the dynamics stand in for them unchallenged
-        run.findings[-1].ambiguous_with.append("rate")
+        rate = rate_effect()
+        run.findings[-1].ambiguous_with.append(rate)
         run.ambiguous.append({
-            "effects": [named, "rate"], "chosen": named,
+            "effects": [named, rate], "chosen": named,
             "reason": "on a Preisach base (level-dependent memory) rate-dependent hysteresis "
             f"is not modelled, so {named} was not compared with it",
-            "experiment": DECIDING_EXPERIMENT.get(frozenset({named, "rate"}),
-                                                  EFFECTS["rate"].experiment)})
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({named, rate}),
+                                                  EFFECTS[rate].experiment)})
     return new
 
 

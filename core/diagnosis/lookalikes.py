@@ -13,84 +13,26 @@ from typing import Any
 
 import numpy as np
 
-from ..fitting.thresholds import wipeout_index
-from .between import (
-    recording_rates,
-)
 from .context import FitContext
-from .periodic import steady_state_history
-from .registry import EFFECTS
 from .specs import spec_untestable, time_effects
 from .stats import score_test
 from .structure import Fit
 
-#: A single recording shorter than this (s) cannot test a drift: a polynomial in time over
-#: it is as well a slow wander of the sensor noise (issue 16, failure 4: a 22 s staircase of
-#: a plant without any hidden effect got ``drift`` under white and coloured noise, 2 of 18).
-SINGLE_DRIFT_S = 60.0
-
 
 def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
     """Effects the recordings of ``ctx`` cannot excite, each ``{"name", "reason",
-    "experiment"}`` (the recording that would make it testable)."""
-    recs = ctx.records
-    untimed = [r.name for r in recs if not r.has_time]
+    "experiment"}`` (the recording that would make it testable): every time-dependent effect
+    on recordings without a time axis, then each effect's own rule
+    (:attr:`~core.diagnosis.registry.DiagnosableEffect.untestable`)."""
+    untimed = [r.name for r in ctx.records if not r.has_time]
+    out: list[dict[str, str]] = []
     if untimed:
         why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
                "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
                "rate or frequency cannot be told apart from the loop itself")
         out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
                 "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
-        out += [u for u in _untestable_timed(ctx) if u["name"] not in time_effects()]
-    else:
-        out = _untestable_timed(ctx)
     return out + spec_untestable(ctx, {u["name"] for u in out})
-
-
-def _untestable_timed(ctx: FitContext) -> list[dict[str, str]]:
-    """The time-dependent rules (holds, rates, bandwidth) of :func:`untestable_effects`."""
-    out = []
-    recs = ctx.records
-    # creep: holds (>= 0.5 s) after an input change (a step or a ramp: the creep /
-    # relaxation test) inside the train or test rows
-    has_hold = any((tr | te)[h0 : h0 + n].any()
-                   for c, tr, te in zip(ctx.coords, ctx.train, ctx.test, strict=True)
-                   for h0, n, _ in c.holds)
-    if not has_hold:
-        out.append({"name": "creep", "reason": "no hold of >= 0.5 s after an input change (a "
-                    "step or a ramp) inside the train/test rows",
-                    "experiment": EFFECTS["creep"].experiment})
-    total = sum(float(r.t[-1] - r.t[0]) for r in recs)
-    if total < SINGLE_DRIFT_S and len(recs) == 1:
-        out.append({"name": "drift", "reason": f"a single {total:.3g} s record cannot separate "
-                    "a slow drift from the model's bias and from slow sensor noise (a "
-                    "drift must repeat across recordings, or span minutes)",
-                    "experiment": EFFECTS["drift"].experiment})
-    # rate: mean |du/dt| per travel between reversals (large travels only) must span >= 5x
-    peaks = [p for ps in recording_rates(ctx) for p in ps]
-    if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
-        out.append({"name": "rate", "reason": "the recordings excite a single rate (mean rates "
-                    "of the travels within a factor 5), so rate-dependent hysteresis cannot be "
-                    "told from rate-independent loop width",
-                    "experiment": EFFECTS["rate"].experiment})
-    if len(recs) < 2:
-        out.append({"name": "offset", "reason": "with one recording a sensor offset is absorbed "
-                    "exactly by the model's bias", "experiment": EFFECTS["offset"].experiment})
-    steady = [r.name for r in recs if steady_state_history(r)]
-    if len(steady) == len(recs):
-        out.append({"name": "initial-memory", "reason": f"{', '.join(steady)} "
-                    f"{'is' if len(steady) == 1 else 'are'} in periodic steady state (one cycle "
-                    "repeated, the output already periodic, or a single closed loop): the "
-                    "memory at the first sample is the one the cycle leaves, and the model "
-                    "starts from it",
-                    "experiment": "a recording that starts before the first full sweep, from a "
-                    "known (e.g. demagnetised) state"})
-    elif not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
-                 for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
-        out.append({"name": "initial-memory", "reason": "every train/test row comes after the "
-                    "input swept its full range, which wipes out the initial memory",
-                    "experiment": EFFECTS["initial-memory"].experiment})
-    return out
 
 
 def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from ..base import Model
 
 __all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "effect", "output_dynamics",
-           "register"]
+           "rate_effect", "register"]
 
 
 @dataclass(frozen=True)
@@ -94,8 +94,10 @@ class DiagnosableEffect:
         this effect is chosen, such a candidate that meets the effect-size rules and
         explains nearly as much is reported ambiguous with it.
     untestable : callable or None
-        ``untestable(ctx) -> reason or None``: when the recordings cannot test it (``None``:
-        the engine's own rules, or always testable).
+        ``untestable(ctx) -> reason, (reason, experiment) or None``: when the recordings of
+        ``ctx`` cannot test it (with another experiment than :attr:`experiment` where the
+        reason calls for one); ``None``: always testable (time-dependent effects are also
+        untestable on recordings without a time axis).
     mimicked_by : tuple or None
         ``(names, why)``: when this effect is untestable, an accepted effect of ``names``
         may be it in disguise; ``why`` (with ``{best}`` for the accepted one) says how.
@@ -113,6 +115,14 @@ class DiagnosableEffect:
     inseparable_from : tuple or None
         ``(other, reason, experiment)``: a cause that (u, y) can never separate from this
         effect, reported ambiguous with it whenever it is chosen.
+    rate_dependent_hysteresis : bool
+        The hysteresis itself changes with the input rate (the rival of a transport effect
+        in rule 5; not modelled on a Preisach base).
+    linear : bool
+        Its parameters are linear weights (one least-squares solve per jackknife fold).
+    stage_order : int
+        Place of its stage in the saved model's chain (after the hysteresis); effects of
+        one ``stage_order`` exclude each other (one output dynamics stage).
     """
 
     name: str
@@ -127,13 +137,16 @@ class DiagnosableEffect:
     between_recordings: bool = False
     amplitude_dependent: bool = False
     lookalikes: tuple[str, ...] = ()
-    untestable: Callable[[Any], str | None] | None = None
+    untestable: Callable[[Any], str | tuple[str, str] | None] | None = None
     mimicked_by: tuple[frozenset[str], str] | None = None
     before_wipeout: bool = False
     dynamics: OutputDynamics | None = None
     transport: bool = False
     sign_locked: bool = False
     inseparable_from: tuple[str, str, str] | None = None
+    rate_dependent_hysteresis: bool = False
+    linear: bool = False
+    stage_order: int = 0
 
 
 #: Every registered effect by name, in the order they are tried.
@@ -166,3 +179,8 @@ def output_dynamics() -> tuple[str, ...]:
     """Names of the registered output dynamics stages (their look-alikes are re-compared at
     the refined resolution)."""
     return tuple(n for n, e in EFFECTS.items() if e.dynamics is not None)
+
+
+def rate_effect() -> str:
+    """The registered effect whose hysteresis changes with the input rate."""
+    return next(n for n, e in EFFECTS.items() if e.rate_dependent_hysteresis)

@@ -26,7 +26,8 @@ def spec_untestable(ctx: Any, already: set[str] | frozenset[str] = frozenset()
             continue
         why = e.untestable(ctx)
         if why:
-            out.append({"name": name, "reason": why, "experiment": e.experiment or ""})
+            why, exp = why if isinstance(why, tuple) else (why, e.experiment or "")
+            out.append({"name": name, "reason": why, "experiment": exp})
     return out
 
 

@@ -14,7 +14,7 @@ the diagnosis reports are the numbers ``hyst simulate`` reproduces.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -105,23 +105,20 @@ class Structure:
 
     @property
     def effects(self) -> list[str]:
-        """Names of the effects switched on, in pipeline order."""
-        out = shape_effects(self.shape)
-        if any(self.history):
-            out.append("initial-memory")
-        if self.beta_s is not None:
-            out.append("rate")
-        if self.asymmetry:
-            out.append("asymmetry")
-        if self.creep_taus:
-            out.append("creep")
-        if self.dynamics:
-            out.append(str(self.dynamics[0]))
-        if self.offsets:
-            out.append("offset")
-        if self.drift_degree:
-            out.append("drift")
-        return out
+        """Names of the effects switched on, in pipeline order (loop shapes first, then by
+        the registry's :attr:`~core.diagnosis.registry.DiagnosableEffect.stage_order`)."""
+        on = [e for e in EFFECTS.values() if e.structure_field is not None and self._on(e)]
+        return shape_effects(self.shape) + [e.name for e in sorted(on, key=lambda e: e.stage_order)]
+
+    def _on(self, e: Any) -> bool:
+        """Whether registered effect ``e`` is switched on: its field differs from the
+        baseline's (an output dynamics stage: the stage is ``e`` itself)."""
+        v = getattr(self, e.structure_field)
+        if e.dynamics is not None:
+            return bool(v) and v[0] == e.name
+        if e.structure_field == "history":
+            return any(v)
+        return v != _BASELINE_FIELDS[e.structure_field]
 
     def with_(self, **kw: Any) -> Structure:
         """Copy with some fields replaced."""
@@ -135,6 +132,11 @@ class Structure:
         if f is None:
             raise ValueError(f"effect {name!r} cannot be switched off in a structure")
         return replace(self, **{f: getattr(base, f)})
+
+
+#: The value of each optional :class:`Structure` field with nothing switched on.
+_BASELINE_FIELDS = {f.name: f.default for f in fields(Structure)
+                    if f.default is not MISSING}
 
 
 @dataclass

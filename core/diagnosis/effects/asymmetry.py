@@ -36,6 +36,8 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Asymmetry,
     structure_field="asymmetry",
+    linear=True,
+    stage_order=2,
     inseparable_from=("sensor nonlinearity", "a static output map: actuator asymmetry and "
                       "sensor nonlinearity are not separable from (u, y)",
                       "an independent reference sensor"),

@@ -11,6 +11,16 @@ from ..registry import DiagnosableEffect, register
 from ..structure import Fit
 
 
+def _untestable(ctx: FitContext) -> str | None:
+    """Creep needs a hold (>= 0.5 s) after an input change (a step or a ramp: the creep /
+    relaxation test) inside the train or test rows."""
+    if any((tr | te)[h0 : h0 + n].any()
+           for c, tr, te in zip(ctx.coords, ctx.train, ctx.test, strict=True)
+           for h0, n, _ in c.holds):
+        return None
+    return "no hold of >= 0.5 s after an input change (a step or a ramp) inside the train/test rows"
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Creep lag bank, one time constant per decade from 10 dt (>= 10 ms) to the record length."""
     s = cur.structure
@@ -42,6 +52,9 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Creep,
     structure_field="creep_taus",
+    untestable=_untestable,
+    linear=True,
+    stage_order=3,
     sign_locked=True,
     mimicked_by=(frozenset({"lag", "delay"}), "without holds, the fast end of a creep relaxation "
                  "spectrum acts as a lag at the excitation frequency; creep itself was "

@@ -28,6 +28,7 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Delay,
     structure_field="dynamics",
+    stage_order=4,
     dynamics=OutputDynamics(("delay_s",), model=lambda v: Delay(v[0])),
     transport=True,
 ))

@@ -10,6 +10,20 @@ from ..context import FitContext
 from ..registry import DiagnosableEffect, register
 from ..structure import Fit
 
+#: A single recording shorter than this (s) cannot test a drift: a polynomial in time over
+#: a short record is absorbed by the bias and slow noise.
+SINGLE_DRIFT_S = 60.0
+
+
+def _untestable(ctx: FitContext) -> str | None:
+    """A drift must repeat across recordings or span minutes (:data:`SINGLE_DRIFT_S`)."""
+    total = sum(float(r.t[-1] - r.t[0]) for r in ctx.records)
+    if total < SINGLE_DRIFT_S and len(ctx.records) == 1:
+        return (f"a single {total:.3g} s record cannot separate a slow drift from the model's "
+                "bias and from slow sensor noise (a drift must repeat across recordings, or "
+                "span minutes)")
+    return None
+
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Legendre drift of degree 2 in absolute time per recording."""
@@ -39,4 +53,7 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Drift,
     structure_field="drift_degree",
+    untestable=_untestable,
+    linear=True,
+    stage_order=6,
 ))

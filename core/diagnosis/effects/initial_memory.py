@@ -8,8 +8,28 @@ from ...effects import InitialMemory
 from ...fitting.thresholds import wipeout_index
 from ..candidates import Candidate
 from ..context import FitContext
+from ..periodic import steady_state_history
 from ..registry import DiagnosableEffect, register
 from ..structure import Fit
+
+
+def _untestable(ctx: FitContext) -> str | tuple[str, str] | None:
+    """The initial memory shows only before the wipe-out time, and not at all in a periodic
+    steady state (which the model starts from)."""
+    recs = ctx.records
+    steady = [r.name for r in recs if steady_state_history(r)]
+    if len(steady) == len(recs):
+        return (f"{', '.join(steady)} {'is' if len(steady) == 1 else 'are'} in periodic "
+                "steady state (one cycle repeated, the output already periodic, or a single "
+                "closed loop): the memory at the first sample is the one the cycle leaves, and "
+                "the model starts from it",
+                "a recording that starts before the first full sweep, from a known (e.g. "
+                "demagnetised) state")
+    if not any((tr[: wipeout_index(r.u)].any() or te[: wipeout_index(r.u)].any())
+               for r, tr, te in zip(recs, ctx.train, ctx.test, strict=True)):
+        return ("every train/test row comes after the input swept its full range, which wipes "
+                "out the initial memory")
+    return None
 
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
@@ -95,5 +115,6 @@ register(DiagnosableEffect(
     build=_build,
     model_type=InitialMemory,
     structure_field="history",
+    untestable=_untestable,
     before_wipeout=True,
 ))

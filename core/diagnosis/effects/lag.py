@@ -28,6 +28,7 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Lag,
     structure_field="dynamics",
+    stage_order=4,
     dynamics=OutputDynamics(("tau_s",), model=lambda v: Lag(v[0]),
                             transfer=lambda v: ([1.0], [v[0], 1.0])),
     transport=True,

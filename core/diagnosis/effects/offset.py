@@ -9,6 +9,13 @@ from ..registry import DiagnosableEffect, register
 from ..structure import Fit
 
 
+def _untestable(ctx: FitContext) -> str | None:
+    """An offset per recording needs several recordings."""
+    if len(ctx.records) < 2:
+        return "with one recording a sensor offset is absorbed exactly by the model's bias"
+    return None
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """One offset per recording (needs >= 2 recordings)."""
     s = cur.structure
@@ -28,4 +35,7 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Offset,
     structure_field="offsets",
+    untestable=_untestable,
+    linear=True,
+    stage_order=5,
 ))

@@ -5,10 +5,22 @@ from __future__ import annotations
 import numpy as np
 
 from ...effects import RateDependentPI
+from ..between import recording_rates
 from ..candidates import Candidate, scalar_search, sigma_from_curvature
 from ..context import FitContext
 from ..registry import DiagnosableEffect, register
 from ..structure import Fit
+
+
+def _untestable(ctx: FitContext) -> str | None:
+    """Rate-dependent hysteresis needs travels whose mean rates |du/dt| (large travels
+    only) span at least a factor 5."""
+    peaks = [p for ps in recording_rates(ctx) for p in ps]
+    if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
+        return ("the recordings excite a single rate (mean rates of the travels within a "
+                "factor 5), so rate-dependent hysteresis cannot be told from rate-independent "
+                "loop width")
+    return None
 
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
@@ -39,6 +51,9 @@ register(DiagnosableEffect(
     build=_build,
     model_type=RateDependentPI,
     structure_field="beta_s",
+    untestable=_untestable,
+    rate_dependent_hysteresis=True,
+    stage_order=1,
     mimicked_by=(frozenset({"delay", "lag", "resonance"}), "at a single excitation rate, "
                  "rate-dependent hysteresis widens the loop as a {best} does; rate itself "
                  "was untestable"),

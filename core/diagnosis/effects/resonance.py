@@ -81,6 +81,7 @@ register(DiagnosableEffect(
     build=_build,
     model_type=Resonance,
     structure_field="dynamics",
+    stage_order=4,
     dynamics=OutputDynamics(("freq_hz", "damping"), model=lambda v: Resonance(v[0], v[1]),
                             transfer=_transfer, valid=_valid),
 ))

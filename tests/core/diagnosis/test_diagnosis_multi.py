@@ -72,9 +72,9 @@ def creep_staircase():
 def drift_testable(monkeypatch):
     """A single 22 s record cannot test a drift (issue 16, failure 4); rule 4 is tested on it
     with the older 20 s limit, so that drift is a candidate here."""
-    from core.diagnosis import lookalikes
+    from core.diagnosis.effects import drift
 
-    monkeypatch.setattr(lookalikes, "SINGLE_DRIFT_S", 20.0)
+    monkeypatch.setattr(drift, "SINGLE_DRIFT_S", 20.0)
 
 
 @pytest.mark.slow

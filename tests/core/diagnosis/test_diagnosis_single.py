@@ -8,7 +8,7 @@ import pytest
 
 from benchmarks.diagnosis.generator import make_single_staircase
 from core.diagnosis import diagnose
-from core.diagnosis.lookalikes import SINGLE_DRIFT_S
+from core.diagnosis.effects.drift import SINGLE_DRIFT_S
 
 
 @pytest.mark.parametrize(("noise", "seed"), [("white2", 2), ("coloured", 1)])
