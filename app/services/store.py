@@ -17,7 +17,8 @@ executed: every part is JSON, recordings ``.npz`` arrays (loaded with
 model's document (:mod:`app.services.store_parts`); the live core ``DiagnosisResult``
 behind the HTML report stays in memory only.
 
-A session whose stored part does not decode or
+The file is checked when the store opens (:mod:`app.services.store_file`: a damaged file is
+moved aside and a fresh store started). A session whose stored part does not decode or
 validate is reset when it is loaded and :meth:`SessionStore.load` raises
 :class:`DamagedSessionError` (the API answers 410 once; the next request works).
 """
@@ -26,7 +27,6 @@ from __future__ import annotations
 
 import logging
 import os
-import sqlite3
 import threading
 import time
 from dataclasses import dataclass, field, replace
@@ -37,6 +37,7 @@ from core.recordings import Recording
 
 from .config import Config
 from .cost import CheckedModel
+from .store_file import connect
 from .store_parts import (
     DamagedPartError,
     decode_config,
@@ -176,8 +177,7 @@ class SessionStore:
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None,
-                                   timeout=30.0)
+        self._db = connect(self.path)  # a damaged file is moved aside, a fresh one started
         with self._lock:
             if self.path != ":memory:":
                 self._db.execute("PRAGMA journal_mode=WAL")
