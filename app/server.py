@@ -28,7 +28,7 @@ from .services.jobs import JobManager
 from .services.ratelimit import RateLimiter
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
-from .services.store import SessionStore
+from .services.store import DamagedSessionError, SessionStore
 
 __all__ = ["STATIC_DIR", "create_app"]
 
@@ -124,6 +124,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.exception_handler(StoreFullError)
     async def _full(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=503, content={"detail": str(exc)})
+
+    @app.exception_handler(DamagedSessionError)
+    async def _damaged(request: Request, exc: Exception) -> JSONResponse:
+        # the store has reset the session (and logged it without the code): 410 once
+        return JSONResponse(status_code=410, content={"detail": str(exc)})
 
     @app.exception_handler(RecursionError)
     async def _too_deep(request: Request, exc: Exception) -> JSONResponse:

@@ -27,7 +27,7 @@ import numpy as np
 from ..services import actions
 from ..services import figures as F
 from ..services.config import Config
-from ..services.errors import ParameterError
+from ..services.errors import DamagedSessionError, ParameterError
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
@@ -347,6 +347,9 @@ class SessionView:
                         "it (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of "
                         "the page that uses it), or it has expired", True)
             return
+        except DamagedSessionError as exc:  # reset by the store: joining it now works
+            self._toast("Session reset", str(exc), True)
+            new = self.registry.get(code)
         self.bind(new)
         self._toast("Session", f"now in session {new.code}")
 
@@ -449,7 +452,7 @@ class SessionView:
     def _report_clicked(self, event: Any) -> None:
         text = actions.diagnosis_report(self.session)
         if text is None:
-            self.ui.report_md.content += "\n\n⚠️ run the diagnosis first"
+            self.ui.report_md.content += f"\n\n⚠️ {actions.no_report(self.session)}"
             return
         self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
 

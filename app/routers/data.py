@@ -111,7 +111,8 @@ def diagnosis_report(session: SessionDep) -> HTMLResponse:
     """The last diagnosis as a self-contained HTML report (plotly.js inlined, no CDN)."""
     text = actions.diagnosis_report(session)
     if text is None:
-        raise HTTPException(409, "run the diagnosis first (POST /api/sessions/{code}/diagnose)")
+        raise HTTPException(409, f"{actions.no_report(session)} (POST "
+                                 "/api/sessions/{code}/diagnose)")
     # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
     # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={

@@ -56,6 +56,7 @@ __all__ = [
     "fit_figure",
     "load_parameter_set",
     "load_preset",
+    "no_report",
     "preset_doc",
     "preview_csv",
     "push",
@@ -231,6 +232,14 @@ def diagnosis_report(session: Session) -> str | None:
     one."""
     result = session.diagnosis_result
     return None if result is None else diagnosis_html(result)
+
+
+def no_report(session: Session) -> str:
+    """Why :func:`diagnosis_report` has no report for ``session`` (what to do)."""
+    if session.diagnosis is not None:  # stored, but its result did not survive a restart
+        return ("the HTML report of this diagnosis was not kept when the server restarted "
+                "(its findings were); run the diagnosis again to get the report")
+    return "run the diagnosis first"
 
 
 def preview_csv(content: str | bytes, settings: Settings) -> dict[str, Any]:

@@ -1,5 +1,5 @@
 """The errors the services raise with a message for the user; the interfaces translate them
-(a 422, 503 or a toast) and import them from here, not from :mod:`core`."""
+(a 422, 410, 503 or a toast) and import them from here, not from :mod:`core`."""
 
 from __future__ import annotations
 
@@ -7,5 +7,7 @@ from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
 
 from .sessions import StoreFullError
+from .store import DamagedSessionError
 
-__all__ = ["CSVError", "NotInvertibleError", "ParameterError", "StoreFullError"]
+__all__ = ["CSVError", "DamagedSessionError", "NotInvertibleError", "ParameterError",
+           "StoreFullError"]

@@ -57,8 +57,8 @@ class Session:
     Notes
     -----
     The attributes ``config``, ``version``, ``recording``, ``fitted``, ``fit_report``,
-    ``diagnosis``, ``diagnosis_result``, ``teacher`` and ``created`` read the current
-    state; change them only through the transitions.
+    ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and ``created`` read the
+    current state; change them only through the transitions.
     """
 
     def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
@@ -89,8 +89,11 @@ class Session:
     fitted = property(lambda self: self._state.fitted, doc="The fitted model document.")
     fit_report = property(lambda self: self._state.fit_report, doc="The fit report.")
     diagnosis = property(lambda self: self._state.diagnosis, doc="The diagnosis report.")
+    diagnosed = property(lambda self: self._state.diagnosed,
+                         doc="The diagnosed extended model's document (stored), or None.")
     diagnosis_result = property(lambda self: self._state.diagnosis_result,
-                                doc="The core ``DiagnosisResult`` of the diagnosis.")
+                                doc="The core ``DiagnosisResult`` of the diagnosis (in "
+                                    "memory only: ``None`` after a restart).")
     teacher = property(lambda self: self._state.teacher, doc="A teacher's session.")
     created = property(lambda self: self._state.created, doc="Creation time, s (epoch).")
 
@@ -163,22 +166,28 @@ class Session:
     def set_recording(self, recording: Recording) -> int:
         """Give the session ``recording``; its fit and diagnosis are dropped."""
         return self._commit({"recording": recording, "fitted": None, "fit_report": None,
-                             "diagnosis": None, "diagnosis_result": None},
-                            recording=True, results=True)
+                             "diagnosis": None, "diagnosed": None,
+                             "diagnosis_result": None}, recording=True, results=True)
 
     def set_fit(self, fitted: dict[str, Any], report: dict[str, Any], *,
                 apply: bool = False) -> int:
         """Store a fit (the diagnosis is dropped); ``apply`` makes it the session's model."""
         with self.lock:
             changes: dict[str, Any] = {"fitted": fitted, "fit_report": report,
-                                       "diagnosis": None, "diagnosis_result": None}
+                                       "diagnosis": None, "diagnosed": None,
+                                       "diagnosis_result": None}
             if apply:
                 changes["config"] = self._state.config.with_model(fitted)
             return self._commit(changes, recording=False, results=True, notify=apply)
 
     def set_diagnosis(self, report: dict[str, Any], result: Any) -> int:
-        """Store a diagnosis report and its core result (the plots are not redrawn)."""
-        return self._commit({"diagnosis": report, "diagnosis_result": result},
+        """Store a diagnosis report and its core result (the plots are not redrawn).
+
+        Stored are the report and, when the diagnosis added effects, the diagnosed model's
+        document; the result itself (for the HTML report) stays in memory."""
+        diagnosed = result.model.to_dict() if getattr(result, "effects", None) else None
+        return self._commit({"diagnosis": report, "diagnosed": diagnosed,
+                             "diagnosis_result": result},
                             recording=False, results=True, notify=False)
 
     def touch(self) -> int:
@@ -275,7 +284,15 @@ class SessionRegistry:
                     self._used.pop(code, None)
 
     def get(self, code: str) -> Session:
-        """The session with ``code`` (from memory or the store); ``KeyError`` if none."""
+        """The session with ``code`` (from memory or the store); ``KeyError`` if none.
+
+        Raises
+        ------
+        KeyError
+            If there is no such session.
+        DamagedSessionError
+            If its stored state was damaged: it has been reset, the next call returns it.
+        """
         code = normalise_code(code)
         with self._lock:
             s = self._sessions.get(code)

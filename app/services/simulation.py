@@ -505,11 +505,13 @@ DIAGNOSED_LOOP_MAX_S = 0.02
 
 
 def diagnosed_model(session: Any) -> Model | None:
-    """The session's diagnosed extended model when the diagnosis added effects, else None."""
+    """The session's diagnosed extended model when the diagnosis added effects, else None:
+    the live result's, else (after a restart) the one built from the stored document."""
     result = getattr(session, "diagnosis_result", None)
-    if result is None or not getattr(result, "effects", None):
-        return None
-    return result.model
+    if result is not None:
+        return result.model if getattr(result, "effects", None) else None
+    doc = getattr(session, "diagnosed", None)
+    return None if doc is None else model_from_dict(doc)
 
 
 @dataclass(frozen=True, eq=False)

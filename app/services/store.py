@@ -11,34 +11,49 @@ last** ``protect_s`` **seconds (one hour)** and **never a teacher's session**. I
 sessions remain, the store stays over budget and :meth:`SessionStore.full` says so (the
 API then refuses new sessions with 503 rather than dropping a class).
 
-The typed state is :class:`SessionState` (a frozen dataclass); recordings are stored as
-``.npz`` arrays plus JSON metadata, the diagnosis result (a core ``DiagnosisResult``, needed
-for the HTML report) as a pickle written only by this server into its own state directory.
+The typed state is :class:`SessionState` (a frozen dataclass). Nothing stored is ever
+executed: every part is JSON, recordings ``.npz`` arrays (loaded with
+``allow_pickle=False``) plus JSON metadata, and of a diagnosis its report and the diagnosed
+model's document (:mod:`app.services.store_parts`); the live core ``DiagnosisResult``
+behind the HTML report stays in memory only.
+
+The file is checked when the store opens (:mod:`app.services.store_file`: a damaged file is
+moved aside and a fresh store started). A session whose stored part does not decode or
+validate is reset when it is loaded and :meth:`SessionStore.load` raises
+:class:`DamagedSessionError` (the API answers 410 once; the next request works).
 """
 
 from __future__ import annotations
 
-import io
-import json
 import logging
 import os
-import pickle
-import sqlite3
 import threading
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from core.recordings import Recording
 
-from .config import Config, config_from_dict
+from .config import Config
 from .cost import CheckedModel
+from .store_file import connect
+from .store_parts import (
+    DamagedPartError,
+    decode_config,
+    decode_diagnosis,
+    decode_fit,
+    decode_recording,
+    dump_json,
+    encode_diagnosis,
+    recording_from_blob,
+    recording_to_blob,
+)
 
-__all__ = ["SessionState", "SessionStore", "default_state_dir", "recording_from_blob",
-           "recording_to_blob"]
+__all__ = ["DamagedSessionError", "SessionState", "SessionStore", "default_state_dir",
+           "recording_from_blob", "recording_to_blob"]
+
+log = logging.getLogger(__name__)
 
 #: Sessions used within this many seconds are never evicted.
 PROTECT_S = 3600.0
@@ -93,8 +108,12 @@ class SessionState:
         Uploaded recording.
     fitted, fit_report, diagnosis : dict or None
         Fitted model document, fit report and diagnosis report.
+    diagnosed : dict or None
+        The diagnosed extended model's document when the diagnosis added effects (stored:
+        the Inverse and Closed-loop views use it after a restart).
     diagnosis_result : object
-        The core ``DiagnosisResult`` (for the HTML report), or ``None``.
+        The core ``DiagnosisResult`` (for the HTML report), or ``None``; in memory only,
+        never stored (after a restart the report asks for the diagnosis to be run again).
     checked : CheckedModel or None
         The config's model, parsed once and cost-checked for this config and recording
         (``None`` until first needed; dropped whenever the config or the recording
@@ -112,6 +131,7 @@ class SessionState:
     fitted: dict[str, Any] | None = None
     fit_report: dict[str, Any] | None = None
     diagnosis: dict[str, Any] | None = None
+    diagnosed: dict[str, Any] | None = None
     diagnosis_result: Any = None
     checked: CheckedModel | None = None
     teacher: bool = False
@@ -119,65 +139,21 @@ class SessionState:
     last_used: float = field(default_factory=time.time)
 
 
-def recording_to_blob(rec: Recording) -> bytes:
-    """``rec`` as bytes (``.npz`` with the arrays and a JSON ``meta`` entry)."""
-    arrays = {"t": rec.t, "u": rec.u, "y": rec.y}
-    if rec.lines is not None:
-        arrays["lines"] = np.asarray(rec.lines)
-    extra_text: dict[str, list[str]] = {}
-    for k, v in rec.extra.items():
-        if np.asarray(v).dtype.kind in "biuf":
-            arrays[f"extra:{k}"] = np.asarray(v, dtype=np.float64)
-        else:
-            extra_text[k] = [str(x) for x in v]
-    meta = {"name": rec.name, "units": dict(rec.units), "columns": dict(rec.columns),
-            "extra_units": dict(rec.extra_units), "source": rec.source, "run": rec.run,
-            "cleaning": list(rec.cleaning), "has_time": rec.has_time,
-            "citation": rec.citation, "extra_text": extra_text}
-    buf = io.BytesIO()
-    np.savez(buf, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **arrays)
-    return buf.getvalue()
+class DamagedSessionError(RuntimeError):
+    """A stored session had a damaged part and has been reset (its code still works).
 
+    Attributes
+    ----------
+    parts : tuple of str
+        The damaged parts (``config``, ``recording``, ``fit``, ``diagnosis``).
+    """
 
-def recording_from_blob(data: bytes) -> Recording:
-    """Inverse of :func:`recording_to_blob`."""
-    with np.load(io.BytesIO(data), allow_pickle=False) as z:
-        meta = json.loads(bytes(z["meta"]).decode())
-        extra: dict[str, np.ndarray] = {k[6:]: z[k] for k in z.files if k.startswith("extra:")}
-        extra.update({k: np.asarray(v, dtype=str) for k, v in meta["extra_text"].items()})
-        return Recording(
-            t=z["t"], u=z["u"], y=z["y"], name=meta["name"], units=meta["units"],
-            columns=meta["columns"], extra=extra, extra_units=meta["extra_units"],
-            source=meta["source"], run=meta["run"], cleaning=tuple(meta["cleaning"]),
-            has_time=meta["has_time"], citation=meta["citation"],
-            lines=z["lines"] if "lines" in z.files else None,
-        )
-
-
-def _dump(x: Any) -> str | None:
-    return None if x is None else json.dumps(x, allow_nan=False, default=_jsonable)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(f"cannot store {type(x).__name__}")
-
-
-def _load(s: str | None) -> Any:
-    return None if s is None else json.loads(s)
-
-
-def _unpickle(data: bytes) -> Any:
-    """A stored diagnosis result, or ``None`` when it no longer loads (written by another
-    version of the code: its text report, stored separately, is kept)."""
-    try:
-        return pickle.loads(data)  # noqa: S301 - written only by this server, file mode 0600
-    except Exception:  # noqa: BLE001 - any unpickling failure means "not restorable"
-        logging.getLogger(__name__).warning("a stored diagnosis result could not be restored")
-        return None
+    def __init__(self, parts: tuple[str, ...]) -> None:
+        super().__init__(
+            "this session's state was damaged and has been reset (damaged: "
+            f"{', '.join(parts)}); the session code still works: upload the recording and "
+            "run the fit or the diagnosis again if you need them")
+        self.parts = parts
 
 
 class SessionStore:
@@ -201,8 +177,7 @@ class SessionStore:
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None,
-                                   timeout=30.0)
+        self._db = connect(self.path)  # a damaged file is moved aside, a fresh one started
         with self._lock:
             if self.path != ":memory:":
                 self._db.execute("PRAGMA journal_mode=WAL")
@@ -219,15 +194,16 @@ class SessionStore:
         ``recording=False`` / ``results=False`` leave the stored recording / diagnosis
         blob as they are (a config change need not rewrite a recording).
         """
-        cfg = _dump(state.config.to_dict()) or "{}"
-        row_text = [cfg, _dump(state.fitted), _dump(state.fit_report), _dump(state.diagnosis)]
+        cfg = dump_json(state.config.to_dict()) or "{}"
+        row_text = [cfg, dump_json(state.fitted), dump_json(state.fit_report),
+                    dump_json(state.diagnosis)]
         blobs: dict[str, bytes | None] = {}
         if recording:
             blobs["recording"] = (None if state.recording is None
                                   else recording_to_blob(state.recording))
         if results:
-            blobs["diagnosis"] = (None if state.diagnosis_result is None
-                                  else pickle.dumps(state.diagnosis_result))
+            blobs["diagnosis"] = (None if state.diagnosis is None
+                                  else encode_diagnosis(state.diagnosed))
         with self._lock:
             db = self._db
             if not blobs:  # a config change: one statement, one implicit commit
@@ -283,7 +259,15 @@ class SessionStore:
 
     # ------------------------------------------------------------------ reads
     def load(self, code: str) -> SessionState | None:
-        """The stored session ``code``, or ``None``."""
+        """The stored session ``code``, or ``None``.
+
+        Raises
+        ------
+        DamagedSessionError
+            If a part did not decode or validate: the session has been reset to a fresh
+            state under the same code (kept: its teacher flag and creation time), so the
+            next load works. Logged without the code.
+        """
         with self._lock:
             row = self._db.execute(
                 "SELECT code, created, last_used, teacher, version, config, fitted, "
@@ -292,14 +276,36 @@ class SessionStore:
                                           (code,)).fetchall()) if row else {}
         if row is None:
             return None
-        rec = recording_from_blob(blobs["recording"]) if "recording" in blobs else None
-        diag = _unpickle(blobs["diagnosis"]) if "diagnosis" in blobs else None
-        return SessionState(
-            code=row[0], created=row[1], last_used=row[2], teacher=bool(row[3]),
-            version=row[4], config=config_from_dict(json.loads(row[5])), fitted=_load(row[6]),
-            fit_report=_load(row[7]), diagnosis=_load(row[8]), recording=rec,
-            diagnosis_result=diag,
-        )
+        parts: dict[str, Any] = {}
+        damaged: list[DamagedPartError] = []
+        for decode in (
+            lambda: {"config": decode_config(row[5])},
+            lambda: {"recording": decode_recording(blobs.get("recording"))},
+            lambda: dict(zip(("fitted", "fit_report"), decode_fit(row[6], row[7]),
+                             strict=True)),
+            lambda: dict(zip(("diagnosis", "diagnosed"),
+                             decode_diagnosis(row[8], blobs.get("diagnosis")), strict=True)),
+        ):
+            try:
+                parts.update(decode())
+            except DamagedPartError as exc:
+                damaged.append(exc)
+        if damaged:
+            self._reset(code, created=row[1], teacher=bool(row[3]), version=row[4],
+                        damaged=damaged)
+        return SessionState(code=row[0], created=row[1], last_used=row[2],
+                            teacher=bool(row[3]), version=row[4], **parts)
+
+    def _reset(self, code: str, *, created: float, teacher: bool, version: int,
+               damaged: list[DamagedPartError]) -> None:
+        """Replace the damaged session ``code`` by a fresh state and raise."""
+        names = tuple(e.part for e in damaged)
+        log.warning("a stored session was damaged and has been reset (%s)",
+                    "; ".join(f"{e.part}: {e.reason}" for e in damaged))
+        self.delete(code)
+        self.save(SessionState(code=code, created=created, teacher=teacher,
+                               version=version + 1))
+        raise DamagedSessionError(names)
 
     def exists(self, code: str) -> bool:
         """Whether ``code`` is stored."""

@@ -52,26 +52,6 @@ def test_state_round_trips_through_the_file(tmp_path: Path) -> None:
     assert again.fitted == s.fitted and again.fit_report == s.fit_report
 
 
-def test_a_diagnosis_result_that_no_longer_loads_keeps_the_session(tmp_path: Path) -> None:
-    """A stored result written by another version of the code (here: bytes that are no
-    pickle) must not break the session: the recording, config and text report come back."""
-    import sqlite3
-
-    db = tmp_path / "s.sqlite3"
-    store = SessionStore(db)
-    st = SessionState(code="abcdefghjkmnpqrs", config=Config(), recording=recording(),
-                      diagnosis={"text": "report"},
-                      diagnosis_result={"effects": []})
-    store.save(st)
-    store.close()
-    with sqlite3.connect(db) as raw:
-        assert raw.execute("UPDATE blobs SET data=? WHERE kind='diagnosis'",
-                           (b"not a pickle",)).rowcount == 1
-    again = SessionStore(db).load(st.code)
-    assert again is not None and again.diagnosis_result is None
-    assert again.diagnosis == {"text": "report"} and again.recording is not None
-
-
 def test_eviction_by_budget_spares_recent_and_teacher_sessions(tmp_path: Path) -> None:
     store = SessionStore(tmp_path / "s.sqlite3", max_bytes=10**9)
     now = time.time()
