@@ -156,5 +156,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(events_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
-                       max_json_depth=settings.limits.max_json_depth)
+                       max_json_depth=settings.limits.max_json_depth,
+                       hosts=settings.host_allow_list)
     return app
