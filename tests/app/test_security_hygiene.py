@@ -205,3 +205,9 @@ def test_allowed_host_option_and_env(monkeypatch: pytest.MonkeyPatch,
     with TestClient(app, base_url="http://127.0.0.1:8000") as c:
         assert c.get("/api/health", headers={"Host": "class.example"}).status_code == 200
         assert c.get("/api/health", headers={"Host": "a.example"}).status_code == 421
+
+
+def test_undecodable_bytes_to_a_json_route_are_a_422(client: TestClient, code: str) -> None:
+    r = client.post(f"/api/sessions/{code}/jobs", content=b"\xed\xa0\x80",
+                    headers={"Content-Type": "text/csv"})
+    assert r.status_code == 422, r.text
