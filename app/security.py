@@ -1,11 +1,19 @@
-"""The explorer's outer ASGI guard: bounded bodies, origin check, security headers, no 500 crash.
+"""The explorer's outer ASGI guard: host and origin checks, bounded and clean bodies, security
+headers, no 500 crash.
 
 One pure-ASGI middleware (no framework code in the way, so it also covers the static page
 and errors raised anywhere below it):
 
+* **Own names only** (DNS rebinding): a request whose ``Host`` is not a name of this
+  server (:class:`app.services.hosts.HostAllowList`: loopback, the bound host, each
+  ``--allowed-host``, or the address the connection arrived at) is a 421 before anything
+  else, whatever its method.
 * **Bounded bodies**: a POST/PUT/PATCH/DELETE body larger than ``max_upload_bytes`` is a
   413 before the app reads it; a JSON body nested deeper than ``Limits.max_json_depth`` is
   a 422 before any (recursive) parser sees it (:func:`app.services.cost.json_depth`).
+* **Clean JSON**: a JSON body holding ``NaN``/``Infinity`` (or a number beyond the float
+  range) or an unpaired surrogate is a 422 naming its JSON path
+  (:func:`app.services.jsonbody.json_body_problem`).
 * **Foreign origins**: a state-changing request whose ``Origin`` (or ``Sec-Fetch-Site:
   cross-site``) is not this server is refused with 403, so another web page open in a
   student's browser cannot create, change or wipe sessions.
@@ -27,6 +35,8 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from .services.cost import json_depth
+from .services.hosts import HostAllowList, host_name
+from .services.jsonbody import json_body_problem
 
 __all__ = ["CSP", "Guard"]
 
@@ -61,12 +71,16 @@ class Guard:
         Largest accepted request body, bytes.
     max_json_depth : int
         Deepest accepted JSON nesting.
+    hosts : HostAllowList, optional
+        The names a request's ``Host`` may carry; the loopback names by default.
     """
 
-    def __init__(self, app: ASGIApp, *, max_body: int, max_json_depth: int) -> None:
+    def __init__(self, app: ASGIApp, *, max_body: int, max_json_depth: int,
+                 hosts: HostAllowList | None = None) -> None:
         self.app = app
         self.max_body = max_body
         self.max_json_depth = max_json_depth
+        self.hosts = hosts or HostAllowList.for_server("127.0.0.1")
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -99,6 +113,15 @@ class Guard:
                                             (b"content-length", str(len(body)).encode())]})
             await send_guarded({"type": "http.response.body", "body": body})
 
+        host = headers.get("host")
+        local = (scope.get("server") or (None,))[0]
+        if not self.hosts.allows(host, None if local is None else str(local)):
+            await reply(*_json(421, f"this server does not answer to the name "
+                                    f"{host_name(host or '')[:100]!r} (the request's Host); "
+                                    "open it by its own address (as `hyst serve` printed "
+                                    "it), or start it with --allowed-host NAME to add "
+                                    "that name"))
+            return
         downstream = receive
         if scope.get("method") in _UNSAFE:
             refused = self._foreign(headers)
@@ -171,4 +194,8 @@ class Guard:
                 json_depth(body) > self.max_json_depth:
             return body, _json(422, f"the JSON body is nested more than "
                                     f"{self.max_json_depth} levels deep; flatten it")
+        if body and (not ctype or "json" in ctype):
+            problem = json_body_problem(body)
+            if problem:
+                return body, _json(422, problem)
         return body, None

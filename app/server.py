@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -121,6 +123,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def _domain_error(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
 
+    @app.exception_handler(RequestValidationError)
+    async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
+        # FastAPI's own answer, but a body that is not text (bytes sent as text/csv to a
+        # JSON route) is shown with its undecodable bytes replaced instead of failing
+        shown = jsonable_encoder(exc.errors(), custom_encoder={
+            bytes: lambda b: b[:200].decode("utf-8", "replace")})
+        return JSONResponse(status_code=422, content={"detail": shown})
+
     @app.exception_handler(StoreFullError)
     async def _full(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=503, content={"detail": str(exc)})
@@ -161,5 +171,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(events_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
-                       max_json_depth=settings.limits.max_json_depth)
+                       max_json_depth=settings.limits.max_json_depth,
+                       hosts=settings.host_allow_list)
     return app

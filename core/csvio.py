@@ -421,6 +421,24 @@ def _line_of_offset(data: bytes, offset: int) -> int:
     return data.count(b"\n", 0, offset) + 1
 
 
+def _decode_utf16(data: bytes, label: str) -> str:
+    """``data`` (UTF-16 with its BOM) as text; a lone surrogate or a cut-off last character
+    is a :class:`CSVError` naming its line."""
+    try:
+        return data.decode("utf-16")
+    except UnicodeDecodeError as exc:
+        start = exc.start  # a byte offset into data, the BOM included
+        before = data[:start - (start % 2)].decode("utf-16", errors="replace")
+        line = before.count("\n") + 1
+        what = ("an unpaired surrogate" if "surrogate" in exc.reason
+                else "a character cut off at the end of the file")
+        raise CSVError(
+            f"{label} is not valid UTF-16: {what} at byte {start} (line {line}); save the "
+            "recording again as UTF-8 or UTF-16 text",
+            source=label, line=line,
+        ) from exc
+
+
 def _decode(data: bytes | str, encoding: str | None, label: str) -> tuple[str, str, list[str]]:
     """Return ``(text, encoding, notes)``; reject binary content."""
     notes: list[str] = []
@@ -441,7 +459,7 @@ def _decode(data: bytes | str, encoding: str | None, label: str) -> tuple[str, s
                     "to detect it", source=label
                 ) from exc
         elif data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-            text, enc = data.decode("utf-16"), "utf-16"
+            text, enc = _decode_utf16(data, label), "utf-16"
         else:
             nul = data.find(b"\x00")
             if nul >= 0:

@@ -11,7 +11,7 @@ import webbrowser
 from pathlib import Path
 from typing import Any
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "settings_of"]
 
 #: Seconds a SIGTERM/Ctrl+C waits for open requests before the process exits anyway.
 SHUTDOWN_S = 3.0
@@ -52,6 +52,12 @@ def register(subparsers: Any) -> None:
     p.add_argument("--max-store-mb", type=int, default=None,
                    help="size budget of the stored sessions in MB (default 1000); beyond "
                         "it sessions unused for an hour are evicted, never a teacher's")
+    p.add_argument("--allowed-host", action="append", default=None, metavar="NAME",
+                   help="another name this server answers to, e.g. the machine's name on "
+                        "the class network (repeatable; env HYST_ALLOWED_HOSTS, comma-"
+                        "separated). Loopback names, the --host address and the address a "
+                        "student typed are always allowed; requests naming any other host "
+                        "are refused (protection against DNS rebinding)")
     p.set_defaults(func=run)
 
 
@@ -103,11 +109,9 @@ def _announce(server: Any, app: Any, settings: Any, generated: bool,
         webbrowser.open(gui or web)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Start both servers and block until Ctrl+C or SIGTERM (stops within a few seconds)."""
-    import uvicorn
-
-    from ..server import create_app
+def settings_of(args: argparse.Namespace) -> Any:
+    """The :class:`~app.services.settings.Settings` of ``hyst serve``'s arguments: the
+    ``HYST_*`` environment, then the options given."""
     from ..services.settings import Settings
     from ..services.store import default_state_dir
 
@@ -118,11 +122,22 @@ def run(args: argparse.Namespace) -> int:
         teacher_token=_token(args),
         state_dir=None if args.state_dir is None else str(args.state_dir),
         max_store_mb=args.max_store_mb,
+        allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
     )
     if not settings.state_dir:
         settings = Settings(**{**settings.__dict__, "state_dir": str(default_state_dir())})
     if args.no_viser:
         settings = Settings(**{**settings.__dict__, "viser_port": None})
+    return settings
+
+
+def run(args: argparse.Namespace) -> int:
+    """Start both servers and block until Ctrl+C or SIGTERM (stops within a few seconds)."""
+    import uvicorn
+
+    from ..server import create_app
+
+    settings = settings_of(args)
     settings, generated = settings.with_teacher_token()
     app = create_app(settings)
     config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",

@@ -9,7 +9,8 @@ Two steps, both cheap and non-recursive where the input is hostile:
 2. :func:`check_model` looks at the built model and the run it is asked for (number of
    samples, sample spacing ``dt``): play operators over every type that has them (``pi``,
    ``rate``, ``initial-memory``, ``digitized``, the GPI family), creep terms, LTI order,
-   delay in samples, time constants against ``dt``, and the total work
+   delay in samples (delays and advances, priced without overflow), time constants
+   against ``dt``, and the total work
    ``samples x (operators + creep terms + LTI order + stages)``.
 
 Every refusal is a :class:`~core.exceptions.ParameterError` (a 422 in the API) naming the
@@ -185,6 +186,23 @@ def _operators(m: Model) -> int:
     return int(np.size(th)) if th is not None else 0
 
 
+def _delay_samples(kind: str, delay_s: float, dt: float, limits: Limits) -> int:
+    """``delay_s`` in samples of ``dt``, compared without dividing (no overflow to inf).
+
+    Raises
+    ------
+    ParameterError
+        When the delay is longer than ``limits.max_samples`` samples.
+    """
+    if not delay_s <= limits.max_samples * dt:
+        samples = delay_s / dt
+        shown = f"{samples:.3g}" if math.isfinite(samples) else "more than 1e308"
+        raise ParameterError(
+            f"the {kind}'s delay_s = {delay_s:.3g} s is {shown} samples (dt = {dt:.3g} s); "
+            f"the explorer allows at most {limits.max_samples:,}: shorten delay_s")
+    return int(math.ceil(delay_s / dt))
+
+
 def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
     """Cost of simulating ``model`` on ``samples`` samples spaced ``dt`` seconds.
 
@@ -210,13 +228,9 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
             creep += int(np.size(m.taus_s))  # type: ignore[attr-defined]
         if m.type_name == "lti":
             order += int(np.size(m.den)) - 1  # type: ignore[attr-defined]
-        if m.type_name == "delay":
+        if m.type_name in ("delay", "advance"):  # an advance buffers its delay too
             d_s = float(m.delay_s)  # type: ignore[attr-defined]
-            if d_s / dt > limits.max_samples:
-                raise ParameterError(
-                    f"delay_s = {d_s:.3g} s is {d_s / dt:.3g} samples (dt = {dt:.3g} s); the "
-                    f"explorer allows at most {limits.max_samples:,}: shorten delay_s")
-            delay = max(delay, int(math.ceil(d_s / dt)))
+            delay = max(delay, _delay_samples(m.type_name, d_s, dt, limits))
         for what, tau in m.time_constants():
             r = tau / dt
             if not limits.min_tau_per_dt <= r <= limits.max_tau_per_dt:

@@ -9,6 +9,7 @@ import secrets
 from dataclasses import dataclass, fields, replace
 
 from .cost import Limits
+from .hosts import HostAllowList
 
 __all__ = ["Settings", "is_loopback"]
 
@@ -46,6 +47,10 @@ class Settings:
         Size budget of the stored sessions, MB (see :mod:`app.services.store`).
     max_jobs : int
         Fits and diagnoses running at once (each session runs one at a time).
+    allowed_hosts : tuple of str
+        More names the server answers to (``Host`` header), beside the loopback names and
+        ``host`` when it is not a wildcard (:attr:`host_allow_list`); ``HYST_ALLOWED_HOSTS``
+        takes them comma-separated.
     """
 
     host: str = "127.0.0.1"
@@ -59,6 +64,7 @@ class Settings:
     state_dir: str | None = None
     max_store_mb: int = 1000
     max_jobs: int = 2
+    allowed_hosts: tuple[str, ...] = ()
 
     @classmethod
     def from_env(cls, **overrides: object) -> Settings:
@@ -68,7 +74,12 @@ class Settings:
             raw = os.environ.get(f"HYST_{f.name.upper()}")
             if raw is None:
                 continue
-            kw[f.name] = raw if f.name in ("host", "teacher_token", "state_dir") else int(raw)
+            if f.name == "allowed_hosts":
+                kw[f.name] = tuple(n.strip() for n in raw.split(",") if n.strip())
+            elif f.name in ("host", "teacher_token", "state_dir"):
+                kw[f.name] = raw
+            else:
+                kw[f.name] = int(raw)
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**kw)  # type: ignore[arg-type]
 
@@ -105,6 +116,11 @@ class Settings:
         if self.teacher_token:
             return self.teacher_ok(token)
         return not self.public
+
+    @property
+    def host_allow_list(self) -> HostAllowList:
+        """The names a request's ``Host`` may carry (see :mod:`app.services.hosts`)."""
+        return HostAllowList.for_server(self.host, self.allowed_hosts)
 
     @property
     def limits(self) -> Limits:
