@@ -25,6 +25,7 @@ from core.paramset import ensure_model_types_registered
 from .security import Guard
 from .services.config import Config
 from .services.jobs import JobManager
+from .services.known_codes import KnownCodes
 from .services.ratelimit import RateLimiter
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
@@ -114,6 +115,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
+    # ...but a client paused for guessing still opens the sessions it created or opened
+    app.state.known_codes = KnownCodes()
     app.state.viser_port = None
 
     @app.exception_handler(ParameterError)

@@ -52,6 +52,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--max-store-mb", type=int, default=None,
                    help="size budget of the stored sessions in MB (default 1000); beyond "
                         "it sessions unused for an hour are evicted, never a teacher's")
+    p.add_argument("--trusted-proxy", action="append", default=None, metavar="ADDR",
+                   help="address or network (10.0.0.0/8) of a reverse proxy in front of the "
+                        "server, repeatable: only requests from it have their X-Forwarded-For "
+                        "read for the per-computer limits (default none: the header is "
+                        "ignored; env HYST_TRUSTED_PROXIES, comma-separated)")
     p.set_defaults(func=run)
 
 
@@ -111,22 +116,28 @@ def run(args: argparse.Namespace) -> int:
     from ..services.settings import Settings
     from ..services.store import default_state_dir
 
-    settings = Settings.from_env(
-        host=args.host,
-        port=args.port,
-        viser_port=args.viser_port,
-        teacher_token=_token(args),
-        state_dir=None if args.state_dir is None else str(args.state_dir),
-        max_store_mb=args.max_store_mb,
-    )
+    try:
+        settings = Settings.from_env(
+            host=args.host,
+            port=args.port,
+            viser_port=args.viser_port,
+            teacher_token=_token(args),
+            state_dir=None if args.state_dir is None else str(args.state_dir),
+            max_store_mb=args.max_store_mb,
+            trusted_proxies=None if args.trusted_proxy is None else tuple(args.trusted_proxy),
+        )
+    except ValueError as exc:
+        raise SystemExit(f"hyst serve: {exc}") from None
     if not settings.state_dir:
         settings = Settings(**{**settings.__dict__, "state_dir": str(default_state_dir())})
     if args.no_viser:
         settings = Settings(**{**settings.__dict__, "viser_port": None})
     settings, generated = settings.with_teacher_token()
     app = create_app(settings)
+    # proxy_headers=False: uvicorn would take X-Forwarded-For from any loopback peer;
+    # the app reads it itself, from the --trusted-proxy peers only (app.services.clients)
     config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
-                            timeout_graceful_shutdown=int(SHUTDOWN_S))
+                            proxy_headers=False, timeout_graceful_shutdown=int(SHUTDOWN_S))
     server = uvicorn.Server(config)
     threading.Thread(target=_announce, args=(server, app, settings, generated,
                                              not args.no_browser), daemon=True).start()

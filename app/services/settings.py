@@ -8,6 +8,7 @@ import os
 import secrets
 from dataclasses import dataclass, fields, replace
 
+from .clients import proxy_networks
 from .cost import Limits
 
 __all__ = ["Settings", "is_loopback"]
@@ -46,6 +47,13 @@ class Settings:
         Size budget of the stored sessions, MB (see :mod:`app.services.store`).
     max_jobs : int
         Fits and diagnoses running at once (each session runs one at a time).
+    trusted_proxies : tuple of str
+        Addresses or networks (``127.0.0.1``, ``10.0.0.0/8``) of reverse proxies in front of
+        the server. Only a request arriving from one of them has its ``X-Forwarded-For``
+        read (:func:`app.services.clients.client_address`); otherwise the client is the
+        socket's peer. Empty by default: the header is ignored.
+    max_streams_per_client : int
+        Live-event streams (open pages) one client may hold at once.
     """
 
     host: str = "127.0.0.1"
@@ -59,6 +67,11 @@ class Settings:
     state_dir: str | None = None
     max_store_mb: int = 1000
     max_jobs: int = 2
+    trusted_proxies: tuple[str, ...] = ()
+    max_streams_per_client: int = 8
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "trusted_proxies", proxy_networks(self.trusted_proxies))
 
     @classmethod
     def from_env(cls, **overrides: object) -> Settings:
@@ -68,7 +81,11 @@ class Settings:
             raw = os.environ.get(f"HYST_{f.name.upper()}")
             if raw is None:
                 continue
-            kw[f.name] = raw if f.name in ("host", "teacher_token", "state_dir") else int(raw)
+            if f.name == "trusted_proxies":
+                kw[f.name] = tuple(a for a in raw.replace(",", " ").split() if a)
+            else:
+                kw[f.name] = raw if f.name in ("host", "teacher_token", "state_dir") \
+                    else int(raw)
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**kw)  # type: ignore[arg-type]
 

@@ -253,8 +253,9 @@ def test_codes_are_long_random_and_made_by_the_server(client: TestClient) -> Non
 
 def test_failed_lookups_are_rate_limited(tmp_path: Path) -> None:
     """Failure 5: 2,860 guesses a minute, never a 429."""
-    with TestClient(create_app(settings(tmp_path))) as c:
-        good = c.post("/api/sessions").json()["code"]
+    app = create_app(settings(tmp_path))
+    with TestClient(app) as c:
+        good = app.state.registry.create().code  # a session this client never opened
         codes = [c.get(f"/api/sessions/{'abcd' * 3}{k:04d}") for k in range(40)]
         statuses = [r.status_code for r in codes]
         assert statuses[:20] == [404] * 20 and set(statuses[20:]) == {429}
