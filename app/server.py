@@ -69,7 +69,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings, generated = (settings or Settings()).with_teacher_token()
     if generated:
         log.warning("the server is reachable beyond loopback: broadcasting needs a teacher "
-                    "token; one was generated (see `hyst serve`, which prints it)")
+                    "token; one was generated (`hyst serve` writes it to a file in the "
+                    "state directory and prints the file's path)")
     ensure_model_types_registered()
     store = SessionStore(
         ":memory:" if not settings.state_dir else Path(settings.state_dir) / "sessions.sqlite3",

@@ -2,7 +2,7 @@
 
 A forged ``X-Forwarded-For`` must not reset the per-computer limits; one computer must not
 hold every live-event stream; guessing codes must not lock a student out of their own
-session. The ``hyst serve`` tests run
+session; tokens and codes must not reach stdout or the log. The ``hyst serve`` tests run
 the real server (uvicorn) in a subprocess, where the forwarded header was trusted.
 """
 
@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import http.client
 import json
+import logging
 import os
+import stat
 import subprocess
 import sys
 import time
@@ -23,6 +25,7 @@ from fastapi.testclient import TestClient
 
 from app.server import create_app
 from app.services.clients import client_address, proxy_networks
+from app.services.redaction import MASK, RedactCodes, redact
 from app.services.settings import Settings
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -62,7 +65,7 @@ def _serve(tmp: Path, *extra: str) -> Iterator[Served]:
     with out.open("w") as sink:
         proc = subprocess.Popen(
             [sys.executable, "-m", "app", "serve", "--no-browser", "--no-viser", "--port", "0",
-             "--state-dir", str(tmp / "state"), *extra],
+             "--state-dir", str(tmp / "state"), "--access-log", *extra],
             cwd=ROOT, env=env, stdout=sink, stderr=subprocess.STDOUT, text=True)
     try:
         deadline = time.monotonic() + 90
@@ -88,7 +91,7 @@ def plain(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
 
 @pytest.fixture(scope="module")
 def proxied(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Served]:
-    """``hyst serve --host 0.0.0.0 --trusted-proxy 127.0.0.1``."""
+    """``hyst serve --host 0.0.0.0 --trusted-proxy 127.0.0.1`` (a token is generated)."""
     yield from _serve(tmp_path_factory.mktemp("proxied"), "--host", "0.0.0.0",
                       "--trusted-proxy", "127.0.0.1")
 
@@ -149,6 +152,37 @@ def test_one_computer_cannot_hold_every_live_stream(proxied: Served) -> None:
             conn.close()
 
 
+def test_a_generated_token_goes_to_a_private_file(proxied: Served) -> None:
+    out = proxied.output()
+    line = next(x for x in out.splitlines() if x.startswith("Teacher token"))
+    path = Path(line.split("generated into ")[1].split(" (")[0])
+    token = path.read_text().strip()
+    assert len(token) >= 20 and token not in out
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert proxied.request("GET", "/api/teacher/connected",
+                           {"X-Teacher-Token": token})[0] == 200
+
+
+def test_codes_never_reach_the_log(plain: Served) -> None:
+    code = None
+    for _ in range(100):  # the creation limit of the first test may still be refilling
+        status, _, body = plain.request("POST", "/api/sessions")
+        if status == 201:
+            code = json.loads(body)["code"]
+            break
+        time.sleep(0.5)
+    assert code
+    typed = code.replace("-", "").upper()
+    for path in (f"/api/sessions/{code}", f"/api/sessions/{typed}/figures/nope",
+                 f"/api/sessions/{code}/config?x={code}"):
+        plain.request("GET", path)
+    plain.request("PATCH", f"/api/sessions/{code}/config", {"Content-Type": "application/json"})
+    time.sleep(0.5)
+    out = plain.output()
+    assert f"/api/sessions/{MASK}" in out  # the access log is there, masked
+    assert code not in out and typed not in out and code.replace("-", "") not in out
+
+
 # ------------------------------------------------------------------ in process
 
 
@@ -190,3 +224,36 @@ def test_bad_guesses_do_not_lock_out_a_known_session(tmp_path: Path) -> None:
         assert c.get("/api/sessions/" + UNKNOWN.format(99)).status_code == 429
     with TestClient(app, client=("192.0.2.50", 4000)) as other:  # another computer
         assert other.get(f"/api/sessions/{theirs}").status_code == 200
+
+
+def test_an_error_is_logged_with_its_code_masked(caplog: pytest.LogCaptureFixture) -> None:
+    from app.security import Guard
+
+    code = "abcd-efgh-jkmn-pqrs"
+
+    async def boom(scope, receive, send):  # noqa: ANN001, ANN202
+        raise RuntimeError(f"failed for {code}")
+
+    c = TestClient(Guard(boom, max_body=100, max_json_depth=5))
+    with caplog.at_level(logging.ERROR):
+        assert c.get(f"/api/sessions/{code}/figures/loop").status_code == 500
+    handler = logging.StreamHandler()
+    handler.addFilter(RedactCodes())
+    text = "\n".join(handler.format(r) for r in caplog.records if handler.filter(r))
+    assert f"/api/sessions/{MASK}/figures/loop" in text and "failed for <code>" in text
+    assert code not in text
+
+
+def test_access_log_lines_are_masked() -> None:
+    from uvicorn.logging import AccessFormatter
+
+    record = logging.LogRecord("uvicorn.access", logging.INFO, __file__, 1,
+                               '%s - "%s %s HTTP/%s" %d',
+                               ("127.0.0.1:5000", "GET", "/api/sessions/ABCDEFGHJKMNPQRS/events",
+                                "1.1", 404), None)
+    assert RedactCodes().filter(record)
+    line = AccessFormatter(fmt='%(client_addr)s - "%(request_line)s" %(status_code)s',
+                           use_colors=False).format(record)
+    assert line == f'127.0.0.1:5000 - "GET /api/sessions/{MASK}/events HTTP/1.1" 404 Not Found'
+    assert redact("join abcd efgh jkmn pqrs now") == f"join {MASK} now"
+    assert redact("GET /api/presets 200") == "GET /api/presets 200"
