@@ -23,7 +23,8 @@ and errors raised anywhere below it):
   ``frame-ancestors 'none'`` and ``X-Frame-Options: DENY``, ``X-Content-Type-Options:
   nosniff``, ``Referrer-Policy: no-referrer``.
 * **No crash**: an exception that reaches this layer becomes a JSON 500 saying what to do,
-  sent normally (the connection is not reset) and logged with its traceback.
+  sent normally (the connection is not reset) and logged with its traceback (the path's
+  session code masked).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from urllib.parse import urlsplit
 from .services.cost import json_depth
 from .services.hosts import HostAllowList, host_name
 from .services.jsonbody import json_body_problem
+from .services.redaction import redact
 
 __all__ = ["CSP", "Guard"]
 
@@ -145,7 +147,8 @@ class Guard:
         try:
             await self.app(scope, downstream, send_guarded)
         except Exception:  # the last line of defence: log, answer, keep the connection
-            log.exception("unhandled error in %s %s", scope.get("method"), scope.get("path"))
+            log.exception("unhandled error in %s %s", scope.get("method"),
+                          redact(str(scope.get("path"))))
             if not started:
                 await reply(*_json(500, "internal error: the server could not handle this "
                                         "request; it was logged. Check the input and try "

@@ -27,6 +27,7 @@ from core.paramset import ensure_model_types_registered
 from .security import Guard
 from .services.config import Config
 from .services.jobs import JobManager
+from .services.known_codes import KnownCodes
 from .services.ratelimit import RateLimiter
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
@@ -70,7 +71,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings, generated = (settings or Settings()).with_teacher_token()
     if generated:
         log.warning("the server is reachable beyond loopback: broadcasting needs a teacher "
-                    "token; one was generated (see `hyst serve`, which prints it)")
+                    "token; one was generated (`hyst serve` writes it to a file in the "
+                    "state directory and prints the file's path)")
     ensure_model_types_registered()
     store = SessionStore(
         ":memory:" if not settings.state_dir else Path(settings.state_dir) / "sessions.sqlite3",
@@ -116,6 +118,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
+    # ...but a client paused for guessing still opens the sessions it created or opened
+    app.state.known_codes = KnownCodes()
     app.state.viser_port = None
 
     @app.exception_handler(ParameterError)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import os
 import sys
 import threading
@@ -15,6 +16,8 @@ __all__ = ["register", "run", "settings_of"]
 
 #: Seconds a SIGTERM/Ctrl+C waits for open requests before the process exits anyway.
 SHUTDOWN_S = 3.0
+#: File in the state directory that receives a generated teacher token.
+TOKEN_FILE = "teacher-token"
 
 
 def register(subparsers: Any) -> None:
@@ -26,9 +29,10 @@ def register(subparsers: Any) -> None:
             "Start the Hysteresis Explorer: a FastAPI server (REST API with an offline "
             "reference at /api.html, and a plain web page at /) and a viser GUI on a second "
             "port, in one process. Binds 127.0.0.1 by default; use --host 0.0.0.0 to let a "
-            "class on the same network in (a teacher token is then required to broadcast, "
-            "and generated and printed if you give none). Sessions are stored in SQLite "
-            "under --state-dir and survive a restart."
+            "class on the same network in (a teacher token is then required to broadcast; if "
+            "you give none, one is generated into a file readable by you only, in --state-dir, "
+            "and the file's path is printed). Sessions are stored in SQLite under --state-dir "
+            "and survive a restart. Session codes never appear in the log."
         ),
     )
     p.add_argument("--host", default=None,
@@ -58,6 +62,13 @@ def register(subparsers: Any) -> None:
                         "separated). Loopback names, the --host address and the address a "
                         "student typed are always allowed; requests naming any other host "
                         "are refused (protection against DNS rebinding)")
+    p.add_argument("--trusted-proxy", action="append", default=None, metavar="ADDR",
+                   help="address or network (10.0.0.0/8) of a reverse proxy in front of the "
+                        "server, repeatable: only requests from it have their X-Forwarded-For "
+                        "read for the per-computer limits (default none: the header is "
+                        "ignored; env HYST_TRUSTED_PROXIES, comma-separated)")
+    p.add_argument("--access-log", action="store_true",
+                   help="print one line per request (session codes masked)")
     p.set_defaults(func=run)
 
 
@@ -76,7 +87,36 @@ def _token(args: argparse.Namespace) -> str | None:
     return args.teacher_token
 
 
-def _announce(server: Any, app: Any, settings: Any, generated: bool,
+def _save_token(state_dir: str, token: str) -> Path:
+    """Write a generated teacher token to ``teacher-token`` in ``state_dir``, readable by
+    this user only (0600), and return the file's path (printed instead of the token)."""
+    path = Path(state_dir) / TOKEN_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    try:
+        os.fchmod(fd, 0o600)  # an older file keeps its mode on open: set it anyway
+        os.write(fd, (token + "\n").encode("utf-8"))
+    finally:
+        os.close(fd)
+    return path
+
+
+def _log_config(access_log: bool) -> dict[str, Any]:
+    """uvicorn's logging, with every handler masking session codes
+    (:class:`~app.services.redaction.RedactCodes`); the app's own loggers use it too."""
+    from uvicorn.config import LOGGING_CONFIG
+
+    cfg = copy.deepcopy(LOGGING_CONFIG)
+    cfg["filters"] = {"codes": {"()": "app.services.redaction.RedactCodes"}}
+    for handler in cfg["handlers"].values():
+        handler["filters"] = ["codes"]
+    cfg["loggers"]["uvicorn.error"]["level"] = "WARNING"
+    cfg["loggers"]["uvicorn.access"]["level"] = "INFO" if access_log else "WARNING"
+    cfg["root"] = {"handlers": ["default"], "level": "WARNING"}
+    return cfg
+
+
+def _announce(server: Any, app: Any, settings: Any, token_file: Path | None,
               open_browser: bool) -> None:
     while not server.started and not server.should_exit:
         time.sleep(0.05)
@@ -99,9 +139,9 @@ def _announce(server: Any, app: Any, settings: Any, generated: bool,
                                                else "") +
               ", create sessions and join one whose code it knows. Use it on a trusted "
               "class network only.", flush=True)
-        if generated:
-            print(f"Teacher token (needed to push presets to every session): "
-                  f"{settings.teacher_token}", flush=True)
+        if token_file is not None:
+            print(f"Teacher token (needed to push presets to every session): generated into "
+                  f"{token_file} (readable by you only)", flush=True)
         else:
             print("Broadcasting needs the teacher token you gave.", flush=True)
     print("Press Ctrl+C to stop.", flush=True)
@@ -115,15 +155,19 @@ def settings_of(args: argparse.Namespace) -> Any:
     from ..services.settings import Settings
     from ..services.store import default_state_dir
 
-    settings = Settings.from_env(
-        host=args.host,
-        port=args.port,
-        viser_port=args.viser_port,
-        teacher_token=_token(args),
-        state_dir=None if args.state_dir is None else str(args.state_dir),
-        max_store_mb=args.max_store_mb,
-        allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
-    )
+    try:
+        settings = Settings.from_env(
+            host=args.host,
+            port=args.port,
+            viser_port=args.viser_port,
+            teacher_token=_token(args),
+            state_dir=None if args.state_dir is None else str(args.state_dir),
+            max_store_mb=args.max_store_mb,
+            allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
+            trusted_proxies=None if args.trusted_proxy is None else tuple(args.trusted_proxy),
+        )
+    except ValueError as exc:
+        raise SystemExit(f"hyst serve: {exc}") from None
     if not settings.state_dir:
         settings = Settings(**{**settings.__dict__, "state_dir": str(default_state_dir())})
     if args.no_viser:
@@ -139,11 +183,16 @@ def run(args: argparse.Namespace) -> int:
 
     settings = settings_of(args)
     settings, generated = settings.with_teacher_token()
+    token_file = _save_token(settings.state_dir, settings.teacher_token) if generated else None
     app = create_app(settings)
-    config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
+    # proxy_headers=False: uvicorn would take X-Forwarded-For from any loopback peer;
+    # the app reads it itself, from the --trusted-proxy peers only (app.services.clients)
+    config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level=None,
+                            log_config=_log_config(args.access_log),
+                            access_log=args.access_log, proxy_headers=False,
                             timeout_graceful_shutdown=int(SHUTDOWN_S))
     server = uvicorn.Server(config)
-    threading.Thread(target=_announce, args=(server, app, settings, generated,
+    threading.Thread(target=_announce, args=(server, app, settings, token_file,
                                              not args.no_browser), daemon=True).start()
 
     def _hard_stop() -> None:  # a worker thread stuck in numerics must not keep us alive

@@ -6,8 +6,9 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
+from ..services.clients import client_address
 from ..services.ratelimit import RateLimiter
-from ..services.sessions import Session, SessionRegistry
+from ..services.sessions import Session, SessionRegistry, normalise_code
 from ..services.settings import Settings
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
@@ -25,8 +26,11 @@ def get_registry(request: Request) -> SessionRegistry:
 
 
 def client_key(request: Request) -> str:
-    """The client's address (the rate limits are per client)."""
-    return request.client.host if request.client else "unknown"
+    """The client's address (the limits are per client): the socket's peer, or, when the
+    peer is a trusted proxy (``Settings.trusted_proxies``), the address it forwards."""
+    return client_address(request.client.host if request.client else None,
+                          request.headers.getlist("x-forwarded-for"),
+                          request.app.state.settings.trusted_proxies)
 
 
 def rate_limited(limiter: RateLimiter, key: str, message: str) -> HTTPException:
@@ -35,18 +39,32 @@ def rate_limited(limiter: RateLimiter, key: str, message: str) -> HTTPException:
 
 
 def get_session(code: str, request: Request) -> Session:
-    """The session ``code``; 404 if there is none, 429 after too many unknown codes."""
+    """The session ``code``; 404 if there is none, 429 after too many unknown codes.
+
+    The pause after too many unknown codes is of this client and the codes it does not
+    know yet: a session it created or opened before stays open to it
+    (:class:`~app.services.known_codes.KnownCodes`)."""
     key = client_key(request)
     limiter = request.app.state.lookup_limiter
-    if not limiter.allowed(key):
+    known = request.app.state.known_codes
+    try:
+        canonical = normalise_code(code)
+    except KeyError:
+        canonical = None
+    familiar = canonical is not None and known.knows(key, canonical)
+    if not familiar and not limiter.allowed(key):
         raise rate_limited(limiter, key, "too many unknown session codes from this computer; "
                                          "wait a minute and check the code")
     try:
-        return request.app.state.registry.get(code)
+        session = request.app.state.registry.get(code)
     except KeyError:
+        if familiar:
+            known.forget(key, canonical)
         limiter.take(key)
         raise HTTPException(404, "no such session: check the code (it looks like "
                                  "abcd-efgh-jkmn-pqrs) or start a new session") from None
+    known.add(key, session.code)
+    return session
 
 
 def require_teacher(settings: Settings, token: str | None) -> None:

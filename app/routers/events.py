@@ -22,15 +22,15 @@ import json
 from collections.abc import AsyncIterator
 from typing import Any
 
-from fastapi import APIRouter, Header, HTTPException
+from fastapi import APIRouter, Header, HTTPException, Request
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
 from ..services import actions
 from ..services.config import SignalSpec
 from ..services.errors import ParameterError
-from ..services.events import HUB
-from .deps import RegistryDep, SessionDep, SettingsDep, require_teacher
+from ..services.events import HUB, StreamsPerClientError
+from .deps import RegistryDep, SessionDep, SettingsDep, client_key, require_teacher
 from .schemas import ConnectedOut, PushOut, SignalIn
 
 __all__ = ["router"]
@@ -46,16 +46,26 @@ STREAM_S = 10.0
     "content": {"text/event-stream": {}}}})
 async def session_events(
     session: SessionDep,
+    request: Request,
+    settings: SettingsDep,
     last_event_id: str | None = Header(default=None),
 ) -> StreamingResponse:
     """Server-sent events of session ``code`` (teacher pushes) for about 10 s, then the
-    browser reconnects (``Last-Event-ID`` replays what it missed)."""
+    browser reconnects (``Last-Event-ID`` replays what it missed). One client may hold
+    ``max_streams_per_client`` streams at once (429 beyond)."""
     last = int(last_event_id) if last_event_id and last_event_id.isdigit() else None
     # the stream starts with an id, so a page that got no event yet reconnects with a
     # Last-Event-ID too, and a push sent while it reconnects is replayed, not lost
     start = HUB.newest_id() if last is None else last
+    limit = settings.max_streams_per_client
     try:
-        sub = HUB.subscribe(session.code, last)
+        sub = HUB.subscribe(session.code, last, client=client_key(request), per_client=limit)
+    except StreamsPerClientError:
+        raise HTTPException(
+            429, f"this computer already has {limit} live explorer pages open, the most one "
+                 "computer may keep; close the pages you do not need (they reconnect by "
+                 f"themselves) or ask the teacher to raise HYST_MAX_STREAMS_PER_CLIENT",
+            headers={"Retry-After": str(int(STREAM_S))}) from None
     except OverflowError:
         raise HTTPException(503, "too many open live pages; try again later") from None
 

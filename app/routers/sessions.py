@@ -35,7 +35,9 @@ def create_session(
     if not limiter.take(key):
         raise rate_limited(limiter, key, "too many new sessions from this computer; wait a "
                                          "little or rejoin your session with its code")
-    return registry.create(teacher=settings.teacher_ok(x_teacher_token)).summary()
+    session = registry.create(teacher=settings.teacher_ok(x_teacher_token))
+    request.app.state.known_codes.add(key, session.code)
+    return session.summary()
 
 
 @router.get("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)

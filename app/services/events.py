@@ -19,7 +19,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["HUB", "EventHub", "Subscription"]
+__all__ = ["HUB", "EventHub", "StreamsPerClientError", "Subscription"]
 
 #: Events kept for one slow subscriber before the oldest are dropped.
 QUEUE_SIZE = 64
@@ -27,12 +27,17 @@ QUEUE_SIZE = 64
 REPLAY = 64
 
 
+class StreamsPerClientError(OverflowError):
+    """One client already holds as many open streams as it may."""
+
+
 @dataclass(eq=False)
 class Subscription:
-    """One listening page: its session code, loop and queue of event dicts."""
+    """One listening page: its session code, loop, client and queue of event dicts."""
 
     code: str
     loop: asyncio.AbstractEventLoop
+    client: str | None = None
     queue: asyncio.Queue[dict[str, Any] | None] = field(
         default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
 
@@ -63,20 +68,30 @@ class EventHub:
         self.max_subscribers = max_subscribers
         self._lock = threading.Lock()
         self._subs: dict[str, list[Subscription]] = {}
+        self._per_client: dict[str, int] = {}
         self._ids = itertools.count(1)
         self._recent: deque[tuple[str | None, dict[str, Any]]] = deque(maxlen=REPLAY)
 
-    def subscribe(self, code: str, last_id: int | None = None) -> Subscription:
+    def subscribe(self, code: str, last_id: int | None = None, *, client: str | None = None,
+                  per_client: int | None = None) -> Subscription:
         """Listen to session ``code`` from the running asyncio loop.
 
         ``last_id`` (a reconnecting page's ``Last-Event-ID``) replays the kept events
-        with a larger id that were meant for ``code``.
+        with a larger id that were meant for ``code``. With ``per_client``, ``client`` may
+        hold at most that many streams at once (:class:`StreamsPerClientError` beyond,
+        an ``OverflowError``); everyone together at most ``max_subscribers``.
         """
-        sub = Subscription(code, asyncio.get_running_loop())
+        sub = Subscription(code, asyncio.get_running_loop(), client)
         with self._lock:
+            if per_client is not None and client is not None and \
+                    self._per_client.get(client, 0) >= per_client:
+                raise StreamsPerClientError(
+                    f"{client} already holds {per_client} open event streams")
             if sum(map(len, self._subs.values())) >= self.max_subscribers:
                 raise OverflowError(f"more than {self.max_subscribers} open event streams")
             self._subs.setdefault(code, []).append(sub)
+            if client is not None:
+                self._per_client[client] = self._per_client.get(client, 0) + 1
             if last_id is not None:
                 for target, ev in self._recent:
                     if ev["id"] > last_id and target in (None, code):
@@ -89,6 +104,10 @@ class EventHub:
             subs = self._subs.get(sub.code, [])
             if sub in subs:
                 subs.remove(sub)
+                if sub.client is not None:
+                    left = self._per_client.pop(sub.client, 1) - 1
+                    if left > 0:
+                        self._per_client[sub.client] = left
             if not subs:
                 self._subs.pop(sub.code, None)
 

@@ -8,6 +8,7 @@ import os
 import secrets
 from dataclasses import dataclass, fields, replace
 
+from .clients import proxy_networks
 from .cost import Limits
 from .hosts import HostAllowList
 
@@ -51,6 +52,13 @@ class Settings:
         More names the server answers to (``Host`` header), beside the loopback names and
         ``host`` when it is not a wildcard (:attr:`host_allow_list`); ``HYST_ALLOWED_HOSTS``
         takes them comma-separated.
+    trusted_proxies : tuple of str
+        Addresses or networks (``127.0.0.1``, ``10.0.0.0/8``) of reverse proxies in front of
+        the server. Only a request arriving from one of them has its ``X-Forwarded-For``
+        read (:func:`app.services.clients.client_address`); otherwise the client is the
+        socket's peer. Empty by default: the header is ignored.
+    max_streams_per_client : int
+        Live-event streams (open pages) one client may hold at once.
     """
 
     host: str = "127.0.0.1"
@@ -65,6 +73,11 @@ class Settings:
     max_store_mb: int = 1000
     max_jobs: int = 2
     allowed_hosts: tuple[str, ...] = ()
+    trusted_proxies: tuple[str, ...] = ()
+    max_streams_per_client: int = 8
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "trusted_proxies", proxy_networks(self.trusted_proxies))
 
     @classmethod
     def from_env(cls, **overrides: object) -> Settings:
@@ -76,6 +89,8 @@ class Settings:
                 continue
             if f.name == "allowed_hosts":
                 kw[f.name] = tuple(n.strip() for n in raw.split(",") if n.strip())
+            elif f.name == "trusted_proxies":
+                kw[f.name] = tuple(a for a in raw.replace(",", " ").split() if a)
             elif f.name in ("host", "teacher_token", "state_dir"):
                 kw[f.name] = raw
             else:

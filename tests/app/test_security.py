@@ -253,8 +253,9 @@ def test_codes_are_long_random_and_made_by_the_server(client: TestClient) -> Non
 
 def test_failed_lookups_are_rate_limited(tmp_path: Path) -> None:
     """Failure 5: 2,860 guesses a minute, never a 429."""
-    with TestClient(create_app(settings(tmp_path))) as c:
-        good = c.post("/api/sessions").json()["code"]
+    app = create_app(settings(tmp_path))
+    with TestClient(app) as c:
+        good = app.state.registry.create().code  # a session this client never opened
         codes = [c.get(f"/api/sessions/{'abcd' * 3}{k:04d}") for k in range(40)]
         statuses = [r.status_code for r in codes]
         assert statuses[:20] == [404] * 20 and set(statuses[20:]) == {429}
@@ -304,10 +305,12 @@ def test_public_host_says_what_it_exposes(capsys) -> None:  # noqa: ANN001
                              servers=[SimpleNamespace(sockets=[sock])])
     app = SimpleNamespace(state=SimpleNamespace(viser_port=8124))
     s, generated = Settings(host="0.0.0.0", state_dir="/tmp/x").with_teacher_token()
-    _announce(server, app, s, generated, False)
+    assert generated
+    _announce(server, app, s, Path("/tmp/x/teacher-token"), False)
     out = capsys.readouterr().out
     assert "WARNING: listening on 0.0.0.0" in out and "8123" in out and "8124" in out
-    assert f"Teacher token (needed to push presets to every session): {s.teacher_token}" in out
+    assert "Teacher token (needed to push presets to every session): generated into " \
+           "/tmp/x/teacher-token" in out and s.teacher_token not in out
 
 
 def test_teacher_token_from_file_or_env(tmp_path: Path, monkeypatch) -> None:  # noqa: ANN001

@@ -151,3 +151,25 @@ def test_a_push_is_stored_and_survives_a_restart(tmp_path: Path) -> None:
     with TestClient(create_app(cfg)) as client:  # and another restart keeps it
         got = client.get(f"/api/sessions/{before}").json()["config"]
         assert got["model"]["type"] == "digitized" and got["signal"]["offset"] == 5.0
+
+
+def test_streams_per_client_are_capped_and_freed() -> None:
+    from app.services.events import StreamsPerClientError
+
+    hub = EventHub()
+
+    async def run() -> tuple[bool, int]:
+        subs = [hub.subscribe("a", client="10.0.0.1", per_client=3) for _ in range(3)]
+        try:
+            hub.subscribe("b", client="10.0.0.1", per_client=3)
+            refused = False
+        except StreamsPerClientError:
+            refused = True
+        other = hub.subscribe("a", client="10.0.0.2", per_client=3)  # another computer
+        hub.unsubscribe(subs[0])  # a page closed: its slot is free again
+        again = hub.subscribe("a", client="10.0.0.1", per_client=3)
+        for s in [*subs[1:], other, again]:
+            hub.unsubscribe(s)
+        return refused, sum(hub.connected().values())
+
+    assert _run(run) == (True, 0)
