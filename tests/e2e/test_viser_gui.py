@@ -98,10 +98,10 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     # a change made through the session (REST, teacher push) reaches A's controls only
     view_a.session.update(lambda c: c.with_model({**c.model, "p0": 1.25}))
     assert view_a.worker.wait_idle(30)
-    assert view_a.p0.value == pytest.approx(1.25)
-    assert view_b.p0.value == pytest.approx(0.72)
+    assert view_a.ui.p0.value == pytest.approx(1.25)
+    assert view_b.ui.p0.value == pytest.approx(0.72)
 
-    view_a.view_dd.value = "Digitized states"
+    view_a.ui.view_dd.value = "Digitized states"
     assert view_a.worker.wait_idle(30)
     a.get_by_role("tab", name="Digitized").first.click()
     _screenshot(a, shot, "viser-digitized")
