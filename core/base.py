@@ -26,6 +26,7 @@ __all__ = [
     "Field",
     "Model",
     "Response",
+    "RunCost",
     "model_class",
     "model_from_dict",
     "register_model",
@@ -107,6 +108,30 @@ def model_from_dict(d: dict[str, Any]) -> Model:
             f"unknown model type {t!r}; known types: {', '.join(registered_types())}"
         )
     return _REGISTRY[t].from_dict(d)
+
+
+@dataclass(frozen=True)
+class RunCost:
+    """Priced work and memory of one simulation of one model stage (its sub-models excluded).
+
+    Attributes
+    ----------
+    work : float
+        Element operations: one is about one floating-point update of one sample (of the
+        order of a nanosecond). A float, so that hostile sizes never overflow.
+    memory : float
+        Peak bytes the stage allocates for the run (buffers, work arrays).
+    """
+
+    work: float
+    memory: float
+
+    def __add__(self, other: RunCost) -> RunCost:
+        return RunCost(self.work + other.work, self.memory + other.memory)
+
+
+#: Bytes of one float64 sample.
+SAMPLE_BYTES = 8.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,6 +231,43 @@ class Model(ABC):
         which a fixed-step simulation must resolve: checked against the sample spacing by
         the explorer's cost model. Empty by default."""
         return ()
+
+    def field_size(self) -> int:
+        """Numbers held in this stage's own ``number``/``numbers``/``matrix`` fields (its
+        sub-models excluded)."""
+        total = 0
+        for f in self.fields:
+            if f.kind in ("number", "numbers", "matrix"):
+                v = getattr(self, f.name, None)
+                total += 0 if v is None else int(np.size(v))
+        return total
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Priced work and memory of simulating this stage (not its sub-models) on
+        ``samples`` samples spaced ``dt`` seconds, computed from the field sizes only
+        (nothing is run).
+
+        The default is linear in the fields: ``samples x (1 + numbers in the fields)``
+        element operations and a few sample arrays of memory. Types whose work is not
+        linear in their fields override it (creep terms, bisection steps, delay buffers,
+        state-space order squared, ...); the explorer's cost model sums it over a model
+        tree before any work (:mod:`app.services.cost`).
+
+        Parameters
+        ----------
+        samples : int
+            Samples of the input signal.
+        dt : float or None
+            Sample spacing in seconds (``None`` for a model without dynamics).
+
+        Returns
+        -------
+        RunCost
+            ``work`` in element operations, ``memory`` in bytes.
+        """
+        n = float(samples)
+        size = float(self.field_size())
+        return RunCost(n * (1.0 + size), SAMPLE_BYTES * (4.0 * n + size))
 
     def inverse(self) -> Model:
         """The exact inverse operator, such that ``self(self.inverse()(u)) == u``.

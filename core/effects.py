@@ -53,7 +53,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D
-from .base import Chain, Field, Model, register_model
+from .base import SAMPLE_BYTES, Chain, Field, Model, RunCost, register_model
 from .exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from .pi import PIModel
 from .preisach import PreisachModel
@@ -559,6 +559,13 @@ class Delay(Model):
         preview of ``ceil(τ_d/dt)`` samples of the desired trajectory (:class:`Advance`)."""
         return Advance(self.delay_s)
 
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """One pass over the input plus a buffer of ``delay_s / dt`` samples (work in
+        element operations, memory in bytes)."""
+        m = self.delay_s / dt if dt and dt > 0 else 0.0
+        n = float(samples) + m + 1.0
+        return RunCost(4.0 * n, 4.0 * SAMPLE_BYTES * n)
+
 
 @register_model
 @dataclass(frozen=True, eq=False)
@@ -615,6 +622,13 @@ class Advance(Model):
 
     def inverse(self) -> Delay:
         return Delay(self.delay_s)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """One pass over the input plus a buffer of ``delay_s / dt`` samples (work in
+        element operations, memory in bytes)."""
+        m = self.delay_s / dt if dt and dt > 0 else 0.0
+        n = float(samples) + m + 1.0
+        return RunCost(4.0 * n, 4.0 * SAMPLE_BYTES * n)
 
 
 # ----------------------------------------------------------------------------- creep
@@ -696,6 +710,12 @@ class Creep(Model):
             )
         return CreepInverse(self.taus_s, self.weights)
 
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Terms x samples: one filtered pass of the input per lag (element operations,
+        bytes)."""
+        n, m = float(samples), float(self.taus_s.size)
+        return RunCost(12.0 * n * m, SAMPLE_BYTES * (4.0 * n + m))
+
 
 @register_model
 @dataclass(frozen=True, eq=False)
@@ -749,6 +769,11 @@ class CreepInverse(Model):
 
     def inverse(self) -> Creep:
         return Creep(self.taus_s, self.weights)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Terms x samples: every lag updated at every sample (element operations, bytes)."""
+        n, m = float(samples), float(self.taus_s.size)
+        return RunCost(4.0 * n * (m + 1.0), SAMPLE_BYTES * (2.0 * n + 4.0 * m))
 
 
 # ----------------------------------------------------------------------------- drift
@@ -805,6 +830,12 @@ class Drift(Model):
 
     def inverse(self) -> Drift:
         return Drift(-self.coefficients, self.span_s, self.start_s)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Coefficients x samples: one Legendre recurrence step per coefficient and sample
+        (element operations, bytes)."""
+        n, m = float(samples), float(self.coefficients.size)
+        return RunCost(6.0 * n * (m + 2.0), SAMPLE_BYTES * (6.0 * n + m))
 
 
 # ----------------------------------------------------------------------------- output maps
@@ -873,6 +904,12 @@ class Asymmetry(Model):
 
     def inverse(self) -> AsymmetryInverse:
         return AsymmetryInverse(self.coefficients, self.center, self.scale)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Coefficients x samples: one power per coefficient and sample (element
+        operations, bytes)."""
+        n, m = float(samples), float(self.coefficients.size)
+        return RunCost(40.0 * n * (m + 1.0), SAMPLE_BYTES * (4.0 * n + m))
 
 
 def _poly_map(x: np.ndarray, coef: Float1D, c: float, s: float) -> np.ndarray:
@@ -963,6 +1000,16 @@ class AsymmetryInverse(Model):
 
     def inverse(self) -> Asymmetry:
         return self.forward
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Coefficients x samples x bisection steps (bracket expansion on both sides and
+        :func:`bisect_steps`), plus the roots of the map's derivative (a dense eigenvalue
+        problem of the coefficients' size). Work in element operations, memory in bytes."""
+        n, m = float(samples), float(self.coefficients.size)
+        steps = 2.0 * 64.0 + bisect_steps()
+        work = 3.0 * n * (m + 2.0) * steps + 10.0 * m**3
+        memory = SAMPLE_BYTES * (8.0 * n + 4.0 * m * m)
+        return RunCost(work, memory)
 
 
 @register_model
@@ -1263,6 +1310,13 @@ class RateDependentPIInverse(Model):
 
     def inverse(self) -> RateDependentPI:
         return self.forward
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Operators x samples x solver iterations (each over every operator; typically
+        well under the cap of 100 per sample); work in element operations, memory in
+        bytes."""
+        n, k = float(samples), float(np.size(self.thresholds))
+        return RunCost(60.0 * n * (k + 1.0), SAMPLE_BYTES * (2.0 * n + 4.0 * k))
 
 
 # ----------------------------------------------------------------------------- initial memory

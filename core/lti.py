@@ -31,7 +31,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Field, Model, register_model
+from .base import SAMPLE_BYTES, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_vector, frozen
 
@@ -79,6 +79,14 @@ else:  # pragma: no cover
 def _strip(c: Float1D) -> Float1D:
     nz = np.flatnonzero(c != 0)
     return c[nz[0]:] if nz.size else c[-1:]
+
+
+def _state_space_cost(order: int, samples: int) -> RunCost:
+    """A state-space run: ``order^2`` per sample plus the discretisation (``order^3``);
+    work in element operations, memory in bytes."""
+    n, k = float(samples), float(order)
+    return RunCost(n * (k * k + 2.0 * k + 2.0) + 50.0 * (k + 1.0) ** 3,
+                   SAMPLE_BYTES * (2.0 * n + 8.0 * (k + 1.0) ** 2))
 
 
 @register_model
@@ -317,6 +325,10 @@ class LinearSystem(Model):
         lti_run(Ad, Bd, C, D, x, u, y)
         return y, x
 
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Order squared per sample (a dense state update) plus the discretisation."""
+        return _state_space_cost(self.order, samples)
+
     def inverse(self) -> InverseLinearSystem:
         """Exact inverse of the sampled system (biproper, minimum-phase systems only).
 
@@ -407,6 +419,10 @@ class InverseLinearSystem(Model):
 
     def inverse(self) -> LinearSystem:
         return self.system
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """As the system inverted (:meth:`LinearSystem.cost`)."""
+        return _state_space_cost(self.system.order, samples)
 
     def to_dict(self) -> dict[str, Any]:
         return {"type": self.type_name, "system": self.system.to_dict()}

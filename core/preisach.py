@@ -46,7 +46,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Field, Model, register_model
+from .base import SAMPLE_BYTES, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .pi import PIModel
 from .validation import as_matrix, as_vector, frozen
@@ -294,3 +294,10 @@ class PreisachInverse(Model):
     def inverse(self) -> PreisachModel:
         """The forward model."""
         return self.model
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Operators x segments per sample (the solve scans every breakpoint); work in
+        element operations, memory in bytes."""
+        m = self.model
+        n, k = float(samples), float(m.n) * float(m.n_segments)
+        return RunCost(50.0 * n * (k + 1.0), SAMPLE_BYTES * (2.0 * n + 2.0 * k))
