@@ -160,6 +160,8 @@ class LimitsOut(BaseModel):
     min_tau_per_dt: Number
     max_tau_per_dt: Number
     max_work: int
+    max_total_work: Number
+    max_memory_bytes: Number
 
 
 class CapabilitiesOut(BaseModel):

@@ -284,11 +284,14 @@ def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
 
 
 # ----------------------------------------------------------------------------- figures
-def check_figure_names(names: Collection[str]) -> None:
-    """Refuse names that are not figures (before any work)."""
-    unknown = [n for n in names if n not in F.FIGURES]
+def check_figure_names(names: Collection[str]) -> list[str]:
+    """The distinct figure names of a request, in their first order (a figure asked for
+    twice is built once); names that are not figures are refused before any work."""
+    unique = list(dict.fromkeys(names))
+    unknown = [n for n in unique if n not in F.FIGURES]
     if unknown:
-        raise ParameterError(f"unknown figure(s) {unknown}; known: {list(F.FIGURES)}")
+        raise ParameterError(f"unknown figure(s) {unknown[:10]}; known: {list(F.FIGURES)}")
+    return unique
 
 
 def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
@@ -325,14 +328,14 @@ def result_payload(res: Result, names: Collection[str],
 def session_figures(session: Session, names: Collection[str],
                     settings: Settings) -> dict[str, Any]:
     """Figures ``names`` of the session's current config (only their views computed)."""
-    check_figure_names(names)
+    names = check_figure_names(names)
     return result_payload(session_result(session, names, settings), names)
 
 
 def simulate(config: Config, names: Collection[str], settings: Settings,
              include_data: bool = False) -> dict[str, Any]:
     """Figures ``names`` of a config that belongs to no session (stateless)."""
-    check_figure_names(names)
+    names = check_figure_names(names)
     # bounded cost, checked before any work; the model is built once
     model = check_operator_limit(checked_config(config, None, settings.limits).model,
                                  settings.max_operators)

@@ -10,8 +10,10 @@ Two steps, both cheap and non-recursive where the input is hostile:
    samples, sample spacing ``dt``): play operators over every type that has them (``pi``,
    ``rate``, ``initial-memory``, ``digitized``, the GPI family), creep terms, LTI order,
    delay in samples (delays and advances, priced without overflow), time constants
-   against ``dt``, and the total work
-   ``samples x (operators + creep terms + LTI order + stages)``.
+   against ``dt``, the coarse work ``samples x (operators + creep terms + LTI order +
+   stages)``, and the priced work and memory: the sum over the model tree of each
+   stage's own :meth:`core.base.Model.cost` (every registered type declares it from its
+   fields: terms x samples, coefficients x samples x bisection steps, delay buffers, ...).
 
 Every refusal is a :class:`~core.exceptions.ParameterError` (a 422 in the API) naming the
 quantity, its value, the limit and what to change. The limits are :class:`Limits`, shown by
@@ -27,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from core.base import Model
+from core.base import Model, RunCost
 from core.exceptions import ParameterError
 
 __all__ = ["CheckedModel", "Cost", "Limits", "check_config", "check_document", "check_model",
@@ -60,6 +62,11 @@ class Limits:
         either a no-op or numerically singular.
     max_work : int
         ``samples x (operators + creep terms + LTI order + stages)`` of one simulation.
+    max_total_work : float
+        Priced work of one simulation, in element operations (about a nanosecond each):
+        the sum of :meth:`core.base.Model.cost` over the model tree.
+    max_memory_bytes : float
+        Priced memory of one simulation (bytes), summed the same way.
     """
 
     max_operators: int = 100
@@ -72,6 +79,8 @@ class Limits:
     min_tau_per_dt: float = 1e-9
     max_tau_per_dt: float = 1e6
     max_work: int = 25_000_000
+    max_total_work: float = 2e9
+    max_memory_bytes: float = 1.5e9
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (``GET /api/capabilities``)."""
@@ -80,7 +89,12 @@ class Limits:
 
 @dataclass(frozen=True)
 class Cost:
-    """What one simulation of a model costs (see :func:`check_model`)."""
+    """What one simulation of a model costs (see :func:`check_model`).
+
+    ``work`` is the coarse ``samples x (operators + creep terms + lti order + stages)``;
+    ``total_work`` (element operations) and ``memory_bytes`` are the sums of every stage's
+    :meth:`core.base.Model.cost`.
+    """
 
     operators: int
     creep_terms: int
@@ -88,6 +102,8 @@ class Cost:
     delay_samples: int
     stages: int
     work: int
+    total_work: float = 0.0
+    memory_bytes: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,6 +228,7 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
         When a limit of :class:`Limits` is exceeded (the message names it and the fix).
     """
     ops = creep = order = delay = stages = 0
+    priced: list[tuple[Model, RunCost]] = []
     todo, depth_of = [model], {id(model): 1}
     while todo:
         m = todo.pop()
@@ -224,8 +241,14 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
             depth_of[id(k)] = d + 1
         todo.extend(kids)
         ops += _operators(m)
-        if m.type_name == "creep":
-            creep += int(np.size(m.taus_s))  # type: ignore[attr-defined]
+        if m.type_name in ("creep", "creep-inverse"):
+            terms = int(np.size(m.taus_s))  # type: ignore[attr-defined]
+            creep += terms
+            if creep > limits.max_creep_terms:
+                raise ParameterError(
+                    f"{m.type_name} has {terms:,} terms ({creep:,} in the model); the "
+                    f"explorer allows at most {limits.max_creep_terms} (one lag per decade "
+                    "of time is enough)")
         if m.type_name == "lti":
             order += int(np.size(m.den)) - 1  # type: ignore[attr-defined]
         if m.type_name in ("delay", "advance"):  # an advance buffers its delay too
@@ -238,13 +261,10 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
                     f"{what} = {tau:.3g} s is {r:.3g} sample spacings (dt = {dt:.3g} s); it "
                     f"must be between {limits.min_tau_per_dt:g} and {limits.max_tau_per_dt:g} "
                     "dt: change the time constant or the sample spacing")
+        priced.append((m, m.cost(samples, dt)))
     if ops > limits.max_operators:
         raise ParameterError(
             f"model has {ops} operators; the explorer allows at most {limits.max_operators}")
-    if creep > limits.max_creep_terms:
-        raise ParameterError(
-            f"creep has {creep} terms; the explorer allows at most {limits.max_creep_terms} "
-            "(one lag per decade of time is enough)")
     if order > limits.max_lti_order:
         raise ParameterError(
             f"lti order {order} exceeds the limit of {limits.max_lti_order}")
@@ -257,7 +277,44 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
             f"this run costs {work:,} units (samples x (operators + creep terms + lti order + "
             f"stages) = {samples:,} x {ops + creep + order + stages}), more than "
             f"{limits.max_work:,}: use fewer samples or a smaller model")
-    return Cost(ops, creep, order, delay, stages, work)
+    total = _priced_total(priced, samples, limits)
+    return Cost(ops, creep, order, delay, stages, work, total.work, total.memory)
+
+
+def _size_words(m: Model) -> str:
+    """The sizes of ``m``'s array fields in words, e.g. ``"19,000 coefficients"``."""
+    parts = [f"{np.size(getattr(m, f.name)):,} {f.name}" for f in m.fields
+             if f.kind in ("numbers", "matrix") and getattr(m, f.name, None) is not None]
+    return ", ".join(parts) or "no arrays"
+
+
+def _priced_total(priced: list[tuple[Model, RunCost]], samples: int,
+                  limits: Limits) -> RunCost:
+    """Sum of the stages' priced costs, refused (naming the costliest stage) above the
+    total-work or memory limit.
+
+    Raises
+    ------
+    ParameterError
+        When ``limits.max_total_work`` or ``limits.max_memory_bytes`` is exceeded.
+    """
+    total = RunCost(0.0, 0.0)
+    for _, c in priced:
+        total = total + c
+    checks = (("work", "work", limits.max_total_work, "units", 1.0),
+              ("memory", "memory", limits.max_memory_bytes, "MB", 1e6))
+    for attr, what, limit, unit, scale in checks:
+        value = getattr(total, attr)
+        if not value <= limit:  # also refuses nan
+            worst, wc = max(priced, key=lambda p: getattr(p[1], attr))
+            raise ParameterError(
+                f"this run is priced at {value / scale:,.0f} {unit} of {what} on {samples:,} "
+                f"samples, more than the limit of {limit / scale:,.0f}; most of it is the "
+                f"'{worst.type_name}' stage ({_size_words(worst)}: "
+                f"{getattr(wc, attr) / scale:,.0f} {unit}): make that stage smaller "
+                "(fewer coefficients, terms, operators or a shorter delay) or use fewer "
+                "samples")
+    return total
 
 
 def checked_model(doc: Any, samples: int, dt: float, limits: Limits) -> tuple[Model, Cost]:
