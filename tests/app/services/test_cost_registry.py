@@ -1,16 +1,15 @@
 """Issue 18, item 3: one cost function over the model registry.
 
 Every registered type prices its own run (:meth:`core.base.Model.cost`); the cost model
-sums it over the model tree and refuses a request before any work. The priced work bounds
-the measured time (a ratio, never an absolute timing), and the bodies that ran for minutes
-or took gigabytes are refused with a 422 without simulating anything.
+sums it over the model tree and refuses a request before any work: the bodies that ran for
+minutes or took gigabytes are refused with a 422 without simulating anything. That the
+priced work bounds the measured time is a benchmark (``benchmarks/bench_cost.py``), not a
+timed test.
 """
 
 from __future__ import annotations
 
 import math
-import time
-import warnings
 from collections.abc import Iterator
 from typing import Any
 
@@ -21,67 +20,19 @@ from fastapi.testclient import TestClient
 from app.server import create_app
 from app.services import figures as F
 from app.services.actions import check_figure_names
-from app.services.cost import Limits, _children, check_model
+from app.services.cost import Limits, check_model
 from app.services.settings import Settings
-from core.base import Model, RunCost, registered_types
+from core.base import Model, registered_types
 from core.effects import (
     Advance,
     Asymmetry,
     AsymmetryInverse,
-    Creep,
     CreepInverse,
-    Delay,
     Drift,
-    RateDependentPI,
 )
 from core.exceptions import ParameterError
 from core.lti import LinearSystem
-from core.pi import PIModel
-from core.preisach import PreisachModel
 from tests.core.model_zoo import DT, ZOO
-
-#: Samples of the timed runs (small: the ratio, not the time, is checked).
-N = 40_000
-#: Generous upper bound of measured seconds per priced unit (about 1 ns is typical).
-MAX_SECONDS_PER_UNIT = 40e-9
-
-
-def _scaled() -> dict[str, Model]:
-    """Zoo types scaled up in the sizes their cost depends on."""
-    k = 60
-    pre = PreisachModel(np.linspace(0.0, 2.0, 12), np.full((12, 3), 0.05), knots=[-1.0, 1.0])
-    return {
-        "pi x100": PIModel(1.0, np.linspace(0.05, 3.0, 100), np.full(100, 0.01)),
-        "creep x40": Creep(np.logspace(-3, 1, 40), np.full(40, 0.01)),
-        "creep-inverse x40": CreepInverse(np.logspace(-3, 1, 40), np.full(40, 0.01)),
-        "drift x400": Drift(np.full(400, 1e-3), 2.0),
-        "asymmetry x200": Asymmetry(np.full(200, 1e-4), 0.5, 4.0),
-        "asymmetry-inverse x60": AsymmetryInverse(np.full(k, 1e-5), 0.5, 4.0),
-        "delay long": Delay(N * DT), "advance long": Advance(N * DT),
-        "rate-inverse x20": RateDependentPI(1.0, np.linspace(0.1, 2.0, 20),
-                                            np.full(20, 0.02), 2e-5).inverse(),
-        "lti order 8": LinearSystem([1.0], np.poly(-np.arange(1, 9) * 1e3)),
-        "preisach-inverse x12": pre.inverse(),
-    }
-
-
-def _priced(m: Model, samples: int, dt: float) -> RunCost:
-    total, todo = RunCost(0.0, 0.0), [m]
-    while todo:
-        x = todo.pop()
-        total = total + x.cost(samples, dt)
-        todo.extend(_children(x))
-    return total
-
-
-def _seconds(m: Model, u: np.ndarray) -> float:
-    m.simulate(u[:64], dt=DT)  # compile the kernels first
-    best = math.inf
-    for _ in range(3):
-        t = time.perf_counter()
-        m.simulate(u, dt=DT)
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def test_every_registered_type_prices_its_run() -> None:
@@ -93,18 +44,6 @@ def test_every_registered_type_prices_its_run() -> None:
             assert math.isfinite(c.work) and c.work > 0, name
             assert math.isfinite(c.memory) and c.memory > 0, name
         assert big.work > small.work, name
-
-
-def test_priced_work_bounds_the_measured_time() -> None:
-    """Seconds per priced unit stay under one generous constant for every type, scaled up."""
-    u = 3.0 * np.sin(np.linspace(0.0, 40.0 * np.pi, N))
-    ratios: dict[str, float] = {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for name, m in {**ZOO, **_scaled()}.items():
-            ratios[name] = _seconds(m, u) / _priced(m, N, DT).work
-    worst = max(ratios, key=ratios.__getitem__)
-    assert ratios[worst] < MAX_SECONDS_PER_UNIT, (worst, ratios[worst], ratios)
 
 
 def test_costs_are_not_linear_in_the_fields_where_the_work_is_not() -> None:
@@ -186,11 +125,9 @@ def test_pathological_bodies_are_refused_before_any_work(
         raise AssertionError("a model was simulated before its cost was checked")
 
     monkeypatch.setattr(Model, "simulate", never)
-    t = time.perf_counter()
     r = client.post("/api/simulate", json=_body(stage))
     assert r.status_code == 422, r.text[:300]
     assert words in r.json()["detail"], r.json()["detail"]
-    assert time.perf_counter() - t < 10.0  # generous: it ran for 13 s to minutes
 
 
 def test_a_figure_asked_for_many_times_is_built_once(
