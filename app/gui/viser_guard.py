@@ -44,12 +44,16 @@ __all__ = ["SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "che
 SUPPORTED_VISER = ("1.1.",)
 
 #: The policy of viser's page. Its single ``index.html`` holds one inline loader script that
-#: unpacks the client with a WebAssembly decoder and inserts it as an inline module script,
-#: so scripts need ``'unsafe-inline'`` and ``'wasm-unsafe-eval'``; everything else is the
-#: REST policy (:data:`app.security.CSP`): nothing from another site, no framing.
-VISER_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline' 'wasm-unsafe-eval'; "
+#: unpacks the client with a WebAssembly decoder and inserts it as an inline module script
+#: (``'unsafe-inline'``, ``'wasm-unsafe-eval'``); the client evaluates the plotly.js the
+#: server sends over the websocket for its plots (``'unsafe-eval'``) and fetches its
+#: decoder and environment map from ``data:`` URLs (``connect-src data:``, which reaches no
+#: host). Everything else is the REST policy (:data:`app.security.CSP`): no other site's
+#: script, style, image or connection, no plugins, no framing.
+VISER_CSP = ("default-src 'self'; "
+             "script-src 'self' 'unsafe-inline' 'unsafe-eval' 'wasm-unsafe-eval'; "
              "style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
-             "font-src 'self' data:; connect-src 'self'; worker-src 'self' blob:; "
+             "font-src 'self' data:; connect-src 'self' data:; worker-src 'self' blob:; "
              "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
 
 _HEADERS = {
