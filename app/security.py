@@ -33,10 +33,9 @@ import json
 import logging
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
-from urllib.parse import urlsplit
 
 from .services.cost import json_depth
-from .services.hosts import HostAllowList, host_name
+from .services.hosts import HostAllowList, foreign_origin, host_name
 from .services.jsonbody import json_body_problem
 from .services.redaction import redact
 
@@ -157,20 +156,7 @@ class Guard:
     @staticmethod
     def _foreign(headers: dict[str, str]) -> str | None:
         """Why a state-changing request comes from another site, or ``None``."""
-        if headers.get("sec-fetch-site") == "cross-site":
-            return "requests from another web site may not change sessions"
-        origin = headers.get("origin")
-        if origin is None:
-            return None  # not a browser's cross-origin request (curl, scripts, same-origin GET)
-        host = headers.get("host", "")
-        try:
-            parts = urlsplit(origin)
-        except ValueError:
-            return "the request's Origin header is malformed"
-        if origin == "null" or parts.netloc.lower() != host.lower():
-            return (f"requests from another web site ({origin[:100]}) may not change "
-                    "sessions; open the explorer's own page")
-        return None
+        return foreign_origin(headers)
 
     async def _read(self, headers: dict[str, str],
                     receive: Receive) -> tuple[bytes, tuple[int, bytes] | None]:

@@ -42,15 +42,18 @@ log = logging.getLogger(__name__)
 
 
 def _start_viser(app: FastAPI, settings: Settings) -> Any:
-    """Start the viser server and bind the GUI to the registry; ``None`` if disabled."""
+    """Start the viser server behind its guard (:mod:`app.gui.viser_guard`) and bind the GUI
+    to the registry; ``None`` if disabled. New GUI sessions count against the same
+    per-client limiter as ``POST /api/sessions``."""
     if settings.viser_port is None:
         return None
-    import viser
-
     from .gui.explorer import attach_gui
+    from .gui.viser_guard import ViserGuard, start_viser
 
-    server = viser.ViserServer(host=settings.host, port=settings.viser_port, verbose=False)
-    app.state.gui = attach_gui(server, app.state.registry, settings)
+    guard = ViserGuard(settings.host_allow_list, settings.trusted_proxies)
+    server = start_viser(settings.host, settings.viser_port, guard)
+    app.state.gui = attach_gui(server, app.state.registry, settings, guard=guard,
+                               limiter=app.state.create_limiter)
     return server
 
 

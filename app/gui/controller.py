@@ -98,6 +98,8 @@ class SessionView:
         self.playback = Playback(lambda: float(self.ui.play_speed.value), self._play_step)
         # failed joins of this tab, as the REST API limits unknown codes per client
         self._lookups = RateLimiter(burst=20, per_minute=20)
+        #: This tab gave the right teacher token on a loopback server (kept for its pushes).
+        self.teacher = False
         self._notify = notify
         self._download = download
         self._syncing = threading.local()
@@ -354,11 +356,24 @@ class SessionView:
         self._toast("Session", f"now in session {new.code}")
 
     def _push_clicked(self, event: Any) -> None:
+        """Push this tab's model to every session: always with the teacher token, also on
+        loopback (another page the teacher opens must not push); on a loopback server a
+        tab that gave the right token once keeps it (:attr:`teacher`)."""
         given = str(self.ui.teacher_token.value)
         self.ui.teacher_token.value = ""
-        if not self.settings.may_teach(given or None):
-            self._toast("Not pushed", "wrong teacher token", True)
+        if not self.settings.teacher_token:
+            self._toast("Not pushed", "this server has no teacher token, so the GUI cannot "
+                        "push; start hyst serve with --teacher-token-file FILE (or set "
+                        "HYST_TEACHER_TOKEN) and type that token here", True)
             return
+        if given or not self.teacher:
+            ok = self.settings.teacher_ok(given or None)
+            self.teacher = ok and not self.settings.public
+            if not ok:
+                self._toast("Not pushed", "wrong teacher token: type the token hyst serve "
+                            "was given (or generated into teacher-token in its state "
+                            "directory)", True)
+                return
         n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
                             note={"preset": None, "title": "the teacher's model"})
         self._toast("Pushed", f"model sent to {n} sessions")

@@ -1,14 +1,21 @@
-"""The viser side of ``hyst serve``: one private :class:`SessionView` per browser tab."""
+"""The viser side of ``hyst serve``: one private :class:`SessionView` per browser tab.
+
+Each tab's new session counts against the per-client limiter of ``POST /api/sessions``
+(keyed by the websocket's client address, :meth:`app.gui.viser_guard.ViserGuard.
+client_address`): a client beyond it gets a message in the tab, not a session.
+"""
 
 from __future__ import annotations
 
 import threading
 from typing import Any
 
+from ..services.ratelimit import RateLimiter
 from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
 from .controller import SessionView
 from .layout import NARROW_PX
+from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
 
@@ -21,12 +28,20 @@ class ExplorerGui:
     server : viser.ViserServer
     registry : SessionRegistry
     settings : Settings
+    guard : ViserGuard, optional
+        Knows each websocket's client address (:mod:`app.gui.viser_guard`).
+    limiter : RateLimiter, optional
+        New sessions per client address; no limit without one.
     """
 
-    def __init__(self, server: Any, registry: SessionRegistry, settings: Settings) -> None:
+    def __init__(self, server: Any, registry: SessionRegistry, settings: Settings, *,
+                 guard: ViserGuard | None = None, limiter: RateLimiter | None = None) -> None:
         self.server = server
         self.registry = registry
         self.settings = settings
+        self.guard = guard
+        self.limiter = limiter
+        self.refused: set[int] = set()
         self.views: dict[int, SessionView] = {}
         self._lock = threading.Lock()
         server.gui.configure_theme(show_share_button=False, control_width="large",
@@ -42,6 +57,8 @@ class ExplorerGui:
             client.add_notification(title, body, auto_close_seconds=6.0,
                                     color="red" if error else None)
 
+        if not self._may_create(client):
+            return
         view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
                            notify=notify, scene=client.scene, camera=client.camera)
 
@@ -55,8 +72,27 @@ class ExplorerGui:
         with self._lock:
             self.views[client.client_id] = view
 
+    def _may_create(self, client: Any) -> bool:
+        """Whether this tab's client may have a new session; else say so in the tab."""
+        if self.limiter is None:
+            return True
+        key = "unknown" if self.guard is None else self.guard.client_address(client.client_id)
+        if self.limiter.take(key):
+            return True
+        wait = self.limiter.retry_after(key)
+        text = (f"**Too many new sessions from this computer.** Each open or reloaded tab "
+                f"starts one; close tabs you do not use and reload this page in {wait} s "
+                "(to continue a session, use its code after the reload).")
+        client.gui.add_markdown(text)
+        client.add_notification("No session", text.replace("**", ""),
+                                auto_close_seconds=None, color="red")
+        with self._lock:
+            self.refused.add(client.client_id)
+        return False
+
     def _disconnect(self, client: Any) -> None:
         with self._lock:
+            self.refused.discard(client.client_id)
             view = self.views.pop(client.client_id, None)
         if view is not None:
             view.close()
@@ -69,6 +105,9 @@ class ExplorerGui:
             v.close()
 
 
-def attach_gui(server: Any, registry: SessionRegistry, settings: Settings) -> ExplorerGui:
-    """Give every browser tab connecting to ``server`` its own explorer view."""
-    return ExplorerGui(server, registry, settings)
+def attach_gui(server: Any, registry: SessionRegistry, settings: Settings, *,
+               guard: ViserGuard | None = None,
+               limiter: RateLimiter | None = None) -> ExplorerGui:
+    """Give every browser tab connecting to ``server`` its own explorer view (see
+    :class:`ExplorerGui` for ``guard`` and ``limiter``)."""
+    return ExplorerGui(server, registry, settings, guard=guard, limiter=limiter)

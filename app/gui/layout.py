@@ -79,8 +79,10 @@ class Widgets:
             # viser 1.1 has no password field: the token is typed here and the field is
             # cleared after each push, so a projector shows it for a moment at most
             self.teacher_token = g.add_text("Teacher token", initial_value="",
-                                            hint="needed when the server was started with "
-                                                 "--teacher-token; cleared after use")
+                                            hint="needed for every push (the token hyst "
+                                                 "serve was given or generated); cleared "
+                                                 "after use, on a server of this computer "
+                                                 "the tab remembers it")
             self.push_btn = g.add_button("Teacher: push this model to every session")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):

@@ -4,13 +4,18 @@ A page of another site can point its own name at 127.0.0.1 (DNS rebinding): the 
 then sends that page's requests here, with ``Host`` and ``Origin`` both naming the other
 site, so the origin check alone lets them through. Refusing every ``Host`` that is not a
 name of this server closes that: :class:`HostAllowList` holds those names.
+:func:`foreign_origin` is the other half, the Origin rule: a browser request that another
+site's page sent. The REST guard (:mod:`app.security`) and the viser port's guard
+(:mod:`app.gui.viser_guard`) both apply these two rules.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from urllib.parse import urlsplit
 
-__all__ = ["LOOPBACK_NAMES", "WILDCARDS", "HostAllowList", "host_name"]
+__all__ = ["LOOPBACK_NAMES", "WILDCARDS", "HostAllowList", "foreign_origin", "host_name"]
 
 #: Names of this machine that every server answers to.
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
@@ -69,3 +74,35 @@ class HostAllowList:
         if name in self.names:
             return True
         return local_address is not None and name == host_name(local_address)
+
+
+def foreign_origin(headers: Mapping[str, str]) -> str | None:
+    """Why a browser request comes from another site's page, or ``None`` when it does not.
+
+    Parameters
+    ----------
+    headers : mapping of str to str
+        The request's headers, names in lower case.
+
+    Returns
+    -------
+    str or None
+        A sentence for the user when ``Sec-Fetch-Site`` says ``cross-site`` or ``Origin``
+        is not this server (``null``, malformed, or another host and port than ``Host``);
+        ``None`` otherwise, also without an ``Origin`` (not a browser's cross-origin
+        request: curl, scripts, same-origin GET).
+    """
+    if headers.get("sec-fetch-site") == "cross-site":
+        return "requests from another web site may not change sessions"
+    origin = headers.get("origin")
+    if origin is None:
+        return None
+    host = headers.get("host", "")
+    try:
+        parts = urlsplit(origin)
+    except ValueError:
+        return "the request's Origin header is malformed"
+    if origin == "null" or parts.netloc.lower() != host.lower():
+        return (f"requests from another web site ({origin[:100]}) may not change "
+                "sessions; open the explorer's own page")
+    return None

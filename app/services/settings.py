@@ -126,8 +126,8 @@ class Settings:
     def may_teach(self, token: str | None) -> bool:
         """Whether a request with ``token`` may push to every session: with a teacher token
         only when it matches (:meth:`teacher_ok`); without one only on a loopback server
-        (a public one always has a token, :meth:`with_teacher_token`). The REST API and
-        the viser GUI both use this rule."""
+        (a public one always has a token, :meth:`with_teacher_token`). The REST API uses
+        this rule; the viser GUI needs :meth:`teacher_ok` also on loopback."""
         if self.teacher_token:
             return self.teacher_ok(token)
         return not self.public

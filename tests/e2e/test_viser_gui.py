@@ -22,10 +22,18 @@ def _open(browser: Any, url: str, width: int = 1500, height: int = 900
     page.set_default_timeout(60_000)  # the 2 shared vCPUs can be very busy
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
+    # the viser page's own CSP (app/gui/viser_guard.py): a blocked script, style or socket
+    # is reported on the console
+    page.on("console", lambda m: errors.append(f"console: {m.text}")
+            if "Content Security Policy" in m.text or "Refused to" in m.text else None)
     page.on("request", lambda r: errors.append(f"external request {r.url}")
             if not r.url.startswith(("http://127.0.0.1", "ws://127.0.0.1", "data:", "blob:"))
             else None)
-    page.goto(url)
+    response = page.goto(url)
+    assert response is not None
+    assert "frame-ancestors 'none'" in (response.header_value("content-security-policy")
+                                        or ""), "the viser page must send its CSP"
+    assert response.header_value("x-frame-options") == "DENY"
     page.wait_for_function(
         "() => !document.body.innerText.includes('Connecting...')", timeout=60_000)
     page.wait_for_selector("text=Session code", timeout=60_000)

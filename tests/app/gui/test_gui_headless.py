@@ -244,10 +244,42 @@ def test_numeric_leaves_round_trip() -> None:
 
 def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
     other = view.registry.create()
+    view.settings = Settings(teacher_token="s3cret")
     view.ui.p0.value = 1.3
     _idle(view)
+    view.ui.teacher_token.value = "s3cret"
     view._push_clicked(SimpleNamespace(client=None))
     assert other.config.model["p0"] == 1.3
+
+
+def test_teacher_push_needs_the_token_also_on_loopback(view: SessionView) -> None:
+    """Another page the teacher opens on this computer must not push to every session: a
+    loopback server without a teacher token cannot push from the GUI, and one with a token
+    needs it; a tab that gave it once keeps it (on loopback only), a wrong one forgets it."""
+    other = view.registry.create()
+    view.ui.p0.value = 1.2
+    _idle(view)
+    view._push_clicked(SimpleNamespace(client=None))  # Settings(): loopback, no token
+    assert other.config.model["p0"] != 1.2
+    assert view.toasts[-1][0] == "Not pushed" and "--teacher-token-file" in view.toasts[-1][1]
+    view.settings = Settings(teacher_token="s3cret")
+    view._push_clicked(SimpleNamespace(client=None))
+    assert other.config.model["p0"] != 1.2 and not view.teacher
+    view.ui.teacher_token.value = "s3cret"
+    view._push_clicked(SimpleNamespace(client=None))
+    assert other.config.model["p0"] == 1.2 and view.teacher
+    view.ui.p0.value = 1.4
+    _idle(view)
+    view._push_clicked(SimpleNamespace(client=None))  # remembered: the field stays empty
+    assert other.config.model["p0"] == 1.4
+    view.ui.teacher_token.value = "wrong"
+    view._push_clicked(SimpleNamespace(client=None))
+    assert not view.teacher and view.toasts[-1][0] == "Not pushed"
+    public = Settings(host="0.0.0.0", teacher_token="s3cret")
+    view.settings = public
+    view.ui.teacher_token.value = "s3cret"
+    view._push_clicked(SimpleNamespace(client=None))
+    assert view.toasts[-1][0] == "Pushed" and not view.teacher  # a projector: every time
 
 
 def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,

@@ -1,0 +1,218 @@
+"""The viser port's guard: the REST rules on viser's own page and websocket.
+
+viser serves its page and its websocket itself (``websockets.asyncio.server.serve`` with a
+``process_request`` callback answering the page requests), not through FastAPI, so
+:class:`app.security.Guard` never sees them. :func:`start_viser` starts a
+``viser.ViserServer`` whose ``process_request`` is wrapped by :class:`ViserGuard`; nothing
+in site-packages is edited:
+
+* **Own names only**: a request whose ``Host`` is not a name of this server
+  (:class:`app.services.hosts.HostAllowList`) is a 421, page or websocket, before viser
+  sees it.
+* **Foreign origins**: a websocket handshake whose ``Origin`` (or ``Sec-Fetch-Site:
+  cross-site``) is not this server is a 403 before the connection is accepted
+  (:func:`app.services.hosts.foreign_origin`), so another site's page open in a browser
+  cannot drive a GUI tab; a page request carrying a foreign ``Origin`` likewise.
+* **Headers**: every page response carries :data:`VISER_CSP` (``frame-ancestors 'none'``),
+  ``X-Frame-Options: DENY``, ``X-Content-Type-Options: nosniff`` and ``Referrer-Policy:
+  no-referrer``.
+* **Client address**: each websocket's client address (:func:`app.services.clients.
+  client_address`, ``X-Forwarded-For`` only from ``--trusted-proxy`` peers) is kept for the
+  per-client session limit (:meth:`ViserGuard.client_address`).
+
+The wrap relies on viser internals (``viser.infra._infra`` calling
+``websockets.asyncio.server.serve`` from ``WebsockServer.start``, its ``viser_http_server``
+callback and ``_live_connections``); :func:`check_viser` refuses other viser versions and
+:func:`start_viser` fails loudly when the wrap was not installed.
+"""
+
+from __future__ import annotations
+
+import http
+import threading
+import weakref
+from collections.abc import Callable
+from typing import Any
+
+from ..services.clients import client_address
+from ..services.hosts import HostAllowList, foreign_origin, host_name
+
+__all__ = ["SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "check_viser",
+           "start_viser"]
+
+#: The viser versions whose internals this module was checked against (``major.minor.``).
+SUPPORTED_VISER = ("1.1.",)
+
+#: The policy of viser's page. Its single ``index.html`` holds one inline loader script that
+#: unpacks the client with a WebAssembly decoder and inserts it as an inline module script
+#: (``'unsafe-inline'``, ``'wasm-unsafe-eval'``); the client evaluates the plotly.js the
+#: server sends over the websocket for its plots (``'unsafe-eval'``) and fetches its
+#: decoder and environment map from ``data:`` URLs (``connect-src data:``, which reaches no
+#: host). Everything else is the REST policy (:data:`app.security.CSP`): no other site's
+#: script, style, image or connection, no plugins, no framing.
+VISER_CSP = ("default-src 'self'; "
+             "script-src 'self' 'unsafe-inline' 'unsafe-eval' 'wasm-unsafe-eval'; "
+             "style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+             "font-src 'self' data:; connect-src 'self' data:; worker-src 'self' blob:; "
+             "object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors 'none'")
+
+_HEADERS = {
+    "Content-Security-Policy": VISER_CSP,
+    "X-Frame-Options": "DENY",
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+    "Cross-Origin-Opener-Policy": "same-origin",
+}
+_INSTALL_LOCK = threading.Lock()
+
+
+class ViserGuardError(RuntimeError):
+    """viser changed its internals: the guard cannot be installed (refuse to serve)."""
+
+
+def check_viser(version: str) -> None:
+    """Refuse a viser version whose internals were not checked.
+
+    Raises
+    ------
+    ViserGuardError
+        ``version`` is not one of :data:`SUPPORTED_VISER`; the message says what to do.
+    """
+    if not version.startswith(SUPPORTED_VISER):
+        raise ViserGuardError(
+            f"viser {version} is installed, but the explorer's viser guard (Host and Origin "
+            f"checks, security headers) was checked only against viser "
+            f"{', '.join(v + 'x' for v in SUPPORTED_VISER)}; install that version "
+            "(pip install 'viser==1.1.1'), or run without the GUI (hyst serve --no-viser), "
+            "or update app/gui/viser_guard.py after reading viser's infra/_infra.py")
+
+
+class ViserGuard:
+    """Wraps viser's ``process_request``; see the module docstring.
+
+    Parameters
+    ----------
+    hosts : HostAllowList
+        The names a request's ``Host`` may carry.
+    trusted_proxies : tuple of str
+        Proxies whose ``X-Forwarded-For`` names the client (``Settings.trusted_proxies``).
+    """
+
+    def __init__(self, hosts: HostAllowList, trusted_proxies: tuple[str, ...] = ()) -> None:
+        self.hosts = hosts
+        self.trusted_proxies = trusted_proxies
+        self.installed = False
+        self._addresses: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+        self._server: Any = None
+
+    def wrap(self, process_request: Callable[[Any, Any], Any] | None
+             ) -> Callable[[Any, Any], Any]:
+        """``process_request`` (viser's page server) behind this guard's checks."""
+
+        def guarded(connection: Any, request: Any) -> Any:
+            refused = self.refusal(connection, request)
+            if refused is not None:
+                return refused
+            if _is_upgrade(request):
+                self._addresses[connection] = client_address(
+                    _peer(connection), request.headers.get_all("X-Forwarded-For"),
+                    self.trusted_proxies)
+                return None
+            response = None if process_request is None else process_request(connection,
+                                                                             request)
+            if response is not None:
+                _add_headers(response)
+            return response
+
+        self.installed = True
+        return guarded
+
+    def refusal(self, connection: Any, request: Any) -> Any:
+        """The response refusing ``request`` (421 foreign Host, 403 foreign Origin), or
+        ``None`` when it may go on."""
+        headers = {k.lower(): v for k, v in request.headers.raw_items()}
+        host = headers.get("host")
+        local = getattr(connection, "local_address", None)
+        if not self.hosts.allows(host, None if not local else str(local[0])):
+            return _refuse(connection, http.HTTPStatus.MISDIRECTED_REQUEST,
+                           f"this server does not answer to the name "
+                           f"{host_name(host or '')[:100]!r} (the request's Host); open it "
+                           "by its own address (as `hyst serve` printed it), or start it "
+                           "with --allowed-host NAME to add that name")
+        if not _is_upgrade(request):  # a link from another site is a cross-site navigation
+            headers.pop("sec-fetch-site", None)
+        why = foreign_origin(headers)
+        if why is not None:
+            return _refuse(connection, http.HTTPStatus.FORBIDDEN, why)
+        return None
+
+    def client_address(self, client_id: int) -> str:
+        """The client address of the live websocket ``client_id`` (``"unknown"`` when gone)."""
+        server = self._server
+        live = getattr(getattr(server, "_websock_server", None), "_live_connections", {})
+        connection = live.get(client_id)
+        return "unknown" if connection is None else self._addresses.get(connection, "unknown")
+
+
+def _is_upgrade(request: Any) -> bool:
+    return str(request.headers.get("Upgrade", "")).lower() == "websocket"
+
+
+def _peer(connection: Any) -> str | None:
+    remote = getattr(connection, "remote_address", None)
+    return None if not remote else str(remote[0])
+
+
+def _add_headers(response: Any) -> None:
+    for name, value in _HEADERS.items():
+        if name not in response.headers:
+            response.headers[name] = value
+
+
+def _refuse(connection: Any, status: http.HTTPStatus, text: str) -> Any:
+    response = connection.respond(status, text + "\n")
+    _add_headers(response)
+    return response
+
+
+def start_viser(host: str, port: int, guard: ViserGuard) -> Any:
+    """A started ``viser.ViserServer`` on ``host:port`` whose requests pass ``guard``.
+
+    ``websockets.asyncio.server.serve`` is wrapped only while the server starts (viser's
+    ``start`` returns once its ``serve`` is listening), under a lock, and only for viser's
+    own call (its ``process_request`` is ``viser_http_server``).
+
+    Raises
+    ------
+    ViserGuardError
+        The viser version is not supported, or its start-up no longer goes through the
+        wrapped call (its internals changed): the server is stopped, nothing is served.
+    """
+    import viser
+    import websockets.asyncio.server as ws_server
+
+    check_viser(viser.__version__)
+    with _INSTALL_LOCK:
+        original = ws_server.serve
+
+        def serve(*args: Any, **kwargs: Any) -> Any:
+            callback = kwargs.get("process_request")
+            if getattr(callback, "__name__", "") == "viser_http_server":
+                kwargs["process_request"] = guard.wrap(callback)
+            return original(*args, **kwargs)
+
+        ws_server.serve = serve  # type: ignore[misc,assignment]
+        try:
+            server = viser.ViserServer(host=host, port=port, verbose=False)
+        finally:
+            ws_server.serve = original  # type: ignore[misc]
+    if not guard.installed or not hasattr(getattr(server, "_websock_server", None),
+                                          "_live_connections"):
+        server.stop()
+        raise ViserGuardError(
+            f"viser {viser.__version__} no longer starts its websocket server the way the "
+            "explorer's viser guard expects, so its Host and Origin checks are not in "
+            "place and the GUI is not served; install viser 1.1.1, run without the GUI "
+            "(hyst serve --no-viser), or update app/gui/viser_guard.py")
+    guard._server = server
+    return server
