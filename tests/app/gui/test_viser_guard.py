@@ -124,7 +124,9 @@ def test_new_gui_sessions_per_client_are_bounded() -> None:
         before = len(app.state.registry)
         with _ws(port), _ws(port):
             deadline = time.monotonic() + 20
-            while time.monotonic() < deadline and not app.state.gui.refused:
+            # both tabs must have been answered: one view, one refusal (in either order)
+            while time.monotonic() < deadline and not (app.state.gui.refused
+                                                       and app.state.gui.views):
                 time.sleep(0.05)
             assert len(app.state.gui.views) == 1
             assert len(app.state.gui.refused) == 1
