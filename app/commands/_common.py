@@ -1,4 +1,4 @@
-"""Helpers shared by the ``hyst`` sub-commands: model files, CSV signals, JSON output, progress.
+"""Helpers shared by the ``hyst`` sub-commands: model files, CSV signals, JSON output, windows.
 
 Errors raised here are :class:`CommandError` (a :class:`~core.exceptions.ParameterError`),
 which :func:`app.cli.main` turns into ``hyst <command>: error: <message>`` and exit code 2.
@@ -15,21 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..services.columns import column_spec
 from ..services.inputs import CommandError, existing_file, parse_window
-from ..services.progress import Progress
 
 if TYPE_CHECKING:
     from core.paramset import ParameterSet
 
 __all__ = [
-    "CommandError",
-    "Progress",
     "add_json_flag",
-    "column_spec",
     "emit",
-    "existing_file",
-    "parse_window",
     "pick_column",
     "read_parameter_set",
     "uniform_dt",

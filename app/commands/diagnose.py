@@ -42,7 +42,8 @@ import sys
 from typing import Any
 
 from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
-from ._common import Progress, window_arg
+from ..services.progress import Progress
+from ._common import window_arg
 from .fit import add_read_options, read_kwargs
 
 __all__ = ["register", "run"]

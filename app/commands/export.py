@@ -8,7 +8,8 @@ from typing import Any
 
 from core.exceptions import NotInvertibleError
 
-from ._common import CommandError, add_json_flag, emit, read_parameter_set
+from ..services.inputs import CommandError
+from ._common import add_json_flag, emit, read_parameter_set
 
 __all__ = ["FORMATS", "register", "run"]
 

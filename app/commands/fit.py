@@ -12,8 +12,9 @@ from ..services.fitting import (
     say_fit,
     time_window,
 )
+from ..services.progress import Progress
 from ..services.recordings import csv_read_kwargs, read_recordings, say_read
-from ._common import Progress, add_json_flag, emit
+from ._common import add_json_flag, emit
 
 __all__ = ["add_model_option", "add_read_options", "read_kwargs", "register", "run"]
 

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ._common import CommandError, add_json_flag, emit, read_parameter_set
+from ..services.inputs import CommandError
+from ._common import add_json_flag, emit, read_parameter_set
 
 __all__ = ["register", "run"]
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import CommandError, add_json_flag, emit
+from ..services.inputs import CommandError
+from ._common import add_json_flag, emit
 
 __all__ = ["available_presets", "load_preset", "register", "run"]
 

@@ -8,11 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from ..services.inputs import CommandError, existing_file
 from ._common import (
-    CommandError,
     add_json_flag,
     emit,
-    existing_file,
     pick_column,
     read_parameter_set,
     uniform_dt,
