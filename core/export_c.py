@@ -67,6 +67,7 @@ __all__ = [
     "CStage",
     "StageContext",
     "c_identifier",
+    "causal_compensator",
     "c_double",
     "export_c",
     "generate_c",
@@ -133,6 +134,13 @@ class CStage:
         File-scope ``static`` helper functions (identifiers prefixed with ``ctx.const``).
     needs_math : bool
         Whether the code calls ``<math.h>`` functions (``tanh``, ``atanh``).
+    tune : list of str
+        Statements that recompute the stage's constants from its model parameters, for
+        exports whose parameters can be changed at run time (the FMU,
+        :mod:`core.export_fmu`). ``$field[i]`` stands for element ``i`` of the model field
+        ``field`` (``$model.thresholds[i]`` for a nested model; matrices row by row); the
+        loop counters ``unsigned i, j`` are declared by the caller. A field named in no line
+        is fixed at export (its derived constants need the export's numerics).
     """
 
     title: str
@@ -142,6 +150,7 @@ class CStage:
     step: list[str] = field(default_factory=list)
     helpers: list[str] = field(default_factory=list)
     needs_math: bool = False
+    tune: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -225,6 +234,12 @@ def _emit_pi(model: Model, ctx: StageContext) -> CStage:
             "}",
             f"x = {c}P0 * x + acc;",
         ],
+        tune=[
+            f"{c}P0 = $p0[0];",
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    {c}R[i] = $thresholds[i]; {c}W[i] = $weights[i]; {c}Z0[i] = $state0[i];",
+            "}",
+        ],
     )
 
 
@@ -236,6 +251,7 @@ def _emit_offset(model: Model, ctx: StageContext) -> CStage:
         title="output offset",
         constants=[f"static const double {ctx.const}C = {c_double(c)};"],
         step=[f"x = x + {ctx.const}C;"],
+        tune=[f"{ctx.const}C = $offset[0];"],
     )
 
 
@@ -275,12 +291,20 @@ def _direction_step(f: str) -> list[str]:
     ]
 
 
-def _direction_state(model: Model, f: str) -> tuple[list[str], list[str]]:
+def _direction_state(model: Model, f: str, c: str) -> tuple[list[str], list[str], list[str]]:
+    """Fields, reset and constants of the direction memory (``D0``: initial direction)."""
     d0 = int(model.direction0)  # type: ignore[attr-defined]
     return (
         [f"double {f}prev;", f"int {f}has_prev;", f"int {f}dir;"],
-        [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;", f"st->{f}dir = {d0};"],
+        [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;",
+         f"st->{f}dir = {c}D0 > 0.0 ? 1 : -1;"],
+        [f"static const double {c}D0 = {c_double(d0)};"],
     )
+
+
+def _tanh_tune(c: str) -> list[str]:
+    return [f"for (i = 0; i < 4u; ++i) {{ {c}A[i] = $a[i]; {c}B[i] = $b[i]; }}",
+            f"{c}D0 = $direction0[0] > 0.0 ? 1.0 : -1.0;"]
 
 
 @register_c_stage(TanhEnvelope)
@@ -289,14 +313,16 @@ def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
     a = np.asarray(model.a)  # type: ignore[attr-defined]
     b = np.asarray(model.b)  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
-    fields, reset = _direction_state(model, f)
+    fields, reset, d0 = _direction_state(model, f, c)
     return CStage(
         title="tanh envelope (kappa_R rising, kappa_L falling)",
         fields=fields,
         constants=[
             f"static const double {c}A[4] = {_c_array(a)};",
             f"static const double {c}B[4] = {_c_array(b)};",
+            *d0,
         ],
+        tune=_tanh_tune(c),
         reset=reset,
         step=[
             *_direction_step(f),
@@ -318,7 +344,7 @@ def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
     b = np.asarray(model.b)  # type: ignore[attr-defined]
     lim = 1.0 - float(model.clip_margin)  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
-    fields, reset = _direction_state(model, f)
+    fields, reset, d0 = _direction_state(model, f, c)
     return CStage(
         title="inverse tanh envelope (clips to its domain, counts clipped samples)",
         fields=[*fields, f"unsigned long {f}clipped;"],
@@ -326,7 +352,9 @@ def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}A[4] = {_c_array(a)};",
             f"static const double {c}B[4] = {_c_array(b)};",
             f"static const double {c}LIM = {c_double(lim)};",
+            *d0,
         ],
+        tune=[*_tanh_tune(c), f"{c}LIM = 1.0 - $clip_margin[0];"],
         reset=[*reset, f"st->{f}clipped = 0ul;"],
         step=[
             *_direction_step(f),
@@ -440,9 +468,10 @@ def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
 
 def _emit_state_space(
     Ad: np.ndarray, Bd: np.ndarray, C: np.ndarray, D: float, x0: np.ndarray,
-    ctx: StageContext, title: str,
+    ctx: StageContext, title: str, x0_field: str = "state0",
 ) -> CStage:
-    """``y = C x + D u``, ``x+ = Ad x + Bd u`` (the update order of ``core.lti.lti_run``)."""
+    """``y = C x + D u``, ``x+ = Ad x + Bd u`` (the update order of ``core.lti.lti_run``);
+    the initial state comes from the model field ``x0_field``."""
     n, f, c = int(Bd.size), ctx.field, ctx.const
     if n == 0:
         return CStage(title=title, constants=[f"static const double {c}D = {c_double(D)};"],
@@ -471,6 +500,7 @@ def _emit_state_space(
             f"for (i = 0; i < {n}u; ++i) st->{f}x[i] = tmp[i];",
             "x = acc;",
         ],
+        tune=[f"for (i = 0; i < {n}u; ++i) {c}X0[i] = ${x0_field}[i];"],
     )
 
 
@@ -494,7 +524,8 @@ def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
     Ai = Ad - np.outer(Bd, C) / D
     x0 = np.asarray(sys_.state0, dtype=np.float64)
     return _emit_state_space(Ai, Bd / D, -C / D, 1.0 / D, x0, ctx,
-                             f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}")
+                             f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}",
+                             "system.state0")
 
 
 # ----------------------------------------------------------------------------- effects
@@ -589,7 +620,29 @@ def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
         constants=consts,
         reset=[f"st->{f}started = 0;", f"for (i = 0; i < {m}u; ++i) st->{f}s[i] = 0.0;"],
         step=step,
+        tune=_lag_bank_tune(model, m, c, ctx.dt, inverse),
     )
+
+
+def _lag_bank_tune(model: Model, m: int, c: str, dt: float, inverse: bool) -> list[str]:
+    """First-order FOH sections from the time constants (as ``LagBank.of``, closed form:
+    ``p = exp(-dt/tau)``, ``q = tau/dt (1 - p)``, ``b0 = 1 - q``, ``b1 = q - p``)."""
+    single = isinstance(model, Lag | LagInverse)
+    tau, w = ("$tau_s[0]", "1.0") if single else ("$taus_s[i]", "$weights[i]")
+    dts = c_double(dt)
+    return [
+        f"{{ double g0 = {'0.0' if single else '1.0'}, gain;",
+        f"  for (i = 0; i < {m}u; ++i) {{",
+        f"      const double p = exp(-{dts} / {tau});",
+        f"      const double q = {tau} / {dts} * (1.0 - p);",
+        f"      {c}C[i] = {w}; {c}B0[i] = 1.0 - q; {c}B1[i] = q - p; {c}A1[i] = -p;",
+        f"      {c}ZI[i] = q;",
+        *([] if single else [f"      g0 -= {c}C[i];"]),
+        "  }",
+        "  gain = g0;",
+        f"  for (i = 0; i < {m}u; ++i) gain += {c}C[i] * {c}B0[i];",
+        f"  {c}GAIN = gain; }}" if inverse else f"  {c}G0 = g0; (void)gain; }}",
+    ]
 
 
 @register_c_stage(Delay)
@@ -655,6 +708,8 @@ def _emit_drift(model: Model, ctx: StageContext) -> CStage:
             f"  st->{f}k += 1.0;",
             "  x = x + acc; }",
         ],
+        tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
+              f"{c}T = $span_s[0];", f"{c}T0 = $start_s[0];"],
     )
 
 
@@ -685,8 +740,11 @@ def _asym_helper(model: Model, c: str) -> list[str]:
 def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
     """Polynomial output map ``x + sum a_k ((x - c)/s)^k`` (Horner form)."""
     c = ctx.const
+    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
     return CStage(title="asymmetry output map", constants=_asym_consts(model, c),
-                  helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"])
+                  helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"],
+                  tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
+                        f"{c}CTR = $center[0];", f"{c}S = $scale[0];"])
 
 
 @register_c_stage(AsymmetryInverse)
@@ -765,6 +823,14 @@ def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], 
     return consts, reset, helper
 
 
+def _rate_tune(n: int, c: str, dt: float) -> list[str]:
+    return [f"{c}P0 = $p0[0];",
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    {c}R[i] = $thresholds[i]; {c}W[i] = $weights[i]; {c}Z0[i] = $state0[i];",
+            "}",
+            f"{c}K = $beta_s[0] / {c_double(dt)};"]
+
+
 @register_c_stage(RateDependentPI)
 def _emit_rate(model: Model, ctx: StageContext) -> CStage:
     """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
@@ -775,6 +841,7 @@ def _emit_rate(model: Model, ctx: StageContext) -> CStage:
         title=f"rate-dependent PI, {n} play operator(s)",
         fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
         constants=consts, reset=reset, helpers=helper,
+        tune=_rate_tune(n, c, ctx.dt),  # type: ignore[arg-type]
         step=["{ const double xin = x;",
               f"  x = {c}eval(xin, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
               f"  st->{f}up = xin;",
@@ -797,6 +864,18 @@ def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
         title=f"inverse rate-dependent PI, {n} play operator(s), per-sample bisection",
         fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
         constants=consts, reset=reset, helpers=helper,
+        tune=[*_rate_tune(n, c, ctx.dt),  # slope bounds as RateDependentPI.slope_bounds
+              f"{{ double lo = {c}P0, hi = {c}P0;",
+              f"  for (i = 0; i < {n}u; ++i) {{",
+              f"      const double a = {c}W[i] * (1.0 - {c}K), b = {c}W[i] * (1.0 + {c}K);",
+              "      double mn = 0.0, mx = 0.0;",
+              "      if (a < mn) mn = a;",
+              "      if (b < mn) mn = b;",
+              "      if (a > mx) mx = a;",
+              "      if (b > mx) mx = b;",
+              "      lo += mn; hi += mx;",
+              "  }",
+              f"  {c}MLO = lo; {c}MHI = hi; }}"],
         step=[
             f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
             f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
@@ -872,6 +951,18 @@ def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[st
     return consts, reset, helpers
 
 
+def _preisach_tune(model: Model, c: str, pre: str) -> list[str]:
+    """Tune lines of a Preisach bank whose fields are ``$<pre>thresholds`` etc."""
+    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    return [
+        f"for (i = 0; i < {n}u; ++i) {{",
+        f"    {c}R[i] = ${pre}thresholds[i]; {c}Z0[i] = ${pre}state0[i];",
+        "}",
+        f"for (i = 0; i < {n * m}u; ++i) {c}W[i] = ${pre}weights[i];",
+        *([f"for (i = 0; i < {m - 1}u; ++i) {c}E[i] = ${pre}knots[i];"] if m > 1 else []),
+    ]
+
+
 @register_c_stage(PreisachModel)
 def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
     """Preisach play bank ``x <- sum_i sum_j W[i][j] seg_j(z_i)`` (as ``preisach_output``)."""
@@ -882,6 +973,7 @@ def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
         title=f"Preisach model, {n} play operator(s) x {m} level segment(s)",
         fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
         step=[f"x = {c}eval(x, st->{f}z, st->{f}z);"],
+        tune=_preisach_tune(model, c, ""),
     )
 
 
@@ -945,6 +1037,11 @@ def _emit_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
         title=f"inverse Preisach model, {n} play operator(s) x {m} level segment(s), exact",
         fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
         step=[f"x = {c}solve(x, st->{f}z);"],
+        tune=[*_preisach_tune(fwd, c, "model."),
+              f"{c}SLO = 0.0; {c}SHI = 0.0;",
+              f"for (i = 0; i < {n}u; ++i) {{",
+              f"    {c}SLO += {c}W[i * {m}u]; {c}SHI += {c}W[i * {m}u + {m - 1}u];",
+              "}"],
     )
 
 
@@ -987,10 +1084,16 @@ def _type_of(m: Model) -> str:
     return type(m).type_name
 
 
-def _emit_block(
+def emit_stages(
     model: Model, name: str, dt: float | None, what: str
-) -> tuple[str, str, bool]:
-    """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``."""
+) -> tuple[list[Model], list[CStage]]:
+    """The flattened stages of ``model`` and their C fragments for block ``name``.
+
+    Raises
+    ------
+    CExportError
+        A dynamic stage without ``dt``, or a stage type without an emitter.
+    """
     stages = _flatten(model)
     if any(s.needs_dt for s in stages) and (dt is None or not dt > 0):
         raise CExportError(
@@ -1007,7 +1110,31 @@ def _emit_block(
                 f"supported stage types: {', '.join(supported_c_types())}"
             )
         emitted.append(emitter(s, StageContext(f"s{k}_", f"{name}_s{k}_", dt)))
+    return stages, emitted
 
+
+_CONST = re.compile(r"static const ([a-z ]+?) (\w+)(?:\[(\d+)\])? = (.*);", re.DOTALL)
+
+
+def parse_constant(decl: str) -> tuple[str, str, int | None, str]:
+    """``(C type, identifier, array size or None, initialiser)`` of a stage constant
+    (one ``static const <type> <ident>[<n>] = <init>;`` item of :attr:`CStage.constants`)."""
+    m = _CONST.fullmatch(decl.strip())
+    if m is None:  # pragma: no cover - every emitter writes this form
+        raise CExportError(f"not a stage constant definition: {decl[:60]!r}")
+    return m.group(1), m.group(2), None if m.group(3) is None else int(m.group(3)), m.group(4)
+
+
+def _emit_block(
+    model: Model, name: str, dt: float | None, what: str, params: str | None = None
+) -> tuple[str, str, bool]:
+    """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``.
+
+    With ``params`` (a C expression of a pointer to a struct holding every stage constant
+    under its own name), the constants are not defined here but read through that pointer
+    (``#define <ident> (<params>-><ident>)``): the run-time tunable form of the FMU.
+    """
+    stages, emitted = emit_stages(model, name, dt, what)
     fields = [f for st in emitted for f in st.fields] or ["int unused_; /* stateless */"]
     h: list[str] = []
     h.append(f"/* {what}: {len(stages)} stage(s): "
@@ -1028,7 +1155,12 @@ def _emit_block(
     src: list[str] = [f"/* ---- {what} ---- */"]
     for k, st in enumerate(emitted):
         src.append(f"/* stage {k}: {st.title} */")
-        src.extend(st.constants)
+        if params is None:
+            src.extend(st.constants)
+        else:
+            for decl in st.constants:
+                ident = parse_constant(decl)[1]
+                src.append(f"#define {ident} ({params}->{ident})")
         src.extend(st.helpers)
     uses_i_reset = any("for (i" in line for st in emitted for line in st.reset)
     uses_i_step = any("for (i" in line for st in emitted for line in st.step)
@@ -1109,6 +1241,33 @@ class CCode:
         return h, c
 
 
+def causal_compensator(model: Model, dt: float | None) -> tuple[Model, int]:
+    """``model.inverse()`` in the causal form a real-time compensator runs, and its preview.
+
+    An inverse that holds an advance (the inverse of a delay) needs the future: it becomes
+    :func:`core.effects.causal_form`, fed the desired output ``preview`` samples ahead.
+
+    Raises
+    ------
+    CExportError
+        If the inverse holds an advance and ``dt`` is missing.
+    NotInvertibleError
+        If the model has no inverse.
+    """
+    inv = model.inverse()
+    if not _has_advance(inv):
+        return inv, 0
+    if dt is None or not dt > 0:
+        raise CExportError(
+            "the compensator inverts a delay and needs the sample time to size its "
+            "preview; give dt (--dt on the command line)"
+        )
+    from .effects import causal_form
+
+    form = causal_form(inv, dt)
+    return form.model, form.preview
+
+
 def _comment_safe(text: str) -> str:
     return text.replace("*/", "* /").replace("/*", "/ *")
 
@@ -1168,17 +1327,7 @@ def generate_c(
     blocks: list[tuple[str, Model, str]] = []
     preview = 0
     if inverse:
-        from .effects import causal_form
-
-        inv = model.inverse()
-        if _has_advance(inv):
-            if dt is None or not dt > 0:
-                raise CExportError(
-                    "the compensator inverts a delay and needs the sample time to size its "
-                    "preview; give dt (--dt on the command line)"
-                )
-            form = causal_form(inv, dt)
-            inv, preview = form.model, form.preview
+        inv, preview = causal_compensator(model, dt)
         blocks.append((f"{name}_inv", inv, "inverse compensator"))
     if forward:
         blocks.append((f"{name}_fwd", model, "forward model"))
