@@ -428,7 +428,7 @@ def _description(ps: ParameterSet, fwd: Model, inverse: bool, preview: int, dt: 
         f"{n} stage(s): {chain}",
     ]
     if dt is not None:
-        parts.append(f"fixed sample time {c_double(dt)} {units.time}: each step must be a whole "
+        parts.append(f"fixed sample time {dt:.12g} {units.time}: each step must be a whole "
                      "number of samples, the input is held over the step")
     else:
         parts.append("no dynamics: each step is one sample of the (rate-independent) model")
