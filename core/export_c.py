@@ -31,7 +31,7 @@ import numpy as np
 
 from .base import Chain, Model
 from .deadzone import DeadZoneMap
-from .digitized import DigitizedPI
+from .digitized import SNAP_RTOL, DigitizedPI
 from .digitized_deadzone import DigitizedDeadZone
 from .effects import (
     Advance,
@@ -276,7 +276,35 @@ def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
             "anc = seg > 0u ? seg - 1u : 0u;",
             f"x = {c}VAL[anc] + {c}SLOPE[seg] * (x - {c}RHO[anc]);",
         ],
+        tune=_deadzone_tune(k, int(model.zero_index), c),  # type: ignore[attr-defined]
     )
+
+
+def _deadzone_tune(k: int, k0: int, c: str) -> list[str]:
+    """Slopes (``DeadZoneMap.slopes``) and breakpoint values (the superposition at each
+    threshold) from thresholds and weights; threshold ``k0`` is the linear term's 0."""
+    return [
+        f"for (i = 0; i < {k}u; ++i) {c}RHO[i] = $thresholds[i];",
+        f"{{ double cs = 0.0; {c}SLOPE[{k0}] = $weights[{k0}];",
+        f"  for (i = {k0}u; i < {k}u; ++i) {{",
+        f"      if (i > {k0}u) cs += $weights[i];",
+        f"      {c}SLOPE[i + 1] = $weights[{k0}] + cs;",
+        "  }",
+        "  cs = 0.0;",
+        f"  for (i = {k0}u; i > 0u; --i) {{",
+        f"      cs += $weights[i - 1]; {c}SLOPE[i - 1] = $weights[{k0}] + cs;",
+        "  } }",
+        f"for (i = 0; i < {k}u; ++i) {{",
+        "    double acc = 0.0;",
+        f"    for (j = 0; j < {k}u; ++j) {{",
+        f"        const double d = {c}RHO[i] - {c}RHO[j];",
+        f"        const double s = {c}RHO[j] > 0.0 ? (d > 0.0 ? d : 0.0)",
+        f"                       : {c}RHO[j] < 0.0 ? (d < 0.0 ? d : 0.0) : {c}RHO[i];",
+        "        acc += $weights[j] * s;",
+        "    }",
+        f"    {c}VAL[i] = acc;",
+        "}",
+    ]
 
 
 def _direction_step(f: str) -> list[str]:
@@ -411,6 +439,18 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
             "}",
         ],
         reset=[f"for (i = 0; i < {n}u; ++i) st->{f}b[i] = {c}B0[i];"],
+        tune=[  # as DigitizedPI: slopes dy/dx, snapping tolerance from dx (DigitizedPI.tol)
+            "{ double span = 0.0, scale;",
+            f"  for (i = 0; i < {n}u; ++i) {{",
+            f"      {c}DX[i] = $dx[i]; {c}DY[i] = $dy[i]; {c}G[i] = {c}DY[i] / {c}DX[i];",
+            f"      {c}B0[i] = (unsigned char)($state0[i] != 0.0); span += {c}DX[i];",
+            "  }",
+            f"  {c}X0 = $x0[0]; {c}Y0 = $y0[0];",
+            f"  scale = fabs({c}X0) > fabs({c}X0 + span) ? fabs({c}X0) : fabs({c}X0 + span);",
+            "  if (span > scale) scale = span;",
+            f"  {c}TOL = {c_double(SNAP_RTOL)} * {c}DX[0]"
+            f" + ({float(n + 8)} * {c_double(float(np.finfo(np.float64).eps))}) * scale; }}",
+        ],
         step=[
             "double xb, yb;",
             "int lo0, lo1, moved = 0;",
@@ -454,8 +494,18 @@ def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}G[{m}] = {_c_array(g)};",
             f"static const double {c}XL[{m}] = {_c_array(xl)};",
             f"static const double {c}YL[{m}] = {_c_array(yl)};",
+            f"static const double {c}SEG0 = {c_double(c0)};",
         ],
-        reset=[f"st->{f}seg = {c0}u;"],
+        reset=[f"st->{f}seg = (unsigned){c}SEG0;"],
+        tune=[  # segment starts by cumulative sums, as DigitizedDeadZone
+            "{ double cx = 0.0, cy = 0.0;",
+            f"  for (i = 0; i < {m}u; ++i) {{",
+            f"      {c}DX[i] = $dx[i]; {c}G[i] = $dy[i] / $dx[i];",
+            f"      {c}XL[i] = $x0[0] + cx; {c}YL[i] = $y0[0] + cy; cx += $dx[i]; cy += $dy[i];",
+            "  }",
+            f"  {c}SEG0 = $state0[0] < 1.0 ? 0.0 : $state0[0] > {float(m)} ? {float(m - 1)}"
+            f" : floor($state0[0]) - 1.0; }}",
+        ],
         step=[
             f"unsigned k = st->{f}seg;",
             f"while (k < {m - 1}u && x > {c}XL[k] + {c}DX[k]) ++k;",
