@@ -141,6 +141,8 @@ class CStage:
         ``field`` (``$model.thresholds[i]`` for a nested model; matrices row by row); the
         loop counters ``unsigned i, j`` are declared by the caller. A field named in no line
         is fixed at export (its derived constants need the export's numerics).
+    tune_helpers : list of str
+        File-scope ``static`` functions the tune lines call (emitted with them only).
     """
 
     title: str
@@ -151,6 +153,7 @@ class CStage:
     helpers: list[str] = field(default_factory=list)
     needs_math: bool = False
     tune: list[str] = field(default_factory=list)
+    tune_helpers: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -612,7 +615,152 @@ def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
         ],
         reset=[f"st->{f}started = 0;", f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = 0.0;"],
         step=step,
+        tune=_resonance_tune(model, n, c, ctx.dt),
+        tune_helpers=_foh_helper(n, c),
     )
+
+
+def _resonance_tune(model: Model, n: int, c: str, dt: float) -> list[str]:
+    """``num``/``den`` of ``Resonance._tf`` / ``ResonanceInverse._tf`` from the fields, then
+    the FOH discretisation (:func:`_foh_helper`)."""
+    lines = [f"{{ double num[{n + 1}], den[{n + 1}];",
+             "  const double w = 2.0 * 3.141592653589793 * $freq_hz[0];",
+             "  const double z2w = 2.0 * $damping[0] * w;"]
+    if isinstance(model, ResonanceInverse):
+        lines += ["  const double wc = 2.0 * 3.141592653589793 * $bandwidth_hz[0];",
+                  "  const double g = wc * wc / (w * w);",
+                  "  num[0] = g * 3.0; num[1] = g * (wc + z2w * 3.0);",
+                  "  num[2] = g * (z2w * wc + w * w * 3.0); num[3] = g * (w * w * wc);",
+                  "  den[0] = 1.0; den[1] = 3.0 * wc; den[2] = 3.0 * wc * wc;",
+                  "  den[3] = wc * wc * wc;"]
+    else:
+        lines += ["  num[0] = 0.0; num[1] = 0.0; num[2] = w * w;",
+                  "  den[0] = 1.0; den[1] = z2w; den[2] = w * w;"]
+    return [*lines, f"  {c}foh(num, den, {c_double(dt)}, {c}B, {c}A, {c}ZI); }}"]
+
+
+def _foh_helper(n: int, c: str) -> list[str]:
+    """C of ``{c}foh(num, den, dt, b, a, zi)``: the first-order-hold discretisation of the
+    order-``n`` transfer function ``num(s)/den(s)`` (``num`` padded to ``n + 1``) as
+    :func:`core.effects.discretised_tf`: the frequency is scaled to ``|den_n/den_0|^(1/n)``
+    (a well-conditioned companion form), ``expm`` of the FOH block matrix (Taylor series
+    with scaling and squaring), the discrete polynomials by Faddeev-LeVerrier and
+    ``lfilter_zi`` by Gaussian elimination."""
+    m = n + 2
+    return [
+        f"/* FOH discretisation of an order-{n} transfer function (see core/export_c.py) */",
+        f"static void {c}charpoly(double A[{n}][{n}], double *p)",
+        "{",
+        f"    double Mk[{n}][{n}], T[{n}][{n}];",
+        "    unsigned i, j, l, k;",
+        "    memset(Mk, 0, sizeof Mk);",
+        "    p[0] = 1.0;",
+        f"    for (k = 1; k <= {n}u; ++k) {{",
+        "        double tr = 0.0;",
+        f"        for (i = 0; i < {n}u; ++i) for (j = 0; j < {n}u; ++j) {{",
+        "            double s = i == j ? p[k - 1] : 0.0;",
+        f"            for (l = 0; l < {n}u; ++l) s += A[i][l] * Mk[l][j];",
+        "            T[i][j] = s;",
+        "        }",
+        "        memcpy(Mk, T, sizeof Mk);",
+        f"        for (i = 0; i < {n}u; ++i)",
+        f"            for (l = 0; l < {n}u; ++l) tr += A[i][l] * Mk[l][i];",
+        "        p[k] = -tr / (double)k;",
+        "    }",
+        "}",
+        f"static void {c}foh(const double *num, const double *den, double dt, double *b,",
+        "                   double *a, double *zi)",
+        "{",
+        f"    double sc[{n + 1}], an[{n + 1}], bn[{n + 1}], C[{n}], w, D, Dd, nrm;",
+        f"    double X[{m}][{m}], E[{m}][{m}], T[{m}][{m}], S[{m}][{m}];",
+        f"    double Ad[{n}][{n}], Ab[{n}][{n}], Bd[{n}], q[{n}], G[{n}][{n + 1}];",
+        "    unsigned i, j, l, k, s = 0u;",
+        f"    w = pow(fabs(den[{n}] / den[0]), 1.0 / {n}.0);",
+        f"    sc[{n}] = 1.0;",
+        f"    for (i = {n}u; i > 0u; --i) sc[i - 1] = sc[i] * w;",
+        f"    for (i = 0; i <= {n}u; ++i) {{",
+        "        an[i] = den[i] / den[0] * sc[i] / sc[0];",
+        "        bn[i] = num[i] / den[0] * sc[i] / sc[0];",
+        "    }",
+        "    dt *= w;",
+        "    D = bn[0];",
+        f"    for (i = 0; i < {n}u; ++i) C[i] = bn[i + 1] - an[i + 1] * D;",
+        "    memset(X, 0, sizeof X);",
+        f"    for (j = 0; j < {n}u; ++j) X[0][j] = -an[j + 1] * dt;",
+        f"    for (i = 1; i < {n}u; ++i) X[i][i - 1] = dt;",
+        f"    X[0][{n}] = dt;",
+        f"    X[{n}][{n + 1}] = 1.0;",
+        "    nrm = 0.0;",
+        f"    for (i = 0; i < {m}u; ++i) {{",
+        "        double r = 0.0;",
+        f"        for (j = 0; j < {m}u; ++j) r += fabs(X[i][j]);",
+        "        if (r > nrm) nrm = r;",
+        "    }",
+        "    while (nrm > 0.5) { nrm *= 0.5; ++s; }",
+        f"    for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "        X[i][j] = ldexp(X[i][j], -(int)s);",
+        "        E[i][j] = T[i][j] = i == j ? 1.0 : 0.0;",
+        "    }",
+        "    for (k = 1; k < 40u; ++k) { /* Taylor series of expm(X), |X| <= 1/2 */",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "            double v = 0.0;",
+        f"            for (l = 0; l < {m}u; ++l) v += T[i][l] * X[l][j];",
+        "            S[i][j] = v / (double)k;",
+        "        }",
+        "        memcpy(T, S, sizeof T);",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) E[i][j] += T[i][j];",
+        "    }",
+        "    for (k = 0; k < s; ++k) { /* squaring */",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "            double v = 0.0;",
+        f"            for (l = 0; l < {m}u; ++l) v += E[i][l] * E[l][j];",
+        "            S[i][j] = v;",
+        "        }",
+        "        memcpy(E, S, sizeof E);",
+        "    }",
+        "    Dd = D;",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        double v = E[i][{n}] - E[i][{n + 1}];",
+        f"        for (j = 0; j < {n}u; ++j) {{",
+        "            Ad[i][j] = E[i][j];",
+        f"            v += E[i][j] * E[j][{n + 1}];",
+        "        }",
+        "        Bd[i] = v;",
+        f"        Dd += C[i] * E[i][{n + 1}];",
+        "    }",
+        f"    for (i = 0; i < {n}u; ++i)",
+        f"        for (j = 0; j < {n}u; ++j) Ab[i][j] = Ad[i][j] - Bd[i] * C[j];",
+        f"    {c}charpoly(Ad, a);",
+        f"    {c}charpoly(Ab, b);",
+        f"    for (i = 0; i <= {n}u; ++i) b[i] += (Dd - 1.0) * a[i];",
+        "    /* lfilter_zi: (I - companion(a)^T) zi = b[1:] - a[1:] b[0] */",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        for (j = 0; j < {n}u; ++j) G[i][j] = i == j ? 1.0 : 0.0;",
+        "        G[i][0] += a[i + 1];",
+        f"        if (i + 1 < {n}u) G[i][i + 1] -= 1.0;",
+        f"        G[i][{n}] = b[i + 1] - a[i + 1] * b[0];",
+        "    }",
+        f"    for (k = 0; k < {n}u; ++k) {{ /* elimination, partial pivoting */",
+        "        unsigned p = k;",
+        f"        for (i = k + 1; i < {n}u; ++i) if (fabs(G[i][k]) > fabs(G[p][k])) p = i;",
+        f"        for (j = 0; j <= {n}u; ++j) {{",
+        "            const double t = G[k][j];",
+        "            G[k][j] = G[p][j];",
+        "            G[p][j] = t;",
+        "        }",
+        f"        for (i = k + 1; i < {n}u; ++i) {{",
+        "            const double f = G[i][k] / G[k][k];",
+        f"            for (j = k; j <= {n}u; ++j) G[i][j] -= f * G[k][j];",
+        "        }",
+        "    }",
+        f"    for (i = {n}u; i > 0u; --i) {{",
+        f"        double v = G[i - 1][{n}];",
+        f"        for (j = i; j < {n}u; ++j) v -= G[i - 1][j] * q[j];",
+        "        q[i - 1] = v / G[i - 1][i - 1];",
+        "    }",
+        f"    for (i = 0; i < {n}u; ++i) zi[i] = q[i];",
+        "}",
+    ]
 
 
 @register_c_stage(Lag)

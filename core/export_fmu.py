@@ -396,14 +396,15 @@ def fmu_sources(
             tune_lines.append(
                 _PLACEHOLDER.sub(lambda m, o=offsets: f"(mp + {o[m.group(1)]})", line))
 
+    tune_helpers = [line for em in emitted for line in em.tune_helpers]
     # ---- C source
     consts = [parse_constant(d) for em in emitted for d in em.constants]
     struct = [f"    {ctype} {cid}{'' if size is None else f'[{size}]'};"
               for ctype, cid, size, _ in consts] or ["    int unused_;"]
     defaults = [f"    {init}," for *_, init in consts] or ["    0,"]
     nmp = max(len(mp0), 1)
-    src = _c_source(ident, fmi_version, header, body, struct, defaults, tune_lines, mp0, kinds,
-                    nmp, dt, preview, inverse)
+    src = _c_source(ident, fmi_version, header, "\n".join([body, *tune_helpers]), struct,
+                    defaults, tune_lines, mp0, kinds, nmp, dt, preview, inverse)
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
         (src + str(fmi_version)).encode()).hexdigest())) + "}"
     src = src.replace("@TOKEN@", token)
