@@ -284,3 +284,14 @@ def test_bad_options_get_clear_errors(tmp_path, monkeypatch) -> None:
     monkeypatch.setattr("importlib.util.find_spec", lambda name: None)
     with pytest.raises(FmuExportError, match="pip install fmpy"):
         fmi_headers(3)
+
+
+def test_free_text_of_the_parameter_set_cannot_break_the_model_description(tmp_path) -> None:
+    """Units and provenance are free text: markup, quotes and control characters."""
+    evil = 'a"<b>&\x01\x00\ud800]]>'
+    ps = ParameterSet.from_model(EX1, source=evil, units=Units(input=evil, output="µm", time="s"))
+    fmu = build_fmu(ps, tmp_path / "e.fmu", fmi_version=2, inverse=True)
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    assert {v.name: v.unit for v in md.modelVariables}["u"] == 'a"<b>&???]]>'
+    assert 'a"<b>&??' in md.description
