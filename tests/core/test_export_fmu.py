@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.base import Model
+from core.base import Chain, Model
 from core.effects import causal_form
 from core.export_c import _flatten, c_identifier
 from core.export_fmu import FmuExportError, FmuSources, build_fmu, fmi_headers, fmu_sources
@@ -57,7 +57,9 @@ class Slave:
         md = read_model_description(str(path))
         self.v3 = md.fmiVersion.startswith("3")
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        d = extract(str(path), unzipdir=str(unzip))
+        # a second instance shares the unzipped library (never overwrite a loaded one)
+        d = str(unzip) if (unzip / "modelDescription.xml").exists() else \
+            extract(str(path), unzipdir=str(unzip))
         cls = FMU3Slave if self.v3 else FMU2Slave
         self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
                        modelIdentifier=md.coSimulation.modelIdentifier, instanceName="t")
@@ -295,3 +297,27 @@ def test_free_text_of_the_parameter_set_cannot_break_the_model_description(tmp_p
     md = read_model_description(str(fmu))
     assert {v.name: v.unit for v in md.modelVariables}["u"] == 'a"<b>&???]]>'
     assert 'a"<b>&??' in md.description
+
+
+def test_two_instances_of_one_library_keep_their_own_parameters(tmp_path) -> None:
+    """Two instances in one process (one shared library): each runs its own parameters
+    (the constants live in the instance, the model code reads them through a pointer set at
+    each call)."""
+    model = DIAGNOSED["diag-creep-offset"]
+    fmu = build_fmu(model, tmp_path / "c.fmu", fmi_version=3, dt=DT)
+    a, b = Slave(fmu, tmp_path / "x"), Slave(fmu, tmp_path / "x")  # same unzipped library
+    assert a.fmu.dll._handle == b.fmu.dll._handle  # one library: its globals are shared
+    b.set("s0_pi.p0", 0.9)
+    a.init()
+    b.init()
+    u = turning_points(7, 400)
+    ya, yb = np.empty(u.size), np.empty(u.size)
+    for k in range(u.size):  # interleaved steps
+        ya[k] = a.run(u[k:k + 1])[0]
+        yb[k] = b.run(u[k:k + 1])[0]
+    stages = _flatten(model)
+    other = Chain.of(dataclasses.replace(stages[0], p0=0.9), *stages[1:])
+    np.testing.assert_allclose(ya, model(u, dt=DT), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(yb, other(u, dt=DT), rtol=0, atol=1e-12)
+    b.close()
+    a.close()
