@@ -77,3 +77,13 @@ def test_missing_compiler_is_a_clear_error(files, tmp_path, capsys, monkeypatch)
     code, _, err = run(capsys, "export", ex1, "-f", "fmu", "-o", tmp_path / "a.fmu")
     assert code == 2
     assert "'no-such-compiler' was not found on the PATH; install gcc" in err
+
+
+def test_a_model_without_inverse_says_to_export_the_model(tmp_path, capsys) -> None:
+    from core.pi import PIModel
+
+    bad = ParameterSet.from_model(PIModel(1.0, [1.0, 2.0], [-1.0, 0.5])).save(tmp_path / "n.json")
+    code, _, err = run(capsys, "export", bad, "-f", "fmu", "--inverse", "-o", tmp_path / "n.fmu")
+    assert code == 2 and "export the model itself (without --inverse)" in err
+    code, _, err = run(capsys, "export", bad, "-f", "fmu", "-o", tmp_path / "n.fmu")
+    assert code == 0, err
