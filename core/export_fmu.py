@@ -355,7 +355,7 @@ def fmu_sources(
     variables.append(FmuVariable(
         out_name, 2, "output", "discrete",
         ("drive that makes the actuator follow y_ref" if inverse else "model output")
-        + " at the end of the last step", None, units.output or None))
+        + " (its value at the last sample of the step)", None, units.output or None))
     if dt is not None:
         variables.append(FmuVariable("sample_time", 3, "local", "constant",
                                      "sample time of the dynamic stages (s): step in multiples",
@@ -386,7 +386,8 @@ def fmu_sources(
                 variables.append(FmuVariable(
                     nm, FIRST_PARAMETER_VR + len(mp0),
                     "parameter" if variability != "constant" else "local", variability,
-                    f"stage {k} ({stage.type_name}): {doc}{note}", float(v), unit or None,
+                    f"{'compensator' if inverse else 'model'} stage {k} ({stage.type_name}): "
+                    f"{doc}{note}", float(v), unit or None,
                     path, k, i))
                 mp0.append(float(v))
                 kinds.append({"tunable": 1, "fixed": 2, "constant": 0}[variability])
@@ -459,18 +460,28 @@ def _attr(text: str) -> str:
 
 def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str:
     prov = ps.provenance
+    extra = {k: v for k, v in prov.extra.items() if k in ("author", "copyright")
+             and isinstance(v, str)}  # only what the parameter set states
     attrs = {
         "modelName": f"{ident} ({what})",
         "description": doc_text,
-        "author": prov.source or "hysteresis-explorer user",
+        **({"author": extra["author"]} if "author" in extra else {}),
         "version": prov.created,
-        "copyright": f"parameters: {prov.source or 'unknown source'}, created {prov.created}",
+        **({"copyright": extra["copyright"]} if "copyright" in extra else {}),
         "license": _licence(ps),
         "generationTool": prov.tool,
         "generationDateAndTime": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "variableNamingConvention": "structured",
     }
     return " ".join(f"{k}={_attr(v)}" for k, v in attrs.items())
+
+
+_LOG_CATEGORIES = [
+    "  <LogCategories>",
+    '    <Category name="logStatusError" description="calls refused: a step that is not a '
+    'whole number of samples, a parameter fixed at export, an unknown value reference"/>',
+    "  </LogCategories>",
+]
 
 
 def _units_xml(variables: list[FmuVariable]) -> list[str]:
@@ -498,6 +509,7 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
              'canSerializeFMUState="false" hasEventMode="false" '
              'providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>',
              *_units_xml(variables),
+             *_LOG_CATEGORIES,
              '  <DefaultExperiment startTime="0"'
              + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>",
              "  <ModelVariables>"]
@@ -527,6 +539,7 @@ def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
              "    <SourceFiles>", f'      <File name="{ident}.c"/>', "    </SourceFiles>",
              "  </CoSimulation>",
              *_units_xml(variables),
+             *_LOG_CATEGORIES,
              '  <DefaultExperiment startTime="0"'
              + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>",
              "  <ModelVariables>"]
@@ -698,7 +711,7 @@ HX_CORE_HERE
 
 static void HX_msg(HX_inst *s, fmi3Status st, const char *what)
 {
-    if (s->log) s->log(s->env, st, st == fmi3OK ? "logAll" : "logStatusError", what);
+    if (s->log) s->log(s->env, st, "logStatusError", what);
 }
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
@@ -855,8 +868,7 @@ HX_CORE_HERE
 static void HX_msg(HX_inst *s, fmi2Status st, const char *what)
 {
     if (s->cb && s->cb->logger)
-        s->cb->logger(s->cb->componentEnvironment, s->name, st,
-                      st == fmi2OK ? "logAll" : "logStatusError", "%s", what);
+        s->cb->logger(s->cb->componentEnvironment, s->name, st, "logStatusError", "%s", what);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
