@@ -373,5 +373,15 @@ def test_fmu_download_from_the_export_menu(browser: Any, live_server: dict, tmp_
     assert doc["model"] == _session(app, page).config.model
     page.locator("#export-msg").scroll_into_view_if_needed()
     shot(page, "web-export-fmu")
+    # a model without an inverse: no file, and the page says why
+    v = page.get_attribute("body", "data-ready")
+    page.fill("#model-json", json.dumps({"type": "pi", "p0": 1.0, "thresholds": [1.0, 2.0],
+                                         "weights": [-1.0, 0.5]}))
+    page.click("#apply-json")
+    _redrawn(page, v)
+    page.click("#dl-fmu-inv")
+    _text_has(page, "export-msg", "No FMU:")
+    assert "invert" in page.inner_text("#export-msg")
+    shot(page, "web-export-fmu-refused")
     _clean(page, log)
     ctx.close()
