@@ -1324,15 +1324,19 @@ def parse_constant(decl: str) -> tuple[str, str, int | None, str]:
 
 
 def _emit_block(
-    model: Model, name: str, dt: float | None, what: str, params: str | None = None
+    model: Model, name: str, dt: float | None, what: str, params: str | None = None,
+    emitted: list[CStage] | None = None,
 ) -> tuple[str, str, bool]:
     """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``.
 
     With ``params`` (a C expression of a pointer to a struct holding every stage constant
     under its own name), the constants are not defined here but read through that pointer
     (``#define <ident> (<params>-><ident>)``): the run-time tunable form of the FMU.
+    ``emitted``: the fragments of :func:`emit_stages` when the caller has them already.
     """
-    stages, emitted = emit_stages(model, name, dt, what)
+    stages = _flatten(model)
+    if emitted is None:
+        stages, emitted = emit_stages(model, name, dt, what)
     fields = [f for st in emitted for f in st.fields] or ["int unused_; /* stateless */"]
     h: list[str] = []
     h.append(f"/* {what}: {len(stages)} stage(s): "

@@ -59,7 +59,7 @@ from .export_c import (
 )
 
 if TYPE_CHECKING:
-    from .paramset import ParameterSet
+    from .paramset import ParameterSet, Units
 
 __all__ = [
     "FMI_VERSIONS",
@@ -280,6 +280,42 @@ def _element_name(base: str, path: str, arr: np.ndarray, idx: int, is_matrix: bo
 _PLACEHOLDER = re.compile(r"\$([A-Za-z_][A-Za-z0-9_.]*)")
 
 
+def _parameters(stages: list[Model], emitted: list, role: str, units: Units
+                ) -> tuple[list[FmuVariable], list[str]]:
+    """The parameter variables of every stage (value references from
+    :data:`FIRST_PARAMETER_VR`, in order) and the tune lines with ``$field`` resolved to the
+    C array ``mp`` of their values."""
+    variables: list[FmuVariable] = []
+    tune_lines: list[str] = []
+    n, inverse = len(stages), role == "compensator"
+    for k, (stage, em) in enumerate(zip(stages, emitted, strict=True)):
+        base = stage.type_name.replace("-", "_")
+        base = base if n == 1 else f"s{k}_{base}"
+        tuned = set(_PLACEHOLDER.findall("\n".join(em.tune)))
+        offsets: dict[str, int] = {}
+        for path, doc, arr, is_matrix in _field_values(stage):
+            offsets[path] = len(variables)
+            state = path.rsplit(".", 1)[-1] in _STATE_FIELDS
+            variability = ("fixed" if state else "tunable") if path in tuned else "constant"
+            unit = _unit_of(doc, k, n, inverse, units.input, units.output, units.time)
+            note = "" if variability != "constant" else \
+                " [fixed at export: its C constants need the export's numerics; re-export]"
+            for i, v in enumerate(arr.ravel()):
+                variables.append(FmuVariable(
+                    _element_name(base, path, arr, i, is_matrix),
+                    FIRST_PARAMETER_VR + len(variables),
+                    "parameter" if variability != "constant" else "local", variability,
+                    f"{role} stage {k} ({stage.type_name}): {doc}{note}", float(v),
+                    unit or None, path, k, i))
+        missing = tuned - set(offsets)
+        if missing:  # pragma: no cover - emitters name their own fields
+            raise CExportError(f"tune lines of {stage.type_name!r} name unknown fields {missing}")
+        for line in em.tune:
+            tune_lines.append(
+                _PLACEHOLDER.sub(lambda m, o=offsets: f"(mp + {o[m.group(1)]})", line))
+    return variables, tune_lines
+
+
 def fmu_sources(
     model: Model | ParameterSet,
     *,
@@ -335,10 +371,10 @@ def fmu_sources(
     running, preview = causal_compensator(fwd, dt) if inverse else (fwd, 0)
     units = ps.units.swapped() if inverse else ps.units
     units = type(units)(*(_NOT_XML.sub("?", u) for u in (units.input, units.output, units.time)))
-    block = f"{ident}_m"
-    stages, emitted = emit_stages(running, block, dt, "compensator" if inverse else "model")
-    header, body, _ = _emit_block(running, block, dt, "compensator" if inverse else "model",
-                                  params=f"{ident}_P_")
+    block, role = f"{ident}_m", "compensator" if inverse else "model"
+    stages, emitted = emit_stages(running, block, dt, role)
+    header, body, _ = _emit_block(running, block, dt, role, params=f"{ident}_P_",
+                                  emitted=emitted)
 
     # ---- variables
     in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
@@ -350,7 +386,7 @@ def fmu_sources(
     variables.append(FmuVariable(
         in_name, 1, "input", "continuous",
         ("desired output of the actuator (the compensator's set point)" if inverse
-         else "actuator drive (model input)") + f"{', held over each step'}",
+         else "actuator drive (model input)") + ", held over each step",
         0.0, units.input or None))
     variables.append(FmuVariable(
         out_name, 2, "output", "discrete",
@@ -365,38 +401,10 @@ def fmu_sources(
             "preview_samples", 4, "local", "constant",
             "samples of the desired trajectory the compensator needs ahead: feed y_ref "
             "this many samples early (0: none)", float(preview)))
-    tune_lines: list[str] = []
-    mp0: list[float] = []
-    kinds: list[int] = []
-    n = len(stages)
-    for k, (stage, em) in enumerate(zip(stages, emitted, strict=True)):
-        base = stage.type_name.replace("-", "_")
-        base = base if n == 1 else f"s{k}_{base}"
-        tuned = set(_PLACEHOLDER.findall("\n".join(em.tune)))
-        offsets: dict[str, int] = {}
-        for path, doc, arr, is_matrix in _field_values(stage):
-            offsets[path] = len(mp0)
-            state = path.rsplit(".", 1)[-1] in _STATE_FIELDS
-            variability = ("fixed" if state else "tunable") if path in tuned else "constant"
-            unit = _unit_of(doc, k, n, inverse, units.input, units.output, units.time)
-            for i, v in enumerate(arr.ravel()):
-                nm = _element_name(base, path, arr, i, is_matrix)
-                note = "" if variability != "constant" else \
-                    " [fixed at export: its C constants need the export's numerics; re-export]"
-                variables.append(FmuVariable(
-                    nm, FIRST_PARAMETER_VR + len(mp0),
-                    "parameter" if variability != "constant" else "local", variability,
-                    f"{'compensator' if inverse else 'model'} stage {k} ({stage.type_name}): "
-                    f"{doc}{note}", float(v), unit or None,
-                    path, k, i))
-                mp0.append(float(v))
-                kinds.append({"tunable": 1, "fixed": 2, "constant": 0}[variability])
-        missing = tuned - set(offsets)
-        if missing:  # pragma: no cover - emitters name their own fields
-            raise CExportError(f"tune lines of {stage.type_name!r} name unknown fields {missing}")
-        for line in em.tune:
-            tune_lines.append(
-                _PLACEHOLDER.sub(lambda m, o=offsets: f"(mp + {o[m.group(1)]})", line))
+    params, tune_lines = _parameters(stages, emitted, role, units)
+    variables += params
+    mp0 = [float(v.start) for v in params]  # type: ignore[arg-type]
+    kinds = [{"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params]
 
     tune_helpers = [line for em in emitted for line in em.tune_helpers]
     # ---- C source
@@ -410,7 +418,7 @@ def fmu_sources(
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
         (src + str(fmi_version)).encode()).hexdigest())) + "}"
     src = src.replace("@TOKEN@", token)
-    doc_text = _description(ps, fwd, inverse, preview, dt, units, n, stages)
+    doc_text = _description(ps, fwd, inverse, preview, dt, units, len(stages), stages)
     xml = (_xml3 if fmi_version == 3 else _xml2)(
         ps, ident, token, doc_text, variables, dt, what)
     build = _build_description(ident) if fmi_version == 3 else None
