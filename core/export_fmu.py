@@ -413,8 +413,11 @@ def fmu_sources(
               for ctype, cid, size, _ in consts] or ["    int unused_;"]
     defaults = [f"    {init}," for *_, init in consts] or ["    0,"]
     nmp = max(len(mp0), 1)
+    finite = [f"    if (!isfinite({cid})) return 0;" if size is None else
+              f"    for (i = 0; i < {size}u; ++i) if (!isfinite({cid}[i])) return 0;"
+              for ctype, cid, size, _ in consts if ctype == "double"]
     src = _c_source(ident, fmi_version, header, "\n".join([body, *tune_helpers]), struct,
-                    defaults, tune_lines, mp0, kinds, nmp, dt, preview, inverse)
+                    defaults, tune_lines, mp0, kinds, nmp, dt, preview, inverse, finite)
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
         (src + str(fmi_version)).encode()).hexdigest())) + "}"
     src = src.replace("@TOKEN@", token)
@@ -622,6 +625,18 @@ typedef struct {
     HX_LOGGER
 } HX_inst;
 
+#define HX_NOT_FINITE "these parameters make the model's coefficients non-finite (a zero " \
+    "width or frequency, an overflow)"
+
+/* whether every derived constant is finite */
+static int HX_finite(void)
+{
+    unsigned i = 0u;
+    (void)i;
+HX_FINITE_BODY
+    return 1;
+}
+
 static void HX_tune(const double *mp)
 {
     unsigned i = 0u, j = 0u;
@@ -677,21 +692,35 @@ static const char *HX_set(HX_inst *s, unsigned vr, double v)
             return "an initial-state parameter can only be set before initialisation "
                    "(or after a reset)";
         if (!(v == v) || v - v != 0.0) return "parameter values must be finite";
-        s->mp[k] = v;
-        s->dirty = 1;
-        if (s->mode >= 2) HX_retune(s);
+        {
+            const double old = s->mp[k];
+            s->mp[k] = v;
+            s->dirty = 1;
+            if (s->mode >= 2) {
+                HX_retune(s);
+                if (!HX_finite()) {
+                    s->mp[k] = old;
+                    s->dirty = 1;
+                    HX_retune(s);
+                    return HX_NOT_FINITE "; the previous value is kept";
+                }
+            }
+        }
         return 0;
     }
     if (vr <= 4u) return "this variable cannot be set";
     return "unknown value reference";
 }
 
-static void HX_start(HX_inst *s)
+/* 0, or a message when the parameters set before initialisation are unusable */
+static const char *HX_start(HX_inst *s)
 {
     HX_retune(s);
+    if (!HX_finite()) return HX_NOT_FINITE;
     HX_m_init(&s->st);
     s->y = HX_peek(s);
     s->mode = 2;
+    return 0;
 }
 
 /* run the samples of one communication step; 0 or a message */
@@ -799,8 +828,10 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 {
+    const char *err;
     if (!instance) return fmi3Error;
-    HX_start((HX_inst *)instance);
+    err = HX_start((HX_inst *)instance);
+    if (err) { HX_msg((HX_inst *)instance, fmi3Error, err); return fmi3Error; }
     return fmi3OK;
 }
 
@@ -935,8 +966,10 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
+    const char *err;
     if (!c) return fmi2Error;
-    HX_start((HX_inst *)c);
+    err = HX_start((HX_inst *)c);
+    if (err) { HX_msg((HX_inst *)c, fmi2Error, err); return fmi2Error; }
     return fmi2OK;
 }
 
@@ -1047,9 +1080,11 @@ def _stubs(version: int) -> list[str]:
 
 def _c_source(ident: str, version: int, header: str, body: str, struct: list[str],
               defaults: list[str], tune: list[str], mp0: list[float], kinds: list[int],
-              nmp: int, dt: float | None, preview: int, inverse: bool) -> str:
+              nmp: int, dt: float | None, preview: int, inverse: bool,
+              finite: list[str]) -> str:
     hx = ident
-    core = _CORE.replace("HX_TUNE_BODY", "\n".join(f"    {line}" for line in tune))
+    core = _CORE.replace("HX_TUNE_BODY", "\n".join(f"    {line}" for line in tune)).replace(
+        "HX_FINITE_BODY", "\n".join(finite))
     wrapper = (_FMI3 if version == 3 else _FMI2).replace("HX_CORE_HERE", core)
     mp_init = ", ".join(c_double(v) for v in mp0) or "0.0"
     kind_init = ", ".join(str(k) for k in kinds) or "0"

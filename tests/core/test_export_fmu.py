@@ -321,3 +321,27 @@ def test_two_instances_of_one_library_keep_their_own_parameters(tmp_path) -> Non
     np.testing.assert_allclose(yb, other(u, dt=DT), rtol=0, atol=1e-12)
     b.close()
     a.close()
+
+
+@pytest.mark.parametrize("version", [3, 2])
+def test_a_value_that_breaks_the_coefficients_is_refused_and_the_old_one_kept(
+        tmp_path, version) -> None:
+    model = ZOO["digitized"]
+    fmu = build_fmu(model, tmp_path / "d.fmu", fmi_version=version)
+    s = Slave(fmu, tmp_path / "x")
+    s.init()
+    u = turning_points(8, 300)
+    y1 = s.run(u[:150])
+    with pytest.raises(Exception, match="Set"):  # dx = 0: slope dy/dx is infinite
+        s.set("digitized.dx[1]", 0.0)
+    assert s.get("digitized.dx[1]") == float(model.dx[0])
+    y = np.concatenate([y1, s.run(u[150:])])
+    np.testing.assert_allclose(y, model(u), rtol=0, atol=1e-12)
+    s.fmu.reset()  # before initialisation the value is taken, and refused at exit
+    s.set("digitized.dx[1]", 0.0)
+    with pytest.raises(Exception, match="ExitInitializationMode"):
+        (s.fmu.enterInitializationMode(startTime=0.0) if version == 3 else
+         (s.fmu.setupExperiment(startTime=0.0), s.fmu.enterInitializationMode()))
+        s.fmu.exitInitializationMode()
+    s.fmu.terminate()
+    s.fmu.freeInstance()
