@@ -345,3 +345,35 @@ def test_a_value_that_breaks_the_coefficients_is_refused_and_the_old_one_kept(
         s.fmu.exitInitializationMode()
     s.fmu.terminate()
     s.fmu.freeInstance()
+
+
+@pytest.mark.parametrize("degree", [1, 2, 4])
+def test_retuned_asymmetry_inverse_finds_the_monotone_range_as_python(tmp_path, degree) -> None:
+    """The FMU recomputes the range the inverse clips to (roots of the map's derivative,
+    in C) when its coefficients are tuned: random maps, bounded and unbounded ranges."""
+    from core.effects import AsymmetryInverse
+
+    fmu = build_fmu(AsymmetryInverse(np.full(degree, 0.01), 0.0, 1.0), tmp_path / "a.fmu",
+                    fmi_version=3)
+    s = Slave(fmu, tmp_path / "x")
+    rng = np.random.default_rng(degree)
+    u = 4.0 * turning_points(degree, 800) / 3.0
+    bounded = 0  # samples clipped by Python
+    for _ in range(6):
+        coef, ctr, scale = rng.normal(0.0, 0.4, degree), rng.normal(0.0, 0.3), rng.uniform(0.5, 2)
+        ref_model = AsymmetryInverse(coef, ctr, scale)
+        lo, hi = ref_model.forward.monotone_range()
+        ends = ref_model.forward(np.array([lo if np.isfinite(lo) else 0.0,
+                                           hi if np.isfinite(hi) else 0.0]))
+        bounded += int(np.sum((np.isfinite(lo) & (u < ends[0]))
+                              | (np.isfinite(hi) & (u > ends[1]))))
+        s.fmu.reset()
+        for i, v in enumerate(coef):
+            s.set(f"asymmetry_inverse.coefficients[{i + 1}]", v)
+        s.set("asymmetry_inverse.center", ctr)
+        s.set("asymmetry_inverse.scale", scale)
+        s.init()
+        ref = _quiet(ref_model, u).y
+        np.testing.assert_allclose(s.run(u), ref, rtol=0, atol=1e-9 * max(1.0, np.ptp(ref)))
+    assert bounded > 0  # samples outside a bounded range: the clipping ends were tested
+    s.close()
