@@ -864,6 +864,11 @@ def _emit_delay(model: Model, ctx: StageContext) -> CStage:
             f"  st->{f}pos = (st->{f}pos + 1u) % {size}u;",
             f"  x = {c}F * older + (1.0 - {c}F) * newer; }}",
         ],
+        tune=[  # as delay_split; the whole samples size the buffer: another count is refused
+            f"{{ const double d = $delay_s[0] / {c_double(ctx.dt)};",
+            "  const double m = floor(d + 1e-12);",
+            f"  {c}F = m != {float(m)} ? NAN : d - m > 0.0 ? d - m : 0.0; }}",
+        ],
     )
 
 

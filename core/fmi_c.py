@@ -88,8 +88,9 @@ typedef struct {
     HX_LOGGER
 } HX_inst;
 
-#define HX_NOT_FINITE "these parameters make the model's coefficients non-finite (a zero " \
-    "width or frequency, an overflow)"
+#define HX_NOT_FINITE "these parameters are beyond what this export can run: a derived " \
+    "coefficient would be non-finite (a zero width or frequency, an overflow), or a delay " \
+    "would span another number of whole samples than exported (re-export for that)"
 
 /* whether every derived constant is finite */
 static int HX_finite(void)

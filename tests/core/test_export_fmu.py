@@ -211,7 +211,7 @@ def test_fmu_contents_ports_parameters_and_provenance(tmp_path) -> None:
     assert by["s2_pi.thresholds[2]"].unit == "um"  # the inverse's thresholds: output units
     assert (by["s2_pi.state0[1]"].variability, float(by["s2_pi.state0[1]"].start)) == ("fixed", 0.0)
     assert by["s1_lag_inverse.tau_s"].unit == "s"
-    assert by["s0_delay.delay_s"].variability == "constant"  # the preview's remainder
+    assert by["s0_delay.delay_s"].variability == "tunable"  # the preview's remainder
     with zipfile.ZipFile(tmp_path / "comp.fmu") as zf:
         names = set(zf.namelist())
         assert {"sources/comp.c", "sources/buildDescription.xml",
@@ -266,10 +266,31 @@ def test_a_step_of_several_samples_holds_the_input_and_odd_steps_are_refused(tmp
 
 
 def test_a_parameter_fixed_at_export_cannot_be_set(tmp_path) -> None:
-    fmu = build_fmu(ZOO["delay"], tmp_path / "d.fmu", fmi_version=3, dt=DT)
+    fmu = build_fmu(ZOO["lti"], tmp_path / "l.fmu", fmi_version=3, dt=DT)
     s = Slave(fmu, tmp_path / "x")
-    with pytest.raises(Exception, match="fmi3SetFloat64"):  # the delay sizes a buffer
-        s.set("delay.delay_s", 1e-3)
+    with pytest.raises(Exception, match="fmi3SetFloat64"):  # a balanced realisation
+        s.set("lti.num[1]", 1e-3)
+    s.close()
+
+
+def test_a_delay_retunes_within_its_whole_samples(tmp_path) -> None:
+    """The whole samples of a delay size its buffer: a new fraction is taken, another
+    number of samples is refused (and the old delay kept)."""
+    from core.effects import Delay
+
+    fmu = build_fmu(Delay(2.5e-4), tmp_path / "d.fmu", fmi_version=2, dt=DT)
+    s = Slave(fmu, tmp_path / "x")
+    s.init()
+    u = turning_points(11, 400)
+    first = s.run(u[:200])
+    s.set("delay.delay_s", 2.9e-4)
+    with pytest.raises(Exception, match="fmi2SetReal"):
+        s.set("delay.delay_s", 5e-4)
+    assert s.get("delay.delay_s") == 2.9e-4
+    y = np.concatenate([first, s.run(u[200:])])
+    r1 = Delay(2.5e-4).simulate(u[:200], dt=DT)
+    ref = np.concatenate([r1.y, Delay(2.9e-4).simulate(u[200:], state=r1.state, dt=DT).y])
+    np.testing.assert_allclose(y, ref, rtol=0, atol=1e-12)
     s.close()
 
 
