@@ -12,8 +12,9 @@ source (``sources/``) so another platform can rebuild it. Its ports and paramete
   and description: ``tunable`` where the stage's C emitter says how its constants follow
   from it (:attr:`core.export_c.CStage.tune`), ``fixed`` for the initial memory state
   (``state0``, ``direction0``: set before initialisation; the exported value is the model's,
-  a virgin state unless the model says otherwise), and a ``constant`` where the constants
-  need the export's numerics (matrix exponentials, root finding: re-export to change it);
+  a virgin state unless the model says otherwise), and a ``constant`` where the stage has no
+  tune lines (today the LTI coefficients, whose balanced realisation is computed at export:
+  re-export to change them); a value whose derived constants are not finite is refused;
 - ``sample_time`` (``dt``, constant) and ``preview_samples`` (the compensator's preview,
   :func:`core.effects.causal_form`; also stated in the model description).
 
