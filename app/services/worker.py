@@ -12,13 +12,17 @@ imports numpy, scipy, numba and the solvers once (:data:`PRELOAD`, started in th
 The child sends its progress and its result (pickled: parent and child are the same program)
 through a pipe, and watches a second pipe whose other end only the server holds: when the
 server is gone (kill -9), the child exits instead of computing for nobody.
+
+Like every child of a forkserver or of spawn, a worker imports the main script of the program
+that started the server (as ``__mp_main__``): a script that serves the app must keep its work
+under ``if __name__ == "__main__":`` (``hyst serve`` and ``python -m app`` do).
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import multiprocessing.connection as mpc
-import multiprocessing.forkserver
+import multiprocessing.forkserver  # noqa: F401 - imported for ensure_running
 import os
 import signal
 import threading
@@ -33,8 +37,12 @@ __all__ = ["PRELOAD", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
 PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.services.tasks",
            "app.services.preload"]
 
-_CTX = multiprocessing.get_context("forkserver")
-_CTX.set_forkserver_preload(PRELOAD)  # read when the forkserver starts
+#: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
+#: worker then starts a fresh interpreter and imports the solvers itself, about 2 s)
+_FORKSERVER = "forkserver" in multiprocessing.get_all_start_methods()
+_CTX = multiprocessing.get_context("forkserver" if _FORKSERVER else "spawn")
+if _FORKSERVER:
+    _CTX.set_forkserver_preload(PRELOAD)  # read when the forkserver starts
 
 
 @dataclass(frozen=True)
@@ -73,7 +81,8 @@ def start() -> None:
 
     Safe to call more than once and from any thread; the first job calls it anyway (and
     then waits for the imports, a few seconds)."""
-    multiprocessing.forkserver.ensure_running()
+    if _FORKSERVER:
+        multiprocessing.forkserver.ensure_running()
 
 
 def _watch_server(lifeline: mpc.Connection) -> None:
@@ -164,7 +173,7 @@ class Worker:
                 msg = out.recv()  # blocks until a message, or EOF once the worker is gone
             except (EOFError, OSError):
                 proc.join()
-                why = ("it was stopped" if self._killed or proc.exitcode == -signal.SIGKILL
+                why = ("it was stopped" if self._killed
                        else f"the worker process ended with exit code {proc.exitcode} "
                             "(out of memory?)")
                 raise WorkerDied(why) from None
