@@ -9,6 +9,14 @@ from pathlib import Path
 from typing import Any
 
 
+def wait_gone(pid: int, timeout: float = 30.0) -> None:
+    """In the test: wait until process ``pid`` no longer exists (killed and reaped)."""
+    deadline = time.monotonic() + timeout
+    while Path(f"/proc/{pid}").exists():
+        assert time.monotonic() < deadline, f"worker process {pid} is still there"
+        time.sleep(0.02)
+
+
 def constant(value: Any, *, progress: Any) -> Any:
     """Return ``value`` at once."""
     return value

@@ -18,7 +18,6 @@ import threading
 import time
 import urllib.request
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,6 +26,8 @@ import pytest
 from app.server import create_app
 from app.services.settings import Settings
 from core.pi import PIModel
+
+from .job_work import wait_gone
 
 #: A dead-zone GPI fit with 100 operators on this many random-walk samples takes about 8 s
 #: single-threaded (long enough to be running when the test cancels it).
@@ -91,10 +92,6 @@ def _worker(app: Any) -> int:
     return _until("a worker process", lambda: (app.state.jobs.workers() or [None])[0])
 
 
-def _gone(pid: int) -> None:
-    _until(f"worker {pid} to be gone", lambda: not Path(f"/proc/{pid}").exists(), 30)
-
-
 def _slot_is_free(s: dict[str, Any]) -> None:
     """A fit of the other session, queued behind the cancelled one, runs to its end."""
     web, code = s["url"], s["short"]
@@ -116,7 +113,7 @@ def test_delete_kills_a_running_fit_and_frees_its_slot(server: dict[str, Any]) -
     end = _call(web + f"api/sessions/{code}/jobs/{job}", "DELETE")
     assert end["state"] == "cancelled", end  # before: "running", message "cancelling: ..."
     assert app.state.jobs.running() == 0
-    _gone(pid)
+    wait_gone(pid)
     assert _call(web + f"api/sessions/{code}")["fitted"] is None
     _slot_is_free(server)
 
@@ -134,7 +131,7 @@ def test_a_synchronous_fit_whose_client_hangs_up_is_killed(server: dict[str, Any
     end = _until("the abandoned fit to end", lambda: (j := latest())["state"] not in (
         "queued", "running") and j)
     assert end["state"] == "cancelled", end
-    _gone(pid)
+    wait_gone(pid)
     # before: the fit ran to its end and was stored although its job said "cancelled"
     assert _call(web + f"api/sessions/{code}")["fitted"] is None
     _slot_is_free(server)

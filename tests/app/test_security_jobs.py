@@ -38,14 +38,6 @@ def _poll_until(c: TestClient, code: str, job: str, cond, timeout: float = 120.0
     raise AssertionError(f"the job never got there: {j}")
 
 
-def _gone(pid: int, timeout: float = 30.0) -> None:
-    """Wait until process ``pid`` no longer exists (killed and reaped)."""
-    deadline = time.monotonic() + timeout
-    while Path(f"/proc/{pid}").exists():
-        assert time.monotonic() < deadline, f"worker process {pid} is still there"
-        time.sleep(0.02)
-
-
 @pytest.fixture(scope="module")
 def client(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
     app = create_app(Settings(viser_port=None, state_dir=str(tmp_path_factory.mktemp("s"))))
@@ -132,7 +124,7 @@ def test_a_diagnosis_cancelled_after_its_last_report_leaves_the_session_alone(
         [pid] = app.state.jobs.workers()
         end = c.delete(f"/api/sessions/{code}/jobs/{job}").json()
         assert end["state"] == "cancelled" and end["progress"] < 1
-        _gone(pid)
+        job_work.wait_gone(pid)
         assert app.state.registry.get(code).diagnosis is None
         assert app.state.jobs.running() == 0
 
