@@ -4,13 +4,16 @@ Starts a real ``hyst serve`` with one job slot (``HYST_MAX_JOBS=1``), loads a lo
 (160k samples) into one session and a short one into another, and measures, for
 
 (a) a dead-zone GPI fit (``gpi-deadzone``, n = 100) cancelled with ``DELETE .../jobs/{id}``,
-(b) a diagnosis of the shipped piezo recording (50k samples) cancelled the same way,
+(b) a diagnosis of the shipped piezo recording, repeated three times (150k samples),
+    cancelled the same way (its longest step between two progress reports, "judging the base
+    model against the noise", takes about 5 s on an idle machine),
 (c) a synchronous ``POST .../fit`` whose client hangs up,
 
 the seconds from the cancel (the DELETE answered, or the socket closed) until a small fit of
 the other session, queued behind it, starts running (the slot is free), and until the
-cancelled job reads ``cancelled``. Each long job runs ``--run`` seconds (2 by default) before
-it is cancelled. A case that has not freed the slot after ``--cap`` seconds is reported as
+cancelled job ends (its state is printed). The fits run ``--run`` seconds (2 by default)
+before they are cancelled; the diagnosis is run and cancelled once for each of
+``--diagnose-at`` (1, 3, 5 and 7 s). A case that has not freed the slot after ``--cap`` seconds is reported as
 ``> cap``. Run from the repository root::
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_cancel.py [--samples 160000]
@@ -78,6 +81,15 @@ _FINAL = ("done", "failed", "cancelled")
 PIEZO = ROOT.parent / "shared" / "data" / "piezo" / "piezo_150V_1Hz.csv"
 
 
+def _piezo(path: Path, times: int = 3) -> bytes:
+    d = np.loadtxt(path, delimiter=",", skiprows=1)
+    u, y = np.tile(d[:, 1], times), np.tile(d[:, 2], times)
+    dt = float(d[1, 0] - d[0, 0])
+    rows = "\n".join(f"{k * dt:.4f},{a:.3f},{b:.4f}"
+                     for k, (a, b) in enumerate(zip(u, y, strict=True)))
+    return f"t,u,y\n{rows}\n".encode()
+
+
 def _state(web: str, code: str, job: str) -> str:
     return _call(web + f"api/sessions/{code}/jobs/{job}")["state"]
 
@@ -110,6 +122,9 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=160_000)
     ap.add_argument("--run", type=float, default=2.0)
     ap.add_argument("--cap", type=float, default=240.0)
+    ap.add_argument("--diagnose-at", type=lambda t: [float(x) for x in t.split(",")],
+                    default=[1.0, 3.0, 5.0, 7.0],
+                    help="seconds into the diagnosis at which it is cancelled (one run each)")
     ap.add_argument("--piezo", type=Path, default=PIEZO, help="the recording to diagnose")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -120,22 +135,21 @@ def main() -> None:
             piezo = _call(web + "api/sessions", "POST")["code"]
             _call(web + f"api/sessions/{big}/recording", "POST", _csv(args.samples), "text/csv")
             _call(web + f"api/sessions/{small}/recording", "POST", _csv(400), "text/csv")
-            _call(web + f"api/sessions/{piezo}/recording", "POST", args.piezo.read_bytes(),
-                  "text/csv")
+            _call(web + f"api/sessions/{piezo}/recording", "POST", _piezo(args.piezo), "text/csv")
             rows = []
-            for name, code, body in (
-                    ("a", big, {"kind": "fit", "params": {"kind": "gpi-deadzone", "n": 100,
-                                                          "apply": False}}),
-                    ("b", piezo, {"kind": "diagnose"})):
+            cases = [("a", args.run, big, {"kind": "fit", "params": {
+                "kind": "gpi-deadzone", "n": 100, "apply": False}})]
+            cases += [("b", at, piezo, {"kind": "diagnose"}) for at in args.diagnose_at]
+            for name, at, code, body in cases:
                 job = _call(web + f"api/sessions/{code}/jobs", "POST",
                             json.dumps(body).encode())["id"]
                 _until(lambda c=code, j=job: _state(web, c, j) == "running", 60)
-                time.sleep(args.run)
+                time.sleep(at)
                 res = _measure(
                     web, small,
                     lambda c=code, j=job: _call(web + f"api/sessions/{c}/jobs/{j}", "DELETE"),
                     lambda c=code, j=job: _state(web, c, j), args.cap)
-                rows.append((name, *res))
+                rows.append((name, at, *res))
             # (c) a synchronous fit whose client hangs up
             host = urlsplit(web)
             s = socket.create_connection((host.hostname, host.port))
@@ -147,19 +161,19 @@ def main() -> None:
             _until(lambda: bool(listed()) and listed()[0]["state"] == "running", 60)
             time.sleep(args.run)
             res = _measure(web, small, s.close, lambda: listed()[0]["state"], args.cap)
-            rows.append(("c", *res))
+            rows.append(("c", args.run, *res))
         finally:
             proc.terminate()
             proc.wait(30)
-    names = {"a": "gpi-deadzone n=100 job, DELETE", "b": "piezo diagnosis job, DELETE",
+    names = {"a": "gpi-deadzone n=100 job, DELETE", "b": "piezo x3 diagnosis job, DELETE",
              "c": "synchronous fit, client hangs up"}
-    print(f"samples: {args.samples}, each long job ran {args.run:g} s before the cancel")
-    print(f"{'case':36s} {'cancel call s':>13s} {'slot free s':>12s} {'job ended s':>12s}"
-          "  state")
-    for name, t_cancel, free, ended, state in rows:
+    print(f"samples: {args.samples}; 'ran': seconds the long job ran before the cancel")
+    print(f"{'case':36s} {'ran s':>5s} {'cancel call s':>13s} {'slot free s':>12s} "
+          f"{'job ended s':>12s}  state")
+    for name, at, t_cancel, free, ended, state in rows:
         fmt = lambda x: f"> {args.cap:g}" if x is None else f"{x:.2f}"  # noqa: E731
-        print(f"{names[name]:36s} {t_cancel:13.2f} {fmt(free):>12s} {fmt(ended):>12s}"
-              f"  {state}")
+        print(f"{names[name]:36s} {at:5g} {t_cancel:13.2f} {fmt(free):>12s} "
+              f"{fmt(ended):>12s}  {state}")
 
 
 if __name__ == "__main__":
