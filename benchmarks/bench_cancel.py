@@ -13,8 +13,8 @@ the seconds from the cancel (the DELETE answered, or the socket closed) until a 
 the other session, queued behind it, starts running (the slot is free), and until the
 cancelled job ends (its state is printed). The fits run ``--run`` seconds (2 by default)
 before they are cancelled; the diagnosis is run and cancelled once for each of
-``--diagnose-at`` (1, 3, 5 and 7 s). A case that has not freed the slot after ``--cap`` seconds is reported as
-``> cap``. Run from the repository root::
+``--diagnose-at`` (1, 3, 5 and 7 s). A case that has not freed the slot after ``--cap``
+seconds is reported as ``> cap``. Run from the repository root::
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_cancel.py [--samples 160000]
 """

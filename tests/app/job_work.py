@@ -9,10 +9,20 @@ from pathlib import Path
 from typing import Any
 
 
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (one that ended but was not reaped
+    yet: it holds no memory and computes nothing)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
 def wait_gone(pid: int, timeout: float = 30.0) -> None:
-    """In the test: wait until process ``pid`` no longer exists (killed and reaped)."""
+    """In the test: wait until process ``pid`` has ended."""
     deadline = time.monotonic() + timeout
-    while Path(f"/proc/{pid}").exists():
+    while alive(pid):
         assert time.monotonic() < deadline, f"worker process {pid} is still there"
         time.sleep(0.02)
 

@@ -18,6 +18,7 @@ import threading
 import time
 import urllib.request
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,7 +28,7 @@ from app.server import create_app
 from app.services.settings import Settings
 from core.pi import PIModel
 
-from .job_work import wait_gone
+from .job_work import alive, wait_gone
 
 #: A dead-zone GPI fit with 100 operators on this many random-walk samples takes about 8 s
 #: single-threaded (long enough to be running when the test cancels it).
@@ -135,3 +136,34 @@ def test_a_synchronous_fit_whose_client_hangs_up_is_killed(server: dict[str, Any
     # before: the fit ran to its end and was stored although its job said "cancelled"
     assert _call(web + f"api/sessions/{code}")["fitted"] is None
     _slot_is_free(server)
+
+
+def test_a_worker_ends_when_its_server_is_killed(tmp_path: Path) -> None:
+    """kill -9 of the server leaves no worker computing for nobody (the worker watches a
+    pipe only the server holds; without it this one would wait 120 s)."""
+    import signal
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    script = (
+        "import sys, threading, time\n"
+        f"sys.path.insert(0, {str(root)!r})\n"
+        "from app.services.worker import Task, Worker\n"
+        "from tests.app.job_work import until_file\n"
+        f"w = Worker(Task(until_file, ({str(tmp_path / 'never')!r},)))\n"
+        "report = lambda f, m: print('worker', w.pid, flush=True)\n"
+        "threading.Thread(target=w.run, args=(report,), daemon=True).start()\n"
+        "time.sleep(300)\n")
+    server = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        assert server.stdout is not None
+        line = server.stdout.readline()
+        assert line.startswith("worker "), line
+        pid = int(line.split()[1])
+        assert alive(pid)
+    finally:
+        server.send_signal(signal.SIGKILL)
+        server.wait(30)
+    wait_gone(pid)
