@@ -27,8 +27,7 @@ import pytest
 from app.server import create_app
 from app.services.settings import Settings
 from core.pi import PIModel
-
-from .job_work import alive, wait_gone
+from tests.app.job_work import alive, wait_gone
 
 #: A dead-zone GPI fit with 100 operators on this many random-walk samples takes about 8 s
 #: single-threaded (long enough to be running when the test cancels it).
@@ -145,7 +144,7 @@ def test_a_worker_ends_when_its_server_is_killed(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     script = (
         "import sys, threading, time\n"
         f"sys.path.insert(0, {str(root)!r})\n"
