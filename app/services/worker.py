@@ -174,8 +174,9 @@ class Worker:
             except (EOFError, OSError):
                 proc.join()
                 why = ("it was stopped" if self._killed
-                       else f"the worker process ended with exit code {proc.exitcode} "
-                            "(out of memory?)")
+                       else f"the work stopped unexpectedly (exit code {proc.exitcode}; the "
+                            "server may have run out of memory): try fewer operators or a "
+                            "shorter recording")
                 raise WorkerDied(why) from None
             if msg[0] == "progress":
                 progress(msg[1], msg[2])

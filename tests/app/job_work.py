@@ -37,6 +37,13 @@ def fail(message: str, *, progress: Any) -> Any:
     raise ValueError(message)
 
 
+def die(code: int, *, progress: Any) -> Any:
+    """End the worker process at once with exit status ``code`` (as the OOM killer would)."""
+    import os
+
+    os._exit(code)
+
+
 def until_file(path: str, value: Any = None, limit_s: float = 120.0, *, progress: Any) -> Any:
     """Report progress 0.5, then wait until ``path`` exists (at most ``limit_s``); return
     ``value``."""

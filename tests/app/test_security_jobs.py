@@ -148,6 +148,14 @@ def test_a_cancel_while_the_result_is_stored_is_too_late(tmp_path: Path) -> None
     release.set()
     assert job.finished.wait(30)
     assert job.view().state == "done" and job.view().result == 42 and kept == [41]
+    jobs.cancel_all()
+
+
+def test_a_task_that_raises_or_whose_worker_dies_fails_with_the_reason() -> None:
+    jobs = JobManager(max_workers=1)
     failed = jobs.submit("s1", "fit", Task(job_work.fail, ("no good",)))
-    assert failed.finished.wait(30) and failed.view().error == "no good"
+    assert failed.finished.wait(60) and failed.view().error == "no good"
+    died = jobs.submit("s1", "fit", Task(job_work.die, (3,)))  # as if out of memory
+    assert died.finished.wait(30) and died.view().state == "failed"
+    assert "stopped unexpectedly (exit code 3" in died.view().error
     jobs.cancel_all()
