@@ -17,7 +17,6 @@ from __future__ import annotations
 import secrets
 import threading
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,10 +24,7 @@ from typing import Any
 from .worker import Task, Worker, WorkerDied
 from .worker import start as start_workers
 
-__all__ = ["Job", "JobBusy", "JobManager", "JobView", "Progress", "Task"]
-
-#: ``progress(fraction, message)``: how a task reports (in its worker process).
-Progress = Callable[[float, str], None]
+__all__ = ["Job", "JobBusy", "JobManager", "JobView"]
 
 _FINAL = frozenset({"done", "failed", "cancelled"})
 

@@ -11,12 +11,11 @@ replace them with its own module-level functions.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from core.exceptions import ParameterError
 
-from .worker import Task
+from .worker import Progress, Task
 
 if TYPE_CHECKING:
     from core.recordings import Recording
@@ -24,8 +23,6 @@ if TYPE_CHECKING:
     from .sessions import Session
 
 __all__ = ["diagnose_task", "fit_task", "run_diagnosis", "run_fit"]
-
-Progress = Callable[[float, str], None]
 
 
 def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:

@@ -30,7 +30,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PRELOAD", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
+__all__ = ["PRELOAD", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
+
+#: ``progress(fraction, message)``: how a task reports to its job (``fraction`` in 0..1).
+Progress = Callable[[float, str], None]
 
 #: Modules the forkserver imports once (the last one loads the compiled kernels); every
 #: worker is forked with them loaded.
@@ -38,7 +41,8 @@ PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.ser
            "app.services.preload"]
 
 #: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
-#: worker then starts a fresh interpreter and imports the solvers itself, about 2 s)
+#: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
+#: measured here)
 _FORKSERVER = "forkserver" in multiprocessing.get_all_start_methods()
 _CTX = multiprocessing.get_context("forkserver" if _FORKSERVER else "spawn")
 if _FORKSERVER:
@@ -131,7 +135,7 @@ class Worker:
             if self._proc is not None and self._proc.exitcode is None:
                 self._proc.kill()
 
-    def run(self, progress: Callable[[float, str], None]) -> Any:
+    def run(self, progress: Progress) -> Any:
         """Start the process, pass its progress reports to ``progress`` and return the
         task's return value.
 
@@ -166,8 +170,7 @@ class Worker:
             for c in (out_r, out_w, life_r, life_w):
                 c.close()
 
-    def _collect(self, proc: Any, out: mpc.Connection,
-                 progress: Callable[[float, str], None]) -> Any:
+    def _collect(self, proc: Any, out: mpc.Connection, progress: Progress) -> Any:
         while True:
             try:
                 msg = out.recv()  # blocks until a message, or EOF once the worker is gone

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from app.services.jobs import JobManager, Task
+from app.services.jobs import JobManager
+from app.services.worker import Task
 from tests.app import job_work
 from tests.app import test_security_jobs as jobs_api
 from tests.app.test_security import csv_text, upload
