@@ -260,6 +260,9 @@ def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
     view.session.update(lambda c: c.with_model(doc["model"]))
     _idle(view)
     assert not view.ui.pi_folder.visible and view.ui.param_folder.visible
+    # the GPI's plays are counted (not "? operators", "n = ?")
+    assert "6 operators" in view.ui.model_md.content
+    assert "n = 6" in json.dumps(view.ui.plot.figure.layout)
     h = view.ui.param_sliders["pi.p0"]
     h.value = 0.8
     _idle(view)
