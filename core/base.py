@@ -70,7 +70,7 @@ class Control:
         magnitude among the values that share it (see :attr:`Field.scale_with`), so the range
         follows the parameter set's size, not the value under the thumb; otherwise absolute.
     step : float
-        Slider step, relative to the scale like ``range`` (rounded down to a power of ten).
+        Slider step, relative to the scale like ``range`` (rounded to a power of ten).
     relative : bool
         Whether ``range`` and ``step`` scale with the values (see ``range``).
     lower, upper : float, optional

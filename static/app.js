@@ -752,7 +752,7 @@ async function main() {
     const asked = Math.round(Number($("n").value));
     const n = Math.max(1, Math.min(Number.isFinite(asked) ? asked : 1, max));
     $("n").value = n;
-    setMsg("model-msg", n === asked ? "" : asked > max
+    showNote(n === asked ? "" : asked > max
       ? `This server allows at most ${max} operators: n is set to ${max}.`
       : `n must be a whole number from 1 to ${max}: n is set to ${n}.`);
     const m = structuredClone(controls.model || state.config.model);

@@ -320,14 +320,21 @@ class SessionView:
             self.ui.json_in.value = json.dumps(m)  # the JSON box follows the sliders
 
     def _n_changed(self, event: Any) -> None:
+        """A new operator count; one beyond the server's limit is set to the limit, and the
+        note under the sliders says so (the field shows the count in use)."""
+        top = self.settings.max_operators
+        asked = int(round(float(self.ui.n_ops.value)))
+        n = min(max(asked, 1), top)
         with self._writing():
             try:
-                actions.set_operator_count(self.session, int(self.ui.n_ops.value),
-                                           self.settings)
+                actions.set_operator_count(self.session, n, self.settings)
             except ParameterError as exc:
-                self.ui.model_md.content = f"⚠️ {md_text(exc)}"
+                self.ui.params_md.content = f"⚠️ {md_text(exc)}"
                 return
         self._sync_controls(self.session.snapshot()[0])
+        self.ui.params_md.content = "" if n == asked else (
+            f"ℹ️ this server allows at most {top} operators: n is set to {top}" if asked > top
+            else "ℹ️ n must be at least 1: n is set to 1")
 
     def _preset_chosen(self, event: Any) -> None:
         doc = actions.preset_doc(self.ui.preset_names[str(self.ui.preset.value)])

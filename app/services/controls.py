@@ -216,8 +216,9 @@ def _nice_ceil(x: float) -> float:
     return 10.0 ** (e + 1)  # pragma: no cover - NICE ends at 10
 
 
-def _pow10_floor(x: float) -> float:
-    return 10.0 ** math.floor(math.log10(x))
+def _pow10(x: float) -> float:
+    """The power of ten nearest to ``x`` > 0 (on a log scale)."""
+    return 10.0 ** round(math.log10(x))
 
 
 def _numbers(v: Any) -> list[float]:
@@ -255,7 +256,7 @@ def _limits(node: Mapping[str, Any], field: Field, ctl: Control, k: int | None,
     if ctl.relative:
         s = _scale(node, field, ctl, k)
         lo, hi = ctl.range[0] * s, ctl.range[1] * s
-        step = _pow10_floor(ctl.step * s)
+        step = _pow10(ctl.step * s)
     else:
         lo, hi = ctl.range
         step = ctl.step

@@ -86,8 +86,8 @@ def test_web_page_sliders_for_every_model(browser: Any, live_server: dict, shot:
     _drag(page, "#ctl-weights-0", 0.2)
     _wait(lambda: session.config.model["weights"][0] < 0.5, "p1 stored")
     page.wait_for_function("() => !document.getElementById('model-msg').textContent")
-    shown = json.loads(page.input_value("#model-json"))
-    assert shown == session.config.model
+    _wait(lambda: json.loads(page.input_value("#model-json")) == session.config.model,
+          "the JSON box showing the stored model")
     # n beyond the server's limit: the field and the message say what was done
     page.fill("#n", "10000")
     page.press("#n", "Enter")

@@ -147,7 +147,7 @@ def test_two_students_are_isolated(browser: Any, live_server: dict) -> None:
     for _ in range(20):
         a.locator("#ctl-p0").press("ArrowRight")
     a.wait_for_function("v => document.body.dataset.ready !== v", arg=v, timeout=30_000)
-    a.wait_for_function("() => Number(document.getElementById('p0').value) > 0.73")
+    a.wait_for_function("() => Number(document.getElementById('ctl-p0').value) > 0.73")
     reg = live_server["app"].state.registry
     assert reg.get(code_a).config.model["p0"] != pytest.approx(0.72)
     assert reg.get(code_b).config.model["p0"] == pytest.approx(0.72)

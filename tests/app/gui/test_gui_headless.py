@@ -130,6 +130,11 @@ def test_operator_count_rebuilds_sliders(view: SessionView) -> None:
     _idle(view)
     assert sum(p.startswith("thresholds[") for p in view.ui.param_sliders) == 12
     assert len(view.session.config.model["weights"]) == 12
+    view.ui.n_ops.value = 10_000  # beyond the limit: set to it, and said so
+    _idle(view)
+    top = view.settings.max_operators
+    assert len(view.session.config.model["weights"]) == top and view.ui.n_ops.value == top
+    assert f"at most {top} operators: n is set to {top}" in _md(view.ui.params_md)
 
 
 def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:

@@ -192,10 +192,11 @@ def test_a_newly_registered_type_gets_sliders_and_rules(toy: type[Model]) -> Non
     ctl = C.model_controls(doc)
     assert [g.title for g in ctl.groups] == ["Stiffness k", "Gaps g_i"]
     k, g1, g2, g3 = ctl.sliders()
-    # round scale 40 (4 x 10) times (0, 2); k > 0 starts one step (0.01) above 0
-    assert (k.label, k.min, k.max, k.step) == ("k", 0.01, 80.0, 0.01)
+    # round scale 40 (4 x 10) times (0, 2); step 0.001 x 40 rounded to a power of ten;
+    # k > 0 starts one step above 0
+    assert (k.label, k.min, k.max, k.step) == ("k", 0.1, 80.0, 0.1)
     assert [g1.label, g2.label, g3.label] == ["g1", "g2", "g3"]
-    assert C.clamp(doc, "gaps[0]", 3.0).note.startswith("g1 stops at 1.999, just below g2")
+    assert C.clamp(doc, "gaps[0]", 3.0).note.startswith("g1 stops at 1.99, just below g2 = 2")
     register_model(toy)  # the registry accepts it like any model module's type
     chain = {"type": "chain", "stages": [preset_doc("paper001-example1")["model"], doc]}
     groups = [g.title for g in C.model_controls(chain).groups]
