@@ -115,18 +115,19 @@ export class ModelControls {
       if (g.note) {
         box.append(Object.assign(document.createElement("p"), { className: "help", textContent: g.note }));
       }
-      for (const s of g.sliders) box.append(this.#slider(s, g.unit));
+      for (const s of g.sliders) box.append(this.#slider(s));
       return box;
     });
     this.box.replaceChildren(...groups);
   }
 
-  #slider(s, groupUnit) {
+  #slider(s) {
     this.byPath.set(s.path, s);
     const label = document.createElement("label");
     label.className = "ctl";
     const unit = UNIT_TEXT[s.unit] ?? s.unit;
-    label.append(document.createTextNode(s.label + (unit && !groupUnit ? ` [${unit}]` : "") + " "));
+    label.title = `${s.label}${unit ? ` in ${unit}` : ""}${s.rule ? `; ${s.rule}` : ""}`;
+    label.append(document.createTextNode(`${s.label} `));
     const input = Object.assign(document.createElement("input"), {
       type: "range", min: String(s.min), max: String(s.max), step: String(s.step),
       id: `ctl-${s.path.replace(/[^A-Za-z0-9]+/g, "-").replace(/-$/, "")}`,
@@ -135,7 +136,7 @@ export class ModelControls {
     input.setAttribute("aria-label", s.label);
     if (s.fixed) {
       input.disabled = true;
-      label.title = `${s.label} is a constant of this model`;
+      label.title += "; a constant of this model";
     }
     const out = document.createElement("output");
     out.htmlFor = input.id;

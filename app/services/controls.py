@@ -113,7 +113,8 @@ class SliderGroup:
     title : str
         Heading (``Dead-zone map: dead-zone thresholds ρ_j``).
     unit : str
-        Unit in words when every slider shares it, else ``""``.
+        Unit in words; for sliders of different units, which has which
+        (``a0, a3: output units; a1: per input unit``).
     sliders : tuple of Slider
     note : str
         Why some numbers have no slider (too many), else ``""``.
@@ -377,12 +378,22 @@ def _walk(node: Any, prefix: str, title: str, depth: int, groups: list[SliderGro
             if not sliders and not note:
                 continue
             count[0] += len(sliders)
-            units = {s.unit for s in sliders} or {field.control.unit if field.control else ""}
             groups.append(SliderGroup(
-                key=f"{prefix}{field.name}",
-                title=_join(title, field.title or field.name),
-                unit=unit_text(units.pop()) if len(units) == 1 else "",
-                sliders=tuple(sliders), note=note))
+                key=f"{prefix}{field.name}", title=_join(title, field.title or field.name),
+                unit=_group_unit(sliders, field), sliders=tuple(sliders), note=note))
+
+
+def _group_unit(sliders: list[Slider], field: Field) -> str:
+    """The group's unit in words; for mixed units, which slider has which
+    (``a0, a3: output units; a1: per input unit``)."""
+    units = list(dict.fromkeys(s.unit for s in sliders))
+    if not units:
+        return unit_text(field.control.unit) if field.control else ""
+    if len(units) == 1:
+        return unit_text(units[0])
+    parts = [f"{', '.join(s.label for s in sliders if s.unit == u)}: {unit_text(u)}"
+             for u in units if unit_text(u)]
+    return "; ".join(parts)
 
 
 def _join(a: str, b: str) -> str:

@@ -38,6 +38,8 @@ def test_dead_zone_gpi_gets_sliders_for_every_part(client: TestClient) -> None:
     tanh = client.post("/api/controls", json={"model": preset_doc("paper001-example6")["model"]})
     labels = [s["label"] for g in tanh.json()["groups"] for s in g["sliders"]]
     assert labels[-8:] == ["a0", "a1", "a2", "a3", "b0", "b1", "b2", "b3"]
+    rising = next(g for g in tanh.json()["groups"] if g["key"] == "envelope.a")
+    assert rising["unit"] == "a0, a3: output units; a1: per input unit"  # a2: a pure number
 
 
 def test_a_new_type_gets_sliders_through_the_route(client: TestClient, toy: type) -> None:  # noqa: F811
