@@ -33,7 +33,10 @@ def _open(browser: Any, url: str) -> tuple[Any, Any, list[str]]:
             if m.type == "error" and "status of" not in m.text else None)
     page.goto(url)
     page.wait_for_selector("body[data-ready]")
-    page.wait_for_selector("#ctl-thresholds-2")
+    page.wait_for_selector("input[aria-label='r3']", state="attached")
+    for label in ("r3", "p1"):  # the groups of sliders the journey moves, open
+        page.locator("details", has=page.locator(f"input[aria-label='{label}']")).last \
+            .evaluate("d => { d.open = true; }")
     return ctx, page, errors
 
 
@@ -74,16 +77,16 @@ def test_web_page_sliders_for_every_model(browser: Any, live_server: dict, shot:
     ctx, page, errors = _open(browser, live_server["url"])
     session = _session(app, page)
     # the classical PI: thresholds spread over 0..3.75 (not bunched at the left)
-    assert page.get_attribute("#ctl-thresholds-5", "max") == "3.75"
+    assert page.get_attribute("input[aria-label='r6']", "max") == "3.75"
     # r3 dragged with the mouse far past r4 stops just below it, said in the slider labels
-    _drag(page, "#ctl-thresholds-2", 0.95)
+    _drag(page, "input[aria-label='r3']", 0.95)
     page.wait_for_function("() => document.getElementById('model-msg').textContent"
                            ".includes('r3 stops at 1.799, just below r4 = 1.8')")
     assert "thresholds[" not in page.inner_text("#model-msg")
     _wait(lambda: session.config.model["thresholds"][2] == pytest.approx(1.799), "r3 stored")
     shot(page, "controls-web-r3-stops-below-r4")
     # the next slider still applies, and the model JSON follows the sliders
-    _drag(page, "#ctl-weights-0", 0.2)
+    _drag(page, "input[aria-label='p1']", 0.2)
     _wait(lambda: session.config.model["weights"][0] < 0.5, "p1 stored")
     page.wait_for_function("() => !document.getElementById('model-msg').textContent")
     _wait(lambda: json.loads(page.input_value("#model-json")) == session.config.model,
