@@ -295,29 +295,30 @@ class SessionView:
         sliders show. A refused change puts every slider back at the stored model, so it
         never blocks the next move."""
         h = self.ui.param_sliders[path]
-        m = json.loads(json.dumps(self.session.snapshot()[0].model))
-        try:
+        integer = self.ui.param_specs[path].integer
+        out: dict[str, Any] = {}
+
+        def fn(cfg: Config) -> Config:  # under the session's lock: no lost update
+            m = json.loads(json.dumps(cfg.model))
             done = C.clamp(m, path, float(h.value))
-        except ParameterError as exc:
-            self.ui.params_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
-            return
-        if done.value != h.value:
-            with self._quiet():
-                h.value = done.value
-        C.set_leaf(m, path, int(done.value) if self.ui.param_specs[path].integer
-                   else done.value)
+            C.set_leaf(m, path, int(done.value) if integer else done.value)
+            out.update(done=done, model=m)
+            return cfg.with_model(m)
+
         with self._writing():
             try:
-                actions.change_config(self.session, lambda cfg: cfg.with_model(m),
-                                      self.settings)
+                actions.change_config(self.session, fn, self.settings)
             except ParameterError as exc:
                 self.ui.params_md.content = (f"⚠️ **Not applied:** {md_text(exc)} The sliders "
                                             "are back at the last accepted values.")
                 self._sync_controls(self.session.snapshot()[0])
                 return
-        self.ui.params_md.content = f"ℹ️ {md_text(done.note)}" if done.note else ""
+        done = out["done"]
         with self._quiet():
-            self.ui.json_in.value = json.dumps(m)  # the JSON box follows the sliders
+            if done.value != h.value:
+                h.value = done.value
+            self.ui.json_in.value = json.dumps(out["model"])  # the JSON box follows
+        self.ui.params_md.content = f"ℹ️ {md_text(done.note)}" if done.note else ""
 
     def _n_changed(self, event: Any) -> None:
         """A new operator count; one beyond the server's limit is set to the limit, and the

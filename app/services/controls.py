@@ -542,6 +542,7 @@ def _check_field(node: Mapping[str, Any], field: Field, title: str) -> None:
     elems = _elements(node.get(field.name), field.kind)
     origin = _index_origin(node, field)
     where = f"{title}: " if title else ""
+    what = f" ({(field.title or field.name).lower()})"
     prev: tuple[str, float] | None = None
     for idx, v in elems:
         ctl = field.control_at(idx[0] if idx else 0)
@@ -550,10 +551,10 @@ def _check_field(node: Mapping[str, Any], field: Field, title: str) -> None:
         label = _label(ctl, idx, origin, field.index_base)
         if ctl.lower is not None and (v < ctl.lower or (ctl.strict and v <= ctl.lower)):
             raise ParameterError(f"{where}{label} = {_fmt(v)} must be "
-                                 f"{'>' if ctl.strict else '>='} {_fmt(ctl.lower)}")
+                                 f"{'>' if ctl.strict else '>='} {_fmt(ctl.lower)}{what}")
         if ctl.upper is not None and (v > ctl.upper or (ctl.strict and v >= ctl.upper)):
             raise ParameterError(f"{where}{label} = {_fmt(v)} must be "
-                                 f"{'<' if ctl.strict else '<='} {_fmt(ctl.upper)}")
+                                 f"{'<' if ctl.strict else '<='} {_fmt(ctl.upper)}{what}")
         if field.increasing and field.kind == "numbers":
             if prev is not None and v <= prev[1]:
                 raise ParameterError(

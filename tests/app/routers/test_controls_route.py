@@ -52,7 +52,8 @@ def test_a_new_type_gets_sliders_through_the_route(client: TestClient, toy: type
 @pytest.mark.parametrize("model, words", [
     ({"type": "pi", "p0": 1, "thresholds": [0.5, 2, 1], "weights": [1, 1, 1]},
      "r2 = 2 must stay below r3 = 1"),
-    ({"type": "pi", "p0": 1, "thresholds": [-1, 2], "weights": [1, 1]}, "r1 = -1 must be > 0"),
+    ({"type": "pi", "p0": 1, "thresholds": [-1, 2], "weights": [1, 1]},
+     "r1 = -1 must be > 0 (thresholds r_i)"),
     ({"type": "nope"}, "unknown model type"),
     ({"p0": 1}, "a JSON object with a \"type\""),
     ({"type": "pi", "p0": 1, "thresholds": list(range(1, 60)), "weights": [1] * 59},
