@@ -314,7 +314,11 @@ async function render(el, f, { live = false } = {}) {
 async function draw(pending) {
   const el = $("figure");
   const name = state.fig === "fit" ? "loading" : state.fig;
-  const res = await (pending || api("GET", `/api/sessions/${state.code}/figures?name=${name}`));
+  const get = () => api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  let res = await (pending || get());
+  // a figure computed for the view on show when a slider moved; the user may have
+  // switched views since: then the view now on show is asked for
+  if (!res.figures[name]) res = await get();
   let f = res.figures[name];
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };

@@ -464,7 +464,7 @@ def clamp(doc: Mapping[str, Any], path: str, value: float,
         raise ParameterError(f"{s.label} must be a finite number, got {value!r}")
     if s.fixed:
         cur = float(get_leaf(doc, path))
-        return Clamped(cur, f"{s.label} = {_fmt(cur)} is fixed: it is the linear term")
+        return Clamped(cur, f"{s.label} = {_fmt(cur)} is a constant of this model")
     if s.integer:
         v = float(round(v))
     notes: list[str] = []
