@@ -9,12 +9,11 @@ still applies and the model JSON follows the sliders; n beyond the server's limi
 from __future__ import annotations
 
 import json
+import re
 import time
 from typing import Any
 
 import pytest
-
-from app.services.simulation import preset_doc
 
 from .conftest import CSP
 from .test_viser_gui import _open as _open_viser
@@ -124,9 +123,11 @@ def test_web_page_sliders_for_every_model(browser: Any, live_server: dict, shot:
 def test_viser_sliders_for_every_model(browser: Any, live_server: dict, shot: Any) -> None:
     app = live_server["app"]
     ctx, page, errors = _open_viser(browser, live_server["viser_url"])
-    before = set(app.state.gui.views)
-    view = next(v for v in _views(app, len(before)) if v.rendered_version >= 0
-                and v.session.version == 0 and v.session.config.model["type"] == "pi")
+    page.wait_for_selector("text=/Session code: [a-z0-9-]{19}/")
+    code = re.search(r"Session code: ([a-z0-9-]{19})", page.inner_text("body")).group(1)
+    _views(app, 1)
+    view = next(v for v in app.state.gui.views.values() if v.session.code == code)
+    assert view.worker.wait_idle(30)
     # r3 moved with the keyboard to the end of its track stops just below r4
     r3 = _viser_slider(page, "r3")
     r3.focus()
@@ -134,17 +135,22 @@ def test_viser_sliders_for_every_model(browser: Any, live_server: dict, shot: An
     _wait(lambda: view.session.config.model["thresholds"][2] == pytest.approx(1.799),
           "r3 stored")
     page.wait_for_selector("text=r3 stops at 1.799, just below r4 = 1.8")
-    # the next slider still applies
-    view.ui.param_sliders["weights[0]"].value = 0.5
-    _wait(lambda: view.session.config.model["weights"][0] == 0.5, "p1 stored")
-    assert json.loads(view.ui.json_in.value)["weights"][0] == 0.5
-    # the dead-zone GPI preset: a folder of dead-zone sliders labelled as in the paper
-    view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
+    # the next slider still applies, and the model JSON follows
+    p1 = _viser_slider(page, "p1")
+    p1.focus()
+    p1.press("ArrowLeft")
+    _wait(lambda: view.session.config.model["weights"][0] < 0.6, "p1 stored")
+    _wait(lambda: json.loads(view.ui.json_in.value) == view.session.config.model, "JSON box")
+    # the dead-zone GPI preset, loaded in the GUI: dead-zone sliders labelled as in the paper
+    page.locator("input[value^='Paper 001 Example 1']").first.click()  # the Preset menu
+    page.get_by_role("option", name="Paper 001 Example 4: dead-zone GPI").click()
+    page.get_by_role("button", name="Load preset (model and its input)").click()
+    _wait(lambda: view.session.config.model["type"] == "gpi-deadzone", "the preset loaded")
     assert view.worker.wait_idle(30)
     page.get_by_text("Dead-zone input map γ: Dead-zone thresholds ρ_j").first.click()
     page.wait_for_selector("text=ρ-11")
     page.wait_for_selector("text=gpi-deadzone model, 6 operators")
-    assert "deadzone.thresholds[0]" in view.ui.param_sliders
+    assert view.ui.param_sliders["deadzone.thresholds[0]"].label == "ρ-11"
     _screenshot(page, shot, "controls-viser-deadzone-gpi")
     assert errors == []
     ctx.close()
