@@ -375,6 +375,8 @@ def test_fmu_download_from_the_export_menu(browser: Any, live_server: dict, tmp_
     shot(page, "web-export-fmu")
     # a model without an inverse: no file, and the page says why
     v = page.get_attribute("body", "data-ready")
+    if not page.evaluate("() => document.getElementById('json-edit').open"):
+        page.click("#json-edit summary")  # a model with sliders: the JSON box starts closed
     page.fill("#model-json", json.dumps({"type": "pi", "p0": 1.0, "thresholds": [1.0, 2.0],
                                          "weights": [-1.0, 0.5]}))
     page.click("#apply-json")
