@@ -505,10 +505,21 @@ def _var_attrs(v: FmuVariable) -> str:
     return a + f" description={_attr(v.description)}"
 
 
+def _head(ps: ParameterSet, ident: str, what: str, doc_text: str, version: str,
+          token: str) -> list[str]:
+    """The XML declaration and the root element's opening tag (``token``: its attribute)."""
+    return ['<?xml version="1.0" encoding="UTF-8"?>',
+            f'<fmiModelDescription fmiVersion="{version}" '
+            f'{_header_attrs(ps, ident, what, doc_text)} {token}>']
+
+
+def _experiment(dt: float | None) -> str:
+    return ('  <DefaultExperiment startTime="0"'
+            + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>")
+
+
 def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<fmiModelDescription fmiVersion="3.0" {_header_attrs(ps, ident, what, doc_text)} '
-             f'instantiationToken="{token}">',
+    lines = [*_head(ps, ident, what, doc_text, "3.0", f'instantiationToken="{token}"'),
              f'  <CoSimulation modelIdentifier="{ident}" '
              'canHandleVariableCommunicationStepSize="true" '
              + (f'fixedInternalStepSize="{c_double(dt)}" ' if dt is not None else "")
@@ -517,8 +528,7 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
              'providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>',
              *_units_xml(variables),
              *_LOG_CATEGORIES,
-             '  <DefaultExperiment startTime="0"'
-             + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>",
+             _experiment(dt),
              "  <ModelVariables>"]
     for v in variables:
         a = _var_attrs(v)
@@ -536,9 +546,7 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
 
 
 def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<fmiModelDescription fmiVersion="2.0" {_header_attrs(ps, ident, what, doc_text)} '
-             f'guid="{token}">',
+    lines = [*_head(ps, ident, what, doc_text, "2.0", f'guid="{token}"'),
              f'  <CoSimulation modelIdentifier="{ident}" '
              'canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" '
              'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="false" '
@@ -547,8 +555,7 @@ def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
              "  </CoSimulation>",
              *_units_xml(variables),
              *_LOG_CATEGORIES,
-             '  <DefaultExperiment startTime="0"'
-             + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>",
+             _experiment(dt),
              "  <ModelVariables>"]
     out_index = 0
     for i, v in enumerate(variables, start=1):
