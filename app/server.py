@@ -121,6 +121,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
+    # an FMU download compiles C on the server: 10 at once, then 1 in 10 s
+    app.state.fmu_limiter = RateLimiter(burst=10, per_minute=6)
     # ...but a client paused for guessing still opens the sessions it created or opened
     app.state.known_codes = KnownCodes()
     app.state.viser_port = None

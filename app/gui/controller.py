@@ -164,6 +164,8 @@ class SessionView:
         ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
             btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+        for btn, inv in ((ui.dl_fmu_inv, True), (ui.dl_fmu_fwd, False)):
+            btn.on_click(self._guarded(lambda ev, inv=inv: self._export(ev, "fmu", inv)))
 
     def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
         """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
@@ -510,8 +512,9 @@ class SessionView:
             return
         self.ui.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"
 
-    def _export(self, event: Any, fmt: str) -> None:
-        name, payload = actions.export(self.session, fmt)
+    def _export(self, event: Any, fmt: str, inverse: bool = False) -> None:
+        name, payload = actions.export(self.session, fmt, fmi=self.ui.fmi.value,
+                                       inverse=inverse)
         self._send(event, name, payload)
         self.ui.export_md.content = f"sent {md_text(name)} ({len(payload)} bytes)"
 

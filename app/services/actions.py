@@ -30,7 +30,7 @@ from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
 from .diagnosis import diagnose_session, diagnosis_html
 from .events import HUB
-from .exports import export_session, parameter_set_model
+from .exports import export_session, fmi_version, parameter_set_model
 from .fitting import fit_session
 from .recordings import Upload, csv_preview, read_upload
 from .sessions import Session, SessionRegistry
@@ -276,9 +276,12 @@ def fit_figure(recording: Recording, model: Model, label: str) -> F.FigureJSON:
     return F.fit_figure(recording, model(recording.u), label)
 
 
-def export(session: Session, fmt: str) -> tuple[str, bytes]:
-    """``(filename, content)`` of the session's model as ``json``, ``mat`` or ``c``."""
-    return export_session(session, fmt)
+def export(session: Session, fmt: str, *, fmi: object = 3,
+           inverse: bool = False) -> tuple[str, bytes]:
+    """``(filename, content)`` of the session's model as ``json``, ``mat``, ``c`` or ``fmu``
+    (FMI version ``fmi``, ``"3"`` or ``"2"``; the compensator with ``inverse``)."""
+    return export_session(session, fmt, fmi=fmi_version(fmi) if fmt == "fmu" else 3,
+                          inverse=inverse)
 
 
 # ----------------------------------------------------------------------------- teacher
