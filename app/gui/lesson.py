@@ -129,8 +129,8 @@ class LessonPanel:
                  f"{len(pos.lesson.steps)}: **{md_text(s.title)}**", md_text(s.prompt)]
         if s.look_for:
             parts.append(f"*Look for:* {md_text(s.look_for)}")
-        parts.append("✅ You are on the class step." if here else
-                     "🔎 You are exploring: your model or input differs from the class "
+        parts.append("**You are on the class step.**" if here else
+                     "**You are exploring:** your model or input differs from the class "
                      "step.")
         self.md.content = "\n\n".join(parts)
 
@@ -204,8 +204,8 @@ class LessonPanel:
         except ParameterError as exc:
             self._say(f"⚠️ **Lesson file not loaded:** {md_text(exc)}")
             return
-        self._choose(lesson, f"file: {lesson.title[:60]} ({len(lesson.steps)} steps)")
-        self._say(f"loaded {md_text(f.name)}: {len(lesson.steps)} steps; start it when the "
+        self._choose(lesson, f"file: {lesson.title[:60]} ({_steps(len(lesson.steps))})")
+        self._say(f"loaded {md_text(f.name)}: {_steps(len(lesson.steps))}; start it when the "
                   "class is ready")
 
     def add_step(self) -> lessons.Lesson:
@@ -222,7 +222,7 @@ class LessonPanel:
         lesson = self.made()
         for h in (self.step_title, self.prompt, self.look_for):
             h.value = ""
-        self._choose(lesson, f"my lesson ({len(lesson.steps)} steps)")
+        self._choose(lesson, f"my lesson ({_steps(len(lesson.steps))})")
         self._say(f"added step {len(self.draft)}: {md_text(step.title)}")
         return lesson
 
@@ -238,10 +238,14 @@ class LessonPanel:
             return
         lesson = self.made()
         self.view._send(event, "my-lesson.lesson.json", lesson.to_json().encode())
-        self._say(f"sent my-lesson.lesson.json ({len(lesson.steps)} steps)")
+        self._say(f"sent my-lesson.lesson.json ({_steps(len(lesson.steps))})")
 
     def close(self) -> None:
         """Stop following the class and the session."""
         self.cls.remove_listener(self._moved)
         if self._session is not None:
             self._session.remove_listener(self._changed)
+
+
+def _steps(n: int) -> str:
+    return f"{n} step" + ("" if n == 1 else "s")
