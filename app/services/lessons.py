@@ -19,13 +19,15 @@ The class's position (:class:`ClassLesson`, one per session registry, :func:`cla
 is moved by the teacher (:func:`start`, :func:`go_to`, :func:`end`); every move is the
 teacher's push (:func:`app.services.actions.push`: the step's model, input and mismatch to
 every recent session, then a ``push`` event carrying the step), and the viser tabs follow
-through :meth:`ClassLesson.add_listener`. A student who explored returns to the class
+through :meth:`ClassLesson.add_listener`. The position is committed to the session store,
+so a restarted server is where the class was. A student who explored returns to the class
 step with :func:`return_to_step`.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import re
 import threading
 import tomllib
@@ -45,6 +47,7 @@ from .events import HUB
 from .sessions import Session, SessionRegistry
 from .settings import Settings
 from .simulation import VIEWS, preset_doc, preset_input, validate_config
+from .store import SessionStore
 
 __all__ = [
     "FORMAT",
@@ -86,6 +89,7 @@ _LESSON_FIELDS = ("format", "title", "description", "steps")
 _STEP_FIELDS = ("title", "preset", "model", "input", "mismatch", "view", "prompt", "look_for")
 _SIGNAL_FIELDS = tuple(f.name for f in fields(SignalSpec))
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+log = logging.getLogger(__name__)
 
 
 class LessonError(ParameterError):
@@ -461,14 +465,31 @@ class ClassLesson:
     """The lesson a class follows (none at first); thread-safe.
 
     Listeners (the viser tabs) are called with the new :class:`Position`, or ``None`` when
-    the lesson ends, after every move, from the thread that made it.
+    the lesson ends, after every move, from the thread that made it. With a ``store`` every
+    move is committed there and a new ``ClassLesson`` on the same store (a restarted
+    server) starts where the class was.
+
+    Parameters
+    ----------
+    store : SessionStore, optional
+        Where the position is kept (:meth:`~app.services.store.SessionStore.put_class_state`).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, store: SessionStore | None = None) -> None:
         self._lock = threading.Lock()
         self._position: Position | None = None
         self._serial = 0
         self._listeners: list[Listener] = []
+        self._store = store
+        saved = None if store is None else store.class_state(_STORE_KEY)
+        if saved is not None:
+            try:
+                doc = json.loads(saved)
+                lesson = lesson_from_dict(doc["lesson"], name=doc.get("name"))
+                _check_step(lesson, int(doc["index"]) + 1)
+                self._position = Position(lesson, int(doc["index"]), 0)
+            except (LessonError, ValueError, KeyError, TypeError) as exc:
+                log.warning("the stored class lesson was not restored: %s", exc)
 
     @property
     def position(self) -> Position | None:
@@ -481,6 +502,9 @@ class ClassLesson:
             self._serial += 1
             self._position = None if lesson is None else Position(lesson, index, self._serial)
             pos, listeners = self._position, list(self._listeners)
+            if self._store is not None:  # a restarted server starts where the class was
+                self._store.put_class_state(_STORE_KEY, None if lesson is None else json.dumps(
+                    {"lesson": lesson.to_dict(), "name": lesson.name, "index": index}))
         for fn in listeners:
             try:
                 fn(pos)
@@ -500,6 +524,8 @@ class ClassLesson:
                 self._listeners.remove(fn)
 
 
+#: The key of the class's lesson in the session store.
+_STORE_KEY = "lesson"
 _CLASSES: weakref.WeakKeyDictionary[SessionRegistry, ClassLesson] = \
     weakref.WeakKeyDictionary()
 _CLASSES_LOCK = threading.Lock()
@@ -510,7 +536,7 @@ def class_lesson(registry: SessionRegistry) -> ClassLesson:
     with _CLASSES_LOCK:
         cl = _CLASSES.get(registry)
         if cl is None:
-            cl = _CLASSES[registry] = ClassLesson()
+            cl = _CLASSES[registry] = ClassLesson(registry.store)
         return cl
 
 

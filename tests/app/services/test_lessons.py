@@ -251,3 +251,34 @@ def test_every_shipped_model_is_a_registered_model() -> None:
     for lesson in lessons.builtin_lessons():
         for step in lesson.steps:
             assert model_from_dict(step.model).to_dict() == step.model
+
+
+def test_a_restarted_server_starts_where_the_class_was(tmp_path: Any) -> None:
+    from app.services.store import SessionStore
+
+    path = tmp_path / "sessions.sqlite3"
+    store = SessionStore(path)
+    reg = SessionRegistry(store=store)
+    reg.create()
+    shipped = lessons.builtin_lesson("pi-basics")
+    lessons.start(reg, shipped, step=4)
+    store.close()  # the server is gone; its sessions and the class's step are on disk
+    again = SessionRegistry(store=SessionStore(path))
+    pos = lessons.class_lesson(again).position
+    assert pos is not None and (pos.index, pos.lesson.name) == (3, "pi-basics")
+    assert pos.lesson.to_dict() == shipped.to_dict()
+    lessons.end(again)
+    again.store.close()
+    assert lessons.class_lesson(SessionRegistry(store=SessionStore(path))).position is None
+
+
+def test_a_damaged_stored_lesson_is_not_restored(tmp_path: Any,
+                                                 caplog: pytest.LogCaptureFixture) -> None:
+    from app.services.store import SessionStore
+
+    store = SessionStore(tmp_path / "sessions.sqlite3")
+    store.put_class_state("lesson", '{"lesson": {"title": "x", "steps": []}, "index": 0}')
+    assert lessons.ClassLesson(store).position is None
+    assert "not restored" in caplog.text and "at least one step" in caplog.text
+    store.put_class_state("lesson", "not json")
+    assert lessons.ClassLesson(store).position is None
