@@ -102,6 +102,14 @@ function onPushed(info) {
   note.hidden = false;
 }
 
+function ended() {
+  if (!L.step) return;
+  show(null);
+  const note = $("live-note");
+  note.textContent = "Your teacher ended the lesson. Your page keeps its model and input: explore on.";
+  note.hidden = false;
+}
+
 // ---------------------------------------------------------------- the teacher's panel
 function buildTeacher() {
   const box = el("fieldset", { id: "lesson-teacher", className: "lesson-teacher" },
@@ -227,7 +235,7 @@ async function start() {
   buildBanner();
   buildTeacher();
   window.addEventListener("hyst:push", (ev) => onPushed(ev.detail));
-  window.addEventListener("hyst:lesson", (ev) => { if (!ev.detail || !ev.detail.lesson) show(null); });
+  window.addEventListener("hyst:lesson", (ev) => { if (!ev.detail || !ev.detail.lesson) ended(); });
   // after every redraw: is this page still on the class step?
   new MutationObserver(markExploring).observe(document.body, { attributes: true, attributeFilter: ["data-ready"] });
   const [list, now] = await Promise.all([X.api("GET", "/api/lessons"), X.api("GET", "/api/lesson")]);

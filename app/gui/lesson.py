@@ -110,8 +110,14 @@ class LessonPanel:
                 and cfg.mismatch == s.mismatch)
 
     def _moved(self, pos: lessons.Position | None, switch: bool = True) -> None:
-        if pos is not None and switch:
-            self._show_view(pos.step.view)
+        if switch:  # a move of the class, not this tab opening
+            if pos is not None:
+                self._show_view(pos.step.view)
+                self.view._toast("Lesson", f"the class is at step {pos.index + 1} of "
+                                 f"{len(pos.lesson.steps)}: {pos.step.title}")
+            else:
+                self.view._toast("Lesson", "the teacher ended the lesson; this tab keeps its "
+                                 "model and input")
         self._show(pos)
 
     def _show(self, pos: lessons.Position | None, config: Config | None = None) -> None:

@@ -121,6 +121,7 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
         t.click("#lesson-end")
         for page in (a, b):
             page.wait_for_selector("#lesson", state="hidden")
+            _text_has(page, "live-note", "ended the lesson")
         _wait(lambda: view.lesson.md.content == "*No lesson is running.*", "viser: still on")
         for page, log in ((a, log_a), (b, log_b), (t, log_t)):
             _clean(page, log)

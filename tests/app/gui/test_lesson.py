@@ -32,9 +32,11 @@ def server() -> Iterator[Any]:
 def view(server: Any) -> Iterator[SessionView]:
     reg = SessionRegistry()
     downloads: list[tuple[str, bytes]] = []
+    toasts: list[tuple[str, str, bool]] = []
     v = SessionView(server.gui, reg, reg.create(), Settings(teacher_token=TOKEN),
-                    notify=lambda *a: None, download=lambda n, b: downloads.append((n, b)))
-    v.downloads = downloads  # type: ignore[attr-defined]
+                    notify=lambda *a: toasts.append(a),
+                    download=lambda n, b: downloads.append((n, b)))
+    v.downloads, v.toasts = downloads, toasts  # type: ignore[attr-defined]
     assert v.worker.wait_idle(30)
     yield v
     lessons.end(reg)
@@ -64,6 +66,7 @@ def test_teacher_leads_the_class_from_the_gui(view: SessionView) -> None:
     assert view.ui.view_dd.value == TITLES[step.view]
     assert view.worker.wait_idle(30) and view.shown_figure == step.view
     assert "step 2 of 4" in panel.md.content and "on the class step" in panel.md.content
+    assert view.toasts[-1][:2] == ("Lesson", f"the class is at step 2 of 4: {step.title}")
     assert not panel.prev_btn.disabled and not panel.back_btn.disabled
     # the student explores, then comes back
     view.session.update(lambda c: c.with_model(PIModel(1.0, [0.5], [0.2]).to_dict()))
