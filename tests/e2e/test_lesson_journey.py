@@ -1,11 +1,13 @@
 """A teacher-led lesson in real Chromium (issue 19): the teacher starts "PI basics" on the
 web page and moves the class two steps; two web students and a viser student follow live
-(the step's prompt, model and view); a student explores and returns to the class step; the
-teacher makes a lesson from the screen, downloads it and loads the file again."""
+(the step's prompt, model and view); a student explores and returns to the class step; a
+viser tab with the teacher token moves the class on; the teacher makes a lesson from the
+screen, downloads it and loads the file again."""
 
 from __future__ import annotations
 
 import json
+import re
 import time
 import urllib.request
 from pathlib import Path
@@ -104,9 +106,23 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
         _wait(lambda: view.session.config.model == step["model"]
               and "on the class step" in view.lesson.md.content, "viser did not return")
 
+        # a teacher's viser tab leads too: with the token it moves the class on a step
+        # (the folder's header, not the "type it under *Session*" note)
+        v.locator("div.mantine-Paper-root", has_text=re.compile(r"^Session$")).first.click()
+        label = v.locator("label", has_text="Teacher token").first
+        label.wait_for()  # its input is in the same row (viser gives it no accessible name)
+        label.locator("xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]//input"
+                      ).fill(TEACHER_TOKEN)
+        _wait(lambda: view.ui.teacher_token.value == TEACHER_TOKEN, "viser: no token typed")
+        v.get_by_text("Teacher: lead a lesson").first.click()
+        v.get_by_role("button", name="Next step ▶").first.click()
+        for page in (a, b, t):
+            page.wait_for_function(AT_STEP, arg=["4", "loading"])
+        assert view.ui.teacher_token.value == ""  # cleared: a projector shows it no longer
+
         # the teacher makes a lesson from the screen, downloads it, loads the file again
         t.click("#lesson-make summary")
-        t.fill("#lesson-new-title", "<b>my</b> operators")
+        t.fill("#lesson-new-title", "<b>my</b> loading curve")
         t.fill("#lesson-new-prompt", "Which operator moves last?")
         t.click("#lesson-add")
         _text_has(t, "lesson-msg", "Added step 1")
@@ -114,7 +130,8 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
         with t.expect_download() as dl:
             t.click("#lesson-download")
         mine = parse_lesson(Path(dl.value.path()).read_bytes())
-        assert [(s.title, s.view) for s in mine.steps] == [("<b>my</b> operators", "operators")]
+        assert [(s.title, s.view) for s in mine.steps] == [("<b>my</b> loading curve",
+                                                             "loading")]
         t.set_input_files("#lesson-file", str(dl.value.path()))
         _text_has(t, "lesson-msg", "1 step.")
         assert "file: My lesson" in t.inner_text("#lesson-pick")
