@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from app.services import lessons
 from app.services.config import Config, SignalSpec
@@ -282,3 +284,28 @@ def test_a_damaged_stored_lesson_is_not_restored(tmp_path: Any,
     assert "not restored" in caplog.text and "at least one step" in caplog.text
     store.put_class_state("lesson", "not json")
     assert lessons.ClassLesson(store).position is None
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers(-10**20, 10**20) | st.floats() | st.text(max_size=20),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
+                                                                max_size=4), max_leaves=20)
+
+
+@settings(max_examples=300, deadline=None)
+@given(field=st.sampled_from(["title", "preset", "input", "mismatch", "view", "prompt",
+                              "look_for", "model"]), value=_JSON,
+       kind=st.sampled_from(["pi", "chain", "gpi-deadzone", "digitized", "creep", "delay"]))
+def test_any_value_in_any_field_is_a_lesson_error_or_a_lesson(field: str, value: Any,
+                                                              kind: str) -> None:
+    """A lesson file is hostile data: whatever a field holds, the reader answers a lesson or
+    a LessonError (a 422), never another exception (a 500)."""
+    doc = copy.deepcopy(GOOD)
+    if field == "model":
+        doc["steps"][0].pop("preset")
+        value = {"type": kind, **(value if isinstance(value, dict) else {"p0": value})}
+    doc["steps"][0][field] = value
+    try:
+        lesson_from_dict(doc)
+    except LessonError:
+        pass
