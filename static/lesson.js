@@ -72,6 +72,11 @@ function onStep() {
 function markExploring() {
   if (!L.step) return;
   const here = onStep();
+  if (L.viewOnLoad && X.state.config) {  // a page (re)loaded on the class step: its view too
+    const view = L.viewOnLoad;
+    L.viewOnLoad = null;
+    if (here && X.state.fig !== view) X.selectFigure(view);
+  }
   $("lesson").classList.toggle("exploring", !here);
   $("lesson-state").textContent = here
     ? "You are on the class step."
@@ -241,6 +246,7 @@ async function start() {
   const [list, now] = await Promise.all([X.api("GET", "/api/lessons"), X.api("GET", "/api/lesson")]);
   for (const x of list) addChoice(`name:${x.name}`, `${x.title} (${steps(x.steps)})`, { name: x.name });
   $("lesson-pick").value = list.length ? `name:${list[0].name}` : "";
+  L.viewOnLoad = now.running ? now.view : null;
   show(now);
 }
 

@@ -98,6 +98,10 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
         a.wait_for_function(AT_STEP, arg=["3", "operators"])
         assert app.state.registry.get(code_a).config.model == step["model"]
         assert b.evaluate("() => document.body.dataset.lessonStep") == "3"  # B untouched
+        b.reload()  # a reloaded page is back on the class step, with its view and prompt
+        b.wait_for_function(AT_STEP, arg=["3", "operators"])
+        assert b.inner_text("#lesson-prompt") == step["prompt"]
+        _listening(url, b)
 
         # the viser student explores and comes back too
         view.session.update(lambda c: c.with_model({**c.model, "p0": 1.1}))
