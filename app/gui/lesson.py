@@ -58,10 +58,14 @@ class LessonPanel:
                                "gives each student its model, input and view.*")
                 titles = tuple(self.choices)
                 self.pick = g.add_dropdown("Lesson", titles, initial_value=titles[0])
-                self.start_btn = g.add_button("Start lesson")
-                self.prev_btn = g.add_button("◀ Previous step", disabled=True)
-                self.next_btn = g.add_button("Next step ▶", disabled=True)
-                self.end_btn = g.add_button("End lesson", disabled=True)
+                self.start_btn = g.add_button("Start lesson", hint="send the lesson's first "
+                                              "step to every student (teacher token)")
+                self.prev_btn = g.add_button("◀ Previous step", disabled=True,
+                                             hint="move the class back one step")
+                self.next_btn = g.add_button("Next step ▶", disabled=True,
+                                             hint="move the class on to the next step")
+                self.end_btn = g.add_button("End lesson", disabled=True,
+                                            hint="every session keeps the model it has")
                 self.upload = g.add_upload_button("Load a lesson file (JSON or TOML)",
                                                   mime_type="*/*")
                 with g.add_folder("Make a lesson", expand_by_default=False):
@@ -69,8 +73,11 @@ class LessonPanel:
                     self.step_title = g.add_text("Step title", initial_value="")
                     self.prompt = g.add_text("Prompt", initial_value="", multiline=True)
                     self.look_for = g.add_text("Look for", initial_value="", multiline=True)
-                    self.add_btn = g.add_button("Add this view as a step")
-                    self.download_btn = g.add_button("Download my lesson (JSON)")
+                    self.add_btn = g.add_button("Add this view as a step",
+                                                hint="this tab's model, input, mismatch and "
+                                                     "view, with the texts above")
+                    self.download_btn = g.add_button("Download my lesson (JSON)",
+                                                     hint="the lesson file, to load again")
                 self.msg = g.add_markdown("")
         guard = view._guarded
         self.back_btn.on_click(guard(lambda ev: self.back()))
