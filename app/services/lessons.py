@@ -476,6 +476,8 @@ class ClassLesson:
     """
 
     def __init__(self, store: SessionStore | None = None) -> None:
+        #: Held through a whole move (position and push), so moves never interleave.
+        self.moves = threading.Lock()
         self._lock = threading.Lock()
         self._position: Position | None = None
         self._serial = 0
@@ -558,9 +560,11 @@ def start(registry: SessionRegistry, lesson: Lesson, step: int = 1
         If ``step`` is not a step of the lesson.
     """
     _check_step(lesson, step)
-    pos = class_lesson(registry)._move(lesson, step - 1)
-    assert pos is not None
-    return (pos, *_push(registry, pos))
+    cl = class_lesson(registry)
+    with cl.moves:
+        pos = cl._move(lesson, step - 1)
+        assert pos is not None
+        return (pos, *_push(registry, pos))
 
 
 def go_to(registry: SessionRegistry, step: int | None = None, move: int = 0
@@ -574,21 +578,24 @@ def go_to(registry: SessionRegistry, step: int | None = None, move: int = 0
         If no lesson runs, or the step is before the first or after the last.
     """
     cl = class_lesson(registry)
-    pos = cl.position
-    if pos is None:
-        raise LessonError("no lesson is running: start one first")
-    target = pos.index + 1 + move if step is None else step
-    _check_step(pos.lesson, target)
-    new = cl._move(pos.lesson, target - 1)
-    assert new is not None
-    return (new, *_push(registry, new))
+    with cl.moves:  # two quick clicks on Next: steps k+1 and k+2, pushed in that order
+        pos = cl.position
+        if pos is None:
+            raise LessonError("no lesson is running: start one first")
+        target = pos.index + 1 + move if step is None else step
+        _check_step(pos.lesson, target)
+        new = cl._move(pos.lesson, target - 1)
+        assert new is not None
+        return (new, *_push(registry, new))
 
 
 def end(registry: SessionRegistry) -> int:
     """End the class's lesson (the sessions keep their models); tells every open page.
     Returns how many pages were told."""
-    class_lesson(registry)._move(None)
-    return HUB.broadcast({"kind": "lesson", "lesson": None})
+    cl = class_lesson(registry)
+    with cl.moves:
+        cl._move(None)
+        return HUB.broadcast({"kind": "lesson", "lesson": None})
 
 
 def _check_step(lesson: Lesson, step: int) -> None:

@@ -309,3 +309,33 @@ def test_any_value_in_any_field_is_a_lesson_error_or_a_lesson(field: str, value:
         lesson_from_dict(doc)
     except LessonError:
         pass
+
+
+def test_moves_never_interleave(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two quick clicks on Next: the sessions end at the step the class is at, even when
+    the first push is the slower one (without the move lock it lands last)."""
+    import threading
+    import time
+
+    reg = SessionRegistry()
+    s = reg.create()
+    lesson = lessons.builtin_lesson("inverse-compensation")  # steps 2 and 3 differ
+    lessons.start(reg, lesson)
+    push = lessons.actions.push
+
+    def slow_first(registry: Any, **kw: Any) -> Any:
+        if kw["note"]["lesson"]["step"] == 2:
+            time.sleep(0.3)
+        return push(registry, **kw)
+
+    monkeypatch.setattr(lessons.actions, "push", slow_first)
+    first = threading.Thread(target=lambda: lessons.go_to(reg, move=1))
+    first.start()
+    time.sleep(0.05)
+    lessons.go_to(reg, move=1)
+    first.join()
+    pos = lessons.class_lesson(reg).position
+    assert pos is not None and pos.index == 2
+    want = lesson.steps[2]
+    assert want.model != lesson.steps[1].model
+    assert (s.config.model, s.config.mismatch) == (want.model, want.mismatch)
