@@ -339,3 +339,44 @@ def test_moves_never_interleave(monkeypatch: pytest.MonkeyPatch) -> None:
     want = lesson.steps[2]
     assert want.model != lesson.steps[1].model
     assert (s.config.model, s.config.mismatch) == (want.model, want.mismatch)
+
+
+def _run(step: Any) -> Any:
+    return compute(step.config(), views=[step.view])
+
+
+def test_the_diagnosis_lesson_shows_what_it_says() -> None:
+    """Each effect step does to the run what its text says (against the PI alone)."""
+    from dataclasses import replace
+
+    steps = lessons.builtin_lesson("what-a-diagnosis-finds").steps
+    pi, lag, creep, asym = steps[0], steps[1], steps[2], steps[3]
+
+    def gap(res: Any) -> float:  # the loop's vertical opening at u = 0, second period
+        half = res.u.size // 2
+        u, y = res.u[half:], res.y[half:]
+        rising = np.diff(u, prepend=u[0]) > 0
+        near = np.abs(u) < 0.05
+        return float(y[near & ~rising].mean() - y[near & rising].mean())
+
+    slow = replace(lag, signal=replace(lag.signal, frequency=1.0))
+    assert "5 Hz" in lag.prompt and lag.signal.frequency == 5.0
+    assert gap(_run(lag)) > 1.5 * gap(_run(slow)) > 1.5 * gap(_run(pi)) * 0.9
+    # creep: after each step of the staircase the output moves on by about a fifth
+    res = _run(creep)
+    jumps = np.flatnonzero(np.abs(np.diff(res.u)) > 1e-9)
+    ratios = [(res.y[k] - res.y[i + 1]) / (res.y[i + 1] - res.y[i])
+              for i, k in zip(jumps[:8], jumps[1:9], strict=True)]
+    assert "a fifth" in creep.look_for and np.all(np.abs(np.array(ratios) - 0.2) < 0.05)
+    # asymmetry: the top of the loop is stretched, the bottom squeezed
+    res = _run(asym)
+    assert res.y.max() > 1.3 * -res.y.min()
+
+
+def test_the_closed_loop_step_says_the_errors_it_shows() -> None:
+    step = lessons.builtin_lesson("inverse-compensation").steps[3]
+    title = build("closed-loop", _run(step)).to_dict()["layout"]["title"]["text"]
+    rms = [float(x) for x in re.findall(r"RMS ([\d.e-]+)", title)]
+    assert len(rms) == 3
+    for value in rms:
+        assert f"about {value:.2g}" in step.look_for or f"about {value:.1g}" in step.look_for
