@@ -136,7 +136,8 @@ function buildTeacher() {
       el("label", {}, "prompt ", el("textarea", { id: "lesson-new-prompt", rows: 2, maxLength: 2000 })),
       el("label", {}, "look for ", el("textarea", { id: "lesson-new-look", rows: 2, maxLength: 2000 })),
       el("button", { id: "lesson-add", type: "button", textContent: "Add the current state as a step", title: "The model, input, mismatch and view on screen, with the texts above, become the lesson's next step" }),
-      el("button", { id: "lesson-download", type: "button", textContent: "Download my lesson", title: "Save the lesson file (JSON) to use it again or share it" })),
+      el("button", { id: "lesson-download", type: "button", textContent: "Download my lesson", title: "Save the lesson file (JSON) to use it again or share it" }),
+      el("button", { id: "lesson-clear", type: "button", textContent: "Clear my lesson", title: "Start a new lesson from no steps (download this one first to keep it)" })),
     el("p", { id: "lesson-msg", className: "msg", role: "status" }));
   $("teacher").append(box);
   $("lesson-start").addEventListener("click", () => teach(startLesson));
@@ -146,6 +147,34 @@ function buildTeacher() {
   $("lesson-file").addEventListener("change", loadFile);
   $("lesson-add").addEventListener("click", () => addStep().catch((e) => msg(`Not added: ${e.message}`)));
   $("lesson-download").addEventListener("click", downloadDraft);
+  $("lesson-clear").addEventListener("click", clearDraft);
+}
+
+// the lesson being made survives a reload of the teacher's page (this browser only)
+const DRAFT_KEY = "hyst-lesson-draft";
+
+function keepDraft(doc) {
+  L.draft = doc;
+  try { localStorage.setItem(DRAFT_KEY, JSON.stringify(doc)); } catch { /* private mode: not kept */ }
+  if (doc.steps.length) addChoice("draft", `my lesson: ${doc.title} (${steps(doc.steps.length)})`, { lesson: doc });
+}
+
+function restoreDraft() {
+  let doc = null;
+  try { doc = JSON.parse(localStorage.getItem(DRAFT_KEY) || "null"); } catch { doc = null; }
+  if (doc && typeof doc.title === "string" && Array.isArray(doc.steps) && doc.steps.length) {
+    keepDraft(doc);  // checked again by the server when it starts
+    $("lesson-new-lesson").value = doc.title;
+  }
+}
+
+function clearDraft() {
+  L.draft = { title: "My lesson", steps: [] };
+  localStorage.removeItem(DRAFT_KEY);
+  const opt = [...$("lesson-pick").options].find((o) => o.value === "draft");
+  if (opt) opt.remove();
+  L.choices.delete("draft");
+  msg("Your lesson has no steps now: add the first one.", true);
 }
 
 function msg(text, ok = false) { X.setMsg("lesson-msg", text, ok); }
@@ -214,8 +243,7 @@ async function addStep() {
   if (look) step.look_for = look;
   const draft = { title: $("lesson-new-lesson").value.trim() || "My lesson", steps: [...L.draft.steps, step] };
   const doc = await X.api("POST", "/api/lessons/check", draft);  // checked as a file would be
-  L.draft = doc;
-  addChoice("draft", `my lesson: ${doc.title} (${steps(doc.steps.length)})`, { lesson: doc });
+  keepDraft(doc);
   for (const id of ["lesson-new-title", "lesson-new-prompt", "lesson-new-look"]) $(id).value = "";
   msg(`Added step ${doc.steps.length}: ${title}${cfg.use_recording ? " (with the generated input: a recording is not part of a lesson)" : ""}.`, true);
 }
@@ -245,6 +273,7 @@ async function start() {
   new MutationObserver(markExploring).observe(document.body, { attributes: true, attributeFilter: ["data-ready"] });
   const [list, now] = await Promise.all([X.api("GET", "/api/lessons"), X.api("GET", "/api/lesson")]);
   for (const x of list) addChoice(`name:${x.name}`, `${x.title} (${steps(x.steps)})`, { name: x.name });
+  restoreDraft();
   $("lesson-pick").value = list.length ? `name:${list[0].name}` : "";
   L.viewOnLoad = now.running ? now.view : null;
   show(now);

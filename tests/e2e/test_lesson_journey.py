@@ -145,6 +145,14 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
             page.wait_for_selector("#lesson", state="hidden")
             _text_has(page, "live-note", "ended the lesson")
         _wait(lambda: view.lesson.md.content == "*No lesson is running.*", "viser: still on")
+        # the lesson being made survives a reload of the teacher's page, until cleared
+        t.reload()
+        t.wait_for_selector("body[data-ready]")
+        t.wait_for_selector("#lesson-pick option[value='draft']", state="attached")
+        t.click("#teacher summary")
+        t.click("#lesson-make summary")
+        t.click("#lesson-clear")
+        assert t.locator("#lesson-pick option[value='draft']").count() == 0
         for page, log in ((a, log_a), (b, log_b), (t, log_t)):
             _clean(page, log)
         assert errors_v == []
