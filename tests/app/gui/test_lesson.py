@@ -15,28 +15,19 @@ from app.services import lessons
 from app.services.sessions import SessionRegistry
 from app.services.settings import Settings
 from core.pi import PIModel
+from tests.app.gui.test_gui_headless import server  # noqa: F401 - the viser server fixture
 
 TOKEN = "s3cret"
 
 
-@pytest.fixture(scope="module")
-def server() -> Iterator[Any]:
-    import viser
-
-    s = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    yield s
-    s.stop()
-
-
 @pytest.fixture
-def view(server: Any) -> Iterator[SessionView]:
+def view(server: Any) -> Iterator[SessionView]:  # noqa: F811 - the fixture imported above
     reg = SessionRegistry()
-    downloads: list[tuple[str, bytes]] = []
-    toasts: list[tuple[str, str, bool]] = []
+    sent: dict[str, list[Any]] = {"downloads": [], "toasts": []}
     v = SessionView(server.gui, reg, reg.create(), Settings(teacher_token=TOKEN),
-                    notify=lambda *a: toasts.append(a),
-                    download=lambda n, b: downloads.append((n, b)))
-    v.downloads, v.toasts = downloads, toasts  # type: ignore[attr-defined]
+                    notify=lambda *a: sent["toasts"].append(a),
+                    download=lambda n, b: sent["downloads"].append((n, b)))
+    v.downloads, v.toasts = sent["downloads"], sent["toasts"]  # type: ignore[attr-defined]
     assert v.worker.wait_idle(30)
     yield v
     lessons.end(reg)
@@ -113,7 +104,7 @@ def test_a_lesson_made_from_the_screen_downloads_and_loads_again(view: SessionVi
     assert "not loaded" in panel.msg.content and "step 2" in panel.msg.content
 
 
-def test_no_token_on_the_server_says_how_to_give_one(server: Any) -> None:
+def test_no_token_on_the_server_says_how_to_give_one(server: Any) -> None:  # noqa: F811
     reg = SessionRegistry()
     v = SessionView(server.gui, reg, reg.create(), Settings())
     try:
