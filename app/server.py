@@ -178,6 +178,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from .routers.events import router as events_router  # live pushes (SSE), teacher
 
     app.include_router(events_router)
+    from .routers.lessons import router as lessons_router  # the lesson a teacher leads
+
+    app.include_router(lessons_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
                        max_json_depth=settings.limits.max_json_depth,

@@ -401,8 +401,9 @@ function listen() {
   es.addEventListener("push", (ev) => {
     let info = {};
     try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
-    onPushed(info).catch((e) => setMsg("model-msg", e.message));
+    onPushed(info).then(() => tell("hyst:push", info)).catch((e) => setMsg("model-msg", e.message));
   });
+  es.addEventListener("lesson", (ev) => tell("hyst:lesson", JSON.parse(ev.data)));
   state.events = es;
 }
 
@@ -763,6 +764,12 @@ async function teacherRefresh() {
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : e.message);
   }
 }
+
+// ---------------------------------------------------------------- for static/lesson.js
+// The lesson mode (static/lesson.js) drives the page through these and hears the live
+// events as window events ("hyst:push" after a push is shown, "hyst:lesson").
+export const explorer = { state, api, applyConfig, draw, selectFigure, setMsg };
+function tell(name, detail) { window.dispatchEvent(new CustomEvent(name, { detail })); }
 
 // ---------------------------------------------------------------- start
 async function main() {

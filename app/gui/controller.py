@@ -34,6 +34,7 @@ from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
 from .layout import TITLES, Widgets, set_value
+from .lesson import LessonPanel
 from .playback import Playback
 from .render import LatestWinsWorker
 from .scene import CUBE_MAX_DIGITS, StateCube
@@ -114,6 +115,7 @@ class SessionView:
         self._shown_state = -1
         self._state_sent = 0.0
         self._wire()
+        self.lesson = LessonPanel(self)  # the class's lesson (app/gui/lesson.py)
         self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
@@ -406,6 +408,7 @@ class SessionView:
         self.session.remove_listener(self._on_session_change)
         self.session = session
         session.add_listener(self._on_session_change)
+        self.lesson.follow(session)
         self._sync_controls(session.snapshot()[0])
         self.worker.request()
 
@@ -625,4 +628,5 @@ class SessionView:
         """Detach from the session and stop the worker and the playback."""
         self.playback.stop()
         self.session.remove_listener(self._on_session_change)
+        self.lesson.close()
         self.worker.stop()

@@ -286,12 +286,12 @@ def export(session: Session, fmt: str, *, fmi: object = 3,
 
 # ----------------------------------------------------------------------------- teacher
 def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
-         signal: SignalSpec | None = None, note: dict[str, Any] | None = None
-         ) -> tuple[int, int]:
-    """The teacher's push: ``model`` and/or ``signal`` to every session used in the last
-    hour (each committed, so a reload or a restart keeps it), then the event
-    ``{"kind": "push", **note}`` to every open page. Returns ``(sessions changed, pages
-    told)``.
+         signal: SignalSpec | None = None, note: dict[str, Any] | None = None,
+         mismatch: float | None = None) -> tuple[int, int]:
+    """The teacher's push: ``model`` and/or ``signal`` (and a lesson step's ``mismatch``)
+    to every session used in the last hour (each committed, so a reload or a restart keeps
+    it), then the event ``{"kind": "push", **note}`` to every open page. Returns
+    ``(sessions changed, pages told)``.
 
     Raises
     ------
@@ -303,6 +303,8 @@ def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
 
     def change(cfg: Config) -> Config:
         new = cfg if model is None else cfg.with_model(model)
+        if mismatch is not None:
+            new = replace(new, mismatch=mismatch)
         return new if signal is None else replace(new, signal=signal, use_recording=False)
 
     n = registry.update_recent(change)
