@@ -19,6 +19,14 @@ in site-packages is edited:
 * **Client address**: each websocket's client address (:func:`app.services.clients.
   client_address`, ``X-Forwarded-For`` only from ``--trusted-proxy`` peers) is kept for the
   per-client session limit (:meth:`ViserGuard.client_address`).
+* **Open tabs**: a client holding ``max_tabs_per_client`` open websockets gets a 429 for
+  the next handshake, and the server a 503 beyond ``max_tabs`` in all, before the
+  connection is accepted (each open tab holds a view: widgets, a render thread, its
+  results; about 5-16 MB measured).
+* **Message size**: a websocket message from a tab may be at most :data:`MAX_MESSAGE_BYTES`
+  (viser's own limit is 50 MB) and at most :data:`MAX_QUEUED_FRAMES` frames wait unread,
+  so what one connection buffers is bounded (viser's client uploads files in 512 KiB
+  parts).
 
 The wrap relies on viser internals (``viser.infra._infra`` calling
 ``websockets.asyncio.server.serve`` from ``WebsockServer.start``, its ``viser_http_server``
@@ -37,8 +45,8 @@ from typing import Any
 from ..services.clients import client_address
 from ..services.hosts import HostAllowList, foreign_origin, host_name
 
-__all__ = ["SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "check_viser",
-           "start_viser"]
+__all__ = ["MAX_MESSAGE_BYTES", "MAX_QUEUED_FRAMES", "SUPPORTED_VISER", "VISER_CSP",
+           "ViserGuard", "ViserGuardError", "check_viser", "start_viser"]
 
 #: The viser versions whose internals this module was checked against (``major.minor.``).
 SUPPORTED_VISER = ("1.1.",)
@@ -64,6 +72,10 @@ _HEADERS = {
     "Cross-Origin-Opener-Policy": "same-origin",
 }
 _INSTALL_LOCK = threading.Lock()
+#: Largest websocket message a tab may send, bytes (an upload part is 512 KiB).
+MAX_MESSAGE_BYTES = 2 * 1024 * 1024
+#: Frames of one websocket that may wait unread.
+MAX_QUEUED_FRAMES = 4
 
 
 class ViserGuardError(RuntimeError):
@@ -96,11 +108,17 @@ class ViserGuard:
         The names a request's ``Host`` may carry.
     trusted_proxies : tuple of str
         Proxies whose ``X-Forwarded-For`` names the client (``Settings.trusted_proxies``).
+    max_tabs_per_client, max_tabs : int
+        Open websockets one client address may hold, and the server in all
+        (``Settings.max_tabs_per_client``, ``Settings.max_tabs``).
     """
 
-    def __init__(self, hosts: HostAllowList, trusted_proxies: tuple[str, ...] = ()) -> None:
+    def __init__(self, hosts: HostAllowList, trusted_proxies: tuple[str, ...] = (), *,
+                 max_tabs_per_client: int = 8, max_tabs: int = 300) -> None:
         self.hosts = hosts
         self.trusted_proxies = trusted_proxies
+        self.max_tabs_per_client = max_tabs_per_client
+        self.max_tabs = max_tabs
         self.installed = False
         self._addresses: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
         self._server: Any = None
@@ -114,9 +132,13 @@ class ViserGuard:
             if refused is not None:
                 return refused
             if _is_upgrade(request):
-                self._addresses[connection] = client_address(
-                    _peer(connection), request.headers.get_all("X-Forwarded-For"),
-                    self.trusted_proxies)
+                address = client_address(_peer(connection),
+                                         request.headers.get_all("X-Forwarded-For"),
+                                         self.trusted_proxies)
+                refused = self.tab_refusal(connection, address)
+                if refused is not None:
+                    return refused
+                self._addresses[connection] = address
                 return None
             response = None if process_request is None else process_request(connection,
                                                                              request)
@@ -146,6 +168,38 @@ class ViserGuard:
             return _refuse(connection, http.HTTPStatus.FORBIDDEN, why)
         return None
 
+    def open_tabs(self) -> dict[str, int]:
+        """Open (or opening) websockets per client address."""
+        counts: dict[str, int] = {}
+        for connection, address in list(self._addresses.items()):
+            if _open(connection):
+                counts[address] = counts.get(address, 0) + 1
+        return counts
+
+    def tab_refusal(self, connection: Any, address: str) -> Any:
+        """The response refusing one more tab of ``address`` (429 beyond
+        :attr:`max_tabs_per_client`, 503 beyond :attr:`max_tabs`), or ``None``. Runs on
+        the websocket server's event loop, like every handshake, so counting and
+        recording the new connection do not race."""
+        counts = self.open_tabs()
+        if counts.get(address, 0) >= self.max_tabs_per_client:
+            response = _refuse(
+                connection, http.HTTPStatus.TOO_MANY_REQUESTS,
+                f"this computer already has {self.max_tabs_per_client} explorer tabs open, "
+                "the most one computer may keep; close the tabs you do not use (to "
+                "continue a session in another tab, type its code there), or ask the "
+                "teacher to raise HYST_MAX_TABS_PER_CLIENT")
+            response.headers["Retry-After"] = "5"
+            return response
+        if sum(counts.values()) >= self.max_tabs:
+            response = _refuse(
+                connection, http.HTTPStatus.SERVICE_UNAVAILABLE,
+                f"the explorer already serves {self.max_tabs} open tabs, the most it may; "
+                "try again in a minute, or ask the teacher to raise HYST_MAX_TABS")
+            response.headers["Retry-After"] = "30"
+            return response
+        return None
+
     def client_address(self, client_id: int) -> str:
         """The client address of the live websocket ``client_id`` (``"unknown"`` when gone)."""
         server = self._server
@@ -156,6 +210,13 @@ class ViserGuard:
 
 def _is_upgrade(request: Any) -> bool:
     return str(request.headers.get("Upgrade", "")).lower() == "websocket"
+
+
+def _open(connection: Any) -> bool:
+    """Whether a websocket is connecting or open (not closing or closed)."""
+    from websockets.protocol import State
+
+    return getattr(connection, "state", State.CLOSED) in (State.CONNECTING, State.OPEN)
 
 
 def _peer(connection: Any) -> str | None:
@@ -199,6 +260,8 @@ def start_viser(host: str, port: int, guard: ViserGuard) -> Any:
             callback = kwargs.get("process_request")
             if getattr(callback, "__name__", "") == "viser_http_server":
                 kwargs["process_request"] = guard.wrap(callback)
+                kwargs["max_size"] = MAX_MESSAGE_BYTES
+                kwargs["max_queue"] = MAX_QUEUED_FRAMES
             return original(*args, **kwargs)
 
         ws_server.serve = serve  # type: ignore[misc,assignment]
