@@ -1,10 +1,11 @@
 """Sessions: per-student state by code, config updates, figures, presets, broadcast.
 
 The routes of a slider step (read, rejoin, ``PATCH .../config``, figures of a small model)
-are ``async``: they run on the event loop, with no hand-over to a worker thread, which
-cost more than their own work (issue 18 item 8). Figures whose priced work is not small
-(:func:`app.services.actions.figures_are_quick`) still go to a worker thread, so a long
-computation never holds up the other requests.
+are ``async``: they and their dependencies run on the event loop, with no hand-over to a
+worker thread, which cost more than their own work (issue 18 item 8). What may wait long
+still goes to a worker thread, so it never holds up the other requests: the commit of a
+config change (a disk write) and figures whose priced work is not small
+(:func:`app.services.actions.figures_are_quick`).
 """
 
 from __future__ import annotations
@@ -67,7 +68,9 @@ async def update_config(body: ConfigIn, session: SessionDep,
                         settings: SettingsDep) -> dict[str, Any]:
     """Change model, signal, mismatch or input source; validated and priced before it is
     stored, and stored (committed) before the answer."""
-    actions.change_config(session, body.apply, settings)
+    # the commit writes to the disk: in a worker thread, so a write the system holds up
+    # (other programs flushing) never stops the event loop and every other request
+    await run_in_threadpool(actions.change_config, session, body.apply, settings)
     return session.summary()
 
 
