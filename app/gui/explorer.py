@@ -2,12 +2,19 @@
 
 Each tab's new session counts against the per-client limiter of ``POST /api/sessions``
 (keyed by the websocket's client address, :meth:`app.gui.viser_guard.ViserGuard.
-client_address`): a client beyond it gets a message in the tab, not a session.
+client_address`): a client beyond it gets a message in the tab, not a session. How many
+tabs a client may hold open is bounded before the websocket is accepted
+(:mod:`app.gui.viser_guard`).
+
+A closed tab's view is closed and forgotten, also when the tab closed while its view was
+still being built (viser runs connect and disconnect callbacks concurrently on its thread
+pool), and its memory is given back to the system (:mod:`app.gui.reclaim`).
 """
 
 from __future__ import annotations
 
 import threading
+import warnings
 from typing import Any
 
 from ..services.ratelimit import RateLimiter
@@ -15,9 +22,15 @@ from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
 from .controller import SessionView
 from .layout import NARROW_PX
+from .reclaim import Reclaimer
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
+
+# a tab closed while its view is built makes viser warn once per tab that the rest of the
+# build goes nowhere; expected here (the view is closed at the end of its build)
+warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection",
+                        category=UserWarning)
 
 
 class ExplorerGui:
@@ -42,14 +55,24 @@ class ExplorerGui:
         self.guard = guard
         self.limiter = limiter
         self.refused: set[int] = set()
+        #: Tabs whose connect was handled (a view made, refused, or closed meanwhile).
+        self.answered = 0
         self.views: dict[int, SessionView] = {}
         self._lock = threading.Lock()
+        self.reclaimer = Reclaimer()
         server.gui.configure_theme(show_share_button=False, control_width="large",
                                    titlebar_content=None, show_logo=False)
         server.on_client_connect(self._connect)
         server.on_client_disconnect(self._disconnect)
 
     def _connect(self, client: Any) -> None:
+        try:
+            self._open_view(client)
+        finally:
+            with self._lock:
+                self.answered += 1
+
+    def _open_view(self, client: Any) -> None:
         client.gui.configure_theme(show_share_button=False, control_width="large",
                                    show_logo=False)
 
@@ -57,7 +80,7 @@ class ExplorerGui:
             client.add_notification(title, body, auto_close_seconds=6.0,
                                     color="red" if error else None)
 
-        if not self._may_create(client):
+        if not self._live(client) or not self._may_create(client):
             return
         view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
                            notify=notify, scene=client.scene, camera=client.camera)
@@ -70,7 +93,18 @@ class ExplorerGui:
         client.camera.on_update(on_camera)
         on_camera(client.camera)
         with self._lock:
-            self.views[client.client_id] = view
+            live = self._live(client)
+            if live:
+                self.views[client.client_id] = view
+        if not live:  # closed while its view was built: its disconnect found no view
+            view.close()
+        self.reclaimer.request()  # building a view leaves garbage too
+
+    def _live(self, client: Any) -> bool:
+        """Whether ``client``'s tab is still open. viser drops a client from its list
+        before it runs the disconnect callbacks, so a view stored under :attr:`_lock`
+        while its client is listed is found by :meth:`_disconnect`."""
+        return client.client_id in self.server.get_clients()
 
     def _may_create(self, client: Any) -> bool:
         """Whether this tab's client may have a new session; else say so in the tab."""
@@ -87,7 +121,8 @@ class ExplorerGui:
         client.add_notification("No session", text.replace("**", ""),
                                 auto_close_seconds=None, color="red")
         with self._lock:
-            self.refused.add(client.client_id)
+            if self._live(client):  # else its disconnect has passed already
+                self.refused.add(client.client_id)
         return False
 
     def _disconnect(self, client: Any) -> None:
@@ -96,6 +131,7 @@ class ExplorerGui:
             view = self.views.pop(client.client_id, None)
         if view is not None:
             view.close()
+        self.reclaimer.request()
 
     def close(self) -> None:
         """Stop every view's worker."""
@@ -103,6 +139,7 @@ class ExplorerGui:
             views, self.views = list(self.views.values()), {}
         for v in views:
             v.close()
+        self.reclaimer.stop()
 
 
 def attach_gui(server: Any, registry: SessionRegistry, settings: Settings, *,
