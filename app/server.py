@@ -32,6 +32,7 @@ from .services.ratelimit import RateLimiter
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
 from .services.store import DamagedSessionError, SessionStore
+from .services.worker import LiveWorkers
 
 __all__ = ["STATIC_DIR", "create_app"]
 
@@ -121,6 +122,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app.state.registry = SessionRegistry(settings.max_sessions, store)
     app.state.jobs = JobManager(max_workers=settings.max_jobs)
+    # the worker processes of heavy figures (killed when their client hangs up)
+    app.state.figure_workers = LiveWorkers()
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)

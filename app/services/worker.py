@@ -30,7 +30,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PRELOAD", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
+__all__ = ["PRELOAD", "LiveWorkers", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied",
+           "start"]
 
 #: ``progress(fraction, message)``: how a task reports to its job (``fraction`` in 0..1).
 Progress = Callable[[float, str], None]
@@ -38,7 +39,7 @@ Progress = Callable[[float, str], None]
 #: Modules the forkserver imports once (the last one loads the compiled kernels); every
 #: worker is forked with them loaded.
 PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.services.tasks",
-           "app.services.preload"]
+           "app.services.preload", "app.services.actions"]
 
 #: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
 #: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
@@ -187,3 +188,25 @@ class Worker:
                 return msg[1]
             else:
                 raise TaskFailed(msg[1])
+
+
+class LiveWorkers:
+    """The workers running now, outside the job queue (a request's heavy figures): their
+    process ids for tests and monitoring."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._workers: set[Worker] = set()
+
+    def add(self, w: Worker) -> None:
+        with self._lock:
+            self._workers.add(w)
+
+    def discard(self, w: Worker) -> None:
+        with self._lock:
+            self._workers.discard(w)
+
+    def pids(self) -> list[int]:
+        """Process ids of the workers that have started."""
+        with self._lock:
+            return [p for w in self._workers if (p := w.pid) is not None]
