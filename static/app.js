@@ -77,7 +77,7 @@ function detailText(d) {
 }
 
 class ApiError extends Error {
-  constructor(status, message) { super(message); this.status = status; }
+  constructor(status, message, detail = null) { super(message); this.status = status; this.detail = detail; }
 }
 
 async function api(method, path, body, type = "application/json") {
@@ -100,7 +100,7 @@ async function api(method, path, body, type = "application/json") {
     const raw = detailText(data && data.detail !== undefined ? data.detail : data);
     const generic = !raw || /^(Not Found|Method Not Allowed|Internal Server Error)$/.test(raw);
     const msg = generic || r.status >= 500 ? STATUS_TEXT[r.status] || `Request failed (${r.status}).` : plain(raw);
-    throw new ApiError(r.status, msg);
+    throw new ApiError(r.status, msg, data && typeof data.detail === "object" ? data.detail : null);
   }
   return data;
 }
@@ -412,6 +412,7 @@ async function onCsvChosen(ev) {
       const fallback = id === "t-col" && roleNamed ? "" : String(Math.min(guess, p.columns.length - 1));
       sel.value = idx >= 0 ? String(idx) : fallback;
     }
+    showTiming(p.uneven);
     $("mapping").hidden = false;
     $("runs").hidden = true;
     $("csv-notes").replaceChildren(...(p.notes || []).map((n) => el("li", { textContent: plain(n) })));
@@ -430,16 +431,45 @@ async function useCsv(run) {
     if ($(id).value !== "") q.set(key, $(id).value);
   }
   if (typeof run === "string") q.set("run", run);
+  if (!$("timing").hidden) {
+    const choice = $("timing-keep").checked ? "keep" : "resample";
+    q.set("timing", choice);
+    if (choice === "resample") q.set("step", String(state.timing.step_s));
+  }
   try {
     const r = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/recording?${q}`, csvText, "text/csv");
-    setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples`, true);
+    setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples${r.time_steps ? `; ${r.time_steps}` : ""}.`, true);
     $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
     showRuns(r.runs || [], run === "all" ? "all" : r.run);
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {
+    if (e.detail && e.detail.uneven) {  // another time column, found uneven: offer the choice
+      showTiming(e.detail.uneven);
+      setMsg("csv-msg", "CSV not loaded yet: its time stamps are uneven. Choose below whether to resample or keep them, then click \u201cUse this mapping\u201d again.");
+      return;
+    }
     setMsg("csv-msg", `CSV not loaded: ${e.message}`);
   }
+}
+
+// Uneven time stamps: the upload resamples them onto the step shown, or keeps them.
+function seconds(s) {
+  const v = Number(Number(s).toPrecision(3));
+  for (const [unit, scale] of [["s", 1], ["ms", 1e-3], ["µs", 1e-6]]) {
+    if (Math.abs(v) >= scale) return `${Number((v / scale).toPrecision(3))} ${unit}`;
+  }
+  return `${Number((v / 1e-9).toPrecision(3))} ns`;
+}
+
+function showTiming(uneven) {
+  state.timing = uneven || null;
+  $("timing").hidden = !uneven;
+  if (!uneven) return;
+  $("timing-what").textContent = `The time stamps in column \u201c${uneven.column}\u201d are uneven: ` +
+    `the spacing varies from ${seconds(uneven.spacing_min_s)} to ${seconds(uneven.spacing_max_s)} ` +
+    `(mean ${seconds(uneven.spacing_mean_s)}). Choose what the upload does with them:`;
+  $("timing-resample-text").textContent = `resample onto an even grid of ${seconds(uneven.step_s)} steps (linear interpolation)`;
 }
 
 function showRuns(runs, kept) {
@@ -797,6 +827,7 @@ async function main() {
   });
   $("csv-file").addEventListener("change", onCsvChosen);
   $("use-csv").addEventListener("click", () => useCsv());
+  $("t-col").addEventListener("change", () => showTiming(null));  // asked again if uneven
   $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));
   $("fit").addEventListener("click", () => fit());
   $("diagnose").addEventListener("click", () => diagnose());

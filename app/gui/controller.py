@@ -29,6 +29,7 @@ from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
 from ..services.ratelimit import RateLimiter
+from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
@@ -106,6 +107,7 @@ class SessionView:
         self._lock = threading.RLock()
         self._work_lock = threading.Lock()
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
+        self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
         self.rendered_version = -1
         self.last_result: Result | None = None
@@ -157,6 +159,8 @@ class SessionView:
         ui.push_btn.on_click(self._guarded(self._push_clicked))
         ui.upload.on_upload(self._guarded(self._csv_uploaded))
         ui.remap.on_click(self._guarded(self._remap_clicked))
+        ui.timing_resample.on_click(self._guarded(lambda ev: self._load_csv("resample")))
+        ui.timing_keep.on_click(self._guarded(lambda ev: self._load_csv("keep")))
         ui.fit_btn.on_click(self._guarded(self._fit_clicked))
         ui.diag_btn.on_click(self._guarded(self._diagnose_clicked))
         ui.report_btn.on_click(self._guarded(self._report_clicked))
@@ -398,22 +402,48 @@ class SessionView:
             return
         self._load_csv()
 
-    def _load_csv(self) -> None:
+    def _load_csv(self, timing: str | None = None) -> None:
+        """Upload the last CSV with the column mapping; uneven time stamps wait for the
+        choice (``timing``: resample onto the step shown, or keep)."""
         ui = self.ui
+        if self._csv is None:
+            ui.data_md.content = "⚠️ upload a CSV first"
+            return
         text, name = self._csv
         if len(text) > self.settings.max_upload_bytes:
             ui.data_md.content = f"⚠️ file larger than {self.settings.max_upload_bytes} bytes"
             return
+        step = self._timing.step if timing == "resample" and self._timing else None
         try:
             up = actions.upload(self.session, text, self.settings, t_col=ui.t_col.value or None,
                                 u_col=ui.u_col.value or None, y_col=ui.y_col.value or None,
-                                name=name)
+                                name=name, timing=timing, step=step)
+        except UnevenUpload as exc:
+            self._ask_timing(exc.timing)
+            return
         except ParameterError as exc:  # core.csvio.CSVError names the line and the column
             ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
             return
+        self._ask_timing(None)
         ui.data_md.content = recording_markdown(up.recording)
+        if up.time_steps:
+            ui.data_md.content += f"\n\n{md_text(up.time_steps[0].upper() + up.time_steps[1:])}."
+            self._toast("Recording loaded", up.time_steps)
         ui.report_md.content = ""
         self._commit(lambda c: replace(c, use_recording=True))
+
+    def _ask_timing(self, timing: Timing | None) -> None:
+        """Offer the choice for uneven time stamps (``None``: hide it)."""
+        ui = self.ui
+        self._timing = timing
+        ui.timing_resample.visible = ui.timing_keep.visible = timing is not None
+        if timing is None:
+            return
+        ui.timing_resample.label = f"Resample onto even {seconds_text(timing.step)} steps"
+        ui.data_md.content = (
+            f"⚠️ **CSV not loaded yet:** {md_text(timing.text)}.  \n"
+            f"Choose below: resample onto an even grid of {md_text(seconds_text(timing.step))}"
+            " steps (linear interpolation), or keep the time stamps as measured.")
 
     def _fit_clicked(self, event: Any) -> None:
         ui = self.ui

@@ -148,6 +148,14 @@ class Widgets:
             self.y_col = g.add_text("Output column", initial_value="")
             self.remap = g.add_button("Apply column mapping")
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
+            # uneven time stamps: the upload waits for one of these (shown only then)
+            self.timing_resample = g.add_button(
+                "Resample onto an even grid", visible=False,
+                hint="linear interpolation onto evenly spaced time stamps (the step shown)")
+            self.timing_keep = g.add_button(
+                "Keep the time stamps as measured", visible=False,
+                hint="a PI model does not depend on the step; rate-dependent effects "
+                     "assume an even one")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=settings.max_operators, step=1)
             kinds = catalog.fit_kinds()

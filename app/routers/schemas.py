@@ -263,6 +263,19 @@ class ConnectedOut(BaseModel):
     codes: list[str]
 
 
+class UnevenTimingOut(BaseModel):
+    """Uneven time stamps of a CSV and the choices of the upload (``timing=``)."""
+
+    column: str = Field(description="the time column")
+    spacing_min_s: float
+    spacing_max_s: float
+    spacing_mean_s: float
+    step_s: float = Field(description="the even step timing=resample uses (the median "
+                                      "spacing); pass it back as step= to be sure")
+    choices: list[str] = Field(description="resample: interpolate onto an even grid; "
+                                           "keep: keep the time stamps as measured")
+
+
 class CsvPreviewOut(BaseModel):
     """The layout of a CSV body (the column-mapping step)."""
 
@@ -271,6 +284,9 @@ class CsvPreviewOut(BaseModel):
     n_rows: int
     encoding: str
     notes: list[str]
+    uneven: UnevenTimingOut | None = Field(
+        None, description="present when the time stamps (automatic column mapping) are "
+                          "uneven: upload with timing=resample or timing=keep")
 
 
 class RecordingOut(BaseModel):
@@ -281,6 +297,8 @@ class RecordingOut(BaseModel):
     notes: list[str] = Field(description="cleaning notes: removed rows, the run kept, ...")
     runs: list[str] = Field(description="run ids of the file's run column (empty without)")
     run: str | None = None
+    time_steps: str | None = Field(None, description="what was done with uneven time "
+                                                     "stamps, in words")
     t_range: list[Number]
     u_range: list[Number]
     y_range: list[Number]

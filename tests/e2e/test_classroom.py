@@ -1,0 +1,125 @@
+"""Journeys of issue 19 in real Chromium, on the web page and in the viser GUI: an upload
+with uneven time stamps offers resample or keep, ..."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .test_viser_gui import _open as _open_viser
+from .test_viser_layout import _new_view
+from .test_web_journeys import _clean, _open, _session, _text_has
+
+#: Option names of the Python reader that a page must never show.
+INTERNAL = ("resample=", "uneven=", "uneven='keep'", "run=", ".resampled()")
+NAN_ROWS = (50, 51, 200)
+
+
+def _messy_csv(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A semicolon file with decimal commas, a units row, NaN rows and jittered time.
+
+    Returns every time stamp, and the time stamps and inputs of the rows with numbers,
+    read back from the file's text (the independent reference of the upload)."""
+    rng = np.random.default_rng(3)
+    n = 400
+    t = np.arange(n) * 1e-3 + rng.uniform(-2e-4, 2e-4, n)
+    t[0] = 0.0
+    u = 4 * np.sin(2 * np.pi * 5 * t)
+    y = 0.7 * u + 0.3 * np.sign(np.sin(2 * np.pi * 5 * t))
+    lines = ["time;voltage;displacement", "s;V;um"]
+    for k in range(n):
+        cells = (f"{t[k]:.6f}", "NaN", "NaN") if k in NAN_ROWS else \
+            (f"{t[k]:.6f}", f"{u[k]:.5f}", f"{y[k]:.5f}")
+        lines.append(";".join(c.replace(".", ",") for c in cells))
+    path.write_text("\n".join(lines) + "\n")
+    rows = [ln.split(";") for ln in path.read_text().splitlines()[2:]]
+    num = [[float(c.replace(",", ".")) for c in r] for r in rows if "NaN" not in r]
+    arr = np.array(num)
+    return np.array([float(r[0].replace(",", ".")) for r in rows]), arr[:, 0], arr[:, 1]
+
+
+def _ms(s: float) -> str:
+    return f"{float(f'{s:.3g}') * 1e3:.3g} ms"
+
+
+def test_uneven_time_stamps_resample_or_keep_web(browser: Any, live_server: dict,
+                                                  tmp_path: Path, shot: Any) -> None:
+    """Failure 3 (web): the mapping step offers resample (with the step) or keep; the
+    upload does what was chosen and says so; no reader option names."""
+    app = live_server["app"]
+    path = tmp_path / "messy.csv"
+    t_all, t_kept, u_kept = _messy_csv(path)
+    step = float(np.median(np.diff(t_all)))  # the spacing the reader checks
+    ctx, page, log = _open(browser, live_server["url"])
+    page.set_input_files("#csv-file", str(path))
+    page.wait_for_selector("#mapping:not([hidden])")
+    assert page.is_visible("#timing"), "no choice offered for the uneven time stamps"
+    what = page.inner_text("#timing")
+    d = np.diff(t_all)
+    assert "uneven" in what and _ms(d.max()) in what, what
+    assert f"even grid of {_ms(step)} steps" in what, what
+    page.locator("#timing").scroll_into_view_if_needed()
+    shot(page, "web-upload-uneven-choice")
+    page.click("#use-csv")  # resample is the default choice
+    _text_has(page, "csv-msg", "Loaded")
+    msg = page.inner_text("#csv-msg")
+    assert f"resampled onto an even grid of {_ms(step)} steps" in msg, msg
+    rec = _session(app, page).recording
+    assert rec.is_uniform and abs(rec.dt - step) < 1e-12
+    m = int(np.floor((t_kept[-1] - t_kept[0]) / step * (1 + 1e-12))) + 1
+    assert rec.n_samples == m
+    np.testing.assert_allclose(rec.u, np.interp(rec.t, t_kept, u_kept), atol=1e-9)
+    shot(page, "web-upload-uneven-resampled")
+    # the same file, kept as measured
+    page.set_input_files("#csv-file", str(path))
+    page.wait_for_selector("#timing:not([hidden])")
+    page.check("#timing-keep")
+    v = page.inner_text("#csv-msg")
+    page.click("#use-csv")
+    page.wait_for_function("v => document.getElementById('csv-msg').textContent !== v "
+                           "&& document.getElementById('csv-msg').textContent.includes('Loaded')",
+                           arg=v)
+    assert "kept as measured" in page.inner_text("#csv-msg")
+    rec = _session(app, page).recording
+    np.testing.assert_allclose(rec.t, t_kept, atol=1e-12)
+    text = page.inner_text("aside")
+    assert not any(x in text for x in INTERNAL), text
+    _clean(page, log)
+    ctx.close()
+
+
+def test_uneven_time_stamps_resample_or_keep_viser(browser: Any, live_server: dict,
+                                                    tmp_path: Path, shot: Any) -> None:
+    """Failure 3 (viser): the upload stops with the choice; its buttons do it."""
+    app = live_server["app"]
+    path = tmp_path / "messy.csv"
+    t_all, t_kept, u_kept = _messy_csv(path)
+    step = float(np.median(np.diff(t_all)))
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    page.get_by_role("tab", name="Data").first.click()
+    with page.expect_file_chooser() as fc:
+        page.get_by_role("button", name="Upload CSV").first.click()
+    fc.value.set_files(str(path))
+    button = page.get_by_role("button", name=f"Resample onto even {_ms(step)} steps")
+    button.first.wait_for(timeout=30_000)
+    body = page.inner_text("body")
+    assert "uneven" in body and not any(x in body for x in INTERNAL)
+    assert view.session.recording is None
+    shot(page, "viser-upload-uneven-choice")
+    button.first.click()
+    deadline = time.monotonic() + 30
+    while view.session.recording is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    rec = view.session.recording
+    assert rec is not None and rec.is_uniform and abs(rec.dt - step) < 1e-12
+    np.testing.assert_allclose(rec.u, np.interp(rec.t, t_kept, u_kept), atol=1e-9)
+    page.wait_for_selector("text=resampled onto an even grid", timeout=30_000)
+    keep = page.get_by_role("button", name="Keep the time stamps as measured")
+    assert not keep.first.is_visible()
+    assert errors == []
+    ctx.close()
