@@ -362,7 +362,9 @@ async function openSession(code, { create = false } = {}) {
 function listen() {
   if (state.events) state.events.close();
   if (!window.EventSource) return;
-  const es = new EventSource(`/api/sessions/${encodeURIComponent(state.code)}/events`);
+  const name = ($("my-name").value || "").trim();
+  const q = name ? `?name=${encodeURIComponent(name)}` : "";
+  const es = new EventSource(`/api/sessions/${encodeURIComponent(state.code)}/events${q}`);
   es.addEventListener("push", (ev) => {
     let info = {};
     try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
@@ -752,8 +754,8 @@ async function teacherRefresh() {
   state.token = $("teacher-token").value;
   try {
     const r = await api("GET", "/api/teacher/connected");
-    const codes = r.codes ? `: ${r.codes.join(", ")}` : "";
-    setMsg("teacher-msg", `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions${codes}`, true);
+    // counts and names only: a projected panel must not show the session codes
+    setMsg("teacher-msg", r.text || `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions.`, true);
   } catch (e) {
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : e.message);
   }
@@ -808,6 +810,11 @@ async function main() {
     }
   };
   $("join").addEventListener("click", join);
+  $("my-name").value = localStorage.getItem("hyst-name") || "";
+  $("my-name").addEventListener("change", () => {
+    localStorage.setItem("hyst-name", $("my-name").value.trim());
+    if (state.code) listen();  // the teacher's list shows the new name
+  });
   $("join-code").addEventListener("keydown", (e) => { if (e.key === "Enter") join(); });
   $("new-session").addEventListener("click", () => openSession(null).catch((e) => setMsg("model-msg", e.message)));
   $("apply-json").addEventListener("click", async () => {

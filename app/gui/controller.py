@@ -28,6 +28,7 @@ from ..services import actions
 from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
+from ..services.events import HUB
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
@@ -118,6 +119,7 @@ class SessionView:
         self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
+        self._attend()
         self.worker.request()
 
     @property
@@ -157,6 +159,8 @@ class SessionView:
         ui.json_btn.on_click(self._guarded(self._json_clicked))
         ui.join_btn.on_click(self._guarded(self._join_clicked))
         ui.push_btn.on_click(self._guarded(self._push_clicked))
+        ui.who_btn.on_click(self._guarded(self._who_clicked))
+        ui.name_in.on_update(self._guarded(lambda ev: self._attend()))
         ui.upload.on_upload(self._guarded(self._csv_uploaded))
         ui.remap.on_click(self._guarded(self._remap_clicked))
         ui.timing_resample.on_click(self._guarded(lambda ev: self._load_csv("resample")))
@@ -359,25 +363,42 @@ class SessionView:
         self.bind(new)
         self._toast("Session", f"now in session {new.code}")
 
-    def _push_clicked(self, event: Any) -> None:
-        """Push this tab's model to every session: always with the teacher token, also on
-        loopback (another page the teacher opens must not push); on a loopback server a
-        tab that gave the right token once keeps it (:attr:`teacher`)."""
+    def _attend(self) -> None:
+        """Count this tab in the teacher's list, under the name typed (no code shown)."""
+        HUB.attend(self, self.session.code, str(self.ui.name_in.value))
+
+    def _teacher_allowed(self, refused: str) -> bool:
+        """Whether this tab may act as the teacher: always with the teacher token, also on
+        loopback (another page the teacher opens must not); on a loopback server a tab
+        that gave the right token once keeps it (:attr:`teacher`). A refusal is a toast
+        titled ``refused``."""
         given = str(self.ui.teacher_token.value)
         self.ui.teacher_token.value = ""
         if not self.settings.teacher_token:
-            self._toast("Not pushed", "this server has no teacher token, so the GUI cannot "
-                        "push; start hyst serve with --teacher-token-file FILE (or set "
-                        "HYST_TEACHER_TOKEN) and type that token here", True)
-            return
+            self._toast(refused, "this server has no teacher token, so the GUI cannot act "
+                        "as the teacher; start hyst serve with --teacher-token-file FILE (or "
+                        "set HYST_TEACHER_TOKEN) and type that token here", True)
+            return False
         if given or not self.teacher:
             ok = self.settings.teacher_ok(given or None)
             self.teacher = ok and not self.settings.public
             if not ok:
-                self._toast("Not pushed", "wrong teacher token: type the token hyst serve "
+                self._toast(refused, "wrong teacher token: type the token hyst serve "
                             "was given (or generated into teacher-token in its state "
                             "directory)", True)
-                return
+                return False
+        return True
+
+    def _who_clicked(self, event: Any) -> None:
+        """The teacher's list: counts and names, never session codes."""
+        if self._teacher_allowed("Not shown"):
+            self.ui.who_md.content = md_text(HUB.roster().text)
+
+    def _push_clicked(self, event: Any) -> None:
+        """Push this tab's model to every session (the teacher token, see
+        :meth:`_teacher_allowed`)."""
+        if not self._teacher_allowed("Not pushed"):
+            return
         n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
                             note={"preset": None, "title": "the teacher's model"})
         self._toast("Pushed", f"model sent to {n} sessions")
@@ -388,6 +409,7 @@ class SessionView:
         self.session = session
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
+        self._attend()
         self.worker.request()
 
     # ------------------------------------------------------------------ data
@@ -630,5 +652,6 @@ class SessionView:
     def close(self) -> None:
         """Detach from the session and stop the worker and the playback."""
         self.playback.stop()
+        HUB.leave(self)
         self.session.remove_listener(self._on_session_change)
         self.worker.stop()

@@ -74,8 +74,13 @@ class Widgets:
             self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
                                              aspect=0.9, config=F.PLOT_CONFIG)
         with g.add_folder("Session", expand_by_default=False):
-            self.code_in = g.add_text("Session code", initial_value="")
+            self.code_in = g.add_text("Session code", initial_value="",
+                                      hint="the code of a session to continue (shown at the "
+                                           "top of the page that uses it)")
             self.join_btn = g.add_button("Join / restore session")
+            self.name_in = g.add_text("Your name", initial_value="",
+                                      hint="optional: shown in the teacher's list of who is "
+                                           "connected (your session code is not)")
             # viser 1.1 has no password field: the token is typed here and the field is
             # cleared after each push, so a projector shows it for a moment at most
             self.teacher_token = g.add_text("Teacher token", initial_value="",
@@ -84,6 +89,9 @@ class Widgets:
                                                  "after use, on a server of this computer "
                                                  "the tab remembers it")
             self.push_btn = g.add_button("Teacher: push this model to every session")
+            self.who_btn = g.add_button("Teacher: who is connected?",
+                                        hint="counts and names only, never session codes")
+            self.who_md = g.add_markdown("")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
             g.add_markdown("*A PI model adds play operators (width r_i, weight p_i) to a "

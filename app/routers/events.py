@@ -22,7 +22,7 @@ import json
 from collections.abc import AsyncIterator
 from typing import Any
 
-from fastapi import APIRouter, Header, HTTPException, Request
+from fastapi import APIRouter, Header, HTTPException, Query, Request
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
@@ -49,6 +49,8 @@ async def session_events(
     request: Request,
     settings: SettingsDep,
     last_event_id: str | None = Header(default=None),
+    name: str = Query("", max_length=200,
+                      description="the student's name, shown in the teacher's list"),
 ) -> StreamingResponse:
     """Server-sent events of session ``code`` (teacher pushes) for about 10 s, then the
     browser reconnects (``Last-Event-ID`` replays what it missed). One client may hold
@@ -59,7 +61,8 @@ async def session_events(
     start = HUB.newest_id() if last is None else last
     limit = settings.max_streams_per_client
     try:
-        sub = HUB.subscribe(session.code, last, client=client_key(request), per_client=limit)
+        sub = HUB.subscribe(session.code, last, client=client_key(request), per_client=limit,
+                            name=name)
     except StreamsPerClientError:
         raise HTTPException(
             429, f"this computer already has {limit} live explorer pages open, the most one "
@@ -138,8 +141,13 @@ def teacher_connected(
     settings: SettingsDep,
     x_teacher_token: str | None = Header(default=None),
 ) -> dict[str, Any]:
-    """Teacher: how many pages listen live, and to which sessions (the codes)."""
+    """Teacher: how many web pages and viser tabs are open, in how many sessions, and the
+    names students gave (``text`` says it in a sentence without codes, for a projected
+    panel; ``codes`` are for scripts)."""
     require_teacher(settings, x_teacher_token)
     conn = HUB.connected()
-    return {"pages": sum(conn.values()), "sessions_live": len(conn),
-            "sessions": len(registry.all()), "codes": sorted(conn)}
+    roster = HUB.roster()
+    return {"pages": roster.web_pages, "viser_tabs": roster.viser_tabs,
+            "sessions_live": roster.sessions_live, "sessions": len(registry.all()),
+            "names": list(roster.names), "unnamed": roster.unnamed, "text": roster.text,
+            "codes": sorted(conn)}

@@ -257,10 +257,15 @@ class PushOut(BaseModel):
 class ConnectedOut(BaseModel):
     """Pages that listen live."""
 
-    pages: int
-    sessions_live: int = Field(description="sessions with an open page")
+    pages: int = Field(description="open web pages (live event streams)")
+    viser_tabs: int = Field(0, description="open viser (3D / GUI) tabs")
+    sessions_live: int = Field(description="sessions with an open page or tab")
     sessions: int = Field(description="sessions in memory")
-    codes: list[str]
+    names: list[str] = Field([], description="names the students gave, sorted")
+    unnamed: int = Field(0, description="pages and tabs without a name")
+    text: str = Field("", description="the above in a sentence, without session codes")
+    codes: list[str] = Field(description="session codes with an open web page (for "
+                                         "scripts; the teacher panel does not show them)")
 
 
 class UnevenTimingOut(BaseModel):

@@ -3,12 +3,16 @@ with uneven time stamps offers resample or keep, ..."""
 
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from app.services.events import HUB
+
+from .conftest import TEACHER_TOKEN
 from .test_viser_gui import _open as _open_viser
 from .test_viser_layout import _new_view
 from .test_web_journeys import _clean, _open, _session, _text_has
@@ -123,3 +127,69 @@ def test_uneven_time_stamps_resample_or_keep_viser(browser: Any, live_server: di
     assert not keep.first.is_visible()
     assert errors == []
     ctx.close()
+
+
+def _viser_session_folder(page: Any) -> None:
+    """Open the viser tab's (collapsed) *Session* folder."""
+    if not page.get_by_role("button", name="Join / restore session").first.is_visible():
+        page.locator("div.mantine-Paper-root").filter(
+            has_text=re.compile(r"^Session$")).first.click()
+    page.get_by_role("button", name="Join / restore session").first.wait_for()
+
+
+def _viser_type(page: Any, label: str, text: str) -> None:
+    # viser's label is not tied to its input: the innermost row holding both
+    row = page.locator("div.mantine-Flex-root").filter(
+        has=page.locator("label").filter(has_text=re.compile(f"^{label}$"))).last
+    box = row.locator("input").first
+    box.fill(text)
+    box.press("Enter")
+
+
+def test_teacher_list_shows_counts_and_names_not_codes(browser: Any, live_server: dict,
+                                                       shot: Any) -> None:
+    """Failure 6 (both interfaces) and part of 5: "Who is connected?" shows how many web
+    pages and viser tabs are open and the names students gave, never a session code."""
+    app = live_server["app"]
+    url = live_server["url"]
+    ctx_a, a, log_a = _open(browser, url)
+    a.fill("#my-name", "Ana <b>Lee</b>")
+    a.press("#my-name", "Enter")
+    known = set(app.state.gui.views)
+    ctx_v, v, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    _viser_session_folder(v)
+    _viser_type(v, "Your name", "Ben")
+    codes = {a.inner_text("#code"), view.session.code}
+    ctx_t, t, log_t = _open(browser, url)
+    deadline = time.monotonic() + 30
+    roster = None
+    while time.monotonic() < deadline:
+        roster = HUB.roster()
+        if {"Ana <b>Lee</b>", "Ben"} <= set(roster.names):
+            break
+        time.sleep(0.2)
+    assert roster is not None and {"Ana <b>Lee</b>", "Ben"} <= set(roster.names), roster
+    t.click("#teacher summary")
+    t.fill("#teacher-token", TEACHER_TOKEN)
+    t.click("#teacher-refresh")
+    _text_has(t, "teacher-msg", "Names:")
+    msg = t.inner_text("#teacher-msg")
+    assert "Ana <b>Lee</b>" in msg and "Ben" in msg, msg  # the name as typed, as text
+    assert "3D / GUI tab" in msg and not any(c in msg for c in codes), msg
+    assert t.locator("#teacher-msg b").count() == 0
+    t.locator("#teacher").scroll_into_view_if_needed()
+    shot(t, "web-teacher-who")
+    # the same list in viser, behind the teacher token
+    _viser_type(v, "Teacher token", TEACHER_TOKEN)
+    v.get_by_role("button", name="Teacher: who is connected?").first.click()
+    v.wait_for_selector("text=Names:", timeout=30_000)
+    body = v.inner_text("body")
+    assert "Ana <b>Lee</b>" in body and v.locator("b:text('Lee')").count() == 0
+    assert not any(c in view.ui.who_md.content for c in codes)
+    shot(v, "viser-teacher-who")
+    for page, log in ((a, log_a), (t, log_t)):
+        _clean(page, log)
+    assert errors == []
+    for ctx in (ctx_a, ctx_v, ctx_t):
+        ctx.close()
