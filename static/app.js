@@ -32,7 +32,68 @@ const VIEW_HELP = {
   digitized: "Paper 000's digitized view: each operator is one binary digit; the state moves on a hypercube as the input rises and falls.",
   "closed-loop": "Paper 001 Fig. 15–16: a PI controller around the hysteretic plant, without and with the inverse as feedforward.",
   fit: "The fitted model against the uploaded recording, and the residual.",
+  diagnosis: "Before and after the diagnosis: the measured loop, the model without and with the effects found, and what each leaves unexplained over time.",
 };
+
+// ---------------------------------------------------------------- tooltips
+// Every control says what it does when the pointer rests on it (title); a control that
+// brings its own title keeps it. Sliders built later (per operator) are covered too.
+const TIPS = {
+  "join-code": "The code of a session to continue (shown at the top of the page that uses it)",
+  join: "Continue the session whose code you typed",
+  "new-session": "Start a fresh session (the current one stays on the server under its code)",
+  "my-name": "Shown in the teacher's list of who is connected; your session code is not",
+  preset: "Models and inputs taken from the papers' examples",
+  "load-preset": "Replace the model and the input by the chosen preset's",
+  p0: "Weight of the linear part p0·u (the slope of the loop's ends)",
+  n: "Number of play operators; thresholds are spread evenly up to the widest, the total weight shared",
+  "model-json": "The session's model as JSON: any model type, edited by hand",
+  "apply-json": "Use the model typed in the JSON box",
+  kind: "Shape of the input signal u(t)",
+  amplitude: "Peak value of the input (in the input's unit)",
+  frequency: "Cycles per second of the input",
+  offset: "Value the input oscillates around",
+  duration: "Length of the simulated input",
+  samples: "Number of time steps simulated (more: smoother curves, slower)",
+  "use-recording": "Drive the model with the uploaded recording's input instead of the signal above",
+  mismatch: "Makes the real plant differ from the model: thresholds ×(1+m), weights ×(1−m)",
+  "csv-file": "A CSV file with time, input and output columns (any delimiter, decimal comma allowed)",
+  "t-col": "The column holding the time stamps",
+  "u-col": "The column holding the input (what drove the actuator)",
+  "y-col": "The column holding the output (what was measured)",
+  "timing-resample": "Interpolate the samples onto evenly spaced time stamps (the step shown)",
+  "timing-keep": "Use the time stamps as they are in the file",
+  "use-csv": "Load the recording with this column mapping",
+  "run-pick": "Which run of the file to use, or all rows as one recording",
+  "fit-kind": "Which model type the fit identifies",
+  "fit-n": "Number of operators of the fitted model",
+  fit: "Fit the chosen model to the recording (it replaces the session's model)",
+  diagnose: "Find what the PI model misses in the recording, proved on rows the fit never saw",
+  "cancel-job": "Stop the fit or diagnosis; nothing is changed",
+  "dl-json": "Download the model as a parameter set (JSON) to continue later",
+  "dl-mat": "Download the model for MATLAB / Octave",
+  "dl-c": "Download C code of the model and its inverse for a controller",
+  "ps-file": "Load a parameter set saved earlier (JSON)",
+  "teacher-token": "The token the server was started with (hyst serve --teacher-token)",
+  "teacher-preset": "The preset every student gets",
+  "teacher-input": "Which input every student gets with it",
+  "teacher-push": "Send the chosen model to every student's page now",
+  "teacher-push-mine": "Send the model of this page (as you edited it) to every student now",
+  "teacher-refresh": "How many pages are open and the names students gave (never their codes)",
+};
+const GROUP_TIPS = {
+  r: (name) => `Threshold ${name}: width of play operator ${name.slice(1)}`,
+  p: (name) => `Weight ${name}: how much play operator ${name.slice(1)} adds to the output`,
+};
+
+function addTips(root = document) {
+  for (const e of root.querySelectorAll("input, select, button, textarea, a.button")) {
+    if (e.title) continue;
+    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig]) ||
+      (GROUP_TIPS[e.dataset.group] && GROUP_TIPS[e.dataset.group](e.getAttribute("aria-label") || ""));
+    if (tip) e.title = tip;
+  }
+}
 
 // ---------------------------------------------------------------- messages
 // Server messages are written for the command line too; a few parts of them name
@@ -206,8 +267,8 @@ async function pump() {
       // store the change and, for a simulated input, compute the figure from the same
       // config at the same time (one round trip instead of two)
       const stored = api("PATCH", `/api/sessions/${state.code}/config`, cfg);
-      const name = state.fig === "fit" ? "loading" : state.fig;
-      const figure = cfg.use_recording || state.fig === "fit" ? null
+      const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
+      const figure = cfg.use_recording || RESULT_VIEWS.includes(state.fig) ? null
         : api("POST", "/api/simulate", { model: cfg.model, signal: cfg.signal,
           mismatch: cfg.mismatch, figures: [name] });
       if (figure) figure.catch(() => null);  // a refused config is reported by the PATCH
@@ -319,13 +380,29 @@ async function render(el, f, { live = false } = {}) {
   document.body.dataset.settled = document.body.dataset.ready || "";
 }
 
+// Views drawn from a job's result instead of the session's config (fit, diagnosis).
+const RESULT_VIEWS = ["fit", "diagnosis"];
+
+async function diagnosisFigure() {
+  if (!state.diagFigure) {
+    try {
+      state.diagFigure = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/figure`);
+    } catch (e) {
+      if (e.status !== 409 && e.status !== 404) throw e;
+    }
+  }
+  return state.diagFigure || { data: [], layout: { title: { text: "Upload a recording and run the diagnosis to see before and after" } } };
+}
+
 async function draw(pending) {
   const el = $("figure");
-  const name = state.fig === "fit" ? "loading" : state.fig;
+  const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
   const res = await (pending || api("GET", `/api/sessions/${state.code}/figures?name=${name}`));
   let f = res.figures[name];
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
+  } else if (state.fig === "diagnosis") {
+    f = await diagnosisFigure();
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   await render(el, f, { live });
@@ -349,6 +426,8 @@ async function openSession(code, { create = false } = {}) {
   else if (create) s = await api("PUT", `/api/sessions/${encodeURIComponent(code)}`);
   else s = await api("GET", `/api/sessions/${encodeURIComponent(code)}`);
   state.code = s.code;
+  state.diagFigure = null;
+  state.fitFigure = null;
   localStorage.setItem("hyst-session", s.code);
   $("code").textContent = s.code;
   for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${encodeURIComponent(s.code)}/export/${f}`;
@@ -441,6 +520,7 @@ async function useCsv(run) {
   try {
     const r = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/recording?${q}`, csvText, "text/csv");
     setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples${r.time_steps ? `; ${r.time_steps}` : ""}.`, true);
+    state.diagFigure = null;  // the diagnosis of another recording is gone
     $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
     showRuns(r.runs || [], run === "all" ? "all" : r.run);
     $("use-recording").checked = true;
@@ -491,6 +571,8 @@ async function runJob(kind, params, syncPath, syncBody, running = null) {
   if (state.job) return null;
   const buttons = [$("fit"), $("diagnose")];
   buttons.forEach((b) => { b.disabled = true; });
+  // a new run replaces what the last one said (a "cancelled" or "failed" line)
+  if (state.jobSaid) { setMsg("csv-msg", ""); state.jobSaid = false; }
   const busy = $("busy"), bar = $("job-progress"), cancel = $("cancel-job");
   const t0 = performance.now();
   const label = (kind === "fit" ? "Fitting" : "Diagnosing") +
@@ -594,6 +676,7 @@ async function cancelJob() {
 
 // What a failed or cancelled fit / diagnosis says under the Data section.
 function jobFailed(what, e) {
+  state.jobSaid = true;
   if (e instanceof JobCancelled) {
     setMsg("csv-msg", `${what} cancelled: nothing was changed.`, true);
   } else {
@@ -621,25 +704,14 @@ async function fit(running = null) {
   }
 }
 
-function finding(f) {
-  if (typeof f === "string") return f;
-  if (f && typeof f === "object") {
-    const head = [f.effect || f.name || f.title, f.verdict || f.status].filter(Boolean).join(": ");
-    const body = f.message || f.summary || f.text || "";
-    if (head || body) return [head, body].filter(Boolean).join(" — ");
-  }
-  return JSON.stringify(f);
-}
-
 async function diagnose(running = null) {
   try {
     const r = await runJob("diagnose", {}, `/api/sessions/${state.code}/diagnose`, undefined, running);
     if (!r) return;
-    const items = (r.findings || []).map((f) => el("li", { textContent: finding(f) }));
-    const nums = Object.entries(r).filter(([, v]) => typeof v === "number")
-      .map(([k, v]) => el("li", { textContent: `${k.replace(/_/g, " ")}: ${v.toPrecision(4)}` }));
+    // the findings are sentences with units, written by the server for people
+    const items = (r.findings || []).map((f) => el("li", { textContent: typeof f === "string" ? f : JSON.stringify(f) }));
     const box = el("div", { id: "diagnosis" }, el("h3", { textContent: "Diagnosis" }),
-      el("p", {}, el("em", { textContent: String(r.engine || "") })), el("ul", {}, ...items, ...nums));
+      el("ul", {}, ...items));
     if (r.document) {
       box.append(el("a", {
         href: `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/report.html`,
@@ -647,6 +719,8 @@ async function diagnose(running = null) {
       }));
     }
     $("report").replaceChildren(box);
+    state.diagFigure = null;  // this run's before / after
+    selectFigure("diagnosis");
   } catch (e) {
     jobFailed("Diagnosis", e);
   }
@@ -844,6 +918,9 @@ async function main() {
   $("teacher-refresh").addEventListener("click", teacherRefresh);
   document.querySelectorAll("#tabs button").forEach((b) => b.addEventListener("click", () => selectFigure(b.dataset.fig)));
   $("view-help").textContent = VIEW_HELP[state.fig];
+  addTips();
+  new MutationObserver(() => addTips(document.querySelector("aside"))).observe(
+    document.querySelector("aside"), { childList: true, subtree: true });
   const saved = localStorage.getItem("hyst-session");
   try {
     await openSession(saved);

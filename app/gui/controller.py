@@ -493,6 +493,7 @@ class SessionView:
             rep = actions.diagnose(self.session)
         self.ui.report_md.content = diagnosis_markdown(rep)
         self.ui.report_btn.disabled = False
+        self.ui.view_dd.value = TITLES["diagnosis"]  # before and after, in the plot
 
     @contextmanager
     def _busy(self, what: str) -> Iterator[None]:
@@ -550,7 +551,7 @@ class SessionView:
     def _views(self, session: Session, name: str) -> set[str]:
         """What to compute: the view on show, and the digitized states while the 3D cube
         can show them (a small enough model: the session's model, parsed once per config)."""
-        views = set() if name == "fit" else {name}
+        views = set() if name in ("fit", "diagnosis") else {name}
         if self.cube.scene is not None and (operator_count(
                 actions.session_model(session, self.settings)) or 0) <= CUBE_MAX_DIGITS:
             views.add("digitized")
@@ -564,6 +565,9 @@ class SessionView:
         res = actions.session_result(session, self._views(session, name), self.settings)
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
+        elif name == "diagnosis":
+            fig = actions.diagnosis_figure(session) or F.message_figure(
+                "Diagnosis", "upload a recording and run the diagnosis to see before and after")
         else:
             fig = F.build(name, res)
         if session is not self.session or self.session.snapshot()[1] != v:
@@ -578,6 +582,8 @@ class SessionView:
             aspect = min(1.35, 0.68 * bands)
         ui.plot.aspect = aspect
         ui.plot.figure = fig
+        notes = (fig.layout.get("meta") or {}).get("notes") or []
+        ui.notes_md.content = "  \n".join(f"⚠️ {md_text(n)}" for n in notes)
         self.shown_figure = name
         d = res.digitized
         self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1

@@ -34,11 +34,53 @@ GUI_MAX_SLIDERS = 25
 #: The views of the *View* dropdown: figure key -> title.
 TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
           "inverse": "Inverse", "digitized": "Digitized states", "closed-loop": "Closed loop",
-          "fit": "Fit"}
+          "fit": "Fit", "diagnosis": "Diagnosis"}
 #: Browser widths (CSS px) below which the plot moves into the control sheet.
 NARROW_PX = 700
 #: Largest number of generic parameter sliders (non-PI models).
 MAX_PARAM_SLIDERS = 80
+
+
+#: Tooltips (viser's ``hint``) of the widgets, by attribute of :class:`Widgets`; set after
+#: the widgets are built, so every control says what it does.
+HINTS = {
+    "join_btn": "continue the session whose code you typed",
+    "push_btn": "send this tab's model (as you edited it) to every student now",
+    "preset": "models and inputs taken from the papers' examples",
+    "load_preset": "replace the model and the input by the chosen preset's",
+    "p0": "weight of the linear part p0·u (the slope of the loop's ends)",
+    "n_ops": "number of play operators; thresholds spread evenly up to the widest",
+    "state0": "the operators' state at t = 0 (the memory the model starts with)",
+    "json_in": "the session's model as JSON: any model type, edited by hand",
+    "json_btn": "use the model typed in the JSON box",
+    "kind": "shape of the input signal u(t)",
+    "amp": "peak value of the input (in the input's unit)",
+    "freq": "cycles per second of the input",
+    "offset": "value the input oscillates around",
+    "duration": "length of the simulated input",
+    "samples": "number of time steps simulated (more: smoother, slower)",
+    "use_rec": "drive the model with the uploaded recording's input",
+    "digi_step": "which state of the digitized trace to show",
+    "play_speed": "states shown per second while playing",
+    "prev_btn": "one state back", "next_btn": "one state forward",
+    "play_btn": "play the states from the start", "stop_btn": "stop playing",
+    "upload": "a CSV file with time, input and output columns",
+    "t_col": "time column: name or 0-based index (empty: found automatically)",
+    "u_col": "input column: name or 0-based index (empty: found automatically)",
+    "y_col": "output column: name or 0-based index (empty: found automatically)",
+    "remap": "load the CSV again with the columns typed above",
+    "fit_n": "number of operators of the fitted model",
+    "fit_kind": "which model type the fit identifies",
+    "fit_btn": "fit the chosen model to the recording (it replaces the session's model)",
+    "diag_btn": "find what the PI model misses, proved on rows the fit never saw",
+    "report_btn": "the full diagnosis report as an HTML file",
+    "dl_json": "the model as a parameter set (JSON) to continue later",
+    "dl_mat": "the model for MATLAB / Octave",
+    "dl_c": "C code of the model and its inverse for a controller",
+    "ps_upload": "load a parameter set saved earlier (JSON)",
+    "_dd_wide": "which view of the model the plot shows",
+    "_dd_narrow": "which view of the model the plot shows",
+}
 
 
 def set_value(handle: Any, value: Any) -> None:
@@ -73,6 +115,7 @@ class Widgets:
                                              initial_value=TITLES["loop"])
             self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
                                              aspect=0.9, config=F.PLOT_CONFIG)
+            self._notes_narrow = g.add_markdown("")
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="",
                                       hint="the code of a session to continue (shown at the "
@@ -192,9 +235,16 @@ class Widgets:
             # says width/height; measured in Chromium: height = width * aspect).
             self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
                                            config=F.PLOT_CONFIG)
+            self._notes_wide = g.add_markdown("")
         self.narrow = False
         #: The *View* dropdown and the plot on show (the panel's, or the sheet's on a phone).
         self.view_dd, self.plot = self._dd_wide, self._plot_wide
+        for attr, text in HINTS.items():
+            handle = getattr(self, attr, None)
+            if handle is not None and not getattr(handle, "hint", None):
+                handle.hint = text
+        #: The notes under the plot on show (what the figure's ``meta.notes`` say).
+        self.notes_md = self._notes_wide
         self.status_md = g.add_markdown("")
 
     @property
@@ -213,6 +263,8 @@ class Widgets:
         self.panel.visible = not narrow
         self.view_dd, self.plot = ((self._dd_narrow, self._plot_narrow) if narrow
                                    else (self._dd_wide, self._plot_wide))
+        self.notes_md.content = ""
+        self.notes_md = self._notes_narrow if narrow else self._notes_wide
         return True
 
     @property

@@ -12,7 +12,7 @@ from starlette.concurrency import run_in_threadpool
 from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
-from .schemas import CsvPreviewOut, DiagnosisOut, FitIn, FitOut, RecordingOut
+from .schemas import CsvPreviewOut, DiagnosisOut, FigureOut, FitIn, FitOut, RecordingOut
 
 __all__ = ["router"]
 
@@ -113,6 +113,16 @@ async def diagnose(request: Request, session: SessionDep,
     the bounded queue, waited for; cancelled if the client hangs up)."""
     job = start_job(request, session, settings, "diagnose", {})
     return await wait_for(request, job)
+
+
+@router.get("/sessions/{code}/diagnosis/figure", response_model=FigureOut)
+def diagnosis_figure(session: SessionDep) -> dict[str, Any]:
+    """The last diagnosis before and after: loops and residuals in the recording's units
+    (the page's *Diagnosis* view)."""
+    fig = actions.diagnosis_figure(session)
+    if fig is None:
+        raise HTTPException(409, actions.no_report(session))
+    return fig.to_dict()
 
 
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)

@@ -50,6 +50,7 @@ __all__ = [
     "check_figure_names",
     "checked_model",
     "diagnose",
+    "diagnosis_figure",
     "diagnosis_report",
     "export",
     "fit",
@@ -227,11 +228,32 @@ def diagnose(session: Session, progress: Callable[..., None] | None = None) -> d
     return diagnose_session(session, progress)
 
 
+def _units(session: Session) -> dict[str, str]:
+    rec = session.recording
+    return {} if rec is None else dict(rec.units)
+
+
 def diagnosis_report(session: Session) -> str | None:
-    """The session's last diagnosis as a self-contained HTML report, or ``None`` before
-    one."""
+    """The session's last diagnosis as a self-contained HTML report (axes in the
+    recording's units), or ``None`` before one."""
     result = session.diagnosis_result
-    return None if result is None else diagnosis_html(result)
+    return None if result is None else diagnosis_html(result, _units(session))
+
+
+def diagnosis_figure(session: Session) -> F.FigureJSON | None:
+    """The session's last diagnosis before and after (loops and residuals, in the
+    recording's units; :func:`.figures.diagnosis_figure`), or ``None`` before one."""
+    result = session.diagnosis_result
+    if result is None:
+        return None
+    rec = replace(result.records[0], units={**result.records[0].units, **_units(session)})
+    d = session.diagnosis or {}
+    preisach = (d.get("document") or {}).get("baseline", {}).get("model") == "preisach"
+    base = "Preisach model" if preisach else "PI model"
+    effects = d.get("effects") or []
+    final = f"with {', '.join(str(e).replace('-', ' ') for e in effects)}" if effects else \
+        "no effect added"
+    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final)
 
 
 def no_report(session: Session) -> str:

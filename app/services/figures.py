@@ -33,6 +33,7 @@ __all__ = [
     "FigureJSON",
     "closed_loop_figure",
     "decimate_index",
+    "diagnosis_figure",
     "digitized_figure",
     "fit_figure",
     "inverse_figure",
@@ -321,14 +322,57 @@ def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJ
     ]
     rms = float(np.sqrt(np.mean(res**2)))
     un = dict(rec.units)
-    lay = _layout(
-        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})",
+    return FigureJSON(data, _loop_and_residual_layout(
+        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})", un,
+        "residual y − ŷ"))
+
+
+def _loop_and_residual_layout(title: str, un: dict[str, str], residual: str
+                              ) -> dict[str, Any]:
+    """Loop (output against input) at the left, a residual in time at the right."""
+    return _layout(
+        title,
         xaxis={"domain": [0, 0.46], "title": _ax(un, "input"), "anchor": "y"},
         yaxis={"title": _ax(un, "output"), "anchor": "x"},
         xaxis2={"domain": [0.54, 1.0], "title": _ax(un, "time"), "anchor": "y2"},
-        yaxis2={"title": _ax(un, "output", "residual y − ŷ"), "anchor": "x2"},
+        yaxis2={"title": _ax(un, "output", residual), "anchor": "x2"},
     )
-    return FigureJSON(data, lay)
+
+
+def diagnosis_figure(rec: Recording, y_base: np.ndarray, y_final: np.ndarray,
+                     base_label: str, final_label: str) -> FigureJSON:
+    """Before / after a diagnosis: the loops (measured, the base model, the model with the
+    effects found) and their residuals in time, in the recording's units.
+
+    Parameters
+    ----------
+    rec : Recording
+        The diagnosed recording (time, input, output and their units).
+    y_base, y_final : ndarray of shape (N,)
+        The base model's and the final model's simulated outputs.
+    base_label, final_label : str
+        Legend names of the two models.
+    """
+    idx = decimate_index(rec.u, MAX_POINTS)
+    t, u = _num(rec.t[idx]), _num(rec.u[idx])
+    un = dict(rec.units)
+    eb, ef = rec.y - y_base, rec.y - y_final
+    rb, rf = float(np.sqrt(np.mean(eb**2))), float(np.sqrt(np.mean(ef**2)))
+    yu = _unit(un, "output")
+    data = [
+        _line(u, _num(rec.y[idx]), "measured", _GREY, xaxis="x", yaxis="y"),
+        _line(u, _num(y_base[idx]), f"before: {base_label}", _RED, xaxis="x", yaxis="y",
+              line={"color": _RED, "width": 1.5}),
+        _line(u, _num(y_final[idx]), f"after: {final_label}", _BLUE, xaxis="x", yaxis="y",
+              line={"color": _BLUE, "width": 1.5}),
+        _line(t, _num(eb[idx]), f"residual before (RMS {rb:.3g} {yu})", _RED, xaxis="x2",
+              yaxis="y2", line={"color": _RED, "width": 1}),
+        _line(t, _num(ef[idx]), f"residual after (RMS {rf:.3g} {yu})", _BLUE, xaxis="x2",
+              yaxis="y2", line={"color": _BLUE, "width": 1}),
+    ]
+    return FigureJSON(data, _loop_and_residual_layout(
+        f"Diagnosis: before and after (residual RMS {rb:.3g} → {rf:.3g} {yu})", un,
+        "residual measured − model"))
 
 
 def _matrix_text(name: str, m: np.ndarray) -> str:
@@ -470,6 +514,8 @@ def closed_loop_figure(res: Result) -> FigureJSON:
                 "anchor": "x"},
     )
     lay["title"]["font"] = {"size": 12}
+    if cl.explanation:  # the page prints meta.notes under the plot
+        lay["meta"] = {"notes": [cl.explanation]}
     return FigureJSON(data, lay)
 
 

@@ -526,9 +526,13 @@ class ClosedLoop:
         (mismatch-perturbed) session model, the feedforward is the exact inverse of the
         unperturbed model; the last run adds the reference to the controller output
         (two-degree-of-freedom structure, not in the paper's Fig. 15).
+    explanation : str or None
+        Why the inverse feedforward tracks worse than no compensation, when it does (in
+        words, with the numbers that show it); ``None`` otherwise.
     """
 
     runs: dict[str, Any]
+    explanation: str | None = None
 
 
 def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | None]:
@@ -558,7 +562,43 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
     note = None if isinstance(pi, PIModel) else (
         f"closed loop of the diagnosed model over its first {1e3 * dur:g} ms (its effects run "
         "sample by sample)")
-    return ClosedLoop(runs), note
+    why = None
+    if runs["inverse feedforward"].rms_error(0.0) > runs["no compensation"].rms_error(0.0):
+        perfect = None
+        if mismatch != 0:  # the same loop with the plant exactly the model: mismatch's share
+            perfect = HammersteinLoop(pi, g, feedforward=ff).simulate(
+                r, 1.0 / CLOSED_LOOP_RATE).rms_error(0.0)
+        why = feedforward_worse(runs, mismatch, perfect, pi_part(pi))
+    return ClosedLoop(runs, why), note
+
+
+def feedforward_worse(runs: dict[str, Any], mismatch: float, perfect: float | None,
+                      pi: PIModel | None) -> str:
+    """Why the inverse feedforward tracks worse than no compensation, in words.
+
+    Two causes, each with its number: a model mismatch (the plant is not the model the
+    inverse was built from; ``perfect`` is the RMS error of the same loop with the plant
+    exactly the model) and the loop gain the inverse takes away (the model's slopes, for
+    which the PI controller was tuned, become 1); the reference feedforward run shows the
+    lag removed."""
+    ff = runs["inverse feedforward"].rms_error(0.0)
+    none = runs["no compensation"].rms_error(0.0)
+    both = runs["inverse + reference feedforward"].rms_error(0.0)
+    text = (f"Why does the inverse feedforward do worse here (RMS error {ff:.3g}) than no "
+            f"compensation ({none:.3g})? ")
+    if mismatch != 0 and perfect is not None:
+        text += (f"Partly a model mismatch: the plant differs from the model the inverse was "
+                 f"built from (thresholds ×{1 + mismatch:.2f}, weights ×{1 - mismatch:.2f}), "
+                 f"so the inverse cancels a hysteresis that is not quite there; with the plant "
+                 f"exactly the model it would reach {perfect:.3g}. ")
+    gain = ""
+    if pi is not None and pi.slopes.size:
+        gain = (f" (the model's slopes run from {float(np.min(pi.slopes)):.3g} to "
+                f"{float(np.max(pi.slopes)):.3g}; after the inverse the plant's gain is 1)")
+    text += ("The inverse also removes the model's own gain" + gain + ", and the PI "
+             "controller was tuned for the plant with it: the loop is slower and lags the "
+             f"reference. Adding the reference as feedforward removes that lag (RMS {both:.3g}).")
+    return text
 
 
 def inverse_problem(res: Result) -> str | None:

@@ -14,6 +14,7 @@ from app.services.events import HUB
 
 from .conftest import TEACHER_TOKEN
 from .test_viser_gui import _open as _open_viser
+from .test_viser_gui import upload_file
 from .test_viser_layout import _new_view
 from .test_web_journeys import _clean, _open, _session, _text_has
 
@@ -105,10 +106,7 @@ def test_uneven_time_stamps_resample_or_keep_viser(browser: Any, live_server: di
     known = set(app.state.gui.views)
     ctx, page, errors = _open_viser(browser, live_server["viser_url"])
     view = _new_view(app, known)
-    page.get_by_role("tab", name="Data").first.click()
-    with page.expect_file_chooser() as fc:
-        page.get_by_role("button", name="Upload CSV").first.click()
-    fc.value.set_files(str(path))
+    upload_file(page, view, path, wait=0)
     button = page.get_by_role("button", name=f"Resample onto even {_ms(step)} steps")
     button.first.wait_for(timeout=30_000)
     body = page.inner_text("body")
@@ -137,11 +135,16 @@ def _viser_session_folder(page: Any) -> None:
     page.get_by_role("button", name="Join / restore session").first.wait_for()
 
 
-def _viser_type(page: Any, label: str, text: str) -> None:
-    # viser's label is not tied to its input: the innermost row holding both
+def _viser_input(page: Any, label: str) -> Any:
+    """The input of the viser widget labelled ``label`` (viser's label is not tied to its
+    input: the innermost row holding both)."""
     row = page.locator("div.mantine-Flex-root").filter(
         has=page.locator("label").filter(has_text=re.compile(f"^{label}$"))).last
-    box = row.locator("input").first
+    return row.locator("input").first
+
+
+def _viser_type(page: Any, label: str, text: str) -> None:
+    box = _viser_input(page, label)
     box.fill(text)
     box.press("Enter")
 
@@ -193,3 +196,107 @@ def test_teacher_list_shows_counts_and_names_not_codes(browser: Any, live_server
     assert errors == []
     for ctx in (ctx_a, ctx_v, ctx_t):
         ctx.close()
+
+
+DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
+PIEZO = DATA / "piezo" / "piezo_150V_1Hz.csv"  # t_s, u_V, y_um (read as µm)
+#: Words of the code that a page must not show in its results.
+DEV_WORDS = ("core.diagnosis", "rmse", "_pct", "baseline rmse")
+
+
+def _gain_one_loop_rms(reference: Any) -> float:
+    """RMS error of paper 001's loop around a plant of gain 1: what the inverse feedforward
+    leaves when the plant is exactly the model (H(H⁻¹(v)) = v), an independent check."""
+    from core.closed_loop import HammersteinLoop, paper001_plant
+    from core.pi import PIModel
+
+    return HammersteinLoop(PIModel(1.0, [1e-9], [0.0]), paper001_plant()).simulate(
+        reference, 1 / 50_000).rms_error(0.0)
+
+
+def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
+                              slow_diagnosis: None, monkeypatch: Any) -> None:
+    """Failure 8 (web): tooltips on every control; the closed loop says why the inverse
+    feedforward does worse; cancel then run leaves no "cancelled"; the findings are
+    sentences with units; before / after loops and residuals are in the page."""
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"])
+    bare = page.evaluate("""() => [...document.querySelectorAll(
+        'aside input, aside select, aside button, aside textarea, header input, header button,'
+        + ' #tabs button')].filter(e => !e.title && e.getClientRects().length)
+        .map(e => e.id || e.getAttribute('aria-label') || e.textContent)""")
+    assert bare == [], f"controls without a tooltip: {bare}"
+    page.click("#tabs button[data-fig='closed-loop']")
+    _text_has(page, "notes", "Why does the inverse feedforward do worse")
+    note = page.inner_text("#notes")
+    sess = _session(app, page)
+    from app.services import actions
+    runs = actions.session_result(sess, ["closed-loop"], app.state.settings).closed_loop.runs
+    ff = _gain_one_loop_rms(runs["inverse feedforward"].r)
+    assert f"({ff:.3g})" in note or f"RMS error {ff:.3g}" in note, note
+    page.eval_on_selector("#mismatch", "e => { e.value = 0.2; "
+                          "e.dispatchEvent(new Event('input')); }")
+    _text_has(page, "notes", "model mismatch")
+    page.wait_for_timeout(500)
+    shot(page, "web-closed-loop-why")
+    # diagnosis: cancel, then run again
+    page.set_input_files("#csv-file", str(PIEZO))
+    page.wait_for_selector("#mapping:not([hidden])")
+    page.click("#use-csv")
+    _text_has(page, "csv-msg", "50001 samples")
+    page.click("#diagnose")
+    page.wait_for_selector("#cancel-job:not([hidden])")
+    page.click("#cancel-job")
+    _text_has(page, "csv-msg", "Diagnosis cancelled")
+    monkeypatch.undo()  # the real, fast diagnosis from here on
+    page.click("#diagnose")
+    page.wait_for_selector("#diagnosis", timeout=120_000)
+    assert "cancelled" not in page.inner_text("#csv-msg")
+    items = page.locator("#diagnosis li").all_inner_texts()
+    doc = _session(app, page).diagnosis["document"]
+    assert items and all(i[:1].isupper() for i in items), items
+    text = page.inner_text("#report")
+    assert not any(w in text.lower() for w in DEV_WORDS), text
+    assert f"{doc['baseline']['heldout_rmse']:.3g} µm RMS" in items[0], items[0]
+    # before / after in the page, axes with the recording's units
+    page.wait_for_function("() => document.body.dataset.fig === 'diagnosis'")
+    page.wait_for_function("() => (document.getElementById('figure')._fullLayout || {}).xaxis")
+    axes = page.evaluate("""() => { const l = document.getElementById('figure')._fullLayout;
+        return [l.xaxis.title.text, l.yaxis.title.text, l.xaxis2.title.text]; }""")
+    assert axes == ["input u [V]", "output y [µm]", "time t [s]"], axes
+    names = page.evaluate("() => document.getElementById('figure')._fullData.map(t => t.name)")
+    assert any(n.startswith("before") for n in names) and any(n.startswith("after") for n in names)
+    shot(page, "web-diagnosis-words")
+    _clean(page, log)
+    ctx.close()
+
+
+def test_words_for_people_viser(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 8 (viser): hints on the controls, the closed-loop explanation under the
+    plot, the findings in sentences and the before / after view."""
+    from app.gui.layout import HINTS
+
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    missing = [a for a in HINTS if not getattr(view.ui, a).hint]
+    assert missing == []
+    page.get_by_role("tab", name="Data").first.click()
+    _viser_input(page, "Fit operators n").hover()  # viser 1.1 shows hints of inputs only
+    page.wait_for_selector(f"[role=tooltip]:has-text('{HINTS['fit_n']}')", timeout=15_000)
+    view.ui.view_dd.value = "Closed loop"
+    page.wait_for_selector("text=Why does the inverse feedforward do worse", timeout=60_000)
+    upload_file(page, view, PIEZO, wait=60)
+    page.get_by_role("button", name="Run diagnosis").first.click()
+    page.wait_for_selector("text=On the rows the fit never saw", timeout=120_000)
+    body = page.inner_text("body")
+    assert not any(w in body.lower() for w in DEV_WORDS)
+    assert view.worker.wait_idle(60) and view.figure_name == "diagnosis"
+    lay = view.ui.plot.figure.layout
+    titles = [lay[k]["title"]["text"] for k in ("xaxis", "yaxis")]
+    assert titles == ["input u [V]", "output y [µm]"], titles
+    page.wait_for_timeout(800)
+    shot(page, "viser-diagnosis-words")
+    assert errors == []
+    ctx.close()
