@@ -458,7 +458,7 @@ async function onPushed(info) {
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
   const p = state.presets.find((x) => x.name === info.preset);
-  const what = p ? p.title : info.preset ? info.preset : "a new input";
+  const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
   note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
     ` at ${new Date().toLocaleTimeString()}. Your sliders now start from it.`;
@@ -811,11 +811,13 @@ async function loadPreset() {
 }
 
 // ---------------------------------------------------------------- teacher
-async function teacherPush() {
+async function teacherPush(ev) {
   state.token = $("teacher-token").value;
   try {
     const mode = $("teacher-input").value;
-    const body = { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
+    const mine = ev && ev.target && ev.target.id === "teacher-push-mine";
+    const body = mine ? { model: readConfig().model }
+      : { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
     if (mode === "mine") body.signal = readConfig().signal;
     const r = await api("POST", "/api/teacher/push", body);
     setMsg("teacher-msg", `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
@@ -915,6 +917,7 @@ async function main() {
   $("cancel-job").addEventListener("click", cancelJob);
   $("ps-file").addEventListener("change", onParamSetChosen);
   $("teacher-push").addEventListener("click", teacherPush);
+  $("teacher-push-mine").addEventListener("click", teacherPush);
   $("teacher-refresh").addEventListener("click", teacherRefresh);
   document.querySelectorAll("#tabs button").forEach((b) => b.addEventListener("click", () => selectFigure(b.dataset.fig)));
   $("view-help").textContent = VIEW_HELP[state.fig];

@@ -74,6 +74,9 @@ class SessionView:
         ``download(filename, content)`` sends a file to this tab.
     scene, camera : optional
         The tab's 3D scene and camera (the digitized state cube).
+    on_session : callable, optional
+        ``on_session(code)`` is called with the code of each session the view shows (the
+        explorer remembers it for the browser, so a reload keeps the session).
 
     Notes
     -----
@@ -90,8 +93,10 @@ class SessionView:
         download: Callable[[str, bytes], None] | None = None,
         scene: Any = None,
         camera: Any = None,
+        on_session: Callable[[str], None] | None = None,
     ) -> None:
         self.registry = registry
+        self._on_session = on_session
         self.session = session
         self.settings = settings
         self.camera = camera
@@ -232,7 +237,7 @@ class SessionView:
         with self._quiet(), self._lock:
             ui.code_md.content = (
                 f"**Session code: `{self.session.code}`**  \n"
-                "type it under *Session* after a reload to continue"
+                "a reload keeps it in this browser; elsewhere type it under *Session*"
             )
             m = cfg.model
             preset = actions.matching_preset(m)
@@ -364,8 +369,23 @@ class SessionView:
         self._toast("Session", f"now in session {new.code}")
 
     def _attend(self) -> None:
-        """Count this tab in the teacher's list, under the name typed (no code shown)."""
+        """Count this tab in the teacher's list, under the name typed (no code shown), and
+        tell the explorer which session it shows."""
         HUB.attend(self, self.session.code, str(self.ui.name_in.value))
+        if self._on_session is not None:
+            self._on_session(self.session.code)
+
+    def pushed(self, event: dict[str, Any]) -> None:
+        """A teacher's push arrived (the session is already changed): say so in a notice
+        and under the session code; the tab that pushed says "Pushed" itself."""
+        if event.get("by") == id(self):
+            return
+        what = str(event.get("title") or event.get("preset") or
+                   ("a new input" if event.get("signal") else "a model"))
+        text = (f"Your teacher pushed {what}{' with its input' if event.get('signal') else ''}"
+                f" at {time.strftime('%H:%M:%S')}. Your controls now start from it.")
+        self.ui.pushed_md.content = f"**Teacher:** {md_text(text)}"
+        self._toast("Your teacher pushed a change", text)
 
     def _teacher_allowed(self, refused: str) -> bool:
         """Whether this tab may act as the teacher: always with the teacher token, also on
@@ -400,7 +420,8 @@ class SessionView:
         if not self._teacher_allowed("Not pushed"):
             return
         n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
-                            note={"preset": None, "title": "the teacher's model"})
+                            note={"preset": None, "title": "a model", "model": True,
+                                  "by": id(self)})
         self._toast("Pushed", f"model sent to {n} sessions")
 
     def bind(self, session: Session) -> None:

@@ -3,13 +3,20 @@
 Each tab's new session counts against the per-client limiter of ``POST /api/sessions``
 (keyed by the websocket's client address, :meth:`app.gui.viser_guard.ViserGuard.
 client_address`): a client beyond it gets a message in the tab, not a session.
+
+A reloaded tab keeps its session: the browser's id (a cookie the guard sets,
+:meth:`~app.gui.viser_guard.ViserGuard.browser_id`) maps to the session its last tab
+showed. A teacher's push (:meth:`~app.services.events.EventHub.broadcast`) reaches every
+tab as a notice.
 """
 
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 from typing import Any
 
+from ..services.events import HUB
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
@@ -18,6 +25,9 @@ from .layout import NARROW_PX
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
+
+#: Browsers whose last session is remembered (the oldest are forgotten beyond).
+MAX_BROWSERS = 10_000
 
 
 class ExplorerGui:
@@ -44,6 +54,9 @@ class ExplorerGui:
         self.refused: set[int] = set()
         self.views: dict[int, SessionView] = {}
         self._lock = threading.Lock()
+        #: browser id -> the code of the session its last tab showed
+        self._sessions: OrderedDict[str, str] = OrderedDict()
+        HUB.add_listener(self._on_event)
         server.gui.configure_theme(show_share_button=False, control_width="large",
                                    titlebar_content=None, show_logo=False)
         server.on_client_connect(self._connect)
@@ -57,10 +70,24 @@ class ExplorerGui:
             client.add_notification(title, body, auto_close_seconds=6.0,
                                     color="red" if error else None)
 
-        if not self._may_create(client):
-            return
-        view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
-                           notify=notify, scene=client.scene, camera=client.camera)
+        browser = None if self.guard is None else self.guard.browser_id(client.client_id)
+        session = self._known_session(browser)
+        if session is None:
+            if not self._may_create(client):
+                return
+            session = self.registry.create()
+
+        def remember(code: str) -> None:
+            if browser is not None:
+                with self._lock:
+                    self._sessions[browser] = code
+                    self._sessions.move_to_end(browser)
+                    while len(self._sessions) > MAX_BROWSERS:
+                        self._sessions.popitem(last=False)
+
+        view = SessionView(client.gui, self.registry, session, self.settings,
+                           notify=notify, scene=client.scene, camera=client.camera,
+                           on_session=remember)
 
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0
@@ -71,6 +98,29 @@ class ExplorerGui:
         on_camera(client.camera)
         with self._lock:
             self.views[client.client_id] = view
+
+    def _known_session(self, browser: str | None) -> Any:
+        """The session this browser's last tab showed (a reload keeps it), or None."""
+        if browser is None:
+            return None
+        with self._lock:
+            code = self._sessions.get(browser)
+        if code is None:
+            return None
+        try:
+            return self.registry.get(code)
+        except Exception:  # noqa: BLE001 - expired or reset: a new session instead
+            return None
+
+    def _on_event(self, event: dict[str, Any]) -> int:
+        """A broadcast (the teacher's push): a notice in every tab; returns how many."""
+        if event.get("kind") != "push":
+            return 0
+        with self._lock:
+            views = list(self.views.values())
+        for v in views:
+            v.pushed(event)
+        return len(views)
 
     def _may_create(self, client: Any) -> bool:
         """Whether this tab's client may have a new session; else say so in the tab."""
@@ -99,6 +149,7 @@ class ExplorerGui:
 
     def close(self) -> None:
         """Stop every view's worker."""
+        HUB.remove_listener(self._on_event)
         with self._lock:
             views, self.views = list(self.views.values()), {}
         for v in views:

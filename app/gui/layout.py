@@ -108,6 +108,7 @@ class Widgets:
         self._param_paths: tuple[str, ...] = ()
         self._param_subfolders: list[Any] = []
         self.code_md = g.add_markdown("")
+        self.pushed_md = g.add_markdown("")  # the teacher's last push, said in words
         # viser shows no floating panel on a phone: there the plot lives at the top of
         # the control sheet instead (see :meth:`use_narrow`)
         with g.add_folder("Plot", visible=False) as self.narrow_folder:

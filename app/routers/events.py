@@ -97,6 +97,9 @@ class PushIn(BaseModel):
     """What the teacher pushes to every session."""
 
     preset: str | None = Field(None, description="preset name (see GET /api/presets)")
+    model: dict[str, Any] | None = Field(
+        None, description="a model document to push instead of a preset's (e.g. the one "
+                          "the teacher edited)")
     signal: SignalIn | None = Field(None, description="input signal for every session")
     use_preset_input: bool = Field(
         False, description="give every session the preset's own default input")
@@ -111,10 +114,14 @@ def teacher_push(
 ) -> dict[str, Any]:
     """Teacher: give every session a preset's model and/or an input signal, live."""
     require_teacher(settings, x_teacher_token)
-    if body.preset is None and body.signal is None:
-        raise HTTPException(422, "choose a preset or an input signal to push")
+    if body.preset is None and body.signal is None and body.model is None:
+        raise HTTPException(422, "choose a preset, a model or an input signal to push")
+    if body.preset is not None and body.model is not None:
+        raise HTTPException(422, "push a preset or a model, not both")
     model = signal = None
     title = None
+    if body.model is not None:  # checked like a saved parameter set, before any session
+        model, title = actions.push_model(body.model, settings), "a model"
     if body.preset is not None:
         try:
             doc = actions.preset_doc(body.preset)
@@ -131,7 +138,8 @@ def teacher_push(
             raise HTTPException(422, str(exc)) from None
     # stored: a reload or a restart keeps the push
     n, pages = actions.push(registry, model=model, signal=signal, note={
-        "preset": body.preset, "title": title, "signal": signal is not None})
+        "preset": body.preset, "title": title, "signal": signal is not None,
+        "model": model is not None})
     return {"preset": body.preset, "sessions": n, "pages": pages}
 
 

@@ -61,6 +61,7 @@ __all__ = [
     "preset_doc",
     "preview_csv",
     "push",
+    "push_model",
     "result_payload",
     "session_figures",
     "session_model",
@@ -281,6 +282,26 @@ def export(session: Session, fmt: str) -> tuple[str, bytes]:
 
 
 # ----------------------------------------------------------------------------- teacher
+def push_model(doc: Any, settings: Settings) -> dict[str, Any]:
+    """A model document the teacher pushes, parsed and checked as a saved parameter set
+    is (any model type, the cost limits, the operator limit); returns its canonical form.
+
+    Raises
+    ------
+    ParameterError
+        Naming the invalid field or the limit exceeded.
+    """
+    try:
+        check_document(doc, settings.limits)
+        model = parameter_set_model(doc)
+    except (TypeError, KeyError) as exc:
+        raise ParameterError(str(exc)) from None
+    check_operator_limit(model, settings.max_operators)
+    d = model.to_dict()
+    check_config(Config().with_model(d), None, settings.limits)
+    return d
+
+
 def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
          signal: SignalSpec | None = None, note: dict[str, Any] | None = None
          ) -> tuple[int, int]:

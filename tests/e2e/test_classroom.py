@@ -3,6 +3,7 @@ with uneven time stamps offers resample or keep, ..."""
 
 from __future__ import annotations
 
+import json
 import re
 import time
 from pathlib import Path
@@ -16,7 +17,7 @@ from .conftest import TEACHER_TOKEN
 from .test_viser_gui import _open as _open_viser
 from .test_viser_gui import upload_file
 from .test_viser_layout import _new_view
-from .test_web_journeys import _clean, _open, _session, _text_has
+from .test_web_journeys import _clean, _listening, _open, _session, _text_has
 
 #: Option names of the Python reader that a page must never show.
 INTERNAL = ("resample=", "uneven=", "uneven='keep'", "run=", ".resampled()")
@@ -274,17 +275,18 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
 def test_words_for_people_viser(browser: Any, live_server: dict, shot: Any) -> None:
     """Failure 8 (viser): hints on the controls, the closed-loop explanation under the
     plot, the findings in sentences and the before / after view."""
-    from app.gui.layout import HINTS
-
     app = live_server["app"]
     known = set(app.state.gui.views)
     ctx, page, errors = _open_viser(browser, live_server["viser_url"])
     view = _new_view(app, known)
-    missing = [a for a in HINTS if not getattr(view.ui, a).hint]
-    assert missing == []
+    inputs = ("preset", "p0", "n_ops", "json_in", "kind", "amp", "freq", "offset", "duration",
+              "samples", "use_rec", "mismatch", "t_col", "fit_n", "fit_kind", "code_in")
+    missing = [a for a in inputs if not getattr(view.ui, a).hint]
+    assert missing == [], f"inputs without a hint: {missing}"
     page.get_by_role("tab", name="Data").first.click()
     _viser_input(page, "Fit operators n").hover()  # viser 1.1 shows hints of inputs only
-    page.wait_for_selector(f"[role=tooltip]:has-text('{HINTS['fit_n']}')", timeout=15_000)
+    page.wait_for_selector("[role=tooltip]:has-text('number of operators of the fitted model')",
+                           timeout=15_000)
     view.ui.view_dd.value = "Closed loop"
     page.wait_for_selector("text=Why does the inverse feedforward do worse", timeout=60_000)
     upload_file(page, view, PIEZO, wait=60)
@@ -300,3 +302,56 @@ def test_words_for_people_viser(browser: Any, live_server: dict, shot: Any) -> N
     shot(page, "viser-diagnosis-words")
     assert errors == []
     ctx.close()
+
+
+EDITED = {"type": "pi", "p0": 1.11, "thresholds": [0.5, 1.5], "weights": [0.4, 0.3]}
+
+
+def test_viser_students_follow_the_class(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 5: a viser tab keeps its session on reload; a push reaches it with a notice;
+    the web teacher pushes the model they edited; a viser push tells web students "a
+    model", not "a new input"."""
+    app = live_server["app"]
+    url = live_server["url"]
+    known = set(app.state.gui.views)
+    ctx_v, v, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    code = view.session.code
+    known = set(app.state.gui.views)
+    v.reload()
+    v.wait_for_selector("text=Session code", timeout=60_000)
+    view = _new_view(app, known)
+    assert view.session.code == code, "a reload started a new viser session"
+    # the web teacher edits the model and pushes it
+    ctx_w, w, log_w = _open(browser, url)
+    ctx_t, t, log_t = _open(browser, url)
+    t.click("#json-edit summary")
+    t.fill("#model-json", json.dumps(EDITED))
+    t.click("#apply-json")
+    t.wait_for_function("() => document.getElementById('model-json').value.includes('1.11')")
+    _listening(url, w)
+    t.click("#teacher summary")
+    t.fill("#teacher-token", TEACHER_TOKEN)
+    t.click("#teacher-push-mine")
+    _text_has(t, "teacher-msg", "Pushed")
+    w.wait_for_selector("#live-note:not([hidden])", timeout=30_000)
+    assert "pushed a model" in w.inner_text("#live-note")
+    assert _session(app, w).config.model == EDITED
+    assert view.session.config.model == EDITED
+    v.wait_for_selector("text=Your teacher pushed a model", timeout=30_000)
+    shot(v, "viser-push-notice")
+    # a viser teacher pushes its model: web students read "a model"
+    before = w.inner_text("#live-note")
+    _viser_session_folder(v)
+    _viser_type(v, "Teacher token", TEACHER_TOKEN)
+    v.get_by_role("button", name="Teacher: push this model to every session").first.click()
+    w.wait_for_function("b => document.getElementById('live-note').textContent !== b",
+                        arg=before, timeout=30_000)
+    note = w.inner_text("#live-note")
+    assert "pushed a model" in note and "new input" not in note, note
+    shot(w, "web-push-from-viser")
+    for page, log in ((w, log_w), (t, log_t)):
+        _clean(page, log)
+    assert errors == []
+    for ctx in (ctx_v, ctx_w, ctx_t):
+        ctx.close()
