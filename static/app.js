@@ -43,6 +43,7 @@ const TIPS = {
   join: "Continue the session whose code you typed",
   "new-session": "Start a fresh session (the current one stays on the server under its code)",
   "my-name": "Shown in the teacher's list of who is connected; your session code is not",
+  projector: "Projector mode: the plot's text and the help at least 16 px, to read from the back of a room",
   preset: "Models and inputs taken from the papers' examples",
   "load-preset": "Replace the model and the input by the chosen preset's",
   p0: "Weight of the linear part p0·u (the slope of the loop's ends)",
@@ -351,9 +352,35 @@ function zoomed(layout) {
   return lay;
 }
 
+// Projector mode: every text of the plot at least 16 px (app/services/figures.py's
+// large_text does the same for viser).
+function largeText(layout, size = 16) {
+  const lay = structuredClone(layout);
+  lay.font = { ...(lay.font || {}), size };
+  if (lay.title && typeof lay.title === "object") lay.title = { ...lay.title, font: { ...(lay.title.font || {}), size: size + 4 } };
+  lay.legend = { ...(lay.legend || {}), font: { size } };
+  for (const k of Object.keys(lay)) {
+    if (!/^[xy]axis\d*$/.test(k) || !lay[k]) continue;
+    lay[k] = { ...lay[k], tickfont: { ...(lay[k].tickfont || {}), size } };
+    if (lay[k].title && typeof lay[k].title === "object") {
+      lay[k].title = { ...lay[k].title, font: { ...(lay[k].title.font || {}), size: size + 2 } };
+    }
+  }
+  lay.annotations = (lay.annotations || []).map((a) => ({ ...a, font: { ...(a.font || {}), size: Math.max(size, (a.font && a.font.size) || 0) } }));
+  return lay;
+}
+
+function setProjector(on) {
+  document.body.classList.toggle("projector", on);
+  $("projector").setAttribute("aria-pressed", String(on));
+  localStorage.setItem("hyst-projector", on ? "1" : "");
+  if (state.shown) render($("figure"), state.shown).catch((e) => setMsg("model-msg", e.message));
+}
+
 async function render(el, f, { live = false } = {}) {
   state.shown = f;
-  const layout = fitLayout(f.layout);
+  let layout = fitLayout(f.layout);
+  if (document.body.classList.contains("projector")) layout = largeText(layout);
   const old = el.querySelector(":scope > .quick-plot");
   if (!window.Plotly || live) {
     const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
@@ -887,6 +914,8 @@ async function main() {
   };
   $("join").addEventListener("click", join);
   $("my-name").value = localStorage.getItem("hyst-name") || "";
+  $("projector").addEventListener("click", () => setProjector(!document.body.classList.contains("projector")));
+  if (localStorage.getItem("hyst-projector")) setProjector(true);
   $("my-name").addEventListener("change", () => {
     localStorage.setItem("hyst-name", $("my-name").value.trim());
     if (state.code) listen();  // the teacher's list shows the new name

@@ -51,6 +51,8 @@ __all__ = ["SessionView"]
 
 #: Plot height / width of each view in the floating panel.
 ASPECT = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0, "closed-loop": 0.75}
+#: Plot height / width in projector mode (a 1200 px wide plot fits a 1080 px high screen).
+PROJECTOR_ASPECT = 0.6
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
 
@@ -138,6 +140,11 @@ class SessionView:
         return self.ui.figure_name
 
     @property
+    def projecting(self) -> bool:
+        """Whether the plot is at projector size (asked for, and not on a phone)."""
+        return bool(self.ui.projector.value) and not self.ui.narrow
+
+    @property
     def _preset_names(self) -> dict[str, str]:
         return self.ui.preset_names
 
@@ -152,6 +159,7 @@ class SessionView:
                   ui.duration, ui.samples, ui.kind, ui.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         ui.n_ops.on_update(self._guarded(self._n_changed))
+        ui.projector.on_update(self._guarded(self._projector_changed))
         for dd in ui.view_dropdowns:
             dd.on_update(self._guarded(self._view_chosen))
         ui.digi_step.on_update(self._guarded(self._step_changed))
@@ -214,6 +222,10 @@ class SessionView:
         with self._quiet():
             for dd in self.ui.view_dropdowns:
                 dd.value = event.target.value
+        self.worker.request()
+
+    def _projector_changed(self, event: Any) -> None:
+        self.ui.use_projector(bool(self.ui.projector.value))
         self.worker.request()
 
     def set_narrow(self, narrow: bool) -> None:
@@ -596,9 +608,11 @@ class SessionView:
         aspect = ASPECT.get(name, 0.72)
         # side-by-side panels are stacked: the floating panel is narrow (it leaves the
         # 3D scene in view), a phone's control sheet narrower still
-        fig, bands = F.stack_columns(fig, compact=ui.narrow)
+        fig, bands = self._for_screen(fig)
         if ui.narrow:
             aspect = max(0.9, 0.8 * bands)
+        elif self.projecting:
+            aspect = PROJECTOR_ASPECT
         elif bands > 1:
             aspect = min(1.35, 0.68 * bands)
         ui.plot.aspect = aspect
@@ -614,6 +628,14 @@ class SessionView:
         ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
         self._show_digitized(res)
         ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    def _for_screen(self, fig: F.FigureJSON) -> tuple[F.FigureJSON, int]:
+        """``fig`` shaped for this tab's screen: side-by-side panels stacked (the floating
+        panel, a phone; :func:`~app.services.figures.stack_columns`), its text large in
+        projector mode. Returns the figure and its number of bands."""
+        if self.projecting:  # wide enough for panels side by side, read from afar
+            return F.large_text(fig), 1
+        return F.stack_columns(fig, compact=self.ui.narrow)
 
     def _render_error(self, exc: BaseException) -> None:
         self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
@@ -650,7 +672,7 @@ class SessionView:
             if force or now - self._state_sent >= STATE_REDRAW_S or k == len(tr.sample) - 1:
                 # the loop plot's current state and the digit rows' time line follow
                 fig = F.digitized_figure(res, highlight=k)
-                self.ui.plot.figure = F.stack_columns(fig, compact=self.ui.narrow)[0]
+                self.ui.plot.figure = self._for_screen(fig)[0]
                 self._state_sent, self._shown_state = now, k
 
     def _step_by(self, d: int) -> None:

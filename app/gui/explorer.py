@@ -21,7 +21,7 @@ from ..services.ratelimit import RateLimiter
 from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
 from .controller import SessionView
-from .layout import NARROW_PX
+from .layout import is_narrow
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
@@ -92,7 +92,7 @@ class ExplorerGui:
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0
             if width:
-                view.set_narrow(width < NARROW_PX)
+                view.set_narrow(is_narrow(width, getattr(camera, "image_height", 0) or 0))
 
         client.camera.on_update(on_camera)
         on_camera(client.camera)

@@ -22,8 +22,11 @@ __all__ = [
     "GUI_MAX_SLIDERS",
     "MAX_PARAM_SLIDERS",
     "NARROW_PX",
+    "PANEL_PX",
+    "PROJECTOR_PX",
     "TITLES",
     "Widgets",
+    "is_narrow",
     "numeric_leaves",
     "set_leaf",
     "set_value",
@@ -37,6 +40,25 @@ TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "
           "fit": "Fit", "diagnosis": "Diagnosis"}
 #: Browser widths (CSS px) below which the plot moves into the control sheet.
 NARROW_PX = 700
+#: Width of the floating plot panel, CSS px (leaves the 3D cube in view on a laptop).
+PANEL_PX = 470
+#: The panel's width in projector mode, CSS px (62 % of a 1920 px projector).
+PROJECTOR_PX = 1200
+#: The screen width projector mode is made for, CSS px.
+PROJECTOR_SCREEN_PX = 1920
+#: A canvas this much higher than wide is a phone held upright (or a window as narrow).
+PORTRAIT = 1.15
+
+
+def is_narrow(width: float, height: float) -> bool:
+    """Whether the plot belongs in the control sheet, from the canvas size viser reports.
+
+    viser reports the canvas in device pixels, scaled by its adaptive pixel ratio (0.75 to
+    1 times the screen's): a phone at ratio 3 reports 800-1200 px wide, so the width alone
+    misses it. Its shape does not depend on the ratio: a canvas higher than wide by
+    :data:`PORTRAIT` is a phone held upright, as is one narrower than :data:`NARROW_PX`.
+    """
+    return width < NARROW_PX or height > PORTRAIT * width
 #: Largest number of generic parameter sliders (non-PI models).
 MAX_PARAM_SLIDERS = 80
 
@@ -228,8 +250,12 @@ class Widgets:
         # scene origin, centre of the canvas) in view; on a narrow screen viser docks
         # panels, and the plot is also in the control sheet's "Plot" tab below.
         self.panel = g.add_panel()
-        self.panel.float(x=10, y=10, width=470)
+        self.panel.float(x=10, y=10, width=PANEL_PX)
         with self.panel.add_tab("Plots"):
+            self.projector = g.add_checkbox(
+                "Projector: large plot", False,
+                hint=f"for a screen {PROJECTOR_SCREEN_PX} px wide: the plot "
+                     f"{PROJECTOR_PX} px wide, its text 16 px and larger")
             self._dd_wide = g.add_dropdown("View", tuple(TITLES.values()),
                                            initial_value=TITLES["loop"])
             # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
@@ -267,6 +293,10 @@ class Widgets:
         self.notes_md.content = ""
         self.notes_md = self._notes_narrow if narrow else self._notes_wide
         return True
+
+    def use_projector(self, on: bool) -> None:
+        """The floating plot panel at projector size (``on``) or at its usual width."""
+        self.panel.float(x=10, y=10, width=PROJECTOR_PX if on else PANEL_PX)
 
     @property
     def view_dropdowns(self) -> tuple[Any, Any]:

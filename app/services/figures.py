@@ -37,6 +37,7 @@ __all__ = [
     "digitized_figure",
     "fit_figure",
     "inverse_figure",
+    "large_text",
     "loading_figure",
     "loop_figure",
     "message_figure",
@@ -517,6 +518,26 @@ def closed_loop_figure(res: Result) -> FigureJSON:
     if cl.explanation:  # the page prints meta.notes under the plot
         lay["meta"] = {"notes": [cl.explanation]}
     return FigureJSON(data, lay)
+
+
+def large_text(fig: FigureJSON, size: int = 16) -> FigureJSON:
+    """``fig`` with every text at least ``size`` px (a projector): tick labels, axis titles,
+    legend; the title 4 px larger. The web page does the same in
+    ``static/app.js::largeText``."""
+    lay = json.loads(json.dumps(fig.layout))
+    lay["font"] = {**lay.get("font", {}), "size": size}
+    title = lay.get("title")
+    if isinstance(title, dict):
+        title["font"] = {**title.get("font", {}), "size": size + 4}
+    lay["legend"] = {**lay.get("legend", {}), "font": {"size": size}}
+    for k, ax in lay.items():
+        if k.startswith(("xaxis", "yaxis")) and isinstance(ax, dict):
+            ax["tickfont"] = {**ax.get("tickfont", {}), "size": size}
+            if isinstance(ax.get("title"), dict):
+                ax["title"]["font"] = {**ax["title"].get("font", {}), "size": size + 2}
+    for a in lay.get("annotations", []) or []:
+        a["font"] = {**a.get("font", {}), "size": max(size, a.get("font", {}).get("size", 0))}
+    return FigureJSON(fig.data, lay)
 
 
 def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:

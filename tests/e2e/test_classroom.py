@@ -355,3 +355,68 @@ def test_viser_students_follow_the_class(browser: Any, live_server: dict, shot: 
     assert errors == []
     for ctx in (ctx_v, ctx_w, ctx_t):
         ctx.close()
+
+
+def _plot_width(page: Any, min_width: float, timeout: float = 30_000) -> dict[str, float]:
+    """The widest plotly plot once one is at least ``min_width`` CSS px wide."""
+    page.wait_for_function("""w => [...document.querySelectorAll('.js-plotly-plot')]
+      .some(e => e.getBoundingClientRect().width >= w)""", arg=min_width, timeout=timeout)
+    return page.evaluate("""() => {
+      const ps = [...document.querySelectorAll('.js-plotly-plot')];
+      const best = ps.map(e => [e, e.getBoundingClientRect()])
+        .sort((a, b) => b[1].width - a[1].width)[0];
+      const ticks = [...best[0].querySelectorAll('.xtick text, .ytick text')]
+        .map(t => parseFloat(getComputedStyle(t).fontSize));
+      return {width: best[1].width, right: best[1].right, tick: Math.min(...ticks)};
+    }""")
+
+
+def test_every_screen_viser(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 4 (viser): a phone at device-pixel ratio 2 and 3 shows a plot; on a 1920x1080
+    projector the plot takes >= 60 % of the width with text >= 16 px (on request)."""
+    app = live_server["app"]
+    for dpr in (2, 3):
+        known = set(app.state.gui.views)
+        ctx = browser.new_context(viewport={"width": 390, "height": 844},
+                                  device_scale_factor=dpr, is_mobile=True, has_touch=True)
+        page = ctx.new_page()
+        page.goto(live_server["viser_url"])
+        page.wait_for_selector("text=Session code", timeout=60_000)
+        _new_view(app, known)
+        box = _plot_width(page, 200)
+        assert box["right"] <= 390, box
+        shot(page, f"viser-phone-dpr{dpr}")
+        ctx.close()
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open_viser(browser, live_server["viser_url"], 1920, 1080)
+    view = _new_view(app, known)
+    close = page.locator("[class*='Notification-closeButton']")  # headless "Software WebGL"
+    close.first.wait_for(timeout=10_000)
+    for i in range(close.count()):
+        close.nth(i).click()
+    page.get_by_text("Projector: large plot", exact=True).first.click()
+    box = _plot_width(page, 0.6 * 1920)
+    assert box["tick"] >= 16, box
+    assert view.worker.wait_idle(30)
+    page.wait_for_timeout(500)
+    shot(page, "viser-projector")
+    assert errors == []
+    ctx.close()
+
+
+def test_every_screen_web_projector(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 4 (web): on request, the projector's plot text and help are >= 16 px."""
+    ctx, page, log = _open(browser, live_server["url"], 1920, 1080)
+    page.click("#projector")
+    page.wait_for_function("""() => [...document.querySelectorAll('#figure .xtick text')]
+      .every(t => parseFloat(getComputedStyle(t).fontSize) >= 16)""")
+    box = _plot_width(page, 0.6 * 1920)
+    assert box["tick"] >= 16, box
+    helps = page.evaluate("""() => [...document.querySelectorAll('.help')]
+      .filter(e => e.getClientRects().length).map(e => parseFloat(getComputedStyle(e).fontSize))""")
+    assert helps and min(helps) >= 16, helps
+    shot(page, "web-projector")
+    page.reload()  # the choice is kept
+    page.wait_for_selector("body.projector")
+    _clean(page, log)
+    ctx.close()
