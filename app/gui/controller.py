@@ -649,7 +649,7 @@ class SessionView:
             why = res.messages[0] if res.messages else "choose the Digitized view"
             ui.digi_md.content = f"⚠️ {md_text(why)}"
             ui.digi_step.disabled = True
-            self.cube.hide_marker()
+            self.cube.hide()  # another model: its state graph leaves the scene
             return
         rows = len(d.trace.sample)
         ui.digi_step.disabled = False

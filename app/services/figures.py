@@ -25,7 +25,16 @@ import numpy as np
 
 from core.recordings import Recording
 
-from .simulation import VIEWS, Loading, Result, decimate_index, pi_part
+from .simulation import (
+    FULL_GRAPH_DIGITS,
+    VIEWS,
+    Loading,
+    Result,
+    decimate_index,
+    pi_part,
+    state_text,
+    visited_path,
+)
 
 __all__ = [
     "MAX_POINTS",
@@ -400,7 +409,26 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     cur = "".join(str(int(b)) for b in tr.digits[k][::-1])  # paper notation b_n ... b_1
     data: list[dict[str, Any]] = []
     g = d.graph
-    if g is not None:
+    shown = ""
+    if n > FULL_GRAPH_DIGITS:  # the states the input visited, each named, and its moves
+        states, up, down, first = visited_path(tr.digits)
+        vx, vy = tr.x_b[first], tr.y_b[first]
+        for pairs, color, name in ((up, _BLUE, "rising"), (down, _ORANGE, "falling")):
+            if len(pairs):
+                nan = np.full(len(pairs), np.nan)
+                data.append(_line(
+                    _num(np.column_stack((vx[pairs[:, 0]], vx[pairs[:, 1]], nan)).ravel()),
+                    _num(np.column_stack((vy[pairs[:, 0]], vy[pairs[:, 1]], nan)).ravel()),
+                    f"input {name}", color, xaxis="x", yaxis="y",
+                    line={"color": color, "width": 1.5}, hoverinfo="skip"))
+        names = [state_text(r) for r in states]
+        data.append({"type": "scatter", "mode": "markers+text" if len(names) <= 40
+                     else "markers", "x": _num(vx), "y": _num(vy), "text": names,
+                     "textposition": "top left", "textfont": {"size": 11},
+                     "name": f"{len(names)} visited states", "hovertext": names,
+                     "marker": {"size": 7, "color": _GREY}, "xaxis": "x", "yaxis": "y"})
+        shown = f"; the {len(names)} of {2**n} states the input visited"
+    elif g is not None:
         e = np.concatenate((g.up, g.down))
         nan = np.full(len(e), np.nan)
         ex = np.column_stack((g.x[e[:, 0]], g.x[e[:, 1]], nan)).ravel()
@@ -416,8 +444,9 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                      "name": f"{2**n} states", "marker": {"size": 5 if n > 6 else 7,
                                                           "color": _GREY},
                      "hovertext": g.strings, "xaxis": "x", "yaxis": "y"})
-    data.append(_line(_num(tr.x_b), _num(tr.y_b), "visited states", _BLUE, mode="lines+markers",
-                      xaxis="x", yaxis="y", marker={"size": 5}))
+    if n <= FULL_GRAPH_DIGITS:
+        data.append(_line(_num(tr.x_b), _num(tr.y_b), "visited states", _BLUE,
+                          mode="lines+markers", xaxis="x", yaxis="y", marker={"size": 5}))
     data.append({"type": "scatter", "mode": "markers+text", "x": [float(tr.x_b[k])],
                  "y": [float(tr.y_b[k])], "text": [cur], "textposition": "bottom right",
                  "textfont": {"size": 14, "color": _RED},
@@ -457,7 +486,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     bound = float(d.model.reversal_error_bound())
     lay = _layout(
         f"Digitized PI: n = {n} digits, state {cur} (max |error| "
-        f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g})",
+        f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g}){shown}",
         xaxis={"domain": [0, 0.5], "title": _ax(un, "input", "state X (input)"),
                "anchor": "y"},
         yaxis={"domain": [0.3, 1.0], "title": _ax(un, "output", "state Y (output)"),

@@ -420,3 +420,49 @@ def test_every_screen_web_projector(browser: Any, live_server: dict, shot: Any) 
     page.wait_for_selector("body.projector")
     _clean(page, log)
     ctx.close()
+
+
+def test_digitized_view_beyond_three_digits(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 7: paper 001 Example 1 as a digitized model (7 digits, 128 states) shows the
+    states its input visited, named, on the web page and in viser's 3D scene; switching to
+    the dead-zone model clears viser's scene."""
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"])
+    page.click("#tabs button[data-fig='digitized']")
+    page.wait_for_function("() => document.body.dataset.fig === 'digitized'")
+    page.wait_for_function("() => (document.getElementById('figure')._fullData || [])"
+                           ".some(t => /visited states/.test(t.name))")
+    traces = page.evaluate("""() => document.getElementById('figure')._fullData.map(
+        t => ({name: t.name, n: (t.x || []).length, mode: t.mode, axis: t.xaxis}))""")
+    from app.services import actions
+    d = actions.session_result(_session(app, page), ["digitized"],
+                               app.state.settings).digitized
+    distinct = len(np.unique(d.trace.digits.astype(int), axis=0))
+    assert d.model.n == 7 and distinct < 2 ** 7
+    nodes = next(t for t in traces if t["name"].endswith("visited states"))
+    assert nodes["n"] == distinct and "text" in nodes["mode"], traces
+    plane = [t for t in traces if t["axis"] == "x"]  # the state diagram, not the time rows
+    assert not any(t["n"] >= 2 ** 7 for t in plane), plane
+    shot(page, "web-digitized-7")
+    _clean(page, log)
+    ctx.close()
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    view.ui.view_dd.value = "Digitized states"
+    assert view.worker.wait_idle(30)
+    assert view.cube.points is not None and len(view.cube.points) == distinct
+    page.get_by_role("tab", name="Digitized").first.click()
+    page.wait_for_timeout(1500)
+    shot(page, "viser-digitized-7")
+    page.get_by_role("combobox").first.wait_for()
+    view.session.update(lambda c: c.with_model(actions.preset_doc("paper001-example4")["model"]))
+    deadline = time.monotonic() + 30
+    while view.rendered_version != view.session.version and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert view.worker.wait_idle(30)
+    assert view.cube.points is None, "the 7-digit state graph stayed on the scene"
+    page.wait_for_timeout(1000)
+    shot(page, "viser-digitized-cleared")
+    assert errors == []
+    ctx.close()
