@@ -81,6 +81,10 @@ const TIPS = {
   "teacher-push": "Send the chosen model to every student's page now",
   "teacher-push-mine": "Send the model of this page (as you edited it) to every student now",
   "teacher-refresh": "How many pages are open and the names students gave (never their codes)",
+  "digi-prev": "One state back along the trace",
+  "digi-next": "One state forward along the trace",
+  "digi-play": "Walk through the states the input visits, two per second",
+  "digi-step": "Which state of the trace the diagram shows",
 };
 const GROUP_TIPS = {
   r: (name) => `Threshold ${name}: width of play operator ${name.slice(1)}`,
@@ -439,11 +443,60 @@ async function draw(pending) {
   if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
   else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
   $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
+  showDigiControls(res);
   const notes = (f.layout && f.layout.meta && f.layout.meta.notes) || [];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);
   if (!live) document.body.dataset.settled = String(res.version);
+}
+
+// ---------------------------------------------------------------- digitized step / play
+// The digitized view at one state of its trace: the server draws it (?state=k); Play
+// steps through the trace at 2 states per second.
+const DIGI_PLAY_MS = 500;
+
+function showDigiControls(res) {
+  const n = state.fig === "digitized" ? res.digitized_states : undefined;
+  $("digi-controls").hidden = !n;
+  if (!n) { stopPlay(); return; }
+  const step = $("digi-step");
+  step.max = String(n - 1);
+  if (!state.digiTimer) {  // a freshly drawn figure shows the final state
+    step.value = String(n - 1);
+    state.digiStep = null;
+  }
+  showOutput(step);
+}
+
+async function showState(k) {
+  const step = $("digi-step");
+  k = Math.max(0, Math.min(Number(step.max), k));
+  step.value = String(k);
+  state.digiStep = k;
+  showOutput(step);
+  const res = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/figures?name=digitized&state=${k}`);
+  if (state.fig !== "digitized") return;
+  await render($("figure"), res.figures.digitized);
+  document.body.dataset.digiState = String(k);
+}
+
+function stopPlay() {
+  clearInterval(state.digiTimer);
+  state.digiTimer = null;
+  $("digi-play").textContent = "Play from the start";
+}
+
+function togglePlay() {
+  if (state.digiTimer) { stopPlay(); return; }
+  $("digi-play").textContent = "Stop";
+  let k = 0;
+  const tick = () => {
+    if (k > Number($("digi-step").max) || state.fig !== "digitized") { stopPlay(); return; }
+    showState(k++).catch((e) => { stopPlay(); setMsg("model-msg", e.message); });
+  };
+  tick();
+  state.digiTimer = setInterval(tick, DIGI_PLAY_MS);
 }
 
 // ---------------------------------------------------------------- session
@@ -946,6 +999,11 @@ async function main() {
   $("cancel-job").addEventListener("click", cancelJob);
   $("ps-file").addEventListener("change", onParamSetChosen);
   $("teacher-push").addEventListener("click", teacherPush);
+  const digiStep = (d) => { stopPlay(); showState(Number($("digi-step").value) + d).catch((e) => setMsg("model-msg", e.message)); };
+  $("digi-prev").addEventListener("click", () => digiStep(-1));
+  $("digi-next").addEventListener("click", () => digiStep(1));
+  $("digi-step").addEventListener("input", () => digiStep(0));
+  $("digi-play").addEventListener("click", togglePlay);
   $("teacher-push-mine").addEventListener("click", teacherPush);
   $("teacher-refresh").addEventListener("click", teacherRefresh);
   document.querySelectorAll("#tabs button").forEach((b) => b.addEventListener("click", () => selectFigure(b.dataset.fig)));

@@ -236,6 +236,8 @@ class FiguresOut(BaseModel):
     slopes: list[Number] | None = Field(None, description="classical PI models only")
     max_loop_width: Number | None = None
     invertible: bool | None = None
+    digitized_states: int | None = Field(None, description="rows of the digitized trace "
+                                                           "(when that view was computed)")
     data: dict[str, list[Number]] | None = None
 
 

@@ -348,17 +348,24 @@ def session_result(session: Session, views: Collection[str], settings: Settings)
 
 
 def result_payload(res: Result, names: Collection[str],
-                   include_data: bool = False) -> dict[str, Any]:
-    """The JSON body of ``/api/simulate`` and the session figure endpoints."""
+                   include_data: bool = False, state: int | None = None) -> dict[str, Any]:
+    """The JSON body of ``/api/simulate`` and the session figure endpoints; ``state``
+    highlights that row of the digitized trace (the web page's step and play), and
+    ``digitized_states`` says how many rows it has."""
     m = res.model
+    figs = {n: (F.digitized_figure(res, highlight=state) if n == "digitized" and
+                state is not None and "digitized" in res.views else F.build(n, res)).to_dict()
+            for n in names}
     out: dict[str, Any] = {
         "model_type": m.type_name,
         "n_operators": operator_count(m),
         "inverse_error": res.inverse_error,
-        "figures": {n: F.build(n, res).to_dict() for n in names},
+        "figures": figs,
         "elapsed_ms": res.elapsed_ms,
         "version": res.version,
     }
+    if res.digitized is not None:
+        out["digitized_states"] = len(res.digitized.trace.sample)
     pi = pi_part(m)
     if pi is not None:
         out.update(slopes=pi.slopes.tolist(), max_loop_width=pi.max_loop_width,
@@ -369,10 +376,11 @@ def result_payload(res: Result, names: Collection[str],
 
 
 def session_figures(session: Session, names: Collection[str],
-                    settings: Settings) -> dict[str, Any]:
-    """Figures ``names`` of the session's current config (only their views computed)."""
+                    settings: Settings, state: int | None = None) -> dict[str, Any]:
+    """Figures ``names`` of the session's current config (only their views computed);
+    ``state``: the digitized view at that row of its trace (clipped to the trace)."""
     names = check_figure_names(names)
-    return result_payload(session_result(session, names, settings), names)
+    return result_payload(session_result(session, names, settings), names, state=state)
 
 
 def simulate(config: Config, names: Collection[str], settings: Settings,

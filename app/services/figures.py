@@ -419,7 +419,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                 data.append(_line(
                     _num(np.column_stack((vx[pairs[:, 0]], vx[pairs[:, 1]], nan)).ravel()),
                     _num(np.column_stack((vy[pairs[:, 0]], vy[pairs[:, 1]], nan)).ravel()),
-                    f"input {name}", color, xaxis="x", yaxis="y",
+                    f"input {name}", color, xaxis="x", yaxis="y", showlegend=False,
                     line={"color": color, "width": 1.5}, hoverinfo="skip"))
         names = [state_text(r) for r in states]
         data.append({"type": "scatter", "mode": "markers+text" if len(names) <= 40
@@ -427,7 +427,8 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                      "textposition": "top left", "textfont": {"size": 11},
                      "name": f"{len(names)} visited states", "hovertext": names,
                      "marker": {"size": 7, "color": _GREY}, "xaxis": "x", "yaxis": "y"})
-        shown = f"; the {len(names)} of {2**n} states the input visited"
+        shown = (f"<br>the {len(names)} of {2**n} states the input visited; "
+                 "blue: the input rising, orange: falling")
     elif g is not None:
         e = np.concatenate((g.up, g.down))
         nan = np.full(len(e), np.nan)
@@ -508,7 +509,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                       "font": {"family": "monospace", "size": 10}}],
         legend={"orientation": "h", "x": 0.56, "y": 0.15, "xanchor": "left", "yanchor": "top",
                 "font": {"size": 10}},
-        margin={"l": 55, "r": 15, "t": 40, "b": 10},
+        margin={"l": 55, "r": 15, "t": 62 if shown else 40, "b": 10},
     )
     return FigureJSON(data, lay)
 

@@ -466,3 +466,45 @@ def test_digitized_view_beyond_three_digits(browser: Any, live_server: dict, sho
     shot(page, "viser-digitized-cleared")
     assert errors == []
     ctx.close()
+
+
+def test_web_digitized_step_and_play(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 7 (web): the digitized view can be stepped and played; each step draws the
+    trace's state at that row (its digits in the title, the red marker at its point)."""
+    from app.services import actions
+    from app.services.simulation import state_text
+
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"])
+    page.click("#tabs button[data-fig='digitized']")
+    page.wait_for_function("() => document.body.dataset.fig === 'digitized'")
+    page.wait_for_selector("#digi-controls:not([hidden])", timeout=15_000)
+    tr = actions.session_result(_session(app, page), ["digitized"],
+                                app.state.settings).digitized.trace
+    last = len(tr.sample) - 1
+    assert page.get_attribute("#digi-step", "max") == str(last)
+
+    def shown() -> tuple[str, float, float]:
+        return page.evaluate("""() => { const f = document.getElementById('figure');
+            const c = f._fullData.find(t => t.name === 'current state');
+            return [f._fullLayout.title.text, c.x[0], c.y[0]]; }""")
+
+    for clicks, k in ((1, last - 1), (2, last - 3)):
+        for _ in range(clicks):
+            page.click("#digi-prev")
+        page.wait_for_function("k => document.body.dataset.digiState === String(k)", arg=k)
+        page.wait_for_function("() => !document.getElementById('figure').classList"
+                               ".contains('live')")
+        title, x, y = shown()
+        assert f"state {state_text(tr.digits[k])}" in title, (k, title)
+        assert abs(x - tr.x_b[k]) < 1e-4 and abs(y - tr.y_b[k]) < 1e-4
+    page.click("#digi-play")
+    page.wait_for_function("() => Number(document.body.dataset.digiState) >= 2",
+                           timeout=15_000)
+    assert page.inner_text("#digi-play") == "Stop"
+    page.click("#digi-play")
+    assert page.inner_text("#digi-play") == "Play from the start"
+    page.wait_for_timeout(1000)
+    shot(page, "web-digitized-step")
+    _clean(page, log)
+    ctx.close()
