@@ -22,6 +22,10 @@ from .test_web_journeys import _clean, _listening, _open, _session, _text_has
 #: Option names of the Python reader that a page must never show.
 INTERNAL = ("resample=", "uneven=", "uneven='keep'", "run=", ".resampled()")
 NAN_ROWS = (50, 51, 200)
+DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
+PIEZO = DATA / "piezo" / "piezo_150V_1Hz.csv"  # t_s, u_V, y_um (read as µm)
+#: Words of the code that a page must not show in its results.
+DEV_WORDS = ("core.diagnosis", "rmse", "_pct", "baseline rmse")
 
 
 def _messy_csv(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -97,37 +101,6 @@ def test_uneven_time_stamps_resample_or_keep_web(browser: Any, live_server: dict
     ctx.close()
 
 
-def test_uneven_time_stamps_resample_or_keep_viser(browser: Any, live_server: dict,
-                                                    tmp_path: Path, shot: Any) -> None:
-    """Failure 3 (viser): the upload stops with the choice; its buttons do it."""
-    app = live_server["app"]
-    path = tmp_path / "messy.csv"
-    t_all, t_kept, u_kept = _messy_csv(path)
-    step = float(np.median(np.diff(t_all)))
-    known = set(app.state.gui.views)
-    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
-    view = _new_view(app, known)
-    upload_file(page, view, path, wait=0)
-    button = page.get_by_role("button", name=f"Resample onto even {_ms(step)} steps")
-    button.first.wait_for(timeout=30_000)
-    body = page.inner_text("body")
-    assert "uneven" in body and not any(x in body for x in INTERNAL)
-    assert view.session.recording is None
-    shot(page, "viser-upload-uneven-choice")
-    button.first.click()
-    deadline = time.monotonic() + 30
-    while view.session.recording is None and time.monotonic() < deadline:
-        time.sleep(0.1)
-    rec = view.session.recording
-    assert rec is not None and rec.is_uniform and abs(rec.dt - step) < 1e-12
-    np.testing.assert_allclose(rec.u, np.interp(rec.t, t_kept, u_kept), atol=1e-9)
-    page.wait_for_selector("text=resampled onto an even grid", timeout=30_000)
-    keep = page.get_by_role("button", name="Keep the time stamps as measured")
-    assert not keep.first.is_visible()
-    assert errors == []
-    ctx.close()
-
-
 def _viser_session_folder(page: Any) -> None:
     """Open the viser tab's (collapsed) *Session* folder."""
     if not page.get_by_role("button", name="Join / restore session").first.is_visible():
@@ -148,61 +121,6 @@ def _viser_type(page: Any, label: str, text: str) -> None:
     box = _viser_input(page, label)
     box.fill(text)
     box.press("Enter")
-
-
-def test_teacher_list_shows_counts_and_names_not_codes(browser: Any, live_server: dict,
-                                                       shot: Any) -> None:
-    """Failure 6 (both interfaces) and part of 5: "Who is connected?" shows how many web
-    pages and viser tabs are open and the names students gave, never a session code."""
-    app = live_server["app"]
-    url = live_server["url"]
-    ctx_a, a, log_a = _open(browser, url)
-    a.fill("#my-name", "Ana <b>Lee</b>")
-    a.press("#my-name", "Enter")
-    known = set(app.state.gui.views)
-    ctx_v, v, errors = _open_viser(browser, live_server["viser_url"])
-    view = _new_view(app, known)
-    _viser_session_folder(v)
-    _viser_type(v, "Your name", "Ben")
-    codes = {a.inner_text("#code"), view.session.code}
-    ctx_t, t, log_t = _open(browser, url)
-    deadline = time.monotonic() + 30
-    roster = None
-    while time.monotonic() < deadline:
-        roster = HUB.roster()
-        if {"Ana <b>Lee</b>", "Ben"} <= set(roster.names):
-            break
-        time.sleep(0.2)
-    assert roster is not None and {"Ana <b>Lee</b>", "Ben"} <= set(roster.names), roster
-    t.click("#teacher summary")
-    t.fill("#teacher-token", TEACHER_TOKEN)
-    t.click("#teacher-refresh")
-    _text_has(t, "teacher-msg", "Names:")
-    msg = t.inner_text("#teacher-msg")
-    assert "Ana <b>Lee</b>" in msg and "Ben" in msg, msg  # the name as typed, as text
-    assert "3D / GUI tab" in msg and not any(c in msg for c in codes), msg
-    assert t.locator("#teacher-msg b").count() == 0
-    t.locator("#teacher").scroll_into_view_if_needed()
-    shot(t, "web-teacher-who")
-    # the same list in viser, behind the teacher token
-    _viser_type(v, "Teacher token", TEACHER_TOKEN)
-    v.get_by_role("button", name="Teacher: who is connected?").first.click()
-    v.wait_for_selector("text=Names:", timeout=30_000)
-    body = v.inner_text("body")
-    assert "Ana <b>Lee</b>" in body and v.locator("b:text('Lee')").count() == 0
-    assert not any(c in view.ui.who_md.content for c in codes)
-    shot(v, "viser-teacher-who")
-    for page, log in ((a, log_a), (t, log_t)):
-        _clean(page, log)
-    assert errors == []
-    for ctx in (ctx_a, ctx_v, ctx_t):
-        ctx.close()
-
-
-DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
-PIEZO = DATA / "piezo" / "piezo_150V_1Hz.csv"  # t_s, u_V, y_um (read as µm)
-#: Words of the code that a page must not show in its results.
-DEV_WORDS = ("core.diagnosis", "rmse", "_pct", "baseline rmse")
 
 
 def _gain_one_loop_rms(reference: Any) -> float:
@@ -272,91 +190,6 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
     ctx.close()
 
 
-def test_words_for_people_viser(browser: Any, live_server: dict, shot: Any) -> None:
-    """Failure 8 (viser): hints on the controls, the closed-loop explanation under the
-    plot, the findings in sentences and the before / after view."""
-    app = live_server["app"]
-    known = set(app.state.gui.views)
-    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
-    view = _new_view(app, known)
-    inputs = ("preset", "p0", "n_ops", "json_in", "kind", "amp", "freq", "offset", "duration",
-              "samples", "use_rec", "mismatch", "t_col", "fit_n", "fit_kind", "code_in")
-    missing = [a for a in inputs if not getattr(view.ui, a).hint]
-    assert missing == [], f"inputs without a hint: {missing}"
-    page.get_by_role("tab", name="Data").first.click()
-    _viser_input(page, "Fit operators n").hover()  # viser 1.1 shows hints of inputs only
-    page.wait_for_selector("[role=tooltip]:has-text('number of operators of the fitted model')",
-                           timeout=15_000)
-    view.ui.view_dd.value = "Closed loop"
-    page.wait_for_selector("text=Why does the inverse feedforward do worse", timeout=60_000)
-    upload_file(page, view, PIEZO, wait=60)
-    page.get_by_role("button", name="Run diagnosis").first.click()
-    page.wait_for_selector("text=On the rows the fit never saw", timeout=120_000)
-    body = page.inner_text("body")
-    assert not any(w in body.lower() for w in DEV_WORDS)
-    assert view.worker.wait_idle(60) and view.figure_name == "diagnosis"
-    lay = view.ui.plot.figure.layout
-    titles = [lay[k]["title"]["text"] for k in ("xaxis", "yaxis")]
-    assert titles == ["input u [V]", "output y [µm]"], titles
-    page.wait_for_timeout(800)
-    shot(page, "viser-diagnosis-words")
-    assert errors == []
-    ctx.close()
-
-
-EDITED = {"type": "pi", "p0": 1.11, "thresholds": [0.5, 1.5], "weights": [0.4, 0.3]}
-
-
-def test_viser_students_follow_the_class(browser: Any, live_server: dict, shot: Any) -> None:
-    """Failure 5: a viser tab keeps its session on reload; a push reaches it with a notice;
-    the web teacher pushes the model they edited; a viser push tells web students "a
-    model", not "a new input"."""
-    app = live_server["app"]
-    url = live_server["url"]
-    known = set(app.state.gui.views)
-    ctx_v, v, errors = _open_viser(browser, live_server["viser_url"])
-    view = _new_view(app, known)
-    code = view.session.code
-    known = set(app.state.gui.views)
-    v.reload()
-    v.wait_for_selector("text=Session code", timeout=60_000)
-    view = _new_view(app, known)
-    assert view.session.code == code, "a reload started a new viser session"
-    # the web teacher edits the model and pushes it
-    ctx_w, w, log_w = _open(browser, url)
-    ctx_t, t, log_t = _open(browser, url)
-    t.click("#json-edit summary")
-    t.fill("#model-json", json.dumps(EDITED))
-    t.click("#apply-json")
-    t.wait_for_function("() => document.getElementById('model-json').value.includes('1.11')")
-    _listening(url, w)
-    t.click("#teacher summary")
-    t.fill("#teacher-token", TEACHER_TOKEN)
-    t.click("#teacher-push-mine")
-    _text_has(t, "teacher-msg", "Pushed")
-    w.wait_for_selector("#live-note:not([hidden])", timeout=30_000)
-    assert "pushed a model" in w.inner_text("#live-note")
-    assert _session(app, w).config.model == EDITED
-    assert view.session.config.model == EDITED
-    v.wait_for_selector("text=Your teacher pushed a model", timeout=30_000)
-    shot(v, "viser-push-notice")
-    # a viser teacher pushes its model: web students read "a model"
-    before = w.inner_text("#live-note")
-    _viser_session_folder(v)
-    _viser_type(v, "Teacher token", TEACHER_TOKEN)
-    v.get_by_role("button", name="Teacher: push this model to every session").first.click()
-    w.wait_for_function("b => document.getElementById('live-note').textContent !== b",
-                        arg=before, timeout=30_000)
-    note = w.inner_text("#live-note")
-    assert "pushed a model" in note and "new input" not in note, note
-    shot(w, "web-push-from-viser")
-    for page, log in ((w, log_w), (t, log_t)):
-        _clean(page, log)
-    assert errors == []
-    for ctx in (ctx_v, ctx_w, ctx_t):
-        ctx.close()
-
-
 def _plot_width(page: Any, min_width: float, timeout: float = 30_000) -> dict[str, float]:
     """The widest plotly plot once one is at least ``min_width`` CSS px wide."""
     page.wait_for_function("""w => [...document.querySelectorAll('.js-plotly-plot')]
@@ -369,39 +202,6 @@ def _plot_width(page: Any, min_width: float, timeout: float = 30_000) -> dict[st
         .map(t => parseFloat(getComputedStyle(t).fontSize));
       return {width: best[1].width, right: best[1].right, tick: Math.min(...ticks)};
     }""")
-
-
-def test_every_screen_viser(browser: Any, live_server: dict, shot: Any) -> None:
-    """Failure 4 (viser): a phone at device-pixel ratio 2 and 3 shows a plot; on a 1920x1080
-    projector the plot takes >= 60 % of the width with text >= 16 px (on request)."""
-    app = live_server["app"]
-    for dpr in (2, 3):
-        known = set(app.state.gui.views)
-        ctx = browser.new_context(viewport={"width": 390, "height": 844},
-                                  device_scale_factor=dpr, is_mobile=True, has_touch=True)
-        page = ctx.new_page()
-        page.goto(live_server["viser_url"])
-        page.wait_for_selector("text=Session code", timeout=60_000)
-        _new_view(app, known)
-        box = _plot_width(page, 200)
-        assert box["right"] <= 390, box
-        shot(page, f"viser-phone-dpr{dpr}")
-        ctx.close()
-    known = set(app.state.gui.views)
-    ctx, page, errors = _open_viser(browser, live_server["viser_url"], 1920, 1080)
-    view = _new_view(app, known)
-    close = page.locator("[class*='Notification-closeButton']")  # headless "Software WebGL"
-    close.first.wait_for(timeout=10_000)
-    for i in range(close.count()):
-        close.nth(i).click()
-    page.get_by_text("Projector: large plot", exact=True).first.click()
-    box = _plot_width(page, 0.6 * 1920)
-    assert box["tick"] >= 16, box
-    assert view.worker.wait_idle(30)
-    page.wait_for_timeout(500)
-    shot(page, "viser-projector")
-    assert errors == []
-    ctx.close()
 
 
 def test_every_screen_web_projector(browser: Any, live_server: dict, shot: Any) -> None:
@@ -422,10 +222,15 @@ def test_every_screen_web_projector(browser: Any, live_server: dict, shot: Any) 
     ctx.close()
 
 
-def test_digitized_view_beyond_three_digits(browser: Any, live_server: dict, shot: Any) -> None:
-    """Failure 7: paper 001 Example 1 as a digitized model (7 digits, 128 states) shows the
-    states its input visited, named, on the web page and in viser's 3D scene; switching to
-    the dead-zone model clears viser's scene."""
+def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_server: dict,
+                                                         shot: Any) -> None:
+    """Failure 7 (web): paper 001 Example 1 as a digitized model (7 digits, 128 states)
+    shows the states its input visited, named; the view can be stepped and played, each
+    step drawing the trace's state at that row (its digits in the title, the marker at
+    its point)."""
+    from app.services import actions
+    from app.services.simulation import state_text
+
     app = live_server["app"]
     ctx, page, log = _open(browser, live_server["url"])
     page.click("#tabs button[data-fig='digitized']")
@@ -434,53 +239,17 @@ def test_digitized_view_beyond_three_digits(browser: Any, live_server: dict, sho
                            ".some(t => /visited states/.test(t.name))")
     traces = page.evaluate("""() => document.getElementById('figure')._fullData.map(
         t => ({name: t.name, n: (t.x || []).length, mode: t.mode, axis: t.xaxis}))""")
-    from app.services import actions
     d = actions.session_result(_session(app, page), ["digitized"],
                                app.state.settings).digitized
-    distinct = len(np.unique(d.trace.digits.astype(int), axis=0))
+    tr = d.trace
+    distinct = len(np.unique(tr.digits.astype(int), axis=0))
     assert d.model.n == 7 and distinct < 2 ** 7
     nodes = next(t for t in traces if t["name"].endswith("visited states"))
     assert nodes["n"] == distinct and "text" in nodes["mode"], traces
     plane = [t for t in traces if t["axis"] == "x"]  # the state diagram, not the time rows
     assert not any(t["n"] >= 2 ** 7 for t in plane), plane
     shot(page, "web-digitized-7")
-    _clean(page, log)
-    ctx.close()
-    known = set(app.state.gui.views)
-    ctx, page, errors = _open_viser(browser, live_server["viser_url"])
-    view = _new_view(app, known)
-    view.ui.view_dd.value = "Digitized states"
-    assert view.worker.wait_idle(30)
-    assert view.cube.points is not None and len(view.cube.points) == distinct
-    page.get_by_role("tab", name="Digitized").first.click()
-    page.wait_for_timeout(1500)
-    shot(page, "viser-digitized-7")
-    page.get_by_role("combobox").first.wait_for()
-    view.session.update(lambda c: c.with_model(actions.preset_doc("paper001-example4")["model"]))
-    deadline = time.monotonic() + 30
-    while view.rendered_version != view.session.version and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert view.worker.wait_idle(30)
-    assert view.cube.points is None, "the 7-digit state graph stayed on the scene"
-    page.wait_for_timeout(1000)
-    shot(page, "viser-digitized-cleared")
-    assert errors == []
-    ctx.close()
-
-
-def test_web_digitized_step_and_play(browser: Any, live_server: dict, shot: Any) -> None:
-    """Failure 7 (web): the digitized view can be stepped and played; each step draws the
-    trace's state at that row (its digits in the title, the red marker at its point)."""
-    from app.services import actions
-    from app.services.simulation import state_text
-
-    app = live_server["app"]
-    ctx, page, log = _open(browser, live_server["url"])
-    page.click("#tabs button[data-fig='digitized']")
-    page.wait_for_function("() => document.body.dataset.fig === 'digitized'")
     page.wait_for_selector("#digi-controls:not([hidden])", timeout=15_000)
-    tr = actions.session_result(_session(app, page), ["digitized"],
-                                app.state.settings).digitized.trace
     last = len(tr.sample) - 1
     assert page.get_attribute("#digi-step", "max") == str(last)
 
@@ -493,8 +262,6 @@ def test_web_digitized_step_and_play(browser: Any, live_server: dict, shot: Any)
         for _ in range(clicks):
             page.click("#digi-prev")
         page.wait_for_function("k => document.body.dataset.digiState === String(k)", arg=k)
-        page.wait_for_function("() => !document.getElementById('figure').classList"
-                               ".contains('live')")
         title, x, y = shown()
         assert f"state {state_text(tr.digits[k])}" in title, (k, title)
         assert abs(x - tr.x_b[k]) < 1e-4 and abs(y - tr.y_b[k]) < 1e-4
@@ -504,7 +271,198 @@ def test_web_digitized_step_and_play(browser: Any, live_server: dict, shot: Any)
     assert page.inner_text("#digi-play") == "Stop"
     page.click("#digi-play")
     assert page.inner_text("#digi-play") == "Play from the start"
-    page.wait_for_timeout(1000)
+    page.wait_for_timeout(800)
     shot(page, "web-digitized-step")
     _clean(page, log)
     ctx.close()
+
+
+def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path,
+                            shot: Any) -> None:
+    """One viser tab on a 1920x1080 projector, through failures 8, 7, 3 and 4 (one page,
+    as opening a viser tab costs seconds): hints on the inputs; the closed loop says why
+    the inverse feedforward does worse; a 7-digit digitized view draws the visited states
+    and leaves the scene when the model changes to the dead-zone GPI; an upload with
+    uneven time stamps stops with the choice and its button resamples; a diagnosis in
+    sentences with its before / after view; projector mode makes the plot >= 60 % of the
+    width with text >= 16 px."""
+    from app.services import actions
+
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open_viser(browser, live_server["viser_url"], 1920, 1080)
+    view = _new_view(app, known)
+    # failure 8: hints (viser 1.1 draws them on inputs only)
+    inputs = ("preset", "p0", "n_ops", "json_in", "kind", "amp", "freq", "offset", "duration",
+              "samples", "use_rec", "mismatch", "t_col", "fit_n", "fit_kind", "code_in")
+    missing = [a for a in inputs if not getattr(view.ui, a).hint]
+    assert missing == [], f"inputs without a hint: {missing}"
+    page.get_by_role("tab", name="Data").first.click()
+    _viser_input(page, "Fit operators n").hover()
+    page.wait_for_selector("[role=tooltip]:has-text('number of operators of the fitted model')",
+                           timeout=15_000)
+    view.ui.view_dd.value = "Closed loop"
+    page.wait_for_selector("text=Why does the inverse feedforward do worse", timeout=60_000)
+    # failure 7: Example 1 digitized has 7 digits; the scene shows the visited states
+    view.ui.view_dd.value = "Digitized states"
+    assert view.worker.wait_idle(30)
+    d = view.last_result.digitized
+    distinct = len(np.unique(d.trace.digits.astype(int), axis=0))
+    assert d.model.n == 7 and view.cube.points is not None
+    assert len(view.cube.points) == distinct < 2 ** 7
+    page.get_by_role("tab", name="Digitized").first.click()
+    page.wait_for_timeout(1000)
+    shot(page, "viser-digitized-7")
+    view.session.update(lambda c: c.with_model(actions.preset_doc("paper001-example4")["model"]))
+    deadline = time.monotonic() + 30
+    while view.rendered_version != view.session.version and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert view.worker.wait_idle(30)
+    assert view.cube.points is None, "the 7-digit state graph stayed on the scene"
+    shot(page, "viser-digitized-cleared")
+    # failure 3: uneven time stamps
+    path = tmp_path / "messy.csv"
+    t_all, t_kept, u_kept = _messy_csv(path)
+    step = float(np.median(np.diff(t_all)))
+    upload_file(page, view, path, wait=0)
+    button = page.get_by_role("button", name=f"Resample onto even {_ms(step)} steps")
+    button.first.wait_for(timeout=30_000)
+    body = page.inner_text("body")
+    assert "uneven" in body and not any(x in body for x in INTERNAL)
+    assert view.session.recording is None
+    shot(page, "viser-upload-uneven-choice")
+    button.first.click()
+    deadline = time.monotonic() + 30
+    while view.session.recording is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    rec = view.session.recording
+    assert rec is not None and rec.is_uniform and abs(rec.dt - step) < 1e-12
+    np.testing.assert_allclose(rec.u, np.interp(rec.t, t_kept, u_kept), atol=1e-9)
+    page.wait_for_selector("text=resampled onto an even grid", timeout=30_000)
+    keep = page.get_by_role("button", name="Keep the time stamps as measured")
+    assert not keep.first.is_visible()
+    # failure 8: the diagnosis in sentences, before / after in the plot
+    upload_file(page, view, PIEZO, wait=0)
+    deadline = time.monotonic() + 60
+    while view.session.recording.n_samples != 50001 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    page.get_by_role("button", name="Run diagnosis").first.click()
+    page.wait_for_selector("text=On the rows the fit never saw", timeout=120_000)
+    body = page.inner_text("body")
+    assert not any(w in body.lower() for w in DEV_WORDS)
+    assert view.worker.wait_idle(60) and view.figure_name == "diagnosis"
+    lay = view.ui.plot.figure.layout
+    titles = [lay[k]["title"]["text"] for k in ("xaxis", "yaxis")]
+    assert titles == ["input u [V]", "output y [µm]"], titles
+    shot(page, "viser-diagnosis-words")
+    # failure 4: projector mode
+    close = page.locator("[class*='Notification-closeButton']")  # headless "Software WebGL"
+    for i in range(close.count()):
+        try:  # a toast may close on its own while we reach for it
+            close.nth(i).click(timeout=5_000)
+        except Exception as exc:  # playwright's TimeoutError
+            if type(exc).__name__ != "TimeoutError":
+                raise
+    view.ui.view_dd.value = "Loop"
+    page.get_by_text("Projector: large plot", exact=True).first.click()
+    box = _plot_width(page, 0.6 * 1920)
+    assert box["tick"] >= 16, box
+    page.wait_for_timeout(500)
+    shot(page, "viser-projector")
+    assert errors == []
+    ctx.close()
+
+
+def test_viser_phone_at_pixel_ratio_3(browser: Any, live_server: dict, shot: Any) -> None:
+    """Failure 4 (viser): a phone at device-pixel ratio 3 shows a plot (every ratio and
+    phone size: tests/app/gui/test_screens.py)."""
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx = browser.new_context(viewport={"width": 390, "height": 844},
+                              device_scale_factor=3, is_mobile=True, has_touch=True)
+    page = ctx.new_page()
+    page.goto(live_server["viser_url"])
+    page.wait_for_selector("text=Session code", timeout=60_000)
+    _new_view(app, known)
+    box = _plot_width(page, 200)
+    assert box["right"] <= 390, box
+    shot(page, "viser-phone-dpr3")
+    ctx.close()
+
+
+EDITED = {"type": "pi", "p0": 1.11, "thresholds": [0.5, 1.5], "weights": [0.4, 0.3]}
+
+
+def test_class_with_web_and_viser_students(browser: Any, live_server: dict,
+                                           shot: Any) -> None:
+    """Failures 5 and 6: a viser tab keeps its session on reload; "Who is connected?"
+    shows the counts (web pages and viser tabs) and the names students gave, never a
+    session code, on both interfaces; the web teacher pushes the model they edited and it
+    reaches a viser tab with a notice; a viser push tells web students "a model"."""
+    app = live_server["app"]
+    url = live_server["url"]
+    known = set(app.state.gui.views)
+    ctx_v, v, errors = _open_viser(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    code = view.session.code
+    known = set(app.state.gui.views)
+    v.reload()
+    v.wait_for_selector("text=Session code", timeout=60_000)
+    view = _new_view(app, known)
+    assert view.session.code == code, "a reload started a new viser session"
+    _viser_session_folder(v)
+    _viser_type(v, "Your name", "Ben")
+    ctx_w, w, log_w = _open(browser, url)
+    w.fill("#my-name", "Ana <b>Lee</b>")
+    w.press("#my-name", "Enter")
+    ctx_t, t, log_t = _open(browser, url)
+    codes = {w.inner_text("#code"), view.session.code}
+    deadline = time.monotonic() + 30
+    roster = HUB.roster()
+    while time.monotonic() < deadline and not {"Ana <b>Lee</b>", "Ben"} <= set(roster.names):
+        time.sleep(0.2)
+        roster = HUB.roster()
+    assert {"Ana <b>Lee</b>", "Ben"} <= set(roster.names), roster
+    t.click("#teacher summary")
+    t.fill("#teacher-token", TEACHER_TOKEN)
+    t.click("#teacher-refresh")
+    _text_has(t, "teacher-msg", "Names:")
+    msg = t.inner_text("#teacher-msg")
+    assert "Ana <b>Lee</b>" in msg and "Ben" in msg, msg  # the name as typed, as text
+    assert "1 3D / GUI tab" in msg and not any(c in msg for c in codes), msg
+    assert t.locator("#teacher-msg b").count() == 0
+    t.locator("#teacher").scroll_into_view_if_needed()
+    shot(t, "web-teacher-who")
+    # the web teacher edits the model and pushes it
+    t.click("#json-edit summary")
+    t.fill("#model-json", json.dumps(EDITED))
+    t.click("#apply-json")
+    t.wait_for_function("() => document.getElementById('model-json').value.includes('1.11')")
+    _listening(url, w)
+    t.click("#teacher-push-mine")
+    _text_has(t, "teacher-msg", "Pushed")
+    w.wait_for_selector("#live-note:not([hidden])", timeout=30_000)
+    assert "pushed a model" in w.inner_text("#live-note")
+    assert _session(app, w).config.model == EDITED
+    assert view.session.config.model == EDITED
+    v.wait_for_selector("text=Your teacher pushed a model", timeout=30_000)
+    shot(v, "viser-push-notice")
+    # the viser teacher: who is connected, then a push that web students read as a model
+    _viser_type(v, "Teacher token", TEACHER_TOKEN)
+    v.get_by_role("button", name="Teacher: who is connected?").first.click()
+    v.wait_for_selector("text=Names:", timeout=30_000)
+    assert "Ana <b>Lee</b>" in v.inner_text("body") and v.locator("b:text('Lee')").count() == 0
+    assert not any(c in view.ui.who_md.content for c in codes)
+    shot(v, "viser-teacher-who")
+    before = w.inner_text("#live-note")
+    v.get_by_role("button", name="Teacher: push this model to every session").first.click()
+    w.wait_for_function("b => document.getElementById('live-note').textContent !== b",
+                        arg=before, timeout=30_000)
+    note = w.inner_text("#live-note")
+    assert "pushed a model" in note and "new input" not in note, note
+    shot(w, "web-push-from-viser")
+    for page, log in ((w, log_w), (t, log_t)):
+        _clean(page, log)
+    assert errors == []
+    for ctx in (ctx_v, ctx_w, ctx_t):
+        ctx.close()
