@@ -29,6 +29,7 @@ from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
 from ..services.events import HUB
+from ..services.jobs import JobCancelled
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
@@ -53,6 +54,8 @@ __all__ = ["SessionView"]
 ASPECT = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0, "closed-loop": 0.75}
 #: Plot height / width in projector mode (a 1200 px wide plot fits a 1080 px high screen).
 PROJECTOR_ASPECT = 0.6
+#: Shortest interval between two progress updates of a running diagnosis, s.
+PROGRESS_S = 0.3
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
 
@@ -114,6 +117,7 @@ class SessionView:
         self._syncing = threading.local()
         self._lock = threading.RLock()
         self._work_lock = threading.Lock()
+        self._cancel = threading.Event()  # set by Cancel: the running diagnosis stops
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
         self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
@@ -180,6 +184,7 @@ class SessionView:
         ui.timing_keep.on_click(self._guarded(lambda ev: self._load_csv("keep")))
         ui.fit_btn.on_click(self._guarded(self._fit_clicked))
         ui.diag_btn.on_click(self._guarded(self._diagnose_clicked))
+        ui.cancel_btn.on_click(self._guarded(lambda ev: self._cancel.set()))
         ui.report_btn.on_click(self._guarded(self._report_clicked))
         ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
@@ -519,11 +524,36 @@ class SessionView:
         )
 
     def _diagnose_clicked(self, event: Any) -> None:
+        """Run the diagnosis with its progress under the buttons and a Cancel button (the
+        diagnosis stops at its next progress report; nothing is stored)."""
+        ui = self.ui
         if self.session.recording is None:
-            self.ui.report_md.content = "⚠️ upload a recording first"
+            ui.report_md.content = "⚠️ upload a recording first"
             return
-        with self._busy("diagnosing (10–40 s for a long recording)"):
-            rep = actions.diagnose(self.session)
+        self._cancel.clear()
+        shown = [0.0]
+
+        def progress(fraction: float, message: str = "") -> None:
+            if self._cancel.is_set():
+                raise JobCancelled
+            now = time.monotonic()
+            if now - shown[0] >= PROGRESS_S:  # each update is a websocket message
+                shown[0] = now
+                ui.job_bar.value = float(100 * min(1.0, max(0.0, fraction)))
+                ui.report_md.content = (f"⏳ **diagnosing… {100 * fraction:.0f} %**"
+                                        + (f" ({md_text(message)})" if message else ""))
+
+        ui.job_bar.value = 0.0
+        ui.job_bar.visible = ui.cancel_btn.visible = True
+        try:
+            with self._busy("diagnosing (10–40 s for a long recording)"):
+                try:
+                    rep = actions.diagnose(self.session, progress)
+                except JobCancelled:
+                    ui.report_md.content = "Diagnosis cancelled: nothing was changed."
+                    return
+        finally:
+            ui.job_bar.visible = ui.cancel_btn.visible = False
         self.ui.report_md.content = diagnosis_markdown(rep)
         self.ui.report_btn.disabled = False
         self.ui.view_dd.value = TITLES["diagnosis"]  # before and after, in the plot

@@ -236,6 +236,9 @@ class Widgets:
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")
+            # a running diagnosis: how far it is, and how to stop it
+            self.job_bar = g.add_progress_bar(0.0, visible=False, animated=True)
+            self.cancel_btn = g.add_button("Cancel the diagnosis", visible=False, color="red")
             self.report_btn = g.add_button("Download diagnosis report (HTML)", disabled=True)
             self.report_md = g.add_markdown("")
         with tabs.add_tab("Export"):

@@ -277,15 +277,15 @@ def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_serv
     ctx.close()
 
 
-def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path,
-                            shot: Any) -> None:
+def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, shot: Any,
+                            slow_diagnosis: None, monkeypatch: Any) -> None:
     """One viser tab on a 1920x1080 projector, through failures 8, 7, 3 and 4 (one page,
     as opening a viser tab costs seconds): hints on the inputs; the closed loop says why
     the inverse feedforward does worse; a 7-digit digitized view draws the visited states
     and leaves the scene when the model changes to the dead-zone GPI; an upload with
-    uneven time stamps stops with the choice and its button resamples; a diagnosis in
-    sentences with its before / after view; projector mode makes the plot >= 60 % of the
-    width with text >= 16 px."""
+    uneven time stamps stops with the choice and its button resamples; a diagnosis shows
+    its progress and can be cancelled (failure 5), then runs in sentences with its before /
+    after view; projector mode makes the plot >= 60 % of the width with text >= 16 px."""
     from app.services import actions
 
     app = live_server["app"]
@@ -346,6 +346,14 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path,
     deadline = time.monotonic() + 60
     while view.session.recording.n_samples != 50001 and time.monotonic() < deadline:
         time.sleep(0.1)
+    page.get_by_role("button", name="Run diagnosis").first.click()
+    cancel = page.get_by_role("button", name="Cancel the diagnosis").first
+    cancel.wait_for(timeout=30_000)
+    page.wait_for_selector("text=diagnosing…", timeout=30_000)
+    cancel.click()
+    page.wait_for_selector("text=Diagnosis cancelled", timeout=30_000)
+    assert view.session.diagnosis is None and not cancel.is_visible()
+    monkeypatch.undo()  # the real, fast diagnosis from here on
     page.get_by_role("button", name="Run diagnosis").first.click()
     page.wait_for_selector("text=On the rows the fit never saw", timeout=120_000)
     body = page.inner_text("body")
