@@ -169,9 +169,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             detail["uneven"] = exc.timing.to_dict()
         return JSONResponse(status_code=422, content={"detail": detail})
 
-    from .routers import data, export, jobs, meta, sessions, simulate
+    from .routers import controls, data, export, jobs, meta, sessions, simulate
 
-    for mod in (meta, simulate, sessions, data, jobs, export):
+    for mod in (meta, simulate, controls, sessions, data, jobs, export):
         app.include_router(mod.router)
     app.include_router(meta.vendor_router)
     from .routers.events import router as events_router  # live pushes (SSE), teacher

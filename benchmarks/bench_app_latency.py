@@ -130,7 +130,7 @@ def make_gui():  # noqa: ANN201 - returns a closure
     view.worker.wait_idle(60)
 
     def gui(c: Config) -> int:
-        view.ui.w_sliders[3].value = c.model["weights"][3]
+        view.ui.param_sliders["weights[3]"].value = c.model["weights"][3]
         view.worker.wait_idle(60)
         assert view.rendered_version == view.session.version
         return len(view.ui.plot.figure.to_json())

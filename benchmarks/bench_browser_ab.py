@@ -90,11 +90,11 @@ def main(argv: list[str] | None = None) -> int:
                 page.wait_for_selector("body[data-ready]")
                 assert page.evaluate(bb._CONFIG_JS, cfg) == 200
                 page.reload()
-                page.wait_for_selector("#p-p3")
+                page.wait_for_selector(bb.P3, state="attached")
                 page.wait_for_selector("body[data-ready]")
                 page.wait_for_selector("#figure .main-svg")
                 pages.append(page)
-            w3 = float(pages[0].input_value("#p-p3"))
+            w3 = float(pages[0].input_value(bb.P3))
             for view in views:
                 for page in pages:
                     page.click(f"#tabs button[data-fig='{view}']")
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                 for k in range(args.repeat + 2):
                     value = round(w3 + (0.01 if k % 2 == 0 else 0.0), 3)
                     for i in ((0, 1) if k % 2 == 0 else (1, 0)):
-                        ms = pages[i].evaluate(bb._STEP_JS, ["p-p3", value])
+                        ms = pages[i].evaluate(bb._STEP_JS, [bb.P3, value])
                         if k >= 2:  # the first two steps warm plotly's path for this view
                             got[i].append(ms)
                 times[view] = got

@@ -44,9 +44,13 @@ VIEWS = ("loop", "time", "operators", "inverse", "digitized", "closed-loop")
 TARGETS = {v: (50.0, 100.0) for v in VIEWS} | {"closed-loop": (150.0, 150.0)}
 N_SAMPLES, N_OPS = 4000, 25
 
+#: The slider the steps move: weight p3, found by the label the user sees (the page's ids
+#: changed when its sliders came to be built from the model's description).
+P3 = "input[aria-label='p3']"
+
 _STEP_JS = """
-async ([id, value]) => {
-  const el = document.getElementById(id);
+async ([selector, value]) => {
+  const el = document.querySelector(selector);
   const v0 = document.body.dataset.ready;
   const t0 = performance.now();
   el.value = String(value);
@@ -158,10 +162,10 @@ def main(argv: list[str] | None = None) -> int:
         page.wait_for_selector("body[data-ready]")
         assert page.evaluate(_CONFIG_JS, cfg) == 200
         page.reload()
-        page.wait_for_selector("#p-p3")
+        page.wait_for_selector(P3, state="attached")
         page.wait_for_selector("body[data-ready]")
         page.wait_for_selector("#figure .main-svg")  # time plotly's redraws
-        w3 = float(page.input_value("#p-p3"))
+        w3 = float(page.input_value(P3))
         for view in VIEWS:
             page.click(f"#tabs button[data-fig='{view}']")
             page.wait_for_function("f => document.body.dataset.fig === f", arg=view)
@@ -169,14 +173,14 @@ def main(argv: list[str] | None = None) -> int:
             times = []
             for k in range(args.repeat + 2):
                 value = round(w3 + (0.01 if k % 2 == 0 else 0.0), 3)
-                ms = page.evaluate(_STEP_JS, ["p-p3", value])
+                ms = page.evaluate(_STEP_JS, [P3, value])
                 if k >= 2:  # the first two steps warm plotly's code path for this view
                     times.append(ms)
             # plotly's own redraw once the slider rests (the page reports its duration)
             settle = [float("nan")]
             split = page.evaluate("() => 'settled' in document.body.dataset")
             for k in range(3 if split else 0):
-                page.evaluate(_STEP_JS, ["p-p3", round(w3 + 0.005 * (k + 1), 3)])
+                page.evaluate(_STEP_JS, [P3, round(w3 + 0.005 * (k + 1), 3)])
                 page.wait_for_function(
                     "() => document.body.dataset.settled === document.body.dataset.ready")
                 settle.append(float(page.get_attribute("body", "data-plotly-ms") or "nan"))

@@ -22,7 +22,9 @@ from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_input_signal
 
 __all__ = [
+    "UNITS",
     "Chain",
+    "Control",
     "Field",
     "Model",
     "Response",
@@ -37,6 +39,66 @@ _REGISTRY: dict[str, type[Model]] = {}
 
 #: Kinds of a model field in its JSON form.
 FieldKind = Literal["number", "numbers", "matrix", "model", "models", "any"]
+
+
+#: Units a control may declare: the model's input and output units (those of the parameter
+#: set), their ratio and inverse, seconds, hertz, seconds to the power of a polynomial
+#: term (transfer-function coefficients), and ``"1"`` for a pure number.
+UNITS = ("input", "output", "output/input", "1/input", "s", "Hz", "s^k", "1")
+
+
+@dataclass(frozen=True)
+class Control:
+    """How the explorer shows and limits one number of a model field (a slider).
+
+    Declared on a :class:`Field` (``control=`` for every element, ``elements=`` one per
+    element of a fixed-length vector); the explorer's sliders on both interfaces are built
+    from these (:mod:`app.services.controls`), so a new model type gets its sliders by
+    declaring them here.
+
+    Attributes
+    ----------
+    label : str
+        What the user sees. For a vector or matrix, a pattern with ``{i}`` (and ``{j}``):
+        the element number as the user counts it (see :attr:`Field.index_base` and
+        :attr:`Field.index_zero`), e.g. ``"r{i}"`` gives ``r1, r2, ...``.
+    unit : str
+        One of :data:`UNITS`.
+    range : tuple of float
+        Slider range ``(lo, hi)``. With ``relative`` it is in multiples of the field's
+        *scale*: a round number (1, 2 or 5 times a power of ten) just above the largest
+        magnitude among the values that share it (see :attr:`Field.scale_with`), so the range
+        follows the parameter set's size, not the value under the thumb; otherwise absolute.
+    step : float
+        Slider step, relative to the scale like ``range`` (rounded to a power of ten).
+    relative : bool
+        Whether ``range`` and ``step`` scale with the values (see ``range``).
+    lower, upper : float, optional
+        Hard limits of a valid value; a slider value past one is clamped to it.
+    strict : bool
+        The hard limits are exclusive (``> lower``): the clamp keeps one step inside.
+    scale : float
+        Scale used when every value that sets it is zero.
+    scale_index : int, optional
+        For ``elements``: take the scale from this element (a3 follows a0).
+    integer : bool
+        Whole numbers only.
+    count_of : str, optional
+        The upper end of the range is the length of this field (a 1-based index).
+    """
+
+    label: str
+    unit: str
+    range: tuple[float, float]
+    step: float = 0.001
+    relative: bool = True
+    lower: float | None = None
+    upper: float | None = None
+    strict: bool = False
+    scale: float = 1.0
+    scale_index: int | None = None
+    integer: bool = False
+    count_of: str | None = None
 
 
 @dataclass(frozen=True)
@@ -60,6 +122,25 @@ class Field:
         Value that :meth:`Model.to_dict` omits for an optional field (``None`` always is).
     doc : str
         One line for users, with units (shown by the explorer and in error messages).
+    title : str
+        Heading of the field's group of sliders (``"Thresholds r_i"``).
+    control : Control, optional
+        The slider of every number of a ``number``/``numbers``/``matrix`` field.
+    elements : tuple of Control
+        One control per element of a fixed-length vector instead (``a0..a3``).
+    increasing : bool
+        The values must increase strictly: a slider stays between its neighbours.
+    fixed : tuple of float
+        Elements holding one of these values are constants, shown but not moved
+        (the dead-zone map's ``rho_0 = 0``).
+    index_base : int
+        Number shown for the first element in the label (1: ``r1``; 0: ``a0``).
+    index_zero : str, optional
+        Number the elements from the position of the ``0`` in this field instead
+        (``rho_-11 .. rho_0 .. rho_11``).
+    scale_with : tuple of str
+        Other fields of the same model whose values share this field's scale
+        (``p0`` and the weights ``p_i``).
     """
 
     name: str
@@ -67,6 +148,25 @@ class Field:
     optional: bool = False
     default: Any = None
     doc: str = ""
+    title: str = ""
+    control: Control | None = None
+    elements: tuple[Control, ...] = ()
+    increasing: bool = False
+    fixed: tuple[float, ...] = ()
+    index_base: int = 1
+    index_zero: str | None = None
+    scale_with: tuple[str, ...] = ()
+
+    @property
+    def numeric(self) -> bool:
+        """Whether the field holds numbers (and so has sliders)."""
+        return self.kind in ("number", "numbers", "matrix")
+
+    def control_at(self, k: int) -> Control | None:
+        """The control of element ``k`` (``elements[k]`` or ``control``)."""
+        if self.elements:
+            return self.elements[k] if k < len(self.elements) else None
+        return self.control
 
 
 def register_model(cls: type[Model]) -> type[Model]:

@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Field, Model, register_model
+from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .operators import dead_zone
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
@@ -76,8 +76,11 @@ class DeadZoneMap(Model):
 
     type_name: ClassVar[str] = "deadzone"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("thresholds", "numbers", doc="dead-zone thresholds (output units), with 0"),
-        Field("weights", "numbers", doc="dead-zone weights"),
+        Field("thresholds", "numbers", doc="dead-zone thresholds (output units), with 0",
+              title="Dead-zone thresholds ρ_j", increasing=True, fixed=(0.0,),
+              index_zero="thresholds", control=Control("ρ{i}", "input", (-1.25, 1.25))),
+        Field("weights", "numbers", doc="dead-zone weights", title="Dead-zone weights η_j",
+              index_zero="thresholds", control=Control("η{i}", "output/input", (-1.0, 1.5))),
     )
     thresholds: Float1D
     weights: Float1D

@@ -66,7 +66,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Field, Model, register_model
+from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import njit
 from .pi import PIModel
@@ -82,6 +82,7 @@ __all__ = [
     "digit_string",
     "digits_from_code",
     "digits_to_code",
+    "step_fields",
 ]
 
 #: Largest number of digits for which :meth:`DigitizedPI.state_graph` lists all 2**n states.
@@ -412,6 +413,22 @@ def digitized_pi_kernel(
 
 
 # ----------------------------------------------------------------------------- model
+def step_fields(what: str) -> tuple[Field, ...]:
+    """The fields ``dx, dy, x0, y0`` of a staircase of ``what`` (digits, segments)."""
+    return (
+        Field("dx", "numbers", doc=f"{what} widths in x (input units)",
+              title=f"{what.capitalize()} widths Δx_i",
+              control=Control("Δx{i}", "input", (0.0, 1.25), lower=0.0, strict=True)),
+        Field("dy", "numbers", doc=f"{what} heights in y (output units)",
+              title=f"{what.capitalize()} heights Δy_i",
+              control=Control("Δy{i}", "output", (-0.5, 1.25))),
+        Field("x0", "number", optional=True, doc="origin x", title="Origin x0",
+              control=Control("x0", "input", (-1.25, 1.25)), scale_with=("dx",)),
+        Field("y0", "number", optional=True, doc="origin y", title="Origin y0",
+              control=Control("y0", "output", (-1.25, 1.25)), scale_with=("dy",)),
+    )
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
 class DigitizedPI(Model):
@@ -440,10 +457,7 @@ class DigitizedPI(Model):
     type_name: ClassVar[str] = "digitized"
     estimator: ClassVar[str | None] = "core.fitting:DigitizedPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("dx", "numbers", doc="digit widths in x (input units)"),
-        Field("dy", "numbers", doc="digit heights in y (output units)"),
-        Field("x0", "number", optional=True, doc="origin x"),
-        Field("y0", "number", optional=True, doc="origin y"),
+        *step_fields("digit"),
         Field("state0", "any", optional=True, doc="initial digits (a 0/1 string or list)"),
     )
     dx: Float1D

@@ -29,8 +29,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import Chain, Field, Model, Response, model_from_dict, register_model
-from .digitized import DigitizedPI
+from .base import Chain, Control, Field, Model, Response, model_from_dict, register_model
+from .digitized import DigitizedPI, step_fields
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import njit
 from .pi import PIModel
@@ -139,11 +139,11 @@ class DigitizedDeadZone(Model):
 
     type_name: ClassVar[str] = "digitized-deadzone"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("dx", "numbers", doc="segment widths (input units)"),
-        Field("dy", "numbers", doc="segment heights (output units)"),
-        Field("x0", "number", optional=True, doc="origin x"),
-        Field("y0", "number", optional=True, doc="origin y"),
-        Field("state0", "number", optional=True, doc="initial segment (1-based)"),
+        *step_fields("segment"),
+        Field("state0", "number", optional=True, doc="initial segment (1-based)",
+              title="Initial segment", control=Control("initial segment", "1", (1.0, 1.0),
+                                                       step=1.0, relative=False, lower=1.0,
+                                                       integer=True, count_of="dx")),
     )
     dx: Float1D
     dy: Float1D

@@ -53,7 +53,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D
-from .base import SAMPLE_BYTES, Chain, Field, Model, RunCost, register_model
+from .base import SAMPLE_BYTES, Chain, Control, Field, Model, RunCost, register_model
 from .exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from .pi import PIModel
 from .preisach import PreisachModel
@@ -325,7 +325,10 @@ class Lag(_LinearStage):
     """
 
     type_name: ClassVar[str] = "lag"
-    fields: ClassVar[tuple[Field, ...]] = (Field("tau_s", "number", doc="time constant (s)"),)
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("tau_s", "number", doc="time constant (s)", title="Time constant τ",
+              control=Control("τ", "s", (0.0, 2.0), lower=0.0, strict=True, scale=1e-3)),
+    )
     tau_s: float
 
     def __post_init__(self) -> None:
@@ -367,7 +370,9 @@ class LagInverse(Model):
     type_name: ClassVar[str] = "lag-inverse"
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("tau_s", "number", doc="time constant of the inverted lag (s)"),
+        Field("tau_s", "number", doc="time constant of the inverted lag (s)",
+              title="Time constant τ",
+              control=Control("τ", "s", (0.0, 2.0), lower=0.0, strict=True, scale=1e-3)),
     )
     tau_s: float
 
@@ -403,8 +408,11 @@ class Resonance(_LinearStage):
 
     type_name: ClassVar[str] = "resonance"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("freq_hz", "number", doc="natural frequency (Hz)"),
-        Field("damping", "number", doc="damping ratio"),
+        Field("freq_hz", "number", doc="natural frequency (Hz)", title="Natural frequency f_n",
+              control=Control("f_n", "Hz", (0.0, 2.0), lower=0.0, strict=True, scale=100.0)),
+        Field("damping", "number", doc="damping ratio", title="Damping ratio ζ",
+              control=Control("ζ", "1", (0.0, 1.5), step=0.001, relative=False, lower=0.0,
+                              strict=True)),
     )
     freq_hz: float
     damping: float
@@ -462,9 +470,17 @@ class ResonanceInverse(_LinearStage):
 
     type_name: ClassVar[str] = "resonance-inverse"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("freq_hz", "number", doc="natural frequency of the inverted mode (Hz)"),
-        Field("damping", "number", doc="damping ratio of the inverted mode"),
-        Field("bandwidth_hz", "number", doc="roll-off (triple pole) frequency (Hz)"),
+        Field("freq_hz", "number", doc="natural frequency of the inverted mode (Hz)",
+              title="Natural frequency f_n", scale_with=("bandwidth_hz",),
+              control=Control("f_n", "Hz", (0.0, 1.5), lower=0.0, strict=True, scale=100.0)),
+        Field("damping", "number", doc="damping ratio of the inverted mode",
+              title="Damping ratio ζ",
+              control=Control("ζ", "1", (0.0, 1.5), step=0.001, relative=False, lower=0.0,
+                              strict=True)),
+        Field("bandwidth_hz", "number", doc="roll-off (triple pole) frequency (Hz)",
+              title="Roll-off frequency", scale_with=("freq_hz",),
+              control=Control("f_roll", "Hz", (0.0, 1.5), lower=0.0, strict=True,
+                              scale=100.0)),
     )
     freq_hz: float
     damping: float
@@ -524,7 +540,10 @@ class Delay(Model):
 
     type_name: ClassVar[str] = "delay"
     needs_dt: ClassVar[bool] = True
-    fields: ClassVar[tuple[Field, ...]] = (Field("delay_s", "number", doc="delay (s)"),)
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("delay_s", "number", doc="delay (s)", title="Delay τ_d",
+              control=Control("τ_d", "s", (0.0, 2.0), lower=0.0, scale=1e-3)),
+    )
     delay_s: float
 
     def __post_init__(self) -> None:
@@ -591,7 +610,8 @@ class Advance(Model):
     type_name: ClassVar[str] = "advance"
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("delay_s", "number", doc="delay being compensated (s)"),
+        Field("delay_s", "number", doc="delay being compensated (s)", title="Delay τ_d",
+              control=Control("τ_d", "s", (0.0, 2.0), lower=0.0, scale=1e-3)),
     )
     delay_s: float
 
@@ -652,8 +672,12 @@ class Creep(Model):
     type_name: ClassVar[str] = "creep"
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("taus_s", "numbers", doc="lag time constants (s), increasing"),
-        Field("weights", "numbers", doc="creep weight of each lag (fraction of a step)"),
+        Field("taus_s", "numbers", doc="lag time constants (s), increasing",
+              title="Creep time constants τ_j", increasing=True,
+              control=Control("τ{i}", "s", (0.0, 1.25), lower=0.0, strict=True)),
+        Field("weights", "numbers", doc="creep weight of each lag (fraction of a step)",
+              title="Creep weights c_j",
+              control=Control("c{i}", "1", (0.0, 2.0), lower=0.0, scale=0.01)),
     )
     taus_s: Float1D
     weights: Float1D
@@ -801,9 +825,12 @@ class Drift(Model):
     type_name: ClassVar[str] = "drift"
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("coefficients", "numbers", doc="Legendre coefficients a_1..a_m (output units)"),
-        Field("span_s", "number", doc="time span of the drift (s)"),
-        Field("start_s", "number", optional=True, default=0.0,
+        Field("coefficients", "numbers", doc="Legendre coefficients a_1..a_m (output units)",
+              title="Drift coefficients a_k", control=Control("a{i}", "output", (-2.0, 2.0))),
+        Field("span_s", "number", doc="time span of the drift (s)", title="Drift span T",
+              control=Control("T", "s", (0.0, 2.0), lower=0.0, strict=True)),
+        Field("start_s", "number", optional=True, default=0.0, title="Start time t0",
+              scale_with=("span_s",), control=Control("t0", "s", (-1.0, 1.0)),
               doc="time of the first sample (s)"),
     )
     coefficients: Float1D
@@ -866,9 +893,14 @@ class Asymmetry(Model):
 
     type_name: ClassVar[str] = "asymmetry"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("coefficients", "numbers", doc="a_2, a_3, ... (output units)"),
-        Field("center", "number", doc="centre of the map (output units)"),
-        Field("scale", "number", doc="half-range of the map (output units)"),
+        Field("coefficients", "numbers", doc="a_2, a_3, ... (output units)",
+              title="Bend coefficients a_k", index_base=2, scale_with=("scale",),
+              control=Control("a{i}", "output", (-0.25, 0.25))),
+        Field("center", "number", doc="centre of the map (output units)", title="Centre c",
+              scale_with=("scale",), control=Control("c", "output", (-1.0, 1.0))),
+        Field("scale", "number", doc="half-range of the map (output units)",
+              title="Half-range s",
+              control=Control("s", "output", (0.0, 2.0), lower=0.0, strict=True)),
     )
     coefficients: Float1D
     center: float
@@ -1024,7 +1056,10 @@ class Offset(Model):
     """
 
     type_name: ClassVar[str] = "offset"
-    fields: ClassVar[tuple[Field, ...]] = (Field("offset", "number", doc="offset (output units)"),)
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("offset", "number", doc="offset (output units)", title="Offset c",
+              control=Control("c", "output", (-2.0, 2.0))),
+    )
     offset: float
 
     def __post_init__(self) -> None:
@@ -1185,11 +1220,11 @@ class RateDependentPI(Model):
     type_name: ClassVar[str] = "rate"
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("p0", "number", doc="weight of the reversible term"),
-        Field("thresholds", "numbers", doc="static play thresholds (input units)"),
-        Field("weights", "numbers", doc="play weights"),
-        Field("beta_s", "number", doc="threshold increase per unit input rate (s)"),
-        Field("state0", "numbers", optional=True, doc="play outputs before the first sample"),
+        *PIModel.fields[:3],  # p0, the static thresholds r_i and the weights p_i
+        Field("beta_s", "number", doc="threshold increase per unit input rate (s)",
+              title="Rate sensitivity β",
+              control=Control("β", "s", (0.0, 2.0), lower=0.0, scale=1e-4)),
+        PIModel.fields[3],  # state0
     )
     p0: float
     thresholds: Float1D
@@ -1345,7 +1380,8 @@ class InitialMemory(Model):
 
     type_name: ClassVar[str] = "initial-memory"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("history", "numbers", doc="virtual input extrema before the record"),
+        Field("history", "numbers", doc="virtual input extrema before the record",
+              title="Input history u_k", control=Control("u{i}", "input", (-1.25, 1.25))),
         Field("model", "model", doc="the hysteresis model ('pi', 'rate' or 'preisach')"),
     )
     model: Model

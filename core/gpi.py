@@ -56,7 +56,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._typing import ArrayLike, Float1D
-from .base import Chain, Field, Model, model_from_dict, register_model
+from .base import Chain, Control, Field, Model, model_from_dict, register_model
 from .deadzone import DeadZoneMap
 from .exceptions import ClippedInputWarning, ParameterError
 from .pi import PIModel
@@ -113,6 +113,33 @@ def _caller_stacklevel() -> int:
         frame = frame.f_back
         level += 1
     return level
+
+
+def _envelope_controls(c: str) -> tuple[Control, ...]:
+    """Sliders of one tanh branch ``c0 tanh(c1 v + c2) + c3``: amplitude, gain, phase, offset."""
+    return (
+        Control(f"{c}0", "output", (0.0, 1.5), lower=0.0, strict=True),
+        Control(f"{c}1", "1/input", (0.0, 1.5), lower=0.0, strict=True),
+        Control(f"{c}2", "1", (-2.0, 2.0), step=0.01, relative=False),
+        Control(f"{c}3", "output", (-1.0, 1.0), scale_index=0),
+    )
+
+
+#: The initial direction of a tanh envelope: -1 (falling branch) or +1 (rising branch).
+_DIRECTION_CONTROL = Control("initial direction", "1", (-1.0, 1.0), step=2.0, relative=False,
+                            integer=True)
+
+
+#: The fields of a tanh envelope and of its inverse (which is given the forward constants).
+ENVELOPE_FIELDS: tuple[Field, ...] = (
+        Field("a", "numbers", doc="rising-branch envelope c0..c3", title="Rising branch a0..a3",
+              elements=_envelope_controls("a"), index_base=0, scale_with=("b",)),
+        Field("b", "numbers", doc="falling-branch envelope c0..c3",
+              title="Falling branch b0..b3", elements=_envelope_controls("b"), index_base=0,
+              scale_with=("a",)),
+        Field("direction0", "number", optional=True, doc="initial direction (+1 or -1)",
+              title="Initial direction", control=_DIRECTION_CONTROL),
+)
 
 
 def _direction0(d: object) -> int:
@@ -191,11 +218,7 @@ class TanhEnvelope(Model):
     """
 
     type_name: ClassVar[str] = "tanh-envelope"
-    fields: ClassVar[tuple[Field, ...]] = (
-        Field("a", "numbers", doc="rising-branch envelope c0..c3"),
-        Field("b", "numbers", doc="falling-branch envelope c0..c3"),
-        Field("direction0", "number", optional=True, doc="initial direction (+1 or -1)"),
-    )
+    fields: ClassVar[tuple[Field, ...]] = ENVELOPE_FIELDS
     a: Float1D
     b: Float1D
     direction0: int = 1
@@ -273,10 +296,11 @@ class TanhEnvelopeInverse(Model):
 
     type_name: ClassVar[str] = "tanh-envelope-inverse"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("a", "numbers", doc="rising-branch envelope c0..c3"),
-        Field("b", "numbers", doc="falling-branch envelope c0..c3"),
-        Field("direction0", "number", optional=True, doc="initial direction (+1 or -1)"),
-        Field("clip_margin", "number", optional=True, doc="domain margin of atanh"),
+        *ENVELOPE_FIELDS,
+        Field("clip_margin", "number", optional=True, doc="domain margin of atanh",
+              title="Clip margin", control=Control("clip margin", "1", (0.0, 0.1), step=1e-4,
+                                                   relative=False, lower=0.0, upper=1.0,
+                                                   strict=True)),
     )
     a: Float1D
     b: Float1D
@@ -475,8 +499,8 @@ class DeadZoneGPI(_Cascade):
     type_name: ClassVar[str] = "gpi-deadzone"
     estimator: ClassVar[str | None] = "core.fitting:DeadZoneGPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("pi", "model", doc="the PI part"),
-        Field("deadzone", "model", doc="the dead-zone output map"),
+        Field("pi", "model", doc="the PI part", title="PI part"),
+        Field("deadzone", "model", doc="the dead-zone input map γ", title="Dead-zone input map γ"),
     )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),
@@ -516,8 +540,9 @@ class ModifiedPI(_Cascade):
     type_name: ClassVar[str] = "mpi"
     estimator: ClassVar[str | None] = "core.fitting:ModifiedPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("pi", "model", doc="the PI part"),
-        Field("deadzone", "model", doc="the dead-zone output map"),
+        Field("pi", "model", doc="the PI part", title="PI part"),
+        Field("deadzone", "model", doc="the dead-zone output map S",
+              title="Dead-zone output map S"),
     )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),
@@ -557,8 +582,8 @@ class TanhGPI(_Cascade):
     type_name: ClassVar[str] = "gpi-tanh"
     estimator: ClassVar[str | None] = "core.fitting:TanhGPIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("pi", "model", doc="the PI part"),
-        Field("envelope", "model", doc="the tanh envelope"),
+        Field("pi", "model", doc="the PI part", title="PI part"),
+        Field("envelope", "model", doc="the tanh envelope κ", title="Tanh envelope κ"),
     )
     _parts: ClassVar[tuple[tuple[str, type[Model]], ...]] = (
         ("pi", PIModel),

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import SAMPLE_BYTES, Field, Model, RunCost, register_model
+from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_vector, frozen
 
@@ -117,9 +117,14 @@ class LinearSystem(Model):
 
     type_name: ClassVar[str] = "lti"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("num", "numbers", doc="numerator in s, highest power first"),
-        Field("den", "numbers", doc="denominator in s, highest power first"),
-        Field("state0", "numbers", optional=True, doc="initial state"),
+        Field("num", "numbers", doc="numerator in s, highest power first",
+              title="Numerator coefficients", index_base=0,
+              control=Control("b{i}", "s^k", (-1.5, 1.5))),
+        Field("den", "numbers", doc="denominator in s, highest power first",
+              title="Denominator coefficients", index_base=0,
+              control=Control("a{i}", "s^k", (-1.5, 1.5))),
+        Field("state0", "numbers", optional=True, doc="initial state", title="Initial state",
+              control=Control("x{i}(0)", "1", (-1.5, 1.5))),
     )
     needs_dt: ClassVar[bool] = True
     num: Float1D

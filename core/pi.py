@@ -9,7 +9,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D
-from .base import Field, Model, register_model
+from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
@@ -92,10 +92,16 @@ class PIModel(Model):
     type_name: ClassVar[str] = "pi"
     estimator: ClassVar[str | None] = "core.fitting:PIRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
-        Field("p0", "number", doc="weight of the linear term"),
-        Field("thresholds", "numbers", doc="play thresholds r_i (input units), increasing"),
-        Field("weights", "numbers", doc="play weights p_i"),
-        Field("state0", "numbers", optional=True, doc="play outputs before the first sample"),
+        Field("p0", "number", doc="weight of the linear term", title="Linear weight p0",
+              control=Control("p0", "output/input", (-0.5, 1.5)), scale_with=("weights",)),
+        Field("thresholds", "numbers", doc="play thresholds r_i (input units), increasing",
+              title="Thresholds r_i", increasing=True,
+              control=Control("r{i}", "input", (0.0, 1.25), lower=0.0, strict=True)),
+        Field("weights", "numbers", doc="play weights p_i", title="Weights p_i",
+              control=Control("p{i}", "output/input", (-0.5, 1.5)), scale_with=("p0",)),
+        Field("state0", "numbers", optional=True, doc="play outputs before the first sample",
+              title="Initial play outputs z_i(0)", scale_with=("thresholds",),
+              control=Control("z{i}(0)", "input", (-1.25, 1.25))),
     )
     p0: float
     thresholds: Float1D

@@ -46,7 +46,7 @@ import numpy as np
 
 from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
-from .base import SAMPLE_BYTES, Field, Model, RunCost, register_model
+from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .pi import PIModel
 from .validation import as_matrix, as_vector, frozen
@@ -115,12 +115,20 @@ class PreisachModel(Model):
     estimator: ClassVar[str | None] = "core.fitting:PreisachRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("thresholds", "numbers",
-              doc="play thresholds r_i (input units), increasing, r_0 may be 0"),
+              doc="play thresholds r_i (input units), increasing, r_0 may be 0",
+              title="Thresholds r_i", increasing=True, index_base=0,
+              control=Control("r{i}", "input", (0.0, 1.25), lower=0.0)),
         Field("weights", "matrix",
-              doc="W[i][j] >= 0: slope of play i on level segment j (output per input unit)"),
+              doc="W[i][j] >= 0: slope of play i on level segment j (output per input unit)",
+              title="Weights W_ij", index_base=0,
+              control=Control("W{i},{j}", "output/input", (0.0, 1.5), lower=0.0)),
         Field("knots", "numbers", optional=True, default=(),
-              doc="interior level knots e_j (input units), increasing; none = PI"),
-        Field("state0", "numbers", optional=True, doc="play outputs before the first sample"),
+              doc="interior level knots e_j (input units), increasing; none = PI",
+              title="Level knots e_j", increasing=True, scale_with=("thresholds",),
+              control=Control("e{i}", "input", (-1.25, 1.25))),
+        Field("state0", "numbers", optional=True, doc="play outputs before the first sample",
+              title="Initial play outputs z_i(0)", index_base=0, scale_with=("thresholds",),
+              control=Control("z{i}(0)", "input", (-1.25, 1.25))),
     )
     thresholds: Float1D
     weights: Float2D

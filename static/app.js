@@ -6,6 +6,7 @@
 // "default-src 'self'").
 
 import { quickPlot } from "/quickplot.js";
+import { ModelControls } from "/controls.js";
 
 const $ = (id) => document.getElementById(id);
 const state = {
@@ -175,6 +176,7 @@ function setMsg(id, text, ok = false) {
   const el = $(id);
   el.textContent = text || "";
   el.classList.toggle("ok", ok);
+  el.classList.remove("rule");
 }
 
 function el(tag, props = {}, ...kids) {
@@ -189,51 +191,42 @@ function showOutput(input) {
 }
 
 // ---------------------------------------------------------------- controls <-> config
-function buildOperatorSliders(model) {
-  const rDiv = $("thresholds"), wDiv = $("weights");
-  rDiv.replaceChildren(); wDiv.replaceChildren();
-  const n = model.thresholds.length;
-  if (n > 25) {
-    wDiv.textContent = `${n} operators: edit them in the model JSON, through the API or in the viser GUI.`;
-    return;
-  }
-  const rmax = Math.max(10, 2 * Math.max(...model.thresholds));
-  model.thresholds.forEach((r, i) => rDiv.append(slider(`r${i + 1}`, 0.001, rmax, 0.001, r, "r")));
-  model.weights.forEach((w, i) => wDiv.append(slider(`p${i + 1}`, -1.5, 2, 0.001, w, "p")));
+// The model's sliders come from the server's description of the model (static/controls.js);
+// the JSON box follows them, so Apply never undoes a slider.
+let controls = null;
+
+function showModelJson(model) {
+  const box = $("model-json");
+  if (document.activeElement !== box) box.value = JSON.stringify(model, null, 1);
 }
 
-function slider(name, min, max, step, value, group) {
-  const label = document.createElement("label");
-  label.textContent = name + " ";
-  const input = Object.assign(document.createElement("input"),
-    { type: "range", min, max, step, value, id: `${group}-${name}` });
-  input.dataset.group = group;
-  input.setAttribute("aria-label", name);
-  const out = document.createElement("output");
-  out.htmlFor = input.id;
-  label.append(input, out);
-  input.addEventListener("input", () => { showOutput(input); onControlChange(); });
-  queueMicrotask(() => showOutput(input));
-  return label;
+// What a slider's rule changed (r3 stopped just below r4) stays on show until the next move.
+function showNote(note) {
+  state.note = note;
+  setMsg("model-msg", note);
+  $("model-msg").classList.toggle("rule", Boolean(note));
+}
+
+function onSliderMoved(note) {
+  showModelJson(controls.model);
+  showNote(note);
+  onControlChange();
 }
 
 function applyConfig(cfg, version, { fresh = false } = {}) {
   state.config = cfg;
+  state.note = "";
   if (version !== undefined) state.version = version;
   const m = cfg.model;
   const isPI = m.type === "pi";
   $("pi-controls").hidden = !isPI;
-  if (isPI) {
-    $("p0").value = m.p0;
-    $("n").value = m.thresholds.length;
-    buildOperatorSliders(m);
-  }
+  if (isPI) $("n").value = m.thresholds.length;
+  controls.show(m).catch((e) => setMsg("model-msg", e.message));
   for (const k of ["amplitude", "frequency", "offset", "duration"]) $(k).value = cfg.signal[k];
   $("kind").value = cfg.signal.kind;
   $("samples").value = cfg.signal.samples;
   $("mismatch").value = cfg.mismatch;
   $("model-json").value = JSON.stringify(m, null, 1);
-  if (!isPI) $("json-edit").open = true;
   $("use-recording").checked = cfg.use_recording;
   document.querySelectorAll("aside input[type=range]").forEach(showOutput);
   syncPreset(m, { fresh });
@@ -241,12 +234,7 @@ function applyConfig(cfg, version, { fresh = false } = {}) {
 
 function readConfig() {
   const cfg = structuredClone(state.config);
-  if (cfg.model.type === "pi") {
-    cfg.model.p0 = Number($("p0").value);
-    const rs = [...document.querySelectorAll('input[data-group="r"]')].map((e) => Number(e.value));
-    const ws = [...document.querySelectorAll('input[data-group="p"]')].map((e) => Number(e.value));
-    if (rs.length) { cfg.model.thresholds = rs; cfg.model.weights = ws; }
-  }
+  if (controls.model) cfg.model = structuredClone(controls.model);
   for (const k of ["amplitude", "frequency", "offset", "duration"]) cfg.signal[k] = Number($(k).value);
   cfg.signal.kind = $("kind").value;
   cfg.signal.samples = Number($("samples").value);
@@ -281,9 +269,13 @@ async function pump() {
         const s = await stored;
         state.config = s.config;
         state.version = s.version;
-        setMsg("model-msg", "");
+        showNote(state.note || "");
       } catch (e) {
-        setMsg("model-msg", `Not applied: ${e.message}`);
+        // back to the last accepted model, so that the next move starts from it
+        controls.revert(state.config.model);
+        showModelJson(state.config.model);
+        showNote("");
+        setMsg("model-msg", `Not applied: ${e.message} The sliders are back at the last accepted values.`);
         continue;
       }
       await draw(figure ? figure.then((r) => ({ ...r, version: state.version })) : undefined);
@@ -428,7 +420,11 @@ async function diagnosisFigure() {
 async function draw(pending) {
   const el = $("figure");
   const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
-  const res = await (pending || api("GET", `/api/sessions/${state.code}/figures?name=${name}`));
+  const get = () => api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  let res = await (pending || get());
+  // a figure computed for the view on show when a slider moved; the user may have
+  // switched views since: then the view now on show is asked for
+  if (!res.figures[name]) res = await get();
   let f = res.figures[name];
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
@@ -437,7 +433,8 @@ async function draw(pending) {
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   await render(el, f, { live });
-  const parts = [`${res.model_type}`, `n = ${res.n_operators ?? "?"}`];
+  const parts = [`${res.model_type}`];
+  if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
   if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
@@ -919,6 +916,7 @@ async function teacherRefresh() {
 
 // ---------------------------------------------------------------- start
 async function main() {
+  controls = new ModelControls($("model-controls"), { api, onChange: onSliderMoved });
   const [caps, presets, v] = await Promise.all([
     api("GET", "/api/capabilities"), api("GET", "/api/presets"), api("GET", "/api/viser-url")]);
   state.caps = caps;
@@ -937,18 +935,26 @@ async function main() {
     link.href = `${location.protocol}//${location.hostname}:${v.port}/`;
     link.hidden = false;
   }
-  for (const id of ["p0", "amplitude", "frequency", "offset", "duration", "mismatch"]) {
+  for (const id of ["amplitude", "frequency", "offset", "duration", "mismatch"]) {
     $(id).addEventListener("input", () => { showOutput($(id)); onControlChange(); });
   }
   for (const id of ["kind", "samples", "use-recording"]) $(id).addEventListener("change", onControlChange);
   $("n").addEventListener("change", () => {
-    const n = Math.max(1, Math.min(Number($("n").value) || 1, caps.limits.max_operators));
-    const m = state.config.model;
+    const max = caps.limits.max_operators;
+    const asked = Math.round(Number($("n").value));
+    const n = Math.max(1, Math.min(Number.isFinite(asked) ? asked : 1, max));
+    $("n").value = n;
+    showNote(n === asked ? "" : asked > max
+      ? `This server allows at most ${max} operators: n is set to ${max}.`
+      : `n must be a whole number from 1 to ${max}: n is set to ${n}.`);
+    const m = structuredClone(controls.model || state.config.model);
     const rmax = m.thresholds[m.thresholds.length - 1];
     const total = m.weights.reduce((a, b) => a + b, 0);
     m.thresholds = Array.from({ length: n }, (_, i) => (rmax * (i + 1)) / n);
     m.weights = Array(n).fill(total / n);
-    buildOperatorSliders(m);
+    delete m.state0;
+    controls.show(m).catch((e) => setMsg("model-msg", e.message));
+    showModelJson(m);
     onControlChange();
   });
   $("preset").addEventListener("change", () => { state.presetChanged = false; showPresetDesc(); });

@@ -25,17 +25,17 @@ from typing import Any
 import numpy as np
 
 from ..services import actions
+from ..services import controls as C
 from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
 from ..services.events import HUB
-from ..services.jobs import JobCancelled
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
-from .layout import TITLES, Widgets, set_leaf, set_value
+from .layout import TITLES, Widgets, set_value
 from .playback import Playback
 from .render import LatestWinsWorker
 from .scene import CUBE_MAX_DIGITS, StateCube
@@ -58,6 +58,10 @@ PROJECTOR_ASPECT = 0.6
 PROGRESS_S = 0.3
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
+
+
+class _Cancelled(Exception):  # noqa: N818 - a signal, not an error
+    """Raised by a diagnosis' progress report once Cancel was clicked: it stops there."""
 
 
 class SessionView:
@@ -159,8 +163,8 @@ class SessionView:
     # ------------------------------------------------------------------ wiring
     def _wire(self) -> None:
         ui = self.ui
-        for h in (ui.p0, ui.state0, ui.mismatch, ui.amp, ui.freq, ui.offset,
-                  ui.duration, ui.samples, ui.kind, ui.use_rec):
+        for h in (ui.mismatch, ui.amp, ui.freq, ui.offset, ui.duration, ui.samples, ui.kind,
+                  ui.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         ui.n_ops.on_update(self._guarded(self._n_changed))
         ui.projector.on_update(self._guarded(self._projector_changed))
@@ -245,6 +249,7 @@ class SessionView:
     # ------------------------------------------------------------------ session -> GUI
     def _on_session_change(self, session: Session, config: Config, version: int) -> None:
         if not getattr(self._syncing, "from_gui", False):
+            self.ui.params_md.content = ""  # a note on the previous model's sliders
             self._sync_controls(config)
         self.worker.request()
 
@@ -265,15 +270,8 @@ class SessionView:
             is_pi = m.get("type") == "pi"
             ui.pi_folder.visible = is_pi
             if is_pi:
-                r, w = list(m["thresholds"]), list(m["weights"])
-                set_value(ui.p0, float(np.clip(m["p0"], ui.p0.min, ui.p0.max)))
-                set_value(ui.n_ops, len(r))
-                s0 = m.get("state0")
-                set_value(ui.state0, float(np.clip(np.mean(s0) if s0 else 0.0, -5, 5)))
-                ui.ensure_pi_sliders(r, w, self._guarded(self._controls_changed))
-            ui.param_folder.visible = not is_pi
-            if not is_pi:
-                ui.ensure_param_sliders(m, self._guarded(self._params_changed))
+                set_value(ui.n_ops, len(m["thresholds"]))
+            self._show_params(m)
             ui.json_in.value = json.dumps(m)
             sig = cfg.signal
             if sig.kind in ui.kind.options:
@@ -299,21 +297,6 @@ class SessionView:
             except ParameterError as exc:
                 self.ui.model_md.content = f"⚠️ **Not applied:** {md_text(exc)}"
 
-    def _pi_from_controls(self, cfg: Config) -> dict[str, Any]:
-        ui = self.ui
-        m = dict(cfg.model)
-        if m.get("type") != "pi":
-            return m
-        m["p0"] = float(ui.p0.value)
-        if ui.r_sliders:
-            m["thresholds"] = [float(h.value) for h in ui.r_sliders]
-            m["weights"] = [float(h.value) for h in ui.w_sliders]
-        s0 = float(ui.state0.value)
-        m.pop("state0", None)
-        if s0 != 0:
-            m["state0"] = s0
-        return m
-
     def _controls_changed(self, event: Any) -> None:
         ui = self.ui
 
@@ -321,30 +304,71 @@ class SessionView:
             sig = replace(cfg.signal, kind=str(ui.kind.value), amplitude=float(ui.amp.value),
                           frequency=float(ui.freq.value), offset=float(ui.offset.value),
                           duration=float(ui.duration.value), samples=int(ui.samples.value))
-            return replace(cfg, model=self._pi_from_controls(cfg), signal=sig,
-                           mismatch=float(ui.mismatch.value),
+            return replace(cfg, signal=sig, mismatch=float(ui.mismatch.value),
                            use_recording=bool(ui.use_rec.value))
 
         self._commit(fn)
 
-    def _params_changed(self, event: Any) -> None:
-        def fn(cfg: Config) -> Config:
+    def _show_params(self, model: dict[str, Any]) -> None:
+        """The model's sliders, from the description the services derive from its types'
+        field declarations (the web page's too). Call with the write-back guard on."""
+        try:
+            controls = C.model_controls(model)
+        except (ParameterError, ValueError, TypeError) as exc:  # a damaged stored model
+            self.ui.params_md.content = f"⚠️ **No sliders for this model:** {md_text(exc)}"
+            return
+        self.ui.ensure_param_sliders(controls, self._slider_callback)
+
+    def _slider_callback(self, path: str) -> Callable[[Any], None]:
+        return self._guarded(lambda event: self._param_moved(path))
+
+    def _param_moved(self, path: str) -> None:
+        """One slider moved: its value is kept inside its field's rules (limits, the order
+        of the thresholds) and stored; the note says what a rule changed, in the labels the
+        sliders show. A refused change puts every slider back at the stored model, so it
+        never blocks the next move."""
+        h = self.ui.param_sliders[path]
+        integer = self.ui.param_specs[path].integer
+        out: dict[str, Any] = {}
+
+        def fn(cfg: Config) -> Config:  # under the session's lock: no lost update
             m = json.loads(json.dumps(cfg.model))
-            for path, h in self.ui.param_sliders.items():
-                set_leaf(m, path, float(h.value))
+            done = C.clamp(m, path, float(h.value))
+            C.set_leaf(m, path, int(done.value) if integer else done.value)
+            out.update(done=done, model=m)
             return cfg.with_model(m)
 
-        self._commit(fn)
-
-    def _n_changed(self, event: Any) -> None:
         with self._writing():
             try:
-                actions.set_operator_count(self.session, int(self.ui.n_ops.value),
-                                           self.settings)
+                actions.change_config(self.session, fn, self.settings)
             except ParameterError as exc:
-                self.ui.model_md.content = f"⚠️ {md_text(exc)}"
+                self.ui.params_md.content = (f"⚠️ **Not applied:** {md_text(exc)} The sliders "
+                                            "are back at the last accepted values.")
+                self._sync_controls(self.session.snapshot()[0])
+                return
+        done = out["done"]
+        with self._quiet():
+            if done.value != h.value:
+                h.value = done.value
+            self.ui.json_in.value = json.dumps(out["model"])  # the JSON box follows
+        self.ui.params_md.content = f"ℹ️ {md_text(done.note)}" if done.note else ""
+
+    def _n_changed(self, event: Any) -> None:
+        """A new operator count; one beyond the server's limit is set to the limit, and the
+        note under the sliders says so (the field shows the count in use)."""
+        top = self.settings.max_operators
+        asked = int(round(float(self.ui.n_ops.value)))
+        n = min(max(asked, 1), top)
+        with self._writing():
+            try:
+                actions.set_operator_count(self.session, n, self.settings)
+            except ParameterError as exc:
+                self.ui.params_md.content = f"⚠️ {md_text(exc)}"
                 return
         self._sync_controls(self.session.snapshot()[0])
+        self.ui.params_md.content = "" if n == asked else (
+            f"ℹ️ this server allows at most {top} operators: n is set to {top}" if asked > top
+            else "ℹ️ n must be at least 1: n is set to 1")
 
     def _preset_chosen(self, event: Any) -> None:
         doc = actions.preset_doc(self.ui.preset_names[str(self.ui.preset.value)])
@@ -535,7 +559,7 @@ class SessionView:
 
         def progress(fraction: float, message: str = "") -> None:
             if self._cancel.is_set():
-                raise JobCancelled
+                raise _Cancelled
             now = time.monotonic()
             if now - shown[0] >= PROGRESS_S:  # each update is a websocket message
                 shown[0] = now
@@ -549,7 +573,7 @@ class SessionView:
             with self._busy("diagnosing (10–40 s for a long recording)"):
                 try:
                     rep = actions.diagnose(self.session, progress)
-                except JobCancelled:
+                except _Cancelled:
                     ui.report_md.content = "Diagnosis cancelled: nothing was changed."
                     return
         finally:

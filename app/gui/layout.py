@@ -2,38 +2,32 @@
 
 :class:`Widgets` adds the controls to a ``GuiApi`` (``client.gui``, private to a tab) in
 tabs (Model, Input, Inverse, Digitized, Data, Export), the plot in a floating panel (in the
-control sheet on a phone) and the per-operator sliders a model needs. It holds no
+control sheet on a phone) and the model's parameter sliders, built from the description the
+services derive from the model types' field declarations
+(:func:`app.services.controls.model_controls`, the same the web page draws). It holds no
 behaviour: :class:`app.gui.controller.SessionView` wires the callbacks to the services.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from ..services import catalog
 from ..services import figures as F
+from ..services.controls import ModelControls, Slider, unit_text
 from ..services.settings import Settings
 
 __all__ = [
-    "GUI_MAX_SLIDERS",
-    "MAX_PARAM_SLIDERS",
     "NARROW_PX",
     "PANEL_PX",
     "PROJECTOR_PX",
     "TITLES",
     "Widgets",
     "is_narrow",
-    "numeric_leaves",
-    "set_leaf",
     "set_value",
 ]
 
-#: Largest number of operators the GUI shows individual sliders for.
-GUI_MAX_SLIDERS = 25
 #: The views of the *View* dropdown: figure key -> title.
 TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
           "inverse": "Inverse", "digitized": "Digitized states", "closed-loop": "Closed loop",
@@ -48,6 +42,8 @@ PROJECTOR_PX = 1200
 PROJECTOR_SCREEN_PX = 1920
 #: A canvas this much higher than wide is a phone held upright (or a window as narrow).
 PORTRAIT = 1.15
+#: Groups with more sliders than this start collapsed.
+OPEN_GROUP_SLIDERS = 8
 
 
 def is_narrow(width: float, height: float) -> bool:
@@ -59,20 +55,17 @@ def is_narrow(width: float, height: float) -> bool:
     :data:`PORTRAIT` is a phone held upright, as is one narrower than :data:`NARROW_PX`.
     """
     return width < NARROW_PX or height > PORTRAIT * width
-#: Largest number of generic parameter sliders (non-PI models).
-MAX_PARAM_SLIDERS = 80
 
 
 #: Tooltips (viser's ``hint``) of the widgets, by attribute of :class:`Widgets`; set after
-#: the widgets are built, so every control says what it does.
+#: the widgets are built, so every control says what it does (the model's sliders bring
+#: their own, from their declarations).
 HINTS = {
     "join_btn": "continue the session whose code you typed",
     "push_btn": "send this tab's model (as you edited it) to every student now",
     "preset": "models and inputs taken from the papers' examples",
     "load_preset": "replace the model and the input by the chosen preset's",
-    "p0": "weight of the linear part p0·u (the slope of the loop's ends)",
     "n_ops": "number of play operators; thresholds spread evenly up to the widest",
-    "state0": "the operators' state at t = 0 (the memory the model starts with)",
     "json_in": "the session's model as JSON: any model type, edited by hand",
     "json_btn": "use the model typed in the JSON box",
     "kind": "shape of the input signal u(t)",
@@ -124,10 +117,10 @@ class Widgets:
 
     def __init__(self, gui: Any, settings: Settings) -> None:
         self.gui = g = gui
-        self.r_sliders: list[Any] = []
-        self.w_sliders: list[Any] = []
+        #: The parameter sliders by JSON path (``pi.thresholds[2]``) and their description.
         self.param_sliders: dict[str, Any] = {}
-        self._param_paths: tuple[str, ...] = ()
+        self.param_specs: dict[str, Slider] = {}
+        self._param_layout = ""
         self._param_subfolders: list[Any] = []
         self.code_md = g.add_markdown("")
         self.pushed_md = g.add_markdown("")  # the teacher's last push, said in words
@@ -161,7 +154,8 @@ class Widgets:
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
             g.add_markdown("*A PI model adds play operators (width r_i, weight p_i) to a "
-                           "linear term p0·u. Start from a preset from the papers.*")
+                           "linear term p0·u. Start from a preset from the papers, then "
+                           "drag the sliders.*")
             self.preset_names = catalog.preset_titles()
             titles = tuple(self.preset_names)
             self.preset = g.add_dropdown("Preset", titles, initial_value=titles[0])
@@ -169,14 +163,11 @@ class Widgets:
             self.load_preset = g.add_button("Load preset (model and its input)")
             self.model_md = g.add_markdown("")
             with g.add_folder("Classical PI") as self.pi_folder:
-                self.p0 = g.add_slider("p0", min=-0.5, max=3.0, step=0.001, initial_value=0.72)
                 self.n_ops = g.add_number("Operators n", 6, min=1,
                                           max=settings.max_operators, step=1)
-                self.state0 = g.add_slider("Initial state", min=-5.0, max=5.0, step=0.01,
-                                           initial_value=0.0)
-                self.r_folder = g.add_folder("Thresholds r_i", expand_by_default=False)
-                self.w_folder = g.add_folder("Weights p_i", expand_by_default=True)
-            self.param_folder = g.add_folder("Model parameters", visible=False)
+            #: What a slider's rule changed, or why a change was refused.
+            self.params_md = g.add_markdown("")
+            self.param_folder = g.add_folder("Model parameters")
             self.json_in = g.add_text("Model JSON (any type)", initial_value="", multiline=True)
             self.json_btn = g.add_button("Apply model JSON")
         with tabs.add_tab("Input"):
@@ -269,12 +260,12 @@ class Widgets:
         self.narrow = False
         #: The *View* dropdown and the plot on show (the panel's, or the sheet's on a phone).
         self.view_dd, self.plot = self._dd_wide, self._plot_wide
+        #: The notes under the plot on show (what the figure's ``meta.notes`` say).
+        self.notes_md = self._notes_wide
         for attr, text in HINTS.items():
             handle = getattr(self, attr, None)
             if handle is not None and not getattr(handle, "hint", None):
                 handle.hint = text
-        #: The notes under the plot on show (what the figure's ``meta.notes`` say).
-        self.notes_md = self._notes_wide
         self.status_md = g.add_markdown("")
 
     @property
@@ -306,99 +297,47 @@ class Widgets:
         """Both *View* dropdowns (panel and sheet), which always show the same view."""
         return self._dd_wide, self._dd_narrow
 
-    def ensure_pi_sliders(self, r: list[float], w: list[float],
-                          on_change: Callable[[Any], None]) -> None:
-        """One slider per threshold and weight (up to :data:`GUI_MAX_SLIDERS` operators),
-        rebuilt when ``n`` changes, else set to ``r`` and ``w``; ``on_change`` is wired to
-        new sliders. Call it with the controller's write-back guard on."""
-        n = len(r)
-        show = n <= GUI_MAX_SLIDERS
-        if len(self.r_sliders) != (n if show else 0):
-            for h in (*self.r_sliders, *self.w_sliders):
-                h.remove()
-            self.r_sliders, self.w_sliders = [], []
-            if show:
-                rmax = max(10.0, 2 * max(r))
-                with self.r_folder:
-                    for i in range(n):
-                        h = self.gui.add_slider(f"r{i + 1}", min=0.001, max=rmax, step=0.001,
-                                                initial_value=r[i])
-                        h.on_update(on_change)
-                        self.r_sliders.append(h)
-                with self.w_folder:
-                    for i in range(n):
-                        h = self.gui.add_slider(f"p{i + 1}", min=-1.5, max=2.0, step=0.001,
-                                                initial_value=float(np.clip(w[i], -1.5, 2.0)))
-                        h.on_update(on_change)
-                        self.w_sliders.append(h)
+    def ensure_param_sliders(self, controls: ModelControls,
+                             on_change: Callable[[str], Callable[[Any], None]]) -> None:
+        """The model's sliders as ``controls`` describes them, one folder per group:
+        rebuilt when the model's structure (or a value beyond a slider's range) asks for
+        it, else moved to the values. ``on_change(path)`` gives the callback of the slider
+        at ``path``. Call it with the controller's write-back guard on."""
+        specs = {s.path: s for s in controls.sliders()}
+        fits = all(self.param_specs[p].min <= s.value <= self.param_specs[p].max
+                   for p, s in specs.items() if p in self.param_specs)
+        if controls.layout != self._param_layout or not fits:
+            self._rebuild(controls, on_change)
             return
-        for h, v in zip(self.r_sliders, r, strict=True):
-            if v > h.max:
-                h.max = 2 * v
-            set_value(h, float(v))
-        for h, v in zip(self.w_sliders, w, strict=True):
-            set_value(h, float(np.clip(v, h.min, h.max)))
+        for path, spec in specs.items():
+            set_value(self.param_sliders[path], float(spec.value))
+        self.param_specs = specs
 
-    def ensure_param_sliders(self, m: dict[str, Any], on_change: Callable[[Any], None]) -> None:
-        """One slider per numeric parameter of a non-PI model (grouped by field), rebuilt
-        when the parameters change, else set to ``m``'s values."""
-        leaves = numeric_leaves(m)
-        paths = tuple(p for p, _ in leaves)
-        if paths != self._param_paths:
-            for h in self.param_sliders.values():
-                h.remove()
-            for f in self._param_subfolders:
-                f.remove()
-            self.param_sliders, self._param_subfolders = {}, []
-            groups: dict[str, list[tuple[str, float]]] = {}
-            for path, v in leaves[:MAX_PARAM_SLIDERS]:
-                groups.setdefault(path.split("[")[0], []).append((path, v))
-            with self.param_folder:
-                for group, items in groups.items():
-                    folder = self.gui.add_folder(group, expand_by_default=len(items) <= 4)
-                    self._param_subfolders.append(folder)
-                    with folder:
-                        for path, v in items:
-                            span = max(1.0, 2 * abs(v))
-                            h = self.gui.add_slider(path.split(".")[-1], min=round(v - span, 3),
-                                                    max=round(v + span, 3), step=0.001,
-                                                    initial_value=round(v, 3), hint=path)
-                            h.on_update(on_change)
-                            self.param_sliders[path] = h
-            self._param_paths = paths
-            return
-        for path, v in leaves[:MAX_PARAM_SLIDERS]:
-            h = self.param_sliders.get(path)
-            if h is not None:
-                if not h.min <= v <= h.max:
-                    h.min, h.max = v - max(1.0, 2 * abs(v)), v + max(1.0, 2 * abs(v))
-                set_value(h, float(v))
-
-
-def numeric_leaves(d: Any, prefix: str = "") -> list[tuple[str, float]]:
-    """``(path, value)`` of every number in a model document (``pi.weights[2]``, ...)."""
-    out: list[tuple[str, float]] = []
-    if isinstance(d, dict):
-        for k, v in d.items():
-            if k == "type":
-                continue
-            out += numeric_leaves(v, f"{prefix}.{k}" if prefix else str(k))
-    elif isinstance(d, list):
-        for i, v in enumerate(d):
-            out += numeric_leaves(v, f"{prefix}[{i}]")
-    elif isinstance(d, int | float) and not isinstance(d, bool):
-        out.append((prefix, float(d)))
-    return out
-
-
-def set_leaf(d: Any, path: str, value: float) -> None:
-    """Set the number at ``path`` (as produced by :func:`numeric_leaves`) in place."""
-    tokens = re.findall(r"[^.\[\]]+|\[\d+\]", path)
-    node = d
-    for tok in tokens[:-1]:
-        node = node[int(tok[1:-1])] if tok.startswith("[") else node[tok]
-    last = tokens[-1]
-    if last.startswith("["):
-        node[int(last[1:-1])] = value
-    else:
-        node[last] = value
+    def _rebuild(self, controls: ModelControls,
+                 on_change: Callable[[str], Callable[[Any], None]]) -> None:
+        for h in self.param_sliders.values():
+            h.remove()
+        for f in self._param_subfolders:
+            f.remove()
+        self.param_sliders, self.param_specs, self._param_subfolders = {}, {}, []
+        with self.param_folder:
+            for group in controls.groups:
+                title = group.title + (f" ({group.unit})" if group.unit else "")
+                folder = self.gui.add_folder(
+                    title, expand_by_default=len(group.sliders) <= OPEN_GROUP_SLIDERS)
+                self._param_subfolders.append(folder)
+                with folder:
+                    if group.note:
+                        self._param_subfolders.append(self.gui.add_markdown(f"*{group.note}*"))
+                    for spec in group.sliders:
+                        unit = unit_text(spec.unit)
+                        hint = (f"{spec.label}" + (f" in {unit}" if unit else "")
+                                + (f"; {spec.rule}" if spec.rule else "")
+                                + ("; a constant of this model" if spec.fixed else ""))
+                        h = self.gui.add_slider(
+                            spec.label, min=spec.min, max=spec.max, step=spec.step,
+                            initial_value=float(spec.value), hint=hint, disabled=spec.fixed)
+                        h.on_update(on_change(spec.path))
+                        self.param_sliders[spec.path] = h
+                        self.param_specs[spec.path] = spec
+        self._param_layout = controls.layout

@@ -2,12 +2,14 @@
 
 Contract: ``POST`` ``{"kind": "fit" | "diagnose", "params": {...}}`` → 202
 ``{"id", "kind", "state"}``; ``GET .../jobs/{id}`` → ``{"id", "kind", "state", "progress",
-"message", "result", "error"}``; ``DELETE .../jobs/{id}`` cancels; ``GET .../jobs?limit=``
+"message", "result", "error"}``; ``DELETE .../jobs/{id}`` cancels (a running job's worker
+process is killed: the job is ``cancelled`` and its slot free when the DELETE returns);
+``GET .../jobs?limit=``
 → ``{"jobs": [...]}``, the session's newest jobs first (the queued or running one
 included, without results), so a page reloaded during a job can follow it. ``params`` are the bodies
 of the synchronous ``POST .../fit`` (``FitIn``) and ``POST .../diagnose`` (none). A job
 nobody polls for 30 s is cancelled. The synchronous endpoints (:mod:`app.routers.data`) run
-through the same queue and cancel their job when the client hangs up.
+through the same queue and cancel their job when the client hangs up (checked every 50 ms).
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ from typing import Any, Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..services import actions
-from ..services.jobs import Job, JobBusy, JobManager, Progress
+from ..services import tasks
+from ..services.jobs import Job, JobBusy, JobManager
 from ..services.sessions import Session
 from ..services.settings import Settings
 from .deps import SessionDep, SettingsDep
@@ -44,27 +46,6 @@ def _need_recording(session: Session) -> None:
         raise HTTPException(409, "upload a recording first (POST /api/sessions/{code}/recording)")
 
 
-def _fit_work(session: Session, body: FitIn) -> Any:
-    def work(progress: Progress) -> dict[str, Any]:
-        progress(0.05, f"fitting a {body.kind} model with {body.n} operators")
-        model, report = actions.fit(session, body.n, body.kind, apply=body.apply)
-        progress(0.9, "building the figure")
-        fig = actions.fit_figure(session.recording, model, f"fitted {body.kind} (n={body.n})")
-        return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
-    return work
-
-
-def _diagnose_work(session: Session) -> Any:
-    def work(progress: Progress) -> dict[str, Any]:
-        progress(0.01, "diagnosing")
-
-        def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
-            progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
-
-        return actions.diagnose(session, report)
-    return work
-
-
 def start_job(request: Request, session: Session, settings: Settings, kind: str,
               params: dict[str, Any]) -> Job:
     """Validate ``params`` (cost limits included) and queue the job; HTTP errors otherwise."""
@@ -78,14 +59,14 @@ def start_job(request: Request, session: Session, settings: Settings, kind: str,
         if body.n > settings.max_operators:
             raise HTTPException(
                 422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
-        work = _fit_work(session, body)
+        task = tasks.fit_task(session, body.n, body.kind, body.apply)
     else:
         if params:
             raise HTTPException(422, "a diagnosis takes no parameters (params: {})")
-        work = _diagnose_work(session)
+        task = tasks.diagnose_task(session)
     jobs: JobManager = request.app.state.jobs
     try:
-        return jobs.submit(session.code, kind, work)
+        return jobs.submit(session.code, kind, task)
     except JobBusy as exc:
         raise HTTPException(409, str(exc)) from None
 

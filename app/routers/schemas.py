@@ -20,6 +20,8 @@ __all__ = [
     "CapabilitiesOut",
     "ConfigIn",
     "ConnectedOut",
+    "ControlsIn",
+    "ControlsOut",
     "CsvPreviewOut",
     "DiagnosisOut",
     "FigureOut",
@@ -85,6 +87,51 @@ class ConfigIn(BaseModel):
         if self.use_recording is not None:
             kw["use_recording"] = self.use_recording
         return replace(cfg, **kw)
+
+
+class ControlsIn(BaseModel):
+    """A model whose sliders are wanted."""
+
+    model_config = ConfigDict(extra="forbid")
+    model: dict[str, Any] = Field(..., description="model document with a 'type' field")
+
+
+class SliderOut(BaseModel):
+    """One number of the model as a slider (see app/services/controls.py)."""
+
+    path: str = Field(description="JSON path in the model document, e.g. pi.thresholds[2]")
+    label: str = Field(description="what the user sees, e.g. r3")
+    unit: str = Field(description="input, output, output/input, 1/input, s, Hz, s^k or 1")
+    value: Number
+    min: Number
+    max: Number
+    step: Number
+    lower: Number | None = Field(None, description="hard lower limit of a valid value")
+    upper: Number | None = Field(None, description="hard upper limit of a valid value")
+    strict: bool = Field(description="the hard limits are exclusive")
+    integer: bool
+    fixed: bool = Field(description="a constant of the model: shown, not moved")
+    below: str | None = Field(None, description="path of the neighbour to stay above")
+    above: str | None = Field(None, description="path of the neighbour to stay below")
+    rule: str = Field(description="the ordering rule in words")
+
+
+class SliderGroupOut(BaseModel):
+    """The sliders of one field of one model part."""
+
+    key: str
+    title: str
+    unit: str
+    sliders: list[SliderOut]
+    note: str
+
+
+class ControlsOut(BaseModel):
+    """Every slider of a model, grouped by field, from the model types' declarations."""
+
+    type: str
+    layout: str = Field(description="changes only when the model's structure changes")
+    groups: list[SliderGroupOut]
 
 
 class SimulateIn(BaseModel):

@@ -24,6 +24,7 @@ from core.exceptions import ParameterError
 from core.presets import list_presets
 from core.recordings import Recording
 
+from . import controls as C
 from . import figures as F
 from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
@@ -48,6 +49,7 @@ from .simulation import (
 __all__ = [
     "change_config",
     "check_figure_names",
+    "checked_controls",
     "checked_model",
     "diagnose",
     "diagnosis_figure",
@@ -108,10 +110,31 @@ def change_config(session: Session, fn: Callable[[Config], Config],
     """
     with session.lock:
         new = fn(session.config)
+        C.check_rules(new.model)  # a broken rule in the labels the sliders show
         checked = checked_model(new, session.recording, settings)
         validate_config(new, session.recording, settings.max_operators, settings.max_samples,
                         model=checked.model)
         return session.set_config(new, checked)
+
+
+def checked_controls(doc: Any, settings: Settings) -> C.ModelControls:
+    """The sliders of a model document (:func:`app.services.controls.model_controls`),
+    after checking that it is a valid model within the limits.
+
+    Raises
+    ------
+    ParameterError
+        If the document is too big or deep, or not a valid model (the message names the
+        broken rule or the JSON path).
+    """
+    if not isinstance(doc, dict) or "type" not in doc:
+        raise ParameterError('model: a model document is a JSON object with a "type" '
+                             '(for example {"type": "pi", "p0": 1, ...})')
+    check_document(doc, settings.limits)
+    C.check_rules(doc)
+    model = parameter_set_model(doc)
+    check_operator_limit(model, settings.max_operators)
+    return C.model_controls(doc)
 
 
 def set_operator_count(session: Session, n: int, settings: Settings) -> int:

@@ -31,6 +31,7 @@ from .simulation import (
     Loading,
     Result,
     decimate_index,
+    operator_count,
     pi_part,
     state_text,
     visited_path,
@@ -195,7 +196,8 @@ def loop_figure(res: Result) -> FigureJSON:
     if ld is not None and ld.curve_u is not None:
         data.append(_line(_num(ld.curve_u), _num(ld.curve_y), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
-    title = f"Hysteresis loop ({type(m).__name__}, n = {getattr(m, 'n', '?')})"
+    n = operator_count(m)  # the plays of a GPI's PI part too; no "n = ?" for a map
+    title = f"Hysteresis loop ({type(m).__name__}{'' if n is None else f', n = {n}'})"
     lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
                   yaxis={"title": _ax(res.units, "output")})
     return FigureJSON(data, lay)

@@ -1,10 +1,12 @@
 """Bounded, cancellable background work (fits and diagnoses); no web imports.
 
-A :class:`JobManager` runs at most ``max_workers`` jobs at once on its own threads (never
-the web server's pool), at most one per session, and at most ``max_queued`` waiting. A job
-reports progress through the callback it is given; that callback raises
-:class:`JobCancelled` once the job is cancelled, so cooperative work (the diagnosis) stops
-at its next progress report and queued work never starts. A job nobody has asked about for
+A :class:`JobManager` runs at most ``max_workers`` jobs at once, at most one per session, and
+at most ``max_queued`` waiting. Each job is a :class:`~app.services.worker.Task` that runs in
+its own worker process (:mod:`.worker`); a thread of the manager (never the web server's
+pool) follows it. Cancelling a running job kills its process, so the job is ``cancelled`` and
+its slot free at once, whatever numerics it was in; a queued job never starts. A result is
+stored (``Task.keep``) only when the job was not cancelled, and a cancel that arrives while it
+is being stored is too late (the job ends ``done``). A job nobody has asked about for
 ``idle_cancel_s`` seconds is cancelled (its client went away).
 
 States: ``queued`` → ``running`` → ``done`` | ``failed`` | ``cancelled``.
@@ -15,21 +17,16 @@ from __future__ import annotations
 import secrets
 import threading
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Job", "JobBusy", "JobCancelled", "JobManager", "JobView", "Progress"]
+from .worker import Task, Worker, WorkerDied
+from .worker import start as start_workers
 
-#: ``progress(fraction, message)``; raises :class:`JobCancelled` when the job is cancelled.
-Progress = Callable[[float, str], None]
+__all__ = ["Job", "JobBusy", "JobManager", "JobView"]
 
 _FINAL = frozenset({"done", "failed", "cancelled"})
-
-
-class JobCancelled(Exception):  # noqa: N818 - a signal, not an error
-    """Raised inside a job's work when the job was cancelled."""
 
 
 class JobBusy(RuntimeError):
@@ -70,8 +67,11 @@ class Job:
     result: Any = None
     error: str | None = None
     seen: float = field(default_factory=time.monotonic)
-    cancel_event: threading.Event = field(default_factory=threading.Event)
     finished: threading.Event = field(default_factory=threading.Event)
+    #: the worker process of the running job (``None`` while queued and once finished)
+    worker: Worker | None = None
+    #: the result is being stored: too late to cancel
+    storing: bool = False
 
     def view(self) -> JobView:
         """A frozen snapshot."""
@@ -106,10 +106,12 @@ class JobManager:
         self._active: dict[str, str] = {}  # session code -> job id
         self._stop = threading.Event()
         threading.Thread(target=self._reaper, name="job-reaper", daemon=True).start()
+        # the worker processes' forkserver imports the solvers now, not at the first job
+        threading.Thread(target=start_workers, name="job-forkserver", daemon=True).start()
 
     # ------------------------------------------------------------------ API
-    def submit(self, code: str, kind: str, work: Callable[[Progress], Any]) -> Job:
-        """Queue ``work(progress)`` for session ``code``; its return value is the result.
+    def submit(self, code: str, kind: str, task: Task) -> Job:
+        """Queue ``task`` for session ``code`` (see :class:`~app.services.worker.Task`).
 
         Raises
         ------
@@ -128,7 +130,7 @@ class JobManager:
             self._jobs[job.id] = job
             self._active[code] = job.id
             self._forget_old()
-        self._pool.submit(self._run, job, work)
+        self._pool.submit(self._run, job, task)
         return job
 
     def get(self, code: str, job_id: str) -> Job:
@@ -157,7 +159,9 @@ class JobManager:
             return mine
 
     def cancel(self, code: str, job_id: str) -> Job:
-        """Cancel a job (a no-op once it finished); ``KeyError`` if unknown."""
+        """Cancel a job: a running one's worker process is killed, and the job is
+        ``cancelled`` on return (a no-op once it finished, or while its result is being
+        stored); ``KeyError`` if unknown."""
         job = self.get(code, job_id)
         self._cancel(job, "cancelled by the user")
         return job
@@ -168,7 +172,8 @@ class JobManager:
         return job.finished.wait(timeout)
 
     def cancel_all(self) -> None:
-        """Cancel every job (server shutdown) and stop accepting work."""
+        """Cancel every job (server shutdown; worker processes are killed) and stop
+        accepting work."""
         self._stop.set()
         with self._lock:
             jobs = list(self._jobs.values())
@@ -181,56 +186,70 @@ class JobManager:
         with self._lock:
             return sum(1 for j in self._jobs.values() if j.state == "running")
 
+    def workers(self) -> list[int]:
+        """Process ids of the worker processes running now."""
+        with self._lock:
+            return [j.worker.pid for j in self._jobs.values()
+                    if j.worker is not None and j.worker.pid is not None]
+
     # ------------------------------------------------------------------ internals
     def _cancel(self, job: Job, why: str) -> None:
         with self._lock:
-            if job.state in _FINAL:
+            if job.state in _FINAL or job.storing:
                 return
-            job.cancel_event.set()
-            if job.state == "queued":
-                self._finish(job, "cancelled", why)
-            else:
-                job.message = f"cancelling: {why}"
+            if job.worker is not None:
+                job.worker.kill()
+            self._finish(job, "cancelled", why)
 
     def _finish(self, job: Job, state: str, message: str, result: Any = None,
                 error: str | None = None) -> None:
         """Called with the lock held."""
         job.state, job.message, job.result, job.error = state, message, result, error
+        job.worker = None
         if state == "done":
             job.progress = 1.0
         if self._active.get(job.code) == job.id:
             del self._active[job.code]
         job.finished.set()
 
-    def _run(self, job: Job, work: Callable[[Progress], Any]) -> None:
+    def _run(self, job: Job, task: Task) -> None:
+        worker = Worker(task)
         with self._lock:
             if job.state != "queued":
                 return
-            job.state, job.message = "running", "running"
+            job.state, job.message, job.worker = "running", "running", worker
 
         def progress(fraction: float, message: str = "") -> None:
-            if job.cancel_event.is_set():
-                raise JobCancelled
             with self._lock:
-                job.progress = min(1.0, max(job.progress, float(fraction)))
-                if message:
-                    job.message = message
+                if job.state == "running":
+                    job.progress = min(1.0, max(job.progress, float(fraction)))
+                    if message:
+                        job.message = message
 
         try:
-            result = work(progress)
-        except JobCancelled:
+            value = worker.run(progress)
+        except WorkerDied as exc:  # killed by a cancel (then the job is final already)
             with self._lock:
-                self._finish(job, "cancelled", "cancelled")
+                if job.state not in _FINAL:
+                    self._finish(job, "failed", "failed", error=str(exc))
             return
-        except Exception as exc:  # reported to the client, never a crash
+        except Exception as exc:  # TaskFailed and any other: reported, never a crash
+            with self._lock:
+                if job.state not in _FINAL:
+                    self._finish(job, "failed", "failed", error=str(exc) or type(exc).__name__)
+            return
+        with self._lock:
+            if job.state in _FINAL:  # cancelled while the result was on its way
+                return
+            job.storing, job.message = True, "storing the result"
+        try:
+            result = value if task.keep is None else task.keep(value)
+        except Exception as exc:
             with self._lock:
                 self._finish(job, "failed", "failed", error=str(exc) or type(exc).__name__)
             return
         with self._lock:
-            if job.cancel_event.is_set():
-                self._finish(job, "cancelled", "cancelled (the result was discarded)")
-            else:
-                self._finish(job, "done", "done", result=result)
+            self._finish(job, "done", "done", result=result)
 
     def _forget_old(self) -> None:
         """Called with the lock held: drop the oldest finished jobs beyond ``keep``."""

@@ -10,9 +10,12 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
+from app.services import tasks
 from app.services.jobs import JobBusy, JobManager
 from app.services.settings import Settings
+from app.services.worker import Task
 
+from . import job_work
 from .test_security import csv_text, upload
 
 
@@ -24,6 +27,16 @@ def _poll(c: TestClient, code: str, job: str, timeout: float = 120.0) -> dict:
             return j
         time.sleep(0.05)
     raise AssertionError("job did not finish")
+
+
+def _poll_until(c: TestClient, code: str, job: str, cond, timeout: float = 120.0) -> dict:  # noqa: ANN001
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        j = c.get(f"/api/sessions/{code}/jobs/{job}").json()
+        if cond(j):
+            return j
+        time.sleep(0.05)
+    raise AssertionError(f"the job never got there: {j}")
 
 
 @pytest.fixture(scope="module")
@@ -73,22 +86,16 @@ def test_one_job_per_session_cancel_and_the_api_stays_responsive(client: TestCli
     assert r.status_code == 202
 
 
-def test_jobs_nobody_waits_for_are_cancelled() -> None:
+def test_jobs_nobody_waits_for_are_cancelled(tmp_path: Path) -> None:
     jobs = JobManager(max_workers=1, idle_cancel_s=0.5)
-    gate = threading.Event()
-
-    def slow(progress):  # noqa: ANN001, ANN202
-        while not gate.wait(0.05):
-            progress(0.5, "working")  # raises once cancelled
-        return 1
-
-    a = jobs.submit("s1", "diagnose", slow)
-    b = jobs.submit("s2", "diagnose", slow)  # queued behind a
+    gate = str(tmp_path / "never")
+    a = jobs.submit("s1", "diagnose", Task(job_work.until_file, (gate,)))
+    b = jobs.submit("s2", "diagnose", Task(job_work.until_file, (gate,)))  # queued behind a
     with pytest.raises(JobBusy):
-        jobs.submit("s1", "fit", slow)
-    assert a.finished.wait(5.0) and b.finished.wait(5.0)  # nobody polled: both cancelled
+        jobs.submit("s1", "fit", Task(job_work.constant, (1,)))
+    assert a.finished.wait(60) and b.finished.wait(60)  # nobody polled: both cancelled
     assert a.view().state == "cancelled" and b.view().state == "cancelled"
-    assert jobs.running() == 0
+    assert jobs.running() == 0 and jobs.workers() == []
     jobs.cancel_all()
 
 
@@ -101,68 +108,55 @@ def test_sync_endpoints_run_through_the_queue(tmp_path: Path) -> None:
         assert app.state.jobs.running() == 0
 
 
-def test_a_running_diagnosis_stops_at_its_next_progress_report(monkeypatch) -> None:  # noqa: ANN001
-    """The diagnosis gets ``progress=`` when core.diagnosis.diagnose accepts it; a cancelled
-    job's callback raises there, so the work stops instead of running to the end."""
-    import core.diagnosis as cd
-
-    real = cd.diagnose
-    reports: list[float] = []
-
-    def diagnose(data, baseline, *, n_operators, progress=None):  # noqa: ANN001, ANN202
-        for k in range(200):
-            progress(k / 200, f"step {k}")
-            reports.append(k / 200)
-            time.sleep(0.01)
-        return real(data, baseline, n_operators=n_operators)
-
-    monkeypatch.setattr(cd, "diagnose", diagnose)
-    app = create_app(Settings(viser_port=None))
-    with TestClient(app) as c:
-        code = c.post("/api/sessions").json()["code"]
-        upload(c, code, csv_text(400))
-        job = c.post(f"/api/sessions/{code}/jobs", json={"kind": "diagnose"}).json()["id"]
-        deadline = time.monotonic() + 30
-        while not reports and time.monotonic() < deadline:
-            time.sleep(0.02)
-        seen = c.get(f"/api/sessions/{code}/jobs/{job}").json()
-        assert seen["state"] == "running" and 0 < seen["progress"] < 1
-        c.delete(f"/api/sessions/{code}/jobs/{job}")
-        end = _poll(c, code, job)
-        assert end["state"] == "cancelled" and len(reports) < 150
-
-
 def test_a_diagnosis_cancelled_after_its_last_report_leaves_the_session_alone(
-        monkeypatch) -> None:  # noqa: ANN001
+        monkeypatch: pytest.MonkeyPatch) -> None:
     """The cancel arrives after the diagnosis' last progress report, while the report is
-    being built: the job ends cancelled and the session holds no diagnosis (before: the
-    result was stored in the session although the job said "cancelled"; the browser test of
-    Cancel failed on it whenever the click came that late)."""
-    import core.diagnosis as cd
-
-    real = cd.diagnose
-    box: dict[str, str] = {}
-
-    def diagnose(data, baseline, *, n_operators, progress=None):  # noqa: ANN001, ANN202
-        res = real(data, baseline, n_operators=n_operators)
-        progress(1.0, "done")  # the diagnosis' own last report
-        box["cancel"] = "now"
-        deadline = time.monotonic() + 10
-        while "cancelled" not in box and time.monotonic() < deadline:
-            time.sleep(0.01)  # the user's cancel lands here
-        return res
-
-    monkeypatch.setattr(cd, "diagnose", diagnose)
+    being built: the job ends cancelled at once, its worker is gone, and the session holds
+    no diagnosis (before: the job stayed "cancelling" until the diagnosis had run to its
+    end, and a cancel that came that late still left the result in the session)."""
+    monkeypatch.setattr(tasks, "run_diagnosis", job_work.stalled_diagnosis)
     app = create_app(Settings(viser_port=None))
     with TestClient(app) as c:
         code = c.post("/api/sessions").json()["code"]
         upload(c, code, csv_text(400))
         job = c.post(f"/api/sessions/{code}/jobs", json={"kind": "diagnose"}).json()["id"]
-        deadline = time.monotonic() + 60
-        while "cancel" not in box and time.monotonic() < deadline:
-            time.sleep(0.02)
-        c.delete(f"/api/sessions/{code}/jobs/{job}")
-        box["cancelled"] = "yes"
-        end = _poll(c, code, job)
-        assert end["state"] == "cancelled"
+        seen = _poll_until(c, code, job, lambda j: j["progress"] >= 0.99)
+        assert seen["state"] == "running" and seen["message"] == "building the report"
+        [pid] = app.state.jobs.workers()
+        end = c.delete(f"/api/sessions/{code}/jobs/{job}").json()
+        assert end["state"] == "cancelled" and end["progress"] < 1
+        job_work.wait_gone(pid)
         assert app.state.registry.get(code).diagnosis is None
+        assert app.state.jobs.running() == 0
+
+
+def test_a_cancel_while_the_result_is_stored_is_too_late(tmp_path: Path) -> None:
+    """The worker is done and its result is being stored: a cancel then changes nothing
+    and the job ends done (a cancelled job never leaves a result behind, a done one always
+    does)."""
+    jobs = JobManager(max_workers=1)
+    storing, release, kept = threading.Event(), threading.Event(), []
+
+    def keep(value: int) -> int:
+        storing.set()
+        assert release.wait(30)
+        kept.append(value)
+        return value + 1
+
+    job = jobs.submit("s1", "fit", Task(job_work.constant, (41,), keep))
+    assert storing.wait(60)
+    assert jobs.cancel("s1", job.id).view().state == "running"
+    release.set()
+    assert job.finished.wait(30)
+    assert job.view().state == "done" and job.view().result == 42 and kept == [41]
+    jobs.cancel_all()
+
+
+def test_a_task_that_raises_or_whose_worker_dies_fails_with_the_reason() -> None:
+    jobs = JobManager(max_workers=1)
+    failed = jobs.submit("s1", "fit", Task(job_work.fail, ("no good",)))
+    assert failed.finished.wait(60) and failed.view().error == "no good"
+    died = jobs.submit("s1", "fit", Task(job_work.die, (3,)))  # as if out of memory
+    assert died.finished.wait(30) and died.view().state == "failed"
+    assert "stopped unexpectedly (exit code 3" in died.view().error
+    jobs.cancel_all()

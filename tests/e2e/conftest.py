@@ -115,17 +115,10 @@ def shot() -> Any:
 def slow_diagnosis(monkeypatch: pytest.MonkeyPatch) -> None:
     """The diagnosis pauses 0.5 s at each progress report, so that it is still running when
     the page reacts (a Cancel or a reload); otherwise a fast machine finishes the piezo
-    diagnosis before the click and the test measures the race, not the page."""
-    import core.diagnosis as cd
+    diagnosis before the click and the test measures the race, not the page. (A job runs in
+    a worker process: the server sends it the work function by name, so the slow one is a
+    module-level function of the tests.)"""
+    from app.services import tasks
+    from tests.app.job_work import slow_diagnosis as slow
 
-    real = cd.diagnose
-
-    def diagnose(*args: Any, progress: Any = None, **kw: Any) -> Any:
-        def slow(frac: float, msg: str = "") -> None:
-            time.sleep(0.5)
-            if progress is not None:
-                progress(frac, msg)
-
-        return real(*args, progress=slow, **kw)
-
-    monkeypatch.setattr(cd, "diagnose", diagnose)
+    monkeypatch.setattr(tasks, "run_diagnosis", slow)

@@ -277,8 +277,26 @@ def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_serv
     ctx.close()
 
 
+def _slow_in_process_diagnosis(monkeypatch: Any) -> None:
+    """viser runs the diagnosis in its own thread (not a job's worker process): it pauses
+    0.5 s at each progress report, so that Cancel comes while it runs."""
+    import core.diagnosis as cd
+
+    real = cd.diagnose
+
+    def diagnose(*args: Any, progress: Any = None, **kw: Any) -> Any:
+        def slow(frac: float, msg: str = "") -> None:
+            time.sleep(0.5)
+            if progress is not None:
+                progress(frac, msg)
+
+        return real(*args, progress=slow, **kw)
+
+    monkeypatch.setattr(cd, "diagnose", diagnose)
+
+
 def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, shot: Any,
-                            slow_diagnosis: None, monkeypatch: Any) -> None:
+                            monkeypatch: Any) -> None:
     """One viser tab on a 1920x1080 projector, through failures 8, 7, 3 and 4 (one page,
     as opening a viser tab costs seconds): hints on the inputs; the closed loop says why
     the inverse feedforward does worse; a 7-digit digitized view draws the visited states
@@ -293,7 +311,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
     ctx, page, errors = _open_viser(browser, live_server["viser_url"], 1920, 1080)
     view = _new_view(app, known)
     # failure 8: hints (viser 1.1 draws them on inputs only)
-    inputs = ("preset", "p0", "n_ops", "json_in", "kind", "amp", "freq", "offset", "duration",
+    inputs = ("preset", "n_ops", "json_in", "kind", "amp", "freq", "offset", "duration",
               "samples", "use_rec", "mismatch", "t_col", "fit_n", "fit_kind", "code_in")
     missing = [a for a in inputs if not getattr(view.ui, a).hint]
     assert missing == [], f"inputs without a hint: {missing}"
@@ -346,6 +364,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
     deadline = time.monotonic() + 60
     while view.session.recording.n_samples != 50001 and time.monotonic() < deadline:
         time.sleep(0.1)
+    _slow_in_process_diagnosis(monkeypatch)
     page.get_by_role("button", name="Run diagnosis").first.click()
     cancel = page.get_by_role("button", name="Cancel the diagnosis").first
     cancel.wait_for(timeout=30_000)
@@ -383,7 +402,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
 
 def test_viser_phone_at_pixel_ratio_3(browser: Any, live_server: dict, shot: Any) -> None:
     """Failure 4 (viser): a phone at device-pixel ratio 3 shows a plot (every ratio and
-    phone size: tests/app/gui/test_screens.py)."""
+    phone size: tests/app/gui/test_layout_screens.py)."""
     app = live_server["app"]
     known = set(app.state.gui.views)
     ctx = browser.new_context(viewport={"width": 390, "height": 844},

@@ -74,6 +74,7 @@ def test_preset_list_shows_the_sessions_preset(browser: Any, live_server: dict) 
     model = json.loads(page.input_value("#model-json"))
     model["pi"]["p0"] = 0.7
     v = page.get_attribute("body", "data-ready")
+    page.click("#json-edit summary")  # a GPI has sliders: the JSON box starts closed
     page.fill("#model-json", json.dumps(model))
     page.click("#apply-json")
     _redrawn(page, v)

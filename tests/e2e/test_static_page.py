@@ -48,7 +48,7 @@ def test_page_loads_slider_updates_plot(browser: Any, live_server: dict, shot: A
     assert "Hysteresis loop" in page.inner_text("#figure")
     before = _loop_y(page)
     version = page.get_attribute("body", "data-ready")
-    slider = page.locator("#p-p1")
+    slider = page.locator("#ctl-weights-0")
     slider.focus()
     for _ in range(30):
         slider.press("ArrowRight")
@@ -141,19 +141,19 @@ def test_two_students_are_isolated(browser: Any, live_server: dict) -> None:
     ctx_b, b, _ = _open(browser, live_server["url"])
     code_a, code_b = a.inner_text("#code"), b.inner_text("#code")
     assert code_a != code_b
-    p0_b = b.input_value("#p0")
+    p0_b = b.input_value("#ctl-p0")
     v = a.get_attribute("body", "data-ready")
-    a.locator("#p0").focus()
+    a.locator("#ctl-p0").focus()
     for _ in range(20):
-        a.locator("#p0").press("ArrowRight")
+        a.locator("#ctl-p0").press("ArrowRight")
     a.wait_for_function("v => document.body.dataset.ready !== v", arg=v, timeout=30_000)
-    a.wait_for_function("() => Number(document.getElementById('p0').value) > 0.73")
+    a.wait_for_function("() => Number(document.getElementById('ctl-p0').value) > 0.73")
     reg = live_server["app"].state.registry
     assert reg.get(code_a).config.model["p0"] != pytest.approx(0.72)
     assert reg.get(code_b).config.model["p0"] == pytest.approx(0.72)
     b.reload()
     b.wait_for_selector("body[data-ready]")
     assert b.inner_text("#code") == code_b  # the session survives a reload
-    assert b.input_value("#p0") == p0_b
+    assert b.input_value("#ctl-p0") == p0_b
     ctx_a.close()
     ctx_b.close()

@@ -112,8 +112,8 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     # a change made through the session (REST, teacher push) reaches A's controls only
     view_a.session.update(lambda c: c.with_model({**c.model, "p0": 1.25}))
     assert view_a.worker.wait_idle(30)
-    assert view_a.ui.p0.value == pytest.approx(1.25)
-    assert view_b.ui.p0.value == pytest.approx(0.72)
+    assert view_a.ui.param_sliders["p0"].value == pytest.approx(1.25)
+    assert view_b.ui.param_sliders["p0"].value == pytest.approx(0.72)
 
     view_a.ui.view_dd.value = "Digitized states"
     assert view_a.worker.wait_idle(30)

@@ -247,9 +247,9 @@ def test_teacher_push_reaches_two_students_live(browser: Any, live_server: dict,
     ctx_t, t, log_t = _open(browser, live_server["url"])
     # student A moves a weight before the push: the push must still win
     va = a.get_attribute("body", "data-ready")
-    a.locator("#p-p1").focus()
+    a.locator("#ctl-weights-0").focus()
     for _ in range(5):
-        a.locator("#p-p1").press("ArrowRight")
+        a.locator("#ctl-weights-0").press("ArrowRight")
     _redrawn(a, va)
     _listening(live_server["url"], a, b)
     t.click("#teacher summary")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 from collections.abc import Iterator
 from types import SimpleNamespace
@@ -45,6 +46,11 @@ def _idle(v: SessionView) -> None:
     assert v.worker.wait_idle(30)
 
 
+def _md(handle: Any) -> str:
+    """A markdown handle's text without the escapes of md_text."""
+    return html.unescape(handle.content.replace("\\", ""))
+
+
 def _loop_y(v: SessionView) -> np.ndarray:
     assert v.shown_figure == "loop"
     return F.values(v.ui.plot.figure.data[0]["y"])
@@ -63,22 +69,54 @@ def test_opens_on_example1_with_loop_drawn(view: SessionView) -> None:
 
 def test_slider_updates_session_and_plot(view: SessionView) -> None:
     before = _loop_y(view)
-    view.ui.w_sliders[0].value = 1.2
+    view.ui.param_sliders["weights[0]"].value = 1.2
     _idle(view)
     assert view.session.config.model["weights"][0] == 1.2
     assert view.rendered_version == view.session.version
     assert not np.allclose(before, _loop_y(view))
 
 
-def test_invalid_threshold_shows_message_keeps_model(view: SessionView) -> None:
-    view.ui.r_sliders[0].value = 5.0
+def test_threshold_past_its_neighbour_stops_short_of_it(view: SessionView) -> None:
+    """Dragging r3 past r4 (1.8) keeps it one step below r4 and says so with the slider's
+    labels; the next slider still applies (no bad value is left behind)."""
+    r3 = view.ui.param_sliders["thresholds[2]"]
+    assert r3.label == "r3"
+    r3.value = 3.345
     _idle(view)
-    assert "increasing" in view.ui.model_md.content
-    assert view.session.config.model["thresholds"][0] == 0.45
+    assert view.session.config.model["thresholds"][2] == pytest.approx(1.799)
+    assert r3.value == pytest.approx(1.799)
+    assert "r3 stops at 1.799, just below r4 = 1.8" in _md(view.ui.params_md)
+    assert "thresholds[" not in _md(view.ui.params_md)
+    view.ui.param_sliders["weights[0]"].value = 0.5
+    _idle(view)
+    assert view.session.config.model["weights"][0] == 0.5
+    assert json.loads(view.ui.json_in.value)["weights"][0] == 0.5  # the JSON box follows
+    view.ui.param_sliders["thresholds[0]"].value = -1.0  # r1 must stay > 0: said so
+    _idle(view)
+    assert view.session.config.model["thresholds"][0] == pytest.approx(0.001)
+    assert "r1 stops at 0.001: it must be > 0" in _md(view.ui.params_md)
+
+
+def test_refused_change_puts_sliders_back(view: SessionView,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A change the rules do not catch but the model refuses (simulated by letting the
+    clamp pass everything) puts the sliders back at the stored model: the next move
+    applies."""
+    from app.services import controls as C
+
+    monkeypatch.setattr(C, "clamp", lambda doc, path, value, controls=None: C.Clamped(value))
+    r3 = view.ui.param_sliders["thresholds[2]"]
+    r3.value = 3.3
+    _idle(view)
+    assert "Not applied" in _md(view.ui.params_md) and "r4" in _md(view.ui.params_md)
+    assert view.session.config.model["thresholds"][2] == 1.35 and r3.value == 1.35
+    view.ui.param_sliders["p0"].value = 0.9
+    _idle(view)
+    assert view.session.config.model["p0"] == 0.9
 
 
 def test_non_invertible_weights_message(view: SessionView) -> None:
-    view.ui.p0.value = -0.2
+    view.ui.param_sliders["p0"].value = -0.2
     _idle(view)
     assert "not invertible" in view.ui.inverse_md.content
     view.ui.view_dd.value = "Inverse"
@@ -90,7 +128,13 @@ def test_non_invertible_weights_message(view: SessionView) -> None:
 def test_operator_count_rebuilds_sliders(view: SessionView) -> None:
     view.ui.n_ops.value = 12
     _idle(view)
-    assert len(view.ui.r_sliders) == 12 and len(view.session.config.model["weights"]) == 12
+    assert sum(p.startswith("thresholds[") for p in view.ui.param_sliders) == 12
+    assert len(view.session.config.model["weights"]) == 12
+    view.ui.n_ops.value = 10_000  # beyond the limit: set to it, and said so
+    _idle(view)
+    top = view.settings.max_operators
+    assert len(view.session.config.model["weights"]) == top and view.ui.n_ops.value == top
+    assert f"at most {top} operators: n is set to {top}" in _md(view.ui.params_md)
 
 
 def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
@@ -98,7 +142,8 @@ def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
     view.session.update(lambda c: c.with_model({"type": "pi", "p0": 1.1, "thresholds": [1.0, 2.0],
                                                 "weights": [0.3, 0.2]}))
     _idle(view)
-    assert view.ui.p0.value == pytest.approx(1.1) and len(view.ui.w_sliders) == 2
+    assert view.ui.param_sliders["p0"].value == pytest.approx(1.1)
+    assert sum(p.startswith("weights[") for p in view.ui.param_sliders) == 2
     assert view.session.version == v0 + 1  # the sync did not write back
 
 
@@ -220,32 +265,27 @@ def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
     view.session.update(lambda c: c.with_model(doc["model"]))
     _idle(view)
     assert not view.ui.pi_folder.visible and view.ui.param_folder.visible
+    # the GPI's plays are counted (not "? operators", "n = ?")
+    assert "6 operators" in view.ui.model_md.content
+    assert "n = 6" in json.dumps(view.ui.plot.figure.layout)
     h = view.ui.param_sliders["pi.p0"]
     h.value = 0.8
     _idle(view)
     assert view.session.config.model["pi"]["p0"] == 0.8
-    # a non-monotone dead zone is refused with a message next to the controls
-    v = view.session.version
+    # the dead zones are numbered around rho_0 = 0, which is a constant; a dead-zone
+    # threshold dragged past its neighbour stops one step short of it
+    assert view.ui.param_sliders["deadzone.thresholds[0]"].label == "ρ-11"
+    assert view.ui.param_sliders["deadzone.thresholds[11]"].disabled
     view.ui.param_sliders["deadzone.thresholds[0]"].value = 2.9
     _idle(view)
-    assert view.session.version == v
-    assert "Not applied" in view.ui.model_md.content
-
-
-def test_numeric_leaves_round_trip() -> None:
-    from app.gui.layout import numeric_leaves, set_leaf
-
-    d = {"type": "x", "a": [1, 2.5], "b": {"c": 3.0, "flag": True}}
-    assert numeric_leaves(d) == [("a[0]", 1.0), ("a[1]", 2.5), ("b.c", 3.0)]
-    set_leaf(d, "a[1]", 7.0)
-    set_leaf(d, "b.c", -1.0)
-    assert d["a"][1] == 7.0 and d["b"]["c"] == -1.0
+    assert view.session.config.model["deadzone"]["thresholds"][0] == pytest.approx(-2.751)
+    assert "ρ-11 stops at -2.751, just below ρ-10 = -2.75" in _md(view.ui.params_md)
 
 
 def test_teacher_push_reaches_other_sessions(view: SessionView) -> None:
     other = view.registry.create()
     view.settings = Settings(teacher_token="s3cret")
-    view.ui.p0.value = 1.3
+    view.ui.param_sliders["p0"].value = 1.3
     _idle(view)
     view.ui.teacher_token.value = "s3cret"
     view._push_clicked(SimpleNamespace(client=None))
@@ -257,7 +297,7 @@ def test_teacher_push_needs_the_token_also_on_loopback(view: SessionView) -> Non
     loopback server without a teacher token cannot push from the GUI, and one with a token
     needs it; a tab that gave it once keeps it (on loopback only), a wrong one forgets it."""
     other = view.registry.create()
-    view.ui.p0.value = 1.2
+    view.ui.param_sliders["p0"].value = 1.2
     _idle(view)
     view._push_clicked(SimpleNamespace(client=None))  # Settings(): loopback, no token
     assert other.config.model["p0"] != 1.2
@@ -268,7 +308,7 @@ def test_teacher_push_needs_the_token_also_on_loopback(view: SessionView) -> Non
     view.ui.teacher_token.value = "s3cret"
     view._push_clicked(SimpleNamespace(client=None))
     assert other.config.model["p0"] == 1.2 and view.teacher
-    view.ui.p0.value = 1.4
+    view.ui.param_sliders["p0"].value = 1.4
     _idle(view)
     view._push_clicked(SimpleNamespace(client=None))  # remembered: the field stays empty
     assert other.config.model["p0"] == 1.4
@@ -291,7 +331,7 @@ def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
     monkeypatch.setattr(Settings, "teacher_ok",
                         lambda self, tok: calls.append(tok) or real(self, tok))
     other = view.registry.create()
-    view.ui.p0.value = 1.1
+    view.ui.param_sliders["p0"].value = 1.1
     _idle(view)
     for settings, token, pushed in ((Settings(teacher_token="s3cret"), "nope", False),
                                     (Settings(teacher_token="s3cret"), "", False),

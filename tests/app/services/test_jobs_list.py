@@ -3,12 +3,14 @@ a fit or a diagnosis finds the job and follows it."""
 
 from __future__ import annotations
 
-import threading
+from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
 
 from app.services.jobs import JobManager
+from app.services.worker import Task
+from tests.app import job_work
 from tests.app import test_security_jobs as jobs_api
 from tests.app.test_security import csv_text, upload
 from tests.app.test_security_jobs import _poll
@@ -57,26 +59,20 @@ def test_unknown_or_hostile_codes_are_404(client: TestClient, code: str) -> None
     assert "<script>" not in r.text
 
 
-def test_the_list_is_bounded_and_keeps_an_unfinished_job_alive() -> None:
+def test_the_list_is_bounded_and_keeps_an_unfinished_job_alive(tmp_path: Path) -> None:
     jobs = JobManager(max_workers=1, idle_cancel_s=0.6)
     for _ in range(30):
-        j = jobs.submit("s1", "fit", lambda progress: 1)
-        assert j.finished.wait(5)
+        j = jobs.submit("s1", "fit", Task(job_work.constant, (1,)))
+        assert j.finished.wait(60) and j.view().state == "done"
     assert len(jobs.recent("s1", 10)) == 10 and len(jobs.recent("s1", 100)) == 30
     assert jobs.recent("s1", 0) == [] and jobs.recent("nobody") == []
-    gate = threading.Event()
-
-    def slow(progress):  # noqa: ANN001, ANN202
-        while not gate.wait(0.05):
-            progress(0.5, "working")
-        return 2
-
-    job = jobs.submit("s1", "diagnose", slow)
+    gate = tmp_path / "go"
+    job = jobs.submit("s1", "diagnose", Task(job_work.until_file, (str(gate), 2)))
     # nobody polls the job by id, but a page keeps listing the session's jobs: alive
     for _ in range(20):
         assert jobs.recent("s1", 1)[0] is job
         assert not job.finished.wait(0.1)
     assert job.state == "running"
-    gate.set()
-    assert job.finished.wait(5) and job.state == "done"
+    gate.touch()
+    assert job.finished.wait(30) and job.state == "done" and job.result == 2
     jobs.cancel_all()

@@ -1,0 +1,28 @@
+"""The sliders of a model, derived from the model types' field declarations."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter
+
+from ..services import actions
+from .deps import SettingsDep
+from .schemas import ControlsIn, ControlsOut
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/api", tags=["simulate"])
+
+
+@router.post("/controls", response_model=ControlsOut)
+def controls(body: ControlsIn, settings: SettingsDep) -> dict[str, Any]:
+    """The sliders of a model document: label, unit, range, step, hard limits and
+    neighbours of each number, grouped by field.
+
+    Both the web page and the viser GUI build their parameter sliders from this
+    description, so every registered model type has sliders. An invalid model gives 422
+    naming the broken rule in the labels the sliders show (``r3 = 3.3 must stay below
+    r4 = 1.8``).
+    """
+    return actions.checked_controls(body.model, settings).to_dict()

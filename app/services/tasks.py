@@ -1,0 +1,86 @@
+"""The fit and diagnosis jobs of a session: what runs in the worker process and what the
+server keeps (no web imports).
+
+:func:`fit_task` and :func:`diagnose_task` build a :class:`~app.services.worker.Task` from the
+session's state at submission (its recording, its model document). Their work,
+:func:`run_fit` and :func:`run_diagnosis`, runs in a worker process (:mod:`.worker`) that a
+cancel kills; only a finished, uncancelled result is stored in the session, in the server
+(``Task.keep``). The work functions are looked up here when a task is built, so a test may
+replace them with its own module-level functions.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from core.exceptions import ParameterError
+
+from .worker import Progress, Task
+
+if TYPE_CHECKING:
+    from core.recordings import Recording
+
+    from .sessions import Session
+
+__all__ = ["diagnose_task", "fit_task", "run_diagnosis", "run_fit"]
+
+
+def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:
+    """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure.
+
+    Returns ``{"model": document, "report": {...}, "figure": plotly figure}``.
+    """
+    from . import figures as F
+    from .fitting import fit_recording
+
+    progress(0.05, f"fitting a {kind} model with {n} operators")
+    model, report = fit_recording(rec, n, kind)
+    progress(0.9, "building the figure")
+    fig = F.fit_figure(rec, model(rec.u), f"fitted {kind} (n={n})")
+    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+
+
+def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
+                  progress: Progress) -> tuple[dict[str, Any], Any]:
+    """Diagnose ``rec`` against the model ``model_doc`` (:func:`.diagnosis.run_diagnosis`):
+    ``(report, result)``; progress runs from 0.01 to 0.99."""
+    from core.base import model_from_dict
+
+    from .diagnosis import run_diagnosis as diagnose
+
+    progress(0.01, "diagnosing")
+
+    def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
+        progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
+
+    return diagnose(rec, model_from_dict(model_doc), report)
+
+
+def _recording(session: Session, what: str) -> Recording:
+    rec = session.recording
+    if rec is None:
+        raise ParameterError(f"upload a recording first: there is nothing to {what}")
+    return rec
+
+
+def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
+    """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
+    dropped; with ``apply`` the fitted model becomes the session's model)."""
+    def keep(out: dict[str, Any]) -> dict[str, Any]:
+        session.set_fit(out["model"], out["report"], apply=apply)
+        return out
+
+    return Task(run_fit, (_recording(session, "fit"), n, kind), keep)
+
+
+def diagnose_task(session: Session) -> Task:
+    """The task of a diagnosis of the fitted model (else the current model) against
+    ``session``'s recording; kept: the report and the result are stored."""
+    doc = session.fitted or session.snapshot()[0].model
+
+    def keep(out: tuple[dict[str, Any], Any]) -> dict[str, Any]:
+        report, result = out
+        session.set_diagnosis(report, result)
+        return report
+
+    return Task(run_diagnosis, (_recording(session, "diagnose"), doc), keep)

@@ -1,0 +1,189 @@
+"""Job work in a worker process that a cancel kills at once (no web imports).
+
+Why a process: the long steps of a fit or a diagnosis are scipy's NNLS and least squares and
+compiled (numba) kernels, none of which can be interrupted from inside; a check between them
+leaves a cancelled fit running for as long as its longest step (a cancelled dead-zone GPI fit
+held its job slot for 96 s, issue 18). A process is killed (``SIGKILL``) at once, and the
+memory it used goes with it.
+
+How: each :class:`Task` runs in a child forked from :mod:`multiprocessing`'s forkserver, which
+imports numpy, scipy, numba and the solvers once (:data:`PRELOAD`, started in the background by
+:func:`start`), so a job starts in milliseconds instead of the seconds of a fresh interpreter.
+The child sends its progress and its result (pickled: parent and child are the same program)
+through a pipe, and watches a second pipe whose other end only the server holds: when the
+server is gone (kill -9), the child exits instead of computing for nobody.
+
+Like every child of a forkserver or of spawn, a worker imports the main script of the program
+that started the server (as ``__mp_main__``): a script that serves the app must keep its work
+under ``if __name__ == "__main__":`` (``hyst serve`` and ``python -m app`` do).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import multiprocessing.connection as mpc
+import multiprocessing.forkserver  # noqa: F401 - imported for ensure_running
+import os
+import signal
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["PRELOAD", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
+
+#: ``progress(fraction, message)``: how a task reports to its job (``fraction`` in 0..1).
+Progress = Callable[[float, str], None]
+
+#: Modules the forkserver imports once (the last one loads the compiled kernels); every
+#: worker is forked with them loaded.
+PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.services.tasks",
+           "app.services.preload"]
+
+#: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
+#: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
+#: measured here)
+_FORKSERVER = "forkserver" in multiprocessing.get_all_start_methods()
+_CTX = multiprocessing.get_context("forkserver" if _FORKSERVER else "spawn")
+if _FORKSERVER:
+    _CTX.set_forkserver_preload(PRELOAD)  # read when the forkserver starts
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of work for a worker process.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (it is sent to the worker by name), called there as
+        ``fn(*args, progress=progress)``; ``progress(fraction, message)`` reports to the
+        job. Its return value is pickled back.
+    args : tuple
+        Its arguments (pickled: arrays, recordings, model documents).
+    keep : callable, optional
+        Called in the server with ``fn``'s return value once the work is done and was not
+        cancelled (store it in the session); its return value is the job's result.
+        Without it the result is ``fn``'s return value.
+    """
+
+    fn: Callable[..., Any]
+    args: tuple[Any, ...] = ()
+    keep: Callable[[Any], Any] | None = None
+
+
+class TaskFailed(RuntimeError):
+    """The task raised in the worker; the message is the exception's text."""
+
+
+class WorkerDied(RuntimeError):
+    """The worker process ended without a result (killed, or out of memory)."""
+
+
+def start() -> None:
+    """Start the forkserver with :data:`PRELOAD` imported, if it is not running yet.
+
+    Safe to call more than once and from any thread; the first job calls it anyway (and
+    then waits for the imports, a few seconds)."""
+    if _FORKSERVER:
+        multiprocessing.forkserver.ensure_running()
+
+
+def _watch_server(lifeline: mpc.Connection) -> None:
+    """In the worker: exit as soon as the server's end of ``lifeline`` closes."""
+    try:
+        lifeline.recv()
+    except (EOFError, OSError):
+        pass
+    os._exit(1)
+
+
+def _main(task_fn: Callable[..., Any], args: tuple[Any, ...], out: mpc.Connection,
+          lifeline: mpc.Connection) -> None:
+    """The worker process: run ``task_fn``, send progress and the outcome through ``out``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C in a terminal: the server decides
+    threading.Thread(target=_watch_server, args=(lifeline,), daemon=True).start()
+
+    def progress(fraction: float, message: str = "") -> None:
+        out.send(("progress", float(fraction), str(message)))
+
+    try:
+        value = task_fn(*args, progress=progress)
+        out.send(("done", value))
+    except Exception as exc:  # the job reports it; a worker never prints a traceback
+        out.send(("failed", str(exc) or type(exc).__name__))
+
+
+class Worker:
+    """One task in its own process: :meth:`run` it, :meth:`kill` it from any thread."""
+
+    def __init__(self, task: Task) -> None:
+        self.task = task
+        self._proc: Any = None
+        self._lock = threading.Lock()
+        self._killed = False
+
+    @property
+    def pid(self) -> int | None:
+        """The worker's process id (``None`` before it started)."""
+        return None if self._proc is None else self._proc.pid
+
+    def kill(self) -> None:
+        """Stop the worker now (SIGKILL); :meth:`run` then raises :class:`WorkerDied`."""
+        with self._lock:
+            self._killed = True
+            if self._proc is not None and self._proc.exitcode is None:
+                self._proc.kill()
+
+    def run(self, progress: Progress) -> Any:
+        """Start the process, pass its progress reports to ``progress`` and return the
+        task's return value.
+
+        Raises
+        ------
+        TaskFailed
+            The task raised (the message is its text).
+        WorkerDied
+            The process was killed (:meth:`kill`) or ended without a result.
+        """
+        start()
+        out_r, out_w = _CTX.Pipe(duplex=False)
+        life_r, life_w = _CTX.Pipe(duplex=False)
+        proc = _CTX.Process(target=_main, args=(self.task.fn, self.task.args, out_w, life_r),
+                            name="hyst-job", daemon=True)
+        try:
+            with self._lock:
+                if self._killed:
+                    raise WorkerDied("the job was stopped before it started")
+                proc.start()
+                self._proc = proc
+            out_w.close()
+            life_r.close()
+            return self._collect(proc, out_r, progress)
+        finally:
+            if proc.pid is not None:
+                with self._lock:
+                    if proc.exitcode is None:
+                        proc.kill()
+                proc.join()
+                proc.close()
+            for c in (out_r, out_w, life_r, life_w):
+                c.close()
+
+    def _collect(self, proc: Any, out: mpc.Connection, progress: Progress) -> Any:
+        while True:
+            try:
+                msg = out.recv()  # blocks until a message, or EOF once the worker is gone
+            except (EOFError, OSError):
+                proc.join()
+                why = ("it was stopped" if self._killed
+                       else f"the work stopped unexpectedly (exit code {proc.exitcode}; the "
+                            "server may have run out of memory): try fewer operators or a "
+                            "shorter recording")
+                raise WorkerDied(why) from None
+            if msg[0] == "progress":
+                progress(msg[1], msg[2])
+            elif msg[0] == "done":
+                return msg[1]
+            else:
+                raise TaskFailed(msg[1])

@@ -1,0 +1,210 @@
+// The model's parameter sliders, built from the server's description of the model
+// (POST /api/controls, derived from each model type's field declarations): any model type
+// gets its sliders here without code of its own.
+//
+// The sliders edit a working copy of the model document (`controls.model`). A move is kept
+// inside the field's rules before it is sent: whole numbers, hard limits, and the order of
+// increasing fields (a threshold stops one step short of its neighbour); the note says so in
+// the labels the user sees. `revert` puts the sliders back at the last model the server
+// accepted, so a refused change never blocks the next one.
+
+const TOKENS = /[^.[\]]+|\[\d+\]/g;
+
+function tokens(path) {
+  return path.match(TOKENS) || [];
+}
+
+export function getLeaf(doc, path) {
+  let node = doc;
+  for (const t of tokens(path)) {
+    if (node === null || node === undefined) return undefined;
+    node = t.startsWith("[") ? node[Number(t.slice(1, -1))] : node[t];
+  }
+  return node;
+}
+
+export function setLeaf(doc, path, value) {
+  const ts = tokens(path);
+  let node = doc;
+  for (const t of ts.slice(0, -1)) node = t.startsWith("[") ? node[Number(t.slice(1, -1))] : node[t];
+  const last = ts[ts.length - 1];
+  if (last.startsWith("[")) node[Number(last.slice(1, -1))] = value;
+  else node[last] = value;
+}
+
+// The structure of a model document: types, keys and lengths (numbers left out).
+function shape(doc) {
+  return JSON.stringify(doc, (k, v) => (typeof v === "number" ? 0 : v));
+}
+
+function fmt(x) {
+  return String(Number(x.toPrecision(6)));
+}
+
+function decimals(step) {
+  return Math.max(0, -Math.floor(Math.log10(step)));
+}
+
+function roundTo(x, step) {
+  return Number(x.toFixed(decimals(step) + 2));
+}
+
+const UNIT_TEXT = {
+  input: "input units", output: "output units", "output/input": "output per input unit",
+  "1/input": "per input unit", s: "s", Hz: "Hz", "s^k": "s to the power of the term", 1: "",
+};
+
+export class ModelControls {
+  // container: the element the groups go in; api(method, path, body): the page's fetch
+  // helper; onChange(note): called after a slider moved (note: what a rule changed, or "")
+  constructor(container, { api, onChange }) {
+    this.box = container;
+    this.api = api;
+    this.onChange = onChange;
+    this.model = null;
+    this.desc = null;
+    this.byPath = new Map();
+    this.inputs = new Map();
+    this.seq = 0;
+    this.shape = null;
+  }
+
+  // Show `model` (a change that did not come from these sliders): the sliders are rebuilt
+  // from the server's description when the structure changed, else moved to the values.
+  async show(model) {
+    this.model = structuredClone(model);
+    const same = this.desc && this.shape === shape(model);
+    if (same && this.#setValues()) return;
+    const seq = ++this.seq;
+    let desc;
+    try {
+      desc = await this.api("POST", "/api/controls", { model });
+    } catch (e) {
+      if (seq !== this.seq) return;
+      this.desc = null;
+      this.shape = null;
+      this.box.replaceChildren(Object.assign(document.createElement("p"), {
+        className: "msg", textContent: `No sliders for this model: ${e.message}`,
+      }));
+      return;
+    }
+    if (seq !== this.seq) return;  // a newer model is on its way
+    this.desc = desc;
+    this.shape = shape(model);
+    this.#build();
+    this.#setValues();
+  }
+
+  // Back to the last accepted model (after a refused change).
+  revert(model) {
+    this.model = structuredClone(model);
+    if (!this.desc || this.shape !== shape(model) || !this.#setValues()) this.show(model);
+  }
+
+  #build() {
+    this.byPath.clear();
+    this.inputs.clear();
+    const groups = this.desc.groups.map((g) => {
+      const box = document.createElement("details");
+      box.className = "ctl-group";
+      box.dataset.key = g.key;
+      box.open = g.sliders.length <= 8;
+      const summary = document.createElement("summary");
+      summary.textContent = g.title + (g.unit ? ` (${g.unit})` : "");
+      box.append(summary);
+      if (g.note) {
+        box.append(Object.assign(document.createElement("p"), { className: "help", textContent: g.note }));
+      }
+      for (const s of g.sliders) box.append(this.#slider(s));
+      return box;
+    });
+    this.box.replaceChildren(...groups);
+  }
+
+  #slider(s) {
+    this.byPath.set(s.path, s);
+    const label = document.createElement("label");
+    label.className = "ctl";
+    const unit = UNIT_TEXT[s.unit] ?? s.unit;
+    label.title = `${s.label}${unit ? ` in ${unit}` : ""}${s.rule ? `; ${s.rule}` : ""}`;
+    label.append(document.createTextNode(`${s.label} `));
+    const input = Object.assign(document.createElement("input"), {
+      type: "range", min: String(s.min), max: String(s.max), step: String(s.step),
+      id: `ctl-${s.path.replace(/[^A-Za-z0-9]+/g, "-").replace(/-$/, "")}`,
+    });
+    input.dataset.path = s.path;
+    input.setAttribute("aria-label", s.label);
+    if (s.fixed) {
+      input.disabled = true;
+      label.title += "; a constant of this model";
+    }
+    const out = document.createElement("output");
+    out.htmlFor = input.id;
+    label.append(input, out);
+    input.addEventListener("input", () => this.#moved(s, input, out));
+    this.inputs.set(s.path, { input, out });
+    return label;
+  }
+
+  // Put the working model's values on the sliders; false when one lies outside its
+  // slider's range (the caller then asks for a new description).
+  #setValues() {
+    for (const [path, { input, out }] of this.inputs) {
+      const v = getLeaf(this.model, path);
+      if (typeof v !== "number") return false;
+      const s = this.byPath.get(path);
+      if (v < s.min || v > s.max) return false;
+      input.value = String(v);
+      out.textContent = fmt(v);
+    }
+    return true;
+  }
+
+  // The rules of the field (limits, neighbours), then the working model and the page.
+  #moved(s, input, out) {
+    const [v, note] = this.clamp(s, Number(input.value));
+    if (String(v) !== input.value) input.value = String(v);
+    out.textContent = fmt(v);
+    setLeaf(this.model, s.path, v);
+    this.onChange(note);
+  }
+
+  clamp(s, value) {
+    let v = value;
+    const notes = [];
+    if (s.fixed) return [getLeaf(this.model, s.path), `${s.label} is a constant of this model`];
+    if (s.integer) v = Math.round(v);
+    if (s.lower !== null && s.lower !== undefined) {
+      const lo = s.lower + (s.strict ? s.step : 0);
+      if (v <= lo) {  // also when the slider's own minimum held it there
+        v = lo;
+        notes.push(`${s.label} stops at ${fmt(lo)}: it must be ${s.strict ? ">" : "≥"} ${fmt(s.lower)}`);
+      }
+    }
+    if (s.upper !== null && s.upper !== undefined) {
+      const hi = s.upper - (s.strict ? s.step : 0);
+      if (v >= hi) {
+        v = hi;
+        notes.push(`${s.label} stops at ${fmt(hi)}: it must be ${s.strict ? "<" : "≤"} ${fmt(s.upper)}`);
+      }
+    }
+    let lo = -Infinity, hi = Infinity;
+    for (const [other, sign] of [[s.below, -1], [s.above, 1]]) {
+      if (!other) continue;
+      const w = getLeaf(this.model, other);
+      const edge = roundTo(w - sign * s.step, s.step);
+      if (sign > 0) hi = edge; else lo = edge;
+      if ((sign > 0 && v >= edge) || (sign < 0 && v <= edge)) {
+        v = edge;
+        const n = this.byPath.get(other);
+        notes.push(`${s.label} stops at ${fmt(edge)}, just ${sign > 0 ? "below" : "above"} ` +
+          `${n ? n.label : other} = ${fmt(w)}: ${s.rule}`);
+      }
+    }
+    if (lo > hi) {
+      const cur = getLeaf(this.model, s.path);
+      return [cur, `${s.label} stays at ${fmt(cur)}: its neighbours leave no room`];
+    }
+    return [roundTo(v, s.step), notes.join("; ")];
+  }
+}
