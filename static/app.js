@@ -47,7 +47,6 @@ const TIPS = {
   projector: "Projector mode: the plot's text and the help at least 16 px, to read from the back of a room",
   preset: "Models and inputs taken from the papers' examples",
   "load-preset": "Replace the model and the input by the chosen preset's",
-  p0: "Weight of the linear part p0·u (the slope of the loop's ends)",
   n: "Number of play operators; thresholds are spread evenly up to the widest, the total weight shared",
   "model-json": "The session's model as JSON: any model type, edited by hand",
   "apply-json": "Use the model typed in the JSON box",
@@ -87,16 +86,11 @@ const TIPS = {
   "digi-play": "Walk through the states the input visits, two per second",
   "digi-step": "Which state of the trace the diagram shows",
 };
-const GROUP_TIPS = {
-  r: (name) => `Threshold ${name}: width of play operator ${name.slice(1)}`,
-  p: (name) => `Weight ${name}: how much play operator ${name.slice(1)} adds to the output`,
-};
-
+// (the model's sliders carry theirs on their label, from the fields' declarations)
 function addTips(root = document) {
   for (const e of root.querySelectorAll("input, select, button, textarea, a.button")) {
-    if (e.title) continue;
-    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig]) ||
-      (GROUP_TIPS[e.dataset.group] && GROUP_TIPS[e.dataset.group](e.getAttribute("aria-label") || ""));
+    if (e.closest("[title]")) continue;
+    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig]);
     if (tip) e.title = tip;
   }
 }

@@ -142,7 +142,7 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
     ctx, page, log = _open(browser, live_server["url"])
     bare = page.evaluate("""() => [...document.querySelectorAll(
         'aside input, aside select, aside button, aside textarea, header input, header button,'
-        + ' #tabs button')].filter(e => !e.title && e.getClientRects().length)
+        + ' #tabs button')].filter(e => !e.closest('[title]') && e.getClientRects().length)
         .map(e => e.id || e.getAttribute('aria-label') || e.textContent)""")
     assert bare == [], f"controls without a tooltip: {bare}"
     page.click("#tabs button[data-fig='closed-loop']")
