@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import threading
 
 from app.services.events import NAME_MAX, EventHub, person_name
 
@@ -30,7 +31,12 @@ def test_roster_counts_pages_and_tabs_and_names_without_codes() -> None:
         assert hub.roster().names == ("ben",)
         return r.text
 
-    text = asyncio.run(scenario())
+    # in a thread of its own: a browser test's event loop may be running in this one
+    out: list[str] = []
+    th = threading.Thread(target=lambda: out.append(asyncio.run(scenario())))
+    th.start()
+    th.join(30)
+    (text,) = out
     assert text == ("2 web pages and 2 3D / GUI tabs open, in 3 sessions. "
                     "Names: Ana, ben, and 1 without a name.")
     assert "code-" not in text
