@@ -122,6 +122,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)
+    # an FMU download compiles C on the server: 10 at once, then 1 in 10 s
+    app.state.fmu_limiter = RateLimiter(burst=10, per_minute=6)
     # ...but a client paused for guessing still opens the sessions it created or opened
     app.state.known_codes = KnownCodes()
     app.state.viser_port = None
@@ -177,6 +179,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from .routers.events import router as events_router  # live pushes (SSE), teacher
 
     app.include_router(events_router)
+    from .routers.lessons import router as lessons_router  # the lesson a teacher leads
+
+    app.include_router(lessons_router)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
     app.add_middleware(Guard, max_body=settings.max_upload_bytes,
                        max_json_depth=settings.limits.max_json_depth,

@@ -49,6 +49,7 @@ from .exceptions import (
     ParameterError,
 )
 from .export_c import CExportError, export_c, generate_c
+from .export_fmu import FmuExportError, build_fmu
 from .export_mat import export_mat, read_mat
 from .fitting import (
     DeadZoneGPIRegressor,
@@ -120,10 +121,12 @@ __all__ = [
     "read_input",
     "read_recording",
     "CExportError",
+    "FmuExportError",
     "ParameterSet",
     "ParameterSetError",
     "Provenance",
     "Units",
+    "build_fmu",
     "export_c",
     "export_mat",
     "generate_c",

@@ -31,7 +31,7 @@ import numpy as np
 
 from .base import Chain, Model
 from .deadzone import DeadZoneMap
-from .digitized import DigitizedPI
+from .digitized import SNAP_RTOL, DigitizedPI
 from .digitized_deadzone import DigitizedDeadZone
 from .effects import (
     Advance,
@@ -67,6 +67,7 @@ __all__ = [
     "CStage",
     "StageContext",
     "c_identifier",
+    "causal_compensator",
     "c_double",
     "export_c",
     "generate_c",
@@ -133,6 +134,15 @@ class CStage:
         File-scope ``static`` helper functions (identifiers prefixed with ``ctx.const``).
     needs_math : bool
         Whether the code calls ``<math.h>`` functions (``tanh``, ``atanh``).
+    tune : list of str
+        Statements that recompute the stage's constants from its model parameters, for
+        exports whose parameters can be changed at run time (the FMU,
+        :mod:`core.export_fmu`). ``$field[i]`` stands for element ``i`` of the model field
+        ``field`` (``$model.thresholds[i]`` for a nested model; matrices row by row); the
+        loop counters ``unsigned i, j`` are declared by the caller. A field named in no line
+        is fixed at export (its derived constants need the export's numerics).
+    tune_helpers : list of str
+        File-scope ``static`` functions the tune lines call (emitted with them only).
     """
 
     title: str
@@ -142,6 +152,8 @@ class CStage:
     step: list[str] = field(default_factory=list)
     helpers: list[str] = field(default_factory=list)
     needs_math: bool = False
+    tune: list[str] = field(default_factory=list)
+    tune_helpers: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -225,6 +237,12 @@ def _emit_pi(model: Model, ctx: StageContext) -> CStage:
             "}",
             f"x = {c}P0 * x + acc;",
         ],
+        tune=[
+            f"{c}P0 = $p0[0];",
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    {c}R[i] = $thresholds[i]; {c}W[i] = $weights[i]; {c}Z0[i] = $state0[i];",
+            "}",
+        ],
     )
 
 
@@ -236,6 +254,7 @@ def _emit_offset(model: Model, ctx: StageContext) -> CStage:
         title="output offset",
         constants=[f"static const double {ctx.const}C = {c_double(c)};"],
         step=[f"x = x + {ctx.const}C;"],
+        tune=[f"{ctx.const}C = $offset[0];"],
     )
 
 
@@ -260,7 +279,35 @@ def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
             "anc = seg > 0u ? seg - 1u : 0u;",
             f"x = {c}VAL[anc] + {c}SLOPE[seg] * (x - {c}RHO[anc]);",
         ],
+        tune=_deadzone_tune(k, int(model.zero_index), c),  # type: ignore[attr-defined]
     )
+
+
+def _deadzone_tune(k: int, k0: int, c: str) -> list[str]:
+    """Slopes (``DeadZoneMap.slopes``) and breakpoint values (the superposition at each
+    threshold) from thresholds and weights; threshold ``k0`` is the linear term's 0."""
+    return [
+        f"for (i = 0; i < {k}u; ++i) {c}RHO[i] = $thresholds[i];",
+        f"{{ double cs = 0.0; {c}SLOPE[{k0}] = $weights[{k0}];",
+        f"  for (i = {k0}u; i < {k}u; ++i) {{",
+        f"      if (i > {k0}u) cs += $weights[i];",
+        f"      {c}SLOPE[i + 1] = $weights[{k0}] + cs;",
+        "  }",
+        "  cs = 0.0;",
+        f"  for (i = {k0}u; i > 0u; --i) {{",
+        f"      cs += $weights[i - 1]; {c}SLOPE[i - 1] = $weights[{k0}] + cs;",
+        "  } }",
+        f"for (i = 0; i < {k}u; ++i) {{",
+        "    double acc = 0.0;",
+        f"    for (j = 0; j < {k}u; ++j) {{",
+        f"        const double d = {c}RHO[i] - {c}RHO[j];",
+        f"        const double s = {c}RHO[j] > 0.0 ? (d > 0.0 ? d : 0.0)",
+        f"                       : {c}RHO[j] < 0.0 ? (d < 0.0 ? d : 0.0) : {c}RHO[i];",
+        "        acc += $weights[j] * s;",
+        "    }",
+        f"    {c}VAL[i] = acc;",
+        "}",
+    ]
 
 
 def _direction_step(f: str) -> list[str]:
@@ -275,12 +322,20 @@ def _direction_step(f: str) -> list[str]:
     ]
 
 
-def _direction_state(model: Model, f: str) -> tuple[list[str], list[str]]:
+def _direction_state(model: Model, f: str, c: str) -> tuple[list[str], list[str], list[str]]:
+    """Fields, reset and constants of the direction memory (``D0``: initial direction)."""
     d0 = int(model.direction0)  # type: ignore[attr-defined]
     return (
         [f"double {f}prev;", f"int {f}has_prev;", f"int {f}dir;"],
-        [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;", f"st->{f}dir = {d0};"],
+        [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;",
+         f"st->{f}dir = {c}D0 > 0.0 ? 1 : -1;"],
+        [f"static const double {c}D0 = {c_double(d0)};"],
     )
+
+
+def _tanh_tune(c: str) -> list[str]:
+    return [f"for (i = 0; i < 4u; ++i) {{ {c}A[i] = $a[i]; {c}B[i] = $b[i]; }}",
+            f"{c}D0 = $direction0[0] > 0.0 ? 1.0 : -1.0;"]
 
 
 @register_c_stage(TanhEnvelope)
@@ -289,14 +344,16 @@ def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
     a = np.asarray(model.a)  # type: ignore[attr-defined]
     b = np.asarray(model.b)  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
-    fields, reset = _direction_state(model, f)
+    fields, reset, d0 = _direction_state(model, f, c)
     return CStage(
         title="tanh envelope (kappa_R rising, kappa_L falling)",
         fields=fields,
         constants=[
             f"static const double {c}A[4] = {_c_array(a)};",
             f"static const double {c}B[4] = {_c_array(b)};",
+            *d0,
         ],
+        tune=_tanh_tune(c),
         reset=reset,
         step=[
             *_direction_step(f),
@@ -318,7 +375,7 @@ def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
     b = np.asarray(model.b)  # type: ignore[attr-defined]
     lim = 1.0 - float(model.clip_margin)  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
-    fields, reset = _direction_state(model, f)
+    fields, reset, d0 = _direction_state(model, f, c)
     return CStage(
         title="inverse tanh envelope (clips to its domain, counts clipped samples)",
         fields=[*fields, f"unsigned long {f}clipped;"],
@@ -326,7 +383,9 @@ def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}A[4] = {_c_array(a)};",
             f"static const double {c}B[4] = {_c_array(b)};",
             f"static const double {c}LIM = {c_double(lim)};",
+            *d0,
         ],
+        tune=[*_tanh_tune(c), f"{c}LIM = 1.0 - $clip_margin[0];"],
         reset=[*reset, f"st->{f}clipped = 0ul;"],
         step=[
             *_direction_step(f),
@@ -383,6 +442,18 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
             "}",
         ],
         reset=[f"for (i = 0; i < {n}u; ++i) st->{f}b[i] = {c}B0[i];"],
+        tune=[  # as DigitizedPI: slopes dy/dx, snapping tolerance from dx (DigitizedPI.tol)
+            "{ double span = 0.0, scale;",
+            f"  for (i = 0; i < {n}u; ++i) {{",
+            f"      {c}DX[i] = $dx[i]; {c}DY[i] = $dy[i]; {c}G[i] = {c}DY[i] / {c}DX[i];",
+            f"      {c}B0[i] = (unsigned char)($state0[i] != 0.0); span += {c}DX[i];",
+            "  }",
+            f"  {c}X0 = $x0[0]; {c}Y0 = $y0[0];",
+            f"  scale = fabs({c}X0) > fabs({c}X0 + span) ? fabs({c}X0) : fabs({c}X0 + span);",
+            "  if (span > scale) scale = span;",
+            f"  {c}TOL = {c_double(SNAP_RTOL)} * {c}DX[0]"
+            f" + ({float(n + 8)} * {c_double(float(np.finfo(np.float64).eps))}) * scale; }}",
+        ],
         step=[
             "double xb, yb;",
             "int lo0, lo1, moved = 0;",
@@ -426,8 +497,18 @@ def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}G[{m}] = {_c_array(g)};",
             f"static const double {c}XL[{m}] = {_c_array(xl)};",
             f"static const double {c}YL[{m}] = {_c_array(yl)};",
+            f"static const double {c}SEG0 = {c_double(c0)};",
         ],
-        reset=[f"st->{f}seg = {c0}u;"],
+        reset=[f"st->{f}seg = (unsigned){c}SEG0;"],
+        tune=[  # segment starts by cumulative sums, as DigitizedDeadZone
+            "{ double cx = 0.0, cy = 0.0;",
+            f"  for (i = 0; i < {m}u; ++i) {{",
+            f"      {c}DX[i] = $dx[i]; {c}G[i] = $dy[i] / $dx[i];",
+            f"      {c}XL[i] = $x0[0] + cx; {c}YL[i] = $y0[0] + cy; cx += $dx[i]; cy += $dy[i];",
+            "  }",
+            f"  {c}SEG0 = $state0[0] < 1.0 ? 0.0 : $state0[0] > {float(m)} ? {float(m - 1)}"
+            f" : floor($state0[0]) - 1.0; }}",
+        ],
         step=[
             f"unsigned k = st->{f}seg;",
             f"while (k < {m - 1}u && x > {c}XL[k] + {c}DX[k]) ++k;",
@@ -440,9 +521,10 @@ def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
 
 def _emit_state_space(
     Ad: np.ndarray, Bd: np.ndarray, C: np.ndarray, D: float, x0: np.ndarray,
-    ctx: StageContext, title: str,
+    ctx: StageContext, title: str, x0_field: str = "state0",
 ) -> CStage:
-    """``y = C x + D u``, ``x+ = Ad x + Bd u`` (the update order of ``core.lti.lti_run``)."""
+    """``y = C x + D u``, ``x+ = Ad x + Bd u`` (the update order of ``core.lti.lti_run``);
+    the initial state comes from the model field ``x0_field``."""
     n, f, c = int(Bd.size), ctx.field, ctx.const
     if n == 0:
         return CStage(title=title, constants=[f"static const double {c}D = {c_double(D)};"],
@@ -471,6 +553,7 @@ def _emit_state_space(
             f"for (i = 0; i < {n}u; ++i) st->{f}x[i] = tmp[i];",
             "x = acc;",
         ],
+        tune=[f"for (i = 0; i < {n}u; ++i) {c}X0[i] = ${x0_field}[i];"],
     )
 
 
@@ -494,7 +577,8 @@ def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
     Ai = Ad - np.outer(Bd, C) / D
     x0 = np.asarray(sys_.state0, dtype=np.float64)
     return _emit_state_space(Ai, Bd / D, -C / D, 1.0 / D, x0, ctx,
-                             f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}")
+                             f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}",
+                             "system.state0")
 
 
 # ----------------------------------------------------------------------------- effects
@@ -531,7 +615,152 @@ def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
         ],
         reset=[f"st->{f}started = 0;", f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = 0.0;"],
         step=step,
+        tune=_resonance_tune(model, n, c, ctx.dt),
+        tune_helpers=_foh_helper(n, c),
     )
+
+
+def _resonance_tune(model: Model, n: int, c: str, dt: float) -> list[str]:
+    """``num``/``den`` of ``Resonance._tf`` / ``ResonanceInverse._tf`` from the fields, then
+    the FOH discretisation (:func:`_foh_helper`)."""
+    lines = [f"{{ double num[{n + 1}], den[{n + 1}];",
+             "  const double w = 2.0 * 3.141592653589793 * $freq_hz[0];",
+             "  const double z2w = 2.0 * $damping[0] * w;"]
+    if isinstance(model, ResonanceInverse):
+        lines += ["  const double wc = 2.0 * 3.141592653589793 * $bandwidth_hz[0];",
+                  "  const double g = wc * wc / (w * w);",
+                  "  num[0] = g * 3.0; num[1] = g * (wc + z2w * 3.0);",
+                  "  num[2] = g * (z2w * wc + w * w * 3.0); num[3] = g * (w * w * wc);",
+                  "  den[0] = 1.0; den[1] = 3.0 * wc; den[2] = 3.0 * wc * wc;",
+                  "  den[3] = wc * wc * wc;"]
+    else:
+        lines += ["  num[0] = 0.0; num[1] = 0.0; num[2] = w * w;",
+                  "  den[0] = 1.0; den[1] = z2w; den[2] = w * w;"]
+    return [*lines, f"  {c}foh(num, den, {c_double(dt)}, {c}B, {c}A, {c}ZI); }}"]
+
+
+def _foh_helper(n: int, c: str) -> list[str]:
+    """C of ``{c}foh(num, den, dt, b, a, zi)``: the first-order-hold discretisation of the
+    order-``n`` transfer function ``num(s)/den(s)`` (``num`` padded to ``n + 1``) as
+    :func:`core.effects.discretised_tf`: the frequency is scaled to ``|den_n/den_0|^(1/n)``
+    (a well-conditioned companion form), ``expm`` of the FOH block matrix (Taylor series
+    with scaling and squaring), the discrete polynomials by Faddeev-LeVerrier and
+    ``lfilter_zi`` by Gaussian elimination."""
+    m = n + 2
+    return [
+        f"/* FOH discretisation of an order-{n} transfer function (see core/export_c.py) */",
+        f"static void {c}charpoly(double A[{n}][{n}], double *p)",
+        "{",
+        f"    double Mk[{n}][{n}], T[{n}][{n}];",
+        "    unsigned i, j, l, k;",
+        "    memset(Mk, 0, sizeof Mk);",
+        "    p[0] = 1.0;",
+        f"    for (k = 1; k <= {n}u; ++k) {{",
+        "        double tr = 0.0;",
+        f"        for (i = 0; i < {n}u; ++i) for (j = 0; j < {n}u; ++j) {{",
+        "            double s = i == j ? p[k - 1] : 0.0;",
+        f"            for (l = 0; l < {n}u; ++l) s += A[i][l] * Mk[l][j];",
+        "            T[i][j] = s;",
+        "        }",
+        "        memcpy(Mk, T, sizeof Mk);",
+        f"        for (i = 0; i < {n}u; ++i)",
+        f"            for (l = 0; l < {n}u; ++l) tr += A[i][l] * Mk[l][i];",
+        "        p[k] = -tr / (double)k;",
+        "    }",
+        "}",
+        f"static void {c}foh(const double *num, const double *den, double dt, double *b,",
+        "                   double *a, double *zi)",
+        "{",
+        f"    double sc[{n + 1}], an[{n + 1}], bn[{n + 1}], C[{n}], w, D, Dd, nrm;",
+        f"    double X[{m}][{m}], E[{m}][{m}], T[{m}][{m}], S[{m}][{m}];",
+        f"    double Ad[{n}][{n}], Ab[{n}][{n}], Bd[{n}], q[{n}], G[{n}][{n + 1}];",
+        "    unsigned i, j, l, k, s = 0u;",
+        f"    w = pow(fabs(den[{n}] / den[0]), 1.0 / {n}.0);",
+        f"    sc[{n}] = 1.0;",
+        f"    for (i = {n}u; i > 0u; --i) sc[i - 1] = sc[i] * w;",
+        f"    for (i = 0; i <= {n}u; ++i) {{",
+        "        an[i] = den[i] / den[0] * sc[i] / sc[0];",
+        "        bn[i] = num[i] / den[0] * sc[i] / sc[0];",
+        "    }",
+        "    dt *= w;",
+        "    D = bn[0];",
+        f"    for (i = 0; i < {n}u; ++i) C[i] = bn[i + 1] - an[i + 1] * D;",
+        "    memset(X, 0, sizeof X);",
+        f"    for (j = 0; j < {n}u; ++j) X[0][j] = -an[j + 1] * dt;",
+        f"    for (i = 1; i < {n}u; ++i) X[i][i - 1] = dt;",
+        f"    X[0][{n}] = dt;",
+        f"    X[{n}][{n + 1}] = 1.0;",
+        "    nrm = 0.0;",
+        f"    for (i = 0; i < {m}u; ++i) {{",
+        "        double r = 0.0;",
+        f"        for (j = 0; j < {m}u; ++j) r += fabs(X[i][j]);",
+        "        if (r > nrm) nrm = r;",
+        "    }",
+        "    while (nrm > 0.5) { nrm *= 0.5; ++s; }",
+        f"    for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "        X[i][j] = ldexp(X[i][j], -(int)s);",
+        "        E[i][j] = T[i][j] = i == j ? 1.0 : 0.0;",
+        "    }",
+        "    for (k = 1; k < 40u; ++k) { /* Taylor series of expm(X), |X| <= 1/2 */",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "            double v = 0.0;",
+        f"            for (l = 0; l < {m}u; ++l) v += T[i][l] * X[l][j];",
+        "            S[i][j] = v / (double)k;",
+        "        }",
+        "        memcpy(T, S, sizeof T);",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) E[i][j] += T[i][j];",
+        "    }",
+        "    for (k = 0; k < s; ++k) { /* squaring */",
+        f"        for (i = 0; i < {m}u; ++i) for (j = 0; j < {m}u; ++j) {{",
+        "            double v = 0.0;",
+        f"            for (l = 0; l < {m}u; ++l) v += E[i][l] * E[l][j];",
+        "            S[i][j] = v;",
+        "        }",
+        "        memcpy(E, S, sizeof E);",
+        "    }",
+        "    Dd = D;",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        double v = E[i][{n}] - E[i][{n + 1}];",
+        f"        for (j = 0; j < {n}u; ++j) {{",
+        "            Ad[i][j] = E[i][j];",
+        f"            v += E[i][j] * E[j][{n + 1}];",
+        "        }",
+        "        Bd[i] = v;",
+        f"        Dd += C[i] * E[i][{n + 1}];",
+        "    }",
+        f"    for (i = 0; i < {n}u; ++i)",
+        f"        for (j = 0; j < {n}u; ++j) Ab[i][j] = Ad[i][j] - Bd[i] * C[j];",
+        f"    {c}charpoly(Ad, a);",
+        f"    {c}charpoly(Ab, b);",
+        f"    for (i = 0; i <= {n}u; ++i) b[i] += (Dd - 1.0) * a[i];",
+        "    /* lfilter_zi: (I - companion(a)^T) zi = b[1:] - a[1:] b[0] */",
+        f"    for (i = 0; i < {n}u; ++i) {{",
+        f"        for (j = 0; j < {n}u; ++j) G[i][j] = i == j ? 1.0 : 0.0;",
+        "        G[i][0] += a[i + 1];",
+        f"        if (i + 1 < {n}u) G[i][i + 1] -= 1.0;",
+        f"        G[i][{n}] = b[i + 1] - a[i + 1] * b[0];",
+        "    }",
+        f"    for (k = 0; k < {n}u; ++k) {{ /* elimination, partial pivoting */",
+        "        unsigned p = k;",
+        f"        for (i = k + 1; i < {n}u; ++i) if (fabs(G[i][k]) > fabs(G[p][k])) p = i;",
+        f"        for (j = 0; j <= {n}u; ++j) {{",
+        "            const double t = G[k][j];",
+        "            G[k][j] = G[p][j];",
+        "            G[p][j] = t;",
+        "        }",
+        f"        for (i = k + 1; i < {n}u; ++i) {{",
+        "            const double f = G[i][k] / G[k][k];",
+        f"            for (j = k; j <= {n}u; ++j) G[i][j] -= f * G[k][j];",
+        "        }",
+        "    }",
+        f"    for (i = {n}u; i > 0u; --i) {{",
+        f"        double v = G[i - 1][{n}];",
+        f"        for (j = i; j < {n}u; ++j) v -= G[i - 1][j] * q[j];",
+        "        q[i - 1] = v / G[i - 1][i - 1];",
+        "    }",
+        f"    for (i = 0; i < {n}u; ++i) zi[i] = q[i];",
+        "}",
+    ]
 
 
 @register_c_stage(Lag)
@@ -589,7 +818,29 @@ def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
         constants=consts,
         reset=[f"st->{f}started = 0;", f"for (i = 0; i < {m}u; ++i) st->{f}s[i] = 0.0;"],
         step=step,
+        tune=_lag_bank_tune(model, m, c, ctx.dt, inverse),
     )
+
+
+def _lag_bank_tune(model: Model, m: int, c: str, dt: float, inverse: bool) -> list[str]:
+    """First-order FOH sections from the time constants (as ``LagBank.of``, closed form:
+    ``p = exp(-dt/tau)``, ``q = tau/dt (1 - p)``, ``b0 = 1 - q``, ``b1 = q - p``)."""
+    single = isinstance(model, Lag | LagInverse)
+    tau, w = ("$tau_s[0]", "1.0") if single else ("$taus_s[i]", "$weights[i]")
+    dts = c_double(dt)
+    return [
+        f"{{ double g0 = {'0.0' if single else '1.0'}, gain;",
+        f"  for (i = 0; i < {m}u; ++i) {{",
+        f"      const double p = exp(-{dts} / {tau});",
+        f"      const double q = {tau} / {dts} * (1.0 - p);",
+        f"      {c}C[i] = {w}; {c}B0[i] = 1.0 - q; {c}B1[i] = q - p; {c}A1[i] = -p;",
+        f"      {c}ZI[i] = q;",
+        *([] if single else [f"      g0 -= {c}C[i];"]),
+        "  }",
+        "  gain = g0;",
+        f"  for (i = 0; i < {m}u; ++i) gain += {c}C[i] * {c}B0[i];",
+        f"  {c}GAIN = gain; }}" if inverse else f"  {c}G0 = g0; (void)gain; }}",
+    ]
 
 
 @register_c_stage(Delay)
@@ -612,6 +863,11 @@ def _emit_delay(model: Model, ctx: StageContext) -> CStage:
             f"  const double older = st->{f}h[(st->{f}pos + {size - m - 1}u) % {size}u];",
             f"  st->{f}pos = (st->{f}pos + 1u) % {size}u;",
             f"  x = {c}F * older + (1.0 - {c}F) * newer; }}",
+        ],
+        tune=[  # as delay_split; the whole samples size the buffer: another count is refused
+            f"{{ const double d = $delay_s[0] / {c_double(ctx.dt)};",
+            "  const double m = floor(d + 1e-12);",
+            f"  {c}F = m != {float(m)} ? NAN : d - m > 0.0 ? d - m : 0.0; }}",
         ],
     )
 
@@ -655,6 +911,8 @@ def _emit_drift(model: Model, ctx: StageContext) -> CStage:
             f"  st->{f}k += 1.0;",
             "  x = x + acc; }",
         ],
+        tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
+              f"{c}T = $span_s[0];", f"{c}T0 = $start_s[0];"],
     )
 
 
@@ -685,32 +943,35 @@ def _asym_helper(model: Model, c: str) -> list[str]:
 def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
     """Polynomial output map ``x + sum a_k ((x - c)/s)^k`` (Horner form)."""
     c = ctx.const
+    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
     return CStage(title="asymmetry output map", constants=_asym_consts(model, c),
-                  helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"])
+                  helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"],
+                  tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
+                        f"{c}CTR = $center[0];", f"{c}S = $scale[0];"])
 
 
 @register_c_stage(AsymmetryInverse)
 def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
-    """Inverse output map: clip to the monotone range, bracket, 80 bisection steps."""
+    """Inverse output map: clip to the monotone range, bracket, 80 bisection steps.
+
+    ``LOF``/``HIF`` say whether the range ends ``LO``/``HI`` are finite (else the bracket
+    grows by doubling), so the same code serves a range retuned in the FMU."""
 
     lo, hi = model.forward.monotone_range()  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
-    step = ["{ double lo, hi; int j, done = 0;"]
-    if np.isfinite(lo):
-        step += [f"  if (x < {c}map({c}LO)) {{ x = {c}LO; ++st->{f}clipped; done = 1; }}",
-                 f"  lo = {c}LO;"]
-    else:
-        step += [f"  lo = {c}CTR - {c}S;",
-                 "  for (j = 0; j < 64; ++j)",
-                 f"      if ({c}map(lo) > x) lo = {c}CTR - 2.0 * ({c}CTR - lo);"]
-    if np.isfinite(hi):
-        step += [f"  if (!done && x > {c}map({c}HI)) {{ x = {c}HI; ++st->{f}clipped; done = 1; }}",
-                 f"  hi = {c}HI;"]
-    else:
-        step += [f"  hi = {c}CTR + {c}S;",
-                 "  for (j = 0; j < 64; ++j)",
-                 f"      if ({c}map(hi) < x) hi = {c}CTR + 2.0 * (hi - {c}CTR);"]
-    step += [
+    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
+    step = [
+        "{ double lo, hi; int j, done = 0;",
+        f"  if ({c}LOF != 0.0 && x < {c}map({c}LO)) {{ x = {c}LO; ++st->{f}clipped; done = 1; }}",
+        f"  if (!done && {c}HIF != 0.0 && x > {c}map({c}HI)) {{",
+        f"      x = {c}HI; ++st->{f}clipped; done = 1;",
+        "  }",
+        f"  lo = {c}LOF != 0.0 ? {c}LO : {c}CTR - {c}S;",
+        f"  hi = {c}HIF != 0.0 ? {c}HI : {c}CTR + {c}S;",
+        "  for (j = 0; j < 64; ++j) {",
+        f"      if ({c}LOF == 0.0 && {c}map(lo) > x) lo = {c}CTR - 2.0 * ({c}CTR - lo);",
+        f"      if ({c}HIF == 0.0 && {c}map(hi) < x) hi = {c}CTR + 2.0 * (hi - {c}CTR);",
+        "  }",
         "  if (!done) {",
         f"    for (j = 0; j < {bisect_steps()}; ++j) {{",
         "        const double mid = 0.5 * (lo + hi);",
@@ -719,16 +980,84 @@ def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
         "    x = 0.5 * (lo + hi);",
         "  } }",
     ]
-    consts = _asym_consts(model, c)
-    if np.isfinite(lo):
-        consts.append(f"static const double {c}LO = {c_double(lo)};")
-    if np.isfinite(hi):
-        consts.append(f"static const double {c}HI = {c_double(hi)};")
+    fin_lo, fin_hi = bool(np.isfinite(lo)), bool(np.isfinite(hi))
+    consts = _asym_consts(model, c) + [
+        f"static const double {c}LO = {c_double(lo if fin_lo else 0.0)};",
+        f"static const double {c}HI = {c_double(hi if fin_hi else 0.0)};",
+        f"static const double {c}LOF = {c_double(float(fin_lo))};",
+        f"static const double {c}HIF = {c_double(float(fin_hi))};",
+    ]
     return CStage(
         title="inverse asymmetry map (clips to its range, counts clipped samples)",
         fields=[f"unsigned long {f}clipped;"], constants=consts,
         helpers=_asym_helper(model, c), reset=[f"st->{f}clipped = 0ul;"], step=step,
+        tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
+              f"{c}CTR = $center[0]; {c}S = $scale[0];",
+              f"{c}range({c}A, {c}S, &{c}LOF, &{c}LO, &{c}HIF, &{c}HI);",
+              f"{c}LO = {c}CTR + {c}S * {c}LO; {c}HI = {c}CTR + {c}S * {c}HI;"],
+        tune_helpers=_monotone_range_helper(n, c),
     )
+
+
+def _monotone_range_helper(n: int, c: str) -> list[str]:
+    """C of ``{c}range(a, s, &lof, &lo, &hif, &hi)``: as ``Asymmetry.monotone_range`` (in
+    ``q`` units), the real roots of ``s + sum_k k a_k q^(k-1)`` nearest 0 on each side, the
+    roots found by Durand-Kerner iteration (``np.roots``' tolerance on the imaginary part)."""
+    d = n  # degree of the derivative polynomial before trimming leading zeros
+    return [
+        f"/* monotone range of the asymmetry map: derivative roots (degree <= {d}) */",
+        f"static void {c}range(const double *a, double s, double *lof, double *lo,",
+        "                     double *hif, double *hi)",
+        "{",
+        f"    double p[{d + 1}], zr[{d}], zi[{d}];",
+        "    unsigned i, j, it, m, first = 0u;",
+        f"    for (i = 0; i < {d}u; ++i) p[i] = (double)({d + 1}u - i) * a[{d - 1}u - i];",
+        f"    p[{d}] = s;",
+        f"    while (first < {d}u && p[first] == 0.0) ++first;",
+        f"    m = {d}u - first; /* degree */",
+        "    for (i = 0; i < m; ++i) { /* initial guesses (0.4 + 0.9i)^(i+1) */",
+        "        double r = 0.4, im = 0.9;",
+        "        for (j = 0; j < i; ++j) {",
+        "            const double t = r * 0.4 - im * 0.9;",
+        "            im = r * 0.9 + im * 0.4;",
+        "            r = t;",
+        "        }",
+        "        zr[i] = r; zi[i] = im;",
+        "    }",
+        "    for (it = 0; it < 2000u; ++it) {",
+        "        double change = 0.0;",
+        "        for (i = 0; i < m; ++i) {",
+        "            double vr = 1.0, vi = 0.0, dr = 1.0, di = 0.0, nr, ni, den;",
+        "            for (j = 1; j <= m; ++j) { /* monic polynomial value (Horner) */",
+        "                const double t = vr * zr[i] - vi * zi[i] + p[first + j] / p[first];",
+        "                vi = vr * zi[i] + vi * zr[i];",
+        "                vr = t;",
+        "            }",
+        "            for (j = 0; j < m; ++j) { /* prod over the other roots */",
+        "                double t;",
+        "                if (j == i) continue;",
+        "                t = dr * (zr[i] - zr[j]) - di * (zi[i] - zi[j]);",
+        "                di = dr * (zi[i] - zi[j]) + di * (zr[i] - zr[j]);",
+        "                dr = t;",
+        "            }",
+        "            den = dr * dr + di * di;",
+        "            if (den == 0.0) { zr[i] += 1e-8; continue; }",
+        "            nr = (vr * dr + vi * di) / den;",
+        "            ni = (vi * dr - vr * di) / den;",
+        "            zr[i] -= nr; zi[i] -= ni;",
+        "            if (fabs(nr) + fabs(ni) > change) change = fabs(nr) + fabs(ni);",
+        "        }",
+        "        if (change == 0.0) break;",
+        "    }",
+        "    *lof = 0.0; *hif = 0.0; *lo = 0.0; *hi = 0.0;",
+        "    for (i = 0; i < m; ++i) {",
+        "        const double mag = sqrt(zr[i] * zr[i] + zi[i] * zi[i]);",
+        "        if (fabs(zi[i]) > 1e-12 * (mag > 1.0 ? mag : 1.0)) continue;",
+        "        if (zr[i] < 0.0 && (*lof == 0.0 || zr[i] > *lo)) { *lo = zr[i]; *lof = 1.0; }",
+        "        if (zr[i] > 0.0 && (*hif == 0.0 || zr[i] < *hi)) { *hi = zr[i]; *hif = 1.0; }",
+        "    }",
+        "}",
+    ]
 
 
 def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], list[str]]:
@@ -765,6 +1094,14 @@ def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], 
     return consts, reset, helper
 
 
+def _rate_tune(n: int, c: str, dt: float) -> list[str]:
+    return [f"{c}P0 = $p0[0];",
+            f"for (i = 0; i < {n}u; ++i) {{",
+            f"    {c}R[i] = $thresholds[i]; {c}W[i] = $weights[i]; {c}Z0[i] = $state0[i];",
+            "}",
+            f"{c}K = $beta_s[0] / {c_double(dt)};"]
+
+
 @register_c_stage(RateDependentPI)
 def _emit_rate(model: Model, ctx: StageContext) -> CStage:
     """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
@@ -775,6 +1112,7 @@ def _emit_rate(model: Model, ctx: StageContext) -> CStage:
         title=f"rate-dependent PI, {n} play operator(s)",
         fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
         constants=consts, reset=reset, helpers=helper,
+        tune=_rate_tune(n, c, ctx.dt),  # type: ignore[arg-type]
         step=["{ const double xin = x;",
               f"  x = {c}eval(xin, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
               f"  st->{f}up = xin;",
@@ -797,6 +1135,18 @@ def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
         title=f"inverse rate-dependent PI, {n} play operator(s), per-sample bisection",
         fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
         constants=consts, reset=reset, helpers=helper,
+        tune=[*_rate_tune(n, c, ctx.dt),  # slope bounds as RateDependentPI.slope_bounds
+              f"{{ double lo = {c}P0, hi = {c}P0;",
+              f"  for (i = 0; i < {n}u; ++i) {{",
+              f"      const double a = {c}W[i] * (1.0 - {c}K), b = {c}W[i] * (1.0 + {c}K);",
+              "      double mn = 0.0, mx = 0.0;",
+              "      if (a < mn) mn = a;",
+              "      if (b < mn) mn = b;",
+              "      if (a > mx) mx = a;",
+              "      if (b > mx) mx = b;",
+              "      lo += mn; hi += mx;",
+              "  }",
+              f"  {c}MLO = lo; {c}MHI = hi; }}"],
         step=[
             f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
             f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
@@ -872,6 +1222,18 @@ def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[st
     return consts, reset, helpers
 
 
+def _preisach_tune(model: Model, c: str, pre: str) -> list[str]:
+    """Tune lines of a Preisach bank whose fields are ``$<pre>thresholds`` etc."""
+    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    return [
+        f"for (i = 0; i < {n}u; ++i) {{",
+        f"    {c}R[i] = ${pre}thresholds[i]; {c}Z0[i] = ${pre}state0[i];",
+        "}",
+        f"for (i = 0; i < {n * m}u; ++i) {c}W[i] = ${pre}weights[i];",
+        *([f"for (i = 0; i < {m - 1}u; ++i) {c}E[i] = ${pre}knots[i];"] if m > 1 else []),
+    ]
+
+
 @register_c_stage(PreisachModel)
 def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
     """Preisach play bank ``x <- sum_i sum_j W[i][j] seg_j(z_i)`` (as ``preisach_output``)."""
@@ -882,6 +1244,7 @@ def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
         title=f"Preisach model, {n} play operator(s) x {m} level segment(s)",
         fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
         step=[f"x = {c}eval(x, st->{f}z, st->{f}z);"],
+        tune=_preisach_tune(model, c, ""),
     )
 
 
@@ -945,6 +1308,11 @@ def _emit_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
         title=f"inverse Preisach model, {n} play operator(s) x {m} level segment(s), exact",
         fields=[f"double {f}z[{n}];"], constants=consts, reset=reset, helpers=helpers,
         step=[f"x = {c}solve(x, st->{f}z);"],
+        tune=[*_preisach_tune(fwd, c, "model."),
+              f"{c}SLO = 0.0; {c}SHI = 0.0;",
+              f"for (i = 0; i < {n}u; ++i) {{",
+              f"    {c}SLO += {c}W[i * {m}u]; {c}SHI += {c}W[i * {m}u + {m - 1}u];",
+              "}"],
     )
 
 
@@ -987,10 +1355,16 @@ def _type_of(m: Model) -> str:
     return type(m).type_name
 
 
-def _emit_block(
+def emit_stages(
     model: Model, name: str, dt: float | None, what: str
-) -> tuple[str, str, bool]:
-    """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``."""
+) -> tuple[list[Model], list[CStage]]:
+    """The flattened stages of ``model`` and their C fragments for block ``name``.
+
+    Raises
+    ------
+    CExportError
+        A dynamic stage without ``dt``, or a stage type without an emitter.
+    """
     stages = _flatten(model)
     if any(s.needs_dt for s in stages) and (dt is None or not dt > 0):
         raise CExportError(
@@ -1007,7 +1381,35 @@ def _emit_block(
                 f"supported stage types: {', '.join(supported_c_types())}"
             )
         emitted.append(emitter(s, StageContext(f"s{k}_", f"{name}_s{k}_", dt)))
+    return stages, emitted
 
+
+_CONST = re.compile(r"static const ([a-z ]+?) (\w+)(?:\[(\d+)\])? = (.*);", re.DOTALL)
+
+
+def parse_constant(decl: str) -> tuple[str, str, int | None, str]:
+    """``(C type, identifier, array size or None, initialiser)`` of a stage constant
+    (one ``static const <type> <ident>[<n>] = <init>;`` item of :attr:`CStage.constants`)."""
+    m = _CONST.fullmatch(decl.strip())
+    if m is None:  # pragma: no cover - every emitter writes this form
+        raise CExportError(f"not a stage constant definition: {decl[:60]!r}")
+    return m.group(1), m.group(2), None if m.group(3) is None else int(m.group(3)), m.group(4)
+
+
+def _emit_block(
+    model: Model, name: str, dt: float | None, what: str, params: str | None = None,
+    emitted: list[CStage] | None = None,
+) -> tuple[str, str, bool]:
+    """(header part, source part, needs <math.h>) of one block ``name`` implementing ``model``.
+
+    With ``params`` (a C expression of a pointer to a struct holding every stage constant
+    under its own name), the constants are not defined here but read through that pointer
+    (``#define <ident> (<params>-><ident>)``): the run-time tunable form of the FMU.
+    ``emitted``: the fragments of :func:`emit_stages` when the caller has them already.
+    """
+    stages = _flatten(model)
+    if emitted is None:
+        stages, emitted = emit_stages(model, name, dt, what)
     fields = [f for st in emitted for f in st.fields] or ["int unused_; /* stateless */"]
     h: list[str] = []
     h.append(f"/* {what}: {len(stages)} stage(s): "
@@ -1028,7 +1430,12 @@ def _emit_block(
     src: list[str] = [f"/* ---- {what} ---- */"]
     for k, st in enumerate(emitted):
         src.append(f"/* stage {k}: {st.title} */")
-        src.extend(st.constants)
+        if params is None:
+            src.extend(st.constants)
+        else:
+            for decl in st.constants:
+                ident = parse_constant(decl)[1]
+                src.append(f"#define {ident} ({params}->{ident})")
         src.extend(st.helpers)
     uses_i_reset = any("for (i" in line for st in emitted for line in st.reset)
     uses_i_step = any("for (i" in line for st in emitted for line in st.step)
@@ -1109,6 +1516,33 @@ class CCode:
         return h, c
 
 
+def causal_compensator(model: Model, dt: float | None) -> tuple[Model, int]:
+    """``model.inverse()`` in the causal form a real-time compensator runs, and its preview.
+
+    An inverse that holds an advance (the inverse of a delay) needs the future: it becomes
+    :func:`core.effects.causal_form`, fed the desired output ``preview`` samples ahead.
+
+    Raises
+    ------
+    CExportError
+        If the inverse holds an advance and ``dt`` is missing.
+    NotInvertibleError
+        If the model has no inverse.
+    """
+    inv = model.inverse()
+    if not _has_advance(inv):
+        return inv, 0
+    if dt is None or not dt > 0:
+        raise CExportError(
+            "the compensator inverts a delay and needs the sample time to size its "
+            "preview; give dt (--dt on the command line)"
+        )
+    from .effects import causal_form
+
+    form = causal_form(inv, dt)
+    return form.model, form.preview
+
+
 def _comment_safe(text: str) -> str:
     return text.replace("*/", "* /").replace("/*", "/ *")
 
@@ -1168,17 +1602,7 @@ def generate_c(
     blocks: list[tuple[str, Model, str]] = []
     preview = 0
     if inverse:
-        from .effects import causal_form
-
-        inv = model.inverse()
-        if _has_advance(inv):
-            if dt is None or not dt > 0:
-                raise CExportError(
-                    "the compensator inverts a delay and needs the sample time to size its "
-                    "preview; give dt (--dt on the command line)"
-                )
-            form = causal_form(inv, dt)
-            inv, preview = form.model, form.preview
+        inv, preview = causal_compensator(model, dt)
         blocks.append((f"{name}_inv", inv, "inverse compensator"))
     if forward:
         blocks.append((f"{name}_fwd", model, "forward model"))

@@ -502,10 +502,48 @@ async function openSession(code, { create = false } = {}) {
   localStorage.setItem("hyst-session", s.code);
   $("code").textContent = s.code;
   for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${encodeURIComponent(s.code)}/export/${f}`;
+  fmuLinks();
   applyConfig(s.config, s.version, { fresh: true });
   listen();
   await draw();
   resumeJob().catch((e) => setMsg("csv-msg", e.message));
+}
+
+// The FMU downloads follow the FMI version chosen (the server compiles them on demand).
+function fmuLinks() {
+  const base = `/api/sessions/${encodeURIComponent(state.code)}/export/fmu?fmi=${$("fmi-version").value}`;
+  $("dl-fmu-inv").href = `${base}&inverse=true`;
+  $("dl-fmu-fwd").href = `${base}&inverse=false`;
+}
+
+// An FMU is compiled on the server (a second or so) and may be refused (a model without an
+// inverse, a busy server): fetch it, and say why when there is no file.
+async function downloadFmu(ev) {
+  ev.preventDefault();
+  const link = ev.currentTarget;
+  setMsg("export-msg", "building the FMU…");
+  let r;
+  try {
+    r = await fetch(link.href);
+  } catch {
+    setMsg("export-msg", "The explorer server cannot be reached: is it still running?");
+    return;
+  }
+  if (!r.ok) {
+    let detail = "";
+    try { detail = detailText((await r.json()).detail); } catch { /* not JSON */ }
+    setMsg("export-msg", `No FMU: ${detail && r.status < 500 ? plain(detail) : STATUS_TEXT[r.status] || `error ${r.status}`}`);
+    return;
+  }
+  const blob = await r.blob();
+  const m = /filename="?([^";]+)"?/.exec(r.headers.get("Content-Disposition") || "");
+  const name = m ? m[1] : "hysteresis.fmu";
+  const a = el("a", { href: URL.createObjectURL(blob), download: name });
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+  setMsg("export-msg", `Downloaded ${name} (${blob.size} bytes)`, true);
 }
 
 // Live events: a teacher push reloads the session; the note says what happened.
@@ -518,8 +556,9 @@ function listen() {
   es.addEventListener("push", (ev) => {
     let info = {};
     try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
-    onPushed(info).catch((e) => setMsg("model-msg", e.message));
+    onPushed(info).then(() => tell("hyst:push", info)).catch((e) => setMsg("model-msg", e.message));
   });
+  es.addEventListener("lesson", (ev) => tell("hyst:lesson", JSON.parse(ev.data)));
   state.events = es;
 }
 
@@ -908,6 +947,12 @@ async function teacherRefresh() {
   }
 }
 
+// ---------------------------------------------------------------- for static/lesson.js
+// The lesson mode (static/lesson.js) drives the page through these and hears the live
+// events as window events ("hyst:push" after a push is shown, "hyst:lesson").
+export const explorer = { state, api, applyConfig, draw, selectFigure, setMsg };
+function tell(name, detail) { window.dispatchEvent(new CustomEvent(name, { detail })); }
+
 // ---------------------------------------------------------------- start
 async function main() {
   controls = new ModelControls($("model-controls"), { api, onChange: onSliderMoved });
@@ -998,6 +1043,8 @@ async function main() {
   $("diagnose").addEventListener("click", () => diagnose());
   $("cancel-job").addEventListener("click", cancelJob);
   $("ps-file").addEventListener("change", onParamSetChosen);
+  $("fmi-version").addEventListener("change", fmuLinks);
+  for (const id of ["dl-fmu-inv", "dl-fmu-fwd"]) $(id).addEventListener("click", downloadFmu);
   $("teacher-push").addEventListener("click", teacherPush);
   const digiStep = (d) => { stopPlay(); showState(Number($("digi-step").value) + d).catch((e) => setMsg("model-msg", e.message)); };
   $("digi-prev").addEventListener("click", () => digiStep(-1));

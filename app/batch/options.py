@@ -31,8 +31,10 @@ class _Options:
         return " ".join(["hyst", self.kind, "FILE", *self.flags()])
 
     def key(self) -> str:
-        """Hash of the kind and every option (part of the resume key)."""
-        text = json.dumps({"kind": self.kind, **asdict(self)}, sort_keys=True)
+        """Hash of the kind and every option (part of the resume key; ``fmu`` only when set,
+        so the folders of earlier runs resume)."""
+        opts = {k: v for k, v in asdict(self).items() if not (k == "fmu" and v is None)}
+        text = json.dumps({"kind": self.kind, **opts}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def validate(self) -> None:
@@ -41,6 +43,9 @@ class _Options:
             text = getattr(self, what)
             if text is not None:
                 parse_window(text, what)
+        fmu = getattr(self, "fmu", None)
+        if fmu is not None and fmu not in (3, 2):
+            raise CommandError(f"--fmu {fmu!r}: unknown FMI version; use --fmu 3 or --fmu 2")
         self._check()
 
     def _check(self) -> None:  # pragma: no cover - overridden
@@ -70,6 +75,9 @@ class FitOptions(_Options):
         Column names or 0-based indices.
     train, test : str or None
         ``T0:T1`` windows in seconds.
+    fmu : {3, 2} or None
+        Also build each recording's FMU of this FMI version (the compensator, or the model
+        when it has no inverse), as ``hyst export --format fmu`` does.
     """
 
     kind: ClassVar[str] = "fit"
@@ -81,6 +89,7 @@ class FitOptions(_Options):
     output_column: str | None = None
     train: str | None = None
     test: str | None = None
+    fmu: int | None = None
 
     def _check(self) -> None:
         from core.models import fit_kinds
@@ -120,6 +129,8 @@ class DiagnoseOptions(_Options):
         ``--effects``: comma-separated effects to test (default: all).
     train, test : str or None
         ``T0:T1`` windows in seconds.
+    fmu : {3, 2} or None
+        As for :class:`FitOptions`.
     """
 
     kind: ClassVar[str] = "diagnose"
@@ -129,6 +140,7 @@ class DiagnoseOptions(_Options):
     effects: str | None = None
     train: str | None = None
     test: str | None = None
+    fmu: int | None = None
 
     def _check(self) -> None:
         n = self.operators

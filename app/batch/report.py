@@ -176,6 +176,11 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
                  "<th>held-out RMSE %</th><th>effects</th><th>status</th></tr>")
     for r in rows:
         link = f"<a href='{_e(quote(r.name))}.json'>{_e(r.name)}</a>" if r.ok else _e(r.name)
+        if r.fmu:  # --fmu: the recording's FMU next to its parameter set
+            link += (f" · <a href='{_e(quote(r.fmu))}' title='{_e(r.fmu_note)}'>FMU "
+                     f"({_e(r.fmu_note.split(' (')[0])})</a>")
+        elif r.fmu_note:
+            link += f"<br><span class='bad'>{_e(r.fmu_note)}</span>"
         parts.append(
             f"<tr id='rec-{_e(quote(r.name))}'><td>{link}</td><td>{_e(r.file)}</td>"
             f"<td class='num'>{r.samples if r.ok else ''}</td><td>{_e(r.model)}</td>"

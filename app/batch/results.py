@@ -47,6 +47,10 @@ class RecordingResult:
         Worker wall time (s); 0 for a resumed recording.
     resumed : bool
         Taken from an earlier run (same content and options).
+    fmu : str
+        With ``--fmu``: the FMU's path in the output folder (``""``: none).
+    fmu_note : str
+        What the FMU holds, or why there is none.
     """
 
     file: str
@@ -65,6 +69,8 @@ class RecordingResult:
     parameters: dict[str, float] = field(default_factory=dict)
     elapsed_s: float = 0.0
     resumed: bool = False
+    fmu: str = ""
+    fmu_note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -163,7 +169,8 @@ def from_outcome(kind: str, file: str, name: str, outcome: Outcome) -> Recording
     params = scalar_parameters(ps["model"])
     fit = ps.get("provenance", {}).get("fit", {})
     common = dict(samples=outcome.samples, n_operators=_n_operators(params),
-                  elapsed_s=outcome.elapsed_s)
+                  elapsed_s=outcome.elapsed_s, fmu_note=outcome.fmu_note,
+                  fmu=fmu_path(name, outcome.fmu_note) if outcome.fmu else "")
     if kind == "fit":
         rep = fit["report"]
         test = rep.get("test") or {}
@@ -184,6 +191,11 @@ def from_outcome(kind: str, file: str, name: str, outcome: Outcome) -> Recording
         heldout_rmse=doc["final"]["heldout_rmse"],
         heldout_rmse_pct=doc["final"]["heldout_rmse_pct"],
         baseline_heldout_rmse_pct=doc["baseline"]["heldout_rmse_pct"], effects=effects, **common)
+
+
+def fmu_path(name: str, note: str) -> str:
+    """Where a recording's FMU goes in the output folder (``fmu/<name>-<what>.fmu``)."""
+    return f"fmu/{name}-{'compensator' if note == 'compensator' else 'model'}.fmu"
 
 
 def write_json(path: Path, text: str) -> None:

@@ -254,6 +254,9 @@ def _run(client: Any, opts: Options, todo: list[tuple[Path, str, str]],
             write_json(paths[0], outcome.parameter_set)
             if kind == "diagnose":
                 write_json(paths[1], outcome.diagnosis + "\n")
+            if row.fmu:
+                (folder / row.fmu).parent.mkdir(parents=True, exist_ok=True)
+                (folder / row.fmu).write_bytes(outcome.fmu)
         results[name] = row
         manifest.record(name, {"file": str(p), "content_sha256": sha, "options_key": okey,
                                "status": row.status, "row": row.to_dict()})

@@ -46,6 +46,12 @@ class Outcome:
         The lines the command prints on stderr (read notes, warnings, progress).
     elapsed_s : float
         Wall time on the worker (s).
+    fmu : bytes
+        With the ``fmu`` option: the FMU file (empty when none could be built).
+    fmu_note : str
+        What the FMU holds (``compensator`` / ``model``), or why there is none.
+    dt : float or None
+        Sample spacing of the recording (s), the FMU's sample time for dynamic models.
     """
 
     ok: bool
@@ -55,6 +61,9 @@ class Outcome:
     samples: int = 0
     messages: str = ""
     elapsed_s: float = 0.0
+    fmu: bytes = b""
+    fmu_note: str = ""
+    dt: float | None = None
 
 
 def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
@@ -81,7 +90,7 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
                              **fit_source([src]))
     say_fit(progress, out)
     return Outcome(True, parameter_set=out.parameter_set.to_json() + "\n",
-                   samples=sum(r.n_samples for r in recs))
+                   samples=sum(r.n_samples for r in recs), dt=_dt(recs))
 
 
 def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
@@ -102,7 +111,42 @@ def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
         fixed_grid=opts.fixed_grid, no_crossfit=opts.no_crossfit, effects=opts.effects)
     return Outcome(True, parameter_set=model_document(res, diagnosis_source([src])).to_json()
                    + "\n", diagnosis=diagnosis_json(res),
-                   samples=sum(r.n_samples for r in res.records))
+                   samples=sum(r.n_samples for r in res.records), dt=_dt(res.records))
+
+
+def _dt(recs: list) -> float | None:
+    """Median sample spacing of the first recording with a time axis (s)."""
+    import numpy as np
+
+    for r in recs:
+        t = getattr(r, "t", None)
+        if t is not None and np.size(t) > 1:
+            return float(np.median(np.diff(t)))
+    return None
+
+
+def _fmu(parameter_set: str, dt: float | None, version: int) -> tuple[bytes, str]:
+    """``(FMU bytes, note)``: the compensator's FMU, or the model's when it has no inverse;
+    no bytes and the reason when it cannot be built (the fit itself stands)."""
+    from core.exceptions import NotInvertibleError, ParameterError
+    from core.export_fmu import build_fmu
+    from core.paramset import ParameterSet
+
+    ps = ParameterSet.from_json(parameter_set)
+    dyn = dt if ps.model.is_dynamic else None
+    with tempfile.TemporaryDirectory(prefix="hyst-fmu-") as tmp:
+        try:
+            try:
+                path = build_fmu(ps, Path(tmp) / "c.fmu", fmi_version=version, inverse=True,
+                                 dt=dyn, name="hysteresis_compensator")
+                what = "compensator"
+            except NotInvertibleError as exc:
+                path = build_fmu(ps, Path(tmp) / "m.fmu", fmi_version=version, dt=dyn,
+                                 name="hysteresis_model")
+                what = f"model (no compensator: {exc})"
+            return path.read_bytes(), what
+        except (ParameterError, ValueError, OSError) as exc:
+            return b"", f"no FMU: {exc}"
 
 
 def run_recording(kind: str, filename: str, content: bytes, options: Options) -> Outcome:
@@ -139,9 +183,13 @@ def run_recording(kind: str, filename: str, content: bytes, options: Options) ->
                 out = _diagnose(src, options, progress)
             else:
                 raise ValueError(f"batch kind {kind!r} does not match {type(options).__name__}")
+            fmu, note = (b"", "")
+            if options.fmu is not None:
+                fmu, note = _fmu(out.parameter_set, out.dt, options.fmu)
             return Outcome(True, parameter_set=out.parameter_set, diagnosis=out.diagnosis,
                            samples=out.samples, messages=_text(lines),
-                           elapsed_s=time.perf_counter() - t0)
+                           elapsed_s=time.perf_counter() - t0, fmu=fmu, fmu_note=note,
+                           dt=out.dt)
         except (ValueError, OSError) as exc:  # what `hyst` reports as "error: ..."
             msg = str(exc).replace(str(src), filename).replace(tmp + "/", "")
             return Outcome(False, error=msg, messages=_text(lines),

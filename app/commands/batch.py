@@ -53,6 +53,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--train", metavar="T0:T1", help="training time window (s), as in the "
                    "single-file command")
     p.add_argument("--test", metavar="T0:T1", help="held-out time window (s)")
+    p.add_argument("--fmu", type=int, metavar="3|2",
+                   help="also build each recording's FMU (FMI 3 or 2; the compensator, or the "
+                        "model when it has no inverse) into DIR/fmu/, linked from the report")
 
 
 def register(subparsers: Any) -> None:
@@ -96,11 +99,11 @@ def run(args: argparse.Namespace) -> int:
         opts: FitOptions | DiagnoseOptions = FitOptions(
             model=args.model, n_operators=args.n_operators, constraint=args.constraint,
             time=args.time, input_column=args.input_column, output_column=args.output_column,
-            train=args.train, test=args.test)
+            train=args.train, test=args.test, fmu=args.fmu)
     else:
         opts = DiagnoseOptions(operators=args.operators, fixed_grid=args.fixed_grid,
                                no_crossfit=args.no_crossfit, effects=args.effects,
-                               train=args.train, test=args.test)
+                               train=args.train, test=args.test, fmu=args.fmu)
     res = run_batch(args.files, args.output, opts, scheduler=args.scheduler,
                     workers=args.workers, resume=not args.no_resume,
                     quiet=args.quiet or args.json, report_title=args.title)

@@ -36,6 +36,7 @@ from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
 from .layout import TITLES, Widgets, set_value
+from .lesson import LessonPanel
 from .playback import Playback
 from .render import LatestWinsWorker
 from .scene import CUBE_MAX_DIGITS, StateCube
@@ -131,6 +132,7 @@ class SessionView:
         self._shown_state = -1
         self._state_sent = 0.0
         self._wire()
+        self.lesson = LessonPanel(self)  # the class's lesson (app/gui/lesson.py)
         self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
@@ -193,6 +195,8 @@ class SessionView:
         ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
             btn.on_click(self._guarded(lambda ev, fmt=fmt: self._export(ev, fmt)))
+        for btn, inv in ((ui.dl_fmu_inv, True), (ui.dl_fmu_fwd, False)):
+            btn.on_click(self._guarded(lambda ev, inv=inv: self._export(ev, "fmu", inv)))
 
     def _guarded(self, fn: Callable[[Any], None]) -> Callable[[Any], None]:
         """Skip callbacks fired by our own store→GUI sync; report errors in the GUI."""
@@ -470,6 +474,7 @@ class SessionView:
         self.session.remove_listener(self._on_session_change)
         self.session = session
         session.add_listener(self._on_session_change)
+        self.lesson.follow(session)
         self._sync_controls(session.snapshot()[0])
         self._attend()
         self.worker.request()
@@ -629,8 +634,9 @@ class SessionView:
             return
         self.ui.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"
 
-    def _export(self, event: Any, fmt: str) -> None:
-        name, payload = actions.export(self.session, fmt)
+    def _export(self, event: Any, fmt: str, inverse: bool = False) -> None:
+        name, payload = actions.export(self.session, fmt, fmi=self.ui.fmi.value,
+                                       inverse=inverse)
         self._send(event, name, payload)
         self.ui.export_md.content = f"sent {md_text(name)} ({len(payload)} bytes)"
 
@@ -757,4 +763,5 @@ class SessionView:
         self.playback.stop()
         HUB.leave(self)
         self.session.remove_listener(self._on_session_change)
+        self.lesson.close()
         self.worker.stop()

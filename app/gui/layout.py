@@ -236,6 +236,9 @@ class Widgets:
             self.dl_json = g.add_button("Download parameter set (JSON)")
             self.dl_mat = g.add_button("Download .mat")
             self.dl_c = g.add_button("Download C code")
+            self.fmi = g.add_dropdown("FMI version", ("3.0", "2.0"), initial_value="3.0")
+            self.dl_fmu_inv = g.add_button("Download FMU: compensator")
+            self.dl_fmu_fwd = g.add_button("Download FMU: model")
             self.ps_upload = g.add_upload_button("Upload parameter set", mime_type="*/*")
             self.export_md = g.add_markdown("")
         # One plot and a view selector: the browser draws a single plotly figure and the

@@ -1,4 +1,4 @@
-"""Download the session's parameter set (JSON, .mat, C) and upload a saved one."""
+"""Download the session's parameter set (JSON, .mat, C, FMU) and upload a saved one."""
 
 from __future__ import annotations
 
@@ -11,24 +11,41 @@ from fastapi.responses import Response
 from ..services import actions
 from ..services.errors import ParameterError
 from ..services.exports import EXPORT_FORMATS
-from .deps import SessionDep, SettingsDep, attachment, decode_text, read_body
+from .deps import (
+    SessionDep,
+    SettingsDep,
+    attachment,
+    client_key,
+    decode_text,
+    rate_limited,
+    read_body,
+)
 from .schemas import SessionOut
 
 __all__ = ["router"]
 
 router = APIRouter(prefix="/api", tags=["export"])
 
-_MEDIA = {"json": "application/json", "mat": "application/octet-stream", "c": "text/x-csrc"}
+_MEDIA = {"json": "application/json", "mat": "application/octet-stream", "c": "text/x-csrc",
+          "fmu": "application/octet-stream"}
 
 
 @router.get("/sessions/{code}/export/{fmt}", response_class=Response, responses={200: {
     "description": "the parameter set as a download",
     "content": {media: {} for media in _MEDIA.values()}}})
-def export(fmt: str, session: SessionDep) -> Response:
-    """The session's current model as a downloadable parameter set (``json``, ``mat``, ``c``)."""
+def export(fmt: str, session: SessionDep, request: Request, fmi: str = "3",
+           inverse: bool = False) -> Response:
+    """The session's current model as a download: ``json`` (parameter set), ``mat``, ``c`` or
+    ``fmu`` (a co-simulation FMU compiled on the server: ``fmi`` 3 or 2, the compensator
+    with ``inverse=true``, else the model)."""
     if fmt not in EXPORT_FORMATS:
         raise HTTPException(404, f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
-    name, payload = actions.export(session, fmt)
+    if fmt == "fmu":  # runs the C compiler: a few per minute and client
+        key, limiter = client_key(request), request.app.state.fmu_limiter
+        if not limiter.take(key):
+            raise rate_limited(limiter, key, "too many FMU builds from this computer; wait "
+                                             "a minute")
+    name, payload = actions.export(session, fmt, fmi=fmi, inverse=inverse)
     return Response(payload, media_type=_MEDIA[fmt], headers=attachment(name))
 
 

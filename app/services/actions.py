@@ -30,7 +30,7 @@ from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
 from .diagnosis import diagnose_session, diagnosis_html
 from .events import HUB
-from .exports import export_session, parameter_set_model
+from .exports import export_session, fmi_version, parameter_set_model
 from .fitting import fit_session
 from .recordings import Upload, csv_preview, read_upload
 from .sessions import Session, SessionRegistry
@@ -299,9 +299,12 @@ def fit_figure(recording: Recording, model: Model, label: str) -> F.FigureJSON:
     return F.fit_figure(recording, model(recording.u), label)
 
 
-def export(session: Session, fmt: str) -> tuple[str, bytes]:
-    """``(filename, content)`` of the session's model as ``json``, ``mat`` or ``c``."""
-    return export_session(session, fmt)
+def export(session: Session, fmt: str, *, fmi: object = 3,
+           inverse: bool = False) -> tuple[str, bytes]:
+    """``(filename, content)`` of the session's model as ``json``, ``mat``, ``c`` or ``fmu``
+    (FMI version ``fmi``, ``"3"`` or ``"2"``; the compensator with ``inverse``)."""
+    return export_session(session, fmt, fmi=fmi_version(fmi) if fmt == "fmu" else 3,
+                          inverse=inverse)
 
 
 # ----------------------------------------------------------------------------- teacher
@@ -326,12 +329,12 @@ def push_model(doc: Any, settings: Settings) -> dict[str, Any]:
 
 
 def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
-         signal: SignalSpec | None = None, note: dict[str, Any] | None = None
-         ) -> tuple[int, int]:
-    """The teacher's push: ``model`` and/or ``signal`` to every session used in the last
-    hour (each committed, so a reload or a restart keeps it), then the event
-    ``{"kind": "push", **note}`` to every open page. Returns ``(sessions changed, pages
-    told)``.
+         signal: SignalSpec | None = None, note: dict[str, Any] | None = None,
+         mismatch: float | None = None) -> tuple[int, int]:
+    """The teacher's push: ``model`` and/or ``signal`` (and a lesson step's ``mismatch``)
+    to every session used in the last hour (each committed, so a reload or a restart keeps
+    it), then the event ``{"kind": "push", **note}`` to every open page. Returns
+    ``(sessions changed, pages told)``.
 
     Raises
     ------
@@ -343,6 +346,8 @@ def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
 
     def change(cfg: Config) -> Config:
         new = cfg if model is None else cfg.with_model(model)
+        if mismatch is not None:
+            new = replace(new, mismatch=mismatch)
         return new if signal is None else replace(new, signal=signal, use_recording=False)
 
     n = registry.update_recent(change)

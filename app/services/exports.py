@@ -1,18 +1,21 @@
 """Parameter-set documents and download bytes of the explorer's model (no web imports).
 
 The document is :class:`core.paramset.ParameterSet`, ``.mat`` files come from
-:func:`core.export_mat.export_mat` and C code from :func:`core.export_c.generate_c`.
+:func:`core.export_mat.export_mat`, C code from :func:`core.export_c.generate_c` and FMUs
+from :func:`core.export_fmu.build_fmu` (compiled on this machine).
 """
 
 from __future__ import annotations
 
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
 from core.base import Model, model_from_dict
 from core.exceptions import NotInvertibleError, ParameterError
 from core.export_c import generate_c
+from core.export_fmu import FMI_VERSIONS, build_fmu
 from core.export_mat import export_mat
 from core.paramset import (
     ParameterSet,
@@ -25,6 +28,7 @@ from .sessions import Session
 
 __all__ = [
     "EXPORT_FORMATS",
+    "fmi_version",
     "export_bytes",
     "export_session",
     "parameter_set",
@@ -33,7 +37,25 @@ __all__ = [
 ]
 
 #: Download formats of a parameter set.
-EXPORT_FORMATS = ("json", "mat", "c")
+EXPORT_FORMATS = ("json", "mat", "c", "fmu")
+#: FMU builds run the C compiler: at most two at a time in this process.
+_FMU_BUILDS = threading.BoundedSemaphore(2)
+
+
+def fmi_version(text: object) -> int:
+    """The FMI version of an export request (``"3"``, ``"3.0"``, ``"2"``, ``"2.0"``).
+
+    Raises
+    ------
+    ParameterError
+        Anything else (the message lists the versions).
+    """
+    v = {"3": 3, "3.0": 3, "2": 2, "2.0": 2}.get(str(text).strip())
+    if v is None:
+        raise ParameterError(
+            f"unknown FMI version {str(text)[:20]!r}; choose "
+            + " or ".join(f"{x} (FMI {x}.0)" for x in FMI_VERSIONS))
+    return v
 
 
 def parameter_set(model: Model, fit: dict[str, Any] | None = None) -> ParameterSet:
@@ -75,18 +97,21 @@ def parameter_set_model(doc: Any) -> Model:
 
 def export_bytes(
     model: Model, fmt: str, code: str = "", fit: dict[str, Any] | None = None,
-    dt: float | None = None,
+    dt: float | None = None, *, fmi: int = 3, inverse: bool = False,
 ) -> tuple[str, bytes]:
-    """``(filename, content)`` of ``model`` exported as ``json``, ``mat`` or ``c``.
+    """``(filename, content)`` of ``model`` exported as ``json``, ``mat``, ``c`` or ``fmu``.
 
     ``c`` is one file: the generated header followed by the source (the inverse compensator
     and the forward model when the model is invertible, the forward model only otherwise);
     ``dt`` (s) is the sample time baked into dynamic stages (creep, lag, resonance, ...).
+    ``fmu`` is a co-simulation FMU of FMI version ``fmi`` (3 or 2) running the model, or its
+    inverse compensator with ``inverse``.
 
     Raises
     ------
     ParameterError
-        For an unknown format, or a model stage without a C emitter.
+        For an unknown format, a model stage without a C emitter, no C compiler or FMI
+        headers (FMU), or ``inverse`` for a model without an inverse.
     """
     stem = f"hysteresis-{model.type_name}{'-' + code if code else ''}"
     ps = parameter_set(model, fit)
@@ -106,10 +131,17 @@ def export_bytes(
         src = cc.source.replace(f'#include "{cc.name}.h"', f"/* {cc.name}.h inlined above */")
         text = f"/* ===== {cc.name}.h ===== */\n{cc.header}\n/* ===== {cc.name}.c ===== */\n{src}"
         return f"{stem}.c", text.encode()
+    if fmt == "fmu":
+        what = "compensator" if inverse else "model"
+        with _FMU_BUILDS, tempfile.TemporaryDirectory() as tmp:
+            path = build_fmu(ps, Path(tmp) / "h.fmu", fmi_version=fmi, inverse=inverse,
+                             dt=dt if model.is_dynamic else None, name=f"hysteresis_{what}")
+            return f"{stem}-{what}-fmi{fmi}.fmu", path.read_bytes()
     raise ParameterError(f"unknown export format {fmt!r}; known: {list(EXPORT_FORMATS)}")
 
 
-def export_session(session: Session, fmt: str) -> tuple[str, bytes]:
+def export_session(session: Session, fmt: str, *, fmi: int = 3,
+                   inverse: bool = False) -> tuple[str, bytes]:
     """:func:`export_bytes` of ``session``'s current model (with the fit report when the
     model is the fitted one); dynamic models get the sample time of the session's
     recording, else of its signal."""
@@ -120,4 +152,5 @@ def export_session(session: Session, fmt: str) -> tuple[str, bytes]:
         dt = float(rec.t[1] - rec.t[0])
     else:
         dt = cfg.signal.duration / max(cfg.signal.samples - 1, 1)
-    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit, dt=dt)
+    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit, dt=dt, fmi=fmi,
+                        inverse=inverse)

@@ -78,6 +78,10 @@ CREATE TABLE IF NOT EXISTS blobs (
     PRIMARY KEY (code, kind)
 );
 CREATE INDEX IF NOT EXISTS sessions_last_used ON sessions(last_used);
+CREATE TABLE IF NOT EXISTS class_state (
+    key TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
 """
 
 
@@ -256,6 +260,23 @@ class SessionStore:
         """Remove ``code`` and its blobs."""
         with self._lock:
             self._db.execute("DELETE FROM sessions WHERE code=?", (code,))
+
+    def put_class_state(self, key: str, value: str | None) -> None:
+        """Store (or, with ``None``, delete) a piece of the class's state that is no
+        session's: the lesson the class follows (:mod:`app.services.lessons`). Committed."""
+        with self._lock:
+            if value is None:
+                self._db.execute("DELETE FROM class_state WHERE key=?", (key,))
+            else:
+                self._db.execute("INSERT OR REPLACE INTO class_state (key, value) "
+                                 "VALUES (?,?)", (key, value))
+
+    def class_state(self, key: str) -> str | None:
+        """The stored class state ``key`` (:meth:`put_class_state`), or ``None``."""
+        with self._lock:
+            row = self._db.execute("SELECT value FROM class_state WHERE key=?",
+                                   (key,)).fetchone()
+        return None if row is None else str(row[0])
 
     # ------------------------------------------------------------------ reads
     def load(self, code: str) -> SessionState | None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import shutil
 from collections.abc import Iterator
 
 import numpy as np
@@ -313,6 +314,27 @@ def test_export_formats_and_round_trip(client: TestClient, code: str) -> None:
     other = client.post("/api/sessions").json()["code"]
     r = client.put(f"/api/sessions/{other}/parameter-set", content=json.dumps(doc))
     assert r.status_code == 200 and r.json()["config"]["model"]["p0"] == 0.9
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+def test_export_fmu_of_the_session_model(client: TestClient, code: str, tmp_path) -> None:
+    """The FMU menu: compensator or model, FMI 3 or 2; refusals are 422s that say why."""
+    fmpy = pytest.importorskip("fmpy")
+    client.patch(f"/api/sessions/{code}/config", json={"model": {**EX1, "p0": 0.9}})
+    r = client.get(f"/api/sessions/{code}/export/fmu?fmi=2&inverse=true")
+    assert r.status_code == 200, r.text
+    assert "compensator-fmi2.fmu" in r.headers["content-disposition"]
+    (tmp_path / "c.fmu").write_bytes(r.content)
+    md = fmpy.read_model_description(str(tmp_path / "c.fmu"))
+    assert md.fmiVersion == "2.0" and {v.name for v in md.modelVariables} >= {"y_ref", "u"}
+    r = client.get(f"/api/sessions/{code}/export/fmu")
+    assert r.status_code == 200 and "model-fmi3.fmu" in r.headers["content-disposition"]
+    r = client.get(f"/api/sessions/{code}/export/fmu?fmi=9")
+    assert r.status_code == 422 and "unknown FMI version '9'" in r.json()["detail"]
+    client.patch(f"/api/sessions/{code}/config", json={"model": {**EX1, "weights": [
+        -1.0, 0.1, 0.1, 0.1, 0.1, 0.1]}})
+    r = client.get(f"/api/sessions/{code}/export/fmu?inverse=true")
+    assert r.status_code == 422 and "invert" in r.json()["detail"]
 
 
 @pytest.mark.parametrize(

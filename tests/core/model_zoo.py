@@ -1,10 +1,13 @@
-"""One instance of every registered model type (shared by the JSON, MAT and C export tests).
+"""One instance of every registered model type (shared by the JSON, MAT, C and FMU export
+tests), and the chains the diagnosis writes.
 
 ``ZOO[type_name]`` is a model of that type; a new ``@register_model`` type must be added here
 (``test_every_registered_type_has_an_instance`` fails until it is).
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 from core.base import Chain, Model
 from core.deadzone import DeadZoneMap
@@ -42,6 +45,19 @@ PREISACH = PreisachModel(
 )
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
+
+
+def turning_points(seed: int, n: int) -> np.ndarray:
+    """Piecewise-linear input of ``n`` samples through random turning points in [-3, 3]
+    (nested loops), starting at 0."""
+    rng = np.random.default_rng(seed)
+    out, total, a = [], 0, 0.0
+    while total < n:
+        b = float(rng.uniform(-3.0, 3.0))
+        m = int(rng.integers(20, 200))
+        out.append(np.linspace(a, b, m, endpoint=False))
+        total, a = total + m, b
+    return np.concatenate(out)[:n]
 
 
 def _zoo() -> dict[str, Model]:
@@ -85,3 +101,12 @@ def _zoo() -> dict[str, Model]:
 
 
 ZOO = _zoo()
+#: Extra chains the diagnosis writes: the PI baseline followed by each accepted effect.
+DIAGNOSED: dict[str, Model] = {
+    "diag-creep-offset": Chain.of(EX1, ZOO["creep"], ZOO["offset"]),
+    "diag-lag-delay": Chain.of(EX1, Lag(2e-4), Delay(3e-4)),
+    "diag-resonance": Chain.of(EX1, Resonance(400.0, 0.05)),
+    "diag-asym-drift": Chain.of(EX1, ZOO["asymmetry"], ZOO["drift"]),
+    "diag-rate-memory": Chain.of(ZOO["initial-memory"], ZOO["creep"]),
+    "diag-preisach-memory": Chain.of(InitialMemory(PREISACH, [2.5, -1.5]), ZOO["offset"]),
+}

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.effects import Delay, InitialMemory, Lag, Resonance, causal_form
+from core.effects import Delay, causal_form
 from core.export_c import CExportError, generate_c
 from core.models import model_types
 from core.pi import PIModel
-from tests.core.model_zoo import DT, EX1, PREISACH, ZOO
+from tests.core.model_zoo import DIAGNOSED, DT, EX1, ZOO, turning_points
 
 GCC = shutil.which("gcc")
 CFLAGS = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2"]
@@ -36,28 +36,11 @@ EXACT = {
     "gpi-deadzone", "mpi", "tanh-envelope", "gpi-tanh", "lti",
     "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse",
 }
-#: Extra chains the diagnosis writes: the PI baseline followed by each accepted effect.
-DIAGNOSED = {
-    "diag-creep-offset": Chain.of(EX1, ZOO["creep"], ZOO["offset"]),
-    "diag-lag-delay": Chain.of(EX1, Lag(2e-4), Delay(3e-4)),
-    "diag-resonance": Chain.of(EX1, Resonance(400.0, 0.05)),
-    "diag-asym-drift": Chain.of(EX1, ZOO["asymmetry"], ZOO["drift"]),
-    "diag-rate-memory": Chain.of(ZOO["initial-memory"], ZOO["creep"]),
-    "diag-preisach-memory": Chain.of(InitialMemory(PREISACH, [2.5, -1.5]), ZOO["offset"]),
-}
 CASES: dict[str, Model] = {**ZOO, **DIAGNOSED}
 
 
 def _input(seed: int) -> np.ndarray:
-    """Piecewise-linear input through random turning points in [-3, 3] (nested loops)."""
-    rng = np.random.default_rng(seed)
-    out, total, a = [], 0, 0.0
-    while total < N:
-        b = float(rng.uniform(-3.0, 3.0))
-        m = int(rng.integers(20, 200))
-        out.append(np.linspace(a, b, m, endpoint=False))
-        total, a = total + m, b
-    return np.concatenate(out)[:N]
+    return turning_points(seed, N)
 
 
 def _case(i: int, name: str, inv: bool, fwd: bool) -> str:

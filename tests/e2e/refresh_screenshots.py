@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The tests whose screenshots docs/pages/serve.md and docs/pages/explore.md show.
+#: The tests whose screenshots docs/pages/serve.md, explore.md and lessons.md show.
 TESTS = [
     "tests/e2e/test_static_page.py::test_page_loads_slider_updates_plot",
     "tests/e2e/test_static_page.py::test_csv_upload_fit_diagnosis_download",
@@ -28,6 +28,7 @@ TESTS = [
     "tests/e2e/test_viser_gui.py",
     "tests/e2e/test_viser_layout.py::test_phone_shows_a_plot",
     "tests/e2e/test_viser_layout.py::test_laptop_panel_leaves_the_cube_in_view",
+    "tests/e2e/test_lesson_journey.py",
 ]
 
 

@@ -3,7 +3,9 @@ download, screenshots."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -136,6 +138,11 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
         a.get_by_role("button", name="Download parameter set (JSON)").first.click()
     doc = json.loads(Path(dl.value.path()).read_text())
     assert doc["model"] == view_a.session.config.model
+    if shutil.which("gcc") and importlib.util.find_spec("fmpy"):  # an FMU, compiled
+        with a.expect_download(timeout=60_000) as dl:
+            a.get_by_role("button", name="Download FMU: compensator").first.click()
+        assert dl.value.suggested_filename.endswith("-compensator-fmi3.fmu")
+        assert Path(dl.value.path()).read_bytes()[:2] == b"PK"
 
     assert errors_a == [] and errors_b == []
     ctx_a.close()

@@ -341,3 +341,49 @@ def test_busy_state_blocks_double_submission(browser: Any, live_server: dict,
     assert _session(app, page).fitted is None  # the second click did not start a fit
     _clean(page, log)
     ctx.close()
+
+
+def test_fmu_download_from_the_export_menu(browser: Any, live_server: dict, tmp_path: Path,
+                                           shot: Any) -> None:
+    """The export menu's FMU: the compensator of the page's model, FMI 2.0 as chosen; the
+    file is a real FMU (fmpy validates it) of the session's model."""
+    import shutil
+    import zipfile
+
+    fmpy = pytest.importorskip("fmpy")
+    from fmpy.validation import validate_fmu
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"])
+    _load_preset(page, "paper001-example4")
+    page.select_option("#fmi-version", "2")
+    with page.expect_download() as dl:
+        page.click("#dl-fmu-inv")
+    _text_has(page, "export-msg", "Downloaded")
+    saved = tmp_path / dl.value.suggested_filename
+    assert saved.name.endswith("-compensator-fmi2.fmu")
+    dl.value.save_as(saved)
+    assert validate_fmu(str(saved)) == []
+    md = fmpy.read_model_description(str(saved))
+    assert md.fmiVersion == "2.0" and md.coSimulation is not None
+    with zipfile.ZipFile(saved) as zf:
+        doc = json.loads(zf.read("resources/parameter-set.json"))
+    assert doc["model"] == _session(app, page).config.model
+    page.locator("#export-msg").scroll_into_view_if_needed()
+    shot(page, "web-export-fmu")
+    # a model without an inverse: no file, and the page says why
+    v = page.get_attribute("body", "data-ready")
+    if not page.evaluate("() => document.getElementById('json-edit').open"):
+        page.click("#json-edit summary")  # a model with sliders: the JSON box starts closed
+    page.fill("#model-json", json.dumps({"type": "pi", "p0": 1.0, "thresholds": [1.0, 2.0],
+                                         "weights": [-1.0, 0.5]}))
+    page.click("#apply-json")
+    _redrawn(page, v)
+    page.click("#dl-fmu-inv")
+    _text_has(page, "export-msg", "No FMU:")
+    assert "invert" in page.inner_text("#export-msg")
+    shot(page, "web-export-fmu-refused")
+    _clean(page, log)
+    ctx.close()

@@ -216,3 +216,32 @@ def test_diagnosis_benchmark_executor_runs_on_a_scheduler(scheduler):
     with executor(1, scheduler) as ex:
         futs = [ex.submit(pow, k, 2) for k in range(5)]
         assert sorted(f.result() for f in as_completed(futs)) == [0, 1, 4, 9, 16]
+
+
+def test_batch_builds_each_recordings_fmu_and_links_it(recordings, scheduler, tmp_path,
+                                                        capsys):
+    """``--fmu 2``: every good recording's compensator FMU in DIR/fmu/, linked from the
+    report; the FMU is the one ``hyst export --format fmu --inverse`` builds from its JSON."""
+    import shutil
+
+    fmpy = pytest.importorskip("fmpy")
+    from fmpy.validation import validate_fmu
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc not installed")
+    out = tmp_path / "out"
+    code = main(["batch", "fit", str(recordings / "alpha.csv"), str(recordings / "broken.csv"),
+                 "-n", "6", "--fmu", "2", "-o", str(out), "--scheduler", scheduler, "-q"])
+    assert code == 1  # broken.csv fails, alpha does not
+    capsys.readouterr()
+    fmu = out / "fmu" / "alpha-compensator.fmu"
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    assert md.fmiVersion == "2.0" and "alpha.csv" in md.description
+    assert "href='fmu/alpha-compensator.fmu'" in (out / "report.html").read_text()
+    assert not list((out / "fmu").glob("broken*"))
+    with pytest.raises(SystemExit):
+        main(["batch", "fit", str(recordings / "alpha.csv"), "--fmu", "x", "-o", str(out)])
+    assert main(["batch", "fit", str(recordings / "alpha.csv"), "--fmu", "4", "-o",
+                 str(out), "--scheduler", scheduler, "-q"]) == 2
+    assert "--fmu 4: unknown FMI version; use --fmu 3 or --fmu 2" in capsys.readouterr().err

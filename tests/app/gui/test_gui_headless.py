@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import html
+import importlib.util
+import io
 import json
+import shutil
+import zipfile
 from collections.abc import Iterator
 from types import SimpleNamespace
 from typing import Any
@@ -167,6 +171,13 @@ def test_csv_fit_diagnose_export(view: SessionView) -> None:
     view._export(SimpleNamespace(client=None), "json")
     name, payload = view.downloads[-1]  # type: ignore[attr-defined]
     assert name.endswith(".json") and "model" in json.loads(payload)
+    if shutil.which("gcc") and importlib.util.find_spec("fmpy"):  # the FMU menu
+        view.ui.fmi.value = "2.0"
+        view._export(SimpleNamespace(client=None), "fmu", True)
+        name, payload = view.downloads[-1]  # type: ignore[attr-defined]
+        assert name.endswith("-compensator-fmi2.fmu") and payload[:2] == b"PK"
+        with zipfile.ZipFile(io.BytesIO(payload)) as zf:
+            assert 'fmiVersion="2.0"' in zf.read("modelDescription.xml").decode()
 
 
 def test_bad_csv_message(view: SessionView) -> None:

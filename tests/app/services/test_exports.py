@@ -25,3 +25,11 @@ def test_exports_use_the_core_parameter_set() -> None:
     assert b"hyst_inv_step" in c and b"hyst_fwd_step" in c
     with pytest.raises(ParameterError, match="format"):
         E.export_bytes(m, "xls")
+
+
+def test_fmi_version_of_a_request() -> None:
+    assert [E.fmi_version(v) for v in ("3", "3.0", " 2 ", "2.0", 3, 2)] == [3, 3, 2, 2, 3, 2]
+    for bad in ("1", "3.1", "", "x" * 1000, None):
+        with pytest.raises(ParameterError, match=r"unknown FMI version .*choose 3 \(FMI 3.0\) "
+                                                 r"or 2 \(FMI 2.0\)"):
+            E.fmi_version(bad)

@@ -1,0 +1,674 @@
+"""FMU export: a native-C co-simulation Functional Mock-up Unit (FMI 3.0 or 2.0).
+
+The FMU runs the C99 code of :mod:`core.export_c` (the model, or its inverse compensator in
+the causal form with its preview) behind the FMI co-simulation API, compiled on this machine
+(``binaries/x86_64-linux`` for FMI 3, ``binaries/linux64`` for FMI 2) and shipped with its
+source (``sources/``) so another platform can rebuild it. Its ports and parameters:
+
+- one input and one output (``u`` -> ``y`` for the model, ``y_ref`` -> ``u`` for the
+  compensator), with the units of the parameter set;
+- every model parameter of every stage as a scalar variable named
+  ``<stage>.<field>[i]`` (``pi.weights[3]``, ``s1_creep.taus_s[2]``) with its value, unit
+  and description: ``tunable`` where the stage's C emitter says how its constants follow
+  from it (:attr:`core.export_c.CStage.tune`), ``fixed`` for the initial memory state
+  (``state0``, ``direction0``: set before initialisation; the exported value is the model's,
+  a virgin state unless the model says otherwise), and a ``constant`` where the stage has no
+  tune lines (today the LTI coefficients, whose balanced realisation is computed at export:
+  re-export to change them); a value whose derived constants are not finite is refused;
+- ``sample_time`` (``dt``, constant) and ``preview_samples`` (the compensator's preview,
+  :func:`core.effects.causal_form`; also stated in the model description).
+
+Stepping: one ``doStep`` of size ``h`` runs ``h / dt`` samples with the input held (``h`` must
+be a whole number of samples); without dynamics (no ``dt``) one ``doStep`` is one sample. The
+output after a step is the model's output at the last sample, so feeding ``u[k]`` and
+stepping ``dt`` reproduces ``model.simulate(u)[k]``.
+
+The C file around the model block (instance, FMI functions) is :mod:`core.fmi_c`. The FMI
+headers are not part of this repository: they come with ``fmpy`` (its ``c-code`` folder),
+found at build time (:func:`fmi_headers`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .base import Model
+from .export_c import (
+    CExportError,
+    _emit_block,
+    c_double,
+    c_identifier,
+    causal_compensator,
+    emit_stages,
+    parse_constant,
+)
+from .fmi_c import FmuCode, fmu_c_source
+
+if TYPE_CHECKING:
+    from .paramset import ParameterSet, Units
+
+__all__ = [
+    "FMI_VERSIONS",
+    "FmuExportError",
+    "FmuSources",
+    "FmuVariable",
+    "build_fmu",
+    "find_compiler",
+    "fmi_headers",
+    "fmu_sources",
+]
+
+#: FMI versions an FMU can be built for.
+FMI_VERSIONS = (3, 2)
+#: Value reference of the first model parameter (0..99: time, ports, constants).
+FIRST_PARAMETER_VR = 100
+_STATE_FIELDS = ("state0", "direction0")
+
+
+class FmuExportError(CExportError):
+    """The FMU cannot be built (bad options, no C compiler, no FMI headers, build failed)."""
+
+
+@dataclass(frozen=True)
+class FmuVariable:
+    """One scalar variable of the FMU's ``modelDescription.xml``.
+
+    Attributes
+    ----------
+    name : str
+        Structured name (``u``, ``pi.weights[2]``).
+    vr : int
+        Value reference.
+    causality : str
+        ``independent``, ``input``, ``output``, ``parameter`` or ``local``.
+    variability : str
+        ``continuous``, ``discrete``, ``tunable``, ``fixed`` or ``constant``.
+    description : str
+        One line for the user.
+    start : float or None
+        Start value (None for the output, computed).
+    unit : str or None
+        Unit from the parameter set (None: dimensionless or unknown).
+    path : str
+        Model field of a parameter (``weights``, ``model.state0``), else ``""``.
+    stage : int
+        Stage index of a parameter, else -1.
+    index : int
+        Element index in the field (flattened row by row), else -1.
+    """
+
+    name: str
+    vr: int
+    causality: str
+    variability: str
+    description: str
+    start: float | None
+    unit: str | None = None
+    path: str = ""
+    stage: int = -1
+    index: int = -1
+
+
+@dataclass(frozen=True)
+class FmuSources:
+    """Everything in an FMU but its binary (see :func:`fmu_sources`).
+
+    Attributes
+    ----------
+    model_identifier : str
+        File stem of the source and binary; prefix of the C identifiers.
+    fmi_version : int
+        3 or 2.
+    model_description : str
+        ``modelDescription.xml``.
+    source : str
+        ``sources/<model_identifier>.c`` (one translation unit).
+    build_description : str or None
+        ``sources/buildDescription.xml`` (FMI 3 only; FMI 2 lists the source in the model
+        description).
+    readme : str
+        ``sources/README.txt``: how to rebuild.
+    parameter_set : str
+        ``resources/parameter-set.json``: the forward model, units and provenance.
+    variables : tuple of FmuVariable
+    running : Model
+        The model the FMU runs (the forward model, or the causal form of its inverse).
+    preview : int
+        Samples of the desired trajectory the compensator needs ahead (0: none).
+    dt : float or None
+        Sample time (s) baked into dynamic stages.
+    """
+
+    model_identifier: str
+    fmi_version: int
+    model_description: str
+    source: str
+    build_description: str | None
+    readme: str
+    parameter_set: str
+    variables: tuple[FmuVariable, ...]
+    running: Model
+    preview: int
+    dt: float | None
+
+    def parameters(self) -> tuple[FmuVariable, ...]:
+        """The model parameters (tunable, fixed and constant ones)."""
+        return tuple(v for v in self.variables if v.vr >= FIRST_PARAMETER_VR)
+
+
+# ----------------------------------------------------------------------------- tools
+def fmi_headers(version: int) -> Path:
+    """The folder with ``fmi<version>Functions.h``: the copy that ships with ``fmpy``.
+
+    Raises
+    ------
+    FmuExportError
+        If ``fmpy`` is not installed (the message says how to install it).
+    """
+    spec = importlib.util.find_spec("fmpy")
+    origin = None if spec is None else spec.origin
+    if origin is not None:
+        d = Path(origin).parent / "c-code"
+        if (d / f"fmi{version}Functions.h").is_file():
+            return d
+    raise FmuExportError(
+        f"FMU export needs the FMI {version} headers, which come with the fmpy package; "
+        "install it with 'pip install fmpy' (or 'pip install hysteresis-explorer[fmu]')"
+    )
+
+
+def find_compiler(compiler: str | None = None) -> str:
+    """Path of the C compiler: ``compiler``, else ``$CC``, else ``gcc``.
+
+    Raises
+    ------
+    FmuExportError
+        If it is not on the PATH (the message says how to install gcc).
+    """
+    name = compiler or os.environ.get("CC") or "gcc"
+    path = shutil.which(name)
+    if path is None:
+        raise FmuExportError(
+            f"FMU export compiles the generated C on this machine, but the C compiler {name!r} "
+            "was not found on the PATH; install gcc (Debian/Ubuntu: 'apt install gcc') or set "
+            "CC to a C99 compiler"
+        )
+    return path
+
+
+def _platform(version: int) -> tuple[str, str]:
+    """(binaries folder, shared-library suffix) of this machine for FMI ``version``."""
+    arch = {"x86_64": "x86_64", "amd64": "x86_64", "aarch64": "aarch64",
+            "arm64": "aarch64"}.get(platform.machine().lower(), platform.machine().lower())
+    if sys.platform.startswith("linux"):
+        system, suffix = "linux", ".so"
+    elif sys.platform == "darwin":
+        system, suffix = "darwin", ".dylib"
+    else:
+        raise FmuExportError(
+            f"FMU export builds with gcc on Linux or macOS; this is {sys.platform!r}. Build the "
+            "FMU on Linux, or compile its sources/ with your compiler"
+        )
+    if version == 3:
+        return f"{arch}-{system}", suffix
+    if arch != "x86_64":
+        raise FmuExportError(
+            f"FMI 2.0 names no binaries folder for {arch}; export with --fmi 3"
+        )
+    return f"{system}64", suffix
+
+
+# ----------------------------------------------------------------------------- variables
+def _field_values(model: Model, prefix: str = "") -> list[tuple[str, str, np.ndarray, bool]]:
+    """``(path, doc, values (flattened), is_matrix)`` of every numeric field of ``model``,
+    nested models included (``model.thresholds``)."""
+    out: list[tuple[str, str, np.ndarray, bool]] = []
+    for f in type(model).fields:
+        v = getattr(model, f.name, None)
+        if v is None:
+            continue
+        if f.kind == "model":
+            out.extend(_field_values(v, f"{prefix}{f.name}."))
+        elif f.kind in ("number", "numbers", "matrix", "any"):
+            arr = np.asarray(v, dtype=np.float64)
+            out.append((f"{prefix}{f.name}", f.doc, arr, arr.ndim == 2))
+    return out
+
+
+def _unit_of(doc: str, k: int, n: int, inverse: bool, u_in: str, u_out: str, t: str) -> str | None:
+    """Unit of a field from its doc: ``(s)``, ``(Hz)``, ``(input units)``, ``(output units)``.
+
+    Stage inputs: the model's input before (and at) the stage that converts units (the first
+    stage of a model, the last of a compensator), its output after; likewise for outputs.
+    """
+    if "(s)" in doc:
+        return t
+    if "(Hz)" in doc:
+        return "Hz"
+    conv = n - 1 if inverse else 0
+    if "input units" in doc:
+        return u_in if k <= conv else u_out
+    if "output units" in doc:
+        return u_out if k >= conv else u_in
+    return None
+
+
+def _element_name(base: str, path: str, arr: np.ndarray, idx: int, is_matrix: bool) -> str:
+    if arr.ndim == 0:
+        return f"{base}.{path}"
+    if is_matrix:
+        r, c = divmod(idx, arr.shape[1])
+        return f"{base}.{path}[{r + 1},{c + 1}]"
+    return f"{base}.{path}[{idx + 1}]"
+
+
+# ----------------------------------------------------------------------------- generation
+_PLACEHOLDER = re.compile(r"\$([A-Za-z_][A-Za-z0-9_.]*)")
+
+
+def _parameters(stages: list[Model], emitted: list, role: str, units: Units
+                ) -> tuple[list[FmuVariable], list[str]]:
+    """The parameter variables of every stage (value references from
+    :data:`FIRST_PARAMETER_VR`, in order) and the tune lines with ``$field`` resolved to the
+    C array ``mp`` of their values."""
+    variables: list[FmuVariable] = []
+    tune_lines: list[str] = []
+    n, inverse = len(stages), role == "compensator"
+    for k, (stage, em) in enumerate(zip(stages, emitted, strict=True)):
+        base = stage.type_name.replace("-", "_")
+        base = base if n == 1 else f"s{k}_{base}"
+        tuned = set(_PLACEHOLDER.findall("\n".join(em.tune)))
+        offsets: dict[str, int] = {}
+        for path, doc, arr, is_matrix in _field_values(stage):
+            offsets[path] = len(variables)
+            state = path.rsplit(".", 1)[-1] in _STATE_FIELDS
+            variability = ("fixed" if state else "tunable") if path in tuned else "constant"
+            unit = _unit_of(doc, k, n, inverse, units.input, units.output, units.time)
+            note = "" if variability != "constant" else \
+                " [fixed at export: its C constants need the export's numerics; re-export]"
+            for i, v in enumerate(arr.ravel()):
+                variables.append(FmuVariable(
+                    _element_name(base, path, arr, i, is_matrix),
+                    FIRST_PARAMETER_VR + len(variables),
+                    "parameter" if variability != "constant" else "local", variability,
+                    f"{role} stage {k} ({stage.type_name}): {doc}{note}", float(v),
+                    unit or None, path, k, i))
+        missing = tuned - set(offsets)
+        if missing:  # pragma: no cover - emitters name their own fields
+            raise CExportError(f"tune lines of {stage.type_name!r} name unknown fields {missing}")
+        for line in em.tune:
+            tune_lines.append(
+                _PLACEHOLDER.sub(lambda m, o=offsets: f"(mp + {o[m.group(1)]})", line))
+    return variables, tune_lines
+
+
+def fmu_sources(
+    model: Model | ParameterSet,
+    *,
+    fmi_version: int = 3,
+    inverse: bool = False,
+    dt: float | None = None,
+    name: str = "hysteresis",
+) -> FmuSources:
+    """Generate the model description, C source and build description of an FMU.
+
+    Parameters
+    ----------
+    model : Model or ParameterSet
+        The forward model (a parameter set brings units and provenance).
+    fmi_version : {3, 2}
+    inverse : bool
+        Run the inverse compensator (desired output in, drive out) instead of the model.
+    dt : float, optional
+        Sample time in seconds; required when a stage has dynamics (``needs_dt``).
+    name : str
+        Model identifier (file stem, C prefix): made into a C identifier.
+
+    Returns
+    -------
+    FmuSources
+
+    Raises
+    ------
+    FmuExportError
+        Unknown FMI version, missing ``dt``, no FMI headers.
+    CExportError
+        A stage type without a C emitter.
+    NotInvertibleError
+        ``inverse`` and the model has no inverse.
+    """
+    from .paramset import ParameterSet
+
+    if fmi_version not in FMI_VERSIONS:
+        raise FmuExportError(
+            f"unknown FMI version {fmi_version!r}; choose "
+            + " or ".join(str(v) for v in FMI_VERSIONS)
+        )
+    ps = model if isinstance(model, ParameterSet) else ParameterSet.from_model(model)
+    fwd = ps.model
+    if dt is not None and not (np.isfinite(dt) and dt > 0):
+        raise FmuExportError(f"the sample time dt must be a positive number of seconds, got {dt!r}")
+    if fwd.is_dynamic and dt is None:
+        raise FmuExportError(
+            f"the {fwd.type_name!r} model has dynamics, so its FMU runs at a fixed sample time; "
+            "give it, e.g. dt=1e-4 (--dt 1e-4 on the command line)"
+        )
+    ident = c_identifier(name)
+    running, preview = causal_compensator(fwd, dt) if inverse else (fwd, 0)
+    units = ps.units.swapped() if inverse else ps.units
+    units = type(units)(*(_NOT_XML.sub("?", u) for u in (units.input, units.output, units.time)))
+    block, role = f"{ident}_m", "compensator" if inverse else "model"
+    stages, emitted = emit_stages(running, block, dt, role)
+    header, body, _ = _emit_block(running, block, dt, role, params=f"{ident}_P_",
+                                  emitted=emitted)
+
+    # ---- variables
+    in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
+    what = "inverse compensator" if inverse else "hysteresis model"
+    variables: list[FmuVariable] = []
+    if fmi_version == 3:
+        variables.append(FmuVariable("time", 0, "independent", "continuous",
+                                     "simulation time", None, units.time or None))
+    variables.append(FmuVariable(
+        in_name, 1, "input", "continuous",
+        ("desired output of the actuator (the compensator's set point)" if inverse
+         else "actuator drive (model input)") + ", held over each step",
+        0.0, units.input or None))
+    variables.append(FmuVariable(
+        out_name, 2, "output", "discrete",
+        ("drive that makes the actuator follow y_ref" if inverse else "model output")
+        + " (its value at the last sample of the step)", None, units.output or None))
+    if dt is not None:
+        variables.append(FmuVariable("sample_time", 3, "local", "constant",
+                                     "sample time of the dynamic stages (s): step in multiples",
+                                     float(dt), units.time or None))
+    if inverse:
+        variables.append(FmuVariable(
+            "preview_samples", 4, "local", "constant",
+            "samples of the desired trajectory the compensator needs ahead: feed y_ref "
+            "this many samples early (0: none)", float(preview)))
+    params, tune_lines = _parameters(stages, emitted, role, units)
+    variables += params
+
+    tune_helpers = [line for em in emitted for line in em.tune_helpers]
+    src = fmu_c_source(FmuCode(
+        ident, fmi_version, header, "\n".join([body, *tune_helpers]),
+        tuple(parse_constant(d) for em in emitted for d in em.constants), tuple(tune_lines),
+        tuple(float(v.start) for v in params),  # type: ignore[arg-type]
+        tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
+        dt, preview, inverse, FIRST_PARAMETER_VR), fmi_headers(fmi_version))
+    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
+        (src + str(fmi_version)).encode()).hexdigest())) + "}"
+    src = src.replace("@TOKEN@", token)
+    doc_text = _description(ps, fwd, inverse, preview, dt, units, len(stages), stages)
+    xml = (_xml3 if fmi_version == 3 else _xml2)(
+        ps, ident, token, doc_text, variables, dt, what)
+    build = _build_description(ident) if fmi_version == 3 else None
+    readme = _readme(ident, fmi_version)
+    return FmuSources(ident, fmi_version, xml, src, build, readme, ps.to_json(),
+                      tuple(variables), running, preview, dt)
+
+
+def _description(ps: ParameterSet, fwd: Model, inverse: bool, preview: int, dt: float | None,
+                 units, n: int, stages: list[Model]) -> str:
+    chain = " -> ".join(s.type_name for s in stages)
+    parts = [
+        (f"Inverse compensator of a {fwd.type_name} hysteresis model: desired output "
+         f"({ps.units.output or '-'}) in, actuator drive ({ps.units.input or '-'}) out"
+         if inverse else
+         f"{fwd.type_name} hysteresis model: drive ({ps.units.input or '-'}) in, output "
+         f"({ps.units.output or '-'}) out"),
+        f"{n} stage(s): {chain}",
+    ]
+    if dt is not None:
+        parts.append(f"fixed sample time {dt:.12g} {units.time}: each step must be a whole "
+                     "number of samples, the input is held over the step")
+    else:
+        parts.append("no dynamics: each step is one sample of the (rate-independent) model")
+    if inverse:
+        parts.append(f"preview {preview} sample(s) ({'feed y_ref ' + str(preview) + ' samples ahead; the first outputs are warm-up' if preview else 'none needed'})")  # noqa: E501
+    if ps.provenance.source:
+        parts.append(f"source: {ps.provenance.source}")
+    return "; ".join(parts) + "."
+
+
+def _licence(ps: ParameterSet) -> str:
+    lic = ps.provenance.extra.get("license") or ps.provenance.extra.get("licence")
+    return (f"parameter set: {lic}; " if isinstance(lic, str) else
+            "parameter set: as its provenance (resources/parameter-set.json) states; ") + \
+        "generated code: MIT (hysteresis-explorer)"
+
+
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _attr(text: str) -> str:
+    """``text`` as a quoted XML attribute value; characters XML 1.0 cannot hold (control
+    characters, lone surrogates: a parameter set's free text may have them) become ``?``."""
+    return quoteattr(_NOT_XML.sub("?", text))
+
+
+def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str:
+    prov = ps.provenance
+    extra = {k: v for k, v in prov.extra.items() if k in ("author", "copyright")
+             and isinstance(v, str)}  # only what the parameter set states
+    attrs = {
+        "modelName": f"{ident} ({what})",
+        "description": doc_text,
+        **({"author": extra["author"]} if "author" in extra else {}),
+        "version": prov.created,
+        **({"copyright": extra["copyright"]} if "copyright" in extra else {}),
+        "license": _licence(ps),
+        "generationTool": prov.tool,
+        "generationDateAndTime": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "variableNamingConvention": "structured",
+    }
+    return " ".join(f"{k}={_attr(v)}" for k, v in attrs.items())
+
+
+_LOG_CATEGORIES = [
+    "  <LogCategories>",
+    '    <Category name="logStatusError" description="calls refused: a step that is not a '
+    'whole number of samples, a parameter fixed at export, an unknown value reference"/>',
+    "  </LogCategories>",
+]
+
+
+def _units_xml(variables: list[FmuVariable]) -> list[str]:
+    units = sorted({v.unit for v in variables if v.unit})
+    if not units:
+        return []
+    return ["  <UnitDefinitions>", *(f"    <Unit name={_attr(u)}/>" for u in units),
+            "  </UnitDefinitions>"]
+
+
+def _var_attrs(v: FmuVariable) -> str:
+    a = f"name={_attr(v.name)} valueReference=\"{v.vr}\" causality=\"{v.causality}\" " \
+        f"variability=\"{v.variability}\""
+    return a + f" description={_attr(v.description)}"
+
+
+def _head(ps: ParameterSet, ident: str, what: str, doc_text: str, version: str,
+          token: str) -> list[str]:
+    """The XML declaration and the root element's opening tag (``token``: its attribute)."""
+    return ['<?xml version="1.0" encoding="UTF-8"?>',
+            f'<fmiModelDescription fmiVersion="{version}" '
+            f'{_header_attrs(ps, ident, what, doc_text)} {token}>']
+
+
+def _experiment(dt: float | None) -> str:
+    return ('  <DefaultExperiment startTime="0"'
+            + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>")
+
+
+def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
+    lines = [*_head(ps, ident, what, doc_text, "3.0", f'instantiationToken="{token}"'),
+             f'  <CoSimulation modelIdentifier="{ident}" '
+             'canHandleVariableCommunicationStepSize="true" '
+             + (f'fixedInternalStepSize="{c_double(dt)}" ' if dt is not None else "")
+             + 'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="false" '
+             'canSerializeFMUState="false" hasEventMode="false" '
+             'providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>',
+             *_units_xml(variables),
+             *_LOG_CATEGORIES,
+             _experiment(dt),
+             "  <ModelVariables>"]
+    for v in variables:
+        a = _var_attrs(v)
+        if v.unit:
+            a += f" unit={_attr(v.unit)}"
+        if v.causality == "output":
+            a += ' initial="calculated"'
+        if v.start is not None:
+            a += f' start="{c_double(v.start)}"'
+        lines.append(f"    <Float64 {a}/>")
+    lines += ["  </ModelVariables>", "  <ModelStructure>",
+              '    <Output valueReference="2"/>', '    <InitialUnknown valueReference="2"/>',
+              "  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
+def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
+    lines = [*_head(ps, ident, what, doc_text, "2.0", f'guid="{token}"'),
+             f'  <CoSimulation modelIdentifier="{ident}" '
+             'canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" '
+             'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="false" '
+             'canSerializeFMUstate="false" canNotUseMemoryManagementFunctions="true">',
+             "    <SourceFiles>", f'      <File name="{ident}.c"/>', "    </SourceFiles>",
+             "  </CoSimulation>",
+             *_units_xml(variables),
+             *_LOG_CATEGORIES,
+             _experiment(dt),
+             "  <ModelVariables>"]
+    out_index = 0
+    for i, v in enumerate(variables, start=1):
+        a = _var_attrs(v)
+        if v.causality == "output":
+            a += ' initial="calculated"'
+            out_index = i
+        real = []
+        if v.unit:
+            real.append(f"unit={_attr(v.unit)}")
+        if v.start is not None:
+            real.append(f'start="{c_double(v.start)}"')
+        lines.append(f"    <ScalarVariable {a}>")
+        lines.append(f"      <Real {' '.join(real)}/>".replace("<Real />", "<Real/>"))
+        lines.append("    </ScalarVariable>")
+    lines += ["  </ModelVariables>", "  <ModelStructure>",
+              "    <Outputs>", f'      <Unknown index="{out_index}"/>', "    </Outputs>",
+              "    <InitialUnknowns>", f'      <Unknown index="{out_index}"/>',
+              "    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
+def _build_description(ident: str) -> str:
+    return "\n".join([
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        '<fmiBuildDescription fmiVersion="3.0">',
+        f'  <BuildConfiguration modelIdentifier="{ident}" '
+        'description="one C99 translation unit; link with the math library">',
+        '    <SourceFileSet language="C99">',
+        f'      <SourceFile name="{ident}.c"/>',
+        "    </SourceFileSet>",
+        '    <Library name="m" description="the C math library (exp, tanh, atanh, fabs)"/>',
+        "  </BuildConfiguration>",
+        "</fmiBuildDescription>", ""])
+
+
+def _readme(ident: str, version: int) -> str:
+    return "\n".join([
+        f"{ident}.c is the whole FMU (FMI {version}.0 co-simulation), generated by "
+        "hysteresis-explorer.",
+        f"It needs the FMI {version}.0 headers (fmi{version}Functions.h and the files it "
+        "includes), which every FMI importer ships.",
+        "Rebuild the binary for your platform, e.g.:",
+        f"  cc -std=c99 -O2 -shared -fPIC -I<FMI {version} headers> -o {ident}.so {ident}.c -lm",
+        "and put it in binaries/<platform>/ of the FMU (a zip file).",
+        "",
+    ])
+
+
+# ----------------------------------------------------------------------------- build
+def build_fmu(
+    model: Model | ParameterSet,
+    path: str | Path,
+    *,
+    fmi_version: int = 3,
+    inverse: bool = False,
+    dt: float | None = None,
+    name: str | None = None,
+    compiler: str | None = None,
+) -> Path:
+    """Generate, compile and zip an FMU at ``path`` (``.fmu`` added if missing).
+
+    Parameters
+    ----------
+    model : Model or ParameterSet
+    path : str or Path
+        Output file.
+    fmi_version, inverse, dt
+        See :func:`fmu_sources`.
+    name : str, optional
+        Model identifier; defaults to the file stem made into a C identifier.
+    compiler : str, optional
+        C compiler (default ``$CC`` or ``gcc``).
+
+    Returns
+    -------
+    Path
+        The FMU written.
+
+    Raises
+    ------
+    FmuExportError
+        Bad options, no compiler or headers, or the compiler failed (its message quoted).
+    """
+    out = Path(path)
+    if out.suffix.lower() != ".fmu":
+        out = out.with_name(out.name + ".fmu")
+    src = fmu_sources(model, fmi_version=fmi_version, inverse=inverse, dt=dt,
+                      name=name or out.stem)
+    plat, suffix = _platform(fmi_version)
+    cc = find_compiler(compiler)
+    ident = src.model_identifier
+    with tempfile.TemporaryDirectory(prefix="hyst-fmu-") as tmp:
+        c_file = Path(tmp) / f"{ident}.c"
+        lib = Path(tmp) / f"{ident}{suffix}"
+        c_file.write_text(src.source, encoding="utf-8")
+        proc = subprocess.run(
+            [cc, "-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden", "-Wall",
+             "-Wextra", "-I", str(fmi_headers(fmi_version)), "-o", str(lib), str(c_file), "-lm"],
+            capture_output=True, text=True, check=False,
+        )
+        if proc.returncode != 0:
+            raise FmuExportError(
+                f"compiling the FMU with {cc} failed (exit {proc.returncode}):\n"
+                + proc.stderr[-3000:]
+            )
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zf:
+            zf.writestr("modelDescription.xml", src.model_description)
+            zf.write(lib, f"binaries/{plat}/{ident}{suffix}")
+            zf.writestr(f"sources/{ident}.c", src.source)
+            if src.build_description is not None:
+                zf.writestr("sources/buildDescription.xml", src.build_description)
+            zf.writestr("sources/README.txt", src.readme)
+            zf.writestr("resources/parameter-set.json", src.parameter_set)
+    return out

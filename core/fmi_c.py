@@ -1,0 +1,607 @@
+"""The C translation unit of an FMU: the FMI 3.0 / 2.0 co-simulation API around a model block.
+
+:func:`fmu_c_source` wraps the model block of :mod:`core.export_c` (emitted with its stage
+constants read through a pointer, ``_emit_block(..., params=...)``) in one C99 file: the
+instance (stage constants, model parameters, memory), the derivation of the constants from
+the parameters (the stages' ``tune`` lines), the FMI functions this FMU provides and a stub
+returning an error for every other function the FMI headers declare (read from the headers
+at build time). :mod:`core.export_fmu` builds the FMU around it.
+
+Identifiers of the templates use the prefix ``HX``, replaced by the model identifier.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from .export_c import c_double
+
+__all__ = ["FmuCode", "fmu_c_source"]
+
+
+@dataclass(frozen=True)
+class FmuCode:
+    """What an FMU's C file is made of.
+
+    Attributes
+    ----------
+    ident : str
+        Model identifier (C prefix, file stem).
+    fmi_version : int
+        3 or 2.
+    header, body : str
+        The model block ``<ident>_m`` (state struct and prototypes; its source, with the
+        stage constants as ``#define``s through ``<ident>_P_`` and the tune helpers).
+    constants : tuple of (str, str, int or None, str)
+        Every stage constant: C type, identifier, array size (None: scalar), initialiser.
+    tune : tuple of str
+        Statements deriving the constants from the parameter array ``mp``.
+    parameters : tuple of float
+        Exported values of the model parameters (value reference ``first_vr + index``).
+    kinds : tuple of int
+        Per parameter: 1 tunable, 2 initial state (before initialisation only), 0 fixed.
+    dt : float or None
+        Sample time (s); None: one sample per step.
+    preview : int
+        Preview of a compensator (samples).
+    inverse : bool
+        A compensator (``preview_samples`` is readable).
+    first_vr : int
+        Value reference of the first parameter.
+    """
+
+    ident: str
+    fmi_version: int
+    header: str
+    body: str
+    constants: tuple[tuple[str, str, int | None, str], ...]
+    tune: tuple[str, ...]
+    parameters: tuple[float, ...]
+    kinds: tuple[int, ...]
+    dt: float | None
+    preview: int
+    inverse: bool
+    first_vr: int
+
+
+_TLS = """#if defined(_MSC_VER)
+#define HYST_TLS __declspec(thread)
+#elif defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
+#define HYST_TLS _Thread_local
+#else
+#define HYST_TLS __thread
+#endif"""
+
+# The instance, shared by both FMI versions (HX: the model identifier). Each entry point
+# that runs the model first points HX_P_ (thread-local) at the instance's constants.
+_CORE = r"""
+typedef struct {
+    HX_params P;               /* stage constants, derived from mp */
+    double mp[HX_NMP];         /* model parameters, by value reference - HX_VR0 */
+    HX_m_state st;             /* memory of the model */
+    double u, y, time;
+    int mode;                  /* 0 instantiated, 1 initialisation, 2 stepping, 3 terminated */
+    int dirty;                 /* parameters changed since the constants were derived */
+    char name[128];
+    HX_LOGGER
+} HX_inst;
+
+#define HX_NOT_FINITE "these parameters are beyond what this export can run: a derived " \
+    "coefficient would be non-finite (a zero width or frequency, an overflow), or a delay " \
+    "would span another number of whole samples than exported (re-export for that)"
+
+/* whether every derived constant is finite */
+static int HX_finite(void)
+{
+    unsigned i = 0u;
+    (void)i;
+HX_FINITE_BODY
+    return 1;
+}
+
+static void HX_tune(const double *mp)
+{
+    unsigned i = 0u, j = 0u;
+    (void)i; (void)j; (void)mp;
+HX_TUNE_BODY
+}
+
+static void HX_defaults(HX_inst *s)
+{
+    s->P = HX_DEFAULTS;
+    memcpy(s->mp, HX_MP0, sizeof s->mp);
+    s->u = 0.0; s->y = 0.0; s->time = 0.0;
+    s->mode = 0; s->dirty = 0;
+    HX_P_ = &s->P;
+    HX_m_init(&s->st);
+}
+
+static void HX_retune(HX_inst *s)
+{
+    HX_P_ = &s->P;
+    if (s->dirty) { HX_tune(s->mp); s->dirty = 0; }
+}
+
+/* the output for the current input without advancing the memory */
+static double HX_peek(HX_inst *s)
+{
+    HX_m_state copy = s->st;
+    HX_P_ = &s->P;
+    return HX_m_step(&copy, s->u);
+}
+
+static int HX_get(HX_inst *s, unsigned vr, double *v)
+{
+    if (vr == 0u) *v = s->time;
+    else if (vr == 1u) *v = s->u;
+    else if (vr == 2u) *v = s->y;
+    else if (vr == 3u && HX_DT > 0.0) *v = HX_DT;
+    else if (vr == 4u && HX_HAS_PREVIEW) *v = (double)HX_PREVIEW;
+    else if (vr >= HX_VR0 && vr < HX_VR0 + HX_NPAR) *v = s->mp[vr - HX_VR0];
+    else return 0;
+    return 1;
+}
+
+/* 0: done; else a message for the user */
+static const char *HX_set(HX_inst *s, unsigned vr, double v)
+{
+    if (vr == 1u) { s->u = v; return 0; }
+    if (vr >= HX_VR0 && vr < HX_VR0 + HX_NPAR) {
+        const unsigned k = vr - HX_VR0;
+        if (HX_KIND[k] == 0)
+            return "this parameter is fixed at export; re-export the FMU to change it";
+        if (HX_KIND[k] == 2 && s->mode >= 2)
+            return "an initial-state parameter can only be set before initialisation "
+                   "(or after a reset)";
+        if (!(v == v) || v - v != 0.0) return "parameter values must be finite";
+        {
+            const double old = s->mp[k];
+            s->mp[k] = v;
+            s->dirty = 1;
+            if (s->mode >= 2) {
+                HX_retune(s);
+                if (!HX_finite()) {
+                    s->mp[k] = old;
+                    s->dirty = 1;
+                    HX_retune(s);
+                    return HX_NOT_FINITE "; the previous value is kept";
+                }
+            }
+        }
+        return 0;
+    }
+    if (vr <= 4u) return "this variable cannot be set";
+    return "unknown value reference";
+}
+
+/* 0, or a message when the parameters set before initialisation are unusable */
+static const char *HX_start(HX_inst *s)
+{
+    HX_retune(s);
+    if (!HX_finite()) return HX_NOT_FINITE;
+    HX_m_init(&s->st);
+    s->y = HX_peek(s);
+    s->mode = 2;
+    return 0;
+}
+
+/* run the samples of one communication step; 0 or a message */
+static const char *HX_step(HX_inst *s, double h)
+{
+    long n = 1, k;
+    if (HX_DT > 0.0) {
+        const double r = h / HX_DT;
+        n = (long)floor(r + 0.5);
+        if (n < 1 || fabs(r - (double)n) > 1e-6 * r)
+            return "the communication step must be a whole number (>= 1) of sample times "
+                   "(sample_time)";
+    }
+    HX_retune(s);
+    for (k = 0; k < n; ++k) s->y = HX_m_step(&s->st, s->u);
+    s->time += h;
+    return 0;
+}
+"""
+
+_FMI3 = r"""
+#define HX_LOGGER fmi3InstanceEnvironment env; fmi3LogMessageCallback log; int logging;
+#include "fmi3Functions.h"
+HX_CORE_HERE
+
+static void HX_msg(HX_inst *s, fmi3Status st, const char *what)
+{
+    if (s->log) s->log(s->env, st, "logStatusError", what);
+}
+
+const char *fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn,
+                               size_t nCategories, const fmi3String categories[])
+{
+    (void)nCategories; (void)categories;
+    if (!instance) return fmi3Error;
+    ((HX_inst *)instance)->logging = loggingOn ? 1 : 0;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+    fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+    fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
+{
+    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible;
+    (void)loggingOn;
+    if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                               "this FMU supports co-simulation only");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName,
+    fmi3String instantiationToken, fmi3String resourcePath, fmi3Boolean visible,
+    fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
+    fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
+    fmi3LockPreemptionCallback lockPreemption, fmi3UnlockPreemptionCallback unlockPreemption)
+{
+    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible;
+    (void)loggingOn; (void)clockUpdate; (void)lockPreemption; (void)unlockPreemption;
+    if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                               "this FMU supports co-simulation only");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+    fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+    fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+    const fmi3ValueReference requiredIntermediateVariables[],
+    size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
+    fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate)
+{
+    HX_inst *s;
+    (void)resourcePath; (void)visible; (void)eventModeUsed; (void)earlyReturnAllowed;
+    (void)requiredIntermediateVariables; (void)nRequiredIntermediateVariables;
+    (void)intermediateUpdate;
+    if (!instantiationToken || strcmp(instantiationToken, HX_TOKEN) != 0) {
+        if (logMessage) logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+            "instantiation token does not match modelDescription.xml (a different FMU?)");
+        return NULL;
+    }
+    s = (HX_inst *)calloc(1, sizeof *s);
+    if (!s) return NULL;
+    strncpy(s->name, instanceName ? instanceName : "", sizeof s->name - 1);
+    s->env = instanceEnvironment;
+    s->log = logMessage;
+    s->logging = loggingOn ? 1 : 0;
+    HX_defaults(s);
+    return s;
+}
+
+void fmi3FreeInstance(fmi3Instance instance) { free(instance); }
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined,
+    fmi3Float64 tolerance, fmi3Float64 startTime, fmi3Boolean stopTimeDefined,
+    fmi3Float64 stopTime)
+{
+    HX_inst *s = (HX_inst *)instance;
+    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    if (!s) return fmi3Error;
+    s->time = startTime;
+    s->mode = 1;
+    return fmi3OK;
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
+{
+    const char *err;
+    if (!instance) return fmi3Error;
+    err = HX_start((HX_inst *)instance);
+    if (err) { HX_msg((HX_inst *)instance, fmi3Error, err); return fmi3Error; }
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance) { return instance ? fmi3OK : fmi3Error; }
+
+fmi3Status fmi3Terminate(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    ((HX_inst *)instance)->mode = 3;
+    return fmi3OK;
+}
+
+fmi3Status fmi3Reset(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    HX_defaults((HX_inst *)instance);
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+    size_t nValueReferences, fmi3Float64 values[], size_t nValues)
+{
+    HX_inst *s = (HX_inst *)instance;
+    size_t k;
+    if (!s || nValues != nValueReferences) return fmi3Error;
+    for (k = 0; k < nValueReferences; ++k) {
+        if (!HX_get(s, valueReferences[k], &values[k])) {
+            HX_msg(s, fmi3Error, "fmi3GetFloat64: unknown value reference");
+            return fmi3Error;
+        }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+    size_t nValueReferences, const fmi3Float64 values[], size_t nValues)
+{
+    HX_inst *s = (HX_inst *)instance;
+    size_t k;
+    if (!s || nValues != nValueReferences) return fmi3Error;
+    for (k = 0; k < nValueReferences; ++k) {
+        const char *err = HX_set(s, valueReferences[k], values[k]);
+        if (err) { HX_msg(s, fmi3Error, err); return fmi3Error; }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint,
+    fmi3Float64 communicationStepSize, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+    fmi3Boolean *eventHandlingNeeded, fmi3Boolean *terminateSimulation,
+    fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
+{
+    HX_inst *s = (HX_inst *)instance;
+    const char *err;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!s || s->mode != 2) return fmi3Error;
+    if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    if (earlyReturn) *earlyReturn = fmi3False;
+    s->time = currentCommunicationPoint;
+    err = HX_step(s, communicationStepSize);
+    if (lastSuccessfulTime) *lastSuccessfulTime = s->time;
+    if (err) { HX_msg(s, fmi3Error, err); return fmi3Error; }
+    return fmi3OK;
+}
+"""
+
+_FMI2 = r"""
+#define HX_LOGGER const fmi2CallbackFunctions *cb; int logging;
+#include "fmi2Functions.h"
+HX_CORE_HERE
+
+static void HX_msg(HX_inst *s, fmi2Status st, const char *what)
+{
+    if (s->cb && s->cb->logger)
+        s->cb->logger(s->cb->componentEnvironment, s->name, st, "logStatusError", "%s", what);
+}
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[])
+{
+    (void)nCategories; (void)categories;
+    if (!c) return fmi2Error;
+    ((HX_inst *)c)->logging = loggingOn ? 1 : 0;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+    fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+    fmi2Boolean visible, fmi2Boolean loggingOn)
+{
+    HX_inst *s;
+    (void)fmuResourceLocation; (void)visible;
+    if (fmuType != fmi2CoSimulation || !fmuGUID || strcmp(fmuGUID, HX_TOKEN) != 0) {
+        if (functions && functions->logger)
+            functions->logger(functions->componentEnvironment, instanceName, fmi2Error,
+                "logStatusError", "%s", fmuType != fmi2CoSimulation
+                ? "this FMU supports co-simulation only"
+                : "GUID does not match modelDescription.xml (a different FMU?)");
+        return NULL;
+    }
+    s = (HX_inst *)calloc(1, sizeof *s);
+    if (!s) return NULL;
+    strncpy(s->name, instanceName ? instanceName : "", sizeof s->name - 1);
+    s->cb = functions;
+    s->logging = loggingOn ? 1 : 0;
+    HX_defaults(s);
+    return s;
+}
+
+void fmi2FreeInstance(fmi2Component c) { free(c); }
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+    fmi2Real tolerance, fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+{
+    HX_inst *s = (HX_inst *)c;
+    (void)toleranceDefined; (void)tolerance; (void)stopTimeDefined; (void)stopTime;
+    if (!s) return fmi2Error;
+    s->time = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c)
+{
+    if (!c) return fmi2Error;
+    ((HX_inst *)c)->mode = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+{
+    const char *err;
+    if (!c) return fmi2Error;
+    err = HX_start((HX_inst *)c);
+    if (err) { HX_msg((HX_inst *)c, fmi2Error, err); return fmi2Error; }
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c)
+{
+    if (!c) return fmi2Error;
+    ((HX_inst *)c)->mode = 3;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c)
+{
+    if (!c) return fmi2Error;
+    HX_defaults((HX_inst *)c);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       fmi2Real value[])
+{
+    HX_inst *s = (HX_inst *)c;
+    size_t k;
+    if (!s) return fmi2Error;
+    for (k = 0; k < nvr; ++k) {
+        if (vr[k] == 0u || !HX_get(s, vr[k], &value[k])) {
+            HX_msg(s, fmi2Error, "fmi2GetReal: unknown value reference");
+            return fmi2Error;
+        }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[])
+{
+    HX_inst *s = (HX_inst *)c;
+    size_t k;
+    if (!s) return fmi2Error;
+    for (k = 0; k < nvr; ++k) {
+        const char *err = vr[k] == 0u ? "unknown value reference" : HX_set(s, vr[k], value[k]);
+        if (err) { HX_msg(s, fmi2Error, err); return fmi2Error; }
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+    fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentCommunicationPoint)
+{
+    HX_inst *s = (HX_inst *)c;
+    const char *err;
+    (void)noSetFMUStatePriorToCurrentCommunicationPoint;
+    if (!s || s->mode != 2) return fmi2Error;
+    s->time = currentCommunicationPoint;
+    err = HX_step(s, communicationStepSize);
+    if (err) { HX_msg(s, fmi2Error, err); return fmi2Error; }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
+{
+    (void)s;
+    if (!c || !value) return fmi2Error;
+    *value = fmi2OK;
+    return fmi2OK;
+}
+"""
+
+_IMPLEMENTED = {
+    3: {"fmi3GetVersion", "fmi3SetDebugLogging", "fmi3InstantiateModelExchange",
+        "fmi3InstantiateCoSimulation", "fmi3InstantiateScheduledExecution", "fmi3FreeInstance",
+        "fmi3EnterInitializationMode", "fmi3ExitInitializationMode", "fmi3EnterStepMode",
+        "fmi3Terminate", "fmi3Reset", "fmi3GetFloat64", "fmi3SetFloat64", "fmi3DoStep"},
+    2: {"fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate",
+        "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
+        "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset", "fmi2GetReal",
+        "fmi2SetReal", "fmi2DoStep", "fmi2GetStatus"},
+}
+_TYPEDEF = re.compile(r"typedef\s+(fmi[23]Status)\s+(fmi[23]\w+)TYPE\s*\(([^)]*)\)\s*;")
+_IDENT = re.compile(r"[A-Za-z_]\w*")
+
+
+def _stubs(version: int, headers: Path) -> list[str]:
+    """A definition returning ``fmi<v>Error`` for every status function of the FMI headers
+    (in folder ``headers``) that this FMU does not provide (prototypes read from them)."""
+    text = (headers / f"fmi{version}FunctionTypes.h").read_text(errors="replace")
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.DOTALL)
+    text = re.sub(r"//[^\n]*", " ", text)
+    out = []
+    for status, fn, params in _TYPEDEF.findall(text):
+        if fn in _IMPLEMENTED[version]:
+            continue
+        decls, names = [], []
+        plist = [p.strip() for p in " ".join(params.split()).split(",")]
+        for i, p in enumerate(plist):
+            if p in ("", "void"):
+                continue
+            idents = [t for t in _IDENT.findall(p) if t not in ("const", "struct", "unsigned")]
+            if len(idents) < 2:  # unnamed parameter: name it
+                p = p.replace("[]", f" p{i}[]") if "[]" in p else f"{p} p{i}"
+                idents.append(f"p{i}")
+            decls.append(p)
+            names.append(idents[-1])
+        body = " ".join(f"(void){n};" for n in names)
+        out.append(f"{status} {fn}({', '.join(decls) or 'void'})\n"
+                   f"{{ {body} return {status[:4]}Error; }}")
+    return out
+
+
+def fmu_c_source(code: FmuCode, headers: Path) -> str:
+    """The FMU's whole C99 source (``@TOKEN@`` stands for the instantiation token).
+
+    Parameters
+    ----------
+    code : FmuCode
+    headers : Path
+        Folder of the FMI headers (``fmi<v>FunctionTypes.h``): the stubs follow them.
+    """
+    hx = code.ident
+    finite = [f"    if (!isfinite({cid})) return 0;" if size is None else
+              f"    for (i = 0; i < {size}u; ++i) if (!isfinite({cid}[i])) return 0;"
+              for ctype, cid, size, _ in code.constants if ctype == "double"]
+    struct = [f"    {ctype} {cid}{'' if size is None else f'[{size}]'};"
+              for ctype, cid, size, _ in code.constants] or ["    int unused_;"]
+    defaults = [f"    {init}," for *_, init in code.constants] or ["    0,"]
+    nmp = max(len(code.parameters), 1)
+    core = _CORE.replace("HX_TUNE_BODY", "\n".join(f"    {line}" for line in code.tune))
+    core = core.replace("HX_FINITE_BODY", "\n".join(finite))
+    wrapper = (_FMI3 if code.fmi_version == 3 else _FMI2).replace("HX_CORE_HERE", core)
+    mp_init = ", ".join(c_double(v) for v in code.parameters) or "0.0"
+    kind_init = ", ".join(str(k) for k in code.kinds) or "0"
+    v = code.fmi_version
+    lines = [
+        f"/* {hx}.c: FMI {v}.0 co-simulation FMU generated by hysteresis-explorer",
+        " * (core/export_fmu.py) from the C99 code of core/export_c.py. One translation unit;",
+        f" * build: cc -std=c99 -O2 -shared -fPIC -I<FMI {v} headers> {hx}.c -lm */",
+        "#include <math.h>",
+        "#include <stddef.h>",
+        "#include <stdlib.h>",
+        "#include <string.h>",
+        "",
+        _TLS,
+        "",
+        f'#define {hx}_TOKEN "@TOKEN@"',
+        f"#define {hx}_DT {c_double(code.dt) if code.dt is not None else '0.0'}",
+        f"#define {hx}_PREVIEW {code.preview}",
+        f"#define {hx}_HAS_PREVIEW {1 if code.inverse else 0}",
+        f"#define {hx}_VR0 {code.first_vr}u",
+        f"#define {hx}_NPAR {len(code.parameters)}u",
+        f"#define {hx}_NMP {nmp}",
+        "",
+        "/* every constant of every stage: the run-time (tunable) copy of the C export's",
+        " * static constants; the model code reads them through the thread-local pointer */",
+        "typedef struct {", *struct, f"}} {hx}_params;",
+        f"static const {hx}_params {hx}_DEFAULTS = {{", *defaults, "};",
+        f"static HYST_TLS {hx}_params *{hx}_P_;",
+        f"/* model parameters (value reference {code.first_vr} + index), their kinds: "
+        "1 tunable, 2 initial state (fixed), 0 fixed at export */",
+        f"static const double {hx}_MP0[{nmp}] = {{{mp_init}}};",
+        f"static const unsigned char {hx}_KIND[{nmp}] = {{{kind_init}}};",
+        "",
+        code.header,
+        "",
+        code.body,
+        "",
+        wrapper.replace("HX", hx),
+        "",
+        "/* ---- the rest of the FMI API: not provided by this co-simulation FMU */",
+        *_stubs(v, headers),
+        "",
+    ]
+    return "\n".join(lines)

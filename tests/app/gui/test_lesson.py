@@ -1,0 +1,116 @@
+"""The viser lesson panel without a browser: the class step, exploring, the teacher's moves."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from app.gui.controller import SessionView
+from app.gui.layout import TITLES
+from app.services import lessons
+from app.services.sessions import SessionRegistry
+from app.services.settings import Settings
+from core.pi import PIModel
+from tests.app.gui.test_gui_headless import server  # noqa: F401 - the viser server fixture
+
+TOKEN = "s3cret"
+
+
+@pytest.fixture
+def view(server: Any) -> Iterator[SessionView]:  # noqa: F811 - the fixture imported above
+    reg = SessionRegistry()
+    sent: dict[str, list[Any]] = {"downloads": [], "toasts": []}
+    v = SessionView(server.gui, reg, reg.create(), Settings(teacher_token=TOKEN),
+                    notify=lambda *a: sent["toasts"].append(a),
+                    download=lambda n, b: sent["downloads"].append((n, b)))
+    v.downloads, v.toasts = sent["downloads"], sent["toasts"]  # type: ignore[attr-defined]
+    assert v.worker.wait_idle(30)
+    yield v
+    lessons.end(reg)
+    v.close()
+
+
+def _click(handle: Any) -> None:
+    for cb in handle._impl.update_cb:  # on_click callbacks (viser 1.1)
+        cb(SimpleNamespace(client=None, target=handle))
+
+
+def test_teacher_leads_the_class_from_the_gui(view: SessionView) -> None:
+    panel = view.lesson
+    other = view.registry.create()
+    assert panel.md.content == "*No lesson is running.*" and panel.back_btn.disabled
+    set_pick = panel.choices["Inverse compensation"]
+    panel.pick.value = set_pick.title
+    _click(panel.start_btn)  # no token typed: refused, nothing changes
+    assert "wrong teacher token" in panel.msg.content and panel.cls.position is None
+    view.ui.teacher_token.value = TOKEN
+    _click(panel.start_btn)
+    assert panel.cls.position is not None and panel.cls.position.index == 0
+    assert view.ui.teacher_token.value == ""  # not left on a projector
+    _click(panel.next_btn)  # on loopback the tab keeps the right token
+    step = set_pick.steps[1]
+    assert other.config.model == step.model and view.session.config.model == step.model
+    assert view.ui.view_dd.value == TITLES[step.view]
+    assert view.worker.wait_idle(30) and view.shown_figure == step.view
+    assert "step 2 of 4" in panel.md.content and "on the class step" in panel.md.content
+    assert view.toasts[-1][:2] == ("Lesson", f"the class is at step 2 of 4: {step.title}")
+    assert not panel.prev_btn.disabled and not panel.back_btn.disabled
+    # the student explores, then comes back
+    view.session.update(lambda c: c.with_model(PIModel(1.0, [0.5], [0.2]).to_dict()))
+    assert "exploring" in panel.md.content
+    _click(panel.back_btn)
+    assert view.session.config.model == step.model and "on the class step" in panel.md.content
+    _click(panel.end_btn)
+    assert panel.cls.position is None and panel.md.content == "*No lesson is running.*"
+
+
+def test_lesson_texts_are_shown_as_text(view: SessionView) -> None:
+    evil = {"title": "<b>x</b>", "steps": [{
+        "title": "[link](http://example.com)", "preset": "paper001-example1",
+        "prompt": "<img src=x onerror=alert(1)>", "look_for": "**bold**"}]}
+    lessons.start(view.registry, lessons.lesson_from_dict(evil))
+    md = view.lesson.md.content
+    assert "<img" not in md and "&lt;img" in md and "\\[link\\]" in md and "\\*\\*bold" in md
+
+
+def test_a_lesson_made_from_the_screen_downloads_and_loads_again(view: SessionView) -> None:
+    panel = view.lesson
+    panel.step_title.value = "my loop"
+    panel.prompt.value = "what do you see?"
+    lesson = panel.add_step()
+    view.session.update(lambda c: c.with_model(PIModel(0.5, [1.0], [0.4]).to_dict()))
+    with view._quiet():
+        view.ui.view_dd.value = TITLES["inverse"]
+    lesson = panel.add_step()
+    assert [s.view for s in lesson.steps] == ["loop", "inverse"]
+    assert lesson.steps[0].preset == "paper001-example1" and lesson.steps[1].preset is None
+    assert panel.pick.value == "my lesson (2 steps)"
+    _click(panel.download_btn)
+    name, payload = view.downloads[-1]
+    assert name.endswith(".json")
+    again = lessons.parse_lesson(payload)
+    assert again.to_dict() == lesson.to_dict()
+    panel._uploaded(SimpleNamespace(target=SimpleNamespace(value=SimpleNamespace(
+        content=payload, name="mine.json"))))
+    assert panel.pick.value.startswith("file: My lesson (2 steps)")
+    bad = json.loads(payload)
+    bad["steps"][1]["view"] = "fit"
+    panel._uploaded(SimpleNamespace(target=SimpleNamespace(value=SimpleNamespace(
+        content=json.dumps(bad).encode(), name="bad.json"))))
+    assert "not loaded" in panel.msg.content and "step 2" in panel.msg.content
+
+
+def test_no_token_on_the_server_says_how_to_give_one(server: Any) -> None:  # noqa: F811
+    reg = SessionRegistry()
+    v = SessionView(server.gui, reg, reg.create(), Settings())
+    try:
+        v.ui.teacher_token.value = "anything"
+        _click(v.lesson.start_btn)
+        assert "--teacher-token-file" in v.lesson.msg.content
+        assert v.lesson.cls.position is None
+    finally:
+        v.close()
