@@ -51,7 +51,10 @@ def _start_viser(app: FastAPI, settings: Settings) -> Any:
     from .gui.explorer import attach_gui
     from .gui.viser_guard import ViserGuard, start_viser
 
-    guard = ViserGuard(settings.host_allow_list, settings.trusted_proxies)
+    guard = ViserGuard(settings.host_allow_list, settings.trusted_proxies,
+                       max_tabs_per_client=settings.max_tabs_per_client,
+                       max_tabs=settings.max_tabs,
+                       max_upload_bytes=settings.max_upload_bytes)
     server = start_viser(settings.host, settings.viser_port, guard)
     app.state.gui = attach_gui(server, app.state.registry, settings, guard=guard,
                                limiter=app.state.create_limiter)

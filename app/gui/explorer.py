@@ -2,7 +2,13 @@
 
 Each tab's new session counts against the per-client limiter of ``POST /api/sessions``
 (keyed by the websocket's client address, :meth:`app.gui.viser_guard.ViserGuard.
-client_address`): a client beyond it gets a message in the tab, not a session.
+client_address`): a client beyond it gets a message in the tab, not a session. How many
+tabs a client may hold open is bounded before the websocket is accepted
+(:mod:`app.gui.viser_guard`).
+
+A closed tab's view is closed and forgotten, also when the tab closed while its view was
+still being built (viser runs connect and disconnect callbacks concurrently on its thread
+pool), and its memory is given back to the system (:mod:`app.gui.reclaim`).
 
 A reloaded tab keeps its session: the browser's id (a cookie the guard sets,
 :meth:`~app.gui.viser_guard.ViserGuard.browser_id`) maps to the session its last tab
@@ -13,6 +19,7 @@ tab as a notice.
 from __future__ import annotations
 
 import threading
+import warnings
 from collections import OrderedDict
 from typing import Any
 
@@ -22,12 +29,18 @@ from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
 from .controller import SessionView
 from .layout import is_narrow
+from .reclaim import Reclaimer
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
 
 #: Browsers whose last session is remembered (the oldest are forgotten beyond).
 MAX_BROWSERS = 10_000
+
+# a tab closed while its view is built makes viser warn once per tab that the rest of the
+# build goes nowhere; expected here (the view is closed at the end of its build)
+warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection",
+                        category=UserWarning)
 
 
 class ExplorerGui:
@@ -52,8 +65,11 @@ class ExplorerGui:
         self.guard = guard
         self.limiter = limiter
         self.refused: set[int] = set()
+        #: Tabs whose connect was handled (a view made, refused, or closed meanwhile).
+        self.answered = 0
         self.views: dict[int, SessionView] = {}
         self._lock = threading.Lock()
+        self.reclaimer = Reclaimer()
         #: browser id -> the code of the session its last tab showed
         self._sessions: OrderedDict[str, str] = OrderedDict()
         HUB.add_listener(self._on_event)
@@ -63,6 +79,13 @@ class ExplorerGui:
         server.on_client_disconnect(self._disconnect)
 
     def _connect(self, client: Any) -> None:
+        try:
+            self._open_view(client)
+        finally:
+            with self._lock:
+                self.answered += 1
+
+    def _open_view(self, client: Any) -> None:
         client.gui.configure_theme(show_share_button=False, control_width="large",
                                    show_logo=False)
 
@@ -70,6 +93,8 @@ class ExplorerGui:
             client.add_notification(title, body, auto_close_seconds=6.0,
                                     color="red" if error else None)
 
+        if not self._live(client):
+            return
         browser = None if self.guard is None else self.guard.browser_id(client.client_id)
         session = self._known_session(browser)
         if session is None:
@@ -97,7 +122,18 @@ class ExplorerGui:
         client.camera.on_update(on_camera)
         on_camera(client.camera)
         with self._lock:
-            self.views[client.client_id] = view
+            live = self._live(client)
+            if live:
+                self.views[client.client_id] = view
+        if not live:  # closed while its view was built: its disconnect found no view
+            view.close()
+        self.reclaimer.request()  # building a view leaves garbage too
+
+    def _live(self, client: Any) -> bool:
+        """Whether ``client``'s tab is still open. viser drops a client from its list
+        before it runs the disconnect callbacks, so a view stored under :attr:`_lock`
+        while its client is listed is found by :meth:`_disconnect`."""
+        return client.client_id in self.server.get_clients()
 
     def _known_session(self, browser: str | None) -> Any:
         """The session this browser's last tab showed (a reload keeps it), or None."""
@@ -137,7 +173,8 @@ class ExplorerGui:
         client.add_notification("No session", text.replace("**", ""),
                                 auto_close_seconds=None, color="red")
         with self._lock:
-            self.refused.add(client.client_id)
+            if self._live(client):  # else its disconnect has passed already
+                self.refused.add(client.client_id)
         return False
 
     def _disconnect(self, client: Any) -> None:
@@ -146,6 +183,7 @@ class ExplorerGui:
             view = self.views.pop(client.client_id, None)
         if view is not None:
             view.close()
+        self.reclaimer.request()
 
     def close(self) -> None:
         """Stop every view's worker."""
@@ -154,6 +192,7 @@ class ExplorerGui:
             views, self.views = list(self.views.values()), {}
         for v in views:
             v.close()
+        self.reclaimer.stop()
 
 
 def attach_gui(server: Any, registry: SessionRegistry, settings: Settings, *,

@@ -22,6 +22,19 @@ in site-packages is edited:
 * **Browser**: the page sets a random browser id in the cookie :data:`BROWSER_COOKIE`
   (``HttpOnly``, ``SameSite=Strict``; not the session code); the websocket's handshake
   brings it back (:meth:`ViserGuard.browser_id`), so a reloaded tab finds its session.
+* **Open tabs**: a client holding ``max_tabs_per_client`` open websockets gets a 429 for
+  the next handshake, and the server a 503 beyond ``max_tabs`` in all, before the
+  connection is accepted (each open tab holds a view: widgets, a render thread, its
+  results; about 5-16 MB measured).
+* **Message size**: a websocket message from a tab may be at most :data:`MAX_MESSAGE_BYTES`
+  (viser's own limit is 50 MB) and at most :data:`MAX_QUEUED_FRAMES` frames wait unread,
+  so what one connection buffers is bounded (viser's client uploads files in 512 KiB
+  parts).
+* **Uploads**: viser buffers an upload's parts in memory up to the size its client
+  declares, with no limit of its own; an upload declaring more than ``max_upload_bytes``
+  (or more parts than that size needs, or a tab's :data:`MAX_UPLOADS_PER_TAB` + 1-th at
+  once) is dropped before any part is kept, and the tab told why; a part beyond the declared
+  size drops its upload (:func:`bound_uploads`).
 
 The wrap relies on viser internals (``viser.infra._infra`` calling
 ``websockets.asyncio.server.serve`` from ``WebsockServer.start``, its ``viser_http_server``
@@ -31,6 +44,7 @@ callback and ``_live_connections``); :func:`check_viser` refuses other viser ver
 
 from __future__ import annotations
 
+import functools
 import http
 import re
 import secrets
@@ -42,7 +56,8 @@ from typing import Any
 from ..services.clients import client_address
 from ..services.hosts import HostAllowList, foreign_origin, host_name
 
-__all__ = ["BROWSER_COOKIE", "SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError",
+__all__ = ["BROWSER_COOKIE", "MAX_MESSAGE_BYTES", "MAX_QUEUED_FRAMES", "MAX_UPLOADS_PER_TAB",
+           "SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "bound_uploads",
            "check_viser", "start_viser"]
 
 #: The viser versions whose internals this module was checked against (``major.minor.``).
@@ -69,6 +84,14 @@ _HEADERS = {
     "Cross-Origin-Opener-Policy": "same-origin",
 }
 _INSTALL_LOCK = threading.Lock()
+#: Largest websocket message a tab may send, bytes (an upload part is 512 KiB).
+MAX_MESSAGE_BYTES = 2 * 1024 * 1024
+#: Frames of one websocket that may wait unread.
+MAX_QUEUED_FRAMES = 4
+#: Uploads one tab may have in flight at once.
+MAX_UPLOADS_PER_TAB = 2
+#: Smallest upload part viser's client sends but for the last one, bytes (it sends 512 KiB).
+MIN_PART_BYTES = 64 * 1024
 #: Cookie of the viser page that names the browser (a random id, never a session code).
 BROWSER_COOKIE = "hyst_viser"
 #: How long a browser id is kept, s (a month: a course's sessions live about as long).
@@ -117,11 +140,21 @@ class ViserGuard:
         The names a request's ``Host`` may carry.
     trusted_proxies : tuple of str
         Proxies whose ``X-Forwarded-For`` names the client (``Settings.trusted_proxies``).
+    max_tabs_per_client, max_tabs : int
+        Open websockets one client address may hold, and the server in all
+        (``Settings.max_tabs_per_client``, ``Settings.max_tabs``).
+    max_upload_bytes : int
+        Largest file a tab may upload (``Settings.max_upload_bytes``).
     """
 
-    def __init__(self, hosts: HostAllowList, trusted_proxies: tuple[str, ...] = ()) -> None:
+    def __init__(self, hosts: HostAllowList, trusted_proxies: tuple[str, ...] = (), *,
+                 max_tabs_per_client: int = 8, max_tabs: int = 300,
+                 max_upload_bytes: int = 5_000_000) -> None:
         self.hosts = hosts
         self.trusted_proxies = trusted_proxies
+        self.max_tabs_per_client = max_tabs_per_client
+        self.max_tabs = max_tabs
+        self.max_upload_bytes = max_upload_bytes
         self.installed = False
         self._addresses: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
         self._browsers: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
@@ -136,9 +169,13 @@ class ViserGuard:
             if refused is not None:
                 return refused
             if _is_upgrade(request):
-                self._addresses[connection] = client_address(
-                    _peer(connection), request.headers.get_all("X-Forwarded-For"),
-                    self.trusted_proxies)
+                address = client_address(_peer(connection),
+                                         request.headers.get_all("X-Forwarded-For"),
+                                         self.trusted_proxies)
+                refused = self.tab_refusal(connection, address)
+                if refused is not None:
+                    return refused
+                self._addresses[connection] = address
                 browser = _cookie(request.headers, BROWSER_COOKIE)
                 if browser is not None:
                     self._browsers[connection] = browser
@@ -176,6 +213,38 @@ class ViserGuard:
             return _refuse(connection, http.HTTPStatus.FORBIDDEN, why)
         return None
 
+    def open_tabs(self) -> dict[str, int]:
+        """Open (or opening) websockets per client address."""
+        counts: dict[str, int] = {}
+        for connection, address in list(self._addresses.items()):
+            if _open(connection):
+                counts[address] = counts.get(address, 0) + 1
+        return counts
+
+    def tab_refusal(self, connection: Any, address: str) -> Any:
+        """The response refusing one more tab of ``address`` (429 beyond
+        :attr:`max_tabs_per_client`, 503 beyond :attr:`max_tabs`), or ``None``. Runs on
+        the websocket server's event loop, like every handshake, so counting and
+        recording the new connection do not race."""
+        counts = self.open_tabs()
+        if counts.get(address, 0) >= self.max_tabs_per_client:
+            response = _refuse(
+                connection, http.HTTPStatus.TOO_MANY_REQUESTS,
+                f"this computer already has {self.max_tabs_per_client} explorer tabs open, "
+                "the most one computer may keep; close the tabs you do not use (to "
+                "continue a session in another tab, type its code there), or ask the "
+                "teacher to raise HYST_MAX_TABS_PER_CLIENT")
+            response.headers["Retry-After"] = "5"
+            return response
+        if sum(counts.values()) >= self.max_tabs:
+            response = _refuse(
+                connection, http.HTTPStatus.SERVICE_UNAVAILABLE,
+                f"the explorer already serves {self.max_tabs} open tabs, the most it may; "
+                "try again in a minute, or ask the teacher to raise HYST_MAX_TABS")
+            response.headers["Retry-After"] = "30"
+            return response
+        return None
+
     def _connection(self, client_id: int) -> Any:
         live = getattr(getattr(self._server, "_websock_server", None), "_live_connections", {})
         return live.get(client_id)
@@ -196,6 +265,13 @@ def _is_upgrade(request: Any) -> bool:
     return str(request.headers.get("Upgrade", "")).lower() == "websocket"
 
 
+def _open(connection: Any) -> bool:
+    """Whether a websocket is connecting or open (not closing or closed)."""
+    from websockets.protocol import State
+
+    return getattr(connection, "state", State.CLOSED) in (State.CONNECTING, State.OPEN)
+
+
 def _peer(connection: Any) -> str | None:
     remote = getattr(connection, "remote_address", None)
     return None if not remote else str(remote[0])
@@ -211,6 +287,59 @@ def _refuse(connection: Any, status: http.HTTPStatus, text: str) -> Any:
     response = connection.respond(status, text + "\n")
     _add_headers(response)
     return response
+
+
+def _upload_refusal(api: Any, client_id: int, message: Any, max_bytes: int) -> str | None:
+    """Why the upload ``message`` (viser's ``FileTransferStartUpload``) is refused, or
+    ``None``."""
+    size, parts = int(message.size_bytes), int(message.part_count)
+    if size > max_bytes:
+        return (f"{str(message.filename)[:80]!r} has {size:,} bytes; files up to "
+                f"{max_bytes:,} bytes are accepted")
+    if size < 0 or not 0 <= parts <= size // MIN_PART_BYTES + 1:
+        return "the upload was malformed; reload the page and try again"
+    busy = sum(1 for st in api._current_file_upload_states.values()
+               if st.get("client_id") == client_id)
+    if busy >= MAX_UPLOADS_PER_TAB:
+        return (f"this tab already uploads {busy} files; wait until they are done and "
+                "try again")
+    return None
+
+
+def bound_uploads(guard: ViserGuard) -> None:
+    """Bound what viser keeps of uploads (see the module docstring): wraps the two upload
+    handlers of ``viser._gui_api.GuiApi`` (bound to each tab's GUI when it is made, so this
+    runs before the server starts; idempotent, the newest guard's limit applies)."""
+    from viser import _gui_api
+
+    cls = _gui_api.GuiApi
+    start = getattr(cls._handle_file_transfer_start, "__wrapped__",
+                    cls._handle_file_transfer_start)
+    part = getattr(cls._handle_file_transfer_part, "__wrapped__",
+                   cls._handle_file_transfer_part)
+
+    @functools.wraps(start)
+    def bounded_start(self: Any, client_id: Any, message: Any) -> Any:
+        why = _upload_refusal(self, client_id, message, guard.max_upload_bytes)
+        if why is None:
+            return start(self, client_id, message)
+        owner = getattr(self, "_owner", None)
+        if hasattr(owner, "add_notification"):  # a tab's own GUI: tell it
+            owner.add_notification("Not uploaded", why, auto_close_seconds=10.0,
+                                   color="red")
+        return None
+
+    @functools.wraps(part)
+    def bounded_part(self: Any, client_id: Any, message: Any) -> Any:
+        st = self._current_file_upload_states.get(message.transfer_uuid)
+        if st is not None and (st.get("client_id") != client_id or st["transferred_bytes"]
+                               + len(message.content) > st["total_bytes"]):
+            self._current_file_upload_states.pop(message.transfer_uuid, None)
+            return None
+        return part(self, client_id, message)
+
+    cls._handle_file_transfer_start = bounded_start  # type: ignore[method-assign]
+    cls._handle_file_transfer_part = bounded_part  # type: ignore[method-assign]
 
 
 def start_viser(host: str, port: int, guard: ViserGuard) -> Any:
@@ -231,12 +360,15 @@ def start_viser(host: str, port: int, guard: ViserGuard) -> Any:
 
     check_viser(viser.__version__)
     with _INSTALL_LOCK:
+        bound_uploads(guard)
         original = ws_server.serve
 
         def serve(*args: Any, **kwargs: Any) -> Any:
             callback = kwargs.get("process_request")
             if getattr(callback, "__name__", "") == "viser_http_server":
                 kwargs["process_request"] = guard.wrap(callback)
+                kwargs["max_size"] = MAX_MESSAGE_BYTES
+                kwargs["max_queue"] = MAX_QUEUED_FRAMES
             return original(*args, **kwargs)
 
         ws_server.serve = serve  # type: ignore[misc,assignment]

@@ -1,10 +1,19 @@
-"""Sessions: per-student state by code, config updates, figures, presets, broadcast."""
+"""Sessions: per-student state by code, config updates, figures, presets, broadcast.
+
+The routes of a slider step (read, rejoin, ``PATCH .../config``, figures of a small model)
+are ``async``: they and their dependencies run on the event loop, with no hand-over to a
+worker thread, which cost more than their own work (issue 18 item 8). What may wait long
+still goes to a worker thread, so it never holds up the other requests: the commit of a
+config change (a disk write) and figures whose priced work is not small
+(:func:`app.services.actions.figures_are_quick`).
+"""
 
 from __future__ import annotations
 
 from typing import Any
 
 from fastapi import APIRouter, Header, HTTPException, Query, Request
+from fastapi.concurrency import run_in_threadpool
 
 from ..services import actions
 from ..services.errors import ParameterError
@@ -41,13 +50,13 @@ def create_session(
 
 
 @router.get("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
-def get_session(session: SessionDep) -> dict[str, Any]:
+async def get_session(session: SessionDep) -> dict[str, Any]:
     """The session's config, version, recording and fit summary."""
     return session.summary()
 
 
 @router.put("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
-def join_session(session: SessionDep) -> dict[str, Any]:
+async def join_session(session: SessionDep) -> dict[str, Any]:
     """Rejoin an existing session by its code (404 "no such session" otherwise; codes are
     created only by ``POST /api/sessions``)."""
     return session.summary()
@@ -55,15 +64,19 @@ def join_session(session: SessionDep) -> dict[str, Any]:
 
 @router.patch("/sessions/{code}/config",
               response_model=SessionOut, response_model_exclude_unset=True)
-def update_config(body: ConfigIn, session: SessionDep, settings: SettingsDep) -> dict[str, Any]:
-    """Change model, signal, mismatch or input source; validated before it is stored."""
-    actions.change_config(session, body.apply, settings)
+async def update_config(body: ConfigIn, session: SessionDep,
+                        settings: SettingsDep) -> dict[str, Any]:
+    """Change model, signal, mismatch or input source; validated and priced before it is
+    stored, and stored (committed) before the answer."""
+    # the commit writes to the disk: in a worker thread, so a write the system holds up
+    # (other programs flushing) never stops the event loop and every other request
+    await run_in_threadpool(actions.change_config, session, body.apply, settings)
     return session.summary()
 
 
 @router.get("/sessions/{code}/figures",
             response_model=FiguresOut, response_model_exclude_unset=True)
-def session_figures(
+async def session_figures(
     session: SessionDep,
     settings: SettingsDep,
     names: list[str] = Query(default=["loop"], alias="name"),  # noqa: B008
@@ -73,7 +86,9 @@ def session_figures(
 ) -> dict[str, Any]:
     """Figures of the session's current config (``?name=loop&name=time``); only what the
     named figures show is computed."""
-    return actions.session_figures(session, names, settings, state)
+    if actions.figures_are_quick(session, names, settings):
+        return actions.session_figures(session, names, settings, state)
+    return await run_in_threadpool(actions.session_figures, session, names, settings, state)
 
 
 @router.post("/sessions/{code}/preset/{name}",

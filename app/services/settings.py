@@ -59,6 +59,10 @@ class Settings:
         socket's peer. Empty by default: the header is ignored.
     max_streams_per_client : int
         Live-event streams (open pages) one client may hold at once.
+    max_tabs_per_client : int
+        Open viser GUI tabs (websockets) one client may hold at once.
+    max_tabs : int
+        Open viser GUI tabs of the whole server (each holds a view, about 5-16 MB).
     """
 
     host: str = "127.0.0.1"
@@ -75,6 +79,8 @@ class Settings:
     allowed_hosts: tuple[str, ...] = ()
     trusted_proxies: tuple[str, ...] = ()
     max_streams_per_client: int = 8
+    max_tabs_per_client: int = 8
+    max_tabs: int = 300
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "trusted_proxies", proxy_networks(self.trusted_proxies))

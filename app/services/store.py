@@ -3,7 +3,12 @@
 Every change of a session (config, recording, fit, diagnosis) is written and committed
 before the request that made it returns, so ``kill -9`` and a restart with the same
 ``--state-dir`` bring every session back under its code. The database is one file,
-``sessions.sqlite3``, in WAL mode (a killed writer never corrupts it).
+``sessions.sqlite3``, in WAL mode (a killed writer never corrupts it) with
+``synchronous=NORMAL``: a commit is in the write-ahead log, which the operating system keeps
+when the process is killed, before the request returns; the log is copied into the database
+(a *checkpoint*, the only step that waits for the disk with ``fsync``) by a background
+thread every :data:`CHECKPOINT_S` seconds, not by whichever request's commit filled it, so
+no request waits for the disk (the slider routes run on the server's event loop).
 
 Eviction is by a stated size budget (``max_bytes``, the sum of the stored rows): when the
 store is larger, the least recently used sessions are deleted, but **never one used in the
@@ -27,6 +32,7 @@ from __future__ import annotations
 
 import logging
 import os
+import sqlite3
 import threading
 import time
 from dataclasses import dataclass, field, replace
@@ -57,6 +63,8 @@ log = logging.getLogger(__name__)
 
 #: Sessions used within this many seconds are never evicted.
 PROTECT_S = 3600.0
+#: Seconds between two checkpoints of the write-ahead log (background thread).
+CHECKPOINT_S = 1.0
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (
@@ -182,13 +190,34 @@ class SessionStore:
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
         self._db = connect(self.path)  # a damaged file is moved aside, a fresh one started
+        self._closing = threading.Event()
+        self._checkpointer: threading.Thread | None = None
         with self._lock:
             if self.path != ":memory:":
                 self._db.execute("PRAGMA journal_mode=WAL")
                 self._db.execute("PRAGMA synchronous=NORMAL")  # durable against kill -9
+                self._db.execute("PRAGMA wal_autocheckpoint=0")  # the checkpointer's job
                 os.chmod(self.path, 0o600)
             self._db.execute("PRAGMA foreign_keys=ON")
             self._db.executescript(_SCHEMA)
+        if self.path != ":memory:":
+            self._checkpointer = threading.Thread(target=self._checkpoint_loop,
+                                                  name="store-checkpoint", daemon=True)
+            self._checkpointer.start()
+
+    def _checkpoint_loop(self) -> None:
+        """Copy the write-ahead log into the database every :data:`CHECKPOINT_S` s, on a
+        connection of its own (a passive checkpoint runs beside the writers)."""
+        db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None,
+                             timeout=30.0)
+        try:
+            while not self._closing.wait(CHECKPOINT_S):
+                try:
+                    db.execute("PRAGMA wal_checkpoint(PASSIVE)").fetchall()
+                except sqlite3.Error as exc:  # retried next time; the log keeps every commit
+                    log.warning("the session store's checkpoint failed (%s)", exc)
+        finally:
+            db.close()
 
     # ------------------------------------------------------------------ writes
     def save(self, state: SessionState, *, recording: bool = True,
@@ -386,7 +415,11 @@ class SessionStore:
         return self.size() > self.max_bytes
 
     def close(self) -> None:
-        """Close the database (every change is already committed)."""
+        """Close the database (every change is already committed; closing the last
+        connection checkpoints the log)."""
+        self._closing.set()
+        if self._checkpointer is not None:
+            self._checkpointer.join(timeout=30)
         with self._lock:
             self._db.close()
 

@@ -16,11 +16,19 @@ import viser
 import websockets
 import websockets.asyncio.server as ws_server
 from fastapi.testclient import TestClient
-from websockets.exceptions import InvalidStatus
+from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect
 
-from app.gui.viser_guard import VISER_CSP, ViserGuard, ViserGuardError, check_viser, start_viser
+from app.gui.viser_guard import (
+    MAX_MESSAGE_BYTES,
+    VISER_CSP,
+    ViserGuard,
+    ViserGuardError,
+    check_viser,
+    start_viser,
+)
 from app.server import create_app
+from app.services.clients import proxy_networks
 from app.services.hosts import HostAllowList
 from app.services.ratelimit import RateLimiter
 from app.services.settings import Settings
@@ -186,3 +194,79 @@ def test_the_page_names_the_browser_and_a_reload_keeps_the_session(served: Any) 
             assert (again.session.code == code) is same
         time.sleep(0.3)
         known = set(served.state.gui.views)
+
+
+def test_open_tabs_per_client_and_in_all_are_capped() -> None:
+    app = create_app(Settings(viser_port=0, port=0, max_tabs_per_client=2, max_tabs=3))
+    with TestClient(app):
+        port = app.state.viser_port
+        first, second = _ws(port), _ws(port)
+        with pytest.raises(InvalidStatus) as err:  # refused before it is accepted
+            _ws(port)
+        assert err.value.response.status_code == 429
+        assert b"HYST_MAX_TABS_PER_CLIENT" in err.value.response.body
+        assert err.value.response.headers["Retry-After"]
+        first.close()  # a closed tab frees its place at once
+        third = _ws(port)
+        # another client (a proxy names it) is refused by the server's own cap
+        app.state.gui.guard.trusted_proxies = proxy_networks(("127.0.0.1",))
+        other = _ws(port, additional_headers={"X-Forwarded-For": "10.0.0.7"})
+        with pytest.raises(InvalidStatus) as err:
+            _ws(port, additional_headers={"X-Forwarded-For": "10.0.0.8"})
+        assert err.value.response.status_code == 503
+        assert b"HYST_MAX_TABS" in err.value.response.body
+        for ws in (second, third, other):
+            ws.close()
+
+
+def test_a_huge_websocket_message_closes_the_connection(served: Any) -> None:
+    """viser accepts 50 MB messages; the guard lowers that, so one tab's buffers stay small."""
+    with _ws(served.state.viser_port) as ws:
+        ws.send(b"\x00" * (MAX_MESSAGE_BYTES + 1))
+        with pytest.raises(ConnectionClosed) as err:
+            for _ in range(100):
+                ws.recv(timeout=10)
+        assert err.value.rcvd is not None and err.value.rcvd.code == 1009  # message too big
+
+
+def _upload_start(uuid: str, transfer: str, size: int, parts: int) -> bytes:
+    return msgspec.msgpack.encode({
+        "type": "FileTransferStartUpload", "source_component_uuid": uuid,
+        "transfer_uuid": transfer, "filename": "big.csv", "mime_type": "text/csv",
+        "part_count": parts, "size_bytes": size})
+
+
+def _upload_part(uuid: str, transfer: str, index: int, content: bytes) -> bytes:
+    return msgspec.msgpack.encode({
+        "type": "FileTransferPart", "source_component_uuid": uuid, "transfer_uuid": transfer,
+        "part_index": index, "content": content})
+
+
+def test_uploads_are_bounded_before_a_part_is_kept() -> None:
+    """viser keeps an upload's parts up to the size the client declares, with no limit;
+    the guard drops one declaring more than the upload limit (and says so in the tab)."""
+    app = create_app(Settings(viser_port=0, port=0, max_upload_bytes=1000))
+    with TestClient(app):
+        port = app.state.viser_port
+        with _ws(port) as ws:
+            assert _views(app, 1) == 1
+            view = next(iter(app.state.gui.views.values()))
+            uuid = view.ui.upload._impl.uuid
+            states = app.state.viser.get_clients()[next(iter(app.state.gui.views))
+                                                   ].gui._current_file_upload_states
+            ws.send(_upload_start(uuid, "t-big", 10**9, 2000))  # 1 GB declared
+            ws.send(_upload_start(uuid, "t-parts", 900, 10**6))  # parts that cannot be
+            ws.send(_upload_start(uuid, "t-ok", 900, 2))
+            ws.send(_upload_part(uuid, "t-ok", 0, b"x" * 600))
+            ws.send(_upload_part(uuid, "t-ok", 1, b"x" * 600))  # beyond the declared 900
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline and states:
+                time.sleep(0.05)
+            time.sleep(0.3)
+            assert states == {}  # nothing kept, the overflowing one dropped
+            ws.send(_upload_start(uuid, "t-good", 25, 1))  # an honest small file goes on
+            ws.send(_upload_part(uuid, "t-good", 0, b"t,u,y\n0,0,0\n0.001,1,1\n"[:25]))
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline and "CSV" not in view.ui.data_md.content:
+                time.sleep(0.05)
+            assert "CSV" in view.ui.data_md.content  # viser finished it: the view read it
