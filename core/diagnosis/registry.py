@@ -46,12 +46,18 @@ class OutputDynamics:
     valid : callable
         ``valid(values, dt) -> bool``: the values the search may take at sample spacing
         ``dt`` (s).
+    lacks_signature : callable or None
+        ``lacks_signature(values) -> reason or None``: why fitted values do not show the
+        stage's own signature (a mode too damped to ring acts only as a delay), so that a
+        look-alike the recordings do not separate from it is named instead
+        (:func:`core.diagnosis.engine._recheck_dynamics`); ``None``: always shows it.
     """
 
     params: tuple[str, ...]
     model: Callable[[tuple[float, ...]], Model]
     transfer: Callable[[tuple[float, ...]], tuple[list[float], list[float]]] | None = None
     valid: Callable[[tuple[float, ...], float], bool] = lambda values, dt: True
+    lacks_signature: Callable[[tuple[float, ...]], str | None] | None = None
 
 
 @dataclass(frozen=True)
