@@ -952,6 +952,14 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
     ]
     unc, unc_how = effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
+    if EFFECTS[c.name].systematic is not None:
+        sys_sigma, sys_how = EFFECTS[c.name].systematic(ctx, cur, c.fit)
+        unc = dict(unc)
+        for k, v in sys_sigma.items():
+            s0 = unc.get(k)
+            s0 = float(s0) if isinstance(s0, (int, float)) and np.isfinite(s0) else 0.0
+            unc[k] = float(np.hypot(s0, v))
+        unc_how += f"; {sys_how}"
     return EffectFinding(
         name=c.name,
         parameters=c.parameters,

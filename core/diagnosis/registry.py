@@ -129,6 +129,11 @@ class DiagnosableEffect:
     stage_order : int
         Place of its stage in the saved model's chain (after the hysteresis); effects of
         one ``stage_order`` exclude each other (one output dynamics stage).
+    systematic : callable or None
+        ``systematic(ctx, cur, fit) -> ({parameter: sigma}, words)``: the uncertainty the
+        effect's own discretisation leaves (a creep bank's placement of its time constants),
+        added in quadrature to the statistical sigma of the accepted effect ``fit`` (fitted
+        on top of ``cur``); ``words`` say how it was obtained.
     """
 
     name: str
@@ -153,6 +158,7 @@ class DiagnosableEffect:
     rate_dependent_hysteresis: bool = False
     linear: bool = False
     stage_order: int = 0
+    systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
 
 
 #: Every registered effect by name, in the order they are tried.
