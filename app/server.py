@@ -29,6 +29,7 @@ from .services.config import Config
 from .services.jobs import JobManager
 from .services.known_codes import KnownCodes
 from .services.ratelimit import RateLimiter
+from .services.recordings import UnevenUpload
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
 from .services.store import DamagedSessionError, SessionStore
@@ -170,11 +171,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.exception_handler(CSVError)
     async def _csv_error(request: Request, exc: CSVError) -> JSONResponse:
         # line 1-based, column 0-based (the index, not the name: CSVError.column_index)
-        return JSONResponse(
-            status_code=422,
-            content={"detail": {"message": str(exc), "line": exc.line,
-                                "column": exc.column_index}},
-        )
+        detail: dict[str, Any] = {"message": str(exc), "line": exc.line,
+                                  "column": exc.column_index}
+        if isinstance(exc, UnevenUpload):  # the choices of the upload, with the step
+            detail["uneven"] = exc.timing.to_dict()
+        return JSONResponse(status_code=422, content={"detail": detail})
 
     from .routers import controls, data, export, jobs, meta, sessions, simulate
 

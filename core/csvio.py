@@ -68,7 +68,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from datetime import datetime
 from pathlib import Path
-from typing import IO, Literal
+from typing import IO, Any, Literal
 
 import numpy as np
 
@@ -81,6 +81,7 @@ __all__ = [
     "CSVText",
     "ColumnInfo",
     "InputSignal",
+    "UnevenTimeError",
     "inspect_csv",
     "inspect_csv_text",
     "parse_column_name",
@@ -147,6 +148,27 @@ class CSVError(ParameterError):
         self.line = line
         self.column = column
         self.column_index = column_index
+
+
+class UnevenTimeError(CSVError):
+    """The time stamps of a recording are unevenly spaced and no choice was made.
+
+    Raised by :func:`read_csv` (and :func:`read_input`) without ``resample`` when
+    ``uneven="error"``; a caller that offers the choice (resample or keep) reads the
+    spacing from the attributes instead of the message.
+
+    Attributes
+    ----------
+    spacing_min, spacing_max, spacing_mean, spacing_median : float
+        Smallest, largest, mean and median spacing of the time stamps, in s (the median
+        is the spacing ``resample=True`` interpolates onto).
+    """
+
+    def __init__(self, message: str, *, spacing: tuple[float, float, float, float],
+                 **kwargs: Any) -> None:
+        super().__init__(message, **kwargs)
+        self.spacing_min, self.spacing_max, self.spacing_mean, self.spacing_median = (
+            float(x) for x in spacing)
 
 
 # --------------------------------------------------------------------------- names/units
@@ -1434,12 +1456,13 @@ def _check_time(
             )
             if resample is False or resample is None:
                 if uneven == "error":
-                    raise CSVError(
+                    raise UnevenTimeError(
                         f"{label}: {msg}; pass resample=True to interpolate linearly onto a "
                         "uniform grid (or resample=<dt in s>), or uneven='keep' if your model "
                         "does not depend on dt",
                         source=label, line=int(lines[j + 1]), column=tcol.raw,
                         column_index=tcol.index,
+                        spacing=(d.min(), d.max(), mean, float(np.median(d))),
                     )
                 notes.append(msg + "; kept as measured (uneven='keep')")
     return t

@@ -33,7 +33,72 @@ const VIEW_HELP = {
   digitized: "Paper 000's digitized view: each operator is one binary digit; the state moves on a hypercube as the input rises and falls.",
   "closed-loop": "Paper 001 Fig. 15–16: a PI controller around the hysteretic plant, without and with the inverse as feedforward.",
   fit: "The fitted model against the uploaded recording, and the residual.",
+  diagnosis: "Before and after the diagnosis: the measured loop, the model without and with the effects found, and what each leaves unexplained over time.",
 };
+
+// ---------------------------------------------------------------- tooltips
+// Every control says what it does when the pointer rests on it (title); a control that
+// brings its own title keeps it. Sliders built later (per operator) are covered too.
+const TIPS = {
+  "join-code": "The code of a session to continue (shown at the top of the page that uses it)",
+  join: "Continue the session whose code you typed",
+  "new-session": "Start a fresh session (the current one stays on the server under its code)",
+  "my-name": "Shown in the teacher's list of who is connected; your session code is not",
+  projector: "Projector mode: the plot's text and the help at least 16 px, to read from the back of a room",
+  preset: "Models and inputs taken from the papers' examples",
+  "load-preset": "Replace the model and the input by the chosen preset's",
+  n: "Number of play operators; thresholds are spread evenly up to the widest, the total weight shared",
+  "model-json": "The session's model as JSON: any model type, edited by hand",
+  "apply-json": "Use the model typed in the JSON box",
+  kind: "Shape of the input signal u(t)",
+  amplitude: "Peak value of the input (in the input's unit)",
+  frequency: "Cycles per second of the input",
+  offset: "Value the input oscillates around",
+  duration: "Length of the simulated input",
+  samples: "Number of time steps simulated (more: smoother curves, slower)",
+  "use-recording": "Drive the model with the uploaded recording's input instead of the signal above",
+  mismatch: "Makes the real plant differ from the model: thresholds ×(1+m), weights ×(1−m)",
+  "csv-file": "A CSV file with time, input and output columns (any delimiter, decimal comma allowed)",
+  "t-col": "The column holding the time stamps",
+  "u-col": "The column holding the input (what drove the actuator)",
+  "y-col": "The column holding the output (what was measured)",
+  "timing-resample": "Interpolate the samples onto evenly spaced time stamps (the step shown)",
+  "timing-keep": "Use the time stamps as they are in the file",
+  "use-csv": "Load the recording with this column mapping",
+  "run-pick": "Which run of the file to use, or all rows as one recording",
+  "fit-kind": "Which model type the fit identifies",
+  "fit-n": "Number of operators of the fitted model",
+  fit: "Fit the chosen model to the recording (it replaces the session's model)",
+  diagnose: "Find what the PI model misses in the recording, proved on rows the fit never saw",
+  "cancel-job": "Stop the fit or diagnosis; nothing is changed",
+  "dl-json": "Download the model as a parameter set (JSON) to continue later",
+  "dl-mat": "Download the model for MATLAB / Octave",
+  "dl-c": "Download C code of the model and its inverse for a controller",
+  "ps-file": "Load a parameter set saved earlier (JSON)",
+  "fmi-version": "Which FMI standard the FMU downloads follow (3.0, or 2.0 for older tools)",
+  "lesson-new-lesson": "The title of the lesson you are making",
+  "lesson-new-title": "The title of the step to add (the current model, input and view)",
+  "lesson-new-prompt": "What the class is asked at this step",
+  "lesson-new-look": "What the students should look for in the plot",
+  "teacher-token": "The token the server was started with (hyst serve --teacher-token)",
+  "teacher-preset": "The preset every student gets",
+  "teacher-input": "Which input every student gets with it",
+  "teacher-push": "Send the chosen model to every student's page now",
+  "teacher-push-mine": "Send the model of this page (as you edited it) to every student now",
+  "teacher-refresh": "How many pages are open and the names students gave (never their codes)",
+  "digi-prev": "One state back along the trace",
+  "digi-next": "One state forward along the trace",
+  "digi-play": "Walk through the states the input visits, two per second",
+  "digi-step": "Which state of the trace the diagram shows",
+};
+// (the model's sliders carry theirs on their label, from the fields' declarations)
+function addTips(root = document) {
+  for (const e of root.querySelectorAll("input, select, button, textarea, a.button")) {
+    if (e.closest("[title]")) continue;
+    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig]);
+    if (tip) e.title = tip;
+  }
+}
 
 // ---------------------------------------------------------------- messages
 // Server messages are written for the command line too; a few parts of them name
@@ -78,7 +143,7 @@ function detailText(d) {
 }
 
 class ApiError extends Error {
-  constructor(status, message) { super(message); this.status = status; }
+  constructor(status, message, detail = null) { super(message); this.status = status; this.detail = detail; }
 }
 
 async function api(method, path, body, type = "application/json") {
@@ -101,7 +166,7 @@ async function api(method, path, body, type = "application/json") {
     const raw = detailText(data && data.detail !== undefined ? data.detail : data);
     const generic = !raw || /^(Not Found|Method Not Allowed|Internal Server Error)$/.test(raw);
     const msg = generic || r.status >= 500 ? STATUS_TEXT[r.status] || `Request failed (${r.status}).` : plain(raw);
-    throw new ApiError(r.status, msg);
+    throw new ApiError(r.status, msg, data && typeof data.detail === "object" ? data.detail : null);
   }
   return data;
 }
@@ -194,8 +259,8 @@ async function pump() {
       // store the change and, for a simulated input, compute the figure from the same
       // config at the same time (one round trip instead of two)
       const stored = api("PATCH", `/api/sessions/${state.code}/config`, cfg);
-      const name = state.fig === "fit" ? "loading" : state.fig;
-      const figure = cfg.use_recording || state.fig === "fit" ? null
+      const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
+      const figure = cfg.use_recording || RESULT_VIEWS.includes(state.fig) ? null
         : api("POST", "/api/simulate", { model: cfg.model, signal: cfg.signal,
           mismatch: cfg.mismatch, figures: [name] });
       if (figure) figure.catch(() => null);  // a refused config is reported by the PATCH
@@ -282,9 +347,35 @@ function zoomed(layout) {
   return lay;
 }
 
+// Projector mode: every text of the plot at least 16 px (app/services/figures.py's
+// large_text does the same for viser).
+function largeText(layout, size = 16) {
+  const lay = structuredClone(layout);
+  lay.font = { ...(lay.font || {}), size };
+  if (lay.title && typeof lay.title === "object") lay.title = { ...lay.title, font: { ...(lay.title.font || {}), size: size + 4 } };
+  lay.legend = { ...(lay.legend || {}), font: { size } };
+  for (const k of Object.keys(lay)) {
+    if (!/^[xy]axis\d*$/.test(k) || !lay[k]) continue;
+    lay[k] = { ...lay[k], tickfont: { ...(lay[k].tickfont || {}), size } };
+    if (lay[k].title && typeof lay[k].title === "object") {
+      lay[k].title = { ...lay[k].title, font: { ...(lay[k].title.font || {}), size: size + 2 } };
+    }
+  }
+  lay.annotations = (lay.annotations || []).map((a) => ({ ...a, font: { ...(a.font || {}), size: Math.max(size, (a.font && a.font.size) || 0) } }));
+  return lay;
+}
+
+function setProjector(on) {
+  document.body.classList.toggle("projector", on);
+  $("projector").setAttribute("aria-pressed", String(on));
+  localStorage.setItem("hyst-projector", on ? "1" : "");
+  if (state.shown) render($("figure"), state.shown).catch((e) => setMsg("model-msg", e.message));
+}
+
 async function render(el, f, { live = false } = {}) {
   state.shown = f;
-  const layout = fitLayout(f.layout);
+  let layout = fitLayout(f.layout);
+  if (document.body.classList.contains("projector")) layout = largeText(layout);
   const old = el.querySelector(":scope > .quick-plot");
   if (!window.Plotly || live) {
     const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
@@ -311,9 +402,23 @@ async function render(el, f, { live = false } = {}) {
   document.body.dataset.settled = document.body.dataset.ready || "";
 }
 
+// Views drawn from a job's result instead of the session's config (fit, diagnosis).
+const RESULT_VIEWS = ["fit", "diagnosis"];
+
+async function diagnosisFigure() {
+  if (!state.diagFigure) {
+    try {
+      state.diagFigure = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/figure`);
+    } catch (e) {
+      if (e.status !== 409 && e.status !== 404) throw e;
+    }
+  }
+  return state.diagFigure || { data: [], layout: { title: { text: "Upload a recording and run the diagnosis to see before and after" } } };
+}
+
 async function draw(pending) {
   const el = $("figure");
-  const name = state.fig === "fit" ? "loading" : state.fig;
+  const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
   const get = () => api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
   let res = await (pending || get());
   // a figure computed for the view on show when a slider moved; the user may have
@@ -322,6 +427,8 @@ async function draw(pending) {
   let f = res.figures[name];
   if (state.fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
+  } else if (state.fig === "diagnosis") {
+    f = await diagnosisFigure();
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   await render(el, f, { live });
@@ -332,11 +439,60 @@ async function draw(pending) {
   if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
   else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
   $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
+  showDigiControls(res);
   const notes = (f.layout && f.layout.meta && f.layout.meta.notes) || [];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);
   if (!live) document.body.dataset.settled = String(res.version);
+}
+
+// ---------------------------------------------------------------- digitized step / play
+// The digitized view at one state of its trace: the server draws it (?state=k); Play
+// steps through the trace at 2 states per second.
+const DIGI_PLAY_MS = 500;
+
+function showDigiControls(res) {
+  const n = state.fig === "digitized" ? res.digitized_states : undefined;
+  $("digi-controls").hidden = !n;
+  if (!n) { stopPlay(); return; }
+  const step = $("digi-step");
+  step.max = String(n - 1);
+  if (!state.digiTimer) {  // a freshly drawn figure shows the final state
+    step.value = String(n - 1);
+    state.digiStep = null;
+  }
+  showOutput(step);
+}
+
+async function showState(k) {
+  const step = $("digi-step");
+  k = Math.max(0, Math.min(Number(step.max), k));
+  step.value = String(k);
+  state.digiStep = k;
+  showOutput(step);
+  const res = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/figures?name=digitized&state=${k}`);
+  if (state.fig !== "digitized") return;
+  await render($("figure"), res.figures.digitized);
+  document.body.dataset.digiState = String(k);
+}
+
+function stopPlay() {
+  clearInterval(state.digiTimer);
+  state.digiTimer = null;
+  $("digi-play").textContent = "Play from the start";
+}
+
+function togglePlay() {
+  if (state.digiTimer) { stopPlay(); return; }
+  $("digi-play").textContent = "Stop";
+  let k = 0;
+  const tick = () => {
+    if (k > Number($("digi-step").max) || state.fig !== "digitized") { stopPlay(); return; }
+    showState(k++).catch((e) => { stopPlay(); setMsg("model-msg", e.message); });
+  };
+  tick();
+  state.digiTimer = setInterval(tick, DIGI_PLAY_MS);
 }
 
 // ---------------------------------------------------------------- session
@@ -346,6 +502,8 @@ async function openSession(code, { create = false } = {}) {
   else if (create) s = await api("PUT", `/api/sessions/${encodeURIComponent(code)}`);
   else s = await api("GET", `/api/sessions/${encodeURIComponent(code)}`);
   state.code = s.code;
+  state.diagFigure = null;
+  state.fitFigure = null;
   localStorage.setItem("hyst-session", s.code);
   $("code").textContent = s.code;
   for (const f of ["json", "mat", "c"]) $(`dl-${f}`).href = `/api/sessions/${encodeURIComponent(s.code)}/export/${f}`;
@@ -397,7 +555,9 @@ async function downloadFmu(ev) {
 function listen() {
   if (state.events) state.events.close();
   if (!window.EventSource) return;
-  const es = new EventSource(`/api/sessions/${encodeURIComponent(state.code)}/events`);
+  const name = ($("my-name").value || "").trim();
+  const q = name ? `?name=${encodeURIComponent(name)}` : "";
+  const es = new EventSource(`/api/sessions/${encodeURIComponent(state.code)}/events${q}`);
   es.addEventListener("push", (ev) => {
     let info = {};
     try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
@@ -413,7 +573,7 @@ async function onPushed(info) {
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
   const p = state.presets.find((x) => x.name === info.preset);
-  const what = p ? p.title : info.preset ? info.preset : "a new input";
+  const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
   note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
     ` at ${new Date().toLocaleTimeString()}. Your sliders now start from it.`;
@@ -448,6 +608,7 @@ async function onCsvChosen(ev) {
       const fallback = id === "t-col" && roleNamed ? "" : String(Math.min(guess, p.columns.length - 1));
       sel.value = idx >= 0 ? String(idx) : fallback;
     }
+    showTiming(p.uneven);
     $("mapping").hidden = false;
     $("runs").hidden = true;
     $("csv-notes").replaceChildren(...(p.notes || []).map((n) => el("li", { textContent: plain(n) })));
@@ -466,16 +627,46 @@ async function useCsv(run) {
     if ($(id).value !== "") q.set(key, $(id).value);
   }
   if (typeof run === "string") q.set("run", run);
+  if (!$("timing").hidden) {
+    const choice = $("timing-keep").checked ? "keep" : "resample";
+    q.set("timing", choice);
+    if (choice === "resample") q.set("step", String(state.timing.step_s));
+  }
   try {
     const r = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/recording?${q}`, csvText, "text/csv");
-    setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples`, true);
+    setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples${r.time_steps ? `; ${r.time_steps}` : ""}.`, true);
+    state.diagFigure = null;  // the diagnosis of another recording is gone
     $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
     showRuns(r.runs || [], run === "all" ? "all" : r.run);
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {
+    if (e.detail && e.detail.uneven) {  // another time column, found uneven: offer the choice
+      showTiming(e.detail.uneven);
+      setMsg("csv-msg", "CSV not loaded yet: its time stamps are uneven. Choose below whether to resample or keep them, then click \u201cUse this mapping\u201d again.");
+      return;
+    }
     setMsg("csv-msg", `CSV not loaded: ${e.message}`);
   }
+}
+
+// Uneven time stamps: the upload resamples them onto the step shown, or keeps them.
+function seconds(s) {
+  const v = Number(Number(s).toPrecision(3));
+  for (const [unit, scale] of [["s", 1], ["ms", 1e-3], ["µs", 1e-6]]) {
+    if (Math.abs(v) >= scale) return `${Number((v / scale).toPrecision(3))} ${unit}`;
+  }
+  return `${Number((v / 1e-9).toPrecision(3))} ns`;
+}
+
+function showTiming(uneven) {
+  state.timing = uneven || null;
+  $("timing").hidden = !uneven;
+  if (!uneven) return;
+  $("timing-what").textContent = `The time stamps in column \u201c${uneven.column}\u201d are uneven: ` +
+    `the spacing varies from ${seconds(uneven.spacing_min_s)} to ${seconds(uneven.spacing_max_s)} ` +
+    `(mean ${seconds(uneven.spacing_mean_s)}). Choose what the upload does with them:`;
+  $("timing-resample-text").textContent = `resample onto an even grid of ${seconds(uneven.step_s)} steps (linear interpolation)`;
 }
 
 function showRuns(runs, kept) {
@@ -495,6 +686,8 @@ async function runJob(kind, params, syncPath, syncBody, running = null) {
   if (state.job) return null;
   const buttons = [$("fit"), $("diagnose")];
   buttons.forEach((b) => { b.disabled = true; });
+  // a new run replaces what the last one said (a "cancelled" or "failed" line)
+  if (state.jobSaid) { setMsg("csv-msg", ""); state.jobSaid = false; }
   const busy = $("busy"), bar = $("job-progress"), cancel = $("cancel-job");
   const t0 = performance.now();
   const label = (kind === "fit" ? "Fitting" : "Diagnosing") +
@@ -598,6 +791,7 @@ async function cancelJob() {
 
 // What a failed or cancelled fit / diagnosis says under the Data section.
 function jobFailed(what, e) {
+  state.jobSaid = true;
   if (e instanceof JobCancelled) {
     setMsg("csv-msg", `${what} cancelled: nothing was changed.`, true);
   } else {
@@ -625,25 +819,14 @@ async function fit(running = null) {
   }
 }
 
-function finding(f) {
-  if (typeof f === "string") return f;
-  if (f && typeof f === "object") {
-    const head = [f.effect || f.name || f.title, f.verdict || f.status].filter(Boolean).join(": ");
-    const body = f.message || f.summary || f.text || "";
-    if (head || body) return [head, body].filter(Boolean).join(" — ");
-  }
-  return JSON.stringify(f);
-}
-
 async function diagnose(running = null) {
   try {
     const r = await runJob("diagnose", {}, `/api/sessions/${state.code}/diagnose`, undefined, running);
     if (!r) return;
-    const items = (r.findings || []).map((f) => el("li", { textContent: finding(f) }));
-    const nums = Object.entries(r).filter(([, v]) => typeof v === "number")
-      .map(([k, v]) => el("li", { textContent: `${k.replace(/_/g, " ")}: ${v.toPrecision(4)}` }));
+    // the findings are sentences with units, written by the server for people
+    const items = (r.findings || []).map((f) => el("li", { textContent: typeof f === "string" ? f : JSON.stringify(f) }));
     const box = el("div", { id: "diagnosis" }, el("h3", { textContent: "Diagnosis" }),
-      el("p", {}, el("em", { textContent: String(r.engine || "") })), el("ul", {}, ...items, ...nums));
+      el("ul", {}, ...items));
     if (r.document) {
       box.append(el("a", {
         href: `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/report.html`,
@@ -651,6 +834,8 @@ async function diagnose(running = null) {
       }));
     }
     $("report").replaceChildren(box);
+    state.diagFigure = null;  // this run's before / after
+    selectFigure("diagnosis");
   } catch (e) {
     jobFailed("Diagnosis", e);
   }
@@ -741,11 +926,13 @@ async function loadPreset() {
 }
 
 // ---------------------------------------------------------------- teacher
-async function teacherPush() {
+async function teacherPush(ev) {
   state.token = $("teacher-token").value;
   try {
     const mode = $("teacher-input").value;
-    const body = { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
+    const mine = ev && ev.target && ev.target.id === "teacher-push-mine";
+    const body = mine ? { model: readConfig().model }
+      : { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
     if (mode === "mine") body.signal = readConfig().signal;
     const r = await api("POST", "/api/teacher/push", body);
     setMsg("teacher-msg", `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
@@ -758,8 +945,8 @@ async function teacherRefresh() {
   state.token = $("teacher-token").value;
   try {
     const r = await api("GET", "/api/teacher/connected");
-    const codes = r.codes ? `: ${r.codes.join(", ")}` : "";
-    setMsg("teacher-msg", `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions${codes}`, true);
+    // counts and names only: a projected panel must not show the session codes
+    setMsg("teacher-msg", r.text || `Connected: ${r.pages} open pages in ${r.sessions_live} of ${r.sessions} sessions.`, true);
   } catch (e) {
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : e.message);
   }
@@ -829,6 +1016,13 @@ async function main() {
     }
   };
   $("join").addEventListener("click", join);
+  $("my-name").value = localStorage.getItem("hyst-name") || "";
+  $("projector").addEventListener("click", () => setProjector(!document.body.classList.contains("projector")));
+  if (localStorage.getItem("hyst-projector")) setProjector(true);
+  $("my-name").addEventListener("change", () => {
+    localStorage.setItem("hyst-name", $("my-name").value.trim());
+    if (state.code) listen();  // the teacher's list shows the new name
+  });
   $("join-code").addEventListener("keydown", (e) => { if (e.key === "Enter") join(); });
   $("new-session").addEventListener("click", () => openSession(null).catch((e) => setMsg("model-msg", e.message)));
   $("apply-json").addEventListener("click", async () => {
@@ -848,6 +1042,7 @@ async function main() {
   });
   $("csv-file").addEventListener("change", onCsvChosen);
   $("use-csv").addEventListener("click", () => useCsv());
+  $("t-col").addEventListener("change", () => showTiming(null));  // asked again if uneven
   $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));
   $("fit").addEventListener("click", () => fit());
   $("diagnose").addEventListener("click", () => diagnose());
@@ -856,9 +1051,18 @@ async function main() {
   $("fmi-version").addEventListener("change", fmuLinks);
   for (const id of ["dl-fmu-inv", "dl-fmu-fwd"]) $(id).addEventListener("click", downloadFmu);
   $("teacher-push").addEventListener("click", teacherPush);
+  const digiStep = (d) => { stopPlay(); showState(Number($("digi-step").value) + d).catch((e) => setMsg("model-msg", e.message)); };
+  $("digi-prev").addEventListener("click", () => digiStep(-1));
+  $("digi-next").addEventListener("click", () => digiStep(1));
+  $("digi-step").addEventListener("input", () => digiStep(0));
+  $("digi-play").addEventListener("click", togglePlay);
+  $("teacher-push-mine").addEventListener("click", teacherPush);
   $("teacher-refresh").addEventListener("click", teacherRefresh);
   document.querySelectorAll("#tabs button").forEach((b) => b.addEventListener("click", () => selectFigure(b.dataset.fig)));
   $("view-help").textContent = VIEW_HELP[state.fig];
+  addTips();
+  new MutationObserver(() => addTips(document.querySelector("aside"))).observe(
+    document.querySelector("aside"), { childList: true, subtree: true });
   const saved = localStorage.getItem("hyst-session");
   try {
     await openSession(saved);

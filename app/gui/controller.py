@@ -29,7 +29,9 @@ from ..services import controls as C
 from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
+from ..services.events import HUB
 from ..services.ratelimit import RateLimiter
+from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
@@ -51,8 +53,16 @@ __all__ = ["SessionView"]
 
 #: Plot height / width of each view in the floating panel.
 ASPECT = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0, "closed-loop": 0.75}
+#: Plot height / width in projector mode (a 1200 px wide plot fits a 1080 px high screen).
+PROJECTOR_ASPECT = 0.6
+#: Shortest interval between two progress updates of a running diagnosis, s.
+PROGRESS_S = 0.3
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
+
+
+class _Cancelled(Exception):  # noqa: N818 - a signal, not an error
+    """Raised by a diagnosis' progress report once Cancel was clicked: it stops there."""
 
 
 class SessionView:
@@ -74,6 +84,9 @@ class SessionView:
         ``download(filename, content)`` sends a file to this tab.
     scene, camera : optional
         The tab's 3D scene and camera (the digitized state cube).
+    on_session : callable, optional
+        ``on_session(code)`` is called with the code of each session the view shows (the
+        explorer remembers it for the browser, so a reload keeps the session).
 
     Notes
     -----
@@ -90,8 +103,10 @@ class SessionView:
         download: Callable[[str, bytes], None] | None = None,
         scene: Any = None,
         camera: Any = None,
+        on_session: Callable[[str], None] | None = None,
     ) -> None:
         self.registry = registry
+        self._on_session = on_session
         self.session = session
         self.settings = settings
         self.camera = camera
@@ -107,7 +122,9 @@ class SessionView:
         self._syncing = threading.local()
         self._lock = threading.RLock()
         self._work_lock = threading.Lock()
+        self._cancel = threading.Event()  # set by Cancel: the running diagnosis stops
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
+        self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
         self.rendered_version = -1
         self.last_result: Result | None = None
@@ -119,6 +136,7 @@ class SessionView:
         self.worker = LatestWinsWorker(self._render, self._render_error, name=f"render-{id(self)}")
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
+        self._attend()
         self.worker.request()
 
     @property
@@ -130,6 +148,11 @@ class SessionView:
     def figure_name(self) -> str:
         """Key of the figure selected in the *View* dropdown."""
         return self.ui.figure_name
+
+    @property
+    def projecting(self) -> bool:
+        """Whether the plot is at projector size (asked for, and not on a phone)."""
+        return bool(self.ui.projector.value) and not self.ui.narrow
 
     @property
     def _preset_names(self) -> dict[str, str]:
@@ -146,6 +169,7 @@ class SessionView:
                   ui.use_rec):
             h.on_update(self._guarded(self._controls_changed))
         ui.n_ops.on_update(self._guarded(self._n_changed))
+        ui.projector.on_update(self._guarded(self._projector_changed))
         for dd in ui.view_dropdowns:
             dd.on_update(self._guarded(self._view_chosen))
         ui.digi_step.on_update(self._guarded(self._step_changed))
@@ -158,10 +182,15 @@ class SessionView:
         ui.json_btn.on_click(self._guarded(self._json_clicked))
         ui.join_btn.on_click(self._guarded(self._join_clicked))
         ui.push_btn.on_click(self._guarded(self._push_clicked))
+        ui.who_btn.on_click(self._guarded(self._who_clicked))
+        ui.name_in.on_update(self._guarded(lambda ev: self._attend()))
         ui.upload.on_upload(self._guarded(self._csv_uploaded))
         ui.remap.on_click(self._guarded(self._remap_clicked))
+        ui.timing_resample.on_click(self._guarded(lambda ev: self._load_csv("resample")))
+        ui.timing_keep.on_click(self._guarded(lambda ev: self._load_csv("keep")))
         ui.fit_btn.on_click(self._guarded(self._fit_clicked))
         ui.diag_btn.on_click(self._guarded(self._diagnose_clicked))
+        ui.cancel_btn.on_click(self._guarded(lambda ev: self._cancel.set()))
         ui.report_btn.on_click(self._guarded(self._report_clicked))
         ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
@@ -208,6 +237,10 @@ class SessionView:
                 dd.value = event.target.value
         self.worker.request()
 
+    def _projector_changed(self, event: Any) -> None:
+        self.ui.use_projector(bool(self.ui.projector.value))
+        self.worker.request()
+
     def set_narrow(self, narrow: bool) -> None:
         """Show the plot in the control sheet (phones) or in the floating panel."""
         value = self.ui.view_dd.value
@@ -230,7 +263,7 @@ class SessionView:
         with self._quiet(), self._lock:
             ui.code_md.content = (
                 f"**Session code: `{self.session.code}`**  \n"
-                "type it under *Session* after a reload to continue"
+                "a reload keeps it in this browser; elsewhere type it under *Session*"
             )
             m = cfg.model
             preset = actions.matching_preset(m)
@@ -380,27 +413,60 @@ class SessionView:
         self.bind(new)
         self._toast("Session", f"now in session {new.code}")
 
-    def _push_clicked(self, event: Any) -> None:
-        """Push this tab's model to every session: always with the teacher token, also on
-        loopback (another page the teacher opens must not push); on a loopback server a
-        tab that gave the right token once keeps it (:attr:`teacher`)."""
+    def _attend(self) -> None:
+        """Count this tab in the teacher's list, under the name typed (no code shown), and
+        tell the explorer which session it shows."""
+        HUB.attend(self, self.session.code, str(self.ui.name_in.value))
+        if self._on_session is not None:
+            self._on_session(self.session.code)
+
+    def pushed(self, event: dict[str, Any]) -> None:
+        """A teacher's push arrived (the session is already changed): say so in a notice
+        and under the session code; the tab that pushed says "Pushed" itself."""
+        if event.get("by") == id(self):
+            return
+        what = str(event.get("title") or event.get("preset") or
+                   ("a new input" if event.get("signal") else "a model"))
+        text = (f"Your teacher pushed {what}{' with its input' if event.get('signal') else ''}"
+                f" at {time.strftime('%H:%M:%S')}. Your controls now start from it.")
+        self.ui.pushed_md.content = f"**Teacher:** {md_text(text)}"
+        self._toast("Your teacher pushed a change", text)
+
+    def _teacher_allowed(self, refused: str) -> bool:
+        """Whether this tab may act as the teacher: always with the teacher token, also on
+        loopback (another page the teacher opens must not); on a loopback server a tab
+        that gave the right token once keeps it (:attr:`teacher`). A refusal is a toast
+        titled ``refused``."""
         given = str(self.ui.teacher_token.value)
         self.ui.teacher_token.value = ""
         if not self.settings.teacher_token:
-            self._toast("Not pushed", "this server has no teacher token, so the GUI cannot "
-                        "push; start hyst serve with --teacher-token-file FILE (or set "
-                        "HYST_TEACHER_TOKEN) and type that token here", True)
-            return
+            self._toast(refused, "this server has no teacher token, so the GUI cannot act "
+                        "as the teacher; start hyst serve with --teacher-token-file FILE (or "
+                        "set HYST_TEACHER_TOKEN) and type that token here", True)
+            return False
         if given or not self.teacher:
             ok = self.settings.teacher_ok(given or None)
             self.teacher = ok and not self.settings.public
             if not ok:
-                self._toast("Not pushed", "wrong teacher token: type the token hyst serve "
+                self._toast(refused, "wrong teacher token: type the token hyst serve "
                             "was given (or generated into teacher-token in its state "
                             "directory)", True)
-                return
+                return False
+        return True
+
+    def _who_clicked(self, event: Any) -> None:
+        """The teacher's list: counts and names, never session codes."""
+        if self._teacher_allowed("Not shown"):
+            self.ui.who_md.content = md_text(HUB.roster().text)
+
+    def _push_clicked(self, event: Any) -> None:
+        """Push this tab's model to every session (the teacher token, see
+        :meth:`_teacher_allowed`)."""
+        if not self._teacher_allowed("Not pushed"):
+            return
         n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
-                            note={"preset": None, "title": "the teacher's model"})
+                            note={"preset": None, "title": "a model", "model": True,
+                                  "by": id(self)})
         self._toast("Pushed", f"model sent to {n} sessions")
 
     def bind(self, session: Session) -> None:
@@ -410,6 +476,7 @@ class SessionView:
         session.add_listener(self._on_session_change)
         self.lesson.follow(session)
         self._sync_controls(session.snapshot()[0])
+        self._attend()
         self.worker.request()
 
     # ------------------------------------------------------------------ data
@@ -424,22 +491,48 @@ class SessionView:
             return
         self._load_csv()
 
-    def _load_csv(self) -> None:
+    def _load_csv(self, timing: str | None = None) -> None:
+        """Upload the last CSV with the column mapping; uneven time stamps wait for the
+        choice (``timing``: resample onto the step shown, or keep)."""
         ui = self.ui
+        if self._csv is None:
+            ui.data_md.content = "⚠️ upload a CSV first"
+            return
         text, name = self._csv
         if len(text) > self.settings.max_upload_bytes:
             ui.data_md.content = f"⚠️ file larger than {self.settings.max_upload_bytes} bytes"
             return
+        step = self._timing.step if timing == "resample" and self._timing else None
         try:
             up = actions.upload(self.session, text, self.settings, t_col=ui.t_col.value or None,
                                 u_col=ui.u_col.value or None, y_col=ui.y_col.value or None,
-                                name=name)
+                                name=name, timing=timing, step=step)
+        except UnevenUpload as exc:
+            self._ask_timing(exc.timing)
+            return
         except ParameterError as exc:  # core.csvio.CSVError names the line and the column
             ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
             return
+        self._ask_timing(None)
         ui.data_md.content = recording_markdown(up.recording)
+        if up.time_steps:
+            ui.data_md.content += f"\n\n{md_text(up.time_steps[0].upper() + up.time_steps[1:])}."
+            self._toast("Recording loaded", up.time_steps)
         ui.report_md.content = ""
         self._commit(lambda c: replace(c, use_recording=True))
+
+    def _ask_timing(self, timing: Timing | None) -> None:
+        """Offer the choice for uneven time stamps (``None``: hide it)."""
+        ui = self.ui
+        self._timing = timing
+        ui.timing_resample.visible = ui.timing_keep.visible = timing is not None
+        if timing is None:
+            return
+        ui.timing_resample.label = f"Resample onto even {seconds_text(timing.step)} steps"
+        ui.data_md.content = (
+            f"⚠️ **CSV not loaded yet:** {md_text(timing.text)}.  \n"
+            f"Choose below: resample onto an even grid of {md_text(seconds_text(timing.step))}"
+            " steps (linear interpolation), or keep the time stamps as measured.")
 
     def _fit_clicked(self, event: Any) -> None:
         ui = self.ui
@@ -460,13 +553,39 @@ class SessionView:
         )
 
     def _diagnose_clicked(self, event: Any) -> None:
+        """Run the diagnosis with its progress under the buttons and a Cancel button (the
+        diagnosis stops at its next progress report; nothing is stored)."""
+        ui = self.ui
         if self.session.recording is None:
-            self.ui.report_md.content = "⚠️ upload a recording first"
+            ui.report_md.content = "⚠️ upload a recording first"
             return
-        with self._busy("diagnosing (10–40 s for a long recording)"):
-            rep = actions.diagnose(self.session)
+        self._cancel.clear()
+        shown = [0.0]
+
+        def progress(fraction: float, message: str = "") -> None:
+            if self._cancel.is_set():
+                raise _Cancelled
+            now = time.monotonic()
+            if now - shown[0] >= PROGRESS_S:  # each update is a websocket message
+                shown[0] = now
+                ui.job_bar.value = float(100 * min(1.0, max(0.0, fraction)))
+                ui.report_md.content = (f"⏳ **diagnosing… {100 * fraction:.0f} %**"
+                                        + (f" ({md_text(message)})" if message else ""))
+
+        ui.job_bar.value = 0.0
+        ui.job_bar.visible = ui.cancel_btn.visible = True
+        try:
+            with self._busy("diagnosing (10–40 s for a long recording)"):
+                try:
+                    rep = actions.diagnose(self.session, progress)
+                except _Cancelled:
+                    ui.report_md.content = "Diagnosis cancelled: nothing was changed."
+                    return
+        finally:
+            ui.job_bar.visible = ui.cancel_btn.visible = False
         self.ui.report_md.content = diagnosis_markdown(rep)
         self.ui.report_btn.disabled = False
+        self.ui.view_dd.value = TITLES["diagnosis"]  # before and after, in the plot
 
     @contextmanager
     def _busy(self, what: str) -> Iterator[None]:
@@ -525,7 +644,7 @@ class SessionView:
     def _views(self, session: Session, name: str) -> set[str]:
         """What to compute: the view on show, and the digitized states while the 3D cube
         can show them (a small enough model: the session's model, parsed once per config)."""
-        views = set() if name == "fit" else {name}
+        views = set() if name in ("fit", "diagnosis") else {name}
         if self.cube.scene is not None and (operator_count(
                 actions.session_model(session, self.settings)) or 0) <= CUBE_MAX_DIGITS:
             views.add("digitized")
@@ -539,6 +658,9 @@ class SessionView:
         res = actions.session_result(session, self._views(session, name), self.settings)
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
+        elif name == "diagnosis":
+            fig = actions.diagnosis_figure(session) or F.message_figure(
+                "Diagnosis", "upload a recording and run the diagnosis to see before and after")
         else:
             fig = F.build(name, res)
         if session is not self.session or self.session.snapshot()[1] != v:
@@ -546,13 +668,17 @@ class SessionView:
         aspect = ASPECT.get(name, 0.72)
         # side-by-side panels are stacked: the floating panel is narrow (it leaves the
         # 3D scene in view), a phone's control sheet narrower still
-        fig, bands = F.stack_columns(fig, compact=ui.narrow)
+        fig, bands = self._for_screen(fig)
         if ui.narrow:
             aspect = max(0.9, 0.8 * bands)
+        elif self.projecting:
+            aspect = PROJECTOR_ASPECT
         elif bands > 1:
             aspect = min(1.35, 0.68 * bands)
         ui.plot.aspect = aspect
         ui.plot.figure = fig
+        notes = (fig.layout.get("meta") or {}).get("notes") or []
+        ui.notes_md.content = "  \n".join(f"⚠️ {md_text(n)}" for n in notes)
         self.shown_figure = name
         d = res.digitized
         self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1
@@ -562,6 +688,14 @@ class SessionView:
         ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
         self._show_digitized(res)
         ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    def _for_screen(self, fig: F.FigureJSON) -> tuple[F.FigureJSON, int]:
+        """``fig`` shaped for this tab's screen: side-by-side panels stacked (the floating
+        panel, a phone; :func:`~app.services.figures.stack_columns`), its text large in
+        projector mode. Returns the figure and its number of bands."""
+        if self.projecting:  # wide enough for panels side by side, read from afar
+            return F.large_text(fig), 1
+        return F.stack_columns(fig, compact=self.ui.narrow)
 
     def _render_error(self, exc: BaseException) -> None:
         self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
@@ -575,7 +709,7 @@ class SessionView:
             why = res.messages[0] if res.messages else "choose the Digitized view"
             ui.digi_md.content = f"⚠️ {md_text(why)}"
             ui.digi_step.disabled = True
-            self.cube.hide_marker()
+            self.cube.hide()  # another model: its state graph leaves the scene
             return
         rows = len(d.trace.sample)
         ui.digi_step.disabled = False
@@ -598,7 +732,7 @@ class SessionView:
             if force or now - self._state_sent >= STATE_REDRAW_S or k == len(tr.sample) - 1:
                 # the loop plot's current state and the digit rows' time line follow
                 fig = F.digitized_figure(res, highlight=k)
-                self.ui.plot.figure = F.stack_columns(fig, compact=self.ui.narrow)[0]
+                self.ui.plot.figure = self._for_screen(fig)[0]
                 self._state_sent, self._shown_state = now, k
 
     def _step_by(self, d: int) -> None:
@@ -627,6 +761,7 @@ class SessionView:
     def close(self) -> None:
         """Detach from the session and stop the worker and the playback."""
         self.playback.stop()
+        HUB.leave(self)
         self.session.remove_listener(self._on_session_change)
         self.lesson.close()
         self.worker.stop()

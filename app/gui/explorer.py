@@ -9,23 +9,33 @@ tabs a client may hold open is bounded before the websocket is accepted
 A closed tab's view is closed and forgotten, also when the tab closed while its view was
 still being built (viser runs connect and disconnect callbacks concurrently on its thread
 pool), and its memory is given back to the system (:mod:`app.gui.reclaim`).
+
+A reloaded tab keeps its session: the browser's id (a cookie the guard sets,
+:meth:`~app.gui.viser_guard.ViserGuard.browser_id`) maps to the session its last tab
+showed. A teacher's push (:meth:`~app.services.events.EventHub.broadcast`) reaches every
+tab as a notice.
 """
 
 from __future__ import annotations
 
 import threading
 import warnings
+from collections import OrderedDict
 from typing import Any
 
+from ..services.events import HUB
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
 from .controller import SessionView
-from .layout import NARROW_PX
+from .layout import is_narrow
 from .reclaim import Reclaimer
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
+
+#: Browsers whose last session is remembered (the oldest are forgotten beyond).
+MAX_BROWSERS = 10_000
 
 # a tab closed while its view is built makes viser warn once per tab that the rest of the
 # build goes nowhere; expected here (the view is closed at the end of its build)
@@ -60,6 +70,9 @@ class ExplorerGui:
         self.views: dict[int, SessionView] = {}
         self._lock = threading.Lock()
         self.reclaimer = Reclaimer()
+        #: browser id -> the code of the session its last tab showed
+        self._sessions: OrderedDict[str, str] = OrderedDict()
+        HUB.add_listener(self._on_event)
         server.gui.configure_theme(show_share_button=False, control_width="large",
                                    titlebar_content=None, show_logo=False)
         server.on_client_connect(self._connect)
@@ -80,15 +93,31 @@ class ExplorerGui:
             client.add_notification(title, body, auto_close_seconds=6.0,
                                     color="red" if error else None)
 
-        if not self._live(client) or not self._may_create(client):
+        if not self._live(client):
             return
-        view = SessionView(client.gui, self.registry, self.registry.create(), self.settings,
-                           notify=notify, scene=client.scene, camera=client.camera)
+        browser = None if self.guard is None else self.guard.browser_id(client.client_id)
+        session = self._known_session(browser)
+        if session is None:
+            if not self._may_create(client):
+                return
+            session = self.registry.create()
+
+        def remember(code: str) -> None:
+            if browser is not None:
+                with self._lock:
+                    self._sessions[browser] = code
+                    self._sessions.move_to_end(browser)
+                    while len(self._sessions) > MAX_BROWSERS:
+                        self._sessions.popitem(last=False)
+
+        view = SessionView(client.gui, self.registry, session, self.settings,
+                           notify=notify, scene=client.scene, camera=client.camera,
+                           on_session=remember)
 
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0
             if width:
-                view.set_narrow(width < NARROW_PX)
+                view.set_narrow(is_narrow(width, getattr(camera, "image_height", 0) or 0))
 
         client.camera.on_update(on_camera)
         on_camera(client.camera)
@@ -105,6 +134,29 @@ class ExplorerGui:
         before it runs the disconnect callbacks, so a view stored under :attr:`_lock`
         while its client is listed is found by :meth:`_disconnect`."""
         return client.client_id in self.server.get_clients()
+
+    def _known_session(self, browser: str | None) -> Any:
+        """The session this browser's last tab showed (a reload keeps it), or None."""
+        if browser is None:
+            return None
+        with self._lock:
+            code = self._sessions.get(browser)
+        if code is None:
+            return None
+        try:
+            return self.registry.get(code)
+        except Exception:  # noqa: BLE001 - expired or reset: a new session instead
+            return None
+
+    def _on_event(self, event: dict[str, Any]) -> int:
+        """A broadcast (the teacher's push): a notice in every tab; returns how many."""
+        if event.get("kind") != "push":
+            return 0
+        with self._lock:
+            views = list(self.views.values())
+        for v in views:
+            v.pushed(event)
+        return len(views)
 
     def _may_create(self, client: Any) -> bool:
         """Whether this tab's client may have a new session; else say so in the tab."""
@@ -135,6 +187,7 @@ class ExplorerGui:
 
     def close(self) -> None:
         """Stop every view's worker."""
+        HUB.remove_listener(self._on_event)
         with self._lock:
             views, self.views = list(self.views.values()), {}
         for v in views:

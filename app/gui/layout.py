@@ -20,19 +20,82 @@ from ..services.settings import Settings
 
 __all__ = [
     "NARROW_PX",
+    "PANEL_PX",
+    "PROJECTOR_PX",
     "TITLES",
     "Widgets",
+    "is_narrow",
     "set_value",
 ]
 
 #: The views of the *View* dropdown: figure key -> title.
 TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "Loading curve",
           "inverse": "Inverse", "digitized": "Digitized states", "closed-loop": "Closed loop",
-          "fit": "Fit"}
+          "fit": "Fit", "diagnosis": "Diagnosis"}
 #: Browser widths (CSS px) below which the plot moves into the control sheet.
 NARROW_PX = 700
+#: Width of the floating plot panel, CSS px (leaves the 3D cube in view on a laptop).
+PANEL_PX = 470
+#: The panel's width in projector mode, CSS px (62 % of a 1920 px projector).
+PROJECTOR_PX = 1200
+#: The screen width projector mode is made for, CSS px.
+PROJECTOR_SCREEN_PX = 1920
+#: A canvas this much higher than wide is a phone held upright (or a window as narrow).
+PORTRAIT = 1.15
 #: Groups with more sliders than this start collapsed.
 OPEN_GROUP_SLIDERS = 8
+
+
+def is_narrow(width: float, height: float) -> bool:
+    """Whether the plot belongs in the control sheet, from the canvas size viser reports.
+
+    viser reports the canvas in device pixels, scaled by its adaptive pixel ratio (0.75 to
+    1 times the screen's): a phone at ratio 3 reports 800-1200 px wide, so the width alone
+    misses it. Its shape does not depend on the ratio: a canvas higher than wide by
+    :data:`PORTRAIT` is a phone held upright, as is one narrower than :data:`NARROW_PX`.
+    """
+    return width < NARROW_PX or height > PORTRAIT * width
+
+
+#: Tooltips (viser's ``hint``) of the widgets, by attribute of :class:`Widgets`; set after
+#: the widgets are built, so every control says what it does (the model's sliders bring
+#: their own, from their declarations).
+HINTS = {
+    "join_btn": "continue the session whose code you typed",
+    "push_btn": "send this tab's model (as you edited it) to every student now",
+    "preset": "models and inputs taken from the papers' examples",
+    "load_preset": "replace the model and the input by the chosen preset's",
+    "n_ops": "number of play operators; thresholds spread evenly up to the widest",
+    "json_in": "the session's model as JSON: any model type, edited by hand",
+    "json_btn": "use the model typed in the JSON box",
+    "kind": "shape of the input signal u(t)",
+    "amp": "peak value of the input (in the input's unit)",
+    "freq": "cycles per second of the input",
+    "offset": "value the input oscillates around",
+    "duration": "length of the simulated input",
+    "samples": "number of time steps simulated (more: smoother, slower)",
+    "use_rec": "drive the model with the uploaded recording's input",
+    "digi_step": "which state of the digitized trace to show",
+    "play_speed": "states shown per second while playing",
+    "prev_btn": "one state back", "next_btn": "one state forward",
+    "play_btn": "play the states from the start", "stop_btn": "stop playing",
+    "upload": "a CSV file with time, input and output columns",
+    "t_col": "time column: name or 0-based index (empty: found automatically)",
+    "u_col": "input column: name or 0-based index (empty: found automatically)",
+    "y_col": "output column: name or 0-based index (empty: found automatically)",
+    "remap": "load the CSV again with the columns typed above",
+    "fit_n": "number of operators of the fitted model",
+    "fit_kind": "which model type the fit identifies",
+    "fit_btn": "fit the chosen model to the recording (it replaces the session's model)",
+    "diag_btn": "find what the PI model misses, proved on rows the fit never saw",
+    "report_btn": "the full diagnosis report as an HTML file",
+    "dl_json": "the model as a parameter set (JSON) to continue later",
+    "dl_mat": "the model for MATLAB / Octave",
+    "dl_c": "C code of the model and its inverse for a controller",
+    "ps_upload": "load a parameter set saved earlier (JSON)",
+    "_dd_wide": "which view of the model the plot shows",
+    "_dd_narrow": "which view of the model the plot shows",
+}
 
 
 def set_value(handle: Any, value: Any) -> None:
@@ -60,6 +123,7 @@ class Widgets:
         self._param_layout = ""
         self._param_subfolders: list[Any] = []
         self.code_md = g.add_markdown("")
+        self.pushed_md = g.add_markdown("")  # the teacher's last push, said in words
         # viser shows no floating panel on a phone: there the plot lives at the top of
         # the control sheet instead (see :meth:`use_narrow`)
         with g.add_folder("Plot", visible=False) as self.narrow_folder:
@@ -67,9 +131,15 @@ class Widgets:
                                              initial_value=TITLES["loop"])
             self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
                                              aspect=0.9, config=F.PLOT_CONFIG)
+            self._notes_narrow = g.add_markdown("")
         with g.add_folder("Session", expand_by_default=False):
-            self.code_in = g.add_text("Session code", initial_value="")
+            self.code_in = g.add_text("Session code", initial_value="",
+                                      hint="the code of a session to continue (shown at the "
+                                           "top of the page that uses it)")
             self.join_btn = g.add_button("Join / restore session")
+            self.name_in = g.add_text("Your name", initial_value="",
+                                      hint="optional: shown in the teacher's list of who is "
+                                           "connected (your session code is not)")
             # viser 1.1 has no password field: the token is typed here and the field is
             # cleared after each push, so a projector shows it for a moment at most
             self.teacher_token = g.add_text("Teacher token", initial_value="",
@@ -78,6 +148,9 @@ class Widgets:
                                                  "after use, on a server of this computer "
                                                  "the tab remembers it")
             self.push_btn = g.add_button("Teacher: push this model to every session")
+            self.who_btn = g.add_button("Teacher: who is connected?",
+                                        hint="counts and names only, never session codes")
+            self.who_md = g.add_markdown("")
         tabs = g.add_tab_group()
         with tabs.add_tab("Model"):
             g.add_markdown("*A PI model adds play operators (width r_i, weight p_i) to a "
@@ -140,12 +213,23 @@ class Widgets:
             self.y_col = g.add_text("Output column", initial_value="")
             self.remap = g.add_button("Apply column mapping")
             self.data_md = g.add_markdown("No recording yet: upload a CSV (t, u, y).")
+            # uneven time stamps: the upload waits for one of these (shown only then)
+            self.timing_resample = g.add_button(
+                "Resample onto an even grid", visible=False,
+                hint="linear interpolation onto evenly spaced time stamps (the step shown)")
+            self.timing_keep = g.add_button(
+                "Keep the time stamps as measured", visible=False,
+                hint="a PI model does not depend on the step; rate-dependent effects "
+                     "assume an even one")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=settings.max_operators, step=1)
             kinds = catalog.fit_kinds()
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")
+            # a running diagnosis: how far it is, and how to stop it
+            self.job_bar = g.add_progress_bar(0.0, visible=False, animated=True)
+            self.cancel_btn = g.add_button("Cancel the diagnosis", visible=False, color="red")
             self.report_btn = g.add_button("Download diagnosis report (HTML)", disabled=True)
             self.report_md = g.add_markdown("")
         with tabs.add_tab("Export"):
@@ -163,17 +247,28 @@ class Widgets:
         # scene origin, centre of the canvas) in view; on a narrow screen viser docks
         # panels, and the plot is also in the control sheet's "Plot" tab below.
         self.panel = g.add_panel()
-        self.panel.float(x=10, y=10, width=470)
+        self.panel.float(x=10, y=10, width=PANEL_PX)
         with self.panel.add_tab("Plots"):
+            self.projector = g.add_checkbox(
+                "Projector: large plot", False,
+                hint=f"for a screen {PROJECTOR_SCREEN_PX} px wide: the plot "
+                     f"{PROJECTOR_PX} px wide, its text 16 px and larger")
             self._dd_wide = g.add_dropdown("View", tuple(TITLES.values()),
                                            initial_value=TITLES["loop"])
             # viser 1.1.1 draws the plot ``aspect`` times as high as wide (its docstring
             # says width/height; measured in Chromium: height = width * aspect).
             self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
                                            config=F.PLOT_CONFIG)
+            self._notes_wide = g.add_markdown("")
         self.narrow = False
         #: The *View* dropdown and the plot on show (the panel's, or the sheet's on a phone).
         self.view_dd, self.plot = self._dd_wide, self._plot_wide
+        #: The notes under the plot on show (what the figure's ``meta.notes`` say).
+        self.notes_md = self._notes_wide
+        for attr, text in HINTS.items():
+            handle = getattr(self, attr, None)
+            if handle is not None and not getattr(handle, "hint", None):
+                handle.hint = text
         self.status_md = g.add_markdown("")
 
     @property
@@ -192,7 +287,13 @@ class Widgets:
         self.panel.visible = not narrow
         self.view_dd, self.plot = ((self._dd_narrow, self._plot_narrow) if narrow
                                    else (self._dd_wide, self._plot_wide))
+        self.notes_md.content = ""
+        self.notes_md = self._notes_narrow if narrow else self._notes_wide
         return True
+
+    def use_projector(self, on: bool) -> None:
+        """The floating plot panel at projector size (``on``) or at its usual width."""
+        self.panel.float(x=10, y=10, width=PROJECTOR_PX if on else PANEL_PX)
 
     @property
     def view_dropdowns(self) -> tuple[Any, Any]:

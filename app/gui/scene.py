@@ -2,9 +2,13 @@
 
 Each of the ``n`` digits is one axis direction: a state ``b_n … b_1`` sits at the sum of
 the directions of its set digits, so the ``2**n`` states are the vertices of a (projected)
-hypercube and the up / down edges of the state graph are its edges. A red ball marks the
-current state; the camera looks at the cube from off its diagonal, so no two vertices
-overlap (000 and 111 of the three-operator example).
+hypercube and the up / down edges of the state graph are its edges. Up to
+:data:`FULL_CUBE_DIGITS` digits the whole cube is drawn; beyond, a projected hypercube is a
+tangle (128 vertices for 7 digits), so only the states the input visited are drawn, joined
+in the order it visited them, each labelled. A red ball marks the current state; the camera
+looks at the cube from off its diagonal, so no two vertices overlap (000 and 111 of the
+three-operator example). A model without a digitized view hides it all (:meth:`StateCube.
+hide`).
 """
 
 from __future__ import annotations
@@ -13,14 +17,18 @@ from typing import Any
 
 import numpy as np
 
-from ..services.simulation import Digitized
+from ..services.simulation import FULL_GRAPH_DIGITS, Digitized, state_text, visited_path
 
-__all__ = ["CUBE_MAX_DIGITS", "StateCube", "embed"]
+__all__ = ["CUBE_MAX_DIGITS", "FULL_CUBE_DIGITS", "StateCube", "embed"]
 
 #: Largest number of digits drawn as a 3D hypercube (more: the 2D figure only).
 CUBE_MAX_DIGITS = 7
 #: Largest number of digits whose vertices get a text label.
 LABEL_MAX_DIGITS = 4
+#: Largest number of digits drawn as the whole cube (more: the visited states only).
+FULL_CUBE_DIGITS = FULL_GRAPH_DIGITS
+#: Most visited states labelled (more: the current state only is said, in the text).
+LABEL_MAX_STATES = 40
 
 
 def embed(digits: np.ndarray) -> np.ndarray:
@@ -57,45 +65,66 @@ class StateCube:
         self.points: np.ndarray | None = None
         self._center = np.zeros(3)
         self._marker: Any = None
+        self._handles: list[Any] = []
+
+    def hide(self) -> None:
+        """Take the state graph off the scene (the model changed to one without it)."""
+        for h in self._handles:
+            try:
+                h.remove()
+            except Exception:  # noqa: BLE001 - a handle of a closing tab
+                pass
+        self._handles = []
+        self._marker = None
+        self._key = None
+        self.points = None
 
     def draw(self, d: Digitized) -> None:
-        """Draw ``d``'s state graph (a no-op when it is already drawn); beyond
-        :data:`CUBE_MAX_DIGITS` digits, or without a graph, the cube is hidden."""
+        """Draw ``d``'s state graph (a no-op when it is already drawn): the whole cube up
+        to :data:`FULL_CUBE_DIGITS` digits, the visited states beyond; beyond
+        :data:`CUBE_MAX_DIGITS` digits, or without a graph, it is hidden."""
         if self.scene is None:
             return
         g = d.graph
         n = d.model.n
-        if g is None or n > CUBE_MAX_DIGITS:
-            if self._key is not None:
-                self.scene.add_frame("/states", show_axes=False, visible=False)
-            self._key = None
-            self.points = None
-            self.hide_marker()
+        if (g is None and n <= FULL_CUBE_DIGITS) or n > CUBE_MAX_DIGITS:
+            self.hide()
             return
-        if (n,) == self._key:
+        if n <= FULL_CUBE_DIGITS:
+            states, up_i, down_i = g.digits, g.up, g.down
+            labels = list(g.strings) if n <= LABEL_MAX_DIGITS else []
+        else:
+            states, up_i, down_i, _ = visited_path(d.trace.digits)
+            labels = [state_text(r) for r in states] if len(states) <= LABEL_MAX_STATES \
+                else []
+        key = (n, np.asarray(states, dtype=np.int8).tobytes())
+        if key == self._key:
             return
-        raw = np.array([embed(row) for row in g.digits])
+        self.hide()  # another graph: the last one's nodes, edges and labels go
+        raw = np.array([embed(np.asarray(row)) for row in states])
         self._center = raw.mean(axis=0)
         pts = raw - self._center  # centred on the scene origin (camera target)
         self.points = pts
-        self.scene.add_frame("/states", show_axes=False, visible=True)
-        self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
-                                   colors=(120, 120, 120), point_size=0.06,
-                                   point_shape="circle")
-        up = np.stack((pts[g.up[:, 0]], pts[g.up[:, 1]]), axis=1)
-        down = np.stack((pts[g.down[:, 0]], pts[g.down[:, 1]]), axis=1)
-        self.scene.add_line_segments("/states/up", up.astype(np.float32), colors=(31, 119, 180),
-                                     thickness=2.0, thickness_units="screen")
-        self.scene.add_line_segments("/states/down", (down + 0.01).astype(np.float32),
-                                     colors=(255, 127, 14), thickness=2.0,
-                                     thickness_units="screen")
-        if n <= LABEL_MAX_DIGITS:
-            for c, p in zip(g.strings, pts, strict=True):
-                self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.06),
-                                     font_screen_scale=1.6, anchor="bottom-left")
+        add = self._handles.append
+        add(self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
+                                       colors=(120, 120, 120), point_size=0.06,
+                                       point_shape="circle"))
+        up = np.stack((pts[up_i[:, 0]], pts[up_i[:, 1]]), axis=1).reshape(-1, 2, 3)
+        down = np.stack((pts[down_i[:, 0]], pts[down_i[:, 1]]), axis=1).reshape(-1, 2, 3)
+        for name, seg, color in (("up", up, (31, 119, 180)),
+                                 ("down", down + 0.01, (255, 127, 14))):
+            if len(seg):
+                add(self.scene.add_line_segments(f"/states/{name}", seg.astype(np.float32),
+                                                 colors=color, thickness=2.0,
+                                                 thickness_units="screen"))
+        for c, p in zip(labels, pts, strict=False):
+            add(self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.06),
+                                     font_screen_scale=1.6 if n <= LABEL_MAX_DIGITS else 1.1,
+                                     anchor="bottom-left"))
         self._marker = self.scene.add_icosphere("/states/current", radius=0.09,
                                                 color=(214, 39, 40))
-        self._key = (n,)
+        add(self._marker)
+        self._key = key
         self._aim_camera(pts)
 
     def show_state(self, digits: np.ndarray) -> None:

@@ -96,14 +96,9 @@ def recording_markdown(rec: Recording, rows: int = 5) -> str:
 
 
 def diagnosis_markdown(rep: dict[str, Any]) -> str:
-    """A diagnosis report as Markdown (findings first, then the numbers)."""
-    lines = ["### Diagnosis", f"*engine: {md_text(rep.get('engine', '?'))}*", ""]
+    """A diagnosis report as Markdown: its findings, sentences with units written for
+    people (:func:`app.services.diagnosis.diagnosis_summary`)."""
+    lines = ["### Diagnosis", ""]
     for f in rep.get("findings", []) or []:
         lines.append(f"- {md_text(f if isinstance(f, str) else json.dumps(f))}")
-    for k, v in rep.items():
-        if k in ("findings", "engine") or isinstance(v, dict | list):
-            continue
-        key = md_text(str(k).replace("_", " "))
-        lines.append(f"- **{key}**: {v:.4g}" if isinstance(v, float)
-                     else f"- **{key}**: {md_text(v)}")
     return "\n".join(lines)

@@ -19,6 +19,9 @@ in site-packages is edited:
 * **Client address**: each websocket's client address (:func:`app.services.clients.
   client_address`, ``X-Forwarded-For`` only from ``--trusted-proxy`` peers) is kept for the
   per-client session limit (:meth:`ViserGuard.client_address`).
+* **Browser**: the page sets a random browser id in the cookie :data:`BROWSER_COOKIE`
+  (``HttpOnly``, ``SameSite=Strict``; not the session code); the websocket's handshake
+  brings it back (:meth:`ViserGuard.browser_id`), so a reloaded tab finds its session.
 * **Open tabs**: a client holding ``max_tabs_per_client`` open websockets gets a 429 for
   the next handshake, and the server a 503 beyond ``max_tabs`` in all, before the
   connection is accepted (each open tab holds a view: widgets, a render thread, its
@@ -43,6 +46,8 @@ from __future__ import annotations
 
 import functools
 import http
+import re
+import secrets
 import threading
 import weakref
 from collections.abc import Callable
@@ -51,9 +56,9 @@ from typing import Any
 from ..services.clients import client_address
 from ..services.hosts import HostAllowList, foreign_origin, host_name
 
-__all__ = ["MAX_MESSAGE_BYTES", "MAX_QUEUED_FRAMES", "MAX_UPLOADS_PER_TAB", "SUPPORTED_VISER",
-           "VISER_CSP", "ViserGuard", "ViserGuardError", "bound_uploads", "check_viser",
-           "start_viser"]
+__all__ = ["BROWSER_COOKIE", "MAX_MESSAGE_BYTES", "MAX_QUEUED_FRAMES", "MAX_UPLOADS_PER_TAB",
+           "SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "bound_uploads",
+           "check_viser", "start_viser"]
 
 #: The viser versions whose internals this module was checked against (``major.minor.``).
 SUPPORTED_VISER = ("1.1.",)
@@ -87,6 +92,22 @@ MAX_QUEUED_FRAMES = 4
 MAX_UPLOADS_PER_TAB = 2
 #: Smallest upload part viser's client sends but for the last one, bytes (it sends 512 KiB).
 MIN_PART_BYTES = 64 * 1024
+#: Cookie of the viser page that names the browser (a random id, never a session code).
+BROWSER_COOKIE = "hyst_viser"
+#: How long a browser id is kept, s (a month: a course's sessions live about as long).
+BROWSER_COOKIE_S = 30 * 24 * 3600
+_BROWSER_ID = re.compile(r"^[A-Za-z0-9_-]{16,64}$")
+
+
+def _cookie(headers: Any, name: str) -> str | None:
+    """The value of cookie ``name`` in a request's ``Cookie`` headers (a valid browser id
+    only), else None."""
+    for value in headers.get_all("Cookie"):
+        for part in str(value).split(";"):
+            key, _, val = part.strip().partition("=")
+            if key == name and _BROWSER_ID.match(val):
+                return val
+    return None
 
 
 class ViserGuardError(RuntimeError):
@@ -136,6 +157,7 @@ class ViserGuard:
         self.max_upload_bytes = max_upload_bytes
         self.installed = False
         self._addresses: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+        self._browsers: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
         self._server: Any = None
 
     def wrap(self, process_request: Callable[[Any, Any], Any] | None
@@ -154,11 +176,19 @@ class ViserGuard:
                 if refused is not None:
                     return refused
                 self._addresses[connection] = address
+                browser = _cookie(request.headers, BROWSER_COOKIE)
+                if browser is not None:
+                    self._browsers[connection] = browser
                 return None
             response = None if process_request is None else process_request(connection,
                                                                              request)
             if response is not None:
                 _add_headers(response)
+                if _cookie(request.headers, BROWSER_COOKIE) is None and \
+                        "html" in str(response.headers.get("Content-Type", "")):
+                    response.headers["Set-Cookie"] = (
+                        f"{BROWSER_COOKIE}={secrets.token_urlsafe(18)}; Path=/; "
+                        f"Max-Age={BROWSER_COOKIE_S}; HttpOnly; SameSite=Strict")
             return response
 
         self.installed = True
@@ -215,12 +245,20 @@ class ViserGuard:
             return response
         return None
 
+    def _connection(self, client_id: int) -> Any:
+        live = getattr(getattr(self._server, "_websock_server", None), "_live_connections", {})
+        return live.get(client_id)
+
     def client_address(self, client_id: int) -> str:
         """The client address of the live websocket ``client_id`` (``"unknown"`` when gone)."""
-        server = self._server
-        live = getattr(getattr(server, "_websock_server", None), "_live_connections", {})
-        connection = live.get(client_id)
+        connection = self._connection(client_id)
         return "unknown" if connection is None else self._addresses.get(connection, "unknown")
+
+    def browser_id(self, client_id: int) -> str | None:
+        """The browser id (cookie :data:`BROWSER_COOKIE`) of the live websocket
+        ``client_id``, or None (no cookie, or gone)."""
+        connection = self._connection(client_id)
+        return None if connection is None else self._browsers.get(connection)
 
 
 def _is_upgrade(request: Any) -> bool:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from fastapi import APIRouter, HTTPException, Query, Request
@@ -12,7 +12,7 @@ from starlette.concurrency import run_in_threadpool
 from ..services import actions
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
-from .schemas import CsvPreviewOut, DiagnosisOut, FitIn, FitOut, RecordingOut
+from .schemas import CsvPreviewOut, DiagnosisOut, FigureOut, FitIn, FitOut, RecordingOut
 
 __all__ = ["router"]
 
@@ -58,18 +58,26 @@ async def upload_recording(
     dt: float = Query(1e-3, gt=0, le=3600,
                       description="sample spacing when there is no time column"),
     name: str = Query("upload.csv", max_length=200),
+    timing: Literal["resample", "keep"] | None = Query(
+        None, description="uneven time stamps: 'resample' onto an even grid (of step "
+                          "seconds, else the median spacing) or 'keep' them as measured"),
+    step: float | None = Query(None, gt=0, le=3600,
+                               description="the even step of timing=resample, s"),
 ) -> dict[str, Any]:
     """Store a recording from a raw ``text/csv`` body with an optional column mapping.
 
     The body is CSV content, never a file name. The response lists the cleaning notes
     (removed rows, skipped lines, the run kept) and the file's runs.
-    Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column``.
+    Errors: 413 (too large), 415 (not text/csv), 422 with ``line``/``column`` (and
+    ``uneven``, the spacing and the step offered, when the time stamps are uneven and no
+    ``timing`` was chosen).
     """
     _check_type(request)
     body = await read_body(request, settings.max_upload_bytes)
     up = await run_in_threadpool(
         lambda: actions.upload(session, body, settings, t_col=t_col, u_col=u_col,
-                               y_col=y_col, run=run, dt=dt, name=name)
+                               y_col=y_col, run=run, dt=dt, name=name,
+                               timing=timing, step=step)
     )
     rec = up.recording
     return {
@@ -78,6 +86,7 @@ async def upload_recording(
         "notes": list(rec.cleaning),
         "runs": list(up.runs),
         "run": None if rec.run is None else str(rec.run),
+        "time_steps": up.time_steps,
         "t_range": [float(rec.t[0]), float(rec.t[-1])],
         "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],
         "y_range": [float(np.min(rec.y)), float(np.max(rec.y))],
@@ -104,6 +113,16 @@ async def diagnose(request: Request, session: SessionDep,
     the bounded queue, waited for; cancelled if the client hangs up)."""
     job = start_job(request, session, settings, "diagnose", {})
     return await wait_for(request, job)
+
+
+@router.get("/sessions/{code}/diagnosis/figure", response_model=FigureOut)
+def diagnosis_figure(session: SessionDep) -> dict[str, Any]:
+    """The last diagnosis before and after: loops and residuals in the recording's units
+    (the page's *Diagnosis* view)."""
+    fig = actions.diagnosis_figure(session)
+    if fig is None:
+        raise HTTPException(409, actions.no_report(session))
+    return fig.to_dict()
 
 
 @router.get("/sessions/{code}/diagnosis/report.html", response_class=HTMLResponse)

@@ -22,7 +22,7 @@ import json
 from collections.abc import AsyncIterator
 from typing import Any
 
-from fastapi import APIRouter, Header, HTTPException, Request
+from fastapi import APIRouter, Header, HTTPException, Query, Request
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
@@ -49,6 +49,8 @@ async def session_events(
     request: Request,
     settings: SettingsDep,
     last_event_id: str | None = Header(default=None),
+    name: str = Query("", max_length=200,
+                      description="the student's name, shown in the teacher's list"),
 ) -> StreamingResponse:
     """Server-sent events of session ``code`` (teacher pushes) for about 10 s, then the
     browser reconnects (``Last-Event-ID`` replays what it missed). One client may hold
@@ -59,7 +61,8 @@ async def session_events(
     start = HUB.newest_id() if last is None else last
     limit = settings.max_streams_per_client
     try:
-        sub = HUB.subscribe(session.code, last, client=client_key(request), per_client=limit)
+        sub = HUB.subscribe(session.code, last, client=client_key(request), per_client=limit,
+                            name=name)
     except StreamsPerClientError:
         raise HTTPException(
             429, f"this computer already has {limit} live explorer pages open, the most one "
@@ -94,6 +97,9 @@ class PushIn(BaseModel):
     """What the teacher pushes to every session."""
 
     preset: str | None = Field(None, description="preset name (see GET /api/presets)")
+    model: dict[str, Any] | None = Field(
+        None, description="a model document to push instead of a preset's (e.g. the one "
+                          "the teacher edited)")
     signal: SignalIn | None = Field(None, description="input signal for every session")
     use_preset_input: bool = Field(
         False, description="give every session the preset's own default input")
@@ -108,10 +114,14 @@ def teacher_push(
 ) -> dict[str, Any]:
     """Teacher: give every session a preset's model and/or an input signal, live."""
     require_teacher(settings, x_teacher_token)
-    if body.preset is None and body.signal is None:
-        raise HTTPException(422, "choose a preset or an input signal to push")
+    if body.preset is None and body.signal is None and body.model is None:
+        raise HTTPException(422, "choose a preset, a model or an input signal to push")
+    if body.preset is not None and body.model is not None:
+        raise HTTPException(422, "push a preset or a model, not both")
     model = signal = None
     title = None
+    if body.model is not None:  # checked like a saved parameter set, before any session
+        model, title = actions.push_model(body.model, settings), "a model"
     if body.preset is not None:
         try:
             doc = actions.preset_doc(body.preset)
@@ -128,7 +138,8 @@ def teacher_push(
             raise HTTPException(422, str(exc)) from None
     # stored: a reload or a restart keeps the push
     n, pages = actions.push(registry, model=model, signal=signal, note={
-        "preset": body.preset, "title": title, "signal": signal is not None})
+        "preset": body.preset, "title": title, "signal": signal is not None,
+        "model": model is not None})
     return {"preset": body.preset, "sessions": n, "pages": pages}
 
 
@@ -138,8 +149,13 @@ def teacher_connected(
     settings: SettingsDep,
     x_teacher_token: str | None = Header(default=None),
 ) -> dict[str, Any]:
-    """Teacher: how many pages listen live, and to which sessions (the codes)."""
+    """Teacher: how many web pages and viser tabs are open, in how many sessions, and the
+    names students gave (``text`` says it in a sentence without codes, for a projected
+    panel; ``codes`` are for scripts)."""
     require_teacher(settings, x_teacher_token)
     conn = HUB.connected()
-    return {"pages": sum(conn.values()), "sessions_live": len(conn),
-            "sessions": len(registry.all()), "codes": sorted(conn)}
+    roster = HUB.roster()
+    return {"pages": roster.web_pages, "viser_tabs": roster.viser_tabs,
+            "sessions_live": roster.sessions_live, "sessions": len(registry.all()),
+            "names": list(roster.names), "unnamed": roster.unnamed, "text": roster.text,
+            "codes": sorted(conn)}

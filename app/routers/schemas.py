@@ -283,6 +283,8 @@ class FiguresOut(BaseModel):
     slopes: list[Number] | None = Field(None, description="classical PI models only")
     max_loop_width: Number | None = None
     invertible: bool | None = None
+    digitized_states: int | None = Field(None, description="rows of the digitized trace "
+                                                           "(when that view was computed)")
     data: dict[str, list[Number]] | None = None
 
 
@@ -304,10 +306,28 @@ class PushOut(BaseModel):
 class ConnectedOut(BaseModel):
     """Pages that listen live."""
 
-    pages: int
-    sessions_live: int = Field(description="sessions with an open page")
+    pages: int = Field(description="open web pages (live event streams)")
+    viser_tabs: int = Field(0, description="open viser (3D / GUI) tabs")
+    sessions_live: int = Field(description="sessions with an open page or tab")
     sessions: int = Field(description="sessions in memory")
-    codes: list[str]
+    names: list[str] = Field([], description="names the students gave, sorted")
+    unnamed: int = Field(0, description="pages and tabs without a name")
+    text: str = Field("", description="the above in a sentence, without session codes")
+    codes: list[str] = Field(description="session codes with an open web page (for "
+                                         "scripts; the teacher panel does not show them)")
+
+
+class UnevenTimingOut(BaseModel):
+    """Uneven time stamps of a CSV and the choices of the upload (``timing=``)."""
+
+    column: str = Field(description="the time column")
+    spacing_min_s: float
+    spacing_max_s: float
+    spacing_mean_s: float
+    step_s: float = Field(description="the even step timing=resample uses (the median "
+                                      "spacing); pass it back as step= to be sure")
+    choices: list[str] = Field(description="resample: interpolate onto an even grid; "
+                                           "keep: keep the time stamps as measured")
 
 
 class CsvPreviewOut(BaseModel):
@@ -318,6 +338,9 @@ class CsvPreviewOut(BaseModel):
     n_rows: int
     encoding: str
     notes: list[str]
+    uneven: UnevenTimingOut | None = Field(
+        None, description="present when the time stamps (automatic column mapping) are "
+                          "uneven: upload with timing=resample or timing=keep")
 
 
 class RecordingOut(BaseModel):
@@ -328,6 +351,8 @@ class RecordingOut(BaseModel):
     notes: list[str] = Field(description="cleaning notes: removed rows, the run kept, ...")
     runs: list[str] = Field(description="run ids of the file's run column (empty without)")
     run: str | None = None
+    time_steps: str | None = Field(None, description="what was done with uneven time "
+                                                     "stamps, in words")
     t_range: list[Number]
     u_range: list[Number]
     y_range: list[Number]

@@ -83,13 +83,17 @@ async def session_figures(
     session: SessionDep,
     settings: SettingsDep,
     names: list[str] = Query(default=["loop"], alias="name"),  # noqa: B008
+    state: int | None = Query(None, ge=0, le=10_000_000,
+                              description="the digitized view at this state (row of its "
+                                          "trace; step and play)"),
 ) -> dict[str, Any]:
     """Figures of the session's current config (``?name=loop&name=time``); only what the
     named figures show is computed."""
     if actions.figures_are_quick(session, names, settings):
-        return actions.session_figures(session, names, settings)
+        return actions.session_figures(session, names, settings, state)
     # priced here; heavy ones in a worker process that stops when the client hangs up
-    return await run_figures(request, actions.session_figures_run(session, names, settings))
+    return await run_figures(request,
+                             actions.session_figures_run(session, names, settings, state))
 
 
 @router.post("/sessions/{code}/preset/{name}",

@@ -55,6 +55,7 @@ __all__ = [
     "checked_controls",
     "checked_model",
     "diagnose",
+    "diagnosis_figure",
     "diagnosis_report",
     "export",
     "fit",
@@ -65,6 +66,7 @@ __all__ = [
     "preset_doc",
     "preview_csv",
     "push",
+    "push_model",
     "result_payload",
     "session_figures",
     "figures_are_quick",
@@ -254,11 +256,32 @@ def diagnose(session: Session, progress: Callable[..., None] | None = None) -> d
     return diagnose_session(session, progress)
 
 
+def _units(session: Session) -> dict[str, str]:
+    rec = session.recording
+    return {} if rec is None else dict(rec.units)
+
+
 def diagnosis_report(session: Session) -> str | None:
-    """The session's last diagnosis as a self-contained HTML report, or ``None`` before
-    one."""
+    """The session's last diagnosis as a self-contained HTML report (axes in the
+    recording's units), or ``None`` before one."""
     result = session.diagnosis_result
-    return None if result is None else diagnosis_html(result)
+    return None if result is None else diagnosis_html(result, _units(session))
+
+
+def diagnosis_figure(session: Session) -> F.FigureJSON | None:
+    """The session's last diagnosis before and after (loops and residuals, in the
+    recording's units; :func:`.figures.diagnosis_figure`), or ``None`` before one."""
+    result = session.diagnosis_result
+    if result is None:
+        return None
+    rec = replace(result.records[0], units={**result.records[0].units, **_units(session)})
+    d = session.diagnosis or {}
+    preisach = (d.get("document") or {}).get("baseline", {}).get("model") == "preisach"
+    base = "Preisach model" if preisach else "PI model"
+    effects = d.get("effects") or []
+    final = f"with {', '.join(str(e).replace('-', ' ') for e in effects)}" if effects else \
+        "no effect added"
+    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final)
 
 
 def no_report(session: Session) -> str:
@@ -289,6 +312,26 @@ def export(session: Session, fmt: str, *, fmi: object = 3,
 
 
 # ----------------------------------------------------------------------------- teacher
+def push_model(doc: Any, settings: Settings) -> dict[str, Any]:
+    """A model document the teacher pushes, parsed and checked as a saved parameter set
+    is (any model type, the cost limits, the operator limit); returns its canonical form.
+
+    Raises
+    ------
+    ParameterError
+        Naming the invalid field or the limit exceeded.
+    """
+    try:
+        check_document(doc, settings.limits)
+        model = parameter_set_model(doc)
+    except (TypeError, KeyError) as exc:
+        raise ParameterError(str(exc)) from None
+    check_operator_limit(model, settings.max_operators)
+    d = model.to_dict()
+    check_config(Config().with_model(d), None, settings.limits)
+    return d
+
+
 def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
          signal: SignalSpec | None = None, note: dict[str, Any] | None = None,
          mismatch: float | None = None) -> tuple[int, int]:
@@ -337,17 +380,24 @@ def session_result(session: Session, views: Collection[str], settings: Settings)
 
 
 def result_payload(res: Result, names: Collection[str],
-                   include_data: bool = False) -> dict[str, Any]:
-    """The JSON body of ``/api/simulate`` and the session figure endpoints."""
+                   include_data: bool = False, state: int | None = None) -> dict[str, Any]:
+    """The JSON body of ``/api/simulate`` and the session figure endpoints; ``state``
+    highlights that row of the digitized trace (the web page's step and play), and
+    ``digitized_states`` says how many rows it has."""
     m = res.model
+    figs = {n: (F.digitized_figure(res, highlight=state) if n == "digitized" and
+                state is not None and "digitized" in res.views else F.build(n, res)).to_dict()
+            for n in names}
     out: dict[str, Any] = {
         "model_type": m.type_name,
         "n_operators": operator_count(m),
         "inverse_error": res.inverse_error,
-        "figures": {n: F.build(n, res).to_dict() for n in names},
+        "figures": figs,
         "elapsed_ms": res.elapsed_ms,
         "version": res.version,
     }
+    if res.digitized is not None:
+        out["digitized_states"] = len(res.digitized.trace.sample)
     pi = pi_part(m)
     if pi is not None:
         out.update(slopes=pi.slopes.tolist(), max_loop_width=pi.max_loop_width,
@@ -408,9 +458,10 @@ class FiguresRun:
 
 def _figures_run(config: Config, names: tuple[str, ...], settings: Settings, cost: float,
                  model: Model, *, version: int = 0, recording: Recording | None = None,
-                 diagnosed: Model | None = None, include_data: bool = False) -> FiguresRun:
+                 diagnosed: Model | None = None, include_data: bool = False,
+                 state: int | None = None) -> FiguresRun:
     args = (config, names, version, recording, diagnosed, model, settings.max_operators,
-            settings.max_samples, include_data)
+            settings.max_samples, include_data, state)
     return FiguresRun(Task(tasks.run_figures, args), cost > KILLABLE_WORK)
 
 
@@ -436,22 +487,25 @@ def _no_progress(fraction: float, message: str = "") -> None:
     pass
 
 
-def session_figures_run(session: Session, names: Collection[str],
-                        settings: Settings) -> FiguresRun:
-    """Figures ``names`` of the session's current config, priced (nothing computed yet)."""
+def session_figures_run(session: Session, names: Collection[str], settings: Settings,
+                        state: int | None = None) -> FiguresRun:
+    """Figures ``names`` of the session's current config, priced (nothing computed yet);
+    ``state``: the digitized view at that row of its trace."""
     names = tuple(check_figure_names(names))
     cfg, v, model = session.checked(settings.limits,
                                     lambda c, rec: checked_model(c, rec, settings))
     checked = session.state.checked
     cost = checked.cost.total_work if checked is not None else math.inf
     return _figures_run(cfg, names, settings, cost, model, version=v,
-                        recording=session.recording, diagnosed=diagnosed_model(session))
+                        recording=session.recording, diagnosed=diagnosed_model(session),
+                        state=state)
 
 
 def session_figures(session: Session, names: Collection[str],
-                    settings: Settings) -> dict[str, Any]:
-    """Figures ``names`` of the session's current config (only their views computed)."""
-    return figures_here(session_figures_run(session, names, settings))
+                    settings: Settings, state: int | None = None) -> dict[str, Any]:
+    """Figures ``names`` of the session's current config (only their views computed);
+    ``state``: the digitized view at that row of its trace (clipped to the trace)."""
+    return figures_here(session_figures_run(session, names, settings, state))
 
 
 def simulate_run(config: Config, names: Collection[str], settings: Settings,

@@ -293,7 +293,8 @@ def _part_title(field: Field) -> str:
 def _elements(value: Any, kind: str) -> list[tuple[tuple[int, ...], float]]:
     """``(index, number)`` of every element of a numeric field value."""
     if kind == "number":
-        return [((), float(value))] if _numbers(value) else []
+        # a list where a number belongs is left to the model's own check (a 422 naming it)
+        return [((), float(value))] if _numbers(value) == [value] else []
     if kind == "numbers" and isinstance(value, list):
         return [((i,), float(v)) for i, v in enumerate(value) if _numbers(v) == [v]]
     if kind == "matrix" and isinstance(value, list):

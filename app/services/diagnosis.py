@@ -11,6 +11,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from .inputs import existing_file
 from .recordings import say_read
 
@@ -35,33 +37,131 @@ __all__ = [
 ]
 
 
-def diagnosis_summary(d: dict[str, Any]) -> dict[str, Any]:
-    """Findings (accepted effects, ambiguities, untestable effects) of a diagnosis document."""
+#: Unit spellings of CSV headers -> as people write them.
+_UNIT_TEXT = {"um": "µm", "us": "µs", "uV": "µV", "uA": "µA", "degC": "°C", "Ohm": "Ω",
+              "ohm": "Ω"}
+#: Effect names of the diagnosis -> words.
+_EFFECT_WORDS = {"rate": "rate dependence", "offset": "a sensor offset",
+                 "initial-memory": "initial memory", "asymmetry": "asymmetry"}
+
+
+def _unit(units: dict[str, str] | None, role: str) -> str:
+    u = (units or {}).get(role) or ""
+    return _UNIT_TEXT.get(u, u)
+
+
+def _qty(v: float, unit: str) -> str:
+    return f"{v:.3g} {unit}".strip()
+
+
+def _effect_words(name: object) -> str:
+    text = str(name or "an effect")
+    return _EFFECT_WORDS.get(text, text.replace("-", " ").replace("_", " "))
+
+
+def _cap(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
+def _param_text(params: dict[str, Any], u_unit: str) -> str:
+    parts = []
+    for k, v in (params or {}).items():
+        unit = " s" if k.endswith("_s") else f" {u_unit}" if k == "history" and u_unit else ""
+        key = (k[:-2] if unit else k).replace("_", " ")
+        if isinstance(v, int | float) and not isinstance(v, bool):
+            parts.append(f"{key} = {v:.3g}{unit}")
+        elif isinstance(v, list | tuple):
+            flat = [x for x in np.ravel(np.asarray(v, dtype=float))][:6]
+            parts.append(f"{key} = " + ", ".join(f"{x:.3g}" for x in flat) + unit)
+    return "; ".join(parts)
+
+
+def _where_text(where: dict[str, Any], u_unit: str) -> str:
+    """Where an effect's error reduction lies, from its fields (times in s, input range
+    with its unit)."""
+    out = []
+    wins = where.get("time_windows") or []
+    if wins:
+        shown = ", ".join(f"{w[1]:.3g}–{w[2]:.3g} s" for w in wins[:3])
+        more = f" and {len(wins) - 3} more stretches" if len(wins) > 3 else ""
+        out.append(f"half of the improvement lies in {shown}{more} of the recording")
+    rng = where.get("input_range")
+    if rng and len(rng) == 2:
+        out.append(f"at inputs from {_qty(rng[0], u_unit)} to {_qty(rng[1], u_unit)}")
+    since = where.get("median_since_reversal_s")
+    if isinstance(since, int | float):
+        out.append(f"typically {since:.3g} s after the input turned")
+    return "; ".join(out)
+
+
+def _because(head: str, reason: object, lead: str, experiment: object) -> str:
+    """``head: reason. lead experiment.`` (the parts that are given)."""
+    text = head + (f": {reason}" if reason else "")
+    return text + (f". {lead} {experiment}" if experiment else "") + "."
+
+
+def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
+                      ) -> dict[str, Any]:
+    """The findings of a diagnosis document in sentences for people (accepted effects with
+    their held-out error before and after in the output's unit, where they act, ambiguities,
+    untestable effects), and the held-out RMSE before and after.
+
+    Parameters
+    ----------
+    d : dict
+        ``DiagnosisResult.to_dict()``.
+    units : dict, optional
+        The recording's units (``input``, ``output``), as read from the CSV.
+    """
+    u_unit, y_unit = _unit(units, "input"), _unit(units, "output")
     findings: list[str] = []
+    base_doc, final = d.get("baseline", {}), d.get("final", {})
+    base_name = "Preisach" if base_doc.get("model") == "preisach" else "PI"
+    b, f = base_doc.get("heldout_rmse"), final.get("heldout_rmse")
+    bp, fp = base_doc.get("heldout_rmse_pct"), final.get("heldout_rmse_pct")
+    if isinstance(b, int | float) and isinstance(bp, int | float):
+        text = (f"On the rows the fit never saw, the {base_name} model is off by "
+                f"{_qty(b, y_unit)} RMS ({bp:.3g} % of the output range)")
+        if final.get("effects") and isinstance(f, int | float) and isinstance(fp, int | float):
+            text += (f"; with {', '.join(_effect_words(e) for e in final['effects'])} added, "
+                     f"by {_qty(f, y_unit)} ({fp:.3g} %)")
+        findings.append(text + ".")
     for e in d.get("effects", []):
-        params = ", ".join(f"{k} = {v:.4g}" for k, v in (e.get("parameters") or {}).items()
-                           if isinstance(v, int | float))
-        where = (e.get("where") or {}).get("summary", "")
-        findings.append(f"{e.get('name')} ({e.get('family', '')}): {params}. {where}".strip())
-    base_doc = d.get("baseline", {})
-    if not findings:
-        findings.append("no missing physics detected: the "
-                        + ("Preisach" if base_doc.get("model") == "preisach" else "PI")
-                        + " model explains the data")
+        text = f"Found {_effect_words(e.get('name'))}"
+        before, after = e.get("heldout_rmse_before"), e.get("heldout_rmse_after")
+        if isinstance(before, int | float) and isinstance(after, int | float):
+            text += (f": modelling it lowers the held-out error from {_qty(before, y_unit)} "
+                     f"to {_qty(after, y_unit)} RMS")
+        text += "."
+        where = _where_text(e.get("where") or {}, u_unit)
+        if where:
+            text += f" {_cap(where)}."
+        if e.get("explanation"):
+            text += f" {e['explanation'].strip()}"
+        params = _param_text(e.get("parameters") or {}, u_unit)
+        if params:
+            text += f" Fitted: {params}."
+        findings.append(text)
+    if not d.get("effects"):
+        findings.append(f"No missing physics detected: the {base_name} model explains "
+                        "the data")
     choice = base_doc.get("base_choice") or {}
     if choice.get("kind") == "preisach":
-        findings.append(f"base: {choice.get('text', '')}")
+        findings.append(f"Base model: {choice.get('text', '')}")
     for r in d.get("recording_specific", []):
-        findings.append(f"recording-specific, not claimed: {r.get('text', '')}")
+        findings.append(f"Seen in this recording only, so not claimed: {r.get('text', '')}")
     for a in d.get("ambiguous", []):
-        findings.append(f"ambiguous {' vs '.join(a.get('effects', []))}: {a.get('experiment', '')}")
+        words = " or ".join(_effect_words(x) for x in a.get("effects", []))
+        findings.append(_because(f"Cannot tell {words} apart", a.get("reason"),
+                                 "To decide, record", a.get("experiment")))
     for u in d.get("untestable", []):
-        findings.append(f"untestable {u.get('name')}: {u.get('reason', '')}")
-    base, final = d.get("baseline", {}), d.get("final", {})
+        findings.append(_because(
+            f"{_cap(_effect_words(u.get('name')))} cannot be tested with this recording",
+            u.get("reason"), "It would need", u.get("experiment")))
     return {
         "findings": findings,
-        "baseline_rmse_pct": base.get("heldout_rmse_pct"),
-        "final_rmse_pct": final.get("heldout_rmse_pct"),
+        "baseline_rmse_pct": bp,
+        "final_rmse_pct": fp,
         "effects": final.get("effects", []),
     }
 
@@ -84,7 +184,7 @@ def run_diagnosis(rec: Recording, model: Model,
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
     result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
     d = result.to_dict()
-    return {"engine": "core.diagnosis", **diagnosis_summary(d), "document": d}, result
+    return {"engine": "core.diagnosis", **diagnosis_summary(d, rec.units), "document": d}, result
 
 
 def diagnose_session(session: Session,
@@ -106,15 +206,17 @@ def diagnose_session(session: Session,
     return report
 
 
-def diagnosis_html(result: Any) -> str:
-    """The self-contained HTML report (:mod:`.diagnosis_report`) of a diagnosis result."""
+def diagnosis_html(result: Any, units: dict[str, str] | None = None) -> str:
+    """The self-contained HTML report (:mod:`.diagnosis_report`) of a diagnosis result,
+    its axes in ``units`` (the recording's: ``time``, ``input``, ``output``)."""
     import tempfile
     from pathlib import Path
 
     from .diagnosis_report import write_report
 
     with tempfile.TemporaryDirectory() as tmp:
-        return write_report(result, Path(tmp) / "report.html").read_text(encoding="utf-8")
+        return write_report(result, Path(tmp) / "report.html", units).read_text(
+            encoding="utf-8")
 
 
 def model_document(result: Any, source: str) -> ParameterSet:

@@ -26,8 +26,14 @@ def _dec(n: int, limit: int = 6000) -> slice:
     return slice(None, None, max(1, n // limit))
 
 
-def figures(res: Any) -> dict[str, go.Figure]:
-    """Plotly figures of a :class:`~core.diagnosis.DiagnosisResult`.
+def _axis(units: dict[str, str] | None, role: str, text: str) -> str:
+    u = (units or {}).get(role) or ("s" if role == "time" else "a.u.")
+    return f"{text} [{u}]"
+
+
+def figures(res: Any, units: dict[str, str] | None = None) -> dict[str, go.Figure]:
+    """Plotly figures of a :class:`~core.diagnosis.DiagnosisResult`, axes in ``units``
+    (``time``, ``input``, ``output``; the records' own when not given, else s / a.u.).
 
     Returns
     -------
@@ -35,6 +41,7 @@ def figures(res: Any) -> dict[str, go.Figure]:
         ``loops``, ``residuals``, ``maps`` figures.
     """
     recs = res.records
+    units = {**(recs[0].units if recs else {}), **{k: v for k, v in (units or {}).items() if v}}
     n = len(recs)
     loops = make_subplots(rows=1, cols=n, subplot_titles=[r.name for r in recs])
     resid = make_subplots(rows=n, cols=1, subplot_titles=[r.name for r in recs],
@@ -66,10 +73,12 @@ def figures(res: Any) -> dict[str, go.Figure]:
                                 line_width=0, annotation_text=label, row=k + 1, col=1)
     loops.update_layout(title="Loops: measured, baseline PI and PI + accepted effects",
                         height=420)
-    loops.update_xaxes(title_text="input")
-    loops.update_yaxes(title_text="output", col=1)
+    loops.update_xaxes(title_text=_axis(units, "input", "input u"))
+    loops.update_yaxes(title_text=_axis(units, "output", "output y"), col=1)
     resid.update_layout(title="Residual (measured - simulated) in time; green = held-out rows",
                         height=260 * n + 80)
+    resid.update_xaxes(title_text=_axis(units, "time", "time t"))
+    resid.update_yaxes(title_text=_axis(units, "output", "residual"))
     maps = make_subplots(rows=1, cols=2, subplot_titles=[
         "mean residual vs input level and branch", "mean residual vs time since reversal"])
     for label, mp, dash in (("baseline", res.maps_before, "solid"),
@@ -87,8 +96,10 @@ def figures(res: Any) -> dict[str, go.Figure]:
                 x=[np.sqrt(b["lo"] * b["hi"]) for b in rows], y=[b["rms"] for b in rows],
                 mode="lines+markers", name=f"{label}, RMS", line={"color": "#2ca02c",
                                                                   "dash": dash}), row=1, col=2)
-    maps.update_xaxes(title_text="input", row=1, col=1)
-    maps.update_xaxes(title_text="time since reversal (s)", type="log", row=1, col=2)
+    maps.update_xaxes(title_text=_axis(units, "input", "input u"), row=1, col=1)
+    maps.update_xaxes(title_text="time since reversal [s]", type="log", row=1, col=2)
+    maps.update_yaxes(title_text=_axis(units, "output", "mean residual"), row=1, col=1)
+    maps.update_yaxes(title_text=_axis(units, "output", "RMS residual"), row=1, col=2)
     maps.update_layout(title="LOCATE: residual maps before (solid) and after (dotted)",
                        height=420)
     return {"loops": loops, "residuals": resid, "maps": maps}
@@ -102,11 +113,12 @@ def _fmt(v: Any) -> str:
     return html.escape(str(v))
 
 
-def write_report(res: Any, path: str | Path) -> Path:
-    """Write the HTML report of ``res`` to ``path`` and return the path."""
+def write_report(res: Any, path: str | Path, units: dict[str, str] | None = None) -> Path:
+    """Write the HTML report of ``res`` to ``path`` (axes in ``units``, see
+    :func:`figures`) and return the path."""
     d = res.to_dict()
     yr = res.y_range
-    figs = figures(res)
+    figs = figures(res, units)
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Hysteresis Explorer - "
         "diagnosis</title><style>body{font-family:sans-serif;max-width:1200px;margin:auto;"

@@ -19,12 +19,60 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["HUB", "EventHub", "StreamsPerClientError", "Subscription"]
+__all__ = ["HUB", "EventHub", "Roster", "StreamsPerClientError", "Subscription", "person_name"]
 
 #: Events kept for one slow subscriber before the oldest are dropped.
 QUEUE_SIZE = 64
 #: Recent events kept for pages that reconnect.
 REPLAY = 64
+#: Longest name a student may give (characters).
+NAME_MAX = 40
+
+
+def person_name(text: object) -> str:
+    """A name a student typed, as the teacher's list shows it: control characters
+    removed, spaces collapsed, at most :data:`NAME_MAX` characters (``""`` for none)."""
+    cleaned = "".join(c if c.isprintable() else " " for c in str(text or ""))
+    return " ".join(cleaned.split())[:NAME_MAX]
+
+
+@dataclass(frozen=True)
+class Roster:
+    """Who is connected, without session codes (a projected teacher panel shows it).
+
+    Attributes
+    ----------
+    web_pages : int
+        Open web pages (live event streams).
+    viser_tabs : int
+        Open viser tabs.
+    sessions_live : int
+        Distinct sessions with an open page or tab.
+    names : tuple of str
+        The names students gave, sorted (each once).
+    unnamed : int
+        Pages and tabs without a name.
+    """
+
+    web_pages: int
+    viser_tabs: int
+    sessions_live: int
+    names: tuple[str, ...]
+    unnamed: int
+
+    @property
+    def text(self) -> str:
+        """The roster in one sentence (counts and names, never codes)."""
+        total = self.web_pages + self.viser_tabs
+        if not total:
+            return "Nobody is connected yet: students open the explorer's address."
+        s = lambda n, w: f"{n} {w}" + ("" if n == 1 else "s")  # noqa: E731
+        head = (f"{s(self.web_pages, 'web page')} and {s(self.viser_tabs, '3D / GUI tab')} "
+                f"open, in {s(self.sessions_live, 'session')}")
+        who = ", ".join(self.names) if self.names else "nobody gave a name"
+        if self.names and self.unnamed:
+            who += f", and {self.unnamed} without a name"
+        return f"{head}. Names: {who}."
 
 
 class StreamsPerClientError(OverflowError):
@@ -38,6 +86,7 @@ class Subscription:
     code: str
     loop: asyncio.AbstractEventLoop
     client: str | None = None
+    name: str = ""
     queue: asyncio.Queue[dict[str, Any] | None] = field(
         default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
 
@@ -71,9 +120,12 @@ class EventHub:
         self._per_client: dict[str, int] = {}
         self._ids = itertools.count(1)
         self._recent: deque[tuple[str | None, dict[str, Any]]] = deque(maxlen=REPLAY)
+        # viser tabs: key -> (session code, name); they get events through listeners
+        self._tabs: dict[object, tuple[str, str]] = {}
+        self._listeners: list[Any] = []
 
     def subscribe(self, code: str, last_id: int | None = None, *, client: str | None = None,
-                  per_client: int | None = None) -> Subscription:
+                  per_client: int | None = None, name: str = "") -> Subscription:
         """Listen to session ``code`` from the running asyncio loop.
 
         ``last_id`` (a reconnecting page's ``Last-Event-ID``) replays the kept events
@@ -81,7 +133,7 @@ class EventHub:
         hold at most that many streams at once (:class:`StreamsPerClientError` beyond,
         an ``OverflowError``); everyone together at most ``max_subscribers``.
         """
-        sub = Subscription(code, asyncio.get_running_loop(), client)
+        sub = Subscription(code, asyncio.get_running_loop(), client, person_name(name))
         with self._lock:
             if per_client is not None and client is not None and \
                     self._per_client.get(client, 0) >= per_client:
@@ -134,11 +186,47 @@ class EventHub:
         return self._send(subs, ev)
 
     def broadcast(self, event: dict[str, Any]) -> int:
-        """Send ``event`` to every listening page of every session."""
+        """Send ``event`` to every listening page of every session, and to the listeners
+        (:meth:`add_listener`: the viser tabs); returns how many pages and tabs got it."""
         with self._lock:
             ev = self._stamp(None, event)
             subs = [s for group in self._subs.values() for s in group]
-        return self._send(subs, ev)
+            listeners = list(self._listeners)
+        told = sum(int(fn(ev) or 0) for fn in listeners)
+        return self._send(subs, ev) + told
+
+    def add_listener(self, fn: Any) -> None:
+        """Call ``fn(event)`` on each broadcast (in the caller's thread); it returns how
+        many tabs it told."""
+        with self._lock:
+            self._listeners.append(fn)
+
+    def remove_listener(self, fn: Any) -> None:
+        """Stop calling ``fn`` (no error if it is gone)."""
+        with self._lock:
+            if fn in self._listeners:
+                self._listeners.remove(fn)
+
+    def attend(self, key: object, code: str, name: str = "") -> None:
+        """Count a viser tab ``key`` as connected to session ``code`` under ``name``."""
+        with self._lock:
+            self._tabs[key] = (code, person_name(name))
+
+    def leave(self, key: object) -> None:
+        """The viser tab ``key`` closed."""
+        with self._lock:
+            self._tabs.pop(key, None)
+
+    def roster(self) -> Roster:
+        """Who is connected: counts and names, no codes (see :class:`Roster`)."""
+        with self._lock:
+            pages = [s for group in self._subs.values() for s in group]
+            tabs = list(self._tabs.values())
+        names = [s.name for s in pages] + [n for _, n in tabs]
+        codes = {s.code for s in pages} | {c for c, _ in tabs}
+        return Roster(len(pages), len(tabs), len(codes),
+                      tuple(sorted({n for n in names if n}, key=str.casefold)),
+                      sum(1 for n in names if not n))
 
     def newest_id(self) -> int:
         """The id of the newest event so far (0 before the first)."""

@@ -25,7 +25,17 @@ import numpy as np
 
 from core.recordings import Recording
 
-from .simulation import VIEWS, Loading, Result, decimate_index, operator_count, pi_part
+from .simulation import (
+    FULL_GRAPH_DIGITS,
+    VIEWS,
+    Loading,
+    Result,
+    decimate_index,
+    operator_count,
+    pi_part,
+    state_text,
+    visited_path,
+)
 
 __all__ = [
     "MAX_POINTS",
@@ -33,9 +43,11 @@ __all__ = [
     "FigureJSON",
     "closed_loop_figure",
     "decimate_index",
+    "diagnosis_figure",
     "digitized_figure",
     "fit_figure",
     "inverse_figure",
+    "large_text",
     "loading_figure",
     "loop_figure",
     "message_figure",
@@ -322,14 +334,57 @@ def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJ
     ]
     rms = float(np.sqrt(np.mean(res**2)))
     un = dict(rec.units)
-    lay = _layout(
-        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})",
+    return FigureJSON(data, _loop_and_residual_layout(
+        f"Fit overlay and residual (RMS {rms:.3g} {_unit(un, 'output')})", un,
+        "residual y − ŷ"))
+
+
+def _loop_and_residual_layout(title: str, un: dict[str, str], residual: str
+                              ) -> dict[str, Any]:
+    """Loop (output against input) at the left, a residual in time at the right."""
+    return _layout(
+        title,
         xaxis={"domain": [0, 0.46], "title": _ax(un, "input"), "anchor": "y"},
         yaxis={"title": _ax(un, "output"), "anchor": "x"},
         xaxis2={"domain": [0.54, 1.0], "title": _ax(un, "time"), "anchor": "y2"},
-        yaxis2={"title": _ax(un, "output", "residual y − ŷ"), "anchor": "x2"},
+        yaxis2={"title": _ax(un, "output", residual), "anchor": "x2"},
     )
-    return FigureJSON(data, lay)
+
+
+def diagnosis_figure(rec: Recording, y_base: np.ndarray, y_final: np.ndarray,
+                     base_label: str, final_label: str) -> FigureJSON:
+    """Before / after a diagnosis: the loops (measured, the base model, the model with the
+    effects found) and their residuals in time, in the recording's units.
+
+    Parameters
+    ----------
+    rec : Recording
+        The diagnosed recording (time, input, output and their units).
+    y_base, y_final : ndarray of shape (N,)
+        The base model's and the final model's simulated outputs.
+    base_label, final_label : str
+        Legend names of the two models.
+    """
+    idx = decimate_index(rec.u, MAX_POINTS)
+    t, u = _num(rec.t[idx]), _num(rec.u[idx])
+    un = dict(rec.units)
+    eb, ef = rec.y - y_base, rec.y - y_final
+    rb, rf = float(np.sqrt(np.mean(eb**2))), float(np.sqrt(np.mean(ef**2)))
+    yu = _unit(un, "output")
+    data = [
+        _line(u, _num(rec.y[idx]), "measured", _GREY, xaxis="x", yaxis="y"),
+        _line(u, _num(y_base[idx]), f"before: {base_label}", _RED, xaxis="x", yaxis="y",
+              line={"color": _RED, "width": 1.5}),
+        _line(u, _num(y_final[idx]), f"after: {final_label}", _BLUE, xaxis="x", yaxis="y",
+              line={"color": _BLUE, "width": 1.5}),
+        _line(t, _num(eb[idx]), f"residual before (RMS {rb:.3g} {yu})", _RED, xaxis="x2",
+              yaxis="y2", line={"color": _RED, "width": 1}),
+        _line(t, _num(ef[idx]), f"residual after (RMS {rf:.3g} {yu})", _BLUE, xaxis="x2",
+              yaxis="y2", line={"color": _BLUE, "width": 1}),
+    ]
+    return FigureJSON(data, _loop_and_residual_layout(
+        f"Diagnosis: before and after (residual RMS {rb:.3g} → {rf:.3g} {yu})", un,
+        "residual measured − model"))
 
 
 def _matrix_text(name: str, m: np.ndarray) -> str:
@@ -356,7 +411,27 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     cur = "".join(str(int(b)) for b in tr.digits[k][::-1])  # paper notation b_n ... b_1
     data: list[dict[str, Any]] = []
     g = d.graph
-    if g is not None:
+    shown = ""
+    if n > FULL_GRAPH_DIGITS:  # the states the input visited, each named, and its moves
+        states, up, down, first = visited_path(tr.digits)
+        vx, vy = tr.x_b[first], tr.y_b[first]
+        for pairs, color, name in ((up, _BLUE, "rising"), (down, _ORANGE, "falling")):
+            if len(pairs):
+                nan = np.full(len(pairs), np.nan)
+                data.append(_line(
+                    _num(np.column_stack((vx[pairs[:, 0]], vx[pairs[:, 1]], nan)).ravel()),
+                    _num(np.column_stack((vy[pairs[:, 0]], vy[pairs[:, 1]], nan)).ravel()),
+                    f"input {name}", color, xaxis="x", yaxis="y", showlegend=False,
+                    line={"color": color, "width": 1.5}, hoverinfo="skip"))
+        names = [state_text(r) for r in states]
+        data.append({"type": "scatter", "mode": "markers+text" if len(names) <= 40
+                     else "markers", "x": _num(vx), "y": _num(vy), "text": names,
+                     "textposition": "top left", "textfont": {"size": 11},
+                     "name": f"{len(names)} visited states", "hovertext": names,
+                     "marker": {"size": 7, "color": _GREY}, "xaxis": "x", "yaxis": "y"})
+        shown = (f"<br>the {len(names)} of {2**n} states the input visited; "
+                 "blue: the input rising, orange: falling")
+    elif g is not None:
         e = np.concatenate((g.up, g.down))
         nan = np.full(len(e), np.nan)
         ex = np.column_stack((g.x[e[:, 0]], g.x[e[:, 1]], nan)).ravel()
@@ -372,8 +447,9 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                      "name": f"{2**n} states", "marker": {"size": 5 if n > 6 else 7,
                                                           "color": _GREY},
                      "hovertext": g.strings, "xaxis": "x", "yaxis": "y"})
-    data.append(_line(_num(tr.x_b), _num(tr.y_b), "visited states", _BLUE, mode="lines+markers",
-                      xaxis="x", yaxis="y", marker={"size": 5}))
+    if n <= FULL_GRAPH_DIGITS:
+        data.append(_line(_num(tr.x_b), _num(tr.y_b), "visited states", _BLUE,
+                          mode="lines+markers", xaxis="x", yaxis="y", marker={"size": 5}))
     data.append({"type": "scatter", "mode": "markers+text", "x": [float(tr.x_b[k])],
                  "y": [float(tr.y_b[k])], "text": [cur], "textposition": "bottom right",
                  "textfont": {"size": 14, "color": _RED},
@@ -413,7 +489,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
     bound = float(d.model.reversal_error_bound())
     lay = _layout(
         f"Digitized PI: n = {n} digits, state {cur} (max |error| "
-        f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g})",
+        f"{float(np.max(np.abs(err))):.3g}, bound {bound:.3g}){shown}",
         xaxis={"domain": [0, 0.5], "title": _ax(un, "input", "state X (input)"),
                "anchor": "y"},
         yaxis={"domain": [0.3, 1.0], "title": _ax(un, "output", "state Y (output)"),
@@ -435,7 +511,7 @@ def digitized_figure(res: Result, highlight: int | None = None) -> FigureJSON:
                       "font": {"family": "monospace", "size": 10}}],
         legend={"orientation": "h", "x": 0.56, "y": 0.15, "xanchor": "left", "yanchor": "top",
                 "font": {"size": 10}},
-        margin={"l": 55, "r": 15, "t": 40, "b": 10},
+        margin={"l": 55, "r": 15, "t": 62 if shown else 40, "b": 10},
     )
     return FigureJSON(data, lay)
 
@@ -471,7 +547,29 @@ def closed_loop_figure(res: Result) -> FigureJSON:
                 "anchor": "x"},
     )
     lay["title"]["font"] = {"size": 12}
+    if cl.explanation:  # the page prints meta.notes under the plot
+        lay["meta"] = {"notes": [cl.explanation]}
     return FigureJSON(data, lay)
+
+
+def large_text(fig: FigureJSON, size: int = 16) -> FigureJSON:
+    """``fig`` with every text at least ``size`` px (a projector): tick labels, axis titles,
+    legend; the title 4 px larger. The web page does the same in
+    ``static/app.js::largeText``."""
+    lay = json.loads(json.dumps(fig.layout))
+    lay["font"] = {**lay.get("font", {}), "size": size}
+    title = lay.get("title")
+    if isinstance(title, dict):
+        title["font"] = {**title.get("font", {}), "size": size + 4}
+    lay["legend"] = {**lay.get("legend", {}), "font": {"size": size}}
+    for k, ax in lay.items():
+        if k.startswith(("xaxis", "yaxis")) and isinstance(ax, dict):
+            ax["tickfont"] = {**ax.get("tickfont", {}), "size": size}
+            if isinstance(ax.get("title"), dict):
+                ax["title"]["font"] = {**ax["title"].get("font", {}), "size": size + 2}
+    for a in lay.get("annotations", []) or []:
+        a["font"] = {**a.get("font", {}), "size": max(size, a.get("font", {}).get("size", 0))}
+    return FigureJSON(fig.data, lay)
 
 
 def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:

@@ -32,6 +32,7 @@ from .config import Config, SignalSpec
 
 __all__ = [
     "CLOSED_LOOP_MAX_S",
+    "FULL_GRAPH_DIGITS",
     "MAX_GRAPH_DIGITS",
     "VIEWS",
     "ClosedLoop",
@@ -51,7 +52,9 @@ __all__ = [
     "pi_part",
     "preset_doc",
     "preset_input",
+    "state_text",
     "validate_config",
+    "visited_path",
 ]
 
 
@@ -181,6 +184,60 @@ def perturb(model: Model, mismatch: float) -> Model:
 MAX_GRAPH_DIGITS = 10
 
 
+#: Largest number of digits whose whole state graph (``2**n`` states) is drawn; beyond, the
+#: views draw the states the input visited (a projected 4-cube or more is a tangle).
+FULL_GRAPH_DIGITS = 3
+
+
+def visited_path(digits: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The states a trace visited and the transitions it made.
+
+    Parameters
+    ----------
+    digits : ndarray of shape (rows, n)
+        The trace's digit rows (``b_1 … b_n``), in time order.
+
+    Returns
+    -------
+    states : ndarray of shape (k, n)
+        Each visited state once, in order of its first visit.
+    up, down : ndarray of shape (m, 2)
+        Indices into ``states`` of each distinct transition that set digits (the input
+        rose) or cleared them (it fell).
+    first : ndarray of shape (k,)
+        The trace row of each state's first visit.
+    """
+    rows = np.asarray(digits, dtype=np.int8)
+    index: dict[bytes, int] = {}
+    order, first = [], []
+    for i, r in enumerate(rows):
+        key = r.tobytes()
+        if key not in index:
+            index[key] = len(order)
+            order.append(r)
+            first.append(i)
+    seq = [index[r.tobytes()] for r in rows]
+    up, down = set(), set()
+    for a, b in zip(seq[:-1], seq[1:], strict=True):
+        if a != b:
+            (up if _set_digits(order[b]) > _set_digits(order[a]) else down).add((a, b))
+    pair = lambda s: np.array(sorted(s), dtype=int).reshape(-1, 2)  # noqa: E731
+    n = rows.shape[1] if rows.ndim == 2 else 0
+    return (np.array(order, dtype=np.int8).reshape(-1, n), pair(up), pair(down),
+            np.array(first, dtype=int))
+
+
+def _set_digits(row: np.ndarray) -> int:
+    """Number of set digits of a state."""
+    return int(np.sum(row))
+
+
+def state_text(row: np.ndarray) -> str:
+    """A state in the paper's notation ``b_n … b_1``."""
+    return "".join(str(int(b)) for b in row[::-1])
+
+
 @dataclass(frozen=True, eq=False)
 class Digitized:
     """Digitized (binary-state) view of the run (paper 000).
@@ -223,6 +280,12 @@ def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]
         pi = pi_part(model)
         if pi is None:
             return None, "the digitized view needs a classical PI (or digitized) model"
+        stages = getattr(model, "stages", ())
+        if stages and stages[0] is not pi:  # a GPI: the operators see a mapped input
+            return None, (
+                f"the digitized view (paper 000) is for a classical PI; this "
+                f"{model.type_name} model maps the input before its operators, so its states "
+                "are not a digitized PI's")
         lo, hi = float(np.min(u)), float(np.max(u))
         if 0.5 * (hi - lo) <= pi.thresholds[-1]:
             return None, (
@@ -526,9 +589,13 @@ class ClosedLoop:
         (mismatch-perturbed) session model, the feedforward is the exact inverse of the
         unperturbed model; the last run adds the reference to the controller output
         (two-degree-of-freedom structure, not in the paper's Fig. 15).
+    explanation : str or None
+        Why the inverse feedforward tracks worse than no compensation, when it does (in
+        words, with the numbers that show it); ``None`` otherwise.
     """
 
     runs: dict[str, Any]
+    explanation: str | None = None
 
 
 def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | None]:
@@ -558,7 +625,43 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
     note = None if isinstance(pi, PIModel) else (
         f"closed loop of the diagnosed model over its first {1e3 * dur:g} ms (its effects run "
         "sample by sample)")
-    return ClosedLoop(runs), note
+    why = None
+    if runs["inverse feedforward"].rms_error(0.0) > runs["no compensation"].rms_error(0.0):
+        perfect = None
+        if mismatch != 0:  # the same loop with the plant exactly the model: mismatch's share
+            perfect = HammersteinLoop(pi, g, feedforward=ff).simulate(
+                r, 1.0 / CLOSED_LOOP_RATE).rms_error(0.0)
+        why = feedforward_worse(runs, mismatch, perfect, pi_part(pi))
+    return ClosedLoop(runs, why), note
+
+
+def feedforward_worse(runs: dict[str, Any], mismatch: float, perfect: float | None,
+                      pi: PIModel | None) -> str:
+    """Why the inverse feedforward tracks worse than no compensation, in words.
+
+    Two causes, each with its number: a model mismatch (the plant is not the model the
+    inverse was built from; ``perfect`` is the RMS error of the same loop with the plant
+    exactly the model) and the loop gain the inverse takes away (the model's slopes, for
+    which the PI controller was tuned, become 1); the reference feedforward run shows the
+    lag removed."""
+    ff = runs["inverse feedforward"].rms_error(0.0)
+    none = runs["no compensation"].rms_error(0.0)
+    both = runs["inverse + reference feedforward"].rms_error(0.0)
+    text = (f"Why does the inverse feedforward do worse here (RMS error {ff:.3g}) than no "
+            f"compensation ({none:.3g})? ")
+    if mismatch != 0 and perfect is not None:
+        text += (f"Partly a model mismatch: the plant differs from the model the inverse was "
+                 f"built from (thresholds ×{1 + mismatch:.2f}, weights ×{1 - mismatch:.2f}), "
+                 f"so the inverse cancels a hysteresis that is not quite there; with the plant "
+                 f"exactly the model it would reach {perfect:.3g}. ")
+    gain = ""
+    if pi is not None and pi.slopes.size:
+        gain = (f" (the model's slopes run from {float(np.min(pi.slopes)):.3g} to "
+                f"{float(np.max(pi.slopes)):.3g}; after the inverse the plant's gain is 1)")
+    text += ("The inverse also removes the model's own gain" + gain + ", and the PI "
+             "controller was tuned for the plant with it: the loop is slower and lags the "
+             f"reference. Adding the reference as feedforward removes that lag (RMS {both:.3g}).")
+    return text
 
 
 def inverse_problem(res: Result) -> str | None:

@@ -70,10 +70,11 @@ class Refused:
 
 def run_figures(config: Config, names: tuple[str, ...], version: int,
                 recording: Recording | None, diagnosed: Model | None, model: Model,
-                max_operators: int, max_samples: int, include_data: bool, *,
-                progress: Progress) -> dict[str, Any] | Refused:
+                max_operators: int, max_samples: int, include_data: bool,
+                state: int | None = None, *, progress: Progress) -> dict[str, Any] | Refused:
     """The JSON body of figures ``names`` of ``config`` (``/api/simulate`` and a session's
-    figures): :func:`.simulation.compute` then :func:`.actions.result_payload`, with the
+    figures; ``state``: the digitized view's highlighted row):
+    :func:`.simulation.compute` then :func:`.actions.result_payload`, with the
     model already built and priced by the caller. Runs in a request's thread, or in a worker
     process when its priced work is large (:data:`.actions.KILLABLE_WORK`)."""
     from core.exceptions import NotInvertibleError
@@ -85,7 +86,7 @@ def run_figures(config: Config, names: tuple[str, ...], version: int,
         res = compute(config, views=names, version=version, recording=recording,
                       max_operators=max_operators, max_samples=max_samples,
                       diagnosed=diagnosed, model=model)
-        return result_payload(res, names, include_data)
+        return result_payload(res, names, include_data, state=state)
     except (ParameterError, NotInvertibleError) as exc:
         return Refused(type(exc), str(exc))
 

@@ -189,6 +189,10 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
         "claims": claims,
         "recovery": parameter_recovery(claims, hidden),
         "suggestive": [g["effect"] for g in res.suggestive],
+        "recording_specific": [
+            {"name": r.name, "loro_mse_reduction": r.loro_mse_reduction,
+             "per_recording": jsonable(list(r.per_recording))}
+            for r in res.recording_specific],
         "ambiguous": [list(a["effects"]) for a in res.ambiguous],
         "untestable": [u["name"] for u in res.untestable],
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),

@@ -46,12 +46,18 @@ class OutputDynamics:
     valid : callable
         ``valid(values, dt) -> bool``: the values the search may take at sample spacing
         ``dt`` (s).
+    lacks_signature : callable or None
+        ``lacks_signature(values) -> reason or None``: why fitted values do not show the
+        stage's own signature (a mode too damped to ring acts only as a delay), so that a
+        look-alike the recordings do not separate from it is named instead
+        (:func:`core.diagnosis.engine._recheck_dynamics`); ``None``: always shows it.
     """
 
     params: tuple[str, ...]
     model: Callable[[tuple[float, ...]], Model]
     transfer: Callable[[tuple[float, ...]], tuple[list[float], list[float]]] | None = None
     valid: Callable[[tuple[float, ...], float], bool] = lambda values, dt: True
+    lacks_signature: Callable[[tuple[float, ...]], str | None] | None = None
 
 
 @dataclass(frozen=True)
@@ -123,6 +129,11 @@ class DiagnosableEffect:
     stage_order : int
         Place of its stage in the saved model's chain (after the hysteresis); effects of
         one ``stage_order`` exclude each other (one output dynamics stage).
+    systematic : callable or None
+        ``systematic(ctx, cur, fit) -> ({parameter: sigma}, words)``: the uncertainty the
+        effect's own discretisation leaves (a creep bank's placement of its time constants),
+        added in quadrature to the statistical sigma of the accepted effect ``fit`` (fitted
+        on top of ``cur``); ``words`` say how it was obtained.
     """
 
     name: str
@@ -147,6 +158,7 @@ class DiagnosableEffect:
     rate_dependent_hysteresis: bool = False
     linear: bool = False
     stage_order: int = 0
+    systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
 
 
 #: Every registered effect by name, in the order they are tried.

@@ -56,11 +56,17 @@ def upload_csv(page: Any, view: Any, path: Path, t: Any, u: Any, y: Any) -> None
     """Write ``t, u, y`` to ``path`` and upload it through the Data tab of ``page``."""
     path.write_text("t,u,y\n" + "\n".join(
         f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True)))
+    upload_file(page, view, path)
+
+
+def upload_file(page: Any, view: Any, path: Path, wait: float = 30.0) -> None:
+    """Upload the file ``path`` through the Data tab of ``page``; wait up to ``wait`` s
+    for ``view``'s session to hold a recording (0: do not wait)."""
     page.get_by_role("tab", name="Data").first.click()
     with page.expect_file_chooser() as fc:
         page.get_by_role("button", name="Upload CSV").first.click()
     fc.value.set_files(str(path))
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + wait
     while view.session.recording is None and time.monotonic() < deadline:
         time.sleep(0.1)
 

@@ -22,6 +22,21 @@ def _transfer(v: tuple[float, ...]) -> tuple[list[float], list[float]]:
     return [w * w], [1.0, 2 * v[1] * w, w * w]
 
 
+#: Largest damping ratio at which a fitted mode counts as a resonance: from zeta = 1/2 on,
+#: the second-order term of its low-frequency expansion is no longer negative
+#: (g2 / g1^2 = 1 - 1 / (4 zeta^2) >= 0, notes §4.1), so it does not ring; it delays the
+#: output as a delay (g2 / g1^2 = 1/2) or a lag (1) does.
+RINGING_MAX_DAMPING = 0.5
+
+
+def _lacks_ringing(v: tuple[float, ...]) -> str | None:
+    """Why a fitted mode is no resonance: damped too much to ring (``None`` when it rings)."""
+    if v[1] < RINGING_MAX_DAMPING:
+        return None
+    return (f"its damping ({v[1]:.2f}, at least {RINGING_MAX_DAMPING:g}) is too high for it "
+            "to ring: the fitted mode only delays the output")
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """A second-order mode after the PI: grid over (f_n, zeta), then Nelder-Mead."""
     s = cur.structure
@@ -83,5 +98,6 @@ register(DiagnosableEffect(
     structure_field="dynamics",
     stage_order=4,
     dynamics=OutputDynamics(("freq_hz", "damping"), model=lambda v: Resonance(v[0], v[1]),
-                            transfer=_transfer, valid=_valid),
+                            transfer=_transfer, valid=_valid,
+                            lacks_signature=_lacks_ringing),
 ))

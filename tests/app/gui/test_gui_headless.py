@@ -358,8 +358,10 @@ def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
 
 
 def test_diagnosis_markdown() -> None:
-    md = diagnosis_markdown({"engine": "x", "findings": ["delay"], "rms_error": 0.5})
-    assert "- delay" in md and "rms error" in md
+    md = diagnosis_markdown({"engine": "core.diagnosis", "findings": ["Found a delay."],
+                             "baseline_rmse_pct": 0.5})
+    # the sentences only: no engine name, no field names (issue 19)
+    assert "- Found a delay\\." in md and "core" not in md and "rmse" not in md
 
 
 def test_latest_wins_worker_skips_stale_requests() -> None:

@@ -165,6 +165,37 @@ def test_start_fails_loudly_when_viser_starts_its_server_another_way(
     assert ws_server.serve is real
 
 
+def test_the_page_names_the_browser_and_a_reload_keeps_the_session(served: Any) -> None:
+    """The page sets a random browser id (not a session code, HttpOnly, SameSite=Strict);
+    a websocket that brings it back gets the session its browser's last tab showed, and
+    a forged cookie gets a new session."""
+    port = served.state.viser_port
+    r = _get(port)
+    cookie = r.getheader("Set-Cookie") or ""
+    assert cookie.startswith("hyst_viser=") and "HttpOnly" in cookie and \
+        "SameSite=Strict" in cookie
+    browser = cookie.split(";")[0]
+    known = set(served.state.gui.views)
+    with _ws(port, additional_headers={"Cookie": browser}):
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and set(served.state.gui.views) == known:
+            time.sleep(0.05)
+        (first,) = [v for k, v in served.state.gui.views.items() if k not in known]
+        code = first.session.code
+    assert code not in cookie
+    time.sleep(0.3)
+    known = set(served.state.gui.views)
+    for header, same in ((browser, True), ("hyst_viser=forged-but-well-formed-id", False)):
+        with _ws(port, additional_headers={"Cookie": header}):
+            deadline = time.monotonic() + 20
+            while time.monotonic() < deadline and set(served.state.gui.views) == known:
+                time.sleep(0.05)
+            (again,) = [v for k, v in served.state.gui.views.items() if k not in known]
+            assert (again.session.code == code) is same
+        time.sleep(0.3)
+        known = set(served.state.gui.views)
+
+
 def test_open_tabs_per_client_and_in_all_are_capped() -> None:
     app = create_app(Settings(viser_port=0, port=0, max_tabs_per_client=2, max_tabs=3))
     with TestClient(app):

@@ -154,6 +154,16 @@ def test_check_rules_names_the_slider_not_the_json_index() -> None:
         C.check_rules(gpi)
 
 
+@pytest.mark.parametrize("value", [[0.0], [[1.0]], {"a": 1}])
+def test_check_rules_leaves_a_wrong_kind_of_value_to_the_models_check(value: Any) -> None:
+    # a list (or object, text, bool) where a number belongs was a TypeError (a 500 in the
+    # fuzz); the rules skip it and the model's own check refuses it with a ParameterError
+    doc = {"type": "advance", "delay_s": value}
+    C.check_rules(doc)
+    with pytest.raises(ParameterError):
+        base.model_from_dict(doc)
+
+
 # ----------------------------------------------------------------------------- a new type
 @dataclass(frozen=True, eq=False)
 class Springs(Model):

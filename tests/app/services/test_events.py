@@ -102,6 +102,18 @@ def test_teacher_push_needs_the_token_and_changes_every_session() -> None:
         assert bad.status_code == 404
         empty = client.post("/api/teacher/push", json={}, headers={"X-Teacher-Token": "t0k"})
         assert empty.status_code == 422
+        # the model the teacher edited, checked like a saved parameter set
+        edited = {"type": "pi", "p0": 1.1, "thresholds": [0.5, 1.5], "weights": [0.4, 0.3]}
+        r = client.post("/api/teacher/push", json={"model": edited},
+                        headers={"X-Teacher-Token": "t0k"})
+        assert r.status_code == 200
+        for code in codes:
+            assert client.get(f"/api/sessions/{code}").json()["config"]["model"] == edited
+        for bad in ({"model": {**edited, "weights": [0.4]}},
+                    {"model": {**edited, "thresholds": [0.5] * 100_000, "weights": [1] * 100_000}},
+                    {"model": edited, "preset": "paper000-three-operators"}):
+            r = client.post("/api/teacher/push", json=bad, headers={"X-Teacher-Token": "t0k"})
+            assert r.status_code in (413, 422), (r.status_code, r.text[:200])
         conn = client.get("/api/teacher/connected", headers={"X-Teacher-Token": "t0k"}).json()
         assert conn["sessions"] == 2 and conn["codes"] == []
         assert client.get("/api/sessions/zzzz-none/events").status_code == 404
