@@ -44,6 +44,15 @@ async def run_figures(request: Request, run: actions.FiguresRun) -> dict[str, An
     if not run.killable:
         return await run_in_threadpool(actions.figures_here, run)
     live: LiveWorkers = request.app.state.figure_workers
+    slots: asyncio.Semaphore = request.app.state.figure_slots
+    while True:  # a free slot (at most live.max_running at once), or the client has gone
+        try:
+            await asyncio.wait_for(slots.acquire(), POLL_S)
+            break
+        except TimeoutError:
+            if await request.is_disconnected():
+                raise HTTPException(499, "the client went away before its figures started"
+                                    ) from None
     worker = Worker(run.task)
     live.add(worker)
     try:
@@ -66,3 +75,4 @@ async def run_figures(request: Request, run: actions.FiguresRun) -> dict[str, An
         return actions.figures_body(out)
     finally:
         live.discard(worker)
+        slots.release()

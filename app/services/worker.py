@@ -192,11 +192,15 @@ class Worker:
 
 class LiveWorkers:
     """The workers running now, outside the job queue (a request's heavy figures): their
-    process ids for tests and monitoring."""
+    process ids for tests and monitoring, and :attr:`max_running`, how many may run at once
+    (the routes wait for a free one; a worker thread per request was bounded by the thread
+    pool, a process per request must be too)."""
 
-    def __init__(self) -> None:
+    def __init__(self, max_running: int | None = None) -> None:
         self._lock = threading.Lock()
         self._workers: set[Worker] = set()
+        #: Workers allowed at once: the number of cores (at least 2).
+        self.max_running = max_running or max(2, os.cpu_count() or 2)
 
     def add(self, w: Worker) -> None:
         with self._lock:
@@ -205,6 +209,11 @@ class LiveWorkers:
     def discard(self, w: Worker) -> None:
         with self._lock:
             self._workers.discard(w)
+
+    def running(self) -> int:
+        """Workers listed now (started or about to start)."""
+        with self._lock:
+            return len(self._workers)
 
     def pids(self) -> list[int]:
         """Process ids of the workers that have started."""

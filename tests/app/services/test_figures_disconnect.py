@@ -116,3 +116,36 @@ def test_heavy_figures_are_still_answered(server: dict[str, Any]) -> None:
     with pytest.raises(urllib.error.HTTPError) as err:
         urllib.request.urlopen(refused, timeout=60)
     assert err.value.code == 422
+
+
+def test_heavy_figures_wait_for_a_free_worker(server: dict[str, Any]) -> None:
+    """At most ``max_running`` heavy figure workers at once (a process per request must be
+    bounded as the thread pool was): with one slot, a second heavy request waits while the
+    first one's worker runs, and both clients hanging up leaves no worker."""
+    import asyncio
+
+    app = server["app"]
+    saved = app.state.figure_slots
+    app.state.figure_slots = asyncio.Semaphore(1)
+    try:
+        body = json.dumps({"model": HEAVY_MODEL, "signal": HEAVY_SIGNAL,
+                           "figures": ["time"]}).encode()
+        first = socket.create_connection(("127.0.0.1", server["port"]))
+        head = (f"POST /api/simulate HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
+                f"application/json\r\nContent-Length: {len(body)}\r\n\r\n").encode()
+        first.sendall(head + body)
+        pid = _worker(app)
+        second = socket.create_connection(("127.0.0.1", server["port"]))
+        second.sendall(head + body)
+        time.sleep(1.0)
+        assert app.state.figure_workers.pids() == [pid]  # the second one waits
+        second.close()
+        time.sleep(0.3)
+        first.close()
+        wait_gone(pid, timeout=30.0)
+        deadline = time.monotonic() + 10
+        while app.state.figure_workers.running():
+            assert time.monotonic() < deadline, "a worker is still listed"
+            time.sleep(0.02)
+    finally:
+        app.state.figure_slots = saved
