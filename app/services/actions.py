@@ -437,8 +437,11 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
 
 #: Priced work (element operations) above which figures are computed in a worker process
 #: that is killed when the client hangs up (:func:`figures_here` runs the others in the
-#: server): 0.07 s of work or more (the cheapest unit measured, ``bench_cost.py``), against
-#: the about 30 ms a worker process adds (start, pickling the answer back; serve.md).
+#: server): about 65 ms of asymmetry work (1.3 ns per unit), up to 0.4 s at the slowest
+#: unit measured (7.7 ns, ``bench_cost.py``), against the about 30 ms a worker process adds
+#: (start, pickling the answer back; serve.md). The play-operator types, whose units are the
+#: cheapest (0.07 to 0.24 ns), stay below it within the operator limit (100 operators x
+#: 200,000 samples is 4e7 units).
 KILLABLE_WORK = 50_000_000
 
 
