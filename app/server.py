@@ -7,6 +7,7 @@ through REST shows up in the viser GUI of the same session code, and vice versa.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -33,6 +34,7 @@ from .services.recordings import UnevenUpload
 from .services.sessions import SessionRegistry, StoreFullError
 from .services.settings import Settings
 from .services.store import DamagedSessionError, SessionStore
+from .services.worker import LiveWorkers
 
 __all__ = ["STATIC_DIR", "create_app"]
 
@@ -122,6 +124,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app.state.registry = SessionRegistry(settings.max_sessions, store)
     app.state.jobs = JobManager(max_workers=settings.max_jobs)
+    # the worker processes of heavy figures (killed when their client hangs up)
+    app.state.figure_workers = LiveWorkers()
+    app.state.figure_slots = asyncio.Semaphore(app.state.figure_workers.max_running)
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)
     app.state.lookup_limiter = RateLimiter(burst=20, per_minute=20)

@@ -19,8 +19,9 @@ import warnings
 
 import numpy as np
 
-from app.services.cost import _children
-from core.base import Model, RunCost
+from app.services.cost import priced_run
+from core.base import Model
+from core.deadzone import DeadZoneMap
 from core.effects import (
     Advance,
     Asymmetry,
@@ -51,23 +52,16 @@ def _scaled() -> dict[str, Model]:
         "creep x40": Creep(np.logspace(-3, 1, 40), np.full(40, 0.01)),
         "creep-inverse x40": CreepInverse(np.logspace(-3, 1, 40), np.full(40, 0.01)),
         "drift x400": Drift(np.full(400, 1e-3), 2.0),
+        "deadzone x50": DeadZoneMap.symmetric(np.linspace(0.05, 3.0, 25), 0.9, np.full(25, 0.01)),
         "asymmetry x200": Asymmetry(np.full(200, 1e-4), 0.5, 4.0),
         "asymmetry-inverse x60": AsymmetryInverse(np.full(k, 1e-5), 0.5, 4.0),
         "delay long": Delay(N * DT), "advance long": Advance(N * DT),
+        "rate x20": RateDependentPI(1.0, np.linspace(0.1, 2.0, 20), np.full(20, 0.02), 2e-5),
         "rate-inverse x20": RateDependentPI(1.0, np.linspace(0.1, 2.0, 20),
                                             np.full(20, 0.02), 2e-5).inverse(),
         "lti order 8": LinearSystem([1.0], np.poly(-np.arange(1, 9) * 1e3)),
         "preisach-inverse x12": pre.inverse(),
     }
-
-
-def _priced(m: Model, samples: int, dt: float) -> RunCost:
-    total, todo = RunCost(0.0, 0.0), [m]
-    while todo:
-        x = todo.pop()
-        total = total + x.cost(samples, dt)
-        todo.extend(_children(x))
-    return total
 
 
 def _seconds(m: Model, u: np.ndarray) -> float:
@@ -87,7 +81,7 @@ def measure() -> dict[str, float]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name, m in {**ZOO, **_scaled()}.items():
-            ratios[name] = _seconds(m, u) / _priced(m, N, DT).work
+            ratios[name] = _seconds(m, u) / priced_run(m, N, DT).work
     return ratios
 
 

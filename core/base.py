@@ -271,6 +271,9 @@ class Model(ABC):
     #: which makes ``type_name`` a fit kind (``hyst fit --model``, the explorer's fit menu:
     #: :func:`core.models.fit_kinds`); ``None`` for types that are not fitted on their own.
     estimator: ClassVar[str | None] = None
+    #: Input-length arrays the default :meth:`cost` prices as the run's peak memory (the
+    #: output included; measured with tracemalloc by ``benchmarks/bench_cost_memory.py``).
+    run_arrays: ClassVar[float] = 4.0
 
     # -- behaviour -----------------------------------------------------------------
     @abstractmethod
@@ -348,7 +351,7 @@ class Model(ABC):
         (nothing is run).
 
         The default is linear in the fields: ``samples x (1 + numbers in the fields)``
-        element operations and a few sample arrays of memory. Types whose work is not
+        element operations and :attr:`run_arrays` sample arrays of memory. Types whose work is not
         linear in their fields override it (creep terms, bisection steps, delay buffers,
         state-space order squared, ...); the explorer's cost model sums it over a model
         tree before any work (:mod:`app.services.cost`).
@@ -367,7 +370,7 @@ class Model(ABC):
         """
         n = float(samples)
         size = float(self.field_size())
-        return RunCost(n * (1.0 + size), SAMPLE_BYTES * (4.0 * n + size))
+        return RunCost(n * (1.0 + size), SAMPLE_BYTES * (self.run_arrays * n + size))
 
     def inverse(self) -> Model:
         """The exact inverse operator, such that ``self(self.inverse()(u)) == u``.

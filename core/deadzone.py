@@ -75,6 +75,8 @@ class DeadZoneMap(Model):
     """
 
     type_name: ClassVar[str] = "deadzone"
+    #: Segment indices, anchors and gathered breakpoints: 6 input-length arrays measured.
+    run_arrays: ClassVar[float] = 8.0
     fields: ClassVar[tuple[Field, ...]] = (
         Field("thresholds", "numbers", doc="dead-zone thresholds (output units), with 0",
               title="Dead-zone thresholds ρ_j", increasing=True, fixed=(0.0,),

@@ -583,7 +583,7 @@ class Delay(Model):
         element operations, memory in bytes)."""
         m = self.delay_s / dt if dt and dt > 0 else 0.0
         n = float(samples) + m + 1.0
-        return RunCost(4.0 * n, 4.0 * SAMPLE_BYTES * n)
+        return RunCost(4.0 * n, 6.0 * SAMPLE_BYTES * n)
 
 
 @register_model
@@ -648,7 +648,7 @@ class Advance(Model):
         element operations, memory in bytes)."""
         m = self.delay_s / dt if dt and dt > 0 else 0.0
         n = float(samples) + m + 1.0
-        return RunCost(4.0 * n, 4.0 * SAMPLE_BYTES * n)
+        return RunCost(4.0 * n, 6.0 * SAMPLE_BYTES * n)
 
 
 # ----------------------------------------------------------------------------- creep
@@ -738,7 +738,7 @@ class Creep(Model):
         """Terms x samples: one filtered pass of the input per lag (element operations,
         bytes)."""
         n, m = float(samples), float(self.taus_s.size)
-        return RunCost(12.0 * n * m, SAMPLE_BYTES * (4.0 * n + m))
+        return RunCost(12.0 * n * m, SAMPLE_BYTES * (5.0 * n + m))
 
 
 @register_model
@@ -862,7 +862,7 @@ class Drift(Model):
         """Coefficients x samples: one Legendre recurrence step per coefficient and sample
         (element operations, bytes)."""
         n, m = float(samples), float(self.coefficients.size)
-        return RunCost(6.0 * n * (m + 2.0), SAMPLE_BYTES * (6.0 * n + m))
+        return RunCost(6.0 * n * (m + 2.0), SAMPLE_BYTES * (7.0 * n + m))
 
 
 # ----------------------------------------------------------------------------- output maps
@@ -941,7 +941,7 @@ class Asymmetry(Model):
         """Coefficients x samples: one power per coefficient and sample (element
         operations, bytes)."""
         n, m = float(samples), float(self.coefficients.size)
-        return RunCost(40.0 * n * (m + 1.0), SAMPLE_BYTES * (4.0 * n + m))
+        return RunCost(40.0 * n * (m + 1.0), SAMPLE_BYTES * (5.0 * n + m))
 
 
 def _poly_map(x: np.ndarray, coef: Float1D, c: float, s: float) -> np.ndarray:
@@ -1040,7 +1040,7 @@ class AsymmetryInverse(Model):
         n, m = float(samples), float(self.coefficients.size)
         steps = 2.0 * 64.0 + bisect_steps()
         work = 3.0 * n * (m + 2.0) * steps + 10.0 * m**3
-        memory = SAMPLE_BYTES * (8.0 * n + 4.0 * m * m)
+        memory = SAMPLE_BYTES * (9.0 * n + 4.0 * m * m)
         return RunCost(work, memory)
 
 
@@ -1258,6 +1258,13 @@ class RateDependentPI(Model):
         Y, zf = rd_play_bank(u, self.thresholds, self.beta_s, float(dt), z, up)  # type: ignore[arg-type]
         y = self.p0 * u + Y @ self.weights
         return y, (zf, float(u[-1]) if u.size else up)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Operators x samples of work; the play outputs are kept as a ``(samples,
+        operators)`` matrix before they are weighted, so memory is operators + 4 sample
+        arrays (measured: operators + 2). Work in element operations, memory in bytes."""
+        n, k = float(samples), float(np.size(self.thresholds))
+        return RunCost(n * (1.0 + self.field_size()), SAMPLE_BYTES * (n * (k + 4.0) + 4.0 * k))
 
     def slope_bounds(self, dt: float) -> tuple[float, float]:
         """Smallest and largest slope of the per-sample map ``u_k -> y_k`` at ``dt``.

@@ -218,6 +218,8 @@ class TanhEnvelope(Model):
     """
 
     type_name: ClassVar[str] = "tanh-envelope"
+    #: Directions and both branches evaluated: about 6 input-length arrays measured.
+    run_arrays: ClassVar[float] = 8.0
     fields: ClassVar[tuple[Field, ...]] = ENVELOPE_FIELDS
     a: Float1D
     b: Float1D
@@ -295,6 +297,8 @@ class TanhEnvelopeInverse(Model):
     """
 
     type_name: ClassVar[str] = "tanh-envelope-inverse"
+    #: Directions and both branches evaluated: about 6 input-length arrays measured.
+    run_arrays: ClassVar[float] = 8.0
     fields: ClassVar[tuple[Field, ...]] = (
         *ENVELOPE_FIELDS,
         Field("clip_margin", "number", optional=True, doc="domain margin of atanh",

@@ -5,7 +5,8 @@ are ``async``: they and their dependencies run on the event loop, with no hand-o
 worker thread, which cost more than their own work (issue 18 item 8). What may wait long
 still goes to a worker thread, so it never holds up the other requests: the commit of a
 config change (a disk write) and figures whose priced work is not small
-(:func:`app.services.actions.figures_are_quick`).
+(:func:`app.services.actions.figures_are_quick`); heavy figures go to a worker process that
+is killed when the client hangs up (:mod:`.killable`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from fastapi.concurrency import run_in_threadpool
 from ..services import actions
 from ..services.errors import ParameterError
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
+from .killable import run_figures
 from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut
 
 __all__ = ["router"]
@@ -77,6 +79,7 @@ async def update_config(body: ConfigIn, session: SessionDep,
 @router.get("/sessions/{code}/figures",
             response_model=FiguresOut, response_model_exclude_unset=True)
 async def session_figures(
+    request: Request,
     session: SessionDep,
     settings: SettingsDep,
     names: list[str] = Query(default=["loop"], alias="name"),  # noqa: B008
@@ -88,7 +91,9 @@ async def session_figures(
     named figures show is computed."""
     if actions.figures_are_quick(session, names, settings):
         return actions.session_figures(session, names, settings, state)
-    return await run_in_threadpool(actions.session_figures, session, names, settings, state)
+    # priced here; heavy ones in a worker process that stops when the client hangs up
+    return await run_figures(request,
+                             actions.session_figures_run(session, names, settings, state))
 
 
 @router.post("/sessions/{code}/preset/{name}",

@@ -12,8 +12,9 @@ codes, toasts).
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Collection
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Any
 
@@ -26,6 +27,7 @@ from core.recordings import Recording
 
 from . import controls as C
 from . import figures as F
+from . import tasks
 from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
 from .diagnosis import diagnose_session, diagnosis_html
@@ -45,6 +47,7 @@ from .simulation import (
     preset_doc,
     validate_config,
 )
+from .worker import Task
 
 __all__ = [
     "change_config",
@@ -432,21 +435,94 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
     return checked is not None and checked.cost.total_work <= QUICK_WORK
 
 
+#: Priced work (element operations) above which figures are computed in a worker process
+#: that is killed when the client hangs up (:func:`figures_here` runs the others in the
+#: server): about 65 ms of asymmetry work (1.3 ns per unit), up to 0.4 s at the slowest
+#: unit measured (7.7 ns, ``bench_cost.py``), against the about 30 ms a worker process adds
+#: (start, pickling the answer back; serve.md). The play-operator types, whose units are the
+#: cheapest (0.07 to 0.24 ns), stay below it within the operator limit (100 operators x
+#: 200,000 samples is 4e7 units).
+KILLABLE_WORK = 50_000_000
+
+
+@dataclass(frozen=True)
+class FiguresRun:
+    """Figures of one request, priced and ready to run (:func:`simulate_run`,
+    :func:`session_figures_run`).
+
+    ``task`` computes the JSON body (:func:`.tasks.run_figures`); ``killable`` says its
+    priced work is above :data:`KILLABLE_WORK`, so the routes run it in a worker process
+    that they kill when the client disconnects.
+    """
+
+    task: Task
+    killable: bool
+
+
+def _figures_run(config: Config, names: tuple[str, ...], settings: Settings, cost: float,
+                 model: Model, *, version: int = 0, recording: Recording | None = None,
+                 diagnosed: Model | None = None, include_data: bool = False,
+                 state: int | None = None) -> FiguresRun:
+    args = (config, names, version, recording, diagnosed, model, settings.max_operators,
+            settings.max_samples, include_data, state)
+    return FiguresRun(Task(tasks.run_figures, args), cost > KILLABLE_WORK)
+
+
+def figures_here(run: FiguresRun) -> dict[str, Any]:
+    """Compute ``run`` in this process (thread); the JSON body."""
+    return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
+
+
+def figures_body(out: dict[str, Any] | tasks.Refused) -> dict[str, Any]:
+    """The JSON body of a :func:`.tasks.run_figures` outcome (its refusal raised again).
+
+    Raises
+    ------
+    ParameterError, NotInvertibleError
+        The input was refused where the figures were computed.
+    """
+    if isinstance(out, tasks.Refused):
+        raise out.error(out.message)
+    return out
+
+
+def _no_progress(fraction: float, message: str = "") -> None:
+    pass
+
+
+def session_figures_run(session: Session, names: Collection[str], settings: Settings,
+                        state: int | None = None) -> FiguresRun:
+    """Figures ``names`` of the session's current config, priced (nothing computed yet);
+    ``state``: the digitized view at that row of its trace."""
+    names = tuple(check_figure_names(names))
+    cfg, v, model = session.checked(settings.limits,
+                                    lambda c, rec: checked_model(c, rec, settings))
+    checked = session.state.checked
+    cost = checked.cost.total_work if checked is not None else math.inf
+    return _figures_run(cfg, names, settings, cost, model, version=v,
+                        recording=session.recording, diagnosed=diagnosed_model(session),
+                        state=state)
+
+
 def session_figures(session: Session, names: Collection[str],
                     settings: Settings, state: int | None = None) -> dict[str, Any]:
     """Figures ``names`` of the session's current config (only their views computed);
     ``state``: the digitized view at that row of its trace (clipped to the trace)."""
-    names = check_figure_names(names)
-    return result_payload(session_result(session, names, settings), names, state=state)
+    return figures_here(session_figures_run(session, names, settings, state))
+
+
+def simulate_run(config: Config, names: Collection[str], settings: Settings,
+                 include_data: bool = False) -> FiguresRun:
+    """Figures ``names`` of a config that belongs to no session, priced (nothing computed
+    yet: the cost is checked and the model built once, here)."""
+    names = tuple(check_figure_names(names))
+    checked = checked_config(config, None, settings.limits)
+    model = check_operator_limit(checked.model, settings.max_operators)
+    return _figures_run(config, names, settings, checked.cost.total_work, model,
+                        include_data=include_data)
 
 
 def simulate(config: Config, names: Collection[str], settings: Settings,
              include_data: bool = False) -> dict[str, Any]:
     """Figures ``names`` of a config that belongs to no session (stateless)."""
-    names = check_figure_names(names)
-    # bounded cost, checked before any work; the model is built once
-    model = check_operator_limit(checked_config(config, None, settings.limits).model,
-                                 settings.max_operators)
-    res = compute(config, views=names, max_operators=settings.max_operators,
-                  max_samples=settings.max_samples, model=model)
-    return result_payload(res, names, include_data)
+    return figures_here(simulate_run(config, names, settings, include_data))

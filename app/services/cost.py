@@ -33,7 +33,7 @@ from core.base import Model, RunCost
 from core.exceptions import ParameterError
 
 __all__ = ["CheckedModel", "Cost", "Limits", "check_config", "check_document", "check_model",
-           "checked_config", "checked_model", "json_depth"]
+           "checked_config", "checked_model", "json_depth", "priced_run"]
 
 
 @dataclass(frozen=True)
@@ -192,6 +192,17 @@ def _children(m: Model) -> list[Model]:
         elif isinstance(v, tuple | list):
             out.extend(x for x in v if isinstance(x, Model))
     return out
+
+
+def priced_run(model: Model, samples: int, dt: float) -> RunCost:
+    """Sum of :meth:`core.base.Model.cost` over ``model``'s tree, with no limit checked
+    (what :func:`check_model` prices; the benchmarks and tests compare it with measurements)."""
+    total, todo = RunCost(0.0, 0.0), [model]
+    while todo:
+        m = todo.pop()
+        total = total + m.cost(samples, dt)
+        todo.extend(_children(m))
+    return total
 
 
 def _operators(m: Model) -> int:

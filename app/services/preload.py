@@ -34,6 +34,17 @@ def warm() -> None:
         for kind in fit_kinds():
             out = run_fit(rec, 3, kind, progress=quiet)
         run_diagnosis(rec, out["model"], progress=quiet)
+        # the figures of a heavy request (tasks.run_figures) load their kernels too
+        from core.presets import get_preset, list_presets
+
+        from .config import Config, SignalSpec
+        from .tasks import run_figures
+
+        quick = ("time", "loop", "operators", "loading", "inverse")
+        for p in list_presets():
+            model = get_preset(p.name)
+            cfg = Config(model=model.to_dict(), signal=SignalSpec(samples=200))
+            run_figures(cfg, quick, 0, None, None, model, 100, 200_000, False, progress=quiet)
 
 
 try:

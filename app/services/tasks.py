@@ -11,6 +11,7 @@ replace them with its own module-level functions.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from core.exceptions import ParameterError
@@ -18,11 +19,13 @@ from core.exceptions import ParameterError
 from .worker import Progress, Task
 
 if TYPE_CHECKING:
+    from core.base import Model
     from core.recordings import Recording
 
+    from .config import Config
     from .sessions import Session
 
-__all__ = ["diagnose_task", "fit_task", "run_diagnosis", "run_fit"]
+__all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit"]
 
 
 def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:
@@ -54,6 +57,38 @@ def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
         progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
 
     return diagnose(rec, model_from_dict(model_doc), report)
+
+
+@dataclass(frozen=True)
+class Refused:
+    """What :func:`run_figures` returns instead of raising when the input is at fault: the
+    error's class and text, raised again as such in the server (a 422, not a failure)."""
+
+    error: type[Exception]
+    message: str
+
+
+def run_figures(config: Config, names: tuple[str, ...], version: int,
+                recording: Recording | None, diagnosed: Model | None, model: Model,
+                max_operators: int, max_samples: int, include_data: bool,
+                state: int | None = None, *, progress: Progress) -> dict[str, Any] | Refused:
+    """The JSON body of figures ``names`` of ``config`` (``/api/simulate`` and a session's
+    figures; ``state``: the digitized view's highlighted row):
+    :func:`.simulation.compute` then :func:`.actions.result_payload`, with the
+    model already built and priced by the caller. Runs in a request's thread, or in a worker
+    process when its priced work is large (:data:`.actions.KILLABLE_WORK`)."""
+    from core.exceptions import NotInvertibleError
+
+    from .actions import result_payload
+    from .simulation import compute
+
+    try:
+        res = compute(config, views=names, version=version, recording=recording,
+                      max_operators=max_operators, max_samples=max_samples,
+                      diagnosed=diagnosed, model=model)
+        return result_payload(res, names, include_data, state=state)
+    except (ParameterError, NotInvertibleError) as exc:
+        return Refused(type(exc), str(exc))
 
 
 def _recording(session: Session, what: str) -> Recording:

@@ -30,7 +30,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["PRELOAD", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied", "start"]
+__all__ = ["PRELOAD", "LiveWorkers", "Progress", "Task", "TaskFailed", "Worker", "WorkerDied",
+           "start"]
 
 #: ``progress(fraction, message)``: how a task reports to its job (``fraction`` in 0..1).
 Progress = Callable[[float, str], None]
@@ -38,7 +39,7 @@ Progress = Callable[[float, str], None]
 #: Modules the forkserver imports once (the last one loads the compiled kernels); every
 #: worker is forked with them loaded.
 PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.services.tasks",
-           "app.services.preload"]
+           "app.services.preload", "app.services.actions"]
 
 #: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
 #: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
@@ -187,3 +188,34 @@ class Worker:
                 return msg[1]
             else:
                 raise TaskFailed(msg[1])
+
+
+class LiveWorkers:
+    """The workers running now, outside the job queue (a request's heavy figures): their
+    process ids for tests and monitoring, and :attr:`max_running`, how many may run at once
+    (the routes wait for a free one; a worker thread per request was bounded by the thread
+    pool, a process per request must be too)."""
+
+    def __init__(self, max_running: int | None = None) -> None:
+        self._lock = threading.Lock()
+        self._workers: set[Worker] = set()
+        #: Workers allowed at once: the number of cores (at least 2).
+        self.max_running = max_running or max(2, os.cpu_count() or 2)
+
+    def add(self, w: Worker) -> None:
+        with self._lock:
+            self._workers.add(w)
+
+    def discard(self, w: Worker) -> None:
+        with self._lock:
+            self._workers.discard(w)
+
+    def running(self) -> int:
+        """Workers listed now (started or about to start)."""
+        with self._lock:
+            return len(self._workers)
+
+    def pids(self) -> list[int]:
+        """Process ids of the workers that have started."""
+        with self._lock:
+            return [p for w in self._workers if (p := w.pid) is not None]

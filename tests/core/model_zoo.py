@@ -7,6 +7,8 @@ tests), and the chains the diagnosis writes.
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 
 from core.base import Chain, Model
@@ -58,6 +60,19 @@ def turning_points(seed: int, n: int) -> np.ndarray:
         out.append(np.linspace(a, b, m, endpoint=False))
         total, a = total + m, b
     return np.concatenate(out)[:n]
+
+
+def traced_peak(m: Model, u: np.ndarray, dt: float) -> int:
+    """Peak bytes :mod:`tracemalloc` sees while ``m`` simulates ``u`` (numpy reports its
+    buffers to it); the kernels are compiled on a short run first, outside the trace."""
+    m.simulate(u[:64], dt=dt)
+    tracemalloc.start()
+    try:
+        m.simulate(u, dt=dt)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    return peak
 
 
 def _zoo() -> dict[str, Model]:

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import socket
-import threading
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -28,6 +27,7 @@ from app.server import create_app
 from app.services.settings import Settings
 from core.pi import PIModel
 from tests.app.job_work import alive, wait_gone
+from tests.app.live_server import serving
 
 #: A dead-zone GPI fit with 100 operators on this many random-walk samples takes about 8 s
 #: single-threaded (long enough to be running when the test cancels it).
@@ -49,25 +49,14 @@ def _csv(n: int) -> bytes:
 @pytest.fixture(scope="module")
 def server() -> Iterator[dict[str, Any]]:
     """The app served by uvicorn on a free port, one job slot."""
-    import uvicorn
-
     app = create_app(Settings(viser_port=None, port=0, max_jobs=1))
-    srv = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
-    th = threading.Thread(target=srv.run, daemon=True)
-    th.start()
-    deadline = time.monotonic() + 60
-    while not srv.started:
-        assert time.monotonic() < deadline and th.is_alive(), "the server did not start"
-        time.sleep(0.05)
-    port = srv.servers[0].sockets[0].getsockname()[1]
-    url = f"http://127.0.0.1:{port}/"
-    long = _call(url + "api/sessions", "POST")["code"]
-    _call(url + f"api/sessions/{long}/recording", "POST", _csv(SAMPLES), "text/csv")
-    short = _call(url + "api/sessions", "POST")["code"]
-    _call(url + f"api/sessions/{short}/recording", "POST", _csv(500), "text/csv")
-    yield {"url": url, "port": port, "app": app, "long": long, "short": short}
-    srv.should_exit = True
-    th.join(timeout=20)
+    with serving(app) as port:
+        url = f"http://127.0.0.1:{port}/"
+        long = _call(url + "api/sessions", "POST")["code"]
+        _call(url + f"api/sessions/{long}/recording", "POST", _csv(SAMPLES), "text/csv")
+        short = _call(url + "api/sessions", "POST")["code"]
+        _call(url + f"api/sessions/{short}/recording", "POST", _csv(500), "text/csv")
+        yield {"url": url, "port": port, "app": app, "long": long, "short": short}
 
 
 def _call(url: str, method: str = "GET", body: bytes | None = None,
