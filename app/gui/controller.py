@@ -583,6 +583,7 @@ class SessionView:
             except JobBusy as exc:
                 raise ValueError(_busy_text(str(exc))) from None
             self._job = job
+            ui.cancel_btn.label = "Cancel the fit"
             ui.job_bar.visible = ui.cancel_btn.visible = True
             try:
                 self._follow(job, "fitting")
@@ -644,6 +645,7 @@ class SessionView:
                                         + (f" ({md_text(message)})" if message else ""))
 
         ui.job_bar.value = 0.0
+        ui.cancel_btn.label = "Cancel the diagnosis"
         ui.job_bar.visible = ui.cancel_btn.visible = True
         try:
             with self._busy("diagnosing (10–40 s for a long recording)"):

@@ -468,7 +468,8 @@ def test_fit_is_a_killable_job_with_progress_and_cancel(
         [pid] = jobs.workers()
         job = jobs.recent(code)[0]
         assert (job.kind, job.state) == ("fit", "running") and job.worker is not None
-        assert v.ui.cancel_btn.visible and "fitting… 50 %" in v.ui.report_md.content
+        assert v.ui.cancel_btn.visible and v.ui.cancel_btn.label == "Cancel the fit"
+        assert "fitting… 50 %" in v.ui.report_md.content
         v._guarded(v._cancel_clicked)(SimpleNamespace(client=None))
         assert job.state == "cancelled" and jobs.running() == 0  # the slot is free now
         job_work.wait_gone(pid)
