@@ -59,7 +59,7 @@ def _start_viser(app: FastAPI, settings: Settings) -> Any:
                        max_upload_bytes=settings.max_upload_bytes)
     server = start_viser(settings.host, settings.viser_port, guard)
     app.state.gui = attach_gui(server, app.state.registry, settings, guard=guard,
-                               limiter=app.state.create_limiter)
+                               limiter=app.state.create_limiter, jobs=app.state.jobs)
     return server
 
 

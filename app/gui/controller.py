@@ -30,11 +30,13 @@ from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
 from ..services.events import HUB
+from ..services.jobs import Job, JobBusy, JobManager
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
+from ..services.tasks import fit_task
 from .layout import TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
@@ -51,12 +53,32 @@ from .text import (
 
 __all__ = ["SessionView"]
 
+
+def _busy_text(message: str) -> str:
+    """The job manager's refusal in the GUI's words."""
+    if message.startswith("this session already has"):
+        return ("this session already has a fit or diagnosis running (perhaps from another "
+                "tab or the web page): wait for it or cancel it")
+    return message
+
 #: Plot height / width of each view in the floating panel.
 ASPECT = {"inverse": 0.5, "fit": 0.5, "digitized": 1.0, "closed-loop": 0.75}
 #: Plot height / width in projector mode (a 1200 px wide plot fits a 1080 px high screen).
 PROJECTOR_ASPECT = 0.6
-#: Shortest interval between two progress updates of a running diagnosis, s.
+#: Shortest interval between two progress updates of a running diagnosis or fit, s.
 PROGRESS_S = 0.3
+
+_JOBS: JobManager | None = None
+_JOBS_LOCK = threading.Lock()
+
+
+def _default_jobs() -> JobManager:
+    """The job manager of views built without one (a GUI without the REST app's)."""
+    global _JOBS
+    with _JOBS_LOCK:
+        if _JOBS is None:
+            _JOBS = JobManager()
+        return _JOBS
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
 
@@ -104,8 +126,12 @@ class SessionView:
         scene: Any = None,
         camera: Any = None,
         on_session: Callable[[str], None] | None = None,
+        jobs: JobManager | None = None,
     ) -> None:
         self.registry = registry
+        #: runs this tab's fits in killable worker processes (the REST API's manager)
+        self.jobs = jobs if jobs is not None else _default_jobs()
+        self._job: Job | None = None  # the fit job running now
         self._on_session = on_session
         self.session = session
         self.settings = settings
@@ -122,7 +148,7 @@ class SessionView:
         self._syncing = threading.local()
         self._lock = threading.RLock()
         self._work_lock = threading.Lock()
-        self._cancel = threading.Event()  # set by Cancel: the running diagnosis stops
+        self._cancel = threading.Event()  # set by Cancel: the running diagnosis or fit stops
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
         self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
@@ -190,7 +216,7 @@ class SessionView:
         ui.timing_keep.on_click(self._guarded(lambda ev: self._load_csv("keep")))
         ui.fit_btn.on_click(self._guarded(self._fit_clicked))
         ui.diag_btn.on_click(self._guarded(self._diagnose_clicked))
-        ui.cancel_btn.on_click(self._guarded(lambda ev: self._cancel.set()))
+        ui.cancel_btn.on_click(self._guarded(self._cancel_clicked))
         ui.report_btn.on_click(self._guarded(self._report_clicked))
         ui.ps_upload.on_upload(self._guarded(self._paramset_uploaded))
         for btn, fmt in ((ui.dl_json, "json"), (ui.dl_mat, "mat"), (ui.dl_c, "c")):
@@ -535,6 +561,9 @@ class SessionView:
             " steps (linear interpolation), or keep the time stamps as measured.")
 
     def _fit_clicked(self, event: Any) -> None:
+        """Run the fit as a job of the session (:func:`~app.services.tasks.fit_task` in a
+        worker process of the job manager), its progress under the buttons; Cancel kills
+        the worker and the session's model and fit stay as they were."""
         ui = self.ui
         rec = self.session.recording
         if rec is None:
@@ -542,15 +571,58 @@ class SessionView:
             return
         n = int(ui.fit_n.value)
         kind = str(ui.fit_kind.value)
+        if not 1 <= n <= self.settings.max_operators:
+            raise ParameterError(f"the number of operators must be between 1 and "
+                                 f"{self.settings.max_operators}, got {n}")
+        self._cancel.clear()
+        ui.job_bar.value = 0.0
         with self._busy("fitting"):
-            model, report = actions.fit(self.session, n, kind, apply=True,
-                                        settings=self.settings)
-        self.fit_figure = actions.fit_figure(rec, model, f"fitted {kind} (n={n})")
+            try:
+                job = self.jobs.submit(self.session.code, "fit",
+                                       fit_task(self.session, n, kind, apply=True))
+            except JobBusy as exc:
+                raise ValueError(_busy_text(str(exc))) from None
+            self._job = job
+            ui.cancel_btn.label = "Cancel the fit"
+            ui.job_bar.visible = ui.cancel_btn.visible = True
+            try:
+                self._follow(job, "fitting")
+            finally:
+                self._job = None
+                ui.job_bar.visible = ui.cancel_btn.visible = False
+            view = job.view()
+            if view.state == "cancelled":
+                ui.report_md.content = "Fit cancelled: the model was not changed."
+                return
+            if view.state != "done":
+                raise ValueError(f"the fit failed: {view.error or view.message}")
+        out = view.result
+        self.fit_figure = F.FigureJSON(out["figure"]["data"], out["figure"]["layout"])
+        report = out["report"]
         ui.view_dd.value = TITLES["fit"]
         ui.report_md.content = (
             f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
             f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
         )
+
+    def _follow(self, job: Job, what: str) -> None:
+        """Show ``job``'s progress until it finishes (a Cancel click cancels it)."""
+        ui = self.ui
+        while not self.jobs.wait(job, PROGRESS_S):
+            if self._cancel.is_set():
+                self.jobs.cancel(job.code, job.id)
+                continue
+            v = job.view()
+            ui.job_bar.value = float(100 * v.progress)
+            ui.report_md.content = (f"⏳ **{what}… {100 * v.progress:.0f} %**"
+                                    + (f" ({md_text(v.message)})" if v.message else ""))
+
+    def _cancel_clicked(self, event: Any) -> None:
+        """Stop the running diagnosis or fit (a fit's worker process is killed at once)."""
+        self._cancel.set()
+        job = self._job
+        if job is not None:
+            self.jobs.cancel(job.code, job.id)
 
     def _diagnose_clicked(self, event: Any) -> None:
         """Run the diagnosis with its progress under the buttons and a Cancel button (the
@@ -573,6 +645,7 @@ class SessionView:
                                         + (f" ({md_text(message)})" if message else ""))
 
         ui.job_bar.value = 0.0
+        ui.cancel_btn.label = "Cancel the diagnosis"
         ui.job_bar.visible = ui.cancel_btn.visible = True
         try:
             with self._busy("diagnosing (10–40 s for a long recording)"):

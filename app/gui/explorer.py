@@ -24,6 +24,7 @@ from collections import OrderedDict
 from typing import Any
 
 from ..services.events import HUB
+from ..services.jobs import JobManager
 from ..services.ratelimit import RateLimiter
 from ..services.sessions import SessionRegistry
 from ..services.settings import Settings
@@ -55,11 +56,16 @@ class ExplorerGui:
         Knows each websocket's client address (:mod:`app.gui.viser_guard`).
     limiter : RateLimiter, optional
         New sessions per client address; no limit without one.
+    jobs : JobManager, optional
+        Runs the tabs' fits in killable worker processes (the REST API's manager, so a
+        session has one job at a time whichever side started it); a shared one without.
     """
 
     def __init__(self, server: Any, registry: SessionRegistry, settings: Settings, *,
-                 guard: ViserGuard | None = None, limiter: RateLimiter | None = None) -> None:
+                 guard: ViserGuard | None = None, limiter: RateLimiter | None = None,
+                 jobs: JobManager | None = None) -> None:
         self.server = server
+        self.jobs = jobs
         self.registry = registry
         self.settings = settings
         self.guard = guard
@@ -112,7 +118,7 @@ class ExplorerGui:
 
         view = SessionView(client.gui, self.registry, session, self.settings,
                            notify=notify, scene=client.scene, camera=client.camera,
-                           on_session=remember)
+                           on_session=remember, jobs=self.jobs)
 
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0
@@ -197,7 +203,8 @@ class ExplorerGui:
 
 def attach_gui(server: Any, registry: SessionRegistry, settings: Settings, *,
                guard: ViserGuard | None = None,
-               limiter: RateLimiter | None = None) -> ExplorerGui:
+               limiter: RateLimiter | None = None,
+               jobs: JobManager | None = None) -> ExplorerGui:
     """Give every browser tab connecting to ``server`` its own explorer view (see
     :class:`ExplorerGui` for ``guard`` and ``limiter``)."""
-    return ExplorerGui(server, registry, settings, guard=guard, limiter=limiter)
+    return ExplorerGui(server, registry, settings, guard=guard, limiter=limiter, jobs=jobs)

@@ -73,3 +73,11 @@ def slow_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
         progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
 
     return run_diagnosis(rec, model_from_dict(model_doc), slow)
+
+
+def stalled_fit(rec: Any, n: int, kind: str, *, progress: Any) -> Any:
+    """Stands in for :func:`app.services.tasks.run_fit`: reports half way, then stalls
+    until killed or 120 s have passed."""
+    progress(0.5, "fitting")
+    time.sleep(120)
+    raise AssertionError("a stalled fit must be cancelled before it ends")

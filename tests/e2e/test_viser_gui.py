@@ -147,3 +147,46 @@ def test_viser_gui_two_students(browser: Any, live_server: dict, shot: Any,
     assert errors_a == [] and errors_b == []
     ctx_a.close()
     ctx_b.close()
+
+
+def test_viser_fit_is_a_job_with_progress_and_cancel(browser: Any, live_server: dict,
+                                                     shot: Any, monkeypatch: Any) -> None:
+    """A fit clicked in viser runs as a job of the server's job manager: its progress and
+    a "Cancel the fit" button show under the buttons; Cancel kills its worker process and
+    the session's model is left as it was; then a real fit of a real recording runs."""
+    from app.services import tasks
+    from tests.app import job_work
+
+    from .test_classroom import PIEZO
+    from .test_viser_layout import _new_view
+
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"])
+    view = _new_view(app, known)
+    upload_file(page, view, PIEZO, wait=60)
+    assert view.session.recording is not None
+    model = view.session.snapshot()[0].model
+    monkeypatch.setattr(tasks, "run_fit", job_work.stalled_fit)
+    page.get_by_role("button", name="Fit model").first.click()
+    cancel = page.get_by_role("button", name="Cancel the fit").first
+    cancel.wait_for(timeout=30_000)
+    page.wait_for_selector("text=fitting… 50 %", timeout=30_000)
+    [pid] = app.state.jobs.workers()
+    job = app.state.jobs.recent(view.session.code)[0]
+    assert (job.kind, job.state) == ("fit", "running")
+    cancel.scroll_into_view_if_needed()
+    shot(page, "viser-fit-progress")
+    cancel.click()
+    page.wait_for_selector("text=Fit cancelled", timeout=30_000)
+    job_work.wait_gone(pid)
+    assert job.state == "cancelled" and not cancel.is_visible()
+    assert view.session.fitted is None and view.session.snapshot()[0].model == model
+    monkeypatch.undo()
+    page.get_by_role("button", name="Fit model").first.click()
+    page.wait_for_selector("text=RMS error", timeout=120_000)
+    assert view.session.fitted is not None
+    assert app.state.jobs.recent(view.session.code)[0].state == "done"
+    _screenshot(page, shot, "viser-fit-done")
+    assert errors == []
+    ctx.close()

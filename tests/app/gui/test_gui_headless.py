@@ -7,6 +7,8 @@ import importlib.util
 import io
 import json
 import shutil
+import threading
+import time
 import zipfile
 from collections.abc import Iterator
 from types import SimpleNamespace
@@ -151,13 +153,18 @@ def test_store_to_gui_sync_without_write_back(view: SessionView) -> None:
     assert view.session.version == v0 + 1  # the sync did not write back
 
 
-def test_csv_fit_diagnose_export(view: SessionView) -> None:
-    t = np.arange(800) * 1e-3
+def _upload_pi(v: SessionView, samples: int) -> None:
+    """Upload a recording of a known PI model (1 kHz, 3 Hz sine of amplitude 3)."""
+    t = np.arange(samples) * 1e-3
     u = 3 * np.sin(2 * np.pi * 3 * t)
     y = PIModel(0.7, [0.5, 1.0], [0.5, 0.4])(u)
     text = "t,u,y\n" + "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, u, y, strict=True))
-    view.ui.upload._impl.value = SimpleNamespace(name="m.csv", content=text.encode())
-    view._csv_uploaded(SimpleNamespace(target=view.ui.upload, client=None))
+    v.ui.upload._impl.value = SimpleNamespace(name="m.csv", content=text.encode())
+    v._csv_uploaded(SimpleNamespace(target=v.ui.upload, client=None))
+
+
+def test_csv_fit_diagnose_export(view: SessionView) -> None:
+    _upload_pi(view, 800)
     assert "800 samples" in view.ui.data_md.content
     view.ui.fit_n.value = 6
     view._fit_clicked(SimpleNamespace(client=None))
@@ -415,3 +422,62 @@ def test_second_fit_while_one_runs_is_refused(view: SessionView) -> None:
     assert any("already running" in body for _, body, _ in view.toasts)
     view._guarded(view._fit_clicked)(SimpleNamespace(client=None))
     assert view.session.fitted is not None and not view.ui.fit_btn.disabled
+
+
+def test_fit_is_a_killable_job_with_progress_and_cancel(
+        server: Any, tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A fit from viser is a job of the job manager (the REST API's), in a worker process:
+    a session already running a job is refused in words for the user; the fit's progress
+    shows under the buttons; Cancel kills its worker at once and the session keeps the
+    fit it had (before: the fit ran in the server process, with neither)."""
+    from app.services import tasks
+    from app.services.jobs import JobManager
+    from app.services.worker import Task
+    from tests.app import job_work
+
+    jobs = JobManager(max_workers=1)
+    reg = SessionRegistry()
+    toasts: list[tuple[str, str, bool]] = []
+    v = SessionView(server.gui, reg, reg.create(), Settings(),
+                    notify=lambda *a: toasts.append(a), jobs=jobs)
+    try:
+        _upload_pi(v, 600)
+        code = v.session.code
+        v.ui.fit_n.value = 4
+        v._guarded(v._fit_clicked)(SimpleNamespace(client=None))  # a real fit, as a job
+        first = v.session.fitted
+        assert first is not None and "RMS error" in v.ui.report_md.content
+        assert [(j.kind, j.state) for j in jobs.recent(code)] == [("fit", "done")]
+
+        gate = tmp_path / "go"  # a job started elsewhere (the REST API) is running
+        other = jobs.submit(code, "diagnose", Task(job_work.until_file, (str(gate),)))
+        v._guarded(v._fit_clicked)(SimpleNamespace(client=None))
+        assert any("already has a fit or diagnosis running" in body for _, body, _ in toasts)
+        assert not any("job" in body for _, body, _ in toasts)  # the manager's word
+        jobs.cancel(code, other.id)
+
+        monkeypatch.setattr(tasks, "run_fit", job_work.stalled_fit)
+        v.ui.fit_n.value = 5
+        clicked = threading.Thread(target=v._guarded(v._fit_clicked),
+                                   args=(SimpleNamespace(client=None),))
+        clicked.start()
+        deadline = time.monotonic() + 60
+        while not (jobs.workers() and v.ui.job_bar.value >= 50):
+            assert time.monotonic() < deadline, "the fit reported no progress"
+            time.sleep(0.05)
+        [pid] = jobs.workers()
+        job = jobs.recent(code)[0]
+        assert (job.kind, job.state) == ("fit", "running") and job.worker is not None
+        assert v.ui.cancel_btn.visible and v.ui.cancel_btn.label == "Cancel the fit"
+        assert "fitting… 50 %" in v.ui.report_md.content
+        v._guarded(v._cancel_clicked)(SimpleNamespace(client=None))
+        assert job.state == "cancelled" and jobs.running() == 0  # the slot is free now
+        job_work.wait_gone(pid)
+        clicked.join(30)
+        assert not clicked.is_alive()
+        assert v.session.fitted == first
+        assert "Fit cancelled" in v.ui.report_md.content
+        assert not v.ui.cancel_btn.visible and not v.ui.fit_btn.disabled
+    finally:
+        v.close()
+        jobs.cancel_all()
