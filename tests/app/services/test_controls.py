@@ -108,6 +108,41 @@ def test_ranges_follow_the_parameter_set_not_the_value() -> None:
     assert rb[0].max == pytest.approx(375.0) and rb[0].step == pytest.approx(0.1)
 
 
+def test_creep_time_constants_get_a_log_slider_whose_positions_map_to_values() -> None:
+    """Creep τ 0.01, 0.1, 1 s on a linear 0.001..1.25 slider would sit at 0.7 %, 7.9 % and
+    80 % of its width; declared logarithmic, the description says so and the thumbs sit a
+    decade apart (equal spacing in log10), a position maps back to its value, and the
+    strict limit τ > 0 still clamps. The weights stay linear."""
+    doc = {"type": "creep", "taus_s": [0.01, 0.1, 1.0], "weights": [0.02, 0.02, 0.02]}
+    ctl = C.model_controls(doc)
+    d = ctl.to_dict()
+    taus = [s for g in d["groups"] for s in g["sliders"] if s["path"].startswith("taus_s")]
+    assert [s["log"] for s in taus] == [True] * 3
+    assert not any(s["log"] for g in d["groups"] for s in g["sliders"]
+                   if s["path"].startswith("weights"))
+    s = ctl.slider("taus_s[0]")
+    assert s is not None and s.min > 0
+    lo, hi = C.slider_position(s, s.min), C.slider_position(s, s.max)
+    frac = [(C.slider_position(s, v) - lo) / (hi - lo) for v in (0.01, 0.1, 1.0)]
+    assert 0.2 < frac[0] < 0.4  # not bunched at the left (linear: 0.007)
+    assert frac[1] - frac[0] == pytest.approx(frac[2] - frac[1])
+    for v in (0.001, 0.0123, 0.5, 1.25):
+        assert C.slider_value(s, C.slider_position(s, v)) == pytest.approx(v, rel=5e-3)
+    assert C.slider_value(s, lo + (hi - lo) / 2) == pytest.approx(
+        10 ** ((math.log10(s.min) + math.log10(s.max)) / 2), rel=5e-3)
+    assert C.clamp(doc, "taus_s[0]", 0.0).value == pytest.approx(s.step)
+
+
+@pytest.mark.parametrize("name", TYPES)
+def test_log_sliders_have_a_positive_range(name: str) -> None:
+    """Every field declared logarithmic is a positive quantity (strict lower limit 0), so
+    log10 of its range and values exists."""
+    for f in _numeric(next(t for t in model_types() if t.name == name)):
+        for ctl in (f.control, *f.elements):
+            if ctl is not None and ctl.log:
+                assert ctl.lower == 0.0 and ctl.strict and ctl.range[0] > 0, (name, f.name)
+
+
 def test_dead_zone_sliders_are_numbered_around_the_linear_term() -> None:
     doc = preset_doc("paper001-example4")["model"]
     ctl = C.model_controls(doc)
