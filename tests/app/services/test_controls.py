@@ -246,3 +246,24 @@ def test_a_newly_registered_type_gets_sliders_and_rules(toy: type[Model]) -> Non
     chain = {"type": "chain", "stages": [preset_doc("paper001-example1")["model"], doc]}
     groups = [g.title for g in C.model_controls(chain).groups]
     assert "Stage 2 (toy-springs): Gaps g_i" in groups
+
+
+@pytest.mark.parametrize(("name", "path", "value", "says", "not_says"), [
+    ("deadzone", "thresholds[2]", 0.5, "ρ0 = 0 exactly once", "rho"),
+    ("tanh-envelope", "direction0", 0, "initial direction must be +1", "direction0"),
+    ("lti", "den[0]", 0.0, "a0 = 0", "deg(num)"),
+    ("preisach-inverse", "model.weights[0][0]", 0.0, "W0,0 = 0 must be > 0", "weights["),
+    ("digitized-mpi", "deadzone.state0", 9, "initial segment = 9", "state0"),
+])
+def test_the_models_own_refusals_use_the_slider_labels(name: str, path: str, value: float,
+                                                       says: str, not_says: str) -> None:
+    """A value typed into the JSON box that the declared rules pass but the model refuses
+    (ρ0 moved off 0, direction 0, a leading a0 = 0, a zero reversible slope, a segment past
+    the end) is refused in the labels the sliders show, not in JSON names or indices."""
+    doc = ZOO[name].to_dict()
+    C.get_leaf(doc, path)
+    C.set_leaf(doc, path, value)
+    C.check_rules(doc)  # not a declared rule: the model's own check words it
+    with pytest.raises(ValueError) as err:  # ParameterError or NotInvertibleError
+        base.model_from_dict(doc)
+    assert says in str(err.value) and not_says not in str(err.value), str(err.value)
