@@ -85,6 +85,10 @@ class Control:
         Whole numbers only.
     count_of : str, optional
         The upper end of the range is the length of this field (a 1-based index).
+    log : bool
+        A logarithmic slider, for a quantity that spans decades (time constants,
+        frequencies): the thumb moves in ``log10`` of the value, the value shown and stored
+        is the real one. The range's lower end is then at least one step above zero.
     """
 
     label: str
@@ -99,6 +103,7 @@ class Control:
     scale_index: int | None = None
     integer: bool = False
     count_of: str | None = None
+    log: bool = False
 
 
 @dataclass(frozen=True)

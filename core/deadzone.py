@@ -98,8 +98,8 @@ class DeadZoneMap(Model):
         zeros = np.flatnonzero(rho == 0.0)
         if zeros.size != 1:
             raise ParameterError(
-                "deadzone thresholds (rho) must contain rho_0 = 0 exactly once (the linear "
-                f"term, weight eta_0); got {rho.tolist()}; add 0 to the thresholds"
+                "the dead-zone thresholds ρ must hold ρ0 = 0 exactly once (the linear term, "
+                f"weight η0); got {rho.tolist()}; add 0 to the thresholds"
             )
         object.__setattr__(self, "thresholds", rho)
         object.__setattr__(self, "weights", eta)

@@ -161,7 +161,7 @@ class DigitizedDeadZone(Model):
         object.__setattr__(self, "dy", dy)
         object.__setattr__(self, "x0", as_finite_scalar(self.x0, "x0"))
         object.__setattr__(self, "y0", as_finite_scalar(self.y0, "y0"))
-        object.__setattr__(self, "state0", self._check_segment(self.state0, "state0"))
+        object.__setattr__(self, "state0", self._check_segment(self.state0, "initial segment"))
         g = dy / dx
         if not np.isfinite(g).all():
             raise ParameterError("dy / dx overflows; rescale dx and dy to moderate magnitudes")
@@ -175,7 +175,8 @@ class DigitizedDeadZone(Model):
         m = self.dx.size
         if isinstance(c, bool) or not isinstance(c, numbers.Integral) or not 1 <= int(c) <= m:
             raise ParameterError(
-                f"{name} = {c!r} must be a segment index C with 1 <= C <= m = {m}"
+                f"{name} = {c!r} must be a segment number C with 1 <= C <= m = {m} (a whole "
+                "number)"
             )
         return int(c)
 

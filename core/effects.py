@@ -327,7 +327,8 @@ class Lag(_LinearStage):
     type_name: ClassVar[str] = "lag"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("tau_s", "number", doc="time constant (s)", title="Time constant τ",
-              control=Control("τ", "s", (0.0, 2.0), lower=0.0, strict=True, scale=1e-3)),
+              control=Control("τ", "s", (0.001, 2.0), lower=0.0, strict=True, scale=1e-3,
+                              log=True)),
     )
     tau_s: float
 
@@ -372,7 +373,8 @@ class LagInverse(Model):
     fields: ClassVar[tuple[Field, ...]] = (
         Field("tau_s", "number", doc="time constant of the inverted lag (s)",
               title="Time constant τ",
-              control=Control("τ", "s", (0.0, 2.0), lower=0.0, strict=True, scale=1e-3)),
+              control=Control("τ", "s", (0.001, 2.0), lower=0.0, strict=True, scale=1e-3,
+                              log=True)),
     )
     tau_s: float
 
@@ -409,7 +411,8 @@ class Resonance(_LinearStage):
     type_name: ClassVar[str] = "resonance"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("freq_hz", "number", doc="natural frequency (Hz)", title="Natural frequency f_n",
-              control=Control("f_n", "Hz", (0.0, 2.0), lower=0.0, strict=True, scale=100.0)),
+              control=Control("f_n", "Hz", (0.01, 2.0), lower=0.0, strict=True, scale=100.0,
+                              log=True)),
         Field("damping", "number", doc="damping ratio", title="Damping ratio ζ",
               control=Control("ζ", "1", (0.0, 1.5), step=0.001, relative=False, lower=0.0,
                               strict=True)),
@@ -472,15 +475,16 @@ class ResonanceInverse(_LinearStage):
     fields: ClassVar[tuple[Field, ...]] = (
         Field("freq_hz", "number", doc="natural frequency of the inverted mode (Hz)",
               title="Natural frequency f_n", scale_with=("bandwidth_hz",),
-              control=Control("f_n", "Hz", (0.0, 1.5), lower=0.0, strict=True, scale=100.0)),
+              control=Control("f_n", "Hz", (0.01, 1.5), lower=0.0, strict=True, scale=100.0,
+                              log=True)),
         Field("damping", "number", doc="damping ratio of the inverted mode",
               title="Damping ratio ζ",
               control=Control("ζ", "1", (0.0, 1.5), step=0.001, relative=False, lower=0.0,
                               strict=True)),
         Field("bandwidth_hz", "number", doc="roll-off (triple pole) frequency (Hz)",
               title="Roll-off frequency", scale_with=("freq_hz",),
-              control=Control("f_roll", "Hz", (0.0, 1.5), lower=0.0, strict=True,
-                              scale=100.0)),
+              control=Control("f_roll", "Hz", (0.01, 1.5), lower=0.0, strict=True,
+                              scale=100.0, log=True)),
     )
     freq_hz: float
     damping: float
@@ -674,7 +678,7 @@ class Creep(Model):
     fields: ClassVar[tuple[Field, ...]] = (
         Field("taus_s", "numbers", doc="lag time constants (s), increasing",
               title="Creep time constants τ_j", increasing=True,
-              control=Control("τ{i}", "s", (0.0, 1.25), lower=0.0, strict=True)),
+              control=Control("τ{i}", "s", (0.001, 1.25), lower=0.0, strict=True, log=True)),
         Field("weights", "numbers", doc="creep weight of each lag (fraction of a step)",
               title="Creep weights c_j",
               control=Control("c{i}", "1", (0.0, 2.0), lower=0.0, scale=0.01)),

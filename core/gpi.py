@@ -145,7 +145,8 @@ ENVELOPE_FIELDS: tuple[Field, ...] = (
 def _direction0(d: object) -> int:
     if d not in (1, -1) or isinstance(d, bool):
         raise ParameterError(
-            f"direction0 must be +1 (increasing, branch R) or -1 (decreasing, branch L), got {d!r}"
+            f"the initial direction must be +1 (rising, branch a) or -1 (falling, branch b), "
+            f"got {d!r}"
         )
     return int(d)  # type: ignore[call-overload]
 

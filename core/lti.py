@@ -138,11 +138,12 @@ class LinearSystem(Model):
         num = _strip(np.asarray(as_vector(self.num, "num")))
         den = _strip(np.asarray(as_vector(self.den, "den")))
         if den[0] == 0:
-            raise ParameterError("den must have a nonzero coefficient (the denominator is 0)")
+            raise ParameterError("the denominator a must have a nonzero coefficient (it is 0)")
         if num.size > den.size:
             raise ParameterError(
-                f"num has degree {num.size - 1} > den degree {den.size - 1}: the transfer "
-                "function is improper (not causal); deg(num) must be <= deg(den)"
+                f"the numerator b has degree {num.size - 1} but the denominator a only "
+                f"{den.size - 1} (leading zeros such as a0 = 0 lower it): the transfer function "
+                "is improper (not causal); give b a degree no higher than a's"
             )
         object.__setattr__(self, "num", frozen(num))
         object.__setattr__(self, "den", frozen(den))

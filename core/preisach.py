@@ -197,14 +197,14 @@ class PreisachModel(Model):
         """Raise ``NotInvertibleError`` naming the failed rule (see :attr:`is_invertible`)."""
         if self.thresholds[0] != 0:
             raise NotInvertibleError(
-                f"Preisach model is not invertible: thresholds[0] = {self.thresholds[0]:g} "
+                f"Preisach model is not invertible: r0 = {self.thresholds[0]:g} "
                 "must be 0 (the reversible play makes every branch strictly increasing)"
             )
         bad = np.flatnonzero(self.weights[0] <= 0)
         if bad.size:
             j = int(bad[0])
             raise NotInvertibleError(
-                f"Preisach model is not invertible: weights[0][{j}] = "
+                f"Preisach model is not invertible: W0,{j} = "
                 f"{self.weights[0, j]:g} must be > 0 (the reversible slope on level segment "
                 f"{j}; with it 0 the output is flat there after a reversal)"
             )

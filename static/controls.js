@@ -49,6 +49,17 @@ function roundTo(x, step) {
   return Number(x.toFixed(decimals(step) + 2));
 }
 
+// A log slider (s.log) moves its thumb in log10 of the value: position <-> value.
+const LOG_STEPS_PER_DECADE = 200;
+
+export function position(s, v) {
+  return s.log ? Math.log10(Math.max(v, s.min)) : v;
+}
+
+export function valueAt(s, pos) {
+  return s.log ? Number((10 ** pos).toPrecision(3)) : pos;
+}
+
 const UNIT_TEXT = {
   input: "input units", output: "output units", "output/input": "output per input unit",
   "1/input": "per input unit", s: "s", Hz: "Hz", "s^k": "s to the power of the term", 1: "",
@@ -129,11 +140,16 @@ export class ModelControls {
     label.title = `${s.label}${unit ? ` in ${unit}` : ""}${s.rule ? `; ${s.rule}` : ""}`;
     label.append(document.createTextNode(`${s.label} `));
     const input = Object.assign(document.createElement("input"), {
-      type: "range", min: String(s.min), max: String(s.max), step: String(s.step),
+      type: "range", min: String(position(s, s.min)), max: String(position(s, s.max)),
+      step: String(s.log ? 1 / LOG_STEPS_PER_DECADE : s.step),
       id: `ctl-${s.path.replace(/[^A-Za-z0-9]+/g, "-").replace(/-$/, "")}`,
     });
     input.dataset.path = s.path;
     input.setAttribute("aria-label", s.label);
+    if (s.log) {
+      input.dataset.scale = "log";
+      label.title += "; logarithmic scale";
+    }
     if (s.fixed) {
       input.disabled = true;
       label.title += "; a constant of this model";
@@ -154,7 +170,8 @@ export class ModelControls {
       if (typeof v !== "number") return false;
       const s = this.byPath.get(path);
       if (v < s.min || v > s.max) return false;
-      input.value = String(v);
+      input.value = String(position(s, v));
+      input.setAttribute("aria-valuetext", fmt(v));
       out.textContent = fmt(v);
     }
     return true;
@@ -162,8 +179,10 @@ export class ModelControls {
 
   // The rules of the field (limits, neighbours), then the working model and the page.
   #moved(s, input, out) {
-    const [v, note] = this.clamp(s, Number(input.value));
-    if (String(v) !== input.value) input.value = String(v);
+    const [v, note] = this.clamp(s, valueAt(s, Number(input.value)));
+    const pos = String(position(s, v));
+    if (pos !== input.value) input.value = pos;
+    input.setAttribute("aria-valuetext", fmt(v));
     out.textContent = fmt(v);
     setLeaf(this.model, s.path, v);
     this.onChange(note);

@@ -41,6 +41,9 @@ import argparse
 import sys
 from typing import Any
 
+from core.diagnosis.data import TimeGapError
+from core.exceptions import ParameterError
+
 from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
 from ..services.progress import Progress
 from ._common import window_arg
@@ -98,10 +101,16 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
     progress = Progress("diagnose", quiet=args.quiet)
-    res = diagnose_files(args.files, read_kwargs(args), progress, model=args.model,
-                         base=args.base, train=args.train, test=args.test,
-                         operators=args.operators, fixed_grid=args.fixed_grid,
-                         no_crossfit=args.no_crossfit, effects=args.effects)
+    try:
+        res = diagnose_files(args.files, read_kwargs(args), progress, model=args.model,
+                             base=args.base, train=args.train, test=args.test,
+                             operators=args.operators, fixed_grid=args.fixed_grid,
+                             no_crossfit=args.no_crossfit, effects=args.effects)
+    except TimeGapError as exc:  # say how to resample with this command's own options
+        raise ParameterError(
+            f"{exc}: run hyst diagnose FILE.csv --resample (onto the usual spacing of "
+            f"{exc.spacing_s:.6g} s), or --resample=DT for a step of DT seconds"
+        ) from None
     if args.save_model:
         p = save_model(res, args.save_model, source=diagnosis_source(args.files))
         print(f"wrote {p}", file=sys.stderr)

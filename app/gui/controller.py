@@ -358,12 +358,14 @@ class SessionView:
         sliders show. A refused change puts every slider back at the stored model, so it
         never blocks the next move."""
         h = self.ui.param_sliders[path]
-        integer = self.ui.param_specs[path].integer
+        spec = self.ui.param_specs[path]
+        integer = spec.integer
+        moved = C.slider_value(spec, float(h.value))  # a log slider's thumb is in log10
         out: dict[str, Any] = {}
 
         def fn(cfg: Config) -> Config:  # under the session's lock: no lost update
             m = json.loads(json.dumps(cfg.model))
-            done = C.clamp(m, path, float(h.value))
+            done = C.clamp(m, path, moved)
             C.set_leaf(m, path, int(done.value) if integer else done.value)
             out.update(done=done, model=m)
             return cfg.with_model(m)
@@ -378,10 +380,15 @@ class SessionView:
                 return
         done = out["done"]
         with self._quiet():
-            if done.value != h.value:
-                h.value = done.value
+            pos = C.slider_position(spec, done.value)
+            if pos != h.value:
+                h.value = pos
             self.ui.json_in.value = json.dumps(out["model"])  # the JSON box follows
-        self.ui.params_md.content = f"ℹ️ {md_text(done.note)}" if done.note else ""
+        note = done.note
+        if spec.log:  # the thumb shows log10: say the value
+            shown = f"{spec.label} = {done.value:.4g} {C.unit_text(spec.unit)}".rstrip()
+            note = f"{shown}; {note}" if note else shown
+        self.ui.params_md.content = f"ℹ️ {md_text(note)}" if note else ""
 
     def _n_changed(self, event: Any) -> None:
         """A new operator count; one beyond the server's limit is set to the limit, and the

@@ -10,12 +10,13 @@ behaviour: :class:`app.gui.controller.SessionView` wires the callbacks to the se
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 from ..services import catalog
 from ..services import figures as F
-from ..services.controls import ModelControls, Slider, unit_text
+from ..services.controls import ModelControls, Slider, log_step, slider_position, unit_text
 from ..services.settings import Settings
 
 __all__ = [
@@ -313,7 +314,7 @@ class Widgets:
             self._rebuild(controls, on_change)
             return
         for path, spec in specs.items():
-            set_value(self.param_sliders[path], float(spec.value))
+            set_value(self.param_sliders[path], float(slider_position(spec, spec.value)))
         self.param_specs = specs
 
     def _rebuild(self, controls: ModelControls,
@@ -337,10 +338,25 @@ class Widgets:
                         hint = (f"{spec.label}" + (f" in {unit}" if unit else "")
                                 + (f"; {spec.rule}" if spec.rule else "")
                                 + ("; a constant of this model" if spec.fixed else ""))
-                        h = self.gui.add_slider(
-                            spec.label, min=spec.min, max=spec.max, step=spec.step,
-                            initial_value=float(spec.value), hint=hint, disabled=spec.fixed)
+                        h = self._param_slider(spec, hint)
                         h.on_update(on_change(spec.path))
                         self.param_sliders[spec.path] = h
                         self.param_specs[spec.path] = spec
         self._param_layout = controls.layout
+
+    def _param_slider(self, spec: Slider, hint: str) -> Any:
+        """One parameter slider; a log one (``spec.log``) moves in ``log10`` of the value,
+        with the decades marked in real values and its label saying so."""
+        if not spec.log:
+            return self.gui.add_slider(
+                spec.label, min=spec.min, max=spec.max, step=spec.step,
+                initial_value=float(spec.value), hint=hint, disabled=spec.fixed)
+        lo, hi = slider_position(spec, spec.min), slider_position(spec, spec.max)
+        unit = unit_text(spec.unit)
+        decades = range(math.ceil(lo), math.floor(hi) + 1)
+        marks = tuple((float(e), f"{10.0 ** e:g}") for e in decades)
+        return self.gui.add_slider(
+            f"{spec.label} (log)", min=lo, max=hi, step=log_step(spec),
+            initial_value=float(slider_position(spec, spec.value)), marks=marks or None,
+            hint=f"{hint}; logarithmic: the thumb moves in powers of ten"
+                 + (f" of {unit}" if unit else ""), disabled=spec.fixed)

@@ -114,6 +114,8 @@ class SliderOut(BaseModel):
     below: str | None = Field(None, description="path of the neighbour to stay above")
     above: str | None = Field(None, description="path of the neighbour to stay below")
     rule: str = Field(description="the ordering rule in words")
+    log: bool = Field(False, description="logarithmic slider: the thumb moves in log10 of "
+                      "the value; value, min and max are real values (min > 0)")
 
 
 class SliderGroupOut(BaseModel):

@@ -35,7 +35,10 @@ __all__ = [
     "clamp",
     "get_leaf",
     "model_controls",
+    "log_step",
     "set_leaf",
+    "slider_position",
+    "slider_value",
     "unit_text",
 ]
 
@@ -82,6 +85,10 @@ class Slider:
         Paths of the neighbours this value must stay above / below (increasing fields).
     rule : str
         The ordering rule in words, for messages (``"the thresholds r_i increase"``).
+    log : bool
+        A logarithmic slider: the thumb moves in ``log10(value)`` between ``log10(min)``
+        and ``log10(max)`` (:func:`slider_position`, :func:`slider_value`); ``value``,
+        ``min`` and ``max`` stay real values (``min > 0``).
     """
 
     path: str
@@ -99,6 +106,7 @@ class Slider:
     below: str | None = None
     above: str | None = None
     rule: str = ""
+    log: bool = False
 
 
 @dataclass(frozen=True)
@@ -271,6 +279,8 @@ def _limits(node: Mapping[str, Any], field: Field, ctl: Control, k: int | None,
     if values:  # the range always holds the values there are
         lo = min(lo, math.floor(min(values) / step) * step)
         hi = max(hi, math.ceil(max(values) / step) * step)
+    if ctl.log:  # log10 needs a positive lower end
+        lo = max(lo, step)
     if hi <= lo:
         hi = lo + step
     return _round(lo, step), _round(hi, step), step
@@ -280,6 +290,32 @@ def _round(x: float, step: float) -> float:
     """``x`` without the float noise of a multiplication (to the step's decimals)."""
     digits = max(0, -math.floor(math.log10(step)) + 2)
     return round(x, digits)
+
+
+#: Positions of a logarithmic slider's thumb per decade.
+LOG_STEPS_PER_DECADE = 200
+
+
+def slider_position(s: Slider, value: float) -> float:
+    """Where the thumb of slider ``s`` sits for ``value``: ``log10(value)`` on a log
+    slider (a value at or below zero sits at the left end), else the value itself."""
+    if not s.log:
+        return value
+    return math.log10(max(value, s.min))
+
+
+def slider_value(s: Slider, position: float) -> float:
+    """The value of slider ``s`` with its thumb at ``position`` (inverse of
+    :func:`slider_position`), to three significant digits on a log slider."""
+    if not s.log:
+        return position
+    v = 10.0 ** position
+    return float(f"{v:.3g}")
+
+
+def log_step(s: Slider) -> float:
+    """Thumb step of a log slider, in decades."""
+    return 1.0 / LOG_STEPS_PER_DECADE
 
 
 # ----------------------------------------------------------------------------- walking
@@ -348,7 +384,7 @@ def _field_sliders(node: Mapping[str, Any], field: Field, prefix: str,
             path=p, label=_label(ctl, idx, origin, field.index_base), unit=ctl.unit,
             value=v, min=lo, max=hi, step=step, lower=ctl.lower, upper=ctl.upper,
             strict=ctl.strict, integer=ctl.integer, fixed=v in field.fixed,
-            below=below, above=above, rule=rule))
+            below=below, above=above, rule=rule, log=ctl.log))
     return out, ""
 
 

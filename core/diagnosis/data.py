@@ -16,6 +16,7 @@ from ..recordings import Recording
 
 __all__ = [
     "GAP_FACTOR",
+    "TimeGapError",
     "as_records",
     "crossfit_folds",
     "split_masks",
@@ -27,6 +28,36 @@ GAP_FACTOR = 2.0
 
 #: Fewest samples a recording needs to be diagnosed.
 MIN_SAMPLES = 20
+
+
+class TimeGapError(ParameterError):
+    """A recording's time stamps jump by more than :data:`GAP_FACTOR` times their usual
+    spacing: the diagnosis needs even samples. The message says what to do in general
+    terms (cut the file, or resample); each interface adds its own way to resample.
+
+    Attributes
+    ----------
+    name : str
+        The recording.
+    gap_s, spacing_s : float
+        The jump and the usual (median) spacing, in s.
+    t0_s, t1_s : float
+        Time stamps either side of the jump, in s.
+    line : int or None
+        Line of the file after the jump, when known.
+    """
+
+    def __init__(self, name: str, gap_s: float, spacing_s: float, t0_s: float, t1_s: float,
+                 line: int | None) -> None:
+        where = f" (line {line} of the file)" if line is not None else ""
+        super().__init__(
+            f"recording {name!r}: the time stamps jump by {gap_s:.6g} s from t = {t0_s:.6g} s "
+            f"to t = {t1_s:.6g} s{where}, {gap_s / spacing_s:.3g} times the usual spacing of "
+            f"{spacing_s:.6g} s; the diagnosis needs evenly spaced samples: cut the recording "
+            "at the gap into two files, or resample it onto an even grid (interpolating "
+            "across the gap)")
+        self.name, self.gap_s, self.spacing_s = name, gap_s, spacing_s
+        self.t0_s, self.t1_s, self.line = t0_s, t1_s, line
 
 
 def as_records(
@@ -111,14 +142,8 @@ def _uniform(r: Recording, resample: bool | float) -> Recording:
     med = float(np.median(d))
     j = int(np.argmax(d))
     if d[j] > GAP_FACTOR * med and resample is False:
-        line = f" (line {int(r.lines[j + 1])} of the file)" if r.lines is not None else ""
-        raise ParameterError(
-            f"recording {r.name!r}: the time stamps jump by {d[j]:.6g} s from t = "
-            f"{r.t[j]:.6g} s to t = {r.t[j + 1]:.6g} s{line}, {d[j] / med:.3g} times the usual "
-            f"spacing of {med:.6g} s; the diagnosis needs evenly spaced samples: cut the "
-            "recording at the gap into two files, or pass --resample (resample=True) to "
-            "interpolate across it"
-        )
+        raise TimeGapError(r.name, float(d[j]), med, float(r.t[j]), float(r.t[j + 1]),
+                           int(r.lines[j + 1]) if r.lines is not None else None)
     rr = r.resampled()
     note = (f"time-stamp jitter (spacing {d.min():.6g} to {d.max():.6g} s) resampled onto the "
             f"median spacing {med:.6g} s for the diagnosis")

@@ -193,7 +193,7 @@ def test_to_dict_round_trip() -> None:
     [
         ([0.0, 1.0, 0.5], [1.0, 0.1, 0.1], r"thresholds \(rho\) must be strictly increasing"),
         ([-1.0, 0.0, 1.0, 1.0], [0.1, 1.0, 0.1, 0.1], r"thresholds \(rho\) must be strictly"),
-        ([0.5, 1.0], [1.0, 0.1], r"rho_0 = 0 exactly once"),
+        ([0.5, 1.0], [1.0, 0.1], r"ρ0 = 0 exactly once"),
         ([0.0, np.nan], [1.0, 0.1], r"thresholds \(rho\)\[1\] = nan is not finite"),
         ([0.0, 1.0], [1.0, np.inf], r"weights \(eta\)\[1\] = inf is not finite"),
         ([0.0, 1.0], [1.0], r"weights \(eta\) must have one entry per threshold"),

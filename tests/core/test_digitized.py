@@ -507,7 +507,7 @@ def test_invalid_other() -> None:
         DigitizedPI.from_H(np.ones((3, 2)))
     with pytest.raises(ParameterError, match=r"S must have shape \(2, m\)"):
         DigitizedDeadZone.from_S(np.ones(4))
-    with pytest.raises(ParameterError, match="state0 = 3 must be a segment index"):
+    with pytest.raises(ParameterError, match="initial segment = 3 must be a segment number"):
         DigitizedDeadZone([1.0, 1.0], [1.0, 1.0], state0=3)
     with pytest.raises(ParameterError, match="dx must have at least 1"):
         DigitizedDeadZone([], [])

@@ -404,7 +404,7 @@ def test_bad_tanh_parameters(a: tuple, b: tuple, match: str) -> None:
 
 def test_bad_direction_margin_and_state() -> None:
     k = (6, 0.4, 0, 0)
-    with pytest.raises(ParameterError, match="direction0 must be"):
+    with pytest.raises(ParameterError, match="initial direction must be"):
         TanhEnvelope(k, k, direction0=0)
     with pytest.raises(ParameterError, match="clip_margin = 1 must be < 1"):
         TanhEnvelopeInverse(k, k, clip_margin=1.0)

@@ -114,7 +114,7 @@ def test_not_invertible_and_invalid() -> None:
         LinearSystem([1.0, -1.0], [1.0, 1.0]).inverse()
     with pytest.raises(ParameterError, match="improper"):
         LinearSystem([1.0, 0.0, 0.0], [1.0, 1.0])
-    with pytest.raises(ParameterError, match="den must have a nonzero coefficient"):
+    with pytest.raises(ParameterError, match="the denominator a must have a nonzero coefficient"):
         LinearSystem([1.0], [0.0, 0.0])
     with pytest.raises(ParameterError, match="num\\[0\\] = nan is not finite"):
         LinearSystem([np.nan], [1.0, 1.0])

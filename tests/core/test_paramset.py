@@ -256,7 +256,7 @@ def test_nested_model_errors_carry_their_path():
         load_parameter_set(d)
     d = ParameterSet.from_model(INSTANCES["gpi-deadzone"]).to_dict()
     d["model"]["deadzone"]["thresholds"] = [-1.0, 1.0, 2.0, 3.0, 4.0]
-    with pytest.raises(ParameterSetError, match=r"^model\.deadzone: .*rho_0 = 0"):
+    with pytest.raises(ParameterSetError, match=r"^model\.deadzone: .*ρ0 = 0"):
         load_parameter_set(d)
     d = ParameterSet.from_model(INSTANCES["gpi-deadzone"]).to_dict()
     d["model"]["pi"] = {"type": "deadzone", "thresholds": [0.0], "weights": [1.0]}

@@ -136,9 +136,9 @@ def test_inverse_of_the_pi_form_matches_the_pi_inverse() -> None:
 
 
 def test_inverse_rules_are_named() -> None:
-    with pytest.raises(NotInvertibleError, match=r"thresholds\[0\] = 0.1 must be 0"):
+    with pytest.raises(NotInvertibleError, match=r"r0 = 0.1 must be 0"):
         PreisachModel([0.1, 0.5], [[1.0], [1.0]]).inverse()
-    with pytest.raises(NotInvertibleError, match=r"weights\[0\]\[1\] = 0 must be > 0"):
+    with pytest.raises(NotInvertibleError, match=r"W0,1 = 0 must be > 0"):
         PreisachModel([0.0, 0.5], [[1.0, 0.0], [1.0, 1.0]], [0.0]).inverse()
     assert not PreisachModel([0.0, 0.5], [[1.0, 0.0], [1.0, 1.0]], [0.0]).is_invertible
     assert PREISACH.is_invertible
@@ -184,7 +184,7 @@ def test_json_round_trip_and_json_path_errors() -> None:
         load_parameter_set(doc)
     doc = json.loads(ParameterSet.from_model(PREISACH.inverse()).to_json())
     doc["model"]["model"]["weights"][0][0] = 0.0
-    with pytest.raises(NotInvertibleError, match=r"weights\[0\]\[0\] = 0 must be > 0"):
+    with pytest.raises(NotInvertibleError, match=r"W0,0 = 0 must be > 0"):
         load_parameter_set(doc)
 
 

@@ -9,6 +9,7 @@ still applies and the model JSON follows the sliders; n beyond the server's limi
 from __future__ import annotations
 
 import json
+import math
 import re
 import time
 from typing import Any
@@ -152,5 +153,40 @@ def test_viser_sliders_for_every_model(browser: Any, live_server: dict, shot: An
     page.wait_for_selector("text=gpi-deadzone model, 6 operators")
     assert view.ui.param_sliders["deadzone.thresholds[0]"].label == "ρ-11"
     _screenshot(page, shot, "controls-viser-deadzone-gpi")
+    assert errors == []
+    ctx.close()
+
+
+def test_web_page_creep_time_constants_on_a_log_slider(browser: Any, live_server: dict,
+                                                       shot: Any) -> None:
+    """Creep τ 0.01, 0.1, 1 s typed into the JSON box: the τ sliders are logarithmic, τ1 =
+    0.01 s sits near the left third (a linear 0.001..1.25 slider would put it at 0.7 %), a
+    decade apart from τ2; dragged, the stored and shown value is the real one, 10^position."""
+    app = live_server["app"]
+    ctx, page, errors = _open(browser, live_server["url"])
+    session = _session(app, page)
+    doc = {"type": "creep", "taus_s": [0.01, 0.1, 1.0], "weights": [0.02, 0.02, 0.02]}
+    page.click("#json-edit summary")
+    page.fill("#model-json", json.dumps(doc))
+    page.click("#apply-json")
+    page.wait_for_selector("input[aria-label='τ1']", state="attached")
+    page.locator("details", has=page.locator("input[aria-label='τ1']")).last \
+        .evaluate("d => { d.open = true; }")
+    frac = ("s => { const i = document.querySelector(s); "
+            "return (i.value - i.min) / (i.max - i.min); }")
+    t1, t2 = (page.evaluate(frac, f"input[aria-label='τ{k}']") for k in (1, 2))
+    assert page.get_attribute("input[aria-label='τ1']", "data-scale") == "log"
+    assert 0.2 < t1 < 0.4 and t2 - t1 > 0.25, (t1, t2)
+    shot(page, "controls-web-creep-log-sliders")
+    lo, hi = (float(page.get_attribute("input[aria-label='τ1']", a)) for a in ("min", "max"))
+    _drag(page, "input[aria-label='τ1']", 0.1)  # below τ1's start, above the slider's left
+    pos = float(page.input_value("input[aria-label='τ1']"))
+    assert lo < pos < math.log10(0.01)
+    _wait(lambda: session.config.model["taus_s"][0] == pytest.approx(10 ** pos, rel=0.01),
+          "τ1 stored as 10^position")
+    stored = session.config.model["taus_s"][0]
+    shown = page.locator("label", has=page.locator("input[aria-label='τ1']")) \
+        .locator("output").inner_text()
+    assert float(shown) == pytest.approx(stored, rel=1e-3)
     assert errors == []
     ctx.close()

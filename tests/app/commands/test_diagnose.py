@@ -142,6 +142,21 @@ def test_reads_what_hyst_fit_reads_semicolon_decimal_comma_units_and_column_orde
     assert "note: resampled by linear interpolation" in capsys.readouterr().err
 
 
+def test_a_time_gap_is_refused_with_this_commands_own_resample_option(tmp_path,
+                                                                      capsys) -> None:
+    """A 0.5 s jump in 10 ms time stamps: hyst diagnose says what to do with its own options
+    (``--resample``, ``--resample=DT``) and the usual spacing, not the Python keyword."""
+    t = np.arange(400) * 0.01
+    t[200:] += 0.5
+    u = np.sin(2 * np.pi * t)
+    gf = _write(tmp_path / "gap.csv", t, u, u)
+    assert main(["diagnose", str(gf), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "jump by 0.51 s" in err and "line 202" in err
+    assert "hyst diagnose FILE.csv --resample (onto the usual spacing of 0.01 s)" in err
+    assert "--resample=DT" in err and "resample=True" not in err
+
+
 def test_quasi_static_loops_without_time_axis_are_diagnosed(capsys) -> None:
     """The shipped B-H loops (loop column, no time axis): rate-independent effects are tested,
     time-dependent ones reported untestable with the reason."""

@@ -481,3 +481,19 @@ def test_fit_is_a_killable_job_with_progress_and_cancel(
     finally:
         v.close()
         jobs.cancel_all()
+
+
+def test_creep_time_constants_move_in_log10_in_viser(view: SessionView) -> None:
+    """viser's creep τ sliders move in log10 of the value (decades marked): τ1 = 0.01 s sits
+    at -2; moved to -2.5 the stored value is 10^-2.5 s and the note says it in seconds; past
+    the left end the strict limit τ > 0 still holds."""
+    view.session.update(lambda c: c.with_model(
+        {"type": "creep", "taus_s": [0.01, 0.1, 1.0], "weights": [0.02, 0.02, 0.02]}))
+    _idle(view)
+    t1 = view.ui.param_sliders["taus_s[0]"]
+    assert t1.value == pytest.approx(-2.0) and t1.min == pytest.approx(-3.0)
+    t1.value = -2.5
+    _idle(view)
+    assert view.session.config.model["taus_s"][0] == pytest.approx(10 ** -2.5, rel=5e-3)
+    assert "τ1 = 0.00316 s" in _md(view.ui.params_md)
+    assert view.ui.param_sliders["weights[0]"].value == pytest.approx(0.02)  # linear

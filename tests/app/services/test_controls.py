@@ -108,6 +108,41 @@ def test_ranges_follow_the_parameter_set_not_the_value() -> None:
     assert rb[0].max == pytest.approx(375.0) and rb[0].step == pytest.approx(0.1)
 
 
+def test_creep_time_constants_get_a_log_slider_whose_positions_map_to_values() -> None:
+    """Creep τ 0.01, 0.1, 1 s on a linear 0.001..1.25 slider would sit at 0.7 %, 7.9 % and
+    80 % of its width; declared logarithmic, the description says so and the thumbs sit a
+    decade apart (equal spacing in log10), a position maps back to its value, and the
+    strict limit τ > 0 still clamps. The weights stay linear."""
+    doc = {"type": "creep", "taus_s": [0.01, 0.1, 1.0], "weights": [0.02, 0.02, 0.02]}
+    ctl = C.model_controls(doc)
+    d = ctl.to_dict()
+    taus = [s for g in d["groups"] for s in g["sliders"] if s["path"].startswith("taus_s")]
+    assert [s["log"] for s in taus] == [True] * 3
+    assert not any(s["log"] for g in d["groups"] for s in g["sliders"]
+                   if s["path"].startswith("weights"))
+    s = ctl.slider("taus_s[0]")
+    assert s is not None and s.min > 0
+    lo, hi = C.slider_position(s, s.min), C.slider_position(s, s.max)
+    frac = [(C.slider_position(s, v) - lo) / (hi - lo) for v in (0.01, 0.1, 1.0)]
+    assert 0.2 < frac[0] < 0.4  # not bunched at the left (linear: 0.007)
+    assert frac[1] - frac[0] == pytest.approx(frac[2] - frac[1])
+    for v in (0.001, 0.0123, 0.5, 1.25):
+        assert C.slider_value(s, C.slider_position(s, v)) == pytest.approx(v, rel=5e-3)
+    assert C.slider_value(s, lo + (hi - lo) / 2) == pytest.approx(
+        10 ** ((math.log10(s.min) + math.log10(s.max)) / 2), rel=5e-3)
+    assert C.clamp(doc, "taus_s[0]", 0.0).value == pytest.approx(s.step)
+
+
+@pytest.mark.parametrize("name", TYPES)
+def test_log_sliders_have_a_positive_range(name: str) -> None:
+    """Every field declared logarithmic is a positive quantity (strict lower limit 0), so
+    log10 of its range and values exists."""
+    for f in _numeric(next(t for t in model_types() if t.name == name)):
+        for ctl in (f.control, *f.elements):
+            if ctl is not None and ctl.log:
+                assert ctl.lower == 0.0 and ctl.strict and ctl.range[0] > 0, (name, f.name)
+
+
 def test_dead_zone_sliders_are_numbered_around_the_linear_term() -> None:
     doc = preset_doc("paper001-example4")["model"]
     ctl = C.model_controls(doc)
@@ -211,3 +246,24 @@ def test_a_newly_registered_type_gets_sliders_and_rules(toy: type[Model]) -> Non
     chain = {"type": "chain", "stages": [preset_doc("paper001-example1")["model"], doc]}
     groups = [g.title for g in C.model_controls(chain).groups]
     assert "Stage 2 (toy-springs): Gaps g_i" in groups
+
+
+@pytest.mark.parametrize(("name", "path", "value", "says", "not_says"), [
+    ("deadzone", "thresholds[2]", 0.5, "ρ0 = 0 exactly once", "rho"),
+    ("tanh-envelope", "direction0", 0, "initial direction must be +1", "direction0"),
+    ("lti", "den[0]", 0.0, "a0 = 0", "deg(num)"),
+    ("preisach-inverse", "model.weights[0][0]", 0.0, "W0,0 = 0 must be > 0", "weights["),
+    ("digitized-mpi", "deadzone.state0", 9, "initial segment = 9", "state0"),
+])
+def test_the_models_own_refusals_use_the_slider_labels(name: str, path: str, value: float,
+                                                       says: str, not_says: str) -> None:
+    """A value typed into the JSON box that the declared rules pass but the model refuses
+    (ρ0 moved off 0, direction 0, a leading a0 = 0, a zero reversible slope, a segment past
+    the end) is refused in the labels the sliders show, not in JSON names or indices."""
+    doc = ZOO[name].to_dict()
+    C.get_leaf(doc, path)
+    C.set_leaf(doc, path, value)
+    C.check_rules(doc)  # not a declared rule: the model's own check words it
+    with pytest.raises(ValueError) as err:  # ParameterError or NotInvertibleError
+        base.model_from_dict(doc)
+    assert says in str(err.value) and not_says not in str(err.value), str(err.value)
