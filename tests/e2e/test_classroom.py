@@ -401,7 +401,8 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
                 raise
     # a toast that has not gone yet (the upload's, slow on a loaded machine) must not take
     # the click meant for the checkbox under it
-    page.add_style_tag(content="[class*='Notifications-root']{pointer-events:none !important}")
+    page.add_style_tag(content="[class*='Notifications-root'], [class*='Notifications-root'] *"
+                                "{pointer-events:none !important}")
     view.ui.view_dd.value = "Loop"
     page.get_by_text("Projector: large plot", exact=True).first.click()
     box = _plot_width(page, 0.6 * 1920)
