@@ -388,13 +388,21 @@ def _field_sliders(node: Mapping[str, Any], field: Field, prefix: str,
     return out, ""
 
 
+def _node_class(node: Any, depth: int) -> type | None:
+    """The registered model class of a document node, or ``None`` (not a model object, an
+    unknown type, or deeper than :data:`MAX_DEPTH`): both walkers skip such nodes."""
+    if not isinstance(node, Mapping) or depth > MAX_DEPTH:
+        return None
+    try:
+        return model_class(str(node.get("type")))
+    except ParameterError:
+        return None
+
+
 def _walk(node: Any, prefix: str, title: str, depth: int, groups: list[SliderGroup],
           layout: list[str], count: list[int]) -> None:
-    if not isinstance(node, Mapping) or depth > MAX_DEPTH:
-        return
-    try:
-        cls = model_class(str(node.get("type")))
-    except ParameterError:
+    cls = _node_class(node, depth)
+    if cls is None:
         return
     layout.append(f"{prefix}<{cls.type_name}>")
     for field in cls.fields:
@@ -556,11 +564,8 @@ def check_rules(doc: Mapping[str, Any]) -> None:
 
 
 def _check_node(node: Any, title: str, depth: int) -> None:
-    if not isinstance(node, Mapping) or depth > MAX_DEPTH:
-        return
-    try:
-        cls = model_class(str(node.get("type")))
-    except ParameterError:
+    cls = _node_class(node, depth)
+    if cls is None:
         return
     for field in cls.fields:
         value = node.get(field.name)
