@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.diagnosis.families import BASES, _bouc_wen_z
-from core.boucwen import bouc_wen_states, saturation_levels
-from core.exceptions import ParameterError
+from benchmarks.diagnosis.families import BASES, _bouc_wen_z, make_base
+from core.base import model_from_dict
+from core.boucwen import BoucWenModel, bouc_wen_states, saturation_levels
+from core.exceptions import NotInvertibleError, ParameterError
 
 
 def _path(nodes: list[float], per_unit: float) -> np.ndarray:
@@ -84,3 +85,70 @@ def test_bad_parameters_are_named() -> None:
         bouc_wen_states([0.0, 1.0], [0.1], [0.1], [0.5], max_step=0.1)
     with pytest.raises(ParameterError, match="max_step"):
         bouc_wen_states([0.0, 1.0], [0.1], [0.1], [1.0], max_step=0.0)
+
+
+# ----------------------------------------------------------------------------- the model
+def _family_model(name: str) -> tuple[object, BoucWenModel]:
+    p = make_base(name)
+    m = BoucWenModel.from_classical(p.gain * p.k, [-p.gain * p.c], [p.beta], [p.gamma], [p.n])
+    return p, m
+
+
+def _sine_and_staircase() -> np.ndarray:
+    t = np.linspace(0.0, 3.0, 3000)
+    sine = 75 - 75 * np.cos(2 * np.pi * t) * np.exp(-t / 2)
+    stairs = np.repeat([30.0, 60.0, 90.0, 120.0, 150.0, 100.0, 20.0, 0.0], 40)
+    return np.concatenate((sine, stairs))
+
+
+@pytest.mark.parametrize("name", ["bouc-wen-1", "bouc-wen-2", "bouc-wen-3"])
+def test_model_matches_the_benchmark_plant_and_inverts_it(name: str) -> None:
+    plant, m = _family_model(name)
+    u = _sine_and_staircase()
+    y_true = plant(u)  # type: ignore[operator]
+    # the model's own sub-steps (z_s / 16) and the plant's (0.25 V) agree to 1e-5 of 100 um
+    np.testing.assert_allclose(m(u), y_true, rtol=0, atol=1e-3)
+    x = m.inverse()(y_true)
+    np.testing.assert_allclose(m(x), y_true, rtol=0, atol=1e-9 * np.ptp(y_true))
+    np.testing.assert_allclose(x, u, rtol=0, atol=2e-3)  # the plant's input, to its 1e-3 um
+
+
+def test_model_chunks_json_and_classical_parameters() -> None:
+    m = BoucWenModel(
+        1.0, [-0.25, 0.1], [0.5, 1.0], [1.5, 1.0], [1.0, 1.5], state0=[0.1, -0.2], input0=0.5
+    )
+    np.testing.assert_allclose(m.beta + m.gamma, m.saturation**-m.exponent)
+    np.testing.assert_allclose(2 * m.beta / (m.beta + m.gamma), m.reversal_slope)
+    back = BoucWenModel.from_classical(
+        m.k, m.weights, m.beta, m.gamma, m.exponent, m.state0, m.input0
+    )
+    np.testing.assert_allclose(back.saturation, m.saturation)
+    u = 2.5 * np.sin(np.linspace(0, 12, 900))
+    y = m(u)
+    np.testing.assert_array_equal(model_from_dict(m.to_dict())(u), y)
+    r1 = m.simulate(u[:400])
+    np.testing.assert_array_equal(np.r_[r1.y, m.simulate(u[400:], state=r1.state).y], y)
+    inv = m.inverse()
+    i1 = inv.simulate(y[:400])
+    x = np.r_[i1.y, inv.simulate(y[400:], state=i1.state).y]
+    np.testing.assert_allclose(x, u, atol=1e-9)
+    # the states are the element variables the bank gives from the same start
+    Z, _ = bouc_wen_states(
+        u, m.beta, m.gamma, m.exponent, m.state0, max_step=m.substep, u0=m.input0, max_substeps=16
+    )
+    np.testing.assert_array_equal(m.states(u), Z)
+    np.testing.assert_allclose(y, m.k * u + Z @ m.weights, rtol=0, atol=1e-13)
+
+
+def test_model_rules_are_worded_for_users() -> None:
+    ok = dict(k=1.0, weights=[-0.4], saturation=[25.0], reversal_slope=[1.5], exponent=[1.0])
+    with pytest.raises(NotInvertibleError, match=r"smallest slope .* is -0.2; it must be > 0"):
+        BoucWenModel(**{**ok, "weights": [-0.8]}).inverse()
+    with pytest.raises(ParameterError, match=r"state0\[0\] = 30 lies outside .* ±25"):
+        BoucWenModel(**ok, state0=[30.0])
+    with pytest.raises(ParameterError, match=r"exponent\[0\] = 0.5 must be >= 1"):
+        BoucWenModel(**{**ok, "exponent": [0.5]})
+    with pytest.raises(ParameterError, match="saturation"):
+        BoucWenModel(**{**ok, "saturation": [0.0]})
+    with pytest.raises(ParameterError, match=r"beta >= 0 and beta \+ gamma > 0"):
+        BoucWenModel.from_classical(1.0, [-0.4], [0.01], [-0.02], [1.0])
