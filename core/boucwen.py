@@ -230,7 +230,7 @@ class BoucWenModel(Model):
     """
 
     type_name: ClassVar[str] = "bouc-wen"
-    estimator: ClassVar[str | None] = None
+    estimator: ClassVar[str | None] = "core.fitting:BoucWenRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field(
             "k",
