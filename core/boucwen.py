@@ -46,12 +46,13 @@ MAX_SUBSTEPS = 16
 #: The model's sub-step is ``z_s / (STEPS_PER_SATURATION n max(1, |s - 1|))`` of its
 #: stiffest element: about 1e-7 of ``z_s`` from the exact solution.
 STEPS_PER_SATURATION = 16.0
-#: Evaluations of one element's sub-step priced by :meth:`BoucWenModel.cost` (four rate
-#: evaluations with a power each).
-_SUBSTEP_WORK = 8.0
-#: Sub-steps per sample priced (smooth inputs take one or two; at most MAX_SUBSTEPS).
-_PRICED_SUBSTEPS = 4.0
-#: Output evaluations per sample priced for the inverse's solve (typically 6-12).
+#: Work units of one element's sub-step priced by :meth:`BoucWenModel.cost`: four rate
+#: evaluations with a power each (a power is some 20-40 ns; benchmarks/bench_cost.py).
+_SUBSTEP_WORK = 32.0
+#: Sub-steps per sample priced: the most there can be (smooth inputs take one or two).
+_PRICED_SUBSTEPS = float(MAX_SUBSTEPS)
+#: Output evaluations per sample priced for the inverse's solve (typically 6-12; the
+#: bracket's widening and the Illinois steps are capped at 200).
 _PRICED_SOLVES = 14.0
 
 
@@ -445,7 +446,7 @@ class BoucWenModel(Model):
         return out
 
     def cost(self, samples: int, dt: float | None) -> RunCost:
-        """Elements x RK4 sub-steps per sample (priced at four; at most
+        """Elements x RK4 sub-steps per sample (priced at the most there can be,
         :data:`MAX_SUBSTEPS`); work in element operations, memory in bytes."""
         n, m = float(samples), float(self.n)
         return RunCost(

@@ -152,3 +152,15 @@ def test_model_rules_are_worded_for_users() -> None:
         BoucWenModel(**{**ok, "saturation": [0.0]})
     with pytest.raises(ParameterError, match=r"beta >= 0 and beta \+ gamma > 0"):
         BoucWenModel.from_classical(1.0, [-0.4], [0.01], [-0.02], [1.0])
+
+
+def test_jumps_beyond_the_substep_cap_stay_bounded_and_invert() -> None:
+    """A jump of 2000 saturations in one sample takes at most MAX_SUBSTEPS sub-steps: the
+    variables stay inside ±z_s (saturated, as the exact solution) and the inverse holds."""
+    m = BoucWenModel(1.0, [-0.3], [0.5], [3.0], [2.5])
+    u = np.array([0.0, 1000.0, -1000.0, 0.2, 0.1, 1000.0])
+    Z = m.states(u)
+    assert np.all(np.abs(Z) <= 0.5)
+    np.testing.assert_allclose(Z[[1, 2, 5], 0], [0.5, -0.5, 0.5], rtol=1e-12)
+    y = m(u)
+    np.testing.assert_allclose(m(m.inverse()(y)), y, rtol=0, atol=1e-9 * np.ptp(y))
