@@ -21,6 +21,7 @@ import numpy as np
 
 from app.services.cost import priced_run
 from core.base import Model
+from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
 from core.effects import (
     Advance,
@@ -47,6 +48,9 @@ def _scaled() -> dict[str, Model]:
     """Zoo types scaled up in the sizes their cost depends on."""
     k = 60
     pre = PreisachModel(np.linspace(0.0, 2.0, 12), np.full((12, 3), 0.05), knots=[-1.0, 1.0])
+    # small saturations, powers and steep reversals: the most sub-steps per sample
+    bw = BoucWenModel(1.0, np.full(20, -0.005), np.linspace(0.01, 0.5, 20), np.full(20, 6.0),
+                      np.full(20, 3.7))
     return {
         "pi x100": PIModel(1.0, np.linspace(0.05, 3.0, 100), np.full(100, 0.01)),
         "creep x40": Creep(np.logspace(-3, 1, 40), np.full(40, 0.01)),
@@ -61,6 +65,8 @@ def _scaled() -> dict[str, Model]:
                                             np.full(20, 0.02), 2e-5).inverse(),
         "lti order 8": LinearSystem([1.0], np.poly(-np.arange(1, 9) * 1e3)),
         "preisach-inverse x12": pre.inverse(),
+        "bouc-wen x20 stiff": bw,
+        "bouc-wen-inverse x20 stiff": bw.inverse(),
     }
 
 

@@ -17,16 +17,23 @@ Two PI-output kernels exist:
 * :func:`pi_output_strict` sums sequentially; it is bit-identical to the numpy oracle in
   :mod:`core.reference`.
 
+The Bouc-Wen kernel (:func:`bouc_wen_bank`, model in :mod:`core.boucwen`) integrates a bank of
+rate-independent Bouc-Wen elements along the input path with RK4 sub-steps.
+
 The play update is ``z = max(u - r, min(u + r, z))`` (paper 001 eq. 1), written with
 comparisons only, so the operator matrix is bit-identical to any other implementation.
 """
 
 from __future__ import annotations
 
+import math
 import os
 
 __all__ = [
     "NUMBA_ENABLED",
+    "bouc_wen_bank",
+    "bouc_wen_inverse",
+    "bouc_wen_output",
     "pi_batch",
     "pi_output_fast",
     "pi_output_strict",
@@ -295,3 +302,230 @@ def preisach_inverse(y, r, e, W, z, b, out):  # pragma: no cover - compiled
                 zi = uk - r[i]
             z[i] = zi
         out[k] = uk
+
+
+@njit(cache=True, nogil=True)
+def _bw_rate(z, s, beta, gamma, n):  # pragma: no cover - compiled
+    """``dz/du = 1 - (beta sign(du z) + gamma) |z|^n`` for an input moving in direction ``s``."""
+    sz = s * z
+    sg = 1.0 if sz > 0.0 else (-1.0 if sz < 0.0 else 0.0)
+    a = abs(z)
+    if n == 1.0:
+        p = a
+    elif n == 2.0:
+        p = a * a
+    else:
+        p = a**n
+    return 1.0 - (beta * sg + gamma) * p
+
+
+@njit(cache=True, nogil=True)
+def _clip(z, lim):  # pragma: no cover - compiled
+    """``z`` limited to ``[-lim, lim]``."""
+    if z > lim:
+        return lim
+    if z < -lim:
+        return -lim
+    return z
+
+
+@njit(cache=True, nogil=True)
+def _bw_move(du, beta, gamma, n, zlim, h, kmax, z):  # pragma: no cover - compiled
+    """Advance every ``z_j`` (in place) over an input move ``du`` (see :func:`bouc_wen_bank`)."""
+    if du == 0.0:
+        return
+    kd = math.ceil(abs(du) / h)
+    if kd < 1.0:
+        kd = 1.0
+    if kmax > 0 and kd > kmax:
+        kd = float(kmax)
+    K = int(kd)
+    dx = du / kd
+    s = 1.0 if du > 0.0 else -1.0
+    for j in range(z.shape[0]):
+        zj = z[j]
+        b = beta[j]
+        g = gamma[j]
+        e = n[j]
+        lim = zlim[j]
+        for _ in range(K):
+            k1 = _bw_rate(zj, s, b, g, e)
+            k2 = _bw_rate(_clip(zj + 0.5 * dx * k1, lim), s, b, g, e)
+            k3 = _bw_rate(_clip(zj + 0.5 * dx * k2, lim), s, b, g, e)
+            k4 = _bw_rate(_clip(zj + dx * k3, lim), s, b, g, e)
+            zj += dx * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+            if zj > lim:
+                zj = lim
+            elif zj < -lim:
+                zj = -lim
+        z[j] = zj
+
+
+@njit(cache=True, nogil=True)
+def bouc_wen_bank(u, x, beta, gamma, n, zlim, h, kmax, z, out):  # pragma: no cover - compiled
+    """Hysteretic variables of a bank of rate-independent Bouc-Wen elements.
+
+    Element ``j`` follows ``dz_j/du = 1 - (beta_j sign(du z_j) + gamma_j) |z_j|^n_j``, integrated
+    in the input from the previous input value to each sample with ``K = ceil(|du| / h)``
+    classical RK4 sub-steps of equal length (``K`` at most ``kmax`` when ``kmax > 0``), every
+    element over the same sub-steps; the RK4 stages and the result of each sub-step are
+    clipped to ``[-zlim_j, zlim_j]``, the interval the exact solution never leaves. Inside it
+    ``dz/du >= 0`` (for ``beta >= 0``), so every stage moves ``z`` with the input and a
+    sub-step longer than RK4's stability limit (a jump past ``kmax`` sub-steps) still ends
+    between ``z`` and the saturation it moves to, instead of diverging; in the accurate
+    regime the stages never reach the bounds and nothing is clipped.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        Input samples.
+    x : float
+        Input before the first sample (the integration starts there).
+    beta, gamma, n : ndarray of shape (m,)
+        Shape parameters of each element.
+    zlim : ndarray of shape (m,)
+        Bound of each ``|z_j|`` (``inf`` for none).
+    h : float
+        Largest sub-step, input units, ``> 0``.
+    kmax : int
+        Most sub-steps per sample (``<= 0``: no limit).
+    z : ndarray of shape (m,)
+        Hysteretic variables at input ``x``; updated in place to those after the last sample.
+    out : ndarray of shape (N, m)
+        Written with ``z`` after each sample.
+    """
+    m = z.shape[0]
+    for k in range(u.shape[0]):
+        _bw_move(u[k] - x, beta, gamma, n, zlim, h, kmax, z)
+        for j in range(m):
+            out[k, j] = z[j]
+        x = u[k]
+
+
+@njit(cache=True, nogil=True)
+def bouc_wen_output(
+    u, x, k0, c, beta, gamma, n, zlim, h, kmax, z, out
+):  # pragma: no cover - compiled
+    """Output ``k0 u + sum_j c_j z_j`` of a Bouc-Wen bank (:func:`bouc_wen_bank`), summed
+    sequentially; ``z`` is updated in place to the state after the last sample."""
+    m = z.shape[0]
+    for k in range(u.shape[0]):
+        _bw_move(u[k] - x, beta, gamma, n, zlim, h, kmax, z)
+        acc = k0 * u[k]
+        for j in range(m):
+            acc += c[j] * z[j]
+        out[k] = acc
+        x = u[k]
+
+
+@njit(cache=True, nogil=True)
+def _bw_at(v, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt):  # pragma: no cover - compiled
+    """Output at input ``v`` reached from ``(x, z)``; the variables there go to ``zt``."""
+    for j in range(z.shape[0]):
+        zt[j] = z[j]
+    _bw_move(v - x, beta, gamma, n, zlim, h, kmax, zt)
+    acc = k0 * v
+    for j in range(z.shape[0]):
+        acc += c[j] * zt[j]
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def bouc_wen_inverse(
+    y, x, k0, c, beta, gamma, n, zlim, h, kmax, mlo, mhi, z, zt, out
+):  # pragma: no cover - compiled
+    """Per-sample inverse of :func:`bouc_wen_output` (slopes in ``[mlo, mhi]``, ``mlo > 0``).
+
+    From ``(x, z)`` the output is a continuous increasing function of the next input ``v``
+    with slope between ``mlo`` and ``mhi``, so ``v`` lies in the bracket given by those
+    slopes; it is found by regula falsi with the Illinois rule (at most 80 evaluations,
+    stopping at adjacent doubles or an exact hit) and the variables advance to it.
+
+    Parameters
+    ----------
+    y : ndarray of shape (N,)
+        Desired outputs.
+    x : float
+        Input before the first sample.
+    k0, c, beta, gamma, n, zlim, h, kmax
+        As in :func:`bouc_wen_output`.
+    mlo, mhi : float
+        Smallest and largest slope ``dy/du``.
+    z : ndarray of shape (m,)
+        Variables, updated in place.
+    zt : ndarray of shape (m,)
+        Work buffer.
+    out : ndarray of shape (N,)
+        Inputs written.
+
+    Returns
+    -------
+    float
+        The input after the last sample.
+    """
+    m = z.shape[0]
+    for k in range(y.shape[0]):
+        yk = y[k]
+        f0 = k0 * x
+        for j in range(m):
+            f0 += c[j] * z[j]
+        d = yk - f0
+        if d == 0.0:
+            v = x
+        else:
+            if d > 0.0:
+                a = x + d / mhi
+                b = x + d / mlo
+            else:
+                a = x + d / mlo
+                b = x + d / mhi
+            fa = _bw_at(a, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
+            fb = _bw_at(b, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
+            w0 = b - a
+            if w0 <= 0.0:  # a move below the input's round-off: widen from |d| / mlo
+                w0 = abs(d) / mlo
+            w = w0
+            for _ in range(60):  # round-off at the bracket's ends: widen it
+                if fa <= 0.0:
+                    break
+                a -= w
+                w *= 2.0
+                fa = _bw_at(a, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
+            w = w0
+            for _ in range(60):
+                if fb >= 0.0:
+                    break
+                b += w
+                w *= 2.0
+                fb = _bw_at(b, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
+            ga = fa
+            gb = fb
+            side = 0
+            for _ in range(80):
+                if ga == 0.0 or gb == 0.0 or ga == gb:
+                    break
+                t = (a * gb - b * ga) / (gb - ga)
+                if not (t > a and t < b):
+                    t = 0.5 * (a + b)
+                    if not (t > a and t < b):
+                        break
+                ft = _bw_at(t, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
+                if ft <= 0.0:
+                    a = t
+                    fa = ft
+                    ga = ft
+                    if side == -1:
+                        gb *= 0.5
+                    side = -1
+                else:
+                    b = t
+                    fb = ft
+                    gb = ft
+                    if side == 1:
+                        ga *= 0.5
+                    side = 1
+            v = a if -fa <= fb else b
+        _bw_move(v - x, beta, gamma, n, zlim, h, kmax, z)
+        out[k] = v
+        x = v
+    return x

@@ -17,7 +17,17 @@ import importlib
 from dataclasses import dataclass
 
 # every module that defines @register_model types, imported for its registrations
-from . import deadzone, digitized, digitized_deadzone, effects, gpi, lti, pi, preisach  # noqa: F401
+from . import (  # noqa: F401
+    boucwen,
+    deadzone,
+    digitized,
+    digitized_deadzone,
+    effects,
+    gpi,
+    lti,
+    pi,
+    preisach,
+)
 from .base import Field, Model, model_class, registered_types
 from .exceptions import ParameterError
 from .export_c import supported_c_types

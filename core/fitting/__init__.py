@@ -10,6 +10,8 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
 * :class:`DigitizedPIRegressor` — paper 000 digitized model from a classical fit.
 * :class:`PreisachRegressor` — level-dependent Preisach model (play form), NNLS on streamed
   normal equations of its level-segment columns.
+* :class:`BoucWenRegressor` — rate-independent Bouc-Wen bank: bounded least squares on a
+  grid of element shapes, the kept shapes polished (variable projection).
 
 Every estimator takes the same option keywords (``n_operators``, ``constraint``,
 ``initial_memory``; a value a kind cannot use raises
@@ -30,6 +32,7 @@ building blocks.
 
 from __future__ import annotations
 
+from .boucwen import BoucWenRegressor
 from .digitized import DigitizedPIRegressor
 from .entry import EmptyWindowError, FitOutcome, TimeWindow, fit_recordings
 from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
@@ -40,6 +43,7 @@ from .preisach import PreisachRegressor
 from .thresholds import place_thresholds, reversal_indices, wipeout_index
 
 __all__ = [
+    "BoucWenRegressor",
     "DeadZoneGPIRegressor",
     "DigitizedPIRegressor",
     "EmptyWindowError",

@@ -340,7 +340,8 @@ def test_fit_splits_runs_and_accepts_constraint(tmp_path, capsys):
     assert (slopes > 0).all() and np.diff(slopes).min() < -0.1  # negative weights allowed
 
 
-@pytest.mark.parametrize("family", ["gpi-deadzone", "mpi", "gpi-tanh", "digitized", "preisach"])
+@pytest.mark.parametrize("family", ["gpi-deadzone", "mpi", "gpi-tanh", "digitized", "preisach",
+                                    "bouc-wen"])
 def test_fit_other_model_families(family, tmp_path, capsys):
     rec = synthetic_recording(tmp_path / "rec.csv", 3000)
     code, out, err = run(capsys, "fit", rec, "--model", family, "-n", "4", "-o",

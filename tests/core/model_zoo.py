@@ -12,6 +12,7 @@ import tracemalloc
 import numpy as np
 
 from core.base import Chain, Model
+from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
 from core.digitized import DigitizedPI
 from core.digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
@@ -44,6 +45,16 @@ PREISACH = PreisachModel(
     [[0.8, 0.7, 0.9], [0.2, 0.35, 0.5], [0.1, 0.2, 0.3], [0.05, 0.05, 0.15]],
     knots=[-1.0, 1.0],
     state0=[0.0, 0.2, -0.3, 0.1],
+)
+#: A Bouc-Wen bank of three elements (input about ±3), started off zero.
+BOUC_WEN = BoucWenModel(
+    1.0,
+    [-0.25, -0.15, 0.1],
+    [0.5, 1.5, 1.0],
+    [1.5, 2.5, 1.0],
+    [1.0, 2.0, 1.5],
+    state0=[0.1, -0.2, 0.0],
+    input0=0.5,
 )
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
@@ -108,6 +119,8 @@ def _zoo() -> dict[str, Model]:
         "lti": LinearSystem([5e-4, 1.0], [1e-3, 1.0]),
         "preisach": PREISACH,
         "preisach-inverse": PREISACH.inverse(),
+        "bouc-wen": BOUC_WEN,
+        "bouc-wen-inverse": BOUC_WEN.inverse(),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)
