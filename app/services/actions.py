@@ -1,7 +1,7 @@
 """What the REST routers and the viser GUI do to a session (no web imports).
 
 Each function is one transition of a :class:`~app.services.sessions.Session` (load a
-preset, set the config, load a parameter set, upload a recording, fit, diagnose, export,
+preset, set the config, load a parameter set, upload a recording, fit, export,
 the teacher's push) or one read of its results (figures). Configs and parameter sets are
 checked against the cost limits (:mod:`.cost`) before any work; a refusal is a
 :class:`~core.exceptions.ParameterError` (or :class:`~core.csvio.CSVError`, a subclass)
@@ -30,7 +30,7 @@ from . import figures as F
 from . import tasks
 from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
-from .diagnosis import diagnose_session, diagnosis_html
+from .diagnosis import diagnosis_html
 from .events import HUB
 from .exports import export_session, fmi_version, parameter_set_model
 from .fitting import fit_session
@@ -54,7 +54,6 @@ __all__ = [
     "check_figure_names",
     "checked_controls",
     "checked_model",
-    "diagnose",
     "diagnosis_figure",
     "diagnosis_report",
     "export",
@@ -247,13 +246,6 @@ def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
         raise ParameterError(f"the number of operators must be between 1 and "
                              f"{settings.max_operators}, got {n}")
     return fit_session(session, n, kind, apply)
-
-
-def diagnose(session: Session, progress: Callable[..., None] | None = None) -> dict[str, Any]:
-    """Diagnose the session's recording and store the report (see
-    :func:`.diagnosis.diagnose_session`)."""
-    _need_recording(session, "diagnose")
-    return diagnose_session(session, progress)
 
 
 def _units(session: Session) -> dict[str, str]:
