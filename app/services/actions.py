@@ -45,6 +45,7 @@ from .simulation import (
     operator_count,
     pi_part,
     preset_doc,
+    priced_views,
     validate_config,
 )
 from .worker import Task
@@ -412,7 +413,7 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
     """Whether the figures ``names`` of the session's current config are cheap enough to be
     computed where the request arrived (the routes run the others in a worker thread):
     only :data:`QUICK_FIGURES`, a priced work of at most :data:`QUICK_WORK`, and no
-    diagnosed model (its inverse is not priced).
+    diagnosed model (its closed loop and report views are never quick).
 
     Raises
     ------
@@ -424,7 +425,16 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
         return False
     session_model(session, settings)  # parsed and priced once per config
     checked = session.state.checked
-    return checked is not None and checked.cost.total_work <= QUICK_WORK
+    return checked is not None and _priced_work(checked, names, None) <= QUICK_WORK
+
+
+def _priced_work(checked: CheckedModel, names: Collection[str],
+                 diagnosed: Model | None) -> float:
+    """Priced work of figures ``names`` of a checked config: the model's run and what the
+    views run beyond it (:func:`.simulation.priced_views`: the inverse of the compensated
+    model, the diagnosed chain's closed loop)."""
+    extra = priced_views(checked.model, names, checked.samples, checked.dt, diagnosed)
+    return checked.cost.total_work + extra.work
 
 
 #: Priced work (element operations) above which figures are computed in a worker process
@@ -490,10 +500,10 @@ def session_figures_run(session: Session, names: Collection[str], settings: Sett
     cfg, v, model = session.checked(settings.limits,
                                     lambda c, rec: checked_model(c, rec, settings))
     checked = session.state.checked
-    cost = checked.cost.total_work if checked is not None else math.inf
+    diagnosed = diagnosed_model(session)
+    cost = _priced_work(checked, names, diagnosed) if checked is not None else math.inf
     return _figures_run(cfg, names, settings, cost, model, version=v,
-                        recording=session.recording, diagnosed=diagnosed_model(session),
-                        state=state)
+                        recording=session.recording, diagnosed=diagnosed, state=state)
 
 
 def session_figures(session: Session, names: Collection[str],
@@ -510,7 +520,7 @@ def simulate_run(config: Config, names: Collection[str], settings: Settings,
     names = tuple(check_figure_names(names))
     checked = checked_config(config, None, settings.limits)
     model = check_operator_limit(checked.model, settings.max_operators)
-    return _figures_run(config, names, settings, checked.cost.total_work, model,
+    return _figures_run(config, names, settings, _priced_work(checked, names, None), model,
                         include_data=include_data)
 
 
