@@ -433,8 +433,15 @@ def _priced_work(checked: CheckedModel, names: Collection[str],
     """Priced work of figures ``names`` of a checked config: the model's run and what the
     views run beyond it (:func:`.simulation.priced_views`: the inverse of the compensated
     model, the diagnosed chain's closed loop)."""
-    extra = priced_views(checked.model, names, checked.samples, checked.dt, diagnosed)
-    return checked.cost.total_work + extra.work
+    if diagnosed is not None:
+        extra = priced_views(checked.model, names, checked.samples, checked.dt, diagnosed)
+        return checked.cost.total_work + extra.work
+    key = frozenset(names) & {"inverse", "closed-loop"}
+    work = checked.views_work.get(key)
+    if work is None:  # once per config (a slider step builds the inverse once)
+        work = checked.views_work[key] = priced_views(
+            checked.model, key, checked.samples, checked.dt).work
+    return checked.cost.total_work + work
 
 
 #: Priced work (element operations) above which figures are computed in a worker process

@@ -122,6 +122,9 @@ class CheckedModel:
     #: the run it was priced for: samples and their spacing, s
     samples: int = 0
     dt: float = 1.0
+    #: priced work of the views' extra runs, by views (filled by its users: the inverse is
+    #: built once per config, not per request)
+    views_work: dict[frozenset[str], float] = dataclasses.field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- raw JSON
