@@ -123,9 +123,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return RedirectResponse("/api.html")
 
     app.state.registry = SessionRegistry(settings.max_sessions, store)
-    app.state.jobs = JobManager(max_workers=settings.max_jobs)
+    memory = settings.worker_memory_bytes  # each worker process's allowance
+    app.state.jobs = JobManager(max_workers=settings.max_jobs, memory_limit=memory)
     # the worker processes of heavy figures (killed when their client hangs up)
-    app.state.figure_workers = LiveWorkers()
+    app.state.figure_workers = LiveWorkers(memory_limit=memory)
     app.state.figure_slots = asyncio.Semaphore(app.state.figure_workers.max_running)
     # per client: 200 new sessions at once, then 1 a second; 20 unknown codes, then 1 in 3 s
     app.state.create_limiter = RateLimiter(burst=200, per_minute=60)

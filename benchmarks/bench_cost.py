@@ -3,8 +3,10 @@
 Every registered model type prices its own run (:meth:`core.base.Model.cost`, summed over
 the tree by :func:`app.services.cost.check_model`). This benchmark simulates every type of
 ``tests/core/model_zoo.py`` plus scaled-up instances of the types whose work is not linear in
-their fields, best of 3 after a warm-up, and prints the measured seconds per priced work unit
-(one unit is meant as about 1 ns). The price is a bound when the worst ratio stays below
+their fields, the inverses of the diagnosis's chains (each inverse type's own cost) and their
+closed loops (chain and inverse stepped one sample per call, ``priced_steps``), best of 3
+after a warm-up, and prints the measured seconds per priced work unit (one unit is meant
+as about 1 ns). The price is a bound when the worst ratio stays below
 :data:`MAX_SECONDS_PER_UNIT`; the exit status says whether it does. Single-threaded::
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python benchmarks/bench_cost.py
@@ -19,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from app.services.cost import priced_run
+from app.services.cost import priced_run, priced_steps
 from core.base import Model
 from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
@@ -36,7 +38,7 @@ from core.effects import (
 from core.lti import LinearSystem
 from core.pi import PIModel
 from core.preisach import PreisachModel
-from tests.core.model_zoo import DT, ZOO
+from tests.core.model_zoo import DIAGNOSED, DT, ZOO
 
 #: Samples of the timed runs.
 N = 40_000
@@ -86,9 +88,45 @@ def measure() -> dict[str, float]:
     ratios: dict[str, float] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name, m in {**ZOO, **_scaled()}.items():
+        for name, m in {**ZOO, **_scaled(), **diagnosed_inverses()}.items():
             ratios[name] = _seconds(m, u) / priced_run(m, N, DT).work
+        for name, (plant, ff) in DIAGNOSED_LOOPS.items():  # one sample per call
+            ratios[f"{name} closed loop"] = _loop_seconds(plant, ff) / _loop_price(plant, ff)
     return ratios
+
+
+def diagnosed_inverses() -> dict[str, Model]:
+    """The inverses of the chains the diagnosis writes (the explorer's Inverse view of a
+    diagnosed session runs them), priced from each inverse type's own cost."""
+    return {f"{name} inverse": m.inverse() for name, m in DIAGNOSED.items()}
+
+
+#: The diagnosed chains of the zoo with their inverses: the Closed-loop view's plant and
+#: feedforward (``app.services.simulation.priced_views``).
+DIAGNOSED_LOOPS = {name: (m, m.inverse()) for name, m in DIAGNOSED.items()}
+#: Samples of a timed closed loop (the explorer's, 0.02 s at 50 kHz).
+LOOP_STEPS = 1000
+
+
+def _loop_seconds(plant: Model, ff: Model) -> float:
+    """Seconds of the plant-with-feedforward loop (paper 001's), best of 2."""
+    from core.closed_loop import HammersteinLoop, paper001_plant
+
+    r = 2.0 * np.sin(np.linspace(0.0, 6.0, LOOP_STEPS))
+    loop = HammersteinLoop(plant, paper001_plant(), feedforward=ff)
+    loop.simulate(r[:8], 2e-5)
+    best = math.inf
+    for _ in range(2):
+        t = time.perf_counter()
+        loop.simulate(r, 2e-5)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def _loop_price(plant: Model, ff: Model) -> float:
+    """Priced work of that loop: both stepped one sample per call (``priced_steps``)."""
+    return (priced_steps(plant, LOOP_STEPS, 2e-5).work
+            + priced_steps(ff, LOOP_STEPS, 2e-5).work)
 
 
 

@@ -3,7 +3,8 @@
 Every registered model type prices its run's peak memory (:attr:`core.base.RunCost.memory`,
 output array included, input excluded: the caller holds it), summed over the model tree as
 :func:`app.services.cost.check_model` does. This benchmark simulates every type of
-``tests/core/model_zoo.py``, the chains the diagnosis writes, and the scaled-up instances of
+``tests/core/model_zoo.py``, the chains the diagnosis writes and their inverses, and the
+scaled-up instances of
 ``bench_cost.py`` on :data:`N` samples (the explorer's sample limit) and measures the peak of
 ``simulate`` with :mod:`tracemalloc` (numpy reports its array buffers to it). The price is a
 bound when every ``peak / priced`` ratio is at most 1; the exit status says whether it is.
@@ -24,7 +25,7 @@ import warnings
 import numpy as np
 
 from app.services.cost import priced_run
-from benchmarks.bench_cost import _scaled
+from benchmarks.bench_cost import _scaled, diagnosed_inverses
 from core.base import Model
 from tests.core.model_zoo import DIAGNOSED, DT, ZOO, traced_peak
 
@@ -36,7 +37,7 @@ def measure(n: int = N, models: dict[str, Model] | None = None) -> dict[str, tup
     """``name -> (measured peak bytes, priced bytes)`` for every model."""
     u = 3.0 * np.sin(np.linspace(0.0, 40.0 * np.pi, n))
     if models is None:
-        models = {**ZOO, **DIAGNOSED, **_scaled()}
+        models = {**ZOO, **DIAGNOSED, **_scaled(), **diagnosed_inverses()}
     out: dict[str, tuple[int, float]] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

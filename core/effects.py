@@ -1040,10 +1040,13 @@ class AsymmetryInverse(Model):
     def cost(self, samples: int, dt: float | None) -> RunCost:
         """Coefficients x samples x bisection steps (bracket expansion on both sides and
         :func:`bisect_steps`), plus the roots of the map's derivative (a dense eigenvalue
-        problem of the coefficients' size). Work in element operations, memory in bytes."""
+        problem of the coefficients' size), plus about a microsecond (1,000 units) for each
+        of the four array passes of every step whatever the length: that is most of a call
+        on one sample (a closed loop calls the inverse once per sample: 3-13 ms each,
+        measured). Work in element operations, memory in bytes."""
         n, m = float(samples), float(self.coefficients.size)
         steps = 2.0 * 64.0 + bisect_steps()
-        work = 3.0 * n * (m + 2.0) * steps + 10.0 * m**3
+        work = 3.0 * n * (m + 2.0) * steps + 10.0 * m**3 + 4.0 * 1000.0 * steps
         memory = SAMPLE_BYTES * (9.0 * n + 4.0 * m * m)
         return RunCost(work, memory)
 

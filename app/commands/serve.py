@@ -57,6 +57,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--max-store-mb", type=int, default=None,
                    help="size budget of the stored sessions in MB (default 1000); beyond "
                         "it sessions unused for an hour are evicted, never a teacher's")
+    p.add_argument("--worker-memory-mb", type=int, default=None, metavar="MB",
+                   help="memory each fit, diagnosis or heavy-figure worker process may use "
+                        "beyond its start, MB (default: twice the priced memory limit of a "
+                        "request, 3000, at most a quarter of this machine's memory; env "
+                        "HYST_WORKER_MEMORY_MB); a job that needs more fails with a message")
     p.add_argument("--allowed-host", action="append", default=None, metavar="NAME",
                    help="another name this server answers to, e.g. the machine's name on "
                         "the class network (repeatable; env HYST_ALLOWED_HOSTS, comma-"
@@ -164,6 +169,7 @@ def settings_of(args: argparse.Namespace) -> Any:
             teacher_token=_token(args),
             state_dir=None if args.state_dir is None else str(args.state_dir),
             max_store_mb=args.max_store_mb,
+            worker_memory_mb=args.worker_memory_mb,
             allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
             trusted_proxies=None if args.trusted_proxy is None else tuple(args.trusted_proxy),
         )

@@ -30,13 +30,14 @@ from ..services import figures as F
 from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError
 from ..services.events import HUB
-from ..services.jobs import Job, JobBusy, JobManager
+from ..services.jobs import Job, JobBusy, JobManager, JobView
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
-from ..services.tasks import fit_task
+from ..services.tasks import diagnose_task, fit_task
+from ..services.worker import Task
 from .layout import TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
@@ -83,10 +84,6 @@ def _default_jobs() -> JobManager:
 STATE_REDRAW_S = 0.1
 
 
-class _Cancelled(Exception):  # noqa: N818 - a signal, not an error
-    """Raised by a diagnosis' progress report once Cancel was clicked: it stops there."""
-
-
 class SessionView:
     """The controls and plots of one browser tab, bound to one session.
 
@@ -131,7 +128,7 @@ class SessionView:
         self.registry = registry
         #: runs this tab's fits in killable worker processes (the REST API's manager)
         self.jobs = jobs if jobs is not None else _default_jobs()
-        self._job: Job | None = None  # the fit job running now
+        self._job: Job | None = None  # the fit or diagnosis job running now
         self._on_session = on_session
         self.session = session
         self.settings = settings
@@ -148,7 +145,7 @@ class SessionView:
         self._syncing = threading.local()
         self._lock = threading.RLock()
         self._work_lock = threading.Lock()
-        self._cancel = threading.Event()  # set by Cancel: the running diagnosis or fit stops
+        self._cancel = threading.Event()  # set by Cancel or close: the running job is killed
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
         self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
@@ -581,28 +578,10 @@ class SessionView:
         if not 1 <= n <= self.settings.max_operators:
             raise ParameterError(f"the number of operators must be between 1 and "
                                  f"{self.settings.max_operators}, got {n}")
-        self._cancel.clear()
-        ui.job_bar.value = 0.0
-        with self._busy("fitting"):
-            try:
-                job = self.jobs.submit(self.session.code, "fit",
-                                       fit_task(self.session, n, kind, apply=True))
-            except JobBusy as exc:
-                raise ValueError(_busy_text(str(exc))) from None
-            self._job = job
-            ui.cancel_btn.label = "Cancel the fit"
-            ui.job_bar.visible = ui.cancel_btn.visible = True
-            try:
-                self._follow(job, "fitting")
-            finally:
-                self._job = None
-                ui.job_bar.visible = ui.cancel_btn.visible = False
-            view = job.view()
-            if view.state == "cancelled":
-                ui.report_md.content = "Fit cancelled: the model was not changed."
-                return
-            if view.state != "done":
-                raise ValueError(f"the fit failed: {view.error or view.message}")
+        view = self._run_job("fit", lambda: fit_task(self.session, n, kind, apply=True),
+                             "fitting", "Fit cancelled: the model was not changed.")
+        if view is None:
+            return
         out = view.result
         self.fit_figure = F.FigureJSON(out["figure"]["data"], out["figure"]["layout"])
         report = out["report"]
@@ -611,6 +590,45 @@ class SessionView:
             f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
             f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
         )
+
+    def _run_job(self, kind: str, task: Callable[[], Task], what: str,
+                 cancelled: str) -> JobView | None:
+        """Run ``task()`` as a ``kind`` job of the session in a worker process of the job
+        manager, its progress under the buttons (``what``: "fitting", "diagnosing") with a
+        Cancel button that kills the worker. Returns the finished job's view, or ``None``
+        when it was cancelled (the report then says ``cancelled``).
+
+        Raises
+        ------
+        ValueError
+            Another job runs for the session, or the job failed (the words for the user).
+        """
+        ui = self.ui
+        self._cancel.clear()
+        ui.job_bar.value = 0.0
+        with self._busy(what):
+            try:
+                job = self.jobs.submit(self.session.code, kind, task())
+            except JobBusy as exc:
+                raise ValueError(_busy_text(str(exc))) from None
+            self._job = job
+            ui.cancel_btn.label = f"Cancel the {'diagnosis' if kind == 'diagnose' else kind}"
+            ui.job_bar.visible = ui.cancel_btn.visible = True
+            try:
+                if self._cancel.is_set():  # Cancel (or the tab's close) came meanwhile
+                    self.jobs.cancel(job.code, job.id)
+                self._follow(job, what)
+            finally:
+                self._job = None
+                ui.job_bar.visible = ui.cancel_btn.visible = False
+            view = job.view()
+            if view.state == "cancelled":
+                ui.report_md.content = cancelled
+                return None
+            if view.state != "done":
+                word = "diagnosis" if kind == "diagnose" else kind
+                raise ValueError(f"the {word} failed: {view.error or view.message}")
+        return view
 
     def _follow(self, job: Job, what: str) -> None:
         """Show ``job``'s progress until it finishes (a Cancel click cancels it)."""
@@ -625,47 +643,27 @@ class SessionView:
                                     + (f" ({md_text(v.message)})" if v.message else ""))
 
     def _cancel_clicked(self, event: Any) -> None:
-        """Stop the running diagnosis or fit (a fit's worker process is killed at once)."""
+        """Stop the running diagnosis or fit: its worker process is killed at once."""
         self._cancel.set()
         job = self._job
         if job is not None:
             self.jobs.cancel(job.code, job.id)
 
     def _diagnose_clicked(self, event: Any) -> None:
-        """Run the diagnosis with its progress under the buttons and a Cancel button (the
-        diagnosis stops at its next progress report; nothing is stored)."""
+        """Run the diagnosis as a job of the session (:func:`~app.services.tasks.diagnose_task`
+        in a worker process of the job manager), its progress under the buttons; Cancel
+        kills the worker and nothing is stored."""
         ui = self.ui
         if self.session.recording is None:
             ui.report_md.content = "⚠️ upload a recording first"
             return
-        self._cancel.clear()
-        shown = [0.0]
-
-        def progress(fraction: float, message: str = "") -> None:
-            if self._cancel.is_set():
-                raise _Cancelled
-            now = time.monotonic()
-            if now - shown[0] >= PROGRESS_S:  # each update is a websocket message
-                shown[0] = now
-                ui.job_bar.value = float(100 * min(1.0, max(0.0, fraction)))
-                ui.report_md.content = (f"⏳ **diagnosing… {100 * fraction:.0f} %**"
-                                        + (f" ({md_text(message)})" if message else ""))
-
-        ui.job_bar.value = 0.0
-        ui.cancel_btn.label = "Cancel the diagnosis"
-        ui.job_bar.visible = ui.cancel_btn.visible = True
-        try:
-            with self._busy("diagnosing (10–40 s for a long recording)"):
-                try:
-                    rep = actions.diagnose(self.session, progress)
-                except _Cancelled:
-                    ui.report_md.content = "Diagnosis cancelled: nothing was changed."
-                    return
-        finally:
-            ui.job_bar.visible = ui.cancel_btn.visible = False
-        self.ui.report_md.content = diagnosis_markdown(rep)
-        self.ui.report_btn.disabled = False
-        self.ui.view_dd.value = TITLES["diagnosis"]  # before and after, in the plot
+        view = self._run_job("diagnose", lambda: diagnose_task(self.session), "diagnosing",
+                             "Diagnosis cancelled: nothing was changed.")
+        if view is None:
+            return
+        ui.report_md.content = diagnosis_markdown(view.result)
+        ui.report_btn.disabled = False
+        ui.view_dd.value = TITLES["diagnosis"]  # before and after, in the plot
 
     @contextmanager
     def _busy(self, what: str) -> Iterator[None]:
@@ -839,7 +837,9 @@ class SessionView:
         self._show_state(k)
 
     def close(self) -> None:
-        """Detach from the session and stop the worker and the playback."""
+        """Detach from the session, cancel its running fit or diagnosis (its worker process
+        is killed: nobody is left to see it) and stop the render worker and the playback."""
+        self._cancel_clicked(None)
         self.playback.stop()
         HUB.leave(self)
         self.session.remove_listener(self._on_session_change)

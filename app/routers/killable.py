@@ -18,7 +18,8 @@ from fastapi import HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
 from ..services import actions
-from ..services.worker import LiveWorkers, TaskFailed, Worker, WorkerDied
+from ..services.errors import ParameterError
+from ..services.worker import LiveWorkers, OutOfMemory, TaskFailed, Worker, WorkerDied
 
 __all__ = ["run_figures"]
 
@@ -39,7 +40,8 @@ async def run_figures(request: Request, run: actions.FiguresRun) -> dict[str, An
     HTTPException
         499 when the client went away (the work was stopped).
     ParameterError, NotInvertibleError
-        The input was refused where the figures were computed (a 422).
+        The input was refused where the figures were computed, or needed more memory than
+        a worker may use (a 422).
     """
     if not run.killable:
         return await run_in_threadpool(actions.figures_here, run)
@@ -53,7 +55,7 @@ async def run_figures(request: Request, run: actions.FiguresRun) -> dict[str, An
             if await request.is_disconnected():
                 raise HTTPException(499, "the client went away before its figures started"
                                     ) from None
-    worker = Worker(run.task)
+    worker = Worker(run.task, live.memory_limit)
     live.add(worker)
     try:
         work = asyncio.ensure_future(run_in_threadpool(worker.run, _ignore))
@@ -70,6 +72,8 @@ async def run_figures(request: Request, run: actions.FiguresRun) -> dict[str, An
             out = work.result()
         except WorkerDied as exc:
             raise HTTPException(503, f"the figures could not be computed: {exc}") from None
+        except OutOfMemory as exc:  # the request is too big for this server: a 422
+            raise ParameterError(str(exc)) from None
         except TaskFailed as exc:
             raise RuntimeError(f"the figures failed: {exc}") from None
         return actions.figures_body(out)

@@ -1,7 +1,7 @@
 """What the REST routers and the viser GUI do to a session (no web imports).
 
 Each function is one transition of a :class:`~app.services.sessions.Session` (load a
-preset, set the config, load a parameter set, upload a recording, fit, diagnose, export,
+preset, set the config, load a parameter set, upload a recording, fit, export,
 the teacher's push) or one read of its results (figures). Configs and parameter sets are
 checked against the cost limits (:mod:`.cost`) before any work; a refusal is a
 :class:`~core.exceptions.ParameterError` (or :class:`~core.csvio.CSVError`, a subclass)
@@ -30,7 +30,7 @@ from . import figures as F
 from . import tasks
 from .config import Config, SignalSpec
 from .cost import CheckedModel, check_config, check_document, checked_config
-from .diagnosis import diagnose_session, diagnosis_html
+from .diagnosis import diagnosis_html
 from .events import HUB
 from .exports import export_session, fmi_version, parameter_set_model
 from .fitting import fit_session
@@ -45,6 +45,7 @@ from .simulation import (
     operator_count,
     pi_part,
     preset_doc,
+    priced_views,
     validate_config,
 )
 from .worker import Task
@@ -54,7 +55,6 @@ __all__ = [
     "check_figure_names",
     "checked_controls",
     "checked_model",
-    "diagnose",
     "diagnosis_figure",
     "diagnosis_report",
     "export",
@@ -249,13 +249,6 @@ def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
     return fit_session(session, n, kind, apply)
 
 
-def diagnose(session: Session, progress: Callable[..., None] | None = None) -> dict[str, Any]:
-    """Diagnose the session's recording and store the report (see
-    :func:`.diagnosis.diagnose_session`)."""
-    _need_recording(session, "diagnose")
-    return diagnose_session(session, progress)
-
-
 def _units(session: Session) -> dict[str, str]:
     rec = session.recording
     return {} if rec is None else dict(rec.units)
@@ -420,7 +413,7 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
     """Whether the figures ``names`` of the session's current config are cheap enough to be
     computed where the request arrived (the routes run the others in a worker thread):
     only :data:`QUICK_FIGURES`, a priced work of at most :data:`QUICK_WORK`, and no
-    diagnosed model (its inverse is not priced).
+    diagnosed model (its closed loop and report views are never quick).
 
     Raises
     ------
@@ -432,7 +425,23 @@ def figures_are_quick(session: Session, names: Collection[str], settings: Settin
         return False
     session_model(session, settings)  # parsed and priced once per config
     checked = session.state.checked
-    return checked is not None and checked.cost.total_work <= QUICK_WORK
+    return checked is not None and _priced_work(checked, names, None) <= QUICK_WORK
+
+
+def _priced_work(checked: CheckedModel, names: Collection[str],
+                 diagnosed: Model | None) -> float:
+    """Priced work of figures ``names`` of a checked config: the model's run and what the
+    views run beyond it (:func:`.simulation.priced_views`: the inverse of the compensated
+    model, the diagnosed chain's closed loop)."""
+    if diagnosed is not None:
+        extra = priced_views(checked.model, names, checked.samples, checked.dt, diagnosed)
+        return checked.cost.total_work + extra.work
+    key = frozenset(names) & {"inverse", "closed-loop"}
+    work = checked.views_work.get(key)
+    if work is None:  # once per config (a slider step builds the inverse once)
+        work = checked.views_work[key] = priced_views(
+            checked.model, key, checked.samples, checked.dt).work
+    return checked.cost.total_work + work
 
 
 #: Priced work (element operations) above which figures are computed in a worker process
@@ -498,10 +507,10 @@ def session_figures_run(session: Session, names: Collection[str], settings: Sett
     cfg, v, model = session.checked(settings.limits,
                                     lambda c, rec: checked_model(c, rec, settings))
     checked = session.state.checked
-    cost = checked.cost.total_work if checked is not None else math.inf
+    diagnosed = diagnosed_model(session)
+    cost = _priced_work(checked, names, diagnosed) if checked is not None else math.inf
     return _figures_run(cfg, names, settings, cost, model, version=v,
-                        recording=session.recording, diagnosed=diagnosed_model(session),
-                        state=state)
+                        recording=session.recording, diagnosed=diagnosed, state=state)
 
 
 def session_figures(session: Session, names: Collection[str],
@@ -518,7 +527,7 @@ def simulate_run(config: Config, names: Collection[str], settings: Settings,
     names = tuple(check_figure_names(names))
     checked = checked_config(config, None, settings.limits)
     model = check_operator_limit(checked.model, settings.max_operators)
-    return _figures_run(config, names, settings, checked.cost.total_work, model,
+    return _figures_run(config, names, settings, _priced_work(checked, names, None), model,
                         include_data=include_data)
 
 

@@ -32,8 +32,9 @@ import numpy as np
 from core.base import Model, RunCost
 from core.exceptions import ParameterError
 
-__all__ = ["CheckedModel", "Cost", "Limits", "check_config", "check_document", "check_model",
-           "checked_config", "checked_model", "json_depth", "priced_run"]
+__all__ = ["CALL_WORK", "CheckedModel", "Cost", "Limits", "check_config", "check_document",
+           "check_model", "checked_config", "checked_model", "json_depth", "priced_run",
+           "priced_steps"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,12 @@ class CheckedModel:
     model: Model
     cost: Cost
     limits: Limits
+    #: the run it was priced for: samples and their spacing, s
+    samples: int = 0
+    dt: float = 1.0
+    #: priced work of the views' extra runs, by views (filled by its users: the inverse is
+    #: built once per config, not per request)
+    views_work: dict[frozenset[str], float] = dataclasses.field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- raw JSON
@@ -203,6 +210,27 @@ def priced_run(model: Model, samples: int, dt: float) -> RunCost:
         total = total + m.cost(samples, dt)
         todo.extend(_children(m))
     return total
+
+
+#: Priced work of one ``simulate`` call of one stage beyond its declared cost (validation,
+#: state in and out, the Python around the kernels), element operations: 75-350 µs were
+#: measured per stage call on the 2-core machine at load 14-18 (``bench_cost.py`` checks
+#: the closed loops of the diagnosed chains, which call every stage once per sample).
+CALL_WORK = 100_000.0
+
+
+def priced_steps(model: Model, steps: int, dt: float) -> RunCost:
+    """Price of running ``model`` one sample per call for ``steps`` samples (a closed loop's
+    plant or feedforward): each stage's declared cost of one sample (:meth:`Model.cost`,
+    fixed terms included) plus :data:`CALL_WORK`, per step; memory: one step's and the
+    loop's sample arrays."""
+    one, stages, todo = RunCost(0.0, 0.0), 0, [model]
+    while todo:
+        m = todo.pop()
+        one = one + m.cost(1, dt)
+        stages += 1
+        todo.extend(_children(m))
+    return RunCost(steps * (one.work + stages * CALL_WORK), one.memory + 8.0 * 8.0 * steps)
 
 
 def _operators(m: Model) -> int:
@@ -372,4 +400,4 @@ def checked_config(cfg: Any, recording: Any, limits: Limits) -> CheckedModel:
     if not (math.isfinite(dt) and dt > 0):
         raise ParameterError(f"the sample spacing {dt!r} s must be a positive number")
     model, cost = checked_model(cfg.model, samples, dt, limits)
-    return CheckedModel(model, cost, limits)
+    return CheckedModel(model, cost, limits, samples, dt)

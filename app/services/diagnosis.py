@@ -22,11 +22,9 @@ if TYPE_CHECKING:  # core.diagnosis is imported when a diagnosis runs
     from core.recordings import Recording
 
     from .progress import Progress
-    from .sessions import Session
 
 __all__ = [
     "diagnose_files",
-    "diagnose_session",
     "diagnosis_html",
     "diagnosis_json",
     "diagnosis_source",
@@ -173,8 +171,8 @@ def run_diagnosis(rec: Recording, model: Model,
     The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
     ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
     held-out RMSE before and after, and the core's JSON document. ``progress`` is passed
-    on to :func:`~core.diagnosis.diagnose` (it may raise to stop the diagnosis: that is how
-    a job is cancelled).
+    on to :func:`~core.diagnosis.diagnose` (a job's worker passes it to the server; a cancel
+    kills the worker, :mod:`.worker`).
     """
     from core.diagnosis import diagnose
 
@@ -185,25 +183,6 @@ def run_diagnosis(rec: Recording, model: Model,
     result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
     d = result.to_dict()
     return {"engine": "core.diagnosis", **diagnosis_summary(d, rec.units), "document": d}, result
-
-
-def diagnose_session(session: Session,
-                     progress: Callable[..., None] | None = None) -> dict[str, Any]:
-    """Diagnose the fitted model (else the current model) against ``session``'s recording.
-
-    Stores and returns the report (see :func:`run_diagnosis`); the caller checks that the
-    session has a recording.
-    """
-    from core.base import model_from_dict
-
-    doc = session.fitted or session.snapshot()[0].model
-    report, result = run_diagnosis(session.recording, model_from_dict(doc), progress)
-    if progress is not None:
-        # the last point where a cancelled job stops: a cancel that came while the report
-        # was being built must not leave the result in the session
-        progress(1.0, "storing the diagnosis")
-    session.set_diagnosis(report, result)
-    return report
 
 
 def diagnosis_html(result: Any, units: dict[str, str] | None = None) -> str:

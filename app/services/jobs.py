@@ -92,11 +92,17 @@ class JobManager:
         A queued or running job nobody polled for this long is cancelled.
     keep : int
         Finished jobs remembered (for late polls).
+    memory_limit : int, optional
+        Bytes each job's worker process may allocate beyond its start (a job that needs
+        more fails with a message saying so, :class:`~app.services.worker.OutOfMemory`);
+        ``None``: no limit.
     """
 
     def __init__(self, max_workers: int = 2, max_queued: int = 50,
-                 idle_cancel_s: float = 30.0, keep: int = 1000) -> None:
+                 idle_cancel_s: float = 30.0, keep: int = 1000,
+                 memory_limit: int | None = None) -> None:
         self.max_workers = max_workers
+        self.memory_limit = memory_limit
         self.max_queued = max_queued
         self.idle_cancel_s = idle_cancel_s
         self.keep = keep
@@ -213,7 +219,7 @@ class JobManager:
         job.finished.set()
 
     def _run(self, job: Job, task: Task) -> None:
-        worker = Worker(task)
+        worker = Worker(task, self.memory_limit)
         with self._lock:
             if job.state != "queued":
                 return

@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields, replace
 from .clients import proxy_networks
 from .cost import Limits
 from .hosts import HostAllowList
+from .worker import default_memory_limit
 
 __all__ = ["Settings", "is_loopback"]
 
@@ -63,6 +64,11 @@ class Settings:
         Open viser GUI tabs (websockets) one client may hold at once.
     max_tabs : int
         Open viser GUI tabs of the whole server (each holds a view, about 5-16 MB).
+    worker_memory_mb : int
+        Memory each worker process (a fit, a diagnosis, heavy figures) may allocate beyond
+        what it holds at its start, MB; ``0`` (the default) is
+        :func:`~app.services.worker.default_memory_limit`: twice the priced memory bound of
+        a request, at most a quarter of the machine's memory (:attr:`worker_memory_bytes`).
     """
 
     host: str = "127.0.0.1"
@@ -81,8 +87,12 @@ class Settings:
     max_streams_per_client: int = 8
     max_tabs_per_client: int = 8
     max_tabs: int = 300
+    worker_memory_mb: int = 0
 
     def __post_init__(self) -> None:
+        if self.worker_memory_mb < 0:
+            raise ValueError(f"the worker memory limit must be 0 (the default) or a number "
+                             f"of MB, got {self.worker_memory_mb}")
         object.__setattr__(self, "trusted_proxies", proxy_networks(self.trusted_proxies))
 
     @classmethod
@@ -142,6 +152,13 @@ class Settings:
     def host_allow_list(self) -> HostAllowList:
         """The names a request's ``Host`` may carry (see :mod:`app.services.hosts`)."""
         return HostAllowList.for_server(self.host, self.allowed_hosts)
+
+    @property
+    def worker_memory_bytes(self) -> int:
+        """The memory allowance of each worker process, bytes (see ``worker_memory_mb``)."""
+        if self.worker_memory_mb > 0:
+            return int(self.worker_memory_mb * 1e6)
+        return default_memory_limit(self.limits.max_memory_bytes)
 
     @property
     def limits(self) -> Limits:

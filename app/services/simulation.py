@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from core.base import Chain, Model, model_from_dict
+from core.base import Chain, Model, RunCost, model_from_dict
 from core.closed_loop import HammersteinLoop, paper001_plant
 from core.digitized import DigitizedPI
 from core.exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
@@ -29,6 +29,7 @@ from core.recordings import Recording
 from core.signals import SIGNALS
 
 from .config import Config, SignalSpec
+from .cost import priced_run, priced_steps
 
 __all__ = [
     "CLOSED_LOOP_MAX_S",
@@ -52,6 +53,7 @@ __all__ = [
     "pi_part",
     "preset_doc",
     "preset_input",
+    "priced_views",
     "state_text",
     "validate_config",
     "visited_path",
@@ -565,6 +567,44 @@ CLOSED_LOOP_RATE = 50_000.0
 CLOSED_LOOP_MAX_S = 1.0
 #: Longest closed-loop run of a diagnosed (extended) model, s.
 DIAGNOSED_LOOP_MAX_S = 0.02
+
+
+def priced_views(model: Model, views: Collection[str], samples: int, dt: float,
+                 diagnosed: Model | None = None) -> RunCost:
+    """Priced work and memory of what :func:`compute` runs for ``views`` beyond the model's
+    own run (which :func:`app.services.cost.check_model` prices), from the declared costs
+    of the models that run (:meth:`core.base.Model.cost`):
+
+    - ``"inverse"``: the inverse of the compensated model (``diagnosed`` when given, else
+      ``model``; each inverse type declares its own cost) and the perturbed plant, on
+      ``samples`` samples;
+    - ``"closed-loop"`` of a ``diagnosed`` chain: the plant four times and its inverse three
+      times, one sample per call (:func:`app.services.cost.priced_steps`) over
+      :data:`DIAGNOSED_LOOP_MAX_S` (the compiled loop of a classical PI model costs about
+      as much as its own run, and nothing else has a closed loop).
+
+    An inverse that cannot be built costs nothing (the view says why).
+    """
+    views = frozenset(views)
+    total = RunCost(0.0, 0.0)
+    comp = model if diagnosed is None else diagnosed
+    inv = None
+    if views & {"inverse", "closed-loop"}:
+        try:
+            inv = comp.inverse()
+        except (NotInvertibleError, ValueError):
+            inv = None
+    if "inverse" in views and inv is not None:
+        total = total + priced_run(inv, samples, dt) + priced_run(comp, samples, dt)
+    if "closed-loop" in views and diagnosed is not None:
+        steps = int(round(DIAGNOSED_LOOP_MAX_S * CLOSED_LOOP_RATE))
+        dt_loop = 1.0 / CLOSED_LOOP_RATE
+        plant = priced_steps(diagnosed, steps, dt_loop)
+        total = total + RunCost(4.0 * plant.work, plant.memory)
+        if inv is not None:
+            ff = priced_steps(inv, steps, dt_loop)
+            total = total + RunCost(3.0 * ff.work, ff.memory)
+    return total
 
 
 def diagnosed_model(session: Any) -> Model | None:

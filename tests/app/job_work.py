@@ -81,3 +81,13 @@ def stalled_fit(rec: Any, n: int, kind: str, *, progress: Any) -> Any:
     progress(0.5, "fitting")
     time.sleep(120)
     raise AssertionError("a stalled fit must be cancelled before it ends")
+
+
+def allocate(megabytes: float, *, progress: Any) -> int:
+    """Allocate and touch ``megabytes`` MB (as a job that needs that much would); return
+    the bytes held."""
+    import numpy as np
+
+    progress(0.5, "allocating")
+    a = np.ones(int(megabytes * 1e6) // 8)
+    return int(a.nbytes)

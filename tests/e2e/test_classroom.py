@@ -277,24 +277,6 @@ def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_serv
     ctx.close()
 
 
-def _slow_in_process_diagnosis(monkeypatch: Any) -> None:
-    """viser runs the diagnosis in its own thread (not a job's worker process): it pauses
-    0.5 s at each progress report, so that Cancel comes while it runs."""
-    import core.diagnosis as cd
-
-    real = cd.diagnose
-
-    def diagnose(*args: Any, progress: Any = None, **kw: Any) -> Any:
-        def slow(frac: float, msg: str = "") -> None:
-            time.sleep(0.5)
-            if progress is not None:
-                progress(frac, msg)
-
-        return real(*args, progress=slow, **kw)
-
-    monkeypatch.setattr(cd, "diagnose", diagnose)
-
-
 def _close_quietly(ctx: Any) -> None:
     try:
         ctx.close()
@@ -373,7 +355,10 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
     deadline = time.monotonic() + 60
     while view.session.recording.n_samples != 50001 and time.monotonic() < deadline:
         time.sleep(0.1)
-    _slow_in_process_diagnosis(monkeypatch)
+    from app.services import tasks  # the diagnosis job pauses 0.5 s at each progress report
+    from tests.app.job_work import slow_diagnosis
+
+    monkeypatch.setattr(tasks, "run_diagnosis", slow_diagnosis)
     page.get_by_role("button", name="Run diagnosis").first.click()
     cancel = page.get_by_role("button", name="Cancel the diagnosis").first
     cancel.wait_for(timeout=30_000)

@@ -497,3 +497,76 @@ def test_creep_time_constants_move_in_log10_in_viser(view: SessionView) -> None:
     assert view.session.config.model["taus_s"][0] == pytest.approx(10 ** -2.5, rel=5e-3)
     assert "τ1 = 0.00316 s" in _md(view.ui.params_md)
     assert view.ui.param_sliders["weights[0]"].value == pytest.approx(0.02)  # linear
+
+
+def _running_job(jobs: Any, code: str) -> tuple[Any, int]:
+    """The session's running job and its worker's pid, once it has reported progress."""
+    deadline = time.monotonic() + 60
+    while True:
+        job = next(iter(jobs.recent(code)), None)
+        pids = jobs.workers()
+        if job is not None and job.state == "running" and pids and job.progress > 0:
+            return job, pids[0]
+        assert time.monotonic() < deadline, "the diagnosis reported no progress"
+        time.sleep(0.02)
+
+
+def test_diagnosis_is_a_killable_job_and_a_closed_tab_cancels_it(server: Any) -> None:
+    """A diagnosis from viser is a job of the job manager in a worker process (issue 18):
+    its progress shows under the buttons, Cancel kills the worker at once (the job is
+    ``cancelled`` and its slot free when Cancel returns) and nothing is stored; a tab
+    closed during a diagnosis cancels it too; a diagnosis left to finish shows its
+    findings. Before, the diagnosis ran in the server process and stopped only at its next
+    progress report (9 s measured), and a closed tab's diagnosis ran on."""
+    from app.services.jobs import JobManager
+    from tests.app import job_work
+
+    jobs = JobManager(max_workers=1)
+    reg = SessionRegistry()
+    v = SessionView(server.gui, reg, reg.create(), Settings(), jobs=jobs)
+    try:
+        _upload_pi(v, 60_000)  # a long recording: the diagnosis runs for many seconds
+        code = v.session.code
+        clicked = threading.Thread(target=v._guarded(v._diagnose_clicked),
+                                   args=(SimpleNamespace(client=None),))
+        clicked.start()
+        job, pid = _running_job(jobs, code)
+        assert job.kind == "diagnose" and job_work.alive(pid)
+        assert v.ui.cancel_btn.visible and v.ui.cancel_btn.label == "Cancel the diagnosis"
+        deadline = time.monotonic() + 30
+        while "diagnosing…" not in v.ui.report_md.content:  # its progress, under the buttons
+            assert time.monotonic() < deadline, v.ui.report_md.content
+            time.sleep(0.02)
+        v._guarded(v._cancel_clicked)(SimpleNamespace(client=None))
+        assert job.state == "cancelled" and jobs.running() == 0  # the slot is free now
+        job_work.wait_gone(pid)
+        clicked.join(30)
+        assert not clicked.is_alive()
+        assert v.session.diagnosis is None and v.session.diagnosis_result is None
+        assert "Diagnosis cancelled" in v.ui.report_md.content
+        assert not v.ui.cancel_btn.visible and not v.ui.diag_btn.disabled
+
+        clicked = threading.Thread(target=v._guarded(v._diagnose_clicked),
+                                   args=(SimpleNamespace(client=None),))
+        clicked.start()
+        job, pid = _running_job(jobs, code)
+        v.close()  # the tab closes
+        assert job.state == "cancelled" and jobs.running() == 0
+        job_work.wait_gone(pid)
+        clicked.join(30)
+        assert not clicked.is_alive() and v.session.diagnosis is None
+    finally:
+        v.close()
+
+    w = SessionView(server.gui, reg, reg.create(), Settings(), jobs=jobs)
+    try:
+        _upload_pi(w, 800)
+        w._guarded(w._diagnose_clicked)(SimpleNamespace(client=None))
+        assert [(j.kind, j.state) for j in jobs.recent(w.session.code)] == [("diagnose", "done")]
+        findings = w.session.diagnosis["findings"]
+        assert findings and _md(w.ui.report_md).startswith("### Diagnosis")
+        assert all(str(f).replace("\\", "")[:40] in _md(w.ui.report_md) for f in findings)
+        assert w.session.diagnosis_result is not None and not w.ui.report_btn.disabled
+    finally:
+        w.close()
+        jobs.cancel_all()

@@ -1,10 +1,11 @@
 """Issue 18, item 3: the priced memory of every registered type bounds its measured peak.
 
 Memory, unlike time, is deterministic, so this is a unit test: every type of the model zoo
-(plus the diagnosis's chains and a rate-dependent PI with many operators, whose play outputs
-are a ``(samples, operators)`` matrix) simulates a moderate input under :mod:`tracemalloc`,
-and the traced peak (numpy reports its buffers) must not exceed the price summed over the
-model tree (:meth:`core.base.Model.cost`, as ``app.services.cost.check_model`` sums it).
+(plus the diagnosis's chains and their inverses, and a rate-dependent PI with many
+operators, whose play outputs are a ``(samples, operators)`` matrix) simulates a moderate
+input under :mod:`tracemalloc`, and the traced peak (numpy reports its buffers) must not
+exceed the price summed over the model tree (:meth:`core.base.Model.cost`, as
+``app.services.cost.check_model`` sums it).
 ``benchmarks/bench_cost_memory.py`` checks the same at the explorer's 200,000-sample limit.
 """
 
@@ -27,6 +28,9 @@ FACTOR = 1.0
 
 MODELS: dict[str, Model] = {
     **ZOO, **DIAGNOSED,
+    # the diagnosed chains' inverses (the Inverse view of a diagnosed session), priced from
+    # each inverse type's own cost
+    **{f"{name} inverse": m.inverse() for name, m in DIAGNOSED.items()},
     "rate x20": RateDependentPI(1.0, np.linspace(0.1, 2.0, 20), np.full(20, 0.02), 2e-5),
 }
 
