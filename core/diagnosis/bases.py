@@ -23,8 +23,14 @@ import numpy as np
 from .._typing import Float1D
 from ..boucwen import BoucWenModel, BoucWenState
 
-__all__ = ["BW_GRID", "bouc_wen_bank", "bouc_wen_elements", "bouc_wen_model", "initial_state",
-           "saturations"]
+__all__ = [
+    "BW_GRID",
+    "bouc_wen_bank",
+    "bouc_wen_elements",
+    "bouc_wen_model",
+    "initial_state",
+    "saturations",
+]
 
 #: The generic grid of Bouc-Wen element shapes: saturation ``z_s`` as a fraction of the
 #: training input range (a factor 2 apart), smoothness exponents ``n`` and ratios
@@ -61,16 +67,16 @@ def _slope_caps(elements: tuple) -> np.ndarray:
     return np.array([max(1.0, 2.0 * b / (b + g)) for b, g, _ in elements])
 
 
-def bouc_wen_model(k: float, w: Float1D, elements: tuple,
-                   state: BoucWenState | None = None) -> BoucWenModel:
+def bouc_wen_model(
+    k: float, w: Float1D, elements: tuple, state: BoucWenState | None = None
+) -> BoucWenModel:
     """The registered model of bank weights ``k'`` (``k``) and ``w_j`` (see the module
     docstring), started from ``state`` (element variables at an input; by default 0 at
     input 0, as a PI's plays start)."""
     b, g, n = (np.array([e[i] for e in elements], dtype=np.float64) for i in range(3))
     w = np.asarray(w, dtype=np.float64)
     z0, u0 = (None, 0.0) if state is None else (state.z, state.u)
-    return BoucWenModel.from_classical(float(k + w @ _slope_caps(elements)), -w, b, g, n,
-                                       z0, u0)
+    return BoucWenModel.from_classical(float(k + w @ _slope_caps(elements)), -w, b, g, n, z0, u0)
 
 
 def initial_state(elements: tuple, hist: Float1D | None) -> BoucWenState | None:

@@ -495,6 +495,9 @@ class DiagnosisResult:
                 "model": self.baseline.structure.base_kind,
                 "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
                 "n_operators": len(self.baseline.structure.thresholds),
+                # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
+                **({"bouc_wen_elements": [list(e) for e in self.baseline.structure.bouc_wen]}
+                   if self.baseline.structure.bouc_wen else {}),
                 "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
                 else "nonnegative",
                 "heldout_rmse": b,
