@@ -114,7 +114,7 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
     u_unit, y_unit = _unit(units, "input"), _unit(units, "output")
     findings: list[str] = []
     base_doc, final = d.get("baseline", {}), d.get("final", {})
-    base_name = "Preisach" if base_doc.get("model") == "preisach" else "PI"
+    base_name = {"preisach": "Preisach", "bouc-wen": "Bouc-Wen"}.get(base_doc.get("model"), "PI")
     b, f = base_doc.get("heldout_rmse"), final.get("heldout_rmse")
     bp, fp = base_doc.get("heldout_rmse_pct"), final.get("heldout_rmse_pct")
     if isinstance(b, int | float) and isinstance(bp, int | float):
@@ -144,7 +144,7 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
         findings.append(f"No missing physics detected: the {base_name} model explains "
                         "the data")
     choice = base_doc.get("base_choice") or {}
-    if choice.get("kind") == "preisach":
+    if choice.get("kind") in ("preisach", "bouc-wen"):
         findings.append(f"Base model: {choice.get('text', '')}")
     for r in d.get("recording_specific", []):
         findings.append(f"Seen in this recording only, so not claimed: {r.get('text', '')}")

@@ -17,6 +17,7 @@ import numpy as np
 from ..exceptions import ParameterError
 from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
+from .bases import bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
 from .shapes import (
@@ -26,6 +27,7 @@ from .shapes import (
 from .structure import Fit, Structure
 
 __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_time_constant",
+           "placed_on",
            "scalar_search", "search_context", "shape_input_range", "sigma_from_curvature",
            "with_shape_stage", "worth_refining"]
 
@@ -154,8 +156,18 @@ def with_shape_stage(ctx: FitContext, s: Structure, stage: tuple) -> Structure:
     of operators) on the mapped input. A dead zone acts on the input itself, first; a
     saturation last (a thresholded, saturating drive: ``w = tanh(a1 γ(u) + a2)``)."""
     shape = (stage, *s.shape) if stage[0] == "deadzone" else (*s.shape, stage)
-    r = shape_thresholds(shape, ctx.records, ctx.train, len(s.thresholds))
-    return s.with_(shape=shape, thresholds=tuple(float(x) for x in r))
+    return placed_on(s.with_(shape=shape), ctx.records, ctx.train)
+
+
+def placed_on(s: Structure, records, train) -> Structure:
+    """``s`` with its play grid (same number of operators), or the elements of its Bouc-Wen
+    base, re-placed on the input mapped through its loop shape."""
+    if s.bouc_wen:
+        el = bouc_wen_elements(max(float(np.ptp(apply_shape(s.shape, r.u[m])))
+                                   for r, m in zip(records, train, strict=True) if m.any()))
+        return s.with_(bouc_wen=el, thresholds=saturations(el))
+    r = shape_thresholds(s.shape, records, train, len(s.thresholds))
+    return s.with_(thresholds=tuple(float(x) for x in r))
 
 
 def nelder_mead(f, x0: np.ndarray, step: float, maxfev: int) -> tuple[np.ndarray, float]:
@@ -186,4 +198,9 @@ def build_candidate(ctx: FitContext, name: str, cur: Fit) -> Candidate | None:
         e = EFFECTS[name]
     except KeyError:
         raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
+    if cur.structure.bouc_wen and e.family == "static" and e.structure_field is None:
+        # a Bouc-Wen base was chosen over the PI with static maps' loops in reach (the
+        # benchmark's static-map plants keep the PI: engine.BW_MIN_GAIN); a loop-shape search
+        # would integrate its elements anew for every trial map
+        return None
     return e.build(ctx, cur)

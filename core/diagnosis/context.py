@@ -58,7 +58,7 @@ class FitContext:
                 and hit[2].d is parent.d):
             return hit[2]
         c = _Cache()
-        c.d, c.p, c.lv = parent.d, parent.p, parent.lv
+        c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))
         self._caches[key] = (list(self.records), list(self.train), c)

@@ -46,7 +46,8 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
         vrev = cur.p0 * du
         vhys = dx - vrev
         B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds),
-                           cur.structure.history[k], cur.structure.beta_s, cur.structure.shape)
+                           cur.structure.history[k], cur.structure.beta_s, cur.structure.shape,
+                           bouc_wen=cur.structure.bouc_wen)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
         rows_e.append((rec.y - p)[idx])
@@ -82,7 +83,8 @@ def score_statistic(ctx: FitContext, cur: Fit, new: Fit) -> float:
         step = max(1, int(m.sum() // 8000))
         idx = np.flatnonzero(m)[::step]
         B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
-                           cur.structure.beta_s, cur.structure.shape)
+                           cur.structure.beta_s, cur.structure.shape,
+                           bouc_wen=cur.structure.bouc_wen)
         es.append((rec.y - p0)[idx])
         J.append(np.column_stack((B[idx], np.ones(idx.size))))
         P.append((p1 - p0)[idx])

@@ -21,7 +21,8 @@ def summary_text(res: DiagnosisResult) -> str:
         f"Recordings: {', '.join(f'{r.name} ({r.n_samples} samples)' for r in res.records)}",
         f"Split: {res.split}",
         f"Baseline {res.baseline.structure.base_kind.upper()} "
-        f"({len(res.baseline.structure.thresholds)} operators"
+        f"({len(res.baseline.structure.thresholds)} "
+        f"{'elements' if res.baseline.structure.bouc_wen else 'operators'}"
         + (f" x {len(res.baseline.structure.levels) + 1} level segments"
            if res.baseline.structure.levels else "")
         + f"{', weights of free sign' if res.baseline.structure.free_weights else ''}"

@@ -189,11 +189,13 @@ class BaseChoice:
     Attributes
     ----------
     kind : str
-        ``"pi"`` or ``"preisach"`` (level-dependent memory, E10).
+        ``"pi"``, ``"preisach"`` (level-dependent memory, E10) or ``"bouc-wen"`` (a bank of
+        Bouc-Wen elements, :mod:`core.diagnosis.bases`).
     tried : tuple of dict
         Per alternative ``{"base", "operators", "level_segments", "smoothness",
         "cv_mse_reduction"}``: its MSE reduction against the PI base on the left-out
-        recordings; the static-map alternatives also ``"preisach_mse_reduction_over_it"``.
+        recordings (``operators``: plays, or Bouc-Wen elements); the static-map alternatives
+        also ``"preisach_mse_reduction_over_it"``.
     folds : int
         Left-out recordings.
     """
@@ -208,6 +210,9 @@ class BaseChoice:
             if t["base"] == "preisach":
                 return (f"preisach ({t['operators']} plays x {t['level_segments']} level "
                         f"segments) MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
+            if t["base"] == "bouc-wen":
+                return (f"bouc-wen ({t['operators']} elements) MSE "
+                        f"{-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
             return (f"{t['base']} MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %, the "
                     f"Preisach {-100 * t['preisach_mse_reduction_over_it'] + 0.0:+.0f} % "
                     "against it")
@@ -219,6 +224,11 @@ class BaseChoice:
                     f"with the input level predicts the recordings clearly better than the PI "
                     f"and than a PI with a static output map ({how}, against the PI: {alts}); "
                     "the effects are judged against it")
+        if self.kind == "bouc-wen":
+            return ("Bouc-Wen: a bank of Bouc-Wen elements of fixed shapes (y = k u + sum c_j "
+                    "z_j) predicts the recordings clearly better than the PI and than any "
+                    f"Preisach base tried ({how}, against the PI: {alts}); the effects are "
+                    "judged against it")
         if not self.tried:
             return "PI (no alternative base tried: it needs two or more recordings)"
         return f"PI ({how}, against the PI: {alts})"
@@ -485,6 +495,9 @@ class DiagnosisResult:
                 "model": self.baseline.structure.base_kind,
                 "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
                 "n_operators": len(self.baseline.structure.thresholds),
+                # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
+                **({"bouc_wen_elements": [list(e) for e in self.baseline.structure.bouc_wen]}
+                   if self.baseline.structure.bouc_wen else {}),
                 "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
                 else "nonnegative",
                 "heldout_rmse": b,

@@ -38,6 +38,7 @@ from ..operators import play_bank
 from ..pi import PIModel
 from ..preisach import PreisachModel, level_segments
 from ..recordings import Recording
+from .bases import bouc_wen_bank, bouc_wen_model, initial_state
 from .grid import baseline_thresholds
 from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
@@ -83,6 +84,12 @@ class Structure:
         Smoothness penalty of a Preisach base: squared differences of the weights of
         neighbouring level segments of each play, relative to the mean energy of the
         hysteresis columns (0 = none).
+    bouc_wen : tuple of (float, float, float)
+        Elements ``(beta, gamma, n)`` of a Bouc-Wen base (:mod:`core.diagnosis.bases`):
+        the hysteresis columns come from the elements' variables ``z_j`` instead of plays
+        (nonnegative weights: an invertible hardening loop; either sign with
+        ``free_weights``), and ``thresholds`` hold each element's saturation
+        ``(beta + gamma)^(-1/n)``; ``()`` = a PI or Preisach base.
     """
 
     thresholds: tuple[float, ...]
@@ -97,11 +104,13 @@ class Structure:
     shape: tuple = ()
     levels: tuple[float, ...] = ()
     level_smooth: float = 0.0
+    bouc_wen: tuple[tuple[float, float, float], ...] = ()
 
     @property
     def base_kind(self) -> str:
-        """The base hysteresis: ``"preisach"`` (level-dependent memory) or ``"pi"``."""
-        return "preisach" if self.levels else "pi"
+        """The base hysteresis: ``"bouc-wen"``, ``"preisach"`` (level-dependent memory) or
+        ``"pi"``."""
+        return "bouc-wen" if self.bouc_wen else "preisach" if self.levels else "pi"
 
     @property
     def effects(self) -> list[str]:
@@ -179,6 +188,8 @@ class _Cache:
         self.rows: dict[Any, tuple] = {}
         #: play banks split into the level segments of a Preisach base
         self.lv: dict[Any, np.ndarray] = {}
+        #: banks of a Bouc-Wen base
+        self.bw: dict[Any, np.ndarray] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
                   w: np.ndarray | None = None) -> np.ndarray:
@@ -252,13 +263,17 @@ class _Cache:
         return V
 
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
-             shape: tuple = (), upto: int | None = None) -> np.ndarray:
+             shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
         """``[w, plays(w)]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``;
         ``w`` is the input through the loop shape ``shape`` (the input itself without one).
+        With ``bouc_wen`` elements (a Bouc-Wen base), :func:`~core.diagnosis.bases.bouc_wen_bank`
+        instead.
 
         With ``upto``, only the first ``upto`` rows are needed: a bank not in the cache is then
         computed that far and not stored (a search over histories meets each one once).
         """
+        if bouc_wen:
+            return self._bouc_wen_bank(k, rec, hist, shape, bouc_wen, upto)
         key = (k, hist, beta, r.size, float(r[-1]), shape)
         B = self.d.get(key)
         if B is None:
@@ -276,6 +291,24 @@ class _Cache:
             self.d[key] = B
         return B
 
+    def _bouc_wen_bank(self, k: int, rec: Recording, hist: tuple, shape: tuple,
+                       elements: tuple, upto: int | None) -> np.ndarray:
+        """The bank of a Bouc-Wen base (:func:`core.diagnosis.bases.bouc_wen_bank`), always
+        computed over the whole recording and memoised apart from the play banks (its RK4
+        elements cost some hundred times a play: a search met each one again and again).
+        Banks without a virtual history are kept; those of a history search up to
+        :data:`BW_HISTORY_BYTES`, the oldest dropped first."""
+        key = (k, hist, shape, elements, rec.n_samples, float(rec.u[-1]))
+        B = self.bw.get(key)
+        if B is None:
+            B = bouc_wen_bank(apply_shape(shape, rec.u), elements,
+                              apply_shape(shape, hist) if hist else None)
+            self.bw[key] = B
+            old = [q for q in self.bw if q[1]]
+            while old and sum(self.bw[q].nbytes for q in old) > BW_HISTORY_BYTES:
+                self.bw.pop(old.pop(0))
+        return B if upto is None else B[:upto]
+
     def levelled(self, k: int, B: np.ndarray, s: Structure) -> np.ndarray:
         """The bank ``B`` ``(N, n + 1)`` of recording ``k`` split into the level segments of
         ``s.levels`` (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column
@@ -292,6 +325,11 @@ class _Cache:
                 self.lv.pop(next(iter(self.lv)))
             self.lv[key] = L
         return L
+
+
+#: Memory for the Bouc-Wen banks of a virtual-history search (bytes): a search over the
+#: first recording's history revisits each of some hundred histories about three times.
+BW_HISTORY_BYTES = 128e6
 
 
 def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
@@ -478,13 +516,13 @@ def fit_structure(
                                                                          rss_only)
     raw = [
         cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
-                   shape=s.shape)
+                   shape=s.shape, bouc_wen=s.bouc_wen)
         for k, rec in enumerate(records)
     ]
     banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
-    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels)
+    vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels, s.bouc_wen)
     if rss_only and reduce:
         V = cache.basis(banks, train, vkey)
     if iterations is None:
@@ -539,6 +577,10 @@ def fit_structure(
         # Preisach base: every segment of the reversible part rises (>= eps), the level
         # segments of the plays are a nonnegative relay density
         lower[n_lev:nb] = 0.0
+    elif s.bouc_wen:
+        # Bouc-Wen base: columns m_j u - z_j, weights >= 0 (an invertible hardening loop,
+        # core.diagnosis.bases) or of either sign with free weights
+        lower[1:nb] = -np.inf if s.free_weights else 0.0
     elif s.free_weights and V is None:
         X[:, : nb - 1] -= X[:, 1:nb]
     elif not s.free_weights:
@@ -596,7 +638,7 @@ def fit_structure(
         w = sol.theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
-        if s.free_weights:
+        if s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
             x_prev = [banks[k] @ w[:nb] for k in range(nrec)]
@@ -616,10 +658,16 @@ def fit_structure(
     ntr = 0
     for k, (rec, m) in enumerate(zip(records, train, strict=True)):
         model = build_model(s, k, p0, pw, asym, center, half, creep, bias, drift, rec)
-        pred = model(rec.u, dt=dts[k])
+        x = banks[k] @ np.concatenate(([p0], pw))
+        if s.bouc_wen and not s.shape and isinstance(model, Chain):
+            # the Bouc-Wen stage's output is its bank times the weights (the bank integrates
+            # the elements as the model does, to round-off): only the later stages are run
+            pred = Chain(model.stages[1:])(x, dt=dts[k])
+        else:
+            pred = model(rec.u, dt=dts[k])
         models.append(model)
         preds.append(pred)
-        xs.append(banks[k] @ np.concatenate(([p0], pw)))
+        xs.append(x)
         rss += float(np.sum((rec.y[m] - pred[m]) ** 2))
         ntr += int(m.sum())
     return Fit(
@@ -656,7 +704,15 @@ def build_model(
     """The exact chain of structure ``s`` for recording ``k``."""
     r = np.asarray(s.thresholds)
     hyst: Model
-    if s.levels:
+    if s.bouc_wen:
+        # a virtual history sets the elements' start state (on the mapped input)
+        st = initial_state(s.bouc_wen, apply_shape(s.shape, np.asarray(s.history[k]))
+                           if s.history[k] else None)
+        hyst = bouc_wen_model(max(p0, 0.0), pw if s.free_weights else np.maximum(pw, 0.0),
+                              s.bouc_wen, st)
+        if s.shape:
+            hyst = hysteresis_model(s.shape, hyst)
+    elif s.levels:
         W = np.maximum(np.r_[p0, pw], 0.0).reshape(r.size + 1, len(s.levels) + 1)
         hyst = PreisachModel(np.r_[0.0, r], W, knots=np.asarray(s.levels))
     elif s.beta_s is None:
@@ -664,7 +720,9 @@ def build_model(
     else:
         hyst = RateDependentPI(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0),
                                s.beta_s)
-    if s.shape:
+    if s.bouc_wen:
+        pass  # shape and history are in the Bouc-Wen stage already
+    elif s.shape:
         # the plays run on the mapped input: their initial memory is the mapped history
         if s.history[k]:
             hyst = InitialMemory(hyst, apply_shape(s.shape, np.asarray(s.history[k]))

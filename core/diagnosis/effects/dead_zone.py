@@ -11,6 +11,7 @@ from ...gpi import DeadZoneGPI
 from ..candidates import (
     Candidate,
     nelder_mead,
+    placed_on,
     search_context,
     shape_input_range,
     with_shape_stage,
@@ -18,7 +19,7 @@ from ..candidates import (
 )
 from ..context import FitContext
 from ..registry import DiagnosableEffect, register
-from ..shapes import DEAD_BAND_SLOPE, dead_zone_stage, describe_shape, shape_thresholds
+from ..shapes import DEAD_BAND_SLOPE, dead_zone_stage, describe_shape
 from ..structure import Fit
 from .saturation import one_branch, tanh_search
 
@@ -76,8 +77,7 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
         st = got[0]
         params = {"saturation_refitted": {"a1": st.shape[-1][1], "a2": st.shape[-1][2]}}
     # the play grid placed on all training rows
-    st = st.with_(thresholds=tuple(float(v) for v in shape_thresholds(
-        st.shape, ctx.records, ctx.train, len(st.thresholds))))
+    st = placed_on(st, ctx.records, ctx.train)
     fit = ctx.fit(st, cur)
     return fit, {"side": kind, "thresholds": g.thresholds.tolist(),
                  "weights": g.weights.tolist(), **describe_shape(st.shape[0], lo, hi),

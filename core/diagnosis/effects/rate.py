@@ -26,8 +26,8 @@ def _untestable(ctx: FitContext) -> str | None:
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Rate-dependent PI thresholds r_i + beta |du/dt|: a 1-D search over beta."""
     s = cur.structure
-    if s.beta_s is not None or s.levels:
-        return None  # rate-dependent plays on a Preisach base are not modelled
+    if s.beta_s is not None or s.levels or s.bouc_wen:
+        return None  # rate-dependent plays on a Preisach or Bouc-Wen base are not modelled
     span = max(float(np.ptp(r.u)) for r in ctx.records)
     rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
     grid = np.geomspace(1e-5, 0.3, 12) * span / rmax

@@ -213,3 +213,17 @@ def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_p
     capsys.readouterr()
     assert main(["diagnose", *map(str, files), "--json", "-q", "--base", "pi"]) == 0
     assert json.loads(capsys.readouterr().out)["baseline"]["model"] == "pi"
+
+
+def test_the_findings_name_a_bouc_wen_base() -> None:
+    """A diagnosis document whose base is the Bouc-Wen bank (core.diagnosis.bases): the
+    findings the web page and batch show name it, not the PI (the base's text is the core's)."""
+    from app.services.diagnosis import diagnosis_summary
+
+    text = "Bouc-Wen: a bank of Bouc-Wen elements of fixed shapes"
+    doc = {"baseline": {"model": "bouc-wen", "heldout_rmse": 0.2,
+                        "base_choice": {"kind": "bouc-wen", "text": text}},
+           "final": {"heldout_rmse": 0.2}, "effects": []}
+    found = diagnosis_summary(doc)["findings"]
+    assert found[0].endswith("the Bouc-Wen model explains the data")
+    assert f"Base model: {text}" in found

@@ -1,0 +1,103 @@
+"""Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank.
+
+A Bouc-Wen base is the registered :class:`~core.boucwen.BoucWenModel`
+``y = k u + sum_j c_j z_j`` with rate-independent Bouc-Wen elements
+
+    dz_j/du = 1 - (beta_j sign(du z_j) + gamma_j) |z_j|^n_j,
+
+each of a fixed shape (``beta_j, gamma_j, n_j``) from a generic grid scaled to the input range
+(:func:`bouc_wen_elements`), so the model is linear in its weights and is fitted as the PI
+is, jointly with the effects (:func:`core.diagnosis.structure.fit_structure`). Element ``j``
+saturates at ``z_s = (beta_j + gamma_j)^(-1/n_j)`` (the size of its loop, as a play's
+threshold is) and its slope ``dz_j/du`` lies in ``[0, m_j]``, ``m_j = max(1, s_j)``,
+``s_j = 2 beta_j / (beta_j + gamma_j)``. The bank holds ``[u, m_j u - z_j]``: with weights
+``k' >= eps`` and ``w_j >= 0`` (``k = k' + sum_j w_j m_j``, ``c_j = -w_j``) every fitted
+model has ``dy/du >= k' > 0`` on every branch, so it inverts (a hardening loop, as the PI's
+nonnegative play weights give).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._typing import Float1D
+from ..boucwen import BoucWenModel, BoucWenState
+
+__all__ = [
+    "BW_GRID",
+    "bouc_wen_bank",
+    "bouc_wen_elements",
+    "bouc_wen_model",
+    "initial_state",
+    "saturations",
+]
+
+#: The generic grid of Bouc-Wen element shapes: saturation ``z_s`` as a fraction of the
+#: training input range (a factor 2 apart), smoothness exponents ``n`` and ratios
+#: ``gamma / beta`` (reversal slopes ``s`` = 4 and 4/3: unloading faster than loading, the
+#: piezo's counter-clockwise loop). Not fitted to the benchmark's plants; how near their
+#: truths it lands is in benchmarks/diagnosis/README.md (session 4).
+BW_GRID: dict[str, tuple[float, ...]] = {
+    "saturation": (0.05, 0.1, 0.2, 0.4),
+    "n": (1.0, 2.0),
+    "gamma_over_beta": (-0.5, 0.5),
+}
+
+
+def bouc_wen_elements(span: float) -> tuple[tuple[float, float, float], ...]:
+    """``(beta, gamma, n)`` of the elements of :data:`BW_GRID` for input range ``span`` (> 0,
+    input units)."""
+    out = []
+    for n in BW_GRID["n"]:
+        for frac in BW_GRID["saturation"]:
+            for rho in BW_GRID["gamma_over_beta"]:
+                s = (frac * span) ** (-n)  # beta + gamma
+                beta = s / (1.0 + rho)
+                out.append((float(beta), float(rho * beta), float(n)))
+    return tuple(out)
+
+
+def saturations(elements: tuple[tuple[float, float, float], ...]) -> tuple[float, ...]:
+    """Saturation ``(beta + gamma)^(-1/n)`` of each element (input units)."""
+    return tuple(float((b + g) ** (-1.0 / n)) for b, g, n in elements)
+
+
+def _slope_caps(elements: tuple) -> np.ndarray:
+    """``m_j = max(1, 2 beta_j / (beta_j + gamma_j))``: the largest ``dz_j/du``."""
+    return np.array([max(1.0, 2.0 * b / (b + g)) for b, g, _ in elements])
+
+
+def bouc_wen_model(
+    k: float, w: Float1D, elements: tuple, state: BoucWenState | None = None
+) -> BoucWenModel:
+    """The registered model of bank weights ``k'`` (``k``) and ``w_j`` (see the module
+    docstring), started from ``state`` (element variables at an input; by default 0 at
+    input 0, as a PI's plays start)."""
+    b, g, n = (np.array([e[i] for e in elements], dtype=np.float64) for i in range(3))
+    w = np.asarray(w, dtype=np.float64)
+    z0, u0 = (None, 0.0) if state is None else (state.z, state.u)
+    return BoucWenModel.from_classical(float(k + w @ _slope_caps(elements)), -w, b, g, n, z0, u0)
+
+
+def initial_state(elements: tuple, hist: Float1D | None) -> BoucWenState | None:
+    """Element variables after a virtual history ``hist`` (input extrema before the record,
+    from ``z = 0`` at input 0), or ``None`` without one."""
+    if hist is None or not len(hist):
+        return None
+    m = bouc_wen_model(0.0, np.zeros(len(elements)), elements)
+    h = np.asarray(hist, dtype=np.float64)
+    return BoucWenState(float(h[-1]), m.states(h)[-1].copy())
+
+
+def bouc_wen_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> np.ndarray:
+    """``[w, m_1 w - z_1(w), ..., m_n w - z_n(w)]`` ``(N, n + 1)`` (module docstring), the
+    elements integrated exactly as :class:`~core.boucwen.BoucWenModel` does, from ``z = 0``
+    at input 0 or from the state a virtual history ``hist`` leaves (:func:`initial_state`)."""
+    w = np.asarray(w, dtype=np.float64)
+    model = bouc_wen_model(0.0, np.zeros(len(elements)), elements)
+    st = initial_state(elements, hist)
+    B = np.empty((w.size, len(elements) + 1))
+    B[:, 0] = w
+    if w.size:
+        B[:, 1:] = w[:, None] * _slope_caps(elements)[None, :] - model.states(w, st)
+    return B
