@@ -49,6 +49,16 @@ Progress = Callable[[float, str], None]
 PRELOAD = ["numpy", "scipy.optimize", "core.fitting", "core.diagnosis", "app.services.tasks",
            "app.services.preload", "app.services.actions"]
 
+#: One BLAS / OpenMP / numba thread per worker unless the user set otherwise: a worker is one
+#: job on one core, and a multithreaded BLAS in each of several workers (and beside the
+#: server) oversubscribes the cores (a 20,000-sample diagnosis in a worker took 76-82 s at
+#: load 14 on 2 cores, about 8 s single-threaded). The forkserver, started later from this
+#: process, inherits these; the server's own numpy is already loaded and keeps its threads.
+WORKER_THREADS_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+                      "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
+for _name, _value in WORKER_THREADS_ENV.items():
+    os.environ.setdefault(_name, _value)
+
 #: forkserver where the platform has one (Linux, macOS); spawn elsewhere (Windows: each
 #: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
 #: measured here)

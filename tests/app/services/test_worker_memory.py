@@ -104,3 +104,23 @@ def test_a_real_diagnosis_over_a_small_allowance_fails_and_the_server_goes_on() 
         with pytest.raises(urllib.error.HTTPError) as err:  # the session holds no diagnosis
             _call(url + f"sessions/{code}/diagnosis/figure")
         assert err.value.code == 409
+
+
+def test_workers_run_one_blas_thread_unless_the_user_says_otherwise() -> None:
+    """A worker is one job on one core: the forkserver (started from the server's process)
+    inherits one BLAS / OpenMP thread, unless the user's environment sets a number."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import os, app.services.worker; "
+            "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'])")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True, timeout=120)
+    assert out.stdout.split() == ["1", "1"]
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True, timeout=120)
+    assert out.stdout.split() == ["2", "1"]
