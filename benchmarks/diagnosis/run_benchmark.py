@@ -359,6 +359,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the quick subset of the issue-8 classes (two effects, weak effects, "
                          "single recording, short periodic recordings, loop shapes): a few "
                          "minutes")
+    ap.add_argument("--cases", metavar="PATTERN",
+                    help="with --classes: only the cases whose name contains one of these "
+                         "comma-separated strings (e.g. 'bouc-wen-1/,preisach/')")
     ap.add_argument("--families", nargs="?", const="quick", choices=("quick", "all"),
                     help="the non-PI base families (families.py: Bouc-Wen, Preisach, Duhem, "
                          "Maxwell-slip x hidden effects): the quick subset (default, a few "
@@ -453,6 +456,9 @@ def _run_classes(a: argparse.Namespace) -> int:
             raise SystemExit(f"unknown class {n!r}; known: {', '.join(CLASSES)}")
     todo = jobs(a.quick, seeds=1 if a.quick else a.seeds,
                 noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names)
+    if a.cases:
+        pats = a.cases.split(",")
+        todo = [j for j in todo if any(p in j[1] for p in pats)]
     t0 = time.perf_counter()
     rows = _execute(a, run_class_job, todo, lambda r, done, el: (
         f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
