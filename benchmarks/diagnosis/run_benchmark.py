@@ -460,15 +460,24 @@ def _run_classes(a: argparse.Namespace) -> int:
         pats = a.cases.split(",")
         todo = [j for j in todo if any(p in j[1] for p in pats)]
     t0 = time.perf_counter()
-    rows = _execute(a, run_class_job, todo, lambda r, done, el: (
-        f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
-        f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s [{done}/{len(todo)} "
-        f"{el:.0f}s]"))
+    partial = a.json.with_suffix(".partial.jsonl") if a.json else None
+
+    def line(r: dict, done: int, el: float) -> str:
+        if partial:  # an interrupted run keeps its rows (--rescore reads a JSON list)
+            with partial.open("a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        return (f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
+                f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s "
+                f"[{done}/{len(todo)} {el:.0f}s]")
+
+    rows = _execute(a, run_class_job, todo, line)
     print()
     print(summarise_classes(rows))
     print(f"\ntotal {time.perf_counter() - t0:.0f} s (target: a few minutes for --quick)")
     if a.json:
         a.json.write_text(json.dumps(rows, indent=1))
+        if partial and partial.exists():
+            partial.unlink()
     return 0
 
 
