@@ -120,3 +120,47 @@ def test_family_class_runs_only_when_asked_for() -> None:
     assert set(QUICK[FAMILY_CLASS]) <= set(FAMILY_CASES)
     assert not any(c.split("/")[1] == "rate" and not c.startswith("preisach")
                    for c in FAMILY_CASES)
+
+
+def test_three_effect_family_is_the_stages_in_order_and_single_effects_unchanged() -> None:
+    """A ``a+b+c`` scenario is the base followed by the three truth stages (an independent
+    re-composition with ``core.effects``); one effect alone gives the same recordings as
+    before the multi-effect form existed (the noise stream, the drift phase)."""
+    from core.effects import Asymmetry, Creep, Resonance
+
+    sc = make_family("maxwell-slip", "creep+resonance+asymmetry", "large", seed=4)
+    assert set(sc.extras["hidden"]) == {"creep", "resonance", "asymmetry"}
+    null = make_family("maxwell-slip", None, seed=4)
+    plant = make_base("maxwell-slip")
+    rec = sc.records[1]
+    y = plant(rec.u)
+    y = Asymmetry([1.5, 0.0], 0.5 * STROKE, 0.525 * STROKE)(y)
+    y = Creep([0.005, 0.1, 5.0], [0.02] * 3)(y, dt=rec.dt)
+    y = Resonance(200.0, 0.05)(y, dt=rec.dt)
+    noise = null.records[1].y - plant(rec.u)  # same seed: same noise
+    np.testing.assert_allclose(rec.y, y + noise, atol=1e-9)
+    one = make_family("maxwell-slip", "delay", "eighth", seed=4)
+    assert one.extras["hidden"] == {"delay": {"delay_s": 1e-3 / 8}}
+    with pytest.raises(ValueError, match="no size"):
+        make_family("maxwell-slip", "creep", "eighth")
+    with pytest.raises(ValueError, match="unknown effect"):
+        make_family("maxwell-slip", "offset")  # only inside a combination
+
+
+def test_lookalike_verdict() -> None:
+    from benchmarks.diagnosis.classes import lookalike_verdict
+
+    def row(found, amb=(), hidden=("creep", "resonance", "asymmetry"), base=None):
+        return {"class": "three effects", "hidden": list(hidden), "found": list(found),
+                "claims": [{"name": n, "ambiguous_with": list(amb) if n == found[0] else []}
+                           for n in found], "ambiguous": [],
+                "extras": {"base": base} if base else {}}
+
+    assert lookalike_verdict(row(["resonance", "asymmetry", "creep"]))[0] == "named"
+    v, per = lookalike_verdict(row(["delay", "asymmetry", "creep"], amb=("resonance",)))
+    assert v == "flagged" and per["resonance"] == "flagged"
+    assert lookalike_verdict(row(["delay", "asymmetry", "creep"]))[0] == "wrong"
+    assert lookalike_verdict(row(["asymmetry", "creep"]))[0] == "missed"
+    # on a non-PI base a loop-shape name is the base difference, not a wrong name
+    assert lookalike_verdict(row(["saturation", "delay"], hidden=("delay",),
+                                 base="preisach"))[0] == "named"

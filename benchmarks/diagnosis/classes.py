@@ -24,6 +24,16 @@ resonance, rate, creep, drift, offset, initial-memory); a loop-shape or memory n
 base-class difference. Every run also scores the **parameter recovery** of the hidden
 effects it found (``row["recovery"]``: found vs truth, reported 1-sigma, relative error).
 
+The ``three effects`` class hides three effects at once (:data:`TRIPLES`, each at its L2 /
+"large" size) on the B-PI plant (``creep+resonance+asymmetry``) and on non-PI bases
+(``bouc-wen-1/creep+resonance+asymmetry``); the ``eighth`` class hides a delay, lag or
+resonance at an eighth of the non-PI "large" size (``bouc-wen-1/delay/eighth``). Both are
+scored per hidden effect (:func:`lookalike_verdict`): **named**, **flagged** (not named, but
+a look-alike named and reported ambiguous with it), **missed**; a run with a **wrong** name
+(not hidden, not flagged ambiguous with a hidden effect; on a non-PI base only
+dynamic/time names count) is the failure. Parameter recovery there: delay and lag within
+25 %, resonance frequency within 10 % of the truth (:data:`RECOVERY_TOLERANCE`).
+
 Loop-shape scenarios expect the names ``saturation`` / ``dead-zone`` (effect candidates added
 on another branch): until those exist the class scores misses, and the adequacy verdict
 (``adequate`` False: the residual stays above the noise floor) is the other thing checked.
@@ -59,8 +69,9 @@ from benchmarks.diagnosis.generator import (
     make_weak,
 )
 
-__all__ = ["CLASSES", "FAMILY_CASES", "FAMILY_CLASS", "jobs", "recovery_table", "run_class_job",
-           "summarise_classes", "summarise_families"]
+__all__ = ["CLASSES", "EIGHTH_CASES", "FAMILY_CASES", "FAMILY_CLASS", "RECOVERY_TOLERANCE",
+           "TRIPLES", "TRIPLE_CASES", "jobs", "lookalike_verdict", "recovery_table",
+           "run_class_job", "summarise_classes", "summarise_families", "summarise_lookalikes"]
 
 #: Short periodic recordings: case -> (beta_s, frequencies); 3 cycles x 40 samples each.
 PERIODIC_CASES = PERIODIC_CLASSES
@@ -75,6 +86,23 @@ FAMILY_NOISE = {"white1": 0.002, "white2": 0.003, "coloured": 0.002}
 #: Class of the non-PI bases: nulls there may name a loop shape or memory, not a time effect.
 FAMILY_CLASS = "non-PI base"
 
+#: Three hidden effects at once (issue 16 item 5: a look-alike under a third effect).
+TRIPLES: tuple[tuple[str, str, str], ...] = (
+    ("creep", "resonance", "asymmetry"), ("delay", "creep", "drift"),
+    ("lag", "resonance", "offset"),
+)
+#: Non-PI bases of the three-effect class (besides the B-PI plant).
+TRIPLE_BASES = ("bouc-wen-1", "maxwell-slip")
+TRIPLE_CASES: tuple[str, ...] = tuple("+".join(c) for c in TRIPLES) + tuple(
+    f"{b}/{'+'.join(c)}" for b in TRIPLE_BASES for c in TRIPLES)
+#: An eighth of the "large" delay, lag and resonance on every non-PI base.
+EIGHTH_CASES: tuple[str, ...] = tuple(
+    f"{b}/{e}/eighth" for e in ("delay", "lag", "resonance") for b in BASES)
+#: Largest relative error of a recovered parameter that counts as recovered (issue 16).
+RECOVERY_TOLERANCE = {"delay_s": 0.25, "tau_s": 0.25, "freq_hz": 0.10}
+#: Classes scored by :func:`lookalike_verdict` (named / flagged / missed / wrong).
+LOOKALIKE_CLASSES = ("three effects", "eighth")
+
 #: Class -> cases (the quick subset is the first entries of each, see :func:`jobs`).
 CLASSES: dict[str, tuple[str, ...]] = {
     "two effects": tuple("+".join(c) for c in COMBOS),
@@ -85,6 +113,8 @@ CLASSES: dict[str, tuple[str, ...]] = {
     "amplitudes": ("null, 4 amplitudes", "asymmetry, 4 amplitudes"),
     "loop shape": tuple(SHAPES),
     FAMILY_CLASS: FAMILY_CASES,
+    "three effects": TRIPLE_CASES,
+    "eighth": EIGHTH_CASES,
 }
 
 #: Cases of the ``--quick`` subset (a few minutes on 2 cores).
@@ -105,7 +135,13 @@ QUICK: dict[str, tuple[str, ...]] = {
         "maxwell-slip/creep/large", "maxwell-slip/delay/large", "maxwell-slip/resonance/large",
         "maxwell-slip/drift/large", "preisach/lag/large", "preisach/drift/large",
         "bouc-wen-1/creep/small", "bouc-wen-1/delay/small", "preisach/delay/small"),
+    # only with --classes "three effects" / "eighth" (each a few minutes per run when loaded)
+    "three effects": TRIPLE_CASES,
+    "eighth": EIGHTH_CASES,
 }
+
+#: Classes that run only when named in ``--classes`` (not in the plain ``--quick`` run).
+ON_REQUEST = (FAMILY_CLASS, "three effects", "eighth")
 
 
 def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
@@ -118,14 +154,15 @@ def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
         for cls, cases in table.items():
             if classes and cls not in classes:
                 continue
-            if cls == FAMILY_CLASS and not classes:
-                continue  # the non-PI class runs only when asked for
+            if cls in ON_REQUEST and not classes:
+                continue  # the non-PI classes run only when asked for
             for case in cases:
                 for nz in noises:
                     out.append((cls, case, nz, (200 if cls == "periodic" else
                                                 300 if cls == "amplitudes" else
                                                 0 if cls == "single recording" else
-                                                500 if cls == FAMILY_CLASS else 100) + s))
+                                                500 if cls in (FAMILY_CLASS, "eighth")
+                                                or "/" in case else 100) + s))
     return out
 
 
@@ -147,9 +184,11 @@ def _scenario(cls: str, case: str, noise: str, seed: int) -> Scenario:
                                  seed=seed)
     if cls == "loop shape":
         return make_shape(case, noise, seed)
-    if cls == FAMILY_CLASS:
+    if cls in (FAMILY_CLASS, "eighth") or (cls == "three effects" and "/" in case):
         base, effect, size = (*case.split("/"), "large")[:3]
         return make_family(base, effect, size, FAMILY_NOISE[noise], seed)
+    if cls == "three effects":
+        return make_combo(tuple(case.split("+")), noise, seed)
     raise ValueError(f"unknown class {cls!r}")
 
 
@@ -218,7 +257,7 @@ def wrong_names(r: dict[str, Any]) -> list[str]:
     """Accepted effects that are not hidden and not reported ambiguous with a hidden one; on
     a non-PI base only dynamic/time effects count (a loop-shape or memory name is the base
     difference, :func:`~benchmarks.diagnosis.families.wrong_names_base`)."""
-    if r["class"] == FAMILY_CLASS:
+    if r["class"] == FAMILY_CLASS or (r.get("extras") or {}).get("base"):
         return wrong_names_base(r["found"], r["hidden"], lambda n: _amb_with_hidden(r, n))
     return [n for n in r["found"] if n not in r["hidden"] and not _amb_with_hidden(r, n)]
 
@@ -281,9 +320,78 @@ def summarise_classes(rows: list[dict[str, Any]]) -> str:
     fam = [r for r in rows if r["class"] == FAMILY_CLASS]
     if fam:
         lines += ["", summarise_families(fam)]
+    look = [r for r in rows if r["class"] in LOOKALIKE_CLASSES]
+    if look:
+        lines += ["", summarise_lookalikes(look)]
     rec = recovery_table(rows)
     if rec:
         lines += ["", rec]
+    return "\n".join(lines)
+
+
+def lookalike_verdict(r: dict[str, Any]) -> tuple[str, dict[str, str]]:
+    """``(run verdict, {hidden effect: verdict})`` of a run of the look-alike classes.
+
+    Per hidden effect: ``named`` (accepted), ``flagged`` (not accepted, but an accepted
+    effect is reported ambiguous with it, in its claim or in the ambiguity groups),
+    ``missed``. The run: ``wrong`` if any accepted name is wrong (:func:`wrong_names`),
+    else the worst of its effects (named < flagged < missed).
+    """
+    found = set(r["found"])
+    per = {}
+    for h in r["hidden"]:
+        if h in found:
+            per[h] = "named"
+        elif any(h in c["ambiguous_with"] for c in r["claims"]) or any(
+                h in a and found & set(a) for a in r["ambiguous"]):
+            per[h] = "flagged"
+        else:
+            per[h] = "missed"
+    if wrong_names(r):
+        return "wrong", per
+    rank = ("named", "flagged", "missed")
+    return (max(per.values(), key=rank.index) if per else "named"), per
+
+
+def summarise_lookalikes(rows: list[dict[str, Any]]) -> str:
+    """Per-run table of the three-effect and eighth classes: named effects (first to last,
+    with their ambiguity flags), the verdict per hidden effect, the recovered delay / lag /
+    resonance frequency against :data:`RECOVERY_TOLERANCE`, and the totals."""
+    lines = ["| class | case | noise | named (first to last) | verdict | per effect | "
+             "params found vs truth | s |", "|---|---|---|---|---|---|---|---|"]
+    tally: dict[str, int] = {}
+    rec_ok = rec_n = 0
+    order = {c: k for k, c in enumerate(CLASSES)}
+    for r in sorted(rows, key=lambda r: (order.get(r["class"], 99),
+                                         CLASSES[r["class"]].index(r["case"])
+                                         if r["case"] in CLASSES.get(r["class"], ()) else 999,
+                                         r["noise"])):
+        verdict, per = lookalike_verdict(r)
+        tally[verdict] = tally.get(verdict, 0) + 1
+        named = ", ".join(c["name"] + (f" (amb. {'/'.join(c['ambiguous_with'])})"
+                                       if c["ambiguous_with"] else "") for c in r["claims"])
+        if r["suggestive"]:
+            named += ("; " if named else "") + "sugg. " + ", ".join(r["suggestive"])
+        if r.get("recording_specific"):
+            named += "; rec.-specific " + ", ".join(x["name"] for x in r["recording_specific"])
+        pars = []
+        for q in r.get("recovery", []):
+            tol = RECOVERY_TOLERANCE.get(q["quantity"])
+            if tol is None or q["rel_err"] is None:
+                continue
+            ok = abs(q["rel_err"]) <= tol
+            rec_n += 1
+            rec_ok += ok
+            pars.append(f"{q['quantity']} {_g(q['found'])} vs {_g(q['truth'])} "
+                        f"({100 * q['rel_err']:+.1f} %{'' if ok else ', OFF'})"
+                        + (" said amb." if q.get("ambiguous") else ""))
+        lines.append(f"| {r['class']} | {r['case']} | {r['noise']} | {named or 'none'} | "
+                     f"**{verdict}** | "
+                     + ", ".join(f"{h} {v}" for h, v in per.items())
+                     + f" | {'; '.join(pars) or '-'} | {r['elapsed_s']:.0f} |")
+    lines += ["", "runs: " + ", ".join(f"{k} {tally.get(k, 0)}" for k in
+                                       ("named", "flagged", "missed", "wrong"))
+              + f" (of {len(rows)}); parameters within tolerance {rec_ok}/{rec_n}"]
     return "\n".join(lines)
 
 

@@ -43,12 +43,13 @@ from numba import njit
 
 from benchmarks.diagnosis.generator import Scenario
 from core.base import Model
-from core.effects import Creep, Delay, Drift, Lag, Resonance
+from core.effects import Asymmetry, Creep, Delay, Drift, Lag, Offset, Resonance
 from core.recordings import Recording
 
-__all__ = ["BASES", "FAMILY_EFFECTS", "SIZES", "STROKE", "TIME_EFFECTS", "BoucWen", "Duhem",
-           "MaxwellSlip", "Preisach", "family_signals", "make_base", "make_family",
-           "parameter_recovery", "recovery_quantities", "wrong_names_base"]
+__all__ = ["BASES", "FAMILY_EFFECTS", "MULTI_EFFECTS", "SIZES", "STAGE_ORDER", "STROKE",
+           "TIME_EFFECTS", "BoucWen", "Duhem", "MaxwellSlip", "Preisach", "family_signals",
+           "make_base", "make_family", "parameter_recovery", "recovery_quantities",
+           "wrong_names_base"]
 
 U_MAX = 150.0  # V
 STROKE = 100.0  # um, of a 0 -> 150 -> 0 V sweep after scaling
@@ -425,29 +426,46 @@ def family_signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 # ----------------------------------------------------------------------------- hidden effects
-SIZES = ("large", "small")
+SIZES = ("large", "small", "eighth")
 #: Creep lags (s) and the total creep fraction at size "large" (split equally).
 CREEP_TAUS = (0.005, 0.1, 5.0)
 
 #: Hidden effect -> size -> truth parameters. "small" is about a third of "large" (the
-#: resonance by its quasi-static error, which goes as (f / f_n)^2: f_n x sqrt(3)).
+#: resonance by its quasi-static error, which goes as (f / f_n)^2: f_n x sqrt(3)); "eighth"
+#: (delay, lag and resonance only) an eighth of "large" (resonance: f_n x sqrt(8)).
 FAMILY_EFFECTS: dict[str, dict[str, dict[str, Any]]] = {
     "creep": {"large": {"taus_s": list(CREEP_TAUS), "weights": [0.02, 0.02, 0.02]},
               "small": {"taus_s": list(CREEP_TAUS), "weights": [0.02 / 3] * 3}},
-    "delay": {"large": {"delay_s": 1e-3}, "small": {"delay_s": 1e-3 / 3}},
-    "lag": {"large": {"tau_s": 1e-3}, "small": {"tau_s": 1e-3 / 3}},
+    "delay": {"large": {"delay_s": 1e-3}, "small": {"delay_s": 1e-3 / 3},
+              "eighth": {"delay_s": 1e-3 / 8}},
+    "lag": {"large": {"tau_s": 1e-3}, "small": {"tau_s": 1e-3 / 3},
+            "eighth": {"tau_s": 1e-3 / 8}},
     "resonance": {"large": {"freq_hz": 200.0, "damping": 0.05},
-                  "small": {"freq_hz": 200.0 * math.sqrt(3.0), "damping": 0.05}},
+                  "small": {"freq_hz": 200.0 * math.sqrt(3.0), "damping": 0.05},
+                  "eighth": {"freq_hz": 200.0 * math.sqrt(8.0), "damping": 0.05}},
     "rate": {"large": {"beta_s": 3e-4}, "small": {"beta_s": 1e-4}},
     "drift": {"large": {"amplitude": 1.0}, "small": {"amplitude": 1.0 / 3}},
 }
+#: Effects that exist only as members of a multi-effect scenario (``make_family`` with
+#: ``"a+b+c"``; not in :data:`FAMILY_EFFECTS`, so the single-effect cases are unchanged):
+#: a quadratic output map (``a2`` um at the ends of the 0-100 um range) and a per-recording
+#: output offset (``spread`` x (-1, +1, +0.3, -0.5) um for slow, fast, decaying, staircase).
+MULTI_EFFECTS: dict[str, dict[str, dict[str, Any]]] = {
+    "asymmetry": {"large": {"a2": 1.5}},
+    "offset": {"large": {"spread": 1.0}},
+}
+#: Physical order of the hidden stages after the base: output map, slow effects, dynamics,
+#: sensor offset, drift (the order of ``generator._plant_of``).
+STAGE_ORDER = ("asymmetry", "creep", "delay", "lag", "resonance", "offset", "drift")
+_OFFSET_SIGNS = (-1.0, 1.0, 0.3, -0.5)
+
 #: Bases for which a rate effect is meaningful (the relays' thresholds widen with rate, as the
 #: PI's plays do in ``RateDependentPI``); for the others ``rate`` is skipped.
 RATE_BASES = ("preisach",)
 
 
 def _effect_stage(effect: str, lv: dict[str, Any], t: np.ndarray,
-                  rng: np.random.Generator) -> Model:
+                  rng: np.random.Generator, k: int = 0) -> Model:
     if effect == "creep":
         return Creep(lv["taus_s"], lv["weights"])
     if effect == "delay":
@@ -461,34 +479,65 @@ def _effect_stage(effect: str, lv: dict[str, Any], t: np.ndarray,
         s = 2 * (t - t[0]) / span - 1
         d = lv["amplitude"] * (0.5 * s + 0.3 * np.sin(1.3 * s + rng.uniform(0, 2)))
         return Drift(np.polynomial.legendre.legfit(s, d, 4)[1:], span)
+    if effect == "asymmetry":
+        return Asymmetry([lv["a2"], 0.0], 0.5 * STROKE, 0.5 * STROKE * 1.05)
+    if effect == "offset":
+        return Offset(lv["spread"] * _OFFSET_SIGNS[k % len(_OFFSET_SIGNS)])
     raise ValueError(f"unknown effect {effect!r}")
+
+
+def _hidden_of(effect: str | None, size: str) -> dict[str, dict[str, Any]]:
+    """Effect name(s) -> truth parameters; ``effect`` is one name or several joined by
+    ``+`` (every one at ``size``, or at ``"large"`` when it has no ``size``)."""
+    if effect in (None, "null"):
+        return {}
+    names = effect.split("+")
+    if len(set(names)) != len(names):
+        raise ValueError(f"effect {effect!r} names an effect twice")
+    out = {}
+    for e in names:
+        table = FAMILY_EFFECTS.get(e) or (MULTI_EFFECTS.get(e) if len(names) > 1 else None)
+        if table is None:
+            known = ", ".join(FAMILY_EFFECTS) + (
+                "; in a combination also " + ", ".join(MULTI_EFFECTS))
+            raise ValueError(f"unknown effect {e!r}; known: {known}")
+        if size not in table and len(names) == 1:
+            raise ValueError(f"effect {e!r} has no size {size!r}; known: {', '.join(table)}")
+        out[e] = dict(table.get(size, table["large"]))
+    return out
 
 
 def make_family(base: str, effect: str | None = None, size: str = "large",
                 noise: float = 0.002, seed: int = 0) -> Scenario:
     """The four recordings of :func:`family_signals` through base family ``base`` followed by
-    one hidden ``effect`` (``None`` or ``"null"``: none) at ``size``.
+    the hidden ``effect`` (``None`` or ``"null"``: none) at ``size``.
 
-    ``noise`` is the white noise sigma as a fraction of the stroke (0.002: 0.2 um). The
-    noise depends on ``seed`` only (its own stream), the drift's wander phase on a second
-    stream. ``concealment_pct`` is the max |effect| over the slow and decaying recordings in
-    % of the stroke. ``extras``: ``hidden`` (name -> truth parameters), ``base``,
-    ``base_params``, ``size``, ``family_id`` (``base/effect/size/seed``).
+    ``effect`` is one name of :data:`FAMILY_EFFECTS` or several joined by ``+`` (also
+    :data:`MULTI_EFFECTS`; applied in :data:`STAGE_ORDER`, each at ``size`` where it has that
+    size and at ``"large"`` otherwise; ``rate`` only alone). ``noise`` is the white noise
+    sigma as a fraction of the stroke (0.002: 0.2 um). The noise depends on ``seed`` only
+    (its own stream), the drift's wander phase on a second stream. ``concealment_pct`` is the
+    max |effect| over the slow and decaying recordings in % of the stroke. ``extras``:
+    ``hidden`` (name -> truth parameters), ``base``, ``base_params``, ``size``, ``family_id``
+    (``base/effect/size/seed``).
     """
     effect = None if effect in (None, "null") else effect
     if size not in SIZES:
         raise ValueError(f"unknown size {size!r}; known: {', '.join(SIZES)}")
-    if effect is not None and effect not in FAMILY_EFFECTS:
-        raise ValueError(f"unknown effect {effect!r}; known: {', '.join(FAMILY_EFFECTS)}")
+    hidden = _hidden_of(effect, size)
+    if "rate" in hidden and len(hidden) > 1:
+        raise ValueError("rate is a base-plant change and cannot be combined with other effects")
     if effect == "rate" and base not in RATE_BASES:
         raise ValueError(f"rate is not meaningful for base {base!r} (only {RATE_BASES})")
-    lv = dict(FAMILY_EFFECTS[effect][size]) if effect else {}
+    order = [e for e in STAGE_ORDER if e in hidden]
+    lv = hidden[effect] if len(hidden) == 1 else {
+        f"{e}.{k}": v for e in order for k, v in hidden[e].items()}
     plant = make_base(base)
     rng_noise = np.random.default_rng([seed, 0])
     rng_drift = np.random.default_rng([seed, 1])
     sigma = noise * STROKE
     recs, truths, worst = [], [], 0.0
-    for name, t, u in family_signals():
+    for k, (name, t, u) in enumerate(family_signals()):
         dt = float(t[1] - t[0])
         y0 = plant(u, dt=dt)
         if effect == "rate":
@@ -496,10 +545,12 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
             p_rate.gain = plant.gain
             y_clean = p_rate(u, dt=dt)
             truths.append(p_rate)
-        elif effect:
-            stage = _effect_stage(effect, lv, t, rng_drift)
-            y_clean = stage(y0, dt=dt)
-            truths.append((plant, stage))
+        elif hidden:
+            stages = [_effect_stage(e, hidden[e], t, rng_drift, k) for e in order]
+            y_clean = y0
+            for stage in stages:
+                y_clean = stage(y_clean, dt=dt)
+            truths.append((plant, *stages))
         else:
             y_clean = y0
             truths.append(plant)
@@ -511,7 +562,7 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
                    for k, v in asdict(plant).items()}
     return Scenario(effect, f"white{100 * noise:g}%", seed, size if effect else "-", lv, recs,
                     truths, worst,
-                    extras={"hidden": {effect: lv} if effect else {}, "base": base,
+                    extras={"hidden": hidden, "base": base,
                             "base_params": base_params, "size": size,
                             "family_id": f"{base}/{effect or 'null'}/"
                                          f"{size if effect else '-'}/{seed}"})

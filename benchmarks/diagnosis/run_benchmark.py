@@ -359,6 +359,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the quick subset of the issue-8 classes (two effects, weak effects, "
                          "single recording, short periodic recordings, loop shapes): a few "
                          "minutes")
+    ap.add_argument("--cases", metavar="PATTERN",
+                    help="with --classes: only the cases whose name contains one of these "
+                         "comma-separated strings (e.g. 'bouc-wen-1/,preisach/')")
     ap.add_argument("--families", nargs="?", const="quick", choices=("quick", "all"),
                     help="the non-PI base families (families.py: Bouc-Wen, Preisach, Duhem, "
                          "Maxwell-slip x hidden effects): the quick subset (default, a few "
@@ -453,16 +456,28 @@ def _run_classes(a: argparse.Namespace) -> int:
             raise SystemExit(f"unknown class {n!r}; known: {', '.join(CLASSES)}")
     todo = jobs(a.quick, seeds=1 if a.quick else a.seeds,
                 noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names)
+    if a.cases:
+        pats = a.cases.split(",")
+        todo = [j for j in todo if any(p in j[1] for p in pats)]
     t0 = time.perf_counter()
-    rows = _execute(a, run_class_job, todo, lambda r, done, el: (
-        f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
-        f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s [{done}/{len(todo)} "
-        f"{el:.0f}s]"))
+    partial = a.json.with_suffix(".partial.jsonl") if a.json else None
+
+    def line(r: dict, done: int, el: float) -> str:
+        if partial:  # an interrupted run keeps its rows (--rescore reads a JSON list)
+            with partial.open("a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        return (f"{r['id']:<48} found={','.join(r['found']) or '-':<28} suggestive="
+                f"{','.join(r['suggestive']) or '-':<12} {r['elapsed_s']:.0f}s "
+                f"[{done}/{len(todo)} {el:.0f}s]")
+
+    rows = _execute(a, run_class_job, todo, line)
     print()
     print(summarise_classes(rows))
     print(f"\ntotal {time.perf_counter() - t0:.0f} s (target: a few minutes for --quick)")
     if a.json:
         a.json.write_text(json.dumps(rows, indent=1))
+        if partial and partial.exists():
+            partial.unlink()
     return 0
 
 

@@ -59,6 +59,7 @@ from .acceptance import (
     generalises,
     split_supports_transport,
     trend_follows_steps,
+    yields_to_lookalike,
 )
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess, fold_mse
@@ -1296,7 +1297,11 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
     # named when a look-alike that shows its own is not significantly worse
     lacks = _lacks_signature(best, results[best][1])
     if lacks:
-        alt = [o for o, hh in vs.items() if undecided(hh)
+        # rule 9: a look-alike that shows its own signature is named when it predicts no
+        # significantly worse or leaves at most a small margin more held-out MSE
+        alt = [o for o, hh in vs.items()
+               if (undecided(hh) or yields_to_lookalike(results[best][3].mse_after,
+                                                         results[o][3].mse_after))
                and not _lacks_signature(o, results[o][1])]
         if alt:
             unnamed = best
@@ -1307,9 +1312,9 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
     for other, hh in vs.items():
         oh = results[other][3]
         rounds.append(RoundRow(rnd, f"recheck:{other}", oh.gain, hh.z, hh.sign_p, False,
-                               "ambiguous" if undecided(hh) else "rejected",
-                               results[other][1]))
-        if undecided(hh):
+                               "ambiguous" if undecided(hh) or other == unnamed
+                               else "rejected", results[other][1]))
+        if undecided(hh) or other == unnamed:
             amb.append(other)
     if best != finding.name:
         # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
@@ -1331,8 +1336,11 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
         ambiguous.append({
             "effects": [best, other],
             "chosen": best,
-            "reason": f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
-            "signed-rank p >= 0.01) at the final resolution" + (
+            "reason": (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
+                       f" % less held-out MSE than {best}" if other == unnamed
+                       and results[other][3].mse_after < h.mse_after else
+                       f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
+                       "signed-rank p >= 0.01)") + " at the final resolution" + (
                 f"; {other} is not named: {lacks}" if lacks and other == unnamed else ""),
             "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
                                                   "recordings at more frequencies"),

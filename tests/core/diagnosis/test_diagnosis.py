@@ -272,3 +272,22 @@ def test_a_small_delay_is_not_named_as_an_overdamped_resonance() -> None:
     assert "resonance" in res.effects[0].ambiguous_with
     note = next(a for a in res.ambiguous if set(a["effects"]) == {"delay", "resonance"})
     assert "resonance is not named" in note["reason"] and "ring" in note["reason"]
+
+
+@pytest.mark.slow
+def test_an_eighth_size_delay_is_not_named_as_an_overdamped_resonance() -> None:
+    """Issue 16 item 5 (Maxwell-slip actuator, hidden 0.125 ms delay, 0.3 um noise): the best
+    output stage was a "resonance" at 1.76 kHz with damping 0.69 that left 0.5 % less
+    held-out MSE than the delay, significant by the signed-rank test (p 0.003), so the delay
+    was not a look-alike and the resonance was named alone. Rule 9: a stage that lacks its
+    signature yields to a look-alike within 10 % of its held-out MSE; the delay is named
+    (within 25 % of the truth), ambiguous with the resonance, and the note says why."""
+    from benchmarks.diagnosis.families import make_family
+
+    sc = make_family("maxwell-slip", "delay", "eighth", noise=0.003, seed=500)
+    res = diagnose(sc.records, effects=["delay", "lag", "resonance"], base="pi")
+    assert [e.name for e in res.effects] == ["delay"]
+    assert res.effects[0].parameters["delay_s"] == pytest.approx(1e-3 / 8, rel=0.25)
+    assert "resonance" in res.effects[0].ambiguous_with
+    note = next(a for a in res.ambiguous if set(a["effects"]) == {"delay", "resonance"})
+    assert "resonance is not named" in note["reason"] and "ring" in note["reason"]
