@@ -204,6 +204,11 @@ class PIStageOutputs(Sequence):
     def __len__(self) -> int:
         return self._n
 
+    def __reduce__(self) -> tuple:
+        # pickled / copied as the plain list of outputs (never the banks or the lock): a
+        # worker process sends its diagnosis back pickled
+        return (list, (self.resolve(),))
+
 
 class _Cache:
     """Play-bank outputs keyed by (recording, history, beta), their reduced bases, the
