@@ -36,6 +36,7 @@ __all__ = [
     "bouc_wen_output",
     "pi_batch",
     "pi_output_fast",
+    "level_segments_rows",
     "pi_output_strict",
     "play_matrix",
     "preisach_inverse",
@@ -165,6 +166,32 @@ def pi_batch(u, R, W, p0, Z, out):  # pragma: no cover - compiled
                 Z[s, i] = zi
                 acc += W[s, i] * zi
             out[s, k] = p0[s] * uk + acc
+
+
+@njit(cache=True, nogil=True)
+def level_segments_rows(z, e, out):  # pragma: no cover - compiled
+    """Level-segment functions of ``z`` ``(M,)`` at the increasing knots ``e`` ``(m - 1,)``,
+    ``m >= 2``, into ``out`` ``(M, m)`` (row-major): ``min(z, e_0)``,
+    ``clip(z, e_{j-1}, e_j) - e_{j-1}``, ``max(z, e_{m-2}) - e_{m-2}``; one pass over ``z``
+    with the same comparisons and subtractions as the numpy form, so bit-identical to it
+    (a NaN propagates to every segment)."""
+    m = e.size + 1
+    last = e[m - 2]
+    for k in range(z.size):
+        v = z[k]
+        if v != v:
+            for j in range(m):
+                out[k, j] = v
+            continue
+        out[k, 0] = v if v < e[0] else e[0]
+        for j in range(1, m - 1):
+            lo = e[j - 1]
+            hi = e[j]
+            c = v if v > lo else lo
+            c = c if c < hi else hi
+            out[k, j] = c - lo
+        out[k, m - 1] = (v if v > last else last) - last
+    return out
 
 
 @njit(cache=True, nogil=True)

@@ -76,6 +76,10 @@ def level_segments(z: ArrayLike, knots: ArrayLike) -> Float2D:
     if m == 1:
         out[:, 0] = z
         return out
+    if kernels.NUMBA_ENABLED:
+        # one compiled pass, bit-identical to the numpy form below (several times faster:
+        # the diagnosis levels play banks of ~10^6 entries per trial initial memory)
+        return kernels.level_segments_rows(z, e, out)
     out[:, 0] = np.minimum(z, e[0])
     for j in range(1, m - 1):
         out[:, j] = np.clip(z, e[j - 1], e[j]) - e[j - 1]

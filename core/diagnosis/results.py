@@ -21,7 +21,7 @@ from .candidates import build_candidate
 from .context import FitContext
 from .registry import EFFECTS
 from .stats import HeldOut, ljung_box
-from .structure import Fit, Structure
+from .structure import Fit, PIStageOutputs, Structure
 
 __all__ = ["ACCEPT_RULE", "BaseChoice", "DiagnosisResult", "EffectFinding", "RecordingSpecific",
            "RoundRow", "pooled_mse"]
@@ -339,6 +339,13 @@ class DiagnosisResult:
     recording_specific: list[RecordingSpecific] = field(default_factory=list)
     #: how the base hysteresis was chosen (PI or a Preisach with level-dependent memory)
     base_choice: BaseChoice | None = None
+
+    def __post_init__(self) -> None:
+        # the fits' PI-stage outputs are formed on first use from the play banks; a result
+        # outlives the diagnosis, so it holds the outputs, not the banks
+        for f in (self.baseline, self.final, self.requested, self.refit):
+            if f is not None and isinstance(f.x_pi, PIStageOutputs):
+                f.x_pi.resolve()
 
     @property
     def saved_fit(self) -> Fit:

@@ -13,7 +13,8 @@ the diagnosis reports are the numbers ``hyst simulate`` reproduces.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any
 
@@ -43,7 +44,7 @@ from .grid import baseline_thresholds
 from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
-__all__ = ["Fit", "Structure", "baseline_thresholds", "fit_structure"]
+__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "fit_structure"]
 
 
 @dataclass(frozen=True)
@@ -163,7 +164,7 @@ class Fit:
     drift_coef: list[Float1D]
     models: list[Model]
     pred: list[Float1D]
-    x_pi: list[Float1D]  # PI-stage outputs (before the output map and dynamics)
+    x_pi: Sequence[Float1D]  # PI-stage outputs (before the output map and dynamics)
     train_rss: float
     n_train: int
     cov_scale: float = 1.0
@@ -172,6 +173,50 @@ class Fit:
     def residuals(self, records: Sequence[Recording]) -> list[Float1D]:
         """Measured minus simulated output per recording."""
         return [r.y - p for r, p in zip(records, self.pred, strict=True)]
+
+
+class PIStageOutputs(Sequence):
+    """The PI-stage outputs of a fit per recording, ``bank @ weights``, formed on first use.
+
+    Most fits never need them (only the bilinear creep and asymmetry regressors and the
+    look-alike evidence read them), and each is a pass over an ``(N, n + 1)`` play bank, so
+    they are computed when first read (the same products as before, so the same numbers);
+    the banks are released then. :meth:`resolve` forms them at once (a result that outlives
+    the diagnosis should not hold the banks).
+    """
+
+    def __init__(self, banks: Sequence[np.ndarray], w: np.ndarray) -> None:
+        self._banks: list[np.ndarray] | None = list(banks)
+        self._w = w
+        self._n = len(self._banks)
+        self._x: list[Float1D] | None = None
+        self._lock = threading.Lock()
+
+    def resolve(self) -> list[Float1D]:
+        """The outputs, formed now if not yet (thread-safe)."""
+        x = self._x
+        if x is None:
+            with self._lock:
+                if self._x is None:
+                    assert self._banks is not None
+                    self._x = [B @ self._w for B in self._banks]
+                    self._banks = None
+                x = self._x
+        return x
+
+    def __getitem__(self, i):  # type: ignore[override]
+        return self.resolve()[i]
+
+    def __iter__(self) -> Iterator[Float1D]:
+        return iter(self.resolve())
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __reduce__(self) -> tuple:
+        # pickled / copied as the plain list of outputs (never the banks or the lock): a
+        # worker process sends its diagnosis back pickled
+        return (list, (self.resolve(),))
 
 
 class _Cache:
@@ -190,6 +235,10 @@ class _Cache:
         self.lv: dict[Any, np.ndarray] = {}
         #: banks of a Bouc-Wen base
         self.bw: dict[Any, np.ndarray] = {}
+        #: Gram blocks of the PI-stage columns of full fits (play bank through the output
+        #: dynamics on the solved rows), keyed by row layout, bank and dynamics: structures
+        #: that add columns to the same bank (bilinear refreshes, output maps, creep) reuse it
+        self.g: dict[Any, tuple[Any, np.ndarray]] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
                   w: np.ndarray | None = None) -> np.ndarray:
@@ -201,7 +250,7 @@ class _Cache:
         the row of ``B`` repeats exactly, so only the distinct rows are multiplied.
         """
         key = (key, id(V))
-        hit = self.p.get(key)
+        hit = _recent(self.p, key)
         if hit is not None and hit[0] is V:
             return hit[1]
         P = None
@@ -254,7 +303,7 @@ class _Cache:
         return out
 
     def basis(self, banks: list[np.ndarray], train: Sequence[np.ndarray], key: Any) -> np.ndarray:
-        V = self.v.get(key)
+        V = _recent(self.v, key)
         if V is None:
             V = _basis(banks, train)
             if len(self.v) >= 64:
@@ -275,7 +324,7 @@ class _Cache:
         if bouc_wen:
             return self._bouc_wen_bank(k, rec, hist, shape, bouc_wen, upto)
         key = (k, hist, beta, r.size, float(r[-1]), shape)
-        B = self.d.get(key)
+        B = _recent(self.d, key)
         if B is None:
             u = apply_shape(shape, rec.u if upto is None else rec.u[:upto])
             z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
@@ -315,7 +364,7 @@ class _Cache:
         ``i m + j`` = segment ``j`` of play ``i``; memoised."""
         key = (k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
                s.shape, s.levels, B.shape[0])
-        L = self.lv.get(key)
+        L = _recent(self.lv, key)
         if L is None:
             n, m = B.shape[1], len(s.levels) + 1
             L = level_segments(B.reshape(-1), s.levels).reshape(B.shape[0], n * m)
@@ -332,6 +381,16 @@ class _Cache:
 BW_HISTORY_BYTES = 128e6
 
 
+def _recent(d: dict, key: Any) -> Any:
+    """``d.get(key)``, moving a hit to the end: the caches evict their oldest entry first,
+    so this makes them least-recently-used (a search over one recording's history must
+    not evict the other recordings' banks, which every trial reads again)."""
+    v = d.pop(key, None)
+    if v is not None:
+        d[key] = v
+    return v
+
+
 def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
     """Index ``B[sel]`` equal to ``B[idx]`` for increasing indices ``idx``: a slice (a strided
     view, no gather) when they are evenly spaced, as in a single training window."""
@@ -346,7 +405,8 @@ def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
     rows = []
     for B, m in zip(banks, train, strict=True):
         idx = np.flatnonzero(m)
-        rows.append(B[idx[:: max(1, idx.size // 2000)]])
+        # (a strided view where the rows are evenly spaced: no gather before the concatenation)
+        rows.append(B[_row_selector(idx[:: max(1, idx.size // 2000)])])
     A = np.concatenate(rows)
     scale = 1.0 / np.sqrt(np.sum(A * A, axis=0) + 1e-300)
     As = A * scale
@@ -435,6 +495,32 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
 
 
+def _gram(X: np.ndarray, nq: int, cache: _Cache, key: Any, owner: Any) -> np.ndarray:
+    """``X.T @ X`` with the block of the first ``nq`` columns (the PI stage: play bank through
+    the output dynamics) memoised in ``cache`` on ``key``; ``owner`` is kept with the entry
+    and must be the same object on a hit (its identity is part of the key). The other
+    columns (bilinear regressors, bias, drift, output) change between structures and
+    refreshes, so only their products are formed anew; ``(N, p)`` rows are read once for
+    the ``p - nq`` new columns instead of all ``p``."""
+    hit = _recent(cache.g, key)
+    X1 = X[:, :nq]
+    if hit is not None and hit[0] is owner:
+        G11 = hit[1]
+    else:
+        G11 = X1.T @ X1
+        if len(cache.g) >= 16:
+            cache.g.pop(next(iter(cache.g)))
+        cache.g[key] = (owner, G11)
+    X2 = X[:, nq:]
+    G12 = X1.T @ X2
+    G = np.empty((X.shape[1], X.shape[1]))
+    G[:nq, :nq] = G11
+    G[:nq, nq:] = G12
+    G[nq:, :nq] = G12.T
+    G[nq:, nq:] = X2.T @ X2
+    return G
+
+
 def _unconstrained_rss(Xa: np.ndarray) -> float:
     """Residual sum of squares of the unconstrained least-squares fit of the last column of
     ``Xa`` on the others: Cholesky of the column-scaled normal equations, or ``lstsq`` when
@@ -512,8 +598,8 @@ def fit_structure(
     cache = cache or _Cache()
     r = np.asarray(s.thresholds)
     nrec = len(records)
-    rows, sel, ends, upto, ys, ylo, yhi, center, half, dts = cache.layout(records, train,
-                                                                         rss_only)
+    layout = cache.layout(records, train, rss_only)
+    rows, sel, ends, upto, ys, ylo, yhi, center, half, dts = layout
     raw = [
         cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
                    shape=s.shape, bouc_wen=s.bouc_wen)
@@ -527,13 +613,17 @@ def fit_structure(
         V = cache.basis(banks, train, vkey)
     if iterations is None:
         iterations = 3 if needs_x else 1
-    x_prev = list(x_init) if x_init is not None else None
+    # (read only by the bilinear regressors: the PI-stage outputs are formed on first use)
+    x_prev = list(x_init) if x_init is not None and needs_x else None
     # input range of the play bank (the loop-shape map's output when there is one)
     # (a bank may stop at its last training row)
-    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
-    ulo = min(float(w.min()) for w in w_tr)
-    uhi = max(float(w.max()) for w in w_tr)
-    eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
+    # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
+    eps = 0.0
+    if V is None:
+        w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
+        ulo = min(float(w.min()) for w in w_tr)
+        uhi = max(float(w.max()) for w in w_tr)
+        eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     n_lev = len(s.levels) + 1
     nb = (r.size + 1) * n_lev
     n_asym = 2 if s.asymmetry else 0
@@ -618,7 +708,7 @@ def fit_structure(
         # undetermined (before: offsets of 1e12 with one recording left out). Fits with rows
         # in every column are solved as they were (the ridge alone moved a weak drift on top
         # of creep from a 7 % to a 13 % held-out gain: such designs are nearly collinear).
-        G = X.T @ X
+        G = _gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
         dg = np.diag(G)[:ncol]
         empty = dg == 0
         ridge = 1e-9 * float(dg.max(initial=0.0)) if empty.any() else 0.0
@@ -653,21 +743,20 @@ def fit_structure(
         np.asarray(w[o + n_bias + k * s.drift_degree : o + n_bias + (k + 1) * s.drift_degree])
         for k in range(nrec)
     ]
-    models, preds, xs = [], [], []
+    models, preds = [], []
     rss = 0.0
     ntr = 0
     for k, (rec, m) in enumerate(zip(records, train, strict=True)):
         model = build_model(s, k, p0, pw, asym, center, half, creep, bias, drift, rec)
-        x = banks[k] @ np.concatenate(([p0], pw))
         if s.bouc_wen and not s.shape and isinstance(model, Chain):
             # the Bouc-Wen stage's output is its bank times the weights (the bank integrates
             # the elements as the model does, to round-off): only the later stages are run
+            x = banks[k] @ np.concatenate(([p0], pw))
             pred = Chain(model.stages[1:])(x, dt=dts[k])
         else:
             pred = model(rec.u, dt=dts[k])
         models.append(model)
         preds.append(pred)
-        xs.append(x)
         rss += float(np.sum((rec.y[m] - pred[m]) ** 2))
         ntr += int(m.sum())
     return Fit(
@@ -682,7 +771,7 @@ def fit_structure(
         drift_coef=drift,
         models=models,
         pred=preds,
-        x_pi=xs,
+        x_pi=PIStageOutputs(banks, np.concatenate(([p0], pw))),
         train_rss=rss,
         n_train=ntr,
     )

@@ -12,7 +12,7 @@ from core.effects import InitialMemory
 from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
 from core.pi import PIModel
-from core.preisach import PreisachInverse, PreisachModel
+from core.preisach import PreisachInverse, PreisachModel, level_segments
 from tests.core.model_zoo import PREISACH
 
 
@@ -58,6 +58,27 @@ def _random_model(seed: int, m: int = 4) -> PreisachModel:
     W = rng.uniform(0.0, 1.0, (r.size, m))
     W[0] += 0.1
     return PreisachModel(r, W, e, rng.uniform(-0.2, 0.2, r.size))
+
+
+@pytest.mark.parametrize("m", [2, 3, 5])
+def test_level_segments_equal_the_case_by_case_formula_bit_for_bit(m: int) -> None:
+    """The compiled level segments (the diagnosis levels whole play banks with them) against
+    the segment functions written out per value, including the knots themselves, signed
+    zeros, infinities and NaN."""
+    rng = np.random.default_rng(m)
+    e = np.sort(rng.uniform(-2.0, 2.0, m - 1))
+    z = np.concatenate((rng.uniform(-3.0, 3.0, 500), e, [0.0, -0.0, np.inf, -np.inf, np.nan]))
+    got = level_segments(z, e)
+    want = np.empty((z.size, m))
+    for k, v in enumerate(z):
+        want[k, 0] = np.minimum(v, e[0])
+        for j in range(1, m - 1):
+            want[k, j] = np.minimum(np.maximum(v, e[j - 1]), e[j]) - e[j - 1]
+        want[k, m - 1] = np.maximum(v, e[m - 2]) - e[m - 2]
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(np.signbit(got), np.signbit(want))
+    fin = np.isfinite(z)
+    np.testing.assert_allclose(got[fin].sum(axis=1), z[fin], rtol=0, atol=1e-12)  # rows sum to z
 
 
 @pytest.mark.parametrize("m", [1, 2, 4])

@@ -243,6 +243,41 @@ def test_ranking_solve_of_a_new_history_or_rate_covers_every_training_row() -> N
         assert fresh == pytest.approx(cached, rel=1e-12)
 
 
+def test_full_fits_from_the_memoised_gram_block_and_lazy_pi_stage_outputs(monkeypatch) -> None:
+    """Full fits form X'X from a memoised block of the PI-stage columns: a structure adding
+    bilinear columns (asymmetry, three refreshes) to a bank fitted before gives the fit of the
+    plain product; the PI-stage outputs, formed when first read, equal the PI model with the
+    fitted weights and pickle as plain arrays (a worker process sends results back)."""
+    import pickle
+
+    from core.diagnosis import structure as st
+
+    t = np.arange(6001) * 1e-3
+    u = 40.0 * np.sin(2 * np.pi * 0.7 * t) * (1 - np.exp(-t))
+    y = PIModel(0.5, [4.0, 12.0], [0.4, 0.2])(u)
+    rec = Recording(t, u, y + 0.002 * y**2, "sine")
+    train = [t <= 4.5]
+    r = tuple(float(v) for v in baseline_thresholds([rec], train, 8))
+    base = st.Structure(r, ((),), dynamics=("lag", 0.004))
+    cache = st._Cache()
+    st.fit_structure(base.with_(dynamics=("lag", 0.02)), [rec], train, cache)  # another block
+    f0 = st.fit_structure(base, [rec], train, cache)
+    assert len(cache.g) == 2  # the blocks of the bank through each lag are memoised
+    s = base.with_(asymmetry=True)
+    got = st.fit_structure(s, [rec], train, cache, f0.x_pi)
+    monkeypatch.setattr(st, "_gram", lambda X, nq, cache, key, owner: X.T @ X)
+    want = st.fit_structure(s, [rec], train, st._Cache(), f0.x_pi)
+    scale = float(np.ptp(y))
+    np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * scale)
+    assert got.train_rss == pytest.approx(want.train_rss, rel=1e-9)
+    x = got.x_pi
+    assert isinstance(x, st.PIStageOutputs) and x._x is None  # not formed until read
+    pi = PIModel(max(got.p0, 0.0), np.asarray(r), np.maximum(got.weights, 0.0))(u)
+    np.testing.assert_allclose(x[0], pi, rtol=0, atol=1e-12 * scale)
+    back = pickle.loads(pickle.dumps(got.x_pi))
+    assert type(back) is list and np.array_equal(back[0], x[0])
+
+
 def test_a_mode_too_damped_to_ring_is_no_resonance() -> None:
     """A second-order stage rings only below damping 1/2 (notes §4.1: g2 < 0); above it, it
     acts as a delay or a lag (g2 / g1^2 = 1 - 1 / (4 zeta^2) between 0 and 1)."""
