@@ -36,7 +36,7 @@ from ..fitting.gram import COND_LIMIT, solve_constrained
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
-from ..preisach import PreisachModel, level_segments
+from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
 from .grid import baseline_thresholds
 from .registry import EFFECTS
@@ -658,7 +658,8 @@ def build_model(
     hyst: Model
     if s.levels:
         W = np.maximum(np.r_[p0, pw], 0.0).reshape(r.size + 1, len(s.levels) + 1)
-        hyst = PreisachModel(np.r_[0.0, r], W, knots=np.asarray(s.levels))
+        hyst = PreisachModel(np.r_[0.0, r], W, knots=np.asarray(s.levels)) if s.beta_s is None \
+            else RateDependentPreisach(np.r_[0.0, r], W, s.beta_s, knots=np.asarray(s.levels))
     elif s.beta_s is None:
         hyst = PIModel(max(p0, 0.0), r, pw if s.free_weights else np.maximum(pw, 0.0))
     else:

@@ -34,7 +34,8 @@ EXACT = {
     "pi", "chain", "offset", "lag", "lag-inverse", "creep", "creep-inverse", "drift",
     "asymmetry", "asymmetry-inverse", "rate", "rate-inverse", "initial-memory", "deadzone",
     "gpi-deadzone", "mpi", "tanh-envelope", "gpi-tanh", "lti",
-    "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse",
+    "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse", "rate-preisach",
+    "rate-preisach-inverse",
 }
 CASES: dict[str, Model] = {**ZOO, **DIAGNOSED}
 
