@@ -485,7 +485,10 @@ def fit_structure(
     needs_x = s.asymmetry or bool(s.creep_taus)
     V = None
     vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels)
-    if rss_only and reduce:
+    if rss_only and reduce and not s.levels:
+        # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
+        # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
+        # Duhem plant a true 346 Hz mode ranked worse than none)
         V = cache.basis(banks, train, vkey)
     if iterations is None:
         iterations = 3 if needs_x else 1
