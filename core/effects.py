@@ -56,7 +56,7 @@ from ._typing import ArrayLike, Float1D
 from .base import SAMPLE_BYTES, Chain, Control, Field, Model, RunCost, register_model
 from .exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from .pi import PIModel
-from .preisach import PreisachModel
+from .preisach import PreisachModel, RateDependentPreisach
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
 __all__ = [
@@ -1370,7 +1370,7 @@ class RateDependentPIInverse(Model):
 
 # ----------------------------------------------------------------------------- initial memory
 #: Models made of a bank of play operators with ``thresholds`` and ``state0`` fields.
-_PLAY_BANK_MODELS = (PIModel, RateDependentPI, PreisachModel)
+_PLAY_BANK_MODELS = (PIModel, RateDependentPI, PreisachModel, RateDependentPreisach)
 
 
 @register_model
@@ -1396,7 +1396,8 @@ class InitialMemory(Model):
     fields: ClassVar[tuple[Field, ...]] = (
         Field("history", "numbers", doc="virtual input extrema before the record",
               title="Input history u_k", control=Control("u{i}", "input", (-1.25, 1.25))),
-        Field("model", "model", doc="the hysteresis model ('pi', 'rate' or 'preisach')"),
+        Field("model", "model",
+              doc="the hysteresis model ('pi', 'rate', 'preisach' or 'rate-preisach')"),
     )
     model: Model
     history: Float1D
@@ -1404,8 +1405,8 @@ class InitialMemory(Model):
     def __post_init__(self) -> None:
         if not isinstance(self.model, _PLAY_BANK_MODELS):
             raise ParameterError(
-                "initial-memory wraps a 'pi', 'rate' or 'preisach' model (a bank of play "
-                f"operators), got {type(self.model).__name__}"
+                "initial-memory wraps a 'pi', 'rate', 'preisach' or 'rate-preisach' model (a bank "
+                f"of play operators), got {type(self.model).__name__}"
             )
         object.__setattr__(self, "history", as_vector(self.history, "history"))
 

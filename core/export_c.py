@@ -63,7 +63,12 @@ from .exceptions import ParameterError
 from .gpi import TanhEnvelope, TanhEnvelopeInverse
 from .lti import InverseLinearSystem, LinearSystem
 from .pi import PIModel
-from .preisach import PreisachInverse, PreisachModel
+from .preisach import (
+    PreisachInverse,
+    PreisachModel,
+    RateDependentPreisach,
+    RateDependentPreisachInverse,
+)
 
 if TYPE_CHECKING:
     from .paramset import ParameterSet
@@ -1175,8 +1180,11 @@ def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], list[str]]:
-    """Constants, reset and helpers (``level``, ``eval``) of a Preisach play bank."""
+def _preisach_parts(model: Model, ctx: StageContext,
+                    rate: bool = False) -> tuple[list[str], list[str], list[str]]:
+    """Constants, reset and helpers (``level``, ``eval``) of a Preisach play bank; with
+    ``rate`` (a :class:`RateDependentPreisach`), ``eval(x, zin, up, has_prev, zout)`` with
+    the thresholds ``r_i + K |x - up|`` of the plays with ``r_i > 0``."""
     n, m = model.n, model.n_segments  # type: ignore[attr-defined]
     f, c = ctx.field, ctx.const
     consts = [
@@ -1209,23 +1217,48 @@ def _preisach_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[st
             "    return acc;",
             "}",
         ]
+    if not rate:
+        helpers = level + [
+            "/* output at input x from the plays zin; the new plays go to zout (if any) */",
+            f"static double {c}eval(double x, const double *zin, double *zout)",
+            "{",
+            "    unsigned i;",
+            "    double acc = 0.0;",
+            f"    for (i = 0; i < {n}u; ++i) {{",
+            "        double zi = zin[i];",
+            f"        if (zi > x + {c}R[i]) zi = x + {c}R[i];",
+            f"        if (zi < x - {c}R[i]) zi = x - {c}R[i];",
+            "        if (zout) zout[i] = zi;",
+            f"        acc += {c}level(zi, i);",
+            "    }",
+            "    return acc;",
+            "}",
+        ]
+        return consts, [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"], helpers
+    assert ctx.dt is not None
+    consts.append(f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};")  # type: ignore[attr-defined]
     helpers = level + [
-        "/* output at input x from the plays zin; the new plays go to zout (if any) */",
-        f"static double {c}eval(double x, const double *zin, double *zout)",
+        "/* output at input x from the plays zin (previous input up), thresholds widened",
+        "   by K |x - up| except the reversible r = 0; the new plays go to zout (if any) */",
+        f"static double {c}eval(double x, const double *zin, double up, int has_prev,",
+        "                    double *zout)",
         "{",
         "    unsigned i;",
+        f"    const double extra = has_prev ? {c}K * fabs(x - up) : 0.0;",
         "    double acc = 0.0;",
         f"    for (i = 0; i < {n}u; ++i) {{",
         "        double zi = zin[i];",
-        f"        if (zi > x + {c}R[i]) zi = x + {c}R[i];",
-        f"        if (zi < x - {c}R[i]) zi = x - {c}R[i];",
+        f"        const double ri = {c}R[i] == 0.0 ? 0.0 : {c}R[i] + extra;",
+        "        if (zi > x + ri) zi = x + ri;",
+        "        if (zi < x - ri) zi = x - ri;",
         "        if (zout) zout[i] = zi;",
         f"        acc += {c}level(zi, i);",
         "    }",
         "    return acc;",
         "}",
     ]
-    reset = [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"]
+    reset = [f"st->{f}has_prev = 0;", f"st->{f}up = 0.0;",
+             f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"]
     return consts, reset, helpers
 
 
@@ -1517,6 +1550,84 @@ def _emit_bouc_wen_inverse(model: Model, ctx: StageContext) -> CStage:
         fields=[f"double {f}z[{m}];", f"double {f}x;"], constants=consts, reset=reset,
         helpers=helpers, tune=tune, needs_math=True,
         step=[f"x = {c}solve(x, st->{f}x, st->{f}z);", f"st->{f}x = x;"],
+    )
+
+
+def _rate_preisach_slopes(n: int, m: int, c: str) -> list[str]:
+    """Tune lines recomputing the slope bounds ``MLO``/``MHI`` of a rate-dependent Preisach
+    bank (as :meth:`RateDependentPreisach.slope_bounds`)."""
+    return ["{ double lo = 0.0, hi = 0.0;",
+            f"  for (i = 0; i < {n}u; ++i) {{",
+            f"      double mn = {c}W[i * {m}u], mx = mn;",
+            f"      for (j = 1; j < {m}u; ++j) {{",
+            f"          if ({c}W[i * {m}u + j] < mn) mn = {c}W[i * {m}u + j];",
+            f"          if ({c}W[i * {m}u + j] > mx) mx = {c}W[i * {m}u + j];",
+            "      }",
+            f"      if ({c}R[i] == 0.0) {{ lo += mn; hi += mx; }}",
+            f"      else {{ if ((1.0 - {c}K) * mx < 0.0) lo += (1.0 - {c}K) * mx;"
+            f" hi += (1.0 + {c}K) * mx; }}",
+            "  }",
+            f"  {c}MLO = lo; {c}MHI = hi; }}"]
+
+
+@register_c_stage(RateDependentPreisach)
+def _emit_rate_preisach(model: Model, ctx: StageContext) -> CStage:
+    """Rate-dependent Preisach bank (as ``RateDependentPreisach``)."""
+    assert ctx.dt is not None
+    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    f, c = ctx.field, ctx.const
+    consts, reset, helpers = _preisach_parts(model, ctx, rate=True)
+    return CStage(
+        title=f"rate-dependent Preisach model, {n} play operator(s) x {m} level segment(s)",
+        fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
+        constants=consts, reset=reset, helpers=helpers,
+        step=["{ const double xin = x;",
+              f"  x = {c}eval(xin, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
+              f"  st->{f}up = xin;",
+              f"  st->{f}has_prev = 1; }}"],
+        tune=[*_preisach_tune(model, c, ""), f"{c}K = $beta_s[0] / {c_double(ctx.dt)};"],
+        needs_math=True,
+    )
+
+
+@register_c_stage(RateDependentPreisachInverse)
+def _emit_rate_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
+    """Per-sample bisection of the rate-dependent Preisach (as
+    ``RateDependentPreisachInverse``)."""
+    assert ctx.dt is not None
+    m_lo, m_hi = model.checked_slopes(ctx.dt)  # type: ignore[attr-defined]
+    fwd = model.model  # type: ignore[attr-defined]
+    n, m = fwd.n, fwd.n_segments
+    f, c = ctx.field, ctx.const
+    consts, reset, helpers = _preisach_parts(fwd, ctx, rate=True)
+    consts += [f"static const double {c}MLO = {c_double(m_lo)};",
+               f"static const double {c}MHI = {c_double(m_hi)};"]
+    return CStage(
+        title=f"inverse rate-dependent Preisach model, {n} play operator(s) x {m} level "
+        "segment(s), per-sample bisection",
+        fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
+        constants=consts, reset=reset, helpers=helpers,
+        tune=[*_preisach_tune(fwd, c, "model."),
+              f"{c}K = $model.beta_s[0] / {c_double(ctx.dt)};",
+              *_rate_preisach_slopes(n, m, c)],
+        step=[
+            f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
+            f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
+            "  double lo, hi; int j;",
+            f"  if (x >= f0) {{ lo = ref + (x - f0) / {c}MHI; hi = ref + (x - f0) / {c}MLO; }}",
+            f"  else {{ lo = ref + (x - f0) / {c}MLO; hi = ref + (x - f0) / {c}MHI; }}",
+            "  for (j = 0; j < 100; ++j) {",
+            "      const double mid = 0.5 * (lo + hi);",
+            "      if (mid == lo || mid == hi) break;",
+            f"      if ({c}eval(mid, st->{f}z, st->{f}up, st->{f}has_prev, 0) < x) lo = mid;",
+            "      else hi = mid;",
+            "  }",
+            "  x = 0.5 * (lo + hi);",
+            f"  (void){c}eval(x, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
+            f"  st->{f}up = x;",
+            f"  st->{f}has_prev = 1; }}",
+        ],
+        needs_math=True,
     )
 
 

@@ -48,10 +48,12 @@ from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
 from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
+from .kernels import _level_sum, njit
 from .pi import PIModel
-from .validation import as_matrix, as_vector, frozen
+from .validation import as_finite_scalar, as_matrix, as_vector, frozen
 
-__all__ = ["PreisachInverse", "PreisachModel", "level_segments"]
+__all__ = ["PreisachInverse", "PreisachModel", "RateDependentPreisach",
+           "RateDependentPreisachInverse", "level_segments"]
 
 
 def level_segments(z: ArrayLike, knots: ArrayLike) -> Float2D:
@@ -313,3 +315,245 @@ class PreisachInverse(Model):
         m = self.model
         n, k = float(samples), float(m.n) * float(m.n_segments)
         return RunCost(50.0 * n * (k + 1.0), SAMPLE_BYTES * (2.0 * n + 2.0 * k))
+
+
+# ----------------------------------------------------------------------------- rate-dependent
+@njit(cache=True, nogil=True)
+def _rate_eval(x, r, e, W, k_rate, up, has_prev, zin, zout, write):  # pragma: no cover
+    """Output of the rate-dependent Preisach at input ``x`` from the plays ``zin`` (previous
+    input ``up``); the new plays go to ``zout`` when ``write``."""
+    extra = k_rate * abs(x - up) if has_prev else 0.0
+    acc = 0.0
+    for i in range(r.shape[0]):
+        if r[i] == 0.0:
+            zi = x  # the reversible play stays the identity at any rate
+        else:
+            ri = r[i] + extra
+            zi = zin[i]
+            if zi > x + ri:
+                zi = x + ri
+            if zi < x - ri:
+                zi = x - ri
+        if write:
+            zout[i] = zi
+        acc += _level_sum(zi, e, W, i)
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def _rate_output(u, r, e, W, k_rate, up, has_prev, z, out):  # pragma: no cover - compiled
+    """:func:`_rate_eval` sample by sample (plays ``z`` updated in place)."""
+    for k in range(u.shape[0]):
+        out[k] = _rate_eval(u[k], r, e, W, k_rate, up, has_prev, z, z, True)
+        up = u[k]
+        has_prev = True
+
+
+@njit(cache=True, nogil=True)
+def _rate_inverse(y, r, e, W, k_rate, m_lo, m_hi, up, has_prev, z, out):  # pragma: no cover
+    """Per-sample bisection of :func:`_rate_eval` (slopes in ``[m_lo, m_hi]``, ``m_lo > 0``):
+    the step from the previous input to the solution is bracketed by the slope bounds and
+    bisected to adjacent doubles (at most 100 steps); the plays then advance."""
+    for k in range(y.shape[0]):
+        yk = y[k]
+        ref = up if has_prev else 0.0
+        f0 = _rate_eval(ref, r, e, W, k_rate, up, has_prev, z, z, False)
+        if yk >= f0:
+            lo = ref + (yk - f0) / m_hi
+            hi = ref + (yk - f0) / m_lo
+        else:
+            lo = ref + (yk - f0) / m_lo
+            hi = ref + (yk - f0) / m_hi
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            if mid == lo or mid == hi:
+                break
+            if _rate_eval(mid, r, e, W, k_rate, up, has_prev, z, z, False) < yk:
+                lo = mid
+            else:
+                hi = mid
+        uk = 0.5 * (lo + hi)
+        _rate_eval(uk, r, e, W, k_rate, up, has_prev, z, z, True)
+        up = uk
+        has_prev = True
+        out[k] = uk
+    return up
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class RateDependentPreisach(Model):
+    """Preisach model whose relay thresholds move apart with the input rate.
+
+    ``y = Σ_i Σ_j W[i, j] seg_j(Γ_{r_i + β|u̇|}[u])``: the :class:`PreisachModel` (level-
+    dependent density) with the additive rate-dependent thresholds of
+    :class:`core.effects.RateDependentPI` (relay switching points ``s ± (r + β|u̇|)``). A play
+    of threshold 0 is the reversible part and stays the identity at any rate, so the model
+    differs from a delay. The rate is the backward difference ``(u_k - u_{k-1}) / dt``
+    (none at the first sample); the state is ``(play outputs, previous input)``.
+
+    Parameters
+    ----------
+    thresholds, weights, knots, state0
+        As in :class:`PreisachModel` (``weights`` of shape ``(n, len(knots) + 1)``).
+    beta_s : float
+        Rate coefficient β in seconds, ``>= 0`` (threshold increase per unit input rate).
+
+    Examples
+    --------
+    >>> m = RateDependentPreisach([0.0, 0.5], [[1.0, 1.0], [0.2, 0.6]], 1e-4, knots=[0.0])
+    >>> m.static.n_segments, m.beta_s
+    (2, 0.0001)
+    """
+
+    type_name: ClassVar[str] = "rate-preisach"
+    needs_dt: ClassVar[bool] = True
+    fields: ClassVar[tuple[Field, ...]] = (
+        *PreisachModel.fields[:2],  # thresholds, weights
+        Field("beta_s", "number", doc="threshold increase per unit input rate (s)",
+              title="Rate sensitivity β",
+              control=Control("β", "s", (0.0, 2.0), lower=0.0, scale=1e-4)),
+        *PreisachModel.fields[2:],  # knots, state0
+    )
+    thresholds: Float1D
+    weights: Float2D
+    beta_s: float
+    knots: Float1D = ()  # type: ignore[assignment]
+    state0: Float1D | None = None
+
+    def __post_init__(self) -> None:
+        base = PreisachModel(self.thresholds, self.weights, self.knots, self.state0)
+        for k in ("thresholds", "weights", "knots", "state0"):
+            object.__setattr__(self, k, getattr(base, k))
+        b = as_finite_scalar(self.beta_s, "beta_s")
+        if b < 0:
+            raise ParameterError(
+                f"beta_s = {b:g} must be >= 0 (thresholds cannot shrink with rate)"
+            )
+        object.__setattr__(self, "beta_s", b)
+
+    @property
+    def static(self) -> PreisachModel:
+        """The rate-independent Preisach model (β = 0)."""
+        return PreisachModel(self.thresholds, self.weights, self.knots, self.state0)
+
+    @property
+    def n(self) -> int:
+        """Number of play operators (threshold bands)."""
+        return int(self.thresholds.size)
+
+    @property
+    def n_segments(self) -> int:
+        """Number of level segments ``m = len(knots) + 1``."""
+        return int(self.knots.size + 1)
+
+    def default_state(self) -> tuple[Float1D, None]:
+        return (np.array(self.state0, copy=True), None)
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        z0, up = state
+        z = np.array(as_vector(z0, "state", length=self.n), copy=True)
+        y = np.empty(u.size)
+        _rate_output(u, self.thresholds, self.knots, self.weights, self.beta_s / float(dt),  # type: ignore[arg-type]
+                     0.0 if up is None else float(up), up is not None, z, y)
+        return y, (z, float(u[-1]) if u.size else up)
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Operators x segments per sample; work in element operations, memory in bytes."""
+        n, k = float(samples), float(self.n) * float(self.n_segments)
+        return RunCost(n * (1.0 + k + self.n), SAMPLE_BYTES * (2.0 * n + 2.0 * k))
+
+    def slope_bounds(self, dt: float) -> tuple[float, float]:
+        """Smallest and largest slope of the per-sample map ``u_k -> y_k`` at ``dt``.
+
+        A play of threshold 0 moves with slope 1, another with 0, ``1 - κ`` or ``1 + κ``
+        (``κ = β/dt``); its contribution's slope lies within its row of ``W``.
+        """
+        kap = self.beta_s / float(dt)
+        w = np.asarray(self.weights)
+        rev = self.thresholds == 0
+        lo = float(np.sum(w[rev].min(axis=1)))
+        hi = float(np.sum(w[rev].max(axis=1)))
+        wmax = w[~rev].max(axis=1) if (~rev).any() else np.zeros(0)
+        lo += float(np.sum(np.minimum(0.0, (1.0 - kap) * wmax)))
+        hi += float(np.sum((1.0 + kap) * wmax))
+        return lo, hi
+
+    def inverse(self) -> RateDependentPreisachInverse:
+        """Per-sample inverse (bisection, see :class:`RateDependentPreisachInverse`).
+
+        Raises
+        ------
+        NotInvertibleError
+            If the static model is not invertible (the rules of :class:`PreisachModel`).
+        """
+        self.static.check_invertible()
+        return RateDependentPreisachInverse(self)
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class RateDependentPreisachInverse(Model):
+    """Inverse of a :class:`RateDependentPreisach`, solved sample by sample.
+
+    At each sample the forward map ``u_k -> y_k`` (plays and previous input fixed) is
+    piecewise linear with slopes in ``[m_lo, m_hi]`` (:meth:`RateDependentPreisach.
+    slope_bounds`); with ``m_lo > 0`` it is strictly increasing, so ``u_k`` is bracketed from
+    one evaluation and bisected to adjacent doubles. The state is the forward model's.
+
+    Parameters
+    ----------
+    model : RateDependentPreisach
+        The forward model (its static part invertible).
+    """
+
+    type_name: ClassVar[str] = "rate-preisach-inverse"
+    needs_dt: ClassVar[bool] = True
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("model", "model", doc="the rate-dependent Preisach model being inverted"),
+    )
+    model: RateDependentPreisach
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, RateDependentPreisach):
+            raise ParameterError(
+                "rate-preisach-inverse.model must be a 'rate-preisach' model, got "
+                f"{type(self.model).__name__}"
+            )
+        self.model.static.check_invertible()
+
+    def checked_slopes(self, dt: float) -> tuple[float, float]:
+        """Slope bounds at ``dt``, checked to be positive."""
+        m_lo, m_hi = self.model.slope_bounds(dt)
+        if not m_lo > 0:
+            raise NotInvertibleError(
+                f"rate-dependent Preisach model at dt={dt:g} s is not monotone in the current "
+                f"input (smallest slope {m_lo:g} <= 0, beta_s/dt = {self.model.beta_s / dt:g}); "
+                "sample more slowly or reduce beta_s"
+            )
+        return m_lo, m_hi
+
+    def default_state(self) -> tuple[Float1D, None]:
+        return self.model.default_state()
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        m = self.model
+        m_lo, m_hi = self.checked_slopes(float(dt))  # type: ignore[arg-type]
+        z0, up = state
+        z = np.array(as_vector(z0, "state", length=m.n), copy=True)
+        out = np.empty(u.size)
+        up_f = _rate_inverse(u, m.thresholds, m.knots, m.weights, m.beta_s / float(dt),  # type: ignore[arg-type]
+                             m_lo, m_hi, 0.0 if up is None else float(up), up is not None, z,
+                             out)
+        return out, (z, float(up_f) if (u.size or up is not None) else None)
+
+    def inverse(self) -> RateDependentPreisach:
+        """The forward model."""
+        return self.model
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """Operators x segments x bisection steps per sample; work in element operations,
+        memory in bytes."""
+        m = self.model
+        n, k = float(samples), float(m.n) * float(m.n_segments)
+        return RunCost(60.0 * n * (k + 1.0), SAMPLE_BYTES * (2.0 * n + 2.0 * k))

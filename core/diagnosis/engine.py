@@ -902,17 +902,17 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
             run.ambiguous.append({"effects": [named, hidden], "chosen": named,
                                   "reason": why.format(best=named),
                                   "experiment": EFFECTS[hidden].experiment})
-    if (EFFECTS[named].dynamics is not None and new.structure.base_kind != "pi"
+    if (EFFECTS[named].dynamics is not None and new.structure.bouc_wen
             and run.rate_testable):
-        # rate-dependent plays are not modelled on a Preisach base: say so rather than
+        # rate-dependent plays are not modelled on a Bouc-Wen base (on a Preisach base they
+        # are: the rate candidate widens the levelled plays' thresholds): say so rather than
         # let the dynamics stand in for them unchallenged
         rate = rate_effect()
         run.findings[-1].ambiguous_with.append(rate)
         run.ambiguous.append({
             "effects": [named, rate], "chosen": named,
-            "reason": ("on a Preisach base (level-dependent memory)" if new.structure.levels
-                       else "on a Bouc-Wen base")
-            + f" rate-dependent hysteresis is not modelled, so {named} was not compared with it",
+            "reason": "on a Bouc-Wen base rate-dependent hysteresis is not modelled, so "
+            f"{named} was not compared with it",
             "experiment": DECIDING_EXPERIMENT.get(frozenset({named, rate}),
                                                   EFFECTS[rate].experiment)})
     return new

@@ -123,7 +123,7 @@ class DiagnosableEffect:
         effect, reported ambiguous with it whenever it is chosen.
     rate_dependent_hysteresis : bool
         The hysteresis itself changes with the input rate (the rival of a transport effect
-        in rule 5; not modelled on a Preisach base).
+        in rule 5).
     linear : bool
         Its parameters are linear weights (one least-squares solve per jackknife fold).
     stage_order : int

@@ -35,7 +35,7 @@ from core.effects import (
 from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from core.lti import LinearSystem
 from core.pi import PIModel
-from core.preisach import PreisachModel
+from core.preisach import PreisachModel, RateDependentPreisach
 
 #: Paper 001, Example 1 (input about ±4).
 EX1 = PIModel(0.72, [0.45 * i for i in range(1, 7)], [0.6, 0.48, 0.36, 0.24, 0.12, 0.012])
@@ -56,6 +56,9 @@ BOUC_WEN = BoucWenModel(
     state0=[0.1, -0.2, 0.0],
     input0=0.5,
 )
+#: The same with relay thresholds widened by 2e-5 s x |du/dt| (β/dt = 0.2 at :data:`DT`).
+RATE_PREISACH = RateDependentPreisach(PREISACH.thresholds, PREISACH.weights, 2e-5,
+                                      PREISACH.knots, PREISACH.state0)
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
 
@@ -121,6 +124,8 @@ def _zoo() -> dict[str, Model]:
         "preisach-inverse": PREISACH.inverse(),
         "bouc-wen": BOUC_WEN,
         "bouc-wen-inverse": BOUC_WEN.inverse(),
+        "rate-preisach": RATE_PREISACH,
+        "rate-preisach-inverse": RATE_PREISACH.inverse(),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)

@@ -24,10 +24,11 @@ def _untestable(ctx: FitContext) -> str | None:
 
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
-    """Rate-dependent PI thresholds r_i + beta |du/dt|: a 1-D search over beta."""
+    """Rate-dependent play thresholds r_i + beta |du/dt| (of the PI, or of the plays whose
+    level segments make a Preisach base): a 1-D search over beta."""
     s = cur.structure
-    if s.beta_s is not None or s.levels or s.bouc_wen:
-        return None  # rate-dependent plays on a Preisach or Bouc-Wen base are not modelled
+    if s.beta_s is not None or s.bouc_wen:
+        return None  # rate-dependent plays on a Bouc-Wen base are not modelled
     span = max(float(np.ptp(r.u)) for r in ctx.records)
     rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
     grid = np.geomspace(1e-5, 0.3, 12) * span / rmax
@@ -41,8 +42,8 @@ register(DiagnosableEffect(
     family="dynamics",
     explanation=(
         'The hysteresis itself depends on the input rate: the play thresholds widen '
-        'with |du/dt| (rate-dependent PI), widening the loops at higher rates while the '
-        'reversible part is unaffected.'
+        'with |du/dt| (rate-dependent PI; on a Preisach base, the relay thresholds), '
+        'widening the loops at higher rates while the reversible part is unaffected.'
     ),
     equation='y = p0 u + sum_i p_i Play[r_i + beta |du/dt|](u)',
     experiment='full-stroke sines (or triangles) at >= 2 rates a decade apart, same amplitude',
