@@ -10,16 +10,18 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-#: bench_batch.py --quick starts two LocalClusters and fits 20 recordings three times (~45 s).
+#: bench_batch.py starts two LocalClusters and fits its recordings three times; a smoke run
+#: needs every step once, not --quick's 20 recordings (~45 s): 4 recordings in 2 rounds.
 SCRIPTS = ["bench_kernels.py", "bench_fit.py", "bench_app_latency.py",
            pytest.param("bench_batch.py", marks=pytest.mark.slow)]
+ARGS = {"bench_batch.py": ["--count", "4", "--rounds", "2"]}
 
 
 @pytest.mark.parametrize("script", SCRIPTS)
 def test_benchmark_runs_in_quick_mode(script: str) -> None:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / script), "--quick"],
+        [sys.executable, str(ROOT / "benchmarks" / script), *ARGS.get(script, ["--quick"])],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
     )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-4000:]
