@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.commands.serve import SHUTDOWN_S
 from app.services.config import Config
 from app.services.sessions import SessionRegistry
 from app.services.store import SessionState, SessionStore
@@ -123,7 +124,10 @@ def test_kill_9_and_restart_lose_nothing_and_sigterm_is_quick(tmp_path: Path) ->
         t0 = time.monotonic()
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=20)
-        assert time.monotonic() - t0 <= 5.0
+        # the server stops itself at SHUTDOWN_S + 1.5 s (2.2 s measured on a quiet machine);
+        # the bound catches a hang (before: it never stopped while a job ran), with room for a
+        # loaded 2-core machine running two test processes (14 s once at load 15-21)
+        assert time.monotonic() - t0 <= 3 * (SHUTDOWN_S + 1.5)
 
 
 def test_the_log_is_checkpointed_in_the_background(tmp_path: Path) -> None:
