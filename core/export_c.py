@@ -1133,6 +1133,29 @@ def _emit_rate(model: Model, ctx: StageContext) -> CStage:
     )
 
 
+def _rate_bisection_step(f: str, c: str) -> list[str]:
+    """Step of a rate-dependent inverse: bisect for the input whose output (from the stored
+    state, through the stage's ``eval`` helper) is ``x`` within the slope bounds
+    ``MLO``/``MHI``, then advance the state with it (rate-dependent PI and Preisach)."""
+    return [
+        f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
+        f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
+        "  double lo, hi; int j;",
+        f"  if (x >= f0) {{ lo = ref + (x - f0) / {c}MHI; hi = ref + (x - f0) / {c}MLO; }}",
+        f"  else {{ lo = ref + (x - f0) / {c}MLO; hi = ref + (x - f0) / {c}MHI; }}",
+        "  for (j = 0; j < 100; ++j) {",
+        "      const double mid = 0.5 * (lo + hi);",
+        "      if (mid == lo || mid == hi) break;",
+        f"      if ({c}eval(mid, st->{f}z, st->{f}up, st->{f}has_prev, 0) < x) lo = mid;",
+        "      else hi = mid;",
+        "  }",
+        "  x = 0.5 * (lo + hi);",
+        f"  (void){c}eval(x, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
+        f"  st->{f}up = x;",
+        f"  st->{f}has_prev = 1; }}",
+    ]
+
+
 @register_c_stage(RateDependentPIInverse)
 def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
     """Per-sample bisection of the rate-dependent PI (as ``RateDependentPIInverse``)."""
@@ -1159,23 +1182,7 @@ def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
               "      lo += mn; hi += mx;",
               "  }",
               f"  {c}MLO = lo; {c}MHI = hi; }}"],
-        step=[
-            f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
-            f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
-            "  double lo, hi; int j;",
-            f"  if (x >= f0) {{ lo = ref + (x - f0) / {c}MHI; hi = ref + (x - f0) / {c}MLO; }}",
-            f"  else {{ lo = ref + (x - f0) / {c}MLO; hi = ref + (x - f0) / {c}MHI; }}",
-            "  for (j = 0; j < 100; ++j) {",
-            "      const double mid = 0.5 * (lo + hi);",
-            "      if (mid == lo || mid == hi) break;",
-            f"      if ({c}eval(mid, st->{f}z, st->{f}up, st->{f}has_prev, 0) < x) lo = mid;",
-            "      else hi = mid;",
-            "  }",
-            "  x = 0.5 * (lo + hi);",
-            f"  (void){c}eval(x, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
-            f"  st->{f}up = x;",
-            f"  st->{f}has_prev = 1; }}",
-        ],
+        step=_rate_bisection_step(f, c),
         needs_math=True,
     )
 
@@ -1610,23 +1617,7 @@ def _emit_rate_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
         tune=[*_preisach_tune(fwd, c, "model."),
               f"{c}K = $model.beta_s[0] / {c_double(ctx.dt)};",
               *_rate_preisach_slopes(n, m, c)],
-        step=[
-            f"{{ const double ref = st->{f}has_prev ? st->{f}up : 0.0;",
-            f"  const double f0 = {c}eval(ref, st->{f}z, st->{f}up, st->{f}has_prev, 0);",
-            "  double lo, hi; int j;",
-            f"  if (x >= f0) {{ lo = ref + (x - f0) / {c}MHI; hi = ref + (x - f0) / {c}MLO; }}",
-            f"  else {{ lo = ref + (x - f0) / {c}MLO; hi = ref + (x - f0) / {c}MHI; }}",
-            "  for (j = 0; j < 100; ++j) {",
-            "      const double mid = 0.5 * (lo + hi);",
-            "      if (mid == lo || mid == hi) break;",
-            f"      if ({c}eval(mid, st->{f}z, st->{f}up, st->{f}has_prev, 0) < x) lo = mid;",
-            "      else hi = mid;",
-            "  }",
-            "  x = 0.5 * (lo + hi);",
-            f"  (void){c}eval(x, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
-            f"  st->{f}up = x;",
-            f"  st->{f}has_prev = 1; }}",
-        ],
+        step=_rate_bisection_step(f, c),
         needs_math=True,
     )
 
