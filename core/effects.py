@@ -56,7 +56,7 @@ from ._typing import ArrayLike, Float1D
 from .base import SAMPLE_BYTES, Chain, Control, Field, Model, RunCost, register_model
 from .exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from .pi import PIModel
-from .preisach import PreisachModel, RateDependentPreisach
+from .preisach import PreisachModel, RateDependentPreisach, checked_rate_slopes
 from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
 
 __all__ = [
@@ -1335,14 +1335,8 @@ class RateDependentPIInverse(Model):
 
     def checked_slopes(self, dt: float) -> tuple[float, float]:
         """Slope bounds at ``dt``, checked to be positive."""
-        m_lo, m_hi = self.forward.slope_bounds(dt)
-        if not m_lo > 0:
-            raise NotInvertibleError(
-                f"rate-dependent PI at dt={dt:g} s is not monotone in the current input "
-                f"(smallest slope {m_lo:g} <= 0, beta_s/dt = {self.beta_s / dt:g}); sample "
-                "more slowly or reduce beta_s"
-            )
-        return m_lo, m_hi
+        return checked_rate_slopes("rate-dependent PI", self.forward.slope_bounds(dt),
+                                   self.beta_s, dt)
 
     def default_state(self) -> tuple[Float1D, None]:
         return (np.array(self.state0, copy=True), None)

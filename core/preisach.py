@@ -89,6 +89,20 @@ def level_segments(z: ArrayLike, knots: ArrayLike) -> Float2D:
     return out
 
 
+def checked_rate_slopes(what: str, bounds: tuple[float, float], beta_s: float, dt: float
+                        ) -> tuple[float, float]:
+    """The slope bounds ``(m_lo, m_hi)`` of a rate-dependent model at sample time ``dt`` (s),
+    or :class:`NotInvertibleError` naming ``what`` when the smallest is not positive (the
+    per-sample map is then not monotone in the current input)."""
+    m_lo, m_hi = bounds
+    if not m_lo > 0:
+        raise NotInvertibleError(
+            f"{what} at dt={dt:g} s is not monotone in the current input (smallest slope "
+            f"{m_lo:g} <= 0, beta_s/dt = {beta_s / dt:g}); sample more slowly or reduce beta_s"
+        )
+    return m_lo, m_hi
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
 class PreisachModel(Model):
@@ -524,14 +538,8 @@ class RateDependentPreisachInverse(Model):
 
     def checked_slopes(self, dt: float) -> tuple[float, float]:
         """Slope bounds at ``dt``, checked to be positive."""
-        m_lo, m_hi = self.model.slope_bounds(dt)
-        if not m_lo > 0:
-            raise NotInvertibleError(
-                f"rate-dependent Preisach model at dt={dt:g} s is not monotone in the current "
-                f"input (smallest slope {m_lo:g} <= 0, beta_s/dt = {self.model.beta_s / dt:g}); "
-                "sample more slowly or reduce beta_s"
-            )
-        return m_lo, m_hi
+        return checked_rate_slopes("rate-dependent Preisach model",
+                                   self.model.slope_bounds(dt), self.model.beta_s, dt)
 
     def default_state(self) -> tuple[Float1D, None]:
         return self.model.default_state()
