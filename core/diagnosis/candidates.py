@@ -24,7 +24,7 @@ from .shapes import (
     apply_shape,
     shape_thresholds,
 )
-from .structure import Fit, Structure, dynamics_stages, with_stage
+from .structure import Fit, Structure
 
 __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_time_constant",
            "placed_on", "scalar_search", "search_context", "shape_input_range",
@@ -261,34 +261,4 @@ def build_candidate(ctx: FitContext, name: str, cur: Fit) -> Candidate | None:
         # benchmark's static-map plants keep the PI: engine.BW_MIN_GAIN); a loop-shape search
         # would integrate its elements anew for every trial map
         return None
-    if e.dynamics is not None and cur.structure.dynamics:
-        return _in_series(ctx, name, cur)
     return e.build(ctx, cur)
-
-
-def _in_series(ctx: FitContext, name: str, cur: Fit) -> Candidate | None:
-    """Output stage ``name`` in series with the one stage ``cur`` holds, where the registry
-    allows the pair (:func:`~core.diagnosis.registry.stage_pairs`): ``name`` searched alone
-    on ``cur`` without its dynamics, then both refitted jointly (:func:`stage_pair`: a
-    single stage fitted alone takes a larger time constant or damping than it has in the
-    pair). The parameters and sigmas are those of ``name`` (sigmas of its fit alone)."""
-    spec = EFFECTS[name].dynamics
-    assert spec is not None
-    order = with_stage(cur.structure.dynamics, name, tuple(1.0 for _ in spec.params))
-    if order is None:
-        return None
-    other, vals = dynamics_stages(cur.structure.dynamics)[0]
-    base = ctx.fit(cur.structure.with_(dynamics=()), cur)
-    alone = EFFECTS[name].build(ctx, base)
-    if alone is None:
-        return None
-    spec_o = EFFECTS[other].dynamics
-    assert spec_o is not None
-    mine = (name, alone[1])
-    theirs = (other, dict(zip(spec_o.params, vals, strict=True)))
-    first, second = (theirs, mine) if order[0] == other else (mine, theirs)
-    got = stage_pair(ctx, base, first, second)
-    if got is None:
-        return None
-    params = {k.split(".", 1)[1]: v for k, v in got[1].items() if k.startswith(name + ".")}
-    return got[0], params, alone[2]

@@ -103,7 +103,7 @@ from .results import (
 from .shapes import shape_thresholds
 from .specs import DECIDING_EXPERIMENT, FAMILY_PRIORITY
 from .stats import HeldOut, heldout_comparison, noise_floor
-from .structure import Fit, Structure, dynamics_stages
+from .structure import Fit, Structure
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -730,16 +730,8 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
         dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
         if (dec.passes and EFFECTS[name].transport and run.rate_testable
-                and not _split_ok(run, _split_reference(ctx, cur, c))):
+                and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
-            decision = "contradicted"
-        elif (dec.passes and EFFECTS[name].dynamics is not None and cur.structure.dynamics
-              and _lacks_signature(name, c.parameters)):
-            # rule 9 for a stage in series with another: without its own signature it only
-            # reshapes the low-pass of the stage already there
-            dec = replace(dec, passes=False, reasons=(
-                "in series with the output dynamics already found, "
-                + str(_lacks_signature(name, c.parameters)),))
             decision = "contradicted"
         elif dec.passes and EFFECTS[name].sign_locked and not _locking_ok(run, cur):
             dec = replace(dec, passes=False, reasons=(_LOCKING_REASON,))
@@ -757,16 +749,6 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
 
 _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
                  "would: the reversible/hysteretic split points to rate-dependent hysteresis")
-
-
-def _split_reference(ctx: FitContext, cur: Fit, c: _Candidate) -> Fit:
-    """The model whose residual rule 5 reads for candidate ``c``: ``cur``, or for an output
-    stage in series with the one ``cur`` holds, ``c``'s structure without ``c`` (the other
-    stage at the values refitted with it: before, that stage stood in for both, so its
-    residual does not show the candidate's reversible share)."""
-    if EFFECTS[c.name].dynamics is None or not cur.structure.dynamics:
-        return cur
-    return ctx.fit(c.fit.structure.without(c.name, cur.structure), cur)
 
 
 def _split_ok(run: _Run, cur: Fit) -> bool:
@@ -812,38 +794,7 @@ def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str
                         "blocks)",))
     sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
     sub.strict = True  # the blocks alone: the test rows chose the effects before this one
-    if EFFECTS[c.name].dynamics is not None and cur.structure.dynamics:
-        return earns_place(_blocks_where_it_lives(sub, cur, c.fit), n_tests, None, accepted)
     return earns_place(compare_heldout(sub, cur, c.fit), n_tests, None, accepted)
-
-
-def _blocks_where_it_lives(sub: FitContext, cur: Fit, new: Fit) -> HeldOut:
-    """Rule 4 for an output stage in series with the one ``cur`` holds: ``cur`` against
-    ``new`` on the cross-fitted training blocks of ``sub`` (linear weights refitted without
-    each block, as :func:`~core.diagnosis.crossfitting.compare_heldout`), its significance
-    also tested where the stage lives, as on the test rows (:func:`_where_it_lives`: the
-    block rows where the two refitted models' predictions differ most)."""
-    eb, ea, where = [], [], []
-    for tr_f, blk in sub.folds:
-        fc = FitContext(sub.records, tr_f, blk, parent=sub)
-        fa, fb = fc.fit(cur.structure, cur), fc.fit(new.structure, new)
-        eb += fc.test_res(fa)
-        ea += fc.test_res(fb)
-        where += [np.abs(a - b)[m] for a, b, m in zip(fb.pred, fa.pred, blk, strict=True)]
-    h = heldout_comparison(eb, ea)
-    if not (np.isfinite(h.z) and h.z >= WHERE_MIN_Z):
-        return h
-    pooled = np.concatenate(where) if where else np.zeros(0)
-    if pooled.size < 50 or not np.any(pooled > 0):
-        return h
-    cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
-    keep = [d >= cut for d in where]
-    hw = heldout_comparison([e[k] for e, k in zip(eb, keep, strict=True)],
-                            [e[k] for e, k in zip(ea, keep, strict=True)])
-    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
-        return h
-    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
 
 
 def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow],
@@ -940,19 +891,7 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
         refine: list[dict[str, Any]] = []
         new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
         run.rounds.extend(RoundRow.from_dict(d) for d in refine)
-    if c_spec.dynamics is not None and cur.structure.dynamics:
-        # a second stage in series, judged against the first by the rules already: the two
-        # are no longer one name standing in for the other
-        stages = dict(dynamics_stages(new.structure.dynamics))
-        run.ambiguous[:] = [a for a in run.ambiguous if set(a["effects"]) != set(stages)]
-        for f in run.findings:
-            if f.name in stages:
-                f.ambiguous_with = [o for o in f.ambiguous_with if o not in stages]
-                spec = EFFECTS[f.name].dynamics
-                assert spec is not None  # (the first stage was refitted with the second)
-                f.parameters = dict(f.parameters, **dict(zip(spec.params, stages[f.name],
-                                                             strict=True)))
-    elif c_spec.dynamics is not None and not ctx.strict:
+    if c_spec.dynamics is not None and not ctx.strict:
         new = _recheck_dynamics(ctx, new, run.findings[-1], run.ambiguous, run.rounds, rnd + 1)
     elif not ctx.strict:
         new = _recheck_earlier_dynamics(run, new, rnd)
@@ -993,8 +932,8 @@ def _recheck_earlier_dynamics(run: _Run, new: Fit, rnd: int) -> Fit:
     better, and reported ambiguous with those it does not beat."""
     earlier = next((f for f in run.findings[:-1] if EFFECTS[f.name].dynamics is not None),
                    None)
-    if earlier is None or len(dynamics_stages(new.structure.dynamics)) > 1:
-        return new  # (two stages in series: each was judged against the other)
+    if earlier is None:
+        return new
     old, rmse_after = earlier.name, earlier.heldout_rmse_after
     new = _recheck_dynamics(run.ctx, new, earlier, run.ambiguous, run.rounds, rnd + 1)
     earlier.heldout_rmse_after = rmse_after  # its own step's score stays
@@ -1092,13 +1031,10 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
 
 def _remaining(todo: list[str], best: str) -> list[str]:
     """Effects still to test after ``best`` joined the model (one dynamics effect besides
-    ``rate``: the structure holds one linear block after the hysteresis, or two stages in
-    series where the registry allows the pair, :func:`~core.diagnosis.registry.stage_pairs`)."""
+    ``rate``: the structure holds one linear block after the hysteresis)."""
     fam = EFFECTS[best].family
-    pairs = {frozenset(p) for p in stage_pairs()}
     return [e for e in todo if e != best and not (
-        EFFECTS[e].dynamics is not None and fam == "dynamics"
-        and frozenset((best, e)) not in pairs)]
+        EFFECTS[e].dynamics is not None and fam == "dynamics")]
 
 
 def _loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFinding]
@@ -1141,28 +1077,21 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
     import scipy.optimize as so
 
     dyn = cur.structure.dynamics
-    stages = dynamics_stages(dyn)
-    if not stages or any(not any(f.name == n for f in findings) for n, _ in stages):
+    f = next((f for f in findings if f.name == (dyn[0] if dyn else None)), None)
+    spec = EFFECTS[dyn[0]].dynamics if dyn else None
+    if spec is None or f is None:
         return cur
+    keys = spec.params
     dt = min(r.dt for r in ctx.records)
-    x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
+    x0 = np.log(np.asarray(dyn[1:], dtype=float))
 
-    def stage(lx: np.ndarray) -> tuple | None:
-        out: list = []
-        o = 0
-        for n, vals in stages:
-            v = tuple(float(a) for a in np.exp(lx[o : o + len(vals)]))
-            spec = EFFECTS[n].dynamics
-            assert spec is not None
-            if not spec.valid(v, dt):
-                return None
-            out += [n, *v]
-            o += len(vals)
-        return tuple(out)
+    def stage(lx: np.ndarray) -> tuple:
+        return (dyn[0], *(float(v) for v in np.exp(lx)))
 
     def obj(lx: np.ndarray) -> float:
-        d = stage(lx)
-        return np.inf if d is None else ctx.rss(cur.structure.with_(dynamics=d), cur)
+        if not spec.valid(tuple(float(v) for v in np.exp(lx)), dt):
+            return np.inf
+        return ctx.rss(cur.structure.with_(dynamics=stage(lx)), cur)
 
     f0 = obj(x0)
     if x0.size == 1:
@@ -1171,25 +1100,18 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
                                options={"xatol": POLISH_XATOL, "maxiter": 20})
         x, fx = np.array([r.x]), float(r.fun)
     else:
-        # steps of 0.03 in the log of the first value of each stage, 0.1 in the others
-        steps = [0.03 if k == 0 else 0.1 for _, vals in stages for k in range(len(vals))]
-        simplex = np.vstack([x0] + [x0 + st * np.eye(x0.size)[k] for k, st in enumerate(steps)])
+        simplex = np.array([x0, x0 + [0.03, 0.0], x0 + [0.0, 0.1]])
         r = so.minimize(obj, x0, method="Nelder-Mead",
-                        options={"xatol": POLISH_XATOL, "fatol": 0.0, "maxfev": 40 * x0.size,
+                        options={"xatol": POLISH_XATOL, "fatol": 0.0, "maxfev": 80,
                                  "initial_simplex": simplex})
         x, fx = r.x, float(r.fun)
-    new = stage(x)
-    if not fx < f0 or new is None:
+    if not fx < f0:
         return cur
-    old = dyn
+    old, new = dyn, stage(x)
     for g in findings:
         if g.structure is not None and g.structure.dynamics == old:
             g.structure = g.structure.with_(dynamics=new)
-    for (n, _), (_, vals) in zip(stages, dynamics_stages(new), strict=True):
-        f = next(f for f in findings if f.name == n)
-        spec = EFFECTS[n].dynamics
-        assert spec is not None
-        f.parameters = dict(f.parameters, **dict(zip(spec.params, vals, strict=True)))
+    f.parameters = dict(f.parameters, **dict(zip(keys, new[1:], strict=True)))
     return ctx.fit(cur.structure.with_(dynamics=new), cur)
 
 

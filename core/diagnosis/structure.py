@@ -41,11 +41,11 @@ from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state
 from .grid import baseline_thresholds
-from .registry import EFFECTS, stage_pairs
+from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "dynamics_stages",
-           "fit_structure", "with_stage"]
+           "fit_structure"]
 
 
 def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
@@ -68,25 +68,6 @@ def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
         out.append((dyn[i], tuple(dyn[i + 1 : i + 1 + n])))
         i += 1 + n
     return out
-
-
-def with_stage(dyn: tuple, name: str, values: tuple[float, ...]) -> tuple | None:
-    """The output dynamics ``dyn`` (a :attr:`Structure.dynamics` tuple) with stage ``name``
-    (its ``values``) added: the stage alone when ``dyn`` is empty; with the stage already
-    there as the stage ``dyn`` holds, in series order, when the registry lets the two act in
-    series (:func:`~core.diagnosis.registry.stage_pairs`); ``None`` otherwise (one of a kind,
-    at most two stages)."""
-    if not dyn:
-        return (name, *values)
-    have = dynamics_stages(dyn)
-    if len(have) != 1:
-        return None
-    other, v = have[0]
-    if (other, name) in stage_pairs():
-        return (other, *v, name, *values)
-    if (name, other) in stage_pairs():
-        return (name, *values, other, *v)
-    return None
 
 
 @dataclass(frozen=True)
@@ -186,10 +167,6 @@ class Structure:
         f = EFFECTS[name].structure_field if name in EFFECTS else None
         if f is None:
             raise ValueError(f"effect {name!r} cannot be switched off in a structure")
-        if EFFECTS[name].dynamics is not None and len(dynamics_stages(self.dynamics)) > 1:
-            # one of two stages in series: the other stays
-            return replace(self, dynamics=tuple(
-                x for n, v in dynamics_stages(self.dynamics) if n != name for x in (n, *v)))
         return replace(self, **{f: getattr(base, f)})
 
 
