@@ -27,9 +27,8 @@ from .shapes import (
 from .structure import Fit, Structure
 
 __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_time_constant",
-           "placed_on",
-           "scalar_search", "search_context", "shape_input_range", "sigma_from_curvature",
-           "with_shape_stage", "worth_refining"]
+           "placed_on", "scalar_search", "search_context", "shape_input_range",
+           "sigma_from_curvature", "stage_pair", "with_shape_stage", "worth_refining"]
 
 #: ``(fit, parameters, uncertainty)`` of one candidate effect.
 Candidate = tuple[Fit, dict, dict]
@@ -179,6 +178,65 @@ def nelder_mead(f, x0: np.ndarray, step: float, maxfev: int) -> tuple[np.ndarray
                     options={"maxfev": maxfev, "initial_simplex": simplex, "xatol": 1e-3,
                              "fatol": 1e-12})
     return np.asarray(r.x), float(r.fun)
+
+
+#: Factors on each parameter of the single-stage fits from which a pair of output stages
+#: in series starts (:func:`stage_pair`): a single stage standing in for two fits a larger
+#: time constant or damping than either has in the pair.
+PAIR_START_FACTORS = (0.1, 0.4, 1.0)
+#: Structure evaluations of the Nelder-Mead refinement of a pair.
+PAIR_MAXFEV = 40
+
+
+def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tuple[str, dict]
+               ) -> Candidate | None:
+    """Two output dynamics stages in series (``first`` then ``second``, each ``(name,
+    parameters)`` of its single-stage fit on ``base``) fitted jointly on top of ``base``
+    (which holds no dynamics): a grid of :data:`PAIR_START_FACTORS` on every parameter of
+    the single fits, then Nelder-Mead in log space on the training RSS.
+
+    Returns ``(fit, parameters, {})`` with the parameters keyed ``"name.parameter"``, or
+    ``None`` when ``base`` already holds dynamics.
+    """
+    if base.structure.dynamics:
+        return None
+    dt = min(r.dt for r in ctx.records)
+    specs = [(n, EFFECTS[n].dynamics) for n, _ in (first, second)]
+    x_single = np.log(np.asarray([float(p[k]) for (_, p), (_, sp) in zip(
+        (first, second), specs, strict=True) for k in sp.params]))  # type: ignore[union-attr]
+    sizes = [len(sp.params) for _, sp in specs]  # type: ignore[union-attr]
+
+    def stages(lx: np.ndarray) -> tuple | None:
+        v = np.exp(lx)
+        out: list = []
+        o = 0
+        for (n, sp), m in zip(specs, sizes, strict=True):
+            vals = tuple(float(a) for a in v[o : o + m])
+            if not sp.valid(vals, dt):  # type: ignore[union-attr]
+                return None
+            out += [n, *vals]
+            o += m
+        return tuple(out)
+
+    def obj(lx: np.ndarray) -> float:
+        dyn = stages(lx)
+        return np.inf if dyn is None else ctx.rss(base.structure.with_(dynamics=dyn), base)
+
+    grid = np.array(np.meshgrid(*[np.log(PAIR_START_FACTORS)] * x_single.size)
+                    ).reshape(x_single.size, -1).T
+    vals = [obj(x_single + g) for g in grid]
+    x0 = x_single + grid[int(np.argmin(vals))]
+    x, fx = nelder_mead(obj, x0, 0.2, PAIR_MAXFEV)
+    if not fx <= min(vals):
+        x = x0
+    dyn = stages(x)
+    if dyn is None:
+        return None
+    fit = ctx.fit(base.structure.with_(dynamics=dyn), base)
+    params = {f"{n}.{k}": float(a) for n, sp in specs for k, a in zip(
+        sp.params, dyn[dyn.index(n) + 1 : dyn.index(n) + 1 + len(sp.params)],  # type: ignore[union-attr]
+        strict=True)}
+    return fit, params, {}
 
 
 def worth_refining(ctx: FitContext, rss_grid: float, ref: Structure, cur: Fit) -> bool:

@@ -54,9 +54,11 @@ from ..exceptions import ParameterError
 from ..fitting.metrics import percent_of_range
 from .acceptance import (
     Decision,
+    clearly_better,
     decide,
     earns_place,
     generalises,
+    pair_beats_single,
     split_supports_transport,
     trend_follows_steps,
     yields_to_lookalike,
@@ -71,6 +73,7 @@ from .between import (
     leave_one_recording_out,
 )
 from .candidates import build_candidate
+from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import (
     ambiguous_parameters,
@@ -87,7 +90,7 @@ from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .periodic import steady_state_history
-from .registry import EFFECTS, output_dynamics, rate_effect
+from .registry import EFFECTS, output_dynamics, rate_effect, stage_pairs
 from .results import (
     ACCEPT_RULE,
     BaseChoice,
@@ -1311,11 +1314,35 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
     amb = []
     for other, hh in vs.items():
         oh = results[other][3]
+        # rule 10: a look-alike not clearly beaten on the same structure stays open
+        open_ = not clearly_better(hh) or other == unnamed
         rounds.append(RoundRow(rnd, f"recheck:{other}", oh.gain, hh.z, hh.sign_p, False,
-                               "ambiguous" if undecided(hh) or other == unnamed
-                               else "rejected", results[other][1]))
-        if undecided(hh) or other == unnamed:
+                               "ambiguous" if open_ else "rejected", results[other][1]))
+        if open_:
             amb.append(other)
+    # rule 11: two stages in series that beat the named one keep their members open
+    in_pair: dict[str, str] = {}
+    for a, b in stage_pairs():
+        if a not in results or b not in results:
+            continue
+        got = build_pair(ctx, base, (a, results[a][1]), (b, results[b][1]))
+        if got is None:
+            continue
+        # tested also where the pair changes the prediction most, as a single stage is
+        hp = _where_it_lives(ctx, fit, got[0], heldout_comparison(ctx.test_res(fit),
+                                                                  ctx.test_res(got[0])))
+        rings = not any(_lacks_signature(n, {k.split(".", 1)[1]: v for k, v in got[1].items()
+                                             if k.startswith(n + ".")}) for n in (a, b))
+        ok = rings and pair_beats_single(hp)
+        rounds.append(RoundRow(rnd, f"recheck:{a}+{b}", heldout_comparison(te0, ctx.test_res(
+            got[0])).gain, hp.z, hp.sign_p, False, "ambiguous" if ok else "rejected", got[1]))
+        for n in (a, b) if ok else ():
+            if n != best:
+                in_pair[n] = (f"{a} followed by {b}, fitted together, leaves "
+                              f"{100 * hp.gain:.0f} % less held-out MSE than {best} alone "
+                              f"(DM z {hp.z:.1f}): the output may pass through both")
+                if n not in amb:
+                    amb.append(n)
     if best != finding.name:
         # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
         # the new name
@@ -1333,14 +1360,23 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:
+        hh = vs.get(other)
+        if other == unnamed and results[other][3].mse_after < h.mse_after:
+            why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
+                   f" % less held-out MSE than {best}")
+        elif other == unnamed or hh is None or undecided(hh):
+            why = (f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
+                   "signed-rank p >= 0.01)")
+        elif not clearly_better(hh):
+            why = (f"{best} predicts the held-out rows better than {other}, but {other} "
+                   f"leaves only {100 * (hh.mse_before / hh.mse_after - 1):.1f} % more "
+                   "held-out MSE")
+        else:
+            why = in_pair[other]
         ambiguous.append({
             "effects": [best, other],
             "chosen": best,
-            "reason": (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
-                       f" % less held-out MSE than {best}" if other == unnamed
-                       and results[other][3].mse_after < h.mse_after else
-                       f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
-                       "signed-rank p >= 0.01)") + " at the final resolution" + (
+            "reason": why + " at the final resolution" + (
                 f"; {other} is not named: {lacks}" if lacks and other == unnamed else ""),
             "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
                                                   "recordings at more frequencies"),

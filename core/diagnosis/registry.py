@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from ..base import Model
 
 __all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "effect", "output_dynamics",
-           "rate_effect", "register"]
+           "rate_effect", "register", "stage_pairs"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,11 @@ class OutputDynamics:
         stage's own signature (a mode too damped to ring acts only as a delay), so that a
         look-alike the recordings do not separate from it is named instead
         (:func:`core.diagnosis.engine._recheck_dynamics`); ``None``: always shows it.
+    combines_with : tuple of str
+        Output dynamics stages of another kind that may follow this one in series (a lag
+        then a mode): the look-alike recheck also fits the pair jointly, and a pair that
+        predicts the held-out rows clearly better than the single stage named keeps its
+        members from being ruled out (:func:`stage_pairs`).
     """
 
     params: tuple[str, ...]
@@ -58,6 +63,7 @@ class OutputDynamics:
     transfer: Callable[[tuple[float, ...]], tuple[list[float], list[float]]] | None = None
     valid: Callable[[tuple[float, ...], float], bool] = lambda values, dt: True
     lacks_signature: Callable[[tuple[float, ...]], str | None] | None = None
+    combines_with: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -191,6 +197,13 @@ def output_dynamics() -> tuple[str, ...]:
     """Names of the registered output dynamics stages (their look-alikes are re-compared at
     the refined resolution)."""
     return tuple(n for n, e in EFFECTS.items() if e.dynamics is not None)
+
+
+def stage_pairs() -> tuple[tuple[str, str], ...]:
+    """Pairs ``(first, second)`` of output dynamics stages that may act in series
+    (:attr:`OutputDynamics.combines_with` of ``first``)."""
+    return tuple((n, o) for n, e in EFFECTS.items() if e.dynamics is not None
+                 for o in e.dynamics.combines_with)
 
 
 def rate_effect() -> str:

@@ -44,7 +44,30 @@ from .grid import baseline_thresholds
 from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
-__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "fit_structure"]
+__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "dynamics_stages",
+           "fit_structure"]
+
+
+def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
+    """The output dynamics stages of a :attr:`Structure.dynamics` tuple, in series order:
+    ``[(name, values), ...]`` (each name followed by as many values as its registered
+    :attr:`~core.diagnosis.registry.OutputDynamics.params`).
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a registered output dynamics stage.
+    """
+    out: list[tuple[str, tuple[float, ...]]] = []
+    i = 0
+    while i < len(dyn):
+        spec = EFFECTS[dyn[i]].dynamics if dyn[i] in EFFECTS else None
+        if spec is None:
+            raise ValueError(f"unknown dynamics {dyn[i]!r}")
+        n = len(spec.params)
+        out.append((dyn[i], tuple(dyn[i + 1 : i + 1 + n])))
+        i += 1 + n
+    return out
 
 
 @dataclass(frozen=True)
@@ -64,7 +87,10 @@ class Structure:
     creep_taus : tuple of float
         Time constants of the creep lag bank (``()`` = no creep).
     dynamics : tuple
-        ``()``, ``("delay", τ_d)``, ``("lag", τ)`` or ``("resonance", f_n, ζ)``.
+        ``()``, ``("delay", τ_d)``, ``("lag", τ)`` or ``("resonance", f_n, ζ)``; two stages
+        in series are their tuples concatenated (``("lag", τ, "resonance", f_n, ζ)``,
+        :func:`dynamics_stages`; pairs the registry allows,
+        :attr:`~core.diagnosis.registry.OutputDynamics.combines_with`).
     drift_degree : int
         Legendre degree of the drift in time per recording (0 = none).
     offsets : bool
@@ -125,7 +151,7 @@ class Structure:
         baseline's (an output dynamics stage: the stage is ``e`` itself)."""
         v = getattr(self, e.structure_field)
         if e.dynamics is not None:
-            return bool(v) and v[0] == e.name
+            return any(n == e.name for n, _ in dynamics_stages(v))
         if e.structure_field == "history":
             return any(v)
         return v != _BASELINE_FIELDS[e.structure_field]
@@ -482,6 +508,15 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if not dyn or not rows.size:
         out[...] = x[rows]
         return out
+    stages = dynamics_stages(dyn)
+    if len(stages) > 1:
+        # stages in series: every one but the last on all rows up to the last needed
+        every = np.arange(int(rows[-1]) + 1)
+        xs = np.ascontiguousarray(x[: every.size], dtype=np.float64)
+        for name, v in stages[:-1]:
+            xs = _dyn_rows(xs, (name, *v), dt, every)
+        name, v = stages[-1]
+        return _dyn_rows(xs, (name, *v), dt, rows, out=out)
     stage = EFFECTS[dyn[0]].dynamics
     if stage is None:
         raise ValueError(f"unknown dynamics {dyn[0]!r}")
@@ -828,10 +863,10 @@ def build_model(
         stages.append(Asymmetry(asym, center, half))
     if s.creep_taus:
         stages.append(Creep(list(s.creep_taus), np.maximum(creep, 0.0)))
-    if s.dynamics:
-        dyn = EFFECTS[s.dynamics[0]].dynamics
+    for name, v in dynamics_stages(s.dynamics):
+        dyn = EFFECTS[name].dynamics
         assert dyn is not None
-        stages.append(dyn.model(tuple(s.dynamics[1:])))
+        stages.append(dyn.model(v))
     stages.append(Offset(float(bias[k] if s.offsets else bias[0])))
     if s.drift_degree:
         stages.append(Drift(drift[k], float(rec.t[-1] - rec.t[0])))

@@ -30,6 +30,8 @@ register(DiagnosableEffect(
     structure_field="dynamics",
     stage_order=4,
     dynamics=OutputDynamics(("tau_s",), model=lambda v: Lag(v[0]),
-                            transfer=lambda v: ([1.0], [v[0], 1.0])),
+                            transfer=lambda v: ([1.0], [v[0], 1.0]),
+                            # an amplifier / sensor low-pass before a mechanical mode
+                            combines_with=("resonance",)),
     transport=True,
 ))
