@@ -56,20 +56,15 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     e = np.concatenate(rows_e)
     X = np.concatenate(rows)
     nb = X.shape[1] - 4
-    J0 = X[:, :nb]
-    Q, _ = np.linalg.qr(J0)
-
-    def part(a):
-        return a - Q @ (Q.T @ a)
-
-    er = part(e)
+    # the base columns partialled out of the others and the residual: the trailing block T
+    # of the triangular factor of [base, v_rev, v_hys, dx, ddx, e] is the factor of those
+    # five partialled columns (Q T with orthonormal Q), so the regressions below run on T
+    T = np.linalg.qr(np.column_stack((X, e)), mode="r")[nb:, nb:]
     out: dict[str, Any] = {}
-    V = part(X[:, nb : nb + 2])
-    c = np.linalg.lstsq(V, er, rcond=None)[0]
+    c = np.linalg.lstsq(T[:, 0:2], T[:, 4], rcond=None)[0]
     out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
     out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
-    G = part(X[:, nb + 2 :])
-    g = np.linalg.lstsq(G, er, rcond=None)[0]
+    g = np.linalg.lstsq(T[:, 2:4], T[:, 4], rcond=None)[0]
     out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
     out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
     return out

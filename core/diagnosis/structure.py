@@ -13,6 +13,7 @@ the diagnosis reports are the numbers ``hyst simulate`` reproduces.
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
@@ -241,20 +242,34 @@ class _Cache:
         self.g: dict[Any, tuple[Any, np.ndarray]] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
-                  w: np.ndarray | None = None) -> np.ndarray:
-        """``B @ V`` memoised on ``key`` (recording, basis key and row count) and the identity
-        of ``V``, row-major (the dynamics filter runs time outer, columns inner).
+                  w: np.ndarray | None = None, start: int = 0,
+                  r: np.ndarray | None = None) -> np.ndarray:
+        """``(B @ V)[start:]`` memoised on ``key`` (recording, basis key and row count) and the
+        identity of ``V``, row-major (the dynamics filter runs time outer, columns inner).
 
         ``w``: the play-bank input on the rows of ``B`` (rate-independent plays only): where
         it repeats (a hold, a flat stretch before the excitation) the plays do not move and
         the row of ``B`` repeats exactly, so only the distinct rows are multiplied.
+        ``start``: the first row needed. A first request forms the rows from ``start`` on; a
+        later one for the same ``B`` and ``V`` that starts earlier (a search over the
+        dynamics moves it) forms them all, which then serve every start.
+        ``r``: the thresholds of the columns when ``B`` is a play bank (column 0 the input):
+        the product is then formed by :func:`_bank_rows_times` where the input turns rarely.
         """
         key = (key, id(V))
         hit = _recent(self.p, key)
         if hit is not None and hit[0] is V:
-            return hit[1]
+            if hit[2] <= start:
+                return hit[1][start - hit[2]:]
+            start0 = 0
+        else:
+            start0 = start
         P = None
-        if w is not None and w.size > 1:
+        if r is not None and B.shape[0] > start0:
+            P = _bank_rows_times(B, V, r, np.arange(start0, B.shape[0]))
+        B = B[start0:]
+        w = None if w is None else w[start0:]
+        if P is None and w is not None and w.size > 1:
             new = np.empty(w.size, dtype=bool)
             new[0] = True
             np.not_equal(w[1:], w[:-1], out=new[1:])
@@ -262,10 +277,10 @@ class _Cache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        if len(self.p) >= 16:
+        if len(self.p) >= 16 and key not in self.p:
             self.p.pop(next(iter(self.p)))
-        self.p[key] = (V, P)
-        return P
+        self.p[key] = (V, P, start0)
+        return P[start - start0:]
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
                rss_only: bool) -> tuple:
@@ -408,9 +423,10 @@ def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
         # (a strided view where the rows are evenly spaced: no gather before the concatenation)
         rows.append(B[_row_selector(idx[:: max(1, idx.size // 2000)])])
     A = np.concatenate(rows)
-    scale = 1.0 / np.sqrt(np.sum(A * A, axis=0) + 1e-300)
-    As = A * scale
-    ev, vec = np.linalg.eigh(As.T @ As)
+    # the Gram of the column-scaled rows, scaled after the product (one pass over A)
+    G = A.T @ A
+    scale = 1.0 / np.sqrt(np.diag(G) + 1e-300)
+    ev, vec = np.linalg.eigh(scale[:, None] * G * scale[None, :])
     ev, vec = ev[::-1], vec[:, ::-1]
     q = int(min(24, max(1, np.sum(ev > 1e-10 * ev[0]))))
     return (scale[:, None] * vec[:, :q]).copy()
@@ -457,6 +473,144 @@ def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def _play_projection(w, r, z, V, rows, out):  # pragma: no cover - compiled
+    """Rows ``rows`` of ``B @ V``, ``B`` the play bank of thresholds ``r`` (``r[0] = 0``: the
+    input itself) on input ``w``, without forming ``B`` or the ``(N, n) x (n, q)`` product.
+
+    ``z`` ``(n,)``: the bank's row 0 (the play outputs after ``w[0]``); overwritten.
+    On a monotone stretch a play either follows the input (``z_j = w -/+ r_j``) or is
+    stuck, so ``B[i] @ V = C + w_i S - R`` with ``C`` the stuck plays' ``z_j V_j``, ``S`` the
+    moving plays' ``V_j`` and ``R`` their ``+/- r_j V_j``: a row costs ``O(q)``, and the exact
+    play update (:func:`core.kernels.play_matrix`) runs over all plays only at a reversal or
+    where a stuck play may start to move (its level is within round-off of the input). The
+    sums are rebuilt after ``4 n`` changes, so their round-off stays that of a few sums.
+    Writes ``out`` ``(rows.size, q)`` (increasing rows).
+    """
+    n = r.size
+    q = V.shape[1]
+    status = np.zeros(n, dtype=np.int8)  # 0 stuck, 1 follows w - r, -1 follows w + r
+    C = np.zeros(q)
+    S = np.zeros(q)
+    R = np.zeros(q)
+    for j in range(n):
+        for c in range(q):
+            C[c] += z[j] * V[j, c]
+    n_up = 0  # moving plays with r > 0 by direction
+    n_dn = 0
+    up_lvl = -np.inf  # the input levels where a stuck play starts to move up / down
+    dn_lvl = np.inf
+    changes = 4 * n + 1  # force the first exact pass to set the levels
+    rmax = 0.0
+    for j in range(n):
+        rmax = max(rmax, r[j])
+    k = 0
+    last = rows[-1] if rows.size else -1
+    for i in range(last + 1):
+        wi = w[i]
+        fast = True
+        if i > 0:
+            tol = 8.0 * 2.220446049250313e-16 * (abs(wi) + rmax)
+            wp = w[i - 1]
+            fast = wi == wp or (wi > wp and n_dn == 0 and wi < up_lvl - tol) or (
+                wi < wp and n_up == 0 and wi > dn_lvl + tol)
+            if not fast:
+                for j in range(n):
+                    lo = wi - r[j]
+                    hi = wi + r[j]
+                    # (a moving play's state is not stored on the fast rows: it is the
+                    # previous input -/+ its threshold, formed as the play update forms it)
+                    zj = z[j] if status[j] == 0 else (wp - r[j] if status[j] == 1
+                                                      else wp + r[j])
+                    if zj > hi:
+                        zj = hi
+                    if zj < lo:
+                        zj = lo
+                    st = 1 if zj == lo else (-1 if zj == hi else 0)
+                    if st != status[j]:
+                        old = status[j]
+                        if old == 0:
+                            for c in range(q):
+                                C[c] -= z[j] * V[j, c]
+                        else:
+                            for c in range(q):
+                                S[c] -= V[j, c]
+                                R[c] -= old * r[j] * V[j, c]
+                            if r[j] > 0:
+                                if old == 1:
+                                    n_up -= 1
+                                else:
+                                    n_dn -= 1
+                        if st == 0:
+                            for c in range(q):
+                                C[c] += zj * V[j, c]
+                        else:
+                            for c in range(q):
+                                S[c] += V[j, c]
+                                R[c] += st * r[j] * V[j, c]
+                            if r[j] > 0:
+                                if st == 1:
+                                    n_up += 1
+                                else:
+                                    n_dn += 1
+                        status[j] = st
+                        changes += 1
+                    z[j] = zj
+        if changes > 4 * n:
+            # rebuild the sums from the play states (bounds their round-off) and the levels
+            for c in range(q):
+                C[c] = 0.0
+                S[c] = 0.0
+                R[c] = 0.0
+            for j in range(n):
+                if status[j] == 0:
+                    for c in range(q):
+                        C[c] += z[j] * V[j, c]
+                else:
+                    for c in range(q):
+                        S[c] += V[j, c]
+                        R[c] += status[j] * r[j] * V[j, c]
+            changes = 0
+        if changes == 0 or not fast:
+            up_lvl = np.inf
+            dn_lvl = -np.inf
+            for j in range(n):
+                if status[j] == 0:
+                    up_lvl = min(up_lvl, z[j] + r[j])
+                    dn_lvl = max(dn_lvl, z[j] - r[j])
+        if i == rows[k]:
+            if i == 0:
+                for c in range(q):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += z[j] * V[j, c]
+                    out[k, c] = acc
+            else:
+                for c in range(q):
+                    out[k, c] = C[c] + wi * S[c] - R[c]
+            k += 1
+    return out
+
+
+def _bank_rows_times(B: np.ndarray, V: np.ndarray, r: np.ndarray, rows: np.ndarray
+                     ) -> np.ndarray | None:
+    """``(B @ V)[rows]`` for a play bank ``B`` ``(N, n)`` of thresholds ``r`` (``r[0] = 0``,
+    column 0 the input) by :func:`_play_projection`, from row ``rows[0]`` on; ``None`` when
+    the input turns so often (measurement noise on it) that the product is cheaper."""
+    if not rows.size:
+        return None
+    s0 = int(rows[0])
+    w = np.ascontiguousarray(B[s0 : int(rows[-1]) + 1, 0])
+    d = np.diff(w)
+    d = d[d != 0]
+    turns = np.count_nonzero((d[1:] > 0) != (d[:-1] > 0))
+    if turns * r.size > 0.5 * w.size:
+        return None
+    out = np.empty((rows.size, V.shape[1]))
+    return _play_projection(w, np.ascontiguousarray(r, dtype=np.float64), B[s0].copy(),
+                            np.ascontiguousarray(V), np.asarray(rows, dtype=np.int64) - s0, out)
+
+
+@njit(cache=True, nogil=True)
 def _delay_rows(x, rows, m, f, out):  # pragma: no cover - compiled
     """Rows ``rows`` of ``x`` delayed by ``m + f`` samples (``0 <= f < 1``), linearly
     interpolated and held at ``x[0]`` before the start:
@@ -493,6 +647,50 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     num, den = stage.transfer(tuple(dyn[1:]))
     b, a, zi = discretised_tf(num, den, dt)
     return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
+
+
+#: Decay a filtered start transient must reach before the first row :func:`_filter_start`
+#: lets through: far below the round-off of double precision, so the rows are those of the
+#: filter run from the first sample (to round-off).
+WARM_DECAY = 1e-30
+
+
+def _filter_start(dyn: tuple, dt: float, first: int) -> int:
+    """First sample from which the output dynamics ``dyn`` must run (started in the steady
+    state of that sample, as :func:`_dyn_rows` does) for rows ``>= first`` to equal, to
+    round-off, those of the dynamics run from sample 0.
+
+    A delay reads back a fixed number of samples (exact); a lag or resonance forgets its
+    start state geometrically with its slowest discrete pole ``rho``: the start is taken
+    ``log(WARM_DECAY) / log(rho)`` samples (plus the filter order) before ``first``, where
+    the start transient has decayed below :data:`WARM_DECAY` of the signal. 0 when the
+    dynamics never forget (``rho >= 1``) or that reaches back past the first sample.
+    """
+    if not dyn or first <= 0:
+        return 0
+    stage = EFFECTS[dyn[0]].dynamics
+    if stage is None:
+        return 0
+    if stage.transfer is None:  # a pure (fractional) transport delay
+        D = dyn[1] / dt
+        return max(0, first - int(np.floor(D + 1e-12)) - 1)
+    warm = _filter_warmup(tuple(dyn), float(dt))
+    return max(0, first - warm) if warm >= 0 else 0
+
+
+@functools.lru_cache(maxsize=1024)
+def _filter_warmup(dyn: tuple, dt: float) -> int:
+    """Samples the filtered dynamics ``dyn`` need to forget their start state (see
+    :func:`_filter_start`); -1 when they never do."""
+    stage = EFFECTS[dyn[0]].dynamics
+    assert stage is not None and stage.transfer is not None
+    num, den = stage.transfer(tuple(dyn[1:]))
+    a = discretised_tf(num, den, dt)[1]
+    rho = float(np.max(np.abs(np.roots(a)))) if a.size > 1 else 0.0
+    if not rho < 1.0:
+        return -1
+    warm = (np.log(WARM_DECAY) / np.log(rho) if rho > 0 else 0.0) + a.size + 1
+    return int(np.ceil(warm)) if np.isfinite(warm) else -1
 
 
 def _gram(X: np.ndarray, nq: int, cache: _Cache, key: Any, owner: Any) -> np.ndarray:
@@ -641,6 +839,12 @@ def fit_structure(
     # are the same in every refresh of the bilinear regressors, so they are filled once
     X = np.empty((ys.size, ncol + 1))
     blocks = []
+    # thresholds of the play-bank columns (rate-independent plays: the reduced products
+    # are then formed along the input, _bank_rows_times)
+    r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
+              and not s.levels else None)
+    starts = [_filter_start(s.dynamics, dts[k], int(idx[0]) if idx.size else 0)
+              for k, idx in enumerate(rows)]
     o = 0
     for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
         blk = X[o : o + idx.size]
@@ -648,12 +852,16 @@ def fit_structure(
         if V is not None and not s.dynamics:
             # only the solved rows are needed (a strided view when they are evenly spaced,
             # as in a single training window: the same product without gathering them)
-            blk[:, :nq] = banks[k][sel[k]] @ V
+            P = None if r_bank is None else _bank_rows_times(banks[k], V, r_bank, idx)
+            blk[:, :nq] = banks[k][sel[k]] @ V if P is None else P
         else:
-            P = banks[k][:last] if V is None else cache.projected(
+            # (the dynamics run from where their start transient has died out by the first
+            # solved row, not from sample 0: the same rows to round-off)
+            s0 = starts[k]
+            P = banks[k][s0:last] if V is None else cache.projected(
                 banks[k][:last], V, (k, vkey, last),
-                w=raw[k][:last, 0] if s.beta_s is None else None)
-            _dyn_rows(P, s.dynamics, dts[k], idx, out=blk[:, :nq])
+                w=raw[k][:last, 0] if s.beta_s is None else None, start=s0, r=r_bank)
+            _dyn_rows(P, s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
         blk[:, nM:ncol] = 0.0
         blk[:, nM + (k if s.offsets else 0)] = 1.0
         if s.drift_degree:
@@ -688,17 +896,20 @@ def fit_structure(
             x_prev = f0.x_pi  # type: ignore[union-attr]
         if needs_x:
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
+                s0 = starts[k]
                 x = x_prev[k][:last]  # type: ignore[index]
                 cols = []
                 if s.asymmetry:
-                    q = (x - center) / half
+                    q = (x[s0:] - center) / half
                     cols.append(np.column_stack((q**2, q**3)))
                 if s.creep_taus:
+                    # (the creep lags run from sample 0: only the output dynamics start late)
                     cols.append(np.column_stack(
-                        [foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x for tau in s.creep_taus]
+                        [(foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x)[s0:]
+                         for tau in s.creep_taus]
                     ))
                 _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
-                          dts[k], idx, out=blocks[k][:, nq:nM])
+                          dts[k], idx - s0, out=blocks[k][:, nq:nM])
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return _unconstrained_rss(X)
