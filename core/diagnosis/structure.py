@@ -326,6 +326,10 @@ class _Cache:
             self.v[key] = V
         return V
 
+    def has_bank(self, k: int, r: np.ndarray, hist: tuple, shape: tuple = ()) -> bool:
+        """Whether the rate-independent play bank of recording ``k`` is in the cache."""
+        return (k, hist, None, r.size, float(r[-1]), shape) in self.d
+
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
              shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
         """``[w, plays(w)]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``;
@@ -416,13 +420,20 @@ def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
     return idx
 
 
+def _basis_rows(m: np.ndarray) -> np.ndarray:
+    """The training rows (mask ``m``) the reduced basis is taken on: about 2000."""
+    idx = np.flatnonzero(m)
+    return idx[:: max(1, idx.size // 2000)]
+
+
 def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
-    rows = []
-    for B, m in zip(banks, train, strict=True):
-        idx = np.flatnonzero(m)
-        # (a strided view where the rows are evenly spaced: no gather before the concatenation)
-        rows.append(B[_row_selector(idx[:: max(1, idx.size // 2000)])])
-    A = np.concatenate(rows)
+    # (a strided view where the rows are evenly spaced: no gather before the concatenation)
+    return _basis_of(np.concatenate([B[_row_selector(_basis_rows(m))]
+                                     for B, m in zip(banks, train, strict=True)]))
+
+
+def _basis_of(A: np.ndarray) -> np.ndarray:
+    """Leading right-singular directions (at most 24) of the column-scaled rows ``A``."""
     # the Gram of the column-scaled rows, scaled after the product (one pass over A)
     G = A.T @ A
     scale = 1.0 / np.sqrt(np.diag(G) + 1e-300)
@@ -468,6 +479,31 @@ def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
             if take:
                 out[k, j] = yi
         if take:
+            k += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _play_rows(u, r, z, rows, out):  # pragma: no cover - compiled
+    """Rows ``rows`` (increasing) of the play bank of thresholds ``r`` on input ``u`` from the
+    state ``z`` (updated in place), without storing the others: the update of
+    :func:`core.kernels.play_matrix`, so the same numbers."""
+    n = r.size
+    k = 0
+    for i in range(rows[-1] + 1 if rows.size else 0):
+        ui = u[i]
+        for j in range(n):
+            lo = ui - r[j]
+            hi = ui + r[j]
+            zj = z[j]
+            if zj > hi:
+                zj = hi
+            if zj < lo:
+                zj = lo
+            z[j] = zj
+        if i == rows[k]:
+            for j in range(n):
+                out[k, j] = z[j]
             k += 1
     return out
 
@@ -600,14 +636,65 @@ def _bank_rows_times(B: np.ndarray, V: np.ndarray, r: np.ndarray, rows: np.ndarr
         return None
     s0 = int(rows[0])
     w = np.ascontiguousarray(B[s0 : int(rows[-1]) + 1, 0])
+    if not _turns_rarely(w, r.size):
+        return None
+    return _input_rows_times(w, B[s0], V, r, np.asarray(rows, dtype=np.int64) - s0)
+
+
+def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
+                   train: Sequence[np.ndarray], rows: list[np.ndarray], upto: list[int],
+                   starts: list[int], vkey: Any
+                   ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None:
+    """What a ranking solve of rate-independent plays needs of banks not in ``cache``: the
+    reduced basis (memoised on ``vkey``), and per recording the bank input (the input through
+    the loop shape, up to ``upto``) and the bank row the products start from (``starts``, or
+    the first solved row of ``rows`` without dynamics). The plays run along the input storing
+    only the basis rows and those (:func:`_play_rows`, the numbers of the full bank). ``None``
+    when a bank is in the cache or an input reverses often (the product is then cheaper)."""
+    r = np.asarray(s.thresholds)
+    r_full = np.r_[0.0, r]
+    if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
+        return None
+    inputs, row0, samples = [], [], []
+    for k, (rec, m, idx) in enumerate(zip(records, train, rows, strict=True)):
+        w = apply_shape(s.shape, rec.u[: upto[k]])
+        first = (starts[k] if s.dynamics else int(idx[0])) if idx.size else 0
+        if idx.size and not _turns_rarely(w[first : int(idx[-1]) + 1], r_full.size):
+            return None
+        hist = s.history[k]
+        z0 = play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)
+        ib = _basis_rows(m)
+        need = np.unique(np.r_[ib, first]).astype(np.int64) if w.size else ib
+        B = _play_rows(np.ascontiguousarray(w, dtype=np.float64), r_full, np.r_[0.0, z0],
+                       need, np.empty((need.size, r_full.size)))
+        inputs.append(w)
+        row0.append(B[np.searchsorted(need, first)] if w.size else np.zeros(r_full.size))
+        samples.append(B[np.searchsorted(need, ib)])
+    V = _recent(cache.v, vkey)
+    if V is None:
+        V = _basis_of(np.concatenate(samples))
+        if len(cache.v) >= 64:
+            cache.v.pop(next(iter(cache.v)))
+        cache.v[vkey] = V
+    return V, inputs, row0
+
+
+def _turns_rarely(w: np.ndarray, n: int) -> bool:
+    """Whether the input ``w`` reverses rarely enough (``n`` plays) for
+    :func:`_play_projection` to beat the product."""
     d = np.diff(w)
     d = d[d != 0]
-    turns = np.count_nonzero((d[1:] > 0) != (d[:-1] > 0))
-    if turns * r.size > 0.5 * w.size:
-        return None
+    return np.count_nonzero((d[1:] > 0) != (d[:-1] > 0)) * n <= 0.5 * w.size
+
+
+def _input_rows_times(w: np.ndarray, z0: np.ndarray, V: np.ndarray, r: np.ndarray,
+                      rows: np.ndarray) -> np.ndarray:
+    """Rows ``rows`` of ``B @ V``, ``B`` the bank of thresholds ``r`` on input ``w`` whose row 0
+    is ``z0`` (:func:`_play_projection`)."""
     out = np.empty((rows.size, V.shape[1]))
-    return _play_projection(w, np.ascontiguousarray(r, dtype=np.float64), B[s0].copy(),
-                            np.ascontiguousarray(V), np.asarray(rows, dtype=np.int64) - s0, out)
+    return _play_projection(np.ascontiguousarray(w, dtype=np.float64),
+                            np.ascontiguousarray(r, dtype=np.float64),
+                            np.array(z0, dtype=np.float64), np.ascontiguousarray(V), rows, out)
 
 
 @njit(cache=True, nogil=True)
@@ -798,16 +885,28 @@ def fit_structure(
     nrec = len(records)
     layout = cache.layout(records, train, rss_only)
     rows, sel, ends, upto, ys, ylo, yhi, center, half, dts = layout
-    raw = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
-                   shape=s.shape, bouc_wen=s.bouc_wen)
-        for k, rec in enumerate(records)
-    ]
-    banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
-    needs_x = s.asymmetry or bool(s.creep_taus)
-    V = None
+    starts = [_filter_start(s.dynamics, dts[k], int(idx[0]) if idx.size else 0)
+              for k, idx in enumerate(rows)]
     vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels, s.bouc_wen)
-    if rss_only and reduce and not s.levels:
+    # a ranking solve of rate-independent plays whose bank is not kept (a history or loop
+    # shape met once): the plays run along the input storing only the rows the reduced
+    # basis and the products start from (_sampled_banks), not their (N, n) outputs
+    sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
+               if rss_only and reduce and not s.levels and s.beta_s is None
+               and not s.bouc_wen else None)
+    if sampled is not None:
+        raw = banks = []
+        V, inputs, row0 = sampled
+    else:
+        raw = [
+            cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
+                       shape=s.shape, bouc_wen=s.bouc_wen)
+            for k, rec in enumerate(records)
+        ]
+        banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
+        V = None
+    needs_x = s.asymmetry or bool(s.creep_taus)
+    if rss_only and reduce and not s.levels and V is None:
         # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
         # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
         # Duhem plant a true 346 Hz mode ranked worse than none)
@@ -843,13 +942,20 @@ def fit_structure(
     # are then formed along the input, _bank_rows_times)
     r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
               and not s.levels else None)
-    starts = [_filter_start(s.dynamics, dts[k], int(idx[0]) if idx.size else 0)
-              for k, idx in enumerate(rows)]
     o = 0
     for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
         blk = X[o : o + idx.size]
         blocks.append(blk)
-        if V is not None and not s.dynamics:
+        if sampled is not None:
+            s0 = int(idx[0]) if not s.dynamics else starts[k]
+            if not s.dynamics:
+                blk[:, :nq] = _input_rows_times(inputs[k][s0 : last], row0[k], V, r_bank,
+                                                idx - s0)
+            elif idx.size:
+                _dyn_rows(_input_rows_times(inputs[k][s0:last], row0[k], V, r_bank,
+                                            np.arange(last - s0)),
+                          s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
+        elif V is not None and not s.dynamics:
             # only the solved rows are needed (a strided view when they are evenly spaced,
             # as in a single training window: the same product without gathering them)
             P = None if r_bank is None else _bank_rows_times(banks[k], V, r_bank, idx)
