@@ -37,7 +37,7 @@ def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
 
 def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
-    rows_e, rows = [], []
+    rows = []
     for k, (rec, p, x, m) in enumerate(zip(ctx.records, cur.pred, cur.x_pi, ctx.train,
                                            strict=True)):
         dx = np.gradient(x, rec.dt)
@@ -50,16 +50,14 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
                            bouc_wen=cur.structure.bouc_wen)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
-        rows_e.append((rec.y - p)[idx])
         rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
-                                     ddx[idx])))
-    e = np.concatenate(rows_e)
+                                     ddx[idx], (rec.y - p)[idx])))
     X = np.concatenate(rows)
-    nb = X.shape[1] - 4
+    nb = X.shape[1] - 5
     # the base columns partialled out of the others and the residual: the trailing block T
     # of the triangular factor of [base, v_rev, v_hys, dx, ddx, e] is the factor of those
     # five partialled columns (Q T with orthonormal Q), so the regressions below run on T
-    T = np.linalg.qr(np.column_stack((X, e)), mode="r")[nb:, nb:]
+    T = np.linalg.qr(X, mode="r")[nb:, nb:]
     out: dict[str, Any] = {}
     c = np.linalg.lstsq(T[:, 0:2], T[:, 4], rcond=None)[0]
     out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])

@@ -664,11 +664,14 @@ def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
         hist = s.history[k]
         z0 = play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)
         ib = _basis_rows(m)
-        need = np.unique(np.r_[ib, first]).astype(np.int64) if w.size else ib
+        # (the basis rows are increasing: the start row goes in its place)
+        at = int(np.searchsorted(ib, first))
+        need = (ib if at < ib.size and ib[at] == first else np.insert(ib, at, first)).astype(
+            np.int64)
         B = _play_rows(np.ascontiguousarray(w, dtype=np.float64), r_full, np.r_[0.0, z0],
                        need, np.empty((need.size, r_full.size)))
         inputs.append(w)
-        row0.append(B[np.searchsorted(need, first)] if w.size else np.zeros(r_full.size))
+        row0.append(B[np.searchsorted(need, first)] if need.size else np.zeros(r_full.size))
         samples.append(B[np.searchsorted(need, ib)])
     V = _recent(cache.v, vkey)
     if V is None:

@@ -96,3 +96,32 @@ def test_ranking_and_full_fits_equal_those_without_the_shortcuts(monkeypatch, dy
     assert got_rss == pytest.approx(want_rss, rel=1e-9)
     assert got.train_rss == pytest.approx(want.train_rss, rel=1e-9)
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * np.ptp(y))
+
+
+def test_lookalike_split_equals_the_full_regressions() -> None:
+    """The reversible/hysteretic split and g1, g2 (regressions of the residual on two columns
+    with the play bank partialled out) equal, by the Frisch-Waugh-Lovell theorem, the last
+    two coefficients of the full regressions on the bank and those columns."""
+    from core.diagnosis.context import FitContext
+    from core.diagnosis.lookalikes import lookalike_evidence
+
+    t, u = _sine(12001)
+    y = PIModel(0.5, [4.0, 12.0], [0.4, 0.2])(u)
+    rng = np.random.default_rng(5)
+    rec = Recording(t, u, y + 0.3 * np.gradient(y, t) * 1e-2 + 0.01 * rng.standard_normal(
+        u.size), "sine")
+    train = [t <= 9.0]
+    ctx = FitContext([rec], train, [~train[0]])
+    r = tuple(float(v) for v in shape_thresholds((), [rec], train, 8))
+    cur = ctx.fit(st.Structure(r, ((),)))
+    got = lookalike_evidence(ctx, cur)
+    m = train[0]
+    dx = np.gradient(cur.x_pi[0], rec.dt)
+    vrev = cur.p0 * np.gradient(u, rec.dt)
+    J = np.column_stack((ctx.cache.bank(0, rec, np.asarray(r), (), None), np.ones(u.size)))[m]
+    e = (rec.y - cur.pred[0])[m]
+    c = np.linalg.lstsq(np.column_stack((J, vrev[m], (dx - vrev)[m])), e, rcond=None)[0][-2:]
+    g = np.linalg.lstsq(np.column_stack((J, dx[m], np.gradient(dx, rec.dt)[m])), e,
+                        rcond=None)[0][-2:]
+    assert [got["a_rev_s"], got["a_hys_s"]] == pytest.approx(c, rel=1e-6)
+    assert [got["g1_s"], got["g2_s2"]] == pytest.approx(g, rel=1e-6)
