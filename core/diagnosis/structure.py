@@ -758,14 +758,22 @@ def _filter_start(dyn: tuple, dt: float, first: int) -> int:
     """
     if not dyn or first <= 0:
         return 0
-    stage = EFFECTS[dyn[0]].dynamics
-    if stage is None:
-        return 0
-    if stage.transfer is None:  # a pure (fractional) transport delay
-        D = dyn[1] / dt
-        return max(0, first - int(np.floor(D + 1e-12)) - 1)
-    warm = _filter_warmup(tuple(dyn), float(dt))
-    return max(0, first - warm) if warm >= 0 else 0
+    # stages in series (``(name, *values, name, *values)``): their warm-ups add up
+    warm, i = 0, 0
+    while i < len(dyn):
+        stage = EFFECTS[dyn[i]].dynamics if dyn[i] in EFFECTS else None
+        if stage is None:
+            return 0
+        one = tuple(dyn[i : i + 1 + len(stage.params)])
+        i += len(one)
+        if stage.transfer is None:  # a pure (fractional) transport delay
+            warm += int(np.floor(one[1] / dt + 1e-12)) + 1
+            continue
+        w = _filter_warmup(one, float(dt))
+        if w < 0:
+            return 0
+        warm += w
+    return max(0, first - warm)
 
 
 @functools.lru_cache(maxsize=1024)

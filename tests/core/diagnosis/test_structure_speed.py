@@ -125,3 +125,19 @@ def test_lookalike_split_equals_the_full_regressions() -> None:
                         rcond=None)[0][-2:]
     assert [got["a_rev_s"], got["a_hys_s"]] == pytest.approx(c, rel=1e-6)
     assert [got["g1_s"], got["g2_s2"]] == pytest.approx(g, rel=1e-6)
+
+
+def test_stages_in_series_start_from_the_sum_of_their_warm_ups() -> None:
+    """A lag then a mode (a ``dynamics`` tuple holding two stages) starts no later than each
+    stage alone would need, and its rows equal those of the series run from sample 0."""
+    _, u = _sine()
+    x = u[:, None].copy()
+    rows = np.arange(20000, 30001, 2)
+    lag, mode = ("lag", 0.004), ("resonance", 60.0, 0.3)
+    s0 = st._filter_start(lag + mode, 1e-3, int(rows[0]))
+    assert s0 < min(st._filter_start(lag, 1e-3, 20000), st._filter_start(mode, 1e-3, 20000))
+    every = np.arange(30001)
+    want = st._dyn_rows(st._dyn_rows(x, lag, 1e-3, every), mode, 1e-3, rows)
+    tail = every[: every.size - s0]
+    got = st._dyn_rows(st._dyn_rows(x[s0:], lag, 1e-3, tail), mode, 1e-3, rows - s0)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
