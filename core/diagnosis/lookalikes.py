@@ -37,7 +37,7 @@ def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
 
 def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
-    rows_e, rows = [], []
+    rows = []
     for k, (rec, p, x, m) in enumerate(zip(ctx.records, cur.pred, cur.x_pi, ctx.train,
                                            strict=True)):
         dx = np.gradient(x, rec.dt)
@@ -50,26 +50,19 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
                            bouc_wen=cur.structure.bouc_wen)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
-        rows_e.append((rec.y - p)[idx])
         rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
-                                     ddx[idx])))
-    e = np.concatenate(rows_e)
+                                     ddx[idx], (rec.y - p)[idx])))
     X = np.concatenate(rows)
-    nb = X.shape[1] - 4
-    J0 = X[:, :nb]
-    Q, _ = np.linalg.qr(J0)
-
-    def part(a):
-        return a - Q @ (Q.T @ a)
-
-    er = part(e)
+    nb = X.shape[1] - 5
+    # the base columns partialled out of the others and the residual: the trailing block T
+    # of the triangular factor of [base, v_rev, v_hys, dx, ddx, e] is the factor of those
+    # five partialled columns (Q T with orthonormal Q), so the regressions below run on T
+    T = np.linalg.qr(X, mode="r")[nb:, nb:]
     out: dict[str, Any] = {}
-    V = part(X[:, nb : nb + 2])
-    c = np.linalg.lstsq(V, er, rcond=None)[0]
+    c = np.linalg.lstsq(T[:, 0:2], T[:, 4], rcond=None)[0]
     out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
     out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
-    G = part(X[:, nb + 2 :])
-    g = np.linalg.lstsq(G, er, rcond=None)[0]
+    g = np.linalg.lstsq(T[:, 2:4], T[:, 4], rcond=None)[0]
     out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
     out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
     return out

@@ -13,6 +13,7 @@ the diagnosis reports are the numbers ``hyst simulate`` reproduces.
 
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
@@ -267,20 +268,34 @@ class _Cache:
         self.g: dict[Any, tuple[Any, np.ndarray]] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
-                  w: np.ndarray | None = None) -> np.ndarray:
-        """``B @ V`` memoised on ``key`` (recording, basis key and row count) and the identity
-        of ``V``, row-major (the dynamics filter runs time outer, columns inner).
+                  w: np.ndarray | None = None, start: int = 0,
+                  r: np.ndarray | None = None) -> np.ndarray:
+        """``(B @ V)[start:]`` memoised on ``key`` (recording, basis key and row count) and the
+        identity of ``V``, row-major (the dynamics filter runs time outer, columns inner).
 
         ``w``: the play-bank input on the rows of ``B`` (rate-independent plays only): where
         it repeats (a hold, a flat stretch before the excitation) the plays do not move and
         the row of ``B`` repeats exactly, so only the distinct rows are multiplied.
+        ``start``: the first row needed. A first request forms the rows from ``start`` on; a
+        later one for the same ``B`` and ``V`` that starts earlier (a search over the
+        dynamics moves it) forms them all, which then serve every start.
+        ``r``: the thresholds of the columns when ``B`` is a play bank (column 0 the input):
+        the product is then formed by :func:`_bank_rows_times` where the input turns rarely.
         """
         key = (key, id(V))
         hit = _recent(self.p, key)
         if hit is not None and hit[0] is V:
-            return hit[1]
+            if hit[2] <= start:
+                return hit[1][start - hit[2]:]
+            start0 = 0
+        else:
+            start0 = start
         P = None
-        if w is not None and w.size > 1:
+        if r is not None and B.shape[0] > start0:
+            P = _bank_rows_times(B, V, r, np.arange(start0, B.shape[0]))
+        B = B[start0:]
+        w = None if w is None else w[start0:]
+        if P is None and w is not None and w.size > 1:
             new = np.empty(w.size, dtype=bool)
             new[0] = True
             np.not_equal(w[1:], w[:-1], out=new[1:])
@@ -288,10 +303,10 @@ class _Cache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        if len(self.p) >= 16:
+        if len(self.p) >= 16 and key not in self.p:
             self.p.pop(next(iter(self.p)))
-        self.p[key] = (V, P)
-        return P
+        self.p[key] = (V, P, start0)
+        return P[start - start0:]
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
                rss_only: bool) -> tuple:
@@ -336,6 +351,10 @@ class _Cache:
                 self.v.pop(next(iter(self.v)))
             self.v[key] = V
         return V
+
+    def has_bank(self, k: int, r: np.ndarray, hist: tuple, shape: tuple = ()) -> bool:
+        """Whether the rate-independent play bank of recording ``k`` is in the cache."""
+        return (k, hist, None, r.size, float(r[-1]), shape) in self.d
 
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
              shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
@@ -427,16 +446,24 @@ def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
     return idx
 
 
+def _basis_rows(m: np.ndarray) -> np.ndarray:
+    """The training rows (mask ``m``) the reduced basis is taken on: about 2000."""
+    idx = np.flatnonzero(m)
+    return idx[:: max(1, idx.size // 2000)]
+
+
 def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
-    rows = []
-    for B, m in zip(banks, train, strict=True):
-        idx = np.flatnonzero(m)
-        # (a strided view where the rows are evenly spaced: no gather before the concatenation)
-        rows.append(B[_row_selector(idx[:: max(1, idx.size // 2000)])])
-    A = np.concatenate(rows)
-    scale = 1.0 / np.sqrt(np.sum(A * A, axis=0) + 1e-300)
-    As = A * scale
-    ev, vec = np.linalg.eigh(As.T @ As)
+    # (a strided view where the rows are evenly spaced: no gather before the concatenation)
+    return _basis_of(np.concatenate([B[_row_selector(_basis_rows(m))]
+                                     for B, m in zip(banks, train, strict=True)]))
+
+
+def _basis_of(A: np.ndarray) -> np.ndarray:
+    """Leading right-singular directions (at most 24) of the column-scaled rows ``A``."""
+    # the Gram of the column-scaled rows, scaled after the product (one pass over A)
+    G = A.T @ A
+    scale = 1.0 / np.sqrt(np.diag(G) + 1e-300)
+    ev, vec = np.linalg.eigh(scale[:, None] * G * scale[None, :])
     ev, vec = ev[::-1], vec[:, ::-1]
     q = int(min(24, max(1, np.sum(ev > 1e-10 * ev[0]))))
     return (scale[:, None] * vec[:, :q]).copy()
@@ -480,6 +507,223 @@ def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
         if take:
             k += 1
     return out
+
+
+@njit(cache=True, nogil=True)
+def _play_rows(u, r, z, rows, out):  # pragma: no cover - compiled
+    """Rows ``rows`` (increasing) of the play bank of thresholds ``r`` on input ``u`` from the
+    state ``z`` (updated in place), without storing the others: the update of
+    :func:`core.kernels.play_matrix`, so the same numbers."""
+    n = r.size
+    k = 0
+    for i in range(rows[-1] + 1 if rows.size else 0):
+        ui = u[i]
+        for j in range(n):
+            lo = ui - r[j]
+            hi = ui + r[j]
+            zj = z[j]
+            if zj > hi:
+                zj = hi
+            if zj < lo:
+                zj = lo
+            z[j] = zj
+        if i == rows[k]:
+            for j in range(n):
+                out[k, j] = z[j]
+            k += 1
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _play_projection(w, r, z, V, rows, out):  # pragma: no cover - compiled
+    """Rows ``rows`` of ``B @ V``, ``B`` the play bank of thresholds ``r`` (``r[0] = 0``: the
+    input itself) on input ``w``, without forming ``B`` or the ``(N, n) x (n, q)`` product.
+
+    ``z`` ``(n,)``: the bank's row 0 (the play outputs after ``w[0]``); overwritten.
+    On a monotone stretch a play either follows the input (``z_j = w -/+ r_j``) or is
+    stuck, so ``B[i] @ V = C + w_i S - R`` with ``C`` the stuck plays' ``z_j V_j``, ``S`` the
+    moving plays' ``V_j`` and ``R`` their ``+/- r_j V_j``: a row costs ``O(q)``, and the exact
+    play update (:func:`core.kernels.play_matrix`) runs over all plays only at a reversal or
+    where a stuck play may start to move (its level is within round-off of the input). The
+    sums are rebuilt after ``4 n`` changes, so their round-off stays that of a few sums.
+    Writes ``out`` ``(rows.size, q)`` (increasing rows).
+    """
+    n = r.size
+    q = V.shape[1]
+    status = np.zeros(n, dtype=np.int8)  # 0 stuck, 1 follows w - r, -1 follows w + r
+    C = np.zeros(q)
+    S = np.zeros(q)
+    R = np.zeros(q)
+    for j in range(n):
+        for c in range(q):
+            C[c] += z[j] * V[j, c]
+    n_up = 0  # moving plays with r > 0 by direction
+    n_dn = 0
+    up_lvl = -np.inf  # the input levels where a stuck play starts to move up / down
+    dn_lvl = np.inf
+    changes = 4 * n + 1  # force the first exact pass to set the levels
+    rmax = 0.0
+    for j in range(n):
+        rmax = max(rmax, r[j])
+    k = 0
+    last = rows[-1] if rows.size else -1
+    for i in range(last + 1):
+        wi = w[i]
+        fast = True
+        if i > 0:
+            tol = 8.0 * 2.220446049250313e-16 * (abs(wi) + rmax)
+            wp = w[i - 1]
+            fast = wi == wp or (wi > wp and n_dn == 0 and wi < up_lvl - tol) or (
+                wi < wp and n_up == 0 and wi > dn_lvl + tol)
+            if not fast:
+                for j in range(n):
+                    lo = wi - r[j]
+                    hi = wi + r[j]
+                    # (a moving play's state is not stored on the fast rows: it is the
+                    # previous input -/+ its threshold, formed as the play update forms it)
+                    zj = z[j] if status[j] == 0 else (wp - r[j] if status[j] == 1
+                                                      else wp + r[j])
+                    if zj > hi:
+                        zj = hi
+                    if zj < lo:
+                        zj = lo
+                    st = 1 if zj == lo else (-1 if zj == hi else 0)
+                    if st != status[j]:
+                        old = status[j]
+                        if old == 0:
+                            for c in range(q):
+                                C[c] -= z[j] * V[j, c]
+                        else:
+                            for c in range(q):
+                                S[c] -= V[j, c]
+                                R[c] -= old * r[j] * V[j, c]
+                            if r[j] > 0:
+                                if old == 1:
+                                    n_up -= 1
+                                else:
+                                    n_dn -= 1
+                        if st == 0:
+                            for c in range(q):
+                                C[c] += zj * V[j, c]
+                        else:
+                            for c in range(q):
+                                S[c] += V[j, c]
+                                R[c] += st * r[j] * V[j, c]
+                            if r[j] > 0:
+                                if st == 1:
+                                    n_up += 1
+                                else:
+                                    n_dn += 1
+                        status[j] = st
+                        changes += 1
+                    z[j] = zj
+        if changes > 4 * n:
+            # rebuild the sums from the play states (bounds their round-off) and the levels
+            for c in range(q):
+                C[c] = 0.0
+                S[c] = 0.0
+                R[c] = 0.0
+            for j in range(n):
+                if status[j] == 0:
+                    for c in range(q):
+                        C[c] += z[j] * V[j, c]
+                else:
+                    for c in range(q):
+                        S[c] += V[j, c]
+                        R[c] += status[j] * r[j] * V[j, c]
+            changes = 0
+        if changes == 0 or not fast:
+            up_lvl = np.inf
+            dn_lvl = -np.inf
+            for j in range(n):
+                if status[j] == 0:
+                    up_lvl = min(up_lvl, z[j] + r[j])
+                    dn_lvl = max(dn_lvl, z[j] - r[j])
+        if i == rows[k]:
+            if i == 0:
+                for c in range(q):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += z[j] * V[j, c]
+                    out[k, c] = acc
+            else:
+                for c in range(q):
+                    out[k, c] = C[c] + wi * S[c] - R[c]
+            k += 1
+    return out
+
+
+def _bank_rows_times(B: np.ndarray, V: np.ndarray, r: np.ndarray, rows: np.ndarray
+                     ) -> np.ndarray | None:
+    """``(B @ V)[rows]`` for a play bank ``B`` ``(N, n)`` of thresholds ``r`` (``r[0] = 0``,
+    column 0 the input) by :func:`_play_projection`, from row ``rows[0]`` on; ``None`` when
+    the input turns so often (measurement noise on it) that the product is cheaper."""
+    if not rows.size:
+        return None
+    s0 = int(rows[0])
+    w = np.ascontiguousarray(B[s0 : int(rows[-1]) + 1, 0])
+    if not _turns_rarely(w, r.size):
+        return None
+    return _input_rows_times(w, B[s0], V, r, np.asarray(rows, dtype=np.int64) - s0)
+
+
+def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
+                   train: Sequence[np.ndarray], rows: list[np.ndarray], upto: list[int],
+                   starts: list[int], vkey: Any
+                   ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None:
+    """What a ranking solve of rate-independent plays needs of banks not in ``cache``: the
+    reduced basis (memoised on ``vkey``), and per recording the bank input (the input through
+    the loop shape, up to ``upto``) and the bank row the products start from (``starts``, or
+    the first solved row of ``rows`` without dynamics). The plays run along the input storing
+    only the basis rows and those (:func:`_play_rows`, the numbers of the full bank). ``None``
+    when a bank is in the cache or an input reverses often (the product is then cheaper)."""
+    r = np.asarray(s.thresholds)
+    r_full = np.r_[0.0, r]
+    if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
+        return None
+    inputs, row0, samples = [], [], []
+    for k, (rec, m, idx) in enumerate(zip(records, train, rows, strict=True)):
+        w = apply_shape(s.shape, rec.u[: upto[k]])
+        first = (starts[k] if s.dynamics else int(idx[0])) if idx.size else 0
+        if idx.size and not _turns_rarely(w[first : int(idx[-1]) + 1], r_full.size):
+            return None
+        hist = s.history[k]
+        z0 = play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)
+        ib = _basis_rows(m)
+        # (the basis rows are increasing: the start row goes in its place)
+        at = int(np.searchsorted(ib, first))
+        need = (ib if at < ib.size and ib[at] == first else np.insert(ib, at, first)).astype(
+            np.int64)
+        B = _play_rows(np.ascontiguousarray(w, dtype=np.float64), r_full, np.r_[0.0, z0],
+                       need, np.empty((need.size, r_full.size)))
+        inputs.append(w)
+        row0.append(B[np.searchsorted(need, first)] if need.size else np.zeros(r_full.size))
+        samples.append(B[np.searchsorted(need, ib)])
+    V = _recent(cache.v, vkey)
+    if V is None:
+        V = _basis_of(np.concatenate(samples))
+        if len(cache.v) >= 64:
+            cache.v.pop(next(iter(cache.v)))
+        cache.v[vkey] = V
+    return V, inputs, row0
+
+
+def _turns_rarely(w: np.ndarray, n: int) -> bool:
+    """Whether the input ``w`` reverses rarely enough (``n`` plays) for
+    :func:`_play_projection` to beat the product."""
+    d = np.diff(w)
+    d = d[d != 0]
+    return np.count_nonzero((d[1:] > 0) != (d[:-1] > 0)) * n <= 0.5 * w.size
+
+
+def _input_rows_times(w: np.ndarray, z0: np.ndarray, V: np.ndarray, r: np.ndarray,
+                      rows: np.ndarray) -> np.ndarray:
+    """Rows ``rows`` of ``B @ V``, ``B`` the bank of thresholds ``r`` on input ``w`` whose row 0
+    is ``z0`` (:func:`_play_projection`)."""
+    out = np.empty((rows.size, V.shape[1]))
+    return _play_projection(np.ascontiguousarray(w, dtype=np.float64),
+                            np.ascontiguousarray(r, dtype=np.float64),
+                            np.array(z0, dtype=np.float64), np.ascontiguousarray(V), rows, out)
 
 
 @njit(cache=True, nogil=True)
@@ -528,6 +772,58 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     num, den = stage.transfer(tuple(dyn[1:]))
     b, a, zi = discretised_tf(num, den, dt)
     return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
+
+
+#: Decay a filtered start transient must reach before the first row :func:`_filter_start`
+#: lets through: far below the round-off of double precision, so the rows are those of the
+#: filter run from the first sample (to round-off).
+WARM_DECAY = 1e-30
+
+
+def _filter_start(dyn: tuple, dt: float, first: int) -> int:
+    """First sample from which the output dynamics ``dyn`` must run (started in the steady
+    state of that sample, as :func:`_dyn_rows` does) for rows ``>= first`` to equal, to
+    round-off, those of the dynamics run from sample 0.
+
+    A delay reads back a fixed number of samples (exact); a lag or resonance forgets its
+    start state geometrically with its slowest discrete pole ``rho``: the start is taken
+    ``log(WARM_DECAY) / log(rho)`` samples (plus the filter order) before ``first``, where
+    the start transient has decayed below :data:`WARM_DECAY` of the signal. 0 when the
+    dynamics never forget (``rho >= 1``) or that reaches back past the first sample.
+    """
+    if not dyn or first <= 0:
+        return 0
+    # stages in series (``(name, *values, name, *values)``): their warm-ups add up
+    warm, i = 0, 0
+    while i < len(dyn):
+        stage = EFFECTS[dyn[i]].dynamics if dyn[i] in EFFECTS else None
+        if stage is None:
+            return 0
+        one = tuple(dyn[i : i + 1 + len(stage.params)])
+        i += len(one)
+        if stage.transfer is None:  # a pure (fractional) transport delay
+            warm += int(np.floor(one[1] / dt + 1e-12)) + 1
+            continue
+        w = _filter_warmup(one, float(dt))
+        if w < 0:
+            return 0
+        warm += w
+    return max(0, first - warm)
+
+
+@functools.lru_cache(maxsize=1024)
+def _filter_warmup(dyn: tuple, dt: float) -> int:
+    """Samples the filtered dynamics ``dyn`` need to forget their start state (see
+    :func:`_filter_start`); -1 when they never do."""
+    stage = EFFECTS[dyn[0]].dynamics
+    assert stage is not None and stage.transfer is not None
+    num, den = stage.transfer(tuple(dyn[1:]))
+    a = discretised_tf(num, den, dt)[1]
+    rho = float(np.max(np.abs(np.roots(a)))) if a.size > 1 else 0.0
+    if not rho < 1.0:
+        return -1
+    warm = (np.log(WARM_DECAY) / np.log(rho) if rho > 0 else 0.0) + a.size + 1
+    return int(np.ceil(warm)) if np.isfinite(warm) else -1
 
 
 def _gram(X: np.ndarray, nq: int, cache: _Cache, key: Any, owner: Any) -> np.ndarray:
@@ -635,16 +931,28 @@ def fit_structure(
     nrec = len(records)
     layout = cache.layout(records, train, rss_only)
     rows, sel, ends, upto, ys, ylo, yhi, center, half, dts = layout
-    raw = [
-        cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
-                   shape=s.shape, bouc_wen=s.bouc_wen)
-        for k, rec in enumerate(records)
-    ]
-    banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
-    needs_x = s.asymmetry or bool(s.creep_taus)
-    V = None
+    starts = [_filter_start(s.dynamics, dts[k], int(idx[0]) if idx.size else 0)
+              for k, idx in enumerate(rows)]
     vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels, s.bouc_wen)
-    if rss_only and reduce and not s.levels:
+    # a ranking solve of rate-independent plays whose bank is not kept (a history or loop
+    # shape met once): the plays run along the input storing only the rows the reduced
+    # basis and the products start from (_sampled_banks), not their (N, n) outputs
+    sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
+               if rss_only and reduce and not s.levels and s.beta_s is None
+               and not s.bouc_wen else None)
+    if sampled is not None:
+        raw = banks = []
+        V, inputs, row0 = sampled
+    else:
+        raw = [
+            cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
+                       shape=s.shape, bouc_wen=s.bouc_wen)
+            for k, rec in enumerate(records)
+        ]
+        banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
+        V = None
+    needs_x = s.asymmetry or bool(s.creep_taus)
+    if rss_only and reduce and not s.levels and V is None:
         # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
         # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
         # Duhem plant a true 346 Hz mode ranked worse than none)
@@ -676,19 +984,36 @@ def fit_structure(
     # are the same in every refresh of the bilinear regressors, so they are filled once
     X = np.empty((ys.size, ncol + 1))
     blocks = []
+    # thresholds of the play-bank columns (rate-independent plays: the reduced products
+    # are then formed along the input, _bank_rows_times)
+    r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
+              and not s.levels else None)
     o = 0
     for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
         blk = X[o : o + idx.size]
         blocks.append(blk)
-        if V is not None and not s.dynamics:
+        if sampled is not None:
+            s0 = int(idx[0]) if not s.dynamics else starts[k]
+            if not s.dynamics:
+                blk[:, :nq] = _input_rows_times(inputs[k][s0 : last], row0[k], V, r_bank,
+                                                idx - s0)
+            elif idx.size:
+                _dyn_rows(_input_rows_times(inputs[k][s0:last], row0[k], V, r_bank,
+                                            np.arange(last - s0)),
+                          s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
+        elif V is not None and not s.dynamics:
             # only the solved rows are needed (a strided view when they are evenly spaced,
             # as in a single training window: the same product without gathering them)
-            blk[:, :nq] = banks[k][sel[k]] @ V
+            P = None if r_bank is None else _bank_rows_times(banks[k], V, r_bank, idx)
+            blk[:, :nq] = banks[k][sel[k]] @ V if P is None else P
         else:
-            P = banks[k][:last] if V is None else cache.projected(
+            # (the dynamics run from where their start transient has died out by the first
+            # solved row, not from sample 0: the same rows to round-off)
+            s0 = starts[k]
+            P = banks[k][s0:last] if V is None else cache.projected(
                 banks[k][:last], V, (k, vkey, last),
-                w=raw[k][:last, 0] if s.beta_s is None else None)
-            _dyn_rows(P, s.dynamics, dts[k], idx, out=blk[:, :nq])
+                w=raw[k][:last, 0] if s.beta_s is None else None, start=s0, r=r_bank)
+            _dyn_rows(P, s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
         blk[:, nM:ncol] = 0.0
         blk[:, nM + (k if s.offsets else 0)] = 1.0
         if s.drift_degree:
@@ -723,17 +1048,20 @@ def fit_structure(
             x_prev = f0.x_pi  # type: ignore[union-attr]
         if needs_x:
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
+                s0 = starts[k]
                 x = x_prev[k][:last]  # type: ignore[index]
                 cols = []
                 if s.asymmetry:
-                    q = (x - center) / half
+                    q = (x[s0:] - center) / half
                     cols.append(np.column_stack((q**2, q**3)))
                 if s.creep_taus:
+                    # (the creep lags run from sample 0: only the output dynamics start late)
                     cols.append(np.column_stack(
-                        [foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x for tau in s.creep_taus]
+                        [(foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x)[s0:]
+                         for tau in s.creep_taus]
                     ))
                 _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
-                          dts[k], idx, out=blocks[k][:, nq:nM])
+                          dts[k], idx - s0, out=blocks[k][:, nq:nM])
         if V is not None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return _unconstrained_rss(X)
