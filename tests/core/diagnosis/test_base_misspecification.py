@@ -61,8 +61,8 @@ def _recovery(res, sc) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def maxwell_resonance():
-    """A Maxwell-slip plant (no base the diagnosis fits is it) with a 346 Hz mode."""
-    return make_family("maxwell-slip", "resonance", "small", 0.002, 500)
+    """A Maxwell-slip plant (no base the diagnosis fits is it) with a 200 Hz mode."""
+    return make_family("maxwell-slip", "resonance", "large", 0.002, 500)
 
 
 def test_non_pi_resonance_is_honest(maxwell_resonance) -> None:
@@ -71,7 +71,8 @@ def test_non_pi_resonance_is_honest(maxwell_resonance) -> None:
     assert {q["quantity"] for q in rows} == {"freq_hz", "damping"}
     assert all(q["honest"] for q in rows), rows
     (f,) = [e for e in res.effects if e.name == "resonance"]
-    assert set(f.base_sensitivity["per_base"]) == {"preisach", "bouc-wen"}
+    # weights of either sign (a slip loop): no Preisach alternative
+    assert set(f.base_sensitivity["per_base"]) == {"bouc-wen", "shifted"}
     assert "base model replaced by" in f.uncertainty_method
 
 
@@ -83,3 +84,23 @@ def test_without_the_base_term_the_resonance_is_over_confident(maxwell_resonance
     res = diagnose(maxwell_resonance.records)
     rows = _recovery(res, maxwell_resonance)
     assert rows and not any(q["honest"] for q in rows), rows
+
+
+def test_report_says_when_the_base_model_sets_the_parameter() -> None:
+    """An ambiguous parameter whose sigma is mostly the base term gets its estimates on the
+    other bases; one whose sigma is mostly statistical does not."""
+    from types import SimpleNamespace
+
+    from core.diagnosis.report import _base_dependence
+
+    bs = {"base": "pi", "per_base": {"preisach": {"tau_s": 6e-3}, "shifted": {"tau_s": 4.6e-3}},
+          "sigma": {"tau_s": 2.3e-3}, "sigma_statistical": {"tau_s": 0.6e-3}}
+    e = SimpleNamespace(name="lag", parameters={"tau_s": 3.7e-3}, ambiguous_parameters=["tau_s"],
+                        base_sensitivity=bs)
+    (line,) = _base_dependence(e)
+    assert "tau_s depends on the base model" in line
+    assert "on a Preisach base" in line and "PI with its grid shifted half a step" in line
+    e.base_sensitivity = dict(bs, sigma_statistical={"tau_s": 5e-3})
+    assert _base_dependence(e) == []
+    e.base_sensitivity, e.ambiguous_parameters = bs, []
+    assert _base_dependence(e) == []
