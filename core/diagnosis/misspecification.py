@@ -79,10 +79,10 @@ def alternative_bases(ctx: FitContext, s: Structure) -> list[tuple[str, Structur
     Preisach: those plays split into :data:`PREISACH_ALTERNATIVE` level segments; Bouc-Wen:
     the generic element grid (:func:`core.diagnosis.bases.bouc_wen_elements`) over the
     training input range (not with rate-dependent plays, which it does not model). The
-    chosen base's own discretisation is arbitrary too: its play thresholds moved down by half
-    their spacing, or its Bouc-Wen saturations by a factor sqrt(2) (half the grid's factor
-    2), as the creep bank is shifted half a decade. Every other part of ``s`` (loop shape,
-    effects, histories) is kept.
+    chosen base's own discretisation is arbitrary too: its play thresholds (and a Preisach
+    base's level knots) moved down by half their spacing, or its Bouc-Wen saturations by a
+    factor sqrt(2) (half the grid's factor 2), as the creep bank is shifted half a decade.
+    Every other part of ``s`` (loop shape, effects, histories) is kept.
     """
     recs, tr = ctx.records, ctx.train
     n = min(MAX_ALTERNATIVE_OPERATORS, max(8, len(s.thresholds)))
@@ -106,8 +106,10 @@ def alternative_bases(ctx: FitContext, s: Structure) -> list[tuple[str, Structur
         out.append((SHIFTED, s.with_(bouc_wen=el, thresholds=saturations(el))))
     elif s.thresholds:
         r = np.asarray(s.thresholds, dtype=float)
+        kn = np.asarray(s.levels, dtype=float)  # a Preisach base's level knots too
         out.append((SHIFTED, s.with_(
-            thresholds=tuple(float(x) for x in r - 0.5 * np.diff(np.r_[0.0, r])))))
+            thresholds=tuple(float(x) for x in r - 0.5 * np.diff(np.r_[0.0, r])),
+            levels=tuple(float(x) for x in kn - 0.5 * np.diff(np.r_[lo, kn])))))
     return out
 
 

@@ -45,6 +45,9 @@ def test_alternative_bases_are_the_other_families() -> None:
     assert list(alts) == ["preisach", "bouc-wen", "shifted"]
     assert all(a.dynamics == s.dynamics for a in alts.values())
     assert alts["shifted"].thresholds == pytest.approx((0.25, 0.75, 1.5))  # half a step down
+    knots = dict(alternative_bases(ctx, s.with_(levels=(3.0, 6.0))))["shifted"].levels
+    lo = float(u.min())
+    assert knots == pytest.approx((lo + 0.5 * (3.0 - lo), 4.5))  # the level knots too
     # rate-dependent plays are not modelled on a Bouc-Wen bank; no Preisach of free weights
     assert [k for k, _ in alternative_bases(ctx, s.with_(beta_s=1e-4))] == ["preisach",
                                                                             "shifted"]
