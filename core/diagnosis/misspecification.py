@@ -22,13 +22,13 @@ seen). It is added in quadrature to the statistical sigma; a parameter it takes 
 :data:`~core.diagnosis.crossfitting.AMBIGUOUS_REL_SIGMA` is reported ambiguous. Only training
 rows are used (the held-out rows stay unseen), and the found values are not changed.
 
-Measured (benchmarks/diagnosis/results/*-sigma2.json): on the non-PI families the shift to
-the Bouc-Wen bank moves a PI-fitted delay or resonance of a Bouc-Wen plant most of the way
-to the truth, and a Maxwell-slip plant's small resonance is not fixed by the data on a
-Preisach base at all (reported ambiguous); on the benchmark's PI plant with a 1 ms delay the
-base term (3 % of the value) covers the 3 % bias the recordings' spread (0.5 %) did not.
-Cost: one fit and 3 (one parameter) or 6 (two) training-RSS evaluations per Newton step and
-alternative, 0.3-0.7 s of a 5-15 s diagnosis.
+Measured (benchmarks/diagnosis/results/*-sigma2.json, README "The base model's
+misspecification in the sigmas"): on the non-PI families (110 recovered parameters) within
+1-sigma or said ambiguous 64 -> 90; the Bouc-Wen alternative moves a PI-fitted delay or
+resonance of a Bouc-Wen plant most of the way to the truth. On the real piezo the lag is
+reported ambiguous (3.7 ms on the PI, 6.1 ms on a Preisach base). Cost: one fit and 3 (one
+parameter) or 6 (two) training-RSS evaluations per Newton step and alternative: +1.5-3.4 % of
+the diagnosis CPU on the benchmark plants, +6-7 % (0.3 s) on the piezo.
 """
 
 from __future__ import annotations
