@@ -89,6 +89,7 @@ from .data import as_records, crossfit_folds, split_masks
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
+from .misspecification import base_sensitivity, describe_alternative
 from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics, rate_effect, stage_pairs
 from .results import (
@@ -268,6 +269,7 @@ def diagnose(
         cur, loro_f, specific = _drop_recording_specific(run_, base_fit, cur, loro_b, loro_f)
         say(0.91, "estimating each parameter from the other recordings")
         _spread_over_recordings(ctx, base_fit, cur, run_.findings)
+    _widen_for_base(ctx, cur, run_.findings)
     say(0.92, "judging the base model against the noise floor")
     tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
     adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
@@ -1156,6 +1158,31 @@ def _spread_over_recordings(ctx: FitContext, base: Fit, cur: Fit,
         f.uncertainty = combine_uncertainty(f.uncertainty, sp)
         f.uncertainty_method += (f"; widened by the disagreement of the {len(sp['per_recording'])} "
                                  "recordings fitted alone (Birge ratio), where larger")
+        f.ambiguous_parameters = ambiguous_parameters(f.parameters, f.uncertainty)
+
+
+def _widen_for_base(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -> None:
+    """Add to each finding's 1-sigmas, in quadrature, the systematic term of the base model's
+    misspecification (:func:`~core.diagnosis.misspecification.base_sensitivity`: the shifts
+    of its parameters with the base replaced by the other base families, on the training
+    rows of the final structure), and mark the parameters that become ambiguous."""
+    for f in findings:
+        sens = base_sensitivity(ctx, f.name, cur, f.parameters)
+        if sens is None or not sens["per_base"]:
+            continue
+        f.base_sensitivity = {"base": cur.structure.base_kind, **sens,
+                              "sigma_statistical": {k: f.uncertainty.get(k)
+                                                    for k in sens["sigma"]}}
+        unc = dict(f.uncertainty)
+        for k, v in sens["sigma"].items():
+            s0 = unc.get(k)
+            s0 = float(s0) if isinstance(s0, (int, float)) and np.isfinite(s0) else 0.0
+            unc[k] = float(np.hypot(s0, v))
+        f.uncertainty = unc
+        alts = " and by ".join(describe_alternative(k, cur.structure.base_kind)
+                               for k in sens["per_base"])
+        f.uncertainty_method += ("; widened by the largest shift of the estimate with the base "
+                                 f"model replaced by {alts}")
         f.ambiguous_parameters = ambiguous_parameters(f.parameters, f.uncertainty)
 
 

@@ -6,6 +6,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .misspecification import BASE_NAMES, describe_alternative
+
 if TYPE_CHECKING:
     from .results import DiagnosisResult
 
@@ -75,6 +77,7 @@ def summary_text(res: DiagnosisResult) -> str:
             f"   added: {e.equation}",
         ]
         lines += [f"   caveat: {c}" for c in e.caveats]
+        lines += _base_dependence(e)
         if e.loro is not None:
             lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
                          f"{e.loro['rmse_after']:.4g} (MSE "
@@ -150,6 +153,28 @@ def _fmt(v: Any) -> str:
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return str(v)
+
+
+def _base_dependence(e: Any) -> list[str]:
+    """For each ambiguous parameter whose sigma is mostly the base model's misspecification
+    (:func:`~core.diagnosis.misspecification.base_sensitivity`): its estimates on the other
+    bases, and what would fix it."""
+    bs = getattr(e, "base_sensitivity", None)
+    if not bs:
+        return []
+    out = []
+    for k in e.ambiguous_parameters:
+        sys_s, stat = bs["sigma"].get(k), bs["sigma_statistical"].get(k)
+        if sys_s is None or (isinstance(stat, float) and stat >= sys_s):
+            continue
+        chosen = BASE_NAMES.get(bs["base"], bs["base"])
+        alts = ", ".join(f"{_fmt(p[k])} on {describe_alternative(b, bs['base'])}"
+                         for b, p in bs["per_base"].items())
+        out.append(f"   {k} depends on the base model: {_fmt(e.parameters[k])} on the "
+                   f"chosen {chosen} base, {alts} (the ± includes it); a base model that "
+                   f"fits the loop better, or an experiment that excites the {e.name} apart "
+                   "from the loop, would fix it")
+    return out
 
 
 def _param_text(e: Any, k: str, v: Any) -> str:

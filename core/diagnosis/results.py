@@ -146,6 +146,9 @@ class EffectFinding:
     #: leave-one-recording-out estimates and their jackknife sigmas
     #: (:func:`~core.diagnosis.crossfitting.recording_spread`), with several recordings
     recording_spread: dict[str, Any] | None = None
+    #: the parameters refitted on the other base families, and the systematic 1-sigma their
+    #: shifts give (:func:`~core.diagnosis.misspecification.base_sensitivity`)
+    base_sensitivity: dict[str, Any] | None = None
     #: parameters the data do not fix to a number (1-sigma beyond
     #: :data:`~core.diagnosis.crossfitting.AMBIGUOUS_REL_SIGMA` of the value)
     ambiguous_parameters: list[str] = field(default_factory=list)
@@ -161,6 +164,7 @@ class EffectFinding:
             "uncertainty_method": self.uncertainty_method,
             "ambiguous_parameters": list(self.ambiguous_parameters),
             "recording_spread": _jsonable(self.recording_spread),
+            "base_sensitivity": _jsonable(self.base_sensitivity),
             "leave_one_recording_out": _jsonable(self.loro),
             "caveats": list(self.caveats),
             "where": _jsonable(self.where),
