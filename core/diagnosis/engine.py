@@ -65,7 +65,7 @@ from .acceptance import (
 )
 from .acceptance import size_ok as effect_size_ok
 from .adequacy import assess, fold_mse
-from .bases import bouc_wen_elements, saturations
+from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .between import (
     BetweenPlan,
     between_plan,
@@ -561,15 +561,6 @@ def _with_output_dynamics(ctx: FitContext, sub: FitContext, fit: Fit) -> Fit:
     return out
 
 
-#: A Bouc-Wen base (:mod:`core.diagnosis.bases`) replaces the PI (or a Preisach base that
-#: replaced it) when it lowers the MSE of predicting each recording from the others by at
-#: least this share against the PI, and by more than the Preisach did. Measured (training
-#: rows, seed 500/100, white noise): the benchmark's Bouc-Wen plants 0.68-0.93 (nulls),
-#: 0.48-0.77 (small creep); Duhem + creep 0.25, Duhem null -1.45, Preisach 0.07, Maxwell-slip
-#: -0.71; B-PI + saturation 0.17, + dead-zone -0.24, + asymmetry -4.9, + weak creep < -100.
-#: The static-map plants stay below it, so no static-map check is needed (unlike the
-#: Preisach, which fits a static map's loops 60-98 % better than the PI).
-BW_MIN_GAIN = 0.35
 
 
 def _choose_base_family(ctx: FitContext, base: Fit, n_operators: int

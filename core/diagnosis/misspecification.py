@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .bases import bouc_wen_elements, saturations
+from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
 from .shapes import apply_shape, shape_thresholds
@@ -58,10 +58,10 @@ NEWTON_H = 0.05
 NEWTON_STEPS = 2
 #: Largest training MSE of an alternative base (the effect refitted), relative to the chosen
 #: one's, for its shift to count: the margin by which the base choice replaces a base
-#: (:data:`core.diagnosis.engine.BW_MIN_GAIN` = 0.35: MSE ratio 1 / 0.65 = 1.54), so a base
+#: (:data:`core.diagnosis.bases.BW_MIN_GAIN` = 0.35: MSE ratio 1 / 0.65 = 1.54), so a base
 #: the data reject by the base choice's own standard is left out (on a Preisach plant the PI
 #: fits 5-50 times worse and its creep or delay moves to absorb the misfit).
-ADMISSIBLE_MSE_RATIO = 1.0 / (1.0 - 0.35)
+ADMISSIBLE_MSE_RATIO = 1.0 / (1.0 - BW_MIN_GAIN)
 #: Most play operators of the PI and Preisach alternatives (those the base choice
 #: cross-validates: :func:`core.diagnosis.engine._choose_base`).
 MAX_ALTERNATIVE_OPERATORS = 25
