@@ -73,7 +73,7 @@ from .between import (
     between_recordings,
     leave_one_recording_out,
 )
-from .candidates import PAIR_MAXFEV, build_candidate, nelder_mead
+from .candidates import PAIR_MAXFEV, build_candidate, nelder_mead, sigma_from_curvature
 from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import (
@@ -1521,6 +1521,36 @@ def _polish_alone(ctx: FitContext, base: Fit, name: str, starts: list[dict[str, 
     return ctx.fit(base.structure.with_(dynamics=(name, *(float(a) for a in np.exp(x)))), base)
 
 
+def _pair_sigmas(ctx: FitContext, fit: Fit, h: float = 0.05) -> dict[str, dict[str, Any]]:
+    """1-sigmas of each stage's parameters in the pair ``fit`` (per stage name): the 1-D
+    profile curvature of the training RSS in log space (step ``h``; the other parameters
+    held), as for a single stage
+    (:func:`~core.diagnosis.candidates.sigma_from_curvature`)."""
+    stages = dynamics_stages(fit.structure.dynamics)
+    x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
+
+    def rss(lx: np.ndarray) -> float:
+        out: list = []
+        o = 0
+        for n, vals in stages:
+            out += [n, *(float(a) for a in np.exp(lx[o : o + len(vals)]))]
+            o += len(vals)
+        return ctx.rss(fit.structure.with_(dynamics=tuple(out)), fit)
+
+    f0 = rss(x0)
+    sig: dict[str, dict[str, Any]] = {}
+    j = 0
+    for n, vals in stages:
+        keys = EFFECTS[n].dynamics.params  # type: ignore[union-attr]
+        sig[n] = {}
+        for k, v in zip(keys, vals, strict=True):
+            e = np.eye(x0.size)[j] * h
+            c = (rss(x0 + e) - 2 * f0 + rss(x0 - e)) / h**2
+            sig[n][k] = sigma_from_curvature(ctx, fit, c, float(v))
+            j += 1
+    return sig
+
+
 def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tuple],
                got: tuple, hp: HeldOut, rnd: int) -> Fit | None:
     """Acceptance rule 12: name both stages of a pair in series that beat the single stage
@@ -1548,6 +1578,8 @@ def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tu
     fits: dict[str, Fit] = {}
     tests: dict[str, tuple[HeldOut, HeldOut | None]] = {}
     for n, _ in stages if not why and folds else ():
+        if why:  # (the other stage did not earn its place: nothing is named)
+            break
         other = next(o for o, _ in stages if o != n)
         fits[other] = _polish_alone(ctx, base, other, [alone[other][1], params[other]])
         h = heldout_comparison(ctx.test_res(fits[other]), ctx.test_res(pair_fit))
@@ -1562,6 +1594,8 @@ def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tu
                           if hb is not None else "") + ")")
     if not folds:
         why = {n: "too few training rows to cross-fit it" for n, _ in stages}
+    for n, _ in stages if why else ():
+        why.setdefault(n, "not named alone: the other stage of the pair did not earn its place")
     for n, _ in stages:
         h, hb = tests.get(n, (hp, None))
         run.rounds.append(RoundRow(rnd, f"second stage:{n}", h.gain, h.z, h.sign_p,
@@ -1578,10 +1612,13 @@ def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tu
                                  chosen=first, reason=a["reason"].replace(old, first))
                             if a["chosen"] == old else a for a in run.ambiguous]
         finding.name = first
-        finding.uncertainty = alone[first][2]
         finding.explanation = EFFECTS[first].explanation
         finding.equation = EFFECTS[first].equation
+    sig = _pair_sigmas(ctx, pair_fit)
     finding.parameters = params[first]
+    finding.uncertainty = sig[first]
+    finding.uncertainty_method = ("profile curvature in the pair of stages (inflated for "
+                                  "residual autocorrelation)")
     finding.ambiguous_parameters = ambiguous_parameters(finding.parameters, finding.uncertainty)
     # the pair's stages are no longer look-alikes of each other; the single stage the pair
     # replaced stays open unless the pair is clearly better (rule 10)
@@ -1601,9 +1638,9 @@ def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tu
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(alone_fit))))
     finding.structure = alone_fit.structure
     h2 = tests[second][0]
-    c2 = _Candidate(second, pair_fit, params[second], alone[second][2], heldout=h2)
+    c2 = _Candidate(second, pair_fit, params[second], sig[second], heldout=h2)
     f2 = _finding(run, alone_fit, c2, [], {})
-    f2.uncertainty_method += "; of the stage fitted alone (not refitted in the pair)"
+    f2.uncertainty_method = finding.uncertainty_method
     f2.evidence = f"{f2.evidence}, in series with {first} re-optimised alone (rule 12)"
     f2.structure = pair_fit.structure
     run.findings.append(f2)
