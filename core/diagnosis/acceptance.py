@@ -45,6 +45,16 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     that predicts the held-out rows better than the named single stage by the effect size
     and significance of rules 1-2 (its stages each showing their own signature) keeps its
     members from being ruled out: they are reported ambiguous with the named stage.
+12. *A second stage in series is named* (:func:`second_stage_named`): both stages of such a
+    pair are named (and the single stage replaced by them) only when rule 11 holds, each
+    stage shows its own signature in the pair (rule 9, and
+    :attr:`~core.diagnosis.registry.OutputDynamics.lacks_signature_in_series`: a lag whose
+    corner lies far above the mode, or below half a sample, is not one), and for each stage
+    the pair beats the *other* stage alone, re-optimised alone with the optimiser budget
+    the pair had, by the effect size and significance of rules 1-2 on the held-out rows
+    (where the pair changes the prediction most) **and** on cross-fitted training blocks
+    (rule 4: the held-out rows already chose the first stage). A stage gets credit only
+    for what it adds, not for the refit of the other stage's parameters it came with.
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
@@ -60,7 +70,7 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "clearly_better", "decide", "earns_place",
-           "generalises", "pair_beats_single", "size_ok",
+           "generalises", "pair_beats_single", "second_stage_named", "size_ok",
            "split_supports_transport", "trend_follows_steps", "yields_to_lookalike"]
 
 
@@ -311,3 +321,19 @@ def pair_beats_single(single_vs_pair: HeldOut, rule: AcceptRule = RULE) -> bool:
     """
     h = single_vs_pair
     return bool(h.gain >= rule.min_gain) and _significant(h, rule)
+
+
+def second_stage_named(alone_vs_pair: HeldOut, alone_vs_pair_blocks: HeldOut,
+                       rule: AcceptRule = RULE) -> bool:
+    """Rule 12: does a stage of a pair in series earn its name over the other stage alone?
+
+    ``alone_vs_pair``: the other stage alone, re-optimised alone (before), against the pair
+    (after) on the held-out rows (where the two differ most); ``alone_vs_pair_blocks``: the
+    same on cross-fitted training blocks. True when both reduce the MSE by at least
+    ``min_gain`` significantly (DM ``z >= min_z`` or signed-rank ``p < sign_p``) (measured
+    on a Bouc-Wen actuator with a 568 Hz mode and no lag: the pair, with a 2.9 us "lag",
+    leaves 26 % less held-out MSE than the mode as first fitted (DM z 10.2), but 0.3 % more
+    than the mode re-optimised alone: the joint refit of the mode took the credit).
+    """
+    return pair_beats_single(alone_vs_pair, rule) and pair_beats_single(alone_vs_pair_blocks,
+                                                                        rule)

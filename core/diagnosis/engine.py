@@ -59,6 +59,7 @@ from .acceptance import (
     earns_place,
     generalises,
     pair_beats_single,
+    second_stage_named,
     split_supports_transport,
     trend_follows_steps,
     yields_to_lookalike,
@@ -72,7 +73,7 @@ from .between import (
     between_recordings,
     leave_one_recording_out,
 )
-from .candidates import build_candidate
+from .candidates import PAIR_MAXFEV, build_candidate, nelder_mead, sigma_from_curvature
 from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import (
@@ -104,7 +105,7 @@ from .results import (
 from .shapes import shape_thresholds
 from .specs import DECIDING_EXPERIMENT, FAMILY_PRIORITY
 from .stats import HeldOut, heldout_comparison, noise_floor
-from .structure import Fit, Structure
+from .structure import Fit, Structure, dynamics_stages
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -362,6 +363,8 @@ class _Run:
     rounds: list[RoundRow] = field(default_factory=list)
     #: training-block folds of acceptance rule 4 (built on first use)
     earn_folds: list | None = None
+    #: training-block folds in every recording of acceptance rule 12 (built on first use)
+    stage_folds: list | None = None
     #: memo of rule 5: the fit the split was computed for, and its verdict
     split_for: Fit | None = None
     split: bool = True
@@ -800,6 +803,17 @@ def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str
     (linear weights) without each block, the candidate's nonlinear parameters kept at their
     fitted values (an effect excited in one segment only, as a resonance by the fast sines,
     cannot be re-identified without it)."""
+    sub = _blocks_context(run)
+    if sub is None:
+        return Decision(False, True, False, True, (f"as a further effect on top of "
+                        f"{', '.join(accepted)} it cannot be cross-fitted (too few training "
+                        "blocks)",))
+    return earns_place(compare_heldout(sub, cur, c.fit), n_tests, None, accepted)
+
+
+def _blocks_context(run: _Run) -> FitContext | None:
+    """The cross-fitted training blocks of acceptance rule 4 (strict hold-out: the test
+    rows chose the effects before a further one), or ``None`` with too few blocks."""
     ctx = run.ctx
     if run.earn_folds is None:
         run.earn_folds = (ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
@@ -807,12 +821,10 @@ def _earns(run: _Run, cur: Fit, c: _Candidate, n_tests: int, accepted: tuple[str
                           or crossfit_folds(ctx.records, ctx.train, min_block_s=1e-12,
                                             max_blocks=4))
     if not run.earn_folds:
-        return Decision(False, True, False, True, (f"as a further effect on top of "
-                        f"{', '.join(accepted)} it cannot be cross-fitted (too few training "
-                        "blocks)",))
+        return None
     sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)
-    sub.strict = True  # the blocks alone: the test rows chose the effects before this one
-    return earns_place(compare_heldout(sub, cur, c.fit), n_tests, None, accepted)
+    sub.strict = True
+    return sub
 
 
 def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRow],
@@ -909,12 +921,14 @@ def _accept(run: _Run, cur: Fit, cands: dict[str, _Candidate], passing: list[str
         refine: list[dict[str, Any]] = []
         new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
         run.rounds.extend(RoundRow.from_dict(d) for d in refine)
+    fnd = run.findings[-1]
     if c_spec.dynamics is not None and not ctx.strict:
-        new = _recheck_dynamics(ctx, new, run.findings[-1], run.ambiguous, run.rounds, rnd + 1)
+        new = _recheck_dynamics(run, new, fnd, rnd + 1)
     elif not ctx.strict:
         new = _recheck_earlier_dynamics(run, new, rnd)
-    run.findings[-1].structure = new.structure
-    named = run.findings[-1].name  # the dynamics recheck may rename it
+    if fnd is run.findings[-1]:  # (a second stage named in series set both structures)
+        fnd.structure = new.structure
+    named = fnd.name  # the dynamics recheck may rename it
     for hidden, e in EFFECTS.items():
         if e.mimicked_by is None:
             continue
@@ -950,10 +964,10 @@ def _recheck_earlier_dynamics(run: _Run, new: Fit, rnd: int) -> Fit:
     better, and reported ambiguous with those it does not beat."""
     earlier = next((f for f in run.findings[:-1] if EFFECTS[f.name].dynamics is not None),
                    None)
-    if earlier is None:
-        return new
+    if earlier is None or len(dynamics_stages(new.structure.dynamics)) > 1:
+        return new  # (two stages in series: each was judged against the other, rule 12)
     old, rmse_after = earlier.name, earlier.heldout_rmse_after
-    new = _recheck_dynamics(run.ctx, new, earlier, run.ambiguous, run.rounds, rnd + 1)
+    new = _recheck_dynamics(run, new, earlier, rnd + 1)
     earlier.heldout_rmse_after = rmse_after  # its own step's score stays
     if earlier.name != old and earlier.structure is not None:
         earlier.structure = earlier.structure.with_(dynamics=new.structure.dynamics)
@@ -1095,21 +1109,28 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
     import scipy.optimize as so
 
     dyn = cur.structure.dynamics
-    f = next((f for f in findings if f.name == (dyn[0] if dyn else None)), None)
-    spec = EFFECTS[dyn[0]].dynamics if dyn else None
-    if spec is None or f is None:
+    stages = dynamics_stages(dyn)
+    if not stages or any(not any(f.name == n for f in findings) for n, _ in stages):
         return cur
-    keys = spec.params
     dt = min(r.dt for r in ctx.records)
-    x0 = np.log(np.asarray(dyn[1:], dtype=float))
+    x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
 
-    def stage(lx: np.ndarray) -> tuple:
-        return (dyn[0], *(float(v) for v in np.exp(lx)))
+    def stage(lx: np.ndarray) -> tuple | None:
+        out: list = []
+        o = 0
+        for n, vals in stages:
+            v = tuple(float(a) for a in np.exp(lx[o : o + len(vals)]))
+            spec = EFFECTS[n].dynamics
+            assert spec is not None
+            if not spec.valid(v, dt):
+                return None
+            out += [n, *v]
+            o += len(vals)
+        return tuple(out)
 
     def obj(lx: np.ndarray) -> float:
-        if not spec.valid(tuple(float(v) for v in np.exp(lx)), dt):
-            return np.inf
-        return ctx.rss(cur.structure.with_(dynamics=stage(lx)), cur)
+        d = stage(lx)
+        return np.inf if d is None else ctx.rss(cur.structure.with_(dynamics=d), cur)
 
     f0 = obj(x0)
     if x0.size == 1:
@@ -1118,18 +1139,25 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
                                options={"xatol": POLISH_XATOL, "maxiter": 20})
         x, fx = np.array([r.x]), float(r.fun)
     else:
-        simplex = np.array([x0, x0 + [0.03, 0.0], x0 + [0.0, 0.1]])
+        # steps of 0.03 in the log of the first value of each stage, 0.1 in the others
+        steps = [0.03 if k == 0 else 0.1 for _, vals in stages for k in range(len(vals))]
+        simplex = np.vstack([x0] + [x0 + st * np.eye(x0.size)[k] for k, st in enumerate(steps)])
         r = so.minimize(obj, x0, method="Nelder-Mead",
-                        options={"xatol": POLISH_XATOL, "fatol": 0.0, "maxfev": 80,
+                        options={"xatol": POLISH_XATOL, "fatol": 0.0, "maxfev": 40 * x0.size,
                                  "initial_simplex": simplex})
         x, fx = r.x, float(r.fun)
-    if not fx < f0:
+    new = stage(x)
+    if not fx < f0 or new is None:
         return cur
-    old, new = dyn, stage(x)
+    old = dyn
     for g in findings:
         if g.structure is not None and g.structure.dynamics == old:
             g.structure = g.structure.with_(dynamics=new)
-    f.parameters = dict(f.parameters, **dict(zip(keys, new[1:], strict=True)))
+    for (n, _), (_, vals) in zip(stages, dynamics_stages(new), strict=True):
+        f = next(f for f in findings if f.name == n)
+        spec = EFFECTS[n].dynamics
+        assert spec is not None
+        f.parameters = dict(f.parameters, **dict(zip(spec.params, vals, strict=True)))
     return ctx.fit(cur.structure.with_(dynamics=new), cur)
 
 
@@ -1314,9 +1342,12 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
     return fit
 
 
-def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguous: list,
-                      rounds: list[RoundRow], rnd: int) -> Fit:
-    """Re-compare delay / lag / resonance at the refined resolution and keep the best."""
+def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fit:
+    """Re-compare delay / lag / resonance at the refined resolution and keep the best; a
+    pair of stages in series that beats it (rule 11) is named when each of its stages earns
+    its place over the other alone (rule 12, :func:`_name_pair`; only for the stage just
+    accepted: ``finding`` is the last finding)."""
+    ctx, ambiguous, rounds = run.ctx, run.ambiguous, run.rounds
     base = ctx.fit(cur.structure.with_(dynamics=()), cur)
     te0 = ctx.test_res(base)
     results = {finding.name: (cur, finding.parameters, finding.uncertainty,
@@ -1365,6 +1396,7 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
             amb.append(other)
     # rule 11: two stages in series that beat the named one keep their members open
     in_pair: dict[str, str] = {}
+    beating: list[tuple[str, str, tuple, HeldOut]] = []
     for a, b in stage_pairs():
         if a not in results or b not in results:
             continue
@@ -1377,6 +1409,8 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
         rings = not any(_lacks_signature(n, {k.split(".", 1)[1]: v for k, v in got[1].items()
                                              if k.startswith(n + ".")}) for n in (a, b))
         ok = rings and pair_beats_single(hp)
+        if ok:
+            beating.append((a, b, got, hp))
         rounds.append(RoundRow(rnd, f"recheck:{a}+{b}", heldout_comparison(te0, ctx.test_res(
             got[0])).gain, hp.z, hp.sign_p, False, "ambiguous" if ok else "rejected", got[1]))
         for n in (a, b) if ok else ():
@@ -1424,7 +1458,211 @@ def _recheck_dynamics(ctx: FitContext, cur: Fit, finding: EffectFinding, ambiguo
             "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
                                                   "recordings at more frequencies"),
         })
+    for a, b, got, hp in beating if finding is run.findings[-1] else ():
+        named = _name_pair(run, base, finding, {n: results[n] for n in (a, b)}, got, hp, rnd)
+        if named is not None:
+            return named
     return fit
+
+
+#: Contiguous training blocks per recording held out in turn when a second output stage is
+#: judged on training rows (acceptance rule 12): the blocks of rule 4 are placed by duration
+#: and miss a short recording (the fast sines) where output dynamics live.
+STAGE_BLOCKS_PER_RECORDING = 2
+
+
+def _stage_folds(run: _Run) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
+    """Folds holding out each of :data:`STAGE_BLOCKS_PER_RECORDING` contiguous training
+    blocks of every recording in turn (the other rows stay in training; memoised)."""
+    if run.stage_folds is None:
+        ctx = run.ctx
+        none = [np.zeros_like(m) for m in ctx.train]
+        run.stage_folds = []
+        for j in range(len(ctx.train)):
+            only = [m if k == j else none[k] for k, m in enumerate(ctx.train)]
+            for _, blk in crossfit_folds(ctx.records, only, min_block_s=1e-12,
+                                         max_blocks=STAGE_BLOCKS_PER_RECORDING):
+                run.stage_folds.append(([t & ~b for t, b in zip(ctx.train, blk, strict=True)],
+                                        blk))
+    return run.stage_folds
+
+
+def _blocks_where_it_lives(ctx: FitContext, folds: list, cur: Fit, new: Fit) -> HeldOut:
+    """``cur`` against ``new`` on cross-fitted training blocks (linear weights refitted
+    without each block, nonlinear parameters kept, as
+    :func:`~core.diagnosis.crossfitting.compare_heldout`), the significance also tested
+    where the two predictions differ most, as on the test rows (:func:`_where_it_lives`)."""
+    eb: list[np.ndarray] = []
+    ea: list[np.ndarray] = []
+    diff: list[np.ndarray] = []
+    for tr_f, blk in folds:
+        fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
+        fa, fb = fc.fit(cur.structure, cur), fc.fit(new.structure, new)
+        eb += fc.test_res(fa)
+        ea += fc.test_res(fb)
+        diff += [np.abs(a - b)[m] for a, b, m in zip(fb.pred, fa.pred, blk, strict=True)]
+    h = heldout_comparison(eb, ea)
+    pooled = np.concatenate(diff) if diff else np.zeros(0)
+    if not (np.isfinite(h.z) and h.z >= WHERE_MIN_Z) or pooled.size < 50 or not np.any(
+            pooled > 0):
+        return h
+    cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
+    keep = [d >= cut for d in diff]
+    hw = heldout_comparison([e[k] for e, k in zip(eb, keep, strict=True)],
+                            [e[k] for e, k in zip(ea, keep, strict=True)])
+    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
+        return h
+    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
+                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+
+
+def _polish_alone(ctx: FitContext, base: Fit, name: str, starts: list[dict[str, Any]]) -> Fit:
+    """Output stage ``name`` alone on ``base`` (no dynamics), re-optimised from the best of
+    its ``starts`` (parameter dicts) with the Nelder-Mead budget of a pair
+    (:data:`~core.diagnosis.candidates.PAIR_MAXFEV`, log space): the baseline against which
+    a second stage in series is judged (rule 12) gets the optimiser effort the pair got."""
+    spec = EFFECTS[name].dynamics
+    assert spec is not None
+    dt = min(r.dt for r in ctx.records)
+
+    def obj(lx: np.ndarray) -> float:
+        v = tuple(float(a) for a in np.exp(lx))
+        return (ctx.rss(base.structure.with_(dynamics=(name, *v)), base) if spec.valid(v, dt)
+                else np.inf)
+
+    xs = [np.log(np.asarray([float(p[k]) for k in spec.params])) for p in starts]
+    fs = [obj(x) for x in xs]
+    x0 = xs[int(np.argmin(fs))]
+    x, fx = nelder_mead(obj, x0, 0.2, PAIR_MAXFEV)
+    if not fx <= min(fs):
+        x = x0
+    return ctx.fit(base.structure.with_(dynamics=(name, *(float(a) for a in np.exp(x)))), base)
+
+
+def _pair_sigmas(ctx: FitContext, fit: Fit, h: float = 0.05) -> dict[str, dict[str, Any]]:
+    """1-sigmas of each stage's parameters in the pair ``fit`` (per stage name): the 1-D
+    profile curvature of the training RSS in log space (step ``h``; the other parameters
+    held), as for a single stage
+    (:func:`~core.diagnosis.candidates.sigma_from_curvature`)."""
+    stages = dynamics_stages(fit.structure.dynamics)
+    x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
+
+    def rss(lx: np.ndarray) -> float:
+        out: list = []
+        o = 0
+        for n, vals in stages:
+            out += [n, *(float(a) for a in np.exp(lx[o : o + len(vals)]))]
+            o += len(vals)
+        return ctx.rss(fit.structure.with_(dynamics=tuple(out)), fit)
+
+    f0 = rss(x0)
+    sig: dict[str, dict[str, Any]] = {}
+    j = 0
+    for n, vals in stages:
+        keys = EFFECTS[n].dynamics.params  # type: ignore[union-attr]
+        sig[n] = {}
+        for k, v in zip(keys, vals, strict=True):
+            e = np.eye(x0.size)[j] * h
+            c = (rss(x0 + e) - 2 * f0 + rss(x0 - e)) / h**2
+            sig[n][k] = sigma_from_curvature(ctx, fit, c, float(v))
+            j += 1
+    return sig
+
+
+def _name_pair(run: _Run, base: Fit, finding: EffectFinding, alone: dict[str, tuple],
+               got: tuple, hp: HeldOut, rnd: int) -> Fit | None:
+    """Acceptance rule 12: name both stages of a pair in series that beat the single stage
+    ``finding`` names (rule 11, ``hp``: that stage against the pair ``got``, fitted on
+    ``base``), when each stage shows its own signature in the pair and the pair beats the
+    other stage alone (re-optimised alone, :func:`_polish_alone`, from its single fit
+    ``alone[name]`` and from its values in the pair) on the held-out rows where they differ
+    and on cross-fitted training blocks. ``finding`` becomes the stage that predicts better
+    alone, on the structure with that stage alone; the other stage is a new finding after
+    it, on the structure with the pair. Returns the pair's fit, or ``None`` (nothing
+    changed but the round rows)."""
+    ctx = run.ctx
+    pair_fit = got[0]
+    stages = dynamics_stages(pair_fit.structure.dynamics)
+    params = {n: dict(zip(EFFECTS[n].dynamics.params, v, strict=True))  # type: ignore[union-attr]
+              for n, v in stages}
+    why: dict[str, str] = {}
+    for n, v in stages:
+        other = next(o for o, _ in stages if o != n)
+        lacks = EFFECTS[n].dynamics.lacks_signature_in_series  # type: ignore[union-attr]
+        reason = lacks(v, dict(stages)[other], min(r.dt for r in ctx.records)) if lacks else None
+        if reason:
+            why[n] = reason
+    folds = _stage_folds(run)
+    fits: dict[str, Fit] = {}
+    tests: dict[str, tuple[HeldOut, HeldOut | None]] = {}
+    for n, _ in stages if not why and folds else ():
+        if why:  # (the other stage did not earn its place: nothing is named)
+            break
+        other = next(o for o, _ in stages if o != n)
+        fits[other] = _polish_alone(ctx, base, other, [alone[other][1], params[other]])
+        h = heldout_comparison(ctx.test_res(fits[other]), ctx.test_res(pair_fit))
+        h = _where_it_lives(ctx, fits[other], pair_fit, h)
+        hb = (_blocks_where_it_lives(ctx, folds, fits[other], pair_fit)
+              if pair_beats_single(h) else None)
+        tests[n] = (h, hb)
+        if hb is None or not second_stage_named(h, hb):
+            why[n] = (f"it does not predict better than {other} alone, re-optimised alone "
+                      f"(held-out {100 * h.gain:.0f} %, DM z {h.z:.1f}" + (
+                          f"; training blocks {100 * hb.gain:.0f} %, DM z {hb.z:.1f}"
+                          if hb is not None else "") + ")")
+    if not folds:
+        why = {n: "too few training rows to cross-fit it" for n, _ in stages}
+    for n, _ in stages if why else ():
+        why.setdefault(n, "not named alone: the other stage of the pair did not earn its place")
+    for n, _ in stages:
+        h, hb = tests.get(n, (hp, None))
+        run.rounds.append(RoundRow(rnd, f"second stage:{n}", h.gain, h.z, h.sign_p,
+                                   n not in why, "rejected" if n in why else "accepted",
+                                   params[n], reasons=(why[n],) if n in why else None))
+    if why:
+        return None
+    # the stage that predicts better alone is the finding's; the other joins after it
+    first = min(fits, key=lambda n: pooled_mse(ctx.test_res(fits[n])))
+    second = next(n for n, _ in stages if n != first)
+    old = finding.name
+    if old != first:
+        run.ambiguous[:] = [dict(a, effects=[first if e == old else e for e in a["effects"]],
+                                 chosen=first, reason=a["reason"].replace(old, first))
+                            if a["chosen"] == old else a for a in run.ambiguous]
+        finding.name = first
+        finding.explanation = EFFECTS[first].explanation
+        finding.equation = EFFECTS[first].equation
+    sig = _pair_sigmas(ctx, pair_fit)
+    finding.parameters = params[first]
+    finding.uncertainty = sig[first]
+    finding.uncertainty_method = ("profile curvature in the pair of stages (inflated for "
+                                  "residual autocorrelation)")
+    finding.ambiguous_parameters = ambiguous_parameters(finding.parameters, finding.uncertainty)
+    # the pair's stages are no longer look-alikes of each other; the single stage the pair
+    # replaced stays open unless the pair is clearly better (rule 10)
+    members = {first, second}
+    run.ambiguous[:] = [a for a in run.ambiguous
+                        if not set(a["effects"]) <= set(output_dynamics())]
+    finding.ambiguous_with = []
+    if old not in members and not clearly_better(hp):
+        finding.ambiguous_with.append(old)
+        run.ambiguous.append({
+            "effects": [first, old], "chosen": first,
+            "reason": f"{first} followed by {second} leaves only "
+            f"{100 * (hp.mse_before / hp.mse_after - 1):.1f} % less held-out MSE than {old}",
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({first, old}),
+                                                  "recordings at more frequencies")})
+    alone_fit = fits[first]
+    finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(alone_fit))))
+    finding.structure = alone_fit.structure
+    h2 = tests[second][0]
+    c2 = _Candidate(second, pair_fit, params[second], sig[second], heldout=h2)
+    f2 = _finding(run, alone_fit, c2, [], {})
+    f2.uncertainty_method = finding.uncertainty_method
+    f2.evidence = f"{f2.evidence}, in series with {first} re-optimised alone (rule 12)"
+    f2.structure = pair_fit.structure
+    run.findings.append(f2)
+    return pair_fit
 
 
 def _lacks_signature(name: str, params: dict[str, Any]) -> str | None:

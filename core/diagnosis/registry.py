@@ -56,6 +56,12 @@ class OutputDynamics:
         then a mode): the look-alike recheck also fits the pair jointly, and a pair that
         predicts the held-out rows clearly better than the single stage named keeps its
         members from being ruled out (:func:`stage_pairs`).
+    lacks_signature_in_series : callable or None
+        ``lacks_signature_in_series(values, other_values, dt) -> reason or None``: why the
+        fitted values of this stage, in series with the stage it combines with (that stage's
+        values ``other_values``; sample period ``dt`` in s), do not show the stage's own
+        signature, so that it is not named as a second stage (acceptance rule 12);
+        ``None``: no condition beyond :attr:`lacks_signature`.
     """
 
     params: tuple[str, ...]
@@ -64,6 +70,8 @@ class OutputDynamics:
     valid: Callable[[tuple[float, ...], float], bool] = lambda values, dt: True
     lacks_signature: Callable[[tuple[float, ...]], str | None] | None = None
     combines_with: tuple[str, ...] = ()
+    lacks_signature_in_series: Callable[[tuple[float, ...], tuple[float, ...], float],
+                                        str | None] | None = None
 
 
 @dataclass(frozen=True)

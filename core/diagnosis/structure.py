@@ -164,10 +164,15 @@ class Structure:
     def without(self, name: str, base: Structure) -> Structure:
         """Copy with effect ``name`` switched off (its field, the registry's
         :attr:`~core.diagnosis.registry.DiagnosableEffect.structure_field`, as in ``base``,
-        the structure it was added to); loop shapes are part of the hysteresis and stay."""
+        the structure it was added to); loop shapes are part of the hysteresis and stay. One
+        of two output stages in series is taken out alone (the other stays)."""
         f = EFFECTS[name].structure_field if name in EFFECTS else None
         if f is None:
             raise ValueError(f"effect {name!r} cannot be switched off in a structure")
+        if EFFECTS[name].dynamics is not None and len(dynamics_stages(self.dynamics)) > 1:
+            # one of two stages in series: the other stays
+            return replace(self, dynamics=tuple(
+                x for n, v in dynamics_stages(self.dynamics) if n != name for x in (n, *v)))
         return replace(self, **{f: getattr(base, f)})
 
 
