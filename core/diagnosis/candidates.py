@@ -28,20 +28,59 @@ from .structure import Fit, Structure
 
 __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_time_constant",
            "placed_on", "scalar_search", "search_context", "shape_input_range",
-           "sigma_from_curvature", "stage_pair", "with_shape_stage", "worth_refining"]
+           "sigma_from_curvature", "stage_pair", "walk_down", "with_shape_stage",
+           "worth_refining"]
 
 #: ``(fit, parameters, uncertainty)`` of one candidate effect.
 Candidate = tuple[Fit, dict, dict]
 
 
-def scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit) -> tuple[float, Fit, dict]:
-    """VarPro over one positive parameter: grid, then golden refinement in log space."""
+def walk_down(value, shape: tuple[int, ...], start: tuple[int, ...]) -> tuple[int, ...]:
+    """A local minimum of ``value`` (a function of a grid index) over a grid of ``shape``:
+    from ``start``, to the lowest of the neighbours (indices within one of the current in
+    every axis) while it is lower. On a grid whose values have one local minimum that is
+    their minimum (the argmin of the whole grid) with a fraction of the evaluations."""
+    cur = tuple(int(i) for i in start)
+    while True:
+        nb = [n for n in np.ndindex(*(3,) * len(shape))
+              if any(d != 1 for d in n)]
+        cand = [tuple(c + d - 1 for c, d in zip(cur, n, strict=True)) for n in nb]
+        cand = [c for c in cand if all(0 <= i < m for i, m in zip(c, shape, strict=True))]
+        if not cand:
+            return cur
+        best = min(cand, key=value)
+        if not value(best) < value(cur):
+            return cur
+        cur = best
+
+
+def scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit,
+                  near: float | None = None) -> tuple[float, Fit, dict]:
+    """VarPro over one positive parameter: grid, then golden refinement in log space.
+
+    With ``near`` (the estimate on all the training rows, when ``ctx`` is a cross-fitting
+    fold: :attr:`FitContext.start`) the grid is not evaluated in full but walked downhill
+    from its point nearest to ``near``, each point passed compared with its two neighbours.
+    Where the fold's RSS over the grid has one local minimum that is its minimum, hence the
+    same refinement and the same estimate as the full grid's, with 3-5 solves instead of
+    the grid's 12-18 (a fold shares all but one block of rows with the full data, whose
+    minimum is next to ``near``); a fold whose grid has a deeper minimum elsewhere, apart
+    from a higher local one, would be refined at the local one.
+    """
     import scipy.optimize as so
 
-    rss = []
-    for g in grid:
-        rss.append(ctx.rss(make(float(g)), cur))
-    i = int(np.argmin(rss))
+    vals: dict[int, float] = {}
+
+    def at(j: int) -> float:
+        if j not in vals:
+            vals[j] = ctx.rss(make(float(grid[j])), cur)
+        return vals[j]
+
+    if near is None or not (np.isfinite(near) and near > 0):
+        i = int(np.argmin([at(j) for j in range(grid.size)]))
+    else:
+        i = walk_down(lambda ij: at(ij[0]), (grid.size,),
+                      (int(np.argmin(np.abs(np.log(grid) - np.log(near)))),))[0]
     lo = np.log(grid[max(i - 1, 0)])
     hi = np.log(grid[min(i + 1, grid.size - 1)])
     memo: dict[float, float] = {}
@@ -54,7 +93,7 @@ def scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit) -> tuple[fl
     if hi > lo:
         r = so.minimize_scalar(f, bounds=(lo, hi), method="bounded",
                                options={"xatol": 0.03, "maxiter": 9})
-        best = float(np.exp(r.x)) if r.fun < rss[i] else float(grid[i])
+        best = float(np.exp(r.x)) if r.fun < at(i) else float(grid[i])
     else:
         best = float(grid[i])
     # profile curvature in log space -> 1-sigma (inflated for autocorrelation)
@@ -102,7 +141,11 @@ def one_time_constant(ctx: FitContext, cur: Fit, kind: str, key: str) -> Candida
     dt = min(r.dt for r in ctx.records)
     dur = min(r.t[-1] - r.t[0] for r in ctx.records)
     grid = np.geomspace(1e-4 * dt, min(0.05, dur / 20), 18)
-    best, fit, info = scalar_search(ctx, lambda v: s.with_(dynamics=(kind, v)), grid, cur)
+    st = ctx.start
+    near = (float(st.dynamics[1]) if st is not None and len(st.dynamics) == 2
+            and st.dynamics[0] == kind else None)
+    best, fit, info = scalar_search(ctx, lambda v: s.with_(dynamics=(kind, v)), grid, cur,
+                                    near=near)
     return fit, {key: best}, {key: sigma_from_curvature(ctx, fit, info["profile_curvature"],
                                                          best)}
 

@@ -45,6 +45,10 @@ class FitContext:
         #: estimate the candidates' parameter uncertainties (profile curvature); off where
         #: only the parameters are used (cross-fitting folds)
         self.uncertainty = True
+        #: a cross-fitting fold: the candidate's structure fitted on all the training rows,
+        #: whose nonlinear parameters a one-parameter search starts from
+        #: (:func:`core.diagnosis.candidates.scalar_search`); None elsewhere
+        self.start: Structure | None = None
 
     def _sub_cache(self, parent: _Cache) -> _Cache:
         """The cache of a sub-context: play banks and projections do not depend on the rows

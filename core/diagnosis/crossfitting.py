@@ -43,13 +43,17 @@ def compare_heldout(ctx: FitContext, a: Fit, b: Fit) -> HeldOut:
     return heldout_comparison(eb, ea)
 
 
-def fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: int | None = None):
+def fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: int | None = None,
+              full: Fit | None = None):
     """Per fold: (fold context, current structure refitted without the block, effect ``name``
-    fitted on top of it or ``None``)."""
+    fitted on top of it or ``None``). ``full``: the effect fitted on all the training rows,
+    from whose parameters a one-parameter search walks its grid
+    (:func:`core.diagnosis.candidates.scalar_search`)."""
     for tr_f, blk in folds:
         fc = FitContext(ctx.records, tr_f, blk, parent=ctx)
         fc.iterations = iterations
         fc.uncertainty = False  # only the folds' parameters are used
+        fc.start = None if full is None else full.structure
         cur_f = fc.fit(cur.structure, cur)
         yield fc, cur_f, build_candidate(fc, name, cur_f)
 
@@ -63,7 +67,8 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
 
     For each fold of ``ctx.folds`` the current structure's linear weights are re-solved
     without the block and effect ``name`` is fitted anew on top (its nonlinear parameters
-    searched again), then both predict the block. The block residuals of all folds are
+    searched again; a one-parameter grid walked from ``fit``'s value), then both predict
+    the block. The block residuals of all folds are
     pooled with the test rows into one Diebold–Mariano / signed-rank comparison.
 
     Returns
@@ -78,7 +83,7 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
     eb, ea = ([], []) if ctx.strict else (list(ctx.test_res(cur)), list(ctx.test_res(fit)))
     n_test = sum(e.size for e in eb)
     gains, params = [], []
-    for fc, cur_f, got in fold_fits(ctx, ctx.folds, name, cur):
+    for fc, cur_f, got in fold_fits(ctx, ctx.folds, name, cur, full=fit):
         if got is None:
             return None
         b0, b1 = fc.test_res(cur_f), fc.test_res(got[0])

@@ -32,7 +32,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     span = max(float(np.ptp(r.u)) for r in ctx.records)
     rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
     grid = np.geomspace(1e-5, 0.3, 12) * span / rmax
-    best, fit, info = scalar_search(ctx, lambda v: s.with_(beta_s=v), grid, cur)
+    best, fit, info = scalar_search(ctx, lambda v: s.with_(beta_s=v), grid, cur,
+                                    near=None if ctx.start is None else ctx.start.beta_s)
     return fit, {"beta_s": best}, {"beta_s": sigma_from_curvature(
         ctx, fit, info["profile_curvature"], best)}
 

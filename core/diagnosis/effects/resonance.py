@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...effects import Resonance
-from ..candidates import Candidate, excitation_hz, sigma_from_curvature
+from ..candidates import Candidate, excitation_hz, sigma_from_curvature, walk_down
 from ..context import FitContext
 from ..registry import DiagnosableEffect, OutputDynamics, register
 from ..structure import Fit
@@ -52,12 +52,25 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     fmin = max(5.0 / dur, 2.0, 3.0 * excitation_hz(ctx.records))
     fs = np.geomspace(fmin, fmax, 7)
     zs = np.array([0.05, 0.2, 0.7])
-    best = (np.inf, fs[0], zs[0])
-    for f_ in fs:
-        for z_ in zs:
-            v = ctx.rss(s.with_(dynamics=("resonance", float(f_), float(z_))), cur)
-            if v < best[0]:
-                best = (v, f_, z_)
+    vals: dict[tuple[int, ...], float] = {}
+
+    def at(ij: tuple[int, ...]) -> float:
+        if ij not in vals:
+            vals[ij] = ctx.rss(s.with_(dynamics=("resonance", float(fs[ij[0]]),
+                                                  float(zs[ij[1]]))), cur)
+        return vals[ij]
+
+    st = ctx.start
+    if st is not None and len(st.dynamics) == 3 and st.dynamics[0] == "resonance":
+        # a cross-fitting fold: the grid walked from the point nearest the estimate on all
+        # the training rows (the same minimum as the whole grid's where it has one local
+        # minimum: core.diagnosis.candidates.walk_down)
+        ij = walk_down(at, (fs.size, zs.size), tuple(
+            int(np.argmin(np.abs(np.log(g) - np.log(float(v)))))
+            for g, v in zip((fs, zs), st.dynamics[1:], strict=True)))
+    else:
+        ij = min(np.ndindex(fs.size, zs.size), key=at)  # (the first of equal values)
+    best = (at(ij), fs[ij[0]], zs[ij[1]])
 
     def obj(p):
         f_, z_ = float(np.exp(p[0])), float(np.exp(p[1]))
