@@ -564,8 +564,6 @@ def _with_output_dynamics(ctx: FitContext, sub: FitContext, fit: Fit) -> Fit:
     return out
 
 
-
-
 def _choose_base_family(ctx: FitContext, base: Fit, n_operators: int
                         ) -> tuple[Fit, BaseChoice]:
     """:func:`_choose_base`, then a Bouc-Wen base cross-validated on the same folds (each
