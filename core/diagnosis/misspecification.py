@@ -41,7 +41,7 @@ from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
 from .shapes import apply_shape, shape_thresholds
-from .structure import Fit, Structure
+from .structure import Fit, Structure, dynamics_stages
 
 __all__ = ["BASE_NAMES", "alternative_bases", "base_sensitivity", "describe_alternative"]
 
@@ -150,13 +150,17 @@ def _refit(ctx: FitContext, name: str, a: Structure, params: dict[str, Any], cur
     """Effect ``name``'s parameters refitted on structure ``a`` (which holds it at the
     found ``params``): the linear weights re-solved; the nonlinear parameters (log space)
     by :func:`_newton_steps` from the found values, within :data:`SEARCH_HALF_WIDTH`.
-    Returns the estimates and the training RSS of the structure fitted there."""
+    Returns the estimates and the training RSS of the structure fitted there, or ``None``
+    for an effect without nonlinear parameters to refit here (also a stage of a pair in
+    series, whose sigmas come from the pair's own curvature)."""
     e = EFFECTS[name]
     warm = ctx.fit(a, cur)
     if e.structure_field == "creep_taus" and a.creep_taus:
         # linear: the weights re-solved on the other base (the bank unchanged)
         return ({"gamma_per_decade": float(warm.creep_weights.sum() / len(a.creep_taus))},
                 warm.train_rss)
+    if e.dynamics is not None and len(dynamics_stages(a.dynamics)) > 1:
+        return None  # (a stage of two in series: refitting it alone would drop the other)
     if e.dynamics is not None:
         keys = e.dynamics.params
         x0 = np.log([float(params[k]) for k in keys])
