@@ -24,7 +24,7 @@ from .shapes import (
     apply_shape,
     shape_thresholds,
 )
-from .structure import Fit, Structure
+from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
 __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_time_constant",
            "placed_on", "scalar_search", "search_context", "shape_input_range",
@@ -244,25 +244,12 @@ def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tupl
     if base.structure.dynamics:
         return None
     dt = min(r.dt for r in ctx.records)
-    specs = [(n, EFFECTS[n].dynamics) for n, _ in (first, second)]
-    x_single = np.log(np.asarray([float(p[k]) for (_, p), (_, sp) in zip(
-        (first, second), specs, strict=True) for k in sp.params]))  # type: ignore[union-attr]
-    sizes = [len(sp.params) for _, sp in specs]  # type: ignore[union-attr]
-
-    def stages(lx: np.ndarray) -> tuple | None:
-        v = np.exp(lx)
-        out: list = []
-        o = 0
-        for (n, sp), m in zip(specs, sizes, strict=True):
-            vals = tuple(float(a) for a in v[o : o + m])
-            if not sp.valid(vals, dt):  # type: ignore[union-attr]
-                return None
-            out += [n, *vals]
-            o += m
-        return tuple(out)
+    names = (first[0], second[0])
+    x_single = np.log(np.asarray([float(p[k]) for n, p in (first, second)
+                                  for k in EFFECTS[n].dynamics.params]))  # type: ignore[union-attr]
 
     def obj(lx: np.ndarray) -> float:
-        dyn = stages(lx)
+        dyn = pack_dynamics(names, np.exp(lx), dt)
         return np.inf if dyn is None else ctx.rss(base.structure.with_(dynamics=dyn), base)
 
     grid = np.array(np.meshgrid(*[np.log(PAIR_START_FACTORS)] * x_single.size)
@@ -272,13 +259,12 @@ def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tupl
     x, fx = nelder_mead(obj, x0, 0.2, PAIR_MAXFEV)
     if not fx <= min(vals):
         x = x0
-    dyn = stages(x)
+    dyn = pack_dynamics(names, np.exp(x), dt)
     if dyn is None:
         return None
     fit = ctx.fit(base.structure.with_(dynamics=dyn), base)
-    params = {f"{n}.{k}": float(a) for n, sp in specs for k, a in zip(
-        sp.params, dyn[dyn.index(n) + 1 : dyn.index(n) + 1 + len(sp.params)],  # type: ignore[union-attr]
-        strict=True)}
+    params = {f"{n}.{k}": v for n, vs in dynamics_stages(dyn)
+              for k, v in zip(EFFECTS[n].dynamics.params, vs, strict=True)}  # type: ignore[union-attr]
     return fit, params, {}
 
 

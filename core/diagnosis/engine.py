@@ -105,7 +105,7 @@ from .results import (
 from .shapes import shape_thresholds
 from .specs import DECIDING_EXPERIMENT, FAMILY_PRIORITY
 from .stats import HeldOut, heldout_comparison, noise_floor
-from .structure import Fit, Structure, dynamics_stages
+from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
@@ -1114,17 +1114,7 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
     x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
 
     def stage(lx: np.ndarray) -> tuple | None:
-        out: list = []
-        o = 0
-        for n, vals in stages:
-            v = tuple(float(a) for a in np.exp(lx[o : o + len(vals)]))
-            spec = EFFECTS[n].dynamics
-            assert spec is not None
-            if not spec.valid(v, dt):
-                return None
-            out += [n, *v]
-            o += len(vals)
-        return tuple(out)
+        return pack_dynamics([n for n, _ in stages], np.exp(lx), dt)
 
     def obj(lx: np.ndarray) -> float:
         d = stage(lx)
@@ -1546,12 +1536,8 @@ def _pair_sigmas(ctx: FitContext, fit: Fit, h: float = 0.05) -> dict[str, dict[s
     x0 = np.log(np.asarray([v for _, vals in stages for v in vals], dtype=float))
 
     def rss(lx: np.ndarray) -> float:
-        out: list = []
-        o = 0
-        for n, vals in stages:
-            out += [n, *(float(a) for a in np.exp(lx[o : o + len(vals)]))]
-            o += len(vals)
-        return ctx.rss(fit.structure.with_(dynamics=tuple(out)), fit)
+        dyn = pack_dynamics([n for n, _ in stages], np.exp(lx))
+        return ctx.rss(fit.structure.with_(dynamics=dyn), fit)
 
     f0 = rss(x0)
     sig: dict[str, dict[str, Any]] = {}

@@ -46,7 +46,7 @@ from .registry import EFFECTS
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "dynamics_stages",
-           "fit_structure"]
+           "fit_structure", "pack_dynamics"]
 
 
 def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
@@ -69,6 +69,26 @@ def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
         out.append((dyn[i], tuple(dyn[i + 1 : i + 1 + n])))
         i += 1 + n
     return out
+
+
+def pack_dynamics(names: Sequence[str], values: Sequence[float], dt: float | None = None
+                  ) -> tuple | None:
+    """The :attr:`Structure.dynamics` tuple of the output stages ``names`` in series with
+    their parameter ``values`` concatenated in that order (the inverse of
+    :func:`dynamics_stages`); ``None`` when ``dt`` (s) is given and the values of a stage are
+    not valid at that sample period
+    (:attr:`~core.diagnosis.registry.OutputDynamics.valid`)."""
+    out: list = []
+    o = 0
+    for n in names:
+        spec = EFFECTS[n].dynamics
+        assert spec is not None
+        v = tuple(float(a) for a in values[o : o + len(spec.params)])
+        if dt is not None and not spec.valid(v, dt):
+            return None
+        out += [n, *v]
+        o += len(v)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -798,18 +818,13 @@ def _filter_start(dyn: tuple, dt: float, first: int) -> int:
     """
     if not dyn or first <= 0:
         return 0
-    # stages in series (``(name, *values, name, *values)``): their warm-ups add up
-    warm, i = 0, 0
-    while i < len(dyn):
-        stage = EFFECTS[dyn[i]].dynamics if dyn[i] in EFFECTS else None
-        if stage is None:
-            return 0
-        one = tuple(dyn[i : i + 1 + len(stage.params)])
-        i += len(one)
-        if stage.transfer is None:  # a pure (fractional) transport delay
-            warm += int(np.floor(one[1] / dt + 1e-12)) + 1
+    # stages in series: their warm-ups add up
+    warm = 0
+    for name, vals in dynamics_stages(dyn):
+        if EFFECTS[name].dynamics.transfer is None:  # type: ignore[union-attr]
+            warm += int(np.floor(vals[0] / dt + 1e-12)) + 1  # a (fractional) transport delay
             continue
-        w = _filter_warmup(one, float(dt))
+        w = _filter_warmup((name, *vals), float(dt))
         if w < 0:
             return 0
         warm += w
