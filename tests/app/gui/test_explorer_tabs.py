@@ -42,6 +42,18 @@ def _wait(cond: Any, timeout: float = 30.0) -> bool:
     return cond()
 
 
+def _client_id(server: Any, ws: Any, timeout: float = 30.0) -> int:
+    """The viser client id of the open websocket ``ws`` (matched by its local port)."""
+    port = ws.socket.getsockname()[1]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for cid, conn in list(server._websock_server._live_connections.items()):
+            if conn.remote_address[1] == port:
+                return int(cid)
+        time.sleep(0.01)
+    raise AssertionError(f"the server never listed the websocket from port {port}")
+
+
 def test_closed_tabs_leave_no_view_client_or_thread() -> None:
     app = create_app(Settings(viser_port=0, port=0))
     app.state.create_limiter = RateLimiter(burst=1000, per_minute=60)
@@ -54,10 +66,15 @@ def test_closed_tabs_leave_no_view_client_or_thread() -> None:
         for i in range(CYCLES):
             ws = _ws(port)
             if i % 4 == 0:  # a tab that was shown, then closed
-                before = len(gui.views)
+                # this tab's own view, not a count: a tab closed just before may still
+                # hold a view (built before the server saw it close) that its disconnect
+                # removes meanwhile
+                cid = _client_id(app.state.viser, ws)
                 # generous: in the full suite the forkserver's warm-up shares the 2 cores
-                assert _wait(lambda b=before: len(gui.views) > b, timeout=90.0), (
-                    f"tab {i}: no view; answered {gui.answered}, refused {gui.refused}")
+                assert _wait(lambda c=cid: c in gui.views, timeout=90.0), (
+                    f"tab {i} (client {cid}): no view; views {sorted(gui.views)}, "
+                    f"answered {gui.answered}, refused {gui.refused}, "
+                    f"listed {cid in app.state.viser.get_clients()}")
                 shown += 1
             ws.close()  # the others close while their view is being built
         # every tab was answered (a view made, or closed meanwhile) and forgotten
