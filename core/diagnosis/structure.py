@@ -34,7 +34,7 @@ from ..effects import (
     foh_filter,
     rd_play_bank,
 )
-from ..fitting.gram import COND_LIMIT, solve_constrained
+from ..fitting.gram import COND_LIMIT, r_factor, solve_constrained
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
@@ -1120,15 +1120,16 @@ def fit_structure(
             G += pin.T @ pin
         sol = solve_constrained(lower, gram=G)
         if sol.cond > COND_LIMIT:
-            sol = solve_constrained(lower, factor=np.linalg.qr(
-                np.vstack((X, pin)) if pin.size else X, mode="r"))
+            sol = solve_constrained(lower, factor=r_factor(
+                np.vstack((X, pin)) if pin.size else X))
         w = sol.theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         if s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
-            x_prev = [banks[k] @ w[:nb] for k in range(nrec)]
+            # (the regressors read the PI-stage outputs up to the last solved row only)
+            x_prev = [banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
     assert w is not None
     p0 = float(w[0])
     pw = np.asarray(w[1:nb])

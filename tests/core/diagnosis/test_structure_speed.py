@@ -163,3 +163,18 @@ def test_gram_on_a_miss_and_on_a_hit_equals_the_product() -> None:
     X[:, :26] *= 2.0  # a new owner: the block is formed anew
     np.testing.assert_allclose(st._gram(X, 26, cache, "k", object()), X.T @ X, rtol=0,
                                atol=1e-13 * np.abs(X.T @ X).max())
+
+
+@pytest.mark.parametrize("shape", [(3000, 40), (40, 60)])
+def test_r_factor_equals_numpys_qr(shape) -> None:
+    """The QR fallback's factor from one Fortran copy equals ``np.linalg.qr(mode="r")`` (the
+    same LAPACK routine) for tall and wide matrices, badly scaled columns included."""
+    from core.fitting.gram import r_factor
+
+    rng = np.random.default_rng(7)
+    A = rng.standard_normal(shape) * np.geomspace(1e-4, 1e4, shape[1])
+    want = np.linalg.qr(A, mode="r")
+    got = r_factor(A)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+    assert np.array_equal(got, np.triu(got))
