@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..fitting.gram import r_factor
 from .context import FitContext
 from .specs import spec_untestable, time_effects
 from .stats import score_test
@@ -57,7 +58,7 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     # the base columns partialled out of the others and the residual: the trailing block T
     # of the triangular factor of [base, v_rev, v_hys, dx, ddx, e] is the factor of those
     # five partialled columns (Q T with orthonormal Q), so the regressions below run on T
-    T = np.linalg.qr(X, mode="r")[nb:, nb:]
+    T = r_factor(X)[nb:, nb:]
     out: dict[str, Any] = {}
     c = np.linalg.lstsq(T[:, 0:2], T[:, 4], rcond=None)[0]
     out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])

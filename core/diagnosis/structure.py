@@ -34,7 +34,7 @@ from ..effects import (
     foh_filter,
     rd_play_bank,
 )
-from ..fitting.gram import COND_LIMIT, solve_constrained
+from ..fitting.gram import COND_LIMIT, r_factor, solve_constrained
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
@@ -344,11 +344,11 @@ class _Cache:
         if hit is not None and all(a is b for a, b in zip(hit[0], records, strict=True)) and all(
                 a is b for a, b in zip(hit[1], train, strict=True)):
             return hit[2]
-        # rows solved on: at most ~8000 for the rss_only fast path, ~15000 for a full fit
-        # (neighbouring samples are nearly redundant); every signal is formed only up to the
-        # last of them (the dynamics are causal)
+        # rows solved on: every k-th training row, about RANKING_ROWS for the rss_only fast
+        # path and FULL_FIT_ROWS for a full fit (neighbouring samples are nearly redundant);
+        # every signal is formed only up to the last of them (the dynamics are causal)
         n_tr = sum(int(m.sum()) for m in train)
-        step = max(1, n_tr // (8000 if rss_only else 15000))
+        step = max(1, n_tr // (RANKING_ROWS if rss_only else FULL_FIT_ROWS))
         idx_all = [np.flatnonzero(m) for m in train]
         rows = [idx[::step] for idx in idx_all]
         ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
@@ -444,6 +444,18 @@ class _Cache:
                 self.lv.pop(next(iter(self.lv)))
             self.lv[key] = L
         return L
+
+
+#: Training rows a full (constrained) structure fit solves its weights on, about: every
+#: ``k``-th training row, ``k = n_train // FULL_FIT_ROWS`` (all rows below twice as many).
+#: Neighbouring samples of a recording sampled far above its dynamics are nearly redundant:
+#: only the least-squares rows are thinned (the plays and output filters still run over
+#: every sample), and the fit's residuals, training RSS and every held-out score come from
+#: its exact simulation on all rows.
+FULL_FIT_ROWS = 15000
+#: Training rows a ranking solve (``rss_only``: the searches over nonlinear parameters)
+#: uses, about (as :data:`FULL_FIT_ROWS`).
+RANKING_ROWS = 8000
 
 
 #: Memory for the Bouc-Wen banks of a virtual-history search (bytes): a search over the
@@ -775,7 +787,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if out is None:
         out = np.empty((rows.size, x.shape[1]))
     if not dyn or not rows.size:
-        out[...] = x[rows]
+        out[...] = x[_row_selector(rows)]  # (a strided view for evenly spaced rows: no gather)
         return out
     stages = dynamics_stages(dyn)
     if len(stages) > 1:
@@ -849,26 +861,25 @@ def _filter_warmup(dyn: tuple, dt: float) -> int:
 def _gram(X: np.ndarray, nq: int, cache: _Cache, key: Any, owner: Any) -> np.ndarray:
     """``X.T @ X`` with the block of the first ``nq`` columns (the PI stage: play bank through
     the output dynamics) memoised in ``cache`` on ``key``; ``owner`` is kept with the entry
-    and must be the same object on a hit (its identity is part of the key). The other
-    columns (bilinear regressors, bias, drift, output) change between structures and
-    refreshes, so only their products are formed anew; ``(N, p)`` rows are read once for
-    the ``p - nq`` new columns instead of all ``p``."""
+    and must be the same object on a hit (its identity is part of the key).
+
+    A miss forms the whole matrix in one symmetric product (one pass over the ``(N, p)``
+    rows; the block alone and then its cross products read the PI-stage columns twice). On
+    a hit only the cross products of the other columns (bilinear regressors, bias, drift,
+    output: they change between structures and refreshes) are formed, as ``X2.T @ X`` (the
+    thin factor on the left reads the wide block once, in row order)."""
     hit = _recent(cache.g, key)
-    X1 = X[:, :nq]
     if hit is not None and hit[0] is owner:
-        G11 = hit[1]
-    else:
-        G11 = X1.T @ X1
-        if len(cache.g) >= 16:
-            cache.g.pop(next(iter(cache.g)))
-        cache.g[key] = (owner, G11)
-    X2 = X[:, nq:]
-    G12 = X1.T @ X2
-    G = np.empty((X.shape[1], X.shape[1]))
-    G[:nq, :nq] = G11
-    G[:nq, nq:] = G12
-    G[nq:, :nq] = G12.T
-    G[nq:, nq:] = X2.T @ X2
+        X2 = np.ascontiguousarray(X[:, nq:])
+        G = np.empty((X.shape[1], X.shape[1]))
+        G[:nq, :nq] = hit[1]
+        G[nq:, :] = X2.T @ X
+        G[:nq, nq:] = G[nq:, :nq].T
+        return G
+    G = X.T @ X
+    if len(cache.g) >= 16:
+        cache.g.pop(next(iter(cache.g)))
+    cache.g[key] = (owner, G[:nq, :nq].copy())
     return G
 
 
@@ -1109,15 +1120,16 @@ def fit_structure(
             G += pin.T @ pin
         sol = solve_constrained(lower, gram=G)
         if sol.cond > COND_LIMIT:
-            sol = solve_constrained(lower, factor=np.linalg.qr(
-                np.vstack((X, pin)) if pin.size else X, mode="r"))
+            sol = solve_constrained(lower, factor=r_factor(
+                np.vstack((X, pin)) if pin.size else X))
         w = sol.theta
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         if s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
-            x_prev = [banks[k] @ w[:nb] for k in range(nrec)]
+            # (the regressors read the PI-stage outputs up to the last solved row only)
+            x_prev = [banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
     assert w is not None
     p0 = float(w[0])
     pw = np.asarray(w[1:nb])

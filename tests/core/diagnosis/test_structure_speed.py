@@ -141,3 +141,40 @@ def test_stages_in_series_start_from_the_sum_of_their_warm_ups() -> None:
     tail = every[: every.size - s0]
     got = st._dyn_rows(st._dyn_rows(x[s0:], lag, 1e-3, tail), mode, 1e-3, rows - s0)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+
+
+def test_gram_on_a_miss_and_on_a_hit_equals_the_product() -> None:
+    """``_gram`` forms ``X.T @ X`` in one product on a miss and from the memoised PI-stage
+    block plus the other columns' products on a hit: both equal the plain product (to
+    round-off) and are exactly symmetric; a hit for another owner is a miss."""
+    rng = np.random.default_rng(6)
+    X = rng.standard_normal((5000, 30)) * rng.uniform(0.1, 50.0, 30)
+    want = X.T @ X
+    cache = st._Cache()
+    owner = object()
+    miss = st._gram(X, 26, cache, "k", owner)
+    assert len(cache.g) == 1
+    X[:, 26:] = rng.standard_normal((5000, 4))  # other regressors on the same PI block
+    want_hit = X.T @ X
+    hit = st._gram(X, 26, cache, "k", owner)
+    for got, ref in ((miss, want), (hit, want_hit)):
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-13 * np.abs(ref).max())
+        assert np.array_equal(got, got.T)
+    X[:, :26] *= 2.0  # a new owner: the block is formed anew
+    np.testing.assert_allclose(st._gram(X, 26, cache, "k", object()), X.T @ X, rtol=0,
+                               atol=1e-13 * np.abs(X.T @ X).max())
+
+
+@pytest.mark.parametrize("shape", [(3000, 40), (40, 60)])
+def test_r_factor_equals_numpys_qr(shape) -> None:
+    """The QR fallback's factor from one Fortran copy equals ``np.linalg.qr(mode="r")`` (the
+    same LAPACK routine) for tall and wide matrices, badly scaled columns included."""
+    from core.fitting.gram import r_factor
+
+    rng = np.random.default_rng(7)
+    A = rng.standard_normal(shape) * np.geomspace(1e-4, 1e4, shape[1])
+    want = np.linalg.qr(A, mode="r")
+    got = r_factor(A)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.abs(want).max())
+    assert np.array_equal(got, np.triu(got))
