@@ -202,3 +202,23 @@ def test_without_the_jackknife_the_mode_frequency_is_over_confident(bouc_wen_mod
     res = diagnose(bouc_wen_mode.records)
     rows = {q["quantity"]: q for q in _recovery(res, bouc_wen_mode)}
     assert not rows["freq_hz"]["honest"], rows
+
+
+def test_report_says_when_the_recordings_set_the_parameter() -> None:
+    """An ambiguous parameter whose sigma is mostly the recordings' disagreement gets its
+    estimates with each recording left out; one whose base term is larger does not."""
+    from types import SimpleNamespace
+
+    from core.diagnosis.report import _recording_dependence
+
+    jk = {"recordings": ["slow", "fast"], "per_recording": [{"beta_s": 1e-4}, {"beta_s": 2e-4}],
+          "essential": [], "sigma": {"beta_s": 5e-5}}
+    e = SimpleNamespace(name="rate", parameters={"beta_s": 1.5e-4}, ambiguous_parameters=["beta_s"],
+                        recording_jackknife=jk, base_sensitivity=None)
+    (line,) = _recording_dependence(e)
+    assert "beta_s depends on which recordings are used" in line
+    assert "0.0001 without 'slow'" in line and "0.0002 without 'fast'" in line
+    e.base_sensitivity = {"sigma": {"beta_s": 8e-5}}
+    assert _recording_dependence(e) == []
+    e.base_sensitivity, e.ambiguous_parameters = None, []
+    assert _recording_dependence(e) == []
