@@ -50,7 +50,7 @@ from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
 from .shapes import apply_shape, shape_thresholds
-from .structure import Fit, Structure, dynamics_stages
+from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
 __all__ = ["BASE_NAMES", "alternative_bases", "base_sensitivity", "describe_alternative",
            "recording_jackknife"]
@@ -185,6 +185,32 @@ def _parameter_path(ctx: FitContext, name: str, a: Structure, params: dict[str, 
     return keys, np.log([float(params[k]) for k in keys]), make
 
 
+def _stages_path(ctx: FitContext, name: str, a: Structure
+                 ) -> tuple[list[tuple[int, str]], np.ndarray, Any] | None:
+    """All output stages of ``a`` in series (where ``name`` is one of two or more), jointly:
+    ``(positions of name's parameters in the joint vector with their keys, log of every
+    stage's values, make)``, as the pair was fitted (the stages trade off against each
+    other, so one is never refitted alone); ``None`` otherwise."""
+    stages = dynamics_stages(a.dynamics)
+    if len(stages) < 2 or name not in [n for n, _ in stages]:
+        return None
+    names = [n for n, _ in stages]
+    dt = min(r.dt for r in ctx.records)
+    own, o = [], 0
+    for n, vals in stages:
+        spec = EFFECTS[n].dynamics
+        assert spec is not None
+        if n == name:
+            own = [(o + i, k) for i, k in enumerate(spec.params)]
+        o += len(vals)
+
+    def make(lx: np.ndarray) -> Structure | None:
+        d = pack_dynamics(names, np.exp(lx), dt)
+        return None if d is None else a.with_(dynamics=d)
+
+    return own, np.log([v for _, vals in stages for v in vals]), make
+
+
 def _refit(ctx: FitContext, name: str, a: Structure, params: dict[str, Any], cur: Fit
            ) -> tuple[dict[str, float], float] | None:
     """Effect ``name``'s parameters refitted on structure ``a`` (which holds it at the
@@ -277,7 +303,9 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
     A recording without which the others do not fix the parameter (the step reaches the
     edge of the search: no minimum within it) is kept in every refit instead: its deletion
     gives no estimate, and the jackknife runs over the ``K`` other recordings (at least two;
-    the spread is then that of the estimate given that recording). Training rows only.
+    the spread is then that of the estimate given that recording). A stage of two in series
+    (a lag and a mode) is refitted jointly with the other (:func:`_stages_path`), as the pair
+    was fitted. Training rows only.
 
     Returns
     -------
@@ -291,10 +319,18 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
     """
     recs, tr = ctx.records, ctx.train
     used = [j for j, m in enumerate(tr) if m.any()]
-    path = _parameter_path(ctx, name, cur.structure, params)
-    if len(used) < JACKKNIFE_MIN_RECORDINGS or path is None:
+    pair = _stages_path(ctx, name, cur.structure)
+    if pair is not None:  # a stage of two in series: the stages refitted jointly
+        own, x0, make = pair
+    else:
+        path = _parameter_path(ctx, name, cur.structure, params)
+        if path is None:
+            return None
+        x0, make = path[1], path[2]
+        own = list(enumerate(path[0]))
+    if len(used) < JACKKNIFE_MIN_RECORDINGS:
         return None
-    keys, x0, make = path
+    keys = [k for _, k in own]
     none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
     est: dict[int, np.ndarray] = {}
     for j in used:
@@ -313,7 +349,7 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
     kept = [j for j in used if j not in essential]
     if len(kept) < 2:
         return None
-    a = np.exp(np.asarray([est[j] for j in kept]))
+    a = np.exp(np.asarray([[est[j][i] for i, _ in own] for j in kept]))
     k = a.shape[0]
     sd = np.sqrt((k - 1) / k * np.sum((a - a.mean(axis=0)) ** 2, axis=0))
     return {"recordings": [recs[j].name for j in kept],
