@@ -90,7 +90,7 @@ from .data import as_records, crossfit_folds, split_masks
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
-from .misspecification import base_sensitivity, describe_alternative
+from .misspecification import base_sensitivity, describe_alternative, recording_jackknife
 from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics, rate_effect, stage_pairs
 from .results import (
@@ -1152,20 +1152,30 @@ def _polish_dynamics(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -
 def _spread_over_recordings(ctx: FitContext, base: Fit, cur: Fit,
                             findings: list[EffectFinding]) -> None:
     """Widen each finding's 1-sigmas by the recordings' disagreement about its parameters
-    (:func:`~core.diagnosis.crossfitting.recording_spread`) and mark the parameters that
-    stay ambiguous: a base misfit biases them differently per recording, which the
-    noise-driven sigmas cannot show."""
+    (:func:`~core.diagnosis.crossfitting.recording_spread`, each recording fitted alone, and
+    :func:`~core.diagnosis.misspecification.recording_jackknife`, each left out in turn),
+    where larger, and mark the parameters that stay ambiguous: a base misfit biases them
+    differently per recording, which the noise-driven sigmas cannot show."""
     for f in findings:
         if EFFECTS[f.name].family != "dynamics":  # the ones with nonlinear parameters
             continue
+        unc0 = f.uncertainty
         sp = recording_spread(ctx, f.name, cur, cur.structure.without(f.name, base.structure))
-        if sp is None or not sp["sigma_between"]:
-            continue
-        f.recording_spread = sp
-        f.uncertainty = combine_uncertainty(f.uncertainty, sp)
-        f.uncertainty_method += (f"; widened by the disagreement of the {len(sp['per_recording'])} "
-                                 "recordings fitted alone (Birge ratio), where larger")
-        f.ambiguous_parameters = ambiguous_parameters(f.parameters, f.uncertainty)
+        if sp is not None and sp["sigma_between"]:
+            f.recording_spread = sp
+            f.uncertainty = combine_uncertainty(f.uncertainty, sp)
+            f.uncertainty_method += (f"; widened by the disagreement of the "
+                                     f"{len(sp['per_recording'])} recordings fitted alone "
+                                     "(Birge ratio), where larger")
+        jk = recording_jackknife(ctx, f.name, cur, f.parameters)
+        if jk is not None:
+            f.recording_jackknife = jk
+            f.uncertainty = combine_uncertainty(f.uncertainty, {"sigma_between": jk["sigma"]})
+            f.uncertainty_method += (f"; widened by the jackknife over the "
+                                     f"{len(jk['recordings'])} recordings left out in turn, "
+                                     "where larger")
+        if f.uncertainty is not unc0:
+            f.ambiguous_parameters = ambiguous_parameters(f.parameters, f.uncertainty)
 
 
 def _widen_for_base(ctx: FitContext, cur: Fit, findings: list[EffectFinding]) -> None:

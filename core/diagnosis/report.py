@@ -78,6 +78,7 @@ def summary_text(res: DiagnosisResult) -> str:
         ]
         lines += [f"   caveat: {c}" for c in e.caveats]
         lines += _base_dependence(e)
+        lines += _recording_dependence(e)
         if e.loro is not None:
             lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
                          f"{e.loro['rmse_after']:.4g} (MSE "
@@ -174,6 +175,27 @@ def _base_dependence(e: Any) -> list[str]:
                    f"chosen {chosen} base, {alts} (the ± includes it); a base model that "
                    f"fits the loop better, or an experiment that excites the {e.name} apart "
                    "from the loop, would fix it")
+    return out
+
+
+def _recording_dependence(e: Any) -> list[str]:
+    """For each ambiguous parameter whose sigma is mostly the recordings' disagreement (the
+    jackknife of :func:`~core.diagnosis.misspecification.recording_jackknife` at least as
+    large as the base model's term): its estimates with each recording left out."""
+    jk = getattr(e, "recording_jackknife", None)
+    if not jk:
+        return []
+    bs = getattr(e, "base_sensitivity", None) or {}
+    out = []
+    for k in e.ambiguous_parameters:
+        s_jk, s_base = jk["sigma"].get(k), (bs.get("sigma") or {}).get(k)
+        if s_jk is None or (isinstance(s_base, float) and s_base > s_jk):
+            continue
+        est = ", ".join(f"{_fmt(p[k])} without '{n}'"
+                        for n, p in zip(jk["recordings"], jk["per_recording"], strict=True))
+        out.append(f"   {k} depends on which recordings are used: {_fmt(e.parameters[k])} "
+                   f"from all, {est} (the ± includes it); more recordings that excite the "
+                   f"{e.name} like these would fix it")
     return out
 
 

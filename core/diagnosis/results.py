@@ -146,6 +146,9 @@ class EffectFinding:
     #: leave-one-recording-out estimates and their jackknife sigmas
     #: (:func:`~core.diagnosis.crossfitting.recording_spread`), with several recordings
     recording_spread: dict[str, Any] | None = None
+    #: the estimates with each recording left out in turn and their jackknife sigmas
+    #: (:func:`~core.diagnosis.misspecification.recording_jackknife`)
+    recording_jackknife: dict[str, Any] | None = None
     #: the parameters refitted on the other base families, and the systematic 1-sigma their
     #: shifts give (:func:`~core.diagnosis.misspecification.base_sensitivity`)
     base_sensitivity: dict[str, Any] | None = None
@@ -164,6 +167,7 @@ class EffectFinding:
             "uncertainty_method": self.uncertainty_method,
             "ambiguous_parameters": list(self.ambiguous_parameters),
             "recording_spread": _jsonable(self.recording_spread),
+            "recording_jackknife": _jsonable(self.recording_jackknife),
             "base_sensitivity": _jsonable(self.base_sensitivity),
             "leave_one_recording_out": _jsonable(self.loro),
             "caveats": list(self.caveats),
