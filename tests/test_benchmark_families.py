@@ -120,6 +120,10 @@ def test_family_class_runs_only_when_asked_for() -> None:
     assert set(QUICK[FAMILY_CLASS]) <= set(FAMILY_CASES)
     assert not any(c.split("/")[1] == "rate" and not c.startswith("preisach")
                    for c in FAMILY_CASES)
+    # a later run adds seeds: the second round alone is the second half of two rounds
+    two = jobs(False, seeds=2, classes=(FAMILY_CLASS,))
+    second = jobs(False, seeds=2, classes=(FAMILY_CLASS,), first=1)
+    assert second == two[len(two) // 2:] and {j[3] for j in second} == {501}
 
 
 def test_three_effect_family_is_the_stages_in_order_and_single_effects_unchanged() -> None:

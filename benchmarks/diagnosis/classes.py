@@ -145,12 +145,15 @@ ON_REQUEST = (FAMILY_CLASS, "three effects", "eighth")
 
 
 def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
-         classes: tuple[str, ...] | None = None) -> list[tuple[str, str, str, int]]:
+         classes: tuple[str, ...] | None = None, first: int = 0
+         ) -> list[tuple[str, str, str, int]]:
     """``(class, case, noise, seed)`` of every run; periodic noise ``white1`` is 0.02 um,
-    ``white2`` and ``coloured`` 0.1 um (its generator has white noise only)."""
+    ``white2`` and ``coloured`` 0.1 um (its generator has white noise only). Seed rounds
+    ``first`` to ``seeds - 1`` (a round adds its number to each class's base seed), so a later
+    run can add seeds to an earlier one."""
     table = QUICK if quick else CLASSES
     out = []
-    for s in range(seeds):
+    for s in range(first, seeds):
         for cls, cases in table.items():
             if classes and cls not in classes:
                 continue
