@@ -120,6 +120,10 @@ def test_family_class_runs_only_when_asked_for() -> None:
     assert set(QUICK[FAMILY_CLASS]) <= set(FAMILY_CASES)
     assert not any(c.split("/")[1] == "rate" and not c.startswith("preisach")
                    for c in FAMILY_CASES)
+    # a later run adds seeds: the second round alone is the second half of two rounds
+    two = jobs(False, seeds=2, classes=(FAMILY_CLASS,))
+    second = jobs(False, seeds=2, classes=(FAMILY_CLASS,), first=1)
+    assert second == two[len(two) // 2:] and {j[3] for j in second} == {501}
 
 
 def test_three_effect_family_is_the_stages_in_order_and_single_effects_unchanged() -> None:
@@ -164,3 +168,21 @@ def test_lookalike_verdict() -> None:
     # on a non-PI base a loop-shape name is the base difference, not a wrong name
     assert lookalike_verdict(row(["saturation", "delay"], hidden=("delay",),
                                  base="preisach"))[0] == "named"
+
+
+def test_family_matrix_counts_first_names_and_clean_nulls_per_base_and_effect() -> None:
+    """Hand-counted rows: a run counts for its effect when its first name is hidden; a null
+    counts as clean when it names no dynamic or time effect."""
+    from benchmarks.diagnosis.classes import family_matrix
+
+    def row(case: str, hidden: list[str], found: list[str], seed: int) -> dict:
+        return {"case": case, "hidden": hidden, "found": found, "seed": seed,
+                "noise": "white1", "class": "non-PI base", "claims": [], "ambiguous": []}
+
+    rows = [row("duhem/null", [], [], 500), row("duhem/null", [], ["lag"], 501),
+            row("duhem/creep/large", ["creep"], ["creep"], 500),
+            row("duhem/creep/small", ["creep"], ["saturation", "creep"], 501),
+            row("duhem/lag/large", ["lag"], ["lag"], 500)]
+    out = family_matrix(rows)
+    assert "| duhem | 1/2 | 1/2 | 1/1 | 2/3 |" in out
+    assert "top-1 2/3 effect runs over seeds 500, 501" in out

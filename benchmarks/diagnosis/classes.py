@@ -70,8 +70,9 @@ from benchmarks.diagnosis.generator import (
 )
 
 __all__ = ["CLASSES", "EIGHTH_CASES", "FAMILY_CASES", "FAMILY_CLASS", "RECOVERY_TOLERANCE",
-           "TRIPLES", "TRIPLE_CASES", "jobs", "lookalike_verdict", "recovery_table",
-           "run_class_job", "summarise_classes", "summarise_families", "summarise_lookalikes"]
+           "TRIPLES", "TRIPLE_CASES", "family_matrix", "jobs", "lookalike_verdict",
+           "recovery_table", "run_class_job", "summarise_classes", "summarise_families",
+           "summarise_lookalikes"]
 
 #: Short periodic recordings: case -> (beta_s, frequencies); 3 cycles x 40 samples each.
 PERIODIC_CASES = PERIODIC_CLASSES
@@ -145,12 +146,15 @@ ON_REQUEST = (FAMILY_CLASS, "three effects", "eighth")
 
 
 def jobs(quick: bool, seeds: int = 1, noises: tuple[str, ...] = ("white1",),
-         classes: tuple[str, ...] | None = None) -> list[tuple[str, str, str, int]]:
+         classes: tuple[str, ...] | None = None, first: int = 0
+         ) -> list[tuple[str, str, str, int]]:
     """``(class, case, noise, seed)`` of every run; periodic noise ``white1`` is 0.02 um,
-    ``white2`` and ``coloured`` 0.1 um (its generator has white noise only)."""
+    ``white2`` and ``coloured`` 0.1 um (its generator has white noise only). Seed rounds
+    ``first`` to ``seeds - 1`` (a round adds its number to each class's base seed), so a later
+    run can add seeds to an earlier one."""
     table = QUICK if quick else CLASSES
     out = []
-    for s in range(seeds):
+    for s in range(first, seeds):
         for cls, cases in table.items():
             if classes and cls not in classes:
                 continue
@@ -319,7 +323,7 @@ def summarise_classes(rows: list[dict[str, Any]]) -> str:
                             else ""))
     fam = [r for r in rows if r["class"] == FAMILY_CLASS]
     if fam:
-        lines += ["", summarise_families(fam)]
+        lines += ["", summarise_families(fam), "", family_matrix(fam)]
     look = [r for r in rows if r["class"] in LOOKALIKE_CLASSES]
     if look:
         lines += ["", summarise_lookalikes(look)]
@@ -417,6 +421,37 @@ def recovery_table(rows: list[dict[str, Any]]) -> str:
                       "| run | effect | quantity | truth | found | sigma | rel. error | "
                       "within sigma | said ambiguous |",
                       "|---|---|---|---|---|---|---|---|---|"] + out)
+
+
+def family_matrix(rows: list[dict[str, Any]]) -> str:
+    """Markdown table base x effect of the non-PI base class over every seed, noise and size:
+    per effect, runs whose first name is a hidden effect / runs; per null, runs without a
+    wrong (dynamic or time) name / runs; and the seeds it pools."""
+    bases = list(dict.fromkeys(r["case"].split("/")[0] for r in sorted(
+        rows, key=lambda r: FAMILY_CASES.index(r["case"]) if r["case"] in FAMILY_CASES
+        else 999)))
+    effects = [e for e in FAMILY_EFFECTS if any(r["case"].split("/")[1] == e for r in rows)]
+    lines = ["| base | null (clean) | " + " | ".join(effects) + " | all effects |",
+             "|---" * (len(effects) + 3) + "|"]
+    tot = [0, 0]
+    for b in bases:
+        cells = []
+        for e in ["null", *effects]:
+            rs = [r for r in rows if r["case"].split("/")[:2] == [b, e]]
+            ok = sum((not wrong_names(r)) if e == "null" else
+                     (bool(r["found"]) and r["found"][0] in r["hidden"]) for r in rs)
+            cells.append(f"{ok}/{len(rs)}" if rs else "-")
+            if e != "null":
+                tot[0] += ok
+                tot[1] += len(rs)
+        eff = [r for r in rows if r["case"].startswith(b + "/") and r["hidden"]]
+        top = sum(bool(r["found"]) and r["found"][0] in r["hidden"] for r in eff)
+        lines.append(f"| {b} | " + " | ".join(cells) + f" | {top}/{len(eff)} |")
+    seeds = sorted({r["seed"] for r in rows})
+    lines += ["", f"top-1 {tot[0]}/{tot[1]} effect runs over seeds "
+              f"{', '.join(map(str, seeds))}, noises "
+              f"{', '.join(sorted({r['noise'] for r in rows}))}, both sizes"]
+    return "\n".join(lines)
 
 
 def summarise_families(rows: list[dict[str, Any]]) -> str:

@@ -343,6 +343,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--levels", default="L2", help="comma-separated magnitude levels (L1,L2,L3)")
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--first-round", type=int, default=0, metavar="K",
+                    help="with --classes / --families: skip the first K seed rounds (add "
+                         "seeds to an earlier run: --seeds 2 --first-round 1 runs only the "
+                         "second seed)")
     ap.add_argument("--nulls", type=int, default=12, help="null scenarios per noise model")
     ap.add_argument("--noise", default="white1,coloured")
     ap.add_argument("--effects", default=",".join(EFFECTS))
@@ -455,7 +459,8 @@ def _run_classes(a: argparse.Namespace) -> int:
         if n not in CLASSES:
             raise SystemExit(f"unknown class {n!r}; known: {', '.join(CLASSES)}")
     todo = jobs(a.quick, seeds=1 if a.quick else a.seeds,
-                noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names)
+                noises=("white1",) if a.quick else tuple(a.noise.split(",")), classes=names,
+                first=a.first_round)
     if a.cases:
         pats = a.cases.split(",")
         todo = [j for j in todo if any(p in j[1] for p in pats)]
