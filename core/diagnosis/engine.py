@@ -129,11 +129,17 @@ def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[s
     return lead
 
 
-def _deferred_row(rnd: int, name: str, params: dict | None = None) -> RoundRow:
+def _deferred_row(rnd: int, name: str, params: dict | None = None,
+                  screen: float | None = None) -> RoundRow:
+    """Row of a candidate left for the next round: because a higher-priority family passed
+    and it could not explain 1.5 times as much, or (``screen``, its training-RSS reduction,
+    below zero) because it does not lower the training error at all."""
+    why = ("not needed: an effect of a higher-priority family passed, and this one could not "
+           "explain 1.5 times as much") if screen is None else (
+        f"not tested further: it does not lower the training error (change "
+        f"{100 * screen:+.1f} %), so it cannot pass held out")
     return RoundRow(rnd + 1, name, float("nan"), float("nan"), float("nan"), False,
-                    "deferred", params or {},
-                    "not needed: an effect of a higher-priority family passed, and this "
-                    "one could not explain 1.5 times as much")
+                    "deferred", params or {}, why)
 
 
 def _evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
@@ -626,7 +632,8 @@ def _search(run: _Run, cur: Fit, todo: list[str], rnd: int
             continue
         c = _Candidate(name, *got, heldout=screen_gain(got[0], cur))
         if ctx.strict and not EFFECTS[name].before_wipeout and c.heldout.gain < bound:
-            deferred.append(_deferred_row(rnd, name, c.parameters))
+            deferred.append(_deferred_row(rnd, name, c.parameters,
+                                          None if bound > 0 else c.heldout.gain))
             continue
         c = _evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
         if c is None:

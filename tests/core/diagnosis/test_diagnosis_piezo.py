@@ -39,6 +39,14 @@ def test_windowed_protocol_test_window_scored_once(piezo) -> None:
     final = _pct(rec, res.model, 0, test, yr)
     assert final == pytest.approx(100 * res.heldout_rmse(res.final) / res.y_range, rel=1e-9)
     assert final <= 0.15
+    # a candidate is said to be left because a higher-priority family passed only in a
+    # round where one did (the loop shapes of the last round made the training error worse)
+    passed = {r.round for r in res.rounds if r.passes}
+    for r in res.rounds:
+        if r.decision == "deferred" and "higher-priority family passed" in r.evidence:
+            assert r.round in passed, (r.round, r.effect)
+    assert any(r.decision == "deferred" and "does not lower the training error" in r.evidence
+               for r in res.rounds)
 
 
 @pytest.mark.slow
