@@ -190,10 +190,16 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
     ctx.close()
 
 
-def _plot_width(page: Any, min_width: float, timeout: float = 30_000) -> dict[str, float]:
-    """The widest plotly plot once one is at least ``min_width`` CSS px wide."""
-    page.wait_for_function("""w => [...document.querySelectorAll('.js-plotly-plot')]
-      .some(e => e.getBoundingClientRect().width >= w)""", arg=min_width, timeout=timeout)
+def _plot_width(page: Any, min_width: float, timeout: float = 30_000,
+                min_tick: float = 0.0) -> dict[str, float]:
+    """The widest plotly plot once one is at least ``min_width`` CSS px wide and its tick
+    labels are at least ``min_tick`` px (the projector's layout reaches the browser after
+    the plot has widened: on a loaded machine the two are seconds apart)."""
+    page.wait_for_function("""([w, f]) => [...document.querySelectorAll('.js-plotly-plot')]
+      .some(e => e.getBoundingClientRect().width >= w
+        && [...e.querySelectorAll('.xtick text, .ytick text')]
+             .every(t => parseFloat(getComputedStyle(t).fontSize) >= f))""",
+                           arg=[min_width, min_tick], timeout=timeout)
     return page.evaluate("""() => {
       const ps = [...document.querySelectorAll('.js-plotly-plot')];
       const best = ps.map(e => [e, e.getBoundingClientRect()])
@@ -390,7 +396,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
                                 "{pointer-events:none !important}")
     view.ui.view_dd.value = "Loop"
     page.get_by_text("Projector: large plot", exact=True).first.click()
-    box = _plot_width(page, 0.6 * 1920)
+    box = _plot_width(page, 0.6 * 1920, min_tick=16)
     assert box["tick"] >= 16, box
     page.wait_for_timeout(500)
     shot(page, "viser-projector")
