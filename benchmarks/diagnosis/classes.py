@@ -257,6 +257,11 @@ def _amb_with_hidden(r: dict[str, Any], name: str) -> bool:
         name in a and hid & set(a) for a in r["ambiguous"])
 
 
+def named_first(r: dict[str, Any]) -> bool:
+    """Whether the first effect the run names is a hidden one (top-1)."""
+    return bool(r["found"]) and r["found"][0] in r["hidden"]
+
+
 def wrong_names(r: dict[str, Any]) -> list[str]:
     """Accepted effects that are not hidden and not reported ambiguous with a hidden one; on
     a non-PI base only dynamic/time effects count (a loop-shape or memory name is the base
@@ -298,7 +303,7 @@ def summarise_classes(rows: list[dict[str, Any]]) -> str:
 
         lines.append(
             f"| {cls} | {case} | {nz} | {n} | "
-            + (frac(sum(bool(r["found"]) and r["found"][0] in r["hidden"] for r in rs))
+            + (frac(sum(named_first(r) for r in rs))
                if hid else "-") + " | "
             + (frac(sum(set(r["hidden"]) <= set(r["found"]) for r in rs)) if hid else "-")
             + f" | {frac(sum(not r['found'] for r in rs))} | "
@@ -435,18 +440,16 @@ def family_matrix(rows: list[dict[str, Any]]) -> str:
              "|---" * (len(effects) + 3) + "|"]
     tot = [0, 0]
     for b in bases:
-        cells = []
+        cells, base_tot = [], [0, 0]
         for e in ["null", *effects]:
             rs = [r for r in rows if r["case"].split("/")[:2] == [b, e]]
-            ok = sum((not wrong_names(r)) if e == "null" else
-                     (bool(r["found"]) and r["found"][0] in r["hidden"]) for r in rs)
+            ok = sum((not wrong_names(r)) if e == "null" else named_first(r) for r in rs)
             cells.append(f"{ok}/{len(rs)}" if rs else "-")
             if e != "null":
-                tot[0] += ok
-                tot[1] += len(rs)
-        eff = [r for r in rows if r["case"].startswith(b + "/") and r["hidden"]]
-        top = sum(bool(r["found"]) and r["found"][0] in r["hidden"] for r in eff)
-        lines.append(f"| {b} | " + " | ".join(cells) + f" | {top}/{len(eff)} |")
+                base_tot[0] += ok
+                base_tot[1] += len(rs)
+        tot = [tot[0] + base_tot[0], tot[1] + base_tot[1]]
+        lines.append(f"| {b} | " + " | ".join(cells) + f" | {base_tot[0]}/{base_tot[1]} |")
     seeds = sorted({r["seed"] for r in rows})
     lines += ["", f"top-1 {tot[0]}/{tot[1]} effect runs over seeds "
               f"{', '.join(map(str, seeds))}, noises "
@@ -463,7 +466,7 @@ def summarise_families(rows: list[dict[str, Any]]) -> str:
     for r in sorted(rows, key=lambda r: FAMILY_CASES.index(r["case"])
                     if r["case"] in FAMILY_CASES else 999):
         base, effect, size = (*r["case"].split("/"), "-")[:3]
-        top = bool(r["found"]) and r["found"][0] in r["hidden"]
+        top = named_first(r)
         wrong = wrong_names(r)
         if r["hidden"]:
             n_eff += 1
