@@ -319,6 +319,8 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
     """
     recs, tr = ctx.records, ctx.train
     used = [j for j, m in enumerate(tr) if m.any()]
+    if len(used) < JACKKNIFE_MIN_RECORDINGS:
+        return None
     pair = _stages_path(ctx, name, cur.structure)
     if pair is not None:  # a stage of two in series: the stages refitted jointly
         own, x0, make = pair
@@ -328,8 +330,6 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
             return None
         x0, make = path[1], path[2]
         own = list(enumerate(path[0]))
-    if len(used) < JACKKNIFE_MIN_RECORDINGS:
-        return None
     keys = [k for _, k in own]
     none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
     est: dict[int, np.ndarray] = {}
