@@ -108,6 +108,7 @@ def test_family_scenario_and_recovery_score() -> None:
     assert len(rec) == 1 and rec[0]["quantity"] == "creep_total"
     assert rec[0]["found"] == pytest.approx(0.05) and rec[0]["sigma"] == pytest.approx(0.008)
     assert rec[0]["rel_err"] == pytest.approx(-1 / 6) and rec[0]["within"] is False
+    assert rec[0]["within_2sigma"] is True  # 0.01 off: beyond 0.008, within 0.016
     assert wrong_names_base(["saturation", "lag", "creep"], ["creep"]) == ["lag"]
 
 
@@ -186,3 +187,21 @@ def test_family_matrix_counts_first_names_and_clean_nulls_per_base_and_effect() 
     out = family_matrix(rows)
     assert "| duhem | 1/2 | 1/2 | 1/1 | 2/3 |" in out
     assert "top-1 2/3 effect runs over seeds 500, 501" in out
+
+
+def test_honesty_table_counts_coverage_at_one_and_two_sigma() -> None:
+    """Hand-counted recovery rows: 0.5, 1.5 and 3 sigmas off (one of them said ambiguous)
+    and one without a sigma."""
+    from benchmarks.diagnosis.classes import honesty_table
+
+    def q(quantity: str, found: float, sigma: float | None, amb: bool = False) -> dict:
+        return {"quantity": quantity, "truth": 1.0, "found": found, "sigma": sigma,
+                "ambiguous": amb}
+
+    rows = [{"recovery": [q("delay_s", 1.05, 0.1), q("delay_s", 1.15, 0.1)]},
+            {"recovery": [q("damping", 1.3, 0.1, amb=True), q("damping", 1.01, None)]}]
+    out = honesty_table(rows)
+    assert "| delay_s | 2 | 1 (50 %) | 2 (100 %) | 0 | 1 (50 %) |" in out
+    assert "| damping | 2 | 0 (0 %) | 0 (0 %) | 1 | 1 (50 %) |" in out
+    assert "| all | 4 | 1 (25 %) | 2 (50 %) | 1 | 2 (50 %) |" in out
+    assert honesty_table([{"recovery": []}]) == ""

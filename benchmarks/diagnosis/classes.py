@@ -53,6 +53,7 @@ from benchmarks.diagnosis.families import (
     jsonable,
     make_family,
     parameter_recovery,
+    within_sigmas,
     wrong_names_base,
 )
 from benchmarks.diagnosis.generator import (
@@ -70,7 +71,7 @@ from benchmarks.diagnosis.generator import (
 )
 
 __all__ = ["CLASSES", "EIGHTH_CASES", "FAMILY_CASES", "FAMILY_CLASS", "RECOVERY_TOLERANCE",
-           "TRIPLES", "TRIPLE_CASES", "family_matrix", "jobs", "lookalike_verdict",
+           "TRIPLES", "TRIPLE_CASES", "family_matrix", "honesty_table", "jobs", "lookalike_verdict",
            "recovery_table", "run_class_job", "summarise_classes", "summarise_families",
            "summarise_lookalikes"]
 
@@ -328,7 +329,9 @@ def summarise_classes(rows: list[dict[str, Any]]) -> str:
                             else ""))
     fam = [r for r in rows if r["class"] == FAMILY_CLASS]
     if fam:
-        lines += ["", summarise_families(fam), "", family_matrix(fam)]
+        lines += ["", summarise_families(fam), "", family_matrix(fam), "",
+                  "How the reported sigmas cover the truth (non-PI bases)", "",
+                  honesty_table(fam)]
     look = [r for r in rows if r["class"] in LOOKALIKE_CLASSES]
     if look:
         lines += ["", summarise_lookalikes(look)]
@@ -426,6 +429,31 @@ def recovery_table(rows: list[dict[str, Any]]) -> str:
                       "| run | effect | quantity | truth | found | sigma | rel. error | "
                       "within sigma | said ambiguous |",
                       "|---|---|---|---|---|---|---|---|---|"] + out)
+
+
+def honesty_table(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of how the reported uncertainties cover the truth, per recovered
+    quantity: found values within the reported 1-sigma (a calibrated sigma: 68 % of them),
+    within 2 sigmas (95 %), said ambiguous, and honest (within 1-sigma or said ambiguous, the
+    issue's rule); the last row pools every quantity. Rows without a sigma count as not
+    within."""
+    qs = [q for r in rows for q in r.get("recovery", [])]
+    if not qs:
+        return ""
+
+    lines = ["| quantity | found | within 1 sigma | within 2 sigma | said ambiguous | "
+             "honest (1 sigma or ambiguous) |", "|---|---|---|---|---|---|"]
+    names = list(dict.fromkeys(q["quantity"] for q in qs))
+    for name, sel in [*((n, [q for q in qs if q["quantity"] == n]) for n in names),
+                      ("all", qs)]:
+        n = len(sel)
+        w1 = sum(bool(within_sigmas(q, 1.0)) for q in sel)
+        w2 = sum(bool(within_sigmas(q, 2.0)) for q in sel)
+        amb = sum(bool(q.get("ambiguous")) for q in sel)
+        hon = sum(bool(q.get("ambiguous") or within_sigmas(q, 1.0)) for q in sel)
+        lines.append(f"| {name} | {n} | {w1} ({100 * w1 / n:.0f} %) | {w2} ({100 * w2 / n:.0f} %)"
+                     f" | {amb} | {hon} ({100 * hon / n:.0f} %) |")
+    return "\n".join(lines)
 
 
 def family_matrix(rows: list[dict[str, Any]]) -> str:
