@@ -3,7 +3,7 @@
 Targets (issue 8): ``hyst diagnose piezo_150V_1Hz.csv --train 3.3:7 --test 7:9`` in <= 10 s
 on an idle machine, and <= 6 times the wall time of ``hyst fit piezo_150V_1Hz.csv`` (default
 options: n chosen by cross-validation) measured in the same run, so that the ratio survives
-other jobs on the machine.
+other jobs on the machine; in process (issue 16) <= 10 times the plain fit.
 
 Two protocols, both printed:
 
@@ -47,7 +47,9 @@ from core.diagnosis import diagnose  # noqa: E402
 from core.fitting import PIRegressor  # noqa: E402
 
 FILE = DATA_DIR / "piezo" / "piezo_150V_1Hz.csv"
-TARGET_S, TARGET_RATIO = 10.0, 6.0
+TARGET_S = 10.0
+#: Largest ratio diagnose / fit as commands (issue 8) and in process (issue 16).
+TARGET_RATIO, TARGET_RATIO_IN_PROCESS = 6.0, 10.0
 WINDOWS = ["--train", "3.3:7", "--test", "7:9"]
 
 
@@ -90,14 +92,16 @@ def diagnosis(progress: bool) -> tuple[float, float]:
     return time.perf_counter() - t0, time.process_time() - c0
 
 
-def _line(label: str, fit: list[tuple[float, float]], diag: list[tuple[float, float]]) -> str:
-    """Medians of wall time (the targets) and of CPU time (less sensitive to other jobs)."""
+def _line(label: str, fit: list[tuple[float, float]], diag: list[tuple[float, float]],
+          target_ratio: float) -> str:
+    """Medians of wall time (the targets: <= 10 s, ratio <= ``target_ratio``) and of CPU time
+    (less sensitive to other jobs)."""
     f, d = (float(np.median([v[0] for v in x])) for x in (fit, diag))
     fc, dc = (float(np.median([v[1] for v in x])) for x in (fit, diag))
     ok_t = "meets" if d <= TARGET_S else "misses"
-    ok_r = "meets" if d / f <= TARGET_RATIO else "misses"
+    ok_r = "meets" if d / f <= target_ratio else "misses"
     return (f"{label}: wall fit {f:.2f} s, diagnose {d:.2f} s ({ok_t} <= {TARGET_S:g} s), "
-            f"ratio {d / f:.1f} ({ok_r} <= {TARGET_RATIO:g}); CPU fit {fc:.2f} s, diagnose "
+            f"ratio {d / f:.1f} ({ok_r} <= {target_ratio:g}); CPU fit {fc:.2f} s, diagnose "
             f"{dc:.2f} s, ratio {dc / fc:.1f}; wall runs fit "
             f"{', '.join(f'{v[0]:.2f}' for v in fit)}, diagnose "
             f"{', '.join(f'{v[0]:.2f}' for v in diag)}")
@@ -127,8 +131,8 @@ def main() -> None:
         pf.append(plain_fit())
         pd.append(diagnosis(a.progress))
     load1 = os.getloadavg()
-    print(_line("commands (process wall time)", cf, cd))
-    print(_line("in-process (numerics only)", pf, pd))
+    print(_line("commands (process wall time)", cf, cd, TARGET_RATIO))
+    print(_line("in-process (numerics only)", pf, pd, TARGET_RATIO_IN_PROCESS))
     print(f"load average before {load0[0]:.2f}, after {load1[0]:.2f} "
           f"({os.cpu_count()} cores)")
 
