@@ -218,7 +218,9 @@ def _cv_sse(gram: np.ndarray, n_blocks: int, lower: Float1D, T: np.ndarray) -> f
     ``T`` the constraint transform; labels ``0..n_blocks-1`` are the blocks.
     """
     total = 0.0
-    Gs = np.einsum("ji,bjk,kl->bil", T, gram[:n_blocks], T)
+    # (T^T G_b T for every block as a batched product: O(m^3) each; the same contraction
+    # written as one einsum ran as a 4-deep loop, O(m^4), 1.4 s of a 100-operator CV)
+    Gs = T.T @ gram[:n_blocks] @ T
     G_all = Gs.sum(axis=0)
     for b in range(n_blocks):
         sol = solve_constrained(lower, gram=G_all - Gs[b])

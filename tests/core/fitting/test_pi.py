@@ -251,3 +251,26 @@ def test_full_model_json_round_trip_reproduces_predictions(rng):
     loaded = model_from_dict(doc)
     np.testing.assert_allclose(loaded(u), est.predict(u), atol=1e-12)
     np.testing.assert_allclose(loaded(loaded.inverse()(y)), y, atol=1e-9)
+
+
+def test_blocked_cv_scores_equal_refits_on_transformed_columns(rng):
+    """``_cv_sse`` against its definition: for each block, solve on the other blocks' rows
+    with the columns transformed (``X T``: loop-segment slopes) and score the left-out rows;
+    the batched ``T^T G_b T`` must give the same sum (a 4-block, 6-operator problem)."""
+    from core.fitting.pi import _cv_sse, constraint_transform
+
+    n, blocks = 6, 4
+    T, lower = constraint_transform(n, 0, 1e-3, "slopes")
+    Xs = []
+    for _ in range(blocks):
+        X = np.column_stack([np.ones(50), rng.normal(size=(50, n + 1)), rng.normal(size=50)])
+        X[:, -1] += X[:, 1:-1].sum(axis=1)  # an output the columns explain, plus noise
+        Xs.append(X)
+    gram = np.stack([X.T @ X for X in Xs] + [np.zeros((n + 3, n + 3))])
+    ref = 0.0
+    for b in range(blocks):
+        A = np.vstack([X for j, X in enumerate(Xs) if j != b]) @ T
+        theta = solve_constrained(lower, gram=A.T @ A).theta
+        r = (Xs[b] @ T)[:, :-1] @ theta - Xs[b][:, -1]
+        ref += float(r @ r)
+    assert _cv_sse(gram, blocks, lower, T) == pytest.approx(ref, rel=1e-9)
