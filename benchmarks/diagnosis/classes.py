@@ -440,7 +440,6 @@ def honesty_table(rows: list[dict[str, Any]]) -> str:
     qs = [q for r in rows for q in r.get("recovery", [])]
     if not qs:
         return ""
-
     lines = ["| quantity | found | within 1 sigma | within 2 sigma | said ambiguous | "
              "honest (1 sigma or ambiguous) |", "|---|---|---|---|---|---|"]
     names = list(dict.fromkeys(q["quantity"] for q in qs))
