@@ -132,6 +132,9 @@ class FitReport:
                 f"{self.test.output_range:.4g}), max |e| {self.test.max_abs:.4g}, "
                 f"n = {self.test.n_samples}"
             )
+        cv = self.extra.get("cv_choice")
+        if isinstance(cv, str):
+            lines.append(f"  {cv}")
         mem = self.extra.get("initial_memory")
         if isinstance(mem, dict) and mem.get("excluded_train_rows"):
             lines.append(f"  {mem['summary']}")

@@ -45,7 +45,7 @@ from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_
 from .metrics import FitReport, evaluate_fit
 from .thresholds import place_thresholds
 
-__all__ = ["DEFAULT_CANDIDATES", "LinearPIFit", "PIRegressor", "fit_linear_pi"]
+__all__ = ["DEFAULT_CANDIDATES", "LinearPIFit", "PIRegressor", "cv_choice_note", "fit_linear_pi"]
 
 #: Numbers of operators tried when ``n_operators=None``.
 DEFAULT_CANDIDATES: tuple[int, ...] = (5, 10, 15, 20, 25, 30, 40)
@@ -227,6 +227,25 @@ def _cv_sse(gram: np.ndarray, n_blocks: int, lower: Float1D, T: np.ndarray) -> f
         v = np.concatenate((sol.theta, [-1.0]))
         total += float(v @ Gs[b] @ v)
     return total
+
+
+def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) -> str:
+    """What the cross-validation chose, in words for the fit report: ``n`` among the tried
+    numbers of operators (``scores``: number -> CV RMSE, ``None`` where too few samples),
+    and, when ``n`` is the largest tried and its RMSE still fell by more than ``tolerance``
+    (relative) from the next smaller one, that more operators may fit better."""
+    valid = sorted(k for k, v in scores.items() if v is not None)
+    if not valid:
+        return f"n = {n} operators: too few training samples to cross-validate the choice"
+    text = f"n = {n} operators chosen by cross-validation among {', '.join(map(str, valid))}"
+    if n == valid[-1] and len(valid) > 1:
+        prev, last = scores[valid[-2]], scores[n]
+        assert prev is not None and last is not None
+        if last < (1 - tolerance) * prev:
+            text += (f"; the largest tried, and its error was still falling (RMSE {prev:.4g} "
+                     f"at {valid[-2]}, {last:.4g} at {n}): more operators (-n {3 * n // 2} or "
+                     "more) may fit better")
+    return text
 
 
 def default_min_slope(prep: Prepared, rel: float = 1e-3) -> float:
@@ -503,6 +522,7 @@ class PIRegressor(RelaxedPredictor):
         extra: dict[str, Any] = {"n_operators": n, "min_slope": eps, "offset": fit.offset}
         if cv_scores:
             extra["cv_rmse"] = cv_scores
+            extra["cv_choice"] = cv_choice_note(cv_scores, n, self.tolerance)
         extra["initial_memory"] = memory_note
         self.report_ = FitReport(
             model_type="pi",
