@@ -243,7 +243,7 @@ def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) ->
         assert prev is not None and last is not None
         if last < (1 - tolerance) * prev:
             text += (f"; the largest tried, and its error was still falling (RMSE {prev:.4g} "
-                     f"at {valid[-2]}, {last:.4g} at {n}): more operators (-n {3 * n // 2} or "
+                     f"at {valid[-2]}, {last:.4g} at {n}): more operators ({3 * n // 2} or "
                      "more) may fit better")
     return text
 
