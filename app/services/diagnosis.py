@@ -140,9 +140,14 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
         if params:
             text += f" Fitted: {params}."
         findings.append(text)
+    # (the residual against the noise floor: "explains the data" only when it is at it)
+    adequacy = d.get("adequacy") or {}
     if not d.get("effects"):
         findings.append(f"No missing physics detected: the {base_name} model explains "
-                        "the data")
+                        "the data" if adequacy.get("adequate") is True else
+                        "No effect of the list improved the held-out fit significantly")
+    if adequacy.get("adequate") is False and adequacy.get("text"):
+        findings.append(f"Not explained: {adequacy['text']}")
     choice = base_doc.get("base_choice") or {}
     if choice.get("kind") in ("preisach", "bouc-wen"):
         findings.append(f"Base model: {choice.get('text', '')}")

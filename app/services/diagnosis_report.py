@@ -149,9 +149,15 @@ def write_report(res: Any, path: str | Path, units: dict[str, str] | None = None
             + f"<tr><td><b>all</b></td><td>{lb['rmse']:.4g}</td><td>{lf['rmse']:.4g} "
             f"(MSE {-100 * lf['mse_reduction'] + 0.0:+.1f} %)</td></tr></table>"
         )
-    if not res.effects:
+    ad = res.adequacy
+    if not res.effects and ad is not None and ad.adequate:
         parts.append("<p><b>No missing physics detected</b>: no effect improved the held-out "
-                     "fit significantly.</p>")
+                     "fit significantly, and the residual is at the noise floor.</p>")
+    elif not res.effects:
+        parts.append("<p><b>No effect of the list</b> improved the held-out fit "
+                     "significantly.</p>")
+    if ad is not None and not ad.adequate:
+        parts.append(f"<p><b>Not explained:</b> {html.escape(ad.text)}</p>")
     for i, e in enumerate(res.effects, 1):
         rows = "".join(
             f"<tr><td>{html.escape(k)}</td><td>{_fmt(v)}</td><td>"

@@ -34,9 +34,10 @@ def summary_text(res: DiagnosisResult) -> str:
     ]
     nq = len(res._req.structure.thresholds)
     bc = res.base_choice
-    if bc is not None and bc.kind != "pi":
-        lines.insert(2, f"Base: {bc.text}")
-    elif nq != len(res.baseline.structure.thresholds):
+    if bc is not None and (bc.kind != "pi" or bc.tried):
+        # (after the baseline line: which base, and how the others predicted the recordings)
+        lines.insert(3, f"Base: {bc.text}")
+    if (bc is None or bc.kind == "pi") and nq != len(res.baseline.structure.thresholds):
         q = res.heldout_rmse(res._req)
         lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "
                      f"({100 * q / yr:.3f} %); under-resolved, the grid was refined")

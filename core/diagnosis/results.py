@@ -239,7 +239,8 @@ class BaseChoice:
                     "judged against it")
         if not self.tried:
             return "PI (no alternative base tried: it needs two or more recordings)"
-        return f"PI ({how}, against the PI: {alts})"
+        return (f"PI, kept: no other base predicted the recordings clearly better ({how}, "
+                f"against the PI: {alts})")
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "tried": [dict(t) for t in self.tried],

@@ -223,7 +223,45 @@ def test_the_findings_name_a_bouc_wen_base() -> None:
     text = "Bouc-Wen: a bank of Bouc-Wen elements of fixed shapes"
     doc = {"baseline": {"model": "bouc-wen", "heldout_rmse": 0.2,
                         "base_choice": {"kind": "bouc-wen", "text": text}},
-           "final": {"heldout_rmse": 0.2}, "effects": []}
+           "final": {"heldout_rmse": 0.2}, "effects": [], "adequacy": {"adequate": True}}
     found = diagnosis_summary(doc)["findings"]
     assert found[0].endswith("the Bouc-Wen model explains the data")
     assert f"Base model: {text}" in found
+
+
+def test_the_findings_do_not_say_the_model_explains_data_it_misses() -> None:
+    """Nothing found while the residual is far above the noise floor (the real friction
+    damper: 5.8 % of range, 10.9 times the floor): the findings say that nothing was found
+    and what is not explained, never that the model explains the data; without a verdict
+    they claim neither."""
+    from app.services.diagnosis import diagnosis_summary
+
+    verdict = ("the base model is not adequate: the final model still misses 5.78 % of the "
+               "output range on the held-out rows (RMS 0.5405, 10.9 times the white-noise "
+               "floor 0.0497)")
+    doc = {"baseline": {"model": "pi", "heldout_rmse": 0.54, "heldout_rmse_pct": 5.78},
+           "final": {"heldout_rmse": 0.54}, "effects": [],
+           "adequacy": {"adequate": False, "text": verdict}}
+    found = diagnosis_summary(doc)["findings"]
+    assert not any("explains the data" in f for f in found)
+    assert "No effect of the list improved the held-out fit significantly" in found
+    assert f"Not explained: {verdict}" in found
+    del doc["adequacy"]
+    found = diagnosis_summary(doc)["findings"]
+    assert not any("explains the data" in f or f.startswith("Not explained") for f in found)
+
+
+def test_the_html_report_says_what_the_model_does_not_explain() -> None:
+    """The MnZn ferrite loops without the loop-shape effects stay inadequate (core test
+    ``test_adequacy_tries_every_registered_fit_kind``): the HTML report states the verdict
+    and never "No missing physics detected"."""
+    from app.services.diagnosis import diagnosis_html
+    from core.datasets import DATA_DIR
+    from core.diagnosis import diagnose
+
+    res = diagnose(str(DATA_DIR / "bh_loops" / "MnZn_ferrite.csv"), effects=["asymmetry"],
+                   n_operators=10, auto_resolution=False)
+    assert res.adequacy is not None and not res.adequacy.adequate
+    page = diagnosis_html(res)
+    assert "<b>Not explained:</b> the base model is not adequate" in page
+    assert "No missing physics detected" not in page

@@ -48,6 +48,13 @@ def test_a_pi_plant_keeps_its_pi_base() -> None:
     bw = [t for t in res.base_choice.tried if t["base"] == "bouc-wen"]
     assert len(bw) == 1 and bw[0]["cv_mse_reduction"] < BW_MIN_GAIN
     assert res.effects == []
+    # the report says which bases were tried and how they did, not only when one replaces
+    # the PI (a user whose model stays inadequate should see that the others were tried)
+    lines = res.summary().splitlines()
+    base = [ln for ln in lines if ln.startswith("Base: PI, kept")]
+    assert len(base) == 1 and "bouc-wen" in base[0] and "preisach" in base[0]
+    assert lines.index(base[0]) == 1 + next(i for i, ln in enumerate(lines)
+                                            if ln.startswith("Baseline"))
 
 
 @pytest.mark.parametrize(("effect", "param", "truth", "tol"), [
