@@ -222,8 +222,9 @@ def assess(
         return Adequacy(True, rmse, noise_rms, pct, scored, (), (
             f"the final model{with_shape} is adequate: its residual ({rmse:.4g}, "
             f"{pct:.3f} % of range, "
-            f"{ratio:.1f} times the floor) is at the white-noise floor ({noise_rms:.3g}): no "
-            "missing physics left to find in these recordings"))
+            f"{ratio:.1f} times the white-noise floor {noise_rms:.3g}) is within "
+            f"{INADEQUATE_RATIO:g} times that floor: no missing physics left to find in "
+            "these recordings"))
     shapes: list[LoopShapeFit] = []
     # long recordings: the classes are fitted on every k-th training row (the memory still
     # runs over every sample) and scored on every row of ``rows``
