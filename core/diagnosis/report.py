@@ -62,8 +62,14 @@ def summary_text(res: DiagnosisResult) -> str:
                 f"   accepted on {e.evidence}: MSE -{100 * e.heldout.gain:.1f} %, "
                 f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
             if np.isfinite(e.heldout_rmse_after):
+                # (only an explicit test window is never used for selection: without one
+                # the interleaved held-out blocks also chose the other candidates)
                 evidence.append(
-                    f"   test window (scored only, never used for selection): RMSE "
+                    ("   test window (scored only, never used for selection): RMSE "
+                     if res.crossval is not None else
+                     "   held-out blocks (they also served the selection of other effects): "
+                     "RMSE ")
+                    +
                     f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
                     f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
                     f"{100 * e.heldout_rmse_after / yr:.3f} %)")

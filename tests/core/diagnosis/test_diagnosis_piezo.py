@@ -33,6 +33,7 @@ def test_windowed_protocol_test_window_scored_once(piezo) -> None:
     res = diagnose(rec, train=(3.3, 7.0), test=(7.0, 9.0), n_operators=25,
                    auto_resolution=False)
     assert "never used for selection" in res.split
+    assert "test window (scored only, never used for selection)" in res.summary()
     assert [e.name for e in res.effects][:2] == ["initial-memory", "lag"]
     assert 0.006 < res.effects[1].parameters["tau_s"] < 0.010
     assert 100 * res.heldout_rmse(res.baseline) / res.y_range == pytest.approx(0.286, abs=0.01)
