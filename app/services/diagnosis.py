@@ -145,7 +145,7 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
     if not d.get("effects"):
         findings.append(f"No missing physics detected: the {base_name} model explains "
                         "the data" if adequacy.get("adequate") is True else
-                        "No effect of the list improved the held-out fit significantly")
+                        "No effect of the list improved the held-out fit significantly.")
     if adequacy.get("adequate") is False and adequacy.get("text"):
         findings.append(f"Not explained: {adequacy['text']}")
     choice = base_doc.get("base_choice") or {}

@@ -244,7 +244,7 @@ def test_the_findings_do_not_say_the_model_explains_data_it_misses() -> None:
            "adequacy": {"adequate": False, "text": verdict}}
     found = diagnosis_summary(doc)["findings"]
     assert not any("explains the data" in f for f in found)
-    assert "No effect of the list improved the held-out fit significantly" in found
+    assert "No effect of the list improved the held-out fit significantly." in found
     assert f"Not explained: {verdict}" in found
     del doc["adequacy"]
     found = diagnosis_summary(doc)["findings"]
