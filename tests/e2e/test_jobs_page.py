@@ -12,18 +12,11 @@ from typing import Any
 
 import pytest
 
-from .test_web_journeys import _clean, _open, _session, _text_has
+from .test_web_journeys import _clean, _open, _session, _text_has, _upload
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
 PIEZO = DATA / "piezo" / "piezo_150V_1Hz.csv"
 FRICTION = DATA / "friction_damper" / "2Hz30lbtension0.5amplitude.csv"
-
-
-def _upload(page: Any, path: Path, samples: str) -> None:
-    page.set_input_files("#csv-file", str(path))
-    page.wait_for_selector("#mapping:not([hidden])")
-    page.click("#use-csv")
-    _text_has(page, "csv-msg", f"{samples} samples")
 
 
 def _buttons(page: Any) -> list[bool]:

@@ -93,6 +93,18 @@ def _listening(url: str, *pages: Any, timeout: float = 60.0) -> None:
     raise AssertionError(f"no event stream open for {codes}")
 
 
+def _upload(page: Any, path: Path, samples: str) -> None:
+    """Upload the CSV at ``path`` with the mapping the page proposes and wait until it is
+    loaded (``samples`` in the message) and the page has redrawn with it: the redraw moves
+    the buttons, and a click before it landed beside Diagnose once in a loaded CI run."""
+    page.set_input_files("#csv-file", str(path))
+    page.wait_for_selector("#mapping:not([hidden])")
+    v = page.get_attribute("body", "data-ready")
+    page.click("#use-csv")
+    _text_has(page, "csv-msg", f"{samples} samples")
+    _redrawn(page, v)
+
+
 def _session(app: Any, page: Any) -> Any:
     return app.state.registry.get(page.inner_text("#code"))
 
@@ -326,14 +338,7 @@ def test_busy_state_blocks_double_submission(browser: Any, live_server: dict,
     f = tmp_path / "rec.csv"
     f.write_text("t,u,y\n" + "\n".join(f"{a:.4f},{b:.6f},{c:.6f}"
                                        for a, b, c in zip(t, u, y, strict=True)))
-    page.set_input_files("#csv-file", str(f))
-    page.wait_for_selector("#mapping:not([hidden])")
-    v = page.get_attribute("body", "data-ready")
-    page.click("#use-csv")
-    page.wait_for_function("() => document.getElementById('csv-msg').textContent.includes('1500')")
-    # the page redraws with the recording (its notes and figure move the buttons): a click
-    # before that landed beside the button once in a loaded CI run
-    _redrawn(page, v)
+    _upload(page, f, "1500")
     page.click("#diagnose")
     state = page.evaluate("""() => [document.getElementById('diagnose').disabled,
       document.getElementById('fit').disabled,
@@ -356,13 +361,7 @@ def test_engineer_diagnosis_of_a_friction_damper_says_what_is_not_explained(
     from core.datasets import DATA_DIR
 
     ctx, page, log = _open(browser, live_server["url"])
-    page.set_input_files("#csv-file", str(DATA_DIR / "friction_damper"
-                                          / "1Hz30lbtension0.5amplitude.csv"))
-    page.wait_for_selector("#mapping:not([hidden])")
-    v = page.get_attribute("body", "data-ready")
-    page.click("#use-csv")
-    _text_has(page, "csv-msg", "7169")
-    _redrawn(page, v)
+    _upload(page, DATA_DIR / "friction_damper" / "1Hz30lbtension0.5amplitude.csv", "7169")
     page.click("#diagnose")
     page.wait_for_selector("#diagnosis", timeout=120_000)
     _text_has(page, "diagnosis", "Not explained")
