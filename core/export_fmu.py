@@ -45,11 +45,11 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from .base import Model
+from .escape import xml_attr
 from .export_c import (
     CExportError,
     _emit_block,
@@ -373,7 +373,6 @@ def fmu_sources(
     ident = c_identifier(name)
     running, preview = causal_compensator(fwd, dt) if inverse else (fwd, 0)
     units = ps.units.swapped() if inverse else ps.units
-    units = type(units)(*(_NOT_XML.sub("?", u) for u in (units.input, units.output, units.time)))
     block, role = f"{ident}_m", "compensator" if inverse else "model"
     stages, emitted = emit_stages(running, block, dt, role)
     header, body, _ = _emit_block(running, block, dt, role, params=f"{ident}_P_",
@@ -456,13 +455,6 @@ def _licence(ps: ParameterSet) -> str:
         "generated code: MIT (hysteresis-explorer)"
 
 
-_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
-
-
-def _attr(text: str) -> str:
-    """``text`` as a quoted XML attribute value; characters XML 1.0 cannot hold (control
-    characters, lone surrogates: a parameter set's free text may have them) become ``?``."""
-    return quoteattr(_NOT_XML.sub("?", text))
 
 
 def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str:
@@ -480,7 +472,7 @@ def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str
         "generationDateAndTime": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "variableNamingConvention": "structured",
     }
-    return " ".join(f"{k}={_attr(v)}" for k, v in attrs.items())
+    return " ".join(f"{k}={xml_attr(v)}" for k, v in attrs.items())
 
 
 _LOG_CATEGORIES = [
@@ -495,14 +487,14 @@ def _units_xml(variables: list[FmuVariable]) -> list[str]:
     units = sorted({v.unit for v in variables if v.unit})
     if not units:
         return []
-    return ["  <UnitDefinitions>", *(f"    <Unit name={_attr(u)}/>" for u in units),
+    return ["  <UnitDefinitions>", *(f"    <Unit name={xml_attr(u)}/>" for u in units),
             "  </UnitDefinitions>"]
 
 
 def _var_attrs(v: FmuVariable) -> str:
-    a = f"name={_attr(v.name)} valueReference=\"{v.vr}\" causality=\"{v.causality}\" " \
+    a = f"name={xml_attr(v.name)} valueReference=\"{v.vr}\" causality=\"{v.causality}\" " \
         f"variability=\"{v.variability}\""
-    return a + f" description={_attr(v.description)}"
+    return a + f" description={xml_attr(v.description)}"
 
 
 def _head(ps: ParameterSet, ident: str, what: str, doc_text: str, version: str,
@@ -533,7 +525,7 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
     for v in variables:
         a = _var_attrs(v)
         if v.unit:
-            a += f" unit={_attr(v.unit)}"
+            a += f" unit={xml_attr(v.unit)}"
         if v.causality == "output":
             a += ' initial="calculated"'
         if v.start is not None:
@@ -565,7 +557,7 @@ def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
             out_index = i
         real = []
         if v.unit:
-            real.append(f"unit={_attr(v.unit)}")
+            real.append(f"unit={xml_attr(v.unit)}")
         if v.start is not None:
             real.append(f'start="{c_double(v.start)}"')
         lines.append(f"    <ScalarVariable {a}>")

@@ -40,10 +40,12 @@ __all__ = [
     "ParameterSetError",
     "Provenance",
     "Units",
+    "clean_unit",
     "ensure_model_types_registered",
     "load_parameter_set",
     "model_from_document",
     "tool_name",
+    "unit_problem",
 ]
 
 #: Value of the ``"format"`` field of every parameter-set document.
@@ -56,9 +58,50 @@ SUPPORTED_VERSIONS: tuple[int, ...] = (1,)
 _TOP_KEYS = ("format", "version", "model", "units", "provenance")
 _UNIT_KEYS = ("input", "output", "time")
 _PROVENANCE_KEYS = ("created", "tool", "source", "fit", "notes")
+#: Longest unit accepted (characters).
+UNIT_MAX_LENGTH = 32
+#: Characters a unit may hold besides letters and digits (any script: ``µ``, ``Ω``, ``²``).
+UNIT_SYMBOLS = " /*^-.%°·"
 
 class ParameterSetError(ParameterError):
     """A parameter-set document is malformed; the message starts with the JSON path."""
+
+
+def unit_problem(text: str) -> str | None:
+    """What makes ``text`` not a unit, or ``None`` when it is one.
+
+    The unit grammar: letters and digits of any script (``µm``, ``Ω``, ``m²``), the
+    symbols of :data:`UNIT_SYMBOLS` (``/ * ^ - . % ° ·`` and spaces), at most
+    :data:`UNIT_MAX_LENGTH` characters; ``""`` (no unit) is allowed. A parameter set is
+    shared as a file and its units reach generated C, FMU descriptions and reports, so
+    anything else (quotes, braces, semicolons, backslashes, control characters) is refused.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str or None
+        A sentence for the user, or ``None``.
+    """
+    if len(text) > UNIT_MAX_LENGTH:
+        return f"is {len(text)} characters long; a unit has at most {UNIT_MAX_LENGTH}"
+    bad = sorted({c for c in text if not (c.isalnum() or c in UNIT_SYMBOLS)})
+    if bad:
+        shown = ", ".join(repr(c) if c.isprintable() else f"U+{ord(c):04X}" for c in bad[:5])
+        return (f"has characters a unit cannot hold ({shown}); a unit is letters, digits, "
+                "spaces and / * ^ - . % °, e.g. \"um\", \"V\", \"N/mm^2\"")
+    return None
+
+
+def clean_unit(text: str) -> str:
+    """``text`` when it is a unit (see :func:`unit_problem`), else ``""`` (unknown unit).
+
+    For units read from a recording's column headers, which are the user's data but not
+    always units; a parameter set loaded from a file is refused instead.
+    """
+    return text if unit_problem(text) is None else ""
 
 
 def tool_name() -> str:
@@ -164,6 +207,9 @@ class Units:
             v = getattr(self, k)
             if not isinstance(v, str):
                 raise ParameterSetError(f"units.{k}: must be a string, got {_jtype(v)} {_show(v)}")
+            problem = unit_problem(v)
+            if problem is not None:
+                raise ParameterSetError(f"units.{k}: {problem}")
 
     def swapped(self) -> Units:
         """Units of the inverse model: input and output exchanged."""

@@ -206,11 +206,12 @@ def diagnosis_html(result: Any, units: dict[str, str] | None = None) -> str:
 def model_document(result: Any, source: str) -> ParameterSet:
     """The final model of ``result`` as a parameter set (units from the first recording when
     the parameter-set validator knows them): what ``--save-model`` writes."""
-    from core.paramset import ParameterSet
+    from core.paramset import ParameterSet, clean_unit
 
     first = result.records[0]
-    units = {"input": first.units.get("input") or "V", "output": first.units.get("output")
-             or "um", "time": first.units.get("time") or "s"}
+    # a header's unit that is not a unit (see core.paramset.unit_problem) becomes unknown
+    units = {k: clean_unit(first.units.get(k) or d)
+             for k, d in (("input", "V"), ("output", "um"), ("time", "s"))}
     summary = {
         "kind": "diagnosis",
         "effects": [e.name for e in result.effects],
@@ -221,11 +222,8 @@ def model_document(result: Any, source: str) -> ParameterSet:
     notes = "model fitted to the first recording; effects: " + (
         ", ".join(e.name for e in result.effects) or "none"
     )
-    try:
-        return ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
-                                       notes=notes)
-    except ValueError:  # units the parameter-set validator does not know
-        return ParameterSet.from_model(result.model, source=source, fit=summary, notes=notes)
+    return ParameterSet.from_model(result.model, units=units, source=source, fit=summary,
+                                   notes=notes)
 
 
 def save_model(result: Any, path: str | Path, source: str) -> Path:

@@ -197,7 +197,7 @@ def fit_recordings(
         :class:`~core.exceptions.UnsupportedOptionError`.
     """
     from ..models import DEFAULT_FIT_KIND, estimator_class
-    from ..paramset import ParameterSet
+    from ..paramset import ParameterSet, clean_unit
 
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
     if not recs:
@@ -224,9 +224,9 @@ def fit_recordings(
     report_doc = est.report_.to_dict()
     first = recs[0]
     names = [r.name for r in recs] if files is None else list(files)
-    units = {"input": first.units.get("input") or "V",
-             "output": first.units.get("output") or "um",
-             "time": first.units.get("time") or "s"}
+    # a header's unit that is not a unit (see core.paramset.unit_problem) becomes unknown
+    units = {k: clean_unit(first.units.get(k) or d)
+             for k, d in (("input", "V"), ("output", "um"), ("time", "s"))}
     fit_info = {
         "model": kind,
         "files": names,

@@ -26,7 +26,7 @@ from core.base import Chain, Model
 from core.effects import causal_form
 from core.export_c import _flatten, c_identifier
 from core.export_fmu import FmuExportError, FmuSources, build_fmu, fmi_headers, fmu_sources
-from core.paramset import ParameterSet, Units
+from core.paramset import ParameterSet, ParameterSetError, Units
 from core.pi import PIModel
 from tests.core.model_zoo import DIAGNOSED, DT, EX1, ZOO, turning_points
 
@@ -346,13 +346,17 @@ def test_bad_options_get_clear_errors(tmp_path, monkeypatch) -> None:
 
 
 def test_free_text_of_the_parameter_set_cannot_break_the_model_description(tmp_path) -> None:
-    """Units and provenance are free text: markup, quotes and control characters."""
+    """Provenance is free text (markup, quotes, control characters); units are not: the
+    unit grammar refuses such a unit at load time (issue 35)."""
     evil = 'a"<b>&\x01\x00\ud800]]>'
-    ps = ParameterSet.from_model(EX1, source=evil, units=Units(input=evil, output="µm", time="s"))
+    with pytest.raises(ParameterSetError, match=r"^units\.input: has characters"):
+        Units(input=evil)
+    ps = ParameterSet.from_model(EX1, source=evil, units=Units(input="µm/V", output="µm",
+                                                               time="s"))
     fmu = build_fmu(ps, tmp_path / "e.fmu", fmi_version=2, inverse=True)
     assert validate_fmu(str(fmu)) == []
     md = read_model_description(str(fmu))
-    assert {v.name: v.unit for v in md.modelVariables}["u"] == 'a"<b>&???]]>'
+    assert {v.name: v.unit for v in md.modelVariables}["u"] == "µm/V"
     assert 'a"<b>&??' in md.description
 
 
