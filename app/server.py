@@ -29,6 +29,7 @@ from .security import Guard
 from .services.config import Config
 from .services.jobs import JobManager
 from .services.known_codes import KnownCodes
+from .services.quotas import QuotaError
 from .services.ratelimit import RateLimiter
 from .services.recordings import UnevenUpload
 from .services.sessions import SessionRegistry, StoreFullError
@@ -85,7 +86,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     ensure_model_types_registered()
     store = SessionStore(
         ":memory:" if not settings.state_dir else Path(settings.state_dir) / "sessions.sqlite3",
-        max_bytes=settings.max_store_mb * 1_000_000)
+        max_bytes=settings.max_store_mb * 1_000_000, quotas=settings.quotas)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -153,6 +154,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.exception_handler(StoreFullError)
     async def _full(request: Request, exc: Exception) -> JSONResponse:
         return JSONResponse(status_code=503, content={"detail": str(exc)})
+
+    @app.exception_handler(QuotaError)
+    async def _quota(request: Request, exc: Exception) -> JSONResponse:
+        # a computer past its share: 429 (it may retry once its own old sessions go);
+        # one session too large: 413
+        status = 413 if getattr(exc, "limit", "") == "session_bytes" else 429
+        return JSONResponse(status_code=status, content={"detail": str(exc)})
 
     @app.exception_handler(DamagedSessionError)
     async def _damaged(request: Request, exc: Exception) -> JSONResponse:

@@ -56,7 +56,21 @@ def register(subparsers: Any) -> None:
                         "directory, ~/.local/share/hysteresis-explorer; env HYST_STATE_DIR)")
     p.add_argument("--max-store-mb", type=int, default=None,
                    help="size budget of the stored sessions in MB (default 1000); beyond "
-                        "it sessions unused for an hour are evicted, never a teacher's")
+                        "it sessions unused for an hour are evicted, those of the computer "
+                        "holding the most first, never a teacher's; when none may go, "
+                        "a teacher opening a session makes room")
+    p.add_argument("--max-client-store-mb", type=int, default=None, metavar="MB",
+                   help="MB the sessions opened from one computer may hold together "
+                        "(default a tenth of --max-store-mb; env HYST_MAX_CLIENT_STORE_MB); "
+                        "beyond it that computer's own sessions unused for an hour go, "
+                        "then its uploads are refused with a message. A teacher's "
+                        "sessions are exempt")
+    p.add_argument("--max-sessions-per-client", type=int, default=None, metavar="N",
+                   help="sessions one computer may have opened and still kept (default "
+                        "500; env HYST_MAX_SESSIONS_PER_CLIENT)")
+    p.add_argument("--max-session-mb", type=int, default=None, metavar="MB",
+                   help="MB one session may hold: its recording, fit and diagnosis "
+                        "(default 20; env HYST_MAX_SESSION_MB)")
     p.add_argument("--worker-memory-mb", type=int, default=None, metavar="MB",
                    help="memory each fit, diagnosis or heavy-figure worker process may use "
                         "beyond its start, MB (default: twice the priced memory limit of a "
@@ -169,6 +183,9 @@ def settings_of(args: argparse.Namespace) -> Any:
             teacher_token=_token(args),
             state_dir=None if args.state_dir is None else str(args.state_dir),
             max_store_mb=args.max_store_mb,
+            max_client_store_mb=args.max_client_store_mb,
+            max_sessions_per_client=args.max_sessions_per_client,
+            max_session_mb=args.max_session_mb,
             worker_memory_mb=args.worker_memory_mb,
             allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
             trusted_proxies=None if args.trusted_proxy is None else tuple(args.trusted_proxy),

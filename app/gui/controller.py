@@ -28,7 +28,7 @@ from ..services import actions
 from ..services import controls as C
 from ..services import figures as F
 from ..services.config import Config
-from ..services.errors import DamagedSessionError, ParameterError
+from ..services.errors import DamagedSessionError, ParameterError, QuotaError
 from ..services.events import HUB
 from ..services.jobs import Job, JobBusy, JobManager, JobView
 from ..services.ratelimit import RateLimiter
@@ -540,7 +540,7 @@ class SessionView:
         except UnevenUpload as exc:
             self._ask_timing(exc.timing)
             return
-        except ParameterError as exc:  # core.csvio.CSVError names the line and the column
+        except (ParameterError, QuotaError) as exc:  # CSVError names the line and column
             ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
             return
         self._ask_timing(None)

@@ -23,6 +23,7 @@ import warnings
 from collections import OrderedDict
 from typing import Any
 
+from ..services.errors import QuotaError, StoreFullError
 from ..services.events import HUB
 from ..services.jobs import JobManager
 from ..services.ratelimit import RateLimiter
@@ -106,7 +107,11 @@ class ExplorerGui:
         if session is None:
             if not self._may_create(client):
                 return
-            session = self.registry.create()
+            try:
+                session = self.registry.create(owner=self._address(client))
+            except (QuotaError, StoreFullError) as exc:
+                self._refuse(client, f"**No new session.** {exc}")
+                return
 
         def remember(code: str) -> None:
             if browser is not None:
@@ -164,24 +169,32 @@ class ExplorerGui:
             v.pushed(event)
         return len(views)
 
+    def _address(self, client: Any) -> str:
+        """The client address of ``client``'s tab (per-client limits and shares)."""
+        return "unknown" if self.guard is None else self.guard.client_address(client.client_id)
+
     def _may_create(self, client: Any) -> bool:
         """Whether this tab's client may have a new session; else say so in the tab."""
         if self.limiter is None:
             return True
-        key = "unknown" if self.guard is None else self.guard.client_address(client.client_id)
+        key = self._address(client)
         if self.limiter.take(key):
             return True
         wait = self.limiter.retry_after(key)
-        text = (f"**Too many new sessions from this computer.** Each open or reloaded tab "
-                f"starts one; close tabs you do not use and reload this page in {wait} s "
-                "(to continue a session, use its code after the reload).")
+        self._refuse(client, f"**Too many new sessions from this computer.** Each open or "
+                             f"reloaded tab starts one; close tabs you do not use and reload "
+                             f"this page in {wait} s (to continue a session, use its code "
+                             "after the reload).")
+        return False
+
+    def _refuse(self, client: Any, text: str) -> None:
+        """Say in ``client``'s tab why it has no session (markdown ``text``)."""
         client.gui.add_markdown(text)
         client.add_notification("No session", text.replace("**", ""),
                                 auto_close_seconds=None, color="red")
         with self._lock:
             if self._live(client):  # else its disconnect has passed already
                 self.refused.add(client.client_id)
-        return False
 
     def _disconnect(self, client: Any) -> None:
         with self._lock:

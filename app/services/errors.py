@@ -6,8 +6,9 @@ from __future__ import annotations
 from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
 
+from .quotas import QuotaError
 from .sessions import StoreFullError
 from .store import DamagedSessionError
 
 __all__ = ["CSVError", "DamagedSessionError", "NotInvertibleError", "ParameterError",
-           "StoreFullError"]
+           "QuotaError", "StoreFullError"]

@@ -53,6 +53,8 @@ class Session:
         Created with the teacher token: never evicted.
     store : SessionStore, optional
         Where every change is committed (none: nothing is stored).
+    owner : str
+        The client address that creates it (charged with its share of the store).
 
     Notes
     -----
@@ -62,8 +64,9 @@ class Session:
     """
 
     def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
-                 store: SessionStore | None = None) -> None:
-        self._state = SessionState(code=code, config=config or Config(), teacher=teacher)
+                 store: SessionStore | None = None, owner: str = "") -> None:
+        self._state = SessionState(code=code, config=config or Config(), teacher=teacher,
+                                   owner=owner)
         self._store = store
         self.lock = threading.RLock()
         self.last_access = time.monotonic()
@@ -250,23 +253,44 @@ class SessionRegistry:
         self._sessions: OrderedDict[str, Session] = OrderedDict()
         self._used: dict[str, float] = {}
 
-    def create(self, config: Config | None = None, *, teacher: bool = False) -> Session:
+    def create(self, config: Config | None = None, *, teacher: bool = False,
+               owner: str = "") -> Session:
         """A new, stored session with a fresh code.
+
+        Parameters
+        ----------
+        config : Config, optional
+            Its first config.
+        teacher : bool
+            A teacher's session: never evicted, exempt from the per-client shares, and
+            always created: a full store first evicts the heaviest clients' sessions
+            (:meth:`SessionStore.make_room`).
+        owner : str
+            The client address creating it (its share of the store is charged).
 
         Raises
         ------
         StoreFullError
             If the store is over its budget with only protected sessions left.
+        QuotaError
+            If ``owner`` already holds its share of sessions.
         """
-        if self.store.full():
-            raise StoreFullError(
-                "the server holds as many sessions as its budget allows and all were used "
-                "in the last hour; ask the teacher (raise --max-store-mb)")
+        if teacher:
+            self.store.make_room()
+        else:
+            if self.store.full():
+                raise StoreFullError(
+                    f"the server's session store is full ({self.store.size() / 1e6:.0f} MB "
+                    f"of its {self.store.max_bytes / 1e6:.0f} MB, every session used in the "
+                    "last hour), so no new session can open now: ask the teacher to open a "
+                    "teacher session (which makes room) or to restart the server with a "
+                    "larger --max-store-mb")
+            self.store.admit(owner)
         with self._lock:
             code = new_code()
             while code in self._sessions or self.store.exists(code):
                 code = new_code()
-            s = Session(code, config, teacher=teacher, store=self.store)
+            s = Session(code, config, teacher=teacher, store=self.store, owner=owner)
             s.save()
             self._insert(s)
             self._used[code] = time.time()

@@ -11,6 +11,7 @@ from dataclasses import dataclass, fields, replace
 from .clients import proxy_networks
 from .cost import Limits
 from .hosts import HostAllowList
+from .quotas import Quotas
 from .worker import default_memory_limit
 
 __all__ = ["Settings", "is_loopback"]
@@ -47,6 +48,13 @@ class Settings:
         in memory only (tests). ``hyst serve`` defaults to the per-user data directory.
     max_store_mb : int
         Size budget of the stored sessions, MB (see :mod:`app.services.store`).
+    max_client_store_mb : int
+        MB the stored sessions created from one client address may hold together; ``0``
+        (the default) is a tenth of ``max_store_mb`` (:attr:`quotas`).
+    max_sessions_per_client : int
+        Stored sessions one client address may have created.
+    max_session_mb : int
+        MB one session may hold stored (recording, fit and diagnosis).
     max_jobs : int
         Fits and diagnoses running at once (each session runs one at a time).
     allowed_hosts : tuple of str
@@ -81,6 +89,9 @@ class Settings:
     teacher_token: str | None = None
     state_dir: str | None = None
     max_store_mb: int = 1000
+    max_client_store_mb: int = 0
+    max_sessions_per_client: int = 500
+    max_session_mb: int = 20
     max_jobs: int = 2
     allowed_hosts: tuple[str, ...] = ()
     trusted_proxies: tuple[str, ...] = ()
@@ -90,6 +101,13 @@ class Settings:
     worker_memory_mb: int = 0
 
     def __post_init__(self) -> None:
+        for name in ("max_store_mb", "max_sessions_per_client", "max_session_mb"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name.replace('_', '-')} must be at least 1, got "
+                                 f"{getattr(self, name)}")
+        if self.max_client_store_mb < 0:
+            raise ValueError("--max-client-store-mb must be 0 (a tenth of --max-store-mb) "
+                             f"or a number of MB, got {self.max_client_store_mb}")
         if self.worker_memory_mb < 0:
             raise ValueError(f"the worker memory limit must be 0 (the default) or a number "
                              f"of MB, got {self.worker_memory_mb}")
@@ -159,6 +177,14 @@ class Settings:
         if self.worker_memory_mb > 0:
             return int(self.worker_memory_mb * 1e6)
         return default_memory_limit(self.limits.max_memory_bytes)
+
+    @property
+    def quotas(self) -> Quotas:
+        """The shares of the session store of one client and one session."""
+        client = self.max_client_store_mb or max(1, self.max_store_mb // 10)
+        return Quotas(client_bytes=client * 1_000_000,
+                      client_sessions=self.max_sessions_per_client,
+                      session_bytes=self.max_session_mb * 1_000_000)
 
     @property
     def limits(self) -> Limits:

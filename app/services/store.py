@@ -11,10 +11,20 @@ thread every :data:`CHECKPOINT_S` seconds, not by whichever request's commit fil
 no request waits for the disk (the slider routes run on the server's event loop).
 
 Eviction is by a stated size budget (``max_bytes``, the sum of the stored rows): when the
-store is larger, the least recently used sessions are deleted, but **never one used in the
-last** ``protect_s`` **seconds (one hour)** and **never a teacher's session**. If only such
-sessions remain, the store stays over budget and :meth:`SessionStore.full` says so (the
-API then refuses new sessions with 503 rather than dropping a class).
+store is larger, sessions are deleted **heaviest client first** (the client address that
+created them holding the most bytes), its least recently used session first, but **never
+one used in the last** ``protect_s`` **seconds (one hour)** and **never a teacher's
+session**. If only such sessions remain, the store stays over budget and
+:meth:`SessionStore.full` says so (the API then refuses new sessions with 503 rather than
+dropping a class); a teacher opening a session then makes room
+(:meth:`SessionStore.make_room`: the same order without the one-hour protection).
+
+Each client address also has a share (:class:`~app.services.quotas.Quotas`): the bytes and
+the number of stored sessions it created, and the bytes of one session. A save past a
+client's share first evicts that client's own sessions unused for ``protect_s``, oldest
+first, and raises :class:`~app.services.quotas.QuotaError` (nothing stored) if that is not
+enough. Teachers' sessions and sessions of no known client (``owner=""``, created in
+process) are exempt from the per-client shares.
 
 The typed state is :class:`SessionState` (a frozen dataclass). Nothing stored is ever
 executed: every part is JSON, recordings ``.npz`` arrays (loaded with
@@ -43,6 +53,7 @@ from core.recordings import Recording
 
 from .config import Config
 from .cost import CheckedModel
+from .quotas import QuotaError, Quotas
 from .store_file import connect
 from .store_parts import (
     DamagedPartError,
@@ -77,7 +88,8 @@ CREATE TABLE IF NOT EXISTS sessions (
     fitted TEXT,
     fit_report TEXT,
     diagnosis TEXT,
-    size INTEGER NOT NULL DEFAULT 0
+    size INTEGER NOT NULL DEFAULT 0,
+    owner TEXT NOT NULL DEFAULT ''
 );
 CREATE TABLE IF NOT EXISTS blobs (
     code TEXT NOT NULL REFERENCES sessions(code) ON DELETE CASCADE,
@@ -134,6 +146,9 @@ class SessionState:
         A teacher's session (never evicted).
     created, last_used : float
         Wall-clock times, s since the epoch.
+    owner : str
+        The client address that created the session (its per-client share is charged;
+        never shown to anyone); ``""`` when unknown.
     """
 
     code: str
@@ -149,6 +164,7 @@ class SessionState:
     teacher: bool = False
     created: float = field(default_factory=time.time)
     last_used: float = field(default_factory=time.time)
+    owner: str = ""
 
 
 class DamagedSessionError(RuntimeError):
@@ -179,13 +195,16 @@ class SessionStore:
         Size budget of the stored sessions (rows and blobs), bytes.
     protect_s : float
         Sessions used within this many seconds are never evicted.
+    quotas : Quotas, optional
+        The shares of one client and one session (:class:`Quotas` defaults).
     """
 
     def __init__(self, path: str | Path, max_bytes: int = 1_000_000_000,
-                 protect_s: float = PROTECT_S) -> None:
+                 protect_s: float = PROTECT_S, quotas: Quotas | None = None) -> None:
         self.path = str(path)
         self.max_bytes = int(max_bytes)
         self.protect_s = float(protect_s)
+        self.quotas = quotas or Quotas()
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
@@ -200,6 +219,11 @@ class SessionStore:
                 os.chmod(self.path, 0o600)
             self._db.execute("PRAGMA foreign_keys=ON")
             self._db.executescript(_SCHEMA)
+            columns = {r[1] for r in self._db.execute("PRAGMA table_info(sessions)")}
+            if "owner" not in columns:  # a store written before the per-client shares
+                self._db.execute("ALTER TABLE sessions ADD COLUMN owner TEXT NOT NULL "
+                                 "DEFAULT ''")
+            self._db.execute("CREATE INDEX IF NOT EXISTS sessions_owner ON sessions(owner)")
         if self.path != ":memory:":
             self._checkpointer = threading.Thread(target=self._checkpoint_loop,
                                                   name="store-checkpoint", daemon=True)
@@ -226,6 +250,13 @@ class SessionStore:
 
         ``recording=False`` / ``results=False`` leave the stored recording / diagnosis
         blob as they are (a config change need not rewrite a recording).
+
+        Raises
+        ------
+        QuotaError
+            The session would hold more than its share, or its client (``state.owner``)
+            more than its share once its own sessions unused for ``protect_s`` are evicted;
+            nothing is stored.
         """
         cfg = dump_json(state.config.to_dict()) or "{}"
         row_text = [cfg, dump_json(state.fitted), dump_json(state.fit_report),
@@ -250,24 +281,26 @@ class SessionStore:
                     return
             db.execute("BEGIN IMMEDIATE")
             try:
+                old = {k: n for k, n in db.execute(
+                    "SELECT kind, length(data) FROM blobs WHERE code=?", (state.code,))
+                    if k not in blobs}  # the parts given are replaced or deleted
+                old.update({k: len(v) for k, v in blobs.items() if v is not None})
+                size = sum(len(t) for t in row_text if t) + sum(old.values())
+                self._check_share(state, size)
                 for kind, data in blobs.items():
                     if data is None:
                         db.execute("DELETE FROM blobs WHERE code=? AND kind=?",
                                    (state.code, kind))
-                old = dict(db.execute(
-                    "SELECT kind, length(data) FROM blobs WHERE code=?", (state.code,)))
-                old.update({k: len(v) for k, v in blobs.items() if v is not None})
-                size = sum(len(t) for t in row_text if t) + sum(old.values())
                 db.execute(
                     "INSERT INTO sessions (code, created, last_used, teacher, version, config,"
-                    " fitted, fit_report, diagnosis, size) VALUES (?,?,?,?,?,?,?,?,?,?) "
-                    "ON CONFLICT(code) DO UPDATE SET last_used=excluded.last_used, "
+                    " fitted, fit_report, diagnosis, size, owner) VALUES (?,?,?,?,?,?,?,?,?,"
+                    "?,?) ON CONFLICT(code) DO UPDATE SET last_used=excluded.last_used, "
                     "teacher=excluded.teacher, version=excluded.version, "
                     "config=excluded.config, fitted=excluded.fitted, "
                     "fit_report=excluded.fit_report, diagnosis=excluded.diagnosis, "
                     "size=excluded.size",
                     (state.code, state.created, state.last_used, int(state.teacher),
-                     state.version, *row_text, size))
+                     state.version, *row_text, size, state.owner))
                 for kind, data in blobs.items():
                     if data is not None:
                         db.execute("INSERT OR REPLACE INTO blobs (code, kind, data) "
@@ -321,7 +354,7 @@ class SessionStore:
         with self._lock:
             row = self._db.execute(
                 "SELECT code, created, last_used, teacher, version, config, fitted, "
-                "fit_report, diagnosis FROM sessions WHERE code=?", (code,)).fetchone()
+                "fit_report, diagnosis, owner FROM sessions WHERE code=?", (code,)).fetchone()
             blobs = dict(self._db.execute("SELECT kind, data FROM blobs WHERE code=?",
                                           (code,)).fetchall()) if row else {}
         if row is None:
@@ -342,19 +375,19 @@ class SessionStore:
                 damaged.append(exc)
         if damaged:
             self._reset(code, created=row[1], teacher=bool(row[3]), version=row[4],
-                        damaged=damaged)
+                        owner=row[9], damaged=damaged)
         return SessionState(code=row[0], created=row[1], last_used=row[2],
-                            teacher=bool(row[3]), version=row[4], **parts)
+                            teacher=bool(row[3]), version=row[4], owner=row[9], **parts)
 
     def _reset(self, code: str, *, created: float, teacher: bool, version: int,
-               damaged: list[DamagedPartError]) -> None:
+               owner: str, damaged: list[DamagedPartError]) -> None:
         """Replace the damaged session ``code`` by a fresh state and raise."""
         names = tuple(e.part for e in damaged)
         log.warning("a stored session was damaged and has been reset (%s)",
                     "; ".join(f"{e.part}: {e.reason}" for e in damaged))
         self.delete(code)
         self.save(SessionState(code=code, created=created, teacher=teacher,
-                               version=version + 1))
+                               version=version + 1, owner=owner))
         raise DamagedSessionError(names)
 
     def exists(self, code: str) -> bool:
@@ -381,31 +414,106 @@ class SessionStore:
             return int(self._db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0])
 
     # ------------------------------------------------------------------ budget
-    def evict(self, now: float | None = None) -> list[str]:
-        """Delete least recently used sessions until the store fits ``max_bytes``.
+    def _check_share(self, state: SessionState, size: int) -> None:
+        """Raise :class:`QuotaError` if ``state`` stored at ``size`` bytes passes its own
+        share or its client's (after evicting that client's own sessions unused for
+        ``protect_s``, oldest first). Runs under the lock, inside the save's transaction."""
+        q = self.quotas
+        if size > q.session_bytes:
+            raise QuotaError.session_bytes(size, q.session_bytes)
+        if state.teacher or not state.owner:
+            return
+        db = self._db
+        held = int(db.execute("SELECT COALESCE(SUM(size), 0) FROM sessions WHERE owner=? "
+                              "AND code<>? AND teacher=0", (state.owner, state.code)
+                              ).fetchone()[0])
+        if held + size <= q.client_bytes:
+            return
+        idle = db.execute("SELECT code, size FROM sessions WHERE owner=? AND code<>? AND "
+                          "teacher=0 AND last_used<? ORDER BY last_used",
+                          (state.owner, state.code, time.time() - self.protect_s)).fetchall()
+        for code, n in idle:
+            if held + size <= q.client_bytes:
+                break
+            db.execute("DELETE FROM sessions WHERE code=?", (code,))
+            held -= int(n)
+        if held + size > q.client_bytes:
+            raise QuotaError.client_bytes(held, size, q.client_bytes)
 
-        Never a session used within ``protect_s`` seconds, never a teacher's.
+    def admit(self, owner: str) -> None:
+        """Check that client ``owner`` may have one more stored session: beyond its share
+        of sessions, its own sessions unused for ``protect_s`` are evicted, oldest first.
+
+        Raises
+        ------
+        QuotaError
+            ``owner`` still holds its share of sessions (nothing was evicted).
+        """
+        if not owner:
+            return
+        quota = self.quotas.client_sessions
+        with self._lock:
+            db = self._db
+            held = int(db.execute("SELECT COUNT(*) FROM sessions WHERE owner=? AND "
+                                  "teacher=0", (owner,)).fetchone()[0])
+            if held < quota:
+                return
+            idle = [r[0] for r in db.execute(
+                "SELECT code FROM sessions WHERE owner=? AND teacher=0 AND last_used<? "
+                "ORDER BY last_used LIMIT ?",
+                (owner, time.time() - self.protect_s, held - quota + 1))]
+            if held - len(idle) >= quota:
+                raise QuotaError.client_sessions(held, quota)
+            db.executemany("DELETE FROM sessions WHERE code=?", [(c,) for c in idle])
+
+    def held(self, owner: str) -> tuple[int, int]:
+        """``(sessions, bytes)`` stored of the sessions client ``owner`` created (but
+        teachers' sessions: the share it is charged)."""
+        with self._lock:
+            n, size = self._db.execute("SELECT COUNT(*), COALESCE(SUM(size), 0) FROM "
+                                       "sessions WHERE owner=? AND teacher=0",
+                                       (owner,)).fetchone()
+        return int(n), int(size)
+
+    def evict(self, now: float | None = None, *, protect: bool = True,
+              target: int | None = None) -> list[str]:
+        """Delete sessions until the store fits ``max_bytes`` (or ``target`` bytes):
+        the heaviest client's least recently used session first.
+
+        The heaviest client is the creator address whose stored sessions hold the most
+        bytes (sessions of no known client count as one client); after each deletion the
+        order is taken again. Never a teacher's session, and with ``protect`` never one
+        used within ``protect_s`` seconds.
 
         Returns
         -------
         list of str
-            The evicted codes.
+            The evicted codes, in the order they went.
         """
         now = time.time() if now is None else now
+        goal = self.max_bytes if target is None else int(target)
         out: list[str] = []
         with self._lock:
-            total = int(self._db.execute("SELECT COALESCE(SUM(size), 0) FROM sessions"
-                                         ).fetchone()[0])
-            if total <= self.max_bytes:
+            db = self._db
+            total = int(db.execute("SELECT COALESCE(SUM(size), 0) FROM sessions"
+                                   ).fetchone()[0])
+            if total <= goal:
                 return out
-            rows = self._db.execute(
-                "SELECT code, size FROM sessions WHERE teacher=0 AND last_used<? "
-                "ORDER BY last_used", (now - self.protect_s,)).fetchall()
-            for code, size in rows:
-                if total <= self.max_bytes:
-                    break
-                self._db.execute("DELETE FROM sessions WHERE code=?", (code,))
-                total -= int(size)
+            weight = dict(db.execute("SELECT owner, SUM(size) FROM sessions GROUP BY owner"))
+            queues: dict[str, list[tuple[str, int]]] = {}
+            for code, owner, size in db.execute(
+                    "SELECT code, owner, size FROM sessions WHERE teacher=0 AND last_used<? "
+                    "ORDER BY last_used DESC",
+                    (now - self.protect_s if protect else float("inf"),)):
+                queues.setdefault(owner, []).append((code, int(size)))  # oldest last
+            while total > goal and queues:
+                owner = max(queues, key=lambda o: (weight.get(o, 0), o))
+                code, size = queues[owner].pop()
+                if not queues[owner]:
+                    del queues[owner]
+                db.execute("DELETE FROM sessions WHERE code=?", (code,))
+                weight[owner] = weight.get(owner, 0) - size
+                total -= size
                 out.append(code)
         return out
 
@@ -413,6 +521,23 @@ class SessionStore:
         """Over budget even after :meth:`evict` (only protected sessions are left)."""
         self.evict()
         return self.size() > self.max_bytes
+
+    def make_room(self, share: float = 0.9) -> list[str]:
+        """A teacher's eviction: when the store is over budget, evict in the same order
+        as :meth:`evict` but also sessions used within the hour (never a teacher's), until
+        the store holds at most ``share`` of its budget. Logged (without codes).
+
+        Returns
+        -------
+        list of str
+            The evicted codes.
+        """
+        if self.size() <= self.max_bytes:
+            return []
+        out = self.evict(protect=False, target=int(share * self.max_bytes))
+        log.warning("the session store was full: opening a teacher's session evicted %d "
+                    "session(s), those of the computers holding the most first", len(out))
+        return out
 
     def close(self) -> None:
         """Close the database (every change is already committed; closing the last
