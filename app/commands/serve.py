@@ -87,6 +87,15 @@ def register(subparsers: Any) -> None:
                         "server, repeatable: only requests from it have their X-Forwarded-For "
                         "read for the per-computer limits (default none: the header is "
                         "ignored; env HYST_TRUSTED_PROXIES, comma-separated)")
+    p.add_argument("--header-timeout", type=float, default=None, metavar="S",
+                   help="seconds a request's headers may take to arrive (default 10; env "
+                        "HYST_HEADER_TIMEOUT_S); then 408 and the connection is closed")
+    p.add_argument("--body-timeout", type=float, default=None, metavar="S",
+                   help="seconds a request's body may take once its headers arrived "
+                        "(default 60: a 5 MB upload at 1 Mbit/s; env HYST_BODY_TIMEOUT_S)")
+    p.add_argument("--max-connections-per-client", type=int, default=None, metavar="N",
+                   help="open connections of one computer to the HTTP port (default 100; env "
+                        "HYST_MAX_CONNECTIONS_PER_CLIENT); one more is answered 503")
     p.add_argument("--access-log", action="store_true",
                    help="print one line per request (session codes masked)")
     p.set_defaults(func=run)
@@ -123,13 +132,16 @@ def _save_token(state_dir: str, token: str) -> Path:
 
 def _log_config(access_log: bool) -> dict[str, Any]:
     """uvicorn's logging, with every handler masking session codes
-    (:class:`~app.services.redaction.RedactCodes`); the app's own loggers use it too."""
+    (:class:`~app.services.redaction.RedactCodes`) and letting a repeated warning or error
+    through a few times per 10 s (:class:`~app.connections.RepeatFilter`); the app's own
+    loggers use it too."""
     from uvicorn.config import LOGGING_CONFIG
 
     cfg = copy.deepcopy(LOGGING_CONFIG)
-    cfg["filters"] = {"codes": {"()": "app.services.redaction.RedactCodes"}}
+    cfg["filters"] = {"codes": {"()": "app.services.redaction.RedactCodes"},
+                      "repeats": {"()": "app.connections.RepeatFilter"}}
     for handler in cfg["handlers"].values():
-        handler["filters"] = ["codes"]
+        handler["filters"] = ["repeats", "codes"]
     cfg["loggers"]["uvicorn.error"]["level"] = "WARNING"
     cfg["loggers"]["uvicorn.access"]["level"] = "INFO" if access_log else "WARNING"
     cfg["root"] = {"handlers": ["default"], "level": "WARNING"}
@@ -186,6 +198,9 @@ def settings_of(args: argparse.Namespace) -> Any:
             max_client_store_mb=args.max_client_store_mb,
             max_sessions_per_client=args.max_sessions_per_client,
             max_session_mb=args.max_session_mb,
+            header_timeout_s=args.header_timeout,
+            body_timeout_s=args.body_timeout,
+            max_connections_per_client=args.max_connections_per_client,
             worker_memory_mb=args.worker_memory_mb,
             allowed_hosts=None if not args.allowed_host else tuple(args.allowed_host),
             trusted_proxies=None if args.trusted_proxy is None else tuple(args.trusted_proxy),
@@ -203,17 +218,22 @@ def run(args: argparse.Namespace) -> int:
     """Start both servers and block until Ctrl+C or SIGTERM (stops within a few seconds)."""
     import uvicorn
 
+    from ..connections import http_protocol
     from ..server import create_app
 
     settings = settings_of(args)
     settings, generated = settings.with_teacher_token()
     token_file = _save_token(settings.state_dir, settings.teacher_token) if generated else None
     app = create_app(settings)
+    protocol, app.state.connections, fd_message = http_protocol(settings)
+    if fd_message:
+        print(f"Note: {fd_message}.", file=sys.stderr, flush=True)
     # proxy_headers=False: uvicorn would take X-Forwarded-For from any loopback peer;
     # the app reads it itself, from the --trusted-proxy peers only (app.services.clients)
     config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level=None,
                             log_config=_log_config(args.access_log),
                             access_log=args.access_log, proxy_headers=False,
+                            http=protocol, timeout_keep_alive=5,
                             timeout_graceful_shutdown=int(SHUTDOWN_S))
     server = uvicorn.Server(config)
     threading.Thread(target=_announce, args=(server, app, settings, token_file,

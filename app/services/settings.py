@@ -72,6 +72,15 @@ class Settings:
         Open viser GUI tabs (websockets) one client may hold at once.
     max_tabs : int
         Open viser GUI tabs of the whole server (each holds a view, about 5-16 MB).
+    header_timeout_s, body_timeout_s : float
+        Seconds a request's headers may take to arrive (from its first byte), and its body
+        once the headers have; beyond, the HTTP port answers 408 and closes the connection
+        (:mod:`app.connections`).
+    max_connections_per_client : int
+        Open connections to the HTTP port of one client address (503 beyond).
+    max_connections : int
+        Open connections to the HTTP port in all; ``0`` (the default) is what the
+        process's file-descriptor limit leaves.
     worker_memory_mb : int
         Memory each worker process (a fit, a diagnosis, heavy figures) may allocate beyond
         what it holds at its start, MB; ``0`` (the default) is
@@ -99,6 +108,10 @@ class Settings:
     max_tabs_per_client: int = 8
     max_tabs: int = 300
     worker_memory_mb: int = 0
+    header_timeout_s: float = 10.0
+    body_timeout_s: float = 60.0
+    max_connections_per_client: int = 100
+    max_connections: int = 0
 
     def __post_init__(self) -> None:
         for name in ("max_store_mb", "max_sessions_per_client", "max_session_mb"):
@@ -108,6 +121,12 @@ class Settings:
         if self.max_client_store_mb < 0:
             raise ValueError("--max-client-store-mb must be 0 (a tenth of --max-store-mb) "
                              f"or a number of MB, got {self.max_client_store_mb}")
+        if not (0 < self.header_timeout_s <= 3600 and 0 < self.body_timeout_s <= 3600):
+            raise ValueError("the header and body timeouts must be between 0 and 3600 s, got "
+                             f"{self.header_timeout_s} and {self.body_timeout_s}")
+        if self.max_connections_per_client < 1 or self.max_connections < 0:
+            raise ValueError("the connection limits must be positive (max_connections 0: "
+                             "from the file-descriptor limit)")
         if self.worker_memory_mb < 0:
             raise ValueError(f"the worker memory limit must be 0 (the default) or a number "
                              f"of MB, got {self.worker_memory_mb}")
@@ -127,6 +146,8 @@ class Settings:
                 kw[f.name] = tuple(a for a in raw.replace(",", " ").split() if a)
             elif f.name in ("host", "teacher_token", "state_dir"):
                 kw[f.name] = raw
+            elif f.name.endswith("_s"):
+                kw[f.name] = float(raw)
             else:
                 kw[f.name] = int(raw)
         kw.update({k: v for k, v in overrides.items() if v is not None})

@@ -11,11 +11,13 @@ from typing import Any
 
 
 @contextlib.contextmanager
-def serving(app: Any, timeout: float = 60.0) -> Iterator[int]:
-    """Serve ``app`` on 127.0.0.1 while the block runs; yields the port."""
+def serving(app: Any, timeout: float = 60.0, **config: Any) -> Iterator[int]:
+    """Serve ``app`` on 127.0.0.1 while the block runs (``config``: more
+    ``uvicorn.Config`` arguments); yields the port."""
     import uvicorn
 
-    srv = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
+    srv = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning",
+                                        **config))
     th = threading.Thread(target=srv.run, daemon=True)
     th.start()
     deadline = time.monotonic() + timeout
