@@ -183,7 +183,9 @@ class Guard:
                 json_depth(body) > self.max_json_depth:
             return body, _json(422, f"the JSON body is nested more than "
                                     f"{self.max_json_depth} levels deep; flatten it")
-        if body and (not ctype or "json" in ctype):
+        if body and (not ctype or "json" in ctype or body.lstrip()[:1] in (b"{", b"[")):
+            # whatever the declared type: a JSON body sent as text/plain, TOML or multipart
+            # reaches the same parsers (issue 35 item 5)
             problem = json_body_problem(body)
             if problem:
                 return body, _json(422, problem)

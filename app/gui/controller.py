@@ -31,6 +31,7 @@ from ..services.config import Config
 from ..services.errors import DamagedSessionError, ParameterError, QuotaError
 from ..services.events import HUB
 from ..services.jobs import Job, JobBusy, JobManager, JobView
+from ..services.jsonbody import read_document
 from ..services.ratelimit import RateLimiter
 from ..services.recordings import Timing, UnevenUpload, seconds_text
 from ..services.sessions import Session, SessionRegistry
@@ -415,9 +416,10 @@ class SessionView:
 
     def _json_clicked(self, event: Any) -> None:
         try:
-            actions.load_parameter_set(self.session, json.loads(self.ui.json_in.value),
-                                       self.settings)
-        except (json.JSONDecodeError, ParameterError, ValueError, TypeError) as exc:
+            actions.load_parameter_set(
+                self.session, read_document(str(self.ui.json_in.value), name="the model JSON"),
+                self.settings)
+        except (ParameterError, ValueError, TypeError) as exc:
             self.ui.model_md.content = f"⚠️ **Model JSON not applied:** {md_text(exc)}"
 
     def _join_clicked(self, event: Any) -> None:
@@ -704,10 +706,10 @@ class SessionView:
     def _paramset_uploaded(self, event: Any) -> None:
         f = event.target.value
         try:
-            m = actions.load_parameter_set(self.session,
-                                           json.loads(f.content.decode("utf-8-sig")),
-                                           self.settings)
-        except (json.JSONDecodeError, UnicodeDecodeError, ParameterError, ValueError) as exc:
+            m = actions.load_parameter_set(
+                self.session, read_document(f.content.decode("utf-8-sig"),
+                                            name="the parameter set"), self.settings)
+        except (UnicodeDecodeError, ParameterError, ValueError) as exc:
             self.ui.export_md.content = f"⚠️ **Parameter set not loaded:** {md_text(exc)}"
             return
         self.ui.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"

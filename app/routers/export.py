@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 from fastapi import APIRouter, HTTPException, Request
@@ -11,6 +10,7 @@ from fastapi.responses import Response
 from ..services import actions
 from ..services.errors import ParameterError
 from ..services.exports import EXPORT_FORMATS
+from ..services.jsonbody import read_document
 from .deps import (
     SessionDep,
     SettingsDep,
@@ -56,10 +56,7 @@ async def upload_parameter_set(
 ) -> dict[str, Any]:
     """Continue from a saved parameter set (a JSON body as downloaded, or a bare model)."""
     body = await read_body(request, settings.max_upload_bytes)
-    try:
-        doc = json.loads(decode_text(body))
-    except json.JSONDecodeError as exc:
-        raise HTTPException(422, f"not valid JSON: {exc}") from None
+    doc = read_document(decode_text(body), name="the parameter set")  # 422 with the path
     try:
         actions.load_parameter_set(session, doc, settings)
     except (ParameterError, ValueError) as exc:

@@ -206,7 +206,7 @@ def load_parameter_set(session: Session, doc: Any, settings: Settings) -> Model:
         If the document is not a usable parameter set or exceeds a cost limit.
     """
     try:
-        check_document(doc, settings.limits)
+        check_document(doc, settings.limits, where="body")
         model = parameter_set_model(doc)
         d = model.to_dict()
         check_config(session.config.with_model(d), session.recording, settings.limits)

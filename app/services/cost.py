@@ -147,26 +147,42 @@ def json_depth(body: bytes) -> int:
     return int(np.cumsum(step).max(initial=0))
 
 
-def check_document(doc: Any, limits: Limits) -> None:
-    """Refuse a model document that is too deep, too big or of too high an LTI order.
+def check_document(doc: Any, limits: Limits, where: str = "model") -> None:
+    """Refuse a model document that is too deep, too big or of too high an LTI order, or
+    whose ``type`` fields are not names (text).
 
     Walks ``doc`` with an explicit stack (no recursion), so any parsed JSON is safe.
+
+    Parameters
+    ----------
+    doc : object
+        The parsed model document.
+    limits : Limits
+        The limits.
+    where : str
+        The document's path, for the messages (``model``, ``body.model``).
 
     Raises
     ------
     ParameterError
-        Naming the limit that was exceeded.
+        Naming the limit that was exceeded, or the path of a ``type`` that is not text.
     """
     numbers = 0
-    stack: list[tuple[Any, int, int]] = [(doc, 1, 0)]  # (node, json depth, model depth)
+    # (node, json depth, model depth, path)
+    stack: list[tuple[Any, int, int, str]] = [(doc, 1, 0, where)]
     while stack:
-        node, depth, mdepth = stack.pop()
+        node, depth, mdepth, path = stack.pop()
         if depth > limits.max_json_depth:
             raise ParameterError(
                 f"the model document is nested more than {limits.max_json_depth} levels "
                 "deep; flatten the chain (a chain's stages may be listed in one chain)")
         if isinstance(node, dict):
             if "type" in node:
+                if not isinstance(node["type"], str):
+                    raise ParameterError(
+                        f"{path}.type must be the name of a model type, as text (such as "
+                        f"\"pi\"), not {_kind(node['type'])}; see GET /api/capabilities for "
+                        "the names")
                 mdepth += 1
                 if mdepth > limits.max_model_depth:
                     raise ParameterError(
@@ -178,14 +194,28 @@ def check_document(doc: Any, limits: Limits) -> None:
                         raise ParameterError(
                             f"lti order {order} exceeds the limit of {limits.max_lti_order}; "
                             "use a lower-order model (or a chain of low-order stages)")
-            stack.extend((v, depth + 1, mdepth) for v in node.values())
+            stack.extend((v, depth + 1, mdepth, f"{path}.{k}") for k, v in node.items())
         elif isinstance(node, list):
             numbers += sum(1 for v in node if isinstance(v, int | float))
             if numbers > limits.max_numbers:
                 raise ParameterError(
                     f"the model document holds more than {limits.max_numbers:,} numbers; "
                     "the explorer's models are smaller (fewer operators or terms)")
-            stack.extend((v, depth + 1, mdepth) for v in node if isinstance(v, dict | list))
+            stack.extend((v, depth + 1, mdepth, f"{path}[{i}]") for i, v in enumerate(node)
+                         if isinstance(v, dict | list))
+
+
+def _kind(value: Any) -> str:
+    """What a JSON value is, in words (``a list``, ``a number``)."""
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int | float):
+        return "a number"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "an object"
+    return "null" if value is None else "a value of another kind"
 
 
 # ----------------------------------------------------------------------------- built model

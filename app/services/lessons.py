@@ -30,7 +30,6 @@ import json
 import logging
 import re
 import threading
-import tomllib
 import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
@@ -43,7 +42,9 @@ from core.exceptions import ParameterError
 
 from . import actions
 from .config import Config, SignalSpec
+from .cost import check_document
 from .events import HUB
+from .jsonbody import DocumentError, read_document
 from .sessions import Session, SessionRegistry
 from .settings import Settings
 from .simulation import VIEWS, preset_doc, preset_input, validate_config
@@ -207,26 +208,11 @@ def parse_lesson(content: str | bytes, settings: Settings | None = None, *,
         except UnicodeDecodeError as exc:
             raise LessonError(f"the lesson file is not UTF-8 text (byte {exc.start}); save "
                               "it as UTF-8") from None
-    text = content.lstrip("\ufeff \t\r\n")
-    if not text:
-        raise LessonError("the lesson file is empty")
-    if text.startswith("{"):
-        try:
-            doc = json.loads(text, parse_constant=_no_constant)
-        except json.JSONDecodeError as exc:
-            raise LessonError(f"the lesson file is not valid JSON: {exc.msg} at line "
-                              f"{exc.lineno}, column {exc.colno}") from None
-    else:
-        try:
-            doc = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise LessonError(f"the lesson file is neither JSON (it would start with {{) "
-                              f"nor valid TOML: {exc}") from None
+    try:
+        doc = read_document(content, toml=True, where="lesson", name="the lesson file")
+    except DocumentError as exc:
+        raise LessonError(str(exc)) from None
     return lesson_from_dict(doc, settings, name=name)
-
-
-def _no_constant(word: str) -> Any:
-    raise LessonError(f"the lesson file holds {word}, which is not a number; write a number")
 
 
 def lesson_from_dict(doc: Any, settings: Settings | None = None, *,
@@ -285,6 +271,10 @@ def _step(d: Any, k: int, settings: Settings) -> Step:
             raise LessonError(f"{where}: model must be a model document such as "
                               "{\"type\": \"pi\", \"p0\": 0.72, \"thresholds\": [...], "
                               "\"weights\": [...]}")
+        try:
+            check_document(d["model"], settings.limits, where="model")
+        except ParameterError as exc:
+            raise LessonError(f"{where}: {exc}") from None
         try:
             model = model_from_dict(dict(d["model"])).to_dict()
         except (ParameterError, TypeError, KeyError, ValueError) as exc:
