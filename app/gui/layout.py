@@ -16,6 +16,7 @@ from typing import Any
 
 from ..services import catalog
 from ..services import figures as F
+from ..services.config import CONTROLS
 from ..services.controls import ModelControls, Slider, log_step, slider_position, unit_text
 from ..services.settings import Settings
 
@@ -176,12 +177,10 @@ class Widgets:
                            "the widest operator for the loop to open fully.*")
             kinds = catalog.signal_kinds()
             self.kind = g.add_dropdown("Signal", kinds, initial_value=kinds[0])
-            self.amp = g.add_slider("Amplitude", min=0.0, max=10.0, step=0.05, initial_value=4.0)
-            self.freq = g.add_slider("Frequency [Hz]", min=0.1, max=20.0, step=0.1,
-                                     initial_value=1.0)
-            self.offset = g.add_slider("Offset", min=-5.0, max=5.0, step=0.05, initial_value=0.0)
-            self.duration = g.add_slider("Duration [s]", min=0.5, max=20.0, step=0.5,
-                                         initial_value=2.0)
+            self.amp = _slider(g, "amplitude", 4.0)
+            self.freq = _slider(g, "frequency", 1.0)
+            self.offset = _slider(g, "offset", 0.0)
+            self.duration = _slider(g, "duration", 2.0)
             self.samples = g.add_number("Samples", 2000, min=10, max=settings.max_samples,
                                         step=1)
             self.use_rec = g.add_checkbox("Use uploaded recording", False)
@@ -189,9 +188,8 @@ class Widgets:
         with tabs.add_tab("Inverse"):
             g.add_markdown("*The inverse turns a wanted output into the input that makes it; "
                            "mismatch makes the real plant differ from the model.*")
-            self.mismatch = g.add_slider("Model mismatch", min=-0.5, max=0.5, step=0.01,
-                                         initial_value=0.0,
-                                         hint="plant thresholds ×(1+m), weights ×(1−m)")
+            self.mismatch = _slider(g, "mismatch", 0.0,
+                                    hint="plant thresholds ×(1+m), weights ×(1−m)")
             self.inverse_md = g.add_markdown("")
         with tabs.add_tab("Digitized"):
             g.add_markdown("*Paper 000: each operator is one binary digit; the red ball is "
@@ -360,3 +358,11 @@ class Widgets:
             initial_value=float(slider_position(spec, spec.value)), marks=marks or None,
             hint=f"{hint}; logarithmic: the thumb moves in powers of ten"
                  + (f" of {unit}" if unit else ""), disabled=spec.fixed)
+
+
+def _slider(g: Any, name: str, initial: float, **kw: Any) -> Any:
+    """The viser slider of control ``name`` (its range from
+    :data:`app.services.config.CONTROLS`, shared with the checks of lessons)."""
+    c = CONTROLS[name]
+    label = f"{c.label} [{c.unit}]" if c.unit else c.label
+    return g.add_slider(label, min=c.low, max=c.high, step=c.step, initial_value=initial, **kw)

@@ -114,11 +114,26 @@ def change_config(session: Session, fn: Callable[[Config], Config],
     """
     with session.lock:
         new = fn(session.config)
-        C.check_rules(new.model)  # a broken rule in the labels the sliders show
-        checked = checked_model(new, session.recording, settings)
-        validate_config(new, session.recording, settings.max_operators, settings.max_samples,
-                        model=checked.model)
-        return session.set_config(new, checked)
+        return session.set_config(new, checked_config_change(new, session.recording,
+                                                             settings))
+
+
+def checked_config_change(new: Config, recording: Recording | None,
+                          settings: Settings) -> CheckedModel:
+    """``new`` checked as a config change is (the sliders' rules, the cost limits, the
+    operator limit and the signal), with its model built once: a session's change and a
+    lesson's step pass the same checks.
+
+    Raises
+    ------
+    ParameterError
+        Naming the field out of range or the limit exceeded.
+    """
+    C.check_rules(new.model)  # a broken rule in the labels the sliders show
+    checked = checked_model(new, recording, settings)
+    validate_config(new, recording, settings.max_operators, settings.max_samples,
+                    model=checked.model)
+    return checked
 
 
 def checked_controls(doc: Any, settings: Settings) -> C.ModelControls:

@@ -6,6 +6,7 @@ never mutated; :class:`SignalSpec` is its input signal. No viser / fastapi / plo
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -14,7 +15,55 @@ import numpy as np
 from core.exceptions import ParameterError
 from core.signals import SIGNALS
 
-__all__ = ["EXAMPLE1", "Config", "SignalSpec", "config_from_dict"]
+__all__ = ["CONTROLS", "EXAMPLE1", "Config", "ControlRange", "SignalSpec", "config_from_dict"]
+
+
+@dataclass(frozen=True)
+class ControlRange:
+    """The range of one slider of the explorer's input and inverse controls.
+
+    Parameters
+    ----------
+    label : str
+        The slider's label.
+    low, high : float
+        Its ends (inclusive).
+    step : float
+        Its step.
+    unit : str
+        The unit shown after the value (``""``: the input's own unit).
+    """
+
+    label: str
+    low: float
+    high: float
+    step: float
+    unit: str = ""
+
+    def problem(self, value: Any, path: str) -> str | None:
+        """Why ``value`` at ``path`` cannot be set on this slider, or ``None``."""
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            try:
+                shown = json.dumps(value)[:40]
+            except (TypeError, ValueError):
+                shown = type(value).__name__
+            return f"{path} must be a number, got {shown}"
+        if not self.low <= value <= self.high:  # also refuses nan
+            unit = f" {self.unit}" if self.unit else ""
+            return (f"{path} is {value:g}{unit}, outside the {self.label} slider's range "
+                    f"{self.low:g} to {self.high:g}{unit}; choose a value in it")
+        return None
+
+
+#: The sliders of the input signal and the mismatch (the viser GUI builds them from here;
+#: a lesson's steps are checked against them, so a step can be shown on them).
+CONTROLS: dict[str, ControlRange] = {
+    "amplitude": ControlRange("Amplitude", 0.0, 10.0, 0.05),
+    "frequency": ControlRange("Frequency", 0.1, 20.0, 0.1, "Hz"),
+    "offset": ControlRange("Offset", -5.0, 5.0, 0.05),
+    "duration": ControlRange("Duration", 0.5, 20.0, 0.5, "s"),
+    "mismatch": ControlRange("Model mismatch", -0.5, 0.5, 0.01),
+}
 
 #: Paper 001 Example 1: r_i = 0.45 i, p0 = 0.72, p = (0.6, 0.48, 0.36, 0.24, 0.12, 0.012).
 EXAMPLE1: dict[str, Any] = {

@@ -41,13 +41,13 @@ from core.base import model_from_dict
 from core.exceptions import ParameterError
 
 from . import actions
-from .config import Config, SignalSpec
+from .config import CONTROLS, Config, SignalSpec
 from .cost import check_document
 from .events import HUB
 from .jsonbody import DocumentError, read_document
 from .sessions import Session, SessionRegistry
 from .settings import Settings
-from .simulation import VIEWS, preset_doc, preset_input, validate_config
+from .simulation import VIEWS, preset_doc, preset_input
 from .store import SessionStore
 
 __all__ = [
@@ -83,8 +83,6 @@ MAX_TITLE = 120
 MAX_TEXT = 2000
 #: The views a step may show (the *Fit* view needs each student's recording: not a step).
 STEP_VIEWS = VIEWS
-#: Largest |mismatch| of a step (the explorer's mismatch control allows ±0.9).
-MAX_MISMATCH = 0.9
 
 _LESSON_FIELDS = ("format", "title", "description", "steps")
 _STEP_FIELDS = ("title", "preset", "model", "input", "mismatch", "view", "prompt", "look_for")
@@ -281,10 +279,9 @@ def _step(d: Any, k: int, settings: Settings) -> Step:
             raise LessonError(f"{where}: model: {_plain(exc)}") from None
     signal = _signal(d.get("input"), model, where)
     mismatch = d.get("mismatch", 0.0)
-    if isinstance(mismatch, bool) or not isinstance(mismatch, int | float) or \
-            not abs(mismatch) <= MAX_MISMATCH:
-        raise LessonError(f"{where}: mismatch must be a number between -{MAX_MISMATCH} and "
-                          f"{MAX_MISMATCH}, got {_quote(mismatch)}")
+    wrong = CONTROLS["mismatch"].problem(mismatch, "mismatch")
+    if wrong:
+        raise LessonError(f"{where}: {wrong}")
     view = d.get("view", "loop")
     if view not in STEP_VIEWS:
         raise LessonError(f"{where}: view {_quote(view)} is not a view a step can show; "
@@ -295,10 +292,7 @@ def _step(d: Any, k: int, settings: Settings) -> Step:
                 view=view, model=model, signal=signal, mismatch=float(mismatch),
                 preset=preset)
     try:  # built and priced now, so the class never meets a step that fails
-        cfg = step.config()
-        checked = actions.checked_model(cfg, None, settings)
-        validate_config(cfg, None, settings.max_operators, settings.max_samples,
-                                model=checked.model)
+        actions.checked_config_change(step.config(), None, settings)
     except (ParameterError, TypeError, ValueError) as exc:
         raise LessonError(f"{where}: {_plain(exc)}") from None
     return step
@@ -326,7 +320,13 @@ def _signal(d: Any, model: dict[str, Any], where: str) -> SignalSpec:
                 if isinstance(want, int) else "a number"
             raise LessonError(f"{where}: input.{key} must be {kind}, got {_quote(v)}")
         kw[key] = float(v) if isinstance(want, float) else v
-    return replace(base, **kw)
+    spec = replace(base, **kw)
+    for key, control in CONTROLS.items():  # the sliders a step sets must show it
+        if hasattr(spec, key):
+            wrong = control.problem(getattr(spec, key), f"input.{key}")
+            if wrong:
+                raise LessonError(f"{where}: {wrong}")
+    return spec
 
 
 def _unknown(d: Mapping[str, Any], known: tuple[str, ...], where: str) -> None:

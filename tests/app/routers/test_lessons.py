@@ -127,3 +127,32 @@ def test_a_teachers_own_lesson_is_checked_before_it_starts(client: TestClient) -
     r = client.post("/api/teacher/lesson", json={"name": "pi-basics", "step": 99}, headers=T)
     assert r.status_code == 422
     client.delete("/api/teacher/lesson", headers=T)
+
+
+def test_a_step_is_checked_by_the_sliders_ranges(client: TestClient) -> None:
+    """Issue 35 item 6: ``"input": {"duration": 1e308}`` passed the check and started;
+    then every student's figures answered 422. The step's input and mismatch must be
+    values the sliders can show, and its model must keep the sliders' rules."""
+    from app.services.config import CONTROLS
+
+    doc = client.get("/api/lessons/pi-basics").json()
+    for key, value, words in (
+            ("duration", 1e308, "input.duration is 1e+308 s, outside the Duration slider's "
+                                "range 0.5 to 20 s"),
+            ("amplitude", -3.0, "input.amplitude is -3, outside the Amplitude"),
+            ("frequency", 1e5, "input.frequency is 100000 Hz, outside"),
+            ("offset", 6.0, "input.offset is 6, outside the Offset slider's range -5 to 5")):
+        bad = {**doc, "steps": [{**doc["steps"][0],
+                                 "input": {**doc["steps"][0]["input"], key: value}}]}
+        r = client.post("/api/lessons/check", json=bad)
+        assert r.status_code == 422, r.text
+        assert r.json()["detail"].startswith("step 1 (") and words in r.json()["detail"]
+        r = client.post("/api/teacher/lesson", json={"lesson": bad}, headers=T)
+        assert r.status_code == 422 and words in r.json()["detail"]
+    bad = {**doc, "steps": [{**doc["steps"][0], "mismatch": 0.8}]}
+    r = client.post("/api/lessons/check", json=bad)
+    assert r.status_code == 422 and "mismatch is 0.8, outside the Model mismatch" in r.text
+    edge = {**doc, "steps": [{**doc["steps"][0], "mismatch": CONTROLS["mismatch"].high,
+                              "input": {**doc["steps"][0]["input"],
+                                        "duration": CONTROLS["duration"].high}}]}
+    assert client.post("/api/lessons/check", json=edge).status_code == 200

@@ -99,7 +99,7 @@ weights = [0.3, 0.2]
                                           "paper001-example1"]),
     (_with("steps.1.view", "fit"), ["step 2 (second): view 'fit'", "closed-loop"]),
     (_with("steps.1.view", ["loop"]), ["step 2 (second): view [\"loop\"]"]),
-    (_with("steps.1.mismatch", 2), ["step 2 (second): mismatch", "-0.9 and 0.9"]),
+    (_with("steps.1.mismatch", 2), ["step 2 (second): mismatch is 2", "range -0.5 to 0.5"]),
     (_with("steps.1.mismatch", True), ["step 2 (second): mismatch", "true"]),
     (_with("steps.1.input", {"samples": 20.5}), ["step 2 (second): input.samples",
                                                 "whole number"]),
