@@ -20,6 +20,7 @@ ALLOWED = {
     "tests/e2e": "real-browser journeys over the whole app",
     "tests/test_compensation_loop.py": "journey: diagnose -> invert -> track, CLI and C",
     "tests/test_benchmark_families.py": "checks benchmarks/diagnosis/families.py's plants",
+    "tests/test_benchmark_sealed.py": "checks the sealed set's builders (benchmarks/diagnosis)",
     "tests/test_import_hygiene.py": "a rule over every core module",
     "tests/test_layout.py": "this rule",
     "tests/test_layers.py": "the import-linter contracts over core and app",

@@ -13,6 +13,9 @@ Usage::
         --classes all --seeds 3 --noise white1,coloured --json classes.json
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
         --families [quick|all] --json families.json        # non-PI truth plants
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
+        --set dev|sealed|measured --workers 1 --json out.json \
+        [--compare benchmarks/diagnosis/results/sealed-dev-*.json]  # issue 30 (sets.py)
 
 Scoring (notes §7.2, §7.6):
 
@@ -370,7 +373,7 @@ def main(argv: list[str] | None = None) -> int:
                          "single recording, short periodic recordings, loop shapes): a few "
                          "minutes")
     ap.add_argument("--cases", metavar="PATTERN",
-                    help="with --classes: only the cases whose name contains one of these "
+                    help="with --classes or --set: only the cases whose name contains one of these "
                          "comma-separated strings (e.g. 'bouc-wen-1/,preisach/')")
     ap.add_argument("--families", nargs="?", const="quick", choices=("quick", "all"),
                     help="the non-PI base families (families.py: Bouc-Wen, Preisach, Duhem, "
@@ -380,7 +383,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the issue-8 classes (comma-separated names of "
                          "benchmarks/diagnosis/classes.py CLASSES, or 'all'); with --seeds "
                          "and --noise")
+    ap.add_argument("--set", choices=("dev", "sealed", "measured"),
+                    help="issue 30: the development subset, the sealed set (sealed.py: other "
+                         "seeds, ranges, excitations, OpenSees plants, measured bases) or its "
+                         "measured-base class alone (sets.py); with --cases, --json")
+    ap.add_argument("--compare", type=Path, nargs="+", metavar="JSON",
+                    help="with --set or --rescore: earlier --set runs whose class tables are "
+                         "printed beside this one's (same format)")
     a = ap.parse_args(argv)
+    if a.set or (a.rescore and _is_set_file(a.rescore)):
+        return _run_set(a)
     if a.families:
         a.classes, a.quick = "non-PI base", a.families == "quick"
     if a.quick or a.classes:
@@ -452,6 +464,49 @@ def _execute(a: argparse.Namespace, fn, jobs: list, line) -> list[dict]:
             rows.append(r)
             print(line(r, len(rows), time.perf_counter() - t0), flush=True)
     return rows
+
+
+def _is_set_file(path: Path) -> bool:
+    rows = json.loads(path.read_text())
+    return bool(rows) and isinstance(rows, list) and "set" in rows[0]
+
+
+def _run_set(a: argparse.Namespace) -> int:
+    """``--set dev|sealed|measured``: run the cases, print the class table and every run,
+    then (``--compare``) the class tables of earlier runs beside this one."""
+    from benchmarks.diagnosis.sets import SETS, run_case, side_by_side, summarise_set
+
+    if a.rescore:
+        rows = json.loads(a.rescore.read_text())
+    else:
+        todo = list(SETS[a.set]())
+        if a.cases:
+            pats = a.cases.split(",")
+            todo = [c for c in todo if any(p in c for p in pats)]
+        partial = a.json.with_suffix(".partial.jsonl") if a.json else None
+
+        def line(r: dict, done: int, el: float) -> str:
+            if partial:
+                with partial.open("a") as fh:
+                    fh.write(json.dumps(r) + "\n")
+            return (f"{r['id']:<44} found={','.join(r['found']) or '-':<30} "
+                    f"{r['elapsed_s']:.0f}s [{done}/{len(todo)} {el:.0f}s]")
+
+        t0 = time.perf_counter()
+        rows = _execute(a, run_case, todo, line)
+        order = {c: k for k, c in enumerate(todo)}
+        rows.sort(key=lambda r: order[r["id"]])
+        print(f"\ntotal {time.perf_counter() - t0:.0f} s wall")
+        if a.json:
+            a.json.write_text(json.dumps(rows, indent=1))
+            if partial and partial.exists():
+                partial.unlink()
+    print()
+    print(summarise_set(rows))
+    if a.compare:
+        print("\nSide by side (same scores, same format)\n")
+        print(side_by_side(*(json.loads(p.read_text()) for p in a.compare), rows))
+    return 0
 
 
 def _run_classes(a: argparse.Namespace) -> int:
