@@ -70,6 +70,7 @@ from .preisach import (
     RateDependentPreisach,
     RateDependentPreisachInverse,
 )
+from .stop import StopPIModel
 
 if TYPE_CHECKING:
     from .paramset import ParameterSet
@@ -2013,3 +2014,22 @@ def export_c(
                  encoding="utf-8")
     return h, c
 
+
+@register_c_stage(StopPIModel)
+def _emit_stop_pi(model: Model, ctx: StageContext) -> CStage:
+    """Stop-operator bank (Maxwell-slip) as its play-type PI, ``p0 = k + sum w_i`` and
+    ``p_i = -w_i`` (``x - z_i`` is stop ``i``'s output): the PI's stage, with constants
+    tuned from the stop fields."""
+
+    assert isinstance(model, StopPIModel)
+    stage = _emit_pi(model.equivalent_pi(), ctx)
+    n, c = model.n, ctx.const
+    stage.title = f"stop-operator PI (Maxwell-slip), {n} element(s)"
+    stage.tune = [
+        f"{c}P0 = $k[0];",
+        f"for (i = 0; i < {n}u; ++i) {{",
+        f"    {c}R[i] = $thresholds[i]; {c}W[i] = -$weights[i]; {c}Z0[i] = $state0[i];",
+        f"    {c}P0 += $weights[i];",
+        "}",
+    ]
+    return stage

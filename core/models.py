@@ -27,6 +27,7 @@ from . import (  # noqa: F401
     lti,
     pi,
     preisach,
+    stop,
 )
 from .base import Field, Model, model_class, registered_types
 from .exceptions import ParameterError

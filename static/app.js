@@ -806,10 +806,12 @@ async function fit(running = null) {
     if (!r) return;
     state.fitFigure = r.figure;
     const rep = r.report;
+    // the fit report's warnings (e.g. a held-out error far above the noise floor, and where)
+    const warned = (rep.warnings || []).map((w) => el("p", { className: "msg", textContent: `Warning: ${w}` }));
     $("report").replaceChildren(el("p", {
       className: "msg ok",
       textContent: `Fit: RMS error ${rep.rms_error.toPrecision(4)}, ${rep.nrmse_percent.toPrecision(3)} % of range`,
-    }));
+    }), ...warned);
     const s = await api("GET", `/api/sessions/${state.code}`);
     applyConfig(s.config, s.version);
     selectFigure("fit");

@@ -66,7 +66,8 @@ class FitOptions(_Options):
     Parameters
     ----------
     model : str
-        ``--model``: one of :func:`core.models.fit_kinds` (``pi`` by default).
+        ``--model``: ``auto`` (the base the diagnosis would choose) or one of
+        :func:`core.models.fit_kinds` (``pi`` by default here, ``auto`` from the command line).
     n_operators : int or None
         ``-n``: play operators (default: chosen by cross-validation).
     constraint : str or None
@@ -92,12 +93,14 @@ class FitOptions(_Options):
     fmu: int | None = None
 
     def _check(self) -> None:
+        from core.fitting.choice import AUTO
         from core.models import fit_kinds
 
         from ..services.fitting import check_n_operators
 
-        if self.model not in fit_kinds():
-            raise CommandError(f"--model {self.model!r}: choose one of {', '.join(fit_kinds())}")
+        kinds = (AUTO, *fit_kinds())
+        if self.model not in kinds:
+            raise CommandError(f"--model {self.model!r}: choose one of {', '.join(kinds)}")
         check_n_operators(self.n_operators)
         if self.constraint not in (None, "nonnegative", "slopes"):
             raise CommandError(f"--constraint {self.constraint!r}: choose nonnegative or slopes")

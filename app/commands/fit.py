@@ -43,11 +43,17 @@ def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def add_model_option(p: argparse.ArgumentParser) -> None:
-    """``--model KIND``: the fit kinds declared by the model registry (``fit_kinds()``)."""
-    from core.models import DEFAULT_FIT_KIND, fit_kinds
+    """``--model KIND``: ``auto`` (the default: the base ``hyst diagnose`` would choose,
+    :func:`core.fitting.choice.choose_base`) or one of the fit kinds declared by the model
+    registry (``fit_kinds()``)."""
+    from core.fitting.choice import AUTO
+    from core.models import fit_kinds
 
-    p.add_argument("--model", default=DEFAULT_FIT_KIND, choices=fit_kinds(),
-                   help="model family to fit (default: %(default)s)")
+    p.add_argument("--model", default=AUTO, choices=(AUTO, *fit_kinds()),
+                   help="model family to fit; 'auto' (default) chooses the base as hyst "
+                        "diagnose does (loop orientation, weight signs, and with several "
+                        "recordings a Preisach or Bouc-Wen base, each recording predicted "
+                        "from the others on the training rows); the report says why")
 
 
 def register(subparsers: Any) -> None:

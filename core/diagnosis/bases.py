@@ -22,6 +22,7 @@ import numpy as np
 
 from .._typing import Float1D
 from ..boucwen import BoucWenModel, BoucWenState
+from ..fitting.choice import BW_MIN_GAIN as _BW_MIN_GAIN
 
 __all__ = [
     "BW_GRID",
@@ -41,8 +42,10 @@ __all__ = [
 #: 0.48-0.77 (small creep); Duhem + creep 0.25, Duhem null -1.45, Preisach 0.07, Maxwell-slip
 #: -0.71; B-PI + saturation 0.17, + dead-zone -0.24, + asymmetry -4.9, + weak creep < -100.
 #: The static-map plants stay below it, so no static-map check is needed (unlike the
-#: Preisach, which fits a static map's loops 60-98 % better than the PI).
-BW_MIN_GAIN = 0.35
+#: Preisach, which fits a static map's loops 60-98 % better than the PI). One value shared
+#: with ``hyst fit --model auto`` (:mod:`core.fitting.choice`, which makes the same base
+#: choice with the fit kinds' estimators).
+BW_MIN_GAIN = _BW_MIN_GAIN
 
 #: The generic grid of Bouc-Wen element shapes: saturation ``z_s`` as a fraction of the
 #: training input range (a factor 2 apart), smoothness exponents ``n`` and ratios

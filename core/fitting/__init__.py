@@ -12,6 +12,12 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
   normal equations of its level-segment columns.
 * :class:`BoucWenRegressor` — rate-independent Bouc-Wen bank: bounded least squares on a
   grid of element shapes, the kept shapes polished (variable projection).
+* :class:`StopPIRegressor` — stop-operator Prandtl model (Maxwell-slip elements) for
+  clockwise, friction-like loops; the PI estimator with stop operators.
+
+The kinds fit the orientation of the data's loops (:func:`loop_orientation`, the signed loop
+area): clockwise loops are fitted with stop operators by the PI estimator and with the
+clockwise elements by the Bouc-Wen and Preisach ones, and the report says which.
 
 Every estimator takes the same option keywords (``n_operators``, ``constraint``,
 ``initial_memory``; a value a kind cannot use raises
@@ -38,8 +44,10 @@ from .entry import EmptyWindowError, FitOutcome, TimeWindow, fit_recordings
 from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
+from .orientation import LoopOrientation, loop_orientation
 from .pi import PIRegressor, fit_linear_pi
 from .preisach import PreisachRegressor
+from .stop import StopPIRegressor
 from .thresholds import place_thresholds, reversal_indices, wipeout_index
 
 __all__ = [
@@ -49,15 +57,18 @@ __all__ = [
     "EmptyWindowError",
     "FitOutcome",
     "FitReport",
+    "LoopOrientation",
     "ModifiedPIRegressor",
     "PIRegressor",
     "PartStats",
     "PreisachRegressor",
     "Segment",
+    "StopPIRegressor",
     "TanhGPIRegressor",
     "TimeWindow",
     "fit_linear_pi",
     "fit_recordings",
+    "loop_orientation",
     "place_thresholds",
     "reversal_indices",
     "solve_constrained",

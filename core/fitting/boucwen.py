@@ -7,7 +7,11 @@ Model fitted (:class:`core.boucwen.BoucWenModel` plus an output offset)::
 that is ``k = κ + Σ v_j σ_j`` and weights ``c_j = -v_j``. Each column ``σ_j u - z_j`` rises
 with the input (``0 <= dz_j/du <= σ_j``), so the fitted model's smallest slope is ``κ >= ε``:
 it is invertible by construction, with the counter-clockwise loop of a piezo actuator (the
-orientation of the PI's plays).
+orientation of the PI's plays). On clockwise data (the output leads: friction,
+stress-strain; the signed loop area, :func:`core.fitting.orientation.loop_orientation`) the
+columns are the elements ``z_j`` themselves, ``y ≈ c + κ u + Σ v_j z_j`` (``k = κ``,
+``c_j = v_j``: the classical Bouc-Wen ``α k u + (1 - α) k z``), also rising with the input and
+invertible; the report says which orientation was fitted.
 
 Given the element shapes (saturation ``z_s``, reversal slope ``s``, exponent ``n``) the model
 is linear in ``(c, κ, v)``: the weights come from bounded least squares
@@ -38,6 +42,7 @@ from ._data import Prepared, check_initial_memory, masked_range, prepare
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, solve_constrained
 from .metrics import FitReport, evaluate_fit
+from .orientation import loop_orientation
 from .pi import default_min_slope
 
 __all__ = ["BoucWenRegressor", "element_columns"]
@@ -56,9 +61,11 @@ POLISH_ROWS = 8_000
 
 
 def element_columns(
-    us: Sequence[Float1D], saturation: Float1D, slope: Float1D, exponent: Float1D
+    us: Sequence[Float1D], saturation: Float1D, slope: Float1D, exponent: Float1D,
+    clockwise: bool = False,
 ) -> list[Float2D]:
-    """The design columns ``σ_j u - z_j(u)`` of each recording, elements relaxed at ``u[0]``.
+    """The design columns ``σ_j u - z_j(u)`` of each recording, elements relaxed at ``u[0]``
+    (``z_j(u)`` itself for ``clockwise`` loops).
 
     Each element is integrated with its own sub-step (``BoucWenModel.substep`` of that
     element alone, at most :data:`core.boucwen.MAX_SUBSTEPS` per sample).
@@ -69,6 +76,9 @@ def element_columns(
         Inputs (input units).
     saturation, slope, exponent : ndarray of shape (m,)
         Element shapes ``z_s``, ``s``, ``n``.
+    clockwise : bool
+        Columns ``z_j`` (the output leads: friction, stress-strain) instead of the
+        counter-clockwise ``σ_j u - z_j``; both rise with the input.
 
     Returns
     -------
@@ -92,7 +102,7 @@ def element_columns(
                 u0=float(u[0]),
                 max_substeps=MAX_SUBSTEPS,
             )
-            cols[:, j] = sig[j] * u - Z[:, 0]
+            cols[:, j] = Z[:, 0] if clockwise else sig[j] * u - Z[:, 0]
         out.append(cols)
     return out
 
@@ -226,7 +236,7 @@ class BoucWenRegressor(RelaxedPredictor):
     def _fit_shapes(
         self, prep: Prepared, zs: Float1D, s: Float1D, n: Float1D, eps: float
     ) -> tuple[Float1D, float]:
-        cols = element_columns(prep.us, zs, s, n)
+        cols = element_columns(prep.us, zs, s, n, self.orientation_.clockwise)
         G, spread = _gram(prep.us, prep.ys, prep.train_masks, cols)
         return _solve(G, spread, eps, bool(self.include_offset))
 
@@ -253,7 +263,7 @@ class BoucWenRegressor(RelaxedPredictor):
 
         def resid(x: Float1D) -> Float1D:
             a, b, c = unpack(x)
-            cols = element_columns(us, a, b, c)
+            cols = element_columns(us, a, b, c, self.orientation_.clockwise)
             A = np.column_stack(
                 (us_r, np.vstack([cc[r] for cc, r in zip(cols, rows, strict=True)]))
             )
@@ -310,9 +320,11 @@ class BoucWenRegressor(RelaxedPredictor):
         if not (np.isfinite(eps) and eps > 0):
             raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
         span = masked_range(prep.us, prep.train_masks) or masked_range(prep.us)
+        self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
+        cw = self.orientation_.clockwise
         zs, s, n = self._grid(span)
         theta, _ = self._fit_shapes(prep, zs, s, n, eps)
-        cols = element_columns(prep.us, zs, s, n)
+        cols = element_columns(prep.us, zs, s, n, cw)
         contrib = theta[2:] * np.array(
             [
                 np.std(
@@ -331,7 +343,7 @@ class BoucWenRegressor(RelaxedPredictor):
             zs, s, n = self._polish(prep, zs, s, n, eps)
         model = BoucWenModel(1.0, np.zeros(zs.size), zs, s, n)
         # the final weights with the model's own integration (one sub-step for all)
-        cols = [self._columns(model, x) for x in prep.us]
+        cols = [self._columns(model, x, cw) for x in prep.us]
         G, spread = _gram(prep.us, prep.ys, prep.train_masks, cols)
         theta, cond = _solve(G, spread, eps, bool(self.include_offset))
         if cond > COND_LIMIT:
@@ -346,9 +358,10 @@ class BoucWenRegressor(RelaxedPredictor):
         used = v > 0
         if used.any() and not used.all():  # elements the final solve left at zero
             zs, s, n, sig, v = zs[used], s[used], n[used], sig[used], v[used]
-        k = float(theta[1] + np.sum(v * sig))
+        # counter-clockwise: y = κ u + Σ v (σ u - z); clockwise: y = κ u + Σ v z
+        k = float(theta[1]) if cw else float(theta[1] + np.sum(v * sig))
         self.offset_ = float(theta[0])
-        self.model_ = BoucWenModel(k, -v, zs, s, n, input0=float(prep.us[0][0]))
+        self.model_ = BoucWenModel(k, v if cw else -v, zs, s, n, input0=float(prep.us[0][0]))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
         ev = prep.segments(1)
         train_st, test_st, cmax, crmse = evaluate_fit(
@@ -373,21 +386,24 @@ class BoucWenRegressor(RelaxedPredictor):
                 "saturation": zs.tolist(),
                 "reversal_slope": s.tolist(),
                 "exponent": n.tolist(),
+                "orientation": self.orientation_.text + (
+                    "; fitted with the elements themselves, y = k u + sum c_j z_j, c_j >= 0"
+                    if cw else "; fitted with y = k u - sum v_j z_j, v_j >= 0"),
             },
         )
         return self
 
     def _train_rmse(self, prep: Prepared, zs: Float1D, s: Float1D, n: Float1D, eps: float) -> float:
-        cols = element_columns(prep.us, zs, s, n)
+        cols = element_columns(prep.us, zs, s, n, self.orientation_.clockwise)
         G, spread = _gram(prep.us, prep.ys, prep.train_masks, cols)
         theta, _ = _solve(G, spread, eps, bool(self.include_offset))
         sse = theta @ G[:-1, :-1] @ theta - 2 * theta @ G[:-1, -1] + G[-1, -1]
         return float(np.sqrt(max(sse, 0.0) / max(prep.n_train, 1)))
 
     @staticmethod
-    def _columns(model: BoucWenModel, u: Float1D) -> Float2D:
+    def _columns(model: BoucWenModel, u: Float1D, clockwise: bool = False) -> Float2D:
         Z = model.states(u, state=(float(u[0]), np.zeros(model.n)))
-        return np.maximum(1.0, model.reversal_slope) * u[:, None] - Z
+        return Z if clockwise else np.maximum(1.0, model.reversal_slope) * u[:, None] - Z
 
     def _model_for(self, u: Float1D) -> BoucWenModel:
         m = self.model_

@@ -10,6 +10,7 @@ provenance. Reading files and printing are the callers' business.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import warnings
@@ -21,6 +22,9 @@ import numpy as np
 
 from ..exceptions import ParameterError
 from ..recordings import Recording
+from ._data import prepare
+from .adequacy import Misfit, misfit
+from .choice import AUTO, choose_base
 
 if TYPE_CHECKING:
     from ..base import Model
@@ -166,7 +170,9 @@ def fit_recordings(
         The recordings (``t`` in s, ``u`` and ``y`` of shape ``(n_samples,)`` each); several
         are fitted jointly, each starting from the relaxed state.
     kind : str, optional
-        One of :func:`core.models.fit_kinds` (``hyst fit --model``); default
+        One of :func:`core.models.fit_kinds` (``hyst fit --model``), or ``"auto"``: the
+        base chosen as the diagnosis chooses it (:func:`core.fitting.choice.choose_base`;
+        the report's ``base_choice`` says how); default
         :data:`core.models.DEFAULT_FIT_KIND`.
     n_operators : int, optional
         Play operators (thresholds); ``None``: chosen by cross-validation.
@@ -188,6 +194,9 @@ def fit_recordings(
     Returns
     -------
     FitOutcome
+        Its report's ``warnings`` hold the fit's warnings and, when the held-out RMSE is
+        above 5 white-noise floors, that the model misses structure and where
+        (:mod:`core.fitting.adequacy`).
 
     Raises
     ------
@@ -203,9 +212,14 @@ def fit_recordings(
     if not recs:
         raise ParameterError("fit_recordings needs at least one recording")
     kind = DEFAULT_FIT_KIND if kind is None else kind
-    cls = estimator_class(kind)
     trains = _masks(recs, train, "train")
     tests = _masks(recs, test, "test")
+    choice = None
+    if kind == AUTO:
+        choice = choose_base(recs, trains or None, tests or None, n_operators=n_operators,
+                             constraint=constraint)
+        kind, constraint = choice.kind, choice.constraint
+    cls = estimator_class(kind)
     est = cls(n_operators=n_operators, constraint=constraint or "nonnegative",
               initial_memory=_initial_memory_rule(cls, initial_memory))
     multi = len(recs) > 1
@@ -220,6 +234,18 @@ def fit_recordings(
         warnings.simplefilter("always")
         est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
     msgs = tuple(str(w.message) for w in caught)
+    extra = dict(est.report_.extra)
+    if choice is not None:
+        extra["base_choice"] = choice.text
+        extra["base_choice_scores"] = choice.to_dict()
+    miss = _misfit(est, recs, kw)
+    if miss is not None:
+        extra["noise_floor"] = miss.floor
+        extra["rmse_over_noise_floor"] = miss.ratio
+        if miss.exceeds:
+            pct = est.report_.test.rmse_pct if est.report_.test is not None else None
+            msgs = (*msgs, miss.text(pct))
+    est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
     mem = est.report_.extra.get("initial_memory")
     report_doc = est.report_.to_dict()
     first = recs[0]
@@ -242,3 +268,18 @@ def fit_recordings(
                                  source=source or "fit " + " ".join(names), fit=fit_info)
     return FitOutcome(kind, est.full_model_, est.report_, msgs,
                       mem["summary"] if isinstance(mem, dict) else "", ps, est)
+
+
+def _misfit(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Misfit | None:
+    """The held-out error of a fitted estimator against its noise floor (the rows its
+    report's ``test`` part scored: the ``test`` masks, or the estimator's default split)."""
+    if est.report_.test is None:
+        return None
+    us, ys = [r.u for r in recs], [r.y for r in recs]
+    multi = len(recs) > 1
+    prep = prepare(us if multi else us[0], ys if multi else ys[0], kw.get("train"),
+                   kw.get("test"), validation=getattr(est, "validation", 0.2), min_train=1)
+    preds = est.predict(us if multi else us[0])
+    preds = list(preds) if multi else [preds]
+    return misfit([r.t for r in recs], us, ys, preds, prep.test_masks,
+                  [r.name for r in recs])

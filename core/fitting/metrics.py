@@ -96,7 +96,12 @@ class FitReport:
         How the linear weights were obtained (``"gram-cholesky-nnls"``, ``"tsqr-nnls"``...).
     extra : dict
         Model-specific numbers (selected ``n``, cross-validation scores, discretisation
-        error, envelope parameters, ...).
+        error, envelope parameters, the loops' orientation, ...).
+    warnings : tuple of str
+        What the user must know about the fit, in words: the warnings the fit raised and,
+        when the held-out RMSE is above 5 noise floors, that the model misses structure
+        and where (:func:`core.fitting.adequacy.misfit`; added by
+        :func:`core.fitting.fit_recordings`).
     """
 
     model_type: str
@@ -110,11 +115,13 @@ class FitReport:
     condition_number: float
     solver: str
     extra: dict[str, Any] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (nested ``train``/``test`` dictionaries, floats, lists)."""
         d = asdict(self)
         d["extra"] = _jsonable(dict(self.extra))
+        d["warnings"] = list(self.warnings)
         return d
 
     def summary(self) -> str:
@@ -138,12 +145,17 @@ class FitReport:
         mem = self.extra.get("initial_memory")
         if isinstance(mem, dict) and mem.get("excluded_train_rows"):
             lines.append(f"  {mem['summary']}")
+        for key in ("base_choice", "orientation", "branch"):
+            note = self.extra.get(key)
+            if isinstance(note, str):
+                lines.append(f"  {note}")
         part = self.test if self.test is not None else self.train
         lines.append(
             f"  inverse: invertible={self.invertible}, min slope {self.min_slope:.4g}, "
             f"compensation max |e| {self.compensation_max_abs:.3g}, inverse input RMSE "
             f"{part.inverse_input_rmse:.4g} ({part.inverse_input_rmse_pct:.3f} % of input range)"
         )
+        lines.extend(f"  warning: {w}" for w in self.warnings)
         return "\n".join(lines)
 
 

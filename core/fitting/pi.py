@@ -43,6 +43,7 @@ from ._data import (
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, evaluate_fit
+from .orientation import LoopOrientation, loop_orientation
 from .thresholds import place_thresholds
 
 __all__ = ["DEFAULT_CANDIDATES", "LinearPIFit", "PIRegressor", "cv_choice_note", "fit_linear_pi"]
@@ -120,7 +121,7 @@ def fit_linear_pi(
         Samples per chunk.
     allow_tsqr : bool
         Recompute the factor by TSQR when the scaled Gram matrix is ill conditioned.
-    constraint : {"slopes", "nonnegative"}
+    constraint : {"slopes", "nonnegative", "stop"}
         Invertibility constraint, see :func:`constraint_transform`.
 
     Returns
@@ -179,6 +180,11 @@ def constraint_transform(
     ``"nonnegative"`` (default of :class:`PIRegressor`)
         ``p0 >= ε`` and ``p_i >= 0``: the classical sufficient condition (slopes only grow
         along a branch: hardening / convex loading curves, as in piezo actuators).
+    ``"stop"``
+        ``φ`` holds ``(c, k, w_1..w_n)`` of stop operators, ``p0 = k + Σ w_i``,
+        ``p_i = -w_i``, with ``k >= ε`` and ``w_i >= 0``: slopes only fall along a branch
+        (softening / concave loading curves, clockwise loops: friction, stress-strain),
+        the last one ``k``. What ``"nonnegative"`` becomes on clockwise data.
 
     Parameters
     ----------
@@ -186,7 +192,7 @@ def constraint_transform(
         Numbers of play operators and extra columns.
     min_slope : float
         ε > 0.
-    constraint : {"slopes", "nonnegative"}
+    constraint : {"slopes", "nonnegative", "stop"}
 
     Returns
     -------
@@ -203,6 +209,12 @@ def constraint_transform(
             T[i, i - 1] = -1.0
         lower = np.concatenate(([-np.inf], np.full(n + 1, min_slope), np.full(k, -np.inf)))
     elif constraint == "nonnegative":
+        lower = np.concatenate(([-np.inf, min_slope], np.zeros(n), np.full(k, -np.inf)))
+    elif constraint == "stop":
+        # φ = (c, k, w_1..w_n): p0 = k + Σ w_i, p_i = -w_i (stop operators Ξ_r = I - Γ_r)
+        T[1, 2 : n + 2] = 1.0
+        for i in range(2, n + 2):
+            T[i, i] = -1.0
         lower = np.concatenate(([-np.inf, min_slope], np.zeros(n), np.full(k, -np.inf)))
     else:
         raise ParameterError(
@@ -364,8 +376,18 @@ class PIRegressor(RelaxedPredictor):
             return place_thresholds(prep.us, n, self.thresholds, self.r_max)
         return as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
 
+    def _constraint_for(self, orientation: LoopOrientation) -> str:
+        """The constraint the weights are solved under: ``"nonnegative"`` becomes
+        ``"stop"`` on clockwise loops (:func:`constraint_transform`)."""
+        if self.constraint == "nonnegative" and orientation.clockwise:
+            return "stop"
+        if self.constraint not in ("nonnegative", "slopes"):
+            raise ParameterError(
+                f"constraint must be 'slopes' or 'nonnegative', got {self.constraint!r}")
+        return str(self.constraint)
+
     def _lower(self, n: int, eps: float) -> tuple[Float1D, np.ndarray, np.ndarray]:
-        T, lower = constraint_transform(n, 0, eps, self.constraint)
+        T, lower = constraint_transform(n, 0, eps, self.constraint_)
         keep = np.ones(n + 3, dtype=bool)
         keep[0] = bool(self.include_offset)
         return lower[keep[:-1]], keep, T[np.ix_(keep, keep)]
@@ -429,6 +451,8 @@ class PIRegressor(RelaxedPredictor):
         )
         prep_all = prep
         prep, memory_note = exclude_before_wipeout(prep, self.initial_memory)
+        self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
+        self.constraint_ = self._constraint_for(self.orientation_)
         eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
         if not (np.isfinite(eps) and eps > 0):
             raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
@@ -480,7 +504,7 @@ class PIRegressor(RelaxedPredictor):
             train_labels=train_labels,
             gram=gram,
             chunk=self.chunk,
-            constraint=self.constraint,
+            constraint=self.constraint_,
         )
         if fit.cond > COND_LIMIT:
             warnings.warn(
@@ -506,7 +530,7 @@ class PIRegressor(RelaxedPredictor):
         self.n_operators_ = n
         self.cv_scores_ = cv_scores
         self.min_slope_ = eps
-        self.model_ = PIModel(fit.p0, r, fit.weights, np.full(n, float(prep.us[0][0])))
+        self.model_ = self._build(fit.p0, r, fit.weights, float(prep.us[0][0]))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
         # scored on the whole training window (rows before the wipe-out time included, when
         # they were left out of the weight fit)
@@ -524,8 +548,15 @@ class PIRegressor(RelaxedPredictor):
             extra["cv_rmse"] = cv_scores
             extra["cv_choice"] = cv_choice_note(cv_scores, n, self.tolerance)
         extra["initial_memory"] = memory_note
+        extra["orientation"] = self.orientation_.text + {
+            "stop": "; fitted with stop operators (Maxwell-slip elements)",
+            "nonnegative": "; fitted with play operators, non-negative weights",
+            "slopes": "; fitted with weights of either sign, every branch slope positive",
+        }[self.constraint_]
+        extra["constraint"] = self.constraint_
+        extra.update(self._extra())
         self.report_ = FitReport(
-            model_type="pi",
+            model_type=self.model_.type_name,
             n_parameters=n + 1 + int(self.include_offset),
             train=train_st,
             test=test_st,
@@ -539,9 +570,17 @@ class PIRegressor(RelaxedPredictor):
         )
         return self
 
-    def _model_for(self, u: Float1D) -> PIModel:
+    def _build(self, p0: float, r: Float1D, w: Float1D, u0: float) -> Any:
+        """The fitted model of weights ``(p0, w)`` on thresholds ``r``, relaxed at ``u0``."""
+        return PIModel(p0, r, w, np.full(r.size, u0))
+
+    def _extra(self) -> dict[str, Any]:
+        """Kind-specific numbers of the report (none for the PI)."""
+        return {}
+
+    def _model_for(self, u: Float1D) -> Any:
         m = self.model_
-        return PIModel(m.p0, m.thresholds, m.weights, np.full(m.n, float(u[0])))
+        return type(m).from_dict({**m.to_dict(), "state0": np.full(m.n, float(u[0]))})
 
     def compensate(self, y_desired: ArrayLike) -> Float1D:
         """Feed-forward command ``u = M⁻¹(y_desired - offset_)`` from the exact inverse.

@@ -37,6 +37,7 @@ from ._data import INITIAL_MEMORY_RULES, Prepared, exclude_before_wipeout, prepa
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained
 from .metrics import FitReport, evaluate_fit
+from .orientation import loop_orientation
 from .pi import default_min_slope
 from .thresholds import place_thresholds
 
@@ -320,6 +321,16 @@ class PreisachRegressor(RelaxedPredictor):
         p = 1 + (n + 1) * m
         prep_all = prepare(u, y, train, test, validation=self.validation,
                            min_train=max(20, 3 * (p + 1)))
+        self.orientation_ = loop_orientation(prep_all.us, prep_all.ys, prep_all.train_masks)
+        if self.orientation_.clockwise:
+            warnings.warn(
+                "the loops run clockwise (the output leads: friction-like or stress-strain "
+                "data), and a Preisach model (non-negative density on play operators) has "
+                "counter-clockwise loops only: fit the stop-pi or bouc-wen kind (or --model "
+                "auto), which fit this orientation",
+                FitWarning,
+                stacklevel=2,
+            )
         prep, memory_note = exclude_before_wipeout(prep_all, self.initial_memory)
         eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
         if not (np.isfinite(eps) and eps > 0):
@@ -369,6 +380,9 @@ class PreisachRegressor(RelaxedPredictor):
             "n_thresholds": n, "n_levels": m, "knots": e.tolist(), "min_slope": eps,
             "offset": self.offset_, "fixed_columns": int(fixed[1:].sum()),
             "initial_memory": memory_note, "constraint": "nonnegative",
+            "orientation": self.orientation_.text + (
+                "; a Preisach model has counter-clockwise loops only"
+                if self.orientation_.clockwise else ""),
         }
         self.report_ = FitReport(
             model_type="preisach",

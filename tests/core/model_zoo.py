@@ -36,6 +36,7 @@ from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from core.lti import LinearSystem
 from core.pi import PIModel
 from core.preisach import PreisachModel, RateDependentPreisach
+from core.stop import StopPIModel
 
 #: Paper 001, Example 1 (input about ±4).
 EX1 = PIModel(0.72, [0.45 * i for i in range(1, 7)], [0.6, 0.48, 0.36, 0.24, 0.12, 0.012])
@@ -59,6 +60,8 @@ BOUC_WEN = BoucWenModel(
 #: The same with relay thresholds widened by 2e-5 s x |du/dt| (β/dt = 0.2 at :data:`DT`).
 RATE_PREISACH = RateDependentPreisach(PREISACH.thresholds, PREISACH.weights, 2e-5,
                                       PREISACH.knots, PREISACH.state0)
+#: A stop-operator PI (Maxwell-slip, clockwise loops; input about ±3), sliders off zero.
+STOP_PI = StopPIModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], state0=[0.1, -0.2, 0.3])
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
 
@@ -126,6 +129,7 @@ def _zoo() -> dict[str, Model]:
         "bouc-wen-inverse": BOUC_WEN.inverse(),
         "rate-preisach": RATE_PREISACH,
         "rate-preisach-inverse": RATE_PREISACH.inverse(),
+        "stop-pi": STOP_PI,
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)

@@ -36,7 +36,7 @@ def _cli_fit(src: Path, out: Path, *extra: str) -> dict:
 
 def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     src = _write(tmp_path / "alpha.csv", 60.0, 1)
-    ref = _cli_fit(src, tmp_path / "cli.json", "-n", "6", "--train", "0:1.6")
+    ref = _cli_fit(src, tmp_path / "cli.json", "--model", "pi", "-n", "6", "--train", "0:1.6")
     # the entry point itself, with the provenance the command gives it
     out = fit_recordings(read_csv(src), "pi", n_operators=6,
                          train=TimeWindow(0.0, 1.6, "0:1.6"),
@@ -50,7 +50,8 @@ def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     _assert_same(json.loads(got.parameter_set), ref)
     assert got.samples == 4000 and "read alpha" in got.messages
     # the explorer fits every row from the relaxed state: hyst fit --initial-memory keep
-    ref_keep = _cli_fit(src, tmp_path / "keep.json", "-n", "6", "--initial-memory", "keep")
+    ref_keep = _cli_fit(src, tmp_path / "keep.json", "--model", "pi", "-n", "6",
+                        "--initial-memory", "keep")
     model, report = fit_recording(recording_from_csv(src.read_bytes(), name="alpha.csv"), 6)
     _assert_same({"model": model.to_dict()}, {"model": ref_keep["model"]})
     rep = ref_keep["provenance"]["fit"]["report"]

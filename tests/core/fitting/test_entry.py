@@ -47,7 +47,10 @@ def test_outcome_matches_the_estimator_and_its_document():
     doc = out.parameter_set.to_dict()
     fit = doc["provenance"]["fit"]
     assert fit["model"] == "pi" and fit["recordings"] == ["r"] and fit["files"] == ["r"]
-    assert fit["n_operators"] == 3 and fit["train"] is None and fit["warnings"] == []
+    assert fit["n_operators"] == 3 and fit["train"] is None
+    # three plays cannot follow this plant: the only warning is the misfit one (5x the floor)
+    assert fit["warnings"] == list(out.warnings) == list(out.report.warnings)
+    assert len(fit["warnings"]) == 1 and "white-noise floor" in fit["warnings"][0]
     assert doc["units"] == {"input": "V", "output": "um", "time": "s"}
     assert fit["report"]["train"]["rmse"] == pytest.approx(est.report_.train.rmse, rel=1e-12)
 

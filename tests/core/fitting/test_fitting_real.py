@@ -87,9 +87,11 @@ def test_piezo_operator_count_chosen_on_held_out_blocks():
     "name", ["1Hz30lbtension0.5amplitude.csv", "2Hz30lbtension0.5amplitude.csv"]
 )
 def test_friction_damper_displacement_to_force(name):
-    """Friction force saturates with displacement (concave loading curve): the slope
-    constraint (negative weights allowed) is needed. Measured held-out RMSE (last 20 %):
-    5.9 % (1 Hz) and 7.5 % (2 Hz) of the force range, against 18 % with p_i >= 0."""
+    """Friction force saturates with displacement (concave loading curve, clockwise loops):
+    the slope constraint (negative weights allowed) or the non-negative rule applied to stop
+    operators (which it becomes on clockwise data) fit it. Measured held-out RMSE (last
+    20 %): 5.9 % (1 Hz) and 7.5 % (2 Hz) of the force range with slopes, 6.0 % and 7.6 %
+    with stop operators, against 18 % with play operators and p_i >= 0."""
     d = _load(f"friction_damper/{name}")
     u, y = d[:, 1], d[:, 2]
     with warnings.catch_warnings():
@@ -98,7 +100,8 @@ def test_friction_damper_displacement_to_force(name):
         hard = PIRegressor(constraint="nonnegative").fit(u, y)
     assert est.model_.is_invertible
     assert est.report_.test.rmse_pct < 9.0, est.report_.summary()
-    assert hard.report_.test.rmse_pct > 1.5 * est.report_.test.rmse_pct
+    assert hard.constraint_ == "stop" and (hard.weights_ <= 0).all()
+    assert hard.report_.test.rmse_pct < 9.0, hard.report_.summary()
 
 
 def _bh_runs(name: str):

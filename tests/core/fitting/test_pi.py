@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from core.exceptions import FitWarning, NotFittedError, ParameterError
 from core.fitting.gram import Segment, solve_constrained, stream_gram, stream_tsqr
-from core.fitting.pi import PIRegressor
+from core.fitting.pi import PIRegressor, fit_linear_pi
 from core.fitting.thresholds import place_thresholds, reversal_indices
 from core.operators import play_bank
 from core.pi import PIModel
@@ -138,8 +138,15 @@ def test_slope_constraint_fits_saturating_loops():
     y = sat(u)
     est = PIRegressor(thresholds=sat.thresholds, constraint="slopes").fit(u, y)
     np.testing.assert_allclose(est.weights_, sat.weights, atol=1e-9)
+    # the loop runs clockwise (concave branches), so the non-negative rule is applied to stop
+    # operators (k = 0.2, w = 0.3, 0.3, 0.2 >= 0): it fits the same weights
     hard = PIRegressor(thresholds=sat.thresholds, constraint="nonnegative").fit(u, y)
-    assert hard.report_.train.rmse > 100 * est.report_.train.rmse + 1e-6
+    assert hard.orientation_.clockwise and hard.constraint_ == "stop"
+    np.testing.assert_allclose(hard.weights_, sat.weights, atol=1e-9)
+    # play operators with p_i >= 0 (the counter-clockwise rule) cannot follow it
+    fit = fit_linear_pi([Segment(u, y)], sat.thresholds, min_slope=hard.min_slope_,
+                        constraint="nonnegative")
+    assert np.sqrt(fit.sse / u.size) > 100 * est.report_.train.rmse + 1e-6
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])

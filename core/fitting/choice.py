@@ -1,0 +1,222 @@
+"""The base choice of ``hyst fit --model auto``: the diagnosis's rules on fit kinds.
+
+``hyst diagnose`` chooses its base hysteresis before it judges any effect
+(:mod:`core.diagnosis.engine`: the PI baseline's weight signs, then a Preisach and a
+Bouc-Wen base cross-validated against it); :func:`choose_base` makes the same decisions
+with the fit kinds' own estimators, on the training rows only (model selection never looks
+at the held-out rows the report scores):
+
+1. **Orientation and weight signs.** The PI family is fitted with non-negative weights in the
+   orientation of the data's loops (plays for counter-clockwise loops, stop operators for
+   clockwise ones: :func:`core.fitting.orientation.loop_orientation`) and with free-sign
+   weights (``constraint="slopes"``: every branch slope positive, so a branch may flatten
+   and rise again); free signs replace the sign rule when they lower the cross-validated
+   MSE by at least :data:`FREE_SIGN_GAIN` (the diagnosis' "MSE at least halved").
+2. **Preisach and Bouc-Wen bases**, only with two or more recordings (each predicted from
+   the others: with one recording, blocks of it let a many-celled base interpolate; the
+   diagnosis keeps the PI there too): a Preisach base replaces the PI when it lowers that
+   MSE by :data:`PREISACH_MIN_GAIN` and beats the PI with a static output map (``mpi``) by
+   :data:`PREISACH_OVER_MAP`; a Bouc-Wen base then replaces the chosen one when it lowers
+   the PI's MSE by :data:`BW_MIN_GAIN` and by more than the Preisach did.
+
+On clockwise data the PI family is reported as the ``stop-pi`` kind (the same operator,
+written with stop operators: Maxwell-slip elements, whose report names the friction plateau
+and any dead band).
+
+The margins are the diagnosis's: ``core.diagnosis.bases`` takes :data:`BW_MIN_GAIN` from
+here and ``tests/core/fitting/test_choice.py`` checks the engine's own constants against
+these.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import ParameterError
+from ..recordings import Recording
+from ._data import prepare
+from .orientation import LoopOrientation, loop_orientation
+
+__all__ = ["AUTO", "BW_MIN_GAIN", "FREE_SIGN_GAIN", "PREISACH_MIN_GAIN", "PREISACH_OVER_MAP",
+           "BaseChoice", "choose_base"]
+
+#: The fit kind that asks for this choice.
+AUTO = "auto"
+#: Free-sign weights replace the sign rule when they lower the cross-validated MSE by this
+#: share (the diagnosis's PI baseline: "MSE at least halved").
+FREE_SIGN_GAIN = 0.5
+#: A Preisach base replaces the PI when it lowers the MSE of predicting each recording from
+#: the others by this share (``core.diagnosis.engine.PREISACH_MIN_GAIN``) ...
+PREISACH_MIN_GAIN = 0.2
+#: ... and lowers it by this share against the PI with a static output map
+#: (``core.diagnosis.engine.PREISACH_OVER_MAP``).
+PREISACH_OVER_MAP = 0.3
+#: A Bouc-Wen base replaces the chosen one when it lowers the PI's MSE by this share (and by
+#: more than the Preisach did); measured on the diagnosis benchmark, see
+#: :mod:`core.diagnosis.bases`.
+BW_MIN_GAIN = 0.35
+#: Contiguous blocks of the training rows for the sign decision with one recording.
+SIGN_BLOCKS = 3
+
+
+@dataclass(frozen=True)
+class BaseChoice:
+    """What :func:`choose_base` chose, and the numbers it chose on.
+
+    Attributes
+    ----------
+    kind : str
+        The chosen fit kind.
+    constraint : str
+        The constraint to fit it with (``"nonnegative"`` or ``"slopes"``).
+    orientation : LoopOrientation
+        The orientation of the training rows' loops.
+    cv_mse : dict of str to float
+        Cross-validated MSE (output units squared) of each candidate tried, on the
+        training rows (``"pi"``, ``"pi (free-sign weights)"``, ``"preisach"``, ...).
+    folds : str
+        How the training rows were split.
+    """
+
+    kind: str
+    constraint: str
+    orientation: LoopOrientation
+    cv_mse: dict[str, float] = field(default_factory=dict)
+    folds: str = ""
+
+    @property
+    def text(self) -> str:
+        """The choice in words, for the fit report."""
+        tried = ", ".join(f"{k} {v:.4g}" for k, v in self.cv_mse.items())
+        how = "free-sign weights (every branch slope positive)" if self.constraint == "slopes" \
+            else "the sign rule of the loops' orientation"
+        return (f"base chosen as hyst diagnose chooses it: {self.kind} with {how}, the loops "
+                f"running {self.orientation.direction}; cross-validated MSE on the training "
+                f"rows ({self.folds}): {tried}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"kind": self.kind, "constraint": self.constraint,
+                "orientation": self.orientation.direction,
+                "signed_loop_area": self.orientation.area, "cv_mse": dict(self.cv_mse),
+                "folds": self.folds}
+
+
+def _folds(train: list[np.ndarray]) -> tuple[list[tuple[list[np.ndarray], list[np.ndarray]]],
+                                            str]:
+    """(fit rows, scored rows) per fold: each recording from the others, or with one
+    recording :data:`SIGN_BLOCKS` contiguous blocks of its training rows."""
+    have = [k for k, m in enumerate(train) if m.any()]
+    none = [np.zeros(m.size, bool) for m in train]
+    if len(have) >= 2:
+        return ([([none[k] if k == j else m for k, m in enumerate(train)],
+                  [m if k == j else none[k] for k, m in enumerate(train)]) for j in have],
+                f"each of {len(have)} recordings predicted from the others")
+    out = []
+    for k in have:
+        rows = np.flatnonzero(train[k])
+        for block in np.array_split(rows, SIGN_BLOCKS):
+            held = np.zeros(train[k].size, bool)
+            held[block] = True
+            fit = [m & ~held if j == k else m for j, m in enumerate(train)]
+            score = [held if j == k else none[j] for j in range(len(train))]
+            out.append((fit, score))
+    return out, f"{SIGN_BLOCKS} contiguous blocks of the training rows, each held out in turn"
+
+
+def _cv_mse(kind: str, constraint: str, recs: Sequence[Recording],
+            folds: list[tuple[list[np.ndarray], list[np.ndarray]]],
+            n_operators: int | None) -> float:
+    """MSE of ``kind`` predicting each fold's scored rows from a fit on its other rows."""
+    from ..models import estimator_class
+
+    cls = estimator_class(kind)
+    us, ys = [r.u for r in recs], [r.y for r in recs]
+    sse, n = 0.0, 0
+    for fit_rows, score_rows in folds:
+        use = [k for k, m in enumerate(fit_rows) if m.any()]
+        est = cls(n_operators=n_operators, constraint=constraint, initial_memory="keep")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                if len(use) > 1:
+                    est.fit([us[k] for k in use], [ys[k] for k in use],
+                            train=[fit_rows[k] for k in use])
+                else:
+                    est.fit(us[use[0]], ys[use[0]], train=fit_rows[use[0]])
+        except ParameterError:
+            return float("inf")
+        for k, m in enumerate(score_rows):
+            if m.any():
+                e = ys[k][m] - np.asarray(est.predict(us[k]))[m]
+                sse += float(e @ e)
+                n += int(m.sum())
+    return sse / n if n else float("inf")
+
+
+def choose_base(
+    recordings: Sequence[Recording],
+    train: Sequence[np.ndarray] | None = None,
+    test: Sequence[np.ndarray] | None = None,
+    *,
+    n_operators: int | None = None,
+    constraint: str | None = None,
+) -> BaseChoice:
+    """Choose the base fit kind of recordings as the diagnosis does (module docstring).
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        The recordings (``u``, ``y`` of shape ``(N_i,)``).
+    train, test : sequence of bool ndarray of shape (N_i,), optional
+        Training and held-out rows per recording (the fit's windows); without them the last
+        20 % of every recording is held out, as the fit does. Only training rows are used.
+    n_operators : int, optional
+        Operators of every candidate (``None``: each estimator's own choice).
+    constraint : {"nonnegative", "slopes"}, optional
+        Given: the weight-sign decision is not made (only the base family is chosen).
+
+    Returns
+    -------
+    BaseChoice
+    """
+    recs = list(recordings)
+    us, ys = [r.u for r in recs], [r.y for r in recs]
+    multi = len(recs) > 1
+    prep = prepare(us if multi else us[0], ys if multi else ys[0],
+                   (list(train) if multi else train[0]) if train else None,
+                   (list(test) if multi else test[0]) if test else None,
+                   validation=0.2, min_train=1)
+    trm = prep.train_masks
+    orient = loop_orientation(us, ys, trm)
+    folds, how = _folds(trm)
+    scores: dict[str, float] = {}
+    sign = constraint or "nonnegative"
+    scores["pi"] = base = _cv_mse("pi", sign, recs, folds, n_operators)
+    if constraint is None:
+        free = _cv_mse("pi", "slopes", recs, folds, n_operators)
+        scores["pi (free-sign weights)"] = free
+        if free <= (1.0 - FREE_SIGN_GAIN) * base:
+            sign, base = "slopes", free
+    kind = "stop-pi" if orient.clockwise else "pi"
+    if sum(m.any() for m in trm) >= 2:
+        gain_p = 0.0
+        mse_p = scores["preisach"] = _cv_mse("preisach", "nonnegative", recs, folds,
+                                              None)
+        if 1.0 - mse_p / base >= PREISACH_MIN_GAIN:
+            mse_map = scores["mpi (static output map)"] = _cv_mse(
+                "mpi", "nonnegative", recs, folds, n_operators)
+            if 1.0 - mse_p / max(mse_map, 1e-300) >= PREISACH_OVER_MAP:
+                kind, gain_p = "preisach", 1.0 - mse_p / base
+        mse_b = scores["bouc-wen"] = _cv_mse("bouc-wen", "nonnegative", recs, folds, None)
+        gain_b = 1.0 - mse_b / base
+        if gain_b >= BW_MIN_GAIN and gain_b > gain_p:
+            kind = "bouc-wen"
+    if kind in ("preisach", "bouc-wen"):
+        sign = "nonnegative"
+    return BaseChoice(kind, sign, orient, scores, how)
