@@ -14,6 +14,7 @@ only the view on show. The 3D state cube is :mod:`app.gui.scene`, the digitized 
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 import traceback
@@ -38,7 +39,7 @@ from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
 from ..services.tasks import diagnose_task, fit_task
-from ..services.worker import Task
+from ..services.worker import OutOfMemory, Task, Worker, WorkerDied
 from .layout import TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
@@ -83,6 +84,13 @@ def _default_jobs() -> JobManager:
         return _JOBS
 #: Shortest interval between two redraws of the digitized figure during playback, s.
 STATE_REDRAW_S = 0.1
+#: Heavy views computing in worker processes at once, for every tab of the server together
+#: (the REST API's figure workers are bounded the same way: one per core, at least 2).
+GUI_FIGURE_SLOTS = threading.BoundedSemaphore(max(2, os.cpu_count() or 2))
+
+
+def _ignore(fraction: float, message: str = "") -> None:
+    """A progress report nobody shows (a view's worker)."""
 
 
 class SessionView:
@@ -152,6 +160,8 @@ class SessionView:
         self.fit_figure: F.FigureJSON | None = None
         self.rendered_version = -1
         self.last_result: Result | None = None
+        self._figure_worker: Worker | None = None  # a heavy view's worker process, running
+        self._closed = False
         self.shown_figure = ""
         self._shown_state = -1
         self._state_sent = 0.0
@@ -161,7 +171,7 @@ class SessionView:
         session.add_listener(self._on_session_change)
         self._sync_controls(session.snapshot()[0])
         self._attend()
-        self.worker.request()
+        self._redraw()
 
     @property
     def narrow(self) -> bool:
@@ -259,11 +269,11 @@ class SessionView:
         with self._quiet():
             for dd in self.ui.view_dropdowns:
                 dd.value = event.target.value
-        self.worker.request()
+        self._redraw()
 
     def _projector_changed(self, event: Any) -> None:
         self.ui.use_projector(bool(self.ui.projector.value))
-        self.worker.request()
+        self._redraw()
 
     def set_narrow(self, narrow: bool) -> None:
         """Show the plot in the control sheet (phones) or in the floating panel."""
@@ -272,14 +282,14 @@ class SessionView:
             return
         with self._quiet():
             self.ui.view_dd.value = value
-        self.worker.request()
+        self._redraw()
 
     # ------------------------------------------------------------------ session -> GUI
     def _on_session_change(self, session: Session, config: Config, version: int) -> None:
         if not getattr(self._syncing, "from_gui", False):
             self.ui.params_md.content = ""  # a note on the previous model's sliders
             self._sync_controls(config)
-        self.worker.request()
+        self._redraw()
 
     def _sync_controls(self, cfg: Config) -> None:
         """Push ``cfg`` into the controls without triggering write-back."""
@@ -509,7 +519,7 @@ class SessionView:
         self.lesson.follow(session)
         self._sync_controls(session.snapshot()[0])
         self._attend()
-        self.worker.request()
+        self._redraw()
 
     # ------------------------------------------------------------------ data
     def _csv_uploaded(self, event: Any) -> None:
@@ -735,7 +745,10 @@ class SessionView:
         session = self.session
         v = session.snapshot()[1]
         name = ui.figure_name
-        res = actions.session_result(session, self._views(session, name), self.settings)
+        run = actions.session_result_run(session, self._views(session, name), self.settings)
+        res = self._computed(run)
+        if res is None:
+            return  # stopped: a newer version is queued, or the tab closed
         if name == "fit":
             fig = self.fit_figure or F.message_figure("Fit", "upload a recording and fit a model")
         elif name == "diagnosis":
@@ -768,6 +781,51 @@ class SessionView:
         ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
         self._show_digitized(res)
         ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+
+    def _computed(self, run: actions.FiguresRun) -> Result | None:
+        """The result of ``run``: here when light, else in a worker process (issue 35 item
+        4) that a newer version or the tab's closing kills (then ``None``), at most
+        :data:`GUI_FIGURE_SLOTS` at once for every tab together.
+
+        Raises
+        ------
+        ParameterError, NotInvertibleError
+            The input was refused, or needed more memory than a worker may use.
+        """
+        if not run.killable:
+            return actions.figures_body(run.task.fn(*run.task.args, progress=_ignore))
+        while not GUI_FIGURE_SLOTS.acquire(timeout=0.1):
+            if self._closed:
+                return None
+        try:
+            worker = Worker(run.task, self.settings.worker_memory_bytes)
+            with self._lock:
+                if self._closed:
+                    return None
+                self._figure_worker = worker
+            try:
+                out = worker.run(_ignore)
+            except WorkerDied:
+                if worker.stopped:
+                    return None
+                raise ParameterError("the figures could not be computed: the work stopped "
+                                     "unexpectedly; try fewer samples or operators") from None
+            except OutOfMemory as exc:
+                raise ParameterError(str(exc)) from None
+            return actions.figures_body(out)
+        finally:
+            with self._lock:
+                self._figure_worker = None
+            GUI_FIGURE_SLOTS.release()
+
+    def _redraw(self) -> None:
+        """Ask for a render of the newest state; a heavy view still computing for an older
+        one is stopped (its worker process killed: nobody will see it)."""
+        with self._lock:
+            worker = self._figure_worker
+        if worker is not None:
+            worker.kill()
+        self.worker.request()
 
     def _for_screen(self, fig: F.FigureJSON) -> tuple[F.FigureJSON, int]:
         """``fig`` shaped for this tab's screen: side-by-side panels stacked (the floating
@@ -842,6 +900,11 @@ class SessionView:
         """Detach from the session, cancel its running fit or diagnosis (its worker process
         is killed: nobody is left to see it) and stop the render worker and the playback."""
         self._cancel_clicked(None)
+        with self._lock:
+            self._closed = True
+            worker = self._figure_worker
+        if worker is not None:  # a heavy view computing for nobody
+            worker.kill()
         self.playback.stop()
         HUB.leave(self)
         self.session.remove_listener(self._on_session_change)

@@ -40,7 +40,6 @@ from .settings import Settings
 from .simulation import (
     Result,
     check_operator_limit,
-    compute,
     diagnosed_model,
     operator_count,
     pi_part,
@@ -377,14 +376,35 @@ def check_figure_names(names: Collection[str]) -> list[str]:
     return unique
 
 
-def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
-    """The session's current config computed for ``views`` only (cost checked first; the
-    model is the one the session keeps for its config, parsed once)."""
+def session_result_run(session: Session, views: Collection[str],
+                       settings: Settings) -> FiguresRun:
+    """The session's current config for ``views``, priced before any work (the model's run
+    and the views' extra runs: :func:`_priced_work`; the model is the one the session keeps
+    for its config, parsed once). Its task returns a
+    :class:`~app.services.simulation.Result` (or a :class:`.tasks.Refused`); ``killable``
+    says it is heavy enough for a worker process (the viser GUI's heavy views).
+
+    Raises
+    ------
+    ParameterError
+        The model or the views are over a limit.
+    """
+    views = tuple(views)
     cfg, v, model = session.checked(settings.limits,
                                     lambda c, rec: checked_model(c, rec, settings))
-    return compute(cfg, views=views, version=v, recording=session.recording,
-                   max_operators=settings.max_operators, max_samples=settings.max_samples,
-                   diagnosed=diagnosed_model(session), model=model)
+    checked = session.state.checked
+    diagnosed = diagnosed_model(session)
+    cost = _priced_work(checked, views, diagnosed) if checked is not None else math.inf
+    args = (cfg, views, v, session.recording, diagnosed, model, settings.max_operators,
+            settings.max_samples)
+    return FiguresRun(Task(tasks.run_result, args), cost > KILLABLE_WORK)
+
+
+def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
+    """The session's current config computed for ``views`` only, in this thread (priced
+    first: :func:`session_result_run`)."""
+    run = session_result_run(session, views, settings)
+    return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
 
 
 def result_payload(res: Result, names: Collection[str],
@@ -447,16 +467,43 @@ def _priced_work(checked: CheckedModel, names: Collection[str],
                  diagnosed: Model | None) -> float:
     """Priced work of figures ``names`` of a checked config: the model's run and what the
     views run beyond it (:func:`.simulation.priced_views`: the inverse of the compensated
-    model, the diagnosed chain's closed loop)."""
-    if diagnosed is not None:
-        extra = priced_views(checked.model, names, checked.samples, checked.dt, diagnosed)
-        return checked.cost.total_work + extra.work
+    model, the diagnosed chain's closed loop), checked against the limits before any work.
+
+    Raises
+    ------
+    ParameterError
+        The views together with the model's run are priced over the limits of one request
+        (``Limits.max_figures_work``, ``Limits.max_memory_bytes``); the message names the
+        views and what to change.
+    """
     key = frozenset(names) & {"inverse", "closed-loop"}
-    work = checked.views_work.get(key)
-    if work is None:  # once per config (a slider step builds the inverse once)
-        work = checked.views_work[key] = priced_views(
-            checked.model, key, checked.samples, checked.dt).work
-    return checked.cost.total_work + work
+    if diagnosed is not None:
+        extra = priced_views(checked.model, key, checked.samples, checked.dt, diagnosed)
+    else:
+        extra = checked.views_work.get(key)
+        if extra is None:  # once per config (a slider step builds the inverse once)
+            extra = checked.views_work[key] = priced_views(
+                checked.model, key, checked.samples, checked.dt)
+    limits = checked.limits
+    work = checked.cost.total_work + extra.work
+    memory = checked.cost.memory_bytes + extra.memory
+    if key and not (work <= limits.max_figures_work and memory <= limits.max_memory_bytes):
+        views = " and ".join(VIEW_TITLES.get(v, v) for v in sorted(key))
+        over = (f"{work:,.0f} units of work, more than the limit of "
+                f"{limits.max_figures_work:,.0f}" if not work <= limits.max_figures_work else
+                f"{memory / 1e6:,.0f} MB of memory, more than the limit of "
+                f"{limits.max_memory_bytes / 1e6:,.0f} MB")
+        whose = "the diagnosed model" if diagnosed is not None else "this model"
+        raise ParameterError(
+            f"the {views} view of {whose} on {checked.samples:,} samples is priced at "
+            f"{over} (the model's own run: {checked.cost.total_work:,.0f}); show another "
+            "view, or use fewer samples or a smaller model (fewer operators, segments or "
+            "terms)")
+    return work
+
+
+#: The names of the views whose extra runs are priced, as the pages title them.
+VIEW_TITLES = {"inverse": "Inverse", "closed-loop": "Closed-loop"}
 
 
 #: Priced work (element operations) above which figures are computed in a worker process
@@ -497,8 +544,9 @@ def figures_here(run: FiguresRun) -> dict[str, Any]:
     return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
 
 
-def figures_body(out: dict[str, Any] | tasks.Refused) -> dict[str, Any]:
-    """The JSON body of a :func:`.tasks.run_figures` outcome (its refusal raised again).
+def figures_body(out: Any) -> Any:
+    """The outcome of a :func:`.tasks.run_figures` or :func:`.tasks.run_result` task (the
+    JSON body, the result), its refusal raised again.
 
     Raises
     ------

@@ -67,7 +67,12 @@ class Limits:
         Priced work of one simulation, in element operations (about a nanosecond each):
         the sum of :meth:`core.base.Model.cost` over the model tree.
     max_memory_bytes : float
-        Priced memory of one simulation (bytes), summed the same way.
+        Priced memory of one simulation (bytes), summed the same way; also of one figure
+        request (the model's run and the views' extra runs together).
+    max_figures_work : float
+        Priced work of one figure request: the model's run and what its views run beyond
+        it (the inverse of the Inverse view, the diagnosed chain's closed loop, which steps
+        the chain one sample per call 7,000 times: about 2.1e9 on its own).
     """
 
     max_operators: int = 100
@@ -82,6 +87,7 @@ class Limits:
     max_work: int = 25_000_000
     max_total_work: float = 2e9
     max_memory_bytes: float = 1.5e9
+    max_figures_work: float = 5e9
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (``GET /api/capabilities``)."""
@@ -122,9 +128,9 @@ class CheckedModel:
     #: the run it was priced for: samples and their spacing, s
     samples: int = 0
     dt: float = 1.0
-    #: priced work of the views' extra runs, by views (filled by its users: the inverse is
-    #: built once per config, not per request)
-    views_work: dict[frozenset[str], float] = dataclasses.field(default_factory=dict)
+    #: priced work and memory of the views' extra runs, by views (filled by its users: the
+    #: inverse is built once per config, not per request)
+    views_work: dict[frozenset[str], RunCost] = dataclasses.field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- raw JSON

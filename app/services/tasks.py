@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from .config import Config
     from .sessions import Session
 
-__all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit"]
+__all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit",
+           "run_result"]
 
 
 def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:
@@ -87,6 +88,25 @@ def run_figures(config: Config, names: tuple[str, ...], version: int,
                       max_operators=max_operators, max_samples=max_samples,
                       diagnosed=diagnosed, model=model)
         return result_payload(res, names, include_data, state=state)
+    except (ParameterError, NotInvertibleError) as exc:
+        return Refused(type(exc), str(exc))
+
+
+def run_result(config: Config, views: tuple[str, ...], version: int,
+               recording: Recording | None, diagnosed: Model | None, model: Model,
+               max_operators: int, max_samples: int, *, progress: Progress) -> Any:
+    """The :class:`~app.services.simulation.Result` of ``config`` for ``views`` (the viser
+    GUI draws its figures and notes from it), with the model already built and priced by
+    the caller; a :class:`Refused` when the input is refused where it is computed. Runs in
+    the GUI's render thread, or in a worker process when its priced work is large."""
+    from core.exceptions import NotInvertibleError
+
+    from .simulation import compute
+
+    try:
+        return compute(config, views=views, version=version, recording=recording,
+                       max_operators=max_operators, max_samples=max_samples,
+                       diagnosed=diagnosed, model=model)
     except (ParameterError, NotInvertibleError) as exc:
         return Refused(type(exc), str(exc))
 

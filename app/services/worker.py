@@ -228,6 +228,11 @@ class Worker:
         """The worker's process id (``None`` before it started)."""
         return None if self._proc is None else self._proc.pid
 
+    @property
+    def stopped(self) -> bool:
+        """Whether :meth:`kill` was called."""
+        return self._killed
+
     def kill(self) -> None:
         """Stop the worker now (SIGKILL); :meth:`run` then raises :class:`WorkerDied`."""
         with self._lock:

@@ -23,6 +23,7 @@ from app.services.sessions import SessionRegistry
 from app.services.settings import Settings
 from core.base import Chain
 from core.effects import Asymmetry, Creep
+from core.exceptions import ParameterError
 from core.pi import PIModel
 
 SETTINGS = Settings()
@@ -40,11 +41,21 @@ def session() -> object:
 def test_a_diagnosed_chains_heavy_inverse_goes_to_a_worker(
         session: object, monkeypatch: pytest.MonkeyPatch) -> None:
     heavy = Chain.of(PIModel(1.0, [0.5, 1.0], [0.3, 0.2]),
-                     Asymmetry(np.full(200, 1e-5), 0.0, 4.0))
+                     Asymmetry(np.full(100, 1e-5), 0.0, 4.0))  # its inverse ~1.4e9 units
     monkeypatch.setattr(actions, "diagnosed_model", lambda s: heavy)
     run = actions.session_figures_run  # the config alone is cheap: its views stay here
     assert not run(session, ["loop"], SETTINGS).killable
     assert run(session, ["inverse"], SETTINGS).killable
+    # four times the coefficients: over the limit of one request, refused before any work
+    heavier = Chain.of(PIModel(1.0, [0.5, 1.0], [0.3, 0.2]),
+                       Asymmetry(np.full(400, 1e-5), 0.0, 4.0))
+    monkeypatch.setattr(actions, "diagnosed_model", lambda s: heavier)
+    with pytest.raises(ParameterError, match="Inverse view of the diagnosed model on 20,000 "
+                                             "samples is priced at "
+                                             r"\d,\d{3},\d{3},\d{3} units of work, more "
+                                             "than the limit of 5,000,000,000"):
+        run(session, ["inverse"], SETTINGS)
+    monkeypatch.setattr(actions, "diagnosed_model", lambda s: heavy)
     light = Chain.of(PIModel(1.0, [0.5, 1.0], [0.3, 0.2]), Creep([0.01, 0.1], [0.02, 0.01]))
     monkeypatch.setattr(actions, "diagnosed_model", lambda s: light)
     assert not run(session, ["inverse"], SETTINGS).killable  # a light inverse stays here
