@@ -32,9 +32,8 @@ import functools
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-from .csvio import read_csv
+from .csvio import CsvOptions, read_csv
 from .exceptions import ParameterError
 from .recordings import Recording
 
@@ -72,9 +71,9 @@ _BH = (
     "(commit 4bbe905d420ce27c66ee93d8b25ef44b553f9175), MATLAB files converted to CSV. "
     "Licence: MIT, copyright (c) 2016 Roman Szewczyk (examples/data/bh_loops/LICENSE)."
 )
-_SIGNAL = {"time": "t", "input": "u", "output": "y", "run": False}
-_FRICTION_COLS = {"time": "t", "input": "u_disp", "output": "y_force", "run": False}
-_BH_COLS = {"time": False, "input": "u_H", "output": "y_B", "run": "loop"}
+_SIGNAL = CsvOptions(time="t", input="u", output="y", run=False)
+_FRICTION_COLS = CsvOptions(time="t", input="u_disp", output="y_force", run=False)
+_BH_COLS = CsvOptions(time=False, input="u_H", output="y_B", run="loop")
 
 
 @dataclass(frozen=True)
@@ -99,7 +98,7 @@ class DatasetInfo:
         ``(input unit, output unit)``.
     per_loop : bool
         Whether the file splits into one recording per loop (returns a list).
-    read_options : dict
+    read_options : CsvOptions
         Column choices passed to :func:`core.csvio.read_csv`.
     """
 
@@ -112,7 +111,7 @@ class DatasetInfo:
     licence_file: str
     units: tuple[str, str]
     per_loop: bool = False
-    read_options: dict[str, Any] = field(default_factory=dict)
+    read_options: CsvOptions = field(default_factory=CsvOptions)
 
     def path(self, data_dir: str | os.PathLike[str] | None = None) -> Path:
         """Path of the CSV file (under ``data_dir``, :data:`DATA_DIR` by default)."""
@@ -216,7 +215,7 @@ def _load(name: str, data_dir: str) -> tuple[Recording, ...]:
             f"dataset {name!r}: licence file {lic} is missing; the data may only be "
             "redistributed with its licence, restore examples/data from the project"
         )
-    recs = read_csv(path, name=name, citation=info.citation, **info.read_options)
+    recs = read_csv(path, info.read_options, name=name, citation=info.citation)
     return tuple(recs)
 
 

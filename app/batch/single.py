@@ -77,12 +77,12 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
         say_fit,
         time_window,
     )
-    from ..services.recordings import csv_read_kwargs, read_recordings, say_read
+    from ..services.recordings import csv_read_options, read_recordings, say_read
 
     train, test = time_window(opts.train, "train"), time_window(opts.test, "test")
     check_n_operators(opts.n_operators)
-    recs = read_recordings([src], csv_read_kwargs(opts.time, opts.input_column,
-                                                  opts.output_column))
+    recs = read_recordings([src], csv_read_options(opts.time, opts.input_column,
+                                                   opts.output_column))
     say_read(progress, recs)
     with fit_errors():
         out = fit_recordings(recs, opts.model, n_operators=opts.n_operators,
@@ -102,10 +102,10 @@ def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
         model_document,
     )
     from ..services.inputs import parse_window
-    from ..services.recordings import csv_read_kwargs
+    from ..services.recordings import csv_read_options
 
     res = diagnose_files(
-        [src], csv_read_kwargs(), progress, operators=opts.operators,
+        [src], csv_read_options(), progress, operators=opts.operators,
         train=parse_window(opts.train, "train") if opts.train is not None else None,
         test=parse_window(opts.test, "test") if opts.test is not None else None,
         fixed_grid=opts.fixed_grid, no_crossfit=opts.no_crossfit, effects=opts.effects)

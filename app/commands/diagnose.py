@@ -47,7 +47,7 @@ from core.exceptions import ParameterError
 from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
 from ..services.progress import Progress
 from ._common import window_arg
-from .fit import add_read_options, read_kwargs
+from .fit import add_read_options, read_options
 
 __all__ = ["register", "run"]
 
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
     progress = Progress("diagnose", quiet=args.quiet)
     try:
-        res = diagnose_files(args.files, read_kwargs(args), progress, model=args.model,
+        res = diagnose_files(args.files, read_options(args), progress, model=args.model,
                              base=args.base, train=args.train, test=args.test,
                              operators=args.operators, fixed_grid=args.fixed_grid,
                              no_crossfit=args.no_crossfit, effects=args.effects)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..services.fitting import (
     check_n_operators,
@@ -13,10 +13,13 @@ from ..services.fitting import (
     time_window,
 )
 from ..services.progress import Progress
-from ..services.recordings import csv_read_kwargs, read_recordings, say_read
+from ..services.recordings import csv_read_options, read_recordings, say_read
 from ._common import add_json_flag, emit
 
-__all__ = ["add_model_option", "add_read_options", "read_kwargs", "register", "run"]
+if TYPE_CHECKING:
+    from core.csvio import CsvOptions
+
+__all__ = ["add_model_option", "add_read_options", "read_options", "register", "run"]
 
 
 def add_read_options(p: argparse.ArgumentParser) -> None:
@@ -36,10 +39,10 @@ def add_read_options(p: argparse.ArgumentParser) -> None:
                         "spacing, or every DT seconds)")
 
 
-def read_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """Keyword arguments of :func:`core.csvio.read_csv` from :func:`add_read_options`."""
-    return csv_read_kwargs(args.time, args.input_column, args.output_column, args.run_column,
-                           args.resample)
+def read_options(args: argparse.Namespace) -> CsvOptions:
+    """The :class:`~core.csvio.CsvOptions` of :func:`add_read_options`."""
+    return csv_read_options(args.time, args.input_column, args.output_column, args.run_column,
+                            args.resample)
 
 
 def add_model_option(p: argparse.ArgumentParser) -> None:
@@ -105,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     train_w = time_window(args.train, "train")
     test_w = time_window(args.test, "test")
     check_n_operators(args.n_operators)
-    recs = read_recordings(args.files, read_kwargs(args))
+    recs = read_recordings(args.files, read_options(args))
     say_read(progress, recs)
     progress(f"fitting {args.model}" + (f" with n = {args.n_operators}" if args.n_operators
                                          else " (choosing n by cross-validation)"))

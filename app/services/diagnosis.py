@@ -18,6 +18,7 @@ from .recordings import say_read
 
 if TYPE_CHECKING:  # core.diagnosis is imported when a diagnosis runs
     from core.base import Model
+    from core.csvio import CsvOptions
     from core.paramset import ParameterSet
     from core.recordings import Recording
 
@@ -241,7 +242,7 @@ def diagnosis_json(result: Any) -> str:
     return json.dumps(result.to_dict(), allow_nan=False)
 
 
-def diagnose_files(files: Sequence[str | Path], read_kw: dict[str, Any], progress: Progress, *,
+def diagnose_files(files: Sequence[str | Path], options: CsvOptions, progress: Progress, *,
                    model: str = "pi", base: str = "auto",
                    train: tuple[float, float] | None = None,
                    test: tuple[float, float] | None = None, operators: int = 25,
@@ -255,7 +256,7 @@ def diagnose_files(files: Sequence[str | Path], read_kw: dict[str, Any], progres
     for f in files:
         existing_file(f, "recording")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
-    recs = as_records([Path(f) for f in files], **read_kw)
+    recs = as_records([Path(f) for f in files], options)
     say_read(progress, recs)
     return diagnose(recs, model=model, train=train, test=test, n_operators=operators,
                     effects=chosen, base=base, auto_resolution=not fixed_grid,

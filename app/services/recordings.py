@@ -4,7 +4,8 @@ Uploads are content, never paths: :func:`read_upload` and :func:`csv_preview` re
 :func:`core.csvio.read_csv_text` / :func:`~core.csvio.inspect_csv_text` (a
 :class:`~core.csvio.CSVError` names the line and the column; the server maps it to a 422
 ``{message, line, column}``). Files of ``hyst fit`` / ``hyst diagnose`` and the batch worker
-are read by :func:`read_recordings` with the options of :func:`csv_read_kwargs`.
+are read by :func:`read_recordings` with the :class:`~core.csvio.CsvOptions` of
+:func:`csv_read_options`.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from core.csvio import CSVError, UnevenTimeError, inspect_csv_text, read_csv_text
+from core.csvio import CSVError, CsvOptions, UnevenTimeError, inspect_csv_text, read_csv_text
 from core.recordings import Recording
 
 from .columns import column_spec
@@ -31,7 +32,7 @@ __all__ = [
     "UnevenUpload",
     "Upload",
     "csv_preview",
-    "csv_read_kwargs",
+    "csv_read_options",
     "read_recordings",
     "read_upload",
     "recording_from_csv",
@@ -293,10 +294,10 @@ def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[s
     return out
 
 
-def csv_read_kwargs(time: str | None = None, input_column: str | None = None,
-                    output_column: str | None = None, run_column: str | None = None,
-                    resample: str | None = None) -> dict[str, Any]:
-    """Keyword arguments of :func:`core.csvio.read_csv` from the option texts of
+def csv_read_options(time: str | None = None, input_column: str | None = None,
+                     output_column: str | None = None, run_column: str | None = None,
+                     resample: str | None = None) -> CsvOptions:
+    """The :class:`~core.csvio.CsvOptions` of :func:`core.csvio.read_csv` from the option texts of
     :func:`add_read_options` (``None``: the option was not given)."""
     spacing: bool | float = False
     if resample is not None:
@@ -310,8 +311,8 @@ def csv_read_kwargs(time: str | None = None, input_column: str | None = None,
                                    "seconds, e.g. --resample 0.0002, or no value") from None
             if not spacing > 0:
                 raise CommandError(f"--resample {resample}: the spacing must be > 0 s")
-    return {"time": _spec(time), "input": _spec(input_column),
-            "output": _spec(output_column), "run": _spec(run_column), "resample": spacing}
+    return CsvOptions(time=_spec(time), input=_spec(input_column), output=_spec(output_column),
+                      run=_spec(run_column), resample=spacing)
 
 
 def _spec(value: str | None) -> Any:
@@ -320,8 +321,9 @@ def _spec(value: str | None) -> Any:
     return column_spec(value)
 
 
-def read_recordings(files: Sequence[str | Path], read_kw: dict[str, Any]) -> list[Recording]:
-    """Every recording of ``files`` (:func:`core.csvio.read_csv` with ``read_kw``), in order.
+def read_recordings(files: Sequence[str | Path],
+                    options: CsvOptions | None = None) -> list[Recording]:
+    """Every recording of ``files`` (:func:`core.csvio.read_csv` with ``options``), in order.
 
     Raises
     ------
@@ -335,7 +337,7 @@ def read_recordings(files: Sequence[str | Path], read_kw: dict[str, Any]) -> lis
     for f in files:
         existing_file(f, "CSV file")
         try:
-            recs.extend(read_csv(Path(f), **read_kw))
+            recs.extend(read_csv(Path(f), options))
         except UnevenTimeError as exc:  # the command line's words for the choice
             timing = Timing.of(exc)
             raise CommandError(

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..csvio import ColumnSpec, read_csv
+from ..csvio import CsvOptions, read_csv
 from ..exceptions import ParameterError
 from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
@@ -60,15 +60,7 @@ class TimeGapError(ParameterError):
         self.t0_s, self.t1_s, self.line = t0_s, t1_s, line
 
 
-def as_records(
-    data: Any,
-    *,
-    time: ColumnSpec = None,
-    input: ColumnSpec = None,  # noqa: A002 - mirrors csvio's role name
-    output: ColumnSpec = None,
-    run: ColumnSpec = None,
-    resample: bool | float = False,
-) -> list[Recording]:
+def as_records(data: Any, options: CsvOptions | None = None, **changes: Any) -> list[Recording]:
     """Normalise the accepted inputs of :func:`~core.diagnosis.diagnose` to recordings.
 
     Files are read by :func:`core.csvio.read_csv` (the reader ``hyst fit`` uses: delimiter,
@@ -79,13 +71,16 @@ def as_records(
     ----------
     data : Recording, (t, u, y) tuple, CSV path, object with ``t``, ``u``, ``y``, or a list
         The recordings.
-    time, input, output, run : int, str, False or None
-        Column choices for CSV files (see :func:`core.csvio.read_csv`).
-    resample : bool or float
-        ``True``: put uneven recordings (gaps included) on a uniform grid at their median
-        spacing; a float: resample every recording to that spacing (s). By default small
-        time-stamp jitter (every spacing below ``GAP_FACTOR`` times the median) is resampled
-        with a cleaning note and a larger gap is an error that says where it is.
+    options : CsvOptions, optional
+        How CSV files are read (columns ``time``, ``input``, ``output``, ``run``, ...; see
+        :class:`core.csvio.CsvOptions`); ``uneven`` is set by ``resample``.
+    **changes
+        Fields of :class:`~core.csvio.CsvOptions` replacing those of ``options``. Its
+        ``resample`` (bool or float) applies to every recording: ``True`` puts uneven
+        recordings (gaps included) on a uniform grid at their median spacing; a float
+        resamples every recording to that spacing (s). By default small time-stamp jitter
+        (every spacing below ``GAP_FACTOR`` times the median) is resampled with a cleaning
+        note and a larger gap is an error that says where it is.
 
     Returns
     -------
@@ -97,6 +92,8 @@ def as_records(
     ParameterError
         Unreadable files, too few samples, or a gap in the time stamps.
     """
+    opts = CsvOptions.of(options, **changes)
+    resample = opts.resample
     if isinstance(data, Recording | str | Path) or _is_triplet(data) or hasattr(data, "u"):
         data = [data]
     if not isinstance(data, Sequence) or len(data) == 0:
@@ -107,9 +104,7 @@ def as_records(
             p = Path(d)
             if not p.is_file():
                 raise ParameterError(f"recording file {str(p)!r} does not exist")
-            got = read_csv(p, time=time, input=input, output=output, run=run,
-                           resample=resample if resample is not False else False,
-                           uneven="keep" if resample is False else "error")
+            got = read_csv(p, opts, uneven="keep" if resample is False else "error")
         elif isinstance(d, Recording):
             got = [d.resampled(float(resample)) if _is_float(resample) and d.has_time else d]
         elif hasattr(d, "u") and hasattr(d, "y") and hasattr(d, "t"):

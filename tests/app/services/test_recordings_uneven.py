@@ -106,5 +106,5 @@ def test_command_line_offers_its_option(tmp_path: Path) -> None:
     f.write_text(text)
     with pytest.raises(CommandError, match=r"pass --resample to interpolate onto an even grid "
                                            r"of \S+ ms steps") as ei:
-        read_recordings([f], {})
+        read_recordings([f])
     assert not any(x in str(ei.value) for x in INTERNAL)
