@@ -10,9 +10,10 @@ import numpy as np
 
 from .columns import choose_roles, convert, convert_time
 from .errors import CSVError
+from .names import ColumnInfo
 from .options import CsvOptions
 from .source import CSVText, Source
-from .table import CSVLayout, lines_text, read_table
+from .table import CSVLayout, Table, lines_text, read_table
 from .timebase import check_time, time_scale
 
 __all__ = ["InputSignal", "read_input", "read_input_text"]
@@ -143,7 +144,7 @@ def read_input(source: Source, options: CsvOptions | None = None,
     min_samples = 1 if opts.min_samples is None else opts.min_samples
     if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 1:
         raise CSVError(f"min_samples={min_samples!r} must be a whole number >= 1")
-    fs, nan, max_dropped = opts.fs, opts.nan, opts.max_dropped
+    fs = opts.fs
     table, stem = read_table(source, opts, min_columns=1)
     lay = table.layout
     label = lay.source
@@ -165,64 +166,13 @@ def read_input(source: Source, options: CsvOptions | None = None,
     notes = list(lay.notes) + notes
     if t_unit_note:
         notes.append(t_unit_note)
-    values: list[np.ndarray] = []
-    extras: dict[str, np.ndarray] = {}
-    extra_units: dict[str, str] = {}
-    for c in lay.columns:
-        if c is ucol:
-            values.append(u)
-            continue
-        if c is tcol and dt_note is None:
-            assert t_raw is not None
-            values.append(t_raw)
-            continue
-        arr = convert(table, c, strict=False, role="extra")
-        if arr is None:
-            arr = np.asarray(table.column(c.index), dtype=str)
-            if c is not tcol:
-                notes.append(f"column {c.label()} is not numeric; kept as text in extra")
-        values.append(arr)
-        if c is not tcol:
-            key = c.name if c.name not in extras else f"{c.name}_{c.index}"
-            extras[key] = arr
-            extra_units[key] = c.unit
+    values, extras, extra_units = _columns_as_written(table, ucol, tcol, u, t_raw, dt_note,
+                                                      notes)
     lines = table.lines
-    idx = np.arange(len(table.data))
-    has_time = True
-    if tcol is not None:
-        assert t_raw is not None
-        t = check_time(t_raw * t_scale, lines, tcol, table, idx, label, "", time_auto,
-                        t_scale=t_scale, uneven=opts.uneven, resample=False, notes=notes,
-                        roles="input=")
-    elif fs is not None:
-        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
-            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
-        t = idx / float(fs)
-        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
-    else:
-        t = idx.astype(np.float64)
-        has_time = False
+    t, has_time = _signal_time(table, tcol, t_raw, t_scale, time_auto, opts, notes)
     bad = ~np.isfinite(u)
     if bad.any():
-        first = int(np.flatnonzero(bad)[0])
-        cell = table.cell(first, ucol.index)
-        line = int(lines[first])
-        if nan == "error":
-            raise CSVError(
-                f"{label}: line {line}, input column {ucol.label()}: {cell!r} is not "
-                f"a finite number ({int(bad.sum())} such row(s)); fill in the value or pass "
-                "nan='drop' to remove those rows",
-                source=label, line=line, column=ucol.raw, column_index=ucol.index,
-            )
-        frac = bad.sum() / bad.size
-        if frac > max_dropped:
-            raise CSVError(
-                f"{label}: {int(bad.sum())} of {bad.size} rows ({100 * frac:.1f} %) have an "
-                f"empty/NaN/inf input {ucol.raw!r} (first at line {line}: {cell!r}); "
-                f"that is more than max_dropped={max_dropped:g}; check the export or raise "
-                "max_dropped",
-                source=label, line=line, column=ucol.raw, column_index=ucol.index,
-            )
+        _check_dropped(table, ucol, opts, bad)
         notes.append(
             f"removed {int(bad.sum())} row(s) with empty/NaN/inf input at line(s) "
             f"{lines_text([int(x) for x in lines[bad]])}"
@@ -253,6 +203,81 @@ def read_input(source: Source, options: CsvOptions | None = None,
         layout=lay, source=label, cleaning=tuple(notes), has_time=has_time,
         lines=np.array(lines, dtype=np.int64),
     )
+
+
+def _columns_as_written(table: Table, ucol: ColumnInfo, tcol: ColumnInfo | None, u: np.ndarray,
+                        t_raw: np.ndarray | None, dt_note: str | None, notes: list[str],
+                        ) -> tuple[list[np.ndarray], dict[str, np.ndarray], dict[str, str]]:
+    """Every column in file order (``values``), and those other than time and input with
+    their units (``extras``); non-numeric ones as text (noted in ``notes``)."""
+    values: list[np.ndarray] = []
+    extras: dict[str, np.ndarray] = {}
+    extra_units: dict[str, str] = {}
+    for c in table.layout.columns:
+        if c is ucol:
+            values.append(u)
+            continue
+        if c is tcol and dt_note is None:
+            assert t_raw is not None
+            values.append(t_raw)
+            continue
+        arr = convert(table, c, strict=False, role="extra")
+        if arr is None:
+            arr = np.asarray(table.column(c.index), dtype=str)
+            if c is not tcol:
+                notes.append(f"column {c.label()} is not numeric; kept as text in extra")
+        values.append(arr)
+        if c is not tcol:
+            key = c.name if c.name not in extras else f"{c.name}_{c.index}"
+            extras[key] = arr
+            extra_units[key] = c.unit
+    return values, extras, extra_units
+
+
+def _signal_time(table: Table, tcol: ColumnInfo | None, t_raw: np.ndarray | None,
+                 t_scale: float, time_auto: bool, opts: CsvOptions,
+                 notes: list[str]) -> tuple[np.ndarray, bool]:
+    """The time axis in s (checked), ``k / fs``, or the sample index; and whether it is a
+    time axis."""
+    label, fs = table.layout.source, opts.fs
+    lines = table.lines
+    idx = np.arange(len(table.data))
+    if tcol is not None:
+        assert t_raw is not None
+        return check_time(t_raw * t_scale, lines, tcol, table, idx, label, "", time_auto,
+                          t_scale=t_scale, uneven=opts.uneven, resample=False, notes=notes,
+                          roles="input="), True
+    if fs is not None:
+        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
+        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
+        return idx / float(fs), True
+    return idx.astype(np.float64), False
+
+
+def _check_dropped(table: Table, ucol: ColumnInfo, opts: CsvOptions, bad: np.ndarray) -> None:
+    """Refuse the non-finite inputs ``bad`` when ``nan="error"`` or when they are more than
+    ``max_dropped`` of the rows."""
+    label, lines = table.layout.source, table.lines
+    first = int(np.flatnonzero(bad)[0])
+    cell = table.cell(first, ucol.index)
+    line = int(lines[first])
+    if opts.nan == "error":
+        raise CSVError(
+            f"{label}: line {line}, input column {ucol.label()}: {cell!r} is not "
+            f"a finite number ({int(bad.sum())} such row(s)); fill in the value or pass "
+            "nan='drop' to remove those rows",
+            source=label, line=line, column=ucol.raw, column_index=ucol.index,
+        )
+    frac = bad.sum() / bad.size
+    if frac > opts.max_dropped:
+        raise CSVError(
+            f"{label}: {int(bad.sum())} of {bad.size} rows ({100 * frac:.1f} %) have an "
+            f"empty/NaN/inf input {ucol.raw!r} (first at line {line}: {cell!r}); "
+            f"that is more than max_dropped={opts.max_dropped:g}; check the export or raise "
+            "max_dropped",
+            source=label, line=line, column=ucol.raw, column_index=ucol.index,
+        )
 
 
 def read_input_text(content: str | bytes, options: CsvOptions | None = None, *,
