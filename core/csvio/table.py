@@ -143,10 +143,31 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
     stem : str
         The file stem (``"recording"`` for content), the recordings' default name.
     """
-    delimiter, decimal, header = opts.delimiter, opts.decimal, opts.header
-    skiprows, max_rows = opts.skiprows, opts.max_rows
     raw, label, stem = load_bytes(source, opts.max_bytes)
     text, enc, notes = decode_text(raw, opts.encoding, label)
+    content, linenos, delimiter = _content_lines(text, label, opts, notes)
+    d, dec = detect_format(content[:60], delimiter, opts.decimal, label, linenos[0], min_columns)
+    quoted = '"' in text
+    content, linenos = _without_empty(content, linenos, d, label, notes)
+    rows, content, linenos = _head(content, linenos, d, opts.skiprows, notes)
+    has_header, start, names, cols = _columns(rows, linenos, dec, opts.header, notes)
+    data = content[start:]
+    data_lines = np.asarray(linenos[start:], dtype=np.int64)
+    data_rows = _check_rows(data, data_lines, linenos, names, len(cols), d, quoted, has_header,
+                            label, opts.max_rows)
+    layout = CSVLayout(
+        source=label, encoding=enc, delimiter=d, decimal=dec, header=has_header,
+        columns=tuple(cols), n_rows=len(data),
+        first_data_line=int(data_lines[0]) if data else 0, notes=tuple(notes),
+    )
+    return Table(layout, data, data_lines, data_rows, quoted), stem
+
+
+def _content_lines(text: str, label: str, opts: CsvOptions,
+                   notes: list[str]) -> tuple[list[str], list[int], str | None]:
+    """The lines that hold the table (after ``skiprows``, without comments and blank
+    lines), their 1-based line numbers, and the delimiter (an Excel ``sep=`` line sets it)."""
+    delimiter, skiprows, max_rows = opts.delimiter, opts.skiprows, opts.max_rows
     all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     body = all_lines[skiprows:]
     stripped = [ln.strip() for ln in body]
@@ -183,8 +204,13 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
     if blank_inside:
         notes.append(f"ignored {len(blank_inside)} blank line(s) inside the data "
                      f"(line(s) {lines_text(blank_inside)})")
-    d, dec = detect_format(content[:60], delimiter, decimal, label, linenos[0], min_columns)
-    quoted = '"' in text
+    return content, linenos, delimiter
+
+
+def _without_empty(content: list[str], linenos: list[int], d: str, label: str,
+                   notes: list[str]) -> tuple[list[str], list[int]]:
+    """Without the lines holding only delimiters, and without the empty last column a
+    delimiter at the end of every line makes."""
     strip_chars = " \t" if d == "whitespace" else " \t" + d
     empty = [i for i, ln in enumerate(content) if not ln.strip(strip_chars)]
     if empty:  # lines holding only delimiters (",,,")
@@ -205,6 +231,13 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
             content = [ln.rstrip()[:-1] if len(r) == len(h1) else ln
                        for ln, r in zip(content, [h0] + [h1] * (len(content) - 1), strict=True)]
             notes.append(f"ignored the empty last column (every line ends with {d!r})")
+    return content, linenos
+
+
+def _head(content: list[str], linenos: list[int], d: str, skiprows: int,
+          notes: list[str]) -> tuple[list[list[str]], list[str], list[int]]:
+    """The first rows split into cells (enough to find the header and units), after an
+    instrument preamble (leading lines whose field count differs) when ``skiprows`` is 0."""
     rows = split_cells(content[:64], d)  # the head: enough to find preamble, header, units
     if d == "whitespace" and len(rows) > 1 and len(rows[0]) != len(rows[1]):
         wide = [c.strip() for c in re.split(r"\s{2,}|\t", content[0].strip())]
@@ -223,6 +256,13 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
                 f"count differs from the table ({shown}); pass skiprows= to choose yourself"
             )
             rows, content, linenos = rows[head:], content[head:], linenos[head:]
+    return rows, content, linenos
+
+
+def _columns(rows: list[list[str]], linenos: list[int], dec: str, header: bool | None,
+             notes: list[str]) -> tuple[bool, int, list[str], list[ColumnInfo]]:
+    """Whether there is a header, the index of the first data row, the names and the
+    columns (units from the names or a unit row)."""
     first = rows[0]
     if header is None:
         has_header = not all(is_num(c, dec) for c in first)
@@ -251,8 +291,14 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
                          f"{seen[base.lower()]}; pick it by index")
         seen.setdefault(base.lower(), j)
         cols.append(ColumnInfo(j, nm, base, unit))
-    data = content[start:]
-    data_lines = np.asarray(linenos[start:], dtype=np.int64)
+    return has_header, start, names, cols
+
+
+def _check_rows(data: list[str], data_lines: np.ndarray, linenos: list[int], names: list[str],
+                width: int, d: str, quoted: bool, has_header: bool, label: str,
+                max_rows: int) -> list[list[str]] | None:
+    """Refuse a header without data, too many rows and ragged rows; the split rows when
+    they had to be split to count their fields (quotes, whitespace), else None."""
     if not data and has_header:
         raise CSVError(
             f"{label} has only a header (line {linenos[0]}: {', '.join(names)}) and no "
@@ -265,7 +311,6 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
             "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
             source=label,
         )
-    width = len(cols)
     data_rows: list[list[str]] | None = None
     if quoted or d == "whitespace":
         data_rows = split_cells(data, d)
@@ -287,12 +332,7 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
             f"(delimiter {'whitespace' if d == 'whitespace' else repr(d)}); {fix}",
             source=label, line=ln,
         )
-    layout = CSVLayout(
-        source=label, encoding=enc, delimiter=d, decimal=dec, header=has_header,
-        columns=tuple(cols), n_rows=len(data),
-        first_data_line=int(data_lines[0]) if data else 0, notes=tuple(notes),
-    )
-    return Table(layout, data, data_lines, data_rows, quoted), stem
+    return data_rows
 
 
 def inspect_csv(source: Source, options: CsvOptions | None = None, *, min_columns: int = 2,
