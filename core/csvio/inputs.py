@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,7 +13,7 @@ from .names import ColumnInfo
 from .options import CsvOptions
 from .source import CSVText, Source
 from .table import CSVLayout, Table, lines_text, read_table
-from .timebase import check_time, time_scale
+from .timebase import check_fs, time_axis, time_scale
 
 __all__ = ["InputSignal", "read_input", "read_input_text"]
 
@@ -144,7 +143,6 @@ def read_input(source: Source, options: CsvOptions | None = None,
     min_samples = 1 if opts.min_samples is None else opts.min_samples
     if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 1:
         raise CSVError(f"min_samples={min_samples!r} must be a whole number >= 1")
-    fs = opts.fs
     table, stem = read_table(source, opts, min_columns=1)
     lay = table.layout
     label = lay.source
@@ -153,12 +151,7 @@ def read_input(source: Source, options: CsvOptions | None = None,
     )
     tcol, ucol = chosen["time"], chosen["input"]
     assert ucol is not None
-    if fs is not None and tcol is not None:
-        raise CSVError(
-            f"{label}: fs={fs!r} was given but column {tcol.label()} is the time axis; pass "
-            "time=False to build the time from fs instead, or leave fs out",
-            source=label, column=tcol.raw, column_index=tcol.index,
-        )
+    check_fs(label, opts.fs, tcol)
     t_raw, dt_note = convert_time(table, tcol) if tcol is not None else (None, None)
     u = convert(table, ucol, strict=True, role="input")
     assert u is not None
@@ -169,7 +162,8 @@ def read_input(source: Source, options: CsvOptions | None = None,
     values, extras, extra_units = _columns_as_written(table, ucol, tcol, u, t_raw, dt_note,
                                                       notes)
     lines = table.lines
-    t, has_time = _signal_time(table, tcol, t_raw, t_scale, time_auto, opts, notes)
+    t, has_time = time_axis(table, tcol, t_raw, np.arange(len(table.data)), opts, notes,
+                            t_scale=t_scale, time_auto=time_auto, roles="input=")
     bad = ~np.isfinite(u)
     if bad.any():
         _check_dropped(table, ucol, opts, bad)
@@ -232,27 +226,6 @@ def _columns_as_written(table: Table, ucol: ColumnInfo, tcol: ColumnInfo | None,
             extras[key] = arr
             extra_units[key] = c.unit
     return values, extras, extra_units
-
-
-def _signal_time(table: Table, tcol: ColumnInfo | None, t_raw: np.ndarray | None,
-                 t_scale: float, time_auto: bool, opts: CsvOptions,
-                 notes: list[str]) -> tuple[np.ndarray, bool]:
-    """The time axis in s (checked), ``k / fs``, or the sample index; and whether it is a
-    time axis."""
-    label, fs = table.layout.source, opts.fs
-    lines = table.lines
-    idx = np.arange(len(table.data))
-    if tcol is not None:
-        assert t_raw is not None
-        return check_time(t_raw * t_scale, lines, tcol, table, idx, label, "", time_auto,
-                          t_scale=t_scale, uneven=opts.uneven, resample=False, notes=notes,
-                          roles="input="), True
-    if fs is not None:
-        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
-            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
-        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
-        return idx / float(fs), True
-    return idx.astype(np.float64), False
 
 
 def _check_dropped(table: Table, ucol: ColumnInfo, opts: CsvOptions, bad: np.ndarray) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -16,7 +15,7 @@ from .names import ColumnInfo
 from .options import MIN_SAMPLES, CsvOptions
 from .source import CSVText, Source
 from .table import Table, lines_text, read_table
-from .timebase import check_time, time_scale
+from .timebase import check_fs, time_axis, time_scale
 
 __all__ = ["read_csv", "read_csv_text", "read_csvs", "read_recording"]
 
@@ -105,12 +104,7 @@ def _columns(table: Table, opts: CsvOptions) -> _Columns:
     )
     tcol, ucol, ycol, rcol = chosen["time"], chosen["input"], chosen["output"], chosen["run"]
     assert ucol is not None and ycol is not None
-    if opts.fs is not None and tcol is not None:
-        raise CSVError(
-            f"{label}: fs={opts.fs!r} was given but column {tcol.label()} is the time axis; "
-            "pass time=False to build the time from fs instead, or leave fs out",
-            source=label, column=tcol.raw, column_index=tcol.index,
-        )
+    check_fs(label, opts.fs, tcol)
     t_all, dt_note = convert_time(table, tcol) if tcol is not None else (None, None)
     u_all = convert(table, ucol, strict=True, role="input")
     y_all = convert(table, ycol, strict=True, role="output")
@@ -164,7 +158,8 @@ def _recording(table: Table, cols: _Columns, opts: CsvOptions, base_name: str,
     notes = list(cols.notes)
     u, y = cols.u[idx], cols.y[idx]
     ex = {k: v[idx] for k, v in cols.extras.items()}
-    t, has_time = _time_axis(table, cols, opts, idx, where, notes)
+    t, has_time = time_axis(table, tcol, cols.t, idx, opts, notes, t_scale=cols.t_scale,
+                            time_auto=cols.time_auto, where=where, resample=opts.resample)
     bad = ~(np.isfinite(u) & np.isfinite(y))
     if bad.any():
         _check_dropped(table, cols, opts, idx, bad, where)
@@ -205,26 +200,6 @@ def _recording(table: Table, cols: _Columns, opts: CsvOptions, base_name: str,
             "the removed rows leave gaps in the time axis; call .resampled() or read with "
             "resample=True for a uniform grid",))
     return rec
-
-
-def _time_axis(table: Table, cols: _Columns, opts: CsvOptions, idx: np.ndarray, where: str,
-               notes: list[str]) -> tuple[np.ndarray, bool]:
-    """Time of the rows ``idx`` in s (checked), ``k / fs``, or the sample index; and
-    whether it is a time axis. Notes go to ``notes``."""
-    label = table.layout.source
-    fs = opts.fs
-    if cols.time is not None:
-        assert cols.t is not None
-        t = cols.t[idx] * cols.t_scale
-        return check_time(t, table.lines[idx], cols.time, table, idx, label, where,
-                          cols.time_auto, t_scale=cols.t_scale, uneven=opts.uneven,
-                          resample=opts.resample, notes=notes), True
-    if fs is not None:
-        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
-            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
-        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
-        return np.arange(idx.size) / float(fs), True
-    return np.arange(idx.size, dtype=np.float64), False
 
 
 def _check_dropped(table: Table, cols: _Columns, opts: CsvOptions, idx: np.ndarray,

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import CSVError, UnevenTimeError
 from .names import TIME_SCALE, ColumnInfo
 from .numbers import decimals
+from .options import CsvOptions
 from .table import Table, lines_text
 
-__all__ = ["check_time", "time_scale"]
+__all__ = ["check_fs", "check_time", "time_axis", "time_scale"]
 
 
 def time_scale(
@@ -99,3 +102,36 @@ def check_time(
                     )
                 notes.append(msg + "; kept as measured (uneven='keep')")
     return t
+
+
+def check_fs(label: str, fs: float | None, tcol: ColumnInfo | None) -> None:
+    """``fs=`` goes with files without a time column: with one in use it is an error."""
+    if fs is not None and tcol is not None:
+        raise CSVError(
+            f"{label}: fs={fs!r} was given but column {tcol.label()} is the time axis; pass "
+            "time=False to build the time from fs instead, or leave fs out",
+            source=label, column=tcol.raw, column_index=tcol.index,
+        )
+
+
+def time_axis(table: Table, tcol: ColumnInfo | None, t_raw: np.ndarray | None,
+              idx: np.ndarray, opts: CsvOptions, notes: list[str], *, t_scale: float,
+              time_auto: bool, where: str = "", resample: bool | float = False,
+              roles: str = "input= and output=") -> tuple[np.ndarray, bool]:
+    """Time of the rows ``idx``: the time column in s (checked by :func:`check_time`),
+    ``k / fs``, or the sample index; and whether it is a time axis. Notes go to ``notes``.
+
+    ``t_raw`` holds the time column of every row in its own unit (None without one).
+    """
+    label, fs = table.layout.source, opts.fs
+    if tcol is not None:
+        assert t_raw is not None
+        return check_time(t_raw[idx] * t_scale, table.lines[idx], tcol, table, idx, label,
+                          where, time_auto, t_scale=t_scale, uneven=opts.uneven,
+                          resample=resample, notes=notes, roles=roles), True
+    if fs is not None:
+        if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs > 0):
+            raise CSVError(f"fs={fs!r} must be a sampling rate > 0 in Hz", source=label)
+        notes.append(f"no time column: time axis built from fs = {fs:g} Hz")
+        return np.arange(idx.size) / float(fs), True
+    return np.arange(idx.size, dtype=np.float64), False
