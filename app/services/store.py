@@ -33,7 +33,8 @@ model's document (:mod:`app.services.store_parts`); the live core ``DiagnosisRes
 behind the HTML report stays in memory only.
 
 The file is checked when the store opens (:mod:`app.services.store_file`: a damaged file is
-moved aside and a fresh store started). A session whose stored part does not decode or
+moved aside, a fresh store started, and every session still readable from the damaged file's
+pages copied into it). A session whose stored part does not decode or
 validate is reset when it is loaded and :meth:`SessionStore.load` raises
 :class:`DamagedSessionError` (the API answers 410 once; the next request works).
 """
@@ -54,7 +55,7 @@ from core.recordings import Recording
 from .config import Config
 from .cost import CheckedModel
 from .quotas import QuotaError, Quotas
-from .store_file import connect
+from .store_file import connect, restore
 from .store_parts import (
     DamagedPartError,
     decode_config,
@@ -208,7 +209,10 @@ class SessionStore:
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
-        self._db = connect(self.path)  # a damaged file is moved aside, a fresh one started
+        # a damaged file is moved aside, a fresh one started (its readable sessions copied)
+        self._db, damaged = connect(self.path)
+        #: Sessions copied out of a damaged file at start-up (``None``: it was sound).
+        self.restored: int | None = None
         self._closing = threading.Event()
         self._checkpointer: threading.Thread | None = None
         with self._lock:
@@ -224,6 +228,8 @@ class SessionStore:
                 self._db.execute("ALTER TABLE sessions ADD COLUMN owner TEXT NOT NULL "
                                  "DEFAULT ''")
             self._db.execute("CREATE INDEX IF NOT EXISTS sessions_owner ON sessions(owner)")
+            if damaged is not None:
+                self.restored = restore(self._db, damaged)
         if self.path != ":memory:":
             self._checkpointer = threading.Thread(target=self._checkpoint_loop,
                                                   name="store-checkpoint", daemon=True)

@@ -1,10 +1,13 @@
 """Opening the session store's SQLite file with an integrity check: a damaged file is moved
-aside (never repaired in place, never fatal) and a fresh store is started.
+aside (never repaired in place, never fatal), a fresh store is started, and every session
+that can still be read from the damaged file is copied into it.
 
 At start-up ``PRAGMA quick_check`` reads every page of the file. A file that fails it (a
 truncated file, garbage pages, something that is no SQLite database) is renamed next to
 itself, ``sessions.sqlite3.damaged-20260102-030405`` (with its ``-wal`` and ``-shm``
-companions), kept at mode 0600, and a message on stderr names both paths.
+companions), kept at mode 0600; :func:`restore` then copies the rows of its readable pages
+(:func:`app.services.store_salvage.salvage`) into the fresh store, and a message on stderr
+names both paths and says how many sessions were saved.
 """
 
 from __future__ import annotations
@@ -13,9 +16,12 @@ import os
 import sqlite3
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["connect", "move_aside", "problem"]
+from .store_salvage import salvage
+
+__all__ = ["Damaged", "connect", "move_aside", "problem", "restore"]
 
 #: Companion files of a database in WAL mode.
 _COMPANIONS = ("-wal", "-shm")
@@ -54,19 +60,80 @@ def move_aside(path: Path, when: float | None = None) -> Path:
     return target
 
 
-def connect(path: str) -> sqlite3.Connection:
+@dataclass(frozen=True)
+class Damaged:
+    """A damaged store file, moved aside.
+
+    Attributes
+    ----------
+    path : str
+        Where the store is (its fresh file now).
+    moved : Path
+        Where the damaged file went.
+    problem : str
+        What ``PRAGMA quick_check`` found.
+    """
+
+    path: str
+    moved: Path
+    problem: str
+
+
+def connect(path: str) -> tuple[sqlite3.Connection, Damaged | None]:
     """The database at ``path`` (``":memory:"`` as is), checked: a damaged file is moved
-    aside with a message on stderr and a fresh, empty database opened in its place."""
+    aside and a fresh, empty database opened in its place (give both to :func:`restore`
+    once the schema is there)."""
     db = _open(path)
     if path == ":memory:" or not Path(path).exists():
-        return db
+        return db, None
     wrong = problem(db)
     if wrong is None:
-        return db
+        return db, None
     db.close()
     moved = move_aside(Path(path))
-    message = (f"the session store {path} is damaged ({wrong}); it was moved aside to "
-               f"{moved} and a fresh, empty store was started (sessions from before are "
-               "not available; keep the moved file to inspect or recover it)")
-    print(message, file=sys.stderr, flush=True)
-    return _open(path)
+    return _open(path), Damaged(path, moved, wrong)
+
+
+def restore(db: sqlite3.Connection, damaged: Damaged) -> int:
+    """Copy every readable session of the moved file (its rows, its recordings and results,
+    the class's lesson) into ``db``, which has the store's schema, and say so on stderr.
+
+    Returns
+    -------
+    int
+        The sessions saved.
+    """
+    got = salvage(damaged.moved)
+    keep = {c: r for c, r in got.sessions.items() if isinstance(c, str) and 0 < len(c) < 64}
+    db.execute("BEGIN IMMEDIATE")
+    try:
+        recordings = 0
+        for code, row in keep.items():
+            blobs = {k: v for (c, k), v in got.blobs.items() if c == code}
+            size = sum(len(t) for t in row[5:9] if isinstance(t, str)) + \
+                sum(len(v) for v in blobs.values())
+            db.execute("INSERT OR IGNORE INTO sessions (code, created, last_used, teacher, "
+                       "version, config, fitted, fit_report, diagnosis, size, owner) "
+                       "VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                       (code, float(row[1]), float(row[2]), int(bool(row[3])), int(row[4]),
+                        row[5], row[6], row[7], row[8], size,
+                        row[10] if isinstance(row[10], str) else ""))
+            for kind, data in blobs.items():
+                db.execute("INSERT OR IGNORE INTO blobs (code, kind, data) VALUES (?,?,?)",
+                           (code, kind, data))
+            recordings += "recording" in blobs
+        for key, value in got.class_state.items():
+            db.execute("INSERT OR IGNORE INTO class_state (key, value) VALUES (?,?)",
+                       (key, value))
+        db.execute("COMMIT")
+    except BaseException:
+        db.execute("ROLLBACK")
+        raise
+    saved = (f"{len(keep)} session(s), {recordings} with a recording, were copied out of its "
+             f"readable pages into the fresh store (their codes work as before)"
+             if keep else "no session could be read from it")
+    print(f"the session store {damaged.path} is damaged ({damaged.problem}); it was moved "
+          f"aside to {damaged.moved} and a fresh store was started: {saved}. Keep the moved "
+          "file to inspect it or recover more by hand (sqlite3 .recover)",
+          file=sys.stderr, flush=True)
+    return len(keep)
