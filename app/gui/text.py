@@ -22,17 +22,24 @@ __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown"
 
 _HTML = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;"}
 _MD = re.compile(r"([\\`*_{}\[\]()#+\-.!|~])")
+#: Where GitHub-flavoured Markdown (viser's renderer) would start a link in plain text: a
+#: scheme (``https://``, ``mailto:``), ``www.`` and the ``@`` of an address.
+_AUTOLINK = re.compile(r"(?i)(https?|ftp|mailto|xmpp|www)(?=[:.])|(@)")
+#: An invisible character that breaks those patterns (U+2060 WORD JOINER: no width, no break).
+_JOIN = "\u2060"
 
 
 def md_text(value: object) -> str:
-    """``value`` as literal text for a Markdown element (HTML and Markdown escaped).
+    """``value`` as literal text for a Markdown element (HTML and Markdown escaped, and a
+    bare URL or e-mail address kept from becoming a link by an invisible word joiner).
 
     Examples
     --------
     >>> md_text("<img src=x onerror=alert(1)>")
     '&lt;img src=x onerror=alert\\\\(1\\\\)&gt;'
     """
-    s = _MD.sub(r"\\\1", str(value))
+    s = _AUTOLINK.sub(lambda m: m.group(0) + _JOIN, str(value))  # a bare URL stays text
+    s = _MD.sub(r"\\\1", s)
     return "".join(_HTML.get(c, c) for c in s)
 
 
