@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import mimetypes
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -41,6 +42,9 @@ __all__ = ["STATIC_DIR", "create_app"]
 
 #: Directory of the plain HTML/JS page, located from this file (never from the CWD).
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+# The page is ES modules: a browser runs a module script only when it comes as JavaScript
+# (with nosniff), whatever the host's MIME table says (a Windows registry may say text/plain).
+mimetypes.add_type("text/javascript", ".js")
 
 log = logging.getLogger(__name__)
 

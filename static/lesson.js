@@ -3,19 +3,16 @@
 // explore and come back with "Back to the class step". The teacher (in the Teacher
 // panel, with the token) starts a lesson, moves the class, ends it, loads a lesson file
 // and makes a lesson from what is on screen. Every move is the teacher's push: it
-// arrives through app.js's event stream ("hyst:push" with the step in info.lesson).
+// arrives through session.js's event stream ("hyst:push" with the step in info.lesson).
 // Every text of a lesson is put in the page as text (textContent), never as markup.
 
-import { explorer as X } from "/app.js";
+import { api } from "/client.js";
+import { $, el, setMsg } from "/dom.js";
+import { applyConfig } from "/model.js";
+import { state } from "/store.js";
+import { draw, selectFigure } from "/view.js";
 
-const $ = (id) => document.getElementById(id);
 const L = { step: null, choices: new Map(), draft: { title: "My lesson", steps: [] } };
-
-function el(tag, props = {}, ...kids) {
-  const e = Object.assign(document.createElement(tag), props);
-  e.append(...kids);
-  return e;
-}
 
 // ---------------------------------------------------------------- what everyone sees
 function buildBanner() {
@@ -64,7 +61,7 @@ function same(a, b) {
 }
 
 function onStep() {
-  const cfg = X.state.config, s = L.step;
+  const cfg = state.config, s = L.step;
   return Boolean(cfg && s && !cfg.use_recording && same(cfg.model, s.model) &&
     same(cfg.signal, s.input) && same(cfg.mismatch, s.mismatch));
 }
@@ -72,10 +69,10 @@ function onStep() {
 function markExploring() {
   if (!L.step) return;
   const here = onStep();
-  if (L.viewOnLoad && X.state.config) {  // a page (re)loaded on the class step: its view too
+  if (L.viewOnLoad && state.config) {  // a page (re)loaded on the class step: its view too
     const view = L.viewOnLoad;
     L.viewOnLoad = null;
-    if (here && X.state.fig !== view) X.selectFigure(view);
+    if (here && state.fig !== view) selectFigure(view);
   }
   $("lesson").classList.toggle("exploring", !here);
   $("lesson-state").textContent = here
@@ -86,21 +83,21 @@ function markExploring() {
 
 async function backToClass() {
   try {
-    const s = await X.api("POST", `/api/sessions/${encodeURIComponent(X.state.code)}/lesson/return`);
-    X.applyConfig(s.config, s.version);
-    if (L.step) X.selectFigure(L.step.view);
-    else await X.draw();
+    const s = await api("POST", `/api/sessions/${encodeURIComponent(state.code)}/lesson/return`);
+    applyConfig(s.config, s.version);
+    if (L.step) selectFigure(L.step.view);
+    else await draw();
   } catch (e) {
     if (e.status === 409) show(null);
-    X.setMsg("model-msg", `Not returned to the class step: ${e.message}`);
+    setMsg("model-msg", `Not returned to the class step: ${e.message}`);
   }
 }
 
-// the teacher moved the class: app.js has loaded the pushed session already
+// the teacher moved the class: session.js has loaded the pushed session already
 function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
-  X.selectFigure(info.lesson.view);
+  selectFigure(info.lesson.view);
   const note = $("live-note");
   note.textContent = `Your teacher moved the class to step ${info.lesson.step} of ` +
     `${info.lesson.steps}: ${info.lesson.step_title}. Your model, input and view now follow it.`;
@@ -177,7 +174,7 @@ function clearDraft() {
   msg("Your lesson has no steps now: add the first one.", true);
 }
 
-function msg(text, ok = false) { X.setMsg("lesson-msg", text, ok); }
+function msg(text, ok = false) { setMsg("lesson-msg", text, ok); }
 const steps = (n) => `${n} step${n === 1 ? "" : "s"}`;
 
 function addChoice(key, label, start) {
@@ -196,7 +193,7 @@ function syncTeacherButtons() {
 }
 
 async function teach(action) {
-  X.state.token = $("teacher-token").value;
+  state.token = $("teacher-token").value;
   try {
     const r = await action();
     if (r) {
@@ -212,18 +209,18 @@ async function teach(action) {
 function startLesson() {
   const body = L.choices.get($("lesson-pick").value);
   if (!body) { msg("Pick a lesson first."); return null; }
-  return X.api("POST", "/api/teacher/lesson", body);
+  return api("POST", "/api/teacher/lesson", body);
 }
 
-const move = (d) => X.api("POST", "/api/teacher/lesson/step", { move: d });
-const endLesson = () => X.api("DELETE", "/api/teacher/lesson");
+const move = (d) => api("POST", "/api/teacher/lesson/step", { move: d });
+const endLesson = () => api("DELETE", "/api/teacher/lesson");
 
 async function loadFile(ev) {
   const file = ev.target.files[0];
   if (!file) return;
   try {
     // the file's text is the body as it is; the server reads it strictly
-    const doc = await X.api("POST", "/api/lessons/check", await file.text(), "text/plain");
+    const doc = await api("POST", "/api/lessons/check", await file.text(), "text/plain");
     addChoice(`file:${file.name}`, `file: ${doc.title} (${steps(doc.steps.length)})`, { lesson: doc });
     msg(`Loaded ${file.name}: ${steps(doc.steps.length)}. Start it when the class is ready.`, true);
   } catch (e) {
@@ -234,15 +231,15 @@ async function loadFile(ev) {
 }
 
 async function addStep() {
-  const cfg = X.state.config;
-  if (X.state.fig === "fit") { msg("The Fit view needs each student's own recording: choose another view for a step."); return; }
+  const cfg = state.config;
+  if (state.fig === "fit") { msg("The Fit view needs each student's own recording: choose another view for a step."); return; }
   const title = $("lesson-new-title").value.trim() || `Step ${L.draft.steps.length + 1}`;
   const step = { title, model: cfg.model, input: cfg.signal, mismatch: cfg.mismatch,
-    view: X.state.fig, prompt: $("lesson-new-prompt").value.trim() || "What do you see?" };
+    view: state.fig, prompt: $("lesson-new-prompt").value.trim() || "What do you see?" };
   const look = $("lesson-new-look").value.trim();
   if (look) step.look_for = look;
   const draft = { title: $("lesson-new-lesson").value.trim() || "My lesson", steps: [...L.draft.steps, step] };
-  const doc = await X.api("POST", "/api/lessons/check", draft);  // checked as a file would be
+  const doc = await api("POST", "/api/lessons/check", draft);  // checked as a file would be
   keepDraft(doc);
   for (const id of ["lesson-new-title", "lesson-new-prompt", "lesson-new-look"]) $(id).value = "";
   msg(`Added step ${doc.steps.length}: ${title}${cfg.use_recording ? " (with the generated input: a recording is not part of a lesson)" : ""}.`, true);
@@ -271,7 +268,7 @@ async function start() {
   window.addEventListener("hyst:lesson", (ev) => { if (!ev.detail || !ev.detail.lesson) ended(); });
   // after every redraw: is this page still on the class step?
   new MutationObserver(markExploring).observe(document.body, { attributes: true, attributeFilter: ["data-ready"] });
-  const [list, now] = await Promise.all([X.api("GET", "/api/lessons"), X.api("GET", "/api/lesson")]);
+  const [list, now] = await Promise.all([api("GET", "/api/lessons"), api("GET", "/api/lesson")]);
   for (const x of list) addChoice(`name:${x.name}`, `${x.title} (${steps(x.steps)})`, { name: x.name });
   restoreDraft();
   $("lesson-pick").value = list.length ? `name:${list[0].name}` : "";
@@ -279,4 +276,4 @@ async function start() {
   show(now);
 }
 
-start().catch((e) => X.setMsg("model-msg", `Lesson mode did not start: ${e.message}`));
+start().catch((e) => setMsg("model-msg", `Lesson mode did not start: ${e.message}`));

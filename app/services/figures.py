@@ -555,7 +555,7 @@ def closed_loop_figure(res: Result) -> FigureJSON:
 def large_text(fig: FigureJSON, size: int = 16) -> FigureJSON:
     """``fig`` with every text at least ``size`` px (a projector): tick labels, axis titles,
     legend; the title 4 px larger. The web page does the same in
-    ``static/app.js::largeText``."""
+    ``static/plots.js::largeText``."""
     lay = json.loads(json.dumps(fig.layout))
     lay["font"] = {**lay.get("font", {}), "size": size}
     title = lay.get("title")
@@ -580,7 +580,7 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
     ``compact`` (a phone) also drops the legend and the monospace side notes (the
     digitized view's matrices, which the GUI prints as text). Returns the new figure and
     the number of bands (1: ``fig`` itself, unchanged). The web page does the same in
-    ``static/app.js::fitLayout``.
+    ``static/plots.js::fitLayout``.
     """
     lay = fig.layout
     xs = [k for k in lay if k.startswith("xaxis") and isinstance(lay[k], dict)]

@@ -1,0 +1,121 @@
+// Drawing a figure: quickplot.js while plotly.js loads or a control moves, then plotly;
+// the layout fitted to a phone's width and to projector mode.
+
+import { $, setMsg } from "/dom.js";
+import { quickPlot } from "/quickplot.js";
+import { state } from "/store.js";
+
+// plotly's toolbar without anything that talks to an outside service
+const PLOT_CONFIG = {
+  responsive: true, displaylogo: false, showLink: false, showSendToCloud: false,
+  showEditInChartStudio: false, plotlyServerURL: "", linkText: "",
+  modeBarButtonsToRemove: ["sendDataToCloud", "sendChartToCloud", "editInChartStudio"],
+  // SVG is written straight from the plot; PNG would load a blob: image, which the
+  // server's Content-Security-Policy (default-src 'self') blocks
+  toImageButtonOptions: { format: "svg", filename: "hysteresis-explorer" },
+};
+
+// On a phone the side-by-side panels of a figure are stacked: the axes of each column
+// (x axes sharing a horizontal domain) get a band of the height, top to bottom.
+function fitLayout(layout) {
+  const fig = $("figure");
+  const keys = Object.keys(layout);
+  const xs = keys.filter((k) => /^xaxis\d*$/.test(k));
+  const cols = [], colOf = {};
+  for (const k of xs) {
+    const d = JSON.stringify(layout[k].domain || [0, 1]);
+    if (!cols.includes(d)) cols.push(d);
+    colOf[k] = cols.indexOf(d);
+  }
+  const stack = fig.clientWidth < 600 && cols.length > 1;
+  fig.classList.toggle("tall", stack);
+  if (!stack) return layout;
+  const lay = structuredClone(layout);
+  const band = 1 / cols.length, gap = 0.25 * band;  // room for tick labels and a title
+  for (const k of xs) lay[k].domain = [0, 1];
+  for (const k of keys.filter((k) => /^yaxis\d*$/.test(k))) {
+    const anchor = String(lay[k].anchor || "x");
+    const c = colOf["xaxis" + (anchor.startsWith("x") ? anchor.slice(1) : "")] ?? 0;
+    const [a, b] = lay[k].domain || [0, 1];
+    const top = 1 - c * band, bottom = top - band + gap;
+    lay[k].domain = [bottom + a * (top - bottom), bottom + b * (top - bottom)];
+  }
+  lay.margin = { ...(lay.margin || {}), l: 50, r: 10 };
+  // side notes in monospace (the digitized view's matrices) have no room left
+  lay.annotations = (lay.annotations || []).filter((a) => !(a.font && a.font.family === "monospace"));
+  lay.showlegend = false;
+  if (lay.title) lay.title = { ...lay.title, font: { size: 11 } };
+  return lay;
+}
+
+// While a control is being moved, plotly's redraw (30-200 ms for these figures) is the
+// slow part of a step: the frames of a drag are drawn by quickplot.js over the plot, and
+// plotly redraws once the control has rested for SETTLE_MS (keeping zoom and toolbar).
+export const SETTLE_MS = 350;
+
+function zoomed(layout) {
+  const fl = $("figure")._fullLayout;
+  if (!fl) return layout;
+  const lay = { ...layout };
+  for (const k of Object.keys(lay)) {
+    if (/^[xy]axis\d*$/.test(k) && fl[k] && fl[k].autorange === false && Array.isArray(fl[k].range)) {
+      lay[k] = { ...lay[k], range: fl[k].range.slice() };
+    }
+  }
+  return lay;
+}
+
+// Projector mode: every text of the plot at least 16 px (app/services/figures.py's
+// large_text does the same for viser).
+function largeText(layout, size = 16) {
+  const lay = structuredClone(layout);
+  lay.font = { ...(lay.font || {}), size };
+  if (lay.title && typeof lay.title === "object") lay.title = { ...lay.title, font: { ...(lay.title.font || {}), size: size + 4 } };
+  lay.legend = { ...(lay.legend || {}), font: { size } };
+  for (const k of Object.keys(lay)) {
+    if (!/^[xy]axis\d*$/.test(k) || !lay[k]) continue;
+    lay[k] = { ...lay[k], tickfont: { ...(lay[k].tickfont || {}), size } };
+    if (lay[k].title && typeof lay[k].title === "object") {
+      lay[k].title = { ...lay[k].title, font: { ...(lay[k].title.font || {}), size: size + 2 } };
+    }
+  }
+  lay.annotations = (lay.annotations || []).map((a) => ({ ...a, font: { ...(a.font || {}), size: Math.max(size, (a.font && a.font.size) || 0) } }));
+  return lay;
+}
+
+export function setProjector(on) {
+  document.body.classList.toggle("projector", on);
+  $("projector").setAttribute("aria-pressed", String(on));
+  localStorage.setItem("hyst-projector", on ? "1" : "");
+  if (state.shown) render($("figure"), state.shown).catch((e) => setMsg("model-msg", e.message));
+}
+
+export async function render(el, f, { live = false } = {}) {
+  state.shown = f;
+  let layout = fitLayout(f.layout);
+  if (document.body.classList.contains("projector")) layout = largeText(layout);
+  const old = el.querySelector(":scope > .quick-plot");
+  if (!window.Plotly || live) {
+    const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
+    if (window.Plotly) {
+      svg.classList.add("overlay");
+      if (old) old.replaceWith(svg); else el.append(svg);
+      el.classList.add("live");  // plotly's own SVG is hidden (not repainted) meanwhile
+      clearTimeout(state.settle);
+      state.settle = setTimeout(() => {
+        render(el, state.shown).catch((e) => setMsg("model-msg", e.message));
+      }, SETTLE_MS);
+    } else {
+      el.replaceChildren(svg);
+    }
+    return;
+  }
+  clearTimeout(state.settle);
+  if (old && !old.classList.contains("overlay")) el.replaceChildren();
+  const t0 = performance.now();
+  await Plotly.react(el, f.data, layout, PLOT_CONFIG);
+  if (old && old.classList.contains("overlay")) old.remove();
+  el.classList.remove("live");
+  document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);
+  document.body.dataset.settled = document.body.dataset.ready || "";
+}

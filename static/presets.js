@@ -1,0 +1,51 @@
+// The preset dropdown and its description, kept in step with the session's model.
+
+import { $ } from "/dom.js";
+import { state } from "/store.js";
+
+export function showPresetDesc() {
+  const p = state.presets.find((x) => x.name === $("preset").value);
+  let text = p ? p.description : "";
+  if (p && state.presetChanged) text = `The session's model started from this preset and was changed since. ${text}`;
+  else if (!p && $("preset").value === CHANGED) text = "The session's model is not one of the presets (changed with the sliders, the JSON, a fit or a saved set); pick a preset to start over.";
+  $("preset-desc").textContent = text;
+}
+
+// The preset dropdown shows the session's preset (after a reload, a rejoin or a push):
+// the preset whose model is the session's; on a freshly opened page whose model was
+// changed, the preset this browser last loaded into the session, else "a changed model".
+const CHANGED = "";
+function canonical(v) {
+  if (Array.isArray(v)) return `[${v.map(canonical).join(",")}]`;
+  if (v && typeof v === "object") {
+    return `{${Object.keys(v).sort().map((k) => `${JSON.stringify(k)}:${canonical(v[k])}`).join(",")}}`;
+  }
+  return JSON.stringify(v);
+}
+
+export function syncPreset(model, { fresh = false } = {}) {
+  const key = `hyst-preset:${state.code}`;
+  const want = canonical(model);
+  const match = state.presets.find((p) => canonical(p.model) === want);
+  const sel = $("preset");
+  const placeholder = sel.querySelector(`option[value="${CHANGED}"]`);
+  let name = null;
+  state.presetChanged = false;
+  if (match) {
+    name = match.name;
+    localStorage.setItem(key, name);
+  } else if (fresh) {
+    const remembered = localStorage.getItem(key);
+    if (state.presets.some((p) => p.name === remembered)) {
+      name = remembered;
+      state.presetChanged = true;
+    } else {
+      name = CHANGED;
+    }
+  }
+  if (name === null) return;
+  if (name === CHANGED && !placeholder) sel.prepend(new Option("(a changed model)", CHANGED));
+  if (name !== CHANGED && placeholder) placeholder.remove();
+  sel.value = name;
+  showPresetDesc();
+}

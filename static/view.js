@@ -1,0 +1,73 @@
+// The figure on show: the view tabs, their help, and drawing the session's figure (or a
+// fit's / diagnosis's result) with its status line.
+
+import { api, plain } from "/client.js";
+import { showDigiControls } from "/digitized.js";
+import { $, setMsg } from "/dom.js";
+import { render, SETTLE_MS } from "/plots.js";
+import { state } from "/store.js";
+
+export const VIEW_HELP = {
+  loop: "Output against input: the area inside the loop is the hysteresis. Dashed: the initial loading curve.",
+  time: "Input u(t) on top, the model's output y(t) below (and the measurement when a recording is used).",
+  operators: "Each play operator's share of the output, stacked; together with p0·u they add up to y.",
+  loading: "The initial loading curve φ(r) and its slopes: all slopes > 0 means the model can be inverted.",
+  inverse: "Left: the inverse model's output. Middle: plant after inverse against the wanted output (ideal: the diagonal). Right: the tracking error.",
+  digitized: "Paper 000's digitized view: each operator is one binary digit; the state moves on a hypercube as the input rises and falls.",
+  "closed-loop": "Paper 001 Fig. 15–16: a PI controller around the hysteretic plant, without and with the inverse as feedforward.",
+  fit: "The fitted model against the uploaded recording, and the residual.",
+  diagnosis: "Before and after the diagnosis: the measured loop, the model without and with the effects found, and what each leaves unexplained over time.",
+};
+
+
+// Views drawn from a job's result instead of the session's config (fit, diagnosis).
+export const RESULT_VIEWS = ["fit", "diagnosis"];
+
+async function diagnosisFigure() {
+  if (!state.diagFigure) {
+    try {
+      state.diagFigure = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/figure`);
+    } catch (e) {
+      if (e.status !== 409 && e.status !== 404) throw e;
+    }
+  }
+  return state.diagFigure || { data: [], layout: { title: { text: "Upload a recording and run the diagnosis to see before and after" } } };
+}
+
+export async function draw(pending) {
+  const el = $("figure");
+  const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
+  const get = () => api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  let res = await (pending || get());
+  // a figure computed for the view on show when a slider moved; the user may have
+  // switched views since: then the view now on show is asked for
+  if (!res.figures[name]) res = await get();
+  let f = res.figures[name];
+  if (state.fig === "fit") {
+    f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
+  } else if (state.fig === "diagnosis") {
+    f = await diagnosisFigure();
+  }
+  const live = performance.now() - state.lastInput < SETTLE_MS;
+  await render(el, f, { live });
+  const parts = [`${res.model_type}`];
+  if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
+  if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
+  if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
+  if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
+  else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
+  $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
+  showDigiControls(res);
+  const notes = (f.layout && f.layout.meta && f.layout.meta.notes) || [];
+  $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
+  document.body.dataset.fig = state.fig;
+  document.body.dataset.ready = String(res.version);
+  if (!live) document.body.dataset.settled = String(res.version);
+}
+
+export function selectFigure(name) {
+  state.fig = name;
+  document.querySelectorAll("#tabs button").forEach((b) => b.classList.toggle("active", b.dataset.fig === name));
+  $("view-help").textContent = VIEW_HELP[name] || "";
+  draw().catch((e) => setMsg("model-msg", e.message));
+}
