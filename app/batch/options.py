@@ -66,8 +66,9 @@ class FitOptions(_Options):
     Parameters
     ----------
     model : str
-        ``--model``: ``auto`` (the base the diagnosis would choose) or one of
-        :func:`core.models.fit_kinds` (``pi`` by default here, ``auto`` from the command line).
+        ``--model``: ``auto`` (the default, as ``hyst fit``: the base the diagnosis would
+        choose, :func:`core.fitting.choice.choose_base`) or one of
+        :func:`core.models.fit_kinds`.
     n_operators : int or None
         ``-n``: play operators (default: chosen by cross-validation).
     constraint : str or None
@@ -82,7 +83,7 @@ class FitOptions(_Options):
     """
 
     kind: ClassVar[str] = "fit"
-    model: str = "pi"
+    model: str = "auto"
     n_operators: int | None = None
     constraint: str | None = None
     time: str | None = None

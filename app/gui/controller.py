@@ -601,7 +601,7 @@ class SessionView:
         ui.report_md.content = (
             f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
             f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
-        )
+        ) + "".join(f"\n\n**Warning:** {md_text(w)}" for w in report.get("warnings", ()))
 
     def _run_job(self, kind: str, task: Callable[[], Task], what: str,
                  cancelled: str) -> JobView | None:

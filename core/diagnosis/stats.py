@@ -8,6 +8,7 @@ from math import erf, sqrt
 import numpy as np
 
 from .._typing import Float1D
+from ..fitting.adequacy import noise_floor  # the one white-noise floor (hyst fit's too)
 
 __all__ = [
     "HeldOut",
@@ -144,10 +145,3 @@ def ljung_box(e: Float1D, h: int = 20) -> tuple[float, int]:
         return 0.0, h
     q = sum((float(e[k:] @ e[:-k]) / c0) ** 2 / (n - k) for k in range(1, h + 1))
     return float(n * (n + 2) * q), h
-
-
-def noise_floor(e: Float1D) -> float:
-    """White-noise level (output units, RMS) from first differences of the residual."""
-    if e.size < 3:
-        return 0.0
-    return float(np.std(np.diff(e)) / np.sqrt(2.0))

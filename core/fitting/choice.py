@@ -60,6 +60,9 @@ PREISACH_OVER_MAP = 0.3
 #: more than the Preisach did); measured on the diagnosis benchmark, see
 #: :mod:`core.diagnosis.bases`.
 BW_MIN_GAIN = 0.35
+#: Play operators of the PI candidates when the fit chooses its own (the diagnosis's
+#: baseline default, ``hyst diagnose --operators``).
+PI_OPERATORS = 25
 #: Contiguous blocks of the training rows for the sign decision with one recording.
 SIGN_BLOCKS = 3
 
@@ -132,7 +135,10 @@ def _folds(train: list[np.ndarray]) -> tuple[list[tuple[list[np.ndarray], list[n
 def _cv_mse(kind: str, constraint: str, recs: Sequence[Recording],
             folds: list[tuple[list[np.ndarray], list[np.ndarray]]],
             n_operators: int | None) -> float:
-    """MSE of ``kind`` predicting each fold's scored rows from a fit on its other rows."""
+    """MSE of ``kind`` predicting each fold's scored rows from a fit on its other rows (the
+    candidates' warnings are silenced: ``warnings.catch_warnings`` is process-wide, so
+    callers in threads hold :data:`core.fitting.entry._WARNINGS_LOCK`, as
+    :func:`~core.fitting.fit_recordings` does)."""
     from ..models import estimator_class
 
     cls = estimator_class(kind)
@@ -177,7 +183,8 @@ def choose_base(
         Training and held-out rows per recording (the fit's windows); without them the last
         20 % of every recording is held out, as the fit does. Only training rows are used.
     n_operators : int, optional
-        Operators of every candidate (``None``: each estimator's own choice).
+        Operators of every candidate (``None``: :data:`PI_OPERATORS` plays for the PI
+        candidates, the other kinds' own defaults).
     constraint : {"nonnegative", "slopes"}, optional
         Given: the weight-sign decision is not made (only the base family is chosen).
 
@@ -197,9 +204,10 @@ def choose_base(
     folds, how = _folds(trm)
     scores: dict[str, float] = {}
     sign = constraint or "nonnegative"
-    scores["pi"] = base = _cv_mse("pi", sign, recs, folds, n_operators)
+    n_pi = n_operators or PI_OPERATORS
+    scores["pi"] = base = _cv_mse("pi", sign, recs, folds, n_pi)
     if constraint is None:
-        free = _cv_mse("pi", "slopes", recs, folds, n_operators)
+        free = _cv_mse("pi", "slopes", recs, folds, n_pi)
         scores["pi (free-sign weights)"] = free
         if free <= (1.0 - FREE_SIGN_GAIN) * base:
             sign, base = "slopes", free

@@ -216,8 +216,9 @@ def fit_recordings(
     tests = _masks(recs, test, "test")
     choice = None
     if kind == AUTO:
-        choice = choose_base(recs, trains or None, tests or None, n_operators=n_operators,
-                             constraint=constraint)
+        with _WARNINGS_LOCK:  # its candidate fits silence their warnings (process-wide state)
+            choice = choose_base(recs, trains or None, tests or None, n_operators=n_operators,
+                                 constraint=constraint)
         kind, constraint = choice.kind, choice.constraint
     cls = estimator_class(kind)
     est = cls(n_operators=n_operators, constraint=constraint or "nonnegative",

@@ -45,7 +45,7 @@ def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     assert out.memory_note and "wipe-out" in out.memory_note  # the PI default: exclude
     # the batch worker: bytes in, the same document out
     got = run_recording("fit", "alpha.csv", src.read_bytes(),
-                        FitOptions(n_operators=6, train="0:1.6"))
+                        FitOptions(model="pi", n_operators=6, train="0:1.6"))
     assert got.ok, got.error
     _assert_same(json.loads(got.parameter_set), ref)
     assert got.samples == 4000 and "read alpha" in got.messages
