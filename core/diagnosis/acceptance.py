@@ -55,6 +55,18 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     (where the pair changes the prediction most) **and** on cross-fitted training blocks
     (rule 4: the held-out rows already chose the first stage). A stage gets credit only
     for what it adds, not for the refit of the other stage's parameters it came with.
+13. *Judged where it lives, harmless elsewhere* (:func:`harmless_elsewhere`): an effect
+    that declares the rows its signature lives in
+    (:attr:`~core.diagnosis.registry.DiagnosableEffect.signature`: a drift, from cycle to
+    cycle of a repeated input) meets rules 1-2 on the test rows among them (the excess over
+    the noise floor is theirs too), and must not make the other test rows worse by more
+    than ``max_harm_elsewhere`` (5 %) with a Diebold-Mariano z of ``-min_z`` or below.
+
+14. *Several events for a dynamic name* (:func:`enough_events`): with one recording, an
+    output dynamics stage (delay, lag, mode) is named only when it lowers the held-out MSE
+    by ``min_gain`` in at least ``min_events`` (3) of the windows from one input event
+    (step, reversal) to the next (:mod:`core.diagnosis.events`): a signature seen after one
+    step, or in the first loading from rest only, is suggestive, not a name.
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
@@ -70,8 +82,9 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "clearly_better", "decide", "earns_place",
-           "generalises", "pair_beats_single", "second_stage_named", "size_ok",
-           "split_supports_transport", "trend_follows_steps", "yields_to_lookalike"]
+           "enough_events", "generalises", "harmless_elsewhere", "pair_beats_single",
+           "second_stage_named", "size_ok", "split_supports_transport", "trend_follows_steps",
+           "yields_to_lookalike"]
 
 
 @dataclass(frozen=True)
@@ -112,6 +125,13 @@ class AcceptRule:
         Smallest relative excess of held-out MSE a look-alike output stage must leave, besides
         a significant difference, to be ruled out against the named one
         (:func:`clearly_better`).
+    max_harm_elsewhere : float
+        Largest relative increase of the held-out MSE outside the rows where an effect's
+        signature lives that it may cause while judged on those rows (:func:`harmless_elsewhere`).
+    min_events : int
+        With one recording, fewest input events (steps, reversals) after which an output
+        dynamics stage must lower the held-out MSE by ``min_gain`` to be named
+        (:func:`enough_events`).
     """
 
     min_gain: float = 0.05
@@ -126,6 +146,8 @@ class AcceptRule:
     max_loro_loss: float = 0.05
     lacks_signature_margin: float = 0.10
     clear_margin: float = 0.10
+    max_harm_elsewhere: float = 0.05
+    min_events: int = 3
 
     def as_dict(self) -> dict[str, float]:
         """The thresholds by name."""
@@ -155,6 +177,23 @@ class Decision:
     significant: bool
     stable: bool
     reasons: tuple[str, ...]
+
+
+def enough_events(event_gains: list[float], rule: AcceptRule = RULE) -> bool:
+    """Acceptance rule 14: at least ``min_events`` of the per-event relative MSE reductions
+    ``event_gains`` (one per event window with enough test rows) reach ``min_gain``."""
+    return sum(1 for g in event_gains if np.isfinite(g) and g >= rule.min_gain) >= (
+        rule.min_events)
+
+
+def harmless_elsewhere(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
+    """Acceptance rule 13: the comparison ``h`` on the test rows outside the ones an effect
+    was judged on (``None``: there are none) shows no harm: the candidate raises their MSE
+    by at most ``max_harm_elsewhere`` or the increase is not significant (DM z above
+    ``-min_z``)."""
+    if h is None or not np.isfinite(h.gain):
+        return True
+    return h.gain >= -rule.max_harm_elsewhere or not (np.isfinite(h.z) and h.z <= -rule.min_z)
 
 
 def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE) -> bool:

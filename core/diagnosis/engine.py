@@ -57,7 +57,9 @@ from .acceptance import (
     clearly_better,
     decide,
     earns_place,
+    enough_events,
     generalises,
+    harmless_elsewhere,
     pair_beats_single,
     second_stage_named,
     split_supports_transport,
@@ -87,6 +89,7 @@ from .crossfitting import (
     screen_gain,
 )
 from .data import as_records, crossfit_folds, split_masks
+from .events import event_windows
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
@@ -340,6 +343,10 @@ class _Candidate:
     verdict: str | None = None
     #: judged on top of this other candidate (acceptance rule 6), else None
     given: str | None = None
+    #: judged on the rows its signature lives in (these words say which), else None
+    where: str | None = None
+    #: the comparison on the other test rows when judged where it lives (rule 13)
+    elsewhere: HeldOut | None = None
 
     @property
     def family(self) -> str:
@@ -681,10 +688,42 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
         run.step(rnd, frac, f"predicting each recording from the others ({name})")
         bt = between_recordings(ctx, name, cur)
         return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
+    local = _on_its_signature(ctx, cur, c)
+    if local is not None:
+        return local
     h = heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit))
     if spec.dynamics is not None:
         h = _where_it_lives(ctx, cur, c.fit, h)
     return replace(c, heldout=h)
+
+
+#: Fewest test rows among the rows an effect's signature lives in for judging it there.
+MIN_SIGNATURE_ROWS = 200
+
+
+def _on_its_signature(ctx: FitContext, cur: Fit, c: _Candidate) -> _Candidate | None:
+    """Candidate ``c`` judged on the test rows its signature lives in (the effect's
+    :attr:`~core.diagnosis.registry.DiagnosableEffect.signature`), with the comparison on
+    the other test rows kept for acceptance rule 13; ``None`` when the effect declares no
+    such rows or too few of them are test rows (:data:`MIN_SIGNATURE_ROWS`)."""
+    spec = EFFECTS[c.name]
+    sig = spec.signature(ctx) if spec.signature is not None else None
+    if sig is None:
+        return None
+    masks, words, centred = sig
+    where = [m & t for m, t in zip(masks, ctx.test, strict=True)]
+    if sum(int(w.sum()) for w in where) < MIN_SIGNATURE_ROWS:
+        return None
+    rest = [~m & t for m, t in zip(masks, ctx.test, strict=True)]
+
+    def on_signature(f: Fit) -> list[np.ndarray]:
+        res = ctx.test_res(f, where)
+        return [e - e.mean() if centred and e.size else e for e in res]
+
+    h = heldout_comparison(on_signature(cur), on_signature(c.fit))
+    other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
+             if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
+    return replace(c, heldout=h, where=f"test rows {words}", elsewhere=other)
 
 
 #: Share of the test rows, those where a delay / lag / resonance changes the prediction most,
@@ -730,8 +769,8 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
     ctx = run.ctx
     n_tests = len(cands) if n_tests is None else n_tests
     mse_cur = pooled_mse(ctx.test_res(cur))
-    excess = {n: (c.heldout.mse_before if ctx.strict or c.between else mse_cur) - run.noise**2
-              for n, c in cands.items()}
+    excess = {n: (c.heldout.mse_before if ctx.strict or c.between or c.where else mse_cur)
+              - run.noise**2 for n, c in cands.items()}
     cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n]))
              for n, c in cands.items()}
     size_ok = {n: c.size_ok for n, c in cands.items()}
@@ -755,7 +794,15 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
               c.between["parameter_cv"] if c.between else {})
         dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
-        if (dec.passes and EFFECTS[name].transport and run.rate_testable
+        if dec.passes and not harmless_elsewhere(c.elsewhere):
+            e = c.elsewhere
+            dec = replace(dec, passes=False, reasons=(
+                f"judged {c.where}, it makes the other test rows worse (MSE "
+                f"{100 * e.gain:+.1f} %, z {e.z:.2f})",))
+            decision = "contradicted"
+        elif dec.passes and not _seen_in_events(ctx, cur, c):
+            dec = replace(dec, passes=False, reasons=(_events_reason(ctx, cur, c),))
+        elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
             decision = "contradicted"
@@ -771,6 +818,40 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
         if dec.passes:
             passing.append(name)
     return cands, rows, passing
+
+
+#: Fewest test rows in an event window for its MSE reduction to count (acceptance rule 14).
+MIN_EVENT_ROWS = 20
+
+
+def _event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
+    """Relative held-out MSE reduction of ``new`` over ``cur`` in each event window (from one
+    input step or reversal to the next) of the one recording, on its test rows."""
+    rec, m = ctx.records[0], ctx.test[0]
+    e0, e1 = rec.y - cur.pred[0], rec.y - new.pred[0]
+    out = []
+    for a, b in event_windows(rec):
+        w = m[a:b]
+        if int(w.sum()) < MIN_EVENT_ROWS:
+            continue
+        before = float(np.mean(e0[a:b][w] ** 2))
+        out.append(1.0 - float(np.mean(e1[a:b][w] ** 2)) / before if before > 0 else 0.0)
+    return out
+
+
+def _seen_in_events(ctx: FitContext, cur: Fit, c: _Candidate) -> bool:
+    """Acceptance rule 14 for candidate ``c`` (only output dynamics with one recording)."""
+    if EFFECTS[c.name].dynamics is None or len(ctx.records) != 1:
+        return True
+    return enough_events(_event_gains(ctx, cur, c.fit))
+
+
+def _events_reason(ctx: FitContext, cur: Fit, c: _Candidate) -> str:
+    g = _event_gains(ctx, cur, c.fit)
+    seen = sum(1 for x in g if x >= ACCEPT_RULE["min_gain"])
+    return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
+            f"recording: a dynamic stage is named when at least {ACCEPT_RULE['min_events']} "
+            "independent events show it (more steps or cycles would decide)")
 
 
 _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
@@ -880,12 +961,12 @@ def _row(ctx: FitContext, rnd: int, c: _Candidate, passes: bool, decision: str |
     """The round row of candidate ``c`` (cross-fitting and between-recordings details)."""
     h, cf, bt = c.heldout, c.crossfit, c.between
     extra: dict[str, Any] = {}
-    label = _evidence_label(ctx, c.name, cf, bt)
+    label = c.where or _evidence_label(ctx, c.name, cf, bt)
     if cf is not None:
         extra.update(fold_mse_reductions=cf["fold_gains"], parameter_cv=cf["parameter_cv"])
         if not ctx.strict:  # the test rows pooled with the cross-fitted blocks
             p = cf["pooled"]
-            label = f"test rows + {cf['folds']} cross-fitted blocks"
+            label = f"{c.where or 'test rows'} + {cf['folds']} cross-fitted blocks"
             extra.update(dm_z_pooled=p.z, signed_rank_p_pooled=p.sign_p,
                          mse_reduction_pooled=p.gain)
     if bt is not None:

@@ -15,7 +15,8 @@ import numpy as np
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 
-__all__ = ["CLOSED_TOL", "STEADY_TOL", "closed_loop_history", "steady_state_history"]
+__all__ = ["CLOSED_TOL", "CYCLE_TOL", "MIN_CYCLES", "STEADY_TOL", "closed_loop_history",
+           "repeated_cycles", "steady_state_history"]
 
 #: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
 #: difference of the later periods, within which the first period counts as steady state.
@@ -93,3 +94,53 @@ def closed_loop_history(rec: Recording) -> tuple[float, ...]:
         return ()
     hi, lo = float(seg[i_hi]), float(seg[i_lo])
     return (hi, lo) if i_hi < i_lo else (lo, hi)
+
+
+#: Fewest identical input cycles that make a slow trend testable inside one recording.
+MIN_CYCLES = 4
+#: Tolerance (fraction of the input range, RMS) within which one cycle repeats the next.
+CYCLE_TOL = 0.02
+
+
+def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """The longest run of whole input cycles that repeat one another, as sample ranges.
+
+    Under a periodic input a rate-independent model repeats its output from one cycle to the
+    next once the first cycle has set its memory, so a trend from cycle to cycle (a drift,
+    the slow tail of creep) is testable inside one recording. The period is the spacing of
+    every second large reversal (> 10 % of the input range); a cycle belongs to the run when
+    its input is within :data:`CYCLE_TOL` of the input range (RMS) of the cycle before it.
+
+    Parameters
+    ----------
+    u : ndarray, shape (n,)
+        Input samples.
+
+    Returns
+    -------
+    tuple of (int, int)
+        ``(start, stop)`` sample ranges of consecutive cycles (each one period long), at
+        least :data:`MIN_CYCLES` of them, or empty when the input does not repeat.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    span = float(np.ptp(u)) if u.size else 0.0
+    if span <= 0:
+        return ()
+    rv = reversal_indices(u, 0.1 * span)
+    rv = rv[(rv > 0) & (rv < u.size - 1)]
+    if rv.size < 2 * MIN_CYCLES:
+        return ()
+    period = int(np.median(rv[2:] - rv[:-2]))
+    if period < 4:
+        return ()
+    best: list[tuple[int, int]] = []
+    run: list[tuple[int, int]] = []
+    for a in range(int(rv[0]), u.size - period + 1, period):
+        cyc = (a, a + period)
+        if run and np.sqrt(np.mean((u[a : a + period] - u[a - period : a]) ** 2)) > (
+                CYCLE_TOL * span):
+            run = []
+        run.append(cyc)
+        if len(run) > len(best):
+            best = list(run)
+    return tuple(best) if len(best) >= MIN_CYCLES else ()

@@ -143,6 +143,15 @@ class DiagnosableEffect:
     stage_order : int
         Place of its stage in the saved model's chain (after the hysteresis); effects of
         one ``stage_order`` exclude each other (one output dynamics stage).
+    signature : callable or None
+        ``signature(ctx) -> (masks, words, centred) or None``: the rows its signature lives
+        in, one boolean mask per recording (cycles after the first of a repeated input for a
+        drift), with words saying which, and whether only the change within those rows is
+        its signature, not their level (``centred``: each recording's residual there is
+        compared about its mean); its effect size and significance are then judged
+        on the test rows among them, and it must not make the other test rows worse
+        (:func:`core.diagnosis.engine._evidence`). ``None`` (or a ``None`` result): every
+        test row.
     systematic : callable or None
         ``systematic(ctx, cur, fit) -> ({parameter: sigma}, words)``: the uncertainty the
         effect's own discretisation leaves (a creep bank's placement of its time constants),
@@ -172,6 +181,7 @@ class DiagnosableEffect:
     rate_dependent_hysteresis: bool = False
     linear: bool = False
     stage_order: int = 0
+    signature: Callable[[Any], tuple[list[Any], str, bool] | None] | None = None
     systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
 
 

@@ -1,0 +1,80 @@
+"""Input events and acceptance rule 14 (issue 30): with one recording, an output dynamics
+stage is named only when its signature shows after several independent input events (steps,
+reversals), not after one step or in the first loading from rest only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.diagnosis import diagnose, engine
+from core.diagnosis.acceptance import RULE, enough_events
+from core.diagnosis.events import event_starts, event_windows
+from core.effects import Lag
+from core.pi import PIModel
+from core.recordings import Recording
+
+FS = 1000.0
+PLANT = PIModel(0.5, [10.0 * i for i in range(1, 9)], [0.12 * np.exp(-0.02 * 10 * i)
+                                                       for i in range(1, 9)])
+
+
+def test_events_are_the_steps_and_the_reversals() -> None:
+    t = np.arange(int(8 * FS)) / FS
+    u = np.where(t < 1.0, 0.0, -80.0 * np.cos(2 * np.pi * (t - 1.0)))
+    ev = event_starts(u)
+    # the step (first sample after it) and every half period of the 1 Hz cosine after it
+    np.testing.assert_array_equal(ev, np.arange(1000, 8000, 500))
+    stairs = np.repeat(np.arange(6) * 30.0, 2000)
+    np.testing.assert_array_equal(event_starts(stairs), [2000, 4000, 6000, 8000, 10000])
+    ramped = np.convolve(stairs, np.ones(5) / 5)[: stairs.size]  # steps ramped over 5 samples
+    np.testing.assert_array_equal(event_starts(ramped), [2000, 4000, 6000, 8000, 10000])
+    assert event_starts(np.zeros(100)).size == 0
+    rec = Recording(t=np.arange(stairs.size) / FS, u=stairs, y=stairs, name="stairs")
+    assert event_windows(rec) == [(2000, 4000), (4000, 6000), (6000, 8000), (8000, 10000),
+                                  (10000, 12000)]
+
+
+def test_enough_events_counts_events_at_the_effect_size() -> None:
+    assert RULE.min_events == 3
+    assert enough_events([0.2, 0.06, 0.05, -0.1])
+    assert not enough_events([0.9, 0.04, 0.01, 0.0])  # one event only
+    assert not enough_events([0.3, 0.3])
+    assert not enough_events([float("nan")] * 5)
+
+
+def _lagged_sine(seed: int) -> Recording:
+    t = np.arange(int(6 * FS)) / FS
+    u = 80.0 * np.sin(2 * np.pi * t)
+    y = (PLANT >> Lag(0.004))(u, dt=1 / FS)
+    yr = float(np.ptp(y))
+    y = y + 0.001 * yr * np.random.default_rng(seed).standard_normal(y.size)
+    return Recording(t=t, u=u, y=y, name="lagged-sine")
+
+
+def test_a_lag_seen_after_every_reversal_is_named() -> None:
+    res = diagnose(_lagged_sine(3), n_operators=10, effects=["lag"], auto_resolution=False)
+    assert [e.name for e in res.effects] == ["lag"]
+
+
+def test_the_same_lag_seen_after_one_event_only_is_not_named(monkeypatch) -> None:
+    """Rule 14 wired into the engine: the same candidate, its gains replaced by one event's
+    (as a signature in the first loading only would give), is refused with the reason and
+    left suggestive."""
+    monkeypatch.setattr(engine, "_event_gains", lambda ctx, cur, new: [0.6, 0.01, 0.0, 0.02])
+    res = diagnose(_lagged_sine(3), n_operators=10, effects=["lag"], auto_resolution=False)
+    assert res.effects == []
+    row = next(r for r in res.rounds if r.effect == "lag")
+    assert "seen after only 1 of 4 input events" in row.reasons[0]
+    assert [s["effect"] for s in res.suggestive] == ["lag"]
+
+
+@pytest.mark.parametrize("seed", [3])
+def test_event_gains_of_a_real_lag_are_positive_after_most_events(seed: int) -> None:
+    res = diagnose(_lagged_sine(seed), n_operators=10, effects=["lag"], auto_resolution=False)
+    from core.diagnosis.context import FitContext
+
+    ctx = FitContext(res.records, res.train, res.test)
+    g = engine._event_gains(ctx, res.baseline, res.final)
+    assert len(g) >= 8
+    assert sum(x >= RULE.min_gain for x in g) >= 0.75 * len(g)
