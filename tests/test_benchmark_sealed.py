@@ -227,3 +227,16 @@ def test_measured_score_is_relative_to_the_null() -> None:
     nul = score_rows([_row("sealed/opensees/os-steel02/null/7200", ["saturation", "drift"],
                            cls="non-PI base", base="os-steel02")])[0]
     assert nul["wrong"] == ["drift"]
+
+
+def test_a_measured_case_runs_through_the_diagnosis_and_the_table() -> None:
+    from benchmarks.diagnosis.sets import SETS, run_case, summarise_set
+
+    assert set(SETS["all"]()) == set(DEV_CASES) | set(SEALED_CASES)
+    rows = [run_case("measured/friction-36lb/null"),
+            run_case("measured/friction-36lb/delay/third")]  # one 7 k-sample recording
+    assert rows[1]["hidden"]["delay"]["samples"] == 5
+    assert rows[1]["n_samples"] == 7169
+    table = summarise_set(rows)
+    assert "| sealed | measured base | 1 |" in table
+    assert "measured/friction-36lb/delay/third | delay |" in table

@@ -14,7 +14,7 @@ Usage::
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
         --families [quick|all] --json families.json        # non-PI truth plants
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/diagnosis/run_benchmark.py \
-        --set dev|sealed|measured --workers 1 --json out.json \
+        --set dev|sealed|measured|all --workers 1 --json out.json \
         [--compare benchmarks/diagnosis/results/sealed-dev-*.json]  # issue 30 (sets.py)
 
 Scoring (notes §7.2, §7.6):
@@ -383,10 +383,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the issue-8 classes (comma-separated names of "
                          "benchmarks/diagnosis/classes.py CLASSES, or 'all'); with --seeds "
                          "and --noise")
-    ap.add_argument("--set", choices=("dev", "sealed", "measured"),
+    ap.add_argument("--set", choices=("dev", "sealed", "measured", "all"),
                     help="issue 30: the development subset, the sealed set (sealed.py: other "
-                         "seeds, ranges, excitations, OpenSees plants, measured bases) or its "
-                         "measured-base class alone (sets.py); with --cases, --json")
+                         "seeds, ranges, excitations, OpenSees plants, measured bases), its "
+                         "measured-base class alone, or dev and sealed in one run, their "
+                         "class tables side by side (sets.py); with --cases, --json")
     ap.add_argument("--compare", type=Path, nargs="+", metavar="JSON",
                     help="with --set or --rescore: earlier --set runs whose class tables are "
                          "printed beside this one's (same format)")
