@@ -81,8 +81,9 @@ class Misfit:
         """Whether the RMSE is above :data:`MISFIT_RATIO` floors."""
         return self.ratio > MISFIT_RATIO
 
-    def text(self, pct: float | None = None) -> str:
-        """The warning in words (``pct``: the RMSE in % of the output range)."""
+    def text(self, pct: float | None = None, advice: str = "") -> str:
+        """The warning in words (``pct``: the RMSE in % of the output range; ``advice``: what
+        to try, default another fit kind or the diagnosis)."""
         share = f" ({pct:.3g} % of range)" if pct is not None and np.isfinite(pct) else ""
         rec = f" of {self.recording}" if self.recording else ""
         return (
@@ -91,9 +92,9 @@ class Misfit:
             f"Largest residuals: at inputs {self.input_band[0]:.4g} to "
             f"{self.input_band[1]:.4g} (RMS {self.input_band_rmse:.3g}), on the "
             f"{self.branch} (RMS {self.branch_rmse:.3g}), and in t = {self.window[0]:.4g} to "
-            f"{self.window[1]:.4g} s{rec} (RMS {self.window_rmse:.3g}). Another fit kind "
-            "(--model auto chooses one the way the diagnosis does) or hyst diagnose may "
-            "explain it"
+            f"{self.window[1]:.4g} s{rec} (RMS {self.window_rmse:.3g}). "
+            + (advice or "Another fit kind (--model auto chooses one the way the diagnosis "
+                         "does) or hyst diagnose may explain it")
         )
 
 

@@ -102,6 +102,19 @@ class BaseChoice:
                 f"running {self.orientation.direction}; cross-validated MSE on the training "
                 f"rows ({self.folds}): {tried}")
 
+    @property
+    def advice(self) -> str:
+        """What to try when the chosen base misses the data."""
+        if "preisach" in self.cv_mse:  # other bases were cross-validated and not chosen
+            return ("No other base predicted the recordings clearly better; hyst diagnose "
+                    "may name the missing effect")
+        # (a Preisach model has counter-clockwise loops only)
+        others = ["bouc-wen"] + ([] if self.orientation.clockwise else ["preisach"])
+        return ("With one recording only the PI family is chosen (as hyst diagnose does: "
+                "other bases cannot be cross-validated on it); fit --model "
+                f"{' or --model '.join(others)} to compare their held-out errors, or fit "
+                "several recordings")
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"kind": self.kind, "constraint": self.constraint,

@@ -245,7 +245,7 @@ def fit_recordings(
         extra["rmse_over_noise_floor"] = miss.ratio
         if miss.exceeds:
             pct = est.report_.test.rmse_pct if est.report_.test is not None else None
-            msgs = (*msgs, miss.text(pct))
+            msgs = (*msgs, miss.text(pct, "" if choice is None else choice.advice))
     est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
     mem = est.report_.extra.get("initial_memory")
     report_doc = est.report_.to_dict()

@@ -114,6 +114,18 @@ def test_a_misfit_kind_warns_where_and_a_good_fit_does_not() -> None:
     assert not any("white-noise floor" in w for w in good.report.warnings)
 
 
+def test_auto_on_one_recording_keeps_the_pi_family_and_says_what_to_try() -> None:
+    """A classical Bouc-Wen loop is not a Masing (stop-operator) loop: with one recording the
+    choice keeps the PI family, as the diagnosis does, and its misfit warning names the
+    Bouc-Wen kind, which fits it to the noise."""
+    t, u = _strain()
+    rec, sigma = _noisy("bw", _bouc_wen(u), t, u, 5)
+    out = fit_recordings([rec], "auto")
+    assert out.kind == "stop-pi" and out.report.test.rmse > 3 * sigma
+    (msg,) = [w for w in out.warnings if "white-noise floor" in w]
+    assert "fit --model bouc-wen" in msg and "preisach" not in msg
+
+
 def test_choice_margins_are_the_diagnosis_margins() -> None:
     from core.diagnosis import bases
 
