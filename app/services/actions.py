@@ -34,6 +34,7 @@ from .diagnosis import diagnosis_html
 from .events import HUB
 from .exports import export_session, fmi_version, parameter_set_model
 from .fitting import fit_session
+from .memory import give_back
 from .recordings import Upload, csv_preview, read_upload
 from .sessions import Session, SessionRegistry
 from .settings import Settings
@@ -242,8 +243,11 @@ def upload(session: Session, content: str | bytes, settings: Settings,
     core.csvio.CSVError
         Naming the line and the column.
     """
-    up = read_upload(content, max_samples=settings.max_samples, **mapping)
-    session.set_recording(up.recording)
+    try:
+        up = read_upload(content, max_samples=settings.max_samples, **mapping)
+        session.set_recording(up.recording)  # stored: the session no longer holds it
+    finally:
+        give_back()  # the parse's freed memory goes back to the system
     return up
 
 

@@ -88,7 +88,15 @@ class Session:
     code = property(lambda self: self._state.code, doc="The session code.")
     config = property(lambda self: self._state.config, doc="The current config.")
     version = property(lambda self: self._state.version, doc="Bumped on every change.")
-    recording = property(lambda self: self._state.recording, doc="The uploaded recording.")
+    @property
+    def recording(self) -> Recording | None:
+        """The uploaded recording: once stored it is read back from the store's cache of
+        recently used recordings (or the file), not held by the session."""
+        st = self._state
+        if st.recording is not None or not st.recording_stored or self._store is None:
+            return st.recording
+        return self._store.recording(st.code)
+
     fitted = property(lambda self: self._state.fitted, doc="The fitted model document.")
     fit_report = property(lambda self: self._state.fit_report, doc="The fit report.")
     diagnosis = property(lambda self: self._state.diagnosis, doc="The diagnosis report.")
@@ -125,7 +133,7 @@ class Session:
             self.last_access = time.monotonic()
             st = self._state
             if st.checked is None or st.checked.limits != limits:
-                st = self._state = replace(st, checked=check(st.config, st.recording))
+                st = self._state = replace(st, checked=check(st.config, self.recording))
             return st.config, st.version, st.checked.model
 
     # ------------------------------------------------------------------ transitions
@@ -141,6 +149,8 @@ class Session:
                          version=self._state.version + (1 if notify else 0))
             if self._store is not None:
                 self._store.save(st, recording=recording, results=results)
+                if st.recording is not None:  # on disk now: the store's cache holds it
+                    st = replace(st, recording=None, recording_stored=True)
             self._state = st
             self.last_access = time.monotonic()
         if notify:
@@ -168,7 +178,8 @@ class Session:
 
     def set_recording(self, recording: Recording) -> int:
         """Give the session ``recording``; its fit and diagnosis are dropped."""
-        return self._commit({"recording": recording, "fitted": None, "fit_report": None,
+        return self._commit({"recording": recording, "recording_stored": False,
+                             "fitted": None, "fit_report": None,
                              "diagnosis": None, "diagnosed": None,
                              "diagnosis_result": None}, recording=True, results=True)
 
@@ -219,7 +230,7 @@ class Session:
         with self.lock:
             self.last_access = time.monotonic()
             st = self._state
-        rec = st.recording
+        rec = self.recording
         return {
             "code": st.code,
             "version": st.version,

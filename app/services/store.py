@@ -46,6 +46,7 @@ import os
 import sqlite3
 import threading
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -130,7 +131,11 @@ class SessionState:
     version : int
         Bumped on every change; render workers skip stale versions.
     recording : Recording or None
-        Uploaded recording.
+        Uploaded recording, while it is not yet stored; once stored, a live session's state
+        holds ``None`` here and ``recording_stored`` (the arrays stay on disk and in the
+        store's small cache, :meth:`SessionStore.recording`).
+    recording_stored : bool
+        The session has a recording in the store (not held by this state).
     fitted, fit_report, diagnosis : dict or None
         Fitted model document, fit report and diagnosis report.
     diagnosed : dict or None
@@ -156,6 +161,7 @@ class SessionState:
     config: Config = field(default_factory=Config)
     version: int = 0
     recording: Recording | None = None
+    recording_stored: bool = False
     fitted: dict[str, Any] | None = None
     fit_report: dict[str, Any] | None = None
     diagnosis: dict[str, Any] | None = None
@@ -198,14 +204,19 @@ class SessionStore:
         Sessions used within this many seconds are never evicted.
     quotas : Quotas, optional
         The shares of one client and one session (:class:`Quotas` defaults).
+    recording_cache_bytes : int
+        Bytes of recordings kept in memory (the most recently used ones); the others are
+        read from the file when needed (:meth:`recording`).
     """
 
     def __init__(self, path: str | Path, max_bytes: int = 1_000_000_000,
-                 protect_s: float = PROTECT_S, quotas: Quotas | None = None) -> None:
+                 protect_s: float = PROTECT_S, quotas: Quotas | None = None,
+                 recording_cache_bytes: int = 64_000_000) -> None:
         self.path = str(path)
         self.max_bytes = int(max_bytes)
         self.protect_s = float(protect_s)
         self.quotas = quotas or Quotas()
+        self._cache = _RecordingCache(recording_cache_bytes)
         if self.path != ":memory:":
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         self._lock = threading.Lock()
@@ -268,7 +279,7 @@ class SessionStore:
         row_text = [cfg, dump_json(state.fitted), dump_json(state.fit_report),
                     dump_json(state.diagnosis)]
         blobs: dict[str, bytes | None] = {}
-        if recording:
+        if recording and (state.recording is not None or not state.recording_stored):
             blobs["recording"] = (None if state.recording is None
                                   else recording_to_blob(state.recording))
         if results:
@@ -315,6 +326,8 @@ class SessionStore:
             except BaseException:
                 db.execute("ROLLBACK")
                 raise
+            if "recording" in blobs:
+                self._cache.put(state.code, state.recording)
         if any(v is not None for v in blobs.values()):
             self.evict()  # a recording or a diagnosis may have pushed the store over budget
 
@@ -328,6 +341,36 @@ class SessionStore:
         """Remove ``code`` and its blobs."""
         with self._lock:
             self._db.execute("DELETE FROM sessions WHERE code=?", (code,))
+            self._cache.put(code, None)
+
+    def recording(self, code: str) -> Recording | None:
+        """The stored recording of ``code`` (from the cache of recently used ones, else read
+        from the file and cached), or ``None``.
+
+        Raises
+        ------
+        DamagedSessionError
+            Its stored recording no longer decodes: the session has been reset.
+        """
+        rec = self._cache.get(code)
+        if rec is not None:
+            return rec
+        with self._lock:
+            row = self._db.execute("SELECT data FROM blobs WHERE code=? AND kind='recording'",
+                                   (code,)).fetchone()
+        if row is None:
+            return None
+        try:
+            rec = decode_recording(row[0])
+        except DamagedPartError as exc:
+            meta = self._db.execute("SELECT created, teacher, version, owner FROM sessions "
+                                    "WHERE code=?", (code,)).fetchone()
+            if meta is None:
+                return None
+            self._reset(code, created=meta[0], teacher=bool(meta[1]), version=meta[2],
+                        owner=meta[3], damaged=[exc])
+        self._cache.put(code, rec)
+        return rec
 
     def put_class_state(self, key: str, value: str | None) -> None:
         """Store (or, with ``None``, delete) a piece of the class's state that is no
@@ -367,9 +410,15 @@ class SessionStore:
             return None
         parts: dict[str, Any] = {}
         damaged: list[DamagedPartError] = []
+        def recording() -> dict[str, Any]:  # checked now, then kept on disk (and cached)
+            rec = decode_recording(blobs.get("recording"))
+            if rec is not None:
+                self._cache.put(code, rec)
+            return {"recording_stored": rec is not None}
+
         for decode in (
             lambda: {"config": decode_config(row[5])},
-            lambda: {"recording": decode_recording(blobs.get("recording"))},
+            recording,
             lambda: dict(zip(("fitted", "fit_report"), decode_fit(row[6], row[7]),
                              strict=True)),
             lambda: dict(zip(("diagnosis", "diagnosed"),
@@ -553,6 +602,44 @@ class SessionStore:
             self._checkpointer.join(timeout=30)
         with self._lock:
             self._db.close()
+
+
+class _RecordingCache:
+    """The most recently used recordings, up to ``max_bytes`` of arrays (thread-safe)."""
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = int(max_bytes)
+        self._lock = threading.Lock()
+        self._items: OrderedDict[str, tuple[Recording, int]] = OrderedDict()
+        self._bytes = 0
+
+    @staticmethod
+    def _size(rec: Recording) -> int:
+        arrays = [rec.t, rec.u, rec.y, getattr(rec, "lines", None),
+                  *(getattr(rec, "extra", None) or {}).values()]
+        return sum(int(getattr(a, "nbytes", 0)) for a in arrays if a is not None)
+
+    def get(self, code: str) -> Recording | None:
+        with self._lock:
+            item = self._items.get(code)
+            if item is None:
+                return None
+            self._items.move_to_end(code)
+            return item[0]
+
+    def put(self, code: str, rec: Recording | None) -> None:
+        with self._lock:
+            old = self._items.pop(code, None)
+            if old is not None:
+                self._bytes -= old[1]
+            if rec is None:
+                return
+            n = self._size(rec)
+            self._items[code] = (rec, n)
+            self._bytes += n
+            while self._bytes > self.max_bytes and len(self._items) > 1:
+                _, (_, m) = self._items.popitem(last=False)
+                self._bytes -= m
 
 
 def with_use(state: SessionState, when: float | None = None) -> SessionState:
