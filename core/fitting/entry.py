@@ -236,6 +236,10 @@ def fit_recordings(
         est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
     msgs = tuple(str(w.message) for w in caught)
     extra = dict(est.report_.extra)
+    feats = getattr(est, "features_", None)  # a stop-operator branch, in the data's units
+    if feats is not None:
+        extra["branch"] = feats.text(recs[0].units.get("input") or "input units",
+                                     recs[0].units.get("output") or "output units")
     if choice is not None:
         extra["base_choice"] = choice.text
         extra["base_choice_scores"] = choice.to_dict()

@@ -60,6 +60,9 @@ class BranchFeatures:
         Input travel after a reversal where that dead band starts (input units).
     dead_band_level : float
         Share (0..1) of the branch's rise reached before the dead band.
+    concave : bool
+        Every element weight is non-negative: the branch's slope only falls, so no dead band
+        can show (a fit with ``constraint="slopes"`` lets it flatten and rise again).
     """
 
     plateau: float
@@ -67,6 +70,7 @@ class BranchFeatures:
     dead_band: float
     dead_band_start: float
     dead_band_level: float
+    concave: bool = False
 
     def text(self, input_unit: str = "input units", output_unit: str = "output units") -> str:
         """The features in words."""
@@ -76,6 +80,10 @@ class BranchFeatures:
             out += (f"; dead band (backlash) {self.dead_band:.4g} {input_unit} wide, "
                     f"starting {self.dead_band_start:.4g} {input_unit} after every reversal, "
                     f"at {self.dead_band_level:.0%} of the branch's rise")
+        elif self.concave:
+            out += ("; a dead band after the reversals cannot show with non-negative element "
+                    "weights (fit with --constraint slopes to let the branch flatten and rise "
+                    "again)")
         else:
             out += "; no dead band after the reversals"
         return out
@@ -95,8 +103,9 @@ def branch_features(model: StopPIModel) -> BranchFeatures:
     rise = float(np.sum(S[:-1] * widths))
     travel = float(edges[-1])
     plateau = model.friction_plateau
+    concave = bool((model.weights >= 0).all())
     if rise <= 0 or travel <= 0:
-        return BranchFeatures(plateau, travel, 0.0, 0.0, 0.0)
+        return BranchFeatures(plateau, travel, 0.0, 0.0, 0.0, concave)
     cum = np.cumsum(S[:-1] * widths)
     n = int(np.searchsorted(cum, RISE_SHARE * rise)) + 1  # segments up to 95 % of the rise
     n = min(n, widths.size)
@@ -117,7 +126,7 @@ def branch_features(model: StopPIModel) -> BranchFeatures:
         if before > 0.05 * rise and after > 0.05 * rise and w > best[0]:
             best = (w, float(edges[i]), before / rise)
         i = j
-    return BranchFeatures(plateau, travel, *best)
+    return BranchFeatures(plateau, travel, *best, concave=concave)
 
 
 class StopPIRegressor(PIRegressor):

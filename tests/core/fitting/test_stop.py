@@ -143,5 +143,11 @@ def test_friction_damper_names_its_plateau_and_dead_band() -> None:
     assert 0.05 < ex["dead_band"] < 0.25 and 0.03 < ex["dead_band_start"] < 0.15
     assert 1.5 < ex["friction_plateau"] < 2.7  # half the jump between the branches, kip
     assert "dead band (backlash)" in out.summary() and "friction plateau" in out.summary()
+    assert " kip " in ex["branch"] and " in wide" in ex["branch"]  # the recording's units
+    # the default (auto) fit has non-negative element weights: it names the plateau and says
+    # that a dead band cannot show there
+    auto = fit_recordings([rec], "auto")
+    assert auto.kind == "stop-pi" and "friction plateau" in auto.report.extra["branch"]
+    assert "cannot show with non-negative" in auto.report.extra["branch"]
     # the residual left is reported as a misfit with where it is (about 6 % of range)
     assert any("white-noise floor" in w for w in out.report.warnings)
