@@ -110,12 +110,16 @@ def run(args: argparse.Namespace) -> int:
     check_n_operators(args.n_operators)
     recs = read_recordings(args.files, read_options(args))
     say_read(progress, recs)
-    progress(f"fitting {args.model}" + (f" with n = {args.n_operators}" if args.n_operators
-                                         else " (choosing n by cross-validation)"))
+    what = ("the base hyst diagnose would choose (--model auto)" if args.model == "auto"
+            else args.model)
+    progress(f"fitting {what}" + (f" with n = {args.n_operators}" if args.n_operators
+                                  else " (choosing n by cross-validation)"))
     with fit_errors(), progress.heartbeat("still fitting..."):
         out = fit_recordings(recs, args.model, n_operators=args.n_operators,
                              constraint=args.constraint, train=train_w, test=test_w,
                              initial_memory=args.initial_memory, **fit_source(args.files))
+    if args.model == "auto":
+        progress(f"base chosen: {out.kind}")
     say_fit(progress, out)
     ps = out.parameter_set
     path = ps.save(args.output)

@@ -22,9 +22,10 @@ import numpy as np
 
 from ..exceptions import ParameterError
 from ..recordings import Recording
-from ._data import prepare
+from ._data import Prepared, prepare
 from .adequacy import Misfit, misfit
 from .choice import AUTO, choose_base
+from .orientation import loop_orientation
 
 if TYPE_CHECKING:
     from ..base import Model
@@ -243,6 +244,8 @@ def fit_recordings(
     if choice is not None:
         extra["base_choice"] = choice.text
         extra["base_choice_scores"] = choice.to_dict()
+    if "orientation" not in extra:
+        extra["orientation"] = _orientation(est, recs, kw)
     miss = _misfit(est, recs, kw)
     if miss is not None:
         extra["noise_floor"] = miss.floor
@@ -275,6 +278,23 @@ def fit_recordings(
                       mem["summary"] if isinstance(mem, dict) else "", ps, est)
 
 
+def _rows(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Prepared:
+    """The training and held-out rows the estimator used (its masks, or its default split)."""
+    us, ys = [r.u for r in recs], [r.y for r in recs]
+    multi = len(recs) > 1
+    return prepare(us if multi else us[0], ys if multi else ys[0], kw.get("train"),
+                   kw.get("test"), validation=getattr(est, "validation", 0.2), min_train=1)
+
+
+def _orientation(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> str:
+    """The orientation line of a kind that does not report its own: the training rows' loops,
+    and on clockwise data that the kind's loops run the other way."""
+    prep = _rows(est, recs, kw)
+    o = loop_orientation(prep.us, prep.ys, prep.train_masks)
+    return o.text + ("; this kind's loops run counter-clockwise (play operators)"
+                     if o.clockwise else "")
+
+
 def _misfit(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Misfit | None:
     """The held-out error of a fitted estimator against its noise floor (the rows its
     report's ``test`` part scored: the ``test`` masks, or the estimator's default split)."""
@@ -282,8 +302,7 @@ def _misfit(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Misfit |
         return None
     us, ys = [r.u for r in recs], [r.y for r in recs]
     multi = len(recs) > 1
-    prep = prepare(us if multi else us[0], ys if multi else ys[0], kw.get("train"),
-                   kw.get("test"), validation=getattr(est, "validation", 0.2), min_train=1)
+    prep = _rows(est, recs, kw)
     preds = est.predict(us if multi else us[0])
     preds = list(preds) if multi else [preds]
     return misfit([r.t for r in recs], us, ys, preds, prep.test_masks,

@@ -275,7 +275,8 @@ def test_fit_progress_goes_to_stderr(tmp_path, capsys):
     rec = synthetic_recording(tmp_path / "rec.csv", 3000)
     code, out, err = run(capsys, "fit", rec, rec, "-n", "3", "-o", tmp_path / "m.json")
     assert code == 0
-    assert "[hyst fit" in err and "fitting pi with n = 3" in err
+    assert "[hyst fit" in err and "fitting the base hyst diagnose would choose" in err
+    assert "with n = 3" in err and "base chosen: " in err
     assert "[hyst fit" not in out and "train: RMSE" in out
 
 
@@ -331,8 +332,8 @@ def test_fit_splits_runs_and_accepts_constraint(tmp_path, capsys):
         u = amp * np.sin(2 * np.pi * k / 400)
         rows.append(np.column_stack([np.full(k.size, run_id), k * 1e-3, u, true(u)]))
     rec = write_csv(tmp_path / "runs.csv", "loop,t,u,y", np.vstack(rows))
-    code, out, err = run(capsys, "fit", rec, "-n", "3", "--constraint", "slopes", "-o",
-                         tmp_path / "m.json", "--json")
+    code, out, err = run(capsys, "fit", rec, "--model", "pi", "-n", "3", "--constraint",
+                         "slopes", "-o", tmp_path / "m.json", "--json")
     assert code == 0, err
     ps = load_parameter_set(tmp_path / "m.json")
     assert len(ps.provenance.fit["recordings"]) == 2
