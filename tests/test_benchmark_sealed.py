@@ -149,6 +149,8 @@ def test_sealed_opensees_case_applies_its_effect() -> None:
         y0 = MATERIALS["os-steel02"](ra.u)
         err = rb.y - fx.dead_time(y0, m)
         assert np.std(err) == pytest.approx(0.002 * np.ptp(y0), rel=0.1)
+    one = make_sealed("sealed/opensees-single/os-steel02/staircase/7400")
+    assert [r.name for r in one.records] == ["staircase"] and not one.extras["hidden"]
 
 
 def _seed(case: str) -> int | None:

@@ -31,6 +31,10 @@ Classes and case ids (:data:`SEALED_CASES`):
 ``sealed/opensees/<material>/<effect>/<seed>``, ``sealed/opensees/<material>/null/<seed>``
     an OpenSees material driven by the strains of :func:`opensees_signals` (2 kHz), noise
     0.2 % of each recording's output range, an effect applied to its output.
+``sealed/opensees-single/<material>/<recording>/<seed>``
+    a single recording of one material, nothing hidden (issue 30: single-recording nulls
+    got invented dynamic names from the first loading from rest). Added after the first
+    sealed run as a class of its own; no rule had been changed on the sealed results.
 ``measured/<base>/null``, ``measured/<base>/<effect>/<size>``
     :data:`benchmarks.diagnosis.measured.MEASURED_CASES`.
 """
@@ -83,6 +87,8 @@ OPENSEES_RANGES: dict[str, dict[str, tuple[float, float]]] = {
 }
 OPENSEES_EFFECTS = tuple(OPENSEES_RANGES)
 OPENSEES_MATERIALS = ("os-boucwen", "os-steel02", "os-pinched")
+#: Recordings of :func:`opensees_signals` (each alone is a single-recording null).
+OPENSEES_RECORDINGS = ("cyclic", "reversals", "decaying", "staircase")
 _CREEP_TAUS = (0.01, 0.1, 1.0, 10.0)
 
 #: Every case of the sealed set.
@@ -92,6 +98,8 @@ SEALED_CASES: tuple[str, ...] = (
     *(f"sealed/opensees/{m}/null/{s}" for m in OPENSEES_MATERIALS for s in (7200, 7201)),
     *(f"sealed/opensees/{m}/{e}/{7300 + k}" for k, m in enumerate(OPENSEES_MATERIALS)
       for e in OPENSEES_EFFECTS),
+    *(f"sealed/opensees-single/{m}/{r}/7400" for m in OPENSEES_MATERIALS
+      for r in OPENSEES_RECORDINGS),
     *MEASURED_CASES,
 )
 
@@ -221,7 +229,8 @@ def _make_pi(effect: str | None, seed: int) -> Scenario:
                             "case": f"sealed/pi/{effect or 'null'}/{seed}"})
 
 
-def _make_opensees(material: str, effect: str | None, seed: int) -> Scenario:
+def _make_opensees(material: str, effect: str | None, seed: int,
+                   only: str | None = None) -> Scenario:
     from benchmarks.diagnosis.opensees_plants import MATERIALS
 
     plant = MATERIALS[material]
@@ -229,6 +238,8 @@ def _make_opensees(material: str, effect: str | None, seed: int) -> Scenario:
     rng = np.random.default_rng([seed, 0])
     recs, truths, worst = [], [], 0.0
     for name, t, u in opensees_signals():
+        if only is not None and name != only:
+            continue
         y0 = plant(u)
         dt = float(t[1] - t[0])
         tr: dict[str, Any] = {}
@@ -246,7 +257,8 @@ def _make_opensees(material: str, effect: str | None, seed: int) -> Scenario:
         y = y + OPENSEES_NOISE * float(np.ptp(y0)) * rng.standard_normal(u.size)
         recs.append(Recording(t, u, y, name, units={"input": "mm/m", "output": "MPa"}))
         truths.append(tr)
-    case = f"sealed/opensees/{material}/{effect or 'null'}/{seed}"
+    case = (f"sealed/opensees/{material}/{effect or 'null'}/{seed}" if only is None else
+            f"sealed/opensees-single/{material}/{only}/{seed}")
     hidden = {effect: truths[0]} if effect else {}
     return Scenario(effect, f"white{100 * OPENSEES_NOISE:g}%", seed, "sealed",
                     truths[0] if effect else {}, recs, [], 100 * worst,
@@ -274,6 +286,10 @@ def make_sealed(case: str) -> Scenario:
             if parts[2] not in OPENSEES_MATERIALS:
                 raise KeyError(parts[2])
             return _make_opensees(parts[2], effect, int(parts[4]))
+        if parts[:2] == ["sealed", "opensees-single"] and len(parts) == 5:
+            if parts[2] not in OPENSEES_MATERIALS or parts[3] not in OPENSEES_RECORDINGS:
+                raise KeyError(parts[2])
+            return _make_opensees(parts[2], None, int(parts[4]), only=parts[3])
     except (KeyError, ValueError):
         pass
     raise ValueError(f"unknown sealed case {case!r}; known: {', '.join(SEALED_CASES)}")

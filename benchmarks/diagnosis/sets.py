@@ -6,7 +6,8 @@ score, one table for both sets, so their numbers can stand side by side.
     plant with each L2 effect (``generator.make_scenario``, white1, seed 100) and two nulls
     (seeds 1000, 1001); the non-PI bases ``bouc-wen-1``, ``preisach``, ``maxwell-slip``
     (``families.make_family``, 0.2 % noise) with a delay, resonance, creep and drift at size
-    ``large`` (seed 500) and two nulls each (seeds 500, 501) (:data:`DEV_CASES`).
+    ``large`` (seed 500) and two nulls each (seeds 500, 501), and each of their four
+    recordings alone as a single-recording null (seed 500) (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -53,12 +54,15 @@ DEV_CASES: tuple[str, ...] = (
     *(f"dev/pi/{e}/L2/100" for e in _DEV_PI_EFFECTS),
     *(f"dev/family/{b}/null/{s}" for b in _DEV_FAMILY_BASES for s in (500, 501)),
     *(f"dev/family/{b}/{e}/large/500" for b in _DEV_FAMILY_BASES for e in _DEV_FAMILY_EFFECTS),
+    *(f"dev/family-single/{b}/{r}/500" for b in _DEV_FAMILY_BASES
+      for r in ("slow", "fast", "decaying", "staircase")),
 )
 
 #: Largest relative error of a recovered parameter that counts as recovered (issue 30).
 RECOVERY_TOLERANCE = {"delay_s": 0.25, "tau_s": 0.25, "freq_hz": 0.10}
 _QUANTITY = {"delay": "delay_s", "lag": "tau_s", "resonance": "freq_hz"}
-CLASSES = ("PI plant", "non-PI base", "measured base")
+CLASSES = ("PI plant", "non-PI base", "single-recording non-PI null", "measured base")
+_NON_PI = ("non-PI base", "single-recording non-PI null")
 
 
 def _sealed_cases() -> tuple[str, ...]:
@@ -75,11 +79,13 @@ SETS = {"dev": lambda: DEV_CASES, "sealed": _sealed_cases,
 
 
 def case_class(case: str) -> str:
-    """The class of a case id: ``PI plant``, ``non-PI base`` or ``measured base``."""
+    """The class of a case id (one of :data:`CLASSES`)."""
     if case.startswith("measured/"):
         return "measured base"
     if case.startswith(("dev/pi/", "sealed/pi/")):
         return "PI plant"
+    if case.startswith(("dev/family-single/", "sealed/opensees-single/")):
+        return "single-recording non-PI null"
     return "non-PI base"
 
 
@@ -92,6 +98,14 @@ def build(case: str) -> Any:
         if parts[2] == "null":
             return make_scenario(None, "white1", int(parts[3]))
         return make_scenario(parts[2], "white1", int(parts[4]), level=parts[3])
+    if parts[0] == "dev" and parts[1] == "family-single":
+        from benchmarks.diagnosis.families import make_family
+
+        sc = make_family(parts[2], None, noise=0.002, seed=int(parts[4]))
+        sc.records = [r for r in sc.records if r.name == parts[3]]
+        if len(sc.records) != 1:
+            raise ValueError(f"unknown recording {parts[3]!r} in case {case!r}")
+        return sc
     if parts[0] == "dev" and parts[1] == "family":
         from benchmarks.diagnosis.families import make_family
 
@@ -142,7 +156,7 @@ def _ambiguous_with(r: dict[str, Any], name: str, hidden: str) -> bool:
 
 def _counts(r: dict[str, Any], name: str) -> bool:
     """Whether naming ``name`` wrongly counts in this row's class."""
-    return r["class"] != "non-PI base" or name in TIME_EFFECTS
+    return r["class"] not in _NON_PI or name in TIME_EFFECTS
 
 
 def _estimate(r: dict[str, Any] | None, quantity: str) -> float:
