@@ -8,12 +8,15 @@ y = force (kip), 1024 Hz. Each record is fitted on its first 80 % and scored on 
 blocked cross-validation on the training part.
 
 Friction saturates: once the damper slips the force stays at the slip force whatever the
-displacement, so the loading curve is concave. The classical sufficient condition
-(``constraint="nonnegative"``: ``p_i >= 0``, only hardening loops) cannot represent it; the
-exact invertibility condition ``constraint="slopes"`` (every loop-segment slope
-``p0 + p_1 + ... + p_j >= ε``, weights may be negative) can. Models compared per record:
+displacement, so the loading curve is concave and the loops run clockwise. Play operators with
+``p_i >= 0`` (only hardening loops) cannot represent it; the non-negative rule
+``constraint="nonnegative"`` is therefore applied to stop operators on clockwise data
+(``p0 = k + Σ w_i``, ``p_i = -w_i``, ``k >= ε``, ``w_i >= 0``: Maxwell-slip elements; the
+report's orientation line says so), and the exact invertibility condition
+``constraint="slopes"`` (every loop-segment slope ``p0 + p_1 + ... + p_j >= ε``, weights of
+either sign) also lets a branch flatten and rise again. Models compared per record:
 
-* classical PI, ``constraint="nonnegative"`` (the piezo setting, for reference);
+* classical PI, ``constraint="nonnegative"`` (stop operators here);
 * classical PI, ``constraint="slopes"``;
 * Kuhnen MPI and dead-zone GPI with ``constraint="slopes"`` (skipped in quick mode).
 
@@ -44,14 +47,14 @@ from core.fitting import DeadZoneGPIRegressor, ModifiedPIRegressor, PIRegressor
 
 NAMES = ["friction-0.25Hz-30lb", "friction-1Hz-30lb", "friction-1Hz-36lb", "friction-2Hz-30lb"]
 VALIDATION = 0.2
-COLORS = {"PI p_i≥0": "#1f77b4", "PI slopes": "#d62728", "MPI slopes": "#2ca02c",
+COLORS = {"PI nonneg": "#1f77b4", "PI slopes": "#d62728", "MPI slopes": "#2ca02c",
           "DZ-GPI slopes": "#9467bd"}
 
 
 def models() -> dict:
     """Model name -> estimator factory (fresh estimator per record)."""
     out = {
-        "PI p_i≥0": lambda: PIRegressor(constraint="nonnegative", validation=VALIDATION),
+        "PI nonneg": lambda: PIRegressor(constraint="nonnegative", validation=VALIDATION),
         "PI slopes": lambda: PIRegressor(constraint="slopes", validation=VALIDATION),
     }
     if not quick():
@@ -158,9 +161,10 @@ def main() -> None:
         for note in notes:
             print(f"  FitWarning, {note}")
     print_table(results)
-    print("\nheld-out RMSE (% of force range), classical PI p_i ≥ 0 → slopes:")
+    print("\nheld-out RMSE (% of force range), classical PI non-negative stop weights → "
+          "slopes:")
     for rec_name, (_, fits, _) in results.items():
-        a, b = fits["PI p_i≥0"].report_.test, fits["PI slopes"].report_.test
+        a, b = fits["PI nonneg"].report_.test, fits["PI slopes"].report_.test
         print(f"  {rec_name:<22}{a.rmse_pct:6.2f} % → {b.rmse_pct:5.2f} %  "
               f"({a.rmse_pct / b.rmse_pct:.1f}× smaller)")
     ps = results[NAMES[1]][1]["PI slopes"]
