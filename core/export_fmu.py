@@ -18,10 +18,14 @@ source (``sources/``) so another platform can rebuild it. Its ports and paramete
 - ``sample_time`` (``dt``, constant) and ``preview_samples`` (the compensator's preview,
   :func:`core.effects.causal_form`; also stated in the model description).
 
-Stepping: one ``doStep`` of size ``h`` runs ``h / dt`` samples with the input held (``h`` must
-be a whole number of samples); without dynamics (no ``dt``) one ``doStep`` is one sample. The
-output after a step is the model's output at the last sample, so feeding ``u[k]`` and
-stepping ``dt`` reproduces ``model.simulate(u)[k]``.
+Stepping: the FMU counts its own samples. One ``doStep`` of size ``h`` runs, with the input
+held, the samples whose instants (multiples of ``dt`` from the start) it reaches, and holds
+the part of a sample left over for the next step; a step that ends within 1e-6 of a sample of
+an instant ends on it, so an importer's floating-point time (``t += dt``, a tiny last step to
+the stop time) never runs a sample twice or skips one. Without dynamics (no ``dt``) one
+``doStep`` of positive length is one sample. The output after a step is the model's output
+at the last sample run, so feeding ``u[k]`` and stepping ``dt`` reproduces
+``model.simulate(u)[k]``.
 
 The C file around the model block (instance, FMI functions) is :mod:`core.fmi_c`. The FMI
 headers are not part of this repository: they come with ``fmpy`` (its ``c-code`` folder),
@@ -437,8 +441,9 @@ def _description(ps: ParameterSet, fwd: Model, inverse: bool, preview: int, dt: 
         f"{n} stage(s): {chain}",
     ]
     if dt is not None:
-        parts.append(f"fixed sample time {dt:.12g} {units.time}: each step must be a whole "
-                     "number of samples, the input is held over the step")
+        parts.append(f"fixed sample time {dt:.12g} {units.time}: a step runs the samples "
+                     "whose instants it reaches with the input held (one per step when the "
+                     "step is the sample time) and holds any remainder")
     else:
         parts.append("no dynamics: each step is one sample of the (rate-independent) model")
     if inverse:
@@ -477,8 +482,8 @@ def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str
 
 _LOG_CATEGORIES = [
     "  <LogCategories>",
-    '    <Category name="logStatusError" description="calls refused: a step that is not a '
-    'whole number of samples, a parameter fixed at export, an unknown value reference"/>',
+    '    <Category name="logStatusError" description="calls refused: a negative or '
+    'non-finite step, a parameter fixed at export, an unknown value reference"/>',
     "  </LogCategories>",
 ]
 

@@ -82,9 +82,12 @@ typedef struct {
     double mp[HX_NMP];         /* model parameters, by value reference - HX_VR0 */
     HX_m_state st;             /* memory of the model */
     double u, y, time;
+    long long n;               /* samples run since initialisation */
+    double carry;              /* part of a sample (0 <= carry < 1) the steps so far held */
     int mode;                  /* 0 instantiated, 1 initialisation, 2 stepping, 3 terminated */
     int dirty;                 /* parameters changed since the constants were derived */
     char name[128];
+    char msg[400];             /* the last message for the user */
     HX_LOGGER
 } HX_inst;
 
@@ -113,6 +116,7 @@ static void HX_defaults(HX_inst *s)
     s->P = HX_DEFAULTS;
     memcpy(s->mp, HX_MP0, sizeof s->mp);
     s->u = 0.0; s->y = 0.0; s->time = 0.0;
+    s->n = 0; s->carry = 0.0;
     s->mode = 0; s->dirty = 0;
     HX_P_ = &s->P;
     HX_m_init(&s->st);
@@ -183,24 +187,48 @@ static const char *HX_start(HX_inst *s)
     if (!HX_finite()) return HX_NOT_FINITE;
     HX_m_init(&s->st);
     s->y = HX_peek(s);
+    s->n = 0; s->carry = 0.0;
     s->mode = 2;
     return 0;
 }
 
-/* run the samples of one communication step; 0 or a message */
-static const char *HX_step(HX_inst *s, double h)
+/* Run the samples of one communication step [t, t + h]; 0, or a message (and *discard
+ * set when the step was not taken and the state is as before it).
+ *
+ * The FMU counts its own samples and the part of a sample the steps so far held
+ * (carry): a step runs the samples whose instants fall inside it, the input held. A step
+ * that ends within HX_TOL of a sample instant (an importer adding up its time in floating
+ * point, a tiny last step to a stop time) ends on that instant, so no sample runs twice or
+ * is skipped; any other step holds its remainder for the next one. Without dynamics each
+ * step of positive length is one sample. */
+static const char *HX_step(HX_inst *s, double t, double h, int *discard)
 {
-    long n = 1, k;
+    long long n = 1, k;
+    double carry = s->carry;
+    *discard = 0;
+    if (!(h >= 0.0) || h - h != 0.0) {
+        snprintf(s->msg, sizeof s->msg, "the communication step must be a finite number "
+                 "of seconds >= 0, got %.17g s (at t = %.17g s)", h, t);
+        return s->msg;
+    }
     if (HX_DT > 0.0) {
-        const double r = h / HX_DT;
-        n = (long)floor(r + 0.5);
-        if (n < 1 || fabs(r - (double)n) > 1e-6 * r)
-            return "the communication step must be a whole number (>= 1) of sample times "
-                   "(sample_time)";
+        const double r = carry + h / HX_DT, w = floor(r + 0.5);
+        if (r > HX_MAX_SAMPLES) {
+            snprintf(s->msg, sizeof s->msg, "a communication step of %.17g s is %.6g sample "
+                     "times (sample_time = %.17g s); at most %.0f samples per step, take "
+                     "shorter steps", h, r, HX_DT, HX_MAX_SAMPLES);
+            return s->msg;
+        }
+        if (fabs(r - w) <= HX_TOL * (1.0 + 1e-6 * r)) { n = (long long)w; carry = 0.0; }
+        else { n = (long long)floor(r); carry = r - (double)n; }
+    } else if (h == 0.0) {
+        n = 0;
     }
     HX_retune(s);
     for (k = 0; k < n; ++k) s->y = HX_m_step(&s->st, s->u);
-    s->time += h;
+    s->n += n;
+    s->carry = carry;
+    s->time = t + h;
     return 0;
 }
 """
@@ -350,15 +378,18 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
 {
     HX_inst *s = (HX_inst *)instance;
     const char *err;
+    int discard;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!s || s->mode != 2) return fmi3Error;
     if (eventHandlingNeeded) *eventHandlingNeeded = fmi3False;
     if (terminateSimulation) *terminateSimulation = fmi3False;
     if (earlyReturn) *earlyReturn = fmi3False;
-    s->time = currentCommunicationPoint;
-    err = HX_step(s, communicationStepSize);
-    if (lastSuccessfulTime) *lastSuccessfulTime = s->time;
-    if (err) { HX_msg(s, fmi3Error, err); return fmi3Error; }
+    err = HX_step(s, currentCommunicationPoint, communicationStepSize, &discard);
+    if (lastSuccessfulTime) *lastSuccessfulTime = err ? currentCommunicationPoint : s->time;
+    if (err) {
+        HX_msg(s, discard ? fmi3Discard : fmi3Error, err);
+        return discard ? fmi3Discard : fmi3Error;
+    }
     return fmi3OK;
 }
 """
@@ -368,10 +399,19 @@ _FMI2 = r"""
 #include "fmi2Functions.h"
 HX_CORE_HERE
 
+/* the message as the format itself ('%' doubled, no arguments): a logger that does not
+ * format (one written in another language) still shows it */
 static void HX_msg(HX_inst *s, fmi2Status st, const char *what)
 {
-    if (s->cb && s->cb->logger)
-        s->cb->logger(s->cb->componentEnvironment, s->name, st, "logStatusError", "%s", what);
+    char fmt[2 * sizeof s->msg];
+    size_t i = 0;
+    if (!s->cb || !s->cb->logger) return;
+    for (; *what && i + 2 < sizeof fmt; ++what) {
+        if (*what == '%') fmt[i++] = '%';
+        fmt[i++] = *what;
+    }
+    fmt[i] = '\0';
+    s->cb->logger(s->cb->componentEnvironment, s->name, st, "logStatusError", fmt);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -484,11 +524,14 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
 {
     HX_inst *s = (HX_inst *)c;
     const char *err;
+    int discard;
     (void)noSetFMUStatePriorToCurrentCommunicationPoint;
     if (!s || s->mode != 2) return fmi2Error;
-    s->time = currentCommunicationPoint;
-    err = HX_step(s, communicationStepSize);
-    if (err) { HX_msg(s, fmi2Error, err); return fmi2Error; }
+    err = HX_step(s, currentCommunicationPoint, communicationStepSize, &discard);
+    if (err) {
+        HX_msg(s, discard ? fmi2Discard : fmi2Error, err);
+        return discard ? fmi2Discard : fmi2Error;
+    }
     return fmi2OK;
 }
 
@@ -571,6 +614,7 @@ def fmu_c_source(code: FmuCode, headers: Path) -> str:
         f" * build: cc -std=c99 -O2 -shared -fPIC -I<FMI {v} headers> {hx}.c -lm */",
         "#include <math.h>",
         "#include <stddef.h>",
+        "#include <stdio.h>",
         "#include <stdlib.h>",
         "#include <string.h>",
         "",
@@ -583,6 +627,9 @@ def fmu_c_source(code: FmuCode, headers: Path) -> str:
         f"#define {hx}_VR0 {code.first_vr}u",
         f"#define {hx}_NPAR {len(code.parameters)}u",
         f"#define {hx}_NMP {nmp}",
+        "/* a step ending this close to a sample instant (in samples) ends on it */",
+        f"#define {hx}_TOL 1e-6",
+        f"#define {hx}_MAX_SAMPLES 1e9",
         "",
         "/* every constant of every stage: the run-time (tunable) copy of the C export's",
         " * static constants; the model code reads them through the thread-local pointer */",

@@ -82,10 +82,31 @@ def _dt(model: Model) -> float | None:
     return DT if model.is_dynamic else None
 
 
+def instantiate_logging(fmu: FMU2Slave | FMU3Slave, v3: bool, log: list[str]) -> None:
+    """Instantiate ``fmu`` with a logger appending ``"<status> <message>"`` to ``log`` (FMI 2:
+    the FMU passes its message as the format, with no arguments)."""
+    def keep(status: int, message: bytes) -> None:
+        log.append(f"{('ok', 'warning', 'discard', 'error', 'fatal')[status]} "
+                   + message.decode())
+
+    if v3:
+        fmu.instantiate(logMessage=lambda env, status, cat, msg: keep(status, msg))
+        return
+    from fmpy.fmi2 import calloc, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free
+    from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE as Alloc
+    from fmpy.fmi2 import fmi2CallbackFreeMemoryTYPE as Free
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(lambda env, name, status, cat, msg: keep(status, msg))
+    cb.allocateMemory, cb.freeMemory = Alloc(calloc), Free(free)
+    fmu._log_callbacks = cb  # alive as long as the instance
+    fmu.instantiate(callbacks=cb)
+
+
 class Slave:
     """An FMU instantiated by fmpy, driven one sample per step (FMI 3 or 2)."""
 
-    def __init__(self, path: Path, unzip: Path) -> None:
+    def __init__(self, path: Path, unzip: Path, log: list[str] | None = None) -> None:
         md = read_model_description(str(path))
         self.v3 = md.fmiVersion.startswith("3")
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -95,7 +116,10 @@ class Slave:
         cls = FMU3Slave if self.v3 else FMU2Slave
         self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
                        modelIdentifier=md.coSimulation.modelIdentifier, instanceName="t")
-        self.fmu.instantiate()
+        if log is None:
+            self.fmu.instantiate()
+        else:
+            instantiate_logging(self.fmu, self.v3, log)
         self.dt = next((v.start for v in md.modelVariables if v.name == "sample_time"), None)
         self.t = 0.0
 
@@ -288,16 +312,23 @@ def test_initial_state_is_a_parameter_set_before_initialisation(tmp_path) -> Non
     s.close()
 
 
-def test_a_step_of_several_samples_holds_the_input_and_odd_steps_are_refused(tmp_path) -> None:
+def test_a_step_of_several_samples_holds_the_input_and_bad_steps_are_refused(tmp_path) -> None:
+    """Steps of any length are taken (tests/core/test_export_fmu_stepping.py); a negative or
+    non-finite one is refused, with the step in the message, and changes nothing."""
     model = ZOO["creep"]
     fmu = build_fmu(model, tmp_path / "c.fmu", fmi_version=2, dt=DT)
-    s = Slave(fmu, tmp_path / "x")
+    log: list[str] = []
+    s = Slave(fmu, tmp_path / "x", log)
     s.init()
     u = turning_points(6, 300)
     y = s.run(u, h=3 * DT)
     np.testing.assert_allclose(y, model(np.repeat(u, 3), dt=DT)[2::3], rtol=0, atol=1e-12)
-    with pytest.raises(Exception, match="fmi2DoStep"):
-        s.fmu.doStep(s.t, 1.5 * DT)
+    for h in (-DT, float("nan"), float("inf")):
+        with pytest.raises(Exception, match="fmi2DoStep"):
+            s.fmu.doStep(s.t, h)
+    assert "the communication step must be a finite number of seconds >= 0, got -0.0001 s" \
+        in log[0]
+    assert s.get("y") == y[-1]
     s.close()
 
 

@@ -1,0 +1,251 @@
+"""FMUs stepped the way real importers step them (issue 32), through fmpy's low-level API and a
+hand-written C master, FMI 3.0 and 2.0:
+
+- OMSimulator and most masters add up time in floating point (``t += dt``) and end a run to a
+  stop time with whatever is left: a step of 5.5e-14 s, or a step a little past a sample;
+- ``stepUntil((k + 1) * dt)`` masters split a step at their own accumulated time and so call
+  ``doStep`` with a few ulps left over (steps of 4e-19 s);
+- Simulink-like fixed-step masters step several samples at once;
+- a stop time that is not a whole number of samples ends on a partial sample.
+
+Each loop must reproduce ``model.simulate`` sample for sample (to 1e-12 of the output range):
+no sample run twice, none skipped. The FMUs are built once per module (two compensators of a
+diagnosed chain, PI -> lag -> delay, one per FMI version).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.effects import causal_form
+from core.export_fmu import build_fmu, fmi_headers
+from tests.core.model_zoo import DIAGNOSED, DT, turning_points
+
+fmpy = pytest.importorskip("fmpy")
+from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi2 import FMU2Slave  # noqa: E402
+from fmpy.fmi3 import FMU3Slave  # noqa: E402
+
+GCC = shutil.which("gcc")
+MODEL = DIAGNOSED["diag-lag-delay"]  # its compensator: PI inverse, lag inverse, a delay
+TOL = 1e-12  # of the output range
+
+
+@pytest.fixture(scope="module", params=[3, 2], ids=["fmi3", "fmi2"])
+def fmu(request, tmp_path_factory) -> Path:
+    if GCC is None:
+        pytest.skip("gcc not installed")
+    d = tmp_path_factory.mktemp(f"step{request.param}")
+    return build_fmu(MODEL, d / "comp.fmu", fmi_version=request.param, inverse=True, dt=DT)
+
+
+class Master:
+    """An importer's side of one FMU instance: fmpy's low-level calls, nothing more."""
+
+    def __init__(self, path: Path, unzip: Path) -> None:
+        md = read_model_description(str(path))
+        self.v3 = md.fmiVersion.startswith("3")
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        d = extract(str(path), unzipdir=str(unzip))
+        cls = FMU3Slave if self.v3 else FMU2Slave
+        self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
+                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
+        self.fmu.instantiate()
+        if self.v3:
+            self.fmu.enterInitializationMode(startTime=0.0)
+        else:
+            self.fmu.setupExperiment(startTime=0.0)
+            self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        self.calls = 0
+
+    def set(self, value: float) -> None:
+        (self.fmu.setFloat64 if self.v3 else self.fmu.setReal)([1], [value])
+
+    def get(self) -> float:
+        return (self.fmu.getFloat64 if self.v3 else self.fmu.getReal)([2])[0]
+
+    def step(self, t: float, h: float) -> None:
+        self.fmu.doStep(t, h)
+        self.calls += 1
+
+    def close(self) -> None:
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+def _reference(u: np.ndarray, per: int = 1) -> np.ndarray:
+    """Python: the compensator's causal form on ``u`` held ``per`` samples, the output at the
+    last sample of each hold."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        y = causal_form(MODEL.inverse(), DT).model(np.repeat(u, per), dt=DT)
+    return y[per - 1::per]
+
+
+def _desired(seed: int, n: int) -> np.ndarray:
+    return MODEL(turning_points(seed, n), dt=DT)  # inside the forward model's range
+
+
+def _close(y: np.ndarray, ref: np.ndarray) -> None:
+    scale = max(1.0, float(np.ptp(ref)))
+    np.testing.assert_allclose(y, ref, rtol=0, atol=TOL * scale)
+
+
+def test_accumulated_time_and_a_tiny_last_step_to_the_stop_time(fmu, tmp_path) -> None:
+    """``t += dt`` over 4,000 steps, then the step to the stop time: 4,000 * dt is 2.8e-14 s
+    beyond the accumulated t, so the last step is that long and runs no sample (before: the
+    FMU refused it with an error, so every run to a stop time ended in one)."""
+    m = Master(fmu, tmp_path / "x")
+    u = _desired(1, 4000)
+    y, t = np.empty(u.size), 0.0
+    for k, x in enumerate(u.tolist()):
+        m.set(x)
+        m.step(t, DT)
+        t += DT
+        y[k] = m.get()
+    stop = u.size * DT
+    assert 0.0 < stop - t < 1e-13  # the importer's remainder
+    m.step(t, stop - t)
+    assert m.get() == y[-1]  # no sample in it
+    _close(y, _reference(u))
+    m.close()
+
+
+def test_step_until_loops_that_split_steps_at_their_own_time(fmu, tmp_path) -> None:
+    """An OMSimulator-like ``stepUntil((k + 1) * dt)``: the master steps ``dt`` from its own
+    accumulated time and clips the step at the target, leaving steps of a few ulps (4e-19 s,
+    ~18 % of the calls) and steps a few ulps short of ``dt``."""
+    m = Master(fmu, tmp_path / "x")
+    u = _desired(2, 3000)
+    y, t, tiny = np.empty(u.size), 0.0, 0
+    for k, x in enumerate(u.tolist()):
+        m.set(x)
+        target = (k + 1) * DT
+        while t < target:
+            nxt = min(t + DT, target)
+            m.step(t, nxt - t)
+            tiny += nxt - t < 1e-6 * DT
+            t = nxt
+        y[k] = m.get()
+    assert tiny > 100  # the loop did make such steps
+    _close(y, _reference(u))
+    m.close()
+
+
+@pytest.mark.parametrize("per", [2, 10])
+def test_several_samples_per_step_with_accumulated_time(fmu, tmp_path, per) -> None:
+    m = Master(fmu, tmp_path / "x")
+    u = _desired(3 + per, 600)
+    y, t, h = np.empty(u.size), 0.0, per * DT
+    for k, x in enumerate(u.tolist()):
+        m.set(x)
+        m.step(t, h)
+        t += h
+        y[k] = m.get()
+    _close(y, _reference(u, per))
+    m.close()
+
+
+def test_a_stop_time_between_samples_holds_the_remainder(fmu, tmp_path) -> None:
+    """Steps of 1.5 samples and a stop 0.37 of a sample past the last sample instant: each
+    step runs the samples whose instants it reaches (1, 2, 1, 2, ...), the remainder is held
+    and the partial last step runs none."""
+    m = Master(fmu, tmp_path / "x")
+    u = _desired(4, 1200)
+    ys, t, h = [], 0.0, 1.5 * DT
+    counts = np.tile([1, 2], u.size // 2)
+    held = np.repeat(u, counts)  # the input each sample ran with
+    for x in u.tolist():
+        m.set(x)
+        m.step(t, h)
+        t += h
+        ys.append(m.get())
+    stop = (held.size + 0.37) * DT
+    m.step(t, stop - t)
+    assert m.get() == ys[-1]
+    ref = _reference(held)[np.cumsum(counts) - 1]
+    _close(np.array(ys), ref)
+    m.close()
+
+
+_C_MASTER = r"""
+#include <dlfcn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "fmi3Functions.h"
+
+/* A hand-written master: set y_ref, doStep(t, dt) with t += dt, read u; then the step to the
+ * stop time n * dt. Input samples on stdin, outputs on stdout, bad statuses on stderr. */
+int main(int argc, char **argv)
+{
+    void *lib = dlopen(argv[1], RTLD_NOW);
+    fmi3InstantiateCoSimulationTYPE *inst;
+    fmi3EnterInitializationModeTYPE *enter;
+    fmi3ExitInitializationModeTYPE *leave;
+    fmi3SetFloat64TYPE *set;
+    fmi3GetFloat64TYPE *get;
+    fmi3DoStepTYPE *step;
+    fmi3Instance c;
+    const double dt = atof(argv[3]);
+    const fmi3ValueReference in = 1, out = 2;
+    double t = 0.0, x, y, stop, last;
+    long k = 0, bad = 0;
+    fmi3Boolean a, b, e;
+    if (!lib || argc < 4) return 2;
+    inst = (fmi3InstantiateCoSimulationTYPE *)dlsym(lib, "fmi3InstantiateCoSimulation");
+    enter = (fmi3EnterInitializationModeTYPE *)dlsym(lib, "fmi3EnterInitializationMode");
+    leave = (fmi3ExitInitializationModeTYPE *)dlsym(lib, "fmi3ExitInitializationMode");
+    set = (fmi3SetFloat64TYPE *)dlsym(lib, "fmi3SetFloat64");
+    get = (fmi3GetFloat64TYPE *)dlsym(lib, "fmi3GetFloat64");
+    step = (fmi3DoStepTYPE *)dlsym(lib, "fmi3DoStep");
+    c = inst("m", argv[2], NULL, 0, 0, 0, 0, NULL, 0, NULL, NULL, NULL);
+    if (!c || enter(c, 0, 0.0, 0.0, 0, 0.0) || leave(c)) return 3;
+    while (fread(&x, sizeof x, 1, stdin) == 1) {
+        bad += set(c, &in, 1, &x, 1) != fmi3OK;
+        bad += step(c, t, dt, 1, &a, &b, &e, &last) != fmi3OK;
+        t += dt;
+        bad += get(c, &out, 1, &y, 1) != fmi3OK;
+        fwrite(&y, sizeof y, 1, stdout);
+        ++k;
+    }
+    stop = (double)k * dt;
+    if (stop > t) bad += step(c, t, stop - t, 1, &a, &b, &e, &last) != fmi3OK;
+    fprintf(stderr, "%ld %ld %.17g\n", k, bad, (stop - t) / dt);
+    return 0;
+}
+"""
+
+
+def test_a_c_master_runs_a_million_accumulated_steps(tmp_path) -> None:
+    """1e6 steps of ``t += dt`` in C: the accumulated time ends 2.2e-5 of a sample past the
+    stop time (another master's would end short of it); every call is OK and the output is
+    Python's sample for sample."""
+    if GCC is None:
+        pytest.skip("gcc not installed")
+    path = build_fmu(MODEL, tmp_path / "c.fmu", fmi_version=3, inverse=True, dt=DT)
+    unzip = tmp_path / "x"
+    with zipfile.ZipFile(path) as zf:
+        zf.extractall(unzip)
+    token = read_model_description(str(path)).instantiationToken
+    (tmp_path / "master.c").write_text(_C_MASTER)
+    exe = tmp_path / "master"
+    proc = subprocess.run([GCC, "-std=c99", "-O1", "-I", str(fmi_headers(3)), "-o", str(exe),
+                           str(tmp_path / "master.c"), "-ldl"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[:2000]
+    n = 1_000_000
+    u = np.tile(_desired(5, 50_000), n // 50_000)
+    res = subprocess.run([str(exe), str(unzip / "binaries/x86_64-linux/c.so"), token,
+                          repr(DT)], input=u.astype("<f8").tobytes(), capture_output=True)
+    assert res.returncode == 0, res.stderr
+    k, bad, left = res.stderr.decode().split()
+    assert (int(k), int(bad)) == (n, 0)
+    assert abs(float(left)) > 1e-6  # the accumulated time did drift (here past the stop)
+    _close(np.frombuffer(res.stdout, "<f8"), _reference(u))
