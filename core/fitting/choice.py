@@ -112,7 +112,7 @@ class BaseChoice:
         others = ["bouc-wen"] + ([] if self.orientation.clockwise else ["preisach"])
         return ("With one recording only the PI family is chosen (as hyst diagnose does: "
                 "other bases cannot be cross-validated on it); fit --model "
-                f"{' or --model '.join(others)} to compare their held-out errors, or fit "
+                f"{' or --model '.join(others)} to compare the held-out error, or fit "
                 "several recordings")
 
     def to_dict(self) -> dict[str, Any]:
