@@ -63,6 +63,10 @@ BW_MIN_GAIN = 0.35
 #: Play operators of the PI candidates when the fit chooses its own (the diagnosis's
 #: baseline default, ``hyst diagnose --operators``).
 PI_OPERATORS = 25
+#: Options of the candidates beyond the common keywords: the Bouc-Wen candidate keeps its
+#: grid shapes unpolished, as the diagnosis's Bouc-Wen base does (a generic grid, weights by
+#: least squares: :mod:`core.diagnosis.bases`); the chosen kind is then fitted in full.
+CANDIDATE_OPTIONS: dict[str, dict[str, Any]] = {"bouc-wen": {"polish": False}}
 #: Contiguous blocks of the training rows for the sign decision with one recording.
 SIGN_BLOCKS = 3
 
@@ -159,7 +163,8 @@ def _cv_mse(kind: str, constraint: str, recs: Sequence[Recording],
     sse, n = 0.0, 0
     for fit_rows, score_rows in folds:
         use = [k for k, m in enumerate(fit_rows) if m.any()]
-        est = cls(n_operators=n_operators, constraint=constraint, initial_memory="keep")
+        est = cls(n_operators=n_operators, constraint=constraint, initial_memory="keep",
+                  **CANDIDATE_OPTIONS.get(kind, {}))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

@@ -126,6 +126,23 @@ def test_auto_on_one_recording_keeps_the_pi_family_and_says_what_to_try() -> Non
     assert "fit --model bouc-wen" in msg and "preisach" not in msg
 
 
+def test_auto_with_several_recordings_chooses_bouc_wen_for_a_bouc_wen_plant() -> None:
+    """Each recording predicted from the others: a classical Bouc-Wen plant, which stop
+    operators miss (Masing's rule), gets the Bouc-Wen base, to its noise."""
+    rng = np.random.default_rng(1)
+    recs, sig = [], []
+    for k, (amp, fr) in enumerate(((0.01, 1.0), (0.007, 2.0), (0.012, 1.5))):
+        t = np.arange(1500) * 1e-3
+        u = amp * np.sin(2 * np.pi * fr * t) * np.minimum(1, t / 0.6)
+        y = _bouc_wen(u, sub=10)
+        sig.append(0.002 * float(np.ptp(y)))
+        recs.append(Recording(t, u, y + sig[-1] * rng.standard_normal(y.size), name=f"r{k}"))
+    out = fit_recordings(recs, "auto")
+    assert out.kind == "bouc-wen"
+    assert "each of 3 recordings predicted from the others" in out.report.extra["base_choice"]
+    assert out.report.test.rmse < 1.5 * max(sig)
+
+
 def test_choice_margins_are_the_diagnosis_margins() -> None:
     from core.diagnosis import bases
 
