@@ -68,6 +68,15 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     (step, reversal) to the next (:mod:`core.diagnosis.events`): a signature seen after one
     step, or in the first loading from rest only, is suggestive, not a name.
 
+15. *Look-alike stages told apart by their own signatures* (:func:`signatures_separable`):
+    a dead time shows no response after a step, a lag an immediate smooth one, a mode its
+    ringing; across excitation rates a lag's phase saturates while a delay's grows. When
+    the recordings hold fewer than ``min_events`` steps and one excitation rate (slowest
+    over fastest time between reversals below ``min_rate_ratio``), a look-alike of the
+    named delay / lag / mode stays open (ambiguous, with the deciding experiment) however
+    the held-out MSE compares: the difference then comes from how each absorbs the base's
+    misfit, not from its mechanism.
+
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
 """
@@ -83,8 +92,8 @@ from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "clearly_better", "decide", "earns_place",
            "enough_events", "generalises", "harmless_elsewhere", "pair_beats_single",
-           "second_stage_named", "size_ok", "split_supports_transport", "trend_follows_steps",
-           "yields_to_lookalike"]
+           "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
+           "trend_follows_steps", "yields_to_lookalike"]
 
 
 @dataclass(frozen=True)
@@ -132,6 +141,10 @@ class AcceptRule:
         With one recording, fewest input events (steps, reversals) after which an output
         dynamics stage must lower the held-out MSE by ``min_gain`` to be named
         (:func:`enough_events`).
+    min_rate_ratio : float
+        Smallest ratio of the slowest to the fastest excitation (time between reversals)
+        that separates output dynamics look-alikes by their own signatures without
+        ``min_events`` steps (:func:`signatures_separable`).
     """
 
     min_gain: float = 0.05
@@ -148,6 +161,7 @@ class AcceptRule:
     clear_margin: float = 0.10
     max_harm_elsewhere: float = 0.05
     min_events: int = 3
+    min_rate_ratio: float = 3.0
 
     def as_dict(self) -> dict[str, float]:
         """The thresholds by name."""
@@ -184,6 +198,12 @@ def enough_events(event_gains: list[float], rule: AcceptRule = RULE) -> bool:
     ``event_gains`` (one per event window with enough test rows) reach ``min_gain``."""
     return sum(1 for g in event_gains if np.isfinite(g) and g >= rule.min_gain) >= (
         rule.min_events)
+
+
+def signatures_separable(steps: int, rate_ratio: float, rule: AcceptRule = RULE) -> bool:
+    """Acceptance rule 15: recordings with ``steps`` input steps and excitation rates
+    spanning ``rate_ratio`` can tell output dynamics look-alikes apart by their signatures."""
+    return steps >= rule.min_events or rate_ratio >= rule.min_rate_ratio
 
 
 def harmless_elsewhere(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:

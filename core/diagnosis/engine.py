@@ -62,6 +62,7 @@ from .acceptance import (
     harmless_elsewhere,
     pair_beats_single,
     second_stage_named,
+    signatures_separable,
     split_supports_transport,
     trend_follows_steps,
     yields_to_lookalike,
@@ -89,7 +90,7 @@ from .crossfitting import (
     screen_gain,
 )
 from .data import as_records, crossfit_folds, split_masks
-from .events import event_windows
+from .events import event_windows, excitation
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
@@ -1471,11 +1472,14 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
             best = min(alt, key=lambda n: results[n][3].mse_after)
             vs = undecided_against(best)
     fit, params, unc, h = results[best]
+    exc = excitation(ctx.records)
+    # rule 15: without steps or several rates the look-alikes' signatures cannot show
+    unseparated = not signatures_separable(exc.steps, exc.rate_ratio)
     amb = []
     for other, hh in vs.items():
         oh = results[other][3]
         # rule 10: a look-alike not clearly beaten on the same structure stays open
-        open_ = not clearly_better(hh) or other == unnamed
+        open_ = not clearly_better(hh) or other == unnamed or unseparated
         rounds.append(RoundRow(rnd, f"recheck:{other}", oh.gain, hh.z, hh.sign_p, False,
                                "ambiguous" if open_ else "rejected", results[other][1]))
         if open_:
@@ -1524,6 +1528,7 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
     ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:
         hh = vs.get(other)
+        at = " at the final resolution"
         if other == unnamed and results[other][3].mse_after < h.mse_after:
             why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
                    f" % less held-out MSE than {best}")
@@ -1534,12 +1539,20 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
             why = (f"{best} predicts the held-out rows better than {other}, but {other} "
                    f"leaves only {100 * (hh.mse_before / hh.mse_after - 1):.1f} % more "
                    "held-out MSE")
-        else:
+        elif other in in_pair:
             why = in_pair[other]
+        else:
+            at = ""
+            why = (f"the recordings hold {exc.steps} input step(s) and one excitation rate "
+                   f"(slowest / fastest {exc.rate_ratio:.2g}): a {best} and a {other} cannot "
+                   "show their own signatures there (no response for a dead time, an "
+                   "immediate smooth one for a lag, a ringing for a mode), so the "
+                   f"{100 * (hh.mse_before / hh.mse_after - 1):.0f} % more held-out MSE of "
+                   f"{other} is how it absorbs the base's misfit, not its mechanism")
         ambiguous.append({
             "effects": [best, other],
             "chosen": best,
-            "reason": why + " at the final resolution" + (
+            "reason": why + at + (
                 f"; {other} is not named: {lacks}" if lacks and other == unnamed else ""),
             "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
                                                   "recordings at more frequencies"),

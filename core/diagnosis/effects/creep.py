@@ -79,7 +79,8 @@ register(DiagnosableEffect(
     stage_order=3,
     sign_locked=True,
     systematic=_bank_spread,
-    mimicked_by=(frozenset({"lag", "delay"}), "without holds, the fast end of a creep relaxation "
-                 "spectrum acts as a lag at the excitation frequency; creep itself was "
-                 "untestable"),
+    mimicked_by=(frozenset({"lag", "delay", "drift"}), "without holds, creep shows only as "
+                 "something else: the fast end of its relaxation spectrum acts as a lag at the "
+                 "excitation frequency, its slow tail after the last step as a trend from "
+                 "cycle to cycle, like a drift; creep itself was untestable"),
 ))
