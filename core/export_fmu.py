@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .base import Model
+from .base import Field, Model
 from .escape import xml_attr
 from .export_c import (
     CExportError,
@@ -116,6 +116,14 @@ class FmuVariable:
         Stage index of a parameter, else -1.
     index : int
         Element index in the field (flattened row by row), else -1.
+    lower, upper : float or None
+        Hard limits of a valid value (the model field's, :attr:`core.base.Control.lower`
+        and ``upper``), declared as ``min`` / ``max`` and checked when the value is set.
+    strict : bool
+        The lower limit is exclusive (``> lower``).
+    above, below : int
+        Indices among the parameters of the values this one must stay above and below (an
+        increasing field), else -1.
     """
 
     name: str
@@ -128,6 +136,11 @@ class FmuVariable:
     path: str = ""
     stage: int = -1
     index: int = -1
+    lower: float | None = None
+    upper: float | None = None
+    strict: bool = False
+    above: int = -1
+    below: int = -1
 
 
 @dataclass(frozen=True)
@@ -240,10 +253,11 @@ def _platform(version: int) -> tuple[str, str]:
 
 
 # ----------------------------------------------------------------------------- variables
-def _field_values(model: Model, prefix: str = "") -> list[tuple[str, str, np.ndarray, bool]]:
-    """``(path, doc, values (flattened), is_matrix)`` of every numeric field of ``model``,
-    nested models included (``model.thresholds``)."""
-    out: list[tuple[str, str, np.ndarray, bool]] = []
+def _field_values(model: Model, prefix: str = ""
+                  ) -> list[tuple[str, Field, np.ndarray, bool]]:
+    """``(path, field, values, is_matrix)`` of every numeric field of ``model``, nested models
+    included (``model.thresholds``)."""
+    out: list[tuple[str, Field, np.ndarray, bool]] = []
     for f in type(model).fields:
         v = getattr(model, f.name, None)
         if v is None:
@@ -252,8 +266,34 @@ def _field_values(model: Model, prefix: str = "") -> list[tuple[str, str, np.nda
             out.extend(_field_values(v, f"{prefix}{f.name}."))
         elif f.kind in ("number", "numbers", "matrix", "any"):
             arr = np.asarray(v, dtype=np.float64)
-            out.append((f"{prefix}{f.name}", f.doc, arr, arr.ndim == 2))
+            out.append((f"{prefix}{f.name}", f, arr, arr.ndim == 2))
     return out
+
+
+def _limits(f: Field, i: int, value: float) -> tuple[float | None, float | None, bool]:
+    """(lower, upper, strict) of element ``i`` of field ``f`` (holding ``value``): its
+    control's hard limits; an element fixed by the field (the dead zone's 0) is held."""
+    if value in f.fixed:
+        return value, value, False
+    c = f.control_at(i) if f.numeric else None
+    if c is None:
+        return None, None, False
+    return c.lower, c.upper, bool(c.strict and c.lower is not None)
+
+
+def _rule_words(lower: float | None, upper: float | None, strict: bool, increasing: bool
+                ) -> str:
+    words = []
+    if lower is not None and lower == upper:
+        words.append(f"fixed at {lower:g}")
+    else:
+        if lower is not None:
+            words.append(f"{'>' if strict else '>='} {lower:g}")
+        if upper is not None:
+            words.append(f"<= {upper:g}")
+    if increasing:
+        words.append("increasing")
+    return f"; must be {', '.join(words)}" if words else ""
 
 
 def _unit_of(doc: str, k: int, n: int, inverse: bool, u_in: str, u_out: str, t: str) -> str | None:
@@ -300,20 +340,27 @@ def _parameters(stages: list[Model], emitted: list, role: str, units: Units
         base = base if n == 1 else f"s{k}_{base}"
         tuned = set(_PLACEHOLDER.findall("\n".join(em.tune)))
         offsets: dict[str, int] = {}
-        for path, doc, arr, is_matrix in _field_values(stage):
-            offsets[path] = len(variables)
+        for path, fld, arr, is_matrix in _field_values(stage):
+            doc = fld.doc
+            start = offsets[path] = len(variables)
             state = path.rsplit(".", 1)[-1] in _STATE_FIELDS
             variability = ("fixed" if state else "tunable") if path in tuned else "constant"
             unit = _unit_of(doc, k, n, inverse, units.input, units.output, units.time)
             note = "" if variability != "constant" else \
                 " [fixed at export: its C constants need the export's numerics; re-export]"
-            for i, v in enumerate(arr.ravel()):
+            flat = arr.ravel()
+            increasing = fld.increasing and arr.ndim == 1 and flat.size > 1
+            for i, v in enumerate(flat):
+                lo, hi, strict = _limits(fld, i, float(v))
+                rule = _rule_words(lo, hi, strict, increasing)
                 variables.append(FmuVariable(
                     _element_name(base, path, arr, i, is_matrix),
                     FIRST_PARAMETER_VR + len(variables),
                     "parameter" if variability != "constant" else "local", variability,
-                    f"{role} stage {k} ({stage.type_name}): {doc}{note}", float(v),
-                    unit or None, path, k, i))
+                    f"{role} stage {k} ({stage.type_name}): {doc}{rule}{note}", float(v),
+                    unit or None, path, k, i, lo, hi, strict,
+                    start + i - 1 if increasing and i > 0 else -1,
+                    start + i + 1 if increasing and i + 1 < flat.size else -1))
         missing = tuned - set(offsets)
         if missing:  # pragma: no cover - emitters name their own fields
             raise CExportError(f"tune lines of {stage.type_name!r} name unknown fields {missing}")
@@ -416,7 +463,9 @@ def fmu_sources(
         tuple(parse_constant(d) for em in emitted for d in em.constants), tuple(tune_lines),
         tuple(float(v.start) for v in params),  # type: ignore[arg-type]
         tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
-        dt, preview, inverse, FIRST_PARAMETER_VR), fmi_headers(fmi_version))
+        dt, preview, inverse, FIRST_PARAMETER_VR, tuple(v.name for v in params),
+        tuple((v.lower, v.upper, v.strict, v.above, v.below) for v in params),
+        (in_name, out_name)), fmi_headers(fmi_version))
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
         (src + str(fmi_version)).encode()).hexdigest())) + "}"
     src = src.replace("@TOKEN@", token)

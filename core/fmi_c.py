@@ -16,6 +16,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from .escape import c_string
 from .export_c import c_double
 
 __all__ = ["FmuCode", "fmu_c_source"]
@@ -50,6 +51,14 @@ class FmuCode:
         A compensator (``preview_samples`` is readable).
     first_vr : int
         Value reference of the first parameter.
+    names : tuple of str
+        Per parameter: its variable name (for messages).
+    limits : tuple of (lower, upper, strict, previous, next)
+        Per parameter: the hard limits of a valid value (None: none; ``strict``: the lower
+        one is exclusive) and the indices of the parameters it must stay above and below
+        (an increasing field; -1: none). A Set call breaking one is refused.
+    ports : (str, str)
+        Names of the input and the output (for messages).
     """
 
     ident: str
@@ -64,6 +73,9 @@ class FmuCode:
     preview: int
     inverse: bool
     first_vr: int
+    names: tuple[str, ...] = ()
+    limits: tuple[tuple[float | None, float | None, bool, int, int], ...] = ()
+    ports: tuple[str, str] = ("u", "y")
 
 
 _TLS = """#if defined(_MSC_VER)
@@ -80,6 +92,9 @@ _CORE = r"""
 typedef struct {
     HX_params P;               /* stage constants, derived from mp */
     double mp[HX_NMP];         /* model parameters, by value reference - HX_VR0 */
+    double mp_old[HX_NMP];     /* their values before the current Set call */
+    unsigned char changed[HX_NMP];
+    double u_old;
     HX_m_state st;             /* memory of the model */
     double u, y, time;
     long long n;               /* samples run since initialisation */
@@ -148,36 +163,128 @@ static int HX_get(HX_inst *s, unsigned vr, double *v)
     return 1;
 }
 
-/* 0: done; else a message for the user */
-static const char *HX_set(HX_inst *s, unsigned vr, double v)
+/* Setting values is one transaction per Set call: HX_begin keeps the values, HX_set
+ * takes each value (0, or a message), HX_commit checks the parameters' rules and derived
+ * constants; on any refusal HX_undo puts every value of the call back. */
+static void HX_begin(HX_inst *s)
 {
-    if (vr == 1u) { s->u = v; return 0; }
-    if (vr >= HX_VR0 && vr < HX_VR0 + HX_NPAR) {
-        const unsigned k = vr - HX_VR0;
-        if (HX_KIND[k] == 0)
-            return "this parameter is fixed at export; re-export the FMU to change it";
-        if (HX_KIND[k] == 2 && s->mode >= 2)
-            return "an initial-state parameter can only be set before initialisation "
-                   "(or after a reset)";
-        if (!(v == v) || v - v != 0.0) return "parameter values must be finite";
-        {
-            const double old = s->mp[k];
-            s->mp[k] = v;
-            s->dirty = 1;
-            if (s->mode >= 2) {
-                HX_retune(s);
-                if (!HX_finite()) {
-                    s->mp[k] = old;
-                    s->dirty = 1;
-                    HX_retune(s);
-                    return HX_NOT_FINITE "; the previous value is kept";
-                }
-            }
+    memcpy(s->mp_old, s->mp, sizeof s->mp);
+    memset(s->changed, 0, sizeof s->changed);
+    s->u_old = s->u;
+}
+
+static void HX_undo(HX_inst *s)
+{
+    memcpy(s->mp, s->mp_old, sizeof s->mp);
+    s->u = s->u_old;
+    s->dirty = 1;
+    if (s->mode >= 2) HX_retune(s);
+}
+
+/* 0: taken; else a message for the user, *discard set when the value (not the call) is
+ * refused */
+static const char *HX_set(HX_inst *s, unsigned vr, double v, int *discard)
+{
+    *discard = 0;
+    if (vr == 1u) {
+        if (!(v == v) || v - v != 0.0) {
+            *discard = 1;
+            snprintf(s->msg, sizeof s->msg, "the input %s must be a finite number, got %g; "
+                     "the previous value %.17g is kept and the model's memory is unchanged",
+                     HX_IN_NAME, v, s->u_old);
+            return s->msg;
         }
+        s->u = v;
         return 0;
     }
-    if (vr <= 4u) return "this variable cannot be set";
-    return "unknown value reference";
+    if (vr == 3u && HX_DT > 0.0) {
+        if (v == HX_DT && s->mode < 2) return 0;
+        snprintf(s->msg, sizeof s->msg, "sample_time = %.17g s is fixed at export (%.17g s, "
+                 "baked into the model's discretisation); re-export the FMU with another "
+                 "--dt to change it", v, HX_DT);
+        return s->msg;
+    }
+    if (vr >= HX_VR0 && vr < HX_VR0 + HX_NPAR) {
+        const unsigned k = vr - HX_VR0;
+        if (HX_KIND[k] == 0) {
+            snprintf(s->msg, sizeof s->msg, "%s is fixed at export; re-export the FMU to "
+                     "change it", HX_NAME[k]);
+            return s->msg;
+        }
+        if (HX_KIND[k] == 2 && s->mode >= 2) {
+            snprintf(s->msg, sizeof s->msg, "%s is an initial state: it can only be set "
+                     "before initialisation (or after a reset)", HX_NAME[k]);
+            return s->msg;
+        }
+        if (!(v == v) || v - v != 0.0) {
+            *discard = 1;
+            snprintf(s->msg, sizeof s->msg, "%s must be a finite number, got %g; the "
+                     "previous value %.17g is kept", HX_NAME[k], v, s->mp_old[k]);
+            return s->msg;
+        }
+        s->mp[k] = v;
+        s->changed[k] = 1;
+        s->dirty = 1;
+        return 0;
+    }
+    if (vr <= 4u) {
+        snprintf(s->msg, sizeof s->msg, "value reference %u (%s) cannot be set", vr,
+                 vr == 0u ? "time" : vr == 2u ? HX_OUT_NAME : vr == 4u ? "preview_samples"
+                 : "not a variable of this FMU");
+        return s->msg;
+    }
+    snprintf(s->msg, sizeof s->msg, "unknown value reference %u", vr);
+    return s->msg;
+}
+
+/* 0, or the rule parameter k breaks (its declared limits; increasing with its neighbours) */
+static const char *HX_rule(HX_inst *s, unsigned k)
+{
+    const double v = s->mp[k];
+    const int p = HX_PREV[k], q = HX_NEXT[k];
+    const char *what = 0;
+    double bound = 0.0;
+    const char *other = "";
+    if (HX_STRICT[k] ? !(v > HX_LO[k]) : !(v >= HX_LO[k])) {
+        what = HX_STRICT[k] ? "greater than" : "at least";
+        bound = HX_LO[k];
+    } else if (!(v <= HX_HI[k])) {
+        what = "at most";
+        bound = HX_HI[k];
+    } else if (p >= 0 && !(v > s->mp[p])) {
+        what = "greater than";
+        bound = s->mp[p];
+        other = HX_NAME[p];
+    } else if (q >= 0 && !(v < s->mp[q])) {
+        what = "less than";
+        bound = s->mp[q];
+        other = HX_NAME[q];
+    }
+    if (!what) return 0;
+    snprintf(s->msg, sizeof s->msg, "%s = %.17g is refused: it must be %s %s%s%.17g%s; the "
+             "previous value %.17g is kept", HX_NAME[k], v, what, other, *other ? " = " : "",
+             bound, *other ? " (the values must increase)" : "", s->mp_old[k]);
+    return s->msg;
+}
+
+/* after the values of one Set call: 0, or a message (*discard set) and every value back */
+static const char *HX_commit(HX_inst *s, int *discard)
+{
+    unsigned k;
+    *discard = 1;
+    for (k = 0; k < HX_NPAR; ++k) {
+        const char *err = s->changed[k] ? HX_rule(s, k) : 0;
+        if (err) { HX_undo(s); return err; }
+    }
+    if (s->mode >= 2 && s->dirty) {
+        HX_retune(s);
+        if (!HX_finite()) {
+            HX_undo(s);
+            return HX_NOT_FINITE "; the previous values are kept";
+        }
+    }
+    *discard = 0;
+    return 0;
 }
 
 /* 0, or a message when the parameters set before initialisation are unusable */
@@ -225,7 +332,23 @@ static const char *HX_step(HX_inst *s, double t, double h, int *discard)
         n = 0;
     }
     HX_retune(s);
-    for (k = 0; k < n; ++k) s->y = HX_m_step(&s->st, s->u);
+    {
+        const HX_m_state saved = s->st;
+        const double y0 = s->y;
+        for (k = 0; k < n; ++k) {
+            s->y = HX_m_step(&s->st, s->u);
+            if (s->y - s->y != 0.0) {
+                snprintf(s->msg, sizeof s->msg, "the output %s would be %g at sample %lld "
+                         "(input %s = %.17g): beyond what the model's numbers can represent; "
+                         "the step is not taken and the model's memory is kept", HX_OUT_NAME,
+                         s->y, s->n + k + 1, HX_IN_NAME, s->u);
+                s->st = saved;
+                s->y = y0;
+                *discard = 1;
+                return s->msg;
+            }
+        }
+    }
     s->n += n;
     s->carry = carry;
     s->time = t + h;
@@ -362,11 +485,18 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     size_t nValueReferences, const fmi3Float64 values[], size_t nValues)
 {
     HX_inst *s = (HX_inst *)instance;
+    const char *err = 0;
     size_t k;
+    int discard = 0;
     if (!s || nValues != nValueReferences) return fmi3Error;
-    for (k = 0; k < nValueReferences; ++k) {
-        const char *err = HX_set(s, valueReferences[k], values[k]);
-        if (err) { HX_msg(s, fmi3Error, err); return fmi3Error; }
+    HX_begin(s);
+    for (k = 0; k < nValueReferences && !err; ++k)
+        err = HX_set(s, valueReferences[k], values[k], &discard);
+    if (err) HX_undo(s);
+    else err = HX_commit(s, &discard);
+    if (err) {
+        HX_msg(s, discard ? fmi3Discard : fmi3Error, err);
+        return discard ? fmi3Discard : fmi3Error;
     }
     return fmi3OK;
 }
@@ -510,11 +640,18 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                        const fmi2Real value[])
 {
     HX_inst *s = (HX_inst *)c;
+    const char *err = 0;
     size_t k;
+    int discard = 0;
     if (!s) return fmi2Error;
-    for (k = 0; k < nvr; ++k) {
-        const char *err = vr[k] == 0u ? "unknown value reference" : HX_set(s, vr[k], value[k]);
-        if (err) { HX_msg(s, fmi2Error, err); return fmi2Error; }
+    HX_begin(s);
+    for (k = 0; k < nvr && !err; ++k)
+        err = HX_set(s, vr[k], value[k], &discard);
+    if (err) HX_undo(s);
+    else err = HX_commit(s, &discard);
+    if (err) {
+        HX_msg(s, discard ? fmi2Discard : fmi2Error, err);
+        return discard ? fmi2Discard : fmi2Error;
     }
     return fmi2OK;
 }
@@ -606,6 +743,28 @@ def fmu_c_source(code: FmuCode, headers: Path) -> str:
     core = core.replace("HX_FINITE_BODY", "\n".join(finite))
     wrapper = (_FMI3 if code.fmi_version == 3 else _FMI2).replace("HX_CORE_HERE", core)
     mp_init = ", ".join(c_double(v) for v in code.parameters) or "0.0"
+    limits = code.limits or tuple((None, None, False, -1, -1) for _ in code.parameters)
+    names = code.names or tuple(f"parameter {code.first_vr + k}"
+                                for k in range(len(code.parameters)))
+
+    def bound(v: float | None, missing: str) -> str:
+        return missing if v is None else c_double(v)
+
+    rules = [
+        f"static const double {hx}_LO[{nmp}] = "
+        f"{{{', '.join(bound(lim[0], '-HUGE_VAL') for lim in limits) or '0.0'}}};",
+        f"static const double {hx}_HI[{nmp}] = "
+        f"{{{', '.join(bound(lim[1], 'HUGE_VAL') for lim in limits) or '0.0'}}};",
+        f"static const unsigned char {hx}_STRICT[{nmp}] = "
+        f"{{{', '.join(str(int(lim[2])) for lim in limits) or '0'}}};",
+        f"static const int {hx}_PREV[{nmp}] = "
+        f"{{{', '.join(str(lim[3]) for lim in limits) or '-1'}}};",
+        f"static const int {hx}_NEXT[{nmp}] = "
+        f"{{{', '.join(str(lim[4]) for lim in limits) or '-1'}}};",
+        f"static const char *const {hx}_NAME[{nmp}] = {{",
+        *(f"    {c_string(n)}," for n in names or ("",)),
+        "};",
+    ]
     kind_init = ", ".join(str(k) for k in code.kinds) or "0"
     v = code.fmi_version
     lines = [
@@ -640,6 +799,10 @@ def fmu_c_source(code: FmuCode, headers: Path) -> str:
         "1 tunable, 2 initial state (fixed), 0 fixed at export */",
         f"static const double {hx}_MP0[{nmp}] = {{{mp_init}}};",
         f"static const unsigned char {hx}_KIND[{nmp}] = {{{kind_init}}};",
+        "/* their rules: limits, and the neighbours an increasing field keeps them between */",
+        *rules,
+        f"#define {hx}_IN_NAME {c_string(code.ports[0])}",
+        f"#define {hx}_OUT_NAME {c_string(code.ports[1])}",
         "",
         code.header,
         "",

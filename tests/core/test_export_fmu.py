@@ -424,13 +424,17 @@ def test_a_value_that_breaks_the_coefficients_is_refused_and_the_old_one_kept(
     s.init()
     u = turning_points(8, 300)
     y1 = s.run(u[:150])
-    with pytest.raises(Exception, match="Set"):  # dx = 0: slope dy/dx is infinite
-        s.set("digitized.dx[1]", 0.0)
+    tiny = 1e-320  # > 0 as the field requires, but the slope dy/dx overflows
+    for bad in (0.0, tiny):  # 0 breaks the field's rule (> 0), tiny the coefficients
+        with pytest.raises(Exception, match="Set"):
+            s.set("digitized.dx[1]", bad)
     assert s.get("digitized.dx[1]") == float(model.dx[0])
     y = np.concatenate([y1, s.run(u[150:])])
     np.testing.assert_allclose(y, model(u), rtol=0, atol=1e-12)
-    s.fmu.reset()  # before initialisation the value is taken, and refused at exit
-    s.set("digitized.dx[1]", 0.0)
+    s.fmu.reset()  # before initialisation the rule is checked; the coefficients at exit
+    with pytest.raises(Exception, match="Set"):
+        s.set("digitized.dx[1]", 0.0)
+    s.set("digitized.dx[1]", tiny)
     with pytest.raises(Exception, match="ExitInitializationMode"):
         (s.fmu.enterInitializationMode(startTime=0.0) if version == 3 else
          (s.fmu.setupExperiment(startTime=0.0), s.fmu.enterInitializationMode()))

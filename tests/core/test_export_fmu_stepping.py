@@ -249,3 +249,130 @@ def test_a_c_master_runs_a_million_accumulated_steps(tmp_path) -> None:
     assert (int(k), int(bad)) == (n, 0)
     assert abs(float(left)) > 1e-6  # the accumulated time did drift (here past the stop)
     _close(np.frombuffer(res.stdout, "<f8"), _reference(u))
+
+
+# ----------------------------------------------------------------------------- bad values
+class LoggedMaster(Master):
+    """A master whose FMU logs into ``self.log`` (``"<status> <message>"``)."""
+
+    def __init__(self, path: Path, unzip: Path) -> None:
+        from tests.core.test_export_fmu import instantiate_logging
+
+        md = read_model_description(str(path))
+        self.v3 = md.fmiVersion.startswith("3")
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        d = extract(str(path), unzipdir=str(unzip))
+        cls = FMU3Slave if self.v3 else FMU2Slave
+        self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
+                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
+        self.log: list[str] = []
+        instantiate_logging(self.fmu, self.v3, self.log)
+        self.calls = 0
+
+    def start(self) -> None:
+        if self.v3:
+            self.fmu.enterInitializationMode(startTime=0.0)
+        else:
+            self.fmu.setupExperiment(startTime=0.0)
+            self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
+    def set_named(self, values: dict[str, float]) -> None:
+        (self.fmu.setFloat64 if self.v3 else self.fmu.setReal)(
+            [self.vr[n] for n in values], list(values.values()))
+
+    def get_named(self, name: str) -> float:
+        return (self.fmu.getFloat64 if self.v3 else self.fmu.getReal)([self.vr[name]])[0]
+
+    def refused(self, call, *args) -> tuple[int, str]:
+        """(status, logged message) of a call that must fail."""
+        from fmpy.fmi1 import FMICallException
+
+        n = len(self.log)
+        with pytest.raises(FMICallException) as e:
+            call(*args)
+        assert len(self.log) == n + 1, self.log[n:]
+        return e.value.status, self.log[-1]
+
+
+DISCARD = 2
+
+
+def test_non_finite_input_is_discarded_and_the_state_kept(fmu, tmp_path) -> None:
+    """NaN and infinite inputs are refused (Discard: the FMU is as before the call), the
+    previous input is held; an input the model cannot represent (1e308: the lag inverse
+    overflows) discards the step and keeps the memory. Before: status OK, NaN outputs, and
+    for the chain every later output NaN."""
+    m = LoggedMaster(fmu, tmp_path / "x")
+    m.start()
+    u = _desired(6, 800)
+    ran, ys, t = [], [], 0.0  # the input of each sample the FMU ran
+    for k, x in enumerate(u.tolist()):
+        if k in (100, 300, 500):
+            bad = {100: float("nan"), 300: float("inf"), 500: -float("inf")}[k]
+            status, msg = m.refused(m.set, bad)
+            assert status == DISCARD
+            assert f"discard the input y_ref must be a finite number, got {bad:g}; the " \
+                   f"previous value {ran[-1]:.17g} is kept" in msg
+            m.step(t, DT)  # the master steps anyway: the held input runs
+            ran.append(ran[-1])
+        elif k == 700:
+            m.set(1e308)
+            status, msg = m.refused(m.step, t, DT)
+            assert status == DISCARD and "the step is not taken" in msg
+            assert m.get() == ys[-1]
+            continue  # no sample ran
+        else:
+            m.set(x)
+            m.step(t, DT)
+            ran.append(x)
+        t += DT
+        ys.append(m.get())
+    y = np.array(ys)
+    assert np.isfinite(y).all()
+    _close(y, _reference(np.array(ran)))
+    m.close()
+
+
+def test_parameters_outside_the_models_rules_are_refused_while_running(fmu, tmp_path) -> None:
+    """A zero or negative time constant, a threshold out of order: refused at set time
+    (Discard), the message naming the value, the rule and the value kept; values set in one
+    call are judged together (all thresholds moved up at once is fine)."""
+    m = LoggedMaster(fmu, tmp_path / "x")
+    m.start()
+    u = _desired(7, 600)
+    first = []
+    t = 0.0
+    for x in u[:300].tolist():
+        m.set(x)
+        m.step(t, DT)
+        t += DT
+        first.append(m.get())
+    tau = "s1_lag_inverse.tau_s"
+    old = m.get_named(tau)
+    for bad in (0.0, -1e-3):
+        status, msg = m.refused(m.set_named, {tau: bad})
+        assert status == DISCARD
+        assert f"{tau} = {bad:.17g} is refused: it must be greater than 0; the previous " \
+               f"value {old:.17g} is kept" in msg
+    assert m.get_named(tau) == old
+    r = [m.get_named(f"s2_pi.thresholds[{i}]") for i in (1, 2, 3)]
+    status, msg = m.refused(m.set_named, {"s2_pi.thresholds[2]": r[0] * 0.5})
+    assert (status, msg.split(" = ")[0]) == (DISCARD, "discard s2_pi.thresholds[2]")
+    assert f"must be greater than s2_pi.thresholds[1] = {r[0]:.17g} (the values must " \
+        "increase)" in msg
+    names = [f"s2_pi.thresholds[{i}]" for i in range(1, 7)]
+    r = [m.get_named(n) for n in names]
+    m.set_named({n: 1.5 * v for n, v in zip(names, r, strict=True)})  # one call: in order
+    m.set_named(dict(zip(names, r, strict=True)))  # and back
+    # a refused value in a call takes back the values set before it in the same call
+    status, _ = m.refused(m.set_named, {"s2_pi.weights[1]": 0.3, tau: -1.0})
+    assert m.get_named("s2_pi.weights[1]") != 0.3
+    y = [*first]
+    for x in u[300:].tolist():
+        m.set(x)
+        m.step(t, DT)
+        t += DT
+        y.append(m.get())
+    _close(np.array(y), _reference(u))  # nothing refused changed the run
+    m.close()
