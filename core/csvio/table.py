@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -111,11 +110,12 @@ class Table:
             block = block.replace("\n", ",")
         if "_" in block or "x" in block or "X" in block:
             return None  # "1_000", "0x1f": let float() decide, cell by cell
+        # each token through float(): a token that is not a number raises instead of the
+        # DeprecationWarning of np.fromstring, which could only be caught by changing the
+        # process-wide warning filters (fits in other threads then saw their warnings raised)
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                arr = np.fromstring(block, sep=sep)
-        except (ValueError, DeprecationWarning):
+            arr = np.array(block.split() if sep == " " else block.split(sep), dtype=np.float64)
+        except ValueError:
             return None
         width = len(lay.columns)
         if arr.size != len(self.data) * width:
