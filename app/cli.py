@@ -34,8 +34,12 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    from core.threads import DEFAULT_THREADS, numeric_threads
+
     try:
-        return int(args.func(args) or 0)
+        # one BLAS / OpenMP / numba thread unless --threads asks for more (core.threads)
+        with numeric_threads(getattr(args, "threads", DEFAULT_THREADS)):
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
     except (ValueError, OSError) as exc:  # ParameterError & co. subclass ValueError

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "add_json_flag",
+    "add_threads_option",
     "emit",
     "pick_column",
     "read_parameter_set",
@@ -38,6 +39,28 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="print a machine-readable JSON summary on stdout (messages go to stderr)",
     )
+
+
+def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--threads N``: BLAS / OpenMP / numba threads of the command (default 1;
+    :mod:`core.threads` says why). :func:`app.cli.main` applies it around the command."""
+    from core.threads import DEFAULT_THREADS, max_threads
+
+    parser.add_argument(
+        "--threads", type=_threads, default=DEFAULT_THREADS, metavar="N",
+        help=f"threads of the numeric libraries (default {DEFAULT_THREADS}: fastest when "
+             f"other work shares the machine; up to {max_threads()} here)")
+
+
+def _threads(text: str) -> int:
+    from core.threads import check_threads
+
+    try:
+        return check_threads(int(text))
+    except ValueError as exc:  # int() of a non-number, or out of range
+        msg = str(exc) if text.strip().lstrip("+-").isdigit() else \
+            f"--threads takes a whole number of threads, got {text!r}"
+        raise argparse.ArgumentTypeError(msg.replace("threads must", "--threads must")) from None
 
 
 def emit(args: argparse.Namespace, text: str, data: dict[str, Any]) -> None:

@@ -46,7 +46,7 @@ from core.exceptions import ParameterError
 
 from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
 from ..services.progress import Progress
-from ._common import window_arg
+from ._common import add_threads_option, window_arg
 from .fit import add_read_options, read_options
 
 __all__ = ["register", "run"]
@@ -95,6 +95,7 @@ def register(subparsers: Any) -> None:
                    help="write the extended model as a parameter set for hyst simulate")
     p.add_argument("--report", metavar="REPORT.html",
                    help="write a self-contained HTML report (loops, maps, effects)")
+    add_threads_option(p)
     p.set_defaults(func=run)
 
 

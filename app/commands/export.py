@@ -9,7 +9,7 @@ from typing import Any
 from core.exceptions import NotInvertibleError
 
 from ..services.inputs import CommandError
-from ._common import add_json_flag, emit, read_parameter_set
+from ._common import add_json_flag, add_threads_option, emit, read_parameter_set
 
 __all__ = ["FORMATS", "register", "run"]
 
@@ -49,6 +49,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--inverse", action="store_true",
                    help="fmu: export the inverse compensator instead of the model")
     add_json_flag(p)
+    add_threads_option(p)
     p.set_defaults(func=run)
 
 

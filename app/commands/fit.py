@@ -14,7 +14,7 @@ from ..services.fitting import (
 )
 from ..services.progress import Progress
 from ..services.recordings import csv_read_options, read_recordings, say_read
-from ._common import add_json_flag, emit
+from ._common import add_json_flag, add_threads_option, emit
 
 if TYPE_CHECKING:
     from core.csvio import CsvOptions
@@ -97,6 +97,7 @@ def register(subparsers: Any) -> None:
                    help="where to write the fitted parameter set")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     add_json_flag(p)
+    add_threads_option(p)
     p.set_defaults(func=run)
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..services.inputs import CommandError
-from ._common import add_json_flag, emit, read_parameter_set
+from ._common import add_json_flag, add_threads_option, emit, read_parameter_set
 
 __all__ = ["register", "run"]
 
@@ -38,6 +38,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--dt", type=float, metavar="S",
                    help="sample time, to report the preview a delay inverse needs in samples")
     add_json_flag(p)
+    add_threads_option(p)
     p.set_defaults(func=run)
 
 

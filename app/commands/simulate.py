@@ -11,6 +11,7 @@ import numpy as np
 from ..services.inputs import CommandError, existing_file
 from ._common import (
     add_json_flag,
+    add_threads_option,
     emit,
     pick_column,
     read_parameter_set,
@@ -47,6 +48,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--inverse", action="store_true",
                    help="apply the model's inverse (the compensator) instead of the model")
     add_json_flag(p)
+    add_threads_option(p)
     p.set_defaults(func=run)
 
 

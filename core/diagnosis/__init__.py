@@ -14,10 +14,16 @@ Examples
 
 from __future__ import annotations
 
+from ..threads import with_thread_limit
 from . import effects  # noqa: F401  (registers every diagnosable effect)
 from .data import as_records, split_masks
-from .engine import ACCEPT_RULE, DiagnosisResult, EffectFinding, diagnose
+from .engine import ACCEPT_RULE, DiagnosisResult, EffectFinding
+from .engine import diagnose as _diagnose
 from .structure import Fit, Structure, fit_structure
+
+#: The entry point: one BLAS / OpenMP / numba thread unless ``threads=`` asks for more, the
+#: caller's settings restored afterwards (:mod:`core.threads`).
+diagnose = with_thread_limit(_diagnose)
 
 __all__ = [
     "ACCEPT_RULE",

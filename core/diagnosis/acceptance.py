@@ -63,10 +63,12 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     than ``max_harm_elsewhere`` (5 %) with a Diebold-Mariano z of ``-min_z`` or below.
 
 14. *Several events for a dynamic name* (:func:`enough_events`): with one recording, an
-    output dynamics stage (delay, lag, mode) is named only when it lowers the held-out MSE
-    by ``min_gain`` in at least ``min_events`` (3) of the windows from one input event
-    (step, reversal) to the next (:mod:`core.diagnosis.events`): a signature seen after one
-    step, or in the first loading from rest only, is suggestive, not a name.
+    output dynamics stage (delay, lag, mode) is named only when it lowers the MSE by
+    ``min_gain`` in at least ``min_events`` (3) of the windows from one input event (step,
+    reversal) to the next (:mod:`core.diagnosis.events`), each window held out in turn (the
+    model with and without the stage refitted on the training rows outside it): a
+    signature seen after one step, or in the first loading from rest only, is suggestive,
+    not a name.
 
 15. *Look-alike stages told apart by their own signatures* (:func:`signatures_separable`):
     a dead time shows no response after a step, a lag an immediate smooth one, a mode its

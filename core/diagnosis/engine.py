@@ -51,6 +51,7 @@ import numpy as np
 
 from ..csvio import ColumnSpec
 from ..exceptions import ParameterError
+from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MAP
 from ..fitting.metrics import percent_of_range
 from .acceptance import (
     Decision,
@@ -441,7 +442,7 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
     hist0 = tuple(steady_state_history(rec) for rec in records)
     s0 = Structure(tuple(float(x) for x in r), hist0)
     f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
-    free = compare_heldout(ctx, f_nn, f_free).gain >= 0.5
+    free = compare_heldout(ctx, f_nn, f_free).gain >= FREE_SIGN_GAIN
     base: Fit | None = None
     requested: Fit | None = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
@@ -462,15 +463,13 @@ def _baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple
 
 
 #: A Preisach base replaces the PI one when it lowers the MSE of predicting each recording
-#: from the others by at least this share (a choice of the base, like the resolution: no
-#: significance needed, but a margin) ...
-PREISACH_MIN_GAIN = 0.2
-#: ... and lowers it by this share against the PI with a static output map or a loop shape
-#: (which the effect search names). Measured (each recording predicted from the others):
-#: gains against the PI of the benchmark's Preisach plants 0.88-0.98, Duhem 0.25-0.55,
-#: Bouc-Wen and B-PI <= 0.10; B-PI + asymmetry 0.89 against the PI, but ~0 against PI +
-#: asymmetry.
-PREISACH_OVER_MAP = 0.3
+#: from the others by at least PREISACH_MIN_GAIN (a choice of the base, like the resolution:
+#: no significance needed, but a margin) and lowers it by PREISACH_OVER_MAP against the PI
+#: with a static output map or a loop shape (which the effect search names). Measured (each
+#: recording predicted from the others): gains against the PI of the benchmark's Preisach
+#: plants 0.88-0.98, Duhem 0.25-0.55, Bouc-Wen and B-PI <= 0.10; B-PI + asymmetry 0.89
+#: against the PI, but ~0 against PI + asymmetry. The margins live in core.fitting.choice,
+#: so that `hyst fit --model auto` chooses its base by the same numbers.
 #: (level segments, smoothness) of the Preisach bases tried (uniform level knots over the
 #: training input range; on the benchmark's Bouc-Wen, Preisach and Duhem nulls the
 #: cross-fitted gains vary by < 0.1 over smoothness 0.01-0.1, 3-5 segments)
@@ -826,17 +825,22 @@ MIN_EVENT_ROWS = 20
 
 
 def _event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
-    """Relative held-out MSE reduction of ``new`` over ``cur`` in each event window (from one
-    input step or reversal to the next) of the one recording, on its test rows."""
-    rec, m = ctx.records[0], ctx.test[0]
-    e0, e1 = rec.y - cur.pred[0], rec.y - new.pred[0]
+    """Relative MSE reduction of ``new`` over ``cur`` in each event window (from one input
+    step or reversal to the next) of the one recording, each window held out in turn: both
+    structures are refitted on the training rows outside it (their nonlinear parameters
+    kept) and scored on all its rows."""
+    rec = ctx.records[0]
     out = []
     for a, b in event_windows(rec):
-        w = m[a:b]
-        if int(w.sum()) < MIN_EVENT_ROWS:
+        if b - a < MIN_EVENT_ROWS:
             continue
-        before = float(np.mean(e0[a:b][w] ** 2))
-        out.append(1.0 - float(np.mean(e1[a:b][w] ** 2)) / before if before > 0 else 0.0)
+        ev = np.zeros(rec.n_samples, dtype=bool)
+        ev[a:b] = True
+        sub = FitContext(ctx.records, [ctx.train[0] & ~ev], [ev], parent=ctx)
+        e0 = (rec.y - sub.fit(cur.structure, cur).pred[0])[ev]
+        e1 = (rec.y - sub.fit(new.structure, new).pred[0])[ev]
+        before = float(np.mean(e0**2))
+        out.append(1.0 - float(np.mean(e1**2)) / before if before > 0 else 0.0)
     return out
 
 

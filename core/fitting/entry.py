@@ -22,6 +22,7 @@ import numpy as np
 
 from ..exceptions import ParameterError
 from ..recordings import Recording
+from ..threads import with_thread_limit
 from ._data import Prepared, prepare
 from .adequacy import Misfit, misfit
 from .choice import AUTO, choose_base
@@ -151,6 +152,7 @@ def _masks(recs: Sequence[Recording], window: TimeWindow | None,
     return masks
 
 
+@with_thread_limit
 def fit_recordings(
     recordings: Recording | Sequence[Recording],
     kind: str | None = None,
