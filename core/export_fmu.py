@@ -281,8 +281,8 @@ def _limits(f: Field, i: int, value: float) -> tuple[float | None, float | None,
     return c.lower, c.upper, bool(c.strict and c.lower is not None)
 
 
-def _rule_words(lower: float | None, upper: float | None, strict: bool, increasing: bool
-                ) -> str:
+def _rule_words(lower: float | None, upper: float | None, strict: bool, increasing: bool,
+                doc: str) -> str:
     words = []
     if lower is not None and lower == upper:
         words.append(f"fixed at {lower:g}")
@@ -291,27 +291,106 @@ def _rule_words(lower: float | None, upper: float | None, strict: bool, increasi
             words.append(f"{'>' if strict else '>='} {lower:g}")
         if upper is not None:
             words.append(f"<= {upper:g}")
-    if increasing:
+    if increasing and "increasing" not in doc:
         words.append("increasing")
     return f"; must be {', '.join(words)}" if words else ""
 
 
-def _unit_of(doc: str, k: int, n: int, inverse: bool, u_in: str, u_out: str, t: str) -> str | None:
-    """Unit of a field from its doc: ``(s)``, ``(Hz)``, ``(input units)``, ``(output units)``.
+def _unit_of(f: Field, i: int, k: int, n: int, inverse: bool, u_in: str, u_out: str
+             ) -> str | None:
+    """Unit of element ``i`` of field ``f`` of stage ``k`` (of ``n``): its control's unit
+    (:data:`core.base.UNITS`), else the doc's ``(s)``, ``(Hz)``, ``(input units)``,
+    ``(output units)``; None for a pure number or an unknown unit.
 
-    Stage inputs: the model's input before (and at) the stage that converts units (the first
-    stage of a model, the last of a compensator), its output after; likewise for outputs.
+    The stage that converts units is the first of a model and the last of a compensator:
+    before (and at) it a stage's input is in the FMU's input unit, after it in the output
+    unit; likewise for its output.
     """
-    if "(s)" in doc:
-        return t
-    if "(Hz)" in doc:
-        return "Hz"
     conv = n - 1 if inverse else 0
-    if "input units" in doc:
-        return u_in if k <= conv else u_out
-    if "output units" in doc:
-        return u_out if k >= conv else u_in
+    si = u_in if k <= conv else u_out
+    so = u_out if k >= conv else u_in
+    c = f.control_at(i) if f.numeric else None
+    kind = c.unit if c is not None else (
+        "s" if "(s)" in f.doc else "Hz" if "(Hz)" in f.doc else
+        "input" if "input units" in f.doc else "output" if "output units" in f.doc else "1")
+    if kind in ("s", "Hz"):
+        return kind
+    if kind == "input":
+        return si or None
+    if kind == "output":
+        return so or None
+    if kind == "output/input" and si and so and si != so:
+        return f"{so}/{si}"
+    if kind == "1/input" and si:
+        return f"1/{si}"
     return None
+
+
+# ----------------------------------------------------------------------------- units
+#: Non-ASCII characters of unit names and their spelling in the Modelica unit syntax that FMI
+#: tools parse (Modelica Language Specification, "Unit Expressions": ASCII, ``u`` for micro).
+_ASCII_UNIT = {"\u00b5": "u", "\u03bc": "u", "\u2126": "Ohm", "\u03a9": "Ohm",
+               "\u00b0": "deg", "\u00b2": "2", "\u00b3": "3", "\u00b7": "."}
+#: SI base-unit exponents (kg, m, s, A, K, mol, cd, rad) and factor of the symbols known here.
+_SI: dict[str, tuple[tuple[int, ...], float]] = {
+    "m": ((0, 1, 0, 0, 0, 0, 0, 0), 1.0), "g": ((1, 0, 0, 0, 0, 0, 0, 0), 1e-3),
+    "s": ((0, 0, 1, 0, 0, 0, 0, 0), 1.0), "A": ((0, 0, 0, 1, 0, 0, 0, 0), 1.0),
+    "K": ((0, 0, 0, 0, 1, 0, 0, 0), 1.0), "mol": ((0, 0, 0, 0, 0, 1, 0, 0), 1.0),
+    "rad": ((0, 0, 0, 0, 0, 0, 0, 1), 1.0), "Hz": ((0, 0, -1, 0, 0, 0, 0, 0), 1.0),
+    "N": ((1, 1, -2, 0, 0, 0, 0, 0), 1.0), "Pa": ((1, -1, -2, 0, 0, 0, 0, 0), 1.0),
+    "J": ((1, 2, -2, 0, 0, 0, 0, 0), 1.0), "W": ((1, 2, -3, 0, 0, 0, 0, 0), 1.0),
+    "V": ((1, 2, -3, -1, 0, 0, 0, 0), 1.0), "Ohm": ((1, 2, -3, -2, 0, 0, 0, 0), 1.0),
+    "C": ((0, 0, 1, 1, 0, 0, 0, 0), 1.0), "T": ((1, 0, -2, -1, 0, 0, 0, 0), 1.0),
+    "Wb": ((1, 2, -2, -1, 0, 0, 0, 0), 1.0), "H": ((1, 2, -2, -2, 0, 0, 0, 0), 1.0),
+    "F": ((-1, -2, 4, 2, 0, 0, 0, 0), 1.0), "deg": ((0, 0, 0, 0, 0, 0, 0, 1), np.pi / 180),
+    "min": ((0, 0, 1, 0, 0, 0, 0, 0), 60.0), "h": ((0, 0, 1, 0, 0, 0, 0, 0), 3600.0),
+}
+_PREFIX = {"p": 1e-12, "n": 1e-9, "u": 1e-6, "m": 1e-3, "c": 1e-2, "d": 1e-1, "k": 1e3,
+           "M": 1e6, "G": 1e9}
+_BASE_NAMES = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+_FACTOR = re.compile(r"([A-Za-z]+)(-?\d+)?")
+
+
+def fmi_unit(unit: str) -> str:
+    """A unit name in the ASCII spelling FMI tools expect: ``µm`` -> ``um``, ``Ω`` -> ``Ohm``,
+    ``m²`` -> ``m2`` (the Modelica unit syntax FMI 2 and 3 refer to; a non-ASCII name is
+    legal XML but a tool parsing unit expressions does not know it)."""
+    return "".join(_ASCII_UNIT.get(ch, ch) for ch in unit)
+
+
+def _symbol(token: str) -> tuple[tuple[int, ...], float] | None:
+    if token in _SI:
+        return _SI[token]
+    if len(token) > 1 and token[0] in _PREFIX and token[1:] in _SI:
+        exps, factor = _SI[token[1:]]
+        return exps, factor * _PREFIX[token[0]]
+    return None
+
+
+def base_unit(unit: str) -> tuple[dict[str, int], float] | None:
+    """SI base-unit exponents and factor of an (ASCII) unit name, e.g. ``"um/V"`` ->
+    ``({"kg": -1, "m": -1, "s": 3, "A": 1}, 1e-6)``; None when a symbol is not one of the
+    SI units and prefixes known here (the unit is then declared without a ``BaseUnit``).
+
+    The grammar: factors ``<prefix><symbol><exponent>`` joined by ``.`` or ``*``, at most
+    one ``/`` before the denominator's factors; ``1`` stands for no factor.
+    """
+    parts = unit.split("/")
+    if len(parts) > 2 or not unit:
+        return None
+    exps, factor = [0] * 8, 1.0
+    for side, sign in zip(parts, (1, -1), strict=False):
+        for item in re.split(r"[.*]", side.strip()):
+            if item == "1" and sign == 1:
+                continue
+            m = _FACTOR.fullmatch(item)
+            sym = _symbol(m.group(1)) if m else None
+            if m is None or sym is None:
+                return None
+            power = sign * int(m.group(2) or 1)
+            exps = [e + power * x for e, x in zip(exps, sym[0], strict=True)]
+            factor *= sym[1] ** power
+    return {n: e for n, e in zip(_BASE_NAMES, exps, strict=True) if e}, factor
 
 
 def _element_name(base: str, path: str, arr: np.ndarray, idx: int, is_matrix: bool) -> str:
@@ -345,14 +424,15 @@ def _parameters(stages: list[Model], emitted: list, role: str, units: Units
             start = offsets[path] = len(variables)
             state = path.rsplit(".", 1)[-1] in _STATE_FIELDS
             variability = ("fixed" if state else "tunable") if path in tuned else "constant"
-            unit = _unit_of(doc, k, n, inverse, units.input, units.output, units.time)
             note = "" if variability != "constant" else \
                 " [fixed at export: its C constants need the export's numerics; re-export]"
             flat = arr.ravel()
             increasing = fld.increasing and arr.ndim == 1 and flat.size > 1
             for i, v in enumerate(flat):
                 lo, hi, strict = _limits(fld, i, float(v))
-                rule = _rule_words(lo, hi, strict, increasing)
+                rule = _rule_words(lo, hi, strict, increasing, doc)
+                unit = _unit_of(fld, i, k, n, inverse, fmi_unit(units.input),
+                                fmi_unit(units.output))
                 variables.append(FmuVariable(
                     _element_name(base, path, arr, i, is_matrix),
                     FIRST_PARAMETER_VR + len(variables),
@@ -433,27 +513,31 @@ def fmu_sources(
     in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
     what = "inverse compensator" if inverse else "hysteresis model"
     variables: list[FmuVariable] = []
+    u_in, u_out = fmi_unit(units.input) or None, fmi_unit(units.output) or None
     if fmi_version == 3:
         variables.append(FmuVariable("time", 0, "independent", "continuous",
-                                     "simulation time", None, units.time or None))
+                                     "simulation time (s)", None, "s"))
     variables.append(FmuVariable(
         in_name, 1, "input", "continuous",
         ("desired output of the actuator (the compensator's set point)" if inverse
-         else "actuator drive (model input)") + ", held over each step",
-        0.0, units.input or None))
+         else "actuator drive (model input)") + ", held over each step; must be finite",
+        0.0, u_in))
     variables.append(FmuVariable(
         out_name, 2, "output", "discrete",
         ("drive that makes the actuator follow y_ref" if inverse else "model output")
-        + " (its value at the last sample of the step)", None, units.output or None))
+        + " (its value at the last sample of the step)", None, u_out))
     if dt is not None:
-        variables.append(FmuVariable("sample_time", 3, "local", "constant",
-                                     "sample time of the dynamic stages (s): step in multiples",
-                                     float(dt), units.time or None))
+        variables.append(FmuVariable(
+            "sample_time", 3, "parameter", "fixed",
+            "sample time of the dynamic stages (s), fixed at export (their discretisation "
+            "uses it; re-export with another --dt to change it)", float(dt), "s",
+            lower=float(dt), upper=float(dt)))
     if inverse:
         variables.append(FmuVariable(
-            "preview_samples", 4, "local", "constant",
+            "preview_samples", 4, "calculatedParameter", "fixed",
             "samples of the desired trajectory the compensator needs ahead: feed y_ref "
-            "this many samples early (0: none)", float(preview)))
+            "this many samples early (0: none)", None, lower=float(preview),
+            upper=float(preview)))
     params, tune_lines = _parameters(stages, emitted, role, units)
     variables += params
 
@@ -481,16 +565,16 @@ def fmu_sources(
 def _description(ps: ParameterSet, fwd: Model, inverse: bool, preview: int, dt: float | None,
                  units, n: int, stages: list[Model]) -> str:
     chain = " -> ".join(s.type_name for s in stages)
+    u_in, u_out = fmi_unit(ps.units.input) or "-", fmi_unit(ps.units.output) or "-"
     parts = [
         (f"Inverse compensator of a {fwd.type_name} hysteresis model: desired output "
-         f"({ps.units.output or '-'}) in, actuator drive ({ps.units.input or '-'}) out"
+         f"({u_out}) in, actuator drive ({u_in}) out"
          if inverse else
-         f"{fwd.type_name} hysteresis model: drive ({ps.units.input or '-'}) in, output "
-         f"({ps.units.output or '-'}) out"),
+         f"{fwd.type_name} hysteresis model: drive ({u_in}) in, output ({u_out}) out"),
         f"{n} stage(s): {chain}",
     ]
     if dt is not None:
-        parts.append(f"fixed sample time {dt:.12g} {units.time}: a step runs the samples "
+        parts.append(f"fixed sample time {dt:.12g} s: a step runs the samples "
                      "whose instants it reaches with the input held (one per step when the "
                      "step is the sample time) and holds any remainder")
     else:
@@ -516,7 +600,7 @@ def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str
     extra = {k: v for k, v in prov.extra.items() if k in ("author", "copyright")
              and isinstance(v, str)}  # only what the parameter set states
     attrs = {
-        "modelName": f"{ident} ({what})",
+        "modelName": ident,
         "description": doc_text,
         **({"author": extra["author"]} if "author" in extra else {}),
         "version": prov.created,
@@ -538,11 +622,38 @@ _LOG_CATEGORIES = [
 
 
 def _units_xml(variables: list[FmuVariable]) -> list[str]:
+    """The unit definitions: every unit a variable uses, with its SI ``BaseUnit`` when the
+    unit is made of the symbols :func:`base_unit` knows."""
     units = sorted({v.unit for v in variables if v.unit})
     if not units:
         return []
-    return ["  <UnitDefinitions>", *(f"    <Unit name={xml_attr(u)}/>" for u in units),
-            "  </UnitDefinitions>"]
+    lines = ["  <UnitDefinitions>"]
+    for u in units:
+        base = base_unit(u)
+        if base is None:
+            lines.append(f"    <Unit name={xml_attr(u)}/>")
+            continue
+        exps, factor = base
+        attrs = "".join(f' {k}="{e}"' for k, e in exps.items())
+        if factor != 1.0:
+            attrs += f' factor="{factor!r}"'
+        lines += [f"    <Unit name={xml_attr(u)}>", f"      <BaseUnit{attrs}/>", "    </Unit>"]
+    return [*lines, "  </UnitDefinitions>"]
+
+
+def _value_attrs(v: FmuVariable) -> str:
+    """``unit``, ``min``, ``max`` and ``start`` of a variable (the common attributes of an
+    FMI 3 ``Float64`` and an FMI 2 ``Real``)."""
+    a = []
+    if v.unit:
+        a.append(f"unit={xml_attr(v.unit)}")
+    if v.lower is not None:
+        a.append(f'min="{c_double(v.lower)}"')
+    if v.upper is not None:
+        a.append(f'max="{c_double(v.upper)}"')
+    if v.start is not None:
+        a.append(f'start="{c_double(v.start)}"')
+    return " ".join(a)
 
 
 def _var_attrs(v: FmuVariable) -> str:
@@ -578,15 +689,14 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
              "  <ModelVariables>"]
     for v in variables:
         a = _var_attrs(v)
-        if v.unit:
-            a += f" unit={xml_attr(v.unit)}"
-        if v.causality == "output":
+        if v.causality in ("output", "calculatedParameter"):
             a += ' initial="calculated"'
-        if v.start is not None:
-            a += f' start="{c_double(v.start)}"'
-        lines.append(f"    <Float64 {a}/>")
+        values = _value_attrs(v)
+        lines.append(f"    <Float64 {a}{' ' + values if values else ''}/>")
     lines += ["  </ModelVariables>", "  <ModelStructure>",
               '    <Output valueReference="2"/>', '    <InitialUnknown valueReference="2"/>',
+              *(f'    <InitialUnknown valueReference="{v.vr}" dependencies=""/>'
+                for v in variables if v.causality == "calculatedParameter"),
               "  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(lines)
 
@@ -603,23 +713,23 @@ def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
              *_LOG_CATEGORIES,
              _experiment(dt),
              "  <ModelVariables>"]
-    out_index = 0
+    out_index, calculated = 0, []
     for i, v in enumerate(variables, start=1):
         a = _var_attrs(v)
         if v.causality == "output":
             a += ' initial="calculated"'
             out_index = i
-        real = []
-        if v.unit:
-            real.append(f"unit={xml_attr(v.unit)}")
-        if v.start is not None:
-            real.append(f'start="{c_double(v.start)}"')
+        elif v.causality == "calculatedParameter":
+            a += ' initial="calculated"'
+            calculated.append(i)
+        values = _value_attrs(v)
         lines.append(f"    <ScalarVariable {a}>")
-        lines.append(f"      <Real {' '.join(real)}/>".replace("<Real />", "<Real/>"))
+        lines.append(f"      <Real{' ' + values if values else ''}/>")
         lines.append("    </ScalarVariable>")
     lines += ["  </ModelVariables>", "  <ModelStructure>",
               "    <Outputs>", f'      <Unknown index="{out_index}"/>', "    </Outputs>",
               "    <InitialUnknowns>", f'      <Unknown index="{out_index}"/>',
+              *(f'      <Unknown index="{i}" dependencies=""/>' for i in calculated),
               "    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(lines)
 

@@ -315,7 +315,8 @@ static const char *HX_step(HX_inst *s, double t, double h, int *discard)
     *discard = 0;
     if (!(h >= 0.0) || h - h != 0.0) {
         snprintf(s->msg, sizeof s->msg, "the communication step must be a finite number "
-                 "of seconds >= 0, got %.17g s (at t = %.17g s)", h, t);
+                 "of seconds >= 0, got %.17g s (at t = %.17g s; sample_time = %.17g s)", h,
+                 t, HX_DT);
         return s->msg;
     }
     if (HX_DT > 0.0) {

@@ -83,7 +83,8 @@ def run_cli(*argv: str) -> str:
 def closed_loop(r: np.ndarray, dt: float, plant: Fmu, comp: Fmu | None,
                 gain: float) -> np.ndarray:
     """The co-simulation master: the plant's output for the desired output ``r``."""
-    preview = int(float(comp.start.get("preview_samples") or 0)) if comp else 0
+    # a calculated parameter of the FMU (read after initialisation)
+    preview = int(comp.fmu.getFloat64([comp.vr["preview_samples"]])[0]) if comp else 0
     y, corr, out = 0.0, 0.0, np.empty(r.size)
     for k in range(r.size):
         t = k * dt

@@ -18,6 +18,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import warnings
+import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
 
@@ -25,7 +26,8 @@ import numpy as np
 import pytest
 
 from core.effects import causal_form
-from core.export_fmu import build_fmu, fmi_headers
+from core.export_fmu import build_fmu, fmi_headers, fmu_sources
+from core.paramset import ParameterSet, Units
 from tests.core.model_zoo import DIAGNOSED, DT, turning_points
 
 fmpy = pytest.importorskip("fmpy")
@@ -375,4 +377,83 @@ def test_parameters_outside_the_models_rules_are_refused_while_running(fmu, tmp_
         t += DT
         y.append(m.get())
     _close(np.array(y), _reference(u))  # nothing refused changed the run
+    m.close()
+
+
+# ----------------------------------------------------------------------------- description
+def _description(v: int, units: Units, model=MODEL, inverse: bool = True) -> ET.Element:
+    src = fmu_sources(ParameterSet.from_model(model, units=units), fmi_version=v,
+                      inverse=inverse, dt=DT, name="comp")
+    return ET.fromstring(src.model_description)
+
+
+def _variables(root: ET.Element) -> dict[str, dict[str, str]]:
+    """name -> attributes of the variable and of its FMI 2 ``Real`` element."""
+    out = {}
+    for e in root.iter():
+        if e.tag in ("Float64", "ScalarVariable"):
+            real = e.find("Real")
+            out[e.get("name")] = {**e.attrib, **(real.attrib if real is not None else {})}
+    return out
+
+
+@pytest.mark.parametrize("version", [3, 2])
+def test_a_description_an_engineer_can_read(version) -> None:
+    """One ASCII spelling of each unit (µm from a CSV header and um from a preset agree)
+    with its SI base unit, units on p0 and the weights, min/max where the model's fields
+    declare hard limits, sample_time a fixed parameter, preview_samples a calculated one,
+    a plain modelName. Before: µm and um, no BaseUnit, no min/max, p0 without unit,
+    sample_time and preview_samples local constants, modelName 'comp (inverse compensator)'."""
+    root = _description(version, Units(input="V", output="µm"))
+    assert ET.tostring(root) == ET.tostring(_description(version, Units(input="V",
+                                                                       output="um")))
+    assert root.get("modelName") == "comp"
+    units = {u.get("name"): u.find("BaseUnit") for u in root.iter("Unit")}
+    assert set(units) == {"um", "V", "V/um", "s"}
+    assert (units["um"].get("m"), float(units["um"].get("factor"))) == ("1", 1e-6)
+    assert {k: units["V"].get(k) for k in ("kg", "m", "s", "A")} == \
+        {"kg": "1", "m": "2", "s": "-3", "A": "-1"}
+    assert float(units["V/um"].get("factor")) == pytest.approx(1e6, rel=1e-15)
+    assert units["s"].attrib == {"s": "1"}
+    var = _variables(root)
+    assert (var["y_ref"]["unit"], var["u"]["unit"]) == ("um", "V")
+    assert var["s2_pi.p0"]["unit"] == "V/um" and var["s2_pi.weights[1]"]["unit"] == "V/um"
+    assert var["s2_pi.thresholds[1]"]["unit"] == "um"
+    tau = var["s1_lag_inverse.tau_s"]
+    assert (tau["unit"], tau["min"], "max" in tau) == ("s", "0.0", False)
+    assert "must be > 0" in tau["description"]
+    assert "min" not in var["s2_pi.weights[1]"]  # a PI inverse's weights are negative
+    st = var["sample_time"]
+    assert (st["causality"], st["variability"], float(st["start"])) == \
+        ("parameter", "fixed", DT)
+    pv = var["preview_samples"]
+    assert (pv["causality"], pv["variability"], "start" in pv) == \
+        ("calculatedParameter", "fixed", False)
+
+
+def test_units_without_a_known_base_are_declared_plainly() -> None:
+    from core.export_fmu import base_unit, fmi_unit
+
+    assert fmi_unit("µm/V") == "um/V" and fmi_unit("Ω") == "Ohm" and fmi_unit("m²") == "m2"
+    assert base_unit("mm") == ({"m": 1}, 1e-3)
+    assert base_unit("kPa") == ({"kg": 1, "m": -1, "s": -2}, 1e3)
+    assert base_unit("N.m") == ({"kg": 1, "m": 2, "s": -2}, 1.0)
+    assert base_unit("1/s") == ({"s": -1}, 1.0)
+    for unknown in ("counts", "LSB", "a/b/c", "%", ""):
+        assert base_unit(unknown) is None
+    root = _description(3, Units(input="counts", output="LSB"), MODEL, inverse=False)
+    units = {u.get("name"): u.find("BaseUnit") for u in root.iter("Unit")}
+    assert units["counts"] is None and units["LSB"] is None and units["s"] is not None
+
+
+def test_sample_time_is_fixed_and_refused_steps_say_why(fmu, tmp_path) -> None:
+    m = LoggedMaster(fmu, tmp_path / "x")
+    m.set_named({"sample_time": DT})  # its own value: fine before initialisation
+    status, msg = m.refused(m.set_named, {"sample_time": 2 * DT})
+    assert status == 3 and f"sample_time = {2 * DT:.17g} s is fixed at export ({DT:.17g} s" \
+        in msg
+    m.start()
+    assert m.get_named("sample_time") == DT and m.get_named("preview_samples") == 3.0
+    status, msg = m.refused(m.step, 0.0, -DT)
+    assert status == 3 and f"got {-DT:.17g} s (at t = 0 s; sample_time = {DT:.17g} s)" in msg
     m.close()
