@@ -32,6 +32,8 @@ from typing import Any
 
 __all__ = ["ConnectionGuard", "RepeatFilter", "fd_headroom", "guarded_protocol"]
 
+#: Seconds a refused connection may stay open to take the rest of what its client sent.
+LINGER_S = 1.0
 #: File descriptors kept for everything but HTTP connections: the session store, worker
 #: processes and their pipes, imported libraries, the log; viser's tabs come on top.
 RESERVED_FDS = 256
@@ -126,15 +128,28 @@ def guarded_protocol(base: type[asyncio.Protocol], guard: ConnectionGuard) -> ty
         _hx_address: str | None = None
         _hx_timer: asyncio.TimerHandle | None = None
         _hx_phase = ""
+        _hx_refused = False
+
+        def eof_received(self) -> bool | None:
+            if self._hx_refused:
+                self.transport.close()  # the client is done: the socket goes now
+                return None
+            return super().eof_received()
 
         def connection_made(self, transport: Any) -> None:
             peer = transport.get_extra_info("peername")
             address = str(peer[0]) if isinstance(peer, tuple) and peer else "unknown"
             refused = guard.admit(address)
             if refused is not None:
+                # answered and half-closed; what the client already sent is read and dropped
+                # (closing over unread data would reset the connection and lose the answer),
+                # and the socket is closed within LINGER_S whatever the client does
+                self._hx_refused = True
+                self.transport = transport
                 transport.write(_raw_response("503 Service Unavailable", refused))
-                transport.close()
-                self.transport = None  # type: ignore[assignment]
+                if transport.can_write_eof():
+                    transport.write_eof()
+                asyncio.get_running_loop().call_later(LINGER_S, transport.close)
                 return
             self._hx_address = address
             super().connection_made(transport)
@@ -149,6 +164,8 @@ def guarded_protocol(base: type[asyncio.Protocol], guard: ConnectionGuard) -> ty
             super().connection_lost(exc)
 
         def data_received(self, data: bytes) -> None:
+            if self._hx_refused:
+                return
             cycle = getattr(self, "cycle", None)
             if self._hx_timer is None and (cycle is None or cycle.response_complete):
                 self._hx_arm("headers", guard.header_timeout_s)  # a new request begins
