@@ -104,7 +104,9 @@ def instantiate_logging(fmu: FMU2Slave | FMU3Slave, v3: bool, log: list[str]) ->
 
 
 class Slave:
-    """An FMU instantiated by fmpy, driven one sample per step (FMI 3 or 2)."""
+    """An FMU instantiated by fmpy, driven one sample per step (FMI 3 or 2) by a
+    ``stepUntil`` loop (a model without dynamics also gets the loop's tiny steps: a repeated
+    input sample, which a rate-independent model ignores)."""
 
     def __init__(self, path: Path, unzip: Path, log: list[str] | None = None) -> None:
         md = read_model_description(str(path))
@@ -143,10 +145,16 @@ class Slave:
         get_ = self.fmu.getFloat64 if self.v3 else self.fmu.getReal
         vin, vout = [1], [2]
         y = np.empty(u.size)
+        t0 = self.t
         for k, x in enumerate(u.tolist()):
             set_(vin, [x])
-            self.fmu.doStep(self.t, h)
-            self.t += h
+            # as OMSimulator's stepUntil: steps of h from the master's own accumulated time,
+            # clipped at the target, which leaves steps of a few ulps (issue 32)
+            target = t0 + (k + 1) * h
+            while self.t < target:
+                nxt = min(self.t + h, target)
+                self.fmu.doStep(self.t, nxt - self.t)
+                self.t = nxt
             y[k] = get_(vout)[0]
         return y
 
