@@ -12,9 +12,11 @@ export async function teacherPush(ev) {
     const body = mine ? { model: readConfig().model }
       : { preset: $("teacher-preset").value, use_preset_input: mode === "preset" };
     if (mode === "mine") body.signal = readConfig().signal;
+    state.teaching = true;  // this page's own push is not "your teacher pushed"
     const r = await api("POST", "/api/teacher/push", body);
-    setMsg("teacher-msg", `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
+    setMsg("teacher-msg", r.text || `Pushed to ${r.sessions} sessions (${r.pages} open pages).`, true);
   } catch (e) {
+    if (e.status === 403) state.teaching = false;
     setMsg("teacher-msg", e.status === 403 ? "Wrong teacher token." : `Not pushed: ${e.message}`);
   }
 }

@@ -97,10 +97,19 @@ async function backToClass() {
 function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
-  selectFigure(info.lesson.view);
+  if (!info.edit) selectFigure(info.lesson.view);  // a changed step keeps the view on show
+  else markExploring();
   const note = $("live-note");
-  note.textContent = `Your teacher moved the class to step ${info.lesson.step} of ` +
-    `${info.lesson.steps}: ${info.lesson.step_title}. Your model, input and view now follow it.`;
+  const where = `step ${info.lesson.step} of ${info.lesson.steps}: ${info.lesson.step_title}`;
+  const what = info.signal && info.model ? "model and input" : info.model ? "model" : "input";
+  if (state.teaching) {
+    note.textContent = info.edit ? `You changed the class step (${where}): the class's ${what} is now yours.`
+      : `You moved the class to ${where}.`;
+  } else {
+    note.textContent = info.edit
+      ? `Your teacher changed the class step (${where}): your ${what} now follow${what === "model and input" ? "" : "s"} it.`
+      : `Your teacher moved the class to ${where}. Your model, input and view now follow it.`;
+  }
   note.hidden = false;
 }
 
@@ -194,14 +203,16 @@ function syncTeacherButtons() {
 
 async function teach(action) {
   state.token = $("teacher-token").value;
+  state.teaching = true;  // the moves this page makes are "you moved the class"
   try {
     const r = await action();
     if (r) {
       show(r);
-      msg(r.running ? `Step ${r.step} of ${r.steps} sent to ${r.sessions} sessions (${r.pages} open pages).`
-        : `Lesson ended (${r.pages} open pages told).`, true);
+      msg(r.text || (r.running ? `Step ${r.step} of ${r.steps} sent to ${r.sessions} sessions.`
+        : "Lesson ended."), true);
     }
   } catch (e) {
+    if (e.status === 403) state.teaching = false;
     msg(e.status === 403 ? "Wrong teacher token: type the token the server was started with above." : `Not done: ${e.message}`);
   }
 }

@@ -51,8 +51,11 @@ async function onPushed(info) {
   const p = state.presets.find((x) => x.name === info.preset);
   const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
-  note.textContent = `Your teacher pushed ${what}${info.signal ? " with its input" : ""}` +
-    ` at ${new Date().toLocaleTimeString()}. Your sliders now start from it.`;
+  const input = info.signal ? " with its input" : "";
+  const at = new Date().toLocaleTimeString();
+  note.textContent = state.teaching
+    ? `You pushed ${what}${input} to the class at ${at}.`
+    : `Your teacher pushed ${what}${input} at ${at}. Your sliders now start from it.`;
   note.hidden = false;
   await draw();
 }

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..services import actions
+from ..services import actions, lessons
 from ..services import controls as C
 from ..services import figures as F
 from ..services.config import Config
@@ -506,10 +506,10 @@ class SessionView:
         :meth:`_teacher_allowed`)."""
         if not self._teacher_allowed("Not pushed"):
             return
-        n, _ = actions.push(self.registry, model=self.session.snapshot()[0].model,
-                            note={"preset": None, "title": "a model", "model": True,
-                                  "by": id(self)})
-        self._toast("Pushed", f"model sent to {n} sessions")
+        lessons.push_to_class(self.registry, model=self.session.snapshot()[0].model,
+                              note={"preset": None, "title": "a model", "model": True,
+                                    "by": id(self)})
+        self._toast("Pushed", HUB.roster().sent_text("Pushed your model"))
 
     def bind(self, session: Session) -> None:
         """Show ``session`` in this view (re-binding listeners)."""

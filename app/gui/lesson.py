@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from ..services import lessons
 from ..services.config import Config
 from ..services.errors import ParameterError
+from ..services.events import HUB
 from ..services.sessions import Session
 from .layout import TITLES, set_value
 from .text import md_text
@@ -46,6 +47,7 @@ class LessonPanel:
             x.title: x for x in lessons.builtin_lessons()}
         self.draft: list[lessons.Step] = []
         self._session: Session | None = None
+        self._last: lessons.Position | None = None  # the class step last shown
         g = view.ui.gui
         order = getattr(view.ui.code_md, "order", None)
         with g.add_folder("Lesson", order=None if order is None else order + 0.5) as self.folder:
@@ -117,7 +119,12 @@ class LessonPanel:
                 and cfg.mismatch == s.mismatch)
 
     def _moved(self, pos: lessons.Position | None, switch: bool = True) -> None:
-        if switch:  # a move of the class, not this tab opening
+        last, self._last = self._last, pos
+        # the teacher's push during a lesson changes the class step in place: the push's
+        # own notice says so, and the tab keeps its view
+        edit = (pos is not None and last is not None and pos.index == last.index
+                and pos.lesson.title == last.lesson.title)
+        if switch and not edit:  # a move of the class, not this tab opening
             if pos is not None:
                 self._show_view(pos.step.view)
                 self.view._toast("Lesson", f"the class is at step {pos.index + 1} of "
@@ -190,9 +197,9 @@ class LessonPanel:
             return
         result = action()
         if isinstance(result, tuple):
-            pos, n, _ = result
-            self._say(f"step {pos.index + 1} of {len(pos.lesson.steps)} sent to {n} "
-                      "sessions")
+            pos = result[0]
+            self._say(md_text(HUB.roster().sent_text(
+                f"Step {pos.index + 1} of {len(pos.lesson.steps)} sent")))
 
     def _start(self) -> tuple[lessons.Position, int, int]:
         lesson = self.choices[str(self.pick.value)]

@@ -26,7 +26,7 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
-from ..services import actions
+from ..services import actions, lessons
 from ..services.config import SignalSpec
 from ..services.errors import ParameterError
 from ..services.events import HUB, StreamsPerClientError
@@ -75,19 +75,21 @@ async def session_events(
     async def stream() -> AsyncIterator[str]:
         loop = asyncio.get_running_loop()
         end = loop.time() + STREAM_S
+        timed_out = False  # the page reconnects at once: still counted in the class
         try:
             yield f"id: {start}\nretry: 500\n: connected\n\n"
             while (left := end - loop.time()) > 0:
                 try:
                     event = await sub.get(left)
                 except TimeoutError:
-                    return
+                    break
                 if event is None:  # the hub closed
                     return
                 yield (f"id: {event['id']}\nevent: {event.get('kind', 'message')}\n"
                        f"data: {json.dumps(event)}\n\n")
+            timed_out = True
         finally:
-            HUB.unsubscribe(sub)
+            HUB.unsubscribe(sub, returning=timed_out)
 
     return StreamingResponse(stream(), media_type="text/event-stream",
                              headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
@@ -136,11 +138,14 @@ def teacher_push(
             signal.validate(settings.max_samples)
         except ParameterError as exc:
             raise HTTPException(422, str(exc)) from None
-    # stored: a reload or a restart keeps the push
-    n, pages = actions.push(registry, model=model, signal=signal, note={
+    # stored: a reload or a restart keeps the push; during a lesson it becomes the class
+    # step, so the students stay on it
+    n, pages = lessons.push_to_class(registry, model=model, signal=signal, note={
         "preset": body.preset, "title": title, "signal": signal is not None,
         "model": model is not None})
-    return {"preset": body.preset, "sessions": n, "pages": pages}
+    what = f"{title or 'a new input'}{' with its input' if model and signal else ''}"
+    return {"preset": body.preset, "sessions": n, "pages": pages,
+            "text": HUB.roster().sent_text(f"Pushed {what}")}
 
 
 @router.get("/teacher/connected", response_model=ConnectedOut, response_model_exclude_unset=True)

@@ -21,6 +21,7 @@ from fastapi import APIRouter, Header, HTTPException, Request
 from pydantic import BaseModel, Field
 
 from ..services import lessons
+from ..services.events import HUB
 from .deps import RegistryDep, SessionDep, SettingsDep, read_body, require_teacher
 from .schemas import SessionOut
 
@@ -66,6 +67,8 @@ class ClassLessonOut(BaseModel):
     mismatch: float | None = None
     sessions: int | None = Field(None, description="sessions given the step (a move)")
     pages: int | None = Field(None, description="open pages told (a move)")
+    text: str | None = Field(None, description="what the teacher reads after a move: the "
+                                               "step and the class connected now")
 
 
 class LessonStartIn(BaseModel):
@@ -116,7 +119,9 @@ def class_lesson(registry: RegistryDep) -> dict[str, Any]:
 
 
 def _moved(pos: lessons.Position, sessions: int, pages: int) -> dict[str, Any]:
-    return {**pos.to_dict(), "sessions": sessions, "pages": pages}
+    what = f"Step {pos.index + 1} of {len(pos.lesson.steps)} sent"
+    return {**pos.to_dict(), "sessions": sessions, "pages": pages,
+            "text": HUB.roster().sent_text(what)}
 
 
 @router.post("/teacher/lesson", response_model=ClassLessonOut,
@@ -167,7 +172,10 @@ def end_lesson(
 ) -> dict[str, Any]:
     """Teacher: end the lesson (every session keeps the model it has)."""
     require_teacher(settings, x_teacher_token)
-    return {"running": False, "pages": lessons.end(registry)}
+    pages = lessons.end(registry)
+    return {"running": False, "pages": pages,
+            "text": f"Lesson ended; every page keeps its model "
+                    f"({HUB.roster().open_text})."}
 
 
 @router.post("/sessions/{code}/lesson/return", response_model=SessionOut,

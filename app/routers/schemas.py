@@ -303,6 +303,8 @@ class PushOut(BaseModel):
     preset: str | None = None
     sessions: int = Field(description="sessions changed (used in the last hour)")
     pages: int = Field(description="open pages told at once")
+    text: str | None = Field(None, description="what the teacher reads: the push and the "
+                                               "class connected now (counts, never codes)")
 
 
 class ConnectedOut(BaseModel):

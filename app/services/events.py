@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import threading
+import time
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -27,6 +28,10 @@ QUEUE_SIZE = 64
 REPLAY = 64
 #: Longest name a student may give (characters).
 NAME_MAX = 40
+#: How long a page whose stream ended at its time limit still counts as open (s): it
+#: reconnects within about half a second (``retry: 500``), so the teacher's counts do not
+#: drop a page that is between two streams.
+RETURN_S = 3.0
 
 
 def person_name(text: object) -> str:
@@ -66,13 +71,26 @@ class Roster:
         total = self.web_pages + self.viser_tabs
         if not total:
             return "Nobody is connected yet: students open the explorer's address."
-        s = lambda n, w: f"{n} {w}" + ("" if n == 1 else "s")  # noqa: E731
-        head = (f"{s(self.web_pages, 'web page')} and {s(self.viser_tabs, '3D / GUI tab')} "
-                f"open, in {s(self.sessions_live, 'session')}")
+        head = self.open_text
         who = ", ".join(self.names) if self.names else "nobody gave a name"
         if self.names and self.unnamed:
             who += f", and {self.unnamed} without a name"
         return f"{head}. Names: {who}."
+
+    @property
+    def open_text(self) -> str:
+        """The counts alone: ``"2 web pages and 1 3D / GUI tab open, in 3 sessions"``."""
+        s = lambda n, w: f"{n} {w}" + ("" if n == 1 else "s")  # noqa: E731
+        return (f"{s(self.web_pages, 'web page')} and {s(self.viser_tabs, '3D / GUI tab')} "
+                f"open, in {s(self.sessions_live, 'session')}")
+
+    def sent_text(self, what: str) -> str:
+        """What the teacher reads after a push or a lesson move (``what``: "Pushed a
+        model", "Step 2 of 6 sent"): the class that is connected now (the counts of
+        :attr:`text`, never the sessions of the last hour that no page shows)."""
+        if not self.web_pages + self.viser_tabs:
+            return f"{what}: stored, but no page or tab is open to show it."
+        return f"{what} to the class: {self.open_text}."
 
 
 class StreamsPerClientError(OverflowError):
@@ -123,6 +141,8 @@ class EventHub:
         # viser tabs: key -> (session code, name); they get events through listeners
         self._tabs: dict[object, tuple[str, str]] = {}
         self._listeners: list[Any] = []
+        # pages between two streams: (client, code, name) -> when their streams ended
+        self._returning: dict[tuple[str | None, str, str], list[float]] = {}
 
     def subscribe(self, code: str, last_id: int | None = None, *, client: str | None = None,
                   per_client: int | None = None, name: str = "") -> Subscription:
@@ -142,6 +162,9 @@ class EventHub:
             if sum(map(len, self._subs.values())) >= self.max_subscribers:
                 raise OverflowError(f"more than {self.max_subscribers} open event streams")
             self._subs.setdefault(code, []).append(sub)
+            back = self._returning.get((client, code, sub.name))
+            if back:  # a page back after its stream's time limit: counted once
+                back.pop(0)
             if client is not None:
                 self._per_client[client] = self._per_client.get(client, 0) + 1
             if last_id is not None:
@@ -150,12 +173,17 @@ class EventHub:
                         sub.deliver(ev)
         return sub
 
-    def unsubscribe(self, sub: Subscription) -> None:
-        """Stop delivering to ``sub`` (no error if it is gone already)."""
+    def unsubscribe(self, sub: Subscription, *, returning: bool = False) -> None:
+        """Stop delivering to ``sub`` (no error if it is gone already). ``returning``: the
+        stream ended at its time limit and its page reconnects at once, so the roster keeps
+        counting it for :data:`RETURN_S` seconds."""
         with self._lock:
             subs = self._subs.get(sub.code, [])
             if sub in subs:
                 subs.remove(sub)
+                if returning:
+                    self._returning.setdefault((sub.client, sub.code, sub.name), []).append(
+                        time.monotonic())
                 if sub.client is not None:
                     left = self._per_client.pop(sub.client, 1) - 1
                     if left > 0:
@@ -220,10 +248,16 @@ class EventHub:
     def roster(self) -> Roster:
         """Who is connected: counts and names, no codes (see :class:`Roster`)."""
         with self._lock:
-            pages = [s for group in self._subs.values() for s in group]
+            pages = [(s.code, s.name) for group in self._subs.values() for s in group]
             tabs = list(self._tabs.values())
-        names = [s.name for s in pages] + [n for _, n in tabs]
-        codes = {s.code for s in pages} | {c for c, _ in tabs}
+            old = time.monotonic() - RETURN_S
+            for key, ends in list(self._returning.items()):
+                ends[:] = [t for t in ends if t > old]
+                if not ends:
+                    del self._returning[key]
+                pages += [(key[1], key[2])] * len(ends)
+        names = [n for _, n in pages] + [n for _, n in tabs]
+        codes = {c for c, _ in pages} | {c for c, _ in tabs}
         return Roster(len(pages), len(tabs), len(codes),
                       tuple(sorted({n for n in names if n}, key=str.casefold)),
                       sum(1 for n in names if not n))

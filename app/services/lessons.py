@@ -588,6 +588,36 @@ def end(registry: SessionRegistry) -> int:
         return HUB.broadcast({"kind": "lesson", "lesson": None})
 
 
+def push_to_class(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
+                  signal: SignalSpec | None = None, note: dict[str, Any] | None = None
+                  ) -> tuple[int, int]:
+    """The teacher's push (:func:`app.services.actions.push`); while a lesson runs, the
+    pushed model and/or input become the class step's (the step's preset dropped), so
+    the students who follow stay on the class step, and *Back to the class step* gives
+    the pushed model. The event then carries the changed step (``lesson``, with
+    ``edit: true``). Returns ``(sessions changed, pages told)``.
+
+    Raises
+    ------
+    ParameterError
+        If there is nothing to push.
+    """
+    cl = class_lesson(registry)
+    with cl.moves:
+        pos = cl.position
+        if pos is None or (model is None and signal is None):
+            return actions.push(registry, model=model, signal=signal, note=note)
+        s = pos.step
+        step = replace(s, model=dict(s.model if model is None else model),
+                       signal=s.signal if signal is None else signal,
+                       preset=s.preset if model is None else None)
+        steps = tuple(step if i == pos.index else x for i, x in enumerate(pos.lesson.steps))
+        new = cl._move(replace(pos.lesson, steps=steps), pos.index)
+        assert new is not None
+        return actions.push(registry, model=model, signal=signal, note={
+            **(note or {}), "lesson": new.to_dict(), "edit": True})
+
+
 def _check_step(lesson: Lesson, step: int) -> None:
     n = len(lesson.steps)
     if not 1 <= step <= n:

@@ -48,3 +48,37 @@ def test_broadcast_tells_the_listeners_and_counts_them() -> None:
     hub.add_listener(lambda ev: got.append(ev) or 2)
     assert hub.broadcast({"kind": "push", "title": "x"}) == 2
     assert got[0]["title"] == "x" and got[0]["id"] == 1
+
+
+def test_a_page_between_two_streams_is_still_counted() -> None:
+    """A stream that ended at its time limit (the page reconnects in about 0.5 s) keeps its
+    page in the roster for RETURN_S; its return is counted once; a closed page is not."""
+    hub = EventHub()
+
+    async def scenario() -> list[tuple[int, int]]:
+        a = hub.subscribe("code-aaaa", client="1.2.3.4", name="Ana")
+        b = hub.subscribe("code-bbbb", client="1.2.3.4")
+        counts = [(hub.roster().web_pages, hub.roster().sessions_live)]
+        hub.unsubscribe(a, returning=True)  # between two streams
+        hub.unsubscribe(b)  # closed
+        r = hub.roster()
+        counts.append((r.web_pages, r.sessions_live))
+        assert r.names == ("Ana",)
+        hub.subscribe("code-aaaa", client="1.2.3.4", name="Ana")  # back: counted once
+        counts.append((hub.roster().web_pages, hub.roster().sessions_live))
+        return counts
+
+    out: list[list[tuple[int, int]]] = []
+    th = threading.Thread(target=lambda: out.append(asyncio.run(scenario())))
+    th.start()
+    th.join(30)
+    assert out == [[(2, 2), (1, 1), (1, 1)]]
+
+
+def test_the_push_message_counts_the_class() -> None:
+    hub = EventHub()
+    hub.attend("tab-1", "code-cccc", "ben")
+    assert hub.roster().sent_text("Step 2 of 6 sent") == (
+        "Step 2 of 6 sent to the class: 0 web pages and 1 3D / GUI tab open, in 1 session.")
+    hub.leave("tab-1")
+    assert "no page or tab is open" in hub.roster().sent_text("Pushed a model")
