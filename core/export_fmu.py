@@ -15,8 +15,15 @@ source (``sources/``) so another platform can rebuild it. Its ports and paramete
   a virgin state unless the model says otherwise), and a ``constant`` where the stage has no
   tune lines (today the LTI coefficients, whose balanced realisation is computed at export:
   re-export to change them); a value whose derived constants are not finite is refused;
-- ``sample_time`` (``dt``, constant) and ``preview_samples`` (the compensator's preview,
-  :func:`core.effects.causal_form`; also stated in the model description).
+- ``sample_time`` (``dt``: a fixed parameter whose only allowed value is the exported one)
+  and ``preview_samples`` (a calculated parameter: the compensator's preview,
+  :func:`core.effects.causal_form`; also stated in the model description);
+- ``min`` / ``max`` from the hard limits the model's fields declare, checked in C when a
+  value is set (with the order of increasing fields), units in the ASCII spelling FMI tools
+  parse with their SI base units (:func:`fmi_unit`, :func:`base_unit`).
+
+Bad values are refused and leave the FMU as it was (NaN or infinite input, a value breaking
+a field's rule, a step whose output would not be finite: ``Discard``).
 
 Stepping: the FMU counts its own samples. One ``doStep`` of size ``h`` runs, with the input
 held, the samples whose instants (multiples of ``dt`` from the start) it reaches, and holds
@@ -73,9 +80,11 @@ __all__ = [
     "FmuExportError",
     "FmuSources",
     "FmuVariable",
+    "base_unit",
     "build_fmu",
     "find_compiler",
     "fmi_headers",
+    "fmi_unit",
     "fmu_sources",
 ]
 

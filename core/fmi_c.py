@@ -673,6 +673,22 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
     return fmi2OK;
 }
 
+/* after a discarded step the master asks how far the FMU got: the end of the last step
+ * taken (a discarded step runs no sample) */
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value)
+{
+    if (!c || !value || s != fmi2LastSuccessfulTime) return fmi2Discard;
+    *value = ((HX_inst *)c)->time;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
+{
+    if (!c || !value || s != fmi2Terminated) return fmi2Discard;
+    *value = fmi2False;
+    return fmi2OK;
+}
+
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value)
 {
     (void)s;
@@ -690,7 +706,8 @@ _IMPLEMENTED = {
     2: {"fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate",
         "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
         "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset", "fmi2GetReal",
-        "fmi2SetReal", "fmi2DoStep", "fmi2GetStatus"},
+        "fmi2SetReal", "fmi2DoStep", "fmi2GetStatus", "fmi2GetRealStatus",
+        "fmi2GetBooleanStatus"},
 }
 _TYPEDEF = re.compile(r"typedef\s+(fmi[23]Status)\s+(fmi[23]\w+)TYPE\s*\(([^)]*)\)\s*;")
 _IDENT = re.compile(r"[A-Za-z_]\w*")

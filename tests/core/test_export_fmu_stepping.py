@@ -323,6 +323,9 @@ def test_non_finite_input_is_discarded_and_the_state_kept(fmu, tmp_path) -> None
             status, msg = m.refused(m.step, t, DT)
             assert status == DISCARD and "the step is not taken" in msg
             assert m.get() == ys[-1]
+            if not m.v3:  # how far it got: the end of the last step taken (FMI 2 asks)
+                assert m.fmu.getRealStatus(2) == t  # fmi2LastSuccessfulTime
+                assert m.fmu.getBooleanStatus(3) is False  # fmi2Terminated
             continue  # no sample ran
         else:
             m.set(x)
