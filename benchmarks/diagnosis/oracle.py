@@ -53,13 +53,13 @@ def _with_true(s: Structure, effect: str, lv: dict, n_rec: int) -> Structure:
     if effect == "rate":
         return s.with_(beta_s=lv["beta_s"])
     if effect == "creep":
-        return s.with_(creep_taus=(0.01, 0.1, 1.0, 10.0, 100.0))
+        return s.with_term("creep", (0.01, 0.1, 1.0, 10.0, 100.0))
     if effect == "drift":
-        return s.with_(drift_degree=4)
+        return s.with_term("drift", 4)
     if effect == "asymmetry":
-        return s.with_(asymmetry=True)
+        return s.with_term("asymmetry", True)
     if effect == "offset":
-        return s.with_(offsets=True)
+        return s.with_term("offset", True)
     if effect == "initial-memory":
         return s.with_(history=(tuple(lv["history"]),) + tuple(() for _ in range(n_rec - 1)))
     return s  # loop-shape maps: not representable in the diagnosis structure here

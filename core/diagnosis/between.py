@@ -23,8 +23,9 @@ from ..fitting.thresholds import reversal_indices
 from .candidates import build_candidate
 from .context import FitContext
 from .periodic import steady_state_history
+from .registry import EFFECTS
 from .stats import HeldOut, heldout_comparison
-from .structure import Fit, Structure, _legendre_cols, build_model, fit_structure
+from .structure import Fit, Structure, build_model, fit_structure, legendre_columns
 
 __all__ = ["LORO_RULE", "NONLINEAR_PARAMS", "SHARED_RULE", "BetweenPlan", "amplitudes_differ",
            "between_plan", "between_recordings", "leave_one_recording_out", "recording_amplitudes",
@@ -201,18 +202,19 @@ def left_out_residual(ctx: FitContext, s: Structure, j: int,
     sj = s.with_(history=tuple(own if k == j else h for k, h in enumerate(s.history)))
     f = fit_structure(sj, recs, _others(ctx, j), ctx.cache)
     assert isinstance(f, Fit)
-    bias = np.array(f.bias, dtype=float)
-    if sj.offsets:
-        bias[j] = float(np.mean(np.delete(bias, j)))
-    drift = [np.zeros_like(c) if k == j else c for k, c in enumerate(f.drift_coef)]
-    model = build_model(sj, j, f.p0, f.weights, f.asym_coef, f.asym_center, f.asym_scale,
-                        f.creep_weights, bias, drift, rec)
+    # the static terms' own coefficients of recording j (a level) are unknown to the fit
+    coef = {}
+    for name, c in f.terms.items():
+        t = EFFECTS[name].term
+        assert t is not None
+        coef[name] = c if t.unseen is None else t.unseen(sj.term(name), c, j)
+    model = build_model(sj, j, f.p0, f.weights, coef, rec)
     e = rec.y - model(rec.u, dt=rec.dt)
     if own_level is None:
         return e
     X = np.ones((rec.n_samples, 1))
     if own_level > 0:
-        X = np.column_stack((X, _legendre_cols(rec.t, own_level)))
+        X = np.column_stack((X, legendre_columns(rec.t, own_level)))
     return e - X @ np.linalg.lstsq(X, e, rcond=None)[0]
 
 

@@ -176,7 +176,7 @@ def search_context(ctx: FitContext, cur: Fit) -> tuple[FitContext, Fit]:
     """
     s = cur.structure
     n = sum(r.n_samples for r in ctx.records)
-    if n <= SEARCH_SAMPLES or s.dynamics or s.creep_taus or s.beta_s is not None:
+    if n <= SEARCH_SAMPLES or s.dynamics or s.needs_sample_spacing or s.beta_s is not None:
         return ctx, cur
     step = int(np.ceil(n / SEARCH_SAMPLES))
     recs, tr, te = [], [], []

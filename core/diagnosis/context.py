@@ -76,7 +76,7 @@ class FitContext:
         references to them so that those identities cannot be reused while it lives.
         """
         x_init = cur.x_pi if cur is not None else None
-        uses_x = s.asymmetry or bool(s.creep_taus)
+        uses_x = s.reads_output
         key = (tuple(id(m) for m in self.train), s, self.iterations,
                id(x_init) if uses_x else None)
         hit = self._fits.get(key)

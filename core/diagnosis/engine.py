@@ -1309,13 +1309,12 @@ def _drop_recording_specific(run: _Run, base: Fit, cur: Fit, loro_b: dict[str, A
     prev = base.structure
     for f in run.findings:
         lo, st = f.loro, f.structure
-        per_rec = st is not None and (st.offsets != prev.offsets
-                                      or st.drift_degree != prev.drift_degree)
+        per_rec = st is not None and st.recording_levels() != prev.recording_levels()
         if lo is not None and st is not None and per_rec:
             # a per-recording level (offset, drift) cannot be known for an unseen recording:
             # judge what it does to the shared part, each left-out recording with its own level
-            a = leave_one_recording_out(ctx, prev, st.drift_degree)
-            b = leave_one_recording_out(ctx, st, st.drift_degree)
+            a = leave_one_recording_out(ctx, prev, st.own_level)
+            b = leave_one_recording_out(ctx, st, st.own_level)
             lo = {"rule": a["rule"], "rmse_before": a["rmse"], "rmse_after": b["rmse"],
                   "mse_reduction": 1.0 - b["rmse"] ** 2 / max(a["rmse"] ** 2, 1e-300),
                   "per_recording": [{"recording": x["recording"], "rmse_before": x["rmse"],

@@ -220,10 +220,9 @@ def _refit(ctx: FitContext, name: str, a: Structure, params: dict[str, Any], cur
     for an effect without parameters to refit here (:func:`_parameter_path`)."""
     e = EFFECTS[name]
     warm = ctx.fit(a, cur)
-    if e.structure_field == "creep_taus" and a.creep_taus:
-        # linear: the weights re-solved on the other base (the bank unchanged)
-        return ({"gamma_per_decade": float(warm.creep_weights.sum() / len(a.creep_taus))},
-                warm.train_rss)
+    if e.term is not None and e.term.refit_parameters is not None and a.term(name) != e.term.off:
+        # linear: the weights re-solved on the other base (the settings unchanged)
+        return e.term.refit_parameters(a.term(name), warm.terms[name]), warm.train_rss
     path = _parameter_path(ctx, name, a, params)
     if path is None:
         return None

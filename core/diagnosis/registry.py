@@ -4,9 +4,11 @@ An effect is one :class:`DiagnosableEffect` registered with :func:`register` by 
 in :mod:`core.diagnosis.effects`: what it is (family, explanation, equation, the experiment
 that makes it testable), the model class of the stage it adds, how it is searched (the
 candidate builder), which :class:`~core.diagnosis.structure.Structure` field switches it on,
-when the recordings cannot test it and what it looks like then, and for output dynamics the
-stage's parameters, model and transfer function. The engine, the structure fit, the reports
-and the untestable rules read this registry; none of them names an effect.
+when the recordings cannot test it and what it looks like then, for output dynamics the
+stage's parameters, model and transfer function, and for a static effect its linear terms
+(:class:`StaticTerm`: its columns, their bounds, its coefficients and the stage it adds; the
+numpy.polynomial idiom, each family brings its own functions). The engine, the structure fit,
+the reports and the untestable rules read this registry; none of them names an effect.
 
 Adding an effect: write ``core/diagnosis/effects/NAME.py`` with its builder and one
 ``register(DiagnosableEffect(...))``, import it in ``core/diagnosis/effects/__init__.py``
@@ -22,11 +24,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 if TYPE_CHECKING:
     from ..base import Model
+    from ..recordings import Recording
 
-__all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "effect", "output_dynamics",
-           "rate_effect", "register", "stage_pairs"]
+__all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "StaticTerm", "TermFit", "TermRows",
+           "effect", "output_dynamics", "rate_effect", "register", "stage_pairs",
+           "static_terms"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +81,127 @@ class OutputDynamics:
 
 
 @dataclass(frozen=True)
+class TermFit:
+    """What every static term of one structure fit shares.
+
+    Attributes
+    ----------
+    n_records : int
+        Number of recordings fitted together.
+    center, scale : float
+        Centre and half range of the measured output on the training rows (output units):
+        an output map's normalised coordinate is ``(x - center) / scale``.
+    """
+
+    n_records: int
+    center: float
+    scale: float
+
+
+@dataclass(frozen=True)
+class TermRows:
+    """What a static term's columns are formed from, for one recording.
+
+    Attributes
+    ----------
+    record : Recording
+        The recording (``t``, ``u``, ``dt``).
+    k : int
+        Its index among the recordings fitted together.
+    rows : ndarray of int, shape (m,)
+        The increasing sample indices the weights are solved on.
+    x : ndarray, shape (N,), or None
+        The PI-stage output (the base states weighted: output units) from sample 0 up to
+        the last solved row, for a term that acts before the output dynamics
+        (:attr:`StaticTerm.through_dynamics`); ``None`` for the others.
+    fit : TermFit
+        What the structure fit shares.
+    """
+
+    record: Recording
+    k: int
+    rows: np.ndarray
+    x: np.ndarray | None
+    fit: TermFit
+
+
+@dataclass(frozen=True)
+class StaticTerm:
+    """A static effect's terms: linear in their weights for fixed settings.
+
+    The structure (:class:`~core.diagnosis.structure.Structure`) holds each switched-on
+    term's *settings* (a flag, a degree, a bank of time constants) by effect name; the
+    structure fit (:func:`~core.diagnosis.structure.fit_structure`) asks every registered
+    term for its columns, solves all weights at once, hands each term its slice of the
+    solution (:attr:`coefficients`), and :func:`~core.diagnosis.structure.build_model` asks
+    it for the :mod:`core.effects` stage the coefficients make. The columns of the terms
+    follow the play-bank columns in :attr:`DiagnosableEffect.stage_order` (those acting
+    before the output dynamics first), and the stages sit in the chain in that order.
+
+    Attributes
+    ----------
+    off : object
+        The settings of the term switched off (``False``, ``0``, ``()``); a structure holds
+        only settings that differ from it.
+    width : callable
+        ``width(settings, n_records) -> int``: number of columns (0: no columns, no stage).
+        A term may have columns when off (the one common bias of the offset term).
+    columns : callable
+        ``columns(settings, rows: TermRows) -> ndarray``: the columns of one recording.
+        Through the output dynamics: shape ``(rows.x.size, width)``, every sample of the
+        PI-stage output ``rows.x`` (the structure fit filters them and picks the solved
+        rows); otherwise shape ``(rows.rows.size, width)``, on the solved rows.
+    coefficients : callable
+        ``coefficients(settings, w, fit: TermFit) -> object``: the term's coefficients
+        from its slice ``w`` (shape ``(width,)``) of the solved weights; kept in
+        :attr:`~core.diagnosis.structure.Fit.terms` under the effect's name.
+    stage : callable
+        ``stage(settings, coefficients, k, record) -> Model``: the stage of recording ``k``
+        in the saved chain.
+    lower : float
+        Lower bound of every weight of the term (``-inf``: free; unbounded weights of a
+        column without solved rows get a tiny ridge).
+    through_dynamics : bool
+        Acts on the PI-stage output before the output dynamics: the columns read it (they
+        are bilinear in the play weights, refreshed from the previous solve) and pass
+        through the dynamics.
+    sample_spacing : bool
+        The columns depend on the sample spacing (a filter): a search is never run on a
+        decimated copy of the recordings while the term is on.
+    per_recording : bool
+        The coefficients differ between recordings (a level): cannot be known for a
+        recording the fit never saw.
+    level_degree : callable or None
+        ``level_degree(settings) -> int``: for a per-recording level, the Legendre degree in
+        time of the level a left-out recording gets of its own (0: a constant).
+    unseen : callable or None
+        ``unseen(settings, coefficients, j) -> coefficients``: the coefficients for
+        recording ``j`` when the fit did not see it (its own ones replaced); ``None``: kept.
+    bank : bool
+        The width grows with the settings (a bank of lags): counted in the training rows a
+        recording fitted alone needs; the few weights of the other terms are in a fixed
+        allowance (:data:`~core.diagnosis.crossfitting.SPREAD_ROWS_PER_WEIGHT`).
+    refit_parameters : callable or None
+        ``refit_parameters(settings, coefficients) -> dict``: the parameters reported when
+        the term, its settings kept, is re-solved on another base (only its weights move).
+    """
+
+    off: Any
+    width: Callable[[Any, int], int]
+    columns: Callable[[Any, TermRows], np.ndarray]
+    coefficients: Callable[[Any, np.ndarray, TermFit], Any]
+    stage: Callable[[Any, Any, int, Any], Model]
+    lower: float = -np.inf
+    through_dynamics: bool = False
+    sample_spacing: bool = False
+    per_recording: bool = False
+    level_degree: Callable[[Any], int] | None = None
+    unseen: Callable[[Any, Any, int], Any] | None = None
+    bank: bool = False
+    refit_parameters: Callable[[Any, Any], dict[str, float]] | None = None
+
+
+@dataclass(frozen=True)
 class DiagnosableEffect:
     """Everything the diagnosis knows about one effect.
 
@@ -95,8 +222,9 @@ class DiagnosableEffect:
     model_type : type
         The :mod:`core` model class of the stage the effect adds to the saved model.
     structure_field : str or None
-        The :class:`~core.diagnosis.structure.Structure` field that switches it on; ``None``
-        for loop shapes, which are part of the hysteresis and never switched off.
+        The :class:`~core.diagnosis.structure.Structure` field that switches it on
+        (``"terms"`` for a static term, :attr:`term`); ``None`` for loop shapes, which are
+        part of the hysteresis and never switched off.
     experiment : str or None
         The recording that would make it testable when it is not.
     time_dependent : bool
@@ -157,6 +285,9 @@ class DiagnosableEffect:
         effect's own discretisation leaves (a creep bank's placement of its time constants),
         added in quadrature to the statistical sigma of the accepted effect ``fit`` (fitted
         on top of ``cur``); ``words`` say how it was obtained.
+    term : StaticTerm or None
+        For a static effect that adds linear terms (asymmetry, creep, drift, offset): its
+        columns, bounds, coefficients and stage; ``structure_field`` is then ``"terms"``.
     """
 
     name: str
@@ -183,6 +314,7 @@ class DiagnosableEffect:
     stage_order: int = 0
     signature: Callable[[Any], tuple[list[Any], str, bool] | None] | None = None
     systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
+    term: StaticTerm | None = None
 
 
 #: Every registered effect by name, in the order they are tried.
@@ -227,3 +359,11 @@ def stage_pairs() -> tuple[tuple[str, str], ...]:
 def rate_effect() -> str:
     """The registered effect whose hysteresis changes with the input rate."""
     return next(n for n, e in EFFECTS.items() if e.rate_dependent_hysteresis)
+
+
+def static_terms() -> list[tuple[str, StaticTerm, int]]:
+    """``(name, term, stage_order)`` of the registered static terms in the order of their
+    columns and stages: those acting through the output dynamics first, then by
+    :attr:`DiagnosableEffect.stage_order` (registration order among equals)."""
+    out = [(n, e.term, e.stage_order) for n, e in EFFECTS.items() if e.term is not None]
+    return sorted(out, key=lambda t: (not t[1].through_dynamics, t[2]))

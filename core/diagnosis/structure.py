@@ -1,10 +1,13 @@
 """Model structures (PI + a set of effects) and their separable least-squares fit.
 
 A :class:`Structure` says which effects are switched on and holds their few nonlinear
-parameters (delay, time constants, ω_n, ζ, β, virtual extrema). For fixed nonlinear
-parameters every structure is linear in its weights: the play weights ``p0, p_i >= 0``, the
-bias, and the effect weights (creep ``c_j >= 0``, asymmetry and drift coefficients), because
-linear dynamics after the PI commute with the weighted sum. :func:`fit_structure` solves that
+parameters (delay, time constants, ω_n, ζ, β, virtual extrema) and the settings of the static
+terms, by effect name. For fixed nonlinear parameters every structure is linear in its
+weights: the play weights ``p0, p_i >= 0`` and the weights of the static terms (the bias or
+offsets, creep ``c_j >= 0``, asymmetry and drift coefficients), because linear dynamics
+after the PI commute with the weighted sum. Each static term brings its own columns, bounds,
+coefficients and stage (:class:`~core.diagnosis.registry.StaticTerm`); this module loops
+over the registered ones and names none. :func:`fit_structure` solves that
 constrained linear problem on the training rows (:func:`core.fitting.gram.solve_constrained` on the
 augmented Gram matrix, or on its QR factor when that is ill conditioned) and builds the exact
 :class:`~core.base.Chain`; predictions always come from simulating that chain, so the numbers
@@ -23,17 +26,7 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Chain, Model
-from ..effects import (
-    Asymmetry,
-    Creep,
-    Drift,
-    InitialMemory,
-    Offset,
-    RateDependentPI,
-    discretised_tf,
-    foh_filter,
-    rd_play_bank,
-)
+from ..effects import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
 from ..fitting.gram import COND_LIMIT, r_factor, solve_constrained
 from ..kernels import njit
 from ..operators import play_bank
@@ -42,11 +35,11 @@ from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state
 from .grid import baseline_thresholds
-from .registry import EFFECTS
+from .registry import EFFECTS, StaticTerm, TermFit, TermRows, static_terms
 from .shapes import apply_shape, hysteresis_model, shape_effects
 
-__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "dynamics_stages",
-           "fit_structure", "pack_dynamics"]
+__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
+           "dynamics_stages", "fit_structure", "legendre_columns", "pack_dynamics"]
 
 
 def dynamics_stages(dyn: tuple) -> list[tuple[str, tuple[float, ...]]]:
@@ -103,19 +96,16 @@ class Structure:
         Per recording: virtual input extrema before the record (``()`` = none).
     beta_s : float or None
         Rate coefficient of the rate-dependent PI (``None`` = rate-independent).
-    asymmetry : bool
-        Quadratic + cubic output map.
-    creep_taus : tuple of float
-        Time constants of the creep lag bank (``()`` = no creep).
+    terms : tuple of (str, object)
+        Settings of the static terms switched on, ``(effect name, settings)`` sorted by name
+        (:class:`~core.diagnosis.registry.StaticTerm`; e.g. ``("creep", (0.01, 0.1))`` for
+        a creep bank of those time constants, ``("drift", 2)`` for a Legendre drift of
+        degree 2 per recording); read with :meth:`term`, set with :meth:`with_term`.
     dynamics : tuple
         ``()``, ``("delay", τ_d)``, ``("lag", τ)`` or ``("resonance", f_n, ζ)``; two stages
         in series are their tuples concatenated (``("lag", τ, "resonance", f_n, ζ)``,
         :func:`dynamics_stages`; pairs the registry allows,
         :attr:`~core.diagnosis.registry.OutputDynamics.combines_with`).
-    drift_degree : int
-        Legendre degree of the drift in time per recording (0 = none).
-    offsets : bool
-        One offset per recording instead of one common bias.
     free_weights : bool
         Play weights of either sign (``p0 >= 0`` only): saturating loops such as friction need
         negative weights; by default ``p_i >= 0`` (hardening loops, invertible).
@@ -143,11 +133,8 @@ class Structure:
     thresholds: tuple[float, ...]
     history: tuple[tuple[float, ...], ...]
     beta_s: float | None = None
-    asymmetry: bool = False
-    creep_taus: tuple[float, ...] = ()
+    terms: tuple[tuple[str, Any], ...] = ()
     dynamics: tuple = ()
-    drift_degree: int = 0
-    offsets: bool = False
     free_weights: bool = False
     shape: tuple = ()
     levels: tuple[float, ...] = ()
@@ -167,9 +154,78 @@ class Structure:
         on = [e for e in EFFECTS.values() if e.structure_field is not None and self._on(e)]
         return shape_effects(self.shape) + [e.name for e in sorted(on, key=lambda e: e.stage_order)]
 
+    def term(self, name: str) -> Any:
+        """The settings of static term ``name`` (its
+        :attr:`~core.diagnosis.registry.StaticTerm.off` settings when not switched on)."""
+        for n, v in self.terms:
+            if n == name:
+                return v
+        t = EFFECTS[name].term
+        if t is None:
+            raise ValueError(f"effect {name!r} is not a static term")
+        return t.off
+
+    def with_term(self, name: str, settings: Any) -> Structure:
+        """Copy with static term ``name`` set to ``settings`` (switched off by its
+        :attr:`~core.diagnosis.registry.StaticTerm.off` settings)."""
+        t = EFFECTS[name].term
+        if t is None:
+            raise ValueError(f"effect {name!r} is not a static term")
+        kept = [(n, v) for n, v in self.terms if n != name]
+        if settings != t.off:
+            kept.append((name, settings))
+        return replace(self, terms=tuple(sorted(kept, key=lambda nv: nv[0])))
+
+    def without_terms(self, through_dynamics: bool) -> Structure:
+        """Copy without the static terms that act before (``True``) or after (``False``)
+        the output dynamics."""
+        return replace(self, terms=tuple(
+            (n, v) for n, v in self.terms
+            if EFFECTS[n].term.through_dynamics != through_dynamics))  # type: ignore[union-attr]
+
+    def _terms_on(self) -> list[StaticTerm]:
+        return [EFFECTS[n].term for n, _ in self.terms]  # type: ignore[misc]
+
+    @property
+    def reads_output(self) -> bool:
+        """A static term reads the PI-stage output (its columns are bilinear in the play
+        weights: a fit refreshes them from a previous one)."""
+        return any(t.through_dynamics for t in self._terms_on())
+
+    @property
+    def needs_sample_spacing(self) -> bool:
+        """A static term's columns depend on the sample spacing (a filter)."""
+        return any(t.sample_spacing for t in self._terms_on())
+
+    @property
+    def bank_width(self) -> int:
+        """Weights of the static terms whose width grows with their settings (a lag bank)."""
+        return sum(t.width(v, 1) for (_, v), t in zip(self.terms, self._terms_on(),
+                                                      strict=True) if t.bank)
+
+    def recording_levels(self) -> tuple[tuple[str, Any], ...]:
+        """Settings of the per-recording terms switched on (levels an unseen recording
+        cannot know: offsets, drifts)."""
+        return tuple((n, v) for n, v in self.terms
+                     if EFFECTS[n].term.per_recording)  # type: ignore[union-attr]
+
+    @property
+    def own_level(self) -> int:
+        """Legendre degree in time of the level a left-out recording is given of its own
+        (:func:`core.diagnosis.between.left_out_residual`): the largest
+        :attr:`~core.diagnosis.registry.StaticTerm.level_degree` of the per-recording terms
+        switched on, 0 (a constant) without them."""
+        return max((EFFECTS[n].term.level_degree(v)  # type: ignore[union-attr,misc]
+                    for n, v in self.recording_levels()
+                    if EFFECTS[n].term.level_degree is not None),  # type: ignore[union-attr]
+                   default=0)
+
     def _on(self, e: Any) -> bool:
         """Whether registered effect ``e`` is switched on: its field differs from the
-        baseline's (an output dynamics stage: the stage is ``e`` itself)."""
+        baseline's (an output dynamics stage: the stage is ``e`` itself; a static term: it
+        has settings in :attr:`terms`)."""
+        if e.term is not None:
+            return any(n == e.name for n, _ in self.terms)
         v = getattr(self, e.structure_field)
         if e.dynamics is not None:
             return any(n == e.name for n, _ in dynamics_stages(v))
@@ -189,6 +245,8 @@ class Structure:
         f = EFFECTS[name].structure_field if name in EFFECTS else None
         if f is None:
             raise ValueError(f"effect {name!r} cannot be switched off in a structure")
+        if EFFECTS[name].term is not None:
+            return self.with_term(name, base.term(name))
         if EFFECTS[name].dynamics is not None and len(dynamics_stages(self.dynamics)) > 1:
             # one of two stages in series: the other stays
             return replace(self, dynamics=tuple(
@@ -203,17 +261,20 @@ _BASELINE_FIELDS = {f.name: f.default for f in fields(Structure)
 
 @dataclass
 class Fit:
-    """A fitted structure: weights, per-recording models and exact predictions."""
+    """A fitted structure: weights, per-recording models and exact predictions.
+
+    Attributes
+    ----------
+    terms : dict
+        Coefficients of every static term with columns, by effect name (what the term's
+        :attr:`~core.diagnosis.registry.StaticTerm.coefficients` makes of its weights: the
+        common bias is the offset term's, switched off).
+    """
 
     structure: Structure
     p0: float
     weights: Float1D
-    asym_coef: Float1D
-    asym_center: float
-    asym_scale: float
-    creep_weights: Float1D
-    bias: Float1D  # per recording
-    drift_coef: list[Float1D]
+    terms: dict[str, Any]
     models: list[Model]
     pred: list[Float1D]
     x_pi: Sequence[Float1D]  # PI-stage outputs (before the output map and dynamics)
@@ -916,7 +977,10 @@ def _level_penalty(n_play: int, m: int, ncol: int, lam: float) -> np.ndarray:
     return P
 
 
-def _legendre_cols(t: np.ndarray, deg: int) -> np.ndarray:
+def legendre_columns(t: np.ndarray, deg: int) -> np.ndarray:
+    """Legendre polynomials of degrees 1 to ``deg`` of the time ``t`` (s) mapped onto
+    ``[-1, 1]`` over the recording, shape ``(t.size, deg)`` (a drift's columns, and the own
+    level of a left-out recording)."""
     s = 2.0 * (t - t[0]) / max(t[-1] - t[0], 1e-12) - 1.0
     return np.column_stack(
         [np.polynomial.legendre.legval(s, np.eye(deg + 1)[k]) for k in range(1, deg + 1)]
@@ -982,7 +1046,9 @@ def fit_structure(
         ]
         banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
         V = None
-    needs_x = s.asymmetry or bool(s.creep_taus)
+    # the static terms with columns, in column order: (name, term, settings, first, end)
+    info = TermFit(nrec, center, half)
+    needs_x = s.reads_output
     if rss_only and reduce and not s.levels and V is None:
         # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
         # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
@@ -1003,16 +1069,15 @@ def fit_structure(
         eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     n_lev = len(s.levels) + 1
     nb = (r.size + 1) * n_lev
-    n_asym = 2 if s.asymmetry else 0
-    n_creep = len(s.creep_taus)
-    n_bias = nrec if s.offsets else 1
-    n_drift = s.drift_degree * nrec
     nq = nb if V is None else V.shape[1]
-    nM = nq + n_asym + n_creep
-    ncol = nM + n_bias + n_drift
+    terms, ncol = _term_columns(s, nq, nrec)
+    # the terms before the output dynamics: read the PI-stage output, filtered as it is
+    inner = [t for t in terms if t[1].through_dynamics]
+    nM = inner[-1][4] if inner else nq
     # design matrix with the output as its last column, filled block by block; the PI-stage
-    # columns (play bank, or its reduced basis, through the dynamics), bias, drift and output
-    # are the same in every refresh of the bilinear regressors, so they are filled once
+    # columns (play bank, or its reduced basis, through the dynamics), the terms after the
+    # dynamics (bias, drift) and the output are the same in every refresh of the bilinear
+    # regressors, so they are filled once
     X = np.empty((ys.size, ncol + 1))
     blocks = []
     # thresholds of the play-bank columns (rate-independent plays: the reduced products
@@ -1045,16 +1110,14 @@ def fit_structure(
                 banks[k][:last], V, (k, vkey, last),
                 w=raw[k][:last, 0] if s.beta_s is None else None, start=s0, r=r_bank)
             _dyn_rows(P, s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
-        blk[:, nM:ncol] = 0.0
-        blk[:, nM + (k if s.offsets else 0)] = 1.0
-        if s.drift_degree:
-            c0 = nM + n_bias + k * s.drift_degree
-            blk[:, c0 : c0 + s.drift_degree] = _legendre_cols(rec.t, s.drift_degree)[idx]
+        for _, t, v, a, b in terms:
+            if not t.through_dynamics:
+                blk[:, a:b] = t.columns(v, TermRows(rec, k, idx, None, info))
         blk[:, ncol] = ys[o : o + idx.size]
         o += idx.size
     # an invertible PI stage (as the fitting's constraint_transform): free weights solve for
     # the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns X_j - X_{j+1}),
-    # classical ones for p0 >= eps, p_j >= 0; creep weights >= 0
+    # classical ones for p0 >= eps, p_j >= 0; each term's weights within its own bound
     lower = np.full(ncol, -np.inf)
     lower[:nb] = eps
     if s.levels:
@@ -1069,28 +1132,21 @@ def fit_structure(
         X[:, : nb - 1] -= X[:, 1:nb]
     elif not s.free_weights:
         lower[1:nb] = 0.0
-    lower[nb + n_asym : nb + n_asym + n_creep] = 0.0
+    for _, t, _, a, b in terms:
+        lower[a:b] = t.lower
     w = None
     for it in range(iterations):
         if needs_x and x_prev is None:
             # first pass without the bilinear regressors to get the PI-stage output
-            sub = s.with_(asymmetry=False, creep_taus=())
-            f0 = fit_structure(sub, records, train, cache)
+            f0 = fit_structure(s.without_terms(through_dynamics=True), records, train, cache)
             x_prev = f0.x_pi  # type: ignore[union-attr]
         if needs_x:
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
                 s0 = starts[k]
                 x = x_prev[k][:last]  # type: ignore[index]
-                cols = []
-                if s.asymmetry:
-                    q = (x[s0:] - center) / half
-                    cols.append(np.column_stack((q**2, q**3)))
-                if s.creep_taus:
-                    # (the creep lags run from sample 0: only the output dynamics start late)
-                    cols.append(np.column_stack(
-                        [(foh_filter(x, [1.0], [tau, 1.0], dts[k])[0] - x)[s0:]
-                         for tau in s.creep_taus]
-                    ))
+                # (a term's columns run from sample 0: only the output dynamics start late)
+                cols = [t.columns(v, TermRows(records[k], k, idx, x, info))[s0:]
+                        for _, t, v, _, _ in inner]
                 _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
                           dts[k], idx - s0, out=blocks[k][:, nq:nM])
         if V is not None:
@@ -1133,19 +1189,13 @@ def fit_structure(
     assert w is not None
     p0 = float(w[0])
     pw = np.asarray(w[1:nb])
-    asym = np.asarray(w[nb : nb + n_asym])
-    creep = np.asarray(w[nb + n_asym : nb + n_asym + n_creep])
-    o = nb + n_asym + n_creep
-    bias = np.asarray(w[o : o + n_bias])
-    drift = [
-        np.asarray(w[o + n_bias + k * s.drift_degree : o + n_bias + (k + 1) * s.drift_degree])
-        for k in range(nrec)
-    ]
+    coef = {name: t.coefficients(v, np.asarray(w[a:b]), info)
+            for name, t, v, a, b in terms}
     models, preds = [], []
     rss = 0.0
     ntr = 0
     for k, (rec, m) in enumerate(zip(records, train, strict=True)):
-        model = build_model(s, k, p0, pw, asym, center, half, creep, bias, drift, rec)
+        model = build_model(s, k, p0, pw, coef, rec)
         if s.bouc_wen and not s.shape and isinstance(model, Chain):
             # the Bouc-Wen stage's output is its bank times the weights (the bank integrates
             # the elements as the model does, to round-off): only the later stages are run
@@ -1161,12 +1211,7 @@ def fit_structure(
         structure=s,
         p0=p0,
         weights=pw,
-        asym_coef=asym,
-        asym_center=center,
-        asym_scale=half,
-        creep_weights=creep,
-        bias=bias,
-        drift_coef=drift,
+        terms=coef,
         models=models,
         pred=preds,
         x_pi=PIStageOutputs(banks, np.concatenate(([p0], pw))),
@@ -1175,20 +1220,53 @@ def fit_structure(
     )
 
 
-def build_model(
-    s: Structure,
-    k: int,
-    p0: float,
-    pw: Float1D,
-    asym: Float1D,
-    center: float,
-    half: float,
-    creep: Float1D,
-    bias: Float1D,
-    drift: list[Float1D],
-    rec: Recording,
-) -> Model:
-    """The exact chain of structure ``s`` for recording ``k``."""
+def _term_columns(s: Structure, first: int, n_records: int
+                  ) -> tuple[list[tuple[str, StaticTerm, Any, int, int]], int]:
+    """The static terms of ``s`` with columns, in column order from column ``first``:
+    ``[(name, term, settings, start, end), ...]``, and the column after the last."""
+    out = []
+    o = first
+    for name, t, _ in static_terms():
+        v = s.term(name)
+        n = t.width(v, n_records)
+        if n:
+            out.append((name, t, v, o, o + n))
+            o += n
+    return out, o
+
+
+def build_model(s: Structure, k: int, p0: float, pw: Float1D, terms: dict[str, Any],
+                rec: Recording) -> Model:
+    """The exact chain of structure ``s`` for recording ``k``.
+
+    Parameters
+    ----------
+    s : Structure
+    k : int
+        Index of the recording.
+    p0, pw : float, ndarray
+        Weights of the base hysteresis (the reversible part and the plays or elements).
+    terms : dict
+        Coefficients of the static terms by effect name (:attr:`Fit.terms`); a term with
+        columns but no coefficients here adds no stage.
+    rec : Recording
+        The recording (its time span sets a drift's).
+    """
+    stages: list[Model] = [_hysteresis(s, k, p0, pw)]
+    for through in (True, False):
+        # the terms before the output dynamics, the dynamics, the terms after them
+        stages += [t.stage(s.term(name), terms[name], k, rec)
+                   for name, t, _ in static_terms()
+                   if t.through_dynamics == through and name in terms]
+        if through:
+            stages += [EFFECTS[name].dynamics.model(v)  # type: ignore[union-attr]
+                       for name, v in dynamics_stages(s.dynamics)]
+    return Chain.of(*stages)
+
+
+def _hysteresis(s: Structure, k: int, p0: float, pw: Float1D) -> Model:
+    """The base hysteresis of structure ``s`` for recording ``k`` (its loop shape and
+    initial memory included) with the weights ``p0, pw``."""
     r = np.asarray(s.thresholds)
     hyst: Model
     if s.bouc_wen:
@@ -1218,16 +1296,4 @@ def build_model(
         hyst = hysteresis_model(s.shape, hyst)
     elif s.history[k]:
         hyst = InitialMemory(hyst, list(s.history[k]))
-    stages: list[Model] = [hyst]
-    if s.asymmetry:
-        stages.append(Asymmetry(asym, center, half))
-    if s.creep_taus:
-        stages.append(Creep(list(s.creep_taus), np.maximum(creep, 0.0)))
-    for name, v in dynamics_stages(s.dynamics):
-        dyn = EFFECTS[name].dynamics
-        assert dyn is not None
-        stages.append(dyn.model(v))
-    stages.append(Offset(float(bias[k] if s.offsets else bias[0])))
-    if s.drift_degree:
-        stages.append(Drift(drift[k], float(rec.t[-1] - rec.t[0])))
-    return Chain.of(*stages)
+    return hyst

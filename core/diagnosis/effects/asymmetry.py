@@ -2,21 +2,56 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
+
 from ...effects import Asymmetry
 from ..candidates import Candidate
 from ..context import FitContext
-from ..registry import DiagnosableEffect, register
+from ..registry import DiagnosableEffect, StaticTerm, TermFit, TermRows, register
 from ..structure import Fit
+
+
+class MapCoefficients(NamedTuple):
+    """The fitted output map: ``a = (a2, a3)`` in the normalised coordinate
+    ``(x - center) / scale`` (output units)."""
+
+    a: np.ndarray
+    center: float
+    scale: float
+
+
+def _columns(on: bool, rows: TermRows) -> np.ndarray:
+    """``q^2, q^3`` of the PI-stage output ``x``, ``q = (x - center) / scale``."""
+    assert rows.x is not None
+    q = (rows.x - rows.fit.center) / rows.fit.scale
+    return np.column_stack((q**2, q**3))
+
+
+def _coefficients(on: bool, w: np.ndarray, fit: TermFit) -> MapCoefficients:
+    return MapCoefficients(w, fit.center, fit.scale)
+
+
+TERM = StaticTerm(
+    off=False,
+    width=lambda on, n_records: 2 if on else 0,
+    columns=_columns,
+    coefficients=_coefficients,
+    stage=lambda on, c, k, record: Asymmetry(c.a, c.center, c.scale),
+    through_dynamics=True,
+)
 
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Quadratic + cubic output map."""
     s = cur.structure
-    if s.asymmetry:
+    if s.term("asymmetry"):
         return None
-    fit = ctx.fit(s.with_(asymmetry=True), cur)
-    return fit, {"a2": float(fit.asym_coef[0]), "a3": float(fit.asym_coef[1]),
-                 "center": fit.asym_center, "scale": fit.asym_scale}, {}
+    fit = ctx.fit(s.with_term("asymmetry", True), cur)
+    c = fit.terms["asymmetry"]
+    return fit, {"a2": float(c.a[0]), "a3": float(c.a[1]),
+                 "center": c.center, "scale": c.scale}, {}
 
 
 register(DiagnosableEffect(
@@ -35,7 +70,8 @@ register(DiagnosableEffect(
     amplitude_dependent=True,
     build=_build,
     model_type=Asymmetry,
-    structure_field="asymmetry",
+    structure_field="terms",
+    term=TERM,
     linear=True,
     stage_order=2,
     inseparable_from=("sensor nonlinearity", "a static output map: actuator asymmetry and "

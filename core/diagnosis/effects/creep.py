@@ -4,11 +4,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import Creep
+from ...effects import Creep, foh_filter
 from ..candidates import Candidate
 from ..context import FitContext
-from ..registry import DiagnosableEffect, register
+from ..registry import DiagnosableEffect, StaticTerm, TermRows, register
 from ..structure import Fit
+
+
+def _columns(taus: tuple[float, ...], rows: TermRows) -> np.ndarray:
+    """``L_tau[x] - x`` per time constant of the bank: the PI-stage output ``x`` through a
+    unit lag (first-order hold, from the steady state of its first sample) minus itself."""
+    x = rows.x
+    assert x is not None
+    return np.column_stack([foh_filter(x, [1.0], [tau, 1.0], rows.record.dt)[0] - x
+                            for tau in taus])
+
+
+TERM = StaticTerm(
+    off=(),
+    width=lambda taus, n_records: len(taus),
+    columns=_columns,
+    coefficients=lambda taus, w, fit: w,
+    stage=lambda taus, w, k, record: Creep(list(taus), np.maximum(w, 0.0)),
+    lower=0.0,
+    through_dynamics=True,
+    sample_spacing=True,
+    bank=True,
+    refit_parameters=lambda taus, w: {"gamma_per_decade": float(w.sum() / len(taus))},
+)
 
 
 def _untestable(ctx: FitContext) -> str | None:
@@ -25,7 +48,7 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Creep lag bank, one time constant per decade from 10 dt (>= 10 ms) to the record length."""
     s = cur.structure
     dt = min(r.dt for r in ctx.records)
-    if s.creep_taus:
+    if s.term("creep"):
         return None
     lo = max(10 * dt, 0.01)
     hi = max(r.t[-1] - r.t[0] for r in ctx.records)
@@ -33,9 +56,10 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
                                                      np.log10(hi) + 1e-9))
     if len(taus) < 1:
         return None
-    fit = ctx.fit(s.with_(creep_taus=taus), cur)
-    return fit, {"taus_s": list(taus), "weights": fit.creep_weights.tolist(),
-                 "gamma_per_decade": float(fit.creep_weights.sum() / len(taus))}, {}
+    fit = ctx.fit(s.with_term("creep", taus), cur)
+    w = fit.terms["creep"]
+    return fit, {"taus_s": list(taus), "weights": w.tolist(),
+                 "gamma_per_decade": float(w.sum() / len(taus))}, {}
 
 
 #: Shift (decades) of the two creep banks the accepted creep is refitted with to measure how
@@ -49,12 +73,12 @@ def _bank_spread(ctx: FitContext, cur: Fit, fit: Fit) -> tuple[dict[str, float],
     (sum of the weights), per lag. A one-per-decade bank holds a relaxation time between its
     lags only approximately (a 5 ms lag on a bank from 10 ms), which the noise-driven
     jackknife does not see."""
-    taus = fit.structure.creep_taus
-    total = float(np.sum(fit.creep_weights))
+    taus = fit.structure.term("creep")
+    total = float(np.sum(fit.terms["creep"]))
     dev = 0.0
     for sh in (-BANK_SHIFT_DECADES, BANK_SHIFT_DECADES):
-        alt = ctx.fit(fit.structure.with_(creep_taus=tuple(t * 10.0**sh for t in taus)), cur)
-        dev = max(dev, abs(float(np.sum(alt.creep_weights)) - total))
+        alt = ctx.fit(fit.structure.with_term("creep", tuple(t * 10.0**sh for t in taus)), cur)
+        dev = max(dev, abs(float(np.sum(alt.terms["creep"])) - total))
     return ({"gamma_per_decade": dev / len(taus)},
             f"widened by the change of the creep total with the bank shifted by "
             f"{BANK_SHIFT_DECADES:g} decade ({dev:.3g})")
@@ -73,7 +97,8 @@ register(DiagnosableEffect(
     time_dependent=True,
     build=_build,
     model_type=Creep,
-    structure_field="creep_taus",
+    structure_field="terms",
+    term=TERM,
     untestable=_untestable,
     linear=True,
     stage_order=3,

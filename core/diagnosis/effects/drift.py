@@ -8,8 +8,8 @@ from ...effects import Drift
 from ..candidates import Candidate
 from ..context import FitContext
 from ..periodic import repeated_cycles
-from ..registry import DiagnosableEffect, register
-from ..structure import Fit
+from ..registry import DiagnosableEffect, StaticTerm, TermFit, TermRows, register
+from ..structure import Fit, legendre_columns
 
 #: A single recording shorter than this (s) cannot test a drift: a polynomial in time over
 #: a short record is absorbed by the bias and slow noise.
@@ -55,13 +55,40 @@ def _signature(ctx: FitContext) -> tuple[list[np.ndarray], str, bool] | None:
     return masks, "cycle to cycle after the first (" + "; ".join(said) + ")", True
 
 
+def _columns(degree: int, rows: TermRows) -> np.ndarray:
+    """Legendre polynomials of degree 1 to ``degree`` in the recording's time, in its own
+    block of ``degree`` columns (zero in the other recordings' blocks)."""
+    out = np.zeros((rows.rows.size, degree * rows.fit.n_records))
+    c0 = rows.k * degree
+    out[:, c0 : c0 + degree] = legendre_columns(rows.record.t, degree)[rows.rows]
+    return out
+
+
+def _coefficients(degree: int, w: np.ndarray, fit: TermFit) -> list[np.ndarray]:
+    """The coefficients per recording."""
+    return [w[k * degree : (k + 1) * degree] for k in range(fit.n_records)]
+
+
+TERM = StaticTerm(
+    off=0,
+    width=lambda degree, n_records: degree * n_records,
+    columns=_columns,
+    coefficients=_coefficients,
+    stage=lambda degree, c, k, record: Drift(c[k], float(record.t[-1] - record.t[0])),
+    per_recording=True,
+    level_degree=lambda degree: degree,
+    # an unseen recording's own drift is unknown: none
+    unseen=lambda degree, c, j: [np.zeros_like(a) if k == j else a for k, a in enumerate(c)],
+)
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Legendre drift of degree 2 in absolute time per recording."""
     s = cur.structure
-    if s.drift_degree:
+    if s.term("drift"):
         return None
-    fit = ctx.fit(s.with_(drift_degree=2), cur)
-    return fit, {"coefficients": [c.tolist() for c in fit.drift_coef],
+    fit = ctx.fit(s.with_term("drift", 2), cur)
+    return fit, {"coefficients": [c.tolist() for c in fit.terms["drift"]],
                  "peak_to_peak": [float(np.ptp(m.stages[-1].drift(r.t - r.t[0])))
                                   for m, r in zip(fit.models, ctx.records, strict=True)]}, {}
 
@@ -82,7 +109,8 @@ register(DiagnosableEffect(
     lookalikes=("offset",),
     build=_build,
     model_type=Drift,
-    structure_field="drift_degree",
+    structure_field="terms",
+    term=TERM,
     untestable=_untestable,
     signature=_signature,
     linear=True,

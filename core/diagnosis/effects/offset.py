@@ -2,11 +2,42 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ...effects import Offset
 from ..candidates import Candidate
 from ..context import FitContext
-from ..registry import DiagnosableEffect, register
+from ..registry import DiagnosableEffect, StaticTerm, TermRows, register
 from ..structure import Fit
+
+
+def _columns(per_recording: bool, rows: TermRows) -> np.ndarray:
+    """A constant: one common bias column, or one per recording (its own, the others 0)."""
+    out = np.zeros((rows.rows.size, rows.fit.n_records if per_recording else 1))
+    out[:, rows.k if per_recording else 0] = 1.0
+    return out
+
+
+def _unseen(per_recording: bool, bias: np.ndarray, j: int) -> np.ndarray:
+    """An unseen recording's own offset is unknown: the mean of the others'."""
+    bias = np.array(bias, dtype=float)
+    if per_recording:
+        bias[j] = float(np.mean(np.delete(bias, j)))
+    return bias
+
+
+#: Switched off, the term is the model's one common bias (a column and a stage still).
+TERM = StaticTerm(
+    off=False,
+    width=lambda per_recording, n_records: n_records if per_recording else 1,
+    columns=_columns,
+    coefficients=lambda per_recording, w, fit: w,
+    stage=lambda per_recording, bias, k, record: Offset(float(bias[k] if per_recording
+                                                              else bias[0])),
+    per_recording=True,
+    level_degree=lambda per_recording: 0,
+    unseen=_unseen,
+)
 
 
 def _untestable(ctx: FitContext) -> str | None:
@@ -19,10 +50,10 @@ def _untestable(ctx: FitContext) -> str | None:
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """One offset per recording (needs >= 2 recordings)."""
     s = cur.structure
-    if s.offsets or len(ctx.records) < 2:
+    if s.term("offset") or len(ctx.records) < 2:
         return None
-    fit = ctx.fit(s.with_(offsets=True), cur)
-    return fit, {"offsets": fit.bias.tolist()}, {}
+    fit = ctx.fit(s.with_term("offset", True), cur)
+    return fit, {"offsets": fit.terms["offset"].tolist()}, {}
 
 
 register(DiagnosableEffect(
@@ -34,7 +65,8 @@ register(DiagnosableEffect(
     lookalikes=("drift",),
     build=_build,
     model_type=Offset,
-    structure_field="offsets",
+    structure_field="terms",
+    term=TERM,
     untestable=_untestable,
     linear=True,
     stage_order=5,

@@ -144,17 +144,20 @@ def test_every_chain_layout_the_diagnosis_writes_inverts_and_exports(rate, dynam
                                                                      capsys) -> None:
     """The diagnosis' own model builder (``hyst diagnose --save-model`` writes its chain) with
     every effect switched on, per hysteresis kind and dynamics: invert, C (compiled) and MAT."""
+    from core.diagnosis.effects.asymmetry import MapCoefficients
     from core.diagnosis.structure import Structure, build_model
     from core.recordings import Recording
 
-    s = Structure(thresholds=tuple(EX1.thresholds), history=((2.0, -1.0),), beta_s=rate,
-                  asymmetry=True, creep_taus=(0.01, 0.1, 1.0), dynamics=dynamics,
-                  drift_degree=2)
+    s = (Structure(thresholds=tuple(EX1.thresholds), history=((2.0, -1.0),), beta_s=rate,
+                   dynamics=dynamics)
+         .with_term("asymmetry", True).with_term("creep", (0.01, 0.1, 1.0))
+         .with_term("drift", 2))
     t = np.arange(2000) * 1e-4
     rec = Recording(t=t, u=3 * np.sin(2 * np.pi * 5 * t), y=np.zeros_like(t))
-    model = build_model(s, 0, float(EX1.p0), EX1.weights, np.array([0.1, 0.02]), 0.5, 2.0,
-                        np.array([0.02, 0.01, 0.03]), np.array([0.2]), [np.array([0.1, -0.05])],
-                        rec)
+    model = build_model(s, 0, float(EX1.p0), EX1.weights, {
+        "asymmetry": MapCoefficients(np.array([0.1, 0.02]), 0.5, 2.0),
+        "creep": np.array([0.02, 0.01, 0.03]), "offset": np.array([0.2]),
+        "drift": [np.array([0.1, -0.05])]}, rec)
     expected = {"initial-memory", "asymmetry", "creep", "offset", "drift",
                 *(dynamics[:1] or ())}
     assert expected <= {st.type_name for st in model.stages}

@@ -268,7 +268,7 @@ def test_full_fits_from_the_memoised_gram_block_and_lazy_pi_stage_outputs(monkey
     st.fit_structure(base.with_(dynamics=("lag", 0.02)), [rec], train, cache)  # another block
     f0 = st.fit_structure(base, [rec], train, cache)
     assert len(cache.g) == 2  # the blocks of the bank through each lag are memoised
-    s = base.with_(asymmetry=True)
+    s = base.with_term("asymmetry", True)
     got = st.fit_structure(s, [rec], train, cache, f0.x_pi)
     monkeypatch.setattr(st, "_gram", lambda X, nq, cache, key, owner: X.T @ X)
     want = st.fit_structure(s, [rec], train, st._Cache(), f0.x_pi)

@@ -90,7 +90,7 @@ def test_an_effect_that_does_not_generalise_is_recording_specific() -> None:
     assert "offset" in spec and spec["offset"].loro_mse_reduction < -0.05
     assert "times worse" in spec["offset"].text
     assert "one per recording" in spec["offset"].text
-    assert not res.final.structure.offsets
+    assert not res.final.structure.term("offset")
     doc = res.to_dict()
     assert doc["recording_specific"][0]["name"] == "offset"
     assert "Recording-specific, not claimed: offset" in res.summary()

@@ -43,8 +43,8 @@ def test_two_stages_in_series_are_simulated_as_the_chain_of_their_models() -> No
     assert np.max(np.abs(got - ref)) < 1e-9 * np.max(np.abs(ref))
     s = Structure(thresholds=(10.0, 20.0), history=((),), dynamics=dyn)
     assert {"lag", "resonance"} <= set(s.effects)
-    m = build_model(s, 0, 0.5, np.array([0.1, 0.05]), np.zeros(0), 0.0, 1.0, np.zeros(0),
-                    np.zeros(1), [np.zeros(0)], None)  # type: ignore[arg-type]
+    m = build_model(s, 0, 0.5, np.array([0.1, 0.05]), {"offset": np.zeros(1)},
+                    None)  # type: ignore[arg-type]
     assert isinstance(m, Chain)
     kinds = [type(st) for st in m.stages]
     assert Lag in kinds and Resonance in kinds
