@@ -459,6 +459,29 @@ def _parameters(stages: list[Model], emitted: list, role: str, units: Units
     return variables, tune_lines
 
 
+#: Stage types of a compensator whose slopes ``p0 + p1 + ... + p_j`` must stay positive: the
+#: PI inverse (itself a PI) and the rate-dependent PI's inverse (a bisection on its slopes).
+_SLOPE_TYPES = ("pi", "rate-inverse")
+
+
+def _slope_rules(params: list[FmuVariable], stages: list[Model]
+                 ) -> tuple[tuple[int, int, int], ...]:
+    """``(p0, first weight, number of weights)`` (indices among ``params``) of every stage of
+    :data:`_SLOPE_TYPES` whose ``p0`` and weights are tunable."""
+    out = []
+    by = {(v.stage, v.path, v.index): i for i, v in enumerate(params)}
+    for i, v in enumerate(params):
+        if v.path != "p0" or v.variability != "tunable" or \
+                stages[v.stage].type_name not in _SLOPE_TYPES:
+            continue
+        w = by.get((v.stage, "weights", 0))
+        if w is None or params[w].variability != "tunable":
+            continue
+        n = sum(1 for u in params if u.stage == v.stage and u.path == "weights")
+        out.append((i, w, n))
+    return tuple(out)
+
+
 def fmu_sources(
     model: Model | ParameterSet,
     *,
@@ -558,7 +581,8 @@ def fmu_sources(
         tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
         dt, preview, inverse, FIRST_PARAMETER_VR, tuple(v.name for v in params),
         tuple((v.lower, v.upper, v.strict, v.above, v.below) for v in params),
-        (in_name, out_name)), fmi_headers(fmi_version))
+        (in_name, out_name), _slope_rules(params, stages) if inverse else ()),
+        fmi_headers(fmi_version))
     token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
         (src + str(fmi_version)).encode()).hexdigest())) + "}"
     src = src.replace("@TOKEN@", token)

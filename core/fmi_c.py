@@ -59,6 +59,9 @@ class FmuCode:
         (an increasing field; -1: none). A Set call breaking one is refused.
     ports : (str, str)
         Names of the input and the output (for messages).
+    slopes : tuple of (int, int, int)
+        PI stages whose slopes must stay positive: indices of ``p0`` and the first weight
+        among the parameters, and the number of weights.
     """
 
     ident: str
@@ -76,6 +79,7 @@ class FmuCode:
     names: tuple[str, ...] = ()
     limits: tuple[tuple[float | None, float | None, bool, int, int], ...] = ()
     ports: tuple[str, str] = ("u", "y")
+    slopes: tuple[tuple[int, int, int], ...] = ()
 
 
 _TLS = """#if defined(_MSC_VER)
@@ -267,6 +271,28 @@ static const char *HX_rule(HX_inst *s, unsigned k)
     return s->msg;
 }
 
+/* 0, or why PI stage rule k is broken: a compensator's PI (the inverse of the model's)
+ * inverts an invertible PI only while every slope p0 + p1 + ... + p_j is > 0 */
+static const char *HX_slopes(HX_inst *s, unsigned k)
+{
+    const int a = HX_SLOPES[k][0], w = HX_SLOPES[k][1], n = HX_SLOPES[k][2];
+    double slope = s->mp[a];
+    int j, touched = s->changed[a];
+    for (j = 0; j < n; ++j) touched |= s->changed[w + j];
+    if (!touched) return 0;
+    for (j = 0; j <= n; ++j) {
+        if (j > 0) slope += s->mp[w + j - 1];
+        if (!(slope > 0.0)) {
+            snprintf(s->msg, sizeof s->msg, "%s .. %s: the slopes of the compensator's PI "
+                     "(%s plus the first weights) must stay > 0 for it to invert a PI model, "
+                     "but slope %d would be %.17g; the previous values are kept",
+                     HX_NAME[a], HX_NAME[w + n - 1], HX_NAME[a], j + 1, slope);
+            return s->msg;
+        }
+    }
+    return 0;
+}
+
 /* after the values of one Set call: 0, or a message (*discard set) and every value back */
 static const char *HX_commit(HX_inst *s, int *discard)
 {
@@ -274,6 +300,10 @@ static const char *HX_commit(HX_inst *s, int *discard)
     *discard = 1;
     for (k = 0; k < HX_NPAR; ++k) {
         const char *err = s->changed[k] ? HX_rule(s, k) : 0;
+        if (err) { HX_undo(s); return err; }
+    }
+    for (k = 0; k < HX_NSLOPES; ++k) {
+        const char *err = HX_slopes(s, k);
         if (err) { HX_undo(s); return err; }
     }
     if (s->mode >= 2 && s->dirty) {
@@ -819,6 +849,9 @@ def fmu_c_source(code: FmuCode, headers: Path) -> str:
         f"static const unsigned char {hx}_KIND[{nmp}] = {{{kind_init}}};",
         "/* their rules: limits, and the neighbours an increasing field keeps them between */",
         *rules,
+        f"#define {hx}_NSLOPES {len(code.slopes)}u",
+        f"static const int {hx}_SLOPES[{max(len(code.slopes), 1)}][3] = "
+        f"{{{', '.join(f'{{{a}, {w}, {n}}}' for a, w, n in code.slopes) or '{0, 0, 0}'}}};",
         f"#define {hx}_IN_NAME {c_string(code.ports[0])}",
         f"#define {hx}_OUT_NAME {c_string(code.ports[1])}",
         "",

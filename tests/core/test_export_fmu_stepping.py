@@ -460,3 +460,21 @@ def test_sample_time_is_fixed_and_refused_steps_say_why(fmu, tmp_path) -> None:
     status, msg = m.refused(m.step, 0.0, -DT)
     assert status == 3 and f"got {-DT:.17g} s (at t = 0 s; sample_time = {DT:.17g} s)" in msg
     m.close()
+
+
+def test_weights_that_make_the_compensator_not_an_inverse_are_refused(fmu, tmp_path) -> None:
+    """The compensator's PI inverts a PI model only while its slopes q0 + q1 + ... + q_j are
+    positive: a weight that makes one non-positive is refused, the values kept."""
+    m = LoggedMaster(fmu, tmp_path / "x")
+    m.start()
+    q0 = m.get_named("s2_pi.p0")
+    q = [m.get_named(f"s2_pi.weights[{i}]") for i in range(1, 7)]
+    slopes = np.cumsum([q0, *q])
+    assert (slopes > 0).all()
+    bad = -slopes[2] - 0.1  # slope 4 = slope 3 + q3 would be -0.1
+    status, msg = m.refused(m.set_named, {"s2_pi.weights[3]": bad})
+    assert status == DISCARD and "s2_pi.p0 .. s2_pi.weights[6]: the slopes of the " \
+        "compensator's PI" in msg and f"slope 4 would be {slopes[2] + bad:.17g};" in msg
+    assert m.get_named("s2_pi.weights[3]") == q[2]
+    m.set_named({"s2_pi.weights[3]": -slopes[2] + 0.1})  # still positive: fine
+    m.close()
