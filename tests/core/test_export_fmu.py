@@ -32,6 +32,7 @@ from tests.core.model_zoo import DIAGNOSED, DT, EX1, ZOO, turning_points
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy import extract, read_model_description  # noqa: E402
+from fmpy.fmi1 import FMICallException  # noqa: E402
 from fmpy.fmi2 import FMU2Slave  # noqa: E402
 from fmpy.fmi3 import FMU3Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
@@ -255,6 +256,9 @@ def test_fmu_matches_python_with_a_retune_and_a_reset(fmus, key, tmp_path) -> No
         y, ref = slave.run(u), plain
     np.testing.assert_allclose(y[:k], plain[:k], rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(y, ref, rtol=0, atol=1e-9 * scale)
+    with pytest.raises(FMICallException) as refused:  # NaN input: refused, state kept
+        slave.set("y_ref" if inv else "u", float("nan"))
+    assert refused.value.status == 2  # discard
     slave.reset()  # back to the exported parameters and the initial state
     y2 = slave.run(u[:N_RESET])
     np.testing.assert_allclose(y2, plain[:N_RESET], rtol=0, atol=1e-9 * scale)
