@@ -543,7 +543,6 @@ def fmu_sources(
 
     # ---- variables
     in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
-    what = "inverse compensator" if inverse else "hysteresis model"
     variables: list[FmuVariable] = []
     u_in, u_out = fmi_unit(units.input) or None, fmi_unit(units.output) or None
     if fmi_version == 3:
@@ -588,7 +587,7 @@ def fmu_sources(
     src = src.replace("@TOKEN@", token)
     doc_text = _description(ps, fwd, inverse, preview, dt, units, len(stages), stages)
     xml = (_xml3 if fmi_version == 3 else _xml2)(
-        ps, ident, token, doc_text, variables, dt, what)
+        ps, ident, token, doc_text, variables, dt)
     build = _build_description(ident) if fmi_version == 3 else None
     readme = _readme(ident, fmi_version)
     return FmuSources(ident, fmi_version, xml, src, build, readme, ps.to_json(),
@@ -628,7 +627,7 @@ def _licence(ps: ParameterSet) -> str:
 
 
 
-def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str:
+def _header_attrs(ps: ParameterSet, ident: str, doc_text: str) -> str:
     prov = ps.provenance
     extra = {k: v for k, v in prov.extra.items() if k in ("author", "copyright")
              and isinstance(v, str)}  # only what the parameter set states
@@ -648,6 +647,9 @@ def _header_attrs(ps: ParameterSet, ident: str, what: str, doc_text: str) -> str
 
 _LOG_CATEGORIES = [
     "  <LogCategories>",
+    '    <Category name="logStatusDiscard" description="values refused, the FMU as before the '
+    'call: a NaN or infinite input, a parameter outside its limits, out of order or making '
+    'the compensator non-invertible, a step whose output would not be finite"/>',
     '    <Category name="logStatusError" description="calls refused: a negative or '
     'non-finite step, a parameter fixed at export, an unknown value reference"/>',
     "  </LogCategories>",
@@ -695,12 +697,12 @@ def _var_attrs(v: FmuVariable) -> str:
     return a + f" description={xml_attr(v.description)}"
 
 
-def _head(ps: ParameterSet, ident: str, what: str, doc_text: str, version: str,
+def _head(ps: ParameterSet, ident: str, doc_text: str, version: str,
           token: str) -> list[str]:
     """The XML declaration and the root element's opening tag (``token``: its attribute)."""
     return ['<?xml version="1.0" encoding="UTF-8"?>',
             f'<fmiModelDescription fmiVersion="{version}" '
-            f'{_header_attrs(ps, ident, what, doc_text)} {token}>']
+            f'{_header_attrs(ps, ident, doc_text)} {token}>']
 
 
 def _experiment(dt: float | None) -> str:
@@ -708,8 +710,8 @@ def _experiment(dt: float | None) -> str:
             + (f' stepSize="{c_double(dt)}"' if dt is not None else "") + "/>")
 
 
-def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
-    lines = [*_head(ps, ident, what, doc_text, "3.0", f'instantiationToken="{token}"'),
+def _xml3(ps, ident, token, doc_text, variables, dt) -> str:
+    lines = [*_head(ps, ident, doc_text, "3.0", f'instantiationToken="{token}"'),
              f'  <CoSimulation modelIdentifier="{ident}" '
              'canHandleVariableCommunicationStepSize="true" '
              + (f'fixedInternalStepSize="{c_double(dt)}" ' if dt is not None else "")
@@ -734,8 +736,8 @@ def _xml3(ps, ident, token, doc_text, variables, dt, what) -> str:
     return "\n".join(lines)
 
 
-def _xml2(ps, ident, token, doc_text, variables, dt, what) -> str:
-    lines = [*_head(ps, ident, what, doc_text, "2.0", f'guid="{token}"'),
+def _xml2(ps, ident, token, doc_text, variables, dt) -> str:
+    lines = [*_head(ps, ident, doc_text, "2.0", f'guid="{token}"'),
              f'  <CoSimulation modelIdentifier="{ident}" '
              'canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" '
              'canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="false" '

@@ -394,7 +394,8 @@ HX_CORE_HERE
 
 static void HX_msg(HX_inst *s, fmi3Status st, const char *what)
 {
-    if (s->log) s->log(s->env, st, "logStatusError", what);
+    if (s->log) s->log(s->env, st, st == fmi3Discard ? "logStatusDiscard" : "logStatusError",
+                       what);
 }
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
@@ -572,7 +573,8 @@ static void HX_msg(HX_inst *s, fmi2Status st, const char *what)
         fmt[i++] = *what;
     }
     fmt[i] = '\0';
-    s->cb->logger(s->cb->componentEnvironment, s->name, st, "logStatusError", fmt);
+    s->cb->logger(s->cb->componentEnvironment, s->name, st,
+                  st == fmi2Discard ? "logStatusDiscard" : "logStatusError", fmt);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
