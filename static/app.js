@@ -62,7 +62,8 @@ async function main() {
     $(id).replaceChildren(...presets.map((p) => new Option(p.title, p.name)));
   }
   showPresetDesc();
-  $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(k, k)));
+  const kindTitle = caps.fit_kind_titles || {};  // the registry's words, not its names
+  $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(kindTitle[k] || k, k)));
   $("samples").max = caps.limits.max_samples;
   $("n").max = caps.limits.max_operators;
   $("fit-n").max = caps.limits.max_operators;

@@ -18,7 +18,8 @@ export async function fit(running = null) {
     const warned = (rep.warnings || []).map((w) => el("p", { className: "msg", textContent: `Warning: ${w}` }));
     $("report").replaceChildren(el("p", {
       className: "msg ok",
-      textContent: `Fit: RMS error ${rep.rms_error.toPrecision(4)}, ${rep.nrmse_percent.toPrecision(3)} % of range`,
+      textContent: `Fit: RMS error ${rep.rms_error.toPrecision(4)}${rep.output_unit ? ` ${rep.output_unit}` : ""}, ` +
+        `${rep.nrmse_percent.toPrecision(3)} % of the output range`,
     }), ...warned);
     const s = await api("GET", `/api/sessions/${state.code}`);
     applyConfig(s.config, s.version);

@@ -50,7 +50,7 @@ export async function draw(pending) {
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   await render(el, f, { live });
-  const parts = [`${res.model_type}`];
+  const parts = [`${res.model_title || res.model_type}`];
   if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
   if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
   if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);

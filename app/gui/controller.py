@@ -39,6 +39,7 @@ from ..services.sessions import Session, SessionRegistry
 from ..services.settings import Settings
 from ..services.simulation import Result, inverse_problem, operator_count
 from ..services.tasks import diagnose_task, fit_task
+from ..services.words import type_words
 from ..services.worker import OutOfMemory, Task, Worker, WorkerDied
 from .layout import TITLES, Widgets, set_value
 from .lesson import LessonPanel
@@ -586,7 +587,7 @@ class SessionView:
             ui.report_md.content = "⚠️ upload a recording first"
             return
         n = int(ui.fit_n.value)
-        kind = str(ui.fit_kind.value)
+        kind = ui.fit_kinds.get(str(ui.fit_kind.value), str(ui.fit_kind.value))
         if not 1 <= n <= self.settings.max_operators:
             raise ParameterError(f"the number of operators must be between 1 and "
                                  f"{self.settings.max_operators}, got {n}")
@@ -598,9 +599,11 @@ class SessionView:
         self.fit_figure = F.FigureJSON(out["figure"]["data"], out["figure"]["layout"])
         report = out["report"]
         ui.view_dd.value = TITLES["fit"]
+        unit = f" {report['output_unit']}" if report.get("output_unit") else ""
         ui.report_md.content = (
-            f"**Fit ({kind}, n = {n})**: RMS error {report['rms_error']:.4g}, "
-            f"max error {report['max_error']:.4g} ({report['nrmse_percent']:.3g} % of range)"
+            f"**Fit ({md_text(type_words(kind))}, {n} operators)**: RMS error "
+            f"{report['rms_error']:.4g}{md_text(unit)}, max error {report['max_error']:.4g}"
+            f"{md_text(unit)} ({report['nrmse_percent']:.3g} % of the output range)"
         ) + "".join(f"\n\n**Warning:** {md_text(w)}" for w in report.get("warnings", ()))
 
     def _run_job(self, kind: str, task: Callable[[], Task], what: str,
@@ -722,7 +725,8 @@ class SessionView:
         except (UnicodeDecodeError, ParameterError, ValueError) as exc:
             self.ui.export_md.content = f"⚠️ **Parameter set not loaded:** {md_text(exc)}"
             return
-        self.ui.export_md.content = f"✅ loaded {md_text(f.name)} ({m.type_name})"
+        self.ui.export_md.content = (f"✅ loaded {md_text(f.name)} "
+                                     f"({md_text(type_words(m.type_name))})")
 
     def _export(self, event: Any, fmt: str, inverse: bool = False) -> None:
         name, payload = actions.export(self.session, fmt, fmi=self.ui.fmi.value,

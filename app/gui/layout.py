@@ -19,6 +19,7 @@ from ..services import figures as F
 from ..services.config import CONTROLS
 from ..services.controls import ModelControls, Slider, log_step, slider_position, unit_text
 from ..services.settings import Settings
+from ..services.words import type_words
 
 __all__ = [
     "NARROW_PX",
@@ -222,7 +223,9 @@ class Widgets:
                      "assume an even one")
             self.fit_n = g.add_number("Fit operators n", 10, min=1,
                                       max=settings.max_operators, step=1)
-            kinds = catalog.fit_kinds()
+            #: the fit menu shows the registry's words; the kind is looked up from them
+            self.fit_kinds = {type_words(k): k for k in catalog.fit_kinds()}
+            kinds = tuple(self.fit_kinds)
             self.fit_kind = g.add_dropdown("Fit model", kinds, initial_value=kinds[0])
             self.fit_btn = g.add_button("Fit model")
             self.diag_btn = g.add_button("Run diagnosis")

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..services.recordings import Recording
 from ..services.simulation import Result, operator_count, pi_part
+from ..services.words import model_words
 
 __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown",
            "recording_markdown", "state_markdown"]
@@ -47,7 +48,7 @@ def model_markdown(res: Result) -> str:
     """Type, operator count, slopes and maximum loop width of ``res``'s model."""
     m = res.model
     n = operator_count(m)  # a GPI's plays too; a memoryless map has none
-    lines = [f"**{m.type_name}** model" + ("" if n is None else f", {n} operators")]
+    lines = [f"**{md_text(model_words(m))}**" + ("" if n is None else f", {n} operators")]
     if pi_part(m) is m:  # a classical PI itself
         lines.append("slopes " + ", ".join(f"{s:.3g}" for s in m.slopes))
         lines.append(f"max loop width σ = {m.max_loop_width:.4g}")

@@ -161,6 +161,7 @@ class SimulateOut(BaseModel):
     """Simulation result: model properties, figures and optionally the raw signals."""
 
     model_type: str
+    model_title: str | None = Field(None, description="the model type in words")
     n_operators: int | None = None
     slopes: list[float] | None = None
     max_loop_width: float | None = None
@@ -222,6 +223,8 @@ class CapabilitiesOut(BaseModel):
     figures: list[str]
     export_formats: list[str]
     fit_kinds: list[str]
+    fit_kind_titles: dict[str, str] = Field(
+        default_factory=dict, description="each fit kind in words (the menus show these)")
     limits: LimitsOut
 
 
@@ -277,6 +280,7 @@ class FiguresOut(BaseModel):
     """Figures of a session's config and the properties of its model."""
 
     model_type: str
+    model_title: str | None = Field(None, description="the model type in words")
     n_operators: int | None = None
     inverse_error: str | None = None
     figures: dict[str, FigureOut] = Field(default_factory=dict)

@@ -48,6 +48,7 @@ from .simulation import (
     priced_views,
     validate_config,
 )
+from .words import model_words
 from .worker import Task
 
 __all__ = [
@@ -292,7 +293,13 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     effects = d.get("effects") or []
     final = f"with {', '.join(str(e).replace('-', ' ') for e in effects)}" if effects else \
         "no effect added"
-    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final)
+    doc = d.get("document") or {}
+    b = (doc.get("baseline") or {}).get("heldout_rmse")
+    f = (doc.get("final") or {}).get("heldout_rmse")
+    heldout = (float(b), float(f)) if isinstance(b, int | float) and \
+        isinstance(f, int | float) else None
+    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
+                              heldout)
 
 
 def no_report(session: Session) -> str:
@@ -422,6 +429,7 @@ def result_payload(res: Result, names: Collection[str],
             for n in names}
     out: dict[str, Any] = {
         "model_type": m.type_name,
+        "model_title": model_words(m),
         "n_operators": operator_count(m),
         "inverse_error": res.inverse_error,
         "figures": figs,

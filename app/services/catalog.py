@@ -16,6 +16,7 @@ from core.signals import SIGNALS
 from .exports import EXPORT_FORMATS
 from .settings import Settings
 from .simulation import preset_doc
+from .words import type_words
 
 __all__ = ["EXPORT_FORMATS", "capabilities", "fit_kinds", "preset_doc", "preset_names",
            "preset_titles", "presets", "signal_kinds"]
@@ -52,6 +53,7 @@ def capabilities(settings: Settings) -> dict[str, Any]:
         "figures": list(FIGURES),
         "export_formats": list(EXPORT_FORMATS),
         "fit_kinds": list(fit_kinds()),
+        "fit_kind_titles": {k: type_words(k) for k in fit_kinds()},
         "limits": {"max_upload_bytes": settings.max_upload_bytes,
                    **settings.limits.to_dict()},
     }

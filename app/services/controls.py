@@ -24,6 +24,8 @@ from typing import Any
 from core.base import Control, Field, model_class
 from core.exceptions import ParameterError
 
+from .words import type_words
+
 __all__ = [
     "MAX_FIELD_SLIDERS",
     "MAX_SLIDERS",
@@ -416,7 +418,8 @@ def _walk(node: Any, prefix: str, title: str, depth: int, groups: list[SliderGro
             for i, sub in enumerate(value[:MAX_SLIDERS]):
                 kind = sub.get("type") if isinstance(sub, Mapping) else "?"
                 _walk(sub, f"{prefix}{field.name}[{i}].",
-                      _join(title, f"Stage {i + 1} ({kind})"), depth + 1, groups, layout, count)
+                      _join(title, f"Stage {i + 1}, {type_words(kind)}"), depth + 1, groups,
+                      layout, count)
         elif field.numeric:
             sliders, note = _field_sliders(node, field, prefix, MAX_SLIDERS - count[0])
             layout.append(f"{prefix}{field.name}#{len(_elements(value, field.kind))}")

@@ -7,6 +7,7 @@ Every diagnosis is :func:`core.diagnosis.diagnose`.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -15,6 +16,7 @@ import numpy as np
 
 from .inputs import existing_file
 from .recordings import say_read
+from .words import field_words, in_words, unit_words
 
 if TYPE_CHECKING:  # core.diagnosis is imported when a diagnosis runs
     from core.base import Model
@@ -36,17 +38,13 @@ __all__ = [
 ]
 
 
-#: Unit spellings of CSV headers -> as people write them.
-_UNIT_TEXT = {"um": "µm", "us": "µs", "uV": "µV", "uA": "µA", "degC": "°C", "Ohm": "Ω",
-              "ohm": "Ω"}
 #: Effect names of the diagnosis -> words.
 _EFFECT_WORDS = {"rate": "rate dependence", "offset": "a sensor offset",
                  "initial-memory": "initial memory", "asymmetry": "asymmetry"}
 
 
 def _unit(units: dict[str, str] | None, role: str) -> str:
-    u = (units or {}).get(role) or ""
-    return _UNIT_TEXT.get(u, u)
+    return unit_words((units or {}).get(role))
 
 
 def _qty(v: float, unit: str) -> str:
@@ -58,15 +56,26 @@ def _effect_words(name: object) -> str:
     return _EFFECT_WORDS.get(text, text.replace("-", " ").replace("_", " "))
 
 
+def _with_units(text: str, unit: str) -> str:
+    """``"RMS 0.1023"`` -> ``"RMS 0.102 µm"``: the core's numbers of the output (an RMS,
+    the noise floor) with the output's unit, where the text gives none."""
+    if not unit:
+        return text
+    return re.sub(r"\b(RMS|floor) (-?\d+(?:\.\d+)?(?:e-?\d+)?)(?![\d.]| ?%| ?[^\W\d_])",
+                  lambda m: f"{m.group(1)} {float(m.group(2)):.3g} {unit}", text)
+
+
 def _cap(text: str) -> str:
     return text[:1].upper() + text[1:]
 
 
-def _param_text(params: dict[str, Any], u_unit: str) -> str:
+def _param_text(params: dict[str, Any], u_unit: str, effect: str = "") -> str:
+    """The fitted parameters of ``effect`` in words: each named by its stage's declared
+    field title (``history`` of initial memory -> "Input history u_k"), with its unit."""
     parts = []
     for k, v in (params or {}).items():
         unit = " s" if k.endswith("_s") else f" {u_unit}" if k == "history" and u_unit else ""
-        key = (k[:-2] if unit else k).replace("_", " ")
+        key = field_words(effect, k)
         if isinstance(v, int | float) and not isinstance(v, bool):
             parts.append(f"{key} = {v:.3g}{unit}")
         elif isinstance(v, list | tuple):
@@ -125,19 +134,24 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
             text += (f"; with {', '.join(_effect_words(e) for e in final['effects'])} added, "
                      f"by {_qty(f, y_unit)} ({fp:.3g} %)")
         findings.append(text + ".")
-    for e in d.get("effects", []):
+    effects = d.get("effects", [])
+    for e in effects:
         text = f"Found {_effect_words(e.get('name'))}"
         before, after = e.get("heldout_rmse_before"), e.get("heldout_rmse_after")
-        if isinstance(before, int | float) and isinstance(after, int | float):
+        if len(effects) == 1 and isinstance(before, int | float) and isinstance(f, int | float):
+            # one "after" everywhere: the final model is the base with this effect
             text += (f": modelling it lowers the held-out error from {_qty(before, y_unit)} "
-                     f"to {_qty(after, y_unit)} RMS")
+                     f"to {_qty(f, y_unit)} RMS")
+        elif isinstance(before, int | float) and isinstance(after, int | float) and before > 0:
+            text += (f": added to the effects before it, it lowers the held-out error by "
+                     f"{100 * (before - after) / before:.0f} %")
         text += "."
         where = _where_text(e.get("where") or {}, u_unit)
         if where:
             text += f" {_cap(where)}."
         if e.get("explanation"):
-            text += f" {e['explanation'].strip()}"
-        params = _param_text(e.get("parameters") or {}, u_unit)
+            text += f" {in_words(e['explanation'].strip())}"
+        params = _param_text(e.get("parameters") or {}, u_unit, str(e.get("name") or ""))
         if params:
             text += f" Fitted: {params}."
         findings.append(text)
@@ -148,20 +162,21 @@ def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
                         "the data" if adequacy.get("adequate") is True else
                         "No effect of the list improved the held-out fit significantly.")
     if adequacy.get("adequate") is False and adequacy.get("text"):
-        findings.append(f"Not explained: {adequacy['text']}")
+        findings.append(f"Not explained: {_with_units(in_words(adequacy['text']), y_unit)}")
     choice = base_doc.get("base_choice") or {}
     if choice.get("kind") in ("preisach", "bouc-wen"):
-        findings.append(f"Base model: {choice.get('text', '')}")
+        findings.append(f"Base model: {in_words(str(choice.get('text', '')))}")
     for r in d.get("recording_specific", []):
-        findings.append(f"Seen in this recording only, so not claimed: {r.get('text', '')}")
+        findings.append("Seen in this recording only, so not claimed: "
+                        f"{in_words(str(r.get('text', '')))}")
     for a in d.get("ambiguous", []):
         words = " or ".join(_effect_words(x) for x in a.get("effects", []))
-        findings.append(_because(f"Cannot tell {words} apart", a.get("reason"),
-                                 "To decide, record", a.get("experiment")))
+        findings.append(in_words(_because(f"Cannot tell {words} apart", a.get("reason"),
+                                          "To decide, record", a.get("experiment"))))
     for u in d.get("untestable", []):
-        findings.append(_because(
+        findings.append(in_words(_because(
             f"{_cap(_effect_words(u.get('name')))} cannot be tested with this recording",
-            u.get("reason"), "It would need", u.get("experiment")))
+            u.get("reason"), "It would need", u.get("experiment"))))
     return {
         "findings": findings,
         "baseline_rmse_pct": bp,

@@ -36,6 +36,7 @@ from .simulation import (
     state_text,
     visited_path,
 )
+from .words import model_words, unit_words
 
 __all__ = [
     "MAX_POINTS",
@@ -132,7 +133,7 @@ def _layout(title: str, **kw: Any) -> dict[str, Any]:
 
 def _unit(units: dict[str, str] | None, role: str) -> str:
     """The unit of ``role`` ("time", "input", "output"): the recording's, else s / a.u."""
-    u = (units or {}).get(role, "")
+    u = unit_words((units or {}).get(role, ""))
     return u or ("s" if role == "time" else "a.u.")
 
 
@@ -197,7 +198,7 @@ def loop_figure(res: Result) -> FigureJSON:
         data.append(_line(_num(ld.curve_u), _num(ld.curve_y), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     n = operator_count(m)  # the plays of a GPI's PI part too; no "n = ?" for a map
-    title = f"Hysteresis loop ({type(m).__name__}{'' if n is None else f', n = {n}'})"
+    title = f"Hysteresis loop ({model_words(m)}{'' if n is None else f', n = {n}'})"
     lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
                   yaxis={"title": _ax(res.units, "output")})
     return FigureJSON(data, lay)
@@ -352,7 +353,8 @@ def _loop_and_residual_layout(title: str, un: dict[str, str], residual: str
 
 
 def diagnosis_figure(rec: Recording, y_base: np.ndarray, y_final: np.ndarray,
-                     base_label: str, final_label: str) -> FigureJSON:
+                     base_label: str, final_label: str,
+                     heldout: tuple[float, float] | None = None) -> FigureJSON:
     """Before / after a diagnosis: the loops (measured, the base model, the model with the
     effects found) and their residuals in time, in the recording's units.
 
@@ -364,6 +366,10 @@ def diagnosis_figure(rec: Recording, y_base: np.ndarray, y_final: np.ndarray,
         The base model's and the final model's simulated outputs.
     base_label, final_label : str
         Legend names of the two models.
+    heldout : (float, float), optional
+        The diagnosis's held-out RMS errors before and after (output units): the numbers
+        its findings give, so the title says the same (without them, the RMS of the
+        residuals drawn, over every row).
     """
     idx = decimate_index(rec.u, MAX_POINTS)
     t, u = _num(rec.t[idx]), _num(rec.u[idx])
@@ -382,9 +388,13 @@ def diagnosis_figure(rec: Recording, y_base: np.ndarray, y_final: np.ndarray,
         _line(t, _num(ef[idx]), f"residual after (RMS {rf:.3g} {yu})", _BLUE, xaxis="x2",
               yaxis="y2", line={"color": _BLUE, "width": 1}),
     ]
-    return FigureJSON(data, _loop_and_residual_layout(
-        f"Diagnosis: before and after (residual RMS {rb:.3g} → {rf:.3g} {yu})", un,
-        "residual measured − model"))
+    if heldout is not None:  # one "after" number on the screen: the findings' own
+        title = (f"Diagnosis: before and after (held-out RMS {heldout[0]:.3g} → "
+                 f"{heldout[1]:.3g} {yu})")
+        data[3]["name"], data[4]["name"] = "residual before", "residual after"
+    else:
+        title = f"Diagnosis: before and after (residual RMS {rb:.3g} → {rf:.3g} {yu})"
+    return FigureJSON(data, _loop_and_residual_layout(title, un, "residual measured − model"))
 
 
 def _matrix_text(name: str, m: np.ndarray) -> str:

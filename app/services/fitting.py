@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .inputs import CommandError, parse_window
+from .words import unit_words
 
 if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
     from core.base import Model
@@ -73,6 +74,7 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
         "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
         "n_operators": int(n),
         "kind": kind,
+        "output_unit": unit_words(rec.units.get("output")),
     }
     return model, report
 

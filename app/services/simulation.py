@@ -30,6 +30,7 @@ from core.signals import SIGNALS
 
 from .config import Config, SignalSpec
 from .cost import priced_run, priced_steps
+from .words import type_words
 
 __all__ = [
     "CLOSED_LOOP_MAX_S",
@@ -286,8 +287,8 @@ def digitize(model: Model, u: np.ndarray) -> tuple[Digitized | None, str | None]
         if stages and stages[0] is not pi:  # a GPI: the operators see a mapped input
             return None, (
                 f"the digitized view (paper 000) is for a classical PI; this "
-                f"{model.type_name} model maps the input before its operators, so its states "
-                "are not a digitized PI's")
+                f"{type_words(model.type_name).lower()} maps the input before its operators, "
+                "so its states are not a digitized PI's")
         lo, hi = float(np.min(u)), float(np.max(u))
         if 0.5 * (hi - lo) <= pi.thresholds[-1]:
             return None, (

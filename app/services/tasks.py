@@ -36,11 +36,13 @@ def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[st
     """
     from . import figures as F
     from .fitting import fit_recording
+    from .words import type_words
 
-    progress(0.05, f"fitting a {kind} model with {n} operators")
+    name = type_words(kind)
+    progress(0.05, f"fitting a {name[:1].lower() + name[1:]} with {n} operators")
     model, report = fit_recording(rec, n, kind)
     progress(0.9, "building the figure")
-    fig = F.fit_figure(rec, model(rec.u), f"fitted {kind} (n={n})")
+    fig = F.fit_figure(rec, model(rec.u), f"fitted: {name}, {n} operators")
     return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
 
 
@@ -51,11 +53,13 @@ def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
     from core.base import model_from_dict
 
     from .diagnosis import run_diagnosis as diagnose
+    from .words import in_words
 
     progress(0.01, "diagnosing")
 
     def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
-        progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
+        # the diagnosis speaks of its candidates by their registry names: words here
+        progress(0.01 + 0.98 * float(fraction), in_words(str(message)) or "diagnosing")
 
     return diagnose(rec, model_from_dict(model_doc), report)
 

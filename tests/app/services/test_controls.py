@@ -17,6 +17,7 @@ import pytest
 
 from app.services import controls as C
 from app.services.simulation import preset_doc
+from app.services.words import type_words
 from core import base
 from core.base import UNITS, Control, Field, Model, register_model
 from core.exceptions import ParameterError
@@ -245,7 +246,9 @@ def test_a_newly_registered_type_gets_sliders_and_rules(toy: type[Model]) -> Non
     register_model(toy)  # the registry accepts it like any model module's type
     chain = {"type": "chain", "stages": [preset_doc("paper001-example1")["model"], doc]}
     groups = [g.title for g in C.model_controls(chain).groups]
-    assert "Stage 2 (toy-springs): Gaps g_i" in groups
+    # the stage in the registry's words (its docstring's title), not its type name
+    assert f"Stage 2, {type_words('toy-springs')}: Gaps g_i" in groups
+    assert "toy-springs" not in " ".join(groups)
 
 
 @pytest.mark.parametrize(("name", "path", "value", "says", "not_says"), [

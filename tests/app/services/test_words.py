@@ -1,0 +1,106 @@
+"""Internal names in words (issue 33, item 2): every registered type has words without a
+name of the code in them; sentences written elsewhere get their names replaced; the
+diagnosis's findings and its plot give one "after" error."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from app.services import figures as F
+from app.services.diagnosis import diagnosis_summary
+from app.services.words import (
+    field_words,
+    in_words,
+    internal_names,
+    model_words,
+    type_words,
+    unit_words,
+)
+from core.models import fit_kinds, model_types
+from core.recordings import Recording
+
+
+def _leaks(text: str) -> list[str]:
+    return [n for n in internal_names()
+            if re.search(rf"(?<![\w\-.]){re.escape(n)}(?![\w\-])", text)]
+
+
+def test_every_type_has_words_without_code_names() -> None:
+    for t in model_types():
+        words = type_words(t.name)
+        assert words and words == type_words(t.cls.__name__), t.name
+        assert not _leaks(words), (t.name, words)
+        assert "``" not in words and ":class:" not in words, words
+    assert type_words("gpi-deadzone") == "Dead-zone GPI"
+    assert type_words("pi") == "Classical PI model"
+    assert type_words("DeadZoneGPI") == "Dead-zone GPI"
+    assert len({type_words(k) for k in fit_kinds()}) == len(fit_kinds())  # a menu tells apart
+
+
+def test_the_names_of_the_code_are_the_registrys() -> None:
+    names = set(internal_names())
+    assert {"gpi-deadzone", "pi", "PIModel", "DeadZoneGPI", "initial-memory", "state0",
+            "delay_s", "preisach"} <= names
+    # plain words and the sliders' own labels are not
+    assert not {"delay", "lag", "creep", "drift", "offset", "p0", "Lag", "tanh-envelope"} & names
+
+
+def test_sentences_get_words() -> None:
+    text = in_words("fitting initial-memory; (preisach 0.21 %, gpi-deadzone 0.84 %, mpi 1.58 %)"
+                    "; a pi model; Tried: delay, lag")
+    assert not _leaks(text), text
+    assert "Dead-zone GPI 0.84 %" in text and "Preisach model 0.21 %" in text
+    assert "a Classical PI model;" in text and "Tried: delay, lag" in text
+    assert in_words("PIModel, n = 6") == "Classical PI model, n = 6"
+
+
+def test_fields_and_units_in_words() -> None:
+    assert field_words("initial-memory", "history") == "Input history u_k"
+    assert field_words("pi", "nothing_here") == "nothing here"
+    assert unit_words("um") == "µm" and unit_words(None) == ""
+    from app.services.simulation import preset_doc
+    from core.base import model_from_dict
+    assert model_words(model_from_dict(preset_doc("paper001-example4")["model"])) == \
+        "Dead-zone GPI"
+
+
+def _doc(effects: list[dict]) -> dict:
+    return {"baseline": {"heldout_rmse": 0.767, "heldout_rmse_pct": 1.95},
+            "final": {"heldout_rmse": 0.102, "heldout_rmse_pct": 0.26,
+                      "effects": [e["name"] for e in effects]},
+            "effects": effects,
+            "adequacy": {"adequate": False, "text": "misses 0.26 % (RMS 0.1023, 2.1 times the "
+                         "white-noise floor 0.0476); Tried: initial-memory. (gpi-deadzone "
+                         "0.84 %)"}}
+
+
+def test_one_after_number_in_the_findings() -> None:
+    one = [{"name": "initial-memory", "heldout_rmse_before": 0.767, "heldout_rmse_after": 0.119,
+            "parameters": {"history": [[-123.0]]}}]
+    found = diagnosis_summary(_doc(one), {"input": "V", "output": "um"})["findings"]
+    text = "\n".join(found)
+    assert "by 0.102 µm (0.26 %)" in found[0]
+    assert "from 0.767 µm to 0.102 µm RMS" in found[1] and "0.119" not in text
+    assert "Fitted: Input history u_k = -123 V." in found[1]  # was "histo = -123 V"
+    assert "RMS 0.102 µm" in text and "floor 0.0476 µm" in text
+    assert not _leaks(text), _leaks(text)
+    two = one + [{"name": "asymmetry", "heldout_rmse_before": 0.119,
+                  "heldout_rmse_after": 0.0595, "parameters": {}}]
+    found = diagnosis_summary(_doc(two), {"output": "um"})["findings"]
+    # the rounds' own "after" errors are not shown: each effect's share in percent
+    assert re.findall(r"(?:\bto|added, by) ([\d.]+) µm", "\n".join(found)) == ["0.102"]
+    assert "lowers the held-out error by 84 %" in found[1]
+    assert "lowers the held-out error by 50 %" in found[2]
+
+
+def test_the_diagnosis_plot_title_gives_the_findings_numbers() -> None:
+    t = np.arange(200) * 0.01
+    u = np.sin(2 * np.pi * t)
+    rec = Recording(t=t, u=u, y=u + 0.3, name="r", units={"output": "um"})
+    fig = F.diagnosis_figure(rec, u, u + 0.25, "PI model", "with offset",
+                             heldout=(0.767, 0.102))
+    title = fig.layout["title"]["text"]
+    assert title.endswith("(held-out RMS 0.767 → 0.102 µm)"), title
+    assert [d["name"] for d in fig.data][3:] == ["residual before", "residual after"]
