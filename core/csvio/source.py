@@ -8,8 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
-import numpy as np
-
 from .errors import CSVError
 
 __all__ = ["CSVText", "Source", "decode_text", "load_bytes"]
@@ -33,6 +31,12 @@ class CSVText:
 
 Source = str | os.PathLike[str] | bytes | bytearray | IO[str] | IO[bytes] | CSVText
 
+
+
+#: Control characters that no text CSV holds (tab, line breaks, form feed and vertical tab
+#: are allowed).
+_CONTROL_CHARS = re.compile(r"[\x00-\x08\x0e-\x1f\x7f]")
+_CONTROL_BYTES = re.compile(rb"[\x00-\x08\x0e-\x1f\x7f]")
 
 
 def load_bytes(source: Source, max_bytes: int) -> tuple[bytes | str, str, str]:
@@ -152,13 +156,13 @@ def decode_text(data: bytes | str, encoding: str | None, label: str) -> tuple[st
     text = text.lstrip("\ufeff")
     if isinstance(data, bytes) and enc in ("utf-8", "latin-1"):
         # control bytes < 0x80 are the same characters in UTF-8 and Latin-1: check the bytes
-        b = np.frombuffer(data, dtype=np.uint8)
-        bad = np.flatnonzero(((b < 32) & ((b < 9) | (b > 13))) | (b == 127))
-        pos = int(bad[0]) if bad.size else -1
-        ctrl_char = chr(data[pos]) if bad.size else ""
-        line = _line_of_offset(data, pos) if bad.size else 0
+        # (a regular expression over them allocates nothing; comparisons of a numpy view
+        # took four bytes of temporaries per byte of the file)
+        hit = _CONTROL_BYTES.search(data)
+        ctrl_char = chr(data[hit.start()]) if hit else ""
+        line = _line_of_offset(data, hit.start()) if hit else 0
     else:
-        m = re.search(r"[\x00-\x08\x0e-\x1f\x7f]", text)
+        m = _CONTROL_CHARS.search(text)
         ctrl_char = m.group() if m else ""
         line = text.count("\n", 0, m.start()) + 1 if m else 0
     if ctrl_char:
