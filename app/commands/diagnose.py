@@ -47,6 +47,7 @@ from core.exceptions import ParameterError
 from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
 from ..services.progress import Progress
 from ._common import add_threads_option, window_arg
+from ._scale import DIAGNOSE, ETA_FROM_S, EtaProgress, check_memory, count_samples
 from .fit import add_read_options, read_options
 
 __all__ = ["register", "run"]
@@ -101,7 +102,17 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis and print the report (or JSON)."""
-    progress = Progress("diagnose", quiet=args.quiet)
+    # the size first: refuse up front what cannot fit, and say how long a long one takes
+    samples = count_samples(args.files)
+    what = args.files[0] if len(args.files) == 1 else f"the {len(args.files)} files"
+    check_memory(samples, DIAGNOSE, what)
+    expected = DIAGNOSE.cpu_s(samples)
+    if expected >= ETA_FROM_S:
+        progress: Progress = EtaProgress("diagnose", expected, quiet=args.quiet)
+        progress(f"{what}: about {samples:,} samples, expected to take about "
+                 f"{expected:.0f} s on one free core")
+    else:
+        progress = Progress("diagnose", quiet=args.quiet)
     try:
         res = diagnose_files(args.files, read_options(args), progress, model=args.model,
                              base=args.base, train=args.train, test=args.test,

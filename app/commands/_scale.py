@@ -1,0 +1,161 @@
+"""What a long recording will cost ``hyst diagnose``: samples counted before reading, peak
+memory and CPU time from measured per-sample models, the memory this process may use, and
+progress lines with the time left.
+
+The models are least-squares lines through ``benchmarks/bench_diagnose_scale.py``'s
+measurements (tiled piezo recordings, one thread; the table is in ``docs/pages/diagnose.md``,
+"Scale"). Re-measure and update them when the diagnosis's memory or time changes.
+"""
+
+from __future__ import annotations
+
+import re
+import resource
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..services.inputs import CommandError
+from ..services.progress import Progress
+
+__all__ = ["DIAGNOSE", "ETA_FROM_S", "CostModel", "EtaProgress", "allowed_memory",
+           "check_memory", "count_samples"]
+
+
+@dataclass(frozen=True)
+class CostModel:
+    """Peak memory (bytes) and CPU time (s) of a command as ``base + per_sample * samples``."""
+
+    base_bytes: float
+    bytes_per_sample: float
+    base_cpu_s: float
+    cpu_s_per_sample: float
+
+    def peak_bytes(self, samples: int) -> float:
+        return self.base_bytes + self.bytes_per_sample * samples
+
+    def cpu_s(self, samples: int) -> float:
+        return self.base_cpu_s + self.cpu_s_per_sample * samples
+
+
+#: ``hyst diagnose`` on main 7d50b49 (bench_diagnose_scale.py, one thread): least-squares lines
+#: through the peaks of 100k to 1M samples (0.81, 1.37, 3.43, 4.52 GB: 841 MB + 3.98 kB per
+#: sample) and their CPU times (7.2, 6.4, 19.4, 18.1 s). The peak is the diagnosis's play-bank
+#: caches (docs/pages/diagnose.md, "Scale"), not the reader's.
+DIAGNOSE = CostModel(base_bytes=850e6, bytes_per_sample=4.0e3, base_cpu_s=5.0,
+                     cpu_s_per_sample=15e-6)
+
+#: Runs expected to take at least this long (s) show the time left on each progress line.
+ETA_FROM_S = 20.0
+
+
+def count_samples(files: Sequence[str | Path], chunk: int = 1 << 22) -> int:
+    """Lines of ``files`` (an upper bound on their samples: a header and notes are lines
+    too), counted in chunks of ``chunk`` bytes without parsing; 0 for a file that cannot be
+    opened (the reader then says why)."""
+    total = 0
+    for f in files:
+        try:
+            with open(f, "rb") as fh:
+                last = b"\n"
+                while block := fh.read(chunk):
+                    total += block.count(b"\n")
+                    last = block[-1:]
+                total += last != b"\n"  # a last line without its line break
+        except OSError:
+            continue
+    return total
+
+
+def allowed_memory() -> int | None:
+    """Bytes this process may still take: the memory the machine has available now
+    (``MemAvailable``), within this process's address-space / data limits and its control
+    group's limit; ``None`` where none of them is known."""
+    caps: list[int] = []
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    caps.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    for lim in (resource.RLIMIT_AS, resource.RLIMIT_DATA):
+        soft = resource.getrlimit(lim)[0]
+        if soft != resource.RLIM_INFINITY:
+            caps.append(int(soft))
+    try:
+        top = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        used = Path("/sys/fs/cgroup/memory.current").read_text().strip()
+        if top != "max":
+            caps.append(int(top) - int(used))
+    except (OSError, ValueError):
+        pass
+    return min(caps) if caps else None
+
+
+def check_memory(samples: int, model: CostModel, what: str,
+                 allowed: int | None = None) -> float:
+    """The predicted peak of ``samples``; refuse up front what cannot fit.
+
+    Raises
+    ------
+    CommandError
+        When the predicted peak is above ``allowed`` (default :func:`allowed_memory`); the
+        message gives both sizes and what to do.
+    """
+    need = model.peak_bytes(samples)
+    allowed = allowed_memory() if allowed is None else allowed
+    if allowed is not None and need > allowed:
+        raise CommandError(
+            f"{what} holds about {samples:,} samples; diagnosing it would need about "
+            f"{_size(need)} of memory ({_size(model.base_bytes)} + "
+            f"{model.bytes_per_sample / 1e3:.1f} kB per sample, as measured) and this machine "
+            f"has {_size(allowed)} available; diagnose a shorter part of the recording (cut "
+            f"it, or decimate it if its sampling rate allows), at most about "
+            f"{_fitting(model, allowed):,} samples here")
+    return need
+
+
+def _fitting(model: CostModel, allowed: float) -> int:
+    return max(0, int((allowed - model.base_bytes) / model.bytes_per_sample) // 1000 * 1000)
+
+
+def _size(b: float) -> str:
+    return f"{b / 1e9:.1f} GB" if b >= 1e9 else f"{b / 1e6:.0f} MB"
+
+
+class EtaProgress(Progress):
+    """:class:`~app.services.progress.Progress` whose lines end with the time left of a run
+    expected to take ``expected_s`` (``(about 40 s left)``), or say that it is taking longer.
+
+    The estimate is the measured CPU-time model (:class:`CostModel`): the diagnosis's own
+    progress fraction is not proportional to its time (its rounds differ in size).
+    """
+
+    _done = re.compile(r"^\s*100 % ")
+
+    def __init__(self, command: str, expected_s: float, quiet: bool = False,
+                 sink: Callable[[str], object] | None = None) -> None:
+        super().__init__(command, quiet=quiet, sink=sink)
+        self.expected_s = float(expected_s)
+
+    def __call__(self, message: str) -> None:
+        if self._done.match(message):
+            super().__call__(message)
+            return
+        left = self.expected_s - (time.perf_counter() - self.t0)
+        if left >= 0.5:
+            message += f" (about {_duration(left)} left)"
+        else:
+            message += f" (taking longer than the {_duration(self.expected_s)} estimated)"
+        super().__call__(message)
+
+
+def _duration(s: float) -> str:
+    if s < 90:
+        return f"{max(1, round(s))} s"
+    if s < 5400:
+        return f"{round(s / 60)} min"
+    return f"{s / 3600:.1f} h"
+
