@@ -126,14 +126,15 @@ def _size(b: float) -> str:
 
 
 class EtaProgress(Progress):
-    """:class:`~app.services.progress.Progress` whose lines end with the time left of a run
-    expected to take ``expected_s`` (``(about 40 s left)``), or say that it is taking longer.
+    """:class:`~app.services.progress.Progress` whose step lines (``" 26 % ..."``) end with the
+    time left of a run expected to take ``expected_s`` (``(about 40 s left)``), or say that it
+    is taking longer.
 
     The estimate is the measured CPU-time model (:class:`CostModel`): the diagnosis's own
     progress fraction is not proportional to its time (its rounds differ in size).
     """
 
-    _done = re.compile(r"^\s*100 % ")
+    _step = re.compile(r"^\s*\d+ % ")  # the diagnosis's steps ("  26 % round 2: ...")
 
     def __init__(self, command: str, expected_s: float, quiet: bool = False,
                  sink: Callable[[str], object] | None = None) -> None:
@@ -141,7 +142,7 @@ class EtaProgress(Progress):
         self.expected_s = float(expected_s)
 
     def __call__(self, message: str) -> None:
-        if self._done.match(message):
+        if not self._step.match(message) or message.lstrip().startswith("100 %"):
             super().__call__(message)
             return
         left = self.expected_s - (time.perf_counter() - self.t0)

@@ -82,6 +82,8 @@ def test_progress_lines_carry_the_time_left():
     assert lines[-1].endswith("(taking longer than the 2 min estimated)")
     p("100 % done")
     assert lines[-1].endswith("100 % done")
+    p("read piezo: 50001 samples")  # not a step of the diagnosis
+    assert lines[-1].endswith("50001 samples")
     quiet: list[str] = []
     EtaProgress("diagnose", 100.0, quiet=True, sink=quiet.append)("10 % x")
     assert quiet == []
