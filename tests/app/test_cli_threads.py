@@ -19,7 +19,7 @@ import pytest
 
 from core.threads import max_threads
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[2]
 PIEZO = ROOT / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
 
 PROBE = r"""
