@@ -4,6 +4,7 @@ import { api } from "/client.js";
 import { $, el } from "/dom.js";
 import { jobFailed, runJob } from "/jobs.js";
 import { applyConfig } from "/model.js";
+import { showFitted } from "/presets.js";
 import { state } from "/store.js";
 import { selectFigure } from "/view.js";
 
@@ -23,6 +24,7 @@ export async function fit(running = null) {
     }), ...warned);
     const s = await api("GET", `/api/sessions/${state.code}`);
     applyConfig(s.config, s.version);
+    showFitted();
     selectFigure("fit");
   } catch (e) {
     $("report").replaceChildren();

@@ -23,6 +23,17 @@ function canonical(v) {
   return JSON.stringify(v);
 }
 
+// After a fit the model is the recording's, not the preset's: the box says so.
+export function showFitted() {
+  const sel = $("preset");
+  let placeholder = sel.querySelector(`option[value="${CHANGED}"]`);
+  if (!placeholder) { placeholder = new Option("", CHANGED); sel.prepend(placeholder); }
+  placeholder.textContent = "(a model fitted to the recording)";
+  sel.value = CHANGED;
+  state.presetChanged = false;
+  $("preset-desc").textContent = "The session's model was fitted to the recording. Pick a preset and load it to start from a paper's model again.";
+}
+
 export function syncPreset(model, { fresh = false } = {}) {
   const key = `hyst-preset:${state.code}`;
   const want = canonical(model);
@@ -45,6 +56,7 @@ export function syncPreset(model, { fresh = false } = {}) {
   }
   if (name === null) return;
   if (name === CHANGED && !placeholder) sel.prepend(new Option("(a changed model)", CHANGED));
+  else if (name === CHANGED) placeholder.textContent = "(a changed model)";
   if (name !== CHANGED && placeholder) placeholder.remove();
   sel.value = name;
   showPresetDesc();

@@ -416,13 +416,34 @@ class SessionView:
             f"ℹ️ this server allows at most {top} operators: n is set to {top}" if asked > top
             else "ℹ️ n must be at least 1: n is set to 1")
 
+    #: The preset menu's first entry once the model is fitted to the recording.
+    FITTED = "(a model fitted to the recording)"
+
     def _preset_chosen(self, event: Any) -> None:
-        doc = actions.preset_doc(self.ui.preset_names[str(self.ui.preset.value)])
+        name = self.ui.preset_names.get(str(self.ui.preset.value))
+        if name is None:  # the fitted model's entry
+            return
+        doc = actions.preset_doc(name)
         self.ui.preset_md.content = f"*{md_text(doc['description'])}*"
 
+    def _show_fitted(self) -> None:
+        """The preset menu says the model is the fit's, no longer the preset it shows."""
+        ui = self.ui
+        with self._quiet():
+            ui.preset.options = (self.FITTED, *ui.preset_names)
+            set_value(ui.preset, self.FITTED)
+        ui.preset_md.content = ("*The session's model was fitted to the recording. Pick a "
+                                "preset and load it to start from a paper's model again.*")
+
     def _preset_clicked(self, event: Any) -> None:
-        doc = actions.load_preset(self.session, self.ui.preset_names[str(self.ui.preset.value)],
-                                  with_input=True)
+        name = self.ui.preset_names.get(str(self.ui.preset.value))
+        if name is None:
+            raise ValueError("pick a preset in the list first")
+        if tuple(self.ui.preset.options) != tuple(self.ui.preset_names):
+            self.ui.preset.options = tuple(self.ui.preset_names)
+            set_value(self.ui.preset, next(t for t, n in self.ui.preset_names.items()
+                                           if n == name))
+        doc = actions.load_preset(self.session, name, with_input=True)
         self._toast("Preset loaded", doc["title"])
 
     def _json_clicked(self, event: Any) -> None:
@@ -598,6 +619,7 @@ class SessionView:
         out = view.result
         self.fit_figure = F.FigureJSON(out["figure"]["data"], out["figure"]["layout"])
         report = out["report"]
+        self._show_fitted()
         ui.view_dd.value = TITLES["fit"]
         unit = f" {report['output_unit']}" if report.get("output_unit") else ""
         ui.report_md.content = (

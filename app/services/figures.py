@@ -199,9 +199,48 @@ def loop_figure(res: Result) -> FigureJSON:
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     n = operator_count(m)  # the plays of a GPI's PI part too; no "n = ?" for a map
     title = f"Hysteresis loop ({model_words(m)}{'' if n is None else f', n = {n}'})"
-    lay = _layout(title, xaxis={"title": _ax(res.units, "input")},
-                  yaxis={"title": _ax(res.units, "output")})
+    yaxis: dict[str, Any] = {"title": _ax(res.units, "output")}
+    note = _off_range(res) if res.y_measured is not None else None
+    if note is not None:  # the measurement's range, not a model it was never fitted to
+        yaxis["range"], text = note
+    elif res.y_measured is not None:  # a page that showed the range above lets go of it
+        yaxis["autorange"] = True
+    lay = _layout(title, xaxis={"title": _ax(res.units, "input")}, yaxis=yaxis)
+    if note is not None:
+        lay["meta"] = {"notes": [text]}
     return FigureJSON(data, lay)
+
+
+#: A model whose output spans more than this many times the measurement's (or lies
+#: beside it) is drawn on the measurement's range, with a note.
+OFF_RANGE = 3.0
+
+
+def _off_range(res: Result) -> tuple[list[float], str] | None:
+    """The measured output's range (padded 8 %) and a note, when the model's output on the
+    recording's input runs far off it (a preset on a real recording: Example 1 driven at
+    +-150 V spans +-380 um against the piezo's +-20 um, which flattens the measurement to
+    a line); ``None`` when both fit on one plot."""
+    ym = np.asarray(res.y_measured, dtype=float)
+    ok = np.isfinite(ym)
+    if not ok.any():
+        return None
+    lo, hi = float(np.min(ym[ok])), float(np.max(ym[ok]))
+    y = np.asarray(res.y, dtype=float)
+    y = y[np.isfinite(y)]
+    span = max(hi - lo, 1e-12 * max(1.0, abs(hi)))
+    if not len(y):
+        return None
+    mlo, mhi = float(np.min(y)), float(np.max(y))
+    if mhi - mlo <= OFF_RANGE * span and mlo >= lo - span and mhi <= hi + span:
+        return None
+    pad = 0.08 * span
+    unit = _unit(res.units, "output")
+    return [lo - pad, hi + pad], (
+        f"The model was not fitted to this recording: on its input the model's output "
+        f"spans {mlo:.3g} to {mhi:.3g} {unit}, the measurement {lo:.3g} to {hi:.3g} {unit}. "
+        "The plot shows the measurement's range; fit a model (Data section) to compare "
+        "them.")
 
 
 def operators_figure(res: Result) -> FigureJSON:

@@ -1,0 +1,91 @@
+"""After an upload the Loop view shows the recording (issue 33, item 5), in real Chromium:
+an engineer uploads the piezo recording (+-150 V in, about -20..20 um out) while the session
+still holds paper 001's Example 1, whose output on that input spans about +-380. The Loop
+view's output axis is the measurement's range (the measured loop fills the plot instead of
+a flat line) and a note says the model was not fitted to it; after a fit the preset box no
+longer says Example 1. The same on a viser tab."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from core.csvio import read_csv
+
+from .test_classroom import PIEZO
+from .test_viser_gui import _open as _open_viser
+from .test_viser_gui import _screenshot as _viser_shot
+from .test_viser_gui import _views, upload_file
+from .test_web_journeys import _clean, _open, _text_has, _upload
+
+Y_RANGE = "() => document.getElementById('figure')._fullLayout.yaxis.range"
+
+
+def _measured() -> tuple[float, float]:
+    rec = read_csv(PIEZO)
+    rec = rec[0] if isinstance(rec, list) else rec
+    return float(np.min(rec.y)), float(np.max(rec.y))
+
+
+def _on_the_measurement(rng: list[float], lo: float, hi: float) -> None:
+    span = hi - lo
+    # the axis holds the measurement, padded by less than a fifth of its span each side
+    assert rng[0] <= lo and rng[1] >= hi, (rng, lo, hi)
+    assert rng[0] >= lo - 0.2 * span and rng[1] <= hi + 0.2 * span, (rng, lo, hi)
+
+
+def test_the_loop_view_shows_the_uploaded_recording(browser: Any, live_server: dict,
+                                                     shot: Any) -> None:
+    lo, hi = _measured()
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"], width=1400, height=1000)
+    try:
+        assert page.input_value("#preset") == "paper001-example1"
+        _upload(page, PIEZO, "50001")
+        page.click("#tabs button[data-fig='loop']")
+        page.wait_for_function("() => document.body.dataset.fig === 'loop'")
+        _text_has(page, "notes", "not fitted to this recording")
+        page.wait_for_function("() => { const l = document.getElementById('figure')._fullLayout;"
+                               " return l && l.xaxis && l.xaxis.range[1] > 100; }")
+        _on_the_measurement(page.evaluate(Y_RANGE), lo, hi)
+        shot(page, "upload-loop-range")
+        # a fit: the preset box says the model is the recording's now
+        page.click("#fit")
+        page.wait_for_selector("#report .msg.ok", timeout=120_000)
+        page.wait_for_function("() => document.body.dataset.fig === 'fit'")
+        shown = page.evaluate("() => { const s = document.getElementById('preset');"
+                              " return s.options[s.selectedIndex].textContent; }")
+        assert "Example 1" not in shown and "fitted" in shown, shown
+        assert "Example 1" not in page.inner_text("#preset-desc")
+        # the fitted model on its recording: on one plot, no note
+        page.click("#tabs button[data-fig='loop']")
+        page.wait_for_function("() => document.body.dataset.fig === 'loop'")
+        page.wait_for_function("() => !document.getElementById('notes').textContent"
+                               ".includes('not fitted')")
+        page.wait_for_function("() => document.body.dataset.settled === "
+                               "document.body.dataset.ready")
+        # the whole measured loop is in view again (no range kept from before the fit)
+        _on_the_measurement(page.evaluate(Y_RANGE), lo, hi)
+        shot(page, "upload-fitted-preset-box")
+        _clean(page, log)
+    finally:
+        ctx.close()
+
+    known = set(app.state.gui.views)
+    vctx, v, _ = _open_viser(browser, live_server["viser_url"])
+    try:
+        view = _views(app, 1, known=known)[-1]
+        upload_file(v, view, PIEZO, wait=60)
+        assert view.session.recording is not None
+        deadline = 60_000
+        v.wait_for_function("() => { const p = document.querySelector('.js-plotly-plot');"
+                            " return p && p._fullLayout && p._fullLayout.yaxis"
+                            " && p._fullLayout.yaxis.range[1] < 100; }", timeout=deadline)
+        rng = v.evaluate("() => document.querySelector('.js-plotly-plot')._fullLayout"
+                         ".yaxis.range")
+        _on_the_measurement(rng, lo, hi)
+        assert "not fitted to this recording" in view.ui.notes_md.content
+        _viser_shot(v, shot, "upload-loop-range-viser")
+    finally:
+        vctx.close()
