@@ -20,7 +20,7 @@ import functools
 import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -1029,47 +1029,18 @@ def fit_structure(
     starts = [_filter_start(s.dynamics, dts[k], int(idx[0]) if idx.size else 0)
               for k, idx in enumerate(rows)]
     vkey = (s.history, s.beta_s, r.size, float(r[-1]), s.shape, s.levels, s.bouc_wen)
-    # a ranking solve of rate-independent plays whose bank is not kept (a history or loop
-    # shape met once): the plays run along the input storing only the rows the reduced
-    # basis and the products start from (_sampled_banks), not their (N, n) outputs
-    sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
-               if rss_only and reduce and not s.levels and s.beta_s is None
-               and not s.bouc_wen else None)
-    if sampled is not None:
-        raw = banks = []
-        V, inputs, row0 = sampled
-    else:
-        raw = [
-            cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
-                       shape=s.shape, bouc_wen=s.bouc_wen)
-            for k, rec in enumerate(records)
-        ]
-        banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
-        V = None
-    # the static terms with columns, in column order: (name, term, settings, first, end)
+    bs = _bank_set(cache, s, records, train, rows, upto, starts, vkey, rss_only, reduce)
+    V = bs.V
     info = TermFit(nrec, center, half)
     needs_x = s.reads_output
-    if rss_only and reduce and not s.levels and V is None:
-        # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
-        # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
-        # Duhem plant a true 346 Hz mode ranked worse than none)
-        V = cache.basis(banks, train, vkey)
     if iterations is None:
         iterations = 3 if needs_x else 1
     # (read only by the bilinear regressors: the PI-stage outputs are formed on first use)
     x_prev = list(x_init) if x_init is not None and needs_x else None
-    # input range of the play bank (the loop-shape map's output when there is one)
-    # (a bank may stop at its last training row)
-    # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
-    eps = 0.0
-    if V is None:
-        w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
-        ulo = min(float(w.min()) for w in w_tr)
-        uhi = max(float(w.max()) for w in w_tr)
-        eps = 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)  # as core.fitting.default_min_slope
     n_lev = len(s.levels) + 1
     nb = (r.size + 1) * n_lev
     nq = nb if V is None else V.shape[1]
+    # the static terms with columns, in column order: (name, term, settings, first, end)
     terms, ncol = _term_columns(s, nq, nrec)
     # the terms before the output dynamics: read the PI-stage output, filtered as it is
     inner = [t for t in terms if t[1].through_dynamics]
@@ -1080,60 +1051,20 @@ def fit_structure(
     # regressors, so they are filled once
     X = np.empty((ys.size, ncol + 1))
     blocks = []
-    # thresholds of the play-bank columns (rate-independent plays: the reduced products
-    # are then formed along the input, _bank_rows_times)
-    r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
-              and not s.levels else None)
     o = 0
     for k, (rec, idx, last) in enumerate(zip(records, rows, ends, strict=True)):
         blk = X[o : o + idx.size]
         blocks.append(blk)
-        if sampled is not None:
-            s0 = int(idx[0]) if not s.dynamics else starts[k]
-            if not s.dynamics:
-                blk[:, :nq] = _input_rows_times(inputs[k][s0 : last], row0[k], V, r_bank,
-                                                idx - s0)
-            elif idx.size:
-                _dyn_rows(_input_rows_times(inputs[k][s0:last], row0[k], V, r_bank,
-                                            np.arange(last - s0)),
-                          s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
-        elif V is not None and not s.dynamics:
-            # only the solved rows are needed (a strided view when they are evenly spaced,
-            # as in a single training window: the same product without gathering them)
-            P = None if r_bank is None else _bank_rows_times(banks[k], V, r_bank, idx)
-            blk[:, :nq] = banks[k][sel[k]] @ V if P is None else P
-        else:
-            # (the dynamics run from where their start transient has died out by the first
-            # solved row, not from sample 0: the same rows to round-off)
-            s0 = starts[k]
-            P = banks[k][s0:last] if V is None else cache.projected(
-                banks[k][:last], V, (k, vkey, last),
-                w=raw[k][:last, 0] if s.beta_s is None else None, start=s0, r=r_bank)
-            _dyn_rows(P, s.dynamics, dts[k], idx - s0, out=blk[:, :nq])
+        _pi_rows(bs, s, cache, (k, vkey, last), idx, last, starts[k], sel[k], dts[k],
+                 blk[:, :nq])
         for _, t, v, a, b in terms:
             if not t.through_dynamics:
                 blk[:, a:b] = t.columns(v, TermRows(rec, k, idx, None, info))
         blk[:, ncol] = ys[o : o + idx.size]
         o += idx.size
-    # an invertible PI stage (as the fitting's constraint_transform): free weights solve for
-    # the loop-segment slopes S_j = p0 + p_1 + ... + p_j >= eps (columns X_j - X_{j+1}),
-    # classical ones for p0 >= eps, p_j >= 0; each term's weights within its own bound
-    lower = np.full(ncol, -np.inf)
-    lower[:nb] = eps
-    if s.levels:
-        # Preisach base: every segment of the reversible part rises (>= eps), the level
-        # segments of the plays are a nonnegative relay density
-        lower[n_lev:nb] = 0.0
-    elif s.bouc_wen:
-        # Bouc-Wen base: columns m_j u - z_j, weights >= 0 (an invertible hardening loop,
-        # core.diagnosis.bases) or of either sign with free weights
-        lower[1:nb] = -np.inf if s.free_weights else 0.0
-    elif s.free_weights and V is None:
-        X[:, : nb - 1] -= X[:, 1:nb]
-    elif not s.free_weights:
-        lower[1:nb] = 0.0
-    for _, t, _, a, b in terms:
-        lower[a:b] = t.lower
+    # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
+    lower = None if V is not None else _constraints(
+        s, X, nb, _min_slope(bs.raw, train, ylo, yhi), terms)
     w = None
     for it in range(iterations):
         if needs_x and x_prev is None:
@@ -1149,48 +1080,181 @@ def fit_structure(
                         for _, t, v, _, _ in inner]
                 _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
                           dts[k], idx - s0, out=blocks[k][:, nq:nM])
-        if V is not None:
+        if lower is None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return _unconstrained_rss(X)
-        # the fitting's constrained solver, as core.fitting does it: from the augmented Gram
-        # matrix, or from the triangular factor of [X, y] when that is ill conditioned
-        # pseudo rows: a column without any solved row (the offset or drift of a recording
-        # left out, e.g. leave-one-recording-out) is pinned at 0, as if never there; then
-        # the unbounded weights (bias, drift, output map) also get a ridge 1e-9 of the largest
-        # column energy, bounding a direction the remaining rows leave (nearly)
-        # undetermined (before: offsets of 1e12 with one recording left out). Fits with rows
-        # in every column are solved as they were (the ridge alone moved a weak drift on top
-        # of creep from a 7 % to a 13 % held-out gain: such designs are nearly collinear).
         G = _gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
-        dg = np.diag(G)[:ncol]
-        empty = dg == 0
-        ridge = 1e-9 * float(dg.max(initial=0.0)) if empty.any() else 0.0
-        lam = np.where(empty, 1.0, np.where(np.isfinite(lower), 0.0, ridge))
-        pin = (np.sqrt(lam)[:, None] * np.eye(ncol + 1)[:ncol])[lam > 0]
-        if s.levels and s.level_smooth > 0:
-            # a Preisach base: the density of neighbouring level segments of each play is
-            # pulled together (towards a PI), so cells excited by few rows do not overfit
-            pin = np.vstack((pin, _level_penalty(r.size + 1, n_lev, ncol,
-                                                 s.level_smooth * float(dg[:nb].mean()))))
-        if pin.size:
-            G += pin.T @ pin
-        sol = solve_constrained(lower, gram=G)
-        if sol.cond > COND_LIMIT:
-            sol = solve_constrained(lower, factor=r_factor(
-                np.vstack((X, pin)) if pin.size else X))
-        w = sol.theta
+        w = _solve(s, X, G, lower, nb)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         if s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
             # (the regressors read the PI-stage outputs up to the last solved row only)
-            x_prev = [banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
+            x_prev = [bs.banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
     assert w is not None
-    p0 = float(w[0])
-    pw = np.asarray(w[1:nb])
-    coef = {name: t.coefficients(v, np.asarray(w[a:b]), info)
-            for name, t, v, a, b in terms}
+    coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
+    return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef)
+
+
+class _BankSet(NamedTuple):
+    """The play banks (or Bouc-Wen banks) of one structure fit: ``raw`` per recording,
+    ``banks`` (split into level segments on a Preisach base), the reduced basis ``V``
+    (``None`` for a full fit); for a ranking solve of banks not in the cache
+    (:func:`_sampled_banks`, then ``raw`` and ``banks`` are empty) the bank ``inputs`` and
+    the bank rows the products start from, ``row0``; ``r_bank``: the thresholds of the
+    bank's columns when the reduced products are formed along the input
+    (:func:`_bank_rows_times`), else ``None``."""
+
+    raw: list
+    banks: list
+    V: np.ndarray | None
+    inputs: list | None
+    row0: list | None
+    r_bank: np.ndarray | None
+
+
+def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
+              train: Sequence[np.ndarray], rows: list[np.ndarray], upto: list[int],
+              starts: list[int], vkey: Any, rss_only: bool, reduce: bool) -> _BankSet:
+    """The banks of :func:`fit_structure` (:class:`_BankSet`)."""
+    r = np.asarray(s.thresholds)
+    # a ranking solve of rate-independent plays whose bank is not kept (a history or loop
+    # shape met once): the plays run along the input storing only the rows the reduced
+    # basis and the products start from (_sampled_banks), not their (N, n) outputs
+    sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
+               if rss_only and reduce and not s.levels and s.beta_s is None
+               and not s.bouc_wen else None)
+    inputs = row0 = None
+    if sampled is not None:
+        raw = banks = []
+        V, inputs, row0 = sampled
+    else:
+        raw = [
+            cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
+                       shape=s.shape, bouc_wen=s.bouc_wen)
+            for k, rec in enumerate(records)
+        ]
+        banks = raw if not s.levels else [cache.levelled(k, B, s) for k, B in enumerate(raw)]
+        V = None
+    if rss_only and reduce and not s.levels and V is None:
+        # not on a Preisach base: its (n + 1) m level-segment columns are far more than the
+        # basis keeps, and the truncated fit ranked nonlinear parameters wrongly (on the
+        # Duhem plant a true 346 Hz mode ranked worse than none)
+        V = cache.basis(banks, train, vkey)
+    # thresholds of the play-bank columns (rate-independent plays: the reduced products
+    # are then formed along the input, _bank_rows_times)
+    r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
+              and not s.levels else None)
+    return _BankSet(raw, banks, V, inputs, row0, r_bank)
+
+
+def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarray, last: int,
+             start: int, sel: slice | np.ndarray, dt: float, out: np.ndarray) -> None:
+    """The PI-stage columns of one recording on its solved rows ``idx`` (up to ``last``),
+    through the output dynamics, written to ``out``: the bank (or its reduced basis ``V``)
+    from the dynamics' ``start`` sample; ``key``: the recording's projection key."""
+    V, k = bs.V, key[0]
+    if bs.inputs is not None:
+        assert bs.row0 is not None and V is not None
+        s0 = int(idx[0]) if not s.dynamics else start
+        if not s.dynamics:
+            out[...] = _input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, bs.r_bank,
+                                         idx - s0)
+        elif idx.size:
+            _dyn_rows(_input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, bs.r_bank,
+                                        np.arange(last - s0)),
+                      s.dynamics, dt, idx - s0, out=out)
+    elif V is not None and not s.dynamics:
+        # only the solved rows are needed (a strided view when they are evenly spaced,
+        # as in a single training window: the same product without gathering them)
+        P = None if bs.r_bank is None else _bank_rows_times(bs.banks[k], V, bs.r_bank, idx)
+        out[...] = bs.banks[k][sel] @ V if P is None else P
+    else:
+        # (the dynamics run from where their start transient has died out by the first
+        # solved row, not from sample 0: the same rows to round-off)
+        P = bs.banks[k][start:last] if V is None else cache.projected(
+            bs.banks[k][:last], V, key,
+            w=bs.raw[k][:last, 0] if s.beta_s is None else None, start=start, r=bs.r_bank)
+        _dyn_rows(P, s.dynamics, dt, idx - start, out=out)
+
+
+def _min_slope(raw: list, train: Sequence[np.ndarray], ylo: float, yhi: float) -> float:
+    """The smallest loop-segment slope of an invertible PI stage: 1e-3 of the output range
+    over the input range of the play bank on the training rows (the loop-shape map's
+    output when there is one; a bank may stop at its last training row), as
+    :func:`core.fitting.default_min_slope`."""
+    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
+    ulo = min(float(w.min()) for w in w_tr)
+    uhi = max(float(w.max()) for w in w_tr)
+    return 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)
+
+
+def _constraints(s: Structure, X: np.ndarray, nb: int, eps: float, terms: list) -> np.ndarray:
+    """Lower bounds of the weights (the columns of ``X`` but its last), ``nb`` base columns
+    first, then the static ``terms`` (:func:`_term_columns`). An invertible PI stage (as the
+    fitting's constraint_transform): free weights solve for the loop-segment slopes
+    ``S_j = p0 + p_1 + ... + p_j >= eps`` (the columns of ``X`` become ``X_j - X_{j+1}``, in
+    place), classical ones for ``p0 >= eps, p_j >= 0``; each term's weights within its own
+    bound."""
+    lower = np.full(X.shape[1] - 1, -np.inf)
+    lower[:nb] = eps
+    n_lev = len(s.levels) + 1
+    if s.levels:
+        # Preisach base: every segment of the reversible part rises (>= eps), the level
+        # segments of the plays are a nonnegative relay density
+        lower[n_lev:nb] = 0.0
+    elif s.bouc_wen:
+        # Bouc-Wen base: columns m_j u - z_j, weights >= 0 (an invertible hardening loop,
+        # core.diagnosis.bases) or of either sign with free weights
+        lower[1:nb] = -np.inf if s.free_weights else 0.0
+    elif s.free_weights:
+        X[:, : nb - 1] -= X[:, 1:nb]
+    else:
+        lower[1:nb] = 0.0
+    for _, t, _, a, b in terms:
+        lower[a:b] = t.lower
+    return lower
+
+
+def _solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int
+           ) -> np.ndarray:
+    """The weights of the design ``X`` (output in its last column; ``G`` its Gram matrix,
+    added to in place) within ``lower``.
+
+    The fitting's constrained solver, as core.fitting does it: from the augmented Gram
+    matrix, or from the triangular factor of [X, y] when that is ill conditioned. Pseudo
+    rows: a column without any solved row (the offset or drift of a recording left out,
+    e.g. leave-one-recording-out) is pinned at 0, as if never there; then the unbounded
+    weights (bias, drift, output map) also get a ridge 1e-9 of the largest column energy,
+    bounding a direction the remaining rows leave (nearly) undetermined (before: offsets of
+    1e12 with one recording left out). Fits with rows in every column are solved as they
+    were (the ridge alone moved a weak drift on top of creep from a 7 % to a 13 % held-out
+    gain: such designs are nearly collinear)."""
+    ncol = lower.size
+    dg = np.diag(G)[:ncol]
+    empty = dg == 0
+    ridge = 1e-9 * float(dg.max(initial=0.0)) if empty.any() else 0.0
+    lam = np.where(empty, 1.0, np.where(np.isfinite(lower), 0.0, ridge))
+    pin = (np.sqrt(lam)[:, None] * np.eye(ncol + 1)[:ncol])[lam > 0]
+    if s.levels and s.level_smooth > 0:
+        # a Preisach base: the density of neighbouring level segments of each play is
+        # pulled together (towards a PI), so cells excited by few rows do not overfit
+        n_lev = len(s.levels) + 1
+        pin = np.vstack((pin, _level_penalty(len(s.thresholds) + 1, n_lev, ncol,
+                                             s.level_smooth * float(dg[:nb].mean()))))
+    if pin.size:
+        G += pin.T @ pin
+    sol = solve_constrained(lower, gram=G)
+    if sol.cond > COND_LIMIT:
+        sol = solve_constrained(lower, factor=r_factor(np.vstack((X, pin)) if pin.size else X))
+    return sol.theta
+
+
+def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
+               banks: list, p0: float, pw: np.ndarray, coef: dict[str, Any]) -> Fit:
+    """The :class:`Fit` of ``s`` with the solved weights: each recording's chain simulated
+    exactly (its training RSS from those predictions)."""
     models, preds = [], []
     rss = 0.0
     ntr = 0
@@ -1200,25 +1264,16 @@ def fit_structure(
             # the Bouc-Wen stage's output is its bank times the weights (the bank integrates
             # the elements as the model does, to round-off): only the later stages are run
             x = banks[k] @ np.concatenate(([p0], pw))
-            pred = Chain(model.stages[1:])(x, dt=dts[k])
+            pred = Chain(model.stages[1:])(x, dt=rec.dt)
         else:
-            pred = model(rec.u, dt=dts[k])
+            pred = model(rec.u, dt=rec.dt)
         models.append(model)
         preds.append(pred)
         rss += float(np.sum((rec.y[m] - pred[m]) ** 2))
         ntr += int(m.sum())
-    return Fit(
-        structure=s,
-        p0=p0,
-        weights=pw,
-        terms=coef,
-        models=models,
-        pred=preds,
-        x_pi=PIStageOutputs(banks, np.concatenate(([p0], pw))),
-        train_rss=rss,
-        n_train=ntr,
-    )
-
+    return Fit(structure=s, p0=p0, weights=pw, terms=coef, models=models, pred=preds,
+               x_pi=PIStageOutputs(banks, np.concatenate(([p0], pw))), train_rss=rss,
+               n_train=ntr)
 
 def _term_columns(s: Structure, first: int, n_records: int
                   ) -> tuple[list[tuple[str, StaticTerm, Any, int, int]], int]:
