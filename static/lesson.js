@@ -35,7 +35,9 @@ function buildBanner() {
 
 function show(step) {
   L.step = step && step.running ? step : null;
+  const was = $("lesson").hidden;
   $("lesson").hidden = !L.step;
+  if (was !== $("lesson").hidden) window.dispatchEvent(new Event("resize"));  // the plot's height
   syncTeacherButtons();
   if (!L.step) return;
   $("lesson-title").textContent = step.title;

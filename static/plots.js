@@ -80,7 +80,29 @@ function largeText(layout, size = 16) {
     }
   }
   lay.annotations = (lay.annotations || []).map((a) => ({ ...a, font: { ...(a.font || {}), size: Math.max(size, (a.font && a.font.size) || 0) } }));
+  wrapTitle(lay, size + 4);
   return lay;
+}
+
+// A title wider than the plot at this size is broken into lines at spaces (plotly cuts a
+// long title at both edges), and the top margin grows to hold them.
+function wrapTitle(lay, size) {
+  const t = lay.title;
+  const text = t && typeof t === "object" ? t.text : t;
+  if (typeof text !== "string" || !text) return;
+  const room = Math.max(10, Math.floor((($("figure").clientWidth || 800) - 40) / (0.56 * size)));
+  const lines = [];
+  for (const part of text.split("<br>")) {
+    let line = "";
+    for (const word of part.split(" ")) {
+      if (line && (line + " " + word).replace(/<[^>]*>/g, "").length > room) { lines.push(line); line = word; }
+      else line = line ? `${line} ${word}` : word;
+    }
+    lines.push(line);
+  }
+  if (lines.length < 2) return;
+  lay.title = { ...(typeof t === "object" ? t : {}), text: lines.join("<br>") };
+  lay.margin = { ...(lay.margin || {}), t: Math.max((lay.margin && lay.margin.t) || 0, Math.ceil(lines.length * size * 1.3 + 24)) };
 }
 
 export function setProjector(on) {
@@ -90,8 +112,28 @@ export function setProjector(on) {
   if (state.shown) render($("figure"), state.shown).catch((e) => setMsg("model-msg", e.message));
 }
 
+// In projector mode or with a lesson's step above it, the plot takes the height left on the
+// screen below its top (less the two lines of notes and status under it), so its axis
+// titles and legend are never below the fold; a phone keeps its own heights (style.css).
+export function fitHeight(el = $("figure")) {
+  const lesson = document.getElementById("lesson");
+  const fit = window.innerWidth > 820 &&
+    (document.body.classList.contains("projector") || Boolean(lesson && !lesson.hidden));
+  if (!fit) {
+    el.style.height = "";
+    el.style.minHeight = "";
+    return;
+  }
+  const top = el.getBoundingClientRect().top + window.scrollY;
+  const line = parseFloat(getComputedStyle(document.body).lineHeight) || 24;
+  el.style.minHeight = "320px";
+  el.style.height = `${Math.max(320, Math.floor(window.innerHeight - top - 2 * line - 24))}px`;
+}
+window.addEventListener("resize", () => fitHeight());
+
 export async function render(el, f, { live = false } = {}) {
   state.shown = f;
+  if (el.id === "figure") fitHeight(el);
   let layout = fitLayout(f.layout);
   if (document.body.classList.contains("projector")) layout = largeText(layout);
   const old = el.querySelector(":scope > .quick-plot");
