@@ -6,9 +6,49 @@ import { state } from "/store.js";
 
 let csvText = null, csvName = "upload.csv";
 
+// What a file that is not CSV text starts with (its first bytes), in words.
+const MAGIC = [
+  [[0x89, 0x50, 0x4e, 0x47], "a PNG image"], [[0xff, 0xd8, 0xff], "a JPEG image"],
+  [[0x47, 0x49, 0x46, 0x38], "a GIF image"], [[0x25, 0x50, 0x44, 0x46], "a PDF document"],
+  [[0x50, 0x4b, 0x03, 0x04], "a ZIP archive or an Excel .xlsx workbook"],
+  [[0xd0, 0xcf, 0x11, 0xe0], "an old Excel .xls or Word file"],
+];
+
+function notText(head) {
+  for (const [magic, what] of MAGIC) if (magic.every((b, i) => head[i] === b)) return what;
+  const utf16 = (head[0] === 0xff && head[1] === 0xfe) || (head[0] === 0xfe && head[1] === 0xff);
+  return !utf16 && head.includes(0) ? "a binary file, not text" : null;
+}
+
+const size = (n) => (n >= 1e6 ? `${(n / 1e6).toFixed(1)} MB` : `${Math.ceil(n / 1e3)} kB`);
+
+// The file is checked here before it is sent: its size first (a 50 MB file is not sent
+// to be refused), then its first bytes (an image or a workbook is not a CSV text file).
+async function refused(file) {
+  const limit = state.caps && state.caps.limits && state.caps.limits.max_upload_bytes;
+  if (limit && file.size > limit) {
+    return `${file.name} is ${size(file.size)}, more than the ${size(limit)} this explorer ` +
+      "takes. Upload a shorter stretch of the recording (fewer rows) or only the time, input and output columns.";
+  }
+  const what = notText(new Uint8Array(await file.slice(0, 4096).arrayBuffer()));
+  if (what) {
+    return `${file.name} is not a CSV text file: it looks like ${what}. Save the measurement as ` +
+      "CSV (comma-separated text, one row per sample, e.g. \"Save as: CSV\" in a spreadsheet) and upload that file.";
+  }
+  return null;
+}
+
 export async function onCsvChosen(ev) {
   const file = ev.target.files[0];
   if (!file) return;
+  const why = await refused(file);
+  if (why) {
+    $("mapping").hidden = true;
+    csvText = null;
+    ev.target.value = "";
+    setMsg("csv-msg", why);
+    return;
+  }
   csvText = await file.text();
   csvName = file.name;
   try {

@@ -58,7 +58,8 @@ export async function draw(pending) {
   else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
   $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
   showDigiControls(res);
-  const notes = (f.layout && f.layout.meta && f.layout.meta.notes) || [];
+  const notes = [...(res.model_note ? [res.model_note] : []),
+    ...((f.layout && f.layout.meta && f.layout.meta.notes) || [])];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
   document.body.dataset.fig = state.fig;
   document.body.dataset.ready = String(res.version);

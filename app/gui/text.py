@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..services.recordings import Recording
-from ..services.simulation import Result, operator_count, pi_part
+from ..services.simulation import Result, operator_count, pi_part, weight_note
 from ..services.words import model_words
 
 __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown",
@@ -52,6 +52,9 @@ def model_markdown(res: Result) -> str:
     if pi_part(m) is m:  # a classical PI itself
         lines.append("slopes " + ", ".join(f"{s:.3g}" for s in m.slopes))
         lines.append(f"max loop width σ = {m.max_loop_width:.4g}")
+    note = weight_note(m)
+    if note:
+        lines.append(f"ℹ️ {md_text(note)}")
     text = "  \n".join(lines)
     if res.inverse_error:
         text += f"  \n⚠️ {md_text(res.inverse_error)}"

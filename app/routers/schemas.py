@@ -162,6 +162,8 @@ class SimulateOut(BaseModel):
 
     model_type: str
     model_title: str | None = Field(None, description="the model type in words")
+    model_note: str | None = Field(None, description="what the model's values do, in words "
+                                                     "(a negative weight and invertibility)")
     n_operators: int | None = None
     slopes: list[float] | None = None
     max_loop_width: float | None = None
@@ -281,6 +283,8 @@ class FiguresOut(BaseModel):
 
     model_type: str
     model_title: str | None = Field(None, description="the model type in words")
+    model_note: str | None = Field(None, description="what the model's values do, in words "
+                                                     "(a negative weight and invertibility)")
     n_operators: int | None = None
     inverse_error: str | None = None
     figures: dict[str, FigureOut] = Field(default_factory=dict)

@@ -47,6 +47,7 @@ from .simulation import (
     preset_doc,
     priced_views,
     validate_config,
+    weight_note,
 )
 from .words import model_words
 from .worker import Task
@@ -430,6 +431,7 @@ def result_payload(res: Result, names: Collection[str],
     out: dict[str, Any] = {
         "model_type": m.type_name,
         "model_title": model_words(m),
+        "model_note": weight_note(m),
         "n_operators": operator_count(m),
         "inverse_error": res.inverse_error,
         "figures": figs,

@@ -7,6 +7,7 @@ from :func:`core.export_fmu.build_fmu` (compiled on this machine).
 
 from __future__ import annotations
 
+import re
 import tempfile
 import threading
 from pathlib import Path
@@ -25,6 +26,7 @@ from core.paramset import (
 )
 
 from .sessions import Session
+from .words import type_words
 
 __all__ = [
     "EXPORT_FORMATS",
@@ -113,7 +115,10 @@ def export_bytes(
         For an unknown format, a model stage without a C emitter, no C compiler or FMI
         headers (FMU), or ``inverse`` for a model without an inverse.
     """
-    stem = f"hysteresis-{model.type_name}{'-' + code if code else ''}"
+    # named for what the model is, in words ("hysteresis-dead-zone-gpi.json"); a session's
+    # code is a key to the session and never goes into a file a student shares
+    kind = re.sub(r"[^a-z0-9]+", "-", type_words(model.type_name).lower()).strip("-")
+    stem = f"hysteresis-{kind or 'model'}{'-' + code if code else ''}"
     ps = parameter_set(model, fit)
     if fmt == "json":
         return f"{stem}.json", ps.to_json().encode()
@@ -152,5 +157,5 @@ def export_session(session: Session, fmt: str, *, fmi: int = 3,
         dt = float(rec.t[1] - rec.t[0])
     else:
         dt = cfg.signal.duration / max(cfg.signal.samples - 1, 1)
-    return export_bytes(model_from_dict(cfg.model), fmt, session.code, fit, dt=dt, fmi=fmi,
+    return export_bytes(model_from_dict(cfg.model), fmt, "", fit, dt=dt, fmi=fmi,
                         inverse=inverse)

@@ -149,6 +149,28 @@ def pi_part(model: Model) -> PIModel | None:
     return None
 
 
+def weight_note(model: Model) -> str | None:
+    """What a negative play weight of ``model``'s classical PI does, in words (its slope
+    after the threshold drops; the model inverts while every slope stays > 0), or ``None``
+    when no weight is negative."""
+    pi = pi_part(model)
+    if pi is None:
+        return None
+    neg = [i for i, w in enumerate(pi.weights) if w < 0]
+    if not neg:
+        return None
+    s = pi.slopes
+    which = ", ".join(f"p{i + 1} = {pi.weights[i]:.3g}" for i in neg[:4])
+    head = (f"Negative weight{'s' if len(neg) > 1 else ''} {which}: past its threshold the "
+            f"loop's slope drops by that much (slopes {s.min():.3g} to {s.max():.3g}); ")
+    if pi.is_invertible:
+        return head + ("the model stays invertible while every slope stays above 0 (the "
+                       f"smallest is {s.min():.3g} now); a slope at or below 0 leaves it "
+                       "without an inverse.")
+    return head + (f"a slope is {s.min():.3g}, at or below 0, so the model has no inverse "
+                   "(no compensation): raise p0 or the weights before it.")
+
+
 def pi_input(model: Model, u: np.ndarray, dt: float | None = None) -> np.ndarray:
     """The signal that drives the classical PI inside ``model``.
 

@@ -18,7 +18,7 @@ def test_exports_use_the_core_parameter_set() -> None:
     m = PIModel.from_dict(S.EXAMPLE1)
     name, payload = E.export_bytes(m, "json", "abc")
     doc = json.loads(payload)
-    assert name == "hysteresis-pi-abc.json" and doc["format"] == FORMAT
+    assert name == "hysteresis-classical-pi-model-abc.json" and doc["format"] == FORMAT
     assert E.parameter_set_model(doc).to_dict() == m.to_dict()
     assert E.parameter_set_model(S.EXAMPLE1).to_dict() == m.to_dict()  # a bare model
     name, c = E.export_bytes(m, "c")
