@@ -3,10 +3,12 @@
 The fitting and diagnosis loops are many small matrix products: a second BLAS thread gains
 little on them, and on a busy machine (two cores shared with other work) it loses a lot,
 because every product waits for a thread that is not scheduled. Measured on the README's
-piezo diagnosis with two busy processes on the two cores: 11.2 s with the libraries' default
-threads, 5.4 s with one (issue 31). So the entry points people call
-(:func:`core.diagnosis.diagnose`, :func:`core.fitting.fit_recordings`) and ``hyst`` run the
-libraries on :data:`DEFAULT_THREADS` thread unless asked for more.
+piezo diagnosis beside two busy processes on the two cores: 26.4 s (16.6 s of CPU) with
+OpenBLAS's default of two threads, 6.7 s (4.8 s of CPU) with one, 4.8 s alone
+(``benchmarks/bench_diagnose_scale.py --contention``, docs/pages/diagnose.md "Scale"). So
+the entry points people call (:func:`core.diagnosis.diagnose`,
+:func:`core.fitting.fit_recordings`) and ``hyst`` run the libraries on
+:data:`DEFAULT_THREADS` thread unless asked for more.
 
 :func:`numeric_threads` sets the limit for a block and gives the caller back its own
 settings afterwards:
