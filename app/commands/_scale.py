@@ -53,10 +53,13 @@ ETA_FROM_S = 20.0
 def count_samples(files: Sequence[str | Path], chunk: int = 1 << 22) -> int:
     """Lines of ``files`` (an upper bound on their samples: a header and notes are lines
     too), counted in chunks of ``chunk`` bytes without parsing; 0 for a file that cannot be
-    opened (the reader then says why)."""
+    opened or is not a regular file (a device or a pipe could be endless; the reader then
+    says why)."""
     total = 0
     for f in files:
         try:
+            if not Path(f).is_file():
+                continue
             with open(f, "rb") as fh:
                 last = b"\n"
                 while block := fh.read(chunk):

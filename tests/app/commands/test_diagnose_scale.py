@@ -36,6 +36,8 @@ def test_count_samples_counts_the_lines_of_every_file(tmp_path):
     ref = sum(np.loadtxt(p, delimiter=",", skiprows=1).shape[0] + 1 for p in (a, b))
     assert count_samples([a, b], chunk=100) == ref == 1234 + 77 + 2
     assert count_samples([tmp_path / "missing.csv"]) == 0  # the reader says why later
+    assert count_samples([tmp_path]) == 0  # a folder
+    assert count_samples(["/dev/zero"]) == 0  # endless, not a regular file: not read
 
 
 def test_the_refusal_gives_both_sizes_and_what_fits():
