@@ -41,7 +41,7 @@ from ..services.simulation import Result, inverse_problem, operator_count
 from ..services.tasks import diagnose_task, fit_task
 from ..services.words import type_words
 from ..services.worker import OutOfMemory, Task, Worker, WorkerDied
-from .layout import TITLES, Widgets, set_value
+from .layout import PROJECTOR_PX, TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
 from .render import LatestWinsWorker
@@ -493,6 +493,12 @@ class SessionView:
                    ("a new input" if event.get("signal") else "a model"))
         text = (f"Your teacher pushed {what}{' with its input' if event.get('signal') else ''}"
                 f" at {time.strftime('%H:%M:%S')}. Your controls now start from it.")
+        step = event.get("lesson")
+        if isinstance(step, dict):  # a lesson's move, or the class step changed
+            where = f"step {step.get('step')} of {step.get('steps')}: {step.get('step_title')}"
+            text = (f"Your teacher changed the class step ({where}); your controls follow it."
+                    if event.get("edit") else
+                    f"Your teacher moved the class to {where}. Your controls follow it.")
         self.ui.pushed_md.content = f"**Teacher:** {md_text(text)}"
         self._toast("Your teacher pushed a change", text)
 
@@ -858,7 +864,7 @@ class SessionView:
         panel, a phone; :func:`~app.services.figures.stack_columns`), its text large in
         projector mode. Returns the figure and its number of bands."""
         if self.projecting:  # wide enough for panels side by side, read from afar
-            return F.large_text(fig), 1
+            return F.large_text(fig, width=PROJECTOR_PX), 1
         return F.stack_columns(fig, compact=self.ui.narrow)
 
     def _render_error(self, exc: BaseException) -> None:

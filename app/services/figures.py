@@ -601,16 +601,47 @@ def closed_loop_figure(res: Result) -> FigureJSON:
     return FigureJSON(data, lay)
 
 
-def large_text(fig: FigureJSON, size: int = 16) -> FigureJSON:
+def _wrap(text: str, room: int) -> list[str]:
+    """``text`` broken at spaces into lines of at most ``room`` characters (a word longer
+    than that keeps its own line)."""
+    lines: list[str] = []
+    for part in text.split("<br>"):
+        line = ""
+        for word in part.split(" "):
+            if line and len(f"{line} {word}") > room:
+                lines.append(line)
+                line = word
+            else:
+                line = f"{line} {word}" if line else word
+        lines.append(line)
+    return lines
+
+
+def large_text(fig: FigureJSON, size: int = 16, width: int | None = None) -> FigureJSON:
     """``fig`` with every text at least ``size`` px (a projector): tick labels, axis titles,
-    legend; the title 4 px larger. The web page does the same in
-    ``static/plots.js::largeText``."""
+    legend; the title 4 px larger, broken into lines when a plot ``width`` px wide cannot
+    hold it. The web page does the same in ``static/plots.js::largeText``."""
     lay = json.loads(json.dumps(fig.layout))
     lay["font"] = {**lay.get("font", {}), "size": size}
     title = lay.get("title")
+    extra = 0
     if isinstance(title, dict):
         title["font"] = {**title.get("font", {}), "size": size + 4}
-    lay["legend"] = {**lay.get("legend", {}), "font": {"size": size}}
+        text = title.get("text")
+        if width and isinstance(text, str):
+            lines = _wrap(text, max(10, int((width - 40) / (0.56 * (size + 4)))))
+            title["text"] = "<br>".join(lines)
+            extra = (len(lines) - 1) * int(1.3 * (size + 4))
+    legend = {**lay.get("legend", {}), "font": {"size": size}}
+    if float(legend.get("y", 1.0)) < 0:  # below the plot: there the larger axis title
+        # sits on it; above the plot, under the title, it has room of its own
+        legend.update(orientation="h", x=0.0, xanchor="left", y=1.02, yanchor="bottom")
+        margin = lay.get("margin") or {}
+        lay["margin"] = {**margin, "t": max(int(margin.get("t", 0) or 0), 4 * size + 50)}
+    if extra:
+        margin = lay.get("margin") or {}
+        lay["margin"] = {**margin, "t": int(margin.get("t", 60) or 60) + extra}
+    lay["legend"] = legend
     for k, ax in lay.items():
         if k.startswith(("xaxis", "yaxis")) and isinstance(ax, dict):
             ax["tickfont"] = {**ax.get("tickfont", {}), "size": size}

@@ -72,3 +72,52 @@ def test_projector_shows_the_whole_plot_on_every_lesson_step(browser: Any, live_
         _clean(page, log)
     finally:
         ctx.close()
+
+
+def test_viser_projector_with_a_lesson_open(browser: Any, live_server: dict,
+                                            shot: Any) -> None:
+    """viser at 1920x1080 in projector mode while a lesson runs: the plot is wide, and its
+    legend sits clear of the x-axis titles (the legend moves above the plot)."""
+    from .test_viser_gui import _open as _open_viser
+    from .test_viser_gui import _screenshot as _viser_shot
+    from .test_viser_gui import _views
+
+    url, app = live_server["url"], live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, v, errors = _open_viser(browser, live_server["viser_url"], width=1920, height=1080)
+    try:
+        _views(app, 1, known=known)
+        pos = _api(url, "POST", "api/teacher/lesson", {"name": "inverse-compensation"})
+        for _ in range(pos["steps"] - 1):
+            pos = _api(url, "POST", "api/teacher/lesson/step", {"move": 1})
+        v.add_style_tag(content="[class*='Notifications-root'], [class*='Notifications-root'] "
+                                "* {pointer-events:none !important}")
+        v.get_by_text("Projector: large plot", exact=True).first.click()
+        v.wait_for_function("() => { const p = document.querySelector('.js-plotly-plot');"
+                            " return p && p.getBoundingClientRect().width > 0.55 * 1920"
+                            " && p._fullLayout && p._fullLayout.width > 0.55 * 1920"
+                            " && p._fullLayout.legend && p._fullLayout.legend.y >= 1"
+                            " && p._fullLayout.title.text.includes('<br>'); }",
+                            timeout=60_000)
+        v.wait_for_timeout(500)
+        parts = v.evaluate("""() => {
+          const p = document.querySelector('.js-plotly-plot');
+          const r = (e) => { const b = e.getBoundingClientRect();
+                             return [b.left, b.top, b.right, b.bottom]; };
+          return { plot: r(p), title: [...p.querySelectorAll('.gtitle')].map(r),
+                   legend: [...p.querySelectorAll('.legend')].map(r),
+                   xtitles: [...p.querySelectorAll('.xtitle, [class*="x2title"]')].map(r) };
+        }""")
+        assert parts["legend"] and parts["xtitles"] and parts["title"], parts
+        left, _, right, _ = parts["plot"]
+        for t in parts["title"]:  # the long closed-loop title in lines, not cut
+            assert t[0] >= left - 1 and t[2] <= right + 1, (t, parts["plot"])
+        for lg in parts["legend"]:
+            for xt in parts["xtitles"]:
+                apart = lg[2] <= xt[0] or xt[2] <= lg[0] or lg[3] <= xt[1] or xt[3] <= lg[1]
+                assert apart, ("the legend sits on an x-axis title", lg, xt)
+        _viser_shot(v, shot, "projector-lesson-viser")
+        _api(url, "DELETE", "api/teacher/lesson")
+        assert errors == []
+    finally:
+        ctx.close()
