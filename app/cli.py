@@ -34,11 +34,13 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from core.threads import DEFAULT_THREADS, numeric_threads
+    from core.threads import numeric_threads
 
     try:
-        # one BLAS / OpenMP / numba thread unless --threads asks for more (core.threads)
-        with numeric_threads(getattr(args, "threads", DEFAULT_THREADS)):
+        # the commands that compute run on one BLAS / OpenMP / numba thread unless --threads
+        # asks for more (core.threads); the others (lists, lessons, serve and batch, whose
+        # workers get one thread each) do not pay for loading the BLAS pools
+        with numeric_threads(getattr(args, "threads", None)):
             return int(args.func(args) or 0)
     except KeyboardInterrupt:
         return 130
