@@ -285,6 +285,10 @@ class DiagnosableEffect:
         effect's own discretisation leaves (a creep bank's placement of its time constants),
         added in quadrature to the statistical sigma of the accepted effect ``fit`` (fitted
         on top of ``cur``); ``words`` say how it was obtained.
+    deciding : tuple of (str, str)
+        ``(other, experiment)``: the experiment that tells this effect from the look-alike
+        ``other`` (each pair declared by one of its two effects;
+        :data:`core.diagnosis.specs.DECIDING_EXPERIMENT` reads them).
     term : StaticTerm or None
         For a static effect that adds linear terms (asymmetry, creep, drift, offset): its
         columns, bounds, coefficients and stage; ``structure_field`` is then ``"terms"``.
@@ -314,6 +318,7 @@ class DiagnosableEffect:
     stage_order: int = 0
     signature: Callable[[Any], tuple[list[Any], str, bool] | None] | None = None
     systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
+    deciding: tuple[tuple[str, str], ...] = ()
     term: StaticTerm | None = None
 
 

@@ -1,6 +1,6 @@
-"""What the diagnosis knows across effects: the experiments that separate two look-alikes,
-the order the families are disambiguated in, and the rules read off the registry (which
-effects need a time axis, which the recordings cannot test).
+"""What the diagnosis knows across effects: the order the families are disambiguated in, and
+the rules read off the registry (the experiments that separate two look-alikes, which effects
+need a time axis, which the recordings cannot test).
 
 Each effect's own specification is its :class:`~core.diagnosis.registry.DiagnosableEffect`
 in :data:`core.diagnosis.registry.EFFECTS`.
@@ -8,6 +8,7 @@ in :data:`core.diagnosis.registry.EFFECTS`.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 from .registry import EFFECTS
@@ -31,36 +32,32 @@ def spec_untestable(ctx: Any, already: set[str] | frozenset[str] = frozenset()
     return out
 
 
+class _DecidingExperiments(Mapping[frozenset[str], str]):
+    """The deciding experiments of the registered effects by pair of names, read when
+    asked (the effects register after this module is imported)."""
+
+    def _table(self) -> dict[frozenset[str], str]:
+        return {frozenset({n, other}): text for n, e in EFFECTS.items()
+                for other, text in e.deciding}
+
+    def __getitem__(self, pair: frozenset[str]) -> str:
+        return self._table()[pair]
+
+    def __iter__(self) -> Iterator[frozenset[str]]:
+        return iter(self._table())
+
+    def __len__(self) -> int:
+        return len(self._table())
+
+
 def time_effects() -> tuple[str, ...]:
     """Names of the effects that need a time axis."""
     return tuple(n for n, e in EFFECTS.items() if e.time_dependent)
 
 
-DECIDING_EXPERIMENT: dict[frozenset[str], str] = {
-    frozenset({"delay", "lag"}): "full-stroke sines at >= 3 frequencies a decade apart (a lag "
-    "attenuates and its phase saturates, a delay's phase grows linearly with frequency)",
-    frozenset({"delay", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min): a delay "
-    "still lags, rate-dependent hysteresis fades; or a DAQ loop-back latency measurement",
-    frozenset({"lag", "rate"}): "a small-amplitude dither (peak-to-peak below 2 r_min) and sines "
-    "at >= 3 frequencies: a lag acts on the reversible part too, rate-dependent hysteresis "
-    "does not",
-    frozenset({"resonance", "lag"}): "a step or a broadband multisine up to the suspected mode "
-    "(a resonance rings and overshoots, a lag does not)",
-    frozenset({"resonance", "delay"}): "a step or a broadband multisine up to the suspected mode",
-    frozenset({"resonance", "rate"}): "a step or a broadband multisine: a mode rings at f_d "
-    "whatever the hysteresis state",
-    frozenset({"saturation", "dead-zone"}): "loops of a larger amplitude (a saturation keeps "
-    "flattening towards the extremes, a dead band has a fixed width after which the slope "
-    "recovers)",
-    frozenset({"saturation", "asymmetry"}): "symmetric loops of several amplitudes (saturation "
-    "flattens both ends of every loop alike, an asymmetric map bends one side more)",
-    frozenset({"dead-zone", "asymmetry"}): "loops of several amplitudes and offsets (a dead "
-    "band stays at the same input level, an output map follows the output level)",
-    frozenset({"offset", "drift"}): "a zero-input hold at the start and the end of every "
-    "recording (an offset stays the same within a recording, a drift moves it)",
-    frozenset({"creep", "drift"}): "an up-then-down staircase with holds of 3-30 s (creep follows "
-    "the sign of the last step, drift does not)",
-}
+#: The experiment that separates two look-alikes, by the pair of effect names: read off the
+#: registry (each effect's :attr:`~core.diagnosis.registry.DiagnosableEffect.deciding`).
+DECIDING_EXPERIMENT: Mapping[frozenset[str], str] = _DecidingExperiments()
 
 #: Disambiguation order of the families (notes §4.3): cheapest and most common first.
 FAMILY_PRIORITY: dict[str, int] = {

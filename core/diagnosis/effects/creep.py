@@ -108,4 +108,8 @@ register(DiagnosableEffect(
                  "something else: the fast end of its relaxation spectrum acts as a lag at the "
                  "excitation frequency, its slow tail after the last step as a trend from "
                  "cycle to cycle, like a drift; creep itself was untestable"),
+    deciding=(
+        ("drift", "an up-then-down staircase with holds of 3-30 s (creep follows "
+         "the sign of the last step, drift does not)"),
+    ),
 ))

@@ -150,4 +150,8 @@ register(DiagnosableEffect(
     model_type=DeadZoneGPI,
     structure_field=None,
     untestable=one_branch,
+    deciding=(
+        ("asymmetry", "loops of several amplitudes and offsets (a dead "
+         "band stays at the same input level, an output map follows the output level)"),
+    ),
 ))

@@ -31,4 +31,10 @@ register(DiagnosableEffect(
     stage_order=4,
     dynamics=OutputDynamics(("delay_s",), model=lambda v: Delay(v[0])),
     transport=True,
+    deciding=(
+        ("lag", "full-stroke sines at >= 3 frequencies a decade apart (a lag "
+         "attenuates and its phase saturates, a delay's phase grows linearly with frequency)"),
+        ("rate", "a small-amplitude dither (peak-to-peak below 2 r_min): a delay "
+         "still lags, rate-dependent hysteresis fades; or a DAQ loop-back latency measurement"),
+    ),
 ))

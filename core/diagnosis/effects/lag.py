@@ -64,4 +64,9 @@ register(DiagnosableEffect(
                             combines_with=("resonance",),
                             lacks_signature_in_series=_corner_beyond_mode),
     transport=True,
+    deciding=(
+        ("rate", "a small-amplitude dither (peak-to-peak below 2 r_min) and sines "
+         "at >= 3 frequencies: a lag acts on the reversible part too, rate-dependent hysteresis "
+         "does not"),
+    ),
 ))

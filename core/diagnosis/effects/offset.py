@@ -70,4 +70,8 @@ register(DiagnosableEffect(
     untestable=_untestable,
     linear=True,
     stage_order=5,
+    deciding=(
+        ("drift", "a zero-input hold at the start and the end of every "
+         "recording (an offset stays the same within a recording, a drift moves it)"),
+    ),
 ))

@@ -113,4 +113,11 @@ register(DiagnosableEffect(
     dynamics=OutputDynamics(("freq_hz", "damping"), model=lambda v: Resonance(v[0], v[1]),
                             transfer=_transfer, valid=_valid,
                             lacks_signature=_lacks_ringing),
+    deciding=(
+        ("lag", "a step or a broadband multisine up to the suspected mode "
+         "(a resonance rings and overshoots, a lag does not)"),
+        ("delay", "a step or a broadband multisine up to the suspected mode"),
+        ("rate", "a step or a broadband multisine: a mode rings at f_d "
+         "whatever the hysteresis state"),
+    ),
 ))

@@ -117,4 +117,11 @@ register(DiagnosableEffect(
     model_type=TanhGPI,
     structure_field=None,
     untestable=one_branch,
+    deciding=(
+        ("dead-zone", "loops of a larger amplitude (a saturation keeps "
+         "flattening towards the extremes, a dead band has a fixed width after which the slope "
+         "recovers)"),
+        ("asymmetry", "symmetric loops of several amplitudes (saturation "
+         "flattens both ends of every loop alike, an asymmetric map bends one side more)"),
+    ),
 ))

@@ -159,3 +159,21 @@ def test_the_moved_terms_columns_and_bounds() -> None:
     want = lfilter(b, a_, x, zi=lfilter_zi(b, a_) * x[0])[0] - x
     np.testing.assert_allclose(c[:, 0], want, atol=1e-9)
     assert terms["creep"].lower == 0.0 and terms["drift"].lower == -np.inf
+
+
+def test_deciding_experiments_are_declared_by_the_effects(monkeypatch) -> None:
+    """The experiment that separates two look-alikes is declared by one of the pair in its
+    own registration (specs.DECIDING_EXPERIMENT reads them): every pair names two registered
+    effects, once; a new effect's pair is read without touching specs.py."""
+    from core.diagnosis.specs import DECIDING_EXPERIMENT
+
+    pairs = [frozenset({n, o}) for n, e in EFFECTS.items() for o, _ in e.deciding]
+    assert len(pairs) == len(set(pairs)) == len(DECIDING_EXPERIMENT) == 11
+    assert all(len(p) == 2 and p <= set(EFFECTS) for p in pairs)
+    assert "staircase" in DECIDING_EXPERIMENT[frozenset({"drift", "creep"})]
+    import dataclasses
+
+    monkeypatch.setitem(EFFECTS, "trend", dataclasses.replace(
+        TREND, deciding=(("drift", "recordings of several lengths"),)))
+    assert DECIDING_EXPERIMENT.get(frozenset({"drift", "trend"})) == "recordings of several lengths"
+    assert DECIDING_EXPERIMENT.get(frozenset({"lag", "trend"})) is None
