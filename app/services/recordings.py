@@ -165,6 +165,25 @@ class Upload:
     time_steps: str | None = None
 
 
+def _binary(exc: CSVError) -> bool:
+    """Whether the reader refused the content as binary (not text at all)."""
+    text = str(exc)
+    return "is not a text CSV" in text and ("NUL byte" in text or "control character" in text)
+
+
+def _plain(exc: CSVError, name: str | None = None) -> CSVError:
+    """A refusal of binary content in words a student understands (an upload's message:
+    no byte offsets); other errors as they are."""
+    if not _binary(exc):
+        return exc
+    src = exc.source if exc.source and not str(exc.source).startswith("<") else None
+    name = name or src or "This file"
+    return CSVError(f"{name} is not a CSV text file: it looks like an image, a spreadsheet "
+                    "workbook or another binary file. Save the measurement as CSV (comma-"
+                    "separated text, one row per sample, e.g. \"Save as: CSV\" in a "
+                    "spreadsheet) and upload that file.", source=exc.source)
+
+
 def read_upload(
     content: str | bytes,
     *,
@@ -218,6 +237,8 @@ def read_upload(
     except UnevenTimeError as exc:
         raise UnevenUpload(Timing.of(exc), exc.source) from None
     except CSVError as exc:
+        if _binary(exc):
+            raise _plain(exc, name) from None
         if "resample" in kw and "needs a time axis" in str(exc):
             raise CSVError(f"{exc.source}: there is no time column, so there is nothing to "
                            "resample (the samples are taken as evenly spaced); upload "
@@ -279,7 +300,10 @@ def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[s
     core.csvio.CSVError
         If :func:`core.csvio.inspect_csv_text` cannot work out the layout.
     """
-    lay = inspect_csv_text(content, max_rows=max_samples)
+    try:
+        lay = inspect_csv_text(content, max_rows=max_samples)
+    except CSVError as exc:
+        raise _plain(exc) from None
     if isinstance(content, bytes):
         enc = {"utf-8": "utf-8-sig"}.get(lay.encoding, lay.encoding)
         content = content.decode(enc)
