@@ -32,6 +32,14 @@ STEP_SAMPLES = 10
 QUIET_SHARE = 0.01
 
 
+def _moving(u: np.ndarray) -> tuple[np.ndarray, float]:
+    """``u`` as float64 and its range; the range is 0 when the input has too few samples
+    (3) or does not move."""
+    u = np.asarray(u, dtype=np.float64)
+    span = float(np.ptp(u)) if u.size >= 3 else 0.0
+    return u, max(span, 0.0)
+
+
 def step_starts(u: np.ndarray) -> np.ndarray:
     """Sample indices where a step starts (the first sample after its first sample-to-sample
     change of at least half its largest one): a change of at least :data:`STEP_SHARE` of the
@@ -47,11 +55,10 @@ def step_starts(u: np.ndarray) -> np.ndarray:
     -------
     ndarray of int
     """
-    u = np.asarray(u, dtype=np.float64)
-    n = u.size
-    span = float(np.ptp(u)) if n else 0.0
-    if n < 3 or span <= 0:
+    u, span = _moving(u)
+    if span == 0.0:
         return np.zeros(0, dtype=np.int64)
+    n = u.size
     k = min(STEP_SAMPLES, n - 1)
     fast = np.abs(u[k:] - u[:-k]) >= STEP_SHARE * span
     fast = np.concatenate([fast, np.zeros(k, dtype=bool)])
@@ -67,8 +74,7 @@ def step_starts(u: np.ndarray) -> np.ndarray:
 
 def event_starts(u: np.ndarray) -> np.ndarray:
     """Sample indices where an event starts: each large reversal, and the start of each
-    step (a change of at least :data:`STEP_SHARE` of the input range within
-    :data:`STEP_SAMPLES` samples, after a sample where the input was not already moving so).
+    step (:func:`step_starts`).
 
     Parameters
     ----------
@@ -80,11 +86,10 @@ def event_starts(u: np.ndarray) -> np.ndarray:
     ndarray of int
         Sorted, unique indices in ``[0, n)``; the first sample is not an event.
     """
-    u = np.asarray(u, dtype=np.float64)
-    n = u.size
-    span = float(np.ptp(u)) if n else 0.0
-    if n < 3 or span <= 0:
+    u, span = _moving(u)
+    if span == 0.0:
         return np.zeros(0, dtype=np.int64)
+    n = u.size
     rv = reversal_indices(u, REVERSAL_TOL * span)
     starts = step_starts(u)
     ev = np.union1d(rv, starts)
