@@ -79,16 +79,32 @@ async function main() {
   $("n").addEventListener("change", onOperatorCount);
   $("preset").addEventListener("change", () => { state.presetChanged = false; showPresetDesc(); });
   $("load-preset").addEventListener("click", loadPreset);
+  // what Join did is said under the header too, where a phone shows it (the Model
+  // section's message is screens below the plot there)
+  const joined = (text, ok) => {
+    setMsg("model-msg", text, ok);
+    const note = $("live-note");
+    note.textContent = text;
+    note.classList.toggle("error", !ok);
+    note.hidden = false;
+  };
   const join = async () => {
     const code = $("join-code").value.trim();
-    if (!code) { setMsg("model-msg", "Type the session code first."); return; }
+    if (!code) { joined("Type the session code first.", false); return; }
+    $("join").disabled = true;
+    const note = $("live-note");
+    note.classList.remove("error");
+    note.textContent = `Joining session ${code} …`;
+    note.hidden = false;
     try {
       await openSession(code);
-      setMsg("model-msg", `Joined session ${code}.`, true);
+      joined(`Joined session ${code}.`, true);
     } catch (e) {
-      setMsg("model-msg", e.status === 404 || e.status === 422
+      joined(e.status === 404 || e.status === 422
         ? `No session "${code}" on this server: the code may be mistyped (it looks like abcd-efgh-jkmn-pqrs and is shown at the top of the page that uses it) or the session has expired. You are still in session ${state.code}.`
-        : e.message);
+        : e.message, false);
+    } finally {
+      $("join").disabled = false;
     }
   };
   $("join").addEventListener("click", join);

@@ -102,6 +102,7 @@ function onPushed(info) {
   if (!info.edit) selectFigure(info.lesson.view);  // a changed step keeps the view on show
   else markExploring();
   const note = $("live-note");
+  note.classList.remove("error");
   const where = `step ${info.lesson.step} of ${info.lesson.steps}: ${info.lesson.step_title}`;
   const what = info.signal && info.model ? "model and input" : info.model ? "model" : "input";
   if (state.teaching) {
@@ -119,6 +120,7 @@ function ended() {
   if (!L.step) return;
   show(null);
   const note = $("live-note");
+  note.classList.remove("error");
   note.textContent = "Your teacher ended the lesson. Your page keeps its model and input: explore on.";
   note.hidden = false;
 }

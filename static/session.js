@@ -51,6 +51,7 @@ async function onPushed(info) {
   const p = state.presets.find((x) => x.name === info.preset);
   const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
+  note.classList.remove("error");
   const input = info.signal ? " with its input" : "";
   const at = new Date().toLocaleTimeString();
   note.textContent = state.teaching
