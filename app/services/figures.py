@@ -601,7 +601,7 @@ def closed_loop_figure(res: Result) -> FigureJSON:
     return FigureJSON(data, lay)
 
 
-def _wrap(text: str, room: int) -> list[str]:
+def _title_lines(text: str, room: int) -> list[str]:
     """``text`` broken at spaces into lines of at most ``room`` characters (a word longer
     than that keeps its own line)."""
     lines: list[str] = []
@@ -629,7 +629,7 @@ def large_text(fig: FigureJSON, size: int = 16, width: int | None = None) -> Fig
         title["font"] = {**title.get("font", {}), "size": size + 4}
         text = title.get("text")
         if width and isinstance(text, str):
-            lines = _wrap(text, max(10, int((width - 40) / (0.56 * (size + 4)))))
+            lines = _title_lines(text, max(10, int((width - 40) / (0.56 * (size + 4)))))
             title["text"] = "<br>".join(lines)
             extra = (len(lines) - 1) * int(1.3 * (size + 4))
     legend = {**lay.get("legend", {}), "font": {"size": size}}
