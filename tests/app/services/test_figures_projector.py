@@ -35,3 +35,18 @@ def test_a_long_title_is_broken_into_lines_for_the_plot_width() -> None:
     assert " ".join(lines) == title  # nothing lost
     assert big["margin"]["t"] == 60 + int(1.3 * 20)
     assert F.large_text(fig, 16).layout["title"]["text"] == title  # no width: as it was
+
+
+def test_the_inverse_views_clipping_note_still_draws_beside_the_title_wrapping() -> None:
+    """The clipping note's own line wrapping (figures._wrap) is not the title's: a tanh GPI
+    bounded at +-2 clips its inverse, and the inverse view says so (both in screen and
+    projector text)."""
+    from app.services.simulation import preset_doc
+
+    model = preset_doc("paper001-example6")["model"]
+    model["envelope"]["a"] = model["envelope"]["b"] = [2.0, 0.4, 0.0, 0.0]
+    res = compute(Config().with_model(model), views=["inverse"])
+    assert res.inverse_warning
+    fig = F.build("inverse", res)
+    assert "clipped" in " ".join(fig.layout["meta"]["notes"])
+    assert F.large_text(fig, 16, width=1200).layout["meta"] == fig.layout["meta"]
