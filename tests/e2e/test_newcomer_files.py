@@ -47,24 +47,23 @@ def test_newcomer_files_are_checked_and_explained(browser: Any, live_server: dic
         shot(page, "newcomer-png")
         assert sent == [], sent
 
+        def apply(weights: list[float]) -> None:
+            doc = {"type": "pi", "p0": 0.72, "thresholds": [0.45, 0.9, 1.35],
+                   "weights": weights}
+            v = page.get_attribute("body", "data-ready")
+            page.fill("#model-json", json.dumps(doc))
+            page.click("#apply-json")
+            page.wait_for_function("v => document.body.dataset.ready !== v", arg=v)
+
         # a negative weight: accepted (the slopes stay > 0) and explained
         page.click("#json-edit summary")
-        doc = {"type": "pi", "p0": 0.72, "thresholds": [0.45, 0.9, 1.35],
-               "weights": [0.6, -0.3, 0.2]}
-        v = page.get_attribute("body", "data-ready")
-        page.fill("#model-json", json.dumps(doc))
-        page.click("#apply-json")
-        page.wait_for_function("v => document.body.dataset.ready !== v", arg=v)
+        apply([0.6, -0.3, 0.2])
         _text_has(page, "notes", "Negative weight p2 = -0.3")
         note = page.inner_text("#notes")
         assert "stays invertible" in note and "slope" in note, note
         shot(page, "newcomer-negative-weight")
         # a weight that makes a slope negative: no inverse, said so
-        doc["weights"] = [0.6, -1.5, 0.2]
-        v = page.get_attribute("body", "data-ready")
-        page.fill("#model-json", json.dumps(doc))
-        page.click("#apply-json")
-        page.wait_for_function("v => document.body.dataset.ready !== v", arg=v)
+        apply([0.6, -1.5, 0.2])
         _text_has(page, "notes", "no inverse")
 
         # exports named for the model, without the session code
