@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..recordings import Recording
+from ..warning_filters import FILTERS
 
 __all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "loop_shape_kinds",
            "where_residual"]
@@ -122,7 +123,7 @@ def _fit_shape(kind: str, records: Sequence[Recording], train, test, free: bool)
     est = estimator_class(kind)(constraint="slopes" if free else "nonnegative")
     us = [r.u for r in records]
     ys = [r.y for r in records]
-    with warnings.catch_warnings():
+    with FILTERS, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         est.fit(us, ys, train=list(train), test=list(test))
     pred = est.predict(us)

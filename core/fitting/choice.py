@@ -39,6 +39,7 @@ import numpy as np
 
 from ..exceptions import ParameterError
 from ..recordings import Recording
+from ..warning_filters import FILTERS
 from ._data import prepare
 from .orientation import LoopOrientation, loop_orientation
 
@@ -166,7 +167,7 @@ def _cv_mse(kind: str, constraint: str, recs: Sequence[Recording],
         est = cls(n_operators=n_operators, constraint=constraint, initial_memory="keep",
                   **CANDIDATE_OPTIONS.get(kind, {}))
         try:
-            with warnings.catch_warnings():
+            with FILTERS, warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 if len(use) > 1:
                     est.fit([us[k] for k in use], [ys[k] for k in use],

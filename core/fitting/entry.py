@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,6 +22,7 @@ import numpy as np
 from ..exceptions import ParameterError
 from ..recordings import Recording
 from ..threads import with_thread_limit
+from ..warning_filters import FILTERS
 from ._data import Prepared, prepare
 from .adequacy import Misfit, misfit
 from .choice import AUTO, choose_base
@@ -37,8 +37,8 @@ __all__ = ["EmptyWindowError", "FitOutcome", "TimeWindow", "fit_recordings"]
 
 #: ``warnings.catch_warnings`` changes process-wide state (Python < 3.14), so fits in
 #: threads of one process take turns recording their warnings; each outcome then holds
-#: exactly the warnings of its own fit.
-_WARNINGS_LOCK = threading.Lock()
+#: exactly the warnings of its own fit (the one lock of :mod:`core.warning_filters`).
+_WARNINGS_LOCK = FILTERS
 
 
 class EmptyWindowError(ParameterError):

@@ -40,6 +40,7 @@ from ..exceptions import ClippedInputWarning, FitWarning, NotFittedError, Parame
 from ..gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from ..operators import dead_zone
 from ..pi import PIModel
+from ..warning_filters import FILTERS
 from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
 from .gram import DEFAULT_CHUNK, Segment
 from .metrics import FitReport, evaluate_fit
@@ -82,7 +83,7 @@ class _Base:
 
     def _classical(self, prep: Prepared) -> PIRegressor:
         tr, te = self._masks(prep)
-        with warnings.catch_warnings():
+        with FILTERS, warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
             return PIRegressor(
                 n_operators=self.n_operators,
@@ -140,7 +141,7 @@ class _Base:
         invertible: bool = True,
     ) -> FitReport:
         segs = prep.segments(1)
-        with warnings.catch_warnings(record=True) as caught:
+        with FILTERS, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ClippedInputWarning)
             tr, te, cmax, crmse = evaluate_fit(
                 model_for, 0.0, segs, train_labels=(0,), test_labels=(1,), invertible=invertible
