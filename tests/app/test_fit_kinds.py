@@ -111,6 +111,7 @@ def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
 
     from app.gui.controller import SessionView
     from app.services.sessions import SessionRegistry
+    from app.services.words import type_words
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
@@ -118,8 +119,11 @@ def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
         v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
                         download=lambda n, b: None, scene=server.scene)
         try:
-            assert tuple(v.ui.fit_kind.options) == fit_kinds()
-            assert "probe-pi" in v.ui.fit_kind.options and v.ui.fit_kind.value == "pi"
+            # the menu shows the registry's words, each looked up back to its kind
+            assert tuple(v.ui.fit_kinds.values()) == fit_kinds()
+            assert tuple(v.ui.fit_kind.options) == tuple(type_words(k) for k in fit_kinds())
+            assert v.ui.fit_kinds[type_words("probe-pi")] == "probe-pi"
+            assert v.ui.fit_kind.value == type_words("pi")
         finally:
             v.close()
     finally:

@@ -150,7 +150,7 @@ def test_viser_sliders_for_every_model(browser: Any, live_server: dict, shot: An
     assert view.worker.wait_idle(30)
     page.get_by_text("Dead-zone input map γ: Dead-zone thresholds ρ_j").first.click()
     page.wait_for_selector("text=ρ-11")
-    page.wait_for_selector("text=gpi-deadzone model, 6 operators")
+    page.wait_for_selector("text=Dead-zone GPI, 6 operators")  # the type in words
     assert view.ui.param_sliders["deadzone.thresholds[0]"].label == "ρ-11"
     _screenshot(page, shot, "controls-viser-deadzone-gpi")
     assert errors == []
