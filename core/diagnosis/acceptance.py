@@ -147,6 +147,15 @@ class AcceptRule:
         Smallest ratio of the slowest to the fastest excitation (time between reversals)
         that separates output dynamics look-alikes by their own signatures without
         ``min_events`` steps (:func:`signatures_separable`).
+    family_lead : float
+        A candidate of a later family (:data:`core.diagnosis.specs.FAMILY_PRIORITY`) is
+        chosen over the leading passing family's best only with this many times its
+        held-out MSE reduction (and is deferred without cross-fitting when it cannot reach
+        that).
+    resolution_gain, resolution_z : float
+        Once an effect is in, the play grid is doubled while the held-out MSE falls by
+        ``resolution_gain`` with a Diebold-Mariano z of ``resolution_z`` (or a signed-rank
+        p below ``sign_p``): a choice of resolution, not a claim, hence the lower bar.
     """
 
     min_gain: float = 0.05
@@ -164,6 +173,9 @@ class AcceptRule:
     max_harm_elsewhere: float = 0.05
     min_events: int = 3
     min_rate_ratio: float = 3.0
+    family_lead: float = 1.5
+    resolution_gain: float = 0.02
+    resolution_z: float = 2.0
 
     def as_dict(self) -> dict[str, float]:
         """The thresholds by name."""

@@ -54,6 +54,7 @@ from ..exceptions import ParameterError
 from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MAP
 from ..fitting.metrics import percent_of_range
 from .acceptance import (
+    RULE,
     Decision,
     clearly_better,
     decide,
@@ -116,13 +117,14 @@ __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
 
 def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
     """Smallest gain with which ``name`` could still be chosen over the leading passing
-    family (:func:`_choose`: a later family needs 1.5 times its gain); 0 when unbounded."""
+    family (:func:`_choose`: a later family needs ``family_lead`` times its gain); 0 when
+    unbounded."""
     if lead is None:
         return 0.0
     fam = EFFECTS[name].family
     if fam == lead[0] or FAMILY_PRIORITY[fam] <= FAMILY_PRIORITY[lead[0]]:
         return 0.0
-    return 1.5 * lead[1]
+    return RULE.family_lead * lead[1]
 
 
 def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[str, float]:
@@ -140,7 +142,7 @@ def _deferred_row(rnd: int, name: str, params: dict | None = None,
     and it could not explain 1.5 times as much, or (``screen``, its training-RSS reduction,
     below zero) because it does not lower the training error at all."""
     why = ("not needed: an effect of a higher-priority family passed, and this one could not "
-           "explain 1.5 times as much") if screen is None else (
+           f"explain {RULE.family_lead:g} times as much") if screen is None else (
         f"not tested further: it does not lower the training error (change "
         f"{100 * screen:+.1f} %), so it cannot pass held out")
     return RoundRow(rnd + 1, name, float("nan"), float("nan"), float("nan"), False,
@@ -666,7 +668,7 @@ def _evidence(run: _Run, cur: Fit, c: _Candidate, rnd: int, frac: float) -> _Can
     """
     ctx, name = run.ctx, c.name
     if ctx.strict and not EFFECTS[name].before_wipeout:
-        if c.heldout.gain >= ACCEPT_RULE["min_gain"]:
+        if c.heldout.gain >= RULE.min_gain:
             run.step(rnd, frac, f"cross-fitting {name}")
             cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
@@ -853,9 +855,9 @@ def _seen_in_events(ctx: FitContext, cur: Fit, c: _Candidate) -> bool:
 
 def _events_reason(ctx: FitContext, cur: Fit, c: _Candidate) -> str:
     g = _event_gains(ctx, cur, c.fit)
-    seen = sum(1 for x in g if x >= ACCEPT_RULE["min_gain"])
+    seen = sum(1 for x in g if x >= RULE.min_gain)
     return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
-            f"recording: a dynamic stage is named when at least {ACCEPT_RULE['min_events']} "
+            f"recording: a dynamic stage is named when at least {RULE.min_events} "
             "independent events show it (more steps or cycles would decide)")
 
 
@@ -1096,7 +1098,7 @@ def _lookalikes(ctx: FitContext, c: _Candidate, cands: dict[str, _Candidate],
             runner = {"effect": other, "heldout_mse_reduction": oh.gain,
                       "z_best_vs_this": hh.z, "parameters": o.parameters}
         if (other in passing or ((o.between is not None or cross) and o.size_ok)) and (
-                oh.gain >= (1 - ACCEPT_RULE["family_margin"]) * c.heldout.gain or hh.z < 3.0):
+                oh.gain >= (1 - RULE.family_margin) * c.heldout.gain or hh.z < RULE.min_z):
             amb.append(other)
     return amb, runner
 
@@ -1118,7 +1120,7 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         "fitted does not hold for what those rows contain (a step, a hold, another "
         "amplitude); trust it for inputs like the training ones"
         for o in where["outside_train_test"]
-        if o["rms_after"] > ACCEPT_RULE["outside_worse"] * o["rms_before"]
+        if o["rms_after"] > RULE.outside_worse * o["rms_before"]
     ]
     unc, unc_how = effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
     if EFFECTS[c.name].systematic is not None:
@@ -1416,13 +1418,15 @@ def _crossval(ctx: FitContext, base: Fit, cur: Fit) -> dict[str, Any] | None:
 
 def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
     """Once an effect is in, the baseline may turn out under-resolved: double the play grid
-    while the held-out fit improves (≥ 2 % and z ≥ 2 or sign p < 0.01)."""
+    while the held-out fit improves (``resolution_gain`` and ``resolution_z`` of
+    :class:`~core.diagnosis.acceptance.AcceptRule`)."""
     while not fit.structure.bouc_wen and len(fit.structure.thresholds) * 2 <= n_max:
         n2 = 2 * len(fit.structure.thresholds)
         r = shape_thresholds(fit.structure.shape, ctx.records, ctx.train, n2)  # w units
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
         h = compare_heldout(ctx, fit, f2)
-        ok = h.gain >= 0.02 and (h.z >= 2.0 or h.sign_p < 0.01)
+        ok = h.gain >= RULE.resolution_gain and (h.z >= RULE.resolution_z
+                                                  or h.sign_p < RULE.sign_p)
         rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
                        "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
                        "decision": "accepted" if ok else "rejected", "parameters": {}})
@@ -1455,7 +1459,7 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
                 for o in results if o != b}
 
     def undecided(hh: HeldOut) -> bool:
-        return hh.z < 3.0 and hh.sign_p >= 0.01
+        return hh.z < RULE.min_z and hh.sign_p >= RULE.sign_p
 
     best = min(results, key=lambda n: results[n][3].mse_after)
     unnamed = None
@@ -1536,8 +1540,8 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
             why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
                    f" % less held-out MSE than {best}")
         elif other == unnamed or hh is None or undecided(hh):
-            why = (f"{best} and {other} predict the held-out rows equally well (DM z < 3, "
-                   "signed-rank p >= 0.01)")
+            why = (f"{best} and {other} predict the held-out rows equally well (DM z < "
+                   f"{RULE.min_z:g}, signed-rank p >= {RULE.sign_p:g})")
         elif not clearly_better(hh):
             why = (f"{best} predicts the held-out rows better than {other}, but {other} "
                    f"leaves only {100 * (hh.mse_before / hh.mse_after - 1):.1f} % more "
@@ -1795,7 +1799,7 @@ def _choose(passing: list[str], gains: dict[str, float]) -> str:
     order = sorted(by_fam, key=lambda f: FAMILY_PRIORITY[f])
     pick = by_fam[order[0]]
     for f in order[1:]:
-        if gains[by_fam[f]] >= 1.5 * gains[pick]:
+        if gains[by_fam[f]] >= RULE.family_lead * gains[pick]:
             pick = by_fam[f]
     return pick
 
@@ -1810,15 +1814,15 @@ def _cannot_win(held: dict[str, HeldOut], size_ok: dict[str, bool], needs_cf: se
     ("deferred") in this round and are tested again in the next one.
     """
     sure = [n for n in held if size_ok[n] and n not in needs_cf and (
-        held[n].z >= ACCEPT_RULE["min_z"]
-        or held[n].sign_p < ACCEPT_RULE["sign_p"] / n_tests)]
+        held[n].z >= RULE.min_z
+        or held[n].sign_p < RULE.sign_p / n_tests)]
     if not sure or not needs_cf:
         return set()
     top = min(FAMILY_PRIORITY[EFFECTS[n].family] for n in sure)
     if any(FAMILY_PRIORITY[EFFECTS[n].family] <= top for n in needs_cf):
         return set()
     fam_top = {EFFECTS[n].family for n in sure if FAMILY_PRIORITY[EFFECTS[n].family] == top}
-    bound = 1.5 * max(held[n].gain for n in sure if EFFECTS[n].family in fam_top)
+    bound = RULE.family_lead * max(held[n].gain for n in sure if EFFECTS[n].family in fam_top)
     best_of_family: dict[str, float] = {}
     for n in needs_cf:
         f = EFFECTS[n].family
