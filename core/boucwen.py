@@ -28,7 +28,7 @@ from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
 from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
-from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
+from .validation import as_finite_scalar, as_input_signal, as_state_vector, as_vector
 
 __all__ = [
     "MAX_SUBSTEPS",
@@ -320,11 +320,7 @@ class BoucWenModel(Model):
             raise ParameterError(
                 f"exponent[{j}] = {e[j]:g} must be >= 1 (the power of |z| in the Bouc-Wen law)"
             )
-        if self.state0 is None:
-            z0 = frozen(np.zeros(m))
-        else:
-            a = np.asarray(self.state0, dtype=np.float64)
-            z0 = as_vector(np.full(m, float(a)) if a.ndim == 0 else a, "state0", length=m)
+        z0 = as_state_vector(self.state0, m)
         over = np.abs(z0) > zs
         if over.any():
             j = int(np.flatnonzero(over)[0])

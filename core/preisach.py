@@ -50,7 +50,7 @@ from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import _level_sum, njit
 from .pi import PIModel
-from .validation import as_finite_scalar, as_matrix, as_vector, frozen
+from .validation import as_finite_scalar, as_matrix, as_state_vector, as_vector
 
 __all__ = ["PreisachInverse", "PreisachModel", "RateDependentPreisach",
            "RateDependentPreisachInverse", "level_segments"]
@@ -168,12 +168,7 @@ class PreisachModel(Model):
         object.__setattr__(self, "thresholds", r)
         object.__setattr__(self, "knots", e)
         object.__setattr__(self, "weights", w)
-        if self.state0 is None:
-            s0 = frozen(np.zeros(r.size))
-        else:
-            s = np.asarray(self.state0, dtype=np.float64)
-            s0 = as_vector(np.full(r.size, float(s)) if s.ndim == 0 else s, "state0", length=r.size)
-        object.__setattr__(self, "state0", s0)
+        object.__setattr__(self, "state0", as_state_vector(self.state0, r.size))
 
     @classmethod
     def from_pi(cls, pi: PIModel, knots: ArrayLike = ()) -> PreisachModel:

@@ -31,7 +31,7 @@ from ._typing import ArrayLike, Float1D
 from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError
 from .pi import PIModel
-from .validation import as_finite_scalar, as_vector, frozen
+from .validation import as_finite_scalar, as_state_vector, as_vector
 
 __all__ = ["StopPIModel"]
 
@@ -95,13 +95,7 @@ class StopPIModel(Model):
         w = as_vector(self.weights, "weights", length=r.size)
         object.__setattr__(self, "thresholds", r)
         object.__setattr__(self, "weights", w)
-        if self.state0 is None:
-            s0 = frozen(np.zeros(r.size))
-        else:
-            s = np.asarray(self.state0, dtype=np.float64)
-            s0 = as_vector(np.full(r.size, float(s)) if s.ndim == 0 else s, "state0",
-                           length=r.size)
-        object.__setattr__(self, "state0", s0)
+        object.__setattr__(self, "state0", as_state_vector(self.state0, r.size))
 
     # ------------------------------------------------------------------ properties
     @property

@@ -11,6 +11,7 @@ __all__ = [
     "as_finite_scalar",
     "as_input_signal",
     "as_matrix",
+    "as_state_vector",
     "as_vector",
     "frozen",
 ]
@@ -90,6 +91,29 @@ def as_vector(
                 f">= {name}[{i + 1}] = {a[i + 1]:g}; sort them and remove duplicates"
             )
     return frozen(a)
+
+
+def as_state_vector(x: ArrayLike | None, n: int, name: str = "state0") -> Float1D:
+    """An operator bank's initial state: ``None`` gives zeros, a scalar is given to every
+    one of the ``n`` operators, a vector must have length ``n``.
+
+    Parameters
+    ----------
+    x : None, float or array_like of shape (n,)
+    n : int
+        Number of operators.
+    name : str
+        Parameter name used in error messages.
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        Finite and read-only.
+    """
+    if x is None:
+        return frozen(np.zeros(n))
+    s = np.asarray(x, dtype=np.float64)
+    return as_vector(np.full(n, float(s)) if s.ndim == 0 else s, name, length=n)
 
 
 def as_matrix(
