@@ -51,7 +51,8 @@ def fmu(request, tmp_path_factory) -> Path:
 class Master:
     """An importer's side of one FMU instance: fmpy's low-level calls, nothing more."""
 
-    def __init__(self, path: Path, unzip: Path) -> None:
+    def __init__(self, path: Path, unzip: Path, log: list[str] | None = None,
+                 start: bool = True) -> None:
         md = read_model_description(str(path))
         self.v3 = md.fmiVersion.startswith("3")
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -59,14 +60,23 @@ class Master:
         cls = FMU3Slave if self.v3 else FMU2Slave
         self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
                        modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
-        self.fmu.instantiate()
+        if log is None:
+            self.fmu.instantiate()
+        else:
+            from tests.core.test_export_fmu import instantiate_logging
+
+            instantiate_logging(self.fmu, self.v3, log)
+        self.calls = 0
+        if start:
+            self.start()
+
+    def start(self) -> None:
         if self.v3:
             self.fmu.enterInitializationMode(startTime=0.0)
         else:
             self.fmu.setupExperiment(startTime=0.0)
             self.fmu.enterInitializationMode()
         self.fmu.exitInitializationMode()
-        self.calls = 0
 
     def set(self, value: float) -> None:
         (self.fmu.setFloat64 if self.v3 else self.fmu.setReal)([1], [value])
@@ -255,29 +265,12 @@ def test_a_c_master_runs_a_million_accumulated_steps(tmp_path) -> None:
 
 # ----------------------------------------------------------------------------- bad values
 class LoggedMaster(Master):
-    """A master whose FMU logs into ``self.log`` (``"<status> <message>"``)."""
+    """A master whose FMU logs into ``self.log`` (``"<status> <message>"``); started by the
+    test (:meth:`start`)."""
 
     def __init__(self, path: Path, unzip: Path) -> None:
-        from tests.core.test_export_fmu import instantiate_logging
-
-        md = read_model_description(str(path))
-        self.v3 = md.fmiVersion.startswith("3")
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        d = extract(str(path), unzipdir=str(unzip))
-        cls = FMU3Slave if self.v3 else FMU2Slave
-        self.fmu = cls(guid=md.instantiationToken if self.v3 else md.guid, unzipDirectory=d,
-                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
         self.log: list[str] = []
-        instantiate_logging(self.fmu, self.v3, self.log)
-        self.calls = 0
-
-    def start(self) -> None:
-        if self.v3:
-            self.fmu.enterInitializationMode(startTime=0.0)
-        else:
-            self.fmu.setupExperiment(startTime=0.0)
-            self.fmu.enterInitializationMode()
-        self.fmu.exitInitializationMode()
+        super().__init__(path, unzip, log=self.log, start=False)
 
     def set_named(self, values: dict[str, float]) -> None:
         (self.fmu.setFloat64 if self.v3 else self.fmu.setReal)(
