@@ -40,19 +40,14 @@ def _signature(ctx: FitContext) -> tuple[list[np.ndarray], str, bool] | None:
     test a drift, or when the one recording does not repeat its input."""
     if len(ctx.records) != 1:
         return None
-    masks, said = [], []
-    for r in ctx.records:
-        cyc = repeated_cycles(r.u)
-        m = np.ones(r.n_samples, dtype=bool)
-        if cyc:
-            m[:] = False
-            m[cyc[1][0] : cyc[-1][1]] = True
-            said.append(f"{r.name}: {len(cyc) - 1} repeated input cycles from "
-                        f"t = {r.t[cyc[1][0]]:.4g} s")
-        masks.append(m)
-    if not said:
+    r = ctx.records[0]
+    cyc = repeated_cycles(r.u)
+    if not cyc:
         return None
-    return masks, "cycle to cycle after the first (" + "; ".join(said) + ")", True
+    m = np.zeros(r.n_samples, dtype=bool)
+    m[cyc[1][0] : cyc[-1][1]] = True
+    return [m], (f"cycle to cycle after the first ({r.name}: {len(cyc) - 1} repeated input "
+                 f"cycles from t = {r.t[cyc[1][0]]:.4g} s)"), True
 
 
 def _columns(degree: int, rows: TermRows) -> np.ndarray:
