@@ -802,8 +802,8 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
                 f"judged {c.where}, it makes the other test rows worse (MSE "
                 f"{100 * e.gain:+.1f} %, z {e.z:.2f})",))
             decision = "contradicted"
-        elif dec.passes and not _seen_in_events(ctx, cur, c):
-            dec = replace(dec, passes=False, reasons=(_events_reason(ctx, cur, c),))
+        elif dec.passes and (why := _events_refusal(ctx, cur, c)) is not None:
+            dec = replace(dec, passes=False, reasons=(why,))
         elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
@@ -846,15 +846,14 @@ def _event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
     return out
 
 
-def _seen_in_events(ctx: FitContext, cur: Fit, c: _Candidate) -> bool:
-    """Acceptance rule 14 for candidate ``c`` (only output dynamics with one recording)."""
+def _events_refusal(ctx: FitContext, cur: Fit, c: _Candidate) -> str | None:
+    """Why acceptance rule 14 refuses candidate ``c`` (only output dynamics with one
+    recording), or ``None`` when it holds."""
     if EFFECTS[c.name].dynamics is None or len(ctx.records) != 1:
-        return True
-    return enough_events(_event_gains(ctx, cur, c.fit))
-
-
-def _events_reason(ctx: FitContext, cur: Fit, c: _Candidate) -> str:
+        return None
     g = _event_gains(ctx, cur, c.fit)
+    if enough_events(g):
+        return None
     seen = sum(1 for x in g if x >= RULE.min_gain)
     return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
             f"recording: a dynamic stage is named when at least {RULE.min_events} "
