@@ -13,7 +13,9 @@ user would run it:
    inverse has a roll-off at 4 f_n with a stated error bound);
 3. ``hyst simulate --inverse`` computes the drive for a NEW desired trajectory (a staircase with
    holds for creep, a 15 + 40 Hz multisine for the resonance), and ``hyst export --format c``
-   gives the same compensator in C99, compiled with gcc and run on the same trajectory;
+   gives the same compensator in C99, compiled with gcc and run on the same trajectory (fed
+   ``<NAME>_INV_PREVIEW`` samples ahead when the saved model has a delay, as the Python
+   inverse reads the trajectory ahead, so both drives agree to round-off);
 4. the true plant is driven with each drive; the tracking RMS error of the extended
    compensator is compared with the PI-only one's (goal: ratio <= 0.6).
 
@@ -111,10 +113,16 @@ def run_c(tmp: Path, model_json: Path, name: str, yd: np.ndarray, dt: float) -> 
     driver = tmp / f"{name}_main.c"
     driver.write_text("\n".join([
         "#include <stdio.h>", f'#include "{name}.h"', "static double buf[100000];",
-        "int main(void) {", "    size_t n = fread(buf, sizeof(double), 100000, stdin), k;",
+        # a model with a delay needs the desired output PREVIEW samples ahead (the header
+        # defines <NAME>_INV_PREVIEW then): call k gets desired[k + PREVIEW], held at the end
+        f"#ifndef {name.upper()}_INV_PREVIEW", f"#define {name.upper()}_INV_PREVIEW 0", "#endif",
+        "static double drive[100000];",
+        "int main(void) {", "    size_t n = fread(buf, sizeof(double), 100000, stdin), k, j;",
         f"    {name}_inv_state st;", f"    {name}_inv_init(&st);",
-        f"    for (k = 0; k < n; ++k) buf[k] = {name}_inv_step(&st, buf[k]);",
-        "    fwrite(buf, sizeof(double), n, stdout);", "    return 0;", "}", ""]))
+        "    for (k = 0; k < n; ++k) {",
+        f"        j = k + {name.upper()}_INV_PREVIEW < n ? k + {name.upper()}_INV_PREVIEW : n - 1;",
+        f"        drive[k] = {name}_inv_step(&st, buf[j]);", "    }",
+        "    fwrite(drive, sizeof(double), n, stdout);", "    return 0;", "}", ""]))
     exe = tmp / name
     subprocess.run([shutil.which("gcc") or "gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra",
                     "-Werror", "-O2", "-o", str(exe), str(driver), f"{stem}.c", "-lm"],
