@@ -34,6 +34,7 @@ __all__ = [
     "bouc_wen_bank",
     "bouc_wen_inverse",
     "bouc_wen_output",
+    "stop_gap_output",
     "pi_batch",
     "pi_output_fast",
     "level_segments_rows",
@@ -136,6 +137,86 @@ def pi_output_fast(u, r, w, p0, z, out):  # pragma: no cover - compiled
             z[i] = zi
             acc += w[i] * zi
         out[k] = p0 * uk + acc
+
+
+@njit(cache=True, nogil=True)
+def _stop_force(v, r, w, k, z):  # pragma: no cover - compiled
+    acc = k * v
+    for i in range(r.shape[0]):
+        acc += w[i] * (v - z[i])
+    return acc
+
+
+@njit(cache=True, nogil=True)
+def _clip_plays(v, r, z):  # pragma: no cover - compiled
+    for i in range(r.shape[0]):
+        z[i] = max(v - r[i], min(v + r[i], z[i]))
+
+
+@njit(cache=True, nogil=True)
+def _branch_zero(v0, v1, r, w, k, z, side):  # pragma: no cover - compiled
+    """Where the force of the bank (plays ``z`` at ``v0``) reaches zero on the way from
+    ``v0`` (force of sign ``side``) to ``v1`` (opposite sign): bisection on the branch
+    (piecewise linear and monotone), to round-off."""
+    zt = z.copy()
+    lo = v0
+    hi = v1
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if mid == lo or mid == hi:
+            break
+        for i in range(r.shape[0]):
+            zt[i] = max(mid - r[i], min(mid + r[i], z[i]))
+        if _stop_force(mid, r, w, k, zt) * side > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+@njit(cache=True, nogil=True)
+def stop_gap_output(u, r, w, k, h, z, s, out):  # pragma: no cover - compiled
+    """Stop bank ``F(v) = k v + sum w_i (v - z_i)`` behind a backlash gap of half-width ``h > 0``.
+
+    ``s = [v, x]``: the bank's input ``v`` and the gap position ``x = u - v`` (``|x| <= h``).
+    In contact (``|x| = h``) the bank follows ``v = u - sign(x) h`` as long as its force keeps
+    the sign of the contact; where that force would cross zero the bank stops at the zero
+    (:func:`_branch_zero`) and the gap opens: ``v`` holds, the force stays
+    0, until the input has crossed the gap and touches its other (or the same) side.
+    """
+    N = u.shape[0]
+    v = s[0]
+    x = s[1]
+    for t in range(N):
+        ut = u[t]
+        if abs(x) >= h:  # in contact
+            side = 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+            f0 = _stop_force(v, r, w, k, z)
+            vt = ut - side * h
+            z1 = z.copy()
+            _clip_plays(vt, r, z1)
+            ft = _stop_force(vt, r, w, k, z1)
+            if ft * side < 0.0:
+                if f0 * side > 0.0:
+                    v = _branch_zero(v, vt, r, w, k, z, side)
+                _clip_plays(v, r, z)
+                x = ut - v
+            else:
+                v = vt
+                for i in range(r.shape[0]):
+                    z[i] = z1[i]
+                x = side * h
+        else:
+            x = ut - v
+        if abs(x) >= h:  # (re)closed on the side the input reached
+            side = 1.0 if x > 0 else -1.0
+            v = ut - side * h
+            _clip_plays(v, r, z)
+            x = side * h
+        # open: no force passes the gap (exactly 0, not the zero search's round-off)
+        out[t] = _stop_force(v, r, w, k, z) if abs(x) >= h else 0.0
+    s[0] = v
+    s[1] = x
 
 
 @njit(cache=True, nogil=True, fastmath={"reassoc"})

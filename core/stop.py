@@ -11,12 +11,21 @@ In mechanical words each term is a Maxwell-slip element: a spring of stiffness `
 series with a slider that slips at the force ``w_i r_i``; ``k`` is a spring in parallel.
 Once every slider slips the output is ``k u`` plus the friction plateau ``±sum_i w_i r_i``.
 
+A friction damper with a loose joint has a **backlash gap** of width ``b`` in series
+(``gap``): the elements see ``v = u - x`` with the gap position ``|x| <= b / 2``. While the
+force keeps its sign the joint stays closed on that side and ``v`` follows ``u``; where the
+force comes down to zero (half-way through a transition between the plateaus, not at the
+reversal) the joint opens and the force stays at zero while the input crosses the gap, a
+dead band of width ``b`` in the input's unit, wherever the reversal was.
+
 Since ``Xi_r = I - Gamma_r``, the model is the play-type PI ``p0 = k + sum w_i``,
 ``p_i = -w_i`` (:meth:`StopPIModel.equivalent_pi`, exact to round-off), so its inverse is the
 play-type PI of paper 001 eq. 35-37: with ``w_i >= 0`` and ``k > 0`` every inverse weight
 ``q_i = w_i / (S_i S_{i+1})`` is positive (the inverse of a stop-type Prandtl operator is a
 play-type one). With ``k = 0`` the output saturates at the plateau and no input gives a
-larger output: :meth:`StopPIModel.inverse` says so.
+larger output: :meth:`StopPIModel.inverse` says so. With a gap the inverse is that PI plus
+the side of the gap the force presses on (:class:`StopGapInverse`): it crosses the gap in
+one sample where the desired force changes sign.
 """
 
 from __future__ import annotations
@@ -29,11 +38,11 @@ import numpy as np
 from . import kernels
 from ._typing import ArrayLike, Float1D
 from .base import Control, Field, Model, register_model
-from .exceptions import NotInvertibleError
+from .exceptions import NotInvertibleError, ParameterError
 from .pi import PIModel
 from .validation import as_finite_scalar, as_state_vector, as_vector
 
-__all__ = ["StopPIModel"]
+__all__ = ["StopGapInverse", "StopPIModel"]
 
 
 @register_model
@@ -57,6 +66,11 @@ class StopPIModel(Model):
     state0 : array_like of shape (n,), optional
         Slider positions before the first sample (input units; element ``i``'s deflection
         is ``u - state0[i]``); zeros by default. A scalar is broadcast.
+    gap : float, optional
+        Width ``b >= 0`` of a backlash gap in series (input units; module docstring); 0 by
+        default (no gap). With a gap the state is the sliders' positions followed by the
+        bank's input ``v`` and the gap position ``x`` (``n + 2`` numbers); before the first
+        sample the gap is centred and ``v`` is the sliders' mean position.
 
     Examples
     --------
@@ -83,11 +97,16 @@ class StopPIModel(Model):
         Field("state0", "numbers", optional=True, doc="slider positions before the first "
               "sample (input units)", title="Initial slider positions x_i(0)",
               scale_with=("thresholds",), control=Control("x{i}(0)", "input", (-1.25, 1.25))),
+        Field("gap", "number", optional=True, default=0.0, doc="width of a backlash gap in "
+              "series (input units): the force stays zero while the input crosses it",
+              title="Backlash gap b", control=Control("b", "input", (0.0, 0.5), lower=0.0,
+                                                      relative=False)),
     )
     k: float
     thresholds: Float1D
     weights: Float1D
     state0: Float1D | None = None
+    gap: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "k", as_finite_scalar(self.k, "k"))
@@ -96,6 +115,11 @@ class StopPIModel(Model):
         object.__setattr__(self, "thresholds", r)
         object.__setattr__(self, "weights", w)
         object.__setattr__(self, "state0", as_state_vector(self.state0, r.size))
+        gap = as_finite_scalar(0.0 if self.gap is None else self.gap, "gap")
+        if gap < 0:
+            raise ParameterError(f"gap must be >= 0 (the backlash's width in input units), "
+                                 f"got {gap:g}")
+        object.__setattr__(self, "gap", gap)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -138,11 +162,20 @@ class StopPIModel(Model):
 
     # ------------------------------------------------------------------ simulation
     def default_state(self) -> Float1D:
+        if self.gap > 0:
+            return np.concatenate((self.state0, [float(np.mean(self.state0)), 0.0]))
         return np.array(self.state0, copy=True)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Float1D]:
-        z = np.array(as_vector(state, "state", length=self.n), copy=True)
+        n = self.n
         y = np.empty(u.size)
+        if self.gap > 0:
+            st = np.array(as_vector(state, "state", length=n + 2), copy=True)
+            z, s = st[:n].copy(), st[n:].copy()
+            kernels.stop_gap_output(u, self.thresholds, self.weights, self.k, 0.5 * self.gap,
+                                    z, s, y)
+            return y, np.concatenate((z, s))
+        z = np.array(as_vector(state, "state", length=n), copy=True)
         p0 = self.k + float(np.sum(self.weights))
         kernels.pi_output_fast(u, self.thresholds, -self.weights, p0, z, y)
         return y, z
@@ -156,8 +189,9 @@ class StopPIModel(Model):
         return uu[:, None] - Z
 
     # ------------------------------------------------------------------ inverse
-    def inverse(self) -> PIModel:
-        """The play-type PI inverse (paper 001 eq. 35-37 on :meth:`equivalent_pi`).
+    def inverse(self) -> Model:
+        """The play-type PI inverse (paper 001 eq. 35-37 on :meth:`equivalent_pi`); with a
+        gap, :class:`StopGapInverse` (that PI plus the gap's side).
 
         Raises
         ------
@@ -172,9 +206,73 @@ class StopPIModel(Model):
                 f"{self.friction_plateau:g}, so no input gives a larger output"
             )
         try:
-            return self.equivalent_pi().inverse()
+            bank = self.equivalent_pi().inverse()
         except NotInvertibleError as exc:
             raise NotInvertibleError(
                 "stop-pi model is not invertible: every branch slope k + w_i + ... + w_n must "
                 f"be > 0 ({exc})"
             ) from None
+        return StopGapInverse(bank, self.gap) if self.gap > 0 else bank
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class StopGapInverse(Model):
+    """Inverse of a stop-operator model behind a backlash gap: ``u = G[y] + (b/2) s(y)``.
+
+    ``G`` is the play-type PI inverse of the element bank and ``s`` the side of the gap the
+    force presses on: ``sign(y)``, held while ``y`` is exactly 0 (the gap is crossed in one
+    sample where the desired force changes sign).
+
+    Parameters
+    ----------
+    model : PIModel
+        The inverse of the element bank (output units in, input units out).
+    gap : float
+        The gap's width ``b > 0`` (input units).
+    """
+
+    type_name: ClassVar[str] = "stop-pi-gap-inverse"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("model", "model", doc="inverse of the element bank (a play-type PI)"),
+        Field("gap", "number", doc="width of the backlash gap (input units)",
+              title="Backlash gap b", control=Control("b", "input", (0.0, 0.5), lower=0.0,
+                                                      relative=False)),
+    )
+    model: PIModel
+    gap: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, PIModel):
+            raise ParameterError("the inverse of a stop-pi model with a gap holds a pi model")
+        gap = as_finite_scalar(self.gap, "gap")
+        if gap <= 0:
+            raise ParameterError(f"gap must be > 0 (input units), got {gap:g}")
+        object.__setattr__(self, "gap", gap)
+
+    def default_state(self) -> Float1D:
+        return np.concatenate((self.model.default_state(), [0.0]))
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Float1D]:
+        n = self.model.n
+        st = as_vector(state, "state", length=n + 1)
+        v, z = self.model._run(u, st[:n], dt)
+        side = np.sign(u)
+        if side.size:
+            held = side == 0
+            side[held] = np.nan
+            side = np.concatenate(([st[n]], side))
+            idx = np.where(np.isnan(side), 0, np.arange(side.size))
+            np.maximum.accumulate(idx, out=idx)
+            side = side[idx][1:]
+            last = float(side[-1])
+        else:
+            last = float(st[n])
+        return v + 0.5 * self.gap * side, np.concatenate((z, [last]))
+
+    def inverse(self) -> StopPIModel:
+        """The stop-operator model with its gap (the bank's state relaxed at zero)."""
+        bank = self.model.inverse()  # a play-type PI: p0 = k + sum w, p_i = -w_i
+        w = -np.asarray(bank.weights)
+        return StopPIModel(float(bank.p0 + np.sum(bank.weights)), bank.thresholds, w,
+                           gap=self.gap)

@@ -62,6 +62,9 @@ RATE_PREISACH = RateDependentPreisach(PREISACH.thresholds, PREISACH.weights, 2e-
                                       PREISACH.knots, PREISACH.state0)
 #: A stop-operator PI (Maxwell-slip, clockwise loops; input about ±3), sliders off zero.
 STOP_PI = StopPIModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], state0=[0.1, -0.2, 0.3])
+#: The same behind a backlash gap 0.4 wide (a friction damper with a loose joint).
+STOP_GAP = StopPIModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], state0=[0.1, -0.2, 0.3],
+                       gap=0.4)
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
 
@@ -130,6 +133,7 @@ def _zoo() -> dict[str, Model]:
         "rate-preisach": RATE_PREISACH,
         "rate-preisach-inverse": RATE_PREISACH.inverse(),
         "stop-pi": STOP_PI,
+        "stop-pi-gap-inverse": STOP_GAP.inverse(),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)
@@ -146,4 +150,5 @@ DIAGNOSED: dict[str, Model] = {
     "diag-asym-drift": Chain.of(EX1, ZOO["asymmetry"], ZOO["drift"]),
     "diag-rate-memory": Chain.of(ZOO["initial-memory"], ZOO["creep"]),
     "diag-preisach-memory": Chain.of(InitialMemory(PREISACH, [2.5, -1.5]), ZOO["offset"]),
+    "diag-friction-gap": Chain.of(STOP_GAP, ZOO["offset"]),
 }

@@ -35,7 +35,7 @@ EXACT = {
     "asymmetry", "asymmetry-inverse", "rate", "rate-inverse", "initial-memory", "deadzone",
     "gpi-deadzone", "mpi", "tanh-envelope", "gpi-tanh", "lti",
     "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse", "bouc-wen",
-    "bouc-wen-inverse", "rate-preisach", "rate-preisach-inverse", "stop-pi",
+    "bouc-wen-inverse", "rate-preisach", "rate-preisach-inverse", "stop-pi", "diag-friction-gap",
 }
 CASES: dict[str, Model] = {**ZOO, **DIAGNOSED}
 
