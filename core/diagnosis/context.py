@@ -8,9 +8,23 @@ from .._typing import Float1D
 from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
 from .locate import Coordinates, coordinates
-from .structure import Fit, Structure, _Cache, fit_structure
+from .structure import Fit, PIStageOutputs, Structure, _Cache, fit_structure
 
 __all__ = ["FitContext"]
+
+#: Bytes of predictions the fit memo of one diagnosis may hold (:meth:`FitContext.fit`);
+#: past it the oldest fits are dropped (refitted if met again), keeping the
+#: :data:`FIT_MEMO_MIN` most recent. 48 fits of a 50,000-sample recording hold 19 MB; of a
+#: 10-million-sample one, 3.8 GB.
+FIT_MEMO_BYTES = 160e6
+FIT_MEMO_MIN = 4
+
+
+def _fit_bytes(f: Fit) -> int:
+    """Bytes of the per-sample arrays a memoised fit holds: its predictions (its PI-stage
+    outputs once formed)."""
+    x = f.x_pi._x if isinstance(f.x_pi, PIStageOutputs) else f.x_pi
+    return sum(p.nbytes for p in f.pred) + sum(np.asarray(v).nbytes for v in (x or ()))
 
 
 class FitContext:
@@ -85,7 +99,12 @@ class FitContext:
         f = fit_structure(s, self.records, self.train, self.cache, x_init,
                           iterations=self.iterations)
         assert isinstance(f, Fit)
-        if len(self._fits) >= 48:
+        # (at most 48 fits, and past FIT_MEMO_BYTES of predictions the oldest go, keeping
+        # the FIT_MEMO_MIN most recent: a fit holds N predictions per recording)
+        while self._fits and (len(self._fits) >= 48 or (
+                len(self._fits) >= FIT_MEMO_MIN
+                and sum(_fit_bytes(v[2]) for v in self._fits.values()) + _fit_bytes(f)
+                > FIT_MEMO_BYTES)):
             self._fits.pop(next(iter(self._fits)))
         self._fits[key] = (list(self.train), x_init, f)
         return f

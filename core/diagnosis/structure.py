@@ -293,15 +293,17 @@ class PIStageOutputs(Sequence):
 
     Most fits never need them (only the bilinear creep and asymmetry regressors and the
     look-alike evidence read them), and each is a pass over an ``(N, n + 1)`` play bank, so
-    they are computed when first read (the same products as before, so the same numbers);
-    the banks are released then. :meth:`resolve` forms them at once (a result that outlives
-    the diagnosis should not hold the banks).
+    they are computed when first read. The object holds no bank: ``source(k, w)`` forms
+    recording ``k``'s output (:func:`_stage_output`: the plays streamed in row blocks, or the
+    cached bank times ``w``), so a memoised fit costs its outputs, not its banks.
+    :meth:`resolve` forms them at once (a result that outlives the diagnosis should not
+    hold the source's cache).
     """
 
-    def __init__(self, banks: Sequence[np.ndarray], w: np.ndarray) -> None:
-        self._banks: list[np.ndarray] | None = list(banks)
+    def __init__(self, source: Any, n: int, w: np.ndarray) -> None:
+        self._source = source
         self._w = w
-        self._n = len(self._banks)
+        self._n = n
         self._x: list[Float1D] | None = None
         self._lock = threading.Lock()
 
@@ -311,9 +313,8 @@ class PIStageOutputs(Sequence):
         if x is None:
             with self._lock:
                 if self._x is None:
-                    assert self._banks is not None
-                    self._x = [B @ self._w for B in self._banks]
-                    self._banks = None
+                    self._x = [self._source(k, self._w) for k in range(self._n)]
+                    self._source = None
                 x = self._x
         return x
 
@@ -327,7 +328,7 @@ class PIStageOutputs(Sequence):
         return self._n
 
     def __reduce__(self) -> tuple:
-        # pickled / copied as the plain list of outputs (never the banks or the lock): a
+        # pickled / copied as the plain list of outputs (never the source or the lock): a
         # worker process sends its diagnosis back pickled
         return (list, (self.resolve(),))
 
@@ -389,9 +390,7 @@ class _Cache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        if len(self.p) >= 16 and key not in self.p:
-            self.p.pop(next(iter(self.p)))
-        self.p[key] = (V, P, start0)
+        _keep(self.p, key, (V, P, start0), P.nbytes, 16, PROJECTION_CACHE_BYTES)
         return P[start - start0:]
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
@@ -466,9 +465,7 @@ class _Cache:
                 B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
             if upto is not None:
                 return B
-            if len(self.d) >= 6:
-                self.d.pop(next(iter(self.d)))
-            self.d[key] = B
+            _keep(self.d, key, B, B.nbytes, 6, BANK_CACHE_BYTES)
         return B
 
     def _bouc_wen_bank(self, k: int, rec: Recording, hist: tuple, shape: tuple,
@@ -501,9 +498,7 @@ class _Cache:
             L = level_segments(B.reshape(-1), s.levels).reshape(B.shape[0], n * m)
             # kept apart from the play banks (a search over one recording's history meets
             # the other recordings' levelled banks again and again)
-            if len(self.lv) >= 8:
-                self.lv.pop(next(iter(self.lv)))
-            self.lv[key] = L
+            _keep(self.lv, key, L, L.nbytes, 8, LEVEL_CACHE_BYTES)
         return L
 
 
@@ -522,6 +517,37 @@ RANKING_ROWS = 8000
 #: Memory for the Bouc-Wen banks of a virtual-history search (bytes): a search over the
 #: first recording's history revisits each of some hundred histories about three times.
 BW_HISTORY_BYTES = 128e6
+#: Memory the cache of one diagnosis may keep of the arrays that grow with the record
+#: (bytes): play banks ``(N, n + 1)``, their level segments ``(N, (n + 1) m)`` and the
+#: projections on a reduced basis ``(N, q)``. Within it the entries are also bounded in
+#: number (6, 8 and 16, least recently used first out), so a short recording keeps what it
+#: kept before; a long one keeps fewer (a bank is recomputed at about a nanosecond per
+#: sample and play, cheap beside the memory it would hold: 100 plays over 1 million
+#: samples are 0.8 GB).
+BANK_CACHE_BYTES = 192e6
+LEVEL_CACHE_BYTES = 96e6
+PROJECTION_CACHE_BYTES = 96e6
+#: Rows of a block of the play bank streamed by :func:`_stage_output` (0.4 MB per play).
+STREAM_ROWS = 50_000
+
+
+def _keep(d: dict, key: Any, value: Any, size: float, count: int, budget: float) -> None:
+    """Store ``d[key] = value`` (``size`` bytes) in a least-recently-used cache of at most
+    ``count`` entries and ``budget`` bytes (entry sizes by :func:`_nbytes`): the oldest
+    entries go first; a value larger than the whole budget is not stored."""
+    d.pop(key, None)
+    if size > budget:
+        return
+    while d and (len(d) >= count or sum(_nbytes(v) for v in d.values()) + size > budget):
+        d.pop(next(iter(d)))
+    d[key] = value
+
+
+def _nbytes(v: Any) -> float:
+    """Bytes of the arrays in a cache entry (an array or a tuple holding some)."""
+    if isinstance(v, np.ndarray):
+        return float(v.nbytes)
+    return float(sum(a.nbytes for a in v if isinstance(a, np.ndarray)))
 
 
 def _recent(d: dict, key: Any) -> Any:
@@ -1094,7 +1120,8 @@ def fit_structure(
             x_prev = [bs.banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
     assert w is not None
     coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
-    return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef)
+    return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef,
+                      cache)
 
 
 class _BankSet(NamedTuple):
@@ -1252,9 +1279,11 @@ def _solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: in
 
 
 def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
-               banks: list, p0: float, pw: np.ndarray, coef: dict[str, Any]) -> Fit:
+               banks: list, p0: float, pw: np.ndarray, coef: dict[str, Any],
+               cache: _Cache) -> Fit:
     """The :class:`Fit` of ``s`` with the solved weights: each recording's chain simulated
-    exactly (its training RSS from those predictions)."""
+    exactly (its training RSS from those predictions). The fit keeps no bank: its PI-stage
+    outputs are formed from ``cache`` when first read (:class:`PIStageOutputs`)."""
     models, preds = [], []
     rss = 0.0
     ntr = 0
@@ -1272,8 +1301,36 @@ def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.nd
         rss += float(np.sum((rec.y[m] - pred[m]) ** 2))
         ntr += int(m.sum())
     return Fit(structure=s, p0=p0, weights=pw, terms=coef, models=models, pred=preds,
-               x_pi=PIStageOutputs(banks, np.concatenate(([p0], pw))), train_rss=rss,
+               x_pi=PIStageOutputs(functools.partial(_stage_output, cache, s, tuple(records)),
+                                   len(records), np.concatenate(([p0], pw))),
+               train_rss=rss,
                n_train=ntr)
+
+def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: int,
+                  w: np.ndarray) -> Float1D:
+    """The PI-stage output ``bank @ w`` of recording ``k`` of structure ``s`` ``(N,)``.
+
+    A rate-independent play bank that is not in ``cache`` is streamed: the plays run over
+    blocks of :data:`STREAM_ROWS` rows with their state carried from block to block (the
+    play update is exact, so the rows are those of the whole bank), and each block is
+    multiplied and dropped, so the memory is one block, not ``(N, n + 1)``.
+    """
+    rec = records[k]
+    r = np.asarray(s.thresholds)
+    hist = s.history[k]
+    if s.beta_s is None and not s.levels and not s.bouc_wen and not cache.has_bank(
+            k, r, hist, s.shape):
+        u = apply_shape(s.shape, rec.u)
+        z = np.r_[0.0, play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)]
+        r_full = np.r_[0.0, r]
+        out = np.empty(u.size)
+        for a in range(0, u.size, STREAM_ROWS):
+            B, z = play_bank(u[a : a + STREAM_ROWS], r_full, z)
+            out[a : a + B.shape[0]] = B @ w
+        return out
+    B = cache.bank(k, rec, r, hist, s.beta_s, shape=s.shape, bouc_wen=s.bouc_wen)
+    return (cache.levelled(k, B, s) if s.levels else B) @ w
+
 
 def _term_columns(s: Structure, first: int, n_records: int
                   ) -> tuple[list[tuple[str, StaticTerm, Any, int, int]], int]:

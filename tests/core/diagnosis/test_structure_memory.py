@@ -1,0 +1,69 @@
+"""What the structure fits keep alive (issue 31): caches bounded in bytes, fits that hold no
+play bank, and PI-stage outputs streamed over row blocks equal to the whole bank's product."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.diagnosis import structure as st
+from core.operators import play_bank
+from core.pi import PIModel
+from core.recordings import Recording
+
+
+def _record(n: int = 20001, dt: float = 1e-3) -> tuple[Recording, list[np.ndarray]]:
+    t = np.arange(n) * dt
+    u = 40.0 * np.sin(2 * np.pi * 0.7 * t) * (1 - np.exp(-t / 3))
+    y = PIModel(0.5, [4.0, 12.0], [0.4, 0.2])(u)
+    return Recording(t, u, y + 0.002 * y**2, "sine"), [t <= 14.0]
+
+
+def test_keep_bounds_count_and_bytes_oldest_first() -> None:
+    d: dict = {}
+    for k in range(5):
+        st._keep(d, k, np.zeros(100), 800, count=10, budget=2500)
+    assert list(d) == [2, 3, 4]  # 3 x 800 bytes fit in 2500, the oldest went first
+    st._keep(d, 9, np.zeros(1000), 8000, count=10, budget=2500)
+    assert 9 not in d and list(d) == [2, 3, 4]  # larger than the whole budget: not stored
+    st._keep(d, 5, (np.zeros(10), np.zeros(100)), 800, count=2, budget=1e9)
+    assert list(d) == [4, 5]  # the count bound holds too
+
+
+@pytest.mark.parametrize("history", [(), ((25.0, -30.0),)])
+def test_streamed_stage_output_equals_the_whole_bank_product(monkeypatch, history) -> None:
+    """With no bank cached (budget 0) and blocks of 3,000 rows, a fit's PI-stage output is
+    formed block by block; it equals the whole bank (plays from the virtual history) times
+    the weights, and the fit keeps no bank alive."""
+    monkeypatch.setattr(st, "BANK_CACHE_BYTES", 0.0)
+    monkeypatch.setattr(st, "STREAM_ROWS", 3000)
+    rec, train = _record()
+    r = (2.0, 6.0, 12.0, 20.0)
+    s = st.Structure(r, history or ((),), dynamics=("lag", 0.004))
+    cache = st._Cache()
+    f = st.fit_structure(s, [rec], train, cache)
+    assert not cache.d  # nothing stored beyond the budget
+    assert isinstance(f.x_pi, st.PIStageOutputs) and f.x_pi._x is None
+    w = np.concatenate(([f.p0], f.weights))
+    z0 = play_bank(np.asarray(history[0]), np.asarray(r))[1] if history else np.zeros(len(r))
+    B = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
+    want = B @ w
+    scale = float(np.ptp(want))
+    np.testing.assert_allclose(f.x_pi[0], want, rtol=0, atol=1e-12 * scale)
+
+
+def test_fits_memoised_by_a_context_are_bounded_in_bytes(monkeypatch) -> None:
+    """The fit memo of a diagnosis drops its oldest fits past its byte budget (each fit holds
+    its predictions, N per recording), keeping at least the most recent few."""
+    from core.diagnosis import context as cx
+
+    monkeypatch.setattr(cx, "FIT_MEMO_BYTES", 1.0)
+    rec, train = _record(4001)
+    ctx = cx.FitContext([rec], train, [~train[0]])
+    r = (2.0, 6.0, 12.0)
+    fits = [ctx.fit(st.Structure(r, ((),), dynamics=("lag", tau)))
+            for tau in (0.002, 0.004, 0.006, 0.008, 0.010, 0.012)]
+    assert len(ctx._fits) == cx.FIT_MEMO_MIN
+    # the most recent are kept (a hit returns the same object), the oldest were dropped
+    assert ctx.fit(st.Structure(r, ((),), dynamics=("lag", 0.012))) is fits[-1]
+    assert ctx.fit(st.Structure(r, ((),), dynamics=("lag", 0.002))) is not fits[0]
