@@ -175,10 +175,11 @@ def _branch_zero(v0, v1, r, w, k, z, side):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def stop_gap_output(u, r, w, k, h, z, s, out):  # pragma: no cover - compiled
+def stop_gap_output(u, r, w, k, h, z, s, out, vout):  # pragma: no cover - compiled
     """Stop bank ``F(v) = k v + sum w_i (v - z_i)`` behind a backlash gap of half-width ``h > 0``.
 
-    ``s = [v, x]``: the bank's input ``v`` and the gap position ``x = u - v`` (``|x| <= h``).
+    ``s = [v, x]``: the bank's input ``v`` and the gap position ``x = u - v`` (``|x| <= h``);
+    ``vout`` receives ``v`` per sample.
     In contact (``|x| = h``) the bank follows ``v = u - sign(x) h`` as long as its force keeps
     the sign of the contact; where that force would cross zero the bank stops at the zero
     (:func:`_branch_zero`) and the gap opens: ``v`` holds, the force stays
@@ -215,6 +216,7 @@ def stop_gap_output(u, r, w, k, h, z, s, out):  # pragma: no cover - compiled
             x = side * h
         # open: no force passes the gap (exactly 0, not the zero search's round-off)
         out[t] = _stop_force(v, r, w, k, z) if abs(x) >= h else 0.0
+        vout[t] = v
     s[0] = v
     s[1] = x
 

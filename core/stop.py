@@ -173,7 +173,7 @@ class StopPIModel(Model):
             st = np.array(as_vector(state, "state", length=n + 2), copy=True)
             z, s = st[:n].copy(), st[n:].copy()
             kernels.stop_gap_output(u, self.thresholds, self.weights, self.k, 0.5 * self.gap,
-                                    z, s, y)
+                                    z, s, y, np.empty(u.size))
             return y, np.concatenate((z, s))
         z = np.array(as_vector(state, "state", length=n), copy=True)
         p0 = self.k + float(np.sum(self.weights))
@@ -187,6 +187,19 @@ class StopPIModel(Model):
         uu = np.asarray(u, dtype=np.float64)
         Z = play_bank(uu, self.thresholds, self.state0 if state is None else state)[0]
         return uu[:, None] - Z
+
+    def bank_input(self, u: ArrayLike, state: ArrayLike | None = None) -> Float1D:
+        """What the elements see behind the gap, ``v = u - x``, shape ``(N,)`` (input units;
+        ``u`` itself without a gap)."""
+        uu = np.ascontiguousarray(u, dtype=np.float64)
+        if self.gap <= 0:
+            return uu.copy()
+        n = self.n
+        st = np.array(self.default_state() if state is None else state, dtype=np.float64)
+        v = np.empty(uu.size)
+        kernels.stop_gap_output(uu, self.thresholds, self.weights, self.k, 0.5 * self.gap,
+                                st[:n].copy(), st[n:].copy(), np.empty(uu.size), v)
+        return v
 
     # ------------------------------------------------------------------ inverse
     def inverse(self) -> Model:
