@@ -25,7 +25,10 @@ from app.services.cost import priced_run, priced_steps
 from core.base import Model
 from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
-from core.effects import (
+from core.lti import LinearSystem
+from core.pi import PIModel
+from core.preisach import PreisachModel
+from core.stages import (
     Advance,
     Asymmetry,
     AsymmetryInverse,
@@ -35,9 +38,6 @@ from core.effects import (
     Drift,
     RateDependentPI,
 )
-from core.lti import LinearSystem
-from core.pi import PIModel
-from core.preisach import PreisachModel
 from tests.core.model_zoo import DIAGNOSED, DT, ZOO
 
 #: Samples of the timed runs.

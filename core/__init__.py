@@ -22,24 +22,6 @@ from .deadzone import DeadZoneMap
 from .diagnosis import DiagnosisResult, diagnose
 from .digitized import DigitizedPI, DigitizedState, DigitizedTrace, StateGraph
 from .digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
-from .effects import (
-    Advance,
-    Asymmetry,
-    AsymmetryInverse,
-    Creep,
-    CreepInverse,
-    Delay,
-    Drift,
-    InitialMemory,
-    Lag,
-    LagInverse,
-    Offset,
-    RateDependentPI,
-    RateDependentPIInverse,
-    Resonance,
-    ResonanceInverse,
-    causal_form,
-)
 from .exceptions import (
     ClippedInputWarning,
     FitWarning,
@@ -77,6 +59,24 @@ from .preisach import PreisachInverse, PreisachModel
 from .presets import PresetInfo, get_preset, list_presets
 from .recordings import Recording
 from .signals import SIGNALS, build_signal, list_signals
+from .stages import (
+    Advance,
+    Asymmetry,
+    AsymmetryInverse,
+    Creep,
+    CreepInverse,
+    Delay,
+    Drift,
+    InitialMemory,
+    Lag,
+    LagInverse,
+    Offset,
+    RateDependentPI,
+    RateDependentPIInverse,
+    Resonance,
+    ResonanceInverse,
+    causal_form,
+)
 
 __all__ = [
     "Advance",

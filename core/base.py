@@ -328,9 +328,9 @@ class Model(ABC):
     def preview_samples(self, dt: float | None) -> int:
         """Samples of the input needed ahead of time (0 for a causal model).
 
-        Non-zero only for the inverse of a delay (:class:`core.effects.Advance`) and chains
+        Non-zero only for the inverse of a delay (:class:`core.stages.Advance`) and chains
         holding one: a real-time compensator must be fed the desired trajectory this many
-        samples ahead (see :func:`core.effects.causal_form`).
+        samples ahead (see :func:`core.stages.causal_form`).
         """
         return 0
 

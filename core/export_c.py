@@ -37,8 +37,8 @@ from .c_emit.stage import (
     register_c_stage,
     supported_c_types,
 )
-from .effects import Advance
 from .escape import c_comment
+from .stages import Advance
 
 if TYPE_CHECKING:
     from .paramset import ParameterSet
@@ -269,7 +269,7 @@ def causal_compensator(model: Model, dt: float | None) -> tuple[Model, int]:
     """``model.inverse()`` in the causal form a real-time compensator runs, and its preview.
 
     An inverse that holds an advance (the inverse of a delay) needs the future: it becomes
-    :func:`core.effects.causal_form`, fed the desired output ``preview`` samples ahead.
+    :func:`core.stages.causal_form`, fed the desired output ``preview`` samples ahead.
 
     Raises
     ------
@@ -286,7 +286,7 @@ def causal_compensator(model: Model, dt: float | None) -> tuple[Model, int]:
             "the compensator inverts a delay and needs the sample time to size its "
             "preview; give dt (--dt on the command line)"
         )
-    from .effects import causal_form
+    from .stages import causal_form
 
     form = causal_form(inv, dt)
     return form.model, form.preview

@@ -17,7 +17,7 @@ source (``sources/``) so another platform can rebuild it. Its ports and paramete
   re-export to change them); a value whose derived constants are not finite is refused;
 - ``sample_time`` (``dt``: a fixed parameter whose only allowed value is the exported one)
   and ``preview_samples`` (a calculated parameter: the compensator's preview,
-  :func:`core.effects.causal_form`; also stated in the model description);
+  :func:`core.stages.causal_form`; also stated in the model description);
 - ``min`` / ``max`` from the hard limits the model's fields declare, checked in C when a
   value is set (with the order of increasing fields), units in the ASCII spelling FMI tools
   parse with their SI base units (:func:`fmi_unit`, :func:`base_unit`).

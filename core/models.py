@@ -22,11 +22,11 @@ from . import (  # noqa: F401
     deadzone,
     digitized,
     digitized_deadzone,
-    effects,
     gpi,
     lti,
     pi,
     preisach,
+    stages,
     stop,
 )
 from .base import Field, Model, model_class, registered_types

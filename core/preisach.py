@@ -396,7 +396,7 @@ class RateDependentPreisach(Model):
 
     ``y = Σ_i Σ_j W[i, j] seg_j(Γ_{r_i + β|u̇|}[u])``: the :class:`PreisachModel` (level-
     dependent density) with the additive rate-dependent thresholds of
-    :class:`core.effects.RateDependentPI` (relay switching points ``s ± (r + β|u̇|)``). A play
+    :class:`core.stages.RateDependentPI` (relay switching points ``s ± (r + β|u̇|)``). A play
     of threshold 0 is the reversible part and stays the identity at any rate, so the model
     differs from a delay. The rate is the backward difference ``(u_k - u_{k-1}) / dt``
     (none at the first sample); the state is ``(play outputs, previous input)``.

@@ -6,7 +6,7 @@ voltage (V) to displacement (µm), 5 kHz; rest at 0 V, a jump to about -87 V, th
 t = 0 so the play memory sees the full history).
 
 ``core.diagnosis.diagnose`` fits a PI baseline (25 operators, NNLS), maps where the residual
-lives, fits every testable effect of ``core.effects`` in full and keeps only those that improve
+lives, fits every testable effect of ``core.stages`` in full and keeps only those that improve
 the fit significantly on held-out data. With this explicit window the hold-out is strict: the
 decisions rest on the training window's cross-fitted blocks alone (≥ 5 % MSE reduction, and a
 batch-means Diebold–Mariano z ≥ 3 or a Wilcoxon signed-rank test, each ≥ 0.5 s block after the

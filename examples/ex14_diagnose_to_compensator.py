@@ -41,8 +41,8 @@ from _common import parse_out, quick, save
 
 from app.cli import main as hyst
 from core.base import Chain, Model
-from core.effects import Creep, Resonance
 from core.pi import PIModel
+from core.stages import Creep, Resonance
 
 NOISE_UM = 0.02
 CASES = {

@@ -129,9 +129,9 @@ def test_family_class_runs_only_when_asked_for() -> None:
 
 def test_three_effect_family_is_the_stages_in_order_and_single_effects_unchanged() -> None:
     """A ``a+b+c`` scenario is the base followed by the three truth stages (an independent
-    re-composition with ``core.effects``); one effect alone gives the same recordings as
+    re-composition with ``core.stages``); one effect alone gives the same recordings as
     before the multi-effect form existed (the noise stream, the drift phase)."""
-    from core.effects import Asymmetry, Creep, Resonance
+    from core.stages import Asymmetry, Creep, Resonance
 
     sc = make_family("maxwell-slip", "creep+resonance+asymmetry", "large", seed=4)
     assert set(sc.extras["hidden"]) == {"creep", "resonance", "asymmetry"}

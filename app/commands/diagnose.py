@@ -1,7 +1,7 @@
 """``hyst diagnose FILE.csv [FILE.csv ...]``: find the physics a PI model leaves out.
 
 Fits a PI baseline on the training rows, maps where the residual lives (LOCATE), fits every
-testable effect of :mod:`core.effects` in full and keeps those that improve the held-out fit
+testable effect of :mod:`core.stages` in full and keeps those that improve the held-out fit
 significantly (SAY / MODEL / SHOW); effects the recordings cannot excite are reported as
 untestable, look-alikes that the recordings cannot separate as ambiguous.
 

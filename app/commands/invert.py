@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Invert ``args.model`` into ``args.output``."""
     from core.base import Chain
-    from core.effects import Advance, Resonance, ResonanceInverse
+    from core.stages import Advance, Resonance, ResonanceInverse
 
     if args.bandwidth is not None and not (np.isfinite(args.bandwidth) and args.bandwidth > 0):
         raise CommandError(f"--bandwidth must be a positive frequency in Hz, got {args.bandwidth}")

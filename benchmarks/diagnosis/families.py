@@ -3,7 +3,7 @@
 Every plant of :mod:`benchmarks.diagnosis.generator` is a Prandtl–Ishlinskii model
 underneath; real actuators are not. This module adds base hysteresis families that the
 diagnosis' PI baseline cannot represent exactly, the recordings a user would have of them,
-the hidden effects of the benchmark applied after the base (``core.effects`` models), and
+the hidden effects of the benchmark applied after the base (``core.stages`` models), and
 the parameter-recovery score of a diagnosis against the truth.
 
 Base families (:data:`BASES`; input ``u`` in V over 0-150 V, output ``y`` in um, each scaled
@@ -43,8 +43,8 @@ from numba import njit
 
 from benchmarks.diagnosis.generator import Scenario
 from core.base import Model
-from core.effects import Asymmetry, Creep, Delay, Drift, Lag, Offset, Resonance
 from core.recordings import Recording
+from core.stages import Asymmetry, Creep, Delay, Drift, Lag, Offset, Resonance
 
 __all__ = ["BASES", "FAMILY_EFFECTS", "MULTI_EFFECTS", "SIZES", "STAGE_ORDER", "STROKE",
            "TIME_EFFECTS", "BoucWen", "Duhem", "MaxwellSlip", "Preisach", "family_signals",

@@ -29,7 +29,9 @@ import numpy as np
 
 from core.base import Chain, Model
 from core.deadzone import DeadZoneMap
-from core.effects import (
+from core.pi import PIModel
+from core.recordings import Recording
+from core.stages import (
     Asymmetry,
     Creep,
     Delay,
@@ -40,8 +42,6 @@ from core.effects import (
     RateDependentPI,
     Resonance,
 )
-from core.pi import PIModel
-from core.recordings import Recording
 
 __all__ = ["AMPLITUDES", "COMBOS", "EFFECTS", "LEVELS", "LEVEL_NAMES", "MAGNITUDES", "SHAPES",
            "WEAK", "Scenario", "magnitude", "make_amplitude_set", "make_closed_loop", "make_combo",
@@ -359,7 +359,7 @@ def make_periodic_set(beta_s: float | None, freqs: tuple[float, ...] = PERIODIC_
 
     Each recording holds ``cycles`` periods of ``samples_per_cycle`` samples (the sampling
     rate follows the frequency), a user's "a few cycles at a few rates". The plant is the
-    B-PI truth, rate-dependent (:class:`~core.effects.RateDependentPI`, ``beta_s`` in s)
+    B-PI truth, rate-dependent (:class:`~core.stages.RateDependentPI`, ``beta_s`` in s)
     unless ``beta_s`` is None. ``extras["loop_area"]`` lists the noise-free steady-state
     loop area of the last cycle per recording (input units x output units).
     """

@@ -1,6 +1,6 @@
 """Known effects applied to a recorded output: the concealed effects of the sealed set.
 
-The development set builds its hidden effects from the core's own models (``core.effects``:
+The development set builds its hidden effects from the core's own models (``core.stages``:
 ``Delay``, ``Lag``, ``Resonance``, ``Creep``, ``Drift``). The sealed set must not share code
 with the thing it tests, so its effects are written here a second time, directly in
 numpy/scipy, as operations on a sampled output ``y`` (shape ``(n,)``, sampling step ``dt`` in

@@ -1,11 +1,11 @@
-"""C emitters of the output-dynamics stages of :mod:`core.effects`: the resonance (an FOH
+"""C emitters of the output-dynamics stages of :mod:`core.stages`: the resonance (an FOH
 discretised transfer function), the lag and creep banks (and their inverses), the delay and
 the advance."""
 
 from __future__ import annotations
 
 from ..base import Model
-from ..effects import (
+from ..stages import (
     Advance,
     Creep,
     CreepInverse,
@@ -82,7 +82,7 @@ def _resonance_tune(model: Model, n: int, c: str, dt: float) -> list[str]:
 def _foh_helper(n: int, c: str) -> list[str]:
     """C of ``{c}foh(num, den, dt, b, a, zi)``: the first-order-hold discretisation of the
     order-``n`` transfer function ``num(s)/den(s)`` (``num`` padded to ``n + 1``) as
-    :func:`core.effects.discretised_tf`: the frequency is scaled to ``|den_n/den_0|^(1/n)``
+    :func:`core.stages.discretised_tf`: the frequency is scaled to ``|den_n/den_0|^(1/n)``
     (a well-conditioned companion form), ``expm`` of the FOH block matrix (Taylor series
     with scaling and squaring), the discrete polynomials by Faddeev-LeVerrier and
     ``lfilter_zi`` by Gaussian elimination."""
@@ -314,7 +314,7 @@ def _emit_delay(model: Model, ctx: StageContext) -> CStage:
 
 @register_c_stage(Advance)
 def _emit_advance(model: Model, ctx: StageContext) -> CStage:
-    """An advance only exists with preview: emitted through :func:`core.effects.causal_form`."""
+    """An advance only exists with preview: emitted through :func:`core.stages.causal_form`."""
     raise CExportError(
         "an 'advance' (inverse of a delay) needs the future; export the forward model's "
         "inverse (the compensator applies the preview: <name>_INV_PREVIEW)"

@@ -1,10 +1,10 @@
 """C emitters of the rate-dependent PI model and its inverse
-(:class:`core.effects.RateDependentPI`)."""
+(:class:`core.stages.RateDependentPI`)."""
 
 from __future__ import annotations
 
 from ..base import Model
-from ..effects import (
+from ..stages import (
     RateDependentPI,
     RateDependentPIInverse,
 )

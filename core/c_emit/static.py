@@ -1,4 +1,4 @@
-"""C emitters of the static stages of :mod:`core.effects`: offset, drift and the asymmetric
+"""C emitters of the static stages of :mod:`core.stages`: offset, drift and the asymmetric
 output map with its inverse."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base import Model
-from ..effects import (
+from ..stages import (
     Asymmetry,
     AsymmetryInverse,
     Drift,

@@ -3,7 +3,7 @@ was left out, MODEL it as an effect stage, SHOW the held-out improvement (or say
 cannot tell).
 
 The design follows ``shared/notes/missing-physics.md`` (catalog §3, engine §5); the effect
-models live in :mod:`core.effects`.
+models live in :mod:`core.stages`.
 
 Examples
 --------

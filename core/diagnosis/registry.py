@@ -44,7 +44,7 @@ class OutputDynamics:
     params : tuple of str
         Parameter names, in the order of the values after the name.
     model : callable
-        ``model(values) -> Model``: the :mod:`core.effects` stage.
+        ``model(values) -> Model``: the :mod:`core.stages` stage.
     transfer : callable or None
         ``transfer(values) -> (num, den)``: continuous-time transfer function coefficients
         (highest power first), discretised by first-order hold; ``None`` for a pure
@@ -134,7 +134,7 @@ class StaticTerm:
     structure fit (:func:`~core.diagnosis.structure.fit_structure`) asks every registered
     term for its columns, solves all weights at once, hands each term its slice of the
     solution (:attr:`coefficients`), and :func:`~core.diagnosis.structure.build_model` asks
-    it for the :mod:`core.effects` stage the coefficients make. The columns of the terms
+    it for the :mod:`core.stages` stage the coefficients make. The columns of the terms
     follow the play-bank columns in :attr:`DiagnosableEffect.stage_order` (those acting
     before the output dynamics first), and the stages sit in the chain in that order.
 

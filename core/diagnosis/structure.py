@@ -26,13 +26,13 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Chain, Model
-from ..effects import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
 from ..fitting.gram import COND_LIMIT, r_factor, solve_constrained
 from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
 from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
+from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state
 from .grid import baseline_thresholds
 from .registry import EFFECTS, StaticTerm, TermFit, TermRows, static_terms
@@ -598,7 +598,7 @@ def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
     """Direct-form-II-transposed filter ``b/a`` (order 1 or 2) of the columns of ``x``.
 
     ``x`` is row-major ``(N, m)``, the filter starts in the steady state of ``x[0]``
-    (state ``zi * x[0]``, as :func:`core.effects.foh_filter`), and only the increasing rows
+    (state ``zi * x[0]``, as :func:`core.stages.foh_filter`), and only the increasing rows
     ``rows`` are written to ``out`` ``(rows.size, m)``. Time is the outer loop so that the
     ``m`` independent recursions vectorise; the operation order is scipy's ``lfilter``.
     """
@@ -868,7 +868,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
               out: np.ndarray | None = None) -> np.ndarray:
     """Rows ``rows`` (increasing indices) of the columns of ``x`` passed through the
     output dynamics ``dyn`` (delay: linear interpolation; lag, resonance: the first-order-
-    hold discretisation of :func:`core.effects.foh_filter`, at rest in the steady state of
+    hold discretisation of :func:`core.stages.foh_filter`, at rest in the steady state of
     the first sample). ``x`` is ``(N, m)``; written to ``out`` ``(rows.size, m)`` (a new
     array by default), which is returned."""
     if out is None:

@@ -36,8 +36,8 @@ import numpy as np
 from .._typing import ArrayLike, Float1D, Float2D
 from ..base import Chain
 from ..boucwen import MAX_SUBSTEPS, BoucWenModel, bouc_wen_states
-from ..effects import Offset
 from ..exceptions import FitWarning, ParameterError, UnsupportedOptionError
+from ..stages import Offset
 from ._data import Prepared, check_initial_memory, masked_range, prepare
 from ._predict import RelaxedPredictor
 from .gram import COND_LIMIT, solve_constrained

@@ -24,8 +24,8 @@ import numpy as np
 from .._typing import ArrayLike, Float1D
 from ..base import Chain
 from ..digitized import DigitizedPI
-from ..effects import Offset
 from ..exceptions import NotFittedError, ParameterError
+from ..stages import Offset
 from ._data import as_recordings, check_initial_memory, prepare, unpack_recordings
 from .gram import DEFAULT_CHUNK
 from .metrics import FitReport, evaluate_fit

@@ -35,11 +35,11 @@ import numpy as np
 from .._typing import ArrayLike, Float1D
 from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
-from ..effects import Offset
 from ..exceptions import ClippedInputWarning, FitWarning, NotFittedError, ParameterError
 from ..gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from ..operators import dead_zone
 from ..pi import PIModel
+from ..stages import Offset
 from ..warning_filters import FILTERS
 from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
 from .gram import DEFAULT_CHUNK, Segment

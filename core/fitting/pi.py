@@ -28,9 +28,9 @@ import numpy as np
 
 from .._typing import ArrayLike, Float1D
 from ..base import Chain
-from ..effects import Offset
 from ..exceptions import FitWarning, ParameterError
 from ..pi import PIModel
+from ..stages import Offset
 from ..validation import as_vector
 from ._data import (
     INITIAL_MEMORY_RULES,

@@ -29,9 +29,9 @@ import numpy as np
 from .. import kernels
 from .._typing import ArrayLike, Float1D
 from ..base import Chain
-from ..effects import Offset
 from ..exceptions import FitWarning, ParameterError
 from ..preisach import PreisachModel, level_segments
+from ..stages import Offset
 from ..validation import as_vector
 from ._data import INITIAL_MEMORY_RULES, Prepared, exclude_before_wipeout, prepare
 from ._predict import RelaxedPredictor

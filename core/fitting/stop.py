@@ -42,8 +42,8 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Chain
-from ..effects import Offset
 from ..exceptions import ParameterError
+from ..stages import Offset
 from ..stop import StopPIModel
 from ..warning_filters import FILTERS
 from ._data import prepare, unpack_recordings

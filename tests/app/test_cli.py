@@ -207,7 +207,7 @@ def test_simulate_writes_output_column(ex1_file, tmp_path, capsys):
 
 def test_simulate_dynamic_model_uses_dt_from_time_column(tmp_path, capsys):
     from core.base import Chain
-    from core.effects import Lag
+    from core.stages import Lag
 
     model = Chain.of(EX1, Lag(0.05))
     path = ParameterSet.from_model(model).save(tmp_path / "dyn.json")

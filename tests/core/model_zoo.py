@@ -16,7 +16,11 @@ from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
 from core.digitized import DigitizedPI
 from core.digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
-from core.effects import (
+from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
+from core.lti import LinearSystem
+from core.pi import PIModel
+from core.preisach import PreisachModel, RateDependentPreisach
+from core.stages import (
     Advance,
     Asymmetry,
     AsymmetryInverse,
@@ -32,10 +36,6 @@ from core.effects import (
     Resonance,
     ResonanceInverse,
 )
-from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
-from core.lti import LinearSystem
-from core.pi import PIModel
-from core.preisach import PreisachModel, RateDependentPreisach
 from core.stop import StopPIModel
 
 #: Paper 001, Example 1 (input about ±4).

@@ -166,8 +166,8 @@ def test_c_comment_examples() -> None:
 @needs_gcc
 def test_fmu_sources_and_description_hold_hostile_provenance(tmp_path) -> None:
     pytest.importorskip("fmpy")
-    from core.effects import Lag
     from core.export_fmu import fmi_headers, fmu_sources
+    from core.stages import Lag
 
     payload = "\n".join(PAYLOADS) + ' "/><Evil x="1'
     ps = ParameterSet(EX1 >> Lag(1e-3), Units("V", "µm", "s"), _hostile_provenance(payload))

@@ -207,7 +207,7 @@ def test_errors_are_clear():
 def _other_models() -> dict[str, tuple[Model, float, bool]]:
     """name -> (model, input amplitude, exact inverse); built from the modules that exist."""
     out: dict[str, tuple[Model, float, bool]] = {}
-    from core.effects import Offset
+    from core.stages import Offset
 
     out["pi_offset"] = (Chain.of(EX1, Offset(0.25)), 8.0, True)
     try:

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.effects import Delay, causal_form
 from core.export_c import CExportError, generate_c
 from core.models import model_types
 from core.pi import PIModel
+from core.stages import Delay, causal_form
 from tests.core.model_zoo import DIAGNOSED, DT, EX1, ZOO, turning_points
 
 GCC = shutil.which("gcc")

@@ -3,7 +3,7 @@ item 4).
 
 The inverse of a delay is an advance: Python's ``model.inverse()`` (``hyst invert``, ``hyst
 simulate --inverse``) reads the known trajectory ahead, while the C compensator is causal
-(:func:`core.effects.causal_form`): fed the desired output from its first sample, its output
+(:func:`core.stages.causal_form`): fed the desired output from its first sample, its output
 at step ``j`` is the inverse at sample ``j - P`` (``P = <NAME>_INV_PREVIEW``). Compared at the
 same sample index the two differ by the trajectory's change over ``P`` samples: 0.47 % of the
 range here, 4.4 % with a lag before the delay (the issue's 0.76 % on its trajectory); at
@@ -24,7 +24,8 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.effects import (
+from core.export_c import generate_c
+from core.stages import (
     Asymmetry,
     Creep,
     Delay,
@@ -36,7 +37,6 @@ from core.effects import (
     Resonance,
     causal_form,
 )
-from core.export_c import generate_c
 from tests.core.model_zoo import BOUC_WEN, DT, EX1, PREISACH
 
 GCC = shutil.which("gcc")

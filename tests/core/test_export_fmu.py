@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 
 from core.base import Chain, Model
-from core.effects import causal_form
 from core.export_c import _flatten, c_identifier
 from core.export_fmu import FmuExportError, FmuSources, build_fmu, fmi_headers, fmu_sources
 from core.paramset import ParameterSet, ParameterSetError, Units
 from core.pi import PIModel
+from core.stages import causal_form
 from tests.core.model_zoo import DIAGNOSED, DT, EX1, ZOO, turning_points
 
 fmpy = pytest.importorskip("fmpy")
@@ -357,7 +357,7 @@ def test_a_parameter_fixed_at_export_cannot_be_set(tmp_path) -> None:
 def test_a_delay_retunes_within_its_whole_samples(tmp_path) -> None:
     """The whole samples of a delay size its buffer: a new fraction is taken, another
     number of samples is refused (and the old delay kept)."""
-    from core.effects import Delay
+    from core.stages import Delay
 
     fmu = build_fmu(Delay(2.5e-4), tmp_path / "d.fmu", fmi_version=2, dt=DT)
     s = Slave(fmu, tmp_path / "x")
@@ -461,7 +461,7 @@ def test_a_value_that_breaks_the_coefficients_is_refused_and_the_old_one_kept(
 def test_retuned_asymmetry_inverse_finds_the_monotone_range_as_python(tmp_path, degree) -> None:
     """The FMU recomputes the range the inverse clips to (roots of the map's derivative,
     in C) when its coefficients are tuned: random maps, bounded and unbounded ranges."""
-    from core.effects import AsymmetryInverse
+    from core.stages import AsymmetryInverse
 
     fmu = build_fmu(AsymmetryInverse(np.full(degree, 0.01), 0.0, 1.0), tmp_path / "a.fmu",
                     fmi_version=3)

@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.effects import causal_form
 from core.export_fmu import build_fmu, fmi_headers, fmu_sources
 from core.paramset import ParameterSet, Units
+from core.stages import causal_form
 from tests.core.model_zoo import DIAGNOSED, DT, turning_points
 
 fmpy = pytest.importorskip("fmpy")

@@ -187,14 +187,14 @@ def _instances() -> dict[str, object]:
 
     out: dict[str, object] = {"pi": EX1, "chain": Chain.of(EX1, PIModel(1.0, [0.5], [0.2]))}
     try:
-        from core.effects import Delay, Lag, Offset, Resonance
+        from core.stages import Delay, Lag, Offset, Resonance
 
         out.update(offset=Offset(0.5), lag=Lag(0.01), resonance=Resonance(100.0, 0.1),
                    delay=Delay(0.002))
     except ImportError:  # pragma: no cover
         pass
     try:
-        from core.effects import Asymmetry, Creep, Drift, InitialMemory, RateDependentPI
+        from core.stages import Asymmetry, Creep, Drift, InitialMemory, RateDependentPI
 
         out.update({
             "creep": Creep([0.01, 0.1], [0.02, 0.01]),

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from core.base import model_from_dict
-from core.effects import InitialMemory
 from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
 from core.pi import PIModel
@@ -19,6 +18,7 @@ from core.preisach import (
     RateDependentPreisach,
     level_segments,
 )
+from core.stages import InitialMemory
 from tests.core.model_zoo import PREISACH, turning_points
 
 

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...effects import Asymmetry
+from ...stages import Asymmetry
 from ..candidates import Candidate
 from ..context import FitContext
 from ..registry import DiagnosableEffect, StaticTerm, TermFit, TermRows, register

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ...effects import Delay
+from ...stages import Delay
 from ..candidates import Candidate, one_time_constant
 from ..context import FitContext
 from ..registry import DiagnosableEffect, OutputDynamics, register

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import Drift
+from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
 from ..periodic import repeated_cycles

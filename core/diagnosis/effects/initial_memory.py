@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import InitialMemory
 from ...fitting.thresholds import wipeout_index
+from ...stages import InitialMemory
 from ..candidates import Candidate
 from ..context import FitContext
 from ..periodic import steady_state_history

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import Lag
+from ...stages import Lag
 from ..candidates import Candidate, one_time_constant
 from ..context import FitContext
 from ..registry import DiagnosableEffect, OutputDynamics, register

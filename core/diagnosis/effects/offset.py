@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import Offset
+from ...stages import Offset
 from ..candidates import Candidate
 from ..context import FitContext
 from ..registry import DiagnosableEffect, StaticTerm, TermRows, register

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import RateDependentPI
+from ...stages import RateDependentPI
 from ..between import recording_rates
 from ..candidates import Candidate, scalar_search, sigma_from_curvature
 from ..context import FitContext

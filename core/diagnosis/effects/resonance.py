@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...effects import Resonance
+from ...stages import Resonance
 from ..candidates import Candidate, excitation_hz, sigma_from_curvature, walk_down
 from ..context import FitContext
 from ..registry import DiagnosableEffect, OutputDynamics, register

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from core.effects import Lag
 from core.paramset import load_parameter_set
 from core.pi import PIModel
+from core.stages import Lag
 
 FS = 2000.0
 TRUTH = PIModel(0.4, [6.0, 12.0, 18.0, 24.0, 30.0, 36.0, 42.0, 48.0, 54.0, 60.0],

@@ -13,10 +13,10 @@ from scipy.io import loadmat
 
 from app.cli import main
 from core.base import Chain
-from core.effects import Delay, Resonance
 from core.models import fit_kinds
 from core.paramset import ParameterSet, load_parameter_set
 from core.presets import list_presets
+from core.stages import Delay, Resonance
 from tests.core.model_zoo import EX1, ZOO
 
 CASES = sorted(ZOO) + [f"preset:{p.name}" for p in list_presets()]

@@ -88,7 +88,7 @@ def test_semicolon_decimal_comma_comments_and_text_column(ex1_file, tmp_path, ca
 
 def test_dynamic_model_reads_dt_in_the_time_unit(tmp_path, capsys):
     from core.base import Chain
-    from core.effects import Lag
+    from core.stages import Lag
 
     model = Chain.of(EX1, Lag(0.05))
     path = ParameterSet.from_model(model).save(tmp_path / "dyn.json")

@@ -22,9 +22,9 @@ from app.services.config import Config, SignalSpec
 from app.services.sessions import SessionRegistry
 from app.services.settings import Settings
 from core.base import Chain
-from core.effects import Asymmetry, Creep
 from core.exceptions import ParameterError
 from core.pi import PIModel
+from core.stages import Asymmetry, Creep
 
 SETTINGS = Settings()
 SMALL_PI = {"type": "pi", "p0": 1.0, "thresholds": [0.5, 1.0], "weights": [0.3, 0.2]}

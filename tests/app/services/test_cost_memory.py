@@ -18,7 +18,7 @@ import pytest
 
 from app.services.cost import priced_run
 from core.base import Model
-from core.effects import RateDependentPI
+from core.stages import RateDependentPI
 from tests.core.model_zoo import DIAGNOSED, DT, ZOO, traced_peak
 
 #: Samples of the measured runs: large enough that sample arrays dominate fixed overheads.

@@ -23,15 +23,15 @@ from app.services.actions import check_figure_names
 from app.services.cost import Limits, check_model
 from app.services.settings import Settings
 from core.base import Model, registered_types
-from core.effects import (
+from core.exceptions import ParameterError
+from core.lti import LinearSystem
+from core.stages import (
     Advance,
     Asymmetry,
     AsymmetryInverse,
     CreepInverse,
     Drift,
 )
-from core.exceptions import ParameterError
-from core.lti import LinearSystem
 from tests.core.model_zoo import DT, ZOO
 
 

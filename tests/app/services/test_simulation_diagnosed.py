@@ -9,8 +9,8 @@ import numpy as np
 from app.services.config import Config
 from app.services.simulation import closed_loop, compute, diagnosed_model
 from core.base import Chain
-from core.effects import Creep
 from core.pi import PIModel
+from core.stages import Creep
 
 
 def test_inverse_and_closed_loop_views_use_the_diagnosed_model() -> None:
@@ -41,7 +41,7 @@ def test_inverse_and_closed_loop_views_use_the_diagnosed_model() -> None:
 
 def test_explorer_c_download_of_a_diagnosed_chain_bakes_in_the_sample_time() -> None:
     from app.services.exports import export_bytes
-    from core.effects import Delay, Resonance
+    from core.stages import Delay, Resonance
 
     ext = Chain.of(PIModel(1.0, [0.5], [0.2]), Creep([0.01, 0.1], [0.05, 0.05]),
                    Resonance(300.0, 0.05), Delay(3e-4))

@@ -23,8 +23,8 @@ from app.services.settings import Settings
 from app.services.simulation import diagnosed_model
 from app.services.store import DamagedSessionError, SessionState, SessionStore
 from core.base import Chain, model_from_dict
-from core.effects import Creep
 from core.recordings import Recording
+from core.stages import Creep
 
 
 def _extended() -> Chain:

@@ -14,8 +14,8 @@ from core.diagnosis.data import split_masks
 from core.diagnosis.grid import baseline_thresholds
 from core.diagnosis.periodic import steady_state_history
 from core.diagnosis.structure import Structure
-from core.effects import InitialMemory
 from core.recordings import Recording
+from core.stages import InitialMemory
 
 #: beta (s) of the rate-dependent plant: the loop area grows by about 2/3, 0.5 -> 4 Hz
 BETA = 0.025

@@ -8,8 +8,8 @@ import pytest
 from core.diagnosis import diagnose
 from core.diagnosis.crossfitting import block_jackknife
 from core.diagnosis.data import crossfit_folds, wipeout_index
-from core.effects import Lag
 from core.recordings import Recording
+from core.stages import Lag
 from tests.core.diagnosis.test_diagnosis import _records
 
 

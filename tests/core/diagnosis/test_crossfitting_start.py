@@ -10,7 +10,7 @@ import core.diagnosis.engine as engine
 from core.diagnosis import diagnose
 from core.diagnosis.candidates import walk_down
 from core.diagnosis.context import FitContext
-from core.effects import Lag
+from core.stages import Lag
 from tests.core.diagnosis.test_diagnosis import _records
 
 

@@ -12,8 +12,8 @@ import core.diagnosis.engine as engine
 from benchmarks.diagnosis.generator import truth_pi
 from core.diagnosis import diagnose
 from core.diagnosis.crossfitting import ambiguous_parameters, combine_uncertainty
-from core.effects import Delay
 from core.recordings import Recording
+from core.stages import Delay
 
 
 def test_ambiguous_thresholds() -> None:

@@ -12,10 +12,10 @@ from core.diagnosis import as_records, diagnose, split_masks
 from core.diagnosis.grid import baseline_thresholds
 from core.diagnosis.stats import heldout_comparison, score_test
 from core.diagnosis.structure import fit_structure
-from core.effects import Asymmetry, InitialMemory, Lag
 from core.exceptions import ParameterError
 from core.pi import PIModel
 from core.recordings import Recording
+from core.stages import Asymmetry, InitialMemory, Lag
 
 FS = 2000.0
 

@@ -9,9 +9,9 @@ import pytest
 from core.base import Chain
 from core.diagnosis import diagnose
 from core.diagnosis.locate import Coordinates
-from core.effects import Creep
 from core.pi import PIModel
 from core.recordings import Recording
+from core.stages import Creep
 
 
 def _rec(t: np.ndarray, u: np.ndarray) -> Recording:

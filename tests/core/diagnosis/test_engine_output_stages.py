@@ -19,8 +19,8 @@ from core.diagnosis.acceptance import (
 from core.diagnosis.registry import EFFECTS
 from core.diagnosis.stats import HeldOut
 from core.diagnosis.structure import Structure, _dyn_rows, build_model, dynamics_stages
-from core.effects import Lag, Offset, Resonance
 from core.pi import PIModel
+from core.stages import Lag, Offset, Resonance
 
 
 def _h(before: float, after: float, z: float, p: float) -> HeldOut:

@@ -10,9 +10,9 @@ import pytest
 from core.diagnosis import diagnose, engine
 from core.diagnosis.acceptance import RULE, enough_events
 from core.diagnosis.events import event_starts, event_windows, excitation
-from core.effects import Lag
 from core.pi import PIModel
 from core.recordings import Recording
+from core.stages import Lag
 
 FS = 1000.0
 PLANT = PIModel(0.5, [10.0 * i for i in range(1, 9)], [0.12 * np.exp(-0.02 * 10 * i)
@@ -106,7 +106,7 @@ def test_measured_piezo_with_a_dead_time_keeps_the_delay_open() -> None:
     from dataclasses import replace
 
     from core.datasets import load_dataset
-    from core.effects import Delay
+    from core.stages import Delay
 
     rec = load_dataset("piezo-150V-1Hz")
     rec = replace(rec, y=Delay(1e-3)(rec.y, dt=rec.dt))

@@ -20,9 +20,9 @@ from core.diagnosis.registry import (
     static_terms,
 )
 from core.diagnosis.structure import baseline_thresholds, build_model, fit_structure
-from core.effects import Asymmetry, Creep, Drift, Offset
 from core.pi import PIModel
 from core.recordings import Recording
+from core.stages import Asymmetry, Creep, Drift, Offset
 
 PLANT = PIModel(0.5, [4.0, 12.0], [0.4, 0.2])
 
@@ -113,7 +113,7 @@ def test_the_moved_terms_build_their_stages_in_the_chain_order() -> None:
     """asymmetry and creep before the output dynamics, offset and drift after, each term's
     coefficients as its own stage (an independent chain of the core models)."""
     from core.diagnosis.effects.asymmetry import MapCoefficients
-    from core.effects import Lag
+    from core.stages import Lag
 
     t = np.arange(3000) * 1e-3
     rec = Recording(t, 30 * np.sin(2 * np.pi * 2 * t), np.zeros_like(t))

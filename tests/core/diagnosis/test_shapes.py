@@ -16,7 +16,6 @@ from core.base import Chain, model_from_dict
 from core.deadzone import DeadZoneMap
 from core.diagnosis import diagnose
 from core.diagnosis.shapes import apply_shape, describe_shape, hysteresis_model
-from core.effects import Lag
 from core.exceptions import FitWarning
 from core.export_c import generate_c
 from core.fitting import TanhGPIRegressor
@@ -24,6 +23,7 @@ from core.gpi import DeadZoneGPI, TanhEnvelope, TanhGPI
 from core.models import fit_kinds
 from core.pi import PIModel
 from core.recordings import Recording
+from core.stages import Lag
 
 BH = Path(__file__).parents[3] / "examples" / "data" / "bh_loops"
 SHAPES = {"saturation", "dead-zone"}

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from core.base import Chain
-from core.effects import (
+from core.exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
+from core.pi import PIModel
+from core.stages import (
     Advance,
     Asymmetry,
     AsymmetryInverse,
@@ -28,8 +30,6 @@ from core.effects import (
     causal_form,
     foh_filter,
 )
-from core.exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
-from core.pi import PIModel
 
 DT = 1e-4
 PI = PIModel(0.5, [10.0, 30.0, 60.0], [0.1, 0.08, 0.05])
@@ -214,9 +214,9 @@ def test_chain_preview_adds_up_and_drift_behind_an_advance_starts_early() -> Non
 
 
 def test_tf_memo_is_thread_safe_under_concurrent_requests() -> None:
-    from core import effects
+    from core.stages import linear
 
-    effects._tf_memo_key.cache_clear()
+    linear._tf_memo_key.cache_clear()
     errors: list[BaseException] = []
     results: list[np.ndarray] = []
 
@@ -235,5 +235,5 @@ def test_tf_memo_is_thread_safe_under_concurrent_requests() -> None:
         t.join()
     assert not errors
     assert len(results) == 240
-    info = effects._tf_memo_key.cache_info()
+    info = linear._tf_memo_key.cache_info()
     assert info.hits > 0 and info.currsize <= 4096

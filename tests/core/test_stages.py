@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 
 from core.base import Chain, model_from_dict
-from core.effects import (
+from core.exceptions import ParameterError
+from core.operators import play_bank
+from core.pi import PIModel
+from core.stages import (
     Asymmetry,
     Creep,
     Delay,
@@ -20,9 +23,6 @@ from core.effects import (
     Resonance,
     rd_play_bank,
 )
-from core.exceptions import ParameterError
-from core.operators import play_bank
-from core.pi import PIModel
 
 DT = 1e-4
 PI = PIModel(0.5, [10.0, 30.0, 60.0], [0.1, 0.08, 0.05])
