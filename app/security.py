@@ -5,15 +5,15 @@ One pure-ASGI middleware (no framework code in the way, so it also covers the st
 and errors raised anywhere below it):
 
 * **Own names only** (DNS rebinding): a request whose ``Host`` is not a name of this
-  server (:class:`app.services.hosts.HostAllowList`: loopback, the bound host, each
+  server (:class:`app.services.guard.hosts.HostAllowList`: loopback, the bound host, each
   ``--allowed-host``, or the address the connection arrived at) is a 421 before anything
   else, whatever its method.
 * **Bounded bodies**: a POST/PUT/PATCH/DELETE body larger than ``max_upload_bytes`` is a
   413 before the app reads it; a JSON body nested deeper than ``Limits.max_json_depth`` is
-  a 422 before any (recursive) parser sees it (:func:`app.services.cost.json_depth`).
+  a 422 before any (recursive) parser sees it (:func:`app.services.explore.cost.json_depth`).
 * **Clean JSON**: a JSON body holding ``NaN``/``Infinity`` (or a number beyond the float
   range) or an unpaired surrogate is a 422 naming its JSON path
-  (:func:`app.services.jsonbody.json_body_problem`).
+  (:func:`app.services.guard.jsonbody.json_body_problem`).
 * **Foreign origins**: a state-changing request whose ``Origin`` (or ``Sec-Fetch-Site:
   cross-site``) is not this server is refused with 403, so another web page open in a
   student's browser cannot create, change or wipe sessions.
@@ -34,10 +34,10 @@ import logging
 from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
 
-from .services.cost import json_depth
-from .services.hosts import HostAllowList, foreign_origin, host_name
-from .services.jsonbody import json_body_problem
-from .services.redaction import redact
+from app.services.explore.cost import json_depth
+from app.services.guard.hosts import HostAllowList, foreign_origin, host_name
+from app.services.guard.jsonbody import json_body_problem
+from app.services.guard.redaction import redact
 
 __all__ = ["CSP", "Guard"]
 

@@ -1,7 +1,8 @@
 """The explorer's FastAPI app; its lifespan starts the viser GUI server beside it.
 
 viser is not an ASGI app (it serves its own page and websocket on its own port), so both
-run in one process and share the :class:`~app.services.sessions.SessionRegistry`: a parameter change
+run in one process and share the
+:class:`~app.services.session.sessions.SessionRegistry`: a parameter change
 through REST shows up in the viser GUI of the same session code, and vice versa.
 """
 
@@ -22,21 +23,21 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
 
+from app.services.analysis.recordings import UnevenUpload
+from app.services.explore.config import Config
+from app.services.guard.known_codes import KnownCodes
+from app.services.guard.ratelimit import RateLimiter
+from app.services.jobs.manager import JobManager
+from app.services.jobs.worker import LiveWorkers
+from app.services.session.sessions import SessionRegistry, StoreFullError
+from app.services.settings import Settings
+from app.services.storage.quotas import QuotaError
+from app.services.storage.store import DamagedSessionError, SessionStore
 from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
 from core.paramset import ensure_model_types_registered
 
 from .security import Guard
-from .services.config import Config
-from .services.jobs import JobManager
-from .services.known_codes import KnownCodes
-from .services.quotas import QuotaError
-from .services.ratelimit import RateLimiter
-from .services.recordings import UnevenUpload
-from .services.sessions import SessionRegistry, StoreFullError
-from .services.settings import Settings
-from .services.store import DamagedSessionError, SessionStore
-from .services.worker import LiveWorkers
 
 __all__ = ["STATIC_DIR", "create_app"]
 
@@ -94,7 +95,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        from .services.simulation import compute
+        from app.services.explore.simulation import compute
 
         compute(Config())  # every view once: the compiled kernels load before any user
         server = _start_viser(app, settings)

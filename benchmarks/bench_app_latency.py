@@ -9,7 +9,7 @@ is ≤ 30 ms per update. Every iteration changes one weight, as a drag does.
 
 Cases, median and 95th percentile of ``--repeat`` iterations, taken round-robin:
 
-* ``loop view``: :func:`app.services.simulation.compute` + the loop figure + ``to_json``
+* ``loop view``: :func:`app.services.explore.simulation.compute` + the loop figure + ``to_json``
   (what one slider step costs in the GUI and in ``GET /api/sessions/{code}/figures``).
 * ``every view``: the same with the six interactive figures (time, loop, operators,
   loading, inverse, digitized) built and serialised.
@@ -41,9 +41,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
 
-from app.services import figures as F  # noqa: E402
-from app.services.config import Config, SignalSpec  # noqa: E402
-from app.services.simulation import compute  # noqa: E402
+from app.services.explore import figures as F
+from app.services.explore.config import Config, SignalSpec  # noqa: E402
+from app.services.explore.simulation import compute  # noqa: E402
 
 N_SAMPLES, N_OPS = 4000, 25
 
@@ -121,7 +121,7 @@ def make_gui():  # noqa: ANN201 - returns a closure
     import viser
 
     from app.gui.controller import SessionView
-    from app.services.sessions import SessionRegistry
+    from app.services.session.sessions import SessionRegistry
     from app.services.settings import Settings
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)

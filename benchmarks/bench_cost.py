@@ -1,7 +1,7 @@
 """Does the priced cost bound the measured time? (issue 18, item 3)
 
 Every registered model type prices its own run (:meth:`core.base.Model.cost`, summed over
-the tree by :func:`app.services.cost.check_model`). This benchmark simulates every type of
+the tree by :func:`app.services.explore.cost.check_model`). This benchmark simulates every type of
 ``tests/core/model_zoo.py`` plus scaled-up instances of the types whose work is not linear in
 their fields, the inverses of the diagnosis's chains (each inverse type's own cost) and their
 closed loops (chain and inverse stepped one sample per call, ``priced_steps``), best of 3
@@ -21,7 +21,7 @@ import warnings
 
 import numpy as np
 
-from app.services.cost import priced_run, priced_steps
+from app.services.explore.cost import priced_run, priced_steps
 from core.base import Model
 from core.boucwen import BoucWenModel
 from core.deadzone import DeadZoneMap
@@ -102,7 +102,7 @@ def diagnosed_inverses() -> dict[str, Model]:
 
 
 #: The diagnosed chains of the zoo with their inverses: the Closed-loop view's plant and
-#: feedforward (``app.services.simulation.priced_views``).
+#: feedforward (``app.services.explore.simulation.priced_views``).
 DIAGNOSED_LOOPS = {name: (m, m.inverse()) for name, m in DIAGNOSED.items()}
 #: Samples of a timed closed loop (the explorer's, 0.02 s at 50 kHz).
 LOOP_STEPS = 1000

@@ -2,7 +2,7 @@
 
 Every registered model type prices its run's peak memory (:attr:`core.base.RunCost.memory`,
 output array included, input excluded: the caller holds it), summed over the model tree as
-:func:`app.services.cost.check_model` does. This benchmark simulates every type of
+:func:`app.services.explore.cost.check_model` does. This benchmark simulates every type of
 ``tests/core/model_zoo.py``, the chains the diagnosis writes and their inverses, and the
 scaled-up instances of
 ``bench_cost.py`` on :data:`N` samples (the explorer's sample limit) and measures the peak of
@@ -24,7 +24,7 @@ import warnings
 
 import numpy as np
 
-from app.services.cost import priced_run
+from app.services.explore.cost import priced_run
 from benchmarks.bench_cost import _scaled, diagnosed_inverses
 from core.base import Model
 from tests.core.model_zoo import DIAGNOSED, DT, ZOO, traced_peak

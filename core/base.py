@@ -53,7 +53,7 @@ class Control:
 
     Declared on a :class:`Field` (``control=`` for every element, ``elements=`` one per
     element of a fixed-length vector); the explorer's sliders on both interfaces are built
-    from these (:mod:`app.services.controls`), so a new model type gets its sliders by
+    from these (:mod:`app.services.explore.controls`), so a new model type gets its sliders by
     declaring them here.
 
     Attributes
@@ -359,7 +359,7 @@ class Model(ABC):
         element operations and :attr:`run_arrays` sample arrays of memory. Types whose work is not
         linear in their fields override it (creep terms, bisection steps, delay buffers,
         state-space order squared, ...); the explorer's cost model sums it over a model
-        tree before any work (:mod:`app.services.cost`).
+        tree before any work (:mod:`app.services.explore.cost`).
 
         Parameters
         ----------

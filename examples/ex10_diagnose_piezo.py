@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from _common import parse_out, quick, save
 
-from app.services.diagnosis_report import figures, write_report
+from app.services.analysis.diagnosis_report import figures, write_report
 from core.datasets import load_dataset
 from core.diagnosis import diagnose
 from core.recordings import Recording

@@ -65,7 +65,7 @@ function zoomed(layout) {
   return lay;
 }
 
-// Projector mode: every text of the plot at least 16 px (app/services/figures.py's
+// Projector mode: every text of the plot at least 16 px (app/services/explore/figures.py's
 // large_text does the same for viser).
 function largeText(layout, size = 16) {
   const lay = structuredClone(layout);

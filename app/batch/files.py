@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..services.inputs import CommandError
+from app.services.runs.inputs import CommandError
 
 __all__ = ["MANIFEST", "Manifest", "content_hash", "expand", "output_names"]
 

@@ -14,7 +14,7 @@ import json
 from dataclasses import asdict, dataclass
 from typing import ClassVar
 
-from ..services.inputs import CommandError, parse_window
+from app.services.runs.inputs import CommandError, parse_window
 
 __all__ = ["DiagnoseOptions", "FitOptions", "Options"]
 
@@ -94,10 +94,9 @@ class FitOptions(_Options):
     fmu: int | None = None
 
     def _check(self) -> None:
+        from app.services.analysis.fitting import check_n_operators
         from core.fitting.choice import AUTO
         from core.models import fit_kinds
-
-        from ..services.fitting import check_n_operators
 
         kinds = (AUTO, *fit_kinds())
         if self.model not in kinds:

@@ -21,7 +21,8 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.subplots import make_subplots
 
-from ..services.figures import PLOT_CONFIG
+from app.services.explore.figures import PLOT_CONFIG
+
 from .options import DiagnoseOptions, FitOptions
 from .results import RecordingResult
 from .summary import MIN_FOR_OUTLIERS, OUTLIER_Z, fleet_metrics, robust_outliers
@@ -190,7 +191,8 @@ def write_report(path: Path, kind: str, rows: Sequence[RecordingResult],
             f"<td class='{'' if r.ok else 'bad'}'>{_e(r.status)}</td></tr>")
     parts.append("</table></body></html>")
     # plotly.js carries a default CDN URL for topojson maps (unused here): neutralise it so
-    # the report makes no network reference at all (as app/services/diagnosis_report.py does)
+    # the report makes no network reference at all (as
+    # app/services/analysis/diagnosis_report.py does)
     text = "\n".join(parts).replace('"https://cdn.plot.ly/un/"', '"topojson/"')
     p = Path(path)
     p.write_text(text, encoding="utf-8")

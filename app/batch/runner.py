@@ -16,8 +16,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..services.inputs import CommandError
-from ..services.progress import Progress
+from app.services.runs.inputs import CommandError
+from app.services.runs.progress import Progress
+
 from .files import Manifest, content_hash, expand, output_names
 from .options import DiagnoseOptions, FitOptions, Options
 from .results import BatchResult, RecordingResult, from_outcome, write_json

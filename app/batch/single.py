@@ -3,8 +3,9 @@
 :func:`run_recording` writes the recording's bytes under its own file name into a private
 temporary folder and runs what ``hyst fit FILE -o MODEL.json`` or ``hyst diagnose FILE
 --json --save-model MODEL.json`` runs, as function calls: the command's reader
-(:func:`app.services.recordings.read_recordings` /
-:func:`app.services.diagnosis.diagnose_files`, which ``hyst fit`` / ``hyst diagnose`` call too),
+(:func:`app.services.analysis.recordings.read_recordings` /
+:func:`~app.services.analysis.diagnosis.diagnose_files`, which ``hyst fit`` / ``hyst diagnose``
+call too),
 the one fitting entry point :func:`core.fitting.fit_recordings` or
 :func:`core.diagnosis.diagnose`, and the command's document builders. Nothing is parsed
 from an argument list and nothing goes through ``sys.stdout`` / ``sys.stderr``, so thread
@@ -20,7 +21,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..services.progress import Progress
+from app.services.runs.progress import Progress
+
 from .options import DiagnoseOptions, FitOptions, Options
 
 __all__ = ["Outcome", "run_recording"]
@@ -68,16 +70,15 @@ class Outcome:
 
 def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
     """``hyst fit src`` with ``opts``: the parameter set it writes."""
-    from core.fitting import fit_recordings
-
-    from ..services.fitting import (
+    from app.services.analysis.fitting import (
         check_n_operators,
         fit_errors,
         fit_source,
         say_fit,
         time_window,
     )
-    from ..services.recordings import csv_read_options, read_recordings, say_read
+    from app.services.analysis.recordings import csv_read_options, read_recordings, say_read
+    from core.fitting import fit_recordings
 
     train, test = time_window(opts.train, "train"), time_window(opts.test, "test")
     check_n_operators(opts.n_operators)
@@ -95,14 +96,14 @@ def _fit(src: Path, opts: FitOptions, progress: Progress) -> Outcome:
 
 def _diagnose(src: Path, opts: DiagnoseOptions, progress: Progress) -> Outcome:
     """``hyst diagnose src --json --save-model`` with ``opts``: both documents."""
-    from ..services.diagnosis import (
+    from app.services.analysis.diagnosis import (
         diagnose_files,
         diagnosis_json,
         diagnosis_source,
         model_document,
     )
-    from ..services.inputs import parse_window
-    from ..services.recordings import csv_read_options
+    from app.services.analysis.recordings import csv_read_options
+    from app.services.runs.inputs import parse_window
 
     res = diagnose_files(
         [src], csv_read_options(), progress, operators=opts.operators,

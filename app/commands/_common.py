@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..services.inputs import CommandError, existing_file, parse_window
+from app.services.runs.inputs import CommandError, existing_file, parse_window
 
 if TYPE_CHECKING:
     from core.paramset import ParameterSet
@@ -103,9 +103,8 @@ def read_parameter_set(path: str | Path, *, require_inverse: bool = False) -> Pa
     ParameterSetError
         Malformed document (the message names the file and the JSON path).
     """
+    from app.services.session.exports import parameter_set_from_document
     from core.paramset import ParameterSetError
-
-    from ..services.exports import parameter_set_from_document
 
     p = existing_file(path, "model file")
     text = p.read_text(encoding="utf-8")

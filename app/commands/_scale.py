@@ -16,8 +16,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..services.inputs import CommandError
-from ..services.progress import Progress
+from app.services.runs.inputs import CommandError
+from app.services.runs.progress import Progress
 
 __all__ = ["DIAGNOSE", "ETA_FROM_S", "CostModel", "EtaProgress", "allowed_memory",
            "check_memory", "count_samples"]
@@ -129,7 +129,7 @@ def _size(b: float) -> str:
 
 
 class EtaProgress(Progress):
-    """:class:`~app.services.progress.Progress` whose step lines (``" 26 % ..."``) end with the
+    """:class:`~app.services.runs.progress.Progress` whose step lines (``" 26 % ..."``) end with the
     time left of a run expected to take ``expected_s`` (``(about 40 s left)``), or say that it
     is taking longer.
 

@@ -41,11 +41,16 @@ import argparse
 import sys
 from typing import Any
 
+from app.services.analysis.diagnosis import (
+    diagnose_files,
+    diagnosis_json,
+    diagnosis_source,
+    save_model,
+)
+from app.services.runs.progress import Progress
 from core.diagnosis.data import TimeGapError
 from core.exceptions import ParameterError
 
-from ..services.diagnosis import diagnose_files, diagnosis_json, diagnosis_source, save_model
-from ..services.progress import Progress
 from ._common import add_threads_option, window_arg
 from ._scale import DIAGNOSE, ETA_FROM_S, EtaProgress, check_memory, count_samples
 from .fit import add_read_options, read_options
@@ -127,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
         p = save_model(res, args.save_model, source=diagnosis_source(args.files))
         print(f"wrote {p}", file=sys.stderr)
     if args.report:
-        from ..services.diagnosis_report import write_report
+        from app.services.analysis.diagnosis_report import write_report
 
         p = write_report(res, args.report)
         print(f"wrote {p}", file=sys.stderr)

@@ -6,9 +6,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from app.services.runs.inputs import CommandError
 from core.exceptions import NotInvertibleError
 
-from ..services.inputs import CommandError
 from ._common import add_json_flag, add_threads_option, emit, read_parameter_set
 
 __all__ = ["FORMATS", "register", "run"]

@@ -5,15 +5,16 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-from ..services.fitting import (
+from app.services.analysis.fitting import (
     check_n_operators,
     fit_errors,
     fit_source,
     say_fit,
     time_window,
 )
-from ..services.progress import Progress
-from ..services.recordings import csv_read_options, read_recordings, say_read
+from app.services.analysis.recordings import csv_read_options, read_recordings, say_read
+from app.services.runs.progress import Progress
+
 from ._common import add_json_flag, add_threads_option, emit
 
 if TYPE_CHECKING:

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ..services.inputs import CommandError
+from app.services.runs.inputs import CommandError
+
 from ._common import add_json_flag, add_threads_option, emit, read_parameter_set
 
 __all__ = ["register", "run"]

@@ -12,8 +12,9 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from ..services import lessons
-from ..services.inputs import CommandError, existing_file
+from app.services.runs.inputs import CommandError, existing_file
+from app.services.teaching import lessons
+
 from ._common import add_json_flag, emit
 
 __all__ = ["register", "run"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..services.inputs import CommandError
+from app.services.runs.inputs import CommandError
+
 from ._common import add_json_flag, emit
 
 __all__ = ["available_presets", "load_preset", "register", "run"]

@@ -132,13 +132,13 @@ def _save_token(state_dir: str, token: str) -> Path:
 
 def _log_config(access_log: bool) -> dict[str, Any]:
     """uvicorn's logging, with every handler masking session codes
-    (:class:`~app.services.redaction.RedactCodes`) and letting a repeated warning or error
+    (:class:`~app.services.guard.redaction.RedactCodes`) and letting a repeated warning or error
     through a few times per 10 s (:class:`~app.connections.RepeatFilter`); the app's own
     loggers use it too."""
     from uvicorn.config import LOGGING_CONFIG
 
     cfg = copy.deepcopy(LOGGING_CONFIG)
-    cfg["filters"] = {"codes": {"()": "app.services.redaction.RedactCodes"},
+    cfg["filters"] = {"codes": {"()": "app.services.guard.redaction.RedactCodes"},
                       "repeats": {"()": "app.connections.RepeatFilter"}}
     for handler in cfg["handlers"].values():
         handler["filters"] = ["repeats", "codes"]
@@ -184,8 +184,8 @@ def _announce(server: Any, app: Any, settings: Any, token_file: Path | None,
 def settings_of(args: argparse.Namespace) -> Any:
     """The :class:`~app.services.settings.Settings` of ``hyst serve``'s arguments: the
     ``HYST_*`` environment, then the options given."""
-    from ..services.settings import Settings
-    from ..services.store import default_state_dir
+    from app.services.settings import Settings
+    from app.services.storage.store import default_state_dir
 
     try:
         settings = Settings.from_env(
@@ -229,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
     if fd_message:
         print(f"Note: {fd_message}.", file=sys.stderr, flush=True)
     # proxy_headers=False: uvicorn would take X-Forwarded-For from any loopback peer;
-    # the app reads it itself, from the --trusted-proxy peers only (app.services.clients)
+    # the app reads it itself, from the --trusted-proxy peers only (app.services.guard.clients)
     config = uvicorn.Config(app, host=settings.host, port=settings.port, log_level=None,
                             log_config=_log_config(args.access_log),
                             access_log=args.access_log, proxy_headers=False,

@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ..services.inputs import CommandError, existing_file
+from app.services.runs.inputs import CommandError, existing_file
+
 from ._common import (
     add_json_flag,
     add_threads_option,

@@ -2,9 +2,9 @@
 
 Every browser tab gets its own controls (``client.gui``, see :mod:`app.gui.layout`), so
 students never see each other's changes. A :class:`SessionView` is bound to a
-:class:`~app.services.sessions.Session`; typing another code re-binds it (that is how a
+:class:`~app.services.session.sessions.Session`; typing another code re-binds it (that is how a
 student comes back after a reload, or how REST changes and teacher pushes reach the GUI).
-Control callbacks call :mod:`app.services.actions` (the transitions the REST routers
+Control callbacks call :mod:`app.services.session.actions` (the transitions the REST routers
 call too); session changes from any source are pushed back into the controls under a
 re-entrancy guard and drawn by a :class:`~app.gui.render.LatestWinsWorker`, which computes
 only the view on show. The 3D state cube is :mod:`app.gui.scene`, the digitized playback
@@ -25,22 +25,24 @@ from typing import Any
 
 import numpy as np
 
-from ..services import actions, lessons
-from ..services import controls as C
-from ..services import figures as F
-from ..services.config import Config
-from ..services.errors import DamagedSessionError, ParameterError, QuotaError
-from ..services.events import HUB
-from ..services.jobs import Job, JobBusy, JobManager, JobView
-from ..services.jsonbody import read_document
-from ..services.ratelimit import RateLimiter
-from ..services.recordings import Timing, UnevenUpload, seconds_text
-from ..services.sessions import Session, SessionRegistry
-from ..services.settings import Settings
-from ..services.simulation import Result, inverse_problem, operator_count
-from ..services.tasks import diagnose_task, fit_task
-from ..services.words import type_words
-from ..services.worker import OutOfMemory, Task, Worker, WorkerDied
+from app.services.analysis.recordings import Timing, UnevenUpload, seconds_text
+from app.services.errors import DamagedSessionError, ParameterError, QuotaError
+from app.services.explore import controls as C
+from app.services.explore import figures as F
+from app.services.explore.config import Config
+from app.services.explore.simulation import Result, inverse_problem, operator_count
+from app.services.guard.jsonbody import read_document
+from app.services.guard.ratelimit import RateLimiter
+from app.services.jobs.manager import Job, JobBusy, JobManager, JobView
+from app.services.jobs.tasks import diagnose_task, fit_task
+from app.services.jobs.worker import OutOfMemory, Task, Worker, WorkerDied
+from app.services.session import actions
+from app.services.session.sessions import Session, SessionRegistry
+from app.services.settings import Settings
+from app.services.teaching import lessons
+from app.services.teaching.events import HUB
+from app.services.words import type_words
+
 from .layout import PROJECTOR_PX, TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
@@ -605,7 +607,7 @@ class SessionView:
             " steps (linear interpolation), or keep the time stamps as measured.")
 
     def _fit_clicked(self, event: Any) -> None:
-        """Run the fit as a job of the session (:func:`~app.services.tasks.fit_task` in a
+        """Run the fit as a job of the session (:func:`~app.services.jobs.tasks.fit_task` in a
         worker process of the job manager), its progress under the buttons; Cancel kills
         the worker and the session's model and fit stay as they were."""
         ui = self.ui
@@ -693,7 +695,7 @@ class SessionView:
             self.jobs.cancel(job.code, job.id)
 
     def _diagnose_clicked(self, event: Any) -> None:
-        """Run the diagnosis as a job of the session (:func:`~app.services.tasks.diagnose_task`
+        """Run the diagnosis as a job of the session (:func:`~app.services.jobs.tasks.diagnose_task`
         in a worker process of the job manager), its progress under the buttons; Cancel
         kills the worker and nothing is stored."""
         ui = self.ui
@@ -861,7 +863,7 @@ class SessionView:
 
     def _for_screen(self, fig: F.FigureJSON) -> tuple[F.FigureJSON, int]:
         """``fig`` shaped for this tab's screen: side-by-side panels stacked (the floating
-        panel, a phone; :func:`~app.services.figures.stack_columns`), its text large in
+        panel, a phone; :func:`~app.services.explore.figures.stack_columns`), its text large in
         projector mode. Returns the figure and its number of bands."""
         if self.projecting:  # wide enough for panels side by side, read from afar
             return F.large_text(fig, width=PROJECTOR_PX), 1

@@ -12,7 +12,7 @@ pool), and its memory is given back to the system (:mod:`app.gui.reclaim`).
 
 A reloaded tab keeps its session: the browser's id (a cookie the guard sets,
 :meth:`~app.gui.viser_guard.ViserGuard.browser_id`) maps to the session its last tab
-showed. A teacher's push (:meth:`~app.services.events.EventHub.broadcast`) reaches every
+showed. A teacher's push (:meth:`~app.services.teaching.events.EventHub.broadcast`) reaches every
 tab as a notice.
 """
 
@@ -23,12 +23,13 @@ import warnings
 from collections import OrderedDict
 from typing import Any
 
-from ..services.errors import QuotaError, StoreFullError
-from ..services.events import HUB
-from ..services.jobs import JobManager
-from ..services.ratelimit import RateLimiter
-from ..services.sessions import SessionRegistry
-from ..services.settings import Settings
+from app.services.errors import QuotaError, StoreFullError
+from app.services.guard.ratelimit import RateLimiter
+from app.services.jobs.manager import JobManager
+from app.services.session.sessions import SessionRegistry
+from app.services.settings import Settings
+from app.services.teaching.events import HUB
+
 from .controller import SessionView
 from .layout import is_narrow
 from .reclaim import Reclaimer

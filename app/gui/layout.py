@@ -4,7 +4,7 @@
 tabs (Model, Input, Inverse, Digitized, Data, Export), the plot in a floating panel (in the
 control sheet on a phone) and the model's parameter sliders, built from the description the
 services derive from the model types' field declarations
-(:func:`app.services.controls.model_controls`, the same the web page draws). It holds no
+(:func:`app.services.explore.controls.model_controls`, the same the web page draws). It holds no
 behaviour: :class:`app.gui.controller.SessionView` wires the callbacks to the services.
 """
 
@@ -14,12 +14,18 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..services import catalog
-from ..services import figures as F
-from ..services.config import CONTROLS
-from ..services.controls import ModelControls, Slider, log_step, slider_position, unit_text
-from ..services.settings import Settings
-from ..services.words import type_words
+from app.services.explore import catalog
+from app.services.explore import figures as F
+from app.services.explore.config import CONTROLS
+from app.services.explore.controls import (
+    ModelControls,
+    Slider,
+    log_step,
+    slider_position,
+    unit_text,
+)
+from app.services.settings import Settings
+from app.services.words import type_words
 
 __all__ = [
     "NARROW_PX",
@@ -365,7 +371,7 @@ class Widgets:
 
 def _slider(g: Any, name: str, initial: float, **kw: Any) -> Any:
     """The viser slider of control ``name`` (its range from
-    :data:`app.services.config.CONTROLS`, shared with the checks of lessons)."""
+    :data:`app.services.explore.config.CONTROLS`, shared with the checks of lessons)."""
     c = CONTROLS[name]
     label = f"{c.label} [{c.unit}]" if c.unit else c.label
     return g.add_slider(label, min=c.low, max=c.high, step=c.step, initial_value=initial, **kw)

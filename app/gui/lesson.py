@@ -1,7 +1,7 @@
 """The viser GUI's lesson panel: the class step for everyone, the teacher's lesson controls.
 
 A :class:`LessonPanel` belongs to one tab's :class:`~app.gui.controller.SessionView`. It
-shows where the class is (:func:`app.services.lessons.class_lesson`: the lesson, the step,
+shows where the class is (:func:`app.services.teaching.lessons.class_lesson`: the lesson, the step,
 its prompt and what to look for) and whether this tab is on the class step or exploring,
 with a button back to the class step. The teacher (with the teacher token, under the rule
 of the GUI's push: needed also on loopback) starts a lesson, moves the class and ends it
@@ -14,11 +14,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from ..services import lessons
-from ..services.config import Config
-from ..services.errors import ParameterError
-from ..services.events import HUB
-from ..services.sessions import Session
+from app.services.errors import ParameterError
+from app.services.explore.config import Config
+from app.services.session.sessions import Session
+from app.services.teaching import lessons
+from app.services.teaching.events import HUB
+
 from .layout import TITLES, set_value
 from .text import md_text
 

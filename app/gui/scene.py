@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..services.simulation import FULL_GRAPH_DIGITS, Digitized, state_text, visited_path
+from app.services.explore.simulation import FULL_GRAPH_DIGITS, Digitized, state_text, visited_path
 
 __all__ = ["CUBE_MAX_DIGITS", "FULL_CUBE_DIGITS", "StateCube", "embed"]
 

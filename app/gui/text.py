@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from ..services.recordings import Recording
-from ..services.simulation import Result, operator_count, pi_part, weight_note
-from ..services.words import model_words
+from app.services.analysis.recordings import Recording
+from app.services.explore.simulation import Result, operator_count, pi_part, weight_note
+from app.services.words import model_words
 
 __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown",
            "recording_markdown", "state_markdown"]
@@ -108,7 +108,7 @@ def recording_markdown(rec: Recording, rows: int = 5) -> str:
 
 def diagnosis_markdown(rep: dict[str, Any]) -> str:
     """A diagnosis report as Markdown: its findings, sentences with units written for
-    people (:func:`app.services.diagnosis.diagnosis_summary`)."""
+    people (:func:`app.services.analysis.diagnosis.diagnosis_summary`)."""
     lines = ["### Diagnosis", ""]
     for f in rep.get("findings", []) or []:
         lines.append(f"- {md_text(f if isinstance(f, str) else json.dumps(f))}")

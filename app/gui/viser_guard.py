@@ -7,16 +7,16 @@ viser serves its page and its websocket itself (``websockets.asyncio.server.serv
 in site-packages is edited:
 
 * **Own names only**: a request whose ``Host`` is not a name of this server
-  (:class:`app.services.hosts.HostAllowList`) is a 421, page or websocket, before viser
+  (:class:`app.services.guard.hosts.HostAllowList`) is a 421, page or websocket, before viser
   sees it.
 * **Foreign origins**: a websocket handshake whose ``Origin`` (or ``Sec-Fetch-Site:
   cross-site``) is not this server is a 403 before the connection is accepted
-  (:func:`app.services.hosts.foreign_origin`), so another site's page open in a browser
+  (:func:`app.services.guard.hosts.foreign_origin`), so another site's page open in a browser
   cannot drive a GUI tab; a page request carrying a foreign ``Origin`` likewise.
 * **Headers**: every page response carries :data:`VISER_CSP` (``frame-ancestors 'none'``),
   ``X-Frame-Options: DENY``, ``X-Content-Type-Options: nosniff`` and ``Referrer-Policy:
   no-referrer``.
-* **Client address**: each websocket's client address (:func:`app.services.clients.
+* **Client address**: each websocket's client address (:func:`app.services.guard.clients.
   client_address`, ``X-Forwarded-For`` only from ``--trusted-proxy`` peers) is kept for the
   per-client session limit (:meth:`ViserGuard.client_address`).
 * **Browser**: the page sets a random browser id in the cookie :data:`BROWSER_COOKIE`
@@ -53,8 +53,8 @@ import weakref
 from collections.abc import Callable
 from typing import Any
 
-from ..services.clients import client_address
-from ..services.hosts import HostAllowList, foreign_origin, host_name
+from app.services.guard.clients import client_address
+from app.services.guard.hosts import HostAllowList, foreign_origin, host_name
 
 __all__ = ["BROWSER_COOKIE", "MAX_MESSAGE_BYTES", "MAX_QUEUED_FRAMES", "MAX_UPLOADS_PER_TAB",
            "SUPPORTED_VISER", "VISER_CSP", "ViserGuard", "ViserGuardError", "bound_uploads",

@@ -6,7 +6,8 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from ..services import actions
+from app.services.session import actions
+
 from .deps import SettingsDep
 from .schemas import ControlsIn, ControlsOut
 

@@ -9,7 +9,8 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import HTMLResponse
 from starlette.concurrency import run_in_threadpool
 
-from ..services import actions
+from app.services.session import actions
+
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
 from .schemas import CsvPreviewOut, DiagnosisOut, FigureOut, FitIn, FitOut, RecordingOut

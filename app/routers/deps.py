@@ -13,10 +13,10 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 
-from ..services.clients import client_address
-from ..services.ratelimit import RateLimiter
-from ..services.sessions import Session, SessionRegistry, normalise_code
-from ..services.settings import Settings
+from app.services.guard.clients import client_address
+from app.services.guard.ratelimit import RateLimiter
+from app.services.session.sessions import Session, SessionRegistry, normalise_code
+from app.services.settings import Settings
 
 __all__ = ["RegistryDep", "SessionDep", "SettingsDep", "attachment", "client_key", "rate_limited",
            "read_body", "require_teacher"]
@@ -50,7 +50,7 @@ async def get_session(code: str, request: Request) -> Session:
 
     The pause after too many unknown codes is of this client and the codes it does not
     know yet: a session it created or opened before stays open to it
-    (:class:`~app.services.known_codes.KnownCodes`)."""
+    (:class:`~app.services.guard.known_codes.KnownCodes`)."""
     key = client_key(request)
     limiter = request.app.state.lookup_limiter
     known = request.app.state.known_codes

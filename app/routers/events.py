@@ -26,10 +26,12 @@ from fastapi import APIRouter, Header, HTTPException, Query, Request
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field
 
-from ..services import actions, lessons
-from ..services.config import SignalSpec
-from ..services.errors import ParameterError
-from ..services.events import HUB, StreamsPerClientError
+from app.services.errors import ParameterError
+from app.services.explore.config import SignalSpec
+from app.services.session import actions
+from app.services.teaching import lessons
+from app.services.teaching.events import HUB, StreamsPerClientError
+
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, require_teacher
 from .schemas import ConnectedOut, PushOut, SignalIn
 

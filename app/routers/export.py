@@ -9,10 +9,11 @@ import anyio
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import Response
 
-from ..services import actions
-from ..services.errors import ParameterError
-from ..services.exports import EXPORT_FORMATS
-from ..services.jsonbody import read_document
+from app.services.errors import ParameterError
+from app.services.guard.jsonbody import read_document
+from app.services.session import actions
+from app.services.session.exports import EXPORT_FORMATS
+
 from .deps import (
     SessionDep,
     SettingsDep,

@@ -20,10 +20,11 @@ from typing import Any, Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..services import tasks
-from ..services.jobs import Job, JobBusy, JobManager
-from ..services.sessions import Session
-from ..services.settings import Settings
+from app.services.jobs import tasks
+from app.services.jobs.manager import Job, JobBusy, JobManager
+from app.services.session.sessions import Session
+from app.services.settings import Settings
+
 from .deps import SessionDep, SettingsDep
 from .schemas import FitIn, JobCreatedOut, JobListOut, JobOut
 

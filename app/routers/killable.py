@@ -1,7 +1,7 @@
 """Heavy figures in a worker process that stops when its client hangs up (issue 18 item 3).
 
-A figure request whose priced work is above :data:`app.services.actions.KILLABLE_WORK` is
-computed by :func:`run_figures` in a :class:`~app.services.worker.Worker` process, while the
+A figure request whose priced work is above :data:`app.services.session.actions.KILLABLE_WORK` is
+computed by :func:`run_figures` in a :class:`~app.services.jobs.worker.Worker` process, while the
 route polls :meth:`starlette.requests.Request.is_disconnected`: when the client has gone,
 the worker is killed (``SIGKILL``: numpy and compiled kernels cannot be interrupted from
 inside) and the memory it used goes with it, instead of a core computing for nobody. The
@@ -17,9 +17,9 @@ from typing import Any
 from fastapi import HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
-from ..services import actions
-from ..services.errors import ParameterError
-from ..services.worker import LiveWorkers, OutOfMemory, TaskFailed, Worker, WorkerDied
+from app.services.errors import ParameterError
+from app.services.jobs.worker import LiveWorkers, OutOfMemory, TaskFailed, Worker, WorkerDied
+from app.services.session import actions
 
 __all__ = ["run_figures"]
 

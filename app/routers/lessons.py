@@ -9,7 +9,7 @@ The teacher moves the class (``POST /api/teacher/lesson`` starts a lesson, ``POS
 /api/teacher/lesson/step`` goes to a step, ``DELETE /api/teacher/lesson`` ends it) under
 the rule of ``POST /api/teacher/push`` (:func:`~app.routers.deps.require_teacher`); each move
 is that push (the step's model, input and mismatch to every recent session, and a ``push``
-event carrying the step, see :mod:`app.services.lessons`). A student who explored comes
+event carrying the step, see :mod:`app.services.teaching.lessons`). A student who explored comes
 back with ``POST /api/sessions/{code}/lesson/return``.
 """
 
@@ -20,8 +20,9 @@ from typing import Any
 from fastapi import APIRouter, Header, HTTPException, Request
 from pydantic import BaseModel, Field
 
-from ..services import lessons
-from ..services.events import HUB
+from app.services.teaching import lessons
+from app.services.teaching.events import HUB
+
 from .deps import RegistryDep, SessionDep, SettingsDep, read_body, require_teacher
 from .schemas import SessionOut
 

@@ -8,7 +8,8 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse
 
-from ..services import catalog
+from app.services.explore import catalog
+
 from .deps import SettingsDep
 from .schemas import CapabilitiesOut, HealthOut, PresetOut, ViserUrlOut
 

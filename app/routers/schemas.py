@@ -13,7 +13,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..services.config import Config, SignalSpec
+from app.services.explore.config import Config, SignalSpec
 
 __all__ = [
     "BroadcastOut",
@@ -97,7 +97,7 @@ class ControlsIn(BaseModel):
 
 
 class SliderOut(BaseModel):
-    """One number of the model as a slider (see app/services/controls.py)."""
+    """One number of the model as a slider (see app/services/explore/controls.py)."""
 
     path: str = Field(description="JSON path in the model document, e.g. pi.thresholds[2]")
     label: str = Field(description="what the user sees, e.g. r3")

@@ -5,7 +5,7 @@ are ``async``: they and their dependencies run on the event loop, with no hand-o
 worker thread, which cost more than their own work (issue 18 item 8). What may wait long
 still goes to a worker thread, so it never holds up the other requests: the commit of a
 config change (a disk write) and figures whose priced work is not small
-(:func:`app.services.actions.figures_are_quick`); heavy figures go to a worker process that
+(:func:`app.services.session.actions.figures_are_quick`); heavy figures go to a worker process that
 is killed when the client hangs up (:mod:`.killable`).
 """
 
@@ -16,8 +16,9 @@ from typing import Any
 from fastapi import APIRouter, Header, HTTPException, Query, Request
 from fastapi.concurrency import run_in_threadpool
 
-from ..services import actions
-from ..services.errors import ParameterError
+from app.services.errors import ParameterError
+from app.services.session import actions
+
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
 from .killable import run_figures
 from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut

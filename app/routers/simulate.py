@@ -6,8 +6,9 @@ from typing import Any
 
 from fastapi import APIRouter, Request
 
-from ..services import actions
-from ..services.config import Config
+from app.services.explore.config import Config
+from app.services.session import actions
+
 from .deps import SettingsDep
 from .killable import run_figures
 from .schemas import SimulateIn, SimulateOut

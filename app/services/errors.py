@@ -3,12 +3,11 @@
 
 from __future__ import annotations
 
+from app.services.session.sessions import StoreFullError
+from app.services.storage.quotas import QuotaError
+from app.services.storage.store import DamagedSessionError
 from core.csvio import CSVError
 from core.exceptions import NotInvertibleError, ParameterError
-
-from .quotas import QuotaError
-from .sessions import StoreFullError
-from .store import DamagedSessionError
 
 __all__ = ["CSVError", "DamagedSessionError", "NotInvertibleError", "ParameterError",
            "QuotaError", "StoreFullError"]

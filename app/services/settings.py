@@ -8,11 +8,11 @@ import os
 import secrets
 from dataclasses import dataclass, fields, replace
 
-from .clients import proxy_networks
-from .cost import Limits
-from .hosts import HostAllowList
-from .quotas import Quotas
-from .worker import default_memory_limit
+from app.services.explore.cost import Limits
+from app.services.guard.clients import proxy_networks
+from app.services.guard.hosts import HostAllowList
+from app.services.jobs.worker import default_memory_limit
+from app.services.storage.quotas import Quotas
 
 __all__ = ["Settings", "is_loopback"]
 
@@ -47,7 +47,7 @@ class Settings:
         Directory of the session database (``sessions.sqlite3``); ``None`` keeps sessions
         in memory only (tests). ``hyst serve`` defaults to the per-user data directory.
     max_store_mb : int
-        Size budget of the stored sessions, MB (see :mod:`app.services.store`).
+        Size budget of the stored sessions, MB (see :mod:`app.services.storage.store`).
     max_client_store_mb : int
         MB the stored sessions created from one client address may hold together; ``0``
         (the default) is a tenth of ``max_store_mb`` (:attr:`quotas`).
@@ -64,7 +64,7 @@ class Settings:
     trusted_proxies : tuple of str
         Addresses or networks (``127.0.0.1``, ``10.0.0.0/8``) of reverse proxies in front of
         the server. Only a request arriving from one of them has its ``X-Forwarded-For``
-        read (:func:`app.services.clients.client_address`); otherwise the client is the
+        read (:func:`app.services.guard.clients.client_address`); otherwise the client is the
         socket's peer. Empty by default: the header is ignored.
     max_streams_per_client : int
         Live-event streams (open pages) one client may hold at once.
@@ -84,7 +84,7 @@ class Settings:
     worker_memory_mb : int
         Memory each worker process (a fit, a diagnosis, heavy figures) may allocate beyond
         what it holds at its start, MB; ``0`` (the default) is
-        :func:`~app.services.worker.default_memory_limit`: twice the priced memory bound of
+        :func:`~app.services.jobs.worker.default_memory_limit`: twice the priced memory bound of
         a request, at most a quarter of the machine's memory (:attr:`worker_memory_bytes`).
     """
 
@@ -189,7 +189,7 @@ class Settings:
 
     @property
     def host_allow_list(self) -> HostAllowList:
-        """The names a request's ``Host`` may carry (see :mod:`app.services.hosts`)."""
+        """The names a request's ``Host`` may carry (see :mod:`app.services.guard.hosts`)."""
         return HostAllowList.for_server(self.host, self.allowed_hosts)
 
     @property
@@ -209,7 +209,7 @@ class Settings:
 
     @property
     def limits(self) -> Limits:
-        """The cost limits of one request (:class:`app.services.cost.Limits`)."""
+        """The cost limits of one request (:class:`app.services.explore.cost.Limits`)."""
         return Limits(max_operators=self.max_operators, max_samples=self.max_samples,
                       max_work=max(Limits.max_work, 125 * self.max_samples))
 

@@ -55,7 +55,7 @@ def until_file(path: str, value: Any = None, limit_s: float = 120.0, *, progress
 
 
 def stalled_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
-    """Stands in for :func:`app.services.tasks.run_diagnosis`: reports its last progress,
+    """Stands in for :func:`app.services.jobs.tasks.run_diagnosis`: reports its last progress,
     then stalls (as if building the report) until killed or 120 s have passed."""
     progress(0.99, "building the report")
     time.sleep(120)
@@ -63,9 +63,9 @@ def stalled_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
 
 
 def slow_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
-    """Stands in for :func:`app.services.tasks.run_diagnosis`: the real diagnosis, pausing
+    """Stands in for :func:`app.services.jobs.tasks.run_diagnosis`: the real diagnosis, pausing
     0.5 s at each progress report (so that a browser test can act while it runs)."""
-    from app.services.diagnosis import run_diagnosis
+    from app.services.analysis.diagnosis import run_diagnosis
     from core.base import model_from_dict
 
     def slow(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
@@ -76,7 +76,7 @@ def slow_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
 
 
 def stalled_fit(rec: Any, n: int, kind: str, *, progress: Any) -> Any:
-    """Stands in for :func:`app.services.tasks.run_fit`: reports half way, then stalls
+    """Stands in for :func:`app.services.jobs.tasks.run_fit`: reports half way, then stalls
     until killed or 120 s have passed."""
     progress(0.5, "fitting")
     time.sleep(120)

@@ -382,7 +382,7 @@ def test_export_c_of_a_dynamic_model_needs_dt(tmp_path, capsys):
 def test_progress_heartbeat_repeats_on_stderr_until_the_block_ends(capsys):
     import time
 
-    from app.services.progress import Progress
+    from app.services.runs.progress import Progress
 
     seen = ""
     with Progress("fit").heartbeat("still fitting...", every=0.01):

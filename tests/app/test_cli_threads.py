@@ -26,7 +26,7 @@ PROBE = r"""
 import json, sys
 import numpy, scipy.linalg
 from threadpoolctl import threadpool_info
-import app.services.diagnosis as diagnosis
+import app.services.analysis.diagnosis as diagnosis
 import core.fitting
 from core.exceptions import ParameterError
 

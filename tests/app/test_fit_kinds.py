@@ -18,7 +18,7 @@ from fastapi.testclient import TestClient
 import core.base
 from app.cli import main
 from app.server import create_app
-from app.services.fitting import fit_recording
+from app.services.analysis.fitting import fit_recording
 from app.services.settings import Settings
 from core.base import register_model
 from core.fitting import PIRegressor
@@ -110,7 +110,7 @@ def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:
     import viser
 
     from app.gui.controller import SessionView
-    from app.services.sessions import SessionRegistry
+    from app.services.session.sessions import SessionRegistry
     from app.services.words import type_words
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)

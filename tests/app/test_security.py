@@ -241,7 +241,7 @@ def test_codes_are_long_random_and_made_by_the_server(client: TestClient) -> Non
     """Failure 5: 6-character codes (30 bits); PUT /api/sessions/abc created a session."""
     import math
 
-    from app.services.sessions import CODE_ALPHABET, CODE_LENGTH
+    from app.services.session.sessions import CODE_ALPHABET, CODE_LENGTH
 
     assert CODE_LENGTH * math.log2(len(set(CODE_ALPHABET))) >= 64
     codes = {client.post("/api/sessions").json()["code"] for _ in range(20)}

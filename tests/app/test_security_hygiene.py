@@ -15,8 +15,8 @@ from fastapi.testclient import TestClient
 from app.cli import build_parser
 from app.commands.serve import settings_of
 from app.server import create_app
-from app.services.cost import Limits, check_model
-from app.services.hosts import HostAllowList, host_name
+from app.services.explore.cost import Limits, check_model
+from app.services.guard.hosts import HostAllowList, host_name
 from app.services.settings import Settings
 from core.base import model_from_dict
 from core.exceptions import ParameterError

@@ -10,10 +10,10 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
-from app.services import tasks
-from app.services.jobs import JobBusy, JobManager
+from app.services.jobs import tasks
+from app.services.jobs.manager import JobBusy, JobManager
+from app.services.jobs.worker import Task
 from app.services.settings import Settings
-from app.services.worker import Task
 
 from . import job_work
 from .test_security import csv_text, upload

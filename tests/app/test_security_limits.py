@@ -24,8 +24,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
-from app.services.clients import client_address, proxy_networks
-from app.services.redaction import MASK, RedactCodes, redact
+from app.services.guard.clients import client_address, proxy_networks
+from app.services.guard.redaction import MASK, RedactCodes, redact
 from app.services.settings import Settings
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -120,7 +120,7 @@ def _routes() -> list[tuple[str, str]]:
     for path, ops in spec["paths"].items():
         for method, op in ops.items():
             kinds = {k for r in op["responses"].values() for k in r.get("content", {})}
-            if "text/event-stream" not in kinds:  # never ends; tests/app/services/test_events*
+            if "text/event-stream" not in kinds:  # never ends; test_events*
                 out.append((method.upper(), path))
     return out
 

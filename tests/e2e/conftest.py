@@ -118,7 +118,7 @@ def slow_diagnosis(monkeypatch: pytest.MonkeyPatch) -> None:
     diagnosis before the click and the test measures the race, not the page. (A job runs in
     a worker process: the server sends it the work function by name, so the slow one is a
     module-level function of the tests.)"""
-    from app.services import tasks
+    from app.services.jobs import tasks
     from tests.app.job_work import slow_diagnosis as slow
 
     monkeypatch.setattr(tasks, "run_diagnosis", slow)

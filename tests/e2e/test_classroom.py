@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from app.services.events import HUB
+from app.services.teaching.events import HUB
 
 from .conftest import TEACHER_TOKEN
 from .test_viser_gui import _open as _open_viser
@@ -149,7 +149,7 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
     _text_has(page, "notes", "Why does the inverse feedforward do worse")
     note = page.inner_text("#notes")
     sess = _session(app, page)
-    from app.services import actions
+    from app.services.session import actions
     runs = actions.session_result(sess, ["closed-loop"], app.state.settings).closed_loop.runs
     ff = _gain_one_loop_rms(runs["inverse feedforward"].r)
     assert f"({ff:.3g})" in note or f"RMS error {ff:.3g}" in note, note
@@ -234,7 +234,7 @@ def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_serv
     shows the states its input visited, named; the view can be stepped and played, each
     step drawing the trace's state at that row (its digits in the title, the marker at
     its point)."""
-    from app.services import actions
+    from app.services.session import actions
 
     app = live_server["app"]
     ctx, page, log = _open(browser, live_server["url"])
@@ -299,7 +299,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
     uneven time stamps stops with the choice and its button resamples; a diagnosis shows
     its progress and can be cancelled (failure 5), then runs in sentences with its before /
     after view; projector mode makes the plot >= 60 % of the width with text >= 16 px."""
-    from app.services import actions
+    from app.services.session import actions
 
     app = live_server["app"]
     known = set(app.state.gui.views)
@@ -361,7 +361,7 @@ def test_viser_tab_journeys(browser: Any, live_server: dict, tmp_path: Path, sho
     deadline = time.monotonic() + 60
     while view.session.recording.n_samples != 50001 and time.monotonic() < deadline:
         time.sleep(0.1)
-    from app.services import tasks  # the diagnosis job pauses 0.5 s at each progress report
+    from app.services.jobs import tasks
     from tests.app.job_work import slow_diagnosis
 
     monkeypatch.setattr(tasks, "run_diagnosis", slow_diagnosis)

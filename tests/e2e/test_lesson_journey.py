@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from app.gui.layout import TITLES
-from app.services.lessons import class_lesson, parse_lesson
+from app.services.teaching.lessons import class_lesson, parse_lesson
 
 from .conftest import TEACHER_TOKEN
 from .test_viser_gui import _open as _open_viser

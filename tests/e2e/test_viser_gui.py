@@ -157,7 +157,7 @@ def test_viser_fit_is_a_job_with_progress_and_cancel(browser: Any, live_server: 
     """A fit clicked in viser runs as a job of the server's job manager: its progress and
     a "Cancel the fit" button show under the buttons; Cancel kills its worker process and
     the session's model is left as it was; then a real fit of a real recording runs."""
-    from app.services import tasks
+    from app.services.jobs import tasks
     from tests.app import job_work
 
     from .test_classroom import PIEZO

@@ -236,7 +236,7 @@ def test_clipping_inverse_is_said_in_the_page(browser: Any, live_server: dict) -
     ctx, page, log = _open(browser, live_server["url"])
     # a tanh GPI whose envelope bounds the output at ±2: the inverse clips, the page says so
     code = page.inner_text("#code")
-    from app.services.simulation import preset_doc
+    from app.services.explore.simulation import preset_doc
 
     model = preset_doc("paper001-example6")["model"]
     model["envelope"]["a"] = model["envelope"]["b"] = [2.0, 0.4, 0.0, 0.0]

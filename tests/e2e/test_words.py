@@ -126,7 +126,7 @@ def test_diagnosis_in_one_voice_and_no_code_names(browser: Any, live_server: dic
         view = _views(app, 1, known=known)[-1]
         view.session.update(lambda c: c.with_model(
             app.state.registry.get(view.session.code).config.model))
-        from app.services.simulation import preset_doc
+        from app.services.explore.simulation import preset_doc
         view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
         v.wait_for_timeout(1500)
         assert view.worker.wait_idle(30)

@@ -22,7 +22,7 @@ from app.batch.report import write_report
 from app.batch.runner import LOCAL_CLUSTER_QUIET
 from app.batch.summary import robust_outliers
 from app.cli import main
-from app.services.inputs import CommandError
+from app.services.runs.inputs import CommandError
 from tests.app.recordings import assert_same_document, read_json, write_recording
 
 _write = write_recording

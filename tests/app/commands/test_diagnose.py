@@ -197,7 +197,7 @@ def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_p
     assert doc["baseline"]["model"] == "preisach"
     assert "level-dependent memory" in doc["baseline"]["base_choice"]["text"]
     assert doc["effects"] == []
-    from app.services.diagnosis import (
+    from app.services.analysis.diagnosis import (
         diagnosis_summary as _diagnosis_summary,  # the findings the web page and batch show
     )
 
@@ -220,7 +220,7 @@ def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_p
 def test_the_findings_name_a_bouc_wen_base() -> None:
     """A diagnosis document whose base is the Bouc-Wen bank (core.diagnosis.bases): the
     findings the web page and batch show name it, not the PI (the base's text is the core's)."""
-    from app.services.diagnosis import diagnosis_summary
+    from app.services.analysis.diagnosis import diagnosis_summary
 
     text = "Bouc-Wen: a bank of Bouc-Wen elements of fixed shapes"
     doc = {"baseline": {"model": "bouc-wen", "heldout_rmse": 0.2,
@@ -236,7 +236,7 @@ def test_the_findings_do_not_say_the_model_explains_data_it_misses() -> None:
     damper: 5.8 % of range, 10.9 times the floor): the findings say that nothing was found
     and what is not explained, never that the model explains the data; without a verdict
     they claim neither."""
-    from app.services.diagnosis import diagnosis_summary
+    from app.services.analysis.diagnosis import diagnosis_summary
 
     verdict = ("the base model is not adequate: the final model still misses 5.78 % of the "
                "output range on the held-out rows (RMS 0.5405, 10.9 times the white-noise "
@@ -257,7 +257,7 @@ def test_the_html_report_says_what_the_model_does_not_explain() -> None:
     """The MnZn ferrite loops without the loop-shape effects stay inadequate (core test
     ``test_adequacy_tries_every_registered_fit_kind``): the HTML report states the verdict
     and never "No missing physics detected"."""
-    from app.services.diagnosis import diagnosis_html
+    from app.services.analysis.diagnosis import diagnosis_html
     from core.datasets import DATA_DIR
     from core.diagnosis import diagnose
 

@@ -19,7 +19,7 @@ from app.commands._scale import (
     check_memory,
     count_samples,
 )
-from app.services.inputs import CommandError
+from app.services.runs.inputs import CommandError
 
 
 def _csv(path, n: int, trailing_newline: bool = True):

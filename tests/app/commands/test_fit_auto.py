@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from app.cli import main
-from app.services.fitting import fit_recording
-from app.services.recordings import recording_from_csv
+from app.services.analysis.fitting import fit_recording
+from app.services.analysis.recordings import recording_from_csv
 
 
 def _clockwise_csv(path: Path) -> Path:

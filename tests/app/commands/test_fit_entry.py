@@ -18,8 +18,8 @@ import pytest
 from app.batch import DiagnoseOptions, FitOptions
 from app.batch.single import run_recording
 from app.cli import main
-from app.services.fitting import fit_recording
-from app.services.recordings import recording_from_csv
+from app.services.analysis.fitting import fit_recording
+from app.services.analysis.recordings import recording_from_csv
 from core.csvio import read_csv
 from core.fitting import TimeWindow, fit_recordings
 from tests.app.recordings import assert_same_document, write_recording
@@ -118,6 +118,7 @@ def test_batch_runs_no_command_line_and_redirects_nothing():
         hits = [m.group(0) for m in forbidden.finditer(text)]
         assert not hits, f"{path.name}: {hits}"
     # and no caller sniffs an estimator's (or the diagnosis') signature
-    for path in [APP / "services" / "fitting.py", APP / "services" / "diagnosis.py",
+    for path in [APP / "services" / "analysis" / "fitting.py",
+                 APP / "services" / "analysis" / "diagnosis.py",
                  APP / "commands" / "fit.py", *(APP / "batch").glob("*.py")]:
         assert "inspect.signature" not in path.read_text(encoding="utf-8"), path.name

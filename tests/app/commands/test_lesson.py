@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
-from app.services.lessons import builtin_lesson, parse_lesson
+from app.services.teaching.lessons import builtin_lesson, parse_lesson
 
 
 def test_list_write_and_check(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -16,7 +16,7 @@ from fastapi.testclient import TestClient
 
 from app.gui.controller import SessionView
 from app.server import create_app
-from app.services.ratelimit import RateLimiter
+from app.services.guard.ratelimit import RateLimiter
 from app.services.settings import Settings
 
 from .test_viser_guard import _ws

@@ -20,8 +20,8 @@ import pytest
 from app.gui.controller import SessionView
 from app.gui.render import LatestWinsWorker
 from app.gui.text import diagnosis_markdown, md_text
-from app.services import figures as F
-from app.services.sessions import SessionRegistry
+from app.services.explore import figures as F
+from app.services.session.sessions import SessionRegistry
 from app.services.settings import Settings
 from core.pi import PIModel
 
@@ -108,7 +108,7 @@ def test_refused_change_puts_sliders_back(view: SessionView,
     """A change the rules do not catch but the model refuses (simulated by letting the
     clamp pass everything) puts the sliders back at the stored model: the next move
     applies."""
-    from app.services import controls as C
+    from app.services.explore import controls as C
 
     monkeypatch.setattr(C, "clamp", lambda doc, path, value, controls=None: C.Clamped(value))
     r3 = view.ui.param_sliders["thresholds[2]"]
@@ -209,7 +209,7 @@ def test_markup_in_csv_name_and_cells_is_text(view: SessionView) -> None:
 
 
 def test_deadzone_operators_stack_on_the_dead_zoned_input(view: SessionView) -> None:
-    from app.services.simulation import preset_doc
+    from app.services.explore.simulation import preset_doc
 
     view.session.update(lambda c: c.with_model(preset_doc("paper001-example4")["model"]))
     view.ui.view_dd.value = "Operators"
@@ -261,7 +261,7 @@ def test_join_other_session(view: SessionView) -> None:
 def test_join_shows_the_sessions_preset(view: SessionView) -> None:
     """A view joining a session that holds Example 4 shows that preset, not the first one;
     a model changed since names no preset (the dropdown keeps what it showed)."""
-    from app.services import actions
+    from app.services.session import actions
 
     other = view.registry.create()
     actions.load_preset(other, "paper001-example4", with_input=True)
@@ -277,7 +277,7 @@ def test_join_shows_the_sessions_preset(view: SessionView) -> None:
 
 
 def test_generic_parameter_sliders_for_gpi(view: SessionView) -> None:
-    from app.services.simulation import preset_doc
+    from app.services.explore.simulation import preset_doc
 
     doc = preset_doc("paper001-example4")
     view.session.update(lambda c: c.with_model(doc["model"]))
@@ -430,9 +430,9 @@ def test_fit_is_a_killable_job_with_progress_and_cancel(
     a session already running a job is refused in words for the user; the fit's progress
     shows under the buttons; Cancel kills its worker at once and the session keeps the
     fit it had (before: the fit ran in the server process, with neither)."""
-    from app.services import tasks
-    from app.services.jobs import JobManager
-    from app.services.worker import Task
+    from app.services.jobs import tasks
+    from app.services.jobs.manager import JobManager
+    from app.services.jobs.worker import Task
     from tests.app import job_work
 
     jobs = JobManager(max_workers=1)
@@ -518,7 +518,7 @@ def test_diagnosis_is_a_killable_job_and_a_closed_tab_cancels_it(server: Any) ->
     closed during a diagnosis cancels it too; a diagnosis left to finish shows its
     findings. Before, the diagnosis ran in the server process and stopped only at its next
     progress report (9 s measured), and a closed tab's diagnosis ran on."""
-    from app.services.jobs import JobManager
+    from app.services.jobs.manager import JobManager
     from tests.app import job_work
 
     jobs = JobManager(max_workers=1)

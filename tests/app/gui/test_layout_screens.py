@@ -7,9 +7,9 @@ import plotly.graph_objects as go
 import pytest
 
 from app.gui.layout import is_narrow
-from app.services import figures as F
-from app.services.config import Config
-from app.services.simulation import compute
+from app.services.explore import figures as F
+from app.services.explore.config import Config
+from app.services.explore.simulation import compute
 
 
 @pytest.mark.parametrize("css_w, css_h", [(390, 844), (360, 780), (430, 932)])

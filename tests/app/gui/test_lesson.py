@@ -11,9 +11,9 @@ import pytest
 
 from app.gui.controller import SessionView
 from app.gui.layout import TITLES
-from app.services import lessons
-from app.services.sessions import SessionRegistry
+from app.services.session.sessions import SessionRegistry
 from app.services.settings import Settings
+from app.services.teaching import lessons
 from core.pi import PIModel
 from tests.app.gui.test_gui_headless import server  # noqa: F401 - the viser server fixture
 

@@ -28,9 +28,9 @@ from app.gui.viser_guard import (
     start_viser,
 )
 from app.server import create_app
-from app.services.clients import proxy_networks
-from app.services.hosts import HostAllowList
-from app.services.ratelimit import RateLimiter
+from app.services.guard.clients import proxy_networks
+from app.services.guard.hosts import HostAllowList
+from app.services.guard.ratelimit import RateLimiter
 from app.services.settings import Settings
 
 PROTOCOL = f"viser-v{viser.__version__}"

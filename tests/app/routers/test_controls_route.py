@@ -10,9 +10,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
+from app.services.explore.simulation import preset_doc
 from app.services.settings import Settings
-from app.services.simulation import preset_doc
-from tests.app.services.test_controls import toy  # noqa: F401 - the fixture
+from tests.app.services.explore.test_controls import toy  # noqa: F401 - the fixture
 
 SETTINGS = Settings(viser_port=None, max_upload_bytes=200_000, max_operators=40)
 

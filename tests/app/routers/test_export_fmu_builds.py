@@ -16,7 +16,7 @@ from fastapi.testclient import TestClient
 
 from app.routers import export as export_router
 from app.server import create_app
-from app.services import actions
+from app.services.session import actions
 from app.services.settings import Settings
 
 

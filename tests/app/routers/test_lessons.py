@@ -8,8 +8,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.server import create_app
-from app.services.lessons import MAX_LESSON_BYTES
 from app.services.settings import Settings
+from app.services.teaching.lessons import MAX_LESSON_BYTES
 
 TOKEN = "lesson-7c"
 T = {"X-Teacher-Token": TOKEN}
@@ -133,7 +133,7 @@ def test_a_step_is_checked_by_the_sliders_ranges(client: TestClient) -> None:
     """Issue 35 item 6: ``"input": {"duration": 1e308}`` passed the check and started;
     then every student's figures answered 422. The step's input and mismatch must be
     values the sliders can show, and its model must keep the sliders' rules."""
-    from app.services.config import CONTROLS
+    from app.services.explore.config import CONTROLS
 
     doc = client.get("/api/lessons/pi-basics").json()
     for key, value, words in (

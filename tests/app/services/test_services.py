@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.services import actions
-from app.services import figures as F
-from app.services.config import Config, SignalSpec
-from app.services.sessions import Session, SessionRegistry
+from app.services.explore import figures as F
+from app.services.explore.config import Config, SignalSpec
+from app.services.explore.simulation import compute
+from app.services.session import actions
+from app.services.session.sessions import Session, SessionRegistry
 from app.services.settings import Settings
-from app.services.simulation import compute
-from app.services.store import SessionState, SessionStore
+from app.services.storage.store import SessionState, SessionStore
 from core.base import Model
 from core.closed_loop import HammersteinLoop
 from core.pi import PIModel
@@ -123,7 +123,8 @@ def test_refused_config_changes_store_nothing() -> None:
 
 
 def test_the_web_layer_does_not_import_the_command_line() -> None:
-    code = ("import sys, app.server, app.gui.explorer, app.routers.jobs, app.services.actions;"
+    code = ("import sys, app.server, app.gui.explorer, app.routers.jobs, "
+            "app.services.session.actions;"
             "print([m for m in sys.modules if m.startswith('app.commands')])")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                          text=True, check=True, timeout=120).stdout

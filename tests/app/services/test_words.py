@@ -8,8 +8,8 @@ import re
 
 import numpy as np
 
-from app.services import figures as F
-from app.services.diagnosis import diagnosis_summary
+from app.services.analysis.diagnosis import diagnosis_summary
+from app.services.explore import figures as F
 from app.services.words import (
     field_words,
     in_words,
@@ -60,7 +60,7 @@ def test_fields_and_units_in_words() -> None:
     assert field_words("initial-memory", "history") == "Input history u_k"
     assert field_words("pi", "nothing_here") == "nothing here"
     assert unit_words("um") == "µm" and unit_words(None) == ""
-    from app.services.simulation import preset_doc
+    from app.services.explore.simulation import preset_doc
     from core.base import model_from_dict
     assert model_words(model_from_dict(preset_doc("paper001-example4")["model"])) == \
         "Dead-zone GPI"

@@ -1,0 +1,133 @@
+"""Fits of recordings: the explorer's session fit and the steps ``hyst fit`` and the batch
+worker share (no viser / fastapi imports).
+
+Every fit is :func:`core.fitting.fit_recordings`, the one fitting entry point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from app.services.runs.inputs import CommandError, parse_window
+from app.services.words import unit_words
+
+if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
+    from app.services.runs.progress import Progress
+    from app.services.session.sessions import Session
+    from core.base import Model
+    from core.fitting import FitOutcome, TimeWindow
+    from core.recordings import Recording
+
+__all__ = [
+    "check_n_operators",
+    "fit_errors",
+    "fit_recording",
+    "fit_session",
+    "fit_source",
+    "say_fit",
+    "time_window",
+]
+
+
+def _finite(x: Any) -> Any:
+    """``x`` with non-finite floats replaced by ``None`` (JSON has no NaN/inf)."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
+    """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
+
+    The fit is :func:`core.fitting.fit_recordings` (the one entry point ``hyst fit`` and
+    ``hyst batch fit`` use; every training row fitted from the relaxed state, the last 20 %
+    held out). The model is its ``model`` (the fitted output offset included, as a chain);
+    the report is its ``report`` plus the errors on the whole recording.
+
+    Raises
+    ------
+    ParameterError
+        If ``kind`` is not one of :func:`core.models.fit_kinds` (those of ``hyst fit
+        --model``, declared by the model registry).
+    """
+    from core.fitting import fit_recordings
+
+    out = fit_recordings([rec], kind, n_operators=n, initial_memory="keep")
+    model = out.model
+    res = rec.y - model(rec.u)
+    rms = float(np.sqrt(np.mean(res**2)))
+    report = {
+        **_finite(out.report.to_dict()),
+        "rms_error": rms,
+        "max_error": float(np.max(np.abs(res))),
+        "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
+        "n_operators": int(n),
+        "kind": kind,
+        "output_unit": unit_words(rec.units.get("output")),
+    }
+    return model, report
+
+
+def fit_session(session: Session, n: int, kind: str = "pi",
+                apply: bool = True) -> tuple[Model, dict[str, Any]]:
+    """Fit ``session``'s recording (see :func:`fit_recording`) and store the fit.
+
+    The diagnosis is dropped; with ``apply`` the fitted model becomes the session's model.
+    The caller checks that the session has a recording.
+    """
+    model, report = fit_recording(session.recording, n, kind)
+    session.set_fit(model.to_dict(), report, apply=apply)
+    return model, report
+
+
+def time_window(text: str | None, what: str) -> TimeWindow | None:
+    """The :class:`~core.fitting.TimeWindow` of ``--<what> T0:T1`` (``None`` without one)."""
+    from core.fitting import TimeWindow
+
+    if text is None:
+        return None
+    t0, t1 = parse_window(text, what)
+    return TimeWindow(t0, t1, text)
+
+
+def fit_source(files: Sequence[str | Path]) -> dict[str, Any]:
+    """The provenance of a ``hyst fit`` of ``files``: ``{"files", "source"}`` of
+    :func:`core.fitting.fit_recordings`."""
+    names = [Path(f).name for f in files]
+    return {"files": names, "source": "hyst fit " + " ".join(names)}
+
+
+def check_n_operators(n: object) -> None:
+    """``-n``: ``None`` (chosen by cross-validation) or a positive integer (CommandError)."""
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+        raise CommandError(f"-n must be a positive number of operators, got {n}")
+
+
+@contextmanager
+def fit_errors() -> Iterator[None]:
+    """Report an empty window as ``hyst fit`` does (``--train window selects no samples``)."""
+    from core.fitting import EmptyWindowError
+
+    try:
+        yield
+    except EmptyWindowError as exc:
+        raise CommandError(f"--{exc.which} window selects no samples; check it against the "
+                           "t column") from None
+
+
+def say_fit(progress: Progress, out: FitOutcome) -> None:
+    """Report the fit's warnings and what was done about the initial memory."""
+    for m in out.warnings:
+        progress(f"warning: {m}")
+    if out.memory_note:
+        progress(out.memory_note)

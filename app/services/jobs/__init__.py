@@ -1,0 +1,1 @@
+"""Fits and diagnoses as bounded, cancellable jobs run in killable worker processes."""

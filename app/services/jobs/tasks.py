@@ -1,0 +1,140 @@
+"""The fit and diagnosis jobs of a session: what runs in the worker process and what the
+server keeps (no web imports).
+
+:func:`fit_task` and :func:`diagnose_task` build a :class:`~app.services.jobs.worker.Task` from the
+session's state at submission (its recording, its model document). Their work,
+:func:`run_fit` and :func:`run_diagnosis`, runs in a worker process (:mod:`.worker`) that a
+cancel kills; only a finished, uncancelled result is stored in the session, in the server
+(``Task.keep``). The work functions are looked up here when a task is built, so a test may
+replace them with its own module-level functions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from app.services.jobs.worker import Progress, Task
+from core.exceptions import ParameterError
+
+if TYPE_CHECKING:
+    from app.services.explore.config import Config
+    from app.services.session.sessions import Session
+    from core.base import Model
+    from core.recordings import Recording
+
+__all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit",
+           "run_result"]
+
+
+def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:
+    """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure.
+
+    Returns ``{"model": document, "report": {...}, "figure": plotly figure}``.
+    """
+    from app.services.analysis.fitting import fit_recording
+    from app.services.explore import figures as F
+    from app.services.words import type_words
+
+    name = type_words(kind)
+    progress(0.05, f"fitting a {name[:1].lower() + name[1:]} with {n} operators")
+    model, report = fit_recording(rec, n, kind)
+    progress(0.9, "building the figure")
+    fig = F.fit_figure(rec, model(rec.u), f"fitted: {name}, {n} operators")
+    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+
+
+def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
+                  progress: Progress) -> tuple[dict[str, Any], Any]:
+    """Diagnose ``rec`` against the model ``model_doc`` (:func:`.diagnosis.run_diagnosis`):
+    ``(report, result)``; progress runs from 0.01 to 0.99."""
+    from app.services.analysis.diagnosis import run_diagnosis as diagnose
+    from app.services.words import in_words
+    from core.base import model_from_dict
+
+    progress(0.01, "diagnosing")
+
+    def report(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
+        # the diagnosis speaks of its candidates by their registry names: words here
+        progress(0.01 + 0.98 * float(fraction), in_words(str(message)) or "diagnosing")
+
+    return diagnose(rec, model_from_dict(model_doc), report)
+
+
+@dataclass(frozen=True)
+class Refused:
+    """What :func:`run_figures` returns instead of raising when the input is at fault: the
+    error's class and text, raised again as such in the server (a 422, not a failure)."""
+
+    error: type[Exception]
+    message: str
+
+
+def run_figures(config: Config, names: tuple[str, ...], version: int,
+                recording: Recording | None, diagnosed: Model | None, model: Model,
+                max_operators: int, max_samples: int, include_data: bool,
+                state: int | None = None, *, progress: Progress) -> dict[str, Any] | Refused:
+    """The JSON body of figures ``names`` of ``config`` (``/api/simulate`` and a session's
+    figures; ``state``: the digitized view's highlighted row):
+    :func:`.simulation.compute` then :func:`.actions.result_payload`, with the
+    model already built and priced by the caller. Runs in a request's thread, or in a worker
+    process when its priced work is large (:data:`.actions.KILLABLE_WORK`)."""
+    from app.services.explore.simulation import compute
+    from app.services.session.actions import result_payload
+    from core.exceptions import NotInvertibleError
+
+    try:
+        res = compute(config, views=names, version=version, recording=recording,
+                      max_operators=max_operators, max_samples=max_samples,
+                      diagnosed=diagnosed, model=model)
+        return result_payload(res, names, include_data, state=state)
+    except (ParameterError, NotInvertibleError) as exc:
+        return Refused(type(exc), str(exc))
+
+
+def run_result(config: Config, views: tuple[str, ...], version: int,
+               recording: Recording | None, diagnosed: Model | None, model: Model,
+               max_operators: int, max_samples: int, *, progress: Progress) -> Any:
+    """The :class:`~app.services.explore.simulation.Result` of ``config`` for ``views`` (the viser
+    GUI draws its figures and notes from it), with the model already built and priced by
+    the caller; a :class:`Refused` when the input is refused where it is computed. Runs in
+    the GUI's render thread, or in a worker process when its priced work is large."""
+    from app.services.explore.simulation import compute
+    from core.exceptions import NotInvertibleError
+
+    try:
+        return compute(config, views=views, version=version, recording=recording,
+                       max_operators=max_operators, max_samples=max_samples,
+                       diagnosed=diagnosed, model=model)
+    except (ParameterError, NotInvertibleError) as exc:
+        return Refused(type(exc), str(exc))
+
+
+def _recording(session: Session, what: str) -> Recording:
+    rec = session.recording
+    if rec is None:
+        raise ParameterError(f"upload a recording first: there is nothing to {what}")
+    return rec
+
+
+def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
+    """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
+    dropped; with ``apply`` the fitted model becomes the session's model)."""
+    def keep(out: dict[str, Any]) -> dict[str, Any]:
+        session.set_fit(out["model"], out["report"], apply=apply)
+        return out
+
+    return Task(run_fit, (_recording(session, "fit"), n, kind), keep)
+
+
+def diagnose_task(session: Session) -> Task:
+    """The task of a diagnosis of the fitted model (else the current model) against
+    ``session``'s recording; kept: the report and the result are stored."""
+    doc = session.fitted or session.snapshot()[0].model
+
+    def keep(out: tuple[dict[str, Any], Any]) -> dict[str, Any]:
+        report, result = out
+        session.set_diagnosis(report, result)
+        return report
+
+    return Task(run_diagnosis, (_recording(session, "diagnose"), doc), keep)

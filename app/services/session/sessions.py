@@ -1,0 +1,401 @@
+"""Live explorer sessions shared by the viser GUI and the REST API (no web imports).
+
+A :class:`Session` is one student's sandbox, keyed by a server-made code (79 random bits)
+that survives page reloads and restarts. It holds one typed, frozen
+:class:`~app.services.storage.store.SessionState` and replaces it as a whole on every transition
+(:meth:`Session.set_config`, :meth:`Session.set_recording`, :meth:`Session.set_fit`,
+:meth:`Session.set_diagnosis`): each one bumps the version, is committed to the SQLite
+:class:`~app.services.storage.store.SessionStore` before it returns, and notifies the listeners
+(the GUI render workers) outside the lock. :class:`SessionRegistry` finds sessions by code.
+"""
+
+from __future__ import annotations
+
+import secrets
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from app.services.explore.config import Config
+from app.services.explore.cost import CheckedModel, Limits
+from app.services.storage.store import SessionState, SessionStore
+from core.base import Model
+from core.recordings import Recording
+
+__all__ = [
+    "CODE_ALPHABET",
+    "CODE_LENGTH",
+    "Listener",
+    "Session",
+    "SessionRegistry",
+    "StoreFullError",
+    "new_code",
+    "normalise_code",
+]
+
+Listener = Callable[["Session", Config, int], None]
+
+
+class Session:
+    """One student's sandbox: a :class:`SessionState` replaced as a whole on each change.
+
+    Parameters
+    ----------
+    code : str
+        User-visible session code; type it after a reload to come back.
+    config : Config, optional
+        The first config (paper 001 Example 1 by default).
+    teacher : bool
+        Created with the teacher token: never evicted.
+    store : SessionStore, optional
+        Where every change is committed (none: nothing is stored).
+    owner : str
+        The client address that creates it (charged with its share of the store).
+
+    Notes
+    -----
+    The attributes ``config``, ``version``, ``recording``, ``fitted``, ``fit_report``,
+    ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and ``created`` read the
+    current state; change them only through the transitions.
+    """
+
+    def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
+                 store: SessionStore | None = None, owner: str = "") -> None:
+        self._state = SessionState(code=code, config=config or Config(), teacher=teacher,
+                                   owner=owner)
+        self._store = store
+        self.lock = threading.RLock()
+        self.last_access = time.monotonic()
+        self._listeners: list[Listener] = []
+
+    @classmethod
+    def from_state(cls, state: SessionState, store: SessionStore | None = None) -> Session:
+        """A live session from its stored state."""
+        s = cls(state.code, store=store)
+        s._state = state
+        return s
+
+    # ------------------------------------------------------------------ reads
+    @property
+    def state(self) -> SessionState:
+        """The current typed state (a frozen snapshot)."""
+        return self._state
+
+    code = property(lambda self: self._state.code, doc="The session code.")
+    config = property(lambda self: self._state.config, doc="The current config.")
+    version = property(lambda self: self._state.version, doc="Bumped on every change.")
+    @property
+    def recording(self) -> Recording | None:
+        """The uploaded recording: once stored it is read back from the store's cache of
+        recently used recordings (or the file), not held by the session."""
+        st = self._state
+        if st.recording is not None or not st.recording_stored or self._store is None:
+            return st.recording
+        return self._store.recording(st.code)
+
+    fitted = property(lambda self: self._state.fitted, doc="The fitted model document.")
+    fit_report = property(lambda self: self._state.fit_report, doc="The fit report.")
+    diagnosis = property(lambda self: self._state.diagnosis, doc="The diagnosis report.")
+    diagnosed = property(lambda self: self._state.diagnosed,
+                         doc="The diagnosed extended model's document (stored), or None.")
+    diagnosis_result = property(lambda self: self._state.diagnosis_result,
+                                doc="The core ``DiagnosisResult`` of the diagnosis (in "
+                                    "memory only: ``None`` after a restart).")
+    teacher = property(lambda self: self._state.teacher, doc="A teacher's session.")
+    created = property(lambda self: self._state.created, doc="Creation time, s (epoch).")
+
+    def snapshot(self) -> tuple[Config, int]:
+        """Current ``(config, version)`` read under the lock."""
+        with self.lock:
+            self.last_access = time.monotonic()
+            return self._state.config, self._state.version
+
+    def checked(self, limits: Limits,
+                check: Callable[[Config, Recording | None], CheckedModel]
+                ) -> tuple[Config, int, Model]:
+        """``(config, version, model)``: the current config's model parsed and checked once.
+
+        The state keeps the :class:`~app.services.explore.cost.CheckedModel` of its config and
+        recording; ``check(config, recording)`` builds it only when there is none for
+        ``limits`` yet (a new config, a new recording, other limits). Keeping it is no
+        transition: the version stays and nothing is stored.
+
+        Raises
+        ------
+        ParameterError
+            From ``check``: the model is invalid or over a limit (nothing is kept).
+        """
+        with self.lock:
+            self.last_access = time.monotonic()
+            st = self._state
+            if st.checked is None or st.checked.limits != limits:
+                st = self._state = replace(st, checked=check(st.config, self.recording))
+            return st.config, st.version, st.checked.model
+
+    # ------------------------------------------------------------------ transitions
+    def _commit(self, changes: dict[str, Any], *, recording: bool, results: bool,
+                notify: bool = True) -> int:
+        """Replace the state with ``changes`` applied and store it; with ``notify`` (a
+        change the plots show) also bump the version and tell the listeners. A new config
+        or recording drops the checked model unless ``changes`` gives the new one."""
+        if ("config" in changes or "recording" in changes) and "checked" not in changes:
+            changes = {**changes, "checked": None}
+        with self.lock:
+            st = replace(self._state, **changes, last_used=time.time(),
+                         version=self._state.version + (1 if notify else 0))
+            if self._store is not None:
+                self._store.save(st, recording=recording, results=results)
+                if st.recording is not None:  # on disk now: the store's cache holds it
+                    st = replace(st, recording=None, recording_stored=True)
+            self._state = st
+            self.last_access = time.monotonic()
+        if notify:
+            for cb in list(self._listeners):
+                cb(self, st.config, st.version)
+        return st.version
+
+    def save(self) -> None:
+        """Commit the whole state to the store (no-op without one)."""
+        if self._store is not None:
+            with self.lock:
+                self._state = replace(self._state, last_used=time.time())
+                self._store.save(self._state)
+
+    def set_config(self, config: Config, checked: CheckedModel | None = None) -> int:
+        """Replace the config (with ``checked``, its model already parsed and checked);
+        returns the new version."""
+        return self._commit({"config": config, "checked": checked}, recording=False,
+                            results=False)
+
+    def update(self, fn: Callable[[Config], Config]) -> int:
+        """Atomically apply ``fn`` to the current config (read-modify-write)."""
+        with self.lock:
+            return self.set_config(fn(self._state.config))
+
+    def set_recording(self, recording: Recording) -> int:
+        """Give the session ``recording``; its fit and diagnosis are dropped."""
+        return self._commit({"recording": recording, "recording_stored": False,
+                             "fitted": None, "fit_report": None,
+                             "diagnosis": None, "diagnosed": None,
+                             "diagnosis_result": None}, recording=True, results=True)
+
+    def set_fit(self, fitted: dict[str, Any], report: dict[str, Any], *,
+                apply: bool = False) -> int:
+        """Store a fit (the diagnosis is dropped); ``apply`` makes it the session's model."""
+        with self.lock:
+            changes: dict[str, Any] = {"fitted": fitted, "fit_report": report,
+                                       "diagnosis": None, "diagnosed": None,
+                                       "diagnosis_result": None}
+            if apply:
+                changes["config"] = self._state.config.with_model(fitted)
+            return self._commit(changes, recording=False, results=True, notify=apply)
+
+    def set_diagnosis(self, report: dict[str, Any], result: Any) -> int:
+        """Store a diagnosis report and its core result (the plots are not redrawn).
+
+        Stored are the report and, when the diagnosis added effects, the diagnosed model's
+        document; the result itself (for the HTML report) stays in memory."""
+        diagnosed = result.model.to_dict() if getattr(result, "effects", None) else None
+        return self._commit({"diagnosis": report, "diagnosed": diagnosed,
+                             "diagnosis_result": result},
+                            recording=False, results=True, notify=False)
+
+    def touch(self) -> int:
+        """Notify listeners and store everything without changing the state (a redraw)."""
+        return self._commit({}, recording=True, results=True)
+
+    # ------------------------------------------------------------------ listeners
+    def add_listener(self, cb: Listener) -> None:
+        """Call ``cb(session, config, version)`` after every change."""
+        with self.lock:
+            self._listeners.append(cb)
+
+    def remove_listener(self, cb: Listener) -> None:
+        """Stop notifying ``cb`` (no error if it is not registered)."""
+        with self.lock:
+            if cb in self._listeners:
+                self._listeners.remove(cb)
+
+    @property
+    def listened(self) -> bool:
+        """Whether a view listens (such a session is kept in memory)."""
+        return bool(self._listeners)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready view of the session."""
+        with self.lock:
+            self.last_access = time.monotonic()
+            st = self._state
+        rec = self.recording
+        return {
+            "code": st.code,
+            "version": st.version,
+            "config": st.config.to_dict(),
+            "recording": None if rec is None else {"name": rec.name, "samples": rec.n_samples},
+            "fitted": st.fitted,
+            "has_diagnosis": st.diagnosis is not None,
+        }
+
+
+class SessionRegistry:
+    """Sessions by code: live ones in memory, all of them in a :class:`SessionStore`.
+
+    Codes are created only here (:func:`new_code`, 79 random bits); an unknown code is a
+    ``KeyError``, never a new blank session. Memory holds at most ``max_sessions`` sessions
+    (least recently used ones without listeners are dropped from memory, not from the
+    store); the store evicts by its size budget (see :mod:`app.services.storage.store`).
+
+    Parameters
+    ----------
+    max_sessions : int
+        Sessions kept in memory.
+    store : SessionStore, optional
+        Where sessions live; an in-memory SQLite store by default (nothing survives).
+    """
+
+    def __init__(self, max_sessions: int = 500, store: SessionStore | None = None) -> None:
+        self.max_sessions = max_sessions
+        self.store = store if store is not None else SessionStore(":memory:")
+        self._lock = threading.Lock()
+        self._sessions: OrderedDict[str, Session] = OrderedDict()
+        self._used: dict[str, float] = {}
+
+    def create(self, config: Config | None = None, *, teacher: bool = False,
+               owner: str = "") -> Session:
+        """A new, stored session with a fresh code.
+
+        Parameters
+        ----------
+        config : Config, optional
+            Its first config.
+        teacher : bool
+            A teacher's session: never evicted, exempt from the per-client shares, and
+            always created: a full store first evicts the heaviest clients' sessions
+            (:meth:`SessionStore.make_room`).
+        owner : str
+            The client address creating it (its share of the store is charged).
+
+        Raises
+        ------
+        StoreFullError
+            If the store is over its budget with only protected sessions left.
+        QuotaError
+            If ``owner`` already holds its share of sessions.
+        """
+        if teacher:
+            self.store.make_room()
+        else:
+            if self.store.full():
+                raise StoreFullError(
+                    f"the server's session store is full ({self.store.size() / 1e6:.0f} MB "
+                    f"of its {self.store.max_bytes / 1e6:.0f} MB, every session used in the "
+                    "last hour), so no new session can open now: ask the teacher to open a "
+                    "teacher session (which makes room) or to restart the server with a "
+                    "larger --max-store-mb")
+            self.store.admit(owner)
+        with self._lock:
+            code = new_code()
+            while code in self._sessions or self.store.exists(code):
+                code = new_code()
+            s = Session(code, config, teacher=teacher, store=self.store, owner=owner)
+            s.save()
+            self._insert(s)
+            self._used[code] = time.time()
+            return s
+
+    def _insert(self, s: Session) -> None:
+        self._sessions[s.code] = s
+        self._sessions.move_to_end(s.code)
+        if len(self._sessions) > self.max_sessions:
+            for code in list(self._sessions):
+                if len(self._sessions) <= self.max_sessions:
+                    break
+                if not self._sessions[code].listened:
+                    del self._sessions[code]
+                    self._used.pop(code, None)
+
+    def get(self, code: str) -> Session:
+        """The session with ``code`` (from memory or the store); ``KeyError`` if none.
+
+        Raises
+        ------
+        KeyError
+            If there is no such session.
+        DamagedSessionError
+            If its stored state was damaged: it has been reset, the next call returns it.
+        """
+        code = normalise_code(code)
+        with self._lock:
+            s = self._sessions.get(code)
+            if s is None:
+                st = self.store.load(code)
+                if st is None:
+                    raise KeyError(code)
+                s = Session.from_state(st, self.store)
+                self._insert(s)
+            else:
+                self._sessions.move_to_end(code)
+            now = time.time()
+            if now - self._used.get(code, 0.0) > 60.0:  # persist uses at most once a minute
+                self._used[code] = now
+                self.store.touch(code, now)
+            return s
+
+    #: The session of a typed code (an unknown code is a ``KeyError``, never a new session).
+    join = get
+    get_or_create = get
+
+    def all(self) -> list[Session]:
+        """Every session in memory."""
+        with self._lock:
+            return list(self._sessions.values())
+
+    def update_recent(self, fn: Callable[[Config], Config]) -> int:
+        """Teacher push: apply ``fn`` to the config of every session used in the last hour
+        (stored or in memory; each change committed); returns how many changed."""
+        recent = self.store.codes(since=time.time() - self.store.protect_s)
+        codes = list(dict.fromkeys([*recent, *(s.code for s in self.all())]))
+        n = 0
+        for code in codes:
+            try:
+                s = self.get(code)
+            except KeyError:
+                continue
+            s.update(fn)
+            n += 1
+        return n
+
+    def push_model(self, model: dict[str, Any]) -> int:
+        """Teacher broadcast: give ``model`` to every session used in the last hour."""
+        return self.update_recent(lambda c: c.with_model(model))
+
+    def __len__(self) -> int:
+        return len(self.store)
+
+
+class StoreFullError(RuntimeError):
+    """The session store is over its size budget and nothing may be evicted."""
+
+
+#: Characters of a session code (no look-alikes: no 0/o, 1/l/i).
+CODE_ALPHABET = "abcdefghjkmnpqrstuvwxyz23456789"
+#: Characters per code: 16 of 31 symbols = 79 random bits.
+CODE_LENGTH = 16
+
+
+def new_code() -> str:
+    """A fresh random session code, ``xxxx-xxxx-xxxx-xxxx`` (79 bits from :mod:`secrets`)."""
+    raw = "".join(secrets.choice(CODE_ALPHABET) for _ in range(CODE_LENGTH))
+    return "-".join(raw[i:i + 4] for i in range(0, CODE_LENGTH, 4))
+
+
+def normalise_code(code: str) -> str:
+    """The canonical ``xxxx-xxxx-xxxx-xxxx`` form of a typed code; ``KeyError`` if it cannot
+    be one (case, spaces and dashes do not matter)."""
+    c = "".join(ch for ch in str(code)[:64].lower() if ch not in " -_\t")
+    if len(c) != CODE_LENGTH or any(ch not in CODE_ALPHABET for ch in c):
+        raise KeyError(code)
+    return "-".join(c[i:i + 4] for i in range(0, CODE_LENGTH, 4))

@@ -1,0 +1,184 @@
+"""The parts of a stored session (config, recording, fit, diagnosis) as JSON and ``.npz``,
+and their checked decoding: nothing stored is ever executed (no pickle).
+
+Each part is decoded and validated on its own; a part that does not decode or validate
+raises :class:`DamagedPartError` naming it (the store then resets the session, see
+:mod:`app.services.storage.store`). A diagnosis part written by older versions (a pickle) is such a
+damaged part: it is never unpickled.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from typing import Any
+
+import numpy as np
+
+from app.services.explore.config import Config, config_from_dict
+from core.recordings import Recording
+
+__all__ = [
+    "PARTS",
+    "DamagedPartError",
+    "decode_config",
+    "decode_diagnosis",
+    "decode_document",
+    "decode_fit",
+    "decode_recording",
+    "dump_json",
+    "encode_diagnosis",
+    "recording_from_blob",
+    "recording_to_blob",
+]
+
+#: The parts of a stored session, in the words a message uses.
+PARTS = ("config", "recording", "fit", "diagnosis")
+
+
+class DamagedPartError(ValueError):
+    """A stored part of a session does not decode or validate.
+
+    Parameters
+    ----------
+    part : str
+        One of :data:`PARTS`.
+    reason : str
+        What is wrong with it.
+    """
+
+    def __init__(self, part: str, reason: str) -> None:
+        super().__init__(f"the stored {part} of a session is damaged: {reason}")
+        self.part = part
+        self.reason = reason
+
+
+def dump_json(x: Any) -> str | None:
+    """``x`` as JSON text (numpy numbers and arrays as numbers and lists), ``None`` stays."""
+    return None if x is None else json.dumps(x, allow_nan=False, default=_jsonable)
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(f"cannot store {type(x).__name__}")
+
+
+def _why(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"[:200]
+
+
+def decode_document(part: str, text: str | bytes | None) -> dict[str, Any] | None:
+    """The JSON object ``text`` (``None`` stays ``None``).
+
+    Raises
+    ------
+    DamagedPartError
+        If ``text`` is no JSON object.
+    """
+    if text is None:
+        return None
+    try:
+        doc = json.loads(text)
+    except (ValueError, TypeError) as exc:  # JSONDecodeError and bad UTF-8 are ValueErrors
+        raise DamagedPartError(part, f"it is no JSON ({_why(exc)})") from None
+    if not isinstance(doc, dict):
+        raise DamagedPartError(part, f"it is JSON {type(doc).__name__}, not an object")
+    return doc
+
+
+def _model(part: str, doc: Any) -> None:
+    from core.base import model_from_dict
+
+    try:
+        model_from_dict(doc)
+    except (ValueError, TypeError, KeyError) as exc:  # ParameterError is a ValueError
+        raise DamagedPartError(part, f"its model is invalid ({_why(exc)})") from None
+
+
+def decode_config(text: str) -> Config:
+    """The stored config, its model checked (a model that does not build is damage)."""
+    doc = decode_document("config", text)
+    try:
+        cfg = config_from_dict(doc or {})
+    except (ValueError, TypeError, KeyError) as exc:
+        raise DamagedPartError("config", _why(exc)) from None
+    _model("config", cfg.model)
+    return cfg
+
+
+def decode_fit(fitted: str | None, report: str | None
+               ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """The stored fitted model document (checked to build) and fit report."""
+    doc = decode_document("fit", fitted)
+    if doc is not None:
+        _model("fit", doc)
+    return doc, decode_document("fit", report)
+
+
+def encode_diagnosis(diagnosed: dict[str, Any] | None) -> bytes:
+    """The diagnosis part's blob: JSON ``{"diagnosed": model document or null}``."""
+    return (dump_json({"diagnosed": diagnosed}) or "").encode()
+
+
+def decode_diagnosis(report: str | None, blob: bytes | None
+                     ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+    """``(report, diagnosed model document)`` of the stored diagnosis; a blob that is no
+    such JSON (e.g. an old pickle) is damage and is never unpickled."""
+    rep = decode_document("diagnosis", report)
+    if blob is None:
+        return rep, None
+    doc = decode_document("diagnosis", blob)
+    if doc is None or set(doc) != {"diagnosed"}:
+        raise DamagedPartError("diagnosis", "its blob is not the stored diagnosed model")
+    diagnosed = doc["diagnosed"]
+    if diagnosed is not None:
+        _model("diagnosis", diagnosed)
+    return rep, diagnosed
+
+
+def recording_to_blob(rec: Recording) -> bytes:
+    """``rec`` as bytes (``.npz`` with the arrays and a JSON ``meta`` entry)."""
+    arrays = {"t": rec.t, "u": rec.u, "y": rec.y}
+    if rec.lines is not None:
+        arrays["lines"] = np.asarray(rec.lines)
+    extra_text: dict[str, list[str]] = {}
+    for k, v in rec.extra.items():
+        if np.asarray(v).dtype.kind in "biuf":
+            arrays[f"extra:{k}"] = np.asarray(v, dtype=np.float64)
+        else:
+            extra_text[k] = [str(x) for x in v]
+    meta = {"name": rec.name, "units": dict(rec.units), "columns": dict(rec.columns),
+            "extra_units": dict(rec.extra_units), "source": rec.source, "run": rec.run,
+            "cleaning": list(rec.cleaning), "has_time": rec.has_time,
+            "citation": rec.citation, "extra_text": extra_text}
+    buf = io.BytesIO()
+    np.savez(buf, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8), **arrays)
+    return buf.getvalue()
+
+
+def recording_from_blob(data: bytes) -> Recording:
+    """Inverse of :func:`recording_to_blob` (arrays only: ``allow_pickle=False``)."""
+    with np.load(io.BytesIO(data), allow_pickle=False) as z:
+        meta = json.loads(bytes(z["meta"]).decode())
+        extra: dict[str, np.ndarray] = {k[6:]: z[k] for k in z.files if k.startswith("extra:")}
+        extra.update({k: np.asarray(v, dtype=str) for k, v in meta["extra_text"].items()})
+        return Recording(
+            t=z["t"], u=z["u"], y=z["y"], name=meta["name"], units=meta["units"],
+            columns=meta["columns"], extra=extra, extra_units=meta["extra_units"],
+            source=meta["source"], run=meta["run"], cleaning=tuple(meta["cleaning"]),
+            has_time=meta["has_time"], citation=meta["citation"],
+            lines=z["lines"] if "lines" in z.files else None,
+        )
+
+
+def decode_recording(blob: bytes | None) -> Recording | None:
+    """The stored recording (``None`` stays ``None``)."""
+    if blob is None:
+        return None
+    try:
+        return recording_from_blob(blob)
+    except Exception as exc:  # noqa: BLE001 - zip, npz, JSON and Recording errors alike
+        raise DamagedPartError("recording", _why(exc)) from None

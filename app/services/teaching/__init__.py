@@ -1,0 +1,1 @@
+"""The class: lessons a teacher leads and the live pushes to every page."""

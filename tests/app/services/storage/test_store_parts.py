@@ -1,0 +1,157 @@
+"""Every stored part is JSON or ``.npz`` and nothing stored is executed; a damaged part
+resets its session with a clear 410, once."""
+
+from __future__ import annotations
+
+import io
+import logging
+import pickle
+import sqlite3
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from app.server import create_app
+from app.services.explore.config import Config
+from app.services.explore.simulation import diagnosed_model
+from app.services.session import actions
+from app.services.session.sessions import SessionRegistry, new_code
+from app.services.settings import Settings
+from app.services.storage.store import DamagedSessionError, SessionState, SessionStore
+from core.base import Chain, model_from_dict
+from core.recordings import Recording
+from core.stages import Creep
+
+
+def _extended() -> Chain:
+    return Chain.of(model_from_dict(Config().model), Creep([0.01, 0.1], [0.05, 0.05]))
+
+
+def _stored(db: Path) -> str:
+    """A session with every part (config, recording, fit, diagnosis) in the file ``db``."""
+    t = np.arange(300) * 1e-3
+    u = np.sin(2 * np.pi * 4 * t)
+    store = SessionStore(db)
+    code = new_code()
+    store.save(SessionState(
+        code=code, config=Config(), recording=Recording(t, u, 0.5 * u, name="r"),
+        fitted=Config().model, fit_report={"rmse": 0.1},
+        diagnosis={"findings": ["creep"]}, diagnosed=_extended().to_dict()))
+    store.close()
+    return code
+
+
+def _tamper(db: Path, sql: str, value: Any) -> None:
+    with sqlite3.connect(db) as raw:
+        assert raw.execute(sql, (value,)).rowcount == 1
+    raw.close()
+
+
+class _Payload:
+    """Unpickling this creates ``path`` (what a crafted blob could do)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = str(path)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (open, (self.path, "w"))
+
+
+def _npz_without_meta() -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, t=np.zeros(3))
+    return buf.getvalue()
+
+
+SET_CONFIG = "UPDATE sessions SET config=?"
+SET_FITTED = "UPDATE sessions SET fitted=?"
+SET_REPORT = "UPDATE sessions SET diagnosis=?"
+SET_RECORDING = "UPDATE blobs SET data=? WHERE kind='recording'"
+SET_DIAGNOSIS = "UPDATE blobs SET data=? WHERE kind='diagnosis'"
+
+DAMAGE = {
+    "config-garbage": ("config", SET_CONFIG, "{not json"),
+    "config-no-object": ("config", SET_CONFIG, "[1, 2]"),
+    "config-bad-model": ("config", SET_CONFIG, '{"model": {"type": "nope"}, "signal": {},'
+                                               ' "mismatch": 0, "use_recording": false}'),
+    "recording-garbage": ("recording", SET_RECORDING, b"\x00\xff garbage"),
+    "recording-no-meta": ("recording", SET_RECORDING, _npz_without_meta()),
+    "fit-garbage": ("fit", SET_FITTED, "\x00\x01"),
+    "fit-bad-model": ("fit", SET_FITTED, '{"type": "pi", "r": "many"}'),
+    "diagnosis-report": ("diagnosis", SET_REPORT, '"just a string"'),
+    "diagnosis-garbage": ("diagnosis", SET_DIAGNOSIS, b"\x80\x04garbage"),
+    "diagnosis-bad-model": ("diagnosis", SET_DIAGNOSIS, b'{"diagnosed": {"type": "nope"}}'),
+}
+
+
+@pytest.mark.parametrize("name", list(DAMAGE))
+def test_a_damaged_part_answers_410_once_and_resets_the_session(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture, name: str) -> None:
+    part, sql, value = DAMAGE[name]
+    db = tmp_path / "sessions.sqlite3"
+    code = _stored(db)
+    _tamper(db, sql, value)
+    with TestClient(create_app(Settings(viser_port=None, state_dir=str(tmp_path)))) as c:
+        with caplog.at_level(logging.WARNING):
+            r = c.get(f"/api/sessions/{code}")
+        assert r.status_code == 410, r.text
+        detail = r.json()["detail"]
+        assert detail.startswith("this session's state was damaged and has been reset")
+        assert f"(damaged: {part})" in detail
+        assert "damaged and has been reset" in caplog.text and part in caplog.text
+        assert code not in caplog.text and code.replace("-", "") not in caplog.text
+        again = c.get(f"/api/sessions/{code}")  # the next request works: a fresh state
+        assert again.status_code == 200
+        assert again.json()["recording"] is None and again.json()["fitted"] is None
+        assert c.patch(f"/api/sessions/{code}/config", json={"mismatch": 0.1}).status_code \
+            == 200
+    assert SessionStore(db).load(code) is not None  # the reset is stored too
+
+
+def test_a_legacy_pickled_diagnosis_is_never_unpickled(tmp_path: Path) -> None:
+    canary, marker = tmp_path / "canary", tmp_path / "executed"
+    pickle.loads(pickle.dumps(_Payload(canary)))  # the payload is live: it makes a file
+    assert canary.exists()
+    db = tmp_path / "sessions.sqlite3"
+    code = _stored(db)
+    _tamper(db, SET_DIAGNOSIS, pickle.dumps(_Payload(marker)))
+    reg = SessionRegistry(store=SessionStore(db))
+    with pytest.raises(DamagedSessionError, match=r"damaged: diagnosis"):
+        reg.get(code)
+    assert not marker.exists()
+    assert reg.get(code).diagnosis is None and not marker.exists()
+
+
+def test_no_stored_part_is_a_pickle(tmp_path: Path) -> None:
+    db = tmp_path / "sessions.sqlite3"
+    _stored(db)
+    with sqlite3.connect(db) as raw:
+        blobs = dict(raw.execute("SELECT kind, data FROM blobs"))
+    raw.close()
+    assert blobs["diagnosis"].startswith(b"{")  # JSON
+    assert blobs["recording"].startswith(b"PK")  # .npz (a zip of .npy arrays)
+    with np.load(io.BytesIO(blobs["recording"]), allow_pickle=False) as z:
+        assert all(z[k].dtype != object for k in z.files)
+
+
+def test_the_diagnosed_model_survives_a_restart_and_the_report_says_run_again(
+        tmp_path: Path) -> None:
+    db = tmp_path / "sessions.sqlite3"
+    reg = SessionRegistry(store=SessionStore(db))
+    s = reg.create()
+    ext = _extended()
+    s.set_diagnosis({"findings": ["creep"]}, SimpleNamespace(effects=["creep"], model=ext))
+    assert diagnosed_model(s) is ext
+    reg.store.close()
+    again = SessionRegistry(store=SessionStore(db)).get(s.code)  # a restarted server
+    assert again.diagnosis_result is None and again.diagnosis == {"findings": ["creep"]}
+    back = diagnosed_model(again)
+    assert back is not None and back.to_dict() == ext.to_dict()
+    assert actions.diagnosis_report(again) is None
+    assert "run the diagnosis again" in actions.no_report(again)
+    s2 = SessionRegistry(store=SessionStore(tmp_path / "b.sqlite3")).create()
+    assert actions.no_report(s2) == "run the diagnosis first"
