@@ -494,12 +494,22 @@ class _Cache:
                s.shape, s.levels, B.shape[0])
         L = _recent(self.lv, key)
         if L is None:
-            n, m = B.shape[1], len(s.levels) + 1
-            L = level_segments(B.reshape(-1), s.levels).reshape(B.shape[0], n * m)
+            L = _segments(B, s.levels)
             # kept apart from the play banks (a search over one recording's history meets
             # the other recordings' levelled banks again and again)
             _keep(self.lv, key, L, L.nbytes, 8, LEVEL_CACHE_BYTES)
         return L
+
+
+def _segments(B: np.ndarray, levels: tuple) -> np.ndarray:
+    """Rows of a play bank ``B`` ``(N, n + 1)`` split into the level segments of ``levels``
+    (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column ``i m + j`` = segment
+    ``j`` of play ``i``; ``B`` itself without levels (a PI base). Row by row, so a bank
+    streamed in blocks is split block by block to the same numbers."""
+    if not levels:
+        return B
+    return level_segments(B.reshape(-1), levels).reshape(B.shape[0],
+                                                         B.shape[1] * (len(levels) + 1))
 
 
 #: Training rows a full (constrained) structure fit solves its weights on, about: every
@@ -1090,7 +1100,8 @@ def fit_structure(
         o += idx.size
     # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
     lower = None if V is not None else _constraints(
-        s, X, nb, _min_slope(bs.raw, train, ylo, yhi), terms)
+        s, X, nb, _min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
+                             else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
     w = None
     for it in range(iterations):
         if needs_x and x_prev is None:
@@ -1117,7 +1128,10 @@ def fit_structure(
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
             # (the regressors read the PI-stage outputs up to the last solved row only)
-            x_prev = [bs.banks[k][: ends[k]] @ w[:nb] for k in range(nrec)]
+            x_prev = [bs.banks[k][: ends[k]] @ w[:nb] if bs.streamed is None else
+                      _streamed_product(*bs.streamed[k], np.r_[0.0, r], s.levels, w[:nb],
+                                        ends[k])
+                      for k in range(nrec)]
     assert w is not None
     coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
     return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef,
@@ -1139,6 +1153,9 @@ class _BankSet(NamedTuple):
     inputs: list | None
     row0: list | None
     r_bank: np.ndarray | None
+    #: a full fit of a bank too large to keep (:func:`_streams`): per recording the bank
+    #: input and its row-0 state ``(w, z0)``, the plays streamed in row blocks; else None
+    streamed: list | None = None
 
 
 def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
@@ -1152,10 +1169,14 @@ def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
     sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
                if rss_only and reduce and not s.levels and s.beta_s is None
                and not s.bouc_wen else None)
-    inputs = row0 = None
+    inputs = row0 = streamed = None
     if sampled is not None:
         raw = banks = []
         V, inputs, row0 = sampled
+    elif not rss_only and _streams(cache, s, records):
+        raw = banks = []
+        V = None
+        streamed = [_bank_start(s, rec, k) for k, rec in enumerate(records)]
     else:
         raw = [
             cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
@@ -1173,7 +1194,7 @@ def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
     # are then formed along the input, _bank_rows_times)
     r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
               and not s.levels else None)
-    return _BankSet(raw, banks, V, inputs, row0, r_bank)
+    return _BankSet(raw, banks, V, inputs, row0, r_bank, streamed)
 
 
 def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarray, last: int,
@@ -1182,7 +1203,11 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarra
     through the output dynamics, written to ``out``: the bank (or its reduced basis ``V``)
     from the dynamics' ``start`` sample; ``key``: the recording's projection key."""
     V, k = bs.V, key[0]
-    if bs.inputs is not None:
+    if bs.streamed is not None:
+        w, z0 = bs.streamed[k]
+        _streamed_rows(w, np.r_[0.0, s.thresholds], z0, s.levels, s.dynamics, dt, idx, start,
+                       out)
+    elif bs.inputs is not None:
         assert bs.row0 is not None and V is not None
         s0 = int(idx[0]) if not s.dynamics else start
         if not s.dynamics:
@@ -1206,12 +1231,12 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarra
         _dyn_rows(P, s.dynamics, dt, idx - start, out=out)
 
 
-def _min_slope(raw: list, train: Sequence[np.ndarray], ylo: float, yhi: float) -> float:
+def _min_slope(inputs: list, train: Sequence[np.ndarray], ylo: float, yhi: float) -> float:
     """The smallest loop-segment slope of an invertible PI stage: 1e-3 of the output range
-    over the input range of the play bank on the training rows (the loop-shape map's
-    output when there is one; a bank may stop at its last training row), as
-    :func:`core.fitting.default_min_slope`."""
-    w_tr = [B[:, 0][m[: B.shape[0]]] for B, m in zip(raw, train, strict=True) if m.any()]
+    over the range of the play bank's input ``inputs`` (per recording; the loop-shape map's
+    output when there is one; a bank may stop at its last training row) on the training
+    rows, as :func:`core.fitting.default_min_slope`."""
+    w_tr = [w[m[: w.shape[0]]] for w, m in zip(inputs, train, strict=True) if m.any()]
     ulo = min(float(w.min()) for w in w_tr)
     uhi = max(float(w.max()) for w in w_tr)
     return 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)
@@ -1318,18 +1343,99 @@ def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: 
     rec = records[k]
     r = np.asarray(s.thresholds)
     hist = s.history[k]
-    if s.beta_s is None and not s.levels and not s.bouc_wen and not cache.has_bank(
-            k, r, hist, s.shape):
-        u = apply_shape(s.shape, rec.u)
-        z = np.r_[0.0, play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)]
-        r_full = np.r_[0.0, r]
-        out = np.empty(u.size)
-        for a in range(0, u.size, STREAM_ROWS):
-            B, z = play_bank(u[a : a + STREAM_ROWS], r_full, z)
-            out[a : a + B.shape[0]] = B @ w
-        return out
+    if s.beta_s is None and not s.bouc_wen and not cache.has_bank(k, r, hist, s.shape):
+        u, z0 = _bank_start(s, rec, k)
+        return _streamed_product(u, z0, np.r_[0.0, r], s.levels, w, u.size)
     B = cache.bank(k, rec, r, hist, s.beta_s, shape=s.shape, bouc_wen=s.bouc_wen)
     return (cache.levelled(k, B, s) if s.levels else B) @ w
+
+
+def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
+    """Whether a full fit of ``s`` streams its play banks in row blocks instead of forming
+    them (:func:`_streamed_rows`): rate-independent plays on a PI or Preisach base, banks
+    not cached and together larger than :data:`BANK_CACHE_BYTES` (a short recording is
+    fitted from its whole bank, as before), and output dynamics that forget their start (a block's
+    rows are those of the filter run from the first sample to round-off, as
+    :func:`_filter_start`)."""
+    if s.beta_s is not None or s.bouc_wen:
+        return False
+    r = np.asarray(s.thresholds)
+    if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
+        return False
+    width = (r.size + 1) * (len(s.levels) + 1)
+    if 8.0 * width * sum(rec.n_samples for rec in records) <= BANK_CACHE_BYTES:
+        return False
+    return all(_warm_rows(s.dynamics, rec.dt) >= 0 for rec in records)
+
+
+def _warm_rows(dyn: tuple, dt: float) -> int:
+    """Samples before a row the output dynamics ``dyn`` must run from (:func:`_filter_start`),
+    0 without dynamics; -1 when they never forget their start."""
+    if not dyn:
+        return 0
+    far = 2**62
+    first = _filter_start(dyn, dt, far)
+    return -1 if first == 0 else far - first
+
+
+def _bank_start(s: Structure, rec: Recording, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The input of the play bank of recording ``k`` (through the loop shape) and the
+    state of the bank ``[w, plays(w)]`` before its first sample (the virtual history's)."""
+    r = np.asarray(s.thresholds)
+    hist = s.history[k]
+    z = play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)
+    return np.ascontiguousarray(apply_shape(s.shape, rec.u), dtype=np.float64), np.r_[0.0, z]
+
+
+def _streamed_product(w: np.ndarray, z0: np.ndarray, r_full: np.ndarray, levels: tuple,
+                      weights: np.ndarray, upto: int) -> Float1D:
+    """``B[:upto] @ weights`` for the play bank ``B`` of thresholds ``r_full`` on input ``w``
+    from state ``z0`` (split into the level segments of ``levels``, :func:`_segments`), the
+    plays run over blocks of :data:`STREAM_ROWS` rows with their state carried (the play
+    update is exact: the rows of the whole bank), each block multiplied and dropped."""
+    out = np.empty(upto)
+    z = z0
+    for a in range(0, upto, STREAM_ROWS):
+        B, z = play_bank(w[a : min(a + STREAM_ROWS, upto)], r_full, z)
+        out[a : a + B.shape[0]] = _segments(B, levels) @ weights
+    return out
+
+
+def _streamed_rows(w: np.ndarray, r_full: np.ndarray, z0: np.ndarray, levels: tuple,
+                   dyn: tuple, dt: float, idx: np.ndarray, start: int, out: np.ndarray) -> None:
+    """Rows ``idx`` of the play bank of thresholds ``r_full`` on input ``w`` (state ``z0``
+    before it; split into the level segments of ``levels``, :func:`_segments`) through the
+    output dynamics ``dyn`` started at row ``start``, written to ``out`` ``(idx.size,
+    width)``, with at most :data:`STREAM_ROWS` plus the dynamics' warm-up of bank rows alive.
+
+    Without dynamics the plays run storing only the rows ``idx`` (:func:`_play_rows`, the
+    bank's numbers). With them the solved rows go in groups of a block; the first group's
+    filter starts at ``start`` (the rows of the whole bank's), each later group's where its
+    start transient has died out by its first row (:func:`_filter_start`: the rows of the
+    filter run from ``start`` to round-off), on bank rows kept from the block before."""
+    if not idx.size:
+        return
+    if not dyn:
+        B = _play_rows(w, r_full, z0.copy(), np.asarray(idx, dtype=np.int64),
+                       np.empty((idx.size, r_full.size)))
+        out[...] = _segments(B, levels)
+        return
+    # the plays' state at row `start` (rows before it are not needed)
+    z = z0
+    for a in range(0, start, STREAM_ROWS):
+        z = play_bank(w[a : min(a + STREAM_ROWS, start)], r_full, z)[1]
+    have, have0 = np.empty((0, r_full.size)), start  # bank rows [have0, have0 + len(have))
+    done = 0
+    while done < idx.size:
+        end = int(np.searchsorted(idx, int(idx[done]) + STREAM_ROWS))
+        group = idx[done:end]
+        s0 = start if done == 0 else max(start, _filter_start(dyn, dt, int(group[0])))
+        pos = have0 + have.shape[0]
+        new, z = play_bank(w[pos : int(group[-1]) + 1], r_full, z)
+        have = np.concatenate((have[s0 - have0:], new)) if s0 < pos else new[s0 - pos:]
+        have0 = s0
+        _dyn_rows(_segments(have, levels), dyn, dt, group - s0, out=out[done:end])
+        done = end
 
 
 def _term_columns(s: Structure, first: int, n_records: int

@@ -67,3 +67,32 @@ def test_fits_memoised_by_a_context_are_bounded_in_bytes(monkeypatch) -> None:
     # the most recent are kept (a hit returns the same object), the oldest were dropped
     assert ctx.fit(st.Structure(r, ((),), dynamics=("lag", 0.012))) is fits[-1]
     assert ctx.fit(st.Structure(r, ((),), dynamics=("lag", 0.002))) is not fits[0]
+
+
+@pytest.mark.parametrize("dyn", [(), ("lag", 0.004), ("delay", 0.0123),
+                                 ("resonance", 40.0, 0.3), ("lag", 0.003, "delay", 0.002)])
+@pytest.mark.parametrize("history", [(), ((25.0, -30.0),)])
+def test_full_fits_with_streamed_banks_equal_those_of_whole_banks(monkeypatch, dyn,
+                                                                  history) -> None:
+    """A bank too large to keep (budget 0 here) is streamed through the output dynamics in
+    blocks of 3,000 rows, each group of solved rows filtered from where its start transient
+    has died out: the same weights, predictions and training RSS as the fit on the whole
+    bank, to round-off; bilinear regressors (asymmetry) refreshed from streamed outputs too,
+    and a Preisach base's level segments split block by block."""
+    rec, train = _record()
+    r = (2.0, 6.0, 12.0, 20.0)
+    base = st.Structure(r, history or ((),), dynamics=dyn)
+    for s in (base, base.with_term("asymmetry", True),
+              base.with_(levels=(-10.0, 15.0), level_smooth=0.1)):  # a Preisach base
+        want = st.fit_structure(s, [rec], train, st._Cache())
+        with monkeypatch.context() as m:
+            m.setattr(st, "BANK_CACHE_BYTES", 0.0)
+            m.setattr(st, "STREAM_ROWS", 3000)
+            cache = st._Cache()
+            assert st._streams(cache, s, [rec])
+            got = st.fit_structure(s, [rec], train, cache)
+            assert not cache.d
+        scale = float(np.ptp(rec.y))
+        np.testing.assert_allclose(got.weights, want.weights, rtol=1e-7, atol=1e-9)
+        np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * scale)
+        assert got.train_rss == pytest.approx(want.train_rss, rel=1e-7)
