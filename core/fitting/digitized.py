@@ -27,6 +27,7 @@ from ..digitized import DigitizedPI
 from ..exceptions import NotFittedError, ParameterError
 from ..stages import Offset
 from ._data import as_recordings, check_initial_memory, prepare, unpack_recordings
+from .estimator import Estimator
 from .gram import DEFAULT_CHUNK
 from .metrics import FitReport, evaluate_fit
 from .pi import PIRegressor
@@ -34,7 +35,7 @@ from .pi import PIRegressor
 __all__ = ["DigitizedPIRegressor"]
 
 
-class DigitizedPIRegressor:
+class DigitizedPIRegressor(Estimator):
     """Fit a digitized PI model (paper 000) through an invertible classical fit.
 
     Parameters
@@ -92,20 +93,8 @@ class DigitizedPIRegressor:
         self.chunk = chunk
         self.initial_memory = initial_memory
 
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: Any = None,
-        test: Any = None,
-    ) -> DigitizedPIRegressor:
-        """Fit; arguments as :meth:`PIRegressor.fit`.
-
-        Returns
-        -------
-        DigitizedPIRegressor
-            ``self``.
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit (the work of :meth:`fit`).
 
         Raises
         ------
@@ -179,7 +168,6 @@ class DigitizedPIRegressor:
             solver="classical " + classical.report_.solver + " + DigitizedPI.from_pi",
             extra=extra,
         )
-        return self
 
     def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
         """Digitized-model output plus offset (every record starts at the lower extreme).

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -42,6 +43,7 @@ from ..pi import PIModel
 from ..stages import Offset
 from ..warning_filters import FILTERS
 from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
+from .estimator import Estimator
 from .gram import DEFAULT_CHUNK, Segment
 from .metrics import FitReport, evaluate_fit
 from .pi import LinearPIFit, PIRegressor, fit_linear_pi
@@ -54,7 +56,14 @@ def _relaxed(p0: float, r: Float1D, w: Float1D, x0: float) -> PIModel:
     return PIModel(p0, r, w, np.full(r.size, float(x0)))
 
 
-class _Base:
+def _classical_extra(classical: PIRegressor) -> dict[str, Any]:
+    """The classical start's errors, reported beside the fit that must beat them."""
+    test = classical.report_.test
+    return {"classical_test_rmse": None if test is None else test.rmse,
+            "classical_train_rmse": classical.report_.train.rmse}
+
+
+class _Base(Estimator):
     """Shared plumbing: input checks, classical start, PI solve on a transformed input."""
 
     #: These fits start every recording relaxed: ``initial_memory="keep"`` only.
@@ -118,6 +127,17 @@ class _Base:
             constraint=self.constraint, allow_tsqr=False,
         )
         return fit, r, eps
+
+    def _keep(self, classical: PIRegressor, n: int, fit: LinearPIFit, r: Float1D,
+              model: Model) -> None:
+        """The fitted attributes of a fit with a classical start (the input map's own is set
+        by the caller): ``model_`` and ``full_model_ = model_ >> Offset(offset_)``."""
+        self.offset_ = fit.offset
+        self.n_operators_ = n
+        self.classical_ = classical
+        self._pi = (fit.p0, r, fit.weights)
+        self.model_ = model
+        self.full_model_ = Chain.of(model, Offset(fit.offset))
 
     def _train_residual(
         self, prep: Prepared, ws: Sequence[Float1D], fit: LinearPIFit, r: Float1D
@@ -213,8 +233,33 @@ def _deadzone_from_slopes(neg: Float1D, pos: Float1D, s_neg: Float1D, s_pos: Flo
     )
 
 
+@dataclass(eq=False, repr=False)
+class _DeadZoneFit(_Base):
+    """The options and checks of the two dead-zone fits (γ on the input, S on the output):
+    the parameters are documented on :class:`DeadZoneGPIRegressor` and
+    :class:`ModifiedPIRegressor`, which add their own after these."""
+
+    n_operators: int | None = None
+    n_deadzones: int = 3
+    thresholds: str = "uniform"
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    deadzone_min_slope: float = 0.05
+    constraint: str = "nonnegative"
+    chunk: int = DEFAULT_CHUNK
+    initial_memory: str = "keep"
+
+    def _check_deadzones(self) -> None:
+        if int(self.n_deadzones) != self.n_deadzones or self.n_deadzones < 1:
+            raise ParameterError(f"n_deadzones must be a positive integer, got {self.n_deadzones}")
+        if not 0 < self.deadzone_min_slope < 1:
+            raise ParameterError("deadzone_min_slope must be in (0, 1) (relative to slope 1)")
+
+
 # =====================================================================================
-class DeadZoneGPIRegressor(_Base):
+@dataclass(eq=False, repr=False)
+class DeadZoneGPIRegressor(_DeadZoneFit):
     """Fit ``y = c + P[γ(v)]`` (paper 001 dead-zone GPI) with invertible γ and P.
 
     Parameters
@@ -235,14 +280,14 @@ class DeadZoneGPIRegressor(_Base):
         Lower bound of γ's partial slopes relative to the slope 1 around 0.
     constraint : {"nonnegative", "slopes"}
         Invertibility constraint of P.
-    max_nfev : int
-        Evaluation budget of ``least_squares``.
     chunk : int
         Samples per streaming chunk.
     initial_memory : {"keep"}
         Taken by every estimator (one signature, :func:`core.fitting.fit_recordings`);
         this fit starts every recording relaxed, so ``"exclude"`` raises
         :class:`~core.exceptions.UnsupportedOptionError`.
+    max_nfev : int
+        Evaluation budget of ``least_squares``.
 
     Attributes
     ----------
@@ -256,53 +301,13 @@ class DeadZoneGPIRegressor(_Base):
     report_ : FitReport
     """
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        n_deadzones: int = 3,
-        thresholds: str = "uniform",
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        deadzone_min_slope: float = 0.05,
-        constraint: str = "nonnegative",
-        max_nfev: int = 100,
-        chunk: int = DEFAULT_CHUNK,
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.n_deadzones = n_deadzones
-        self.thresholds = thresholds
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.deadzone_min_slope = deadzone_min_slope
-        self.constraint = constraint
-        self.max_nfev = max_nfev
-        self.chunk = chunk
-        self.initial_memory = initial_memory
+    max_nfev: int = 100
 
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: Any = None,
-        test: Any = None,
-    ) -> DeadZoneGPIRegressor:
-        """Fit γ, P and the offset; arguments as :meth:`PIRegressor.fit`.
-
-        Returns
-        -------
-        DeadZoneGPIRegressor
-            ``self``.
-        """
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit γ, P and the offset (the work of :meth:`fit`)."""
         import scipy.optimize
 
-        if int(self.n_deadzones) != self.n_deadzones or self.n_deadzones < 1:
-            raise ParameterError(f"n_deadzones must be a positive integer, got {self.n_deadzones}")
-        if not 0 < self.deadzone_min_slope < 1:
-            raise ParameterError("deadzone_min_slope must be in (0, 1) (relative to slope 1)")
+        self._check_deadzones()
         prep = self._prepare(u, y, train, test)
         classical = self._classical(prep)
         n = classical.n_operators_
@@ -335,12 +340,7 @@ class DeadZoneGPIRegressor(_Base):
         ws = [g(x) for x in prep.us]
         fit, r, eps = self._solve_pi(prep, ws, rev, n)
         self.deadzone_ = g
-        self.offset_ = fit.offset
-        self.n_operators_ = n
-        self.classical_ = classical
-        self.model_ = DeadZoneGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), g)
-        self.full_model_ = Chain.of(self.model_, Offset(fit.offset))
-        self._pi = (fit.p0, r, fit.weights)
+        self._keep(classical, n, fit, r, DeadZoneGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), g))
         slopes = np.cumsum(np.r_[fit.p0, fit.weights])
         if not res.success:
             warnings.warn(f"dead-zone GPI fit did not converge: {res.message}", FitWarning,
@@ -350,9 +350,7 @@ class DeadZoneGPIRegressor(_Base):
             "deadzone_thresholds": g.thresholds,
             "deadzone_slopes": g.slopes,
             "nfev": int(res.nfev),
-            "classical_test_rmse": None if classical.report_.test is None
-            else classical.report_.test.rmse,
-            "classical_train_rmse": classical.report_.train.rmse,
+            **_classical_extra(classical),
         }
         self.report_ = self._report(
             prep, self._model_for, n + 1 + int(self.include_offset) + s0.size, "gpi-deadzone",
@@ -360,7 +358,6 @@ class DeadZoneGPIRegressor(_Base):
             float(min(slopes.min(), g.slopes.min())), extra,
             invertible=self.model_.pi.is_invertible and g.is_invertible,
         )
-        return self
 
     def _model_for(self, u: Float1D) -> Model:
         p0, r, w = self._pi
@@ -369,7 +366,7 @@ class DeadZoneGPIRegressor(_Base):
 
 
 # =====================================================================================
-class ModifiedPIRegressor(_Base):
+class ModifiedPIRegressor(_DeadZoneFit):
     """Fit Kuhnen's modified PI ``y = c0 + S[P[v] + c1]`` (dead zones on the PI output).
 
     Parameters
@@ -414,49 +411,9 @@ class ModifiedPIRegressor(_Base):
     report_ : FitReport
     """
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        n_deadzones: int = 3,
-        thresholds: str = "uniform",
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        deadzone_min_slope: float = 0.05,
-        constraint: str = "nonnegative",
-        chunk: int = DEFAULT_CHUNK,
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.n_deadzones = n_deadzones
-        self.thresholds = thresholds
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.deadzone_min_slope = deadzone_min_slope
-        self.constraint = constraint
-        self.chunk = chunk
-        self.initial_memory = initial_memory
-
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: Any = None,
-        test: Any = None,
-    ) -> ModifiedPIRegressor:
-        """Fit P, S and the offsets; arguments as :meth:`PIRegressor.fit`.
-
-        Returns
-        -------
-        ModifiedPIRegressor
-            ``self``.
-        """
-        if int(self.n_deadzones) != self.n_deadzones or self.n_deadzones < 1:
-            raise ParameterError(f"n_deadzones must be a positive integer, got {self.n_deadzones}")
-        if not 0 < self.deadzone_min_slope < 1:
-            raise ParameterError("deadzone_min_slope must be in (0, 1) (relative to slope 1)")
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit P, S and the offsets (the work of :meth:`fit`)."""
+        self._check_deadzones()
         prep = self._prepare(u, y, train, test)
         if self.n_operators is None:
             n = self._classical(prep).n_operators_
@@ -530,7 +487,6 @@ class ModifiedPIRegressor(_Base):
             float(min(slopes.min(), S.slopes.min())), extra,
             invertible=self.model_.pi.is_invertible and S.is_invertible,
         )
-        return self
 
     def _model_for(self, u: Float1D) -> Model:
         p0, r, w = self._pi
@@ -601,21 +557,8 @@ class TanhGPIRegressor(_Base):
                       phi[3] - np.exp(phi[2]) * self._vc / self._vs, phi[4]])
         return TanhEnvelope(a, b)
 
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: Any = None,
-        test: Any = None,
-    ) -> TanhGPIRegressor:
-        """Fit κ, P and the offset; arguments as :meth:`PIRegressor.fit`.
-
-        Returns
-        -------
-        TanhGPIRegressor
-            ``self``.
-        """
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit κ, P and the offset (the work of :meth:`fit`)."""
         import scipy.optimize
 
         prep = self._prepare(u, y, train, test)
@@ -657,28 +600,20 @@ class TanhGPIRegressor(_Base):
         ws = transformed(best.x)
         fit, r, eps = self._solve_pi(prep, ws, rev, n)
         self.envelope_ = env
-        self.offset_ = fit.offset
-        self.n_operators_ = n
-        self.classical_ = classical
-        self._pi = (fit.p0, r, fit.weights)
-        self.model_ = TanhGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), env)
-        self.full_model_ = Chain.of(self.model_, Offset(fit.offset))
+        self._keep(classical, n, fit, r, TanhGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), env))
         slopes = np.cumsum(np.r_[fit.p0, fit.weights])
         extra = {
             "n_operators": n,
             "envelope_a": env.a,
             "envelope_b": env.b,
             "nfev": int(best.nfev),
-            "classical_test_rmse": None if classical.report_.test is None
-            else classical.report_.test.rmse,
-            "classical_train_rmse": classical.report_.train.rmse,
+            **_classical_extra(classical),
         }
         self.report_ = self._report(
             prep, self._model_for, n + 1 + int(self.include_offset) + best.x.size, "gpi-tanh",
             fit.cond, "least_squares(envelope) + gram-cholesky-nnls(P)", float(slopes.min()),
             extra, invertible=self.model_.pi.is_invertible,
         )
-        return self
 
     def _model_for(self, u: Float1D) -> Model:
         p0, r, w = self._pi

@@ -21,9 +21,41 @@ def delay_split(delay_s: float, dt: float) -> tuple[int, float]:
     return m, max(D - m, 0.0)
 
 
+def _delay_field(doc: str) -> Field:
+    return Field("delay_s", "number", doc=doc, title="Delay τ_d",
+                 control=Control("τ_d", "s", (0.0, 2.0), lower=0.0, scale=1e-3))
+
+
+@dataclass(frozen=True, eq=False)
+class _Shift(Model):
+    """What a delay and its inverse, the advance, share: the delay ``delay_s >= 0`` (s), no
+    state of their own by default, the cost of one pass with a buffer of the delay."""
+
+    needs_dt: ClassVar[bool] = True
+    delay_s: float
+
+    def __post_init__(self) -> None:
+        d = as_finite_scalar(self.delay_s, "delay_s")
+        if d < 0:
+            raise ParameterError(
+                f"delay_s = {d:g} must be >= 0 (a delay cannot predict the future)"
+            )
+        object.__setattr__(self, "delay_s", d)
+
+    def default_state(self) -> Any:
+        return None
+
+    def cost(self, samples: int, dt: float | None) -> RunCost:
+        """One pass over the input plus a buffer of ``delay_s / dt`` samples (work in
+        element operations, memory in bytes)."""
+        m = self.delay_s / dt if dt and dt > 0 else 0.0
+        n = float(samples) + m + 1.0
+        return RunCost(4.0 * n, 6.0 * SAMPLE_BYTES * n)
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
-class Delay(Model):
+class Delay(_Shift):
     """Pure transport delay ``y(t) = x(t - τ_d)`` (DAQ latency, ZOH, digital filters).
 
     Fractional delays interpolate linearly between samples. The state is the buffer of the
@@ -37,23 +69,7 @@ class Delay(Model):
     """
 
     type_name: ClassVar[str] = "delay"
-    needs_dt: ClassVar[bool] = True
-    fields: ClassVar[tuple[Field, ...]] = (
-        Field("delay_s", "number", doc="delay (s)", title="Delay τ_d",
-              control=Control("τ_d", "s", (0.0, 2.0), lower=0.0, scale=1e-3)),
-    )
-    delay_s: float
-
-    def __post_init__(self) -> None:
-        d = as_finite_scalar(self.delay_s, "delay_s")
-        if d < 0:
-            raise ParameterError(
-                f"delay_s = {d:g} must be >= 0 (a delay cannot predict the future)"
-            )
-        object.__setattr__(self, "delay_s", d)
-
-    def default_state(self) -> Any:
-        return None
+    fields: ClassVar[tuple[Field, ...]] = (_delay_field("delay (s)"),)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
         m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
@@ -76,17 +92,10 @@ class Delay(Model):
         preview of ``ceil(τ_d/dt)`` samples of the desired trajectory (:class:`Advance`)."""
         return Advance(self.delay_s)
 
-    def cost(self, samples: int, dt: float | None) -> RunCost:
-        """One pass over the input plus a buffer of ``delay_s / dt`` samples (work in
-        element operations, memory in bytes)."""
-        m = self.delay_s / dt if dt and dt > 0 else 0.0
-        n = float(samples) + m + 1.0
-        return RunCost(4.0 * n, 6.0 * SAMPLE_BYTES * n)
-
 
 @register_model
 @dataclass(frozen=True, eq=False)
-class Advance(Model):
+class Advance(_Shift):
     """The inverse of a :class:`Delay`: ``y(t) = x(t + τ_d)``, which needs the future.
 
     ``simulate`` treats its input as the whole known trajectory: ``y_k = (1-f) x_{k+m} +
@@ -106,24 +115,13 @@ class Advance(Model):
     """
 
     type_name: ClassVar[str] = "advance"
-    needs_dt: ClassVar[bool] = True
-    fields: ClassVar[tuple[Field, ...]] = (
-        Field("delay_s", "number", doc="delay being compensated (s)", title="Delay τ_d",
-              control=Control("τ_d", "s", (0.0, 2.0), lower=0.0, scale=1e-3)),
-    )
-    delay_s: float
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "delay_s", Delay(self.delay_s).delay_s)
+    fields: ClassVar[tuple[Field, ...]] = (_delay_field("delay being compensated (s)"),)
 
     def preview_samples(self, dt: float | None) -> int:
         if dt is None or not dt > 0:
             raise ParameterError("the inverse of a delay needs the sample spacing dt > 0 (s)")
         m, f = delay_split(self.delay_s, float(dt))
         return m + (1 if f > 0 else 0)
-
-    def default_state(self) -> Any:
-        return None
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
         m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
@@ -140,10 +138,3 @@ class Advance(Model):
 
     def inverse(self) -> Delay:
         return Delay(self.delay_s)
-
-    def cost(self, samples: int, dt: float | None) -> RunCost:
-        """One pass over the input plus a buffer of ``delay_s / dt`` samples (work in
-        element operations, memory in bytes)."""
-        m = self.delay_s / dt if dt and dt > 0 else 0.0
-        n = float(samples) + m + 1.0
-        return RunCost(4.0 * n, 6.0 * SAMPLE_BYTES * n)
