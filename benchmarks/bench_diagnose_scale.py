@@ -16,6 +16,9 @@ engine of issue 31's start, more memory than the machine has: the refusal of ``h
 diagnose`` up front is then what is measured); ``--quick``: 25k and 100k. ``--sizes`` takes
 a comma list (``25k,1M``).
 
+``--baseline DIR`` also runs the code of another checkout (the code before a change) on the
+same files, each of its runs just before the current one, and prints a before/after table.
+
 Targets (issue 31): peak memory <= 400 MB + 0.3 kB per sample, CPU <= 1.5 s per 100,000
 samples beyond the first 100,000, for both commands.
 
@@ -70,11 +73,12 @@ def child_env() -> dict[str, str]:
     return {k: v for k, v in os.environ.items() if k not in drop}
 
 
-def measure(argv: list[str], timeout: float = 3600.0) -> Run:
-    """Run ``python -m app ARGV`` (= ``hyst ARGV``) and read its rusage from ``wait4``."""
+def measure(argv: list[str], timeout: float = 3600.0, root: Path = ROOT) -> Run:
+    """Run ``python -m app ARGV`` (= ``hyst ARGV``) of the checkout ``root`` and read its
+    rusage from ``wait4``."""
     t0 = time.perf_counter()
     with tempfile.TemporaryFile() as err:
-        proc = subprocess.Popen([sys.executable, "-m", "app", *argv], cwd=ROOT, env=child_env(),
+        proc = subprocess.Popen([sys.executable, "-m", "app", *argv], cwd=root, env=child_env(),
                                 stdout=subprocess.DEVNULL, stderr=err)
         deadline = t0 + timeout
         while True:
@@ -119,8 +123,11 @@ def fmt_n(n: int) -> str:
     return f"{n / 1e6:g}M" if n >= 1_000_000 else f"{n // 1000}k"
 
 
-def scale(sizes: dict[str, int], folder: Path, skip_fit: bool) -> dict[str, dict[str, Run]]:
-    """Fit and diagnose every size; returns ``{label: {"fit": Run, "diagnose": Run}}``."""
+def scale(sizes: dict[str, int], folder: Path, skip_fit: bool, baseline: Path | None = None
+          ) -> dict[str, dict[str, Run]]:
+    """Fit and diagnose every size; returns ``{label: {"fit": Run, "diagnose": Run}}``, with
+    ``baseline`` (another checkout) also ``"fit (before)"`` and ``"diagnose (before)"``, each
+    run just before the current one."""
     out: dict[str, dict[str, Run]] = {}
     for label, n in sizes.items():
         t0 = time.perf_counter()
@@ -128,9 +135,12 @@ def scale(sizes: dict[str, int], folder: Path, skip_fit: bool) -> dict[str, dict
         print(f"  {label}: wrote {src.stat().st_size / MB:.1f} MB CSV in "
               f"{time.perf_counter() - t0:.1f} s", flush=True)
         row: dict[str, Run] = {}
-        if not skip_fit:
-            row["fit"] = measure(["fit", str(src), "-o", str(folder / "m.json"), "-q"])
-        row["diagnose"] = measure(["diagnose", str(src), "--json", "-q"])
+        fit = ["fit", str(src), "-o", str(folder / "m.json"), "-q"]
+        diag = ["diagnose", str(src), "--json", "-q"]
+        for cmd, argv in ((("fit", fit),) if not skip_fit else ()) + (("diagnose", diag),):
+            if baseline is not None:
+                row[f"{cmd} (before)"] = measure(argv, root=baseline)
+            row[cmd] = measure(argv)
         for k, r in row.items():
             print(f"    {k:8s} wall {r.wall_s:7.1f} s  CPU {r.cpu_s:7.1f} s  peak "
                   f"{r.peak_bytes / MB:7.0f} MB  exit {r.rc}"
@@ -144,7 +154,7 @@ def table(res: dict[str, dict[str, Run]], sizes: dict[str, int]) -> str:
     head = ("| samples | command | wall s | CPU s | peak MB | kB/sample | wall / 100k | "
             "CPU / 100k | peak / 100k |\n|---|---|---|---|---|---|---|---|---|")
     lines = [head]
-    for cmd in ("fit", "diagnose"):
+    for cmd in ("fit (before)", "fit", "diagnose (before)", "diagnose"):
         ref = res.get("100k", {}).get(cmd)
         for label, row in res.items():
             r = row.get(cmd)
@@ -161,6 +171,28 @@ def table(res: dict[str, dict[str, Run]], sizes: dict[str, int]) -> str:
                 f"{r.peak_bytes / n / 1e3:.2f} | {ratio(r.wall_s, ref.wall_s if ref else 1)} | "
                 f"{ratio(r.cpu_s, ref.cpu_s if ref else 1)} | "
                 f"{ratio(r.peak_bytes, ref.peak_bytes if ref else 1)} |")
+    return "\n".join(lines)
+
+
+def before_after(res: dict[str, dict[str, Run]], sizes: dict[str, int]) -> str:
+    """The Markdown table of ``--baseline``: peak memory and CPU before and after, and their
+    ratios (after / before), measured in the same run."""
+    lines = ["| samples | command | peak MB before | peak MB after | peak after / before | "
+             "CPU s before | CPU s after | CPU after / before |",
+             "|---|---|---|---|---|---|---|---|"]
+    for cmd in ("fit", "diagnose"):
+        for label, row in res.items():
+            a, b = row.get(f"{cmd} (before)"), row.get(cmd)
+            if a is None or b is None:
+                continue
+            ok = not a.rc and not b.rc
+            cells = [f"{sizes[label]:,}", cmd]
+            for va, vb, f in ((a.peak_bytes / MB, b.peak_bytes / MB, "{:.0f}"),
+                              (a.cpu_s, b.cpu_s, "{:.1f}")):
+                cells += [f.format(va) if not a.rc else f"exit {a.rc}",
+                          f.format(vb) if not b.rc else f"exit {b.rc}",
+                          f"{vb / va:.2f}" if ok else ""]
+            lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -234,6 +266,10 @@ def main() -> int:
     ap.add_argument("--only-contention", action="store_true", help="the contention part only")
     ap.add_argument("--repeat", type=int, default=3, help="runs per contention case")
     ap.add_argument("--json", metavar="PATH", help="write the measurements as JSON")
+    ap.add_argument("--baseline", metavar="DIR", type=Path,
+                    help="another checkout (the code before a change, e.g. from `git archive "
+                         "REV | tar -x -C DIR`): its fit and diagnosis run too, each just "
+                         "before the current one, and a before/after table is printed")
     args = ap.parse_args()
     every = {**SIZES, **HUGE}
     if args.sizes:
@@ -248,8 +284,10 @@ def main() -> int:
     doc: dict = {"load_start": load0}
     if not args.only_contention:
         with tempfile.TemporaryDirectory(prefix="hyst-scale-") as tmp:
-            res = scale(sizes, Path(tmp), args.skip_fit)
+            res = scale(sizes, Path(tmp), args.skip_fit, args.baseline)
         print("\n" + table(res, sizes) + "\n")
+        if args.baseline is not None:
+            print(before_after(res, sizes) + "\n")
         for cmd in ("fit", "diagnose"):
             m = memory_model(res, sizes, cmd)
             if m:
