@@ -43,6 +43,8 @@ PHYSICS: dict[str, str] = {
     "gpi-tanh": "saturation of the loop branches (tanh-envelope GPI)",
     "preisach": "level-dependent memory: minor loops whose width changes with the bias level "
                 "(Preisach density varying along (alpha+beta)/2)",
+    "stop-pi": "friction: Maxwell-slip elements (stop operators) that slide on a friction "
+               "plateau, behind a backlash gap where the fit finds one",
 }
 
 
@@ -227,6 +229,7 @@ def assess(
             f"{INADEQUATE_RATIO:g} times that floor: no missing physics left to find in "
             "these recordings"))
     shapes: list[LoopShapeFit] = []
+    fitted: dict[str, tuple[Any, list[np.ndarray]]] = {}
     # long recordings: the classes are fitted on every k-th training row (the memory still
     # runs over every sample) and scored on every row of ``rows``
     n_tr = sum(int(m.sum()) for m in train)
@@ -242,6 +245,7 @@ def assess(
         r_ = float(np.sqrt(np.mean(es * es)))
         shapes.append(LoopShapeFit(model, physics, r_, percent_of_range(r_, ys),
                                    est.full_model_.to_dict()))
+        fitted[model] = (est, pred)
     shapes.sort(key=lambda f: f.rmse)
     text = (f"the base model is not adequate: the final model{with_shape} still misses "
             f"{pct:.2f} % of the "
@@ -253,7 +257,8 @@ def assess(
         b = better[0]
         text += (f" The loop shape is the likely cause: {b.physics} reaches {b.pct:.2f} % of "
                  f"range on the same rows (hyst fit --model {b.model}"
-                 + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ").")
+                 + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ")"
+                 + _physics_of(records, *fitted[b.model]) + ".")
     elif shapes:
         text += (" No loop-shape class does clearly better (" + ", ".join(
             f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
@@ -265,3 +270,26 @@ def assess(
     if thin > 1 and shapes:
         text += f" (The other classes were fitted on every {thin}th training row.)"
     return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)
+
+
+def _physics_of(records: Sequence[Recording], est: Any, pred: Sequence[np.ndarray]) -> str:
+    """What the better class found, in the recordings' units (a stop-operator fit's friction
+    plateau and backlash gap), and what it leaves on the longest recording with a time axis
+    (:func:`core.fitting.leftover.leftover`); ``""`` when there is nothing to say."""
+    from ..fitting.leftover import leftover
+
+    out = ""
+    feats = getattr(est, "features_", None)
+    if feats is not None:
+        units = records[0].units
+        out += ": " + feats.text(units.get("input") or "input units",
+                                 units.get("output") or "output units")
+    timed = [(r, p) for r, p in zip(records, pred, strict=True) if r.has_time]
+    if timed:
+        r, p = max(timed, key=lambda rp: rp[0].n_samples)
+        left = leftover(r.u, r.y, p, r.dt)
+        if left is not None:
+            flat = ("the sliding plateaus" if feats is not None
+                    else "the flat stretches of the branches")
+            out += f". With it, {left.text(flat)}"
+    return out

@@ -254,7 +254,8 @@ def fit_recordings(
         extra["rmse_over_noise_floor"] = miss.ratio
         if miss.exceeds:
             pct = est.report_.test.rmse_pct if est.report_.test is not None else None
-            msgs = (*msgs, miss.text(pct, "" if choice is None else choice.advice))
+            said = miss.text(pct, "" if choice is None else choice.advice).rstrip()
+            msgs = (*msgs, said + ("" if said.endswith(".") else ".") + _left_text(est, recs))
     est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
     mem = est.report_.extra.get("initial_memory")
     report_doc = est.report_.to_dict()
@@ -278,6 +279,23 @@ def fit_recordings(
                                  source=source or "fit " + " ".join(names), fit=fit_info)
     return FitOutcome(kind, est.full_model_, est.report_, msgs,
                       mem["summary"] if isinstance(mem, dict) else "", ps, est)
+
+
+def _left_text(est: Any, recs: Sequence[Recording]) -> str:
+    """What the fit leaves on the longest recording with a time axis, in words
+    (:func:`core.fitting.leftover.leftover`), or ``""``."""
+    from .leftover import leftover
+
+    timed = [r for r in recs if r.has_time and r.is_uniform]
+    if not timed:
+        return ""
+    rec = max(timed, key=lambda r: r.n_samples)
+    left = leftover(rec.u, rec.y, np.asarray(est.predict(rec.u)), rec.dt)
+    if left is None:
+        return ""
+    flat = ("the sliding plateaus" if getattr(est, "features_", None) is not None
+            else "the flat stretches of the branches")
+    return f" On {rec.name}, {left.text(flat)}."
 
 
 def _rows(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Prepared:

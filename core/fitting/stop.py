@@ -25,7 +25,8 @@ at the same level. The gap is fitted by alternation: the elements' input behind 
 (until ``v`` stops moving, at most :data:`GAP_ITERATIONS` times) for each width of
 :data:`GAP_GRID` (shares of the input's range), refined by :data:`GAP_REFINE`
 golden-section steps; the best width replaces the fit without a gap when it lowers the
-training rows' MSE by :data:`GAP_MIN_GAIN` (the held-out rows are never looked at). On the
+training rows' MSE by :data:`GAP_MIN_GAIN` (the held-out rows are never looked at). On
+counter-clockwise loops no gap is tried. On the
 friction damper (30 lb) the chosen gap is 0.13-0.14 in at 0.25, 1 and 2 Hz, the width of the
 shelf at zero force in its loops.
 """
@@ -222,8 +223,8 @@ class StopPIRegressor(PIRegressor):
             raise ParameterError(f"gap must be a width >= 0 in input units, got {fixed!r}")
         super().fit(u, y, train=train, test=test)
         self.gap_scores_: dict[float, float] = {}
-        if fixed == 0.0:
-            return self
+        if fixed == 0.0 or (fixed is None and not self.orientation_.clockwise):
+            return self  # (a stop bank misses counter-clockwise loops with or without a gap)
         u, y = unpack_recordings(u, y)
         prep = prepare(u, y, train, test, validation=self.validation, min_train=1)
         trm = prep.train_masks
