@@ -106,7 +106,7 @@ def _raw_response(status: str, text: str) -> bytes:
             f"content-length: {len(body)}\r\nconnection: close\r\n\r\n").encode() + body
 
 
-def guarded_protocol(base: type[asyncio.Protocol], guard: ConnectionGuard) -> type:
+def guarded_protocol(base: type[asyncio.Protocol], guard: ConnectionGuard) -> type:  # noqa: C901 - the guard's protocol class: its callbacks are closures counted into it
     """uvicorn's HTTP protocol class ``base`` with ``guard``'s deadlines and counts.
 
     Parameters

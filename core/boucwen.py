@@ -375,7 +375,9 @@ class BoucWenModel(Model):
                 f"beta[{j}] = {b[j]:g}, gamma[{j}] = {g[j]:g}: need beta >= 0 and "
                 "beta + gamma > 0 (otherwise z grows without bound)"
             )
-        return cls(k, weights, (b + g) ** (-1.0 / e), 2.0 * b / (b + g), e, state0, input0)
+        s0 = None if state0 is None else np.asarray(state0, dtype=np.float64)
+        return cls(k, np.asarray(weights, dtype=np.float64), (b + g) ** (-1.0 / e),
+                   2.0 * b / (b + g), e, s0, input0)
 
     # ------------------------------------------------------------------ properties
     @property

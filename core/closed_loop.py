@@ -281,7 +281,8 @@ class HammersteinLoop:
             new_state = self._simulate_generic(r, dt, float(integ), ffs, hs, x, Ad, Bd, C,
                                                u, v, y, yo)
         return ClosedLoopResult(
-            t=np.arange(N) * dt, r=r, u=u, v=v, y=y, y_o=yo, e=r - yo, state=new_state
+            t=np.arange(N, dtype=np.float64) * dt, r=r, u=u, v=v, y=y, y_o=yo, e=r - yo,
+            state=new_state,
         )
 
     def _simulate_generic(self, r, dt, integ, ffs, hs, x, Ad, Bd, C, u, v, y, yo):
@@ -310,7 +311,7 @@ class HammersteinLoop:
 # ----------------------------------------------------------------------------- paper 001
 def paper001_plant() -> LinearSystem:
     """``G(s) = 8.8e16 / (s⁴ + 1.6e4 s³ + 6.6e8 s² + 5.3e12 s + 8.8e16)`` (eq. 38), DC gain 1."""
-    return LinearSystem([8.8e16], [1.0, 1.6e4, 6.6e8, 5.3e12, 8.8e16])
+    return LinearSystem(np.array([8.8e16]), np.array([1.0, 1.6e4, 6.6e8, 5.3e12, 8.8e16]))
 
 
 def paper001_loop(
@@ -375,7 +376,7 @@ def simulate_fig16(
 
     _, r = sine(amplitude, frequency, 0.0, duration, sample_rate)
     return {
-        c: paper001_loop(c, reference_feedforward).simulate(  # type: ignore[arg-type]
+        c: paper001_loop(c, reference_feedforward).simulate(
             r, 1.0 / sample_rate)
         for c in ("none", "exact", "approximate")
     }

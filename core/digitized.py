@@ -904,7 +904,7 @@ def paper000_two_operators() -> DigitizedPI:
     """
     from .pi import PIModel
 
-    return DigitizedPI.from_pi(PIModel(0.5, [1.0], [1.0]), (-3.0, 3.0))
+    return DigitizedPI.from_pi(PIModel(0.5, np.array([1.0]), np.array([1.0])), (-3.0, 3.0))
 
 
 def paper000_three_operators() -> DigitizedPI:
@@ -914,4 +914,5 @@ def paper000_three_operators() -> DigitizedPI:
     """
     from .pi import PIModel
 
-    return DigitizedPI.from_pi(PIModel(0.4, [0.5, 1.5], [0.6, 1.0]), (0.0, 10.0))
+    pi = PIModel(0.4, np.array([0.5, 1.5]), np.array([0.6, 1.0]))
+    return DigitizedPI.from_pi(pi, (0.0, 10.0))

@@ -41,6 +41,7 @@ found at build time (:func:`fmi_headers`).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -415,6 +416,11 @@ def _element_name(base: str, path: str, arr: np.ndarray, idx: int, is_matrix: bo
 _PLACEHOLDER = re.compile(r"\$([A-Za-z_][A-Za-z0-9_.]*)")
 
 
+def _tuned(offsets: dict[str, int], m: re.Match[str]) -> str:
+    """A tune line's ``$field`` as its place in the parameter block ``mp``."""
+    return f"(mp + {offsets[m.group(1)]})"
+
+
 def _parameters(stages: list[Model], emitted: list, role: str, units: Units
                 ) -> tuple[list[FmuVariable], list[str]]:
     """The parameter variables of every stage (value references from
@@ -455,7 +461,7 @@ def _parameters(stages: list[Model], emitted: list, role: str, units: Units
             raise CExportError(f"tune lines of {stage.type_name!r} name unknown fields {missing}")
         for line in em.tune:
             tune_lines.append(
-                _PLACEHOLDER.sub(lambda m, o=offsets: f"(mp + {o[m.group(1)]})", line))
+                _PLACEHOLDER.sub(functools.partial(_tuned, offsets), line))
     return variables, tune_lines
 
 

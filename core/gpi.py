@@ -51,6 +51,7 @@ import os
 import sys
 import warnings
 from dataclasses import dataclass
+from types import FrameType
 from typing import Any, ClassVar
 
 import numpy as np
@@ -84,7 +85,7 @@ __all__ = [
 EnvelopeState = tuple[float, int]  # (previous input, current direction +1/-1)
 
 
-def _envelope_params(x: object, name: str, branch: str) -> Float1D:
+def _envelope_params(x: ArrayLike, name: str, branch: str) -> Float1D:
     """Validate four tanh-envelope constants ``(c0, c1, c2, c3)`` of ``c0 tanh(c1 v + c2) + c3``."""
     p = as_vector(x, name)
     if p.size != 4:
@@ -107,7 +108,7 @@ def _envelope_params(x: object, name: str, branch: str) -> Float1D:
 def _caller_stacklevel() -> int:
     """``stacklevel`` that makes a warning point at the first frame outside ``core/``."""
     core_dir = os.path.dirname(os.path.abspath(__file__))
-    frame = sys._getframe(1)  # the function that calls warnings.warn
+    frame: FrameType | None = sys._getframe(1)  # the function that calls warnings.warn
     level = 1
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(core_dir):
         frame = frame.f_back
@@ -148,7 +149,7 @@ def _direction0(d: object) -> int:
             f"the initial direction must be +1 (rising, branch a) or -1 (falling, branch b), "
             f"got {d!r}"
         )
-    return int(d)  # type: ignore[call-overload]
+    return int(d)
 
 
 def _check_state(state: Any, who: str) -> EnvelopeState:
@@ -457,7 +458,7 @@ class _Cascade(Model):
         if not isinstance(d, dict):
             raise ParameterError(f"a {cls.type_name} model must be a JSON object")
         parts = (_nested(d, cls.type_name, f, c) for f, c in cls._parts)
-        return cls(*parts)  # type: ignore[call-arg]
+        return cls(*parts)
 
 
 def _typed(model: object, cls: type[Model], owner: str, field: str) -> None:
@@ -623,8 +624,8 @@ def paper001_example4_pi() -> PIModel:
     misprint: the printed inverse values (z6 = 6.139, q1 = -0.7691) need the negative sign
     (the positive one gives 6.146 and -0.7694; shared/notes/seed-notes.md).
     """
-    r = 0.45 * np.arange(7)
-    p = 0.65 * np.exp(-7.75e-4 * r)
+    r = 0.45 * np.arange(7, dtype=np.float64)
+    p = np.asarray(0.65 * np.exp(-7.75e-4 * r), dtype=np.float64)
     return PIModel(float(p[0]), r[1:], p[1:])
 
 
@@ -641,4 +642,4 @@ def paper001_example4() -> DeadZoneGPI:
 def paper001_example6() -> TanhGPI:
     """Tanh GPI of paper 001 Example 6: Example 4's PI with ``κ_R = κ_L = 6 tanh(0.4 v)``."""
     k = (6.0, 0.4, 0.0, 0.0)
-    return TanhGPI(paper001_example4_pi(), TanhEnvelope(k, k))
+    return TanhGPI(paper001_example4_pi(), TanhEnvelope(np.array(k), np.array(k)))

@@ -50,7 +50,7 @@ if NUMBA_ENABLED:
     from numba import njit
 else:  # pragma: no cover - exercised only when numba is disabled on purpose
 
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
+    def njit(*args, **kwargs):
         if args and callable(args[0]):
             return args[0]
         return lambda f: f
@@ -541,7 +541,7 @@ def _bw_at(v, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt):  # pragma: no cov
 
 
 @njit(cache=True, nogil=True)
-def bouc_wen_inverse(
+def bouc_wen_inverse(  # noqa: C901 - a compiled kernel: one loop, calls out of it cost per sample
     y, x, k0, c, beta, gamma, n, zlim, h, kmax, mlo, mhi, z, zt, out
 ):  # pragma: no cover - compiled
     """Per-sample inverse of :func:`bouc_wen_output` (slopes in ``[mlo, mhi]``, ``mlo > 0``).

@@ -33,7 +33,7 @@ from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
 from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
-from .validation import as_finite_scalar, as_vector, frozen
+from .validation import as_finite_scalar, as_vector, filled, frozen
 
 __all__ = ["InverseLinearSystem", "LinearSystem", "lti_run"]
 
@@ -268,7 +268,7 @@ class LinearSystem(Model):
         B, C : ndarray of shape (n,)
         D : float
         """
-        return self._ss  # type: ignore[attr-defined, no-any-return]
+        return self._ss  # type: ignore[attr-defined]
 
     def discretize(self, dt: float) -> tuple[Float2D, Float1D, Float1D, float]:
         """Exact zero-order-hold discretisation at sample spacing ``dt`` (cached per ``dt``).
@@ -313,7 +313,7 @@ class LinearSystem(Model):
         if self.order == 0:
             return np.zeros(0)
         try:
-            return np.linalg.solve(A, -B * float(u0))
+            return np.asarray(np.linalg.solve(A, -B * float(u0)), dtype=np.float64)
         except np.linalg.LinAlgError as exc:
             raise ParameterError(
                 "rest_state needs a nonsingular A; this system has a pole at s = 0"
@@ -369,8 +369,8 @@ class LinearSystem(Model):
             "num": self.num.tolist(),
             "den": self.den.tolist(),
         }
-        if np.any(self.state0 != 0):
-            d["state0"] = self.state0.tolist()
+        if np.any(filled(self.state0) != 0):
+            d["state0"] = filled(self.state0).tolist()
         return d
 
     @classmethod

@@ -357,7 +357,7 @@ def ensure_model_types_registered() -> list[str]:
     return registered_types()
 
 
-def _check_model_tree(node: object, path: str) -> None:
+def _check_model_tree(node: object, path: str) -> None:  # noqa: C901 - one check per field kind of a model document
     """Structural checks of a model node and everything nested in it (no construction)."""
     ensure_model_types_registered()
     if not isinstance(node, Mapping):

@@ -11,7 +11,7 @@ from . import kernels
 from ._typing import ArrayLike, Float1D
 from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
-from .validation import as_finite_scalar, as_input_signal, as_state_vector, as_vector
+from .validation import as_finite_scalar, as_input_signal, as_state_vector, as_vector, filled
 
 __all__ = ["PIModel", "inverse_parameters"]
 
@@ -228,8 +228,8 @@ class PIModel(Model):
             "thresholds": self.thresholds.tolist(),
             "weights": self.weights.tolist(),
         }
-        if np.any(self.state0 != 0):
-            d["state0"] = self.state0.tolist()
+        if np.any(filled(self.state0) != 0):
+            d["state0"] = filled(self.state0).tolist()
         return d
 
     @classmethod
@@ -289,7 +289,7 @@ def state_history(thresholds: Float1D, state: Float1D, tol: float = 1e-9) -> Flo
 
 
 def _inverse_state(model: PIModel, z: Float1D, q0: float, q: Float1D) -> Float1D:
-    s0 = model.state0
+    s0 = filled(model.state0)
     if np.all(s0 == s0[0]):
         return np.full(s0.size, float(model.slopes[-1] * s0[0]))
     hist = state_history(model.thresholds, s0)

@@ -50,7 +50,7 @@ from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .kernels import _level_sum, njit
 from .pi import PIModel
-from .validation import as_finite_scalar, as_matrix, as_state_vector, as_vector
+from .validation import as_finite_scalar, as_matrix, as_state_vector, as_vector, filled
 
 __all__ = ["PreisachInverse", "PreisachModel", "RateDependentPreisach",
            "RateDependentPreisachInverse", "level_segments"]
@@ -189,7 +189,7 @@ class PreisachModel(Model):
             np.concatenate(([0.0], pi.thresholds)),
             np.repeat(p[:, None], e.size + 1, axis=1),
             e,
-            np.concatenate(([0.0], pi.state0)),
+            np.concatenate(([0.0], filled(pi.state0))),
         )
 
     # ------------------------------------------------------------------ properties

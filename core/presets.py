@@ -68,7 +68,7 @@ class PresetInfo:
 
 def _example1(m0: float | None = None) -> PIModel:
     p0, r, p = PAPER001_EX1
-    return PIModel(p0, np.array(r), np.array(p), m0)
+    return PIModel(p0, np.array(r), np.array(p), None if m0 is None else np.full(len(r), m0))
 
 
 def _example2_approx() -> PIModel:

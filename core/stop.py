@@ -40,7 +40,7 @@ from ._typing import ArrayLike, Float1D
 from .base import Control, Field, Model, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .pi import PIModel
-from .validation import as_finite_scalar, as_state_vector, as_vector
+from .validation import as_finite_scalar, as_state_vector, as_vector, filled
 
 __all__ = ["StopGapInverse", "StopPIModel"]
 
@@ -163,7 +163,8 @@ class StopPIModel(Model):
     # ------------------------------------------------------------------ simulation
     def default_state(self) -> Float1D:
         if self.gap > 0:
-            return np.concatenate((self.state0, [float(np.mean(self.state0)), 0.0]))
+            s0 = filled(self.state0)
+            return np.concatenate((s0, [float(np.mean(s0)), 0.0]))
         return np.array(self.state0, copy=True)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Float1D]:

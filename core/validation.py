@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
 from .exceptions import ParameterError
+
+_T = TypeVar("_T")
 
 __all__ = [
     "as_finite_scalar",
@@ -13,8 +17,18 @@ __all__ = [
     "as_matrix",
     "as_state_vector",
     "as_vector",
+    "filled",
     "frozen",
 ]
+
+
+def filled(value: _T | None) -> _T:
+    """``value``, which the caller knows is set: a model field that ``__post_init__`` always
+    fills (``None`` is only the constructor's default, "relaxed"), or a result part that
+    the branch taken computed. ``None`` there is a bug (``TypeError``)."""
+    if value is None:  # pragma: no cover - __post_init__ fills every such field
+        raise TypeError("a value that is always set was None")
+    return value
 
 
 def frozen(a: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ from ..boucwen import (
     BoucWenModel,
     saturation_levels,
 )
+from ..validation import filled
 from .stage import (
     CStage,
     StageContext,
@@ -37,7 +38,7 @@ def _bouc_wen_parts(
         f"static const double {c}N[{m}] = {c_array(model.exponent)};",
         f"static const double {c}L[{m}] = "
         f"{c_array(saturation_levels(model.beta, model.gamma, model.exponent))};",
-        f"static const double {c}Z0[{m}] = {c_array(model.state0)};",
+        f"static const double {c}Z0[{m}] = {c_array(filled(model.state0))};",
         f"static const double {c}U0 = {c_double(model.input0)};",
         f"static const double {c}H = {c_double(model.substep)};",
     ]

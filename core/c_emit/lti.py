@@ -70,9 +70,9 @@ def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
     assert ctx.dt is not None
     sys_ = model.system  # type: ignore[attr-defined]
     Ad, Bd, C, D = (np.asarray(v) for v in sys_.discretize(ctx.dt))
-    D = float(D)
-    Ai = Ad - np.outer(Bd, C) / D
+    d = float(D)
+    Ai = Ad - np.outer(Bd, C) / d
     x0 = np.asarray(sys_.state0, dtype=np.float64)
-    return _emit_state_space(Ai, Bd / D, -C / D, 1.0 / D, x0, ctx,
+    return _emit_state_space(Ai, Bd / d, -C / d, 1.0 / d, x0, ctx,
                              f"inverse linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}",
                              "system.state0")

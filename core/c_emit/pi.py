@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..base import Model
 from ..pi import PIModel
+from ..validation import filled
 from .stage import (
     CStage,
     StageContext,
@@ -27,7 +28,7 @@ def emit_pi(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}P0 = {c_double(model.p0)};",
             f"static const double {c}R[{n}] = {c_array(model.thresholds)};",
             f"static const double {c}W[{n}] = {c_array(model.weights)};",
-            f"static const double {c}Z0[{n}] = {c_array(model.state0)};",
+            f"static const double {c}Z0[{n}] = {c_array(filled(model.state0))};",
         ],
         reset=[
             f"for (i = 0; i < {n}u; ++i) {{",

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..base import Model
 from ..stop import StopGapInverse, StopPIModel
+from ..validation import filled
 from .pi import emit_pi
 from .stage import (
     CStage,
@@ -60,8 +61,8 @@ def _emit_stop_gap(model: StopPIModel, ctx: StageContext) -> CStage:
             f"static const double {c}H = {c_double(0.5 * model.gap)};",
             f"static const double {c}R[{n}] = {c_array(model.thresholds)};",
             f"static const double {c}W[{n}] = {c_array(model.weights)};",
-            f"static const double {c}Z0[{n}] = {c_array(model.state0)};",
-            f"static const double {c}V0 = {c_double(float(np.mean(model.state0)))};",
+            f"static const double {c}Z0[{n}] = {c_array(filled(model.state0))};",
+            f"static const double {c}V0 = {c_double(float(np.mean(filled(model.state0))))};",
         ],
         helpers=force,
         reset=[

@@ -149,7 +149,7 @@ def convert_time(table: Table, col: ColumnInfo) -> tuple[np.ndarray, str | None]
     return out, f"time column {col.raw!r} holds date-times; converted to seconds since {t0}"
 
 
-def choose_roles(
+def choose_roles(  # noqa: C901 - one rule per column role, read in order
     table: Table, *, time: ColumnSpec, input: ColumnSpec,  # noqa: A002 - role name
     output: ColumnSpec, run: ColumnSpec, with_output: bool,
 ) -> tuple[dict[str, ColumnInfo | None], list[str], bool]:

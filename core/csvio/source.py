@@ -62,7 +62,7 @@ def load_bytes(source: Source, max_bytes: int) -> tuple[bytes | str, str, str]:
         return bytes(source), label, "recording"
     if hasattr(source, "read"):
         label = str(getattr(source, "name", "<stream>"))
-        data = source.read(max_bytes + 1)  # type: ignore[union-attr]
+        data = source.read(max_bytes + 1)
         if len(data) > max_bytes:
             raise CSVError(f"{label} is more than max_bytes={max_bytes:,} bytes; pass a "
                            "larger max_bytes= to read it anyway", source=label)

@@ -150,7 +150,7 @@ def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any]
                 break
             params.append(got[1])
     jk = block_jackknife(params) if params else {}
-    if jk:
+    if jk and params is not None:
         return {**unc, **jk}, f"block jackknife over {len(params)} training blocks"
     if any(v is not None for v in unc.values()):
         return unc, "profile curvature (inflated for residual autocorrelation)"

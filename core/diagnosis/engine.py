@@ -53,10 +53,10 @@ from ..csvio import ColumnSpec
 from ..exceptions import ParameterError
 from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MAP
 from ..fitting.metrics import percent_of_range
+from ..validation import filled
 from .acceptance import (
     RULE,
     Decision,
-    beyond_loop_shape_ok,
     clearly_better,
     decide,
     earns_place,
@@ -96,13 +96,7 @@ from .data import as_records, crossfit_folds, split_masks
 from .events import event_windows, excitation
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
-from .lookalikes import (
-    beyond_loop_shape,
-    lookalike_evidence,
-    score_statistic,
-    sign_locking,
-    untestable_effects,
-)
+from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
 from .misspecification import base_sensitivity, describe_alternative, recording_jackknife
 from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics, rate_effect, stage_pairs
@@ -287,7 +281,8 @@ def diagnose(
                       if len(records) >= 2 and train is None and test is None else (None, None))
     specific: list[RecordingSpecific] = []
     if loro_b is not None:
-        cur, loro_f, specific = _drop_recording_specific(run_, base_fit, cur, loro_b, loro_f)
+        cur, loro_f, specific = _drop_recording_specific(run_, base_fit, cur, loro_b,
+                                                         filled(loro_f))
         say(0.91, "estimating each parameter from the other recordings")
         _spread_over_recordings(ctx, base_fit, cur, run_.findings)
     _widen_for_base(ctx, cur, run_.findings)
@@ -651,9 +646,10 @@ def _search(run: _Run, cur: Fit, todo: list[str], rnd: int
             deferred.append(_deferred_row(rnd, name, c.parameters,
                                           None if bound > 0 else c.heldout.gain))
             continue
-        c = _evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
-        if c is None:
+        judged = _evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
+        if judged is None:
             continue
+        c = judged
         cands[name] = c
         cv = (c.crossfit or {}).get("parameter_cv")
         if ctx.strict and decide(c.heldout, c.heldout.mse_before - run.noise**2, len(todo),
@@ -804,14 +800,12 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
         dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
         if dec.passes and not harmless_elsewhere(c.elsewhere):
-            e = c.elsewhere
+            e = filled(c.elsewhere)
             dec = replace(dec, passes=False, reasons=(
                 f"judged {c.where}, it makes the other test rows worse (MSE "
                 f"{100 * e.gain:+.1f} %, z {e.z:.2f})",))
             decision = "contradicted"
         elif dec.passes and (why := _events_refusal(ctx, cur, c)) is not None:
-            dec = replace(dec, passes=False, reasons=(why,))
-        elif dec.passes and (why := _loop_shape_refusal(ctx, cur, c)) is not None:
             dec = replace(dec, passes=False, reasons=(why,))
         elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):
@@ -867,23 +861,6 @@ def _events_refusal(ctx: FitContext, cur: Fit, c: _Candidate) -> str | None:
     return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
             f"recording: a dynamic stage is named when at least {RULE.min_events} "
             "independent events show it (more steps or cycles would decide)")
-
-
-def _loop_shape_refusal(ctx: FitContext, cur: Fit, c: _Candidate) -> str | None:
-    """Why acceptance rule 16 refuses candidate ``c`` (only output dynamics with one
-    recording at one excitation rate), or ``None`` when it holds."""
-    if EFFECTS[c.name].dynamics is None or len(ctx.records) != 1:
-        return None
-    if excitation(ctx.records).rate_ratio >= RULE.min_rate_ratio:
-        return None
-    h = beyond_loop_shape(ctx, cur, c.fit)
-    if beyond_loop_shape_ok(h):
-        return None
-    return (f"one recording at one excitation rate: with the residual's rate-independent "
-            f"loop-shape part (a function of the input, its direction and the last reversal) "
-            f"removed, it lowers the held-out MSE by {100 * h.gain:.1f} % (DM z {h.z:.2f}, "
-            f"signed-rank p {h.sign_p:.2g}), so a misfit of the loop's shape explains as much "
-            "(recordings at several rates, or input steps with holds, would decide)")
 
 
 _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "
@@ -959,7 +936,8 @@ def _lookahead(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[Rou
     holding the other (``p`` is then judged in the next round as usual). Not used with
     strict hold-out. Returns ``(cands, rows, passing)``, with ``passing = []`` otherwise.
     """
-    ctx, none = run.ctx, (cands, rows, [])
+    ctx = run.ctx
+    none: tuple[dict[str, _Candidate], list[RoundRow], list[str]] = (cands, rows, [])
     held = [c for c in cands.values() if c.decision is not None and c.verdict is None
             and c.decision.size_ok and c.decision.stable and not c.decision.significant
             and not EFFECTS[c.name].before_wipeout]
@@ -1148,8 +1126,9 @@ def _finding(run: _Run, cur: Fit, c: _Candidate, amb: list[str], runner: dict[st
         if o["rms_after"] > RULE.outside_worse * o["rms_before"]
     ]
     unc, unc_how = effect_uncertainty(ctx, c.name, cur, c.uncertainty, c.crossfit, ctx.train)
-    if EFFECTS[c.name].systematic is not None:
-        sys_sigma, sys_how = EFFECTS[c.name].systematic(ctx, cur, c.fit)
+    systematic = EFFECTS[c.name].systematic
+    if systematic is not None:
+        sys_sigma, sys_how = systematic(ctx, cur, c.fit)
         unc = dict(unc)
         for k, v in sys_sigma.items():
             s0 = unc.get(k)
@@ -1461,7 +1440,7 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
     return fit
 
 
-def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fit:
+def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fit:  # noqa: C901 - look-alike rules 9-12 read together; split with the engine (issue 34)
     """Re-compare delay / lag / resonance at the refined resolution and keep the best; a
     pair of stages in series that beats it (rule 11) is named when each of its stages earns
     its place over the other alone (rule 12, :func:`_name_pair`; only for the stage just
@@ -1495,13 +1474,13 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
     if lacks:
         # rule 9: a look-alike that shows its own signature is named when it predicts no
         # significantly worse or leaves at most a small margin more held-out MSE
-        alt = [o for o, hh in vs.items()
+        alts = [o for o, hh in vs.items()
                if (undecided(hh) or yields_to_lookalike(results[best][3].mse_after,
                                                          results[o][3].mse_after))
                and not _lacks_signature(o, results[o][1])]
-        if alt:
+        if alts:
             unnamed = best
-            best = min(alt, key=lambda n: results[n][3].mse_after)
+            best = min(alts, key=lambda n: results[n][3].mse_after)
             vs = undecided_against(best)
     fit, params, unc, h = results[best]
     exc = excitation(ctx.records)
@@ -1559,17 +1538,17 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:
-        hh = vs.get(other)
+        ho = vs.get(other)
         at = " at the final resolution"
         if other == unnamed and results[other][3].mse_after < h.mse_after:
             why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
                    f" % less held-out MSE than {best}")
-        elif other == unnamed or hh is None or undecided(hh):
+        elif other == unnamed or ho is None or undecided(ho):
             why = (f"{best} and {other} predict the held-out rows equally well (DM z < "
                    f"{RULE.min_z:g}, signed-rank p >= {RULE.sign_p:g})")
-        elif not clearly_better(hh):
+        elif not clearly_better(ho):
             why = (f"{best} predicts the held-out rows better than {other}, but {other} "
-                   f"leaves only {100 * (hh.mse_before / hh.mse_after - 1):.1f} % more "
+                   f"leaves only {100 * (ho.mse_before / ho.mse_after - 1):.1f} % more "
                    "held-out MSE")
         elif other in in_pair:
             why = in_pair[other]
@@ -1579,7 +1558,7 @@ def _recheck_dynamics(run: _Run, cur: Fit, finding: EffectFinding, rnd: int) -> 
                    f"(slowest / fastest {exc.rate_ratio:.2g}): a {best} and a {other} cannot "
                    "show their own signatures there (no response for a dead time, an "
                    "immediate smooth one for a lag, a ringing for a mode), so the "
-                   f"{100 * (hh.mse_before / hh.mse_after - 1):.0f} % more held-out MSE of "
+                   f"{100 * (ho.mse_before / ho.mse_after - 1):.0f} % more held-out MSE of "
                    f"{other} is how it absorbs the base's misfit, not its mechanism")
         ambiguous.append({
             "effects": [best, other],

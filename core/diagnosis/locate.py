@@ -238,7 +238,7 @@ def where_improved(
         o = np.argsort(U)
         cw = np.cumsum(W[o]) / W.sum()
         out["input_range"] = [float(U[o][np.searchsorted(cw, 0.1)]),
-                              float(U[o][min(np.searchsorted(cw, 0.9), U.size - 1)])]
+                              float(U[o][min(int(np.searchsorted(cw, 0.9)), U.size - 1)])]
         out["branch"] = {
             "ascending": float(W[Bb > 0].sum() / W.sum()),
             "descending": float(W[Bb < 0].sum() / W.sum()),

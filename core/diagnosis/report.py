@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 __all__ = ["summary_text"]
 
 
-def summary_text(res: DiagnosisResult) -> str:
+def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per report section
     """The readable multi-line report of a diagnosis (``hyst diagnose`` without ``--json``)."""
     yr = res.y_range
     b = res.heldout_rmse(res.baseline)

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .._typing import Float1D
+from .._typing import ArrayLike, Float1D
 from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
 from ..gpi import DeadZoneGPI, TanhEnvelope, TanhGPI
@@ -72,7 +72,7 @@ def _apply_stage(stage: tuple, u: np.ndarray) -> np.ndarray:
     return stage_map(stage)(u)
 
 
-def apply_shape(shape: tuple, u: np.ndarray) -> Float1D:
+def apply_shape(shape: tuple, u: ArrayLike) -> Float1D:
     """The play-bank input ``w`` for input ``u`` (``u`` itself for ``shape == ()``)."""
     w = np.asarray(u, dtype=np.float64)
     for stage in shape:

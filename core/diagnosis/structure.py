@@ -33,6 +33,7 @@ from ..pi import PIModel
 from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
 from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
+from ..validation import filled
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state
 from .grid import baseline_thresholds
 from .registry import EFFECTS, StaticTerm, TermFit, TermRows, static_terms
@@ -318,7 +319,7 @@ class PIStageOutputs(Sequence):
                 x = self._x
         return x
 
-    def __getitem__(self, i):  # type: ignore[override]
+    def __getitem__(self, i):
         return self.resolve()[i]
 
     def __iter__(self) -> Iterator[Float1D]:
@@ -669,7 +670,7 @@ def _play_rows(u, r, z, rows, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def _play_projection(w, r, z, V, rows, out):  # pragma: no cover - compiled
+def _play_projection(w, r, z, V, rows, out):  # pragma: no cover - compiled  # noqa: C901 - the fast paths of one product, each a guarded branch
     """Rows ``rows`` of ``B @ V``, ``B`` the play bank of thresholds ``r`` (``r[0] = 0``: the
     input itself) on input ``w``, without forming ``B`` or the ``(N, n) x (n, q)`` product.
 
@@ -847,7 +848,7 @@ def _turns_rarely(w: np.ndarray, n: int) -> bool:
     :func:`_play_projection` to beat the product."""
     d = np.diff(w)
     d = d[d != 0]
-    return np.count_nonzero((d[1:] > 0) != (d[:-1] > 0)) * n <= 0.5 * w.size
+    return bool(np.count_nonzero((d[1:] > 0) != (d[:-1] > 0)) * n <= 0.5 * w.size)
 
 
 def _input_rows_times(w: np.ndarray, z0: np.ndarray, V: np.ndarray, r: np.ndarray,
@@ -1072,7 +1073,7 @@ def fit_structure(
     if iterations is None:
         iterations = 3 if needs_x else 1
     # (read only by the bilinear regressors: the PI-stage outputs are formed on first use)
-    x_prev = list(x_init) if x_init is not None and needs_x else None
+    x_prev: Sequence[Float1D] | None = list(x_init) if x_init is not None and needs_x else None
     n_lev = len(s.levels) + 1
     nb = (r.size + 1) * n_lev
     nq = nb if V is None else V.shape[1]
@@ -1155,7 +1156,7 @@ class _BankSet(NamedTuple):
     r_bank: np.ndarray | None
     #: a full fit of a bank too large to keep (:func:`_streams`): per recording the bank
     #: input and its row-0 state ``(w, z0)``, the plays streamed in row blocks; else None
-    streamed: list | None = None
+    streamed: list[tuple[np.ndarray, np.ndarray]] | None = None
 
 
 def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
@@ -1170,6 +1171,7 @@ def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
                if rss_only and reduce and not s.levels and s.beta_s is None
                and not s.bouc_wen else None)
     inputs = row0 = streamed = None
+    banks: list[np.ndarray]
     if sampled is not None:
         raw = banks = []
         V, inputs, row0 = sampled
@@ -1211,10 +1213,10 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarra
         assert bs.row0 is not None and V is not None
         s0 = int(idx[0]) if not s.dynamics else start
         if not s.dynamics:
-            out[...] = _input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, bs.r_bank,
+            out[...] = _input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
                                          idx - s0)
         elif idx.size:
-            _dyn_rows(_input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, bs.r_bank,
+            _dyn_rows(_input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
                                         np.arange(last - s0)),
                       s.dynamics, dt, idx - s0, out=out)
     elif V is not None and not s.dynamics:
@@ -1513,5 +1515,5 @@ def _hysteresis(s: Structure, k: int, p0: float, pw: Float1D) -> Model:
                                  ).with_state()
         hyst = hysteresis_model(s.shape, hyst)
     elif s.history[k]:
-        hyst = InitialMemory(hyst, list(s.history[k]))
+        hyst = InitialMemory(hyst, np.asarray(s.history[k], dtype=np.float64))
     return hyst

@@ -176,6 +176,7 @@ def prepare(
             te = np.zeros(a.size, dtype=bool)
         elif tr is None:
             tr = ~te
+        assert tr is not None and te is not None  # every branch above fills both
         if (tr & te).any():
             raise ParameterError(f"train and test masks overlap in recording {k}")
         train_masks.append(tr)

@@ -90,7 +90,7 @@ def element_columns(
         cols = np.empty((u.size, saturation.size))
         for j in range(saturation.size):
             e = BoucWenModel(
-                1.0, [0.0], saturation[j : j + 1], slope[j : j + 1], exponent[j : j + 1]
+                1.0, np.zeros(1), saturation[j : j + 1], slope[j : j + 1], exponent[j : j + 1]
             )
             Z, _ = bouc_wen_states(
                 u,

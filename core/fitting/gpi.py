@@ -41,6 +41,7 @@ from ..gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from ..operators import dead_zone
 from ..pi import PIModel
 from ..stages import Offset
+from ..validation import filled
 from ..warning_filters import FILTERS
 from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
 from .estimator import Estimator
@@ -137,7 +138,7 @@ class _Base(Estimator):
         self.classical_ = classical
         self._pi = (fit.p0, r, fit.weights)
         self.model_ = model
-        self.full_model_ = Chain.of(model, Offset(fit.offset))
+        self.full_model_: Model = Chain.of(model, Offset(fit.offset))
 
     def _train_residual(
         self, prep: Prepared, ws: Sequence[Float1D], fit: LinearPIFit, r: Float1D
@@ -340,7 +341,8 @@ class DeadZoneGPIRegressor(_DeadZoneFit):
         ws = [g(x) for x in prep.us]
         fit, r, eps = self._solve_pi(prep, ws, rev, n)
         self.deadzone_ = g
-        self._keep(classical, n, fit, r, DeadZoneGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), g))
+        gpi = DeadZoneGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), g)
+        self._keep(classical, n, fit, r, gpi)
         slopes = np.cumsum(np.r_[fit.p0, fit.weights])
         if not res.success:
             warnings.warn(f"dead-zone GPI fit did not converge: {res.message}", FitWarning,
@@ -356,7 +358,7 @@ class DeadZoneGPIRegressor(_DeadZoneFit):
             prep, self._model_for, n + 1 + int(self.include_offset) + s0.size, "gpi-deadzone",
             fit.cond, "least_squares(γ slopes) + gram-cholesky-nnls(P)",
             float(min(slopes.min(), g.slopes.min())), extra,
-            invertible=self.model_.pi.is_invertible and g.is_invertible,
+            invertible=gpi.pi.is_invertible and g.is_invertible,
         )
 
     def _model_for(self, u: Float1D) -> Model:
@@ -457,7 +459,7 @@ class ModifiedPIRegressor(_DeadZoneFit):
         )
         fit = fit_linear_pi(
             segs, r, min_slope=eps, include_offset=self.include_offset,
-            extra=lambda uc, yc, ac: ramps(ac), extra_lower=np.full(knots.size,
+            extra=lambda uc, yc, ac: ramps(filled(ac)), extra_lower=np.full(knots.size,
                                                                     self.deadzone_min_slope),
             chunk=self.chunk, constraint=self.constraint,
         )
@@ -600,7 +602,8 @@ class TanhGPIRegressor(_Base):
         ws = transformed(best.x)
         fit, r, eps = self._solve_pi(prep, ws, rev, n)
         self.envelope_ = env
-        self._keep(classical, n, fit, r, TanhGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), env))
+        tgpi = TanhGPI(_relaxed(fit.p0, r, fit.weights, ws[0][0]), env)
+        self._keep(classical, n, fit, r, tgpi)
         slopes = np.cumsum(np.r_[fit.p0, fit.weights])
         extra = {
             "n_operators": n,
@@ -612,7 +615,7 @@ class TanhGPIRegressor(_Base):
         self.report_ = self._report(
             prep, self._model_for, n + 1 + int(self.include_offset) + best.x.size, "gpi-tanh",
             fit.cond, "least_squares(envelope) + gram-cholesky-nnls(P)", float(slopes.min()),
-            extra, invertible=self.model_.pi.is_invertible,
+            extra, invertible=tgpi.pi.is_invertible,
         )
 
     def _model_for(self, u: Float1D) -> Model:

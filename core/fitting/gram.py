@@ -234,6 +234,11 @@ def stream_gram(
     return np.stack([_assemble(gzz[g], gzw[g], gww[g]) for g in range(n_labels)])
 
 
+def _qr_r(a: Float2D) -> Float2D:
+    """The R factor of ``a`` (``numpy.linalg.qr(a, mode="r")``)."""
+    return np.asarray(np.linalg.qr(a, mode="r"), dtype=np.float64)
+
+
 def stream_tsqr(
     segments: Sequence[Segment],
     thresholds: Float1D,
@@ -275,7 +280,7 @@ def stream_tsqr(
         A = np.empty((rows, m))
         A[:, pos_z] = Z if sel is None else Z[sel]
         A[:, pos_w] = W if sel is None else W[sel]
-        R = np.linalg.qr(np.vstack((R, A)), mode="r")
+        R = _qr_r(np.vstack((R, A)))
     if R.shape[0] < m:
         R = np.vstack((R, np.zeros((m - R.shape[0], m))))
     return R
@@ -292,26 +297,27 @@ def r_factor(A: Float2D) -> Float2D:
     F = np.array(A, dtype=np.float64, order="F")
     qr, _, _, info = lapack.dgeqrf(F, overwrite_a=True)
     if info != 0:  # pragma: no cover - LAPACK argument error
-        return np.linalg.qr(A, mode="r")
+        return _qr_r(A)
     return np.triu(qr[: min(F.shape)])
 
 
 def _triangular_factor(G: Float2D) -> Float2D:
     """Upper Cholesky factor of a symmetric PSD matrix; tiny diagonal jitter if singular."""
     try:
-        return np.linalg.cholesky(G).T
+        return np.asarray(np.linalg.cholesky(G).T, dtype=np.float64)
     except np.linalg.LinAlgError:
         pass
     jitter = 1e-14 * max(float(np.max(np.diag(G))), 1e-300)
     for _ in range(8):
         try:
-            return np.linalg.cholesky(G + jitter * np.eye(G.shape[0])).T
+            return np.asarray(np.linalg.cholesky(G + jitter * np.eye(G.shape[0])).T,
+                              dtype=np.float64)
         except np.linalg.LinAlgError:
             jitter *= 100.0
     # last resort: symmetric square root from the eigen-decomposition, then QR
     w, V = np.linalg.eigh(G)
     S = np.sqrt(np.clip(w, 0.0, None))[:, None] * V.T
-    return np.linalg.qr(S, mode="r")
+    return _qr_r(S)
 
 
 def solve_constrained(
@@ -362,7 +368,7 @@ def solve_constrained(
         Rt = (factor @ T)[:, perm]
         d = np.linalg.norm(Rt, axis=0)
         d[d == 0] = 1.0
-        R = np.linalg.qr(Rt / d, mode="r")
+        R = _qr_r(Rt / d)
     else:  # pragma: no cover - programming error
         raise ValueError("solve_constrained needs gram= or factor=")
     # make the diagonal non-negative (QR sign convention)

@@ -56,7 +56,8 @@ class Drift(Model):
     def drift(self, t: ArrayLike) -> Float1D:
         """Drift ``d(t)`` in output units at times ``t`` (seconds from the start), shape (N,)."""
         s = np.clip(2.0 * np.asarray(t, dtype=np.float64) / self.span_s - 1.0, -1.0, 1.0)
-        return np.polynomial.legendre.legval(s, np.concatenate(([0.0], self.coefficients)))
+        c = np.concatenate(([0.0], self.coefficients))
+        return np.asarray(np.polynomial.legendre.legval(s, c), dtype=np.float64)
 
     def default_state(self) -> float:
         return self.start_s

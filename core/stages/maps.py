@@ -23,9 +23,7 @@ def bisect_steps() -> int:
 @register_model
 @dataclass(frozen=True, eq=False)
 class Asymmetry(Model):
-    """Output asymmetry: a static map that bends the loop.
-
-    ``y = x + Σ_k a_k ((x - c)/s)^k``, k = 2, 3, ...
+    """Static output map that bends the loop: ``y = x + Σ_k a_k ((x - c)/s)^k``, k = 2, 3, ...
 
     An even (k = 2) term makes the ascending and descending branches curve differently, a
     cubic term saturates or stiffens both ends (Gu et al. 2014 polynomial PI; Kuhnen's MPI
@@ -77,8 +75,10 @@ class Asymmetry(Model):
         units, ``±inf`` when unbounded). The inverse maps onto it."""
         # dy/dq = s + Σ k a_k q^(k-1), q = (x - c)/s; polynomial highest power first
         a = self.coefficients
-        poly = [k * a[k - 2] for k in range(a.size + 1, 1, -1)] + [self.scale]
-        poly = np.trim_zeros(np.asarray(poly, dtype=np.float64), "f")
+        coef = np.asarray([k * a[k - 2] for k in range(a.size + 1, 1, -1)] + [self.scale],
+                          dtype=np.float64)
+        nz = np.flatnonzero(coef)
+        poly = coef[nz[0] :] if nz.size else coef[:0]  # leading zeros trimmed
         roots = np.roots(poly) if poly.size > 1 else np.array([])
         real = roots[np.abs(roots.imag) <= 1e-12 * np.maximum(1.0, np.abs(roots))].real
         lo = real[real < 0].max() if np.any(real < 0) else -np.inf

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -42,7 +42,7 @@ _EFFECT_WORDS = {"rate": "rate dependence", "offset": "a sensor offset",
                  "initial-memory": "initial memory", "asymmetry": "asymmetry"}
 
 
-def _unit(units: dict[str, str] | None, role: str) -> str:
+def _unit(units: Mapping[str, str] | None, role: str) -> str:
     return unit_words((units or {}).get(role))
 
 
@@ -107,7 +107,7 @@ def _because(head: str, reason: object, lead: str, experiment: object) -> str:
     return text + (f". {lead} {experiment}" if experiment else "") + "."
 
 
-def diagnosis_summary(d: dict[str, Any], units: dict[str, str] | None = None
+def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
                       ) -> dict[str, Any]:
     """The findings of a diagnosis document in sentences for people (accepted effects with
     their held-out error before and after in the output's unit, where they act, ambiguities,

@@ -16,6 +16,7 @@ import numpy as np
 
 from app.services.runs.inputs import CommandError, parse_window
 from app.services.words import unit_words
+from core.validation import filled
 
 if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
     from app.services.runs.progress import Progress
@@ -85,7 +86,7 @@ def fit_session(session: Session, n: int, kind: str = "pi",
     The diagnosis is dropped; with ``apply`` the fitted model becomes the session's model.
     The caller checks that the session has a recording.
     """
-    model, report = fit_recording(session.recording, n, kind)
+    model, report = fit_recording(filled(session.recording), n, kind)
     session.set_fit(model.to_dict(), report, apply=apply)
     return model, report
 

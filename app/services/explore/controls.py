@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from app.services.words import type_words
-from core.base import Control, Field, model_class
+from core.base import Control, Field, Model, model_class
 from core.exceptions import ParameterError
 
 __all__ = [
@@ -389,7 +389,7 @@ def _field_sliders(node: Mapping[str, Any], field: Field, prefix: str,
     return out, ""
 
 
-def _node_class(node: Any, depth: int) -> type | None:
+def _node_class(node: Any, depth: int) -> type[Model] | None:
     """The registered model class of a document node, or ``None`` (not a model object, an
     unknown type, or deeper than :data:`MAX_DEPTH`): both walkers skip such nodes."""
     if not isinstance(node, Mapping) or depth > MAX_DEPTH:

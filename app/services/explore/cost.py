@@ -228,7 +228,7 @@ def _kind(value: Any) -> str:
 def _children(m: Model) -> list[Model]:
     """Sub-models of ``m``, found from its dataclass fields (each type declares them once)."""
     out: list[Model] = []
-    for f in dataclasses.fields(m):
+    for f in dataclasses.fields(m):  # type: ignore[arg-type]  # every registered Model is a dataclass
         v = getattr(m, f.name, None)
         if isinstance(v, Model):
             out.append(v)

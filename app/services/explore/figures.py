@@ -36,6 +36,7 @@ from app.services.explore.simulation import (
 )
 from app.services.words import model_words, unit_words
 from core.recordings import Recording
+from core.validation import filled
 
 __all__ = [
     "MAX_POINTS",
@@ -193,7 +194,7 @@ def loop_figure(res: Result) -> FigureJSON:
                           line={"color": _GREY, "width": 1, "dash": "dot"}))
     m = res.model
     ld = res.loading
-    if ld is not None and ld.curve_u is not None:
+    if ld is not None and ld.curve_u is not None and ld.curve_y is not None:
         data.append(_line(_num(ld.curve_u), _num(ld.curve_y), "initial loading curve", _GREEN,
                           line={"color": _GREEN, "width": 1, "dash": "dash"}))
     n = operator_count(m)  # the plays of a GPI's PI part too; no "n = ?" for a map
@@ -276,7 +277,7 @@ def operators_figure(res: Result) -> FigureJSON:
         data.append(_line(t, _num(res.y[idx]), "y (sum)", "#000000",
                           line={"color": "#000000", "width": 1.5, "dash": "dot"}))
     else:  # a map after the PI: the stack is the PI's output, not y
-        data.append(_line(t, _num(res.pi_y[idx]), "PI output (sum)", "#000000",
+        data.append(_line(t, _num(filled(res.pi_y)[idx]), "PI output (sum)", "#000000",
                           line={"color": "#000000", "width": 1.5, "dash": "dot"}))
     title = ("Operator contributions (stacked, on the PI's input γ(u))" if mapped
              else "Operator contributions (stacked)")

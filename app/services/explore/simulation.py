@@ -132,8 +132,7 @@ def operator_count(model: Model) -> int | None:
     n = getattr(model, "n", None)
     if isinstance(n, int):
         return n
-    counts = [operator_count(st) for st in getattr(model, "stages", ())]
-    counts = [c for c in counts if c is not None]
+    counts = [c for st in getattr(model, "stages", ()) if (c := operator_count(st)) is not None]
     return sum(counts) if counts else None
 
 
@@ -234,7 +233,8 @@ def visited_path(digits: np.ndarray
     """
     rows = np.asarray(digits, dtype=np.int8)
     index: dict[bytes, int] = {}
-    order, first = [], []
+    order: list[Any] = []
+    first: list[Any] = []
     for i, r in enumerate(rows):
         key = r.tobytes()
         if key not in index:
@@ -242,7 +242,8 @@ def visited_path(digits: np.ndarray
             order.append(r)
             first.append(i)
     seq = [index[r.tobytes()] for r in rows]
-    up, down = set(), set()
+    up: set[Any] = set()
+    down: set[Any] = set()
     for a, b in zip(seq[:-1], seq[1:], strict=True):
         if a != b:
             (up if _set_digits(order[b]) > _set_digits(order[a]) else down).add((a, b))

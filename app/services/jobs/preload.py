@@ -20,9 +20,9 @@ def warm() -> None:
     from core.models import fit_kinds
     from core.recordings import Recording
 
-    t = np.arange(600) * 1e-3
-    u = 3 * np.sin(2 * np.pi * 5 * t)
-    rec = Recording(t, u, np.tanh(u) + 0.2 * u)
+    t = np.arange(600, dtype=np.float64) * 1e-3
+    u = np.asarray(3 * np.sin(2 * np.pi * 5 * t), dtype=np.float64)
+    rec = Recording(t, u, np.asarray(np.tanh(u) + 0.2 * u, dtype=np.float64))
 
     def quiet(fraction: float, message: str = "") -> None:
         pass

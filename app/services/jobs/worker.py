@@ -64,7 +64,8 @@ for _name, _value in WORKER_THREADS_ENV.items():
 #: worker then starts a fresh interpreter and imports the solvers itself: seconds, not
 #: measured here)
 _FORKSERVER = "forkserver" in multiprocessing.get_all_start_methods()
-_CTX = multiprocessing.get_context("forkserver" if _FORKSERVER else "spawn")
+_CTX = (multiprocessing.get_context("forkserver") if _FORKSERVER
+        else multiprocessing.get_context("spawn"))
 if _FORKSERVER:
     _CTX.set_forkserver_preload(PRELOAD)  # read when the forkserver starts
 

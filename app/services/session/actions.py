@@ -46,7 +46,7 @@ from app.services.session.sessions import Session, SessionRegistry
 from app.services.settings import Settings
 from app.services.teaching.events import HUB
 from app.services.words import model_words
-from core.base import Model
+from core.base import Model, RunCost
 from core.exceptions import ParameterError
 from core.presets import list_presets
 from core.recordings import Recording
@@ -298,11 +298,8 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     f = (doc.get("final") or {}).get("heldout_rmse")
     heldout = (float(b), float(f)) if isinstance(b, int | float) and \
         isinstance(f, int | float) else None
-    fig = F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
-                             heldout)
-    # the page's status line names the diagnosed model (not the session's fitted one)
-    fig.layout["meta"] = {**fig.layout.get("meta", {}), "model_title": model_words(result.model)}
-    return fig
+    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
+                              heldout)
 
 
 def no_report(session: Session) -> str:
@@ -493,6 +490,7 @@ def _priced_work(checked: CheckedModel, names: Collection[str],
         views and what to change.
     """
     key = frozenset(names) & {"inverse", "closed-loop"}
+    extra: RunCost | None
     if diagnosed is not None:
         extra = priced_views(checked.model, key, checked.samples, checked.dt, diagnosed)
     else:

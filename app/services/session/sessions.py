@@ -24,6 +24,7 @@ from app.services.explore.cost import CheckedModel, Limits
 from app.services.storage.store import SessionState, SessionStore
 from core.base import Model
 from core.recordings import Recording
+from core.validation import filled
 
 __all__ = [
     "CODE_ALPHABET",
@@ -133,7 +134,7 @@ class Session:
             st = self._state
             if st.checked is None or st.checked.limits != limits:
                 st = self._state = replace(st, checked=check(st.config, self.recording))
-            return st.config, st.version, st.checked.model
+            return st.config, st.version, filled(st.checked).model
 
     # ------------------------------------------------------------------ transitions
     def _commit(self, changes: dict[str, Any], *, recording: bool, results: bool,

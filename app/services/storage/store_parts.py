@@ -141,7 +141,7 @@ def decode_diagnosis(report: str | None, blob: bytes | None
 
 def recording_to_blob(rec: Recording) -> bytes:
     """``rec`` as bytes (``.npz`` with the arrays and a JSON ``meta`` entry)."""
-    arrays = {"t": rec.t, "u": rec.u, "y": rec.y}
+    arrays: dict[str, Any] = {"t": rec.t, "u": rec.u, "y": rec.y}
     if rec.lines is not None:
         arrays["lines"] = np.asarray(rec.lines)
     extra_text: dict[str, list[str]] = {}

@@ -25,7 +25,7 @@ TERM = StaticTerm(
     width=lambda taus, n_records: len(taus),
     columns=_columns,
     coefficients=lambda taus, w, fit: w,
-    stage=lambda taus, w, k, record: Creep(list(taus), np.maximum(w, 0.0)),
+    stage=lambda taus, w, k, record: Creep(np.asarray(taus, dtype=np.float64), np.maximum(w, 0.0)),
     lower=0.0,
     through_dynamics=True,
     sample_spacing=True,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -49,7 +50,7 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     memo: dict[tuple, float] = {}
 
     def f(kind: str, x) -> float:
-        key = (kind, *(round(float(v), 6) for v in x))
+        key: tuple[Any, ...] = (kind, *(round(float(v), 6) for v in x))
         if not (all(0.0 < v < 1.0 for v in key[1:-1]) and ls_lo <= key[-1] <= ls_hi):
             return np.inf
         if key not in memo:
@@ -85,7 +86,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
 
 
 
-def _piecewise_map(breaks: Sequence[float], slopes: Sequence[float]) -> DeadZoneMap:
+def _piecewise_map(breaks: Sequence[float] | np.ndarray, slopes: Sequence[float]
+                   ) -> DeadZoneMap:
     """Continuous piecewise-linear map with ``slopes[j]`` on the j-th segment between the
     sorted ``breaks`` (one more slope than breaks), as a dead-zone superposition (``w(0) = 0``,
     the slope of the segment holding 0 is its linear weight)."""
@@ -111,7 +113,7 @@ DEAD_BAND_SLOPES = (0.01, DEAD_BAND_SLOPE)
 
 
 
-def _dead_band_map(kind: str, q: Sequence[float], log_s: float, lo: float, span: float
+def _dead_band_map(kind: str, q: Sequence[float] | np.ndarray, log_s: float, lo: float, span: float
                    ) -> DeadZoneMap:
     """Input map with one dead band of slope ``e^log_s`` (the other segments slope 1):
     ``kind`` ``"low"`` (below ``lo + q0 span``), ``"high"`` (above it) or ``"middle"``

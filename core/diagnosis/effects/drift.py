@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...base import Chain, Model
 from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
@@ -77,6 +78,14 @@ TERM = StaticTerm(
 )
 
 
+def _drift_stage(model: Model) -> Drift:
+    """The drift stage that a model fitted with the drift term ends with."""
+    stage = model.stages[-1] if isinstance(model, Chain) else model
+    if not isinstance(stage, Drift):  # pragma: no cover - build_model puts it last
+        raise TypeError(f"expected the drift stage last, got {stage.type_name!r}")
+    return stage
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Legendre drift of degree 2 in absolute time per recording."""
     s = cur.structure
@@ -84,7 +93,7 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
         return None
     fit = ctx.fit(s.with_term("drift", 2), cur)
     return fit, {"coefficients": [c.tolist() for c in fit.terms["drift"]],
-                 "peak_to_peak": [float(np.ptp(m.stages[-1].drift(r.t - r.t[0])))
+                 "peak_to_peak": [float(np.ptp(_drift_stage(m).drift(r.t - r.t[0])))
                                   for m, r in zip(fit.models, ctx.records, strict=True)]}, {}
 
 
