@@ -129,6 +129,9 @@ def scale(sizes: dict[str, int], folder: Path, skip_fit: bool, baseline: Path | 
     ``baseline`` (another checkout) also ``"fit (before)"`` and ``"diagnose (before)"``, each
     run just before the current one."""
     out: dict[str, dict[str, Run]] = {}
+    # the first run of a checkout compiles its numba kernels (seconds of CPU): not measured
+    for root in (ROOT,) if baseline is None else (baseline, ROOT):
+        measure(["diagnose", str(PIEZO), "--json", "-q"], root=root)
     for label, n in sizes.items():
         t0 = time.perf_counter()
         src = tiled_csv(n, folder)

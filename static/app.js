@@ -8,7 +8,7 @@
 // This module starts the page: it wires the controls to the modules that hold the work
 // (ES modules, each imported by path from the server's static folder):
 //   store.js     the page's state (the one owner; imported, never a global)
-//   dom.js       $, el, setMsg, showOutput          client.js  the REST client and its messages
+//   dom.js       $, el, setMsg, number boxes    client.js  the REST client and its messages
 //   plots.js     drawing (quickplot, plotly, phone and projector layouts)
 //   view.js      the figure on show, the view tabs  digitized.js  the digitized step / play
 //   model.js     model sliders, signal controls, the JSON box, the slider pump, presets
@@ -22,7 +22,7 @@ import { teacherPush, teacherRefresh } from "/classroom.js";
 import { api } from "/client.js";
 import { diagnose } from "/diagnosis.js";
 import { showState, stopPlay, togglePlay } from "/digitized.js";
-import { $, setMsg, showOutput } from "/dom.js";
+import { $, numberTyped, setMsg, showOutput } from "/dom.js";
 import { downloadFmu, fmuLinks, onParamSetChosen } from "/exports.js";
 import { fit } from "/fitting.js";
 import { cancelJob } from "/jobs.js";
@@ -74,6 +74,8 @@ async function main() {
   }
   for (const id of ["amplitude", "frequency", "offset", "duration", "mismatch"]) {
     $(id).addEventListener("input", () => { showOutput($(id)); onControlChange(); });
+    $(`${id}-num`).addEventListener("change", () =>
+      numberTyped(id, onControlChange, (note) => setMsg("model-msg", note)));
   }
   for (const id of ["kind", "samples", "use-recording"]) $(id).addEventListener("change", onControlChange);
   $("n").addEventListener("change", onOperatorCount);

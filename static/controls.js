@@ -154,10 +154,24 @@ export class ModelControls {
       input.disabled = true;
       label.title += "; a constant of this model";
     }
-    const out = document.createElement("output");
-    out.htmlFor = input.id;
+    // a number box beside the slider for exact values (a finger cannot move a thumb by a
+    // few pixels on a phone); its value goes through the same rules as a drag
+    const out = Object.assign(document.createElement("input"), {
+      type: "number", className: "ctl-num", step: "any", inputMode: "decimal",
+      id: `${input.id}-num`, disabled: input.disabled,
+    });
+    out.setAttribute("aria-label", `${s.label}, exact value`);
     label.append(input, out);
     input.addEventListener("input", () => this.#moved(s, input, out));
+    out.addEventListener("change", () => {
+      const typed = Number(out.value);
+      if (out.value.trim() === "" || !Number.isFinite(typed)) {
+        out.value = fmt(getLeaf(this.model, s.path));
+        this.onChange(`${s.label} needs a number`);
+        return;
+      }
+      this.#moved(s, input, out, Math.min(s.max, Math.max(s.min, typed)), typed);
+    });
     this.inputs.set(s.path, { input, out });
     return label;
   }
@@ -172,20 +186,24 @@ export class ModelControls {
       if (v < s.min || v > s.max) return false;
       input.value = String(position(s, v));
       input.setAttribute("aria-valuetext", fmt(v));
-      out.textContent = fmt(v);
+      out.value = fmt(v);
     }
     return true;
   }
 
   // The rules of the field (limits, neighbours), then the working model and the page.
-  #moved(s, input, out) {
-    const [v, note] = this.clamp(s, valueAt(s, Number(input.value)));
+  // `typed`: the number box's value (else the slider's position), `asked` what was typed
+  // before the slider's range held it
+  #moved(s, input, out, typed = null, asked = typed) {
+    const [v, note] = this.clamp(s, typed ?? valueAt(s, Number(input.value)));
     const pos = String(position(s, v));
     if (pos !== input.value) input.value = pos;
     input.setAttribute("aria-valuetext", fmt(v));
-    out.textContent = fmt(v);
+    out.value = fmt(v);
     setLeaf(this.model, s.path, v);
-    this.onChange(note);
+    const held = asked !== null && asked !== typed && !note
+      ? `${s.label} stops at ${fmt(v)}: the slider's range is ${fmt(s.min)} to ${fmt(s.max)}` : "";
+    this.onChange(note || held);
   }
 
   clamp(s, value) {

@@ -11,14 +11,17 @@ const DIGI_PLAY_MS = 500;
 export function showDigiControls(res) {
   const n = state.fig === "digitized" ? res.digitized_states : undefined;
   $("digi-controls").hidden = !n;
-  if (!n) { stopPlay(); return; }
+  if (!n) { stopPlay(); state.digiStep = null; return; }
   const step = $("digi-step");
   step.max = String(n - 1);
-  if (!state.digiTimer) {  // a freshly drawn figure shows the final state
-    step.value = String(n - 1);
-    state.digiStep = null;
-  }
+  if (state.digiTimer) { showOutput(step); return; }
+  // the view opens at the first state (so that "step forward" steps), and keeps the state
+  // the user stepped to when the model changes; the figure drawn shows the final state
+  const k = Math.min(state.digiStep ?? 0, n - 1);
+  step.value = String(k);
   showOutput(step);
+  if (k === n - 1) document.body.dataset.digiState = String(k);
+  else showState(k).catch((e) => setMsg("model-msg", e.message));
 }
 
 export async function showState(k) {

@@ -3,7 +3,7 @@
 
 import { api } from "/client.js";
 import { ModelControls } from "/controls.js";
-import { $, setMsg, showOutput } from "/dom.js";
+import { $, setMsg, showOutput, sliderValue } from "/dom.js";
 import { syncPreset } from "/presets.js";
 import { state } from "/store.js";
 import { draw, RESULT_VIEWS } from "/view.js";
@@ -50,17 +50,20 @@ export function applyConfig(cfg, version, { fresh = false } = {}) {
   $("mismatch").value = cfg.mismatch;
   $("model-json").value = JSON.stringify(m, null, 1);
   $("use-recording").checked = cfg.use_recording;
-  document.querySelectorAll("aside input[type=range]").forEach(showOutput);
+  document.querySelectorAll("aside input[type=range]").forEach((r) => showOutput(r));
+  // the number boxes hold the exact values (a slider snaps to its step)
+  for (const k of ["amplitude", "frequency", "offset", "duration"]) showOutput($(k), cfg.signal[k]);
+  showOutput($("mismatch"), cfg.mismatch);
   syncPreset(m, { fresh });
 }
 
 export function readConfig() {
   const cfg = structuredClone(state.config);
   if (controls.model) cfg.model = structuredClone(controls.model);
-  for (const k of ["amplitude", "frequency", "offset", "duration"]) cfg.signal[k] = Number($(k).value);
+  for (const k of ["amplitude", "frequency", "offset", "duration"]) cfg.signal[k] = sliderValue(k);
   cfg.signal.kind = $("kind").value;
   cfg.signal.samples = Number($("samples").value);
-  cfg.mismatch = Number($("mismatch").value);
+  cfg.mismatch = sliderValue("mismatch");
   cfg.use_recording = $("use-recording").checked;
   return cfg;
 }

@@ -2,7 +2,7 @@
 // the layout fitted to a phone's width and to projector mode.
 
 import { $, setMsg } from "/dom.js";
-import { quickPlot } from "/quickplot.js";
+import { quickPlot, values } from "/quickplot.js";
 import { state } from "/store.js";
 
 // plotly's toolbar without anything that talks to an outside service
@@ -27,25 +27,76 @@ function fitLayout(layout) {
     if (!cols.includes(d)) cols.push(d);
     colOf[k] = cols.indexOf(d);
   }
-  const stack = fig.clientWidth < 600 && cols.length > 1;
+  const narrow = fig.clientWidth < 600;
+  const stack = narrow && cols.length > 1;
   fig.classList.toggle("tall", stack);
-  if (!stack) return layout;
+  if (!narrow) return layout;
   const lay = structuredClone(layout);
+  if (lay.title) belowToolbar(lay, 11);
+  // plotly keeps the height it measured last; the element grows when panels are stacked
+  // (style.css .plot.tall), and the old height left a screen of blank space under them
+  lay.height = fig.clientHeight;
+  if (!stack) return lay;
   const band = 1 / cols.length, gap = 0.25 * band;  // room for tick labels and a title
   for (const k of xs) lay[k].domain = [0, 1];
-  for (const k of keys.filter((k) => /^yaxis\d*$/.test(k))) {
+  const ys = keys.filter((k) => /^yaxis\d*$/.test(k));
+  const colOfY = (k) => {
     const anchor = String(lay[k].anchor || "x");
-    const c = colOf["xaxis" + (anchor.startsWith("x") ? anchor.slice(1) : "")] ?? 0;
-    const [a, b] = lay[k].domain || [0, 1];
-    const top = 1 - c * band, bottom = top - band + gap;
+    return colOf["xaxis" + (anchor.startsWith("x") ? anchor.slice(1) : "")] ?? 0;
+  };
+  // a column's axes fill its band (the room left under them for side notes, which a phone
+  // leaves out, was a blank screen)
+  const low = cols.map((_, c) => Math.min(...ys.filter((k) => colOfY(k) === c)
+    .map((k) => (lay[k].domain || [0, 1])[0]), 1));
+  for (const k of ys) {
+    const c = colOfY(k);
+    const lo = low[c] < 1 ? low[c] : 0;
+    const [a, b] = (lay[k].domain || [0, 1]).map((v) => (v - lo) / (1 - lo));
+    // (the last band's tick labels and axis title go in the bottom margin)
+    const top = 1 - c * band, bottom = top - band + (c === cols.length - 1 ? 0 : gap);
     lay[k].domain = [bottom + a * (top - bottom), bottom + b * (top - bottom)];
   }
-  lay.margin = { ...(lay.margin || {}), l: 50, r: 10 };
+  lay.margin = { ...(lay.margin || {}), l: 50, r: 10, b: 45 };
   // side notes in monospace (the digitized view's matrices) have no room left
   lay.annotations = (lay.annotations || []).filter((a) => !(a.font && a.font.family === "monospace"));
   lay.showlegend = false;
-  if (lay.title) lay.title = { ...lay.title, font: { size: 11 } };
   return lay;
+}
+
+// On a phone the names of many points pile on each other (a digitized state diagram's
+// 7-digit states): only a trace of a few points keeps its labels, drawn past the plot's
+// edge if need be and on the side of the point facing the middle (a label at the left
+// edge was cut).
+const PHONE_LABELS = 3;
+function phoneData(el, data) {
+  if (el.clientWidth >= 600) return data;
+  return data.map((t) => {
+    if (!t.mode || !t.mode.includes("text")) return t;
+    const own = values(t.x);
+    if (own.length > PHONE_LABELS) return { ...t, mode: t.mode.replace(/\+?text/, "") || "markers" };
+    let lo = Infinity, hi = -Infinity;
+    for (const u of data) {
+      if ((u.xaxis || "x") !== (t.xaxis || "x")) continue;
+      for (const v of values(u.x)) if (Number.isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    }
+    const side = own.length && own[0] > (lo + hi) / 2 ? "left" : "right";
+    const vert = String(t.textposition || "top").split(" ")[0];
+    return { ...t, cliponaxis: false, textposition: `${vert === "middle" ? "top" : vert} ${side}` };
+  });
+}
+
+// On a phone plotly's toolbar (a row of about 30 px at the top right) sat on the title: the
+// title is wrapped to the width, set in small type and starts below the toolbar's row.
+const TOOLBAR_PX = 36;
+function belowToolbar(lay, size) {
+  if (typeof lay.title !== "object") lay.title = { text: lay.title };
+  lay.title = { ...lay.title, font: { ...(lay.title.font || {}), size } };
+  wrapTitle(lay, size);
+  const lines = String(lay.title.text || "").split("<br>").length;
+  lay.title = { ...lay.title, x: 0.5, xanchor: "center", y: 1, yref: "container", yanchor: "top",
+    pad: { t: TOOLBAR_PX } };
+  lay.margin = { ...(lay.margin || {}), t: Math.max((lay.margin && lay.margin.t) || 0,
+    TOOLBAR_PX + Math.ceil(lines * size * 1.3) + 12) };
 }
 
 // While a control is being moved, plotly's redraw (30-200 ms for these figures) is the
@@ -135,10 +186,11 @@ export async function render(el, f, { live = false } = {}) {
   state.shown = f;
   if (el.id === "figure") fitHeight(el);
   let layout = fitLayout(f.layout);
+  const data = el.id === "figure" ? phoneData(el, f.data) : f.data;
   if (document.body.classList.contains("projector")) layout = largeText(layout);
   const old = el.querySelector(":scope > .quick-plot");
   if (!window.Plotly || live) {
-    const svg = quickPlot(el, f.data, window.Plotly ? zoomed(layout) : layout);
+    const svg = quickPlot(el, data, window.Plotly ? zoomed(layout) : layout);
     if (window.Plotly) {
       svg.classList.add("overlay");
       if (old) old.replaceWith(svg); else el.append(svg);
@@ -155,7 +207,7 @@ export async function render(el, f, { live = false } = {}) {
   clearTimeout(state.settle);
   if (old && !old.classList.contains("overlay")) el.replaceChildren();
   const t0 = performance.now();
-  await Plotly.react(el, f.data, layout, PLOT_CONFIG);
+  await Plotly.react(el, data, layout, PLOT_CONFIG);
   if (old && old.classList.contains("overlay")) old.remove();
   el.classList.remove("live");
   document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);

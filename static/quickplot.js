@@ -9,7 +9,7 @@ const NS = "http://www.w3.org/2000/svg";
 const COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
   "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
 
-function values(a) {
+export function values(a) {
   if (a && a.bdata !== undefined) {
     const bin = atob(a.bdata);
     const bytes = new Uint8Array(bin.length);

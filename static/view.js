@@ -50,13 +50,18 @@ export async function draw(pending) {
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   await render(el, f, { live });
-  const parts = [`${res.model_title || res.model_type}`];
-  if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
-  if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
-  if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
-  if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
-  else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
-  $("status").textContent = parts.join(" · ") + ` · ${res.elapsed_ms.toFixed(1)} ms`;
+  // the diagnosis view names the diagnosed model, not the session's (fitted) one
+  const diagnosed = state.fig === "diagnosis" && f.layout && f.layout.meta && f.layout.meta.model_title;
+  const parts = [diagnosed ? `Diagnosed: ${diagnosed}` : `${res.model_title || res.model_type}`];
+  if (!diagnosed) {
+    if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
+    if (res.max_loop_width !== undefined) parts.push(`σ = ${res.max_loop_width.toFixed(4)}`);
+    if (res.slopes) parts.push(`slopes ${res.slopes.map((s) => s.toFixed(3)).join(", ")}`);
+    if (res.inverse_error) parts.push(`⚠ ${plain(res.inverse_error)}`);
+    else if (res.invertible === false) parts.push("⚠ not invertible (a slope ≤ 0)");
+    parts.push(`${res.elapsed_ms.toFixed(1)} ms`);
+  }
+  $("status").textContent = parts.join(" · ");
   showDigiControls(res);
   const notes = [...(res.model_note ? [res.model_note] : []),
     ...((f.layout && f.layout.meta && f.layout.meta.notes) || [])];

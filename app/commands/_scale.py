@@ -2,9 +2,10 @@
 memory and CPU time from measured per-sample models, the memory this process may use, and
 progress lines with the time left.
 
-The models are least-squares lines through ``benchmarks/bench_diagnose_scale.py``'s
-measurements (tiled piezo recordings, one thread; the table is in ``docs/pages/diagnose.md``,
-"Scale"). Re-measure and update them when the diagnosis's memory or time changes.
+The models are lines through (or, where they say so, above) the measurements of
+``benchmarks/bench_diagnose_scale.py`` (tiled piezo recordings, one thread; the table is in
+``docs/pages/diagnose.md``, "Scale"). Re-measure and update them when the diagnosis's memory
+or time changes.
 """
 
 from __future__ import annotations
@@ -39,11 +40,14 @@ class CostModel:
         return self.base_cpu_s + self.cpu_s_per_sample * samples
 
 
-#: ``hyst diagnose`` on main 7d50b49 (bench_diagnose_scale.py, one thread): least-squares lines
-#: through the peaks of 100k to 1M samples (0.81, 1.37, 3.43, 4.52 GB: 841 MB + 3.98 kB per
-#: sample) and their CPU times (7.2, 6.4, 19.4, 18.1 s). The peak is the diagnosis's play-bank
-#: caches (docs/pages/diagnose.md, "Scale"), not the reader's.
-DIAGNOSE = CostModel(base_bytes=850e6, bytes_per_sample=4.0e3, base_cpu_s=5.0,
+#: ``hyst diagnose`` since its caches are bounded in bytes (issue 31; bench_diagnose_scale.py,
+#: one thread, docs/pages/diagnose.md "Scale"): peaks of 328, 576, 894 and 619 MB at 25k,
+#: 100k, 400k and 1M samples (before: 841 MB + 3.98 kB per sample). The caches fill up to
+#: about 550 MB and then hold still; what grows with the record (the recording, predictions,
+#: a streamed block's rows, the reader) is taken as 0.3 kB per sample, an upper envelope of
+#: the measured points, not a fit (10M samples are not measured). CPU: 3.9, 8.1, 24.7 and
+#: 19.9 s.
+DIAGNOSE = CostModel(base_bytes=900e6, bytes_per_sample=300.0, base_cpu_s=5.0,
                      cpu_s_per_sample=15e-6)
 
 #: Runs expected to take at least this long (s) show the time left on each progress line.

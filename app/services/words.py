@@ -91,11 +91,15 @@ def type_words(name: object) -> str:
 
 def model_words(model: object) -> str:
     """A model in words: its type's, or a chain's stages' in order (``"Input history ...
-    then Dead-zone GPI"``: "Classical PI model → First-order lag")."""
+    then Dead-zone GPI"``: "Classical PI model → First-order lag"); a wrapper as what it
+    wraps with its own words ("Classical PI model with initial memory")."""
     name = getattr(model, "type_name", "")
     stages = getattr(model, "stages", None)
     if name == "chain" and stages:  # a typed chain (a GPI) has words of its own
         return " → ".join(model_words(s) for s in stages)
+    inner = getattr(model, "model", None)
+    if getattr(inner, "type_name", None):  # a wrapper (initial memory): what it wraps, then it
+        return f"{model_words(inner)} with {_lower_first(type_words(name))}"
     return type_words(name)
 
 

@@ -263,6 +263,12 @@ def assess(
         text += (" No loop-shape class does clearly better (" + ", ".join(
             f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
             "models tried; recordings that separate time, rate and level would tell.")
+        named = [f for f in shapes if getattr(fitted[f.model][0], "features_", None) is not None
+                 and fitted[f.model][0].features_.gap > 0]
+        if named:  # the friction class still names what it found in these loops
+            f = named[0]
+            text += (f" The friction class (hyst fit --model {f.model}, {f.pct:.2f} % of range) "
+                     "finds" + _physics_of(records, *fitted[f.model]).removeprefix(":") + ".")
     else:
         text += (" None of the other model classes (hyst fit --model "
                  + ", ".join(k for k, _ in loop_shape_kinds())

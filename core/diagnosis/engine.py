@@ -57,6 +57,7 @@ from ..validation import filled
 from .acceptance import (
     RULE,
     Decision,
+    beyond_loop_shape_ok,
     clearly_better,
     decide,
     earns_place,
@@ -96,7 +97,13 @@ from .data import as_records, crossfit_folds, split_masks
 from .events import event_windows, excitation
 from .grid import baseline_thresholds
 from .locate import residual_maps, where_improved
-from .lookalikes import lookalike_evidence, score_statistic, sign_locking, untestable_effects
+from .lookalikes import (
+    beyond_loop_shape,
+    lookalike_evidence,
+    score_statistic,
+    sign_locking,
+    untestable_effects,
+)
 from .misspecification import base_sensitivity, describe_alternative, recording_jackknife
 from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics, rate_effect, stage_pairs
@@ -807,6 +814,8 @@ def _judge(run: _Run, cur: Fit, cands: dict[str, _Candidate], rows: list[RoundRo
             decision = "contradicted"
         elif dec.passes and (why := _events_refusal(ctx, cur, c)) is not None:
             dec = replace(dec, passes=False, reasons=(why,))
+        elif dec.passes and (why := _loop_shape_refusal(ctx, cur, c)) is not None:
+            dec = replace(dec, passes=False, reasons=(why,))
         elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
@@ -861,6 +870,23 @@ def _events_refusal(ctx: FitContext, cur: Fit, c: _Candidate) -> str | None:
     return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
             f"recording: a dynamic stage is named when at least {RULE.min_events} "
             "independent events show it (more steps or cycles would decide)")
+
+
+def _loop_shape_refusal(ctx: FitContext, cur: Fit, c: _Candidate) -> str | None:
+    """Why acceptance rule 16 refuses candidate ``c`` (only output dynamics with one
+    recording at one excitation rate), or ``None`` when it holds."""
+    if EFFECTS[c.name].dynamics is None or len(ctx.records) != 1:
+        return None
+    if excitation(ctx.records).rate_ratio >= RULE.min_rate_ratio:
+        return None
+    h = beyond_loop_shape(ctx, cur, c.fit)
+    if beyond_loop_shape_ok(h):
+        return None
+    return (f"one recording at one excitation rate: with the residual's rate-independent "
+            f"loop-shape part (a function of the input, its direction and the last reversal) "
+            f"removed, it lowers the held-out MSE by {100 * h.gain:.1f} % (DM z {h.z:.2f}, "
+            f"signed-rank p {h.sign_p:.2g}), so a misfit of the loop's shape explains as much "
+            "(recordings at several rates, or input steps with holds, would decide)")
 
 
 _SPLIT_REASON = ("the residual does not lag on the reversible (r = 0) slope as a delay or lag "

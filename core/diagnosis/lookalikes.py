@@ -14,9 +14,11 @@ from typing import Any
 import numpy as np
 
 from ..fitting.gram import r_factor
+from ..fitting.thresholds import reversal_indices
 from .context import FitContext
+from .events import REVERSAL_TOL
 from .specs import spec_untestable, time_effects
-from .stats import score_test
+from .stats import HeldOut, heldout_comparison, score_test
 from .structure import Fit
 
 
@@ -102,3 +104,64 @@ def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     tr = np.asarray(trends)
     agree = float(np.mean(np.sign(tr) == s))
     return {"steps_with_hold": len(signs), "trend_follows_step_sign": agree}
+
+
+#: Knots of the hat basis in the input of :func:`loop_shape_basis` (per direction of motion).
+LOOP_SHAPE_KNOTS = 12
+
+
+def loop_shape_basis(u: np.ndarray) -> np.ndarray:
+    """Rate-independent loop-shape columns of one recording's input: smooth functions of the
+    input, of the direction of motion and of the last reversal value (the state a
+    rate-independent hysteresis misfit depends on), never of time or rate.
+
+    Piecewise-linear hats on the input (:data:`LOOP_SHAPE_KNOTS` knots over its range) times
+    1, the last reversal value and its square (both scaled to [-1, 1]), separately while the
+    input rises and falls (a hold keeps the direction of the motion before it).
+
+    Parameters
+    ----------
+    u : ndarray, shape (n,)
+        Input samples.
+
+    Returns
+    -------
+    ndarray, shape (n, 6 * LOOP_SHAPE_KNOTS)
+        Zero columns where the input never moves.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    n, k = u.size, LOOP_SHAPE_KNOTS
+    lo, span = (float(u.min()), float(np.ptp(u))) if n else (0.0, 0.0)
+    out = np.zeros((n, 6 * k))
+    if span <= 0:
+        return out
+    x = (u - lo) / span * (k - 1)  # knot coordinates
+    hats = np.clip(1.0 - np.abs(x[:, None] - np.arange(k)[None, :]), 0.0, None)
+    rv = reversal_indices(u, REVERSAL_TOL * span)
+    last = np.zeros(n, dtype=np.int64)
+    last[rv] = rv
+    last = np.maximum.accumulate(last)  # index of the last reversal at or before each sample
+    xr = 2.0 * (u[last] - lo) / span - 1.0
+    rising = u >= u[last]
+    for j, w in enumerate((np.ones(n), xr, xr**2)):
+        cols = hats * w[:, None]
+        out[:, 2 * j * k : (2 * j + 1) * k] = cols * rising[:, None]
+        out[:, (2 * j + 1) * k : (2 * j + 2) * k] = cols * ~rising[:, None]
+    return out
+
+
+def beyond_loop_shape(ctx: FitContext, cur: Fit, new: Fit) -> HeldOut:
+    """Held-out comparison of the current model against ``new`` (one output dynamics stage
+    more), each with its residual's rate-independent loop-shape part
+    (:func:`loop_shape_basis`, least squares on the training rows) added: what the stage
+    explains that a rate-independent loop-shape misfit of the base cannot."""
+    res = []
+    for f in (cur, new):
+        out = []
+        for rec, p, tr, te in zip(ctx.records, f.pred, ctx.train, ctx.test, strict=True):
+            F = loop_shape_basis(rec.u)
+            e = rec.y - p
+            c = np.linalg.lstsq(F[tr], e[tr], rcond=None)[0]
+            out.append((e - F @ c)[te])
+        res.append(out)
+    return heldout_comparison(res[0], res[1])

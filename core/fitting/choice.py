@@ -43,8 +43,8 @@ from ..warning_filters import FILTERS
 from ._data import prepare
 from .orientation import LoopOrientation, loop_orientation
 
-__all__ = ["AUTO", "BW_MIN_GAIN", "FREE_SIGN_GAIN", "PREISACH_MIN_GAIN", "PREISACH_OVER_MAP",
-           "BaseChoice", "choose_base"]
+__all__ = ["AUTO", "BW_MIN_GAIN", "FAMILIES", "FREE_SIGN_GAIN", "PREISACH_MIN_GAIN",
+           "PREISACH_OVER_MAP", "BaseChoice", "base_family", "choose_base"]
 
 #: The fit kind that asks for this choice.
 AUTO = "auto"
@@ -70,6 +70,18 @@ PI_OPERATORS = 25
 CANDIDATE_OPTIONS: dict[str, dict[str, Any]] = {"bouc-wen": {"polish": False}}
 #: Contiguous blocks of the training rows for the sign decision with one recording.
 SIGN_BLOCKS = 3
+#: The base family of each candidate fit kind, in the diagnosis's words
+#: (:class:`core.diagnosis.results.BaseChoice` ``kind``): the stop-operator model is the PI
+#: family written with stop operators (``equivalent_pi``), which the diagnosis's PI base
+#: with weights of either sign is.
+FAMILIES: dict[str, str] = {"pi": "pi", "stop-pi": "pi", "preisach": "preisach",
+                            "bouc-wen": "bouc-wen"}
+
+
+def base_family(kind: str) -> str:
+    """The base family (:data:`FAMILIES`) of fit kind ``kind``: what ``hyst diagnose``'s base
+    choice calls it."""
+    return FAMILIES.get(kind, kind)
 
 
 @dataclass(frozen=True)
@@ -98,6 +110,11 @@ class BaseChoice:
     folds: str = ""
 
     @property
+    def family(self) -> str:
+        """The base family chosen (:func:`base_family`)."""
+        return base_family(self.kind)
+
+    @property
     def text(self) -> str:
         """The choice in words, for the fit report."""
         tried = ", ".join(f"{k} {v:.4g}" for k, v in self.cv_mse.items())
@@ -122,7 +139,7 @@ class BaseChoice:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"kind": self.kind, "constraint": self.constraint,
+        return {"kind": self.kind, "family": self.family, "constraint": self.constraint,
                 "orientation": self.orientation.direction,
                 "signed_loop_area": self.orientation.area, "cv_mse": dict(self.cv_mse),
                 "folds": self.folds}

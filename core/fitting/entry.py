@@ -247,7 +247,10 @@ def fit_recordings(
         extra["base_choice"] = choice.text
         extra["base_choice_scores"] = choice.to_dict()
     if "orientation" not in extra:
-        extra["orientation"] = _orientation(est, recs, kw)
+        extra["orientation"], cw = _orientation(est, recs, kw)
+        if cw and getattr(est, "constraint", "") != "slopes":
+            # (with free-sign weights a play-based kind can flatten its branches)
+            msgs = (*msgs, CLOCKWISE_WARNING.format(kind=kind))
     miss = _misfit(est, recs, kw)
     if miss is not None:
         extra["noise_floor"] = miss.floor
@@ -306,13 +309,23 @@ def _rows(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Prepared:
                    kw.get("test"), validation=getattr(est, "validation", 0.2), min_train=1)
 
 
-def _orientation(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> str:
-    """The orientation line of a kind that does not report its own: the training rows' loops,
-    and on clockwise data that the kind's loops run the other way."""
+#: The warning of a kind whose loops run counter-clockwise only, on clockwise data.
+CLOCKWISE_WARNING = (
+    "the {kind} kind's loops run counter-clockwise only (the output lags the input, as in a "
+    "piezo actuator): it cannot follow these clockwise loops (the output leads, as friction or "
+    "a stress-strain material gives); fit --model stop-pi (Maxwell-slip elements: the friction "
+    "plateau and a backlash gap) or --model bouc-wen, which fit both orientations, or --model "
+    "auto, which chooses among them")
+
+
+def _orientation(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> tuple[str, bool]:
+    """The orientation line of a kind that does not report its own (the training rows' loops,
+    and on clockwise data that the kind's loops run the other way) and whether they run
+    clockwise (the kind cannot follow them)."""
     prep = _rows(est, recs, kw)
     o = loop_orientation(prep.us, prep.ys, prep.train_masks)
     return o.text + ("; this kind's loops run counter-clockwise (play operators)"
-                     if o.clockwise else "")
+                     if o.clockwise else ""), o.clockwise
 
 
 def _misfit(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Misfit | None:

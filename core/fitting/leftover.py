@@ -25,7 +25,7 @@ import numpy as np
 
 from .._typing import Float1D
 
-__all__ = ["FAST", "FLAT_SLOPE", "SAME_INPUT", "Leftover", "leftover"]
+__all__ = ["FAST", "FLAT_SLOPE", "OSCILLATION", "SAME_INPUT", "Leftover", "leftover"]
 
 #: Two input cycles count as the same input when their RMS difference is below this share
 #: of the input's range.
@@ -35,6 +35,9 @@ SAME_INPUT = 0.01
 FLAT_SLOPE = 0.2
 #: The residual's fast part: above this many times the input's fundamental frequency.
 FAST = 10.0
+#: The fast part is called an oscillation (with its peak frequency) from this share of the
+#: residual's power on.
+OSCILLATION = 0.2
 
 
 @dataclass(frozen=True)
@@ -89,10 +92,14 @@ class Leftover:
                                                if self.deterministic else ""))
         else:
             out += "cannot be checked for repetition (no two input cycles are the same)"
-        out += (f"; {100 * self.flat_energy:.0f} % of its energy lies on {flat_words} "
-                f"({100 * self.flat_rows:.0f} % of the rows); {100 * self.fast_share:.0f} % of "
-                f"its power is above {FAST:g} x the input's {self.f0:.3g} Hz, strongest near "
-                f"{self.fast_peak:.3g} Hz (an oscillation no rate-independent base follows)")
+        if self.flat_rows >= 0.05:
+            out += (f"; {100 * self.flat_energy:.0f} % of its energy lies on {flat_words} "
+                    f"({100 * self.flat_rows:.0f} % of the rows)")
+        out += (f"; {100 * self.fast_share:.0f} % of its power is above {FAST:g} x the input's "
+                f"{self.f0:.3g} Hz")
+        if self.fast_share >= OSCILLATION:
+            out += (f", strongest near {self.fast_peak:.3g} Hz (an oscillation no "
+                    "rate-independent base follows)")
         return out
 
 

@@ -23,7 +23,9 @@ def bisect_steps() -> int:
 @register_model
 @dataclass(frozen=True, eq=False)
 class Asymmetry(Model):
-    """Static output map that bends the loop: ``y = x + Σ_k a_k ((x - c)/s)^k``, k = 2, 3, ...
+    """Output asymmetry: a static map that bends the loop.
+
+    ``y = x + Σ_k a_k ((x - c)/s)^k``, k = 2, 3, ...
 
     An even (k = 2) term makes the ascending and descending branches curve differently, a
     cubic term saturates or stiffens both ends (Gu et al. 2014 polynomial PI; Kuhnen's MPI

@@ -21,7 +21,7 @@ _PLAY_BANK_MODELS = (PIModel, RateDependentPI, PreisachModel, RateDependentPreis
 @register_model
 @dataclass(frozen=True, eq=False)
 class InitialMemory(Model):
-    """A hysteresis model whose memory at the first sample comes from a virtual input history.
+    """Initial memory: the memory at the first sample comes from a virtual input history.
 
     The PI memory is the alternating sequence of dominant past input extrema, so an unknown
     initial state is parametrised by a few virtual extrema ``history`` applied (quasi-

@@ -263,9 +263,10 @@ def test_web_digitized_beyond_three_digits_step_and_play(browser: Any, live_serv
             const c = f._fullData.find(t => t.name === 'current state');
             return [f._fullLayout.title.text, c.x[0], c.y[0]]; }""")
 
-    for clicks, k in ((1, last - 1), (2, last - 3)):
-        for _ in range(clicks):
-            page.click("#digi-prev")
+    page.wait_for_function("() => document.body.dataset.digiState === '0'")  # opens at the start
+    for clicks, k in ((1, 1), (2, 3), (-1, 2)):
+        for _ in range(abs(clicks)):
+            page.click("#digi-next" if clicks > 0 else "#digi-prev")
         page.wait_for_function("k => document.body.dataset.digiState === String(k)", arg=k)
         title, x, y = shown()
         digits = "".join(str(int(b)) for b in tr.digits[k][::-1])  # b_n ... b_1

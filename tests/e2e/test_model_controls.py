@@ -186,7 +186,7 @@ def test_web_page_creep_time_constants_on_a_log_slider(browser: Any, live_server
           "τ1 stored as 10^position")
     stored = session.config.model["taus_s"][0]
     shown = page.locator("label", has=page.locator("input[aria-label='τ1']")) \
-        .locator("output").inner_text()
+        .locator("input.ctl-num").input_value()  # the number box beside the slider
     assert float(shown) == pytest.approx(stored, rel=1e-3)
     assert errors == []
     ctx.close()

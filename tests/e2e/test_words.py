@@ -102,6 +102,12 @@ def test_diagnosis_in_one_voice_and_no_code_names(browser: Any, live_server: dic
         assert afters == {after}, (afters, items)
         assert "Fitted: histo" not in "\n".join(items)
         scan("diagnosis view")
+        # the status line names what was diagnosed (it said "Dead-zone GPI → Constant
+        # output offset", the session's fitted model, for initial memory plus asymmetry)
+        status = page.inner_text("#status")
+        for effect in doc["effects"]:
+            assert effect["name"].replace("-", " ") in status.lower(), (effect["name"], status)
+        assert "GPI" not in status, status
         page.locator("#diagnosis").scroll_into_view_if_needed()
         shot(page, "words-diagnosis")
         for view in VIEWS[:7]:  # the session's model after the fit and the diagnosis

@@ -298,8 +298,11 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     f = (doc.get("final") or {}).get("heldout_rmse")
     heldout = (float(b), float(f)) if isinstance(b, int | float) and \
         isinstance(f, int | float) else None
-    return F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
-                              heldout)
+    fig = F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
+                             heldout)
+    # the page's status line names the diagnosed model (not the session's fitted one)
+    fig.layout["meta"] = {**fig.layout.get("meta", {}), "model_title": model_words(result.model)}
+    return fig
 
 
 def no_report(session: Session) -> str:

@@ -66,6 +66,26 @@ def test_fields_and_units_in_words() -> None:
         "Dead-zone GPI"
 
 
+def test_a_diagnosed_chain_is_said_as_what_was_diagnosed() -> None:
+    """The piezo's diagnosed model (initial memory and asymmetry on a classical PI) is said
+    stage by stage in the words of the findings ("Found initial memory", "Found asymmetry"),
+    each stage once, the wrapped PI model with it."""
+    from core.base import Chain
+    from core.pi import PIModel
+    from core.stages.maps import Asymmetry, Offset
+    from core.stages.memory import InitialMemory
+
+    pi = PIModel.from_dict({"type": "pi", "p0": 1.0, "thresholds": [0.5, 1.0],
+                            "weights": [0.3, 0.2]})
+    chain = Chain((InitialMemory(model=pi, history=np.array([-1.0, 0.5])),
+                   Asymmetry(coefficients=np.array([0.05, -0.9]), center=0.0, scale=20.0),
+                   Offset(offset=0.1)))
+    words = model_words(chain)
+    assert words == "Classical PI model with initial memory → Output asymmetry → " \
+        "Constant output offset", words
+    assert not _leaks(words) and "GPI" not in words
+
+
 def _doc(effects: list[dict]) -> dict:
     return {"baseline": {"heldout_rmse": 0.767, "heldout_rmse_pct": 1.95},
             "final": {"heldout_rmse": 0.102, "heldout_rmse_pct": 0.26,

@@ -45,6 +45,7 @@ def test_noise_does_not_repeat() -> None:
     assert left is not None and left.pairs >= 2
     assert not left.deterministic and abs(left.repeat_corr) < 0.2
     assert "does not repeat" in left.text()
+    assert (left.fast_share >= 0.2) == ("strongest near" in left.text())
     # about the whole residual differs between the paired cycles
     assert left.not_repeating_pct > 0.8 * left.residual_pct
 

@@ -107,6 +107,14 @@ def test_a_misfit_kind_warns_where_and_a_good_fit_does_not() -> None:
     rec, sigma = _noisy("epp", _elastic_plastic(u), t, u, 3)
     bad = fit_recordings([rec], "preisach")  # counter-clockwise kind on a clockwise loop
     assert bad.report.extra["rmse_over_noise_floor"] > MISFIT_RATIO
+    # every kind whose loops run counter-clockwise only says so in words and names the
+    # kinds that can follow the loop
+    assert any("counter-clockwise loops only" in w and "stop-pi" in w for w in bad.warnings)
+    (cw,) = [w for w in fit_recordings([rec], "mpi").warnings
+             if "cannot follow these clockwise loops" in w]
+    assert "the mpi kind's loops run counter-clockwise only" in cw
+    assert "--model stop-pi" in cw and "--model bouc-wen" in cw
+    assert not any("cannot follow" in w for w in fit_recordings([rec], "bouc-wen").warnings)
     (msg,) = [w for w in bad.report.warnings if "white-noise floor" in w]
     assert "Largest residuals: at inputs" in msg and "branch" in msg and "t = " in msg
     assert msg in bad.warnings and msg in bad.parameter_set.provenance.fit["warnings"]
