@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from ..base import Model
 from ..boucwen import (
     MAX_SUBSTEPS,
     STEPS_PER_SATURATION,
@@ -21,7 +20,7 @@ from .stage import (
 
 
 def _bouc_wen_parts(
-    model: Model, ctx: StageContext, solve: bool
+    model: BoucWenModel, ctx: StageContext, solve: bool
 ) -> tuple[list[str], list[str], list[str], list[str]]:
     """Constants, reset, helpers (``rate``, ``move``; ``at`` and the slope bounds for the
     ``solve`` of the inverse) and tune lines of a Bouc-Wen bank, as
@@ -126,10 +125,10 @@ def _bouc_wen_parts(
 
 
 @register_c_stage(BoucWenModel)
-def _emit_bouc_wen(model: Model, ctx: StageContext) -> CStage:
+def _emit_bouc_wen(model: BoucWenModel, ctx: StageContext) -> CStage:
     """Bouc-Wen bank ``x <- k x + sum_j c_j z_j`` (as ``core.kernels.bouc_wen_output``)."""
     f, c = ctx.field, ctx.const
-    m = model.n  # type: ignore[attr-defined]
+    m = model.n
     consts, reset, helpers, tune = _bouc_wen_parts(model, ctx, False)
     return CStage(
         title=f"rate-independent Bouc-Wen model, {m} element(s)",
@@ -146,9 +145,9 @@ def _emit_bouc_wen(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(BoucWenInverse)
-def _emit_bouc_wen_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_bouc_wen_inverse(model: BoucWenInverse, ctx: StageContext) -> CStage:
     """Per-sample solve of the Bouc-Wen model (as ``core.kernels.bouc_wen_inverse``)."""
-    fwd = model.model  # type: ignore[attr-defined]
+    fwd = model.model
     f, c = ctx.field, ctx.const
     m = fwd.n
     consts, reset, helpers, tune = _bouc_wen_parts(fwd, ctx, True)

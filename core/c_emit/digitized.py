@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..digitized import SNAP_RTOL, DigitizedPI
 from ..digitized_deadzone import DigitizedDeadZone
 from .stage import (
@@ -18,12 +17,12 @@ from .stage import (
 
 
 @register_c_stage(DigitizedPI)
-def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
+def _emit_digitized(model: DigitizedPI, ctx: StageContext) -> CStage:
     """Digitized PI (paper 000): binary digits in the state, same snapping rule as Python."""
-    dx = np.asarray(model.dx)  # type: ignore[attr-defined]
-    dy = np.asarray(model.dy)  # type: ignore[attr-defined]
-    g = np.asarray(model.slopes)  # type: ignore[attr-defined]
-    d0 = np.asarray(model.state0, dtype=np.float64)  # type: ignore[attr-defined]
+    dx = np.asarray(model.dx)
+    dy = np.asarray(model.dy)
+    g = np.asarray(model.slopes)
+    d0 = np.asarray(model.state0, dtype=np.float64)
     n, f, c = dx.size, ctx.field, ctx.const
     return CStage(
         title=f"digitized PI, {n} digit(s)",
@@ -34,9 +33,9 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
             f"static const double {c}G[{n}] = {c_array(g)};",
             f"static const unsigned char {c}B0[{n}] = {{"
             + ", ".join(str(int(v)) for v in d0) + "};",
-            f"static const double {c}X0 = {c_double(model.x0)};",  # type: ignore[attr-defined]
-            f"static const double {c}Y0 = {c_double(model.y0)};",  # type: ignore[attr-defined]
-            f"static const double {c}TOL = {c_double(model.tol)};",  # type: ignore[attr-defined]
+            f"static const double {c}X0 = {c_double(model.x0)};",
+            f"static const double {c}Y0 = {c_double(model.y0)};",
+            f"static const double {c}TOL = {c_double(model.tol)};",
         ],
         helpers=[
             "/* state point (X_B, Y_B) and lowest 0 / 1 digit of the digits b (-1: none) */",
@@ -97,16 +96,16 @@ def _emit_digitized(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(DigitizedDeadZone)
-def _emit_digitized_deadzone(model: Model, ctx: StageContext) -> CStage:
+def _emit_digitized_deadzone(model: DigitizedDeadZone, ctx: StageContext) -> CStage:
     """Digitized dead-zone superposition (paper 000): the current segment is the state."""
-    dx = np.asarray(model.dx)  # type: ignore[attr-defined]
-    dy = np.asarray(model.dy)  # type: ignore[attr-defined]
-    x0, y0 = float(model.x0), float(model.y0)  # type: ignore[attr-defined]
-    g = np.asarray(model.slopes)  # type: ignore[attr-defined]
+    dx = np.asarray(model.dx)
+    dy = np.asarray(model.dy)
+    x0, y0 = float(model.x0), float(model.y0)
+    g = np.asarray(model.slopes)
     xl = x0 + np.concatenate(([0.0], np.cumsum(dx)[:-1]))
     yl = y0 + np.concatenate(([0.0], np.cumsum(dy)[:-1]))
     m, f, c = dx.size, ctx.field, ctx.const
-    c0 = int(model.state0) - 1  # type: ignore[attr-defined]
+    c0 = int(model.state0) - 1
     return CStage(
         title=f"digitized dead zone, {m} segment(s)",
         fields=[f"unsigned {f}seg;"],

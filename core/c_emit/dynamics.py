@@ -4,7 +4,6 @@ the advance."""
 
 from __future__ import annotations
 
-from ..base import Model
 from ..stages import (
     Advance,
     Creep,
@@ -30,11 +29,11 @@ from .stage import (
 
 @register_c_stage(Resonance)
 @register_c_stage(ResonanceInverse)
-def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
+def _emit_foh_filter(model: Resonance | ResonanceInverse, ctx: StageContext) -> CStage:
     """FOH-discretised transfer function, direct form II transposed (as ``lfilter``)."""
 
     assert ctx.dt is not None
-    num, den = model._tf()  # type: ignore[attr-defined]
+    num, den = model._tf()
     b, a, zi = discretised_tf(num, den, ctx.dt)
     n, f, c = a.size - 1, ctx.field, ctx.const
     step = [
@@ -60,7 +59,7 @@ def _emit_foh_filter(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-def _resonance_tune(model: Model, n: int, c: str, dt: float) -> list[str]:
+def _resonance_tune(model: Resonance | ResonanceInverse, n: int, c: str, dt: float) -> list[str]:
     """``num``/``den`` of ``Resonance._tf`` / ``ResonanceInverse._tf`` from the fields, then
     the FOH discretisation (:func:`_foh_helper`)."""
     lines = [f"{{ double num[{n + 1}], den[{n + 1}];",
@@ -207,7 +206,7 @@ def _foh_helper(n: int, c: str) -> list[str]:
 @register_c_stage(Creep)
 @register_c_stage(LagInverse)
 @register_c_stage(CreepInverse)
-def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
+def _emit_lag_bank(model: Lag | Creep | LagInverse | CreepInverse, ctx: StageContext) -> CStage:
     """Bank of first-order lags ``y = g0 x + sum c_j L_j[x]`` or its exact per-sample inverse."""
 
     assert ctx.dt is not None
@@ -262,7 +261,8 @@ def _emit_lag_bank(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-def _lag_bank_tune(model: Model, m: int, c: str, dt: float, inverse: bool) -> list[str]:
+def _lag_bank_tune(model: Lag | Creep | LagInverse | CreepInverse, m: int, c: str, dt: float,
+                   inverse: bool) -> list[str]:
     """First-order FOH sections from the time constants (as ``LagBank.of``, closed form:
     ``p = exp(-dt/tau)``, ``q = tau/dt (1 - p)``, ``b0 = 1 - q``, ``b1 = q - p``)."""
     single = isinstance(model, Lag | LagInverse)
@@ -284,11 +284,11 @@ def _lag_bank_tune(model: Model, m: int, c: str, dt: float, inverse: bool) -> li
 
 
 @register_c_stage(Delay)
-def _emit_delay(model: Model, ctx: StageContext) -> CStage:
+def _emit_delay(model: Delay, ctx: StageContext) -> CStage:
     """Fractional delay ``m + f`` samples: ring buffer of the last ``m + 2`` inputs."""
 
     assert ctx.dt is not None
-    m, frac = delay_split(model.delay_s, ctx.dt)  # type: ignore[attr-defined]
+    m, frac = delay_split(model.delay_s, ctx.dt)
     size, f, c = m + 2, ctx.field, ctx.const
     return CStage(
         title=f"delay of {m} + {frac:.6g} sample(s) (dt = {ctx.dt:g} s)",
@@ -313,7 +313,7 @@ def _emit_delay(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(Advance)
-def _emit_advance(model: Model, ctx: StageContext) -> CStage:
+def _emit_advance(model: Advance, ctx: StageContext) -> CStage:
     """An advance only exists with preview: emitted through :func:`core.stages.causal_form`."""
     raise CExportError(
         "an 'advance' (inverse of a delay) needs the future; export the forward model's "

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..deadzone import DeadZoneMap
 from ..gpi import TanhEnvelope, TanhEnvelopeInverse
 from .stage import (
@@ -19,11 +18,11 @@ from .stage import (
 
 
 @register_c_stage(DeadZoneMap)
-def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
+def _emit_deadzone(model: DeadZoneMap, ctx: StageContext) -> CStage:
     """Dead-zone superposition, evaluated like the Python model: segment, anchor, slope."""
-    rho = np.asarray(model.thresholds)  # type: ignore[attr-defined]
-    slopes = np.asarray(model.slopes)  # type: ignore[attr-defined]
-    values = np.asarray(model.breakpoint_values)  # type: ignore[attr-defined]
+    rho = np.asarray(model.thresholds)
+    slopes = np.asarray(model.slopes)
+    values = np.asarray(model.breakpoint_values)
     k, c = rho.size, ctx.const
     return CStage(
         title=f"dead-zone superposition, {k} threshold(s), memoryless",
@@ -39,7 +38,7 @@ def _emit_deadzone(model: Model, ctx: StageContext) -> CStage:
             "anc = seg > 0u ? seg - 1u : 0u;",
             f"x = {c}VAL[anc] + {c}SLOPE[seg] * (x - {c}RHO[anc]);",
         ],
-        tune=_deadzone_tune(k, int(model.zero_index), c),  # type: ignore[attr-defined]
+        tune=_deadzone_tune(k, int(model.zero_index), c),
     )
 
 
@@ -82,9 +81,10 @@ def _direction_step(f: str) -> list[str]:
     ]
 
 
-def _direction_state(model: Model, f: str, c: str) -> tuple[list[str], list[str], list[str]]:
+def _direction_state(model: TanhEnvelope | TanhEnvelopeInverse, f: str, c: str
+                     ) -> tuple[list[str], list[str], list[str]]:
     """Fields, reset and constants of the direction memory (``D0``: initial direction)."""
-    d0 = int(model.direction0)  # type: ignore[attr-defined]
+    d0 = int(model.direction0)
     return (
         [f"double {f}prev;", f"int {f}has_prev;", f"int {f}dir;"],
         [f"st->{f}prev = 0.0;", f"st->{f}has_prev = 0;",
@@ -99,10 +99,10 @@ def _tanh_tune(c: str) -> list[str]:
 
 
 @register_c_stage(TanhEnvelope)
-def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
+def _emit_tanh(model: TanhEnvelope, ctx: StageContext) -> CStage:
     """Direction-switching envelope ``c0 tanh(c1 x + c2) + c3`` (a while rising, b falling)."""
-    a = np.asarray(model.a)  # type: ignore[attr-defined]
-    b = np.asarray(model.b)  # type: ignore[attr-defined]
+    a = np.asarray(model.a)
+    b = np.asarray(model.b)
     f, c = ctx.field, ctx.const
     fields, reset, d0 = _direction_state(model, f, c)
     return CStage(
@@ -125,15 +125,15 @@ def _emit_tanh(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(TanhEnvelopeInverse)
-def _emit_tanh_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_tanh_inverse(model: TanhEnvelopeInverse, ctx: StageContext) -> CStage:
     """Inverse envelope ``(atanh((x - c3)/c0) - c2)/c1``, clipped to its domain.
 
     Samples outside ``|x - c3| < (1 - clip_margin)|c0|`` are clipped like the Python model;
     ``st->{field}clipped`` counts them (the Python model warns instead).
     """
-    a = np.asarray(model.a)  # type: ignore[attr-defined]
-    b = np.asarray(model.b)  # type: ignore[attr-defined]
-    lim = 1.0 - float(model.clip_margin)  # type: ignore[attr-defined]
+    a = np.asarray(model.a)
+    b = np.asarray(model.b)
+    lim = 1.0 - float(model.clip_margin)
     f, c = ctx.field, ctx.const
     fields, reset, d0 = _direction_state(model, f, c)
     return CStage(

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..lti import InverseLinearSystem, LinearSystem
 from .stage import (
     CStage,
@@ -55,20 +54,20 @@ def _emit_state_space(
 
 
 @register_c_stage(LinearSystem)
-def _emit_lti(model: Model, ctx: StageContext) -> CStage:
+def _emit_lti(model: LinearSystem, ctx: StageContext) -> CStage:
     """Linear system, exact ZOH at the ``dt`` given to :func:`generate_c`."""
     assert ctx.dt is not None
-    Ad, Bd, C, D = model.discretize(ctx.dt)  # type: ignore[attr-defined]
-    x0 = np.asarray(model.state0, dtype=np.float64)  # type: ignore[attr-defined]
+    Ad, Bd, C, D = model.discretize(ctx.dt)
+    x0 = np.asarray(model.state0, dtype=np.float64)
     return _emit_state_space(np.asarray(Ad), np.asarray(Bd), np.asarray(C), float(D), x0, ctx,
                              f"linear system (ZOH, dt = {ctx.dt:g} s), order {Bd.size}")
 
 
 @register_c_stage(InverseLinearSystem)
-def _emit_lti_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_lti_inverse(model: InverseLinearSystem, ctx: StageContext) -> CStage:
     """Sampled inverse of a biproper linear system (carries the forward state)."""
     assert ctx.dt is not None
-    sys_ = model.system  # type: ignore[attr-defined]
+    sys_ = model.system
     Ad, Bd, C, D = (np.asarray(v) for v in sys_.discretize(ctx.dt))
     d = float(D)
     Ai = Ad - np.outer(Bd, C) / d

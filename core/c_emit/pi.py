@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from ..base import Model
 from ..pi import PIModel
 from ..validation import filled
 from .stage import (
@@ -15,7 +14,7 @@ from .stage import (
 
 
 @register_c_stage(PIModel)
-def emit_pi(model: Model, ctx: StageContext) -> CStage:
+def emit_pi(model: PIModel, ctx: StageContext) -> CStage:
     """Play-operator bank ``x <- p0 x + sum_i w_i z_i`` with ``z_i = clamp(z_i, x-r_i, x+r_i)``."""
 
     assert isinstance(model, PIModel)

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..preisach import (
     PreisachInverse,
     PreisachModel,
     RateDependentPreisach,
     RateDependentPreisachInverse,
 )
+from ..validation import filled
 from .rate import rate_bisection_step
 from .stage import (
     CStage,
@@ -22,17 +22,17 @@ from .stage import (
 )
 
 
-def _preisach_parts(model: Model, ctx: StageContext,
+def _preisach_parts(model: PreisachModel | RateDependentPreisach, ctx: StageContext,
                     rate: bool = False) -> tuple[list[str], list[str], list[str]]:
     """Constants, reset and helpers (``level``, ``eval``) of a Preisach play bank; with
     ``rate`` (a :class:`RateDependentPreisach`), ``eval(x, zin, up, has_prev, zout)`` with
     the thresholds ``r_i + K |x - up|`` of the plays with ``r_i > 0``."""
-    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    n, m = model.n, model.n_segments
     f, c = ctx.field, ctx.const
     consts = [
-        f"static const double {c}R[{n}] = {c_array(model.thresholds)};",  # type: ignore[attr-defined]
-        f"static const double {c}W[{n * m}] = {c_array(model.weights)};",  # type: ignore[attr-defined]
-        f"static const double {c}Z0[{n}] = {c_array(model.state0)};",  # type: ignore[attr-defined]
+        f"static const double {c}R[{n}] = {c_array(model.thresholds)};",
+        f"static const double {c}W[{n * m}] = {c_array(model.weights)};",
+        f"static const double {c}Z0[{n}] = {c_array(filled(model.state0))};",
     ]
     level = [
         "/* contribution W[i][:] . seg(z) of play i at output z (level segments) */",
@@ -43,7 +43,7 @@ def _preisach_parts(model: Model, ctx: StageContext,
     if m == 1:
         level += ["    return w[0] * z;", "}"]
     else:
-        consts.append(f"static const double {c}E[{m - 1}] = {c_array(model.knots)};")  # type: ignore[attr-defined]
+        consts.append(f"static const double {c}E[{m - 1}] = {c_array(model.knots)};")
         level.append(f"    double acc = w[0] * (z < {c}E[0] ? z : {c}E[0]);")
         if m > 2:
             level += [
@@ -77,8 +77,8 @@ def _preisach_parts(model: Model, ctx: StageContext,
             "}",
         ]
         return consts, [f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"], helpers
-    assert ctx.dt is not None
-    consts.append(f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};")  # type: ignore[attr-defined]
+    assert ctx.dt is not None and isinstance(model, RateDependentPreisach)
+    consts.append(f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};")
     helpers = level + [
         "/* output at input x from the plays zin (previous input up), thresholds widened",
         "   by K |x - up| except the reversible r = 0; the new plays go to zout (if any) */",
@@ -104,9 +104,9 @@ def _preisach_parts(model: Model, ctx: StageContext,
     return consts, reset, helpers
 
 
-def _preisach_tune(model: Model, c: str, pre: str) -> list[str]:
+def _preisach_tune(model: PreisachModel | RateDependentPreisach, c: str, pre: str) -> list[str]:
     """Tune lines of a Preisach bank whose fields are ``$<pre>thresholds`` etc."""
-    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    n, m = model.n, model.n_segments
     return [
         f"for (i = 0; i < {n}u; ++i) {{",
         f"    {c}R[i] = ${pre}thresholds[i]; {c}Z0[i] = ${pre}state0[i];",
@@ -117,9 +117,9 @@ def _preisach_tune(model: Model, c: str, pre: str) -> list[str]:
 
 
 @register_c_stage(PreisachModel)
-def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
+def _emit_preisach(model: PreisachModel, ctx: StageContext) -> CStage:
     """Preisach play bank ``x <- sum_i sum_j W[i][j] seg_j(z_i)`` (as ``preisach_output``)."""
-    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    n, m = model.n, model.n_segments
     f, c = ctx.field, ctx.const
     consts, reset, helpers = _preisach_parts(model, ctx)
     return CStage(
@@ -131,9 +131,9 @@ def _emit_preisach(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(PreisachInverse)
-def _emit_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_preisach_inverse(model: PreisachInverse, ctx: StageContext) -> CStage:
     """Exact per-sample inverse of the Preisach model (as ``core.kernels.preisach_inverse``)."""
-    fwd = model.model  # type: ignore[attr-defined]
+    fwd = model.model
     n, m = fwd.n, fwd.n_segments
     f, c = ctx.field, ctx.const
     k = 2 * n * m
@@ -216,10 +216,10 @@ def _rate_preisach_slopes(n: int, m: int, c: str) -> list[str]:
 
 
 @register_c_stage(RateDependentPreisach)
-def _emit_rate_preisach(model: Model, ctx: StageContext) -> CStage:
+def _emit_rate_preisach(model: RateDependentPreisach, ctx: StageContext) -> CStage:
     """Rate-dependent Preisach bank (as ``RateDependentPreisach``)."""
     assert ctx.dt is not None
-    n, m = model.n, model.n_segments  # type: ignore[attr-defined]
+    n, m = model.n, model.n_segments
     f, c = ctx.field, ctx.const
     consts, reset, helpers = _preisach_parts(model, ctx, rate=True)
     return CStage(
@@ -236,12 +236,12 @@ def _emit_rate_preisach(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(RateDependentPreisachInverse)
-def _emit_rate_preisach_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_rate_preisach_inverse(model: RateDependentPreisachInverse, ctx: StageContext) -> CStage:
     """Per-sample bisection of the rate-dependent Preisach (as
     ``RateDependentPreisachInverse``)."""
     assert ctx.dt is not None
-    m_lo, m_hi = model.checked_slopes(ctx.dt)  # type: ignore[attr-defined]
-    fwd = model.model  # type: ignore[attr-defined]
+    m_lo, m_hi = model.checked_slopes(ctx.dt)
+    fwd = model.model
     n, m = fwd.n, fwd.n_segments
     f, c = ctx.field, ctx.const
     consts, reset, helpers = _preisach_parts(fwd, ctx, rate=True)

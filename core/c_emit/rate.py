@@ -3,11 +3,11 @@
 
 from __future__ import annotations
 
-from ..base import Model
 from ..stages import (
     RateDependentPI,
     RateDependentPIInverse,
 )
+from ..validation import filled
 from .stage import (
     CStage,
     StageContext,
@@ -17,16 +17,17 @@ from .stage import (
 )
 
 
-def _rate_parts(model: Model, ctx: StageContext) -> tuple[list[str], list[str], list[str]]:
+def _rate_parts(model: RateDependentPI | RateDependentPIInverse, ctx: StageContext
+                ) -> tuple[list[str], list[str], list[str]]:
     """Constants, reset and the helper ``eval(x, st)`` of a rate-dependent PI stage."""
     assert ctx.dt is not None
-    n, f, c = model.thresholds.size, ctx.field, ctx.const  # type: ignore[attr-defined]
+    n, f, c = model.thresholds.size, ctx.field, ctx.const
     consts = [
-        f"static const double {c}P0 = {c_double(model.p0)};",  # type: ignore[attr-defined]
-        f"static const double {c}R[{n}] = {c_array(model.thresholds)};",  # type: ignore[attr-defined]
-        f"static const double {c}W[{n}] = {c_array(model.weights)};",  # type: ignore[attr-defined]
-        f"static const double {c}Z0[{n}] = {c_array(model.state0)};",  # type: ignore[attr-defined]
-        f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};",  # type: ignore[attr-defined]
+        f"static const double {c}P0 = {c_double(model.p0)};",
+        f"static const double {c}R[{n}] = {c_array(model.thresholds)};",
+        f"static const double {c}W[{n}] = {c_array(model.weights)};",
+        f"static const double {c}Z0[{n}] = {c_array(filled(model.state0))};",
+        f"static const double {c}K = {c_double(model.beta_s / ctx.dt)};",
     ]
     reset = [f"st->{f}has_prev = 0;", f"st->{f}up = 0.0;",
              f"for (i = 0; i < {n}u; ++i) st->{f}z[i] = {c}Z0[i];"]
@@ -60,10 +61,10 @@ def _rate_tune(n: int, c: str, dt: float) -> list[str]:
 
 
 @register_c_stage(RateDependentPI)
-def _emit_rate(model: Model, ctx: StageContext) -> CStage:
+def _emit_rate(model: RateDependentPI, ctx: StageContext) -> CStage:
     """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
     f, c = ctx.field, ctx.const
-    n = model.thresholds.size  # type: ignore[attr-defined]
+    n = model.thresholds.size
     consts, reset, helper = _rate_parts(model, ctx)
     return CStage(
         title=f"rate-dependent PI, {n} play operator(s)",
@@ -102,12 +103,12 @@ def rate_bisection_step(f: str, c: str) -> list[str]:
 
 
 @register_c_stage(RateDependentPIInverse)
-def _emit_rate_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_rate_inverse(model: RateDependentPIInverse, ctx: StageContext) -> CStage:
     """Per-sample bisection of the rate-dependent PI (as ``RateDependentPIInverse``)."""
     assert ctx.dt is not None
-    m_lo, m_hi = model.checked_slopes(ctx.dt)  # type: ignore[attr-defined]
+    m_lo, m_hi = model.checked_slopes(ctx.dt)
     f, c = ctx.field, ctx.const
-    n = model.thresholds.size  # type: ignore[attr-defined]
+    n = model.thresholds.size
     consts, reset, helper = _rate_parts(model, ctx)
     consts += [f"static const double {c}MLO = {c_double(m_lo)};",
                f"static const double {c}MHI = {c_double(m_hi)};"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -110,14 +111,16 @@ Emitter = Callable[[Model, StageContext], CStage]
 
 
 _EMITTERS: dict[type[Model], Emitter] = {}
+E = TypeVar("E", bound=Callable[..., CStage])
 
 
-def register_c_stage(cls: type[Model]) -> Callable[[Emitter], Emitter]:
+def register_c_stage(cls: type[Model]) -> Callable[[E], E]:
     """Decorator registering the C emitter of model class ``cls`` (see :class:`CStage`);
     :func:`emitter_for` dispatches on the class (a subclass uses its parent's emitter
-    unless it registers its own)."""
+    unless it registers its own). The emitter's ``model`` is typed as the class (or the
+    union of the classes) it is registered for."""
 
-    def deco(fn: Emitter) -> Emitter:
+    def deco(fn: E) -> E:
         _EMITTERS[cls] = fn
         return fn
 

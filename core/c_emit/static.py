@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..stages import (
     Asymmetry,
     AsymmetryInverse,
@@ -23,9 +22,9 @@ from .stage import (
 
 
 @register_c_stage(Offset)
-def _emit_offset(model: Model, ctx: StageContext) -> CStage:
+def _emit_offset(model: Offset, ctx: StageContext) -> CStage:
     """Constant output offset ``x <- x + c``."""
-    c = float(model.offset)  # type: ignore[attr-defined]
+    c = float(model.offset)
     return CStage(
         title="output offset",
         constants=[f"static const double {ctx.const}C = {c_double(c)};"],
@@ -35,18 +34,18 @@ def _emit_offset(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(Drift)
-def _emit_drift(model: Model, ctx: StageContext) -> CStage:
+def _emit_drift(model: Drift, ctx: StageContext) -> CStage:
     """Legendre drift in time ``x + sum a_k P_k(clamp(2 t / T - 1))``, ``t = start + k dt``."""
     assert ctx.dt is not None
-    a = np.asarray(model.coefficients)  # type: ignore[attr-defined]
+    a = np.asarray(model.coefficients)
     n, f, c = a.size, ctx.field, ctx.const
     return CStage(
         title=f"drift, Legendre degree {n}",
         fields=[f"double {f}k;"],
         constants=[
             f"static const double {c}A[{n}] = {c_array(a)};",
-            f"static const double {c}T = {c_double(model.span_s)};",  # type: ignore[attr-defined]
-            f"static const double {c}T0 = {c_double(model.start_s)};",  # type: ignore[attr-defined]
+            f"static const double {c}T = {c_double(model.span_s)};",
+            f"static const double {c}T0 = {c_double(model.start_s)};",
             f"static const double {c}DT = {c_double(ctx.dt)};",
         ],
         reset=[f"st->{f}k = 0.0;"],
@@ -69,17 +68,17 @@ def _emit_drift(model: Model, ctx: StageContext) -> CStage:
     )
 
 
-def _asym_consts(model: Model, c: str) -> list[str]:
-    a = np.asarray(model.coefficients)  # type: ignore[attr-defined]
+def _asym_consts(model: Asymmetry | AsymmetryInverse, c: str) -> list[str]:
+    a = np.asarray(model.coefficients)
     return [
         f"static const double {c}A[{a.size}] = {c_array(a)};",
-        f"static const double {c}CTR = {c_double(model.center)};",  # type: ignore[attr-defined]
-        f"static const double {c}S = {c_double(model.scale)};",  # type: ignore[attr-defined]
+        f"static const double {c}CTR = {c_double(model.center)};",
+        f"static const double {c}S = {c_double(model.scale)};",
     ]
 
 
-def _asym_helper(model: Model, c: str) -> list[str]:
-    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
+def _asym_helper(model: Asymmetry | AsymmetryInverse, c: str) -> list[str]:
+    n = np.asarray(model.coefficients).size
     return [
         f"static double {c}map(double x)",
         "{",
@@ -93,10 +92,10 @@ def _asym_helper(model: Model, c: str) -> list[str]:
 
 
 @register_c_stage(Asymmetry)
-def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
+def _emit_asymmetry(model: Asymmetry, ctx: StageContext) -> CStage:
     """Polynomial output map ``x + sum a_k ((x - c)/s)^k`` (Horner form)."""
     c = ctx.const
-    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
+    n = np.asarray(model.coefficients).size
     return CStage(title="asymmetry output map", constants=_asym_consts(model, c),
                   helpers=_asym_helper(model, c), step=[f"x = {c}map(x);"],
                   tune=[f"for (i = 0; i < {n}u; ++i) {c}A[i] = $coefficients[i];",
@@ -104,15 +103,15 @@ def _emit_asymmetry(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(AsymmetryInverse)
-def _emit_asymmetry_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_asymmetry_inverse(model: AsymmetryInverse, ctx: StageContext) -> CStage:
     """Inverse output map: clip to the monotone range, bracket, 80 bisection steps.
 
     ``LOF``/``HIF`` say whether the range ends ``LO``/``HI`` are finite (else the bracket
     grows by doubling), so the same code serves a range retuned in the FMU."""
 
-    lo, hi = model.forward.monotone_range()  # type: ignore[attr-defined]
+    lo, hi = model.forward.monotone_range()
     f, c = ctx.field, ctx.const
-    n = np.asarray(model.coefficients).size  # type: ignore[attr-defined]
+    n = np.asarray(model.coefficients).size
     step = [
         "{ double lo, hi; int j, done = 0;",
         f"  if ({c}LOF != 0.0 && x < {c}map({c}LO)) {{ x = {c}LO; ++st->{f}clipped; done = 1; }}",

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base import Model
 from ..stop import StopGapInverse, StopPIModel
 from ..validation import filled
 from .pi import emit_pi
@@ -108,7 +107,7 @@ def _emit_stop_gap(model: StopPIModel, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(StopGapInverse)
-def _emit_stop_gap_inverse(model: Model, ctx: StageContext) -> CStage:
+def _emit_stop_gap_inverse(model: StopGapInverse, ctx: StageContext) -> CStage:
     """The element bank's play-type PI inverse plus the gap side ``(b/2) sign(y)`` (held at
     ``y = 0``)."""
     assert isinstance(model, StopGapInverse)
@@ -132,7 +131,7 @@ def _emit_stop_gap_inverse(model: Model, ctx: StageContext) -> CStage:
 
 
 @register_c_stage(StopPIModel)
-def _emit_stop_pi(model: Model, ctx: StageContext) -> CStage:
+def _emit_stop_pi(model: StopPIModel, ctx: StageContext) -> CStage:
     """Stop-operator bank (Maxwell-slip) as its play-type PI, ``p0 = k + sum w_i`` and
     ``p_i = -w_i`` (``x - z_i`` is stop ``i``'s output): the PI's stage, with constants
     tuned from the stop fields."""
