@@ -59,7 +59,9 @@ const TIPS = {
 export function addTips(root = document) {
   for (const e of root.querySelectorAll("input, select, button, textarea, a.button")) {
     if (e.closest("[title]")) continue;
-    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig]);
+    // a number box beside a slider says what its slider says, and that it takes exact values
+    const tip = TIPS[e.id] || (e.dataset.fig && VIEW_HELP[e.dataset.fig])
+      || (e.dataset.for && TIPS[e.dataset.for] && `${TIPS[e.dataset.for]}; type an exact value`);
     if (tip) e.title = tip;
   }
 }
