@@ -91,3 +91,11 @@ def allocate(megabytes: float, *, progress: Any) -> int:
     progress(0.5, "allocating")
     a = np.ones(int(megabytes * 1e6) // 8)
     return int(a.nbytes)
+
+
+def run_here(task: Any) -> Any:
+    """Run a :class:`~app.services.jobs.worker.Task` in this thread as the job manager runs
+    it in a worker (``fn(*args, progress=...)``, then ``keep`` in the server): the session's
+    own fit and diagnosis path, without a worker process."""
+    value = task.fn(*task.args, progress=lambda *_: None)
+    return value if task.keep is None else task.keep(value)

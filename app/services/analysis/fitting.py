@@ -1,7 +1,9 @@
-"""Fits of recordings: the explorer's session fit and the steps ``hyst fit`` and the batch
-worker share (no viser / fastapi imports).
+"""Fits of recordings: the explorer's fit and the steps ``hyst fit`` and the batch worker
+share (no viser / fastapi imports).
 
-Every fit is :func:`core.fitting.fit_recordings`, the one fitting entry point.
+Every fit is :func:`core.fitting.fit_recordings`, the one fitting entry point, with the
+command line's defaults. A session's fit is a job (:func:`app.services.jobs.tasks.fit_task`),
+the only fit path of the web page, the REST API and the viser GUI.
 """
 
 from __future__ import annotations
@@ -16,11 +18,9 @@ import numpy as np
 
 from app.services.runs.inputs import CommandError, parse_window
 from app.services.words import unit_words
-from core.validation import filled
 
 if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
     from app.services.runs.progress import Progress
-    from app.services.session.sessions import Session
     from core.base import Model
     from core.fitting import FitOutcome, TimeWindow
     from core.recordings import Recording
@@ -29,7 +29,6 @@ __all__ = [
     "check_n_operators",
     "fit_errors",
     "fit_recording",
-    "fit_session",
     "fit_source",
     "say_fit",
     "time_window",
@@ -51,9 +50,11 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
     """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
 
     The fit is :func:`core.fitting.fit_recordings` (the one entry point ``hyst fit`` and
-    ``hyst batch fit`` use; every training row fitted from the relaxed state, the last 20 %
-    held out). The model is its ``model`` (the fitted output offset included, as a chain);
-    the report is its ``report`` plus the errors on the whole recording.
+    ``hyst batch fit`` use) with ``hyst fit -n N --model KIND``'s defaults: the last 20 %
+    held out and the initial memory as the kind's default (``"exclude"``: the training rows
+    before the wipe-out time left out of the weight fit, where the kind can; the report's
+    ``memory_note`` says so). The model is its ``model`` (the fitted output offset included,
+    as a chain); the report is its ``report`` plus the errors on the whole recording.
 
     Raises
     ------
@@ -63,7 +64,7 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
     """
     from core.fitting import fit_recordings
 
-    out = fit_recordings([rec], kind, n_operators=n, initial_memory="keep")
+    out = fit_recordings([rec], kind, n_operators=n)
     model = out.model
     res = rec.y - model(rec.u)
     rms = float(np.sqrt(np.mean(res**2)))
@@ -76,18 +77,6 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
         "kind": kind,
         "output_unit": unit_words(rec.units.get("output")),
     }
-    return model, report
-
-
-def fit_session(session: Session, n: int, kind: str = "pi",
-                apply: bool = True) -> tuple[Model, dict[str, Any]]:
-    """Fit ``session``'s recording (see :func:`fit_recording`) and store the fit.
-
-    The diagnosis is dropped; with ``apply`` the fitted model becomes the session's model.
-    The caller checks that the session has a recording.
-    """
-    model, report = fit_recording(filled(session.recording), n, kind)
-    session.set_fit(model.to_dict(), report, apply=apply)
     return model, report
 
 

@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 
 from app.services.analysis.diagnosis import diagnosis_html
-from app.services.analysis.fitting import fit_session
 from app.services.analysis.recordings import Upload, csv_preview, read_upload
 from app.services.explore import controls as C
 from app.services.explore import figures as F
@@ -59,7 +58,6 @@ __all__ = [
     "diagnosis_figure",
     "diagnosis_report",
     "export",
-    "fit",
     "fit_figure",
     "load_parameter_set",
     "load_preset",
@@ -250,22 +248,6 @@ def upload(session: Session, content: str | bytes, settings: Settings,
     finally:
         give_back()  # the parse's freed memory goes back to the system
     return up
-
-
-def _need_recording(session: Session, what: str) -> None:
-    if session.recording is None:
-        raise ParameterError(f"upload a recording first: there is nothing to {what}")
-
-
-def fit(session: Session, n: int, kind: str = "pi", *, apply: bool = True,
-        settings: Settings | None = None) -> tuple[Model, dict[str, Any]]:
-    """Fit a ``kind`` model with ``n`` operators to the session's recording and store it
-    (``apply``: it becomes the session's model). See :func:`.fitting.fit_session`."""
-    _need_recording(session, "fit")
-    if settings is not None and not 1 <= n <= settings.max_operators:
-        raise ParameterError(f"the number of operators must be between 1 and "
-                             f"{settings.max_operators}, got {n}")
-    return fit_session(session, n, kind, apply)
 
 
 def _units(session: Session) -> dict[str, str]:

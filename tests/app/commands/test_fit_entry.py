@@ -49,12 +49,13 @@ def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     assert got.ok, got.error
     _assert_same(json.loads(got.parameter_set), ref)
     assert got.samples == 4000 and "read alpha" in got.messages
-    # the explorer fits every row from the relaxed state: hyst fit --initial-memory keep
-    ref_keep = _cli_fit(src, tmp_path / "keep.json", "--model", "pi", "-n", "6",
-                        "--initial-memory", "keep")
+    # the explorer (web page, REST, viser) fits with the command line's defaults: hyst fit
+    # -n 6 (the last 20 % held out, the pre-wipe-out rows left out), no --initial-memory keep
+    ref_cli = _cli_fit(src, tmp_path / "cli.json", "--model", "pi", "-n", "6")
     model, report = fit_recording(recording_from_csv(src.read_bytes(), name="alpha.csv"), 6)
-    _assert_same({"model": model.to_dict()}, {"model": ref_keep["model"]})
-    rep = ref_keep["provenance"]["fit"]["report"]
+    _assert_same({"model": model.to_dict()}, {"model": ref_cli["model"]})
+    rep = ref_cli["provenance"]["fit"]["report"]
+    assert "wipe-out" in report["extra"]["initial_memory"]["summary"]
     assert report["train"]["rmse"] == pytest.approx(rep["train"]["rmse"], rel=1e-12)
     assert report["test"]["rmse_pct"] == pytest.approx(rep["test"]["rmse_pct"], rel=1e-12)
 

@@ -14,6 +14,7 @@ import pytest
 from app.services.explore import figures as F
 from app.services.explore.config import Config, SignalSpec
 from app.services.explore.simulation import compute
+from app.services.jobs import tasks
 from app.services.session import actions
 from app.services.session.sessions import Session, SessionRegistry
 from app.services.settings import Settings
@@ -23,6 +24,7 @@ from core.closed_loop import HammersteinLoop
 from core.pi import PIModel
 from core.presets import get_preset
 from core.recordings import Recording
+from tests.app.job_work import run_here
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -37,7 +39,7 @@ def test_a_session_holds_one_frozen_state_replaced_by_each_transition(tmp_path: 
     t = np.arange(400) * 1e-3
     u = 3 * np.sin(2 * np.pi * 3 * t)
     s.set_recording(Recording(t, u, PIModel.from_dict(before.config.model)(u)))
-    actions.fit(s, 4, apply=True)
+    run_here(tasks.fit_task(s, 4, "pi", apply=True))  # the GUI's and REST's fit job
     after = s.state
     assert before.recording is None and before.fitted is None and before.version == 0
     # the recording is on disk (the store's cache), not held by the state

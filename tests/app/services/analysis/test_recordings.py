@@ -9,13 +9,14 @@ import json
 import numpy as np
 import pytest
 
-from app.services.analysis import fitting as FT
 from app.services.analysis import recordings as D
 from app.services.explore import config as S
+from app.services.jobs.tasks import fit_task
 from app.services.session import exports as E
 from app.services.session import sessions as SS
 from core.csvio import CSVError
 from core.pi import PIModel
+from tests.app.job_work import run_here
 
 
 def test_csv_recordings_come_from_core_csvio() -> None:
@@ -41,8 +42,10 @@ def test_session_services_store_fit_export_and_clear() -> None:
     u = 3 * np.sin(2 * np.pi * 3 * t)
     rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))
     D.store_recording(s, rec)
-    model, report = FT.fit_session(s, 6)
-    assert s.fitted == s.config.model == model.to_dict() and report["nrmse_percent"] < 2
+    out = run_here(fit_task(s, 6, "pi", apply=True))  # the session's one fit path
+    report = out["report"]
+    assert s.fitted == s.config.model == out["model"] and report["nrmse_percent"] < 2
+    assert report["kind"] == "pi" and "wipe-out" in report["extra"]["initial_memory"]["summary"]
     _, payload = E.export_session(s, "json")
     assert json.loads(payload)["provenance"]["fit"]["kind"] == "pi"  # the fit travels along
     D.store_recording(s, rec)

@@ -36,11 +36,12 @@ def test_state_round_trips_through_the_file(tmp_path: Path) -> None:
     db = tmp_path / "s.sqlite3"
     reg = SessionRegistry(store=SessionStore(db))
     s = reg.create()
-    from app.services.analysis.fitting import fit_session
     from app.services.analysis.recordings import store_recording
+    from app.services.jobs.tasks import fit_task
+    from tests.app.job_work import run_here
 
     store_recording(s, recording())
-    fit_session(s, 4)
+    run_here(fit_task(s, 4, "pi", apply=True))
     s.update(lambda c: c.with_model({**c.model, "p0": 0.5}))
     reg.store.close()
     again = SessionRegistry(store=SessionStore(db)).get(s.code)  # a "restarted server"
