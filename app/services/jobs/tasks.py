@@ -76,11 +76,11 @@ def run_figures(config: Config, names: tuple[str, ...], version: int,
                 state: int | None = None, *, progress: Progress) -> dict[str, Any] | Refused:
     """The JSON body of figures ``names`` of ``config`` (``/api/simulate`` and a session's
     figures; ``state``: the digitized view's highlighted row):
-    :func:`.simulation.compute` then :func:`.actions.result_payload`, with the
+    :func:`.simulation.compute` then :func:`.payload.result_payload`, with the
     model already built and priced by the caller. Runs in a request's thread, or in a worker
     process when its priced work is large (:data:`.actions.KILLABLE_WORK`)."""
+    from app.services.explore.payload import result_payload
     from app.services.explore.simulation import compute
-    from app.services.session.actions import result_payload
     from core.exceptions import NotInvertibleError
 
     try:

@@ -30,12 +30,9 @@ from app.services.explore.simulation import (
     Result,
     check_operator_limit,
     diagnosed_model,
-    operator_count,
-    pi_part,
     preset_doc,
     priced_views,
     validate_config,
-    weight_note,
 )
 from app.services.jobs import tasks
 from app.services.jobs.worker import Task
@@ -66,7 +63,6 @@ __all__ = [
     "preview_csv",
     "push",
     "push_model",
-    "result_payload",
     "session_figures",
     "figures_are_quick",
     "session_model",
@@ -401,36 +397,6 @@ def session_result(session: Session, views: Collection[str], settings: Settings)
     first: :func:`session_result_run`)."""
     run = session_result_run(session, views, settings)
     return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
-
-
-def result_payload(res: Result, names: Collection[str],
-                   include_data: bool = False, state: int | None = None) -> dict[str, Any]:
-    """The JSON body of ``/api/simulate`` and the session figure endpoints; ``state``
-    highlights that row of the digitized trace (the web page's step and play), and
-    ``digitized_states`` says how many rows it has."""
-    m = res.model
-    figs = {n: (F.digitized_figure(res, highlight=state) if n == "digitized" and
-                state is not None and "digitized" in res.views else F.build(n, res)).to_dict()
-            for n in names}
-    out: dict[str, Any] = {
-        "model_type": m.type_name,
-        "model_title": model_words(m),
-        "model_note": weight_note(m),
-        "n_operators": operator_count(m),
-        "inverse_error": res.inverse_error,
-        "figures": figs,
-        "elapsed_ms": res.elapsed_ms,
-        "version": res.version,
-    }
-    if res.digitized is not None:
-        out["digitized_states"] = len(res.digitized.trace.sample)
-    pi = pi_part(m)
-    if pi is not None:
-        out.update(slopes=pi.slopes.tolist(), max_loop_width=pi.max_loop_width,
-                   invertible=pi.is_invertible)
-    if include_data:
-        out["data"] = {"t": res.t.tolist(), "u": res.u.tolist(), "y": res.y.tolist()}
-    return out
 
 
 #: Figures computed on the event loop when the model's priced work is at most this many
