@@ -375,9 +375,8 @@ class SessionView:
         out: dict[str, Any] = {}
 
         def fn(cfg: Config) -> Config:  # under the session's lock: no lost update
-            m = json.loads(json.dumps(cfg.model))
-            done = C.clamp(m, path, moved)
-            C.set_leaf(m, path, int(done.value) if integer else done.value)
+            done = C.clamp(cfg.model, path, moved)
+            m = C.with_leaf(cfg.model, path, int(done.value) if integer else done.value)
             out.update(done=done, model=m)
             return cfg.with_model(m)
 

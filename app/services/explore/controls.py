@@ -37,10 +37,10 @@ __all__ = [
     "get_leaf",
     "model_controls",
     "log_step",
-    "set_leaf",
     "slider_position",
     "slider_value",
     "unit_text",
+    "with_leaf",
 ]
 
 #: Most sliders one field gets (more numbers than that are edited in the model JSON).
@@ -196,23 +196,41 @@ def get_leaf(doc: Any, path: str) -> Any:
     return node
 
 
-def set_leaf(doc: Any, path: str, value: float) -> None:
-    """Set the number at ``path`` of a model document in place."""
+def with_leaf(doc: Any, path: str, value: float) -> dict[str, Any]:
+    """A new model document: ``doc`` with the number at ``path`` set to ``value``.
+
+    Only the objects on the path are new (a slider's move copies the document's spine, not
+    the whole document); the rest is shared with ``doc``, which is left as it was (a
+    config's model is never changed in place).
+
+    Raises
+    ------
+    ParameterError
+        If the path does not lead to a value.
+    """
     tokens = _TOKENS.findall(path)
     if not tokens:
         raise ParameterError("empty parameter path")
-    parent = get_leaf(doc, "".join(t if t.startswith("[") else f".{t}" for t in tokens[:-1])
-                      .lstrip(".")) if len(tokens) > 1 else doc
-    last = tokens[-1]
-    try:
-        if last.startswith("["):
-            parent[int(last[1:-1])] = value
-        else:
-            if last not in parent:
-                raise KeyError(last)
-            parent[last] = value
-    except (KeyError, IndexError, TypeError):
-        raise ParameterError(f"the model has no parameter at {path!r}") from None
+
+    def put(node: Any, k: int) -> Any:
+        tok = tokens[k]
+        new: Any
+        try:
+            if tok.startswith("["):
+                if not isinstance(node, list):
+                    raise TypeError(tok)
+                new, key = list(node), int(tok[1:-1])
+                new[key]  # noqa: B018 (an index past the end is no parameter)
+            else:
+                if not isinstance(node, dict) or tok not in node:
+                    raise KeyError(tok)
+                new, key = dict(node), tok
+        except (KeyError, IndexError, TypeError, ValueError):
+            raise ParameterError(f"the model has no parameter at {path!r}") from None
+        new[key] = value if k == len(tokens) - 1 else put(new[key], k + 1)
+        return new
+
+    return put(doc, 0)
 
 
 # ----------------------------------------------------------------------------- ranges

@@ -55,7 +55,6 @@ __all__ = [
     "preset_input",
     "priced_views",
     "state_text",
-    "validate_config",
     "visited_path",
 ]
 
@@ -458,18 +457,6 @@ def operator_contributions(pi: PIModel, u: np.ndarray) -> tuple[np.ndarray, np.n
         sel = (idx >= start) & (idx < stop)
         out[sel] = Y[idx[sel] - start]
     return idx, out * pi.weights
-
-
-def validate_config(config: Config, recording: Recording | None, max_operators: int,
-                    max_samples: int, model: Model | None = None) -> None:
-    """Check ``config`` without simulating (``model``: its model, already built); raises
-    :class:`ParameterError`."""
-    if model is None:
-        build_model(config.model, max_operators)
-    else:
-        check_operator_limit(model, max_operators)
-    if not (config.use_recording and recording is not None):
-        config.signal.validate(max_samples)
 
 
 def compute(

@@ -32,7 +32,6 @@ from app.services.explore.simulation import (
     diagnosed_model,
     preset_doc,
     priced_views,
-    validate_config,
 )
 from app.services.jobs import tasks
 from app.services.jobs.worker import Task
@@ -115,9 +114,10 @@ def change_config(session: Session, fn: Callable[[Config], Config],
 
 def checked_config_change(new: Config, recording: Recording | None,
                           settings: Settings) -> CheckedModel:
-    """``new`` checked as a config change is (the sliders' rules, the cost limits, the
-    operator limit and the signal), with its model built once: a session's change and a
-    lesson's step pass the same checks.
+    """``new`` checked as a config change is, each check once: the sliders' rules (in the
+    labels they show), the model built once from its document and priced against the cost
+    limits, the operator limit, then the signal (when the run is not the recording's). A
+    session's change, a slider's move and a lesson's step pass the same checks.
 
     Raises
     ------
@@ -126,8 +126,8 @@ def checked_config_change(new: Config, recording: Recording | None,
     """
     C.check_rules(new.model)  # a broken rule in the labels the sliders show
     checked = checked_model(new, recording, settings)
-    validate_config(new, recording, settings.max_operators, settings.max_samples,
-                    model=checked.model)
+    if not (new.use_recording and recording is not None):
+        new.signal.validate(settings.max_samples)
     return checked
 
 

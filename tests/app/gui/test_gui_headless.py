@@ -82,6 +82,44 @@ def test_slider_updates_session_and_plot(view: SessionView) -> None:
     assert not np.allclose(before, _loop_y(view))
 
 
+def test_a_slider_move_checks_its_config_once(view: SessionView,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """One move of a slider checks the new config once: its rules, its model built from the
+    document, its cost, the operator limit and the signal each once (they were three checks,
+    the operator limit twice), and the document is not copied whole through JSON: what the
+    move did not touch is shared with the previous model, which stays as it was."""
+    import app.services.explore.controls as C
+    import app.services.explore.cost as cost
+    import app.services.explore.simulation as sim
+    import core.base
+    from app.services.explore.config import SignalSpec
+
+    here = threading.get_ident()  # the callbacks fire inline; the render thread is not counted
+    calls: dict[str, int] = {}
+
+    def counting(owner: Any, name: str) -> None:
+        real = getattr(owner, name)
+
+        def count(*args: Any, **kwargs: Any) -> Any:
+            if threading.get_ident() == here:
+                calls[name] = calls.get(name, 0) + 1
+            return real(*args, **kwargs)
+        monkeypatch.setattr(owner, name, count)
+
+    for owner, name in [(C, "check_rules"), (cost, "check_document"), (cost, "check_model"),
+                        (core.base, "model_from_dict"), (sim, "operator_count"),
+                        (SignalSpec, "validate")]:
+        counting(owner, name)
+    before = view.session.config.model
+    view.ui.param_sliders["weights[0]"].value = 1.2
+    _idle(view)
+    after = view.session.config.model
+    assert after["weights"][0] == 1.2 and before["weights"][0] != 1.2
+    assert calls == {"check_rules": 1, "check_document": 1, "check_model": 1,
+                     "model_from_dict": 1, "operator_count": 1, "validate": 1}, calls
+    assert after["thresholds"] is before["thresholds"]  # shared, not copied through JSON
+
+
 def test_threshold_past_its_neighbour_stops_short_of_it(view: SessionView) -> None:
     """Dragging r3 past r4 (1.8) keeps it one step below r4 and says so with the slider's
     labels; the next slider still applies (no bad value is left behind)."""

@@ -265,7 +265,7 @@ def test_the_models_own_refusals_use_the_slider_labels(name: str, path: str, val
     the end) is refused in the labels the sliders show, not in JSON names or indices."""
     doc = ZOO[name].to_dict()
     C.get_leaf(doc, path)
-    C.set_leaf(doc, path, value)
+    doc = C.with_leaf(doc, path, value)
     C.check_rules(doc)  # not a declared rule: the model's own check words it
     with pytest.raises(ValueError) as err:  # ParameterError or NotInvertibleError
         base.model_from_dict(doc)
