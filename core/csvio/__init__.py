@@ -49,6 +49,17 @@ line break (the command line's convenience); code that handles untrusted content
 the ``*_text`` readers. Lines longer than :data:`MAX_LINE_CHARS` and unclosed quotes are
 errors naming the line (a recording row is a few numbers).
 
+**Large files** (more than 8 MiB) are read in blocks when they are numeric tables
+(:mod:`~core.csvio.stream`): the head goes through the reader above, the rest is parsed by
+numpy's C reader into one float64 array, so the memory is that of the numbers (about 80 bytes
+per row of three columns at the peak, checked up front against the machine's available
+memory, refused in words when it does not fit), not of the text, and there is no row or
+byte limit. A file with text cells, or comment or blank lines inside the data, is read whole
+as before, up to :data:`MAX_BYTES` (64 MiB) and :data:`MAX_ROWS` (2 million rows); above
+that it is refused with the line that stops the blocks. Content (text, bytes, an open file:
+uploads) is always read whole within those limits. The results, notes and messages are those
+of the whole-text reader (``tests/core/test_csvio_stream.py`` reads a corpus both ways).
+
 Problems raise :class:`CSVError` (a :class:`~core.exceptions.ParameterError`, hence a
 ``ValueError``) whose message says what is wrong, where (line, column) and what to do.
 Rows whose input or output is NaN/inf/empty are removed by default and every removal is
@@ -68,8 +79,9 @@ text), :mod:`~core.csvio.dialect` (delimiter, decimal mark, line checks),
 :mod:`~core.csvio.numbers` (cells to numbers), :mod:`~core.csvio.names` (headers and units),
 :mod:`~core.csvio.table` (preamble, header, unit row, the layout), :mod:`~core.csvio.columns`
 (roles and conversion), :mod:`~core.csvio.timebase` (time units, increasing and even stamps),
-:mod:`~core.csvio.reader` (recordings and runs) and :mod:`~core.csvio.inputs` (input-only
-signals); :mod:`~core.csvio.options` and :mod:`~core.csvio.errors` hold the options and the
+:mod:`~core.csvio.stream` (large numeric files in blocks), :mod:`~core.csvio.load` (which of
+the two reads a source), :mod:`~core.csvio.reader` (recordings and runs) and
+:mod:`~core.csvio.inputs` (input-only signals); :mod:`~core.csvio.options` and :mod:`~core.csvio.errors` hold the options and the
 exceptions.
 """
 
@@ -79,11 +91,12 @@ from __future__ import annotations
 from .dialect import MAX_LINE_CHARS
 from .errors import CSVError, UnevenTimeError
 from .inputs import InputSignal, read_input, read_input_text
+from .load import inspect_csv, inspect_csv_text
 from .names import ColumnInfo, parse_column_name
 from .options import MAX_BYTES, MAX_ROWS, MIN_SAMPLES, ColumnSpec, CsvOptions
 from .reader import read_csv, read_csv_text, read_csvs, read_recording
 from .source import CSVText, Source
-from .table import CSVLayout, inspect_csv, inspect_csv_text
+from .table import CSVLayout
 
 __all__ = [
     "MAX_BYTES",

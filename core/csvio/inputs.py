@@ -9,10 +9,11 @@ import numpy as np
 
 from .columns import choose_roles, convert, convert_time
 from .errors import CSVError
+from .load import read_table
 from .names import ColumnInfo
 from .options import CsvOptions
 from .source import CSVText, Source
-from .table import CSVLayout, Table, lines_text, read_table
+from .table import CSVLayout, Table, lines_text
 from .timebase import check_fs, time_axis, time_scale
 
 __all__ = ["InputSignal", "read_input", "read_input_text"]

@@ -9,9 +9,10 @@ from .errors import CSVError
 
 __all__ = ["MAX_BYTES", "MAX_ROWS", "MIN_SAMPLES", "ColumnSpec", "CsvOptions"]
 
-#: Default size limit of one CSV (bytes).
+#: Default size limit of one CSV read whole (bytes): content, and files that are not plain
+#: numeric tables (a numeric file is read in blocks, :mod:`core.csvio.stream`).
 MAX_BYTES = 64 * 2**20
-#: Default limit on the number of data rows of one CSV.
+#: Default limit on the number of data rows of one CSV read whole.
 MAX_ROWS = 2_000_000
 #: Default smallest number of samples per recording.
 MIN_SAMPLES = 10
@@ -56,9 +57,14 @@ class CsvOptions:
         field count differs from the table are skipped and noted).
     encoding : str, optional
         Text encoding; detected when omitted.
-    max_bytes, max_rows : int
-        Size limits (default 64 MiB and 2 million rows, which keep the memory
-        of the text parse below about 1 GB); larger files raise ``CSVError``.
+    max_bytes, max_rows : int, optional
+        Size limits; larger sources raise ``CSVError``. ``None`` (the default): content
+        (text, bytes, an open file) and files that are not plain numeric tables are read
+        whole, up to :data:`MAX_BYTES` (64 MiB) and :data:`MAX_ROWS` (2 million rows),
+        which keep the memory of the text parse below about 1 GB; a numeric file larger
+        than 8 MiB is read in blocks (:mod:`core.csvio.stream`) with no limit but the
+        memory its numbers need (about 80 bytes per row of three columns), which is checked
+        against the machine's available memory before they are read.
     name : str, optional
         Recording name; the file stem by default (``" loop=3"`` is appended per run).
     fs : float, optional
@@ -102,8 +108,8 @@ class CsvOptions:
     header: bool | None = None
     skiprows: int = 0
     encoding: str | None = None
-    max_bytes: int = MAX_BYTES
-    max_rows: int = MAX_ROWS
+    max_bytes: int | None = None
+    max_rows: int | None = None
     name: str | None = None
     fs: float | None = None
     time_unit: str | None = None

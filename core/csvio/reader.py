@@ -11,10 +11,11 @@ import numpy as np
 from ..recordings import Recording
 from .columns import available, choose_roles, convert, convert_time
 from .errors import CSVError
+from .load import read_table
 from .names import ColumnInfo
 from .options import MIN_SAMPLES, CsvOptions
 from .source import CSVText, Source
-from .table import Table, lines_text, read_table
+from .table import Table, lines_text
 from .timebase import check_fs, time_axis, time_scale
 
 __all__ = ["read_csv", "read_csv_text", "read_csvs", "read_recording"]

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,10 +12,10 @@ from .dialect import check_lines, detect_format, field_counts, split_cells
 from .errors import CSVError
 from .names import ColumnInfo, norm_unit, parse_column_name
 from .numbers import is_num, is_strict_num
-from .options import CsvOptions
-from .source import CSVText, Source, decode_text, load_bytes
+from .options import MAX_BYTES, MAX_ROWS, CsvOptions
+from .source import Source, decode_text, load_bytes
 
-__all__ = ["CSVLayout", "Table", "inspect_csv", "inspect_csv_text", "lines_text", "read_table"]
+__all__ = ["CSVLayout", "Table", "check_rows", "lines_text", "read_table_whole"]
 
 
 @dataclass(frozen=True)
@@ -66,6 +65,8 @@ class Table:
         self._rows = rows
         self._quoted = quoted
         self._matrix: np.ndarray | None | bool = False  # False: not tried yet
+        #: 1-based line the table starts at (its header, or its first data row)
+        self.first_line = int(lines[0]) if len(lines) else 0
 
     @property
     def rows(self) -> list[list[str]]:
@@ -118,8 +119,9 @@ class Table:
         return self._matrix
 
 
-def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[Table, str]:
-    """The table of ``source`` read with the layout options of ``opts``, and the file stem.
+def read_table_whole(source: Source, opts: CsvOptions, min_columns: int = 2
+                     ) -> tuple[Table, str]:
+    """The table of ``source`` read as one text, and the file stem.
 
     Parameters
     ----------
@@ -137,7 +139,10 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
     stem : str
         The file stem (``"recording"`` for content), the recordings' default name.
     """
-    raw, label, stem = load_bytes(source, opts.max_bytes)
+    max_bytes = MAX_BYTES if opts.max_bytes is None else opts.max_bytes
+    max_rows = MAX_ROWS if opts.max_rows is None else opts.max_rows
+    opts = replace(opts, max_bytes=max_bytes, max_rows=max_rows)
+    raw, label, stem = load_bytes(source, max_bytes)
     text, enc, notes = decode_text(raw, opts.encoding, label)
     content, linenos, delimiter = _content_lines(text, label, opts, notes)
     d, dec = detect_format(content[:60], delimiter, opts.decimal, label, linenos[0], min_columns)
@@ -147,21 +152,24 @@ def read_table(source: Source, opts: CsvOptions, min_columns: int = 2) -> tuple[
     has_header, start, names, cols = _columns(rows, linenos, dec, opts.header, notes)
     data = content[start:]
     data_lines = np.asarray(linenos[start:], dtype=np.int64)
-    data_rows = _check_rows(data, data_lines, linenos, names, len(cols), d, quoted, has_header,
-                            label, opts.max_rows)
+    data_rows = check_rows(data, data_lines, linenos, names, len(cols), d, quoted, has_header,
+                           label, max_rows)
     layout = CSVLayout(
         source=label, encoding=enc, delimiter=d, decimal=dec, header=has_header,
         columns=tuple(cols), n_rows=len(data),
         first_data_line=int(data_lines[0]) if data else 0, notes=tuple(notes),
     )
-    return Table(layout, data, data_lines, data_rows, quoted), stem
+    table = Table(layout, data, data_lines, data_rows, quoted)
+    table.first_line = linenos[0]
+    return table, stem
 
 
 def _content_lines(text: str, label: str, opts: CsvOptions,
                    notes: list[str]) -> tuple[list[str], list[int], str | None]:
     """The lines that hold the table (after ``skiprows``, without comments and blank
     lines), their 1-based line numbers, and the delimiter (an Excel ``sep=`` line sets it)."""
-    delimiter, skiprows, max_rows = opts.delimiter, opts.skiprows, opts.max_rows
+    delimiter, skiprows = opts.delimiter, opts.skiprows
+    max_rows = MAX_ROWS if opts.max_rows is None else opts.max_rows
     all_lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     body = all_lines[skiprows:]
     del all_lines
@@ -296,9 +304,9 @@ def _columns(rows: list[list[str]], linenos: list[int], dec: str, header: bool |
     return has_header, start, names, cols
 
 
-def _check_rows(data: list[str], data_lines: np.ndarray, linenos: list[int], names: list[str],
-                width: int, d: str, quoted: bool, has_header: bool, label: str,
-                max_rows: int) -> list[list[str]] | None:
+def check_rows(data: list[str], data_lines: np.ndarray, linenos: Sequence[int],
+               names: list[str], width: int, d: str, quoted: bool, has_header: bool, label: str,
+               max_rows: int | None) -> list[list[str]] | None:
     """Refuse a header without data, too many rows and ragged rows; the split rows when
     they had to be split to count their fields (quotes, whitespace), else None."""
     if not data and has_header:
@@ -307,7 +315,7 @@ def _check_rows(data: list[str], data_lines: np.ndarray, linenos: list[int], nam
             "data rows after the header; export the recording again with its samples",
             source=label, line=linenos[0],
         )
-    if len(data) > max_rows:
+    if max_rows is not None and len(data) > max_rows:
         raise CSVError(
             f"{label} has {len(data):,} data rows, more than max_rows={max_rows:,}; "
             "pass a larger max_rows= to read it anyway, or cut / decimate the recording",
@@ -335,39 +343,6 @@ def _check_rows(data: list[str], data_lines: np.ndarray, linenos: list[int], nam
             source=label, line=ln,
         )
     return data_rows
-
-
-def inspect_csv(source: Source, options: CsvOptions | None = None, *, min_columns: int = 2,
-                **changes: Any) -> CSVLayout:
-    """Work out the layout of a CSV without converting it (for previews and pickers).
-
-    Parameters
-    ----------
-    source : path, str, bytes, open file or CSVText
-        As for :func:`~core.csvio.read_csv`.
-    options : CsvOptions, optional
-        Reading options; only the layout ones (``delimiter``, ``decimal``, ``header``,
-        ``skiprows``, ``encoding``, ``max_bytes``, ``max_rows``) matter here.
-    min_columns : int
-        Fewest columns the table must have: 2 for recordings (input and output, the
-        default), 1 for input-only signals (see :func:`~core.csvio.read_input`).
-    **changes
-        Fields of :class:`~core.csvio.CsvOptions` that replace those of ``options``.
-
-    Returns
-    -------
-    CSVLayout
-        Delimiter, decimal mark, header, columns with units, number of rows.
-    """
-    opts = CsvOptions.of(options, **changes)
-    return read_table(source, opts, min_columns)[0].layout
-
-
-def inspect_csv_text(content: str | bytes, options: CsvOptions | None = None, *,
-                     name: str = "<text>", **changes: Any) -> CSVLayout:
-    """:func:`inspect_csv` of CSV *content* (never a file name); see
-    :func:`~core.csvio.read_csv_text`."""
-    return inspect_csv(CSVText(content, name), options, **changes)
 
 
 def lines_text(lines: Sequence[int], limit: int = 10) -> str:
