@@ -23,7 +23,7 @@ from .deps import (
     rate_limited,
     read_body,
 )
-from .schemas import SessionOut
+from .schemas import SessionOut, session_json
 
 __all__ = ["router"]
 
@@ -88,6 +88,6 @@ async def upload_parameter_set(
         actions.load_parameter_set(session, doc, settings)
     except (ParameterError, ValueError) as exc:
         raise HTTPException(422, f"not a usable parameter set: {exc}") from None
-    return session.summary()
+    return session_json(session)
 
 

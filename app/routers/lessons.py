@@ -24,7 +24,7 @@ from app.services.teaching import lessons
 from app.services.teaching.events import HUB
 
 from .deps import RegistryDep, SessionDep, SettingsDep, read_body, require_teacher
-from .schemas import SessionOut
+from .schemas import SessionOut, session_json
 
 __all__ = ["router"]
 
@@ -189,4 +189,4 @@ def return_to_class(session: SessionDep, registry: RegistryDep,
         lessons.return_to_step(session, registry, settings)
     except lessons.LessonError as exc:
         raise HTTPException(409, str(exc)) from None
-    return session.summary()
+    return session_json(session)

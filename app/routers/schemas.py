@@ -9,11 +9,14 @@ or a float), so the bytes are what they were before the models were declared.
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.services.explore.config import Config, SignalSpec
+
+if TYPE_CHECKING:
+    from app.services.session.sessions import Session
 
 __all__ = [
     "BroadcastOut",
@@ -36,6 +39,7 @@ __all__ = [
     "PushOut",
     "RecordingOut",
     "SessionOut",
+    "session_json",
     "SignalIn",
     "SimulateIn",
     "SimulateOut",
@@ -276,6 +280,21 @@ class SessionOut(BaseModel):
     recording: RecordingSummaryOut | None = None
     fitted: dict[str, Any] | None = Field(None, description="the fitted model document")
     has_diagnosis: bool
+
+
+def session_json(session: Session) -> dict[str, Any]:
+    """The :class:`SessionOut` body of ``session``: its typed state (core's ``FitOutcome``
+    for the fit) turned into JSON, here and nowhere in the services."""
+    st = session.use()
+    rec = session.recording
+    return {
+        "code": st.code,
+        "version": st.version,
+        "config": st.config.to_dict(),
+        "recording": None if rec is None else {"name": rec.name, "samples": rec.n_samples},
+        "fitted": None if st.fit is None else st.fit.model.to_dict(),
+        "has_diagnosis": st.diagnosis is not None,
+    }
 
 
 class FiguresOut(BaseModel):

@@ -21,7 +21,7 @@ from app.services.session import actions
 
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
 from .killable import run_figures
-from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut
+from .schemas import BroadcastOut, ConfigIn, FiguresOut, SessionOut, session_json
 
 __all__ = ["router"]
 
@@ -52,20 +52,20 @@ def create_session(
                                          "little or rejoin your session with its code")
     session = registry.create(teacher=teacher, owner=key)
     request.app.state.known_codes.add(key, session.code)
-    return session.summary()
+    return session_json(session)
 
 
 @router.get("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 async def get_session(session: SessionDep) -> dict[str, Any]:
     """The session's config, version, recording and fit summary."""
-    return session.summary()
+    return session_json(session)
 
 
 @router.put("/sessions/{code}", response_model=SessionOut, response_model_exclude_unset=True)
 async def join_session(session: SessionDep) -> dict[str, Any]:
     """Rejoin an existing session by its code (404 "no such session" otherwise; codes are
     created only by ``POST /api/sessions``)."""
-    return session.summary()
+    return session_json(session)
 
 
 @router.patch("/sessions/{code}/config",
@@ -77,7 +77,7 @@ async def update_config(body: ConfigIn, session: SessionDep,
     # the commit writes to the disk: in a worker thread, so a write the system holds up
     # (other programs flushing) never stops the event loop and every other request
     await run_in_threadpool(actions.change_config, session, body.apply, settings)
-    return session.summary()
+    return session_json(session)
 
 
 @router.get("/sessions/{code}/figures",
@@ -108,7 +108,7 @@ def apply_preset(name: str, session: SessionDep) -> dict[str, Any]:
         actions.load_preset(session, name, with_input=False)
     except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
-    return session.summary()
+    return session_json(session)
 
 
 @router.post("/broadcast/{name}", response_model=BroadcastOut, response_model_exclude_unset=True)

@@ -62,3 +62,16 @@ def assert_same_document(doc: dict[str, Any], ref: dict[str, Any]) -> None:
 
 def read_json(path: Path) -> dict[str, Any]:
     return json.loads(path.read_text(encoding="utf-8"))
+
+
+def small_fit(seed: int = 0) -> Any:
+    """A session's fit (``FitOutcome``) of a 400-sample recording of Example 1 (4 operators,
+    :func:`app.services.analysis.fitting.fit_recording`, the fit job's own path)."""
+    from app.services.analysis.fitting import fit_recording
+    from core.recordings import Recording
+
+    t = np.arange(400) * 1e-3
+    u = 3 * np.sin(2 * np.pi * 3 * t) * np.exp(-t)
+    y = PIModel(0.72, [0.45, 0.9, 1.35], [0.6, 0.48, 0.3])(u)
+    y = y + 1e-3 * np.random.default_rng(seed).standard_normal(u.size)
+    return fit_recording(Recording(t, u, y, name="small"), 4)

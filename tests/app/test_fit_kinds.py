@@ -102,8 +102,8 @@ def test_a_new_registered_fittable_type_appears_everywhere(probe_registered, tmp
     assert CountingPIRegressor.fits == 1
     assert load_parameter_set(out).provenance.fit["model"] == "probe-pi"
     # the explorer's fit (web page and viser) goes through the same declaration
-    _, report = fit_recording(Recording(u=u, y=y, t=t), 2, "probe-pi")
-    assert report["kind"] == "probe-pi" and CountingPIRegressor.fits == 2
+    out = fit_recording(Recording(u=u, y=y, t=t), 2, "probe-pi")
+    assert out.kind == "probe-pi" and CountingPIRegressor.fits == 2
 
 
 def test_the_viser_fit_menu_lists_the_registry_kinds(probe_registered) -> None:

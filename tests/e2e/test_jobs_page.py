@@ -84,7 +84,8 @@ def test_fit_job_result_shown(browser: Any, live_server: dict, shot: Any) -> Non
     assert float(shown.split()[3].rstrip(",")) == pytest.approx(rms, rel=1e-3)
     names = page.evaluate("() => document.getElementById('figure')._fullData.map(t => t.name)")
     assert names == [t.get("name") for t in job.result["figure"]["data"]]
-    assert _session(app, page).fitted == job.result["model"]
+    fitted = _session(app, page).fitted  # a core Model in the session, JSON in the job
+    assert fitted is not None and fitted.to_dict() == job.result["model"]
     assert _buttons(page) == [False, False]
     shot(page, "web-fit-job")
     _clean(page, log)

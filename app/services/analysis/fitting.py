@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,14 +22,18 @@ from app.services.words import unit_words
 
 if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
     from app.services.runs.progress import Progress
-    from core.base import Model
     from core.fitting import FitOutcome, TimeWindow
+    from core.fitting.metrics import FitReport, PartStats
+    from core.paramset import ParameterSet
     from core.recordings import Recording
 
 __all__ = [
     "check_n_operators",
     "fit_errors",
+    "fit_outcome",
     "fit_recording",
+    "fit_report",
+    "fit_report_from_dict",
     "fit_source",
     "say_fit",
     "time_window",
@@ -46,15 +51,17 @@ def _finite(x: Any) -> Any:
     return x
 
 
-def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict[str, Any]]:
-    """Fit a model of ``kind`` with ``n`` operators to ``rec``; returns ``(model, report)``.
+def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
+    """Fit a model of ``kind`` with ``n`` operators to ``rec``: the outcome without its
+    estimator (what a session keeps, :meth:`~app.services.session.sessions.Session.set_fit`,
+    rebuilt from its parameter set by :func:`fit_outcome`).
 
     The fit is :func:`core.fitting.fit_recordings` (the one entry point ``hyst fit`` and
     ``hyst batch fit`` use) with ``hyst fit -n N --model KIND``'s defaults: the last 20 %
     held out and the initial memory as the kind's default (``"exclude"``: the training rows
     before the wipe-out time left out of the weight fit, where the kind can; the report's
-    ``memory_note`` says so). The model is its ``model`` (the fitted output offset included,
-    as a chain); the report is its ``report`` plus the errors on the whole recording.
+    ``memory_note`` says so). Its ``model`` is the fitted output offset included, as a
+    chain.
 
     Raises
     ------
@@ -65,19 +72,80 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> tuple[Model, dict
     from core.fitting import fit_recordings
 
     out = fit_recordings([rec], kind, n_operators=n)
-    model = out.model
-    res = rec.y - model(rec.u)
+    return replace(out, estimator=None)
+
+
+def fit_report(out: FitOutcome, rec: Recording) -> dict[str, Any]:
+    """The report of a session's fit as the pages show it (the fit job's result): the
+    outcome's ``report`` plus the errors of its model on the whole recording ``rec``, the
+    number of operators asked for, the kind and the output unit in words."""
+    res = rec.y - out.model(rec.u)
     rms = float(np.sqrt(np.mean(res**2)))
-    report = {
+    fit = out.parameter_set.provenance.fit or {}
+    return {
         **_finite(out.report.to_dict()),
         "rms_error": rms,
         "max_error": float(np.max(np.abs(res))),
         "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
-        "n_operators": int(n),
-        "kind": kind,
+        "n_operators": fit.get("n_operators"),
+        "kind": out.kind,
         "output_unit": unit_words(rec.units.get("output")),
     }
-    return model, report
+
+
+def fit_outcome(ps: ParameterSet) -> FitOutcome:
+    """The :class:`~core.fitting.FitOutcome` a fit's parameter set describes (its
+    ``provenance.fit``: kind, report, warnings; no estimator).
+
+    Raises
+    ------
+    ValueError, TypeError, KeyError
+        ``provenance.fit`` is not a fit's.
+    """
+    from core.fitting.entry import FitOutcome
+
+    fit = ps.provenance.fit
+    if fit is None:
+        raise ValueError("the parameter set has no fit")
+    report = fit_report_from_dict(fit["report"])
+    mem = report.extra.get("initial_memory")
+    return FitOutcome(str(fit["model"]), ps.model, report,
+                      tuple(str(w) for w in fit.get("warnings") or ()),
+                      str(mem["summary"]) if isinstance(mem, dict) else "", ps, None)
+
+
+def _number(x: Any) -> float:
+    """A stored float (JSON has no NaN: a missing value was stored as ``null``)."""
+    return math.nan if x is None else float(x)
+
+
+def _part(d: Any) -> PartStats:
+    from core.fitting.metrics import PartStats
+
+    return PartStats(int(d["n_samples"]), _number(d["rmse"]), _number(d["max_abs"]),
+                     _number(d["output_range"]), _number(d["rmse_pct"]),
+                     _number(d["inverse_input_rmse"]), _number(d["input_range"]),
+                     _number(d["inverse_input_rmse_pct"]))
+
+
+def fit_report_from_dict(d: Any) -> FitReport:
+    """Inverse of ``FitReport.to_dict()`` (its JSON, ``null`` for what was not finite).
+
+    Raises
+    ------
+    ValueError, TypeError, KeyError
+        ``d`` is not a fit report.
+    """
+    from core.fitting.metrics import FitReport
+
+    return FitReport(
+        model_type=str(d["model_type"]), n_parameters=int(d["n_parameters"]),
+        train=_part(d["train"]), test=None if d.get("test") is None else _part(d["test"]),
+        compensation_max_abs=_number(d["compensation_max_abs"]),
+        compensation_rmse=_number(d["compensation_rmse"]),
+        invertible=bool(d["invertible"]), min_slope=_number(d["min_slope"]),
+        condition_number=_number(d["condition_number"]), solver=str(d["solver"]),
+        extra=dict(d.get("extra") or {}), warnings=tuple(d.get("warnings") or ()))
 
 
 def time_window(text: str | None, what: str) -> TimeWindow | None:

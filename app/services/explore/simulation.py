@@ -618,13 +618,11 @@ def priced_views(model: Model, views: Collection[str], samples: int, dt: float,
 
 
 def diagnosed_model(session: Any) -> Model | None:
-    """The session's diagnosed extended model when the diagnosis added effects, else None:
-    the live result's, else (after a restart) the one built from the stored document."""
-    result = getattr(session, "diagnosis_result", None)
-    if result is not None:
-        return result.model if getattr(result, "effects", None) else None
-    doc = getattr(session, "diagnosed", None)
-    return None if doc is None else model_from_dict(doc)
+    """The session's diagnosed extended model when the diagnosis added effects, else None
+    (:attr:`~app.services.session.sessions.Session.diagnosed`: the live result's model,
+    or after a restart the stored one)."""
+    model = getattr(session, "diagnosed", None)
+    return model if isinstance(model, Model) else None
 
 
 @dataclass(frozen=True, eq=False)

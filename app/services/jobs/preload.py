@@ -29,10 +29,8 @@ def warm() -> None:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out = {}
-        for kind in fit_kinds():
-            out = run_fit(rec, 3, kind, progress=quiet)
-        run_diagnosis(rec, out["model"], progress=quiet)
+        docs = [run_fit(rec, 3, kind, progress=quiet)[0] for kind in fit_kinds()]
+        run_diagnosis(rec, docs[-1]["model"], progress=quiet)
         # the figures of a heavy request (tasks.run_figures) load their kernels too
         from app.services.explore.config import Config, SignalSpec
         from app.services.jobs.tasks import run_figures

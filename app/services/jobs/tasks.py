@@ -27,10 +27,14 @@ __all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures
            "run_result"]
 
 
-def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[str, Any]:
+def run_fit(rec: Recording, n: int, kind: str, *,
+            progress: Progress) -> tuple[dict[str, Any], dict[str, Any]]:
     """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure.
 
-    Returns ``{"model": document, "report": {...}, "figure": plotly figure}``.
+    Returns ``(parameter set document, plotly figure)``: the document ``hyst fit`` would
+    write goes back to the server (a ``FitOutcome`` does not pickle: its provenance is a
+    read-only mapping), which rebuilds the typed outcome from it for the session
+    (:func:`fit_task`).
     """
     from app.services.analysis.fitting import fit_recording
     from app.services.explore import figures as F
@@ -38,10 +42,10 @@ def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> dict[st
 
     name = type_words(kind)
     progress(0.05, f"fitting a {name[:1].lower() + name[1:]} with {n} operators")
-    model, report = fit_recording(rec, n, kind)
+    out = fit_recording(rec, n, kind)
     progress(0.9, "building the figure")
-    fig = F.fit_figure(rec, model(rec.u), f"fitted: {name}, {n} operators")
-    return {"model": model.to_dict(), "report": report, "figure": fig.to_dict()}
+    fig = F.fit_figure(rec, out.model(rec.u), f"fitted: {name}, {n} operators")
+    return out.parameter_set.to_dict(), fig.to_dict()
 
 
 def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
@@ -119,18 +123,27 @@ def _recording(session: Session, what: str) -> Recording:
 
 def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
     """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
-    dropped; with ``apply`` the fitted model becomes the session's model)."""
-    def keep(out: dict[str, Any]) -> dict[str, Any]:
-        session.set_fit(out["model"], out["report"], apply=apply)
-        return out
+    dropped; with ``apply`` the fitted model becomes the session's model). The job's result
+    is ``{"model": document, "report": .fitting.fit_report, "figure": plotly figure}``."""
+    from app.services.analysis.fitting import fit_outcome, fit_report
+    from core.paramset import ParameterSet
 
-    return Task(run_fit, (_recording(session, "fit"), n, kind), keep)
+    rec = _recording(session, "fit")
+
+    def keep(out: tuple[dict[str, Any], dict[str, Any]]) -> dict[str, Any]:
+        doc, figure = out
+        fit = fit_outcome(ParameterSet.from_dict(doc))
+        session.set_fit(fit, apply=apply)
+        return {"model": fit.model.to_dict(), "report": fit_report(fit, rec), "figure": figure}
+
+    return Task(run_fit, (rec, n, kind), keep)
 
 
 def diagnose_task(session: Session) -> Task:
     """The task of a diagnosis of the fitted model (else the current model) against
     ``session``'s recording; kept: the report and the result are stored."""
-    doc = session.fitted or session.snapshot()[0].model
+    fitted = session.fitted
+    doc = fitted.to_dict() if fitted is not None else session.snapshot()[0].model
 
     def keep(out: tuple[dict[str, Any], Any]) -> dict[str, Any]:
         report, result = out

@@ -265,17 +265,14 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     if result is None:
         return None
     rec = replace(result.records[0], units={**result.records[0].units, **_units(session)})
-    d = session.diagnosis or {}
-    preisach = (d.get("document") or {}).get("baseline", {}).get("model") == "preisach"
+    preisach = result.baseline.structure.base_kind == "preisach"
     base = "Preisach model" if preisach else "PI model"
-    effects = d.get("effects") or []
-    final = f"with {', '.join(str(e).replace('-', ' ') for e in effects)}" if effects else \
+    effects = [e.name for e in result.effects]
+    final = f"with {', '.join(e.replace('-', ' ') for e in effects)}" if effects else \
         "no effect added"
-    doc = d.get("document") or {}
-    b = (doc.get("baseline") or {}).get("heldout_rmse")
-    f = (doc.get("final") or {}).get("heldout_rmse")
-    heldout = (float(b), float(f)) if isinstance(b, int | float) and \
-        isinstance(f, int | float) else None
+    b = result.heldout_rmse(result.baseline)
+    f = result.heldout_rmse(result.final)
+    heldout = (float(b), float(f)) if math.isfinite(b) and math.isfinite(f) else None
     fig = F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
                              heldout)
     # the page's status line names the diagnosed model (not the session's fitted one)

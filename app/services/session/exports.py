@@ -146,11 +146,13 @@ def export_bytes(
 
 def export_session(session: Session, fmt: str, *, fmi: int = 3,
                    inverse: bool = False) -> tuple[str, bytes]:
-    """:func:`export_bytes` of ``session``'s current model (with the fit report when the
-    model is the fitted one); dynamic models get the sample time of the session's
-    recording, else of its signal."""
+    """:func:`export_bytes` of ``session``'s current model (with the fit's provenance, as
+    ``hyst fit`` writes it, when the model is the fitted one); dynamic models get the
+    sample time of the session's recording, else of its signal."""
     cfg, _ = session.snapshot()
-    fit = session.fit_report if session.fitted == cfg.model else None
+    out = session.fit
+    fit = (dict(out.parameter_set.provenance.fit or {})
+           if out is not None and out.model.to_dict() == cfg.model else None)
     rec = session.recording
     if rec is not None and rec.t.size > 1:
         dt = float(rec.t[1] - rec.t[0])

@@ -17,7 +17,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.services.explore.config import Config
 from app.services.explore.cost import CheckedModel, Limits
@@ -25,6 +25,10 @@ from app.services.storage.store import SessionState, SessionStore
 from core.base import Model
 from core.recordings import Recording
 from core.validation import filled
+
+if TYPE_CHECKING:
+    from core.diagnosis.results import DiagnosisResult
+    from core.fitting.entry import FitOutcome
 
 __all__ = [
     "CODE_ALPHABET",
@@ -58,9 +62,10 @@ class Session:
 
     Notes
     -----
-    The attributes ``config``, ``version``, ``recording``, ``fitted``, ``fit_report``,
+    The attributes ``config``, ``version``, ``recording``, ``fit``, ``fitted``,
     ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and ``created`` read the
-    current state; change them only through the transitions.
+    current state (typed: core's ``FitOutcome``, ``Model`` and ``DiagnosisResult``; the
+    routers turn them into JSON); change them only through the transitions.
     """
 
     def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
@@ -97,14 +102,33 @@ class Session:
             return st.recording
         return self._store.recording(st.code)
 
-    fitted = property(lambda self: self._state.fitted, doc="The fitted model document.")
-    fit_report = property(lambda self: self._state.fit_report, doc="The fit report.")
-    diagnosis = property(lambda self: self._state.diagnosis, doc="The diagnosis report.")
-    diagnosed = property(lambda self: self._state.diagnosed,
-                         doc="The diagnosed extended model's document (stored), or None.")
-    diagnosis_result = property(lambda self: self._state.diagnosis_result,
-                                doc="The core ``DiagnosisResult`` of the diagnosis (in "
-                                    "memory only: ``None`` after a restart).")
+    @property
+    def fit(self) -> FitOutcome | None:
+        """The last fit (core's ``FitOutcome``, without its estimator), or None."""
+        return self._state.fit
+
+    @property
+    def fitted(self) -> Model | None:
+        """The last fit's model, or None."""
+        fit = self._state.fit
+        return None if fit is None else fit.model
+
+    @property
+    def diagnosis(self) -> dict[str, Any] | None:
+        """The diagnosis report as the pages show it (stored), or None."""
+        return self._state.diagnosis
+
+    @property
+    def diagnosed(self) -> Model | None:
+        """The diagnosed extended model (stored), or None."""
+        return self._state.diagnosed
+
+    @property
+    def diagnosis_result(self) -> DiagnosisResult | None:
+        """The core ``DiagnosisResult`` of the diagnosis (in memory only: ``None`` after a
+        restart)."""
+        return self._state.diagnosis_result
+
     teacher = property(lambda self: self._state.teacher, doc="A teacher's session.")
     created = property(lambda self: self._state.created, doc="Creation time, s (epoch).")
 
@@ -178,28 +202,25 @@ class Session:
 
     def set_recording(self, recording: Recording) -> int:
         """Give the session ``recording``; its fit and diagnosis are dropped."""
-        return self._commit({"recording": recording, "recording_stored": False,
-                             "fitted": None, "fit_report": None,
+        return self._commit({"recording": recording, "recording_stored": False, "fit": None,
                              "diagnosis": None, "diagnosed": None,
                              "diagnosis_result": None}, recording=True, results=True)
 
-    def set_fit(self, fitted: dict[str, Any], report: dict[str, Any], *,
-                apply: bool = False) -> int:
-        """Store a fit (the diagnosis is dropped); ``apply`` makes it the session's model."""
+    def set_fit(self, fit: FitOutcome, *, apply: bool = False) -> int:
+        """Store a fit (the diagnosis is dropped); ``apply`` makes its model the session's."""
         with self.lock:
-            changes: dict[str, Any] = {"fitted": fitted, "fit_report": report,
-                                       "diagnosis": None, "diagnosed": None,
+            changes: dict[str, Any] = {"fit": fit, "diagnosis": None, "diagnosed": None,
                                        "diagnosis_result": None}
             if apply:
-                changes["config"] = self._state.config.with_model(fitted)
+                changes["config"] = self._state.config.with_model(fit.model.to_dict())
             return self._commit(changes, recording=False, results=True, notify=apply)
 
-    def set_diagnosis(self, report: dict[str, Any], result: Any) -> int:
+    def set_diagnosis(self, report: dict[str, Any], result: DiagnosisResult | None) -> int:
         """Store a diagnosis report and its core result (the plots are not redrawn).
 
-        Stored are the report and, when the diagnosis added effects, the diagnosed model's
-        document; the result itself (for the HTML report) stays in memory."""
-        diagnosed = result.model.to_dict() if getattr(result, "effects", None) else None
+        Stored are the report and, when the diagnosis added effects, the diagnosed model;
+        the result itself (for the figure and the HTML report) stays in memory."""
+        diagnosed = result.model if result is not None and result.effects else None
         return self._commit({"diagnosis": report, "diagnosed": diagnosed,
                              "diagnosis_result": result},
                             recording=False, results=True, notify=False)
@@ -225,20 +246,12 @@ class Session:
         """Whether a view listens (such a session is kept in memory)."""
         return bool(self._listeners)
 
-    def summary(self) -> dict[str, Any]:
-        """JSON-ready view of the session."""
+    def use(self) -> SessionState:
+        """The current state, read under the lock, the session marked as used (what the
+        REST API answers, :func:`app.routers.schemas.session_json`)."""
         with self.lock:
             self.last_access = time.monotonic()
-            st = self._state
-        rec = self.recording
-        return {
-            "code": st.code,
-            "version": st.version,
-            "config": st.config.to_dict(),
-            "recording": None if rec is None else {"name": rec.name, "samples": rec.n_samples},
-            "fitted": st.fitted,
-            "has_diagnosis": st.diagnosis is not None,
-        }
+            return self._state
 
 
 class SessionRegistry:

@@ -49,7 +49,7 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.services.explore.config import Config
 from app.services.explore.cost import CheckedModel
@@ -63,10 +63,16 @@ from app.services.storage.store_parts import (
     decode_recording,
     dump_json,
     encode_diagnosis,
+    encode_fit,
     recording_from_blob,
     recording_to_blob,
 )
+from core.base import Model
 from core.recordings import Recording
+
+if TYPE_CHECKING:
+    from core.diagnosis.results import DiagnosisResult
+    from core.fitting.entry import FitOutcome
 
 __all__ = ["DamagedSessionError", "SessionState", "SessionStore", "default_state_dir",
            "recording_from_blob", "recording_to_blob"]
@@ -135,14 +141,20 @@ class SessionState:
         store's small cache, :meth:`SessionStore.recording`).
     recording_stored : bool
         The session has a recording in the store (not held by this state).
-    fitted, fit_report, diagnosis : dict or None
-        Fitted model document, fit report and diagnosis report.
-    diagnosed : dict or None
-        The diagnosed extended model's document when the diagnosis added effects (stored:
-        the Inverse and Closed-loop views use it after a restart).
-    diagnosis_result : object
-        The core ``DiagnosisResult`` (for the HTML report), or ``None``; in memory only,
-        never stored (after a restart the report asks for the diagnosis to be run again).
+    fit : FitOutcome or None
+        The last fit (:func:`core.fitting.fit_recordings`' outcome, without its estimator):
+        the fitted model, its report and warnings, and the parameter set ``hyst fit`` would
+        write. Stored as that parameter set and rebuilt from it.
+    diagnosis : dict or None
+        The diagnosis report as the pages show it (findings in words, held-out errors, the
+        core's JSON document): stored, since a ``DiagnosisResult`` is not.
+    diagnosed : Model or None
+        The diagnosed extended model when the diagnosis added effects (stored as its
+        document: the Inverse and Closed-loop views use it after a restart).
+    diagnosis_result : DiagnosisResult or None
+        The core result of the diagnosis (the figure and the HTML report read it); in memory
+        only, never stored (after a restart the report asks for the diagnosis to be run
+        again).
     checked : CheckedModel or None
         The config's model, parsed once and cost-checked for this config and recording
         (``None`` until first needed; dropped whenever the config or the recording
@@ -161,11 +173,10 @@ class SessionState:
     version: int = 0
     recording: Recording | None = None
     recording_stored: bool = False
-    fitted: dict[str, Any] | None = None
-    fit_report: dict[str, Any] | None = None
+    fit: FitOutcome | None = None
     diagnosis: dict[str, Any] | None = None
-    diagnosed: dict[str, Any] | None = None
-    diagnosis_result: Any = None
+    diagnosed: Model | None = None
+    diagnosis_result: DiagnosisResult | None = None
     checked: CheckedModel | None = None
     teacher: bool = False
     created: float = field(default_factory=time.time)
@@ -275,15 +286,15 @@ class SessionStore:
             nothing is stored.
         """
         cfg = dump_json(state.config.to_dict()) or "{}"
-        row_text = [cfg, dump_json(state.fitted), dump_json(state.fit_report),
-                    dump_json(state.diagnosis)]
+        row_text = [cfg, *encode_fit(state.fit), dump_json(state.diagnosis)]
         blobs: dict[str, bytes | None] = {}
         if recording and (state.recording is not None or not state.recording_stored):
             blobs["recording"] = (None if state.recording is None
                                   else recording_to_blob(state.recording))
         if results:
             blobs["diagnosis"] = (None if state.diagnosis is None
-                                  else encode_diagnosis(state.diagnosed))
+                                  else encode_diagnosis(None if state.diagnosed is None
+                                                        else state.diagnosed.to_dict()))
         with self._lock:
             db = self._db
             if not blobs:  # a config change: one statement, one implicit commit
@@ -419,8 +430,7 @@ class SessionStore:
         for decode in (
             lambda: {"config": decode_config(row[5])},
             recording,
-            lambda: dict(zip(("fitted", "fit_report"), decode_fit(row[6], row[7]),
-                             strict=True)),
+            lambda: {"fit": decode_fit(row[6], row[7])},
             lambda: dict(zip(("diagnosis", "diagnosed"),
                              decode_diagnosis(row[8], blobs.get("diagnosis")), strict=True)),
         ):

@@ -9,14 +9,21 @@ damaged part: it is never unpickled.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from app.services.analysis.fitting import fit_outcome
 from app.services.explore.config import Config, config_from_dict
+from core.base import Model
+from core.paramset import ParameterSet
 from core.recordings import Recording
+
+if TYPE_CHECKING:  # core.fitting is imported when a stored fit is read (scipy: 0.5 s)
+    from core.fitting.entry import FitOutcome
 
 __all__ = [
     "PARTS",
@@ -28,6 +35,7 @@ __all__ = [
     "decode_recording",
     "dump_json",
     "encode_diagnosis",
+    "encode_fit",
     "recording_from_blob",
     "recording_to_blob",
 ]
@@ -89,11 +97,11 @@ def decode_document(part: str, text: str | bytes | None) -> dict[str, Any] | Non
     return doc
 
 
-def _model(part: str, doc: Any) -> None:
+def _model(part: str, doc: Any) -> Model:
     from core.base import model_from_dict
 
     try:
-        model_from_dict(doc)
+        return model_from_dict(doc)
     except (ValueError, TypeError, KeyError) as exc:  # ParameterError is a ValueError
         raise DamagedPartError(part, f"its model is invalid ({_why(exc)})") from None
 
@@ -109,13 +117,60 @@ def decode_config(text: str) -> Config:
     return cfg
 
 
-def decode_fit(fitted: str | None, report: str | None
-               ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
-    """The stored fitted model document (checked to build) and fit report."""
+def encode_fit(fit: FitOutcome | None) -> tuple[str | None, str | None]:
+    """The fit part's two columns: the fitted model's document and ``{"parameter_set":
+    the document hyst fit writes}`` (its provenance holds the kind, the report and the
+    warnings: everything :func:`decode_fit` rebuilds the outcome from)."""
+    if fit is None:
+        return None, None
+    return (dump_json(fit.model.to_dict()),
+            dump_json({"parameter_set": fit.parameter_set.to_dict()}))
+
+
+def decode_fit(fitted: str | None, report: str | None) -> FitOutcome | None:
+    """The stored fit as a :class:`~core.fitting.FitOutcome` (without its estimator).
+
+    Two stored forms are read: ``{"parameter_set": ...}`` (:func:`encode_fit`), and the
+    form of sessions stored before 2026-12-05, the fitted model's document beside the
+    explorer's report (``FitReport.to_dict()`` plus ``kind``, ``n_operators`` and the
+    errors on the whole recording).
+
+    Raises
+    ------
+    DamagedPartError
+        The model does not build, or the report is not a fit report.
+    """
     doc = decode_document("fit", fitted)
-    if doc is not None:
-        _model("fit", doc)
-    return doc, decode_document("fit", report)
+    rep = decode_document("fit", report)
+    if doc is None and rep is None:
+        return None
+    try:
+        if rep is not None and set(rep) == {"parameter_set"}:
+            if doc is not None:  # the fitted model's column: it must build too
+                _model("fit", doc)
+            ps = ParameterSet.from_dict(rep["parameter_set"])
+        else:  # the form stored before 2026-12-05
+            if doc is None or rep is None:
+                raise ValueError("the fitted model or its report is missing")
+            ps = _old_fit(doc, rep)
+        return fit_outcome(ps)
+    except (ValueError, TypeError, KeyError) as exc:  # ParameterError is a ValueError
+        raise DamagedPartError("fit", _why(exc)) from None
+
+
+def _old_fit(doc: dict[str, Any], rep: dict[str, Any]) -> ParameterSet:
+    """The parameter set of a fit stored in the explorer's old form (model and report)."""
+    from core.base import model_from_dict
+    from core.fitting.metrics import FitReport
+
+    model = model_from_dict(doc)
+    names = {f.name for f in dataclasses.fields(FitReport)}
+    return ParameterSet.from_model(model, source="hysteresis explorer", fit={
+        "model": str(rep.get("kind") or model.type_name),
+        "n_operators": rep.get("n_operators"),
+        "report": {k: v for k, v in rep.items() if k in names},
+        "warnings": list(rep.get("warnings") or []),
+    })
 
 
 def encode_diagnosis(diagnosed: dict[str, Any] | None) -> bytes:
@@ -124,9 +179,9 @@ def encode_diagnosis(diagnosed: dict[str, Any] | None) -> bytes:
 
 
 def decode_diagnosis(report: str | None, blob: bytes | None
-                     ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
-    """``(report, diagnosed model document)`` of the stored diagnosis; a blob that is no
-    such JSON (e.g. an old pickle) is damage and is never unpickled."""
+                     ) -> tuple[dict[str, Any] | None, Model | None]:
+    """``(report, diagnosed model)`` of the stored diagnosis; a blob that is no such JSON
+    (e.g. an old pickle) is damage and is never unpickled."""
     rep = decode_document("diagnosis", report)
     if blob is None:
         return rep, None
@@ -134,9 +189,7 @@ def decode_diagnosis(report: str | None, blob: bytes | None
     if doc is None or set(doc) != {"diagnosed"}:
         raise DamagedPartError("diagnosis", "its blob is not the stored diagnosed model")
     diagnosed = doc["diagnosed"]
-    if diagnosed is not None:
-        _model("diagnosis", diagnosed)
-    return rep, diagnosed
+    return rep, None if diagnosed is None else _model("diagnosis", diagnosed)
 
 
 def recording_to_blob(rec: Recording) -> bytes:

@@ -58,6 +58,5 @@ def test_a_misfitting_kind_warns_in_text_json_and_the_explorer_report(tmp_path, 
     (w,) = [m for m in doc["warnings"] if "white-noise floor" in m]
     assert w in doc["report"]["warnings"] and "Largest residuals" in w
     # the explorer's fit (REST /fit and the browser show its report's warnings)
-    _, report = fit_recording(recording_from_csv(src.read_bytes(), name="epp.csv"), 10,
-                              "preisach")
-    assert any("white-noise floor" in m for m in report["warnings"])
+    out = fit_recording(recording_from_csv(src.read_bytes(), name="epp.csv"), 10, "preisach")
+    assert any("white-noise floor" in m for m in out.report.warnings)

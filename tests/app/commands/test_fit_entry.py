@@ -18,7 +18,7 @@ import pytest
 from app.batch import DiagnoseOptions, FitOptions
 from app.batch.single import run_recording
 from app.cli import main
-from app.services.analysis.fitting import fit_recording
+from app.services.analysis.fitting import fit_recording, fit_report
 from app.services.analysis.recordings import recording_from_csv
 from core.csvio import read_csv
 from core.fitting import TimeWindow, fit_recordings
@@ -52,8 +52,10 @@ def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     # the explorer (web page, REST, viser) fits with the command line's defaults: hyst fit
     # -n 6 (the last 20 % held out, the pre-wipe-out rows left out), no --initial-memory keep
     ref_cli = _cli_fit(src, tmp_path / "cli.json", "--model", "pi", "-n", "6")
-    model, report = fit_recording(recording_from_csv(src.read_bytes(), name="alpha.csv"), 6)
-    _assert_same({"model": model.to_dict()}, {"model": ref_cli["model"]})
+    rec = recording_from_csv(src.read_bytes(), name="alpha.csv")
+    out = fit_recording(rec, 6)
+    report = fit_report(out, rec)  # what the page shows
+    _assert_same({"model": out.model.to_dict()}, {"model": ref_cli["model"]})
     rep = ref_cli["provenance"]["fit"]["report"]
     assert "wipe-out" in report["extra"]["initial_memory"]["summary"]
     assert report["train"]["rmse"] == pytest.approx(rep["train"]["rmse"], rel=1e-12)
@@ -66,8 +68,8 @@ def test_other_fit_kinds_and_their_initial_memory(tmp_path):
     got = run_recording("fit", "beta.csv", src.read_bytes(), FitOptions(model="mpi",
                                                                         n_operators=5))
     _assert_same(json.loads(got.parameter_set), ref)
-    model, _ = fit_recording(recording_from_csv(src.read_bytes(), name="beta.csv"), 5, "mpi")
-    _assert_same({"model": model.to_dict()}, {"model": ref["model"]})
+    out = fit_recording(recording_from_csv(src.read_bytes(), name="beta.csv"), 5, "mpi")
+    _assert_same({"model": out.model.to_dict()}, {"model": ref["model"]})
     # a kind that always starts relaxed says so instead of ignoring the option
     code = main(["fit", str(src), "--model", "mpi", "-n", "5", "--initial-memory", "exclude",
                  "-o", str(tmp_path / "x.json"), "-q"])

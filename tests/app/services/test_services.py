@@ -41,15 +41,17 @@ def test_a_session_holds_one_frozen_state_replaced_by_each_transition(tmp_path: 
     s.set_recording(Recording(t, u, PIModel.from_dict(before.config.model)(u)))
     run_here(tasks.fit_task(s, 4, "pi", apply=True))  # the GUI's and REST's fit job
     after = s.state
-    assert before.recording is None and before.fitted is None and before.version == 0
+    assert before.recording is None and before.fit is None and before.version == 0
     # the recording is on disk (the store's cache), not held by the state
     assert after.recording is None and after.recording_stored and s.recording is not None
-    assert after.config.model == after.fitted
+    assert after.fit is not None and after.config.model == after.fit.model.to_dict()
     # the store keeps the same typed state: a restarted server reads it back as it was
     reg.store.close()
     again = SessionStore(tmp_path / "s.sqlite3").load(s.code)
     assert isinstance(again.config, Config) and again.config.to_dict() == after.config.to_dict()
-    assert again.version == after.version and again.fitted == after.fitted
+    assert again.version == after.version and again.fit is not None
+    assert again.fit.parameter_set.to_dict() == after.fit.parameter_set.to_dict()
+    assert again.fit.report == after.fit.report and again.fit.kind == "pi"
 
 
 def test_every_change_marks_the_session_used_in_the_store() -> None:

@@ -44,9 +44,12 @@ def test_session_services_store_fit_export_and_clear() -> None:
     D.store_recording(s, rec)
     out = run_here(fit_task(s, 6, "pi", apply=True))  # the session's one fit path
     report = out["report"]
-    assert s.fitted == s.config.model == out["model"] and report["nrmse_percent"] < 2
+    assert s.fitted is not None and s.fit is not None  # typed: core's Model and FitOutcome
+    assert s.fitted.to_dict() == s.config.model == out["model"] and report["nrmse_percent"] < 2
     assert report["kind"] == "pi" and "wipe-out" in report["extra"]["initial_memory"]["summary"]
     _, payload = E.export_session(s, "json")
-    assert json.loads(payload)["provenance"]["fit"]["kind"] == "pi"  # the fit travels along
+    # the fit travels along, with the provenance hyst fit writes
+    fit = json.loads(payload)["provenance"]["fit"]
+    assert fit["model"] == "pi" and fit["report"]["train"] == report["train"]
     D.store_recording(s, rec)
-    assert s.fitted is s.fit_report is s.diagnosis is s.diagnosis_result is None
+    assert s.fit is s.fitted is s.diagnosis is s.diagnosis_result is None

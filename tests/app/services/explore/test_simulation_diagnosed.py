@@ -19,9 +19,9 @@ def test_inverse_and_closed_loop_views_use_the_diagnosed_model() -> None:
     pi = base.model if isinstance(base.model, PIModel) else None
     assert pi is not None
     ext = Chain.of(pi, Creep([0.01, 0.1], [0.05, 0.05]))
-    session = SimpleNamespace(diagnosis_result=SimpleNamespace(effects=["creep"], model=ext))
+    session = SimpleNamespace(diagnosed=ext)  # a session's typed state holds the Model
     assert diagnosed_model(session) is ext
-    assert diagnosed_model(SimpleNamespace(diagnosis_result=None)) is None
+    assert diagnosed_model(SimpleNamespace(diagnosed=None)) is None
     res = compute(cfg, diagnosed=diagnosed_model(session))
     # the compensated output follows the desired one through the *extended* model ...
     np.testing.assert_allclose(res.y_comp, res.u, rtol=0, atol=1e-9)

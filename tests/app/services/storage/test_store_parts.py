@@ -25,6 +25,7 @@ from app.services.storage.store import DamagedSessionError, SessionState, Sessio
 from core.base import Chain, model_from_dict
 from core.recordings import Recording
 from core.stages import Creep
+from tests.app.recordings import small_fit
 
 
 def _extended() -> Chain:
@@ -39,8 +40,7 @@ def _stored(db: Path) -> str:
     code = new_code()
     store.save(SessionState(
         code=code, config=Config(), recording=Recording(t, u, 0.5 * u, name="r"),
-        fitted=Config().model, fit_report={"rmse": 0.1},
-        diagnosis={"findings": ["creep"]}, diagnosed=_extended().to_dict()))
+        fit=small_fit(), diagnosis={"findings": ["creep"]}, diagnosed=_extended()))
     store.close()
     return code
 
@@ -69,6 +69,7 @@ def _npz_without_meta() -> bytes:
 
 SET_CONFIG = "UPDATE sessions SET config=?"
 SET_FITTED = "UPDATE sessions SET fitted=?"
+SET_FIT_REPORT = "UPDATE sessions SET fit_report=?"
 SET_REPORT = "UPDATE sessions SET diagnosis=?"
 SET_RECORDING = "UPDATE blobs SET data=? WHERE kind='recording'"
 SET_DIAGNOSIS = "UPDATE blobs SET data=? WHERE kind='diagnosis'"
@@ -82,6 +83,8 @@ DAMAGE = {
     "recording-no-meta": ("recording", SET_RECORDING, _npz_without_meta()),
     "fit-garbage": ("fit", SET_FITTED, "\x00\x01"),
     "fit-bad-model": ("fit", SET_FITTED, '{"type": "pi", "r": "many"}'),
+    "fit-bad-parameter-set": ("fit", SET_FIT_REPORT, '{"parameter_set": {"format": "x"}}'),
+    "fit-no-report": ("fit", SET_FIT_REPORT, '{"rmse": 0.1}'),
     "diagnosis-report": ("diagnosis", SET_REPORT, '"just a string"'),
     "diagnosis-garbage": ("diagnosis", SET_DIAGNOSIS, b"\x80\x04garbage"),
     "diagnosis-bad-model": ("diagnosis", SET_DIAGNOSIS, b'{"diagnosed": {"type": "nope"}}'),
@@ -110,6 +113,39 @@ def test_a_damaged_part_answers_410_once_and_resets_the_session(
         assert c.patch(f"/api/sessions/{code}/config", json={"mismatch": 0.1}).status_code \
             == 200
     assert SessionStore(db).load(code) is not None  # the reset is stored too
+
+
+def test_a_fit_stored_in_the_old_form_loads_as_a_typed_outcome(tmp_path: Path) -> None:
+    """Sessions stored before the typed state (2026-12-05) hold their fit as the fitted
+    model's document beside the explorer's report (FitReport.to_dict() plus the kind, n
+    and the errors on the whole recording); they load as the same FitOutcome."""
+    import json
+
+    from app.services.analysis.fitting import fit_report
+
+    t = np.arange(400) * 1e-3
+    u = 3 * np.sin(2 * np.pi * 3 * t) * np.exp(-t)
+    rec = Recording(t, u, model_from_dict(Config().model)(u), name="old")
+    fit = small_fit()
+    db = tmp_path / "sessions.sqlite3"
+    code = _stored(db)
+    old_report = fit_report(fit, rec)  # what the fit job stored then, word for word
+    with sqlite3.connect(db) as raw:
+        raw.execute("UPDATE sessions SET fitted=?, fit_report=? WHERE code=?",
+                    (json.dumps(fit.model.to_dict()), json.dumps(old_report), code))
+    raw.close()
+    again = SessionRegistry(store=SessionStore(db)).get(code)
+    got = again.fit
+    assert got is not None and again.fitted is not None
+    assert again.fitted.to_dict() == fit.model.to_dict() and got.kind == "pi"
+    assert got.report == fit.report and got.warnings == fit.warnings
+    assert got.memory_note == fit.memory_note and "wipe-out" in got.memory_note
+    assert got.parameter_set.provenance.fit["n_operators"] == 4
+    # and it is stored again in the new form, the same outcome
+    again.save()
+    back = SessionStore(db).load(code)
+    assert back is not None and back.fit is not None
+    assert back.fit.parameter_set.to_dict() == got.parameter_set.to_dict()
 
 
 def test_a_legacy_pickled_diagnosis_is_never_unpickled(tmp_path: Path) -> None:

@@ -18,8 +18,11 @@ from app.services.explore.config import Config
 from app.services.storage.store import SessionState, SessionStore
 from app.services.storage.store_salvage import salvage
 from core.recordings import Recording
+from tests.app.recordings import small_fit
 
 N = 40
+#: The fit every third session holds.
+FIT = small_fit()
 
 
 def _recording(k: int) -> Recording:
@@ -35,7 +38,7 @@ def _filled(db: Path) -> dict[str, SessionState]:
         cfg = Config().with_model({**Config().model, "p0": 0.5 + k / 100})
         st = SessionState(code=f"code-{k:04d}", config=cfg, version=k, owner=f"10.0.0.{k % 3}",
                           recording=_recording(k) if k % 2 else None,
-                          fit_report={"rmse": k / 10} if k % 3 == 0 else None)
+                          fit=FIT if k % 3 == 0 else None)
         store.save(st)
         states[st.code] = st
     store.put_class_state("lesson", '{"step": 2}')
@@ -53,7 +56,9 @@ def _check_restored(db: Path, states: dict[str, SessionState]) -> int:
         for code in codes:
             got, want = store.load(code), states[code]
             assert got.config.to_dict() == want.config.to_dict() and got.version == want.version
-            assert got.owner == want.owner and got.fit_report == want.fit_report
+            assert got.owner == want.owner and (got.fit is None) == (want.fit is None)
+            if want.fit is not None and got.fit is not None:
+                assert got.fit.parameter_set.to_dict() == want.fit.parameter_set.to_dict()
             if want.recording is None:
                 assert got.recording is None
             elif got.recording is not None:  # a blob on a lost page: the session stays
