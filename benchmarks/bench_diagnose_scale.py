@@ -11,10 +11,12 @@ child's own CPU time (user + system) and peak resident memory (``ru_maxrss``). E
 measured in the same run and reported as a ratio to the 100k case, so the shape survives a
 noisy shared machine; the load average is printed before and after.
 
-Sizes: 25k, 100k, 200k, 400k, 1M samples; ``--huge`` adds 10M (about 10 minutes and, on the
-engine of issue 31's start, more memory than the machine has: the refusal of ``hyst
-diagnose`` up front is then what is measured); ``--quick``: 25k and 100k. ``--sizes`` takes
-a comma list (``25k,1M``).
+Sizes: 25k, 100k, 200k, 400k, 1M samples; ``--huge`` adds 2M, 4M and 10M (a 306 MB CSV
+for 10M, read in blocks by :mod:`core.csvio.stream`; about 10 minutes in all on a quiet
+machine, up to 1.5 GB per run); ``--quick``: 25k and 100k. ``--sizes`` takes a comma list
+(``25k,1M,10M``). The files are written to a temporary folder, or kept in ``--keep DIR``
+(reused when there: a 10M file takes about 15 s to write). Nothing here runs in the test
+suite.
 
 ``--baseline DIR`` also runs the code of another checkout (the code before a change) on the
 same files, each of its runs just before the current one, and prints a before/after table.
@@ -49,7 +51,7 @@ PIEZO = ROOT / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
 PERIOD = 5000  # samples of one 1 Hz input period at 5 kHz
 TAIL_PERIODS = 6  # the cycling part of the shipped file holds 6.7 periods
 SIZES = {"25k": 25_000, "100k": 100_000, "200k": 200_000, "400k": 400_000, "1M": 1_000_000}
-HUGE = {"10M": 10_000_000}
+HUGE = {"2M": 2_000_000, "4M": 4_000_000, "10M": 10_000_000}
 MB = 1e6
 #: issue 31's targets
 MEM_BASE, MEM_PER_SAMPLE = 400e6, 300.0  # bytes
@@ -260,7 +262,6 @@ def contention(repeat: int) -> dict[str, list[float]]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--huge", action="store_true", help="add 10M samples")
     ap.add_argument("--quick", action="store_true", help="25k and 100k only")
     ap.add_argument("--sizes", help="comma list of sizes (25k,100k,1M,...)")
     ap.add_argument("--skip-fit", action="store_true", help="hyst diagnose only")
@@ -269,6 +270,10 @@ def main() -> int:
     ap.add_argument("--only-contention", action="store_true", help="the contention part only")
     ap.add_argument("--repeat", type=int, default=3, help="runs per contention case")
     ap.add_argument("--json", metavar="PATH", help="write the measurements as JSON")
+    ap.add_argument("--keep", metavar="DIR", type=Path,
+                    help="write (or reuse) the tiled CSV files in DIR instead of a temporary "
+                         "folder")
+    ap.add_argument("--huge", action="store_true", help="add 2M, 4M and 10M samples")
     ap.add_argument("--baseline", metavar="DIR", type=Path,
                     help="another checkout (the code before a change, e.g. from `git archive "
                          "REV | tar -x -C DIR`): its fit and diagnosis run too, each just "
@@ -286,8 +291,12 @@ def main() -> int:
           f"{load0[2]:.2f} (1 / 5 / 15 min) at start", flush=True)
     doc: dict = {"load_start": load0}
     if not args.only_contention:
-        with tempfile.TemporaryDirectory(prefix="hyst-scale-") as tmp:
-            res = scale(sizes, Path(tmp), args.skip_fit, args.baseline)
+        if args.keep is not None:
+            args.keep.mkdir(parents=True, exist_ok=True)
+            res = scale(sizes, args.keep, args.skip_fit, args.baseline)
+        else:
+            with tempfile.TemporaryDirectory(prefix="hyst-scale-") as tmp:
+                res = scale(sizes, Path(tmp), args.skip_fit, args.baseline)
         print("\n" + table(res, sizes) + "\n")
         if args.baseline is not None:
             print(before_after(res, sizes) + "\n")

@@ -21,11 +21,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from app.services.runs.cost import memory_refusal
 from app.services.runs.progress import Progress
 
 from .options import DiagnoseOptions, FitOptions, Options
 
-__all__ = ["Outcome", "run_recording"]
+__all__ = ["Outcome", "memory_refusal_here", "run_recording", "worker_memory"]
 
 
 @dataclass(frozen=True)
@@ -177,6 +178,9 @@ def run_recording(kind: str, filename: str, content: bytes, options: Options) ->
     with tempfile.TemporaryDirectory(prefix="hyst-batch-") as tmp:
         src = Path(tmp) / Path(filename).name
         src.write_bytes(content)
+        refusal = memory_refusal_here(kind, filename, content)
+        if refusal:
+            return Outcome(False, error=refusal, elapsed_s=time.perf_counter() - t0)
         try:
             if kind == "fit" and isinstance(options, FitOptions):
                 out = _fit(src, options, progress)
@@ -198,6 +202,55 @@ def run_recording(kind: str, filename: str, content: bytes, options: Options) ->
         except Exception as exc:  # noqa: BLE001 - one bad recording never stops the batch
             return Outcome(False, error=f"internal error ({type(exc).__name__}): {exc}",
                            messages=_text(lines), elapsed_s=time.perf_counter() - t0)
+
+
+def worker_memory() -> float | None:
+    """Bytes the whole worker process may take: what the machine still has for it (its
+    own resident memory plus :func:`core.memory.available_memory`), within 95 % of its Dask
+    worker's memory limit (where the nanny ends the worker); ``None`` where nothing says."""
+    from core.memory import available_memory
+
+    caps: list[float] = []
+    free = available_memory()
+    if free is not None:
+        caps.append(free + _resident())
+    try:
+        from distributed import get_worker
+
+        limit = get_worker().memory_manager.memory_limit
+    except (ImportError, ValueError, AttributeError):
+        limit = None
+    if limit:
+        caps.append(0.95 * float(limit))
+    return min(caps) if caps else None
+
+
+def _resident() -> int:
+    """Resident memory of this process, bytes (Linux ``VmRSS``; 0 where unknown)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def memory_refusal_here(kind: str, filename: str, content: bytes,
+                        allowed: float | None = None) -> str | None:
+    """The refusal, in words, of a recording whose ``kind`` run would not fit in this
+    worker's memory (:func:`worker_memory`, or ``allowed`` bytes), else ``None``; its samples
+    are its lines, counted before anything is read (the model of ``hyst fit`` / ``hyst
+    diagnose``, :mod:`app.services.runs.cost`)."""
+    from app.services.runs.cost import DIAGNOSE, FIT
+
+    allowed = worker_memory() if allowed is None else allowed
+    if allowed is None:
+        return None
+    samples = content.count(b"\n") + (not content.endswith(b"\n"))
+    return memory_refusal(samples, DIAGNOSE if kind == "diagnose" else FIT, filename, allowed,
+                          where="a batch worker has")
 
 
 def _text(lines: list[str]) -> str:

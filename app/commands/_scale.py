@@ -2,10 +2,9 @@
 memory and CPU time from measured per-sample models, the memory this process may use, and
 progress lines with the time left.
 
-The models are lines through (or, where they say so, above) the measurements of
-``benchmarks/bench_diagnose_scale.py`` (tiled piezo recordings, one thread; the table is in
-``docs/pages/diagnose.md``, "Scale"). Re-measure and update them when the diagnosis's memory
-or time changes.
+The models (:mod:`app.services.runs.cost`, shared with the batch and job workers) are lines
+above the measurements of ``benchmarks/bench_diagnose_scale.py`` (tiled piezo recordings, one
+thread; the table is in ``docs/pages/diagnose.md``, "Scale").
 """
 
 from __future__ import annotations
@@ -14,41 +13,15 @@ import re
 import resource
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
+from app.services.runs.cost import DIAGNOSE, FIT, CostModel, memory_refusal
 from app.services.runs.inputs import CommandError
 from app.services.runs.progress import Progress
 
-__all__ = ["DIAGNOSE", "ETA_FROM_S", "CostModel", "EtaProgress", "allowed_memory",
+__all__ = ["DIAGNOSE", "ETA_FROM_S", "FIT", "CostModel", "EtaProgress", "allowed_memory",
            "check_memory", "count_samples"]
 
-
-@dataclass(frozen=True)
-class CostModel:
-    """Peak memory (bytes) and CPU time (s) of a command as ``base + per_sample * samples``."""
-
-    base_bytes: float
-    bytes_per_sample: float
-    base_cpu_s: float
-    cpu_s_per_sample: float
-
-    def peak_bytes(self, samples: int) -> float:
-        return self.base_bytes + self.bytes_per_sample * samples
-
-    def cpu_s(self, samples: int) -> float:
-        return self.base_cpu_s + self.cpu_s_per_sample * samples
-
-
-#: ``hyst diagnose`` since its caches are bounded in bytes (issue 31; bench_diagnose_scale.py,
-#: one thread, docs/pages/diagnose.md "Scale"): peaks of 328, 576, 894 and 619 MB at 25k,
-#: 100k, 400k and 1M samples (before: 841 MB + 3.98 kB per sample). The caches fill up to
-#: about 550 MB and then hold still; what grows with the record (the recording, predictions,
-#: a streamed block's rows, the reader) is taken as 0.3 kB per sample, an upper envelope of
-#: the measured points, not a fit (10M samples are not measured). CPU: 3.9, 8.1, 24.7 and
-#: 19.9 s.
-DIAGNOSE = CostModel(base_bytes=900e6, bytes_per_sample=300.0, base_cpu_s=5.0,
-                     cpu_s_per_sample=15e-6)
 
 #: Runs expected to take at least this long (s) show the time left on each progress line.
 ETA_FROM_S = 20.0
@@ -111,25 +84,12 @@ def check_memory(samples: int, model: CostModel, what: str,
         When the predicted peak is above ``allowed`` (default :func:`allowed_memory`); the
         message gives both sizes and what to do.
     """
-    need = model.peak_bytes(samples)
     allowed = allowed_memory() if allowed is None else allowed
-    if allowed is not None and need > allowed:
-        raise CommandError(
-            f"{what} holds about {samples:,} samples; diagnosing it would need about "
-            f"{_size(need)} of memory ({_size(model.base_bytes)} + "
-            f"{model.bytes_per_sample / 1e3:.1f} kB per sample, as measured) and this machine "
-            f"has {_size(allowed)} available; diagnose a shorter part of the recording (cut "
-            f"it, or decimate it if its sampling rate allows), at most about "
-            f"{_fitting(model, allowed):,} samples here")
-    return need
-
-
-def _fitting(model: CostModel, allowed: float) -> int:
-    return max(0, int((allowed - model.base_bytes) / model.bytes_per_sample) // 1000 * 1000)
-
-
-def _size(b: float) -> str:
-    return f"{b / 1e9:.1f} GB" if b >= 1e9 else f"{b / 1e6:.0f} MB"
+    if allowed is not None:
+        refusal = memory_refusal(samples, model, what, allowed)
+        if refusal:
+            raise CommandError(refusal)
+    return model.peak_bytes(samples)
 
 
 class EtaProgress(Progress):

@@ -16,6 +16,7 @@ from app.services.analysis.recordings import csv_read_options, read_recordings, 
 from app.services.runs.progress import Progress
 
 from ._common import add_json_flag, add_threads_option, emit
+from ._scale import FIT, check_memory, count_samples
 
 if TYPE_CHECKING:
     from core.csvio import CsvOptions
@@ -110,6 +111,9 @@ def run(args: argparse.Namespace) -> int:
     train_w = time_window(args.train, "train")
     test_w = time_window(args.test, "test")
     check_n_operators(args.n_operators)
+    # refuse up front, with the memory it would need, what cannot fit
+    check_memory(count_samples(args.files), FIT,
+                 args.files[0] if len(args.files) == 1 else f"the {len(args.files)} files")
     recs = read_recordings(args.files, read_options(args))
     say_read(progress, recs)
     what = ("the base hyst diagnose would choose (--model auto)" if args.model == "auto"

@@ -21,7 +21,7 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from app.services.jobs import tasks
-from app.services.jobs.manager import Job, JobBusy, JobManager
+from app.services.jobs.manager import Job, JobBusy, JobManager, JobTooLarge
 from app.services.session.sessions import Session
 from app.services.settings import Settings
 
@@ -68,6 +68,8 @@ def start_job(request: Request, session: Session, settings: Settings, kind: str,
     jobs: JobManager = request.app.state.jobs
     try:
         return jobs.submit(session.code, kind, task)
+    except JobTooLarge as exc:  # the recording is too long for a worker: the input's fault
+        raise HTTPException(422, str(exc)) from None
     except JobBusy as exc:
         raise HTTPException(409, str(exc)) from None
 

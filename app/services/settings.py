@@ -12,6 +12,7 @@ from app.services.explore.cost import Limits
 from app.services.guard.clients import proxy_networks
 from app.services.guard.hosts import HostAllowList
 from app.services.jobs.worker import default_memory_limit
+from app.services.runs.cost import DIAGNOSE, WORKER_START_BYTES
 from app.services.storage.quotas import Quotas
 
 __all__ = ["Settings", "is_loopback"]
@@ -85,7 +86,10 @@ class Settings:
         Memory each worker process (a fit, a diagnosis, heavy figures) may allocate beyond
         what it holds at its start, MB; ``0`` (the default) is
         :func:`~app.services.jobs.worker.default_memory_limit`: twice the priced memory bound of
-        a request, at most a quarter of the machine's memory (:attr:`worker_memory_bytes`).
+        a request, at most a quarter of the machine's memory, and at least what a diagnosis
+        of ``max_samples`` samples needs by :data:`app.services.runs.cost.DIAGNOSE`
+        (:attr:`worker_memory_bytes`). A fit or diagnosis job whose recording would need more
+        is refused before it starts, in words.
     """
 
     host: str = "127.0.0.1"
@@ -197,7 +201,10 @@ class Settings:
         """The memory allowance of each worker process, bytes (see ``worker_memory_mb``)."""
         if self.worker_memory_mb > 0:
             return int(self.worker_memory_mb * 1e6)
-        return default_memory_limit(self.limits.max_memory_bytes)
+        # never below what a diagnosis of the longest recording admitted needs beyond the
+        # worker's start (the measured model of app.services.runs.cost: 710 MB at 200,000)
+        need = DIAGNOSE.peak_bytes(self.max_samples) - WORKER_START_BYTES
+        return max(default_memory_limit(self.limits.max_memory_bytes), int(need))
 
     @property
     def quotas(self) -> Quotas:

@@ -81,8 +81,8 @@ text), :mod:`~core.csvio.dialect` (delimiter, decimal mark, line checks),
 (roles and conversion), :mod:`~core.csvio.timebase` (time units, increasing and even stamps),
 :mod:`~core.csvio.stream` (large numeric files in blocks), :mod:`~core.csvio.load` (which of
 the two reads a source), :mod:`~core.csvio.reader` (recordings and runs) and
-:mod:`~core.csvio.inputs` (input-only signals); :mod:`~core.csvio.options` and :mod:`~core.csvio.errors` hold the options and the
-exceptions.
+:mod:`~core.csvio.inputs` (input-only signals); :mod:`~core.csvio.options` and
+:mod:`~core.csvio.errors` hold the options and the exceptions.
 """
 
 

@@ -23,14 +23,20 @@ from typing import Any
 
 from app.services.jobs.worker import Task, Worker, WorkerDied
 from app.services.jobs.worker import start as start_workers
+from app.services.runs.cost import WORKER_START_BYTES, memory_refusal
 
-__all__ = ["Job", "JobBusy", "JobManager", "JobView"]
+__all__ = ["Job", "JobBusy", "JobManager", "JobTooLarge", "JobView"]
 
 _FINAL = frozenset({"done", "failed", "cancelled"})
 
 
 class JobBusy(RuntimeError):
     """The session already has a job running, or the queue is full."""
+
+
+class JobTooLarge(JobBusy):
+    """The job's recording would not fit in a worker's memory allowance (the sizes in
+    words); refused before it starts."""
 
 
 @dataclass(frozen=True)
@@ -123,7 +129,14 @@ class JobManager:
         ------
         JobBusy
             If ``code`` has a job queued or running, or too many jobs are waiting.
+        JobTooLarge
+            If the task's measured memory model (``task.cost``) predicts more for its
+            ``task.samples`` than a worker's allowance (``memory_limit``, beyond the
+            worker's start): the message gives both sizes and the samples that fit.
         """
+        refusal = self.memory_refusal(task)
+        if refusal:
+            raise JobTooLarge(refusal)
         with self._lock:
             if code in self._active:
                 raise JobBusy(f"this session already has a {self._jobs[self._active[code]].kind}"
@@ -138,6 +151,14 @@ class JobManager:
             self._forget_old()
         self._pool.submit(self._run, job, task)
         return job
+
+    def memory_refusal(self, task: Task) -> str | None:
+        """Why ``task`` would not fit in a worker's allowance, in words, or ``None``."""
+        if not (self.memory_limit and task.cost is not None and task.samples):
+            return None
+        return memory_refusal(task.samples, task.cost, "the recording",
+                              self.memory_limit + WORKER_START_BYTES,
+                              where="a job on this server has")
 
     def get(self, code: str, job_id: str) -> Job:
         """The job ``job_id`` of session ``code`` (marks it as waited for); ``KeyError``."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from app.services.jobs.worker import Progress, Task
+from app.services.runs.cost import DIAGNOSE, FIT
 from core.exceptions import ParameterError
 
 if TYPE_CHECKING:
@@ -136,7 +137,7 @@ def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
         session.set_fit(fit, apply=apply)
         return {"model": fit.model.to_dict(), "report": fit_report(fit, rec), "figure": figure}
 
-    return Task(run_fit, (rec, n, kind), keep)
+    return Task(run_fit, (rec, n, kind), keep, samples=rec.n_samples, cost=FIT)
 
 
 def diagnose_task(session: Session) -> Task:
@@ -150,4 +151,5 @@ def diagnose_task(session: Session) -> Task:
         session.set_diagnosis(report, result)
         return report
 
-    return Task(run_diagnosis, (_recording(session, "diagnose"), doc), keep)
+    rec = _recording(session, "diagnose")
+    return Task(run_diagnosis, (rec, doc), keep, samples=rec.n_samples, cost=DIAGNOSE)

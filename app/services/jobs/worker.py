@@ -36,7 +36,10 @@ import signal
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from app.services.runs.cost import CostModel
 
 __all__ = ["PRELOAD", "LiveWorkers", "OutOfMemory", "Progress", "Task", "TaskFailed", "Worker",
            "WorkerDied", "default_memory_limit", "memory_message", "start"]
@@ -86,11 +89,19 @@ class Task:
         Called in the server with ``fn``'s return value once the work is done and was not
         cancelled (store it in the session); its return value is the job's result.
         Without it the result is ``fn``'s return value.
+    samples : int
+        Samples of the recording the work reads (0: none or not known).
+    cost : CostModel, optional
+        The work's measured memory model (:mod:`app.services.runs.cost`): with
+        ``samples`` it says up front whether the work fits in a worker's allowance
+        (:meth:`app.services.jobs.manager.JobManager.submit` refuses it in words if not).
     """
 
     fn: Callable[..., Any]
     args: tuple[Any, ...] = ()
     keep: Callable[[Any], Any] | None = None
+    samples: int = 0
+    cost: CostModel | None = None
 
 
 class TaskFailed(RuntimeError):

@@ -79,3 +79,45 @@ def test_no_windows_the_saved_model_is_refitted_on_every_row(piezo) -> None:
     assert saved <= 0.15
     doc = res.to_dict()
     assert doc["final"]["model_fitted_on"].startswith("every row")
+
+
+#: The README's diagnosis of the shipped file (``hyst diagnose piezo_150V_1Hz.csv``, default
+#: options), measured 2026-12-05 with the whole-text reader: (round, effect, passes, dm_z).
+PIEZO_TESTED = [
+    (1, "delay", False, 0.176), (1, "lag", False, -0.296), (1, "resonance", False, -0.160),
+    (1, "drift", False, -5.580), (1, "asymmetry", False, 1.441),
+    (1, "initial-memory", True, 18.670), (1, "saturation", True, 19.907),
+    (1, "dead-zone", True, 16.965), (1, "resolution:50", True, 2.261),
+    (1, "resolution:100", False, 2.329), (2, "delay", False, 7.288), (2, "lag", False, 7.431),
+    (2, "resonance", False, 6.831), (2, "drift", False, 3.621), (2, "asymmetry", False, 2.967),
+    (2, "saturation", False, 2.269), (2, "dead-zone", False, -5.813)]
+
+
+@pytest.mark.slow
+def test_the_shipped_diagnosis_through_the_block_reader(monkeypatch) -> None:
+    """Issue 31: the shipped file read in blocks (core.csvio.stream, forced here: the file is
+    below the 8 MiB where blocks start) is the recording the whole-text reader gives, bit for
+    bit, and its diagnosis has the names and numbers the whole-text reader's had."""
+    from pathlib import Path
+
+    from core.csvio import CsvOptions, load, read_csv, stream
+
+    path = Path(__file__).parents[3] / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
+    (whole,) = read_csv(path)
+    monkeypatch.setattr(stream, "STREAM_FROM_BYTES", 0)
+    monkeypatch.setattr(stream, "BLOCK_BYTES", 64 * 1024)
+    assert isinstance(load.read_table(path, CsvOptions())[0], stream.StreamedTable)
+    (blocks,) = read_csv(path)
+    for k in ("t", "u", "y", "lines"):
+        np.testing.assert_array_equal(getattr(blocks, k), getattr(whole, k))
+    assert (blocks.cleaning, dict(blocks.units), blocks.name) == (
+        whole.cleaning, dict(whole.units), whole.name)
+    res = diagnose(path)
+    assert [e.name for e in res.effects] == ["initial-memory"]
+    assert res.effects[0].parameters["history"] == [[-126.0]]
+    assert res.heldout_rmse(res.baseline) == pytest.approx(0.7603972281, rel=1e-6)
+    assert res.heldout_rmse(res.final) == pytest.approx(0.1069648139, rel=1e-6)
+    assert res.y_range == pytest.approx(39.337159, rel=1e-9)
+    tested = [(r.round, r.effect, r.passes, r.dm_z) for r in res.rounds]
+    assert [t[:3] for t in tested] == [t[:3] for t in PIEZO_TESTED]
+    np.testing.assert_allclose([t[3] for t in tested], [t[3] for t in PIEZO_TESTED], atol=2e-3)

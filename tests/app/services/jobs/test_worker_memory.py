@@ -8,7 +8,6 @@ the machine's memory: a 19,000-coefficient asymmetry inverse grew to 6.2 GB, iss
 from __future__ import annotations
 
 import json
-import time
 import urllib.error
 import urllib.request
 from typing import Any
@@ -16,8 +15,9 @@ from typing import Any
 import pytest
 
 from app.server import create_app
-from app.services.jobs.manager import JobManager
+from app.services.jobs.manager import JobManager, JobTooLarge
 from app.services.jobs.worker import OutOfMemory, Task, Worker, default_memory_limit
+from app.services.runs.cost import DIAGNOSE, FIT
 from app.services.settings import Settings
 from tests.app import job_work
 from tests.app.live_server import serving
@@ -73,9 +73,12 @@ def _call(url: str, method: str = "GET", body: bytes | None = None,
         return json.load(r)
 
 
-def test_a_real_diagnosis_over_a_small_allowance_fails_and_the_server_goes_on() -> None:
+def test_a_real_diagnosis_over_a_small_allowance_is_refused_and_the_server_goes_on() -> None:
     """On a real server with a 20 MB allowance a diagnosis of a 20,000-sample recording
-    (which needs more) fails with the message; the server answers and simulates after."""
+    (which needs more by its measured model) is refused before it starts, in words (422,
+    no worker: before issue 31 it ran and failed in its worker with the words of
+    :func:`memory_message`, which the tests above still reach with jobs the model cannot
+    see); the server answers and simulates after."""
     import numpy as np
 
     from core.pi import PIModel
@@ -89,21 +92,45 @@ def test_a_real_diagnosis_over_a_small_allowance_fails_and_the_server_goes_on() 
         url = f"http://127.0.0.1:{port}/api/"
         code = _call(url + "sessions", "POST")["code"]
         _call(url + f"sessions/{code}/recording", "POST", csv.encode(), "text/csv")
-        job = _call(url + f"sessions/{code}/jobs", "POST",
-                    json.dumps({"kind": "diagnose", "params": {}}).encode())
-        deadline = time.monotonic() + 120
-        while (v := _call(url + f"sessions/{code}/jobs/{job['id']}"))["state"] in (
-                "queued", "running"):
-            assert time.monotonic() < deadline
-            time.sleep(0.1)
-        assert v["state"] == "failed"
-        assert "more memory than the server allows (20 MB)" in v["error"]
-        assert "use fewer samples or operators" in v["error"]
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            _call(url + f"sessions/{code}/jobs", "POST",
+                  json.dumps({"kind": "diagnose", "params": {}}).encode())
+        assert refused.value.code == 422
+        words = json.load(refused.value)["detail"]
+        assert words.startswith("the recording holds about 20,000 samples; diagnosing it "
+                                "would need about 906 MB of memory")
+        assert "a job on this server has 270 MB available" in words
         assert _call(url + "health")
         assert _call(url + f"sessions/{code}/figures?names=loop")["figures"]
         with pytest.raises(urllib.error.HTTPError) as err:  # the session holds no diagnosis
             _call(url + f"sessions/{code}/diagnosis/figure")
         assert err.value.code == 409
+
+
+def test_a_job_whose_recording_needs_more_than_the_allowance_is_refused_up_front() -> None:
+    """The job manager refuses, before any worker starts, a task whose measured model
+    (app.services.runs.cost) needs more than the allowance, in words; the server's default
+    allowance admits a diagnosis of its longest recording (max_samples)."""
+    jobs = JobManager(max_workers=1, memory_limit=LIMIT)
+    try:
+        too_long = Task(job_work.constant, (7,), samples=2_000_000, cost=DIAGNOSE)
+        with pytest.raises(JobTooLarge) as err:
+            jobs.submit("s", "diagnose", too_long)
+        msg = str(err.value)
+        need = DIAGNOSE.peak_bytes(2_000_000)
+        assert msg.startswith("the recording holds about 2,000,000 samples; diagnosing it "
+                              f"would need about {need / 1e9:.1f} GB of memory")
+        assert "a job on this server has 450 MB available" in msg  # 200 MB beyond 250 MB
+        assert "use a shorter part of the recording" in msg
+        assert not jobs.workers() and jobs.running() == 0
+        fits = Task(job_work.constant, (7,), samples=1000, cost=FIT)  # 250 MB + 0.1 MB
+        assert jobs.wait(j := jobs.submit("s", "fit", fits), 60) and j.view().result == 7
+    finally:
+        jobs.cancel_all()
+    settings = Settings()
+    longest = Task(job_work.constant, (7,), samples=settings.max_samples, cost=DIAGNOSE)
+    assert JobManager(max_workers=1, memory_limit=settings.worker_memory_bytes
+                      ).memory_refusal(longest) is None
 
 
 def test_workers_run_one_blas_thread_unless_the_user_says_otherwise() -> None:

@@ -1,0 +1,105 @@
+"""What a fit or a diagnosis of a recording will cost: peak memory and CPU time from
+measured per-sample models, and the refusal, in words, of what would not fit in the memory
+allowed.
+
+One model for every place that runs them: ``hyst fit`` / ``hyst diagnose``
+(:mod:`app.commands._scale`), the batch workers (:mod:`app.batch.single`) and the server's
+job workers (:mod:`app.services.jobs.tasks`). The models are lines above the measurements of
+``benchmarks/bench_diagnose_scale.py`` (tiled piezo recordings, one thread; the table is in
+``docs/pages/diagnose.md``, "Scale"). Re-measure and update them when the memory or the time
+of a command changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["DIAGNOSE", "FIT", "WORKER_START_BYTES", "CostModel", "memory_refusal", "size_text"]
+
+
+@dataclass(frozen=True)
+class CostModel:
+    """Peak memory (bytes) and CPU time (s) of a command as ``base + per_sample * samples``.
+
+    Attributes
+    ----------
+    base_bytes, bytes_per_sample : float
+        Peak resident memory of the whole process, bytes.
+    base_cpu_s, cpu_s_per_sample : float
+        CPU time on one thread, s.
+    verb : str
+        What the command does, for messages (``"diagnosing"``).
+    """
+
+    base_bytes: float
+    bytes_per_sample: float
+    base_cpu_s: float
+    cpu_s_per_sample: float
+    verb: str = "diagnosing"
+
+    def peak_bytes(self, samples: int) -> float:
+        """Predicted peak resident memory of ``samples`` samples, bytes."""
+        return self.base_bytes + self.bytes_per_sample * samples
+
+    def cpu_s(self, samples: int) -> float:
+        """Predicted CPU time of ``samples`` samples on one thread, s."""
+        return self.base_cpu_s + self.cpu_s_per_sample * samples
+
+    def most_samples(self, allowed: float) -> int:
+        """The most samples whose predicted peak fits in ``allowed`` bytes (in thousands)."""
+        return max(0, int((allowed - self.base_bytes) / self.bytes_per_sample) // 1000 * 1000)
+
+
+#: ``hyst diagnose`` (issue 31; bench_diagnose_scale.py and /usr/bin/time, one thread,
+#: docs/pages/diagnose.md "Scale"): peaks of 328, 576, 894, 619, 896, 1,434 and 3,088 MB at
+#: 25k, 100k, 400k, 1M, 2M, 4M and 10M samples. The caches fill up to about 550 MB and then
+#: hold still; what grows with the record (the recording, predictions, residuals, a streamed
+#: block's rows, the reader's numbers) is about 0.28 kB per sample from 4M to 10M: 0.3 kB per
+#: sample above 900 MB is an upper envelope of every measured point (10M: 3.9 GB predicted,
+#: 3.1 GB measured). CPU: 3.9, 8.1, 24.7, 19.9, 24, 55 and 132 s.
+DIAGNOSE = CostModel(base_bytes=900e6, bytes_per_sample=300.0, base_cpu_s=5.0,
+                     cpu_s_per_sample=15e-6)
+
+#: ``hyst fit`` (the same benchmark): peaks of 215, 420, 442, 690 and 1,428 MB at 100k, 1M,
+#: 2M, 4M and 10M samples (the reader in blocks), CPU 2.0, 4.7, 5.1, 9.4 and 27 s: an upper
+#: envelope of 250 MB + 0.125 kB per sample.
+FIT = CostModel(base_bytes=250e6, bytes_per_sample=125.0, base_cpu_s=2.0,
+                cpu_s_per_sample=3e-6, verb="fitting")
+
+#: Resident memory of a job worker when it starts (the solvers preloaded): its allowance is
+#: counted beyond it, the models above count it in.
+WORKER_START_BYTES = 250e6
+
+
+def size_text(b: float) -> str:
+    """Bytes in words: ``"1.2 GB"``, ``"640 MB"``."""
+    return f"{b / 1e9:.1f} GB" if b >= 1e9 else f"{b / 1e6:.0f} MB"
+
+
+def memory_refusal(samples: int, model: CostModel, what: str, allowed: float,
+                   where: str = "this machine has") -> str | None:
+    """The refusal of ``samples`` samples when ``model`` predicts more than ``allowed``
+    bytes, in words (what it would need, what there is, what to do), else ``None``.
+
+    Parameters
+    ----------
+    samples : int
+        Samples of the recording(s).
+    model : CostModel
+        The command's model.
+    what : str
+        The recording(s) as the user knows them (a file name).
+    allowed : float
+        Bytes the whole process may take.
+    where : str
+        Who allows ``allowed`` (``"this machine has"``, ``"a batch worker has"``).
+    """
+    need = model.peak_bytes(samples)
+    if need <= allowed:
+        return None
+    return (f"{what} holds about {samples:,} samples; {model.verb} it would need about "
+            f"{size_text(need)} of memory ({size_text(model.base_bytes)} + "
+            f"{model.bytes_per_sample / 1e3:.3g} kB per sample, as measured) and {where} "
+            f"{size_text(allowed)} available; use a shorter part of the recording (cut it, or "
+            f"decimate it if its sampling rate allows), at most about "
+            f"{model.most_samples(allowed):,} samples here")
