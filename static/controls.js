@@ -3,9 +3,9 @@
 // gets its sliders here without code of its own.
 //
 // The sliders edit a working copy of the model document (`controls.model`). A move is kept
-// inside the field's rules before it is sent: whole numbers, hard limits, and the order of
-// increasing fields (a threshold stops one step short of its neighbour); the note says so in
-// the labels the user sees. `revert` puts the sliders back at the last model the server
+// inside the field's rules before it is sent, by the server (POST /api/controls/clamp: whole
+// numbers, hard limits, and the order of increasing fields, a threshold one step short of its
+// neighbour; no copy of the rules here); the note says so in the labels the user sees. `revert` puts the sliders back at the last model the server
 // accepted, so a refused change never blocks the next one.
 
 const TOKENS = /[^.[\]]+|\[\d+\]/g;
@@ -41,14 +41,6 @@ function fmt(x) {
   return String(Number(x.toPrecision(6)));
 }
 
-function decimals(step) {
-  return Math.max(0, -Math.floor(Math.log10(step)));
-}
-
-function roundTo(x, step) {
-  return Number(x.toFixed(decimals(step) + 2));
-}
-
 // A log slider (s.log) moves its thumb in log10 of the value: position <-> value.
 const LOG_STEPS_PER_DECADE = 200;
 
@@ -78,6 +70,8 @@ export class ModelControls {
     this.inputs = new Map();
     this.seq = 0;
     this.shape = null;
+    this.pending = new Map();  // path -> the slider's newest move not yet clamped
+    this.clamping = false;
   }
 
   // Show `model` (a change that did not come from these sliders): the sliders are rebuilt
@@ -191,11 +185,35 @@ export class ModelControls {
     return true;
   }
 
-  // The rules of the field (limits, neighbours), then the working model and the page.
-  // `typed`: the number box's value (else the slider's position), `asked` what was typed
-  // before the slider's range held it
-  #moved(s, input, out, typed = null, asked = typed) {
-    const [v, note] = this.clamp(s, typed ?? valueAt(s, Number(input.value)));
+  // The rules of the field (limits, neighbours) are the server's (POST /api/controls/clamp,
+  // the viser GUI's too), then the working model and the page. One request at a time; of
+  // the moves of one slider made meanwhile the newest wins. `typed`: the number box's value
+  // (else the slider's position), `asked` what was typed before the slider's range held it
+  async #moved(s, input, out, typed = null, asked = typed) {
+    const value = typed ?? valueAt(s, Number(input.value));
+    this.pending.delete(s.path);  // (re-inserted last: the slider's newest move)
+    this.pending.set(s.path, { s, input, out, typed, asked, value });
+    if (this.clamping) return;
+    this.clamping = true;
+    try {
+      while (this.pending.size) {
+        const [path, m] = this.pending.entries().next().value;
+        this.pending.delete(path);
+        let done;
+        try {
+          done = await this.api("POST", "/api/controls/clamp", { model: this.model, path, value: m.value });
+        } catch (e) {
+          this.onChange(e.message);
+          continue;
+        }
+        if (!this.pending.has(path)) this.#show(m, done.value, done.note);  // else a newer one
+      }
+    } finally {
+      this.clamping = false;
+    }
+  }
+
+  #show({ s, input, out, typed, asked }, v, note) {
     const pos = String(position(s, v));
     if (pos !== input.value) input.value = pos;
     input.setAttribute("aria-valuetext", fmt(v));
@@ -204,44 +222,5 @@ export class ModelControls {
     const held = asked !== null && asked !== typed && !note
       ? `${s.label} stops at ${fmt(v)}: the slider's range is ${fmt(s.min)} to ${fmt(s.max)}` : "";
     this.onChange(note || held);
-  }
-
-  clamp(s, value) {
-    let v = value;
-    const notes = [];
-    if (s.fixed) return [getLeaf(this.model, s.path), `${s.label} is a constant of this model`];
-    if (s.integer) v = Math.round(v);
-    if (s.lower !== null && s.lower !== undefined) {
-      const lo = s.lower + (s.strict ? s.step : 0);
-      if (v <= lo) {  // also when the slider's own minimum held it there
-        v = lo;
-        notes.push(`${s.label} stops at ${fmt(lo)}: it must be ${s.strict ? ">" : "≥"} ${fmt(s.lower)}`);
-      }
-    }
-    if (s.upper !== null && s.upper !== undefined) {
-      const hi = s.upper - (s.strict ? s.step : 0);
-      if (v >= hi) {
-        v = hi;
-        notes.push(`${s.label} stops at ${fmt(hi)}: it must be ${s.strict ? "<" : "≤"} ${fmt(s.upper)}`);
-      }
-    }
-    let lo = -Infinity, hi = Infinity;
-    for (const [other, sign] of [[s.below, -1], [s.above, 1]]) {
-      if (!other) continue;
-      const w = getLeaf(this.model, other);
-      const edge = roundTo(w - sign * s.step, s.step);
-      if (sign > 0) hi = edge; else lo = edge;
-      if ((sign > 0 && v >= edge) || (sign < 0 && v <= edge)) {
-        v = edge;
-        const n = this.byPath.get(other);
-        notes.push(`${s.label} stops at ${fmt(edge)}, just ${sign > 0 ? "below" : "above"} ` +
-          `${n ? n.label : other} = ${fmt(w)}: ${s.rule}`);
-      }
-    }
-    if (lo > hi) {
-      const cur = getLeaf(this.model, s.path);
-      return [cur, `${s.label} stays at ${fmt(cur)}: its neighbours leave no room`];
-    }
-    return [roundTo(v, s.step), notes.join("; ")];
   }
 }

@@ -9,7 +9,7 @@ from fastapi import APIRouter
 from app.services.session import actions
 
 from .deps import SettingsDep
-from .schemas import ControlsIn, ControlsOut
+from .schemas import ClampIn, ClampOut, ControlsIn, ControlsOut
 
 __all__ = ["router"]
 
@@ -27,3 +27,16 @@ def controls(body: ControlsIn, settings: SettingsDep) -> dict[str, Any]:
     r4 = 1.8``).
     """
     return actions.checked_controls(body.model, settings).to_dict()
+
+
+@router.post("/controls/clamp", response_model=ClampOut)
+def clamp(body: ClampIn, settings: SettingsDep) -> dict[str, Any]:
+    """A slider's move kept inside its field's rules: whole numbers, hard limits, one step
+    short of an increasing neighbour (``r3`` stops just below ``r4``), and a note saying
+    what a rule changed in the labels the sliders show (``""`` when nothing did).
+
+    The web page asks for every move, the viser GUI calls the same service: the rules live
+    once, in ``app/services/explore/controls.py``.
+    """
+    done = actions.clamp_slider(body.model, body.path, body.value, settings)
+    return {"value": done.value, "note": done.note}

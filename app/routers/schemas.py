@@ -21,6 +21,8 @@ if TYPE_CHECKING:
 __all__ = [
     "BroadcastOut",
     "CapabilitiesOut",
+    "ClampIn",
+    "ClampOut",
     "ConfigIn",
     "ConnectedOut",
     "ControlsIn",
@@ -98,6 +100,23 @@ class ControlsIn(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     model: dict[str, Any] = Field(..., description="model document with a 'type' field")
+
+
+class ClampIn(BaseModel):
+    """A slider's move: the model document before it, the slider's path and where it was
+    moved."""
+
+    model_config = ConfigDict(extra="forbid")
+    model: dict[str, Any] = Field(..., description="model document with a 'type' field")
+    path: str = Field(..., max_length=200, description="the slider's path, e.g. thresholds[2]")
+    value: float = Field(..., description="where the slider was moved (its field's value)")
+
+
+class ClampOut(BaseModel):
+    """The move kept inside its field's rules, and what a rule changed in words."""
+
+    value: float = Field(description="the value the slider stops at")
+    note: str = Field(description="what a rule changed, in the sliders' labels, or ''")
 
 
 class SliderOut(BaseModel):

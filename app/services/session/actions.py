@@ -50,6 +50,7 @@ __all__ = [
     "change_config",
     "check_figure_names",
     "checked_controls",
+    "clamp_slider",
     "checked_model",
     "diagnosis_figure",
     "diagnosis_report",
@@ -149,6 +150,28 @@ def checked_controls(doc: Any, settings: Settings) -> C.ModelControls:
     model = parameter_set_model(doc)
     check_operator_limit(model, settings.max_operators)
     return C.model_controls(doc)
+
+
+def clamp_slider(doc: Any, path: str, value: float, settings: Settings) -> C.Clamped:
+    """A slider's move kept inside its field's rules (:func:`.controls.clamp`: whole
+    numbers, hard limits, one step short of an increasing neighbour), with the note in the
+    labels the sliders show: the one implementation of the rules, which the viser GUI calls
+    and the web page asks for (``POST /api/controls/clamp``).
+
+    Raises
+    ------
+    ParameterError
+        If the document is too big or deep or not a model document, ``path`` is not one of
+        its sliders or ``value`` is not a finite number.
+    """
+    if not isinstance(doc, dict) or "type" not in doc:
+        raise ParameterError('model: a model document is a JSON object with a "type" '
+                             '(for example {"type": "pi", "p0": 1, ...})')
+    check_document(doc, settings.limits)
+    try:
+        return C.clamp(doc, path, value)
+    except (TypeError, KeyError, IndexError) as exc:
+        raise ParameterError(f"the model has no slider at {path!r} ({exc})") from None
 
 
 def set_operator_count(session: Session, n: int, settings: Settings) -> int:

@@ -88,3 +88,43 @@ def test_a_refused_config_names_the_slider_and_the_next_change_applies(
     ok = dict(m, weights=[0.5, 0.48, 0.36, 0.24, 0.12, 0.012])
     r = client.patch(f"/api/sessions/{code}/config", json={"model": ok})
     assert r.status_code == 200 and r.json()["config"]["model"]["weights"][0] == 0.5
+
+
+def test_a_slider_move_is_clamped_by_the_one_implementation_of_the_rules(
+        client: TestClient) -> None:
+    """``POST /api/controls/clamp``: the web page asks the server for every move, so the
+    rules (limits, increasing neighbours, whole numbers) live once, in
+    ``app/services/explore/controls.py``, which the viser GUI calls too; the page's
+    ``static/controls.js`` holds no copy of them."""
+    from pathlib import Path
+
+    from app.services.explore import controls as C
+
+    doc = preset_doc("paper001-example1")["model"]
+    r = client.post("/api/controls/clamp", json={"model": doc, "path": "thresholds[2]",
+                                                 "value": 3.345})
+    assert r.status_code == 200, r.text
+    assert r.json() == {"value": pytest.approx(1.799), "note": "r3 stops at 1.799, just "
+                        "below r4 = 1.8: the thresholds r_i must increase"}
+    for path, value in [("thresholds[0]", -1.0), ("weights[1]", -0.3), ("p0", 0.9)]:
+        done = C.clamp(doc, path, value)  # what the viser GUI applies
+        got = client.post("/api/controls/clamp",
+                          json={"model": doc, "path": path, "value": value}).json()
+        assert got == {"value": pytest.approx(done.value), "note": done.note}
+    gpi = preset_doc("paper001-example4")["model"]
+    got = client.post("/api/controls/clamp", json={"model": gpi, "value": 0.0,
+                                                   "path": "deadzone.thresholds[12]"}).json()
+    assert got["value"] == pytest.approx(0.001) and "ρ1 stops at 0.001, just above ρ0" in \
+        got["note"]
+    # refused in words: no such slider, not a model, not a number
+    bad = client.post("/api/controls/clamp", json={"model": doc, "path": "thresholds[9]",
+                                                   "value": 1.0})
+    assert bad.status_code == 422 and "no slider at 'thresholds[9]'" in bad.text
+    assert client.post("/api/controls/clamp", json={"model": {"p0": 1}, "path": "p0",
+                                                    "value": 1.0}).status_code == 422
+    assert client.post("/api/controls/clamp", json={"model": doc, "path": "p0",
+                                                    "value": "x"}).status_code == 422
+    js = (Path(__file__).resolve().parents[3] / "static" / "controls.js").read_text()
+    assert "/api/controls/clamp" in js
+    assert not any(rule in js for rule in ("s.lower", "s.upper", "s.strict", "s.below",
+                                           "s.above", "Math.round"))

@@ -11,7 +11,7 @@ def test_every_route_describes_its_response() -> None:
     spec = create_app(Settings(viser_port=None)).openapi()
     schemas = spec["components"]["schemas"]
     ops = [(m, p, op) for p, item in spec["paths"].items() for m, op in item.items()]
-    assert len(ops) == 36
+    assert len(ops) == 37
     for method, path, op in ops:
         ok = next(code for code in op["responses"] if code.startswith("2"))
         content = op["responses"][ok]["content"]
