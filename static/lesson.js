@@ -95,12 +95,13 @@ async function backToClass() {
   }
 }
 
-// the teacher moved the class: session.js has loaded the pushed session already
+// the teacher moved the class: session.js has loaded the pushed session already (and
+// left the drawing to this)
 function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
   if (!info.edit) selectFigure(info.lesson.view);  // a changed step keeps the view on show
-  else markExploring();
+  else draw().catch((e) => setMsg("model-msg", e.message));
   const note = $("live-note");
   note.classList.remove("error");
   const where = `step ${info.lesson.step} of ${info.lesson.steps}: ${info.lesson.step_title}`;

@@ -37,7 +37,7 @@ export function listen() {
   es.addEventListener("push", (ev) => {
     let info = {};
     try { info = JSON.parse(ev.data); } catch { /* keep the defaults */ }
-    onPushed(info).then(() => tell("hyst:push", info)).catch((e) => setMsg("model-msg", e.message));
+    onPushed(info).catch((e) => setMsg("model-msg", e.message));
   });
   es.addEventListener("lesson", (ev) => tell("hyst:lesson", JSON.parse(ev.data)));
   state.events = es;
@@ -48,6 +48,13 @@ async function onPushed(info) {
   applyConfig(s.config, s.version);
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
+  if (info.lesson) {
+    // a lesson's step: lesson.js shows it, says so and draws its view, in this same task.
+    // Drawing here first would redraw the old step's view with the new model, and a redraw
+    // makes lesson.js compare the new model with the old step: "You are exploring".
+    tell("hyst:push", info);
+    return;
+  }
   const p = state.presets.find((x) => x.name === info.preset);
   const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
@@ -59,6 +66,7 @@ async function onPushed(info) {
     : `Your teacher pushed ${what}${input} at ${at}. Your sliders now start from it.`;
   note.hidden = false;
   await draw();
+  tell("hyst:push", info);
 }
 
 
@@ -79,5 +87,5 @@ async function resumeJob() {
 }
 
 // The lesson mode (static/lesson.js) hears the live events as window events ("hyst:push"
-// after a push is shown, "hyst:lesson").
+// after a push is shown, or at once for a lesson's step; "hyst:lesson").
 function tell(name, detail) { window.dispatchEvent(new CustomEvent(name, { detail })); }

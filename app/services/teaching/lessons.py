@@ -454,7 +454,8 @@ class ClassLesson:
     """The lesson a class follows (none at first); thread-safe.
 
     Listeners (the viser tabs) are called with the new :class:`Position`, or ``None`` when
-    the lesson ends, after every move, from the thread that made it. With a ``store`` every
+    the lesson ends, after every move, from the thread that made it; a move that pushes
+    its step (every one but the end) tells them once the sessions have it. With a ``store`` every
     move is committed there and a new ``ClassLesson`` on the same store (a restarted
     server) starts where the class was.
 
@@ -489,20 +490,43 @@ class ClassLesson:
         with self._lock:
             return self._position
 
-    def _move(self, lesson: Lesson | None, index: int = 0) -> Position | None:
+    def _move(self, lesson: Lesson | None, index: int = 0, *, tell: bool = True
+              ) -> Position | None:
+        """Set the position; ``tell``: call the listeners now (a move that pushes its step
+        tells them after the push, :meth:`_tell`)."""
         with self._lock:
             self._serial += 1
             self._position = None if lesson is None else Position(lesson, index, self._serial)
-            pos, listeners = self._position, list(self._listeners)
+            pos = self._position
             if self._store is not None:  # a restarted server starts where the class was
                 self._store.put_class_state(_STORE_KEY, None if lesson is None else json.dumps(
                     {"lesson": lesson.to_dict(), "name": lesson.name, "index": index}))
+        if tell:
+            self._tell(pos)
+        return pos
+
+    def _tell(self, pos: Position | None) -> None:
+        with self._lock:
+            listeners = list(self._listeners)
         for fn in listeners:
             try:
                 fn(pos)
             except Exception:  # noqa: BLE001 - a closed tab must not stop the class
                 pass
-        return pos
+
+    def _move_and_push(self, lesson: Lesson, index: int,
+                       push: Callable[[Position], tuple[int, int]]
+                       ) -> tuple[Position, int, int]:
+        """Move to ``lesson``'s step ``index`` and ``push`` it, then tell the listeners:
+        a tab told first would compare its session, still on the old step, with the new
+        one and say "You are exploring" until the push reached it (seen with ten viser
+        tabs in ``benchmarks/bench_class.py``)."""
+        pos = self._move(lesson, index, tell=False)
+        assert pos is not None
+        try:
+            return (pos, *push(pos))
+        finally:
+            self._tell(pos)
 
     def add_listener(self, fn: Listener) -> None:
         """Call ``fn(position)`` after every move."""
@@ -552,9 +576,7 @@ def start(registry: SessionRegistry, lesson: Lesson, step: int = 1
     _check_step(lesson, step)
     cl = class_lesson(registry)
     with cl.moves:
-        pos = cl._move(lesson, step - 1)
-        assert pos is not None
-        return (pos, *_push(registry, pos))
+        return cl._move_and_push(lesson, step - 1, lambda p: _push(registry, p))
 
 
 def go_to(registry: SessionRegistry, step: int | None = None, move: int = 0
@@ -574,9 +596,7 @@ def go_to(registry: SessionRegistry, step: int | None = None, move: int = 0
             raise LessonError("no lesson is running: start one first")
         target = pos.index + 1 + move if step is None else step
         _check_step(pos.lesson, target)
-        new = cl._move(pos.lesson, target - 1)
-        assert new is not None
-        return (new, *_push(registry, new))
+        return cl._move_and_push(pos.lesson, target - 1, lambda p: _push(registry, p))
 
 
 def end(registry: SessionRegistry) -> int:
@@ -612,10 +632,9 @@ def push_to_class(registry: SessionRegistry, *, model: dict[str, Any] | None = N
                        signal=s.signal if signal is None else signal,
                        preset=s.preset if model is None else None)
         steps = tuple(step if i == pos.index else x for i, x in enumerate(pos.lesson.steps))
-        new = cl._move(replace(pos.lesson, steps=steps), pos.index)
-        assert new is not None
-        return actions.push(registry, model=model, signal=signal, note={
-            **(note or {}), "lesson": new.to_dict(), "edit": True})
+        return cl._move_and_push(replace(pos.lesson, steps=steps), pos.index, lambda new: (
+            actions.push(registry, model=model, signal=signal, note={
+                **(note or {}), "lesson": new.to_dict(), "edit": True})))[1:]
 
 
 def _check_step(lesson: Lesson, step: int) -> None:

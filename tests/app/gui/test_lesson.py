@@ -114,3 +114,42 @@ def test_no_token_on_the_server_says_how_to_give_one(server: Any) -> None:  # no
         assert v.lesson.cls.position is None
     finally:
         v.close()
+
+
+class _Said:
+    """Stands for a markdown handle and keeps every text given to it."""
+
+    def __init__(self, handle: Any) -> None:
+        object.__setattr__(self, "handle", handle)
+        object.__setattr__(self, "said", [])
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.handle, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "content":
+            self.said.append(value)
+        setattr(self.handle, name, value)
+
+
+def test_a_move_never_tells_a_student_who_did_not_move_that_they_explore(
+        view: SessionView) -> None:
+    """Every text the Lesson folder shows while the class starts, moves, and gets the
+    teacher's push says the tab is on the class step: the tab is told of the move after the
+    push has given its session the step (told before, it compared its old step's model with
+    the new step and said "You are exploring" until the push reached it)."""
+    panel = view.lesson
+    said = _Said(panel.md)
+    panel.md = said  # type: ignore[assignment]
+    lesson = lessons.builtin_lesson("pi-basics")
+    lessons.start(view.registry, lesson)
+    for _ in range(len(lesson.steps) - 1):
+        lessons.go_to(view.registry, move=1)
+    lessons.push_to_class(view.registry, model=PIModel(1.1, [0.5], [0.3]).to_dict())
+    steps = [t for t in said.said if "step " in t]
+    assert len(steps) >= len(lesson.steps) + 1, said.said
+    assert [t for t in steps if "exploring" in t] == []
+    assert "on the class step" in said.said[-1]
+    # a student who does move is told
+    view.session.update(lambda c: c.with_model(PIModel(1.0, [0.5], [0.2]).to_dict()))
+    assert "You are exploring" in said.said[-1]

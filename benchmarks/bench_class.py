@@ -1,0 +1,152 @@
+"""A class of thirty in one run: lesson steps reaching every student, in real Chromium.
+
+Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_class.py [--quick]``
+
+The explorer (REST API, static page and the viser GUI, as ``hyst serve`` runs them) serves
+on 127.0.0.1 in this process; Debian's ``chromium`` (``which chromium``) is driven through
+playwright, one browser for everybody. The teacher's web page (1400x1000) leads the shipped
+lesson *PI basics* (6 steps) to 20 web pages (1000x760, the first on a 390x844 phone) and
+10 viser tabs (1200x800), each student named ("Web 01", "Tab 01", ...). The teacher clicks
+Start, then Next through every step, and at step 2 edits p0 on its page and pushes the
+model to the class. ``--quick``: 3 web pages and 2 viser tabs.
+
+Per click and student the arrival is measured in the student's own page, from the click
+(the teacher page's ``Date.now()``, the same clock) to the first moment the page shows the
+step (tests/e2e/class_run.py says what "shows" means: a web page has the step's view drawn
+with the new session version; a viser tab's Lesson folder says "step k of n" and "You are
+on the class step"; for the push, the pushed model drawn / the note that the class step
+changed). Also: whether every student showed every step, whether any student (none moves)
+was ever told "You are exploring", and the teacher's counts against the class.
+
+Target (issue 33): p95 arrival <= 1 s on each interface. Not a timed test: the 30 pages share
+the machine's cores with the server; the load average is printed with the results.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+TARGET_P95_MS = 1000.0
+
+
+def _serve(settings: Any) -> tuple[Any, Any, int]:
+    import uvicorn
+
+    from app.server import create_app
+
+    app = create_app(settings)
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=0, log_level="warning"))
+    th = threading.Thread(target=server.run, daemon=True)
+    th.start()
+    deadline = time.monotonic() + 60
+    while not server.started:
+        if time.monotonic() > deadline or not th.is_alive():
+            raise RuntimeError("the explorer did not start")
+        time.sleep(0.05)
+    return app, server, server.servers[0].sockets[0].getsockname()[1]
+
+
+def _ms(x: float) -> str:
+    return "-" if x != x else f"{x:.0f}"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="3 web pages and 2 viser tabs")
+    ap.add_argument("--web", type=int, default=20, help="web students")
+    ap.add_argument("--viser", type=int, default=10, help="viser students")
+    ap.add_argument("--settle", type=float, default=1.0,
+                    help="seconds to keep watching after every student has a step")
+    args = ap.parse_args()
+    n_web, n_viser = (3, 2) if args.quick else (args.web, args.viser)
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        print("chromium not installed (Debian's chromium package); target p95 <= 1 s unmeasured")
+        return 0
+    from playwright.sync_api import sync_playwright
+
+    from app.services.settings import Settings
+    from tests.e2e.class_run import (
+        close_class,
+        median,
+        open_class,
+        percentile,
+        run_lesson,
+    )
+    from tests.e2e.conftest import ARGS, TEACHER_TOKEN
+
+    # one machine plays the whole class: its pages and tabs all come from 127.0.0.1
+    settings = Settings(viser_port=0, port=0, teacher_token=TEACHER_TOKEN,
+                        max_streams_per_client=4 * (n_web + 1),
+                        max_tabs_per_client=4 * n_viser + 4,
+                        max_connections_per_client=20 * (n_web + n_viser + 1))
+    app, server, port = _serve(settings)
+    url, viser_url = f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{app.state.viser_port}/"
+    load0 = os.getloadavg()
+    t_open = time.monotonic()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=ARGS, headless=True)
+        teacher, students = open_class(browser, url, viser_url, app, n_web, n_viser)
+        opened = time.monotonic() - t_open
+        load1 = os.getloadavg()
+        try:
+            run = run_lesson(url, teacher, students, settle_s=args.settle)
+        finally:
+            load2 = os.getloadavg()
+            close_class(teacher, students)
+            browser.close()
+    server.should_exit = True
+
+    kinds = {s.name: s.kind for s in students}
+    print(f"class: {n_web} web pages (one a 390x844 phone) + {n_viser} viser tabs + the "
+          f"teacher's page; opened in {opened:.0f} s")
+    print(f"load average (1, 5, 15 min): before {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
+          f"class open {load1[0]:.1f} {load1[1]:.1f} {load1[2]:.1f}, "
+          f"after the lesson {load2[0]:.1f} {load2[1]:.1f} {load2[2]:.1f} ({os.cpu_count()} cores)")
+    head = (f"{'click':<16} {'web p50':>8} {'p95':>6} {'max':>6} {'viser p50':>10} {'p95':>6} "
+            f"{'max':>6} {'shown':>7}  teacher's counts")
+    print(head)
+    print("-" * len(head))
+    for m in run.moves:
+        w = [a for n, a in m.arrivals.items() if a is not None and kinds[n] == "web"]
+        v = [a for n, a in m.arrivals.items() if a is not None and kinds[n] == "viser"]
+        shown = sum(a is not None for a in m.arrivals.values())
+        counts = m.teacher_says.split(": ", 1)[-1].rstrip(".")
+        ok = "= class" if counts == run.expected_counts else f"!= class: {counts}"
+        print(f"{m.label:<16} {_ms(median(w)):>8} {_ms(percentile(w, .95)):>6} "
+              f"{_ms(max(w, default=float('nan'))):>6} {_ms(median(v)):>10} "
+              f"{_ms(percentile(v, .95)):>6} {_ms(max(v, default=float('nan'))):>6} "
+              f"{shown:>3}/{len(students):<3}  {ok}")
+    print("-" * len(head))
+    w_all, v_all = run.arrivals("web"), run.arrivals("viser")
+    print(f"{'all clicks':<16} {_ms(median(w_all)):>8} {_ms(percentile(w_all, .95)):>6} "
+          f"{_ms(max(w_all, default=float('nan'))):>6} {_ms(median(v_all)):>10} "
+          f"{_ms(percentile(v_all, .95)):>6} {_ms(max(v_all, default=float('nan'))):>6} "
+          f"{len(w_all) + len(v_all):>3}/{len(students) * len(run.moves):<3}")
+    print(f"class: {run.expected_counts}; GET /api/teacher/connected after each click: "
+          + ", ".join(sorted({f"{c['pages']}/{c['viser_tabs']}/{c['sessions_live']}"
+                              for c in run.connected})) + " (pages/tabs/sessions)")
+    print(f"never showed a step: {run.missing() or 'none'}")
+    print(f"told \"You are exploring\" without moving: {run.told_exploring or 'nobody'}")
+    print("teacher after its push: on the step "
+          f"{all(m.teacher_step == str(m.step) for m in run.moves)}, reads 'Your teacher' "
+          f"{any('Your teacher' in m.teacher_note for m in run.moves)}")
+    for kind, xs in (("web", w_all), ("viser", v_all)):
+        p95 = percentile(xs, .95)
+        print(f"target p95 <= {TARGET_P95_MS:.0f} ms ({kind}): {_ms(p95)} ms -> "
+              + ("met" if p95 <= TARGET_P95_MS else "NOT met"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,320 @@
+"""A class in real Chromium: one teacher's web page leads a shipped lesson to web and viser
+students, and every page records, in the browser, when it shows each step.
+
+Used by the short browser test (``test_class_of_students.py``: correctness only) and by
+``benchmarks/bench_class.py`` (a class of thirty, arrival times). The teacher clicks on
+its own page (Start, Next, the push of an edited model); the click's time is taken in that
+page (``Date.now()``, the machine's clock, as every student page's records are).
+
+What a student "shows":
+
+- a web page: ``body[data-lesson-step]`` is the step and ``body[data-fig]`` its view, drawn
+  after the click (``body[data-ready]``, the session version of the drawn figure, changed);
+  for the push, the drawn version changed and the note says the class step changed;
+- a viser tab: its *Lesson* folder says "step k of n" and "You are on the class step." (for
+  the push: the tab's note says the teacher changed the class step).
+
+Every page also records whether it was ever told "You are exploring" (the web page's
+``#lesson-state``, the viser folder's text) while the lesson ran; no student here moves.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import time
+import urllib.request
+from dataclasses import dataclass, field
+from typing import Any
+
+from .conftest import TEACHER_TOKEN
+from .test_classroom import _viser_session_folder, _viser_type
+from .test_viser_gui import _open as _open_viser
+from .test_web_journeys import _listening, _open, _text_has
+
+#: Records every change of what a web page shows: [time ms, step, view, drawn version,
+#: lesson state text, live note text].
+WEB_RECORDER = """() => {
+  window.__rec = [];
+  const b = document.body;
+  const txt = (id) => { const e = document.getElementById(id); return e ? e.textContent : ""; };
+  const rec = () => {
+    const r = [Date.now(), b.dataset.lessonStep || "", b.dataset.fig || "", b.dataset.ready || "",
+               txt("lesson-state"), txt("live-note")];
+    const last = window.__rec[window.__rec.length - 1];
+    if (!last || r.slice(1).some((v, i) => v !== last[i + 1])) window.__rec.push(r);
+  };
+  new MutationObserver(rec).observe(b, { attributes: true,
+    attributeFilter: ["data-lesson-step", "data-fig", "data-ready"] });
+  for (const id of ["lesson-state", "live-note"]) {
+    new MutationObserver(rec).observe(document.getElementById(id),
+      { childList: true, characterData: true, subtree: true });
+  }
+  rec();
+}"""
+
+#: Records every change of a viser tab's *Lesson* folder (polled every 20 ms: the folder's
+#: elements are re-made by React): [time ms, step, on the class step, exploring, the
+#: teacher's note says the class step changed].
+VISER_RECORDER = """() => {
+  window.__rec = [];
+  let box = null;
+  const find = () => [...document.querySelectorAll(".mantine-Paper-root")]
+    .filter((e) => /^Lesson/.test(e.textContent)
+      && e.textContent.includes("Back to the class step"))
+    .pop() || null;
+  const tick = () => {
+    if (!box || !box.isConnected) box = find();
+    if (!box) return;
+    const t = box.textContent;
+    const m = /step (\\d+) of (\\d+)/.exec(t);
+    const edit = Boolean(window.__watchPush)
+      && document.body.textContent.includes("changed the class step");
+    const r = [Date.now(), m ? m[1] : "", t.includes("You are on the class step"),
+               t.includes("You are exploring"), edit];
+    const last = window.__rec[window.__rec.length - 1];
+    if (!last || r.slice(1).some((v, i) => v !== last[i + 1])) window.__rec.push(r);
+  };
+  setInterval(tick, 20);
+  tick();
+}"""
+
+#: The teacher's page: the time of each click on a lesson button or the push.
+CLICK_RECORDER = """() => {
+  window.__clicks = [];
+  document.addEventListener("click", (e) => {
+    const b = e.target.closest("button");
+    if (b && b.id) window.__clicks.push([Date.now(), b.id]);
+  }, true);
+}"""
+
+
+@dataclass
+class Student:
+    """One student's page: ``kind`` "web" or "viser", its name and playwright objects."""
+
+    kind: str
+    name: str
+    ctx: Any
+    page: Any
+    view: Any = None  # a viser tab's SessionView (server side)
+    phone: bool = False
+
+
+@dataclass
+class Move:
+    """One click of the teacher: which step it shows (``edit``: the push) and when."""
+
+    label: str
+    step: int
+    view: str
+    edit: bool
+    t0: float = 0.0  # ms, the teacher page's clock
+    teacher_says: str = ""  # the teacher's message after the click
+    teacher_step: str = ""  # the teacher page's data-lesson-step once the class is there
+    teacher_note: str = ""  # the teacher page's live note then
+    arrivals: dict[str, float | None] = field(default_factory=dict)  # name -> ms after t0
+
+
+@dataclass
+class ClassRun:
+    """What a run of the class recorded."""
+
+    moves: list[Move]
+    told_exploring: list[str]  # students told "You are exploring" (none moved)
+    expected_counts: str
+    connected: list[dict[str, int]]
+    students: list[Student]
+
+    def arrivals(self, kind: str | None = None) -> list[float]:
+        kinds = {s.name: s.kind for s in self.students}
+        return [a for m in self.moves for n, a in m.arrivals.items()
+                if a is not None and (kind is None or kinds[n] == kind)]
+
+    def missing(self) -> list[tuple[str, str]]:
+        """(move, student) pairs where the student never showed the step."""
+        return [(m.label, n) for m in self.moves for n, a in m.arrivals.items() if a is None]
+
+
+def percentile(xs: list[float], q: float) -> float:
+    """The ``q`` quantile (0..1) of ``xs`` (linear between order statistics)."""
+    if not xs:
+        return float("nan")
+    s = sorted(xs)
+    k = (len(s) - 1) * q
+    lo, hi = int(k), min(int(k) + 1, len(s) - 1)
+    return s[lo] + (s[hi] - s[lo]) * (k - lo)
+
+
+def median(xs: list[float]) -> float:
+    return statistics.median(xs) if xs else float("nan")
+
+
+def connected(url: str) -> dict[str, int]:
+    """The teacher's ``GET /api/teacher/connected`` (counts only)."""
+    req = urllib.request.Request(url + "api/teacher/connected",
+                                 headers={"X-Teacher-Token": TEACHER_TOKEN})
+    with urllib.request.urlopen(req, timeout=10) as r:
+        c = json.load(r)
+    return {k: c[k] for k in ("pages", "viser_tabs", "sessions_live")}
+
+
+def counts_text(web_pages: int, viser_tabs: int) -> str:
+    """What the teacher should read: every page and tab open, each its own session."""
+    s = lambda n, w: f"{n} {w}" + ("" if n == 1 else "s")  # noqa: E731
+    return (f"{s(web_pages, 'web page')} and {s(viser_tabs, '3D / GUI tab')} open, in "
+            f"{s(web_pages + viser_tabs, 'session')}")
+
+
+def open_class(browser: Any, url: str, viser_url: str, app: Any, n_web: int, n_viser: int,
+               *, phone: bool = True) -> tuple[Any, list[Student]]:
+    """The teacher's web page (1400x1000) and the students, named "Web 01", "Tab 01", ...
+    (the first web student on a 390x844 phone when ``phone``); each listening and
+    recording. Returns ``(teacher page, students)``; close them with :func:`close_class`."""
+    students: list[Student] = []
+    for k in range(n_web):
+        on_phone = phone and k == 0
+        ctx, page, _ = _open(browser, url, *((390, 844) if on_phone else (1000, 760)))
+        name = f"Web {k + 1:02d}"
+        page.fill("#my-name", name)
+        page.press("#my-name", "Enter")
+        students.append(Student("web", name, ctx, page, phone=on_phone))
+    known = set(app.state.gui.views)
+    for k in range(n_viser):
+        ctx, page, _ = _open_viser(browser, viser_url, 1200, 800)
+        view = _new_view(app, known)
+        known.add(next(key for key, v in app.state.gui.views.items() if v is view))
+        name = f"Tab {k + 1:02d}"
+        _viser_session_folder(page)
+        _viser_type(page, "Your name", name)
+        students.append(Student("viser", name, ctx, page, view))
+    ctx_t, t, _ = _open(browser, url, 1400, 1000)
+    t.evaluate(CLICK_RECORDER)
+    web = [s.page for s in students if s.kind == "web"]
+    _listening(url, t, *web)
+    _wait(lambda: connected(url)["viser_tabs"] >= n_viser, "the viser tabs are not counted")
+    for s in students:
+        s.page.evaluate(WEB_RECORDER if s.kind == "web" else VISER_RECORDER)
+    t.evaluate(WEB_RECORDER)
+    return (ctx_t, t), students
+
+
+def _new_view(app: Any, known: set[Any], timeout: float = 60.0) -> Any:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        new = [v for k, v in app.state.gui.views.items() if k not in known]
+        if new and new[0].rendered_version >= 0:
+            return new[0]
+        time.sleep(0.1)
+    raise AssertionError("no new viser tab")
+
+
+def _wait(cond: Any, what: str, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > deadline:
+            raise AssertionError(what)
+        time.sleep(0.1)
+
+
+def close_class(teacher: tuple[Any, Any], students: list[Student]) -> None:
+    for ctx in [teacher[0], *(s.ctx for s in students)]:
+        try:
+            ctx.close()
+        except Exception:  # noqa: BLE001 - already closed
+            pass
+
+
+def _arrival(s: Student, rec: list[list[Any]], m: Move, ready0: str) -> float | None:
+    for r in rec:
+        if r[0] < m.t0:
+            continue
+        if s.kind == "web":
+            _, step, fig, ready = r[:4]
+            note = r[5]
+            ok = step == str(m.step) and fig == m.view and ready != ready0
+            if m.edit:
+                ok = ok and "changed the class step" in note
+        else:
+            _, step, on, _, edit = r
+            ok = step == str(m.step) and on and (edit or not m.edit)
+        if ok:
+            return float(r[0] - m.t0)
+    return None
+
+
+def _records(page: Any) -> list[list[Any]]:
+    return page.evaluate("() => window.__rec")
+
+
+def _shows(s: Student, m: Move, ready0: str) -> bool:
+    return _arrival(s, _records(s.page), m, ready0) is not None
+
+
+def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
+               lesson: str = "pi-basics", push_at: int = 2, settle_s: float = 1.0,
+               timeout_s: float = 60.0, after_push: Any = None) -> ClassRun:
+    """The teacher starts ``lesson``, moves the class through every step and, at step
+    ``push_at``, edits p0 on its page and pushes the model; after each click every student
+    is waited for (``timeout_s``), then ``settle_s`` more (a late wrong note is seen).
+    ``after_push()`` is called once the class has the push (screenshots)."""
+    from app.services.teaching.lessons import builtin_lesson
+
+    t = teacher[1]
+    steps = builtin_lesson(lesson).steps
+    n_web = sum(s.kind == "web" for s in students) + 1  # and the teacher's page
+    expected = counts_text(n_web, len(students) - n_web + 1)
+    t.click("#teacher summary")
+    t.fill("#teacher-token", TEACHER_TOKEN)
+    t.select_option("#lesson-pick", f"name:{lesson}")
+    moves: list[Move] = []
+    conn: list[dict[str, int]] = []
+
+    def click(button: str, m: Move, msg: str) -> None:
+        ready0 = {s.name: (_records(s.page) or [[0, "", "", ""]])[-1][3] if s.kind == "web"
+                  else "" for s in students}
+        before = len(t.evaluate("() => window.__clicks"))
+        if m.edit:
+            for s in students:
+                if s.kind == "viser":
+                    s.page.evaluate("() => { window.__watchPush = true; }")
+        t.click(button)
+        _text_has(t, msg, "to the class" if m.edit else f"Step {m.step} of {len(steps)}")
+        m.t0 = float(t.evaluate("() => window.__clicks")[before][0])
+        m.teacher_says = t.inner_text(f"#{msg}")
+        deadline = time.monotonic() + timeout_s
+        waiting = list(students)
+        while waiting and time.monotonic() < deadline:
+            waiting = [s for s in waiting if not _shows(s, m, ready0[s.name])]
+            time.sleep(0.1)
+        conn.append(connected(url))
+        time.sleep(settle_s)
+        m.teacher_step = t.evaluate("() => document.body.dataset.lessonStep")
+        m.teacher_note = t.inner_text("#live-note")
+        for s in students:
+            m.arrivals[s.name] = _arrival(s, _records(s.page), m, ready0[s.name])
+        moves.append(m)
+
+    click("#lesson-start", Move("step 1", 1, steps[0].view, False), "lesson-msg")
+    for k in range(2, len(steps) + 1):
+        click("#lesson-next", Move(f"step {k}", k, steps[k - 1].view, False), "lesson-msg")
+        if k == push_at:
+            t.locator("#ctl-p0").focus()
+            for _ in range(3):
+                t.locator("#ctl-p0").press("ArrowRight")
+            t.wait_for_function("() => document.body.dataset.lessonStep === 'exploring'")
+            t.wait_for_timeout(500)  # the edit stored before it is pushed
+            click("#teacher-push-mine", Move(f"push at step {k}", k, steps[k - 1].view, True),
+                  "teacher-msg")
+            if after_push is not None:
+                after_push()
+    told = [s.name for s in students if _told_exploring(s, _records(s.page))]
+    t.click("#lesson-end")
+    _text_has(t, "lesson-msg", "Lesson ended")
+    return ClassRun(moves, told, expected, conn, students)
+
+
+def _told_exploring(s: Student, rec: list[list[Any]]) -> bool:
+    if s.kind == "web":
+        return any(r[1] == "exploring" or "exploring" in r[4] for r in rec)
+    return any(r[3] for r in rec)
