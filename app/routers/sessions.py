@@ -18,6 +18,7 @@ from fastapi.concurrency import run_in_threadpool
 
 from app.services.errors import ParameterError
 from app.services.session import actions
+from app.services.teaching.push import push
 
 from .deps import RegistryDep, SessionDep, SettingsDep, client_key, rate_limited, require_teacher
 from .killable import run_figures
@@ -128,5 +129,5 @@ def broadcast_preset(
         model = actions.preset_doc(name)["model"]
     except ParameterError:
         raise HTTPException(404, f"no preset named {name!r}") from None
-    n, _ = actions.push(registry, model=model, note={"preset": name})
+    n, _ = push(registry, model=model, note={"preset": name})
     return {"preset": name, "sessions": n}

@@ -6,19 +6,24 @@ read these lists here, so neither interface looks into :mod:`core` for them.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.services.explore.simulation import preset_doc
-from app.services.session.exports import EXPORT_FORMATS
-from app.services.settings import Settings
 from app.services.words import type_words
 from core.base import registered_types
 from core.models import fit_kinds
 from core.presets import list_presets
 from core.signals import SIGNALS
 
+if TYPE_CHECKING:
+    from app.services.settings import Settings
+
 __all__ = ["EXPORT_FORMATS", "capabilities", "fit_kinds", "preset_doc", "preset_names",
            "preset_titles", "presets", "signal_kinds"]
+
+
+#: Download formats of a parameter set (:func:`app.services.session.exports.export_bytes`).
+EXPORT_FORMATS = ("json", "mat", "c", "fmu")
 
 
 def signal_kinds() -> tuple[str, ...]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import re
 
-from app.services.session.sessions import CODE_ALPHABET
+from app.services.codes import CODE_ALPHABET
 
 __all__ = ["MASK", "RedactCodes", "redact"]
 

@@ -37,9 +37,8 @@ from app.services.jobs import tasks
 from app.services.jobs.worker import Task
 from app.services.memory import give_back
 from app.services.session.exports import export_session, fmi_version, parameter_set_model
-from app.services.session.sessions import Session, SessionRegistry
+from app.services.session.sessions import Session
 from app.services.settings import Settings
-from app.services.teaching.events import HUB
 from app.services.words import model_words
 from core.base import Model, RunCost
 from core.exceptions import ParameterError
@@ -61,7 +60,6 @@ __all__ = [
     "no_report",
     "preset_doc",
     "preview_csv",
-    "push",
     "push_model",
     "session_figures",
     "figures_are_quick",
@@ -349,32 +347,6 @@ def push_model(doc: Any, settings: Settings) -> dict[str, Any]:
     d = model.to_dict()
     check_config(Config().with_model(d), None, settings.limits)
     return d
-
-
-def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
-         signal: SignalSpec | None = None, note: dict[str, Any] | None = None,
-         mismatch: float | None = None) -> tuple[int, int]:
-    """The teacher's push: ``model`` and/or ``signal`` (and a lesson step's ``mismatch``)
-    to every session used in the last hour (each committed, so a reload or a restart keeps
-    it), then the event ``{"kind": "push", **note}`` to every open page. Returns
-    ``(sessions changed, pages told)``.
-
-    Raises
-    ------
-    ParameterError
-        If there is nothing to push.
-    """
-    if model is None and signal is None:
-        raise ParameterError("choose a preset or an input signal to push")
-
-    def change(cfg: Config) -> Config:
-        new = cfg if model is None else cfg.with_model(model)
-        if mismatch is not None:
-            new = replace(new, mismatch=mismatch)
-        return new if signal is None else replace(new, signal=signal, use_recording=False)
-
-    n = registry.update_recent(change)
-    return n, HUB.broadcast({"kind": "push", **(note or {})})
 
 
 # ----------------------------------------------------------------------------- figures

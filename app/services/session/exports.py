@@ -13,6 +13,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from app.services.explore.catalog import EXPORT_FORMATS
 from app.services.session.sessions import Session
 from app.services.words import type_words
 from core.base import Model, model_from_dict
@@ -37,8 +38,6 @@ __all__ = [
     "parameter_set_model",
 ]
 
-#: Download formats of a parameter set.
-EXPORT_FORMATS = ("json", "mat", "c", "fmu")
 #: FMU builds run the C compiler: at most two at a time in this process.
 _FMU_BUILDS = threading.BoundedSemaphore(2)
 

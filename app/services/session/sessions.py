@@ -11,7 +11,6 @@ that survives page reloads and restarts. It holds one typed, frozen
 
 from __future__ import annotations
 
-import secrets
 import threading
 import time
 from collections import OrderedDict
@@ -19,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from app.services.codes import CODE_ALPHABET, CODE_LENGTH, new_code, normalise_code
 from app.services.explore.config import Config
 from app.services.explore.cost import CheckedModel, Limits
 from app.services.storage.store import SessionState, SessionStore
@@ -392,24 +392,3 @@ class SessionRegistry:
 
 class StoreFullError(RuntimeError):
     """The session store is over its size budget and nothing may be evicted."""
-
-
-#: Characters of a session code (no look-alikes: no 0/o, 1/l/i).
-CODE_ALPHABET = "abcdefghjkmnpqrstuvwxyz23456789"
-#: Characters per code: 16 of 31 symbols = 79 random bits.
-CODE_LENGTH = 16
-
-
-def new_code() -> str:
-    """A fresh random session code, ``xxxx-xxxx-xxxx-xxxx`` (79 bits from :mod:`secrets`)."""
-    raw = "".join(secrets.choice(CODE_ALPHABET) for _ in range(CODE_LENGTH))
-    return "-".join(raw[i:i + 4] for i in range(0, CODE_LENGTH, 4))
-
-
-def normalise_code(code: str) -> str:
-    """The canonical ``xxxx-xxxx-xxxx-xxxx`` form of a typed code; ``KeyError`` if it cannot
-    be one (case, spaces and dashes do not matter)."""
-    c = "".join(ch for ch in str(code)[:64].lower() if ch not in " -_\t")
-    if len(c) != CODE_LENGTH or any(ch not in CODE_ALPHABET for ch in c):
-        raise KeyError(code)
-    return "-".join(c[i:i + 4] for i in range(0, CODE_LENGTH, 4))

@@ -17,7 +17,7 @@ cost limits) and says which step and field is wrong. The lessons shipped with th
 
 The class's position (:class:`ClassLesson`, one per session registry, :func:`class_lesson`)
 is moved by the teacher (:func:`start`, :func:`go_to`, :func:`end`); every move is the
-teacher's push (:func:`app.services.session.actions.push`: the step's model, input and mismatch to
+teacher's push (:func:`app.services.teaching.push.push`: the step's model, input and mismatch to
 every recent session, then a ``push`` event carrying the step), and the viser tabs follow
 through :meth:`ClassLesson.add_listener`. The position is committed to the session store,
 so a restarted server is where the class was. A student who explored returns to the class
@@ -45,6 +45,7 @@ from app.services.session import actions
 from app.services.session.sessions import Session, SessionRegistry
 from app.services.settings import Settings
 from app.services.storage.store import SessionStore
+from app.services.teaching import push as teacher
 from app.services.teaching.events import HUB
 from core.base import model_from_dict
 from core.exceptions import ParameterError
@@ -558,7 +559,7 @@ def class_lesson(registry: SessionRegistry) -> ClassLesson:
 
 def _push(registry: SessionRegistry, pos: Position) -> tuple[int, int]:
     s = pos.step
-    return actions.push(registry, model=s.model, signal=s.signal, mismatch=s.mismatch,
+    return teacher.push(registry, model=s.model, signal=s.signal, mismatch=s.mismatch,
                         note={"preset": s.preset, "title": s.title, "signal": True,
                               "lesson": pos.to_dict()})
 
@@ -611,7 +612,7 @@ def end(registry: SessionRegistry) -> int:
 def push_to_class(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
                   signal: SignalSpec | None = None, note: dict[str, Any] | None = None
                   ) -> tuple[int, int]:
-    """The teacher's push (:func:`app.services.session.actions.push`); while a lesson runs, the
+    """The teacher's push (:func:`app.services.teaching.push.push`); while a lesson runs, the
     pushed model and/or input become the class step's (the step's preset dropped), so
     the students who follow stay on the class step, and *Back to the class step* gives
     the pushed model. The event then carries the changed step (``lesson``, with
@@ -626,14 +627,14 @@ def push_to_class(registry: SessionRegistry, *, model: dict[str, Any] | None = N
     with cl.moves:
         pos = cl.position
         if pos is None or (model is None and signal is None):
-            return actions.push(registry, model=model, signal=signal, note=note)
+            return teacher.push(registry, model=model, signal=signal, note=note)
         s = pos.step
         step = replace(s, model=dict(s.model if model is None else model),
                        signal=s.signal if signal is None else signal,
                        preset=s.preset if model is None else None)
         steps = tuple(step if i == pos.index else x for i, x in enumerate(pos.lesson.steps))
         return cl._move_and_push(replace(pos.lesson, steps=steps), pos.index, lambda new: (
-            actions.push(registry, model=model, signal=signal, note={
+            teacher.push(registry, model=model, signal=signal, note={
                 **(note or {}), "lesson": new.to_dict(), "edit": True})))[1:]
 
 

@@ -321,14 +321,14 @@ def test_moves_never_interleave(monkeypatch: pytest.MonkeyPatch) -> None:
     s = reg.create()
     lesson = lessons.builtin_lesson("inverse-compensation")  # steps 2 and 3 differ
     lessons.start(reg, lesson)
-    push = lessons.actions.push
+    push = lessons.teacher.push
 
     def slow_first(registry: Any, **kw: Any) -> Any:
         if kw["note"]["lesson"]["step"] == 2:
             time.sleep(0.3)
         return push(registry, **kw)
 
-    monkeypatch.setattr(lessons.actions, "push", slow_first)
+    monkeypatch.setattr(lessons.teacher, "push", slow_first)
     first = threading.Thread(target=lambda: lessons.go_to(reg, move=1))
     first.start()
     time.sleep(0.05)
