@@ -1,4 +1,5 @@
-"""Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank.
+"""Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank and the
+stop-operator base of clockwise loops.
 
 A Bouc-Wen base is the registered :class:`~core.boucwen.BoucWenModel`
 ``y = k u + sum_j c_j z_j`` with rate-independent Bouc-Wen elements
@@ -14,6 +15,20 @@ threshold is) and its slope ``dz_j/du`` lies in ``[0, m_j]``, ``m_j = max(1, s_j
 ``k' >= eps`` and ``w_j >= 0`` (``k = k' + sum_j w_j m_j``, ``c_j = -w_j``) every fitted
 model has ``dy/du >= k' > 0`` on every branch, so it inverts (a hardening loop, as the PI's
 nonnegative play weights give).
+
+**Stop-operator base** (clockwise, friction-like loops; the ``stop-pi`` kind of
+``hyst fit --model auto``, :mod:`core.fitting.choice`): the registered
+:class:`~core.stop.StopPIModel` ``y = k v + sum_i w_i Xi_{r_i}[v]`` with ``k >= eps`` and
+``w_i >= 0`` (Maxwell-slip elements), driven by the input behind a backlash gap, ``v``. The
+gap's width and the force that opens it come from the fit-side search
+(:class:`~core.fitting.stop.StopPIRegressor` with ``gap="auto"`` on the training rows,
+:func:`fit_stop_gap`), and ``v`` is simulated once with that model (:func:`stop_input`): for
+that fixed ``v`` the base is linear in its weights (the play bank on ``v``, columns
+``[v, v - Gamma_{r_i}[v]]``), so the diagnosis fits it jointly with the effects as it fits
+the PI. The diagnosed model is the exact :class:`~core.stop.StopPIModel` with that gap (its
+own weights decide where the gap opens), which inverts (:class:`~core.stop.StopGapInverse`)
+and exports to C and FMU. The base's input map is carried as the first stage of the
+structure's shape (:func:`stop_stage`; :mod:`core.diagnosis.shapes`).
 """
 
 from __future__ import annotations
@@ -23,15 +38,22 @@ import numpy as np
 from .._typing import Float1D
 from ..boucwen import BoucWenModel, BoucWenState
 from ..fitting.choice import BW_MIN_GAIN as _BW_MIN_GAIN
+from ..recordings import Recording
+from ..stop import StopPIModel
 
 __all__ = [
     "BW_GRID",
+    "GAP",
     "BW_MIN_GAIN",
     "bouc_wen_bank",
     "bouc_wen_elements",
     "bouc_wen_model",
+    "fit_stop_gap",
     "initial_state",
     "saturations",
+    "stop_input",
+    "stop_model",
+    "stop_stage",
 ]
 
 #: A Bouc-Wen base replaces the PI (or a Preisach base that replaced it;
@@ -46,6 +68,10 @@ __all__ = [
 #: with ``hyst fit --model auto`` (:mod:`core.fitting.choice`, which makes the same base
 #: choice with the fit kinds' estimators).
 BW_MIN_GAIN = _BW_MIN_GAIN
+
+#: Kind of the stop base's input map, the first stage of a structure's shape
+#: (:mod:`core.diagnosis.shapes`).
+GAP = "gap"
 
 #: The generic grid of Bouc-Wen element shapes: saturation ``z_s`` as a fraction of the
 #: training input range (a factor 2 apart), smoothness exponents ``n`` and ratios
@@ -116,3 +142,63 @@ def bouc_wen_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> n
     if w.size:
         B[:, 1:] = w[:, None] * _slope_caps(elements)[None, :] - model.states(w, st)
     return B
+
+
+def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[np.ndarray],
+                 n_operators: int) -> StopPIModel | None:
+    """The stop-operator model with the backlash gap the fit-side search finds on the
+    training rows (:class:`~core.fitting.stop.StopPIRegressor`, ``gap="auto"``: the width
+    that lowers the training MSE by :data:`~core.fitting.stop.GAP_MIN_GAIN`, else none;
+    ``n_operators`` elements), or ``None`` when it cannot be fitted. ``test`` rows are only
+    passed on, never scored for the choice."""
+    import warnings
+
+    from ..exceptions import ParameterError
+    from ..fitting.stop import StopPIRegressor
+    from ..warning_filters import FILTERS
+
+    use = [k for k, m in enumerate(train) if m.any()]
+    if not use:
+        return None
+    est = StopPIRegressor(n_operators=n_operators, initial_memory="keep", gap="auto")
+    multi = len(use) > 1
+    us = [records[k].u for k in use]
+    ys = [records[k].y for k in use]
+    try:
+        with FILTERS, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            est.fit(us if multi else us[0], ys if multi else ys[0],
+                    train=[train[k] for k in use] if multi else train[use[0]],
+                    test=[test[k] for k in use] if multi else test[use[0]])
+    except ParameterError:
+        return None
+    return est.model_
+
+
+def stop_stage(model: StopPIModel) -> tuple:
+    """The stop base's input map ``("gap", b, k, r, w)`` of ``model`` (hashable): the gap's
+    width and the model whose force decides where the gap opens."""
+    return (GAP, float(model.gap), float(model.k),
+            tuple(float(x) for x in model.thresholds), tuple(float(x) for x in model.weights))
+
+
+def stop_input(stage: tuple, u: Float1D) -> Float1D:
+    """The input behind the gap of ``stage`` (:func:`stop_stage`), ``v`` of shape ``(N,)``
+    (input units), simulated from relaxed sliders at 0 as the diagnosed model starts; ``u``
+    itself without a gap."""
+    _, b, k, r, w = stage
+    uu = np.ascontiguousarray(u, dtype=np.float64)
+    if b <= 0 or not uu.size:
+        return uu.copy()
+    return StopPIModel(k, np.asarray(r), np.asarray(w), gap=b).bank_input(uu)
+
+
+def stop_model(stage: tuple, r: Float1D, p0: float, pw: Float1D,
+               state0: Float1D | None = None) -> StopPIModel:
+    """The stop-operator model behind the gap of ``stage`` with thresholds ``r`` (``(n,)``,
+    input units) and play-frame weights ``p0, pw`` (the bank ``[v, Gamma_{r_i}[v]]``'s):
+    ``k = p0 + sum pw``, ``w_i = -pw_i`` (``Xi_r = I - Gamma_r``); sliders at ``state0``
+    (zeros by default)."""
+    pw = np.asarray(pw, dtype=np.float64)
+    return StopPIModel(float(p0 + pw.sum()), np.asarray(r, dtype=np.float64), -pw,
+                       state0, gap=float(stage[1]))

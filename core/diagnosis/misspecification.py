@@ -49,14 +49,15 @@ import numpy as np
 from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
-from .shapes import apply_shape, shape_thresholds
+from .shapes import apply_shape, loop_shape, shape_thresholds
 from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
 __all__ = ["BASE_NAMES", "alternative_bases", "base_sensitivity", "describe_alternative",
            "recording_jackknife"]
 
 #: How the report names each base kind.
-BASE_NAMES = {"pi": "PI", "preisach": "Preisach", "bouc-wen": "Bouc-Wen"}
+BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator (Maxwell-slip, backlash gap)",
+              "preisach": "Preisach", "bouc-wen": "Bouc-Wen"}
 
 #: (level segments, smoothness) of the Preisach base among the alternatives (the first of
 #: the bases the base choice tries, :data:`core.diagnosis.engine.PREISACH_GRID`).
@@ -96,19 +97,23 @@ def alternative_bases(ctx: FitContext, s: Structure) -> list[tuple[str, Structur
     """
     recs, tr = ctx.records, ctx.train
     n = min(MAX_ALTERNATIVE_OPERATORS, max(8, len(s.thresholds)))
-    thr = tuple(float(x) for x in shape_thresholds(s.shape, recs, tr, n))
-    pi = s.with_(thresholds=thr, levels=(), level_smooth=0.0, bouc_wen=())
-    w = [apply_shape(s.shape, r.u)[m] for r, m in zip(recs, tr, strict=True) if m.any()]
+    # (a stop base's gap is its own input map: the other families run on the loop shape
+    # alone, with weights of either sign as the PI baseline of clockwise loops has them)
+    ls, free = loop_shape(s.shape), s.free_weights or s.stop
+    thr = tuple(float(x) for x in shape_thresholds(ls, recs, tr, n))
+    pi = s.with_(thresholds=thr, levels=(), level_smooth=0.0, bouc_wen=(), shape=ls,
+                 free_weights=free)
+    w = [apply_shape(ls, r.u)[m] for r, m in zip(recs, tr, strict=True) if m.any()]
     lo, hi = min(float(x.min()) for x in w), max(float(x.max()) for x in w)
     m, smooth = PREISACH_ALTERNATIVE
     knots = tuple(float(x) for x in lo + (hi - lo) * np.arange(1, m) / m)
     out = [("pi", pi)]
-    if not s.free_weights:  # (the base choice fits no Preisach with weights of either sign)
+    if not free:  # (the base choice fits no Preisach with weights of either sign)
         out.append(("preisach", pi.with_(levels=knots, level_smooth=smooth)))
     if s.beta_s is None and hi > lo:
         el = bouc_wen_elements(hi - lo)
         out.append(("bouc-wen", s.with_(bouc_wen=el, thresholds=saturations(el), levels=(),
-                                        level_smooth=0.0)))
+                                        level_smooth=0.0, shape=ls, free_weights=free)))
     out = [(k, a) for k, a in out if k != s.base_kind]
     # the chosen base's own grid, shifted by half a step
     if s.bouc_wen:

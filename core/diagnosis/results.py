@@ -197,8 +197,10 @@ class BaseChoice:
     Attributes
     ----------
     kind : str
-        ``"pi"``, ``"preisach"`` (level-dependent memory, E10) or ``"bouc-wen"`` (a bank of
-        Bouc-Wen elements, :mod:`core.diagnosis.bases`).
+        ``"pi"``, ``"stop-pi"`` (stop operators behind a backlash gap, for clockwise loops),
+        ``"preisach"`` (level-dependent memory, E10) or ``"bouc-wen"`` (a bank of Bouc-Wen
+        elements, :mod:`core.diagnosis.bases`): the family names of
+        :func:`core.fitting.choice.base_family`.
     tried : tuple of dict
         Per alternative ``{"base", "operators", "level_segments", "smoothness",
         "cv_mse_reduction"}``: its MSE reduction against the PI base on the left-out
@@ -206,11 +208,17 @@ class BaseChoice:
         also ``"preisach_mse_reduction_over_it"``.
     folds : int
         Left-out recordings.
+    stop : dict, optional
+        On clockwise loops, the stop-operator base tried first (:mod:`core.diagnosis.bases`):
+        ``{"gap", "friction_plateau", "elements", "heldout_mse_reduction", "chosen"}`` (gap in
+        input units, plateau in output units, the held-out MSE reduction against the PI
+        with weights of either sign); ``None`` on counter-clockwise loops.
     """
 
     kind: str
     tried: tuple[dict[str, Any], ...]
     folds: int
+    stop: dict[str, Any] | None = None
 
     @property
     def text(self) -> str:
@@ -227,6 +235,19 @@ class BaseChoice:
 
         alts = "; ".join(one(t) for t in self.tried)
         how = f"each of {self.folds} recordings predicted from the others"
+        st = self.stop
+        if self.kind == "stop-pi" and st is not None:
+            gap = (f"behind a backlash gap {st['gap']:.4g} input units wide (the force stays "
+                   "at zero while the input crosses it)" if st["gap"] > 0 else
+                   "without a backlash gap")
+            return ("stop operators (Maxwell-slip elements, friction plateau "
+                    f"{st['friction_plateau']:.4g} output units) {gap}: the loops run "
+                    "clockwise, as hyst fit --model auto chooses it; held-out MSE "
+                    f"{-100 * st['heldout_mse_reduction'] + 0.0:+.0f} % against the PI with "
+                    "weights of either sign"
+                    + (f"; no other base predicted the recordings clearly better ({how}, "
+                       f"against it: {alts})" if self.tried else "")
+                    + "; the effects are judged against it")
         if self.kind == "preisach":
             return ("level-dependent memory (E10): a Preisach base whose relay density varies "
                     f"with the input level predicts the recordings clearly better than the PI "
@@ -244,7 +265,8 @@ class BaseChoice:
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "tried": [dict(t) for t in self.tried],
-                "folds": self.folds, "text": self.text}
+                "folds": self.folds, "stop": None if self.stop is None else dict(self.stop),
+                "text": self.text}
 
 
 @dataclass(frozen=True)

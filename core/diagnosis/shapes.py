@@ -11,7 +11,10 @@ the input of the play bank by a memoryless monotone map ``w = g(u)``:
   :class:`core.deadzone.DeadZoneMap` of :class:`core.gpi.DeadZoneGPI` (a threshold or dead
   band where a segment's slope is small; one-sided when only one side has one).
 
-A shape is a tuple of such stages, applied in order (``()`` = classical PI). For fixed
+A shape is a tuple of such stages, applied in order (``()`` = classical PI). A stop-operator
+base (:mod:`core.diagnosis.bases`) puts its own input map first, ``("gap", b, k, r, w)``: the
+input behind a backlash gap of width ``b`` (:func:`core.diagnosis.bases.stop_input`); it is
+part of the base, not a loop-shape effect (:func:`loop_shape` leaves it out). For fixed
 parameters the model is still linear in the play weights (the plays run on ``w``), so the
 diagnosis fits it with the same separable least squares as every other effect
 (:mod:`core.diagnosis.structure`), and the found model is an ordinary member of the model
@@ -35,14 +38,25 @@ from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
 from ..gpi import DeadZoneGPI, TanhEnvelope, TanhGPI
 from ..pi import PIModel
+from .bases import GAP, stop_input
 from .grid import baseline_thresholds
 
-__all__ = ["DEAD_BAND_SLOPE", "SHAPE_EFFECTS", "apply_shape", "dead_band_words",
-           "dead_zone_stage", "describe_shape", "hysteresis_model", "shape_effects",
-           "shape_thresholds", "stage_map", "tanh_stage"]
+__all__ = ["DEAD_BAND_SLOPE", "GAP", "SHAPE_EFFECTS", "apply_shape", "dead_band_words",
+           "dead_zone_stage", "describe_shape", "gap_stage_of", "hysteresis_model",
+           "loop_shape", "shape_effects", "shape_thresholds", "stage_map", "tanh_stage"]
 
 #: Shape stage kind -> effect name.
 SHAPE_EFFECTS: dict[str, str] = {"tanh": "saturation", "deadzone": "dead-zone"}
+
+
+def gap_stage_of(shape: tuple) -> tuple | None:
+    """The stop-operator base's input map of ``shape`` (its first stage), or ``None``."""
+    return shape[0] if shape and shape[0][0] == GAP else None
+
+
+def loop_shape(shape: tuple) -> tuple:
+    """The loop-shape stages of ``shape`` (the stop base's input map left out)."""
+    return tuple(st for st in shape if st[0] != GAP)
 
 
 def tanh_stage(a1: float, a2: float) -> tuple:
@@ -67,6 +81,8 @@ def stage_map(stage: tuple) -> Model:
 
 
 def _apply_stage(stage: tuple, u: np.ndarray) -> np.ndarray:
+    if stage[0] == GAP:
+        return stop_input(stage, u)
     if stage[0] == "tanh":  # single-branch envelope: memoryless, no direction bookkeeping
         return np.tanh(stage[1] * u + stage[2])
     return stage_map(stage)(u)
@@ -82,7 +98,7 @@ def apply_shape(shape: tuple, u: ArrayLike) -> Float1D:
 
 def shape_effects(shape: tuple) -> list[str]:
     """Effect names of the stages of ``shape``, in order."""
-    return [SHAPE_EFFECTS[st[0]] for st in shape]
+    return [SHAPE_EFFECTS[st[0]] for st in loop_shape(shape)]
 
 
 def hysteresis_model(shape: tuple, pi: Model) -> Model:

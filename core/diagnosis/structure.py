@@ -34,10 +34,10 @@ from ..preisach import PreisachModel, RateDependentPreisach, level_segments
 from ..recordings import Recording
 from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
 from ..validation import filled
-from .bases import bouc_wen_bank, bouc_wen_model, initial_state
+from .bases import bouc_wen_bank, bouc_wen_model, initial_state, stop_model
 from .grid import baseline_thresholds
 from .registry import EFFECTS, StaticTerm, TermFit, TermRows, static_terms
-from .shapes import apply_shape, hysteresis_model, shape_effects
+from .shapes import apply_shape, gap_stage_of, hysteresis_model, loop_shape, shape_effects
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
            "dynamics_stages", "fit_structure", "legendre_columns", "pack_dynamics"]
@@ -113,7 +113,11 @@ class Structure:
     shape : tuple
         Loop-shape input maps the plays run on (:mod:`core.diagnosis.shapes`; ``()`` =
         classical PI); ``thresholds`` are then in the units of the mapped input, and an
-        initial memory is the mapped history (the model's ``state0``).
+        initial memory is the mapped history (the model's ``state0``). A stop-operator base
+        (clockwise loops, :mod:`core.diagnosis.bases`) has its input map first
+        (``("gap", ...)``, the input behind its backlash gap) and its weights solved as
+        Maxwell-slip stiffnesses ``k >= eps``, ``w_i >= 0``; the weights kept are the play
+        frame's (``p0 = k + sum w_i``, ``p_i = -w_i``).
     levels : tuple of float
         Interior level knots of a Preisach base (:class:`~core.preisach.PreisachModel`,
         level-dependent memory, E10): each play output (the input itself for the
@@ -144,9 +148,15 @@ class Structure:
 
     @property
     def base_kind(self) -> str:
-        """The base hysteresis: ``"bouc-wen"``, ``"preisach"`` (level-dependent memory) or
-        ``"pi"``."""
-        return "bouc-wen" if self.bouc_wen else "preisach" if self.levels else "pi"
+        """The base hysteresis: ``"bouc-wen"``, ``"preisach"`` (level-dependent memory),
+        ``"stop-pi"`` (stop operators behind a backlash gap) or ``"pi"``."""
+        return ("bouc-wen" if self.bouc_wen else "preisach" if self.levels
+                else "stop-pi" if self.stop else "pi")
+
+    @property
+    def stop(self) -> bool:
+        """A stop-operator base (its input map first in :attr:`shape`)."""
+        return gap_stage_of(self.shape) is not None
 
     @property
     def effects(self) -> list[str]:
@@ -1125,7 +1135,10 @@ def fit_structure(
         w = _solve(s, X, G, lower, nb)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
-        if s.free_weights and not s.bouc_wen:
+        if s.stop:  # Maxwell-slip stiffnesses k, w_i -> play frame p0 = k + sum w, p = -w
+            w[1:nb] = -w[1:nb]
+            w[0] -= float(np.sum(w[1:nb]))
+        elif s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
         if needs_x and it < iterations - 1:
             # (the regressors read the PI-stage outputs up to the last solved row only)
@@ -1262,6 +1275,11 @@ def _constraints(s: Structure, X: np.ndarray, nb: int, eps: float, terms: list) 
         # Bouc-Wen base: columns m_j u - z_j, weights >= 0 (an invertible hardening loop,
         # core.diagnosis.bases) or of either sign with free weights
         lower[1:nb] = -np.inf if s.free_weights else 0.0
+    elif s.stop:
+        # stop base: columns [v, v - Gamma_i(v)] (the elements' deflections), k >= eps and
+        # w_i >= 0 (a clockwise, invertible Maxwell-slip bank)
+        X[:, 1:nb] = X[:, :1] - X[:, 1:nb]
+        lower[1:nb] = 0.0
     elif s.free_weights:
         X[:, : nb - 1] -= X[:, 1:nb]
     else:
@@ -1489,6 +1507,13 @@ def _hysteresis(s: Structure, k: int, p0: float, pw: Float1D) -> Model:
     initial memory included) with the weights ``p0, pw``."""
     r = np.asarray(s.thresholds)
     hyst: Model
+    gap = gap_stage_of(s.shape)
+    if gap is not None:
+        # stop base: the sliders start where the (mapped) history leaves the plays
+        hist = s.history[k]
+        z0 = play_bank(apply_shape((gap,), np.asarray(hist, dtype=np.float64)), r)[1] \
+            if hist else None
+        return hysteresis_model(loop_shape(s.shape), stop_model(gap, r, p0, pw, z0))
     if s.bouc_wen:
         # a virtual history sets the elements' start state (on the mapped input)
         st = initial_state(s.bouc_wen, apply_shape(s.shape, np.asarray(s.history[k]))

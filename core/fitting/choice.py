@@ -19,9 +19,11 @@ at the held-out rows the report scores):
    :data:`PREISACH_OVER_MAP`; a Bouc-Wen base then replaces the chosen one when it lowers
    the PI's MSE by :data:`BW_MIN_GAIN` and by more than the Preisach did.
 
-On clockwise data the PI family is reported as the ``stop-pi`` kind (the same operator,
-written with stop operators: Maxwell-slip elements, whose report names the friction plateau
-and any dead band).
+On clockwise data the PI family is the ``stop-pi`` kind (stop operators: Maxwell-slip
+elements behind the backlash gap its fit searches, whose report names the friction plateau
+and the dead band); ``hyst diagnose`` judges its effects against the same base, with the
+gap this fit finds (:mod:`core.diagnosis.bases`), and calls it by the same family name
+(:func:`base_family`).
 
 The margins are the diagnosis's: ``core.diagnosis.bases`` takes :data:`BW_MIN_GAIN` from
 here and ``tests/core/fitting/test_choice.py`` checks the engine's own constants against
@@ -71,10 +73,10 @@ CANDIDATE_OPTIONS: dict[str, dict[str, Any]] = {"bouc-wen": {"polish": False}}
 #: Contiguous blocks of the training rows for the sign decision with one recording.
 SIGN_BLOCKS = 3
 #: The base family of each candidate fit kind, in the diagnosis's words
-#: (:class:`core.diagnosis.results.BaseChoice` ``kind``): the stop-operator model is the PI
-#: family written with stop operators (``equivalent_pi``), which the diagnosis's PI base
-#: with weights of either sign is.
-FAMILIES: dict[str, str] = {"pi": "pi", "stop-pi": "pi", "preisach": "preisach",
+#: (:class:`core.diagnosis.results.BaseChoice` ``kind``): the stop-operator model behind a
+#: backlash gap is the diagnosis's base of clockwise loops (``stop-pi``, fitted there with
+#: the gap this module's fit finds: :func:`core.diagnosis.bases.fit_stop_gap`).
+FAMILIES: dict[str, str] = {"pi": "pi", "stop-pi": "stop-pi", "preisach": "preisach",
                             "bouc-wen": "bouc-wen"}
 
 

@@ -163,7 +163,7 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
     if adequacy.get("adequate") is False and adequacy.get("text"):
         findings.append(f"Not explained: {_with_units(in_words(adequacy['text']), y_unit)}")
     choice = base_doc.get("base_choice") or {}
-    if choice.get("kind") in ("preisach", "bouc-wen"):
+    if choice.get("kind") in ("preisach", "bouc-wen", "stop-pi"):
         findings.append(f"Base model: {in_words(str(choice.get('text', '')))}")
     for r in d.get("recording_specific", []):
         findings.append("Seen in this recording only, so not claimed: "

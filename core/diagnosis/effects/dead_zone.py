@@ -35,8 +35,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     single end flattens). VarPro over the band's edges and log-slope: a grid per kind, then
     Nelder-Mead on the best kind.
     """
-    if any(st[0] == "deadzone" for st in cur.structure.shape):
-        return None
+    if any(st[0] == "deadzone" for st in cur.structure.shape) or cur.structure.stop:
+        return None  # (a stop base's plateau and backlash gap are its saturation and dead band)
     # a saturation found earlier may have bent its tail to mimic the dead band: search the
     # band without it, then the saturation again on top of the band
     tanh_before = any(st[0] == "tanh" for st in cur.structure.shape)

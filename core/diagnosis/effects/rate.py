@@ -27,8 +27,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """Rate-dependent play thresholds r_i + beta |du/dt| (of the PI, or of the plays whose
     level segments make a Preisach base): a 1-D search over beta."""
     s = cur.structure
-    if s.beta_s is not None or s.bouc_wen:
-        return None  # rate-dependent plays on a Bouc-Wen base are not modelled
+    if s.beta_s is not None or s.bouc_wen or s.stop:
+        return None  # rate-dependent plays on a Bouc-Wen or stop base are not modelled
     span = max(float(np.ptp(r.u)) for r in ctx.records)
     rmax = max(float(np.max(np.abs(c.rate))) for c in ctx.coords) or 1.0
     grid = np.geomspace(1e-5, 0.3, 12) * span / rmax

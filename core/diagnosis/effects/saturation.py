@@ -28,8 +28,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     :class:`core.fitting.TanhGPIRegressor`): a 5 x 5 grid, then Nelder-Mead.
     """
     s = cur.structure
-    if any(st[0] == "tanh" for st in s.shape):
-        return None
+    if any(st[0] == "tanh" for st in s.shape) or s.stop:
+        return None  # (a stop base's plateau and backlash gap are its saturation and dead band)
     sctx, scur = search_context(ctx, cur)
     got = tanh_search(sctx, s, scur)
     if got is None:

@@ -142,9 +142,14 @@ def test_friction_damper_at_two_rates_rate_tested_between_recordings_not_claimed
     cols = {"time": "t_s", "input": "u_disp_in", "output": "y_force_kip"}
     slow = as_records(d + "0.25Hz30lbtension0.5amplitude.csv", **cols)[0].window(0, 8.5)
     fast = as_records(d + "2Hz30lbtension0.5amplitude.csv", **cols)[0]
-    res = diagnose([slow, fast], n_operators=15, effects=["rate", "delay", "lag"])
+    # (on the stop-operator base of clockwise loops rate is not modelled: the PI base)
+    res = diagnose([slow, fast], n_operators=15, effects=["rate", "delay", "lag"], base="pi")
     assert "rate" not in [f.name for f in res.effects]
     assert "rate" not in {u["name"] for u in res.untestable}
     row = _rate_row(res)
     assert "leave-one-recording-out" in row["evidence"] and not row["passes"]
     assert [p["recording"] for p in row["per_recording"]] == [slow.name, fast.name]
+    stop = diagnose([slow, fast], n_operators=15, effects=["rate"], max_effects=0)
+    assert stop.base_choice is not None and stop.base_choice.kind == "stop-pi"
+    (why,) = [u for u in stop.untestable if u["name"] == "rate"]
+    assert "stop operators" in why["reason"] and "--base pi" in why["experiment"]

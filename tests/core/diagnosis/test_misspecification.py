@@ -55,6 +55,26 @@ def test_alternative_bases_are_the_other_families() -> None:
         "bouc-wen", "shifted"]
 
 
+def test_alternatives_of_a_stop_base_run_on_the_input_itself() -> None:
+    """A stop base's gap is its own input map: its alternatives (the PI with weights of
+    either sign, a Bouc-Wen bank) run on the input, the shifted grid keeps the gap."""
+    from core.diagnosis.bases import stop_stage
+    from core.recordings import Recording
+    from core.stop import StopPIModel
+
+    t = np.arange(0, 1.0, 1e-3)
+    u = 4 * np.sin(2 * np.pi * 3 * t)
+    recs = [Recording(t, u, u.copy(), "r")]
+    ctx = FitContext(recs, [np.ones(t.size, bool)], [np.zeros(t.size, bool)])
+    gap = stop_stage(StopPIModel(0.1, [0.5, 1.0], [1.0, 1.0], gap=0.3))
+    s = Structure((0.5, 1.0, 2.0), ((),), shape=(gap,))
+    alts = dict(alternative_bases(ctx, s))
+    assert list(alts) == ["pi", "bouc-wen", "shifted"]
+    assert alts["pi"].shape == () and alts["pi"].free_weights
+    assert alts["bouc-wen"].shape == () and alts["bouc-wen"].free_weights
+    assert alts["shifted"].shape == (gap,) and alts["shifted"].base_kind == "stop-pi"
+
+
 def _recovery(res, sc) -> list[dict]:
     return parameter_recovery(
         [{"name": e.name, "parameters": e.parameters, "uncertainty": e.uncertainty,
@@ -64,7 +84,8 @@ def _recovery(res, sc) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def maxwell_resonance():
-    """A Maxwell-slip plant (no base the diagnosis fits is it) with a 200 Hz mode."""
+    """A Maxwell-slip plant (written apart from the stop base the diagnosis fits) with a
+    200 Hz mode."""
     return make_family("maxwell-slip", "resonance", "large", 0.002, 500)
 
 
@@ -74,8 +95,10 @@ def test_non_pi_resonance_is_honest(maxwell_resonance) -> None:
     assert {q["quantity"] for q in rows} == {"freq_hz", "damping"}
     assert all(q["honest"] for q in rows), rows
     (f,) = [e for e in res.effects if e.name == "resonance"]
-    # weights of either sign (a slip loop): no Preisach alternative
-    assert set(f.base_sensitivity["per_base"]) == {"bouc-wen", "shifted"}
+    # clockwise slip loops: a stop-operator base, whose alternatives are the PI with weights
+    # of either sign and a Bouc-Wen bank (no Preisach of free weights)
+    assert res.baseline.structure.base_kind == "stop-pi"
+    assert set(f.base_sensitivity["per_base"]) == {"pi", "bouc-wen", "shifted"}
     assert "base model replaced by" in f.uncertainty_method
 
 
