@@ -282,6 +282,13 @@ class Provenance:
         extra = _json_ready(dict(self.extra), "provenance")
         object.__setattr__(self, "extra", MappingProxyType(extra))
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as its fields (a read-only mapping does not pickle), so a parameter set
+        and a fit's outcome travel between processes (a job's worker and the server)."""
+        return (Provenance, (self.created, self.tool, self.source,
+                             None if self.fit is None else dict(self.fit), self.notes,
+                             dict(self.extra)))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready mapping (``fit`` deep-copied)."""
         d: dict[str, Any] = {

@@ -55,6 +55,23 @@ def test_round_trip_through_json_file_is_lossless(tmp_path, rng):
     np.testing.assert_array_equal(back.model(u), m(u))
 
 
+def test_a_parameter_set_pickles_as_it_is():
+    """A job's worker sends a fit's outcome (its parameter set included) back to the
+    server by pickling it: the read-only ``provenance.fit`` and ``extra`` come back equal
+    and read-only, with the same creation time."""
+    import pickle
+    from types import MappingProxyType
+
+    ps = ParameterSet.from_model(PIModel(0.72, [0.45, 0.9], [0.6, 0.48]), source="unit test",
+                                 fit={"model": "pi", "report": {"rmse": 0.125}})
+    ps = ps.with_provenance(extra={"kept": [1, 2]})
+    back = pickle.loads(pickle.dumps(ps))
+    assert back.to_dict() == ps.to_dict() and back.provenance == ps.provenance
+    assert isinstance(back.provenance.fit, MappingProxyType)
+    assert isinstance(back.provenance.extra, MappingProxyType)
+    assert pickle.loads(pickle.dumps(ParameterSet(ps.model))).provenance.fit is None
+
+
 def test_chain_round_trip_and_string_source():
     ch = Chain.of(EX1, PIModel(1.0, [0.5], [0.25]))
     ps = ParameterSet.from_model(ch)

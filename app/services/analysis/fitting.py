@@ -53,8 +53,9 @@ def _finite(x: Any) -> Any:
 
 def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
     """Fit a model of ``kind`` with ``n`` operators to ``rec``: the outcome without its
-    estimator (what a session keeps, :meth:`~app.services.session.sessions.Session.set_fit`,
-    rebuilt from its parameter set by :func:`fit_outcome`).
+    estimator: what a session keeps (:meth:`~app.services.session.sessions.Session.set_fit`;
+    it pickles, so a job's worker sends it back as it is; the store keeps its parameter set
+    and rebuilds it with :func:`fit_outcome`).
 
     The fit is :func:`core.fitting.fit_recordings` (the one entry point ``hyst fit`` and
     ``hyst batch fit`` use) with ``hyst fit -n N --model KIND``'s defaults: the last 20 %

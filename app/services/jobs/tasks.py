@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from app.services.explore.config import Config
     from app.services.session.sessions import Session
     from core.base import Model
+    from core.fitting.entry import FitOutcome
     from core.recordings import Recording
 
 __all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit",
@@ -29,13 +30,11 @@ __all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures
 
 
 def run_fit(rec: Recording, n: int, kind: str, *,
-            progress: Progress) -> tuple[dict[str, Any], dict[str, Any]]:
+            progress: Progress) -> tuple[FitOutcome, dict[str, Any]]:
     """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure.
 
-    Returns ``(parameter set document, plotly figure)``: the document ``hyst fit`` would
-    write goes back to the server (a ``FitOutcome`` does not pickle: its provenance is a
-    read-only mapping), which rebuilds the typed outcome from it for the session
-    (:func:`fit_task`).
+    Returns ``(outcome, plotly figure)``: the typed outcome (no estimator) goes back to the
+    server as it is, which keeps it in the session (:func:`fit_task`).
     """
     from app.services.analysis.fitting import fit_recording
     from app.services.explore import figures as F
@@ -46,7 +45,7 @@ def run_fit(rec: Recording, n: int, kind: str, *,
     out = fit_recording(rec, n, kind)
     progress(0.9, "building the figure")
     fig = F.fit_figure(rec, out.model(rec.u), f"fitted: {name}, {n} operators")
-    return out.parameter_set.to_dict(), fig.to_dict()
+    return out, fig.to_dict()
 
 
 def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
@@ -126,14 +125,12 @@ def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
     """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
     dropped; with ``apply`` the fitted model becomes the session's model). The job's result
     is ``{"model": document, "report": .fitting.fit_report, "figure": plotly figure}``."""
-    from app.services.analysis.fitting import fit_outcome, fit_report
-    from core.paramset import ParameterSet
+    from app.services.analysis.fitting import fit_report
 
     rec = _recording(session, "fit")
 
-    def keep(out: tuple[dict[str, Any], dict[str, Any]]) -> dict[str, Any]:
-        doc, figure = out
-        fit = fit_outcome(ParameterSet.from_dict(doc))
+    def keep(out: tuple[FitOutcome, dict[str, Any]]) -> dict[str, Any]:
+        fit, figure = out
         session.set_fit(fit, apply=apply)
         return {"model": fit.model.to_dict(), "report": fit_report(fit, rec), "figure": figure}
 
