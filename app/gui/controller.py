@@ -18,7 +18,7 @@ import os
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import replace
 from typing import Any
@@ -159,6 +159,8 @@ class SessionView:
         self._work_lock = threading.Lock()
         self._cancel = threading.Event()  # set by Cancel or close: the running job is killed
         self._csv: tuple[str, str] | None = None  # (text, file name) of the last upload
+        # the column names this tab filled in after the reader chose them ("": typed / none)
+        self._filled_cols: tuple[str, ...] = ("", "", "")
         self._timing: Timing | None = None  # its uneven time stamps, while a choice is due
         self.fit_figure: F.FigureJSON | None = None
         self.rendered_version = -1
@@ -220,6 +222,7 @@ class SessionView:
         ui.join_btn.on_click(self._guarded(self._join_clicked))
         ui.push_btn.on_click(self._guarded(self._push_clicked))
         ui.who_btn.on_click(self._guarded(self._who_clicked))
+        ui.teacher_token.on_update(self._guarded(self._token_typed))
         ui.name_in.on_update(self._guarded(lambda ev: self._attend()))
         ui.upload.on_upload(self._guarded(self._csv_uploaded))
         ui.remap.on_click(self._guarded(self._remap_clicked))
@@ -503,6 +506,19 @@ class SessionView:
         self.ui.pushed_md.content = f"**Teacher:** {md_text(text)}"
         self._toast("Your teacher pushed a change", text)
 
+    def _token_typed(self, event: Any) -> None:
+        """A right teacher token shows the teacher's buttons (a student never sees them);
+        on a server without a token anything typed does, and their press says how to give
+        the server one."""
+        given = str(self.ui.teacher_token.value)
+        if given and (self.settings.teacher_ok(given) or not self.settings.teacher_token):
+            self.show_teacher()
+
+    def show_teacher(self) -> None:
+        """Show this tab the teacher's buttons (push, who is connected, lead a lesson)."""
+        self.ui.push_btn.visible = self.ui.who_btn.visible = True
+        self.lesson.teacher_folder.visible = True
+
     def _teacher_allowed(self, refused: str) -> bool:
         """Whether this tab may act as the teacher: always with the teacher token, also on
         loopback (another page the teacher opens must not); on a loopback server a tab
@@ -554,6 +570,12 @@ class SessionView:
     def _csv_uploaded(self, event: Any) -> None:
         f = event.target.value
         self._csv = (f.content.decode("utf-8-sig", errors="replace"), f.name)
+        ui = self.ui
+        # a new file is mapped afresh: the columns filled in for the last one go (those
+        # typed by hand stay)
+        for box, filled in zip((ui.t_col, ui.u_col, ui.y_col), self._filled_cols, strict=True):
+            if filled and box.value == filled:
+                box.value = ""
         self._load_csv()
 
     def _remap_clicked(self, event: Any) -> None:
@@ -585,12 +607,27 @@ class SessionView:
             ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(exc)}"
             return
         self._ask_timing(None)
+        self._show_columns(up.recording.columns)
         ui.data_md.content = recording_markdown(up.recording)
         if up.time_steps:
             ui.data_md.content += f"\n\n{md_text(up.time_steps[0].upper() + up.time_steps[1:])}."
             self._toast("Recording loaded", up.time_steps)
         ui.report_md.content = ""
         self._commit(lambda c: replace(c, use_recording=True))
+
+    def _show_columns(self, columns: Mapping[str, str]) -> None:
+        """Fill the empty column fields with the columns the reader chose, so the mapping
+        it made is on screen (to change, then *Apply column mapping*)."""
+        ui = self.ui
+        filled = []
+        for box, role in ((ui.t_col, "time"), (ui.u_col, "input"), (ui.y_col, "output")):
+            name = str(columns.get(role) or "")
+            if not str(box.value).strip() and name:
+                box.value = name
+                filled.append(name)
+            else:
+                filled.append("")
+        self._filled_cols = tuple(filled)
 
     def _ask_timing(self, timing: Timing | None) -> None:
         """Offer the choice for uneven time stamps (``None``: hide it)."""

@@ -152,12 +152,14 @@ class Widgets:
             # viser 1.1 has no password field: the token is typed here and the field is
             # cleared after each push, so a projector shows it for a moment at most
             self.teacher_token = g.add_text("Teacher token", initial_value="",
-                                            hint="needed for every push (the token hyst "
-                                                 "serve was given or generated); cleared "
-                                                 "after use, on a server of this computer "
-                                                 "the tab remembers it")
-            self.push_btn = g.add_button("Teacher: push this model to every session")
-            self.who_btn = g.add_button("Teacher: who is connected?",
+                                            hint="the teacher's buttons appear once it is "
+                                                 "right (the token hyst serve was given or "
+                                                 "generated); cleared after use, on a server "
+                                                 "of this computer the tab remembers it")
+            # the teacher's buttons: a student never sees them (shown by a right token)
+            self.push_btn = g.add_button("Teacher: push this model to every session",
+                                         visible=False)
+            self.who_btn = g.add_button("Teacher: who is connected?", visible=False,
                                         hint="counts and names only, never session codes")
             self.who_md = g.add_markdown("")
         tabs = g.add_tab_group()

@@ -56,9 +56,10 @@ class LessonPanel:
             self.back_btn = g.add_button("Back to the class step", disabled=True,
                                          hint="give this tab the class's step again (model, "
                                               "input, view) after exploring")
-            with g.add_folder("Teacher: lead a lesson", expand_by_default=False):
-                g.add_markdown("*Type the teacher token under Session first. Every step "
-                               "gives each student its model, input and view.*")
+            # shown once the tab has the teacher token (SessionView.show_teacher)
+            with g.add_folder("Teacher: lead a lesson", expand_by_default=False,
+                              visible=False) as self.teacher_folder:
+                g.add_markdown("*Every step gives each student its model, input and view.*")
                 titles = tuple(self.choices)
                 self.pick = g.add_dropdown("Lesson", titles, initial_value=titles[0])
                 self.start_btn = g.add_button("Start lesson", hint="send the lesson's first "

@@ -3,7 +3,8 @@ step and one push of an edited model to three web students (one on a phone) and 
 students. Correctness only (the timings of a class of thirty are
 ``benchmarks/bench_class.py``'s): every student shows every step and the push, none is ever
 told "You are exploring" (none moves), the teacher's page is on the step after its own
-push and never reads "Your teacher", and the teacher's counts are the class."""
+push and never reads "Your teacher", the teacher's counts are the class, and no viser
+student sees the teacher's buttons."""
 
 from __future__ import annotations
 
@@ -42,12 +43,19 @@ def test_a_class_follows_every_step_and_the_push(browser: Any, live_server: dict
         assert run.expected_counts == "4 web pages and 2 3D / GUI tabs open, in 6 sessions"
         assert all((c["pages"], c["viser_tabs"], c["sessions_live"]) == (4, 2, 6)
                    for c in run.connected), run.connected
-        # the viser students hold the last step's model and view (server side)
+        # the viser students hold the last step's model and view (server side), and see
+        # none of the teacher's buttons (their Session folder is open: they typed a name)
         last = lesson.steps[-1]
         for s in students:
             if s.kind == "viser":
                 assert s.view.session.config.model == last.model
                 assert s.view.figure_name == last.view
+                for button in ("Teacher: push this model to every session",
+                               "Teacher: who is connected?"):
+                    assert not s.page.get_by_role("button", name=button).first.is_visible()
+                assert s.page.get_by_role("button", name="Join / restore session"
+                                          ).first.is_visible()
+                assert not s.page.get_by_text("Teacher: lead a lesson").first.is_visible()
     finally:
         class_lesson(app.state.registry)._move(None)  # other journeys see no lesson
         close_class(teacher, students)

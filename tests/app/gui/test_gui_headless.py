@@ -399,7 +399,9 @@ def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
         assert view.ui.teacher_token.value == ""  # never left on a projector
         assert (other.config.model["p0"] == 1.1) is pushed, (settings, token)
         assert view.toasts[-1][0] == ("Pushed" if pushed else "Not pushed")
-    assert calls == ["nope", None, "s3cret"]
+    # each typed token is checked twice: typing it (a right one shows the teacher's
+    # buttons) and pressing the push
+    assert calls == ["nope", "nope", None, "s3cret", "s3cret"]
 
 
 def test_diagnosis_markdown() -> None:
@@ -608,3 +610,28 @@ def test_diagnosis_is_a_killable_job_and_a_closed_tab_cancels_it(server: Any) ->
     finally:
         w.close()
         jobs.cancel_all()
+
+
+def _csv(v: SessionView, name: str, header: str, rows: int = 200) -> None:
+    t = np.arange(rows) * 1e-3
+    u = 2 * np.sin(2 * np.pi * 5 * t)
+    text = header + "\n" + "\n".join(f"{a},{b},{0.5 * b}" for a, b in zip(t, u, strict=True))
+    v.ui.upload._impl.value = SimpleNamespace(name=name, content=text.encode())
+    v._csv_uploaded(SimpleNamespace(target=v.ui.upload, client=None))
+
+
+def test_the_column_fields_show_the_columns_the_reader_chose(view: SessionView) -> None:
+    """Issue 33: after mapping the columns itself the tab showed empty column fields. They
+    hold the file's header names now; a new file is mapped afresh (the names filled in for
+    the last one go), a name typed by hand stays and is used."""
+    ui = view.ui
+    _csv(view, "a.csv", "time_s,drive_V,disp_um")
+    assert (ui.t_col.value, ui.u_col.value, ui.y_col.value) == ("time_s", "drive_V", "disp_um")
+    _csv(view, "b.csv", "t,volts,microns")
+    assert view.session.recording is not None and view.session.recording.name.startswith("b")
+    assert (ui.t_col.value, ui.u_col.value, ui.y_col.value) == ("t", "volts", "microns")
+    ui.u_col.value, ui.y_col.value = "microns", "volts"  # typed: input and output swapped
+    _csv(view, "b2.csv", "t,volts,microns")
+    rec = view.session.recording
+    assert (ui.u_col.value, ui.y_col.value) == ("microns", "volts")
+    assert rec is not None and np.allclose(rec.y, 2 * rec.u)  # the swap was used

@@ -153,3 +153,16 @@ def test_a_move_never_tells_a_student_who_did_not_move_that_they_explore(
     # a student who does move is told
     view.session.update(lambda c: c.with_model(PIModel(1.0, [0.5], [0.2]).to_dict()))
     assert "You are exploring" in said.said[-1]
+
+
+def test_students_never_see_the_teachers_buttons(view: SessionView) -> None:
+    """The push, *Who is connected?* and the lesson's teacher folder are hidden in a new
+    tab and stay hidden for a wrong token; the right one shows them."""
+    teacher = (view.ui.push_btn, view.ui.who_btn, view.lesson.teacher_folder)
+    assert [h.visible for h in teacher] == [False, False, False]
+    view.ui.teacher_token.value = "not-" + TOKEN
+    assert [h.visible for h in teacher] == [False, False, False]
+    view.ui.teacher_token.value = TOKEN
+    assert [h.visible for h in teacher] == [True, True, True]
+    _click(view.lesson.start_btn)  # and they work
+    assert view.lesson.cls.position is not None
