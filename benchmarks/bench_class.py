@@ -37,6 +37,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 TARGET_P95_MS = 1000.0
+nan = float("nan")
 
 
 def _serve(settings: Any) -> tuple[Any, Any, int]:
@@ -113,26 +114,36 @@ def main() -> int:
     print(f"load average (1, 5, 15 min): before {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
           f"class open {load1[0]:.1f} {load1[1]:.1f} {load1[2]:.1f}, "
           f"after the lesson {load2[0]:.1f} {load2[1]:.1f} {load2[2]:.1f} ({os.cpu_count()} cores)")
-    head = (f"{'click':<16} {'web p50':>8} {'p95':>6} {'max':>6} {'viser p50':>10} {'p95':>6} "
-            f"{'max':>6} {'shown':>7}  teacher's counts")
+
+    def row(label: str, get: Any) -> str:
+        w, wa, wf = get("web", "arrivals"), get("web", "asked"), get("web", "received")
+        v, vs = get("viser", "arrivals"), get("viser", "received")
+        return (f"{label:<15} {_ms(median(wa)):>6} {_ms(median(wf)):>6} {_ms(median(w)):>6} "
+                f"{_ms(percentile(w, .95)):>6} {_ms(max(w, default=nan)):>6} | "
+                f"{_ms(median(vs)):>6} {_ms(median(v)):>6} {_ms(percentile(v, .95)):>6} "
+                f"{_ms(max(v, default=nan)):>6}")
+
+    print("ms after the teacher's click; web: asked = the page asks for the step's figure "
+          "(the event has arrived), figure = has it, shown = drawn with the step; viser: "
+          "server = the tab's Lesson folder set, shown = the browser shows it")
+    head = (f"{'click':<15} {'asked':>6} {'figure':>6} {'shown':>6} {'p95':>6} {'max':>6} | "
+            f"{'server':>6} {'shown':>6} {'p95':>6} {'max':>6}  {'showed':>7}  teacher's counts")
+    print(f"{'':<15} {'web p50':>20} {'':>20} | {'viser p50':>13}")
     print(head)
     print("-" * len(head))
     for m in run.moves:
-        w = [a for n, a in m.arrivals.items() if a is not None and kinds[n] == "web"]
-        v = [a for n, a in m.arrivals.items() if a is not None and kinds[n] == "viser"]
+        def get(kind: str, what: str, m: Any = m) -> list[float]:
+            return [a for n, a in getattr(m, what).items()
+                    if a is not None and kinds[n] == kind]
         shown = sum(a is not None for a in m.arrivals.values())
         counts = m.teacher_says.split(": ", 1)[-1].rstrip(".")
         ok = "= class" if counts == run.expected_counts else f"!= class: {counts}"
-        print(f"{m.label:<16} {_ms(median(w)):>8} {_ms(percentile(w, .95)):>6} "
-              f"{_ms(max(w, default=float('nan'))):>6} {_ms(median(v)):>10} "
-              f"{_ms(percentile(v, .95)):>6} {_ms(max(v, default=float('nan'))):>6} "
-              f"{shown:>3}/{len(students):<3}  {ok}")
+        print(f"{row(m.label, get)}  {shown:>3}/{len(students):<3}  {ok}")
     print("-" * len(head))
+    n_all = len(run.arrivals())
+    print(f"{row('all clicks', lambda k, w: run.arrivals(k, w))}  "
+          f"{n_all:>3}/{len(students) * len(run.moves):<3}")
     w_all, v_all = run.arrivals("web"), run.arrivals("viser")
-    print(f"{'all clicks':<16} {_ms(median(w_all)):>8} {_ms(percentile(w_all, .95)):>6} "
-          f"{_ms(max(w_all, default=float('nan'))):>6} {_ms(median(v_all)):>10} "
-          f"{_ms(percentile(v_all, .95)):>6} {_ms(max(v_all, default=float('nan'))):>6} "
-          f"{len(w_all) + len(v_all):>3}/{len(students) * len(run.moves):<3}")
     print(f"class: {run.expected_counts}; GET /api/teacher/connected after each click: "
           + ", ".join(sorted({f"{c['pages']}/{c['viser_tabs']}/{c['sessions_live']}"
                               for c in run.connected})) + " (pages/tabs/sessions)")

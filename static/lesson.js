@@ -100,8 +100,9 @@ async function backToClass() {
 function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
-  if (!info.edit) selectFigure(info.lesson.view);  // a changed step keeps the view on show
-  else draw().catch((e) => setMsg("model-msg", e.message));
+  // a changed step keeps the view on show; the figure was asked for with the session
+  if (!info.edit) selectFigure(info.lesson.view, info.pending);
+  else draw(info.pending).catch((e) => setMsg("model-msg", e.message));
   const note = $("live-note");
   note.classList.remove("error");
   const where = `step ${info.lesson.step} of ${info.lesson.steps}: ${info.lesson.step_title}`;

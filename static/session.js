@@ -6,7 +6,7 @@ import { fmuLinks } from "/exports.js";
 import { fit } from "/fitting.js";
 import { applyConfig } from "/model.js";
 import { state } from "/store.js";
-import { draw } from "/view.js";
+import { draw, figureRequest } from "/view.js";
 
 export async function openSession(code, { create = false } = {}) {
   let s;
@@ -44,15 +44,19 @@ export function listen() {
 }
 
 async function onPushed(info) {
+  // a lesson's step: the figure of the view it shows is asked for with the session (the
+  // server changed the session before it sent the event), one round trip instead of two
+  const pending = info.lesson ? figureRequest(info.edit ? state.fig : info.lesson.view) : null;
+  if (pending) pending.catch(() => {});  // its error is shown where it is drawn
   const s = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}`);
   applyConfig(s.config, s.version);
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
   if (info.lesson) {
-    // a lesson's step: lesson.js shows it, says so and draws its view, in this same task.
-    // Drawing here first would redraw the old step's view with the new model, and a redraw
-    // makes lesson.js compare the new model with the old step: "You are exploring".
-    tell("hyst:push", info);
+    // lesson.js shows the step, says so and draws its view, in this same task. Drawing
+    // here first would redraw the old step's view with the new model, and a redraw makes
+    // lesson.js compare the new model with the old step: "You are exploring".
+    tell("hyst:push", { ...info, pending });
     return;
   }
   const p = state.presets.find((x) => x.name === info.preset);

@@ -34,10 +34,17 @@ async function diagnosisFigure() {
   return state.diagFigure || { data: [], layout: { title: { text: "Upload a recording and run the diagnosis to see before and after" } } };
 }
 
+// The request of the figure a view draws (the fit and diagnosis views draw their own
+// result beside the loading curve's).
+export function figureRequest(fig) {
+  const name = RESULT_VIEWS.includes(fig) ? "loading" : fig;
+  return api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+}
+
 export async function draw(pending) {
   const el = $("figure");
   const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
-  const get = () => api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
+  const get = () => figureRequest(state.fig);
   let res = await (pending || get());
   // a figure computed for the view on show when a slider moved; the user may have
   // switched views since: then the view now on show is asked for
@@ -71,9 +78,10 @@ export async function draw(pending) {
   if (!live) document.body.dataset.settled = String(res.version);
 }
 
-export function selectFigure(name) {
+// Show view ``name``; ``pending``: its figure, already asked for.
+export function selectFigure(name, pending) {
   state.fig = name;
   document.querySelectorAll("#tabs button").forEach((b) => b.classList.toggle("active", b.dataset.fig === name));
   $("view-help").textContent = VIEW_HELP[name] || "";
-  draw().catch((e) => setMsg("model-msg", e.message));
+  draw(pending).catch((e) => setMsg("model-msg", e.message));
 }

@@ -36,6 +36,7 @@ from .test_web_journeys import _listening, _open, _text_has
 #: lesson state text, live note text].
 WEB_RECORDER = """() => {
   window.__rec = [];
+  performance.setResourceTimingBufferSize(10000);  // the figure requests' timings
   const b = document.body;
   const txt = (id) => { const e = document.getElementById(id); return e ? e.textContent : ""; };
   const rec = () => {
@@ -99,6 +100,8 @@ class Student:
     page: Any
     view: Any = None  # a viser tab's SessionView (server side)
     phone: bool = False
+    #: a viser tab's Lesson folder as the server set it: (time ms, text)
+    server_said: list[tuple[float, str]] = field(default_factory=list)
 
 
 @dataclass
@@ -114,6 +117,10 @@ class Move:
     teacher_step: str = ""  # the teacher page's data-lesson-step once the class is there
     teacher_note: str = ""  # the teacher page's live note then
     arrivals: dict[str, float | None] = field(default_factory=dict)  # name -> ms after t0
+    #: web: when the page asked for the step's figure, and when it had it (ms after t0);
+    #: viser: when the server set the tab's Lesson folder to the step (ms after t0)
+    asked: dict[str, float | None] = field(default_factory=dict)
+    received: dict[str, float | None] = field(default_factory=dict)
 
 
 @dataclass
@@ -126,9 +133,11 @@ class ClassRun:
     connected: list[dict[str, int]]
     students: list[Student]
 
-    def arrivals(self, kind: str | None = None) -> list[float]:
+    def arrivals(self, kind: str | None = None, what: str = "arrivals") -> list[float]:
+        """Every student's times of every click (``what``: ``arrivals``, ``asked`` or
+        ``received``), of the students of ``kind`` ("web", "viser"; ``None``: all)."""
         kinds = {s.name: s.kind for s in self.students}
-        return [a for m in self.moves for n, a in m.arrivals.items()
+        return [a for m in self.moves for n, a in getattr(m, what).items()
                 if a is not None and (kind is None or kinds[n] == kind)]
 
     def missing(self) -> list[tuple[str, str]]:
@@ -188,6 +197,7 @@ def open_class(browser: Any, url: str, viser_url: str, app: Any, n_web: int, n_v
         _viser_session_folder(page)
         _viser_type(page, "Your name", name)
         students.append(Student("viser", name, ctx, page, view))
+        _watch_panel(students[-1])
     ctx_t, t, _ = _open(browser, url, 1400, 1000)
     t.evaluate(CLICK_RECORDER)
     web = [s.page for s in students if s.kind == "web"]
@@ -197,6 +207,27 @@ def open_class(browser: Any, url: str, viser_url: str, app: Any, n_web: int, n_v
         s.page.evaluate(WEB_RECORDER if s.kind == "web" else VISER_RECORDER)
     t.evaluate(WEB_RECORDER)
     return (ctx_t, t), students
+
+
+def _watch_panel(s: Student) -> None:
+    """Keep every text the server gives the tab's Lesson folder, with its time (the
+    folder's ``_show`` wrapped on this tab's panel only)."""
+    panel = s.view.lesson
+    show = panel._show
+
+    def _show(*args: Any, **kw: Any) -> None:
+        show(*args, **kw)
+        s.server_said.append((time.time() * 1e3, str(panel.md.content)))
+
+    panel._show = _show
+
+
+def _figure_requests(page: Any) -> list[list[float]]:
+    """[start, end] (ms, the machine's clock) of every figure request of the page."""
+    return page.evaluate("""() => performance.getEntriesByType("resource")
+      .filter((e) => e.name.includes("/figures?"))
+      .map((e) => [performance.timeOrigin + e.startTime,
+                   performance.timeOrigin + e.responseEnd])""")
 
 
 def _new_view(app: Any, known: set[Any], timeout: float = 60.0) -> Any:
@@ -293,6 +324,15 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
         m.teacher_note = t.inner_text("#live-note")
         for s in students:
             m.arrivals[s.name] = _arrival(s, _records(s.page), m, ready0[s.name])
+            if s.kind == "web":
+                req = next((r for r in _figure_requests(s.page) if r[0] >= m.t0), None)
+                m.asked[s.name] = None if req is None else req[0] - m.t0
+                m.received[s.name] = None if req is None else req[1] - m.t0
+            else:
+                said = next((t for t, text in s.server_said if t >= m.t0
+                             and f"step {m.step} of" in text and "on the class step" in text),
+                            None)
+                m.received[s.name] = None if said is None else said - m.t0
         moves.append(m)
 
     click("#lesson-start", Move("step 1", 1, steps[0].view, False), "lesson-msg")

@@ -71,7 +71,15 @@ def test_a_push_during_a_lesson_keeps_the_class_on_its_step(browser: Any, live_s
         code_t = t.inner_text("#code")
         _wait(lambda: app.state.registry.get(code_t).config.model != step["model"],
               "the teacher's edit was not stored")
+        # the page sends its slider moves one at a time (each checked by the server): the
+        # edit is the model once the last of the four is stored (none for 1 s)
         edited = app.state.registry.get(code_t).config.model
+        quiet = time.monotonic()
+        while time.monotonic() - quiet < 1.0:
+            time.sleep(0.1)
+            now = app.state.registry.get(code_t).config.model
+            if now != edited:
+                edited, quiet = now, time.monotonic()
         t.click("#teacher-push-mine")
         _text_has(t, "teacher-msg", "to the class")
         assert t.inner_text("#teacher-msg") == f"Pushed a model to the class: {CLASS}."
