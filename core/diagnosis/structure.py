@@ -1451,8 +1451,14 @@ def _streamed_rows(w: np.ndarray, r_full: np.ndarray, z0: np.ndarray, levels: tu
         group = idx[done:end]
         s0 = start if done == 0 else max(start, _filter_start(dyn, dt, int(group[0])))
         pos = have0 + have.shape[0]
+        # the rows between the kept ones and this group's filter start are not needed: the
+        # plays' state is carried over them in blocks (a held-out block of a long record is
+        # N / 16 rows; holding its bank rows made the peak grow with the record)
+        for a in range(pos, s0, STREAM_ROWS):
+            z = play_bank(w[a : min(a + STREAM_ROWS, s0)], r_full, z)[1]
+        pos = max(pos, s0)
         new, z = play_bank(w[pos : int(group[-1]) + 1], r_full, z)
-        have = np.concatenate((have[s0 - have0:], new)) if s0 < pos else new[s0 - pos:]
+        have = np.concatenate((have[s0 - have0:], new)) if s0 < pos else new
         have0 = s0
         _dyn_rows(_segments(have, levels), dyn, dt, group - s0, out=out[done:end])
         done = end
