@@ -96,3 +96,21 @@ def test_full_fits_with_streamed_banks_equal_those_of_whole_banks(monkeypatch, d
         np.testing.assert_allclose(got.weights, want.weights, rtol=1e-7, atol=1e-9)
         np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * scale)
         assert got.train_rss == pytest.approx(want.train_rss, rel=1e-7)
+
+
+@pytest.mark.parametrize("dyn", [("lag", 0.004), ("resonance", 40.0, 0.3)])
+def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dyn) -> None:
+    """Training rows in blocks of 4,000 with held-out gaps of 4,000 (longer than the 3,000-row
+    stream blocks): the plays' state is carried over each gap without keeping its rows, and
+    the fit is the whole bank's to round-off."""
+    rec, _ = _record()
+    train = [(np.arange(rec.n_samples) // 4000) % 2 == 0]
+    s = st.Structure((2.0, 6.0, 12.0, 20.0), ((),), dynamics=dyn)
+    want = st.fit_structure(s, [rec], train, st._Cache())
+    monkeypatch.setattr(st, "BANK_CACHE_BYTES", 0.0)
+    monkeypatch.setattr(st, "STREAM_ROWS", 3000)
+    got = st.fit_structure(s, [rec], train, st._Cache())
+    np.testing.assert_allclose(got.weights, want.weights, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0,
+                               atol=1e-9 * float(np.ptp(rec.y)))
+    assert got.train_rss == pytest.approx(want.train_rss, rel=1e-7)
