@@ -23,8 +23,8 @@ from .registry import EFFECTS
 from .stats import HeldOut, ljung_box
 from .structure import Fit, PIStageOutputs, Structure
 
-__all__ = ["ACCEPT_RULE", "BaseChoice", "DiagnosisResult", "EffectFinding", "RecordingSpecific",
-           "RoundRow", "pooled_mse"]
+__all__ = ["ACCEPT_RULE", "RESULT_FORMAT", "RESULT_VERSION", "BaseChoice", "DiagnosisResult",
+           "EffectFinding", "RecordingSpecific", "RoundRow", "pooled_mse"]
 
 
 #: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
@@ -573,11 +573,53 @@ class DiagnosisResult:
             "elapsed_s": self.elapsed_s,
         })
 
+    def to_json(self) -> dict[str, Any]:
+        """The result itself as a versioned JSON document (every field, arrays bit for bit;
+        :mod:`core.diagnosis.typed_json`, format :data:`RESULT_FORMAT`): what a session
+        stores. :meth:`to_dict` is the report instead (``hyst diagnose --json``).
+
+        Raises
+        ------
+        core.diagnosis.typed_json.DocumentError
+            A field holds a value the format cannot write (names where)."""
+        from .typed_json import write_document
+
+        return write_document(self, RESULT_FORMAT, RESULT_VERSION, _json_types())
+
+    @classmethod
+    def from_json(cls, doc: Any) -> DiagnosisResult:
+        """The result a :meth:`to_json` document holds (equal to the one written).
+
+        Raises
+        ------
+        core.diagnosis.typed_json.DocumentError
+            ``doc`` is not such a document, of a later version, or damaged (says where).
+        """
+        from .typed_json import read_document
+
+        out: DiagnosisResult = read_document(doc, RESULT_FORMAT, RESULT_VERSION,
+                                             _json_types(), cls)
+        return out
+
     def summary(self) -> str:
         """Readable multi-line report (:func:`core.diagnosis.report.summary_text`)."""
         from .report import summary_text
 
         return summary_text(self)
+
+
+#: The ``format`` and the version of :meth:`DiagnosisResult.to_json` (a later version is
+#: refused on reading).
+RESULT_FORMAT = "hysteresis-explorer/diagnosis-result"
+RESULT_VERSION = 1
+
+
+def _json_types() -> tuple[type, ...]:
+    """The dataclasses a :meth:`DiagnosisResult.to_json` document may hold."""
+    from .adequacy import LoopShapeFit
+
+    return (DiagnosisResult, EffectFinding, RoundRow, BaseChoice, RecordingSpecific, Fit,
+            Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording)
 
 
 def pooled_mse(es: Sequence[Float1D]) -> float:

@@ -1,0 +1,201 @@
+"""A diagnosis result written as JSON and read back is the same result: real diagnoses (the
+shipped piezo recording, synthetic recordings with several effects, several recordings with
+a base choice), compared field by field with a comparison of its own (arrays bit for bit,
+models by their documents), and damaged documents refused saying where."""
+
+from __future__ import annotations
+
+import base64
+import copy
+import dataclasses
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.base import Chain, Model
+from core.diagnosis import diagnose
+from core.diagnosis.results import RESULT_FORMAT as FORMAT
+from core.diagnosis.results import DiagnosisResult
+from core.diagnosis.typed_json import DocumentError
+
+PIEZO = Path(__file__).parents[3] / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
+
+
+def same(a: object, b: object, where: str = "result") -> None:
+    """Assert ``a`` and ``b`` are equal, field by field (NaN equals NaN, arrays by dtype,
+    shape and values, models by type and document), naming the first difference."""
+    if isinstance(a, Model):
+        assert type(a) is type(b), where
+        assert json.dumps(a.to_dict()) == json.dumps(b.to_dict()), where  # type: ignore[union-attr]
+    elif dataclasses.is_dataclass(a) and not isinstance(a, type):
+        assert type(a) is type(b), where
+        for f in dataclasses.fields(a):
+            same(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
+    elif isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape, where
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), where
+    elif isinstance(a, float):
+        assert isinstance(b, float | int) and not isinstance(b, bool), where
+        assert (math.isnan(a) and math.isnan(b)) or a == b, where
+    elif isinstance(a, Mapping):
+        assert isinstance(b, Mapping) and list(a) == list(b), where
+        for k in a:
+            same(a[k], b[k], f"{where}.{k}")
+    elif isinstance(a, tuple):
+        assert isinstance(b, tuple) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            same(x, y, f"{where}[{i}]")
+    elif isinstance(a, Sequence) and not isinstance(a, str):  # lists (and resolved x_pi)
+        assert isinstance(b, Sequence) and not isinstance(b, tuple | str), where
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            same(x, y, f"{where}[{i}]")
+    else:
+        assert type(a) is type(b) and a == b, (where, a, b)
+
+
+def round_trip(res: DiagnosisResult) -> DiagnosisResult:
+    text = json.dumps(res.to_json(), allow_nan=False)  # strict JSON: no NaN literals
+    return DiagnosisResult.from_json(json.loads(text))
+
+
+@pytest.fixture(scope="module")
+def piezo() -> DiagnosisResult:
+    return diagnose(PIEZO)
+
+
+@pytest.fixture(scope="module")
+def saturation_and_lag() -> DiagnosisResult:
+    """Two effects on one recording: a tanh loop shape and an output lag (as in
+    tests/core/diagnosis/test_shapes.py)."""
+    from core.fitting.gpi import TanhEnvelope, TanhGPI
+    from core.pi import PIModel
+    from core.recordings import Recording
+    from core.stages import Lag
+
+    env = TanhEnvelope([1, 0.5, 0, 0], [1, 0.5, 0, 0])
+    r = np.linspace(0.05, 0.8, 8)
+    sat = TanhGPI(PIModel(1.0, r, 0.4 * np.exp(-2 * r)), env)
+    dt = 2e-4
+    turns = [0, 4, -4, 2, -3, 4, -1, 1, -4, 0]
+    u = np.concatenate([np.linspace(a, b, 250, endpoint=False)
+                        for a, b in zip(turns[:-1], turns[1:], strict=True)])
+    y0 = 10 * Chain.of(sat, Lag(3e-3))(u, dt=dt)
+    y = y0 + 0.002 * np.ptp(y0) * np.random.default_rng(5).standard_normal(u.size)
+    return diagnose(Recording(np.arange(u.size) * dt, u, y, name="sat+lag"),
+                    effects=["lag", "saturation"])
+
+
+@pytest.fixture(scope="module")
+def periodic_set() -> DiagnosisResult:
+    """Four recordings at different rates: a base choice, between-recordings plans,
+    leave-one-recording-out scores, suggestive rows."""
+    from benchmarks.diagnosis.generator import make_periodic_set
+
+    return diagnose(make_periodic_set(0.0006, seed=201).records)
+
+
+def test_the_shipped_piezo_diagnosis_round_trips(piezo) -> None:
+    assert [e.name for e in piezo.effects] == ["initial-memory"]  # a finding to carry
+    back = round_trip(piezo)
+    same(piezo, back)
+    # what is derived from it is derived alike: the report, the text, the saved model
+    assert json.dumps(back.to_dict()) == json.dumps(piezo.to_dict())
+    assert back.summary() == piezo.summary()
+    u = piezo.records[0].u
+    np.testing.assert_array_equal(back.model(u), piezo.model(u))
+    assert json.dumps(back.to_json()) == json.dumps(piezo.to_json())  # a fixed point
+
+
+def test_several_effects_round_trip(saturation_and_lag) -> None:
+    res = saturation_and_lag
+    assert [e.name for e in res.effects] == ["saturation", "lag"]
+    back = round_trip(res)
+    same(res, back)
+    assert back.summary() == res.summary()
+    assert json.dumps(back.to_dict()) == json.dumps(res.to_dict())
+
+
+def test_several_recordings_round_trip(periodic_set) -> None:
+    res = periodic_set
+    assert len(res.records) > 1 and res.rounds
+    back = round_trip(res)
+    same(res, back)
+    assert json.dumps(back.to_dict()) == json.dumps(res.to_dict())
+
+
+@pytest.mark.slow
+def test_two_hidden_effects_round_trip() -> None:
+    """Resonance and drift found together (test_diagnosis_multi.py): fits with dynamics
+    stages and per-recording drift terms."""
+    from benchmarks.diagnosis.generator import make_combo
+
+    res = diagnose(make_combo(("resonance", "drift"), "white1", 100).records)
+    assert [e.name for e in res.effects] == ["resonance", "drift"]
+    same(res, round_trip(res))
+
+
+def test_the_comparison_sees_a_difference(periodic_set) -> None:
+    """The comparison above can fail: one sample of one prediction changed is found."""
+    back = round_trip(periodic_set)
+    back.final.pred[0] = back.final.pred[0].copy()
+    back.final.pred[0][3] += 1e-12
+    with pytest.raises(AssertionError, match=r"result.final.pred\[0\]"):
+        same(periodic_set, back)
+
+
+# ------------------------------------------------------------------------------ damage
+def _damaged(doc: dict, change) -> str:
+    bad = copy.deepcopy(doc)
+    change(bad)
+    with pytest.raises(DocumentError) as err:
+        DiagnosisResult.from_json(bad)
+    assert "run the diagnosis again" in str(err.value)
+    return err.value.where + ": " + err.value.what
+
+
+def _fields(doc: dict) -> dict:
+    return doc["result"]["fields"]
+
+
+def test_damaged_documents_are_refused_saying_where(periodic_set) -> None:
+    doc = json.loads(json.dumps(periodic_set.to_json()))
+    assert doc["format"] == FORMAT and doc["version"] == 1
+    assert "newer" in _damaged(doc, lambda d: d.update(version=2))
+    assert "format" in _damaged(doc, lambda d: d.update(format="hysteresis-explorer/model"))
+    assert _damaged(doc, lambda d: _fields(d).pop("split")).endswith("lacks its field 'split'")
+    assert "has no field 'colour'" in _damaged(doc, lambda d: _fields(d).update(colour=1))
+    where = _damaged(doc, lambda d: _fields(d).update(noise_rms="small"))
+    assert where.startswith("result.noise_rms: a str is not a float")
+    where = _damaged(doc, lambda d: _fields(d)["baseline"].update({"$type": "Popen"}))
+    assert where == "result.baseline: unknown type 'Popen'"
+
+    def cut(d: dict) -> None:
+        arr = _fields(d)["final"]["fields"]["pred"][0]["$array"]
+        arr["base64"] = base64.b64encode(base64.b64decode(arr["base64"])[:-8]).decode()
+
+    assert _damaged(doc, cut).startswith("result.final.pred[0]: the array's data holds")
+
+    def not_base64(d: dict) -> None:
+        _fields(d)["train"][0]["$array"]["base64"] = "@@@"
+
+    assert "base64" in _damaged(doc, not_base64)
+
+    def bad_model(d: dict) -> None:
+        _fields(d)["final"]["fields"]["models"][0]["$model"] = {"type": "no-such-model"}
+
+    assert "the model does not build" in _damaged(doc, bad_model)
+    assert _damaged(doc, lambda d: d.update(result=[1, 2])) == "result: a list, not a result"
+    with pytest.raises(DocumentError, match="not an object"):
+        DiagnosisResult.from_json([doc])
+
+
+def test_what_a_result_cannot_hold_is_named_when_written(periodic_set) -> None:
+    res = copy.copy(periodic_set)
+    res.maps_before = {"where": object()}
+    with pytest.raises(DocumentError, match=r"result.maps_before.where: a object"):
+        res.to_json()
