@@ -66,6 +66,17 @@ def is_narrow(width: float, height: float) -> bool:
     return width < NARROW_PX or height > PORTRAIT * width
 
 
+def toast_css(projector: bool) -> str:
+    """A style element that moves viser's toasts (top left, 20em wide, over the floating
+    plot panel) off the panel: to the bottom left under the usual panel (about 470 x 420 px
+    from the top left), beside the projector's panel (1200 px wide, as high as the screen).
+    Phones (narrower than :data:`NARROW_PX`) show no panel and keep viser's place."""
+    where = (f"left: {10 + PROJECTOR_PX + 16}px !important; max-width: 18em !important;"
+             if projector else "top: auto !important; bottom: 1em !important;")
+    return (f"<style>@media (min-width: {NARROW_PX}px) {{ [class*='Notifications-root'] "
+            f"{{ {where} }} }}</style>")
+
+
 #: Tooltips (viser's ``hint``) of the widgets, by attribute of :class:`Widgets`; set after
 #: the widgets are built, so every control says what it does (the model's sliders bring
 #: their own, from their declarations).
@@ -270,6 +281,9 @@ class Widgets:
             self._plot_wide = g.add_plotly(F.message_figure("", "computing…"), aspect=0.72,
                                            config=F.PLOT_CONFIG)
             self._notes_wide = g.add_markdown("")
+            # viser puts its toasts at the top left, on this panel's view selector and plot
+            # title: while the panel is shown they go where it is not (toast_css)
+            self.toast_style = g.add_html(toast_css(False))
         self.narrow = False
         #: The *View* dropdown and the plot on show (the panel's, or the sheet's on a phone).
         self.view_dd, self.plot = self._dd_wide, self._plot_wide
@@ -304,6 +318,7 @@ class Widgets:
     def use_projector(self, on: bool) -> None:
         """The floating plot panel at projector size (``on``) or at its usual width."""
         self.panel.float(x=10, y=10, width=PROJECTOR_PX if on else PANEL_PX)
+        self.toast_style.content = toast_css(on)
 
     @property
     def view_dropdowns(self) -> tuple[Any, Any]:

@@ -145,3 +145,51 @@ def test_markup_in_a_csv_is_not_drawn(browser: Any, live_server: dict, tmp_path:
     assert page.locator("img[src=x]").count() == 0
     assert errors == []
     ctx.close()
+
+
+_PANEL_AND_TOASTS = """() => {
+  const label = [...document.querySelectorAll("label")]
+    .find((e) => e.textContent.trim() === "Projector: large plot");
+  let panel = label;
+  while (panel && !["absolute", "fixed"].includes(getComputedStyle(panel).position)) {
+    panel = panel.parentElement;
+  }
+  const box = (e) => { const r = e.getBoundingClientRect();
+    return {left: r.left, top: r.top, right: r.right, bottom: r.bottom}; };
+  return {panel: panel ? box(panel) : null,
+          toasts: [...document.querySelectorAll("[class*='Notification-root']")]
+            .filter((e) => e.getClientRects().length).map(box)};
+}"""
+
+
+def _overlap(a: dict[str, float], b: dict[str, float]) -> bool:
+    return (a["left"] < b["right"] and b["left"] < a["right"] and a["top"] < b["bottom"]
+            and b["top"] < a["bottom"])
+
+
+def test_toasts_leave_the_plot_panel_free(browser: Any, live_server: dict, shot: Any) -> None:
+    """Issue 33: viser's toasts (top left) covered the floating panel's view selector and
+    the plot's title. Two toasts on a 1500x900 laptop, then with the projector's panel at
+    1920x1080: none overlaps the plot panel."""
+    app = live_server["app"]
+    for width, height, projector in ((1500, 900, False), (1920, 1080, True)):
+        known = set(app.state.gui.views)
+        ctx, page, errors = _open(browser, live_server["viser_url"], width, height)
+        view = _new_view(app, known)
+        _plot_box(page)
+        if projector:
+            view.ui.projector.value = True
+            page.wait_for_function("""() => [...document.querySelectorAll('.js-plotly-plot')]
+              .some(e => e.getBoundingClientRect().width > 1000)""", timeout=60_000)
+        view._toast("Lesson", "the class is at step 2 of 6: The same run in time")
+        view._toast("Your teacher pushed a change", "Your teacher moved the class to step 2.")
+        page.wait_for_function(f"() => ({_PANEL_AND_TOASTS})().toasts.length >= 2",
+                               timeout=30_000)
+        page.wait_for_timeout(600)  # the toasts' entry animation
+        seen = page.evaluate(_PANEL_AND_TOASTS)
+        assert seen["panel"] is not None, seen
+        assert not any(_overlap(t, seen["panel"]) for t in seen["toasts"]), seen
+        assert all(t["right"] <= width and t["bottom"] <= height for t in seen["toasts"]), seen
+        shot(page, f"viser-toasts-{width}")
+        assert errors == []
+        ctx.close()
