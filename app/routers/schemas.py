@@ -312,7 +312,7 @@ def session_json(session: Session) -> dict[str, Any]:
         "config": st.config.to_dict(),
         "recording": None if rec is None else {"name": rec.name, "samples": rec.n_samples},
         "fitted": None if st.fit is None else st.fit.model.to_dict(),
-        "has_diagnosis": st.diagnosis is not None,
+        "has_diagnosis": session.has_diagnosis,
     }
 
 

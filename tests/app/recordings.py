@@ -75,3 +75,24 @@ def small_fit(seed: int = 0) -> Any:
     y = PIModel(0.72, [0.45, 0.9, 1.35], [0.6, 0.48, 0.3])(u)
     y = y + 1e-3 * np.random.default_rng(seed).standard_normal(u.size)
     return fit_recording(Recording(t, u, y, name="small"), 4)
+
+
+def small_diagnosis() -> tuple[Any, Any]:
+    """``(recording, DiagnosisResult)``: the session's diagnosis
+    (:func:`app.services.analysis.diagnosis.run_diagnosis`, the diagnosis job's own path) of a
+    1,500-sample recording of Example 1 followed by creep (about 1.5 s; it finds an effect)."""
+    from app.services.analysis.diagnosis import run_diagnosis
+    from app.services.explore.config import Config
+    from core.base import Chain, model_from_dict
+    from core.recordings import Recording
+    from core.stages import Creep
+
+    t = np.arange(1500) * 2e-3
+    u = np.sin(2 * np.pi * t) * (1 + 0.5 * np.sin(2 * np.pi * 0.3 * t))
+    base = model_from_dict(Config().model)
+    y = Chain.of(base, Creep([0.05, 0.3], [0.1, 0.1]))(u, dt=2e-3)
+    y = y + 1e-3 * np.random.default_rng(0).standard_normal(u.size)
+    rec = Recording(t, u, y, name="creep", units={"input": "V", "output": "um"})
+    _, result = run_diagnosis(rec, base)
+    assert result.effects
+    return rec, result

@@ -29,6 +29,7 @@ __all__ = [
     "diagnose_files",
     "diagnosis_html",
     "diagnosis_json",
+    "diagnosis_report",
     "diagnosis_source",
     "diagnosis_summary",
     "model_document",
@@ -200,8 +201,15 @@ def run_diagnosis(rec: Recording, model: Model,
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
     result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
+    return diagnosis_report(result, rec.units), result
+
+
+def diagnosis_report(result: Any, units: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """The report of a session's diagnosis as the pages show it: ``engine``, the findings
+    (:func:`diagnosis_summary`, in the recording's ``units``) and the core's report
+    document ``result.to_dict()``."""
     d = result.to_dict()
-    return {"engine": "core.diagnosis", **diagnosis_summary(d, rec.units), "document": d}, result
+    return {"engine": "core.diagnosis", **diagnosis_summary(d, units), "document": d}
 
 
 def diagnosis_html(result: Any, units: dict[str, str] | None = None) -> str:

@@ -145,7 +145,7 @@ def diagnose_task(session: Session) -> Task:
 
     def keep(out: tuple[dict[str, Any], Any]) -> dict[str, Any]:
         report, result = out
-        session.set_diagnosis(report, result)
+        session.set_diagnosis(result)
         return report
 
     rec = _recording(session, "diagnose")

@@ -303,9 +303,9 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
 
 def no_report(session: Session) -> str:
     """Why :func:`diagnosis_report` has no report for ``session`` (what to do)."""
-    if session.diagnosis is not None:  # stored, but its result did not survive a restart
-        return ("the HTML report of this diagnosis was not kept when the server restarted "
-                "(its findings were); run the diagnosis again to get the report")
+    if session.has_diagnosis:  # stored in the old form, before results were stored
+        return ("the HTML report of this diagnosis was not kept (it was stored by an older "
+                "version, its findings were); run the diagnosis again to get the report")
     return "run the diagnosis first"
 
 

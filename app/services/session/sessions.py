@@ -63,9 +63,9 @@ class Session:
     Notes
     -----
     The attributes ``config``, ``version``, ``recording``, ``fit``, ``fitted``,
-    ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and ``created`` read the
-    current state (typed: core's ``FitOutcome``, ``Model`` and ``DiagnosisResult``; the
-    routers turn them into JSON); change them only through the transitions.
+    ``has_diagnosis``, ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and
+    ``created`` read the current state (typed: core's ``FitOutcome``, ``Model`` and
+    ``DiagnosisResult``; the routers turn them into JSON); change them only through the transitions.
     """
 
     def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
@@ -114,9 +114,23 @@ class Session:
         return None if fit is None else fit.model
 
     @property
+    def has_diagnosis(self) -> bool:
+        """The session holds a diagnosis (its result, or a report stored in the old form)."""
+        st = self._state
+        return st.diagnosis_result is not None or st.old_report is not None
+
+    @property
     def diagnosis(self) -> dict[str, Any] | None:
-        """The diagnosis report as the pages show it (stored), or None."""
-        return self._state.diagnosis
+        """The diagnosis report as the pages show it, made from the result
+        (:func:`~app.services.analysis.diagnosis.diagnosis_report`, in the recording's
+        units); of a session stored in the old form its stored report; else None."""
+        st = self._state
+        if st.diagnosis_result is None:
+            return st.old_report
+        from app.services.analysis.diagnosis import diagnosis_report
+
+        rec = self.recording
+        return diagnosis_report(st.diagnosis_result, None if rec is None else rec.units)
 
     @property
     def diagnosed(self) -> Model | None:
@@ -125,8 +139,8 @@ class Session:
 
     @property
     def diagnosis_result(self) -> DiagnosisResult | None:
-        """The core ``DiagnosisResult`` of the diagnosis (in memory only: ``None`` after a
-        restart)."""
+        """The core ``DiagnosisResult`` of the diagnosis (stored, rebuilt after a restart;
+        ``None`` for a diagnosis stored in the old form, before 2026-12-05)."""
         return self._state.diagnosis_result
 
     teacher = property(lambda self: self._state.teacher, doc="A teacher's session.")
@@ -203,25 +217,23 @@ class Session:
     def set_recording(self, recording: Recording) -> int:
         """Give the session ``recording``; its fit and diagnosis are dropped."""
         return self._commit({"recording": recording, "recording_stored": False, "fit": None,
-                             "diagnosis": None, "diagnosed": None,
+                             "old_report": None, "diagnosed": None,
                              "diagnosis_result": None}, recording=True, results=True)
 
     def set_fit(self, fit: FitOutcome, *, apply: bool = False) -> int:
         """Store a fit (the diagnosis is dropped); ``apply`` makes its model the session's."""
         with self.lock:
-            changes: dict[str, Any] = {"fit": fit, "diagnosis": None, "diagnosed": None,
+            changes: dict[str, Any] = {"fit": fit, "old_report": None, "diagnosed": None,
                                        "diagnosis_result": None}
             if apply:
                 changes["config"] = self._state.config.with_model(fit.model.to_dict())
             return self._commit(changes, recording=False, results=True, notify=apply)
 
-    def set_diagnosis(self, report: dict[str, Any], result: DiagnosisResult | None) -> int:
-        """Store a diagnosis report and its core result (the plots are not redrawn).
-
-        Stored are the report and, when the diagnosis added effects, the diagnosed model;
-        the result itself (for the figure and the HTML report) stays in memory."""
-        diagnosed = result.model if result is not None and result.effects else None
-        return self._commit({"diagnosis": report, "diagnosed": diagnosed,
+    def set_diagnosis(self, result: DiagnosisResult) -> int:
+        """Store a diagnosis, its core result (the plots are not redrawn): the report is
+        made from it, and when it added effects its model is the diagnosed model."""
+        diagnosed = result.model if result.effects else None
+        return self._commit({"old_report": None, "diagnosed": diagnosed,
                              "diagnosis_result": result},
                             recording=False, results=True, notify=False)
 

@@ -28,9 +28,10 @@ process) are exempt from the per-client shares.
 
 The typed state is :class:`SessionState` (a frozen dataclass). Nothing stored is ever
 executed: every part is JSON, recordings ``.npz`` arrays (loaded with
-``allow_pickle=False``) plus JSON metadata, and of a diagnosis its report and the diagnosed
-model's document (:mod:`app.services.storage.store_parts`); the live core ``DiagnosisResult``
-behind the HTML report stays in memory only.
+``allow_pickle=False``) plus JSON metadata, and a diagnosis its core ``DiagnosisResult``
+(:meth:`~core.diagnosis.results.DiagnosisResult.to_json`, compressed; sessions stored
+before 2026-12-05 hold its report and the diagnosed model's document instead,
+:mod:`app.services.storage.store_parts`).
 
 The file is checked when the store opens (:mod:`app.services.storage.store_file`: a damaged file is
 moved aside, a fresh store started, and every session still readable from the damaged file's
@@ -145,16 +146,17 @@ class SessionState:
         The last fit (:func:`core.fitting.fit_recordings`' outcome, without its estimator):
         the fitted model, its report and warnings, and the parameter set ``hyst fit`` would
         write. Stored as that parameter set and rebuilt from it.
-    diagnosis : dict or None
-        The diagnosis report as the pages show it (findings in words, held-out errors, the
-        core's JSON document): stored, since a ``DiagnosisResult`` is not.
+    old_report : dict or None
+        Of a diagnosis stored before 2026-12-05 (when its result was not stored): its report
+        as the pages showed it (findings in words, held-out errors, the core's report
+        document); ``None`` otherwise (the report is made from the result).
     diagnosed : Model or None
-        The diagnosed extended model when the diagnosis added effects (stored as its
-        document: the Inverse and Closed-loop views use it after a restart).
+        The diagnosed extended model when the diagnosis added effects (the result's model;
+        the Inverse and Closed-loop views use it).
     diagnosis_result : DiagnosisResult or None
-        The core result of the diagnosis (the figure and the HTML report read it); in memory
-        only, never stored (after a restart the report asks for the diagnosis to be run
-        again).
+        The core result of the diagnosis (the figure, the HTML report and the findings read
+        it): stored as its JSON document (:meth:`DiagnosisResult.to_json`) and rebuilt
+        equal after a restart.
     checked : CheckedModel or None
         The config's model, parsed once and cost-checked for this config and recording
         (``None`` until first needed; dropped whenever the config or the recording
@@ -174,7 +176,7 @@ class SessionState:
     recording: Recording | None = None
     recording_stored: bool = False
     fit: FitOutcome | None = None
-    diagnosis: dict[str, Any] | None = None
+    old_report: dict[str, Any] | None = None
     diagnosed: Model | None = None
     diagnosis_result: DiagnosisResult | None = None
     checked: CheckedModel | None = None
@@ -286,15 +288,15 @@ class SessionStore:
             nothing is stored.
         """
         cfg = dump_json(state.config.to_dict()) or "{}"
-        row_text = [cfg, *encode_fit(state.fit), dump_json(state.diagnosis)]
+        row_text = [cfg, *encode_fit(state.fit), dump_json(state.old_report)]
         blobs: dict[str, bytes | None] = {}
         if recording and (state.recording is not None or not state.recording_stored):
             blobs["recording"] = (None if state.recording is None
                                   else recording_to_blob(state.recording))
         if results:
-            blobs["diagnosis"] = (None if state.diagnosis is None
-                                  else encode_diagnosis(None if state.diagnosed is None
-                                                        else state.diagnosed.to_dict()))
+            blobs["diagnosis"] = encode_diagnosis(
+                state.diagnosis_result, state.old_report,
+                None if state.diagnosed is None else state.diagnosed.to_dict())
         with self._lock:
             db = self._db
             if not blobs:  # a config change: one statement, one implicit commit
@@ -431,7 +433,7 @@ class SessionStore:
             lambda: {"config": decode_config(row[5])},
             recording,
             lambda: {"fit": decode_fit(row[6], row[7])},
-            lambda: dict(zip(("diagnosis", "diagnosed"),
+            lambda: dict(zip(("diagnosis_result", "old_report", "diagnosed"),
                              decode_diagnosis(row[8], blobs.get("diagnosis")), strict=True)),
         ):
             try:

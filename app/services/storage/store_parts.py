@@ -5,6 +5,12 @@ Each part is decoded and validated on its own; a part that does not decode or va
 raises :class:`DamagedPartError` naming it (the store then resets the session, see
 :mod:`app.services.storage.store`). A diagnosis part written by older versions (a pickle) is such a
 damaged part: it is never unpickled.
+
+A diagnosis is stored as its core result, :meth:`DiagnosisResult.to_json
+<core.diagnosis.results.DiagnosisResult.to_json>` (zlib-compressed JSON in the diagnosis
+blob), and rebuilt as an equal result; sessions stored before 2026-12-05 hold the report
+instead (the findings as the pages showed them) and the diagnosed model's document, and
+still load so.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import zlib
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -23,10 +30,12 @@ from core.paramset import ParameterSet
 from core.recordings import Recording
 
 if TYPE_CHECKING:  # core.fitting is imported when a stored fit is read (scipy: 0.5 s)
+    from core.diagnosis.results import DiagnosisResult
     from core.fitting.entry import FitOutcome
 
 __all__ = [
     "PARTS",
+    "MAX_DIAGNOSIS_BYTES",
     "DamagedPartError",
     "decode_config",
     "decode_diagnosis",
@@ -173,23 +182,65 @@ def _old_fit(doc: dict[str, Any], rep: dict[str, Any]) -> ParameterSet:
     })
 
 
-def encode_diagnosis(diagnosed: dict[str, Any] | None) -> bytes:
-    """The diagnosis part's blob: JSON ``{"diagnosed": model document or null}``."""
-    return (dump_json({"diagnosed": diagnosed}) or "").encode()
+#: The most bytes a stored diagnosis blob may inflate to (a result of the largest recording
+#: a server takes is far below it; more is damage, not a result).
+MAX_DIAGNOSIS_BYTES = 1 << 30
+
+
+def encode_diagnosis(result: DiagnosisResult | None, old_report: dict[str, Any] | None = None,
+                     diagnosed: dict[str, Any] | None = None) -> bytes | None:
+    """The diagnosis part's blob: ``{"result": DiagnosisResult.to_json()}`` compressed
+    (zlib); a session of the old form (``old_report`` without a result) keeps its old blob,
+    JSON ``{"diagnosed": model document or null}``; ``None`` without a diagnosis."""
+    if result is not None:
+        text = json.dumps({"result": result.to_json()}, allow_nan=False)
+        return zlib.compress(text.encode(), 6)
+    if old_report is not None:
+        return (dump_json({"diagnosed": diagnosed}) or "").encode()
+    return None
 
 
 def decode_diagnosis(report: str | None, blob: bytes | None
-                     ) -> tuple[dict[str, Any] | None, Model | None]:
-    """``(report, diagnosed model)`` of the stored diagnosis; a blob that is no such JSON
-    (e.g. an old pickle) is damage and is never unpickled."""
+                     ) -> tuple[DiagnosisResult | None, dict[str, Any] | None, Model | None]:
+    """``(result, old report, diagnosed model)`` of the stored diagnosis.
+
+    The blob of :func:`encode_diagnosis` gives the result (``DiagnosisResult.from_json``)
+    and its model when it added effects; the old form (the report in the ``diagnosis``
+    column, the blob JSON ``{"diagnosed": ...}``) gives the report and the model, no result.
+    A blob that is neither (e.g. an old pickle) is damage and is never unpickled.
+    """
     rep = decode_document("diagnosis", report)
     if blob is None:
-        return rep, None
+        return None, rep, None
+    if blob.lstrip()[:1] != b"{":  # the compressed result
+        result = _result(blob)
+        return result, None, result.model if result.effects else None
     doc = decode_document("diagnosis", blob)
     if doc is None or set(doc) != {"diagnosed"}:
         raise DamagedPartError("diagnosis", "its blob is not the stored diagnosed model")
     diagnosed = doc["diagnosed"]
-    return rep, None if diagnosed is None else _model("diagnosis", diagnosed)
+    return None, rep, None if diagnosed is None else _model("diagnosis", diagnosed)
+
+
+def _result(blob: bytes) -> DiagnosisResult:
+    """The diagnosis result of a compressed blob (:func:`encode_diagnosis`)."""
+    from core.diagnosis.results import DiagnosisResult
+
+    try:
+        inflate = zlib.decompressobj()
+        text = inflate.decompress(blob, MAX_DIAGNOSIS_BYTES)
+        if inflate.unconsumed_tail or not inflate.eof:
+            raise ValueError("it is cut short or inflates beyond "
+                             f"{MAX_DIAGNOSIS_BYTES >> 20} MB")
+    except (zlib.error, ValueError) as exc:
+        raise DamagedPartError("diagnosis", f"its blob does not inflate ({_why(exc)})") from None
+    doc = decode_document("diagnosis", text)
+    if doc is None or set(doc) != {"result"}:
+        raise DamagedPartError("diagnosis", "its blob is not a stored diagnosis result")
+    try:
+        return DiagnosisResult.from_json(doc["result"])
+    except ValueError as exc:  # DocumentError says where
+        raise DamagedPartError("diagnosis", str(exc)[:300]) from None
 
 
 def recording_to_blob(rec: Recording) -> bytes:

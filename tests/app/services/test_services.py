@@ -25,6 +25,7 @@ from core.pi import PIModel
 from core.presets import get_preset
 from core.recordings import Recording
 from tests.app.job_work import run_here
+from tests.app.recordings import small_diagnosis
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -66,7 +67,7 @@ def test_every_change_marks_the_session_used_in_the_store() -> None:
     assert s.code in store.codes(since=later)
     time.sleep(0.01)
     later = time.time()
-    s.set_diagnosis({"text": "r"}, None)
+    s.set_diagnosis(small_diagnosis()[1])
     assert s.code in store.codes(since=later)
 
 

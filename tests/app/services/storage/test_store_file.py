@@ -19,7 +19,7 @@ def _filled(db: Path, n: int = 300) -> None:
     store = SessionStore(db)
     for i in range(n):  # enough rows for many pages
         store.save(SessionState(code=f"code-{i:04d}", config=Config(),
-                                diagnosis={"text": "x" * 400}))
+                                old_report={"text": "x" * 400}))
     store.close()
 
 

@@ -4,11 +4,12 @@ resets its session with a clear 410, once."""
 from __future__ import annotations
 
 import io
+import json
 import logging
 import pickle
 import sqlite3
+import zlib
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,7 @@ from app.services.storage.store import DamagedSessionError, SessionState, Sessio
 from core.base import Chain, model_from_dict
 from core.recordings import Recording
 from core.stages import Creep
-from tests.app.recordings import small_fit
+from tests.app.recordings import small_diagnosis, small_fit
 
 
 def _extended() -> Chain:
@@ -33,14 +34,15 @@ def _extended() -> Chain:
 
 
 def _stored(db: Path) -> str:
-    """A session with every part (config, recording, fit, diagnosis) in the file ``db``."""
+    """A session with every part (config, recording, fit, diagnosis) in the file ``db``, its
+    diagnosis in the form stored before 2026-12-05 (the report and the diagnosed model)."""
     t = np.arange(300) * 1e-3
     u = np.sin(2 * np.pi * 4 * t)
     store = SessionStore(db)
     code = new_code()
     store.save(SessionState(
         code=code, config=Config(), recording=Recording(t, u, 0.5 * u, name="r"),
-        fit=small_fit(), diagnosis={"findings": ["creep"]}, diagnosed=_extended()))
+        fit=small_fit(), old_report={"findings": ["creep"]}, diagnosed=_extended()))
     store.close()
     return code
 
@@ -88,6 +90,12 @@ DAMAGE = {
     "diagnosis-report": ("diagnosis", SET_REPORT, '"just a string"'),
     "diagnosis-garbage": ("diagnosis", SET_DIAGNOSIS, b"\x80\x04garbage"),
     "diagnosis-bad-model": ("diagnosis", SET_DIAGNOSIS, b'{"diagnosed": {"type": "nope"}}'),
+    # the stored result (compressed JSON): cut short, not a result, a damaged result
+    "diagnosis-result-cut": ("diagnosis", SET_DIAGNOSIS, zlib.compress(b'{"result": 1}')[:-3]),
+    "diagnosis-not-a-result": ("diagnosis", SET_DIAGNOSIS, zlib.compress(b'{"report": {}}')),
+    "diagnosis-bad-result": ("diagnosis", SET_DIAGNOSIS, zlib.compress(
+        b'{"result": {"format": "hysteresis-explorer/diagnosis-result", "version": 1, '
+        b'"result": {"$type": "DiagnosisResult", "fields": {"split": 3}}}}')),
 }
 
 
@@ -174,20 +182,62 @@ def test_no_stored_part_is_a_pickle(tmp_path: Path) -> None:
         assert all(z[k].dtype != object for k in z.files)
 
 
-def test_the_diagnosed_model_survives_a_restart_and_the_report_says_run_again(
-        tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def diagnosed() -> tuple[Recording, Any]:
+    return small_diagnosis()
+
+
+def test_a_diagnosis_survives_a_restart_as_its_result(tmp_path: Path, diagnosed) -> None:
+    """The stored diagnosis is the core's result: after a restart the session has the same
+    result (the same document), report, diagnosed model, figure and HTML report."""
+    rec, result = diagnosed
     db = tmp_path / "sessions.sqlite3"
     reg = SessionRegistry(store=SessionStore(db))
     s = reg.create()
-    ext = _extended()
-    s.set_diagnosis({"findings": ["creep"]}, SimpleNamespace(effects=["creep"], model=ext))
-    assert diagnosed_model(s) is ext
+    s.set_recording(rec)
+    s.set_diagnosis(result)
+    report, figure = s.diagnosis, actions.diagnosis_figure(s)
+    assert diagnosed_model(s) is result.model and report is not None and figure is not None
     reg.store.close()
     again = SessionRegistry(store=SessionStore(db)).get(s.code)  # a restarted server
+    back = again.diagnosis_result
+    assert back is not None and back is not result
+    assert back.to_json() == result.to_json()
+    assert again.diagnosis == report and again.has_diagnosis
+    assert "Found" in " ".join(report["findings"])
+    got = diagnosed_model(again)
+    assert got is not None and got.to_dict() == result.model.to_dict()
+    fig = actions.diagnosis_figure(again)
+    assert fig is not None and json.dumps(fig.to_dict()) == json.dumps(figure.to_dict())
+    html = actions.diagnosis_report(again)
+    assert html is not None and html.startswith("<!DOCTYPE html>")
+    with sqlite3.connect(db) as raw:
+        (blob,), (column,) = (raw.execute("SELECT data FROM blobs WHERE kind='diagnosis'")
+                              .fetchone(), raw.execute("SELECT diagnosis FROM sessions")
+                              .fetchone())
+    raw.close()
+    assert column is None and zlib.decompress(blob).startswith(b'{"result": {"format"')
+
+
+def test_a_diagnosis_stored_in_the_old_form_still_loads(tmp_path: Path) -> None:
+    """A session stored before 2026-12-05 (the report in its row, the diagnosed model's
+    document in its blob, no result): its findings and diagnosed model load; the figure and
+    the HTML report ask for the diagnosis to be run again."""
+    db = tmp_path / "sessions.sqlite3"
+    code = _stored(db)
+    with sqlite3.connect(db) as raw:  # written in the old form, as the old code wrote it
+        (blob,), (column,) = (raw.execute("SELECT data FROM blobs WHERE kind='diagnosis'")
+                              .fetchone(), raw.execute("SELECT diagnosis FROM sessions")
+                              .fetchone())
+    raw.close()
+    assert column == '{"findings": ["creep"]}'
+    assert blob.startswith(b'{"diagnosed": {"type": "chain"')
+    again = SessionRegistry(store=SessionStore(db)).get(code)
     assert again.diagnosis_result is None and again.diagnosis == {"findings": ["creep"]}
+    assert again.has_diagnosis
     back = diagnosed_model(again)
-    assert back is not None and back.to_dict() == ext.to_dict()
-    assert actions.diagnosis_report(again) is None
+    assert back is not None and back.to_dict() == _extended().to_dict()
+    assert actions.diagnosis_report(again) is None and actions.diagnosis_figure(again) is None
     assert "run the diagnosis again" in actions.no_report(again)
     s2 = SessionRegistry(store=SessionStore(tmp_path / "b.sqlite3")).create()
-    assert actions.no_report(s2) == "run the diagnosis first"
+    assert actions.no_report(s2) == "run the diagnosis first" and not s2.has_diagnosis
