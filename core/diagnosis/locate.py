@@ -161,6 +161,40 @@ def residual_maps(
     return out
 
 
+#: Records longer than this (samples) have their residual spectrum averaged over chunks of
+#: Welch segments (:func:`_welch_in_chunks`); scipy's Welch and coherence on the whole record
+#: hold about 48 bytes per sample of segments (193 MB at 4 million samples).
+SPECTRUM_WHOLE = 2**20
+#: Samples of the Welch segments of one chunk (at least one segment).
+SPECTRUM_CHUNK = 2**20
+
+
+def _welch_in_chunks(u: Float1D, e: Float1D, fs: float, nper: int
+                     ) -> tuple[Float1D, Float1D, Float1D]:
+    """Welch's power spectrum of ``e`` and the coherence of ``u`` and ``e`` (Hann window,
+    ``nper``-sample segments overlapping by half, each detrended by its mean: scipy's
+    defaults), each segment's periodogram averaged as scipy does, but over chunks of
+    segments, so that at most :data:`SPECTRUM_CHUNK` samples of segments are held at once.
+    Equal to ``scipy.signal.welch`` / ``coherence`` on the whole record to round-off."""
+    import scipy.signal as ss
+
+    step = nper - nper // 2
+    n_seg = (e.size - nper) // step + 1
+    per = max(1, SPECTRUM_CHUNK // nper)
+    sums: list[Any] = [0.0, 0.0, 0.0]
+    f = np.zeros(0)
+    for a in range(0, n_seg, per):
+        m = min(per, n_seg - a)
+        sl = slice(a * step, (a + m - 1) * step + nper)
+        f, pee = ss.welch(e[sl], fs=fs, nperseg=nper)
+        _, puu = ss.welch(u[sl], fs=fs, nperseg=nper)
+        _, pue = ss.csd(u[sl], e[sl], fs=fs, nperseg=nper)
+        for i, v in enumerate((pee, puu, pue)):
+            sums[i] = sums[i] + m * v
+    pee, puu, pue = (v / n_seg for v in sums)
+    return f, pee, np.abs(pue) ** 2 / puu / pee
+
+
 def _spectrum(records: Sequence[Recording], residuals: Sequence[Float1D]) -> list[dict[str, float]]:
     import scipy.signal as ss
 
@@ -171,8 +205,11 @@ def _spectrum(records: Sequence[Recording], residuals: Sequence[Float1D]) -> lis
     nper = int(min(rec.n_samples // 4, 2 ** int(np.log2(max(16, rec.n_samples // 8)))))
     if nper < 16:
         return []
-    f, P = ss.welch(e - e.mean(), fs=fs, nperseg=nper)
-    _, C = ss.coherence(rec.u, e, fs=fs, nperseg=nper)
+    if rec.n_samples <= SPECTRUM_WHOLE:
+        f, P = ss.welch(e - e.mean(), fs=fs, nperseg=nper)
+        _, C = ss.coherence(rec.u, e, fs=fs, nperseg=nper)
+    else:
+        f, P, C = _welch_in_chunks(rec.u, e - e.mean(), fs, nper)
     top = np.argsort(P[1:])[::-1][:6] + 1
     return [
         {"freq_hz": float(f[i]), "psd": float(P[i]), "coherence": float(C[i])}
