@@ -52,11 +52,12 @@ class CostModel:
 
 #: ``hyst diagnose`` (issue 31; bench_diagnose_scale.py and /usr/bin/time, one thread,
 #: docs/pages/diagnose.md "Scale"): peaks of 328, 576, 894, 619, 896, 1,434 and 3,088 MB at
-#: 25k, 100k, 400k, 1M, 2M, 4M and 10M samples. The caches fill up to about 550 MB and then
-#: hold still; what grows with the record (the recording, predictions, residuals, a streamed
-#: block's rows, the reader's numbers) is about 0.28 kB per sample from 4M to 10M: 0.3 kB per
-#: sample above 900 MB is an upper envelope of every measured point (10M: 3.9 GB predicted,
-#: 3.1 GB measured). CPU: 3.9, 8.1, 24.7, 19.9, 24, 55 and 132 s.
+#: 25k, 100k, 400k, 1M, 2M, 4M and 10M samples (10M: 2,954 MB since the residual spectrum is
+#: averaged in chunks). The caches fill up to about 550 MB and then hold still; what grows
+#: with the record (the recording, predictions, residual maps, the reader's numbers) is about
+#: 0.28 kB per sample from 4M to 10M: 0.3 kB per sample above 900 MB is an upper envelope of
+#: every measured point (10M: 3.9 GB predicted, 3.0-3.1 GB measured). CPU: 3.9, 8.1, 24.7,
+#: 19.9, 24, 55 and 132-157 s.
 DIAGNOSE = CostModel(base_bytes=900e6, bytes_per_sample=300.0, base_cpu_s=5.0,
                      cpu_s_per_sample=15e-6)
 
