@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from app.gui.layout import TITLES
 from core.pi import PIModel
 
 from .test_viser_gui import _open, _screenshot, upload_csv
@@ -193,3 +194,43 @@ def test_toasts_leave_the_plot_panel_free(browser: Any, live_server: dict, shot:
         shot(page, f"viser-toasts-{width}")
         assert errors == []
         ctx.close()
+
+
+_BAR_AND_TITLE = """() => {
+  const plot = [...document.querySelectorAll('.js-plotly-plot')]
+    .filter((e) => e.getBoundingClientRect().width > 150)[0];
+  const box = (e) => { const r = e.getBoundingClientRect();
+    return {left: r.left, top: r.top, right: r.right, bottom: r.bottom}; };
+  const bar = plot && plot.querySelector('.modebar');
+  const title = plot && plot.querySelector('.gtitle');
+  return {bar: bar && bar.getClientRects().length ? box(bar) : null,
+          title: title ? box(title) : null};
+}"""
+
+
+def test_the_plot_title_is_clear_of_the_toolbar(browser: Any, live_server: dict,
+                                                shot: Any) -> None:
+    """Issue 33: in the floating panel plotly's toolbar (shown on hover, top right) sat on
+    the centred plot title (Loop and Time views of a 1500x900 laptop)."""
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1500, 900)
+    view = _new_view(app, known)
+    for name in ("loop", "time"):
+        view.ui.view_dd.value = TITLES[name]
+        assert view.worker.wait_idle(30) and view.shown_figure == name
+        page.wait_for_function(f"() => {{ const t = document.querySelector("
+                               f"'.js-plotly-plot .gtitle'); return t && t.textContent"
+                               f".includes({json.dumps(TITLE_WORDS[name])}); }}",
+                               timeout=30_000)
+        page.locator(".js-plotly-plot").first.hover()
+        page.wait_for_function(f"() => ({_BAR_AND_TITLE})().bar !== null", timeout=30_000)
+        seen = page.evaluate(_BAR_AND_TITLE)
+        assert seen["title"] is not None, seen
+        assert not _overlap(seen["bar"], seen["title"]), (name, seen)
+        shot(page, f"viser-title-toolbar-{name}")
+    assert errors == []
+    ctx.close()
+
+
+TITLE_WORDS = {"loop": "Hysteresis loop", "time": "Input and output"}

@@ -652,6 +652,34 @@ def large_text(fig: FigureJSON, size: int = 16, width: int | None = None) -> Fig
     return FigureJSON(fig.data, lay)
 
 
+#: Height of plotly's toolbar row at the top right of a plot, CSS px.
+TOOLBAR_PX = 36
+
+
+def below_toolbar(fig: FigureJSON, width: int) -> FigureJSON:
+    """``fig`` with its title under plotly's toolbar (a row of about 30 px at the top
+    right, where a centred title of a plot ``width`` px wide ran under it): the title at
+    the figure's top, padded by the row, broken into lines the width holds, and the top
+    margin grown to hold it. The web page does the same (``static/plots.js``
+    ``belowToolbar``)."""
+    title = fig.layout.get("title")
+    if not isinstance(title, dict) or not isinstance(title.get("text"), str) \
+            or not title["text"]:
+        return fig
+    lay = json.loads(json.dumps(fig.layout))
+    size = int((title.get("font") or {}).get("size") or 17)  # plotly's title size
+    text = title["text"]
+    if "<br>" not in text:
+        text = "<br>".join(_title_lines(text, max(10, int((width - 40) / (0.56 * size)))))
+    lines = text.count("<br>") + 1
+    lay["title"] = {**lay["title"], "text": text, "x": 0.5, "xanchor": "center", "y": 1,
+                    "yref": "container", "yanchor": "top", "pad": {"t": TOOLBAR_PX}}
+    margin = lay.get("margin") or {}
+    lay["margin"] = {**margin, "t": max(int(margin.get("t") or 0),
+                                        TOOLBAR_PX + int(lines * size * 1.3) + 12)}
+    return FigureJSON(fig.data, lay)
+
+
 def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:
     """``fig`` with its side-by-side panels stacked top to bottom (narrow plots).
 

@@ -50,3 +50,19 @@ def test_the_inverse_views_clipping_note_still_draws_beside_the_title_wrapping()
     fig = F.build("inverse", res)
     assert "clipped" in " ".join(fig.layout["meta"]["notes"])
     assert F.large_text(fig, 16, width=1200).layout["meta"] == fig.layout["meta"]
+
+
+def test_below_toolbar_puts_the_title_under_the_toolbar_row() -> None:
+    """viser's floating panel (470 px): the title starts under plotly's toolbar row and
+    the top margin holds its lines; a title the width cannot hold is broken at spaces."""
+    long = "Closed loop: PI controller around the hysteretic plant, with inverse feedforward"
+    fig = F.FigureJSON([], {"title": {"text": long}, "margin": {"t": 40}})
+    out = F.below_toolbar(fig, 470)
+    t = out.layout["title"]
+    lines = t["text"].split("<br>")
+    assert len(lines) >= 2 and " ".join(lines) == long
+    assert (t["yref"], t["yanchor"], t["pad"]["t"]) == ("container", "top", F.TOOLBAR_PX)
+    assert out.layout["margin"]["t"] >= F.TOOLBAR_PX + len(lines) * 17
+    assert fig.layout["title"] == {"text": long}  # the figure given is not changed
+    untitled = F.FigureJSON([], {"margin": {"t": 40}})
+    assert F.below_toolbar(untitled, 470) is untitled
