@@ -606,16 +606,6 @@ _RATE_ON_STOP = {
                    "decade apart"),
 }
 
-#: The PI with weights of either sign stays the base of clockwise loops when it lowers the
-#: stop base's held-out MSE by this share. Without a gap the stop base is that PI restricted
-#: to Maxwell-slip signs, so on stop-type plants the free signs gain only noise (Maxwell-slip
-#: plant of the development families, seed 3: 0.1 %); where the stop constraint is wrong they
-#: gain much more: the shipped B-H loops, whose interleaved training blocks alone look
-#: clockwise, 30-33 %, a fixed-travel dead band after every reversal ~99 %. On the friction
-#: damper the stop base (with its gap) is 0.4-60 % better than the free signs.
-STOP_FREE_SIGN_GAIN = 0.1
-
-
 def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     """The stop-operator base of clockwise loops (:mod:`core.diagnosis.bases`), or ``None``
     on counter-clockwise ones: the loops' orientation and the backlash gap are the fit
@@ -623,12 +613,18 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     :class:`~core.fitting.stop.StopPIRegressor` ``gap="auto"``, as ``hyst fit --model auto``
     chooses the ``stop-pi`` kind), the bank as many stop operators as the PI baseline has
     plays, on the input behind that gap, weights ``k >= eps``, ``w_i >= 0`` solved on the
-    training rows. It replaces the PI baseline unless the PI with weights of either sign
-    predicts the held-out rows better by :data:`STOP_FREE_SIGN_GAIN`."""
+    training rows. Tried only where the PI baseline itself needed weights of either sign
+    (:func:`_baseline`: a saturating loop) and the training rows' loops run clockwise (the
+    shipped B-H loops: their interleaved training blocks alone have a clockwise signed area,
+    but their PI keeps non-negative weights). It replaces the PI baseline unless the PI with
+    weights of either sign lowers its held-out MSE by :data:`FREE_SIGN_GAIN` (the fit's rule
+    for free signs over the sign rule of the loops' orientation; the PI stays on a dead band
+    at a fixed travel after every reversal)."""
     recs = ctx.records
-    if not loop_orientation([r.u for r in recs], [r.y for r in recs], ctx.train).clockwise:
-        return None
     s0 = base.structure
+    if not s0.free_weights or not loop_orientation(
+            [r.u for r in recs], [r.y for r in recs], ctx.train).clockwise:
+        return None
     if loop_shape(s0.shape) or s0.beta_s is not None or s0.levels or s0.bouc_wen:
         return None
     model = fit_stop_gap(recs, ctx.train, ctx.test, len(s0.thresholds))
@@ -638,7 +634,7 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     r = shape_thresholds(shape, recs, ctx.train, len(s0.thresholds))
     fs = ctx.fit(Structure(tuple(float(x) for x in r), s0.history, shape=shape))
     h = compare_heldout(ctx, fs, base)
-    chosen = h.gain < STOP_FREE_SIGN_GAIN
+    chosen = h.gain < FREE_SIGN_GAIN
     m0 = fs.models[0]
     hyst = m0.stages[0] if isinstance(m0, Chain) else m0
     assert isinstance(hyst, StopPIModel)
