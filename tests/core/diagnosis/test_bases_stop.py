@@ -4,6 +4,7 @@ sign predicts clearly better, and the diagnosed model inverts and exports."""
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
@@ -13,6 +14,7 @@ import pytest
 from core.base import Chain
 from core.diagnosis import diagnose
 from core.diagnosis.bases import stop_input, stop_stage
+from core.diagnosis.results import DiagnosisResult
 from core.diagnosis.structure import Structure, fit_structure
 from core.export_c import generate_c
 from core.recordings import Recording
@@ -70,6 +72,11 @@ def test_a_gap_plant_gets_the_stop_base_and_its_model_inverts_and_exports() -> N
     np.testing.assert_allclose(model(inv(y_ref)), y_ref, atol=1e-6 * np.ptp(y_ref))
     code = generate_c(model, "damper", dt=DT)
     assert set(code.blocks) == {"damper_inv", "damper_fwd"}
+    # the result's typed JSON carries the stop base (its gap stage, the choice's numbers)
+    back = DiagnosisResult.from_json(json.loads(json.dumps(res.to_json(), allow_nan=False)))
+    assert back.base_choice == res.base_choice
+    assert back.final.structure == res.final.structure and back.final.structure.stop
+    np.testing.assert_array_equal(back.model(u), model(u))
 
 
 def test_a_fixed_travel_dead_band_keeps_the_pi_with_weights_of_either_sign() -> None:
