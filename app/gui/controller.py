@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from app.services.analysis.fitting import FitResult
 from app.services.analysis.recordings import Timing, UnevenUpload, seconds_text
 from app.services.errors import DamagedSessionError, ParameterError, QuotaError
 from app.services.explore import controls as C
@@ -660,17 +661,16 @@ class SessionView:
                              "fitting", "Fit cancelled: the model was not changed.")
         if view is None:
             return
-        out = view.result
-        self.fit_figure = F.FigureJSON(out["figure"]["data"], out["figure"]["layout"])
-        report = out["report"]
+        out: FitResult = view.result  # typed: read as it is, no JSON
+        self.fit_figure = out.figure
         self._show_fitted()
         ui.view_dd.value = TITLES["fit"]
-        unit = f" {report['output_unit']}" if report.get("output_unit") else ""
+        unit = f" {out.output_unit}" if out.output_unit else ""
         ui.report_md.content = (
             f"**Fit ({md_text(type_words(kind))}, {n} operators)**: RMS error "
-            f"{report['rms_error']:.4g}{md_text(unit)}, max error {report['max_error']:.4g}"
-            f"{md_text(unit)} ({report['nrmse_percent']:.3g} % of the output range)"
-        ) + "".join(f"\n\n**Warning:** {md_text(w)}" for w in report.get("warnings", ()))
+            f"{out.rms_error:.4g}{md_text(unit)}, max error {out.max_error:.4g}"
+            f"{md_text(unit)} ({out.nrmse_percent:.3g} % of the output range)"
+        ) + "".join(f"\n\n**Warning:** {md_text(w)}" for w in out.outcome.report.warnings)
 
     def _run_job(self, kind: str, task: Callable[[], Task], what: str,
                  cancelled: str) -> JobView | None:

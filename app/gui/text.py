@@ -8,15 +8,17 @@ string goes through :func:`md_text` first. The other functions write the GUI's s
 
 from __future__ import annotations
 
-import json
 import re
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.services.analysis.recordings import Recording
 from app.services.explore.simulation import Result, operator_count, pi_part, weight_note
 from app.services.words import model_words
+
+if TYPE_CHECKING:
+    from app.services.analysis.diagnosis import SessionDiagnosis
 
 __all__ = ["diagnosis_markdown", "inverse_markdown", "md_text", "model_markdown",
            "recording_markdown", "state_markdown"]
@@ -106,10 +108,10 @@ def recording_markdown(rec: Recording, rows: int = 5) -> str:
     )
 
 
-def diagnosis_markdown(rep: dict[str, Any]) -> str:
-    """A diagnosis report as Markdown: its findings, sentences with units written for
+def diagnosis_markdown(diag: SessionDiagnosis) -> str:
+    """A diagnosis job's result as Markdown: its findings, sentences with units written for
     people (:func:`app.services.analysis.diagnosis.diagnosis_summary`)."""
     lines = ["### Diagnosis", ""]
-    for f in rep.get("findings", []) or []:
-        lines.append(f"- {md_text(f if isinstance(f, str) else json.dumps(f))}")
+    for f in diag.summary.findings:
+        lines.append(f"- {md_text(f)}")
     return "\n".join(lines)

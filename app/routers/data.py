@@ -13,7 +13,16 @@ from app.services.session import actions
 
 from .deps import SessionDep, SettingsDep, attachment, read_body
 from .jobs import start_job, wait_for
-from .schemas import CsvPreviewOut, DiagnosisOut, FigureOut, FitIn, FitOut, RecordingOut
+from .schemas import (
+    CsvPreviewOut,
+    DiagnosisOut,
+    FigureOut,
+    FitIn,
+    FitOut,
+    RecordingOut,
+    diagnosis_json,
+    fit_json,
+)
 
 __all__ = ["router"]
 
@@ -103,7 +112,7 @@ async def fit(body: FitIn, request: Request, session: SessionDep,
     the job is cancelled if the client hangs up.
     """
     job = start_job(request, session, settings, "fit", body.model_dump())
-    return await wait_for(request, job)
+    return fit_json(await wait_for(request, job))
 
 
 @router.post("/sessions/{code}/diagnose",
@@ -113,7 +122,7 @@ async def diagnose(request: Request, session: SessionDep,
     """Diagnose the fitted model (else the current model) against the recording (a job of
     the bounded queue, waited for; cancelled if the client hangs up)."""
     job = start_job(request, session, settings, "diagnose", {})
-    return await wait_for(request, job)
+    return diagnosis_json(await wait_for(request, job))
 
 
 @router.get("/sessions/{code}/diagnosis/figure", response_model=FigureOut)

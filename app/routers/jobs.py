@@ -26,7 +26,7 @@ from app.services.session.sessions import Session
 from app.services.settings import Settings
 
 from .deps import SessionDep, SettingsDep
-from .schemas import FitIn, JobCreatedOut, JobListOut, JobOut
+from .schemas import FitIn, JobCreatedOut, JobListOut, JobOut, job_json
 
 __all__ = ["JobIn", "router", "start_job", "wait_for"]
 
@@ -75,7 +75,8 @@ def start_job(request: Request, session: Session, settings: Settings, kind: str,
 
 
 async def wait_for(request: Request, job: Job, timeout_s: float = 300.0) -> Any:
-    """Wait for ``job`` while the client is connected; its result, or the HTTP error."""
+    """Wait for ``job`` while the client is connected; its typed result (the routers make
+    its JSON, :mod:`.schemas`), or the HTTP error."""
     jobs: JobManager = request.app.state.jobs
     waited = 0.0
     while not jobs.wait(job, 0):
@@ -116,7 +117,7 @@ def list_jobs(request: Request, session: SessionDep,
               ) -> dict[str, Any]:
     """The session's newest jobs, newest first, without their results (GET one for it)."""
     jobs: JobManager = request.app.state.jobs
-    return {"jobs": [j.view().to_dict(with_result=False)
+    return {"jobs": [job_json(j.view(), with_result=False)
                      for j in jobs.recent(session.code, limit)]}
 
 
@@ -131,7 +132,7 @@ def _job(request: Request, session: Session, job_id: str) -> Job:
             response_model=JobOut, response_model_exclude_unset=True)
 def get_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
     """State, progress (0..1), message, and the result once done (the error if failed)."""
-    return _job(request, session, job_id).view().to_dict()
+    return job_json(_job(request, session, job_id).view())
 
 
 @router.delete("/sessions/{code}/jobs/{job_id}",
@@ -139,4 +140,4 @@ def get_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any
 def cancel_job(job_id: str, request: Request, session: SessionDep) -> dict[str, Any]:
     """Cancel a queued or running job (a finished one is left as it is)."""
     _job(request, session, job_id)
-    return request.app.state.jobs.cancel(session.code, job_id).view().to_dict()
+    return job_json(request.app.state.jobs.cancel(session.code, job_id).view())

@@ -9,13 +9,17 @@ or a float), so the bytes are what they were before the models were declared.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.services.analysis.diagnosis import SessionDiagnosis
+from app.services.analysis.fitting import FitResult
 from app.services.explore.config import Config, SignalSpec
 
 if TYPE_CHECKING:
+    from app.services.jobs.manager import JobView
     from app.services.session.sessions import Session
 
 __all__ = [
@@ -41,6 +45,11 @@ __all__ = [
     "PushOut",
     "RecordingOut",
     "SessionOut",
+    "diagnosis_json",
+    "fit_json",
+    "fit_report_json",
+    "job_json",
+    "job_result_json",
     "session_json",
     "SignalIn",
     "SimulateIn",
@@ -425,6 +434,68 @@ class DiagnosisOut(BaseModel):
     final_rmse_pct: Number | None = None
     effects: list[Any]
     document: dict[str, Any] = Field(description="core.diagnosis DiagnosisResult.to_dict()")
+
+
+def _finite(x: Any) -> Any:
+    """``x`` with non-finite floats replaced by ``None`` (JSON has no NaN/inf)."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def fit_report_json(fit: FitResult) -> dict[str, Any]:
+    """The ``report`` of :class:`FitOut`: the outcome's ``FitReport.to_dict()`` (NaN as
+    ``null``) plus the errors on the whole recording, the number of operators asked for,
+    the kind and the output unit in words."""
+    return {
+        **_finite(fit.outcome.report.to_dict()),
+        "rms_error": fit.rms_error,
+        "max_error": fit.max_error,
+        "nrmse_percent": fit.nrmse_percent,
+        "n_operators": fit.n_operators,
+        "kind": fit.outcome.kind,
+        "output_unit": fit.output_unit,
+    }
+
+
+def fit_json(fit: FitResult) -> dict[str, Any]:
+    """The :class:`FitOut` body of a fit job's typed result."""
+    return {"model": fit.outcome.model.to_dict(), "report": fit_report_json(fit),
+            "figure": None if fit.figure is None else fit.figure.to_dict()}
+
+
+def diagnosis_json(diag: SessionDiagnosis) -> dict[str, Any]:
+    """The :class:`DiagnosisOut` body of a diagnosis job's typed result: its findings and
+    the core's report document (``DiagnosisResult.to_dict()``)."""
+    s = diag.summary
+    return {"engine": "core.diagnosis", "findings": list(s.findings),
+            "baseline_rmse_pct": s.baseline_rmse_pct, "final_rmse_pct": s.final_rmse_pct,
+            "effects": list(s.effects), "document": diag.result.to_dict()}
+
+
+def job_result_json(result: Any) -> Any:
+    """The JSON of a job's result (:func:`fit_json`, :func:`diagnosis_json`; ``None``
+    before it is done)."""
+    if isinstance(result, FitResult):
+        return fit_json(result)
+    if isinstance(result, SessionDiagnosis):
+        return diagnosis_json(result)
+    return result
+
+
+def job_json(view: JobView, with_result: bool = True) -> dict[str, Any]:
+    """The :class:`JobOut` body of a job (``with_result=False``: without its result, as the
+    list shows it)."""
+    d: dict[str, Any] = {"id": view.id, "kind": view.kind, "state": view.state,
+                         "progress": view.progress, "message": view.message,
+                         "error": view.error}
+    if with_result:
+        d["result"] = job_result_json(view.result)
+    return d
 
 
 class JobCreatedOut(BaseModel):

@@ -93,6 +93,6 @@ def small_diagnosis() -> tuple[Any, Any]:
     y = Chain.of(base, Creep([0.05, 0.3], [0.1, 0.1]))(u, dt=2e-3)
     y = y + 1e-3 * np.random.default_rng(0).standard_normal(u.size)
     rec = Recording(t, u, y, name="creep", units={"input": "V", "output": "um"})
-    _, result = run_diagnosis(rec, base)
+    result = run_diagnosis(rec, base).result
     assert result.effects
     return rec, result

@@ -172,7 +172,7 @@ def test_words_for_people_web(browser: Any, live_server: dict, shot: Any,
     page.wait_for_selector("#diagnosis", timeout=120_000)
     assert "cancelled" not in page.inner_text("#csv-msg")
     items = page.locator("#diagnosis li").all_inner_texts()
-    doc = _session(app, page).diagnosis["document"]
+    doc = _session(app, page).diagnosis.result.to_dict()
     assert items and all(i[:1].isupper() for i in items), items
     text = page.inner_text("#report")
     assert not any(w in text.lower() for w in DEV_WORDS), text

@@ -78,14 +78,14 @@ def test_fit_job_result_shown(browser: Any, live_server: dict, shot: Any) -> Non
     job = _job(app, page.inner_text("#code"))
     assert job.kind == "fit" and job.state == "done"
     # the page shows the job's own result: its RMS error and its overlay figure
-    rms = job.result["report"]["rms_error"]
+    rms = job.result.rms_error  # typed in the server, JSON at the REST edge
     shown = page.inner_text("#report")
     assert shown.startswith("Fit: RMS error ")
     assert float(shown.split()[3].rstrip(",")) == pytest.approx(rms, rel=1e-3)
     names = page.evaluate("() => document.getElementById('figure')._fullData.map(t => t.name)")
-    assert names == [t.get("name") for t in job.result["figure"]["data"]]
+    assert names == [t.get("name") for t in job.result.figure.data]
     fitted = _session(app, page).fitted  # a core Model in the session, JSON in the job
-    assert fitted is not None and fitted.to_dict() == job.result["model"]
+    assert fitted is not None and fitted is job.result.outcome.model
     assert _buttons(page) == [False, False]
     shot(page, "web-fit-job")
     _clean(page, log)

@@ -54,7 +54,7 @@ def test_reload_during_a_diagnosis_follows_it(browser: Any, live_server: dict,
     assert second.state == "done"
     assert _session(app, page).diagnosis is not None
     shown = page.inner_text("#diagnosis")
-    assert second.result["findings"][0] in shown  # the job's own result, in sentences
+    assert second.result.summary.findings[0] in shown  # the job's own result, in sentences
     assert _buttons(page) == [False, False] and page.is_hidden("#cancel-job")
     _clean(page, log)
     ctx.close()

@@ -89,7 +89,7 @@ def test_diagnosis_in_one_voice_and_no_code_names(browser: Any, live_server: dic
             "() => ((document.getElementById('figure')._fullLayout || {}).title || {}).text")
         title = page.evaluate("() => document.getElementById('figure')._fullLayout.title.text")
         items = page.locator("#diagnosis li").all_inner_texts()
-        doc = app.state.registry.get(page.inner_text("#code")).diagnosis["document"]
+        doc = app.state.registry.get(page.inner_text("#code")).diagnosis.result.to_dict()
         after = f"{doc['final']['heldout_rmse']:.3g}"
         # one "after": the first sentence, the effect's sentence, the plot title
         assert f"by {after} µm" in items[0], items[0]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -22,19 +23,22 @@ if TYPE_CHECKING:  # core.diagnosis is imported when a diagnosis runs
     from app.services.runs.progress import Progress
     from core.base import Model
     from core.csvio import CsvOptions
+    from core.diagnosis.results import DiagnosisResult
     from core.paramset import ParameterSet
     from core.recordings import Recording
 
 __all__ = [
+    "DiagnosisSummary",
+    "SessionDiagnosis",
     "diagnose_files",
     "diagnosis_html",
     "diagnosis_json",
-    "diagnosis_report",
     "diagnosis_source",
     "diagnosis_summary",
     "model_document",
     "run_diagnosis",
     "save_model",
+    "session_diagnosis",
 ]
 
 
@@ -108,8 +112,53 @@ def _because(head: str, reason: object, lead: str, experiment: object) -> str:
     return text + (f". {lead} {experiment}" if experiment else "") + "."
 
 
+@dataclass(frozen=True)
+class DiagnosisSummary:
+    """The findings of a diagnosis in sentences for people (:func:`diagnosis_summary`).
+
+    Attributes
+    ----------
+    findings : tuple of str
+        One sentence (or a few) per finding, units in words.
+    baseline_rmse_pct, final_rmse_pct : float or None
+        Held-out RMSE of the base model and of the final one, % of the output range.
+    effects : tuple of str
+        The effects of the final model (registry names).
+    """
+
+    findings: tuple[str, ...]
+    baseline_rmse_pct: float | None
+    final_rmse_pct: float | None
+    effects: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class SessionDiagnosis:
+    """A session's diagnosis as the pages show it (the diagnosis job's result, shared by the
+    REST API and the viser GUI; its JSON is made by the routers,
+    ``routers/schemas.py::diagnosis_json``).
+
+    Attributes
+    ----------
+    result : DiagnosisResult
+        The core's result (its report document is ``result.to_dict()``).
+    summary : DiagnosisSummary
+        Its findings in words, in the recording's units.
+    """
+
+    result: DiagnosisResult
+    summary: DiagnosisSummary
+
+
+def session_diagnosis(result: DiagnosisResult, units: Mapping[str, str] | None = None
+                      ) -> SessionDiagnosis:
+    """The :class:`SessionDiagnosis` of ``result``, its findings in ``units`` (the
+    recording's)."""
+    return SessionDiagnosis(result, diagnosis_summary(result.to_dict(), units))
+
+
 def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
-                      ) -> dict[str, Any]:
+                      ) -> DiagnosisSummary:
     """The findings of a diagnosis document in sentences for people (accepted effects with
     their held-out error before and after in the output's unit, where they act, ambiguities,
     untestable effects), and the held-out RMSE before and after.
@@ -177,21 +226,16 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
         findings.append(in_words(_because(
             f"{_cap(_effect_words(u.get('name')))} cannot be tested with this recording",
             u.get("reason"), "It would need", u.get("experiment"))))
-    return {
-        "findings": findings,
-        "baseline_rmse_pct": bp,
-        "final_rmse_pct": fp,
-        "effects": final.get("effects", []),
-    }
+    return DiagnosisSummary(tuple(findings), bp, fp, tuple(final.get("effects", [])))
 
 
 def run_diagnosis(rec: Recording, model: Model,
-                  progress: Callable[..., None] | None = None) -> tuple[dict[str, Any], Any]:
-    """:func:`core.diagnosis.diagnose` of ``rec``: ``(report, result)``.
+                  progress: Callable[..., None] | None = None) -> SessionDiagnosis:
+    """:func:`core.diagnosis.diagnose` of ``rec``: the core's ``DiagnosisResult`` with its
+    findings in words, in the recording's units (:class:`SessionDiagnosis`).
 
     The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
-    ``result`` is the core's ``DiagnosisResult``; the report holds the findings, the
-    held-out RMSE before and after, and the core's JSON document. ``progress`` is passed
+    ``progress`` is passed
     on to :func:`~core.diagnosis.diagnose` (a job's worker passes it to the server; a cancel
     kills the worker, :mod:`.worker`).
     """
@@ -201,15 +245,7 @@ def run_diagnosis(rec: Recording, model: Model,
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
     result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
-    return diagnosis_report(result, rec.units), result
-
-
-def diagnosis_report(result: Any, units: Mapping[str, str] | None = None) -> dict[str, Any]:
-    """The report of a session's diagnosis as the pages show it: ``engine``, the findings
-    (:func:`diagnosis_summary`, in the recording's ``units``) and the core's report
-    document ``result.to_dict()``."""
-    d = result.to_dict()
-    return {"engine": "core.diagnosis", **diagnosis_summary(d, units), "document": d}
+    return session_diagnosis(result, rec.units)
 
 
 def diagnosis_html(result: Any, units: dict[str, str] | None = None) -> str:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +21,7 @@ from app.services.runs.inputs import CommandError, parse_window
 from app.services.words import unit_words
 
 if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
+    from app.services.explore.figures import FigureJSON
     from app.services.runs.progress import Progress
     from core.fitting import FitOutcome, TimeWindow
     from core.fitting.metrics import FitReport, PartStats
@@ -28,27 +29,50 @@ if TYPE_CHECKING:  # core.fitting is imported when a fit runs (scipy: 0.5 s)
     from core.recordings import Recording
 
 __all__ = [
+    "FitResult",
     "check_n_operators",
     "fit_errors",
     "fit_outcome",
     "fit_recording",
-    "fit_report",
     "fit_report_from_dict",
+    "fit_result",
     "fit_source",
     "say_fit",
     "time_window",
 ]
 
 
-def _finite(x: Any) -> Any:
-    """``x`` with non-finite floats replaced by ``None`` (JSON has no NaN/inf)."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_finite(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
+@dataclass(frozen=True)
+class FitResult:
+    """A session's fit as the pages show it (the fit job's result, shared by the REST API
+    and the viser GUI; its JSON is made by the routers, ``routers/schemas.py::fit_json``).
+
+    Attributes
+    ----------
+    outcome : FitOutcome
+        The fit (:func:`fit_recording`): model, report, warnings, parameter set.
+    rms_error, max_error : float
+        Errors of its model on the whole recording (output units).
+    nrmse_percent : float
+        ``rms_error`` in % of the recording's output range.
+    output_unit : str
+        The output's unit in words (``""`` when unknown).
+    figure : FigureJSON or None
+        The overlay of the measured and the fitted output.
+    """
+
+    outcome: FitOutcome
+    rms_error: float
+    max_error: float
+    nrmse_percent: float
+    output_unit: str
+    figure: FigureJSON | None = None
+
+    @property
+    def n_operators(self) -> int | None:
+        """The number of operators asked for (as ``hyst fit -n`` records it)."""
+        n = (self.outcome.parameter_set.provenance.fit or {}).get("n_operators")
+        return None if n is None else int(n)
 
 
 def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
@@ -76,22 +100,15 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
     return replace(out, estimator=None)
 
 
-def fit_report(out: FitOutcome, rec: Recording) -> dict[str, Any]:
-    """The report of a session's fit as the pages show it (the fit job's result): the
-    outcome's ``report`` plus the errors of its model on the whole recording ``rec``, the
-    number of operators asked for, the kind and the output unit in words."""
+def fit_result(out: FitOutcome, rec: Recording, figure: FigureJSON | None = None
+               ) -> FitResult:
+    """The :class:`FitResult` of the fit ``out`` of ``rec``: its model's errors on the whole
+    recording, the output unit in words, and ``figure``."""
     res = rec.y - out.model(rec.u)
     rms = float(np.sqrt(np.mean(res**2)))
-    fit = out.parameter_set.provenance.fit or {}
-    return {
-        **_finite(out.report.to_dict()),
-        "rms_error": rms,
-        "max_error": float(np.max(np.abs(res))),
-        "nrmse_percent": float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
-        "n_operators": fit.get("n_operators"),
-        "kind": out.kind,
-        "output_unit": unit_words(rec.units.get("output")),
-    }
+    return FitResult(out, rms, float(np.max(np.abs(res))),
+                     float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),
+                     unit_words(rec.units.get("output")), figure)
 
 
 def fit_outcome(ps: ParameterSet) -> FitOutcome:

@@ -41,7 +41,8 @@ class JobTooLarge(JobBusy):
 
 @dataclass(frozen=True)
 class JobView:
-    """What ``GET /api/sessions/{code}/jobs/{id}`` returns (the list leaves ``result`` out)."""
+    """A job's state as ``GET /api/sessions/{code}/jobs/{id}`` shows it (its JSON is
+    ``routers/schemas.py::job_json``; ``result`` is the task's typed result once done)."""
 
     id: str
     kind: str
@@ -50,14 +51,6 @@ class JobView:
     message: str
     result: Any
     error: str | None
-
-    def to_dict(self, with_result: bool = True) -> dict[str, Any]:
-        """JSON-ready form (the API contract); ``with_result=False`` leaves the result out."""
-        d = {"id": self.id, "kind": self.kind, "state": self.state,
-             "progress": self.progress, "message": self.message, "error": self.error}
-        if with_result:
-            d["result"] = self.result
-        return d
 
 
 @dataclass(eq=False)

@@ -19,24 +19,23 @@ from app.services.runs.cost import DIAGNOSE, FIT
 from core.exceptions import ParameterError
 
 if TYPE_CHECKING:
+    from app.services.analysis.diagnosis import SessionDiagnosis
+    from app.services.analysis.fitting import FitResult
     from app.services.explore.config import Config
     from app.services.session.sessions import Session
     from core.base import Model
-    from core.fitting.entry import FitOutcome
     from core.recordings import Recording
 
 __all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures", "run_fit",
            "run_result"]
 
 
-def run_fit(rec: Recording, n: int, kind: str, *,
-            progress: Progress) -> tuple[FitOutcome, dict[str, Any]]:
-    """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure.
-
-    Returns ``(outcome, plotly figure)``: the typed outcome (no estimator) goes back to the
-    server as it is, which keeps it in the session (:func:`fit_task`).
-    """
-    from app.services.analysis.fitting import fit_recording
+def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> FitResult:
+    """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure: the typed
+    :class:`~app.services.analysis.fitting.FitResult` (the outcome without its estimator,
+    the errors on the whole recording, the figure) goes back to the server as it is, which
+    keeps the outcome in the session (:func:`fit_task`)."""
+    from app.services.analysis.fitting import fit_recording, fit_result
     from app.services.explore import figures as F
     from app.services.words import type_words
 
@@ -45,13 +44,14 @@ def run_fit(rec: Recording, n: int, kind: str, *,
     out = fit_recording(rec, n, kind)
     progress(0.9, "building the figure")
     fig = F.fit_figure(rec, out.model(rec.u), f"fitted: {name}, {n} operators")
-    return out, fig.to_dict()
+    return fit_result(out, rec, fig)
 
 
 def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
-                  progress: Progress) -> tuple[dict[str, Any], Any]:
+                  progress: Progress) -> SessionDiagnosis:
     """Diagnose ``rec`` against the model ``model_doc`` (:func:`.diagnosis.run_diagnosis`):
-    ``(report, result)``; progress runs from 0.01 to 0.99."""
+    the typed :class:`~app.services.analysis.diagnosis.SessionDiagnosis` (the core's result
+    and its findings in words); progress runs from 0.01 to 0.99."""
     from app.services.analysis.diagnosis import run_diagnosis as diagnose
     from app.services.words import in_words
     from core.base import model_from_dict
@@ -124,29 +124,28 @@ def _recording(session: Session, what: str) -> Recording:
 def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
     """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
     dropped; with ``apply`` the fitted model becomes the session's model). The job's result
-    is ``{"model": document, "report": .fitting.fit_report, "figure": plotly figure}``."""
-    from app.services.analysis.fitting import fit_report
-
+    is the typed :class:`~app.services.analysis.fitting.FitResult` (the REST API's JSON of
+    it: ``routers/schemas.py::fit_json``)."""
     rec = _recording(session, "fit")
 
-    def keep(out: tuple[FitOutcome, dict[str, Any]]) -> dict[str, Any]:
-        fit, figure = out
-        session.set_fit(fit, apply=apply)
-        return {"model": fit.model.to_dict(), "report": fit_report(fit, rec), "figure": figure}
+    def keep(out: FitResult) -> FitResult:
+        session.set_fit(out.outcome, apply=apply)
+        return out
 
     return Task(run_fit, (rec, n, kind), keep, samples=rec.n_samples, cost=FIT)
 
 
 def diagnose_task(session: Session) -> Task:
     """The task of a diagnosis of the fitted model (else the current model) against
-    ``session``'s recording; kept: the report and the result are stored."""
+    ``session``'s recording; kept: the result is stored. The job's result is the typed
+    :class:`~app.services.analysis.diagnosis.SessionDiagnosis` (the REST API's JSON of it:
+    ``routers/schemas.py::diagnosis_json``)."""
     fitted = session.fitted
     doc = fitted.to_dict() if fitted is not None else session.snapshot()[0].model
 
-    def keep(out: tuple[dict[str, Any], Any]) -> dict[str, Any]:
-        report, result = out
-        session.set_diagnosis(result)
-        return report
+    def keep(out: SessionDiagnosis) -> SessionDiagnosis:
+        session.set_diagnosis(out.result)
+        return out
 
     rec = _recording(session, "diagnose")
     return Task(run_diagnosis, (rec, doc), keep, samples=rec.n_samples, cost=DIAGNOSE)

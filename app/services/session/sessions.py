@@ -27,6 +27,7 @@ from core.recordings import Recording
 from core.validation import filled
 
 if TYPE_CHECKING:
+    from app.services.analysis.diagnosis import SessionDiagnosis
     from core.diagnosis.results import DiagnosisResult
     from core.fitting.entry import FitOutcome
 
@@ -120,17 +121,18 @@ class Session:
         return st.diagnosis_result is not None or st.old_report is not None
 
     @property
-    def diagnosis(self) -> dict[str, Any] | None:
-        """The diagnosis report as the pages show it, made from the result
-        (:func:`~app.services.analysis.diagnosis.diagnosis_report`, in the recording's
-        units); of a session stored in the old form its stored report; else None."""
-        st = self._state
-        if st.diagnosis_result is None:
-            return st.old_report
-        from app.services.analysis.diagnosis import diagnosis_report
+    def diagnosis(self) -> SessionDiagnosis | None:
+        """The diagnosis as the pages show it: the result with its findings in words, in the
+        recording's units (:func:`~app.services.analysis.diagnosis.session_diagnosis`); None
+        without a result (a diagnosis stored in the old form has only
+        ``state.old_report``)."""
+        result = self._state.diagnosis_result
+        if result is None:
+            return None
+        from app.services.analysis.diagnosis import session_diagnosis
 
         rec = self.recording
-        return diagnosis_report(st.diagnosis_result, None if rec is None else rec.units)
+        return session_diagnosis(result, None if rec is None else rec.units)
 
     @property
     def diagnosed(self) -> Model | None:
@@ -230,7 +232,7 @@ class Session:
             return self._commit(changes, recording=False, results=True, notify=apply)
 
     def set_diagnosis(self, result: DiagnosisResult) -> int:
-        """Store a diagnosis, its core result (the plots are not redrawn): the report is
+        """Store a diagnosis, its core result (the plots are not redrawn): the findings are
         made from it, and when it added effects its model is the diagnosed model."""
         diagnosed = result.model if result.effects else None
         return self._commit({"old_report": None, "diagnosed": diagnosed,

@@ -201,7 +201,7 @@ def test_a_preisach_actuator_gets_a_preisach_base_that_inverts_and_exports(tmp_p
         diagnosis_summary as _diagnosis_summary,  # the findings the web page and batch show
     )
 
-    found = _diagnosis_summary(doc)["findings"]
+    found = _diagnosis_summary(doc).findings
     assert any(f.endswith("the Preisach model explains the data") for f in found)
     assert any(f.startswith("Base model: level-dependent memory") for f in found)
     inv = tmp_path / "inv.json"
@@ -226,7 +226,7 @@ def test_the_findings_name_a_bouc_wen_base() -> None:
     doc = {"baseline": {"model": "bouc-wen", "heldout_rmse": 0.2,
                         "base_choice": {"kind": "bouc-wen", "text": text}},
            "final": {"heldout_rmse": 0.2}, "effects": [], "adequacy": {"adequate": True}}
-    found = diagnosis_summary(doc)["findings"]
+    found = diagnosis_summary(doc).findings
     assert found[0].endswith("the Bouc-Wen model explains the data")
     assert f"Base model: {text}" in found
 
@@ -244,12 +244,12 @@ def test_the_findings_do_not_say_the_model_explains_data_it_misses() -> None:
     doc = {"baseline": {"model": "pi", "heldout_rmse": 0.54, "heldout_rmse_pct": 5.78},
            "final": {"heldout_rmse": 0.54}, "effects": [],
            "adequacy": {"adequate": False, "text": verdict}}
-    found = diagnosis_summary(doc)["findings"]
+    found = diagnosis_summary(doc).findings
     assert not any("explains the data" in f for f in found)
     assert "No effect of the list improved the held-out fit significantly." in found
     assert f"Not explained: {verdict}" in found
     del doc["adequacy"]
-    found = diagnosis_summary(doc)["findings"]
+    found = diagnosis_summary(doc).findings
     assert not any("explains the data" in f or f.startswith("Not explained") for f in found)
 
 

@@ -18,7 +18,8 @@ import pytest
 from app.batch import DiagnoseOptions, FitOptions
 from app.batch.single import run_recording
 from app.cli import main
-from app.services.analysis.fitting import fit_recording, fit_report
+from app.routers.schemas import fit_report_json
+from app.services.analysis.fitting import fit_recording, fit_result
 from app.services.analysis.recordings import recording_from_csv
 from core.csvio import read_csv
 from core.fitting import TimeWindow, fit_recordings
@@ -54,7 +55,7 @@ def test_cli_explorer_and_batch_fit_the_same_parameter_set(tmp_path):
     ref_cli = _cli_fit(src, tmp_path / "cli.json", "--model", "pi", "-n", "6")
     rec = recording_from_csv(src.read_bytes(), name="alpha.csv")
     out = fit_recording(rec, 6)
-    report = fit_report(out, rec)  # what the page shows
+    report = fit_report_json(fit_result(out, rec))  # what the page shows
     _assert_same({"model": out.model.to_dict()}, {"model": ref_cli["model"]})
     rep = ref_cli["provenance"]["fit"]["report"]
     assert "wipe-out" in report["extra"]["initial_memory"]["summary"]

@@ -405,8 +405,12 @@ def test_teacher_push_checks_the_token_with_teacher_ok(view: SessionView,
 
 
 def test_diagnosis_markdown() -> None:
-    md = diagnosis_markdown({"engine": "core.diagnosis", "findings": ["Found a delay."],
-                             "baseline_rmse_pct": 0.5})
+    from types import SimpleNamespace
+
+    from app.services.analysis.diagnosis import DiagnosisSummary
+
+    md = diagnosis_markdown(SimpleNamespace(  # type: ignore[arg-type]
+        result=None, summary=DiagnosisSummary(("Found a delay.",), 0.5, None, ("delay",))))
     # the sentences only: no engine name, no field names (issue 19)
     assert "- Found a delay\\." in md and "core" not in md and "rmse" not in md
 
@@ -603,7 +607,7 @@ def test_diagnosis_is_a_killable_job_and_a_closed_tab_cancels_it(server: Any) ->
         _upload_pi(w, 800)
         w._guarded(w._diagnose_clicked)(SimpleNamespace(client=None))
         assert [(j.kind, j.state) for j in jobs.recent(w.session.code)] == [("diagnose", "done")]
-        findings = w.session.diagnosis["findings"]
+        findings = w.session.diagnosis.summary.findings
         assert findings and _md(w.ui.report_md).startswith("### Diagnosis")
         assert all(str(f).replace("\\", "")[:40] in _md(w.ui.report_md) for f in findings)
         assert w.session.diagnosis_result is not None and not w.ui.report_btn.disabled

@@ -99,7 +99,7 @@ def _doc(effects: list[dict]) -> dict:
 def test_one_after_number_in_the_findings() -> None:
     one = [{"name": "initial-memory", "heldout_rmse_before": 0.767, "heldout_rmse_after": 0.119,
             "parameters": {"history": [[-123.0]]}}]
-    found = diagnosis_summary(_doc(one), {"input": "V", "output": "um"})["findings"]
+    found = diagnosis_summary(_doc(one), {"input": "V", "output": "um"}).findings
     text = "\n".join(found)
     assert "by 0.102 µm (0.26 %)" in found[0]
     assert "from 0.767 µm to 0.102 µm RMS" in found[1] and "0.119" not in text
@@ -108,7 +108,7 @@ def test_one_after_number_in_the_findings() -> None:
     assert not _leaks(text), _leaks(text)
     two = one + [{"name": "asymmetry", "heldout_rmse_before": 0.119,
                   "heldout_rmse_after": 0.0595, "parameters": {}}]
-    found = diagnosis_summary(_doc(two), {"output": "um"})["findings"]
+    found = diagnosis_summary(_doc(two), {"output": "um"}).findings
     # the rounds' own "after" errors are not shown: each effect's share in percent
     assert re.findall(r"(?:\bto|added, by) ([\d.]+) µm", "\n".join(found)) == ["0.102"]
     assert "lowers the held-out error by 84 %" in found[1]

@@ -43,10 +43,10 @@ def test_session_services_store_fit_export_and_clear() -> None:
     rec = Recording(t, u, PIModel.from_dict(S.EXAMPLE1)(u))
     D.store_recording(s, rec)
     out = run_here(fit_task(s, 6, "pi", apply=True))  # the session's one fit path
-    report = out["report"]
-    assert s.fitted is not None and s.fit is not None  # typed: core's Model and FitOutcome
-    assert s.fitted.to_dict() == s.config.model == out["model"] and report["nrmse_percent"] < 2
-    assert report["kind"] == "pi" and "wipe-out" in report["extra"]["initial_memory"]["summary"]
+    report = out.outcome.report.to_dict()
+    assert s.fitted is not None and s.fit is out.outcome  # typed: core's Model and FitOutcome
+    assert s.fitted.to_dict() == s.config.model and out.nrmse_percent < 2
+    assert out.outcome.kind == "pi" and "wipe-out" in report["extra"]["initial_memory"]["summary"]
     _, payload = E.export_session(s, "json")
     # the fit travels along, with the provenance hyst fit writes
     fit = json.loads(payload)["provenance"]["fit"]

@@ -129,7 +129,8 @@ def test_a_fit_stored_in_the_old_form_loads_as_a_typed_outcome(tmp_path: Path) -
     and the errors on the whole recording); they load as the same FitOutcome."""
     import json
 
-    from app.services.analysis.fitting import fit_report
+    from app.routers.schemas import fit_report_json
+    from app.services.analysis.fitting import fit_result
 
     t = np.arange(400) * 1e-3
     u = 3 * np.sin(2 * np.pi * 3 * t) * np.exp(-t)
@@ -137,7 +138,7 @@ def test_a_fit_stored_in_the_old_form_loads_as_a_typed_outcome(tmp_path: Path) -
     fit = small_fit()
     db = tmp_path / "sessions.sqlite3"
     code = _stored(db)
-    old_report = fit_report(fit, rec)  # what the fit job stored then, word for word
+    old_report = fit_report_json(fit_result(fit, rec))  # as the fit job stored it then
     with sqlite3.connect(db) as raw:
         raw.execute("UPDATE sessions SET fitted=?, fit_report=? WHERE code=?",
                     (json.dumps(fit.model.to_dict()), json.dumps(old_report), code))
@@ -203,8 +204,9 @@ def test_a_diagnosis_survives_a_restart_as_its_result(tmp_path: Path, diagnosed)
     back = again.diagnosis_result
     assert back is not None and back is not result
     assert back.to_json() == result.to_json()
-    assert again.diagnosis == report and again.has_diagnosis
-    assert "Found" in " ".join(report["findings"])
+    assert again.diagnosis is not None and again.has_diagnosis
+    assert again.diagnosis.summary == report.summary
+    assert "Found" in " ".join(report.summary.findings)
     got = diagnosed_model(again)
     assert got is not None and got.to_dict() == result.model.to_dict()
     fig = actions.diagnosis_figure(again)
@@ -233,8 +235,8 @@ def test_a_diagnosis_stored_in_the_old_form_still_loads(tmp_path: Path) -> None:
     assert column == '{"findings": ["creep"]}'
     assert blob.startswith(b'{"diagnosed": {"type": "chain"')
     again = SessionRegistry(store=SessionStore(db)).get(code)
-    assert again.diagnosis_result is None and again.diagnosis == {"findings": ["creep"]}
-    assert again.has_diagnosis
+    assert again.diagnosis_result is None and again.diagnosis is None
+    assert again.state.old_report == {"findings": ["creep"]} and again.has_diagnosis
     back = diagnosed_model(again)
     assert back is not None and back.to_dict() == _extended().to_dict()
     assert actions.diagnosis_report(again) is None and actions.diagnosis_figure(again) is None
