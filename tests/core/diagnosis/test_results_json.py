@@ -199,3 +199,43 @@ def test_what_a_result_cannot_hold_is_named_when_written(periodic_set) -> None:
     res.maps_before = {"where": object()}
     with pytest.raises(DocumentError, match=r"result.maps_before.where: a object"):
         res.to_json()
+
+
+# ------------------------------------------------------------------------------ property
+def _values():
+    """What a result's free-form fields hold: numbers (NaN and infinities too), text, None,
+    arrays, and tuples, lists and mappings of them."""
+    from hypothesis import strategies as st
+    from hypothesis.extra import numpy as hnp
+
+    arrays = hnp.arrays(st.sampled_from([np.float64, np.int64, np.bool_]),
+                        hnp.array_shapes(min_dims=0, max_dims=2, max_side=4))
+    leaves = (st.none() | st.booleans() | st.integers(-2**62, 2**62) | st.floats()
+              | st.text(max_size=8) | arrays)
+    return st.recursive(leaves, lambda inner: (
+        st.lists(inner, max_size=4) | st.tuples(inner, inner)
+        | st.dictionaries(st.text(max_size=6).filter(lambda k: not k.startswith("$")), inner,
+                          max_size=4)), max_leaves=12)
+
+
+def test_any_round_row_round_trips() -> None:
+    """Property: a round row whose parameters and details hold any such values is read back
+    equal (tuples stay tuples, NaN stays NaN, arrays keep their type and shape)."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from core.diagnosis.results import RoundRow
+    from core.diagnosis.typed_json import read_document, write_document
+
+    @settings(max_examples=150, deadline=None)
+    @given(params=st.dictionaries(st.text(max_size=6).filter(lambda k: not k.startswith("$")),
+                                  _values(), max_size=4),
+           extra=st.lists(st.tuples(st.text(max_size=6), _values()), max_size=3),
+           z=st.floats())
+    def check(params, extra, z) -> None:
+        row = RoundRow(1, "lag", 0.25, z, 1e-3, True, "accepted", params, "test rows",
+                       ("why",), tuple(extra))
+        text = json.dumps(write_document(row, "x", 1, (RoundRow,)), allow_nan=False)
+        same(row, read_document(json.loads(text), "x", 1, (RoundRow,), RoundRow), "row")
+
+    check()
