@@ -66,6 +66,9 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true", help="3 web pages and 2 viser tabs")
     ap.add_argument("--web", type=int, default=20, help="web students")
     ap.add_argument("--viser", type=int, default=10, help="viser students")
+    ap.add_argument("--no-share", action="store_true",
+                    help="every session computes its own figures (as before one figure per "
+                         "step was shared by the class): for the before of a comparison")
     ap.add_argument("--settle", type=float, default=1.0,
                     help="seconds to keep watching after every student has a step")
     args = ap.parse_args()
@@ -91,6 +94,23 @@ def main() -> int:
                         max_streams_per_client=4 * (n_web + 1),
                         max_tabs_per_client=4 * n_viser + 4,
                         max_connections_per_client=20 * (n_web + n_viser + 1))
+    # every figure the server computes (web pages' bodies and viser tabs' results alike)
+    # passes through simulation.compute: counted per click
+    from app.services.explore import simulation
+
+    computed: list[float] = []
+    real_compute = simulation.compute
+
+    def counted(*a: Any, **kw: Any) -> Any:
+        computed.append(time.monotonic())
+        return real_compute(*a, **kw)
+
+    simulation.compute = counted  # type: ignore[assignment]
+    if args.no_share:  # nothing kept: each ask computes (one at a time per config)
+        from app.services.explore.shared import SharedResults
+        from app.services.session import actions
+
+        actions.STEP_RESULTS = SharedResults(max_items=0)  # type: ignore[attr-defined]
     app, server, port = _serve(settings)
     url, viser_url = f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{app.state.viser_port}/"
     load0 = os.getloadavg()
@@ -101,7 +121,8 @@ def main() -> int:
         opened = time.monotonic() - t_open
         load1 = os.getloadavg()
         try:
-            run = run_lesson(url, teacher, students, settle_s=args.settle)
+            run = run_lesson(url, teacher, students, settle_s=args.settle,
+                             computations=lambda: len(computed))
         finally:
             load2 = os.getloadavg()
             close_class(teacher, students)
@@ -127,7 +148,8 @@ def main() -> int:
           "(the event has arrived), figure = has it, shown = drawn with the step; viser: "
           "server = the tab's Lesson folder set, shown = the browser shows it")
     head = (f"{'click':<15} {'asked':>6} {'figure':>6} {'shown':>6} {'p95':>6} {'max':>6} | "
-            f"{'server':>6} {'shown':>6} {'p95':>6} {'max':>6}  {'showed':>7}  teacher's counts")
+            f"{'server':>6} {'shown':>6} {'p95':>6} {'max':>6}  {'showed':>7} {'computed':>8}  "
+            "teacher's counts")
     print(f"{'':<15} {'web p50':>20} {'':>20} | {'viser p50':>13}")
     print(head)
     print("-" * len(head))
@@ -138,11 +160,15 @@ def main() -> int:
         shown = sum(a is not None for a in m.arrivals.values())
         counts = m.teacher_says.split(": ", 1)[-1].rstrip(".")
         ok = "= class" if counts == run.expected_counts else f"!= class: {counts}"
-        print(f"{row(m.label, get)}  {shown:>3}/{len(students):<3}  {ok}")
+        print(f"{row(m.label, get)}  {shown:>3}/{len(students):<3} {m.computed:>8}  {ok}")
     print("-" * len(head))
     n_all = len(run.arrivals())
     print(f"{row('all clicks', lambda k, w: run.arrivals(k, w))}  "
-          f"{n_all:>3}/{len(students) * len(run.moves):<3}")
+          f"{n_all:>3}/{len(students) * len(run.moves):<3} "
+          f"{sum(m.computed or 0 for m in run.moves):>8}")
+    print("computed = the server's figure computations (simulation.compute) from the click "
+          "until every student showed the step and 1 s more, for the whole class and the "
+          "teacher")
     w_all, v_all = run.arrivals("web"), run.arrivals("viser")
     print(f"class: {run.expected_counts}; GET /api/teacher/connected after each click: "
           + ", ".join(sorted({f"{c['pages']}/{c['viser_tabs']}/{c['sessions_live']}"

@@ -862,8 +862,8 @@ class SessionView:
         ParameterError, NotInvertibleError
             The input was refused, or needed more memory than a worker may use.
         """
-        if not run.killable:
-            return actions.figures_body(run.task.fn(*run.task.args, progress=_ignore))
+        if not run.killable:  # the same config's result is shared by every tab (a lesson step)
+            return actions.figures_here(run)
         while not GUI_FIGURE_SLOTS.acquire(timeout=0.1):
             if self._closed:
                 return None

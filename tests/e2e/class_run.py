@@ -121,6 +121,9 @@ class Move:
     #: viser: when the server set the tab's Lesson folder to the step (ms after t0)
     asked: dict[str, float | None] = field(default_factory=dict)
     received: dict[str, float | None] = field(default_factory=dict)
+    #: the server's figure computations from the click to the end of the wait (the
+    #: ``computations`` count given to :func:`run_lesson`; ``None`` without one)
+    computed: int | None = None
 
 
 @dataclass
@@ -284,11 +287,14 @@ def _shows(s: Student, m: Move, ready0: str) -> bool:
 
 def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
                lesson: str = "pi-basics", push_at: int = 2, settle_s: float = 1.0,
-               timeout_s: float = 60.0, after_push: Any = None) -> ClassRun:
+               timeout_s: float = 60.0, after_push: Any = None,
+               computations: Any = None) -> ClassRun:
     """The teacher starts ``lesson``, moves the class through every step and, at step
     ``push_at``, edits p0 on its page and pushes the model; after each click every student
     is waited for (``timeout_s``), then ``settle_s`` more (a late wrong note is seen).
-    ``after_push()`` is called once the class has the push (screenshots)."""
+    ``after_push()`` is called once the class has the push (screenshots);
+    ``computations()``, when given, is the server's count of figure computations so far
+    (each move's share kept in :attr:`Move.computed`)."""
     from app.services.teaching.lessons import builtin_lesson
 
     t = teacher[1]
@@ -305,6 +311,7 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
         ready0 = {s.name: (_records(s.page) or [[0, "", "", ""]])[-1][3] if s.kind == "web"
                   else "" for s in students}
         before = len(t.evaluate("() => window.__clicks"))
+        computed0 = computations() if computations is not None else 0
         if m.edit:
             for s in students:
                 if s.kind == "viser":
@@ -322,6 +329,8 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
         time.sleep(settle_s)
         m.teacher_step = t.evaluate("() => document.body.dataset.lessonStep")
         m.teacher_note = t.inner_text("#live-note")
+        if computations is not None:
+            m.computed = computations() - computed0
         for s in students:
             m.arrivals[s.name] = _arrival(s, _records(s.page), m, ready0[s.name])
             if s.kind == "web":

@@ -26,6 +26,7 @@ from app.services.explore import controls as C
 from app.services.explore import figures as F
 from app.services.explore.config import Config, SignalSpec
 from app.services.explore.cost import CheckedModel, check_config, check_document, checked_config
+from app.services.explore.shared import STEP_RESULTS, content_key, with_version
 from app.services.explore.simulation import (
     Result,
     check_operator_limit,
@@ -381,14 +382,16 @@ def session_result_run(session: Session, views: Collection[str],
     cost = _priced_work(checked, views, diagnosed) if checked is not None else math.inf
     args = (cfg, views, v, session.recording, diagnosed, model, settings.max_operators,
             settings.max_samples)
-    return FiguresRun(Task(tasks.run_result, args), cost > KILLABLE_WORK)
+    shared = (content_key("result", cfg, tuple(sorted(views)), settings.max_operators,
+                          settings.max_samples)
+              if _shareable(cfg, session.recording, diagnosed) else None)
+    return FiguresRun(Task(tasks.run_result, args), cost > KILLABLE_WORK, shared, v)
 
 
 def session_result(session: Session, views: Collection[str], settings: Settings) -> Result:
     """The session's current config computed for ``views`` only, in this thread (priced
     first: :func:`session_result_run`)."""
-    run = session_result_run(session, views, settings)
-    return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
+    return figures_here(session_result_run(session, views, settings))
 
 
 #: Figures computed on the event loop when the model's priced work is at most this many
@@ -478,13 +481,25 @@ class FiguresRun:
     """Figures of one request, priced and ready to run (:func:`simulate_run`,
     :func:`session_figures_run`).
 
-    ``task`` computes the JSON body (:func:`.tasks.run_figures`); ``killable`` says its
-    priced work is above :data:`KILLABLE_WORK`, so the routes run it in a worker process
-    that they kill when the client disconnects.
+    ``task`` computes the JSON body (:func:`.tasks.run_figures`) or the result
+    (:func:`.tasks.run_result`); ``killable`` says its priced work is above
+    :data:`KILLABLE_WORK`, so the routes run it in a worker process that they kill when the
+    client disconnects. ``shared`` is its content key when its outcome is the same for every
+    session with the same config (no recording used, no diagnosed model): computed here, it
+    is then computed once for all of them (:data:`.shared.STEP_RESULTS`, issue 33: a class on
+    one lesson step), each session's ``version`` put into its copy.
     """
 
     task: Task
     killable: bool
+    shared: str | None = None
+    version: int = 0
+
+
+def _shareable(config: Config, recording: Recording | None, diagnosed: Model | None) -> bool:
+    """Whether the outcome of ``config`` depends on nothing but its content (not on a
+    session's recording or diagnosed model): then sessions with equal configs share it."""
+    return diagnosed is None and not (config.use_recording and recording is not None)
 
 
 def _figures_run(config: Config, names: tuple[str, ...], settings: Settings, cost: float,
@@ -493,12 +508,22 @@ def _figures_run(config: Config, names: tuple[str, ...], settings: Settings, cos
                  state: int | None = None) -> FiguresRun:
     args = (config, names, version, recording, diagnosed, model, settings.max_operators,
             settings.max_samples, include_data, state)
-    return FiguresRun(Task(tasks.run_figures, args), cost > KILLABLE_WORK)
+    shared = (content_key("figures", config, names, settings.max_operators,
+                          settings.max_samples, include_data, state)
+              if _shareable(config, recording, diagnosed) else None)
+    return FiguresRun(Task(tasks.run_figures, args), cost > KILLABLE_WORK, shared, version)
 
 
-def figures_here(run: FiguresRun) -> dict[str, Any]:
-    """Compute ``run`` in this process (thread); the JSON body."""
-    return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
+def figures_here(run: FiguresRun) -> Any:
+    """Compute ``run`` in this process (thread); the JSON body (or the result). A run with a
+    content key is computed once for every session that asks for the same key while it is
+    kept (:data:`.shared.STEP_RESULTS`), each given its own version."""
+    if run.shared is None:
+        return figures_body(run.task.fn(*run.task.args, progress=_no_progress))
+    out = STEP_RESULTS.get(run.shared,
+                           lambda: run.task.fn(*run.task.args, progress=_no_progress),
+                           keep=lambda o: not isinstance(o, tasks.Refused))
+    return figures_body(with_version(out, run.version))
 
 
 def figures_body(out: Any) -> Any:
