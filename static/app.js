@@ -121,6 +121,21 @@ async function main() {
   $("new-session").addEventListener("click", () => openSession(null).catch((e) => setMsg("model-msg", e.message)));
   $("apply-json").addEventListener("click", applyModelJson);
   $("csv-file").addEventListener("change", onCsvChosen);
+  // the header's Upload CSV: the same file chooser, without scrolling the side panel to
+  // its Data section (below the fold at 1920x1080); once a file is chosen the section
+  // (its mapping, or why the file was refused) is scrolled to the top of the side panel,
+  // the page itself (header, plot) left where it is
+  $("upload-open").addEventListener("click", () => {
+    const input = $("csv-file");
+    input.addEventListener("change", () => {
+      const aside = input.closest("aside"), section = input.closest("section");
+      const scrolls = aside && aside.scrollHeight > aside.clientHeight
+        && /auto|scroll/.test(getComputedStyle(aside).overflowY);
+      if (scrolls) aside.scrollTop += section.getBoundingClientRect().top - aside.getBoundingClientRect().top;
+      else section.scrollIntoView({ block: "start" });  // a phone: the page scrolls
+    }, { once: true });
+    input.click();
+  });
   $("use-csv").addEventListener("click", () => useCsv());
   $("t-col").addEventListener("change", () => showTiming(null));  // asked again if uneven
   $("run-pick").addEventListener("change", () => useCsv($("run-pick").value));

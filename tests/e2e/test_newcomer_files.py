@@ -77,3 +77,57 @@ def test_newcomer_files_are_checked_and_explained(browser: Any, live_server: dic
         _clean(page, log)
     finally:
         ctx.close()
+
+
+_SEEN = """(e) => {
+    const r = e.getBoundingClientRect();
+    if (!r.width || !r.height || r.top < 0 || r.left < 0 || r.bottom > innerHeight
+        || r.right > innerWidth) return false;
+    const at = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+    return at === e || e.contains(at);
+  }"""
+#: Whether the element of a selector is wholly in the window and the one found at its
+#: centre (not under another, not scrolled out of its side panel).
+_IN_VIEW = f"(sel) => ({_SEEN})(document.querySelector(sel))"
+
+#: The on-screen element that opens the CSV file chooser, or null: #csv-file itself or a
+#: control that opens it (aria-controls), wholly inside the window and its scrolling side
+#: panel, and the one found at its centre (nothing over it).
+_UPLOAD_IN_VIEW = """() => {
+  const seen = """ + _SEEN + """;
+  const all = [document.getElementById('csv-file'),
+               ...document.querySelectorAll('[aria-controls="csv-file"]')];
+  const e = all.find((x) => x && seen(x));
+  return e ? { id: e.id, top: e.getBoundingClientRect().top, scrollY: window.scrollY,
+               aside: document.querySelector('aside').scrollTop } : null;
+}"""
+
+
+def test_newcomer_reaches_the_csv_upload_without_scrolling(
+        browser: Any, live_server: dict, tmp_path: Path, shot: Any) -> None:
+    """Issue 33 item 6: the upload sat below the fold in the side panel's own scroll (at
+    1920x1080 and 1366x768); now a control in view opens the same chooser, and the chosen
+    file's column mapping is then in view."""
+    csv = tmp_path / "first-try.csv"
+    t = [i / 1000 for i in range(400)]
+    csv.write_text("t,u,y\n" + "".join(f"{x:.3f},{4 * (x % 0.2):.4f},{3 * (x % 0.2):.4f}\n"
+                                       for x in t))
+    for width, height in ((1920, 1080), (1366, 768)):
+        ctx, page, log = _open(browser, live_server["url"], width=width, height=height)
+        try:
+            found = page.evaluate(_UPLOAD_IN_VIEW)
+            assert found is not None, f"no CSV upload in view at {width}x{height}"
+            assert found["scrollY"] == 0 and found["aside"] == 0, found
+            shot(page, f"newcomer-upload-{width}")
+            with page.expect_file_chooser() as fc:
+                page.click(f"#{found['id']}")
+            fc.value.set_files(str(csv))
+            _text_has(page, "csv-msg", "400 rows")
+            assert page.evaluate(_IN_VIEW, "#use-csv"), "the mapping's button is out of view"
+            assert page.evaluate(_IN_VIEW, "#upload-open"), "the header scrolled away"
+            shot(page, f"newcomer-upload-mapping-{width}")
+            page.click("#use-csv")
+            _text_has(page, "csv-msg", "Loaded first-try.csv")
+            _clean(page, log)
+        finally:
+            ctx.close()
