@@ -8,14 +8,16 @@ from .._typing import Float1D
 from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
 from .locate import Coordinates, coordinates
-from .structure import Fit, PIStageOutputs, Structure, _Cache, fit_structure
+from .structure import Fit, PIStageOutputs, Structure, _Cache, cache_share, fit_structure
 
 __all__ = ["FitContext"]
 
 #: Bytes of predictions the fit memo of one diagnosis may hold (:meth:`FitContext.fit`);
 #: past it the oldest fits are dropped (refitted if met again), keeping the
 #: :data:`FIT_MEMO_MIN` most recent. 48 fits of a 50,000-sample recording hold 19 MB; of a
-#: 10-million-sample one, 3.8 GB.
+#: 10-million-sample one, 3.8 GB. Scaled by the cache's share of its budgets
+#: (:func:`~core.diagnosis.structure.cache_share`: none beyond the most recent for a long
+#: record).
 FIT_MEMO_BYTES = 160e6
 FIT_MEMO_MIN = 4
 
@@ -42,7 +44,7 @@ class FitContext:
         #: cross-fitting folds recur for every candidate and comparison)
         self._caches: dict = {}
         if parent is None:
-            self.cache = _Cache()
+            self.cache = _Cache(cache_share(sum(r.n_samples for r in records)))
         else:
             self._fits = parent._fits
             self._caches = parent._caches
@@ -75,7 +77,7 @@ class FitContext:
                 and all(a is b for a, b in zip(hit[1], self.train, strict=True))
                 and hit[2].d is parent.d):
             return hit[2]
-        c = _Cache()
+        c = _Cache(parent.share)
         c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))
@@ -104,7 +106,7 @@ class FitContext:
         while self._fits and (len(self._fits) >= 48 or (
                 len(self._fits) >= FIT_MEMO_MIN
                 and sum(_fit_bytes(v[2]) for v in self._fits.values()) + _fit_bytes(f)
-                > FIT_MEMO_BYTES)):
+                > FIT_MEMO_BYTES * self.cache.share)):
             self._fits.pop(next(iter(self._fits)))
         self._fits[key] = (list(self.train), x_init, f)
         return f

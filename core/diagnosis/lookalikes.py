@@ -48,12 +48,13 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
         du = np.gradient(rec.u, rec.dt)
         vrev = cur.p0 * du
         vhys = dx - vrev
-        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds),
-                           cur.structure.history[k], cur.structure.beta_s, cur.structure.shape,
-                           bouc_wen=cur.structure.bouc_wen)
         step = max(1, int(m.sum() // 20000))
         idx = np.flatnonzero(m)[::step]
-        rows.append(np.column_stack((B[idx], np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
+        # (only the sampled rows of the bank: a long record's whole bank is (N, n + 1))
+        B = ctx.cache.bank_rows(k, rec, np.asarray(cur.structure.thresholds),
+                                cur.structure.history[k], cur.structure.beta_s,
+                                cur.structure.shape, idx, bouc_wen=cur.structure.bouc_wen)
+        rows.append(np.column_stack((B, np.ones(idx.size), vrev[idx], vhys[idx], dx[idx],
                                      ddx[idx], (rec.y - p)[idx])))
     X = np.concatenate(rows)
     nb = X.shape[1] - 5
@@ -78,11 +79,11 @@ def score_statistic(ctx: FitContext, cur: Fit, new: Fit) -> float:
                                                strict=True)):
         step = max(1, int(m.sum() // 8000))
         idx = np.flatnonzero(m)[::step]
-        B = ctx.cache.bank(k, rec, np.asarray(cur.structure.thresholds), cur.structure.history[k],
-                           cur.structure.beta_s, cur.structure.shape,
-                           bouc_wen=cur.structure.bouc_wen)
+        B = ctx.cache.bank_rows(k, rec, np.asarray(cur.structure.thresholds),
+                                cur.structure.history[k], cur.structure.beta_s,
+                                cur.structure.shape, idx, bouc_wen=cur.structure.bouc_wen)
         es.append((rec.y - p0)[idx])
-        J.append(np.column_stack((B[idx], np.ones(idx.size))))
+        J.append(np.column_stack((B, np.ones(idx.size))))
         P.append((p1 - p0)[idx])
     stat, _ = score_test(np.concatenate(es), np.concatenate(J), np.concatenate(P), lags=20)
     return stat

@@ -346,9 +346,13 @@ class PIStageOutputs(Sequence):
 
 class _Cache:
     """Play-bank outputs keyed by (recording, history, beta), their reduced bases, the
-    projections of the banks on those bases and the row layout of the training rows."""
+    projections of the banks on those bases and the row layout of the training rows.
 
-    def __init__(self) -> None:
+    ``share``: the part of the byte budgets (:data:`BANK_CACHE_BYTES`, ...) this cache may
+    fill, :func:`cache_share` of the diagnosis's samples (1 for a short record)."""
+
+    def __init__(self, share: float = 1.0) -> None:
+        self.share = share
         self.d: dict[Any, np.ndarray] = {}
         self.v: dict[Any, np.ndarray] = {}
         #: projections ``B @ V``: may be shared between the caches of one diagnosis (the
@@ -401,7 +405,8 @@ class _Cache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        _keep(self.p, key, (V, P, start0), P.nbytes, 16, PROJECTION_CACHE_BYTES)
+        _keep(self.p, key, (V, P, start0), P.nbytes, 16,
+              PROJECTION_CACHE_BYTES * self.share)
         return P[start - start0:]
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
@@ -476,8 +481,24 @@ class _Cache:
                 B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
             if upto is not None:
                 return B
-            _keep(self.d, key, B, B.nbytes, 6, BANK_CACHE_BYTES)
+            _keep(self.d, key, B, B.nbytes, 6, BANK_CACHE_BYTES * self.share)
         return B
+
+    def bank_rows(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
+                  shape: tuple, idx: np.ndarray, bouc_wen: tuple = ()) -> np.ndarray:
+        """Rows ``idx`` (increasing) of :meth:`bank`, ``(idx.size, n + 1)``: read from the
+        bank, cached as :meth:`bank` does, when it is there or fits the cache's budget (or
+        is not a bank of rate-independent plays), else the plays run along the input
+        storing only those rows (:func:`_play_rows`, the same numbers), so a few thousand
+        sampled rows do not form ``(N, n + 1)``."""
+        fits = 8.0 * rec.n_samples * (r.size + 1) <= BANK_CACHE_BYTES * self.share
+        if beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape):
+            return self.bank(k, rec, r, hist, beta, shape, bouc_wen=bouc_wen)[idx]
+        w = np.ascontiguousarray(apply_shape(shape, rec.u), dtype=np.float64)
+        z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
+        rows = np.asarray(idx, dtype=np.int64)
+        return _play_rows(w, np.r_[0.0, r], np.r_[0.0, z0], rows,
+                          np.empty((rows.size, r.size + 1)))
 
     def _bouc_wen_bank(self, k: int, rec: Recording, hist: tuple, shape: tuple,
                        elements: tuple, upto: int | None) -> np.ndarray:
@@ -493,7 +514,7 @@ class _Cache:
                               apply_shape(shape, hist) if hist else None)
             self.bw[key] = B
             old = [q for q in self.bw if q[1]]
-            while old and sum(self.bw[q].nbytes for q in old) > BW_HISTORY_BYTES:
+            while old and sum(self.bw[q].nbytes for q in old) > BW_HISTORY_BYTES * self.share:
                 self.bw.pop(old.pop(0))
         return B if upto is None else B[:upto]
 
@@ -508,7 +529,7 @@ class _Cache:
             L = _segments(B, s.levels)
             # kept apart from the play banks (a search over one recording's history meets
             # the other recordings' levelled banks again and again)
-            _keep(self.lv, key, L, L.nbytes, 8, LEVEL_CACHE_BYTES)
+            _keep(self.lv, key, L, L.nbytes, 8, LEVEL_CACHE_BYTES * self.share)
         return L
 
 
@@ -548,6 +569,26 @@ BW_HISTORY_BYTES = 128e6
 BANK_CACHE_BYTES = 192e6
 LEVEL_CACHE_BYTES = 96e6
 PROJECTION_CACHE_BYTES = 96e6
+#: Samples (all recordings together) up to which a diagnosis's caches may fill the whole of
+#: the budgets above (:func:`cache_share`).
+FULL_CACHE_SAMPLES = 60_000
+#: The part of the budgets the caches of a longer diagnosis may fill.
+LONG_CACHE_SHARE = 0.0
+
+
+def cache_share(n_samples: int) -> float:
+    """The part of the cache budgets (:data:`BANK_CACHE_BYTES`, ...) a diagnosis of
+    ``n_samples`` samples may fill: 1 up to :data:`FULL_CACHE_SAMPLES`, else
+    :data:`LONG_CACHE_SHARE`.
+
+    Issue 31's memory target is 400 MB + 0.3 kB per sample, about 415 MB at 50,000 samples
+    and 430 MB at 100,000; without its caches a diagnosis holds about 420 MB at 100,000
+    samples (the imports 170 MB), and full caches added 190 MB there (480 MB at 400,000
+    samples). A short record keeps them: the shipped piezo recording (50,001 samples) takes
+    2.2x its CPU time without them (its searches recompute what they no longer find), a
+    long one hardly more (1.1x at 100,000 samples, 1.0x at 1 million: the banks and
+    projections it would keep are few and large, and it recomputes them in O(N))."""
+    return 1.0 if n_samples <= FULL_CACHE_SAMPLES else LONG_CACHE_SHARE
 #: Rows of a block of the play bank streamed by :func:`_stage_output` (0.4 MB per play).
 STREAM_ROWS = 50_000
 
@@ -1373,7 +1414,8 @@ def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: 
 def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
     """Whether a full fit of ``s`` streams its play banks in row blocks instead of forming
     them (:func:`_streamed_rows`): rate-independent plays on a PI or Preisach base, banks
-    not cached and together larger than :data:`BANK_CACHE_BYTES` (a short recording is
+    not cached and together larger than the cache's part of :data:`BANK_CACHE_BYTES`
+    (:func:`cache_share`: none beyond some 60,000 samples; a short recording is
     fitted from its whole bank, as before), and output dynamics that forget their start (a block's
     rows are those of the filter run from the first sample to round-off, as
     :func:`_filter_start`)."""
@@ -1383,7 +1425,7 @@ def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
     if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
         return False
     width = (r.size + 1) * (len(s.levels) + 1)
-    if 8.0 * width * sum(rec.n_samples for rec in records) <= BANK_CACHE_BYTES:
+    if 8.0 * width * sum(rec.n_samples for rec in records) <= BANK_CACHE_BYTES * cache.share:
         return False
     return all(_warm_rows(s.dynamics, rec.dt) >= 0 for rec in records)
 

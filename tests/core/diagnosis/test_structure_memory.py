@@ -114,3 +114,44 @@ def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dy
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0,
                                atol=1e-9 * float(np.ptp(rec.y)))
     assert got.train_rss == pytest.approx(want.train_rss, rel=1e-7)
+
+
+@pytest.mark.parametrize("history", [(), ((25.0, -30.0),)])
+def test_bank_rows_are_the_rows_of_the_whole_bank(history) -> None:
+    """Sampled rows of a bank that is not kept (a long record's cache has no budget) are
+    formed without the bank and equal its rows exactly; nothing is stored. With a budget the
+    bank is formed and kept, as :meth:`_Cache.bank` does."""
+    rec, _ = _record(5001)
+    r = np.array([2.0, 6.0, 12.0, 20.0])
+    hist = history[0] if history else ()
+    z0 = play_bank(np.asarray(hist), r)[1] if history else np.zeros(r.size)
+    want = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
+    idx = np.arange(3, 5001, 7)
+    none = st._Cache(share=0.0)
+    got = none.bank_rows(0, rec, r, hist, None, (), idx)
+    np.testing.assert_array_equal(got, want[idx])
+    assert not none.d
+    full = st._Cache()
+    np.testing.assert_array_equal(full.bank_rows(0, rec, r, hist, None, (), idx), want[idx])
+    assert full.has_bank(0, r, hist)
+
+
+def test_cache_share_and_budgets_of_a_long_record(monkeypatch) -> None:
+    """A diagnosis's cache fills the whole budgets up to FULL_CACHE_SAMPLES samples and the
+    long-record share beyond; sub-contexts share it, the fit memo's budget scales with it."""
+    from core.diagnosis import context as cx
+
+    assert st.cache_share(st.FULL_CACHE_SAMPLES) == 1.0
+    assert st.cache_share(st.FULL_CACHE_SAMPLES + 1) == st.LONG_CACHE_SHARE
+    monkeypatch.setattr(st, "FULL_CACHE_SAMPLES", 1000)
+    monkeypatch.setattr(st, "LONG_CACHE_SHARE", 0.0)
+    rec, train = _record(4001)
+    ctx = cx.FitContext([rec], train, [~train[0]])
+    assert ctx.cache.share == 0.0
+    sub = cx.FitContext([rec], [train[0] & (rec.t < 2.0)], train, parent=ctx)
+    assert sub.cache.share == 0.0 and sub.cache.d is ctx.cache.d
+    r = (2.0, 6.0, 12.0)
+    fits = [ctx.fit(st.Structure(r, ((),), dynamics=("lag", tau)))
+            for tau in (0.002, 0.004, 0.006, 0.008, 0.010, 0.012)]
+    assert not ctx.cache.d and not ctx.cache.p  # no bank or projection kept
+    assert len(ctx._fits) == cx.FIT_MEMO_MIN and ctx.fit(fits[-1].structure) is fits[-1]
