@@ -234,3 +234,62 @@ def test_the_plot_title_is_clear_of_the_toolbar(browser: Any, live_server: dict,
 
 
 TITLE_WORDS = {"loop": "Hysteresis loop", "time": "Input and output"}
+
+
+#: The time view's x-axis title and the lower plot's area (plotly's drag rectangle of the
+#: subplot "xy2"), boxes in CSS px.
+TIME_AXIS = """() => {
+  const plot = [...document.querySelectorAll('.js-plotly-plot')]
+    .filter((e) => e.getBoundingClientRect().width > 150)[0];
+  const box = (e) => { const r = e.getBoundingClientRect();
+    return {left: r.left, top: r.top, right: r.right, bottom: r.bottom}; };
+  const title = plot && [...plot.querySelectorAll('.g-xtitle text, .xtitle')]
+    .find((e) => e.textContent.includes('time t'));
+  const lower = plot && plot.querySelector('.nsewdrag[data-subplot="xy2"]');
+  const legend = plot && plot.querySelector('.legend');
+  return title && lower ? {title: box(title), lower: box(lower),
+                           legend: legend ? box(legend) : null} : null;
+}"""
+
+
+def test_the_time_axis_title_is_under_the_lower_plot(browser: Any, live_server: dict,
+                                                     shot: Any) -> None:
+    """Issue 33: in the floating panel the Time view's x-axis title "time t [s]" (of the
+    axis anchored to the upper plot) was drawn inside the lower plot."""
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1500, 900)
+    view = _new_view(app, known)
+    view.ui.view_dd.value = TITLES["time"]
+    assert view.worker.wait_idle(30) and view.shown_figure == "time"
+    page.wait_for_function(f"() => ({TIME_AXIS})() !== null", timeout=30_000)
+    page.wait_for_timeout(300)
+    seen = page.evaluate(TIME_AXIS)
+    assert seen["title"]["top"] >= seen["lower"]["bottom"], seen
+    assert seen["legend"] is not None and not _overlap(seen["legend"], seen["title"]), seen
+    shot(page, "viser-time-axis")
+    assert errors == []
+    ctx.close()
+
+
+def test_the_time_axis_title_is_under_the_lower_plot_on_the_web_page(
+        browser: Any, live_server: dict, shot: Any) -> None:
+    """The same figure on the web page (1366x768 and a 390x844 phone): the time axis's
+    title under the lower plot, the legend clear of it."""
+    from .test_web_journeys import _clean
+    from .test_web_journeys import _open as _open_web
+
+    for width, height in ((1366, 768), (390, 844)):
+        ctx, page, log = _open_web(browser, live_server["url"], width=width, height=height)
+        page.click("#tabs button[data-fig=time]")
+        page.wait_for_function("() => document.body.dataset.fig === 'time'")
+        page.wait_for_function(f"() => ({TIME_AXIS})() !== null", timeout=30_000)
+        page.wait_for_timeout(400)
+        seen = page.evaluate(TIME_AXIS)
+        assert seen["title"]["top"] >= seen["lower"]["bottom"], (width, seen)
+        if seen["legend"] is not None:  # (a phone drops the legend)
+            assert not _overlap(seen["legend"], seen["title"]), (width, seen)
+        page.locator(".js-plotly-plot").first.scroll_into_view_if_needed()
+        shot(page, f"web-time-axis-{width}")
+        _clean(page, log)
+        ctx.close()

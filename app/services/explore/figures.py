@@ -178,9 +178,15 @@ def time_figure(res: Result) -> FigureJSON:
     un = res.units
     lay = _layout(
         "Input and output in time",
-        xaxis={"title": _ax(un, "time"), "anchor": "y"},
-        yaxis={"title": _ax(un, "input"), "domain": [0.55, 1.0]},
+        # the shared time axis under the lower plot: anchored to the upper one, its title
+        # fell inside the lower plot in a short panel (viser's 470 px, issue 33)
+        xaxis={"title": _ax(un, "time"), "anchor": "y2"},
+        yaxis={"title": _ax(un, "input"), "domain": [0.55, 1.0], "anchor": "x"},
         yaxis2={"title": _ax(un, "output"), "domain": [0.0, 0.45], "anchor": "x"},
+        # the legend at the figure's foot, under the axis title whatever the plot's height
+        # (a fraction of a short plot's height put it on the title)
+        legend={"orientation": "h", "yref": "container", "y": 0.0, "yanchor": "bottom"},
+        margin={"l": 55, "r": 15, "t": 40, "b": 80},
     )
     return FigureJSON(data, lay)
 
@@ -633,9 +639,12 @@ def large_text(fig: FigureJSON, size: int = 16, width: int | None = None) -> Fig
             title["text"] = "<br>".join(lines)
             extra = (len(lines) - 1) * int(1.3 * (size + 4))
     legend = {**lay.get("legend", {}), "font": {"size": size}}
-    if float(legend.get("y", 1.0)) < 0:  # below the plot: there the larger axis title
-        # sits on it; above the plot, under the title, it has room of its own
-        legend.update(orientation="h", x=0.0, xanchor="left", y=1.02, yanchor="bottom")
+    below = (legend.get("yref") == "container" and float(legend.get("y", 1.0)) < 0.5) \
+        or float(legend.get("y", 1.0)) < 0
+    if below:  # below the plot: there the larger axis title sits on it; above the
+        # plot, under the title, it has room of its own
+        legend.update(orientation="h", x=0.0, xanchor="left", y=1.02, yanchor="bottom",
+                      yref="paper")
         margin = lay.get("margin") or {}
         lay["margin"] = {**margin, "t": max(int(margin.get("t", 0) or 0), 4 * size + 50)}
     if extra:

@@ -32,3 +32,27 @@ def test_typed_arrays_round_trip_and_figures_validate() -> None:
     assert len(ops["data"]) == 6 + 2  # p0 u, six operators, the sum
     with pytest.raises(KeyError):
         F.build("nope", res)
+
+
+def test_the_time_views_shared_axis_is_under_the_lower_plot() -> None:
+    """Issue 33: the time axis hung under the upper plot (anchored to it), so its title
+    "time t [s]" was drawn inside the lower plot in a short panel."""
+    res = C.compute(S.Config(), views=["time"])
+    lay = F.time_figure(res).layout
+    under = lay["xaxis"]["anchor"]  # the y axis the time axis is drawn along
+    lowest = min((k for k in lay if k.startswith("yaxis")),
+                 key=lambda k: lay[k].get("domain", [0.0, 1.0])[0])
+    assert "yaxis" + under[1:] == lowest
+    assert lay["xaxis"]["title"]["text"] == "time t [s]"
+    # both plots still share the one time axis
+    assert {tr.get("xaxis", "x") for tr in F.time_figure(res).data} == {"x"}
+
+
+def test_the_time_views_legend_goes_above_in_projector_mode() -> None:
+    """The time view's legend sits at the figure's foot (container coordinates); a projector's
+    larger axis title would reach it there, so ``large_text`` puts it above the plot."""
+    res = C.compute(S.Config(), views=["time"])
+    fig = F.time_figure(res)
+    assert fig.layout["legend"]["yref"] == "container" and fig.layout["legend"]["y"] == 0
+    leg = F.large_text(fig).layout["legend"]
+    assert leg["yref"] == "paper" and leg["y"] >= 1 and leg["yanchor"] == "bottom"
