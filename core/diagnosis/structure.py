@@ -589,8 +589,9 @@ def cache_share(n_samples: int) -> float:
     long one hardly more (1.1x at 100,000 samples, 1.0x at 1 million: the banks and
     projections it would keep are few and large, and it recomputes them in O(N))."""
     return 1.0 if n_samples <= FULL_CACHE_SAMPLES else LONG_CACHE_SHARE
-#: Rows of a block of the play bank streamed by :func:`_stage_output` (0.4 MB per play).
-STREAM_ROWS = 50_000
+#: Rows of a block of the play bank streamed by :func:`_stage_output` (0.2 MB per play; 50,000
+#: held 70 MB of a resolution refit's bank at the 100,000-sample diagnosis's peak).
+STREAM_ROWS = 25_000
 
 
 def _keep(d: dict, key: Any, value: Any, size: float, count: int, budget: float) -> None:
