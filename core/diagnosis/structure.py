@@ -582,13 +582,16 @@ def cache_share(n_samples: int) -> float:
     :data:`LONG_CACHE_SHARE`.
 
     Issue 31's memory target is 400 MB + 0.3 kB per sample, about 415 MB at 50,000 samples
-    and 430 MB at 100,000; without its caches a diagnosis holds about 420 MB at 100,000
-    samples (the imports 170 MB), and full caches added 190 MB there (480 MB at 400,000
-    samples). A short record keeps them: the shipped piezo recording (50,001 samples) takes
-    2.2x its CPU time without them (its searches recompute what they no longer find), a
-    long one hardly more (1.1x at 100,000 samples, 1.0x at 1 million: the banks and
-    projections it would keep are few and large, and it recomputes them in O(N))."""
+    and 430 MB at 100,000; without its caches a diagnosis held about 420 MB at 100,000
+    samples (the imports 170 MB), and full caches added 190 MB there (320 MB at 400,000
+    samples; docs/pages/diagnose.md, "Scale", round 3). A short record keeps them: the
+    shipped piezo recording (50,001 samples) takes 2.2x its CPU time without them (its
+    searches recompute what they no longer find), a long one hardly more (1.1x at 100,000
+    samples, 1.0x at 1 million: the banks and projections it would keep are few and large,
+    and it recomputes them in O(N))."""
     return 1.0 if n_samples <= FULL_CACHE_SAMPLES else LONG_CACHE_SHARE
+
+
 #: Rows of a block of the play bank streamed by :func:`_stage_output` (0.2 MB per play; 50,000
 #: held 70 MB of a resolution refit's bank at the 100,000-sample diagnosis's peak).
 STREAM_ROWS = 25_000
