@@ -304,10 +304,8 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
 
 def no_report(session: Session) -> str:
     """Why :func:`diagnosis_report` has no report for ``session`` (what to do)."""
-    if session.has_diagnosis:  # stored in the old form, before results were stored
-        return ("the HTML report of this diagnosis was not kept (it was stored by an older "
-                "version, its findings were); run the diagnosis again to get the report")
-    return "run the diagnosis first"
+    note = session.diagnosis_note  # a diagnosis stored by an older version, dropped
+    return "run the diagnosis first" if note is None else note
 
 
 def preview_csv(content: str | bytes, settings: Settings) -> dict[str, Any]:

@@ -64,9 +64,10 @@ class Session:
     Notes
     -----
     The attributes ``config``, ``version``, ``recording``, ``fit``, ``fitted``,
-    ``has_diagnosis``, ``diagnosis``, ``diagnosed``, ``diagnosis_result``, ``teacher`` and
-    ``created`` read the current state (typed: core's ``FitOutcome``, ``Model`` and
-    ``DiagnosisResult``; the routers turn them into JSON); change them only through the transitions.
+    ``has_diagnosis``, ``diagnosis``, ``diagnosis_note``, ``diagnosed``, ``diagnosis_result``,
+    ``teacher`` and ``created`` read the current state (typed: core's ``FitOutcome``,
+    ``Model`` and ``DiagnosisResult``; the routers turn them into JSON); change them only
+    through the transitions.
     """
 
     def __init__(self, code: str, config: Config | None = None, *, teacher: bool = False,
@@ -116,16 +117,20 @@ class Session:
 
     @property
     def has_diagnosis(self) -> bool:
-        """The session holds a diagnosis (its result, or a report stored in the old form)."""
-        st = self._state
-        return st.diagnosis_result is not None or st.old_report is not None
+        """The session holds a diagnosis (its result)."""
+        return self._state.diagnosis_result is not None
+
+    @property
+    def diagnosis_note(self) -> str | None:
+        """Words for the user when a diagnosis stored by an older version was dropped as
+        the session loaded (it could not be rebuilt into a result), else None."""
+        return self._state.diagnosis_note
 
     @property
     def diagnosis(self) -> SessionDiagnosis | None:
         """The diagnosis as the pages show it: the result with its findings in words, in the
         recording's units (:func:`~app.services.analysis.diagnosis.session_diagnosis`); None
-        without a result (a diagnosis stored in the old form has only
-        ``state.old_report``)."""
+        without a diagnosis."""
         result = self._state.diagnosis_result
         if result is None:
             return None
@@ -136,13 +141,13 @@ class Session:
 
     @property
     def diagnosed(self) -> Model | None:
-        """The diagnosed extended model (stored), or None."""
+        """The diagnosed extended model (the result's, when it added effects), or None."""
         return self._state.diagnosed
 
     @property
     def diagnosis_result(self) -> DiagnosisResult | None:
-        """The core ``DiagnosisResult`` of the diagnosis (stored, rebuilt after a restart;
-        ``None`` for a diagnosis stored in the old form, before 2026-12-05)."""
+        """The core ``DiagnosisResult`` of the diagnosis (stored, rebuilt after a restart),
+        or None."""
         return self._state.diagnosis_result
 
     teacher = property(lambda self: self._state.teacher, doc="A teacher's session.")
@@ -219,14 +224,14 @@ class Session:
     def set_recording(self, recording: Recording) -> int:
         """Give the session ``recording``; its fit and diagnosis are dropped."""
         return self._commit({"recording": recording, "recording_stored": False, "fit": None,
-                             "old_report": None, "diagnosed": None,
-                             "diagnosis_result": None}, recording=True, results=True)
+                             "diagnosis_result": None, "diagnosis_note": None},
+                            recording=True, results=True)
 
     def set_fit(self, fit: FitOutcome, *, apply: bool = False) -> int:
         """Store a fit (the diagnosis is dropped); ``apply`` makes its model the session's."""
         with self.lock:
-            changes: dict[str, Any] = {"fit": fit, "old_report": None, "diagnosed": None,
-                                       "diagnosis_result": None}
+            changes: dict[str, Any] = {"fit": fit, "diagnosis_result": None,
+                                       "diagnosis_note": None}
             if apply:
                 changes["config"] = self._state.config.with_model(fit.model.to_dict())
             return self._commit(changes, recording=False, results=True, notify=apply)
@@ -234,9 +239,7 @@ class Session:
     def set_diagnosis(self, result: DiagnosisResult) -> int:
         """Store a diagnosis, its core result (the plots are not redrawn): the findings are
         made from it, and when it added effects its model is the diagnosed model."""
-        diagnosed = result.model if result.effects else None
-        return self._commit({"old_report": None, "diagnosed": diagnosed,
-                             "diagnosis_result": result},
+        return self._commit({"diagnosis_result": result, "diagnosis_note": None},
                             recording=False, results=True, notify=False)
 
     def touch(self) -> int:

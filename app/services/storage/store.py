@@ -29,8 +29,9 @@ process) are exempt from the per-client shares.
 The typed state is :class:`SessionState` (a frozen dataclass). Nothing stored is ever
 executed: every part is JSON, recordings ``.npz`` arrays (loaded with
 ``allow_pickle=False``) plus JSON metadata, and a diagnosis its core ``DiagnosisResult``
-(:meth:`~core.diagnosis.results.DiagnosisResult.to_json`, compressed; sessions stored
-before 2026-12-05 hold its report and the diagnosed model's document instead,
+(:meth:`~core.diagnosis.results.DiagnosisResult.to_json`, compressed; a diagnosis stored
+before 2026-12-05, its report and the diagnosed model's document, cannot be rebuilt into a
+result and is dropped when its session loads, the state saying so in words,
 :mod:`app.services.storage.store_parts`).
 
 The file is checked when the store opens (:mod:`app.services.storage.store_file`: a damaged file is
@@ -58,6 +59,7 @@ from app.services.storage.quotas import QuotaError, Quotas
 from app.services.storage.store_file import connect, restore
 from app.services.storage.store_parts import (
     DamagedPartError,
+    StoredDiagnosis,
     decode_config,
     decode_diagnosis,
     decode_fit,
@@ -146,17 +148,15 @@ class SessionState:
         The last fit (:func:`core.fitting.fit_recordings`' outcome, without its estimator):
         the fitted model, its report and warnings, and the parameter set ``hyst fit`` would
         write. Stored as that parameter set and rebuilt from it.
-    old_report : dict or None
-        Of a diagnosis stored before 2026-12-05 (when its result was not stored): its report
-        as the pages showed it (findings in words, held-out errors, the core's report
-        document); ``None`` otherwise (the report is made from the result).
-    diagnosed : Model or None
-        The diagnosed extended model when the diagnosis added effects (the result's model;
-        the Inverse and Closed-loop views use it).
     diagnosis_result : DiagnosisResult or None
         The core result of the diagnosis (the figure, the HTML report and the findings read
         it): stored as its JSON document (:meth:`DiagnosisResult.to_json`) and rebuilt
-        equal after a restart.
+        equal after a restart. Its model, when it added effects, is :attr:`diagnosed`.
+    diagnosis_note : str or None
+        Words for the user when the diagnosis stored with this session in the form of
+        before 2026-12-05 was dropped on loading
+        (:data:`~app.services.storage.store_parts.OLD_DIAGNOSIS_NOTE`); never stored, and
+        cleared by the next fit, recording or diagnosis.
     checked : CheckedModel or None
         The config's model, parsed once and cost-checked for this config and recording
         (``None`` until first needed; dropped whenever the config or the recording
@@ -176,14 +176,20 @@ class SessionState:
     recording: Recording | None = None
     recording_stored: bool = False
     fit: FitOutcome | None = None
-    old_report: dict[str, Any] | None = None
-    diagnosed: Model | None = None
     diagnosis_result: DiagnosisResult | None = None
+    diagnosis_note: str | None = None
     checked: CheckedModel | None = None
     teacher: bool = False
     created: float = field(default_factory=time.time)
     last_used: float = field(default_factory=time.time)
     owner: str = ""
+
+    @property
+    def diagnosed(self) -> Model | None:
+        """The diagnosed extended model, the result's model when the diagnosis added effects
+        (the Inverse and Closed-loop views use it); ``None`` otherwise."""
+        result = self.diagnosis_result
+        return result.model if result is not None and result.effects else None
 
 
 class DamagedSessionError(RuntimeError):
@@ -288,15 +294,13 @@ class SessionStore:
             nothing is stored.
         """
         cfg = dump_json(state.config.to_dict()) or "{}"
-        row_text = [cfg, *encode_fit(state.fit), dump_json(state.old_report)]
+        row_text = [cfg, *encode_fit(state.fit), None]  # the diagnosis column: old form only
         blobs: dict[str, bytes | None] = {}
         if recording and (state.recording is not None or not state.recording_stored):
             blobs["recording"] = (None if state.recording is None
                                   else recording_to_blob(state.recording))
         if results:
-            blobs["diagnosis"] = encode_diagnosis(
-                state.diagnosis_result, state.old_report,
-                None if state.diagnosed is None else state.diagnosed.to_dict())
+            blobs["diagnosis"] = encode_diagnosis(state.diagnosis_result)
         with self._lock:
             db = self._db
             if not blobs:  # a config change: one statement, one implicit commit
@@ -429,12 +433,17 @@ class SessionStore:
                 self._cache.put(code, rec)
             return {"recording_stored": rec is not None}
 
+        def diagnosis(stored: StoredDiagnosis) -> dict[str, Any]:
+            if stored.note is not None:
+                log.info("a session's diagnosis stored in the form of before 2026-12-05 was "
+                         "dropped (it cannot be rebuilt into a result)")
+            return {"diagnosis_result": stored.result, "diagnosis_note": stored.note}
+
         for decode in (
             lambda: {"config": decode_config(row[5])},
             recording,
             lambda: {"fit": decode_fit(row[6], row[7])},
-            lambda: dict(zip(("diagnosis_result", "old_report", "diagnosed"),
-                             decode_diagnosis(row[8], blobs.get("diagnosis")), strict=True)),
+            lambda: diagnosis(decode_diagnosis(row[8], blobs.get("diagnosis"))),
         ):
             try:
                 parts.update(decode())

@@ -8,9 +8,11 @@ damaged part: it is never unpickled.
 
 A diagnosis is stored as its core result, :meth:`DiagnosisResult.to_json
 <core.diagnosis.results.DiagnosisResult.to_json>` (zlib-compressed JSON in the diagnosis
-blob), and rebuilt as an equal result; sessions stored before 2026-12-05 hold the report
-instead (the findings as the pages showed them) and the diagnosed model's document, and
-still load so.
+blob), and rebuilt as an equal result. Sessions stored before 2026-12-05 hold the report
+instead (the findings as the pages showed them, beside ``DiagnosisResult.to_dict()``) and
+the diagnosed model's document: such a report cannot become a result (it holds derived
+numbers only, none of the rows, fits and predictions a result is made of), so it is dropped
+when it is read, and the session says so in words (:data:`OLD_DIAGNOSIS_NOTE`).
 """
 
 from __future__ import annotations
@@ -36,7 +38,9 @@ if TYPE_CHECKING:  # core.fitting is imported when a stored fit is read (scipy: 
 __all__ = [
     "PARTS",
     "MAX_DIAGNOSIS_BYTES",
+    "OLD_DIAGNOSIS_NOTE",
     "DamagedPartError",
+    "StoredDiagnosis",
     "decode_config",
     "decode_diagnosis",
     "decode_document",
@@ -187,39 +191,64 @@ def _old_fit(doc: dict[str, Any], rep: dict[str, Any]) -> ParameterSet:
 MAX_DIAGNOSIS_BYTES = 1 << 30
 
 
-def encode_diagnosis(result: DiagnosisResult | None, old_report: dict[str, Any] | None = None,
-                     diagnosed: dict[str, Any] | None = None) -> bytes | None:
-    """The diagnosis part's blob: ``{"result": DiagnosisResult.to_json()}`` compressed
-    (zlib); a session of the old form (``old_report`` without a result) keeps its old blob,
-    JSON ``{"diagnosed": model document or null}``; ``None`` without a diagnosis."""
-    if result is not None:
-        text = json.dumps({"result": result.to_json()}, allow_nan=False)
-        return zlib.compress(text.encode(), 6)
-    if old_report is not None:
-        return (dump_json({"diagnosed": diagnosed}) or "").encode()
-    return None
+#: What a session stored before 2026-12-05 says of its diagnosis, dropped when it loads.
+OLD_DIAGNOSIS_NOTE = (
+    "this session's diagnosis was stored by an older version of Hysteresis Explorer, which "
+    "kept only its findings and not the result the Diagnosis view and the HTML report are "
+    "drawn from, so it was dropped when the session was opened (the recording, the fit and "
+    "the model are kept); run the diagnosis again")
 
 
-def decode_diagnosis(report: str | None, blob: bytes | None
-                     ) -> tuple[DiagnosisResult | None, dict[str, Any] | None, Model | None]:
-    """``(result, old report, diagnosed model)`` of the stored diagnosis.
+@dataclasses.dataclass(frozen=True)
+class StoredDiagnosis:
+    """The diagnosis part of a stored session, as :func:`decode_diagnosis` read it.
 
-    The blob of :func:`encode_diagnosis` gives the result (``DiagnosisResult.from_json``)
-    and its model when it added effects; the old form (the report in the ``diagnosis``
-    column, the blob JSON ``{"diagnosed": ...}``) gives the report and the model, no result.
-    A blob that is neither (e.g. an old pickle) is damage and is never unpickled.
+    Attributes
+    ----------
+    result : DiagnosisResult or None
+        The stored result (``None``: no diagnosis, or one of the old form, dropped).
+    note : str or None
+        Words for the user when a diagnosis stored in the old form was dropped
+        (:data:`OLD_DIAGNOSIS_NOTE`); ``None`` otherwise.
     """
-    rep = decode_document("diagnosis", report)
+
+    result: DiagnosisResult | None = None
+    note: str | None = None
+
+
+def encode_diagnosis(result: DiagnosisResult | None) -> bytes | None:
+    """The diagnosis part's blob: ``{"result": DiagnosisResult.to_json()}`` compressed
+    (zlib); ``None`` without a diagnosis."""
+    if result is None:
+        return None
+    text = json.dumps({"result": result.to_json()}, allow_nan=False)
+    return zlib.compress(text.encode(), 6)
+
+
+def decode_diagnosis(report: str | None, blob: bytes | None) -> StoredDiagnosis:
+    """The stored diagnosis: its result (``DiagnosisResult.from_json`` of the blob of
+    :func:`encode_diagnosis`), or, for the form stored before 2026-12-05, nothing and
+    :data:`OLD_DIAGNOSIS_NOTE`.
+
+    The old form is the report in the ``diagnosis`` column (the page's findings and
+    ``DiagnosisResult.to_dict()``) beside the blob JSON ``{"diagnosed": model document or
+    null}``. It is dropped whatever it holds: a report of derived numbers cannot be rebuilt
+    into a result, and a session is better kept without it than reset for it.
+
+    Raises
+    ------
+    DamagedPartError
+        The blob is neither form (e.g. an old pickle, never unpickled), or the stored
+        result does not inflate or read back.
+    """
     if blob is None:
-        return None, rep, None
-    if blob.lstrip()[:1] != b"{":  # the compressed result
-        result = _result(blob)
-        return result, None, result.model if result.effects else None
+        return StoredDiagnosis(note=None if report is None else OLD_DIAGNOSIS_NOTE)
+    if blob.lstrip()[:1] != b"{":  # the compressed result (its row's column is not read)
+        return StoredDiagnosis(result=_result(blob))
     doc = decode_document("diagnosis", blob)
     if doc is None or set(doc) != {"diagnosed"}:
         raise DamagedPartError("diagnosis", "its blob is not the stored diagnosed model")
-    diagnosed = doc["diagnosed"]
-    return None, rep, None if diagnosed is None else _model("diagnosis", diagnosed)
+    return StoredDiagnosis(note=OLD_DIAGNOSIS_NOTE)
 
 
 def _result(blob: bytes) -> DiagnosisResult:

@@ -6,6 +6,7 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
@@ -13,13 +14,15 @@ from app.server import create_app
 from app.services.explore.config import Config
 from app.services.settings import Settings
 from app.services.storage.store import SessionState, SessionStore
+from core.pi import PIModel
 
 
 def _filled(db: Path, n: int = 300) -> None:
     store = SessionStore(db)
+    pi = PIModel(0.5, list(np.linspace(0.05, 1.6, 24)), [0.1] * 24)
+    config = Config().with_model(pi.to_dict())  # about 700 bytes a row
     for i in range(n):  # enough rows for many pages
-        store.save(SessionState(code=f"code-{i:04d}", config=Config(),
-                                old_report={"text": "x" * 400}))
+        store.save(SessionState(code=f"code-{i:04d}", config=config))
     store.close()
 
 

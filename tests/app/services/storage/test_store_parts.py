@@ -23,6 +23,7 @@ from app.services.session import actions
 from app.services.session.sessions import SessionRegistry, new_code
 from app.services.settings import Settings
 from app.services.storage.store import DamagedSessionError, SessionState, SessionStore
+from app.services.storage.store_parts import OLD_DIAGNOSIS_NOTE
 from core.base import Chain, model_from_dict
 from core.recordings import Recording
 from core.stages import Creep
@@ -31,6 +32,22 @@ from tests.app.recordings import small_diagnosis, small_fit
 
 def _extended() -> Chain:
     return Chain.of(model_from_dict(Config().model), Creep([0.01, 0.1], [0.05, 0.05]))
+
+
+def _old_diagnosis(db: Path, code: str, report: dict[str, Any] | str,
+                   diagnosed: dict[str, Any] | None) -> None:
+    """Give the stored session ``code`` a diagnosis in the form the explorer stored before
+    2026-12-05 (store.py and store_parts.py of 483c7f3^): the report, ``dump_json``'s text,
+    in the row's ``diagnosis`` column, and the blob ``{"diagnosed": model document or
+    null}`` as JSON bytes."""
+    text = report if isinstance(report, str) else json.dumps(report, allow_nan=False)
+    blob = json.dumps({"diagnosed": diagnosed}, allow_nan=False).encode()
+    with sqlite3.connect(db) as raw:
+        raw.execute("UPDATE sessions SET diagnosis=?, size=size+? WHERE code=?",
+                    (text, len(text) + len(blob), code))
+        raw.execute("INSERT INTO blobs (code, kind, data) VALUES (?, 'diagnosis', ?)",
+                    (code, blob))
+    raw.close()
 
 
 def _stored(db: Path) -> str:
@@ -42,8 +59,9 @@ def _stored(db: Path) -> str:
     code = new_code()
     store.save(SessionState(
         code=code, config=Config(), recording=Recording(t, u, 0.5 * u, name="r"),
-        fit=small_fit(), old_report={"findings": ["creep"]}, diagnosed=_extended()))
+        fit=small_fit()))
     store.close()
+    _old_diagnosis(db, code, {"findings": ["creep"]}, _extended().to_dict())
     return code
 
 
@@ -72,7 +90,6 @@ def _npz_without_meta() -> bytes:
 SET_CONFIG = "UPDATE sessions SET config=?"
 SET_FITTED = "UPDATE sessions SET fitted=?"
 SET_FIT_REPORT = "UPDATE sessions SET fit_report=?"
-SET_REPORT = "UPDATE sessions SET diagnosis=?"
 SET_RECORDING = "UPDATE blobs SET data=? WHERE kind='recording'"
 SET_DIAGNOSIS = "UPDATE blobs SET data=? WHERE kind='diagnosis'"
 
@@ -87,9 +104,8 @@ DAMAGE = {
     "fit-bad-model": ("fit", SET_FITTED, '{"type": "pi", "r": "many"}'),
     "fit-bad-parameter-set": ("fit", SET_FIT_REPORT, '{"parameter_set": {"format": "x"}}'),
     "fit-no-report": ("fit", SET_FIT_REPORT, '{"rmse": 0.1}'),
-    "diagnosis-report": ("diagnosis", SET_REPORT, '"just a string"'),
     "diagnosis-garbage": ("diagnosis", SET_DIAGNOSIS, b"\x80\x04garbage"),
-    "diagnosis-bad-model": ("diagnosis", SET_DIAGNOSIS, b'{"diagnosed": {"type": "nope"}}'),
+    "diagnosis-neither-form": ("diagnosis", SET_DIAGNOSIS, b'{"model": {"type": "pi"}}'),
     # the stored result (compressed JSON): cut short, not a result, a damaged result
     "diagnosis-result-cut": ("diagnosis", SET_DIAGNOSIS, zlib.compress(b'{"result": 1}')[:-3]),
     "diagnosis-not-a-result": ("diagnosis", SET_DIAGNOSIS, zlib.compress(b'{"report": {}}')),
@@ -171,13 +187,17 @@ def test_a_legacy_pickled_diagnosis_is_never_unpickled(tmp_path: Path) -> None:
     assert reg.get(code).diagnosis is None and not marker.exists()
 
 
-def test_no_stored_part_is_a_pickle(tmp_path: Path) -> None:
+def test_no_stored_part_is_a_pickle(tmp_path: Path, diagnosed) -> None:
+    rec, result = diagnosed
     db = tmp_path / "sessions.sqlite3"
-    _stored(db)
+    store = SessionStore(db)
+    store.save(SessionState(code=new_code(), config=Config(), recording=rec,
+                            fit=small_fit(), diagnosis_result=result))
+    store.close()
     with sqlite3.connect(db) as raw:
         blobs = dict(raw.execute("SELECT kind, data FROM blobs"))
     raw.close()
-    assert blobs["diagnosis"].startswith(b"{")  # JSON
+    assert zlib.decompress(blobs["diagnosis"]).startswith(b'{"result": ')  # JSON
     assert blobs["recording"].startswith(b"PK")  # .npz (a zip of .npy arrays)
     with np.load(io.BytesIO(blobs["recording"]), allow_pickle=False) as z:
         assert all(z[k].dtype != object for k in z.files)
@@ -221,25 +241,96 @@ def test_a_diagnosis_survives_a_restart_as_its_result(tmp_path: Path, diagnosed)
     assert column is None and zlib.decompress(blob).startswith(b'{"result": {"format"')
 
 
-def test_a_diagnosis_stored_in_the_old_form_still_loads(tmp_path: Path) -> None:
-    """A session stored before 2026-12-05 (the report in its row, the diagnosed model's
-    document in its blob, no result): its findings and diagnosed model load; the figure and
-    the HTML report ask for the diagnosis to be run again."""
+def _old_form(tmp_path: Path, diagnosed) -> tuple[Path, str, dict[str, Any], Any]:
+    """A session stored as the explorer stored it before 2026-12-05: config, the
+    diagnosis's recording and a fit in their forms, the diagnosis as the report the
+    diagnosis job returned then (``{"engine", "findings", "baseline_rmse_pct",
+    "final_rmse_pct", "effects", "document": DiagnosisResult.to_dict()}``, the bytes the REST
+    API still answers) beside the diagnosed model's document."""
+    from app.routers.schemas import diagnosis_json
+    from app.services.analysis.diagnosis import session_diagnosis
+
+    rec, result = diagnosed
     db = tmp_path / "sessions.sqlite3"
-    code = _stored(db)
+    store = SessionStore(db)
+    code = new_code()
+    fit = small_fit()
+    store.save(SessionState(code=code, config=Config(), recording=rec, fit=fit))
+    store.close()
+    report = diagnosis_json(session_diagnosis(result, rec.units))
+    assert report["findings"] and report["document"]["effects"]
+    _old_diagnosis(db, code, report, result.model.to_dict())
+    return db, code, report, fit
+
+
+def test_a_diagnosis_stored_in_the_old_form_is_dropped_with_a_note(tmp_path: Path,
+                                                                  diagnosed) -> None:
+    """A real session of before 2026-12-05 (its report in the row, the diagnosed model's
+    document in the blob): no result can be rebuilt from a report of derived numbers, so
+    the diagnosis is dropped, not kept as a dict; the session keeps its recording, fit and
+    config, and the figure, the report and the viser button say why in words."""
+    db, code, report, fit = _old_form(tmp_path, diagnosed)
     with sqlite3.connect(db) as raw:  # written in the old form, as the old code wrote it
         (blob,), (column,) = (raw.execute("SELECT data FROM blobs WHERE kind='diagnosis'")
                               .fetchone(), raw.execute("SELECT diagnosis FROM sessions")
                               .fetchone())
     raw.close()
-    assert column == '{"findings": ["creep"]}'
+    assert json.loads(column) == report and column.startswith('{"engine": "core.diagnosis"')
     assert blob.startswith(b'{"diagnosed": {"type": "chain"')
-    again = SessionRegistry(store=SessionStore(db)).get(code)
+    again = SessionRegistry(store=SessionStore(db)).get(code)  # a server of this version
     assert again.diagnosis_result is None and again.diagnosis is None
-    assert again.state.old_report == {"findings": ["creep"]} and again.has_diagnosis
-    back = diagnosed_model(again)
-    assert back is not None and back.to_dict() == _extended().to_dict()
+    assert not again.has_diagnosis and diagnosed_model(again) is None
+    assert again.recording is not None and again.recording.n_samples == 1500
+    assert again.fit is not None and again.fit.parameter_set.to_dict()["model"] \
+        == fit.parameter_set.to_dict()["model"]
+    assert again.config.to_dict() == Config().to_dict()
+    assert again.diagnosis_note == OLD_DIAGNOSIS_NOTE
+    why = actions.no_report(again)
+    assert "stored by an older version" in why and "dropped" in why
+    assert why.endswith("run the diagnosis again")
     assert actions.diagnosis_report(again) is None and actions.diagnosis_figure(again) is None
-    assert "run the diagnosis again" in actions.no_report(again)
+    again.touch()  # the next stored change leaves nothing of the old form behind
+    with sqlite3.connect(db) as raw:
+        left = raw.execute("SELECT COUNT(*) FROM blobs WHERE kind='diagnosis'").fetchone()
+        (column,) = raw.execute("SELECT diagnosis FROM sessions").fetchone()
+    raw.close()
+    assert left == (0,) and column is None
+    back = SessionStore(db).load(code)
+    assert back is not None and back.diagnosis_note is None and back.recording_stored
     s2 = SessionRegistry(store=SessionStore(tmp_path / "b.sqlite3")).create()
     assert actions.no_report(s2) == "run the diagnosis first" and not s2.has_diagnosis
+
+
+def test_an_old_form_diagnosis_answers_in_words_over_rest(tmp_path: Path, diagnosed) -> None:
+    """Through the REST API: the session loads (200, no diagnosis), the report asks for the
+    diagnosis again in the note's words, and a new diagnosis clears the note."""
+    db, code, _, _ = _old_form(tmp_path, diagnosed)
+    with TestClient(create_app(Settings(viser_port=None, state_dir=str(tmp_path)))) as c:
+        r = c.get(f"/api/sessions/{code}")
+        assert r.status_code == 200 and r.json()["has_diagnosis"] is False
+        assert r.json()["recording"] == {"name": "creep", "samples": 1500}
+        for path in ("diagnosis/report.html", "diagnosis/figure"):
+            r = c.get(f"/api/sessions/{code}/{path}")
+            assert r.status_code == 409 and OLD_DIAGNOSIS_NOTE in r.json()["detail"]
+
+
+@pytest.mark.parametrize("report, model", [
+    ('"just a string"', _extended().to_dict()),  # a report that is no object
+    ('{"findings": ["creep"]}', {"type": "nope"}),  # a model that no longer builds
+    ('{"findings": ["creep"]}', None),  # no effect added: no model
+])
+def test_any_old_form_diagnosis_is_dropped_not_the_session(tmp_path: Path, report: str,
+                                                           model: Any) -> None:
+    """Whatever an old-form diagnosis holds, it is dropped and the rest of the session kept
+    (it is never read, so it cannot reset the session)."""
+    db = tmp_path / "sessions.sqlite3"
+    store = SessionStore(db)
+    code = new_code()
+    t = np.arange(300) * 1e-3
+    store.save(SessionState(code=code, config=Config(),
+                            recording=Recording(t, np.sin(t), np.cos(t), name="r")))
+    store.close()
+    _old_diagnosis(db, code, report, model)
+    back = SessionStore(db).load(code)
+    assert back is not None and back.recording_stored and back.diagnosis_result is None
+    assert back.diagnosis_note == OLD_DIAGNOSIS_NOTE
