@@ -21,13 +21,20 @@ function notText(head) {
 }
 
 const size = (n) => (n >= 1e6 ? `${(n / 1e6).toFixed(1)} MB` : `${Math.ceil(n / 1e3)} kB`);
+// The file's size in words, finer where it reads the same as the limit ("5.03 MB, more
+// than the 5.0 MB", not "5.0 MB, more than the 5.0 MB"); app/services/analysis/upload_check.py
+// says the same for viser.
+const over = (n, limit) => {
+  if (size(n) !== size(limit)) return size(n);
+  return n >= 1e6 ? `${(n / 1e6).toFixed(2)} MB` : `${n.toLocaleString("en-US")} bytes`;
+};
 
 // The file is checked here before it is sent: its size first (a 50 MB file is not sent
 // to be refused), then its first bytes (an image or a workbook is not a CSV text file).
 async function refused(file) {
   const limit = state.caps && state.caps.limits && state.caps.limits.max_upload_bytes;
   if (limit && file.size > limit) {
-    return `${file.name} is ${size(file.size)}, more than the ${size(limit)} this explorer ` +
+    return `${file.name} is ${over(file.size, limit)}, more than the ${size(limit)} this explorer ` +
       "takes. Upload a shorter stretch of the recording (fewer rows) or only the time, input and output columns.";
   }
   const what = notText(new Uint8Array(await file.slice(0, 4096).arrayBuffer()));

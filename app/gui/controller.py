@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from app.services.analysis import upload_check
 from app.services.analysis.fitting import FitResult
 from app.services.analysis.recordings import Timing, UnevenUpload, seconds_text
 from app.services.errors import DamagedSessionError, ParameterError, QuotaError
@@ -568,6 +569,20 @@ class SessionView:
         self._redraw()
 
     # ------------------------------------------------------------------ data
+    def upload_refusal(self, uuid: str, name: str, size: int, head: bytes | None
+                       ) -> str | None:
+        """Why a file sent to this view's *Upload CSV* button is refused, in the web page's
+        words, before any of it is kept (called by the viser guard on the upload's start,
+        ``head`` None, and on its first part): more than ``max_upload_bytes``, or first
+        bytes that are not CSV text. The Data section says it too. Other buttons: None."""
+        if uuid != self.ui.upload._impl.uuid:  # viser 1.1 has no public uuid
+            return None
+        why = (upload_check.too_large(name, size, self.settings.max_upload_bytes)
+               if head is None else upload_check.not_text(name, head))
+        if why is not None:
+            self.ui.data_md.content = f"⚠️ **CSV not loaded:** {md_text(why)}"
+        return why
+
     def _csv_uploaded(self, event: Any) -> None:
         f = event.target.value
         self._csv = (f.content.decode("utf-8-sig", errors="replace"), f.name)

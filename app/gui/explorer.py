@@ -81,6 +81,8 @@ class ExplorerGui:
         #: browser id -> the code of the session its last tab showed
         self._sessions: OrderedDict[str, str] = OrderedDict()
         HUB.add_listener(self._on_event)
+        if guard is not None:
+            guard.upload_check = self._upload_check
         server.gui.configure_theme(show_share_button=False, control_width="large",
                                    titlebar_content=None, show_logo=False)
         server.on_client_connect(self._connect)
@@ -140,6 +142,14 @@ class ExplorerGui:
         if not live:  # closed while its view was built: its disconnect found no view
             view.close()
         self.reclaimer.request()  # building a view leaves garbage too
+
+    def _upload_check(self, client_id: int, uuid: str, name: str, size: int,
+                      head: bytes | None) -> str | None:
+        """Why the tab ``client_id``'s upload is refused before it is kept (its view's
+        :meth:`~app.gui.controller.SessionView.upload_refusal`), or None."""
+        with self._lock:
+            view = self.views.get(client_id)
+        return None if view is None else view.upload_refusal(uuid, name, size, head)
 
     def _live(self, client: Any) -> bool:
         """Whether ``client``'s tab is still open. viser drops a client from its list

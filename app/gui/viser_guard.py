@@ -34,7 +34,13 @@ in site-packages is edited:
   declares, with no limit of its own; an upload declaring more than ``max_upload_bytes``
   (or more parts than that size needs, or a tab's :data:`MAX_UPLOADS_PER_TAB` + 1-th at
   once) is dropped before any part is kept, and the tab told why; a part beyond the declared
-  size drops its upload (:func:`bound_uploads`).
+  size drops its upload (:func:`bound_uploads`). The explorer's own check
+  (:attr:`ViserGuard.upload_check`: the CSV button's size and first bytes, in the web page's
+  words) runs on the start message and on the first part, so such a file is refused before
+  any of it is kept, the button is ready for the next file and the upload's progress toast
+  goes. viser's client sends every part without waiting for the server (viser 1.1 has no
+  size limit on its upload button), so the parts of a refused file still cross the
+  connection and are dropped as they come.
 
 The wrap relies on viser internals (``viser.infra._infra`` calling
 ``websockets.asyncio.server.serve`` from ``WebsockServer.start``, its ``viser_http_server``
@@ -110,6 +116,10 @@ def _cookie(headers: Any, name: str) -> str | None:
     return None
 
 
+#: See :attr:`ViserGuard.upload_check`.
+UploadCheck = Callable[[int, str, str, int, "bytes | None"], "str | None"]
+
+
 class ViserGuardError(RuntimeError):
     """viser changed its internals: the guard cannot be installed (refuse to serve)."""
 
@@ -156,6 +166,10 @@ class ViserGuard:
         self.max_tabs = max_tabs
         self.max_upload_bytes = max_upload_bytes
         self.installed = False
+        #: The explorer's check of an upload: ``(client id, upload button's uuid, file name,
+        #: declared size in bytes, first bytes or None)`` -> why it is refused (words), or
+        #: None. Called on the start message (first bytes None) and on the first part.
+        self.upload_check: UploadCheck | None = None
         self._addresses: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
         self._browsers: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
         self._server: Any = None
@@ -306,6 +320,24 @@ def _upload_refusal(api: Any, client_id: int, message: Any, max_bytes: int) -> s
     return None
 
 
+def _end_refused(api: Any, component: str, transfer: str, size: int, why: str) -> None:
+    """Tell a tab its upload ``transfer`` was refused: its client's upload state is ended
+    (an acknowledgement of the whole size: viser's button is disabled until it sees one),
+    its progress toast hidden and a red toast says ``why``."""
+    from viser import _messages
+
+    owner = getattr(api, "_owner", None)
+    if not hasattr(owner, "add_notification"):  # not a tab's own GUI
+        return
+    api._websock_interface.queue_message(_messages.FileTransferPartAck(
+        source_component_uuid=component, transfer_uuid=transfer,
+        transferred_bytes=size, total_bytes=size))
+    # the client's toast for this upload is named "upload-" + the transfer's uuid
+    api._websock_interface.queue_message(
+        _messages.RemoveNotificationMessage(uuid="upload-" + transfer))
+    owner.add_notification("Not uploaded", why, auto_close_seconds=12.0, color="red")
+
+
 def bound_uploads(guard: ViserGuard) -> None:
     """Bound what viser keeps of uploads (see the module docstring): wraps the two upload
     handlers of ``viser._gui_api.GuiApi`` (bound to each tab's GUI when it is made, so this
@@ -318,15 +350,22 @@ def bound_uploads(guard: ViserGuard) -> None:
     part = getattr(cls._handle_file_transfer_part, "__wrapped__",
                    cls._handle_file_transfer_part)
 
+    def check(self: Any, client_id: Any, uuid: str, name: str, size: int,
+              head: bytes | None) -> str | None:
+        if guard.upload_check is None:
+            return None
+        return guard.upload_check(client_id, str(uuid), str(name)[:200], size, head)
+
     @functools.wraps(start)
     def bounded_start(self: Any, client_id: Any, message: Any) -> Any:
-        why = _upload_refusal(self, client_id, message, guard.max_upload_bytes)
+        why = check(self, client_id, message.source_component_uuid, message.filename,
+                    int(message.size_bytes), None)
+        if why is None:
+            why = _upload_refusal(self, client_id, message, guard.max_upload_bytes)
         if why is None:
             return start(self, client_id, message)
-        owner = getattr(self, "_owner", None)
-        if hasattr(owner, "add_notification"):  # a tab's own GUI: tell it
-            owner.add_notification("Not uploaded", why, auto_close_seconds=10.0,
-                                   color="red")
+        _end_refused(self, message.source_component_uuid, message.transfer_uuid,
+                     int(message.size_bytes), why)
         return None
 
     @functools.wraps(part)
@@ -336,6 +375,14 @@ def bound_uploads(guard: ViserGuard) -> None:
                                + len(message.content) > st["total_bytes"]):
             self._current_file_upload_states.pop(message.transfer_uuid, None)
             return None
+        if st is not None and message.part_index == 0 and not st["parts"]:
+            why = check(self, client_id, message.source_component_uuid, st["filename"],
+                        int(st["total_bytes"]), bytes(message.content))
+            if why is not None:
+                self._current_file_upload_states.pop(message.transfer_uuid, None)
+                _end_refused(self, message.source_component_uuid, message.transfer_uuid,
+                             int(st["total_bytes"]), why)
+                return None
         return part(self, client_id, message)
 
     cls._handle_file_transfer_start = bounded_start  # type: ignore[method-assign]
