@@ -205,3 +205,84 @@ def test_honesty_table_counts_coverage_at_one_and_two_sigma() -> None:
     assert "| damping | 2 | 0 (0 %) | 0 (0 %) | 1 | 1 (50 %) |" in out
     assert "| all | 4 | 1 (25 %) | 2 (50 %) | 1 | 2 (50 %) |" in out
     assert honesty_table([{"recovery": []}]) == ""
+
+
+def _mp_path(nodes: list[float], step: float) -> np.ndarray:
+    """Piecewise-linear strain through ``nodes`` with increments of about ``step``."""
+    parts = [np.array([nodes[0]])]
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        n = max(1, round(abs(b - a) / step))
+        parts.append(np.linspace(a, b, n + 1)[1:])
+    return np.concatenate(parts)
+
+
+def _meet(er: float, sr: float, d: float, e0: float, fy: float, b: float) -> tuple[float, float]:
+    """Where the elastic line from ``(er, sr)`` meets the hardening asymptote of direction
+    ``d`` (the line of slope ``b e0`` through ``(d fy / e0, d fy)``), solved by numpy."""
+    ey = fy / e0
+    a = np.array([[e0, -1.0], [b * e0, -1.0]])
+    rhs = np.array([e0 * er - sr, b * e0 * d * ey - d * fy])
+    x = np.linalg.solve(a, rhs)
+    return float(x[0]), float(x[1])
+
+
+def test_menegotto_pinto_branches_against_their_analytic_properties() -> None:
+    from benchmarks.diagnosis.families import MenegottoPinto
+
+    m = MenegottoPinto()
+    e0, fy, b = m.e0, m.fy, m.b
+    ey = fy / e0
+    nodes = [0.0, 6 * ey, -1 * ey, 12 * ey, -20 * ey, 80 * ey]
+    eps = _mp_path(nodes, ey / 400)
+    sig = m.stress(eps)
+    rev = [int(np.argmin(np.abs(eps - v))) for v in nodes]  # reversal samples (nodes)
+    assert sig[0] == 0.0
+    for k, (i, j) in enumerate(zip(rev[:-1], rev[1:], strict=True)):
+        d = 1.0 if eps[j] > eps[i] else -1.0
+        er, sr = float(eps[i]), float(sig[i])
+        seg_e, seg_s = eps[i : j + 1], sig[i : j + 1]
+        # starts at the reversal point with the elastic slope E0
+        slope0 = (seg_s[1] - seg_s[0]) / (seg_e[1] - seg_e[0])
+        assert slope0 == pytest.approx(e0, rel=2e-3), k
+        # bounded by the elastic line from the reversal and the new direction's asymptote,
+        # and on the inner side of the opposite asymptote
+        elastic = sr + e0 * (seg_e - er)
+        hard = d * fy + b * e0 * (seg_e - d * ey)
+        other = -d * fy + b * e0 * (seg_e + d * ey)
+        tol = 1e-9 * fy
+        assert np.all(d * seg_s <= d * elastic + tol), k
+        assert np.all(d * seg_s <= d * hard + tol), k
+        assert np.all(d * seg_s >= d * other - tol), k
+    # far along a long branch the slope tends to b E0 and the stress to the asymptote
+    i, j = rev[-2], rev[-1]
+    tail = (sig[j] - sig[j - 40]) / (eps[j] - eps[j - 40])
+    assert tail == pytest.approx(b * e0, rel=0.02)
+    assert sig[j] == pytest.approx(fy + b * e0 * (eps[j] - ey), rel=3e-3)
+    # clockwise in strain-stress: the loading branch lies above the unloading one at 0
+    up = sig[rev[2] : rev[3]][np.argmin(np.abs(eps[rev[2] : rev[3]]))]
+    down = sig[rev[3] : rev[4]][np.argmin(np.abs(eps[rev[3] : rev[4]]))]
+    assert up - down > 0.5 * fy
+
+
+def test_menegotto_pinto_curvature_depends_on_the_previous_excursion() -> None:
+    """Non-Masing: a branch after a large plastic excursion is rounder (smaller R) than one
+    after a small one, measured on the normalised branch at eps* = 1, where
+    sig* = b + (1 - b) / 2^(1/R) grows with R."""
+    from benchmarks.diagnosis.families import MenegottoPinto
+
+    m = MenegottoPinto()
+    ey = m.fy / m.e0
+
+    def normalised_at_one(peak: float) -> float:
+        eps = _mp_path([0.0, peak, -8 * ey], ey / 2000)
+        sig = m.stress(eps)
+        i = int(np.argmax(eps))
+        ea, sa = _meet(float(eps[i]), float(sig[i]), -1.0, m.e0, m.fy, m.b)
+        k = i + int(np.argmin(np.abs(eps[i:] - ea)))
+        return float((sig[k] - sig[i]) / (sa - sig[i]))
+
+    small, large = normalised_at_one(1.5 * ey), normalised_at_one(8 * ey)
+    b = m.b
+    r_of = lambda s: np.log(2.0) / np.log((1 - b) / (s - b))  # noqa: E731 - inverse of sig*(1)
+    assert r_of(large) < 0.7 * r_of(small)
+    assert r_of(small) <= m.r0 + 1e-6

@@ -20,6 +20,9 @@ by its ``gain`` so that a 0 → 150 → 0 V sweep spans :data:`STROKE` = 100 um)
 ``maxwell-slip``
     elasto-slide elements in parallel plus a spring, :class:`MaxwellSlip` (a saturating,
     stop-type loop).
+``menegotto-pinto``
+    a uniaxial steel (strain in, stress out, clockwise loops) whose transition curvature
+    depends on the previous plastic excursion, :class:`MenegottoPinto` (non-Masing).
 
 Scenarios: :func:`make_family` ``(base, effect, size, noise, seed)`` → a
 :class:`~benchmarks.diagnosis.generator.Scenario` with four recordings (slow sines, fast
@@ -47,9 +50,9 @@ from core.recordings import Recording
 from core.stages import Asymmetry, Creep, Delay, Drift, Lag, Offset, Resonance
 
 __all__ = ["BASES", "FAMILY_EFFECTS", "MULTI_EFFECTS", "SIZES", "STAGE_ORDER", "STROKE",
-           "TIME_EFFECTS", "BoucWen", "Duhem", "MaxwellSlip", "Preisach", "family_signals",
-           "make_base", "make_family", "parameter_recovery", "recovery_quantities",
-           "within_sigmas", "wrong_names_base"]
+           "TIME_EFFECTS", "BoucWen", "Duhem", "MaxwellSlip", "MenegottoPinto", "Preisach",
+           "family_signals", "make_base", "make_family", "parameter_recovery",
+           "recovery_quantities", "within_sigmas", "wrong_names_base"]
 
 U_MAX = 150.0  # V
 STROKE = 100.0  # um, of a 0 -> 150 -> 0 V sweep after scaling
@@ -149,6 +152,44 @@ def _maxwell_slip(u, d, delta):  # pragma: no cover - compiled
                 v = -d[i]
             delta[i] = v
             out[k, i] = v
+    return out
+
+
+@njit(cache=True)
+def _menegotto_pinto(eps, e0, fy, b, r0, cr1, cr2):  # pragma: no cover - compiled
+    """Stress along the strain path ``eps`` (see :class:`MenegottoPinto`), from the virgin
+    state at zero strain and stress."""
+    ey = fy / e0
+    out = np.empty(eps.size)
+    s = 0.0  # direction of the current branch (0: virgin, no branch yet)
+    er, sr = 0.0, 0.0  # reversal point of the branch
+    ea, sa = 0.0, 0.0  # where its two asymptotes meet
+    rr = r0
+    emax, emin = ey, -ey  # extreme strains reached in tension / compression
+    prev, sig = 0.0, 0.0
+    for k in range(eps.size):
+        de = eps[k] - prev
+        d = 1.0 if de > 0.0 else (-1.0 if de < 0.0 else 0.0)
+        if d != 0.0 and d != s:
+            if s != 0.0:  # a reversal at the previous sample: a new branch starts there
+                if s > 0.0:
+                    emax = max(emax, prev)
+                else:
+                    emin = min(emin, prev)
+                er, sr = prev, sig
+            # the elastic line from the reversal (slope E0) meets the hardening line
+            # through (d ey, d fy) (slope b E0) at (ea, sa)
+            ea = (d * fy * (1.0 - b) - sr + e0 * er) / (e0 * (1.0 - b))
+            sa = d * fy + b * e0 * (ea - d * ey)
+            xi = abs((emax if d > 0.0 else emin) - ea) / ey if s != 0.0 else 0.0
+            rr = r0 * (1.0 - cr1 * xi / (cr2 + xi))
+            s = d
+        if s != 0.0:
+            x = (eps[k] - er) / (ea - er)
+            ax = abs(x)
+            sig = sr + (sa - sr) * (b * x + (1.0 - b) * x / (1.0 + ax**rr) ** (1.0 / rr))
+        out[k] = sig
+        prev = eps[k]
     return out
 
 
@@ -363,6 +404,65 @@ class MaxwellSlip:
         return self.gain * (self.k0 * u + dl @ np.asarray(self.k, dtype=np.float64))
 
 
+@dataclass
+class MenegottoPinto:
+    """Uniaxial steel after Menegotto and Pinto (1973) with the transition curvature of
+    Filippou, Popov and Bertero (1983) (the Giuffre-Menegotto-Pinto law): strain in, stress
+    out, clockwise loops (the loading branch above the unloading one).
+
+    The input is a strain ``eps = strain_max u / 150 V`` (0 V: zero strain, the virgin
+    state). Each branch runs from its reversal point ``(eps_r, sig_r)`` towards the point
+    ``(eps_0, sig_0)`` where the elastic line from the reversal (slope ``E0``) meets the
+    hardening asymptote of the new direction (slope ``b E0`` through ``(±eps_y, ±fy)``,
+    kinematic hardening, no isotropic hardening):
+
+        sig* = b eps* + (1 - b) eps* / (1 + |eps*|^R)^(1/R),
+        eps* = (eps - eps_r) / (eps_0 - eps_r),   sig* = (sig - sig_r) / (sig_0 - sig_r),
+
+    with ``R = R0 (1 - cR1 xi / (cR2 + xi))`` (Filippou's ``R0 - a1 xi / (a2 + xi)``
+    with ``a1 = cR1 R0``) and ``xi = |eps_m - eps_0| / eps_y``, ``eps_m`` the
+    largest strain reached so far in the new branch's direction (``±eps_y`` before any
+    excursion). The curvature of a branch thus depends on the previous plastic excursion
+    (a non-Masing law, outside the PI family whose branches are scaled copies of one
+    curve); the first loading from rest has ``R = R0``. Rate-independent: a reversal is
+    where the strain increment changes sign, and the branch is an explicit function of the
+    strain.
+
+    Parameters
+    ----------
+    e0 : float
+        Initial (elastic) modulus E0 (MPa).
+    fy : float
+        Yield stress (MPa).
+    b : float
+        Strain-hardening ratio (asymptotic slope over E0, dimensionless).
+    r0, cr1, cr2 : float
+        Transition curvature R0 and its decrease with the plastic excursion (dimensionless).
+    strain_max : float
+        Strain at 150 V (dimensionless).
+    gain : float
+        Output scale (um per MPa; :func:`make_base` sets it for a 100 um stroke).
+    """
+
+    e0: float = 200000.0
+    fy: float = 400.0
+    b: float = 0.015
+    r0: float = 20.0
+    cr1: float = 0.925
+    cr2: float = 0.15
+    strain_max: float = 0.01
+    gain: float = 1.0
+
+    def stress(self, eps: np.ndarray) -> np.ndarray:
+        """Stress (MPa) along the strain history ``eps``, shape (n,)."""
+        eps = np.ascontiguousarray(eps, dtype=np.float64)
+        return _menegotto_pinto(eps, self.e0, self.fy, self.b, self.r0, self.cr1, self.cr2)
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        u = np.ascontiguousarray(u, dtype=np.float64)
+        return self.gain * self.stress(self.strain_max * u / U_MAX)
+
+
 #: Base family name -> unscaled plant (``make_base`` scales it to a 100 um stroke).
 BASES: dict[str, Any] = {
     "bouc-wen-1": lambda: BoucWen(k=1.0, c=0.4, alpha=1.0, beta=0.03, gamma=0.01, n=1.0),
@@ -371,6 +471,7 @@ BASES: dict[str, Any] = {
     "preisach": lambda: Preisach(),
     "duhem": lambda: Duhem(),
     "maxwell-slip": lambda: MaxwellSlip(),
+    "menegotto-pinto": lambda: MenegottoPinto(),
 }
 
 

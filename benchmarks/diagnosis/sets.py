@@ -7,7 +7,8 @@ score, one table for both sets, so their numbers can stand side by side.
     (seeds 1000, 1001); the non-PI bases ``bouc-wen-1``, ``preisach``, ``maxwell-slip``
     (``families.make_family``, 0.2 % noise) with a delay, resonance, creep and drift at size
     ``large`` (seed 500) and two nulls each (seeds 500, 501), and each of their four
-    recordings alone as a single-recording null (seed 500) (:data:`DEV_CASES`).
+    recordings alone as a single-recording null (seed 500); the same cases on the non-Masing
+    ``menegotto-pinto`` steel (round 4) (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -45,6 +46,8 @@ __all__ = ["DEV_CASES", "RECOVERY_TOLERANCE", "SETS", "build", "case_class", "ru
 
 _DEV_FAMILY_BASES = ("bouc-wen-1", "preisach", "maxwell-slip")
 _DEV_FAMILY_EFFECTS = ("delay", "resonance", "creep", "drift")
+#: Bases whose loops the PI family cannot represent at all (non-Masing; round 4 of issue 30).
+_DEV_NON_MASING_BASES = ("menegotto-pinto",)
 _DEV_PI_EFFECTS = ("delay", "lag", "resonance", "rate", "creep", "drift", "asymmetry",
                    "offset", "initial-memory")
 
@@ -55,6 +58,12 @@ DEV_CASES: tuple[str, ...] = (
     *(f"dev/family/{b}/null/{s}" for b in _DEV_FAMILY_BASES for s in (500, 501)),
     *(f"dev/family/{b}/{e}/large/500" for b in _DEV_FAMILY_BASES for e in _DEV_FAMILY_EFFECTS),
     *(f"dev/family-single/{b}/{r}/500" for b in _DEV_FAMILY_BASES
+      for r in ("slow", "fast", "decaying", "staircase")),
+    # round 4: a non-Masing steel (the PI family cannot represent it), the same cases
+    *(f"dev/family/{b}/null/{s}" for b in _DEV_NON_MASING_BASES for s in (500, 501)),
+    *(f"dev/family/{b}/{e}/large/500" for b in _DEV_NON_MASING_BASES
+      for e in _DEV_FAMILY_EFFECTS),
+    *(f"dev/family-single/{b}/{r}/500" for b in _DEV_NON_MASING_BASES
       for r in ("slow", "fast", "decaying", "staircase")),
 )
 
