@@ -190,7 +190,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:  # noqa: C901 - the
         detail: dict[str, Any] = {"message": str(exc), "line": exc.line,
                                   "column": exc.column_index}
         if isinstance(exc, UnevenUpload):  # the choices of the upload, with the step
-            detail["uneven"] = exc.timing.to_dict()
+            from .routers.schemas import timing_json
+
+            detail["uneven"] = timing_json(exc.timing)
         return JSONResponse(status_code=422, content={"detail": detail})
 
     from .routers import controls, data, export, jobs, meta, sessions, simulate

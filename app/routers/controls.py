@@ -9,7 +9,7 @@ from fastapi import APIRouter
 from app.services.session import actions
 
 from .deps import SettingsDep
-from .schemas import ClampIn, ClampOut, ControlsIn, ControlsOut
+from .schemas import ClampIn, ClampOut, ControlsIn, ControlsOut, controls_json
 
 __all__ = ["router"]
 
@@ -26,7 +26,7 @@ def controls(body: ControlsIn, settings: SettingsDep) -> dict[str, Any]:
     naming the broken rule in the labels the sliders show (``r3 = 3.3 must stay below
     r4 = 1.8``).
     """
-    return actions.checked_controls(body.model, settings).to_dict()
+    return controls_json(actions.checked_controls(body.model, settings))
 
 
 @router.post("/controls/clamp", response_model=ClampOut)

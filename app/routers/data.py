@@ -20,6 +20,7 @@ from .schemas import (
     FitIn,
     FitOut,
     RecordingOut,
+    csv_preview_json,
     diagnosis_json,
     fit_json,
 )
@@ -50,7 +51,7 @@ async def preview_csv(request: Request, settings: SettingsDep) -> dict[str, Any]
     """
     _check_type(request)
     body = await read_body(request, settings.max_upload_bytes)
-    return await run_in_threadpool(actions.preview_csv, body, settings)
+    return csv_preview_json(await run_in_threadpool(actions.preview_csv, body, settings))
 
 
 @router.post("/sessions/{code}/recording", status_code=201,

@@ -9,6 +9,7 @@ or a float), so the bytes are what they were before the models were declared.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -16,7 +17,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.services.analysis.diagnosis import SessionDiagnosis
 from app.services.analysis.fitting import FitResult
+from app.services.analysis.recordings import TIMING_CHOICES, CsvPreview, Timing
 from app.services.explore.config import Config, SignalSpec
+from app.services.explore.controls import ModelControls
 
 if TYPE_CHECKING:
     from app.services.jobs.manager import JobView
@@ -45,12 +48,15 @@ __all__ = [
     "PushOut",
     "RecordingOut",
     "SessionOut",
+    "controls_json",
+    "csv_preview_json",
     "diagnosis_json",
     "fit_json",
     "fit_report_json",
     "job_json",
     "job_result_json",
     "session_json",
+    "timing_json",
     "SignalIn",
     "SimulateIn",
     "SimulateOut",
@@ -166,6 +172,14 @@ class ControlsOut(BaseModel):
     type: str
     layout: str = Field(description="changes only when the model's structure changes")
     groups: list[SliderGroupOut]
+
+
+def controls_json(controls: ModelControls) -> dict[str, Any]:
+    """The :class:`ControlsOut` body of a model's sliders (``POST /api/controls``)."""
+    return {"type": controls.type, "layout": controls.layout,
+            "groups": [{**dataclasses.asdict(g), "sliders": [dataclasses.asdict(s)
+                                                             for s in g.sliders]}
+                       for g in controls.groups]}
 
 
 class SimulateIn(BaseModel):
@@ -400,6 +414,24 @@ class CsvPreviewOut(BaseModel):
     uneven: UnevenTimingOut | None = Field(
         None, description="present when the time stamps (automatic column mapping) are "
                           "uneven: upload with timing=resample or timing=keep")
+
+
+def timing_json(timing: Timing) -> dict[str, Any]:
+    """The :class:`UnevenTimingOut` body of an upload's uneven time stamps (in the CSV
+    preview, and in the 422 of an upload that has to choose)."""
+    return {"column": timing.column, "spacing_min_s": timing.spacing_min,
+            "spacing_max_s": timing.spacing_max, "spacing_mean_s": timing.spacing_mean,
+            "step_s": timing.step, "choices": list(TIMING_CHOICES)}
+
+
+def csv_preview_json(preview: CsvPreview) -> dict[str, Any]:
+    """The :class:`CsvPreviewOut` body of a CSV preview (``uneven`` only when they are)."""
+    out: dict[str, Any] = {
+        "columns": list(preview.columns), "rows": [list(r) for r in preview.rows],
+        "n_rows": preview.n_rows, "encoding": preview.encoding, "notes": list(preview.notes)}
+    if preview.uneven is not None:
+        out["uneven"] = timing_json(preview.uneven)
+    return out
 
 
 class RecordingOut(BaseModel):

@@ -13,7 +13,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -36,6 +36,7 @@ __all__ = [
     "fit_recording",
     "fit_report_from_dict",
     "fit_result",
+    "FitSource",
     "fit_source",
     "say_fit",
     "time_window",
@@ -176,7 +177,14 @@ def time_window(text: str | None, what: str) -> TimeWindow | None:
     return TimeWindow(t0, t1, text)
 
 
-def fit_source(files: Sequence[str | Path]) -> dict[str, Any]:
+class FitSource(TypedDict):
+    """The provenance keywords of :func:`core.fitting.fit_recordings` (:func:`fit_source`)."""
+
+    files: list[str]
+    source: str
+
+
+def fit_source(files: Sequence[str | Path]) -> FitSource:
     """The provenance of a ``hyst fit`` of ``files``: ``{"files", "source"}`` of
     :func:`core.fitting.fit_recordings`."""
     names = [Path(f).name for f in files]

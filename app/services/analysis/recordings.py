@@ -30,6 +30,7 @@ __all__ = [
     "Timing",
     "UnevenUpload",
     "Upload",
+    "CsvPreview",
     "csv_preview",
     "csv_read_options",
     "read_recordings",
@@ -94,11 +95,35 @@ class Timing:
                 f"from {seconds_text(self.spacing_min)} to {seconds_text(self.spacing_max)} "
                 f"(mean {seconds_text(self.spacing_mean)})")
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON form (the REST API's ``uneven`` object)."""
-        return {"column": self.column, "spacing_min_s": self.spacing_min,
-                "spacing_max_s": self.spacing_max, "spacing_mean_s": self.spacing_mean,
-                "step_s": self.step, "choices": list(TIMING_CHOICES)}
+
+@dataclass(frozen=True)
+class CsvPreview:
+    """The layout of CSV content for the column-mapping step (:func:`csv_preview`; the REST
+    API's JSON of it is ``routers/schemas.py::csv_preview_json``).
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The column names as written in the header.
+    rows : tuple of tuple of str
+        The first data rows, each cell as text.
+    n_rows : int
+        Data rows of the content.
+    encoding : str
+        The text encoding the reader found.
+    notes : tuple of str
+        What the reader noticed, in words.
+    uneven : Timing or None
+        The uneven time stamps of the automatic column mapping (the choice the page offers
+        before the upload); ``None`` when they are even.
+    """
+
+    columns: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    n_rows: int
+    encoding: str
+    notes: tuple[str, ...]
+    uneven: Timing | None = None
 
 
 class UnevenUpload(UnevenTimeError):
@@ -289,10 +314,10 @@ def store_recording(session: Session, rec: Recording) -> None:
     session.set_recording(rec)
 
 
-def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[str, Any]:
+def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> CsvPreview:
     """Columns, the first ``rows`` data rows (as text), row count and notes of CSV content,
-    and ``uneven`` (:meth:`Timing.to_dict`) when the time stamps of the automatic column
-    mapping are uneven, so the page can offer the choice before the upload.
+    and the :class:`Timing` when the time stamps of the automatic column mapping are
+    uneven, so the page can offer the choice before the upload.
 
     Raises
     ------
@@ -308,13 +333,12 @@ def csv_preview(content: str | bytes, max_samples: int, rows: int = 5) -> dict[s
         content = content.decode(enc)
     lines = content.splitlines()[lay.first_data_line - 1: lay.first_data_line - 1 + rows]
     d = None if lay.delimiter == "whitespace" else lay.delimiter
-    out = {"columns": [c.raw for c in lay.columns],
-           "rows": [[c.strip() for c in (ln.split(d) if d else ln.split())] for ln in lines],
-           "n_rows": int(lay.n_rows), "encoding": lay.encoding, "notes": list(lay.notes)}
-    timing = uneven_timing(content, max_samples=max_samples)
-    if timing is not None:
-        out["uneven"] = timing.to_dict()
-    return out
+    return CsvPreview(
+        columns=tuple(c.raw for c in lay.columns),
+        rows=tuple(tuple(c.strip() for c in (ln.split(d) if d else ln.split()))
+                   for ln in lines),
+        n_rows=int(lay.n_rows), encoding=lay.encoding, notes=tuple(lay.notes),
+        uneven=uneven_timing(content, max_samples=max_samples))
 
 
 def csv_read_options(time: str | None = None, input_column: str | None = None,

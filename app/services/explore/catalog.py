@@ -6,9 +6,9 @@ read these lists here, so neither interface looks into :mod:`core` for them.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
-from app.services.explore.simulation import preset_doc
+from app.services.explore.simulation import PresetDoc, preset_doc
 from app.services.words import type_words
 from core.base import registered_types
 from core.models import fit_kinds
@@ -18,8 +18,8 @@ from core.signals import SIGNALS
 if TYPE_CHECKING:
     from app.services.settings import Settings
 
-__all__ = ["EXPORT_FORMATS", "capabilities", "fit_kinds", "preset_doc", "preset_names",
-           "preset_titles", "presets", "signal_kinds"]
+__all__ = ["EXPORT_FORMATS", "Capabilities", "capabilities", "fit_kinds", "preset_doc",
+           "preset_names", "preset_titles", "presets", "signal_kinds"]
 
 
 #: Download formats of a parameter set (:func:`app.services.session.exports.export_bytes`).
@@ -41,12 +41,27 @@ def preset_titles() -> dict[str, str]:
     return {p.title: p.name for p in list_presets()}
 
 
-def presets() -> list[dict[str, Any]]:
+class Capabilities(TypedDict):
+    """What the server offers (:func:`capabilities`, ``GET /api/capabilities``)."""
+
+    model_types: list[str]
+    signals: list[str]
+    presets: list[str]
+    figures: list[str]
+    export_formats: list[str]
+    fit_kinds: list[str]
+    #: each fit kind in words (the menus show these)
+    fit_kind_titles: dict[str, str]
+    #: the upload's size limit and :class:`~app.services.explore.cost.Limits`, by name
+    limits: dict[str, float]
+
+
+def presets() -> list[PresetDoc]:
     """Every preset's :func:`~app.services.explore.simulation.preset_doc`."""
     return [preset_doc(name) for name in preset_names()]
 
 
-def capabilities(settings: Settings) -> dict[str, Any]:
+def capabilities(settings: Settings) -> Capabilities:
     """Model types, signals, presets, figures, export formats, fit kinds and limits."""
     from app.services.explore.figures import FIGURES
 

@@ -8,14 +8,15 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
 from core.exceptions import ParameterError
 from core.signals import SIGNALS
 
-__all__ = ["CONTROLS", "EXAMPLE1", "Config", "ControlRange", "SignalSpec", "config_from_dict"]
+__all__ = ["CONTROLS", "EXAMPLE1", "Config", "ConfigDoc", "ControlRange", "SignalDoc",
+           "SignalSpec", "config_from_dict"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,27 @@ EXAMPLE1: dict[str, Any] = {
     "weights": [0.6, 0.48, 0.36, 0.24, 0.12, 0.012],
 }
 
+class SignalDoc(TypedDict):
+    """:class:`SignalSpec` as JSON: its fields, in their order."""
+
+    kind: str
+    amplitude: float
+    frequency: float
+    offset: float
+    duration: float
+    samples: int
+
+
+class ConfigDoc(TypedDict):
+    """:class:`Config` as JSON (:meth:`Config.to_dict`, read back by
+    :func:`config_from_dict`); ``model`` is a model document of any registered type."""
+
+    model: dict[str, Any]
+    signal: SignalDoc
+    mismatch: float
+    use_recording: bool
+
+
 @dataclass(frozen=True)
 class SignalSpec:
     """An input signal ``offset + amplitude * shape(frequency * t)`` on ``[0, duration]``.
@@ -99,6 +121,11 @@ class SignalSpec:
     offset: float = 0.0
     duration: float = 2.0
     samples: int = 2000
+
+    def to_dict(self) -> SignalDoc:
+        """JSON-ready form: the fields, in their order."""
+        return {"kind": self.kind, "amplitude": self.amplitude, "frequency": self.frequency,
+                "offset": self.offset, "duration": self.duration, "samples": self.samples}
 
     def validate(self, max_samples: int) -> None:
         """Raise :class:`ParameterError` naming the first field out of range."""
@@ -145,11 +172,11 @@ class Config:
         """Copy with another model."""
         return replace(self, model=dict(model))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> ConfigDoc:
         """JSON-ready form."""
         return {
             "model": self.model,
-            "signal": self.signal.__dict__.copy(),
+            "signal": self.signal.to_dict(),
             "mismatch": self.mismatch,
             "use_recording": self.use_recording,
         }

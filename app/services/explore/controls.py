@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterator, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 from app.services.words import type_words
@@ -162,12 +162,6 @@ class ModelControls:
     def slider(self, path: str) -> Slider | None:
         """The slider at ``path``, or ``None``."""
         return next((s for s in self.sliders() if s.path == path), None)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (``POST /api/controls``)."""
-        return {"type": self.type, "layout": self.layout,
-                "groups": [{**asdict(g), "sliders": [asdict(s) for s in g.sliders]}
-                           for g in self.groups]}
 
 
 @dataclass(frozen=True)

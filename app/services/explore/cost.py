@@ -89,8 +89,8 @@ class Limits:
     max_memory_bytes: float = 1.5e9
     max_figures_work: float = 5e9
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (``GET /api/capabilities``)."""
+    def to_dict(self) -> dict[str, float]:
+        """JSON-ready form, each limit by name (``GET /api/capabilities``)."""
         return dataclasses.asdict(self)
 
 

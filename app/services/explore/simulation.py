@@ -13,15 +13,15 @@ import time
 import warnings
 from collections.abc import Collection
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
-from app.services.explore.config import Config, SignalSpec
+from app.services.explore.config import Config, SignalDoc, SignalSpec
 from app.services.explore.cost import priced_run, priced_steps
 from app.services.words import type_words
 from core.base import Chain, Model, RunCost, model_from_dict
-from core.closed_loop import HammersteinLoop, paper001_plant
+from core.closed_loop import ClosedLoopResult, HammersteinLoop, paper001_plant
 from core.digitized import DigitizedPI
 from core.exceptions import ClippedInputWarning, NotInvertibleError, ParameterError
 from core.fitting.thresholds import reversal_indices
@@ -51,6 +51,7 @@ __all__ = [
     "perturb",
     "pi_input",
     "pi_part",
+    "PresetDoc",
     "preset_doc",
     "preset_input",
     "priced_views",
@@ -94,10 +95,22 @@ def preset_input(model: Model) -> SignalSpec:
     return SignalSpec()
 
 
-def preset_doc(name: str) -> dict[str, Any]:
-    """``{"name", "title", "description", "model", "input"}`` of the preset ``name``.
+class PresetDoc(TypedDict):
+    """A preset as the menus and ``GET /api/presets`` list it (:func:`preset_doc`)."""
 
-    ``input`` is the :func:`preset_input` signal as a dict (the fields of
+    name: str
+    title: str
+    description: str
+    #: the preset's model document
+    model: dict[str, Any]
+    #: the :func:`preset_input` signal that suits it
+    input: SignalDoc
+
+
+def preset_doc(name: str) -> PresetDoc:
+    """The :class:`PresetDoc` of the preset ``name``.
+
+    ``input`` is the :func:`preset_input` signal as JSON (the fields of
     :class:`~app.services.explore.config.SignalSpec`).
 
     Raises
@@ -108,7 +121,7 @@ def preset_doc(name: str) -> dict[str, Any]:
     m = get_preset(name)
     info = next(p for p in list_presets() if p.name == name)
     return {"name": name, "title": info.title, "description": info.description,
-            "model": m.to_dict(), "input": preset_input(m).__dict__.copy()}
+            "model": m.to_dict(), "input": preset_input(m).to_dict()}
 
 
 def build_model(d: dict[str, Any], max_operators: int) -> Model:
@@ -642,7 +655,7 @@ class ClosedLoop:
         words, with the numbers that show it); ``None`` otherwise.
     """
 
-    runs: dict[str, Any]
+    runs: dict[str, ClosedLoopResult]
     explanation: str | None = None
 
 
@@ -659,7 +672,7 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
     tt = np.arange(0.0, dur, 1.0 / CLOSED_LOOP_RATE)
     r = np.interp(tt + res.t[0], res.t, res.u)
     plant_h = perturb(pi, mismatch)
-    runs: dict[str, Any] = {}
+    runs: dict[str, ClosedLoopResult] = {}
     g = paper001_plant()
     runs["no compensation"] = HammersteinLoop(plant_h, g).simulate(r, 1.0 / CLOSED_LOOP_RATE)
     try:
@@ -683,7 +696,7 @@ def closed_loop(res: Result, mismatch: float) -> tuple[ClosedLoop | None, str | 
     return ClosedLoop(runs, why), note
 
 
-def feedforward_worse(runs: dict[str, Any], mismatch: float, perfect: float | None,
+def feedforward_worse(runs: dict[str, ClosedLoopResult], mismatch: float, perfect: float | None,
                       pi: PIModel | None) -> str:
     """Why the inverse feedforward tracks worse than no compensation, in words.
 

@@ -21,13 +21,14 @@ from typing import Any
 import numpy as np
 
 from app.services.analysis.diagnosis import diagnosis_html
-from app.services.analysis.recordings import Upload, csv_preview, read_upload
+from app.services.analysis.recordings import CsvPreview, Upload, csv_preview, read_upload
 from app.services.explore import controls as C
 from app.services.explore import figures as F
 from app.services.explore.config import Config, SignalSpec
 from app.services.explore.cost import CheckedModel, check_config, check_document, checked_config
 from app.services.explore.shared import STEP_RESULTS, content_key, with_version
 from app.services.explore.simulation import (
+    PresetDoc,
     Result,
     check_operator_limit,
     diagnosed_model,
@@ -197,7 +198,7 @@ def set_operator_count(session: Session, n: int, settings: Settings) -> int:
     return change_config(session, fn, settings)
 
 
-def load_preset(session: Session, name: str, *, with_input: bool) -> dict[str, Any]:
+def load_preset(session: Session, name: str, *, with_input: bool) -> PresetDoc:
     """Give the session preset ``name``'s model (and, ``with_input``, its own input
     signal instead of an uploaded recording); returns the preset document.
 
@@ -308,7 +309,7 @@ def no_report(session: Session) -> str:
     return "run the diagnosis first" if note is None else note
 
 
-def preview_csv(content: str | bytes, settings: Settings) -> dict[str, Any]:
+def preview_csv(content: str | bytes, settings: Settings) -> CsvPreview:
     """Columns, first rows, row count and notes of CSV content (the column-mapping step;
     see :func:`.recordings.csv_preview`)."""
     return csv_preview(content, settings.max_samples)

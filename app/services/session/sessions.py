@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from app.services.codes import CODE_ALPHABET, CODE_LENGTH, new_code, normalise_code
 from app.services.explore.config import Config
 from app.services.explore.cost import CheckedModel, Limits
-from app.services.storage.store import SessionState, SessionStore
+from app.services.storage.store import SessionState, SessionStore, StateChanges
 from core.base import Model
 from core.recordings import Recording
 from core.validation import filled
@@ -182,7 +182,7 @@ class Session:
             return st.config, st.version, filled(st.checked).model
 
     # ------------------------------------------------------------------ transitions
-    def _commit(self, changes: dict[str, Any], *, recording: bool, results: bool,
+    def _commit(self, changes: StateChanges, *, recording: bool, results: bool,
                 notify: bool = True) -> int:
         """Replace the state with ``changes`` applied and store it; with ``notify`` (a
         change the plots show) also bump the version and tell the listeners. A new config
@@ -230,7 +230,7 @@ class Session:
     def set_fit(self, fit: FitOutcome, *, apply: bool = False) -> int:
         """Store a fit (the diagnosis is dropped); ``apply`` makes its model the session's."""
         with self.lock:
-            changes: dict[str, Any] = {"fit": fit, "diagnosis_result": None,
+            changes: StateChanges = {"fit": fit, "diagnosis_result": None,
                                        "diagnosis_note": None}
             if apply:
                 changes["config"] = self._state.config.with_model(fit.model.to_dict())

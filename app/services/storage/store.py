@@ -49,9 +49,10 @@ import sqlite3
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 from app.services.explore.config import Config
 from app.services.explore.cost import CheckedModel
@@ -77,8 +78,8 @@ if TYPE_CHECKING:
     from core.diagnosis.results import DiagnosisResult
     from core.fitting.entry import FitOutcome
 
-__all__ = ["DamagedSessionError", "SessionState", "SessionStore", "default_state_dir",
-           "recording_from_blob", "recording_to_blob"]
+__all__ = ["DamagedSessionError", "SessionState", "SessionStore", "StateChanges",
+           "default_state_dir", "recording_from_blob", "recording_to_blob"]
 
 log = logging.getLogger(__name__)
 
@@ -190,6 +191,21 @@ class SessionState:
         (the Inverse and Closed-loop views use it); ``None`` otherwise."""
         result = self.diagnosis_result
         return result.model if result is not None and result.effects else None
+
+
+class StateChanges(TypedDict, total=False):
+    """Fields of a :class:`SessionState` to replace (``dataclasses.replace(state,
+    **changes)``): a transition's changes, or the parts the store decoded. Each key is the
+    field of the same name and type (the version, the times and the teacher flag are set
+    by the transition or the stored row, never changed through these)."""
+
+    config: Config
+    recording: Recording | None
+    recording_stored: bool
+    fit: FitOutcome | None
+    diagnosis_result: DiagnosisResult | None
+    diagnosis_note: str | None
+    checked: CheckedModel | None
 
 
 class DamagedSessionError(RuntimeError):
@@ -425,26 +441,27 @@ class SessionStore:
                                           (code,)).fetchall()) if row else {}
         if row is None:
             return None
-        parts: dict[str, Any] = {}
+        parts: StateChanges = {}
         damaged: list[DamagedPartError] = []
-        def recording() -> dict[str, Any]:  # checked now, then kept on disk (and cached)
+        def recording() -> StateChanges:  # checked now, then kept on disk (and cached)
             rec = decode_recording(blobs.get("recording"))
             if rec is not None:
                 self._cache.put(code, rec)
             return {"recording_stored": rec is not None}
 
-        def diagnosis(stored: StoredDiagnosis) -> dict[str, Any]:
+        def diagnosis(stored: StoredDiagnosis) -> StateChanges:
             if stored.note is not None:
                 log.info("a session's diagnosis stored in the form of before 2026-12-05 was "
                          "dropped (it cannot be rebuilt into a result)")
             return {"diagnosis_result": stored.result, "diagnosis_note": stored.note}
 
-        for decode in (
+        decoders: tuple[Callable[[], StateChanges], ...] = (
             lambda: {"config": decode_config(row[5])},
             recording,
             lambda: {"fit": decode_fit(row[6], row[7])},
             lambda: diagnosis(decode_diagnosis(row[8], blobs.get("diagnosis"))),
-        ):
+        )
+        for decode in decoders:
             try:
                 parts.update(decode())
             except DamagedPartError as exc:

@@ -141,7 +141,7 @@ class Step:
             d["preset"] = self.preset
         else:
             d["model"] = self.model
-        d["input"] = dict(self.signal.__dict__)
+        d["input"] = dict(self.signal.to_dict())
         if self.mismatch:
             d["mismatch"] = self.mismatch
         d.update(view=self.view, prompt=self.prompt)
@@ -406,7 +406,7 @@ def step_from_config(cfg: Config, view: str, title: str, prompt: str, look_for: 
         raise LessonError(f"the {view} view cannot be a step (it needs each student's own "
                           f"recording); choose one of {', '.join(STEP_VIEWS)}")
     doc = {"title": title or "My step", "model": cfg.model,
-           "input": dict(cfg.signal.__dict__), "mismatch": cfg.mismatch, "view": view,
+           "input": dict(cfg.signal.to_dict()), "mismatch": cfg.mismatch, "view": view,
            "prompt": prompt or "What do you see?", "look_for": look_for}
     preset = actions.matching_preset(cfg.model)
     if preset is not None:
@@ -445,7 +445,7 @@ class Position:
                 "step": self.index + 1, "steps": len(self.lesson.steps), "serial": self.serial,
                 "step_title": s.title, "prompt": s.prompt, "look_for": s.look_for,
                 "view": s.view, "preset": s.preset, "model": s.model,
-                "input": dict(s.signal.__dict__), "mismatch": s.mismatch}
+                "input": dict(s.signal.to_dict()), "mismatch": s.mismatch}
 
 
 Listener = Callable[["Position | None"], None]

@@ -26,7 +26,7 @@ def test_csv_recordings_come_from_core_csvio() -> None:
     np.testing.assert_allclose(rec.t, 0.5 * np.arange(12))  # no time column: t = k dt
     assert rec.n_samples == 12 and rec.units["time"] == "s"
     prev = D.csv_preview("t,u,y\n" + rows, 100, rows=2)
-    assert prev["columns"] == ["t", "u", "y"] and prev["n_rows"] == 12 and len(prev["rows"]) == 2
+    assert prev.columns == ("t", "u", "y") and prev.n_rows == 12 and len(prev.rows) == 2
     with pytest.raises(CSVError) as e:
         D.recording_from_csv("t,u,y\n" + rows + "12,x,1\n")
     assert e.value.line == 14 and e.value.column_index == 1

@@ -116,11 +116,9 @@ def test_creep_time_constants_get_a_log_slider_whose_positions_map_to_values() -
     strict limit τ > 0 still clamps. The weights stay linear."""
     doc = {"type": "creep", "taus_s": [0.01, 0.1, 1.0], "weights": [0.02, 0.02, 0.02]}
     ctl = C.model_controls(doc)
-    d = ctl.to_dict()
-    taus = [s for g in d["groups"] for s in g["sliders"] if s["path"].startswith("taus_s")]
-    assert [s["log"] for s in taus] == [True] * 3
-    assert not any(s["log"] for g in d["groups"] for s in g["sliders"]
-                   if s["path"].startswith("weights"))
+    taus = [s for s in ctl.sliders() if s.path.startswith("taus_s")]
+    assert [s.log for s in taus] == [True] * 3
+    assert not any(s.log for s in ctl.sliders() if s.path.startswith("weights"))
     s = ctl.slider("taus_s[0]")
     assert s is not None and s.min > 0
     lo, hi = C.slider_position(s, s.min), C.slider_position(s, s.max)
