@@ -18,9 +18,12 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
-__all__ = ["HUB", "EventHub", "Roster", "StreamsPerClientError", "Subscription", "person_name"]
+from app.services.explore.config import SignalDoc
+
+__all__ = ["HUB", "ClassStepDoc", "Event", "EventHub", "PushNote", "Roster",
+           "StreamsPerClientError", "Subscription", "person_name"]
 
 #: Events kept for one slow subscriber before the oldest are dropped.
 QUEUE_SIZE = 64
@@ -32,6 +35,56 @@ NAME_MAX = 40
 #: reconnects within about half a second (``retry: 500``), so the teacher's counts do not
 #: drop a page that is between two streams.
 RETURN_S = 3.0
+
+
+class ClassStepDoc(TypedDict):
+    """The step the class is at, as a page shows it
+    (:meth:`app.services.teaching.lessons.Position.to_dict`, ``GET /api/lesson``)."""
+
+    running: bool
+    title: str
+    #: the shipped lesson's key, else None
+    name: str | None
+    #: 1-based step and number of steps
+    step: int
+    steps: int
+    #: increases with every move of the class
+    serial: int
+    step_title: str
+    prompt: str
+    look_for: str
+    view: str
+    preset: str | None
+    #: the step's model document
+    model: dict[str, Any]
+    input: SignalDoc
+    mismatch: float
+
+
+class PushNote(TypedDict, total=False):
+    """What a teacher's push tells the pages and tabs beside ``kind`` (every key optional).
+
+    ``preset`` the preset pushed (or None), ``title`` what was pushed in words, ``signal``
+    / ``model`` whether an input / a model was pushed, ``lesson`` the class step it made or
+    changed, ``edit`` the step was changed (not moved to), ``by`` the viser tab that pushed
+    (it says "Pushed" itself)."""
+
+    preset: str | None
+    title: str | None
+    signal: bool
+    model: bool
+    lesson: ClassStepDoc | None
+    edit: bool
+    by: int
+
+
+class Event(PushNote, total=False):
+    """A live event (server-sent ``event: kind``, ``data:`` this object as JSON): ``kind``
+    ``"push"`` (a teacher's push, with its :class:`PushNote`) or ``"lesson"`` (the class's
+    lesson ended: ``lesson`` None); ``id`` given by the hub, increasing."""
+
+    kind: str
+    id: int
 
 
 def person_name(text: object) -> str:
@@ -105,10 +158,10 @@ class Subscription:
     loop: asyncio.AbstractEventLoop
     client: str | None = None
     name: str = ""
-    queue: asyncio.Queue[dict[str, Any] | None] = field(
+    queue: asyncio.Queue[Event | None] = field(
         default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
 
-    def deliver(self, event: dict[str, Any] | None) -> None:
+    def deliver(self, event: Event | None) -> None:
         """Put ``event`` on the queue (called in the loop's thread); drop the oldest if full."""
         if self.queue.full():
             try:
@@ -117,7 +170,7 @@ class Subscription:
                 pass
         self.queue.put_nowait(event)
 
-    async def get(self, timeout: float) -> dict[str, Any] | None:
+    async def get(self, timeout: float) -> Event | None:
         """The next event; ``None`` when the hub closes; raises ``TimeoutError``."""
         return await asyncio.wait_for(self.queue.get(), timeout)
 
@@ -137,7 +190,7 @@ class EventHub:
         self._subs: dict[str, list[Subscription]] = {}
         self._per_client: dict[str, int] = {}
         self._ids = itertools.count(1)
-        self._recent: deque[tuple[str | None, dict[str, Any]]] = deque(maxlen=REPLAY)
+        self._recent: deque[tuple[str | None, Event]] = deque(maxlen=REPLAY)
         # viser tabs: key -> (session code, name); they get events through listeners
         self._tabs: dict[object, tuple[str, str]] = {}
         self._listeners: list[Any] = []
@@ -191,7 +244,7 @@ class EventHub:
             if not subs:
                 self._subs.pop(sub.code, None)
 
-    def _send(self, subs: list[Subscription], event: dict[str, Any] | None) -> int:
+    def _send(self, subs: list[Subscription], event: Event | None) -> int:
         sent = 0
         for sub in subs:
             try:
@@ -201,19 +254,19 @@ class EventHub:
                 self.unsubscribe(sub)
         return sent
 
-    def _stamp(self, target: str | None, event: dict[str, Any]) -> dict[str, Any]:
-        ev = {**event, "id": next(self._ids)}
+    def _stamp(self, target: str | None, event: Event) -> Event:
+        ev: Event = {**event, "id": next(self._ids)}
         self._recent.append((target, ev))
         return ev
 
-    def publish(self, code: str, event: dict[str, Any]) -> int:
+    def publish(self, code: str, event: Event) -> int:
         """Send ``event`` to every page of session ``code``; returns how many got it."""
         with self._lock:
             ev = self._stamp(code, event)
             subs = list(self._subs.get(code, ()))
         return self._send(subs, ev)
 
-    def broadcast(self, event: dict[str, Any]) -> int:
+    def broadcast(self, event: Event) -> int:
         """Send ``event`` to every listening page of every session, and to the listeners
         (:meth:`add_listener`: the viser tabs); returns how many pages and tabs got it."""
         with self._lock:

@@ -35,9 +35,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from importlib import resources
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
-from app.services.explore.config import CONTROLS, Config, SignalSpec
+from app.services.explore.config import CONTROLS, Config, SignalDoc, SignalSpec
 from app.services.explore.cost import check_document
 from app.services.explore.simulation import VIEWS, preset_doc, preset_input
 from app.services.guard.jsonbody import DocumentError, read_document
@@ -46,7 +46,7 @@ from app.services.session.sessions import Session, SessionRegistry
 from app.services.settings import Settings
 from app.services.storage.store import SessionStore
 from app.services.teaching import push as teacher
-from app.services.teaching.events import HUB
+from app.services.teaching.events import HUB, ClassStepDoc, PushNote
 from core.base import model_from_dict
 from core.exceptions import ParameterError
 
@@ -95,6 +95,38 @@ class LessonError(ParameterError):
     """A lesson file that cannot be used; the message names the step and the field."""
 
 
+class StepDoc(TypedDict):
+    """A step as a lesson file writes it (:meth:`Step.to_dict`): ``preset`` or ``model``."""
+
+    title: str
+    preset: NotRequired[str]
+    #: the model document (when the step's model came from no preset)
+    model: NotRequired[dict[str, Any]]
+    input: NotRequired[SignalDoc]
+    mismatch: NotRequired[float]
+    view: NotRequired[str]
+    prompt: NotRequired[str]
+    look_for: NotRequired[str]
+
+
+class LessonDoc(TypedDict):
+    """A lesson file's content (:meth:`Lesson.to_dict`)."""
+
+    format: str
+    title: str
+    description: str
+    steps: list[StepDoc]
+
+
+class LessonSummary(TypedDict):
+    """A lesson in a list (:meth:`Lesson.summary`): ``steps`` is their number."""
+
+    name: str | None
+    title: str
+    description: str
+    steps: int
+
+
 @dataclass(frozen=True)
 class Step:
     """One step of a lesson: what the class sees and reads.
@@ -134,17 +166,18 @@ class Step:
         return replace(base or Config(), model=dict(self.model), signal=self.signal,
                        mismatch=self.mismatch, use_recording=False)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> StepDoc:
         """The step as it is written in a lesson file (``preset`` or ``model``)."""
-        d: dict[str, Any] = {"title": self.title}
+        d: StepDoc = {"title": self.title}
         if self.preset is not None:
             d["preset"] = self.preset
         else:
             d["model"] = self.model
-        d["input"] = dict(self.signal.to_dict())
+        d["input"] = self.signal.to_dict()
         if self.mismatch:
             d["mismatch"] = self.mismatch
-        d.update(view=self.view, prompt=self.prompt)
+        d["view"] = self.view
+        d["prompt"] = self.prompt
         if self.look_for:
             d["look_for"] = self.look_for
         return d
@@ -168,7 +201,7 @@ class Lesson:
     steps: tuple[Step, ...]
     name: str | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> LessonDoc:
         """The lesson file's content (JSON-ready)."""
         return {"format": FORMAT, "title": self.title, "description": self.description,
                 "steps": [s.to_dict() for s in self.steps]}
@@ -177,7 +210,7 @@ class Lesson:
         """The lesson file (UTF-8 JSON text, indented)."""
         return json.dumps(self.to_dict(), indent=1, ensure_ascii=False) + "\n"
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> LessonSummary:
         """``{"name", "title", "description", "steps"}`` (the number of steps)."""
         return {"name": self.name, "title": self.title, "description": self.description,
                 "steps": len(self.steps)}
@@ -406,7 +439,7 @@ def step_from_config(cfg: Config, view: str, title: str, prompt: str, look_for: 
         raise LessonError(f"the {view} view cannot be a step (it needs each student's own "
                           f"recording); choose one of {', '.join(STEP_VIEWS)}")
     doc = {"title": title or "My step", "model": cfg.model,
-           "input": dict(cfg.signal.to_dict()), "mismatch": cfg.mismatch, "view": view,
+           "input": cfg.signal.to_dict(), "mismatch": cfg.mismatch, "view": view,
            "prompt": prompt or "What do you see?", "look_for": look_for}
     preset = actions.matching_preset(cfg.model)
     if preset is not None:
@@ -438,14 +471,14 @@ class Position:
         """The step the class is at."""
         return self.lesson.steps[self.index]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> ClassStepDoc:
         """What a page shows: the lesson's title, the step (1-based) and its content."""
         s = self.step
         return {"running": True, "title": self.lesson.title, "name": self.lesson.name,
                 "step": self.index + 1, "steps": len(self.lesson.steps), "serial": self.serial,
                 "step_title": s.title, "prompt": s.prompt, "look_for": s.look_for,
                 "view": s.view, "preset": s.preset, "model": s.model,
-                "input": dict(s.signal.to_dict()), "mismatch": s.mismatch}
+                "input": s.signal.to_dict(), "mismatch": s.mismatch}
 
 
 Listener = Callable[["Position | None"], None]
@@ -610,7 +643,7 @@ def end(registry: SessionRegistry) -> int:
 
 
 def push_to_class(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
-                  signal: SignalSpec | None = None, note: dict[str, Any] | None = None
+                  signal: SignalSpec | None = None, note: PushNote | None = None
                   ) -> tuple[int, int]:
     """The teacher's push (:func:`app.services.teaching.push.push`); while a lesson runs, the
     pushed model and/or input become the class step's (the step's preset dropped), so

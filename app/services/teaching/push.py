@@ -12,14 +12,14 @@ from typing import Any
 
 from app.services.explore.config import Config, SignalSpec
 from app.services.session.sessions import SessionRegistry
-from app.services.teaching.events import HUB
+from app.services.teaching.events import HUB, PushNote
 from core.exceptions import ParameterError
 
 __all__ = ["push"]
 
 
 def push(registry: SessionRegistry, *, model: dict[str, Any] | None = None,
-         signal: SignalSpec | None = None, note: dict[str, Any] | None = None,
+         signal: SignalSpec | None = None, note: PushNote | None = None,
          mismatch: float | None = None) -> tuple[int, int]:
     """The teacher's push: ``model`` and/or ``signal`` (and a lesson step's ``mismatch``)
     to every session used in the last hour (each committed, so a reload or a restart keeps
