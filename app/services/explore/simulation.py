@@ -70,7 +70,7 @@ def make_signal(spec: SignalSpec) -> tuple[np.ndarray, np.ndarray]:
     """
     gen = SIGNALS[spec.kind]
     names = {p.name for p in gen.params}
-    kw: dict[str, Any] = {"sample_rate": (spec.samples - 1) / spec.duration}
+    kw: dict[str, float] = {"sample_rate": (spec.samples - 1) / spec.duration}
     for key in ("amplitude", "frequency", "offset", "duration"):
         kw[key] = getattr(spec, key)
     if "frequency" not in names:

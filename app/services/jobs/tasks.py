@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from app.services.analysis.diagnosis import SessionDiagnosis
     from app.services.analysis.fitting import FitResult
     from app.services.explore.config import Config
+    from app.services.explore.payload import FiguresBody
     from app.services.session.sessions import Session
     from core.base import Model
     from core.recordings import Recording
@@ -77,7 +78,7 @@ class Refused:
 def run_figures(config: Config, names: tuple[str, ...], version: int,
                 recording: Recording | None, diagnosed: Model | None, model: Model,
                 max_operators: int, max_samples: int, include_data: bool,
-                state: int | None = None, *, progress: Progress) -> dict[str, Any] | Refused:
+                state: int | None = None, *, progress: Progress) -> FiguresBody | Refused:
     """The JSON body of figures ``names`` of ``config`` (``/api/simulate`` and a session's
     figures; ``state``: the digitized view's highlighted row):
     :func:`.simulation.compute` then :func:`.payload.result_payload`, with the

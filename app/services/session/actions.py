@@ -26,6 +26,7 @@ from app.services.explore import controls as C
 from app.services.explore import figures as F
 from app.services.explore.config import Config, SignalSpec
 from app.services.explore.cost import CheckedModel, check_config, check_document, checked_config
+from app.services.explore.payload import FiguresBody
 from app.services.explore.shared import STEP_RESULTS, content_key, with_version
 from app.services.explore.simulation import (
     PresetDoc,
@@ -558,7 +559,7 @@ def session_figures_run(session: Session, names: Collection[str], settings: Sett
 
 
 def session_figures(session: Session, names: Collection[str],
-                    settings: Settings, state: int | None = None) -> dict[str, Any]:
+                    settings: Settings, state: int | None = None) -> FiguresBody:
     """Figures ``names`` of the session's current config (only their views computed);
     ``state``: the digitized view at that row of its trace (clipped to the trace)."""
     return figures_here(session_figures_run(session, names, settings, state))
@@ -576,6 +577,6 @@ def simulate_run(config: Config, names: Collection[str], settings: Settings,
 
 
 def simulate(config: Config, names: Collection[str], settings: Settings,
-             include_data: bool = False) -> dict[str, Any]:
+             include_data: bool = False) -> FiguresBody:
     """Figures ``names`` of a config that belongs to no session (stateless)."""
     return figures_here(simulate_run(config, names, settings, include_data))
