@@ -182,7 +182,10 @@ export function fitHeight(el = $("figure")) {
 }
 window.addEventListener("resize", () => fitHeight());
 
-export async function render(el, f, { live = false } = {}) {
+// ``stamp``: what ``f`` is (``view@version``), put in body[data-plotted] once plotly has
+// drawn it (a quick plot is not plotly's figure yet).
+export async function render(el, f, { live = false, stamp } = {}) {
+  if (el.id === "figure" && (f !== state.shown || stamp !== undefined)) state.shownStamp = stamp || "";
   state.shown = f;
   if (el.id === "figure") fitHeight(el);
   let layout = fitLayout(f.layout);
@@ -207,9 +210,11 @@ export async function render(el, f, { live = false } = {}) {
   clearTimeout(state.settle);
   if (old && !old.classList.contains("overlay")) el.replaceChildren();
   const t0 = performance.now();
+  const mine = el.id === "figure" ? state.shownStamp : null;
   await Plotly.react(el, data, layout, PLOT_CONFIG);
   if (old && old.classList.contains("overlay")) old.remove();
   el.classList.remove("live");
   document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);
   document.body.dataset.settled = document.body.dataset.ready || "";
+  if (mine !== null && state.shown === f) document.body.dataset.plotted = mine || "";
 }

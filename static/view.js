@@ -41,24 +41,35 @@ export function figureRequest(fig) {
   return api("GET", `/api/sessions/${state.code}/figures?name=${name}`);
 }
 
+// Each draw is numbered; one overtaken by a newer draw (another view clicked, a slider moved)
+// while it waited for its figure draws nothing, so a slow answer never replaces the newer
+// view or shows one view's figure under another's tab.
+let drawn = 0;
+
 export async function draw(pending) {
+  const seq = ++drawn;
+  const fig = state.fig;
   const el = $("figure");
-  const name = RESULT_VIEWS.includes(state.fig) ? "loading" : state.fig;
-  const get = () => figureRequest(state.fig);
+  const name = RESULT_VIEWS.includes(fig) ? "loading" : fig;
+  const get = () => figureRequest(fig);
   let res = await (pending || get());
   // a figure computed for the view on show when a slider moved; the user may have
   // switched views since: then the view now on show is asked for
-  if (!res.figures[name]) res = await get();
+  if (!res.figures[name] && seq === drawn) res = await get();
+  if (seq !== drawn) return;
   let f = res.figures[name];
-  if (state.fig === "fit") {
+  if (fig === "fit") {
     f = state.fitFigure || { data: [], layout: { title: { text: "Upload a recording and fit a model to see the overlay" } } };
-  } else if (state.fig === "diagnosis") {
+  } else if (fig === "diagnosis") {
     f = await diagnosisFigure();
+    if (seq !== drawn) return;
   }
   const live = performance.now() - state.lastInput < SETTLE_MS;
-  await render(el, f, { live });
+  // body[data-plotted] names the view and version plotly has drawn (a live move draws a
+  // quick plot first and plotly after it settles)
+  await render(el, f, { live, stamp: `${fig}@${res.version}` });
   // the diagnosis view names the diagnosed model, not the session's (fitted) one
-  const diagnosed = state.fig === "diagnosis" && f.layout && f.layout.meta && f.layout.meta.model_title;
+  const diagnosed = fig === "diagnosis" && f.layout && f.layout.meta && f.layout.meta.model_title;
   const parts = [diagnosed ? `Diagnosed: ${diagnosed}` : `${res.model_title || res.model_type}`];
   if (!diagnosed) {
     if (res.n_operators !== null && res.n_operators !== undefined) parts.push(`n = ${res.n_operators}`);
@@ -73,7 +84,7 @@ export async function draw(pending) {
   const notes = [...(res.model_note ? [res.model_note] : []),
     ...((f.layout && f.layout.meta && f.layout.meta.notes) || [])];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
-  document.body.dataset.fig = state.fig;
+  document.body.dataset.fig = fig;
   document.body.dataset.ready = String(res.version);
   if (!live) document.body.dataset.settled = String(res.version);
 }

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import base64
 import json
+import re
 from typing import Any
 
 import numpy as np
@@ -128,7 +129,19 @@ def _layout(title: str, **kw: Any) -> dict[str, Any]:
         "uirevision": "keep",
     }
     lay.update(kw)
+    # an axis without a range says autorange outright: with uirevision "keep" plotly.js
+    # otherwise keeps the previous figure's fixed range, or its default -1..4, when the view
+    # shown before had one (the Fit view's loop after the Loop view on the measurement's
+    # range was drawn on y = -1..4)
+    for key in ("xaxis", "yaxis"):
+        lay.setdefault(key, {})
+    for key, axis in list(lay.items()):
+        if _AXIS.match(key) and isinstance(axis, dict) and "range" not in axis:
+            lay[key] = {"autorange": True, **axis}
     return lay
+
+
+_AXIS = re.compile(r"^[xy]axis\d*$")
 
 
 def _unit(units: dict[str, str] | None, role: str) -> str:
