@@ -115,3 +115,49 @@ def test_phone_toolbar_state_diagram_and_number_boxes(browser: Any, live_server:
         _clean(page, log)
     finally:
         ctx.close()
+
+
+#: The header's controls (those shown).
+HEADER = ("header h1, #session, #join-code, #join, #new-session, #my-name, #upload-open, "
+          "#projector, #viser-link, header a[href='/api.html']")
+
+
+def test_phone_header_rows_are_packed(browser: Any, live_server: dict, shot: Any) -> None:
+    """At 390x844 (DPR 3) the header wraps no row more than its controls need: no row
+    starts with a control that would have fitted at the end of the row above (the name field
+    held a row of its own and *API docs* another, so the plot began 49 px lower); nothing
+    overlaps, nothing leaves the screen, the tabs start under the header."""
+    ctx = browser.new_context(**PHONE)
+    try:
+        page = ctx.new_page()
+        page.set_default_timeout(60_000)
+        page.goto(live_server["url"])
+        page.wait_for_selector("body[data-ready]")
+        _plotly_drawn(page, "loop")
+        items = page.evaluate(BOXES, HEADER)
+        assert len(items) >= 9, items
+        for i, a in enumerate(items):
+            assert a[0] >= 0 and a[2] <= 390, f"a header control leaves the screen: {a}"
+            for b in items[i + 1:]:
+                assert not _overlap(a, b), (a, b)
+        end, gap = page.evaluate("""() => { const h = document.querySelector('header');
+            const s = getComputedStyle(h); return [h.getBoundingClientRect().right
+              - parseFloat(s.paddingRight), parseFloat(s.columnGap)]; }""")
+        rows: list[list[list[float]]] = []
+        for box in sorted(items, key=lambda r: (r[1], r[0])):
+            if rows and abs(box[1] - rows[-1][0][1]) < 8:
+                rows[-1].append(box)
+            else:
+                rows.append([box])
+        for above, row in zip(rows, rows[1:], strict=False):
+            first = min(row, key=lambda r: r[0])
+            room = end - max(r[2] for r in above) - gap
+            assert first[2] - first[0] > room, (
+                f"a header row starts with a control {first[2] - first[0]:.0f} px wide that "
+                f"fits in the {room:.0f} px left on the row above: {rows}")
+        header = page.evaluate(BOXES, "header")[0]
+        tabs = page.evaluate(BOXES, "#tabs")[0]
+        assert tabs[1] >= header[3] - 1, (header, tabs)
+        shot(page, "phone-header")
+    finally:
+        ctx.close()
