@@ -265,12 +265,14 @@ class HammersteinLoop:
         N = r.size
         u, v, y, yo = (np.empty(N) for _ in range(4))
         if self.is_compiled:
-            h: PIModel = self.hysteresis  # type: ignore[assignment]
+            h = self.hysteresis
+            assert isinstance(h, PIModel)  # is_compiled
             sr = np.array(h.default_state() if hs is None else hs, dtype=np.float64)
             if self.feedforward is None:
                 q0, zq, wq, sq = 1.0, np.zeros(0), np.zeros(0), np.zeros(0)
             else:
-                f: PIModel = self.feedforward  # type: ignore[assignment]
+                f = self.feedforward
+                assert isinstance(f, PIModel)  # is_compiled
                 q0, zq, wq = f.p0, f.thresholds, f.weights
                 sq = np.array(f.default_state() if ffs is None else ffs, dtype=np.float64)
             I = np.array([float(integ)])

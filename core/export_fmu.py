@@ -72,6 +72,7 @@ from .export_c import (
     parse_constant,
 )
 from .fmi_c import FmuCode, fmu_c_source
+from .validation import filled
 
 if TYPE_CHECKING:
     from .paramset import ParameterSet, Units
@@ -582,7 +583,7 @@ def fmu_sources(
     src = fmu_c_source(FmuCode(
         ident, fmi_version, header, "\n".join([body, *tune_helpers]),
         tuple(parse_constant(d) for em in emitted for d in em.constants), tuple(tune_lines),
-        tuple(float(v.start) for v in params),  # type: ignore[arg-type]
+        tuple(float(filled(v.start)) for v in params),  # a parameter always starts
         tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
         dt, preview, inverse, FIRST_PARAMETER_VR, tuple(v.name for v in params),
         tuple((v.lower, v.upper, v.strict, v.above, v.below) for v in params),

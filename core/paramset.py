@@ -152,9 +152,9 @@ def _is_number(v: object) -> bool:
 
 
 def _check_number(v: object, path: str) -> None:
-    if not _is_number(v):
+    if not isinstance(v, int | float) or isinstance(v, bool):  # not _is_number(v)
         raise ParameterSetError(f"{path}: must be a number, got {_jtype(v)} {_show(v)}")
-    if not math.isfinite(float(v)):  # type: ignore[arg-type]
+    if not math.isfinite(v):
         raise ParameterSetError(f"{path}: must be a finite number, got {v!r}")
 
 
@@ -314,15 +314,12 @@ class Provenance:
 
 def _json_ready(obj: Any, path: str) -> Any:
     """Deep copy of ``obj`` as plain JSON types (numpy scalars/arrays converted)."""
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None  # type: ignore[assignment]
-    if np is not None:
-        if isinstance(obj, np.ndarray):
-            obj = obj.tolist()
-        elif isinstance(obj, np.generic):
-            obj = obj.item()
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        obj = obj.tolist()
+    elif isinstance(obj, np.generic):
+        obj = obj.item()
     if obj is None or isinstance(obj, bool | str):
         return obj
     if isinstance(obj, int | float):
@@ -456,7 +453,8 @@ def model_from_document(node: object, path: str = "model") -> Model:
         With the JSON path of the first problem.
     """
     _check_model_tree(node, path)
-    return _build_model(node, path)  # type: ignore[arg-type]
+    assert isinstance(node, Mapping)  # _check_model_tree said so
+    return _build_model(node, path)
 
 
 # ----------------------------------------------------------------------------- the document

@@ -463,7 +463,7 @@ class RateDependentPreisach(Model):
         z0, up = state
         z = np.array(as_vector(z0, "state", length=self.n), copy=True)
         y = np.empty(u.size)
-        _rate_output(u, self.thresholds, self.knots, self.weights, self.beta_s / float(dt),  # type: ignore[arg-type]
+        _rate_output(u, self.thresholds, self.knots, self.weights, self.beta_s / float(filled(dt)),
                      0.0 if up is None else float(up), up is not None, z, y)
         return y, (z, float(u[-1]) if u.size else up)
 
@@ -541,11 +541,11 @@ class RateDependentPreisachInverse(Model):
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
         m = self.model
-        m_lo, m_hi = self.checked_slopes(float(dt))  # type: ignore[arg-type]
+        m_lo, m_hi = self.checked_slopes(float(filled(dt)))
         z0, up = state
         z = np.array(as_vector(z0, "state", length=m.n), copy=True)
         out = np.empty(u.size)
-        up_f = _rate_inverse(u, m.thresholds, m.knots, m.weights, m.beta_s / float(dt),  # type: ignore[arg-type]
+        up_f = _rate_inverse(u, m.thresholds, m.knots, m.weights, m.beta_s / float(filled(dt)),
                              m_lo, m_hi, 0.0 if up is None else float(up), up is not None, z,
                              out)
         return out, (z, float(up_f) if (u.size or up is not None) else None)

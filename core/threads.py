@@ -36,7 +36,7 @@ import os
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 from .exceptions import ParameterError
 
@@ -189,8 +189,8 @@ def with_thread_limit(func: _F) -> _F:
     at = next((i for i, p in enumerate(params) if p.kind is p.VAR_KEYWORD), len(params))
     params.insert(at, inspect.Parameter("threads", inspect.Parameter.KEYWORD_ONLY,
                                         default=DEFAULT_THREADS, annotation="int | None"))
-    limited.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
-    return limited  # type: ignore[return-value]
+    cast(Any, limited).__signature__ = sig.replace(parameters=params)  # what help() shows
+    return cast(_F, limited)
 
 
 THREADS_DOC = """    threads : int or None, optional

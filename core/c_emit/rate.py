@@ -63,6 +63,7 @@ def _rate_tune(n: int, c: str, dt: float) -> list[str]:
 @register_c_stage(RateDependentPI)
 def _emit_rate(model: RateDependentPI, ctx: StageContext) -> CStage:
     """Rate-dependent PI: thresholds ``r_i + beta |x_k - x_(k-1)| / dt``."""
+    assert ctx.dt is not None
     f, c = ctx.field, ctx.const
     n = model.thresholds.size
     consts, reset, helper = _rate_parts(model, ctx)
@@ -70,7 +71,7 @@ def _emit_rate(model: RateDependentPI, ctx: StageContext) -> CStage:
         title=f"rate-dependent PI, {n} play operator(s)",
         fields=[f"double {f}z[{n}];", f"double {f}up;", f"int {f}has_prev;"],
         constants=consts, reset=reset, helpers=helper,
-        tune=_rate_tune(n, c, ctx.dt),  # type: ignore[arg-type]
+        tune=_rate_tune(n, c, ctx.dt),
         step=["{ const double xin = x;",
               f"  x = {c}eval(xin, st->{f}z, st->{f}up, st->{f}has_prev, st->{f}z);",
               f"  st->{f}up = xin;",

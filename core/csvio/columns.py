@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from datetime import datetime
+from typing import Literal, overload
 
 import numpy as np
 
@@ -70,6 +71,16 @@ def by_name(cols: Iterable[ColumnInfo], names: frozenset[str],
 
 
 
+@overload
+def convert(table: Table, col: ColumnInfo, *, strict: Literal[True], role: str) -> np.ndarray:
+    ...
+
+
+@overload
+def convert(table: Table, col: ColumnInfo, *, strict: bool, role: str) -> np.ndarray | None:
+    ...
+
+
 def convert(
     table: Table, col: ColumnInfo, *, strict: bool, role: str
 ) -> np.ndarray | None:
@@ -133,10 +144,10 @@ def convert_time(table: Table, col: ColumnInfo) -> tuple[np.ndarray, str | None]
             stamps.append(datetime.fromisoformat(c.replace(",", ".")))
         except ValueError:
             # not date-times either: report the first non-number
-            return convert(table, col, strict=True, role="time"), None  # type: ignore[return-value]
+            return convert(table, col, strict=True, role="time"), None
     valid = [s for s in stamps if s is not None]
     if not valid:
-        return convert(table, col, strict=True, role="time"), None  # type: ignore[return-value]
+        return convert(table, col, strict=True, role="time"), None
     t0 = valid[0]
     try:
         out = np.array([np.nan if s is None else (s - t0).total_seconds() for s in stamps])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class Table:
         self.lines = lines  # 1-based line number of each data line
         self._rows = rows
         self._quoted = quoted
-        self._matrix: np.ndarray | None | bool = False  # False: not tried yet
+        self._matrix: np.ndarray | Literal[False] | None = False  # False: not tried yet
         #: 1-based line the table starts at (its header, or its first data row)
         self.first_line = int(lines[0]) if len(lines) else 0
 
@@ -92,7 +93,7 @@ class Table:
         reports problems with their line and column.
         """
         if self._matrix is not False:
-            return self._matrix  # type: ignore[return-value]
+            return self._matrix
         self._matrix = None
         lay = self.layout
         if self._quoted or not self.data:

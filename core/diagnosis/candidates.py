@@ -19,7 +19,7 @@ from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
 from .bases import bouc_wen_elements, saturations
 from .context import FitContext
-from .registry import EFFECTS
+from .registry import EFFECTS, dynamics_of
 from .shapes import (
     apply_shape,
     shape_thresholds,
@@ -246,7 +246,7 @@ def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tupl
     dt = min(r.dt for r in ctx.records)
     names = (first[0], second[0])
     x_single = np.log(np.asarray([float(p[k]) for n, p in (first, second)
-                                  for k in EFFECTS[n].dynamics.params]))  # type: ignore[union-attr]
+                                  for k in dynamics_of(n).params]))
 
     def obj(lx: np.ndarray) -> float:
         dyn = pack_dynamics(names, np.exp(lx), dt)
@@ -264,7 +264,7 @@ def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tupl
         return None
     fit = ctx.fit(base.structure.with_(dynamics=dyn), base)
     params = {f"{n}.{k}": v for n, vs in dynamics_stages(dyn)
-              for k, v in zip(EFFECTS[n].dynamics.params, vs, strict=True)}  # type: ignore[union-attr]
+              for k, v in zip(dynamics_of(n).params, vs, strict=True)}
     return fit, params, {}
 
 

@@ -7,6 +7,7 @@ Used by the structure fit (:mod:`core.diagnosis.structure`) and by the loop shap
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -14,13 +15,19 @@ from .._typing import Float1D
 from ..exceptions import ParameterError
 from ..fitting.thresholds import half_travels
 from ..fitting.thresholds import place_thresholds as fit_thresholds
-from ..recordings import Recording
 
 __all__ = ["baseline_thresholds"]
 
 
+class HasInput(Protocol):
+    """What :func:`baseline_thresholds` reads of a recording: its input ``u``."""
+
+    @property
+    def u(self) -> Float1D: ...
+
+
 def baseline_thresholds(
-    records: Sequence[Recording], masks: Sequence[np.ndarray], n: int
+    records: Sequence[HasInput], masks: Sequence[np.ndarray], n: int
 ) -> Float1D:
     """Uniform thresholds ``r_i = 0.95 · a_max · i / n`` (:func:`core.fitting.place_thresholds`).
 

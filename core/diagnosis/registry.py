@@ -31,8 +31,8 @@ if TYPE_CHECKING:
     from ..recordings import Recording
 
 __all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "StaticTerm", "TermFit", "TermRows",
-           "effect", "output_dynamics", "rate_effect", "register", "stage_pairs",
-           "static_terms"]
+           "dynamics_of", "effect", "output_dynamics", "rate_effect", "register", "stage_pairs",
+           "static_terms", "term_of"]
 
 
 @dataclass(frozen=True)
@@ -372,3 +372,33 @@ def static_terms() -> list[tuple[str, StaticTerm, int]]:
     :attr:`DiagnosableEffect.stage_order` (registration order among equals)."""
     out = [(n, e.term, e.stage_order) for n, e in EFFECTS.items() if e.term is not None]
     return sorted(out, key=lambda t: (not t[1].through_dynamics, t[2]))
+
+
+def term_of(name: str) -> StaticTerm:
+    """The static term of the registered effect ``name`` (a name a structure holds in its
+    ``terms``).
+
+    Raises
+    ------
+    TypeError
+        ``name`` is an output dynamics stage, without a static term.
+    """
+    term = EFFECTS[name].term
+    if term is None:
+        raise TypeError(f"the effect {name!r} has no static term")
+    return term
+
+
+def dynamics_of(name: str) -> OutputDynamics:
+    """The output dynamics of the registered effect ``name`` (a stage of a structure's
+    ``dynamics``).
+
+    Raises
+    ------
+    TypeError
+        ``name`` is a static term, without output dynamics.
+    """
+    dynamics = EFFECTS[name].dynamics
+    if dynamics is None:
+        raise TypeError(f"the effect {name!r} has no output dynamics")
+    return dynamics

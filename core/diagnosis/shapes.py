@@ -70,7 +70,7 @@ def dead_zone_stage(gamma: DeadZoneMap) -> tuple:
             tuple(float(v) for v in gamma.weights))
 
 
-def stage_map(stage: tuple) -> Model:
+def stage_map(stage: tuple) -> TanhEnvelope | DeadZoneMap:
     """The memoryless core model of one shape stage."""
     if stage[0] == "tanh":
         a = np.array([1.0, stage[1], stage[2], 0.0])
@@ -113,7 +113,7 @@ def hysteresis_model(shape: tuple, pi: Model) -> Model:
     last = maps[-1]
     if isinstance(pi, PIModel):
         tail: Model = (TanhGPI(pi, last) if isinstance(last, TanhEnvelope)
-                       else DeadZoneGPI(pi, last))  # type: ignore[arg-type]
+                       else DeadZoneGPI(pi, last))
         return tail if len(maps) == 1 else Chain.of(*maps[:-1], tail)
     return Chain.of(*maps, pi)
 
@@ -124,7 +124,7 @@ def shape_thresholds(
     """``n`` play thresholds in the units of ``w``, by the baseline's rule
     (:func:`core.diagnosis.structure.baseline_thresholds` on the mapped inputs)."""
     mapped = [SimpleNamespace(u=apply_shape(shape, r.u)) for r in records]
-    return baseline_thresholds(mapped, masks, n)  # type: ignore[arg-type]
+    return baseline_thresholds(mapped, masks, n)
 
 
 def describe_shape(stage: tuple, u_lo: float, u_hi: float) -> dict[str, Any]:

@@ -20,7 +20,7 @@ import functools
 import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 
@@ -36,7 +36,15 @@ from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_ban
 from ..validation import filled
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state, stop_model
 from .grid import baseline_thresholds
-from .registry import EFFECTS, StaticTerm, TermFit, TermRows, static_terms
+from .registry import (
+    EFFECTS,
+    StaticTerm,
+    TermFit,
+    TermRows,
+    dynamics_of,
+    static_terms,
+    term_of,
+)
 from .shapes import apply_shape, gap_stage_of, hysteresis_model, loop_shape, shape_effects
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
@@ -192,10 +200,10 @@ class Structure:
         the output dynamics."""
         return replace(self, terms=tuple(
             (n, v) for n, v in self.terms
-            if EFFECTS[n].term.through_dynamics != through_dynamics))  # type: ignore[union-attr]
+            if term_of(n).through_dynamics != through_dynamics))
 
     def _terms_on(self) -> list[StaticTerm]:
-        return [EFFECTS[n].term for n, _ in self.terms]  # type: ignore[misc]
+        return [term_of(n) for n, _ in self.terms]
 
     @property
     def reads_output(self) -> bool:
@@ -218,7 +226,7 @@ class Structure:
         """Settings of the per-recording terms switched on (levels an unseen recording
         cannot know: offsets, drifts)."""
         return tuple((n, v) for n, v in self.terms
-                     if EFFECTS[n].term.per_recording)  # type: ignore[union-attr]
+                     if term_of(n).per_recording)
 
     @property
     def own_level(self) -> int:
@@ -226,10 +234,12 @@ class Structure:
         (:func:`core.diagnosis.between.left_out_residual`): the largest
         :attr:`~core.diagnosis.registry.StaticTerm.level_degree` of the per-recording terms
         switched on, 0 (a constant) without them."""
-        return max((EFFECTS[n].term.level_degree(v)  # type: ignore[union-attr,misc]
-                    for n, v in self.recording_levels()
-                    if EFFECTS[n].term.level_degree is not None),  # type: ignore[union-attr]
-                   default=0)
+        degrees = []
+        for n, v in self.recording_levels():
+            level = term_of(n).level_degree
+            if level is not None:
+                degrees.append(level(v))
+        return max(degrees, default=0)
 
     def _on(self, e: Any) -> bool:
         """Whether registered effect ``e`` is switched on: its field differs from the
@@ -986,7 +996,7 @@ def _filter_start(dyn: tuple, dt: float, first: int) -> int:
     # stages in series: their warm-ups add up
     warm = 0
     for name, vals in dynamics_stages(dyn):
-        if EFFECTS[name].dynamics.transfer is None:  # type: ignore[union-attr]
+        if dynamics_of(name).transfer is None:
             warm += int(np.floor(vals[0] / dt + 1e-12)) + 1  # a (fractional) transport delay
             continue
         w = _filter_warmup((name, *vals), float(dt))
@@ -1079,6 +1089,22 @@ def legendre_columns(t: np.ndarray, deg: int) -> np.ndarray:
     )
 
 
+@overload
+def fit_structure(
+    s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
+    cache: _Cache | None = None, x_init: Sequence[np.ndarray] | None = None,
+    iterations: int | None = None, rss_only: Literal[False] = False, reduce: bool = True,
+) -> Fit: ...
+
+
+@overload
+def fit_structure(
+    s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
+    cache: _Cache | None = None, x_init: Sequence[np.ndarray] | None = None,
+    iterations: int | None = None, *, rss_only: bool, reduce: bool = True,
+) -> Fit | float: ...
+
+
 def fit_structure(
     s: Structure,
     records: Sequence[Recording],
@@ -1160,14 +1186,15 @@ def fit_structure(
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
     w = None
     for it in range(iterations):
-        if needs_x and x_prev is None:
-            # first pass without the bilinear regressors to get the PI-stage output
-            f0 = fit_structure(s.without_terms(through_dynamics=True), records, train, cache)
-            x_prev = f0.x_pi  # type: ignore[union-attr]
         if needs_x:
+            if x_prev is None:
+                # first pass without the bilinear regressors to get the PI-stage output
+                f0 = fit_structure(s.without_terms(through_dynamics=True), records, train,
+                                   cache)
+                x_prev = f0.x_pi
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
                 s0 = starts[k]
-                x = x_prev[k][:last]  # type: ignore[index]
+                x = x_prev[k][:last]
                 # (a term's columns run from sample 0: only the output dynamics start late)
                 cols = [t.columns(v, TermRows(records[k], k, idx, x, info))[s0:]
                         for _, t, v, _, _ in inner]
@@ -1549,7 +1576,7 @@ def build_model(s: Structure, k: int, p0: float, pw: Float1D, terms: dict[str, A
                    for name, t, _ in static_terms()
                    if t.through_dynamics == through and name in terms]
         if through:
-            stages += [EFFECTS[name].dynamics.model(v)  # type: ignore[union-attr]
+            stages += [dynamics_of(name).model(v)
                        for name, v in dynamics_stages(s.dynamics)]
     return Chain.of(*stages)
 

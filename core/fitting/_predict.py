@@ -17,6 +17,9 @@ class RelaxedPredictor:
     ``_model_for(u)``, the fitted model started from the state relaxed at ``u[0]``.
     """
 
+    #: the constant output offset ``fit`` sets
+    offset_: float
+
     def _model_for(self, u: Float1D) -> Any:  # pragma: no cover - defined by the estimator
         raise NotImplementedError
 
@@ -46,6 +49,6 @@ class RelaxedPredictor:
         """
         self._check()
         us, multi = as_recordings(u, "u")
-        out = [self._model_for(x)(x) + self.offset_ if x.size else x.copy()  # type: ignore[attr-defined]
+        out = [self._model_for(x)(x) + self.offset_ if x.size else x.copy()
                for x in us]
         return out if multi else out[0]

@@ -31,7 +31,7 @@ from ..base import Chain
 from ..exceptions import FitWarning, ParameterError
 from ..pi import PIModel
 from ..stages import Offset
-from ..validation import as_vector
+from ..validation import as_vector, filled
 from ._data import (
     INITIAL_MEMORY_RULES,
     Prepared,
@@ -490,7 +490,7 @@ class PIRegressor(RelaxedPredictor):
         if chosen is not None:
             r, gram = chosen
         else:
-            n = int(n_fixed)  # type: ignore[arg-type]
+            n = int(filled(n_fixed))  # set where no candidate could be cross-validated
             segs = prep.segments(1)
             r = r_exp if explicit else self._thresholds_for(prep, n)
             gram = stream_gram(segs, r, n_labels=2, chunk=self.chunk)

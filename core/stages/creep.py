@@ -10,7 +10,7 @@ import numpy as np
 from .._typing import Float1D
 from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from ..exceptions import NotInvertibleError, ParameterError
-from ..validation import as_vector
+from ..validation import as_vector, filled
 from .linear import (
     LagBank,
     foh_filter,
@@ -79,7 +79,7 @@ class Creep(Model):
         out = []
         for j, (tau, c) in enumerate(zip(self.taus_s, self.weights, strict=True)):
             zi = None if state is None else np.asarray(state[j], dtype=np.float64)
-            lj, zf = foh_filter(u, [1.0], [float(tau), 1.0], float(dt), zi)  # type: ignore[arg-type]
+            lj, zf = foh_filter(u, [1.0], [float(tau), 1.0], float(filled(dt)), zi)
             y += c * (lj - u)
             out.append(zf)
         return y, tuple(out)
@@ -151,7 +151,7 @@ class CreepInverse(Model):
         return None
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        bank = self.checked_bank(float(dt))  # type: ignore[arg-type]
+        bank = self.checked_bank(float(filled(dt)))
         s = bank.states(None if state is None else [np.ravel(v)[0] for v in state],
                         float(u[0]) if u.size else 0.0)
         out = np.empty_like(u)

@@ -11,7 +11,7 @@ import numpy as np
 from .._typing import Float1D
 from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from ..exceptions import ParameterError
-from ..validation import as_finite_scalar
+from ..validation import as_finite_scalar, filled
 
 
 def delay_split(delay_s: float, dt: float) -> tuple[int, float]:
@@ -72,7 +72,7 @@ class Delay(_Shift):
     fields: ClassVar[tuple[Field, ...]] = (_delay_field("delay (s)"),)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
+        m, f = delay_split(self.delay_s, float(filled(dt)))
         if state is None:
             hist = np.full(m + 1, u[0] if u.size else 0.0)
         else:
@@ -124,7 +124,7 @@ class Advance(_Shift):
         return m + (1 if f > 0 else 0)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        m, f = delay_split(self.delay_s, float(dt))  # type: ignore[arg-type]
+        m, f = delay_split(self.delay_s, float(filled(dt)))
         if not u.size:
             return u.copy(), None
         ext = np.concatenate((u, np.full(m + 1, u[-1])))

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._typing import ArrayLike, Float1D
 from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
-from ..validation import as_finite_scalar, as_vector
+from ..validation import as_finite_scalar, as_vector, filled
 
 
 @register_model
@@ -64,8 +64,8 @@ class Drift(Model):
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
         t0 = float(state)
-        t = t0 + np.arange(u.size) * float(dt)  # type: ignore[arg-type]
-        return u + self.drift(t), t0 + u.size * float(dt)  # type: ignore[arg-type]
+        t = t0 + np.arange(u.size) * float(filled(dt))
+        return u + self.drift(t), t0 + u.size * float(filled(dt))
 
     def inverse(self) -> Drift:
         return Drift(-self.coefficients, self.span_s, self.start_s)

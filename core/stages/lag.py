@@ -9,7 +9,7 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Control, Field, Model, register_model
-from ..validation import as_finite_scalar
+from ..validation import as_finite_scalar, filled
 from .linear import (
     LagBank,
     LinearStage,
@@ -89,7 +89,7 @@ class LagInverse(Model):
         return None
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        bank = Lag(self.tau_s).bank(float(dt))  # type: ignore[arg-type]
+        bank = Lag(self.tau_s).bank(float(filled(dt)))
         s = bank.states(state, float(u[0]) if u.size else 0.0)
         out = np.empty_like(u)
         lag_bank_inverse(u, bank.g0, bank.c, bank.b0, bank.b1, bank.a1, s, out)

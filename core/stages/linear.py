@@ -14,6 +14,7 @@ from .. import kernels
 from .._typing import ArrayLike, Float1D
 from ..base import Model
 from ..exceptions import ParameterError
+from ..validation import filled
 
 njit = kernels.njit
 
@@ -137,7 +138,7 @@ class LinearStage(Model):
             raise ParameterError(
                 f"{self.type_name} state must have {len(den) - 1} entries, got shape {zi.shape}"
             )
-        y, zf = foh_filter(u, num, den, float(dt), zi)  # type: ignore[arg-type]
+        y, zf = foh_filter(u, num, den, float(filled(dt)), zi)
         return y, zf
 
 

@@ -65,12 +65,15 @@ class InitialMemory(Model):
         from ..operators import play_bank
 
         m = self.model
-        _, z = play_bank(self.history, m.thresholds, m.state0)  # type: ignore[attr-defined]
+        assert isinstance(m, _PLAY_BANK_MODELS)  # __post_init__
+        _, z = play_bank(self.history, m.thresholds, m.state0)
         return frozen(z)
 
     def with_state(self) -> Model:
         """The wrapped model with ``state0`` set to :attr:`play_state`."""
-        return dataclasses.replace(self.model, state0=self.play_state)  # type: ignore[type-var]
+        m = self.model
+        assert isinstance(m, _PLAY_BANK_MODELS)  # __post_init__
+        return dataclasses.replace(m, state0=self.play_state)
 
     def as_chain(self) -> Chain:
         """The one-stage chain of :meth:`with_state` (how the C export sees it)."""

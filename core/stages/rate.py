@@ -13,7 +13,7 @@ from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from ..exceptions import ParameterError
 from ..pi import PIModel
 from ..preisach import checked_rate_slopes
-from ..validation import as_finite_scalar, as_input_signal
+from ..validation import as_finite_scalar, as_input_signal, filled
 
 njit = kernels.njit
 
@@ -196,7 +196,7 @@ class RateDependentPI(Model):
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
         z, up = state
-        Y, zf = rd_play_bank(u, self.thresholds, self.beta_s, float(dt), z, up)  # type: ignore[arg-type]
+        Y, zf = rd_play_bank(u, self.thresholds, self.beta_s, float(filled(dt)), z, up)
         y = self.p0 * u + Y @ self.weights
         return y, (zf, float(u[-1]) if u.size else up)
 
@@ -276,12 +276,12 @@ class RateDependentPIInverse(Model):
         return (np.array(self.state0, copy=True), None)
 
     def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
-        m_lo, m_hi = self.checked_slopes(float(dt))  # type: ignore[arg-type]
+        m_lo, m_hi = self.checked_slopes(float(filled(dt)))
         z0, up = state
         z = np.array(z0, dtype=np.float64, copy=True)
         out = np.empty_like(u)
         up_f = _rd_inverse(u, self.thresholds, self.weights, self.p0,
-                           self.beta_s / float(dt), m_lo, m_hi,  # type: ignore[arg-type]
+                           self.beta_s / float(filled(dt)), m_lo, m_hi,
                            0.0 if up is None else float(up), up is not None, z, out)
         return out, (z, float(up_f) if (u.size or up is not None) else None)
 

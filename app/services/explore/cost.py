@@ -31,6 +31,8 @@ import numpy as np
 
 from core.base import Model, RunCost
 from core.exceptions import ParameterError
+from core.lti import LinearSystem
+from core.stages import Advance, Creep, CreepInverse, Delay
 
 __all__ = ["CALL_WORK", "CheckedModel", "Cost", "Limits", "check_config", "check_document",
            "check_model", "checked_config", "checked_model", "json_depth", "priced_run",
@@ -272,7 +274,7 @@ def priced_steps(model: Model, steps: int, dt: float) -> RunCost:
 def _operators(m: Model) -> int:
     n = getattr(type(m), "n", None)
     if isinstance(n, property):
-        return int(m.n)  # type: ignore[attr-defined]
+        return int(n.__get__(m))
     th = getattr(m, "thresholds", None)
     return int(np.size(th)) if th is not None else 0
 
@@ -316,18 +318,18 @@ def check_model(model: Model, samples: int, dt: float, limits: Limits) -> Cost:
             depth_of[id(k)] = d + 1
         todo.extend(kids)
         ops += _operators(m)
-        if m.type_name in ("creep", "creep-inverse"):
-            terms = int(np.size(m.taus_s))  # type: ignore[attr-defined]
+        if isinstance(m, Creep | CreepInverse):
+            terms = int(np.size(m.taus_s))
             creep += terms
             if creep > limits.max_creep_terms:
                 raise ParameterError(
                     f"{m.type_name} has {terms:,} terms ({creep:,} in the model); the "
                     f"explorer allows at most {limits.max_creep_terms} (one lag per decade "
                     "of time is enough)")
-        if m.type_name == "lti":
-            order += int(np.size(m.den)) - 1  # type: ignore[attr-defined]
-        if m.type_name in ("delay", "advance"):  # an advance buffers its delay too
-            d_s = float(m.delay_s)  # type: ignore[attr-defined]
+        if isinstance(m, LinearSystem):
+            order += int(np.size(m.den)) - 1
+        if isinstance(m, Delay | Advance):  # an advance buffers its delay too
+            d_s = float(m.delay_s)
             delay = max(delay, _delay_samples(m.type_name, d_s, dt, limits))
         for what, tau in m.time_constants():
             r = tau / dt
