@@ -230,7 +230,8 @@ def _kind(value: Any) -> str:
 def _children(m: Model) -> list[Model]:
     """Sub-models of ``m``, found from its dataclass fields (each type declares them once)."""
     out: list[Model] = []
-    for f in dataclasses.fields(m):  # type: ignore[arg-type]  # every registered Model is a dataclass
+    assert dataclasses.is_dataclass(m)  # every registered Model is a dataclass
+    for f in dataclasses.fields(m):
         v = getattr(m, f.name, None)
         if isinstance(v, Model):
             out.append(v)
