@@ -20,7 +20,7 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
    the reversible and hysteretic slopes gives the reversible one at least
    ``min_rev_share`` (15 %) of the hysteretic coefficient, with the same sign (notes §4.1:
    about 1 for a delay or lag before the refit, about 0 for rate-dependent thresholds).
-6. *Effects that hide each other* (the engine's ``_lookahead``): when nothing passes, the
+6. *Effects that hide each other* (:func:`core.diagnosis.judge.lookahead`): when nothing passes, the
    largest candidate that failed significance alone is put in tentatively; if another
    effect passes on top of it (rules 1-5, 7), the first is judged again on top of that one and
    accepted when it passes there.

@@ -57,7 +57,7 @@ __all__ = [
 ]
 
 #: A Bouc-Wen base replaces the PI (or a Preisach base that replaced it;
-#: :func:`core.diagnosis.engine._choose_base_family`) when it lowers the MSE of predicting
+#: :func:`core.diagnosis.basechoice.choose_base_family`) when it lowers the MSE of predicting
 #: each recording from the others by at least this share against the PI, and by more than
 #: the Preisach did. Measured (training
 #: rows, seed 500/100, white noise): the benchmark's Bouc-Wen plants 0.68-0.93 (nulls),

@@ -287,7 +287,7 @@ def build_candidate(ctx: FitContext, name: str, cur: Fit) -> Candidate | None:
         raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
     if cur.structure.bouc_wen and e.family == "static" and e.structure_field is None:
         # a Bouc-Wen base was chosen over the PI with static maps' loops in reach (the
-        # benchmark's static-map plants keep the PI: engine.BW_MIN_GAIN); a loop-shape search
+        # benchmark's static-map plants keep the PI: bases.BW_MIN_GAIN); a loop-shape search
         # would integrate its elements anew for every trial map
         return None
     return e.build(ctx, cur)

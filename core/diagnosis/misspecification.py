@@ -60,7 +60,7 @@ BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator (Maxwell-slip, backlash gap)
               "preisach": "Preisach", "bouc-wen": "Bouc-Wen"}
 
 #: (level segments, smoothness) of the Preisach base among the alternatives (the first of
-#: the bases the base choice tries, :data:`core.diagnosis.engine.PREISACH_GRID`).
+#: the bases the base choice tries, :data:`core.diagnosis.basechoice.PREISACH_GRID`).
 PREISACH_ALTERNATIVE = (3, 0.1)
 #: Half-width (log units) of the local search of each parameter on an alternative base.
 SEARCH_HALF_WIDTH = 0.5
@@ -74,7 +74,7 @@ NEWTON_STEPS = 2
 #: fits 5-50 times worse and its creep or delay moves to absorb the misfit).
 ADMISSIBLE_MSE_RATIO = 1.0 / (1.0 - BW_MIN_GAIN)
 #: Most play operators of the PI and Preisach alternatives (those the base choice
-#: cross-validates: :func:`core.diagnosis.engine._choose_base`).
+#: cross-validates: :func:`core.diagnosis.basechoice.choose_base`).
 MAX_ALTERNATIVE_OPERATORS = 25
 
 

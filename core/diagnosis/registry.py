@@ -56,7 +56,7 @@ class OutputDynamics:
         ``lacks_signature(values) -> reason or None``: why fitted values do not show the
         stage's own signature (a mode too damped to ring acts only as a delay), so that a
         look-alike the recordings do not separate from it is named instead
-        (:func:`core.diagnosis.engine._recheck_dynamics`); ``None``: always shows it.
+        (:func:`core.diagnosis.recheck.recheck_dynamics`); ``None``: always shows it.
     combines_with : tuple of str
         Output dynamics stages of another kind that may follow this one in series (a lag
         then a mode): the look-alike recheck also fits the pair jointly, and a pair that
@@ -278,7 +278,7 @@ class DiagnosableEffect:
         its signature, not their level (``centred``: each recording's residual there is
         compared about its mean); its effect size and significance are then judged
         on the test rows among them, and it must not make the other test rows worse
-        (:func:`core.diagnosis.engine._evidence`). ``None`` (or a ``None`` result): every
+        (:func:`core.diagnosis.search.candidate_evidence`). ``None`` (or a ``None`` result): every
         test row.
     systematic : callable or None
         ``systematic(ctx, cur, fit) -> ({parameter: sigma}, words)``: the uncertainty the

@@ -54,10 +54,10 @@ AUTO = "auto"
 #: share (the diagnosis's PI baseline: "MSE at least halved").
 FREE_SIGN_GAIN = 0.5
 #: A Preisach base replaces the PI when it lowers the MSE of predicting each recording from
-#: the others by this share (``core.diagnosis.engine.PREISACH_MIN_GAIN``) ...
+#: the others by this share (``core.diagnosis.basechoice`` reads it) ...
 PREISACH_MIN_GAIN = 0.2
 #: ... and lowers it by this share against the PI with a static output map
-#: (``core.diagnosis.engine.PREISACH_OVER_MAP``).
+#: (``core.diagnosis.basechoice`` reads it).
 PREISACH_OVER_MAP = 0.3
 #: A Bouc-Wen base replaces the chosen one when it lowers the PI's MSE by this share (and by
 #: more than the Preisach did); measured on the diagnosis benchmark, see

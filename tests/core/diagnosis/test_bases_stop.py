@@ -83,7 +83,7 @@ def test_a_fixed_travel_dead_band_keeps_the_pi_with_weights_of_either_sign() -> 
     # a negative element weight: the branch flattens at the same travel after every
     # reversal, which no gap (crossed half-way, wherever the reversal was) follows; the
     # free-sign PI predicts it far better, so the stop base is not chosen (without the
-    # FREE_SIGN_GAIN rule of core.diagnosis.engine._stop_base it would be)
+    # FREE_SIGN_GAIN rule of core.diagnosis.basechoice._stop_base it would be)
     plant = StopPIModel(0.05, [0.05, 0.15, 0.3], [1.0, -0.9, 1.0])
     u = _input()
     y = plant(u) + 0.002 * np.random.default_rng(0).standard_normal(u.size)

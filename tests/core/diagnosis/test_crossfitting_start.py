@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import core.diagnosis.engine as engine
+import core.diagnosis.judge as judge
+import core.diagnosis.search as search
 from core.diagnosis import diagnose
 from core.diagnosis.candidates import walk_down
 from core.diagnosis.context import FitContext
@@ -49,14 +50,15 @@ def _crossfits(monkeypatch, shortcut: bool) -> dict:
     """Every cross-fitting of a lag plant diagnosed with explicit windows (strict hold-out),
     by candidate name; ``shortcut=False``: the folds search their whole grids."""
     out: dict = {}
-    orig = engine.crossfit_candidate
+    orig = search.crossfit_candidate
 
     def spy(ctx, name, cur, fit):
         cf = orig(ctx, name, cur, fit)
         out.setdefault(name, []).append(cf)
         return cf
 
-    monkeypatch.setattr(engine, "crossfit_candidate", spy)
+    for part in (search, judge):  # the two places that cross-fit a candidate
+        monkeypatch.setattr(part, "crossfit_candidate", spy)
     if not shortcut:  # the folds never learn the full-data estimate
         monkeypatch.setattr(FitContext, "start", property(lambda self: None,
                                                           lambda self, v: None), raising=False)

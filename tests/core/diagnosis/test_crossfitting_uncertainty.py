@@ -70,7 +70,7 @@ def test_recordings_that_disagree_make_the_delay_ambiguous(discordant) -> None:
 
 def test_without_the_spread_the_delay_is_a_confident_number(discordant, monkeypatch) -> None:
     """The rule is what flags it: the noise-driven sigma alone is far below the spread."""
-    monkeypatch.setattr(engine, "_spread_over_recordings", lambda *a: None)
+    monkeypatch.setattr(engine, "spread_over_recordings", lambda *a: None)
     res = diagnose(discordant)
     (f,) = [e for e in res.effects if e.name == "delay"]
     assert f.ambiguous_parameters == [] and f.recording_spread is None

@@ -12,8 +12,8 @@ from benchmarks.diagnosis.families import make_family
 from benchmarks.diagnosis.generator import make_scenario, make_shape
 from core.boucwen import BoucWenModel
 from core.diagnosis import diagnose
+from core.diagnosis.basechoice import BW_MIN_GAIN, PREISACH_MIN_GAIN
 from core.diagnosis.bases import bouc_wen_bank, bouc_wen_elements, bouc_wen_model, initial_state
-from core.diagnosis.engine import BW_MIN_GAIN, PREISACH_MIN_GAIN
 from core.export_c import generate_c
 
 

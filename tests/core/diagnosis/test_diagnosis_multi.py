@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-import core.diagnosis.engine as engine
+import core.diagnosis.judge as judge
 from benchmarks.diagnosis.generator import make_periodic_set, make_single_staircase
 from core.diagnosis import diagnose
 from core.diagnosis.acceptance import RULE, earns_place, split_supports_transport
@@ -57,7 +57,7 @@ def test_weak_rate_is_not_named_a_delay_or_lag(weak_rate) -> None:
 
 
 def test_without_the_split_rule_the_weak_rate_is_misnamed(weak_rate, monkeypatch) -> None:
-    monkeypatch.setattr(engine, "split_supports_transport", lambda a, b: True)
+    monkeypatch.setattr(judge, "split_supports_transport", lambda a, b: True)
     res = diagnose(weak_rate)
     assert res.effects and res.effects[0].name in ("delay", "lag")
 
@@ -89,7 +89,7 @@ def test_a_further_effect_must_earn_its_place(creep_staircase, drift_testable) -
 @pytest.mark.slow
 def test_without_rule_4_the_staircase_claims_drift_too(creep_staircase, monkeypatch,
                                                       drift_testable) -> None:
-    monkeypatch.setattr(engine, "_needs_earning", lambda ctx, c: False)
+    monkeypatch.setattr(judge, "needs_earning", lambda ctx, c: False)
     res = diagnose(creep_staircase)
     assert [f.name for f in res.effects] == ["creep", "drift"]
 
@@ -243,6 +243,6 @@ def test_without_the_offset_drift_lookalike_the_weak_drift_is_named_offset(
 
 @pytest.mark.slow
 def test_without_rule_7_the_weak_drift_is_named_creep(weak_drift, monkeypatch) -> None:
-    monkeypatch.setattr(engine, "trend_follows_steps", lambda share, holds: True)
+    monkeypatch.setattr(judge, "trend_follows_steps", lambda share, holds: True)
     res = diagnose(weak_drift)
     assert [f.name for f in res.effects][:1] == ["creep"]

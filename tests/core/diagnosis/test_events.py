@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.diagnosis import diagnose, engine
+from core.diagnosis import diagnose, judge
 from core.diagnosis.acceptance import RULE, enough_events
 from core.diagnosis.events import event_starts, event_windows, excitation
 from core.pi import PIModel
@@ -61,7 +61,7 @@ def test_the_same_lag_seen_after_one_event_only_is_not_named(monkeypatch) -> Non
     """Rule 14 wired into the engine: the same candidate, its gains replaced by one event's
     (as a signature in the first loading only would give), is refused with the reason and
     left suggestive."""
-    monkeypatch.setattr(engine, "_event_gains", lambda ctx, cur, new: [0.6, 0.01, 0.0, 0.02])
+    monkeypatch.setattr(judge, "event_gains", lambda ctx, cur, new: [0.6, 0.01, 0.0, 0.02])
     res = diagnose(_lagged_sine(3), n_operators=10, effects=["lag"], auto_resolution=False)
     assert res.effects == []
     row = next(r for r in res.rounds if r.effect == "lag")
@@ -75,7 +75,7 @@ def test_event_gains_of_a_real_lag_are_positive_after_most_events(seed: int) -> 
     from core.diagnosis.context import FitContext
 
     ctx = FitContext(res.records, res.train, res.test)
-    g = engine._event_gains(ctx, res.baseline, res.final)
+    g = judge.event_gains(ctx, res.baseline, res.final)
     assert len(g) >= 8
     assert sum(x >= RULE.min_gain for x in g) >= 0.75 * len(g)
 

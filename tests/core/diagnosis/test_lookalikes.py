@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.boucwen import BoucWenModel
-from core.diagnosis import diagnose, engine
+from core.diagnosis import diagnose, judge
 from core.diagnosis.acceptance import RULE, beyond_loop_shape_ok
 from core.diagnosis.lookalikes import LOOP_SHAPE_KNOTS, loop_shape_basis
 from core.diagnosis.stats import HeldOut
@@ -76,6 +76,6 @@ def test_a_rate_independent_plant_on_one_sine_gets_no_dynamic_name(monkeypatch) 
     row = next(r for r in res.rounds if r.effect == "lag")
     assert "loop-shape" in row.reasons[0] and "several rates" in row.reasons[0]
     assert "lag" in [s["effect"] for s in res.suggestive]
-    monkeypatch.setattr(engine, "beyond_loop_shape_ok", lambda h: True)  # without rule 16
+    monkeypatch.setattr(judge, "beyond_loop_shape_ok", lambda h: True)  # without rule 16
     assert [e.name for e in diagnose(rec, effects=["delay", "lag", "resonance"]).effects] == [
         "lag"]

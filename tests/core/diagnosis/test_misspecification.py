@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import core.diagnosis.engine as engine
+import core.diagnosis.scoring as scoring
 from benchmarks.diagnosis.families import make_family, parameter_recovery
 from core.diagnosis import diagnose
 from core.diagnosis.context import FitContext
@@ -107,8 +108,8 @@ def test_without_the_base_term_the_resonance_is_over_confident(maxwell_resonance
     """The rules are what make it honest: without the base term and the recordings'
     jackknife the truth is several sigmas away and nothing is said ambiguous (same
     estimates)."""
-    monkeypatch.setattr(engine, "_widen_for_base", lambda *a: None)
-    monkeypatch.setattr(engine, "recording_jackknife", lambda *a: None)
+    monkeypatch.setattr(engine, "widen_for_base", lambda *a: None)
+    monkeypatch.setattr(scoring, "recording_jackknife", lambda *a: None)
     res = diagnose(maxwell_resonance.records)
     rows = _recovery(res, maxwell_resonance)
     assert rows and not any(q["honest"] for q in rows), rows
@@ -127,7 +128,7 @@ def test_base_term_is_needed_beside_the_jackknife(bouc_wen3_mode, monkeypatch) -
     res = diagnose(bouc_wen3_mode.records)
     rows = {q["quantity"]: q for q in _recovery(res, bouc_wen3_mode)}
     assert rows["freq_hz"]["honest"], rows
-    monkeypatch.setattr(engine, "_widen_for_base", lambda *a: None)
+    monkeypatch.setattr(engine, "widen_for_base", lambda *a: None)
     res = diagnose(bouc_wen3_mode.records)
     rows = {q["quantity"]: q for q in _recovery(res, bouc_wen3_mode)}
     assert not rows["freq_hz"]["honest"], rows
@@ -242,7 +243,7 @@ def test_without_the_jackknife_the_mode_frequency_is_over_confident(bouc_wen_mod
                                                                     monkeypatch) -> None:
     """The jackknife is what makes it honest: without it the frequency (-0.3 %) is three
     sigmas from the truth and not said ambiguous (same estimate)."""
-    monkeypatch.setattr(engine, "recording_jackknife", lambda *a: None)
+    monkeypatch.setattr(scoring, "recording_jackknife", lambda *a: None)
     res = diagnose(bouc_wen_mode.records)
     rows = {q["quantity"]: q for q in _recovery(res, bouc_wen_mode)}
     assert not rows["freq_hz"]["honest"], rows

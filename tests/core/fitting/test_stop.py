@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from core.csvio import read_csv
-from core.diagnosis import engine
+from core.diagnosis import basechoice
 from core.fitting import StopPIRegressor, choice, fit_recordings, loop_orientation
 from core.fitting.adequacy import MISFIT_RATIO
 from core.fitting.stop import GAP_MIN_GAIN
@@ -156,8 +156,8 @@ def test_auto_with_several_recordings_chooses_bouc_wen_for_a_bouc_wen_plant() ->
 def test_choice_margins_are_the_diagnosis_margins() -> None:
     from core.diagnosis import bases
 
-    assert choice.PREISACH_MIN_GAIN == engine.PREISACH_MIN_GAIN
-    assert choice.PREISACH_OVER_MAP == engine.PREISACH_OVER_MAP
+    assert choice.PREISACH_MIN_GAIN == basechoice.PREISACH_MIN_GAIN
+    assert choice.PREISACH_OVER_MAP == basechoice.PREISACH_OVER_MAP
     assert bases.BW_MIN_GAIN is choice.BW_MIN_GAIN
 
 

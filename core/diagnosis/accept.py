@@ -1,0 +1,128 @@
+"""Accepting the chosen effect of a round (:func:`accept_best`): the round's decisions,
+the finding and its ambiguities, the resolution refined, and the output-dynamics look-alikes
+compared again (:mod:`core.diagnosis.recheck`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from .acceptance import RULE
+from .context import FitContext
+from .crossfitting import compare_heldout
+from .finding import lookalikes_of, make_finding
+from .recheck import recheck_dynamics
+from .registry import EFFECTS, rate_effect
+from .results import RoundRow
+from .shapes import shape_thresholds
+from .specs import DECIDING_EXPERIMENT
+from .state import Candidate, Run
+from .structure import Fit, dynamics_stages
+
+__all__ = ["accept_best"]
+
+
+def accept_best(run: Run, cur: Fit, cands: dict[str, Candidate], passing: list[str],
+                best: str, rows: list[RoundRow], rnd: int, n_max: int) -> Fit:
+    """Accept ``best``: record the round's decisions, the finding (where, discriminators,
+    uncertainty, caveats), the look-alikes it is ambiguous with; refine the resolution and,
+    for dynamics, re-compare the look-alikes at it. Returns the new current fit."""
+    ctx = run.ctx
+    c, c_spec = cands[best], EFFECTS[best]
+    amb, runner = lookalikes_of(ctx, c, cands, passing)
+    run.rounds.extend(r if r.decision in _KEPT_DECISIONS else replace(r, decision=(
+        "accepted" if r.effect == best else "ambiguous" if r.effect in amb else
+        "passes" if r.passes else "rejected")) for r in rows)
+    run.findings.append(make_finding(run, cur, c, amb, runner))
+    for other in amb:
+        run.ambiguous.append({
+            "effects": [best, other],
+            "chosen": best,
+            "reason": f"{other} explains {100 * cands[other].heldout.gain:.0f} % of the "
+            f"{'cross-fitted' if ctx.strict else 'held-out'} MSE against "
+            f"{100 * c.heldout.gain:.0f} % for {best}; the recordings do not separate them",
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
+                                                  "recordings that excite both "
+                                                  "mechanisms differently"),
+        })
+    if c_spec.inseparable_from is not None:
+        other, why, experiment = c_spec.inseparable_from
+        run.ambiguous.append({"effects": [best, other], "chosen": best, "reason": why,
+                              "experiment": experiment})
+    new = c.fit
+    if n_max:
+        refine: list[dict[str, Any]] = []
+        new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
+        run.rounds.extend(RoundRow.from_dict(d) for d in refine)
+    fnd = run.findings[-1]
+    if c_spec.dynamics is not None and not ctx.strict:
+        new = recheck_dynamics(run, new, fnd, rnd + 1)
+    elif not ctx.strict:
+        new = _recheck_earlier_dynamics(run, new, rnd)
+    if fnd is run.findings[-1]:  # (a second stage named in series set both structures)
+        fnd.structure = new.structure
+    named = fnd.name  # the dynamics recheck may rename it
+    for hidden, e in EFFECTS.items():
+        if e.mimicked_by is None:
+            continue
+        names, why = e.mimicked_by
+        if named in names and hidden in run.untestable_names:
+            run.ambiguous.append({"effects": [named, hidden], "chosen": named,
+                                  "reason": why.format(best=named),
+                                  "experiment": EFFECTS[hidden].experiment})
+    if (EFFECTS[named].dynamics is not None and new.structure.bouc_wen
+            and run.rate_testable):
+        # rate-dependent plays are not modelled on a Bouc-Wen base (on a Preisach base they
+        # are: the rate candidate widens the levelled plays' thresholds): say so rather than
+        # let the dynamics stand in for them unchallenged
+        rate = rate_effect()
+        run.findings[-1].ambiguous_with.append(rate)
+        run.ambiguous.append({
+            "effects": [named, rate], "chosen": named,
+            "reason": "on a Bouc-Wen base rate-dependent hysteresis is not modelled, so "
+            f"{named} was not compared with it",
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({named, rate}),
+                                                  EFFECTS[rate].experiment)})
+    return new
+
+
+#: Decisions of the acceptance rules that :func:`accept_best` keeps as they are.
+_KEPT_DECISIONS = ("deferred", "contradicted", "not earned")
+
+
+def _recheck_earlier_dynamics(run: Run, new: Fit, rnd: int) -> Fit:
+    """Look-alikes against the model that holds every accepted effect: once a slow or static
+    effect joins, an earlier delay / lag / resonance finding is compared again with its
+    look-alikes (on top of the new model), renamed if one now predicts the held-out rows
+    better, and reported ambiguous with those it does not beat."""
+    earlier = next((f for f in run.findings[:-1] if EFFECTS[f.name].dynamics is not None),
+                   None)
+    if earlier is None or len(dynamics_stages(new.structure.dynamics)) > 1:
+        return new  # (two stages in series: each was judged against the other, rule 12)
+    old, rmse_after = earlier.name, earlier.heldout_rmse_after
+    new = recheck_dynamics(run, new, earlier, rnd + 1)
+    earlier.heldout_rmse_after = rmse_after  # its own step's score stays
+    if earlier.name != old and earlier.structure is not None:
+        earlier.structure = earlier.structure.with_(dynamics=new.structure.dynamics)
+    return new
+
+
+def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
+    """Once an effect is in, the baseline may turn out under-resolved: double the play grid
+    while the held-out fit improves (``resolution_gain`` and ``resolution_z`` of
+    :class:`~core.diagnosis.acceptance.AcceptRule`)."""
+    while not fit.structure.bouc_wen and len(fit.structure.thresholds) * 2 <= n_max:
+        n2 = 2 * len(fit.structure.thresholds)
+        r = shape_thresholds(fit.structure.shape, ctx.records, ctx.train, n2)  # w units
+        f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
+        h = compare_heldout(ctx, fit, f2)
+        ok = h.gain >= RULE.resolution_gain and (h.z >= RULE.resolution_z
+                                                  or h.sign_p < RULE.sign_p)
+        rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
+                       "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
+                       "decision": "accepted" if ok else "rejected", "parameters": {}})
+        if not ok:
+            break
+        fit = f2
+    return fit

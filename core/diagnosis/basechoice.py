@@ -1,0 +1,267 @@
+"""The base model of a diagnosis: the PI baseline at its resolution, then the base family.
+
+:func:`fit_baseline` fits the PI (sign-constrained or with weights of either sign) and
+doubles its play grid while the held-out fit improves; :func:`choose_base_family` tries the
+stop-operator base on clockwise loops, a Preisach base (:func:`choose_base`) and a Bouc-Wen
+base, each cross-validated by predicting every recording from the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..base import Chain
+from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MAP
+from ..fitting.orientation import loop_orientation
+from ..fitting.stop import branch_features
+from ..stop import StopPIModel
+from .adequacy import fold_mse
+from .bases import BW_MIN_GAIN, bouc_wen_elements, fit_stop_gap, saturations, stop_stage
+from .candidates import build_candidate
+from .context import FitContext
+from .crossfitting import compare_heldout
+from .grid import baseline_thresholds
+from .periodic import steady_state_history
+from .registry import EFFECTS, output_dynamics
+from .results import BaseChoice
+from .shapes import loop_shape, shape_thresholds
+from .structure import Fit, Structure
+
+__all__ = ["PREISACH_GRID", "RATE_ON_STOP", "choose_base", "choose_base_family", "fit_baseline"]
+
+
+def fit_baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple[Fit, Fit]:
+    """Baseline PI fit and the fit at the requested resolution.
+
+    Saturating loops (friction) need play weights of either sign: switch when the
+    sign-constrained PI is clearly worse on the held-out rows (MSE at least halved). Then the
+    under-resolution check (notes E13): double the grid while the held-out MSE drops by
+    >= 2 % (model selection of a nuisance, not a physics claim: no significance needed),
+    keeping at least two training rows per weight.
+    Periodic steady-state recordings start from the memory their own cycle leaves.
+    """
+    records, trm = ctx.records, ctx.train
+    r = baseline_thresholds(records, trm, n_operators)
+    hist0 = tuple(steady_state_history(rec) for rec in records)
+    s0 = Structure(tuple(float(x) for x in r), hist0)
+    f_nn, f_free = ctx.fit(s0), ctx.fit(s0.with_(free_weights=True))
+    free = compare_heldout(ctx, f_nn, f_free).gain >= FREE_SIGN_GAIN
+    base: Fit | None = None
+    requested: Fit | None = None
+    for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
+        if base is not None and 2 * (n_try + 2) > ctx.n_train:
+            break  # at least two training rows per weight (a short single loop)
+        r = baseline_thresholds(records, trm, n_try)
+        s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
+        f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
+        if base is None:
+            requested = f_try
+        elif compare_heldout(ctx, base, f_try).gain < 0.02:
+            break
+        base = f_try
+        if not auto_resolution:
+            break
+    assert base is not None and requested is not None
+    return base, requested
+
+
+#: A Preisach base replaces the PI one when it lowers the MSE of predicting each recording
+#: from the others by at least PREISACH_MIN_GAIN (a choice of the base, like the resolution:
+#: no significance needed, but a margin) and lowers it by PREISACH_OVER_MAP against the PI
+#: with a static output map or a loop shape (which the effect search names). Measured (each
+#: recording predicted from the others): gains against the PI of the benchmark's Preisach
+#: plants 0.88-0.98, Duhem 0.25-0.55, Bouc-Wen and B-PI <= 0.10; B-PI + asymmetry 0.89
+#: against the PI, but ~0 against PI + asymmetry. The margins live in core.fitting.choice,
+#: so that `hyst fit --model auto` chooses its base by the same numbers.
+#: (level segments, smoothness) of the Preisach bases tried (uniform level knots over the
+#: training input range; on the benchmark's Bouc-Wen, Preisach and Duhem nulls the
+#: cross-fitted gains vary by < 0.1 over smoothness 0.01-0.1, 3-5 segments)
+PREISACH_GRID: tuple[tuple[int, float], ...] = ((3, 0.1), (5, 0.01))
+
+
+def _base_folds(ctx: FitContext) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
+    """Folds of the base choice, which must predict away from the rows it was fitted on:
+    each recording from the others. With one recording there are none and the PI stays:
+    blocks of one recording let a base with many level cells interpolate (on the real piezo,
+    interleaved blocks and halves both favoured a Preisach base, gain 0.5-0.6, whose final
+    model was worse on the later test window: 0.168 % against 0.149 %)."""
+    recs, tr = ctx.records, ctx.train
+    if len(recs) < 2:
+        return []
+    none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
+    return [([none[k] if k == j else m for k, m in enumerate(tr)],
+             [m if k == j else none[k] for k, m in enumerate(tr)])
+            for j in range(len(recs)) if tr[j].any()]
+
+
+def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, BaseChoice]:
+    """Cross-validate a Preisach base (level-dependent memory, E10) against the PI base by
+    predicting each recording from the others (:func:`_base_folds`; the test rows are not
+    used), so that concealed effects are judged against a base that is not itself the
+    largest error. The Preisach replaces the PI when it lowers that MSE by
+    :data:`PREISACH_MIN_GAIN` and also beats, by :data:`PREISACH_OVER_MAP`, the PI with a
+    static output map or a loop shape (asymmetry, saturation, dead-zone: notes §4.2, "does
+    a static map reconcile all minor loops? If not, the memory itself is level-dependent"),
+    which the effect search names instead."""
+    folds = _base_folds(ctx)
+    s0 = base.structure
+    if not folds or loop_shape(s0.shape) or s0.beta_s is not None:
+        return base, BaseChoice(s0.base_kind, (), len(folds))
+    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=folds, parent=ctx)
+    sub.strict = True
+    w = [r.u[m] for r, m in zip(ctx.records, ctx.train, strict=True) if m.any()]
+    lo, hi = min(float(x.min()) for x in w), max(float(x.max()) for x in w)
+    n_p = max(4, min(25, n_operators))
+    r = baseline_thresholds(ctx.records, ctx.train, n_p)
+    best, h_best, tried = base, None, []
+    for m, smooth in PREISACH_GRID:
+        if 2 * ((n_p + 1) * m + 2) > ctx.n_train:
+            continue  # at least two training rows per weight
+        knots = tuple(float(x) for x in lo + (hi - lo) * np.arange(1, m) / m)
+        sp = Structure(tuple(float(x) for x in r), s0.history, levels=knots,
+                       level_smooth=smooth)
+        fp = ctx.fit(sp)
+        h = compare_heldout(sub, base, fp)
+        tried.append({"base": "preisach", "operators": n_p, "level_segments": m,
+                      "smoothness": smooth, "cv_mse_reduction": float(h.gain)})
+        if h.gain >= PREISACH_MIN_GAIN and (h_best is None or h.gain > h_best.gain):
+            best, h_best = fp, h
+    if h_best is None:
+        return base, BaseChoice(s0.base_kind, tuple(tried), len(folds))
+    # Kuhnen's modified PI (a PI followed by one-sided output dead-zones: a static output
+    # map), fitted by its own estimator on the same folds
+    mse_mpi = fold_mse("mpi", ctx.records, folds, s0.free_weights)
+    if np.isfinite(mse_mpi):
+        over = 1.0 - h_best.mse_after / max(mse_mpi, 1e-300)
+        tried.append({"base": "mpi (static output map)", "operators": 0, "level_segments": 1,
+                      "smoothness": 0.0,
+                      "cv_mse_reduction": float(1.0 - mse_mpi / max(h_best.mse_before,
+                                                                    1e-300)),
+                      "preisach_mse_reduction_over_it": float(over)})
+        if over < PREISACH_OVER_MAP:
+            return base, BaseChoice(s0.base_kind, tuple(tried), len(folds))
+    best_dyn: Fit | None = None
+    for name in (n for n, e in EFFECTS.items() if e.family == "static"):
+        got = build_candidate(ctx, name, base)
+        if got is None:
+            continue
+        alt = got[0]
+        over = compare_heldout(sub, alt, best).gain
+        tried.append({"base": f"pi + {name}", "operators": len(s0.thresholds),
+                      "level_segments": 1, "smoothness": 0.0,
+                      "cv_mse_reduction": float(compare_heldout(sub, base, alt).gain),
+                      "preisach_mse_reduction_over_it": float(over)})
+        if over >= PREISACH_OVER_MAP:
+            continue
+        # the loop shape may only look as good as the Preisach because an output dynamics
+        # stage (a resonance of the fast recordings) dominates both misfits: compare the two
+        # again, each with the output dynamics that predicts its folds best
+        best_dyn = best_dyn or _with_output_dynamics(ctx, sub, best)
+        over_dyn = compare_heldout(sub, _with_output_dynamics(ctx, sub, alt), best_dyn).gain
+        tried[-1]["preisach_mse_reduction_over_it_with_dynamics"] = float(over_dyn)
+        if over_dyn < PREISACH_OVER_MAP:
+            return base, BaseChoice(s0.base_kind, tuple(tried), len(folds))
+    return best, BaseChoice(best.structure.base_kind, tuple(tried), len(folds))
+
+
+def _with_output_dynamics(ctx: FitContext, sub: FitContext, fit: Fit) -> Fit:
+    """``fit`` with the output dynamics stage (delay, lag, resonance) that lowers the MSE of
+    predicting each training fold of ``sub`` most, or ``fit`` itself when none lowers it.
+    Used only to compare two bases on an equal footing; the effect search still has to find
+    and prove the stage."""
+    out, gain = fit, 0.0
+    for name in output_dynamics():
+        got = build_candidate(ctx, name, fit)
+        if got is None:
+            continue
+        g = compare_heldout(sub, fit, got[0]).gain
+        if g > gain:
+            out, gain = got[0], g
+    return out
+
+
+#: Rate-dependent hysteresis on a stop-operator base (not modelled: its elements sit behind
+#: the gap's input map, which has no rate-dependent form), reported as untestable.
+RATE_ON_STOP = {
+    "name": "rate",
+    "reason": ("the loops run clockwise and the base is stop operators behind a backlash gap, "
+               "for which rate-dependent thresholds are not modelled"),
+    "experiment": ("a run with --base pi (the PI with weights of either sign, on which "
+                   "rate-dependent thresholds are modelled) on recordings at >= 2 rates a "
+                   "decade apart"),
+}
+
+def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
+    """The stop-operator base of clockwise loops (:mod:`core.diagnosis.bases`), or ``None``
+    on counter-clockwise ones: the loops' orientation and the backlash gap are the fit
+    side's (:func:`core.fitting.orientation.loop_orientation` on the training rows,
+    :class:`~core.fitting.stop.StopPIRegressor` ``gap="auto"``, as ``hyst fit --model auto``
+    chooses the ``stop-pi`` kind), the bank as many stop operators as the PI baseline has
+    plays, on the input behind that gap, weights ``k >= eps``, ``w_i >= 0`` solved on the
+    training rows. Tried only where the PI baseline itself needed weights of either sign
+    (:func:`fit_baseline`: a saturating loop) and the training rows' loops run clockwise (the
+    shipped B-H loops: their interleaved training blocks alone have a clockwise signed area,
+    but their PI keeps non-negative weights). It replaces the PI baseline unless the PI with
+    weights of either sign lowers its held-out MSE by :data:`FREE_SIGN_GAIN` (the fit's rule
+    for free signs over the sign rule of the loops' orientation; the PI stays on a dead band
+    at a fixed travel after every reversal)."""
+    recs = ctx.records
+    s0 = base.structure
+    if not s0.free_weights or not loop_orientation(
+            [r.u for r in recs], [r.y for r in recs], ctx.train).clockwise:
+        return None
+    if loop_shape(s0.shape) or s0.beta_s is not None or s0.levels or s0.bouc_wen:
+        return None
+    model = fit_stop_gap(recs, ctx.train, ctx.test, len(s0.thresholds))
+    if model is None:
+        return None
+    shape = (stop_stage(model),)
+    r = shape_thresholds(shape, recs, ctx.train, len(s0.thresholds))
+    fs = ctx.fit(Structure(tuple(float(x) for x in r), s0.history, shape=shape))
+    h = compare_heldout(ctx, fs, base)
+    chosen = h.gain < FREE_SIGN_GAIN
+    m0 = fs.models[0]
+    hyst = m0.stages[0] if isinstance(m0, Chain) else m0
+    assert isinstance(hyst, StopPIModel)
+    info = {"gap": float(model.gap), "elements": len(r),
+            "friction_plateau": float(branch_features(hyst).plateau),
+            "heldout_mse_reduction": float(1.0 - h.mse_before / max(h.mse_after, 1e-300)),
+            "chosen": bool(chosen)}
+    return (fs if chosen else base), info
+
+
+def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
+                       ) -> tuple[Fit, BaseChoice]:
+    """The stop-operator base on clockwise loops (:func:`_stop_base`), then
+    :func:`choose_base` against it, then a Bouc-Wen base cross-validated on the same folds
+    (each recording predicted from the others, training rows only): it replaces the chosen
+    base when it lowers the MSE there by :data:`BW_MIN_GAIN` against the PI (or stop) base
+    and beats the chosen base."""
+    got = _stop_base(ctx, base)
+    ref, stop = (got[0], got[1]) if got is not None else (base, None)
+    best, choice = choose_base(ctx, ref, n_operators)
+    choice = replace(choice, stop=stop)
+    folds = _base_folds(ctx)
+    s0 = base.structure
+    if not folds or s0.shape or s0.beta_s is not None:
+        return best, choice
+    sub = FitContext(ctx.records, ctx.train, ctx.test, folds=folds, parent=ctx)
+    sub.strict = True
+    span = max(float(np.ptp(r.u[m])) for r, m in zip(ctx.records, ctx.train, strict=True)
+               if m.any())
+    el = bouc_wen_elements(span)
+    if span <= 0 or 2 * (len(el) + 3) > ctx.n_train:
+        return best, choice
+    sb = Structure(saturations(el), s0.history, free_weights=s0.free_weights, bouc_wen=el)
+    fb = ctx.fit(sb)
+    h = compare_heldout(sub, ref, fb)
+    chosen_gain = max((t["cv_mse_reduction"] for t in choice.tried if t["base"] == "preisach"),
+                      default=0.0) if choice.kind == "preisach" else 0.0
+    tried = (*choice.tried, {"base": "bouc-wen", "operators": len(el), "level_segments": 1,
+                             "smoothness": 0.0, "cv_mse_reduction": float(h.gain)})
+    if h.gain >= BW_MIN_GAIN and h.gain > chosen_gain:
+        return fb, BaseChoice("bouc-wen", tried, choice.folds or len(folds), stop)
+    return best, BaseChoice(choice.kind, tried, choice.folds or len(folds), stop)

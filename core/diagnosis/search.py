@@ -1,0 +1,198 @@
+"""The search of a round: every candidate effect fitted on top of the current model, with
+the held-out evidence it is judged on (:func:`search_round`, :func:`candidate_evidence`).
+
+The evidence rows are the test rows, the cross-fitted training blocks (strict hold-out), the
+rows before the wipe-out time (``initial-memory``), the other recordings (rate- and
+amplitude-dependent effects), or the rows the effect's signature lives in
+(:func:`where_it_lives` for output dynamics).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from .acceptance import RULE, decide
+from .between import between_recordings
+from .candidates import build_candidate
+from .context import FitContext
+from .crossfitting import compare_heldout, crossfit_candidate, screen_gain
+from .registry import EFFECTS
+from .results import RoundRow
+from .specs import FAMILY_PRIORITY
+from .state import Candidate, Run, deferred_row
+from .stats import HeldOut, heldout_comparison
+from .structure import Fit
+
+__all__ = ["MIN_SIGNATURE_ROWS", "WHERE_MIN_Z", "WHERE_SHARE", "candidate_evidence",
+           "search_round", "where_it_lives"]
+
+
+def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
+    """Smallest gain with which ``name`` could still be chosen over the leading passing
+    family (:func:`~core.diagnosis.judge.choose`: a later family needs ``family_lead`` times
+    its gain); 0 when unbounded."""
+    if lead is None:
+        return 0.0
+    fam = EFFECTS[name].family
+    if fam == lead[0] or FAMILY_PRIORITY[fam] <= FAMILY_PRIORITY[lead[0]]:
+        return 0.0
+    return RULE.family_lead * lead[1]
+
+
+def _new_lead(lead: tuple[str, float] | None, name: str, gain: float) -> tuple[str, float]:
+    """The leading passing family after ``name`` passed with ``gain``."""
+    fam = EFFECTS[name].family
+    if lead is None or FAMILY_PRIORITY[fam] < FAMILY_PRIORITY[lead[0]] or (
+            fam == lead[0] and gain > lead[1]):
+        return fam, gain
+    return lead
+
+
+def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
+                 ) -> tuple[dict[str, Candidate], list[RoundRow]]:
+    """Fit every effect of ``todo`` on top of ``cur`` and collect its evidence.
+
+    With strict hold-out the highest-priority families go first; once one passes, a later
+    family can only be chosen with 1.5 times its gain
+    (:func:`~core.diagnosis.judge.choose`), so hopeless candidates are deferred to the next
+    round without their (costly) cross-fitting.
+    Returns the candidates and the rows of the deferred ones.
+    """
+    ctx = run.ctx
+    order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
+        ctx.strict) else todo
+    lead: tuple[str, float] | None = None
+    cands: dict[str, Candidate] = {}
+    deferred: list[RoundRow] = []
+    for i, name in enumerate(order):
+        bound = _lead_bound(lead, name)
+        if bound > 1.0:
+            deferred.append(deferred_row(rnd, name))
+            continue
+        frac = 0.5 * i / max(len(todo), 1)
+        run.step(rnd, frac, f"fitting {name}")
+        got = build_candidate(ctx, name, cur)
+        if got is None:
+            continue
+        c = Candidate(name, *got, heldout=screen_gain(got[0], cur))
+        if ctx.strict and not EFFECTS[name].before_wipeout and c.heldout.gain < bound:
+            deferred.append(deferred_row(rnd, name, c.parameters,
+                                         None if bound > 0 else c.heldout.gain))
+            continue
+        judged = candidate_evidence(run, cur, c, rnd, frac + 0.25 / max(len(todo), 1))
+        if judged is None:
+            continue
+        c = judged
+        cands[name] = c
+        cv = (c.crossfit or {}).get("parameter_cv")
+        if ctx.strict and decide(c.heldout, c.heldout.mse_before - run.noise**2, len(todo),
+                                 cv).passes:
+            lead = _new_lead(lead, name, c.heldout.gain)
+    return cands, deferred
+
+
+def candidate_evidence(run: Run, cur: Fit, c: Candidate, rnd: int, frac: float) -> Candidate | None:
+    """The held-out evidence of candidate ``c`` (``None``: not applicable on some subset).
+
+    * strict hold-out: the training-RSS screen, then cross-fitting when it can pass;
+    * ``initial-memory``: the rows before the wipe-out time (the only rows an initial state
+      changes; with strict hold-out the training ones, in-sample, 1-2 parameters), and it
+      must not make the held-out (cross-fitted) rows worse;
+    * rate-dependent effects between recordings at different rates: each recording
+      predicted from the others;
+    * otherwise the test rows.
+    """
+    ctx, name = run.ctx, c.name
+    if ctx.strict and not EFFECTS[name].before_wipeout:
+        if c.heldout.gain >= RULE.min_gain:
+            run.step(rnd, frac, f"cross-fitting {name}")
+            cf = crossfit_candidate(ctx, name, cur, c.fit)
+            if cf is not None:
+                return replace(c, heldout=cf["pooled"], crossfit=cf)
+        return c
+    if EFFECTS[name].before_wipeout:
+        mm = ([a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)] if ctx.strict
+              else ctx.memory_masks)
+        h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(c.fit, mm))
+        worse = (compare_heldout(ctx, cur, c.fit).gain if ctx.strict
+                 else heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)).gain)
+        if worse < -0.01:
+            h = HeldOut(h.mse_before, h.mse_after, h.gain if ctx.strict else min(h.gain, worse),
+                        min(h.z, 0.0), 1.0, h.n_batches)
+        return replace(c, heldout=h)
+    spec = EFFECTS[name]
+    if (run.between.rate and spec.between_recordings) or (
+            run.between.amplitude and spec.amplitude_dependent):
+        run.step(rnd, frac, f"predicting each recording from the others ({name})")
+        bt = between_recordings(ctx, name, cur)
+        return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
+    local = _on_its_signature(ctx, cur, c)
+    if local is not None:
+        return local
+    h = heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit))
+    if spec.dynamics is not None:
+        h = where_it_lives(ctx, cur, c.fit, h)
+    return replace(c, heldout=h)
+
+
+#: Fewest test rows among the rows an effect's signature lives in for judging it there.
+MIN_SIGNATURE_ROWS = 200
+
+
+def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | None:
+    """Candidate ``c`` judged on the test rows its signature lives in (the effect's
+    :attr:`~core.diagnosis.registry.DiagnosableEffect.signature`), with the comparison on
+    the other test rows kept for acceptance rule 13; ``None`` when the effect declares no
+    such rows or too few of them are test rows (:data:`MIN_SIGNATURE_ROWS`)."""
+    spec = EFFECTS[c.name]
+    sig = spec.signature(ctx) if spec.signature is not None else None
+    if sig is None:
+        return None
+    masks, words, centred = sig
+    where = [m & t for m, t in zip(masks, ctx.test, strict=True)]
+    if sum(int(w.sum()) for w in where) < MIN_SIGNATURE_ROWS:
+        return None
+    rest = [~m & t for m, t in zip(masks, ctx.test, strict=True)]
+
+    def on_signature(f: Fit) -> list[np.ndarray]:
+        res = ctx.test_res(f, where)
+        return [e - e.mean() if centred and e.size else e for e in res]
+
+    h = heldout_comparison(on_signature(cur), on_signature(c.fit))
+    other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
+             if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
+    return replace(c, heldout=h, where=f"test rows {words}", elsewhere=other)
+
+
+#: Share of the test rows, those where a delay / lag / resonance changes the prediction most,
+#: on which its significance is also tested (:func:`where_it_lives`).
+WHERE_SHARE = 0.2
+#: ... only when the Diebold-Mariano z on all the test rows is at least this.
+WHERE_MIN_Z = 2.0
+
+
+def where_it_lives(ctx: FitContext, cur: Fit, new: Fit, h: HeldOut) -> HeldOut:
+    """The held-out comparison ``h`` (all test rows) of a linear-dynamics candidate, with
+    its significance also tested where it lives: the :data:`WHERE_SHARE` of the test rows
+    where it changes the prediction most (the fast segments, the milliseconds after
+    reversals and steps), where the Diebold-Mariano test on all rows is conservative. The
+    rows are chosen from the two models' predictions alone (not from the measured output),
+    so the test stays valid; the better of the two counts, the signed-rank p doubled
+    (Bonferroni over the two row sets), and only when the z on all rows is at least
+    :data:`WHERE_MIN_Z`. The effect size (MSE reduction) stays that of all the test rows."""
+    if not (np.isfinite(h.z) and h.z >= WHERE_MIN_Z):
+        return h
+    d = [np.abs(a - b)[m] for a, b, m in zip(new.pred, cur.pred, ctx.test, strict=True)]
+    pooled = np.concatenate(d) if d else np.zeros(0)
+    if pooled.size < 50 or not np.any(pooled > 0):
+        return h
+    cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
+    where = [m & (np.abs(a - b) >= cut) for a, b, m in zip(new.pred, cur.pred, ctx.test,
+                                                           strict=True)]
+    hw = heldout_comparison(ctx.test_res(cur, where), ctx.test_res(new, where))
+    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
+        return h
+    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
+                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
