@@ -313,6 +313,8 @@ class SessionView:
                 title = next(t for t, n in ui.preset_names.items() if n == preset)
                 set_value(ui.preset, title)
                 ui.preset_md.content = f"*{md_text(actions.preset_doc(preset)['description'])}*"
+            # a session joined or restored with its diagnosis: its report can be downloaded
+            ui.report_btn.disabled = not self.session.has_diagnosis
             is_pi = m.get("type") == "pi"
             ui.pi_folder.visible = is_pi
             if is_pi:
@@ -788,7 +790,7 @@ class SessionView:
         if text is None:
             self.ui.report_md.content += f"\n\n⚠️ {actions.no_report(self.session)}"
             return
-        self._send(event, f"diagnosis-{self.session.code}.html", text.encode())
+        self._send(event, actions.diagnosis_report_name(self.session), text.encode())
 
     def _send(self, event: Any, name: str, payload: bytes) -> None:
         client = getattr(event, "client", None)

@@ -146,5 +146,5 @@ def diagnosis_report(session: SessionDep) -> HTMLResponse:
     # a self-contained page: its inlined plotly.js needs inline scripts, so it runs
     # sandboxed (no access to the API's origin, no network)
     return HTMLResponse(text, headers={
-        **attachment(f"diagnosis-{session.code}.html", "inline"),
+        **attachment(actions.diagnosis_report_name(session), "inline"),
         "Content-Security-Policy": REPORT_CSP})

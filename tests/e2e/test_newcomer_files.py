@@ -131,3 +131,64 @@ def test_newcomer_reaches_the_csv_upload_without_scrolling(
             _clean(page, log)
         finally:
             ctx.close()
+
+
+def test_the_diagnosis_report_is_named_for_the_recording(browser: Any, live_server: dict,
+                                                         tmp_path: Path) -> None:
+    """The diagnosis report, the last export with the session code in its name, is named for
+    the recording on both interfaces; a viser tab reloaded onto a diagnosed session can
+    download it (its button stayed disabled until the tab ran a diagnosis itself)."""
+    from tests.app.recordings import small_diagnosis
+
+    from .test_viser_gui import _open as _open_viser
+    from .test_viser_gui import _views
+    from .test_web_journeys import _upload
+
+    rec, _ = small_diagnosis()
+    csv = tmp_path / "creep-run.csv"
+    csv.write_text("t,u,y\n" + "".join(f"{a:.6f},{b:.6f},{c:.6f}\n"
+                                       for a, b, c in zip(rec.t, rec.u, rec.y, strict=True)))
+    app = live_server["app"]
+    ctx, page, log = _open(browser, live_server["url"], width=1400, height=1000)
+    try:
+        code = page.inner_text("#code")
+        _upload(page, csv, "1500")
+        page.click("#diagnose")
+        page.wait_for_selector("#diagnosis", timeout=180_000)
+        href = page.get_attribute("#report a[href$='report.html']", "href")
+        assert href, page.inner_text("#report")
+        link = page.evaluate("h => new URL(h, location.href).href", href)
+        disposition = page.request.get(link).headers.get("content-disposition", "")
+        assert "diagnosis-creep-run.html" in disposition, disposition
+        assert code not in disposition and code.replace("-", "") not in disposition
+        _clean(page, log)
+    finally:
+        ctx.close()
+
+    known = set(app.state.gui.views)
+    vctx, v, errors = _open_viser(browser, live_server["viser_url"])
+    try:
+        view = _views(app, 1, known=known)[-1]
+        code = view.session.code
+        with open(csv, "rb") as f:  # the tab's session diagnosed elsewhere (the REST API)
+            body = f.read()
+        req = v.request
+        r = req.post(f"{live_server['url']}api/sessions/{code}/recording?name=creep-run.csv",
+                     data=body, headers={"Content-Type": "text/csv"})
+        assert r.ok, r.text()
+        r = req.post(f"{live_server['url']}api/sessions/{code}/diagnose", timeout=180_000)
+        assert r.ok, r.text()
+        known = set(app.state.gui.views)
+        v.reload()  # the tab comes back onto its session, diagnosed
+        v.wait_for_selector("text=Session code", timeout=60_000)
+        _views(app, 1, known=known)
+        v.get_by_role("tab", name="Data").first.click()
+        button = v.get_by_role("button", name="Download diagnosis report (HTML)").first
+        v.wait_for_function("b => !b.disabled", arg=button.element_handle(), timeout=60_000)
+        with v.expect_download() as dl:
+            button.click()
+        name = dl.value.suggested_filename
+        assert name == "diagnosis-creep-run.html", name
+        assert errors == [], errors
+    finally:
+        vctx.close()

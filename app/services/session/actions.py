@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, replace
 from functools import lru_cache
@@ -56,6 +57,7 @@ __all__ = [
     "checked_model",
     "diagnosis_figure",
     "diagnosis_report",
+    "diagnosis_report_name",
     "export",
     "fit_figure",
     "load_parameter_set",
@@ -280,6 +282,16 @@ def diagnosis_report(session: Session) -> str | None:
     recording's units), or ``None`` before one."""
     result = session.diagnosis_result
     return None if result is None else diagnosis_html(result, _units(session))
+
+
+def diagnosis_report_name(session: Session) -> str:
+    """The file name of the session's diagnosis report, named for its recording
+    (``diagnosis-piezo-150v-1hz.html``); a session's code is a key to the session and never
+    goes into a file a student shares (as :func:`export`'s names)."""
+    rec = session.recording
+    name = re.sub(r"\.[A-Za-z0-9]{1,5}$", "", str(getattr(rec, "name", "") or ""))
+    stem = re.sub(r"[^a-z0-9]+", "-", name.lower()).strip("-")[:60].strip("-")
+    return f"diagnosis-{stem or 'recording'}.html"
 
 
 def diagnosis_figure(session: Session) -> F.FigureJSON | None:
