@@ -133,6 +133,8 @@ class LinearSystem(Model):
     _cache: dict[float, tuple[Float2D, Float1D]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    #: the realization :meth:`state_space` gives, made once in ``__post_init__``
+    _ss: tuple[Float2D, Float1D, Float1D, float] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         num = _strip(np.asarray(as_vector(self.num, "num")))
@@ -268,7 +270,7 @@ class LinearSystem(Model):
         B, C : ndarray of shape (n,)
         D : float
         """
-        return self._ss  # type: ignore[attr-defined]
+        return self._ss
 
     def discretize(self, dt: float) -> tuple[Float2D, Float1D, Float1D, float]:
         """Exact zero-order-hold discretisation at sample spacing ``dt`` (cached per ``dt``).
