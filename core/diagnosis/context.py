@@ -7,26 +7,30 @@ import numpy as np
 from .._typing import Float1D
 from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
+from .cache_budget import FIT, cache_budget
 from .locate import Coordinates, coordinates
-from .structure import Fit, PIStageOutputs, Structure, _Cache, cache_share, fit_structure
+from .structure import Fit, PIStageOutputs, Structure, _Cache, fit_structure
 
 __all__ = ["FitContext"]
 
-#: Bytes of predictions the fit memo of one diagnosis may hold (:meth:`FitContext.fit`);
-#: past it the oldest fits are dropped (refitted if met again), keeping the
-#: :data:`FIT_MEMO_MIN` most recent. 48 fits of a 50,000-sample recording hold 19 MB; of a
-#: 10-million-sample one, 3.8 GB. Scaled by the cache's share of its budgets
-#: (:func:`~core.diagnosis.structure.cache_share`: none beyond the most recent for a long
-#: record).
-FIT_MEMO_BYTES = 160e6
+#: Fits the memo of one diagnosis holds at most (:meth:`FitContext.fit`), and the most
+#: recent ones it keeps whatever the cache budget (their bytes count in it): 48 fits of a
+#: 50,000-sample recording hold 19 MB of predictions (38 MB with their PI-stage outputs); of
+#: a 10-million-sample one, 3.8 GB. Past the budget (:mod:`.cache_budget`, shared with the
+#: play banks and their derived arrays, which go first) the least recently used fits go.
+FIT_MEMO_COUNT = 48
 FIT_MEMO_MIN = 4
 
 
 def _fit_bytes(f: Fit) -> int:
-    """Bytes of the per-sample arrays a memoised fit holds: its predictions (its PI-stage
-    outputs once formed)."""
-    x = f.x_pi._x if isinstance(f.x_pi, PIStageOutputs) else f.x_pi
-    return sum(p.nbytes for p in f.pred) + sum(np.asarray(v).nbytes for v in (x or ()))
+    """Bytes of the per-sample arrays a memoised fit holds or will hold: its predictions and
+    its PI-stage outputs (formed on first use, counted from the start)."""
+    pred = sum(p.nbytes for p in f.pred)
+    if f.x_pi is None:
+        return pred
+    if isinstance(f.x_pi, PIStageOutputs):  # not formed yet: N values per recording
+        return 2 * pred
+    return pred + sum(np.asarray(v).nbytes for v in f.x_pi)
 
 
 class FitContext:
@@ -44,7 +48,8 @@ class FitContext:
         #: cross-fitting folds recur for every candidate and comparison)
         self._caches: dict = {}
         if parent is None:
-            self.cache = _Cache(cache_share(sum(r.n_samples for r in records)))
+            self.cache = _Cache(cache_budget(sum(r.n_samples for r in records)))
+            self.cache.budget.floor[id(self._fits)] = FIT_MEMO_MIN
         else:
             self._fits = parent._fits
             self._caches = parent._caches
@@ -77,7 +82,7 @@ class FitContext:
                 and all(a is b for a, b in zip(hit[1], self.train, strict=True))
                 and hit[2].d is parent.d):
             return hit[2]
-        c = _Cache(parent.share)
+        c = _Cache(parent.budget)
         c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))
@@ -95,20 +100,16 @@ class FitContext:
         uses_x = s.reads_output
         key = (tuple(id(m) for m in self.train), s, self.iterations,
                id(x_init) if uses_x else None)
-        hit = self._fits.get(key)
+        hit = self.cache.budget.get(self._fits, key)
         if hit is not None:
             return hit[2]
         f = fit_structure(s, self.records, self.train, self.cache, x_init,
                           iterations=self.iterations)
         assert isinstance(f, Fit)
-        # (at most 48 fits, and past FIT_MEMO_BYTES of predictions the oldest go, keeping
-        # the FIT_MEMO_MIN most recent: a fit holds N predictions per recording)
-        while self._fits and (len(self._fits) >= 48 or (
-                len(self._fits) >= FIT_MEMO_MIN
-                and sum(_fit_bytes(v[2]) for v in self._fits.values()) + _fit_bytes(f)
-                > FIT_MEMO_BYTES * self.cache.share)):
-            self._fits.pop(next(iter(self._fits)))
-        self._fits[key] = (list(self.train), x_init, f)
+        # (at most FIT_MEMO_COUNT fits, within the cache budget beside the banks, the
+        # FIT_MEMO_MIN most recent kept whatever it: a fit holds N predictions per recording)
+        self.cache.budget.put(self._fits, key, (list(self.train), x_init, f), _fit_bytes(f),
+                              FIT, count=FIT_MEMO_COUNT)
         return f
 
     def rss(self, s: Structure, cur: Fit) -> float:

@@ -35,6 +35,7 @@ from ..recordings import Recording
 from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
 from ..validation import filled
 from .bases import bouc_wen_bank, bouc_wen_model, initial_state, stop_model
+from .cache_budget import BANK, DERIVED, FIT, CacheBudget
 from .grid import baseline_thresholds
 from .registry import (
     EFFECTS,
@@ -358,11 +359,14 @@ class _Cache:
     """Play-bank outputs keyed by (recording, history, beta), their reduced bases, the
     projections of the banks on those bases and the row layout of the training rows.
 
-    ``share``: the part of the byte budgets (:data:`BANK_CACHE_BYTES`, ...) this cache may
-    fill, :func:`cache_share` of the diagnosis's samples (1 for a short record)."""
+    ``budget``: the byte account the play banks, level segments, projections and Bouc-Wen
+    history banks share with the diagnosis's fit memo (:class:`~.cache_budget.CacheBudget`,
+    limit :func:`~.cache_budget.cache_budget` of its samples), or a limit in bytes for a new
+    account (:data:`DEFAULT_CACHE_BYTES` if None)."""
 
-    def __init__(self, share: float = 1.0) -> None:
-        self.share = share
+    def __init__(self, budget: CacheBudget | float | None = None) -> None:
+        self.budget = (budget if isinstance(budget, CacheBudget)
+                       else CacheBudget(DEFAULT_CACHE_BYTES if budget is None else budget))
         self.d: dict[Any, np.ndarray] = {}
         self.v: dict[Any, np.ndarray] = {}
         #: projections ``B @ V``: may be shared between the caches of one diagnosis (the
@@ -395,7 +399,7 @@ class _Cache:
         the product is then formed by :func:`_bank_rows_times` where the input turns rarely.
         """
         key = (key, id(V))
-        hit = _recent(self.p, key)
+        hit = self.budget.get(self.p, key)
         if hit is not None and hit[0] is V:
             if hit[2] <= start:
                 return hit[1][start - hit[2]:]
@@ -407,6 +411,8 @@ class _Cache:
             P = _bank_rows_times(B, V, r, np.arange(start0, B.shape[0]))
         B = B[start0:]
         w = None if w is None else w[start0:]
+        # room first: the caches and the new product stay within the budget together
+        self.budget.make_room(8.0 * B.shape[0] * V.shape[1])
         if P is None and w is not None and w.size > 1:
             new = np.empty(w.size, dtype=bool)
             new[0] = True
@@ -415,8 +421,7 @@ class _Cache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        _keep(self.p, key, (V, P, start0), P.nbytes, 16,
-              PROJECTION_CACHE_BYTES * self.share)
+        self.budget.put(self.p, key, (V, P, start0), P.nbytes, DERIVED, count=16)
         return P[start - start0:]
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
@@ -480,8 +485,10 @@ class _Cache:
         if bouc_wen:
             return self._bouc_wen_bank(k, rec, hist, shape, bouc_wen, upto)
         key = (k, hist, beta, r.size, float(r[-1]), shape)
-        B = _recent(self.d, key)
+        B = self.budget.get(self.d, key)
         if B is None:
+            if upto is None:
+                self.budget.make_room(8.0 * rec.n_samples * (r.size + 1))
             u = apply_shape(shape, rec.u if upto is None else rec.u[:upto])
             z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
             if beta is None:
@@ -491,7 +498,7 @@ class _Cache:
                 B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
             if upto is not None:
                 return B
-            _keep(self.d, key, B, B.nbytes, 6, BANK_CACHE_BYTES * self.share)
+            self.budget.put(self.d, key, B, B.nbytes, BANK, count=6)
         return B
 
     def bank_rows(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
@@ -501,7 +508,7 @@ class _Cache:
         is not a bank of rate-independent plays), else the plays run along the input
         storing only those rows (:func:`_play_rows`, the same numbers), so a few thousand
         sampled rows do not form ``(N, n + 1)``."""
-        fits = 8.0 * rec.n_samples * (r.size + 1) <= BANK_CACHE_BYTES * self.share
+        fits = self.budget.fits(8.0 * rec.n_samples * (r.size + 1))
         if beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape):
             return self.bank(k, rec, r, hist, beta, shape, bouc_wen=bouc_wen)[idx]
         w = np.ascontiguousarray(apply_shape(shape, rec.u), dtype=np.float64)
@@ -515,17 +522,18 @@ class _Cache:
         """The bank of a Bouc-Wen base (:func:`core.diagnosis.bases.bouc_wen_bank`), always
         computed over the whole recording and memoised apart from the play banks (its RK4
         elements cost some hundred times a play: a search met each one again and again).
-        Banks without a virtual history are kept; those of a history search up to
-        :data:`BW_HISTORY_BYTES`, the oldest dropped first."""
+        Banks without a virtual history are kept; those of a history search within the cache
+        budget (rank :data:`~.cache_budget.FIT`: they cost about what a fit does), least
+        recently used first out."""
         key = (k, hist, shape, elements, rec.n_samples, float(rec.u[-1]))
-        B = self.bw.get(key)
+        B = self.budget.get(self.bw, key)
         if B is None:
             B = bouc_wen_bank(apply_shape(shape, rec.u), elements,
                               apply_shape(shape, hist) if hist else None)
-            self.bw[key] = B
-            old = [q for q in self.bw if q[1]]
-            while old and sum(self.bw[q].nbytes for q in old) > BW_HISTORY_BYTES * self.share:
-                self.bw.pop(old.pop(0))
+            if hist:
+                self.budget.put(self.bw, key, B, B.nbytes, FIT)
+            else:
+                self.bw[key] = B
         return B if upto is None else B[:upto]
 
     def levelled(self, k: int, B: np.ndarray, s: Structure) -> np.ndarray:
@@ -534,12 +542,13 @@ class _Cache:
         ``i m + j`` = segment ``j`` of play ``i``; memoised."""
         key = (k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
                s.shape, s.levels, B.shape[0])
-        L = _recent(self.lv, key)
+        L = self.budget.get(self.lv, key)
         if L is None:
+            self.budget.make_room(B.nbytes * (len(s.levels) + 1))
             L = _segments(B, s.levels)
             # kept apart from the play banks (a search over one recording's history meets
             # the other recordings' levelled banks again and again)
-            _keep(self.lv, key, L, L.nbytes, 8, LEVEL_CACHE_BYTES * self.share)
+            self.budget.put(self.lv, key, L, L.nbytes, DERIVED, count=8)
         return L
 
 
@@ -566,64 +575,16 @@ FULL_FIT_ROWS = 15000
 RANKING_ROWS = 8000
 
 
-#: Memory for the Bouc-Wen banks of a virtual-history search (bytes): a search over the
-#: first recording's history revisits each of some hundred histories about three times.
-BW_HISTORY_BYTES = 128e6
-#: Memory the cache of one diagnosis may keep of the arrays that grow with the record
-#: (bytes): play banks ``(N, n + 1)``, their level segments ``(N, (n + 1) m)`` and the
-#: projections on a reduced basis ``(N, q)``. Within it the entries are also bounded in
-#: number (6, 8 and 16, least recently used first out), so a short recording keeps what it
-#: kept before; a long one keeps fewer (a bank is recomputed at about a nanosecond per
-#: sample and play, cheap beside the memory it would hold: 100 plays over 1 million
-#: samples are 0.8 GB).
-BANK_CACHE_BYTES = 192e6
-LEVEL_CACHE_BYTES = 96e6
-PROJECTION_CACHE_BYTES = 96e6
-#: Samples (all recordings together) up to which a diagnosis's caches may fill the whole of
-#: the budgets above (:func:`cache_share`).
-FULL_CACHE_SAMPLES = 60_000
-#: The part of the budgets the caches of a longer diagnosis may fill.
-LONG_CACHE_SHARE = 0.0
-
-
-def cache_share(n_samples: int) -> float:
-    """The part of the cache budgets (:data:`BANK_CACHE_BYTES`, ...) a diagnosis of
-    ``n_samples`` samples may fill: 1 up to :data:`FULL_CACHE_SAMPLES`, else
-    :data:`LONG_CACHE_SHARE`.
-
-    Issue 31's memory target is 400 MB + 0.3 kB per sample, about 415 MB at 50,000 samples
-    and 430 MB at 100,000; without its caches a diagnosis held about 420 MB at 100,000
-    samples (the imports 170 MB), and full caches added 190 MB there (320 MB at 400,000
-    samples; docs/pages/diagnose.md, "Scale", round 3). A short record keeps them: the
-    shipped piezo recording (50,001 samples) takes 2.2x its CPU time without them (its
-    searches recompute what they no longer find), a long one hardly more (1.1x at 100,000
-    samples, 1.0x at 1 million: the banks and projections it would keep are few and large,
-    and it recomputes them in O(N))."""
-    return 1.0 if n_samples <= FULL_CACHE_SAMPLES else LONG_CACHE_SHARE
+#: Byte limit of a cache made without a budget (tests, a fit outside a diagnosis): what the
+#: separate budgets of the play banks, level segments and projections held together before
+#: the one budget of :mod:`.cache_budget`. A diagnosis's cache has :func:`cache_budget` of
+#: its samples instead.
+DEFAULT_CACHE_BYTES = 384e6
 
 
 #: Rows of a block of the play bank streamed by :func:`_stage_output` (0.2 MB per play; 50,000
 #: held 70 MB of a resolution refit's bank at the 100,000-sample diagnosis's peak).
 STREAM_ROWS = 25_000
-
-
-def _keep(d: dict, key: Any, value: Any, size: float, count: int, budget: float) -> None:
-    """Store ``d[key] = value`` (``size`` bytes) in a least-recently-used cache of at most
-    ``count`` entries and ``budget`` bytes (entry sizes by :func:`_nbytes`): the oldest
-    entries go first; a value larger than the whole budget is not stored."""
-    d.pop(key, None)
-    if size > budget:
-        return
-    while d and (len(d) >= count or sum(_nbytes(v) for v in d.values()) + size > budget):
-        d.pop(next(iter(d)))
-    d[key] = value
-
-
-def _nbytes(v: Any) -> float:
-    """Bytes of the arrays in a cache entry (an array or a tuple holding some)."""
-    if isinstance(v, np.ndarray):
-        return float(v.nbytes)
-    return float(sum(a.nbytes for a in v if isinstance(a, np.ndarray)))
 
 
 def _recent(d: dict, key: Any) -> Any:
@@ -1445,8 +1406,8 @@ def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: 
 def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
     """Whether a full fit of ``s`` streams its play banks in row blocks instead of forming
     them (:func:`_streamed_rows`): rate-independent plays on a PI or Preisach base, banks
-    not cached and together larger than the cache's part of :data:`BANK_CACHE_BYTES`
-    (:func:`cache_share`: none beyond some 60,000 samples; a short recording is
+    not cached and together larger than the cache's budget
+    (:func:`~.cache_budget.cache_budget` of the diagnosis's samples; a short recording is
     fitted from its whole bank, as before), and output dynamics that forget their start (a block's
     rows are those of the filter run from the first sample to round-off, as
     :func:`_filter_start`)."""
@@ -1456,7 +1417,7 @@ def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
     if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
         return False
     width = (r.size + 1) * (len(s.levels) + 1)
-    if 8.0 * width * sum(rec.n_samples for rec in records) <= BANK_CACHE_BYTES * cache.share:
+    if cache.budget.fits(8.0 * width * sum(rec.n_samples for rec in records)):
         return False
     return all(_warm_rows(s.dynamics, rec.dt) >= 0 for rec in records)
 

@@ -19,28 +19,16 @@ def _record(n: int = 20001, dt: float = 1e-3) -> tuple[Recording, list[np.ndarra
     return Recording(t, u, y + 0.002 * y**2, "sine"), [t <= 14.0]
 
 
-def test_keep_bounds_count_and_bytes_oldest_first() -> None:
-    d: dict = {}
-    for k in range(5):
-        st._keep(d, k, np.zeros(100), 800, count=10, budget=2500)
-    assert list(d) == [2, 3, 4]  # 3 x 800 bytes fit in 2500, the oldest went first
-    st._keep(d, 9, np.zeros(1000), 8000, count=10, budget=2500)
-    assert 9 not in d and list(d) == [2, 3, 4]  # larger than the whole budget: not stored
-    st._keep(d, 5, (np.zeros(10), np.zeros(100)), 800, count=2, budget=1e9)
-    assert list(d) == [4, 5]  # the count bound holds too
-
-
 @pytest.mark.parametrize("history", [(), ((25.0, -30.0),)])
 def test_streamed_stage_output_equals_the_whole_bank_product(monkeypatch, history) -> None:
     """With no bank cached (budget 0) and blocks of 3,000 rows, a fit's PI-stage output is
     formed block by block; it equals the whole bank (plays from the virtual history) times
     the weights, and the fit keeps no bank alive."""
-    monkeypatch.setattr(st, "BANK_CACHE_BYTES", 0.0)
     monkeypatch.setattr(st, "STREAM_ROWS", 3000)
     rec, train = _record()
     r = (2.0, 6.0, 12.0, 20.0)
     s = st.Structure(r, history or ((),), dynamics=("lag", 0.004))
-    cache = st._Cache()
+    cache = st._Cache(0.0)
     f = st.fit_structure(s, [rec], train, cache)
     assert not cache.d  # nothing stored beyond the budget
     assert isinstance(f.x_pi, st.PIStageOutputs) and f.x_pi._x is None
@@ -53,11 +41,11 @@ def test_streamed_stage_output_equals_the_whole_bank_product(monkeypatch, histor
 
 
 def test_fits_memoised_by_a_context_are_bounded_in_bytes(monkeypatch) -> None:
-    """The fit memo of a diagnosis drops its oldest fits past its byte budget (each fit holds
-    its predictions, N per recording), keeping at least the most recent few."""
+    """The fit memo of a diagnosis drops its least recently used fits past the cache budget
+    (each fit holds its predictions, N per recording), keeping at least the most recent few."""
     from core.diagnosis import context as cx
 
-    monkeypatch.setattr(cx, "FIT_MEMO_BYTES", 1.0)
+    monkeypatch.setattr(cx, "cache_budget", lambda n: 1.0)
     rec, train = _record(4001)
     ctx = cx.FitContext([rec], train, [~train[0]])
     r = (2.0, 6.0, 12.0)
@@ -86,9 +74,8 @@ def test_full_fits_with_streamed_banks_equal_those_of_whole_banks(monkeypatch, d
               base.with_(levels=(-10.0, 15.0), level_smooth=0.1)):  # a Preisach base
         want = st.fit_structure(s, [rec], train, st._Cache())
         with monkeypatch.context() as m:
-            m.setattr(st, "BANK_CACHE_BYTES", 0.0)
             m.setattr(st, "STREAM_ROWS", 3000)
-            cache = st._Cache()
+            cache = st._Cache(0.0)
             assert st._streams(cache, s, [rec])
             got = st.fit_structure(s, [rec], train, cache)
             assert not cache.d
@@ -107,9 +94,8 @@ def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dy
     train = [(np.arange(rec.n_samples) // 4000) % 2 == 0]
     s = st.Structure((2.0, 6.0, 12.0, 20.0), ((),), dynamics=dyn)
     want = st.fit_structure(s, [rec], train, st._Cache())
-    monkeypatch.setattr(st, "BANK_CACHE_BYTES", 0.0)
     monkeypatch.setattr(st, "STREAM_ROWS", 3000)
-    got = st.fit_structure(s, [rec], train, st._Cache())
+    got = st.fit_structure(s, [rec], train, st._Cache(0.0))
     np.testing.assert_allclose(got.weights, want.weights, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0,
                                atol=1e-9 * float(np.ptp(rec.y)))
@@ -118,7 +104,7 @@ def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dy
 
 @pytest.mark.parametrize("history", [(), ((25.0, -30.0),)])
 def test_bank_rows_are_the_rows_of_the_whole_bank(history) -> None:
-    """Sampled rows of a bank that is not kept (a long record's cache has no budget) are
+    """Sampled rows of a bank that is not kept (larger than the cache budget) are
     formed without the bank and equal its rows exactly; nothing is stored. With a budget the
     bank is formed and kept, as :meth:`_Cache.bank` does."""
     rec, _ = _record(5001)
@@ -127,7 +113,7 @@ def test_bank_rows_are_the_rows_of_the_whole_bank(history) -> None:
     z0 = play_bank(np.asarray(hist), r)[1] if history else np.zeros(r.size)
     want = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
     idx = np.arange(3, 5001, 7)
-    none = st._Cache(share=0.0)
+    none = st._Cache(0.0)
     got = none.bank_rows(0, rec, r, hist, None, (), idx)
     np.testing.assert_array_equal(got, want[idx])
     assert not none.d
@@ -136,20 +122,20 @@ def test_bank_rows_are_the_rows_of_the_whole_bank(history) -> None:
     assert full.has_bank(0, r, hist)
 
 
-def test_cache_share_and_budgets_of_a_long_record(monkeypatch) -> None:
-    """A diagnosis's cache fills the whole budgets up to FULL_CACHE_SAMPLES samples and the
-    long-record share beyond; sub-contexts share it, the fit memo's budget scales with it."""
+def test_a_diagnosis_cache_has_the_budget_of_its_samples(monkeypatch) -> None:
+    """A diagnosis's cache gets the budget of its samples; sub-contexts share its account;
+    with no budget (a long record) no bank or projection is kept and the fit memo holds its
+    most recent fits."""
+    from core.diagnosis import cache_budget as cb
     from core.diagnosis import context as cx
 
-    assert st.cache_share(st.FULL_CACHE_SAMPLES) == 1.0
-    assert st.cache_share(st.FULL_CACHE_SAMPLES + 1) == st.LONG_CACHE_SHARE
-    monkeypatch.setattr(st, "FULL_CACHE_SAMPLES", 1000)
-    monkeypatch.setattr(st, "LONG_CACHE_SHARE", 0.0)
     rec, train = _record(4001)
+    assert cx.FitContext([rec], train, [~train[0]]).cache.budget.limit == cb.cache_budget(4001)
+    monkeypatch.setattr(cx, "cache_budget", lambda n: 0.0)
     ctx = cx.FitContext([rec], train, [~train[0]])
-    assert ctx.cache.share == 0.0
+    assert ctx.cache.budget.limit == 0.0
     sub = cx.FitContext([rec], [train[0] & (rec.t < 2.0)], train, parent=ctx)
-    assert sub.cache.share == 0.0 and sub.cache.d is ctx.cache.d
+    assert sub.cache.budget is ctx.cache.budget and sub.cache.d is ctx.cache.d
     r = (2.0, 6.0, 12.0)
     fits = [ctx.fit(st.Structure(r, ((),), dynamics=("lag", tau)))
             for tau in (0.002, 0.004, 0.006, 0.008, 0.010, 0.012)]
