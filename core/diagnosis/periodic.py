@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fitting.cycles import input_cycles
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 
-__all__ = ["CLOSED_TOL", "CYCLE_TOL", "MIN_CYCLES", "STEADY_TOL", "closed_loop_history",
-           "repeated_cycles", "steady_state_history"]
+__all__ = ["CLOSED_TOL", "CYCLE_TOL", "MIN_CYCLES", "START_TOL", "STEADY_TOL",
+           "closed_loop_history", "longest_repeating_run", "repeated_cycles",
+           "steady_state_history"]
 
 #: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
 #: difference of the later periods, within which the first period counts as steady state.
@@ -100,6 +102,9 @@ def closed_loop_history(rec: Recording) -> tuple[float, ...]:
 MIN_CYCLES = 4
 #: Tolerance (fraction of the input range, RMS) within which one cycle repeats the next.
 CYCLE_TOL = 0.02
+#: A cycle follows the one before it when it starts one period after it within this share
+#: of the period (no rest or missing cycle in between).
+START_TOL = 0.05
 
 
 def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
@@ -107,9 +112,12 @@ def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
 
     Under a periodic input a rate-independent model repeats its output from one cycle to the
     next once the first cycle has set its memory, so a trend from cycle to cycle (a drift,
-    the slow tail of creep) is testable inside one recording. The period is the spacing of
-    every second large reversal (> 10 % of the input range); a cycle belongs to the run when
-    its input is within :data:`CYCLE_TOL` of the input range (RMS) of the cycle before it.
+    the slow tail of creep) is testable inside one recording. The cycles are those of
+    :func:`core.fitting.cycles.input_cycles` (each starts where the input rises through its
+    median; the period is the median spacing of those starts, so a measured drive whose
+    period is not a whole number of samples is followed cycle by cycle); a cycle belongs to
+    the run when it starts one period (within :data:`START_TOL`) after the cycle before it
+    and its input is within :data:`CYCLE_TOL` of the input range (RMS) of that cycle's.
 
     Parameters
     ----------
@@ -122,25 +130,28 @@ def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
         ``(start, stop)`` sample ranges of consecutive cycles (each one period long), at
         least :data:`MIN_CYCLES` of them, or empty when the input does not repeat.
     """
+    run = longest_repeating_run(u)
+    return run if len(run) >= MIN_CYCLES else ()
+
+
+def longest_repeating_run(u: np.ndarray) -> tuple[tuple[int, int], ...]:
+    """The longest run of consecutive repeating cycles (:func:`repeated_cycles` without its
+    :data:`MIN_CYCLES` floor; empty when the input has no whole cycle)."""
     u = np.asarray(u, dtype=np.float64)
-    span = float(np.ptp(u)) if u.size else 0.0
-    if span <= 0:
+    cyc = input_cycles(u)
+    if cyc is None:
         return ()
-    rv = reversal_indices(u, 0.1 * span)
-    rv = rv[(rv > 0) & (rv < u.size - 1)]
-    if rv.size < 2 * MIN_CYCLES:
-        return ()
-    period = int(np.median(rv[2:] - rv[:-2]))
-    if period < 4:
-        return ()
+    span = float(np.ptp(u))
+    T = cyc.period
     best: list[tuple[int, int]] = []
     run: list[tuple[int, int]] = []
-    for a in range(int(rv[0]), u.size - period + 1, period):
-        cyc = (a, a + period)
-        if run and np.sqrt(np.mean((u[a : a + period] - u[a - period : a]) ** 2)) > (
-                CYCLE_TOL * span):
-            run = []
-        run.append(cyc)
+    for a, b in cyc.spans():
+        if run:
+            p = run[-1][0]
+            if abs(a - p - T) > START_TOL * T or np.sqrt(
+                    np.mean((u[a:b] - u[p : p + T]) ** 2)) > CYCLE_TOL * span:
+                run = []
+        run.append((a, b))
         if len(run) > len(best):
             best = list(run)
-    return tuple(best) if len(best) >= MIN_CYCLES else ()
+    return tuple(best)

@@ -4,11 +4,11 @@ A misfit far above the white-noise floor (:mod:`core.fitting.adequacy`) is eithe
 the base cannot follow or noise the floor underestimates. :func:`leftover` tells them apart
 on one recording with a time axis, without a second model:
 
-* **Repeats with the input.** Cycles of the input (from one upward crossing of its median to
-  the one a fundamental period later) whose inputs agree to :data:`SAME_INPUT` of the input's
-  range are paired; a deterministic residual is the same in both (correlation near 1), noise
-  is not. The RMS difference of the paired residuals over ``sqrt(2)`` is the part that does
-  not repeat.
+* **Repeats with the input.** Cycles of the input (:func:`core.fitting.cycles.input_cycles`:
+  from an upward crossing of its median, one period long) whose inputs agree to
+  :data:`SAME_INPUT` of the input's range are paired; a deterministic residual is the
+  same in both (correlation near 1), noise is not. The RMS difference of the paired
+  residuals over ``sqrt(2)`` is the part that does not repeat.
 * **Where.** The rows where the fitted branch is flat (its slope ``|dy/du|`` below
   :data:`FLAT_SLOPE` of its 90th percentile: the sliding plateaus of a friction loop, the
   saturated ends of a piezo's) against the rows where it rises.
@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._typing import Float1D
+from .cycles import input_cycles
 
 __all__ = ["FAST", "FLAT_SLOPE", "OSCILLATION", "SAME_INPUT", "Leftover", "leftover"]
 
@@ -126,15 +127,14 @@ def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | Non
     f0 = float(f[int(np.argmax(spec_u))])
     if f0 <= 0 or 2.0 / f0 > n * dt:
         return None
-    T = int(round(1.0 / (f0 * dt)))
-    med = float(np.median(u))
-    starts = np.flatnonzero((u[:-1] < med) & (u[1:] >= med))
-    starts = starts[starts + T <= n]
+    cycles = input_cycles(u)
+    T = cycles.period if cycles is not None else 0
+    starts = cycles.starts if cycles is not None else np.zeros(0, dtype=np.int64)
     ur = float(np.ptp(u)) or 1.0
     corr, diff = [], []
     for i, a in enumerate(starts):
         for b in starts[i + 1:]:
-            if b - a < T:
+            if b - a < T // 2:  # overlapping windows are not two cycles
                 continue
             if np.sqrt(np.mean((u[a:a + T] - u[b:b + T]) ** 2)) < SAME_INPUT * ur:
                 ea, eb = e[a:a + T], e[b:b + T]

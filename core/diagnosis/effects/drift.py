@@ -8,7 +8,7 @@ from ...base import Chain, Model
 from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
-from ..periodic import repeated_cycles
+from ..periodic import MIN_CYCLES, longest_repeating_run, repeated_cycles
 from ..registry import DiagnosableEffect, StaticTerm, TermFit, TermRows, register
 from ..structure import Fit, legendre_columns
 
@@ -23,13 +23,24 @@ def _untestable(ctx: FitContext) -> str | None:
     after the first cycle a rate-independent model repeats itself, so a trend between the
     cycles is not the model's bias)."""
     total = sum(float(r.t[-1] - r.t[0]) for r in ctx.records)
-    if total < SINGLE_DRIFT_S and len(ctx.records) == 1 and not repeated_cycles(
-            ctx.records[0].u):
-        return (f"a single {total:.3g} s record without a repeated input cycle cannot separate "
-                "a slow drift from the model's bias and from slow sensor noise (a drift must "
-                "repeat across recordings, show from one identical input cycle to the next, "
-                "or span minutes)")
-    return None
+    if total >= SINGLE_DRIFT_S or len(ctx.records) != 1:
+        return None
+    r = ctx.records[0]
+    if repeated_cycles(r.u):
+        return None
+    run = longest_repeating_run(r.u)
+    if len(run) >= 2:
+        # the input does repeat, but too few times for a trend (the first cycle sets the
+        # memory; a trend needs two changes between the cycles after it)
+        return (f"the single {total:.3g} s record repeats its input cycle only {len(run)} times "
+                f"(t = {r.t[run[0][0]]:.3g} to {r.t[min(run[-1][1], r.n_samples - 1)]:.3g} s); "
+                f"a trend from cycle to cycle needs {MIN_CYCLES} identical cycles (the first "
+                "sets the memory), so a slow drift cannot be told from the model's bias and "
+                "from slow sensor noise")
+    return (f"a single {total:.3g} s record without a repeated input cycle cannot separate "
+            "a slow drift from the model's bias and from slow sensor noise (a drift must "
+            "repeat across recordings, show from one identical input cycle to the next, "
+            "or span minutes)")
 
 
 def _signature(ctx: FitContext) -> tuple[list[np.ndarray], str, bool] | None:

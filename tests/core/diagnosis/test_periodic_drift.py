@@ -89,3 +89,44 @@ def test_rule_13_refuses_an_effect_that_harms_the_other_rows() -> None:
     assert harmless_elsewhere(HeldOut(1.0, 1.03, -0.03, -5.0, 1.0, 20))  # within 5 %
     assert harmless_elsewhere(None)
     assert RULE.max_harm_elsewhere == 0.05
+
+
+def _measured_like(drift: float, seed: int) -> Recording:
+    """The shape of a measured drive: rest, one ramp-in cycle, 7 cycles of a sine whose
+    period is not a whole number of samples (0.977 Hz at 1 kHz), one ramp-out cycle, rest;
+    noise on the input too. ``drift`` in fractions of the output range over the record."""
+    rng = np.random.default_rng(seed)
+    f, rest = 0.977, 500
+    t1 = np.arange(int(9 * FS / f)) / FS
+    env = np.clip(np.minimum(t1, t1[-1] - t1) * f, 0.0, 1.0)
+    u = np.concatenate([np.zeros(rest), 80.0 * env * np.sin(2 * np.pi * f * t1),
+                        np.zeros(rest)]) + 0.2 * rng.standard_normal(t1.size + 2 * rest)
+    t = np.arange(u.size) / FS
+    y = PLANT(u)
+    yr = float(np.ptp(y))
+    y = y + 0.001 * yr * rng.standard_normal(y.size) + drift * yr * t / t[-1]
+    return Recording(t=t, u=u, y=y, name=f"measured-like-{seed}")
+
+
+def test_repeated_cycles_follow_a_period_of_no_whole_number_of_samples() -> None:
+    u = _measured_like(0.0, 5).u
+    cyc = repeated_cycles(u)
+    # the 7 full-amplitude cycles (the ramps differ from their neighbours)
+    assert len(cyc) >= 6
+    assert all(abs((b - a) - FS / 0.977) <= 1.0 for a, b in cyc)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_drift_under_a_measured_like_periodic_drive_is_named(seed: int) -> None:
+    res = diagnose(_measured_like(0.02, seed), n_operators=10, effects=["drift"],
+                   auto_resolution=False)
+    assert "drift" not in {u["name"] for u in res.untestable}
+    assert [e.name for e in res.effects] == ["drift"]
+
+
+def test_too_few_repeated_cycles_are_counted_in_the_reason() -> None:
+    t, u = _piezo_like_input(3)  # 3 cycles after the step: fewer than MIN_CYCLES repeat
+    rec = Recording(t=t, u=u, y=PLANT(u), name="three-cycles")
+    res = diagnose(rec, n_operators=10, effects=["drift"], auto_resolution=False)
+    drift = [u for u in res.untestable if u["name"] == "drift"]
+    assert drift and f"needs {MIN_CYCLES} identical cycles" in drift[0]["reason"]

@@ -1,0 +1,85 @@
+"""The cycles of a periodic input: where each one starts, and how long one lasts.
+
+A measured periodic input is rarely a whole number of samples per period (a 1 Hz drive
+sampled at 1,024.3 Hz), its turning points are blurred by noise on the flat tops of the
+wave, and it often starts at rest and ramps in and out. The cycle starts are therefore
+taken where the input rises steeply through its middle: an upward crossing of the median,
+counted again only after the input has fallen :data:`REARM` of its range below it (so noise
+at rest on the median gives no crossing). The period is the median spacing of those
+crossings, which a few ramp-in or ramp-out cycles do not move.
+
+:func:`input_cycles` is the one place that finds them: the leftover check of a fit
+(:mod:`core.fitting.leftover`, cycles paired as the same input) and the cycle-to-cycle test
+of a drift (:func:`core.diagnosis.periodic.repeated_cycles`) both read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._typing import Float1D
+
+__all__ = ["REARM", "InputCycles", "input_cycles"]
+
+#: How far (fraction of the input range) the input must fall below its median before the
+#: next upward crossing counts.
+REARM = 0.1
+
+
+@dataclass(frozen=True)
+class InputCycles:
+    """The cycles of an input (:func:`input_cycles`).
+
+    Attributes
+    ----------
+    period : int
+        Samples per cycle: the median spacing of the cycle starts.
+    starts : ndarray of int, shape (K,)
+        First sample of each cycle (an upward crossing of the input's median), every one
+        with a whole period of samples after it; ``K >= 1``.
+    """
+
+    period: int
+    starts: np.ndarray
+
+    def spans(self) -> tuple[tuple[int, int], ...]:
+        """``(start, stop)`` sample ranges, one period long each."""
+        return tuple((int(a), int(a) + self.period) for a in self.starts)
+
+
+def input_cycles(u: Float1D) -> InputCycles | None:
+    """The cycles of ``u`` (module docstring), or ``None`` when it has fewer than two.
+
+    Parameters
+    ----------
+    u : ndarray of shape (N,)
+        Input samples (evenly sampled).
+
+    Returns
+    -------
+    InputCycles or None
+        The period (samples) and the start of every whole cycle; ``None`` when the input
+        rises through its median fewer than twice or is constant.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    span = float(np.ptp(u)) if u.size else 0.0
+    if u.size < 8 or not span > 0:
+        return None
+    mid = float(np.median(u))
+    low = u < mid - REARM * span
+    up = np.flatnonzero((u[:-1] < mid) & (u[1:] >= mid)) + 1
+    # an upward crossing counts when the input was below the re-arm level since the last one
+    seen_low = np.concatenate(([0], np.cumsum(low)))  # lows among u[:i]
+    starts: list[int] = []
+    for i in up:
+        if seen_low[i] > (seen_low[starts[-1]] if starts else 0):
+            starts.append(int(i))
+    if len(starts) < 2:
+        return None
+    period = int(round(float(np.median(np.diff(starts)))))
+    whole = np.array([a for a in starts if a + period <= u.size], dtype=np.int64)
+    if period < 4 or whole.size < 1:
+        return None
+    return InputCycles(period, whole)
