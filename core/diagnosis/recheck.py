@@ -25,7 +25,7 @@ from .crossfitting import ambiguous_parameters
 from .data import crossfit_folds
 from .events import excitation
 from .finding import make_finding
-from .registry import EFFECTS, output_dynamics, stage_pairs
+from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
 from .results import EffectFinding, RoundRow, pooled_mse
 from .search import WHERE_MIN_Z, WHERE_SHARE, where_it_lives
 from .specs import DECIDING_EXPERIMENT
@@ -262,7 +262,7 @@ def _pair_sigmas(ctx: FitContext, fit: Fit, h: float = 0.05) -> dict[str, dict[s
     sig: dict[str, dict[str, Any]] = {}
     j = 0
     for n, vals in stages:
-        keys = EFFECTS[n].dynamics.params  # type: ignore[union-attr]
+        keys = dynamics_of(n).params
         sig[n] = {}
         for k, v in zip(keys, vals, strict=True):
             e = np.eye(x0.size)[j] * h
@@ -286,12 +286,12 @@ def _name_pair(run: Run, base: Fit, finding: EffectFinding, alone: dict[str, tup
     ctx = run.ctx
     pair_fit = got[0]
     stages = dynamics_stages(pair_fit.structure.dynamics)
-    params = {n: dict(zip(EFFECTS[n].dynamics.params, v, strict=True))  # type: ignore[union-attr]
+    params = {n: dict(zip(dynamics_of(n).params, v, strict=True))
               for n, v in stages}
     why: dict[str, str] = {}
     for n, v in stages:
         other = next(o for o, _ in stages if o != n)
-        lacks = EFFECTS[n].dynamics.lacks_signature_in_series  # type: ignore[union-attr]
+        lacks = dynamics_of(n).lacks_signature_in_series
         reason = lacks(v, dict(stages)[other], min(r.dt for r in ctx.records)) if lacks else None
         if reason:
             why[n] = reason
