@@ -249,21 +249,21 @@ def read_upload(
                        f"{', '.join(TIMING_CHOICES)}, not {str(timing)[:40]!r}")
     if step is not None and not (timing == "resample" and 0 < step < float("inf")):
         raise CSVError("a resampling step (> 0 s) goes with the choice to resample")
-    kw: dict[str, Any] = {}
-    if timing == "keep":
-        kw["uneven"] = "keep"
-    elif timing == "resample":
-        kw["resample"] = True if step is None else float(step)
+    resample: bool | float = False
+    if timing == "resample":
+        resample = True if step is None else float(step)
     try:
-        recs = read_csv_text(content, time=column_spec(t_col), input=column_spec(u_col),
+        options = CsvOptions(time=column_spec(t_col), input=column_spec(u_col),
                              output=column_spec(y_col), run=False if run == "all" else None,
-                             name=name, max_rows=max_samples, **kw)
+                             max_rows=max_samples, resample=resample,
+                             uneven="keep" if timing == "keep" else "error")
+        recs = read_csv_text(content, options, name=name)
     except UnevenTimeError as exc:
         raise UnevenUpload(Timing.of(exc), exc.source) from None
     except CSVError as exc:
         if _binary(exc):
             raise _plain(exc, name) from None
-        if "resample" in kw and "needs a time axis" in str(exc):
+        if timing == "resample" and "needs a time axis" in str(exc):
             raise CSVError(f"{exc.source}: there is no time column, so there is nothing to "
                            "resample (the samples are taken as evenly spaced); upload "
                            "without the choice to resample", source=exc.source) from None
