@@ -45,7 +45,7 @@ from app.services.teaching import lessons
 from app.services.teaching.events import HUB
 from app.services.words import type_words
 
-from .layout import PANEL_PX, PROJECTOR_PX, TITLES, Widgets, set_value
+from .layout import PANEL_PX, PHONE_PLOT_PX, PROJECTOR_PX, TITLES, Widgets, set_value
 from .lesson import LessonPanel
 from .playback import Playback
 from .render import LatestWinsWorker
@@ -921,8 +921,8 @@ class SessionView:
         if self.projecting:  # wide enough for panels side by side, read from afar
             return F.large_text(fig, width=PROJECTOR_PX), 1
         fig, bands = F.stack_columns(fig, compact=self.ui.narrow)
-        # the title under plotly's toolbar row (a phone's plot is about 350 px wide)
-        return F.below_toolbar(fig, 350 if self.ui.narrow else PANEL_PX), bands
+        # the title under plotly's toolbar row, in lines the plot holds
+        return F.below_toolbar(fig, PHONE_PLOT_PX if self.ui.narrow else PANEL_PX), bands
 
     def _render_error(self, exc: BaseException) -> None:
         self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"

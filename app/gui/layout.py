@@ -45,6 +45,9 @@ TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "
 NARROW_PX = 700
 #: Width of the floating plot panel, CSS px (leaves the 3D cube in view on a laptop).
 PANEL_PX = 470
+#: Width a phone's plot is laid out for, CSS px: viser's control sheet on a 390 px phone
+#: leaves the plot about 230 px (a title broken for 350 px was cut at both sides).
+PHONE_PLOT_PX = 220
 #: The panel's width in projector mode, CSS px (62 % of a 1920 px projector).
 PROJECTOR_PX = 1200
 #: The screen width projector mode is made for, CSS px.

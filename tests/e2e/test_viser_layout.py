@@ -97,6 +97,40 @@ def test_phone_shows_a_plot(browser: Any, live_server: dict, shot: Any) -> None:
     ctx.close()
 
 
+def test_phone_plot_title_inside_the_plot(browser: Any, live_server: dict, shot: Any) -> None:
+    """On a 390x844 phone at device-pixel ratio 3 (and at 1) the plot's title is broken into
+    lines the plot holds: viser's control sheet leaves the plot about 230 px wide, and a
+    title broken for 350 px was cut at both sides ("Hysteresis loop (Classical PI model, r")."""
+    app = live_server["app"]
+    for dpr in (3, 1):
+        known = set(app.state.gui.views)
+        ctx = browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=dpr,
+                                  is_mobile=dpr > 1, has_touch=dpr > 1)
+        try:
+            page = ctx.new_page()
+            page.set_default_timeout(60_000)
+            page.goto(live_server["viser_url"])
+            page.wait_for_selector("text=Session code", timeout=60_000)
+            _new_view(app, known)
+            page.wait_for_function("""() => { const p = [...document.querySelectorAll(
+                '.js-plotly-plot')].find(e => e.getBoundingClientRect().width > 150);
+                return p && p._fullLayout && p.querySelector('.gtitle'); }""", timeout=60_000)
+            parts = page.evaluate("""() => {
+              const p = [...document.querySelectorAll('.js-plotly-plot')]
+                .find(e => e.getBoundingClientRect().width > 150);
+              const r = (e) => { const b = e.getBoundingClientRect();
+                                 return [b.left, b.top, b.right, b.bottom]; };
+              return { plot: r(p), title: [...p.querySelectorAll('.gtitle')].map(r) };
+            }""")
+            left, _, right, _ = parts["plot"]
+            for t in parts["title"]:
+                assert t[0] >= left - 1 and t[2] <= right + 1, (dpr, t, parts["plot"])
+            if dpr == 3:
+                _screenshot(page, shot, "viser-phone-title")
+        finally:
+            ctx.close()
+
+
 def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
                                               shot: Any) -> None:
     app = live_server["app"]
