@@ -155,7 +155,8 @@ class AcceptRule:
     resolution_gain, resolution_z : float
         Once an effect is in, the play grid is doubled while the held-out MSE falls by
         ``resolution_gain`` with a Diebold-Mariano z of ``resolution_z`` (or a signed-rank
-        p below ``sign_p``): a choice of resolution, not a claim, hence the lower bar.
+        p below ``sign_p``): a choice of resolution, not a claim, hence the lower bar. The
+        baseline's own grid (before any effect) is doubled by ``resolution_gain`` alone.
     """
 
     min_gain: float = 0.05

@@ -18,6 +18,7 @@ from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MA
 from ..fitting.orientation import loop_orientation
 from ..fitting.stop import branch_features
 from ..stop import StopPIModel
+from .acceptance import RULE
 from .adequacy import fold_mse
 from .bases import BW_MIN_GAIN, bouc_wen_elements, fit_stop_gap, saturations, stop_stage
 from .candidates import build_candidate
@@ -30,7 +31,14 @@ from .results import BaseChoice
 from .shapes import loop_shape, shape_thresholds
 from .structure import Fit, Structure
 
-__all__ = ["PREISACH_GRID", "RATE_ON_STOP", "choose_base", "choose_base_family", "fit_baseline"]
+__all__ = ["MIN_ROWS_PER_WEIGHT", "PREISACH_GRID", "RATE_ON_STOP", "choose_base",
+           "choose_base_family", "fit_baseline"]
+
+
+#: Fewest training rows per fitted weight (plays, level segments, Bouc-Wen elements, bias)
+#: of a base or a resolution tried: a finer grid or a richer base on a short single loop is
+#: not tried below it.
+MIN_ROWS_PER_WEIGHT = 2
 
 
 def fit_baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tuple[Fit, Fit]:
@@ -39,8 +47,9 @@ def fit_baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tu
     Saturating loops (friction) need play weights of either sign: switch when the
     sign-constrained PI is clearly worse on the held-out rows (MSE at least halved). Then the
     under-resolution check (notes E13): double the grid while the held-out MSE drops by
-    >= 2 % (model selection of a nuisance, not a physics claim: no significance needed),
-    keeping at least two training rows per weight.
+    ``resolution_gain`` of :class:`~core.diagnosis.acceptance.AcceptRule` (2 %; model
+    selection of a nuisance, not a physics claim: no significance needed), keeping at least
+    :data:`MIN_ROWS_PER_WEIGHT` training rows per weight.
     Periodic steady-state recordings start from the memory their own cycle leaves.
     """
     records, trm = ctx.records, ctx.train
@@ -52,14 +61,14 @@ def fit_baseline(ctx: FitContext, n_operators: int, auto_resolution: bool) -> tu
     base: Fit | None = None
     requested: Fit | None = None
     for n_try in (n_operators, 2 * n_operators, 4 * n_operators):
-        if base is not None and 2 * (n_try + 2) > ctx.n_train:
-            break  # at least two training rows per weight (a short single loop)
+        if base is not None and MIN_ROWS_PER_WEIGHT * (n_try + 2) > ctx.n_train:
+            break  # too few training rows per weight (a short single loop)
         r = baseline_thresholds(records, trm, n_try)
         s_try = Structure(tuple(float(x) for x in r), hist0, free_weights=free)
         f_try = (f_free if free else f_nn) if n_try == n_operators else ctx.fit(s_try)
         if base is None:
             requested = f_try
-        elif compare_heldout(ctx, base, f_try).gain < 0.02:
+        elif compare_heldout(ctx, base, f_try).gain < RULE.resolution_gain:
             break
         base = f_try
         if not auto_resolution:
@@ -118,8 +127,8 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
     r = baseline_thresholds(ctx.records, ctx.train, n_p)
     best, h_best, tried = base, None, []
     for m, smooth in PREISACH_GRID:
-        if 2 * ((n_p + 1) * m + 2) > ctx.n_train:
-            continue  # at least two training rows per weight
+        if MIN_ROWS_PER_WEIGHT * ((n_p + 1) * m + 2) > ctx.n_train:
+            continue  # too few training rows per weight
         knots = tuple(float(x) for x in lo + (hi - lo) * np.arange(1, m) / m)
         sp = Structure(tuple(float(x) for x in r), s0.history, levels=knots,
                        level_smooth=smooth)
@@ -253,7 +262,7 @@ def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
     span = max(float(np.ptp(r.u[m])) for r, m in zip(ctx.records, ctx.train, strict=True)
                if m.any())
     el = bouc_wen_elements(span)
-    if span <= 0 or 2 * (len(el) + 3) > ctx.n_train:
+    if span <= 0 or MIN_ROWS_PER_WEIGHT * (len(el) + 3) > ctx.n_train:
         return best, choice
     sb = Structure(saturations(el), s0.history, free_weights=s0.free_weights, bouc_wen=el)
     fb = ctx.fit(sb)

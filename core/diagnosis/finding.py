@@ -20,7 +20,7 @@ from .state import Candidate, Run, evidence_label
 from .stats import heldout_comparison
 from .structure import Fit
 
-__all__ = ["lookalikes_of", "make_finding"]
+__all__ = ["MIN_OUTSIDE_ROWS", "lookalikes_of", "make_finding"]
 
 
 def lookalikes_of(ctx: FitContext, c: Candidate, cands: dict[str, Candidate],
@@ -111,12 +111,18 @@ def make_finding(run: Run, cur: Fit, c: Candidate, amb: list[str], runner: dict[
     )
 
 
+#: Fewest rows outside the train and test rows of a recording for their RMS before/after
+#: to be reported (and a caveat printed when it grows by ``outside_worse`` of
+#: :class:`~core.diagnosis.acceptance.AcceptRule`).
+MIN_OUTSIDE_ROWS = 10
+
+
 def _outside(records, e0, e1, used) -> list[dict[str, Any]]:
     """RMS before/after on the rows outside train and test (an independent check)."""
     out = []
     for r, a, b, m in zip(records, e0, e1, used, strict=True):
         o = ~m
-        if o.sum() >= 10:
+        if o.sum() >= MIN_OUTSIDE_ROWS:
             out.append({"recording": r.name, "samples": int(o.sum()),
                         "rms_before": float(np.sqrt(np.mean(a[o] ** 2))),
                         "rms_after": float(np.sqrt(np.mean(b[o] ** 2)))})

@@ -6,6 +6,7 @@ candidates of :mod:`core.diagnosis.search` (:func:`judge_round`), the look-ahead
 from __future__ import annotations
 
 from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 
@@ -65,7 +66,8 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
         if name in skip:
             rows.append(round_row(ctx, rnd, c, passes=False, decision="deferred",
                                   evidence="not needed: an effect of a higher-priority family "
-                                  "passed and explains at least 2/3 as much"))
+                                  f"passed and explains at least {_share(1 / RULE.family_lead)} "
+                                  "as much"))
             continue
         if name in needs_cf:
             run.step(rnd, 0.5, f"cross-fitting {name}")
@@ -103,6 +105,12 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
         if dec.passes:
             passing.append(name)
     return cands, rows, passing
+
+
+def _share(x: float) -> str:
+    """``x`` in words as a small fraction (2/3), or as a number when it is none."""
+    f = Fraction(x).limit_denominator(12)
+    return f"{f.numerator}/{f.denominator}" if abs(float(f) - x) < 1e-9 else f"{x:.2g}"
 
 
 #: Fewest test rows in an event window for its MSE reduction to count (acceptance rule 14).
@@ -265,7 +273,7 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
 
 def choose(passing: list[str], gains: dict[str, float]) -> str:
     """Highest-priority family with a passing effect (best gain inside the family), unless a
-    later family explains at least 1.5 times as much held-out MSE."""
+    later family explains at least ``family_lead`` (1.5) times as much held-out MSE."""
     by_fam: dict[str, str] = {}
     for n in passing:
         f = EFFECTS[n].family
@@ -284,9 +292,10 @@ def _cannot_win(held: dict[str, HeldOut], size_ok: dict[str, bool], needs_cf: se
     """Candidates whose cross-fitting can be skipped: :func:`choose` could not pick them.
 
     When an effect that needs no cross-fitting already passes in the highest-priority family
-    that has passing effects, a later family can only be picked with at least 1.5 times that
-    family's best gain (:func:`choose`); families below that bound are left undecided
-    ("deferred") in this round and are tested again in the next one.
+    that has passing effects, a later family can only be picked with at least
+    ``family_lead`` (1.5) times that family's best gain (:func:`choose`); families below
+    that bound are left undecided ("deferred") in this round and are tested again in the
+    next one.
     """
     sure = [n for n in held if size_ok[n] and n not in needs_cf and (
         held[n].z >= RULE.min_z

@@ -27,7 +27,7 @@ from .events import excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
 from .results import EffectFinding, RoundRow, pooled_mse
-from .search import WHERE_MIN_Z, WHERE_SHARE, where_it_lives
+from .search import WHERE_MIN_ROWS, WHERE_MIN_Z, WHERE_SHARE, where_it_lives
 from .specs import DECIDING_EXPERIMENT
 from .state import Candidate, Run
 from .stats import HeldOut, heldout_comparison
@@ -210,8 +210,8 @@ def _blocks_where_it_lives(ctx: FitContext, folds: list, cur: Fit, new: Fit) -> 
         diff += [np.abs(a - b)[m] for a, b, m in zip(fb.pred, fa.pred, blk, strict=True)]
     h = heldout_comparison(eb, ea)
     pooled = np.concatenate(diff) if diff else np.zeros(0)
-    if not (np.isfinite(h.z) and h.z >= WHERE_MIN_Z) or pooled.size < 50 or not np.any(
-            pooled > 0):
+    if not (np.isfinite(h.z) and h.z >= WHERE_MIN_Z) or pooled.size < WHERE_MIN_ROWS or (
+            not np.any(pooled > 0)):
         return h
     cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
     keep = [d >= cut for d in diff]

@@ -25,8 +25,8 @@ from .state import Candidate, Run, deferred_row
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit
 
-__all__ = ["MIN_SIGNATURE_ROWS", "WHERE_MIN_Z", "WHERE_SHARE", "candidate_evidence",
-           "search_round", "where_it_lives"]
+__all__ = ["MEMORY_MAX_HARM", "MIN_SIGNATURE_ROWS", "WHERE_MIN_ROWS", "WHERE_MIN_Z",
+           "WHERE_SHARE", "candidate_evidence", "search_round", "where_it_lives"]
 
 
 def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
@@ -55,7 +55,7 @@ def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
     """Fit every effect of ``todo`` on top of ``cur`` and collect its evidence.
 
     With strict hold-out the highest-priority families go first; once one passes, a later
-    family can only be chosen with 1.5 times its gain
+    family can only be chosen with ``family_lead`` (1.5) times its gain
     (:func:`~core.diagnosis.judge.choose`), so hopeless candidates are deferred to the next
     round without their (costly) cross-fitting.
     Returns the candidates and the rows of the deferred ones.
@@ -93,13 +93,21 @@ def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
     return cands, deferred
 
 
+#: Largest relative increase of the held-out MSE (all test rows, or the cross-fitted blocks
+#: with strict hold-out) that an ``initial-memory`` candidate, judged on the rows before the
+#: wipe-out time, may cause elsewhere (:func:`candidate_evidence`).
+MEMORY_MAX_HARM = 0.01
+
+
 def candidate_evidence(run: Run, cur: Fit, c: Candidate, rnd: int, frac: float) -> Candidate | None:
     """The held-out evidence of candidate ``c`` (``None``: not applicable on some subset).
 
     * strict hold-out: the training-RSS screen, then cross-fitting when it can pass;
     * ``initial-memory``: the rows before the wipe-out time (the only rows an initial state
       changes; with strict hold-out the training ones, in-sample, 1-2 parameters), and it
-      must not make the held-out (cross-fitted) rows worse;
+      must not make the held-out (cross-fitted) rows worse by more than
+      :data:`MEMORY_MAX_HARM` (otherwise it cannot pass: it is made not significant and,
+      without strict hold-out, its gain is that worsening);
     * rate-dependent effects between recordings at different rates: each recording
       predicted from the others;
     * otherwise the test rows.
@@ -118,7 +126,7 @@ def candidate_evidence(run: Run, cur: Fit, c: Candidate, rnd: int, frac: float) 
         h = heldout_comparison(ctx.test_res(cur, mm), ctx.test_res(c.fit, mm))
         worse = (compare_heldout(ctx, cur, c.fit).gain if ctx.strict
                  else heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit)).gain)
-        if worse < -0.01:
+        if worse < -MEMORY_MAX_HARM:
             h = HeldOut(h.mse_before, h.mse_after, h.gain if ctx.strict else min(h.gain, worse),
                         min(h.z, 0.0), 1.0, h.n_batches)
         return replace(c, heldout=h)
@@ -169,8 +177,10 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
 #: Share of the test rows, those where a delay / lag / resonance changes the prediction most,
 #: on which its significance is also tested (:func:`where_it_lives`).
 WHERE_SHARE = 0.2
-#: ... only when the Diebold-Mariano z on all the test rows is at least this.
+#: ... only when the Diebold-Mariano z on all the test rows is at least this ...
 WHERE_MIN_Z = 2.0
+#: ... and the rows it is chosen from number at least this.
+WHERE_MIN_ROWS = 50
 
 
 def where_it_lives(ctx: FitContext, cur: Fit, new: Fit, h: HeldOut) -> HeldOut:
@@ -186,7 +196,7 @@ def where_it_lives(ctx: FitContext, cur: Fit, new: Fit, h: HeldOut) -> HeldOut:
         return h
     d = [np.abs(a - b)[m] for a, b, m in zip(new.pred, cur.pred, ctx.test, strict=True)]
     pooled = np.concatenate(d) if d else np.zeros(0)
-    if pooled.size < 50 or not np.any(pooled > 0):
+    if pooled.size < WHERE_MIN_ROWS or not np.any(pooled > 0):
         return h
     cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
     where = [m & (np.abs(a - b) >= cut) for a, b, m in zip(new.pred, cur.pred, ctx.test,

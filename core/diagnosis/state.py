@@ -143,8 +143,9 @@ def round_row(ctx: FitContext, rnd: int, c: Candidate, passes: bool,
 def deferred_row(rnd: int, name: str, params: dict | None = None,
                  screen: float | None = None) -> RoundRow:
     """Row of a candidate left for the next round: because a higher-priority family passed
-    and it could not explain 1.5 times as much, or (``screen``, its training-RSS reduction,
-    below zero) because it does not lower the training error at all."""
+    and it could not explain ``family_lead`` (1.5) times as much, or (``screen``, its
+    training-RSS reduction, below zero) because it does not lower the training error at
+    all."""
     why = ("not needed: an effect of a higher-priority family passed, and this one could not "
            f"explain {RULE.family_lead:g} times as much") if screen is None else (
         f"not tested further: it does not lower the training error (change "
