@@ -164,8 +164,9 @@ export function setProjector(on) {
 }
 
 // In projector mode or with a lesson's step above it, the plot takes the height left on the
-// screen below its top (less the two lines of notes and status under it), so its axis
-// titles and legend are never below the fold; a phone keeps its own heights (style.css).
+// screen below its top (less the notes and the status line under it, at least two lines),
+// so its axis titles, its legend and what the notes say are never below the fold; a phone
+// keeps its own heights (style.css).
 export function fitHeight(el = $("figure")) {
   const lesson = document.getElementById("lesson");
   const fit = window.innerWidth > 820 &&
@@ -173,12 +174,16 @@ export function fitHeight(el = $("figure")) {
   if (!fit) {
     el.style.height = "";
     el.style.minHeight = "";
-    return;
+    return false;
   }
   const top = el.getBoundingClientRect().top + window.scrollY;
   const line = parseFloat(getComputedStyle(document.body).lineHeight) || 24;
   el.style.minHeight = "320px";
-  el.style.height = `${Math.max(320, Math.floor(window.innerHeight - top - 2 * line - 24))}px`;
+  const below = ["notes", "status"].map((id) => document.getElementById(id))
+    .reduce((sum, e) => sum + (e ? e.getBoundingClientRect().height : 0), 0);
+  const under = Math.max(2 * line, below) + 24;
+  el.style.height = `${Math.max(320, Math.floor(window.innerHeight - top - under))}px`;
+  return true;
 }
 window.addEventListener("resize", () => fitHeight());
 
@@ -187,8 +192,10 @@ window.addEventListener("resize", () => fitHeight());
 export async function render(el, f, { live = false, stamp } = {}) {
   if (el.id === "figure" && (f !== state.shown || stamp !== undefined)) state.shownStamp = stamp || "";
   state.shown = f;
-  if (el.id === "figure") fitHeight(el);
+  const fitted = el.id === "figure" && fitHeight(el);
   let layout = fitLayout(f.layout);
+  // plotly keeps the height it measured last: the height left on the screen, said
+  if (fitted) layout = { ...layout, height: el.clientHeight };
   const data = el.id === "figure" ? phoneData(el, f.data) : f.data;
   if (document.body.classList.contains("projector")) layout = largeText(layout);
   const old = el.querySelector(":scope > .quick-plot");

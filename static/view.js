@@ -64,10 +64,8 @@ export async function draw(pending) {
     f = await diagnosisFigure();
     if (seq !== drawn) return;
   }
-  const live = performance.now() - state.lastInput < SETTLE_MS;
-  // body[data-plotted] names the view and version plotly has drawn (a live move draws a
-  // quick plot first and plotly after it settles)
-  await render(el, f, { live, stamp: `${fig}@${res.version}` });
+  // the status line and the notes under the plot are written first: in projector mode or
+  // under a lesson's step the plot takes the height they leave (plots.js fitHeight)
   // the diagnosis view names the diagnosed model, not the session's (fitted) one
   const diagnosed = fig === "diagnosis" && f.layout && f.layout.meta && f.layout.meta.model_title;
   const parts = [diagnosed ? `Diagnosed: ${diagnosed}` : `${res.model_title || res.model_type}`];
@@ -80,10 +78,14 @@ export async function draw(pending) {
     parts.push(`${res.elapsed_ms.toFixed(1)} ms`);
   }
   $("status").textContent = parts.join(" · ");
-  showDigiControls(res);
   const notes = [...(res.model_note ? [res.model_note] : []),
     ...((f.layout && f.layout.meta && f.layout.meta.notes) || [])];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
+  const live = performance.now() - state.lastInput < SETTLE_MS;
+  // body[data-plotted] names the view and version plotly has drawn (a live move draws a
+  // quick plot first and plotly after it settles)
+  await render(el, f, { live, stamp: `${fig}@${res.version}` });
+  showDigiControls(res);
   document.body.dataset.fig = fig;
   document.body.dataset.ready = String(res.version);
   if (!live) document.body.dataset.settled = String(res.version);

@@ -1,7 +1,8 @@
 """Projector mode with a lesson open (issue 33, item 1), in real Chromium at 1920x1080: the
 teacher leads "Inverse compensation" (inverse, loop, closed-loop views) and "PI basics" with
 the page in projector mode. On every step the whole plot is on the screen without
-scrolling: its title inside the plot, its axis titles and its legend above the fold."""
+scrolling: its title inside the plot, its axis titles and its legend above the fold, and
+the notes and status line under it."""
 
 from __future__ import annotations
 
@@ -23,7 +24,10 @@ PARTS = """() => {
   return { fig: [fig.left, fig.top, fig.right, fig.bottom], height: window.innerHeight,
            width: window.innerWidth, title: box('.gtitle'), axes: box('.xtitle, .ytitle, '
            + '[class*="x2title"], [class*="y2title"], [class*="x3title"], [class*="y3title"]'),
-           legend: box('.legend') };
+           legend: box('.legend'),
+           under: ['notes', 'status'].map((id) => document.getElementById(id))
+             .filter((e) => e.textContent.trim()).map((e) => [e.id, e.getBoundingClientRect()
+             .bottom]) };
 }"""
 
 
@@ -47,6 +51,9 @@ def _whole_plot_on_screen(page: Any, where: str) -> None:
     for left, top, right, bottom in p["axes"] + p["legend"]:
         assert bottom <= min(fb, p["height"]) + 1 and right <= p["width"] + 1, (where, p)
         assert left >= 0 and top >= 0, (where, p)
+    # the notes under the plot (the closed-loop step's explanation) and the status line too
+    for name, bottom in p["under"]:
+        assert bottom <= p["height"] + 1, f"{where}: #{name} ends at {bottom:.0f} px"
 
 
 def test_projector_shows_the_whole_plot_on_every_lesson_step(browser: Any, live_server: dict,
