@@ -23,7 +23,7 @@ from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import ambiguous_parameters
 from .data import crossfit_folds
-from .events import excitation
+from .events import Excitation, excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
 from .results import EffectFinding, RoundRow, pooled_mse
@@ -36,7 +36,12 @@ from .structure import Fit, dynamics_stages, pack_dynamics
 __all__ = ["POLISH_XATOL", "STAGE_BLOCKS_PER_RECORDING", "polish_dynamics", "recheck_dynamics"]
 
 
-def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fit:  # noqa: C901 - look-alike rules 9-12 read together; split with the engine (issue 34)
+#: A stage's fits in :func:`recheck_dynamics`, by name: (fit, parameters, 1-sigmas, the
+#: comparison with the structure without output dynamics on the held-out rows).
+_Fitted = dict[str, tuple[Fit, dict[str, Any], dict[str, Any], HeldOut]]
+
+
+def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fit:
     """Re-compare delay / lag / resonance at the refined resolution and keep the best; a
     pair of stages in series that beats it (rule 11) is named when each of its stages earns
     its place over the other alone (rule 12, :func:`_name_pair`; only for the stage just
@@ -44,40 +49,15 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
     ctx, ambiguous, rounds = run.ctx, run.ambiguous, run.rounds
     base = ctx.fit(cur.structure.with_(dynamics=()), cur)
     te0 = ctx.test_res(base)
-    results = {finding.name: (cur, finding.parameters, finding.uncertainty,
-                              heldout_comparison(te0, ctx.test_res(cur)))}
+    results: _Fitted = {finding.name: (cur, finding.parameters, finding.uncertainty,
+                                       heldout_comparison(te0, ctx.test_res(cur)))}
     for alt in output_dynamics():
         if alt in results:
             continue
         got = build_candidate(ctx, alt, base)
         if got is not None:
             results[alt] = (got[0], got[1], got[2], heldout_comparison(te0, ctx.test_res(got[0])))
-
-    def undecided_against(b: str) -> dict[str, HeldOut]:
-        """Comparison of every other stage with ``b`` on the held-out rows."""
-        return {o: heldout_comparison(ctx.test_res(results[o][0]), ctx.test_res(results[b][0]))
-                for o in results if o != b}
-
-    def undecided(hh: HeldOut) -> bool:
-        return hh.z < RULE.min_z and hh.sign_p >= RULE.sign_p
-
-    best = min(results, key=lambda n: results[n][3].mse_after)
-    unnamed = None
-    vs = undecided_against(best)
-    # a stage whose fitted values lack its own signature (a mode too damped to ring) is not
-    # named when a look-alike that shows its own is not significantly worse
-    lacks = _lacks_signature(best, results[best][1])
-    if lacks:
-        # rule 9: a look-alike that shows its own signature is named when it predicts no
-        # significantly worse or leaves at most a small margin more held-out MSE
-        alts = [o for o, hh in vs.items()
-               if (undecided(hh) or yields_to_lookalike(results[best][3].mse_after,
-                                                         results[o][3].mse_after))
-               and not _lacks_signature(o, results[o][1])]
-        if alts:
-            unnamed = best
-            best = min(alts, key=lambda n: results[n][3].mse_after)
-            vs = undecided_against(best)
+    best, unnamed, lacks, vs = _named_stage(ctx, results)
     fit, params, unc, h = results[best]
     exc = excitation(ctx.records)
     # rule 15: without steps or several rates the look-alikes' signatures cannot show
@@ -91,7 +71,83 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
                                "ambiguous" if open_ else "rejected", results[other][1]))
         if open_:
             amb.append(other)
-    # rule 11: two stages in series that beat the named one keep their members open
+    in_pair, beating = _pairs_in_series(ctx, rounds, base, fit, results, best, te0, rnd)
+    amb += [n for n in in_pair if n not in amb]
+    if best != finding.name:
+        # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
+        # the new name
+        old = finding.name
+        ambiguous[:] = [dict(a, effects=[best if e == old else e for e in a["effects"]],
+                             chosen=best, reason=a["reason"].replace(old, best))
+                        if a["chosen"] == old else a for a in ambiguous]
+        finding.name = best
+        finding.parameters = params
+        finding.uncertainty = unc
+        finding.ambiguous_parameters = ambiguous_parameters(params, unc)
+        finding.explanation = EFFECTS[best].explanation
+        finding.equation = EFFECTS[best].equation
+    finding.ambiguous_with = amb
+    finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
+    ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
+    for other in amb:
+        why = _why_open(other, best, unnamed, results, h, vs.get(other), in_pair, exc)
+        ambiguous.append({
+            "effects": [best, other],
+            "chosen": best,
+            "reason": why + (
+                f"; {other} is not named: {lacks}" if lacks and other == unnamed else ""),
+            "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
+                                                  "recordings at more frequencies"),
+        })
+    for a, b, got, hp in beating if finding is run.findings[-1] else ():
+        named = _name_pair(run, base, finding, {n: results[n] for n in (a, b)}, got, hp, rnd)
+        if named is not None:
+            return named
+    return fit
+
+
+def _undecided(hh: HeldOut) -> bool:
+    """Neither test of the significance rule separates two stages (DM z below ``min_z`` and
+    signed-rank p at least ``sign_p``, without Bonferroni)."""
+    return hh.z < RULE.min_z and hh.sign_p >= RULE.sign_p
+
+
+def _against(ctx: FitContext, results: _Fitted, b: str) -> dict[str, HeldOut]:
+    """Comparison of every other stage with ``b`` on the held-out rows."""
+    return {o: heldout_comparison(ctx.test_res(results[o][0]), ctx.test_res(results[b][0]))
+            for o in results if o != b}
+
+
+def _named_stage(ctx: FitContext, results: _Fitted
+                 ) -> tuple[str, str | None, str | None, dict[str, HeldOut]]:
+    """The stage named among ``results``: the one with the least held-out MSE, unless its
+    fitted values lack its own signature (a mode too damped to ring) and a look-alike that
+    shows its own is not significantly worse or leaves at most a small margin more held-out
+    MSE (rule 9). Returns the name, the stage passed over by rule 9 (or ``None``), why it
+    lacks its signature (or ``None``) and every other stage against the named one."""
+    best = min(results, key=lambda n: results[n][3].mse_after)
+    unnamed = None
+    vs = _against(ctx, results, best)
+    lacks = _lacks_signature(best, results[best][1])
+    if lacks:
+        alts = [o for o, hh in vs.items()
+                if (_undecided(hh) or yields_to_lookalike(results[best][3].mse_after,
+                                                          results[o][3].mse_after))
+                and not _lacks_signature(o, results[o][1])]
+        if alts:
+            unnamed = best
+            best = min(alts, key=lambda n: results[n][3].mse_after)
+            vs = _against(ctx, results, best)
+    return best, unnamed, lacks, vs
+
+
+def _pairs_in_series(ctx: FitContext, rounds: list[RoundRow], base: Fit, fit: Fit,
+                     results: _Fitted, best: str, te0: list[np.ndarray], rnd: int
+                     ) -> tuple[dict[str, str], list[tuple[str, str, tuple, HeldOut]]]:
+    """Rule 11: each pair of stages the registry lets act in series, fitted jointly on
+    ``base`` and compared with the named stage ``best`` (``fit``) where the pair changes the
+    prediction most, one round row each. Returns why each member of a pair that beats it
+    (other than ``best``) stays open, and those pairs (names, fit, comparison)."""
     in_pair: dict[str, str] = {}
     beating: list[tuple[str, str, tuple, HeldOut]] = []
     for a, b in stage_pairs():
@@ -115,60 +171,35 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
                 in_pair[n] = (f"{a} followed by {b}, fitted together, leaves "
                               f"{100 * hp.gain:.0f} % less held-out MSE than {best} alone "
                               f"(DM z {hp.z:.1f}): the output may pass through both")
-                if n not in amb:
-                    amb.append(n)
-    if best != finding.name:
-        # pairs among delay / lag / resonance are recomputed below; others (rate, creep) follow
-        # the new name
-        old = finding.name
-        ambiguous[:] = [dict(a, effects=[best if e == old else e for e in a["effects"]],
-                             chosen=best, reason=a["reason"].replace(old, best))
-                        if a["chosen"] == old else a for a in ambiguous]
-        finding.name = best
-        finding.parameters = params
-        finding.uncertainty = unc
-        finding.ambiguous_parameters = ambiguous_parameters(params, unc)
-        finding.explanation = EFFECTS[best].explanation
-        finding.equation = EFFECTS[best].equation
-    finding.ambiguous_with = amb
-    finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
-    ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
-    for other in amb:
-        ho = vs.get(other)
-        at = " at the final resolution"
-        if other == unnamed and results[other][3].mse_after < h.mse_after:
-            why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
-                   f" % less held-out MSE than {best}")
-        elif other == unnamed or ho is None or undecided(ho):
-            why = (f"{best} and {other} predict the held-out rows equally well (DM z < "
-                   f"{RULE.min_z:g}, signed-rank p >= {RULE.sign_p:g})")
-        elif not clearly_better(ho):
-            why = (f"{best} predicts the held-out rows better than {other}, but {other} "
-                   f"leaves only {100 * (ho.mse_before / ho.mse_after - 1):.1f} % more "
-                   "held-out MSE")
-        elif other in in_pair:
-            why = in_pair[other]
-        else:
-            at = ""
-            why = (f"the recordings hold {exc.steps} input step(s) and one excitation rate "
-                   f"(slowest / fastest {exc.rate_ratio:.2g}): a {best} and a {other} cannot "
-                   "show their own signatures there (no response for a dead time, an "
-                   "immediate smooth one for a lag, a ringing for a mode), so the "
-                   f"{100 * (ho.mse_before / ho.mse_after - 1):.0f} % more held-out MSE of "
-                   f"{other} is how it absorbs the base's misfit, not its mechanism")
-        ambiguous.append({
-            "effects": [best, other],
-            "chosen": best,
-            "reason": why + at + (
-                f"; {other} is not named: {lacks}" if lacks and other == unnamed else ""),
-            "experiment": DECIDING_EXPERIMENT.get(frozenset({best, other}),
-                                                  "recordings at more frequencies"),
-        })
-    for a, b, got, hp in beating if finding is run.findings[-1] else ():
-        named = _name_pair(run, base, finding, {n: results[n] for n in (a, b)}, got, hp, rnd)
-        if named is not None:
-            return named
-    return fit
+    return in_pair, beating
+
+
+def _why_open(other: str, best: str, unnamed: str | None, results: _Fitted, h: HeldOut,
+              ho: HeldOut | None, in_pair: dict[str, str], exc: Excitation) -> str:
+    """Why look-alike stage ``other`` stays ambiguous with the named ``best`` (``h``: its
+    comparison with the structure without output dynamics; ``ho``: ``other`` against it)."""
+    at = " at the final resolution"
+    if other == unnamed and results[other][3].mse_after < h.mse_after:
+        why = (f"{other} leaves {100 * (1 - results[other][3].mse_after / h.mse_after):.1f}"
+               f" % less held-out MSE than {best}")
+    elif other == unnamed or ho is None or _undecided(ho):
+        why = (f"{best} and {other} predict the held-out rows equally well (DM z < "
+               f"{RULE.min_z:g}, signed-rank p >= {RULE.sign_p:g})")
+    elif not clearly_better(ho):
+        why = (f"{best} predicts the held-out rows better than {other}, but {other} "
+               f"leaves only {100 * (ho.mse_before / ho.mse_after - 1):.1f} % more "
+               "held-out MSE")
+    elif other in in_pair:
+        why = in_pair[other]
+    else:
+        at = ""
+        why = (f"the recordings hold {exc.steps} input step(s) and one excitation rate "
+               f"(slowest / fastest {exc.rate_ratio:.2g}): a {best} and a {other} cannot "
+               "show their own signatures there (no response for a dead time, an "
+               "immediate smooth one for a lag, a ringing for a mode), so the "
+               f"{100 * (ho.mse_before / ho.mse_after - 1):.0f} % more held-out MSE of "
+               f"{other} is how it absorbs the base's misfit, not its mechanism")
+    return why + at
 
 
 #: Contiguous training blocks per recording held out in turn when a second output stage is
