@@ -202,7 +202,7 @@ class Settings:
         if self.worker_memory_mb > 0:
             return int(self.worker_memory_mb * 1e6)
         # never below what a diagnosis of the longest recording admitted needs beyond the
-        # worker's start (the measured model of app.services.runs.cost: 710 MB at 200,000)
+        # worker's start (the measured model of app.services.runs.cost: 260 MB at 200,000)
         need = DIAGNOSE.peak_bytes(self.max_samples) - WORKER_START_BYTES
         return max(default_memory_limit(self.limits.max_memory_bytes), int(need))
 

@@ -50,15 +50,15 @@ class CostModel:
         return max(0, int((allowed - self.base_bytes) / self.bytes_per_sample) // 1000 * 1000)
 
 
-#: ``hyst diagnose`` (issue 31; bench_diagnose_scale.py and /usr/bin/time, one thread,
-#: docs/pages/diagnose.md "Scale"): peaks of 328, 576, 894, 619, 896, 1,434 and 3,088 MB at
-#: 25k, 100k, 400k, 1M, 2M, 4M and 10M samples (10M: 2,954 MB since the residual spectrum is
-#: averaged in chunks). The caches fill up to about 550 MB and then hold still; what grows
-#: with the record (the recording, predictions, residual maps, the reader's numbers) is about
-#: 0.28 kB per sample from 4M to 10M: 0.3 kB per sample above 900 MB is an upper envelope of
-#: every measured point (10M: 3.9 GB predicted, 3.0-3.1 GB measured). CPU: 3.9, 8.1, 24.7,
-#: 19.9, 24, 55 and 132-157 s.
-DIAGNOSE = CostModel(base_bytes=900e6, bytes_per_sample=300.0, base_cpu_s=5.0,
+#: ``hyst diagnose`` (issue 31; /usr/bin/time, one thread, tilings of the shipped piezo
+#: recording, docs/pages/diagnose.md "Scale", round 4: the caches under one byte budget
+#: derived from the target 400 MB + 0.3 kB per sample, main eb930e0): peaks of 297, 348,
+#: 380, 492, 547, 1,299 and 2,907 MB at 25k, 50k, 100k, 400k, 1M, 4M and 10M samples, all
+#: under that target (the closest 28 MB under it, at 400k). 450 MB + 0.3 kB per sample is an
+#: upper envelope of every point with at least 78 MB to spare (10M: 3.45 GB predicted, 2.9 GB
+#: measured; before the budget the caches filled up to about 550 MB and the model was 900 MB +
+#: 0.3 kB). CPU: 3.4, 5.0, 7.1, 21, 13.5, 45 and 132 s (load 4-8).
+DIAGNOSE = CostModel(base_bytes=450e6, bytes_per_sample=300.0, base_cpu_s=5.0,
                      cpu_s_per_sample=15e-6)
 
 #: ``hyst fit`` (the same benchmark): peaks of 215, 420, 442, 690 and 1,428 MB at 100k, 1M,

@@ -98,7 +98,7 @@ def test_a_real_diagnosis_over_a_small_allowance_is_refused_and_the_server_goes_
         assert refused.value.code == 422
         words = json.load(refused.value)["detail"]
         assert words.startswith("the recording holds about 20,000 samples; diagnosing it "
-                                "would need about 906 MB of memory")
+                                "would need about 456 MB of memory")
         assert "a job on this server has 270 MB available" in words
         assert _call(url + "health")
         assert _call(url + f"sessions/{code}/figures?names=loop")["figures"]
