@@ -5,7 +5,10 @@ the directions of its set digits, so the ``2**n`` states are the vertices of a (
 hypercube and the up / down edges of the state graph are its edges. Up to
 :data:`FULL_CUBE_DIGITS` digits the whole cube is drawn; beyond, a projected hypercube is a
 tangle (128 vertices for 7 digits), so only the states the input visited are drawn, joined
-in the order it visited them, each labelled. A red ball marks the current state; the camera
+in the order it visited them. Up to :data:`LABEL_MAX_DIGITS` digits every vertex drawn is
+labelled; beyond, labels of nearby states piled on each other (the 23 visited states of
+paper 001 Example 1's 7 digits), so only the current state is named, beside the red ball
+that marks it (as the web page's state diagram on a phone). The camera
 looks at the cube from off its diagonal, so no two vertices overlap (000 and 111 of the
 three-operator example). A model without a digitized view hides it all (:meth:`StateCube.
 hide`).
@@ -27,8 +30,6 @@ CUBE_MAX_DIGITS = 7
 LABEL_MAX_DIGITS = 4
 #: Largest number of digits drawn as the whole cube (more: the visited states only).
 FULL_CUBE_DIGITS = FULL_GRAPH_DIGITS
-#: Most visited states labelled (more: the current state only is said, in the text).
-LABEL_MAX_STATES = 40
 
 
 def embed(digits: np.ndarray) -> np.ndarray:
@@ -65,6 +66,8 @@ class StateCube:
         self.points: np.ndarray | None = None
         self._center = np.zeros(3)
         self._marker: Any = None
+        #: The current state's name beside the ball (beyond LABEL_MAX_DIGITS), or None.
+        self._marker_label: Any = None
         self._handles: list[Any] = []
 
     def hide(self) -> None:
@@ -76,6 +79,7 @@ class StateCube:
                 pass
         self._handles = []
         self._marker = None
+        self._marker_label = None
         self._key = None
         self.points = None
 
@@ -95,8 +99,7 @@ class StateCube:
             labels = list(g.strings) if n <= LABEL_MAX_DIGITS else []
         else:
             states, up_i, down_i, _ = visited_path(d.trace.digits)
-            labels = [state_text(r) for r in states] if len(states) <= LABEL_MAX_STATES \
-                else []
+            labels = [state_text(r) for r in states] if n <= LABEL_MAX_DIGITS else []
         key = (n, np.asarray(states, dtype=np.int8).tobytes())
         if key == self._key:
             return
@@ -124,6 +127,12 @@ class StateCube:
         self._marker = self.scene.add_icosphere("/states/current", radius=0.09,
                                                 color=(214, 39, 40))
         add(self._marker)
+        self._marker_label = None
+        if not labels:  # the current state named beside its ball (a child: it moves along)
+            self._marker_label = self.scene.add_label(
+                "/states/current/name", "", position=(0.08, 0.08, 0.08),
+                font_screen_scale=1.3, anchor="bottom-left")
+            add(self._marker_label)
         self._key = key
         self._aim_camera(pts)
 
@@ -132,6 +141,8 @@ class StateCube:
         if self._marker is not None and self.points is not None:
             self._marker.position = tuple(embed(digits) - self._center)
             self._marker.visible = True
+            if self._marker_label is not None:
+                self._marker_label.text = state_text(np.asarray(digits))
 
     def hide_marker(self) -> None:
         """Hide the red ball (no digitized view)."""

@@ -131,6 +131,30 @@ def test_phone_plot_title_inside_the_plot(browser: Any, live_server: dict, shot:
             ctx.close()
 
 
+def test_seven_digit_state_labels_do_not_pile(browser: Any, live_server: dict,
+                                              shot: Any) -> None:
+    """Paper 001 Example 1 as 7 digits in a viser tab's 3D state graph at 1500x900: the
+    labels (drawn in WebGL, so read from what the tab's scene was sent) are one, the
+    current state's, beside the red ball; the 23 visited states' labels piled on each
+    other ("0011111" on "1011111")."""
+    from app.services.explore.simulation import state_text
+
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1500, 900)
+    try:
+        view = _new_view(app, known)
+        d = view.last_result.digitized
+        assert d is not None and d.model.n == 7
+        labels = [h for h in view.cube._handles if type(h).__name__ == "LabelHandle"]
+        k = int(view.ui.digi_step.value)
+        assert [h.text for h in labels] == [state_text(np.asarray(d.trace.digits[k]))]
+        _screenshot(page, shot, "viser-state-labels")
+        assert errors == []
+    finally:
+        ctx.close()
+
+
 def test_laptop_panel_leaves_the_cube_in_view(browser: Any, live_server: dict,
                                               shot: Any) -> None:
     app = live_server["app"]

@@ -1,0 +1,79 @@
+"""The state graph in viser's 3D scene (app/gui/scene.py), drawn into a scene that records
+what it was given: paper 001 Example 1's 7 digits name only the current state, beside its
+ball, whose name follows the state (the 23 visited states' labels piled on each other in the
+tab); four digits name every state drawn."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from app.gui.scene import StateCube
+from app.services.explore.config import Config
+from app.services.explore.simulation import compute, state_text, visited_path
+
+
+class _Node:
+    def __init__(self, name: str, **props: Any) -> None:
+        self.name = name
+        self.visible = True
+        self.position = props.get("position", (0.0, 0.0, 0.0))
+        self.text = props.get("text")
+
+    def remove(self) -> None:
+        pass
+
+
+class _Scene:
+    """Keeps every node it is asked for, by name."""
+
+    def __init__(self) -> None:
+        self.nodes: dict[str, _Node] = {}
+
+    def _add(self, name: str, **props: Any) -> _Node:
+        self.nodes[name] = node = _Node(name, **props)
+        return node
+
+    def add_point_cloud(self, name: str, *a: Any, **k: Any) -> _Node:
+        return self._add(name)
+
+    def add_line_segments(self, name: str, *a: Any, **k: Any) -> _Node:
+        return self._add(name)
+
+    def add_icosphere(self, name: str, *a: Any, **k: Any) -> _Node:
+        return self._add(name)
+
+    def add_label(self, name: str, text: str, **k: Any) -> _Node:
+        return self._add(name, text=text, **k)
+
+    def labels(self) -> list[_Node]:
+        return [n for n in self.nodes.values() if n.text is not None]
+
+
+def test_seven_digits_name_only_the_current_state() -> None:
+    d = compute(Config(), views={"digitized"}).digitized
+    assert d is not None and d.model.n == 7
+    scene = _Scene()
+    cube = StateCube(scene)
+    cube.draw(d)
+    for k in (0, len(d.trace.sample) // 2, len(d.trace.sample) - 1):
+        row = np.asarray(d.trace.digits[k])
+        cube.show_state(row)
+        (label,) = scene.labels()  # one label: no pile of 23
+        assert label.text == state_text(row)
+        # a child of the ball's node: drawn beside it wherever it moves
+        assert label.name.startswith("/states/current/")
+
+
+def test_four_digits_name_every_state_drawn() -> None:
+    cfg = Config()
+    cfg = cfg.with_model({"type": "pi", "p0": 0.5, "thresholds": [1.0, 2.0, 3.0],
+                          "weights": [0.5, 0.4, 0.3]})
+    d = compute(cfg, views={"digitized"}).digitized
+    assert d is not None and d.model.n == 4  # three operators and the linear term
+    scene = _Scene()
+    StateCube(scene).draw(d)
+    states, *_ = visited_path(d.trace.digits)
+    assert sorted(n.text for n in scene.labels()) == sorted(state_text(r) for r in states)
+    assert len(scene.labels()) > 1
