@@ -310,6 +310,36 @@ TIME_AXIS = """() => {
 }"""
 
 
+def test_the_loop_legend_is_clear_of_the_axis_title(browser: Any, live_server: dict,
+                                                   shot: Any) -> None:
+    """In the 470 px floating panel (1500x900) the Loop view's legend, placed at a fraction of
+    the short plot's height below it, sat on the x-axis title ("input u [a.u.]" on "initial
+    loading curve"); the legend now sits at the figure's foot."""
+    app = live_server["app"]
+    known = set(app.state.gui.views)
+    ctx, page, errors = _open(browser, live_server["viser_url"], 1500, 900)
+    try:
+        view = _new_view(app, known)
+        assert view.shown_figure == "loop"
+        page.wait_for_function("""() => { const p = document.querySelector('.js-plotly-plot');
+            return p && p.querySelector('.legend') && p.querySelector('.xtitle'); }""",
+                               timeout=60_000)
+        page.wait_for_timeout(300)
+        seen = page.evaluate("""() => { const p = document.querySelector('.js-plotly-plot');
+          const r = (e) => { const b = e.getBoundingClientRect();
+                             return [b.left, b.top, b.right, b.bottom]; };
+          return { legend: r(p.querySelector('.legend')), title: r(p.querySelector('.xtitle')),
+                   plot: r(p) }; }""")
+        lg, tt = seen["legend"], seen["title"]
+        apart = lg[2] <= tt[0] or tt[2] <= lg[0] or lg[3] <= tt[1] or tt[3] <= lg[1]
+        assert apart, ("the legend sits on the x-axis title", seen)
+        assert lg[3] <= seen["plot"][3] + 1, seen
+        _screenshot(page, shot, "viser-loop-legend")
+        assert errors == []
+    finally:
+        ctx.close()
+
+
 def test_the_time_axis_title_is_under_the_lower_plot(browser: Any, live_server: dict,
                                                      shot: Any) -> None:
     """Issue 33: in the floating panel the Time view's x-axis title "time t [s]" (of the

@@ -699,7 +699,29 @@ def below_toolbar(fig: FigureJSON, width: int) -> FigureJSON:
     margin = lay.get("margin") or {}
     lay["margin"] = {**margin, "t": max(int(margin.get("t") or 0),
                                         TOOLBAR_PX + int(lines * size * 1.3) + 12)}
+    _legend_at_foot(lay, fig.data, width)
     return FigureJSON(fig.data, lay)
+
+
+def _legend_at_foot(lay: dict[str, Any], data: list[dict[str, Any]], width: int) -> None:
+    """A legend below the plot (at a fraction of the plot's height, the layouts' default)
+    moved to the figure's foot in container coordinates, the bottom margin grown to hold the
+    x-axis title and the legend's rows (in a short plot the fraction put the legend on the
+    axis title: viser's 470 px panel, "input u [a.u.]" on "initial loading curve")."""
+    legend = lay.get("legend")
+    if not isinstance(legend, dict) or legend.get("yref") == "container" \
+            or float(legend.get("y", 1.0)) >= 0:
+        return
+    names = [str(t.get("name") or "") for t in data
+             if t.get("showlegend", True) is not False and t.get("name")]
+    if not names:
+        return
+    # an entry is its symbol (about 40 px) and its text (about 0.56 em of 12 px a letter)
+    px = sum(40 + 0.56 * 12 * len(n) for n in names)
+    rows = max(1, int(np.ceil(px / max(100, width - 40))))
+    lay["legend"] = {**legend, "yref": "container", "y": 0.0, "yanchor": "bottom"}
+    margin = lay.get("margin") or {}
+    lay["margin"] = {**margin, "b": max(int(margin.get("b") or 0), 52 + 22 * rows)}
 
 
 def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, int]:
