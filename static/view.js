@@ -24,14 +24,23 @@ export const VIEW_HELP = {
 export const RESULT_VIEWS = ["fit", "diagnosis"];
 
 async function diagnosisFigure() {
+  let why = null;
   if (!state.diagFigure) {
     try {
       state.diagFigure = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}/diagnosis/figure`);
     } catch (e) {
       if (e.status !== 409 && e.status !== 404) throw e;
+      // the server's reason when it is more than "no diagnosis yet" (a diagnosis stored by
+      // an older version, dropped when the session was opened): shown under the plot
+      if (e.status === 409 && !/^run the diagnosis first/i.test(e.message)) {
+        why = e.message.charAt(0).toUpperCase() + e.message.slice(1);
+      }
     }
   }
-  return state.diagFigure || { data: [], layout: { title: { text: "Upload a recording and run the diagnosis to see before and after" } } };
+  return state.diagFigure || { data: [], layout: {
+    title: { text: why ? "The stored diagnosis was dropped: the note below says why"
+      : "Upload a recording and run the diagnosis to see before and after" },
+    meta: { notes: why ? [why] : [] } } };
 }
 
 // The request of the figure a view draws (the fit and diagnosis views draw their own
