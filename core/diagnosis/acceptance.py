@@ -79,6 +79,18 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     the held-out MSE compares: the difference then comes from how each absorbs the base's
     misfit, not from its mechanism.
 
+17. *Time earned against history* (:func:`beyond_history_ok`): a name that says the output
+    changes with time (drift, creep, an initial memory) or with rate is accepted only when
+    the candidate still lowers the held-out MSE by ``min_gain``, significantly, once each
+    residual's part that depends on the input's state and history alone (its value,
+    direction and last two reversals, the first loading from rest apart; pooled over the
+    recordings, :mod:`core.diagnosis.history`) is removed. A rate-independent plant whose
+    loops the base cannot follow leaves a misfit that changes with the input's history,
+    which under a decaying or growing excitation changes with time as well; what a time
+    name adds must show where the input revisits a state with the same history (cycle to
+    cycle, along a hold, across first loadings from rest) or, for rate, the same loop at
+    other rates.
+
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
 """
@@ -92,8 +104,9 @@ import numpy as np
 
 from .stats import HeldOut
 
-__all__ = ["RULE", "AcceptRule", "Decision", "clearly_better", "decide", "earns_place",
-           "enough_events", "generalises", "harmless_elsewhere", "pair_beats_single",
+__all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_better", "decide",
+           "earns_place", "enough_events", "generalises", "harmless_elsewhere",
+           "pair_beats_single",
            "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
 
@@ -234,6 +247,18 @@ def beyond_loop_shape_ok(beyond: HeldOut, rule: AcceptRule = RULE) -> bool:
     set's Bouc-Wen slow sine alone: a lag lowered the held-out MSE by 11 %, beyond the loop
     shape by 5.7 % with DM z 1.2 and signed-rank p 0.03); a step, a hold or a second rate
     is what a loop shape cannot follow (the shipped piezo's lag: 19 %, z 4.4).
+    """
+    return bool(beyond.gain >= rule.min_gain) and _significant(beyond, rule)
+
+
+def beyond_history_ok(beyond: HeldOut, rule: AcceptRule = RULE) -> bool:
+    """Acceptance rule 17: does a time or rate effect explain what a misfit depending on the
+    input's state and history alone cannot?
+
+    ``beyond``: the current model against the one with the effect, each with its residual's
+    history part (:func:`~core.diagnosis.history.beyond_history`) removed. True when the
+    effect still lowers the held-out MSE by ``min_gain``, significantly (DM ``z >= min_z``
+    or signed-rank ``p < sign_p``).
     """
     return bool(beyond.gain >= rule.min_gain) and _significant(beyond, rule)
 

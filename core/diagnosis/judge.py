@@ -28,6 +28,7 @@ from .context import FitContext
 from .crossfitting import compare_heldout, crossfit_candidate, screen_gain
 from .data import crossfit_folds
 from .events import event_windows, excitation
+from .history import history_refusal
 from .lookalikes import beyond_loop_shape, lookalike_evidence, sign_locking
 from .registry import EFFECTS
 from .results import RoundRow, pooled_mse
@@ -88,6 +89,8 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
             dec = replace(dec, passes=False, reasons=(why,))
         elif dec.passes and (why := _loop_shape_refusal(ctx, cur, c)) is not None:
             dec = replace(dec, passes=False, reasons=(why,))
+        elif dec.passes and (why := history_refusal(ctx, cur, name, c.fit)) is not None:
+            dec = replace(dec, passes=False, reasons=(why,))  # rule 17 (history.py)
         elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):
             dec = replace(dec, passes=False, reasons=(_SPLIT_REASON,))
