@@ -191,13 +191,19 @@ def _rows_of(ctx: FitContext, name: str) -> list[np.ndarray] | None:
 
 def history_refusal(ctx: FitContext, cur: Fit, name: str, new: Fit) -> str | None:
     """Why acceptance rule 17 refuses candidate ``name`` (fit ``new`` on top of ``cur``), or
-    ``None`` when it holds or does not apply (:func:`says_time`), or when the rows it is
-    judged on (:func:`_rows_of`) are fewer than :data:`MIN_HISTORY_ROWS`."""
+    ``None`` when it holds or does not apply (:func:`says_time`), when the rows it is
+    judged on (:func:`_rows_of`) are fewer than :data:`MIN_HISTORY_ROWS`, or, for an
+    initial memory, when only one recording has rows before its wipe-out time (its first
+    loading is then compared with nothing: left to the effect's own rules, as before)."""
     if not says_time(name):
         return None
     rows = _rows_of(ctx, name)
     if rows is not None and sum(int(m.sum()) for m in rows) < MIN_HISTORY_ROWS:
         return None  # the effect's own rules decide where it has too few rows to judge
+    if EFFECTS[name].before_wipeout and sum(1 for m in rows or () if m.any()) < 2:
+        # one first loading: the history columns of the rows before the first reversal
+        # would take up any initial state, so there is nothing to compare it with
+        return None
     h = beyond_history(ctx, cur, new, rows)
     if beyond_history_ok(h):
         return None
