@@ -149,8 +149,9 @@ def beyond_history(ctx: FitContext, cur: Fit, new: Fit,
     if pooled.size < 50 or not np.any(pooled > 0):
         return h
     cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
-    hw = heldout_comparison(*([r[dd >= cut] for r, dd in zip(rr, d, strict=True)]
-                              for rr in res))
+    top = [dd >= cut for dd in d]
+    hw = heldout_comparison([r[m] for r, m in zip(res[0], top, strict=True)],
+                            [r[m] for r, m in zip(res[1], top, strict=True)])
     if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
         return h
     return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),

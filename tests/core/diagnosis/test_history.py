@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.diagnosis import diagnose
 from core.diagnosis.acceptance import beyond_history_ok
 from core.diagnosis.history import history_basis, says_time
 from core.diagnosis.stats import HeldOut
@@ -63,3 +64,33 @@ def test_the_rule_applies_to_time_and_rate_names_only() -> None:
     assert beyond_history_ok(HeldOut(1.0, 0.8, 0.2, 4.0, 0.5, 20))
     assert not beyond_history_ok(HeldOut(1.0, 0.97, 0.03, 9.0, 1e-6, 20))  # too small
     assert not beyond_history_ok(HeldOut(1.0, 0.8, 0.2, 1.0, 0.2, 20))  # not significant
+
+
+@pytest.fixture(scope="module")
+def steel_with_a_mode() -> list:
+    """A Menegotto-Pinto steel (non-Masing: the PI family cannot follow its loops) with a
+    200 Hz mode after it, the benchmark's four recordings (development seed 500)."""
+    from benchmarks.diagnosis.families import make_family
+
+    return make_family("menegotto-pinto", "resonance", "large", seed=500).records
+
+
+@pytest.mark.slow
+def test_a_virgin_curve_the_base_misses_is_not_named_initial_memory(steel_with_a_mode,
+                                                                   monkeypatch) -> None:
+    """Measured on the development set before rule 17: `resonance` then `initial-memory`
+    (held-out MSE -26 %, DM z 5.0) on this plant, which starts every recording from rest.
+    Its four first loadings share one virgin curve the base misses; nothing differs between
+    them that a memory before the record would explain."""
+    effects = ["resonance", "initial-memory"]
+    res = diagnose(steel_with_a_mode, effects=effects)
+    assert [e.name for e in res.effects] == ["resonance"]
+    row = next(r for r in res.rounds if r.effect == "initial-memory" and r.round == 2)
+    assert not row.passes
+    assert any("state and history alone" in w for w in row.reasons or ())
+    # without the rule the same diagnosis names it: the rule is what refuses it
+    import core.diagnosis.engine as engine
+
+    monkeypatch.setattr(engine, "history_refusal", lambda *a, **k: None)
+    assert [e.name for e in diagnose(steel_with_a_mode, effects=effects).effects] == [
+        "resonance", "initial-memory"]
