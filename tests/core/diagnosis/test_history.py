@@ -89,8 +89,8 @@ def test_a_virgin_curve_the_base_misses_is_not_named_initial_memory(steel_with_a
     assert not row.passes
     assert any("state and history alone" in w for w in row.reasons or ())
     # without the rule the same diagnosis names it: the rule is what refuses it
-    import core.diagnosis.engine as engine
+    import core.diagnosis.judge as judge
 
-    monkeypatch.setattr(engine, "history_refusal", lambda *a, **k: None)
+    monkeypatch.setattr(judge, "history_refusal", lambda *a, **k: None)
     assert [e.name for e in diagnose(steel_with_a_mode, effects=effects).effects] == [
         "resonance", "initial-memory"]
