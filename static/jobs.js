@@ -18,11 +18,12 @@ export async function runJob(kind, params, syncPath, syncBody, running = null) {
   const t0 = performance.now();
   const label = (kind === "fit" ? "Fitting" : "Diagnosing") +
     (running ? " (started before this page was loaded)" : "");
-  let progress = null, message = "";
+  let progress = null, message = "", left = "";
   const tick = () => {
     const s = ((performance.now() - t0) / 1000).toFixed(0);
     const pct = progress === null ? "" : `${Math.round(100 * progress)} %, `;
-    busy.textContent = `${label}… working, ${pct}${s} s${message ? ` (${message})` : ""}`;
+    busy.textContent = `${label}… working, ${pct}${s} s${left ? `, ${left}` : ""}` +
+      (message ? ` (${message})` : "");
   };
   state.job = { kind };
   busy.hidden = false;
@@ -65,6 +66,7 @@ export async function runJob(kind, params, syncPath, syncBody, running = null) {
       progress = typeof job.progress === "number" ? job.progress : null;
       if (progress !== null) bar.value = progress;
       message = job.message ? plain(job.message) : "";
+      left = job.time_left ? plain(job.time_left) : "";
       tick();
       if (job.state === "done") return job.result;
       if (job.state === "failed") throw new ApiError(422, plain(job.error || "the job failed"));

@@ -15,16 +15,19 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from app.services.runs.cost import DIAGNOSE, FIT, CostModel, memory_refusal
+from app.services.runs.cost import (
+    DIAGNOSE,
+    ETA_FROM_S,
+    FIT,
+    CostModel,
+    memory_refusal,
+    time_left_text,
+)
 from app.services.runs.inputs import CommandError
 from app.services.runs.progress import Progress
 
 __all__ = ["DIAGNOSE", "ETA_FROM_S", "FIT", "CostModel", "EtaProgress", "allowed_memory",
            "check_memory", "count_samples"]
-
-
-#: Runs expected to take at least this long (s) show the time left on each progress line.
-ETA_FROM_S = 20.0
 
 
 def count_samples(files: Sequence[str | Path], chunk: int = 1 << 22) -> int:
@@ -112,18 +115,7 @@ class EtaProgress(Progress):
         if not self._step.match(message) or message.lstrip().startswith("100 %"):
             super().__call__(message)
             return
-        left = self.expected_s - (time.perf_counter() - self.t0)
-        if left >= 0.5:
-            message += f" (about {_duration(left)} left)"
-        else:
-            message += f" (taking longer than the {_duration(self.expected_s)} estimated)"
-        super().__call__(message)
-
-
-def _duration(s: float) -> str:
-    if s < 90:
-        return f"{max(1, round(s))} s"
-    if s < 5400:
-        return f"{round(s / 60)} min"
-    return f"{s / 3600:.1f} h"
+        left = time_left_text(max(self.expected_s, ETA_FROM_S),
+                              time.perf_counter() - self.t0)
+        super().__call__(f"{message} ({left})")
 

@@ -738,6 +738,7 @@ class SessionView:
             v = job.view()
             ui.job_bar.value = float(100 * v.progress)
             ui.report_md.content = (f"⏳ **{what}… {100 * v.progress:.0f} %**"
+                                    + (f", {v.time_left}" if v.time_left else "")
                                     + (f" ({md_text(v.message)})" if v.message else ""))
 
     def _cancel_clicked(self, event: Any) -> None:

@@ -524,7 +524,7 @@ def job_json(view: JobView, with_result: bool = True) -> dict[str, Any]:
     list shows it)."""
     d: dict[str, Any] = {"id": view.id, "kind": view.kind, "state": view.state,
                          "progress": view.progress, "message": view.message,
-                         "error": view.error}
+                         "time_left": view.time_left, "error": view.error}
     if with_result:
         d["result"] = job_result_json(view.result)
     return d
@@ -546,6 +546,9 @@ class JobOut(BaseModel):
     state: str = Field(description="queued, running, done, failed or cancelled")
     progress: Number
     message: str
+    time_left: str = Field("", description="while it runs, the time left in words from the "
+                           "measured cost of its recording's size ('about 40 s left'); empty "
+                           "for a run expected to take under 20 s")
     error: str | None = None
     result: Any = Field(None, description="FitOut or DiagnosisOut once done")
 

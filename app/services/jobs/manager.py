@@ -23,7 +23,7 @@ from typing import Any
 
 from app.services.jobs.worker import Task, Worker, WorkerDied
 from app.services.jobs.worker import start as start_workers
-from app.services.runs.cost import WORKER_START_BYTES, memory_refusal
+from app.services.runs.cost import WORKER_START_BYTES, memory_refusal, time_left_text
 
 __all__ = ["Job", "JobBusy", "JobManager", "JobTooLarge", "JobView"]
 
@@ -51,6 +51,9 @@ class JobView:
     message: str
     result: Any
     error: str | None
+    #: the time left in words while it runs (``"about 40 s left"``), ``""`` when the run is
+    #: expected to be short or is not running (:func:`~app.services.runs.cost.time_left_text`)
+    time_left: str = ""
 
 
 @dataclass(eq=False)
@@ -71,11 +74,18 @@ class Job:
     worker: Worker | None = None
     #: the result is being stored: too late to cancel
     storing: bool = False
+    #: CPU time the task's measured model predicts on one thread, s (0: not known)
+    expected_s: float = 0.0
+    #: when it started running (``time.monotonic``), ``None`` before
+    started: float | None = None
 
     def view(self) -> JobView:
         """A frozen snapshot."""
+        left = ""
+        if self.state == "running" and self.started is not None and not self.storing:
+            left = time_left_text(self.expected_s, time.monotonic() - self.started)
         return JobView(self.id, self.kind, self.state, round(self.progress, 4),
-                       self.message, self.result, self.error)
+                       self.message, self.result, self.error, left)
 
 
 class JobManager:
@@ -138,7 +148,8 @@ class JobManager:
             if waiting >= self.max_queued:
                 raise JobBusy("the server is busy (too many fits and diagnoses waiting); "
                               "try again in a minute")
-            job = Job(id=secrets.token_hex(8), kind=kind, code=code)
+            expected = task.cost.cpu_s(task.samples) if task.cost and task.samples else 0.0
+            job = Job(id=secrets.token_hex(8), kind=kind, code=code, expected_s=expected)
             self._jobs[job.id] = job
             self._active[code] = job.id
             self._forget_old()
@@ -238,6 +249,7 @@ class JobManager:
             if job.state != "queued":
                 return
             job.state, job.message, job.worker = "running", "running", worker
+            job.started = time.monotonic()
 
         def progress(fraction: float, message: str = "") -> None:
             with self._lock:

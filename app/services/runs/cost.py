@@ -14,7 +14,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["DIAGNOSE", "FIT", "WORKER_START_BYTES", "CostModel", "memory_refusal", "size_text"]
+__all__ = ["DIAGNOSE", "ETA_FROM_S", "FIT", "WORKER_START_BYTES", "CostModel", "duration_text",
+           "memory_refusal", "size_text", "time_left_text"]
+
+#: Runs expected to take at least this long (s) show the time left while they run (the
+#: command line's progress lines, the web page's and the 3D / GUI interface's job line).
+ETA_FROM_S = 20.0
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,32 @@ WORKER_START_BYTES = 250e6
 def size_text(b: float) -> str:
     """Bytes in words: ``"1.2 GB"``, ``"640 MB"``."""
     return f"{b / 1e9:.1f} GB" if b >= 1e9 else f"{b / 1e6:.0f} MB"
+
+
+def duration_text(s: float) -> str:
+    """A duration in words: ``"40 s"``, ``"3 min"``, ``"1.5 h"``."""
+    if s < 90:
+        return f"{max(1, round(s))} s"
+    if s < 5400:
+        return f"{round(s / 60)} min"
+    return f"{s / 3600:.1f} h"
+
+
+def time_left_text(expected_s: float, elapsed_s: float) -> str:
+    """What is left of a run expected to take ``expected_s`` after ``elapsed_s`` (both s):
+    ``"about 40 s left"``, or ``"taking longer than the 2 min estimated"``; ``""`` for a run
+    expected to take less than :data:`ETA_FROM_S`.
+
+    The estimate is the measured CPU-time model (:meth:`CostModel.cpu_s`), not the run's
+    progress fraction: a diagnosis's rounds differ in size, so its fraction is not
+    proportional to its time.
+    """
+    if expected_s < ETA_FROM_S:
+        return ""
+    left = expected_s - elapsed_s
+    if left >= 0.5:
+        return f"about {duration_text(left)} left"
+    return f"taking longer than the {duration_text(expected_s)} estimated"
 
 
 def memory_refusal(samples: int, model: CostModel, what: str, allowed: float,

@@ -30,7 +30,7 @@ def test_list_shows_the_running_job_then_its_end(client: TestClient) -> None:
     # newest first; the running diagnosis is there with its progress, no result in a list
     assert [j["id"] for j in listed] == [diag["id"], fit.json()["id"]]
     assert listed[0]["kind"] == "diagnose" and listed[0]["state"] in ("queued", "running")
-    assert set(listed[0]) == {"id", "kind", "state", "progress", "message", "error"}
+    assert set(listed[0]) == {"id", "kind", "state", "progress", "message", "time_left", "error"}
     assert 0.0 <= listed[0]["progress"] <= 1.0
     assert listed[1]["state"] == "done" and listed[1]["progress"] == 1.0
     # per session: another session sees none of them, and cannot read them by id
