@@ -48,6 +48,10 @@ def test_diagnosis_progress_and_cancel(browser: Any, live_server: dict, shot: An
     assert 0 < moved < 1
     job = _job(app, code)
     assert job.kind == "diagnose" and job.state == "running"
+    # a long run says how long it has left (issue 31), from the job's cost-model estimate:
+    # 10 min is what the measured model predicts for about 40 million samples
+    job.expected_s = 600.0
+    _text_has(page, "busy", "min left")
     shot(page, "web-diagnosis-progress")
     page.click("#cancel-job")
     _text_has(page, "csv-msg", "Diagnosis cancelled")

@@ -514,6 +514,12 @@ def test_fit_is_a_killable_job_with_progress_and_cancel(
         assert (job.kind, job.state) == ("fit", "running") and job.worker is not None
         assert v.ui.cancel_btn.visible and v.ui.cancel_btn.label == "Cancel the fit"
         assert "fitting… 50 %" in v.ui.report_md.content
+        # a long run says how long it has left (issue 31), from the job's cost-model estimate
+        job.expected_s = 600.0
+        deadline = time.monotonic() + 30
+        while "min left" not in v.ui.report_md.content:
+            assert time.monotonic() < deadline, v.ui.report_md.content
+            time.sleep(0.05)
         v._guarded(v._cancel_clicked)(SimpleNamespace(client=None))
         assert job.state == "cancelled" and jobs.running() == 0  # the slot is free now
         job_work.wait_gone(pid)
