@@ -3,33 +3,41 @@
 A diagnosis keeps play banks, their level segments, projections on reduced bases, Bouc-Wen
 banks of a history search and memoised fits, so that its searches do not recompute what they
 meet again. Together they may hold :func:`cache_budget` bytes: what issue 31's target (peak
-resident memory <= 400 MB + 0.3 kB per sample) leaves after what the diagnosis holds at its
-peak with no cache at all. :class:`CacheBudget` keeps the account: an entry that does not fit
-pushes out the least valuable entries first (derived arrays, then banks, then fits), the
-least recently used first within each, and room is made before a new array is formed, so
-the caches and the array being formed never hold more than the budget together.
+resident memory <= 400 MB + 0.3 kB per sample) leaves after what the process holds when the
+diagnosis starts (measured) and what the diagnosis adds at its peak with no cache at all.
+:class:`CacheBudget` keeps the account: an entry that does not fit pushes out the least
+valuable entries first (derived arrays, then banks, then fits), the least recently used
+first within each, and room is made before a new array is formed, so the caches and the
+array being formed never hold more than the budget together.
 """
 
 from __future__ import annotations
 
+import os
 import threading
 from collections import OrderedDict
 from typing import Any
 
-__all__ = ["CacheBudget", "cache_budget", "DERIVED", "BANK", "FIT"]
+__all__ = ["CacheBudget", "cache_budget", "resident_bytes", "DERIVED", "BANK", "FIT"]
 
 #: Issue 31's memory target of a diagnosis: peak resident bytes <= TARGET_BASE +
 #: TARGET_PER_SAMPLE * samples (all recordings together).
 TARGET_BASE = 400e6
 TARGET_PER_SAMPLE = 300.0
-#: What a diagnosis holds at its peak with no cache beyond the 4 most recent fits (the
-#: imports, the recordings, the working arrays of one fit and of the residual maps): an
-#: upper envelope of ``hyst diagnose FILE --json`` peaks measured with the caches off
-#: (one thread, ``/usr/bin/time``; tilings of the shipped piezo recording, main e298abf):
-#: 265 / 286 / 349 / 452 / 514 MB at 25k / 50k / 100k / 400k / 1M samples, 828 MB at 2M
-#: and 2,954 MB at 10M (docs/pages/diagnose.md, "Scale").
-NEED_BASE = 350e6
-NEED_PER_SAMPLE = 265.0
+#: What a diagnosis adds, at its peak with no cache beyond the fit memo's 4 most recent
+#: fits, to what its process holds when it starts (the imports, the recordings read): an
+#: upper envelope of ``hyst diagnose FILE --json`` peaks with the caches off less the
+#: resident memory when the diagnosis started (one thread, ``/usr/bin/time``; tilings of the
+#: shipped piezo recording, main b9acf70 with numpy 2.4.6, scipy 1.17.1, numba 0.68.1):
+#: 117 / 177 / 259 / 273 MB at 25k / 100k / 400k / 1M samples over 209 / 224 / 251 / 315 MB
+#: resident at the start (docs/pages/diagnose.md, "Scale", round 5). The resident part is
+#: measured, not modelled: it depends on the libraries' versions (round 4's model, 350 MB +
+#: 0.265 kB per sample in all, was exceeded by 52-58 MB on a newer set of the same libraries).
+WORK_BASE = 150e6
+WORK_PER_SAMPLE = 300.0
+#: The resident memory assumed where the process's own cannot be read (round 4's measured
+#: imports and recordings: its whole no-cache model less the work above, at 50,000 samples).
+RESIDENT_FALLBACK = 200e6
 
 #: Ranks of value (what an entry costs to form again, per byte), lowest pushed out first:
 #: arrays formed from a bank in one pass (level segments, projections), banks (a pass of
@@ -37,13 +45,31 @@ NEED_PER_SAMPLE = 265.0
 DERIVED, BANK, FIT = 0, 1, 2
 
 
-def cache_budget(n_samples: int) -> float:
+def resident_bytes() -> float | None:
+    """Resident memory of this process now (bytes, ``/proc/self/statm``), ``None`` where it
+    cannot be read (not Linux)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as fh:
+            pages = int(fh.read().split()[1])
+        return float(pages * os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def cache_budget(n_samples: int, resident: float | None = None) -> float:
     """Bytes the caches of a diagnosis of ``n_samples`` samples may hold together: the memory
-    target less what the diagnosis needs without caches (:data:`NEED_BASE`,
-    :data:`NEED_PER_SAMPLE`), never negative. 52 MB at 50,000 samples, 64 MB at 400,000,
-    400 MB at 10 million (where a bank of 100 plays, 8 GB, fits nowhere)."""
+    target less what the process holds when the diagnosis starts (``resident``, bytes;
+    default :func:`resident_bytes` now) and what the diagnosis adds without caches
+    (:data:`WORK_BASE`, :data:`WORK_PER_SAMPLE`), never negative. With the command line's
+    210-320 MB resident at the start: about 40 MB at 25,000 samples, 25 MB at 100,000, none
+    from about 400,000 on (where the streamed fits need no bank kept)."""
     n = max(0, int(n_samples))
-    return max(0.0, TARGET_BASE - NEED_BASE + (TARGET_PER_SAMPLE - NEED_PER_SAMPLE) * n)
+    if resident is None:
+        resident = resident_bytes()
+    if resident is None:
+        resident = RESIDENT_FALLBACK
+    return max(0.0, TARGET_BASE + TARGET_PER_SAMPLE * n - resident
+               - WORK_BASE - WORK_PER_SAMPLE * n)
 
 
 class CacheBudget:

@@ -130,7 +130,9 @@ def test_a_diagnosis_cache_has_the_budget_of_its_samples(monkeypatch) -> None:
     from core.diagnosis import context as cx
 
     rec, train = _record(4001)
+    monkeypatch.setattr(cb, "resident_bytes", lambda: 220e6)  # the command line's start
     assert cx.FitContext([rec], train, [~train[0]]).cache.budget.limit == cb.cache_budget(4001)
+    assert cb.cache_budget(4001) > 0
     monkeypatch.setattr(cx, "cache_budget", lambda n: 0.0)
     ctx = cx.FitContext([rec], train, [~train[0]])
     assert ctx.cache.budget.limit == 0.0
