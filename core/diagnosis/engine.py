@@ -121,8 +121,12 @@ def diagnose(
         each recording (or half of one) from the rest clearly better
         (:func:`~core.diagnosis.basechoice.choose_base`); ``"pi"``: always the PI.
     auto_resolution : bool
-        Also try 2x and 4x as many operators and keep them while the held-out fit improves
-        (≥ 2 %, z ≥ 2): an under-resolved baseline must not be mistaken for missing physics.
+        Also try 2x and 4x as many operators and keep them while the held-out fit improves:
+        the baseline's grid while its held-out MSE falls by ``resolution_gain`` (2 %) alone
+        (:func:`~core.diagnosis.basechoice.fit_baseline`), once an effect is in also with a
+        z of ``resolution_z`` (2) or a signed-rank p below ``sign_p``
+        (:class:`~core.diagnosis.acceptance.AcceptRule`): an under-resolved baseline must
+        not be mistaken for missing physics.
     effects : sequence of str, optional
         Effects to test (default: all of :data:`core.diagnosis.registry.EFFECTS`).
     max_effects : int
