@@ -34,6 +34,30 @@ __all__ = ["Candidate", "build_candidate", "excitation_hz", "nelder_mead", "one_
 #: ``(fit, parameters, uncertainty)`` of one candidate effect.
 Candidate = tuple[Fit, dict, dict]
 
+#: Tolerance (in the log of the parameter) and iterations of :func:`scalar_search`'s bounded
+#: refinement between the grid neighbours of its best point.
+SCALAR_XATOL = 0.03
+SCALAR_MAXITER = 9
+#: Step (in the log of the parameter) of the profile-curvature difference of
+#: :func:`scalar_search`.
+CURVATURE_STEP = 0.1
+#: Largest lag-1 autocorrelation of the residuals :func:`sigma_from_curvature` inflates a
+#: sigma for (``(1 + rho) / (1 - rho)`` stays finite).
+MAX_RESIDUAL_RHO = 0.999
+#: Reversals :func:`excitation_hz` counts: larger than this share of the input range.
+EXCITATION_REVERSAL_SHARE = 0.1
+#: The time-constant grid of :func:`one_time_constant`: :data:`TAU_GRID_POINTS` geometric
+#: points from :data:`TAU_GRID_MIN_DT` sample spacings to :data:`TAU_GRID_MAX_S` seconds or
+#: a :data:`TAU_GRID_PER_DURATION`-th of the shortest recording, whichever is shorter.
+TAU_GRID_MIN_DT = 1e-4
+TAU_GRID_MAX_S = 0.05
+TAU_GRID_PER_DURATION = 20
+TAU_GRID_POINTS = 18
+#: Stopping tolerances of :func:`nelder_mead` (parameters, in the optimiser's own units;
+#: objective).
+NM_XATOL = 1e-3
+NM_FATOL = 1e-12
+
 
 def walk_down(value, shape: tuple[int, ...], start: tuple[int, ...]) -> tuple[int, ...]:
     """A local minimum of ``value`` (a function of a grid index) over a grid of ``shape``:
@@ -92,7 +116,7 @@ def scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit,
 
     if hi > lo:
         r = so.minimize_scalar(f, bounds=(lo, hi), method="bounded",
-                               options={"xatol": 0.03, "maxiter": 9})
+                               options={"xatol": SCALAR_XATOL, "maxiter": SCALAR_MAXITER})
         best = float(np.exp(r.x)) if r.fun < at(i) else float(grid[i])
     else:
         best = float(grid[i])
@@ -100,7 +124,7 @@ def scalar_search(ctx: FitContext, make, grid: np.ndarray, cur: Fit,
     curv = np.nan
     if ctx.uncertainty:
         lb = np.log(best)
-        h = 0.1
+        h = CURVATURE_STEP
         curv = (f(lb + h) - 2 * f(lb) + f(lb - h)) / h**2
     info = {"profile_curvature": curv}
     fit = ctx.fit(make(best), cur)
@@ -115,7 +139,7 @@ def sigma_from_curvature(ctx: FitContext, fit: Fit, curv: float, value: float) -
     n = e.size
     s2 = float(e @ e) / n
     rho = float(np.corrcoef(e[1:], e[:-1])[0, 1]) if n > 3 else 0.0
-    rho = min(max(rho, 0.0), 0.999)
+    rho = min(max(rho, 0.0), MAX_RESIDUAL_RHO)
     infl = (1 + rho) / (1 - rho)
     var_log = 2.0 * s2 / curv * infl
     return float(value * np.sqrt(var_log))
@@ -123,13 +147,14 @@ def sigma_from_curvature(ctx: FitContext, fit: Fit, curv: float, value: float) -
 
 def excitation_hz(records: Sequence[Recording]) -> float:
     """Slowest fundamental over the recordings: half the number of input reversals per
-    second (reversals larger than 10 % of the input range)."""
+    second (reversals larger than :data:`EXCITATION_REVERSAL_SHARE` of the input range)."""
     rates = []
     for r in records:
         dur = float(r.t[-1] - r.t[0])
         span = float(np.ptp(r.u))
         if dur > 0 and span > 0:
-            rates.append(0.5 * (reversal_indices(r.u, 0.1 * span).size - 1) / dur)
+            rates.append(0.5 * (reversal_indices(r.u, EXCITATION_REVERSAL_SHARE * span).size
+                                - 1) / dur)
     return min(rates) if rates else 0.0
 
 
@@ -140,7 +165,8 @@ def one_time_constant(ctx: FitContext, cur: Fit, kind: str, key: str) -> Candida
         return None
     dt = min(r.dt for r in ctx.records)
     dur = min(r.t[-1] - r.t[0] for r in ctx.records)
-    grid = np.geomspace(1e-4 * dt, min(0.05, dur / 20), 18)
+    grid = np.geomspace(TAU_GRID_MIN_DT * dt, min(TAU_GRID_MAX_S, dur / TAU_GRID_PER_DURATION),
+                        TAU_GRID_POINTS)
     st = ctx.start
     near = (float(st.dynamics[1]) if st is not None and len(st.dynamics) == 2
             and st.dynamics[0] == kind else None)
@@ -218,8 +244,8 @@ def nelder_mead(f, x0: np.ndarray, step: float, maxfev: int) -> tuple[np.ndarray
     x0 = np.asarray(x0, dtype=float)
     simplex = np.vstack([x0] + [x0 + step * np.eye(x0.size)[i] for i in range(x0.size)])
     r = so.minimize(f, x0, method="Nelder-Mead",
-                    options={"maxfev": maxfev, "initial_simplex": simplex, "xatol": 1e-3,
-                             "fatol": 1e-12})
+                    options={"maxfev": maxfev, "initial_simplex": simplex, "xatol": NM_XATOL,
+                             "fatol": NM_FATOL})
     return np.asarray(r.x), float(r.fun)
 
 
@@ -229,6 +255,9 @@ def nelder_mead(f, x0: np.ndarray, step: float, maxfev: int) -> tuple[np.ndarray
 PAIR_START_FACTORS = (0.1, 0.4, 1.0)
 #: Structure evaluations of the Nelder-Mead refinement of a pair.
 PAIR_MAXFEV = 40
+#: Initial simplex step (in the log of each parameter) of the Nelder-Mead refinement of a
+#: pair, and of a single output stage polished with the pair's budget.
+PAIR_STEP = 0.2
 
 
 def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tuple[str, dict]
@@ -256,7 +285,7 @@ def stage_pair(ctx: FitContext, base: Fit, first: tuple[str, dict], second: tupl
                     ).reshape(x_single.size, -1).T
     vals = [obj(x_single + g) for g in grid]
     x0 = x_single + grid[int(np.argmin(vals))]
-    x, fx = nelder_mead(obj, x0, 0.2, PAIR_MAXFEV)
+    x, fx = nelder_mead(obj, x0, PAIR_STEP, PAIR_MAXFEV)
     if not fx <= min(vals):
         x = x0
     dyn = pack_dynamics(names, np.exp(x), dt)

@@ -18,7 +18,7 @@ from .candidates import build_candidate
 from .context import FitContext
 from .data import crossfit_folds
 from .registry import EFFECTS
-from .stats import HeldOut, heldout_comparison
+from .stats import HELDOUT_BATCHES, HeldOut, heldout_comparison
 from .structure import Fit, Structure
 
 
@@ -94,8 +94,9 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
         gains.append(1.0 - m1 / m0 if m0 > 0 else 0.0)
         params.append(got[1])
     n_all = sum(e.size for e in eb)
-    pooled = heldout_comparison(eb, ea, n_batches=40 if ctx.strict else int(
-        round(40 * n_all / max(n_test, 1))))
+    # the test rows keep their batches' length: the blocks add batches in proportion
+    pooled = heldout_comparison(eb, ea, n_batches=HELDOUT_BATCHES if ctx.strict else int(
+        round(HELDOUT_BATCHES * n_all / max(n_test, 1))))
     cv: dict[str, float] = {}
     for key in SCALAR_PARAMS:
         vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
@@ -128,6 +129,12 @@ def block_jackknife(param_sets: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+#: Training blocks of the block jackknife of a linear effect not cross-fitted for its
+#: significance test: four bound the cost (the jackknife needs few; a diagnosis stays
+#: <= 30 s).
+JACKKNIFE_BLOCKS = 4
+
+
 def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any],
                         cf: dict[str, Any] | None, train: list[np.ndarray]
                         ) -> tuple[dict[str, Any], str]:
@@ -140,8 +147,7 @@ def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any]
     """
     params = cf["fold_parameters"] if cf is not None else None
     if params is None and EFFECTS[name].linear:
-        # four blocks bound the cost (the jackknife needs few; a diagnosis stays <= 30 s)
-        folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=4)
+        folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=JACKKNIFE_BLOCKS)
         params = []
         # bilinear regressors frozen at the full fit (linearised jackknife)
         for _, _, got in fold_fits(ctx, folds, name, cur, iterations=1):

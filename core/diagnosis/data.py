@@ -29,6 +29,19 @@ GAP_FACTOR = 2.0
 #: Fewest samples a recording needs to be diagnosed.
 MIN_SAMPLES = 20
 
+#: Interleaved train/test blocks per recording of the default split (:func:`split_masks`),
+#: and the shortest block (s) of that split and of the cross-fitting folds
+#: (:func:`crossfit_folds`, at most :data:`MAX_FOLDS` blocks).
+SPLIT_BLOCKS = 8
+MIN_BLOCK_S = 0.5
+MAX_FOLDS = 8
+#: A ``min_block_s`` that lets blocks of any length through (recordings too short for
+#: :data:`MIN_BLOCK_S`).
+ANY_BLOCK_S = 1e-12
+#: Fewest training and test rows explicit time windows must select.
+MIN_WINDOW_TRAIN_ROWS = 50
+MIN_WINDOW_TEST_ROWS = 20
+
 
 class TimeGapError(ParameterError):
     """A recording's time stamps jump by more than :data:`GAP_FACTOR` times their usual
@@ -155,8 +168,8 @@ def split_masks(
     records: Sequence[Recording],
     train: tuple[float, float] | None = None,
     test: tuple[float, float] | None = None,
-    n_blocks: int = 8,
-    min_block_s: float = 0.5,
+    n_blocks: int = SPLIT_BLOCKS,
+    min_block_s: float = MIN_BLOCK_S,
 ) -> tuple[list[np.ndarray], list[np.ndarray], str]:
     """Boolean train/test masks per recording.
 
@@ -179,8 +192,8 @@ def split_masks(
             trm.append((r.t >= train[0]) & (r.t < train[1]))
             tem.append((r.t >= test[0]) & (r.t <= test[1]) if test is not None
                        else np.zeros(r.n_samples, dtype=bool))
-        if sum(int(m.sum()) for m in trm) < 50 or (
-                test is not None and sum(int(m.sum()) for m in tem) < 20):
+        if sum(int(m.sum()) for m in trm) < MIN_WINDOW_TRAIN_ROWS or (
+                test is not None and sum(int(m.sum()) for m in tem) < MIN_WINDOW_TEST_ROWS):
             raise ParameterError(
                 f"train {train} / test {test} select too few samples; the recordings span "
                 + ", ".join(f"{r.t[0]:g}..{r.t[-1]:g} s" for r in records)
@@ -201,8 +214,8 @@ def split_masks(
 def crossfit_folds(
     records: Sequence[Recording],
     train: Sequence[np.ndarray],
-    min_block_s: float = 0.5,
-    max_blocks: int = 8,
+    min_block_s: float = MIN_BLOCK_S,
+    max_blocks: int = MAX_FOLDS,
 ) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
     """Blocked cross-validation folds over the training rows (after the wipe-out time).
 

@@ -26,7 +26,7 @@ from .acceptance import size_ok as effect_size_ok
 from .candidates import build_candidate
 from .context import FitContext
 from .crossfitting import compare_heldout, crossfit_candidate, screen_gain
-from .data import crossfit_folds
+from .data import ANY_BLOCK_S, crossfit_folds
 from .events import event_windows, excitation
 from .history import history_refusal
 from .lookalikes import beyond_loop_shape, lookalike_evidence, sign_locking
@@ -214,15 +214,23 @@ def _earns(run: Run, cur: Fit, c: Candidate, n_tests: int, accepted: tuple[str, 
     return earns_place(compare_heldout(sub, cur, c.fit), n_tests, None, accepted)
 
 
+#: Training blocks of acceptance rule 4 (a further effect cross-fitted against the accepted
+#: ones) without the diagnosis's own folds; :data:`EARN_SHORT_BLOCKS` of any length where
+#: the recordings are too short for blocks of the usual length.
+EARN_BLOCKS = 5
+EARN_SHORT_BLOCKS = 4
+
+
 def _blocks_context(run: Run) -> FitContext | None:
     """The cross-fitted training blocks of acceptance rule 4 (strict hold-out: the test
     rows chose the effects before a further one), or ``None`` with too few blocks."""
     ctx = run.ctx
     if run.earn_folds is None:
-        run.earn_folds = (ctx.folds or crossfit_folds(ctx.records, ctx.train, max_blocks=5)
-                          # a recording too short for 0.5 s blocks: four shorter ones
-                          or crossfit_folds(ctx.records, ctx.train, min_block_s=1e-12,
-                                            max_blocks=4))
+        run.earn_folds = (ctx.folds or crossfit_folds(ctx.records, ctx.train,
+                                                      max_blocks=EARN_BLOCKS)
+                          # a recording too short for 0.5 s blocks: shorter ones
+                          or crossfit_folds(ctx.records, ctx.train, min_block_s=ANY_BLOCK_S,
+                                            max_blocks=EARN_SHORT_BLOCKS))
     if not run.earn_folds:
         return None
     sub = FitContext(ctx.records, ctx.train, ctx.test, folds=run.earn_folds, parent=ctx)

@@ -18,11 +18,17 @@ from .acceptance import (
     signatures_separable,
     yields_to_lookalike,
 )
-from .candidates import PAIR_MAXFEV, build_candidate, nelder_mead, sigma_from_curvature
+from .candidates import (
+    PAIR_MAXFEV,
+    PAIR_STEP,
+    build_candidate,
+    nelder_mead,
+    sigma_from_curvature,
+)
 from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import ambiguous_parameters
-from .data import crossfit_folds
+from .data import ANY_BLOCK_S, crossfit_folds
 from .events import Excitation, excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
@@ -217,7 +223,7 @@ def _stage_folds(run: Run) -> list[tuple[list[np.ndarray], list[np.ndarray]]]:
         run.stage_folds = []
         for j in range(len(ctx.train)):
             only = [m if k == j else none[k] for k, m in enumerate(ctx.train)]
-            for _, blk in crossfit_folds(ctx.records, only, min_block_s=1e-12,
+            for _, blk in crossfit_folds(ctx.records, only, min_block_s=ANY_BLOCK_S,
                                          max_blocks=STAGE_BLOCKS_PER_RECORDING):
                 run.stage_folds.append(([t & ~b for t, b in zip(ctx.train, blk, strict=True)],
                                         blk))
@@ -271,7 +277,7 @@ def _polish_alone(ctx: FitContext, base: Fit, name: str, starts: list[dict[str, 
     xs = [np.log(np.asarray([float(p[k]) for k in spec.params])) for p in starts]
     fs = [obj(x) for x in xs]
     x0 = xs[int(np.argmin(fs))]
-    x, fx = nelder_mead(obj, x0, 0.2, PAIR_MAXFEV)
+    x, fx = nelder_mead(obj, x0, PAIR_STEP, PAIR_MAXFEV)
     if not fx <= min(fs):
         x = x0
     return ctx.fit(base.structure.with_(dynamics=(name, *(float(a) for a in np.exp(x)))), base)

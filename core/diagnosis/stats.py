@@ -53,8 +53,16 @@ class HeldOut:
         return 0.5 * (1.0 - erf(self.z / sqrt(2.0)))
 
 
+#: Batches the held-out loss differences are cut into by default (:func:`heldout_comparison`),
+#: at least :data:`MIN_BATCHES` and each at least :data:`MIN_BATCH_ROWS` rows long where the
+#: rows allow.
+HELDOUT_BATCHES = 40
+MIN_BATCHES = 4
+MIN_BATCH_ROWS = 10
+
+
 def heldout_comparison(
-    e_before: list[Float1D], e_after: list[Float1D], n_batches: int = 40
+    e_before: list[Float1D], e_after: list[Float1D], n_batches: int = HELDOUT_BATCHES
 ) -> HeldOut:
     """Compare squared-error losses of two models on held-out residuals.
 
@@ -71,7 +79,7 @@ def heldout_comparison(
     d = np.concatenate([a * a - b * b for a, b in zip(e_before, e_after, strict=True)])
     mb = float(np.mean(np.concatenate(e_before) ** 2))
     ma = float(np.mean(np.concatenate(e_after) ** 2))
-    nb = int(max(4, min(n_batches, d.size // 10)))
+    nb = int(max(MIN_BATCHES, min(n_batches, d.size // MIN_BATCH_ROWS)))
     edges = np.linspace(0, d.size, nb + 1).astype(int)
     means = np.array([d[edges[i] : edges[i + 1]].mean() for i in range(nb)])
     sd = float(np.std(means, ddof=1))

@@ -66,7 +66,8 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     kind, x0 = min(grid, key=lambda c: f(*c))
     x = np.asarray(x0)
     if worth_refining(sctx, f(kind, x0), s, cur_s):
-        x1, _ = nelder_mead(lambda v: f(kind, v), x, 0.08, 10 * len(x0))
+        x1, _ = nelder_mead(lambda v: f(kind, v), x, DEAD_BAND_STEP,
+                            DEAD_BAND_MAXFEV_PER_PARAM * len(x0))
         x = x1 if f(kind, x1) <= f(kind, x0) else x
     g = _dead_band_map(kind, x[:-1], x[-1], lo, span)
     st = with_shape_stage(sctx, s, dead_zone_stage(g))
@@ -110,6 +111,10 @@ def _piecewise_map(breaks: Sequence[float] | np.ndarray, slopes: Sequence[float]
 #: Slope range of a dead band relative to the rest of the input map (a flat dead band is
 #: slope 0; the lower bound keeps the map strictly increasing, so the model inverts).
 DEAD_BAND_SLOPES = (0.01, DEAD_BAND_SLOPE)
+#: Initial simplex step and evaluations per parameter of the Nelder-Mead polish of the best
+#: dead band's kind (:func:`_build`).
+DEAD_BAND_STEP = 0.08
+DEAD_BAND_MAXFEV_PER_PARAM = 10
 
 
 

@@ -41,6 +41,11 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     return fit, {"a1": stage[1], "a2": stage[2], **describe_shape(stage, lo, hi)}, {}
 
 
+#: Initial simplex step (log gain, offset) and evaluations of the Nelder-Mead polish of the
+#: tanh stage's best grid point (:func:`tanh_search`).
+TANH_STEP = 0.2
+TANH_MAXFEV = 24
+
 
 def tanh_search(ctx: FitContext, s: Structure, cur: Fit, refine: bool | None = None
                  ) -> tuple[Structure, float, float] | None:
@@ -71,7 +76,7 @@ def tanh_search(ctx: FitContext, s: Structure, cur: Fit, refine: bool | None = N
     start = min(grid, key=f)
     phi = np.asarray(start)
     if refine or (refine is None and worth_refining(ctx, f(start), s, cur)):
-        x, _ = nelder_mead(f, phi, 0.2, 24)
+        x, _ = nelder_mead(f, phi, TANH_STEP, TANH_MAXFEV)
         phi = x if f(x) <= f(start) else phi
     return make(phi), lo, hi
 
