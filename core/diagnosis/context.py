@@ -7,9 +7,10 @@ import numpy as np
 from .._typing import Float1D
 from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
+from .bankcache import BankCache
 from .cache_budget import FIT, cache_budget
 from .locate import Coordinates, coordinates
-from .structure import Fit, PIStageOutputs, Structure, _Cache, fit_structure
+from .structure import Fit, PIStageOutputs, Structure, fit_structure
 
 __all__ = ["FitContext"]
 
@@ -48,7 +49,7 @@ class FitContext:
         #: cross-fitting folds recur for every candidate and comparison)
         self._caches: dict = {}
         if parent is None:
-            self.cache = _Cache(cache_budget(sum(r.n_samples for r in records)))
+            self.cache = BankCache(cache_budget(sum(r.n_samples for r in records)))
             self.cache.budget.floor[id(self._fits)] = FIT_MEMO_MIN
         else:
             self._fits = parent._fits
@@ -71,7 +72,7 @@ class FitContext:
         #: (:func:`core.diagnosis.candidates.scalar_search`); None elsewhere
         self.start: Structure | None = None
 
-    def _sub_cache(self, parent: _Cache) -> _Cache:
+    def _sub_cache(self, parent: BankCache) -> BankCache:
         """The cache of a sub-context: play banks and projections do not depend on the rows
         used and are shared with ``parent``; the bases and row layouts do, so they are
         shared only with earlier sub-contexts on the same recordings and training masks
@@ -82,7 +83,7 @@ class FitContext:
                 and all(a is b for a, b in zip(hit[1], self.train, strict=True))
                 and hit[2].d is parent.d):
             return hit[2]
-        c = _Cache(parent.budget)
+        c = BankCache(parent.budget)
         c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))

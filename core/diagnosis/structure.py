@@ -26,16 +26,14 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import Chain, Model
-from ..fitting.gram import COND_LIMIT, r_factor, solve_constrained
-from ..kernels import njit
 from ..operators import play_bank
 from ..pi import PIModel
-from ..preisach import PreisachModel, RateDependentPreisach, level_segments
+from ..preisach import PreisachModel, RateDependentPreisach
 from ..recordings import Recording
-from ..stages import InitialMemory, RateDependentPI, discretised_tf, rd_play_bank
+from ..stages import InitialMemory, RateDependentPI, discretised_tf
 from ..validation import filled
-from .bases import bouc_wen_bank, bouc_wen_model, initial_state, stop_model
-from .cache_budget import BANK, DERIVED, FIT, CacheBudget
+from .bankcache import BankCache, basis_of, basis_rows, recent, split_levels
+from .bases import bouc_wen_model, initial_state, stop_model
 from .grid import baseline_thresholds
 from .registry import (
     EFFECTS,
@@ -46,7 +44,17 @@ from .registry import (
     static_terms,
     term_of,
 )
+from .rowkernels import (
+    bank_rows_times,
+    delay_rows,
+    iir_rows,
+    input_rows_times,
+    play_rows,
+    row_selector,
+    turns_rarely,
+)
 from .shapes import apply_shape, gap_stage_of, hysteresis_model, loop_shape, shape_effects
+from .solver import constraints, gram, min_slope, solve, unconstrained_rss
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
            "dynamics_stages", "fit_structure", "legendre_columns", "pack_dynamics"]
@@ -355,480 +363,12 @@ class PIStageOutputs(Sequence):
         return (list, (self.resolve(),))
 
 
-class _Cache:
-    """Play-bank outputs keyed by (recording, history, beta), their reduced bases, the
-    projections of the banks on those bases and the row layout of the training rows.
-
-    ``budget``: the byte account the play banks, level segments, projections and Bouc-Wen
-    history banks share with the diagnosis's fit memo (:class:`~.cache_budget.CacheBudget`,
-    limit :func:`~.cache_budget.cache_budget` of its samples), or a limit in bytes for a new
-    account (:data:`DEFAULT_CACHE_BYTES` if None)."""
-
-    def __init__(self, budget: CacheBudget | float | None = None) -> None:
-        self.budget = (budget if isinstance(budget, CacheBudget)
-                       else CacheBudget(DEFAULT_CACHE_BYTES if budget is None else budget))
-        self.d: dict[Any, np.ndarray] = {}
-        self.v: dict[Any, np.ndarray] = {}
-        #: projections ``B @ V``: may be shared between the caches of one diagnosis (the
-        #: entry holds ``V``, whose identity is part of the key)
-        self.p: dict[Any, tuple[np.ndarray, np.ndarray]] = {}
-        #: row layout per (records, training masks, fast path), entries hold both
-        self.rows: dict[Any, tuple] = {}
-        #: play banks split into the level segments of a Preisach base
-        self.lv: dict[Any, np.ndarray] = {}
-        #: banks of a Bouc-Wen base
-        self.bw: dict[Any, np.ndarray] = {}
-        #: Gram blocks of the PI-stage columns of full fits (play bank through the output
-        #: dynamics on the solved rows), keyed by row layout, bank and dynamics: structures
-        #: that add columns to the same bank (bilinear refreshes, output maps, creep) reuse it
-        self.g: dict[Any, tuple[Any, np.ndarray]] = {}
-
-    def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
-                  w: np.ndarray | None = None, start: int = 0,
-                  r: np.ndarray | None = None) -> np.ndarray:
-        """``(B @ V)[start:]`` memoised on ``key`` (recording, basis key and row count) and the
-        identity of ``V``, row-major (the dynamics filter runs time outer, columns inner).
-
-        ``w``: the play-bank input on the rows of ``B`` (rate-independent plays only): where
-        it repeats (a hold, a flat stretch before the excitation) the plays do not move and
-        the row of ``B`` repeats exactly, so only the distinct rows are multiplied.
-        ``start``: the first row needed. A first request forms the rows from ``start`` on; a
-        later one for the same ``B`` and ``V`` that starts earlier (a search over the
-        dynamics moves it) forms them all, which then serve every start.
-        ``r``: the thresholds of the columns when ``B`` is a play bank (column 0 the input):
-        the product is then formed by :func:`_bank_rows_times` where the input turns rarely.
-        """
-        key = (key, id(V))
-        hit = self.budget.get(self.p, key)
-        if hit is not None and hit[0] is V:
-            if hit[2] <= start:
-                return hit[1][start - hit[2]:]
-            start0 = 0
-        else:
-            start0 = start
-        P = None
-        if r is not None and B.shape[0] > start0:
-            P = _bank_rows_times(B, V, r, np.arange(start0, B.shape[0]))
-        B = B[start0:]
-        w = None if w is None else w[start0:]
-        # room first: the caches and the new product stay within the budget together
-        self.budget.make_room(8.0 * B.shape[0] * V.shape[1])
-        if P is None and w is not None and w.size > 1:
-            new = np.empty(w.size, dtype=bool)
-            new[0] = True
-            np.not_equal(w[1:], w[:-1], out=new[1:])
-            if np.count_nonzero(new) < 0.9 * w.size:
-                P = (B[new] @ V)[np.cumsum(new) - 1]
-        if P is None:
-            P = np.ascontiguousarray(B @ V)
-        self.budget.put(self.p, key, (V, P, start0), P.nbytes, DERIVED, count=16)
-        return P[start - start0:]
-
-    def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
-               rss_only: bool) -> tuple:
-        """The solved rows of :func:`fit_structure` and what depends only on them: ``(rows,
-        sel, ends, upto, ys, ylo, yhi, center, half, dts)``. Deterministic in the recordings
-        (read-only arrays) and the training masks, so memoised on the identities of both
-        (the entry keeps them alive, so those identities cannot be reused meanwhile)."""
-        key = (tuple(id(r) for r in records), tuple(id(m) for m in train), rss_only)
-        hit = self.rows.get(key)
-        if hit is not None and all(a is b for a, b in zip(hit[0], records, strict=True)) and all(
-                a is b for a, b in zip(hit[1], train, strict=True)):
-            return hit[2]
-        # rows solved on: every k-th training row, about RANKING_ROWS for the rss_only fast
-        # path and FULL_FIT_ROWS for a full fit (neighbouring samples are nearly redundant);
-        # every signal is formed only up to the last of them (the dynamics are causal)
-        n_tr = sum(int(m.sum()) for m in train)
-        step = max(1, n_tr // (RANKING_ROWS if rss_only else FULL_FIT_ROWS))
-        idx_all = [np.flatnonzero(m) for m in train]
-        rows = [idx[::step] for idx in idx_all]
-        ends = [int(idx[-1]) + 1 if idx.size else 0 for idx in rows]
-        # the reduced basis is taken on every training row: the bank reaches the last of them
-        upto = [int(idx[-1]) + 1 if idx.size else 0 for idx in idx_all]
-        ys = np.concatenate([rec.y[idx] for rec, idx in zip(records, rows, strict=True)])
-        ylo = min(float(rec.y[m].min()) for rec, m in zip(records, train, strict=True)
-                  if m.any())
-        yhi = max(float(rec.y[m].max()) for rec, m in zip(records, train, strict=True)
-                  if m.any())
-        center, half = 0.5 * (ylo + yhi), max(0.5 * (yhi - ylo), 1e-12)
-        dts = [rec.dt for rec in records]
-        sel = [_row_selector(idx) for idx in rows]
-        out = (rows, sel, ends, upto, ys, ylo, yhi, center, half, dts)
-        if len(self.rows) >= 8:
-            self.rows.pop(next(iter(self.rows)))
-        self.rows[key] = (list(records), list(train), out)
-        return out
-
-    def basis(self, banks: list[np.ndarray], train: Sequence[np.ndarray], key: Any) -> np.ndarray:
-        V = _recent(self.v, key)
-        if V is None:
-            V = _basis(banks, train)
-            if len(self.v) >= 64:
-                self.v.pop(next(iter(self.v)))
-            self.v[key] = V
-        return V
-
-    def has_bank(self, k: int, r: np.ndarray, hist: tuple, shape: tuple = ()) -> bool:
-        """Whether the rate-independent play bank of recording ``k`` is in the cache."""
-        return (k, hist, None, r.size, float(r[-1]), shape) in self.d
-
-    def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
-             shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
-        """``[w, plays(w)]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``;
-        ``w`` is the input through the loop shape ``shape`` (the input itself without one).
-        With ``bouc_wen`` elements (a Bouc-Wen base), :func:`~core.diagnosis.bases.bouc_wen_bank`
-        instead.
-
-        With ``upto``, only the first ``upto`` rows are needed: a bank not in the cache is then
-        computed that far and not stored (a search over histories meets each one once).
-        """
-        if bouc_wen:
-            return self._bouc_wen_bank(k, rec, hist, shape, bouc_wen, upto)
-        key = (k, hist, beta, r.size, float(r[-1]), shape)
-        B = self.budget.get(self.d, key)
-        if B is None:
-            if upto is None:
-                self.budget.make_room(8.0 * rec.n_samples * (r.size + 1))
-            u = apply_shape(shape, rec.u if upto is None else rec.u[:upto])
-            z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
-            if beta is None:
-                # [w, plays] in one pass: a play of threshold 0 outputs its input exactly
-                B = play_bank(u, np.r_[0.0, r], np.r_[0.0, z0])[0]
-            else:
-                B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
-            if upto is not None:
-                return B
-            self.budget.put(self.d, key, B, B.nbytes, BANK, count=6)
-        return B
-
-    def bank_rows(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
-                  shape: tuple, idx: np.ndarray, bouc_wen: tuple = ()) -> np.ndarray:
-        """Rows ``idx`` (increasing) of :meth:`bank`, ``(idx.size, n + 1)``: read from the
-        bank, cached as :meth:`bank` does, when it is there or fits the cache's budget (or
-        is not a bank of rate-independent plays), else the plays run along the input
-        storing only those rows (:func:`_play_rows`, the same numbers), so a few thousand
-        sampled rows do not form ``(N, n + 1)``."""
-        fits = self.budget.fits(8.0 * rec.n_samples * (r.size + 1))
-        if beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape):
-            return self.bank(k, rec, r, hist, beta, shape, bouc_wen=bouc_wen)[idx]
-        w = np.ascontiguousarray(apply_shape(shape, rec.u), dtype=np.float64)
-        z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)
-        rows = np.asarray(idx, dtype=np.int64)
-        return _play_rows(w, np.r_[0.0, r], np.r_[0.0, z0], rows,
-                          np.empty((rows.size, r.size + 1)))
-
-    def _bouc_wen_bank(self, k: int, rec: Recording, hist: tuple, shape: tuple,
-                       elements: tuple, upto: int | None) -> np.ndarray:
-        """The bank of a Bouc-Wen base (:func:`core.diagnosis.bases.bouc_wen_bank`), always
-        computed over the whole recording and memoised apart from the play banks (its RK4
-        elements cost some hundred times a play: a search met each one again and again).
-        Banks without a virtual history are kept; those of a history search within the cache
-        budget (rank :data:`~.cache_budget.FIT`: they cost about what a fit does), least
-        recently used first out."""
-        key = (k, hist, shape, elements, rec.n_samples, float(rec.u[-1]))
-        B = self.budget.get(self.bw, key)
-        if B is None:
-            B = bouc_wen_bank(apply_shape(shape, rec.u), elements,
-                              apply_shape(shape, hist) if hist else None)
-            if hist:
-                self.budget.put(self.bw, key, B, B.nbytes, FIT)
-            else:
-                self.bw[key] = B
-        return B if upto is None else B[:upto]
-
-    def levelled(self, k: int, B: np.ndarray, s: Structure) -> np.ndarray:
-        """The bank ``B`` ``(N, n + 1)`` of recording ``k`` split into the level segments of
-        ``s.levels`` (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column
-        ``i m + j`` = segment ``j`` of play ``i``; memoised."""
-        key = (k, s.history[k], s.beta_s, len(s.thresholds), float(s.thresholds[-1]),
-               s.shape, s.levels, B.shape[0])
-        L = self.budget.get(self.lv, key)
-        if L is None:
-            self.budget.make_room(B.nbytes * (len(s.levels) + 1))
-            L = _segments(B, s.levels)
-            # kept apart from the play banks (a search over one recording's history meets
-            # the other recordings' levelled banks again and again)
-            self.budget.put(self.lv, key, L, L.nbytes, DERIVED, count=8)
-        return L
-
-
-def _segments(B: np.ndarray, levels: tuple) -> np.ndarray:
-    """Rows of a play bank ``B`` ``(N, n + 1)`` split into the level segments of ``levels``
-    (:func:`core.preisach.level_segments`), ``(N, (n + 1) m)``, column ``i m + j`` = segment
-    ``j`` of play ``i``; ``B`` itself without levels (a PI base). Row by row, so a bank
-    streamed in blocks is split block by block to the same numbers."""
-    if not levels:
-        return B
-    return level_segments(B.reshape(-1), levels).reshape(B.shape[0],
-                                                         B.shape[1] * (len(levels) + 1))
-
-
-#: Training rows a full (constrained) structure fit solves its weights on, about: every
-#: ``k``-th training row, ``k = n_train // FULL_FIT_ROWS`` (all rows below twice as many).
-#: Neighbouring samples of a recording sampled far above its dynamics are nearly redundant:
-#: only the least-squares rows are thinned (the plays and output filters still run over
-#: every sample), and the fit's residuals, training RSS and every held-out score come from
-#: its exact simulation on all rows.
-FULL_FIT_ROWS = 15000
-#: Training rows a ranking solve (``rss_only``: the searches over nonlinear parameters)
-#: uses, about (as :data:`FULL_FIT_ROWS`).
-RANKING_ROWS = 8000
-
-
-#: Byte limit of a cache made without a budget (tests, a fit outside a diagnosis): what the
-#: separate budgets of the play banks, level segments and projections held together before
-#: the one budget of :mod:`.cache_budget`. A diagnosis's cache has :func:`cache_budget` of
-#: its samples instead.
-DEFAULT_CACHE_BYTES = 384e6
-
-
 #: Rows of a block of the play bank streamed by :func:`_stage_output` (0.2 MB per play; 50,000
 #: held 70 MB of a resolution refit's bank at the 100,000-sample diagnosis's peak).
 STREAM_ROWS = 25_000
 
 
-def _recent(d: dict, key: Any) -> Any:
-    """``d.get(key)``, moving a hit to the end: the caches evict their oldest entry first,
-    so this makes them least-recently-used (a search over one recording's history must
-    not evict the other recordings' banks, which every trial reads again)."""
-    v = d.pop(key, None)
-    if v is not None:
-        d[key] = v
-    return v
-
-
-def _row_selector(idx: np.ndarray) -> slice | np.ndarray:
-    """Index ``B[sel]`` equal to ``B[idx]`` for increasing indices ``idx``: a slice (a strided
-    view, no gather) when they are evenly spaced, as in a single training window."""
-    if idx.size > 1:
-        d = np.diff(idx)
-        if d[0] > 0 and np.all(d == d[0]):
-            return slice(int(idx[0]), int(idx[-1]) + 1, int(d[0]))
-    return idx
-
-
-def _basis_rows(m: np.ndarray) -> np.ndarray:
-    """The training rows (mask ``m``) the reduced basis is taken on: about 2000."""
-    idx = np.flatnonzero(m)
-    return idx[:: max(1, idx.size // 2000)]
-
-
-def _basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
-    # (a strided view where the rows are evenly spaced: no gather before the concatenation)
-    return _basis_of(np.concatenate([B[_row_selector(_basis_rows(m))]
-                                     for B, m in zip(banks, train, strict=True)]))
-
-
-def _basis_of(A: np.ndarray) -> np.ndarray:
-    """Leading right-singular directions (at most 24) of the column-scaled rows ``A``."""
-    # the Gram of the column-scaled rows, scaled after the product (one pass over A)
-    G = A.T @ A
-    scale = 1.0 / np.sqrt(np.diag(G) + 1e-300)
-    ev, vec = np.linalg.eigh(scale[:, None] * G * scale[None, :])
-    ev, vec = ev[::-1], vec[:, ::-1]
-    q = int(min(24, max(1, np.sum(ev > 1e-10 * ev[0]))))
-    return (scale[:, None] * vec[:, :q]).copy()
-
-
-@njit(cache=True, nogil=True)
-def _iir_rows(b, a, zi, x, rows, out):  # pragma: no cover - compiled
-    """Direct-form-II-transposed filter ``b/a`` (order 1 or 2) of the columns of ``x``.
-
-    ``x`` is row-major ``(N, m)``, the filter starts in the steady state of ``x[0]``
-    (state ``zi * x[0]``, as :func:`core.stages.foh_filter`), and only the increasing rows
-    ``rows`` are written to ``out`` ``(rows.size, m)``. Time is the outer loop so that the
-    ``m`` independent recursions vectorise; the operation order is scipy's ``lfilter``.
-    """
-    m = x.shape[1]
-    order = a.size - 1
-    b0 = b[0]
-    b1 = b[1]
-    a1 = a[1]
-    b2 = b[2] if order == 2 else 0.0
-    a2 = a[2] if order == 2 else 0.0
-    z0 = np.empty(m)
-    z1 = np.zeros(m)
-    for j in range(m):
-        z0[j] = zi[0] * x[0, j]
-        if order == 2:
-            z1[j] = zi[1] * x[0, j]
-    k = 0
-    for i in range(rows[-1] + 1 if rows.size else 0):
-        take = rows[k] == i
-        for j in range(m):
-            xi = x[i, j]
-            yi = b0 * xi + z0[j]
-            if order == 2:
-                z0[j] = z1[j] + xi * b1 - yi * a1
-                z1[j] = xi * b2 - yi * a2
-            else:
-                z0[j] = xi * b1 - yi * a1
-            if take:
-                out[k, j] = yi
-        if take:
-            k += 1
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _play_rows(u, r, z, rows, out):  # pragma: no cover - compiled
-    """Rows ``rows`` (increasing) of the play bank of thresholds ``r`` on input ``u`` from the
-    state ``z`` (updated in place), without storing the others: the update of
-    :func:`core.kernels.play_matrix`, so the same numbers."""
-    n = r.size
-    k = 0
-    for i in range(rows[-1] + 1 if rows.size else 0):
-        ui = u[i]
-        for j in range(n):
-            lo = ui - r[j]
-            hi = ui + r[j]
-            zj = z[j]
-            if zj > hi:
-                zj = hi
-            if zj < lo:
-                zj = lo
-            z[j] = zj
-        if i == rows[k]:
-            for j in range(n):
-                out[k, j] = z[j]
-            k += 1
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _play_projection(w, r, z, V, rows, out):  # pragma: no cover - compiled  # noqa: C901 - the fast paths of one product, each a guarded branch
-    """Rows ``rows`` of ``B @ V``, ``B`` the play bank of thresholds ``r`` (``r[0] = 0``: the
-    input itself) on input ``w``, without forming ``B`` or the ``(N, n) x (n, q)`` product.
-
-    ``z`` ``(n,)``: the bank's row 0 (the play outputs after ``w[0]``); overwritten.
-    On a monotone stretch a play either follows the input (``z_j = w -/+ r_j``) or is
-    stuck, so ``B[i] @ V = C + w_i S - R`` with ``C`` the stuck plays' ``z_j V_j``, ``S`` the
-    moving plays' ``V_j`` and ``R`` their ``+/- r_j V_j``: a row costs ``O(q)``, and the exact
-    play update (:func:`core.kernels.play_matrix`) runs over all plays only at a reversal or
-    where a stuck play may start to move (its level is within round-off of the input). The
-    sums are rebuilt after ``4 n`` changes, so their round-off stays that of a few sums.
-    Writes ``out`` ``(rows.size, q)`` (increasing rows).
-    """
-    n = r.size
-    q = V.shape[1]
-    status = np.zeros(n, dtype=np.int8)  # 0 stuck, 1 follows w - r, -1 follows w + r
-    C = np.zeros(q)
-    S = np.zeros(q)
-    R = np.zeros(q)
-    for j in range(n):
-        for c in range(q):
-            C[c] += z[j] * V[j, c]
-    n_up = 0  # moving plays with r > 0 by direction
-    n_dn = 0
-    up_lvl = -np.inf  # the input levels where a stuck play starts to move up / down
-    dn_lvl = np.inf
-    changes = 4 * n + 1  # force the first exact pass to set the levels
-    rmax = 0.0
-    for j in range(n):
-        rmax = max(rmax, r[j])
-    k = 0
-    last = rows[-1] if rows.size else -1
-    for i in range(last + 1):
-        wi = w[i]
-        fast = True
-        if i > 0:
-            tol = 8.0 * 2.220446049250313e-16 * (abs(wi) + rmax)
-            wp = w[i - 1]
-            fast = wi == wp or (wi > wp and n_dn == 0 and wi < up_lvl - tol) or (
-                wi < wp and n_up == 0 and wi > dn_lvl + tol)
-            if not fast:
-                for j in range(n):
-                    lo = wi - r[j]
-                    hi = wi + r[j]
-                    # (a moving play's state is not stored on the fast rows: it is the
-                    # previous input -/+ its threshold, formed as the play update forms it)
-                    zj = z[j] if status[j] == 0 else (wp - r[j] if status[j] == 1
-                                                      else wp + r[j])
-                    if zj > hi:
-                        zj = hi
-                    if zj < lo:
-                        zj = lo
-                    st = 1 if zj == lo else (-1 if zj == hi else 0)
-                    if st != status[j]:
-                        old = status[j]
-                        if old == 0:
-                            for c in range(q):
-                                C[c] -= z[j] * V[j, c]
-                        else:
-                            for c in range(q):
-                                S[c] -= V[j, c]
-                                R[c] -= old * r[j] * V[j, c]
-                            if r[j] > 0:
-                                if old == 1:
-                                    n_up -= 1
-                                else:
-                                    n_dn -= 1
-                        if st == 0:
-                            for c in range(q):
-                                C[c] += zj * V[j, c]
-                        else:
-                            for c in range(q):
-                                S[c] += V[j, c]
-                                R[c] += st * r[j] * V[j, c]
-                            if r[j] > 0:
-                                if st == 1:
-                                    n_up += 1
-                                else:
-                                    n_dn += 1
-                        status[j] = st
-                        changes += 1
-                    z[j] = zj
-        if changes > 4 * n:
-            # rebuild the sums from the play states (bounds their round-off) and the levels
-            for c in range(q):
-                C[c] = 0.0
-                S[c] = 0.0
-                R[c] = 0.0
-            for j in range(n):
-                if status[j] == 0:
-                    for c in range(q):
-                        C[c] += z[j] * V[j, c]
-                else:
-                    for c in range(q):
-                        S[c] += V[j, c]
-                        R[c] += status[j] * r[j] * V[j, c]
-            changes = 0
-        if changes == 0 or not fast:
-            up_lvl = np.inf
-            dn_lvl = -np.inf
-            for j in range(n):
-                if status[j] == 0:
-                    up_lvl = min(up_lvl, z[j] + r[j])
-                    dn_lvl = max(dn_lvl, z[j] - r[j])
-        if i == rows[k]:
-            if i == 0:
-                for c in range(q):
-                    acc = 0.0
-                    for j in range(n):
-                        acc += z[j] * V[j, c]
-                    out[k, c] = acc
-            else:
-                for c in range(q):
-                    out[k, c] = C[c] + wi * S[c] - R[c]
-            k += 1
-    return out
-
-
-def _bank_rows_times(B: np.ndarray, V: np.ndarray, r: np.ndarray, rows: np.ndarray
-                     ) -> np.ndarray | None:
-    """``(B @ V)[rows]`` for a play bank ``B`` ``(N, n)`` of thresholds ``r`` (``r[0] = 0``,
-    column 0 the input) by :func:`_play_projection`, from row ``rows[0]`` on; ``None`` when
-    the input turns so often (measurement noise on it) that the product is cheaper."""
-    if not rows.size:
-        return None
-    s0 = int(rows[0])
-    w = np.ascontiguousarray(B[s0 : int(rows[-1]) + 1, 0])
-    if not _turns_rarely(w, r.size):
-        return None
-    return _input_rows_times(w, B[s0], V, r, np.asarray(rows, dtype=np.int64) - s0)
-
-
-def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
+def _sampled_banks(cache: BankCache, s: Structure, records: Sequence[Recording],
                    train: Sequence[np.ndarray], rows: list[np.ndarray], upto: list[int],
                    starts: list[int], vkey: Any
                    ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None:
@@ -836,7 +376,7 @@ def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
     reduced basis (memoised on ``vkey``), and per recording the bank input (the input through
     the loop shape, up to ``upto``) and the bank row the products start from (``starts``, or
     the first solved row of ``rows`` without dynamics). The plays run along the input storing
-    only the basis rows and those (:func:`_play_rows`, the numbers of the full bank). ``None``
+    only the basis rows and those (:func:`play_rows`, the numbers of the full bank). ``None``
     when a bank is in the cache or an input reverses often (the product is then cheaper)."""
     r = np.asarray(s.thresholds)
     r_full = np.r_[0.0, r]
@@ -846,59 +386,27 @@ def _sampled_banks(cache: _Cache, s: Structure, records: Sequence[Recording],
     for k, (rec, m, idx) in enumerate(zip(records, train, rows, strict=True)):
         w = apply_shape(s.shape, rec.u[: upto[k]])
         first = (starts[k] if s.dynamics else int(idx[0])) if idx.size else 0
-        if idx.size and not _turns_rarely(w[first : int(idx[-1]) + 1], r_full.size):
+        if idx.size and not turns_rarely(w[first : int(idx[-1]) + 1], r_full.size):
             return None
         hist = s.history[k]
         z0 = play_bank(apply_shape(s.shape, hist), r)[1] if hist else np.zeros(r.size)
-        ib = _basis_rows(m)
+        ib = basis_rows(m)
         # (the basis rows are increasing: the start row goes in its place)
         at = int(np.searchsorted(ib, first))
         need = (ib if at < ib.size and ib[at] == first else np.insert(ib, at, first)).astype(
             np.int64)
-        B = _play_rows(np.ascontiguousarray(w, dtype=np.float64), r_full, np.r_[0.0, z0],
+        B = play_rows(np.ascontiguousarray(w, dtype=np.float64), r_full, np.r_[0.0, z0],
                        need, np.empty((need.size, r_full.size)))
         inputs.append(w)
         row0.append(B[np.searchsorted(need, first)] if need.size else np.zeros(r_full.size))
         samples.append(B[np.searchsorted(need, ib)])
-    V = _recent(cache.v, vkey)
+    V = recent(cache.v, vkey)
     if V is None:
-        V = _basis_of(np.concatenate(samples))
+        V = basis_of(np.concatenate(samples))
         if len(cache.v) >= 64:
             cache.v.pop(next(iter(cache.v)))
         cache.v[vkey] = V
     return V, inputs, row0
-
-
-def _turns_rarely(w: np.ndarray, n: int) -> bool:
-    """Whether the input ``w`` reverses rarely enough (``n`` plays) for
-    :func:`_play_projection` to beat the product."""
-    d = np.diff(w)
-    d = d[d != 0]
-    return bool(np.count_nonzero((d[1:] > 0) != (d[:-1] > 0)) * n <= 0.5 * w.size)
-
-
-def _input_rows_times(w: np.ndarray, z0: np.ndarray, V: np.ndarray, r: np.ndarray,
-                      rows: np.ndarray) -> np.ndarray:
-    """Rows ``rows`` of ``B @ V``, ``B`` the bank of thresholds ``r`` on input ``w`` whose row 0
-    is ``z0`` (:func:`_play_projection`)."""
-    out = np.empty((rows.size, V.shape[1]))
-    return _play_projection(np.ascontiguousarray(w, dtype=np.float64),
-                            np.ascontiguousarray(r, dtype=np.float64),
-                            np.array(z0, dtype=np.float64), np.ascontiguousarray(V), rows, out)
-
-
-@njit(cache=True, nogil=True)
-def _delay_rows(x, rows, m, f, out):  # pragma: no cover - compiled
-    """Rows ``rows`` of ``x`` delayed by ``m + f`` samples (``0 <= f < 1``), linearly
-    interpolated and held at ``x[0]`` before the start:
-    ``out[k] = f x[rows[k] - m - 1] + (1 - f) x[rows[k] - m]``."""
-    g = 1 - f
-    for k in range(rows.size):
-        i1 = max(rows[k] - m - 1, 0)
-        i2 = max(rows[k] - m, 0)
-        for j in range(x.shape[1]):
-            out[k, j] = f * x[i1, j] + g * x[i2, j]
-    return out
 
 
 def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
@@ -911,7 +419,7 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if out is None:
         out = np.empty((rows.size, x.shape[1]))
     if not dyn or not rows.size:
-        out[...] = x[_row_selector(rows)]  # (a strided view for evenly spaced rows: no gather)
+        out[...] = x[row_selector(rows)]  # (a strided view for evenly spaced rows: no gather)
         return out
     stages = dynamics_stages(dyn)
     if len(stages) > 1:
@@ -929,10 +437,10 @@ def _dyn_rows(x: np.ndarray, dyn: tuple, dt: float, rows: np.ndarray,
     if stage.transfer is None:  # a pure (fractional) transport delay
         D = dyn[1] / dt
         m = int(np.floor(D + 1e-12))
-        return _delay_rows(xc, np.asarray(rows, dtype=np.int64), m, D - m, out)
+        return delay_rows(xc, np.asarray(rows, dtype=np.int64), m, D - m, out)
     num, den = stage.transfer(tuple(dyn[1:]))
     b, a, zi = discretised_tf(num, den, dt)
-    return _iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
+    return iir_rows(b, a, zi, xc, np.asarray(rows, dtype=np.int64), out)
 
 
 #: Decay a filtered start transient must reach before the first row :func:`_filter_start`
@@ -982,64 +490,6 @@ def _filter_warmup(dyn: tuple, dt: float) -> int:
     return int(np.ceil(warm)) if np.isfinite(warm) else -1
 
 
-def _gram(X: np.ndarray, nq: int, cache: _Cache, key: Any, owner: Any) -> np.ndarray:
-    """``X.T @ X`` with the block of the first ``nq`` columns (the PI stage: play bank through
-    the output dynamics) memoised in ``cache`` on ``key``; ``owner`` is kept with the entry
-    and must be the same object on a hit (its identity is part of the key).
-
-    A miss forms the whole matrix in one symmetric product (one pass over the ``(N, p)``
-    rows; the block alone and then its cross products read the PI-stage columns twice). On
-    a hit only the cross products of the other columns (bilinear regressors, bias, drift,
-    output: they change between structures and refreshes) are formed, as ``X2.T @ X`` (the
-    thin factor on the left reads the wide block once, in row order)."""
-    hit = _recent(cache.g, key)
-    if hit is not None and hit[0] is owner:
-        X2 = np.ascontiguousarray(X[:, nq:])
-        G = np.empty((X.shape[1], X.shape[1]))
-        G[:nq, :nq] = hit[1]
-        G[nq:, :] = X2.T @ X
-        G[:nq, nq:] = G[nq:, :nq].T
-        return G
-    G = X.T @ X
-    if len(cache.g) >= 16:
-        cache.g.pop(next(iter(cache.g)))
-    cache.g[key] = (owner, G[:nq, :nq].copy())
-    return G
-
-
-def _unconstrained_rss(Xa: np.ndarray) -> float:
-    """Residual sum of squares of the unconstrained least-squares fit of the last column of
-    ``Xa`` on the others: Cholesky of the column-scaled normal equations, or ``lstsq`` when
-    they are ill conditioned (condition number above :data:`core.fitting.gram.COND_LIMIT`)."""
-    G = Xa.T @ Xa
-    p = G.shape[0] - 1
-    d = np.sqrt(np.diag(G)[:p])
-    d[d == 0] = 1.0
-    Gs = G[:p, :p] / d[:, None] / d[None, :]
-    ev = np.linalg.eigvalsh(Gs)
-    if ev[0] > 0 and ev[-1] <= COND_LIMIT * ev[0]:
-        L = np.linalg.cholesky(Gs)
-        w = np.linalg.solve(L.T, np.linalg.solve(L, G[:p, p] / d)) / d
-    else:
-        w = np.linalg.lstsq(Xa[:, :p], Xa[:, p], rcond=None)[0]
-    e = Xa @ np.append(w, -1.0)
-    return float(e @ e)
-
-
-def _level_penalty(n_play: int, m: int, ncol: int, lam: float) -> np.ndarray:
-    """Pseudo rows ``sqrt(lam) (W[i, j] - W[i, j - 1])`` of a Preisach base (column
-    ``i m + j``), zero in the output column; ``(n_play (m - 1), ncol + 1)``."""
-    P = np.zeros((n_play * (m - 1), ncol + 1))
-    q = np.sqrt(lam)
-    row = 0
-    for i in range(n_play):
-        for j in range(1, m):
-            P[row, i * m + j] = q
-            P[row, i * m + j - 1] = -q
-            row += 1
-    return P
-
-
 def legendre_columns(t: np.ndarray, deg: int) -> np.ndarray:
     """Legendre polynomials of degrees 1 to ``deg`` of the time ``t`` (s) mapped onto
     ``[-1, 1]`` over the recording, shape ``(t.size, deg)`` (a drift's columns, and the own
@@ -1053,7 +503,7 @@ def legendre_columns(t: np.ndarray, deg: int) -> np.ndarray:
 @overload
 def fit_structure(
     s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
-    cache: _Cache | None = None, x_init: Sequence[np.ndarray] | None = None,
+    cache: BankCache | None = None, x_init: Sequence[np.ndarray] | None = None,
     iterations: int | None = None, rss_only: Literal[False] = False, reduce: bool = True,
 ) -> Fit: ...
 
@@ -1061,7 +511,7 @@ def fit_structure(
 @overload
 def fit_structure(
     s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
-    cache: _Cache | None = None, x_init: Sequence[np.ndarray] | None = None,
+    cache: BankCache | None = None, x_init: Sequence[np.ndarray] | None = None,
     iterations: int | None = None, *, rss_only: bool, reduce: bool = True,
 ) -> Fit | float: ...
 
@@ -1070,7 +520,7 @@ def fit_structure(
     s: Structure,
     records: Sequence[Recording],
     train: Sequence[np.ndarray],
-    cache: _Cache | None = None,
+    cache: BankCache | None = None,
     x_init: Sequence[np.ndarray] | None = None,
     iterations: int | None = None,
     rss_only: bool = False,
@@ -1100,7 +550,7 @@ def fit_structure(
     -------
     Fit, or float with ``rss_only``
     """
-    cache = cache or _Cache()
+    cache = cache or BankCache()
     r = np.asarray(s.thresholds)
     nrec = len(records)
     layout = cache.layout(records, train, rss_only)
@@ -1142,8 +592,8 @@ def fit_structure(
         blk[:, ncol] = ys[o : o + idx.size]
         o += idx.size
     # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
-    lower = None if V is not None else _constraints(
-        s, X, nb, _min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
+    lower = None if V is not None else constraints(
+        s, X, nb, min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
     w = None
     for it in range(iterations):
@@ -1163,9 +613,9 @@ def fit_structure(
                           dts[k], idx - s0, out=blocks[k][:, nq:nM])
         if lower is None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
-            return _unconstrained_rss(X)
-        G = _gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
-        w = _solve(s, X, G, lower, nb)
+            return unconstrained_rss(X)
+        G = gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
+        w = solve(s, X, G, lower, nb)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         if s.stop:  # Maxwell-slip stiffnesses k, w_i -> play frame p0 = k + sum w, p = -w
@@ -1192,7 +642,7 @@ class _BankSet(NamedTuple):
     (:func:`_sampled_banks`, then ``raw`` and ``banks`` are empty) the bank ``inputs`` and
     the bank rows the products start from, ``row0``; ``r_bank``: the thresholds of the
     bank's columns when the reduced products are formed along the input
-    (:func:`_bank_rows_times`), else ``None``."""
+    (:func:`bank_rows_times`), else ``None``."""
 
     raw: list
     banks: list
@@ -1205,7 +655,7 @@ class _BankSet(NamedTuple):
     streamed: list[tuple[np.ndarray, np.ndarray]] | None = None
 
 
-def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
+def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
               train: Sequence[np.ndarray], rows: list[np.ndarray], upto: list[int],
               starts: list[int], vkey: Any, rss_only: bool, reduce: bool) -> _BankSet:
     """The banks of :func:`fit_structure` (:class:`_BankSet`)."""
@@ -1239,13 +689,13 @@ def _bank_set(cache: _Cache, s: Structure, records: Sequence[Recording],
         # Duhem plant a true 346 Hz mode ranked worse than none)
         V = cache.basis(banks, train, vkey)
     # thresholds of the play-bank columns (rate-independent plays: the reduced products
-    # are then formed along the input, _bank_rows_times)
+    # are then formed along the input, bank_rows_times)
     r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
               and not s.levels else None)
     return _BankSet(raw, banks, V, inputs, row0, r_bank, streamed)
 
 
-def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarray, last: int,
+def _pi_rows(bs: _BankSet, s: Structure, cache: BankCache, key: Any, idx: np.ndarray, last: int,
              start: int, sel: slice | np.ndarray, dt: float, out: np.ndarray) -> None:
     """The PI-stage columns of one recording on its solved rows ``idx`` (up to ``last``),
     through the output dynamics, written to ``out``: the bank (or its reduced basis ``V``)
@@ -1259,16 +709,16 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarra
         assert bs.row0 is not None and V is not None
         s0 = int(idx[0]) if not s.dynamics else start
         if not s.dynamics:
-            out[...] = _input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
+            out[...] = input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
                                          idx - s0)
         elif idx.size:
-            _dyn_rows(_input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
+            _dyn_rows(input_rows_times(bs.inputs[k][s0:last], bs.row0[k], V, filled(bs.r_bank),
                                         np.arange(last - s0)),
                       s.dynamics, dt, idx - s0, out=out)
     elif V is not None and not s.dynamics:
         # only the solved rows are needed (a strided view when they are evenly spaced,
         # as in a single training window: the same product without gathering them)
-        P = None if bs.r_bank is None else _bank_rows_times(bs.banks[k], V, bs.r_bank, idx)
+        P = None if bs.r_bank is None else bank_rows_times(bs.banks[k], V, bs.r_bank, idx)
         out[...] = bs.banks[k][sel] @ V if P is None else P
     else:
         # (the dynamics run from where their start transient has died out by the first
@@ -1279,86 +729,9 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: _Cache, key: Any, idx: np.ndarra
         _dyn_rows(P, s.dynamics, dt, idx - start, out=out)
 
 
-def _min_slope(inputs: list, train: Sequence[np.ndarray], ylo: float, yhi: float) -> float:
-    """The smallest loop-segment slope of an invertible PI stage: 1e-3 of the output range
-    over the range of the play bank's input ``inputs`` (per recording; the loop-shape map's
-    output when there is one; a bank may stop at its last training row) on the training
-    rows, as :func:`core.fitting.default_min_slope`."""
-    w_tr = [w[m[: w.shape[0]]] for w, m in zip(inputs, train, strict=True) if m.any()]
-    ulo = min(float(w.min()) for w in w_tr)
-    uhi = max(float(w.max()) for w in w_tr)
-    return 1e-3 * (yhi - ylo) / max(uhi - ulo, 1e-300)
-
-
-def _constraints(s: Structure, X: np.ndarray, nb: int, eps: float, terms: list) -> np.ndarray:
-    """Lower bounds of the weights (the columns of ``X`` but its last), ``nb`` base columns
-    first, then the static ``terms`` (:func:`_term_columns`). An invertible PI stage (as the
-    fitting's constraint_transform): free weights solve for the loop-segment slopes
-    ``S_j = p0 + p_1 + ... + p_j >= eps`` (the columns of ``X`` become ``X_j - X_{j+1}``, in
-    place), classical ones for ``p0 >= eps, p_j >= 0``; each term's weights within its own
-    bound."""
-    lower = np.full(X.shape[1] - 1, -np.inf)
-    lower[:nb] = eps
-    n_lev = len(s.levels) + 1
-    if s.levels:
-        # Preisach base: every segment of the reversible part rises (>= eps), the level
-        # segments of the plays are a nonnegative relay density
-        lower[n_lev:nb] = 0.0
-    elif s.bouc_wen:
-        # Bouc-Wen base: columns m_j u - z_j, weights >= 0 (an invertible hardening loop,
-        # core.diagnosis.bases) or of either sign with free weights
-        lower[1:nb] = -np.inf if s.free_weights else 0.0
-    elif s.stop:
-        # stop base: columns [v, v - Gamma_i(v)] (the elements' deflections), k >= eps and
-        # w_i >= 0 (a clockwise, invertible Maxwell-slip bank)
-        X[:, 1:nb] = X[:, :1] - X[:, 1:nb]
-        lower[1:nb] = 0.0
-    elif s.free_weights:
-        X[:, : nb - 1] -= X[:, 1:nb]
-    else:
-        lower[1:nb] = 0.0
-    for _, t, _, a, b in terms:
-        lower[a:b] = t.lower
-    return lower
-
-
-def _solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int
-           ) -> np.ndarray:
-    """The weights of the design ``X`` (output in its last column; ``G`` its Gram matrix,
-    added to in place) within ``lower``.
-
-    The fitting's constrained solver, as core.fitting does it: from the augmented Gram
-    matrix, or from the triangular factor of [X, y] when that is ill conditioned. Pseudo
-    rows: a column without any solved row (the offset or drift of a recording left out,
-    e.g. leave-one-recording-out) is pinned at 0, as if never there; then the unbounded
-    weights (bias, drift, output map) also get a ridge 1e-9 of the largest column energy,
-    bounding a direction the remaining rows leave (nearly) undetermined (before: offsets of
-    1e12 with one recording left out). Fits with rows in every column are solved as they
-    were (the ridge alone moved a weak drift on top of creep from a 7 % to a 13 % held-out
-    gain: such designs are nearly collinear)."""
-    ncol = lower.size
-    dg = np.diag(G)[:ncol]
-    empty = dg == 0
-    ridge = 1e-9 * float(dg.max(initial=0.0)) if empty.any() else 0.0
-    lam = np.where(empty, 1.0, np.where(np.isfinite(lower), 0.0, ridge))
-    pin = (np.sqrt(lam)[:, None] * np.eye(ncol + 1)[:ncol])[lam > 0]
-    if s.levels and s.level_smooth > 0:
-        # a Preisach base: the density of neighbouring level segments of each play is
-        # pulled together (towards a PI), so cells excited by few rows do not overfit
-        n_lev = len(s.levels) + 1
-        pin = np.vstack((pin, _level_penalty(len(s.thresholds) + 1, n_lev, ncol,
-                                             s.level_smooth * float(dg[:nb].mean()))))
-    if pin.size:
-        G += pin.T @ pin
-    sol = solve_constrained(lower, gram=G)
-    if sol.cond > COND_LIMIT:
-        sol = solve_constrained(lower, factor=r_factor(np.vstack((X, pin)) if pin.size else X))
-    return sol.theta
-
-
 def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
                banks: list, p0: float, pw: np.ndarray, coef: dict[str, Any],
-               cache: _Cache) -> Fit:
+               cache: BankCache) -> Fit:
     """The :class:`Fit` of ``s`` with the solved weights: each recording's chain simulated
     exactly (its training RSS from those predictions). The fit keeps no bank: its PI-stage
     outputs are formed from ``cache`` when first read (:class:`PIStageOutputs`)."""
@@ -1384,7 +757,7 @@ def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.nd
                train_rss=rss,
                n_train=ntr)
 
-def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: int,
+def _stage_output(cache: BankCache, s: Structure, records: Sequence[Recording], k: int,
                   w: np.ndarray) -> Float1D:
     """The PI-stage output ``bank @ w`` of recording ``k`` of structure ``s`` ``(N,)``.
 
@@ -1403,7 +776,7 @@ def _stage_output(cache: _Cache, s: Structure, records: Sequence[Recording], k: 
     return (cache.levelled(k, B, s) if s.levels else B) @ w
 
 
-def _streams(cache: _Cache, s: Structure, records: Sequence[Recording]) -> bool:
+def _streams(cache: BankCache, s: Structure, records: Sequence[Recording]) -> bool:
     """Whether a full fit of ``s`` streams its play banks in row blocks instead of forming
     them (:func:`_streamed_rows`): rate-independent plays on a PI or Preisach base, banks
     not cached and together larger than the cache's budget
@@ -1444,25 +817,25 @@ def _bank_start(s: Structure, rec: Recording, k: int) -> tuple[np.ndarray, np.nd
 def _streamed_product(w: np.ndarray, z0: np.ndarray, r_full: np.ndarray, levels: tuple,
                       weights: np.ndarray, upto: int) -> Float1D:
     """``B[:upto] @ weights`` for the play bank ``B`` of thresholds ``r_full`` on input ``w``
-    from state ``z0`` (split into the level segments of ``levels``, :func:`_segments`), the
+    from state ``z0`` (split into the level segments of ``levels``, :func:`split_levels`), the
     plays run over blocks of :data:`STREAM_ROWS` rows with their state carried (the play
     update is exact: the rows of the whole bank), each block multiplied and dropped."""
     out = np.empty(upto)
     z = z0
     for a in range(0, upto, STREAM_ROWS):
         B, z = play_bank(w[a : min(a + STREAM_ROWS, upto)], r_full, z)
-        out[a : a + B.shape[0]] = _segments(B, levels) @ weights
+        out[a : a + B.shape[0]] = split_levels(B, levels) @ weights
     return out
 
 
 def _streamed_rows(w: np.ndarray, r_full: np.ndarray, z0: np.ndarray, levels: tuple,
                    dyn: tuple, dt: float, idx: np.ndarray, start: int, out: np.ndarray) -> None:
     """Rows ``idx`` of the play bank of thresholds ``r_full`` on input ``w`` (state ``z0``
-    before it; split into the level segments of ``levels``, :func:`_segments`) through the
+    before it; split into the level segments of ``levels``, :func:`split_levels`) through the
     output dynamics ``dyn`` started at row ``start``, written to ``out`` ``(idx.size,
     width)``, with at most :data:`STREAM_ROWS` plus the dynamics' warm-up of bank rows alive.
 
-    Without dynamics the plays run storing only the rows ``idx`` (:func:`_play_rows`, the
+    Without dynamics the plays run storing only the rows ``idx`` (:func:`play_rows`, the
     bank's numbers). With them the solved rows go in groups of a block; the first group's
     filter starts at ``start`` (the rows of the whole bank's), each later group's where its
     start transient has died out by its first row (:func:`_filter_start`: the rows of the
@@ -1470,9 +843,9 @@ def _streamed_rows(w: np.ndarray, r_full: np.ndarray, z0: np.ndarray, levels: tu
     if not idx.size:
         return
     if not dyn:
-        B = _play_rows(w, r_full, z0.copy(), np.asarray(idx, dtype=np.int64),
+        B = play_rows(w, r_full, z0.copy(), np.asarray(idx, dtype=np.int64),
                        np.empty((idx.size, r_full.size)))
-        out[...] = _segments(B, levels)
+        out[...] = split_levels(B, levels)
         return
     # the plays' state at row `start` (rows before it are not needed)
     z = z0
@@ -1494,7 +867,7 @@ def _streamed_rows(w: np.ndarray, r_full: np.ndarray, z0: np.ndarray, levels: tu
         new, z = play_bank(w[pos : int(group[-1]) + 1], r_full, z)
         have = np.concatenate((have[s0 - have0:], new)) if s0 < pos else new
         have0 = s0
-        _dyn_rows(_segments(have, levels), dyn, dt, group - s0, out=out[done:end])
+        _dyn_rows(split_levels(have, levels), dyn, dt, group - s0, out=out[done:end])
         done = end
 
 

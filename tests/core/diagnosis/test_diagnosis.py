@@ -231,7 +231,8 @@ def test_ranking_solve_of_a_new_history_or_rate_covers_every_training_row() -> N
     subsampled and the reduced basis is taken on a coarser subsample of the training rows,
     which can reach past the last solved row: the bank must cover it, and the RSS equal the one
     computed from the full bank that a structure fit leaves in the cache."""
-    from core.diagnosis.structure import Structure, _Cache
+    from core.diagnosis.bankcache import BankCache
+    from core.diagnosis.structure import Structure
 
     t = np.arange(36001) * 1e-3
     u = 40.0 * np.sin(2 * np.pi * 0.5 * t) * (1 - np.exp(-t))
@@ -241,8 +242,8 @@ def test_ranking_solve_of_a_new_history_or_rate_covers_every_training_row() -> N
     r = tuple(float(v) for v in baseline_thresholds([rec], train, 8))
     x_init = [0.8 * u]
     for s in (Structure(r, ((30.0, -10.0),)), Structure(r, ((),), beta_s=1e-3)):
-        fresh = fit_structure(s, [rec], train, _Cache(), x_init, iterations=1, rss_only=True)
-        cache = _Cache()
+        fresh = fit_structure(s, [rec], train, BankCache(), x_init, iterations=1, rss_only=True)
+        cache = BankCache()
         fit_structure(s, [rec], train, cache)  # leaves the full bank in the cache
         cached = fit_structure(s, [rec], train, cache, x_init, iterations=1, rss_only=True)
         assert fresh == pytest.approx(cached, rel=1e-12)
@@ -256,6 +257,7 @@ def test_full_fits_from_the_memoised_gram_block_and_lazy_pi_stage_outputs(monkey
     import pickle
 
     from core.diagnosis import structure as st
+    from core.diagnosis.bankcache import BankCache
 
     t = np.arange(6001) * 1e-3
     u = 40.0 * np.sin(2 * np.pi * 0.7 * t) * (1 - np.exp(-t))
@@ -264,14 +266,14 @@ def test_full_fits_from_the_memoised_gram_block_and_lazy_pi_stage_outputs(monkey
     train = [t <= 4.5]
     r = tuple(float(v) for v in baseline_thresholds([rec], train, 8))
     base = st.Structure(r, ((),), dynamics=("lag", 0.004))
-    cache = st._Cache()
+    cache = BankCache()
     st.fit_structure(base.with_(dynamics=("lag", 0.02)), [rec], train, cache)  # another block
     f0 = st.fit_structure(base, [rec], train, cache)
     assert len(cache.g) == 2  # the blocks of the bank through each lag are memoised
     s = base.with_term("asymmetry", True)
     got = st.fit_structure(s, [rec], train, cache, f0.x_pi)
-    monkeypatch.setattr(st, "_gram", lambda X, nq, cache, key, owner: X.T @ X)
-    want = st.fit_structure(s, [rec], train, st._Cache(), f0.x_pi)
+    monkeypatch.setattr(st, "gram", lambda X, nq, cache, key, owner: X.T @ X)
+    want = st.fit_structure(s, [rec], train, BankCache(), f0.x_pi)
     scale = float(np.ptp(y))
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * scale)
     assert got.train_rss == pytest.approx(want.train_rss, rel=1e-9)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from core.diagnosis import structure as st
+from core.diagnosis.bankcache import BankCache
 from core.operators import play_bank
 from core.pi import PIModel
 from core.recordings import Recording
@@ -28,7 +29,7 @@ def test_streamed_stage_output_equals_the_whole_bank_product(monkeypatch, histor
     rec, train = _record()
     r = (2.0, 6.0, 12.0, 20.0)
     s = st.Structure(r, history or ((),), dynamics=("lag", 0.004))
-    cache = st._Cache(0.0)
+    cache = BankCache(0.0)
     f = st.fit_structure(s, [rec], train, cache)
     assert not cache.d  # nothing stored beyond the budget
     assert isinstance(f.x_pi, st.PIStageOutputs) and f.x_pi._x is None
@@ -72,10 +73,10 @@ def test_full_fits_with_streamed_banks_equal_those_of_whole_banks(monkeypatch, d
     base = st.Structure(r, history or ((),), dynamics=dyn)
     for s in (base, base.with_term("asymmetry", True),
               base.with_(levels=(-10.0, 15.0), level_smooth=0.1)):  # a Preisach base
-        want = st.fit_structure(s, [rec], train, st._Cache())
+        want = st.fit_structure(s, [rec], train, BankCache())
         with monkeypatch.context() as m:
             m.setattr(st, "STREAM_ROWS", 3000)
-            cache = st._Cache(0.0)
+            cache = BankCache(0.0)
             assert st._streams(cache, s, [rec])
             got = st.fit_structure(s, [rec], train, cache)
             assert not cache.d
@@ -93,9 +94,9 @@ def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dy
     rec, _ = _record()
     train = [(np.arange(rec.n_samples) // 4000) % 2 == 0]
     s = st.Structure((2.0, 6.0, 12.0, 20.0), ((),), dynamics=dyn)
-    want = st.fit_structure(s, [rec], train, st._Cache())
+    want = st.fit_structure(s, [rec], train, BankCache())
     monkeypatch.setattr(st, "STREAM_ROWS", 3000)
-    got = st.fit_structure(s, [rec], train, st._Cache(0.0))
+    got = st.fit_structure(s, [rec], train, BankCache(0.0))
     np.testing.assert_allclose(got.weights, want.weights, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0,
                                atol=1e-9 * float(np.ptp(rec.y)))
@@ -106,18 +107,18 @@ def test_streamed_rows_across_held_out_gaps_equal_the_whole_bank(monkeypatch, dy
 def test_bank_rows_are_the_rows_of_the_whole_bank(history) -> None:
     """Sampled rows of a bank that is not kept (larger than the cache budget) are
     formed without the bank and equal its rows exactly; nothing is stored. With a budget the
-    bank is formed and kept, as :meth:`_Cache.bank` does."""
+    bank is formed and kept, as :meth:`BankCache.bank` does."""
     rec, _ = _record(5001)
     r = np.array([2.0, 6.0, 12.0, 20.0])
     hist = history[0] if history else ()
     z0 = play_bank(np.asarray(hist), r)[1] if history else np.zeros(r.size)
     want = play_bank(rec.u, np.r_[0.0, r], np.r_[0.0, z0])[0]
     idx = np.arange(3, 5001, 7)
-    none = st._Cache(0.0)
+    none = BankCache(0.0)
     got = none.bank_rows(0, rec, r, hist, None, (), idx)
     np.testing.assert_array_equal(got, want[idx])
     assert not none.d
-    full = st._Cache()
+    full = BankCache()
     np.testing.assert_array_equal(full.bank_rows(0, rec, r, hist, None, (), idx), want[idx])
     assert full.has_bank(0, r, hist)
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.diagnosis import bankcache, rowkernels, solver
 from core.diagnosis import structure as st
 from core.diagnosis.shapes import shape_thresholds
 from core.operators import play_bank
@@ -32,7 +33,7 @@ def test_play_bank_rows_times_a_basis_equal_the_product(start: int) -> None:
     B = play_bank(u, r, rng.uniform(-10, 10, r.size) * (r > 0))[0]
     V = rng.standard_normal((r.size, 7))
     rows = np.arange(start, u.size, 3)
-    got = st._bank_rows_times(B, V, r, rows)
+    got = rowkernels.bank_rows_times(B, V, r, rows)
     assert got is not None
     want = (B @ V)[rows]
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
@@ -47,8 +48,8 @@ def test_a_noisy_input_falls_back_to_the_product() -> None:
     r = np.r_[0.0, np.linspace(1.0, 35.0, 30)]
     B = play_bank(u, r)[0]
     V = rng.standard_normal((r.size, 5))
-    assert st._bank_rows_times(B, V, r, np.arange(u.size)) is None
-    P = st._Cache().projected(B, V, "k", w=u, start=100, r=r)
+    assert rowkernels.bank_rows_times(B, V, r, np.arange(u.size)) is None
+    P = bankcache.BankCache().projected(B, V, "k", w=u, start=100, r=r)
     np.testing.assert_allclose(P, (B @ V)[100:], rtol=0, atol=1e-12 * np.abs(P).max())
 
 
@@ -84,15 +85,16 @@ def test_ranking_and_full_fits_equal_those_without_the_shortcuts(monkeypatch, dy
     shape = (("tanh", 0.02, 0.1),)
     r = tuple(float(v) for v in shape_thresholds(shape, [rec], train, 8))
     s = st.Structure(r, ((30.0, -10.0),), dynamics=dyn, shape=shape)
-    got_rss = st.fit_structure(s, [rec], train, st._Cache(), [0.8 * u], iterations=1,
+    got_rss = st.fit_structure(s, [rec], train, bankcache.BankCache(), [0.8 * u], iterations=1,
                                rss_only=True)
-    got = st.fit_structure(s, [rec], train, st._Cache())
-    monkeypatch.setattr(st, "_bank_rows_times", lambda B, V, r, rows: None)
+    got = st.fit_structure(s, [rec], train, bankcache.BankCache())
+    monkeypatch.setattr(st, "bank_rows_times", lambda B, V, r, rows: None)
+    monkeypatch.setattr(bankcache, "bank_rows_times", lambda B, V, r, rows: None)
     monkeypatch.setattr(st, "_sampled_banks", lambda *a: None)
     monkeypatch.setattr(st, "_filter_start", lambda dyn, dt, first: 0)
-    want_rss = st.fit_structure(s, [rec], train, st._Cache(), [0.8 * u], iterations=1,
+    want_rss = st.fit_structure(s, [rec], train, bankcache.BankCache(), [0.8 * u], iterations=1,
                                 rss_only=True)
-    want = st.fit_structure(s, [rec], train, st._Cache())
+    want = st.fit_structure(s, [rec], train, bankcache.BankCache())
     assert got_rss == pytest.approx(want_rss, rel=1e-9)
     assert got.train_rss == pytest.approx(want.train_rss, rel=1e-9)
     np.testing.assert_allclose(got.pred[0], want.pred[0], rtol=0, atol=1e-9 * np.ptp(y))
@@ -144,24 +146,24 @@ def test_stages_in_series_start_from_the_sum_of_their_warm_ups() -> None:
 
 
 def test_gram_on_a_miss_and_on_a_hit_equals_the_product() -> None:
-    """``_gram`` forms ``X.T @ X`` in one product on a miss and from the memoised PI-stage
+    """``solver.gram`` forms ``X.T @ X`` in one product on a miss and from the memoised PI-stage
     block plus the other columns' products on a hit: both equal the plain product (to
     round-off) and are exactly symmetric; a hit for another owner is a miss."""
     rng = np.random.default_rng(6)
     X = rng.standard_normal((5000, 30)) * rng.uniform(0.1, 50.0, 30)
     want = X.T @ X
-    cache = st._Cache()
+    cache = bankcache.BankCache()
     owner = object()
-    miss = st._gram(X, 26, cache, "k", owner)
+    miss = solver.gram(X, 26, cache, "k", owner)
     assert len(cache.g) == 1
     X[:, 26:] = rng.standard_normal((5000, 4))  # other regressors on the same PI block
     want_hit = X.T @ X
-    hit = st._gram(X, 26, cache, "k", owner)
+    hit = solver.gram(X, 26, cache, "k", owner)
     for got, ref in ((miss, want), (hit, want_hit)):
         np.testing.assert_allclose(got, ref, rtol=0, atol=1e-13 * np.abs(ref).max())
         assert np.array_equal(got, got.T)
     X[:, :26] *= 2.0  # a new owner: the block is formed anew
-    np.testing.assert_allclose(st._gram(X, 26, cache, "k", object()), X.T @ X, rtol=0,
+    np.testing.assert_allclose(solver.gram(X, 26, cache, "k", object()), X.T @ X, rtol=0,
                                atol=1e-13 * np.abs(X.T @ X).max())
 
 
