@@ -167,15 +167,6 @@ def says_time(name: str) -> bool:
     return bool((spec.time_dependent and spec.dynamics is None) or spec.before_wipeout)
 
 
-#: What would decide, per effect (the words of a refusal under rule 17).
-_DECIDES = {
-    "drift": "an identical input cycle repeated over the record",
-    "creep": "holds after input steps",
-    "rate": "the same loop at several rates",
-    "initial-memory": "several recordings that start from rest the same way",
-}
-
-
 #: Fewest rows on which :func:`history_refusal` judges an effect.
 MIN_HISTORY_ROWS = 200
 
@@ -208,11 +199,13 @@ def history_refusal(ctx: FitContext, cur: Fit, name: str, new: Fit) -> str | Non
     h = beyond_history(ctx, cur, new, rows)
     if beyond_history_ok(h):
         return None
-    what = _DECIDES.get(name, "an input that revisits its states at other times")
+    spec = EFFECTS[name]
+    what = spec.history_experiment or "an input that revisits its states at other times"
+    change = "rate" if spec.rate_dependent_hysteresis else "time"
     return (f"once the residual's part that depends on the input's state and history alone "
             f"(its value, direction and last two reversals; the first loading from rest "
             f"apart) is removed, it lowers the held-out MSE by {100 * h.gain:.1f} % (DM z "
             f"{h.z:.2f}, signed-rank p {h.sign_p:.2g}): a base that misses the plant's loops "
             f"(their shape changing with amplitude or with the previous excursion) explains "
-            f"as much as a change with {'rate' if name == 'rate' else 'time'}, so the two are "
+            f"as much as a change with {change}, so the two are "
             f"ambiguous here ({what} would decide)")

@@ -292,6 +292,11 @@ class DiagnosableEffect:
     term : StaticTerm or None
         For a static effect that adds linear terms (asymmetry, creep, drift, offset): its
         columns, bounds, coefficients and stage; ``structure_field`` is then ``"terms"``.
+    history_experiment : str or None
+        For an effect that claims a change with time or rate (acceptance rule 17,
+        :func:`core.diagnosis.history.says_time`): the experiment that would tell it from a
+        base that misses the plant's loops, named when the rule refuses it; ``None``: an
+        input that revisits its states at other times.
     """
 
     name: str
@@ -320,6 +325,7 @@ class DiagnosableEffect:
     systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
     deciding: tuple[tuple[str, str], ...] = ()
     term: StaticTerm | None = None
+    history_experiment: str | None = None
 
 
 #: Every registered effect by name, in the order they are tried.

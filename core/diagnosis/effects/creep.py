@@ -112,4 +112,5 @@ register(DiagnosableEffect(
         ("drift", "an up-then-down staircase with holds of 3-30 s (creep follows "
          "the sign of the last step, drift does not)"),
     ),
+    history_experiment="holds after input steps",
 ))

@@ -130,4 +130,5 @@ register(DiagnosableEffect(
     signature=_signature,
     linear=True,
     stage_order=6,
+    history_experiment="an identical input cycle repeated over the record",
 ))

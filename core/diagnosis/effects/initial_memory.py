@@ -117,4 +117,5 @@ register(DiagnosableEffect(
     structure_field="history",
     untestable=_untestable,
     before_wipeout=True,
+    history_experiment="several recordings that start from rest the same way",
 ))

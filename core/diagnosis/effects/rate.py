@@ -59,4 +59,5 @@ register(DiagnosableEffect(
     mimicked_by=(frozenset({"delay", "lag", "resonance"}), "at a single excitation rate, "
                  "rate-dependent hysteresis widens the loop as a {best} does; rate itself "
                  "was untestable"),
+    history_experiment="the same loop at several rates",
 ))
