@@ -47,6 +47,19 @@ MIN_RATE_RATIO = 1.5
 #: between-recordings test of amplitude-dependent effects.
 MIN_AMPLITUDE_RATIO = 1.5
 
+#: A travel between reversals is large when it exceeds this share of the recording's input
+#: range; reversals are counted from :data:`REVERSAL_SHARE` of it, and a travel that is more
+#: than :data:`MAX_HOLD_SHARE` holds has no rate.
+TRAVEL_SHARE = 0.2
+REVERSAL_SHARE = 0.01
+MAX_HOLD_SHARE = 0.1
+#: A recording excites one rate when at least :data:`ONE_RATE_SHARE` of its large travels
+#: are within :data:`ONE_RATE_TOL` of their median rate (tapered starts and ends allowed),
+#: one amplitude when every large travel is within :data:`ONE_AMPLITUDE_TOL` of the median.
+ONE_RATE_TOL = 0.25
+ONE_RATE_SHARE = 2 / 3
+ONE_AMPLITUDE_TOL = 0.1
+
 #: Nonlinear parameters whose agreement across folds (or left-out recordings) is checked;
 #: linear weights and data-derived scalings (an output map's centre and scale) are not.
 NONLINEAR_PARAMS = ("delay_s", "tau_s", "freq_hz", "damping", "beta_s")
@@ -68,11 +81,12 @@ def recording_rates(ctx: FitContext) -> list[list[float]]:
     out = []
     for rec, c in zip(ctx.records, ctx.coords, strict=True):
         span = float(np.ptp(rec.u)) or 1.0
-        rv = reversal_indices(rec.u, 0.01 * span)
+        rv = reversal_indices(rec.u, REVERSAL_SHARE * span)
         rv = np.concatenate((rv, [rec.n_samples - 1]))
         peaks = []
         for a, b in zip(rv[:-1], rv[1:], strict=True):
-            if abs(rec.u[b] - rec.u[a]) > 0.2 * span and b > a + 2 and c.hold[a:b].mean() < 0.1:
+            if (abs(rec.u[b] - rec.u[a]) > TRAVEL_SHARE * span and b > a + 2
+                    and c.hold[a:b].mean() < MAX_HOLD_SHARE):
                 peaks.append(abs(float(rec.u[b] - rec.u[a])) / ((b - a) * rec.dt))
         out.append(peaks)
     return out
@@ -102,9 +116,10 @@ def recording_amplitudes(ctx: FitContext) -> list[list[float]]:
     out = []
     for rec in ctx.records:
         span = float(np.ptp(rec.u)) or 1.0
-        rv = np.concatenate(([0], reversal_indices(rec.u, 0.01 * span), [rec.n_samples - 1]))
+        rv = np.concatenate(([0], reversal_indices(rec.u, REVERSAL_SHARE * span),
+                             [rec.n_samples - 1]))
         out.append([abs(float(rec.u[b] - rec.u[a])) for a, b in zip(rv[:-1], rv[1:], strict=True)
-                    if abs(rec.u[b] - rec.u[a]) > 0.2 * span])
+                    if abs(rec.u[b] - rec.u[a]) > TRAVEL_SHARE * span])
     return out
 
 
@@ -131,7 +146,7 @@ def _one_amplitude(a: list[float]) -> bool:
     if not a:
         return False
     m = float(np.median(a))
-    return bool(np.all(np.abs(np.asarray(a) - m) <= 0.1 * m))
+    return bool(np.all(np.abs(np.asarray(a) - m) <= ONE_AMPLITUDE_TOL * m))
 
 
 @dataclass(frozen=True)
@@ -178,7 +193,7 @@ def _one_rate(p: list[float]) -> bool:
     if not p:
         return False
     m = float(np.median(p))
-    return float(np.mean(np.abs(np.asarray(p) - m) <= 0.25 * m)) >= 2 / 3
+    return float(np.mean(np.abs(np.asarray(p) - m) <= ONE_RATE_TOL * m)) >= ONE_RATE_SHARE
 
 
 def _others(ctx: FitContext, j: int) -> list[np.ndarray]:
