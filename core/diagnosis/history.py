@@ -31,7 +31,8 @@ from .acceptance import beyond_history_ok
 from .context import FitContext
 from .events import REVERSAL_TOL
 from .registry import EFFECTS
-from .stats import HeldOut, heldout_comparison
+from .search import WHERE_MIN_ROWS
+from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit
 
 __all__ = ["HISTORY_KNOTS", "HISTORY_ROWS", "MIN_HISTORY_ROWS", "beyond_history",
@@ -146,16 +147,13 @@ def beyond_history(ctx: FitContext, cur: Fit, new: Fit,
     # sines, its tail in the holds) is diluted in a batch-means test over every row
     d = [np.abs(a - b)[w] for a, b, w in zip(new.pred, cur.pred, where, strict=True)]
     pooled = np.concatenate(d) if d else np.zeros(0)
-    if pooled.size < 50 or not np.any(pooled > 0):
+    if pooled.size < WHERE_MIN_ROWS or not np.any(pooled > 0):
         return h
     cut = float(np.quantile(pooled, 1.0 - WHERE_SHARE))
     top = [dd >= cut for dd in d]
     hw = heldout_comparison([r[m] for r, m in zip(res[0], top, strict=True)],
                             [r[m] for r, m in zip(res[1], top, strict=True)])
-    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
-        return h
-    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+    return with_where(h, hw)
 
 
 def says_time(name: str) -> bool:

@@ -36,7 +36,7 @@ from .results import EffectFinding, RoundRow, pooled_mse
 from .search import WHERE_MIN_ROWS, WHERE_MIN_Z, WHERE_SHARE, where_it_lives
 from .specs import DECIDING_EXPERIMENT
 from .state import Candidate, Run
-from .stats import HeldOut, heldout_comparison
+from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit, dynamics_stages, pack_dynamics
 
 __all__ = ["POLISH_XATOL", "STAGE_BLOCKS_PER_RECORDING", "polish_dynamics", "recheck_dynamics"]
@@ -254,10 +254,7 @@ def _blocks_where_it_lives(ctx: FitContext, folds: list, cur: Fit, new: Fit) -> 
     keep = [d >= cut for d in diff]
     hw = heldout_comparison([e[k] for e, k in zip(eb, keep, strict=True)],
                             [e[k] for e, k in zip(ea, keep, strict=True)])
-    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
-        return h
-    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+    return with_where(h, hw)
 
 
 def _polish_alone(ctx: FitContext, base: Fit, name: str, starts: list[dict[str, Any]]) -> Fit:

@@ -22,7 +22,7 @@ from .registry import EFFECTS
 from .results import RoundRow
 from .specs import FAMILY_PRIORITY
 from .state import Candidate, Run, deferred_row
-from .stats import HeldOut, heldout_comparison
+from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit
 
 __all__ = ["MEMORY_MAX_HARM", "MIN_SIGNATURE_ROWS", "WHERE_MIN_ROWS", "WHERE_MIN_Z",
@@ -202,7 +202,4 @@ def where_it_lives(ctx: FitContext, cur: Fit, new: Fit, h: HeldOut) -> HeldOut:
     where = [m & (np.abs(a - b) >= cut) for a, b, m in zip(new.pred, cur.pred, ctx.test,
                                                            strict=True)]
     hw = heldout_comparison(ctx.test_res(cur, where), ctx.test_res(new, where))
-    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
-        return h
-    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+    return with_where(h, hw)

@@ -11,6 +11,9 @@ from .._typing import Float1D
 from ..fitting.adequacy import noise_floor  # the one white-noise floor (hyst fit's too)
 
 __all__ = [
+    "HELDOUT_BATCHES",
+    "MIN_BATCHES",
+    "MIN_BATCH_ROWS",
     "HeldOut",
     "heldout_comparison",
     "ljung_box",
@@ -18,6 +21,7 @@ __all__ = [
     "noise_floor",
     "score_test",
     "signed_rank_p",
+    "with_where",
 ]
 
 
@@ -90,6 +94,17 @@ def heldout_comparison(
     sign_p = signed_rank_p(means)
     gain = 1.0 - ma / mb if mb > 0 else 0.0
     return HeldOut(mb, ma, gain, z, sign_p, nb)
+
+
+def with_where(h: HeldOut, hw: HeldOut) -> HeldOut:
+    """``h`` (the comparison on all the rows) also tested on the rows where the effect changes
+    the prediction most (``hw``): the larger of the two z and twice the smaller signed-rank p
+    (two tests, Bonferroni; at most 1), the effect size and batches of ``h``; ``h`` itself
+    when ``hw`` is not finite."""
+    if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
+        return h
+    return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
+                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
 
 
 def signed_rank_p(x: np.ndarray) -> float:
