@@ -16,9 +16,11 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     from core.models import ModelType
 
-__all__ = ["field_words", "in_words", "internal_names", "model_words", "type_words",
+__all__ = ["diagnosed_words", "field_words", "in_words", "internal_names", "model_words", "type_words",
            "unit_words"]
 
 #: Unit spellings of CSV headers -> as people write them.
@@ -103,6 +105,19 @@ def model_words(model: object) -> str:
     return type_words(name)
 
 
+def diagnosed_words(model: object, findings: Iterable[str]) -> str:
+    """A diagnosed model in the words of its findings (``findings``: the effects' names):
+    :func:`model_words`, without the chain's constant output offset when no finding is an
+    offset (the baseline's own bias, which every fit has: issue 33, the status line read
+    "... → Constant output offset", a stage the findings never named)."""
+    stages = getattr(model, "stages", None)
+    if getattr(model, "type_name", "") == "chain" and stages and "offset" not in set(findings):
+        kept = [s for s in stages if getattr(s, "type_name", "") != "offset"]
+        if kept and len(kept) < len(stages):
+            return " → ".join(model_words(s) for s in kept)
+    return model_words(model)
+
+
 def field_words(type_name: str, field_name: str) -> str:
     """The words for field ``field_name`` of model type ``type_name``: its declared title,
     else its control's label, else the name with spaces."""
@@ -173,6 +188,27 @@ def in_words(text: str) -> str:
             words = words[:-len(" model")]
         if len(words.split()) > 5:  # a sentence, not a name: the name with spaces
             return name.replace("-", " ").replace("_", " ").replace("preisach", "Preisach")
-        return words
+        return words if _starts_sentence(m.string, m.start()) else _mid_sentence(words)
 
     return _type_pattern().sub(sub, text)
+
+
+#: First words of type titles that keep their capital inside a sentence (a person's name,
+#: an abbreviation).
+_PROPER = ("Preisach", "Kuhnen", "Bouc", "Prandtl", "PI", "GPI", "LTI")
+
+
+def _starts_sentence(text: str, at: int) -> bool:
+    """Whether a name at ``at`` keeps its title's capital: it does unless a word runs on
+    into it ("fitting initial-memory"; a list's item after a comma keeps it)."""
+    before = text[:at].rstrip(" ")
+    return not (before and before[-1].isalpha())
+
+
+def _mid_sentence(words: str) -> str:
+    """A title's words inside a sentence: "Initial memory" -> "initial memory"; a name
+    ("Preisach model", "Kuhnen's modified PI") or an abbreviation keeps its capitals."""
+    first = words.split(" ", 1)[0]
+    if first.startswith(_PROPER) or first[1:2].isupper():
+        return words
+    return words[:1].lower() + words[1:]

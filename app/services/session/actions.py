@@ -43,7 +43,7 @@ from app.services.memory import give_back
 from app.services.session.exports import export_session, fmi_version, parameter_set_model
 from app.services.session.sessions import Session
 from app.services.settings import Settings
-from app.services.words import model_words
+from app.services.words import diagnosed_words
 from core.base import Model, RunCost
 from core.exceptions import ParameterError
 from core.presets import list_presets
@@ -312,7 +312,8 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     fig = F.diagnosis_figure(rec, result.baseline.pred[0], result.final.pred[0], base, final,
                              heldout)
     # the page's status line names the diagnosed model (not the session's fitted one)
-    fig.layout["meta"] = {**fig.layout.get("meta", {}), "model_title": model_words(result.model)}
+    fig.layout["meta"] = {**fig.layout.get("meta", {}),
+                          "model_title": diagnosed_words(result.model, effects)}
     return fig
 
 

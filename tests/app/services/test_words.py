@@ -11,6 +11,7 @@ import numpy as np
 from app.services.analysis.diagnosis import diagnosis_summary
 from app.services.explore import figures as F
 from app.services.words import (
+    diagnosed_words,
     field_words,
     in_words,
     internal_names,
@@ -52,8 +53,14 @@ def test_sentences_get_words() -> None:
                     "; a pi model; Tried: delay, lag")
     assert not _leaks(text), text
     assert "Dead-zone GPI 0.84 %" in text and "Preisach model 0.21 %" in text
-    assert "a Classical PI model;" in text and "Tried: delay, lag" in text
+    assert "a classical PI model;" in text and "Tried: delay, lag" in text
     assert in_words("PIModel, n = 6") == "Classical PI model, n = 6"
+    # a title's capital only where a sentence or an item starts (issue 33: "fitting
+    # Initial memory" in the diagnosis's progress); names and abbreviations keep theirs
+    assert text.startswith("fitting initial memory;"), text
+    assert in_words("fitting mpi") == "fitting Kuhnen's modified PI"
+    assert in_words("fitting stop-pi") == "fitting stop-operator Prandtl model"
+    assert in_words("initial-memory: 2 %") == "Initial memory: 2 %"
 
 
 def test_fields_and_units_in_words() -> None:
@@ -84,6 +91,12 @@ def test_a_diagnosed_chain_is_said_as_what_was_diagnosed() -> None:
     assert words == "Classical PI model with initial memory → Output asymmetry → " \
         "Constant output offset", words
     assert not _leaks(words) and "GPI" not in words
+    # the status line of the diagnosis view names only what the findings name: the
+    # baseline's own bias (no finding "offset") is left out (issue 33)
+    assert diagnosed_words(chain, ["initial-memory", "asymmetry"]) == \
+        "Classical PI model with initial memory → Output asymmetry"
+    assert diagnosed_words(chain, ["initial-memory", "asymmetry", "offset"]) == words
+    assert diagnosed_words(pi, []) == "Classical PI model"
 
 
 def _doc(effects: list[dict]) -> dict:
