@@ -15,9 +15,11 @@ from ..structure import Fit
 def _untestable(ctx: FitContext) -> str | None:
     """Rate-dependent hysteresis needs travels whose mean rates |du/dt| (large travels
     only) span at least a factor 5."""
-    peaks = [p for ps in recording_rates(ctx) for p in ps]
+    rates = recording_rates(ctx)
+    peaks = [p for ps in rates for p in ps]
     if len(peaks) < 2 or max(peaks) / max(min(peaks), 1e-300) < 5.0:
-        return ("the recordings excite a single rate (mean rates of the travels within a "
+        what = "the recording excites" if len(rates) == 1 else "the recordings excite"
+        return (f"{what} a single rate (mean rates of the travels within a "
                 "factor 5), so rate-dependent hysteresis cannot be told from rate-independent "
                 "loop width")
     return None

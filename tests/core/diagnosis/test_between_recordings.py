@@ -153,3 +153,20 @@ def test_friction_damper_at_two_rates_rate_tested_between_recordings_not_claimed
     assert stop.base_choice is not None and stop.base_choice.kind == "stop-pi"
     (why,) = [u for u in stop.untestable if u["name"] == "rate"]
     assert "stop operators" in why["reason"] and "--base pi" in why["experiment"]
+
+
+def test_the_untestable_rate_says_recording_or_recordings() -> None:
+    """One recording at one rate: "the recording excites a single rate" (issue 33: the
+    findings said "the recordings" of a single upload); two at one rate: "recordings"."""
+    from core.diagnosis.effects.rate import _untestable
+
+    rs = make_periodic_set(BETA).records[:1]
+
+    def reason(recs: list[Recording]) -> str | None:
+        tr, te, _ = split_masks(recs, None, None)
+        return _untestable(FitContext(recs, tr, te))
+
+    one = reason(rs)
+    assert one is not None and one.startswith("the recording excites a single rate"), one
+    two = reason([rs[0], rs[0]])
+    assert two is not None and two.startswith("the recordings excite a single rate"), two
