@@ -12,13 +12,14 @@ model to the class. ``--quick``: 3 web pages and 2 viser tabs.
 
 Per click and student the arrival is measured in the student's own page, from the click
 (the teacher page's ``Date.now()``, the same clock) to the first moment the page shows the
-step (tests/e2e/class_run.py says what "shows" means: a web page has the step's view drawn
+step (tests/e2e/class_run.py says what "shows" means: a web page shows the step's texts and
+sliders and is on the class step, and, reported beside it, has drawn the step's figure
 with the new session version; a viser tab's Lesson folder says "step k of n" and "You are
-on the class step"; for the push, the pushed model drawn / the note that the class step
-changed). Also: whether every student showed every step, whether any student (none moves)
+on the class step"; for the push, also the note that the class step changed). Also: whether every student showed every step, whether any student (none moves)
 was ever told "You are exploring", and the teacher's counts against the class.
 
-Target (issue 33): p95 arrival <= 1 s on each interface. Not a timed test: the 30 pages share
+Target (issue 33): p95 arrival (the step shown) <= 1 s on each interface; the web pages'
+p95 of the figure drawn is printed beside it. Not a timed test: the 30 pages share
 the machine's cores with the server; the load average is printed with the results.
 """
 
@@ -138,19 +139,23 @@ def main() -> int:
 
     def row(label: str, get: Any) -> str:
         w, wa, wf = get("web", "arrivals"), get("web", "asked"), get("web", "received")
+        wd = get("web", "drawn")
         v, vs = get("viser", "arrivals"), get("viser", "received")
-        return (f"{label:<15} {_ms(median(wa)):>6} {_ms(median(wf)):>6} {_ms(median(w)):>6} "
-                f"{_ms(percentile(w, .95)):>6} {_ms(max(w, default=nan)):>6} | "
+        return (f"{label:<15} {_ms(median(wa)):>6} {_ms(median(w)):>6} {_ms(percentile(w, .95)):>6} "
+                f"{_ms(max(w, default=nan)):>6} {_ms(median(wf)):>6} {_ms(median(wd)):>6} "
+                f"{_ms(percentile(wd, .95)):>6} {_ms(max(wd, default=nan)):>6} | "
                 f"{_ms(median(vs)):>6} {_ms(median(v)):>6} {_ms(percentile(v, .95)):>6} "
                 f"{_ms(max(v, default=nan)):>6}")
 
-    print("ms after the teacher's click; web: asked = the page asks for the step's figure "
-          "(the event has arrived), figure = has it, shown = drawn with the step; viser: "
-          "server = the tab's Lesson folder set, shown = the browser shows it")
-    head = (f"{'click':<15} {'asked':>6} {'figure':>6} {'shown':>6} {'p95':>6} {'max':>6} | "
-            f"{'server':>6} {'shown':>6} {'p95':>6} {'max':>6}  {'showed':>7} {'computed':>8}  "
+    print("ms after the teacher's click; web: event = the page has the event (asks for the "
+          "step's figure), step = shows the step (texts, sliders, on the class step), "
+          "figure = has the figure, drawn = has drawn it; viser: server = the tab's Lesson "
+          "folder set, step = the browser shows it")
+    head = (f"{'click':<15} {'event':>6} {'step':>6} {'p95':>6} {'max':>6} {'figure':>6} "
+            f"{'drawn':>6} {'p95':>6} {'max':>6} | "
+            f"{'server':>6} {'step':>6} {'p95':>6} {'max':>6}  {'showed':>7} {'computed':>8}  "
             "teacher's counts")
-    print(f"{'':<15} {'web p50':>20} {'':>20} | {'viser p50':>13}")
+    print(f"{'':<15} {'web (p50 unless p95 / max)':>34} {'':>20} | {'viser':>13}")
     print(head)
     print("-" * len(head))
     for m in run.moves:
@@ -180,8 +185,11 @@ def main() -> int:
           f"{any('Your teacher' in m.teacher_note for m in run.moves)}")
     for kind, xs in (("web", w_all), ("viser", v_all)):
         p95 = percentile(xs, .95)
-        print(f"target p95 <= {TARGET_P95_MS:.0f} ms ({kind}): {_ms(p95)} ms -> "
+        print(f"target p95 <= {TARGET_P95_MS:.0f} ms, the step shown ({kind}): {_ms(p95)} ms -> "
               + ("met" if p95 <= TARGET_P95_MS else "NOT met"))
+    d95 = percentile(run.arrivals("web", "drawn"), .95)
+    print(f"beside it, the step's figure drawn (web): p95 {_ms(d95)} ms"
+          + (" (<= 1 s)" if d95 <= TARGET_P95_MS else " (> 1 s)"))
     return 0
 
 

@@ -100,7 +100,7 @@ async function backToClass() {
 function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
-  // a changed step keeps the view on show; the figure was asked for with the session
+  // a changed step keeps the view on show; its figure was asked for with the event
   if (!info.edit) selectFigure(info.lesson.view, info.pending);
   else draw(info.pending).catch((e) => setMsg("model-msg", e.message));
   const note = $("live-note");
@@ -116,6 +116,9 @@ function onPushed(info) {
       : `Your teacher moved the class to ${where}. Your model, input and view now follow it.`;
   }
   note.hidden = false;
+  // body[data-step-shown] counts the steps (and pushes) this page has shown: their texts,
+  // sliders and note are on screen now; the figure follows when it comes (data-ready)
+  document.body.dataset.stepShown = String(Number(document.body.dataset.stepShown || 0) + 1);
 }
 
 function ended() {

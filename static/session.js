@@ -44,21 +44,11 @@ export function listen() {
 }
 
 async function onPushed(info) {
-  // a lesson's step: the figure of the view it shows is asked for with the session (the
-  // server changed the session before it sent the event), one round trip instead of two
-  const pending = info.lesson ? figureRequest(info.edit ? state.fig : info.lesson.view) : null;
-  if (pending) pending.catch(() => {});  // its error is shown where it is drawn
+  if (info.lesson) return onStep(info);
   const s = await api("GET", `/api/sessions/${encodeURIComponent(state.code)}`);
   applyConfig(s.config, s.version);
   // a change of ours still in flight was based on the old model: send the pushed one
   if (state.busy) state.dirty = true;
-  if (info.lesson) {
-    // lesson.js shows the step, says so and draws its view, in this same task. Drawing
-    // here first would redraw the old step's view with the new model, and a redraw makes
-    // lesson.js compare the new model with the old step: "You are exploring".
-    tell("hyst:push", { ...info, pending });
-    return;
-  }
   const p = state.presets.find((x) => x.name === info.preset);
   const what = p ? p.title : info.title || info.preset || (info.model === false ? "a new input" : "a model");
   const note = $("live-note");
@@ -71,6 +61,31 @@ async function onPushed(info) {
   note.hidden = false;
   await draw();
   tell("hyst:push", info);
+}
+
+
+// A lesson's step (or the teacher's push of an edited step): the server changed this
+// session to the step's model, input and mismatch before it sent the event, so the step
+// is shown at once from the event (its texts, the sliders), the figure of its view is
+// asked for in the same moment and drawn when it comes, and the session itself (its
+// version, the rest of its config) is read beside them: "the step arrived" waits on
+// neither the session's round trip nor the figure's (issue 33, a class of thirty).
+async function onStep(info) {
+  const step = info.lesson;
+  const pending = figureRequest(info.edit ? state.fig : step.view);
+  pending.catch(() => {});  // its error is shown where it is drawn
+  const session = api("GET", `/api/sessions/${encodeURIComponent(state.code)}`);
+  session.catch(() => {});
+  if (state.config) {
+    applyConfig({ ...state.config, model: step.model, signal: step.input,
+      mismatch: step.mismatch ?? state.config.mismatch, use_recording: false });
+  }
+  // lesson.js shows the step, says so and draws its view, in this same task
+  tell("hyst:push", { ...info, pending });
+  const s = await session;
+  if (JSON.stringify(s.config) !== JSON.stringify(state.config)) applyConfig(s.config, s.version);
+  else state.version = s.version;
+  if (state.busy) state.dirty = true;
 }
 
 

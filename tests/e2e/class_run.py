@@ -6,11 +6,13 @@ Used by the short browser test (``test_class_of_students.py``: correctness only)
 its own page (Start, Next, the push of an edited model); the click's time is taken in that
 page (``Date.now()``, the machine's clock, as every student page's records are).
 
-What a student "shows":
+What a student "shows" (the step arrived):
 
-- a web page: ``body[data-lesson-step]`` is the step and ``body[data-fig]`` its view, drawn
-  after the click (``body[data-ready]``, the session version of the drawn figure, changed);
-  for the push, the drawn version changed and the note says the class step changed;
+- a web page: the step's texts and sliders are on show (``body[data-step-shown]``, lesson.js's
+  count of the steps shown, changed after the click and ``body[data-lesson-step]`` is the
+  step: the page is on it); for the push, the note also says the class step changed. The
+  step's figure comes after: *drawn* when ``body[data-fig]`` is its view, drawn after the
+  click (``body[data-ready]``, the session version of the drawn figure, changed);
 - a viser tab: its *Lesson* folder says "step k of n" and "You are on the class step." (for
   the push: the tab's note says the teacher changed the class step).
 
@@ -33,7 +35,7 @@ from .test_viser_gui import _open as _open_viser
 from .test_web_journeys import _listening, _open, _text_has
 
 #: Records every change of what a web page shows: [time ms, step, view, drawn version,
-#: lesson state text, live note text].
+#: lesson state text, live note text, steps shown (lesson.js's count)].
 WEB_RECORDER = """() => {
   window.__rec = [];
   performance.setResourceTimingBufferSize(10000);  // the figure requests' timings
@@ -41,12 +43,12 @@ WEB_RECORDER = """() => {
   const txt = (id) => { const e = document.getElementById(id); return e ? e.textContent : ""; };
   const rec = () => {
     const r = [Date.now(), b.dataset.lessonStep || "", b.dataset.fig || "", b.dataset.ready || "",
-               txt("lesson-state"), txt("live-note")];
+               txt("lesson-state"), txt("live-note"), b.dataset.stepShown || ""];
     const last = window.__rec[window.__rec.length - 1];
     if (!last || r.slice(1).some((v, i) => v !== last[i + 1])) window.__rec.push(r);
   };
   new MutationObserver(rec).observe(b, { attributes: true,
-    attributeFilter: ["data-lesson-step", "data-fig", "data-ready"] });
+    attributeFilter: ["data-lesson-step", "data-fig", "data-ready", "data-step-shown"] });
   for (const id of ["lesson-state", "live-note"]) {
     new MutationObserver(rec).observe(document.getElementById(id),
       { childList: true, characterData: true, subtree: true });
@@ -117,6 +119,9 @@ class Move:
     teacher_step: str = ""  # the teacher page's data-lesson-step once the class is there
     teacher_note: str = ""  # the teacher page's live note then
     arrivals: dict[str, float | None] = field(default_factory=dict)  # name -> ms after t0
+    #: web: when the page had drawn the step's figure (ms after t0; the arrival is the step
+    #: shown, its texts and sliders, before it)
+    drawn: dict[str, float | None] = field(default_factory=dict)
     #: web: when the page asked for the step's figure, and when it had it (ms after t0);
     #: viser: when the server set the tab's Lesson folder to the step (ms after t0)
     asked: dict[str, float | None] = field(default_factory=dict)
@@ -137,15 +142,18 @@ class ClassRun:
     students: list[Student]
 
     def arrivals(self, kind: str | None = None, what: str = "arrivals") -> list[float]:
-        """Every student's times of every click (``what``: ``arrivals``, ``asked`` or
-        ``received``), of the students of ``kind`` ("web", "viser"; ``None``: all)."""
+        """Every student's times of every click (``what``: ``arrivals``, ``drawn``,
+        ``asked`` or ``received``), of the students of ``kind`` ("web", "viser"; ``None``:
+        all)."""
         kinds = {s.name: s.kind for s in self.students}
         return [a for m in self.moves for n, a in getattr(m, what).items()
                 if a is not None and (kind is None or kinds[n] == kind)]
 
     def missing(self) -> list[tuple[str, str]]:
-        """(move, student) pairs where the student never showed the step."""
-        return [(m.label, n) for m in self.moves for n, a in m.arrivals.items() if a is None]
+        """(move, student) pairs where the student never showed the step (a web page: or
+        never drew its figure)."""
+        return [(m.label, n) for m in self.moves for n, a in m.arrivals.items()
+                if a is None or (n in m.drawn and m.drawn[n] is None)]
 
 
 def percentile(xs: list[float], q: float) -> float:
@@ -259,14 +267,17 @@ def close_class(teacher: tuple[Any, Any], students: list[Student]) -> None:
             pass
 
 
-def _arrival(s: Student, rec: list[list[Any]], m: Move, ready0: str) -> float | None:
+def _arrival(s: Student, rec: list[list[Any]], m: Move, before: tuple[str, str],
+             drawn: bool = False) -> float | None:
+    """When ``s`` showed ``m``'s step (``drawn``: a web page had drawn its figure);
+    ``before``: the page's drawn version and steps-shown count before the click."""
     for r in rec:
         if r[0] < m.t0:
             continue
         if s.kind == "web":
-            _, step, fig, ready = r[:4]
-            note = r[5]
-            ok = step == str(m.step) and fig == m.view and ready != ready0
+            _, step, fig, ready, _, note, shown = r[:7]
+            ok = step == str(m.step) and (
+                (fig == m.view and ready != before[0]) if drawn else shown != before[1])
             if m.edit:
                 ok = ok and "changed the class step" in note
         else:
@@ -281,8 +292,10 @@ def _records(page: Any) -> list[list[Any]]:
     return page.evaluate("() => window.__rec")
 
 
-def _shows(s: Student, m: Move, ready0: str) -> bool:
-    return _arrival(s, _records(s.page), m, ready0) is not None
+def _shows(s: Student, m: Move, before: tuple[str, str]) -> bool:
+    rec = _records(s.page)
+    return _arrival(s, rec, m, before) is not None and (
+        s.kind != "web" or _arrival(s, rec, m, before, drawn=True) is not None)
 
 
 def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
@@ -308,9 +321,8 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
     conn: list[dict[str, int]] = []
 
     def click(button: str, m: Move, msg: str) -> None:
-        ready0 = {s.name: (_records(s.page) or [[0, "", "", ""]])[-1][3] if s.kind == "web"
-                  else "" for s in students}
-        before = len(t.evaluate("() => window.__clicks"))
+        before = {s.name: _before(s) for s in students}
+        clicks0 = len(t.evaluate("() => window.__clicks"))
         computed0 = computations() if computations is not None else 0
         if m.edit:
             for s in students:
@@ -318,12 +330,12 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
                     s.page.evaluate("() => { window.__watchPush = true; }")
         t.click(button)
         _text_has(t, msg, "to the class" if m.edit else f"Step {m.step} of {len(steps)}")
-        m.t0 = float(t.evaluate("() => window.__clicks")[before][0])
+        m.t0 = float(t.evaluate("() => window.__clicks")[clicks0][0])
         m.teacher_says = t.inner_text(f"#{msg}")
         deadline = time.monotonic() + timeout_s
         waiting = list(students)
         while waiting and time.monotonic() < deadline:
-            waiting = [s for s in waiting if not _shows(s, m, ready0[s.name])]
+            waiting = [s for s in waiting if not _shows(s, m, before[s.name])]
             time.sleep(0.1)
         conn.append(connected(url))
         time.sleep(settle_s)
@@ -332,8 +344,10 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
         if computations is not None:
             m.computed = computations() - computed0
         for s in students:
-            m.arrivals[s.name] = _arrival(s, _records(s.page), m, ready0[s.name])
+            rec = _records(s.page)
+            m.arrivals[s.name] = _arrival(s, rec, m, before[s.name])
             if s.kind == "web":
+                m.drawn[s.name] = _arrival(s, rec, m, before[s.name], drawn=True)
                 req = next((r for r in _figure_requests(s.page) if r[0] >= m.t0), None)
                 m.asked[s.name] = None if req is None else req[0] - m.t0
                 m.received[s.name] = None if req is None else req[1] - m.t0
@@ -361,6 +375,14 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
     t.click("#lesson-end")
     _text_has(t, "lesson-msg", "Lesson ended")
     return ClassRun(moves, told, expected, conn, students)
+
+
+def _before(s: Student) -> tuple[str, str]:
+    """A web page's drawn version and steps-shown count now (a viser tab: nothing)."""
+    if s.kind != "web":
+        return ("", "")
+    last = (_records(s.page) or [[0, "", "", "", "", "", ""]])[-1]
+    return (last[3], last[6])
 
 
 def _told_exploring(s: Student, rec: list[list[Any]]) -> bool:
