@@ -297,6 +297,8 @@ class SessionView:
         if not getattr(self._syncing, "from_gui", False):
             self.ui.params_md.content = ""  # a note on the previous model's sliders
             self._sync_controls(config)
+            # a lesson's move: its view before the one render of the new model
+            self.lesson.take_step_view(config)
         self._redraw()
 
     def _sync_controls(self, cfg: Config) -> None:

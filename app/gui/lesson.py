@@ -156,13 +156,34 @@ class LessonPanel:
                      "step.")
         self.md.content = "\n\n".join(parts)
 
-    def _show_view(self, name: str) -> None:
-        """Switch the tab's *View* to ``name`` (both dropdowns, quietly) and redraw."""
+    def take_step_view(self, config: Config) -> None:
+        """The class's move reaching the tab's session (the push, before this panel is
+        told of the move): the new step's view is chosen now, quietly, so the render the
+        new model asks for draws the step's view. Before, the tab drew the old step's view
+        with the new model, then the new view: two plots per move in each tab (issue 33,
+        ten viser tabs of a class of thirty)."""
+        pos, last = self.cls.position, self._last
+        if pos is None or pos is last or not self.on_step(config):
+            return
+        if last is not None and pos.index == last.index and pos.lesson.title == last.lesson.title:
+            return  # the teacher's push of an edited step keeps the tab's view
+        self._set_view(pos.step.view)
+
+    def _set_view(self, name: str) -> bool:
+        """Both *View* dropdowns to ``name``, quietly; whether that changed the view."""
         v = self.view
+        if v.ui.figure_name == name:
+            return False
         with v._quiet():
             for dd in v.ui.view_dropdowns:
                 set_value(dd, TITLES[name])
-        v.worker.request()
+        return True
+
+    def _show_view(self, name: str) -> None:
+        """Switch the tab's *View* to ``name`` (both dropdowns, quietly) and redraw (a view
+        taken already with the move's push was drawn by the push's render)."""
+        if self._set_view(name):
+            self.view.worker.request()
 
     def back(self) -> None:
         """Give the tab's session the class step again and show the step's view."""
