@@ -99,9 +99,19 @@ class ExplorerGui:
         client.gui.configure_theme(show_share_button=False, control_width="large",
                                    show_logo=False)
 
+        # one toast per title: a newer one replaces it (a lesson's quick moves piled up
+        # "Lesson" toasts that climbed over the plot panel, issue 33)
+        shown: dict[str, Any] = {}
+
         def notify(title: str, body: str, error: bool) -> None:
-            client.add_notification(title, body, auto_close_seconds=6.0,
-                                    color="red" if error else None)
+            old = shown.pop(title, None)
+            if old is not None:
+                try:
+                    old.remove()
+                except Exception:  # noqa: BLE001 - closed already (its 6 s are over)
+                    pass
+            shown[title] = client.add_notification(title, body, auto_close_seconds=6.0,
+                                                   color="red" if error else None)
 
         if not self._live(client):
             return

@@ -45,9 +45,11 @@ TITLES = {"loop": "Loop", "time": "Time", "operators": "Operators", "loading": "
 NARROW_PX = 700
 #: Width of the floating plot panel, CSS px (leaves the 3D cube in view on a laptop).
 PANEL_PX = 470
-#: Width a phone's plot is laid out for, CSS px: viser's control sheet on a 390 px phone
-#: leaves the plot about 230 px (a title broken for 350 px was cut at both sides).
-PHONE_PLOT_PX = 220
+#: Width a phone's plot is laid out for, CSS px: the control sheet takes the phone's width
+#: (:data:`PHONE_SHEET_CSS`), leaving the plot the width less about 37 px (353 px on a
+#: 390 px phone, 283 px on a 320 px one; a title broken for 350 px was cut at both sides in
+#: viser's own 20em sheet, whose plot was about 230 px).
+PHONE_PLOT_PX = 280
 #: The panel's width in projector mode, CSS px (62 % of a 1920 px projector).
 PROJECTOR_PX = 1200
 #: The screen width projector mode is made for, CSS px.
@@ -78,6 +80,15 @@ def toast_css(projector: bool) -> str:
              if projector else "top: auto !important; bottom: 1em !important;")
     return (f"<style>@media (min-width: {NARROW_PX}px) {{ [class*='Notifications-root'] "
             f"{{ {where} }} }}</style>")
+
+
+#: A style element of the phone's *Plot* folder (rendered only while the plot lives in the
+#: control sheet): viser's sheet is 20em (266 px) at the bottom right of a 390 px phone and
+#: left the plot about 230 px wide; the sheet takes the screen's width (the plot ~350 px).
+_SHEET = "[class*='Paper-root'][style*='position: fixed'][style*='bottom: 0'][style*='right: 0']"
+PHONE_SHEET_CSS = (f"<style>{_SHEET}, {_SHEET} [class*='ScrollArea-root'] > div > "
+                   "[style*='width: 20em'], [class*='ScrollArea-content'] > [style*='width: 20em']"
+                   " { width: 100% !important; }</style>")
 
 
 #: Tooltips (viser's ``hint``) of the widgets, by attribute of :class:`Widgets`; set after
@@ -155,6 +166,7 @@ class Widgets:
             self._plot_narrow = g.add_plotly(F.message_figure("", "computing…"),
                                              aspect=0.9, config=F.PLOT_CONFIG)
             self._notes_narrow = g.add_markdown("")
+            self._sheet_style = g.add_html(PHONE_SHEET_CSS)
         with g.add_folder("Session", expand_by_default=False):
             self.code_in = g.add_text("Session code", initial_value="",
                                       hint="the code of a session to continue (shown at the "

@@ -99,8 +99,9 @@ def test_phone_shows_a_plot(browser: Any, live_server: dict, shot: Any) -> None:
 
 def test_phone_plot_title_inside_the_plot(browser: Any, live_server: dict, shot: Any) -> None:
     """On a 390x844 phone at device-pixel ratio 3 (and at 1) the plot's title is broken into
-    lines the plot holds: viser's control sheet leaves the plot about 230 px wide, and a
-    title broken for 350 px was cut at both sides ("Hysteresis loop (Classical PI model, r")."""
+    lines the plot holds: viser's control sheet left the plot about 230 px wide, and a
+    title broken for 350 px was cut at both sides ("Hysteresis loop (Classical PI model, r").
+    The sheet now takes the phone's width: the plot at least 330 x 280 px (issue 33)."""
     app = live_server["app"]
     for dpr in (3, 1):
         known = set(app.state.gui.views)
@@ -122,9 +123,12 @@ def test_phone_plot_title_inside_the_plot(browser: Any, live_server: dict, shot:
                                  return [b.left, b.top, b.right, b.bottom]; };
               return { plot: r(p), title: [...p.querySelectorAll('.gtitle')].map(r) };
             }""")
-            left, _, right, _ = parts["plot"]
+            left, top, right, bottom = parts["plot"]
             for t in parts["title"]:
                 assert t[0] >= left - 1 and t[2] <= right + 1, (dpr, t, parts["plot"])
+            # the control sheet takes the phone's width (viser's own 20em sheet at the
+            # bottom right left the plot 228 x 207 px, its loop squeezed to a line)
+            assert right - left >= 330 and bottom - top >= 280, (dpr, parts["plot"])
             if dpr == 3:
                 _screenshot(page, shot, "viser-phone-title")
         finally:
@@ -229,7 +233,8 @@ def _overlap(a: dict[str, float], b: dict[str, float]) -> bool:
 def test_toasts_leave_the_plot_panel_free(browser: Any, live_server: dict, shot: Any) -> None:
     """Issue 33: viser's toasts (top left) covered the floating panel's view selector and
     the plot's title. Two toasts on a 1500x900 laptop, then with the projector's panel at
-    1920x1080: none overlaps the plot panel."""
+    1920x1080: none overlaps the plot panel or another toast; four quick "Lesson" toasts
+    leave one, the newest."""
     app = live_server["app"]
     for width, height, projector in ((1500, 900, False), (1920, 1080, True)):
         known = set(app.state.gui.views)
@@ -248,8 +253,25 @@ def test_toasts_leave_the_plot_panel_free(browser: Any, live_server: dict, shot:
         seen = page.evaluate(_PANEL_AND_TOASTS)
         assert seen["panel"] is not None, seen
         assert not any(_overlap(t, seen["panel"]) for t in seen["toasts"]), seen
+        # nor over each other (issue 33: they stacked on one another)
+        ts = seen["toasts"]
+        assert not any(_overlap(a, b) for i, a in enumerate(ts) for b in ts[i + 1:]), seen
         assert all(t["right"] <= width and t["bottom"] <= height for t in seen["toasts"]), seen
         shot(page, f"viser-toasts-{width}")
+        if not projector:
+            # a lesson's quick moves: one "Lesson" toast, the newest (four piled up and
+            # climbed over the plot panel, issue 33)
+            for k in range(3, 7):
+                view._toast("Lesson", f"the class is at step {k} of 6")
+                page.wait_for_timeout(300)
+            page.wait_for_timeout(1200)  # the replaced toasts' exit animation
+            lessons = page.evaluate("""() => [...document.querySelectorAll(
+                "[class*='Notification-root']")].filter((e) => e.getClientRects().length
+                && e.textContent.startsWith("Lesson")).map((e) => e.textContent)""")
+            assert lessons == ["Lessonthe class is at step 6 of 6"], lessons
+            seen = page.evaluate(_PANEL_AND_TOASTS)
+            assert not any(_overlap(t, seen["panel"]) for t in seen["toasts"]), seen
+            shot(page, "viser-toasts-lesson-moves")
         assert errors == []
         ctx.close()
 
