@@ -15,7 +15,8 @@ Per click and student the arrival is measured in the student's own page, from th
 step (tests/e2e/class_run.py says what "shows" means: a web page shows the step's texts and
 sliders and is on the class step, and, reported beside it, has drawn the step's figure
 with the new session version; a viser tab's Lesson folder says "step k of n" and "You are
-on the class step"; for the push, also the note that the class step changed). Also: whether every student showed every step, whether any student (none moves)
+on the class step"; for the push, also the note that the class step changed). Also: whether
+every student showed every step, whether any student (none moves)
 was ever told "You are exploring", and the teacher's counts against the class.
 
 Target (issue 33): p95 arrival (the step shown) <= 1 s on each interface; the web pages'
@@ -141,7 +142,8 @@ def main() -> int:
         w, wa, wf = get("web", "arrivals"), get("web", "asked"), get("web", "received")
         wd = get("web", "drawn")
         v, vs = get("viser", "arrivals"), get("viser", "received")
-        return (f"{label:<15} {_ms(median(wa)):>6} {_ms(median(w)):>6} {_ms(percentile(w, .95)):>6} "
+        return (f"{label:<15} {_ms(median(wa)):>6} {_ms(median(w)):>6} "
+                f"{_ms(percentile(w, .95)):>6} "
                 f"{_ms(max(w, default=nan)):>6} {_ms(median(wf)):>6} {_ms(median(wd)):>6} "
                 f"{_ms(percentile(wd, .95)):>6} {_ms(max(wd, default=nan)):>6} | "
                 f"{_ms(median(vs)):>6} {_ms(median(v)):>6} {_ms(percentile(v, .95)):>6} "

@@ -20,8 +20,8 @@ if TYPE_CHECKING:
 
     from core.models import ModelType
 
-__all__ = ["diagnosed_words", "field_words", "in_words", "internal_names", "model_words", "type_words",
-           "unit_words"]
+__all__ = ["diagnosed_words", "field_words", "in_words", "internal_names", "model_words",
+           "type_words", "unit_words"]
 
 #: Unit spellings of CSV headers -> as people write them.
 UNIT_TEXT = {"um": "µm", "us": "µs", "uV": "µV", "uA": "µA", "degC": "°C", "Ohm": "Ω",
