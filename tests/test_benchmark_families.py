@@ -286,3 +286,77 @@ def test_menegotto_pinto_curvature_depends_on_the_previous_excursion() -> None:
     r_of = lambda s: np.log(2.0) / np.log((1 - b) / (s - b))  # noqa: E731 - inverse of sig*(1)
     assert r_of(large) < 0.7 * r_of(small)
     assert r_of(small) <= m.r0 + 1e-6
+
+
+def _bwbn_slope_of_z(m, z: float, s: float, e: float) -> float:
+    """dz/dx of the Bouc-Wen-Baber-Noori law written out again from its equations (Baber
+    and Noori 1985; Foliente 1995) at ``z`` moving in direction ``s`` with energy ``e``."""
+    nu, eta = 1.0 + m.delta_nu * e, 1.0 + m.delta_eta * e
+    zu = (m.a / (nu * (m.beta + m.gamma))) ** (1.0 / m.n)
+    z1 = m.zeta_s * (1.0 - np.exp(-m.p * e))
+    z2 = (m.psi0 + m.delta_psi * e) * (m.lam + z1)
+    h = 1.0 - z1 * np.exp(-((z * s - m.q * zu) ** 2) / z2**2)
+    return float(h * (m.a - nu * (m.beta * np.sign(s * z) + m.gamma) * abs(z) ** m.n) / eta)
+
+
+def test_bouc_wen_baber_noori_loop_is_pinched_clockwise_and_closes() -> None:
+    from benchmarks.diagnosis.families import BoucWenBaberNoori
+
+    p = make_base("bouc-wen-baber-noori")
+    n = 600
+    u = 75.0 - 75.0 * np.cos(2 * np.pi * np.arange(5 * n + 1) / n)
+    y = p(u)
+    # closed from the second cycle on (the energy has switched the pinching fully on)
+    assert np.max(np.abs(y[4 * n:] - y[3 * n:4 * n + 1])) < 1e-4 * STROKE
+    assert np.max(np.abs(y[2 * n:3 * n + 1] - y[n:2 * n + 1])) < 1e-2 * STROKE
+    cyc, uc = y[3 * n:4 * n + 1], u[3 * n:4 * n + 1]
+    # clockwise in u-y (a structural element): the loop integral of y du is positive
+    assert float(np.sum(0.5 * (cyc[1:] + cyc[:-1]) * np.diff(uc))) > 0.05 * STROKE * 150
+    up, down = cyc[: n // 2 + 1], cyc[n // 2:][::-1]  # both on the rising input grid
+
+    def waist(w: np.ndarray) -> float:
+        return float(w[n // 4] / w.max())  # width at mid stroke over the widest width
+
+    w = up - down
+    assert np.all(w > -1e-9)  # the loading branch above the unloading one everywhere
+    # the pinching narrows the loop near zero hysteretic force (mid stroke here) ...
+    assert waist(w) < 0.5
+    # ... where the same law without pinching (zeta_s = 0) is at its widest
+    q = BoucWenBaberNoori(zeta_s=0.0)
+    q.gain = p.gain
+    yq = q(u)[3 * n:4 * n + 1]
+    assert waist(yq[: n // 2 + 1] - yq[n // 2:][::-1]) > 0.95
+
+
+def test_bouc_wen_baber_noori_slopes_at_reversals_and_in_the_pinch() -> None:
+    from benchmarks.diagnosis.families import BoucWenBaberNoori
+
+    m = BoucWenBaberNoori()
+    dx = 1e-3
+    nodes = [0.0, 60.0, 5.0, 50.0, 20.0, 60.0]
+    x = _path(nodes, 1.0 / dx)
+    z = m.z(x)
+    f = m.force(x)
+    e = np.concatenate(([0.0], np.cumsum(0.5 * (z[1:] + z[:-1]) * np.diff(x))))
+    rev = [0] + [int(i) + 1 for i in np.nonzero(np.diff(np.sign(np.diff(x))))[0]] + [x.size - 1]
+    assert len(rev) == len(nodes)
+    k, al = m.k, m.alpha
+    # virgin loading: no energy yet, so no pinching: the slope is k (alpha + (1 - alpha) A)
+    assert (f[1] - f[0]) / dx == pytest.approx(k * (al + (1 - al) * m.a), rel=1e-3)
+    for i, j in zip(rev[1:-1], rev[2:], strict=True):
+        s = 1.0 if x[j] > x[i] else -1.0
+        # the tangent just after each reversal is the law's slope at the reversal's z
+        slope = (f[i + 1] - f[i]) / (x[i + 1] - x[i])
+        want = k * (al + (1 - al) * _bwbn_slope_of_z(m, float(z[i]), s, float(e[i])))
+        assert slope == pytest.approx(want, rel=2e-3)
+        # unloading is stiffer than the loading that came before it (beta > gamma)
+        before = (f[i] - f[i - 1]) / (x[i] - x[i - 1])
+        assert slope > before
+        # in the pinch (z sign(dx) = q z_u) dz/dx drops to (1 - zeta_s) of the unpinched law
+        zu = (m.a / (m.beta + m.gamma)) ** (1.0 / m.n)
+        seg = slice(i + 1, j)
+        kk = i + 1 + int(np.argmin(np.abs(z[seg] * s - m.q * zu)))
+        assert abs(z[kk] * s - m.q * zu) < 1e-2
+        dzdx = (z[kk + 1] - z[kk - 1]) / (x[kk + 1] - x[kk - 1])
+        free = m.a - (m.beta + m.gamma) * abs(z[kk]) ** m.n  # z sign(dx) > 0 there
+        assert dzdx == pytest.approx((1 - m.zeta_s) * free, rel=5e-3)

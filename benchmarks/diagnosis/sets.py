@@ -8,7 +8,8 @@ score, one table for both sets, so their numbers can stand side by side.
     (``families.make_family``, 0.2 % noise) with a delay, resonance, creep and drift at size
     ``large`` (seed 500) and two nulls each (seeds 500, 501), and each of their four
     recordings alone as a single-recording null (seed 500); the same cases on the non-Masing
-    ``menegotto-pinto`` steel (round 4) (:data:`DEV_CASES`).
+    ``menegotto-pinto`` steel (round 4) and on the pinched ``bouc-wen-baber-noori`` element
+    (round 5) (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -48,6 +49,8 @@ _DEV_FAMILY_BASES = ("bouc-wen-1", "preisach", "maxwell-slip")
 _DEV_FAMILY_EFFECTS = ("delay", "resonance", "creep", "drift")
 #: Bases whose loops the PI family cannot represent at all (non-Masing; round 4 of issue 30).
 _DEV_NON_MASING_BASES = ("menegotto-pinto",)
+#: A pinched law (round 5 of issue 30).
+_DEV_PINCHED_BASES = ("bouc-wen-baber-noori",)
 _DEV_PI_EFFECTS = ("delay", "lag", "resonance", "rate", "creep", "drift", "asymmetry",
                    "offset", "initial-memory")
 
@@ -64,6 +67,12 @@ DEV_CASES: tuple[str, ...] = (
     *(f"dev/family/{b}/{e}/large/500" for b in _DEV_NON_MASING_BASES
       for e in _DEV_FAMILY_EFFECTS),
     *(f"dev/family-single/{b}/{r}/500" for b in _DEV_NON_MASING_BASES
+      for r in ("slow", "fast", "decaying", "staircase")),
+    # round 5: a pinched structural element (Bouc-Wen-Baber-Noori), the same cases
+    *(f"dev/family/{b}/null/{s}" for b in _DEV_PINCHED_BASES for s in (500, 501)),
+    *(f"dev/family/{b}/{e}/large/500" for b in _DEV_PINCHED_BASES
+      for e in _DEV_FAMILY_EFFECTS),
+    *(f"dev/family-single/{b}/{r}/500" for b in _DEV_PINCHED_BASES
       for r in ("slow", "fast", "decaying", "staircase")),
 )
 
