@@ -53,7 +53,7 @@ def test_fit_job_contract(client: TestClient) -> None:
     assert r.status_code == 202 and set(r.json()) == {"id", "kind", "state"}
     assert r.json()["kind"] == "fit" and r.json()["state"] in ("queued", "running", "done")
     j = _poll(client, code, r.json()["id"])
-    assert set(j) == {"id", "kind", "state", "progress", "message", "result", "error"}
+    assert set(j) == {"id", "kind", "state", "progress", "message", "time_left", "result", "error"}
     assert j["state"] == "done" and j["progress"] == 1.0 and j["error"] is None
     assert j["result"]["report"]["n_operators"] == 4 and "figure" in j["result"]
     assert client.get(f"/api/sessions/{code}").json()["fitted"] == j["result"]["model"]
