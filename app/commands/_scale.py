@@ -115,7 +115,7 @@ class EtaProgress(Progress):
         if not self._step.match(message) or message.lstrip().startswith("100 %"):
             super().__call__(message)
             return
-        left = time_left_text(max(self.expected_s, ETA_FROM_S),
-                              time.perf_counter() - self.t0)
+        # the caller chose to show the time left: whatever the run is expected to take
+        left = time_left_text(self.expected_s, time.perf_counter() - self.t0, from_s=0.0)
         super().__call__(f"{message} ({left})")
 

@@ -91,16 +91,16 @@ def duration_text(s: float) -> str:
     return f"{s / 3600:.1f} h"
 
 
-def time_left_text(expected_s: float, elapsed_s: float) -> str:
+def time_left_text(expected_s: float, elapsed_s: float, from_s: float = ETA_FROM_S) -> str:
     """What is left of a run expected to take ``expected_s`` after ``elapsed_s`` (both s):
     ``"about 40 s left"``, or ``"taking longer than the 2 min estimated"``; ``""`` for a run
-    expected to take less than :data:`ETA_FROM_S`.
+    expected to take less than ``from_s`` (default :data:`ETA_FROM_S`).
 
     The estimate is the measured CPU-time model (:meth:`CostModel.cpu_s`), not the run's
     progress fraction: a diagnosis's rounds differ in size, so its fraction is not
     proportional to its time.
     """
-    if expected_s < ETA_FROM_S:
+    if expected_s < from_s:
         return ""
     left = expected_s - elapsed_s
     if left >= 0.5:
