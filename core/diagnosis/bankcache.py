@@ -20,7 +20,9 @@ from ..recordings import Recording
 from ..stages import rd_play_bank
 from .bases import bouc_wen_bank
 from .cache_budget import BANK, DERIVED, FIT, CacheBudget
+from .events import event_starts
 from .rowkernels import bank_rows_times, play_rows, row_selector
+from .screening import ranking_span
 from .shapes import apply_shape
 
 if TYPE_CHECKING:
@@ -78,6 +80,11 @@ class BankCache:
         #: dynamics on the solved rows), keyed by row layout, bank and dynamics: structures
         #: that add columns to the same bank (bilinear refreshes, output maps, creep) reuse it
         self.g: dict[Any, tuple[Any, np.ndarray]] = {}
+        #: input events of the recordings by recording id (entries hold the recording): what
+        #: the prefixes of their searches hold (:func:`~.screening.ranking_span`)
+        self.events: dict[int, tuple[Recording, np.ndarray]] = {}
+        #: training masks cut to those prefixes, per training masks (entries hold both)
+        self.ranking: dict[Any, tuple] = {}
 
     def projected(self, B: np.ndarray, V: np.ndarray, key: Any,
                   w: np.ndarray | None = None, start: int = 0,
@@ -119,6 +126,38 @@ class BankCache:
             P = np.ascontiguousarray(B @ V)
         self.budget.put(self.p, key, (V, P, start0), P.nbytes, DERIVED, count=16)
         return P[start - start0:]
+
+    def ranking_masks(self, records: Sequence[Recording], train: Sequence[np.ndarray]
+                      ) -> Sequence[np.ndarray]:
+        """The training rows a ranking solve reads: ``train`` cut to each recording's
+        :func:`~.screening.ranking_span` (``train`` itself where no recording is cut).
+        Memoised on the identities of both, so the cut masks keep theirs (the layout and the
+        reduced bases are memoised on them)."""
+        key = (tuple(id(r) for r in records), tuple(id(m) for m in train))
+        hit = self.ranking.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], records, strict=True)) and all(
+                a is b for a, b in zip(hit[1], train, strict=True)):
+            return hit[2]
+        spans = []
+        for rec, msk in zip(records, train, strict=True):
+            got = self.events.get(id(rec))
+            if got is None or got[0] is not rec:
+                got = (rec, event_starts(rec.u))
+                self.events[id(rec)] = got
+            spans.append(ranking_span(rec, msk, got[1]))
+        out: Sequence[np.ndarray] = train
+        if any(m < rec.n_samples and msk[m:].any()
+               for rec, m, msk in zip(records, spans, train, strict=True)):
+            cut = []
+            for m, msk in zip(spans, train, strict=True):
+                c = msk.copy()
+                c[m:] = False
+                cut.append(c)
+            out = cut
+        if len(self.ranking) >= 16:
+            self.ranking.pop(next(iter(self.ranking)))
+        self.ranking[key] = (list(records), list(train), out)
+        return out
 
     def layout(self, records: Sequence[Recording], train: Sequence[np.ndarray],
                rss_only: bool) -> tuple:

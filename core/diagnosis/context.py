@@ -85,6 +85,7 @@ class FitContext:
             return hit[2]
         c = BankCache(parent.budget)
         c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
+        c.events = parent.events
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))
         self._caches[key] = (list(self.records), list(self.train), c)

@@ -74,6 +74,7 @@ from .scoring import (
     spread_over_recordings,
     widen_for_base,
 )
+from .screening import screening_note
 from .search import search_round
 from .state import Progress, Run
 from .stats import noise_floor
@@ -270,6 +271,9 @@ def _context(records: list, train, test, crossfit: bool | None) -> tuple[FitCont
                  "window is never used for selection")
     elif ctx.folds:
         desc += f"; significance also on {len(ctx.folds)} cross-fitted training blocks"
+    note = screening_note(records, trm)
+    if note:
+        desc += "; " + note
     return ctx, desc
 
 

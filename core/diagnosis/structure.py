@@ -551,6 +551,9 @@ def fit_structure(
     Fit, or float with ``rss_only``
     """
     cache = cache or BankCache()
+    if rss_only:
+        # a search reads a long record's prefix only (:mod:`.screening`)
+        train = cache.ranking_masks(records, train)
     r = np.asarray(s.thresholds)
     nrec = len(records)
     layout = cache.layout(records, train, rss_only)
