@@ -599,6 +599,10 @@ def fit_structure(
         s, X, nb, min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
     w = None
+    # without output dynamics, regressors that read each row's PI-stage output alone (no
+    # filter) need it on the solved rows only: refreshed from the solve's own columns
+    # instead of the bank on every sample (the same numbers to round-off)
+    on_rows = needs_x and not s.dynamics and not any(t.sample_spacing for _, t, *_ in inner)
     for it in range(iterations):
         if needs_x:
             if x_prev is None:
@@ -607,6 +611,12 @@ def fit_structure(
                                    cache)
                 x_prev = f0.x_pi
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
+                if on_rows:
+                    x = x_prev[k] if it else np.asarray(x_prev[k][:last])[idx]
+                    blocks[k][:, nq:nM] = np.column_stack(
+                        [t.columns(v, TermRows(records[k], k, idx, x, info))
+                         for _, t, v, _, _ in inner])
+                    continue
                 s0 = starts[k]
                 x = x_prev[k][:last]
                 # (a term's columns run from sample 0: only the output dynamics start late)
@@ -621,12 +631,15 @@ def fit_structure(
         w = solve(s, X, G, lower, nb)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
+        if on_rows and it < iterations - 1:
+            # (the PI-stage part of the solve's prediction, in the solve's parametrisation)
+            x_prev = [blk[:, :nb] @ w[:nb] for blk in blocks]
         if s.stop:  # Maxwell-slip stiffnesses k, w_i -> play frame p0 = k + sum w, p = -w
             w[1:nb] = -w[1:nb]
             w[0] -= float(np.sum(w[1:nb]))
         elif s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
-        if needs_x and it < iterations - 1:
+        if needs_x and not on_rows and it < iterations - 1:
             # (the regressors read the PI-stage outputs up to the last solved row only)
             x_prev = [bs.banks[k][: ends[k]] @ w[:nb] if bs.streamed is None else
                       _streamed_product(*bs.streamed[k], np.r_[0.0, r], s.levels, w[:nb],

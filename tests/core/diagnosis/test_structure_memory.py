@@ -144,3 +144,30 @@ def test_a_diagnosis_cache_has_the_budget_of_its_samples(monkeypatch) -> None:
             for tau in (0.002, 0.004, 0.006, 0.008, 0.010, 0.012)]
     assert not ctx.cache.d and not ctx.cache.p  # no bank or projection kept
     assert len(ctx._fits) == cx.FIT_MEMO_MIN and ctx.fit(fits[-1].structure) is fits[-1]
+
+
+@pytest.mark.parametrize("free_weights", [False, True])
+def test_bilinear_refresh_on_the_solved_rows_equals_the_refresh_from_the_bank(
+        monkeypatch, free_weights) -> None:
+    """Without output dynamics the asymmetry's regressors are refreshed from the solve's own
+    columns on the solved rows; declared a filter (``sample_spacing``), the same term is
+    refreshed from the PI-stage output on every sample, the path before issue 31's round 6.
+    Both give the same fit to round-off."""
+    from dataclasses import replace
+
+    from core.diagnosis import registry
+
+    rec, train = _record()
+    s = st.Structure((2.0, 6.0, 12.0, 20.0), ((),), free_weights=free_weights).with_term(
+        "asymmetry", True)
+    rows_fit = st.fit_structure(s, [rec], train, BankCache())
+    assert isinstance(rows_fit, st.Fit)
+    as_filter = [(n, replace(t, sample_spacing=True) if n == "asymmetry" else t, o)
+                 for n, t, o in registry.static_terms()]
+    monkeypatch.setattr(st, "static_terms", lambda: as_filter)
+    bank_fit = st.fit_structure(s, [rec], train, BankCache())
+    assert isinstance(bank_fit, st.Fit)
+    scale = float(np.ptp(rec.y))
+    assert np.max(np.abs(rows_fit.pred[0] - bank_fit.pred[0])) <= 1e-9 * scale
+    a, b = rows_fit.terms["asymmetry"].a, bank_fit.terms["asymmetry"].a
+    np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-12)
