@@ -611,19 +611,11 @@ def fit_structure(
                                    cache)
                 x_prev = f0.x_pi
             for k, (idx, last) in enumerate(zip(rows, ends, strict=True)):
-                if on_rows:
-                    x = x_prev[k] if it else np.asarray(x_prev[k][:last])[idx]
-                    blocks[k][:, nq:nM] = np.column_stack(
-                        [t.columns(v, TermRows(records[k], k, idx, x, info))
-                         for _, t, v, _, _ in inner])
-                    continue
-                s0 = starts[k]
-                x = x_prev[k][:last]
-                # (a term's columns run from sample 0: only the output dynamics start late)
-                cols = [t.columns(v, TermRows(records[k], k, idx, x, info))[s0:]
-                        for _, t, v, _, _ in inner]
-                _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), s.dynamics,
-                          dts[k], idx - s0, out=blocks[k][:, nq:nM])
+                # (on the solved rows only, or every sample up to the last solved row)
+                x = (x_prev[k] if it else np.asarray(x_prev[k][:last])[idx]) if on_rows else (
+                    x_prev[k][:last])
+                _bilinear_columns(inner, TermRows(records[k], k, idx, x, info), s.dynamics,
+                                  starts[k], on_rows, blocks[k][:, nq:nM])
         if lower is None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return unconstrained_rss(X)
@@ -631,24 +623,49 @@ def fit_structure(
         w = solve(s, X, G, lower, nb)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
-        if on_rows and it < iterations - 1:
-            # (the PI-stage part of the solve's prediction, in the solve's parametrisation)
-            x_prev = [blk[:, :nb] @ w[:nb] for blk in blocks]
+        w_solved = w.copy()
         if s.stop:  # Maxwell-slip stiffnesses k, w_i -> play frame p0 = k + sum w, p = -w
             w[1:nb] = -w[1:nb]
             w[0] -= float(np.sum(w[1:nb]))
         elif s.free_weights and not s.bouc_wen:
             w[:nb] = np.diff(w[:nb], prepend=0.0)  # slopes -> weights
-        if needs_x and not on_rows and it < iterations - 1:
-            # (the regressors read the PI-stage outputs up to the last solved row only)
-            x_prev = [bs.banks[k][: ends[k]] @ w[:nb] if bs.streamed is None else
-                      _streamed_product(*bs.streamed[k], np.r_[0.0, r], s.levels, w[:nb],
-                                        ends[k])
-                      for k in range(nrec)]
+        if needs_x and it < iterations - 1:
+            x_prev = _refreshed_x(bs, s, blocks, ends, w_solved[:nb] if on_rows else None,
+                                  w[:nb])
     assert w is not None
     coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
     return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef,
                       cache)
+
+
+def _refreshed_x(bs: _BankSet, s: Structure, blocks: list[np.ndarray], ends: list[int],
+                 w_rows: np.ndarray | None, w: np.ndarray) -> list[np.ndarray]:
+    """The PI-stage outputs the bilinear regressors are refreshed from, per recording: on the
+    solved rows, the PI-stage part of the solve's prediction (``blocks``' first columns times
+    ``w_rows``, the weights as solved) when ``w_rows`` is given; else the bank times the
+    play-frame weights ``w`` up to the last solved row (``ends``)."""
+    if w_rows is not None:
+        return [blk[:, : w_rows.size] @ w_rows for blk in blocks]
+    r = np.r_[0.0, s.thresholds]
+    return [bs.banks[k][:end] @ w if bs.streamed is None else
+            _streamed_product(*bs.streamed[k], r, s.levels, w, end)
+            for k, end in enumerate(ends)]
+
+
+def _bilinear_columns(inner: list, rows: TermRows, dynamics: tuple, start: int, on_rows: bool,
+                      out: np.ndarray) -> None:
+    """The columns of the terms ``inner`` (those read from the PI-stage output ``rows.x``) on
+    the solved rows ``rows.rows``, written to ``out``. With ``on_rows`` (no output dynamics,
+    terms read pointwise) ``rows.x`` holds the solved rows only; otherwise every sample up to
+    the last solved row, and the columns pass through the output ``dynamics`` from sample
+    ``start``."""
+    if on_rows:
+        out[...] = np.column_stack([t.columns(v, rows) for _, t, v, _, _ in inner])
+        return
+    # (a term's columns run from sample 0: only the output dynamics start late)
+    cols = [t.columns(v, rows)[start:] for _, t, v, _, _ in inner]
+    _dyn_rows(cols[0] if len(cols) == 1 else np.column_stack(cols), dynamics,
+              rows.record.dt, rows.rows - start, out=out)
 
 
 class _BankSet(NamedTuple):
