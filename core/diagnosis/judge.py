@@ -10,6 +10,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..recordings import Recording
 from ..validation import filled
 from .acceptance import (
     RULE,
@@ -32,6 +33,7 @@ from .history import history_refusal
 from .lookalikes import beyond_loop_shape, lookalike_evidence, sign_locking
 from .registry import EFFECTS
 from .results import RoundRow, pooled_mse
+from .screening import RANKING_SPAN
 from .search import candidate_evidence, search_round
 from .specs import FAMILY_PRIORITY
 from .state import Candidate, Run, round_row
@@ -120,16 +122,33 @@ def _share(x: float) -> str:
 MIN_EVENT_ROWS = 20
 
 
+#: Event windows held out at most on a recording longer than
+#: :data:`~core.diagnosis.screening.RANKING_SPAN` samples (evenly spread over its windows):
+#: each costs two fits on every sample, so holding out all of a 10-million-sample
+#: recording's thousands of events would grow with the square of its length.
+MAX_HELD_OUT_EVENTS = 24
+
+
+def held_out_windows(rec: Recording) -> list[tuple[int, int]]:
+    """The event windows of ``rec`` that rule 14 holds out: every window of at least
+    :data:`MIN_EVENT_ROWS` rows, or on a recording longer than
+    :data:`~core.diagnosis.screening.RANKING_SPAN` samples at most
+    :data:`MAX_HELD_OUT_EVENTS` of them, evenly spread."""
+    wins = [(a, b) for a, b in event_windows(rec) if b - a >= MIN_EVENT_ROWS]
+    if rec.n_samples <= RANKING_SPAN or len(wins) <= MAX_HELD_OUT_EVENTS:
+        return wins
+    pick = np.unique(np.round(np.linspace(0, len(wins) - 1, MAX_HELD_OUT_EVENTS)).astype(int))
+    return [wins[i] for i in pick]
+
+
 def event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
     """Relative MSE reduction of ``new`` over ``cur`` in each event window (from one input
-    step or reversal to the next) of the one recording, each window held out in turn: both
-    structures are refitted on the training rows outside it (their nonlinear parameters
-    kept) and scored on all its rows."""
+    step or reversal to the next) of the one recording (:func:`held_out_windows`), each
+    window held out in turn: both structures are refitted on the training rows outside it
+    (their nonlinear parameters kept) and scored on all its rows."""
     rec = ctx.records[0]
     out = []
-    for a, b in event_windows(rec):
-        if b - a < MIN_EVENT_ROWS:
-            continue
+    for a, b in held_out_windows(rec):
         ev = np.zeros(rec.n_samples, dtype=bool)
         ev[a:b] = True
         sub = FitContext(ctx.records, [ctx.train[0] & ~ev], [ev], parent=ctx)
@@ -149,8 +168,10 @@ def _events_refusal(ctx: FitContext, cur: Fit, c: Candidate) -> str | None:
     if enough_events(g):
         return None
     seen = sum(1 for x in g if x >= RULE.min_gain)
-    return (f"seen after only {seen} of {len(g)} input events (steps, reversals) of the one "
-            f"recording: a dynamic stage is named when at least {RULE.min_events} "
+    total = sum(1 for a, b in event_windows(ctx.records[0]) if b - a >= MIN_EVENT_ROWS)
+    held = "" if total == len(g) else f" held out (evenly spread over its {total})"
+    return (f"seen after only {seen} of {len(g)} input events (steps, reversals){held} of the "
+            f"one recording: a dynamic stage is named when at least {RULE.min_events} "
             "independent events show it (more steps or cycles would decide)")
 
 

@@ -9,7 +9,8 @@ rules of the engine.
 
 from __future__ import annotations
 
-from typing import Any
+import itertools
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -111,6 +112,50 @@ def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
 LOOP_SHAPE_KNOTS = 12
 
 
+#: Rows per block in which :func:`beyond_loop_shape` forms the loop-shape columns of a long
+#: recording (6 x :data:`LOOP_SHAPE_KNOTS` columns: 29 MB a block, where the whole basis of a
+#: 10-million-sample recording would take 5.8 GB).
+LOOP_SHAPE_BLOCK = 50_000
+
+
+class _LoopState(NamedTuple):
+    """What the loop-shape columns of every sample are formed from: the input's knot
+    coordinates ``x``, the last reversal value scaled to [-1, 1] ``xr`` and the direction of
+    motion ``rising``, each shape (n,); ``None`` for an input that never moves."""
+
+    x: np.ndarray
+    xr: np.ndarray
+    rising: np.ndarray
+
+
+def _loop_state(u: np.ndarray) -> _LoopState | None:
+    n, k = u.size, LOOP_SHAPE_KNOTS
+    lo, span = (float(u.min()), float(np.ptp(u))) if n else (0.0, 0.0)
+    if span <= 0:
+        return None
+    rv = reversal_indices(u, REVERSAL_TOL * span)
+    last = np.zeros(n, dtype=np.int64)
+    last[rv] = rv
+    last = np.maximum.accumulate(last)  # index of the last reversal at or before each sample
+    return _LoopState((u - lo) / span * (k - 1), 2.0 * (u[last] - lo) / span - 1.0,
+                      u >= u[last])
+
+
+def _loop_columns(st: _LoopState | None, a: int, b: int) -> np.ndarray:
+    """The loop-shape columns of samples ``a`` to ``b`` (exclusive), shape (b - a, 6 k)."""
+    k = LOOP_SHAPE_KNOTS
+    out = np.zeros((b - a, 6 * k))
+    if st is None:
+        return out
+    hats = np.clip(1.0 - np.abs(st.x[a:b, None] - np.arange(k)[None, :]), 0.0, None)
+    xr, rising = st.xr[a:b], st.rising[a:b, None]
+    for j, w in enumerate((np.ones(b - a), xr, xr**2)):
+        cols = hats * w[:, None]
+        out[:, 2 * j * k : (2 * j + 1) * k] = cols * rising
+        out[:, (2 * j + 1) * k : (2 * j + 2) * k] = cols * ~rising
+    return out
+
+
 def loop_shape_basis(u: np.ndarray) -> np.ndarray:
     """Rate-independent loop-shape columns of one recording's input: smooth functions of the
     input, of the direction of motion and of the last reversal value (the state a
@@ -131,24 +176,35 @@ def loop_shape_basis(u: np.ndarray) -> np.ndarray:
         Zero columns where the input never moves.
     """
     u = np.asarray(u, dtype=np.float64)
-    n, k = u.size, LOOP_SHAPE_KNOTS
-    lo, span = (float(u.min()), float(np.ptp(u))) if n else (0.0, 0.0)
-    out = np.zeros((n, 6 * k))
-    if span <= 0:
-        return out
-    x = (u - lo) / span * (k - 1)  # knot coordinates
-    hats = np.clip(1.0 - np.abs(x[:, None] - np.arange(k)[None, :]), 0.0, None)
-    rv = reversal_indices(u, REVERSAL_TOL * span)
-    last = np.zeros(n, dtype=np.int64)
-    last[rv] = rv
-    last = np.maximum.accumulate(last)  # index of the last reversal at or before each sample
-    xr = 2.0 * (u[last] - lo) / span - 1.0
-    rising = u >= u[last]
-    for j, w in enumerate((np.ones(n), xr, xr**2)):
-        cols = hats * w[:, None]
-        out[:, 2 * j * k : (2 * j + 1) * k] = cols * rising[:, None]
-        out[:, (2 * j + 1) * k : (2 * j + 2) * k] = cols * ~rising[:, None]
-    return out
+    return _loop_columns(_loop_state(u), 0, u.size)
+
+
+def _without_loop_shape(u: np.ndarray, e: np.ndarray, train: np.ndarray,
+                        test: np.ndarray) -> np.ndarray:
+    """The residual ``e`` on the ``test`` rows less its loop-shape part (least squares on the
+    ``train`` rows). A recording longer than :data:`LOOP_SHAPE_BLOCK` is solved block by
+    block: the triangular factor of the training rows' columns is updated with each block
+    (the same minimum-norm solution as one solve on all of them, to round-off), so no more
+    than a block of the columns is ever formed."""
+    u = np.asarray(u, dtype=np.float64)
+    st, n = _loop_state(u), u.size
+    if n <= LOOP_SHAPE_BLOCK:
+        F = _loop_columns(st, 0, n)
+        c = np.linalg.lstsq(F[train], e[train], rcond=None)[0]
+        return (e - F @ c)[test]
+    m = 6 * LOOP_SHAPE_KNOTS
+    # the triangular factor of [columns | residual] on the training rows: its last column
+    # holds Q' e, so its first m columns and that column are the whole least-squares problem
+    R = np.zeros((0, m + 1))
+    edges = [*range(0, n, LOOP_SHAPE_BLOCK), n]
+    for a, b in itertools.pairwise(edges):
+        t = train[a:b]
+        R = r_factor(np.vstack([R, np.column_stack((_loop_columns(st, a, b)[t], e[a:b][t]))]))
+    # (with the cut-off of the one solve on all the training rows)
+    rcond = np.finfo(np.float64).eps * max(int(train.sum()), m)
+    c = np.linalg.lstsq(R[:, :m], R[:, m], rcond=rcond)[0]
+    return np.concatenate([(e[a:b] - _loop_columns(st, a, b) @ c)[test[a:b]]
+                           for a, b in itertools.pairwise(edges)])
 
 
 def beyond_loop_shape(ctx: FitContext, cur: Fit, new: Fit) -> HeldOut:
@@ -156,13 +212,7 @@ def beyond_loop_shape(ctx: FitContext, cur: Fit, new: Fit) -> HeldOut:
     more), each with its residual's rate-independent loop-shape part
     (:func:`loop_shape_basis`, least squares on the training rows) added: what the stage
     explains that a rate-independent loop-shape misfit of the base cannot."""
-    res = []
-    for f in (cur, new):
-        out = []
-        for rec, p, tr, te in zip(ctx.records, f.pred, ctx.train, ctx.test, strict=True):
-            F = loop_shape_basis(rec.u)
-            e = rec.y - p
-            c = np.linalg.lstsq(F[tr], e[tr], rcond=None)[0]
-            out.append((e - F @ c)[te])
-        res.append(out)
+    res = [[_without_loop_shape(rec.u, rec.y - p, tr, te)
+            for rec, p, tr, te in zip(ctx.records, f.pred, ctx.train, ctx.test, strict=True)]
+           for f in (cur, new)]
     return heldout_comparison(res[0], res[1])

@@ -8,6 +8,7 @@ import numpy as np
 
 from core.boucwen import BoucWenModel
 from core.diagnosis import diagnose, judge
+from core.diagnosis import lookalikes as lk
 from core.diagnosis.acceptance import RULE, beyond_loop_shape_ok
 from core.diagnosis.lookalikes import LOOP_SHAPE_KNOTS, loop_shape_basis
 from core.diagnosis.stats import HeldOut
@@ -36,6 +37,25 @@ def test_the_loop_shape_basis_does_not_see_time() -> None:
     np.testing.assert_allclose(B[~rising & (np.abs(np.gradient(u)) > 1e-3), k : 2 * k]
                                .sum(axis=1), 1.0)
     assert not loop_shape_basis(np.zeros(50)).any()
+
+
+def test_a_long_recording_removes_the_same_loop_shape_block_by_block(monkeypatch) -> None:
+    """Issue 31: the loop-shape part of a long recording's residual is solved on row blocks
+    (no more than a block of its columns formed); with blocks of 997 rows it equals the one
+    solve on all the columns, which are rank deficient here (a sine reverses at two values
+    only, so the last reversal's square is a constant)."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 12.0, 1 / FS)
+    u = 60.0 - 50.0 * np.cos(2 * np.pi * 1.3 * t)
+    e = 0.3 * np.sin(u / 9.0) + 0.05 * rng.standard_normal(t.size)
+    train = (np.arange(t.size) // 3000) % 2 == 0
+    whole = lk._without_loop_shape(u, e, train, ~train)
+    monkeypatch.setattr(lk, "LOOP_SHAPE_BLOCK", 997)
+    blocks = lk._without_loop_shape(u, e, train, ~train)
+    np.testing.assert_allclose(blocks, whole, rtol=0, atol=1e-8 * float(np.abs(e).max()))
+    F = loop_shape_basis(u)[train]
+    assert np.linalg.matrix_rank(F) < F.shape[1]
+    assert np.std(whole) < 0.5 * np.std(e[~train])  # the loop shape is really removed
 
 
 def test_a_lag_on_one_sine_is_a_function_of_the_loop_position() -> None:

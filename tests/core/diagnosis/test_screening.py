@@ -109,3 +109,23 @@ def test_a_diagnosis_read_in_a_prefix_finds_the_delay_and_says_so(long_delayed,
     assert "read only the first" in res.split
     (f,) = [e for e in res.effects if e.name == "delay"]
     assert f.parameters["delay_s"] == pytest.approx(1.5e-3, rel=0.25)
+
+
+def test_a_long_record_holds_out_a_bounded_spread_of_its_events() -> None:
+    """Rule 14 refits twice per held-out event window: on a long record at most
+    MAX_HELD_OUT_EVENTS windows, the first and the last among them and evenly spread in
+    between; a record of the span's size holds out every window."""
+    from core.diagnosis.events import event_windows
+    from core.diagnosis.judge import MAX_HELD_OUT_EVENTS, MIN_EVENT_ROWS, held_out_windows
+
+    rec = _sine(400_000, 100)
+    every = [(a, b) for a, b in event_windows(rec) if b - a >= MIN_EVENT_ROWS]
+    assert len(every) > 4 * MAX_HELD_OUT_EVENTS
+    wins = held_out_windows(rec)
+    assert len(wins) == MAX_HELD_OUT_EVENTS
+    assert wins[0] == every[0] and wins[-1] == every[-1]
+    gaps = np.diff([every.index(w) for w in wins])
+    assert gaps.max() - gaps.min() <= 1
+    short = _sine(sc.RANKING_SPAN, 100)
+    assert held_out_windows(short) == [(a, b) for a, b in event_windows(short)
+                                       if b - a >= MIN_EVENT_ROWS]
