@@ -14,6 +14,7 @@ one "sample" and :meth:`Recording.resampled` refuses to run.
 from __future__ import annotations
 
 import csv
+import functools
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
@@ -227,9 +228,10 @@ class Recording:
         """Time span ``t[-1] - t[0]`` in seconds."""
         return float(self.t[-1] - self.t[0])
 
-    @property
+    @functools.cached_property
     def is_uniform(self) -> bool:
-        """Whether every spacing is within :data:`UNIFORM_RTOL` (1 %) of the mean spacing."""
+        """Whether every spacing is within :data:`UNIFORM_RTOL` (1 %) of the mean spacing
+        (computed once: the time axis is read-only)."""
         if self.n_samples < 3:
             return True
         d = np.diff(self.t)

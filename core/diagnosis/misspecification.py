@@ -49,6 +49,7 @@ import numpy as np
 from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
 from .context import FitContext
 from .registry import EFFECTS
+from .screening import ranking_span
 from .shapes import apply_shape, loop_shape, shape_thresholds
 from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
@@ -243,6 +244,22 @@ def _refit(ctx: FitContext, name: str, a: Structure, params: dict[str, Any], cur
     return dict(zip(keys, (float(v) for v in np.exp(x)), strict=True)), rss
 
 
+def _on_prefix(ctx: FitContext, cur: Fit) -> tuple[FitContext, Fit]:
+    """``ctx`` and ``cur``; or, where a recording is longer than the searches read
+    (:func:`~core.diagnosis.screening.ranking_span`), a context of the recordings cut to
+    those prefixes and ``cur``'s structure fitted there: every alternative base is then
+    fitted on the prefixes (its banks and simulations bounded by them, not by the record)
+    and compared with ``cur``'s structure on the same rows."""
+    spans = [ranking_span(r, m) for r, m in zip(ctx.records, ctx.train, strict=True)]
+    if all(k >= r.n_samples for k, r in zip(spans, ctx.records, strict=True)):
+        return ctx, cur
+    recs = [r if k >= r.n_samples else r.window(None, float(r.t[k]))
+            for k, r in zip(spans, ctx.records, strict=True)]
+    sub = FitContext(recs, [m[: r.n_samples] for m, r in zip(ctx.train, recs, strict=True)],
+                     [m[: r.n_samples] for m, r in zip(ctx.test, recs, strict=True)])
+    return sub, sub.fit(cur.structure)
+
+
 def base_sensitivity(ctx: FitContext, name: str, cur: Fit, params: dict[str, Any]
                      ) -> dict[str, Any] | None:
     """How much effect ``name``'s parameters move when the base of the final fit ``cur`` is
@@ -262,6 +279,7 @@ def base_sensitivity(ctx: FitContext, name: str, cur: Fit, params: dict[str, Any
     ratio: dict[str, float] = {}
     rejected: dict[str, float] = {}
     keys: tuple[str, ...] = ()
+    ctx, cur = _on_prefix(ctx, cur)
     for kind, a in alternative_bases(ctx, cur.structure):
         got = _refit(ctx, name, a, params, cur)
         if got is None:

@@ -83,8 +83,8 @@ class Delay(_Shift):
                     f"shape {hist.shape}; continue with the same dt"
                 )
         ext = np.concatenate((hist, u))
-        k = np.arange(u.size)
-        y = f * ext[k] + (1.0 - f) * ext[k + 1]
+        n = u.size
+        y = f * ext[:n] + (1.0 - f) * ext[1 : n + 1]
         return y, ext[-(m + 1) :].copy()
 
     def inverse(self) -> Advance:

@@ -129,3 +129,28 @@ def test_a_long_record_holds_out_a_bounded_spread_of_its_events() -> None:
     short = _sine(sc.RANKING_SPAN, 100)
     assert held_out_windows(short) == [(a, b) for a, b in event_windows(short)
                                        if b - a >= MIN_EVENT_ROWS]
+
+
+def test_the_base_sensitivity_of_a_long_record_is_fitted_on_its_prefix(long_delayed,
+                                                                        monkeypatch) -> None:
+    """The alternative bases of the parameter honesty check are fitted on the prefix the
+    searches read (their banks and simulations bounded by it), against the final structure
+    refitted there; a record within the span keeps its context and fit."""
+    from core.diagnosis.context import FitContext
+    from core.diagnosis.data import split_masks
+    from core.diagnosis.misspecification import _on_prefix
+    from core.diagnosis.structure import Structure
+
+    rec = long_delayed
+    train, test, _ = split_masks([rec])
+    ctx = FitContext([rec], train, test)
+    cur = ctx.fit(Structure((0.5, 1.0, 2.0, 3.0), ((),)))
+    assert _on_prefix(ctx, cur) == (ctx, cur)
+    monkeypatch.setattr(sc, "RANKING_SPAN", 12_000)
+    monkeypatch.setattr(sc, "RANKING_TRAIN_ROWS", 6_000)
+    sub, ref = _on_prefix(ctx, cur)
+    k = sc.ranking_span(rec, train[0])
+    assert k < rec.n_samples
+    assert sub.records[0].n_samples == k
+    np.testing.assert_array_equal(sub.records[0].y, rec.y[:k])
+    assert ref.structure == cur.structure and ref.pred[0].size == k
