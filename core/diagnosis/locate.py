@@ -266,24 +266,24 @@ def where_improved(
             merged[-1][3] += s / net if net > 0 else 0.0
         else:
             merged.append([name, t0, t1, s / net if net > 0 else 0.0])
-    U = np.concatenate([u for u, _ in wts_u])
-    W = np.concatenate([w for _, w in wts_u])
-    Bb = np.concatenate([b for b, _ in wts_b])
+    U = _joined([u for u, _ in wts_u])
+    W = _joined([w for _, w in wts_u])
+    Bb = _joined([b for b, _ in wts_b])
     out: dict[str, Any] = {"time_windows": [[m[0], round(m[1], 4), round(m[2], 4),
                                              round(m[3], 3)] for m in merged[:12]]}
     if W.sum() > 0:
         o = np.argsort(U)
         cw = np.cumsum(W[o]) / W.sum()
-        out["input_range"] = [float(U[o][np.searchsorted(cw, 0.1)]),
-                              float(U[o][min(int(np.searchsorted(cw, 0.9)), U.size - 1)])]
+        i10, i90 = np.searchsorted(cw, 0.1), min(int(np.searchsorted(cw, 0.9)), U.size - 1)
+        out["input_range"] = [float(U[o[i10]]), float(U[o[i90]])]
+        del o, cw
         out["branch"] = {
             "ascending": float(W[Bb > 0].sum() / W.sum()),
             "descending": float(W[Bb < 0].sum() / W.sum()),
             "hold": float(W[Bb == 0].sum() / W.sum()),
         }
-        TR = np.concatenate([x for x, _ in wts_r])
-        out["median_since_reversal_s"] = _wmedian(TR, W)
-        TS = np.concatenate([x for x, _ in wts_s])
+        out["median_since_reversal_s"] = _wmedian(_joined([x for x, _ in wts_r]), W)
+        TS = _joined([x for x, _ in wts_s])
         ok = np.isfinite(TS)
         if ok.any() and W[ok].sum() > 0:
             out["median_since_step_s"] = _wmedian(TS[ok], W[ok])
@@ -291,10 +291,15 @@ def where_improved(
     return out
 
 
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    """``parts`` end to end; the one part itself (not a copy) for one recording."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
 def _wmedian(x: Float1D, w: Float1D) -> float:
     o = np.argsort(x)
     cw = np.cumsum(w[o])
-    return float(x[o][min(np.searchsorted(cw, 0.5 * cw[-1]), x.size - 1)])
+    return float(x[o[min(np.searchsorted(cw, 0.5 * cw[-1]), x.size - 1)]])
 
 
 def _summary(w: dict[str, Any], total: float) -> str:
