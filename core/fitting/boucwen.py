@@ -29,21 +29,19 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
-from .._typing import ArrayLike, Float1D, Float2D
+from .._typing import Float1D, Float2D
 from ..base import Chain
 from ..boucwen import MAX_SUBSTEPS, BoucWenModel, bouc_wen_states
 from ..exceptions import FitWarning, ParameterError, UnsupportedOptionError
 from ..stages import Offset
-from ._data import Prepared, check_initial_memory, masked_range, prepare
-from ._predict import RelaxedPredictor
+from ._data import Prepared, masked_range, prepare
+from .estimator import Estimator
 from .gram import COND_LIMIT, solve_constrained
-from .metrics import FitReport, evaluate_fit
 from .orientation import loop_orientation
-from .pi import default_min_slope
 
 __all__ = ["BoucWenRegressor", "element_columns"]
 
@@ -140,7 +138,7 @@ def _solve(G: Float2D, spread: Float1D, eps: float, offset: bool) -> tuple[Float
     return theta, float(sol.cond)
 
 
-class BoucWenRegressor(RelaxedPredictor):
+class BoucWenRegressor(Estimator):
     """Fit an invertible rate-independent Bouc-Wen model (plus output offset).
 
     Parameters
@@ -183,8 +181,7 @@ class BoucWenRegressor(RelaxedPredictor):
     report_ : FitReport
     """
 
-    #: Every recording starts relaxed (no wipe-out rule for a fading memory).
-    initial_memory_rules: ClassVar[tuple[str, ...]] = ("keep",)
+    # (initial_memory_rules: the base's "keep" only; no wipe-out rule for a fading memory)
 
     def __init__(
         self,
@@ -279,36 +276,9 @@ class BoucWenRegressor(RelaxedPredictor):
         return unpack(res.x)
 
     # ------------------------------------------------------------------ API
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: ArrayLike | Sequence[ArrayLike] | None = None,
-        test: ArrayLike | Sequence[ArrayLike] | None = None,
-    ) -> BoucWenRegressor:
-        """Fit the element shapes, the weights and the offset.
-
-        Parameters
-        ----------
-        u : array_like of shape (N,), or list of such, or Recording(s)
-            Input record(s) (input units); the elements restart relaxed at every recording.
-        y : array_like of shape (N,), or list of such, optional
-            Measured output(s) (output units); omitted with recordings.
-        train, test : array_like of bool, shape (N,), or list of such, optional
-            Samples used for fitting / held-out scoring (as :meth:`PIRegressor.fit`).
-
-        Returns
-        -------
-        BoucWenRegressor
-            ``self``.
-
-        Raises
-        ------
-        ParameterError
-            Bad inputs or options (each message names it).
-        """
-        check_initial_memory(self)
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit the element shapes, the weights and the offset (the work of :meth:`fit`)."""
+        self._check_initial_memory()
         if self.constraint != "nonnegative":
             raise UnsupportedOptionError(
                 f"a Bouc-Wen fit cannot use constraint={self.constraint!r}: its weights are "
@@ -316,9 +286,7 @@ class BoucWenRegressor(RelaxedPredictor):
             )
         m_max = self._n_elements()
         prep = prepare(u, y, train, test, validation=self.validation, min_train=40)
-        eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
-        if not (np.isfinite(eps) and eps > 0):
-            raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
+        eps = self._min_slope(prep)
         span = masked_range(prep.us, prep.train_masks) or masked_range(prep.us)
         self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
         cw = self.orientation_.clockwise
@@ -351,7 +319,7 @@ class BoucWenRegressor(RelaxedPredictor):
                 f"nearly collinear Bouc-Wen elements (cond = {cond:.2g}): fewer "
                 "elements (n_operators) may suit this input travel",
                 FitWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         sig = np.maximum(1.0, s)
         v = theta[2:]
@@ -363,17 +331,10 @@ class BoucWenRegressor(RelaxedPredictor):
         self.offset_ = float(theta[0])
         self.model_ = BoucWenModel(k, v if cw else -v, zs, s, n, input0=float(prep.us[0][0]))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
-        ev = prep.segments(1)
-        train_st, test_st, cmax, crmse = evaluate_fit(
-            self._model_for, self.offset_, ev, train_labels=(0,), test_labels=(1,)
-        )
-        self.report_ = FitReport(
+        self.report_ = self._scored_report(
+            prep.segments(1),
             model_type="bouc-wen",
             n_parameters=int(1 + self.include_offset + 4 * zs.size),
-            train=train_st,
-            test=test_st,
-            compensation_max_abs=cmax,
-            compensation_rmse=crmse,
             invertible=self.model_.is_invertible,
             min_slope=self.model_.slope_bounds()[0],
             condition_number=cond,
@@ -391,7 +352,6 @@ class BoucWenRegressor(RelaxedPredictor):
                     if cw else "; fitted with y = k u - sum v_j z_j, v_j >= 0"),
             },
         )
-        return self
 
     def _train_rmse(self, prep: Prepared, zs: Float1D, s: Float1D, n: Float1D, eps: float) -> float:
         cols = element_columns(prep.us, zs, s, n, self.orientation_.clockwise)

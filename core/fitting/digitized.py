@@ -16,20 +16,18 @@ has swept the range (the piezo record from 3.3 s), or expect an initial transien
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
-from .._typing import ArrayLike, Float1D
+from .._typing import ArrayLike
 from ..base import Chain
 from ..digitized import DigitizedPI
-from ..exceptions import NotFittedError, ParameterError
+from ..exceptions import ParameterError
 from ..stages import Offset
-from ._data import as_recordings, check_initial_memory, prepare, unpack_recordings
+from ._data import prepare, unpack_recordings
 from .estimator import Estimator
 from .gram import DEFAULT_CHUNK
-from .metrics import FitReport, evaluate_fit
 from .pi import PIRegressor
 
 __all__ = ["DigitizedPIRegressor"]
@@ -68,9 +66,6 @@ class DigitizedPIRegressor(Estimator):
         own test RMSE and the reversal error bound.
     """
 
-    #: The digitized fit starts every recording relaxed: ``initial_memory="keep"`` only.
-    initial_memory_rules: ClassVar[tuple[str, ...]] = ("keep",)
-
     def __init__(
         self,
         n_operators: int | None = None,
@@ -103,7 +98,7 @@ class DigitizedPIRegressor(Estimator):
             digits need non-decreasing slopes for the stated error bound; the conversion
             itself still works).
         """
-        check_initial_memory(self)
+        self._check_initial_memory()
         u, y = unpack_recordings(u, y)
         if int(self.refine) != self.refine or self.refine < 1:
             raise ParameterError(f"refine must be a positive integer, got {self.refine!r}")
@@ -131,9 +126,6 @@ class DigitizedPIRegressor(Estimator):
         self.full_model_ = Chain.of(dig, Offset(self.offset_))
         self.n_operators_ = classical.n_operators_
         segs = prep.segments(1)
-        tr, te, cmax, crmse = evaluate_fit(
-            lambda x: dig, self.offset_, segs, train_labels=(0,), test_labels=(1,),
-        )
         # discretisation error: digitized vs the classical model with the same segments
         # and the same start, on the recorded inputs (scored samples only)
         same = dig.to_pi()
@@ -155,30 +147,13 @@ class DigitizedPIRegressor(Estimator):
             "classical_test_rmse": None if classical.report_.test is None
             else classical.report_.test.rmse,
         }
-        self.report_ = FitReport(
+        self.report_ = self._scored_report(
+            segs,
             model_type="digitized",
             n_parameters=classical.report_.n_parameters,
-            train=tr,
-            test=te,
-            compensation_max_abs=cmax,
-            compensation_rmse=crmse,
             invertible=dig.is_invertible,
             min_slope=float(np.min(dig.dy / dig.dx)),
             condition_number=classical.report_.condition_number,
             solver="classical " + classical.report_.solver + " + DigitizedPI.from_pi",
             extra=extra,
         )
-
-    def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
-        """Digitized-model output plus offset (every record starts at the lower extreme).
-
-        Raises
-        ------
-        NotFittedError
-            Before :meth:`fit`.
-        """
-        if not hasattr(self, "model_"):
-            raise NotFittedError("this DigitizedPIRegressor is not fitted yet; call fit first")
-        us, multi = as_recordings(u, "u")
-        out = [self.model_(x) + self.offset_ if x.size else x.copy() for x in us]
-        return out if multi else out[0]

@@ -29,24 +29,24 @@ from __future__ import annotations
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
-from .._typing import ArrayLike, Float1D
+from .._typing import Float1D
 from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
-from ..exceptions import ClippedInputWarning, FitWarning, NotFittedError, ParameterError
+from ..exceptions import ClippedInputWarning, FitWarning, ParameterError
 from ..gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from ..operators import dead_zone
 from ..pi import PIModel
 from ..stages import Offset
 from ..validation import filled
 from ..warning_filters import FILTERS
-from ._data import Prepared, as_recordings, check_initial_memory, masked_range, prepare
+from ._data import Prepared, masked_range, prepare
 from .estimator import Estimator
 from .gram import DEFAULT_CHUNK, Segment
-from .metrics import FitReport, evaluate_fit
+from .metrics import FitReport
 from .pi import LinearPIFit, PIRegressor, fit_linear_pi
 from .thresholds import reversal_indices, thresholds_from_travels, travels_at
 
@@ -65,11 +65,10 @@ def _classical_extra(classical: PIRegressor) -> dict[str, Any]:
 
 
 class _Base(Estimator):
-    """Shared plumbing: input checks, classical start, PI solve on a transformed input."""
+    """Shared plumbing: classical start, PI solve on a transformed input. These fits start
+    every recording relaxed (the base's ``initial_memory="keep"`` only), and their
+    ``_model_for`` includes the output offset."""
 
-    #: These fits start every recording relaxed: ``initial_memory="keep"`` only.
-    initial_memory_rules: ClassVar[tuple[str, ...]] = ("keep",)
-    initial_memory: str
     n_operators: int | None
     thresholds: str
     include_offset: bool
@@ -80,7 +79,7 @@ class _Base(Estimator):
 
     # -------------------------------------------------------------- common steps
     def _prepare(self, u: Any, y: Any, train: Any, test: Any) -> Prepared:
-        check_initial_memory(self)
+        self._check_initial_memory()
         n_min = self.n_operators or 5
         return prepare(
             u, y, train, test, validation=self.validation, min_train=max(30, 4 * (n_min + 8))
@@ -161,11 +160,14 @@ class _Base(Estimator):
         extra: dict[str, Any],
         invertible: bool = True,
     ) -> FitReport:
-        segs = prep.segments(1)
+        """The base's scored report (offset inside ``model_for``), with the chunks whose
+        inverse input was clipped counted in ``extra`` instead of warned one by one."""
         with FILTERS, warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ClippedInputWarning)
-            tr, te, cmax, crmse = evaluate_fit(
-                model_for, 0.0, segs, train_labels=(0,), test_labels=(1,), invertible=invertible
+            report = self._scored_report(
+                prep.segments(1), model_for=model_for, offset=0.0, run_inverse=invertible,
+                model_type=model_type, n_parameters=n_par, invertible=invertible,
+                min_slope=min_slope, condition_number=cond, solver=solver, extra=extra,
             )
         clipped = [w for w in caught if issubclass(w.category, ClippedInputWarning)]
         for w in caught:
@@ -173,44 +175,13 @@ class _Base(Estimator):
                 warnings.warn(w.message, w.category, stacklevel=3)
         if clipped:
             extra["inverse_clipped_chunks"] = len(clipped)
-        return FitReport(
-            model_type=model_type,
-            n_parameters=n_par,
-            train=tr,
-            test=te,
-            compensation_max_abs=cmax,
-            compensation_rmse=crmse,
-            invertible=invertible,
-            min_slope=min_slope,
-            condition_number=cond,
-            solver=solver,
-            extra=extra,
-        )
+        return report
 
     # -------------------------------------------------------------- API
-    def _check(self) -> None:
-        if not hasattr(self, "full_model_"):
-            raise NotFittedError(
-                f"this {type(self).__name__} is not fitted yet; call fit(u, y) first"
-            )
-
-    def _model_for(self, u: Float1D) -> Model:  # pragma: no cover - overridden
-        raise NotImplementedError
-
-    def predict(self, u: ArrayLike | Sequence[ArrayLike]) -> Float1D | list[Float1D]:
-        """Predicted output (output units) for input record(s) ``u`` (input units).
-
-        Every record starts with the play operators relaxed at its first sample.
-
-        Raises
-        ------
-        NotFittedError
-            Before ``fit``.
-        """
-        self._check()
-        us, multi = as_recordings(u, "u")
-        out = [self._model_for(x)(x) if x.size else x.copy() for x in us]
-        return out if multi else out[0]
+    def _output(self, u: Float1D) -> Float1D:
+        """Predicted output of one record: ``_model_for`` holds the offset already."""
+        out: Float1D = self._model_for(u)(u)
+        return out
 
 
 def _uniform_knots(lo: float, hi: float, m: int) -> tuple[Float1D, Float1D]:

@@ -37,12 +37,10 @@ from ._data import (
     Prepared,
     as_recordings,
     exclude_before_wipeout,
-    masked_range,
     prepare,
 )
-from ._predict import RelaxedPredictor
+from .estimator import Estimator
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained, stream_gram, stream_tsqr
-from .metrics import FitReport, evaluate_fit
 from .orientation import LoopOrientation, loop_orientation
 from .thresholds import place_thresholds
 
@@ -260,13 +258,7 @@ def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) ->
     return text
 
 
-def default_min_slope(prep: Prepared, rel: float = 1e-3) -> float:
-    """ε = ``rel`` × (output range / input range) on the training samples."""
-    du = masked_range(prep.us, prep.train_masks) or masked_range(prep.us)
-    return rel * masked_range(prep.ys, prep.train_masks) / du
-
-
-class PIRegressor(RelaxedPredictor):
+class PIRegressor(Estimator):
     """Fit an invertible classical PI model (plus output offset) to input/output records.
 
     Parameters
@@ -393,40 +385,13 @@ class PIRegressor(RelaxedPredictor):
         return lower[keep[:-1]], keep, T[np.ix_(keep, keep)]
 
     # ------------------------------------------------------------------ API
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: ArrayLike | Sequence[ArrayLike] | None = None,
-        test: ArrayLike | Sequence[ArrayLike] | None = None,
-    ) -> PIRegressor:
-        """Fit thresholds (by rule), weights and offset.
-
-        Parameters
-        ----------
-        u : array_like of shape (N,), or list of such, or Recording(s)
-            Input record(s) (input units). With a list, the play states restart at every
-            recording. A :class:`core.recordings.Recording` (or a list of them) may be
-            passed instead of ``(u, y)``.
-        y : array_like of shape (N,), or list of such, optional
-            Measured output(s) (output units), same lengths as ``u``; omitted with
-            recordings.
-        train, test : array_like of bool, shape (N,), or list of such, optional
-            Samples used for fitting / held-out scoring (see
-            :func:`core.fitting._data.prepare` for the rules). Samples in neither still
-            drive the operator states.
-
-        Returns
-        -------
-        PIRegressor
-            ``self``.
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit thresholds (by rule), weights and offset (the work of :meth:`fit`).
 
         Raises
         ------
         ParameterError
-            Bad inputs (mismatched lengths, NaN, constant input or output, too few
-            samples, bad thresholds).
+            Bad inputs (see :meth:`fit`) or thresholds.
 
         Warns
         -----
@@ -453,9 +418,7 @@ class PIRegressor(RelaxedPredictor):
         prep, memory_note = exclude_before_wipeout(prep, self.initial_memory)
         self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
         self.constraint_ = self._constraint_for(self.orientation_)
-        eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
-        if not (np.isfinite(eps) and eps > 0):
-            raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
+        eps = self._min_slope(prep)
         cv_scores: dict[int, float | None] = {}
         chosen: tuple[Float1D, np.ndarray] | None = None
         if n_fixed is None:
@@ -485,7 +448,7 @@ class PIRegressor(RelaxedPredictor):
                     f"only {prep.n_train} training samples: too few for {K}-block "
                     f"cross-validation, using n_operators = {n_fixed}",
                     FitWarning,
-                    stacklevel=2,
+                    stacklevel=3,
                 )
         if chosen is not None:
             r, gram = chosen
@@ -511,7 +474,7 @@ class PIRegressor(RelaxedPredictor):
                 f"nearly collinear design (cond = {fit.cond:.2g}): some thresholds may exceed "
                 "the input travel of the data, so their operators never move",
                 FitWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         slopes = np.cumsum(np.concatenate(([fit.p0], fit.weights)))
         if float(slopes.min()) <= eps * (1 + 1e-9):
@@ -521,7 +484,7 @@ class PIRegressor(RelaxedPredictor):
                 f"model is invertible but its inverse has slope up to {1 / eps:.3g} (input per "
                 "output unit); consider a larger min_slope if the inverse drives an actuator",
                 FitWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         self.thresholds_ = np.asarray(r, dtype=np.float64)
         self.p0_ = fit.p0
@@ -536,13 +499,6 @@ class PIRegressor(RelaxedPredictor):
         # they were left out of the weight fit)
         ev_segs, ev_train, ev_test = (segs, train_labels, test_label) if prep is prep_all else (
             prep_all.segments(1), (0,), 1)
-        train_st, test_st, cmax, crmse = evaluate_fit(
-            self._model_for,
-            self.offset_,
-            ev_segs,
-            train_labels=ev_train,
-            test_labels=(ev_test,),
-        )
         extra: dict[str, Any] = {"n_operators": n, "min_slope": eps, "offset": fit.offset}
         if cv_scores:
             extra["cv_rmse"] = cv_scores
@@ -555,20 +511,18 @@ class PIRegressor(RelaxedPredictor):
         }[self.constraint_]
         extra["constraint"] = self.constraint_
         extra.update(self._extra())
-        self.report_ = FitReport(
+        self.report_ = self._scored_report(
+            ev_segs,
+            train_labels=ev_train,
+            test_labels=(ev_test,),
             model_type=self.model_.type_name,
             n_parameters=n + 1 + int(self.include_offset),
-            train=train_st,
-            test=test_st,
-            compensation_max_abs=cmax,
-            compensation_rmse=crmse,
             invertible=self.model_.is_invertible,
             min_slope=float(np.min(self.model_.slopes)),
             condition_number=fit.cond,
             solver=fit.solver,
             extra=extra,
         )
-        return self
 
     def _build(self, p0: float, r: Float1D, w: Float1D, u0: float) -> Any:
         """The fitted model of weights ``(p0, w)`` on thresholds ``r``, relaxed at ``u0``."""

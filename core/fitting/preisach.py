@@ -9,7 +9,7 @@ Once the thresholds ``r_i`` and the level knots ``e_j`` are placed, the model is
 ``W`` and ``c``: the design columns ``seg_j(z_i)`` are streamed chunk by chunk into the Gram
 matrix (play states carried across chunks) and the weights come from the bounded least
 squares of :func:`core.fitting.gram.solve_constrained`. ``W[0, :] >= ε`` (the reversible
-slope on every level segment, ε as :func:`core.fitting.pi.default_min_slope`) makes every
+slope on every level segment, ε as :func:`core.fitting.estimator.default_min_slope`) makes every
 fitted model invertible. A column that never changes on the training rows (a wide play whose
 output never reaches an outer level segment) cannot be told from the offset; its weight is
 fixed to 0 (``ε`` for the reversible play).
@@ -34,11 +34,9 @@ from ..preisach import PreisachModel, level_segments
 from ..stages import Offset
 from ..validation import as_vector
 from ._data import INITIAL_MEMORY_RULES, Prepared, exclude_before_wipeout, prepare
-from ._predict import RelaxedPredictor
+from .estimator import Estimator
 from .gram import COND_LIMIT, DEFAULT_CHUNK, Segment, solve_constrained
-from .metrics import FitReport, evaluate_fit
 from .orientation import loop_orientation
-from .pi import default_min_slope
 from .thresholds import place_thresholds
 
 __all__ = ["PreisachRegressor", "place_knots", "stream_level_gram"]
@@ -156,7 +154,7 @@ def _positive_int(v: Any, name: str) -> int:
     return int(v)
 
 
-class PreisachRegressor(RelaxedPredictor):
+class PreisachRegressor(Estimator):
     """Fit an invertible level-dependent Preisach model (plus output offset).
 
     Parameters
@@ -279,40 +277,10 @@ class PreisachRegressor(RelaxedPredictor):
         return np.concatenate(([0.0], r)), np.asarray(e, dtype=np.float64)
 
     # ------------------------------------------------------------------ API
-    def fit(
-        self,
-        u: Any,
-        y: Any = None,
-        *,
-        train: ArrayLike | Sequence[ArrayLike] | None = None,
-        test: ArrayLike | Sequence[ArrayLike] | None = None,
-    ) -> PreisachRegressor:
-        """Place thresholds and knots, fit the weights and the offset.
-
-        Parameters
-        ----------
-        u : array_like of shape (N,), or list of such, or Recording(s)
-            Input record(s) (input units); the plays restart at every recording.
-        y : array_like of shape (N,), or list of such, optional
-            Measured output(s) (output units); omitted with recordings.
-        train, test : array_like of bool, shape (N,), or list of such, optional
-            Samples used for fitting / held-out scoring (as :meth:`PIRegressor.fit`).
-
-        Returns
-        -------
-        PreisachRegressor
-            ``self``.
-
-        Raises
-        ------
-        ParameterError
-            Bad inputs or options (each message names it).
-
-        Warns
-        -----
-        FitWarning
-            When the design is nearly collinear.
-        """
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Place thresholds and knots, fit the weights and the offset (the work of
+        :meth:`fit`; it warns with :class:`FitWarning` when the design is nearly collinear
+        or the loops run clockwise)."""
         if self.constraint not in ("nonnegative", "slopes"):
             raise ParameterError(
                 f"constraint must be 'nonnegative' or 'slopes', got {self.constraint!r}"
@@ -329,12 +297,10 @@ class PreisachRegressor(RelaxedPredictor):
                 "counter-clockwise loops only: fit the stop-pi or bouc-wen kind (or --model "
                 "auto), which fit this orientation",
                 FitWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         prep, memory_note = exclude_before_wipeout(prep_all, self.initial_memory)
-        eps = float(self.min_slope) if self.min_slope is not None else default_min_slope(prep)
-        if not (np.isfinite(eps) and eps > 0):
-            raise ParameterError(f"min_slope = {eps!r} must be > 0 (it keeps the model invertible)")
+        eps = self._min_slope(prep)
         r, e = self._grid(prep, n, m)
         segs = prep.segments(1)
         gram, spread = stream_level_gram(segs, r, e, n_labels=1, chunk=self.chunk)
@@ -360,7 +326,7 @@ class PreisachRegressor(RelaxedPredictor):
                 f"nearly collinear design (cond = {sol.cond:.2g}): fewer thresholds or level "
                 "segments may suit this input travel",
                 FitWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         W = theta[1:].reshape(n + 1, m)
         self.thresholds_ = r
@@ -372,10 +338,6 @@ class PreisachRegressor(RelaxedPredictor):
         self.min_slope_ = eps
         self.model_ = PreisachModel(r, W, e, np.full(n + 1, float(prep.us[0][0])))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
-        ev = prep_all.segments(1)
-        train_st, test_st, cmax, crmse = evaluate_fit(
-            self._model_for, self.offset_, ev, train_labels=(0,), test_labels=(1,)
-        )
         extra: dict[str, Any] = {
             "n_thresholds": n, "n_levels": m, "knots": e.tolist(), "min_slope": eps,
             "offset": self.offset_, "fixed_columns": int(fixed[1:].sum()),
@@ -384,20 +346,16 @@ class PreisachRegressor(RelaxedPredictor):
                 "; a Preisach model has counter-clockwise loops only"
                 if self.orientation_.clockwise else ""),
         }
-        self.report_ = FitReport(
+        self.report_ = self._scored_report(
+            prep_all.segments(1),
             model_type="preisach",
             n_parameters=int(keep.sum()),
-            train=train_st,
-            test=test_st,
-            compensation_max_abs=cmax,
-            compensation_rmse=crmse,
             invertible=self.model_.is_invertible,
             min_slope=float(np.min(W[0])),
             condition_number=sol.cond,
             solver="gram-cholesky-nnls",
             extra=extra,
         )
-        return self
 
     def _model_for(self, u: Float1D) -> PreisachModel:
         m = self.model_

@@ -208,9 +208,8 @@ class StopPIRegressor(PIRegressor):
             return "stop"
         return super()._constraint_for(orientation)
 
-    def fit(self, u: Any, y: Any = None, *, train: Any = None,
-            test: Any = None) -> StopPIRegressor:
-        """Fit as :meth:`PIRegressor.fit`, then the backlash gap (module docstring).
+    def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
+        """Fit as :class:`PIRegressor`, then the backlash gap (module docstring).
 
         ``gap``: ``"auto"`` tries :data:`GAP_GRID`, a number (input units) fits that width,
         0 fits none.
@@ -221,10 +220,10 @@ class StopPIRegressor(PIRegressor):
         fixed = None if isinstance(self.gap, str) else float(self.gap)
         if fixed is not None and not (np.isfinite(fixed) and fixed >= 0):
             raise ParameterError(f"gap must be a width >= 0 in input units, got {fixed!r}")
-        super().fit(u, y, train=train, test=test)
+        super()._fit(u, y, train, test)
         self.gap_scores_: dict[float, float] = {}
         if fixed == 0.0 or (fixed is None and not self.orientation_.clockwise):
-            return self  # (a stop bank misses counter-clockwise loops with or without a gap)
+            return  # (a stop bank misses counter-clockwise loops with or without a gap)
         u, y = unpack_recordings(u, y)
         prep = prepare(u, y, train, test, validation=self.validation, min_train=1)
         trm = prep.train_masks
@@ -263,9 +262,8 @@ class StopPIRegressor(PIRegressor):
                     lo = a
         mse, b, est = best
         if fixed is None and mse > (1.0 - GAP_MIN_GAIN) * base:
-            return self
+            return
         self._take_gap(est, prep, b)
-        return self
 
     def _gap_fit(self, prep: Any, b: float) -> StopPIRegressor:
         """Weights refitted on the elements' input behind a gap ``b`` wide."""
