@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -138,6 +139,7 @@ def _solve(G: Float2D, spread: Float1D, eps: float, offset: bool) -> tuple[Float
     return theta, float(sol.cond)
 
 
+@dataclass(eq=False, repr=False)
 class BoucWenRegressor(Estimator):
     """Fit an invertible rate-independent Bouc-Wen model (plus output offset).
 
@@ -183,31 +185,17 @@ class BoucWenRegressor(Estimator):
 
     # (initial_memory_rules: the base's "keep" only; no wipe-out rule for a fading memory)
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        saturations: Sequence[float] = GRID_SATURATIONS,
-        slopes: Sequence[float] = GRID_SLOPES,
-        exponents: Sequence[float] = GRID_EXPONENTS,
-        polish: bool = True,
-        max_nfev: int = 15,
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        constraint: str = "nonnegative",
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.saturations = saturations
-        self.slopes = slopes
-        self.exponents = exponents
-        self.polish = polish
-        self.max_nfev = max_nfev
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.constraint = constraint
-        self.initial_memory = initial_memory
+    n_operators: int | None = None
+    saturations: Sequence[float] = GRID_SATURATIONS
+    slopes: Sequence[float] = GRID_SLOPES
+    exponents: Sequence[float] = GRID_EXPONENTS
+    polish: bool = True
+    max_nfev: int = 15
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    constraint: str = "nonnegative"
+    initial_memory: str = "keep"
 
     # ------------------------------------------------------------------ helpers
     def _n_elements(self) -> int:

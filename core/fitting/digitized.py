@@ -16,6 +16,7 @@ has swept the range (the piezo record from 3.3 s), or expect an initial transien
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ from .pi import PIRegressor
 __all__ = ["DigitizedPIRegressor"]
 
 
+@dataclass(eq=False, repr=False)
 class DigitizedPIRegressor(Estimator):
     """Fit a digitized PI model (paper 000) through an invertible classical fit.
 
@@ -66,27 +68,15 @@ class DigitizedPIRegressor(Estimator):
         own test RMSE and the reversal error bound.
     """
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        refine: int = 1,
-        thresholds: str | ArrayLike = "uniform",
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        constraint: str = "nonnegative",
-        chunk: int = DEFAULT_CHUNK,
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.refine = refine
-        self.thresholds = thresholds
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.constraint = constraint
-        self.chunk = chunk
-        self.initial_memory = initial_memory
+    n_operators: int | None = None
+    refine: int = 1
+    thresholds: str | ArrayLike = "uniform"
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    constraint: str = "nonnegative"
+    chunk: int = DEFAULT_CHUNK
+    initial_memory: str = "keep"
 
     def _fit(self, u: Any, y: Any, train: Any, test: Any) -> None:
         """Fit (the work of :meth:`fit`).

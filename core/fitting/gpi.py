@@ -470,6 +470,7 @@ class ModifiedPIRegressor(_DeadZoneFit):
 
 
 # =====================================================================================
+@dataclass(eq=False, repr=False)
 class TanhGPIRegressor(_Base):
     """Fit ``y = c + P[κ(v)]`` with the tanh envelope κ (paper 001 eq. 44-47).
 
@@ -497,29 +498,16 @@ class TanhGPIRegressor(_Base):
     report_ : FitReport
     """
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        asymmetric: bool = False,
-        thresholds: str = "uniform",
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        constraint: str = "nonnegative",
-        max_nfev: int = 60,
-        chunk: int = DEFAULT_CHUNK,
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.asymmetric = asymmetric
-        self.thresholds = thresholds
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.constraint = constraint
-        self.max_nfev = max_nfev
-        self.chunk = chunk
-        self.initial_memory = initial_memory
+    n_operators: int | None = None
+    asymmetric: bool = False
+    thresholds: str = "uniform"
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    constraint: str = "nonnegative"
+    max_nfev: int = 60
+    chunk: int = DEFAULT_CHUNK
+    initial_memory: str = "keep"
 
     def _envelope(self, phi: Float1D) -> TanhEnvelope:
         a = np.array([1.0, np.exp(phi[0]) / self._vs, phi[1] - np.exp(phi[0]) * self._vc / self._vs,

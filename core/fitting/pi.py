@@ -258,6 +258,7 @@ def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) ->
     return text
 
 
+@dataclass(eq=False, repr=False)
 class PIRegressor(Estimator):
     """Fit an invertible classical PI model (plus output offset) to input/output records.
 
@@ -334,33 +335,18 @@ class PIRegressor(Estimator):
     #: Both rules: the pre-wipe-out rows can be left out of the weight fit.
     initial_memory_rules: ClassVar[tuple[str, ...]] = INITIAL_MEMORY_RULES
 
-    def __init__(
-        self,
-        n_operators: int | None = None,
-        thresholds: str | ArrayLike = "uniform",
-        r_max: float | None = None,
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        candidates: Sequence[int] = DEFAULT_CANDIDATES,
-        cv_blocks: int = 5,
-        tolerance: float = 0.02,
-        chunk: int = DEFAULT_CHUNK,
-        constraint: str = "nonnegative",
-        initial_memory: str = "keep",
-    ) -> None:
-        self.n_operators = n_operators
-        self.thresholds = thresholds
-        self.r_max = r_max
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.candidates = candidates
-        self.cv_blocks = cv_blocks
-        self.tolerance = tolerance
-        self.chunk = chunk
-        self.constraint = constraint
-        self.initial_memory = initial_memory
+    n_operators: int | None = None
+    thresholds: str | ArrayLike = "uniform"
+    r_max: float | None = None
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    candidates: Sequence[int] = DEFAULT_CANDIDATES
+    cv_blocks: int = 5
+    tolerance: float = 0.02
+    chunk: int = DEFAULT_CHUNK
+    constraint: str = "nonnegative"
+    initial_memory: str = "keep"
 
     # ------------------------------------------------------------------ helpers
     def _thresholds_for(self, prep: Prepared, n: int) -> Float1D:

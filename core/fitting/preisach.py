@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -154,6 +155,7 @@ def _positive_int(v: Any, name: str) -> int:
     return int(v)
 
 
+@dataclass(eq=False, repr=False)
 class PreisachRegressor(Estimator):
     """Fit an invertible level-dependent Preisach model (plus output offset).
 
@@ -227,33 +229,18 @@ class PreisachRegressor(Estimator):
     #: Both rules: the pre-wipe-out rows can be left out of the weight fit.
     initial_memory_rules: ClassVar[tuple[str, ...]] = INITIAL_MEMORY_RULES
 
-    def __init__(
-        self,
-        n_thresholds: int = 12,
-        n_levels: int = 4,
-        thresholds: str | ArrayLike = "uniform",
-        knots: str | ArrayLike = "uniform",
-        r_max: float | None = None,
-        include_offset: bool = True,
-        validation: float = 0.2,
-        min_slope: float | None = None,
-        chunk: int = DEFAULT_CHUNK,
-        initial_memory: str = "keep",
-        constraint: str = "nonnegative",
-        n_operators: int | None = None,
-    ) -> None:
-        self.n_thresholds = n_thresholds
-        self.n_levels = n_levels
-        self.thresholds = thresholds
-        self.knots = knots
-        self.r_max = r_max
-        self.include_offset = include_offset
-        self.validation = validation
-        self.min_slope = min_slope
-        self.chunk = chunk
-        self.initial_memory = initial_memory
-        self.constraint = constraint
-        self.n_operators = n_operators
+    n_thresholds: int = 12
+    n_levels: int = 4
+    thresholds: str | ArrayLike = "uniform"
+    knots: str | ArrayLike = "uniform"
+    r_max: float | None = None
+    include_offset: bool = True
+    validation: float = 0.2
+    min_slope: float | None = None
+    chunk: int = DEFAULT_CHUNK
+    initial_memory: str = "keep"
+    constraint: str = "nonnegative"
+    n_operators: int | None = None
 
     # ------------------------------------------------------------------ helpers
     def _sizes(self) -> tuple[int, int]:
