@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Self
 
 import numpy as np
 
@@ -429,9 +429,112 @@ def step_fields(what: str) -> tuple[Field, ...]:
     )
 
 
+class PairedSteps:
+    """What the two digitized staircases share (:class:`DigitizedPI`'s digits,
+    :class:`~core.digitized_deadzone.DigitizedDeadZone`'s segments): the paired properties
+    ``[Δx; Δy]`` with an origin ``(x0, y0)`` (:func:`step_fields`), their checks and slopes,
+    the inverse by exchanging ``Δx`` and ``Δy`` and the dictionary form. The model class is a
+    frozen dataclass with the fields ``dx, dy, x0, y0, state0`` and a private ``_g``."""
+
+    type_name: ClassVar[str]
+    dx: Float1D
+    dy: Float1D
+    x0: float
+    y0: float
+    state0: Any
+    _g: Float1D
+
+    if TYPE_CHECKING:  # the dataclass of the model class writes it
+
+        def __init__(
+            self, dx: ArrayLike, dy: ArrayLike, x0: float = 0.0, y0: float = 0.0,
+            state0: Any = None,
+        ) -> None: ...
+
+    def _check_steps(self) -> None:
+        """Check ``dx``, ``dy``, ``x0``, ``y0`` in place and set the slopes ``_g``."""
+        dx = as_vector(self.dx, "dx", positive=True)
+        dy = as_vector(self.dy, "dy", length=dx.size)
+        object.__setattr__(self, "dx", dx)
+        object.__setattr__(self, "dy", dy)
+        object.__setattr__(self, "x0", as_finite_scalar(self.x0, "x0"))
+        object.__setattr__(self, "y0", as_finite_scalar(self.y0, "y0"))
+
+    def _set_slopes(self) -> None:
+        g = self.dy / self.dx
+        if not np.isfinite(g).all():
+            raise ParameterError("dy / dx overflows; rescale dx and dy to moderate magnitudes")
+        object.__setattr__(self, "_g", frozen(g))
+
+    @classmethod
+    def _from_pairs(
+        cls, pairs: ArrayLike, name: str, size: str, origin: tuple[float, float], state0: Any
+    ) -> Self:
+        """The model of the paired-property matrix ``pairs`` (called ``name``, of shape
+        ``(2, size)``: row 0 ``Δx``, row 1 ``Δy``) with origin ``(X_0, Y_0)``."""
+        try:
+            h = np.asarray(pairs, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"{name} must be a numeric (2, {size}) array: {exc}") from exc
+        if h.ndim != 2 or h.shape[0] != 2:
+            raise ParameterError(
+                f"{name} must have shape (2, {size}): row 0 = Δx, row 1 = Δy; got shape "
+                f"{h.shape}"
+            )
+        if len(origin) != 2:
+            raise ParameterError("origin must be a pair (X0, Y0)")
+        return cls(h[0], h[1], origin[0], origin[1], state0)
+
+    @property
+    def slopes(self) -> Float1D:
+        """Step slopes ``Δy_k / Δx_k``."""
+        return self._g
+
+    @property
+    def is_invertible(self) -> bool:
+        """Whether every step rises (``Δy_k > 0``; ``Δx_k > 0`` always holds)."""
+        return bool((self.dy > 0).all())
+
+    def _swapped(self, what: str, why: str) -> Self:
+        """The inverse by exchanging ``Δx`` and ``Δy`` (same state, swapped origin).
+
+        Raises
+        ------
+        NotInvertibleError
+            Naming ``what`` and ``why`` every step must rise, if some ``Δy_k <= 0``.
+        """
+        bad = np.flatnonzero(self.dy <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise NotInvertibleError(
+                f"{what} is not invertible: Δy_{k + 1} = {self.dy[k]:g} must be > 0 ({why})"
+            )
+        return type(self)(self.dy, self.dx, self.y0, self.x0, self.state0)
+
+    def _steps_dict(self, state0: Any) -> dict[str, Any]:
+        return {
+            "type": self.type_name,
+            "dx": self.dx.tolist(),
+            "dy": self.dy.tolist(),
+            "x0": self.x0,
+            "y0": self.y0,
+            "state0": state0,
+        }
+
+    @classmethod
+    def _from_steps_dict(cls, d: dict[str, Any], state0: Any) -> Self:
+        """The model of :meth:`_steps_dict`'s form (``state0`` where the dict has none)."""
+        missing = [k for k in ("dx", "dy") if k not in d]
+        if missing:
+            raise ParameterError(
+                f"{cls.type_name} model is missing field(s): {', '.join(missing)}"
+            )
+        return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0", state0))
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
-class DigitizedPI(Model):
+class DigitizedPI(PairedSteps, Model):
     """Digitized classical PI model with paired properties ``H = [Δx; Δy]`` (paper 000 eq. 11).
 
     Parameters
@@ -468,17 +571,9 @@ class DigitizedPI(Model):
     _g: Float1D = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        dx = as_vector(self.dx, "dx", positive=True)
-        dy = as_vector(self.dy, "dy", length=dx.size)
-        object.__setattr__(self, "dx", dx)
-        object.__setattr__(self, "dy", dy)
-        object.__setattr__(self, "x0", as_finite_scalar(self.x0, "x0"))
-        object.__setattr__(self, "y0", as_finite_scalar(self.y0, "y0"))
-        object.__setattr__(self, "state0", as_digits(self.state0, dx.size, "state0"))
-        g = dy / dx
-        if not np.isfinite(g).all():
-            raise ParameterError("dy / dx overflows; rescale dx and dy to moderate magnitudes")
-        object.__setattr__(self, "_g", frozen(g))
+        self._check_steps()
+        object.__setattr__(self, "state0", as_digits(self.state0, self.dx.size, "state0"))
+        self._set_slopes()
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -505,17 +600,7 @@ class DigitizedPI(Model):
         ParameterError
             If ``H`` is not of shape (2, n) or its entries break the rules of ``dx``/``dy``.
         """
-        try:
-            h = np.asarray(H, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"H must be a numeric (2, n) array: {exc}") from exc
-        if h.ndim != 2 or h.shape[0] != 2:
-            raise ParameterError(
-                f"H must have shape (2, n): row 0 = Δx, row 1 = Δy; got shape {h.shape}"
-            )
-        if len(origin) != 2:
-            raise ParameterError("origin must be a pair (X0, Y0)")
-        return cls(h[0], h[1], origin[0], origin[1], state0)
+        return cls._from_pairs(H, "H", "n", origin, state0)
 
     @classmethod
     def from_pi(
@@ -601,11 +686,6 @@ class DigitizedPI(Model):
         return np.vstack((self.dx, self.dy))
 
     @property
-    def slopes(self) -> Float1D:
-        """Segment slopes ``grad_k = Δy_k / Δx_k``, shape (n,)."""
-        return self._g
-
-    @property
     def tol(self) -> float:
         """Snapping tolerance in input units: ``1e-12 Δx_1`` plus ``(n + 8)`` ulps of ``|X|``.
 
@@ -628,11 +708,6 @@ class DigitizedPI(Model):
     def y_range(self) -> tuple[float, float]:
         """Output values at the two extremes, ``(Y_0, Y_0 + ΣΔy)``."""
         return self.y0, self.y0 + float(np.sum(self.dy))
-
-    @property
-    def is_invertible(self) -> bool:
-        """Whether every ``Δy_k > 0`` (``Δx_k > 0`` always holds), so ``grad_1 = p0 > 0``."""
-        return bool((self.dy > 0).all())
 
     def reversal_error_bound(self) -> float:
         """Bound on ``|y_digitized - y_classical|`` for inputs inside :attr:`x_range`.
@@ -868,32 +943,15 @@ class DigitizedPI(Model):
                 f"digitized PI is not invertible: grad_1 = p0 = Δy_1/Δx_1 = {self._g[0]:g} "
                 "must be > 0 (the swapped model would need an infinite first slope)"
             )
-        bad = np.flatnonzero(self.dy <= 0)
-        if bad.size:
-            k = int(bad[0])
-            raise NotInvertibleError(
-                f"digitized PI is not invertible: Δy_{k + 1} = {self.dy[k]:g} must be > 0 "
-                "(every segment must rise)"
-            )
-        return DigitizedPI(self.dy, self.dx, self.y0, self.x0, self.state0)
+        return self._swapped("digitized PI", "every segment must rise")
 
     # ------------------------------------------------------------------ serialisation
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "type": self.type_name,
-            "dx": self.dx.tolist(),
-            "dy": self.dy.tolist(),
-            "x0": self.x0,
-            "y0": self.y0,
-            "state0": digit_string(self.state0),
-        }
+        return self._steps_dict(digit_string(self.state0))
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> DigitizedPI:
-        missing = [k for k in ("dx", "dy") if k not in d]
-        if missing:
-            raise ParameterError(f"digitized model is missing field(s): {', '.join(missing)}")
-        return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0"))
+        return cls._from_steps_dict(d, None)
 
 
 def paper000_two_operators() -> DigitizedPI:

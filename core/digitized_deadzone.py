@@ -30,11 +30,11 @@ import numpy as np
 
 from ._typing import ArrayLike, Float1D, Float2D
 from .base import Chain, Control, Field, Model, Response, model_from_dict, register_model
-from .digitized import DigitizedPI, step_fields
-from .exceptions import NotInvertibleError, ParameterError
+from .digitized import DigitizedPI, PairedSteps, step_fields
+from .exceptions import ParameterError
 from .kernels import njit
 from .pi import PIModel
-from .validation import as_finite_scalar, as_input_signal, as_vector, frozen
+from .validation import as_input_signal, as_vector, frozen
 
 __all__ = [
     "DigitizedDeadZone",
@@ -116,7 +116,7 @@ def digitized_deadzone_kernel(u, dx, g, xl, yl, c, out):  # pragma: no cover - c
 
 @register_model
 @dataclass(frozen=True, eq=False)
-class DigitizedDeadZone(Model):
+class DigitizedDeadZone(PairedSteps, Model):
     """Digitized dead-zone superposition ``S = [Δx; Δy]`` (paper 000 eq. 18-21).
 
     Parameters
@@ -155,19 +155,11 @@ class DigitizedDeadZone(Model):
     _yl: Float1D = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        dx = as_vector(self.dx, "dx", positive=True)
-        dy = as_vector(self.dy, "dy", length=dx.size)
-        object.__setattr__(self, "dx", dx)
-        object.__setattr__(self, "dy", dy)
-        object.__setattr__(self, "x0", as_finite_scalar(self.x0, "x0"))
-        object.__setattr__(self, "y0", as_finite_scalar(self.y0, "y0"))
+        self._check_steps()
         object.__setattr__(self, "state0", self._check_segment(self.state0, "initial segment"))
-        g = dy / dx
-        if not np.isfinite(g).all():
-            raise ParameterError("dy / dx overflows; rescale dx and dy to moderate magnitudes")
-        object.__setattr__(self, "_g", frozen(g))
-        xl = self.x0 + np.concatenate(([0.0], np.cumsum(dx)[:-1]))
-        yl = self.y0 + np.concatenate(([0.0], np.cumsum(dy)[:-1]))
+        self._set_slopes()
+        xl = self.x0 + np.concatenate(([0.0], np.cumsum(self.dx)[:-1]))
+        yl = self.y0 + np.concatenate(([0.0], np.cumsum(self.dy)[:-1]))
         object.__setattr__(self, "_xl", frozen(xl))
         object.__setattr__(self, "_yl", frozen(yl))
 
@@ -200,17 +192,7 @@ class DigitizedDeadZone(Model):
         -------
         DigitizedDeadZone
         """
-        try:
-            s = np.asarray(S, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"S must be a numeric (2, m) array: {exc}") from exc
-        if s.ndim != 2 or s.shape[0] != 2:
-            raise ParameterError(
-                f"S must have shape (2, m): row 0 = Δx, row 1 = Δy; got shape {s.shape}"
-            )
-        if len(origin) != 2:
-            raise ParameterError("origin must be a pair (X0, Y0)")
-        return cls(s[0], s[1], origin[0], origin[1], state0)
+        return cls._from_pairs(S, "S", "m", origin, state0)
 
     @classmethod
     def from_deadzone(
@@ -326,21 +308,11 @@ class DigitizedDeadZone(Model):
         return np.vstack((self.dx, self.dy))
 
     @property
-    def slopes(self) -> Float1D:
-        """Segment slopes ``Δy_C / Δx_C``, shape (m,)."""
-        return self._g
-
-    @property
     def breakpoints(self) -> Float2D:
         """Segment ends ``(X, Y)``: shape (2, m+1), ``X_0 ... X_0 + ΣΔx``."""
         x = self.x0 + np.concatenate(([0.0], np.cumsum(self.dx)))
         y = self.y0 + np.concatenate(([0.0], np.cumsum(self.dy)))
         return np.vstack((x, y))
-
-    @property
-    def is_invertible(self) -> bool:
-        """Whether every segment rises (``Δy_C > 0``)."""
-        return bool((self.dy > 0).all())
 
     # ------------------------------------------------------------------ simulation
     def default_state(self) -> int:
@@ -361,34 +333,18 @@ class DigitizedDeadZone(Model):
         NotInvertibleError
             If some ``Δy_C <= 0`` (the map is not strictly increasing there).
         """
-        bad = np.flatnonzero(self.dy <= 0)
-        if bad.size:
-            k = int(bad[0])
-            raise NotInvertibleError(
-                f"digitized dead zone is not invertible: Δy_{k + 1} = {self.dy[k]:g} must be "
-                "> 0 (every segment must rise; the partial slopes η_0 + Σ η_g must be > 0)"
-            )
-        return DigitizedDeadZone(self.dy, self.dx, self.y0, self.x0, self.state0)
+        return self._swapped(
+            "digitized dead zone",
+            "every segment must rise; the partial slopes η_0 + Σ η_g must be > 0",
+        )
 
     # ------------------------------------------------------------------ serialisation
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "type": self.type_name,
-            "dx": self.dx.tolist(),
-            "dy": self.dy.tolist(),
-            "x0": self.x0,
-            "y0": self.y0,
-            "state0": self.state0,
-        }
+        return self._steps_dict(self.state0)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> DigitizedDeadZone:
-        missing = [k for k in ("dx", "dy") if k not in d]
-        if missing:
-            raise ParameterError(
-                f"digitized-deadzone model is missing field(s): {', '.join(missing)}"
-            )
-        return cls(d["dx"], d["dy"], d.get("x0", 0.0), d.get("y0", 0.0), d.get("state0", 1))
+        return cls._from_steps_dict(d, 1)
 
 
 @register_model
