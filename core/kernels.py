@@ -56,6 +56,16 @@ else:  # pragma: no cover - exercised only when numba is disabled on purpose
         return lambda f: f
 
 
+@njit(cache=True, nogil=True, inline="always")
+def play_update(zi, x, r):  # pragma: no cover - compiled
+    """One play operator's step: its output ``zi`` held inside ``[x - r, x + r]``."""
+    if zi > x + r:
+        zi = x + r
+    if zi < x - r:
+        zi = x - r
+    return zi
+
+
 @njit(cache=True, nogil=True)
 def play_matrix(u, r, z, out):  # pragma: no cover - compiled
     """Play-operator outputs for every sample and operator.
@@ -76,13 +86,7 @@ def play_matrix(u, r, z, out):  # pragma: no cover - compiled
     for k in range(N):
         uk = u[k]
         for i in range(n):
-            lo = uk - r[i]
-            hi = uk + r[i]
-            zi = z[i]
-            if zi > hi:
-                zi = hi
-            if zi < lo:
-                zi = lo
+            zi = play_update(z[i], uk, r[i])
             z[i] = zi
             out[k, i] = zi
 
@@ -108,13 +112,7 @@ def pi_output_strict(u, r, w, p0, z, out):  # pragma: no cover - compiled
         uk = u[k]
         acc = 0.0
         for i in range(n):
-            lo = uk - r[i]
-            hi = uk + r[i]
-            zi = z[i]
-            if zi > hi:
-                zi = hi
-            if zi < lo:
-                zi = lo
+            zi = play_update(z[i], uk, r[i])
             z[i] = zi
             acc += w[i] * zi
         out[k] = p0 * uk + acc
@@ -295,12 +293,7 @@ def _preisach_at(x, r, e, W, z):  # pragma: no cover - compiled
     """Preisach output for input ``x`` from play states ``z`` (``z`` is not changed)."""
     acc = 0.0
     for i in range(r.shape[0]):
-        zi = z[i]
-        if zi > x + r[i]:
-            zi = x + r[i]
-        if zi < x - r[i]:
-            zi = x - r[i]
-        acc += _level_sum(zi, e, W, i)
+        acc += _level_sum(play_update(z[i], x, r[i]), e, W, i)
     return acc
 
 
@@ -327,13 +320,7 @@ def preisach_output(u, r, e, W, z, out):  # pragma: no cover - compiled
         uk = u[k]
         acc = 0.0
         for i in range(n):
-            lo = uk - r[i]
-            hi = uk + r[i]
-            zi = z[i]
-            if zi > hi:
-                zi = hi
-            if zi < lo:
-                zi = lo
+            zi = play_update(z[i], uk, r[i])
             z[i] = zi
             acc += _level_sum(zi, e, W, i)
         out[k] = acc
@@ -405,12 +392,7 @@ def preisach_inverse(y, r, e, W, z, b, out):  # pragma: no cover - compiled
                     f_hi = f_mid
             uk = b[lo] + (yk - f_lo) * (b[hi] - b[lo]) / (f_hi - f_lo)
         for i in range(n):
-            zi = z[i]
-            if zi > uk + r[i]:
-                zi = uk + r[i]
-            if zi < uk - r[i]:
-                zi = uk - r[i]
-            z[i] = zi
+            z[i] = play_update(z[i], uk, r[i])
         out[k] = uk
 
 

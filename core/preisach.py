@@ -48,7 +48,7 @@ from . import kernels
 from ._typing import ArrayLike, Float1D, Float2D
 from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
-from .kernels import _level_sum, njit
+from .kernels import _level_sum, njit, play_update
 from .pi import PIModel
 from .validation import as_finite_scalar, as_matrix, as_state_vector, as_vector, filled
 
@@ -87,6 +87,21 @@ def level_segments(z: ArrayLike, knots: ArrayLike) -> Float2D:
         out[:, j] = np.clip(z, e[j - 1], e[j]) - e[j - 1]
     out[:, m - 1] = np.maximum(z, e[m - 2]) - e[m - 2]
     return out
+
+
+#: The rate coefficient β of the rate-dependent models (:class:`RateDependentPreisach`,
+#: :class:`core.stages.RateDependentPI`): how much every threshold widens per unit input rate.
+RATE_FIELD = Field("beta_s", "number", doc="threshold increase per unit input rate (s)",
+                   title="Rate sensitivity β",
+                   control=Control("β", "s", (0.0, 2.0), lower=0.0, scale=1e-4))
+
+
+def as_rate_coefficient(beta_s: Any) -> float:
+    """``beta_s`` as a finite number ``>= 0`` (:class:`ParameterError` otherwise)."""
+    b = as_finite_scalar(beta_s, "beta_s")
+    if b < 0:
+        raise ParameterError(f"beta_s = {b:g} must be >= 0 (thresholds cannot shrink with rate)")
+    return b
 
 
 def checked_rate_slopes(what: str, bounds: tuple[float, float], beta_s: float, dt: float
@@ -327,6 +342,15 @@ class PreisachInverse(Model):
 
 
 # ----------------------------------------------------------------------------- rate-dependent
+@njit(cache=True, nogil=True, inline="always")
+def rate_bracket(yk, f0, ref, m_lo, m_hi):  # pragma: no cover - compiled
+    """Where the input of a rate-dependent model's output ``yk`` lies, from its output ``f0``
+    at the input ``ref`` and the slope bounds ``[m_lo, m_hi]`` (``m_lo > 0``): ``(lo, hi)``."""
+    if yk >= f0:
+        return ref + (yk - f0) / m_hi, ref + (yk - f0) / m_lo
+    return ref + (yk - f0) / m_lo, ref + (yk - f0) / m_hi
+
+
 @njit(cache=True, nogil=True)
 def _rate_eval(x, r, e, W, k_rate, up, has_prev, zin, zout, write):  # pragma: no cover
     """Output of the rate-dependent Preisach at input ``x`` from the plays ``zin`` (previous
@@ -337,12 +361,7 @@ def _rate_eval(x, r, e, W, k_rate, up, has_prev, zin, zout, write):  # pragma: n
         if r[i] == 0.0:
             zi = x  # the reversible play stays the identity at any rate
         else:
-            ri = r[i] + extra
-            zi = zin[i]
-            if zi > x + ri:
-                zi = x + ri
-            if zi < x - ri:
-                zi = x - ri
+            zi = play_update(zin[i], x, r[i] + extra)
         if write:
             zout[i] = zi
         acc += _level_sum(zi, e, W, i)
@@ -367,12 +386,7 @@ def _rate_inverse(y, r, e, W, k_rate, m_lo, m_hi, up, has_prev, z, out):  # prag
         yk = y[k]
         ref = up if has_prev else 0.0
         f0 = _rate_eval(ref, r, e, W, k_rate, up, has_prev, z, z, False)
-        if yk >= f0:
-            lo = ref + (yk - f0) / m_hi
-            hi = ref + (yk - f0) / m_lo
-        else:
-            lo = ref + (yk - f0) / m_lo
-            hi = ref + (yk - f0) / m_hi
+        lo, hi = rate_bracket(yk, f0, ref, m_lo, m_hi)
         for _ in range(100):
             mid = 0.5 * (lo + hi)
             if mid == lo or mid == hi:
@@ -419,9 +433,7 @@ class RateDependentPreisach(Model):
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
         *PreisachModel.fields[:2],  # thresholds, weights
-        Field("beta_s", "number", doc="threshold increase per unit input rate (s)",
-              title="Rate sensitivity β",
-              control=Control("β", "s", (0.0, 2.0), lower=0.0, scale=1e-4)),
+        RATE_FIELD,
         *PreisachModel.fields[2:],  # knots, state0
     )
     thresholds: Float1D
@@ -434,12 +446,7 @@ class RateDependentPreisach(Model):
         base = PreisachModel(self.thresholds, self.weights, self.knots, self.state0)
         for k in ("thresholds", "weights", "knots", "state0"):
             object.__setattr__(self, k, getattr(base, k))
-        b = as_finite_scalar(self.beta_s, "beta_s")
-        if b < 0:
-            raise ParameterError(
-                f"beta_s = {b:g} must be >= 0 (thresholds cannot shrink with rate)"
-            )
-        object.__setattr__(self, "beta_s", b)
+        object.__setattr__(self, "beta_s", as_rate_coefficient(self.beta_s))
 
     @property
     def static(self) -> PreisachModel:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels import njit
+from ..kernels import njit, play_update
 
 __all__ = ["bank_rows_times", "delay_rows", "iir_rows", "input_rows_times", "play_projection",
            "play_rows", "row_selector", "turns_rarely"]
@@ -78,14 +78,7 @@ def play_rows(u, r, z, rows, out):  # pragma: no cover - compiled
     for i in range(rows[-1] + 1 if rows.size else 0):
         ui = u[i]
         for j in range(n):
-            lo = ui - r[j]
-            hi = ui + r[j]
-            zj = z[j]
-            if zj > hi:
-                zj = hi
-            if zj < lo:
-                zj = lo
-            z[j] = zj
+            z[j] = play_update(z[j], ui, r[j])
         if i == rows[k]:
             for j in range(n):
                 out[k, j] = z[j]

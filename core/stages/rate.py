@@ -9,11 +9,11 @@ import numpy as np
 
 from .. import kernels
 from .._typing import ArrayLike, Float1D
-from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
-from ..exceptions import ParameterError
+from ..base import SAMPLE_BYTES, Field, Model, RunCost, register_model
+from ..kernels import play_update
 from ..pi import PIModel
-from ..preisach import checked_rate_slopes
-from ..validation import as_finite_scalar, as_input_signal, filled
+from ..preisach import RATE_FIELD, as_rate_coefficient, checked_rate_slopes, rate_bracket
+from ..validation import as_input_signal, filled
 
 njit = kernels.njit
 
@@ -29,12 +29,7 @@ def _rd_play_matrix(u, r, k_rate, u_prev, z, out):  # pragma: no cover - compile
         extra = k_rate * abs(uk - up)
         up = uk
         for i in range(n):
-            ri = r[i] + extra
-            zi = z[i]
-            if zi > uk + ri:
-                zi = uk + ri
-            if zi < uk - ri:
-                zi = uk - ri
+            zi = play_update(z[i], uk, r[i] + extra)
             z[i] = zi
             out[k, i] = zi
 
@@ -87,13 +82,7 @@ def _rd_eval(u, r, w, p0, k_rate, up, has_prev, z):  # pragma: no cover - compil
     extra = k_rate * abs(u - up) if has_prev else 0.0
     acc = p0 * u
     for i in range(r.shape[0]):
-        ri = r[i] + extra
-        zi = z[i]
-        if zi > u + ri:
-            zi = u + ri
-        if zi < u - ri:
-            zi = u - ri
-        acc += w[i] * zi
+        acc += w[i] * play_update(z[i], u, r[i] + extra)
     return acc
 
 
@@ -105,12 +94,7 @@ def _rd_inverse(y, r, w, p0, k_rate, m_lo, m_hi, up, has_prev, z, out):  # pragm
         yk = y[k]
         ref = up if has_prev else 0.0
         f0 = _rd_eval(ref, r, w, p0, k_rate, up, has_prev, z)
-        if yk >= f0:
-            lo = ref + (yk - f0) / m_hi
-            hi = ref + (yk - f0) / m_lo
-        else:
-            lo = ref + (yk - f0) / m_lo
-            hi = ref + (yk - f0) / m_hi
+        lo, hi = rate_bracket(yk, f0, ref, m_lo, m_hi)
         for _ in range(100):
             mid = 0.5 * (lo + hi)
             if mid == lo or mid == hi:
@@ -122,13 +106,7 @@ def _rd_inverse(y, r, w, p0, k_rate, m_lo, m_hi, up, has_prev, z, out):  # pragm
         uk = 0.5 * (lo + hi)
         extra = k_rate * abs(uk - up) if has_prev else 0.0
         for i in range(n):
-            ri = r[i] + extra
-            zi = z[i]
-            if zi > uk + ri:
-                zi = uk + ri
-            if zi < uk - ri:
-                zi = uk - ri
-            z[i] = zi
+            z[i] = play_update(z[i], uk, r[i] + extra)
         up = uk
         has_prev = True
         out[k] = uk
@@ -162,9 +140,7 @@ class RateDependentPI(Model):
     needs_dt: ClassVar[bool] = True
     fields: ClassVar[tuple[Field, ...]] = (
         *PIModel.fields[:3],  # p0, the static thresholds r_i and the weights p_i
-        Field("beta_s", "number", doc="threshold increase per unit input rate (s)",
-              title="Rate sensitivity β",
-              control=Control("β", "s", (0.0, 2.0), lower=0.0, scale=1e-4)),
+        RATE_FIELD,
         PIModel.fields[3],  # state0
     )
     p0: float
@@ -179,12 +155,7 @@ class RateDependentPI(Model):
         object.__setattr__(self, "thresholds", base.thresholds)
         object.__setattr__(self, "weights", base.weights)
         object.__setattr__(self, "state0", base.state0)
-        b = as_finite_scalar(self.beta_s, "beta_s")
-        if b < 0:
-            raise ParameterError(
-                f"beta_s = {b:g} must be >= 0 (thresholds cannot shrink with rate)"
-            )
-        object.__setattr__(self, "beta_s", b)
+        object.__setattr__(self, "beta_s", as_rate_coefficient(self.beta_s))
 
     @property
     def static(self) -> PIModel:
