@@ -118,9 +118,27 @@ def checked_rate_slopes(what: str, bounds: tuple[float, float], beta_s: float, d
     return m_lo, m_hi
 
 
+class _PlaysOnLevels:
+    """The sizes of a Preisach model in the play form (:class:`PreisachModel` and
+    :class:`RateDependentPreisach`): its plays and its level segments."""
+
+    thresholds: Float1D
+    knots: Float1D
+
+    @property
+    def n(self) -> int:
+        """Number of play operators (threshold bands)."""
+        return int(self.thresholds.size)
+
+    @property
+    def n_segments(self) -> int:
+        """Number of level segments ``m = len(knots) + 1``."""
+        return int(self.knots.size + 1)
+
+
 @register_model
 @dataclass(frozen=True, eq=False)
-class PreisachModel(Model):
+class PreisachModel(_PlaysOnLevels, Model):
     """Preisach model ``y = Σ_i Σ_j W[i, j] seg_j(Γ_{r_i}[u])`` (level-dependent density).
 
     Parameters
@@ -208,16 +226,6 @@ class PreisachModel(Model):
         )
 
     # ------------------------------------------------------------------ properties
-    @property
-    def n(self) -> int:
-        """Number of play operators (threshold bands)."""
-        return int(self.thresholds.size)
-
-    @property
-    def n_segments(self) -> int:
-        """Number of level segments ``m = len(knots) + 1``."""
-        return int(self.knots.size + 1)
-
     @property
     def is_invertible(self) -> bool:
         """Whether ``r_0 == 0`` and every reversible weight ``W[0, j] > 0`` (branches rise)."""
@@ -405,7 +413,7 @@ def _rate_inverse(y, r, e, W, k_rate, m_lo, m_hi, up, has_prev, z, out):  # prag
 
 @register_model
 @dataclass(frozen=True, eq=False)
-class RateDependentPreisach(Model):
+class RateDependentPreisach(_PlaysOnLevels, Model):
     """Preisach model whose relay thresholds move apart with the input rate.
 
     ``y = Σ_i Σ_j W[i, j] seg_j(Γ_{r_i + β|u̇|}[u])``: the :class:`PreisachModel` (level-
@@ -452,16 +460,6 @@ class RateDependentPreisach(Model):
     def static(self) -> PreisachModel:
         """The rate-independent Preisach model (β = 0)."""
         return PreisachModel(self.thresholds, self.weights, self.knots, self.state0)
-
-    @property
-    def n(self) -> int:
-        """Number of play operators (threshold bands)."""
-        return int(self.thresholds.size)
-
-    @property
-    def n_segments(self) -> int:
-        """Number of level segments ``m = len(knots) + 1``."""
-        return int(self.knots.size + 1)
 
     def default_state(self) -> tuple[Float1D, None]:
         return (np.array(self.state0, copy=True), None)
