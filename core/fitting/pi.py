@@ -130,10 +130,10 @@ def fit_linear_pi(
     n = r.size
     xl = np.zeros(0) if extra_lower is None else np.asarray(extra_lower, dtype=np.float64)
     k = xl.size
-    kw: dict[str, Any] = {"transform": transform, "extra": extra, "n_extra": k, "chunk": chunk}
     if gram is None:
         n_lab = int(max(train_labels)) + 1
-        gram = stream_gram(segments, r, n_labels=n_lab, **kw)
+        gram = stream_gram(segments, r, n_labels=n_lab, transform=transform, extra=extra,
+                           n_extra=k, chunk=chunk)
     G = np.sum(gram[list(train_labels)], axis=0)
     T, lower = constraint_transform(n, k, min_slope, constraint)
     lower[2 + n :] = xl
@@ -144,7 +144,8 @@ def fit_linear_pi(
     sol = solve_constrained(lower[keep[:-1]], gram=Tk.T @ G[np.ix_(keep, keep)] @ Tk)
     solver = "gram-cholesky-nnls"
     if sol.cond > COND_LIMIT and allow_tsqr:
-        R = stream_tsqr(segments, r, use_labels=train_labels, **kw)
+        R = stream_tsqr(segments, r, use_labels=train_labels, transform=transform, extra=extra,
+                        n_extra=k, chunk=chunk)
         sol = solve_constrained(lower[keep[:-1]], factor=R[np.ix_(keep, keep)] @ Tk)
         solver = "tsqr-nnls"
     theta = np.zeros(lower.size)
@@ -256,6 +257,19 @@ def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) ->
                      f"at {valid[-2]}, {last:.4g} at {n}): more operators ({3 * n // 2} or "
                      "more) may fit better")
     return text
+
+
+@dataclass(frozen=True, eq=False)
+class _Design:
+    """The weight fit's design: ``n`` thresholds, their per-label Gram matrices over
+    ``segments`` and the labels trained and tested on."""
+
+    n: int
+    thresholds: Float1D
+    gram: np.ndarray
+    segments: list[Segment]
+    train_labels: tuple[int, ...]
+    test_label: int
 
 
 @dataclass(eq=False, repr=False)
@@ -385,17 +399,7 @@ class PIRegressor(Estimator):
             When a slope sits on its lower bound (the inverse is very steep there) or the
             design is nearly collinear.
         """
-        explicit = not isinstance(self.thresholds, str)
-        n_fixed = self.n_operators
-        if explicit:
-            r_exp = as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
-            if n_fixed is not None and n_fixed != r_exp.size:
-                raise ParameterError(
-                    f"n_operators = {n_fixed} but {r_exp.size} explicit thresholds were given"
-                )
-            n_fixed = r_exp.size
-        if n_fixed is not None and (int(n_fixed) != n_fixed or n_fixed < 1):
-            raise ParameterError(f"n_operators must be a positive integer, got {n_fixed!r}")
+        n_fixed, r_exp = self._fixed_size()
         n_min = n_fixed if n_fixed is not None else min(self.candidates)
         prep = prepare(
             u, y, train, test, validation=self.validation, min_train=max(20, 3 * (n_min + 3))
@@ -406,72 +410,35 @@ class PIRegressor(Estimator):
         self.constraint_ = self._constraint_for(self.orientation_)
         eps = self._min_slope(prep)
         cv_scores: dict[int, float | None] = {}
-        chosen: tuple[Float1D, np.ndarray] | None = None
+        design = None
         if n_fixed is None:
-            K = int(self.cv_blocks)
-            segs = prep.segments(K)
-            results = {}
-            for n in sorted(set(int(c) for c in self.candidates)):
-                if prep.n_train < 3 * (n + 3) * K // (K - 1):
-                    cv_scores[n] = None
-                    continue
-                r = self._thresholds_for(prep, n)
-                gram = stream_gram(segs, r, n_labels=K + 1, chunk=self.chunk)
-                lower, keep, T = self._lower(n, eps)
-                sse = _cv_sse(gram[:, keep][:, :, keep], K, lower, T)
-                cv_scores[n] = float(np.sqrt(sse / prep.n_train))
-                results[n] = (r, gram)
-            valid = {n: s for n, s in cv_scores.items() if s is not None}
-            if valid:
-                best_score = min(valid.values())
-                n = min(n for n, s in valid.items() if s <= (1 + self.tolerance) * best_score)
-                chosen = results[n]
-                train_labels: tuple[int, ...] = tuple(range(K))
-                test_label = K
-            else:  # too few samples to cross-validate: smallest candidate, no CV
+            cv_scores, design = self._cross_validate(prep, eps)
+            if design is None:  # too few samples to cross-validate: smallest candidate, no CV
                 n_fixed = min(int(c) for c in self.candidates)
                 warnings.warn(
-                    f"only {prep.n_train} training samples: too few for {K}-block "
-                    f"cross-validation, using n_operators = {n_fixed}",
+                    f"only {prep.n_train} training samples: too few for {int(self.cv_blocks)}"
+                    f"-block cross-validation, using n_operators = {n_fixed}",
                     FitWarning,
                     stacklevel=3,
                 )
-        if chosen is not None:
-            r, gram = chosen
-        else:
+        if design is None:
             n = int(filled(n_fixed))  # set where no candidate could be cross-validated
             segs = prep.segments(1)
-            r = r_exp if explicit else self._thresholds_for(prep, n)
-            gram = stream_gram(segs, r, n_labels=2, chunk=self.chunk)
-            train_labels = (0,)
-            test_label = 1
+            r = r_exp if r_exp is not None else self._thresholds_for(prep, n)
+            design = _Design(n, r, stream_gram(segs, r, n_labels=2, chunk=self.chunk), segs,
+                             (0,), 1)
+        n, r = design.n, design.thresholds
         fit = fit_linear_pi(
-            segs,
+            design.segments,
             r,
             min_slope=eps,
             include_offset=self.include_offset,
-            train_labels=train_labels,
-            gram=gram,
+            train_labels=design.train_labels,
+            gram=design.gram,
             chunk=self.chunk,
             constraint=self.constraint_,
         )
-        if fit.cond > COND_LIMIT:
-            warnings.warn(
-                f"nearly collinear design (cond = {fit.cond:.2g}): some thresholds may exceed "
-                "the input travel of the data, so their operators never move",
-                FitWarning,
-                stacklevel=3,
-            )
-        slopes = np.cumsum(np.concatenate(([fit.p0], fit.weights)))
-        if float(slopes.min()) <= eps * (1 + 1e-9):
-            j = int(np.argmin(slopes))
-            warnings.warn(
-                f"loop slope S{j + 1} sits on its lower bound min_slope = {eps:.3g}: the fitted "
-                f"model is invertible but its inverse has slope up to {1 / eps:.3g} (input per "
-                "output unit); consider a larger min_slope if the inverse drives an actuator",
-                FitWarning,
-                stacklevel=3,
-            )
+        self._warn_fit(fit, eps)
         self.thresholds_ = np.asarray(r, dtype=np.float64)
         self.p0_ = fit.p0
         self.weights_ = fit.weights
@@ -483,8 +450,89 @@ class PIRegressor(Estimator):
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
         # scored on the whole training window (rows before the wipe-out time included, when
         # they were left out of the weight fit)
-        ev_segs, ev_train, ev_test = (segs, train_labels, test_label) if prep is prep_all else (
-            prep_all.segments(1), (0,), 1)
+        ev_segs, ev_train, ev_test = (
+            (design.segments, design.train_labels, design.test_label) if prep is prep_all
+            else (prep_all.segments(1), (0,), 1))
+        self.report_ = self._scored_report(
+            ev_segs,
+            train_labels=ev_train,
+            test_labels=(ev_test,),
+            model_type=self.model_.type_name,
+            n_parameters=n + 1 + int(self.include_offset),
+            invertible=self.model_.is_invertible,
+            min_slope=float(np.min(self.model_.slopes)),
+            condition_number=fit.cond,
+            solver=fit.solver,
+            extra=self._report_extra(n, eps, fit, cv_scores, memory_note),
+        )
+
+    def _fixed_size(self) -> tuple[int | None, Float1D | None]:
+        """The number of operators when it is not chosen by cross-validation (``None``
+        otherwise), and the explicit thresholds when they were given."""
+        n_fixed = self.n_operators
+        r_exp = None
+        if not isinstance(self.thresholds, str):
+            r_exp = as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
+            if n_fixed is not None and n_fixed != r_exp.size:
+                raise ParameterError(
+                    f"n_operators = {n_fixed} but {r_exp.size} explicit thresholds were given"
+                )
+            n_fixed = r_exp.size
+        if n_fixed is not None and (int(n_fixed) != n_fixed or n_fixed < 1):
+            raise ParameterError(f"n_operators must be a positive integer, got {n_fixed!r}")
+        return n_fixed, r_exp
+
+    def _cross_validate(self, prep: Prepared, eps: float
+                        ) -> tuple[dict[int, float | None], _Design | None]:
+        """Blocked cross-validation over ``candidates``: the RMSE of each (``None`` where
+        too few samples) and the design of the chosen number (the smallest within
+        ``tolerance`` of the best), or ``None`` when no candidate could be scored."""
+        K = int(self.cv_blocks)
+        segs = prep.segments(K)
+        cv_scores: dict[int, float | None] = {}
+        results = {}
+        for n in sorted(set(int(c) for c in self.candidates)):
+            if prep.n_train < 3 * (n + 3) * K // (K - 1):
+                cv_scores[n] = None
+                continue
+            r = self._thresholds_for(prep, n)
+            gram = stream_gram(segs, r, n_labels=K + 1, chunk=self.chunk)
+            lower, keep, T = self._lower(n, eps)
+            sse = _cv_sse(gram[:, keep][:, :, keep], K, lower, T)
+            cv_scores[n] = float(np.sqrt(sse / prep.n_train))
+            results[n] = (r, gram)
+        valid = {n: s for n, s in cv_scores.items() if s is not None}
+        if not valid:
+            return cv_scores, None
+        best_score = min(valid.values())
+        n = min(n for n, s in valid.items() if s <= (1 + self.tolerance) * best_score)
+        r, gram = results[n]
+        return cv_scores, _Design(n, r, gram, segs, tuple(range(K)), K)
+
+    @staticmethod
+    def _warn_fit(fit: LinearPIFit, eps: float) -> None:
+        """Warn of a nearly collinear design and of a slope on its lower bound."""
+        if fit.cond > COND_LIMIT:
+            warnings.warn(
+                f"nearly collinear design (cond = {fit.cond:.2g}): some thresholds may exceed "
+                "the input travel of the data, so their operators never move",
+                FitWarning,
+                stacklevel=4,
+            )
+        slopes = np.cumsum(np.concatenate(([fit.p0], fit.weights)))
+        if float(slopes.min()) <= eps * (1 + 1e-9):
+            j = int(np.argmin(slopes))
+            warnings.warn(
+                f"loop slope S{j + 1} sits on its lower bound min_slope = {eps:.3g}: the fitted "
+                f"model is invertible but its inverse has slope up to {1 / eps:.3g} (input per "
+                "output unit); consider a larger min_slope if the inverse drives an actuator",
+                FitWarning,
+                stacklevel=4,
+            )
+
+    def _report_extra(self, n: int, eps: float, fit: LinearPIFit,
+                      cv_scores: dict[int, float | None], memory_note: Any) -> dict[str, Any]:
+        """The kind's numbers of the report (``FitReport.extra``)."""
         extra: dict[str, Any] = {"n_operators": n, "min_slope": eps, "offset": fit.offset}
         if cv_scores:
             extra["cv_rmse"] = cv_scores
@@ -497,18 +545,7 @@ class PIRegressor(Estimator):
         }[self.constraint_]
         extra["constraint"] = self.constraint_
         extra.update(self._extra())
-        self.report_ = self._scored_report(
-            ev_segs,
-            train_labels=ev_train,
-            test_labels=(ev_test,),
-            model_type=self.model_.type_name,
-            n_parameters=n + 1 + int(self.include_offset),
-            invertible=self.model_.is_invertible,
-            min_slope=float(np.min(self.model_.slopes)),
-            condition_number=fit.cond,
-            solver=fit.solver,
-            extra=extra,
-        )
+        return extra
 
     def _build(self, p0: float, r: Float1D, w: Float1D, u0: float) -> Any:
         """The fitted model of weights ``(p0, w)`` on thresholds ``r``, relaxed at ``u0``."""
