@@ -25,7 +25,7 @@ from ..threads import with_thread_limit
 from ..warning_filters import FILTERS
 from ._data import Prepared, prepare
 from .adequacy import Misfit, misfit
-from .choice import AUTO, choose_base
+from .choice import AUTO, BaseChoice, choose_base
 from .orientation import loop_orientation
 
 if TYPE_CHECKING:
@@ -237,7 +237,37 @@ def fit_recordings(
     with _WARNINGS_LOCK, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
-    msgs = tuple(str(w.message) for w in caught)
+    extra, msgs = _notes(est, recs, kw, kind, choice, tuple(str(w.message) for w in caught))
+    est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
+    mem = est.report_.extra.get("initial_memory")
+    first = recs[0]
+    names = [r.name for r in recs] if files is None else list(files)
+    # a header's unit that is not a unit (see core.paramset.unit_problem) becomes unknown
+    units = {k: clean_unit(first.units.get(k) or d)
+             for k, d in (("input", "V"), ("output", "um"), ("time", "s"))}
+    fit_info = {
+        "model": kind,
+        "files": names,
+        "recordings": [r.name for r in recs],
+        "columns": {k: first.columns.get(k, "") for k in ("time", "input", "output")},
+        "train": None if train is None else train.text,
+        "test": None if test is None else test.text,
+        "n_operators": n_operators,
+        "report": est.report_.to_dict(),
+        "warnings": list(msgs),
+    }
+    ps = ParameterSet.from_model(est.full_model_, units=units,
+                                 source=source or "fit " + " ".join(names), fit=fit_info)
+    return FitOutcome(kind, est.full_model_, est.report_, msgs,
+                      mem["summary"] if isinstance(mem, dict) else "", ps, est)
+
+
+def _notes(est: Any, recs: Sequence[Recording], kw: dict[str, Any], kind: str,
+           choice: BaseChoice | None, msgs: tuple[str, ...]
+           ) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """The fitted ``est``'s report extras with what the entry point adds (the stop branch
+    in the data's units, the base choice, the loops' orientation, the white-noise floor)
+    and its warnings with the entry point's (clockwise loops, a misfit and where)."""
     extra = dict(est.report_.extra)
     feats = getattr(est, "features_", None)  # a stop-operator branch, in the data's units
     if feats is not None:
@@ -259,29 +289,7 @@ def fit_recordings(
             pct = est.report_.test.rmse_pct if est.report_.test is not None else None
             said = miss.text(pct, "" if choice is None else choice.advice).rstrip()
             msgs = (*msgs, said + ("" if said.endswith(".") else ".") + _left_text(est, recs))
-    est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
-    mem = est.report_.extra.get("initial_memory")
-    report_doc = est.report_.to_dict()
-    first = recs[0]
-    names = [r.name for r in recs] if files is None else list(files)
-    # a header's unit that is not a unit (see core.paramset.unit_problem) becomes unknown
-    units = {k: clean_unit(first.units.get(k) or d)
-             for k, d in (("input", "V"), ("output", "um"), ("time", "s"))}
-    fit_info = {
-        "model": kind,
-        "files": names,
-        "recordings": [r.name for r in recs],
-        "columns": {k: first.columns.get(k, "") for k in ("time", "input", "output")},
-        "train": None if train is None else train.text,
-        "test": None if test is None else test.text,
-        "n_operators": n_operators,
-        "report": report_doc,
-        "warnings": list(msgs),
-    }
-    ps = ParameterSet.from_model(est.full_model_, units=units,
-                                 source=source or "fit " + " ".join(names), fit=fit_info)
-    return FitOutcome(kind, est.full_model_, est.report_, msgs,
-                      mem["summary"] if isinstance(mem, dict) else "", ps, est)
+    return extra, msgs
 
 
 def _left_text(est: Any, recs: Sequence[Recording]) -> str:
