@@ -548,7 +548,37 @@ def fmu_sources(
     header, body, _ = _emit_block(running, block, dt, role, params=f"{ident}_P_",
                                   emitted=emitted)
 
-    # ---- variables
+    in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
+    variables = _io_variables(fmi_version, inverse, dt, preview, units)
+    params, tune_lines = _parameters(stages, emitted, role, units)
+    variables += params
+
+    tune_helpers = [line for em in emitted for line in em.tune_helpers]
+    src = fmu_c_source(FmuCode(
+        ident, fmi_version, header, "\n".join([body, *tune_helpers]),
+        tuple(parse_constant(d) for em in emitted for d in em.constants), tuple(tune_lines),
+        tuple(float(filled(v.start)) for v in params),  # a parameter always starts
+        tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
+        dt, preview, inverse, FIRST_PARAMETER_VR, tuple(v.name for v in params),
+        tuple((v.lower, v.upper, v.strict, v.above, v.below) for v in params),
+        (in_name, out_name), _slope_rules(params, stages) if inverse else ()),
+        fmi_headers(fmi_version))
+    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
+        (src + str(fmi_version)).encode()).hexdigest())) + "}"
+    src = src.replace("@TOKEN@", token)
+    doc_text = _description(ps, fwd, inverse, preview, dt, units, len(stages), stages)
+    xml = (_xml3 if fmi_version == 3 else _xml2)(
+        ps, ident, token, doc_text, variables, dt)
+    build = _build_description(ident) if fmi_version == 3 else None
+    readme = _readme(ident, fmi_version)
+    return FmuSources(ident, fmi_version, xml, src, build, readme, ps.to_json(),
+                      tuple(variables), running, preview, dt)
+
+
+def _io_variables(fmi_version: int, inverse: bool, dt: float | None, preview: int,
+                  units: Units) -> list[FmuVariable]:
+    """The FMU's variables before its parameters: time (FMI 3), the input, the output, the
+    fixed sample time (with dynamics) and the compensator's preview (with ``inverse``)."""
     in_name, out_name = ("y_ref", "u") if inverse else ("u", "y")
     variables: list[FmuVariable] = []
     u_in, u_out = fmi_unit(units.input) or None, fmi_unit(units.output) or None
@@ -576,29 +606,7 @@ def fmu_sources(
             "samples of the desired trajectory the compensator needs ahead: feed y_ref "
             "this many samples early (0: none)", None, lower=float(preview),
             upper=float(preview)))
-    params, tune_lines = _parameters(stages, emitted, role, units)
-    variables += params
-
-    tune_helpers = [line for em in emitted for line in em.tune_helpers]
-    src = fmu_c_source(FmuCode(
-        ident, fmi_version, header, "\n".join([body, *tune_helpers]),
-        tuple(parse_constant(d) for em in emitted for d in em.constants), tuple(tune_lines),
-        tuple(float(filled(v.start)) for v in params),  # a parameter always starts
-        tuple({"tunable": 1, "fixed": 2, "constant": 0}[v.variability] for v in params),
-        dt, preview, inverse, FIRST_PARAMETER_VR, tuple(v.name for v in params),
-        tuple((v.lower, v.upper, v.strict, v.above, v.below) for v in params),
-        (in_name, out_name), _slope_rules(params, stages) if inverse else ()),
-        fmi_headers(fmi_version))
-    token = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, hashlib.sha256(
-        (src + str(fmi_version)).encode()).hexdigest())) + "}"
-    src = src.replace("@TOKEN@", token)
-    doc_text = _description(ps, fwd, inverse, preview, dt, units, len(stages), stages)
-    xml = (_xml3 if fmi_version == 3 else _xml2)(
-        ps, ident, token, doc_text, variables, dt)
-    build = _build_description(ident) if fmi_version == 3 else None
-    readme = _readme(ident, fmi_version)
-    return FmuSources(ident, fmi_version, xml, src, build, readme, ps.to_json(),
-                      tuple(variables), running, preview, dt)
+    return variables
 
 
 def _description(ps: ParameterSet, fwd: Model, inverse: bool, preview: int, dt: float | None,
