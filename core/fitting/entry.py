@@ -227,17 +227,15 @@ def fit_recordings(
     est = cls(n_operators=n_operators, constraint=constraint or "nonnegative",
               initial_memory=_initial_memory_rule(cls, initial_memory))
     multi = len(recs) > 1
-    kw: dict[str, Any] = {}
-    if trains:
-        kw["train"] = trains if multi else trains[0]
-    if tests:
-        kw["test"] = tests if multi else tests[0]
+    rows = _FitRows(None if not trains else trains if multi else trains[0],
+                    None if not tests else tests if multi else tests[0])
     us = [r.u for r in recs]
     ys = [r.y for r in recs]
     with _WARNINGS_LOCK, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        est.fit(us if multi else us[0], ys if multi else ys[0], **kw)
-    extra, msgs = _notes(est, recs, kw, kind, choice, tuple(str(w.message) for w in caught))
+        est.fit(us if multi else us[0], ys if multi else ys[0], train=rows.train,
+                test=rows.test)
+    extra, msgs = _notes(est, recs, rows, kind, choice, tuple(str(w.message) for w in caught))
     est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
     mem = est.report_.extra.get("initial_memory")
     first = recs[0]
@@ -262,7 +260,16 @@ def fit_recordings(
                       mem["summary"] if isinstance(mem, dict) else "", ps, est)
 
 
-def _notes(est: Any, recs: Sequence[Recording], kw: dict[str, Any], kind: str,
+@dataclass(frozen=True)
+class _FitRows:
+    """The masks ``fit`` was given (one recording: an array; several: a list; ``None``: the
+    estimator's default split)."""
+
+    train: Any
+    test: Any
+
+
+def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
            choice: BaseChoice | None, msgs: tuple[str, ...]
            ) -> tuple[dict[str, Any], tuple[str, ...]]:
     """The fitted ``est``'s report extras with what the entry point adds (the stop branch
@@ -277,11 +284,11 @@ def _notes(est: Any, recs: Sequence[Recording], kw: dict[str, Any], kind: str,
         extra["base_choice"] = choice.text
         extra["base_choice_scores"] = choice.to_dict()
     if "orientation" not in extra:
-        extra["orientation"], cw = _orientation(est, recs, kw)
+        extra["orientation"], cw = _orientation(est, recs, rows)
         if cw and getattr(est, "constraint", "") != "slopes":
             # (with free-sign weights a play-based kind can flatten its branches)
             msgs = (*msgs, CLOCKWISE_WARNING.format(kind=kind))
-    miss = _misfit(est, recs, kw)
+    miss = _misfit(est, recs, rows)
     if miss is not None:
         extra["noise_floor"] = miss.floor
         extra["rmse_over_noise_floor"] = miss.ratio
@@ -309,12 +316,12 @@ def _left_text(est: Any, recs: Sequence[Recording]) -> str:
     return f" On {rec.name}, {left.text(flat)}."
 
 
-def _rows(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Prepared:
+def _rows(est: Any, recs: Sequence[Recording], rows: _FitRows) -> Prepared:
     """The training and held-out rows the estimator used (its masks, or its default split)."""
     us, ys = [r.u for r in recs], [r.y for r in recs]
     multi = len(recs) > 1
-    return prepare(us if multi else us[0], ys if multi else ys[0], kw.get("train"),
-                   kw.get("test"), validation=getattr(est, "validation", 0.2), min_train=1)
+    return prepare(us if multi else us[0], ys if multi else ys[0], rows.train,
+                   rows.test, validation=getattr(est, "validation", 0.2), min_train=1)
 
 
 #: The warning of a kind whose loops run counter-clockwise only, on clockwise data.
@@ -326,24 +333,24 @@ CLOCKWISE_WARNING = (
     "auto, which chooses among them")
 
 
-def _orientation(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> tuple[str, bool]:
+def _orientation(est: Any, recs: Sequence[Recording], rows: _FitRows) -> tuple[str, bool]:
     """The orientation line of a kind that does not report its own (the training rows' loops,
     and on clockwise data that the kind's loops run the other way) and whether they run
     clockwise (the kind cannot follow them)."""
-    prep = _rows(est, recs, kw)
+    prep = _rows(est, recs, rows)
     o = loop_orientation(prep.us, prep.ys, prep.train_masks)
     return o.text + ("; this kind's loops run counter-clockwise (play operators)"
                      if o.clockwise else ""), o.clockwise
 
 
-def _misfit(est: Any, recs: Sequence[Recording], kw: dict[str, Any]) -> Misfit | None:
+def _misfit(est: Any, recs: Sequence[Recording], rows: _FitRows) -> Misfit | None:
     """The held-out error of a fitted estimator against its noise floor (the rows its
     report's ``test`` part scored: the ``test`` masks, or the estimator's default split)."""
     if est.report_.test is None:
         return None
     us, ys = [r.u for r in recs], [r.y for r in recs]
     multi = len(recs) > 1
-    prep = _rows(est, recs, kw)
+    prep = _rows(est, recs, rows)
     preds = est.predict(us if multi else us[0])
     preds = list(preds) if multi else [preds]
     return misfit([r.t for r in recs], us, ys, preds, prep.test_masks,
