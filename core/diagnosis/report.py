@@ -9,7 +9,7 @@ import numpy as np
 from .misspecification import BASE_NAMES, describe_alternative
 
 if TYPE_CHECKING:
-    from .results import DiagnosisResult
+    from .results import DiagnosisResult, EffectFinding
 
 __all__ = ["summary_text"]
 
@@ -50,48 +50,7 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
                      + (" and generalised to unseen recordings." if res.recording_specific
                         else "."))
     for i, e in enumerate(res.effects, 1):
-        ps = ", ".join(_param_text(e, k, v) for k, v in e.parameters.items())
-        if e.evidence == "test rows":
-            evidence = [
-                f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
-                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
-                f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} "
-                f"%, z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
-        else:
-            evidence = [
-                f"   accepted on {e.evidence}: MSE -{100 * e.heldout.gain:.1f} %, "
-                f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
-            if np.isfinite(e.heldout_rmse_after):
-                # (only an explicit test window is never used for selection: without one
-                # the interleaved held-out blocks also chose the other candidates)
-                evidence.append(
-                    ("   test window (scored only, never used for selection): RMSE "
-                     if res.crossval is not None else
-                     "   held-out blocks (they also served the selection of other effects): "
-                     "RMSE ")
-                    +
-                    f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
-                    f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
-                    f"{100 * e.heldout_rmse_after / yr:.3f} %)")
-        lines += [f"{i}. {e.name}: {ps}", *evidence] + ([
-            f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
-            f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
-            f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
-            + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
-        ] if e.crossfit and e.evidence == "test rows" else []) + [
-            f"   where: {e.where.get('summary', '')}",
-            f"   why: {e.explanation}",
-            f"   added: {e.equation}",
-        ]
-        lines += [f"   caveat: {c}" for c in e.caveats]
-        lines += _base_dependence(e)
-        lines += _recording_dependence(e)
-        if e.loro is not None:
-            lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
-                         f"{e.loro['rmse_after']:.4g} (MSE "
-                         f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
-        if e.ambiguous_with:
-            lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
+        lines += _effect_lines(res, i, e, yr)
     if np.isfinite(f):
         lines.append(f"Final: held-out RMSE {f:.4g} ({100 * f / yr:.3f} % of output range)")
     else:
@@ -112,6 +71,78 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
                      f"refitted on the others): baseline {lb_['rmse']:.4g} -> final "
                      f"{lf_['rmse']:.4g} (MSE {-100 * lf_['mse_reduction'] + 0.0:+.1f} %); "
                      f"{per}")
+    lines += _not_claimed_lines(res)
+    bp = res.between
+    if bp is not None and len(res.records) >= 2:
+        lines.append("Between recordings (each predicted from the others): rate-dependent "
+                     + ("effects tested" if bp.rate else f"effects not tested ({bp.rate_reason})")
+                     + "; amplitude-dependent " + ("effects tested" if bp.amplitude else
+                                                    f"effects not tested ({bp.amplitude_reason})"))
+    if ad is not None and (not ad.adequate or res.effects):
+        lines.append(f"Base model: {ad.text}")
+    for a in res.ambiguous:
+        lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
+                     f"{a['experiment']}")
+    groups: dict[tuple[str, str], list[str]] = {}
+    for u in res.untestable:  # effects untestable for the same reason share one line
+        groups.setdefault((u["reason"], u["experiment"]), []).append(u["name"])
+    for (reason, experiment), names in groups.items():
+        lines.append(f"Untestable: {', '.join(names)}: {reason}; would need {experiment}")
+    return "\n".join(lines)
+
+
+def _effect_lines(res: DiagnosisResult, i: int, e: EffectFinding, yr: float) -> list[str]:
+    """The report's lines of the ``i``-th accepted effect ``e`` (parameters, evidence,
+    cross-fitting, where, why, the equation, caveats and dependences)."""
+    ps = ", ".join(_param_text(e, k, v) for k, v in e.parameters.items())
+    if e.evidence == "test rows":
+        evidence = [
+            f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+            f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+            f"{100 * e.heldout_rmse_after / yr:.3f} %), MSE -{100 * e.heldout.gain:.1f} "
+            f"%, z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+    else:
+        evidence = [
+            f"   accepted on {e.evidence}: MSE -{100 * e.heldout.gain:.1f} %, "
+            f"z = {e.heldout.z:.1f}, signed-rank p = {e.heldout.sign_p:.2g}"]
+        if np.isfinite(e.heldout_rmse_after):
+            # (only an explicit test window is never used for selection: without one
+            # the interleaved held-out blocks also chose the other candidates)
+            evidence.append(
+                ("   test window (scored only, never used for selection): RMSE "
+                 if res.crossval is not None else
+                 "   held-out blocks (they also served the selection of other effects): "
+                 "RMSE ")
+                +
+                f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
+                f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
+                f"{100 * e.heldout_rmse_after / yr:.3f} %)")
+    lines = [f"{i}. {e.name}: {ps}", *evidence] + ([
+        f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
+        f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
+        f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "
+        + ", ".join(f"{100 * g:+.0f} %" for g in e.crossfit["fold_mse_reductions"])
+    ] if e.crossfit and e.evidence == "test rows" else []) + [
+        f"   where: {e.where.get('summary', '')}",
+        f"   why: {e.explanation}",
+        f"   added: {e.equation}",
+    ]
+    lines += [f"   caveat: {c}" for c in e.caveats]
+    lines += _base_dependence(e)
+    lines += _recording_dependence(e)
+    if e.loro is not None:
+        lines.append(f"   leave-one-recording-out RMSE {e.loro['rmse_before']:.4g} -> "
+                     f"{e.loro['rmse_after']:.4g} (MSE "
+                     f"{-100 * e.loro['mse_reduction'] + 0.0:+.1f} %)")
+    if e.ambiguous_with:
+        lines.append(f"   ambiguous with: {', '.join(e.ambiguous_with)}")
+    return lines
+
+
+def _not_claimed_lines(res: DiagnosisResult) -> list[str]:
+    """The report's lines of what was tested and not claimed: suggestive effects, the
+    recording-specific ones and those judged between recordings only."""
+    lines: list[str] = []
     for sg in res.suggestive:
         pooled = (f"; with the cross-fitted blocks z = {sg['dm_z_pooled']:.2f}, "
                   f"p = {sg['signed_rank_p_pooled']:.2g}, parameter CV across folds "
@@ -136,23 +167,7 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
                          "recording predicted from the others with its parameters searched "
                          f"on them: MSE {-100 * row['heldout_mse_reduction'] + 0.0:+.1f} % "
                          f"pooled, z = {row['dm_z']:.2f}; {per})")
-    bp = res.between
-    if bp is not None and len(res.records) >= 2:
-        lines.append("Between recordings (each predicted from the others): rate-dependent "
-                     + ("effects tested" if bp.rate else f"effects not tested ({bp.rate_reason})")
-                     + "; amplitude-dependent " + ("effects tested" if bp.amplitude else
-                                                    f"effects not tested ({bp.amplitude_reason})"))
-    if ad is not None and (not ad.adequate or res.effects):
-        lines.append(f"Base model: {ad.text}")
-    for a in res.ambiguous:
-        lines.append(f"Ambiguous: {' vs '.join(a['effects'])} ({a['reason']}); to decide: "
-                     f"{a['experiment']}")
-    groups: dict[tuple[str, str], list[str]] = {}
-    for u in res.untestable:  # effects untestable for the same reason share one line
-        groups.setdefault((u["reason"], u["experiment"]), []).append(u["name"])
-    for (reason, experiment), names in groups.items():
-        lines.append(f"Untestable: {', '.join(names)}: {reason}; would need {experiment}")
-    return "\n".join(lines)
+    return lines
 
 
 def _fmt(v: Any) -> str:
