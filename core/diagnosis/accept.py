@@ -6,7 +6,6 @@ compared again (:mod:`core.diagnosis.recheck`).
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 from .acceptance import RULE
 from .context import FitContext
@@ -52,9 +51,9 @@ def accept_best(run: Run, cur: Fit, cands: dict[str, Candidate], passing: list[s
                               "experiment": experiment})
     new = c.fit
     if n_max:
-        refine: list[dict[str, Any]] = []
+        refine: list[RoundRow] = []
         new = _refine_resolution(ctx, c.fit, n_max, refine, rnd + 1)
-        run.rounds.extend(RoundRow.from_dict(d) for d in refine)
+        run.rounds.extend(refine)
     fnd = run.findings[-1]
     if c_spec.dynamics is not None and not ctx.strict:
         new = recheck_dynamics(run, new, fnd, rnd + 1)
@@ -108,7 +107,8 @@ def _recheck_earlier_dynamics(run: Run, new: Fit, rnd: int) -> Fit:
     return new
 
 
-def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd: int) -> Fit:
+def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list[RoundRow], rnd: int
+                       ) -> Fit:
     """Once an effect is in, the baseline may turn out under-resolved: double the play grid
     while the held-out fit improves (``resolution_gain`` and ``resolution_z`` of
     :class:`~core.diagnosis.acceptance.AcceptRule`)."""
@@ -119,9 +119,8 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list, rnd:
         h = compare_heldout(ctx, fit, f2)
         ok = h.gain >= RULE.resolution_gain and (h.z >= RULE.resolution_z
                                                   or h.sign_p < RULE.sign_p)
-        rounds.append({"round": rnd, "effect": f"resolution:{n2}", "heldout_mse_reduction": h.gain,
-                       "dm_z": h.z, "signed_rank_p": h.sign_p, "passes": bool(ok),
-                       "decision": "accepted" if ok else "rejected", "parameters": {}})
+        rounds.append(RoundRow(rnd, f"resolution:{n2}", float(h.gain), float(h.z),
+                               float(h.sign_p), bool(ok), "accepted" if ok else "rejected"))
         if not ok:
             break
         fit = f2

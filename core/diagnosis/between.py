@@ -263,7 +263,33 @@ def leave_one_recording_out(ctx: FitContext, s: Structure, own_level: int | None
             "rmse_pct": 100 * rmse / yr, "per_recording": per}
 
 
-def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] | None:
+@dataclass(frozen=True, eq=False)
+class BetweenRecordings:
+    """The leave-one-recording-out test of one effect (:func:`between_recordings`).
+
+    Attributes
+    ----------
+    pooled : HeldOut
+        The comparison over every left-out recording's rows.
+    per_recording : list of dict
+        ``{"recording", "parameters", "mse_reduction"}`` per left-out recording (report rows).
+    parameter_cv : dict of str to float
+        Coefficient of variation of each nonlinear parameter over the recordings.
+    folds : int
+        Number of recordings.
+    before, after : list of ndarray
+        Each left-out recording's residual without / with the effect.
+    """
+
+    pooled: HeldOut
+    per_recording: list[dict[str, Any]]
+    parameter_cv: dict[str, float]
+    folds: int
+    before: list[Float1D]
+    after: list[Float1D]
+
+
+def between_recordings(ctx: FitContext, name: str, cur: Fit) -> BetweenRecordings | None:
     """Leave-one-recording-out test of effect ``name`` on top of ``cur``.
 
     For each recording ``j``: the current structure is refitted on the other recordings, the
@@ -273,10 +299,8 @@ def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] |
 
     Returns
     -------
-    dict or None
-        ``{"pooled": HeldOut over all left-out recordings, "per_recording": [{"recording",
-        "mse_reduction", "parameters"}], "parameter_cv": {name: CV}, "folds": n}``; None when
-        the effect does not apply on some subset.
+    BetweenRecordings or None
+        None when the effect does not apply on some subset.
     """
     recs = ctx.records
     before: list[Float1D] = []
@@ -306,5 +330,5 @@ def between_recordings(ctx: FitContext, name: str, cur: Fit) -> dict[str, Any] |
             m = float(np.mean(np.abs(v)))
             cv[key] = float(np.std(v, ddof=1) / m) if m > 0 else 0.0
     pooled: HeldOut = heldout_comparison(before, after)
-    return {"pooled": pooled, "per_recording": per, "parameter_cv": cv, "folds": len(recs),
-            "before": before, "after": after}
+    return BetweenRecordings(pooled=pooled, per_recording=per, parameter_cv=cv,
+                             folds=len(recs), before=before, after=after)

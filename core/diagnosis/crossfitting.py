@@ -7,10 +7,12 @@ that read their results are in :mod:`core.diagnosis.acceptance`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from .._typing import Float1D
 from .between import (
     NONLINEAR_PARAMS,
 )
@@ -62,7 +64,36 @@ def fold_fits(ctx: FitContext, folds: list, name: str, cur: Fit, iterations: int
 SCALAR_PARAMS = NONLINEAR_PARAMS
 
 
-def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[str, Any] | None:
+@dataclass(frozen=True, eq=False)
+class CrossFit:
+    """The blocked cross-fitting of one candidate (:func:`crossfit_candidate`).
+
+    Attributes
+    ----------
+    pooled : HeldOut
+        The comparison over the test rows and every block.
+    folds : int
+        Number of blocks.
+    fold_gains : list of float
+        MSE reduction on each block.
+    fold_parameters : list of dict
+        The effect's parameters fitted without each block.
+    parameter_cv : dict of str to float
+        Coefficient of variation across folds of each scalar nonlinear parameter.
+    before, after : list of ndarray
+        The pooled residuals (test rows, then the blocks) without / with the effect.
+    """
+
+    pooled: HeldOut
+    folds: int
+    fold_gains: list[float]
+    fold_parameters: list[dict[str, Any]]
+    parameter_cv: dict[str, float]
+    before: list[Float1D]
+    after: list[Float1D]
+
+
+def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> CrossFit | None:
     """Held-out evidence from the training window itself, by blocked cross-fitting.
 
     For each fold of ``ctx.folds`` the current structure's linear weights are re-solved
@@ -73,10 +104,8 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
 
     Returns
     -------
-    dict or None
-        ``pooled`` (HeldOut over test rows + blocks), ``folds``, ``fold_gains``,
-        ``fold_parameters`` and ``parameter_cv`` (coefficient of variation across folds of
-        each scalar nonlinear parameter); ``None`` without folds.
+    CrossFit or None
+        ``None`` without folds.
     """
     if not ctx.folds:
         return None
@@ -102,8 +131,8 @@ def crossfit_candidate(ctx: FitContext, name: str, cur: Fit, fit: Fit) -> dict[s
         vals = np.array([p[key] for p in params if isinstance(p.get(key), float)])
         if vals.size == len(params) and vals.size >= 2 and np.mean(vals) != 0:
             cv[key] = float(np.std(vals, ddof=1) / abs(np.mean(vals)))
-    return {"pooled": pooled, "folds": len(ctx.folds), "fold_gains": gains,
-            "fold_parameters": params, "parameter_cv": cv, "before": eb, "after": ea}
+    return CrossFit(pooled=pooled, folds=len(ctx.folds), fold_gains=gains,
+                    fold_parameters=params, parameter_cv=cv, before=eb, after=ea)
 
 
 
@@ -136,7 +165,7 @@ JACKKNIFE_BLOCKS = 4
 
 
 def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any],
-                        cf: dict[str, Any] | None, train: list[np.ndarray]
+                        cf: CrossFit | None, train: list[np.ndarray]
                         ) -> tuple[dict[str, Any], str]:
     """1-sigma uncertainties of an accepted effect's parameters, and how they were obtained.
 
@@ -145,7 +174,7 @@ def effect_uncertainty(ctx: FitContext, name: str, cur: Fit, unc: dict[str, Any]
     linear effects (one solve per fold). Dynamics found without cross-fitting keep their
     profile-curvature sigmas (inflated for autocorrelation); the initial memory has none.
     """
-    params = cf["fold_parameters"] if cf is not None else None
+    params = cf.fold_parameters if cf is not None else None
     if params is None and EFFECTS[name].linear:
         folds = ctx.folds or crossfit_folds(ctx.records, train, max_blocks=JACKKNIFE_BLOCKS)
         params = []
@@ -269,12 +298,12 @@ def ambiguous_parameters(params: dict[str, Any], unc: dict[str, Any]) -> list[st
     return out
 
 
-def crossfit_summary(cf: dict[str, Any] | None) -> dict[str, Any] | None:
+def crossfit_summary(cf: CrossFit | None) -> dict[str, Any] | None:
     """JSON-ready summary of :func:`crossfit_candidate` (``None`` when it was not used)."""
     if cf is None:
         return None
-    p: HeldOut = cf["pooled"]
-    return {"folds": cf["folds"], "dm_z_pooled": p.z, "signed_rank_p_pooled": p.sign_p,
+    p = cf.pooled
+    return {"folds": cf.folds, "dm_z_pooled": p.z, "signed_rank_p_pooled": p.sign_p,
             "mse_reduction_pooled": p.gain, "batches": p.n_batches,
-            "fold_mse_reductions": cf["fold_gains"], "fold_parameters": cf["fold_parameters"],
-            "parameter_cv": cf["parameter_cv"]}
+            "fold_mse_reductions": cf.fold_gains, "fold_parameters": cf.fold_parameters,
+            "parameter_cv": cf.parameter_cv}

@@ -44,9 +44,9 @@ def lookalikes_of(ctx: FitContext, c: Candidate, cands: dict[str, Candidate],
         if ctx.strict:
             if o.crossfit is None or c.crossfit is None:
                 continue
-            hh = heldout_comparison(o.crossfit["after"], c.crossfit["after"])
+            hh = heldout_comparison(o.crossfit.after, c.crossfit.after)
         elif o.between is not None and c.between is not None:
-            hh = heldout_comparison(o.between["after"], c.between["after"])
+            hh = heldout_comparison(o.between.after, c.between.after)
         else:
             hh = heldout_comparison(ctx.test_res(o.fit), ctx.test_res(c.fit))
         oh = o.heldout
@@ -63,8 +63,8 @@ def make_finding(run: Run, cur: Fit, c: Candidate, amb: list[str], runner: dict[
                  ) -> EffectFinding:
     """The finding of accepted candidate ``c`` (SAY / MODEL / SHOW)."""
     ctx, records = run.ctx, run.ctx.records
-    disc = (lookalike_evidence(ctx, cur) if c.family == "dynamics" else
-            sign_locking(ctx, cur) if c.family == "slow" else {})
+    disc = (lookalike_evidence(ctx, cur).to_dict() if c.family == "dynamics" else
+            sign_locking(ctx, cur).to_dict() if c.family == "slow" else {})
     used = [tr | te for tr, te in zip(ctx.train, ctx.test, strict=True)]
     where = where_improved(records, [e * u for e, u in zip(ctx.all_res(cur), used, strict=True)],
                            [e * u for e, u in zip(ctx.all_res(c.fit), used, strict=True)],

@@ -77,8 +77,8 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
             cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
                 c = cands[name] = replace(c, crossfit=cf)
-        cv = (c.crossfit["parameter_cv"] if c.crossfit else
-              c.between["parameter_cv"] if c.between else {})
+        cv = (c.crossfit.parameter_cv if c.crossfit else
+              c.between.parameter_cv if c.between else {})
         dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
         decision = None
         if dec.passes and not harmless_elsewhere(c.elsewhere):
@@ -200,7 +200,7 @@ def _split_ok(run: Run, cur: Fit) -> bool:
     """Acceptance rule 5 on the current model's residual (memoised per current fit)."""
     if run.split_for is not cur:
         d = lookalike_evidence(run.ctx, cur)
-        run.split_for, run.split = cur, split_supports_transport(d["a_rev_s"], d["a_hys_s"])
+        run.split_for, run.split = cur, split_supports_transport(d.a_rev_s, d.a_hys_s)
     return run.split
 
 
@@ -211,7 +211,7 @@ _LOCKING_REASON = ("the residual trend after the holds does not follow the sign 
 def _locking_ok(run: Run, cur: Fit) -> bool:
     """Acceptance rule 7 on the current model's residual."""
     d = sign_locking(run.ctx, cur)
-    return trend_follows_steps(d.get("trend_follows_step_sign"), d["steps_with_hold"])
+    return trend_follows_steps(d.trend_follows_step_sign, d.steps_with_hold)
 
 
 def needs_earning(ctx: FitContext, c: Candidate) -> bool:

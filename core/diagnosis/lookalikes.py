@@ -9,8 +9,10 @@ rules of the engine.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,7 +41,44 @@ def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
     return out + spec_untestable(ctx, {u["name"] for u in out})
 
 
-def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
+@dataclass(frozen=True)
+class LookalikeEvidence:
+    """What tells the output-dynamics look-alikes apart in a residual
+    (:func:`lookalike_evidence`): its regression on the reversible and the hysteretic
+    parts of the PI output's rate (``a_rev_s``, ``a_hys_s`` in s, their ratio) and on the
+    output's first and second derivatives (``g1_s`` in s, ``g2_s2`` in s², ``g2 / g1²``);
+    a ratio is ``None`` where its denominator is 0."""
+
+    a_rev_s: float
+    a_hys_s: float
+    rev_hys_ratio: float | None
+    g1_s: float
+    g2_s2: float
+    g2_over_g1sq: float | None
+
+    def to_dict(self) -> dict[str, float | None]:
+        """The finding's ``discriminators`` (JSON)."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class SignLocking:
+    """Whether the residual's trend after each held step follows that step's sign
+    (:func:`sign_locking`): the number of steps with a hold and, with at least two, the
+    share whose trend has the step's sign (``None`` below two)."""
+
+    steps_with_hold: int
+    trend_follows_step_sign: float | None = None
+
+    def to_dict(self) -> dict[str, float]:
+        """The finding's ``discriminators`` (JSON; the share only where there is one)."""
+        d: dict[str, float] = {"steps_with_hold": self.steps_with_hold}
+        if self.trend_follows_step_sign is not None:
+            d["trend_follows_step_sign"] = self.trend_follows_step_sign
+        return d
+
+
+def lookalike_evidence(ctx: FitContext, cur: Fit) -> LookalikeEvidence:
     """rev/hys split and g2/g1² of the current residual (train rows, base partialled out)."""
     rows = []
     for k, (rec, p, x, m) in enumerate(zip(ctx.records, cur.pred, cur.x_pi, ctx.train,
@@ -63,14 +102,13 @@ def lookalike_evidence(ctx: FitContext, cur: Fit) -> dict[str, Any]:
     # of the triangular factor of [base, v_rev, v_hys, dx, ddx, e] is the factor of those
     # five partialled columns (Q T with orthonormal Q), so the regressions below run on T
     T = r_factor(X)[nb:, nb:]
-    out: dict[str, Any] = {}
     c = np.linalg.lstsq(T[:, 0:2], T[:, 4], rcond=None)[0]
-    out["a_rev_s"], out["a_hys_s"] = float(c[0]), float(c[1])
-    out["rev_hys_ratio"] = float(c[0] / c[1]) if c[1] != 0 else None
     g = np.linalg.lstsq(T[:, 2:4], T[:, 4], rcond=None)[0]
-    out["g1_s"], out["g2_s2"] = float(g[0]), float(g[1])
-    out["g2_over_g1sq"] = float(g[1] / g[0] ** 2) if g[0] != 0 else None
-    return out
+    return LookalikeEvidence(
+        a_rev_s=float(c[0]), a_hys_s=float(c[1]),
+        rev_hys_ratio=float(c[0] / c[1]) if c[1] != 0 else None,
+        g1_s=float(g[0]), g2_s2=float(g[1]),
+        g2_over_g1sq=float(g[1] / g[0] ** 2) if g[0] != 0 else None)
 
 
 def score_statistic(ctx: FitContext, cur: Fit, new: Fit) -> float:
@@ -90,7 +128,7 @@ def score_statistic(ctx: FitContext, cur: Fit, new: Fit) -> float:
     return stat
 
 
-def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
+def sign_locking(ctx: FitContext, cur: Fit) -> SignLocking:
     """Does the residual trend after each step follow the sign of that step (creep) or not?"""
     signs, trends = [], []
     for rec, p, c in zip(ctx.records, cur.pred, ctx.coords, strict=True):
@@ -101,11 +139,10 @@ def sign_locking(ctx: FitContext, cur: Fit) -> dict[str, Any]:
             signs.append(sign)
             trends.append(float(np.polyfit(lt, seg, 1)[0]))
     if len(signs) < 2:
-        return {"steps_with_hold": len(signs)}
+        return SignLocking(len(signs))
     s = np.asarray(signs)
     tr = np.asarray(trends)
-    agree = float(np.mean(np.sign(tr) == s))
-    return {"steps_with_hold": len(signs), "trend_follows_step_sign": agree}
+    return SignLocking(len(signs), float(np.mean(np.sign(tr) == s)))
 
 
 #: Knots of the hat basis in the input of :func:`loop_shape_basis` (per direction of motion).

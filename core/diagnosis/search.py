@@ -86,7 +86,7 @@ def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
             continue
         c = judged
         cands[name] = c
-        cv = (c.crossfit or {}).get("parameter_cv")
+        cv = c.crossfit.parameter_cv if c.crossfit is not None else None
         if ctx.strict and decide(c.heldout, c.heldout.mse_before - run.noise**2, len(todo),
                                  cv).passes:
             lead = _new_lead(lead, name, c.heldout.gain)
@@ -118,7 +118,7 @@ def candidate_evidence(run: Run, cur: Fit, c: Candidate, rnd: int, frac: float) 
             run.step(rnd, frac, f"cross-fitting {name}")
             cf = crossfit_candidate(ctx, name, cur, c.fit)
             if cf is not None:
-                return replace(c, heldout=cf["pooled"], crossfit=cf)
+                return replace(c, heldout=cf.pooled, crossfit=cf)
         return c
     if EFFECTS[name].before_wipeout:
         mm = ([a & b for a, b in zip(ctx.memory_masks, ctx.train, strict=True)] if ctx.strict
@@ -135,7 +135,7 @@ def candidate_evidence(run: Run, cur: Fit, c: Candidate, rnd: int, frac: float) 
             run.between.amplitude and spec.amplitude_dependent):
         run.step(rnd, frac, f"predicting each recording from the others ({name})")
         bt = between_recordings(ctx, name, cur)
-        return None if bt is None else replace(c, heldout=bt["pooled"], between=bt)
+        return None if bt is None else replace(c, heldout=bt.pooled, between=bt)
     local = _on_its_signature(ctx, cur, c)
     if local is not None:
         return local

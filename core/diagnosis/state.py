@@ -12,8 +12,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .acceptance import RULE, Decision
-from .between import BetweenPlan
+from .between import BetweenPlan, BetweenRecordings
 from .context import FitContext
+from .crossfitting import CrossFit
 from .registry import EFFECTS
 from .results import EffectFinding, RoundRow
 from .stats import HeldOut
@@ -48,8 +49,8 @@ class Candidate:
     parameters: dict[str, Any]
     uncertainty: dict[str, Any]
     heldout: HeldOut
-    crossfit: dict[str, Any] | None = None
-    between: dict[str, Any] | None = None
+    crossfit: CrossFit | None = None
+    between: BetweenRecordings | None = None
     #: meets the effect-size rules (set by :func:`~core.diagnosis.judge.judge_round`)
     size_ok: bool = False
     #: the acceptance decision and the row's decision word (set by
@@ -70,7 +71,7 @@ class Candidate:
     @property
     def evidence_rows(self) -> HeldOut:
         """The comparison the significance rule uses (cross-fitted when available)."""
-        return self.crossfit["pooled"] if self.crossfit is not None else self.heldout
+        return self.crossfit.pooled if self.crossfit is not None else self.heldout
 
 
 @dataclass
@@ -106,16 +107,16 @@ class Run:
         self.say(0.1 + 0.8 / max(self.max_effects, 1) * (rnd + frac), f"round {rnd + 1}: {msg}")
 
 
-def evidence_label(ctx: FitContext, name: str, cf: dict[str, Any] | None,
-                   bt: dict[str, Any] | None = None) -> str:
+def evidence_label(ctx: FitContext, name: str, cf: CrossFit | None,
+                   bt: BetweenRecordings | None = None) -> str:
     if bt is not None:
-        return (f"each of {bt['folds']} recordings predicted from the others "
+        return (f"each of {bt.folds} recordings predicted from the others "
                 "(leave-one-recording-out, parameters searched without it)")
     if EFFECTS[name].before_wipeout:
         return ("training rows before the wipe-out time (in-sample, 1-2 parameters)"
                 if ctx.strict else "rows before the wipe-out time")
     if ctx.strict:
-        return (f"{cf['folds']} cross-fitted training blocks" if cf is not None else
+        return (f"{cf.folds} cross-fitted training blocks" if cf is not None else
                 "training-RSS screen (below the effect-size rule, not cross-fitted)")
     return "test rows"
 
@@ -128,14 +129,14 @@ def round_row(ctx: FitContext, rnd: int, c: Candidate, passes: bool,
     extra: dict[str, Any] = {}
     label = c.where or evidence_label(ctx, c.name, cf, bt)
     if cf is not None:
-        extra.update(fold_mse_reductions=cf["fold_gains"], parameter_cv=cf["parameter_cv"])
+        extra.update(fold_mse_reductions=cf.fold_gains, parameter_cv=cf.parameter_cv)
         if not ctx.strict:  # the test rows pooled with the cross-fitted blocks
-            p = cf["pooled"]
-            label = f"{c.where or 'test rows'} + {cf['folds']} cross-fitted blocks"
+            p = cf.pooled
+            label = f"{c.where or 'test rows'} + {cf.folds} cross-fitted blocks"
             extra.update(dm_z_pooled=p.z, signed_rank_p_pooled=p.sign_p,
                          mse_reduction_pooled=p.gain)
     if bt is not None:
-        extra.update(per_recording=bt["per_recording"], parameter_cv=bt["parameter_cv"])
+        extra.update(per_recording=bt.per_recording, parameter_cv=bt.parameter_cv)
     return RoundRow(rnd + 1, c.name, h.gain, h.z, h.sign_p, bool(passes), decision,
                     c.parameters, evidence or label, reasons, tuple(extra.items()))
 

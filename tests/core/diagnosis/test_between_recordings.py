@@ -76,7 +76,7 @@ def test_between_recordings_never_uses_the_left_out_recording() -> None:
     r0 = recs[0]
     wrecked[0] = Recording(r0.t, r0.u, r0.y[::-1].copy(), name=r0.name)
     bt2, ctx2, _ = chosen(wrecked)
-    assert bt2["per_recording"][0]["parameters"] == bt["per_recording"][0]["parameters"]
+    assert bt2.per_recording[0]["parameters"] == bt.per_recording[0]["parameters"]
     # and the left-out residual is y_j minus a prediction that ignores y_j
     e = left_out_residual(ctx, cur.structure, 0)
     e2 = left_out_residual(ctx2, cur.structure, 0)

@@ -81,10 +81,10 @@ def test_fold_estimates_are_those_of_the_whole_grid(monkeypatch) -> None:
             assert (a is None) == (b is None)
             if b is None:
                 continue
-            assert len(a["fold_parameters"]) == len(b["fold_parameters"]) >= 2
-            for pa, pb in zip(a["fold_parameters"], b["fold_parameters"], strict=True):
+            assert len(a.fold_parameters) == len(b.fold_parameters) >= 2
+            for pa, pb in zip(a.fold_parameters, b.fold_parameters, strict=True):
                 assert pa.keys() == pb.keys()
                 for k in pb:
                     assert pa[k] == pytest.approx(pb[k], rel=1e-9), (name, k)
-            assert a["parameter_cv"] == pytest.approx(b["parameter_cv"], rel=1e-9)
-            assert a["pooled"].z == pytest.approx(b["pooled"].z, rel=1e-9)
+            assert a.parameter_cv == pytest.approx(b.parameter_cv, rel=1e-9)
+            assert a.pooled.z == pytest.approx(b.pooled.z, rel=1e-9)

@@ -125,8 +125,8 @@ def test_lookalike_split_equals_the_full_regressions() -> None:
     c = np.linalg.lstsq(np.column_stack((J, vrev[m], (dx - vrev)[m])), e, rcond=None)[0][-2:]
     g = np.linalg.lstsq(np.column_stack((J, dx[m], np.gradient(dx, rec.dt)[m])), e,
                         rcond=None)[0][-2:]
-    assert [got["a_rev_s"], got["a_hys_s"]] == pytest.approx(c, rel=1e-6)
-    assert [got["g1_s"], got["g2_s2"]] == pytest.approx(g, rel=1e-6)
+    assert [got.a_rev_s, got.a_hys_s] == pytest.approx(c, rel=1e-6)
+    assert [got.g1_s, got.g2_s2] == pytest.approx(g, rel=1e-6)
 
 
 def test_stages_in_series_start_from_the_sum_of_their_warm_ups() -> None:
