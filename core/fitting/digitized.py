@@ -92,15 +92,8 @@ class DigitizedPIRegressor(Estimator):
         u, y = unpack_recordings(u, y)
         if int(self.refine) != self.refine or self.refine < 1:
             raise ParameterError(f"refine must be a positive integer, got {self.refine!r}")
-        classical = PIRegressor(
-            n_operators=self.n_operators,
-            thresholds=self.thresholds,
-            include_offset=self.include_offset,
-            validation=self.validation,
-            min_slope=self.min_slope,
-            constraint=self.constraint,
-            chunk=self.chunk,
-        ).fit(u, y, train=train, test=test)
+        classical = PIRegressor.classical_start(self, validation=self.validation).fit(
+            u, y, train=train, test=test)
         prep = prepare(u, y, train, test, validation=self.validation, min_train=1)
         lo = min(float(x.min()) for x in prep.us)
         hi = max(float(x.max()) for x in prep.us)

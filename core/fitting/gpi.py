@@ -94,15 +94,9 @@ class _Base(Estimator):
         tr, te = self._masks(prep)
         with FILTERS, warnings.catch_warnings():
             warnings.simplefilter("ignore", FitWarning)
-            return PIRegressor(
-                n_operators=self.n_operators,
-                thresholds=self.thresholds,
-                include_offset=self.include_offset,
-                min_slope=self.min_slope,
-                constraint=self.constraint,
-                chunk=self.chunk,
-            ).fit(prep.us if prep.multi else prep.us[0], prep.ys if prep.multi else prep.ys[0],
-                  train=tr, test=te)
+            return PIRegressor.classical_start(self).fit(
+                prep.us if prep.multi else prep.us[0], prep.ys if prep.multi else prep.ys[0],
+                train=tr, test=te)
 
     def _reversals(self, prep: Prepared) -> list[np.ndarray]:
         tol = 1e-3 * masked_range(prep.us)

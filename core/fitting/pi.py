@@ -362,6 +362,15 @@ class PIRegressor(Estimator):
     constraint: str = "nonnegative"
     initial_memory: str = "keep"
 
+    @classmethod
+    def classical_start(cls, est: Any, **options: Any) -> PIRegressor:
+        """The classical fit an estimator built on it starts from (the GPIs, the digitized
+        fit): ``est``'s shared options (``n_operators``, ``thresholds``, ``include_offset``,
+        ``min_slope``, ``constraint``, ``chunk``) and ``options``."""
+        return cls(n_operators=est.n_operators, thresholds=est.thresholds,
+                   include_offset=est.include_offset, min_slope=est.min_slope,
+                   constraint=est.constraint, chunk=est.chunk, **options)
+
     # ------------------------------------------------------------------ helpers
     def _thresholds_for(self, prep: Prepared, n: int) -> Float1D:
         if isinstance(self.thresholds, str):
