@@ -122,38 +122,60 @@ def _share(x: float) -> str:
 MIN_EVENT_ROWS = 20
 
 
-#: Event windows held out at most on a recording longer than
-#: :data:`~core.diagnosis.screening.RANKING_SPAN` samples (evenly spread over its windows):
-#: each costs two fits on every sample, so holding out all of a 10-million-sample
-#: recording's thousands of events would grow with the square of its length.
+#: Event windows rule 14 scores at most on a recording longer than
+#: :data:`~core.diagnosis.screening.RANKING_SPAN` samples (evenly spread over them).
 MAX_HELD_OUT_EVENTS = 24
 
 
-def held_out_windows(rec: Recording) -> list[tuple[int, int]]:
-    """The event windows of ``rec`` that rule 14 holds out: every window of at least
-    :data:`MIN_EVENT_ROWS` rows, or on a recording longer than
-    :data:`~core.diagnosis.screening.RANKING_SPAN` samples at most
-    :data:`MAX_HELD_OUT_EVENTS` of them, evenly spread."""
+def held_out_windows(rec: Recording, test: np.ndarray | None = None
+                     ) -> tuple[list[tuple[int, int]], bool]:
+    """The event windows of ``rec`` that rule 14 scores, and whether they are scored on
+    their test rows with the fits on the training rows (``True``) rather than each held
+    out in turn and both structures refitted without it (``False``).
+
+    Every window of at least :data:`MIN_EVENT_ROWS` rows is held out in turn on a recording
+    of up to :data:`~core.diagnosis.screening.RANKING_SPAN` samples. On a longer one, each
+    refit would cost two fits on every sample (thousands of events: the square of the
+    length): the windows with at least :data:`MIN_EVENT_ROWS` ``test`` rows, which the fits
+    never saw, are scored there instead, at most :data:`MAX_HELD_OUT_EVENTS` of them evenly
+    spread; without :data:`~core.diagnosis.acceptance.AcceptRule.min_events` such windows
+    (no test rows: an explicit training window alone), at most that many windows are held
+    out and refitted.
+    """
     wins = [(a, b) for a, b in event_windows(rec) if b - a >= MIN_EVENT_ROWS]
-    if rec.n_samples <= RANKING_SPAN or len(wins) <= MAX_HELD_OUT_EVENTS:
-        return wins
-    pick = np.unique(np.round(np.linspace(0, len(wins) - 1, MAX_HELD_OUT_EVENTS)).astype(int))
-    return [wins[i] for i in pick]
+    if rec.n_samples <= RANKING_SPAN:
+        return wins, False
+    tw = ([] if test is None else
+          [(a, b) for a, b in wins if int(test[a:b].sum()) >= MIN_EVENT_ROWS])
+    scored = len(tw) >= RULE.min_events
+    if scored:
+        wins = tw
+    if len(wins) > MAX_HELD_OUT_EVENTS:
+        pick = np.unique(np.round(np.linspace(0, len(wins) - 1, MAX_HELD_OUT_EVENTS)))
+        wins = [wins[int(i)] for i in pick]
+    return wins, scored
 
 
 def event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
     """Relative MSE reduction of ``new`` over ``cur`` in each event window (from one input
-    step or reversal to the next) of the one recording (:func:`held_out_windows`), each
-    window held out in turn: both structures are refitted on the training rows outside it
-    (their nonlinear parameters kept) and scored on all its rows."""
+    step or reversal to the next) of the one recording (:func:`held_out_windows`): each
+    window held out in turn, both structures refitted on the training rows outside it
+    (their nonlinear parameters kept) and scored on all its rows; on a long recording, the
+    windows' test rows scored with the fits on the training rows."""
     rec = ctx.records[0]
+    wins, scored = held_out_windows(rec, ctx.test[0])
     out = []
-    for a, b in held_out_windows(rec):
-        ev = np.zeros(rec.n_samples, dtype=bool)
-        ev[a:b] = True
-        sub = FitContext(ctx.records, [ctx.train[0] & ~ev], [ev], parent=ctx)
-        e0 = (rec.y - sub.fit(cur.structure, cur).pred[0])[ev]
-        e1 = (rec.y - sub.fit(new.structure, new).pred[0])[ev]
+    for a, b in wins:
+        if scored:
+            te = ctx.test[0][a:b]
+            e0 = (rec.y[a:b] - cur.pred[0][a:b])[te]
+            e1 = (rec.y[a:b] - new.pred[0][a:b])[te]
+        else:
+            ev = np.zeros(rec.n_samples, dtype=bool)
+            ev[a:b] = True
+            sub = FitContext(ctx.records, [ctx.train[0] & ~ev], [ev], parent=ctx)
+            e0 = (rec.y - sub.fit(cur.structure, cur).pred[0])[ev]
+            e1 = (rec.y - sub.fit(new.structure, new).pred[0])[ev]
         before = float(np.mean(e0**2))
         out.append(1.0 - float(np.mean(e1**2)) / before if before > 0 else 0.0)
     return out
@@ -169,7 +191,7 @@ def _events_refusal(ctx: FitContext, cur: Fit, c: Candidate) -> str | None:
         return None
     seen = sum(1 for x in g if x >= RULE.min_gain)
     total = sum(1 for a, b in event_windows(ctx.records[0]) if b - a >= MIN_EVENT_ROWS)
-    held = "" if total == len(g) else f" held out (evenly spread over its {total})"
+    held = "" if total == len(g) else f" scored (evenly spread over its {total})"
     return (f"seen after only {seen} of {len(g)} input events (steps, reversals){held} of the "
             f"one recording: a dynamic stage is named when at least {RULE.min_events} "
             "independent events show it (more steps or cycles would decide)")

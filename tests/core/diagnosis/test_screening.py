@@ -111,24 +111,32 @@ def test_a_diagnosis_read_in_a_prefix_finds_the_delay_and_says_so(long_delayed,
     assert f.parameters["delay_s"] == pytest.approx(1.5e-3, rel=0.25)
 
 
-def test_a_long_record_holds_out_a_bounded_spread_of_its_events() -> None:
+def test_a_long_record_scores_a_bounded_spread_of_its_events_on_test_rows() -> None:
     """Rule 14 refits twice per held-out event window: on a long record at most
-    MAX_HELD_OUT_EVENTS windows, the first and the last among them and evenly spread in
-    between; a record of the span's size holds out every window."""
+    MAX_HELD_OUT_EVENTS windows, evenly spread, each with enough test rows (the fits never
+    saw them, so they are scored there without refits); with no test rows (an explicit
+    training window alone) as many windows, refitted; a record of the span's size holds
+    out every window."""
     from core.diagnosis.events import event_windows
     from core.diagnosis.judge import MAX_HELD_OUT_EVENTS, MIN_EVENT_ROWS, held_out_windows
 
     rec = _sine(400_000, 100)
+    (m,), (te,), _ = split_masks([rec])
     every = [(a, b) for a, b in event_windows(rec) if b - a >= MIN_EVENT_ROWS]
     assert len(every) > 4 * MAX_HELD_OUT_EVENTS
-    wins = held_out_windows(rec)
-    assert len(wins) == MAX_HELD_OUT_EVENTS
-    assert wins[0] == every[0] and wins[-1] == every[-1]
-    gaps = np.diff([every.index(w) for w in wins])
+    wins, scored = held_out_windows(rec, te)
+    assert scored and len(wins) == MAX_HELD_OUT_EVENTS
+    assert all(te[a:b].sum() >= MIN_EVENT_ROWS for a, b in wins)
+    with_test = [w for w in every if te[w[0]:w[1]].sum() >= MIN_EVENT_ROWS]
+    assert wins[0] == with_test[0] and wins[-1] == with_test[-1]
+    gaps = np.diff([with_test.index(w) for w in wins])
     assert gaps.max() - gaps.min() <= 1
+    refit, scored = held_out_windows(rec, np.zeros(rec.n_samples, dtype=bool))
+    assert not scored and len(refit) == MAX_HELD_OUT_EVENTS
+    assert refit[0] == every[0] and refit[-1] == every[-1]
     short = _sine(sc.RANKING_SPAN, 100)
-    assert held_out_windows(short) == [(a, b) for a, b in event_windows(short)
-                                       if b - a >= MIN_EVENT_ROWS]
+    assert held_out_windows(short, split_masks([short])[1][0]) == (
+        [(a, b) for a, b in event_windows(short) if b - a >= MIN_EVENT_ROWS], False)
 
 
 def test_the_base_sensitivity_of_a_long_record_is_fitted_on_its_prefix(long_delayed,
