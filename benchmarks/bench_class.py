@@ -113,6 +113,18 @@ def main() -> int:
         from app.services.session import actions
 
         actions.STEP_RESULTS = SharedResults(max_items=0)  # type: ignore[attr-defined]
+    # every websocket message batch viser sends (time ms, connection, bytes): the push to
+    # the viser tabs, serialised or not, and its size
+    from websockets.asyncio.server import ServerConnection
+
+    sent: list[tuple[float, int, int]] = []
+    real_send = ServerConnection.send
+
+    async def send(self: Any, message: Any, *a: Any, **kw: Any) -> None:
+        sent.append((time.time() * 1e3, id(self), len(message)))
+        await real_send(self, message, *a, **kw)
+
+    ServerConnection.send = send  # type: ignore[method-assign]
     app, server, port = _serve(settings)
     url, viser_url = f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{app.state.viser_port}/"
     load0 = os.getloadavg()
@@ -124,7 +136,9 @@ def main() -> int:
         load1 = os.getloadavg()
         try:
             run = run_lesson(url, teacher, students, settle_s=args.settle,
-                             computations=lambda: len(computed))
+                             computations=lambda: len(computed),
+                             after_push=lambda: _shots(teacher[1], students, "push"),
+                             at_last=lambda: _shots(teacher[1], students, "last"))
         finally:
             load2 = os.getloadavg()
             close_class(teacher, students)
@@ -192,7 +206,64 @@ def main() -> int:
     d95 = percentile(run.arrivals("web", "drawn"), .95)
     print(f"beside it, the step's figure drawn (web): p95 {_ms(d95)} ms"
           + (" (<= 1 s)" if d95 <= TARGET_P95_MS else " (> 1 s)"))
+    if n_viser:
+        _viser_table(run, kinds, sent)
     return 0
+
+
+def _shots(teacher: Any, students: list[Any], when: str) -> None:
+    """Screenshots of the teacher, the phone, a web page and the first and last viser tabs
+    (``HYST_SCREENSHOTS``, default ``/tmp/hyst-e2e-screenshots``: bench-class-*.png)."""
+    out = Path(os.environ.get("HYST_SCREENSHOTS", "/tmp/hyst-e2e-screenshots"))
+    out.mkdir(parents=True, exist_ok=True)
+    web = [s for s in students if s.kind == "web"]
+    tabs = [s for s in students if s.kind == "viser"]
+    pages = [("teacher", teacher)] + [(s.name, s.page) for s in (web[:2] + tabs[:1] + tabs[-1:])]
+    for name, page in dict(pages).items():  # a class of one tab: shot once
+        page.screenshot(path=str(out / f"bench-class-{when}-{name.lower().replace(' ', '')}.png"))
+
+
+def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, int]]) -> None:
+    """Where a viser tab's time goes, per click (p50 / p95 over the tabs, ms after the
+    click): the server sets the Lesson folder (*said*), renders the tab (plot, texts, scene;
+    *render* its end, *took* its duration), sends message batches (*sent*: batches, KB and
+    the last one's time, all viser tabs), the batch with the step reaches the tab's main
+    thread (*wire*), the tab shows the step (*shown*); *busy*: the tab's main thread in long
+    tasks from the click to the step shown; *plot*: plotly characters sent to a tab;
+    *drawn*: the tab's plot has a new figure (none when the step's figure is the one it
+    shows)."""
+    from tests.e2e.class_run import median, percentile
+
+    def two(xs: list[Any]) -> str:
+        xs = [x for x in xs if x is not None]
+        return f"{_ms(median(xs))}/{_ms(percentile(xs, .95))}"
+
+    print("viser, where the time goes (ms after the click, p50/p95 over the tabs):")
+    head = (f"{'click':<15} {'said':>9} {'render':>11} {'took':>9} {'sent':>18} "
+            f"{'wire':>11} {'shown':>11} {'busy':>11} {'plot':>7} {'scene':>5} {'drawn':>11}")
+    print(head)
+    print("-" * len(head))
+    rows: dict[str, list[Any]] = {k: [] for k in (
+        "received", "rendered", "render_ms", "wire", "arrivals", "busy", "plot")}
+    for m in run.moves:
+        names = [n for n in m.arrivals if kinds[n] == "viser"]
+        got = {k: [getattr(m, k).get(n) for n in names] for k in rows}
+        for k, xs in got.items():
+            rows[k] += xs
+        end = m.t0 + max((a for a in got["arrivals"] if a is not None), default=0.0)
+        mine = [x for x in sent if m.t0 <= x[0] <= end]
+        last = max((x[0] for x in mine), default=m.t0) - m.t0
+        sent_s = f"{len(mine)} {sum(x[2] for x in mine) / 1e3:.0f}KB {last:.0f}"
+        plot = median([float(m.plot_chars[n]) for n in names])
+        scene = median([float(m.scene_msgs[n]) for n in names])
+        print(f"{m.label:<15} {two(got['received']):>9} {two(got['rendered']):>11} "
+              f"{two(got['render_ms']):>9} {sent_s:>18} {two(got['wire']):>11} "
+              f"{two(got['arrivals']):>11} {two(got['busy']):>11} {plot:>7.0f} {scene:>5.0f} "
+              f"{two(got['plot']):>11}")
+    print("-" * len(head))
+    print(f"{'all clicks':<15} {two(rows['received']):>9} {two(rows['rendered']):>11} "
+          f"{two(rows['render_ms']):>9} {'':>18} {two(rows['wire']):>11} "
+          f"{two(rows['arrivals']):>11} {two(rows['busy']):>11}")
 
 
 if __name__ == "__main__":

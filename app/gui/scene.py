@@ -30,6 +30,8 @@ CUBE_MAX_DIGITS = 7
 LABEL_MAX_DIGITS = 4
 #: Largest number of digits drawn as the whole cube (more: the visited states only).
 FULL_CUBE_DIGITS = FULL_GRAPH_DIGITS
+#: Colours of the up and down edges.
+_EDGE = {"up": (31, 119, 180), "down": (255, 127, 14)}
 
 
 def embed(digits: np.ndarray) -> np.ndarray:
@@ -69,15 +71,19 @@ class StateCube:
         #: The current state's name beside the ball (beyond LABEL_MAX_DIGITS), or None.
         self._marker_label: Any = None
         self._handles: list[Any] = []
+        self._nodes: Any = None  # the states' point cloud
+        self._lines: dict[str, Any] = {}  # the up and down edges
 
     def hide(self) -> None:
         """Take the state graph off the scene (the model changed to one without it)."""
-        for h in self._handles:
+        for h in reversed(self._handles):  # a child (the ball's name) before its parent
             try:
                 h.remove()
             except Exception:  # noqa: BLE001 - a handle of a closing tab
                 pass
         self._handles = []
+        self._nodes = None
+        self._lines = {}
         self._marker = None
         self._marker_label = None
         self._key = None
@@ -103,23 +109,34 @@ class StateCube:
         key = (n, np.asarray(states, dtype=np.int8).tobytes())
         if key == self._key:
             return
-        self.hide()  # another graph: the last one's nodes, edges and labels go
         raw = np.array([embed(np.asarray(row)) for row in states])
-        self._center = raw.mean(axis=0)
-        pts = raw - self._center  # centred on the scene origin (camera target)
-        self.points = pts
-        add = self._handles.append
-        add(self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
-                                       colors=(120, 120, 120), point_size=0.06,
-                                       point_shape="circle"))
+        center = raw.mean(axis=0)
+        pts = raw - center  # centred on the scene origin (camera target)
         up = np.stack((pts[up_i[:, 0]], pts[up_i[:, 1]]), axis=1).reshape(-1, 2, 3)
         down = np.stack((pts[down_i[:, 0]], pts[down_i[:, 1]]), axis=1).reshape(-1, 2, 3)
-        for name, seg, color in (("up", up, (31, 119, 180)),
-                                 ("down", down + 0.01, (255, 127, 14))):
-            if len(seg):
-                add(self.scene.add_line_segments(f"/states/{name}", seg.astype(np.float32),
-                                                 colors=color, thickness=2.0,
-                                                 thickness_units="screen"))
+        if self._same_kind(n, labels):
+            # another path of as many digits (a lesson's step with another input): the
+            # nodes' and edges' points change in place; removing and adding the nodes made
+            # every tab's browser compile the scene's shaders again (software WebGL: ~2 s
+            # of a tab's main thread in a class of thirty, issue 33)
+            self._center, self.points = center, pts
+            self._nodes.colors = np.tile(np.uint8(120), (len(pts), 3))
+            self._nodes.points = pts.astype(np.float32)
+            for name, seg in (("up", up), ("down", down + 0.01)):
+                self._place(name, seg)
+            self._key = key
+            self._aim_camera(pts)
+            return
+        self.hide()  # another graph: the last one's nodes, edges and labels go
+        self._center, self.points = center, pts
+        add = self._handles.append
+        self._nodes = self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
+                                                 colors=(120, 120, 120), point_size=0.06,
+                                                 point_shape="circle")
+        add(self._nodes)
+        self._lines = {}
+        for name, seg in (("up", up), ("down", down + 0.01)):
+            self._place(name, seg)
         for c, p in zip(labels, pts, strict=False):
             add(self.scene.add_label(f"/states/label_{c}", c, position=tuple(p + 0.06),
                                      font_screen_scale=1.6 if n <= LABEL_MAX_DIGITS else 1.1,
@@ -135,6 +152,31 @@ class StateCube:
             add(self._marker_label)
         self._key = key
         self._aim_camera(pts)
+
+    def _same_kind(self, n: int, labels: list[str]) -> bool:
+        """Whether the graph drawn is a visited path of ``n`` digits without a label per
+        state, as the one to draw (its nodes and edges can be moved in place)."""
+        return (self._key is not None and self._key[0] == n and n > FULL_CUBE_DIGITS
+                and not labels and self._marker_label is not None and self._nodes is not None)
+
+    def _place(self, name: str, seg: np.ndarray) -> None:
+        """The ``name`` edges ("up" or "down") at ``seg`` (shape ``(k, 2, 3)``): added the
+        first time, then moved in place; hidden while there are none."""
+        h = self._lines.get(name)
+        if not len(seg):
+            if h is not None:
+                h.visible = False
+            return
+        seg = seg.astype(np.float32)
+        if h is None:
+            h = self.scene.add_line_segments(f"/states/{name}", seg, colors=_EDGE[name],
+                                             thickness=2.0, thickness_units="screen")
+            self._lines[name] = h
+            self._handles.append(h)
+            return
+        h.colors = np.tile(np.asarray(_EDGE[name], dtype=np.uint8), (len(seg), 2, 1))
+        h.points = seg
+        h.visible = True
 
     def show_state(self, digits: np.ndarray) -> None:
         """Move the red ball to the state with digit row ``digits``."""

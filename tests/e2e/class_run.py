@@ -34,7 +34,8 @@ from .test_classroom import _viser_session_folder, _viser_type
 from .test_viser_gui import _open as _open_viser
 from .test_web_journeys import _listening, _open, _text_has
 
-#: Records every change of what a web page shows: [time ms, step, view, drawn version,
+#: Records every change of what a web page shows (at the task after the frame that paints
+#: it): [time ms, step, view, drawn version,
 #: lesson state text, live note text, steps shown (lesson.js's count)].
 WEB_RECORDER = """() => {
   window.__rec = [];
@@ -47,21 +48,28 @@ WEB_RECORDER = """() => {
     const last = window.__rec[window.__rec.length - 1];
     if (!last || r.slice(1).some((v, i) => v !== last[i + 1])) window.__rec.push(r);
   };
-  new MutationObserver(rec).observe(b, { attributes: true,
+  // a change is recorded once it is painted: at the task after the next frame's rendering
+  let pending = false;
+  const painted = () => { if (!pending) { pending = true;
+    requestAnimationFrame(() => setTimeout(() => { pending = false; rec(); }, 0)); } };
+  new MutationObserver(painted).observe(b, { attributes: true,
     attributeFilter: ["data-lesson-step", "data-fig", "data-ready", "data-step-shown"] });
   for (const id of ["lesson-state", "live-note"]) {
-    new MutationObserver(rec).observe(document.getElementById(id),
+    new MutationObserver(painted).observe(document.getElementById(id),
       { childList: true, characterData: true, subtree: true });
   }
   rec();
 }"""
 
-#: Records every change of a viser tab's *Lesson* folder (polled every 20 ms: the folder's
-#: elements are re-made by React): [time ms, step, on the class step, exploring, the
-#: teacher's note says the class step changed].
+#: Records every change of a viser tab's *Lesson* folder and plot, looked at after the
+#: frame that paints a change of the page (the folder's elements are re-made by React):
+#: [time ms, step, on the class step, exploring, the teacher's note says the class step
+#: changed, figures drawn (each new plotly data of the tab's plots)].
 VISER_RECORDER = """() => {
   window.__rec = [];
   let box = null;
+  let drawn = 0;
+  const seen = new WeakSet();
   const find = () => [...document.querySelectorAll(".mantine-Paper-root")]
     .filter((e) => /^Lesson/.test(e.textContent)
       && e.textContent.includes("Back to the class step"))
@@ -73,14 +81,66 @@ VISER_RECORDER = """() => {
     const m = /step (\\d+) of (\\d+)/.exec(t);
     const edit = Boolean(window.__watchPush)
       && document.body.textContent.includes("changed the class step");
+    for (const gd of document.querySelectorAll(".js-plotly-plot")) {
+      if (gd.data && !seen.has(gd.data)) { seen.add(gd.data); drawn += 1; }
+    }
     const r = [Date.now(), m ? m[1] : "", t.includes("You are on the class step"),
-               t.includes("You are exploring"), edit];
+               t.includes("You are exploring"), edit, drawn];
     const last = window.__rec[window.__rec.length - 1];
     if (!last || r.slice(1).some((v, i) => v !== last[i + 1])) window.__rec.push(r);
   };
-  setInterval(tick, 20);
+  // a change of the page is looked at once it is painted: in the task after the next
+  // frame's rendering (a React commit followed by a long task is painted after that task)
+  let pending = false;
+  new MutationObserver(() => { if (!pending) { pending = true;
+    requestAnimationFrame(() => setTimeout(() => { pending = false; tick(); }, 0)); } })
+    .observe(document.body, { childList: true, characterData: true, subtree: true });
+  setInterval(tick, 500);
   tick();
 }"""
+
+#: Run in a viser tab before viser's own scripts: every batch of messages the tab's
+#: websocket worker hands to the page is recorded when it reaches the page's main thread,
+#: [time ms, messages, the lesson step it says the tab is on ("" if none), characters of
+#: plotly figures in it, scene (non-GUI) messages in it, ms the page's handler took], and
+#: the page's long tasks ([start ms, duration ms]): where a viser student's time goes.
+VISER_WIRE = """(() => {
+  window.__wire = [];
+  window.__long = [];
+  try {
+    new PerformanceObserver((l) => { for (const e of l.getEntries()) {
+      window.__long.push([performance.timeOrigin + e.startTime, e.duration]); } })
+      .observe({ type: "longtask", buffered: true });
+  } catch (e) { /* no long task timing */ }
+  const d = Object.getOwnPropertyDescriptor(Worker.prototype, "onmessage");
+  Object.defineProperty(Worker.prototype, "onmessage", {
+    configurable: true,
+    get() { return d.get.call(this); },
+    set(fn) {
+      d.set.call(this, function (ev) {
+        const x = ev.data;
+        if (!x || x.type !== "message_batch") return fn.call(this, ev);
+        const t = Date.now();
+        let step = "", plot = 0, scene = 0;
+        for (const m of x.messages) {
+          for (const v of Object.values(m.updates || {})) {
+            if (typeof v !== "string") continue;
+            const r = /step (\\d+) of \\d+/.exec(v);
+            if (r && v.includes("You are on the class step")) step = r[1];
+          }
+          const js = (m.updates || {})._plotly_json_str;
+          if (typeof js === "string") plot += js.length;
+          if (!/^(Gui|Notification|RemoveNotification|SetGuiPanel)/.test(m.type)) scene += 1;
+        }
+        const row = [t, x.messages.length, step, plot, scene, 0];
+        window.__wire.push(row);
+        const out = fn.call(this, ev);
+        row[5] = Date.now() - t;
+        return out;
+      });
+    },
+  });
+})()"""
 
 #: The teacher's page: the time of each click on a lesson button or the push.
 CLICK_RECORDER = """() => {
@@ -104,6 +164,8 @@ class Student:
     phone: bool = False
     #: a viser tab's Lesson folder as the server set it: (time ms, text)
     server_said: list[tuple[float, str]] = field(default_factory=list)
+    #: a viser tab's renders in the server (its plot, texts and scene): (start, end) ms
+    renders: list[tuple[float, float]] = field(default_factory=list)
 
 
 @dataclass
@@ -126,6 +188,17 @@ class Move:
     #: viser: when the server set the tab's Lesson folder to the step (ms after t0)
     asked: dict[str, float | None] = field(default_factory=dict)
     received: dict[str, float | None] = field(default_factory=dict)
+    #: viser: when the message batch saying the step reached the tab's main thread (ms
+    #: after t0); the server's render of the move in the tab (its end, ms after t0, and
+    #: its duration, ms); the tab's main thread busy in long tasks from t0 to the arrival
+    #: (ms); plotly characters and scene messages the tab was sent from t0 to the arrival
+    wire: dict[str, float | None] = field(default_factory=dict)
+    plot: dict[str, float | None] = field(default_factory=dict)  # viser: its plot drawn
+    rendered: dict[str, float | None] = field(default_factory=dict)
+    render_ms: dict[str, float | None] = field(default_factory=dict)
+    busy: dict[str, float | None] = field(default_factory=dict)
+    plot_chars: dict[str, int] = field(default_factory=dict)
+    scene_msgs: dict[str, int] = field(default_factory=dict)
     #: the server's figure computations from the click to the end of the wait (the
     #: ``computations`` count given to :func:`run_lesson`; ``None`` without one)
     computed: int | None = None
@@ -201,7 +274,7 @@ def open_class(browser: Any, url: str, viser_url: str, app: Any, n_web: int, n_v
         students.append(Student("web", name, ctx, page, phone=on_phone))
     known = set(app.state.gui.views)
     for k in range(n_viser):
-        ctx, page, _ = _open_viser(browser, viser_url, 1200, 800)
+        ctx, page, _ = _open_viser(browser, viser_url, 1200, 800, init=VISER_WIRE)
         view = _new_view(app, known)
         known.add(next(key for key, v in app.state.gui.views.items() if v is view))
         name = f"Tab {k + 1:02d}"
@@ -209,6 +282,7 @@ def open_class(browser: Any, url: str, viser_url: str, app: Any, n_web: int, n_v
         _viser_type(page, "Your name", name)
         students.append(Student("viser", name, ctx, page, view))
         _watch_panel(students[-1])
+        _watch_renders(students[-1])
     ctx_t, t, _ = _open(browser, url, 1400, 1000)
     t.evaluate(CLICK_RECORDER)
     web = [s.page for s in students if s.kind == "web"]
@@ -231,6 +305,37 @@ def _watch_panel(s: Student) -> None:
         s.server_said.append((time.time() * 1e3, str(panel.md.content)))
 
     panel._show = _show
+
+
+def _watch_renders(s: Student) -> None:
+    """Keep the start and end of every render of the tab in the server."""
+    worker = s.view.worker
+    render = worker._render
+
+    def timed() -> None:
+        t0 = time.time() * 1e3
+        try:
+            render()
+        finally:
+            s.renders.append((t0, time.time() * 1e3))
+
+    worker._render = timed
+
+
+def _viser_where(s: Student, m: Move) -> None:
+    """Where a viser tab's time of ``m`` went (the :class:`Move` fields ``wire`` ...)."""
+    wire, long = s.page.evaluate("() => [window.__wire || [], window.__long || []]")
+    arrived = m.arrivals.get(s.name)
+    end = m.t0 + (arrived if arrived is not None else 60_000.0)
+    got = next((w for w in wire if w[0] >= m.t0 and w[2] == str(m.step)), None)
+    m.wire[s.name] = None if got is None else got[0] - m.t0
+    mine = [w for w in wire if m.t0 <= w[0] <= end]
+    m.plot_chars[s.name] = sum(w[3] for w in mine)
+    m.scene_msgs[s.name] = sum(w[4] for w in mine)
+    m.busy[s.name] = sum(max(0.0, min(a + d, end) - max(a, m.t0)) for a, d in long)
+    r = next((r for r in s.renders if r[0] >= m.t0 - 50), None)
+    m.rendered[s.name] = None if r is None else r[1] - m.t0
+    m.render_ms[s.name] = None if r is None else r[1] - r[0]
 
 
 def _figure_requests(page: Any) -> list[list[float]]:
@@ -281,8 +386,10 @@ def _arrival(s: Student, rec: list[list[Any]], m: Move, before: tuple[str, str],
             if m.edit:
                 ok = ok and "changed the class step" in note
         else:
-            _, step, on, _, edit = r
+            _, step, on, _, edit, figs = r
             ok = step == str(m.step) and on and (edit or not m.edit)
+            if drawn:
+                ok = ok and figs > int(before[0] or 0)
         if ok:
             return float(r[0] - m.t0)
     return None
@@ -301,11 +408,12 @@ def _shows(s: Student, m: Move, before: tuple[str, str]) -> bool:
 def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
                lesson: str = "pi-basics", push_at: int = 2, settle_s: float = 1.0,
                timeout_s: float = 60.0, after_push: Any = None,
-               computations: Any = None) -> ClassRun:
+               computations: Any = None, at_last: Any = None) -> ClassRun:
     """The teacher starts ``lesson``, moves the class through every step and, at step
     ``push_at``, edits p0 on its page and pushes the model; after each click every student
     is waited for (``timeout_s``), then ``settle_s`` more (a late wrong note is seen).
-    ``after_push()`` is called once the class has the push (screenshots);
+    ``after_push()`` is called once the class has the push, ``at_last()`` once it has the
+    last step (screenshots);
     ``computations()``, when given, is the server's count of figure computations so far
     (each move's share kept in :attr:`Move.computed`)."""
     from app.services.teaching.lessons import builtin_lesson
@@ -356,6 +464,9 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
                              and f"step {m.step} of" in text and "on the class step" in text),
                             None)
                 m.received[s.name] = None if said is None else said - m.t0
+                # a new figure in the tab's plot (none when it is the one shown: step 1)
+                m.plot[s.name] = _arrival(s, rec, m, before[s.name], drawn=True)
+                _viser_where(s, m)
         moves.append(m)
 
     click("#lesson-start", Move("step 1", 1, steps[0].view, False), "lesson-msg")
@@ -371,6 +482,8 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
                   "teacher-msg")
             if after_push is not None:
                 after_push()
+    if at_last is not None:
+        at_last()
     told = [s.name for s in students if _told_exploring(s, _records(s.page))]
     t.click("#lesson-end")
     _text_has(t, "lesson-msg", "Lesson ended")
@@ -378,9 +491,10 @@ def run_lesson(url: str, teacher: tuple[Any, Any], students: list[Student], *,
 
 
 def _before(s: Student) -> tuple[str, str]:
-    """A web page's drawn version and steps-shown count now (a viser tab: nothing)."""
-    if s.kind != "web":
-        return ("", "")
+    """A web page's drawn version and steps-shown count now (a viser tab: the figures it
+    has drawn)."""
+    if s.kind != "web":  # the figures it has drawn
+        return (str((_records(s.page) or [[0, "", "", "", "", 0]])[-1][5]), "")
     last = (_records(s.page) or [[0, "", "", "", "", "", ""]])[-1]
     return (last[3], last[6])
 

@@ -16,10 +16,12 @@ import pytest
 from core.pi import PIModel
 
 
-def _open(browser: Any, url: str, width: int = 1500, height: int = 900
-          ) -> tuple[Any, Any, list[str]]:
+def _open(browser: Any, url: str, width: int = 1500, height: int = 900,
+          init: str | None = None) -> tuple[Any, Any, list[str]]:
     ctx = browser.new_context(viewport={"width": width, "height": height},
                               accept_downloads=True)
+    if init is not None:  # a script run in the page before viser's own (class_run.py)
+        ctx.add_init_script(init)
     page = ctx.new_page()
     page.set_default_timeout(60_000)  # the 2 shared vCPUs can be very busy
     errors: list[str] = []

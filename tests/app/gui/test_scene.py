@@ -5,6 +5,7 @@ tab); four digits name every state drawn."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -77,3 +78,24 @@ def test_four_digits_name_every_state_drawn() -> None:
     states, *_ = visited_path(d.trace.digits)
     assert sorted(n.text for n in scene.labels()) == sorted(state_text(r) for r in states)
     assert len(scene.labels()) > 1
+
+
+def test_another_path_of_as_many_digits_moves_the_nodes_in_place() -> None:
+    """A lesson's step with another input (same model): the nodes and edges are moved, not
+    removed and added again (each new node made every viser tab compile its shaders again:
+    ~2 s of a tab's main thread in software WebGL, class of thirty, issue 33)."""
+    cfg = Config()
+    d1 = compute(cfg, views={"digitized"}).digitized
+    d2 = compute(replace(cfg, signal=replace(cfg.signal, frequency=cfg.signal.frequency / 2)),
+                 views={"digitized"}).digitized
+    assert d1 is not None and d2 is not None and d1.model.n == d2.model.n == 7
+    scene = _Scene()
+    cube = StateCube(scene)
+    cube.draw(d1)
+    before = dict(scene.nodes)
+    cube.draw(d2)
+    assert scene.nodes == before  # no node added (nor replaced)
+    states, *_ = visited_path(d2.trace.digits)
+    assert len(states) != len(visited_path(d1.trace.digits)[0])
+    assert len(scene.nodes["/states/nodes"].points) == len(states)
+    assert cube.points is not None and len(cube.points) == len(states)
