@@ -510,6 +510,9 @@ class SessionView:
                     if event.get("edit") else
                     f"Your teacher moved the class to {where}. Your controls follow it.")
         self.ui.pushed_md.content = f"**Teacher:** {md_text(text)}"
+        if isinstance(step, dict) and not event.get("edit"):
+            return  # a lesson's move: the Lesson folder's own toast says it (one per move:
+            # each toast's transition cost a viser tab ~0.1 s of its main thread)
         self._toast("Your teacher pushed a change", text)
 
     def _token_typed(self, event: Any) -> None:
