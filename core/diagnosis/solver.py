@@ -20,7 +20,8 @@ from .bankcache import BankCache, recent
 if TYPE_CHECKING:
     from .structure import Structure
 
-__all__ = ["constraints", "gram", "level_penalty", "min_slope", "solve", "unconstrained_rss"]
+__all__ = ["constraints", "gram", "level_penalty", "min_slope", "solve", "still_elements",
+           "unconstrained_rss"]
 
 
 def gram(X: np.ndarray, nq: int, cache: BankCache, key: Any, owner: Any) -> np.ndarray:
@@ -124,8 +125,35 @@ def constraints(s: Structure, X: np.ndarray, nb: int, eps: float, terms: list) -
     return lower
 
 
-def solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int
-           ) -> np.ndarray:
+def still_elements(s: Structure, X: np.ndarray, nb: int) -> np.ndarray | None:
+    """The Maxwell-slip elements of a stop base that never slide on the solved rows (their
+    play column, ``X[:, i]`` for ``1 <= i < nb`` before :func:`constraints` turns it into the
+    deflection ``v - P_i(v)``, is constant there: a threshold above the rows' travel), as a
+    mask over the weights ``(X.shape[1] - 1,)``; ``None`` when there are none (or the base is
+    not a stop base).
+
+    On those rows such an element's deflection is the spring's column ``v`` (shifted by its
+    constant slider), so the spring ``k`` and the elements that never slid are the same
+    column, and how the least squares splits the stiffness among them is a tie that
+    round-off decides; it matters only where they are predicted, past the travel they were
+    fitted on (a recording predicted from a shorter one: 25.6 against 0.04 output units^2 on
+    the Maxwell-slip plant's ``slow`` recording, with the stiffness on the element at 139.65
+    or on the spring). :func:`solve` pins them at 0 instead, so the spring carries that
+    stiffness, as the play frame of the PI base already does (a play that never moves from a
+    relaxed state has an empty column, pinned at 0)."""
+    if not s.stop or X.shape[0] == 0 or nb < 2:
+        return None
+    B = X[:, 1:nb]
+    still = np.all(B == B[:1], axis=0)
+    if not still.any():
+        return None
+    out = np.zeros(X.shape[1] - 1, dtype=bool)
+    out[1:nb] = still
+    return out
+
+
+def solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int,
+          fixed: np.ndarray | None = None) -> np.ndarray:
     """The weights of the design ``X`` (output in its last column; ``G`` its Gram matrix,
     added to in place) within ``lower``.
 
@@ -137,7 +165,15 @@ def solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int
     bounding a direction the remaining rows leave (nearly) undetermined (before: offsets of
     1e12 with one recording left out). Fits with rows in every column are solved as they
     were (the ridge alone moved a weak drift on top of creep from a 7 % to a 13 % held-out
-    gain: such designs are nearly collinear)."""
+    gain: such designs are nearly collinear). ``fixed``: weights held at 0, their columns
+    left out of the solve (:func:`still_elements`)."""
+    if fixed is not None and fixed.any():
+        keep = np.flatnonzero(~fixed)
+        cols = np.append(keep, lower.size)  # with the output column
+        w = np.zeros(lower.size)
+        w[keep] = solve(s, X[:, cols], G[np.ix_(cols, cols)], lower[keep],
+                        nb - int(fixed[:nb].sum()))
+        return w
     ncol = lower.size
     dg = np.diag(G)[:ncol]
     empty = dg == 0

@@ -54,7 +54,7 @@ from .rowkernels import (
     turns_rarely,
 )
 from .shapes import apply_shape, gap_stage_of, hysteresis_model, loop_shape, shape_effects
-from .solver import constraints, gram, min_slope, solve, unconstrained_rss
+from .solver import constraints, gram, min_slope, solve, still_elements, unconstrained_rss
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
            "dynamics_stages", "fit_structure", "legendre_columns", "pack_dynamics"]
@@ -595,6 +595,8 @@ def fit_structure(
         blk[:, ncol] = ys[o : o + idx.size]
         o += idx.size
     # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
+    # (before constraints() turns a stop base's play columns into its deflections)
+    fixed = None if V is not None else still_elements(s, X, nb)
     lower = None if V is not None else constraints(
         s, X, nb, min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
@@ -620,7 +622,7 @@ def fit_structure(
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return unconstrained_rss(X)
         G = gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
-        w = solve(s, X, G, lower, nb)
+        w = solve(s, X, G, lower, nb, fixed)
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         w_solved = w.copy()
