@@ -213,12 +213,6 @@ def preisach_rate():
     return sc, diagnose(sc.records)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "on this session's fresh install (numpy 2.4.6, scipy 1.17.1, numba 0.68.1) the same "
-    "diagnosis, on main 6c9e8d2 as on every later commit, reports sigma 6.8e-6 for the "
-    "+21 % biased rate, 3.1 sigmas from the truth, and flags rate ambiguous with a "
-    "resonance; it passed CI at stop 38. Not yet traced: a finding to look into, not a "
-    "tolerance to widen"))
 def test_preisach_rate_is_within_its_sigma(preisach_rate) -> None:
     """The rate of a Preisach plant is biased (+21 %) the same way on the chosen base and on
     its shifted grid (the PI fits 100 times worse and is left out); the recordings left

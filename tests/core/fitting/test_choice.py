@@ -36,10 +36,6 @@ def test_fit_and_diagnosis_choose_one_family_on_the_friction_damper(names) -> No
     assert fit.family == _diagnosis_family(recs) == "stop-pi"
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "on this session's fresh install (numpy 2.4.6, scipy 1.17.1, numba 0.68.1) the "
-    "diagnosis's base choice on this plant is bouc-wen where hyst fit chooses stop-pi, on "
-    "main 6c9e8d2 (which passed CI at stop 38) as on every later commit; not traced yet"))
 def test_fit_and_diagnosis_choose_one_family_on_a_maxwell_slip_plant() -> None:
     recs = [r for r in make_family("maxwell-slip", None, seed=3).records
             if r.name in ("slow", "decaying")]
