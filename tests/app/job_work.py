@@ -54,7 +54,7 @@ def until_file(path: str, value: Any = None, limit_s: float = 120.0, *, progress
     return value
 
 
-def stalled_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
+def stalled_diagnosis(rec: Any, model: Any, *, progress: Any) -> Any:
     """Stands in for :func:`app.services.jobs.tasks.run_diagnosis`: reports its last progress,
     then stalls (as if building the report) until killed or 120 s have passed."""
     progress(0.99, "building the report")
@@ -62,17 +62,16 @@ def stalled_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
     raise AssertionError("a stalled diagnosis must be cancelled before it ends")
 
 
-def slow_diagnosis(rec: Any, model_doc: Any, *, progress: Any) -> Any:
+def slow_diagnosis(rec: Any, model: Any, *, progress: Any) -> Any:
     """Stands in for :func:`app.services.jobs.tasks.run_diagnosis`: the real diagnosis, pausing
     0.5 s at each progress report (so that a browser test can act while it runs)."""
     from app.services.analysis.diagnosis import run_diagnosis
-    from core.base import model_from_dict
 
     def slow(fraction: float = 0.0, message: str = "", *_: Any, **__: Any) -> None:
         time.sleep(0.5)
         progress(0.01 + 0.98 * float(fraction), str(message) or "diagnosing")
 
-    return run_diagnosis(rec, model_from_dict(model_doc), slow)
+    return run_diagnosis(rec, model, slow)
 
 
 def stalled_fit(rec: Any, n: int, kind: str, *, progress: Any) -> Any:

@@ -30,7 +30,7 @@ def warm() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fits = [run_fit(rec, 3, kind, progress=quiet).outcome for kind in fit_kinds()]
-        run_diagnosis(rec, fits[-1].model.to_dict(), progress=quiet)
+        run_diagnosis(rec, fits[-1].model, progress=quiet)
         # the figures of a heavy request (tasks.run_figures) load their kernels too
         from app.services.explore.config import Config, SignalSpec
         from app.services.jobs.tasks import run_figures

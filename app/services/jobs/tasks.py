@@ -2,7 +2,7 @@
 server keeps (no web imports).
 
 :func:`fit_task` and :func:`diagnose_task` build a :class:`~app.services.jobs.worker.Task` from the
-session's state at submission (its recording, its model document). Their work,
+session's state at submission (its recording, its typed model). Their work,
 :func:`run_fit` and :func:`run_diagnosis`, runs in a worker process (:mod:`.worker`) that a
 cancel kills; only a finished, uncancelled result is stored in the session, in the server
 (``Task.keep``). The work functions are looked up here when a task is built, so a test may
@@ -48,14 +48,12 @@ def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> FitResu
     return fit_result(out, rec, fig)
 
 
-def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
-                  progress: Progress) -> SessionDiagnosis:
-    """Diagnose ``rec`` against the model ``model_doc`` (:func:`.diagnosis.run_diagnosis`):
-    the typed :class:`~app.services.analysis.diagnosis.SessionDiagnosis` (the core's result
-    and its findings in words); progress runs from 0.01 to 0.99."""
+def run_diagnosis(rec: Recording, model: Model, *, progress: Progress) -> SessionDiagnosis:
+    """Diagnose ``rec`` against ``model`` (:func:`.diagnosis.run_diagnosis`): the typed
+    :class:`~app.services.analysis.diagnosis.SessionDiagnosis` (the core's result and its
+    findings in words); progress runs from 0.01 to 0.99."""
     from app.services.analysis.diagnosis import run_diagnosis as diagnose
     from app.services.words import in_words
-    from core.base import model_from_dict
 
     progress(0.01, "diagnosing")
 
@@ -63,7 +61,7 @@ def run_diagnosis(rec: Recording, model_doc: dict[str, Any], *,
         # the diagnosis speaks of its candidates by their registry names: words here
         progress(0.01 + 0.98 * float(fraction), in_words(str(message)) or "diagnosing")
 
-    return diagnose(rec, model_from_dict(model_doc), report)
+    return diagnose(rec, model, report)
 
 
 @dataclass(frozen=True)
@@ -142,11 +140,11 @@ def diagnose_task(session: Session) -> Task:
     :class:`~app.services.analysis.diagnosis.SessionDiagnosis` (the REST API's JSON of it:
     ``routers/schemas.py::diagnosis_json``)."""
     fitted = session.fitted
-    doc = fitted.to_dict() if fitted is not None else session.snapshot()[0].model
+    model = fitted if fitted is not None else session.model  # the worker is sent the Model
 
     def keep(out: SessionDiagnosis) -> SessionDiagnosis:
         session.set_diagnosis(out.result)
         return out
 
     rec = _recording(session, "diagnose")
-    return Task(run_diagnosis, (rec, doc), keep, samples=rec.n_samples, cost=DIAGNOSE)
+    return Task(run_diagnosis, (rec, model), keep, samples=rec.n_samples, cost=DIAGNOSE)

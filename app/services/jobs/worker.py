@@ -84,7 +84,7 @@ class Task:
         ``fn(*args, progress=progress)``; ``progress(fraction, message)`` reports to the
         job. Its return value is pickled back.
     args : tuple
-        Its arguments (pickled: arrays, recordings, model documents).
+        Its arguments (pickled: arrays, recordings, models).
     keep : callable, optional
         Called in the server with ``fn``'s return value once the work is done and was not
         cancelled (store it in the session); its return value is the job's result.

@@ -16,7 +16,7 @@ from typing import Any
 from app.services.explore.catalog import EXPORT_FORMATS
 from app.services.session.sessions import Session
 from app.services.words import type_words
-from core.base import Model, model_from_dict
+from core.base import Model
 from core.exceptions import NotInvertibleError, ParameterError
 from core.export_c import generate_c
 from core.export_fmu import FMI_VERSIONS, build_fmu
@@ -148,7 +148,9 @@ def export_session(session: Session, fmt: str, *, fmi: int = 3,
     """:func:`export_bytes` of ``session``'s current model (with the fit's provenance, as
     ``hyst fit`` writes it, when the model is the fitted one); dynamic models get the
     sample time of the session's recording, else of its signal."""
-    cfg, _ = session.snapshot()
+    with session.lock:  # the config and its typed model of one state
+        cfg, _ = session.snapshot()
+        model = session.model
     out = session.fit
     fit = (dict(out.parameter_set.provenance.fit or {})
            if out is not None and out.model.to_dict() == cfg.model else None)
@@ -157,5 +159,4 @@ def export_session(session: Session, fmt: str, *, fmi: int = 3,
         dt = float(rec.t[1] - rec.t[0])
     else:
         dt = cfg.signal.duration / max(cfg.signal.samples - 1, 1)
-    return export_bytes(model_from_dict(cfg.model), fmt, "", fit, dt=dt, fmi=fmi,
-                        inverse=inverse)
+    return export_bytes(model, fmt, "", fit, dt=dt, fmi=fmi, inverse=inverse)

@@ -63,7 +63,7 @@ class Session:
 
     Notes
     -----
-    The attributes ``config``, ``version``, ``recording``, ``fit``, ``fitted``,
+    The attributes ``config``, ``version``, ``recording``, ``model``, ``fit``, ``fitted``,
     ``has_diagnosis``, ``diagnosis``, ``diagnosis_note``, ``diagnosed``, ``diagnosis_result``,
     ``teacher`` and ``created`` read the current state (typed: core's ``FitOutcome``,
     ``Model`` and ``DiagnosisResult``; the routers turn them into JSON); change them only
@@ -108,6 +108,18 @@ class Session:
     def fit(self) -> FitOutcome | None:
         """The last fit (core's ``FitOutcome``, without its estimator), or None."""
         return self._state.fit
+
+    @property
+    def model(self) -> Model:
+        """The current config's model, typed: the one parsed and checked with the config
+        when the state holds it (:meth:`checked`), else built from the config's document
+        (checked when the config was set or stored)."""
+        st = self._state
+        if st.checked is not None:
+            return st.checked.model
+        from core.base import model_from_dict
+
+        return model_from_dict(st.config.model)
 
     @property
     def fitted(self) -> Model | None:
