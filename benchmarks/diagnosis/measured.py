@@ -16,6 +16,13 @@ only (after its one jump the input does not hold: the creep shows as a slow sett
 cycles, whose look-alike is drift).
 
 Case ids: ``measured/<base>/null`` and ``measured/<base>/<effect>/<size>``.
+
+The development set has a class of the same shape (``dev/measured/<base>/...``,
+:data:`DEV_MEASURED_CASES`, :data:`DEV_MEASURED_EFFECTS`): the same recordings with the same
+effects at sizes the sealed class does not use (none of its values), so rules for effects on
+measured bases can be made and checked without looking at the sealed class. Their nulls are
+the same recordings: the gap between the two classes measures how the rules carry to other
+effect sizes on a known base, not to other devices.
 """
 
 from __future__ import annotations
@@ -28,8 +35,8 @@ from benchmarks.diagnosis.generator import Scenario
 from benchmarks.diagnosis.output_effects import apply_effect
 from core.recordings import Recording
 
-__all__ = ["MEASURED_BASES", "MEASURED_CASES", "MEASURED_EFFECTS", "load_base", "make_measured",
-           "truth_of"]
+__all__ = ["DEV_MEASURED_CASES", "DEV_MEASURED_EFFECTS", "MEASURED_BASES", "MEASURED_CASES",
+           "MEASURED_EFFECTS", "load_base", "make_measured", "truth_of"]
 
 #: Base name -> shipped dataset names diagnosed together.
 MEASURED_BASES: dict[str, tuple[str, ...]] = {
@@ -69,6 +76,35 @@ MEASURED_CASES: tuple[str, ...] = tuple(
         *(f"measured/{b}/{e}/{s}" for e, sizes in MEASURED_EFFECTS[b].items() for s in sizes)))
 
 
+_DEV_FRICTION: dict[str, dict[str, dict[str, Any]]] = {
+    "delay": {"large": {"delay_s": 25e-3}, "small": {"delay_s": 8e-3}},
+    "lag": {"large": {"tau_s": 25e-3}, "small": {"tau_s": 8e-3}},
+    "resonance": {"low": {"freq_hz": 20.0, "damping": 0.04},
+                  "mid": {"freq_hz": 45.0, "damping": 0.04}},
+    "drift": {"large": {"pct": 8.0}, "small": {"pct": 3.0}},
+}
+#: The development class's sizes (same layout as :data:`MEASURED_EFFECTS`; no value of it).
+DEV_MEASURED_EFFECTS: dict[str, dict[str, dict[str, dict[str, Any]]]] = {
+    "piezo": {
+        "delay": {"large": {"delay_s": 2e-3}, "small": {"delay_s": 0.6e-3}},
+        "lag": {"large": {"tau_s": 2e-3}, "small": {"tau_s": 0.5e-3}},
+        "resonance": {"high": {"freq_hz": 550.0, "damping": 0.04},
+                      "low": {"freq_hz": 220.0, "damping": 0.04}},
+        "drift": {"large": {"pct": 3.5}, "small": {"pct": 1.2}},
+        "creep": {"large": {"total": 0.05}, "small": {"total": 0.02}},
+    },
+    "friction-30lb": _DEV_FRICTION,
+    "friction-36lb": _DEV_FRICTION,
+}
+
+#: Every case of the development class, nulls first per base.
+DEV_MEASURED_CASES: tuple[str, ...] = tuple(
+    c for b in MEASURED_BASES for c in (
+        f"dev/measured/{b}/null",
+        *(f"dev/measured/{b}/{e}/{s}" for e, sizes in DEV_MEASURED_EFFECTS[b].items()
+          for s in sizes)))
+
+
 def load_base(base: str) -> list[Recording]:
     """The measured recordings of ``base`` (:data:`MEASURED_BASES`), as shipped."""
     from core.datasets import load_dataset
@@ -95,17 +131,22 @@ def truth_of(effect: str, size: dict[str, Any], rec: Recording) -> dict[str, Any
 
 
 def make_measured(case: str) -> Scenario:
-    """The scenario of a case id of :data:`MEASURED_CASES` (also any base/effect/size of
-    :data:`MEASURED_EFFECTS`): the base's recordings with the effect on their output.
+    """The scenario of a case id of :data:`MEASURED_CASES` or :data:`DEV_MEASURED_CASES`
+    (also any base/effect/size of their size tables): the base's recordings with the effect
+    on their output.
 
     ``extras``: ``hidden`` (effect -> truth parameters of the first recording, which every
     recording shares except drift's ``amount``), ``base``, ``per_recording`` (the truth of
     each recording), ``size``.
     """
     parts = case.split("/")
+    dev = parts[0] == "dev"
+    if dev:
+        parts = parts[1:]
     if len(parts) not in (3, 4) or parts[0] != "measured":
-        raise ValueError(f"a measured case is measured/<base>/null or "
-                         f"measured/<base>/<effect>/<size>, got {case!r}")
+        raise ValueError(f"a measured case is [dev/]measured/<base>/null or "
+                         f"[dev/]measured/<base>/<effect>/<size>, got {case!r}")
+    sizes = DEV_MEASURED_EFFECTS if dev else MEASURED_EFFECTS
     base, effect = parts[1], parts[2]
     recs = load_base(base)
     if effect == "null":
@@ -113,10 +154,10 @@ def make_measured(case: str) -> Scenario:
                         extras={"hidden": {}, "base": base, "case": case})
     size_name = parts[3] if len(parts) == 4 else ""
     try:
-        size = MEASURED_EFFECTS[base][effect][size_name]
+        size = sizes[base][effect][size_name]
     except KeyError:
         raise ValueError(f"unknown measured case {case!r}; known: "
-                         f"{', '.join(MEASURED_CASES)}") from None
+                         f"{', '.join(DEV_MEASURED_CASES if dev else MEASURED_CASES)}") from None
     out, truths = [], []
     for rec in recs:
         tr = truth_of(effect, size, rec)

@@ -383,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901 - a script's argv 
                     help="run the issue-8 classes (comma-separated names of "
                          "benchmarks/diagnosis/classes.py CLASSES, or 'all'); with --seeds "
                          "and --noise")
-    ap.add_argument("--set", choices=("dev", "sealed", "measured", "all"),
+    ap.add_argument("--set", choices=("dev", "sealed", "measured", "dev-measured", "all"),
                     help="issue 30: the development subset, the sealed set (sealed.py: other "
                          "seeds, ranges, excitations, OpenSees plants, measured bases), its "
                          "measured-base class alone, or dev and sealed in one run, their "

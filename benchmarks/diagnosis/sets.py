@@ -9,7 +9,8 @@ score, one table for both sets, so their numbers can stand side by side.
     ``large`` (seed 500) and two nulls each (seeds 500, 501), and each of their four
     recordings alone as a single-recording null (seed 500); the same cases on the non-Masing
     ``menegotto-pinto`` steel (round 4) and on the pinched ``bouc-wen-baber-noori`` element
-    (round 5) (:data:`DEV_CASES`).
+    (round 5); and (round 6) the measured-base class at sizes the sealed class does not use
+    (:data:`benchmarks.diagnosis.measured.DEV_MEASURED_CASES`) (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -41,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.diagnosis.families import TIME_EFFECTS, jsonable
+from benchmarks.diagnosis.measured import DEV_MEASURED_CASES
 
 __all__ = ["DEV_CASES", "RECOVERY_TOLERANCE", "SETS", "build", "case_class", "run_case",
            "score_rows", "side_by_side", "summarise_set"]
@@ -74,6 +76,8 @@ DEV_CASES: tuple[str, ...] = (
       for e in _DEV_FAMILY_EFFECTS),
     *(f"dev/family-single/{b}/{r}/500" for b in _DEV_PINCHED_BASES
       for r in ("slow", "fast", "decaying", "staircase")),
+    # round 6: the shipped measured recordings with effects at other sizes than the sealed
+    *DEV_MEASURED_CASES,
 )
 
 #: Largest relative error of a recovered parameter that counts as recovered (issue 30).
@@ -93,12 +97,13 @@ def _sealed_cases() -> tuple[str, ...]:
 #: ``all`` runs both sets in one go (the class table then has their rows side by side).
 SETS = {"dev": lambda: DEV_CASES, "sealed": _sealed_cases,
         "measured": lambda: tuple(c for c in _sealed_cases() if c.startswith("measured/")),
+        "dev-measured": lambda: DEV_MEASURED_CASES,
         "all": lambda: DEV_CASES + _sealed_cases()}
 
 
 def case_class(case: str) -> str:
     """The class of a case id (one of :data:`CLASSES`)."""
-    if case.startswith("measured/"):
+    if case.startswith(("measured/", "dev/measured/")):
         return "measured base"
     if case.startswith(("dev/pi/", "sealed/pi/")):
         return "PI plant"
@@ -110,6 +115,10 @@ def case_class(case: str) -> str:
 def build(case: str) -> Any:
     """The :class:`~benchmarks.diagnosis.generator.Scenario` of a case id of either set."""
     parts = case.split("/")
+    if parts[0] == "dev" and parts[1] == "measured":
+        from benchmarks.diagnosis.measured import make_measured
+
+        return make_measured(case)
     if parts[0] == "dev" and parts[1] == "pi":
         from benchmarks.diagnosis.generator import make_scenario
 
@@ -192,11 +201,12 @@ def score_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     ``named``, ``flagged``, ``wrong`` (names), ``params`` (quantity, truth reference, found,
     relative error, within tolerance), ``null_names`` (measured: the null's own names) and
     ``missing_null`` (a measured effect run whose null is not in ``rows``)."""
-    nulls = {r["base"]: r for r in rows if r["class"] == "measured base" and not r["hidden"]}
+    nulls = {(r["set"], r["base"]): r for r in rows
+             if r["class"] == "measured base" and not r["hidden"]}
     out = []
     for r in rows:
         hid = next(iter(r["hidden"]), None)
-        ref = nulls.get(r["base"]) if r["class"] == "measured base" else None
+        ref = nulls.get((r["set"], r["base"])) if r["class"] == "measured base" else None
         base_names = set(ref["found"]) if ref else set()
         new = [n for n in r["found"] if n not in base_names]
         v: dict[str, Any] = {"id": r["id"], "set": r["set"], "class": r["class"], "hidden": hid,
