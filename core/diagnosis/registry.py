@@ -30,7 +30,8 @@ if TYPE_CHECKING:
     from ..base import Model
     from ..recordings import Recording
 
-__all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "StaticTerm", "TermFit", "TermRows",
+__all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "SignatureRows", "StaticTerm",
+           "TermFit", "TermRows",
            "dynamics_of", "effect", "output_dynamics", "rate_effect", "register", "stage_pairs",
            "static_terms", "term_of"]
 
@@ -202,6 +203,33 @@ class StaticTerm:
 
 
 @dataclass(frozen=True)
+class SignatureRows:
+    """The rows an effect's signature lives in, and how residuals are compared there.
+
+    Attributes
+    ----------
+    masks : list of ndarray of bool, each of shape (n_samples,)
+        One mask per recording: the rows (for a drift, the cycles of a repeated input).
+    words : str
+        Which rows, for the report ("cycle to cycle after the first (...)").
+    centred : bool
+        Only the change within the rows is the signature, not their level: each recording's
+        residual there is compared about its mean.
+    previous : list of (ndarray of int, shape (n_samples,)) or None
+        Per recording, for every row of its mask, the row one input cycle earlier (the same
+        input and input history under a repeated cycle; -1 elsewhere). When given, each
+        row's residual is compared as its change from that row's (``e[t] - e[previous[t]]``):
+        a rate-independent model repeats itself from cycle to cycle, so its misfit, however
+        large, cancels, and what is left is what changed with time (the noise twice).
+    """
+
+    masks: list[np.ndarray]
+    words: str
+    centred: bool = False
+    previous: list[np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
 class DiagnosableEffect:
     """Everything the diagnosis knows about one effect.
 
@@ -272,14 +300,11 @@ class DiagnosableEffect:
         Place of its stage in the saved model's chain (after the hysteresis); effects of
         one ``stage_order`` exclude each other (one output dynamics stage).
     signature : callable or None
-        ``signature(ctx) -> (masks, words, centred) or None``: the rows its signature lives
-        in, one boolean mask per recording (cycles after the first of a repeated input for a
-        drift), with words saying which, and whether only the change within those rows is
-        its signature, not their level (``centred``: each recording's residual there is
-        compared about its mean); its effect size and significance are then judged
-        on the test rows among them, and it must not make the other test rows worse
-        (:func:`core.diagnosis.search.candidate_evidence`). ``None`` (or a ``None`` result): every
-        test row.
+        ``signature(ctx) -> SignatureRows or None``: the rows its signature lives in
+        (:class:`SignatureRows`: cycles of a repeated input for a drift); its effect size
+        and significance are then judged on the test rows among them, and it must not make
+        the other test rows worse (:func:`core.diagnosis.search.candidate_evidence`).
+        ``None`` (or a ``None`` result): every test row.
     systematic : callable or None
         ``systematic(ctx, cur, fit) -> ({parameter: sigma}, words)``: the uncertainty the
         effect's own discretisation leaves (a creep bank's placement of its time constants),
@@ -321,7 +346,7 @@ class DiagnosableEffect:
     rate_dependent_hysteresis: bool = False
     linear: bool = False
     stage_order: int = 0
-    signature: Callable[[Any], tuple[list[Any], str, bool] | None] | None = None
+    signature: Callable[[Any], SignatureRows | None] | None = None
     systematic: Callable[[Any, Any, Any], tuple[dict[str, float], str]] | None = None
     deciding: tuple[tuple[str, str], ...] = ()
     term: StaticTerm | None = None

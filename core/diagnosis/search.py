@@ -158,20 +158,26 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
     sig = spec.signature(ctx) if spec.signature is not None else None
     if sig is None:
         return None
-    masks, words, centred = sig
-    where = [m & t for m, t in zip(masks, ctx.test, strict=True)]
+    where = [m & t for m, t in zip(sig.masks, ctx.test, strict=True)]
     if sum(int(w.sum()) for w in where) < MIN_SIGNATURE_ROWS:
         return None
-    rest = [~m & t for m, t in zip(masks, ctx.test, strict=True)]
+    rest = [~m & t for m, t in zip(sig.masks, ctx.test, strict=True)]
 
     def on_signature(f: Fit) -> list[np.ndarray]:
+        if sig.previous is not None:  # each row against the same row one cycle before
+            out = []
+            for r, p, w, prev in zip(ctx.records, f.pred, where, sig.previous, strict=True):
+                rows = np.flatnonzero(w)
+                e = r.y - p
+                out.append(e[rows] - e[prev[rows]])
+            return out
         res = ctx.test_res(f, where)
-        return [e - e.mean() if centred and e.size else e for e in res]
+        return [e - e.mean() if sig.centred and e.size else e for e in res]
 
     h = heldout_comparison(on_signature(cur), on_signature(c.fit))
     other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
              if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
-    return replace(c, heldout=h, where=f"test rows {words}", elsewhere=other)
+    return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other)
 
 
 #: Share of the test rows, those where a delay / lag / resonance changes the prediction most,

@@ -9,7 +9,7 @@ from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
 from ..periodic import MIN_CYCLES, longest_repeating_run, repeated_cycles
-from ..registry import DiagnosableEffect, StaticTerm, TermFit, TermRows, register
+from ..registry import DiagnosableEffect, SignatureRows, StaticTerm, TermFit, TermRows, register
 from ..structure import Fit, legendre_columns
 
 #: A single recording shorter than this (s) cannot test a drift: a polynomial in time over
@@ -43,13 +43,14 @@ def _untestable(ctx: FitContext) -> str | None:
             "or span minutes)")
 
 
-def _signature(ctx: FitContext) -> tuple[list[np.ndarray], str, bool] | None:
+def _signature(ctx: FitContext) -> SignatureRows | None:
     """Where a drift shows apart from the model's bias: in a recording whose input repeats
-    one cycle, the change from cycle to cycle after the first (the first sets the memory,
-    and the rows before it hold the virgin loading a base may miss; a level common to the
-    cycles is an offset, not a drift, so the comparison is centred).
-    ``None`` (every test row, as before) with several recordings, whose differences already
-    test a drift, or when the one recording does not repeat its input."""
+    one cycle, the change from one cycle to the next. A rate-independent model repeats its
+    output once the first cycle has set its memory, so each row of the third cycle on is
+    compared as its residual's change from the same row one cycle before (the base's misfit,
+    which repeats, cancels; a drift does not). ``None`` (every test row, as before) with
+    several recordings, whose differences already test a drift, or when the one recording
+    does not repeat its input."""
     if len(ctx.records) != 1:
         return None
     r = ctx.records[0]
@@ -57,9 +58,15 @@ def _signature(ctx: FitContext) -> tuple[list[np.ndarray], str, bool] | None:
     if not cyc:
         return None
     m = np.zeros(r.n_samples, dtype=bool)
-    m[cyc[1][0] : cyc[-1][1]] = True
-    return [m], (f"cycle to cycle after the first ({r.name}: {len(cyc) - 1} repeated input "
-                 f"cycles from t = {r.t[cyc[1][0]]:.4g} s)"), True
+    prev = np.full(r.n_samples, -1, dtype=np.int64)
+    # the first cycle sets the memory: cycles from the third on, each against the one before
+    for (a, b), (p, _) in zip(cyc[2:], cyc[1:-1], strict=True):
+        m[a:b] = True
+        prev[a:b] = np.arange(p, p + (b - a))
+    return SignatureRows([m], f"cycle to cycle after the first ({r.name}: each of "
+                              f"{len(cyc) - 2} repeated input cycles from t = "
+                              f"{r.t[cyc[2][0]]:.4g} s against the one before)",
+                         previous=[prev])
 
 
 def _columns(degree: int, rows: TermRows) -> np.ndarray:
