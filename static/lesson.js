@@ -101,8 +101,9 @@ function onPushed(info) {
   if (!info || !info.lesson) return;
   show(info.lesson);
   // a changed step keeps the view on show; its figure was asked for with the event
-  if (!info.edit) selectFigure(info.lesson.view, info.pending);
-  else draw(info.pending).catch((e) => setMsg("model-msg", e.message));
+  // its texts painted before its figure is drawn
+  if (!info.edit) selectFigure(info.lesson.view, info.pending, { textFirst: true });
+  else draw(info.pending, { textFirst: true }).catch((e) => setMsg("model-msg", e.message));
   const note = $("live-note");
   note.classList.remove("error");
   const where = `step ${info.lesson.step} of ${info.lesson.steps}: ${info.lesson.step_title}`;

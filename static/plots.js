@@ -187,6 +187,9 @@ export function fitHeight(el = $("figure")) {
 }
 window.addEventListener("resize", () => fitHeight());
 
+// What plotly last drew in an element, as the arguments it was given (JSON).
+const DRAWN = new WeakMap();
+
 // ``stamp``: what ``f`` is (``view@version``), put in body[data-plotted] once plotly has
 // drawn it (a quick plot is not plotly's figure yet).
 export async function render(el, f, { live = false, stamp } = {}) {
@@ -218,7 +221,14 @@ export async function render(el, f, { live = false, stamp } = {}) {
   if (old && !old.classList.contains("overlay")) el.replaceChildren();
   const t0 = performance.now();
   const mine = el.id === "figure" ? state.shownStamp : null;
-  await Plotly.react(el, data, layout, PLOT_CONFIG);
+  // the same figure at the same size (a lesson's step that changed only its texts, the
+  // same view asked again): plotly's redraw, a long task, is not run again
+  const key = JSON.stringify([data, layout]);
+  if (old || key !== DRAWN.get(el) || !el.classList.contains("js-plotly-plot")) {
+    DRAWN.delete(el);
+    await Plotly.react(el, data, layout, PLOT_CONFIG);
+    DRAWN.set(el, key);
+  }
   if (old && old.classList.contains("overlay")) old.remove();
   el.classList.remove("live");
   document.body.dataset.plotlyMs = (performance.now() - t0).toFixed(1);

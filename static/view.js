@@ -55,8 +55,17 @@ export function figureRequest(fig) {
 // view or shows one view's figure under another's tab.
 let drawn = 0;
 
-export async function draw(pending) {
+// A frame painted: what was put on the page before it is on screen.
+export function painted() {
+  return new Promise((resolve) => requestAnimationFrame(() => setTimeout(resolve, 0)));
+}
+
+// ``textFirst`` (a lesson's step): the step's texts, just put on the page, are painted
+// before plotly's redraw takes the page's main thread (a class of thirty on one machine:
+// the figure came before the next frame and the texts waited on its long task, issue 33).
+export async function draw(pending, { textFirst = false } = {}) {
   const seq = ++drawn;
+  const first = textFirst ? painted() : null;
   const fig = state.fig;
   const el = $("figure");
   const name = RESULT_VIEWS.includes(fig) ? "loading" : fig;
@@ -90,6 +99,10 @@ export async function draw(pending) {
   const notes = [...(res.model_note ? [res.model_note] : []),
     ...((f.layout && f.layout.meta && f.layout.meta.notes) || [])];
   $("notes").textContent = notes.map((n) => `⚠ ${n}`).join("\n");
+  if (first) {
+    await first;
+    if (seq !== drawn) return;
+  }
   const live = performance.now() - state.lastInput < SETTLE_MS;
   // body[data-plotted] names the view and version plotly has drawn (a live move draws a
   // quick plot first and plotly after it settles)
@@ -101,9 +114,9 @@ export async function draw(pending) {
 }
 
 // Show view ``name``; ``pending``: its figure, already asked for.
-export function selectFigure(name, pending) {
+export function selectFigure(name, pending, opts = {}) {
   state.fig = name;
   document.querySelectorAll("#tabs button").forEach((b) => b.classList.toggle("active", b.dataset.fig === name));
   $("view-help").textContent = VIEW_HELP[name] || "";
-  draw(pending).catch((e) => setMsg("model-msg", e.message));
+  draw(pending, opts).catch((e) => setMsg("model-msg", e.message));
 }

@@ -92,6 +92,11 @@ STATE_REDRAW_S = 0.1
 #: Heavy views computing in worker processes at once, for every tab of the server together
 #: (the REST API's figure workers are bounded the same way: one per core, at least 2).
 GUI_FIGURE_SLOTS = threading.BoundedSemaphore(max(2, os.cpu_count() or 2))
+#: After a lesson's move, the step's text leaves for the tab on its own (flushed) at least
+#: this long before the step's plot, s: viser applies a batch of GUI messages as it comes,
+#: so the text is committed and painted before plotly's redraw takes the tab's main thread
+#: (a class of thirty: the text waited on the plot's long tasks, issue 33).
+TEXT_FIRST_S = 0.08
 
 
 def _ignore(fraction: float, message: str = "") -> None:
@@ -138,8 +143,11 @@ class SessionView:
         camera: Any = None,
         on_session: Callable[[str], None] | None = None,
         jobs: JobManager | None = None,
+        flush: Callable[[], None] | None = None,
     ) -> None:
         self.registry = registry
+        self._flush = flush  # sends the tab's queued messages now (viser's client.flush)
+        self._text_sent = 0.0  # when a lesson move's text was flushed (time.monotonic)
         #: runs this tab's fits in killable worker processes (the REST API's manager)
         self.jobs = jobs if jobs is not None else _default_jobs()
         self._job: Job | None = None  # the fit or diagnosis job running now
@@ -297,9 +305,21 @@ class SessionView:
         if not getattr(self._syncing, "from_gui", False):
             self.ui.params_md.content = ""  # a note on the previous model's sliders
             self._sync_controls(config)
-            # a lesson's move: its view before the one render of the new model
-            self.lesson.take_step_view(config)
+            # a lesson's move: its view before the one render of the new model, and its
+            # text out first, alone, before the plot the render sends
+            if self.lesson.take_step_view(config):
+                self._text_first()
         self._redraw()
+
+    def _text_first(self) -> None:
+        """Send what is queued for the tab (the Lesson folder's step, the controls) now:
+        the render holds the step's plot back until :data:`TEXT_FIRST_S` after it."""
+        self._text_sent = time.monotonic()
+        if self._flush is not None:
+            try:
+                self._flush()
+            except Exception:  # noqa: BLE001 - a closing tab
+                pass
 
     def _sync_controls(self, cfg: Config) -> None:
         """Push ``cfg`` into the controls without triggering write-back."""
@@ -861,6 +881,9 @@ class SessionView:
             aspect = PROJECTOR_ASPECT
         elif bands > 1:
             aspect = min(1.35, 0.68 * bands)
+        wait = self._text_sent + TEXT_FIRST_S - time.monotonic()
+        if wait > 0:  # a lesson's move: its text left alone, painted before this plot
+            time.sleep(wait)
         ui.plot.aspect = aspect
         ui.plot.figure = fig
         notes = (fig.layout.get("meta") or {}).get("notes") or []
@@ -874,6 +897,7 @@ class SessionView:
         ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
         self._show_digitized(res)
         ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+        self.lesson.toast_due()  # a lesson move's toast after its text and plot
 
     def _computed(self, run: actions.FiguresRun) -> Result | None:
         """The result of ``run``: here when light, else in a worker process (issue 35 item
@@ -932,6 +956,7 @@ class SessionView:
 
     def _render_error(self, exc: BaseException) -> None:
         self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
+        self.lesson.toast_due()
 
     # ------------------------------------------------------------------ digitized view
     def _show_digitized(self, res: Result) -> None:

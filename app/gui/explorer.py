@@ -136,7 +136,7 @@ class ExplorerGui:
 
         view = SessionView(client.gui, self.registry, session, self.settings,
                            notify=notify, scene=client.scene, camera=client.camera,
-                           on_session=remember, jobs=self.jobs)
+                           on_session=remember, jobs=self.jobs, flush=client.flush)
 
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0

@@ -12,6 +12,7 @@ through :func:`~app.gui.text.md_text`.
 
 from __future__ import annotations
 
+import threading
 from typing import TYPE_CHECKING, Any
 
 from app.services.errors import ParameterError
@@ -49,6 +50,11 @@ class LessonPanel:
         self.draft: list[lessons.Step] = []
         self._session: Session | None = None
         self._last: lessons.Position | None = None  # the class step last shown
+        # a move's toast, sent by the render after the move's text and plot (``_due``),
+        # and the last move toasted so (its tell does not toast again)
+        self._toast_lock = threading.Lock()
+        self._due: lessons.Position | None = None
+        self._toasted: lessons.Position | None = None
         g = view.ui.gui
         order = getattr(view.ui.code_md, "order", None)
         with g.add_folder("Lesson", order=None if order is None else order + 0.5) as self.folder:
@@ -129,12 +135,29 @@ class LessonPanel:
         if switch and not edit:  # a move of the class, not this tab opening
             if pos is not None:
                 self._show_view(pos.step.view)
-                self.view._toast("Lesson", f"the class is at step {pos.index + 1} of "
-                                 f"{len(pos.lesson.steps)}: {pos.step.title}")
+                with self._toast_lock:  # not when the move's render toasts (or did)
+                    mine = pos is not self._due and pos is not self._toasted
+                if mine:
+                    self._toast_move(pos)
             else:
                 self.view._toast("Lesson", "the teacher ended the lesson; this tab keeps its "
                                  "model and input")
         self._show(pos)
+
+    def _toast_move(self, pos: lessons.Position) -> None:
+        self.view._toast("Lesson", f"the class is at step {pos.index + 1} of "
+                         f"{len(pos.lesson.steps)}: {pos.step.title}")
+
+    def toast_due(self) -> None:
+        """The toast of a move taken with its push (:meth:`take_step_view`), sent by the
+        tab's render once the step's text and plot are sent: its transition (Mantine's,
+        ~0.1 s of a viser tab's main thread) no longer comes before them."""
+        with self._toast_lock:
+            pos, self._due = self._due, None
+            if pos is None:
+                return
+            self._toasted = pos
+        self._toast_move(pos)
 
     def _show(self, pos: lessons.Position | None, config: Config | None = None) -> None:
         at = pos is not None
@@ -156,18 +179,25 @@ class LessonPanel:
                      "step.")
         self.md.content = "\n\n".join(parts)
 
-    def take_step_view(self, config: Config) -> None:
+    def take_step_view(self, config: Config) -> bool:
         """The class's move reaching the tab's session (the push, before this panel is
         told of the move): the new step's view is chosen now, quietly, so the render the
         new model asks for draws the step's view. Before, the tab drew the old step's view
         with the new model, then the new view: two plots per move in each tab (issue 33,
-        ten viser tabs of a class of thirty)."""
+        ten viser tabs of a class of thirty). The step's text is set here too, before that
+        render, and the move's toast left to the render's end (:meth:`toast_due`).
+        Returns whether this was a move of the class (the caller flushes the text)."""
         pos, last = self.cls.position, self._last
         if pos is None or pos is last or not self.on_step(config):
-            return
+            return False
         if last is not None and pos.index == last.index and pos.lesson.title == last.lesson.title:
-            return  # the teacher's push of an edited step keeps the tab's view
+            return False  # the teacher's push of an edited step keeps the tab's view
         self._set_view(pos.step.view)
+        self._show(pos, config)
+        with self._toast_lock:
+            if pos is not self._toasted:
+                self._due = pos
+        return True
 
     def _set_view(self, name: str) -> bool:
         """Both *View* dropdowns to ``name``, quietly; whether that changed the view."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Iterator
 from types import SimpleNamespace
 from typing import Any
@@ -166,3 +167,44 @@ def test_students_never_see_the_teachers_buttons(view: SessionView) -> None:
     assert [h.visible for h in teacher] == [True, True, True]
     _click(view.lesson.start_btn)  # and they work
     assert view.lesson.cls.position is not None
+
+
+def test_a_moves_text_leaves_before_its_plot_and_its_toast_after(server: Any) -> None:  # noqa: F811
+    """A lesson's move: the tab's queued messages are flushed with the step's text in the
+    Lesson folder while the plot still shows the old step, the new plot is set at least
+    ``TEXT_FIRST_S`` later, and the move's one toast comes after that plot (issue 33: in a
+    class of thirty a viser tab painted the step's text only after plotly's redraw and the
+    toast's transition; before this, no flush and the toast came first)."""
+    from app.gui import controller
+
+    reg = SessionRegistry()
+    log: list[tuple[str, float, str, str]] = []
+    holder: dict[str, SessionView] = {}
+
+    def seen(what: str) -> None:
+        v = holder.get("v")
+        if v is not None:
+            log.append((what, time.monotonic(), v.lesson.md.content,
+                        v.ui.plot._plotly_json_str))
+
+    v = SessionView(server.gui, reg, reg.create(), Settings(),
+                    notify=lambda *a: seen("toast"), flush=lambda: seen("flush"))
+    holder["v"] = v
+    try:
+        lesson = lessons.builtin_lesson("pi-basics")
+        lessons.start(reg, lesson)
+        assert v.worker.wait_idle(30)
+        old = v.ui.plot._plotly_json_str
+        log.clear()
+        lessons.go_to(reg, move=1)
+        assert v.worker.wait_idle(30)
+        kinds = [x[0] for x in log]
+        assert kinds == ["flush", "toast"], kinds
+        flush, toast = log
+        assert "step 2 of" in flush[2] and "on the class step" in flush[2]
+        assert flush[3] == old  # the plot not yet sent with the text
+        assert toast[3] != old  # the step's plot was sent before the toast
+        assert toast[1] - flush[1] >= controller.TEXT_FIRST_S
+    finally:
+        lessons.end(reg)
+        v.close()
