@@ -160,3 +160,66 @@ def test_teacher_leads_pi_basics_and_a_student_returns(browser: Any, live_server
         class_lesson(app.state.registry)._move(None)  # other journeys see no lesson
         for ctx in (ctx_a, ctx_b, ctx_t, ctx_v):
             ctx.close()
+
+
+def _teach(url: str, method: str, path: str, body: dict[str, Any] | None = None) -> Any:
+    req = urllib.request.Request(
+        url + path, method=method, data=None if body is None else json.dumps(body).encode(),
+        headers={"X-Teacher-Token": TEACHER_TOKEN, "Content-Type": "application/json"})
+    with urllib.request.urlopen(req, timeout=30) as r:
+        return json.load(r)
+
+
+#: Records plotly's redraws of the page's figure: for each, when the lesson's "step k of n"
+#: last changed, and the last change of it the page had painted (a frame after it).
+REDRAWS = """() => {
+  window.__reacts = [];
+  window.__changed = 0;
+  window.__painted = 0;
+  const real = Plotly.react;
+  Plotly.react = function (el, ...rest) {
+    if (el.id === "figure") window.__reacts.push([window.__changed, window.__painted]);
+    return real.call(this, el, ...rest);
+  };
+  new MutationObserver(() => { const t = performance.now();
+    window.__changed = t;
+    requestAnimationFrame(() => setTimeout(() => { window.__painted = t; }, 0)); })
+    .observe(document.getElementById("lesson-where"), { childList: true, characterData: true,
+                                                         subtree: true });
+}"""
+
+
+def test_a_step_that_changes_only_its_texts_is_not_drawn_again(browser: Any,
+                                                                live_server: dict) -> None:
+    """A lesson's step with the same model, input and view as the one before it shows its
+    texts and does not run plotly's redraw again (issue 33: in a class of thirty every
+    redraw is a long task on the shared machine); a step with another view is drawn after
+    its texts are painted."""
+    url = live_server["url"]
+    ctx, page, log = _open(browser, url)
+    _listening(url, page)
+    steps = [{"title": f"Same loop {k}", "preset": "paper001-example1", "view": "loop",
+              "prompt": f"Prompt {k}."} for k in (1, 2)]
+    steps.append({"title": "In time", "preset": "paper001-example1", "view": "time",
+                  "prompt": "Prompt 3."})
+    try:
+        _teach(url, "POST", "api/teacher/lesson",
+               {"lesson": {"title": "Texts only", "steps": steps}})
+        drawn = ("([n, fig]) => document.body.dataset.lessonStep === n && "
+                 "document.body.dataset.plotted === `${fig}@${document.body.dataset.ready}`")
+        page.wait_for_function(drawn, arg=["1", "loop"])
+        page.evaluate(REDRAWS)
+        _teach(url, "POST", "api/teacher/lesson/step", {"move": 1})
+        page.wait_for_function(drawn, arg=["2", "loop"])
+        assert page.inner_text("#lesson-prompt") == "Prompt 2."
+        assert page.evaluate("window.__reacts.length") == 0  # the same figure: not redrawn
+        _teach(url, "POST", "api/teacher/lesson/step", {"move": 1})
+        page.wait_for_function(drawn, arg=["3", "time"])
+        reacts = page.evaluate("window.__reacts")
+        assert len(reacts) == 1, reacts
+        # the step's texts were painted (a frame after their change) before the redraw
+        assert reacts[0][0] > 0 and reacts[0][1] == reacts[0][0], reacts
+        assert log["errors"] == []
+    finally:
+        _teach(url, "DELETE", "api/teacher/lesson")
+        ctx.close()
