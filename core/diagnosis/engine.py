@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -170,21 +171,68 @@ def diagnose(
                          resample=resample)
     say(0.0, f"read {len(records)} recording(s), {sum(r.n_samples for r in records)} samples; "
         "fitting the baseline")
+    windows = train is not None or test is not None
     ctx, split = _context(records, train, test, crossfit)
+    base_fit, requested, base_choice = _baseline(ctx, base, n_operators, auto_resolution)
+    say(0.1, f"baseline: {len(base_fit.structure.thresholds)} operators")
+    run_, todo = _start_run(ctx, base_fit, todo, max_effects, windows, say)
+    cur, todo = _rounds(run_, base_fit, todo, max_effects,
+                        4 * n_operators if auto_resolution else 0)
+    cur = polish_dynamics(ctx, cur, run_.findings)
+    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
+                                          if run_.findings else ""))
+    cur, loro = _across_recordings(run_, base_fit, cur, windows)
+    widen_for_base(ctx, cur, run_.findings)
+    say(0.92, "judging the base model against the noise floor")
+    tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
+    adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
+                      base_fit.structure.free_weights, found=cur.structure.effects)
+    crossval = crossval_scores(ctx, base_fit, cur)
+    refit = None if windows else _refit_everywhere(ctx, cur)
+    say(1.0, "done")
+    everywhere = [np.ones(r.n_samples, bool) for r in records]
+    return DiagnosisResult(
+        records=records, train=ctx.train, test=ctx.test, baseline=base_fit, final=cur,
+        requested=requested, effects=run_.findings, untestable=run_.untestable,
+        ambiguous=run_.ambiguous, rounds=run_.rounds,
+        maps_before=residual_maps(records, ctx.all_res(base_fit), ctx.coords, everywhere),
+        maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
+        split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
+        model_name=model, loro_baseline=loro.baseline, loro_final=loro.final,
+        crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit,
+        recording_specific=loro.specific, base_choice=base_choice)
+
+
+def _baseline(ctx: FitContext, base: str, n_operators: int, auto_resolution: bool
+              ) -> tuple[Fit, Fit, BaseChoice]:
+    """The baseline PI at its resolution, then (``base="auto"``) its base family: the base
+    fit, the fit at the requested resolution and the base choice."""
     base_fit, requested = fit_baseline(ctx, n_operators, auto_resolution)
     if base not in ("auto", "pi"):
         raise ParameterError(f"base {base!r} is not known; use 'auto' or 'pi'")
     base_fit, base_choice = (choose_base_family(ctx, base_fit, n_operators)
                              if base == "auto" else (base_fit, BaseChoice("pi", (), 0)))
-    say(0.1, f"baseline: {len(base_fit.structure.thresholds)} operators")
+    return base_fit, requested, base_choice
+
+
+def _start_run(ctx: FitContext, base_fit: Fit, todo: list[str], max_effects: int,
+               windows: bool, say: Progress) -> tuple[Run, list[str]]:
+    """The run's state before the first round (noise floor, untestable effects, the
+    between-recordings plan) and the effects left to test once the untestable are out."""
     run_ = Run(ctx, _noise_rms(ctx, base_fit), untestable_effects(ctx), max_effects,
-               between_plan(ctx, windows=train is not None or test is not None), say=say)
+               between_plan(ctx, windows=windows), say=say)
     if base_fit.structure.stop and rate_effect() in todo and \
             rate_effect() not in run_.untestable_names:
         run_.untestable.append(RATE_ON_STOP)
     todo = [e for e in todo if e not in run_.untestable_names]
     run_.rate_testable = rate_effect() in todo
-    cur = base_fit
+    return run_, todo
+
+
+def _rounds(run_: Run, cur: Fit, todo: list[str], max_effects: int, n_max: int
+            ) -> tuple[Fit, list[str]]:
+    """Rounds of search, judgement and acceptance until nothing passes or ``max_effects``
+    are in: the model holding the accepted effects and the effects still untested."""
     for rnd in range(max_effects):
         cands, rows = search_round(run_, cur, todo, rnd)
         if not cands:
@@ -197,39 +245,35 @@ def diagnose(
             run_.rounds.extend(rows)
             break
         best = choose(passing, {n: cands[n].heldout.gain for n in passing})
-        cur = accept_best(run_, cur, cands, passing, best, rows, rnd,
-                          4 * n_operators if auto_resolution else 0)
+        cur = accept_best(run_, cur, cands, passing, best, rows, rnd, n_max)
         todo = remaining(todo, best)
-    cur = polish_dynamics(ctx, cur, run_.findings)
-    say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
-                                          if run_.findings else ""))
-    loro_b, loro_f = (loro_scores(ctx, base_fit, cur, run_.findings)
-                      if len(records) >= 2 and train is None and test is None else (None, None))
-    specific: list[RecordingSpecific] = []
-    if loro_b is not None:
-        cur, loro_f, specific = drop_recording_specific(run_, base_fit, cur, loro_b,
-                                                        filled(loro_f))
-        say(0.91, "estimating each parameter from the other recordings")
-        spread_over_recordings(ctx, base_fit, cur, run_.findings)
-    widen_for_base(ctx, cur, run_.findings)
-    say(0.92, "judging the base model against the noise floor")
-    tried = [r.effect for r in run_.rounds if r.round == 1 and ":" not in r.effect]
-    adequacy = assess(records, ctx.train, ctx.test, cur.pred, run_.noise, tried or list(todo),
-                      base_fit.structure.free_weights, found=cur.structure.effects)
-    crossval = crossval_scores(ctx, base_fit, cur)
-    refit = _refit_everywhere(ctx, cur) if train is None and test is None else None
-    say(1.0, "done")
-    everywhere = [np.ones(r.n_samples, bool) for r in records]
-    return DiagnosisResult(
-        records=records, train=ctx.train, test=ctx.test, baseline=base_fit, final=cur,
-        requested=requested, effects=run_.findings, untestable=run_.untestable,
-        ambiguous=run_.ambiguous, rounds=run_.rounds,
-        maps_before=residual_maps(records, ctx.all_res(base_fit), ctx.coords, everywhere),
-        maps_after=residual_maps(records, ctx.all_res(cur), ctx.coords, everywhere),
-        split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
-        model_name=model, loro_baseline=loro_b, loro_final=loro_f,
-        crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit,
-        recording_specific=specific, base_choice=base_choice)
+    return cur, todo
+
+
+@dataclass(frozen=True)
+class _AcrossRecordings:
+    """Leave-one-recording-out scores of the baseline and the final model (``None`` with one
+    recording or explicit windows) and the effects found recording-specific."""
+
+    baseline: dict[str, Any] | None
+    final: dict[str, Any] | None
+    specific: list[RecordingSpecific]
+
+
+def _across_recordings(run_: Run, base_fit: Fit, cur: Fit, windows: bool
+                       ) -> tuple[Fit, _AcrossRecordings]:
+    """With several recordings and no windows: each recording predicted from the others,
+    the recording-specific effects dropped (acceptance rule 8) and each parameter's spread
+    over the recordings; the final model and the scores."""
+    ctx = run_.ctx
+    if len(ctx.records) < 2 or windows:
+        return cur, _AcrossRecordings(None, None, [])
+    loro_b, loro_f = loro_scores(ctx, base_fit, cur, run_.findings)
+    cur, loro_f, specific = drop_recording_specific(run_, base_fit, cur, loro_b,
+                                                    filled(loro_f))
+    run_.say(0.91, "estimating each parameter from the other recordings")
+    spread_over_recordings(ctx, base_fit, cur, run_.findings)
+    return cur, _AcrossRecordings(loro_b, loro_f, specific)
 
 
 def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:

@@ -403,7 +403,7 @@ class DiagnosisResult:
                                "parameters", "dm_z_pooled", "signed_rank_p_pooled",
                                "parameter_cv") if k in d}
             for r in self.rounds
-            if r.round == last and not r.passes and r.heldout_mse_reduction >= 0.05
+            if r.round == last and not r.passes and r.heldout_mse_reduction >= RULE.min_gain
             and not r.effect.startswith(("resolution", "recheck"))
             for d in (r.to_dict(),)
         ]
