@@ -228,6 +228,24 @@ def assess(
             f"{ratio:.1f} times the white-noise floor {noise_rms:.3g}) is within "
             f"{INADEQUATE_RATIO:g} times that floor: no missing physics left to find in "
             "these recordings"))
+    shapes, fitted, thin = _fit_shapes(records, train, rows, free_weights, ys)
+    text = (f"the base model is not adequate: the final model{with_shape} still misses "
+            f"{pct:.2f} % of the "
+            f"output range on {scored} (RMS {rmse:.4g}, {ratio:.1f} times the white-noise floor "
+            f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
+            f"{', '.join(tried) or 'no effect'}.")
+    text += _shape_words(records, shapes, fitted, rmse)
+    if thin > 1 and shapes:
+        text += f" (The other classes were fitted on every {thin}th training row.)"
+    return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)
+
+
+def _fit_shapes(records: Sequence[Recording], train: Sequence[np.ndarray],
+                rows: Sequence[np.ndarray], free_weights: bool, ys: list[np.ndarray]
+                ) -> tuple[list[LoopShapeFit], dict[str, tuple[Any, list[np.ndarray]]], int]:
+    """Every loop-shape class fitted on the training rows and scored on ``rows``, best
+    first; the fitted estimators and predictions by model; the thinning of the training
+    rows (1: every row)."""
     shapes: list[LoopShapeFit] = []
     fitted: dict[str, tuple[Any, list[np.ndarray]]] = {}
     # long recordings: the classes are fitted on every k-th training row (the memory still
@@ -235,6 +253,8 @@ def assess(
     n_tr = sum(int(m.sum()) for m in train)
     thin = max(1, -(-n_tr // MAX_SAMPLES))
     fit_rows = train if thin == 1 else [m & (np.arange(m.size) % thin == 0) for m in train]
+    from ..fitting.metrics import percent_of_range
+
     for model, physics in loop_shape_kinds():
         try:
             est, pred = _fit_shape(model, records, fit_rows, rows, free_weights)
@@ -247,35 +267,35 @@ def assess(
                                    est.full_model_.to_dict()))
         fitted[model] = (est, pred)
     shapes.sort(key=lambda f: f.rmse)
-    text = (f"the base model is not adequate: the final model{with_shape} still misses "
-            f"{pct:.2f} % of the "
-            f"output range on {scored} (RMS {rmse:.4g}, {ratio:.1f} times the white-noise floor "
-            f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
-            f"{', '.join(tried) or 'no effect'}.")
+    return shapes, fitted, thin
+
+
+def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
+                 fitted: dict[str, tuple[Any, list[np.ndarray]]], rmse: float) -> str:
+    """What the loop-shape classes say about an inadequate final model of residual ``rmse``:
+    the class that does clearly better, or that none does (and what the friction class
+    finds), or that none could be fitted."""
     better = [f for f in shapes if f.rmse < 0.8 * rmse]
     if better:
         b = better[0]
-        text += (f" The loop shape is the likely cause: {b.physics} reaches {b.pct:.2f} % of "
-                 f"range on the same rows (hyst fit --model {b.model}"
-                 + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ")"
-                 + _physics_of(records, *fitted[b.model]) + ".")
-    elif shapes:
-        text += (" No loop-shape class does clearly better (" + ", ".join(
-            f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
-            "models tried; recordings that separate time, rate and level would tell.")
-        named = [f for f in shapes if getattr(fitted[f.model][0], "features_", None) is not None
-                 and fitted[f.model][0].features_.gap > 0]
-        if named:  # the friction class still names what it found in these loops
-            f = named[0]
-            text += (f" The friction class (hyst fit --model {f.model}, {f.pct:.2f} % of range) "
-                     "finds" + _physics_of(records, *fitted[f.model]).removeprefix(":") + ".")
-    else:
-        text += (" None of the other model classes (hyst fit --model "
-                 + ", ".join(k for k, _ in loop_shape_kinds())
-                 + ") could be fitted to these recordings.")
-    if thin > 1 and shapes:
-        text += f" (The other classes were fitted on every {thin}th training row.)"
-    return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)
+        return (f" The loop shape is the likely cause: {b.physics} reaches {b.pct:.2f} % of "
+                f"range on the same rows (hyst fit --model {b.model}"
+                + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ")"
+                + _physics_of(records, *fitted[b.model]) + ".")
+    if not shapes:
+        return (" None of the other model classes (hyst fit --model "
+                + ", ".join(k for k, _ in loop_shape_kinds())
+                + ") could be fitted to these recordings.")
+    text = (" No loop-shape class does clearly better (" + ", ".join(
+        f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
+        "models tried; recordings that separate time, rate and level would tell.")
+    named = [f for f in shapes if getattr(fitted[f.model][0], "features_", None) is not None
+             and fitted[f.model][0].features_.gap > 0]
+    if named:  # the friction class still names what it found in these loops
+        f = named[0]
+        text += (f" The friction class (hyst fit --model {f.model}, {f.pct:.2f} % of range) "
+                 "finds" + _physics_of(records, *fitted[f.model]).removeprefix(":") + ".")
+    return text
 
 
 def _physics_of(records: Sequence[Recording], est: Any, pred: Sequence[np.ndarray]) -> str:
