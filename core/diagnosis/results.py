@@ -513,12 +513,6 @@ class DiagnosisResult:
             predicting each recording from the others, and why not.
         """
         yr = self.y_range
-        b = self.heldout_rmse(self.baseline)
-        f = self.heldout_rmse(self.final)
-        rows = self.test if any(m.any() for m in self.test) else self.train
-        lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
-                                       zip(self.records, self.baseline.pred, rows,
-                                           strict=True)]))
         return _jsonable({
             "format": "hysteresis-explorer/diagnosis",
             "version": 1,
@@ -529,49 +523,63 @@ class DiagnosisResult:
                             "time_axis": r.has_time, "cleaning": list(r.cleaning)}
                            for r in self.records],
             "split": self.split,
-            "baseline": {
-                "model": self.baseline.structure.base_kind,
-                "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
-                "n_operators": len(self.baseline.structure.thresholds),
-                # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
-                **({"bouc_wen_elements": [list(e) for e in self.baseline.structure.bouc_wen]}
-                   if self.baseline.structure.bouc_wen else {}),
-                "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
-                else "nonnegative",
-                "heldout_rmse": b,
-                "heldout_rmse_pct": 100 * b / yr,
-                "requested_n_operators": len(self._req.structure.thresholds),
-                "requested_heldout_rmse": self.heldout_rmse(self._req),
-                "requested_heldout_rmse_pct": 100 * self.heldout_rmse(self._req) / yr,
-                "per_recording": self.per_recording(self.baseline),
-                "noise_rms": self.noise_rms,
-                "ljung_box": {"Q": lb[0], "lags": lb[1]},
-                "model_dict": self.baseline.models[0].to_dict(),
-                "maps": _jsonable(self.maps_before),
-                "leave_one_recording_out": _jsonable(self.loro_baseline),
-            },
+            "baseline": self._baseline_dict(yr),
             "effects": [e.to_dict(yr) for e in self.effects],
             "untestable": self.untestable,
             "recording_specific": [r.to_dict() for r in self.recording_specific],
             "ambiguous": _jsonable(self.ambiguous),
-            "final": {
-                "effects": [e.name for e in self.effects],
-                "heldout_rmse": f,
-                "heldout_rmse_pct": 100 * f / yr,
-                "per_recording": self.per_recording(self.final),
-                "model": self.model.to_dict(),
-                "model_fitted_on": ("every row (the training and the test blocks), refitted "
-                                    "after selection; the held-out scores above are those of "
-                                    "the fit on the training blocks") if self.refit is not None
-                else "the training rows",
-                "maps": _jsonable(self.maps_after),
-                "leave_one_recording_out": _jsonable(self.loro_final),
-            },
+            "final": self._final_dict(yr),
             "suggestive": _jsonable(self.suggestive),
             "tested": _jsonable([r.to_dict() for r in self.rounds]),
             "accept_rule": ACCEPT_RULE,
             "elapsed_s": self.elapsed_s,
         })
+
+    def _baseline_dict(self, yr: float) -> dict[str, object]:
+        """The ``baseline`` part of :meth:`to_dict` (``yr``: the output range)."""
+        b = self.heldout_rmse(self.baseline)
+        rows = self.test if any(m.any() for m in self.test) else self.train
+        lb = ljung_box(np.concatenate([(r.y - p)[m][:: max(1, int(m.sum() // 4000))] for r, p, m in
+                                       zip(self.records, self.baseline.pred, rows,
+                                           strict=True)]))
+        return {
+            "model": self.baseline.structure.base_kind,
+            "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
+            "n_operators": len(self.baseline.structure.thresholds),
+            # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
+            **({"bouc_wen_elements": [list(e) for e in self.baseline.structure.bouc_wen]}
+               if self.baseline.structure.bouc_wen else {}),
+            "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
+            else "nonnegative",
+            "heldout_rmse": b,
+            "heldout_rmse_pct": 100 * b / yr,
+            "requested_n_operators": len(self._req.structure.thresholds),
+            "requested_heldout_rmse": self.heldout_rmse(self._req),
+            "requested_heldout_rmse_pct": 100 * self.heldout_rmse(self._req) / yr,
+            "per_recording": self.per_recording(self.baseline),
+            "noise_rms": self.noise_rms,
+            "ljung_box": {"Q": lb[0], "lags": lb[1]},
+            "model_dict": self.baseline.models[0].to_dict(),
+            "maps": _jsonable(self.maps_before),
+            "leave_one_recording_out": _jsonable(self.loro_baseline),
+        }
+
+    def _final_dict(self, yr: float) -> dict[str, object]:
+        """The ``final`` part of :meth:`to_dict` (``yr``: the output range)."""
+        f = self.heldout_rmse(self.final)
+        return {
+            "effects": [e.name for e in self.effects],
+            "heldout_rmse": f,
+            "heldout_rmse_pct": 100 * f / yr,
+            "per_recording": self.per_recording(self.final),
+            "model": self.model.to_dict(),
+            "model_fitted_on": ("every row (the training and the test blocks), refitted "
+                                "after selection; the held-out scores above are those of "
+                                "the fit on the training blocks") if self.refit is not None
+            else "the training rows",
+            "maps": _jsonable(self.maps_after),
+            "leave_one_recording_out": _jsonable(self.loro_final),
+        }
 
     def to_json(self) -> dict[str, Any]:
         """The result itself as a versioned JSON document (every field, arrays bit for bit;
