@@ -131,19 +131,7 @@ def read_input(source: Source, options: CsvOptions | None = None,
     ([0.0, 0.001, 0.002], [0.0, 2.5, -1.0], 'V')
     """
     opts = CsvOptions.of(options, **changes)
-    unused = [f"{k}={v!r}" for k, v, given in (
-        ("output", opts.output, opts.output is not None),
-        ("run", opts.run, opts.run is not None and opts.run is not False),
-        ("resample", opts.resample, opts.resample is not False),
-        ("citation", opts.citation, opts.citation != ""),
-    ) if given]
-    if unused:
-        raise CSVError(f"{', '.join(unused)}: read_input() reads a signal without output, "
-                       "runs or resampling; leave these options out (read_csv() reads "
-                       "recordings)")
-    min_samples = 1 if opts.min_samples is None else opts.min_samples
-    if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 1:
-        raise CSVError(f"min_samples={min_samples!r} must be a whole number >= 1")
+    min_samples = _signal_min_samples(opts)
     table, stem = read_table(source, opts, min_columns=1)
     lay = table.layout
     label = lay.source
@@ -165,6 +153,47 @@ def read_input(source: Source, options: CsvOptions | None = None,
     lines = table.lines
     t, has_time = time_axis(table, tcol, t_raw, np.arange(len(table.data)), opts, notes,
                             t_scale=t_scale, time_auto=time_auto, roles="input=")
+    t, u, lines, values, extras = _without_bad_input(table, ucol, tcol, opts, has_time, t, u,
+                                                     lines, values, extras, notes)
+    _check_enough(label, u, lines, min_samples)
+    return InputSignal(
+        t=np.array(t, dtype=np.float64), u=np.array(u, dtype=np.float64),
+        name=opts.name or stem,
+        units={"time": "s" if has_time else "sample", "input": ucol.unit},
+        columns={"time": tcol.raw if tcol is not None else "", "input": ucol.raw},
+        values=tuple(np.array(v) for v in values), extra=extras, extra_units=extra_units,
+        layout=lay, source=label, cleaning=tuple(notes), has_time=has_time,
+        lines=np.array(lines, dtype=np.int64),
+    )
+
+
+def _signal_min_samples(opts: CsvOptions) -> int:
+    """The options that do not apply to a signal refused (an error naming them), and the
+    fewest samples a signal must have (``min_samples``, 1 by default), checked."""
+    unused = [f"{k}={v!r}" for k, v, given in (
+        ("output", opts.output, opts.output is not None),
+        ("run", opts.run, opts.run is not None and opts.run is not False),
+        ("resample", opts.resample, opts.resample is not False),
+        ("citation", opts.citation, opts.citation != ""),
+    ) if given]
+    if unused:
+        raise CSVError(f"{', '.join(unused)}: read_input() reads a signal without output, "
+                       "runs or resampling; leave these options out (read_csv() reads "
+                       "recordings)")
+    min_samples = 1 if opts.min_samples is None else opts.min_samples
+    if isinstance(min_samples, bool) or not isinstance(min_samples, int) or min_samples < 1:
+        raise CSVError(f"min_samples={min_samples!r} must be a whole number >= 1")
+    return min_samples
+
+
+def _without_bad_input(table: Table, ucol: ColumnInfo, tcol: ColumnInfo | None,
+                       opts: CsvOptions, has_time: bool, t: np.ndarray, u: np.ndarray,
+                       lines: np.ndarray, values: list[np.ndarray],
+                       extras: dict[str, np.ndarray], notes: list[str],
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray],
+                                  dict[str, np.ndarray]]:
+    """The rows whose input is empty, NaN or inf removed (at most ``max_dropped``, said in
+    ``notes``), and the extra channels' non-finite values counted (kept)."""
     bad = ~np.isfinite(u)
     if bad.any():
         _check_dropped(table, ucol, opts, bad)
@@ -182,6 +211,11 @@ def read_input(source: Source, options: CsvOptions | None = None,
         if v.dtype.kind == "f" and not np.isfinite(v).all():
             nb = int((~np.isfinite(v)).sum())
             notes.append(f"extra channel {k!r} has {nb} empty/NaN/inf value(s) (kept)")
+    return t, u, lines, values, extras
+
+
+def _check_enough(label: str, u: np.ndarray, lines: np.ndarray, min_samples: int) -> None:
+    """At least ``min_samples`` usable samples, else an error naming the lines."""
     if u.size < min_samples:
         span = f" (lines {lines[0]}..{lines[-1]})" if u.size else ""
         raise CSVError(
@@ -189,15 +223,6 @@ def read_input(source: Source, options: CsvOptions | None = None,
             f"{min_samples}; give a longer signal (or pass a lower min_samples=)",
             source=label,
         )
-    return InputSignal(
-        t=np.array(t, dtype=np.float64), u=np.array(u, dtype=np.float64),
-        name=opts.name or stem,
-        units={"time": "s" if has_time else "sample", "input": ucol.unit},
-        columns={"time": tcol.raw if tcol is not None else "", "input": ucol.raw},
-        values=tuple(np.array(v) for v in values), extra=extras, extra_units=extra_units,
-        layout=lay, source=label, cleaning=tuple(notes), has_time=has_time,
-        lines=np.array(lines, dtype=np.int64),
-    )
 
 
 def _columns_as_written(table: Table, ucol: ColumnInfo, tcol: ColumnInfo | None, u: np.ndarray,
