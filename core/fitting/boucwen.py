@@ -41,7 +41,7 @@ from ..exceptions import FitWarning, ParameterError, UnsupportedOptionError
 from ..stages import Offset
 from ._data import Prepared, masked_range, prepare
 from .estimator import Estimator
-from .gram import COND_LIMIT, solve_constrained
+from .gram import COND_LIMIT, nnls_checked, solve_constrained
 from .orientation import loop_orientation
 
 __all__ = ["BoucWenRegressor", "element_columns"]
@@ -362,16 +362,17 @@ class BoucWenRegressor(Estimator):
 
 def _nnls_residual(A: Float2D, y: Float1D, offset: bool) -> Float1D:
     """Residual of ``min ||A θ (+ c) - y||`` with ``θ >= 0`` (a free offset ``c`` removed by
-    centring the columns and ``y``)."""
-    import scipy.optimize
-
+    centring the columns and ``y``), solved by :func:`core.fitting.gram.nnls_checked`
+    (scipy's ``nnls`` with its optimality conditions checked: scipy >= 1.16 can stop at a
+    point that is not the minimum, which would make this residual jump between polish steps)."""
     if offset:
         A = A - A.mean(axis=0)
         y = y - y.mean()
     scale = np.sqrt(np.sum(A * A, axis=0))
     scale[scale == 0] = 1.0
-    theta, _ = scipy.optimize.nnls(A / scale, y)
-    return (A / scale) @ theta - y
+    As = A / scale
+    theta, _ = nnls_checked(As, y, 3 * As.shape[1])
+    return As @ theta - y
 
 
 def as_positive(x: Any, name: str) -> Float1D:

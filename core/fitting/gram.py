@@ -40,6 +40,7 @@ __all__ = [
     "DEFAULT_CHUNK",
     "ConstrainedSolution",
     "Segment",
+    "nnls_checked",
     "r_factor",
     "solve_constrained",
     "stream_gram",
@@ -325,7 +326,7 @@ def _triangular_factor(G: Float2D) -> Float2D:
 NNLS_KKT_TOL = 1e-9
 
 
-def _nnls_checked(Rb: Float2D, zb: Float1D, maxiter: int) -> tuple[Float1D, float]:
+def nnls_checked(Rb: Float2D, zb: Float1D, maxiter: int) -> tuple[Float1D, float]:
     """``min |Rb x - zb|, x >= 0``: scipy's ``nnls``, its answer checked against the
     optimality conditions (gradient ``g = Rb^T (zb - Rb x)``: ``g <= 0`` where ``x = 0``,
     ``g = 0`` where ``x > 0``) and solved again by bounded-variable least squares
@@ -410,7 +411,7 @@ def solve_constrained(
     zb = R[nf:p, p]
     Rb = R[nf:p, nf:p]
     if p - nf > 0:
-        xb, rnorm = _nnls_checked(Rb, zb, 50 * (p - nf) + 100)
+        xb, rnorm = nnls_checked(Rb, zb, 50 * (p - nf) + 100)
     else:
         xb, rnorm = np.zeros(0), float(np.linalg.norm(zb))
     if nf:

@@ -78,3 +78,21 @@ def test_fit_kind_entry_and_refusals() -> None:
         BoucWenRegressor(n_operators=0).fit(u, y)
     with pytest.raises(NotFittedError):
         BoucWenRegressor().predict(u)
+
+
+def test_polish_residual_checks_nnls_optimality(monkeypatch):
+    """The polish's weight solve keeps the minimum when scipy's ``nnls`` stops short of it
+    (scipy >= 1.16 can: :func:`core.fitting.gram.nnls_checked`)."""
+    import scipy.optimize
+
+    from core.fitting import boucwen
+
+    rng = np.random.default_rng(3)
+    A = np.abs(rng.standard_normal((200, 6)))
+    y = A @ np.array([1.0, 0.0, 2.0, 0.5, 0.0, 3.0]) + 0.01 * rng.standard_normal(200)
+    best = np.linalg.norm(boucwen._nnls_residual(A, y, offset=False))
+    monkeypatch.setattr(scipy.optimize, "nnls",
+                        lambda M, b, **kw: (np.zeros(M.shape[1]), float(np.linalg.norm(b))))
+    got = np.linalg.norm(boucwen._nnls_residual(A, y, offset=False))
+    assert got == pytest.approx(best, rel=1e-8)
+    assert best < 0.05 * np.linalg.norm(y)
