@@ -10,6 +10,7 @@ from ..stages import (
     AsymmetryInverse,
     Drift,
     Offset,
+    SignedGain,
     bisect_steps,
 )
 from .stage import (
@@ -30,6 +31,19 @@ def _emit_offset(model: Offset, ctx: StageContext) -> CStage:
         constants=[f"static const double {ctx.const}C = {c_double(c)};"],
         step=[f"x = x + {ctx.const}C;"],
         tune=[f"{ctx.const}C = $offset[0];"],
+    )
+
+
+@register_c_stage(SignedGain)
+def _emit_signed_gain(model: SignedGain, ctx: StageContext) -> CStage:
+    """Gain by the input's sign ``x <- (x >= 0 ? g+ : g-) x``."""
+    c = ctx.const
+    return CStage(
+        title="gain by the sign of the input",
+        constants=[f"static const double {c}GP = {c_double(model.positive)};",
+                   f"static const double {c}GN = {c_double(model.negative)};"],
+        step=[f"x = (x >= 0.0) ? {c}GP * x : {c}GN * x;"],
+        tune=[f"{c}GP = $positive[0];", f"{c}GN = $negative[0];"],
     )
 
 

@@ -160,7 +160,8 @@ def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[n
     use = [k for k, m in enumerate(train) if m.any()]
     if not use:
         return None
-    est = StopPIRegressor(n_operators=n_operators, initial_memory="keep", gap="auto")
+    est = StopPIRegressor(n_operators=n_operators, initial_memory="keep", gap="auto",
+                          signed=False)
     multi = len(use) > 1
     us = [records[k].u for k in use]
     ys = [records[k].y for k in use]

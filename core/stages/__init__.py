@@ -23,6 +23,7 @@ creep          :class:`Creep`                 ``y = x + Σ_j c_j (L_{τ_j}[x] - 
 drift          :class:`Drift`                 ``y = x + Σ_k a_k P_k(2t/T - 1)`` (Legendre in time)
 asymmetry      :class:`Asymmetry`             ``y = x + Σ_k a_k ((x - c)/s)^k`` (k = 2, 3, ...)
 offset         :class:`Offset`                ``y = x + c``
+signed-gain    :class:`SignedGain`            ``y = g+ x`` (x >= 0), ``g- x`` (x < 0)
 initial-memory :class:`InitialMemory`         hysteresis model started after a virtual input history
 ============== ============================== =====================================================
 
@@ -35,6 +36,7 @@ Every effect inverts (``inverse()``), exactly where the physics allows:
 effect         inverse                    how, and what is exact
 ============== ========================== ========================================================
 offset, drift  the same, negated          exact (drift as a function of time)
+signed-gain    the same, ``1/g+, 1/g-``   exact (monotone, zero kept at zero)
 lag            :class:`LagInverse`        exact inverse of the discretised lag (per-sample solve)
 creep          :class:`CreepInverse`      exact inverse of the minimum-phase discrete operator
 resonance      :class:`ResonanceInverse`  mode cancelled, 3rd-order roll-off at ``bandwidth_hz``;
@@ -54,7 +56,7 @@ from .delay import Advance, Delay, delay_split
 from .drift import Drift
 from .lag import Lag, LagInverse
 from .linear import LagBank, discretised_tf, foh_filter
-from .maps import Asymmetry, AsymmetryInverse, Offset, bisect_steps
+from .maps import Asymmetry, AsymmetryInverse, Offset, SignedGain, bisect_steps
 from .memory import InitialMemory
 from .preview import CausalForm, causal_form
 from .rate import RateDependentPI, RateDependentPIInverse, rd_play_bank
@@ -78,6 +80,7 @@ __all__ = [
     "RateDependentPIInverse",
     "Resonance",
     "ResonanceInverse",
+    "SignedGain",
     "bisect_steps",
     "causal_form",
     "delay_split",

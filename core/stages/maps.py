@@ -11,7 +11,7 @@ import numpy as np
 
 from .._typing import Float1D
 from ..base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
-from ..exceptions import ClippedInputWarning
+from ..exceptions import ClippedInputWarning, ParameterError
 from ..validation import as_finite_scalar, as_vector
 
 
@@ -229,3 +229,60 @@ class Offset(Model):
 
     def inverse(self) -> Offset:
         return Offset(-self.offset)
+
+
+@register_model
+@dataclass(frozen=True, eq=False)
+class SignedGain(Model):
+    """A gain that depends on the sign of its input: ``y = g+ x`` for ``x >= 0``,
+    ``y = g- x`` for ``x < 0``.
+
+    After a friction model (:class:`core.stop.StopPIModel`) it makes the slip force depend
+    on the sliding direction while the force stays zero where it was zero (the backlash's
+    dead band): the plateau when the input falls is ``g- / g+`` times the one when it rises
+    (a band wrapped round a drum grips harder one way than the other). Monotone for
+    ``g+, g- > 0``, so its inverse is the same kind with ``1/g+`` and ``1/g-``.
+
+    Parameters
+    ----------
+    positive : float
+        ``g+ > 0``, the gain of non-negative inputs (output per input unit).
+    negative : float
+        ``g- > 0``, the gain of negative inputs (output per input unit).
+    """
+
+    type_name: ClassVar[str] = "signed-gain"
+    fields: ClassVar[tuple[Field, ...]] = (
+        Field("positive", "number", doc="gain of non-negative inputs (output/input)",
+              title="Gain of positive inputs g+",
+              control=Control("g+", "output/input", (0.1, 3.0), lower=0.0, strict=True,
+                              relative=False)),
+        Field("negative", "number", doc="gain of negative inputs (output/input)",
+              title="Gain of negative inputs g-",
+              control=Control("g-", "output/input", (0.1, 3.0), lower=0.0, strict=True,
+                              relative=False)),
+    )
+    positive: float
+    negative: float
+
+    def __post_init__(self) -> None:
+        for name in ("positive", "negative"):
+            g = as_finite_scalar(getattr(self, name), name)
+            if g <= 0:
+                raise ParameterError(f"{name} must be > 0 (a gain that keeps the sign), "
+                                     f"got {g:g}")
+            object.__setattr__(self, name, g)
+
+    @property
+    def ratio(self) -> float:
+        """``g- / g+``: how much more a negative input is amplified than a positive one."""
+        return self.negative / self.positive
+
+    def default_state(self) -> None:
+        return None
+
+    def _run(self, u: Float1D, state: Any, dt: float | None) -> tuple[Float1D, Any]:
+        return np.where(u >= 0, self.positive * u, self.negative * u), None
+
+    def inverse(self) -> SignedGain:
+        return SignedGain(1.0 / self.positive, 1.0 / self.negative)

@@ -35,6 +35,7 @@ from core.stages import (
     RateDependentPI,
     Resonance,
     ResonanceInverse,
+    SignedGain,
 )
 from core.stop import StopPIModel
 
@@ -104,6 +105,7 @@ def _zoo() -> dict[str, Model]:
         "pi": EX1,
         "chain": Chain.of(EX1, Creep([0.01, 0.1], [0.02, 0.01]), Offset(0.2)),
         "offset": Offset(0.5),
+        "signed-gain": SignedGain(1.0, 1.8),
         "lag": Lag(1e-3),
         "lag-inverse": LagInverse(1e-3),
         "resonance": Resonance(300.0, 0.1),
@@ -151,4 +153,5 @@ DIAGNOSED: dict[str, Model] = {
     "diag-rate-memory": Chain.of(ZOO["initial-memory"], ZOO["creep"]),
     "diag-preisach-memory": Chain.of(InitialMemory(PREISACH, [2.5, -1.5]), ZOO["offset"]),
     "diag-friction-gap": Chain.of(STOP_GAP, ZOO["offset"]),
+    "diag-friction-gap-signed": Chain.of(STOP_GAP, ZOO["signed-gain"], ZOO["offset"]),
 }

@@ -177,3 +177,17 @@ def test_invalid_parameters_name_the_problem(build, msg) -> None:
 def test_dynamic_effects_need_dt() -> None:
     with pytest.raises(ParameterError, match="dt"):
         (PI >> Lag(1e-3))(np.zeros(10))
+
+
+def test_signed_gain_keeps_zero_and_inverts_exactly() -> None:
+    from core.stages import SignedGain
+
+    g = SignedGain(0.8, 1.6)
+    x = np.linspace(-2.0, 2.0, 41)
+    y = g(x)
+    assert y[x == 0][0] == 0.0 and g.ratio == pytest.approx(2.0)
+    assert np.allclose(y, np.where(x >= 0, 0.8 * x, 1.6 * x))
+    assert np.max(np.abs(g.inverse()(y) - x)) < 1e-15
+    for bad in ((0.0, 1.0), (1.0, -1.0)):
+        with pytest.raises(ParameterError, match="must be > 0"):
+            SignedGain(*bad)
