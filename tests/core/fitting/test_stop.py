@@ -250,8 +250,11 @@ def test_a_symmetric_plant_gets_no_gain_by_direction() -> None:
     u, y, _ = _gap_plant(3, 0.12)
     est = StopPIRegressor().fit(u, y)
     assert est.signed_gain_ is None and "sliding direction" not in est.features_.text()
+    # screened out: two gains on the fitted bank lower the training MSE of one by < 10 %
     s = est.report_.extra["signed_training_mse"]
-    assert s["by direction"] > (1 - SIGNED_MIN_GAIN) * s["symmetric"]
+    assert "by direction" not in s
+    one, two = s["one gain on the first bank"], s["two gains on the first bank"]
+    assert one >= two > (1 - SIGNED_MIN_GAIN) * one
 
 
 def test_friction_damper_at_36_lb_names_its_slip_force_by_direction() -> None:
