@@ -207,6 +207,17 @@ def branch_features(model: StopPIModel, ratio: float = 1.0) -> BranchFeatures:
     return BranchFeatures(plateau, travel, *best, concave=concave, gap=gap, ratio=ratio)
 
 
+def _started(model: StopPIModel, u: Float1D) -> StopPIModel:
+    """``model`` with every element at rest at ``u``'s first sample."""
+    return dataclasses.replace(model, state0=np.full(model.n, float(u[0])))
+
+
+def _bank_outputs(model: StopPIModel, us: list[Float1D]) -> list[Float1D]:
+    """The bank's output (no offset, no gain) of each recording, started at its first
+    input sample."""
+    return [_started(model, uu)(uu) for uu in us]
+
+
 class StopPIRegressor(PIRegressor):
     """Fit a stop-operator Prandtl model (Maxwell-slip elements) plus output offset.
 
@@ -269,9 +280,8 @@ class StopPIRegressor(PIRegressor):
         span = max(float(np.ptp(x[m])) for x, m in zip(prep.us, trm, strict=True) if m.any())
 
         def train_mse(model: StopPIModel, offset: float) -> float:
-            e = np.concatenate([(yy - model.from_dict({**model.to_dict(), "state0": np.full(
-                model.n, float(uu[0]))})(uu) - offset)[m]
-                for uu, yy, m in zip(prep.us, prep.ys, trm, strict=True)])
+            e = np.concatenate([(yy - zz - offset)[m] for zz, yy, m in zip(
+                _bank_outputs(model, prep.us), prep.ys, trm, strict=True)])
             return float(e @ e) / max(e.size, 1)
 
         base = self.gap_scores_[0.0] = train_mse(self.model_, self.offset_)
@@ -307,12 +317,6 @@ class StopPIRegressor(PIRegressor):
         if self.signed:
             self._fit_signed(prep, b, train_mse(self.model_, self.offset_))
 
-    def _bank_outputs(self, model: StopPIModel, us: list[Float1D]) -> list[Float1D]:
-        """The bank's output (no offset, no gain) of each recording, started at its first
-        input sample."""
-        return [model.from_dict({**model.to_dict(), "state0": np.full(model.n, float(uu[0]))})
-                (uu) for uu in us]
-
     def _fit_signed(self, prep: Any, b: float, base: float) -> None:
         """The slip force by direction (module docstring): ``y = c + g+ z`` where the bank's
         output ``z >= 0``, ``c + g- z`` where ``z < 0``, by alternation on the training rows
@@ -325,7 +329,7 @@ class StopPIRegressor(PIRegressor):
         best: tuple[float, StopPIModel, float, float, float] | None = None
         screen: dict[str, float] = {}
         for _ in range(SIGNED_ITERATIONS):
-            z = np.concatenate([zz[m] for zz, m in zip(self._bank_outputs(model, prep.us), trm,
+            z = np.concatenate([zz[m] for zz, m in zip(_bank_outputs(model, prep.us), trm,
                                                         strict=True)])
             A = np.column_stack((np.ones(z.size), np.maximum(z, 0.0), np.minimum(z, 0.0)))
             coef = np.linalg.lstsq(A, ys, rcond=None)[0]
@@ -380,8 +384,7 @@ class StopPIRegressor(PIRegressor):
         model, est, last = self.model_, self, None
         for _ in range(GAP_ITERATIONS):
             m = dataclasses.replace(model, gap=b)
-            vs = [m.from_dict({**m.to_dict(), "state0": np.full(m.n, float(uu[0]))})
-                  .bank_input(uu) for uu in prep.us]
+            vs = [_started(m, uu).bank_input(uu) for uu in prep.us]
             if last is not None and max(float(np.max(np.abs(v - w)))
                                         for v, w in zip(vs, last, strict=True)) <= 1e-6 * b:
                 break  # the elements' input no longer moves: converged
