@@ -32,8 +32,8 @@ if TYPE_CHECKING:
 
 __all__ = ["EFFECTS", "DiagnosableEffect", "OutputDynamics", "SignatureRows", "StaticTerm",
            "TermFit", "TermRows",
-           "dynamics_of", "effect", "output_dynamics", "rate_effect", "register", "stage_pairs",
-           "static_terms", "term_of"]
+           "dynamics_of", "effect", "output_dynamics", "parameter_words", "rate_effect",
+           "register", "stage_pairs", "static_terms", "term_of"]
 
 
 @dataclass(frozen=True)
@@ -322,6 +322,12 @@ class DiagnosableEffect:
         :func:`core.diagnosis.history.says_time`): the experiment that would tell it from a
         base that misses the plant's loops, named when the rule refuses it; ``None``: an
         input that revisits its states at other times.
+    parameter_words : tuple of (str, str, str)
+        ``(parameter, words, unit)`` for the fitted parameters whose names are symbols of
+        the code (``a2``): what the value does to the loop, in words, and its unit
+        (``"output"``, ``"input"``, ``"1/input"`` for the recording's units, ``""`` for none).
+        The findings a person reads (:func:`parameter_words`) say these words instead of
+        the name.
     """
 
     name: str
@@ -351,6 +357,7 @@ class DiagnosableEffect:
     deciding: tuple[tuple[str, str], ...] = ()
     term: StaticTerm | None = None
     history_experiment: str | None = None
+    parameter_words: tuple[tuple[str, str, str], ...] = ()
 
 
 #: Every registered effect by name, in the order they are tried.
@@ -377,6 +384,16 @@ def effect(name: str) -> DiagnosableEffect:
         return EFFECTS[name]
     except KeyError:
         raise KeyError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
+
+
+def parameter_words(name: str, parameter: str) -> tuple[str, str] | None:
+    """``(words, unit)`` of the fitted ``parameter`` of effect ``name`` as it declared them
+    (:attr:`DiagnosableEffect.parameter_words`); ``None`` when it declared none."""
+    e = EFFECTS.get(name)
+    for k, words, unit in (e.parameter_words if e is not None else ()):
+        if k == parameter:
+            return words, unit
+    return None
 
 
 def output_dynamics() -> tuple[str, ...]:

@@ -94,7 +94,8 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
 def _effect_lines(res: DiagnosisResult, i: int, e: EffectFinding, yr: float) -> list[str]:
     """The report's lines of the ``i``-th accepted effect ``e`` (parameters, evidence,
     cross-fitting, where, why, the equation, caveats and dependences)."""
-    ps = ", ".join(_param_text(e, k, v) for k, v in e.parameters.items())
+    units = dict(getattr(res.records[0], "units", None) or {}) if res.records else {}
+    ps = ", ".join(_param_text(e, k, v, units) for k, v in e.parameters.items())
     if e.evidence == "test rows":
         evidence = [
             f"   held-out RMSE {e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
@@ -221,10 +222,25 @@ def _recording_dependence(e: Any) -> list[str]:
     return out
 
 
-def _param_text(e: Any, k: str, v: Any) -> str:
+def _param_text(e: Any, k: str, v: Any, units: dict[str, str] | None = None) -> str:
     """``k = v ± sigma``, or ``k ambiguous (estimate v ± sigma)`` for a parameter the data do
-    not fix to a number."""
+    not fix to a number; a parameter whose name is a symbol of the code (asymmetry's ``a2``)
+    is named by the words its effect declared
+    (:func:`~core.diagnosis.registry.parameter_words`), with its unit (the recording's, else
+    "output units" / "input units")."""
+    from .registry import parameter_words
+
     s = e.uncertainty.get(k)
+    declared = parameter_words(e.name, k)
+    name, unit = k, ""
+    if declared is not None:
+        name, role = declared
+        have = (units or {}).get(role.removeprefix("1/"), "")
+        if role in ("", "s", "Hz"):
+            unit = role
+        else:
+            unit = f"{'1/' if role.startswith('1/') else ''}{have}" if have else f"{role} units"
+        unit = f" {unit}" if unit else ""
     if k in e.ambiguous_parameters:
-        return f"{k} ambiguous (estimate {_fmt(v)} ± {_fmt(s)})"
-    return f"{k} = {_fmt(v)}" + (f" ± {_fmt(s)}" if s is not None else "")
+        return f"{name} ambiguous (estimate {_fmt(v)} ± {_fmt(s)}{unit})"
+    return f"{name} = {_fmt(v)}" + (f" ± {_fmt(s)}" if s is not None else "") + unit

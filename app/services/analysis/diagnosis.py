@@ -73,13 +73,25 @@ def _cap(text: str) -> str:
     return text[:1].upper() + text[1:]
 
 
-def _param_text(params: dict[str, Any], u_unit: str, effect: str = "") -> str:
-    """The fitted parameters of ``effect`` in words: each named by its stage's declared
-    field title (``history`` of initial memory -> "Input history u_k"), with its unit."""
+def _param_text(params: dict[str, Any], u_unit: str, effect: str = "", y_unit: str = "") -> str:
+    """The fitted parameters of ``effect`` in words: each named by the words its effect
+    declared (:func:`core.diagnosis.registry.parameter_words`: asymmetry's ``a2`` -> "output
+    added at both ends of the loop (its bend)") or else by its stage's field title
+    (``history`` of initial memory -> "Input history u_k"), with its unit."""
+    from core.diagnosis.registry import parameter_words
+
+    units = {"output": y_unit, "input": u_unit, "1/input": f"1/{u_unit}" if u_unit else "",
+             "s": "s", "Hz": "Hz"}
     parts = []
     for k, v in (params or {}).items():
-        unit = " s" if k.endswith("_s") else f" {u_unit}" if k == "history" and u_unit else ""
-        key = field_words(effect, k)
+        declared = parameter_words(effect, k)
+        if declared is not None:
+            key, unit = declared[0], units.get(declared[1], declared[1])
+        else:
+            key = field_words(effect, k)
+            unit = ("s" if k.endswith("_s") else "Hz" if k.endswith("_hz")
+                    else u_unit if k == "history" else "")
+        unit = f" {unit}" if unit else ""
         if isinstance(v, int | float) and not isinstance(v, bool):
             parts.append(f"{key} = {v:.3g}{unit}")
         elif isinstance(v, list | tuple):
@@ -200,7 +212,7 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
             text += f" {_cap(where)}."
         if e.get("explanation"):
             text += f" {in_words(e['explanation'].strip())}"
-        params = _param_text(e.get("parameters") or {}, u_unit, str(e.get("name") or ""))
+        params = _param_text(e.get("parameters") or {}, u_unit, str(e.get("name") or ""), y_unit)
         if params:
             text += f" Fitted: {params}."
         findings.append(text)

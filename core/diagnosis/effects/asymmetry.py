@@ -66,6 +66,12 @@ register(DiagnosableEffect(
         'the three are look-alikes, told apart by the better held-out model.)'
     ),
     equation='y = x + a2 ((x - c)/s)^2 + a3 ((x - c)/s)^3',
+    parameter_words=(
+        ("a2", "output added at both ends of the loop (its bend)", "output"),
+        ("a3", "output added at the upper end and taken at the lower (its stretch)", "output"),
+        ("center", "centre of the bend", "output"),
+        ("scale", "half-range (from the centre to either end)", "output"),
+    ),
     experiment='a full-range symmetric periodic excitation',
     amplitude_dependent=True,
     build=_build,

@@ -92,6 +92,9 @@ register(DiagnosableEffect(
         'direction of that change, about linearly in log(time), modelled by a bank of '
         'slow lags.'
     ),
+    parameter_words=(
+        ("gamma_per_decade", "creep per decade of time (a fraction of a step)", ""),
+    ),
     equation="y = x + sum_j c_j (L_tau_j[x] - x),  tau_j L' + L = x",
     experiment='an up-then-down staircase with holds of 3-30 s (>= 2 decades of hold time)',
     time_dependent=True,

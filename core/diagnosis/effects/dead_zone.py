@@ -145,6 +145,12 @@ register(DiagnosableEffect(
         'drive). The dead-zone GPI drives the plays through a piecewise-linear input map '
         'whose flat segment is the dead band.'
     ),
+    parameter_words=(
+        ("thresholds", "thresholds of the map", "input"),
+        ("weights", "slopes of the map's segments", ""),
+        ("breakpoints", "breakpoints", "input"),
+        ("relative_slopes", "slopes relative to the steepest", ""),
+    ),
     equation=(
         'y = p0 w + sum_i p_i Play[r_i](w),  w = gamma(u) (dead-zone '
         'superposition, gpi-deadzone)'

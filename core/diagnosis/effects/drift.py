@@ -122,6 +122,10 @@ register(DiagnosableEffect(
         'A slow additive drift in absolute time (thermal expansion, sensor zero drift), '
         'continuous across steps and independent of the step direction.'
     ),
+    parameter_words=(
+        ("coefficients", "drift coefficients", "output"),
+        ("peak_to_peak", "drift peak to peak, per recording", "output"),
+    ),
     equation='y = x + sum_k a_k P_k(2 t / T - 1)  (Legendre polynomials)',
     experiment=(
         'a record of several minutes, or an identical 1 Hz reference cycle repeated '

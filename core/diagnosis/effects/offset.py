@@ -60,6 +60,7 @@ register(DiagnosableEffect(
     "offset",
     family="static-offset",
     explanation='The sensor zero differs between recordings (an offset per recording).',
+    parameter_words=(("offsets", "offset of each recording", "output"),),
     equation='y = x + c_k  (one offset per recording)',
     experiment='several recordings (an offset per recording), or an independent zero reference',
     lookalikes=("drift",),

@@ -119,6 +119,7 @@ register(DiagnosableEffect(
         'A lightly damped mechanical mode after the hysteresis (stack plus stage mass '
         'on the flexure stiffness): ringing after steps and sharp reversals.'
     ),
+    parameter_words=(("freq_hz", "natural frequency", "Hz"),),
     equation="y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 y_PI,  w_n = 2 pi f_n",
     time_dependent=True,
     between_recordings=True,

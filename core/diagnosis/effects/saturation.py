@@ -113,6 +113,15 @@ register(DiagnosableEffect(
         'loops of several amplitudes at once; the tanh-envelope GPI drives the plays '
         'through a saturating input map.'
     ),
+    parameter_words=(
+        ("a1", "steepness of the envelope", "1/input"),
+        ("a2", "shift of the envelope (0: centred on zero input)", ""),
+        ("center", "centre of the envelope", "input"),
+        ("half_slope_below", "slope halved below", "input"),
+        ("half_slope_above", "slope halved above", "input"),
+        ("slope_at_input_min", "slope at the lowest input (1: the centre's)", ""),
+        ("slope_at_input_max", "slope at the highest input (1: the centre's)", ""),
+    ),
     equation='y = p0 w + sum_i p_i Play[r_i](w),  w = tanh(a1 u + a2)  (gpi-tanh)',
     experiment=(
         'loops (or reversals) of several amplitudes, or a travel covering the input range '

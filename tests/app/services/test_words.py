@@ -137,3 +137,62 @@ def test_the_diagnosis_plot_title_gives_the_findings_numbers() -> None:
     title = fig.layout["title"]["text"]
     assert title.endswith("(held-out RMS 0.767 → 0.102 µm)"), title
     assert [d["name"] for d in fig.data][3:] == ["residual before", "residual after"]
+
+
+#: One fitted parameter document per registered effect (the keys its ``build`` returns).
+FITTED = {
+    "asymmetry": {"a2": 0.12, "a3": -0.05, "center": 1.3, "scale": 2.1},
+    "creep": {"gamma_per_decade": 0.01, "taus_s": [0.1, 1.0, 10.0], "weights": [0.1, 0.2]},
+    "dead-zone": {"side": "both", "thresholds": [0.0, 1.0], "weights": [1.0, 0.2],
+                  "breakpoints": [0.1], "relative_slopes": [0.2, 1.0], "dead_band": "x"},
+    "delay": {"delay_s": 0.001},
+    "drift": {"coefficients": [[0.1, 0.2]], "peak_to_peak": [0.3]},
+    "initial-memory": {"history": [[1.0, -2.0]]},
+    "lag": {"tau_s": 0.002},
+    "offset": {"offsets": [0.1]},
+    "rate": {"beta_s": 0.01},
+    "resonance": {"freq_hz": 500.0, "damping": 0.05},
+    "saturation": {"a1": 0.5, "a2": 0.1, "center": 1.0, "half_slope_below": -1.0,
+                   "half_slope_above": 3.0, "slope_at_input_min": 0.3,
+                   "slope_at_input_max": 0.2, "saturation": "s"},
+}
+
+
+def test_every_effects_fitted_values_in_words() -> None:
+    """The fitted values in the findings (issue 33, item 2): no parameter is named by its
+    symbol in the code (asymmetry's ``a2``, ``a3`` were, being no field of a registered
+    type, so the scan of internal names missed them), and each value has its unit."""
+    from core.diagnosis.registry import EFFECTS
+
+    assert set(FITTED) == set(EFFECTS)  # a new effect gets its row here
+    for name, params in FITTED.items():
+        e = {"name": name, "heldout_rmse_before": 0.8, "heldout_rmse_after": 0.1,
+             "parameters": params}
+        text = diagnosis_summary(_doc([e]), {"input": "V", "output": "um"}).findings[1]
+        symbols = [k for k in params if re.search(r"[_\d]", k)
+                   and re.search(rf"(?<![\w\-.]){re.escape(k)}(?![\w\-])", text)]
+        assert symbols == [] and not _leaks(text), (name, symbols, _leaks(text), text)
+    text = diagnosis_summary(_doc([{"name": "asymmetry", "parameters": FITTED["asymmetry"]}]),
+                             {"input": "V", "output": "um"}).findings[1]
+    assert "output added at both ends of the loop (its bend) = 0.12 µm" in text, text
+    assert "taken at the lower (its stretch) = -0.05 µm" in text, text
+    assert "half-range (from the centre to either end) = 2.1 µm" in text, text
+    text = diagnosis_summary(_doc([{"name": "resonance", "parameters": FITTED["resonance"]}]),
+                             {"input": "V", "output": "um"}).findings[1]
+    assert "natural frequency = 500 Hz" in text, text
+
+
+def test_the_command_lines_report_says_the_fitted_values_in_words() -> None:
+    """``hyst diagnose`` without ``--json``: the asymmetry's fitted values in words and
+    the recording's units, as on the pages (``core.diagnosis.report``)."""
+    from types import SimpleNamespace
+
+    from core.diagnosis.report import _param_text
+
+    e = SimpleNamespace(name="asymmetry", uncertainty={"a2": 0.01}, ambiguous_parameters=())
+    assert _param_text(e, "a2", 0.12, {"output": "um"}) == \
+        "output added at both ends of the loop (its bend) = 0.12 ± 0.01 um"
+    assert _param_text(e, "a3", -0.05, {}) == ("output added at the upper end and taken at "
+                                               "the lower (its stretch) = -0.05 output units")
+    lag = SimpleNamespace(name="lag", uncertainty={}, ambiguous_parameters=())
+    assert _param_text(lag, "tau_s", 0.002, {}) == "tau_s = 0.002"
