@@ -73,9 +73,26 @@ class StateCube:
         self._handles: list[Any] = []
         self._nodes: Any = None  # the states' point cloud
         self._lines: dict[str, Any] = {}  # the up and down edges
+        self._shown = False  # the nodes are visible (hide() keeps them, invisible)
+        self._points: np.ndarray | None = None  # the vertices, kept while hidden
+        self._edges: dict[str, bool] = {}  # "up" / "down": has segments
 
     def hide(self) -> None:
-        """Take the state graph off the scene (the model changed to one without it)."""
+        """Take the state graph out of view (the model changed to one without it): its
+        nodes stay in the scene, invisible, to be moved in place and shown again by the
+        next graph of their kind (removing them and adding them again made every tab
+        compile the scene's shaders again: a lesson's step without a digitized view, then
+        one with it, cost a viser tab ~0.3 s of main thread in software WebGL)."""
+        for h in self._handles:
+            try:
+                h.visible = False
+            except Exception:  # noqa: BLE001 - a handle of a closing tab
+                pass
+        self._shown = False
+        self.points = None
+
+    def _drop(self) -> None:
+        """Remove the state graph's nodes from the scene (another kind of graph comes)."""
         for h in reversed(self._handles):  # a child (the ball's name) before its parent
             try:
                 h.remove()
@@ -107,7 +124,8 @@ class StateCube:
             states, up_i, down_i, _ = visited_path(d.trace.digits)
             labels = [state_text(r) for r in states] if n <= LABEL_MAX_DIGITS else []
         key = (n, np.asarray(states, dtype=np.int8).tobytes())
-        if key == self._key:
+        if key == self._key:  # the graph drawn (shown again if it was hidden)
+            self._show()
             return
         raw = np.array([embed(np.asarray(row)) for row in states])
         center = raw.mean(axis=0)
@@ -120,15 +138,18 @@ class StateCube:
             # every tab's browser compile the scene's shaders again (software WebGL: ~2 s
             # of a tab's main thread in a class of thirty, issue 33)
             self._center, self.points = center, pts
+            self._points = pts
             self._nodes.colors = np.tile(np.uint8(120), (len(pts), 3))
             self._nodes.points = pts.astype(np.float32)
             for name, seg in (("up", up), ("down", down + 0.01)):
                 self._place(name, seg)
+            self._show()
             self._key = key
             self._aim_camera(pts)
             return
-        self.hide()  # another graph: the last one's nodes, edges and labels go
+        self._drop()  # another graph: the last one's nodes, edges and labels go
         self._center, self.points = center, pts
+        self._points = pts
         add = self._handles.append
         self._nodes = self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
                                                  colors=(120, 120, 120), point_size=0.06,
@@ -150,8 +171,21 @@ class StateCube:
                 "/states/current/name", "", position=(0.08, 0.08, 0.08),
                 font_screen_scale=1.3, anchor="bottom-left")
             add(self._marker_label)
+        self._shown = True
         self._key = key
         self._aim_camera(pts)
+
+    def _show(self) -> None:
+        """Make the kept nodes visible again (after :meth:`hide`): the edges that have
+        segments (:meth:`_place`) and every other node but the ball (:meth:`show_state`'s)."""
+        if self._shown:
+            return
+        self.points = self._points
+        lines = {id(h): name for name, h in self._lines.items()}
+        for h in self._handles:
+            if h is not self._marker and (id(h) not in lines or self._edges[lines[id(h)]]):
+                h.visible = True
+        self._shown = True
 
     def _same_kind(self, n: int, labels: list[str]) -> bool:
         """Whether the graph drawn is a visited path of ``n`` digits without a label per
@@ -163,6 +197,7 @@ class StateCube:
         """The ``name`` edges ("up" or "down") at ``seg`` (shape ``(k, 2, 3)``): added the
         first time, then moved in place; hidden while there are none."""
         h = self._lines.get(name)
+        self._edges[name] = bool(len(seg))
         if not len(seg):
             if h is not None:
                 h.visible = False

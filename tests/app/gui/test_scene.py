@@ -99,3 +99,34 @@ def test_another_path_of_as_many_digits_moves_the_nodes_in_place() -> None:
     assert len(states) != len(visited_path(d1.trace.digits)[0])
     assert len(scene.nodes["/states/nodes"].points) == len(states)
     assert cube.points is not None and len(cube.points) == len(states)
+
+
+def test_a_step_without_the_graph_keeps_its_nodes_for_the_next() -> None:
+    """A lesson's step whose model has no digitized view (*PI basics* step 5, a minor loop
+    narrower than the widest operator), then one with it (step 6, another initial memory):
+    the state graph is hidden, not removed, and the next graph moves the same nodes in place
+    and shows them (removed and added again, every viser tab compiled the scene's shaders
+    again at step 6: ~0.3 s of a tab's main thread with one tab alone, issue 33)."""
+    cfg = Config()
+    d1 = compute(cfg, views={"digitized"}).digitized
+    d2 = compute(replace(cfg, signal=replace(cfg.signal, frequency=cfg.signal.frequency / 2)),
+                 views={"digitized"}).digitized
+    assert d1 is not None and d2 is not None
+    scene = _Scene()
+    cube = StateCube(scene)
+    cube.draw(d1)
+    before = dict(scene.nodes)
+    cube.hide()
+    assert all(not n.visible for n in scene.nodes.values())
+    assert cube.points is None
+    cube.draw(d2)
+    assert scene.nodes == before  # the same nodes, none removed nor added
+    cube.show_state(d2.trace.digits[-1])
+    assert all(n.visible for n in scene.nodes.values()), {
+        k: n.visible for k, n in scene.nodes.items()}
+    assert cube.points is not None and len(scene.nodes["/states/nodes"].points) == len(
+        cube.points)
+    cube.hide()
+    cube.draw(d2)  # the same graph again: shown as it was
+    assert scene.nodes == before and all(n.visible for k, n in scene.nodes.items()
+                                         if k != "/states/current")
