@@ -304,11 +304,13 @@ class SessionView:
     def _on_session_change(self, session: Session, config: Config, version: int) -> None:
         if not getattr(self._syncing, "from_gui", False):
             self.ui.params_md.content = ""  # a note on the previous model's sliders
-            self._sync_controls(config)
             # a lesson's move: its view before the one render of the new model, and its
-            # text out first, alone, before the plot the render sends
+            # text out first, alone, before the controls of the step's model (a new
+            # model's sliders took a tab ~0.2 s to mount, the text waiting on them) and
+            # before the plot the render sends
             if self.lesson.take_step_view(config):
                 self._text_first()
+            self._sync_controls(config)
         self._redraw()
 
     def _text_first(self) -> None:

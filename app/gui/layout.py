@@ -155,7 +155,9 @@ class Widgets:
         self.param_sliders: dict[str, Any] = {}
         self.param_specs: dict[str, Slider] = {}
         self._param_layout = ""
-        self._param_subfolders: list[Any] = []
+        #: The slider groups shown, in order: what each shows (:func:`_group_key`) and its
+        #: handles (folder, note, sliders), so a rebuild keeps the groups that stay.
+        self._param_groups: list[tuple[tuple[Any, ...], list[Any]]] = []
         self.code_md = g.add_markdown("")
         self.pushed_md = g.add_markdown("")  # the teacher's last push, said in words
         # viser shows no floating panel on a phone: there the plot lives at the top of
@@ -358,29 +360,42 @@ class Widgets:
 
     def _rebuild(self, controls: ModelControls,
                  on_change: Callable[[str], Callable[[Any], None]]) -> None:
-        for h in self.param_sliders.values():
-            h.remove()
-        for f in self._param_subfolders:
-            f.remove()
-        self.param_sliders, self.param_specs, self._param_subfolders = {}, {}, []
+        """The groups of ``controls``: the leading groups that show the same sliders as
+        before are kept (their sliders moved to the values), the others removed and added
+        (a lesson's step that only adds the initial play outputs to the model adds their
+        group: every slider removed and added again cost each viser tab ~0.2 s of main
+        thread mounting them, issue 33)."""
+        keys = [_group_key(g) for g in controls.groups]
+        keep = 0
+        while (keep < min(len(keys), len(self._param_groups))
+               and keys[keep] == self._param_groups[keep][0]):
+            keep += 1
+        for _, handles in reversed(self._param_groups[keep:]):
+            for h in reversed(handles):  # the sliders and the note before their folder
+                h.remove()
+        self._param_groups = self._param_groups[:keep]
+        specs = {s.path: s for s in controls.sliders()}
+        kept = {s.path for g in controls.groups[:keep] for s in g.sliders}
+        self.param_sliders = {p: h for p, h in self.param_sliders.items() if p in kept}
+        for path, h in self.param_sliders.items():
+            set_value(h, float(slider_position(specs[path], specs[path].value)))
+        self.param_specs = {p: specs[p] for p in self.param_sliders}
         with self.param_folder:
-            for group in controls.groups:
+            for group, key in zip(controls.groups[keep:], keys[keep:], strict=True):
                 title = group.title + (f" ({group.unit})" if group.unit else "")
                 folder = self.gui.add_folder(
                     title, expand_by_default=len(group.sliders) <= OPEN_GROUP_SLIDERS)
-                self._param_subfolders.append(folder)
+                handles = [folder]
                 with folder:
                     if group.note:
-                        self._param_subfolders.append(self.gui.add_markdown(f"*{group.note}*"))
+                        handles.append(self.gui.add_markdown(f"*{group.note}*"))
                     for spec in group.sliders:
-                        unit = unit_text(spec.unit)
-                        hint = (f"{spec.label}" + (f" in {unit}" if unit else "")
-                                + (f"; {spec.rule}" if spec.rule else "")
-                                + ("; a constant of this model" if spec.fixed else ""))
-                        h = self._param_slider(spec, hint)
+                        h = self._param_slider(spec, _hint(spec))
                         h.on_update(on_change(spec.path))
+                        handles.append(h)
                         self.param_sliders[spec.path] = h
                         self.param_specs[spec.path] = spec
+                self._param_groups.append((key, handles))
         self._param_layout = controls.layout
 
     def _param_slider(self, spec: Slider, hint: str) -> Any:
@@ -399,6 +414,23 @@ class Widgets:
             initial_value=float(slider_position(spec, spec.value)), marks=marks or None,
             hint=f"{hint}; logarithmic: the thumb moves in powers of ten"
                  + (f" of {unit}" if unit else ""), disabled=spec.fixed)
+
+
+def _hint(spec: Slider) -> str:
+    """The hint of a parameter slider: its label, unit, rule and whether it is fixed."""
+    unit = unit_text(spec.unit)
+    return (f"{spec.label}" + (f" in {unit}" if unit else "")
+            + (f"; {spec.rule}" if spec.rule else "")
+            + ("; a constant of this model" if spec.fixed else ""))
+
+
+def _group_key(group: Any) -> tuple[Any, ...]:
+    """What a slider group shows but its values: its title, unit, note and each slider's
+    path, label, range, step, scale, hint and whether it is fixed (a group of equal key is
+    kept across a rebuild, its sliders moved to the new values)."""
+    return (group.title, group.unit, group.note, len(group.sliders) <= OPEN_GROUP_SLIDERS,
+            tuple((s.path, s.label, s.min, s.max, s.step, s.log, s.fixed, _hint(s))
+                  for s in group.sliders))
 
 
 def _slider(g: Any, name: str, initial: float, **kw: Any) -> Any:

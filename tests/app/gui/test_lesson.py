@@ -208,3 +208,44 @@ def test_a_moves_text_leaves_before_its_plot_and_its_toast_after(server: Any) ->
     finally:
         lessons.end(reg)
         v.close()
+
+
+def test_a_moves_text_leaves_before_the_steps_sliders(server: Any) -> None:  # noqa: F811
+    """*PI basics* step 6 adds the initial play outputs to the model: the tab's flush with
+    the step's text comes before the new sliders are made (they followed in the same batch:
+    the text was painted only once the tab had mounted them), and the groups that stay (p0,
+    thresholds, weights) keep their sliders: only the new group is added (every slider was
+    removed and added again: 16 removed, 23 added), and going back removes only it."""
+    reg = SessionRegistry()
+    log: list[tuple[str, set[str]]] = []
+    holder: dict[str, SessionView] = {}
+
+    def seen(what: str) -> None:
+        v = holder.get("v")
+        if v is not None:
+            log.append((what, set(v.ui.param_sliders)))
+
+    v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
+                    flush=lambda: seen("flush"))
+    holder["v"] = v
+    try:
+        lesson = lessons.builtin_lesson("pi-basics")
+        lessons.start(reg, lesson, step=5)
+        assert v.worker.wait_idle(30)
+        before = dict(v.ui.param_sliders)
+        assert not any(p.startswith("state0") for p in before)
+        log.clear()
+        lessons.go_to(reg, move=1)  # step 6: Example 1 with M0 = 1
+        assert v.worker.wait_idle(30)
+        assert log and log[0][0] == "flush" and log[0][1] == set(before), log
+        after = v.ui.param_sliders
+        assert sum(p.startswith("state0") for p in after) == 6
+        assert all(after[p] is h for p, h in before.items()), "a kept slider was replaced"
+        assert after["state0[0]"].value == pytest.approx(1.0)
+        lessons.go_to(reg, move=-1)
+        assert v.worker.wait_idle(30)
+        assert set(v.ui.param_sliders) == set(before)
+        assert all(v.ui.param_sliders[p] is h for p, h in before.items())
+    finally:
+        lessons.end(reg)
+        v.close()
