@@ -66,9 +66,13 @@ def accept_best(run: Run, cur: Fit, cands: dict[str, Candidate], passing: list[s
         if e.mimicked_by is None:
             continue
         names, why = e.mimicked_by
-        if named in names and hidden in run.untestable_names:
+        if named not in names or any(set(a["effects"]) == {named, hidden}
+                                     for a in run.ambiguous):
+            continue
+        partly = e.partly_tested(ctx) if e.partly_tested is not None else None
+        if hidden in run.untestable_names or partly:
             run.ambiguous.append({"effects": [named, hidden], "chosen": named,
-                                  "reason": why.format(best=named),
+                                  "reason": (partly or why).format(best=named),
                                   "experiment": EFFECTS[hidden].experiment})
     if (EFFECTS[named].dynamics is not None and new.structure.bouc_wen
             and run.rate_testable):

@@ -307,13 +307,35 @@ def worth_refining(ctx: FitContext, rss_grid: float, ref: Structure, cur: Fit) -
     return rss_grid < (1.0 - RULE.min_gain) * ctx.rss(ref, cur)
 
 
+def _its_rows_explained(ctx: FitContext, name: str, cur: Fit) -> bool:
+    """Whether ``cur`` already holds an effect of the same family judged on the same rows of
+    its signature as ``name`` (a drift and a creep from cycle to cycle of one repeated input:
+    the one slow change those rows show was named when the first was accepted, and the two
+    compared there; :func:`~core.diagnosis.finding.lookalikes_of`)."""
+    e = EFFECTS[name]
+    rows = e.signature(ctx) if e.signature is not None else None
+    if rows is None:
+        return False
+    for other, _ in cur.structure.terms:
+        o = EFFECTS[other]
+        if other == name or o.family != e.family or o.signature is None:
+            continue
+        o_rows = o.signature(ctx)
+        if o_rows is not None and o_rows.words == rows.words:
+            return True
+    return False
+
+
 def build_candidate(ctx: FitContext, name: str, cur: Fit) -> Candidate | None:
     """Fit effect ``name`` on top of ``cur``: ``(fit, parameters, uncertainty)``, or ``None``
-    when the effect is already in the structure or does not apply."""
+    when the effect is already in the structure, does not apply, or an effect of its family
+    already explains the rows its signature lives in (:func:`_its_rows_explained`)."""
     try:
         e = EFFECTS[name]
     except KeyError:
         raise ParameterError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}") from None
+    if _its_rows_explained(ctx, name, cur):
+        return None
     if cur.structure.bouc_wen and e.family == "static" and e.structure_field is None:
         # a Bouc-Wen base was chosen over the PI with static maps' loops in reach (the
         # benchmark's static-map plants keep the PI: bases.BW_MIN_GAIN); a loop-shape search

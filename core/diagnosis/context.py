@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .._typing import Float1D
@@ -11,6 +13,9 @@ from .bankcache import BankCache
 from .cache_budget import FIT, cache_budget
 from .locate import Coordinates, coordinates
 from .structure import Fit, PIStageOutputs, Structure, fit_structure
+
+if TYPE_CHECKING:
+    from .registry import SignatureRows
 
 __all__ = ["FitContext"]
 
@@ -124,6 +129,19 @@ class FitContext:
     def test_res(self, f: Fit, masks: list[np.ndarray] | None = None) -> list[Float1D]:
         ms = self.test if masks is None else masks
         return [(r.y - p)[m] for r, p, m in zip(self.records, f.pred, ms, strict=True)]
+
+    def signature_res(self, f: Fit, sig: SignatureRows) -> list[Float1D]:
+        """The residuals of ``f`` on the test rows an effect's signature lives in (``sig``):
+        each row's change from the row one cycle before where ``sig.previous`` gives one,
+        about each recording's mean where ``sig.centred``, else as they are."""
+        where = [m & t for m, t in zip(sig.masks, self.test, strict=True)]
+        if sig.previous is not None:
+            out = []
+            for r, p, w, prev in zip(self.records, f.pred, where, sig.previous, strict=True):
+                e = r.y - p
+                out.append(e[w] - e[prev[w]])
+            return out
+        return [e - e.mean() if sig.centred and e.size else e for e in self.test_res(f, where)]
 
     @property
     def memory_masks(self) -> list[np.ndarray]:

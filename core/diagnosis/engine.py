@@ -62,7 +62,7 @@ from .basechoice import RATE_ON_STOP, choose_base_family, fit_baseline
 from .between import between_plan
 from .context import FitContext
 from .data import as_records, crossfit_folds, split_masks
-from .judge import choose, judge_round, lookahead, remaining
+from .judge import choose, fewer_parameters_on_same_rows, judge_round, lookahead, remaining
 from .locate import residual_maps
 from .lookalikes import untestable_effects
 from .recheck import polish_dynamics
@@ -244,7 +244,8 @@ def _rounds(run_: Run, cur: Fit, todo: list[str], max_effects: int, n_max: int
         if not passing:
             run_.rounds.extend(rows)
             break
-        best = choose(passing, {n: cands[n].heldout.gain for n in passing})
+        best = fewer_parameters_on_same_rows(
+            run_.ctx, cands, passing, choose(passing, {n: cands[n].heldout.gain for n in passing}))
         cur = accept_best(run_, cur, cands, passing, best, rows, rnd, n_max)
         todo = remaining(todo, best)
     return cur, todo

@@ -16,6 +16,7 @@ from .locate import where_improved
 from .lookalikes import lookalike_evidence, score_statistic, sign_locking
 from .registry import EFFECTS
 from .results import EffectFinding, pooled_mse
+from .search import same_signature_rows
 from .state import Candidate, Run, evidence_label
 from .stats import heldout_comparison
 from .structure import Fit
@@ -29,7 +30,8 @@ def lookalikes_of(ctx: FitContext, c: Candidate, cands: dict[str, Candidate],
     runner-up.
 
     A runner-up is compared with the winner directly on held-out rows (strict hold-out: on
-    the cross-fitted blocks; between recordings: on the left-out recordings). It is
+    the cross-fitted blocks; between recordings: on the left-out recordings; both judged
+    where their signature lives, on the same rows: there). It is
     ambiguous when it passed too (or, between recordings or as a declared look-alike of
     another family (:attr:`Effect.lookalikes`), met the effect-size rules: a look-alike that
     failed only significance or fold agreement cannot be ruled out) and explains nearly as
@@ -47,6 +49,10 @@ def lookalikes_of(ctx: FitContext, c: Candidate, cands: dict[str, Candidate],
             hh = heldout_comparison(o.crossfit.after, c.crossfit.after)
         elif o.between is not None and c.between is not None:
             hh = heldout_comparison(o.between.after, c.between.after)
+        elif (rows := same_signature_rows(ctx, c, o)) is not None:
+            # both judged on the same rows of their signature (a drift and a creep from
+            # cycle to cycle): compared with each other there too
+            hh = heldout_comparison(ctx.signature_res(o.fit, rows), ctx.signature_res(c.fit, rows))
         else:
             hh = heldout_comparison(ctx.test_res(o.fit), ctx.test_res(c.fit))
         oh = o.heldout

@@ -34,14 +34,14 @@ from .lookalikes import beyond_loop_shape, lookalike_evidence, sign_locking
 from .registry import EFFECTS
 from .results import RoundRow, pooled_mse
 from .screening import RANKING_SPAN
-from .search import candidate_evidence, search_round
+from .search import candidate_evidence, same_signature_rows, search_round
 from .specs import FAMILY_PRIORITY
 from .state import Candidate, Run, round_row
-from .stats import HeldOut
+from .stats import HeldOut, heldout_comparison
 from .structure import Fit
 
-__all__ = ["MIN_EVENT_ROWS", "choose", "event_gains", "judge_round", "lookahead",
-           "needs_earning", "remaining"]
+__all__ = ["MIN_EVENT_ROWS", "choose", "event_gains", "fewer_parameters_on_same_rows",
+           "judge_round", "lookahead", "needs_earning", "remaining"]
 
 
 def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundRow],
@@ -323,6 +323,38 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
     row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
                   f"hide each other; {p} passes on top of {t.name})")
     return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]
+
+
+def fewer_parameters_on_same_rows(ctx: FitContext, cands: dict[str, Candidate],
+                                  passing: list[str], best: str) -> str:
+    """Between ``best`` and the passing effects of its family judged on the same rows of
+    their signature (a drift and a creep from cycle to cycle of one repeated input), the one
+    with the fewest free parameters, unless ``best`` predicts those rows significantly
+    better (Diebold-Mariano z >= ``min_z``). From cycle to cycle a creep differs from a drift
+    only by the decay of its change: where the rows do not show that decay, the steady trend
+    is named and the creep reported ambiguous with it
+    (:func:`~core.diagnosis.finding.lookalikes_of`)."""
+
+    def width(n: str) -> int:
+        t = EFFECTS[n].term
+        assert t is not None
+        return int(t.width(cands[n].fit.structure.term(n), len(ctx.records)))
+
+    c = cands[best]
+    if EFFECTS[best].term is None:
+        return best
+    pick = best
+    for n in passing:
+        o = cands[n]
+        if n == best or o.family != c.family or EFFECTS[n].term is None:
+            continue
+        rows = same_signature_rows(ctx, c, o)
+        if rows is None or width(n) >= width(pick):
+            continue
+        hh = heldout_comparison(ctx.signature_res(o.fit, rows), ctx.signature_res(c.fit, rows))
+        if not (np.isfinite(hh.z) and hh.z >= RULE.min_z):
+            pick = n
+    return pick
 
 
 def choose(passing: list[str], gains: dict[str, float]) -> str:

@@ -15,10 +15,11 @@ import numpy as np
 from ..fitting.cycles import input_cycles
 from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
+from .registry import SignatureRows
 
 __all__ = ["CLOSED_TOL", "CYCLE_TOL", "MIN_CYCLES", "START_TOL", "STEADY_TOL",
-           "closed_loop_history", "longest_repeating_run", "repeated_cycles",
-           "steady_state_history"]
+           "closed_loop_history", "cycle_to_cycle", "longest_repeating_run",
+           "repeated_cycles", "steady_state_history"]
 
 #: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
 #: difference of the later periods, within which the first period counts as steady state.
@@ -155,3 +156,30 @@ def longest_repeating_run(u: np.ndarray) -> tuple[tuple[int, int], ...]:
         if len(run) > len(best):
             best = list(run)
     return tuple(best)
+
+
+def cycle_to_cycle(records: list[Recording]) -> SignatureRows | None:
+    """Where a slow change with time (a drift, the settling of creep) shows apart from the
+    model's bias: in a single recording whose input repeats one cycle
+    (:func:`repeated_cycles`), the change from one cycle to the next. A rate-independent
+    model repeats its output once the first cycle has set its memory, so each row of the
+    third cycle on is compared as its residual's change from the same row one cycle before
+    (the base's misfit, which repeats, cancels; a change with time does not). ``None`` with
+    several recordings (whose differences already test a change with time) or when the one
+    recording does not repeat its input."""
+    if len(records) != 1:
+        return None
+    r = records[0]
+    cyc = repeated_cycles(r.u)
+    if not cyc:
+        return None
+    m = np.zeros(r.n_samples, dtype=bool)
+    prev = np.full(r.n_samples, -1, dtype=np.int64)
+    # the first cycle sets the memory: cycles from the third on, each against the one before
+    for (a, b), (p, _) in zip(cyc[2:], cyc[1:-1], strict=True):
+        m[a:b] = True
+        prev[a:b] = np.arange(p, p + (b - a))
+    return SignatureRows([m], f"cycle to cycle after the first ({r.name}: each of "
+                              f"{len(cyc) - 2} repeated input cycles from t = "
+                              f"{r.t[cyc[2][0]]:.4g} s against the one before)",
+                         previous=[prev])

@@ -277,6 +277,11 @@ class DiagnosableEffect:
     mimicked_by : tuple or None
         ``(names, why)``: when this effect is untestable, an accepted effect of ``names``
         may be it in disguise; ``why`` (with ``{best}`` for the accepted one) says how.
+    partly_tested : callable or None
+        ``partly_tested(ctx) -> why or None``: when the effect is testable but its test does
+        not reach where the effects of :attr:`mimicked_by` live (creep from cycle to cycle:
+        only the settling of its slow lags), why an accepted one of them may still be it in
+        disguise (reported as :attr:`mimicked_by` is for an untestable effect).
     before_wipeout : bool
         Its evidence lives before the wipe-out time (the unknown initial memory): judged on
         those rows, never cross-fitted or compared with further effects on the test rows.
@@ -344,6 +349,7 @@ class DiagnosableEffect:
     lookalikes: tuple[str, ...] = ()
     untestable: Callable[[Any], str | tuple[str, str] | None] | None = None
     mimicked_by: tuple[frozenset[str], str] | None = None
+    partly_tested: Callable[[Any], str | None] | None = None
     before_wipeout: bool = False
     dynamics: OutputDynamics | None = None
     transport: bool = False

@@ -18,7 +18,7 @@ from .between import between_recordings
 from .candidates import build_candidate
 from .context import FitContext
 from .crossfitting import compare_heldout, crossfit_candidate, screen_gain
-from .registry import EFFECTS
+from .registry import EFFECTS, SignatureRows
 from .results import RoundRow
 from .specs import FAMILY_PRIORITY
 from .state import Candidate, Run, deferred_row
@@ -26,7 +26,8 @@ from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit
 
 __all__ = ["MEMORY_MAX_HARM", "MIN_SIGNATURE_ROWS", "WHERE_MIN_ROWS", "WHERE_MIN_Z",
-           "WHERE_SHARE", "candidate_evidence", "search_round", "where_it_lives"]
+           "WHERE_SHARE", "candidate_evidence", "same_signature_rows", "search_round",
+           "where_it_lives"]
 
 
 def _lead_bound(lead: tuple[str, float] | None, name: str) -> float:
@@ -162,22 +163,20 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
     if sum(int(w.sum()) for w in where) < MIN_SIGNATURE_ROWS:
         return None
     rest = [~m & t for m, t in zip(sig.masks, ctx.test, strict=True)]
-
-    def on_signature(f: Fit) -> list[np.ndarray]:
-        if sig.previous is not None:  # each row against the same row one cycle before
-            out = []
-            for r, p, w, prev in zip(ctx.records, f.pred, where, sig.previous, strict=True):
-                rows = np.flatnonzero(w)
-                e = r.y - p
-                out.append(e[rows] - e[prev[rows]])
-            return out
-        res = ctx.test_res(f, where)
-        return [e - e.mean() if sig.centred and e.size else e for e in res]
-
-    h = heldout_comparison(on_signature(cur), on_signature(c.fit))
+    h = heldout_comparison(ctx.signature_res(cur, sig), ctx.signature_res(c.fit, sig))
     other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
              if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
     return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other)
+
+
+def same_signature_rows(ctx: FitContext, c: Candidate, o: Candidate) -> SignatureRows | None:
+    """The rows of their signature that candidates ``c`` and ``o`` were both judged on
+    (:func:`_on_its_signature`: a drift and a creep from cycle to cycle of one repeated
+    input), or ``None`` when they were not judged on the same rows."""
+    sig = EFFECTS[c.name].signature
+    if c.where is None or o.where != c.where or sig is None:
+        return None
+    return sig(ctx)
 
 
 #: Share of the test rows, those where a delay / lag / resonance changes the prediction most,

@@ -7,7 +7,8 @@ import numpy as np
 from ...stages import Creep, foh_filter
 from ..candidates import Candidate
 from ..context import FitContext
-from ..registry import DiagnosableEffect, StaticTerm, TermRows, register
+from ..periodic import cycle_to_cycle
+from ..registry import DiagnosableEffect, SignatureRows, StaticTerm, TermRows, register
 from ..structure import Fit
 
 
@@ -34,24 +35,52 @@ TERM = StaticTerm(
 )
 
 
+def _has_hold(ctx: FitContext) -> bool:
+    """Whether a hold (>= 0.5 s) after an input change lies inside the train or test rows."""
+    return any((tr | te)[h0 : h0 + n].any()
+               for c, tr, te in zip(ctx.coords, ctx.train, ctx.test, strict=True)
+               for h0, n, _ in c.holds)
+
+
 def _untestable(ctx: FitContext) -> str | None:
     """Creep needs a hold (>= 0.5 s) after an input change (a step or a ramp: the creep /
-    relaxation test) inside the train or test rows."""
-    if any((tr | te)[h0 : h0 + n].any()
-           for c, tr, te in zip(ctx.coords, ctx.train, ctx.test, strict=True)
-           for h0, n, _ in c.holds):
+    relaxation test) inside the train or test rows, or a single recording whose input
+    repeats one cycle, judged from cycle to cycle (:func:`_signature`: the settling of its
+    slow lags after the input's last change)."""
+    if _has_hold(ctx) or _signature(ctx) is not None:
         return None
-    return "no hold of >= 0.5 s after an input change (a step or a ramp) inside the train/test rows"
+    return ("no hold of >= 0.5 s after an input change (a step or a ramp) inside the "
+            "train/test rows, and no single recording repeating one input cycle whose test "
+            "rows are compared from cycle to cycle")
+
+
+def _signature(ctx: FitContext) -> SignatureRows | None:
+    """Without a hold, where creep shows apart from the model's bias: under a repeated
+    input the slow lags of the bank settle after the input's last change (a jump, the
+    start) while a rate-independent base repeats itself, so the settling shows as a change
+    from cycle to cycle that decays (:func:`~core.diagnosis.periodic.cycle_to_cycle`; a
+    drift's is steady). ``None`` with a hold (every test row as before: the relaxation
+    after the steps is the signature) and with explicit windows (strict hold-out: the
+    evidence is the cross-fitted training blocks, where the base's misfit does not cancel)."""
+    if ctx.strict or _has_hold(ctx):
+        return None
+    return cycle_to_cycle(ctx.records)
 
 
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
-    """Creep lag bank, one time constant per decade from 10 dt (>= 10 ms) to the record length."""
+    """Creep lag bank, one time constant per decade from 10 dt (>= 10 ms) to the record length
+    (judged from cycle to cycle, :func:`_signature`: to the decade at or above it)."""
     s = cur.structure
     dt = min(r.dt for r in ctx.records)
     if s.term("creep"):
         return None
     lo = max(10 * dt, 0.01)
     hi = max(r.t[-1] - r.t[0] for r in ctx.records)
+    if _signature(ctx) is not None:
+        # from cycle to cycle the settling of lags of the record's length shows (a lag
+        # between the last decade below it and the record's length, a 3 s lag in an 8 s
+        # record, has no column of its curvature otherwise)
+        hi = 10.0 ** np.ceil(np.log10(hi))
     taus = tuple(float(x) for x in 10.0 ** np.arange(np.ceil(np.log10(lo)),
                                                      np.log10(hi) + 1e-9))
     if len(taus) < 1:
@@ -103,6 +132,7 @@ register(DiagnosableEffect(
     structure_field="terms",
     term=TERM,
     untestable=_untestable,
+    signature=_signature,
     linear=True,
     stage_order=3,
     sign_locked=True,
@@ -111,6 +141,12 @@ register(DiagnosableEffect(
                  "something else: the fast end of its relaxation spectrum acts as a lag at the "
                  "excitation frequency, its slow tail after the last step as a trend from "
                  "cycle to cycle, like a drift; creep itself was untestable"),
+    partly_tested=lambda ctx: None if _signature(ctx) is None else (
+        "without holds, creep was tested only from cycle to cycle of the repeated input, "
+        "where only the settling of its slow lags shows: its fast end (lags shorter than "
+        "the period) repeats with every cycle and acts as a lag at the excitation frequency, "
+        "and a lag as long as the record settles as a steady trend, like a drift; {best} "
+        "may be such a part of creep"),
     deciding=(
         ("drift", "an up-then-down staircase with holds of 3-30 s (creep follows "
          "the sign of the last step, drift does not)"),

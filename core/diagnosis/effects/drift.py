@@ -8,7 +8,7 @@ from ...base import Chain, Model
 from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
-from ..periodic import MIN_CYCLES, longest_repeating_run, repeated_cycles
+from ..periodic import MIN_CYCLES, cycle_to_cycle, longest_repeating_run, repeated_cycles
 from ..registry import DiagnosableEffect, SignatureRows, StaticTerm, TermFit, TermRows, register
 from ..structure import Fit, legendre_columns
 
@@ -44,29 +44,11 @@ def _untestable(ctx: FitContext) -> str | None:
 
 
 def _signature(ctx: FitContext) -> SignatureRows | None:
-    """Where a drift shows apart from the model's bias: in a recording whose input repeats
-    one cycle, the change from one cycle to the next. A rate-independent model repeats its
-    output once the first cycle has set its memory, so each row of the third cycle on is
-    compared as its residual's change from the same row one cycle before (the base's misfit,
-    which repeats, cancels; a drift does not). ``None`` (every test row, as before) with
+    """Where a drift shows apart from the model's bias: from cycle to cycle of a repeated
+    input (:func:`~core.diagnosis.periodic.cycle_to_cycle`); ``None`` (every test row) with
     several recordings, whose differences already test a drift, or when the one recording
     does not repeat its input."""
-    if len(ctx.records) != 1:
-        return None
-    r = ctx.records[0]
-    cyc = repeated_cycles(r.u)
-    if not cyc:
-        return None
-    m = np.zeros(r.n_samples, dtype=bool)
-    prev = np.full(r.n_samples, -1, dtype=np.int64)
-    # the first cycle sets the memory: cycles from the third on, each against the one before
-    for (a, b), (p, _) in zip(cyc[2:], cyc[1:-1], strict=True):
-        m[a:b] = True
-        prev[a:b] = np.arange(p, p + (b - a))
-    return SignatureRows([m], f"cycle to cycle after the first ({r.name}: each of "
-                              f"{len(cyc) - 2} repeated input cycles from t = "
-                              f"{r.t[cyc[2][0]]:.4g} s against the one before)",
-                         previous=[prev])
+    return cycle_to_cycle(ctx.records)
 
 
 def _columns(degree: int, rows: TermRows) -> np.ndarray:

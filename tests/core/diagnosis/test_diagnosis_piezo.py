@@ -89,13 +89,17 @@ def test_no_windows_the_saved_model_is_refitted_on_every_row(piezo) -> None:
 #: with the cycle before it, from the third cycle on, instead of about its mean)
 #: (the resonance's two numbers since round 5's finer search grid for the mode, d91d968:
 #: -0.160 -> -0.052 and 6.831 -> 7.405; still rejected, every other number unchanged)
+#: (creep's two rows since it is tested from cycle to cycle of the repeated sine, as drift
+#: is, instead of "untestable: no hold": rejected, z -22.393 and -6.387, the fitted bank
+#: making the cycle-to-cycle change worse; every other number unchanged)
 PIEZO_TESTED = [
     (1, "delay", False, 0.176), (1, "lag", False, -0.296), (1, "resonance", False, -0.052),
-    (1, "drift", False, -10.579), (1, "asymmetry", False, 1.441),
+    (1, "creep", False, -22.393), (1, "drift", False, -10.579), (1, "asymmetry", False, 1.441),
     (1, "initial-memory", True, 18.670), (1, "saturation", True, 19.907),
     (1, "dead-zone", True, 16.965), (1, "resolution:50", True, 2.261),
     (1, "resolution:100", False, 2.329), (2, "delay", False, 7.288), (2, "lag", False, 7.431),
-    (2, "resonance", False, 7.405), (2, "drift", False, -2.112), (2, "asymmetry", False, 2.967),
+    (2, "resonance", False, 7.405), (2, "creep", False, -6.387), (2, "drift", False, -2.112),
+    (2, "asymmetry", False, 2.967),
     (2, "saturation", False, 2.269), (2, "dead-zone", False, -5.813)]
 
 
