@@ -23,7 +23,7 @@ from .cache_budget import BANK, DERIVED, FIT, CacheBudget
 from .events import event_starts
 from .rowkernels import bank_rows_times, play_rows, row_selector
 from .screening import ranking_span
-from .shapes import apply_shape
+from .shapes import apply_shape, output_gains, signed_ratio
 
 if TYPE_CHECKING:
     from .structure import Structure
@@ -211,7 +211,9 @@ class BankCache:
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
              shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
         """``[w, plays(w)]`` of recording ``k`` from the virtual history ``hist``, ``(N, n + 1)``;
-        ``w`` is the input through the loop shape ``shape`` (the input itself without one).
+        ``w`` is the input through the loop shape ``shape`` (the input itself without one);
+        a stop base with a slip force by direction has each row times its gain
+        (:func:`~.shapes.output_gains`: the bank of the force before the gain, times it).
         With ``bouc_wen`` elements (a Bouc-Wen base), :func:`~core.diagnosis.bases.bouc_wen_bank`
         instead.
 
@@ -232,6 +234,9 @@ class BankCache:
                 B = play_bank(u, np.r_[0.0, r], np.r_[0.0, z0])[0]
             else:
                 B = np.column_stack((u, rd_play_bank(u, r, beta, rec.dt, z0)[0]))
+            g = output_gains(shape, rec.u if upto is None else rec.u[:upto])
+            if g is not None:  # a stop base's slip force by direction: rows times its gain
+                B *= g[:, None]
             if upto is not None:
                 return B
             self.budget.put(self.d, key, B, B.nbytes, BANK, count=6)
@@ -245,7 +250,8 @@ class BankCache:
         storing only those rows (:func:`play_rows`, the same numbers), so a few thousand
         sampled rows do not form ``(N, n + 1)``."""
         fits = self.budget.fits(8.0 * rec.n_samples * (r.size + 1))
-        if beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape):
+        if (beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape)
+                or signed_ratio(shape) != 1.0):
             return self.bank(k, rec, r, hist, beta, shape, bouc_wen=bouc_wen)[idx]
         w = np.ascontiguousarray(apply_shape(shape, rec.u), dtype=np.float64)
         z0 = play_bank(apply_shape(shape, hist), r)[1] if hist else np.zeros(r.size)

@@ -224,10 +224,11 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
         return None
     if loop_shape(s0.shape) or s0.beta_s is not None or s0.levels or s0.bouc_wen:
         return None
-    model = fit_stop_gap(recs, ctx.train, ctx.test, len(s0.thresholds))
-    if model is None:
+    got = fit_stop_gap(recs, ctx.train, ctx.test, len(s0.thresholds))
+    if got is None:
         return None
-    shape = (stop_stage(model),)
+    model, ratio = got
+    shape = (stop_stage(model, ratio),)
     r = shape_thresholds(shape, recs, ctx.train, len(s0.thresholds))
     fs = ctx.fit(Structure(tuple(float(x) for x in r), s0.history, shape=shape))
     h = compare_heldout(ctx, fs, base)
@@ -235,10 +236,12 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     m0 = fs.models[0]
     hyst = m0.stages[0] if isinstance(m0, Chain) else m0
     assert isinstance(hyst, StopPIModel)
-    info = {"gap": float(model.gap), "elements": len(r),
-            "friction_plateau": float(branch_features(hyst).plateau),
+    plateau = float(branch_features(hyst).plateau)
+    info = {"gap": float(model.gap), "elements": len(r), "friction_plateau": plateau,
             "heldout_mse_reduction": float(1.0 - h.mse_before / max(h.mse_after, 1e-300)),
             "chosen": bool(chosen)}
+    if ratio != 1.0:
+        info |= {"slip_force_ratio": ratio, "friction_plateau_falling": plateau * ratio}
     return (fs if chosen else base), info
 
 

@@ -51,8 +51,10 @@ __all__ = [
     "fit_stop_gap",
     "initial_state",
     "saturations",
+    "stop_gains",
     "stop_input",
     "stop_model",
+    "stop_ratio",
     "stop_stage",
 ]
 
@@ -145,12 +147,15 @@ def bouc_wen_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> n
 
 
 def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[np.ndarray],
-                 n_operators: int) -> StopPIModel | None:
-    """The stop-operator model with the backlash gap the fit-side search finds on the
-    training rows (:class:`~core.fitting.stop.StopPIRegressor`, ``gap="auto"``: the width
-    that lowers the training MSE by :data:`~core.fitting.stop.GAP_MIN_GAIN`, else none;
-    ``n_operators`` elements), or ``None`` when it cannot be fitted. ``test`` rows are only
-    passed on, never scored for the choice."""
+                 n_operators: int) -> tuple[StopPIModel, float] | None:
+    """The stop-operator model with the backlash gap and the slip force by direction that
+    the fit-side search finds on the training rows (:class:`~core.fitting.stop.StopPIRegressor`
+    with its defaults, ``gap="auto"`` and ``signed=True``: the width that lowers the training
+    MSE by :data:`~core.fitting.stop.GAP_MIN_GAIN`, else none; the gains by direction where
+    they lower it by :data:`~core.fitting.stop.SIGNED_MIN_GAIN`, else none; ``n_operators``
+    elements), as ``(model, ratio)``: the bank (its gain ``g+`` folded in) and ``g- / g+``
+    (1 when the slip force does not depend on the direction); ``None`` when it cannot be
+    fitted. ``test`` rows are only passed on, never scored for the choice."""
     import warnings
 
     from ..exceptions import ParameterError
@@ -160,8 +165,7 @@ def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[n
     use = [k for k, m in enumerate(train) if m.any()]
     if not use:
         return None
-    est = StopPIRegressor(n_operators=n_operators, initial_memory="keep", gap="auto",
-                          signed=False)
+    est = StopPIRegressor(n_operators=n_operators, initial_memory="keep", gap="auto")
     multi = len(use) > 1
     us = [records[k].u for k in use]
     ys = [records[k].y for k in use]
@@ -173,25 +177,55 @@ def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[n
                     test=[test[k] for k in use] if multi else test[use[0]])
     except ParameterError:
         return None
-    return est.model_
+    gain = est.signed_gain_
+    return est.model_, 1.0 if gain is None else float(gain.ratio)
 
 
-def stop_stage(model: StopPIModel) -> tuple:
+def stop_stage(model: StopPIModel, ratio: float = 1.0) -> tuple:
     """The stop base's input map ``("gap", b, k, r, w)`` of ``model`` (hashable): the gap's
-    width and the model whose force decides where the gap opens."""
-    return (GAP, float(model.gap), float(model.k),
-            tuple(float(x) for x in model.thresholds), tuple(float(x) for x in model.weights))
+    width and the model whose force decides where the gap opens; with a slip force by
+    direction (``ratio = g- / g+ != 1``, :class:`~core.stages.SignedGain` after the bank)
+    ``("gap", b, k, r, w, ratio)``, the same model's force also deciding which of the two
+    gains applies (:func:`stop_gains`)."""
+    stage = (GAP, float(model.gap), float(model.k),
+             tuple(float(x) for x in model.thresholds), tuple(float(x) for x in model.weights))
+    return stage if ratio == 1.0 else (*stage, float(ratio))
+
+
+def stop_ratio(stage: tuple) -> float:
+    """The slip force's ratio by direction ``g- / g+`` of ``stage`` (:func:`stop_stage`),
+    1 without one."""
+    return float(stage[5]) if len(stage) > 5 else 1.0
+
+
+def _stage_model(stage: tuple) -> StopPIModel:
+    """The model of ``stage`` (:func:`stop_stage`) whose force decides the gap and the
+    gain, relaxed at 0."""
+    _, b, k, r, w = stage[:5]
+    return StopPIModel(k, np.asarray(r), np.asarray(w), gap=b)
 
 
 def stop_input(stage: tuple, u: Float1D) -> Float1D:
     """The input behind the gap of ``stage`` (:func:`stop_stage`), ``v`` of shape ``(N,)``
     (input units), simulated from relaxed sliders at 0 as the diagnosed model starts; ``u``
     itself without a gap."""
-    _, b, k, r, w = stage
     uu = np.ascontiguousarray(u, dtype=np.float64)
-    if b <= 0 or not uu.size:
+    if stage[1] <= 0 or not uu.size:
         return uu.copy()
-    return StopPIModel(k, np.asarray(r), np.asarray(w), gap=b).bank_input(uu)
+    return _stage_model(stage).bank_input(uu)
+
+
+def stop_gains(stage: tuple, u: Float1D) -> Float1D | None:
+    """The gain of the slip force by direction on each sample of ``u``, shape ``(N,)``: 1
+    where the force of ``stage``'s model (relaxed at 0, as :func:`stop_input`) is
+    non-negative, :func:`stop_ratio` where it is negative; ``None`` without a ratio. For
+    that fixed pattern the bank times the gains is linear in the weights, as the bank on
+    the gap's input is (the diagnosed model's own force decides, as it does for the gap)."""
+    ratio = stop_ratio(stage)
+    if ratio == 1.0:
+        return None
+    uu = np.ascontiguousarray(u, dtype=np.float64)
+    return np.where(_stage_model(stage)(uu) >= 0, 1.0, ratio) if uu.size else np.ones(0)
 
 
 def stop_model(stage: tuple, r: Float1D, p0: float, pw: Float1D,

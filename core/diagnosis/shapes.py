@@ -38,12 +38,13 @@ from ..base import Chain, Model
 from ..deadzone import DeadZoneMap
 from ..gpi import DeadZoneGPI, TanhEnvelope, TanhGPI
 from ..pi import PIModel
-from .bases import GAP, stop_input
+from .bases import GAP, stop_gains, stop_input, stop_ratio
 from .grid import baseline_thresholds
 
 __all__ = ["DEAD_BAND_SLOPE", "GAP", "SHAPE_EFFECTS", "apply_shape", "dead_band_words",
            "dead_zone_stage", "describe_shape", "gap_stage_of", "hysteresis_model",
-           "loop_shape", "shape_effects", "shape_thresholds", "stage_map", "tanh_stage"]
+           "loop_shape", "output_gains", "shape_effects", "shape_thresholds", "signed_ratio",
+           "stage_map", "tanh_stage"]
 
 #: Shape stage kind -> effect name.
 SHAPE_EFFECTS: dict[str, str] = {"tanh": "saturation", "deadzone": "dead-zone"}
@@ -52,6 +53,21 @@ SHAPE_EFFECTS: dict[str, str] = {"tanh": "saturation", "deadzone": "dead-zone"}
 def gap_stage_of(shape: tuple) -> tuple | None:
     """The stop-operator base's input map of ``shape`` (its first stage), or ``None``."""
     return shape[0] if shape and shape[0][0] == GAP else None
+
+
+def signed_ratio(shape: tuple) -> float:
+    """The slip force's ratio by direction of the stop base of ``shape``
+    (:func:`core.diagnosis.bases.stop_ratio`; 1 without one or without a stop base)."""
+    gap = gap_stage_of(shape)
+    return 1.0 if gap is None else stop_ratio(gap)
+
+
+def output_gains(shape: tuple, u: ArrayLike) -> Float1D | None:
+    """The gain on the bank's output of each sample of ``u`` ``(N,)`` where the stop base of
+    ``shape`` has a slip force by direction (:func:`core.diagnosis.bases.stop_gains`: 1 or
+    the ratio, by the sign of the base's force); ``None`` otherwise (every row's gain 1)."""
+    gap = gap_stage_of(shape)
+    return None if gap is None else stop_gains(gap, np.asarray(u, dtype=np.float64))
 
 
 def loop_shape(shape: tuple) -> tuple:

@@ -125,7 +125,8 @@ def constraints(s: Structure, X: np.ndarray, nb: int, eps: float, terms: list) -
     return lower
 
 
-def still_elements(s: Structure, X: np.ndarray, nb: int) -> np.ndarray | None:
+def still_elements(s: Structure, X: np.ndarray, nb: int,
+                   plays: np.ndarray | None = None) -> np.ndarray | None:
     """The Maxwell-slip elements of a stop base that never slide on the solved rows (their
     play column, ``X[:, i]`` for ``1 <= i < nb`` before :func:`constraints` turns it into the
     deflection ``v - P_i(v)``, is constant there: a threshold above the rows' travel), as a
@@ -140,10 +141,15 @@ def still_elements(s: Structure, X: np.ndarray, nb: int) -> np.ndarray | None:
     the Maxwell-slip plant's ``slow`` recording, with the stiffness on the element at 139.65
     or on the spring). :func:`solve` pins them at 0 instead, so the spring carries that
     stiffness, as the play frame of the PI base already does (a play that never moves from a
-    relaxed state has an empty column, pinned at 0)."""
+    relaxed state has an empty column, pinned at 0).
+
+    ``plays``: the base's columns on the solved rows without the gains of a slip force by
+    direction (``(rows, nb)``; a signed stop base's rows of ``X`` are times a gain that
+    changes with the force's sign, so a still element's column is not constant there);
+    ``X``'s own by default."""
     if not s.stop or X.shape[0] == 0 or nb < 2:
         return None
-    B = X[:, 1:nb]
+    B = (X if plays is None else plays)[:, 1:nb]
     still = np.all(B == B[:1], axis=0)
     if not still.any():
         return None

@@ -30,7 +30,7 @@ from ..operators import play_bank
 from ..pi import PIModel
 from ..preisach import PreisachModel, RateDependentPreisach
 from ..recordings import Recording
-from ..stages import InitialMemory, RateDependentPI, discretised_tf
+from ..stages import InitialMemory, RateDependentPI, SignedGain, discretised_tf
 from ..validation import filled
 from .bankcache import BankCache, basis_of, basis_rows, recent, split_levels
 from .bases import bouc_wen_model, initial_state, stop_model
@@ -53,7 +53,14 @@ from .rowkernels import (
     row_selector,
     turns_rarely,
 )
-from .shapes import apply_shape, gap_stage_of, hysteresis_model, loop_shape, shape_effects
+from .shapes import (
+    apply_shape,
+    gap_stage_of,
+    hysteresis_model,
+    loop_shape,
+    shape_effects,
+    signed_ratio,
+)
 from .solver import constraints, gram, min_slope, solve, still_elements, unconstrained_rss
 
 __all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
@@ -174,6 +181,14 @@ class Structure:
     def stop(self) -> bool:
         """A stop-operator base (its input map first in :attr:`shape`)."""
         return gap_stage_of(self.shape) is not None
+
+    @property
+    def signed(self) -> bool:
+        """A stop base whose slip force depends on the sliding direction (its input map
+        carries the ratio, :func:`core.diagnosis.bases.stop_stage`): its bank's rows are
+        times their gain, so the banks are never formed along the input from the
+        thresholds alone (streamed, sampled, projected along the input)."""
+        return signed_ratio(self.shape) != 1.0
 
     @property
     def effects(self) -> list[str]:
@@ -596,7 +611,8 @@ def fit_structure(
         o += idx.size
     # (the bounds only matter to the constrained solve: not formed for the reduced ranking)
     # (before constraints() turns a stop base's play columns into its deflections)
-    fixed = None if V is not None else still_elements(s, X, nb)
+    fixed = None if V is not None else still_elements(
+        s, X, nb, _plain_plays(cache, s, records, rows) if s.signed else None)
     lower = None if V is not None else constraints(
         s, X, nb, min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
@@ -638,6 +654,20 @@ def fit_structure(
     coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
     return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef,
                       cache)
+
+
+def _plain_plays(cache: BankCache, s: Structure, records: Sequence[Recording],
+                 rows: list[np.ndarray]) -> np.ndarray:
+    """The play bank of a signed stop base on the solved ``rows`` of every recording
+    without the gains of its slip force by direction, ``(rows, n + 1)`` (what
+    :func:`~.solver.still_elements` tests: an element that never slides has a constant
+    column there)."""
+    gap = gap_stage_of(s.shape)
+    assert gap is not None
+    plain = (gap[:5], *s.shape[1:])
+    r = np.asarray(s.thresholds)
+    return np.concatenate([cache.bank_rows(k, rec, r, s.history[k], None, plain, idx)
+                           for k, (rec, idx) in enumerate(zip(records, rows, strict=True))])
 
 
 def _refreshed_x(bs: _BankSet, s: Structure, blocks: list[np.ndarray], ends: list[int],
@@ -700,7 +730,7 @@ def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
     # basis and the products start from (_sampled_banks), not their (N, n) outputs
     sampled = (_sampled_banks(cache, s, records, train, rows, upto, starts, vkey)
                if rss_only and reduce and not s.levels and s.beta_s is None
-               and not s.bouc_wen else None)
+               and not s.bouc_wen and not s.signed else None)
     inputs = row0 = streamed = None
     banks: list[np.ndarray]
     if sampled is not None:
@@ -726,7 +756,7 @@ def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
     # thresholds of the play-bank columns (rate-independent plays: the reduced products
     # are then formed along the input, bank_rows_times)
     r_bank = (np.r_[0.0, r] if V is not None and s.beta_s is None and not s.bouc_wen
-              and not s.levels else None)
+              and not s.levels and not s.signed else None)
     return _BankSet(raw, banks, V, inputs, row0, r_bank, streamed)
 
 
@@ -760,7 +790,8 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: BankCache, key: Any, idx: np.nda
         # solved row, not from sample 0: the same rows to round-off)
         P = bs.banks[k][start:last] if V is None else cache.projected(
             bs.banks[k][:last], V, key,
-            w=bs.raw[k][:last, 0] if s.beta_s is None else None, start=start, r=bs.r_bank)
+            w=bs.raw[k][:last, 0] if s.beta_s is None and not s.signed else None,
+            start=start, r=bs.r_bank)
         _dyn_rows(P, s.dynamics, dt, idx - start, out=out)
 
 
@@ -804,7 +835,8 @@ def _stage_output(cache: BankCache, s: Structure, records: Sequence[Recording], 
     rec = records[k]
     r = np.asarray(s.thresholds)
     hist = s.history[k]
-    if s.beta_s is None and not s.bouc_wen and not cache.has_bank(k, r, hist, s.shape):
+    if (s.beta_s is None and not s.bouc_wen and not s.signed
+            and not cache.has_bank(k, r, hist, s.shape)):
         u, z0 = _bank_start(s, rec, k)
         return _streamed_product(u, z0, np.r_[0.0, r], s.levels, w, u.size)
     B = cache.bank(k, rec, r, hist, s.beta_s, shape=s.shape, bouc_wen=s.bouc_wen)
@@ -819,7 +851,7 @@ def _streams(cache: BankCache, s: Structure, records: Sequence[Recording]) -> bo
     fitted from its whole bank, as before), and output dynamics that forget their start (a block's
     rows are those of the filter run from the first sample to round-off, as
     :func:`_filter_start`)."""
-    if s.beta_s is not None or s.bouc_wen:
+    if s.beta_s is not None or s.bouc_wen or s.signed:
         return False
     r = np.asarray(s.thresholds)
     if any(cache.has_bank(k, r, s.history[k], s.shape) for k in range(len(records))):
@@ -961,7 +993,9 @@ def _hysteresis(s: Structure, k: int, p0: float, pw: Float1D) -> Model:
         hist = s.history[k]
         z0 = play_bank(apply_shape((gap,), np.asarray(hist, dtype=np.float64)), r)[1] \
             if hist else None
-        return hysteresis_model(loop_shape(s.shape), stop_model(gap, r, p0, pw, z0))
+        stop = hysteresis_model(loop_shape(s.shape), stop_model(gap, r, p0, pw, z0))
+        # (the slip force by direction: the gain of each sign of the force after the bank)
+        return stop if not s.signed else Chain.of(stop, SignedGain(1.0, signed_ratio(s.shape)))
     if s.bouc_wen:
         # a virtual history sets the elements' start state (on the mapped input)
         st = initial_state(s.bouc_wen, apply_shape(s.shape, np.asarray(s.history[k]))
