@@ -212,7 +212,11 @@ class BaseChoice:
         On clockwise loops, the stop-operator base tried first (:mod:`core.diagnosis.bases`):
         ``{"gap", "friction_plateau", "elements", "heldout_mse_reduction", "chosen"}`` (gap in
         input units, plateau in output units, the held-out MSE reduction against the PI
-        with weights of either sign); ``None`` on counter-clockwise loops.
+        with weights of either sign), and where the slip force depends on the sliding
+        direction (:class:`~core.stages.SignedGain` after the bank, as ``hyst fit`` finds
+        it) ``"slip_force_ratio"`` (``g- / g+``) and ``"friction_plateau_falling"`` (the
+        plateau where the force is negative, output units); ``None`` on counter-clockwise
+        loops.
     """
 
     kind: str
@@ -240,8 +244,8 @@ class BaseChoice:
             gap = (f"behind a backlash gap {st['gap']:.4g} input units wide (the force stays "
                    "at zero while the input crosses it)" if st["gap"] > 0 else
                    "without a backlash gap")
-            return ("stop operators (Maxwell-slip elements, friction plateau "
-                    f"{st['friction_plateau']:.4g} output units) {gap}: the loops run "
+            return (f"stop operators (Maxwell-slip elements, {_plateau_words(st)}) {gap}: "
+                    "the loops run "
                     "clockwise, as hyst fit --model auto chooses it; held-out MSE "
                     f"{-100 * st['heldout_mse_reduction'] + 0.0:+.0f} % against the PI with "
                     "weights of either sign"
@@ -267,6 +271,19 @@ class BaseChoice:
         return {"kind": self.kind, "tried": [dict(t) for t in self.tried],
                 "folds": self.folds, "stop": None if self.stop is None else dict(self.stop),
                 "text": self.text}
+
+
+def _plateau_words(stop: dict[str, Any]) -> str:
+    """The stop base's friction plateau in words (output units): one height, or one for
+    each sign of the force where the slip force depends on the sliding direction."""
+    p = stop["friction_plateau"]
+    ratio = stop.get("slip_force_ratio", 1.0)
+    if ratio == 1.0:
+        return f"friction plateau {p:.4g} output units"
+    return (f"the slip force depends on the sliding direction: friction plateau {p:.4g} "
+            f"output units where the force is positive and "
+            f"{stop['friction_plateau_falling']:.4g} where it is negative, {ratio:.3g} times "
+            "as large")
 
 
 @dataclass(frozen=True)
