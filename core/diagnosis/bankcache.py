@@ -248,7 +248,8 @@ class BankCache:
         bank, cached as :meth:`bank` does, when it is there or fits the cache's budget (or
         is not a bank of rate-independent plays), else the plays run along the input
         storing only those rows (:func:`play_rows`, the same numbers), so a few thousand
-        sampled rows do not form ``(N, n + 1)``."""
+        sampled rows do not form ``(N, n + 1)``; a stop base with a slip force by direction
+        (rows times their gain, :meth:`bank`) always reads the bank."""
         fits = self.budget.fits(8.0 * rec.n_samples * (r.size + 1))
         if (beta is not None or bouc_wen or fits or self.has_bank(k, r, hist, shape)
                 or signed_ratio(shape) != 1.0):

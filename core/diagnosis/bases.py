@@ -29,6 +29,15 @@ the PI. The diagnosed model is the exact :class:`~core.stop.StopPIModel` with th
 own weights decide where the gap opens), which inverts (:class:`~core.stop.StopGapInverse`)
 and exports to C and FMU. The base's input map is carried as the first stage of the
 structure's shape (:func:`stop_stage`; :mod:`core.diagnosis.shapes`).
+
+**Slip force by direction**: where the same fit adopts a gain by the sign of the force
+(:class:`~core.stages.SignedGain`, ``g+`` folded into the bank, ratio ``g- / g+``; its
+screen and :data:`~core.fitting.stop.SIGNED_MIN_GAIN` decide, as for ``hyst fit``), the
+stage carries the ratio and each row of the bank is multiplied by 1 or the ratio by the sign
+of that model's force (:func:`stop_gains`), so the base stays linear in its weights; the
+diagnosed model is ``StopPIModel >> SignedGain(1, ratio)``. On the friction damper at 36 lb
+(ratio 1.66) the base's held-out error falls from 5.72 to 3.27 % of range and the direction
+asymmetry is no longer named as an ``asymmetry`` effect.
 """
 
 from __future__ import annotations
