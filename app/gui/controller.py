@@ -282,9 +282,8 @@ class SessionView:
             self._notify(title, body, error)
 
     def _view_chosen(self, event: Any) -> None:
-        with self._quiet():
-            for dd in self.ui.view_dropdowns:
-                dd.value = event.target.value
+        with self._quiet():  # the hidden dropdown takes the view when shown (set_narrow)
+            set_value(self.ui.view_dd, event.target.value)
         self._redraw()
 
     def _projector_changed(self, event: Any) -> None:
@@ -548,7 +547,7 @@ class SessionView:
     def show_teacher(self) -> None:
         """Show this tab the teacher's buttons (push, who is connected, lead a lesson)."""
         self.ui.push_btn.visible = self.ui.who_btn.visible = True
-        self.lesson.teacher_folder.visible = True
+        self.lesson.show_teacher()
 
     def _teacher_allowed(self, refused: str) -> bool:
         """Whether this tab may act as the teacher: always with the teacher token, also on

@@ -339,7 +339,8 @@ class Widgets:
 
     @property
     def view_dropdowns(self) -> tuple[Any, Any]:
-        """Both *View* dropdowns (panel and sheet), which always show the same view."""
+        """Both *View* dropdowns (panel and sheet): :attr:`view_dd`, the shown one, holds the
+        view; the other is given it when it is shown (:meth:`SessionView.set_narrow`)."""
         return self._dd_wide, self._dd_narrow
 
     def ensure_param_sliders(self, controls: ModelControls,

@@ -159,12 +159,23 @@ class LessonPanel:
             self._toasted = pos
         self._toast_move(pos)
 
-    def _show(self, pos: lessons.Position | None, config: Config | None = None) -> None:
+    def _teacher_buttons(self, pos: lessons.Position | None) -> None:
+        """The teacher's Previous, Next and End as the class step ``pos`` allows them."""
         at = pos is not None
-        self.back_btn.disabled = not at
         self.prev_btn.disabled = not at or pos.index == 0
         self.next_btn.disabled = not at or pos.index + 1 >= len(pos.lesson.steps)
         self.end_btn.disabled = not at
+
+    def show_teacher(self) -> None:
+        """Show the teacher's folder, its buttons set for the class step (a student's tab
+        is not sent them: each move set one or three hidden buttons in every tab)."""
+        self.teacher_folder.visible = True  # first: a move from now on sets the buttons too
+        self._teacher_buttons(self.cls.position)
+
+    def _show(self, pos: lessons.Position | None, config: Config | None = None) -> None:
+        self.back_btn.disabled = pos is None
+        if self.teacher_folder.visible:  # a student's tab is not sent buttons it never shows
+            self._teacher_buttons(pos)
         if pos is None:
             self.md.content = "*No lesson is running.*"
             return
@@ -200,17 +211,18 @@ class LessonPanel:
         return True
 
     def _set_view(self, name: str) -> bool:
-        """Both *View* dropdowns to ``name``, quietly; whether that changed the view."""
+        """The shown *View* dropdown to ``name``, quietly; whether that changed the view
+        (the hidden one takes it when it is shown, :meth:`SessionView.set_narrow`: setting
+        both sent every tab a second message per move for a dropdown it does not show)."""
         v = self.view
         if v.ui.figure_name == name:
             return False
         with v._quiet():
-            for dd in v.ui.view_dropdowns:
-                set_value(dd, TITLES[name])
+            set_value(v.ui.view_dd, TITLES[name])
         return True
 
     def _show_view(self, name: str) -> None:
-        """Switch the tab's *View* to ``name`` (both dropdowns, quietly) and redraw (a view
+        """Switch the tab's *View* to ``name`` (quietly) and redraw (a view
         taken already with the move's push was drawn by the push's render)."""
         if self._set_view(name):
             self.view.worker.request()

@@ -75,17 +75,20 @@ class StateCube:
         self._lines: dict[str, Any] = {}  # the up and down edges
         self._shown = False  # the nodes are visible (hide() keeps them, invisible)
         self._points: np.ndarray | None = None  # the vertices, kept while hidden
-        self._edges: dict[str, bool] = {}  # "up" / "down": has segments
+        #: The frame "/states" every node of the graph hangs under: hiding and showing it
+        #: hides and shows them all with one message to the tab (was one per node).
+        self._root: Any = None
 
     def hide(self) -> None:
         """Take the state graph out of view (the model changed to one without it): its
         nodes stay in the scene, invisible, to be moved in place and shown again by the
         next graph of their kind (removing them and adding them again made every tab
         compile the scene's shaders again: a lesson's step without a digitized view, then
-        one with it, cost a viser tab ~0.3 s of main thread in software WebGL)."""
-        for h in self._handles:
+        one with it, cost a viser tab ~0.3 s of main thread in software WebGL). Only their
+        parent frame is hidden: one message to the tab, not one per node."""
+        if self._root is not None:
             try:
-                h.visible = False
+                self._root.visible = False
             except Exception:  # noqa: BLE001 - a handle of a closing tab
                 pass
         self._shown = False
@@ -150,6 +153,9 @@ class StateCube:
         self._drop()  # another graph: the last one's nodes, edges and labels go
         self._center, self.points = center, pts
         self._points = pts
+        if self._root is None:  # kept for the tab's life: the graphs come and go under it
+            self._root = self.scene.add_frame("/states", show_axes=False)
+        self._root.visible = True
         add = self._handles.append
         self._nodes = self.scene.add_point_cloud("/states/nodes", pts.astype(np.float32),
                                                  colors=(120, 120, 120), point_size=0.06,
@@ -176,15 +182,14 @@ class StateCube:
         self._aim_camera(pts)
 
     def _show(self) -> None:
-        """Make the kept nodes visible again (after :meth:`hide`): the edges that have
-        segments (:meth:`_place`) and every other node but the ball (:meth:`show_state`'s)."""
+        """Make the kept nodes visible again (after :meth:`hide`): their parent frame, each
+        node keeping its own visibility (an edge without segments stays hidden,
+        :meth:`_place`; the ball is moved by :meth:`show_state`, which follows a draw)."""
         if self._shown:
             return
         self.points = self._points
-        lines = {id(h): name for name, h in self._lines.items()}
-        for h in self._handles:
-            if h is not self._marker and (id(h) not in lines or self._edges[lines[id(h)]]):
-                h.visible = True
+        if self._root is not None:
+            self._root.visible = True
         self._shown = True
 
     def _same_kind(self, n: int, labels: list[str]) -> bool:
@@ -197,7 +202,6 @@ class StateCube:
         """The ``name`` edges ("up" or "down") at ``seg`` (shape ``(k, 2, 3)``): added the
         first time, then moved in place; hidden while there are none."""
         h = self._lines.get(name)
-        self._edges[name] = bool(len(seg))
         if not len(seg):
             if h is not None:
                 h.visible = False

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import SimpleNamespace
 from typing import Any
 
@@ -249,3 +249,85 @@ def test_a_moves_text_leaves_before_the_steps_sliders(server: Any) -> None:  # n
     finally:
         lessons.end(reg)
         v.close()
+
+
+
+def _pi_basics_messages(server: Any, then: Callable[[SessionView], None]
+                        ) -> tuple[list[list[Any]], SessionView, dict[str, set[str]]]:
+    """The viser messages one student tab is sent per move of *PI basics* (steps 1-6:
+    the start, then five Next), the tab (after ``then(tab)``, before it is closed) and the
+    uuids of the elements it does not show."""
+    ws = server._websock_server
+    log: list[Any] = []
+    real = ws.queue_message
+    ws.queue_message = lambda m: (log.append(m), real(m))
+    reg = SessionRegistry()
+    v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
+                    scene=server.scene)
+    moves: list[list[Any]] = []
+    try:
+        assert v.worker.wait_idle(30)
+        hidden = {"sheet's View": {v.ui.view_dropdowns[1]._impl.uuid},
+                  "teacher's buttons": {h._impl.uuid for h in (
+                      v.lesson.prev_btn, v.lesson.next_btn, v.lesson.end_btn)}}
+        assert v.ui.view_dd is v.ui.view_dropdowns[0]  # the panel's, not the sheet's
+        lesson = lessons.builtin_lesson("pi-basics")
+        for k in range(len(lesson.steps)):
+            log.clear()
+            if k == 0:
+                lessons.start(reg, lesson)
+            else:
+                lessons.go_to(reg, move=1)
+            assert v.worker.wait_idle(30)
+            assert f"step {k + 1} of 6" in v.lesson.md.content
+            moves.append(list(log))
+        then(v)
+    finally:
+        ws.queue_message = real
+        lessons.end(reg)
+        v.close()
+    return moves, v, hidden
+
+
+def test_a_students_tab_gets_nothing_for_the_view_dropdown_it_does_not_show(
+        server: Any) -> None:  # noqa: F811
+    """The phone sheet's *View* dropdown, hidden on a wide screen, was set at every move
+    with the shown one (one more message per move to every tab, issue 33); it takes the
+    view when it is shown."""
+    def narrow(v: SessionView) -> None:
+        v.set_narrow(True)
+        assert v.ui.view_dd.value == TITLES[lessons.builtin_lesson("pi-basics").steps[-1].view]
+
+    moves, _, hidden = _pi_basics_messages(server, narrow)
+    sent = [[m for m in ms if getattr(m, "uuid", None) in hidden["sheet's View"]]
+            for ms in moves]
+    assert not any(sent), sent  # main b191a9f: one at each of steps 2-6
+
+
+def test_a_students_tab_gets_nothing_for_the_teachers_buttons(server: Any) -> None:  # noqa: F811
+    """A student's tab never shows the teacher's Previous, Next and End: they were set at
+    the start (3 messages) and at steps 2 and 6; they are set when the teacher's folder is
+    shown, as the class step allows them."""
+    def teacher(v: SessionView) -> None:
+        v.show_teacher()
+        assert not v.lesson.prev_btn.disabled and v.lesson.next_btn.disabled
+        assert not v.lesson.end_btn.disabled
+
+    moves, _, hidden = _pi_basics_messages(server, teacher)
+    sent = [[m for m in ms if getattr(m, "uuid", None) in hidden["teacher's buttons"]]
+            for ms in moves]
+    assert not any(sent), sent
+
+
+def test_the_state_graph_is_hidden_and_shown_with_one_message(server: Any) -> None:  # noqa: F811
+    """Step 5 (no digitized view) hides the state graph and step 6 shows it again: one
+    message each (its parent frame), not one per node (5 and 5 on main ``b191a9f``). Per
+    move a student's tab got 5, 6, 5, 5, 13, 24 messages on main (58), 3, 4, 4, 4, 8, 18
+    (41) with the three changes."""
+    from viser import _messages as M
+
+    moves, _, _ = _pi_basics_messages(server, lambda v: None)
+    vis = [[m.name for m in ms if isinstance(m, M.SetSceneNodeVisibilityMessage)]
+           for ms in moves]
+    assert vis == [[], [], [], [], ["/states"], ["/states"]], vis
+    assert [len(ms) for ms in moves] == [3, 4, 4, 4, 8, 18], [len(ms) for ms in moves]
