@@ -252,18 +252,18 @@ def test_a_moves_text_leaves_before_the_steps_sliders(server: Any) -> None:  # n
 
 
 
-def _pi_basics_messages(server: Any, then: Callable[[SessionView], None]
+def _pi_basics_messages(viser_server: Any, then: Callable[[SessionView], None]
                         ) -> tuple[list[list[Any]], SessionView, dict[str, set[str]]]:
     """The viser messages one student tab is sent per move of *PI basics* (steps 1-6:
     the start, then five Next), the tab (after ``then(tab)``, before it is closed) and the
     uuids of the elements it does not show."""
-    ws = server._websock_server
+    ws = viser_server._websock_server
     log: list[Any] = []
     real = ws.queue_message
     ws.queue_message = lambda m: (log.append(m), real(m))
     reg = SessionRegistry()
-    v = SessionView(server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
-                    scene=server.scene)
+    v = SessionView(viser_server.gui, reg, reg.create(), Settings(), notify=lambda *a: None,
+                    scene=viser_server.scene)
     moves: list[list[Any]] = []
     try:
         assert v.worker.wait_idle(30)
