@@ -133,7 +133,7 @@ class FitContext:
     def signature_res(self, f: Fit, sig: SignatureRows) -> list[Float1D]:
         """The residuals of ``f`` on the test rows an effect's signature lives in (``sig``):
         each row's change from the row one cycle before where ``sig.previous`` gives one,
-        about each recording's mean where ``sig.centred``, else as they are."""
+        else as they are."""
         where = [m & t for m, t in zip(sig.masks, self.test, strict=True)]
         if sig.previous is not None:
             out = []
@@ -141,7 +141,7 @@ class FitContext:
                 e = r.y - p
                 out.append(e[w] - e[prev[w]])
             return out
-        return [e - e.mean() if sig.centred and e.size else e for e in self.test_res(f, where)]
+        return self.test_res(f, where)
 
     @property
     def memory_masks(self) -> list[np.ndarray]:

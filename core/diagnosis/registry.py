@@ -212,9 +212,6 @@ class SignatureRows:
         One mask per recording: the rows (for a drift, the cycles of a repeated input).
     words : str
         Which rows, for the report ("cycle to cycle after the first (...)").
-    centred : bool
-        Only the change within the rows is the signature, not their level: each recording's
-        residual there is compared about its mean.
     previous : list of (ndarray of int, shape (n_samples,)) or None
         Per recording, for every row of its mask, the row one input cycle earlier (the same
         input and input history under a repeated cycle; -1 elsewhere). When given, each
@@ -225,7 +222,6 @@ class SignatureRows:
 
     masks: list[np.ndarray]
     words: str
-    centred: bool = False
     previous: list[np.ndarray] | None = None
 
 
