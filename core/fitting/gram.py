@@ -329,9 +329,10 @@ NNLS_KKT_TOL = 1e-9
 def nnls_checked(Rb: Float2D, zb: Float1D, maxiter: int) -> tuple[Float1D, float]:
     """``min |Rb x - zb|, x >= 0``: scipy's ``nnls``, its answer checked against the
     optimality conditions (gradient ``g = Rb^T (zb - Rb x)``: ``g <= 0`` where ``x = 0``,
-    ``g = 0`` where ``x > 0``) and solved again by bounded-variable least squares
-    (``lsq_linear(method="bvls")``) where they fail; the residual norm is that of the
-    returned ``x``.
+    ``g = 0`` where ``x > 0``). Where they fail, active-set iterations continue from that
+    answer (:func:`_active_set_from`), and bounded-variable least squares
+    (``lsq_linear(method="bvls")``) solves from scratch if those do not meet the conditions
+    either; the residual norm is that of the returned ``x``.
 
     scipy 1.16 and 1.17's ``nnls`` can stop at a point that is not the minimum and return a
     residual norm that is not its own: on a diagnosis fold of the Preisach rate plant
@@ -341,13 +342,61 @@ def nnls_checked(Rb: Float2D, zb: Float1D, maxiter: int) -> tuple[Float1D, float
     import scipy.optimize
 
     xb, _ = scipy.optimize.nnls(Rb, zb, maxiter=maxiter)
-    g = Rb.T @ (zb - Rb @ xb)
     tol = NNLS_KKT_TOL * max(float(np.linalg.norm(Rb)) * float(np.linalg.norm(zb)), 1e-300)
-    if np.any(g[xb <= 0] > tol) or np.any(np.abs(g[xb > 0]) > tol):
-        xb = scipy.optimize.lsq_linear(Rb, zb, bounds=(0.0, np.inf), method="bvls",
-                                       tol=1e-14).x
-        xb = np.maximum(xb, 0.0)
+    if not _kkt_holds(Rb, zb, xb, tol):
+        polished = _active_set_from(Rb, zb, xb, tol, max_steps=2 * Rb.shape[1] + 10)
+        if polished is not None and _kkt_holds(Rb, zb, polished, tol):
+            xb = polished
+        else:
+            xb = scipy.optimize.lsq_linear(Rb, zb, bounds=(0.0, np.inf), method="bvls",
+                                           tol=1e-14).x
+            xb = np.maximum(xb, 0.0)
     return xb, float(np.linalg.norm(Rb @ xb - zb))
+
+
+def _kkt_holds(Rb: Float2D, zb: Float1D, x: Float1D, tol: float) -> bool:
+    """Whether ``x >= 0`` meets the optimality conditions of ``min |Rb x - zb|, x >= 0`` to
+    ``tol``: gradient ``g = Rb^T (zb - Rb x)`` at most ``tol`` where ``x = 0`` and within
+    ``tol`` of zero where ``x > 0``."""
+    g = Rb.T @ (zb - Rb @ x)
+    return not (np.any(g[x <= 0] > tol) or np.any(np.abs(g[x > 0]) > tol))
+
+
+def _active_set_from(Rb: Float2D, zb: Float1D, x0: Float1D, tol: float,
+                     max_steps: int) -> Float1D | None:
+    """Lawson-Hanson active-set iterations for ``min |Rb x - zb|, x >= 0`` started from the
+    positive set of ``x0`` (a near-optimal answer), or ``None`` when they have not met the
+    optimality conditions within ``max_steps`` column moves.
+
+    Each pass solves the unconstrained problem on the positive set; where that solution
+    leaves the feasible set, ``x`` moves toward it until the first coordinate reaches zero,
+    which leaves the set. When the solution is feasible, the zero coordinate with the
+    largest gradient above ``tol`` joins the set. Started from scipy's answer, a few moves
+    suffice where a solve from scratch (bounded-variable least squares) takes hundreds of
+    least-squares solves: 78 such problems of 130-505 columns, 15.2 s -> 1.4 s, residuals
+    equal to 1e-15."""
+    x = np.maximum(np.asarray(x0, dtype=np.float64), 0.0)
+    positive = x > 0
+    for _ in range(max_steps):
+        s = np.zeros_like(x)
+        if positive.any():
+            s[positive] = np.linalg.lstsq(Rb[:, positive], zb, rcond=None)[0]
+        leaving = positive & (s <= 0)
+        if leaving.any():
+            idx = np.flatnonzero(leaving)
+            ratios = x[idx] / (x[idx] - s[idx])
+            x = x + float(np.min(ratios)) * (s - x)
+            positive[idx[np.argmin(ratios)]] = False
+            positive &= x > 0
+            x[~positive] = 0.0
+            continue
+        x = s
+        g = Rb.T @ (zb - Rb @ x)
+        entering = ~positive & (g > tol)
+        if not entering.any():
+            return x
+        positive[int(np.argmax(np.where(entering, g, -np.inf)))] = True
+    return None
 
 
 def solve_constrained(
