@@ -25,7 +25,8 @@ import numpy as np
 from ..recordings import Recording
 from ..warning_filters import FILTERS
 
-__all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "loop_shape_kinds",
+__all__ = ["INADEQUATE_RATIO", "RATE_RESIDUAL_RATIO", "RATE_SPAN", "Adequacy", "LoopShapeFit",
+           "assess", "largest_region", "loop_shape_kinds", "rate_trend", "rate_words",
            "where_residual"]
 
 #: Final RMS residual over the white-noise floor above which the base model is inadequate.
@@ -99,6 +100,14 @@ class Adequacy:
         The loop-shape classes tried (empty when adequate or too long).
     text : str
         The verdict in words.
+    largest_region : tuple of float, optional
+        ``(input low, input high, RMS)``: the input-level decile of the scored rows where
+        the residual is largest (input units) and its RMS there (output units); ``None``
+        when adequate or with too few rows.
+    rate_trend : tuple of (str, float, float)
+        ``(recording, mean input speed, residual RMS)`` per recording (input units per
+        second, output units), slowest first, when the misfit grows with the rate
+        (:func:`rate_trend`); empty otherwise.
     """
 
     adequate: bool
@@ -108,6 +117,8 @@ class Adequacy:
     scored: str
     loop_shapes: tuple[LoopShapeFit, ...]
     text: str
+    largest_region: tuple[float, float, float] | None = None
+    rate_trend: tuple[tuple[str, float, float], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
@@ -116,7 +127,10 @@ class Adequacy:
                 "loop_shapes": [{"model": f.model, "physics": f.physics, "rmse": f.rmse,
                                  "pct": f.pct, "model_dict": f.model_dict}
                                 for f in self.loop_shapes],
-                "text": self.text}
+                "text": self.text,
+                "largest_region": (None if self.largest_region is None
+                                   else list(self.largest_region)),
+                "rate_trend": [list(t) for t in self.rate_trend]}
 
 
 def _fit_shape(kind: str, records: Sequence[Recording], train, test, free: bool):
@@ -149,28 +163,97 @@ def fold_mse(kind: str, records: Sequence[Recording], folds, free: bool = False)
     return sse / n if n else float("nan")
 
 
-def where_residual(records: Sequence[Recording], pred: Sequence[np.ndarray],
-                   rows: Sequence[np.ndarray]) -> str:
-    """Where the residual concentrates: input-level decile and branch, in words."""
+def largest_region(records: Sequence[Recording], pred: Sequence[np.ndarray],
+                   rows: Sequence[np.ndarray]) -> tuple[float, float, float, float] | None:
+    """``(input low, input high, RMS, RMS / overall RMS)`` of the input-level decile of
+    ``rows`` where the residual is largest (input units, output units); ``None`` with fewer
+    than 20 rows."""
     u = np.concatenate([r.u[m] for r, m in zip(records, rows, strict=True)])
-    du = np.concatenate([np.gradient(r.u)[m] for r, m in zip(records, rows, strict=True)])
     e = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, pred, rows, strict=True)])
     if e.size < 20:
-        return ""
+        return None
     edges = np.quantile(u, np.linspace(0, 1, 11))
     k = np.clip(np.searchsorted(edges, u, side="right") - 1, 0, 9)
     rms = np.array([np.sqrt(np.mean(e[k == j] ** 2)) if np.any(k == j) else 0.0
                     for j in range(10)])
     j = int(np.argmax(rms))
     tot = float(np.sqrt(np.mean(e * e)))
+    return float(edges[j]), float(edges[j + 1]), float(rms[j]), float(rms[j] / tot)
+
+
+def where_residual(records: Sequence[Recording], pred: Sequence[np.ndarray],
+                   rows: Sequence[np.ndarray]) -> str:
+    """Where the residual concentrates, in words and in the recordings' units: the
+    input-level decile with the largest RMS (:func:`largest_region`: input units, its RMS
+    in output units), the branches, and how the misfit changes with the input's rate across
+    recordings (:func:`rate_trend`)."""
+    region = largest_region(records, pred, rows)
+    if region is None:
+        return ""
+    lo, hi, rms, over = region
+    du = np.concatenate([np.gradient(r.u)[m] for r, m in zip(records, rows, strict=True)])
+    e = np.concatenate([(r.y - p)[m] for r, p, m in zip(records, pred, rows, strict=True)])
+    units = records[0].units
+    ui = f" {units['input']}" if units.get("input") else " (input units)"
+    uo = f" {units['output']}" if units.get("output") else ""
     up, dn = e[du > 0], e[du < 0]
     br = ""
     if up.size and dn.size:
         a, b = float(np.sqrt(np.mean(up**2))), float(np.sqrt(np.mean(dn**2)))
-        br = (f"; ascending branch RMS {a:.3g}, descending {b:.3g}"
+        br = (f"; ascending branch RMS {a:.3g}{uo}, descending {b:.3g}{uo}"
               + (" (one-sided)" if max(a, b) > 1.5 * min(a, b) else ""))
-    return (f"largest at input {edges[j]:.4g}..{edges[j + 1]:.4g} (RMS {rms[j]:.3g}, "
-            f"{rms[j] / tot:.1f} times the average){br}")
+    rate = rate_words(records, rate_trend(records, pred, rows))
+    return (f"largest at input {lo:.4g}..{hi:.4g}{ui} (RMS {rms:.3g}{uo}, "
+            f"{over:.1f} times the average){br}" + (f"; {rate}" if rate else ""))
+
+
+#: Across recordings with a time axis, the misfit is said to grow with the input's rate when
+#: their mean input speeds span at least this factor and the residual's RMS rises with the
+#: speed, the fastest recording's at least :data:`RATE_RESIDUAL_RATIO` times the slowest's
+#: (the friction damper at 30 lb, 0.25 / 1 / 2 Hz, mean speeds 0.37 / 1.5 / 3.4 in/s, on the
+#: held-out rows of its stop base: RMS 0.21 / 0.24 / 0.67 kip).
+RATE_SPAN = 2.0
+#: See :data:`RATE_SPAN`.
+RATE_RESIDUAL_RATIO = 1.5
+
+
+def rate_trend(records: Sequence[Recording], pred: Sequence[np.ndarray],
+               rows: Sequence[np.ndarray]) -> tuple[tuple[str, float, float], ...]:
+    """``(recording, mean input speed, residual RMS)`` of each recording with a time axis
+    (input units per second, output units), slowest first, when the residual's RMS rises
+    with the speed (:data:`RATE_SPAN`, :data:`RATE_RESIDUAL_RATIO`): a rate-independent
+    base cannot follow a misfit that grows with the rate (friction that depends on the
+    sliding speed, or chatter that grows with it); empty otherwise."""
+    pts = []
+    for r, p, m in zip(records, pred, rows, strict=True):
+        if not r.has_time or m.sum() < 20:
+            continue
+        speed = float(np.mean(np.abs(np.gradient(r.u, r.t)[m])))
+        pts.append((speed, float(np.sqrt(np.mean((r.y - p)[m] ** 2))), r.name))
+    if len(pts) < 2:
+        return ()
+    pts.sort()
+    speeds = np.array([p[0] for p in pts])
+    res = np.array([p[1] for p in pts])
+    if not (speeds[0] > 0 and speeds[-1] >= RATE_SPAN * speeds[0]
+            and res[-1] >= RATE_RESIDUAL_RATIO * res[0] and np.all(np.diff(res) > 0)):
+        return ()
+    return tuple((name, s, rr) for s, rr, name in pts)
+
+
+def rate_words(records: Sequence[Recording], trend: tuple[tuple[str, float, float], ...]
+               ) -> str:
+    """:func:`rate_trend`'s points in words, in the recordings' units (``""`` without)."""
+    if not trend:
+        return ""
+    units = records[0].units
+    ui, uo = units.get("input") or "input units", units.get("output") or "output units"
+    each = ", ".join(f"{rr:.3g} {uo} on {name} (mean speed {s:.3g} {ui}/s)"
+                     for name, s, rr in trend)
+    return (f"the misfit grows with the input's rate, {trend[-1][2] / trend[0][2]:.1f} times "
+            f"from the slowest recording to the fastest (RMS {each}): rate-dependent physics "
+            "(a force that changes with the sliding speed, or chatter that grows with it), "
+            "which a rate-independent base does not follow")
 
 
 def assess(
@@ -234,10 +317,13 @@ def assess(
             f"output range on {scored} (RMS {rmse:.4g}, {ratio:.1f} times the white-noise floor "
             f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
             f"{', '.join(tried) or 'no effect'}.")
-    text += _shape_words(records, shapes, fitted, rmse)
+    trend = rate_trend(records, final_pred, rows)
+    text += _shape_words(records, shapes, fitted, rmse, rate=bool(trend))
     if thin > 1 and shapes:
         text += f" (The other classes were fitted on every {thin}th training row.)"
-    return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text)
+    region = largest_region(records, final_pred, rows)
+    return Adequacy(False, rmse, noise_rms, pct, scored, tuple(shapes), text,
+                    None if region is None else region[:3], trend)
 
 
 def _fit_shapes(records: Sequence[Recording], train: Sequence[np.ndarray],
@@ -271,10 +357,12 @@ def _fit_shapes(records: Sequence[Recording], train: Sequence[np.ndarray],
 
 
 def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
-                 fitted: dict[str, tuple[Any, list[np.ndarray]]], rmse: float) -> str:
+                 fitted: dict[str, tuple[Any, list[np.ndarray]]], rmse: float,
+                 rate: bool = False) -> str:
     """What the loop-shape classes say about an inadequate final model of residual ``rmse``:
     the class that does clearly better, or that none does (and what the friction class
-    finds), or that none could be fitted."""
+    finds), or that none could be fitted; ``rate``: the misfit grows with the recordings'
+    rate (:func:`rate_trend`), which names where the cause lies."""
     better = [f for f in shapes if f.rmse < 0.8 * rmse]
     if better:
         b = better[0]
@@ -288,7 +376,9 @@ def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
                 + ") could be fitted to these recordings.")
     text = (" No loop-shape class does clearly better (" + ", ".join(
         f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
-        "models tried; recordings that separate time, rate and level would tell.")
+        "models tried" + (", in the rate-dependence above (every class tried is "
+                          "rate-independent)." if rate else
+                          "; recordings that separate time, rate and level would tell."))
     named = [f for f in shapes if getattr(fitted[f.model][0], "features_", None) is not None
              and fitted[f.model][0].features_.gap > 0]
     if named:  # the friction class still names what it found in these loops

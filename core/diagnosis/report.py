@@ -36,7 +36,7 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
     bc = res.base_choice
     if bc is not None and (bc.kind != "pi" or bc.tried):
         # (after the baseline line: which base, and how the others predicted the recordings)
-        lines.insert(3, f"Base: {bc.text}")
+        lines.insert(3, f"Base: {bc.text_in(res.records[0].units)}")
     if (bc is None or bc.kind == "pi") and nq != len(res.baseline.structure.thresholds):
         q = res.heldout_rmse(res._req)
         lines.insert(2, f"PI with the requested {nq} operators: held-out RMSE {q:.4g} "

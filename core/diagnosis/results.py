@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -226,6 +226,16 @@ class BaseChoice:
 
     @property
     def text(self) -> str:
+        """The choice in words (stop base's gap and plateau in "input units" / "output
+        units"; :meth:`text_in` names the recordings' units)."""
+        return self.text_in()
+
+    def text_in(self, units: Mapping[str, str] | None = None) -> str:
+        """:attr:`text` with the stop base's gap and plateau in ``units`` (``"input"``,
+        ``"output"``: a recording's :attr:`~core.recordings.Recording.units`)."""
+        ui = (units or {}).get("input") or "input units"
+        uo = (units or {}).get("output") or "output units"
+
         def one(t: dict[str, Any]) -> str:
             if t["base"] == "preisach":
                 return (f"preisach ({t['operators']} plays x {t['level_segments']} level "
@@ -241,10 +251,10 @@ class BaseChoice:
         how = f"each of {self.folds} recordings predicted from the others"
         st = self.stop
         if self.kind == "stop-pi" and st is not None:
-            gap = (f"behind a backlash gap {st['gap']:.4g} input units wide (the force stays "
+            gap = (f"behind a backlash gap {st['gap']:.4g} {ui} wide (the force stays "
                    "at zero while the input crosses it)" if st["gap"] > 0 else
                    "without a backlash gap")
-            return (f"stop operators (Maxwell-slip elements, {_plateau_words(st)}) {gap}: "
+            return (f"stop operators (Maxwell-slip elements, {_plateau_words(st, uo)}) {gap}: "
                     "the loops run "
                     "clockwise, as hyst fit --model auto chooses it; held-out MSE "
                     f"{-100 * st['heldout_mse_reduction'] + 0.0:+.0f} % against the PI with "
@@ -273,17 +283,18 @@ class BaseChoice:
                 "text": self.text}
 
 
-def _plateau_words(stop: dict[str, Any]) -> str:
-    """The stop base's friction plateau in words (output units): one height, or one for
-    each sign of the force where the slip force depends on the sliding direction."""
+def _plateau_words(stop: dict[str, Any], unit: str = "output units") -> str:
+    """The stop base's friction plateau in words (in ``unit``, the output's): one height,
+    or one for each sign of the force where the slip force depends on the sliding
+    direction."""
     p = stop["friction_plateau"]
     ratio = stop.get("slip_force_ratio", 1.0)
     if ratio == 1.0:
-        return f"friction plateau {p:.4g} output units"
+        return f"friction plateau {p:.4g} {unit}"
     return (f"the slip force depends on the sliding direction: friction plateau {p:.4g} "
-            f"output units where the force is positive and "
-            f"{stop['friction_plateau_falling']:.4g} where it is negative, {ratio:.3g} times "
-            "as large")
+            f"{unit} where the force is positive and "
+            f"{stop['friction_plateau_falling']:.4g} {unit} where it is negative, "
+            f"{ratio:.3g} times as large")
 
 
 @dataclass(frozen=True)

@@ -212,3 +212,8 @@ def test_the_36_lb_damper_base_carries_its_slip_force_by_direction() -> None:
     assert 1.4 < bc.stop["slip_force_ratio"] < 1.9
     assert 100 * res.heldout_rmse(res.baseline) / res.y_range < 4.0
     assert [e.name for e in res.effects] == []
+    # the base's plateau and gap in the recording's units (before: "output units", "input
+    # units"), in the report's text as in BaseChoice.text_in
+    words = bc.text_in(res.records[0].units)
+    assert "kip where the force is positive" in words and " in wide" in words
+    assert f"Base: {words}" in res.summary()
