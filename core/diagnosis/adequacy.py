@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from ..fitting.adequacy import rate_trend, rate_words
 from ..recordings import Recording
 from ..warning_filters import FILTERS
 
-__all__ = ["INADEQUATE_RATIO", "RATE_RESIDUAL_RATIO", "RATE_SPAN", "Adequacy", "LoopShapeFit",
-           "assess", "largest_region", "loop_shape_kinds", "rate_trend", "rate_words",
-           "where_residual"]
+__all__ = ["INADEQUATE_RATIO", "Adequacy", "LoopShapeFit", "assess", "largest_region",
+           "loop_shape_kinds", "where_residual"]
 
 #: Final RMS residual over the white-noise floor above which the base model is inadequate.
 INADEQUATE_RATIO = 2.0
@@ -104,10 +104,10 @@ class Adequacy:
         ``(input low, input high, RMS)``: the input-level decile of the scored rows where
         the residual is largest (input units) and its RMS there (output units); ``None``
         when adequate or with too few rows.
-    rate_trend : tuple of (str, float, float)
-        ``(recording, mean input speed, residual RMS)`` per recording (input units per
-        second, output units), slowest first, when the misfit grows with the rate
-        (:func:`rate_trend`); empty otherwise.
+    rate_trend : tuple of (str, float, float, float)
+        ``(recording, mean input speed, residual RMS, width misfit)`` per recording (input
+        units per second, output units), slowest first, when the misfit changes with the
+        rate (:func:`core.fitting.adequacy.rate_trend`); empty otherwise.
     """
 
     adequate: bool
@@ -118,7 +118,7 @@ class Adequacy:
     loop_shapes: tuple[LoopShapeFit, ...]
     text: str
     largest_region: tuple[float, float, float] | None = None
-    rate_trend: tuple[tuple[str, float, float], ...] = ()
+    rate_trend: tuple[tuple[str, float, float, float], ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
@@ -205,55 +205,6 @@ def where_residual(records: Sequence[Recording], pred: Sequence[np.ndarray],
     rate = rate_words(records, rate_trend(records, pred, rows))
     return (f"largest at input {lo:.4g}..{hi:.4g}{ui} (RMS {rms:.3g}{uo}, "
             f"{over:.1f} times the average){br}" + (f"; {rate}" if rate else ""))
-
-
-#: Across recordings with a time axis, the misfit is said to grow with the input's rate when
-#: their mean input speeds span at least this factor and the residual's RMS rises with the
-#: speed, the fastest recording's at least :data:`RATE_RESIDUAL_RATIO` times the slowest's
-#: (the friction damper at 30 lb, 0.25 / 1 / 2 Hz, mean speeds 0.37 / 1.5 / 3.4 in/s, on the
-#: held-out rows of its stop base: RMS 0.21 / 0.24 / 0.67 kip).
-RATE_SPAN = 2.0
-#: See :data:`RATE_SPAN`.
-RATE_RESIDUAL_RATIO = 1.5
-
-
-def rate_trend(records: Sequence[Recording], pred: Sequence[np.ndarray],
-               rows: Sequence[np.ndarray]) -> tuple[tuple[str, float, float], ...]:
-    """``(recording, mean input speed, residual RMS)`` of each recording with a time axis
-    (input units per second, output units), slowest first, when the residual's RMS rises
-    with the speed (:data:`RATE_SPAN`, :data:`RATE_RESIDUAL_RATIO`): a rate-independent
-    base cannot follow a misfit that grows with the rate (friction that depends on the
-    sliding speed, or chatter that grows with it); empty otherwise."""
-    pts = []
-    for r, p, m in zip(records, pred, rows, strict=True):
-        if not r.has_time or m.sum() < 20:
-            continue
-        speed = float(np.mean(np.abs(np.gradient(r.u, r.t)[m])))
-        pts.append((speed, float(np.sqrt(np.mean((r.y - p)[m] ** 2))), r.name))
-    if len(pts) < 2:
-        return ()
-    pts.sort()
-    speeds = np.array([p[0] for p in pts])
-    res = np.array([p[1] for p in pts])
-    if not (speeds[0] > 0 and speeds[-1] >= RATE_SPAN * speeds[0]
-            and res[-1] >= RATE_RESIDUAL_RATIO * res[0] and np.all(np.diff(res) > 0)):
-        return ()
-    return tuple((name, s, rr) for s, rr, name in pts)
-
-
-def rate_words(records: Sequence[Recording], trend: tuple[tuple[str, float, float], ...]
-               ) -> str:
-    """:func:`rate_trend`'s points in words, in the recordings' units (``""`` without)."""
-    if not trend:
-        return ""
-    units = records[0].units
-    ui, uo = units.get("input") or "input units", units.get("output") or "output units"
-    each = ", ".join(f"{rr:.3g} {uo} on {name} (mean speed {s:.3g} {ui}/s)"
-                     for name, s, rr in trend)
-    return (f"the misfit grows with the input's rate, {trend[-1][2] / trend[0][2]:.1f} times "
-            f"from the slowest recording to the fastest (RMS {each}): rate-dependent physics "
-            "(a force that changes with the sliding speed, or chatter that grows with it), "
-            "which a rate-independent base does not follow")
 
 
 def assess(

@@ -21,8 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._typing import Float1D
+from ..recordings import Recording
 
-__all__ = ["MISFIT_RATIO", "Misfit", "misfit", "noise_floor"]
+__all__ = ["MISFIT_RATIO", "RATE_RESIDUAL_RATIO", "RATE_SPAN", "RATE_WIDTH_SHARE", "Misfit",
+           "misfit", "noise_floor", "rate_trend", "rate_words"]
 
 #: A held-out RMSE above this many white-noise floors gets a warning.
 MISFIT_RATIO = 5.0
@@ -81,18 +83,23 @@ class Misfit:
         """Whether the RMSE is above :data:`MISFIT_RATIO` floors."""
         return self.ratio > MISFIT_RATIO
 
-    def text(self, pct: float | None = None, advice: str = "") -> str:
+    def text(self, pct: float | None = None, advice: str = "",
+             units: dict[str, str] | None = None) -> str:
         """The warning in words (``pct``: the RMSE in % of the output range; ``advice``: what
-        to try, default another fit kind or the diagnosis)."""
+        to try, default another fit kind or the diagnosis; ``units``: the recording's
+        ``"input"`` and ``"output"`` units, named after the numbers)."""
         share = f" ({pct:.3g} % of range)" if pct is not None and np.isfinite(pct) else ""
         rec = f" of {self.recording}" if self.recording else ""
+        ui = f" {units['input']}" if units and units.get("input") else ""
+        uo = f" {units['output']}" if units and units.get("output") else ""
         return (
-            f"the held-out RMSE {self.rmse:.4g}{share} is {self.ratio:.0f} times the "
-            f"white-noise floor {self.floor:.3g}: this model misses structure in the data. "
+            f"the held-out RMSE {self.rmse:.4g}{uo}{share} is {self.ratio:.0f} times the "
+            f"white-noise floor {self.floor:.3g}{uo}: this model misses structure in the data. "
             f"Largest residuals: at inputs {self.input_band[0]:.4g} to "
-            f"{self.input_band[1]:.4g} (RMS {self.input_band_rmse:.3g}), on the "
-            f"{self.branch} (RMS {self.branch_rmse:.3g}), and in t = {self.window[0]:.4g} to "
-            f"{self.window[1]:.4g} s{rec} (RMS {self.window_rmse:.3g}). "
+            f"{self.input_band[1]:.4g}{ui} (RMS {self.input_band_rmse:.3g}{uo}), on the "
+            f"{self.branch} (RMS {self.branch_rmse:.3g}{uo}), and in t = "
+            f"{self.window[0]:.4g} to {self.window[1]:.4g} s{rec} (RMS "
+            f"{self.window_rmse:.3g}{uo}). "
             + (advice or "Another fit kind (--model auto chooses one the way the diagnosis "
                          "does) or hyst diagnose may explain it")
         )
@@ -190,3 +197,69 @@ def misfit(
     ratio = rmse / floor if floor > 0 else float("inf")
     return Misfit(rmse, floor, ratio, band, band_rms, branch or "whole record", branch_rms,
                   (win[0], win[1]), win[2], win[3])
+
+
+#: Across recordings with a time axis, the misfit is said to change with the input's rate
+#: when their mean input speeds span at least this factor and either the residual's RMS
+#: rises with the speed, the fastest recording's at least :data:`RATE_RESIDUAL_RATIO`
+#: times the slowest's, or the loops' width misfit moves one way with the speed by at least
+#: :data:`RATE_WIDTH_SHARE` of the pooled residual RMS. Friction damper at 30 lb (0.25 / 1
+#: / 2 Hz, mean speeds 0.37 / 1.5 / 3.4 in/s, held-out rows of the diagnosis's stop base):
+#: RMS 0.21 / 0.24 / 0.67 kip, width misfit +0.012 / -0.040 / -0.107 kip.
+RATE_SPAN = 2.0
+#: See :data:`RATE_SPAN`.
+RATE_RESIDUAL_RATIO = 1.5
+#: See :data:`RATE_SPAN`.
+RATE_WIDTH_SHARE = 0.25
+
+
+def rate_trend(records: Sequence[Recording], pred: Sequence[Float1D],
+               rows: Sequence[np.ndarray]) -> tuple[tuple[str, float, float, float], ...]:
+    """``(recording, mean input speed, residual RMS, width misfit)`` of each recording with a
+    time axis on ``rows`` (input units per second, output units, output units), slowest
+    first, when the misfit changes with the speed (:data:`RATE_SPAN`): a rate-independent
+    base cannot follow it. The width misfit is the mean of the residual times the sign of
+    the input's velocity: how much wider (> 0) the measured loop is than the model's, half
+    its width; it falls with the speed where friction weakens with the sliding speed
+    (Stribeck) and rises where a viscous force adds to it. Empty otherwise."""
+    pts = []
+    for r, p, m in zip(records, pred, rows, strict=True):
+        if not r.has_time or m.sum() < 20:
+            continue
+        v = np.gradient(r.u, r.t)
+        e = (r.y - p)[m]
+        pts.append((float(np.mean(np.abs(v[m]))), float(np.sqrt(np.mean(e * e))),
+                    float(np.mean(e * np.sign(v[m]))), r.name))
+    if len(pts) < 2:
+        return ()
+    pts.sort()
+    speeds, res, width = (np.array([p[i] for p in pts]) for i in range(3))
+    if not (speeds[0] > 0 and speeds[-1] >= RATE_SPAN * speeds[0]):
+        return ()
+    pooled = float(np.sqrt(np.mean(res ** 2)))
+    rising = res[-1] >= RATE_RESIDUAL_RATIO * res[0] and bool(np.all(np.diff(res) > 0))
+    dw = np.diff(width)
+    moving = (abs(width[-1] - width[0]) >= RATE_WIDTH_SHARE * pooled
+              and (bool(np.all(dw > 0)) or bool(np.all(dw < 0))))
+    if not (rising or moving):
+        return ()
+    return tuple((name, s, rr, w) for s, rr, w, name in pts)
+
+
+def rate_words(records: Sequence[Recording],
+               trend: tuple[tuple[str, float, float, float], ...]) -> str:
+    """:func:`rate_trend`'s points in words, in the recordings' units (``""`` without)."""
+    if not trend:
+        return ""
+    units = records[0].units
+    ui, uo = units.get("input") or "input units", units.get("output") or "output units"
+    each = ", ".join(f"{rr:.3g} {uo} on {name} (mean speed {s:.3g} {ui}/s, loop "
+                     f"{abs(w):.3g} {uo} {'wider' if w >= 0 else 'narrower'} than the model's)"
+                     for name, s, rr, w in trend)
+    w0, w1 = trend[0][3], trend[-1][3]
+    how = ("the loops narrow as the input speeds up: friction that weakens with the sliding "
+           "speed (Stribeck)" if w1 < w0 else
+           "the loops widen as the input speeds up: a viscous force")
+    return (f"the misfit changes with the input's rate (RMS {each}): {how}, or chatter that "
+            "grows with the speed; rate-dependent physics, which a rate-independent base "
+            "does not follow")

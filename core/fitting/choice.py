@@ -134,6 +134,12 @@ class BaseChoice:
                     "may name the missing effect")
         # (a Preisach model has counter-clockwise loops only)
         others = ["bouc-wen"] + ([] if self.orientation.clockwise else ["preisach"])
+        if self.family != "pi":  # the stop base of clockwise loops, chosen on one recording
+            return (f"With one recording only the {self.kind} base of these "
+                    f"{self.orientation.direction} loops and the PI family are compared (as "
+                    "hyst diagnose does: other bases cannot be cross-validated on it); fit "
+                    f"--model {' or --model '.join(others)} to compare the held-out error, or "
+                    "fit several recordings")
         return ("With one recording only the PI family is chosen (as hyst diagnose does: "
                 "other bases cannot be cross-validated on it); fit --model "
                 f"{' or --model '.join(others)} to compare the held-out error, or fit "

@@ -294,9 +294,25 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
         extra["rmse_over_noise_floor"] = miss.ratio
         if miss.exceeds:
             pct = est.report_.test.rmse_pct if est.report_.test is not None else None
-            said = miss.text(pct, "" if choice is None else choice.advice).rstrip()
-            msgs = (*msgs, said + ("" if said.endswith(".") else ".") + _left_text(est, recs))
+            said = miss.text(pct, "" if choice is None else choice.advice,
+                             dict(recs[0].units)).rstrip()
+            msgs = (*msgs, said + ("" if said.endswith(".") else ".")
+                    + _rate_text(est, recs, rows) + _left_text(est, recs))
     return extra, msgs
+
+
+def _rate_text(est: Any, recs: Sequence[Recording], rows: _FitRows) -> str:
+    """How the held-out residual grows with the recordings' input rate, in words
+    (:func:`core.fitting.adequacy.rate_trend`, as the diagnosis's verdict says it), or
+    ``""``."""
+    from .adequacy import rate_trend, rate_words
+
+    if len(recs) < 2:
+        return ""
+    prep = _rows(est, recs, rows)
+    preds = [np.asarray(p) for p in est.predict([r.u for r in recs])]
+    words = rate_words(recs, rate_trend(recs, preds, list(prep.test_masks)))
+    return f" Across the recordings, {words}." if words else ""
 
 
 def _left_text(est: Any, recs: Sequence[Recording]) -> str:

@@ -77,3 +77,26 @@ def test_windows_and_several_recordings():
         TimeWindow(1.0, 1.0)
     with pytest.raises(ParameterError, match="fit kind|unknown|not one of"):
         fit_recordings(recs, "no-such-kind")
+
+
+def test_a_misfit_that_changes_with_the_rate_is_said_in_the_recordings_units() -> None:
+    # a stop plant with a viscous force c du/dt, recorded at three rates (the same decaying
+    # sine in 4, 1 and 0.5 s): the rate-independent stop-pi fit sits between them (too wide a
+    # loop at the slowest rate, too narrow at the fastest), and its warning says so, with the
+    # largest residual region in mm and N (before: bare numbers, no rate)
+    from core.stop import StopPIModel
+
+    plant = StopPIModel(0.5, [0.1, 0.3], [4.0, 2.0])
+    rng = np.random.default_rng(3)
+    recs = []
+    for name, period in (("slow", 4.0), ("mid", 1.0), ("fast", 0.5)):
+        t = np.arange(0.0, 5 * period, period / 400)
+        u = np.sin(2 * np.pi * t / period) * (1 - 0.5 * t / t[-1])
+        y = plant(u) + 0.05 * np.gradient(u, t) + 1e-3 * rng.standard_normal(t.size)
+        recs.append(Recording(t, u, y, name, units={"input": "mm", "output": "N"}))
+    out = fit_recordings(recs, "stop-pi")
+    (msg,) = [w for w in out.warnings if "white-noise floor" in w]
+    assert " mm (RMS " in msg and " N)" in msg
+    assert "the misfit changes with the input's rate" in msg
+    assert msg.index("on slow (mean speed") < msg.index("on fast (mean speed")
+    assert "the loops widen as the input speeds up: a viscous force" in msg
