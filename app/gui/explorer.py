@@ -33,6 +33,7 @@ from app.services.teaching.events import HUB
 from .controller import SessionView
 from .layout import is_narrow
 from .reclaim import Reclaimer
+from .toasts import Toasts
 from .viser_guard import ViserGuard
 
 __all__ = ["ExplorerGui", "attach_gui"]
@@ -99,19 +100,10 @@ class ExplorerGui:
         client.gui.configure_theme(show_share_button=False, control_width="large",
                                    show_logo=False)
 
-        # one toast per title: a newer one replaces it (a lesson's quick moves piled up
-        # "Lesson" toasts that climbed over the plot panel, issue 33)
-        shown: dict[str, Any] = {}
-
-        def notify(title: str, body: str, error: bool) -> None:
-            old = shown.pop(title, None)
-            if old is not None:
-                try:
-                    old.remove()
-                except Exception:  # noqa: BLE001 - closed already (its 6 s are over)
-                    pass
-            shown[title] = client.add_notification(title, body, auto_close_seconds=6.0,
-                                                   color="red" if error else None)
+        # one toast per title: a newer one changes it in place (a lesson's quick moves
+        # piled up "Lesson" toasts that climbed over the plot panel; removed and shown
+        # again, each cost the tab two transitions, issue 33)
+        notify = Toasts(client.add_notification)
 
         if not self._live(client):
             return
