@@ -134,9 +134,10 @@ def main() -> int:
         teacher, students = open_class(browser, url, viser_url, app, n_web, n_viser)
         opened = time.monotonic() - t_open
         load1 = os.getloadavg()
+        cpu = _TabCpu([s for s in students if s.kind == "viser"])
         try:
             run = run_lesson(url, teacher, students, settle_s=args.settle,
-                             computations=lambda: len(computed),
+                             computations=lambda: cpu.snapshot(len(computed)),
                              after_push=lambda: _shots(teacher[1], students, "push"),
                              at_last=lambda: _shots(teacher[1], students, "last"))
         finally:
@@ -207,8 +208,36 @@ def main() -> int:
     print(f"beside it, the step's figure drawn (web): p95 {_ms(d95)} ms"
           + (" (<= 1 s)" if d95 <= TARGET_P95_MS else " (> 1 s)"))
     if n_viser:
-        _viser_table(run, kinds, sent)
+        _viser_table(run, kinds, sent, cpu.per_move())
     return 0
+
+
+class _TabCpu:
+    """Each viser tab's renderer main-thread CPU (CDP ``Performance.getMetrics``
+    ``TaskDuration``, thread time): taken when :func:`run_lesson` counts computations,
+    before each click and after its wait and settle, so each move gets the CPU its tabs
+    spent from the click to the end of the settle (a load-independent measure of a tab's
+    work per step, where the arrival times are the machine's)."""
+
+    def __init__(self, tabs: list[Any]) -> None:
+        self.tabs = tabs
+        self.cdp = []
+        for s in tabs:
+            c = s.page.context.new_cdp_session(s.page)
+            c.send("Performance.enable", {"timeDomain": "threadTicks"})
+            self.cdp.append(c)
+        self.snaps: list[list[float]] = []
+
+    def snapshot(self, count: int) -> int:
+        self.snaps.append([
+            1e3 * next(m["value"] for m in c.send("Performance.getMetrics")["metrics"]
+                       if m["name"] == "TaskDuration") for c in self.cdp])
+        return count
+
+    def per_move(self) -> list[dict[str, float]]:
+        """Per move, each tab's CPU ms (by student name)."""
+        return [{s.name: b - a for s, a, b in zip(self.tabs, x, y, strict=True)}
+                for x, y in zip(self.snaps[::2], self.snaps[1::2], strict=False)]
 
 
 def _shots(teacher: Any, students: list[Any], when: str) -> None:
@@ -223,7 +252,8 @@ def _shots(teacher: Any, students: list[Any], when: str) -> None:
         page.screenshot(path=str(out / f"bench-class-{when}-{name.lower().replace(' ', '')}.png"))
 
 
-def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, int]]) -> None:
+def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, int]],
+                 cpu: list[dict[str, float]]) -> None:
     """Where a viser tab's time goes, per click (p50 / p95 over the tabs, ms after the
     click): the server sets the Lesson folder (*said*), renders the tab (plot, texts, scene;
     *render* its end, *took* its duration), sends message batches (*sent*: batches, KB and
@@ -231,7 +261,8 @@ def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, i
     thread (*wire*), the tab shows the step (*shown*); *busy*: the tab's main thread in long
     tasks from the click to the step shown; *plot*: plotly characters sent to a tab;
     *drawn*: the tab's plot has a new figure (none when the step's figure is the one it
-    shows)."""
+    shows); *cpu*: the tab's renderer main-thread CPU from the click to the end of the
+    settle (ms, thread time: what each tab's browser did for the move)."""
     from tests.e2e.class_run import median, percentile
 
     def two(xs: list[Any]) -> str:
@@ -240,14 +271,16 @@ def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, i
 
     print("viser, where the time goes (ms after the click, p50/p95 over the tabs):")
     head = (f"{'click':<15} {'said':>9} {'render':>11} {'took':>9} {'sent':>18} "
-            f"{'wire':>11} {'shown':>11} {'busy':>11} {'plot':>7} {'scene':>5} {'drawn':>11}")
+            f"{'wire':>11} {'shown':>11} {'busy':>11} {'plot':>7} {'scene':>5} {'drawn':>11} "
+            f"{'cpu':>9}")
     print(head)
     print("-" * len(head))
     rows: dict[str, list[Any]] = {k: [] for k in (
-        "received", "rendered", "render_ms", "wire", "arrivals", "busy", "plot")}
-    for m in run.moves:
+        "received", "rendered", "render_ms", "wire", "arrivals", "busy", "plot", "cpu")}
+    for i, m in enumerate(run.moves):
         names = [n for n in m.arrivals if kinds[n] == "viser"]
-        got = {k: [getattr(m, k).get(n) for n in names] for k in rows}
+        got = {k: [(cpu[i] if k == "cpu" else getattr(m, k)).get(n) for n in names]
+               for k in rows}
         for k, xs in got.items():
             rows[k] += xs
         end = m.t0 + max((a for a in got["arrivals"] if a is not None), default=0.0)
@@ -259,11 +292,12 @@ def _viser_table(run: Any, kinds: dict[str, str], sent: list[tuple[float, int, i
         print(f"{m.label:<15} {two(got['received']):>9} {two(got['rendered']):>11} "
               f"{two(got['render_ms']):>9} {sent_s:>18} {two(got['wire']):>11} "
               f"{two(got['arrivals']):>11} {two(got['busy']):>11} {plot:>7.0f} {scene:>5.0f} "
-              f"{two(got['plot']):>11}")
+              f"{two(got['plot']):>11} {two(got['cpu']):>9}")
     print("-" * len(head))
     print(f"{'all clicks':<15} {two(rows['received']):>9} {two(rows['rendered']):>11} "
           f"{two(rows['render_ms']):>9} {'':>18} {two(rows['wire']):>11} "
-          f"{two(rows['arrivals']):>11} {two(rows['busy']):>11}")
+          f"{two(rows['arrivals']):>11} {two(rows['busy']):>11} {'':>7} {'':>5} {'':>11} "
+          f"{two(rows['cpu']):>9}")
 
 
 if __name__ == "__main__":
