@@ -298,7 +298,34 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
                              dict(recs[0].units)).rstrip()
             msgs = (*msgs, said + ("" if said.endswith(".") else ".")
                     + _rate_text(est, recs, rows) + _left_text(est, recs))
-    return extra, msgs
+    inv = _inverse_text(est.report_, dict(recs[0].units))
+    return extra, (msgs if inv is None else (*msgs, inv))
+
+
+#: Inverse-input RMSE (% of the input range) above which :func:`fit_recordings` warns that
+#: the fitted model's inverse does not recover the input from the measured output.
+INVERSE_WARN_PCT = 10.0
+
+
+def _inverse_text(report: Any, units: dict[str, str]) -> str | None:
+    """A warning when the fitted model's inverse, applied to the measured output, misses the
+    measured input by more than :data:`INVERSE_WARN_PCT` % of its range (on the held-out
+    rows, else the training rows), or ``None``. The model may still be invertible: where
+    the output stays nearly constant while the input moves (a friction plateau, a
+    saturated actuator), the output does not determine the input, and the inverse turns
+    the output's noise into large input swings."""
+    part = report.test if report.test is not None else report.train
+    if not report.invertible or not part.inverse_input_rmse_pct > INVERSE_WARN_PCT:
+        return None
+    where = "held-out" if report.test is not None else "training"
+    u = units.get("input") or "input units"
+    return (f"the inverse of this model does not recover the input from the measured output: "
+            f"on the {where} rows it misses the input by {part.inverse_input_rmse:.4g} {u} "
+            f"RMS, {part.inverse_input_rmse_pct:.3g} % of the input's range "
+            f"{part.input_range:.4g} {u}. Where the output hardly changes while the input "
+            "moves (a friction plateau, saturation), the output does not tell the input, and "
+            "the inverse amplifies the output's noise; do not use this model as a "
+            "compensator for that range.")
 
 
 def _rate_text(est: Any, recs: Sequence[Recording], rows: _FitRows) -> str:

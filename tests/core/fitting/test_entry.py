@@ -100,3 +100,29 @@ def test_a_misfit_that_changes_with_the_rate_is_said_in_the_recordings_units() -
     assert "the misfit changes with the input's rate" in msg
     assert msg.index("on slow (mean speed") < msg.index("on fast (mean speed")
     assert "the loops widen as the input speeds up: a viscous force" in msg
+
+
+def test_an_inverse_that_does_not_recover_the_input_is_said_in_words() -> None:
+    """On the shipped 36 lb friction damper the stop base is invertible, but on its friction
+    plateaus the force does not determine the displacement: the inverse, applied to the
+    measured force, misses the measured input by far more than its range, and the fit says
+    so in the input's unit. On the shipped piezo recording it recovers the input, and says
+    nothing."""
+    from core.csvio import read_recording
+    from core.datasets import DATA_DIR
+    from core.fitting.entry import INVERSE_WARN_PCT
+
+    damper = read_recording(DATA_DIR / "friction_damper" / "1Hz36lbtension0.5amplitude.csv")
+    out = fit_recordings(damper, "stop-pi", n_operators=15)
+    part = out.report.test
+    assert out.report.invertible and part is not None
+    assert part.inverse_input_rmse_pct > 10 * INVERSE_WARN_PCT
+    said = [w for w in out.warnings if w.startswith("the inverse of this model")]
+    assert len(said) == 1 and "in RMS" in said[0] and "friction plateau" in said[0]
+    assert said[0] in out.parameter_set.provenance.fit["warnings"]
+
+    piezo = read_recording(DATA_DIR / "piezo" / "piezo_150V_1Hz.csv")
+    out = fit_recordings(piezo, "pi", n_operators=10)
+    assert out.report.test is not None
+    assert out.report.test.inverse_input_rmse_pct < INVERSE_WARN_PCT
+    assert not any(w.startswith("the inverse of this model") for w in out.warnings)
