@@ -29,6 +29,7 @@ from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import ambiguous_parameters
 from .data import ANY_BLOCK_S, crossfit_folds
+from .eventresponse import EventResponse, event_response
 from .events import Excitation, excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
@@ -64,10 +65,16 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
         if got is not None:
             results[alt] = (got[0], got[1], got[2], heldout_comparison(te0, ctx.test_res(got[0])))
     best, unnamed, lacks, vs = _named_stage(ctx, results)
-    fit, params, unc, h = results[best]
     exc = excitation(ctx.records)
     # rule 15: without steps or several rates the look-alikes' signatures cannot show
     unseparated = not signatures_separable(exc.steps, exc.rate_ratio)
+    after = _after_events(run, base)
+    if unseparated and after is not None:
+        # rule 18: the look-alikes stay open; the one named first is the one the step shows
+        shown = after.step_kind
+        if shown in results and shown not in (best, unnamed):
+            best, vs = shown, _against(ctx, results, shown)
+    fit, params, unc, h = results[best]
     amb = []
     for other, hh in vs.items():
         oh = results[other][3]
@@ -93,6 +100,10 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
         finding.explanation = EFFECTS[best].explanation
         finding.equation = EFFECTS[best].equation
     finding.ambiguous_with = amb
+    if after is not None:
+        words = "output dynamics after the input events: " + after.where(
+            float(ctx.records[0].t[1] - ctx.records[0].t[0]))
+        finding.caveats = [c for c in finding.caveats if not c.startswith(words[:28])] + [words]
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:
@@ -110,6 +121,20 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
         if named is not None:
             return named
     return fit
+
+
+def _after_events(run: Run, base: Fit) -> EventResponse | None:
+    """What the rows after the input events of the one recording show on top of ``base``
+    (the structure without output dynamics; :mod:`core.diagnosis.eventresponse`), ``None``
+    with several recordings or without a uniform time axis."""
+    ctx = run.ctx
+    if len(ctx.records) != 1:
+        return None
+    t = np.asarray(ctx.records[0].t, dtype=np.float64)
+    dt = np.diff(t)
+    if dt.size < 2 or not np.allclose(dt, dt[0], rtol=1e-6, atol=0.0):
+        return None
+    return event_response(ctx.records[0], base.pred[0], noise=run.noise)
 
 
 def _undecided(hh: HeldOut) -> bool:
