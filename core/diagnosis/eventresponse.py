@@ -5,27 +5,31 @@ A dead time, a first-order lag and a lightly damped mode after the hysteresis le
 signature after the input's steps and reversals (notes §4.2): a dead time shows no response
 for its length, a lag responds at once and smoothly, a mode rings at its frequency. A share
 of the whole record's residual cannot see such a signature when it lives in the
-milliseconds after one step. Here each kind is fitted to the base's prediction on the rows
-of all the events but one and scored on the one left out (leave-one-event-out), against the
-noise floor measured where the input rests before its first step:
+milliseconds after one step. Here each kind is fitted to the base's prediction and judged
+against the noise of the rows where the input rests before its first step
+(:func:`rest_noise`, with its colour):
 
+* everything is compared on first differences: what a stage changes within milliseconds
+  of an event, and the noise; a base's loop misfit changes with the input over a cycle and
+  hardly from one sample to the next, so it does not count for whichever stage shifts the
+  prediction its way (notes §4.1);
 * no window length is chosen: a stage changes the prediction ``d = G(y_hat) - y_hat`` only
-  where it acts, and the score of an event, the reduction of its squared error
-  ``sum(e^2) - sum((e - d)^2)``, takes its rows from ``d``; it is significant when it
-  exceeds :data:`Z_ONE_SIDED` standard deviations ``2 sigma ||d||`` of its value under the
-  base (white noise of the floor ``sigma``);
-* a kind is *seen* after an event when its parameters, fitted without that event, make the
-  event significantly better; it is seen in *several independent events* when that holds
-  for at least :data:`~core.diagnosis.acceptance.AcceptRule.min_events` of them, otherwise
-  the evidence is *suggestive* and the events it came from are said;
-* a kind is *told apart* from a look-alike when, on the events where it is seen, it beats
-  the look-alike (held out, same statistic with ``d`` the difference of their predictions)
-  after at least as many events; otherwise the two are *ambiguous*.
+  where it acts, and the score of an event, the reduction of its squared (differenced)
+  error, takes its rows from ``d``; it is significant when it exceeds :data:`Z_ONE_SIDED`
+  of its standard deviations under the rest rows' noise;
+* a kind is *seen* after an event when its values, fitted on all the other events, make the
+  event significantly better (leave-one-event-out); it is seen in *several independent
+  events* when that holds for at least ``min_events``
+  (:attr:`~core.diagnosis.acceptance.AcceptRule.min_events`) of them, otherwise the
+  evidence is *suggestive* and the events it came from are said;
+* each input step is also judged on its own rows (:class:`StepResponse`): the kind that
+  predicts them best, and the kinds it does not beat significantly there (ambiguous). A
+  mode damped too much to ring is no mode's signature.
 
 The recording's own response (a measured actuator rings at its own frequency after a step)
-is the base here: a kind is only seen where, with parameters learnt from other events, it
-predicts an event better than the base does. Ringing after one step alone is never enough,
-whatever its frequency.
+is part of what the base misses: with one step it is seen after one event, which is never
+enough for a name, whatever its frequency; and a stage added to such a recording is told by
+its step relative to that response (its dead time adds to the recording's own).
 """
 
 from __future__ import annotations
@@ -42,11 +46,14 @@ from .effects.resonance import RINGING_MAX_DAMPING
 from .events import QUIET_SHARE, event_windows, step_starts
 
 __all__ = [
+    "COLOUR_SE",
     "KINDS",
     "MIN_REST_ROWS",
     "Z_ONE_SIDED",
     "EventResponse",
     "KindEvidence",
+    "RestNoise",
+    "StepResponse",
     "event_response",
     "kind_prediction",
     "rest_noise",
@@ -120,8 +127,9 @@ def rest_noise(rec: Recording) -> RestNoise | None:
         return None
     above = np.flatnonzero(np.abs(c[1:] / c[0]) >= COLOUR_SE / np.sqrt(n))
     lags = int(above[-1]) + 2 if above.size else 2
-    taper = 1.0 - np.arange(lags) / lags
-    taper[1] = max(taper[1], 1.0) if lags == 2 else taper[1]
+    # Bartlett weights beyond lag 1 (keeps the variance >= 0); lag 1 whole: the differencing
+    # itself puts -sigma^2 there for white noise
+    taper = np.minimum(1.0, 1.0 - (np.arange(lags) - 1.0) / lags)
     return RestNoise(float(np.sqrt(c[0] / 2.0)), c[:lags] * taper)
 
 
