@@ -17,8 +17,9 @@ from ..fitting.thresholds import reversal_indices, wipeout_index
 from ..recordings import Recording
 from .registry import SignatureRows
 
-__all__ = ["CLOSED_TOL", "CYCLE_TOL", "MIN_CYCLES", "START_TOL", "STEADY_TOL",
-           "closed_loop_history", "cycle_to_cycle", "longest_repeating_run",
+__all__ = ["CLOSED_TOL", "CYCLE_TOL", "HISTORY_TOL", "MIN_CYCLES", "MIN_SAME_BRANCHES",
+           "START_TOL", "STEADY_TOL",
+           "closed_loop_history", "cycle_to_cycle", "longest_repeating_run", "same_history",
            "repeated_cycles", "steady_state_history"]
 
 #: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
@@ -183,3 +184,95 @@ def cycle_to_cycle(records: list[Recording]) -> SignatureRows | None:
                               f"{len(cyc) - 2} repeated input cycles from t = "
                               f"{r.t[cyc[2][0]]:.4g} s against the one before)",
                          previous=[prev])
+
+
+#: Tolerance (fraction of the input range) within which two reversal values, and two input
+#: values, count as the same in :func:`same_history`.
+HISTORY_TOL = CYCLE_TOL
+#: Fewest branches whose rows :func:`same_history` compares with an earlier branch of the
+#: same history for a trend to be testable (two changes, as from cycle to cycle: the first
+#: branches set the memory and are compared with nothing).
+MIN_SAME_BRANCHES = 2
+
+
+def _memory_keys(u: np.ndarray, rv: np.ndarray, tol: float) -> list[tuple[float, ...]]:
+    """Per branch (the rows after reversal ``rv[k]`` up to the next), the input history a
+    rate-independent model's output can depend on there: the alternating extrema the input
+    has not wiped out yet (a new maximum reaching an earlier one within ``tol`` closes the
+    loop it started, and that maximum and the minimum after it drop out; likewise for
+    minima), ending with the branch's own start, and the reversal before it (what a model
+    without the wiping-out property, a Menegotto-Pinto branch, reads as well). Branch 0
+    (from the first sample: no reversal yet) has an empty key."""
+    keys: list[tuple[float, ...]] = [()]
+    stack: list[float] = []
+    for k in range(1, rv.size):
+        v = float(u[rv[k]])
+        rising_to = v > float(u[rv[k - 1]])  # v is a maximum
+        while len(stack) >= 2 and ((stack[-2] <= v + tol) if rising_to
+                                    else (stack[-2] >= v - tol)):
+            del stack[-2:]
+        stack.append(v)
+        keys.append((float(rising_to), float(u[rv[k - 1]]), *stack))
+    return keys
+
+
+def same_history(records: list[Recording]) -> SignatureRows | None:
+    """Where a slow change with time shows apart from the model's bias in recordings whose
+    input revisits its states without repeating a whole cycle (a tapered sine whose
+    amplitude ramps up and down, a few cycles at constant amplitude between): each row is
+    compared with a row of an earlier branch (the rows between two reversals) that had the
+    same input history. A rate-independent model's output, and so its misfit, depends only
+    on the input's value, its direction and the extrema it has not wiped out yet (and the
+    reversal before the branch, for a model without wiping out): rows on which those agree
+    within :data:`HISTORY_TOL` of the input range get the same output from it, so their
+    residuals' difference is what changed with time (the noise twice), however large the
+    misfit. Each branch is compared with the first branch of the same history (the longest
+    time between the two: a steady trend shows most), each row with that branch's row
+    nearest its input value (within :data:`HISTORY_TOL`).
+
+    ``None`` when fewer than :data:`MIN_SAME_BRANCHES` branches over all the recordings find
+    such an earlier branch (the first excursions set the memory and are compared with
+    nothing; a decaying or growing sine never revisits a state)."""
+    masks, prevs, n_branches, spans = [], [], 0, []
+    for r in records:
+        u = np.asarray(r.u, dtype=np.float64)
+        m = np.zeros(u.size, dtype=bool)
+        prev = np.full(u.size, -1, dtype=np.int64)
+        masks.append(m)
+        prevs.append(prev)
+        span = float(np.ptp(u)) if u.size else 0.0
+        if span <= 0:
+            continue
+        tol = HISTORY_TOL * span
+        rv = reversal_indices(u, 0.1 * span)
+        bounds = [*rv.tolist(), u.size - 1]
+        keys = _memory_keys(u, rv, tol)
+        for k in range(1, len(keys)):
+            a, b = bounds[k] + 1, bounds[k + 1] + 1
+            if b - a < 2:
+                continue
+            for j in range(1, k):
+                kj = keys[j]
+                if len(kj) != len(keys[k]) or kj[0] != keys[k][0] or np.max(
+                        np.abs(np.subtract(kj[1:], keys[k][1:]))) > tol:
+                    continue
+                ja, jb = bounds[j] + 1, bounds[j + 1] + 1
+                order = np.argsort(u[ja:jb], kind="stable")
+                us = u[ja:jb][order]
+                i = np.clip(np.searchsorted(us, u[a:b]), 1, us.size - 1)
+                near = np.where(np.abs(us[i - 1] - u[a:b]) <= np.abs(us[i] - u[a:b]), i - 1, i)
+                ok = np.abs(us[near] - u[a:b]) <= tol
+                if ok.sum() < 2:
+                    break
+                m[a:b] = ok
+                prev[a:b] = np.where(ok, ja + order[near], -1)
+                n_branches += 1
+                spans.append(f"{r.name}: t = {r.t[a]:.3g} s against t = {r.t[ja]:.3g} s")
+                break
+    if n_branches < MIN_SAME_BRANCHES:
+        return None
+    return SignatureRows(masks, f"of the same input history ({n_branches} branches each "
+                                f"against the first one with the same input value, "
+                                f"direction and unwiped extrema; "
+                                f"{'; '.join(spans[:3])}{'; ...' if len(spans) > 3 else ''})",
+                         previous=prevs, beyond_history=True)

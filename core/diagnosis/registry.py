@@ -218,11 +218,19 @@ class SignatureRows:
         row's residual is compared as its change from that row's (``e[t] - e[previous[t]]``):
         a rate-independent model repeats itself from cycle to cycle, so its misfit, however
         large, cancels, and what is left is what changed with time (the noise twice).
+    beyond_history : bool
+        The rows are compared with rows of the same input history picked from the history
+        itself (value, direction, unwiped extrema: :func:`~core.diagnosis.periodic.same_history`),
+        so what the comparison finds is already beyond any misfit that depends on the input's
+        state and history alone: acceptance rule 17 is met by the evidence and not repeated on
+        every test row (where a tapered input's reversal values change with time and the
+        history part takes a drift). False from cycle to cycle (rule 17 kept as before).
     """
 
     masks: list[np.ndarray]
     words: str
     previous: list[np.ndarray] | None = None
+    beyond_history: bool = False
 
 
 @dataclass(frozen=True)

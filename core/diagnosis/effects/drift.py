@@ -8,7 +8,14 @@ from ...base import Chain, Model
 from ...stages import Drift
 from ..candidates import Candidate
 from ..context import FitContext
-from ..periodic import MIN_CYCLES, cycle_to_cycle, longest_repeating_run, repeated_cycles
+from ..periodic import (
+    MIN_CYCLES,
+    MIN_SAME_BRANCHES,
+    cycle_to_cycle,
+    longest_repeating_run,
+    repeated_cycles,
+    same_history,
+)
 from ..registry import DiagnosableEffect, SignatureRows, StaticTerm, TermFit, TermRows, register
 from ..structure import Fit, legendre_columns
 
@@ -21,12 +28,14 @@ def _untestable(ctx: FitContext) -> str | None:
     """A drift must repeat across recordings, span minutes (:data:`SINGLE_DRIFT_S`), or show
     from cycle to cycle of a repeated input (:func:`~core.diagnosis.periodic.repeated_cycles`:
     after the first cycle a rate-independent model repeats itself, so a trend between the
-    cycles is not the model's bias)."""
+    cycles is not the model's bias) or between branches of the same input history
+    (:func:`~core.diagnosis.periodic.same_history`: a tapered sine's cycles at the same
+    amplitude)."""
     total = sum(float(r.t[-1] - r.t[0]) for r in ctx.records)
     if total >= SINGLE_DRIFT_S or len(ctx.records) != 1:
         return None
     r = ctx.records[0]
-    if repeated_cycles(r.u):
+    if repeated_cycles(r.u) or same_history(ctx.records) is not None:
         return None
     run = longest_repeating_run(r.u)
     if len(run) >= 2:
@@ -35,8 +44,9 @@ def _untestable(ctx: FitContext) -> str | None:
         return (f"the single {total:.3g} s record repeats its input cycle only {len(run)} times "
                 f"(t = {r.t[run[0][0]]:.3g} to {r.t[min(run[-1][1], r.n_samples - 1)]:.3g} s); "
                 f"a trend from cycle to cycle needs {MIN_CYCLES} identical cycles (the first "
-                "sets the memory), so a slow drift cannot be told from the model's bias and "
-                "from slow sensor noise")
+                f"sets the memory), nor do {MIN_SAME_BRANCHES} of its branches revisit the input "
+                "history of an earlier one, so a slow drift cannot be told from the model's "
+                "bias and from slow sensor noise")
     return (f"a single {total:.3g} s record without a repeated input cycle cannot separate "
             "a slow drift from the model's bias and from slow sensor noise (a drift must "
             "repeat across recordings, show from one identical input cycle to the next, "
@@ -44,11 +54,13 @@ def _untestable(ctx: FitContext) -> str | None:
 
 
 def _signature(ctx: FitContext) -> SignatureRows | None:
-    """Where a drift shows apart from the model's bias: from cycle to cycle of a repeated
-    input (:func:`~core.diagnosis.periodic.cycle_to_cycle`); ``None`` (every test row) with
-    several recordings, whose differences already test a drift, or when the one recording
-    does not repeat its input."""
-    return cycle_to_cycle(ctx.records)
+    """Where a drift shows apart from the model's bias: from cycle to cycle of one recording
+    repeating its input (:func:`~core.diagnosis.periodic.cycle_to_cycle`, the rows creep is
+    judged on too), else between the branches of the recordings that revisit an earlier
+    branch's input history (:func:`~core.diagnosis.periodic.same_history`: a base that
+    misses the loop misses it the same way on both, a drift does not); ``None`` (every test
+    row) when no input revisits its history often enough."""
+    return cycle_to_cycle(ctx.records) or same_history(ctx.records)
 
 
 def _columns(degree: int, rows: TermRows) -> np.ndarray:
