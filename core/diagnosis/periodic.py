@@ -224,7 +224,9 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
     same input history. A rate-independent model's output, and so its misfit, depends only
     on the input's value, its direction and the extrema it has not wiped out yet (and the
     reversal before the branch, for a model without wiping out): rows on which those agree
-    within :data:`HISTORY_TOL` of the input range get the same output from it, so their
+    within :data:`HISTORY_TOL` of the input range, reached at the same rate (the same time
+    since the branch's reversal within :data:`START_TOL`: output dynamics then act alike),
+    get the same output from it, so their
     residuals' difference is what changed with time (the noise twice), however large the
     misfit. Each branch is compared with the first branch of the same history (the longest
     time between the two: a steady trend shows most), each row with that branch's row
@@ -261,7 +263,13 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
                 us = u[ja:jb][order]
                 i = np.clip(np.searchsorted(us, u[a:b]), 1, us.size - 1)
                 near = np.where(np.abs(us[i - 1] - u[a:b]) <= np.abs(us[i] - u[a:b]), i - 1, i)
-                ok = np.abs(us[near] - u[a:b]) <= tol
+                # at the same rate too: the same time since the branch's reversal (within
+                # START_TOL of it, and two samples), so that an output lag, delay or mode,
+                # which a faster branch shows more, is not read as a change with time
+                since_k = np.arange(a, b) - bounds[k]
+                since_j = order[near] + ja - bounds[j]
+                ok = ((np.abs(us[near] - u[a:b]) <= tol)
+                      & (np.abs(since_k - since_j) <= START_TOL * since_k + 2))
                 if ok.sum() < 2:
                     break
                 m[a:b] = ok

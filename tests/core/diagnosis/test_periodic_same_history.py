@@ -78,6 +78,15 @@ def test_a_decaying_sine_and_two_cycles_revisit_no_history_often_enough() -> Non
     assert sig is not None and "3 branches" in sig.words
 
 
+def test_branches_at_another_rate_are_not_compared() -> None:
+    """The same cycle at 2 Hz, then at 20 Hz: the same input history, but an output lag or
+    mode acts otherwise at the faster rate, so those rows are not compared (a short record
+    of several rates stays untestable for a drift)."""
+    t = np.arange(2000) / FS
+    u = np.where(t < 1.0, 60 * np.sin(2 * np.pi * 2 * t), 60 * np.sin(2 * np.pi * 20 * t))
+    assert same_history([Recording(t=t, u=u, y=PLANT(u), name="two-rates")]) is None
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_drift_under_a_tapered_drive_is_named_and_the_null_is_not(seed: int) -> None:
     """A drift of 1 % of range over the record is named from the rows of the same input
