@@ -200,7 +200,7 @@ def diagnose(
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro.baseline, loro_final=loro.final,
         crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit,
-        recording_specific=loro.specific, base_choice=base_choice)
+        recording_specific=_specific(run_, loro.specific), base_choice=base_choice)
 
 
 def _baseline(ctx: FitContext, base: str, n_operators: int, auto_resolution: bool
@@ -220,7 +220,8 @@ def _start_run(ctx: FitContext, base_fit: Fit, todo: list[str], max_effects: int
     """The run's state before the first round (noise floor, untestable effects, the
     between-recordings plan) and the effects left to test once the untestable are out."""
     run_ = Run(ctx, _noise_rms(ctx, base_fit), untestable_effects(ctx), max_effects,
-               between_plan(ctx, windows=windows), say=say)
+               between_plan(ctx, windows=windows), say=say,
+               across_recordings=len(ctx.records) >= 2 and not windows)
     if base_fit.structure.stop and rate_effect() in todo and \
             rate_effect() not in run_.untestable_names:
         run_.untestable.append(RATE_ON_STOP)
@@ -275,6 +276,13 @@ def _across_recordings(run_: Run, base_fit: Fit, cur: Fit, windows: bool
     run_.say(0.91, "estimating each parameter from the other recordings")
     spread_over_recordings(ctx, base_fit, cur, run_.findings)
     return cur, _AcrossRecordings(loro_b, loro_f, specific)
+
+
+def _specific(run_: Run, dropped: list[RecordingSpecific]) -> list[RecordingSpecific]:
+    """The effects rule 8 refused: per-recording levels refused in their round and not in
+    the final model, then those dropped from the final model."""
+    out = {f.name for f in run_.findings} | {d.name for d in dropped}
+    return [r for n, r in run_.recording_specific.items() if n not in out] + dropped
 
 
 def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:

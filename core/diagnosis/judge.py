@@ -19,6 +19,7 @@ from .acceptance import (
     decide,
     earns_place,
     enough_events,
+    generalises,
     harmless_elsewhere,
     split_supports_transport,
     trend_follows_steps,
@@ -33,6 +34,7 @@ from .history import history_refusal
 from .lookalikes import beyond_loop_shape, lookalike_evidence, sign_locking
 from .registry import EFFECTS
 from .results import RoundRow, pooled_mse
+from .scoring import adds_levels, recording_specific, shared_loro
 from .screening import RANKING_SPAN
 from .search import (
     candidate_evidence,
@@ -108,6 +110,8 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
         elif dec.passes and EFFECTS[name].sign_locked and not _locking_ok(run, cur):
             dec = replace(dec, passes=False, reasons=(_LOCKING_REASON,))
             decision = "contradicted"
+        elif dec.passes and (why := _recording_specific_refusal(run, cur, c)) is not None:
+            dec = replace(dec, passes=False, reasons=(why,))  # rule 8, at the choice
         elif dec.passes and accepted and needs_earning(ctx, c):
             run.step(rnd, 0.6, f"cross-fitting {name} against the accepted effects")
             dec = _earns(run, cur, c, n_tests, accepted)
@@ -118,6 +122,29 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
         if dec.passes:
             passing.append(name)
     return cands, rows, passing
+
+
+def _recording_specific_refusal(run: Run, cur: Fit, c: Candidate) -> str | None:
+    """Acceptance rule 8 (:func:`~core.diagnosis.acceptance.generalises`) for a candidate
+    that adds a level per recording (offset, drift), judged when it could be chosen: the
+    shared part predicting each recording from the others, each with its own level
+    (:func:`~core.diagnosis.scoring.shared_loro`), must not get worse. Applied only after
+    the rounds, an effect that fails it was taken out of the final model after it had been
+    chosen over a look-alike that passes every rule, and nothing was named. ``None`` when it
+    holds or does not apply (one recording, explicit windows, no new level); a refusal is
+    kept in :attr:`~core.diagnosis.state.Run.recording_specific` with its numbers."""
+    st = c.fit.structure
+    if not run.across_recordings or not adds_levels(cur.structure, st):
+        return None
+    lo = shared_loro(run.ctx, cur.structure, st)
+    if generalises(lo["mse_reduction"]):
+        run.recording_specific.pop(c.name, None)
+        return None
+    run.recording_specific[c.name] = recording_specific(c.name, c.parameters, lo, True)
+    return (f"one level per recording: predicting each recording from the others, each "
+            f"with its own level, is {1.0 - lo['mse_reduction']:.3g} times worse in MSE "
+            f"with it (leave-one-recording-out {-100 * lo['mse_reduction']:+.0f} %): it does "
+            "not generalise (acceptance rule 8)")
 
 
 def _share(x: float) -> str:

@@ -24,10 +24,10 @@ from .misspecification import base_sensitivity, describe_alternative, recording_
 from .registry import EFFECTS
 from .results import EffectFinding, RecordingSpecific
 from .state import Run
-from .structure import Fit
+from .structure import Fit, Structure
 
-__all__ = ["crossval_scores", "drop_recording_specific", "loro_scores",
-           "spread_over_recordings", "widen_for_base"]
+__all__ = ["adds_levels", "crossval_scores", "drop_recording_specific", "loro_scores",
+           "recording_specific", "shared_loro", "spread_over_recordings", "widen_for_base"]
 
 
 def loro_scores(ctx: FitContext, base: Fit, cur: Fit, findings: list[EffectFinding]
@@ -125,18 +125,9 @@ def drop_recording_specific(run: Run, base: Fit, cur: Fit, loro_b: dict[str, Any
     prev = base.structure
     for f in run.findings:
         lo, st = f.loro, f.structure
-        per_rec = st is not None and st.recording_levels() != prev.recording_levels()
+        per_rec = st is not None and adds_levels(prev, st)
         if lo is not None and st is not None and per_rec:
-            # a per-recording level (offset, drift) cannot be known for an unseen recording:
-            # judge what it does to the shared part, each left-out recording with its own level
-            a = leave_one_recording_out(ctx, prev, st.own_level)
-            b = leave_one_recording_out(ctx, st, st.own_level)
-            lo = {"rule": a["rule"], "rmse_before": a["rmse"], "rmse_after": b["rmse"],
-                  "mse_reduction": 1.0 - b["rmse"] ** 2 / max(a["rmse"] ** 2, 1e-300),
-                  "per_recording": [{"recording": x["recording"], "rmse_before": x["rmse"],
-                                     "rmse_after": y["rmse"]}
-                                    for x, y in zip(a["per_recording"], b["per_recording"],
-                                                    strict=True)]}
+            lo = shared_loro(ctx, prev, st)
             f.loro = dict(f.loro or {}, shared=lo)
         if lo is not None and not per_rec:
             lo = _scored_where_testable(ctx, f.name, lo)
@@ -150,20 +141,7 @@ def drop_recording_specific(run: Run, base: Fit, cur: Fit, loro_b: dict[str, Any
     out = []
     for f, lo, per_rec in drop:
         s = s.without(f.name, base.structure)
-        worse = 1.0 - lo["mse_reduction"]
-        per = " (one per recording: it differs between the recordings)" if per_rec else ""
-        unscored = [r["recording"] for r in lo.get("per_recording", ()) if r.get("scored") is False]
-        if unscored:
-            per += (f" (scored without {', '.join(unscored)}: without it the others cannot "
-                    f"test {f.name})")
-        out.append(RecordingSpecific(
-            f.name, dict(f.parameters), float(lo["mse_reduction"]), float(lo["rmse_before"]),
-            float(lo["rmse_after"]), tuple(lo.get("per_recording", ())),
-            f"{f.name}{per} improved the recordings it was fitted on, but predicting each "
-            f"recording from the others with it is {worse:.3g} times worse in MSE "
-            f"(leave-one-recording-out {-100 * lo['mse_reduction']:+.0f} %): it does not "
-            "generalise, so it is specific to these recordings (or stands in for a misfit "
-            "of the base model), not claimed as physics and not in the final model"))
+        out.append(recording_specific(f.name, f.parameters, lo, per_rec))
     names = {f.name for f, _, _ in drop}
     run.findings[:] = [f for f in run.findings if f.name not in names]
     run.ambiguous[:] = [a for a in run.ambiguous if a.get("chosen") not in names]
@@ -171,6 +149,54 @@ def drop_recording_specific(run: Run, base: Fit, cur: Fit, loro_b: dict[str, Any
     lo = loro_b if s == base.structure else leave_one_recording_out(ctx, s)
     loro_f = dict(lo, mse_reduction=1.0 - lo["rmse"] ** 2 / max(loro_b["rmse"] ** 2, 1e-300))
     return cur, loro_f, out
+
+
+def adds_levels(prev: Structure, st: Structure) -> bool:
+    """Whether structure ``st`` holds per-recording levels (offsets, drifts) that ``prev``
+    does not: levels an unseen recording cannot know, judged by :func:`shared_loro`."""
+    return st.recording_levels() != prev.recording_levels()
+
+
+def shared_loro(ctx: FitContext, prev: Structure, st: Structure) -> dict[str, Any]:
+    """Acceptance rule 8 for a per-recording level (offset, drift) that ``st`` adds to
+    ``prev``: such a level cannot be known for an unseen recording, so what it does to the
+    shared part is judged, each left-out recording given its own level of the same degree
+    in time (:data:`~core.diagnosis.between.SHARED_RULE`) with and without it.
+
+    Returns
+    -------
+    dict
+        ``{"rule", "rmse_before", "rmse_after", "mse_reduction", "per_recording":
+        [{"recording", "rmse_before", "rmse_after"}]}``; RMSE in output units.
+    """
+    a = leave_one_recording_out(ctx, prev, st.own_level)
+    b = leave_one_recording_out(ctx, st, st.own_level)
+    return {"rule": a["rule"], "rmse_before": a["rmse"], "rmse_after": b["rmse"],
+            "mse_reduction": 1.0 - b["rmse"] ** 2 / max(a["rmse"] ** 2, 1e-300),
+            "per_recording": [{"recording": x["recording"], "rmse_before": x["rmse"],
+                               "rmse_after": y["rmse"]}
+                              for x, y in zip(a["per_recording"], b["per_recording"],
+                                              strict=True)]}
+
+
+def recording_specific(name: str, parameters: dict[str, Any], lo: dict[str, Any],
+                       per_rec: bool) -> RecordingSpecific:
+    """The report of effect ``name`` failing acceptance rule 8 with leave-one-recording-out
+    score ``lo`` (:func:`shared_loro` when ``per_rec``: one level per recording)."""
+    worse = 1.0 - lo["mse_reduction"]
+    per = " (one per recording: it differs between the recordings)" if per_rec else ""
+    unscored = [r["recording"] for r in lo.get("per_recording", ()) if r.get("scored") is False]
+    if unscored:
+        per += (f" (scored without {', '.join(unscored)}: without it the others cannot "
+                f"test {name})")
+    return RecordingSpecific(
+        name, dict(parameters), float(lo["mse_reduction"]), float(lo["rmse_before"]),
+        float(lo["rmse_after"]), tuple(lo.get("per_recording", ())),
+        f"{name}{per} improved the recordings it was fitted on, but predicting each "
+        f"recording from the others with it is {worse:.3g} times worse in MSE "
+        f"(leave-one-recording-out {-100 * lo['mse_reduction']:+.0f} %): it does not "
+        "generalise, so it is specific to these recordings (or stands in for a misfit "
+        "of the base model), not claimed as physics and not in the final model")
 
 
 def _untestable_without(ctx: FitContext, name: str) -> dict[int, str]:

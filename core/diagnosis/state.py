@@ -16,7 +16,7 @@ from .between import BetweenPlan, BetweenRecordings
 from .context import FitContext
 from .crossfitting import CrossFit
 from .registry import EFFECTS
-from .results import EffectFinding, RoundRow
+from .results import EffectFinding, RecordingSpecific, RoundRow
 from .stats import HeldOut
 from .structure import Fit
 
@@ -97,6 +97,11 @@ class Run:
     #: memo of rule 5: the fit the split was computed for, and its verdict
     split_for: Fit | None = None
     split: bool = True
+    #: several recordings and no explicit windows: acceptance rule 8 (leave one recording
+    #: out) judges a per-recording level when it is chosen, not only in the final model
+    across_recordings: bool = False
+    #: per-recording levels refused by rule 8 in their round (by name; the last refusal)
+    recording_specific: dict[str, RecordingSpecific] = field(default_factory=dict)
 
     @property
     def untestable_names(self) -> set[str]:
