@@ -8,7 +8,12 @@ alone, in turn, three times in a row, and repeated: the step's plot (the figures
 2, 3 and 5, as the tab was sent them; also with half and a quarter of their points, and
 without the legend), the "Lesson"
 toast (removed and shown again, as main did, and changed in place, :mod:`app.gui.toasts`),
-the *View* dropdown, the Lesson text, the status line, and nothing. For each, the tab's
+the *View* dropdown, the Lesson text, the status line, and nothing; the plot cut to the
+samples its pixels draw (:meth:`app.gui.controller.SessionView._cut`, as the tab now gets
+it); and whole lesson moves of the class (steps 1, 2, 3 and 5 in turn) as main sent them
+(every sample, message by message), with the cut only, with the one batch only, and with
+both. ``--react N`` also times ``Plotly.react`` alone in the tab, every sample against
+cut. ``--only "plot;lesson move"`` runs some of the pieces. For each, the tab's
 renderer main-thread CPU over the next ``--gap`` seconds (CDP ``Performance.getMetrics``
 ``TaskDuration``, thread time; "nothing" is the tab idle over as long). CPU time, not wall
 time: the pieces compare at any load of the machine (issue 33: 31 renderers on 2 cores).
@@ -55,6 +60,7 @@ def _captured(view: Any, reg: Any) -> tuple[list[dict[str, Any]], list[str]]:
     lesson = lessons.builtin_lesson("pi-basics")
     figs: list[dict[str, Any]] = []
     texts: list[str] = []
+    view.pixel_cut = False  # every sample, as main sent them ("plot, cut to pixels": cut)
     for k in range(5):
         if k == 0:
             lessons.start(reg, lesson)
@@ -64,7 +70,9 @@ def _captured(view: Any, reg: Any) -> tuple[list[dict[str, Any]], list[str]]:
         assert view.worker.wait_idle(30)
         texts.append(str(view.lesson.md.content))
         if k in (1, 2, 4):
-            figs.append(json.loads(view.ui.plot._plotly_json_str))
+            figs.append({**json.loads(view.ui.plot._plotly_json_str),
+                         "aspect": view.ui.plot.aspect})
+    view.pixel_cut = True
     return figs, texts
 
 
@@ -88,6 +96,7 @@ def _pieces(view: Any, client: Any, figs: list[dict[str, Any]], texts: list[str]
     def plot(fs: list[dict[str, Any]]) -> Any:
         def send(k: int) -> None:
             f = fs[k % len(fs)]
+            view.ui.plot.aspect = f["aspect"]
             view.ui.plot.figure = FigureJSON(f["data"], f["layout"])
         return send
 
@@ -101,6 +110,22 @@ def _pieces(view: Any, client: Any, figs: list[dict[str, Any]], texts: list[str]
     def lesson_text(k: int) -> None:
         view.lesson.md.content = texts[k % len(texts)]
 
+    # as this tab's render cuts them (its plot's aspect, the Expand window's width)
+    cut = [{**view._cut(FigureJSON(f["data"], f["layout"]), f["aspect"]).to_dict(),
+            "aspect": f["aspect"]} for f in figs]
+    from contextlib import nullcontext
+
+    from app.services.teaching import lessons
+
+    atomic = view._atomic
+
+    def lesson_move(cut: bool, batch: bool) -> Any:
+        def send(k: int) -> None:  # the class moves between steps 1, 2, 3 and 5
+            view.pixel_cut = cut
+            view._atomic = atomic if batch else nullcontext
+            lessons.go_to(view.registry, step=(1, 2, 3, 5)[k % 4])
+        return send
+
     no_legend = copy.deepcopy(figs)
     for f in no_legend:
         f["layout"]["showlegend"] = False
@@ -110,19 +135,57 @@ def _pieces(view: Any, client: Any, figs: list[dict[str, Any]], texts: list[str]
         "plot, half the points": plot([_every(f, 2) for f in figs]),
         "plot, a quarter": plot([_every(f, 4) for f in figs]),
         "plot, no legend": plot(no_legend),
+        "plot, cut to pixels": plot(cut),
         "toast removed, shown": toast_main,
         "toast changed in place": lambda k: toasts(
             "Lesson ", f"the class is at step {k % 6 + 1} of 6", False),
         "View dropdown": dropdown,
         "Lesson text": lesson_text,
         "status line": status,
+        "lesson move, as main": lesson_move(False, False),
+        "lesson move, cut only": lesson_move(True, False),
+        "lesson move, batch only": lesson_move(False, True),
+        "lesson move": lesson_move(True, True),
     }
+
+
+def _reacts(page: Any, cpu_ms: Any, view: Any, n: int) -> dict[str, float]:
+    """The tab's CPU per ``Plotly.react`` of the captured step plots (parsed from their
+    JSON each call, as viser's plot component does), every sample against cut to pixels,
+    taking turns, ``n`` calls of each."""
+    from app.services.explore.figures import FigureJSON
+
+    figs = view._bench_figs
+    sets = {"every sample": [json.dumps(f) for f in figs],
+            "cut to pixels": [json.dumps({**view._cut(FigureJSON(f["data"], f["layout"]),
+                                                      f["aspect"]).to_dict(),
+                                          "aspect": f["aspect"]}) for f in figs]}
+    js = """async ([strs, n]) => {
+      const d = document.querySelector('.js-plotly-plot');
+      const w = d._fullLayout.width;
+      for (let i = 0; i < n; i++) {
+        const f = JSON.parse(strs[i % strs.length]);
+        await Plotly.react(d, f.data, {...f.layout, uirevision: 'true', width: w,
+                                       height: w * f.aspect});
+      }
+    }"""
+    got: dict[str, list[float]] = {k: [] for k in sets}
+    for _ in range(max(1, n // 6)):
+        for name, strs in sets.items():
+            t0 = cpu_ms()
+            page.evaluate(js, [strs, 6])
+            got[name].append((cpu_ms() - t0) / 6)
+    return {k: statistics.median(v) for k, v in got.items()}
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=4)
     ap.add_argument("--gap", type=float, default=1.5, help="seconds measured after a piece")
+    ap.add_argument("--only", default="", help="pieces to run, separated by ; (default: all)")
+    ap.add_argument("--react", type=int, default=0,
+                    help="also time N Plotly.react calls in the tab for the step plots, every "
+                         "sample against cut to pixels (CPU per call, nothing else running)")
     args = ap.parse_args()
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
@@ -150,7 +213,12 @@ def main() -> int:
         view = next(iter(app.state.gui.views.values()))
         client = next(iter(app.state.gui.server.get_clients().values()))
         reg = app.state.registry
-        pieces = _pieces(view, client, *_captured(view, reg))
+        figs, texts = _captured(view, reg)
+        view._bench_figs = figs
+        pieces = _pieces(view, client, figs, texts)
+        if args.only:
+            pieces = {k: v for k, v in pieces.items()
+                      if k in args.only.split(";") or k == "nothing"}
         time.sleep(15)  # the fresh tab's start-up work is over
         got: dict[str, list[float]] = {name: [] for name in pieces}
         k = 0
@@ -164,6 +232,7 @@ def main() -> int:
                             send(k)
                     time.sleep(args.gap)
                     got[name].append(cpu_ms() - t0)
+        reacts = _reacts(page, cpu_ms, view, args.react) if args.react else {}
         lessons.end(reg)
         browser.close()
     server.should_exit = True
@@ -173,6 +242,8 @@ def main() -> int:
     for name, xs in got.items():
         print(f"  {name:<24} median {statistics.median(xs):6.1f} ms   "
               f"min {min(xs):6.1f}   max {max(xs):6.1f}")
+    for name, ms in reacts.items():
+        print(f"  Plotly.react alone, {name:<22} {ms:6.1f} ms per call")
     return 0
 
 

@@ -57,6 +57,16 @@ const UNIT_TEXT = {
   "1/input": "per input unit", s: "s", Hz: "Hz", "s^k": "s to the power of the term", 1: "",
 };
 
+// `parent`'s children made `kids`, in order, touching only what differs: a kept node that
+// is already in its place is not moved (a focused slider keeps its focus).
+function place(parent, kids) {
+  kids.forEach((kid, i) => {
+    const at = parent.children[i];
+    if (at !== kid) parent.insertBefore(kid, at ?? null);
+  });
+  while (parent.children.length > kids.length) parent.lastElementChild.remove();
+}
+
 export class ModelControls {
   // container: the element the groups go in; api(method, path, body): the page's fetch
   // helper; onChange(note): called after a slider moved (note: what a rule changed, or "")
@@ -68,6 +78,8 @@ export class ModelControls {
     this.desc = null;
     this.byPath = new Map();
     this.inputs = new Map();
+    this.groups = new Map();  // group key -> its <details>, kept across rebuilds
+    this.labels = new Map();  // slider path -> { label, input, out, ref }, kept likewise
     this.seq = 0;
     this.shape = null;
     this.pending = new Map();  // path -> the slider's newest move not yet clamped
@@ -106,58 +118,68 @@ export class ModelControls {
     if (!this.desc || this.shape !== shape(model) || !this.#setValues()) this.show(model);
   }
 
+  // The groups and sliders of `this.desc`. A group (by key) and a slider (by path) that
+  // were on show are kept, their text, range and state set in place, so a structural change
+  // (an operator added, another model type) only builds what is new: the elements, their
+  // focus and the open / closed state a user chose for a group stay.
   #build() {
     this.byPath.clear();
     this.inputs.clear();
-    const groups = this.desc.groups.map((g) => {
-      const box = document.createElement("details");
-      box.className = "ctl-group";
-      box.dataset.key = g.key;
-      box.open = g.sliders.length <= 8;
-      const summary = document.createElement("summary");
-      summary.textContent = g.title + (g.unit ? ` (${g.unit})` : "");
-      box.append(summary);
-      if (g.note) {
-        box.append(Object.assign(document.createElement("p"), { className: "help", textContent: g.note }));
+    const groups = new Map();
+    const labels = new Map();
+    const boxes = this.desc.groups.map((g) => {
+      let box = this.groups.get(g.key);
+      if (box === undefined) {
+        box = document.createElement("details");
+        box.className = "ctl-group";
+        box.dataset.key = g.key;
+        box.open = g.sliders.length <= 8;
+        box.append(document.createElement("summary"));
       }
-      for (const s of g.sliders) box.append(this.#slider(s));
+      groups.set(g.key, box);
+      const summary = box.firstElementChild;
+      const title = g.title + (g.unit ? ` (${g.unit})` : "");
+      if (summary.textContent !== title) summary.textContent = title;
+      let note = box.querySelector(":scope > p.help");
+      if (g.note) {
+        note ??= Object.assign(document.createElement("p"), { className: "help" });
+        if (note.textContent !== g.note) note.textContent = g.note;
+      }
+      const kids = [summary, ...(g.note ? [note] : []), ...g.sliders.map((s) => {
+        const kept = this.labels.get(s.path) ?? this.#slider(s);
+        this.#spec(kept, s);
+        labels.set(s.path, kept);
+        return kept.label;
+      })];
+      place(box, kids);
       return box;
     });
-    this.box.replaceChildren(...groups);
+    this.groups = groups;
+    this.labels = labels;
+    place(this.box, boxes);
   }
 
+  // A new slider's elements (`ref.s`, its spec, is set by #spec and read by the handlers).
   #slider(s) {
-    this.byPath.set(s.path, s);
+    const ref = { s };
     const label = document.createElement("label");
     label.className = "ctl";
-    const unit = UNIT_TEXT[s.unit] ?? s.unit;
-    label.title = `${s.label}${unit ? ` in ${unit}` : ""}${s.rule ? `; ${s.rule}` : ""}`;
-    label.append(document.createTextNode(`${s.label} `));
+    const name = document.createTextNode("");
     const input = Object.assign(document.createElement("input"), {
-      type: "range", min: String(position(s, s.min)), max: String(position(s, s.max)),
-      step: String(s.log ? 1 / LOG_STEPS_PER_DECADE : s.step),
+      type: "range",
       id: `ctl-${s.path.replace(/[^A-Za-z0-9]+/g, "-").replace(/-$/, "")}`,
     });
     input.dataset.path = s.path;
-    input.setAttribute("aria-label", s.label);
-    if (s.log) {
-      input.dataset.scale = "log";
-      label.title += "; logarithmic scale";
-    }
-    if (s.fixed) {
-      input.disabled = true;
-      label.title += "; a constant of this model";
-    }
     // a number box beside the slider for exact values (a finger cannot move a thumb by a
     // few pixels on a phone); its value goes through the same rules as a drag
     const out = Object.assign(document.createElement("input"), {
       type: "number", className: "ctl-num", step: "any", inputMode: "decimal",
-      id: `${input.id}-num`, disabled: input.disabled,
+      id: `${input.id}-num`,
     });
-    out.setAttribute("aria-label", `${s.label}, exact value`);
-    label.append(input, out);
-    input.addEventListener("input", () => this.#moved(s, input, out));
+    label.append(name, input, out);
+    input.addEventListener("input", () => this.#moved(ref.s, input, out));
     out.addEventListener("change", () => {
+      const s = ref.s;
       const typed = Number(out.value);
       if (out.value.trim() === "" || !Number.isFinite(typed)) {
         out.value = fmt(getLeaf(this.model, s.path));
@@ -166,8 +188,31 @@ export class ModelControls {
       }
       this.#moved(s, input, out, Math.min(s.max, Math.max(s.min, typed)), typed);
     });
+    return { label, name, input, out, ref };
+  }
+
+  // Put spec `s` on a slider's elements (new or kept), changing only what differs.
+  #spec(kept, s) {
+    const { label, name, input, out, ref } = kept;
+    ref.s = s;
+    this.byPath.set(s.path, s);
     this.inputs.set(s.path, { input, out });
-    return label;
+    const unit = UNIT_TEXT[s.unit] ?? s.unit;
+    let title = `${s.label}${unit ? ` in ${unit}` : ""}${s.rule ? `; ${s.rule}` : ""}`;
+    if (s.log) title += "; logarithmic scale";
+    if (s.fixed) title += "; a constant of this model";
+    const attrs = [
+      [label, "title", title], [name, "data", `${s.label} `],
+      [input, "min", String(position(s, s.min))], [input, "max", String(position(s, s.max))],
+      [input, "step", String(s.log ? 1 / LOG_STEPS_PER_DECADE : s.step)],
+      [input, "disabled", Boolean(s.fixed)], [out, "disabled", Boolean(s.fixed)],
+    ];
+    for (const [node, key, v] of attrs) if (node[key] !== v) node[key] = v;
+    if (s.log) input.dataset.scale = "log";
+    else delete input.dataset.scale;
+    if (input.getAttribute("aria-label") !== s.label) input.setAttribute("aria-label", s.label);
+    const exact = `${s.label}, exact value`;
+    if (out.getAttribute("aria-label") !== exact) out.setAttribute("aria-label", exact);
   }
 
   // Put the working model's values on the sliders; false when one lies outside its

@@ -19,7 +19,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Mapping
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from dataclasses import replace
 from typing import Any
 
@@ -97,6 +97,9 @@ GUI_FIGURE_SLOTS = threading.BoundedSemaphore(max(2, os.cpu_count() or 2))
 #: so the text is committed and painted before plotly's redraw takes the tab's main thread
 #: (a class of thirty: the text waited on the plot's long tasks, issue 33).
 TEXT_FIRST_S = 0.08
+#: Width, CSS px, of the plot in the tab's *Expand plot* window (viser's "xl" modal): a
+#: plot's lines are cut to the samples its largest showing draws (:meth:`SessionView._cut`).
+EXPAND_PX = 780
 
 
 def _ignore(fraction: float, message: str = "") -> None:
@@ -144,9 +147,15 @@ class SessionView:
         on_session: Callable[[str], None] | None = None,
         jobs: JobManager | None = None,
         flush: Callable[[], None] | None = None,
+        atomic: Callable[[], AbstractContextManager[Any]] | None = None,
     ) -> None:
         self.registry = registry
         self._flush = flush  # sends the tab's queued messages now (viser's client.flush)
+        # groups the messages of one render into one batch the tab applies at once
+        # (viser's client.atomic): one React commit instead of one per widget
+        self._atomic = atomic if atomic is not None else nullcontext
+        #: Cut each line of a plot to the samples its pixels draw (:meth:`_cut`).
+        self.pixel_cut = True
         self._text_sent = 0.0  # when a lesson move's text was flushed (time.monotonic)
         #: runs this tab's fits in killable worker processes (the REST API's manager)
         self.jobs = jobs if jobs is not None else _default_jobs()
@@ -882,22 +891,26 @@ class SessionView:
             aspect = PROJECTOR_ASPECT
         elif bands > 1:
             aspect = min(1.35, 0.68 * bands)
+        fig = self._cut(fig, aspect)
+        model_text = model_markdown(res)
+        inverse_text = inverse_markdown(res, inverse_problem(res))
         wait = self._text_sent + TEXT_FIRST_S - time.monotonic()
         if wait > 0:  # a lesson's move: its text left alone, painted before this plot
             time.sleep(wait)
-        ui.plot.aspect = aspect
-        ui.plot.figure = fig
-        notes = (fig.layout.get("meta") or {}).get("notes") or []
-        ui.notes_md.content = "  \n".join(f"⚠️ {md_text(n)}" for n in notes)
-        self.shown_figure = name
-        d = res.digitized
-        self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1
-        self.last_result = res
-        self.rendered_version = v
-        ui.model_md.content = model_markdown(res)
-        ui.inverse_md.content = inverse_markdown(res, inverse_problem(res))
-        self._show_digitized(res)
-        ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
+        with self._atomic():  # the plot and its texts in one batch
+            ui.plot.aspect = aspect
+            ui.plot.figure = fig
+            notes = (fig.layout.get("meta") or {}).get("notes") or []
+            ui.notes_md.content = "  \n".join(f"⚠️ {md_text(n)}" for n in notes)
+            self.shown_figure = name
+            d = res.digitized
+            self._shown_state = len(d.trace.sample) - 1 if name == "digitized" and d else -1
+            self.last_result = res
+            self.rendered_version = v
+            ui.model_md.content = model_text
+            ui.inverse_md.content = inverse_text
+            self._show_digitized(res)
+            ui.status_md.content = f"v{v} · {res.u.size} samples · {res.elapsed_ms:.1f} ms"
         self.lesson.toast_due()  # a lesson move's toast after its text and plot
 
     def _computed(self, run: actions.FiguresRun) -> Result | None:
@@ -955,6 +968,18 @@ class SessionView:
         # the title under plotly's toolbar row, in lines the plot holds
         return F.below_toolbar(fig, PHONE_PLOT_PX if self.ui.narrow else PANEL_PX), bands
 
+    def _cut(self, fig: F.FigureJSON, aspect: float) -> F.FigureJSON:
+        """``fig`` with each line cut to the samples its largest showing on this tab draws
+        (:func:`~app.services.explore.figures.fit_to_pixels`: within a quarter pixel, every
+        extremum and reversal exact): the projector's width, else the *Expand plot*
+        window's (wider than the panel or a phone's sheet). A 670-sample loop is drawn from
+        about 40 samples: the tab's plotly has fewer points to lay out per move."""
+        if not self.pixel_cut:
+            return fig
+        width = PROJECTOR_PX if self.projecting else max(
+            EXPAND_PX, PHONE_PLOT_PX if self.ui.narrow else PANEL_PX)
+        return F.fit_to_pixels(fig, width, width * aspect)
+
     def _render_error(self, exc: BaseException) -> None:
         self.ui.model_md.content = f"⚠️ **Cannot draw this model:** {md_text(exc)}"
         self.lesson.toast_due()
@@ -991,7 +1016,7 @@ class SessionView:
             if force or now - self._state_sent >= STATE_REDRAW_S or k == len(tr.sample) - 1:
                 # the loop plot's current state and the digit rows' time line follow
                 fig = F.digitized_figure(res, highlight=k)
-                self.ui.plot.figure = self._for_screen(fig)[0]
+                self.ui.plot.figure = self._cut(self._for_screen(fig)[0], self.ui.plot.aspect)
                 self._state_sent, self._shown_state = now, k
 
     def _step_by(self, d: int) -> None:

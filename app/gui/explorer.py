@@ -128,7 +128,8 @@ class ExplorerGui:
 
         view = SessionView(client.gui, self.registry, session, self.settings,
                            notify=notify, scene=client.scene, camera=client.camera,
-                           on_session=remember, jobs=self.jobs, flush=client.flush)
+                           on_session=remember, jobs=self.jobs, flush=client.flush,
+                           atomic=client.atomic)
 
         def on_camera(camera: Any) -> None:
             width = getattr(camera, "image_width", 0) or 0

@@ -190,3 +190,46 @@ def test_web_page_creep_time_constants_on_a_log_slider(browser: Any, live_server
     assert float(shown) == pytest.approx(stored, rel=1e-3)
     assert errors == []
     ctx.close()
+
+
+def test_web_page_keeps_its_sliders_across_a_new_operator_count(browser: Any,
+                                                               live_server: dict) -> None:
+    """Issue 33: a structural change of the model (n = 6 -> 8 operators) rebuilt every
+    slider of the page; now the sliders of parameters still there are the same elements
+    (their range and label set in place) and a group the user closed stays closed; every
+    slider shows what the server's description of the new model says (independent of the
+    page: ``model_controls``), the new ones included."""
+    from app.services.explore.controls import model_controls, slider_position
+
+    app = live_server["app"]
+    ctx, page, errors = _open(browser, live_server["url"])
+    session = _session(app, page)
+    before = page.evaluate("""() => {
+      window.__sliders = new Map([...document.querySelectorAll('input[data-path]')]
+        .map((i) => [i.dataset.path, i]));
+      const closed = document.querySelector("details.ctl-group");
+      closed.open = false;
+      window.__closed = closed;
+      return [...window.__sliders.keys()];
+    }""")
+    assert len(before) >= 13  # p0, six weights, six thresholds
+    page.fill("#n", "8")
+    page.press("#n", "Enter")
+    _wait(lambda: len(session.config.model["thresholds"]) == 8, "n stored")
+    page.wait_for_selector("input[aria-label='r8']", state="attached")
+    kept = page.evaluate("""() => [...window.__sliders].filter(([p, i]) =>
+      document.querySelector(`input[data-path="${p}"]`) === i).map(([p]) => p)""")
+    assert sorted(kept) == sorted(before)  # every slider still there, the same element
+    assert page.evaluate("() => window.__closed.isConnected && !window.__closed.open")
+    desc = model_controls(session.config.model)
+    for g in desc.groups:
+        for s in g.sliders:
+            sel = f'input[data-path="{s.path}"]'
+            got = page.evaluate("s => { const i = document.querySelector(s); return "
+                                "[i.min, i.max, i.getAttribute('aria-label'), i.disabled]; }",
+                                sel)
+            assert [float(got[0]), float(got[1]), got[2], got[3]] == pytest.approx(
+                [slider_position(s, s.min), slider_position(s, s.max), s.label,
+                 bool(s.fixed)]), s.path
+    assert errors == []
+    ctx.close()

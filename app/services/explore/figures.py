@@ -36,6 +36,7 @@ from app.services.explore.simulation import (
     visited_path,
 )
 from app.services.words import model_words, unit_words
+from core.fitting.thresholds import reversal_indices
 from core.recordings import Recording
 from core.validation import filled
 
@@ -48,12 +49,14 @@ __all__ = [
     "diagnosis_figure",
     "digitized_figure",
     "fit_figure",
+    "fit_to_pixels",
     "inverse_figure",
     "large_text",
     "loading_figure",
     "loop_figure",
     "message_figure",
     "operators_figure",
+    "pixel_index",
     "time_figure",
 ]
 
@@ -772,6 +775,195 @@ def stack_columns(fig: FigureJSON, compact: bool = False) -> tuple[FigureJSON, i
     if "title" in new:
         new["title"] = {**new["title"], "font": {"size": 11}}
     return FigureJSON(fig.data, new), len(cols)
+
+
+#: Largest distance, in CSS px of the drawn plot, between a trace's line and the samples
+#: :func:`fit_to_pixels` leaves out (a quarter pixel: below what antialiasing shows).
+PIXEL_TOL = 0.25
+#: Traces with fewer points are left whole (nothing to gain).
+PIXEL_MIN_POINTS = 64
+
+
+def pixel_index(x: np.ndarray, y: np.ndarray, tol: float = PIXEL_TOL) -> np.ndarray:
+    """Indices of the samples of the polyline ``(x, y)`` (in pixels) that draw it to within
+    ``tol`` pixels.
+
+    Every extremum of ``x`` and of ``y`` (a reversal of the input on a loop, a peak in
+    time; :func:`~core.fitting.thresholds.reversal_indices` of travel above ``tol``, so
+    float noise on a plateau is not one) is kept exactly, as are the ends and each NaN (a
+    gap) with its neighbours; between them the Ramer-Douglas-Peucker rule keeps the sample
+    farthest from the chord while it is farther than ``tol`` (distance to the segment, so a
+    curve turning back beyond its chord keeps its turn), every segment at once, level by
+    level.
+
+    Parameters
+    ----------
+    x, y : ndarray of shape (N,)
+        The points in pixels (any offset).
+    tol : float
+        Largest distance, px, of a left-out sample from the drawn line.
+
+    Returns
+    -------
+    ndarray of int
+        Sorted indices, ``0`` and ``N - 1`` among them.
+    """
+    n = int(x.size)
+    keep = np.zeros(n, dtype=bool)
+    if n <= 2:
+        keep[:] = True
+        return np.flatnonzero(keep)
+    keep[[0, -1]] = True
+    bad = ~(np.isfinite(x) & np.isfinite(y))
+    if bad.any():  # a gap: the NaN and the samples on each side of it
+        keep |= bad | np.r_[bad[1:], False] | np.r_[False, bad[:-1]]
+    for v in (x, y):  # its extrema (reversals of more than tol px: not float noise)
+        keep[reversal_indices(np.where(bad, 0.0, v), tol)] = True
+    while True:  # one level of the rule for every segment at once
+        idx = np.flatnonzero(keep)
+        inner = np.flatnonzero(~keep)
+        if inner.size == 0:
+            break
+        seg = np.searchsorted(idx, inner) - 1  # the segment idx[seg] .. idx[seg + 1]
+        a, b = idx[seg], idx[seg + 1]
+        px, py = x[inner] - x[a], y[inner] - y[a]
+        dx, dy = x[b] - x[a], y[b] - y[a]
+        len2 = dx * dx + dy * dy
+        t = np.clip((px * dx + py * dy) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
+        dist2 = (px - t * dx) ** 2 + (py - t * dy) ** 2
+        starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+        worst = np.maximum.reduceat(dist2, starts)
+        group = np.cumsum(np.r_[False, seg[1:] != seg[:-1]])
+        far = (dist2 == worst[group]) & (dist2 > tol * tol)
+        if not far.any():
+            break
+        _, first = np.unique(group[far], return_index=True)
+        keep[inner[far][first]] = True
+    return np.flatnonzero(keep)
+
+
+#: Trace keys whose arrays run along the points (a trace with one of them as an array is
+#: left whole by :func:`fit_to_pixels`).
+_PER_POINT = ("text", "hovertext", "customdata", "ids", "error_x", "error_y")
+
+
+def _axis_span(lay: dict[str, Any], key: str, lo: float, hi: float) -> float | None:
+    """The data span a trace's axis ``key`` shows: the trace's own span, or the axis's
+    fixed range when narrower; ``None`` for an axis not drawn linearly."""
+    got = lay.get(key)
+    ax: dict[str, Any] = got if isinstance(got, dict) else {}
+    if ax.get("type") not in (None, "linear", "-"):
+        return None
+    span = hi - lo
+    r = ax.get("range")
+    if isinstance(r, (list, tuple)) and len(r) == 2:
+        try:
+            span = min(span, abs(float(r[1]) - float(r[0])))
+        except (TypeError, ValueError):
+            return None
+    return span
+
+
+def fit_to_pixels(fig: FigureJSON, width: float, height: float,
+                  tol: float = PIXEL_TOL) -> FigureJSON:
+    """``fig`` with each line trace cut to the samples a plot ``width`` x ``height`` CSS px
+    draws (:func:`pixel_index`: within ``tol`` px; extrema, reversals and gaps exact).
+
+    Each trace is measured on its own span of data mapped to the whole figure (an axis
+    spans at least its traces' data, and a panel at most the figure), so the drawn error
+    is at most ``tol`` px on any axis range plotly picks (an axis's fixed range is taken
+    when narrower). Traces with markers, per-point text, a dashed line (its dashes run
+    along the path's length, which a cut shortens by a fraction of a pixel per sample left
+    out: they would shift) or non-linear axes are left whole.
+
+    Parameters
+    ----------
+    fig : FigureJSON
+        The figure (traces as :func:`_num` typed arrays or lists).
+    width, height : float
+        The drawn figure's size, CSS px (the largest it is shown at).
+    tol : float
+        Largest distance, px, between the drawn line and a left-out sample.
+
+    Returns
+    -------
+    FigureJSON
+        A new figure sharing ``fig``'s layout (``fig`` itself when nothing was cut).
+    """
+    lines: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for i, tr in enumerate(fig.data):
+        if tr.get("type", "scatter") != "scatter" or "markers" in str(tr.get("mode", "lines")) \
+                or any(isinstance(tr.get(k), (list, dict)) for k in _PER_POINT) \
+                or "x" not in tr or "y" not in tr \
+                or (tr.get("line") or {}).get("dash", "solid") != "solid" \
+                or (tr.get("stackgroup") and (tr.get("orientation") == "h"
+                                              or tr.get("groupnorm"))):
+            continue
+        x, y = values(tr["x"]).astype(np.float64), values(tr["y"]).astype(np.float64)
+        if x.size == y.size and x.size >= PIXEL_MIN_POINTS:
+            lines[i] = (x, y)
+    # a stack's bands, and the traces on its x array (its sum), keep one set of samples
+    # (the bands add up sample by sample), or all stay whole when one of them must;
+    # every other trace is cut on its own
+    on_x = {(x.tobytes(), str(fig.data[i].get("xaxis", "x"))) for i, (x, _) in lines.items()
+            if fig.data[i].get("stackgroup")}
+    groups: dict[tuple[bytes, str], list[int]] = {}
+    for i, (x, _) in lines.items():
+        key = (x.tobytes(), str(fig.data[i].get("xaxis", "x")))
+        groups.setdefault(key if key in on_x else (b"%d" % i, ""), []).append(i)
+    for i, tr in enumerate(fig.data):  # a trace left whole on a stack's x: the stack too
+        if i not in lines and "x" in tr:
+            groups.pop((values(tr["x"]).astype(np.float64).tobytes(),
+                        str(tr.get("xaxis", "x"))), None)
+    stacks: dict[str, set[tuple[bytes, str]]] = {}
+    for key, members in groups.items():
+        for i in members:
+            if fig.data[i].get("stackgroup"):
+                stacks.setdefault(str(fig.data[i]["stackgroup"]), set()).add(key)
+    data = list(fig.data)
+    cut = False
+    for members in groups.values():
+        x = lines[members[0]][0]
+        if any(len(stacks.get(str(fig.data[i].get("stackgroup")), ())) > 1 for i in members
+               if fig.data[i].get("stackgroup")):
+            continue  # a stack over several x arrays: its sums need every sample
+        keep = _group_index(fig, members, lines, width, height, tol)
+        if keep is None or keep.size == x.size:
+            continue
+        for i in members:
+            data[i] = {**fig.data[i], "x": _num(x[keep]), "y": _num(lines[i][1][keep])}
+        cut = True
+    return FigureJSON(data, fig.layout) if cut else fig
+
+
+def _group_index(fig: FigureJSON, members: list[int],
+                 lines: dict[int, tuple[np.ndarray, np.ndarray]], width: float,
+                 height: float, tol: float) -> np.ndarray | None:
+    """The samples that draw every trace of ``members`` (one x array) within ``tol`` px:
+    the union of each drawn line's :func:`pixel_index` (a stacked trace drawn at its
+    running sum); ``None`` when an axis is not linear."""
+    x = lines[members[0]][0]
+    sums: dict[str, np.ndarray] = {}
+    keep = np.zeros(x.size, dtype=bool)
+    for i in members:
+        tr = fig.data[i]
+        y = lines[i][1]
+        if tr.get("stackgroup"):
+            g = str(tr["stackgroup"])
+            y = sums[g] = sums.get(g, 0.0) + np.nan_to_num(y)
+        ok = np.isfinite(x) & np.isfinite(y)
+        if not ok.any():
+            keep[:] = True
+            continue
+        sx = _axis_span(fig.layout, "xaxis" + str(tr.get("xaxis", "x"))[1:],
+                        float(x[ok].min()), float(x[ok].max()))
+        sy = _axis_span(fig.layout, "yaxis" + str(tr.get("yaxis", "y"))[1:],
+                        float(y[ok].min()), float(y[ok].max()))
+        if sx is None or sy is None:
+            return None
+        keep[pixel_index(x * (width / sx if sx > 0 else 0.0),
+                         y * (height / sy if sy > 0 else 0.0), tol)] = True
+    return np.flatnonzero(keep)
 
 
 #: Names of the figures :func:`build` can build (one per view of

@@ -79,7 +79,8 @@ def test_slider_updates_session_and_plot(view: SessionView) -> None:
     _idle(view)
     assert view.session.config.model["weights"][0] == 1.2
     assert view.rendered_version == view.session.version
-    assert not np.allclose(before, _loop_y(view))
+    # the loop's top (an extremum: drawn exactly, however few samples the line is cut to)
+    assert not np.isclose(before.max(), _loop_y(view).max())
 
 
 def test_a_slider_move_checks_its_config_once(view: SessionView,
