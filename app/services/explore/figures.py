@@ -864,6 +864,26 @@ def _axis_span(lay: dict[str, Any], key: str, lo: float, hi: float) -> float | N
     return span
 
 
+def _cuttable(tr: dict[str, Any]) -> tuple[np.ndarray, np.ndarray] | None:
+    """A trace's ``(x, y)`` as float64 when :func:`fit_to_pixels` may cut it: a solid line
+    without markers or per-point arrays, at least :data:`PIXEL_MIN_POINTS` samples (a
+    stack's only vertically and without a norm); else ``None``."""
+    if tr.get("type", "scatter") != "scatter" or "markers" in str(tr.get("mode", "lines")) \
+            or any(isinstance(tr.get(k), (list, dict)) for k in _PER_POINT) \
+            or "x" not in tr or "y" not in tr \
+            or (tr.get("line") or {}).get("dash", "solid") != "solid" \
+            or (tr.get("stackgroup") and (tr.get("orientation") == "h"
+                                          or tr.get("groupnorm"))):
+        return None
+    try:  # (a plain list of text is left whole; None in one is a gap, NaN)
+        x, y = values(tr["x"]).astype(np.float64), values(tr["y"]).astype(np.float64)
+    except (TypeError, ValueError):
+        return None
+    if x.ndim == y.ndim == 1 and x.size == y.size and x.size >= PIXEL_MIN_POINTS:
+        return x, y
+    return None
+
+
 def fit_to_pixels(fig: FigureJSON, width: float, height: float,
                   tol: float = PIXEL_TOL) -> FigureJSON:
     """``fig`` with each line trace cut to the samples a plot ``width`` x ``height`` CSS px
@@ -892,16 +912,9 @@ def fit_to_pixels(fig: FigureJSON, width: float, height: float,
     """
     lines: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for i, tr in enumerate(fig.data):
-        if tr.get("type", "scatter") != "scatter" or "markers" in str(tr.get("mode", "lines")) \
-                or any(isinstance(tr.get(k), (list, dict)) for k in _PER_POINT) \
-                or "x" not in tr or "y" not in tr \
-                or (tr.get("line") or {}).get("dash", "solid") != "solid" \
-                or (tr.get("stackgroup") and (tr.get("orientation") == "h"
-                                              or tr.get("groupnorm"))):
-            continue
-        x, y = values(tr["x"]).astype(np.float64), values(tr["y"]).astype(np.float64)
-        if x.size == y.size and x.size >= PIXEL_MIN_POINTS:
-            lines[i] = (x, y)
+        xy = _cuttable(tr)
+        if xy is not None:
+            lines[i] = xy
     # a stack's bands, and the traces on its x array (its sum), keep one set of samples
     # (the bands add up sample by sample), or all stay whole when one of them must;
     # every other trace is cut on its own
@@ -913,8 +926,11 @@ def fit_to_pixels(fig: FigureJSON, width: float, height: float,
         groups.setdefault(key if key in on_x else (b"%d" % i, ""), []).append(i)
     for i, tr in enumerate(fig.data):  # a trace left whole on a stack's x: the stack too
         if i not in lines and "x" in tr:
-            groups.pop((values(tr["x"]).astype(np.float64).tobytes(),
-                        str(tr.get("xaxis", "x"))), None)
+            try:
+                xb = values(tr["x"]).astype(np.float64).tobytes()
+            except (TypeError, ValueError):
+                continue
+            groups.pop((xb, str(tr.get("xaxis", "x"))), None)
     stacks: dict[str, set[tuple[bytes, str]]] = {}
     for key, members in groups.items():
         for i in members:

@@ -78,11 +78,23 @@ def test_fit_to_pixels_cuts_lines_only() -> None:
     cut = F.fit_to_pixels(_fig(), 780, 560)
     assert F.values(cut.data[0]["x"]).size < 100
     go.Figure(cut.to_dict())  # still a valid plotly figure
-    for whole in (_fig(mode="lines+markers"), _fig(text=["a"] * 500)):
+    for whole in (_fig(mode="lines+markers"), _fig(text=["a"] * 500),
+                  _fig(line={"dash": "dash"}), _fig(x=["a"] * 500)):
         assert F.fit_to_pixels(whole, 780, 560) is whole  # each sample shown or named
     log = _fig()
     log.layout["yaxis"] = {"type": "log"}
     assert F.fit_to_pixels(log, 780, 560) is log
+
+
+def test_a_gap_in_a_plain_list_stays_a_gap() -> None:
+    y: list[float | None] = [float(v) for v in np.sin(np.linspace(0.0, 6.0, 500))]
+    y[250] = None  # plotly's gap in a plain list
+    cut = F.fit_to_pixels(_fig(y=y), 780, 560)
+    got_x, got_y = F.values(cut.data[0]["x"]), F.values(cut.data[0]["y"])
+    assert got_y.size < 100
+    gap = np.flatnonzero(np.isnan(got_y))
+    assert gap.size == 1
+    assert got_x[gap[0]] == np.float32(np.linspace(0.0, 1.0, 500)[250])
 
 
 def test_fit_to_pixels_reads_a_fixed_range_narrower_than_the_data() -> None:
