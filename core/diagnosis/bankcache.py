@@ -70,6 +70,10 @@ class BankCache:
         #: projections ``B @ V``: may be shared between the caches of one diagnosis (the
         #: entry holds ``V``, whose identity is part of the key)
         self.p: dict[Any, tuple[np.ndarray, np.ndarray]] = {}
+        #: per recording, the last projection the budget did not keep (:meth:`projected`):
+        #: ``(call, V, P)``, shared as :attr:`p` is; a search over the output dynamics asks
+        #: for the same product at every trial (:meth:`kept_product`)
+        self.rp: dict[Any, tuple[tuple, np.ndarray, np.ndarray]] = {}
         #: row layout per (records, training masks, fast path), entries hold both
         self.rows: dict[Any, tuple] = {}
         #: play banks split into the level segments of a Preisach base
@@ -101,14 +105,10 @@ class BankCache:
         ``r``: the thresholds of the columns when ``B`` is a play bank (column 0 the input):
         the product is then formed by :func:`bank_rows_times` where the input turns rarely.
         """
-        key = (key, id(V))
-        hit = self.budget.get(self.p, key)
-        if hit is not None and hit[0] is V:
-            if hit[2] <= start:
-                return hit[1][start - hit[2]:]
-            start0 = 0
-        else:
-            start0 = start
+        held, start0 = self._held(V, key, start)
+        if held is not None:
+            return held
+        call = ((key, id(V)), start0, B.shape[0], w is not None, r is not None)
         P = None
         if r is not None and B.shape[0] > start0:
             P = bank_rows_times(B, V, r, np.arange(start0, B.shape[0]))
@@ -124,8 +124,50 @@ class BankCache:
                 P = (B[new] @ V)[np.cumsum(new) - 1]
         if P is None:
             P = np.ascontiguousarray(B @ V)
-        self.budget.put(self.p, key, (V, P, start0), P.nbytes, DERIVED, count=16)
+        self._keep(call, V, P)
         return P[start - start0:]
+
+    def kept_product(self, V: np.ndarray, key: Any, rows: int, start: int, w: bool,
+                     r: bool) -> np.ndarray | None:
+        """What :meth:`projected` would return for the bank's first ``rows`` rows, when the
+        same product was formed before and is still held (by the budget, or as the last
+        product of its recording the budget did not keep: :attr:`rp`); ``None`` otherwise,
+        and the bank need not be formed. ``w``, ``r``: whether :meth:`projected` is given
+        the bank input and the thresholds. The budget's account moves as that call's would
+        (the same reads, room made and entry kept), so what it keeps afterwards is the same,
+        and the numbers are those the call forms: the product is reused only for the same
+        first row, basis and rows."""
+        held, start0 = self._held(V, key, start)
+        if held is not None:
+            return held
+        call = ((key, id(V)), start0, rows, w, r)
+        got = self.rp.get(key[0])
+        if got is None or got[1] is not V or got[0] != call:
+            return None
+        P = got[2]
+        self.budget.make_room(8.0 * P.shape[0] * V.shape[1])
+        self._keep(call, V, P)
+        return P[start - start0:]
+
+    def _held(self, V: np.ndarray, key: Any, start: int) -> tuple[np.ndarray | None, int]:
+        """The budget's product ``(B @ V)[start:]`` for ``key`` if it holds one from ``start``
+        or earlier (a read: the entry becomes the most recently used), and the first row a
+        product formed now would start from (0 where the budget's starts later)."""
+        hit = self.budget.get(self.p, (key, id(V)))
+        if hit is not None and hit[0] is V:
+            if hit[2] <= start:
+                return hit[1][start - hit[2]:], 0
+            return None, 0
+        return None, start
+
+    def _keep(self, call: tuple, V: np.ndarray, P: np.ndarray) -> None:
+        """Keep the product ``P`` of ``call`` (:meth:`projected`'s key, first row, rows and
+        arguments) within the budget, else as its recording's last product (:attr:`rp`)."""
+        key, start0 = call[0], call[1]
+        if self.budget.put(self.p, key, (V, P, start0), P.nbytes, DERIVED, count=16):
+            self.rp.pop(key[0][0], None)
+        else:
+            self.rp[key[0][0]] = (call, V, P)
 
     def ranking_masks(self, records: Sequence[Recording], train: Sequence[np.ndarray]
                       ) -> Sequence[np.ndarray]:
@@ -195,7 +237,8 @@ class BankCache:
         self.rows[key] = (list(records), list(train), out)
         return out
 
-    def basis(self, banks: list[np.ndarray], train: Sequence[np.ndarray], key: Any) -> np.ndarray:
+    def basis(self, banks: Sequence[np.ndarray], train: Sequence[np.ndarray], key: Any
+              ) -> np.ndarray:
         V = recent(self.v, key)
         if V is None:
             V = reduced_basis(banks, train)
@@ -204,9 +247,11 @@ class BankCache:
             self.v[key] = V
         return V
 
-    def has_bank(self, k: int, r: np.ndarray, hist: tuple, shape: tuple = ()) -> bool:
-        """Whether the rate-independent play bank of recording ``k`` is in the cache."""
-        return (k, hist, None, r.size, float(r[-1]), shape) in self.d
+    def has_bank(self, k: int, r: np.ndarray, hist: tuple, shape: tuple = (),
+                 beta: float | None = None) -> bool:
+        """Whether the play bank of recording ``k`` is in the cache (rate-independent plays,
+        or of rate parameter ``beta``)."""
+        return (k, hist, beta, r.size, float(r[-1]), shape) in self.d
 
     def bank(self, k: int, rec: Recording, r: np.ndarray, hist: tuple, beta: float | None,
              shape: tuple = (), upto: int | None = None, bouc_wen: tuple = ()) -> np.ndarray:
@@ -322,7 +367,7 @@ def basis_rows(m: np.ndarray) -> np.ndarray:
     return idx[:: max(1, idx.size // 2000)]
 
 
-def reduced_basis(banks: list[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
+def reduced_basis(banks: Sequence[np.ndarray], train: Sequence[np.ndarray]) -> np.ndarray:
     # (a strided view where the rows are evenly spaced: no gather before the concatenation)
     return basis_of(np.concatenate([B[row_selector(basis_rows(m))]
                                      for B, m in zip(banks, train, strict=True)]))

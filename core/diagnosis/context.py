@@ -89,7 +89,7 @@ class FitContext:
                 and hit[2].d is parent.d):
             return hit[2]
         c = BankCache(parent.budget)
-        c.d, c.p, c.lv, c.bw = parent.d, parent.p, parent.lv, parent.bw
+        c.d, c.p, c.rp, c.lv, c.bw = parent.d, parent.p, parent.rp, parent.lv, parent.bw
         c.events = parent.events
         if len(self._caches) >= 16:
             self._caches.pop(next(iter(self._caches)))

@@ -569,6 +569,10 @@ def fit_structure(
     if rss_only:
         # a search reads a long record's prefix only (:mod:`.screening`)
         train = cache.ranking_masks(records, train)
+    else:
+        # the searches' products beyond the budget are not held while a full fit forms its
+        # banks (they would add to the diagnosis's peak)
+        cache.rp.clear()
     r = np.asarray(s.thresholds)
     nrec = len(records)
     layout = cache.layout(records, train, rss_only)
@@ -709,8 +713,8 @@ class _BankSet(NamedTuple):
     bank's columns when the reduced products are formed along the input
     (:func:`bank_rows_times`), else ``None``."""
 
-    raw: list
-    banks: list
+    raw: Sequence[np.ndarray]
+    banks: Sequence[np.ndarray]
     V: np.ndarray | None
     inputs: list | None
     row0: list | None
@@ -718,6 +722,43 @@ class _BankSet(NamedTuple):
     #: a full fit of a bank too large to keep (:func:`_streams`): per recording the bank
     #: input and its row-0 state ``(w, z0)``, the plays streamed in row blocks; else None
     streamed: list[tuple[np.ndarray, np.ndarray]] | None = None
+
+
+class _Banks(Sequence):
+    """The play banks of a ranking solve (the first ``upto[k]`` rows of recording ``k``'s,
+    :meth:`BankCache.bank`), each formed when first read. A bank in the cache is read at
+    once (the cache's order of use stays that of reading them all); one that is not is
+    neither kept nor counted by the cache, so it may wait until it is read."""
+
+    def __init__(self, cache: BankCache, s: Structure, records: Sequence[Recording],
+                 upto: list[int]) -> None:
+        self._args = (cache, s, records, upto)
+        r = np.asarray(s.thresholds)
+        self._b: list[np.ndarray | None] = [
+            self._form(k) if cache.has_bank(k, r, s.history[k], s.shape, s.beta_s) else None
+            for k in range(len(records))]
+
+    def _form(self, k: int) -> np.ndarray:
+        cache, s, records, upto = self._args
+        return cache.bank(k, records[k], np.asarray(s.thresholds), s.history[k], s.beta_s,
+                          upto=upto[k], shape=s.shape)
+
+    def __len__(self) -> int:
+        return len(self._b)
+
+    @overload
+    def __getitem__(self, k: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, k: slice) -> list[np.ndarray]: ...
+
+    def __getitem__(self, k: int | slice) -> np.ndarray | list[np.ndarray]:
+        if isinstance(k, slice):
+            return [self[i] for i in range(len(self._b))[k]]
+        B = self._b[k]
+        if B is None:
+            B = self._b[k] = self._form(k)
+        return B
 
 
 def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
@@ -732,7 +773,8 @@ def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
                if rss_only and reduce and not s.levels and s.beta_s is None
                and not s.bouc_wen and not s.signed else None)
     inputs = row0 = streamed = None
-    banks: list[np.ndarray]
+    raw: Sequence[np.ndarray]
+    banks: Sequence[np.ndarray]
     if sampled is not None:
         raw = banks = []
         V, inputs, row0 = sampled
@@ -740,6 +782,11 @@ def _bank_set(cache: BankCache, s: Structure, records: Sequence[Recording],
         raw = banks = []
         V = None
         streamed = [_bank_start(s, rec, k) for k, rec in enumerate(records)]
+    elif rss_only and reduce and not s.levels and not s.bouc_wen:
+        # (a bank not in the cache is formed when first read: not at all where the search's
+        # products are still held, :meth:`BankCache.kept_product`)
+        raw = banks = _Banks(cache, s, records, upto)
+        V = None
     else:
         raw = [
             cache.bank(k, rec, r, s.history[k], s.beta_s, upto=upto[k] if rss_only else None,
@@ -788,15 +835,18 @@ def _pi_rows(bs: _BankSet, s: Structure, cache: BankCache, key: Any, idx: np.nda
     else:
         # (the dynamics run from where their start transient has died out by the first
         # solved row, not from sample 0: the same rows to round-off)
-        P = bs.banks[k][start:last] if V is None else cache.projected(
-            bs.banks[k][:last], V, key,
-            w=bs.raw[k][:last, 0] if s.beta_s is None and not s.signed else None,
-            start=start, r=bs.r_bank)
+        plain = s.beta_s is None and not s.signed
+        P = None if V is None else cache.kept_product(V, key, last, start, plain,
+                                                      bs.r_bank is not None)
+        if P is None:
+            P = bs.banks[k][start:last] if V is None else cache.projected(
+                bs.banks[k][:last], V, key, w=bs.raw[k][:last, 0] if plain else None,
+                start=start, r=bs.r_bank)
         _dyn_rows(P, s.dynamics, dt, idx - start, out=out)
 
 
 def _simulated(s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
-               banks: list, p0: float, pw: np.ndarray, coef: dict[str, Any],
+               banks: Sequence[np.ndarray], p0: float, pw: np.ndarray, coef: dict[str, Any],
                cache: BankCache) -> Fit:
     """The :class:`Fit` of ``s`` with the solved weights: each recording's chain simulated
     exactly (its training RSS from those predictions). The fit keeps no bank: its PI-stage
