@@ -289,21 +289,34 @@ def test_a_lesson_toast_changes_in_place_and_stays_its_time(browser: Any, live_s
     main thread). The toast on show now takes the new text in place (the same element,
     marked here, is still there with the new text) and stays 6 s after its last change,
     not after it was first shown; a toast that has closed is shown anew."""
-    from app.gui.toasts import AUTO_CLOSE_S
+    from app.gui.toasts import AUTO_CLOSE_S, CHANGE_WITHIN_S
 
     app = live_server["app"]
     known = set(app.state.gui.views)
     ctx, page, errors = _open(browser, live_server["viser_url"], 1500, 900)
     view = _new_view(app, known)
     _plot_box(page)
-    view._toast("Lesson", "the class is at step 1 of 6")
-    page.wait_for_function(f"() => ({_LESSON_TOASTS})().length === 1", timeout=30_000)
-    t0 = time.monotonic()
-    page.evaluate("""() => [...document.querySelectorAll("[class*='Notification-root']")]
-      .forEach((e) => { e.dataset.seen = "first"; })""")
-    for k in (2, 3):
-        page.wait_for_timeout(1500)
-        view._toast("Lesson", f"the class is at step {k} of 6")
+    # The server changes a toast in place only within CHANGE_WITHIN_S of its last change (the
+    # browser may have closed it since): on a loaded machine the first toast can take seconds
+    # to show, and step 2 then rightly comes as a new toast. That case is the machine's, not
+    # the feature's: the sequence is tried again (at most three times) until every change
+    # was sent within the window on the server's clock.
+    for _attempt in range(3):
+        sent = [time.monotonic()]
+        view._toast("Lesson", "the class is at step 1 of 6")
+        page.wait_for_function(f"() => ({_LESSON_TOASTS})().length === 1", timeout=30_000)
+        t0 = time.monotonic()
+        page.evaluate("""() => [...document.querySelectorAll("[class*='Notification-root']")]
+          .forEach((e) => { e.dataset.seen = "first"; })""")
+        for k in (2, 3):
+            page.wait_for_timeout(1500)
+            sent.append(time.monotonic())
+            view._toast("Lesson", f"the class is at step {k} of 6")
+        if max(np.diff(sent)) < CHANGE_WITHIN_S - 0.5:
+            break
+        page.wait_for_function(f"() => ({_LESSON_TOASTS})().length === 0", timeout=30_000)
+    else:
+        raise AssertionError(f"the first toast took {np.diff(sent)} s to show three times")
     page.wait_for_function(f"() => ({_LESSON_TOASTS})().some((t) => t[0].includes('step 3'))",
                            timeout=30_000)
     t_last = time.monotonic()
