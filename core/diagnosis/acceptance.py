@@ -95,11 +95,14 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     when rule 15 keeps delay, lag and mode open (one recording, fewer than ``min_events``
     steps, one rate) and every input step, judged on its own rows, shows one kind (a dead
     time, an immediate smooth response, a ringing) that predicts the step's fast part
-    significantly better than each other kind (first differences, against the colour of
-    the noise where the input rests before the step), that kind is the one named, with
-    the others still ambiguous; the finding says which events the evidence came from. A
-    step never makes a dynamic name by itself: with fewer than ``min_events`` events it is
-    suggestive, and nothing is named when rules 1-16 name no output dynamics.
+    better than each other kind by :data:`~core.diagnosis.eventresponse.Z_ONE_SIDED`
+    standard deviations (first differences, against the colour of the noise where the
+    input rests before the step; on the rows each kind was fitted on, so an in-sample
+    ordering of look-alikes that stay open, not a held-out test), and its parameters show
+    its own signature (rule 9), that kind is the one named, with the others still
+    ambiguous; the finding says which events the evidence came from. A step never makes
+    a dynamic name by itself: with fewer than ``min_events`` events it is suggestive, and
+    nothing is named when rules 1-16 name no output dynamics.
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.

@@ -43,11 +43,12 @@ from .._typing import Float1D
 from ..recordings import Recording
 from .acceptance import RULE
 from .effects.resonance import RINGING_MAX_DAMPING
-from .events import QUIET_SHARE, event_windows, step_starts
+from .events import QUIET_SHARE, STEP_SAMPLES, event_windows, step_starts
 
 __all__ = [
     "COLOUR_SE",
     "KINDS",
+    "MAX_STEP_DT_S",
     "MIN_REST_ROWS",
     "Z_ONE_SIDED",
     "EventResponse",
@@ -66,6 +67,9 @@ KINDS = ("delay", "lag", "resonance")
 Z_ONE_SIDED = 2.326
 #: Fewest rows with the input at rest before the first step for a noise floor from them.
 MIN_REST_ROWS = 50
+#: Longest sample interval the events are judged at, s: the dead times and time constants
+#: searched span 50 ms after an event, which needs at least two samples.
+MAX_STEP_DT_S = 0.025
 
 
 #: Largest autocorrelation of the rest rows' first differences counted as noise-free (in
@@ -181,7 +185,7 @@ def _grid(kind: str, dt: float) -> list[tuple[float, ...]]:
     """Starting values of ``kind``: time constants from one sample to 50 ms, modes from
     50 Hz to 0.4 of the sampling rate (a factor 2^(1/4) apart), damping 0.02-0.3."""
     if kind == "delay":  # whole samples: a step's dead time has no slope to walk down
-        return [(float(k * dt),) for k in range(1, int(round(0.05 / dt)) + 1)]
+        return [(float(k * dt),) for k in range(1, max(1, int(round(0.05 / dt))) + 1)]
     if kind == "lag":
         return [(float(v),) for v in np.geomspace(dt, 0.05, 24)]
     fs = np.geomspace(50.0, 0.4 / dt, max(2, int(np.log(0.4 / dt / 50.0) / np.log(2**0.25)) + 1))
@@ -296,7 +300,8 @@ class StepResponse:
         below :data:`~core.diagnosis.effects.resonance.RINGING_MAX_DAMPING`), ``None``
         when it does not beat the base significantly.
     ambiguous_with : tuple of str
-        Kinds that ``kind`` does not beat significantly on these rows (:func:`_z`).
+        Kinds that ``kind`` does not beat by :data:`Z_ONE_SIDED` on these rows (:func:`_z`;
+        each kind fitted on the same rows, so an in-sample comparison, not a held-out one).
     values : dict of str to tuple of float
         Each kind's values fitted on the step's rows.
     """
@@ -329,6 +334,8 @@ class EventResponse:
         name. Otherwise what the events show is suggestive, however large.
     steps : tuple of StepResponse
         Each input step judged on its own rows.
+    min_events : int
+        Fewest independent events a name needs (the ``min_events`` judged with).
     """
 
     noise: float
@@ -338,6 +345,7 @@ class EventResponse:
     ambiguous_with: tuple[str, ...]
     several: bool
     steps: tuple[StepResponse, ...]
+    min_events: int = RULE.min_events
 
     @property
     def step_kind(self) -> str | None:
@@ -368,7 +376,7 @@ class EventResponse:
             ]
         else:
             parts = [
-                f"no output dynamics seen after {RULE.min_events} or more of the "
+                f"no output dynamics seen after {self.min_events} or more of the "
                 f"{len(self.events)} input events, each held out in turn"
             ]
         for st in self.steps:
@@ -387,9 +395,9 @@ class EventResponse:
                 f"the input step at {st.start * dt:.3g} s shows "
                 f"{_WORDS[st.kind]} ({_values(st.kind, st.values[st.kind])}){amb}"
             )
-        if self.steps and len(self.steps) < RULE.min_events:
+        if self.steps and len(self.steps) < self.min_events:
             parts[-1] += (
-                f"; the kind the steps show rests on fewer than {RULE.min_events} "
+                f"; the kind the steps show rests on fewer than {self.min_events} "
                 "events, suggestive (more steps would decide)"
             )
         return "; ".join(parts)
@@ -508,13 +516,13 @@ def event_response(
     steps = tuple(
         _step(rec, yh, m, a, rest, dt)
         for (a, _), m in zip(wins, masks, strict=True)
-        if any(abs(a - s) < 10 for s in st)
+        if any(abs(a - s) < STEP_SAMPLES for s in st)
     )
     starts = tuple(a for a, _ in wins)
     counts = {k: len(ev.seen) for k, ev in kinds.items()}
     best = max(KINDS, key=lambda k: (counts[k], sum(max(z, 0.0) for z in kinds[k].z)))
     if counts[best] == 0:
-        return EventResponse(rest.sigma, starts, kinds, None, (), False, steps)
+        return EventResponse(rest.sigma, starts, kinds, None, (), False, steps, min_events)
     amb = []
     for other in KINDS:
         if other == best or counts[other] == 0:
@@ -527,5 +535,6 @@ def event_response(
         if beats < min(min_events, counts[best]):
             amb.append(other)
     return EventResponse(
-        rest.sigma, starts, kinds, best, tuple(amb), counts[best] >= min_events, steps
+        rest.sigma, starts, kinds, best, tuple(amb), counts[best] >= min_events, steps,
+        min_events,
     )

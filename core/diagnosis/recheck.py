@@ -29,7 +29,7 @@ from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import ambiguous_parameters
 from .data import ANY_BLOCK_S, crossfit_folds
-from .eventresponse import EventResponse, event_response
+from .eventresponse import MAX_STEP_DT_S, EventResponse, event_response
 from .events import Excitation, excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
@@ -72,7 +72,8 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
     if unseparated and after is not None:
         # rule 18: the look-alikes stay open; the one named first is the one the step shows
         shown = after.step_kind
-        if shown in results and shown not in (best, unnamed):
+        if (shown in results and shown not in (best, unnamed)
+                and not _lacks_signature(shown, results[shown][1])):
             best, vs = shown, _against(ctx, results, shown)
     fit, params, unc, h = results[best]
     amb = []
@@ -126,13 +127,16 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
 def _after_events(run: Run, base: Fit) -> EventResponse | None:
     """What the rows after the input events of the one recording show on top of ``base``
     (the structure without output dynamics; :mod:`core.diagnosis.eventresponse`), ``None``
-    with several recordings or without a uniform time axis."""
+    with several recordings, without a uniform time axis or sampled more slowly than
+    :data:`~core.diagnosis.eventresponse.MAX_STEP_DT_S`."""
     ctx = run.ctx
     if len(ctx.records) != 1:
         return None
     t = np.asarray(ctx.records[0].t, dtype=np.float64)
     dt = np.diff(t)
     if dt.size < 2 or not np.allclose(dt, dt[0], rtol=1e-6, atol=0.0):
+        return None
+    if dt[0] > MAX_STEP_DT_S:  # too slow a sampling for a step's milliseconds
         return None
     return event_response(ctx.records[0], base.pred[0], noise=run.noise)
 

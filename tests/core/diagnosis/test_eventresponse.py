@@ -147,3 +147,17 @@ def test_several_steps_name_the_kind_and_one_step_does_not() -> None:
     assert one is not None and one.several is False
     clean = event_response(_staircase(6), 0.5 * rec.u)
     assert clean is not None and clean.best is None and clean.step_kind is None
+
+
+def test_a_slowly_sampled_record_is_judged_without_failing() -> None:
+    """A record sampled at 10 Hz (a thermal actuator's logger) with a lag after its steps:
+    the dead-time grid (whole samples up to 50 ms) was empty there and the search failed
+    with an empty argmin, which escaped the whole diagnosis (review of 1fbf85b)."""
+    rng = np.random.default_rng(0)
+    dt, hold = 0.1, 40
+    levels = [0.0] + [float(v) for v in np.resize([10.0, 4.0, 8.0, 2.0], 6)]
+    u = np.repeat(levels, [120] + [hold] * 6)
+    y = np.convolve(0.5 * u, [0.5, 0.5])[: u.size] + 0.02 * rng.standard_normal(u.size)
+    er = event_response(Recording(np.arange(u.size) * dt, u, y, "slow"), 0.5 * u)
+    assert er is not None and len(er.events) == 6
+    assert er.kinds["delay"].values[0] > 0.0
