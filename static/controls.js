@@ -60,6 +60,8 @@ const UNIT_TEXT = {
 // `parent`'s children made `kids`, in order, touching only what differs: a kept node that
 // is already in its place is not moved (a focused slider keeps its focus).
 function place(parent, kids) {
+  // nodes that go first, so a kept one after them need not move (moving blurs it)
+  for (const c of [...parent.children]) if (!kids.includes(c)) c.remove();
   kids.forEach((kid, i) => {
     const at = parent.children[i];
     if (at !== kid) parent.insertBefore(kid, at ?? null);
@@ -251,7 +253,9 @@ export class ModelControls {
           this.onChange(e.message);
           continue;
         }
-        if (!this.pending.has(path)) this.#show(m, done.value, done.note);  // else a newer one
+        // else a newer move is pending; a slider whose spec was replaced meanwhile (a new
+        // model's structure) shows the new model's value, not this reply on the old scale
+        if (!this.pending.has(path) && this.byPath.get(path) === m.s) this.#show(m, done.value, done.note);
       }
     } finally {
       this.clamping = false;

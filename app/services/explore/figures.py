@@ -866,12 +866,14 @@ def _axis_span(lay: dict[str, Any], key: str, lo: float, hi: float) -> float | N
 
 def _cuttable(tr: dict[str, Any]) -> tuple[np.ndarray, np.ndarray] | None:
     """A trace's ``(x, y)`` as float64 when :func:`fit_to_pixels` may cut it: a solid line
-    without markers or per-point arrays, at least :data:`PIXEL_MIN_POINTS` samples (a
-    stack's only vertically and without a norm); else ``None``."""
+    of straight segments (a step or spline shape would be drawn otherwise between the kept
+    samples) without markers or per-point arrays, at least :data:`PIXEL_MIN_POINTS` samples
+    (a stack's only vertically and without a norm); else ``None``."""
     if tr.get("type", "scatter") != "scatter" or "markers" in str(tr.get("mode", "lines")) \
             or any(isinstance(tr.get(k), (list, dict)) for k in _PER_POINT) \
             or "x" not in tr or "y" not in tr \
             or (tr.get("line") or {}).get("dash", "solid") != "solid" \
+            or (tr.get("line") or {}).get("shape", "linear") != "linear" \
             or (tr.get("stackgroup") and (tr.get("orientation") == "h"
                                           or tr.get("groupnorm"))):
         return None

@@ -79,7 +79,8 @@ def test_fit_to_pixels_cuts_lines_only() -> None:
     assert F.values(cut.data[0]["x"]).size < 100
     go.Figure(cut.to_dict())  # still a valid plotly figure
     for whole in (_fig(mode="lines+markers"), _fig(text=["a"] * 500),
-                  _fig(line={"dash": "dash"}), _fig(x=["a"] * 500)):
+                  _fig(line={"dash": "dash"}), _fig(x=["a"] * 500),
+                  _fig(line={"shape": "hv"}), _fig(line={"shape": "spline"})):
         assert F.fit_to_pixels(whole, 780, 560) is whole  # each sample shown or named
     log = _fig()
     log.layout["yaxis"] = {"type": "log"}
