@@ -59,7 +59,7 @@ const UNIT_TEXT = {
 
 // `parent`'s children made `kids`, in order, touching only what differs: a kept node that
 // is already in its place is not moved (a focused slider keeps its focus).
-function place(parent, kids) {
+export function place(parent, kids) {
   // nodes that go first, so a kept one after them need not move (moving blurs it)
   for (const c of [...parent.children]) if (!kids.includes(c)) c.remove();
   kids.forEach((kid, i) => {

@@ -233,3 +233,28 @@ def test_web_page_keeps_its_sliders_across_a_new_operator_count(browser: Any,
                  bool(s.fixed)]), s.path
     assert errors == []
     ctx.close()
+
+
+def test_a_kept_slider_keeps_its_focus_when_an_earlier_one_goes(browser: Any,
+                                                               live_server: dict) -> None:
+    """Issue 33, from a review: when a model's structure drops a slider that comes before
+    kept ones, the page moved every kept slider after it into place, and moving an element
+    takes its focus away (a student dragging or typing lost the slider). Nodes that go are
+    now removed first and kept ones are not touched. Checked on the page's own module in
+    Chromium: children A, B, C with C focused, made [B, C]."""
+    ctx, page, errors = _open(browser, live_server["url"])
+    got = page.evaluate("""async () => {
+      const { place } = await import("/controls.js");
+      const box = document.createElement("div");
+      document.body.append(box);
+      const [a, b, c] = ["a", "b", "c"].map((n) => {
+        const i = document.createElement("input"); i.name = n; box.append(i); return i; });
+      c.focus();
+      place(box, [b, c]);
+      const out = [[...box.children].map((e) => e.name), document.activeElement === c];
+      box.remove();
+      return out;
+    }""")
+    assert got == [["b", "c"], True]
+    assert errors == []
+    ctx.close()
