@@ -60,13 +60,13 @@ const UNIT_TEXT = {
 // `parent`'s children made `kids`, in order, touching only what differs: a kept node that
 // is already in its place is not moved (a focused slider keeps its focus).
 export function place(parent, kids) {
-  // nodes that go first, so a kept one after them need not move (moving blurs it)
-  for (const c of [...parent.children]) if (!kids.includes(c)) c.remove();
+  // the nodes that go first, so a kept one after them need not move (moving blurs it)
+  const keep = new Set(kids);
+  for (const c of [...parent.children]) if (!keep.has(c)) c.remove();
   kids.forEach((kid, i) => {
     const at = parent.children[i];
     if (at !== kid) parent.insertBefore(kid, at ?? null);
   });
-  while (parent.children.length > kids.length) parent.lastElementChild.remove();
 }
 
 export class ModelControls {
@@ -255,7 +255,9 @@ export class ModelControls {
         }
         // else a newer move is pending; a slider whose spec was replaced meanwhile (a new
         // model's structure) shows the new model's value, not this reply on the old scale
-        if (!this.pending.has(path) && this.byPath.get(path) === m.s) this.#show(m, done.value, done.note);
+        if (!this.pending.has(path) && this.byPath.get(path) === m.s) {
+          this.#show(m, done.value, done.note);
+        }
       }
     } finally {
       this.clamping = false;

@@ -36,12 +36,7 @@ from .registry import EFFECTS
 from .results import RoundRow, pooled_mse
 from .scoring import adds_levels, recording_specific, shared_loro
 from .screening import RANKING_SPAN
-from .search import (
-    candidate_evidence,
-    judged_on_same_history,
-    same_signature_rows,
-    search_round,
-)
+from .search import candidate_evidence, same_signature_rows, search_round
 from .specs import FAMILY_PRIORITY
 from .state import Candidate, Run, round_row
 from .stats import HeldOut, heldout_comparison
@@ -98,10 +93,11 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
             dec = replace(dec, passes=False, reasons=(why,))
         elif dec.passes and (why := _loop_shape_refusal(ctx, cur, c)) is not None:
             dec = replace(dec, passes=False, reasons=(why,))
-        elif (dec.passes and not judged_on_same_history(ctx, c)
+        elif (dec.passes and not c.beyond_history
               and (why := history_refusal(ctx, cur, name, c.fit)) is not None):
             # rule 17 (history.py); judged between rows of the same input history, where a
-            # history-dependent misfit cancels, the effect has already met it
+            # misfit depending on the input's state and history alone cancels, the effect
+            # has already met it
             dec = replace(dec, passes=False, reasons=(why,))
         elif (dec.passes and EFFECTS[name].transport and run.rate_testable
                 and not _split_ok(run, cur)):

@@ -226,11 +226,11 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
     reversal before the branch, for a model without wiping out): rows on which those agree
     within :data:`HISTORY_TOL` of the input range, reached at the same rate (the same time
     since the branch's reversal within :data:`START_TOL`: output dynamics then act alike),
-    get the same output from it, so their
-    residuals' difference is what changed with time (the noise twice), however large the
-    misfit. Each branch is compared with the first branch of the same history (the longest
-    time between the two: a steady trend shows most), each row with that branch's row
-    nearest its input value (within :data:`HISTORY_TOL`).
+    get the same output from it, so their residuals' difference is what changed with time
+    (the noise twice), however large the misfit. Each branch is compared with the first
+    branch of the same history (the longest time between the two: a steady trend shows
+    most), each row with that branch's row nearest its input value (within
+    :data:`HISTORY_TOL`).
 
     ``None`` when fewer than :data:`MIN_SAME_BRANCHES` branches over all the recordings find
     such an earlier branch (the first excursions set the memory and are compared with

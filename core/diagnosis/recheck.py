@@ -43,6 +43,8 @@ from .structure import Fit, dynamics_stages, pack_dynamics
 __all__ = ["POLISH_XATOL", "STAGE_BLOCKS_PER_RECORDING", "polish_dynamics", "recheck_dynamics"]
 
 
+#: How the caveat saying what the rows after the input events show begins (rule 18).
+AFTER_EVENTS = "output dynamics after the input events: "
 #: A stage's fits in :func:`recheck_dynamics`, by name: (fit, parameters, 1-sigmas, the
 #: comparison with the structure without output dynamics on the held-out rows).
 _Fitted = dict[str, tuple[Fit, dict[str, Any], dict[str, Any], HeldOut]]
@@ -102,9 +104,8 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
         finding.equation = EFFECTS[best].equation
     finding.ambiguous_with = amb
     if after is not None:
-        words = "output dynamics after the input events: " + after.where(
-            float(ctx.records[0].t[1] - ctx.records[0].t[0]))
-        finding.caveats = [c for c in finding.caveats if not c.startswith(words[:28])] + [words]
+        words = AFTER_EVENTS + after.where(float(ctx.records[0].t[1] - ctx.records[0].t[0]))
+        finding.caveats = [c for c in finding.caveats if not c.startswith(AFTER_EVENTS)] + [words]
     finding.heldout_rmse_after = float(np.sqrt(pooled_mse(ctx.test_res(fit))))
     ambiguous[:] = [a for a in ambiguous if not set(a["effects"]) <= set(output_dynamics())]
     for other in amb:

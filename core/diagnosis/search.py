@@ -26,8 +26,7 @@ from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit
 
 __all__ = ["MEMORY_MAX_HARM", "MIN_SIGNATURE_ROWS", "WHERE_MIN_ROWS", "WHERE_MIN_Z",
-           "WHERE_SHARE", "candidate_evidence", "judged_on_same_history", "same_signature_rows",
-           "search_round",
+           "WHERE_SHARE", "candidate_evidence", "same_signature_rows", "search_round",
            "where_it_lives"]
 
 
@@ -167,21 +166,8 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
     h = heldout_comparison(ctx.signature_res(cur, sig), ctx.signature_res(c.fit, sig))
     other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
              if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
-    return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other)
-
-
-def judged_on_same_history(ctx: FitContext, c: Candidate) -> bool:
-    """Whether candidate ``c`` was judged on its signature rows as each row's change from a
-    row of the same input history found from the history itself
-    (:func:`_on_its_signature` on rows with
-    :attr:`~core.diagnosis.registry.SignatureRows.beyond_history`). There a misfit depending
-    on the input's state and history alone cancels by construction, which is what acceptance
-    rule 17 asks of a time effect."""
-    spec = EFFECTS[c.name]
-    if c.where is None or spec.signature is None:
-        return False
-    sig = spec.signature(ctx)
-    return sig is not None and sig.beyond_history and c.where == f"test rows {sig.words}"
+    return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other,
+                   beyond_history=sig.beyond_history)
 
 
 def same_signature_rows(ctx: FitContext, c: Candidate, o: Candidate) -> SignatureRows | None:

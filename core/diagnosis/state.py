@@ -63,6 +63,10 @@ class Candidate:
     where: str | None = None
     #: the comparison on the other test rows when judged where it lives (rule 13)
     elsewhere: HeldOut | None = None
+    #: judged where it lives on rows compared within the same input history
+    #: (:attr:`~core.diagnosis.registry.SignatureRows.beyond_history`): acceptance rule 17
+    #: is met by that evidence
+    beyond_history: bool = False
 
     @property
     def family(self) -> str:
