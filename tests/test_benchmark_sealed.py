@@ -242,3 +242,15 @@ def test_a_measured_case_runs_through_the_diagnosis_and_the_table() -> None:
     table = summarise_set(rows)
     assert "| sealed | measured base | 1 |" in table
     assert "measured/friction-36lb/delay/third | delay |" in table
+
+
+def test_rescore_of_a_missing_file_says_which_and_where_the_runs_are(
+        tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from benchmarks.diagnosis.run_benchmark import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--rescore", str(tmp_path / "gone.json")])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "gone.json: no such file" in err and "benchmarks/diagnosis/results/" in err
+    assert "Traceback" not in err

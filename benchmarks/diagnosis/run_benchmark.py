@@ -392,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901 - a script's argv 
                     help="with --set or --rescore: earlier --set runs whose class tables are "
                          "printed beside this one's (same format)")
     a = ap.parse_args(argv)
+    for path in [a.rescore, *(a.compare or [])]:
+        if path is not None and not path.is_file():
+            ap.error(f"{path}: no such file; earlier runs are in benchmarks/diagnosis/results/")
     if a.set or (a.rescore and _is_set_file(a.rescore)):
         return _run_set(a)
     if a.families:
