@@ -41,6 +41,7 @@ import numpy as np
 
 from .._typing import Float1D
 from ..recordings import Recording
+from ..stages import Delay, Lag, Resonance
 from .acceptance import RULE
 from .effects.resonance import RINGING_MAX_DAMPING
 from .events import QUIET_SHARE, STEP_SAMPLES, event_windows, step_starts
@@ -62,6 +63,8 @@ __all__ = [
 
 #: The output dynamics kinds judged, in the order of notes §4.3.
 KINDS = ("delay", "lag", "resonance")
+#: The model algebra's stage of each kind (its values in the order of its fields).
+_STAGES = {"delay": Delay, "lag": Lag, "resonance": Resonance}
 #: One-sided 1 % normal quantile: an event counts for a kind (or a kind beats a look-alike
 #: on it) when the reduction of its squared error is this many standard deviations above 0.
 Z_ONE_SIDED = 2.326
@@ -137,14 +140,10 @@ def rest_noise(rec: Recording) -> RestNoise | None:
     return RestNoise(float(np.sqrt(c[0] / 2.0)), c[:lags] * taper)
 
 
-def _lowpass(x: np.ndarray, b: list[float], a: list[float]) -> np.ndarray:
-    import scipy.signal as ss
-
-    return np.asarray(ss.lfilter(b, a, x))
-
-
 def kind_prediction(kind: str, values: tuple[float, ...], yhat: Float1D, dt: float) -> np.ndarray:
-    """``yhat`` through output stage ``kind`` (at rest at ``yhat[0]``).
+    """``yhat`` through the output stage ``kind`` of the model algebra (:mod:`core.stages`:
+    :class:`~core.stages.Delay`, :class:`~core.stages.Lag`, :class:`~core.stages.Resonance`,
+    the filters discretised by first-order hold), at rest at ``yhat[0]``.
 
     Parameters
     ----------
@@ -160,25 +159,11 @@ def kind_prediction(kind: str, values: tuple[float, ...], yhat: Float1D, dt: flo
     -------
     ndarray, shape (n,)
     """
+    stage = _STAGES.get(kind)
+    if stage is None:
+        raise ValueError(f"unknown output dynamics kind {kind!r}; known: {', '.join(KINDS)}")
     y = np.asarray(yhat, dtype=np.float64)
-    y0 = float(y[0])
-    d = y - y0
-    if kind == "delay":
-        k = values[0] / dt
-        idx = np.arange(d.size, dtype=np.float64) - k
-        return y0 + np.interp(idx, np.arange(d.size, dtype=np.float64), d, left=0.0)
-    if kind == "lag":
-        a = math.exp(-dt / values[0])
-        return y0 + _lowpass(d, [1.0 - a], [1.0, -a])
-    if kind == "resonance":
-        import scipy.signal as ss
-
-        f, z = values
-        fs = 1.0 / dt
-        wn = 2 * fs * math.tan(math.pi * min(f, 0.45 * fs) / fs)
-        b, a = ss.bilinear([wn * wn], [1.0, 2 * z * wn, wn * wn], fs)
-        return y0 + _lowpass(d, list(b), list(a))
-    raise ValueError(f"unknown output dynamics kind {kind!r}; known: {', '.join(KINDS)}")
+    return np.asarray(stage(*values).simulate(y, dt=dt).y)
 
 
 def _grid(kind: str, dt: float) -> list[tuple[float, ...]]:
