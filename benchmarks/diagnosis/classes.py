@@ -232,7 +232,7 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
         "found": found,
         "claims": claims,
         "recovery": parameter_recovery(claims, hidden),
-        "suggestive": [g["effect"] for g in res.suggestive],
+        "suggestive": res.suggested_names,
         "recording_specific": [
             {"name": r.name, "loro_mse_reduction": r.loro_mse_reduction,
              "per_recording": jsonable(list(r.per_recording))}

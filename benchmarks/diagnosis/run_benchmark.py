@@ -311,7 +311,7 @@ def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[di
                     "class": cls, "noise": noise, "seed": 200 + seed,
                     "area_growth": area[-1] / area[0] - 1.0,
                     "found": [f.name for f in res.effects],
-                    "suggestive": [g["effect"] for g in res.suggestive],
+                    "suggestive": res.suggested_names,
                     "untestable": [u["name"] for u in res.untestable],
                     "ambiguous_with_rate": [a["effects"][0] for a in res.ambiguous
                                             if "rate" in a["effects"][1:]],

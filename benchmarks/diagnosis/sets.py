@@ -164,7 +164,7 @@ def run_case(case: str) -> dict[str, Any]:
                     "parameters": jsonable(e.parameters), "uncertainty": jsonable(e.uncertainty)}
                    for e in res.effects],
         "ambiguous": [list(a["effects"]) for a in res.ambiguous],
-        "suggestive": [g["effect"] for g in res.suggestive],
+        "suggestive": res.suggested_names,
         "untestable": [u["name"] for u in res.untestable],
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),
         "residual_pct": None if res.adequacy is None else float(res.adequacy.pct),

@@ -102,7 +102,10 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     its own signature (rule 9), that kind is the one named, with the others still
     ambiguous; the finding says which events the evidence came from. A step never makes
     a dynamic name by itself: with fewer than ``min_events`` events it is suggestive, and
-    nothing is named when rules 1-16 name no output dynamics.
+    nothing is named when rules 1-16 name no output dynamics. Then, with fewer than
+    ``min_events`` steps all showing one kind, that kind is reported as suggestive, not
+    claimed, with its values fitted on the steps, the steps it was seen after and the
+    experiment that would decide (more input steps).
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.

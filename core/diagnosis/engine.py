@@ -65,7 +65,7 @@ from .data import as_records, crossfit_folds, split_masks
 from .judge import choose, fewer_parameters_on_same_rows, judge_round, lookahead, remaining
 from .locate import residual_maps
 from .lookalikes import untestable_effects
-from .recheck import polish_dynamics
+from .recheck import polish_dynamics, suggest_after_steps
 from .registry import EFFECTS, rate_effect
 from .results import ACCEPT_RULE, BaseChoice, DiagnosisResult, EffectFinding, RecordingSpecific
 from .scoring import (
@@ -189,6 +189,7 @@ def diagnose(
                       base_fit.structure.free_weights, found=cur.structure.effects)
     crossval = crossval_scores(ctx, base_fit, cur)
     refit = None if windows else _refit_everywhere(ctx, cur)
+    after_steps = suggest_after_steps(run_, cur)
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
@@ -200,7 +201,8 @@ def diagnose(
         split=split, noise_rms=run_.noise, elapsed_s=_time.perf_counter() - t_start,
         model_name=model, loro_baseline=loro.baseline, loro_final=loro.final,
         crossval=crossval, adequacy=adequacy, between=run_.between, refit=refit,
-        recording_specific=_specific(run_, loro.specific), base_choice=base_choice)
+        recording_specific=_specific(run_, loro.specific), base_choice=base_choice,
+        after_steps=after_steps)
 
 
 def _baseline(ctx: FitContext, base: str, n_operators: int, auto_resolution: bool

@@ -56,6 +56,7 @@ __all__ = [
     "KindEvidence",
     "RestNoise",
     "StepResponse",
+    "StepSuggestion",
     "event_response",
     "kind_prediction",
     "rest_noise",
@@ -64,7 +65,9 @@ __all__ = [
 #: The output dynamics kinds judged, in the order of notes §4.3.
 KINDS = ("delay", "lag", "resonance")
 #: The model algebra's stage of each kind (its values in the order of its fields).
-_STAGES = {"delay": Delay, "lag": Lag, "resonance": Resonance}
+_STAGES: dict[str, type[Delay | Lag | Resonance]] = {
+    "delay": Delay, "lag": Lag, "resonance": Resonance,
+}
 #: One-sided 1 % normal quantile: an event counts for a kind (or a kind beats a look-alike
 #: on it) when the reduction of its squared error is this many standard deviations above 0.
 Z_ONE_SIDED = 2.326
@@ -298,6 +301,57 @@ class StepResponse:
 
 
 @dataclass(frozen=True)
+class StepSuggestion:
+    """An output dynamics kind every input step shows, on fewer steps than a name needs.
+
+    Attributes
+    ----------
+    kind : str
+        ``"delay"``, ``"lag"`` or ``"resonance"``.
+    values : tuple of float
+        Its values fitted on the steps' rows (the median over the steps): ``(delay_s,)``,
+        ``(tau_s,)`` or ``(freq_hz, damping)``.
+    steps_s : tuple of float
+        Times of the input steps it was seen after (s from the record's first sample).
+    ambiguous_with : tuple of str
+        Kinds a step does not tell it apart from.
+    min_events : int
+        Fewest independent events a name needs.
+    """
+
+    kind: str
+    values: tuple[float, ...]
+    steps_s: tuple[float, ...]
+    ambiguous_with: tuple[str, ...]
+    min_events: int
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Its values by the stage's field names (``delay_s``, ``tau_s``, ``freq_hz``,
+        ``damping``)."""
+        names = [f.name for f in _STAGES[self.kind].fields]
+        return dict(zip(names, self.values, strict=True))
+
+    @property
+    def text(self) -> str:
+        """What was seen, where, and what experiment would decide, in words."""
+        at = ", ".join(f"{t:.3g} s" for t in self.steps_s)
+        amb = (
+            f", not told apart from {' or '.join(_NAMES[k] for k in self.ambiguous_with)}"
+            if self.ambiguous_with
+            else ""
+        )
+        n = len(self.steps_s)
+        return (
+            f"{_WORDS[self.kind]} ({_values(self.kind, self.values)}) after the input "
+            f"step{'s' if n > 1 else ''} at {at}{amb}: seen after {n} input "
+            f"step{'s' if n > 1 else ''}, fewer than the {self.min_events} independent "
+            "events a name needs; a recording with more input steps (each held out in "
+            "turn) would decide"
+        )
+
+
+@dataclass(frozen=True)
 class EventResponse:
     """The output dynamics the events of one recording show.
 
@@ -340,6 +394,33 @@ class EventResponse:
         if len(kinds) != 1 or None in kinds or any(st.ambiguous_with for st in self.steps):
             return None
         return next(iter(kinds))
+
+    def step_suggestion(self, dt: float) -> StepSuggestion | None:
+        """The kind every input step shows on its own rows, when the steps are fewer than
+        ``min_events`` (so it is suggestive whatever its size); ``None`` without steps, with
+        ``min_events`` or more of them, or when a step shows none or they disagree.
+
+        Parameters
+        ----------
+        dt : float
+            Sampling interval (s).
+        """
+        if not self.steps or len(self.steps) >= self.min_events:
+            return None
+        kinds = {st.kind for st in self.steps}
+        if len(kinds) != 1 or None in kinds:
+            return None
+        kind = next(iter(kinds))
+        assert kind is not None
+        vals = np.median(np.array([st.values[kind] for st in self.steps]), axis=0)
+        amb = tuple(k for k in KINDS if any(k in st.ambiguous_with for st in self.steps))
+        return StepSuggestion(
+            kind,
+            tuple(float(v) for v in vals),
+            tuple(st.start * dt for st in self.steps),
+            amb,
+            self.min_events,
+        )
 
     def where(self, dt: float) -> str:
         """Where the evidence came from, in words (times in s): the kind seen after the

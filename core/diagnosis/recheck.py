@@ -29,7 +29,7 @@ from .candidates import stage_pair as build_pair
 from .context import FitContext
 from .crossfitting import ambiguous_parameters
 from .data import ANY_BLOCK_S, crossfit_folds
-from .eventresponse import MAX_STEP_DT_S, EventResponse, event_response
+from .eventresponse import MAX_STEP_DT_S, EventResponse, StepSuggestion, event_response
 from .events import Excitation, excitation
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
@@ -123,6 +123,19 @@ def recheck_dynamics(run: Run, cur: Fit, finding: EffectFinding, rnd: int) -> Fi
         if named is not None:
             return named
     return fit
+
+
+def suggest_after_steps(run: Run, cur: Fit) -> StepSuggestion | None:
+    """The output dynamics kind the input steps of the one recording show on top of the
+    final fit ``cur`` when it has no output dynamics (rule 18: with fewer than
+    ``min_events`` steps, suggestive; :meth:`EventResponse.step_suggestion`), ``None``
+    otherwise or where :func:`_after_events` judges nothing."""
+    if cur.structure.dynamics:
+        return None
+    after = _after_events(run, cur)
+    if after is None:
+        return None
+    return after.step_suggestion(float(run.ctx.records[0].t[1] - run.ctx.records[0].t[0]))
 
 
 def _after_events(run: Run, base: Fit) -> EventResponse | None:

@@ -153,6 +153,8 @@ def _not_claimed_lines(res: DiagnosisResult) -> list[str]:
                      f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
                      f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
                      "acceptance rule)")
+    if res.after_steps is not None:
+        lines.append(f"Suggestive, not claimed: {res.after_steps.text}")
     for rs in res.recording_specific:
         per = ", ".join(f"{p['recording']} {p['rmse_before']:.4g} -> {p['rmse_after']:.4g}"
                         for p in rs.per_recording)

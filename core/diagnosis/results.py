@@ -19,6 +19,7 @@ from .adequacy import Adequacy
 from .between import BetweenPlan
 from .candidates import build_candidate
 from .context import FitContext
+from .eventresponse import StepSuggestion
 from .registry import EFFECTS
 from .stats import HeldOut, ljung_box
 from .structure import Fit, PIStageOutputs, Structure
@@ -396,6 +397,9 @@ class DiagnosisResult:
     #: effects that passed on the recordings they were fitted on but did not generalise to
     #: unseen recordings (leave-one-recording-out worse): not claimed, not in the model
     recording_specific: list[RecordingSpecific] = field(default_factory=list)
+    #: an output dynamics kind the input steps show, on fewer steps than a name needs and
+    #: with no output dynamics named (rule 18): suggestive, with where and what would decide
+    after_steps: StepSuggestion | None = None
     #: how the base hysteresis was chosen (PI or a Preisach with level-dependent memory)
     base_choice: BaseChoice | None = None
 
@@ -435,6 +439,15 @@ class DiagnosisResult:
             and not r.effect.startswith(("resolution", "recheck"))
             for d in (r.to_dict(),)
         ]
+
+    @property
+    def suggested_names(self) -> list[str]:
+        """Names of every effect suggested and not claimed: :attr:`suggestive`, then the kind
+        the input steps show (:attr:`after_steps`) when not among them."""
+        names = [g["effect"] for g in self.suggestive]
+        if self.after_steps is not None and self.after_steps.kind not in names:
+            names.append(self.after_steps.kind)
+        return names
 
     def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
         """Fit effect ``name`` on top of the final model although it was not claimed.
@@ -530,6 +543,10 @@ class DiagnosisResult:
         ``suggestive``
             Effects of the last round with >= 5 % held-out MSE reduction that failed the
             significance rule (not claimed).
+        ``suggestive_after_steps``
+            ``{"effect", "parameters", "steps_s", "ambiguous_with", "text"}``: an output
+            dynamics kind every input step shows on fewer steps than a name needs, when no
+            output dynamics is named (not claimed); ``null`` otherwise.
         ``tested``
             Every candidate of every round with its held-out gain, z and decision.
         ``accept_rule``
@@ -558,6 +575,13 @@ class DiagnosisResult:
             "ambiguous": _jsonable(self.ambiguous),
             "final": self._final_dict(yr),
             "suggestive": _jsonable(self.suggestive),
+            "suggestive_after_steps": None if self.after_steps is None else {
+                "effect": self.after_steps.kind,
+                "parameters": self.after_steps.parameters,
+                "steps_s": list(self.after_steps.steps_s),
+                "ambiguous_with": list(self.after_steps.ambiguous_with),
+                "text": self.after_steps.text,
+            },
             "tested": _jsonable([r.to_dict() for r in self.rounds]),
             "accept_rule": ACCEPT_RULE,
             "elapsed_s": self.elapsed_s,

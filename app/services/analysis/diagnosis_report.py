@@ -195,6 +195,9 @@ def write_report(res: Any, path: str | Path, units: dict[str, str] | None = None
                          + (f"; with the cross-fitted training blocks DM z = "
                             f"{g['dm_z_pooled']:.2f}" if "dm_z_pooled" in g else "") + "</li>"
                          for g in d["suggestive"]) + "</ul>")
+    if d.get("suggestive_after_steps"):
+        parts.append("<h2>Seen after too few input steps, not claimed</h2><p>"
+                     + html.escape(d["suggestive_after_steps"]["text"]) + ".</p>")
     if d["ambiguous"]:
         parts.append("<h2>Ambiguous</h2><ul>" + "".join(
             f"<li>{html.escape(' vs '.join(a['effects']))}: {html.escape(a['reason'])}. "
