@@ -89,6 +89,30 @@ def test_added_mode_rings_at_its_frequency_on_the_one_step(piezo, null, freq) ->
     assert abs(np.log(f / null.steps[0].values["resonance"][0])) > np.log(1.4)
 
 
+def test_one_step_suggests_the_mode_it_rings_with(piezo, null) -> None:
+    """With one input step the kind the step shows is a suggestion at its values, naming
+    the step and the experiment that would decide; with as many steps as a name needs it is
+    no suggestion (the held-out events decide there)."""
+    rec, yh = piezo
+    er = event_response(_with(rec, oe.mode(rec.y, 550.0, 0.04, DT)), yh)
+    assert er is not None
+    sg = er.step_suggestion(DT)
+    # fails without EventResponse.step_suggestion
+    assert sg is not None and sg.kind == "resonance" and sg.ambiguous_with == ()
+    assert sg.parameters["freq_hz"] == pytest.approx(550.0, rel=0.1)
+    assert sg.steps_s == pytest.approx((3.2572,), abs=1e-3)
+    assert "3.26 s" in sg.text and "more input steps" in sg.text and "a mode" in sg.text
+    # the unmodified recording's own ringing after its step (~900 Hz) is suggested too: the
+    # device's own mode, real, and suggestive on one step
+    own = null.step_suggestion(DT)
+    assert own is not None and own.kind == "resonance"
+    assert own.parameters["freq_hz"] == pytest.approx(900.0, rel=0.15)
+    # fails without the count of steps: six steps of a dead time are a name's business
+    stairs = _staircase(6, [10] * 6)
+    six = event_response(stairs, 0.5 * stairs.u)
+    assert six is not None and six.step_kind == "delay" and six.step_suggestion(DT) is None
+
+
 def test_dead_time_shows_no_response_for_its_length(piezo, null) -> None:
     rec, yh = piezo
     er = event_response(_with(rec, oe.dead_time(rec.y, 10)), yh)
