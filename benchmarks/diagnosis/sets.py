@@ -165,6 +165,8 @@ def run_case(case: str) -> dict[str, Any]:
                    for e in res.effects],
         "ambiguous": [list(a["effects"]) for a in res.ambiguous],
         "suggestive": res.suggested_names,
+        "after_steps": None if res.after_steps is None else {
+            "effect": res.after_steps.kind, "parameters": res.after_steps.parameters},
         "untestable": [u["name"] for u in res.untestable],
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),
         "residual_pct": None if res.adequacy is None else float(res.adequacy.pct),
