@@ -679,7 +679,7 @@ def _json_types() -> tuple[type, ...]:
     from .adequacy import LoopShapeFit
 
     return (DiagnosisResult, EffectFinding, RoundRow, BaseChoice, RecordingSpecific, Fit,
-            Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording)
+            Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording, StepSuggestion)
 
 
 def pooled_mse(es: Sequence[Float1D]) -> float:
