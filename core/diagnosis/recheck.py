@@ -30,7 +30,7 @@ from .context import FitContext
 from .crossfitting import ambiguous_parameters
 from .data import ANY_BLOCK_S, crossfit_folds
 from .eventresponse import MAX_STEP_DT_S, EventResponse, StepSuggestion, event_response
-from .events import Excitation, excitation
+from .events import Excitation, excitation, step_starts
 from .finding import make_finding
 from .registry import EFFECTS, dynamics_of, output_dynamics, stage_pairs
 from .results import EffectFinding, RoundRow, pooled_mse
@@ -130,7 +130,10 @@ def suggest_after_steps(run: Run, cur: Fit) -> StepSuggestion | None:
     final fit ``cur`` when it has no output dynamics (rule 18: with fewer than
     ``min_events`` steps, suggestive; :meth:`EventResponse.step_suggestion`), ``None``
     otherwise or where :func:`_after_events` judges nothing."""
-    if cur.structure.dynamics:
+    if cur.structure.dynamics or len(run.ctx.records) != 1:
+        return None
+    # no step, or enough steps for the held-out rules: nothing to suggest (not judged)
+    if not 0 < step_starts(run.ctx.records[0].u).size < RULE.min_events:
         return None
     after = _after_events(run, cur)
     if after is None:
