@@ -67,6 +67,8 @@ from .locate import residual_maps
 from .lookalikes import untestable_effects
 from .recheck import polish_dynamics, suggest_after_steps
 from .registry import EFFECTS, rate_effect
+from .residualpeak import residual_peak
+from .residualpeak import untestable_entry as unexcited_mode_entry
 from .results import ACCEPT_RULE, BaseChoice, DiagnosisResult, EffectFinding, RecordingSpecific
 from .scoring import (
     crossval_scores,
@@ -82,6 +84,9 @@ from .stats import noise_floor
 from .structure import Fit
 
 __all__ = ["ACCEPT_RULE", "DiagnosisResult", "EffectFinding", "diagnose"]
+
+#: The output mode's effect name (a mode the input does not excite is said untestable).
+_RESONANCE = "resonance"
 
 
 def diagnose(
@@ -176,9 +181,11 @@ def diagnose(
     base_fit, requested, base_choice = _baseline(ctx, base, n_operators, auto_resolution)
     say(0.1, f"baseline: {len(base_fit.structure.thresholds)} operators")
     run_, todo = _start_run(ctx, base_fit, todo, max_effects, windows, say)
+    tested = list(todo)
     cur, todo = _rounds(run_, base_fit, todo, max_effects,
                         4 * n_operators if auto_resolution else 0)
     cur = polish_dynamics(ctx, cur, run_.findings)
+    run_.untestable.extend(_unexcited_mode(records, cur, run_, tested))
     say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
                                           if run_.findings else ""))
     cur, loro = _across_recordings(run_, base_fit, cur, windows)
@@ -293,6 +300,18 @@ def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:
     every = [a | b for a, b in zip(ctx.train, ctx.test, strict=True)]
     full = FitContext(ctx.records, every, [np.zeros_like(m) for m in every], parent=ctx)
     return full.fit(cur.structure, cur)
+
+
+def _unexcited_mode(records: list, cur: Fit, run_: Run, tested: list[str]
+                    ) -> list[dict[str, str]]:
+    """The untestable entry of a lightly damped mode the input does not excite
+    (:func:`~core.diagnosis.residualpeak.residual_peak`), when the resonance was tested and
+    neither named nor left ambiguous with what was named; else nothing."""
+    if _RESONANCE not in tested or any(
+            f.name == _RESONANCE or _RESONANCE in f.ambiguous_with for f in run_.findings):
+        return []
+    pk = residual_peak(records, cur.pred)
+    return [] if pk is None else [unexcited_mode_entry(pk)]
 
 
 def _effects_to_test(model: str, effects: Sequence[str] | None) -> list[str]:

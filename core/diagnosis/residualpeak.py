@@ -1,0 +1,235 @@
+"""A lightly damped mode the input does not excite: a narrow peak in the residual's spectrum.
+
+A mode after the hysteresis filters everything the output carries, the part the input
+drives and the part the base misses (a friction damper's chatter, the noise). When the
+input has no energy near the mode's frequency (a slow tapered sine, no steps), the part
+the input drives there is smaller than the base's own misfit, so a mode fitted to the
+base's prediction cannot improve the held-out rows, and the resonance candidate fails
+every rule: the mode is *untestable* as a stage after the hysteresis. It is still seen as
+a narrow peak in the residual's spectrum, where the base's misfit is amplified by about
+``1 / (2 zeta)``, and the report says so, with the experiment that would decide (notes
+§2.3, §4.2), instead of staying silent.
+
+The peak counts only when it is found, narrow and prominent, in at least two thirds of the
+halves of the recordings (both halves of a single one), each half on its own, at frequencies
+that agree within :data:`FREQ_AGREE`, and where the input drives little of that band: what such a
+mode adds to the base's prediction there is under :data:`MAX_DRIVEN` of the residual's RMS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..recordings import Recording
+from .eventresponse import kind_prediction
+
+__all__ = ["FREQ_AGREE", "LIGHT_DAMPING", "MAX_DRIVEN", "MIN_SHARE", "ResidualPeak", "peak_in",
+           "residual_peak", "untestable_entry"]
+
+#: Largest damping ratio of a peak counted as a lightly damped mode: its equivalent width
+#: (:func:`peak_in`) is at most ``2 * LIGHT_DAMPING * f`` (plus 1.5 frequency bins, what the
+#: window spreads a line over) and its peak stands at least
+#: ``1 / (2 * LIGHT_DAMPING)**2`` (39) above the median of the band [f / 2, 2 f], what such a
+#: mode does to a broadband excitation. The friction damper's own residual (its chatter)
+#: peaks 25-50x above it, 0.1-0.2 wide.
+LIGHT_DAMPING = 0.08
+#: Smallest share of the halves of the recordings the peak must be found in (and at least
+#: two): with one recording, both halves.
+MIN_SHARE = 2.0 / 3.0
+#: Largest relative spread of the peak frequencies found in the halves of the recordings.
+FREQ_AGREE = 0.1
+#: Largest share of the residual's RMS near the peak that the mode, acting on the base's
+#: prediction, would explain for it to be called undriven (its MSE at most a quarter of it).
+MAX_DRIVEN = 0.5
+#: Lowest peak frequency searched, in multiples of the input's dominant frequency.
+_ABOVE_INPUT = 5.0
+#: Longest Welch segment, s, and fewest segments per half recording.
+_SEGMENT_S = 1.0
+_MIN_SEGMENTS = 3
+
+
+@dataclass(frozen=True)
+class ResidualPeak:
+    """A lightly damped peak in the residual's spectrum that the input does not excite.
+
+    Attributes
+    ----------
+    freq_hz : float
+        Median of the peak frequencies of the halves, Hz.
+    damping : float
+        Median of the damping ratios estimated from the halves' equivalent widths (at least
+        the window's spread of a line: an upper bound for a mode lighter than that).
+    prominence : float
+        Smallest ratio of the peak's power spectral density to the median of [f/2, 2f].
+    input_share : float
+        The input's RMS in [f/1.5, 1.5 f] as a share of its range (largest recording).
+    driven : float
+        What the mode adds to the base's prediction in that band (the part the input
+        drives), RMS over the residual's there (largest recording).
+    halves : int
+        Independent halves it was found in.
+    of_halves : int
+        Halves searched.
+    """
+
+    freq_hz: float
+    damping: float
+    prominence: float
+    input_share: float
+    driven: float
+    halves: int
+    of_halves: int
+
+
+def _psd(x: np.ndarray, dt: float, nseg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch power spectral density of ``x`` (Hann windows of ``nseg`` samples, half overlap)."""
+    from scipy.signal import welch
+
+    f, p = welch(np.asarray(x, dtype=np.float64), fs=1.0 / dt, nperseg=nseg)
+    return f, p
+
+
+def _band_rms(x: np.ndarray, dt: float, lo: float, hi: float) -> float:
+    """RMS of ``x`` (mean removed) between ``lo`` and ``hi`` Hz (periodogram)."""
+    n = x.size
+    f = np.fft.rfftfreq(n, dt)
+    spec = np.abs(np.fft.rfft(x - x.mean())) ** 2
+    m = (f >= lo) & (f <= hi)
+    return float(np.sqrt(2.0 * np.sum(spec[m])) / n)
+
+
+def peak_in(e: np.ndarray, dt: float, fmin: float) -> tuple[float, float, float] | None:
+    """The most prominent peak of residual ``e`` above ``fmin`` Hz when it is a lightly damped
+    mode's: prominent, and narrow by its equivalent width (its area above the median of
+    [f/2, 2 f] over its height, times 2 / pi: a mode's half-power width, a flat band's
+    width times 2 / pi).
+
+    Parameters
+    ----------
+    e : ndarray, shape (n,)
+        Residual samples (output units).
+    dt : float
+        Sample interval, s.
+    fmin : float
+        Lowest frequency searched, Hz (the highest is a quarter of the sampling rate).
+
+    Returns
+    -------
+    (freq_hz, damping, prominence) or None
+        None when no peak is both narrow (damping <= :data:`LIGHT_DAMPING`) and prominent.
+    """
+    nseg = int(min(round(_SEGMENT_S / dt), e.size // (_MIN_SEGMENTS // 2 + 1)))
+    if nseg < 32:
+        return None
+    f, p = _psd(e, dt, nseg)
+    df = float(f[1] - f[0])
+    fmax = 0.25 / dt
+    m = np.flatnonzero((f >= max(fmin, 4 * df)) & (f <= fmax))
+    if m.size < 3:
+        return None
+    # the height over three bins: the largest of many estimated bins is biased upwards
+    ps = np.convolve(p, np.ones(3) / 3.0, mode="same")
+    i = int(m[np.argmax(ps[m])])
+    f0 = float(f[i])
+    local = (f >= f0 / 2) & (f <= 2 * f0)
+    med = float(np.median(p[local]))
+    prom = float(ps[i] / max(med, 1e-300))
+    # equivalent width: the peak's area above the surroundings' median over its height; a
+    # mode's (Lorentzian) half-power width w has area (pi / 2) w height, a flat band of
+    # width w has w height (robust to the ragged top of an estimated spectrum); a line
+    # spread by the window over three bins has about 1.5 bins
+    area = float(np.sum(np.clip(p[local] - med, 0.0, None))) * df
+    width = 2.0 * area / (np.pi * max(float(ps[i]) - med, 1e-300))
+    zeta = width / (2.0 * f0)
+    if zeta > LIGHT_DAMPING + 1.5 * df / (2.0 * f0) or prom < 1.0 / (2.0 * LIGHT_DAMPING) ** 2:
+        return None
+    return f0, zeta, prom
+
+
+def _dominant_hz(u: np.ndarray, dt: float) -> float:
+    """The input's strongest frequency, Hz (its periodogram's peak, DC left out)."""
+    f = np.fft.rfftfreq(u.size, dt)
+    spec = np.abs(np.fft.rfft(u - u.mean()))
+    return float(f[1 + int(np.argmax(spec[1:]))]) if spec.size > 1 else 0.0
+
+
+def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualPeak | None:
+    """A lightly damped peak in the residual ``y - pred`` that the input does not excite.
+
+    Found in at least :data:`MIN_SHARE` of the halves of the recordings (and two), each half
+    on its own, at frequencies that agree within :data:`FREQ_AGREE`, at least
+    :data:`_ABOVE_INPUT` times above the input's dominant frequency, where what such a mode
+    adds to the base's prediction (the part the input drives) is less than
+    :data:`MAX_DRIVEN` of the residual's RMS in [f/1.5, 1.5 f].
+
+    Parameters
+    ----------
+    records : list of Recording
+        Recordings with a time axis.
+    pred : list of ndarray, shape (n_i,)
+        The model's prediction of each recording's output.
+
+    Returns
+    -------
+    ResidualPeak or None
+    """
+    found: list[tuple[float, float, float]] = []
+    n_parts = 0
+    for rec, p in zip(records, pred, strict=True):
+        if not rec.has_time or rec.t.size < 64:
+            return None
+        dt = float(rec.t[1] - rec.t[0])
+        fmin = _ABOVE_INPUT * _dominant_hz(np.asarray(rec.u, dtype=np.float64), dt)
+        e = np.asarray(rec.y, dtype=np.float64) - np.asarray(p, dtype=np.float64)
+        half = e.size // 2
+        for part in (e[:half], e[half:]):
+            n_parts += 1
+            pk = peak_in(part, dt, fmin)
+            if pk is not None:
+                found.append(pk)
+    if len(found) < max(2, math.ceil(MIN_SHARE * n_parts)):
+        return None
+    freqs = np.array([f for f, _, _ in found])
+    f0 = float(np.median(freqs))
+    if np.max(np.abs(freqs - f0)) > FREQ_AGREE * f0:
+        return None
+    zeta = min(z for _, z, _ in found)  # the closest to the mode's own (widths are bounds)
+    share, driven = 0.0, 0.0
+    for rec, p in zip(records, pred, strict=True):
+        dt = float(rec.t[1] - rec.t[0])
+        u, yh = np.asarray(rec.u, dtype=np.float64), np.asarray(p, dtype=np.float64)
+        e = np.asarray(rec.y, dtype=np.float64) - yh
+        share = max(share, _band_rms(u, dt, f0 / 1.5, 1.5 * f0) / max(float(np.ptp(u)), 1e-300))
+        # what such a mode adds to the base's prediction: the part of the band the input drives
+        added = kind_prediction("resonance", (f0, zeta), yh, dt) - yh
+        driven = max(driven, _band_rms(added, dt, f0 / 1.5, 1.5 * f0)
+                     / max(_band_rms(e, dt, f0 / 1.5, 1.5 * f0), 1e-300))
+    if driven >= MAX_DRIVEN:
+        return None  # the input drives the band: the resonance candidate's own verdict stands
+    return ResidualPeak(f0, float(np.median([z for _, z, _ in found])),
+                        min(pr for _, _, pr in found),
+                        share, driven, len(found), n_parts)
+
+
+def untestable_entry(pk: ResidualPeak) -> dict[str, str]:
+    """The ``untestable`` entry of the report for peak ``pk`` (name, reason, experiment)."""
+    f = pk.freq_hz
+    return {
+        "name": "resonance",
+        "reason": (
+            f"a lightly damped peak at about {f:.3g} Hz (damping about {pk.damping:.2g}, "
+            f"{pk.prominence:.3g}x the spectrum around it) is in the residual of {pk.halves} "
+            f"of {pk.of_halves} halves of the recordings, each on its own, but the input has "
+            f"no energy there ({100 * pk.input_share:.2g} % of its range between "
+            f"{f / 1.5:.3g} and {1.5 * f:.3g} Hz; such a mode acting on the model's "
+            f"prediction explains {100 * pk.driven:.2g} % of the residual's RMS there), so "
+            "a mode after the hysteresis cannot be told from the output's own unmodelled "
+            "vibration or an interference at that frequency"),
+        "experiment": (
+            f"input steps with rests before them, or a sine sweep through {f / 2:.3g}-"
+            f"{2 * f:.3g} Hz at a small amplitude: a mode rings at its frequency after each "
+            "step and peaks in the output over input there"),
+    }

@@ -1,0 +1,137 @@
+"""A lightly damped mode the input does not excite (core.diagnosis.residualpeak): said
+untestable, with its frequency and the experiment that would decide, instead of nothing.
+
+Synthetic: a slow sine through a friction-like (tanh) loop plus broadband "chatter" the base
+cannot predict, with and without a 45 Hz mode on the output. Measured: the shipped 36 lb
+friction damper (1 Hz tapered sine) with a 45 Hz mode applied to its measured output, the
+unmodified recording as the null (benchmarks.diagnosis.measured)."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from benchmarks.diagnosis import output_effects as oe
+from benchmarks.diagnosis.measured import make_measured
+from core.diagnosis.residualpeak import (
+    FREQ_AGREE,
+    LIGHT_DAMPING,
+    peak_in,
+    residual_peak,
+    untestable_entry,
+)
+from core.recordings import Recording
+
+DT = 1.0 / 1024
+
+
+def _plant(seed: int, mode_hz: float | None) -> tuple[Recording, np.ndarray]:
+    """A 1 Hz sine into a friction-like loop (its prediction) and the measured output: the
+    loop plus unpredictable broadband chatter, through a 0.04-damped mode if given."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(8192) * DT
+    u = np.sin(2 * np.pi * t)
+    yh = np.tanh(8 * np.gradient(u, DT) / (2 * np.pi))  # plateaus switching at reversals
+    y = yh + 0.02 * rng.standard_normal(t.size)
+    if mode_hz is not None:
+        y = oe.mode(y, mode_hz, 0.04, DT)
+    return Recording(t, u, y, "sim"), yh
+
+
+def test_peak_found_only_with_the_mode() -> None:
+    rec, yh = _plant(1, 45.0)
+    pk = residual_peak([rec], [yh])
+    assert pk is not None
+    assert abs(pk.freq_hz - 45.0) <= FREQ_AGREE * 45.0
+    assert pk.damping <= LIGHT_DAMPING + 0.05
+    assert pk.halves == 2
+    assert pk.driven < 0.5
+    e = untestable_entry(pk)
+    assert e["name"] == "resonance" and "no energy" in e["reason"] and "sweep" in e["experiment"]
+    # the same chatter without the mode: white, no peak
+    rec0, yh0 = _plant(1, None)
+    assert residual_peak([rec0], [yh0]) is None
+
+
+def test_broad_peak_is_not_a_mode() -> None:
+    """Chatter through a well-damped (0.3) resonance peaks, but not like a light mode; chatter
+    over an octave (30-60 Hz, flat) stands far above its surroundings, but is too wide for one."""
+    import scipy.signal as ss
+
+    rec, yh = _plant(2, None)
+    wide = yh + oe.mode(rec.y - yh, 45.0, 0.3, DT)
+    assert peak_in(wide - yh, DT, 5.0) is None
+    assert residual_peak([Recording(rec.t, rec.u, wide, "w")], [yh]) is None
+    sos = ss.butter(8, [30.0, 60.0], btype="bandpass", fs=1 / DT, output="sos")
+    band = 0.001 * (rec.y - yh) + ss.sosfiltfilt(sos, rec.y - yh)
+    assert peak_in(band, DT, 5.0) is None
+    assert residual_peak([Recording(rec.t, rec.u, yh + band, "b")], [yh]) is None
+
+
+def test_both_halves_must_show_it() -> None:
+    """A mode in the first half only (an event in one stretch) is not confirmed by the other."""
+    rec, yh = _plant(3, None)
+    y = rec.y.copy()
+    h = y.size // 2
+    y[:h] = yh[:h] + oe.mode(rec.y[:h] - yh[:h], 45.0, 0.04, DT)
+    assert peak_in(y[:h] - yh[:h], DT, 5.0) is not None
+    assert residual_peak([Recording(rec.t, rec.u, y, "h")], [yh]) is None
+    # a peak in each half, at 45 and at 30 Hz: not one mode
+    y = y.copy()
+    y[h:] = yh[h:] + oe.mode(rec.y[h:] - yh[h:], 30.0, 0.04, DT)
+    assert peak_in(y[h:] - yh[h:], DT, 5.0) is not None
+    assert residual_peak([Recording(rec.t, rec.u, y, "h")], [yh]) is None
+
+
+def _halves_with_mode(seed: int, with_mode: tuple[bool, bool]) -> tuple[Recording, np.ndarray]:
+    rec, yh = _plant(seed, None)
+    y = rec.y.copy()
+    h = y.size // 2
+    for k, on in enumerate(with_mode):
+        s = slice(0, h) if k == 0 else slice(h, None)
+        if on:
+            y[s] = yh[s] + oe.mode(rec.y[s] - yh[s], 45.0, 0.04, DT)
+    return Recording(rec.t, rec.u, y, f"r{seed}"), yh
+
+
+def test_two_thirds_of_the_halves_of_several_recordings() -> None:
+    """Three recordings: the mode in 5 of 6 halves is found (one half's own misfit may hide
+    it), in 3 of 6 it is not."""
+    five = [_halves_with_mode(10 + i, m) for i, m in
+            enumerate([(True, True), (True, True), (True, False)])]
+    pk = residual_peak([r for r, _ in five], [p for _, p in five])
+    assert pk is not None and (pk.halves, pk.of_halves) == (5, 6)
+    three = [_halves_with_mode(10 + i, m) for i, m in
+             enumerate([(True, True), (True, False), (False, False)])]
+    assert residual_peak([r for r, _ in three], [p for _, p in three]) is None
+
+
+def test_driven_band_is_left_to_the_candidate() -> None:
+    """Where the base's prediction carries the band (the input excites the mode), the peak is
+    not said untestable: the resonance candidate's own verdict stands."""
+    rec, yh = _plant(4, 45.0)
+    t = rec.t
+    drive = 2.0 * np.sin(2 * np.pi * 45.0 * t)
+    yh2 = yh + drive
+    y2 = rec.y + oe.mode(drive, 45.0, 0.04, DT)
+    assert residual_peak([Recording(t, rec.u, y2, "d")], [yh2]) is None
+
+
+@pytest.mark.slow
+def test_friction_damper_mode_said_untestable() -> None:
+    """36 lb damper: the 45 Hz mode is neither named nor silent; the null says nothing new."""
+    from core.diagnosis import diagnose
+
+    res = diagnose(make_measured("dev/measured/friction-36lb/resonance/mid").records)
+    assert "resonance" not in [e.name for e in res.effects]
+    said = [u for u in res.untestable if u["name"] == "resonance"]
+    assert len(said) == 1
+    m = re.search(r"about ([0-9.]+) Hz", said[0]["reason"])
+    assert m is not None
+    hz = float(m.group(1))
+    assert abs(hz - 45.0) <= FREQ_AGREE * 45.0  # the applied mode's frequency
+    null = diagnose(make_measured("dev/measured/friction-36lb/null").records)
+    assert not null.effects
+    assert "resonance" not in [u["name"] for u in null.untestable]
