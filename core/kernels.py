@@ -184,27 +184,35 @@ def stop_gap_output(u, r, w, k, h, z, s, out, vout):  # pragma: no cover - compi
     0, until the input has crossed the gap and touches its other (or the same) side.
     """
     N = u.shape[0]
+    n = r.shape[0]
     v = s[0]
     x = s[1]
+    z1 = z.copy()  # the plays moved to the contact's side: one buffer, not one a sample
     for t in range(N):
         ut = u[t]
         if abs(x) >= h:  # in contact
             side = 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
-            f0 = _stop_force(v, r, w, k, z)
             vt = ut - side * h
-            z1 = z.copy()
-            _clip_plays(vt, r, z1)
-            ft = _stop_force(vt, r, w, k, z1)
+            # z1 = the plays clipped at vt and ft = the force there (_clip_plays and
+            # _stop_force on a copy, in one pass and the same order of operations)
+            ft = k * vt
+            for i in range(n):
+                zi = max(vt - r[i], min(vt + r[i], z[i]))
+                z1[i] = zi
+                ft += w[i] * (vt - zi)
             if ft * side < 0.0:
-                if f0 * side > 0.0:
+                if _stop_force(v, r, w, k, z) * side > 0.0:
                     v = _branch_zero(v, vt, r, w, k, z, side)
                 _clip_plays(v, r, z)
                 x = ut - v
-            else:
+            else:  # stays in contact: the re-close below would give the same v, z, force
                 v = vt
-                for i in range(r.shape[0]):
+                for i in range(n):
                     z[i] = z1[i]
                 x = side * h
+                out[t] = ft
+                vout[t] = v
+                continue
         else:
             x = ut - v
         if abs(x) >= h:  # (re)closed on the side the input reached
