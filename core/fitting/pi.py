@@ -348,6 +348,11 @@ class PIRegressor(Estimator):
 
     #: Both rules: the pre-wipe-out rows can be left out of the weight fit.
     initial_memory_rules: ClassVar[tuple[str, ...]] = INITIAL_MEMORY_RULES
+    #: Whether ``fit`` scores the fit into ``report_`` (the model simulated, inverted and
+    #: simulated again over every record); off only for the weight fits inside the stop
+    #: model's gap search, of which only the model and offset are read
+    #: (:mod:`core.fitting.stop`).
+    scores_fit: ClassVar[bool] = True
 
     n_operators: int | None = None
     thresholds: str | ArrayLike = "uniform"
@@ -457,6 +462,8 @@ class PIRegressor(Estimator):
         self.min_slope_ = eps
         self.model_ = self._build(fit.p0, r, fit.weights, float(prep.us[0][0]))
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
+        if not self.scores_fit:
+            return
         # scored on the whole training window (rows before the wipe-out time included, when
         # they were left out of the weight fit)
         ev_segs, ev_train, ev_test = (

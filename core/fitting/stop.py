@@ -51,7 +51,7 @@ import dataclasses
 import inspect
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -389,7 +389,7 @@ class StopPIRegressor(PIRegressor):
                                         for v, w in zip(vs, last, strict=True)) <= 1e-6 * b:
                 break  # the elements' input no longer moves: converged
             last = vs
-            est = StopPIRegressor(**params)
+            est = _GapStep(**params)
             with FILTERS, warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 est.fit(vs if prep.multi else vs[0], prep.ys if prep.multi else prep.ys[0],
@@ -436,3 +436,12 @@ class StopPIRegressor(PIRegressor):
     def stiffness_(self) -> float:
         """``k`` of the fitted model (output per input unit)."""
         return float(self.model_.k)
+
+
+class _GapStep(StopPIRegressor):
+    """One weight fit of the gap search (:meth:`StopPIRegressor._gap_fit`): the bank on the
+    elements' input behind a fixed gap, fitted as :class:`StopPIRegressor` (``gap=0``) but
+    not scored (no ``report_``): the search reads only its model and offset, and the width
+    it keeps is scored on the input itself (``_take_gap``)."""
+
+    scores_fit: ClassVar[bool] = False

@@ -208,13 +208,38 @@ def _gap_plant(seed: int, gap: float,
     return u, y + sigma * rng.standard_normal(y.size), sigma
 
 
-def test_the_gap_of_a_stop_plant_is_recovered_from_its_training_rows() -> None:
+@pytest.fixture(scope="module")
+def gap_plant_fit() -> tuple[np.ndarray, np.ndarray, float, StopPIRegressor]:
+    """``_gap_plant(3, 0.12)`` and its default fit (gap and gains searched); the tests only
+    read it."""
     u, y, sigma = _gap_plant(3, 0.12)
-    est = StopPIRegressor().fit(u, y)
+    return u, y, sigma, StopPIRegressor().fit(u, y)
+
+
+def test_the_gap_of_a_stop_plant_is_recovered_from_its_training_rows(gap_plant_fit) -> None:
+    u, y, sigma, est = gap_plant_fit
     assert est.model_.gap == pytest.approx(0.12, rel=0.05)
     assert est.report_.test.rmse < 2.0 * sigma
     assert StopPIRegressor(gap=0.0).fit(u, y).report_.test.rmse > 8 * sigma
     assert "backlash dead band 0.12" in est.features_.text()
+
+
+def test_the_gap_search_finds_the_same_without_scoring_its_steps(gap_plant_fit,
+                                                                  monkeypatch) -> None:
+    """The weight fits inside the gap search are not scored (only their model and offset are
+    read, core.fitting.stop._GapStep): scored, the search gives the same model, widths'
+    training MSEs and report."""
+    import json
+
+    from core.fitting import stop
+
+    u, y, _, est = gap_plant_fit
+    monkeypatch.setattr(stop._GapStep, "scores_fit", True)
+    scored = StopPIRegressor().fit(u, y)
+    assert json.dumps(scored.full_model_.to_dict()) == json.dumps(est.full_model_.to_dict())
+    assert scored.gap_scores_ == est.gap_scores_
+    assert json.dumps(scored.report_.to_dict(), sort_keys=True) == json.dumps(
+        est.report_.to_dict(), sort_keys=True)
 
 
 def test_a_gap_too_small_to_matter_is_not_named() -> None:
@@ -249,9 +274,8 @@ def test_a_slip_force_by_direction_is_recovered_and_named() -> None:
     assert sym.report_.test.rmse > 3.0 * est.report_.test.rmse
 
 
-def test_a_symmetric_plant_gets_no_gain_by_direction() -> None:
-    u, y, _ = _gap_plant(3, 0.12)
-    est = StopPIRegressor().fit(u, y)
+def test_a_symmetric_plant_gets_no_gain_by_direction(gap_plant_fit) -> None:
+    est = gap_plant_fit[3]
     assert est.signed_gain_ is None and "sliding direction" not in est.features_.text()
     # screened out: two gains on the fitted bank lower the training MSE of one by < 10 %
     s = est.report_.extra["signed_training_mse"]
