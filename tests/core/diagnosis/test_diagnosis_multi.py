@@ -46,8 +46,8 @@ def weak_rate():
     return sc.records
 
 
-def test_weak_rate_is_not_named_a_delay_or_lag(weak_rate) -> None:
-    res = diagnose(weak_rate)
+def test_weak_rate_is_not_named_a_delay_or_lag(weak_rate, weak_rate_set_diagnosis) -> None:
+    res = weak_rate_set_diagnosis  # diagnose(weak_rate), shared with test_results_json.py
     assert [f.name for f in res.effects] == []
     rows = {r.effect: r for r in res.rounds if r.round == 1}
     assert rows["delay"].decision == "contradicted" and rows["lag"].decision == "contradicted"
@@ -181,14 +181,13 @@ def test_single_closed_loop_is_steady_state_not_initial_memory() -> None:
 
 
 @pytest.mark.slow
-def test_two_effects_that_hide_each_other_are_both_found() -> None:
+def test_two_effects_that_hide_each_other_are_both_found(
+        resonance_and_drift_diagnosis) -> None:
     """Issue 8, failure 4 (resonance + drift, L2): the resonance explains 92 % of the
     held-out MSE but fails significance while the drift is unmodelled, and the drift alone
     makes the test rows worse; nothing passes on the baseline, so without rule 6 nothing is
     claimed. The drift passes on top of the resonance, the resonance on top of the drift."""
-    from benchmarks.diagnosis.generator import make_combo
-
-    res = diagnose(make_combo(("resonance", "drift"), "white1", 100).records)
+    res = resonance_and_drift_diagnosis  # shared with test_results_json.py (conftest.py)
     assert [f.name for f in res.effects] == ["resonance", "drift"]
     assert "judged on top of drift" in res.effects[0].evidence
     r1 = [r for r in res.rounds if r.round == 1 and ":" not in r.effect]

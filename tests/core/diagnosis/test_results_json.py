@@ -91,12 +91,11 @@ def saturation_and_lag() -> DiagnosisResult:
 
 
 @pytest.fixture(scope="module")
-def periodic_set() -> DiagnosisResult:
+def periodic_set(weak_rate_set_diagnosis) -> DiagnosisResult:
     """Four recordings at different rates: a base choice, between-recordings plans,
-    leave-one-recording-out scores, suggestive rows."""
-    from benchmarks.diagnosis.generator import make_periodic_set
-
-    return diagnose(make_periodic_set(0.0006, seed=201).records)
+    leave-one-recording-out scores, suggestive rows (the diagnosis of
+    ``make_periodic_set(0.0006, seed=201)``, shared with test_diagnosis_multi.py)."""
+    return weak_rate_set_diagnosis
 
 
 def test_the_shipped_piezo_diagnosis_round_trips(piezo) -> None:
@@ -129,12 +128,10 @@ def test_several_recordings_round_trip(periodic_set) -> None:
 
 
 @pytest.mark.slow
-def test_two_hidden_effects_round_trip() -> None:
-    """Resonance and drift found together (test_diagnosis_multi.py): fits with dynamics
-    stages and per-recording drift terms."""
-    from benchmarks.diagnosis.generator import make_combo
-
-    res = diagnose(make_combo(("resonance", "drift"), "white1", 100).records)
+def test_two_hidden_effects_round_trip(resonance_and_drift_diagnosis) -> None:
+    """Resonance and drift found together (test_diagnosis_multi.py, the same diagnosis): fits
+    with dynamics stages and per-recording drift terms."""
+    res = resonance_and_drift_diagnosis
     assert [e.name for e in res.effects] == ["resonance", "drift"]
     same(res, round_trip(res))
 
