@@ -216,24 +216,71 @@ def _memory_keys(u: np.ndarray, rv: np.ndarray, tol: float) -> list[tuple[float,
     return keys
 
 
+def _same_key(a: tuple[float, ...], b: tuple[float, ...], tol: float) -> bool:
+    """Whether two branches' memory keys (:func:`_memory_keys`) agree: the same direction
+    and the same extrema within ``tol``."""
+    return len(a) == len(b) and len(a) > 0 and a[0] == b[0] and float(np.max(
+        np.abs(np.subtract(a[1:], b[1:])))) <= tol
+
+
+def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
+                   ) -> list[tuple[int, int]]:
+    """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`: the
+    branches (from the second on: the first sets the memory) grouped by input history and
+    rate (each with the first branch whose key it matches and whose length in samples,
+    ``lengths``, it has within :data:`START_TOL` and two samples; the last branch, cut by
+    the record's end, at most that long), and in each group of ``N`` in time order
+    the ``i``-th paired with the ``(i + ceil(N / 2))``-th, each branch in one pair at most.
+    Returned in the order of the later branch."""
+    groups: list[list[int]] = []
+    last = len(keys) - 1
+    for k in range(1, len(keys)):
+        for g in groups:
+            n0 = lengths[g[0]]
+            same_rate = (abs(lengths[k] - n0) <= START_TOL * n0 + 2 if k < last
+                         else lengths[k] <= (1 + START_TOL) * n0 + 2)
+            if same_rate and _same_key(keys[g[0]], keys[k], tol):
+                g.append(k)
+                break
+        else:
+            groups.append([k])
+    pairs = []
+    for g in groups:
+        h = (len(g) + 1) // 2
+        pairs.extend((g[i], g[i + h]) for i in range(len(g) - h)
+                     if _same_key(keys[g[i]], keys[g[i + h]], tol))
+    return sorted(pairs, key=lambda jk: jk[1])
+
+
 def same_history(records: list[Recording]) -> SignatureRows | None:
     """Where a slow change with time shows apart from the model's bias in recordings whose
     input revisits its states without repeating a whole cycle (a tapered sine whose
-    amplitude ramps up and down, a few cycles at constant amplitude between): each row is
-    compared with a row of an earlier branch (the rows between two reversals) that had the
+    amplitude ramps up and down, a few cycles at constant amplitude between): rows are
+    compared with rows of an earlier branch (the rows between two reversals) that had the
     same input history. A rate-independent model's output, and so its misfit, depends only
     on the input's value, its direction and the extrema it has not wiped out yet (and the
     reversal before the branch, for a model without wiping out): rows on which those agree
     within :data:`HISTORY_TOL` of the input range, reached at the same rate (the same time
     since the branch's reversal within :data:`START_TOL`: output dynamics then act alike),
     get the same output from it, so their residuals' difference is what changed with time
-    (the noise twice), however large the misfit. Each branch is compared with the first
-    branch of the same history (the longest time between the two: a steady trend shows
-    most), each row with that branch's row nearest its input value (within
-    :data:`HISTORY_TOL`).
+    (the noise twice), however large the misfit. Each row is compared with the paired
+    branch's row nearest its input value (within :data:`HISTORY_TOL`).
 
-    ``None`` when fewer than :data:`MIN_SAME_BRANCHES` branches over all the recordings find
-    such an earlier branch (the first excursions set the memory and are compared with
+    The pairs (:func:`_history_pairs`): the ``N`` branches of one history, in time order,
+    the first half each with the one ``ceil(N / 2)`` places later, so that every branch is
+    in one pair at most. The test on these rows
+    (:func:`~core.diagnosis.stats.heldout_comparison`) takes its batch means as
+    independent; they are, under the null, only if no branch's noise enters two
+    differences. Against one shared reference (``e_k - e_1`` for every later ``k``) every
+    two differences correlate by +1/2: the variance of their mean grows with the square of
+    their number while the batch means estimate it as growing linearly, so the z of pure
+    noise spreads 1.8 times too wide (a Menegotto-Pinto null reached z 1.92). Chained
+    (``e_k - e_(k-1)``, neighbours correlate by -1/2) the z is conservative (its spread
+    0.4) and a steady trend shows only over one branch's time. Disjoint pairs half a group
+    apart are independent and span the longest times that keep them so.
+
+    ``None`` when fewer than :data:`MIN_SAME_BRANCHES` branches over all the recordings are
+    paired with an earlier one (the first excursions set the memory and are compared with
     nothing; a decaying or growing sine never revisits a state)."""
     masks, prevs, n_branches, spans = [], [], 0, []
     for r in records:
@@ -249,38 +296,34 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
         rv = reversal_indices(u, 0.1 * span)
         bounds = [*rv.tolist(), u.size - 1]
         keys = _memory_keys(u, rv, tol)
-        for k in range(1, len(keys)):
+        lengths = [bounds[k + 1] - bounds[k] for k in range(len(keys))]
+        for j, k in _history_pairs(keys, lengths, tol):
             a, b = bounds[k] + 1, bounds[k + 1] + 1
-            if b - a < 2:
+            ja, jb = bounds[j] + 1, bounds[j + 1] + 1
+            if b - a < 2 or jb - ja < 2:
                 continue
-            for j in range(1, k):
-                kj = keys[j]
-                if len(kj) != len(keys[k]) or kj[0] != keys[k][0] or np.max(
-                        np.abs(np.subtract(kj[1:], keys[k][1:]))) > tol:
-                    continue
-                ja, jb = bounds[j] + 1, bounds[j + 1] + 1
-                order = np.argsort(u[ja:jb], kind="stable")
-                us = u[ja:jb][order]
-                i = np.clip(np.searchsorted(us, u[a:b]), 1, us.size - 1)
-                near = np.where(np.abs(us[i - 1] - u[a:b]) <= np.abs(us[i] - u[a:b]), i - 1, i)
-                # at the same rate too: the same time since the branch's reversal (within
-                # START_TOL of it, and two samples), so that an output lag, delay or mode,
-                # which a faster branch shows more, is not read as a change with time
-                since_k = np.arange(a, b) - bounds[k]
-                since_j = order[near] + ja - bounds[j]
-                ok = ((np.abs(us[near] - u[a:b]) <= tol)
-                      & (np.abs(since_k - since_j) <= START_TOL * since_k + 2))
-                if ok.sum() < 2:
-                    break
-                m[a:b] = ok
-                prev[a:b] = np.where(ok, ja + order[near], -1)
-                n_branches += 1
-                spans.append(f"{r.name}: t = {r.t[a]:.3g} s against t = {r.t[ja]:.3g} s")
-                break
+            order = np.argsort(u[ja:jb], kind="stable")
+            us = u[ja:jb][order]
+            i = np.clip(np.searchsorted(us, u[a:b]), 1, us.size - 1)
+            near = np.where(np.abs(us[i - 1] - u[a:b]) <= np.abs(us[i] - u[a:b]), i - 1, i)
+            # at the same rate too: the same time since the branch's reversal (within
+            # START_TOL of it, and two samples), so that an output lag, delay or mode,
+            # which a faster branch shows more, is not read as a change with time
+            since_k = np.arange(a, b) - bounds[k]
+            since_j = order[near] + ja - bounds[j]
+            ok = ((np.abs(us[near] - u[a:b]) <= tol)
+                  & (np.abs(since_k - since_j) <= START_TOL * since_k + 2))
+            if ok.sum() < 2:
+                continue
+            m[a:b] = ok
+            prev[a:b] = np.where(ok, ja + order[near], -1)
+            n_branches += 1
+            spans.append(f"{r.name}: t = {r.t[a]:.3g} s against t = {r.t[ja]:.3g} s")
     if n_branches < MIN_SAME_BRANCHES:
         return None
     return SignatureRows(masks, f"of the same input history ({n_branches} branches each "
-                                f"against the first one with the same input value, "
-                                f"direction and unwiped extrema; "
+                                f"against an earlier one with the same input value, "
+                                f"direction and unwiped extrema, each branch compared "
+                                f"once; "
                                 f"{'; '.join(spans[:3])}{'; ...' if len(spans) > 3 else ''})",
                          previous=prevs, beyond_history=True)
