@@ -244,7 +244,7 @@ def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
                 break
         else:
             groups.append([k])
-    pairs = []
+    pairs: list[tuple[int, int]] = []
     for g in groups:
         h = (len(g) + 1) // 2
         pairs.extend((g[i], g[i + h]) for i in range(len(g) - h)

@@ -139,3 +139,18 @@ def test_a_drift_on_the_shipped_damper_record_is_named_and_its_null_is_not() -> 
     ref = next(r for r in null.rounds if r.effect == "drift").parameters["peak_to_peak"][0]
     truth = 0.08 * float(np.ptp(load_dataset("friction-1Hz-30lb").y))
     assert abs((got - ref) - truth) <= 0.25 * truth
+
+
+def test_branches_of_each_rate_are_paired_among_themselves() -> None:
+    """Four cycles at 1 Hz, then four at 10 Hz, the same amplitude: the branches of one
+    history are grouped by rate as well, so the slow ones are paired with slow ones and the
+    fast with fast (grouped by history alone, the pairs half a group apart would join a slow
+    branch to a fast one, whose rows are not compared, and the slow cycles would test
+    nothing)."""
+    t = np.arange(int(4.4 * FS)) / FS
+    u = np.where(t < 4.0, 60 * np.sin(2 * np.pi * t), 60 * np.sin(2 * np.pi * 10 * (t - 4.0)))
+    sig = same_history([Recording(t=t, u=u, y=PLANT(u), name="slow-then-fast")])
+    assert sig is not None and sig.previous is not None
+    w = np.flatnonzero(sig.masks[0])
+    assert np.all((t[w] < 4.0) == (t[sig.previous[0][w]] < 4.0))
+    assert np.sum(t[w] < 4.0) > 0.5 * FS and np.sum(t[w] >= 4.0) > 0.05 * FS
