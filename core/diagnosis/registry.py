@@ -214,7 +214,9 @@ class SignatureRows:
         Which rows, for the report ("cycle to cycle after the first (...)").
     previous : list of (ndarray of int, shape (n_samples,)) or None
         Per recording, for every row of its mask, the row one input cycle earlier (the same
-        input and input history under a repeated cycle; -1 elsewhere). When given, each
+        input and input history under a repeated cycle), or the row of an earlier branch
+        of the same input history it is paired with (each branch in one pair at most:
+        :func:`~core.diagnosis.periodic.same_history`); -1 elsewhere. When given, each
         row's residual is compared as its change from that row's (``e[t] - e[previous[t]]``):
         a rate-independent model repeats itself from cycle to cycle, so its misfit, however
         large, cancels, and what is left is what changed with time (the noise twice).
