@@ -59,8 +59,9 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     that declares the rows its signature lives in
     (:attr:`~core.diagnosis.registry.DiagnosableEffect.signature`: a drift, from cycle to
     cycle of a repeated input) meets rules 1-2 on the test rows among them (the excess over
-    the noise floor is theirs too), and must not make the other test rows worse by more
-    than ``max_harm_elsewhere`` (5 %) with a Diebold-Mariano z of ``-min_z`` or below.
+    the noise floor is theirs too, but see rule 19), and must not make the other test rows
+    worse by more than ``max_harm_elsewhere`` (5 %) with a Diebold-Mariano z of ``-min_z``
+    or below.
 
 14. *Several events for a dynamic name* (:func:`enough_events`): with one recording, an
     output dynamics stage (delay, lag, mode) is named only when it lowers the MSE by
@@ -107,6 +108,13 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     claimed, with its values fitted on the steps, the steps it was seen after and the
     experiment that would decide (more input steps).
 
+19. *A local effect is not measured against the base's misfit* (:func:`harmless_beyond_noise`):
+    an effect judged on the test rows its signature lives in (rule 13) needs ``min_gain``
+    and significance there, but not ``min_excess_share`` of their excess, when it is shown
+    to harm nothing on the other test rows (their MSE rises by at most
+    ``max_harm_elsewhere`` and not significantly at all). The finding's evidence says which
+    rows it was judged on and that the share was waived.
+
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
 """
@@ -121,7 +129,7 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_better", "decide",
-           "earns_place", "enough_events", "generalises", "harmless_elsewhere",
+           "earns_place", "enough_events", "generalises", "harmless_beyond_noise", "harmless_elsewhere",
            "pair_beats_single",
            "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
@@ -289,9 +297,41 @@ def harmless_elsewhere(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     return h.gain >= -rule.max_harm_elsewhere or not (np.isfinite(h.z) and h.z <= -rule.min_z)
 
 
-def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE) -> bool:
-    """Effect-size rules only (``excess``: current MSE minus the noise floor², units²)."""
-    return h.gain >= rule.min_gain and (
+def harmless_beyond_noise(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
+    """Acceptance rule 19: does the comparison ``h`` on the test rows outside an effect's
+    signature rows show that the effect harms nothing there, beyond noise?
+
+    True when those rows exist (``h`` is not ``None``, finite) and the candidate neither
+    raises their MSE by more than ``max_harm_elsewhere`` (5 %) nor raises it significantly
+    at all (Diebold-Mariano z above ``-min_z``). This is stricter than rule 13
+    (:func:`harmless_elsewhere`, which refuses only a rise both large and significant): it
+    is what replaces the excess share for an effect judged where it lives (:func:`size_ok`),
+    so it must be shown, not merely not contradicted. An effect that is really local (a
+    trend from cycle to cycle, ringing after a step) changes the other rows' prediction by
+    about nothing, and their held-out error then moves by sampling noise only; a
+    candidate that buys its gain on the signature rows by bending the rest (absorbing the
+    base misfit) makes the other rows significantly worse. With no other test rows nothing
+    shows harmlessness and the excess share applies.
+    """
+    if h is None or not (np.isfinite(h.gain) and np.isfinite(h.z)):
+        return False
+    return h.gain >= -rule.max_harm_elsewhere and h.z > -rule.min_z
+
+
+def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
+            elsewhere: HeldOut | None = None) -> bool:
+    """Effect-size rules only (``excess``: current MSE minus the noise floor², units²).
+
+    ``elsewhere``: for a candidate judged on the test rows its signature lives in (``h``
+    on those rows), the comparison on the other test rows. When it shows the candidate
+    harmless there (:func:`harmless_beyond_noise`, rule 19) the excess share is not
+    required: the excess is then the base's misfit on the signature rows, which a local
+    effect cannot remove however real it is (a friction damper's chatter, 3 % of range,
+    against a drift judged from cycle to cycle), so only ``min_gain`` applies there.
+    """
+    if h.gain < rule.min_gain:
+        return False
+    return harmless_beyond_noise(elsewhere, rule) or (
         h.mse_before - h.mse_after) >= rule.min_excess_share * max(excess, 0.0)
 
 
@@ -302,6 +342,7 @@ def decide(
     param_cv: Mapping[str, float] | None = None,
     rule: AcceptRule = RULE,
     significance: HeldOut | None = None,
+    elsewhere: HeldOut | None = None,
 ) -> Decision:
     """Apply every acceptance rule to the held-out comparison ``h`` of one candidate.
 
@@ -319,13 +360,16 @@ def decide(
     significance : HeldOut, optional
         Comparison for the significance rule when it differs from ``h`` (test rows pooled
         with cross-fitted blocks); the effect-size rules always use ``h``.
+    elsewhere : HeldOut, optional
+        For a candidate judged on its signature rows, the comparison on the other test rows
+        (:func:`size_ok`: harmless there, the excess share is not required).
 
     Returns
     -------
     Decision
     """
     reasons = []
-    sz = size_ok(h, excess, rule)
+    sz = size_ok(h, excess, rule, elsewhere)
     if h.gain < rule.min_gain:
         reasons.append(f"MSE reduction {100 * h.gain:.1f} % < {100 * rule.min_gain:.0f} %")
     elif not sz:

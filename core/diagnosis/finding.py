@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .acceptance import RULE
+from .acceptance import RULE, size_ok
 from .context import FitContext
 from .crossfitting import ambiguous_parameters, crossfit_summary, effect_uncertainty
 from .locate import where_improved
@@ -111,10 +111,30 @@ def make_finding(run: Run, cur: Fit, c: Candidate, amb: list[str], runner: dict[
         runner_up=runner,
         crossfit=crossfit_summary(c.crossfit),
         caveats=caveats,
-        evidence=evidence_label(ctx, c.name, c.crossfit, c.between) + (
-            f", judged on top of {c.given}" if c.given else ""),
+        evidence=_evidence(run, c) + (f", judged on top of {c.given}" if c.given else ""),
         ambiguous_parameters=ambiguous_parameters(c.parameters, unc),
     )
+
+
+def _evidence(run: Run, c: Candidate) -> str:
+    """Where the evidence of accepted candidate ``c`` came from, in words: the rows its
+    signature lives in when it was judged there (with what it did to the other test rows,
+    and, when acceptance rule 19 waived the excess share, that it was waived), else the
+    evidence rows of :func:`~core.diagnosis.state.evidence_label`."""
+    label = evidence_label(run.ctx, c.name, c.crossfit, c.between)
+    if c.where is None:
+        return label
+    words = c.where
+    e = c.elsewhere
+    if e is not None and np.isfinite(e.gain):
+        words += (f"; on the other test rows its held-out MSE reduction is "
+                  f"{100 * e.gain:+.1f} % (z {e.z:.2f})")
+    if not size_ok(c.heldout, c.heldout.mse_before - run.noise**2):
+        words += ("; it removes less than "
+                  f"{100 * RULE.min_excess_share:.0f} % of those rows' excess over the noise "
+                  "floor, which is the base model's misfit there, and is accepted because it "
+                  "harms nothing on the other test rows")
+    return words
 
 
 #: Fewest rows outside the train and test rows of a recording for their RMS before/after

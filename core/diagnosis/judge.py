@@ -59,7 +59,7 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
     mse_cur = pooled_mse(ctx.test_res(cur))
     excess = {n: (c.heldout.mse_before if ctx.strict or c.between or c.where else mse_cur)
               - run.noise**2 for n, c in cands.items()}
-    cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n]))
+    cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n], elsewhere=c.elsewhere))
              for n, c in cands.items()}
     size_ok = {n: c.size_ok for n, c in cands.items()}
     needs_cf = {n for n in cands if size_ok[n] and ctx.folds and not EFFECTS[n].before_wipeout
@@ -81,7 +81,8 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
                 c = cands[name] = replace(c, crossfit=cf)
         cv = (c.crossfit.parameter_cv if c.crossfit else
               c.between.parameter_cv if c.between else {})
-        dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows)
+        dec = decide(c.heldout, excess[name], n_tests, cv, significance=c.evidence_rows,
+                     elsewhere=c.elsewhere)
         decision = None
         if dec.passes and not harmless_elsewhere(c.elsewhere):
             e = filled(c.elsewhere)

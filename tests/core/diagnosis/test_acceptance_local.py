@@ -1,0 +1,59 @@
+"""Acceptance rule 19 (core.diagnosis.acceptance): an effect judged on the rows its signature
+lives in is not measured against the base's misfit there (the excess share) once it is
+shown to harm nothing on the other test rows (issue 30, "evidence judged where it lives").
+
+Measured before the rule on the 36 lb friction damper with a concealed drift of 8 % of range:
+the drift, judged between rows of the same input history, lowered their held-out MSE by
+11.1 % (z 3.22) and was refused only because the damper's chatter (3.3 % of range) is most of
+those rows' excess over the noise floor."""
+
+from __future__ import annotations
+
+from core.diagnosis.acceptance import RULE, decide, harmless_beyond_noise, size_ok
+from core.diagnosis.stats import HeldOut
+
+
+def _h(before: float, after: float, z: float, p: float = 1e-6) -> HeldOut:
+    return HeldOut(before, after, 1.0 - after / before, z, p, 40)
+
+
+#: the 36 lb damper's drift: 11 % of the signature rows' MSE, a tenth of their excess
+LOCAL = _h(1.0, 0.889, 3.22, 0.0017)
+EXCESS = 0.98
+
+
+def test_a_local_effect_harmless_elsewhere_needs_no_excess_share() -> None:
+    assert not decide(LOCAL, EXCESS, n_tests=1).passes  # the share alone refuses it
+    calm = _h(1.0, 1.01, -0.4, 0.6)  # the other rows: 1 % worse, not significant
+    d = decide(LOCAL, EXCESS, n_tests=1, elsewhere=calm)
+    assert d.passes and d.size_ok and d.reasons == ()
+
+
+def test_the_waiver_keeps_min_gain_and_significance() -> None:
+    calm = _h(1.0, 1.0, 0.0, 1.0)
+    tiny = _h(1.0, 0.97, 9.0)
+    assert not size_ok(tiny, EXCESS, elsewhere=calm)  # below min_gain
+    noisy = _h(1.0, 0.889, 1.5, 0.2)
+    d = decide(noisy, EXCESS, n_tests=1, elsewhere=calm)
+    assert d.size_ok and not d.passes and not d.significant
+
+
+def test_harm_elsewhere_beyond_noise_keeps_the_excess_share() -> None:
+    # significantly worse, even by little: the gain may come from bending the other rows
+    small_but_real = _h(1.0, 1.02, -3.5, 1e-4)
+    assert not harmless_beyond_noise(small_but_real)
+    assert not decide(LOCAL, EXCESS, n_tests=1, elsewhere=small_but_real).passes
+    # worse by more than max_harm_elsewhere, even if not significant
+    large_noisy = _h(1.0, 1.0 + 2 * RULE.max_harm_elsewhere, -1.0, 0.3)
+    assert not harmless_beyond_noise(large_noisy)
+    assert not decide(LOCAL, EXCESS, n_tests=1, elsewhere=large_noisy).passes
+    # no other rows, or no finite comparison: nothing shows it harmless
+    assert not harmless_beyond_noise(None)
+    assert not harmless_beyond_noise(HeldOut(0.0, 0.0, float("nan"), float("nan"), 1.0, 0))
+    assert not decide(LOCAL, EXCESS, n_tests=1, elsewhere=None).passes
+
+
+def test_an_effect_that_meets_the_share_is_unaffected() -> None:
+    strong = _h(1.0, 0.6, 8.0)
+    worse = _h(1.0, 1.02, -3.5, 1e-4)
+    assert size_ok(strong, EXCESS) and size_ok(strong, EXCESS, elsewhere=worse)
