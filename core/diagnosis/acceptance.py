@@ -129,8 +129,8 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_better", "decide",
-           "earns_place", "enough_events", "generalises", "harmless_beyond_noise", "harmless_elsewhere",
-           "pair_beats_single",
+           "earns_place", "enough_events", "generalises", "harmless_beyond_noise",
+           "harmless_elsewhere", "pair_beats_single",
            "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
 
