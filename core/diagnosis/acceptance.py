@@ -373,8 +373,12 @@ def decide(
     if h.gain < rule.min_gain:
         reasons.append(f"MSE reduction {100 * h.gain:.1f} % < {100 * rule.min_gain:.0f} %")
     elif not sz:
-        reasons.append(f"removes less than {100 * rule.min_excess_share:.0f} % of the excess "
-                       "over the noise floor")
+        why = (f"removes less than {100 * rule.min_excess_share:.0f} % of the excess over "
+               "the noise floor")
+        if elsewhere is not None and np.isfinite(elsewhere.gain):
+            why += (f" (not waived: on the other test rows its held-out MSE reduction is "
+                    f"{100 * elsewhere.gain:+.1f} %, z {elsewhere.z:.2f})")
+        reasons.append(why)
     g = h if significance is None else significance
     level = rule.sign_p / max(int(n_tests), 1)
     sig = g.z >= rule.min_z or g.sign_p < level

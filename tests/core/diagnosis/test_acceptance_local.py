@@ -48,7 +48,8 @@ def test_harm_elsewhere_beyond_noise_keeps_the_excess_share() -> None:
     # significantly worse, even by little: the gain may come from bending the other rows
     small_but_real = _h(1.0, 1.02, -3.5, 1e-4)
     assert not harmless_beyond_noise(small_but_real)
-    assert not decide(LOCAL, EXCESS, n_tests=1, elsewhere=small_but_real).passes
+    d = decide(LOCAL, EXCESS, n_tests=1, elsewhere=small_but_real)
+    assert not d.passes and "not waived" in d.reasons[0] and "-2.0 %" in d.reasons[0]
     # worse by more than max_harm_elsewhere, even if not significant
     large_noisy = _h(1.0, 1.0 + 2 * RULE.max_harm_elsewhere, -1.0, 0.3)
     assert not harmless_beyond_noise(large_noisy)
