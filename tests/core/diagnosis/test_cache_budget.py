@@ -113,6 +113,19 @@ def _held(ctx: cx.FitContext) -> float:
     return float(total)
 
 
+def test_the_tests_run_the_budget_of_the_command_line() -> None:
+    """In the test session a diagnosis's caches get what a lean ``hyst diagnose`` process
+    gets (tests/conftest.py: its resident bytes at the start), not what this pytest process
+    would get (its imports alone hold more than the target: no cache at all, a slower path
+    than the users')."""
+    from tests.conftest import CLI_RESIDENT_BYTES
+
+    rec, train = _record()
+    ctx = cx.FitContext([rec], train, [~train[0]])
+    assert ctx.cache.budget.limit == cb.cache_budget(rec.n_samples, CLI_RESIDENT_BYTES)
+    assert ctx.cache.budget.limit > 30e6
+
+
 @pytest.mark.parametrize("limit", [2.5e6, 6e6])
 def test_a_diagnosis_context_holds_no_more_than_its_budget(monkeypatch, limit) -> None:
     """Fits of PI and Preisach structures, with and without a virtual history, their PI-stage

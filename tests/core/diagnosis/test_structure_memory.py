@@ -131,6 +131,8 @@ def test_a_diagnosis_cache_has_the_budget_of_its_samples(monkeypatch) -> None:
     from core.diagnosis import context as cx
 
     rec, train = _record(4001)
+    # the engine's own budget (the session's is fixed at the command line's, tests/conftest.py)
+    monkeypatch.setattr(cx, "cache_budget", cb.cache_budget)
     monkeypatch.setattr(cb, "resident_bytes", lambda: 220e6)  # the command line's start
     assert cx.FitContext([rec], train, [~train[0]]).cache.budget.limit == cb.cache_budget(4001)
     assert cb.cache_budget(4001) > 0
