@@ -108,7 +108,7 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     claimed, with its values fitted on the steps, the steps it was seen after and the
     experiment that would decide (more input steps).
 
-19. *A local effect is not measured against the base's misfit* (:func:`harmless_beyond_noise`):
+19. *A local effect is not measured against what does not repeat* (:func:`harmless_beyond_noise`):
     an effect judged on the test rows its signature lives in (rule 13) needs ``min_gain``
     and significance there, but not ``min_excess_share`` of their excess, when it is shown
     to harm nothing on the other test rows (their MSE rises by at most
@@ -305,8 +305,11 @@ def harmless_beyond_noise(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     raises their MSE by more than ``max_harm_elsewhere`` (5 %) nor raises it significantly
     at all (Diebold-Mariano z above ``-min_z``). This is stricter than rule 13
     (:func:`harmless_elsewhere`, which refuses only a rise both large and significant): it
-    is what replaces the excess share for an effect judged where it lives (:func:`size_ok`),
-    so it must be shown, not merely not contradicted. An effect that is really local (a
+    is what replaces the excess share for an effect judged where it lives (:func:`size_ok`).
+    It is a test of no significant harm, not an equivalence test: with few other rows it
+    has little power, and it is the 5 % gain and significance on the signature rows that
+    keep noise from being named (an equivalence bound on the other rows' gain is left to
+    do). An effect that is really local (a
     trend from cycle to cycle, ringing after a step) changes the other rows' prediction by
     about nothing, and their held-out error then moves by sampling noise only; a
     candidate that buys its gain on the signature rows by bending the rest (absorbing the
@@ -325,9 +328,12 @@ def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
     ``elsewhere``: for a candidate judged on the test rows its signature lives in (``h``
     on those rows), the comparison on the other test rows. When it shows the candidate
     harmless there (:func:`harmless_beyond_noise`, rule 19) the excess share is not
-    required: the excess is then the base's misfit on the signature rows, which a local
-    effect cannot remove however real it is (a friction damper's chatter, 3 % of range,
-    against a drift judged from cycle to cycle), so only ``min_gain`` applies there.
+    required: the excess on the signature rows is then what the model leaves there that does
+    not repeat from one branch to the next, which a local effect cannot remove however real
+    it is (a friction damper's chatter, 3 % of range, against a drift judged from cycle to
+    cycle), so only ``min_gain`` applies there. On rows compared with an earlier branch
+    (``SignatureRows.previous``) the noise enters twice while the floor subtracts it once;
+    a floor of twice the noise there is left to do (it needs the nulls run again).
     """
     if h.gain < rule.min_gain:
         return False
@@ -375,7 +381,7 @@ def decide(
     elif not sz:
         why = (f"removes less than {100 * rule.min_excess_share:.0f} % of the excess over "
                "the noise floor")
-        if elsewhere is not None and np.isfinite(elsewhere.gain):
+        if elsewhere is not None and np.isfinite(elsewhere.gain) and np.isfinite(elsewhere.z):
             why += (f" (not waived: on the other test rows its held-out MSE reduction is "
                     f"{100 * elsewhere.gain:+.1f} %, z {elsewhere.z:.2f})")
         reasons.append(why)

@@ -132,8 +132,9 @@ def _evidence(run: Run, c: Candidate) -> str:
     if not size_ok(c.heldout, c.heldout.mse_before - run.noise**2):
         words += ("; it removes less than "
                   f"{100 * RULE.min_excess_share:.0f} % of those rows' excess over the noise "
-                  "floor, which is the base model's misfit there, and is accepted because it "
-                  "harms nothing on the other test rows")
+                  "floor (what the model leaves there that does not repeat from one branch "
+                  "to the next), and is accepted because the other test rows show no "
+                  "significant harm")
     return words
 
 

@@ -144,7 +144,9 @@ def peak_in(e: np.ndarray, dt: float, fmin: float) -> tuple[float, float, float]
     area = float(np.sum(np.clip(p[local] - med, 0.0, None))) * df
     width = 2.0 * area / (np.pi * max(float(ps[i]) - med, 1e-300))
     zeta = width / (2.0 * f0)
-    if zeta > LIGHT_DAMPING + 1.5 * df / (2.0 * f0) or prom < 1.0 / (2.0 * LIGHT_DAMPING) ** 2:
+    # written as what a peak must meet, so a NaN (a non-finite residual) meets nothing
+    if not (zeta <= LIGHT_DAMPING + 1.5 * df / (2.0 * f0)
+            and prom >= 1.0 / (2.0 * LIGHT_DAMPING) ** 2):
         return None
     return f0, zeta, prom
 

@@ -135,3 +135,13 @@ def test_friction_damper_mode_said_untestable() -> None:
     null = diagnose(make_measured("dev/measured/friction-36lb/null").records)
     assert not null.effects
     assert "resonance" not in [u["name"] for u in null.untestable]
+
+
+def test_a_non_finite_residual_shows_no_peak() -> None:
+    """A residual with one NaN (a prediction that went non-finite) has no finite width or
+    prominence: it is no mode (before, both comparisons were false for NaN and it passed as
+    one, with damping NaN)."""
+    rec, yh = _plant(3, None)
+    e = rec.y - yh
+    e[100] = np.nan
+    assert peak_in(e, DT, 5.0) is None
