@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fitting.cycles import fundamental_hz
 from ..recordings import Recording
 from .eventresponse import kind_prediction
 
@@ -151,13 +152,6 @@ def peak_in(e: np.ndarray, dt: float, fmin: float) -> tuple[float, float, float]
     return f0, zeta, prom
 
 
-def _dominant_hz(u: np.ndarray, dt: float) -> float:
-    """The input's strongest frequency, Hz (its periodogram's peak, DC left out)."""
-    f = np.fft.rfftfreq(u.size, dt)
-    spec = np.abs(np.fft.rfft(u - u.mean()))
-    return float(f[1 + int(np.argmax(spec[1:]))]) if spec.size > 1 else 0.0
-
-
 def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualPeak | None:
     """A lightly damped peak in the residual ``y - pred`` that the input does not excite.
 
@@ -184,7 +178,7 @@ def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualP
         if not rec.has_time or rec.t.size < 64:
             return None
         dt = float(rec.t[1] - rec.t[0])
-        fmin = _ABOVE_INPUT * _dominant_hz(np.asarray(rec.u, dtype=np.float64), dt)
+        fmin = _ABOVE_INPUT * fundamental_hz(rec.u, dt)
         e = np.asarray(rec.y, dtype=np.float64) - np.asarray(p, dtype=np.float64)
         half = e.size // 2
         for part in (e[:half], e[half:]):

@@ -11,6 +11,8 @@ crossings, which a few ramp-in or ramp-out cycles do not move.
 :func:`input_cycles` is the one place that finds them: the leftover check of a fit
 (:mod:`core.fitting.leftover`, cycles paired as the same input) and the cycle-to-cycle test
 of a drift (:func:`core.diagnosis.periodic.repeated_cycles`) both read it.
+:func:`fundamental_hz` is the one place that finds the input's strongest frequency (the
+leftover's fast part, the residual peak of :mod:`core.diagnosis.residualpeak`).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from .._typing import Float1D
 
-__all__ = ["REARM", "InputCycles", "input_cycles"]
+__all__ = ["REARM", "InputCycles", "fundamental_hz", "input_cycles"]
 
 #: How far (fraction of the input range) the input must fall below its median before the
 #: next upward crossing counts.
@@ -83,3 +85,20 @@ def input_cycles(u: Float1D) -> InputCycles | None:
     if period < 4 or whole.size < 1:
         return None
     return InputCycles(period, whole)
+
+
+def fundamental_hz(u: Float1D, dt: float) -> float:
+    """The input's strongest frequency: its periodogram's peak with the mean left out, Hz
+    (0 for a constant input).
+
+    Parameters
+    ----------
+    u : ndarray, shape (N,)
+        Input samples, evenly spaced.
+    dt : float
+        Sample spacing (s).
+    """
+    u = np.asarray(u, dtype=np.float64)
+    spec = np.abs(np.fft.rfft(u - u.mean()))
+    spec[0] = 0.0
+    return float(np.fft.rfftfreq(u.size, dt)[int(np.argmax(spec))])

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._typing import Float1D
-from .cycles import input_cycles
+from .cycles import fundamental_hz, input_cycles
 
 __all__ = ["FAST", "FLAT_SLOPE", "OSCILLATION", "SAME_INPUT", "Leftover", "leftover"]
 
@@ -122,9 +122,7 @@ def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | Non
     e = y - pred
     yr = float(np.ptp(y)) or 1.0
     f = np.fft.rfftfreq(n, dt)
-    spec_u = np.abs(np.fft.rfft(u - u.mean()))
-    spec_u[0] = 0.0
-    f0 = float(f[int(np.argmax(spec_u))])
+    f0 = fundamental_hz(u, dt)
     if f0 <= 0 or 2.0 / f0 > n * dt:
         return None
     cycles = input_cycles(u)
