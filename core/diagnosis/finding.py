@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .acceptance import RULE, size_ok
+from .acceptance import RULE
 from .context import FitContext
 from .crossfitting import ambiguous_parameters, crossfit_summary, effect_uncertainty
 from .locate import where_improved
@@ -129,7 +129,7 @@ def _evidence(run: Run, c: Candidate) -> str:
     if e is not None and np.isfinite(e.gain):
         words += (f"; on the other test rows its held-out MSE reduction is "
                   f"{100 * e.gain:+.1f} % (z {e.z:.2f})")
-    if not size_ok(c.heldout, c.heldout.mse_before - run.noise**2):
+    if c.share_waived:
         words += ("; it removes less than "
                   f"{100 * RULE.min_excess_share:.0f} % of those rows' excess over the noise "
                   "floor (what the model leaves there that does not repeat from one branch "

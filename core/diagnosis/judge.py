@@ -59,8 +59,7 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
     mse_cur = pooled_mse(ctx.test_res(cur))
     excess = {n: (c.heldout.mse_before if ctx.strict or c.between or c.where else mse_cur)
               - run.noise**2 for n, c in cands.items()}
-    cands = {n: replace(c, size_ok=effect_size_ok(c.heldout, excess[n], elsewhere=c.elsewhere))
-             for n, c in cands.items()}
+    cands = {n: _sized(c, excess[n]) for n, c in cands.items()}
     size_ok = {n: c.size_ok for n, c in cands.items()}
     needs_cf = {n for n in cands if size_ok[n] and ctx.folds and not EFFECTS[n].before_wipeout
                 and not ctx.strict}
@@ -351,10 +350,18 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
     tj, t_rows, t_ok = judge_round(run, base_p, {t.name: tt}, [], rnd, (), n_tests=len(cands))
     if not t_ok:
         return none
-    c = replace(t, heldout=tj[t.name].heldout, decision=tj[t.name].decision, given=p)
+    c = replace(t, heldout=tj[t.name].heldout, decision=tj[t.name].decision, given=p,
+                share_waived=tj[t.name].share_waived)
     row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
                   f"hide each other; {p} passes on top of {t.name})")
     return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]
+
+
+def _sized(c: Candidate, excess: float) -> Candidate:
+    """``c`` with the effect-size rules applied (``excess``: units²) and whether it meets
+    them only by acceptance rule 19's waiver of the excess share."""
+    ok = effect_size_ok(c.heldout, excess, elsewhere=c.elsewhere)
+    return replace(c, size_ok=ok, share_waived=ok and not effect_size_ok(c.heldout, excess))
 
 
 def fewer_parameters_on_same_rows(ctx: FitContext, cands: dict[str, Candidate],

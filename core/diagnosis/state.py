@@ -53,6 +53,8 @@ class Candidate:
     between: BetweenRecordings | None = None
     #: meets the effect-size rules (set by :func:`~core.diagnosis.judge.judge_round`)
     size_ok: bool = False
+    #: meets them only because acceptance rule 19 waived the excess share (set there too)
+    share_waived: bool = False
     #: the acceptance decision and the row's decision word (set by
     #: :func:`~core.diagnosis.judge.judge_round`)
     decision: Decision | None = None
