@@ -10,6 +10,13 @@ export function setMsg(id, text, ok = false) {
   el.classList.remove("rule");
 }
 
+// Text set only when it changes: the same words again would be a DOM change (and a frame
+// of layout) for nothing; a page that is told its step twice shows it once.
+export function setText(id, text) {
+  const node = $(id);
+  if (node.textContent !== text) node.textContent = text;
+}
+
 export function el(tag, props = {}, ...kids) {
   const e = Object.assign(document.createElement(tag), props);
   e.append(...kids.filter((k) => k !== null && k !== undefined && k !== ""));

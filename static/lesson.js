@@ -7,7 +7,7 @@
 // Every text of a lesson is put in the page as text (textContent), never as markup.
 
 import { api } from "/client.js";
-import { $, el, setMsg } from "/dom.js";
+import { $, el, setMsg, setText } from "/dom.js";
 import { applyConfig } from "/model.js";
 import { state } from "/store.js";
 import { draw, selectFigure } from "/view.js";
@@ -40,11 +40,11 @@ function show(step) {
   if (was !== $("lesson").hidden) window.dispatchEvent(new Event("resize"));  // the plot's height
   syncTeacherButtons();
   if (!L.step) return;
-  $("lesson-title").textContent = step.title;
-  $("lesson-where").textContent = `step ${step.step} of ${step.steps}`;
-  $("lesson-step-title").textContent = step.step_title;
-  $("lesson-prompt").textContent = step.prompt;
-  $("lesson-look-text").textContent = step.look_for || "";
+  setText("lesson-title", step.title);
+  setText("lesson-where", `step ${step.step} of ${step.steps}`);
+  setText("lesson-step-title", step.step_title);
+  setText("lesson-prompt", step.prompt);
+  setText("lesson-look-text", step.look_for || "");
   $("lesson-look").hidden = !step.look_for;
   markExploring();
 }
