@@ -350,8 +350,7 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
     tj, t_rows, t_ok = judge_round(run, base_p, {t.name: tt}, [], rnd, (), n_tests=len(cands))
     if not t_ok:
         return none
-    c = replace(t, heldout=tj[t.name].heldout, decision=tj[t.name].decision, given=p,
-                share_waived=tj[t.name].share_waived)
+    c = t.judged_as(tj[t.name], given=p)
     row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
                   f"hide each other; {p} passes on top of {t.name})")
     return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]

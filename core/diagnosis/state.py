@@ -8,7 +8,7 @@ its evidence; :func:`round_row` and :func:`deferred_row` are the typed rows a ro
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from .acceptance import RULE, Decision
@@ -69,6 +69,20 @@ class Candidate:
     #: (:attr:`~core.diagnosis.registry.SignatureRows.beyond_history`): acceptance rule 17
     #: is met by that evidence
     beyond_history: bool = False
+
+    def judged_as(self, judged: Candidate, given: str) -> Candidate:
+        """This candidate (its fit, parameters and uncertainty) with the judgement of
+        ``judged``, the same effect fitted and judged on top of ``given`` (acceptance rule 6):
+        every field that says what the evidence was and what was decided comes from
+        ``judged``, so the finding's words and numbers describe the comparison that decided.
+        """
+        if judged.name != self.name:
+            raise ValueError(f"cannot give {self.name} the judgement of {judged.name}")
+        return replace(self, heldout=judged.heldout, crossfit=judged.crossfit,
+                       between=judged.between, size_ok=judged.size_ok,
+                       share_waived=judged.share_waived, decision=judged.decision,
+                       verdict=judged.verdict, given=given, where=judged.where,
+                       elsewhere=judged.elsewhere, beyond_history=judged.beyond_history)
 
     @property
     def family(self) -> str:

@@ -1,0 +1,68 @@
+"""``Candidate.judged_as`` (acceptance rule 6): a candidate judged again on top of another
+effect keeps its own fit and takes every field of the judgement that decided, so the
+finding's evidence words (which rows, the numbers on the other rows, the waived share)
+describe the comparison that decided and not the one on the model without the other."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import pytest
+
+from core.diagnosis.acceptance import Decision
+from core.diagnosis.state import Candidate
+from core.diagnosis.stats import HeldOut
+
+
+def _held(gain: float, z: float) -> HeldOut:
+    return HeldOut(mse_before=1.0, mse_after=1.0 - gain, gain=gain, z=z, sign_p=0.5,
+                   n_batches=12)
+
+
+def _decision(passes: bool) -> Decision:
+    return Decision(passes=passes, size_ok=True, significant=passes, stable=True, reasons=())
+
+
+def _pair() -> tuple[Candidate, Candidate]:
+    alone = Candidate("drift", fit="fit on the model without creep", parameters={"a": 1.0},
+                      uncertainty={"a": 0.1}, heldout=_held(0.04, 2.0), size_ok=True,
+                      decision=_decision(False), verdict="deferred",
+                      where="cycle to cycle (alone)",
+                      elsewhere=_held(-0.03, -1.0))
+    on_top = Candidate("drift", fit="fit on top of creep", parameters={"a": 2.0},
+                       uncertainty={"a": 0.2}, heldout=_held(0.09, 4.0), size_ok=True,
+                       share_waived=True, decision=_decision(True),
+                       where="cycle to cycle (on top of creep)", elsewhere=_held(0.01, 0.4),
+                       beyond_history=True)
+    return alone, on_top
+
+
+def test_the_judgement_comes_from_the_comparison_that_decided() -> None:
+    alone, on_top = _pair()
+    c = alone.judged_as(on_top, given="creep")
+    assert c.fit == alone.fit and c.parameters == alone.parameters
+    assert c.uncertainty == alone.uncertainty
+    assert c.given == "creep"
+    for f in ("heldout", "crossfit", "between", "size_ok", "share_waived", "decision",
+              "verdict", "where", "elsewhere", "beyond_history"):
+        assert getattr(c, f) == getattr(on_top, f), f
+
+
+def test_every_field_is_either_fit_or_judgement() -> None:
+    """A field added to ``Candidate`` later must be sorted into one of the two groups."""
+    alone, on_top = _pair()
+    c = alone.judged_as(on_top, given="creep")
+    own = {"name", "fit", "parameters", "uncertainty"}
+    for f in fields(Candidate):
+        if f.name in own:
+            assert getattr(c, f.name) == getattr(alone, f.name), f.name
+        elif f.name != "given":
+            assert getattr(c, f.name) == getattr(on_top, f.name), f.name
+
+
+def test_another_effects_judgement_is_refused() -> None:
+    alone, on_top = _pair()
+    with pytest.raises(ValueError, match="drift.*creep"):
+        alone.judged_as(Candidate("creep", *(getattr(on_top, n) for n in
+                                             ("fit", "parameters", "uncertainty", "heldout"))),
+                        given="offset")
