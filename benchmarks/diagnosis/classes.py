@@ -238,7 +238,7 @@ def run_class_job(job: tuple[str, str, str, int]) -> dict[str, Any]:
              "per_recording": jsonable(list(r.per_recording))}
             for r in res.recording_specific],
         "ambiguous": [list(a["effects"]) for a in res.ambiguous],
-        "untestable": [u["name"] for u in res.untestable],
+        "untestable": [u.name for u in res.untestable],
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),
         "residual_pct": None if res.adequacy is None else float(res.adequacy.pct),
         "rmse_base": b, "rmse_final": f,

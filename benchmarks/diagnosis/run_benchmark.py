@@ -312,7 +312,7 @@ def run_periodic(seeds: int, noises: tuple[float, ...] = (0.02, 0.1)) -> list[di
                     "area_growth": area[-1] / area[0] - 1.0,
                     "found": [f.name for f in res.effects],
                     "suggestive": res.suggested_names,
-                    "untestable": [u["name"] for u in res.untestable],
+                    "untestable": [u.name for u in res.untestable],
                     "ambiguous_with_rate": [a["effects"][0] for a in res.ambiguous
                                             if "rate" in a["effects"][1:]],
                     "rate_per_recording": None if row is None else [

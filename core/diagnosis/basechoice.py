@@ -29,6 +29,7 @@ from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics
 from .results import BaseChoice
 from .shapes import loop_shape, shape_thresholds
+from .specs import Untestable
 from .structure import Fit, Structure
 
 __all__ = ["MIN_ROWS_PER_WEIGHT", "PREISACH_GRID", "RATE_ON_STOP", "choose_base",
@@ -194,14 +195,14 @@ def _with_output_dynamics(ctx: FitContext, sub: FitContext, fit: Fit) -> Fit:
 
 #: Rate-dependent hysteresis on a stop-operator base (not modelled: its elements sit behind
 #: the gap's input map, which has no rate-dependent form), reported as untestable.
-RATE_ON_STOP = {
-    "name": "rate",
-    "reason": ("the loops run clockwise and the base is stop operators behind a backlash gap, "
-               "for which rate-dependent thresholds are not modelled"),
-    "experiment": ("a run with --base pi (the PI with weights of either sign, on which "
-                   "rate-dependent thresholds are modelled) on recordings at >= 2 rates a "
-                   "decade apart"),
-}
+RATE_ON_STOP = Untestable(
+    "rate",
+    ("the loops run clockwise and the base is stop operators behind a backlash gap, "
+     "for which rate-dependent thresholds are not modelled"),
+    ("a run with --base pi (the PI with weights of either sign, on which "
+     "rate-dependent thresholds are modelled) on recordings at >= 2 rates a "
+     "decade apart"),
+)
 
 def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     """The stop-operator base of clockwise loops (:mod:`core.diagnosis.bases`), or ``None``

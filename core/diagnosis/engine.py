@@ -69,7 +69,14 @@ from .recheck import polish_dynamics, suggest_after_steps
 from .registry import EFFECTS, rate_effect
 from .residualpeak import residual_peak
 from .residualpeak import untestable_entry as unexcited_mode_entry
-from .results import ACCEPT_RULE, BaseChoice, DiagnosisResult, EffectFinding, RecordingSpecific
+from .results import (
+    ACCEPT_RULE,
+    BaseChoice,
+    DiagnosisResult,
+    EffectFinding,
+    RecordingSpecific,
+    suggested_names,
+)
 from .scoring import (
     crossval_scores,
     drop_recording_specific,
@@ -79,6 +86,7 @@ from .scoring import (
 )
 from .screening import screening_note
 from .search import search_round
+from .specs import Untestable
 from .state import Progress, Run
 from .stats import noise_floor
 from .structure import Fit
@@ -185,7 +193,7 @@ def diagnose(
     cur, todo = _rounds(run_, base_fit, todo, max_effects,
                         4 * n_operators if auto_resolution else 0)
     cur = polish_dynamics(ctx, cur, run_.findings)
-    run_.untestable.extend(_unexcited_mode(records, cur, run_, tested))
+    polished, named = cur.pred, list(run_.findings)  # the mode's peak is read here
     say(0.9, "scoring the final model" + (f" ({', '.join(f.name for f in run_.findings)})"
                                           if run_.findings else ""))
     cur, loro = _across_recordings(run_, base_fit, cur, windows)
@@ -197,6 +205,8 @@ def diagnose(
     crossval = crossval_scores(ctx, base_fit, cur)
     refit = None if windows else _refit_everywhere(ctx, cur)
     after_steps = suggest_after_steps(run_, cur)
+    run_.untestable.extend(_unexcited_mode(
+        records, polished, named, tested, suggested_names(run_.rounds, after_steps)))
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
@@ -302,15 +312,21 @@ def _refit_everywhere(ctx: FitContext, cur: Fit) -> Fit:
     return full.fit(cur.structure, cur)
 
 
-def _unexcited_mode(records: list, cur: Fit, run_: Run, tested: list[str]
-                    ) -> list[dict[str, str]]:
+def _unexcited_mode(records: list, pred: list, findings: list[EffectFinding],
+                    tested: list[str], suggested: list[str]) -> list[Untestable]:
     """The untestable entry of a lightly damped mode the input does not excite
-    (:func:`~core.diagnosis.residualpeak.residual_peak`), when the resonance was tested and
-    neither named nor left ambiguous with what was named; else nothing."""
-    if _RESONANCE not in tested or any(
-            f.name == _RESONANCE or _RESONANCE in f.ambiguous_with for f in run_.findings):
+    (:func:`~core.diagnosis.residualpeak.residual_peak` of the model's prediction
+    ``pred``), when the resonance was tested and neither named, nor left ambiguous with
+    what was named, nor suggested (``suggested``: the improvement that failed the
+    significance rules, or the kind too few input steps show); else nothing.
+
+    A suggested resonance is one statement already: the input drove a mode enough for its
+    fit to improve the held-out rows (or the steps to ring), which is a test, suggestive,
+    so "untestable" would contradict it; the suggestion and its experiment stand alone."""
+    if _RESONANCE not in tested or _RESONANCE in suggested or any(
+            f.name == _RESONANCE or _RESONANCE in f.ambiguous_with for f in findings):
         return []
-    pk = residual_peak(records, cur.pred)
+    pk = residual_peak(records, pred)
     return [] if pk is None else [unexcited_mode_entry(pk)]
 
 

@@ -20,25 +20,25 @@ from ..fitting.gram import r_factor
 from ..fitting.thresholds import reversal_indices
 from .context import FitContext
 from .events import REVERSAL_TOL
-from .specs import spec_untestable, time_effects
+from .specs import Untestable, spec_untestable, time_effects
 from .stats import HeldOut, heldout_comparison, score_test
 from .structure import Fit
 
 
-def untestable_effects(ctx: FitContext) -> list[dict[str, str]]:
-    """Effects the recordings of ``ctx`` cannot excite, each ``{"name", "reason",
-    "experiment"}`` (the recording that would make it testable): every time-dependent effect
+def untestable_effects(ctx: FitContext) -> list[Untestable]:
+    """Effects the recordings of ``ctx`` cannot excite, each an :class:`Untestable` (with
+    the recording that would make it testable): every time-dependent effect
     on recordings without a time axis, then each effect's own rule
     (:attr:`~core.diagnosis.registry.DiagnosableEffect.untestable`)."""
     untimed = [r.name for r in ctx.records if not r.has_time]
-    out: list[dict[str, str]] = []
+    out: list[Untestable] = []
     if untimed:
         why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
                "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
                "rate or frequency cannot be told apart from the loop itself")
-        out = [{"name": n, "reason": why, "experiment": "the same recording with its time "
-                "stamps (or --time COLUMN, or the sampling rate)"} for n in time_effects()]
-    return out + spec_untestable(ctx, {u["name"] for u in out})
+        out = [Untestable(n, why, "the same recording with its time stamps (or --time "
+                          "COLUMN, or the sampling rate)") for n in time_effects()]
+    return out + spec_untestable(ctx, {u.name for u in out})
 
 
 @dataclass(frozen=True)

@@ -85,7 +85,7 @@ def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per re
                      f"{a['experiment']}")
     groups: dict[tuple[str, str], list[str]] = {}
     for u in res.untestable:  # effects untestable for the same reason share one line
-        groups.setdefault((u["reason"], u["experiment"]), []).append(u["name"])
+        groups.setdefault((u.reason, u.experiment), []).append(u.name)
     for (reason, experiment), names in groups.items():
         lines.append(f"Untestable: {', '.join(names)}: {reason}; would need {experiment}")
     return "\n".join(lines)

@@ -26,9 +26,10 @@ import numpy as np
 from ..fitting.cycles import fundamental_hz
 from ..recordings import Recording
 from .eventresponse import kind_prediction
+from .specs import Untestable
 
-__all__ = ["FREQ_AGREE", "LIGHT_DAMPING", "MAX_DRIVEN", "MIN_SHARE", "ResidualPeak", "peak_in",
-           "residual_peak", "untestable_entry"]
+__all__ = ["FIT_BAND", "FREQ_AGREE", "LIGHT_DAMPING", "MAX_DRIVEN", "MIN_SHARE", "ResidualPeak",
+           "fit_mode", "line_hz", "peak_in", "residual_peak", "untestable_entry"]
 
 #: Largest damping ratio of a peak counted as a lightly damped mode: its equivalent width
 #: (:func:`peak_in`) is at most ``2 * LIGHT_DAMPING * f`` (plus 1.5 frequency bins, what the
@@ -50,6 +51,15 @@ _ABOVE_INPUT = 5.0
 #: Longest Welch segment, s, and fewest segments per half recording.
 _SEGMENT_S = 1.0
 _MIN_SEGMENTS = 3
+#: The band of :func:`fit_mode`: ``[f / FIT_BAND, FIT_BAND * f]`` around the peak's bin,
+#: three half-power half-widths either side of the widest mode counted (damping
+#: :data:`LIGHT_DAMPING`): the peak's shoulders and the background beside them.
+FIT_BAND = 1.0 + 3.0 * LIGHT_DAMPING
+#: Fewest periodogram bins in the band for a residual to enter :func:`fit_mode`.
+_MIN_FIT_BINS = 8
+#: Bins either side of each harmonic of a periodic input left out of :func:`fit_mode`: the
+#: main lobe of the Hann taper (:func:`_periodogram`).
+_LINE_BINS = 2
 
 
 @dataclass(frozen=True)
@@ -59,10 +69,10 @@ class ResidualPeak:
     Attributes
     ----------
     freq_hz : float
-        Median of the peak frequencies of the halves, Hz.
+        The mode's natural frequency, Hz, fitted to the peak's shape in the recordings'
+        finest spectra (:func:`fit_mode`).
     damping : float
-        Median of the damping ratios estimated from the halves' equivalent widths (at least
-        the window's spread of a line: an upper bound for a mode lighter than that).
+        The mode's damping ratio from the same fit.
     prominence : float
         Smallest ratio of the peak's power spectral density to the median of [f/2, 2f].
     input_share : float
@@ -74,6 +84,9 @@ class ResidualPeak:
         Independent halves it was found in.
     of_halves : int
         Halves searched.
+    bin_hz : float
+        Median of the peak bins of the halves (1 s Welch segments), Hz: where the peak was
+        found, and the centre of the bands of ``input_share`` and ``driven``.
     """
 
     freq_hz: float
@@ -83,6 +96,7 @@ class ResidualPeak:
     driven: float
     halves: int
     of_halves: int
+    bin_hz: float
 
 
 def _psd(x: np.ndarray, dt: float, nseg: int) -> tuple[np.ndarray, np.ndarray]:
@@ -152,6 +166,117 @@ def peak_in(e: np.ndarray, dt: float, fmin: float) -> tuple[float, float, float]
     return f0, zeta, prom
 
 
+def _mode_shape(f: np.ndarray, fn: float, zeta: float) -> np.ndarray:
+    """``|H(f)|**2`` of a unit-gain second-order mode at ``fn`` Hz with damping ``zeta``."""
+    r = f / fn
+    return 1.0 / ((1.0 - r * r) ** 2 + (2.0 * zeta * r) ** 2)
+
+
+def _periodogram(e: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Frequencies (Hz) and periodogram of ``e`` (mean removed, a Hann taper): the finest
+    spectrum the record gives, ``1 / T`` apart. The taper keeps a line's power within two
+    bins of it (its sidelobes fall 18 dB an octave), so a strong harmonic does not leak
+    into the bins a fit reads."""
+    from scipy.signal.windows import hann
+
+    x = np.asarray(e, dtype=np.float64)
+    w = hann(x.size, sym=False)
+    spec = np.abs(np.fft.rfft((x - x.mean()) * w)) ** 2 / float(np.sum(w * w))
+    return np.fft.rfftfreq(x.size, dt), spec
+
+
+def line_hz(u: np.ndarray, dt: float) -> float:
+    """The input's fundamental, Hz, to a small fraction of a bin: the peak of the input's
+    zoomed spectrum (its discrete-time Fourier transform, mean removed, Hann-tapered so the
+    negative frequency's image does not shift it) within a bin of
+    :func:`~core.fitting.cycles.fundamental_hz` (0 for a constant input)."""
+    from scipy.optimize import minimize_scalar
+    from scipy.signal.windows import hann
+
+    x = np.asarray(u, dtype=np.float64)
+    x = x - x.mean()
+    f1 = fundamental_hz(x, dt)
+    if not f1 > 0:
+        return 0.0
+    t = np.arange(x.size) * dt
+    x = x * hann(x.size, sym=False)
+    bin_hz = 1.0 / (x.size * dt)
+
+    def minus_amp(f: float) -> float:
+        return -abs(complex(np.sum(x * np.exp(-2j * np.pi * f * t))))
+
+    r = minimize_scalar(minus_amp, bounds=(max(f1 - bin_hz, 0.5 * f1), f1 + bin_hz),
+                        method="bounded", options={"xatol": 1e-6 * bin_hz})
+    return float(r.x)
+
+
+def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0: float
+             ) -> tuple[float, float]:
+    """Frequency and damping of a mode seen as a peak near ``f0`` Hz, from the shape of the
+    peak in the finest spectrum each residual gives.
+
+    Each residual's periodogram over ``[f0 / FIT_BAND, FIT_BAND * f0]`` is modelled as the
+    mode's ``|H(f)|**2`` times a smooth background, ``c_i (f / f0)**g_i`` (the broadband
+    misfit the mode filters: its own level and slope per residual), and the frequency and
+    damping shared by all residuals maximise the Whittle likelihood (a periodogram's bins
+    are independent and exponentially distributed about the spectrum; the level ``c_i`` is
+    profiled out). Under a periodic input the bins within :data:`_LINE_BINS` of the input's
+    harmonics are left out: they hold lines (the periodic misfit and what the input drives
+    through the mode), not the filtered broadband misfit whose shape is the mode's. A peak
+    read from one bin of an averaged spectrum is off by up to half a bin (0.5 Hz with 1 s
+    segments), pulled towards a strong harmonic near it, and widened by the window; the
+    fit uses every bin of the peak between the harmonics, at the record's own resolution.
+
+    Parameters
+    ----------
+    residuals : list of (ndarray, float, float)
+        Residual samples (output units), their sample interval (s) and the input's
+        fundamental (Hz, :func:`line_hz`; 0 for none), one per recording.
+    f0, zeta0 : float
+        Starting frequency (Hz) and damping (the peak's bin and equivalent width).
+
+    Returns
+    -------
+    (freq_hz, damping) : tuple of float
+        The natural frequency (Hz) and damping ratio; ``(f0, zeta0)`` when no residual
+        has :data:`_MIN_FIT_BINS` bins in the band or the fit leaves it.
+    """
+    from scipy.optimize import minimize
+
+    bands = []
+    for e, dt, fu in residuals:
+        f, p = _periodogram(e, dt)
+        m = (f >= f0 / FIT_BAND) & (f <= FIT_BAND * f0) & (f > 0)
+        bin_hz = float(f[1] - f[0]) if f.size > 1 else 0.0
+        if fu > 0 and fu >= (2 * _LINE_BINS + 2) * bin_hz:  # the harmonics stand apart
+            m &= np.abs(f / fu - np.round(f / fu)) * fu > _LINE_BINS * bin_hz
+        if int(m.sum()) >= _MIN_FIT_BINS:
+            bands.append((f[m], p[m]))
+    if not bands:
+        return f0, zeta0
+
+    def nll(th: np.ndarray) -> float:
+        fn, zeta = float(th[0]), float(np.exp(th[1]))
+        out = 0.0
+        for k, (f, p) in enumerate(bands):
+            s = _mode_shape(f, fn, zeta) * (f / f0) ** th[2 + k]
+            out += f.size * math.log(max(float(np.mean(p / s)), 1e-300)) + float(
+                np.sum(np.log(s)))
+        return out
+
+    lo, hi = f0 / FIT_BAND, FIT_BAND * f0
+    best = None
+    for start in (f0 * (1 - zeta0), f0, f0 * (1 + zeta0)):
+        th0 = np.array([start, math.log(min(max(zeta0, 1e-3), 0.3)), *([0.0] * len(bands))])
+        r = minimize(nll, th0, method="Nelder-Mead",
+                     options={"xatol": 1e-5, "fatol": 1e-7, "maxiter": 4000})
+        if np.isfinite(r.fun) and lo < r.x[0] < hi and (best is None or r.fun < best.fun):
+            best = r
+    if best is None:
+        return f0, zeta0
+    return float(best.x[0]), float(min(np.exp(best.x[1]), 1.0))
+
+
 def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualPeak | None:
     """A lightly damped peak in the residual ``y - pred`` that the input does not excite.
 
@@ -205,27 +330,31 @@ def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualP
                      / max(_band_rms(e, dt, f0 / 1.5, 1.5 * f0), 1e-300))
     if driven >= MAX_DRIVEN:
         return None  # the input drives the band: the resonance candidate's own verdict stands
-    return ResidualPeak(f0, float(np.median([z for _, z, _ in found])),
-                        min(pr for _, _, pr in found),
-                        share, driven, len(found), n_parts)
+    fn, zn = fit_mode([(np.asarray(r.y, dtype=np.float64) - np.asarray(p, dtype=np.float64),
+                        float(r.t[1] - r.t[0]), line_hz(r.u, float(r.t[1] - r.t[0])))
+                       for r, p in zip(records, pred, strict=True)],
+                      f0, float(np.median([z for _, z, _ in found])))
+    return ResidualPeak(fn, zn, min(pr for _, _, pr in found), share, driven, len(found),
+                        n_parts, f0)
 
 
-def untestable_entry(pk: ResidualPeak) -> dict[str, str]:
-    """The ``untestable`` entry of the report for peak ``pk`` (name, reason, experiment)."""
+def untestable_entry(pk: ResidualPeak) -> Untestable:
+    """The ``untestable`` entry of the report for peak ``pk``: the resonance, the reason
+    and the deciding experiment in words, and its fitted ``freq_hz`` (Hz) and ``damping``
+    as the entry's parameters."""
     f = pk.freq_hz
-    return {
-        "name": "resonance",
-        "reason": (
-            f"a lightly damped peak at about {f:.3g} Hz (damping about {pk.damping:.2g}, "
-            f"{pk.prominence:.3g}x the spectrum around it) is in the residual of {pk.halves} "
-            f"of {pk.of_halves} halves of the recordings, each on its own, but the input has "
-            f"no energy there ({100 * pk.input_share:.2g} % of its range between "
-            f"{f / 1.5:.3g} and {1.5 * f:.3g} Hz; such a mode acting on the model's "
-            f"prediction explains {100 * pk.driven:.2g} % of the residual's RMS there), so "
-            "a mode after the hysteresis cannot be told from the output's own unmodelled "
-            "vibration or an interference at that frequency"),
-        "experiment": (
-            f"input steps with rests before them, or a sine sweep through {f / 2:.3g}-"
-            f"{2 * f:.3g} Hz at a small amplitude: a mode rings at its frequency after each "
-            "step and peaks in the output over input there"),
-    }
+    return Untestable(
+        "resonance",
+        (f"a lightly damped peak at about {f:.3g} Hz (damping about {pk.damping:.2g}, "
+         f"{pk.prominence:.3g}x the spectrum around it) is in the residual of {pk.halves} "
+         f"of {pk.of_halves} halves of the recordings, each on its own, but the input has "
+         f"no energy there ({100 * pk.input_share:.2g} % of its range between "
+         f"{pk.bin_hz / 1.5:.3g} and {1.5 * pk.bin_hz:.3g} Hz; such a mode acting on the "
+         f"model's prediction explains {100 * pk.driven:.2g} % of the residual's RMS "
+         "there), so a mode after the hysteresis cannot be told from the output's own "
+         "unmodelled vibration or an interference at that frequency"),
+        (f"input steps with rests before them, or a sine sweep through {f / 2:.3g}-"
+         f"{2 * f:.3g} Hz at a small amplitude: a mode rings at its frequency after each "
+         "step and peaks in the output over input there"),
+        {"freq_hz": f, "damping": pk.damping},
+    )

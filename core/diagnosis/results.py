@@ -21,11 +21,12 @@ from .candidates import build_candidate
 from .context import FitContext
 from .eventresponse import StepSuggestion
 from .registry import EFFECTS
+from .specs import Untestable
 from .stats import HeldOut, ljung_box
 from .structure import Fit, PIStageOutputs, Structure
 
 __all__ = ["ACCEPT_RULE", "RESULT_FORMAT", "RESULT_VERSION", "BaseChoice", "DiagnosisResult",
-           "EffectFinding", "RecordingSpecific", "RoundRow", "pooled_mse"]
+           "EffectFinding", "RecordingSpecific", "RoundRow", "Untestable", "pooled_mse"]
 
 
 #: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
@@ -349,8 +350,8 @@ class DiagnosisResult:
         The PI fit with the requested number of operators.
     effects : list of EffectFinding
         Accepted effects in the order they were found.
-    untestable : list of dict
-        ``{"name", "reason", "experiment"}`` per effect the recordings cannot excite.
+    untestable : list of Untestable
+        Each effect the recordings cannot excite, with the reason and the experiment.
     ambiguous : list of dict
         ``{"effects", "chosen", "reason", "experiment"}`` per undecided pair.
     rounds : list of RoundRow
@@ -371,7 +372,7 @@ class DiagnosisResult:
     baseline: Fit
     final: Fit
     effects: list[EffectFinding]
-    untestable: list[dict[str, str]]
+    untestable: list[Untestable]
     ambiguous: list[dict[str, Any]]
     rounds: list[RoundRow]
     maps_before: dict[str, Any]
@@ -427,27 +428,18 @@ class DiagnosisResult:
     def suggestive(self) -> list[dict[str, Any]]:
         """Effects of the last round that improved the held-out MSE by >= 5 % but failed the
         significance test: worth a targeted experiment, not claimed."""
-        if not self.rounds:
-            return []
-        last = max(r.round for r in self.rounds)
         return [
             {k: d[k] for k in ("effect", "heldout_mse_reduction", "dm_z", "signed_rank_p",
                                "parameters", "dm_z_pooled", "signed_rank_p_pooled",
                                "parameter_cv") if k in d}
-            for r in self.rounds
-            if r.round == last and not r.passes and r.heldout_mse_reduction >= RULE.min_gain
-            and not r.effect.startswith(("resolution", "recheck"))
-            for d in (r.to_dict(),)
+            for r in suggestive_rows(self.rounds) for d in (r.to_dict(),)
         ]
 
     @property
     def suggested_names(self) -> list[str]:
         """Names of every effect suggested and not claimed: :attr:`suggestive`, then the kind
         the input steps show (:attr:`after_steps`) when not among them."""
-        names = [g["effect"] for g in self.suggestive]
-        if self.after_steps is not None and self.after_steps.kind not in names:
-            names.append(self.after_steps.kind)
-        return names
+        return suggested_names(self.rounds, self.after_steps)
 
     def with_effect(self, name: str) -> tuple[Fit, dict[str, Any]]:
         """Fit effect ``name`` on top of the final model although it was not claimed.
@@ -570,7 +562,7 @@ class DiagnosisResult:
             "split": self.split,
             "baseline": self._baseline_dict(yr),
             "effects": [e.to_dict(yr) for e in self.effects],
-            "untestable": self.untestable,
+            "untestable": [u.to_dict() for u in self.untestable],
             "recording_specific": [r.to_dict() for r in self.recording_specific],
             "ambiguous": _jsonable(self.ambiguous),
             "final": self._final_dict(yr),
@@ -657,7 +649,7 @@ class DiagnosisResult:
         """
         from .typed_json import read_document
 
-        out: DiagnosisResult = read_document(doc, RESULT_FORMAT, RESULT_VERSION,
+        out: DiagnosisResult = read_document(_upgraded(doc), RESULT_FORMAT, RESULT_VERSION,
                                              _json_types(), cls)
         return out
 
@@ -671,7 +663,27 @@ class DiagnosisResult:
 #: The ``format`` and the version of :meth:`DiagnosisResult.to_json` (a later version is
 #: refused on reading).
 RESULT_FORMAT = "hysteresis-explorer/diagnosis-result"
-RESULT_VERSION = 1
+RESULT_VERSION = 2
+
+
+def _upgraded(doc: Any) -> Any:
+    """A :meth:`DiagnosisResult.to_json` document of version 1 as version 2 writes it: its
+    ``untestable`` entries, plain ``{"name", "reason", "experiment"}`` objects then, become
+    :class:`~core.diagnosis.specs.Untestable` (no parameters). Anything else is returned as
+    it is (a damaged document is told by the reader)."""
+    try:
+        fields = doc["result"]["fields"]
+        entries = fields["untestable"]
+        old = doc["version"] == 1 and isinstance(entries, list)
+    except (KeyError, TypeError):
+        return doc
+    if not old:
+        return doc
+    new = [{"$type": "Untestable", "fields": dict(u)}
+           if isinstance(u, dict) and set(u) == {"name", "reason", "experiment"} else u
+           for u in entries]
+    return {**doc, "version": 2,
+            "result": {**doc["result"], "fields": {**fields, "untestable": new}}}
 
 
 def _json_types() -> tuple[type, ...]:
@@ -679,7 +691,31 @@ def _json_types() -> tuple[type, ...]:
     from .adequacy import LoopShapeFit
 
     return (DiagnosisResult, EffectFinding, RoundRow, BaseChoice, RecordingSpecific, Fit,
-            Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording, StepSuggestion)
+            Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording, StepSuggestion,
+            Untestable)
+
+
+def suggestive_rows(rounds: Sequence[RoundRow]) -> list[RoundRow]:
+    """The rows of the last round whose effect improved the held-out MSE by at least
+    ``RULE.min_gain`` but failed the significance rules (the resolution and re-check rows
+    left out): :attr:`DiagnosisResult.suggestive`."""
+    if not rounds:
+        return []
+    last = max(r.round for r in rounds)
+    return [r for r in rounds
+            if r.round == last and not r.passes and r.heldout_mse_reduction >= RULE.min_gain
+            and not r.effect.startswith(("resolution", "recheck"))]
+
+
+def suggested_names(rounds: Sequence[RoundRow], after_steps: StepSuggestion | None
+                    ) -> list[str]:
+    """Names of every effect suggested and not claimed: the effects of
+    :func:`suggestive_rows`, then the kind the input steps show (``after_steps``) when not
+    among them (:attr:`DiagnosisResult.suggested_names`)."""
+    names = [r.effect for r in suggestive_rows(rounds)]
+    if after_steps is not None and after_steps.kind not in names:
+        names.append(after_steps.kind)
+    return names
 
 
 def pooled_mse(es: Sequence[Float1D]) -> float:

@@ -9,16 +9,46 @@ in :data:`core.diagnosis.registry.EFFECTS`.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from .registry import EFFECTS
 
-__all__ = ["DECIDING_EXPERIMENT", "FAMILY_PRIORITY", "spec_untestable", "time_effects"]
+__all__ = ["DECIDING_EXPERIMENT", "FAMILY_PRIORITY", "Untestable", "spec_untestable",
+           "time_effects"]
+
+
+@dataclass(frozen=True)
+class Untestable:
+    """An effect the recordings cannot test: the report's ``untestable`` entry.
+
+    Attributes
+    ----------
+    name : str
+        The effect's ``type`` (:data:`core.diagnosis.registry.EFFECTS`).
+    reason : str
+        Why the recordings cannot test it, in words.
+    experiment : str
+        The recording that would make it testable, in words.
+    parameters : dict of str to float
+        What the recordings still say of it, when anything (a mode seen in the residual's
+        spectrum: ``freq_hz``, Hz, and ``damping``); empty otherwise. Not in the report's
+        JSON (:meth:`to_dict`), whose entry is ``{"name", "reason", "experiment"}``.
+    """
+
+    name: str
+    reason: str
+    experiment: str
+    parameters: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, str]:
+        """The report's JSON entry ``{"name", "reason", "experiment"}``."""
+        return {"name": self.name, "reason": self.reason, "experiment": self.experiment}
 
 
 def spec_untestable(ctx: Any, already: set[str] | frozenset[str] = frozenset()
-                    ) -> list[dict[str, str]]:
-    """``{"name", "reason", "experiment"}`` of every effect whose own rule
+                    ) -> list[Untestable]:
+    """The :class:`Untestable` entry of every effect whose own rule
     (:attr:`~core.diagnosis.registry.DiagnosableEffect.untestable`) says the recordings of
     ``ctx`` cannot test it (effects in ``already`` are skipped)."""
     out = []
@@ -28,7 +58,7 @@ def spec_untestable(ctx: Any, already: set[str] | frozenset[str] = frozenset()
         why = e.untestable(ctx)
         if why:
             why, exp = why if isinstance(why, tuple) else (why, e.experiment or "")
-            out.append({"name": name, "reason": why, "experiment": exp})
+            out.append(Untestable(name, why, exp))
     return out
 
 

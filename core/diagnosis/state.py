@@ -17,6 +17,7 @@ from .context import FitContext
 from .crossfitting import CrossFit
 from .registry import EFFECTS
 from .results import EffectFinding, RecordingSpecific, RoundRow
+from .specs import Untestable
 from .stats import HeldOut
 from .structure import Fit
 
@@ -100,7 +101,7 @@ class Run:
 
     ctx: FitContext
     noise: float
-    untestable: list[dict[str, str]]
+    untestable: list[Untestable]
     max_effects: int
     #: rate- / amplitude-dependent effects judged by predicting each recording from the others
     between: BetweenPlan
@@ -125,7 +126,7 @@ class Run:
 
     @property
     def untestable_names(self) -> set[str]:
-        return {u["name"] for u in self.untestable}
+        return {u.name for u in self.untestable}
 
     def step(self, rnd: int, frac: float, msg: str) -> None:
         """Progress inside round ``rnd`` (``frac`` of the round done)."""

@@ -18,6 +18,7 @@ import plotly.io as pio
 from plotly.subplots import make_subplots
 
 from app.services.explore.figures import PLOT_CONFIG
+from core.diagnosis.results import DiagnosisResult
 
 __all__ = ["figures", "write_report"]
 
@@ -113,7 +114,8 @@ def _fmt(v: Any) -> str:
     return html.escape(str(v))
 
 
-def write_report(res: Any, path: str | Path, units: dict[str, str] | None = None) -> Path:
+def write_report(res: DiagnosisResult, path: str | Path,
+                 units: dict[str, str] | None = None) -> Path:
     """Write the HTML report of ``res`` to ``path`` (axes in ``units``, see
     :func:`figures`) and return the path."""
     d = res.to_dict()
@@ -195,17 +197,17 @@ def write_report(res: Any, path: str | Path, units: dict[str, str] | None = None
                          + (f"; with the cross-fitted training blocks DM z = "
                             f"{g['dm_z_pooled']:.2f}" if "dm_z_pooled" in g else "") + "</li>"
                          for g in d["suggestive"]) + "</ul>")
-    if d.get("suggestive_after_steps"):
+    if res.after_steps is not None:
         parts.append("<h2>Seen after too few input steps, not claimed</h2><p>"
-                     + html.escape(d["suggestive_after_steps"]["text"]) + ".</p>")
+                     + html.escape(res.after_steps.text) + ".</p>")
     if d["ambiguous"]:
         parts.append("<h2>Ambiguous</h2><ul>" + "".join(
             f"<li>{html.escape(' vs '.join(a['effects']))}: {html.escape(a['reason'])}. "
             f"To decide: {html.escape(a['experiment'])}.</li>" for a in d["ambiguous"]) + "</ul>")
-    if d["untestable"]:
+    if res.untestable:
         parts.append("<h2>Untestable with these recordings</h2><ul>" + "".join(
-            f"<li><b>{html.escape(u['name'])}</b>: {html.escape(u['reason'])}. Would need: "
-            f"{html.escape(u['experiment'])}.</li>" for u in d["untestable"]) + "</ul>")
+            f"<li><b>{html.escape(u.name)}</b>: {html.escape(u.reason)}. Would need: "
+            f"{html.escape(u.experiment)}.</li>" for u in res.untestable) + "</ul>")
     first = True
     for key in ("loops", "residuals", "maps"):
         parts.append(pio.to_html(figs[key], full_html=False,

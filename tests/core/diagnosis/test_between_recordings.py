@@ -46,7 +46,7 @@ def test_rate_claimed_from_recordings_at_four_frequencies() -> None:
     assert all(p["mse_reduction"] > 0.5 for p in row["per_recording"])
     beta = res.effects[0].parameters["beta_s"]
     assert beta == pytest.approx(BETA, rel=0.3)
-    assert "rate" not in {u["name"] for u in res.untestable}
+    assert "rate" not in {u.name for u in res.untestable}
 
 
 def test_rate_independent_plant_at_four_frequencies_claims_nothing() -> None:
@@ -86,8 +86,8 @@ def test_between_recordings_never_uses_the_left_out_recording() -> None:
 def test_single_frequency_recordings_leave_rate_untestable() -> None:
     recs = make_periodic_set(BETA, freqs=(1.0, 1.0, 1.0), seed=1).records
     res = diagnose(recs)
-    un = {u["name"]: u for u in res.untestable}
-    assert "rate" in un and "single rate" in un["rate"]["reason"]
+    un = {u.name: u for u in res.untestable}
+    assert "rate" in un and "single rate" in un["rate"].reason
     assert "rate" not in [f.name for f in res.effects]
     assert "Untestable: " in res.summary() and "rate" in res.summary()
     # what the one-rate loop widening was attributed to is reported ambiguous with rate
@@ -109,7 +109,7 @@ def test_periodic_steady_state_yields_no_initial_memory() -> None:
         t[keep].size), name="steady")
     res = diagnose(rec, effects=["initial-memory", "offset", "asymmetry"])
     assert res.effects == []
-    un = {u["name"]: u["reason"] for u in res.untestable}
+    un = {u.name: u.reason for u in res.untestable}
     assert "periodic steady state" in un["initial-memory"]
     # the baseline starts from the cycle's own memory: its residual is at the noise floor
     assert res.heldout_rmse(res.baseline) < 1.5 * 0.02
@@ -145,14 +145,14 @@ def test_friction_damper_at_two_rates_rate_tested_between_recordings_not_claimed
     # (on the stop-operator base of clockwise loops rate is not modelled: the PI base)
     res = diagnose([slow, fast], n_operators=15, effects=["rate", "delay", "lag"], base="pi")
     assert "rate" not in [f.name for f in res.effects]
-    assert "rate" not in {u["name"] for u in res.untestable}
+    assert "rate" not in {u.name for u in res.untestable}
     row = _rate_row(res)
     assert "leave-one-recording-out" in row["evidence"] and not row["passes"]
     assert [p["recording"] for p in row["per_recording"]] == [slow.name, fast.name]
     stop = diagnose([slow, fast], n_operators=15, effects=["rate"], max_effects=0)
     assert stop.base_choice is not None and stop.base_choice.kind == "stop-pi"
-    (why,) = [u for u in stop.untestable if u["name"] == "rate"]
-    assert "stop operators" in why["reason"] and "--base pi" in why["experiment"]
+    (why,) = [u for u in stop.untestable if u.name == "rate"]
+    assert "stop operators" in why.reason and "--base pi" in why.experiment
 
 
 def test_the_untestable_rate_says_recording_or_recordings() -> None:

@@ -57,7 +57,7 @@ def test_null_recordings_claim_nothing() -> None:
     assert res.heldout_rmse(res.final) == res.heldout_rmse(res.baseline)
     # the white-noise floor is estimated close to the true noise level
     assert res.noise_rms == pytest.approx(0.02, rel=0.3)
-    names = {u["name"] for u in res.untestable}
+    names = {u.name for u in res.untestable}
     assert "creep" in names  # no step-and-hold in these recordings
 
 
@@ -137,7 +137,7 @@ def test_explicit_time_split_and_tuple_input() -> None:
                    effects=["offset"])
     assert res.split.startswith("train t in [0, 1.5)")
     assert res.test[0][r.t >= 1.6].all() and not res.train[0][r.t >= 1.6].any()
-    assert {u["name"] for u in res.untestable} >= {"offset", "drift"}
+    assert {u.name for u in res.untestable} >= {"offset", "drift"}
     # leave-one-recording-out needs several recordings and the default split
     assert res.loro_baseline is None and res.loro_final is None
     assert res.to_dict()["final"]["leave_one_recording_out"] is None

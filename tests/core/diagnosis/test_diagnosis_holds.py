@@ -63,7 +63,7 @@ def test_ramp_and_hold_relaxation_is_a_creep_test() -> None:
     """Before: creep 'untestable: no step followed by a hold', offset and drift claimed."""
     plant = Chain.of(_pi(), Creep([1.0, 10.0, 100.0], [0.05, 0.05, 0.05]))
     res = diagnose(_relaxation_records(plant))
-    assert "creep" not in {u["name"] for u in res.untestable}
+    assert "creep" not in {u.name for u in res.untestable}
     assert [e.name for e in res.effects][:1] == ["creep"]
     assert "drift" not in [e.name for e in res.effects]
 

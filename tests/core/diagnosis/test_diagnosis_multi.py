@@ -173,7 +173,7 @@ def test_single_closed_loop_is_steady_state_not_initial_memory() -> None:
     assert np.max(np.abs(pred - truth_pi()(u)[2 * n :])) < 1e-9
     res = diagnose([rec])
     assert res.effects == []
-    why = {x["name"]: x["reason"] for x in res.untestable}
+    why = {x.name: x.reason for x in res.untestable}
     assert "single closed loop" in why["initial-memory"]
     # an open cycle (the output does not return) is not a closed loop
     assert closed_loop_history(Recording(rec.t, rec.u, rec.y + np.linspace(0, 5, rec.n_samples),

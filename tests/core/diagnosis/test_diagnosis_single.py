@@ -17,5 +17,5 @@ def test_single_staircase_null_claims_nothing(noise: str, seed: int) -> None:
     assert sc.records[0].t[-1] - sc.records[0].t[0] < SINGLE_DRIFT_S
     res = diagnose(sc.records, n_operators=15)
     assert res.effects == []
-    drift = [u for u in res.untestable if u["name"] == "drift"]
-    assert drift and "slow sensor noise" in drift[0]["reason"]
+    drift = [u for u in res.untestable if u.name == "drift"]
+    assert drift and "slow sensor noise" in drift[0].reason

@@ -48,7 +48,7 @@ def _diagnose(rec: Recording):
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_creep_settling_from_cycle_to_cycle_is_named_or_flagged(seed: int) -> None:
     res = _diagnose(_record(0.02, seed))
-    assert "creep" not in {u["name"] for u in res.untestable}
+    assert "creep" not in {u.name for u in res.untestable}
     # creep's own candidate passed, judged from cycle to cycle (not a drift's disguise)
     row = next(r for r in res.rounds if r.effect == "creep" and r.round == 1)
     assert row.passes and "cycle to cycle" in row.evidence
@@ -65,7 +65,7 @@ def test_a_creep_settling_from_cycle_to_cycle_is_named_or_flagged(seed: int) -> 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_no_creep_is_claimed_on_the_same_record_without_one(seed: int) -> None:
     res = _diagnose(_record(0.0, seed))
-    assert "creep" not in {u["name"] for u in res.untestable}
+    assert "creep" not in {u.name for u in res.untestable}
     assert res.effects == []
     assert not res.ambiguous
 
@@ -86,8 +86,8 @@ def test_without_a_hold_or_repeated_cycles_creep_stays_untestable() -> None:
     u = 80.0 * np.exp(-t / 3.0) * np.sin(2 * np.pi * t)  # decaying: no cycle repeats
     rec = Recording(t=t, u=u, y=PLANT(u), name="decaying")
     res = _diagnose(rec)
-    creep = [u for u in res.untestable if u["name"] == "creep"]
-    assert creep and "repeating one input cycle" in creep[0]["reason"]
+    creep = [u for u in res.untestable if u.name == "creep"]
+    assert creep and "repeating one input cycle" in creep[0].reason
 
 
 def test_with_explicit_windows_creep_is_not_judged_from_cycle_to_cycle() -> None:
@@ -96,4 +96,4 @@ def test_with_explicit_windows_creep_is_not_judged_from_cycle_to_cycle() -> None
     rec = _record(0.0, 1)
     res = diagnose(rec, train=(0.0, 6.0), test=(6.0, 8.0), n_operators=10,
                    effects=["creep"], auto_resolution=False)
-    assert "creep" in {u["name"] for u in res.untestable}
+    assert "creep" in {u.name for u in res.untestable}

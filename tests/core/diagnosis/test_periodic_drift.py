@@ -60,7 +60,7 @@ def _record(drift: float, seed: int) -> Recording:
 def test_a_drift_from_cycle_to_cycle_is_named_in_one_record(seed: int) -> None:
     res = diagnose(_record(0.02, seed), n_operators=10, effects=["drift"],
                    auto_resolution=False)
-    assert "drift" not in {u["name"] for u in res.untestable}
+    assert "drift" not in {u.name for u in res.untestable}
     assert [e.name for e in res.effects] == ["drift"]
     row = next(r for r in res.rounds if r.effect == "drift" and r.decision == "accepted")
     assert "cycle to cycle" in row.evidence
@@ -70,7 +70,7 @@ def test_a_drift_from_cycle_to_cycle_is_named_in_one_record(seed: int) -> None:
 def test_no_drift_is_claimed_on_the_same_record_without_one(seed: int) -> None:
     res = diagnose(_record(0.0, seed), n_operators=10, effects=["drift"],
                    auto_resolution=False)
-    assert "drift" not in {u["name"] for u in res.untestable}
+    assert "drift" not in {u.name for u in res.untestable}
     assert res.effects == []
 
 
@@ -79,8 +79,8 @@ def test_a_single_short_record_without_repeated_cycles_leaves_drift_untestable()
     u = 80.0 * np.exp(-t / 3.0) * np.sin(2 * np.pi * t)  # decaying: no cycle repeats
     rec = Recording(t=t, u=u, y=PLANT(u), name="decaying")
     res = diagnose(rec, n_operators=10, effects=["drift"], auto_resolution=False)
-    drift = [u for u in res.untestable if u["name"] == "drift"]
-    assert drift and "repeated input cycle" in drift[0]["reason"]
+    drift = [u for u in res.untestable if u.name == "drift"]
+    assert drift and "repeated input cycle" in drift[0].reason
 
 
 def test_rule_13_refuses_an_effect_that_harms_the_other_rows() -> None:
@@ -121,7 +121,7 @@ def test_repeated_cycles_follow_a_period_of_no_whole_number_of_samples() -> None
 def test_a_drift_under_a_measured_like_periodic_drive_is_named(seed: int) -> None:
     res = diagnose(_measured_like(0.02, seed), n_operators=10, effects=["drift"],
                    auto_resolution=False)
-    assert "drift" not in {u["name"] for u in res.untestable}
+    assert "drift" not in {u.name for u in res.untestable}
     assert [e.name for e in res.effects] == ["drift"]
 
 
@@ -132,8 +132,8 @@ def test_too_few_cycles_leave_a_drift_untestable() -> None:
     t, u = _piezo_like_input(2)
     rec = Recording(t=t, u=u, y=PLANT(u), name="two-cycles")
     res = diagnose(rec, n_operators=10, effects=["drift"], auto_resolution=False)
-    drift = [u for u in res.untestable if u["name"] == "drift"]
-    assert drift and "repeated input cycle" in drift[0]["reason"]
+    drift = [u for u in res.untestable if u.name == "drift"]
+    assert drift and "repeated input cycle" in drift[0].reason
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -106,7 +106,7 @@ def test_a_drift_under_a_tapered_drive_is_named_and_the_null_is_not(seed: int) -
     on those rows: what is left, as on the non-Masing development case.)"""
     res = diagnose(_record(0.01, seed), n_operators=10, effects=["drift"],
                    auto_resolution=False)
-    assert "drift" not in {u["name"] for u in res.untestable}
+    assert "drift" not in {u.name for u in res.untestable}
     assert [e.name for e in res.effects] == ["drift"]
     row = next(r for r in res.rounds if r.effect == "drift" and r.decision == "accepted")
     assert "same input history" in row.evidence
@@ -132,7 +132,7 @@ def test_a_drift_on_the_shipped_damper_record_is_named_and_its_null_is_not() -> 
     row = next(r for r in res.rounds if r.effect == "drift" and r.decision == "accepted")
     assert "same input history" in row.evidence
     null = diagnose(_damper("friction-1Hz-30lb", 0.0), effects=["drift"])
-    assert "drift" not in {u["name"] for u in null.untestable}
+    assert "drift" not in {u.name for u in null.untestable}
     assert null.effects == []
     # the drift recovered relative to the null's own estimate, within 25 %
     got = res.effects[0].parameters["peak_to_peak"][0]

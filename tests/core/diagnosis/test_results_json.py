@@ -90,7 +90,7 @@ def saturation_and_lag() -> DiagnosisResult:
                     effects=["lag", "saturation"])
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def periodic_set(weak_rate_set_diagnosis) -> DiagnosisResult:
     """Four recordings at different rates: a base choice, between-recordings plans,
     leave-one-recording-out scores, suggestive rows (the diagnosis of
@@ -136,6 +136,55 @@ def test_two_hidden_effects_round_trip(resonance_and_drift_diagnosis) -> None:
     same(res, round_trip(res))
 
 
+def test_a_version_1_document_still_reads(periodic_set) -> None:
+    """Version 1 wrote each untestable entry as a plain object ``{"name", "reason",
+    "experiment"}`` (a stored session's result); it reads as the same result, its entries
+    typed (:class:`~core.diagnosis.specs.Untestable`, no parameters)."""
+    res = periodic_set
+    assert res.untestable and all(not u.parameters for u in res.untestable)
+    old = json.loads(json.dumps(res.to_json()))
+    old["version"] = 1
+    _fields(old)["untestable"] = [u.to_dict() for u in res.untestable]
+    same(res, DiagnosisResult.from_json(old))
+    # a version 2 document with such an entry is damaged, not read
+    _fields(old)["untestable"] = [u.to_dict() for u in res.untestable]
+    old["version"] = 2
+    with pytest.raises(DocumentError):
+        DiagnosisResult.from_json(old)
+
+
+def test_an_untestable_entry_keeps_its_parameters(periodic_set) -> None:
+    """A typed untestable entry with parameters (a mode seen in the residual's spectrum)
+    round-trips; the report's JSON entry is still ``{"name", "reason", "experiment"}``."""
+    from core.diagnosis.specs import Untestable
+
+    res = copy.copy(periodic_set)
+    res.untestable = [*res.untestable,
+                      Untestable("resonance", "why", "what", {"freq_hz": 45.3, "damping": 0.04})]
+    back = round_trip(res)
+    same(res, back)
+    assert back.untestable[-1].parameters == {"freq_hz": 45.3, "damping": 0.04}
+    assert back.to_dict()["untestable"][-1] == {"name": "resonance", "reason": "why",
+                                                "experiment": "what"}
+
+
+def test_each_test_gets_its_own_copy_of_a_shared_diagnosis(
+        weak_rate_set_diagnosis, _weak_rate_set_original) -> None:
+    """The diagnoses conftest.py shares between modules are run once and handed out as deep
+    copies: what a test changes in its copy (a list, a fit's prediction in place; the
+    recordings are read-only) leaves the diagnosis the next test gets as it was run."""
+    mine, shared = weak_rate_set_diagnosis, _weak_rate_set_original
+    assert mine is not shared
+    same(mine, shared)
+    mine.untestable.clear()
+    mine.rounds.pop()
+    mine.final.pred[0][:] = 0.0
+    assert shared.untestable and shared.rounds and np.any(shared.final.pred[0] != 0.0)
+    assert not np.shares_memory(mine.final.pred[0], shared.final.pred[0])
+    with pytest.raises(AssertionError):
+        same(mine, shared)
+
+
 def test_the_comparison_sees_a_difference(periodic_set) -> None:
     """The comparison above can fail: one sample of one prediction changed is found."""
     back = round_trip(periodic_set)
@@ -161,8 +210,8 @@ def _fields(doc: dict) -> dict:
 
 def test_damaged_documents_are_refused_saying_where(periodic_set) -> None:
     doc = json.loads(json.dumps(periodic_set.to_json()))
-    assert doc["format"] == FORMAT and doc["version"] == 1
-    assert "newer" in _damaged(doc, lambda d: d.update(version=2))
+    assert doc["format"] == FORMAT and doc["version"] == 2
+    assert "newer" in _damaged(doc, lambda d: d.update(version=3))
     assert "format" in _damaged(doc, lambda d: d.update(format="hysteresis-explorer/model"))
     assert _damaged(doc, lambda d: _fields(d).pop("split")).endswith("lacks its field 'split'")
     assert "has no field 'colour'" in _damaged(doc, lambda d: _fields(d).update(colour=1))

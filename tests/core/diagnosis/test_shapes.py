@@ -149,7 +149,7 @@ def test_a_single_branch_cannot_test_a_loop_shape() -> None:
     y = np.tanh(0.3 * u) + 0.001 * np.random.default_rng(0).standard_normal(u.size)
     res = diagnose(Recording(np.arange(u.size) * 1e-3, u, y, name="ramp"),
                    effects=["saturation", "dead-zone"])
-    why = {x["name"]: x["reason"] for x in res.untestable}
+    why = {x.name: x.reason for x in res.untestable}
     assert SHAPES <= set(why) and "single branch" in why["saturation"]
     assert not res.effects
 

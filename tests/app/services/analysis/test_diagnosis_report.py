@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 import pytest
@@ -24,3 +25,8 @@ def test_a_kind_seen_after_the_one_step_is_reported_unclaimed(tmp_path: Path) ->
     # fails without the report's section for it
     assert "Seen after too few input steps, not claimed" in text
     assert "a mode (ringing at its frequency)" in text and "more input steps" in text
+    assert html.escape(res.after_steps.text) in text  # read from the typed suggestion
+    # the untestable section from the typed entries, the same words as the JSON's
+    assert res.untestable and "Untestable with these recordings" in text
+    for u in res.untestable:
+        assert f"<b>{html.escape(u.name)}</b>: {html.escape(u.reason)}" in text
