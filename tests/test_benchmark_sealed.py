@@ -231,6 +231,32 @@ def test_measured_score_is_relative_to_the_null() -> None:
     assert nul["wrong"] == ["drift"]
 
 
+def test_a_parameter_said_untestable_or_suggested_is_information_only() -> None:
+    """The per-run table gives the hidden effect's parameter where the diagnosis says it
+    without naming it (untestable with a frequency, suggested, seen after too few steps),
+    against the truth; the class table's counts are those of the same rows without it."""
+    from benchmarks.diagnosis.sets import class_table, said_parameters, summarise_set
+
+    null = {**_row("dev/measured/friction-36lb/null", []), "set": "dev"}
+    mode = {**_row("dev/measured/friction-36lb/resonance/mid", [], {"resonance": {
+        "freq_hz": 45.0, "damping": 0.04}}), "set": "dev"}
+    rows = [{**r, "suggestive": [], "untestable": [], "after_steps": None, "elapsed_s": 1.0}
+            for r in (null, mode)]
+    told = [rows[0], {**rows[1], "untestable": ["resonance"],
+                      "untestable_parameters": {"resonance": {"freq_hz": 46.25,
+                                                              "damping": 0.05}},
+                      "suggestive": ["resonance"],
+                      "suggestive_parameters": {"resonance": {"freq_hz": 44.0}},
+                      "after_steps": {"effect": "resonance", "parameters": {"freq_hz": 47.0}}}]
+    assert said_parameters(told[1]) == [
+        "untestable resonance freq_hz 46.25 vs 45 (+2.8 %)",
+        "sugg. resonance freq_hz 44 vs 45 (-2.2 %)",
+        "steps resonance freq_hz 47 vs 45 (+4.4 %)"]
+    assert said_parameters(rows[1]) == [] and said_parameters(rows[0]) == []
+    assert class_table(told) == class_table(rows)
+    assert "untestable resonance freq_hz 46.25 vs 45 (+2.8 %)" in summarise_set(told)
+
+
 def test_a_measured_case_runs_through_the_diagnosis_and_the_table() -> None:
     from benchmarks.diagnosis.sets import SETS, run_case, summarise_set
 

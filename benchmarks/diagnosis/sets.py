@@ -32,6 +32,12 @@ Scores per class (:func:`summarise_set`), for every effect run:
 
 Null runs: **wrong** when they carry a wrong name (B-PI: any name; non-PI: a dynamic/time
 name). The measured nulls are references, not scored; their names are listed.
+
+Information only, in the per-run table (no count above reads it): the hidden effect's
+parameter where the diagnosis gives one for it without naming it, said untestable (a mode
+seen in the residual's spectrum) or suggested (a last-round improvement that failed the
+significance rules, or the kind too few input steps show), against the truth
+(:func:`said_parameters`).
 """
 
 from __future__ import annotations
@@ -45,7 +51,7 @@ from benchmarks.diagnosis.families import TIME_EFFECTS, jsonable
 from benchmarks.diagnosis.measured import DEV_MEASURED_CASES
 
 __all__ = ["DEV_CASES", "RECOVERY_TOLERANCE", "SETS", "build", "case_class", "run_case",
-           "score_rows", "side_by_side", "summarise_set"]
+           "said_parameters", "score_rows", "side_by_side", "summarise_set"]
 
 _DEV_FAMILY_BASES = ("bouc-wen-1", "preisach", "maxwell-slip")
 _DEV_FAMILY_EFFECTS = ("delay", "resonance", "creep", "drift")
@@ -167,7 +173,11 @@ def run_case(case: str) -> dict[str, Any]:
         "suggestive": res.suggested_names,
         "after_steps": None if res.after_steps is None else {
             "effect": res.after_steps.kind, "parameters": res.after_steps.parameters},
-        "untestable": [u["name"] for u in res.untestable],
+        "untestable": [u.name for u in res.untestable],
+        "untestable_parameters": {u.name: jsonable(u.parameters) for u in res.untestable
+                                  if u.parameters},
+        "suggestive_parameters": {g["effect"]: jsonable(g.get("parameters", {}))
+                                  for g in res.suggestive},
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),
         "residual_pct": None if res.adequacy is None else float(res.adequacy.pct),
         "n_samples": int(sum(r.t.size for r in sc.records)),
@@ -239,6 +249,26 @@ def score_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def said_parameters(r: dict[str, Any]) -> list[str]:
+    """The hidden effect's quantity (delay, lag time constant, mode frequency) where run
+    ``r`` gives it without naming the effect: said untestable, suggested in the last round,
+    or suggested by the input steps, each against the truth (``"untestable resonance
+    freq_hz 45.56 vs 45 (+1.2 %)"``). Information for the per-run table only; rows written
+    before these keys were recorded give nothing."""
+    hid = next(iter(r["hidden"]), None)
+    q = _QUANTITY.get(hid or "")
+    if hid is None or q is None or hid in r["found"]:
+        return []
+    truth = float(r["hidden"][hid][q])
+    steps = r.get("after_steps") or {}
+    said = [("untestable", (r.get("untestable_parameters") or {}).get(hid, {})),
+            ("sugg.", (r.get("suggestive_parameters") or {}).get(hid, {})),
+            ("steps", steps.get("parameters", {}) if steps.get("effect") == hid else {})]
+    return [f"{how} {hid} {q} {float(p[q]):.4g} vs {truth:.4g} "
+            f"({100 * (float(p[q]) - truth) / truth:+.1f} %)"
+            for how, p in said if isinstance(p.get(q), (int, float))]
+
+
 def _frac(k: int, n: int) -> str:
     return f"{k}/{n}" if n else "-"
 
@@ -296,9 +326,9 @@ def summarise_set(rows: list[dict[str, Any]]) -> str:
                 verdict += f"; wrong: {', '.join(v['wrong'])}"
             if v["missing_null"]:
                 verdict += "; null not run"
-        par = "; ".join(f"{p['quantity']} {p['found']:.4g} vs {p['truth']:.4g} "
-                        f"({100 * p['rel_err']:+.0f} %{'' if p['ok'] else ', OFF'})"
-                        for p in v["params"])
+        par = "; ".join([f"{p['quantity']} {p['found']:.4g} vs {p['truth']:.4g} "
+                         f"({100 * p['rel_err']:+.0f} %{'' if p['ok'] else ', OFF'})"
+                         for p in v["params"]] + said_parameters(r))
         lines.append(f"| {r['id']} | {v['hidden'] or '-'} | {named or 'none'}"
                      + (f"; {'; '.join(extra)}" if extra else "")
                      + f" | {verdict} | {par or '-'} | {r['elapsed_s']:.0f} |")
