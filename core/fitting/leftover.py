@@ -15,6 +15,15 @@ on one recording with a time axis, without a second model:
 * **How fast.** The share of the residual's power above :data:`FAST` times the input's
   fundamental frequency, and the frequency where that part peaks: ringing or chatter that
   no rate-independent base can follow.
+* **Whose frequency** (:func:`fast_across`, several recordings whose input frequencies
+  differ by :data:`ACROSS_RATIO` or more): the residual's peak above :data:`FAST` times the
+  highest input frequency, in each recording. A peak at the same frequency in hertz while
+  the input's changes is the device's or its test rig's own vibration (a mode, or a
+  vibration the sliding itself sustains); a peak at the same multiple of the input
+  frequency is tied to the input's phase: a loop shape the base misses. On the friction
+  damper at 30 lb (0.25, 1 and 2 Hz) the stop-operator base of ``hyst fit`` leaves 8-29 % of
+  its residual's power above 20 Hz, peaking at 39, 47 and 44 Hz (156, 47 and 22 times the
+  input's), 79-96 % of it on the sliding plateaus.
 """
 
 from __future__ import annotations
@@ -26,7 +35,8 @@ import numpy as np
 from .._typing import Float1D
 from .cycles import fundamental_hz, input_cycles
 
-__all__ = ["FAST", "FLAT_SLOPE", "OSCILLATION", "SAME_INPUT", "Leftover", "leftover"]
+__all__ = ["ACROSS_RATIO", "FAST", "FLAT_SLOPE", "MIN_BAND_SHARE", "OSCILLATION", "SAME_INPUT",
+           "SAME_PEAK", "FastAcross", "Leftover", "fast_across", "leftover"]
 
 #: Two input cycles count as the same input when their RMS difference is below this share
 #: of the input's range.
@@ -39,6 +49,17 @@ FAST = 10.0
 #: The fast part is called an oscillation (with its peak frequency) from this share of the
 #: residual's power on.
 OSCILLATION = 0.2
+#: :func:`fast_across` compares recordings whose input frequencies span at least this factor.
+ACROSS_RATIO = 2.0
+#: Peaks whose frequencies (or multiples of the input frequency) span at most this factor
+#: count as the same.
+SAME_PEAK = 1.3
+#: :func:`fast_across` says something only when the band above :data:`FAST` times the highest
+#: input frequency holds at least this share of every recording's residual power.
+MIN_BAND_SHARE = 0.05
+#: The band's power is smoothed over this share of its lower edge before its peak is read
+#: (a peak, not one bin of a line spectrum).
+SMOOTH = 0.05
 
 
 @dataclass(frozen=True)
@@ -104,6 +125,14 @@ class Leftover:
         return out
 
 
+def _flat_rows(u: Float1D, pred: Float1D) -> np.ndarray:
+    """The rows that move the input where the fitted branch is flat (module docstring)."""
+    du = np.abs(np.gradient(u))
+    moving = du > np.percentile(du, 20)
+    slope = np.abs(np.gradient(pred)) / np.maximum(du, 1e-300)
+    return moving & (slope < FLAT_SLOPE * np.percentile(slope[moving], 90))
+
+
 def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | None:
     """What ``pred`` leaves of ``y`` (module docstring), or ``None`` when the recording has
     fewer than two input cycles.
@@ -139,10 +168,7 @@ def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | Non
                 if np.std(ea) > 0 and np.std(eb) > 0:
                     corr.append(float(np.corrcoef(ea, eb)[0, 1]))
                     diff.append(float(np.sqrt(np.mean((ea - eb) ** 2) / 2.0)))
-    du = np.abs(np.gradient(u))
-    moving = du > np.percentile(du, 20)
-    slope = np.abs(np.gradient(pred)) / np.maximum(du, 1e-300)
-    flat = moving & (slope < FLAT_SLOPE * np.percentile(slope[moving], 90))
+    flat = _flat_rows(u, pred)
     energy = float(e @ e) or 1.0
     power = np.abs(np.fft.rfft((e - e.mean()) * np.hanning(n))) ** 2
     power[0] = 0.0
@@ -160,3 +186,123 @@ def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | Non
         fast_share=float(power[fast].sum()) / total,
         fast_peak=peak,
     )
+
+
+@dataclass(frozen=True)
+class FastAcross:
+    """The residual's fast peak compared across recordings (:func:`fast_across`).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The recordings compared.
+    f0 : tuple of float
+        Each one's input frequency (Hz).
+    band_hz : float
+        The band's lower edge: :data:`FAST` times the highest input frequency (Hz).
+    share : tuple of float
+        Share of each residual's power in the band.
+    peak_hz : tuple of float
+        Where the band's smoothed power peaks in each recording (Hz).
+    flat_share : tuple of float
+        Share of the band's energy on the flat rows of the fitted branch, per recording.
+    """
+
+    names: tuple[str, ...]
+    f0: tuple[float, ...]
+    band_hz: float
+    share: tuple[float, ...]
+    peak_hz: tuple[float, ...]
+    flat_share: tuple[float, ...]
+
+    @property
+    def multiples(self) -> tuple[float, ...]:
+        """Each peak as a multiple of its recording's input frequency."""
+        return tuple(p / f for p, f in zip(self.peak_hz, self.f0, strict=True))
+
+    @property
+    def same_hz(self) -> bool:
+        """The peaks span at most :data:`SAME_PEAK` in hertz while the multiples do not."""
+        return _span(self.peak_hz) <= SAME_PEAK < _span(self.multiples)
+
+    @property
+    def same_multiple(self) -> bool:
+        """The peaks span at most :data:`SAME_PEAK` as multiples of the input frequency."""
+        return _span(self.multiples) <= SAME_PEAK
+
+    def text(self, flat_words: str = "the flat stretches of the branches") -> str:
+        """The comparison in words."""
+        peaks = ", ".join(f"{p:.3g}" for p in self.peak_hz)
+        mult = ", ".join(f"{m:.3g}" for m in self.multiples)
+        out = (f"across {len(self.names)} recordings with the input at "
+               f"{_range(self.f0, '.3g')} Hz, what is left above {self.band_hz:.3g} Hz "
+               f"({_range([100 * s for s in self.share], '.0f')} % of its power"
+               + (f", {_range([100 * s for s in self.flat_share], '.0f')} % of that on "
+                  f"{flat_words}"
+                  if min(self.flat_share) >= 0.5 else "")
+               + f") peaks at {peaks} Hz ({mult} x the input frequency)")
+        if self.same_hz:
+            return out + (f": the same frequency while the input frequency changes "
+                          f"{_span(self.f0):.2g}-fold, the device's or its test rig's own "
+                          "vibration (a mode, or a vibration the motion itself sustains), "
+                          "not a loop shape tied to the input's phase")
+        if self.same_multiple:
+            return out + (": the same multiple of the input frequency, tied to the input's "
+                          "phase: a loop shape the base misses")
+        return out + ": neither the same frequency nor the same multiple of the input's"
+
+
+def _span(x: tuple[float, ...] | list[float]) -> float:
+    return float(max(x) / min(x)) if min(x) > 0 else float("inf")
+
+
+def _range(x: tuple[float, ...] | list[float], fmt: str) -> str:
+    lo, hi = format(min(x), fmt), format(max(x), fmt)
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: list[Float1D],
+                dts: list[float]) -> FastAcross | None:
+    """Where the residual's fast part peaks in each recording (module docstring), or ``None``
+    when fewer than two recordings have an input frequency, those frequencies span less than
+    :data:`ACROSS_RATIO`, or the band holds less than :data:`MIN_BAND_SHARE` of a residual's
+    power.
+
+    Parameters
+    ----------
+    names : list of str
+        The recordings' names.
+    us, ys, preds : list of ndarray of shape (N_k,)
+        Input, measured and fitted output of each recording (evenly sampled).
+    dts : list of float
+        Each recording's sample spacing (s).
+    """
+    rows = []
+    for name, u, y, pred, dt in zip(names, us, ys, preds, dts, strict=True):
+        u, y, pred = (np.asarray(a, dtype=np.float64) for a in (u, y, pred))
+        f0 = fundamental_hz(u, dt) if u.size >= 16 and dt > 0 else 0.0
+        if f0 > 0:
+            rows.append((name, u, y - pred, pred, dt, f0))
+    if len(rows) < 2 or _span([r[5] for r in rows]) < ACROSS_RATIO:
+        return None
+    band = FAST * max(r[5] for r in rows)
+    share, peak, flat_share = [], [], []
+    for _, u, e, pred, dt, _ in rows:
+        n = e.size
+        f = np.fft.rfftfreq(n, dt)
+        spec = np.fft.rfft(e - e.mean())
+        power = np.abs(spec) ** 2
+        power[0] = 0.0
+        inside = f > band
+        total = float(power.sum())
+        if not inside.any() or total <= 0 or power[inside].sum() < MIN_BAND_SHARE * total:
+            return None
+        width = max(1, int(round(SMOOTH * band / f[1])))
+        smooth = np.convolve(power, np.ones(width) / width, mode="same")
+        share.append(float(power[inside].sum()) / total)
+        peak.append(float(f[inside][int(np.argmax(smooth[inside]))]))
+        fast = np.fft.irfft(np.where(inside, spec, 0.0), n)
+        flat = _flat_rows(u, pred)
+        flat_share.append(float(fast[flat] @ fast[flat]) / (float(fast @ fast) or 1.0))
+    return FastAcross(tuple(r[0] for r in rows), tuple(r[5] for r in rows), band,
+                      tuple(share), tuple(peak), tuple(flat_share))

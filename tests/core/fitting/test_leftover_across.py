@@ -1,0 +1,90 @@
+"""Where a fit's fast leftover peaks across recordings at several input frequencies: at the
+same frequency in hertz (the device's or rig's own vibration) or at the same multiple of the
+input frequency (a loop shape tied to the input's phase)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from core.diagnosis.adequacy import _physics_of
+from core.fitting.entry import _left_text
+from core.fitting.leftover import fast_across
+from core.recordings import Recording
+
+DT = 1e-3
+F0S = (0.5, 1.0, 2.0)
+
+
+def _plant(f0: float, ring_hz: float, seed: int = 0) -> tuple[np.ndarray, ...]:
+    """Six cycles of an ``f0`` Hz sine, a friction-like prediction (plateaus while the input
+    slides) and an output that rings at ``ring_hz`` once the plateau is reached, decaying over a
+    tenth of the half cycle, plus noise."""
+    t = np.arange(int(round(6 / f0 / DT))) * DT
+    u = 0.5 * np.sin(2 * np.pi * f0 * t)
+    pred = np.tanh(20 * np.gradient(u, DT) / (np.pi * f0))
+    half = 0.5 / f0
+    phase = np.mod(t - 0.7 * half, half)  # time since the plateau was reached
+    ring = np.exp(-phase / (0.1 * half)) * np.sin(2 * np.pi * ring_hz * phase)
+    noise = 0.002 * np.random.default_rng(seed).standard_normal(t.size)
+    return u, pred + 0.2 * ring + noise, pred
+
+
+def _across(ring: float | None) -> object:
+    plants = [_plant(f0, ring if ring is not None else 40.0 * f0, k)
+              for k, f0 in enumerate(F0S)]
+    return fast_across([f"{f0} Hz" for f0 in F0S], [p[0] for p in plants],
+                       [p[1] for p in plants], [p[2] for p in plants], [DT] * len(F0S))
+
+
+def test_a_ringing_at_the_same_hertz_is_the_rigs_own_vibration() -> None:
+    across = _across(45.0)
+    assert across is not None
+    assert all(abs(p - 45.0) < 3.0 for p in across.peak_hz)
+    assert across.same_hz and not across.same_multiple
+    assert min(across.flat_share) > 0.5
+    assert "own vibration" in across.text() and "loop shape" not in across.text().split(
+        "not a loop shape")[0]
+
+
+def test_a_ringing_at_the_same_multiple_of_the_input_is_a_loop_shape() -> None:
+    across = _across(None)  # 40 x the input frequency: 20, 40, 80 Hz
+    assert across is not None
+    assert all(abs(m - 40.0) < 3.0 for m in across.multiples)
+    assert across.same_multiple and not across.same_hz
+    assert "tied to the input's phase: a loop shape" in across.text()
+
+
+def test_one_input_frequency_or_no_fast_part_says_nothing() -> None:
+    u, y, pred = _plant(1.0, 45.0)
+    assert fast_across(["a", "b"], [u, u], [y, y], [pred, pred], [DT, DT]) is None
+    quiet = [_plant(f0, 45.0) for f0 in F0S]
+    assert fast_across(["a", "b", "c"], [p[0] for p in quiet], [p[2] for p in quiet],
+                       [p[2] for p in quiet], [DT] * 3) is None
+
+
+def _recordings() -> tuple[list[Recording], dict[int, np.ndarray]]:
+    """The three plants ringing at 45 Hz as recordings, and their predictions by length."""
+    recs, preds = [], {}
+    for k, f0 in enumerate(F0S):
+        u, y, pred = _plant(f0, 45.0, k)
+        rec = Recording(u=u, y=y, t=np.arange(u.size) * DT, name=f"r{k}")
+        recs.append(rec)
+        preds[u.size] = pred
+    return recs, preds
+
+
+def test_the_fit_warning_says_it() -> None:
+    recs, preds = _recordings()
+    est = SimpleNamespace(predict=lambda u: preds[np.asarray(u).size], features_=object())
+    text = _left_text(est, recs)
+    assert "Across 3 recordings with the input at 0.5-2 Hz" in text
+    assert "of that on the sliding plateaus" in text and "own vibration" in text
+
+
+def test_the_diagnosis_adequacy_text_says_it() -> None:
+    recs, preds = _recordings()
+    text = _physics_of(recs, SimpleNamespace(features_=None), [preds[r.u.size] for r in recs])
+    assert "; across 3 recordings with the input at 0.5-2 Hz" in text
+    assert "own vibration" in text
