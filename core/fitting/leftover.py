@@ -35,8 +35,9 @@ import numpy as np
 from .._typing import Float1D
 from .cycles import fundamental_hz, input_cycles
 
-__all__ = ["ACROSS_RATIO", "FAST", "FLAT_SLOPE", "MIN_BAND_SHARE", "OSCILLATION", "SAME_INPUT",
-           "SAME_PEAK", "FastAcross", "Leftover", "fast_across", "leftover"]
+__all__ = ["ACROSS_RATIO", "FAST", "FLAT_SLOPE", "MIN_BAND_SHARE", "OSCILLATION",
+           "PEAK_OVER_MEDIAN", "SAME_INPUT", "SAME_PEAK", "FastAcross", "Leftover", "fast_across",
+           "leftover"]
 
 #: Two input cycles count as the same input when their RMS difference is below this share
 #: of the input's range.
@@ -60,6 +61,9 @@ MIN_BAND_SHARE = 0.05
 #: The band's power is smoothed over this share of its lower edge before its peak is read
 #: (a peak, not one bin of a line spectrum).
 SMOOTH = 0.05
+#: ... and only when, in every recording, that smoothed peak stands this many times above the
+#: band's median smoothed power (white noise in the band: about 1.5 times).
+PEAK_OVER_MEDIAN = 4.0
 
 
 @dataclass(frozen=True)
@@ -265,8 +269,8 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
                 dts: list[float]) -> FastAcross | None:
     """Where the residual's fast part peaks in each recording (module docstring), or ``None``
     when fewer than two recordings have an input frequency, those frequencies span less than
-    :data:`ACROSS_RATIO`, or the band holds less than :data:`MIN_BAND_SHARE` of a residual's
-    power.
+    :data:`ACROSS_RATIO`, or in one of them the band holds less than :data:`MIN_BAND_SHARE`
+    of the residual's power or shows no peak (:data:`PEAK_OVER_MEDIAN`: noise has none).
 
     Parameters
     ----------
@@ -299,6 +303,8 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
             return None
         width = max(1, int(round(SMOOTH * band / f[1])))
         smooth = np.convolve(power, np.ones(width) / width, mode="same")
+        if smooth[inside].max() < PEAK_OVER_MEDIAN * float(np.median(smooth[inside])):
+            return None
         share.append(float(power[inside].sum()) / total)
         peak.append(float(f[inside][int(np.argmax(smooth[inside]))]))
         fast = np.fft.irfft(np.where(inside, spec, 0.0), n)

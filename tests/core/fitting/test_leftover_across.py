@@ -56,6 +56,17 @@ def test_a_ringing_at_the_same_multiple_of_the_input_is_a_loop_shape() -> None:
     assert "tied to the input's phase: a loop shape" in across.text()
 
 
+def test_noise_above_a_slow_misfit_has_no_peak_to_compare() -> None:
+    # the misfit is slow (a tenth of the loop height, at the input frequency) and the fast
+    # part is white noise: its strongest bin is somewhere, at no frequency of the device
+    plants = [_plant(f0, 45.0, k) for k, f0 in enumerate(F0S)]
+    rng = np.random.default_rng(7)
+    ys = [p[2] + 0.1 * np.sin(2 * np.pi * f0 * np.arange(p[0].size) * DT)
+          + 0.05 * rng.standard_normal(p[0].size) for p, f0 in zip(plants, F0S, strict=True)]
+    assert fast_across(["a", "b", "c"], [p[0] for p in plants], ys, [p[2] for p in plants],
+                       [DT] * 3) is None
+
+
 def test_one_input_frequency_or_no_fast_part_says_nothing() -> None:
     u, y, pred = _plant(1.0, 45.0)
     assert fast_across(["a", "b"], [u, u], [y, y], [pred, pred], [DT, DT]) is None
