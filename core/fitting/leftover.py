@@ -268,9 +268,11 @@ def _range(x: tuple[float, ...] | list[float], fmt: str) -> str:
 def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: list[Float1D],
                 dts: list[float]) -> FastAcross | None:
     """Where the residual's fast part peaks in each recording (module docstring), or ``None``
-    when fewer than two recordings have an input frequency, those frequencies span less than
-    :data:`ACROSS_RATIO`, or in one of them the band holds less than :data:`MIN_BAND_SHARE`
-    of the residual's power or shows no peak (:data:`PEAK_OVER_MEDIAN`: noise has none).
+    when fewer than two recordings are left to compare or their input frequencies span less
+    than :data:`ACROSS_RATIO`. A recording is compared when it has an input frequency and its
+    residual has a fast part: the band holds :data:`MIN_BAND_SHARE` of its power or more
+    (one without is left out); the comparison is dropped when one compared shows no peak
+    there (:data:`PEAK_OVER_MEDIAN`: noise has none).
 
     Parameters
     ----------
@@ -287,11 +289,12 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
         f0 = fundamental_hz(u, dt) if u.size >= 16 and dt > 0 else 0.0
         if f0 > 0:
             rows.append((name, u, y - pred, pred, dt, f0))
-    if len(rows) < 2 or _span([r[5] for r in rows]) < ACROSS_RATIO:
+    if not rows:
         return None
     band = FAST * max(r[5] for r in rows)
-    share, peak, flat_share = [], [], []
-    for _, u, e, pred, dt, _ in rows:
+    kept, share, peak, flat_share = [], [], [], []
+    for row in rows:
+        _, u, e, pred, dt, _ = row
         n = e.size
         f = np.fft.rfftfreq(n, dt)
         spec = np.fft.rfft(e - e.mean())
@@ -300,15 +303,18 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
         inside = f > band
         total = float(power.sum())
         if not inside.any() or total <= 0 or power[inside].sum() < MIN_BAND_SHARE * total:
-            return None
+            continue  # no fast part to compare
         width = max(1, int(round(SMOOTH * band / f[1])))
         smooth = np.convolve(power, np.ones(width) / width, mode="same")
         if smooth[inside].max() < PEAK_OVER_MEDIAN * float(np.median(smooth[inside])):
             return None
+        kept.append(row)
         share.append(float(power[inside].sum()) / total)
         peak.append(float(f[inside][int(np.argmax(smooth[inside]))]))
         fast = np.fft.irfft(np.where(inside, spec, 0.0), n)
         flat = _flat_rows(u, pred)
         flat_share.append(float(fast[flat] @ fast[flat]) / (float(fast @ fast) or 1.0))
-    return FastAcross(tuple(r[0] for r in rows), tuple(r[5] for r in rows), band,
+    if len(kept) < 2 or _span([r[5] for r in kept]) < ACROSS_RATIO:
+        return None
+    return FastAcross(tuple(r[0] for r in kept), tuple(r[5] for r in kept), band,
                       tuple(share), tuple(peak), tuple(flat_share))

@@ -67,6 +67,15 @@ def test_noise_above_a_slow_misfit_has_no_peak_to_compare() -> None:
                        [DT] * 3) is None
 
 
+def test_a_recording_without_a_fast_part_is_left_out() -> None:
+    plants = [_plant(f0, 45.0, k) for k, f0 in enumerate(F0S)]
+    ys = [plants[0][2], plants[1][1], plants[2][1]]  # the 0.5 Hz one fitted exactly
+    across = fast_across(["a", "b", "c"], [p[0] for p in plants], ys, [p[2] for p in plants],
+                         [DT] * 3)
+    assert across is not None and across.names == ("b", "c") and across.same_hz
+    assert across.f0 == (1.0, 2.0)  # 2x apart: still compared
+
+
 def test_one_input_frequency_or_no_fast_part_says_nothing() -> None:
     u, y, pred = _plant(1.0, 45.0)
     assert fast_across(["a", "b"], [u, u], [y, y], [pred, pred], [DT, DT]) is None
