@@ -72,15 +72,17 @@ class Candidate:
     beyond_history: bool = False
 
     def judged_as(self, judged: Candidate, given: str) -> Candidate:
-        """This candidate (its fit, parameters and uncertainty) with the judgement of
-        ``judged``, the same effect fitted and judged on top of ``given`` (acceptance rule 6):
-        every field that says what the evidence was and what was decided comes from
-        ``judged``, so the finding's words and numbers describe the comparison that decided.
+        """This candidate with the judgement of ``judged``, the same effect fitted and
+        judged on top of ``given`` (acceptance rule 6): the comparison's numbers, the rows it
+        was judged on and what was decided come from ``judged``, so the finding's evidence
+        describes the comparison that decided. What belongs to this candidate's own fit stays
+        its own: the fit, parameters and uncertainty, and the cross-fitted folds and the
+        predictions between recordings (``crossfit``, ``between``), from which the finding's
+        parameter spread and its look-alike comparisons are computed beside those parameters.
         """
         if judged.name != self.name:
             raise ValueError(f"cannot give {self.name} the judgement of {judged.name}")
-        return replace(self, heldout=judged.heldout, crossfit=judged.crossfit,
-                       between=judged.between, size_ok=judged.size_ok,
+        return replace(self, heldout=judged.heldout, size_ok=judged.size_ok,
                        share_waived=judged.share_waived, decision=judged.decision,
                        verdict=judged.verdict, given=given, where=judged.where,
                        elsewhere=judged.elsewhere, beyond_history=judged.beyond_history)

@@ -1,5 +1,6 @@
 """``Candidate.judged_as`` (acceptance rule 6): a candidate judged again on top of another
-effect keeps its own fit and takes every field of the judgement that decided, so the
+effect keeps what belongs to its own fit (parameters, their cross-fitted spread, its
+predictions between recordings) and takes every field of the judgement that decided, so the
 finding's evidence words (which rows, the numbers on the other rows, the waived share)
 describe the comparison that decided and not the one on the model without the other."""
 
@@ -25,12 +26,16 @@ def _decision(passes: bool) -> Decision:
 
 def _pair() -> tuple[Candidate, Candidate]:
     alone = Candidate("drift", fit="fit on the model without creep", parameters={"a": 1.0},
-                      uncertainty={"a": 0.1}, heldout=_held(0.04, 2.0), size_ok=True,
+                      uncertainty={"a": 0.1}, heldout=_held(0.04, 2.0), size_ok=False,
+                      crossfit="folds of the fit without creep",
+                      between="predictions of the fit without creep",
                       decision=_decision(False), verdict="deferred",
                       where="cycle to cycle (alone)",
                       elsewhere=_held(-0.03, -1.0))
     on_top = Candidate("drift", fit="fit on top of creep", parameters={"a": 2.0},
                        uncertainty={"a": 0.2}, heldout=_held(0.09, 4.0), size_ok=True,
+                       crossfit="folds of the fit on top of creep",
+                       between="predictions of the fit on top of creep",
                        share_waived=True, decision=_decision(True),
                        where="cycle to cycle (on top of creep)", elsewhere=_held(0.01, 0.4),
                        beyond_history=True)
@@ -42,8 +47,9 @@ def test_the_judgement_comes_from_the_comparison_that_decided() -> None:
     c = alone.judged_as(on_top, given="creep")
     assert c.fit == alone.fit and c.parameters == alone.parameters
     assert c.uncertainty == alone.uncertainty
+    assert c.crossfit == alone.crossfit and c.between == alone.between
     assert c.given == "creep"
-    for f in ("heldout", "crossfit", "between", "size_ok", "share_waived", "decision",
+    for f in ("heldout", "size_ok", "share_waived", "decision",
               "verdict", "where", "elsewhere", "beyond_history"):
         assert getattr(c, f) == getattr(on_top, f), f
 
@@ -52,7 +58,7 @@ def test_every_field_is_either_fit_or_judgement() -> None:
     """A field added to ``Candidate`` later must be sorted into one of the two groups."""
     alone, on_top = _pair()
     c = alone.judged_as(on_top, given="creep")
-    own = {"name", "fit", "parameters", "uncertainty"}
+    own = {"name", "fit", "parameters", "uncertainty", "crossfit", "between"}
     for f in fields(Candidate):
         if f.name in own:
             assert getattr(c, f.name) == getattr(alone, f.name), f.name
