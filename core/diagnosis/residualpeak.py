@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fitting.cycles import fundamental_hz
+from ..fitting.spectrum import periodogram
 from ..recordings import Recording
 from .eventresponse import kind_prediction
 from .specs import Untestable
@@ -58,7 +59,7 @@ FIT_BAND = 1.0 + 3.0 * LIGHT_DAMPING
 #: Fewest periodogram bins in the band for a residual to enter :func:`fit_mode`.
 _MIN_FIT_BINS = 8
 #: Bins either side of each harmonic of a periodic input left out of :func:`fit_mode`: the
-#: main lobe of the Hann taper (:func:`_periodogram`).
+#: main lobe of the Hann taper (:func:`core.fitting.spectrum.periodogram`).
 _LINE_BINS = 2
 
 
@@ -172,19 +173,6 @@ def _mode_shape(f: np.ndarray, fn: float, zeta: float) -> np.ndarray:
     return 1.0 / ((1.0 - r * r) ** 2 + (2.0 * zeta * r) ** 2)
 
 
-def _periodogram(e: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Frequencies (Hz) and periodogram of ``e`` (mean removed, a Hann taper): the finest
-    spectrum the record gives, ``1 / T`` apart. The taper keeps a line's power within two
-    bins of it (its sidelobes fall 18 dB an octave), so a strong harmonic does not leak
-    into the bins a fit reads."""
-    from scipy.signal.windows import hann
-
-    x = np.asarray(e, dtype=np.float64)
-    w = hann(x.size, sym=False)
-    spec = np.abs(np.fft.rfft((x - x.mean()) * w)) ** 2 / float(np.sum(w * w))
-    return np.fft.rfftfreq(x.size, dt), spec
-
-
 def line_hz(u: np.ndarray, dt: float) -> float:
     """The input's fundamental, Hz, to a small fraction of a bin: the peak of the input's
     zoomed spectrum (its discrete-time Fourier transform, mean removed, Hann-tapered so the
@@ -245,7 +233,7 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
 
     bands = []
     for e, dt, fu in residuals:
-        f, p = _periodogram(e, dt)
+        f, p = periodogram(e, dt)
         m = (f >= f0 / FIT_BAND) & (f <= FIT_BAND * f0) & (f > 0)
         bin_hz = float(f[1] - f[0]) if f.size > 1 else 0.0
         if fu > 0 and fu >= (2 * _LINE_BINS + 2) * bin_hz:  # the harmonics stand apart
