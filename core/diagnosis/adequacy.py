@@ -341,10 +341,10 @@ def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
 
 def _physics_of(records: Sequence[Recording], est: Any, pred: Sequence[np.ndarray]) -> str:
     """What the better class found, in the recordings' units (a stop-operator fit's friction
-    plateau and backlash gap), and what it leaves on the longest recording with a time axis
-    (:func:`core.fitting.leftover.leftover`) and where its fast part peaks across the
+    plateau and backlash gap), and what it leaves on the longest evenly sampled recording with a
+    time axis (:func:`core.fitting.leftover.leftover`) and where its fast part peaks across the
     recordings (:func:`core.fitting.leftover.fast_across`); ``""`` when there is nothing to say."""
-    from ..fitting.leftover import fast_across, leftover
+    from ..fitting.leftover import leftover_on
 
     out = ""
     feats = getattr(est, "features_", None)
@@ -354,15 +354,9 @@ def _physics_of(records: Sequence[Recording], est: Any, pred: Sequence[np.ndarra
                                  units.get("output") or "output units")
     flat = ("the sliding plateaus" if feats is not None
             else "the flat stretches of the branches")
-    timed = [(r, p) for r, p in zip(records, pred, strict=True) if r.has_time]
-    if timed:
-        r, p = max(timed, key=lambda rp: rp[0].n_samples)
-        left = leftover(r.u, r.y, p, r.dt)
-        if left is not None:
-            out += f". With it, {left.text(flat)}"
-    even = [(r, p) for r, p in timed if r.is_uniform]
-    across = fast_across([r.name for r, _ in even], [r.u for r, _ in even],
-                         [r.y for r, _ in even], [p for _, p in even], [r.dt for r, _ in even])
-    if across is not None:
-        out += f"; {across.text(flat)}"
+    left = leftover_on(records, pred)
+    if left.leftover is not None:
+        out += f". With it, {left.leftover.text(flat)}"
+    if left.across is not None:
+        out += f"; {left.across.text(flat)}"
     return out

@@ -346,22 +346,16 @@ def _left_text(est: Any, recs: Sequence[Recording]) -> str:
     """What the fit leaves on the longest recording with a time axis, in words
     (:func:`core.fitting.leftover.leftover`), and where its fast part peaks across the
     recordings (:func:`core.fitting.leftover.fast_across`), or ``""``."""
-    from .leftover import fast_across, leftover
+    from .leftover import leftover_on
 
-    timed = [r for r in recs if r.has_time and r.is_uniform]
-    if not timed:
+    if not any(r.has_time and r.is_uniform for r in recs):
         return ""
-    preds = [np.asarray(est.predict(r.u)) for r in timed]
-    k = max(range(len(timed)), key=lambda i: timed[i].n_samples)
-    rec = timed[k]
-    left = leftover(rec.u, rec.y, preds[k], rec.dt)
+    left = leftover_on(recs, [np.asarray(est.predict(r.u)) for r in recs])
     flat = ("the sliding plateaus" if getattr(est, "features_", None) is not None
             else "the flat stretches of the branches")
-    out = "" if left is None else f" On {rec.name}, {left.text(flat)}."
-    across = fast_across([r.name for r in timed], [r.u for r in timed],
-                         [r.y for r in timed], preds, [r.dt for r in timed])
-    if across is not None:
-        text = across.text(flat)
+    out = "" if left.leftover is None else f" On {left.name}, {left.leftover.text(flat)}."
+    if left.across is not None:
+        text = left.across.text(flat)
         out += f" {text[0].upper()}{text[1:]}."
     return out
 

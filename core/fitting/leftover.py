@@ -17,27 +17,36 @@ on one recording with a time axis, without a second model:
   no rate-independent base can follow.
 * **Whose frequency** (:func:`fast_across`, several recordings whose input frequencies
   differ by :data:`ACROSS_RATIO` or more): the residual's peak above :data:`FAST` times the
-  highest input frequency, in each recording. A peak at the same frequency in hertz while
-  the input's changes is the device's or its test rig's own vibration (a mode, or a
-  vibration the sliding itself sustains); a peak at the same multiple of the input
-  frequency is tied to the input's phase: a loop shape the base misses. On the friction
-  damper at 30 lb (0.25, 1 and 2 Hz) the stop-operator base of ``hyst fit`` leaves 8-29 % of
-  its residual's power above 20 Hz, peaking at 39, 47 and 44 Hz (156, 47 and 22 times the
-  input's), 79-96 % of it on the sliding plateaus.
+  highest input frequency, in each recording. A peak is an interior local maximum of the
+  smoothed Hann periodogram (:func:`core.fitting.spectrum.periodogram`) standing above the
+  local trend around it (the smoothed power over ``[f / 2, 2 f]``) by more than white noise
+  reaches over the band's bins (:data:`PEAK_ALPHA`), found again in both halves of the record:
+  a misfit whose power falls with frequency peaks at the band's lower edge in every recording,
+  the same hertz by construction, and is no peak. A peak at a fixed frequency in hertz while
+  the input's changes is a vibration of the device or its rig, or an interference (the mains):
+  not tied to the input's phase; a peak at the same multiple of the input frequency is tied to
+  the input's phase: a loop shape the base misses. On the friction damper at 30 lb (0.25, 1
+  and 2 Hz) the stop-operator base of ``hyst fit`` leaves fast parts strongest near 39, 48 and
+  43 Hz, but the 2 Hz recording's first half shows a broad hump there, not a peak: nothing is
+  said.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._typing import Float1D
+from ..recordings import Recording
 from .cycles import fundamental_hz, input_cycles
+from .spectrum import periodogram
 
-__all__ = ["ACROSS_RATIO", "FAST", "FLAT_SLOPE", "MIN_BAND_SHARE", "OSCILLATION",
-           "PEAK_OVER_MEDIAN", "SAME_INPUT", "SAME_PEAK", "FastAcross", "Leftover", "fast_across",
-           "leftover"]
+__all__ = ["ACROSS_RATIO", "FAST", "FLAT_SLOPE", "MIN_BAND_SHARE", "MIN_SMOOTH_BINS",
+           "OSCILLATION", "PEAK_ALPHA", "SAME_INPUT", "SAME_PEAK", "SMOOTH", "SMOOTH_HARMONICS",
+           "FastAcross", "Leftover", "LeftOnRecordings", "fast_across", "leftover",
+           "leftover_on"]
 
 #: Two input cycles count as the same input when their RMS difference is below this share
 #: of the input's range.
@@ -58,14 +67,20 @@ SAME_PEAK = 1.3
 #: :func:`fast_across` says something only when the band above :data:`FAST` times the highest
 #: input frequency holds at least this share of every recording's residual power.
 MIN_BAND_SHARE = 0.05
-#: The band's power is smoothed over this share of its lower edge before its peak is read
-#: (a peak, not one bin of a line spectrum).
+#: The band's periodogram is smoothed over this share of its lower edge before its peak is
+#: read (a peak, not one bin of a line spectrum) ...
 SMOOTH = 0.05
-#: ... and only when, in every recording, that smoothed peak stands this many times above the
-#: band's median smoothed power (white noise in the band: about 1.5 times).
-PEAK_OVER_MEDIAN = 4.0
-
-
+#: ... and over at least this many bins ...
+MIN_SMOOTH_BINS = 8
+#: ... and at least this many spacings of the input's harmonics, so that a misfit tied to the
+#: input's phase (a comb of harmonic lines) is read as its envelope, not as its lines.
+SMOOTH_HARMONICS = 2
+#: A peak stands above the local trend: the geometric mean of the medians of the smoothed
+#: power over ``[f / 2, f / SAME_PEAK]`` and ``[SAME_PEAK f, 2 f]``, by more than white
+#: noise's smoothed power reaches once in ``1 / PEAK_ALPHA`` records over all the band's bins
+#: (the chi-square quantile at ``1 - PEAK_ALPHA / bins`` for the smoothing's degrees of
+#: freedom, Bonferroni over the bins).
+PEAK_ALPHA = 0.01
 @dataclass(frozen=True)
 class Leftover:
     """What a fit leaves on one recording (:func:`leftover`).
@@ -133,6 +148,8 @@ def _flat_rows(u: Float1D, pred: Float1D) -> np.ndarray:
     """The rows that move the input where the fitted branch is flat (module docstring)."""
     du = np.abs(np.gradient(u))
     moving = du > np.percentile(du, 20)
+    if not moving.any():  # |du| constant (a triangle input): no slope stands out as flat
+        return np.zeros(u.size, dtype=bool)
     slope = np.abs(np.gradient(pred)) / np.maximum(du, 1e-300)
     return moving & (slope < FLAT_SLOPE * np.percentile(slope[moving], 90))
 
@@ -246,10 +263,10 @@ class FastAcross:
                   if min(self.flat_share) >= 0.5 else "")
                + f") peaks at {peaks} Hz ({mult} x the input frequency)")
         if self.same_hz:
-            return out + (f": the same frequency while the input frequency changes "
-                          f"{_span(self.f0):.2g}-fold, the device's or its test rig's own "
-                          "vibration (a mode, or a vibration the motion itself sustains), "
-                          "not a loop shape tied to the input's phase")
+            return out + (f": at a fixed frequency ({_range(self.peak_hz, '.3g')} Hz) while the "
+                          f"input frequency changes {_span(self.f0):.2g}-fold: a vibration of "
+                          "the device or its rig, or an interference, not tied to the input's "
+                          "phase")
         if self.same_multiple:
             return out + (": the same multiple of the input frequency, tied to the input's "
                           "phase: a loop shape the base misses")
@@ -265,6 +282,55 @@ def _range(x: tuple[float, ...] | list[float], fmt: str) -> str:
     return lo if lo == hi else f"{lo}-{hi}"
 
 
+def _hann_dof(m: int) -> float:
+    """Degrees of freedom of the mean of ``m`` adjacent bins of a Hann-tapered periodogram of
+    white noise (neighbouring bins correlate: ``|X_k X_{k+1}|^2`` 4/9, ``k+2`` 1/36)."""
+    c = {0: 1.0, 1: 4.0 / 9.0, 2: 1.0 / 36.0}
+    return 2.0 * m * m / sum(c.get(abs(i - j), 0.0) for i in range(m) for j in range(m))
+
+
+def _peaks(e: np.ndarray, dt: float, f0: float, band: float) -> list[tuple[float, float]]:
+    """Where the residual ``e``'s smoothed periodogram above ``band`` Hz has an interior local
+    maximum standing above its local trend (:data:`PEAK_ALPHA`): (Hz, smoothed power) each.
+
+    The smoothing spans :data:`SMOOTH` of ``band``, :data:`MIN_SMOOTH_BINS` bins and
+    :data:`SMOOTH_HARMONICS` spacings of the input's harmonics (``f0``), whichever is widest,
+    and a candidate's window lies inside the band (no bins from below it)."""
+    from scipy.stats import chi2
+
+    f, power = periodogram(e, dt)
+    if f.size < 4:
+        return []
+    bin_hz = float(f[1])
+    m = max(MIN_SMOOTH_BINS, int(np.ceil(SMOOTH * band / bin_hz)),
+            int(np.ceil(SMOOTH_HARMONICS * f0 / bin_hz)))
+    m += 1 - m % 2  # odd: centred
+    h = m // 2
+    if f.size < m + 2:
+        return []
+    c = np.concatenate(([0.0], np.cumsum(power)))
+    smooth = np.full(f.size, np.nan)
+    smooth[h:f.size - h] = (c[m:] - c[:-m]) / m  # windows wholly inside the spectrum
+    cand = np.flatnonzero((f - h * bin_hz > band) & np.isfinite(smooth))
+    if cand.size == 0:
+        return []
+    dof = _hann_dof(m)
+    limit = float(chi2.ppf(1.0 - PEAK_ALPHA / cand.size, dof) / chi2.median(dof))
+    out = []
+    for i in cand:
+        if smooth[i] < np.nanmax(smooth[max(0, i - m):i + m + 1]):
+            continue  # not a local maximum over its own width
+        below = smooth[int(np.ceil(i / 2)):int(i / SAME_PEAK) + 1]
+        above = smooth[int(np.ceil(SAME_PEAK * i)):2 * i + 1]
+        below, above = below[np.isfinite(below)], above[np.isfinite(above)]
+        if below.size < m or above.size < m:
+            continue  # not interior: no trend on one side
+        trend = float(np.sqrt(np.median(below) * np.median(above)))
+        if smooth[i] > limit * trend:
+            out.append((float(f[i]), float(smooth[i])))
+    return out
+
+
 def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: list[Float1D],
                 dts: list[float]) -> FastAcross | None:
     """Where the residual's fast part peaks in each recording (module docstring), or ``None``
@@ -272,7 +338,10 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
     than :data:`ACROSS_RATIO`. A recording is compared when it has an input frequency and its
     residual has a fast part: the band holds :data:`MIN_BAND_SHARE` of its power or more
     (one without is left out); the comparison is dropped when one compared shows no peak
-    there (:data:`PEAK_OVER_MEDIAN`: noise has none).
+    there: the strongest interior local maximum of the smoothed periodogram standing above its
+    local trend (:data:`PEAK_ALPHA`) in the whole record, with such a maximum within
+    :data:`SAME_PEAK` of it in each of the record's halves (noise and a misfit whose power falls
+    with frequency have none).
 
     Parameters
     ----------
@@ -294,27 +363,71 @@ def fast_across(names: list[str], us: list[Float1D], ys: list[Float1D], preds: l
     band = FAST * max(r[5] for r in rows)
     kept, share, peak, flat_share = [], [], [], []
     for row in rows:
-        _, u, e, pred, dt, _ = row
+        _, u, e, pred, dt, f0 = row
         n = e.size
-        f = np.fft.rfftfreq(n, dt)
-        spec = np.fft.rfft(e - e.mean())
-        power = np.abs(spec) ** 2
+        f, power = periodogram(e, dt)
         power[0] = 0.0
         inside = f > band
         total = float(power.sum())
         if not inside.any() or total <= 0 or power[inside].sum() < MIN_BAND_SHARE * total:
             continue  # no fast part to compare
-        width = max(1, int(round(SMOOTH * band / f[1])))
-        smooth = np.convolve(power, np.ones(width) / width, mode="same")
-        if smooth[inside].max() < PEAK_OVER_MEDIAN * float(np.median(smooth[inside])):
+        found = _peaks(e, dt, f0, band)
+        if not found:
             return None
+        at = max(found, key=lambda p: p[1])[0]  # the strongest
+        for half in (e[:n // 2], e[n // 2:]):
+            if not any(_span([at, p[0]]) <= SAME_PEAK for p in _peaks(half, dt, f0, band)):
+                return None  # not in both halves
         kept.append(row)
         share.append(float(power[inside].sum()) / total)
-        peak.append(float(f[inside][int(np.argmax(smooth[inside]))]))
-        fast = np.fft.irfft(np.where(inside, spec, 0.0), n)
+        peak.append(at)
+        fast = np.fft.irfft(np.where(np.fft.rfftfreq(n, dt) > band, np.fft.rfft(e - e.mean()),
+                                     0.0), n)
         flat = _flat_rows(u, pred)
         flat_share.append(float(fast[flat] @ fast[flat]) / (float(fast @ fast) or 1.0))
     if len(kept) < 2 or _span([r[5] for r in kept]) < ACROSS_RATIO:
         return None
     return FastAcross(tuple(r[0] for r in kept), tuple(r[5] for r in kept), band,
                       tuple(share), tuple(peak), tuple(flat_share))
+
+
+@dataclass(frozen=True)
+class LeftOnRecordings:
+    """What a fit leaves on a set of recordings (:func:`leftover_on`).
+
+    Attributes
+    ----------
+    name : str
+        The recording :attr:`leftover` describes (the longest evenly sampled one with a time
+        axis), ``""`` without one.
+    leftover : Leftover or None
+        :func:`leftover` on it.
+    across : FastAcross or None
+        :func:`fast_across` over all the evenly sampled recordings with a time axis.
+    """
+
+    name: str
+    leftover: Leftover | None
+    across: FastAcross | None
+
+
+def leftover_on(recs: Sequence[Recording], preds: Sequence[Float1D]) -> LeftOnRecordings:
+    """:func:`leftover` on the longest evenly sampled recording with a time axis and
+    :func:`fast_across` over all of those (spectra need even sampling in time).
+
+    Parameters
+    ----------
+    recs : sequence of Recording
+        The recordings.
+    preds : sequence of ndarray of shape (N_k,)
+        The fit's prediction of each one's output.
+    """
+    timed = [(r, np.asarray(p, dtype=np.float64)) for r, p in zip(recs, preds, strict=True)
+             if r.has_time and r.is_uniform]
+    if not timed:
+        return LeftOnRecordings("", None, None)
+    rec, pred = max(timed, key=lambda rp: rp[0].n_samples)
+    return LeftOnRecordings(
+        rec.name, leftover(rec.u, rec.y, pred, rec.dt),
+        fast_across([r.name for r, _ in timed], [r.u for r, _ in timed],
+                    [r.y for r, _ in timed], [p for _, p in timed], [r.dt for r, _ in timed]))
