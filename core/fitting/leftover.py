@@ -191,7 +191,7 @@ def leftover(u: Float1D, y: Float1D, pred: Float1D, dt: float) -> Leftover | Non
                     diff.append(float(np.sqrt(np.mean((ea - eb) ** 2) / 2.0)))
     flat = _flat_rows(u, pred)
     energy = float(e @ e) or 1.0
-    power = np.abs(np.fft.rfft((e - e.mean()) * np.hanning(n))) ** 2
+    power = periodogram(e, dt)[1]
     power[0] = 0.0
     fast = f > FAST * f0
     total = float(power.sum()) or 1.0
