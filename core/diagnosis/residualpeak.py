@@ -23,14 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..fitting.cycles import fundamental_hz
+from ..fitting.cycles import fundamental_hz, harmonic_bins, line_hz
 from ..fitting.spectrum import periodogram
 from ..recordings import Recording
 from .eventresponse import kind_prediction
 from .specs import Untestable
 
 __all__ = ["FIT_BAND", "FREQ_AGREE", "LIGHT_DAMPING", "MAX_DRIVEN", "MIN_SHARE", "ResidualPeak",
-           "fit_mode", "line_hz", "peak_in", "residual_peak", "untestable_entry"]
+           "fit_mode", "peak_in", "residual_peak", "untestable_entry"]
 
 #: Largest damping ratio of a peak counted as a lightly damped mode: its equivalent width
 #: (:func:`peak_in`) is at most ``2 * LIGHT_DAMPING * f`` (plus 1.5 frequency bins, what the
@@ -58,9 +58,6 @@ _MIN_SEGMENTS = 3
 FIT_BAND = 1.0 + 3.0 * LIGHT_DAMPING
 #: Fewest periodogram bins in the band for a residual to enter :func:`fit_mode`.
 _MIN_FIT_BINS = 8
-#: Bins either side of each harmonic of a periodic input left out of :func:`fit_mode`: the
-#: main lobe of the Hann taper (:func:`core.fitting.spectrum.periodogram`).
-_LINE_BINS = 2
 
 
 @dataclass(frozen=True)
@@ -173,31 +170,6 @@ def _mode_shape(f: np.ndarray, fn: float, zeta: float) -> np.ndarray:
     return 1.0 / ((1.0 - r * r) ** 2 + (2.0 * zeta * r) ** 2)
 
 
-def line_hz(u: np.ndarray, dt: float) -> float:
-    """The input's fundamental, Hz, to a small fraction of a bin: the peak of the input's
-    zoomed spectrum (its discrete-time Fourier transform, mean removed, Hann-tapered so the
-    negative frequency's image does not shift it) within a bin of
-    :func:`~core.fitting.cycles.fundamental_hz` (0 for a constant input)."""
-    from scipy.optimize import minimize_scalar
-    from scipy.signal.windows import hann
-
-    x = np.asarray(u, dtype=np.float64)
-    x = x - x.mean()
-    f1 = fundamental_hz(x, dt)
-    if not f1 > 0:
-        return 0.0
-    t = np.arange(x.size) * dt
-    x = x * hann(x.size, sym=False)
-    bin_hz = 1.0 / (x.size * dt)
-
-    def minus_amp(f: float) -> float:
-        return -abs(complex(np.sum(x * np.exp(-2j * np.pi * f * t))))
-
-    r = minimize_scalar(minus_amp, bounds=(max(f1 - bin_hz, 0.5 * f1), f1 + bin_hz),
-                        method="bounded", options={"xatol": 1e-6 * bin_hz})
-    return float(r.x)
-
-
 def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0: float
              ) -> tuple[float, float]:
     """Frequency and damping of a mode seen as a peak near ``f0`` Hz, from the shape of the
@@ -208,18 +180,19 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
     misfit the mode filters: its own level and slope per residual), and the frequency and
     damping shared by all residuals maximise the Whittle likelihood (a periodogram's bins
     are independent and exponentially distributed about the spectrum; the level ``c_i`` is
-    profiled out). Under a periodic input the bins within :data:`_LINE_BINS` of the input's
-    harmonics are left out: they hold lines (the periodic misfit and what the input drives
-    through the mode), not the filtered broadband misfit whose shape is the mode's. A peak
-    read from one bin of an averaged spectrum is off by up to half a bin (0.5 Hz with 1 s
-    segments), pulled towards a strong harmonic near it, and widened by the window; the
-    fit uses every bin of the peak between the harmonics, at the record's own resolution.
+    profiled out). Under a periodic input the bins on the input's harmonics are left out
+    (:func:`~core.fitting.cycles.harmonic_bins`): they hold lines (the periodic misfit and
+    what the input drives through the mode), not the filtered broadband misfit whose shape
+    is the mode's. A peak read from one bin of an averaged spectrum is off by up to half a
+    bin (0.5 Hz with 1 s segments), pulled towards a strong harmonic near it, and widened
+    by the window; the fit uses every bin of the peak between the harmonics, at the
+    record's own resolution.
 
     Parameters
     ----------
     residuals : list of (ndarray, float, float)
         Residual samples (output units), their sample interval (s) and the input's
-        fundamental (Hz, :func:`line_hz`; 0 for none), one per recording.
+        fundamental (Hz, :func:`~core.fitting.cycles.line_hz`; 0 for none), one per recording.
     f0, zeta0 : float
         Starting frequency (Hz) and damping (the peak's bin and equivalent width).
 
@@ -235,9 +208,9 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
     for e, dt, fu in residuals:
         f, p = periodogram(e, dt)
         m = (f >= f0 / FIT_BAND) & (f <= FIT_BAND * f0) & (f > 0)
-        bin_hz = float(f[1] - f[0]) if f.size > 1 else 0.0
-        if fu > 0 and fu >= (2 * _LINE_BINS + 2) * bin_hz:  # the harmonics stand apart
-            m &= np.abs(f / fu - np.round(f / fu)) * fu > _LINE_BINS * bin_hz
+        lines = harmonic_bins(f, fu)
+        if lines is not None:  # the harmonics stand apart
+            m &= ~lines
         if int(m.sum()) >= _MIN_FIT_BINS:
             bands.append((f[m], p[m]))
     if not bands:

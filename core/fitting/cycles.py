@@ -12,7 +12,10 @@ crossings, which a few ramp-in or ramp-out cycles do not move.
 (:mod:`core.fitting.leftover`, cycles paired as the same input) and the cycle-to-cycle test
 of a drift (:func:`core.diagnosis.periodic.repeated_cycles`) both read it.
 :func:`fundamental_hz` is the one place that finds the input's strongest frequency (the
-leftover's fast part, the residual peak of :mod:`core.diagnosis.residualpeak`).
+leftover's fast part, the residual peak of :mod:`core.diagnosis.residualpeak`), :func:`line_hz`
+the one that reads it to a small fraction of a frequency bin, and :func:`harmonic_bins` the
+one that says which bins of a spectrum lie on its harmonics (the leftover's split of its fast
+part, the bins the mode fit of :mod:`core.diagnosis.residualpeak` leaves out).
 """
 
 from __future__ import annotations
@@ -23,11 +26,15 @@ import numpy as np
 
 from .._typing import Float1D
 
-__all__ = ["REARM", "InputCycles", "fundamental_hz", "input_cycles"]
+__all__ = ["LINE_BINS", "REARM", "InputCycles", "fundamental_hz", "harmonic_bins", "input_cycles",
+           "line_hz"]
 
 #: How far (fraction of the input range) the input must fall below its median before the
 #: next upward crossing counts.
 REARM = 0.1
+#: Bins either side of each harmonic of a periodic input that hold its line in a Hann-tapered
+#: periodogram (the taper's main lobe): :func:`harmonic_bins`.
+LINE_BINS = 2
 
 
 @dataclass(frozen=True)
@@ -102,3 +109,57 @@ def fundamental_hz(u: Float1D, dt: float) -> float:
     spec = np.abs(np.fft.rfft(u - u.mean()))
     spec[0] = 0.0
     return float(np.fft.rfftfreq(u.size, dt)[int(np.argmax(spec))])
+
+
+def line_hz(u: Float1D, dt: float) -> float:
+    """The input's fundamental, Hz, to a small fraction of a bin: the peak of the input's
+    zoomed spectrum (its discrete-time Fourier transform, mean removed, Hann-tapered so the
+    negative frequency's image does not shift it) within a bin of :func:`fundamental_hz`
+    (0 for a constant input).
+
+    Parameters
+    ----------
+    u, dt : ndarray of shape (N,), float
+        Input samples, evenly spaced, and their spacing (s), as for :func:`fundamental_hz`.
+    """
+    from scipy.optimize import minimize_scalar
+    from scipy.signal.windows import hann
+
+    x = np.asarray(u, dtype=np.float64)
+    x = x - x.mean()
+    f1 = fundamental_hz(x, dt)
+    if not f1 > 0:
+        return 0.0
+    t = np.arange(x.size) * dt
+    x = x * hann(x.size, sym=False)
+    bin_hz = 1.0 / (x.size * dt)
+
+    def minus_amp(f: float) -> float:
+        return -abs(complex(np.sum(x * np.exp(-2j * np.pi * f * t))))
+
+    r = minimize_scalar(minus_amp, bounds=(max(f1 - bin_hz, 0.5 * f1), f1 + bin_hz),
+                        method="bounded", options={"xatol": 1e-6 * bin_hz})
+    return float(r.x)
+
+
+def harmonic_bins(f: Float1D, fu: float) -> np.ndarray | None:
+    """The bins of a Hann-tapered periodogram at frequencies ``f`` that hold the lines of the
+    harmonics of ``fu`` Hz: within :data:`LINE_BINS` bins of a multiple of ``fu``; ``None``
+    when the harmonics do not stand apart (``fu`` is 0 or under ``2 LINE_BINS + 2`` bins).
+
+    Parameters
+    ----------
+    f : ndarray, shape (M,)
+        The periodogram's frequencies (Hz), evenly spaced from 0 (``numpy.fft.rfftfreq``).
+    fu : float
+        The input's fundamental (Hz, :func:`line_hz`).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,), or None
+    """
+    f = np.asarray(f, dtype=np.float64)
+    bin_hz = float(f[1] - f[0]) if f.size > 1 else 0.0
+    if not fu > 0 or not bin_hz > 0 or fu < (2 * LINE_BINS + 2) * bin_hz:
+        return None
+    return np.asarray(np.abs(f / fu - np.round(f / fu)) * fu <= LINE_BINS * bin_hz)

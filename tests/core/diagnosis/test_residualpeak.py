@@ -19,11 +19,11 @@ from core.diagnosis.residualpeak import (
     FREQ_AGREE,
     LIGHT_DAMPING,
     fit_mode,
-    line_hz,
     peak_in,
     residual_peak,
     untestable_entry,
 )
+from core.fitting.cycles import line_hz
 from core.recordings import Recording
 
 DT = 1.0 / 1024
