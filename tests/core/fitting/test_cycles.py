@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.fitting.cycles import input_cycles
+from core.fitting.cycles import harmonic_bins, input_cycles
 
 
 def _drive(fs: float, f: float, cycles: int, seed: int, ramp: int = 1) -> np.ndarray:
@@ -51,3 +51,16 @@ def test_a_single_rise_is_no_cycle() -> None:
     # one noisy rise from rest to a hold: noise at rest on the median starts nothing
     step = np.concatenate([np.zeros(500), np.ones(500)]) + 0.01 * rng.standard_normal(1000)
     assert input_cycles(step) is None
+
+
+def test_harmonic_bins_hold_the_lines_and_need_the_harmonics_apart() -> None:
+    """At 8 bins per harmonic, the bins within 2 of each multiple of the fundamental are on
+    the harmonics and those half way between are not; at 1 bin per harmonic there is no
+    split (``None``)."""
+    f = np.fft.rfftfreq(8000, 1e-3)  # 0.125 Hz bins
+    on = harmonic_bins(f, 1.0)
+    assert on is not None
+    assert on[f == 37.0].all() and on[np.isclose(f, 37.25)].all()
+    assert not on[f == 37.5].any() and not on[np.isclose(f, 37.375)].any()
+    assert harmonic_bins(np.fft.rfftfreq(1000, 1e-3), 1.0) is None
+    assert harmonic_bins(f, 0.0) is None
