@@ -69,8 +69,9 @@ class ResidualPeak:
     freq_hz : float
         The mode's natural frequency, Hz, fitted to the peak's shape in the recordings'
         finest spectra (:func:`fit_mode`).
-    damping : float
-        The mode's damping ratio from the same fit.
+    damping : float or None
+        The mode's damping ratio from the same fit; None when only a bound is known
+        (``damping_below``).
     prominence : float
         Smallest ratio of the peak's power spectral density to the median of [f/2, 2f].
     input_share : float
@@ -85,6 +86,15 @@ class ResidualPeak:
     bin_hz : float
         Median of the peak bins of the halves (1 s Welch segments), Hz: where the peak was
         found, and the centre of the bands of ``input_share`` and ``driven``.
+    damping_below : float or None
+        An upper bound of the damping ratio, None when ``damping`` is known: the damping
+        whose half-power width ``2 * zeta * f`` is two frequency bins of the longest record
+        (``1 / (T f)``, ``T`` its length in s) when the fitted peak is narrower than that
+        (a line, or a mode lighter than the record resolves); the halves' equivalent-width
+        estimate (:func:`peak_in`, with ``freq_hz`` their median bin) when the fit of the
+        peak's shape leaves the light modes (damping above :data:`LIGHT_DAMPING`).
+    resolved_by_record : bool
+        ``damping_below`` is the record's resolution (else the halves' width, or unused).
     """
 
     freq_hz: float
@@ -95,6 +105,12 @@ class ResidualPeak:
     halves: int
     of_halves: int
     bin_hz: float
+    damping_below: float | None = None
+    resolved_by_record: bool = False
+
+    def __post_init__(self) -> None:
+        if (self.damping is None) == (self.damping_below is None):
+            raise ValueError("a peak has either a damping or a bound of it")
 
 
 def _psd(x: np.ndarray, dt: float, nseg: int) -> tuple[np.ndarray, np.ndarray]:
@@ -291,22 +307,49 @@ def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualP
                      / max(_band_rms(e, dt, f0 / 1.5, 1.5 * f0), 1e-300))
     if driven >= MAX_DRIVEN:
         return None  # the input drives the band: the resonance candidate's own verdict stands
+    zeta_bins = float(np.median([z for _, z, _ in found]))
     fn, zn = fit_mode([(np.asarray(r.y, dtype=np.float64) - np.asarray(p, dtype=np.float64),
                         float(r.t[1] - r.t[0]), line_hz(r.u, float(r.t[1] - r.t[0])))
                        for r, p in zip(records, pred, strict=True)],
-                      f0, float(np.median([z for _, z, _ in found])))
-    return ResidualPeak(fn, zn, min(pr for _, _, pr in found), share, driven, len(found),
-                        n_parts, f0)
+                      f0, zeta_bins)
+    prom = min(pr for _, _, pr in found)
+    if not zn <= LIGHT_DAMPING:
+        # the shape's fit leaves the light modes (a line on a harmonic the fit leaves out,
+        # a peak of no single mode's shape): only the halves' bin and width are known, the
+        # width a bound (the window widens it); wider than a light mode's, no mode is said
+        if not zeta_bins <= LIGHT_DAMPING:
+            return None
+        return ResidualPeak(f0, None, prom, share, driven, len(found), n_parts, f0,
+                            damping_below=zeta_bins)
+    # a half-power width 2 zeta fn under two bins of the longest record (1 / T apart) is
+    # the taper's spread of a line, not the mode's: only a bound is known
+    longest = max(float(r.t.size) * float(r.t[1] - r.t[0]) for r in records)
+    floor = 1.0 / (longest * fn)
+    if zn < floor:
+        return ResidualPeak(fn, None, prom, share, driven, len(found), n_parts, f0,
+                            damping_below=floor, resolved_by_record=True)
+    return ResidualPeak(fn, zn, prom, share, driven, len(found), n_parts, f0)
 
 
 def untestable_entry(pk: ResidualPeak) -> Untestable:
     """The ``untestable`` entry of the report for peak ``pk``: the resonance, the reason
     and the deciding experiment in words, and its fitted ``freq_hz`` (Hz) and ``damping``
-    as the entry's parameters."""
+    as the entry's parameters, or ``damping_below`` (its bound, :attr:`ResidualPeak.
+    damping_below`) when the damping is not known."""
     f = pk.freq_hz
+    params: dict[str, float]
+    if pk.damping is not None:
+        damping = f"damping about {pk.damping:.2g},"
+        params = {"freq_hz": f, "damping": pk.damping}
+    else:
+        assert pk.damping_below is not None
+        damping = (f"damping below {pk.damping_below:.2g}, "
+                   + ("narrower than the record resolves;" if pk.resolved_by_record
+                      else "by its width, its shape no single mode's;"))
+        params = {"freq_hz": f, "damping_below": pk.damping_below}
     return Untestable(
         "resonance",
-        (f"a lightly damped peak at about {f:.3g} Hz (damping about {pk.damping:.2g}, "
+        (f"a lightly damped peak at about {f:.3g} Hz ({damping} "
          f"{pk.prominence:.3g}x the spectrum around it) is in the residual of {pk.halves} "
          f"of {pk.of_halves} halves of the recordings, each on its own, but the input has "
          f"no energy there ({100 * pk.input_share:.2g} % of its range between "
@@ -317,5 +360,5 @@ def untestable_entry(pk: ResidualPeak) -> Untestable:
         (f"input steps with rests before them, or a sine sweep through {f / 2:.3g}-"
          f"{2 * f:.3g} Hz at a small amplitude: a mode rings at its frequency after each "
          "step and peaks in the output over input there"),
-        {"freq_hz": f, "damping": pk.damping},
+        params,
     )

@@ -204,3 +204,68 @@ def test_a_non_finite_residual_shows_no_peak() -> None:
     e = rec.y - yh
     e[100] = np.nan
     assert peak_in(e, DT, 5.0) is None
+
+
+def _line_plant(input_hz: float, seconds: float = 8.0) -> tuple[Recording, np.ndarray]:
+    """A sine of ``input_hz`` into the friction-like loop, broadband chatter and a pure
+    50 Hz line (an interference: no width at all) on the output."""
+    rng = np.random.default_rng(1)
+    t = np.arange(int(seconds / DT)) * DT
+    u = np.sin(2 * np.pi * input_hz * t)
+    yh = np.tanh(8 * np.gradient(u, DT) / (2 * np.pi * input_hz))
+    y = yh + 0.02 * rng.standard_normal(t.size) + 0.05 * np.sin(2 * np.pi * 50.0 * t)
+    return Recording(t, u, y, "line"), yh
+
+
+def test_a_line_narrower_than_the_record_gets_a_bound_not_a_damping() -> None:
+    """A pure 50 Hz line over 8 s (0.125 Hz bins): the fit of its shape gives a half-power
+    width under two bins (0.25 Hz), the taper's spread of a line, so the damping is only
+    bounded, by 1 / (T f) = 0.0025; the text says so and gives no value, the entry's
+    parameters hold the bound, not a damping (before: "damping about 0.0014")."""
+    rec, yh = _line_plant(0.7)
+    pk = residual_peak([rec], [yh])
+    assert pk is not None and abs(pk.freq_hz - 50.0) < 0.05
+    assert pk.damping is None and pk.resolved_by_record
+    assert pk.damping_below == pytest.approx(1.0 / (8.0 * pk.freq_hz))
+    e = untestable_entry(pk)
+    assert "damping below 0.0025, narrower than the record resolves" in e.reason
+    assert "damping about" not in e.reason
+    assert dict(e.parameters) == {"freq_hz": pk.freq_hz, "damping_below": pk.damping_below}
+
+
+def test_a_fit_that_leaves_the_light_modes_falls_back_to_the_width() -> None:
+    """The same line on a harmonic of a 1 Hz input: the fit leaves the harmonics out, sees
+    no peak and ends at a damping above LIGHT_DAMPING (0.12, at 59 Hz); the peak is not
+    given that damping, nor the fit's frequency, but the halves' bin (50 Hz) and their width
+    as a bound under LIGHT_DAMPING."""
+    rec, yh = _line_plant(1.0)
+    pk = residual_peak([rec], [yh])
+    assert pk is not None and pk.freq_hz == pk.bin_hz == 50.0
+    assert pk.damping is None and not pk.resolved_by_record
+    assert pk.damping_below is not None and pk.damping_below <= LIGHT_DAMPING
+    e = untestable_entry(pk)
+    assert f"damping below {pk.damping_below:.2g}, by its width" in e.reason
+    assert "damping about" not in e.reason
+
+
+def test_a_resolved_mode_keeps_its_fitted_damping() -> None:
+    """A 45.3 Hz mode of damping 0.01 over 8 s: half-power width 0.91 Hz, over seven bins,
+    resolved; its damping is reported as a value, within 30 %."""
+    rng = np.random.default_rng(1)
+    t = np.arange(8192) * DT
+    u = np.sin(2 * np.pi * t)
+    yh = np.tanh(8 * np.gradient(u, DT) / (2 * np.pi))
+    y = oe.mode(yh + 0.02 * rng.standard_normal(t.size), 45.3, 0.01, DT)
+    pk = residual_peak([Recording(t, u, y, "m")], [yh])
+    assert pk is not None and pk.damping is not None and pk.damping_below is None
+    assert abs(pk.damping - 0.01) <= 0.3 * 0.01
+    assert f"damping about {pk.damping:.2g}," in untestable_entry(pk).reason
+
+
+def test_a_peak_has_a_damping_or_a_bound() -> None:
+    from core.diagnosis.residualpeak import ResidualPeak
+
+    with pytest.raises(ValueError):
+        ResidualPeak(45.0, None, 50.0, 0.0, 0.1, 2, 2, 45.0)
+    with pytest.raises(ValueError):
+        ResidualPeak(45.0, 0.01, 50.0, 0.0, 0.1, 2, 2, 45.0, damping_below=0.02)
