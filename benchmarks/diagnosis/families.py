@@ -38,6 +38,7 @@ Scoring helpers: :func:`parameter_recovery` (found vs truth per parameter, with 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -907,8 +908,8 @@ def parameter_recovery(claims: list[dict[str, Any]], hidden: dict[str, dict[str,
 
 
 def jsonable(x: Any) -> Any:
-    """Numbers, lists and dicts of ``x`` as plain JSON types (numpy converted)."""
-    if isinstance(x, dict):
+    """Numbers, lists and mappings of ``x`` as plain JSON types (numpy converted)."""
+    if isinstance(x, Mapping):
         return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple, np.ndarray)):
         return [jsonable(v) for v in x]

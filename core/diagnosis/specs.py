@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 from .registry import EFFECTS
@@ -30,16 +31,26 @@ class Untestable:
         Why the recordings cannot test it, in words.
     experiment : str
         The recording that would make it testable, in words.
-    parameters : dict of str to float
+    parameters : mapping of str to float
         What the recordings still say of it, when anything (a mode seen in the residual's
-        spectrum: ``freq_hz``, Hz, and ``damping``); empty otherwise. Not in the report's
-        JSON (:meth:`to_dict`), whose entry is ``{"name", "reason", "experiment"}``.
+        spectrum: ``freq_hz``, Hz, and ``damping`` or its bound ``damping_below``); empty
+        otherwise. Read-only (a copy of the mapping given, taken when the entry is made: an
+        entry such as :data:`core.diagnosis.basechoice.RATE_ON_STOP` is shared by every
+        run). Not in the report's JSON (:meth:`to_dict`), whose entry is
+        ``{"name", "reason", "experiment"}``.
     """
 
     name: str
     reason: str
     experiment: str
-    parameters: dict[str, float] = field(default_factory=dict)
+    parameters: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+
+    def __reduce__(self) -> tuple[type[Untestable], tuple[str, str, str, dict[str, float]]]:
+        # a read-only view does not pickle (nor deep-copy) itself: rebuilt from a plain copy
+        return (Untestable, (self.name, self.reason, self.experiment, dict(self.parameters)))
 
     def to_dict(self) -> dict[str, str]:
         """The report's JSON entry ``{"name", "reason", "experiment"}``."""
