@@ -674,7 +674,8 @@ def _upgraded(doc: Any) -> Any:
     try:
         fields = doc["result"]["fields"]
         entries = fields["untestable"]
-        old = doc["version"] == 1 and isinstance(entries, list)
+        # exactly the integer 1: True == 1, and the reader refuses a boolean version
+        old = type(doc["version"]) is int and doc["version"] == 1 and isinstance(entries, list)
     except (KeyError, TypeError):
         return doc
     if not old:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import base64
 import copy
 import dataclasses
+import gzip
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -136,21 +137,51 @@ def test_two_hidden_effects_round_trip(resonance_and_drift_diagnosis) -> None:
     same(res, round_trip(res))
 
 
-def test_a_version_1_document_still_reads(periodic_set) -> None:
-    """Version 1 wrote each untestable entry as a plain object ``{"name", "reason",
-    "experiment"}`` (a stored session's result); it reads as the same result, its entries
-    typed (:class:`~core.diagnosis.specs.Untestable`, no parameters)."""
-    res = periodic_set
-    assert res.untestable and all(not u.parameters for u in res.untestable)
-    old = json.loads(json.dumps(res.to_json()))
-    old["version"] = 1
-    _fields(old)["untestable"] = [u.to_dict() for u in res.untestable]
-    same(res, DiagnosisResult.from_json(old))
-    # a version 2 document with such an entry is damaged, not read
-    _fields(old)["untestable"] = [u.to_dict() for u in res.untestable]
-    old["version"] = 2
+def _version_1() -> dict:
+    """A document as version 1 stored it: ``DiagnosisResult.to_json`` of main 0672ff3 (its
+    writer, the untestable entries plain ``{"name", "reason", "experiment"}`` objects) of a
+    recording without a time axis (seven entries): 360 samples of a PI loop, turning points
+    0, 1, -1, 0.6, -0.8, 1, -0.3, 0.2, -1, 0 with 40 samples per ramp, radii
+    ``linspace(0.05, 0.8, 6)``, weights ``0.4 exp(-2 r)``, noise 0.002 (seed 3),
+    ``has_time=False``."""
+    path = Path(__file__).parent / "data" / "diagnosis_result_v1.json.gz"
+    with gzip.open(path, "rt", encoding="utf-8") as f:
+        doc: dict = json.load(f)
+    return doc
+
+
+def test_a_version_1_document_still_reads() -> None:
+    """A version 1 document (a stored session's result, written by the version 1 writer)
+    reads: its untestable entries typed (:class:`~core.diagnosis.specs.Untestable`, no
+    parameters), the report's entries those stored, and written again it is version 2."""
+    from core.diagnosis.specs import Untestable
+
+    doc = _version_1()
+    stored = _fields(doc)["untestable"]
+    assert doc["version"] == 1 and len(stored) == 7
+    assert all(isinstance(u, dict) and set(u) == {"name", "reason", "experiment"}
+               for u in stored)
+    res = DiagnosisResult.from_json(copy.deepcopy(doc))
+    assert all(type(u) is Untestable and not u.parameters for u in res.untestable)
+    assert res.to_dict()["untestable"] == stored
+    again = json.loads(json.dumps(res.to_json()))
+    assert again["version"] == 2
+    same(res, DiagnosisResult.from_json(again))
+    # the same entries in a version 2 document are damaged, not read
+    v2 = copy.deepcopy(doc)
+    v2["version"] = 2
     with pytest.raises(DocumentError):
-        DiagnosisResult.from_json(old)
+        DiagnosisResult.from_json(v2)
+
+
+def test_a_boolean_version_is_not_version_1() -> None:
+    """``"version": true`` equals 1 in Python; it is not upgraded as version 1 (the reader
+    refuses a boolean version, and does here)."""
+    doc = _version_1()
+    doc["version"] = True
+    with pytest.raises(DocumentError):
+        DiagnosisResult.from_json(doc)
+    assert doc["version"] is True and isinstance(_fields(doc)["untestable"][0], dict)
 
 
 def test_an_untestable_entry_keeps_its_parameters(periodic_set) -> None:
