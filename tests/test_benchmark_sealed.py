@@ -253,6 +253,17 @@ def test_a_parameter_said_untestable_or_suggested_is_information_only() -> None:
         "sugg. resonance freq_hz 44 vs 45 (-2.2 %)",
         "steps resonance freq_hz 47 vs 45 (+4.4 %)"]
     assert said_parameters(rows[1]) == [] and said_parameters(rows[0]) == []
+    # every hidden effect, not only the first: a drift (no quantity) before the mode, and a
+    # delay said untestable beside it
+    two = {**told[1], "hidden": {"drift": {"rate": 0.01}, "resonance": {"freq_hz": 45.0},
+                                 "delay": {"delay_s": 0.002}},
+           "untestable_parameters": {"resonance": {"freq_hz": 46.25},
+                                     "delay": {"delay_s": 0.0021}},
+           "suggestive_parameters": {}, "after_steps": None}
+    assert said_parameters(two) == ["untestable resonance freq_hz 46.25 vs 45 (+2.8 %)",
+                                    "untestable delay delay_s 0.0021 vs 0.002 (+5.0 %)"]
+    assert said_parameters({**two, "found": ["resonance"]}) == [
+        "untestable delay delay_s 0.0021 vs 0.002 (+5.0 %)"]
     assert class_table(told) == class_table(rows)
     assert "untestable resonance freq_hz 46.25 vs 45 (+2.8 %)" in summarise_set(told)
 

@@ -154,6 +154,7 @@ def run_case(case: str) -> dict[str, Any]:
     """Diagnose one case with ``core.diagnosis.diagnose`` (default settings) and return its
     JSON row."""
     from core.diagnosis import diagnose
+    from core.diagnosis.results import suggestive_rows
 
     sc = build(case)
     hidden = dict(sc.extras.get("hidden", {}))
@@ -176,8 +177,8 @@ def run_case(case: str) -> dict[str, Any]:
         "untestable": [u.name for u in res.untestable],
         "untestable_parameters": {u.name: jsonable(u.parameters) for u in res.untestable
                                   if u.parameters},
-        "suggestive_parameters": {g["effect"]: jsonable(g.get("parameters", {}))
-                                  for g in res.suggestive},
+        "suggestive_parameters": {g.effect: jsonable(g.parameters)
+                                  for g in suggestive_rows(res.rounds)},
         "adequate": None if res.adequacy is None else bool(res.adequacy.adequate),
         "residual_pct": None if res.adequacy is None else float(res.adequacy.pct),
         "n_samples": int(sum(r.t.size for r in sc.records)),
@@ -250,23 +251,25 @@ def score_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def said_parameters(r: dict[str, Any]) -> list[str]:
-    """The hidden effect's quantity (delay, lag time constant, mode frequency) where run
+    """Each hidden effect's quantity (delay, lag time constant, mode frequency) where run
     ``r`` gives it without naming the effect: said untestable, suggested in the last round,
     or suggested by the input steps, each against the truth (``"untestable resonance
-    freq_hz 45.56 vs 45 (+1.2 %)"``). Information for the per-run table only; rows written
-    before these keys were recorded give nothing."""
-    hid = next(iter(r["hidden"]), None)
-    q = _QUANTITY.get(hid or "")
-    if hid is None or q is None or hid in r["found"]:
-        return []
-    truth = float(r["hidden"][hid][q])
+    freq_hz 45.56 vs 45 (+1.2 %)"``), in the order of the hidden effects. Information for
+    the per-run table only; rows written before these keys were recorded give nothing."""
     steps = r.get("after_steps") or {}
-    said = [("untestable", (r.get("untestable_parameters") or {}).get(hid, {})),
-            ("sugg.", (r.get("suggestive_parameters") or {}).get(hid, {})),
-            ("steps", steps.get("parameters", {}) if steps.get("effect") == hid else {})]
-    return [f"{how} {hid} {q} {float(p[q]):.4g} vs {truth:.4g} "
-            f"({100 * (float(p[q]) - truth) / truth:+.1f} %)"
-            for how, p in said if isinstance(p.get(q), (int, float))]
+    out = []
+    for hid, truths in r["hidden"].items():
+        q = _QUANTITY.get(hid)
+        if q is None or hid in r["found"]:
+            continue
+        truth = float(truths[q])
+        said = [("untestable", (r.get("untestable_parameters") or {}).get(hid, {})),
+                ("sugg.", (r.get("suggestive_parameters") or {}).get(hid, {})),
+                ("steps", steps.get("parameters", {}) if steps.get("effect") == hid else {})]
+        out += [f"{how} {hid} {q} {float(p[q]):.4g} vs {truth:.4g} "
+                f"({100 * (float(p[q]) - truth) / truth:+.1f} %)"
+                for how, p in said if isinstance(p.get(q), (int, float))]
+    return out
 
 
 def _frac(k: int, n: int) -> str:

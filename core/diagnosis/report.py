@@ -144,14 +144,16 @@ def _not_claimed_lines(res: DiagnosisResult) -> list[str]:
     """The report's lines of what was tested and not claimed: suggestive effects, the
     recording-specific ones and those judged between recordings only."""
     lines: list[str] = []
-    for sg in res.suggestive:
-        pooled = (f"; with the cross-fitted blocks z = {sg['dm_z_pooled']:.2f}, "
-                  f"p = {sg['signed_rank_p_pooled']:.2g}, parameter CV across folds "
-                  + ", ".join(f"{k} {100 * v:.0f} %" for k, v in sg["parameter_cv"].items())
-                  if "dm_z_pooled" in sg else "")
-        lines.append(f"Suggestive, not claimed: {sg['effect']} (held-out MSE "
-                     f"-{100 * sg['heldout_mse_reduction']:.0f} %, z = {sg['dm_z']:.2f}, "
-                     f"signed-rank p = {sg['signed_rank_p']:.2g}{pooled}: below the "
+    suggestive = res.suggestive_rows
+    for sg in suggestive:
+        ex = dict(sg.extra)
+        pooled = (f"; with the cross-fitted blocks z = {ex['dm_z_pooled']:.2f}, "
+                  f"p = {ex['signed_rank_p_pooled']:.2g}, parameter CV across folds "
+                  + ", ".join(f"{k} {100 * v:.0f} %" for k, v in ex["parameter_cv"].items())
+                  if "dm_z_pooled" in ex else "")
+        lines.append(f"Suggestive, not claimed: {sg.effect} (held-out MSE "
+                     f"-{100 * sg.heldout_mse_reduction:.0f} %, z = {sg.dm_z:.2f}, "
+                     f"signed-rank p = {sg.signed_rank_p:.2g}{pooled}: below the "
                      "acceptance rule)")
     if res.after_steps is not None:
         lines.append(f"Suggestive, not claimed: {res.after_steps.text}")
@@ -160,16 +162,17 @@ def _not_claimed_lines(res: DiagnosisResult) -> list[str]:
                         for p in rs.per_recording)
         lines.append(f"Recording-specific, not claimed: {rs.text}"
                      + (f"; left-out RMSE {per}" if per else ""))
-    shown = ({sg["effect"] for sg in res.suggestive} | {e.name for e in res.effects}
+    shown = ({sg.effect for sg in suggestive} | {e.name for e in res.effects}
              | {rs.name for rs in res.recording_specific})
     for row in res.rounds:  # judged between recordings and not claimed: say so
-        if row["round"] == 1 and "per_recording" in row and row["effect"] not in shown:
+        ex = dict(row.extra)
+        if row.round == 1 and "per_recording" in ex and row.effect not in shown:
             per = ", ".join(f"{p['recording']} {-100 * p['mse_reduction'] + 0.0:+.0f} %"
-                            for p in row["per_recording"])
-            lines.append(f"Tested between recordings, not claimed: {row['effect']} (each "
+                            for p in ex["per_recording"])
+            lines.append(f"Tested between recordings, not claimed: {row.effect} (each "
                          "recording predicted from the others with its parameters searched "
-                         f"on them: MSE {-100 * row['heldout_mse_reduction'] + 0.0:+.1f} % "
-                         f"pooled, z = {row['dm_z']:.2f}; {per})")
+                         f"on them: MSE {-100 * row.heldout_mse_reduction + 0.0:+.1f} % "
+                         f"pooled, z = {row.dm_z:.2f}; {per})")
     return lines
 
 

@@ -436,6 +436,11 @@ class DiagnosisResult:
         ]
 
     @property
+    def suggestive_rows(self) -> list[RoundRow]:
+        """The rows of :attr:`suggestive`, typed (:func:`suggestive_rows` of :attr:`rounds`)."""
+        return suggestive_rows(self.rounds)
+
+    @property
     def suggested_names(self) -> list[str]:
         """Names of every effect suggested and not claimed: :attr:`suggestive`, then the kind
         the input steps show (:attr:`after_steps`) when not among them."""

@@ -18,7 +18,7 @@ import plotly.io as pio
 from plotly.subplots import make_subplots
 
 from app.services.explore.figures import PLOT_CONFIG
-from core.diagnosis.results import DiagnosisResult
+from core.diagnosis.results import DiagnosisResult, suggestive_rows
 
 __all__ = ["figures", "write_report"]
 
@@ -187,16 +187,18 @@ def write_report(res: DiagnosisResult, path: str | Path,
             f"%); MSE reduction {100 * e.heldout.gain:.1f} %, DM z = {e.heldout.z:.2f}, "
             f"signed-rank p = {e.heldout.sign_p:.2g}.</p>{amb}</div>"
         )
-    if d.get("suggestive"):
+    suggestive = suggestive_rows(res.rounds)
+    if suggestive:
         parts.append("<h2>Suggestive, not claimed</h2><p>These improved the held-out fit by at "
                      "least 5 % but failed the significance rule; a targeted recording would "
                      "decide.</p><ul>" + "".join(
-                         f"<li>{html.escape(g['effect'])}: held-out MSE "
-                         f"-{100 * g['heldout_mse_reduction']:.0f} %, DM z = {g['dm_z']:.2f}, "
-                         f"signed-rank p = {g['signed_rank_p']:.2g}"
+                         f"<li>{html.escape(g.effect)}: held-out MSE "
+                         f"-{100 * g.heldout_mse_reduction:.0f} %, DM z = {g.dm_z:.2f}, "
+                         f"signed-rank p = {g.signed_rank_p:.2g}"
                          + (f"; with the cross-fitted training blocks DM z = "
-                            f"{g['dm_z_pooled']:.2f}" if "dm_z_pooled" in g else "") + "</li>"
-                         for g in d["suggestive"]) + "</ul>")
+                            f"{g.detail('dm_z_pooled'):.2f}" if "dm_z_pooled" in dict(g.extra)
+                            else "") + "</li>"
+                         for g in suggestive) + "</ul>")
     if res.after_steps is not None:
         parts.append("<h2>Seen after too few input steps, not claimed</h2><p>"
                      + html.escape(res.after_steps.text) + ".</p>")

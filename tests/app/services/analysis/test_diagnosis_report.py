@@ -30,3 +30,26 @@ def test_a_kind_seen_after_the_one_step_is_reported_unclaimed(tmp_path: Path) ->
     assert res.untestable and "Untestable with these recordings" in text
     for u in res.untestable:
         assert f"<b>{html.escape(u.name)}</b>: {html.escape(u.reason)}" in text
+
+
+def test_the_suggestive_section_reads_the_typed_rows(tmp_path: Path) -> None:
+    """Four recordings at different rates (three suggestive effects): the section lists each
+    suggestive row (:func:`core.diagnosis.results.suggestive_rows`) with its statistics, and
+    the cross-fitted z where the row carries one (given to the lag's row here)."""
+    import dataclasses
+
+    from app.services.analysis.diagnosis_report import write_report
+    from benchmarks.diagnosis.generator import make_periodic_set
+    from core.diagnosis.results import suggestive_rows
+
+    res = diagnose(make_periodic_set(0.0006, seed=201).records)
+    rows = suggestive_rows(res.rounds)
+    assert [r.effect for r in rows] == ["delay", "lag", "rate"]
+    res.rounds = [dataclasses.replace(r, extra=(*r.extra, ("dm_z_pooled", 1.234)))
+                  if r is rows[1] else r for r in res.rounds]
+    text = write_report(res, tmp_path / "report.html").read_text()
+    assert "<h2>Suggestive, not claimed</h2>" in text
+    for r in rows:
+        assert (f"<li>{r.effect}: held-out MSE -{100 * r.heldout_mse_reduction:.0f} %, "
+                f"DM z = {r.dm_z:.2f}, signed-rank p = {r.signed_rank_p:.2g}") in text
+    assert text.count("; with the cross-fitted training blocks DM z = 1.23</li>") == 1
