@@ -98,7 +98,7 @@ class ResidualPeak:
     """
 
     freq_hz: float
-    damping: float
+    damping: float | None
     prominence: float
     input_share: float
     driven: float
