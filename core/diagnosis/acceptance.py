@@ -59,7 +59,9 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
     that declares the rows its signature lives in
     (:attr:`~core.diagnosis.registry.DiagnosableEffect.signature`: a drift, from cycle to
     cycle of a repeated input) meets rules 1-2 on the test rows among them (the excess over
-    the noise floor is theirs too, but see rule 19), and must not make the other test rows
+    the noise floor is theirs too, but see rule 19; where they are compared with an earlier
+    row the floor is twice the noise variance, :func:`floor_mse`), and must not make the
+    other test rows
     worse by more than ``max_harm_elsewhere`` (5 %) with a Diebold-Mariano z of ``-min_z``
     or below.
 
@@ -129,7 +131,7 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_better", "decide",
-           "earns_place", "enough_events", "generalises", "harmless_beyond_noise",
+           "earns_place", "enough_events", "floor_mse", "generalises", "harmless_beyond_noise",
            "harmless_elsewhere", "pair_beats_single",
            "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
@@ -321,6 +323,21 @@ def harmless_beyond_noise(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     return h.gain >= -rule.max_harm_elsewhere and h.z > -rule.min_z
 
 
+def floor_mse(noise: float, differenced: bool) -> float:
+    """The white-noise floor of the MSE the excess share is counted above (output units²).
+
+    ``noise``: the white-noise level (output units, RMS; the one estimate of
+    :func:`~core.diagnosis.stats.noise_floor`). ``differenced``: the rows are compared as
+    each row's change from an earlier row
+    (:attr:`~core.diagnosis.registry.SignatureRows.previous`), ``e[t] - e[previous[t]]``,
+    where the noise of both rows enters (independent, far apart): the floor is then
+    ``2 noise²``, else ``noise²``. With the floor counted once on those rows, the excess
+    held one noise variance that no effect can remove, and the 20 % share asked the effect
+    to remove a fifth of it too.
+    """
+    return (2.0 if differenced else 1.0) * noise**2
+
+
 def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
             elsewhere: HeldOut | None = None) -> bool:
     """Effect-size rules only (``excess``: current MSE minus the noise floor², units²).
@@ -332,8 +349,8 @@ def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
     not repeat from one branch to the next, which a local effect cannot remove however real
     it is (a friction damper's chatter, 3 % of range, against a drift judged from cycle to
     cycle), so only ``min_gain`` applies there. On rows compared with an earlier branch
-    (``SignatureRows.previous``) the noise enters twice while the floor subtracts it once;
-    a floor of twice the noise there is left to do (it needs the nulls run again).
+    (``SignatureRows.previous``) the noise enters twice, and the floor the excess is
+    counted above is twice the noise variance there (:func:`floor_mse`).
     """
     if h.gain < rule.min_gain:
         return False

@@ -19,6 +19,7 @@ from .acceptance import (
     decide,
     earns_place,
     enough_events,
+    floor_mse,
     generalises,
     harmless_elsewhere,
     split_supports_transport,
@@ -58,7 +59,7 @@ def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[Roun
     n_tests = len(cands) if n_tests is None else n_tests
     mse_cur = pooled_mse(ctx.test_res(cur))
     excess = {n: (c.heldout.mse_before if ctx.strict or c.between or c.where else mse_cur)
-              - run.noise**2 for n, c in cands.items()}
+              - floor_mse(run.noise, c.differenced) for n, c in cands.items()}
     cands = {n: _sized(c, excess[n]) for n, c in cands.items()}
     size_ok = {n: c.size_ok for n, c in cands.items()}
     needs_cf = {n for n in cands if size_ok[n] and ctx.folds and not EFFECTS[n].before_wipeout

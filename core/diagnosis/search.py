@@ -167,7 +167,7 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
     other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
              if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
     return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other,
-                   beyond_history=sig.beyond_history)
+                   beyond_history=sig.beyond_history, differenced=sig.previous is not None)
 
 
 def same_signature_rows(ctx: FitContext, c: Candidate, o: Candidate) -> SignatureRows | None:

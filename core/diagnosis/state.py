@@ -66,6 +66,10 @@ class Candidate:
     where: str | None = None
     #: the comparison on the other test rows when judged where it lives (rule 13)
     elsewhere: HeldOut | None = None
+    #: judged where it lives on rows compared as changes from an earlier row
+    #: (:attr:`~core.diagnosis.registry.SignatureRows.previous`): the noise floor there is
+    #: twice the noise variance (:func:`~core.diagnosis.acceptance.floor_mse`)
+    differenced: bool = False
     #: judged where it lives on rows compared within the same input history
     #: (:attr:`~core.diagnosis.registry.SignatureRows.beyond_history`): acceptance rule 17
     #: is met by that evidence
