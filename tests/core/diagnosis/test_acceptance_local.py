@@ -12,9 +12,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
+from typing import cast
+
 from core.diagnosis import diagnose
-from core.diagnosis.acceptance import RULE, decide, harmless_beyond_noise, size_ok
+from core.diagnosis.acceptance import RULE, decide, floor_mse, harmless_beyond_noise, size_ok
+from core.diagnosis.judge import excess_of
+from core.diagnosis.state import Candidate
 from core.diagnosis.stats import HeldOut
+from core.diagnosis.structure import Fit
 from core.pi import PIModel
 from core.recordings import Recording
 
@@ -61,6 +66,27 @@ def test_harm_elsewhere_beyond_noise_keeps_the_excess_share() -> None:
     # a finite gain without a finite z: refused, and the reason prints no "z nan"
     no_z = decide(LOCAL, EXCESS, n_tests=1, elsewhere=_h(1.0, 1.01, float("nan"), 1.0))
     assert not no_z.passes and "nan" not in no_z.reasons[0]
+
+
+def _judged_where(h: HeldOut, differenced: bool) -> Candidate:
+    return Candidate("drift", cast(Fit, None), {}, {}, heldout=h, where="test rows (here)",
+                     differenced=differenced)
+
+
+def test_the_floor_of_differenced_rows_counts_the_noise_twice() -> None:
+    """On rows compared with an earlier row, e[t] - e[previous[t]], the white noise enters
+    twice: the excess the share is counted in is their MSE minus 2 noise², not noise²."""
+    noise = 0.5  # noise² = 0.25
+    assert floor_mse(noise, True) == 2 * floor_mse(noise, False) == 0.5
+    h = _h(1.0, 0.88, 4.0)  # removes 0.12
+    diff = excess_of(_judged_where(h, True), 9.0, noise, strict=False)
+    plain = excess_of(_judged_where(h, False), 9.0, noise, strict=False)
+    assert diff == 0.5 and plain == 0.75
+    assert size_ok(h, diff)  # 0.12 >= 20 % of 0.5
+    assert not size_ok(h, plain)  # 0.12 < 20 % of 0.75
+    # not judged where it lives: the current model's test-row MSE, floor counted once
+    assert excess_of(Candidate("delay", cast(Fit, None), {}, {}, heldout=h), 9.0, noise,
+                     strict=False) == 9.0 - 0.25
 
 
 def test_an_effect_that_meets_the_share_is_unaffected() -> None:
