@@ -112,10 +112,13 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
 
 19. *A local effect is not measured against what does not repeat* (:func:`harmless_beyond_noise`):
     an effect judged on the test rows its signature lives in (rule 13) needs ``min_gain``
-    and significance there, but not ``min_excess_share`` of their excess, when it is shown
-    to harm nothing on the other test rows (their MSE rises by at most
-    ``max_harm_elsewhere`` and not significantly at all). The finding's evidence says which
-    rows it was judged on and that the share was waived.
+    and significance there, but not ``min_excess_share`` of their excess, when the other
+    test rows show it harmless, an equivalence test: on at least
+    ``min_independent_batches`` (10) independent batches, the one-sided
+    ``1 - equivalence_p`` (95 %) upper confidence bound of their MSE rise
+    (:func:`harm_bound`) is at most ``max_harm_elsewhere`` (5 %). Not significantly worse
+    is not enough: with few batches anything passes that. The finding's evidence says
+    which rows it was judged on, the bound, and that the share was waived.
 
 The statistics come from :func:`core.diagnosis.stats.heldout_comparison`; which rows they are
 computed on (test rows, cross-fitted training blocks) is the engine's business.
@@ -131,7 +134,8 @@ import numpy as np
 from .stats import HeldOut
 
 __all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_better", "decide",
-           "earns_place", "enough_events", "floor_mse", "generalises", "harmless_beyond_noise",
+           "earns_place", "enough_events", "floor_mse", "generalises", "harm_bound",
+           "harm_words", "harmless_beyond_noise",
            "harmless_elsewhere", "pair_beats_single",
            "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
@@ -177,7 +181,15 @@ class AcceptRule:
         (:func:`clearly_better`).
     max_harm_elsewhere : float
         Largest relative increase of the held-out MSE outside the rows where an effect's
-        signature lives that it may cause while judged on those rows (:func:`harmless_elsewhere`).
+        signature lives that it may cause while judged on those rows (:func:`harmless_elsewhere`);
+        for rule 19 (:func:`harmless_beyond_noise`) the equivalence margin its upper
+        confidence bound must stay below.
+    min_independent_batches : int
+        Fewest independent batches (:attr:`~core.diagnosis.stats.HeldOut.n_independent`) of
+        the other test rows that can show an effect harmless there (rule 19).
+    equivalence_p : float
+        Level of the one-sided upper confidence bound of the MSE rise on the other test rows
+        (rule 19, :func:`harm_bound`).
     min_events : int
         With one recording, fewest input events (steps, reversals) after which an output
         dynamics stage must lower the held-out MSE by ``min_gain`` to be named
@@ -211,6 +223,8 @@ class AcceptRule:
     lacks_signature_margin: float = 0.10
     clear_margin: float = 0.10
     max_harm_elsewhere: float = 0.05
+    min_independent_batches: int = 10
+    equivalence_p: float = 0.05
     min_events: int = 3
     min_rate_ratio: float = 3.0
     family_lead: float = 1.5
@@ -299,28 +313,46 @@ def harmless_elsewhere(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     return h.gain >= -rule.max_harm_elsewhere or not (np.isfinite(h.z) and h.z <= -rule.min_z)
 
 
+def harm_bound(h: HeldOut | None, rule: AcceptRule = RULE) -> float:
+    """The one-sided ``1 - equivalence_p`` upper confidence bound of the relative MSE rise
+    ``mse_after / mse_before - 1`` of the comparison ``h`` (dimensionless; NaN when ``h``
+    is ``None`` or has no finite standard error, fewer than two independent batches or no
+    MSE before): the rise plus Student's t quantile (``n_independent - 1`` degrees of
+    freedom) times the batch-means standard error of the MSE difference over
+    ``mse_before``."""
+    from scipy.stats import t as student_t
+
+    if h is None or not (np.isfinite(h.gain) and np.isfinite(h.se)
+                         and np.isfinite(h.n_independent)) or not (
+            h.n_independent >= 2.0 and h.mse_before > 0.0):
+        return float("nan")
+    q = float(student_t.ppf(1.0 - rule.equivalence_p, h.n_independent - 1.0))
+    return float(-h.gain + q * h.se / h.mse_before)
+
+
 def harmless_beyond_noise(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     """Acceptance rule 19: does the comparison ``h`` on the test rows outside an effect's
-    signature rows show that the effect harms nothing there, beyond noise?
+    signature rows show that the effect is harmless there (an equivalence test)?
 
-    True when those rows exist (``h`` is not ``None``, finite) and the candidate neither
-    raises their MSE by more than ``max_harm_elsewhere`` (5 %) nor raises it significantly
-    at all (Diebold-Mariano z above ``-min_z``). This is stricter than rule 13
-    (:func:`harmless_elsewhere`, which refuses only a rise both large and significant): it
-    is what replaces the excess share for an effect judged where it lives (:func:`size_ok`).
-    It is a test of no significant harm, not an equivalence test: with few other rows it
-    has little power, and it is the 5 % gain and significance on the signature rows that
-    keep noise from being named (an equivalence bound on the other rows' gain is left to
-    do). An effect that is really local (a
-    trend from cycle to cycle, ringing after a step) changes the other rows' prediction by
-    about nothing, and their held-out error then moves by sampling noise only; a
-    candidate that buys its gain on the signature rows by bending the rest (absorbing the
-    base misfit) makes the other rows significantly worse. With no other test rows nothing
-    shows harmlessness and the excess share applies.
+    True when those rows exist (``h`` is not ``None``), hold at least
+    ``min_independent_batches`` independent batches (:attr:`HeldOut.n_independent`: batch
+    means correlated from batch to batch count as fewer), and the one-sided
+    ``1 - equivalence_p`` upper confidence bound of their MSE rise (:func:`harm_bound`) is at
+    most ``max_harm_elsewhere`` (5 %): the data bound the harm below the margin, rather than
+    merely failing to show it (a "not significantly worse" test passes anything with few
+    batches). It is what replaces the excess share for an effect judged where it lives
+    (:func:`size_ok`). An effect that is really local (a trend from cycle to cycle, ringing
+    after a step) changes the other rows' prediction by about nothing, and their held-out
+    error then moves by sampling noise only, which enough batches bound; a candidate that
+    buys its gain on the signature rows by bending the rest (absorbing the base misfit)
+    raises the bound above the margin. With no other test rows, or too few batches,
+    nothing shows harmlessness and the excess share applies.
     """
-    if h is None or not (np.isfinite(h.gain) and np.isfinite(h.z)):
+    if h is None or not (np.isfinite(h.n_independent)
+                         and h.n_independent >= rule.min_independent_batches):
         return False
-    return h.gain >= -rule.max_harm_elsewhere and h.z > -rule.min_z
+    b = harm_bound(h, rule)
+    return bool(np.isfinite(b) and b <= rule.max_harm_elsewhere)
 
 
 def floor_mse(noise: float, differenced: bool) -> float:
@@ -398,9 +430,8 @@ def decide(
     elif not sz:
         why = (f"removes less than {100 * rule.min_excess_share:.0f} % of the excess over "
                "the noise floor")
-        if elsewhere is not None and np.isfinite(elsewhere.gain) and np.isfinite(elsewhere.z):
-            why += (f" (not waived: on the other test rows its held-out MSE reduction is "
-                    f"{100 * elsewhere.gain:+.1f} %, z {elsewhere.z:.2f})")
+        if elsewhere is not None and np.isfinite(elsewhere.gain):
+            why += f" (not waived: {harm_words(elsewhere, rule)})"
         reasons.append(why)
     g = h if significance is None else significance
     level = rule.sign_p / max(int(n_tests), 1)
@@ -413,6 +444,20 @@ def decide(
         reasons.append("parameters disagree across folds (" + ", ".join(
             f"{k} CV {100 * v:.0f} %" for k, v in unstable.items()) + ")")
     return Decision(sz and sig and not unstable, sz, sig, not unstable, tuple(reasons))
+
+
+def harm_words(h: HeldOut, rule: AcceptRule = RULE) -> str:
+    """What the comparison ``h`` on the other test rows shows for rule 19, in words: the
+    relative held-out MSE change and its upper confidence bound (:func:`harm_bound`)."""
+    b = harm_bound(h, rule)
+    words = f"on the other test rows its held-out MSE changes by {-100 * h.gain:+.1f} %"
+    if not np.isfinite(b):
+        return words + ", with no confidence bound"
+    words += (f", at most {100 * b:+.1f} % at {100 * (1 - rule.equivalence_p):.0f} % "
+              f"confidence over {h.n_independent:.0f} independent batches")
+    if h.n_independent < rule.min_independent_batches:
+        words += f" (fewer than {rule.min_independent_batches})"
+    return words
 
 
 def earns_place(crossfitted: HeldOut, n_tests: int, param_cv: Mapping[str, float] | None,

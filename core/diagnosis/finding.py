@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .acceptance import RULE
+from .acceptance import RULE, harm_bound
 from .context import FitContext
 from .crossfitting import ambiguous_parameters, crossfit_summary, effect_uncertainty
 from .locate import where_improved
@@ -129,12 +129,15 @@ def _evidence(run: Run, c: Candidate) -> str:
     if e is not None and np.isfinite(e.gain):
         words += (f"; on the other test rows its held-out MSE reduction is "
                   f"{100 * e.gain:+.1f} % (z {e.z:.2f})")
-    if c.share_waived:
+    if c.share_waived and e is not None:
         words += ("; it removes less than "
                   f"{100 * RULE.min_excess_share:.0f} % of those rows' excess over the noise "
                   "floor (what the model leaves there that does not repeat from one branch "
-                  "to the next), and is accepted because the other test rows show no "
-                  "significant harm")
+                  "to the next), and is accepted because the other test rows show it "
+                  f"harmless: their MSE rises by at most {100 * harm_bound(e):+.1f} % "
+                  f"({100 * (1 - RULE.equivalence_p):.0f} % confidence, "
+                  f"{e.n_independent:.0f} independent batches), within "
+                  f"{100 * RULE.max_harm_elsewhere:.0f} %")
     return words
 
 

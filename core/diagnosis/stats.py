@@ -42,6 +42,14 @@ class HeldOut:
         One-sided p-value of the Wilcoxon signed-rank test of the batch means (robust when
         the improvement is concentrated in a few batches, where DM is conservative).
     n_batches : int
+    se : float
+        Standard error of the mean squared-error difference (output units²) from the batch
+        means, widened for their lag-1 autocorrelation (batches too short to be independent);
+        NaN where not computed from batches.
+    n_independent : float
+        Effective number of independent batches, ``n_batches (1 - r1) / (1 + r1)`` with
+        ``r1`` the lag-1 autocorrelation of the batch means (clipped to ``[0, 1)``); NaN
+        where not computed from batches.
     """
 
     mse_before: float
@@ -50,6 +58,8 @@ class HeldOut:
     z: float
     sign_p: float
     n_batches: int
+    se: float = float("nan")
+    n_independent: float = float("nan")
 
     @property
     def p_value(self) -> float:
@@ -93,7 +103,21 @@ def heldout_comparison(
         z = np.inf if means.mean() > 0 else 0.0
     sign_p = signed_rank_p(means)
     gain = 1.0 - ma / mb if mb > 0 else 0.0
-    return HeldOut(mb, ma, gain, z, sign_p, nb)
+    n_ind = _independent_batches(means)
+    se = sd / np.sqrt(n_ind) if n_ind > 0 else float("nan")
+    return HeldOut(mb, ma, gain, z, sign_p, nb, se, n_ind)
+
+
+def _independent_batches(means: np.ndarray) -> float:
+    """Effective number of independent batch means ``n (1 - r1) / (1 + r1)``, ``r1`` their
+    lag-1 autocorrelation clipped to ``[0, 0.99]`` (an AR(1) approximation of the variance
+    of their mean); ``means``: shape ``(n,)``."""
+    n = means.size
+    c = means - means.mean()
+    den = float(c @ c)
+    r1 = float(c[1:] @ c[:-1]) / den if den > 0 and n > 2 else 0.0
+    r1 = min(max(r1, 0.0), 0.99)
+    return n * (1.0 - r1) / (1.0 + r1)
 
 
 def with_where(h: HeldOut, hw: HeldOut) -> HeldOut:
@@ -104,7 +128,7 @@ def with_where(h: HeldOut, hw: HeldOut) -> HeldOut:
     if not (np.isfinite(hw.z) and np.isfinite(hw.sign_p)):
         return h
     return HeldOut(h.mse_before, h.mse_after, h.gain, max(h.z, hw.z),
-                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches)
+                   min(1.0, 2.0 * min(h.sign_p, hw.sign_p)), h.n_batches, h.se, h.n_independent)
 
 
 def signed_rank_p(x: np.ndarray) -> float:
