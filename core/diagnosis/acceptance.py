@@ -453,8 +453,8 @@ def harm_words(h: HeldOut, rule: AcceptRule = RULE) -> str:
     words = f"on the other test rows its held-out MSE changes by {-100 * h.gain:+.1f} %"
     if not np.isfinite(b):
         return words + ", with no confidence bound"
-    words += (f", at most {100 * b:+.1f} % at {100 * (1 - rule.equivalence_p):.0f} % "
-              f"confidence over {h.n_independent:.0f} independent batches")
+    words += (f", its upper {100 * (1 - rule.equivalence_p):.0f} % confidence bound "
+              f"{100 * b:+.1f} % over {h.n_independent:.0f} independent batches")
     if h.n_independent < rule.min_independent_batches:
         words += f" (fewer than {rule.min_independent_batches})"
     return words

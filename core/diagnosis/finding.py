@@ -134,10 +134,11 @@ def _evidence(run: Run, c: Candidate) -> str:
                   f"{100 * RULE.min_excess_share:.0f} % of those rows' excess over the noise "
                   "floor (what the model leaves there that does not repeat from one branch "
                   "to the next), and is accepted because the other test rows show it "
-                  f"harmless: their MSE rises by at most {100 * harm_bound(e):+.1f} % "
-                  f"({100 * (1 - RULE.equivalence_p):.0f} % confidence, "
-                  f"{e.n_independent:.0f} independent batches), within "
-                  f"{100 * RULE.max_harm_elsewhere:.0f} %")
+                  "harmless: the upper "
+                  f"{100 * (1 - RULE.equivalence_p):.0f} % confidence bound of their MSE "
+                  f"change is {100 * harm_bound(e):+.1f} % "
+                  f"({e.n_independent:.0f} independent batches), within the "
+                  f"{100 * RULE.max_harm_elsewhere:.0f} % margin")
     return words
 
 
