@@ -65,7 +65,8 @@ def test_rule_thresholds_are_the_documented_ones() -> None:
                               "outside_worse": 1.25, "min_rev_share": 0.15,
                               "min_sign_locking": 0.80, "max_loro_loss": 0.05,
                               "lacks_signature_margin": 0.10, "clear_margin": 0.10,
-                              "max_harm_elsewhere": 0.05, "min_events": 3,
+                              "max_harm_elsewhere": 0.05, "min_independent_batches": 10,
+                              "equivalence_p": 0.05, "min_events": 3,
                               "min_rate_ratio": 3.0, "family_lead": 1.5,
                               "resolution_gain": 0.02, "resolution_z": 2.0}
 
