@@ -89,7 +89,8 @@ class Candidate:
         return replace(self, heldout=judged.heldout, size_ok=judged.size_ok,
                        share_waived=judged.share_waived, decision=judged.decision,
                        verdict=judged.verdict, given=given, where=judged.where,
-                       elsewhere=judged.elsewhere, beyond_history=judged.beyond_history)
+                       elsewhere=judged.elsewhere, beyond_history=judged.beyond_history,
+                       differenced=judged.differenced)
 
     @property
     def family(self) -> str:

@@ -38,7 +38,7 @@ def _pair() -> tuple[Candidate, Candidate]:
                        between="predictions of the fit on top of creep",
                        share_waived=True, decision=_decision(True),
                        where="cycle to cycle (on top of creep)", elsewhere=_held(0.01, 0.4),
-                       beyond_history=True)
+                       beyond_history=True, differenced=True)
     return alone, on_top
 
 
@@ -50,7 +50,7 @@ def test_the_judgement_comes_from_the_comparison_that_decided() -> None:
     assert c.crossfit == alone.crossfit and c.between == alone.between
     assert c.given == "creep"
     for f in ("heldout", "size_ok", "share_waived", "decision",
-              "verdict", "where", "elsewhere", "beyond_history"):
+              "verdict", "where", "elsewhere", "beyond_history", "differenced"):
         assert getattr(c, f) == getattr(on_top, f), f
 
 
