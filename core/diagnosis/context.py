@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import reduce
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -11,8 +12,10 @@ from ..fitting.thresholds import wipeout_index
 from ..recordings import Recording
 from .bankcache import BankCache
 from .cache_budget import FIT, cache_budget
+from .changes import changed_terms, weights_on_changes
 from .locate import Coordinates, coordinates
-from .structure import Fit, PIStageOutputs, Structure, fit_structure
+from .registry import term_of
+from .structure import Fit, HeldWeights, PIStageOutputs, Structure, fit_structure
 
 if TYPE_CHECKING:
     from .registry import SignatureRows
@@ -99,6 +102,12 @@ class FitContext:
     def fit(self, s: Structure, cur: Fit | None = None) -> Fit:
         """Fit ``s`` on the training rows (bilinear regressors started from ``cur``).
 
+        A static term whose effect is judged on changes between rows of the same input
+        history (a drift, creep from cycle to cycle) has its weights fitted on the same
+        kind of changes between training rows, then held while the rest is solved on the
+        raw training rows (:mod:`core.diagnosis.changes`), so that it cannot absorb the
+        base's repeating misfit.
+
         Deterministic, so memoised: the key holds the identities of the row masks and of
         ``cur``'s PI-stage outputs (used only by creep and asymmetry), and the entry keeps
         references to them so that those identities cannot be reused while it lives.
@@ -110,8 +119,15 @@ class FitContext:
         hit = self.cache.budget.get(self._fits, key)
         if hit is not None:
             return hit[2]
+        held: tuple[HeldWeights, ...] = ()
+        names, sig = changed_terms(self, s)
+        if sig is not None:
+            # a slow term judged on changes between rows of the same history is fitted on
+            # those changes (:mod:`.changes`), the rest on the raw rows around it
+            f0 = self.fit(reduce(lambda a, n: a.with_term(n, term_of(n).off), names, s), cur)
+            held = weights_on_changes(self, s, names, sig, f0)
         f = fit_structure(s, self.records, self.train, self.cache, x_init,
-                          iterations=self.iterations)
+                          iterations=self.iterations, held=held)
         assert isinstance(f, Fit)
         # (at most FIT_MEMO_COUNT fits, within the cache budget beside the banks, the
         # FIT_MEMO_MIN most recent kept whatever it: a fit holds N predictions per recording)

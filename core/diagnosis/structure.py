@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import functools
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import Any, Literal, NamedTuple, overload
 
@@ -63,7 +63,8 @@ from .shapes import (
 )
 from .solver import constraints, gram, min_slope, solve, still_elements, unconstrained_rss
 
-__all__ = ["Fit", "PIStageOutputs", "Structure", "baseline_thresholds", "build_model",
+__all__ = ["Fit", "HeldWeights", "PIStageOutputs", "Structure", "baseline_thresholds",
+           "build_model", "term_columns_at",
            "dynamics_stages", "fit_structure", "legendre_columns", "pack_dynamics"]
 
 
@@ -520,6 +521,7 @@ def fit_structure(
     s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
     cache: BankCache | None = None, x_init: Sequence[np.ndarray] | None = None,
     iterations: int | None = None, rss_only: Literal[False] = False, reduce: bool = True,
+    held: Sequence[HeldWeights] = (),
 ) -> Fit: ...
 
 
@@ -528,6 +530,7 @@ def fit_structure(
     s: Structure, records: Sequence[Recording], train: Sequence[np.ndarray],
     cache: BankCache | None = None, x_init: Sequence[np.ndarray] | None = None,
     iterations: int | None = None, *, rss_only: bool, reduce: bool = True,
+    held: Sequence[HeldWeights] = (),
 ) -> Fit | float: ...
 
 
@@ -540,6 +543,7 @@ def fit_structure(
     iterations: int | None = None,
     rss_only: bool = False,
     reduce: bool = True,
+    held: Sequence[HeldWeights] = (),
 ) -> Fit | float:
     """Fit the linear weights of structure ``s`` on the training rows and simulate it exactly.
 
@@ -560,6 +564,11 @@ def fit_structure(
     x_init : sequence of ndarray, optional
         PI-stage outputs of a previous fit; the creep and asymmetry regressors are evaluated
         on them (they are bilinear in the play weights) and refreshed ``iterations`` times.
+    held : sequence of HeldWeights
+        Weights of static terms fixed beforehand (a slow term fitted on the changes between
+        rows of the same input history, :meth:`~core.diagnosis.context.FitContext.fit`):
+        their columns times those weights are subtracted from the output and the other
+        weights solved on the training rows as usual; the term's other weights are free.
 
     Returns
     -------
@@ -621,6 +630,7 @@ def fit_structure(
         s, X, nb, min_slope([B[:, 0] for B in bs.raw] if bs.streamed is None
                              else [w for w, _ in bs.streamed], train, ylo, yhi), terms)
     w = None
+    hold = _held_columns(held, terms, ncol)
     # without output dynamics, regressors that read each row's PI-stage output alone (no
     # filter) need it on the solved rows only: refreshed from the solve's own columns
     # instead of the bank on every sample (the same numbers to round-off)
@@ -641,8 +651,8 @@ def fit_structure(
         if lower is None:
             # reduced basis: unconstrained least squares (ranking of nonlinear parameters)
             return unconstrained_rss(X)
-        G = gram(X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout)
-        w = solve(s, X, G, lower, nb, fixed)
+        w = _solve_holding(s, X, ys, hold, lower, nb, fixed, lambda: gram(
+            X, nq, cache, (id(layout), vkey, s.dynamics, s.free_weights), layout))
         if rss_only and it == iterations - 1:
             return float(np.sum((X[:, :ncol] @ w - X[:, ncol]) ** 2))
         w_solved = w.copy()
@@ -658,6 +668,84 @@ def fit_structure(
     coef = {name: t.coefficients(v, np.asarray(w[a:b]), info) for name, t, v, a, b in terms}
     return _simulated(s, records, train, bs.banks, float(w[0]), np.asarray(w[1:nb]), coef,
                       cache)
+
+
+@dataclass(frozen=True)
+class HeldWeights:
+    """Weights of one static term fixed before a structure fit (:func:`fit_structure`).
+
+    Attributes
+    ----------
+    name : str
+        The effect whose term it is.
+    weights : ndarray, shape (width,)
+        The term's weights (its slice of the solved weights); read where ``held``.
+    held : ndarray of bool, shape (width,)
+        Which of them are fixed (the others are solved with the rest of the structure).
+    """
+
+    name: str
+    weights: np.ndarray
+    held: np.ndarray
+
+
+def _held_columns(held: Sequence[HeldWeights], terms: list, ncol: int
+                  ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The held weights over all ``ncol`` columns of a structure fit: ``(mask, weights)``
+    (zero where not held), or ``None`` when nothing is held."""
+    if not held:
+        return None
+    mask = np.zeros(ncol, dtype=bool)
+    vals = np.zeros(ncol)
+    by_name = {h.name: h for h in held}
+    for name, _, _, a, b in terms:
+        h = by_name.get(name)
+        if h is not None:
+            mask[a:b] = h.held
+            vals[a:b] = np.where(h.held, h.weights, 0.0)
+    return (mask, vals) if mask.any() else None
+
+
+def _solve_holding(s: Structure, X: np.ndarray, ys: np.ndarray,
+                   hold: tuple[np.ndarray, np.ndarray] | None, lower: np.ndarray, nb: int,
+                   fixed: np.ndarray | None, gram_of: Callable[[], np.ndarray]) -> np.ndarray:
+    """:func:`~.solver.solve` of the design ``X`` (the output ``ys`` in its last column),
+    with the weights ``hold`` (``(mask, weights)``, :func:`_held_columns`) fixed: their
+    columns' share is taken from the output and they are left out of the solve. ``gram_of``
+    forms the Gram matrix of ``X`` as it then is. ``X``'s last column is ``ys`` again on
+    return."""
+    if hold is None:
+        return solve(s, X, gram_of(), lower, nb, fixed)
+    mask, vals = hold
+    X[:, -1] = ys - X[:, :-1] @ vals
+    w = solve(s, X, gram_of(), lower, nb, mask if fixed is None else fixed | mask)
+    w[mask] = vals[mask]
+    X[:, -1] = ys
+    return w
+
+
+def term_columns_at(s: Structure, name: str, records: Sequence[Recording], k: int,
+                    rows: np.ndarray, x: np.ndarray | None, center: float = 0.0,
+                    half: float = 1.0) -> np.ndarray:
+    """The columns of the static term ``name`` of structure ``s`` for recording ``k`` on the
+    sample indices ``rows`` (increasing), as the structure fit forms them: a term acting
+    before the output dynamics reads the PI-stage output ``x`` (every sample up to the last
+    row; output units) and its columns pass through the dynamics of ``s`` (from sample 0);
+    the others are read on ``rows`` alone. ``center`` and ``half``: the training output's
+    centre and half range (an output map's coordinate). Shape ``(rows.size, width)``."""
+    terms, _ = _term_columns(s, 0, len(records))
+    for n, t, v, _, _ in terms:
+        if n != name:
+            continue
+        info = TermFit(len(records), center, half)
+        rec = records[k]
+        if not t.through_dynamics:
+            return t.columns(v, TermRows(rec, k, rows, None, info))
+        assert x is not None
+        last = int(rows[-1]) + 1 if rows.size else 0
+        cols = t.columns(v, TermRows(rec, k, rows, np.asarray(x[:last]), info))
+        return _dyn_rows(cols, s.dynamics, rec.dt, rows)
+    raise ValueError(f"{name!r} has no columns in {s}")
 
 
 def _plain_plays(cache: BankCache, s: Structure, records: Sequence[Recording],
