@@ -39,7 +39,8 @@ from .structure import Fit, HeldWeights, Structure, term_columns_at
 if TYPE_CHECKING:
     from .context import FitContext
 
-__all__ = ["MAX_CHANGE_PAIRS", "MIN_CHANGE_SHARE", "MIN_PAIRS_PER_WEIGHT", "changed_terms",
+__all__ = ["MAX_CHANGE_PAIRS", "MIN_CHANGE_SHARE", "MIN_PAIRS_PER_WEIGHT", "REPEAT_FACTOR",
+           "changed_terms",
            "training_pairs",
            "weights_on_changes"]
 
@@ -55,6 +56,11 @@ MIN_PAIRS_PER_WEIGHT = 20
 #: (a 0.1 s lag under a 1 Hz cycle, changing 1e-5 times as much as the 10 s lag, got 8085
 #: from them on the shipped piezo recording), the raw rows do.
 MIN_CHANGE_SHARE = 0.01
+#: A column's change share (above) must exceed this many times the hysteresis output's own
+#: (the part of a column's change a pairing one or two samples off leaves although the
+#: column repeats: a 10 ms lag under a 1 Hz cycle at 1 kHz, paired one sample off, changed
+#: as much as the 10 s lag and got a weight of 0.82 from the base misfit's slope).
+REPEAT_FACTOR = 2.0
 #: Most pairs the changes are solved on (evenly thinned beyond: neighbouring samples are
 #: nearly redundant, as in the structure fit's own rows).
 MAX_CHANGE_PAIRS = 20_000
@@ -128,7 +134,7 @@ def weights_on_changes(ctx: FitContext, s: Structure, names: tuple[str, ...],
     lo = min(float(r.y[m].min()) for r, m in zip(ctx.records, ctx.train, strict=True) if m.any())
     hi = max(float(r.y[m].max()) for r, m in zip(ctx.records, ctx.train, strict=True) if m.any())
     center, half = 0.5 * (lo + hi), max(0.5 * (hi - lo), 1e-12)
-    D_parts, d_parts, G_parts = [], [], []
+    D_parts, d_parts, G_parts, X_parts = [], [], [], []
     for k, (a, b) in enumerate(pairs):
         if not a.size:
             continue
@@ -140,6 +146,9 @@ def weights_on_changes(ctx: FitContext, s: Structure, names: tuple[str, ...],
         e = ctx.records[k].y[rows] - np.asarray(f0.pred[k])[rows]
         D_parts.append(G[ia] - G[ib])
         G_parts.append(G)
+        if x is not None:
+            xr = np.asarray(x[: int(rows[-1]) + 1])[rows]
+            X_parts.append((xr[ia] - xr[ib], xr))
         d_parts.append(e[ia] - e[ib])
     D, d, G_all = np.vstack(D_parts), np.concatenate(d_parts), np.vstack(G_parts)
     widths = [term_of(n).width(s.term(n), len(ctx.records)) for n in names]
@@ -152,8 +161,16 @@ def weights_on_changes(ctx: FitContext, s: Structure, names: tuple[str, ...],
         np.sqrt(np.mean((G_all - G_all.mean(axis=0)) ** 2, axis=0)), np.finfo(float).tiny)
     most = np.concatenate([np.full(w, share[o : o + w].max(initial=0.0)) for o, w in
                            zip(np.cumsum([0, *widths[:-1]]), widths, strict=True)])
+    # the same share of the hysteresis output itself, which repeats with the history:
+    # what a pairing one sample off (a measured drive's period is not a whole number of
+    # samples) leaves of a repeating column; a column must change twice as much
+    floor = 0.0
+    if X_parts:
+        dx = np.concatenate([a for a, _ in X_parts])
+        xs = np.concatenate([b for _, b in X_parts])
+        floor = float(np.sqrt(np.mean(dx**2)) / max(float(np.std(xs)), np.finfo(float).tiny))
     sup = ((np.count_nonzero(D, axis=0) >= MIN_PAIRS_PER_WEIGHT)
-           & (share > 0) & (share >= MIN_CHANGE_SHARE * most))
+           & (share > REPEAT_FACTOR * floor) & (share >= MIN_CHANGE_SHARE * most))
     if not sup.any():
         return ()
     A = np.column_stack((D[:, sup], d))
