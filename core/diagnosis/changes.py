@@ -71,6 +71,9 @@ def changed_terms(ctx: FitContext, s: Structure) -> tuple[tuple[str, ...], Signa
     (their effect's signature has ``previous``), and those rows; with several such terms,
     those whose rows are the first one's (a drift and a creep both from cycle to cycle).
 
+    None with strict hold-out (explicit windows, and its cross-fitting folds): a candidate
+    is then judged on cross-fitted raw training blocks, not on changes.
+
     Not the rows paired between branches of the same input history
     (:func:`~core.diagnosis.periodic.same_history`, ``SignatureRows.beyond_history``): their
     training pairs cover a short stretch of each recording (on the development
@@ -78,6 +81,10 @@ def changed_terms(ctx: FitContext, s: Structure) -> tuple[tuple[str, ...], Signa
     all later), so a polynomial in time fitted on them is extrapolated to the rows it is
     judged on (-660 % there, against -150 % fitted on the raw rows); such a term is solved
     on the raw rows as before."""
+    if ctx.strict or ctx.within_strict:
+        # strict hold-out: every candidate is judged on cross-fitted raw training blocks,
+        # so it is fitted on raw rows too
+        return (), None
     names: list[str] = []
     first: SignatureRows | None = None
     for name, _ in s.terms:
