@@ -74,7 +74,8 @@ class FitContext:
         self.strict = False
         #: a sub-context (cross-fitting fold) of a strict hold-out: its candidates are judged
         #: on the folds' raw rows, so no term is fitted on changes (:mod:`.changes`)
-        self.within_strict = parent is not None and (parent.strict or parent.within_strict)
+        self.within_strict: bool = parent is not None and (parent.strict
+                                                           or parent.within_strict)
         #: estimate the candidates' parameter uncertainties (profile curvature); off where
         #: only the parameters are used (cross-fitting folds)
         self.uncertainty = True

@@ -674,6 +674,9 @@ def fit_structure(
 class HeldWeights:
     """Weights of one static term fixed before a structure fit (:func:`fit_structure`).
 
+    The structure fit subtracts their columns' share from the output and leaves them out
+    of its solve (:func:`_solve_holding`).
+
     Attributes
     ----------
     name : str

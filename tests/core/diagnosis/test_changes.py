@@ -108,6 +108,16 @@ def test_training_pairs_reach_past_held_out_cycles() -> None:
     assert np.all(train[t] & train[p])
 
 
+def _creep_bank(rec: Recording):
+    """A 10-play base fitted on ``rec`` and the same with a creep bank 10 ms - 10 s: the
+    context, the base's fit, the structure with the bank, and its terms judged on changes."""
+    tr, te, _ = split_masks([rec], None, None)
+    ctx = FitContext([rec], tr, te)
+    s = Structure(tuple(float(x) for x in baseline_thresholds([rec], tr, 10)), ((),))
+    sc = s.with_term("creep", (0.01, 0.1, 1.0, 10.0))
+    return (ctx, ctx.fit(s), sc, *changed_terms(ctx, sc))
+
+
 def test_a_lag_shorter_than_the_period_is_left_to_the_raw_rows() -> None:
     """A creep bank on the shipped piezo recording (1 Hz cycles at 5 kHz after 3.26 s at
     rest): the settling of its 1 s and 10 s lags changes from cycle to cycle, the 10 ms and
@@ -115,12 +125,7 @@ def test_a_lag_shorter_than_the_period_is_left_to_the_raw_rows() -> None:
     weights are not fitted on the changes (before: the 100 ms lag got 8085 from them)."""
     d = np.genfromtxt(PIEZO, delimiter=",", names=True)
     rec = Recording(t=d["t_s"], u=d["u_V"], y=d["y_um"], name="piezo")
-    tr, te, _ = split_masks([rec], None, None)
-    ctx = FitContext([rec], tr, te)
-    s = Structure(tuple(float(x) for x in baseline_thresholds([rec], tr, 10)), ((),))
-    cur = ctx.fit(s)
-    sc = s.with_term("creep", (0.01, 0.1, 1.0, 10.0))
-    names, sig = changed_terms(ctx, sc)
+    ctx, cur, sc, names, sig = _creep_bank(rec)
     assert names == ("creep",) and sig is not None
     (h,) = weights_on_changes(ctx, sc, names, sig, cur)
     assert h.held.tolist() == [False, False, True, True]
@@ -141,17 +146,13 @@ def test_a_repeating_lag_paired_a_sample_off_is_left_to_the_raw_rows() -> None:
     y = Creep(taus, np.full(taus.size, 0.02))(PLANT(u), dt=1 / FS)
     y = y + 0.001 * float(np.ptp(y)) * np.random.default_rng(2).standard_normal(y.size)
     rec = Recording(t=t, u=u, y=y, name="creep")
-    tr, te, _ = split_masks([rec], None, None)
-    ctx = FitContext([rec], tr, te)
-    s = Structure(tuple(float(x) for x in baseline_thresholds([rec], tr, 10)), ((),))
-    cur = ctx.fit(s)
-    sc = s.with_term("creep", (0.01, 0.1, 1.0, 10.0))
-    names, sig = changed_terms(ctx, sc)
+    ctx, cur, sc, names, sig = _creep_bank(rec)
     assert sig is not None
     (h,) = weights_on_changes(ctx, sc, names, sig, cur)
     assert h.held.tolist() == [False, False, True, True]
     assert h.weights[2:] == pytest.approx([0.02, 0.02], abs=0.004)
     f = ctx.fit(sc, cur)
-    base = np.mean((rec.y - cur.pred[0])[te[0]] ** 2)
-    assert np.mean((rec.y - f.pred[0])[te[0]] ** 2) < 0.5 * base
+    te = ctx.test[0]
+    base = np.mean((rec.y - cur.pred[0])[te] ** 2)
+    assert np.mean((rec.y - f.pred[0])[te] ** 2) < 0.5 * base
     assert REPEAT_FACTOR > 1
