@@ -110,7 +110,10 @@ class FitContext:
         history (a drift, creep from cycle to cycle) has its weights fitted on the same
         kind of changes between training rows, then held while the rest is solved on the
         raw training rows (:mod:`core.diagnosis.changes`), so that it cannot absorb the
-        base's repeating misfit.
+        base's repeating misfit. Held weights of a term read from the PI-stage output (creep)
+        that leave the training rows fitted worse than the structure without the changed
+        terms are left to the raw solve instead: the fit's refresh of the PI-stage output
+        does not settle under them (a drift's changes regressed on the slow lags).
 
         Deterministic, so memoised: the key holds the identities of the row masks and of
         ``cur``'s PI-stage outputs (used only by creep and asymmetry), and the entry keeps
@@ -132,6 +135,12 @@ class FitContext:
             held = weights_on_changes(self, s, names, sig, f0)
         f = fit_structure(s, self.records, self.train, self.cache, x_init,
                           iterations=self.iterations, held=held)
+        outer = tuple(h for h in held if not term_of(h.name).through_dynamics)
+        if len(outer) < len(held) and f.train_rss > f0.train_rss:
+            # held weights of a term read from the PI-stage output (creep) that leave the
+            # training rows fitted worse than without the term: left to the raw solve
+            f = fit_structure(s, self.records, self.train, self.cache, x_init,
+                              iterations=self.iterations, held=outer)
         assert isinstance(f, Fit)
         # (at most FIT_MEMO_COUNT fits, within the cache budget beside the banks, the
         # FIT_MEMO_MIN most recent kept whatever it: a fit holds N predictions per recording)

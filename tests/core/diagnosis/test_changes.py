@@ -156,3 +156,23 @@ def test_a_repeating_lag_paired_a_sample_off_is_left_to_the_raw_rows() -> None:
     base = np.mean((rec.y - cur.pred[0])[te] ** 2)
     assert np.mean((rec.y - f.pred[0])[te] ** 2) < 0.5 * base
     assert REPEAT_FACTOR > 1
+
+
+def test_held_creep_weights_the_fit_cannot_follow_are_left_to_the_raw_rows() -> None:
+    """A creep bank on a cosine drive from t = 0 with a linear drift of 20 % of the range:
+    the drift's changes from cycle to cycle give the 10 s lag 0.76. Held there, the fit's
+    refresh of the PI-stage output (which the creep reads) does not settle and the training
+    rows are fitted 14 times worse than without any creep (the development piezo recording
+    with a concealed drift: 2.92 and 1.00 on the 1 s and 10 s lags, its held-out changes
+    -3.2e6 %); such weights are left to the raw solve."""
+    t = np.arange(int(8 * FS)) / FS
+    u = -80.0 * np.cos(2 * np.pi * t)
+    y0 = PLANT(u)
+    yr = float(np.ptp(y0))
+    y = y0 + 0.2 * yr * t / t[-1] + 0.001 * yr * np.random.default_rng(1).standard_normal(t.size)
+    ctx, cur, sc, names, sig = _creep_bank(Recording(t=t, u=u, y=y, name="drifting"))
+    assert sig is not None
+    (h,) = weights_on_changes(ctx, sc, names, sig, cur)
+    assert h.held[-1] and 0.5 < h.weights[-1] < 1.0
+    f = ctx.fit(sc, cur)
+    assert f.train_rss < cur.train_rss
