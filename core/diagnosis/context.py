@@ -116,17 +116,21 @@ class FitContext:
         does not settle under them (a drift's changes regressed on the slow lags).
 
         Deterministic, so memoised: the key holds the identities of the row masks and of
-        ``cur``'s PI-stage outputs (used only by creep and asymmetry), and the entry keeps
-        references to them so that those identities cannot be reused while it lives.
+        ``cur``'s PI-stage outputs (used only by creep and asymmetry), whether terms may be
+        fitted on changes here (not under strict hold-out, whose sub-contexts share the
+        memo and the training masks: the same structure is fitted on the raw rows there),
+        and the entry keeps references to them so that those identities cannot be reused
+        while it lives.
         """
         x_init = cur.x_pi if cur is not None else None
         uses_x = s.reads_output
         key = (tuple(id(m) for m in self.train), s, self.iterations,
-               id(x_init) if uses_x else None)
+               id(x_init) if uses_x else None, self.strict or self.within_strict)
         hit = self.cache.budget.get(self._fits, key)
         if hit is not None:
             return hit[2]
         held: tuple[HeldWeights, ...] = ()
+        f0: Fit | None = None
         names, sig = changed_terms(self, s)
         if sig is not None:
             # a slow term judged on changes between rows of the same history is fitted on
@@ -136,7 +140,7 @@ class FitContext:
         f = fit_structure(s, self.records, self.train, self.cache, x_init,
                           iterations=self.iterations, held=held)
         outer = tuple(h for h in held if not term_of(h.name).through_dynamics)
-        if len(outer) < len(held) and f.train_rss > f0.train_rss:
+        if f0 is not None and len(outer) < len(held) and f.train_rss > f0.train_rss:
             # held weights of a term read from the PI-stage output (creep) that leave the
             # training rows fitted worse than without the term: left to the raw solve
             f = fit_structure(s, self.records, self.train, self.cache, x_init,

@@ -176,3 +176,27 @@ def test_held_creep_weights_the_fit_cannot_follow_are_left_to_the_raw_rows() -> 
     assert h.held[-1] and 0.5 < h.weights[-1] < 1.0
     f = ctx.fit(sc, cur)
     assert f.train_rss < cur.train_rss
+
+
+def test_a_strict_sub_context_does_not_share_the_fit_on_changes() -> None:
+    """The memo of fits is shared with sub-contexts built on the same training masks; under
+    strict hold-out the same structure is fitted on the raw rows, so the two fits must not
+    be taken for each other, whichever is asked first (before: the first one served both)."""
+    rec = _record(0.0)
+    tr, te, _ = split_masks([rec], None, None)
+    s = Structure(tuple(float(x) for x in baseline_thresholds([rec], tr, 3)), ((),))
+
+    def drift_weights(order: tuple[str, ...]) -> dict[str, np.ndarray]:
+        ctx = FitContext([rec], tr, te)
+        cur = ctx.fit(s)
+        sub = FitContext(ctx.records, ctx.train, ctx.test, parent=ctx)
+        sub.strict = True
+        return {who: (ctx if who == "parent" else sub).fit(s.with_term("drift", 2),
+                                                           cur).terms["drift"][0]
+                for who in order}
+
+    parent_first = drift_weights(("parent", "strict"))
+    strict_first = drift_weights(("strict", "parent"))
+    for who in ("parent", "strict"):
+        np.testing.assert_allclose(parent_first[who], strict_first[who], rtol=1e-9, atol=0)
+    assert not np.allclose(parent_first["parent"], parent_first["strict"])
