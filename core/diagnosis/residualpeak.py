@@ -187,7 +187,7 @@ def _mode_shape(f: np.ndarray, fn: float, zeta: float) -> np.ndarray:
 
 
 def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0: float
-             ) -> tuple[float, float]:
+             ) -> tuple[float, float] | None:
     """Frequency and damping of a mode seen as a peak near ``f0`` Hz, from the shape of the
     peak in the finest spectrum each residual gives.
 
@@ -214,9 +214,10 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
 
     Returns
     -------
-    (freq_hz, damping) : tuple of float
-        The natural frequency (Hz) and damping ratio; ``(f0, zeta0)`` when no residual
-        has :data:`_MIN_FIT_BINS` bins in the band or the fit leaves it.
+    (freq_hz, damping) : tuple of float, or None
+        The natural frequency (Hz) and damping ratio; None when no residual has
+        :data:`_MIN_FIT_BINS` bins in the band or the fit leaves it (nothing was fitted:
+        the starting values are what is known).
     """
     from scipy.optimize import minimize
 
@@ -230,7 +231,7 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
         if int(m.sum()) >= _MIN_FIT_BINS:
             bands.append((f[m], p[m]))
     if not bands:
-        return f0, zeta0
+        return None
 
     def nll(th: np.ndarray) -> float:
         fn, zeta = float(th[0]), float(np.exp(th[1]))
@@ -250,7 +251,7 @@ def fit_mode(residuals: list[tuple[np.ndarray, float, float]], f0: float, zeta0:
         if np.isfinite(r.fun) and lo < r.x[0] < hi and (best is None or r.fun < best.fun):
             best = r
     if best is None:
-        return f0, zeta0
+        return None
     return float(best.x[0]), float(min(np.exp(best.x[1]), 1.0))
 
 
@@ -308,15 +309,17 @@ def residual_peak(records: list[Recording], pred: list[np.ndarray]) -> ResidualP
     if driven >= MAX_DRIVEN:
         return None  # the input drives the band: the resonance candidate's own verdict stands
     zeta_bins = float(np.median([z for _, z, _ in found]))
-    fn, zn = fit_mode([(np.asarray(r.y, dtype=np.float64) - np.asarray(p, dtype=np.float64),
-                        float(r.t[1] - r.t[0]), line_hz(r.u, float(r.t[1] - r.t[0])))
-                       for r, p in zip(records, pred, strict=True)],
-                      f0, zeta_bins)
+    got = fit_mode([(np.asarray(r.y, dtype=np.float64) - np.asarray(p, dtype=np.float64),
+                     float(r.t[1] - r.t[0]), line_hz(r.u, float(r.t[1] - r.t[0])))
+                    for r, p in zip(records, pred, strict=True)],
+                   f0, zeta_bins)
     prom = min(pr for _, _, pr in found)
+    fn, zn = got if got is not None else (f0, float("nan"))
     if not zn <= LIGHT_DAMPING:
-        # the shape's fit leaves the light modes (a line on a harmonic the fit leaves out,
-        # a peak of no single mode's shape): only the halves' bin and width are known, the
-        # width a bound (the window widens it); wider than a light mode's, no mode is said
+        # no shape was fitted (too few bins between the harmonics), or the fit leaves the
+        # light modes (a line on a harmonic the fit leaves out, a peak not fitted by one
+        # light mode): only the halves' bin and width are known, the width a bound (the
+        # window widens it); wider than a light mode's, no mode is said
         if not zeta_bins <= LIGHT_DAMPING:
             return None
         return ResidualPeak(f0, None, prom, share, driven, len(found), n_parts, f0,
@@ -345,7 +348,7 @@ def untestable_entry(pk: ResidualPeak) -> Untestable:
         assert pk.damping_below is not None
         damping = (f"damping below {pk.damping_below:.2g}, "
                    + ("narrower than the record resolves;" if pk.resolved_by_record
-                      else "by its width, its shape no single mode's;"))
+                      else "by its width, its shape not fitted by one light mode;"))
         params = {"freq_hz": f, "damping_below": pk.damping_below}
     return Untestable(
         "resonance",

@@ -93,11 +93,20 @@ def test_fit_mode_leaves_the_harmonics_out() -> None:
     line = 0.2 * np.sin(2 * np.pi * 46.0 * t)
     fu = line_hz(np.sin(2 * np.pi * t), DT)
     assert abs(fu - 1.0) < 1e-4
-    f_clean, _ = fit_mode([(e, DT, fu)], 46.0, 0.03)
-    f, _ = fit_mode([(e + line, DT, fu)], 46.0, 0.03)
+    fits = [fit_mode([(x, DT, u1)], 46.0, 0.03)
+            for x, u1 in ((e, fu), (e + line, fu), (e + line, 0.0))]  # last: harmonics kept in
+    assert all(g is not None for g in fits)
+    (f_clean, _), (f, _), (f_in, _) = fits  # type: ignore[misc]
     assert abs(f - f_clean) <= 0.02
-    f_in, _ = fit_mode([(e + line, DT, 0.0)], 46.0, 0.03)  # the harmonics kept in
     assert f_in - f_clean > 0.2
+
+
+def test_fit_mode_says_when_it_fitted_nothing() -> None:
+    """Too few bins in the band (a short record) is no fit: ``None``, not the starting
+    values handed back as if they had been measured."""
+    rng = np.random.default_rng(3)
+    e = oe.mode(0.02 * rng.standard_normal(256), 45.3, 0.02, DT)
+    assert fit_mode([(e, DT, 0.0)], 46.0, 0.03) is None
 
 
 def test_broad_peak_is_not_a_mode() -> None:
