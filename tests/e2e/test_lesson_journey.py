@@ -181,9 +181,12 @@ REDRAWS = """() => {
     if (el.id === "figure") window.__reacts.push([window.__changed, window.__painted]);
     return real.call(this, el, ...rest);
   };
+  // a change counts as painted in the first frame after it: the frame's callbacks run before
+  // it is painted and before any timer they queue, such as the page's own wait for the
+  // paint (rAF, then a timer) before it redraws; a marker set a timer later raced that wait
   new MutationObserver(() => { const t = performance.now();
     window.__changed = t;
-    requestAnimationFrame(() => setTimeout(() => { window.__painted = t; }, 0)); })
+    requestAnimationFrame(() => { window.__painted = t; }); })
     .observe(document.getElementById("lesson-where"), { childList: true, characterData: true,
                                                          subtree: true });
 }"""
