@@ -86,7 +86,9 @@ def test_viser_refuses_a_large_or_binary_csv_in_the_web_pages_words(
         # the button takes the next file, and a CSV loads
         upload_file(v, view, PIEZO, wait=60)
         assert view.session.recording is not None
-        assert "CSV not loaded" not in view.ui.data_md.content
+        # the Data section is written just after the recording is kept (the same handler)
+        assert _wait(lambda: "CSV not loaded" not in view.ui.data_md.content), \
+            view.ui.data_md.content
         assert errors == [], errors
     finally:
         vctx.close()
