@@ -57,7 +57,8 @@ def add_model_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default=AUTO, choices=(AUTO, *fit_kinds()),
                    help="model family to fit; 'auto' (default) chooses the base as hyst "
                         "diagnose does (loop orientation, weight signs, and with several "
-                        "recordings a Preisach or Bouc-Wen base, each recording predicted "
+                        "recordings a Preisach or Bouc-Wen base or the PI with a static "
+                        "output map where the loops saturate, each recording predicted "
                         "from the others on the training rows); the report says why")
 
 

@@ -61,10 +61,14 @@ class Misfit:
         ``"falling input, further from the reversal"``, ...).
     branch_rmse : float
     window : tuple of float
-        The time window (s; a tenth of a recording's held-out rows) with the largest RMS
-        residual, and ``recording`` its recording's name.
+        The window (a tenth of a recording's held-out rows) with the largest RMS residual:
+        its first and last time (s), or sample numbers when ``timed`` is false, and
+        ``recording`` its recording's name.
     window_rmse : float
     recording : str
+    timed : bool
+        Whether that recording has a time axis (else ``window`` holds sample numbers,
+        counted from 0 in the recording).
     """
 
     rmse: float
@@ -77,6 +81,7 @@ class Misfit:
     window: tuple[float, float]
     window_rmse: float
     recording: str
+    timed: bool = True
 
     @property
     def exceeds(self) -> bool:
@@ -92,13 +97,15 @@ class Misfit:
         rec = f" of {self.recording}" if self.recording else ""
         ui = f" {units['input']}" if units and units.get("input") else ""
         uo = f" {units['output']}" if units and units.get("output") else ""
+        where = (f"t = {self.window[0]:.4g} to {self.window[1]:.4g} s" if self.timed else
+                 f"samples {self.window[0]:.0f} to {self.window[1]:.0f} (counted from 0; "
+                 "no time axis)")
         return (
             f"the held-out RMSE {self.rmse:.4g}{uo}{share} is {self.ratio:.0f} times the "
             f"white-noise floor {self.floor:.3g}{uo}: this model misses structure in the data. "
             f"Largest residuals: at inputs {self.input_band[0]:.4g} to "
             f"{self.input_band[1]:.4g}{ui} (RMS {self.input_band_rmse:.3g}{uo}), on the "
-            f"{self.branch} (RMS {self.branch_rmse:.3g}{uo}), and in t = "
-            f"{self.window[0]:.4g} to {self.window[1]:.4g} s{rec} (RMS "
+            f"{self.branch} (RMS {self.branch_rmse:.3g}{uo}), and in {where}{rec} (RMS "
             f"{self.window_rmse:.3g}{uo}). "
             + (advice or "Another fit kind (--model auto chooses one the way the diagnosis "
                          "does) or hyst diagnose may explain it")
@@ -132,6 +139,7 @@ def _branches(u: Float1D) -> tuple[np.ndarray, np.ndarray]:
 def misfit(
     ts: Sequence[Float1D], us: Sequence[Float1D], ys: Sequence[Float1D],
     preds: Sequence[Float1D], masks: Sequence[np.ndarray], names: Sequence[str] = (),
+    timed: Sequence[bool] = (),
 ) -> Misfit | None:
     """The held-out error against its noise floor and where the residual is largest.
 
@@ -143,6 +151,9 @@ def misfit(
         Held-out rows.
     names : sequence of str, optional
         Recording names (for the time window).
+    timed : sequence of bool, optional
+        Whether each recording has a time axis (default: all do); without one its ``ts``
+        are sample numbers and the window is said in samples.
 
     Returns
     -------
@@ -150,7 +161,7 @@ def misfit(
         ``None`` with fewer than 10 held-out rows.
     """
     es, ue, de, ne, floors = [], [], [], [], []
-    win = (0.0, 0.0, 0.0, "")
+    win: tuple[float, float, float, str, bool] = (0.0, 0.0, 0.0, "", True)
     for k, (t, u, y, p, m) in enumerate(zip(ts, us, ys, preds, masks, strict=True)):
         if not m.any():
             continue
@@ -166,7 +177,8 @@ def misfit(
             v = _rms(e[chunk])
             if chunk.size and v > win[2]:
                 win = (float(t[chunk[0]]), float(t[chunk[-1]]), v,
-                       names[k] if k < len(names) else "")
+                       names[k] if k < len(names) else "",
+                       bool(timed[k]) if k < len(timed) else True)
         es.append(e[m])
         ue.append(u[m])
         de.append(d[m])
@@ -196,7 +208,7 @@ def misfit(
                 branch, branch_rms = f"{dname} branch, {nname}", v
     ratio = rmse / floor if floor > 0 else float("inf")
     return Misfit(rmse, floor, ratio, band, band_rms, branch or "whole record", branch_rms,
-                  (win[0], win[1]), win[2], win[3])
+                  (win[0], win[1]), win[2], win[3], win[4])
 
 
 #: Across recordings with a time axis, the misfit is said to change with the input's rate

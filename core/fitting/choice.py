@@ -18,6 +18,20 @@ at the held-out rows the report scores):
    MSE by :data:`PREISACH_MIN_GAIN` and beats the PI with a static output map (``mpi``) by
    :data:`PREISACH_OVER_MAP`; a Bouc-Wen base then replaces the chosen one when it lowers
    the PI's MSE by :data:`BW_MIN_GAIN` and by more than the Preisach did.
+3. **Loop shape.** With two or more recordings of counter-clockwise loops, the PI with a
+   static output map (``mpi``: Kuhnen's modified PI) replaces the PI when it lowers the
+   PI's MSE by :data:`PREISACH_MIN_GAIN` and the Preisach does not beat it by
+   :data:`PREISACH_OVER_MAP` (nor the Bouc-Wen by more). This is the diagnosis's rule read
+   the other way round: where a static map reconciles the loops, ``hyst diagnose`` keeps
+   the PI base and its effect search names the map (``saturation``, ``asymmetry`` or
+   ``dead-zone`` on the PI base: :mod:`core.diagnosis.shapes`); a fit has no effect search,
+   so it fits the map itself. Measured on the shipped B-H loops (each loop predicted from
+   the others): the map lowers the PI's MSE by 67-94 %, the Preisach beats the map by at
+   most 13 %.
+
+A candidate whose cross-validated fit fails or blows up (a non-finite MSE, or one above
+:data:`BLOWN_UP` times the variance of the training output) is reported as failed
+(:attr:`BaseChoice.failed`), never as a number, and never chosen.
 
 On clockwise data the PI family is the ``stop-pi`` kind (stop operators: Maxwell-slip
 elements behind the backlash gap its fit searches, whose report names the friction plateau
@@ -45,8 +59,9 @@ from ..warning_filters import FILTERS
 from ._data import prepare
 from .orientation import LoopOrientation, loop_orientation
 
-__all__ = ["AUTO", "BW_MIN_GAIN", "FAMILIES", "FREE_SIGN_GAIN", "PREISACH_MIN_GAIN",
-           "PREISACH_OVER_MAP", "BaseChoice", "base_family", "choose_base"]
+__all__ = ["AUTO", "BLOWN_UP", "BW_MIN_GAIN", "FAMILIES", "FREE_SIGN_GAIN", "MAP",
+           "PREISACH_MIN_GAIN", "PREISACH_OVER_MAP", "BaseChoice", "base_family",
+           "choose_base"]
 
 #: The fit kind that asks for this choice.
 AUTO = "auto"
@@ -63,6 +78,19 @@ PREISACH_OVER_MAP = 0.3
 #: more than the Preisach did); measured on the diagnosis benchmark, see
 #: :mod:`core.diagnosis.bases`.
 BW_MIN_GAIN = 0.35
+#: A candidate's cross-validated MSE above this many times the variance of the training
+#: output (an RMS error ten times the output's spread: worse than predicting its mean by
+#: far) is a fit that blew up, reported as failed (the free-sign PI on the one shipped
+#: amorphous-alloy loop: 1e28 T^2 against a variance of 0.5 T^2).
+BLOWN_UP = 100.0
+#: The score name of the PI with a static output map (the fit kind ``mpi``).
+MAP = "mpi (static output map)"
+#: Fit kind of each candidate's score name (what ``--model`` gets it), with the
+#: constraint it was cross-validated with.
+CANDIDATE_KINDS: dict[str, tuple[str, str]] = {
+    "pi": ("pi", "nonnegative"), "pi (free-sign weights)": ("pi", "slopes"),
+    "preisach": ("preisach", "nonnegative"), MAP: ("mpi", "nonnegative"),
+    "bouc-wen": ("bouc-wen", "nonnegative")}
 #: Play operators of the PI candidates when the fit chooses its own (the diagnosis's
 #: baseline default, ``hyst diagnose --operators``).
 PI_OPERATORS = 25
@@ -75,9 +103,11 @@ SIGN_BLOCKS = 3
 #: The base family of each candidate fit kind, in the diagnosis's words
 #: (:class:`core.diagnosis.results.BaseChoice` ``kind``): the stop-operator model behind a
 #: backlash gap is the diagnosis's base of clockwise loops (``stop-pi``, fitted there with
-#: the gap this module's fit finds: :func:`core.diagnosis.bases.fit_stop_gap`).
+#: the gap this module's fit finds: :func:`core.diagnosis.bases.fit_stop_gap`). The PI with
+#: a static output map is the diagnosis's PI base with a loop shape that its effect search
+#: names (module docstring, rule 3).
 FAMILIES: dict[str, str] = {"pi": "pi", "stop-pi": "stop-pi", "preisach": "preisach",
-                            "bouc-wen": "bouc-wen"}
+                            "bouc-wen": "bouc-wen", "mpi": "pi"}
 
 
 def base_family(kind: str) -> str:
@@ -99,10 +129,13 @@ class BaseChoice:
     orientation : LoopOrientation
         The orientation of the training rows' loops.
     cv_mse : dict of str to float
-        Cross-validated MSE (output units squared) of each candidate tried, on the
-        training rows (``"pi"``, ``"pi (free-sign weights)"``, ``"preisach"``, ...).
+        Cross-validated MSE (output units squared, finite) of each candidate tried that did
+        not fail, on the training rows (``"pi"``, ``"pi (free-sign weights)"``,
+        ``"preisach"``, :data:`MAP`, ``"bouc-wen"``).
     folds : str
         How the training rows were split.
+    failed : tuple of str
+        Candidates whose cross-validated fit failed or blew up (:data:`BLOWN_UP`).
     """
 
     kind: str
@@ -110,6 +143,7 @@ class BaseChoice:
     orientation: LoopOrientation
     cv_mse: dict[str, float] = field(default_factory=dict)
     folds: str = ""
+    failed: tuple[str, ...] = ()
 
     @property
     def family(self) -> str:
@@ -117,23 +151,64 @@ class BaseChoice:
         return base_family(self.kind)
 
     @property
+    def chosen_mse(self) -> float | None:
+        """The chosen candidate's cross-validated MSE (``None`` if it was not scored)."""
+        kind = "pi" if self.kind == "stop-pi" else self.kind
+        for name, (k, c) in CANDIDATE_KINDS.items():
+            if k == kind and (k != "pi" or c == self.constraint) and name in self.cv_mse:
+                return self.cv_mse[name]
+        return None
+
+    @property
+    def better(self) -> tuple[str, float] | None:
+        """The tried candidate whose cross-validated MSE is lowest, with its gain over the
+        chosen one's (a share), when that gain is at least :data:`PREISACH_MIN_GAIN` (the
+        smallest margin a base choice counts as clearly better); else ``None``."""
+        mine = self.chosen_mse
+        if mine is None or not self.cv_mse:
+            return None
+        name = min(self.cv_mse, key=self.cv_mse.__getitem__)
+        gain = 1.0 - self.cv_mse[name] / max(mine, 1e-300)
+        return (name, gain) if gain >= PREISACH_MIN_GAIN else None
+
+    @property
     def text(self) -> str:
         """The choice in words, for the fit report."""
-        tried = ", ".join(f"{k} {v:.4g}" for k, v in self.cv_mse.items())
+        tried = ", ".join([f"{k} {v:.4g}" for k, v in self.cv_mse.items()]
+                          + [f"{k} failed (its fit did not converge or blew up)"
+                             for k in self.failed])
         how = "free-sign weights (every branch slope positive)" if self.constraint == "slopes" \
             else "the sign rule of the loops' orientation"
-        return (f"base chosen as hyst diagnose chooses it: {self.kind} with {how}, the loops "
+        what = (f"{self.kind} (the PI with a static output map: the diagnosis keeps the PI "
+                "base and names the map as saturation, asymmetry or a dead zone)"
+                if self.kind == "mpi" else self.kind)
+        return (f"base chosen as hyst diagnose chooses it: {what} with {how}, the loops "
                 f"running {self.orientation.direction}; cross-validated MSE on the training "
                 f"rows ({self.folds}): {tried}")
 
     @property
     def advice(self) -> str:
-        """What to try when the chosen base misses the data."""
-        if "preisach" in self.cv_mse:  # other bases were cross-validated and not chosen
-            return ("No other base predicted the recordings clearly better; hyst diagnose "
-                    "may name the missing effect")
+        """What to try when the chosen base misses the data: a tried candidate that predicted
+        the recordings clearly better, by name and gain (and how to fit it), else what else
+        to try."""
+        better = self.better
+        if better is not None:
+            name, gain = better
+            kind, constraint = CANDIDATE_KINDS.get(name, (name, "nonnegative"))
+            how = f"--model {kind}" + (" --constraint slopes" if constraint == "slopes" else "")
+            mine = self.chosen_mse
+            return (f"Of the bases tried, {name} predicted the recordings {100 * gain:.0f} % "
+                    f"better than the chosen {self.kind} (cross-validated MSE "
+                    f"{self.cv_mse[name]:.4g} against {mine:.4g}) but was not chosen by the "
+                    "diagnosis's margins; fit "
+                    f"{how} to compare its held-out error")
+        if len(self.cv_mse) + len(self.failed) > 2:  # other bases were cross-validated
+            return ("No other base tried predicted the recordings clearly better (by "
+                    f"{100 * PREISACH_MIN_GAIN:.0f} % of the cross-validated MSE); hyst "
+                    "diagnose may name the missing effect")
         # (a Preisach model has counter-clockwise loops only)
-        others = ["bouc-wen"] + ([] if self.orientation.clockwise else ["preisach"])
+        others = ["bouc-wen"] + ([] if self.orientation.clockwise
+                                 else ["preisach", "mpi", "gpi-tanh"])
         if self.family != "pi":  # the stop base of clockwise loops, chosen on one recording
             return (f"With one recording only the {self.kind} base of these "
                     f"{self.orientation.direction} loops and the PI family are compared (as "
@@ -150,7 +225,7 @@ class BaseChoice:
         return {"kind": self.kind, "family": self.family, "constraint": self.constraint,
                 "orientation": self.orientation.direction,
                 "signed_loop_area": self.orientation.area, "cv_mse": dict(self.cv_mse),
-                "folds": self.folds}
+                "failed": list(self.failed), "folds": self.folds}
 
 
 def _folds(train: list[np.ndarray]) -> tuple[list[tuple[list[np.ndarray], list[np.ndarray]]],
@@ -246,29 +321,46 @@ def choose_base(
     trm = prep.train_masks
     orient = loop_orientation(us, ys, trm)
     folds, how = _folds(trm)
+    y_train = np.concatenate([y[m] for y, m in zip(ys, trm, strict=True)])
+    limit = BLOWN_UP * max(float(np.var(y_train)), 1e-300)
     scores: dict[str, float] = {}
+    failed: list[str] = []
+
+    def score(name: str, kind: str, sign: str, n: int | None) -> float:
+        """The candidate's CV MSE, or ``inf`` (and ``name`` in ``failed``) when its fit
+        failed or blew up."""
+        mse = _cv_mse(kind, sign, recs, folds, n)
+        if not (np.isfinite(mse) and mse <= limit):
+            failed.append(name)
+            return float("inf")
+        scores[name] = mse
+        return mse
+
     sign = constraint or "nonnegative"
     n_pi = n_operators or PI_OPERATORS
-    scores["pi"] = base = _cv_mse("pi", sign, recs, folds, n_pi)
+    base = score("pi", "pi", sign, n_pi)
     if constraint is None:
-        free = _cv_mse("pi", "slopes", recs, folds, n_pi)
-        scores["pi (free-sign weights)"] = free
+        free = score("pi (free-sign weights)", "pi", "slopes", n_pi)
         if free <= (1.0 - FREE_SIGN_GAIN) * base:
             sign, base = "slopes", free
     kind = "stop-pi" if orient.clockwise else "pi"
-    if sum(m.any() for m in trm) >= 2:
-        gain_p = 0.0
-        mse_p = scores["preisach"] = _cv_mse("preisach", "nonnegative", recs, folds,
-                                              None)
-        if 1.0 - mse_p / base >= PREISACH_MIN_GAIN:
-            mse_map = scores["mpi (static output map)"] = _cv_mse(
-                "mpi", "nonnegative", recs, folds, n_operators)
-            if 1.0 - mse_p / max(mse_map, 1e-300) >= PREISACH_OVER_MAP:
-                kind, gain_p = "preisach", 1.0 - mse_p / base
-        mse_b = scores["bouc-wen"] = _cv_mse("bouc-wen", "nonnegative", recs, folds, None)
+    if sum(m.any() for m in trm) >= 2 and np.isfinite(base):
+        gain = 0.0  # the chosen replacement's gain over the PI
+        mse_p = score("preisach", "preisach", "nonnegative", None)
+        base = max(base, 1e-300)
+        gain_p = 1.0 - mse_p / base
+        # the map is cross-validated whenever it could replace the PI or decide the Preisach
+        mse_map = (score(MAP, "mpi", "nonnegative", n_operators)
+                   if gain_p >= PREISACH_MIN_GAIN or not orient.clockwise else float("inf"))
+        gain_m = 1.0 - mse_map / base
+        if gain_p >= PREISACH_MIN_GAIN and 1.0 - mse_p / mse_map >= PREISACH_OVER_MAP:
+            kind, gain = "preisach", gain_p
+        elif gain_m >= PREISACH_MIN_GAIN and not orient.clockwise:
+            kind, gain = "mpi", gain_m  # (a play-based map: counter-clockwise loops only)
+        mse_b = score("bouc-wen", "bouc-wen", "nonnegative", None)
         gain_b = 1.0 - mse_b / base
-        if gain_b >= BW_MIN_GAIN and gain_b > gain_p:
+        if gain_b >= BW_MIN_GAIN and gain_b > gain:
             kind = "bouc-wen"
-    if kind in ("preisach", "bouc-wen"):
+    if kind in ("preisach", "bouc-wen", "mpi"):
         sign = "nonnegative"
-    return BaseChoice(kind, sign, orient, scores, how)
+    return BaseChoice(kind, sign, orient, scores, how, tuple(failed))

@@ -26,6 +26,7 @@ from ..warning_filters import FILTERS
 from ._data import Prepared, prepare
 from .adequacy import Misfit, misfit
 from .choice import AUTO, BaseChoice, choose_base
+from .extrapolation import Extrapolation, extrapolation
 from .orientation import loop_orientation
 
 if TYPE_CHECKING:
@@ -288,6 +289,9 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
         if cw and getattr(est, "constraint", "") != "slopes":
             # (with free-sign weights a play-based kind can flatten its branches)
             msgs = (*msgs, CLOCKWISE_WARNING.format(kind=kind))
+    beyond = _extrapolation(est, recs, rows, extra)
+    if beyond is not None:
+        msgs = (*msgs, beyond.text(dict(recs[0].units)) + ".")
     miss = _misfit(est, recs, rows)
     if miss is not None:
         extra["noise_floor"] = miss.floor
@@ -387,6 +391,26 @@ def _orientation(est: Any, recs: Sequence[Recording], rows: _FitRows) -> tuple[s
                      if o.clockwise else ""), o.clockwise
 
 
+def _extrapolation(est: Any, recs: Sequence[Recording], rows: _FitRows,
+                   extra: dict[str, Any]) -> Extrapolation | None:
+    """Held-out rows whose inputs leave the range of the rows the weights were fitted on
+    (the training rows, without those before the wipe-out time where the initial-memory
+    rule left them out: ``extra["initial_memory"]``)."""
+    if est.report_.test is None:
+        return None
+    prep = _rows(est, recs, rows)
+    fitted = list(prep.train_masks)
+    mem = extra.get("initial_memory")
+    excluded = isinstance(mem, dict) and bool(mem.get("excluded_train_rows"))
+    if excluded:
+        assert isinstance(mem, dict)
+        fitted = [m & (np.arange(m.size) >= int(tw))
+                  for m, tw in zip(fitted, mem["wipeout_index"], strict=True)]
+    return extrapolation([r.u for r in recs], [r.t for r in recs], fitted,
+                         list(prep.test_masks), [r.name for r in recs],
+                         [r.has_time for r in recs], excluded=excluded)
+
+
 def _misfit(est: Any, recs: Sequence[Recording], rows: _FitRows) -> Misfit | None:
     """The held-out error of a fitted estimator against its noise floor (the rows its
     report's ``test`` part scored: the ``test`` masks, or the estimator's default split)."""
@@ -398,4 +422,4 @@ def _misfit(est: Any, recs: Sequence[Recording], rows: _FitRows) -> Misfit | Non
     preds = est.predict(us if multi else us[0])
     preds = list(preds) if multi else [preds]
     return misfit([r.t for r in recs], us, ys, preds, prep.test_masks,
-                  [r.name for r in recs])
+                  [r.name for r in recs], [r.has_time for r in recs])
