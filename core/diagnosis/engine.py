@@ -61,6 +61,7 @@ from .adequacy import assess
 from .basechoice import RATE_ON_STOP, choose_base_family, fit_baseline
 from .between import between_plan
 from .context import FitContext
+from .creepsettling import untested_entry as creep_untested
 from .data import as_records, crossfit_folds, split_masks
 from .judge import choose, fewer_parameters_on_same_rows, judge_round, lookahead, remaining
 from .locate import residual_maps
@@ -205,8 +206,11 @@ def diagnose(
     crossval = crossval_scores(ctx, base_fit, cur)
     refit = None if windows else _refit_everywhere(ctx, cur)
     after_steps = suggest_after_steps(run_, cur)
-    run_.untestable.extend(_unexcited_mode(
-        records, polished, named, tested, suggested_names(run_.rounds, after_steps)))
+    suggested = suggested_names(run_.rounds, after_steps)
+    run_.untestable.extend(_unexcited_mode(records, polished, named, tested, suggested))
+    creep = creep_untested(ctx, cur, run_.rounds, _speaking_of(run_, suggested))
+    if creep is not None:
+        run_.untestable.append(creep)
     say(1.0, "done")
     everywhere = [np.ones(r.n_samples, bool) for r in records]
     return DiagnosisResult(
@@ -328,6 +332,15 @@ def _unexcited_mode(records: list, pred: list, findings: list[EffectFinding],
         return []
     pk = residual_peak(records, pred)
     return [] if pk is None else [unexcited_mode_entry(pk)]
+
+
+def _speaking_of(run_: Run, suggested: list[str]) -> list[str]:
+    """Effects the report already speaks of: named, ambiguous with a name, suggested, or
+    said untestable."""
+    return sorted({f.name for f in run_.findings}
+                  | {n for f in run_.findings for n in f.ambiguous_with}
+                  | {n for a in run_.ambiguous for n in a["effects"]}
+                  | set(suggested) | set(run_.untestable_names))
 
 
 def _effects_to_test(model: str, effects: Sequence[str] | None) -> list[str]:

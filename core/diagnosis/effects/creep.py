@@ -45,16 +45,16 @@ def _has_hold(ctx: FitContext) -> bool:
 def _untestable(ctx: FitContext) -> str | None:
     """Creep needs a hold (>= 0.5 s) after an input change (a step or a ramp: the creep /
     relaxation test) inside the train or test rows, or a single recording whose input
-    repeats one cycle, judged from cycle to cycle (:func:`_signature`: the settling of its
+    repeats one cycle, judged from cycle to cycle (:func:`cycle_signature`: the settling of its
     slow lags after the input's last change)."""
-    if _has_hold(ctx) or _signature(ctx) is not None:
+    if _has_hold(ctx) or cycle_signature(ctx) is not None:
         return None
     return ("no hold of >= 0.5 s after an input change (a step or a ramp) inside the "
             "train/test rows, and no single recording repeating one input cycle whose test "
             "rows are compared from cycle to cycle")
 
 
-def _signature(ctx: FitContext) -> SignatureRows | None:
+def cycle_signature(ctx: FitContext) -> SignatureRows | None:
     """Without a hold, where creep shows apart from the model's bias: under a repeated
     input the slow lags of the bank settle after the input's last change (a jump, the
     start) while a rate-independent base repeats itself, so the settling shows as a change
@@ -67,22 +67,28 @@ def _signature(ctx: FitContext) -> SignatureRows | None:
     return cycle_to_cycle(ctx.records)
 
 
-def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
-    """Creep lag bank, one time constant per decade from 10 dt (>= 10 ms) to the record length
-    (judged from cycle to cycle, :func:`_signature`: to the decade at or above it)."""
-    s = cur.structure
+def bank_taus(ctx: FitContext) -> tuple[float, ...]:
+    """The bank's time constants (s): one per decade from 10 dt (>= 10 ms) to the record
+    length (judged from cycle to cycle, :func:`cycle_signature`: to the decade at or above
+    it); empty when the record is shorter than the first."""
     dt = min(r.dt for r in ctx.records)
-    if s.term("creep"):
-        return None
     lo = max(10 * dt, 0.01)
     hi = max(r.t[-1] - r.t[0] for r in ctx.records)
-    if _signature(ctx) is not None:
+    if cycle_signature(ctx) is not None:
         # from cycle to cycle the settling of lags of the record's length shows (a lag
         # between the last decade below it and the record's length, a 3 s lag in an 8 s
         # record, has no column of its curvature otherwise)
         hi = 10.0 ** np.ceil(np.log10(hi))
-    taus = tuple(float(x) for x in 10.0 ** np.arange(np.ceil(np.log10(lo)),
+    return tuple(float(x) for x in 10.0 ** np.arange(np.ceil(np.log10(lo)),
                                                      np.log10(hi) + 1e-9))
+
+
+def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
+    """Creep lag bank of :func:`bank_taus`."""
+    s = cur.structure
+    if s.term("creep"):
+        return None
+    taus = bank_taus(ctx)
     if len(taus) < 1:
         return None
     fit = ctx.fit(s.with_term("creep", taus), cur)
@@ -132,7 +138,7 @@ register(DiagnosableEffect(
     structure_field="terms",
     term=TERM,
     untestable=_untestable,
-    signature=_signature,
+    signature=cycle_signature,
     linear=True,
     stage_order=3,
     sign_locked=True,
@@ -141,7 +147,7 @@ register(DiagnosableEffect(
                  "something else: the fast end of its relaxation spectrum acts as a lag at the "
                  "excitation frequency, its slow tail after the last step as a trend from "
                  "cycle to cycle, like a drift; creep itself was untestable"),
-    partly_tested=lambda ctx: None if _signature(ctx) is None else (
+    partly_tested=lambda ctx: None if cycle_signature(ctx) is None else (
         "without holds, creep was tested only from cycle to cycle of the repeated input, "
         "where only the settling of its slow lags shows: its fast end (lags shorter than "
         "the period) repeats with every cycle and acts as a lag at the excitation frequency, "
