@@ -16,6 +16,7 @@ import numpy as np
 from ..base import Chain
 from ..fitting.choice import FREE_SIGN_GAIN, PREISACH_MIN_GAIN, PREISACH_OVER_MAP
 from ..fitting.orientation import loop_orientation
+from ..fitting.steadystate import steady_state_history
 from ..fitting.stop import branch_features
 from ..stop import StopPIModel
 from .acceptance import RULE
@@ -25,7 +26,6 @@ from .candidates import build_candidate
 from .context import FitContext
 from .crossfitting import compare_heldout
 from .grid import baseline_thresholds
-from .periodic import steady_state_history
 from .registry import EFFECTS, output_dynamics
 from .results import BaseChoice
 from .shapes import loop_shape, shape_thresholds

@@ -19,10 +19,10 @@ import numpy as np
 
 from .._typing import Float1D
 from ..fitting.metrics import percent_of_range
+from ..fitting.steadystate import steady_state_history
 from ..fitting.thresholds import reversal_indices
 from .candidates import build_candidate
 from .context import FitContext
-from .periodic import steady_state_history
 from .registry import EFFECTS
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit, Structure, build_model, fit_structure, legendre_columns

@@ -13,92 +13,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..fitting.cycles import input_cycles
-from ..fitting.thresholds import reversal_indices, wipeout_index
+from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
 from .registry import SignatureRows
 
-__all__ = ["CLOSED_TOL", "CYCLE_TOL", "HISTORY_TOL", "MIN_CYCLES", "MIN_SAME_BRANCHES",
-           "START_TOL", "STEADY_TOL",
-           "closed_loop_history", "cycle_to_cycle", "longest_repeating_run", "same_history",
-           "repeated_cycles", "steady_state_history"]
-
-#: Allowance (fraction of the output range) on top of 1.5x the period-to-period RMS
-#: difference of the later periods, within which the first period counts as steady state.
-STEADY_TOL = 0.002
-
-#: A single cycle is a closed loop when its last sample is within this fraction of the input
-#: range and of the output range of its first sample.
-CLOSED_TOL = 0.02
-
-
-def steady_state_history(rec: Recording) -> tuple[float, ...]:
-    """Virtual input history that puts the memory in the recording's periodic steady state.
-
-    Returns ``(first, second)``: the cycle's two extremes in the order the input last visits
-    them before one period has elapsed; empty when the input is not one cycle repeated (at
-    least three periods, ``u(t + T)`` within 2 % of the input range of ``u(t)`` over the
-    whole record) or when the output of the first period differs from the second's by more
-    than 1.5 times the second's difference from the third plus :data:`STEADY_TOL` of the
-    output range, on the rows before the wipe-out time (a virgin start, or a transient).
-    """
-    u, y = rec.u, rec.y
-    span = float(np.ptp(u))
-    if span <= 0:
-        return ()
-    rv = reversal_indices(u, 0.1 * span)
-    rv = rv[(rv > 0) & (rv < u.size - 1)]
-    if rv.size < 4:
-        return closed_loop_history(rec)
-    period = int(rv[2] - rv[0])
-    if period < 4 or 3 * period > u.size:
-        return closed_loop_history(rec)
-    ext = u[rv]
-    if np.ptp(ext[::2]) > 0.02 * span or np.ptp(ext[1::2]) > 0.02 * span:
-        return ()
-    # the whole record is the one cycle repeated (not a sweep, not a decaying sine)
-    if np.sqrt(np.mean((u[:-period] - u[period:]) ** 2)) > 0.02 * span:
-        return ()
-    # the first period's output repeats as well as the later periods repeat each other
-    # (noise), plus STEADY_TOL of the output range
-    yr = float(np.ptp(y)) or 1.0
-    # (on the rows before the wipe-out time: the only rows an initial memory changes)
-    w = max(min(wipeout_index(u), period), 2)
-    d12 = float(np.sqrt(np.mean((y[:w] - y[period : period + w]) ** 2)))
-    d23 = float(np.sqrt(np.mean((y[period : period + w] - y[2 * period : 2 * period + w]) ** 2)))
-    if d12 > 1.5 * d23 + STEADY_TOL * yr:
-        return ()
-    seg = u[1 : period + 1]
-    i_hi, i_lo = int(np.argmax(seg)), int(np.argmin(seg))
-    hi, lo = float(seg[i_hi]), float(seg[i_lo])
-    return (hi, lo) if i_hi < i_lo else (lo, hi)
-
-
-def closed_loop_history(rec: Recording) -> tuple[float, ...]:
-    """Virtual input history of a single closed loop (e.g. one measured B-H loop).
-
-    The recording is one cycle: at most two large input reversals (> 10 % of the input
-    range) inside it, and its last sample within :data:`CLOSED_TOL` of the input range and
-    of the output range of its first sample. A closed loop is its own steady state: the
-    memory at its first sample is the one the cycle leaves at its last. Returns the cycle's
-    two extremes in the order the input visits them (empty when it is not a closed loop).
-    """
-    u, y = rec.u, rec.y
-    span, yr = float(np.ptp(u)), float(np.ptp(y))
-    if span <= 0 or u.size < 8:
-        return ()
-    rv = reversal_indices(u, 0.1 * span)
-    rv = rv[(rv > 0) & (rv < u.size - 1)]
-    if not 1 <= rv.size <= 2:
-        return ()
-    if abs(u[-1] - u[0]) > CLOSED_TOL * span or abs(y[-1] - y[0]) > CLOSED_TOL * yr:
-        return ()
-    seg = u[1:]
-    i_hi, i_lo = int(np.argmax(seg)), int(np.argmin(seg))
-    if float(seg[i_hi] - seg[i_lo]) < 0.9 * span:
-        return ()
-    hi, lo = float(seg[i_hi]), float(seg[i_lo])
-    return (hi, lo) if i_hi < i_lo else (lo, hi)
-
+__all__ = ["CYCLE_TOL", "HISTORY_TOL", "MIN_CYCLES", "MIN_SAME_BRANCHES", "START_TOL",
+           "cycle_to_cycle", "longest_repeating_run", "same_history", "repeated_cycles"]
 
 #: Fewest identical input cycles that make a slow trend testable inside one recording.
 MIN_CYCLES = 4

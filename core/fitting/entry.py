@@ -28,6 +28,7 @@ from .adequacy import Misfit, misfit
 from .choice import AUTO, BaseChoice, choose_base
 from .extrapolation import Extrapolation, extrapolation
 from .orientation import loop_orientation
+from .steadystate import SteadyStart
 
 if TYPE_CHECKING:
     from ..base import Model
@@ -172,7 +173,10 @@ def fit_recordings(
     ----------
     recordings : Recording or sequence of Recording
         The recordings (``t`` in s, ``u`` and ``y`` of shape ``(n_samples,)`` each); several
-        are fitted jointly, each starting from the relaxed state.
+        are fitted jointly, each starting from the relaxed state at its first sample, or,
+        in periodic steady state, from the memory its own cycle leaves (the model run over
+        a warm-up input first: :class:`core.fitting.steadystate.SteadyStart`; the report's
+        ``initial_memory`` says which and how to replay it).
     kind : str, optional
         One of :func:`core.models.fit_kinds` (``hyst fit --model``), or ``"auto"``: the
         base chosen as the diagnosis chooses it (:func:`core.fitting.choice.choose_base`;
@@ -188,7 +192,8 @@ def fit_recordings(
     initial_memory : {"exclude", "keep"}, optional
         ``"exclude"`` leaves the training rows before the wipe-out time out of the weight
         fit, ``"keep"`` fits them from the relaxed state. ``None`` (``hyst fit``'s default):
-        ``"exclude"`` for the kinds that can apply it (``estimator.initial_memory_rules``),
+        ``"keep"`` when every recording is in periodic steady state (no memory is unknown),
+        else ``"exclude"`` for the kinds that can apply it (``estimator.initial_memory_rules``),
         else ``"keep"``.
     files : sequence of str, optional
         File names for the provenance; default: the recordings' names.
@@ -218,6 +223,12 @@ def fit_recordings(
     kind = DEFAULT_FIT_KIND if kind is None else kind
     trains = _masks(recs, train, "train")
     tests = _masks(recs, test, "test")
+    start = SteadyStart.of(recs)
+    if start.warm:
+        # the warm-up rows are neither fitted nor scored: the rows are fixed on the
+        # recordings themselves (the default split included), then the warm-up is put before
+        trains, tests = start.rows(recs, trains, tests)
+    fitted = start.padded(recs)
     choice = None
     if kind == AUTO:
         with _WARNINGS_LOCK:  # its candidate fits silence their warnings (process-wide state)
@@ -225,18 +236,23 @@ def fit_recordings(
                                  constraint=constraint)
         kind, constraint = choice.kind, choice.constraint
     cls = estimator_class(kind)
+    if initial_memory is None and start.warm and all(w.size for w in start.warm):
+        initial_memory = "keep"  # every recording starts from its cycle's memory: none unknown
     est = cls(n_operators=n_operators, constraint=constraint or "nonnegative",
               initial_memory=_initial_memory_rule(cls, initial_memory))
     multi = len(recs) > 1
     rows = _FitRows(None if not trains else trains if multi else trains[0],
                     None if not tests else tests if multi else tests[0])
-    us = [r.u for r in recs]
-    ys = [r.y for r in recs]
+    ptr, pte = start.pad_masks(trains), start.pad_masks(tests)
+    us = [r.u for r in fitted]
+    ys = [r.y for r in fitted]
     with _WARNINGS_LOCK, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        est.fit(us if multi else us[0], ys if multi else ys[0], train=rows.train,
-                test=rows.test)
-    extra, msgs = _notes(est, recs, rows, kind, choice, tuple(str(w.message) for w in caught))
+        est.fit(us if multi else us[0], ys if multi else ys[0],
+                train=(ptr if multi else ptr[0]) if ptr else None,
+                test=(pte if multi else pte[0]) if pte else None)
+    extra, msgs = _notes(est, recs, rows, kind, choice, tuple(str(w.message) for w in caught),
+                         start)
     est.report_ = dataclasses.replace(est.report_, extra=extra, warnings=msgs)
     mem = est.report_.extra.get("initial_memory")
     first = recs[0]
@@ -271,12 +287,16 @@ class _FitRows:
 
 
 def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
-           choice: BaseChoice | None, msgs: tuple[str, ...]
+           choice: BaseChoice | None, msgs: tuple[str, ...], start: SteadyStart
            ) -> tuple[dict[str, Any], tuple[str, ...]]:
     """The fitted ``est``'s report extras with what the entry point adds (the stop branch
-    in the data's units, the base choice, the loops' orientation, the white-noise floor)
-    and its warnings with the entry point's (clockwise loops, a misfit and where)."""
+    in the data's units, the base choice, the loops' orientation, the white-noise floor,
+    the recordings started in their periodic steady state) and its warnings with the entry
+    point's (clockwise loops, a misfit and where)."""
     extra = dict(est.report_.extra)
+    if start.warm:
+        extra["initial_memory"] = start.note(recs, extra.get("initial_memory"))
+    preds = start.predict(est, recs)
     feats = getattr(est, "features_", None)  # a stop-operator branch, in the data's units
     if feats is not None:
         extra["branch"] = feats.text(recs[0].units.get("input") or "input units",
@@ -292,7 +312,7 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
     beyond = _extrapolation(est, recs, rows, extra)
     if beyond is not None:
         msgs = (*msgs, beyond.text(dict(recs[0].units)) + ".")
-    miss = _misfit(est, recs, rows)
+    miss = _misfit(est, recs, rows, preds)
     if miss is not None:
         extra["noise_floor"] = miss.floor
         extra["rmse_over_noise_floor"] = miss.ratio
@@ -301,7 +321,7 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
             said = miss.text(pct, "" if choice is None else choice.advice,
                              dict(recs[0].units)).rstrip()
             msgs = (*msgs, said + ("" if said.endswith(".") else ".")
-                    + _rate_text(est, recs, rows) + _left_text(est, recs))
+                    + _rate_text(est, recs, rows, preds) + _left_text(est, recs, preds))
     inv = _inverse_text(est.report_, dict(recs[0].units))
     return extra, (msgs if inv is None else (*msgs, inv))
 
@@ -332,21 +352,21 @@ def _inverse_text(report: Any, units: dict[str, str]) -> str | None:
             "compensator for that range.")
 
 
-def _rate_text(est: Any, recs: Sequence[Recording], rows: _FitRows) -> str:
+def _rate_text(est: Any, recs: Sequence[Recording], rows: _FitRows,
+               preds: list[np.ndarray]) -> str:
     """How the held-out residual grows with the recordings' input rate, in words
     (:func:`core.fitting.adequacy.rate_trend`, as the diagnosis's verdict says it), or
-    ``""``."""
+    ``""`` (``preds``: the fitted model's output on each recording)."""
     from .adequacy import rate_trend, rate_words
 
     if len(recs) < 2:
         return ""
     prep = _rows(est, recs, rows)
-    preds = [np.asarray(p) for p in est.predict([r.u for r in recs])]
     words = rate_words(recs, rate_trend(recs, preds, list(prep.test_masks)))
     return f" Across the recordings, {words}." if words else ""
 
 
-def _left_text(est: Any, recs: Sequence[Recording]) -> str:
+def _left_text(est: Any, recs: Sequence[Recording], preds: list[np.ndarray]) -> str:
     """What the fit leaves on the longest recording with a time axis, in words
     (:func:`core.fitting.leftover.leftover`), and where its fast part peaks across the
     recordings (:func:`core.fitting.leftover.fast_across`), or ``""``."""
@@ -354,7 +374,7 @@ def _left_text(est: Any, recs: Sequence[Recording]) -> str:
 
     if not any(r.has_time and r.is_uniform for r in recs):
         return ""
-    left = leftover_on(recs, [np.asarray(est.predict(r.u)) for r in recs])
+    left = leftover_on(recs, preds)
     flat = ("the sliding plateaus" if getattr(est, "features_", None) is not None
             else "the flat stretches of the branches")
     out = "" if left.leftover is None else f" On {left.name}, {left.leftover.text(flat)}."
@@ -404,22 +424,23 @@ def _extrapolation(est: Any, recs: Sequence[Recording], rows: _FitRows,
     excluded = isinstance(mem, dict) and bool(mem.get("excluded_train_rows"))
     if excluded:
         assert isinstance(mem, dict)
-        fitted = [m & (np.arange(m.size) >= int(tw))
-                  for m, tw in zip(fitted, mem["wipeout_index"], strict=True)]
+        # (the wipe-out times count the warm-up samples of a steady-state start)
+        shift = mem.get("warm_up_samples") or [0] * len(fitted)
+        fitted = [m & (np.arange(m.size) >= int(tw) - int(w))
+                  for m, tw, w in zip(fitted, mem["wipeout_index"], shift, strict=True)]
     return extrapolation([r.u for r in recs], [r.t for r in recs], fitted,
                          list(prep.test_masks), [r.name for r in recs],
                          [r.has_time for r in recs], excluded=excluded)
 
 
-def _misfit(est: Any, recs: Sequence[Recording], rows: _FitRows) -> Misfit | None:
+def _misfit(est: Any, recs: Sequence[Recording], rows: _FitRows,
+            preds: list[np.ndarray]) -> Misfit | None:
     """The held-out error of a fitted estimator against its noise floor (the rows its
-    report's ``test`` part scored: the ``test`` masks, or the estimator's default split)."""
+    report's ``test`` part scored: the ``test`` masks, or the estimator's default split;
+    ``preds``: its output on each recording)."""
     if est.report_.test is None:
         return None
     us, ys = [r.u for r in recs], [r.y for r in recs]
-    multi = len(recs) > 1
     prep = _rows(est, recs, rows)
-    preds = est.predict(us if multi else us[0])
-    preds = list(preds) if multi else [preds]
     return misfit([r.t for r in recs], us, ys, preds, prep.test_masks,
                   [r.name for r in recs], [r.has_time for r in recs])

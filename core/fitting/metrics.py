@@ -143,7 +143,8 @@ class FitReport:
         if isinstance(cv, str):
             lines.append(f"  {cv}")
         mem = self.extra.get("initial_memory")
-        if isinstance(mem, dict) and mem.get("excluded_train_rows"):
+        if isinstance(mem, dict) and (mem.get("excluded_train_rows")
+                                      or any(mem.get("steady_state") or ())):
             lines.append(f"  {mem['summary']}")
         for key in ("base_choice", "orientation", "branch"):
             note = self.extra.get(key)

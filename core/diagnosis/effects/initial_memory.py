@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...fitting.steadystate import steady_state_history
 from ...fitting.thresholds import wipeout_index
 from ...stages import InitialMemory
 from ..candidates import Candidate
 from ..context import FitContext
-from ..periodic import steady_state_history
 from ..registry import DiagnosableEffect, register
 from ..structure import Fit
 

@@ -12,8 +12,8 @@ from core.diagnosis.between import between_recordings, left_out_residual
 from core.diagnosis.context import FitContext
 from core.diagnosis.data import split_masks
 from core.diagnosis.grid import baseline_thresholds
-from core.diagnosis.periodic import steady_state_history
 from core.diagnosis.structure import Structure
+from core.fitting.steadystate import steady_state_history
 from core.recordings import Recording
 from core.stages import InitialMemory
 

@@ -159,7 +159,7 @@ def test_single_closed_loop_is_steady_state_not_initial_memory() -> None:
     import numpy as np
 
     from benchmarks.diagnosis.generator import truth_pi
-    from core.diagnosis.periodic import closed_loop_history, steady_state_history
+    from core.fitting.steadystate import closed_loop_history, steady_state_history
     from core.recordings import Recording
 
     n = 200

@@ -101,7 +101,7 @@ def _recordings() -> tuple[list[Recording], dict[int, np.ndarray]]:
 def test_the_fit_warning_says_it() -> None:
     recs, preds = _recordings()
     est = SimpleNamespace(predict=lambda u: preds[np.asarray(u).size], features_=object())
-    text = _left_text(est, recs)
+    text = _left_text(est, recs, [est.predict(r.u) for r in recs])
     assert "Across 3 recordings with the input at 0.5-2 Hz" in text
     assert "of that on the sliding plateaus" in text and "a vibration of the device" in text
 
