@@ -113,7 +113,8 @@ class FitContext:
         base's repeating misfit. Held weights of a term read from the PI-stage output (creep)
         that leave the training rows fitted worse than the structure without the changed
         terms are left to the raw solve instead: the fit's refresh of the PI-stage output
-        does not settle under them (a drift's changes regressed on the slow lags).
+        does not settle under them (a drift's changes regressed on the slow lags); the fit
+        records which (:attr:`Fit.raw_fallback`) and the finding says so.
 
         Deterministic, so memoised: the key holds the identities of the row masks and of
         ``cur``'s PI-stage outputs (used only by creep and asymmetry), whether terms may be
@@ -145,6 +146,8 @@ class FitContext:
             # training rows fitted worse than without the term: left to the raw solve
             f = fit_structure(s, self.records, self.train, self.cache, x_init,
                               iterations=self.iterations, held=outer)
+            assert isinstance(f, Fit)
+            f.raw_fallback = tuple(h.name for h in held if term_of(h.name).through_dynamics)
         assert isinstance(f, Fit)
         # (at most FIT_MEMO_COUNT fits, within the cache budget beside the banks, the
         # FIT_MEMO_MIN most recent kept whatever it: a fit holds N predictions per recording)

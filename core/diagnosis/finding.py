@@ -113,6 +113,7 @@ def make_finding(run: Run, cur: Fit, c: Candidate, amb: list[str], runner: dict[
         caveats=caveats,
         evidence=_evidence(run, c) + (f", judged on top of {c.given}" if c.given else ""),
         ambiguous_parameters=ambiguous_parameters(c.parameters, unc),
+        fitted_on_all_rows=c.name in c.fit.raw_fallback,
     )
 
 

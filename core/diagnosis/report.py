@@ -11,7 +11,13 @@ from .misspecification import BASE_NAMES, describe_alternative
 if TYPE_CHECKING:
     from .results import DiagnosisResult, EffectFinding
 
-__all__ = ["summary_text"]
+__all__ = ["ALL_ROWS_WORDS", "summary_text"]
+
+#: What the report says beside an effect whose term was to be fitted on its changes from
+#: cycle to cycle and was fitted on all the training rows
+#: (:attr:`~core.diagnosis.results.EffectFinding.fitted_on_all_rows`).
+ALL_ROWS_WORDS = ("fitted on all the training rows: fitted on its changes from cycle to "
+                  "cycle it left the training rows worse than without it")
 
 
 def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per report section
@@ -118,7 +124,10 @@ def _effect_lines(res: DiagnosisResult, i: int, e: EffectFinding, yr: float) -> 
                 f"{e.heldout_rmse_before:.4g} -> {e.heldout_rmse_after:.4g} "
                 f"({100 * e.heldout_rmse_before / yr:.3f} % -> "
                 f"{100 * e.heldout_rmse_after / yr:.3f} %)")
-    lines = [f"{i}. {e.name}: {ps}", *evidence] + ([
+    head = f"{i}. {e.name}: {ps}"
+    if e.fitted_on_all_rows:
+        head += f" ({ALL_ROWS_WORDS})"
+    lines = [head, *evidence] + ([
         f"   cross-fitted training blocks: test rows + {e.crossfit['folds']} blocks give "
         f"z = {e.crossfit['dm_z_pooled']:.1f}, signed-rank p = "
         f"{e.crossfit['signed_rank_p_pooled']:.2g}; MSE reduction per block "

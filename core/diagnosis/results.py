@@ -157,6 +157,10 @@ class EffectFinding:
     #: parameters the data do not fix to a number (1-sigma beyond
     #: :data:`~core.diagnosis.crossfitting.AMBIGUOUS_REL_SIGMA` of the value)
     ambiguous_parameters: list[str] = field(default_factory=list)
+    #: the effect's term was to be fitted on changes between rows of the same input history
+    #: (from cycle to cycle) and was fitted on all the training rows instead, because that
+    #: fit left the training rows worse than no such term (:attr:`Fit.raw_fallback`)
+    fitted_on_all_rows: bool = False
 
     def to_dict(self, y_range: float) -> dict[str, Any]:
         """JSON-ready form (see :meth:`DiagnosisResult.to_dict`)."""
@@ -168,6 +172,7 @@ class EffectFinding:
             "uncertainty": _jsonable(self.uncertainty),
             "uncertainty_method": self.uncertainty_method,
             "ambiguous_parameters": list(self.ambiguous_parameters),
+            "fitted_on_all_rows": self.fitted_on_all_rows,
             "recording_spread": _jsonable(self.recording_spread),
             "recording_jackknife": _jsonable(self.recording_jackknife),
             "base_sensitivity": _jsonable(self.base_sensitivity),

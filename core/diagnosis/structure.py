@@ -315,6 +315,11 @@ class Fit:
         Coefficients of every static term with columns, by effect name (what the term's
         :attr:`~core.diagnosis.registry.StaticTerm.coefficients` makes of its weights: the
         common bias is the offset term's, switched off).
+    raw_fallback : tuple of str
+        Effects whose term was to be fitted on changes between rows of the same input
+        history (:mod:`core.diagnosis.changes`) but was solved on all the training rows,
+        because those weights, held, fitted the training rows worse than the structure
+        without the term (:meth:`core.diagnosis.context.FitContext.fit`); empty otherwise.
     """
 
     structure: Structure
@@ -328,6 +333,7 @@ class Fit:
     n_train: int
     cov_scale: float = 1.0
     extras: dict[str, Any] = field(default_factory=dict)
+    raw_fallback: tuple[str, ...] = ()
 
     def residuals(self, records: Sequence[Recording]) -> list[Float1D]:
         """Measured minus simulated output per recording."""

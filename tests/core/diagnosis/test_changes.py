@@ -176,6 +176,9 @@ def test_held_creep_weights_the_fit_cannot_follow_are_left_to_the_raw_rows() -> 
     assert h.held[-1] and 0.5 < h.weights[-1] < 1.0
     f = ctx.fit(sc, cur)
     assert f.train_rss < cur.train_rss
+    # the fit says so (the finding and the report read it)
+    assert f.raw_fallback == ("creep",)
+    assert cur.raw_fallback == ()
 
 
 def test_a_strict_sub_context_does_not_share_the_fit_on_changes() -> None:

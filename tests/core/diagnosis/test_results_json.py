@@ -137,6 +137,28 @@ def test_two_hidden_effects_round_trip(resonance_and_drift_diagnosis) -> None:
     same(res, round_trip(res))
 
 
+def test_a_creep_fitted_on_all_rows_is_said_and_round_trips(saturation_and_lag) -> None:
+    """An effect whose cycle-to-cycle fit fell back to all the training rows (the fit's
+    ``raw_fallback``, the finding's ``fitted_on_all_rows``): its report line says so in
+    words, the report's JSON carries it, and the stored document keeps it; an effect
+    without it says nothing of the kind."""
+    from core.diagnosis.report import ALL_ROWS_WORDS
+
+    res = copy.copy(saturation_and_lag)
+    assert ALL_ROWS_WORDS not in res.summary()
+    res.effects = [dataclasses.replace(res.effects[0], fitted_on_all_rows=True),
+                   *res.effects[1:]]
+    res.final = dataclasses.replace(res.final, raw_fallback=("creep",))
+    line = next(t for t in res.summary().splitlines() if t.startswith("1. saturation: "))
+    assert line.endswith(f"({ALL_ROWS_WORDS})")
+    assert "cycle to cycle" in ALL_ROWS_WORDS and "training rows" in ALL_ROWS_WORDS
+    assert [e["fitted_on_all_rows"] for e in res.to_dict()["effects"]] == [True, False]
+    back = round_trip(res)
+    same(res, back)
+    assert back.final.raw_fallback == ("creep",) and back.effects[0].fitted_on_all_rows
+    assert back.summary() == res.summary()
+
+
 def _version_1() -> dict:
     """A document as version 1 stored it: ``DiagnosisResult.to_json`` of main 0672ff3 (its
     writer, the untestable entries plain ``{"name", "reason", "experiment"}`` objects) of a
@@ -163,6 +185,9 @@ def test_a_version_1_document_still_reads() -> None:
                for u in stored)
     res = DiagnosisResult.from_json(copy.deepcopy(doc))
     assert all(type(u) is Untestable and not u.parameters for u in res.untestable)
+    # written before fits recorded a fall-back to all the training rows: none recorded
+    assert res.final.raw_fallback == () and res.baseline.raw_fallback == ()
+    assert not any(e.fitted_on_all_rows for e in res.effects)
     assert res.to_dict()["untestable"] == stored
     again = json.loads(json.dumps(res.to_json()))
     assert again["version"] == 2
