@@ -4,6 +4,10 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
 
 1. *Effect size*: its held-out MSE reduction is at least ``min_gain`` (5 %), and at least
    ``min_excess_share`` (20 %) of the current model's excess over the white-noise floor.
+   Where the evidence rows' MSE is not above the floor (the noise level estimated for them
+   is at or above their error, which a significant improvement contradicts), the share is
+   counted over their whole MSE instead of being met by any reduction
+   (:func:`share_needed`).
 2. *Significance*: the batch-means Diebold–Mariano statistic ``z >= min_z`` (3), or the
    Wilcoxon signed-rank test of the batch means gives ``p < sign_p / K`` (Bonferroni over the
    ``K`` candidates tested in the round).
@@ -137,7 +141,8 @@ __all__ = ["RULE", "AcceptRule", "Decision", "beyond_history_ok", "clearly_bette
            "earns_place", "enough_events", "floor_mse", "generalises", "harm_bound",
            "harm_words", "harmless_beyond_noise",
            "harmless_elsewhere", "pair_beats_single",
-           "second_stage_named", "signatures_separable", "size_ok", "split_supports_transport",
+           "second_stage_named", "share_needed", "signatures_separable", "size_ok",
+           "split_supports_transport",
            "trend_follows_steps", "yields_to_lookalike"]
 
 
@@ -370,9 +375,28 @@ def floor_mse(noise: float, differenced: bool) -> float:
     return (2.0 if differenced else 1.0) * noise**2
 
 
-def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
+def share_needed(h: HeldOut, excess: float | None, rule: AcceptRule = RULE) -> float:
+    """The MSE reduction (output units²) the excess share asks of the candidate compared in
+    ``h``: ``min_excess_share`` of ``excess``, the evidence rows' MSE over the noise floor
+    (:func:`floor_mse`); ``None``: no share is asked (0).
+
+    Where ``excess`` is not positive, the noise level estimated for those rows is at or
+    above their whole MSE: by that estimate nothing is left to explain beyond noise, and any
+    reduction would meet a share of it. A candidate that lowers their held-out MSE
+    significantly shows the estimate too high there (an overestimated noise level: a
+    recording's quantisation or chatter counted as noise), so the estimate says nothing
+    about how much of the error is left to explain; the share is then counted over the rows'
+    whole MSE (``h.mse_before``; the floor taken as unknown, zero), not met by any reduction.
+    """
+    if excess is None:
+        return 0.0
+    return rule.min_excess_share * (excess if excess > 0.0 else h.mse_before)
+
+
+def size_ok(h: HeldOut, excess: float | None, rule: AcceptRule = RULE,
             elsewhere: HeldOut | None = None) -> bool:
-    """Effect-size rules only (``excess``: current MSE minus the noise floor², units²).
+    """Effect-size rules only (``excess``: current MSE minus the noise floor², units²;
+    ``None``: no excess share asked, :func:`share_needed`).
 
     ``elsewhere``: for a candidate judged on the test rows its signature lives in (``h``
     on those rows), the comparison on the other test rows. When it shows the candidate
@@ -387,12 +411,12 @@ def size_ok(h: HeldOut, excess: float, rule: AcceptRule = RULE,
     if h.gain < rule.min_gain:
         return False
     return harmless_beyond_noise(elsewhere, rule) or (
-        h.mse_before - h.mse_after) >= rule.min_excess_share * max(excess, 0.0)
+        h.mse_before - h.mse_after) >= share_needed(h, excess, rule)
 
 
 def decide(
     h: HeldOut,
-    excess: float,
+    excess: float | None,
     n_tests: int,
     param_cv: Mapping[str, float] | None = None,
     rule: AcceptRule = RULE,
@@ -405,8 +429,9 @@ def decide(
     ----------
     h : HeldOut
         Current model vs the candidate on the evidence rows.
-    excess : float
-        Current MSE minus the white-noise floor squared (output units²).
+    excess : float or None
+        Current MSE minus the white-noise floor squared (output units²); ``None``: no
+        excess share is asked (:func:`share_needed`).
     n_tests : int
         Candidates tested in the round (Bonferroni divisor), ``>= 1``.
     param_cv : mapping of str to float, optional
@@ -430,6 +455,10 @@ def decide(
     elif not sz:
         why = (f"removes less than {100 * rule.min_excess_share:.0f} % of the excess over "
                "the noise floor")
+        if excess is not None and excess <= 0.0:
+            why = (f"removes less than {100 * rule.min_excess_share:.0f} % of these rows' "
+                   "mean squared error (the noise level estimated for them is at or above "
+                   "that error, so it cannot say how much of it is left to explain)")
         if elsewhere is not None and np.isfinite(elsewhere.gain):
             why += f" (not waived: {harm_words(elsewhere, rule)})"
         reasons.append(why)
@@ -482,7 +511,7 @@ def earns_place(crossfitted: HeldOut, n_tests: int, param_cv: Mapping[str, float
         The effect-size rules use no excess share (the blocks' noise floor is not known
         separately); the reasons say it was a further effect that did not earn its place.
     """
-    d = decide(crossfitted, 0.0, n_tests, param_cv, rule)
+    d = decide(crossfitted, None, n_tests, param_cv, rule)
     if d.passes:
         return d
     why = (f"as a further effect on top of {', '.join(accepted)} it is not confirmed on "

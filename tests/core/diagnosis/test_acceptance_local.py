@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import cast
 
 import numpy as np
+import pytest
 from scipy.signal import lfilter
 
 from core.diagnosis import diagnose
@@ -21,6 +22,7 @@ from core.diagnosis.acceptance import (
     floor_mse,
     harm_bound,
     harmless_beyond_noise,
+    share_needed,
     size_ok,
 )
 from core.diagnosis.judge import excess_of
@@ -180,3 +182,35 @@ def test_a_drift_under_chatter_is_named_and_says_where_its_evidence_came_from() 
     null = diagnose(_chattering(0.0, 2), n_operators=10, effects=["drift"],
                     auto_resolution=False)
     assert null.effects == []
+
+
+def test_an_overestimated_noise_level_does_not_meet_the_share_by_itself() -> None:
+    """Rows compared with an earlier row (differenced, noise of RMS 1 in each: floor 2) with a
+    misfit that does not repeat (MSE 1.5 on top), and a candidate that removes 7 % of it,
+    13.5 % of the excess over the true floor: significant, above ``min_gain``, and refused by
+    the share. With the noise level overestimated by 35 % the floor (3.65) is above the
+    rows' whole MSE (3.4 in this draw): before, any reduction then met the share, and
+    the same candidate passed; now the share is counted over the rows' whole MSE. A
+    candidate removing half of the misfit passes either way."""
+    rng = np.random.default_rng(30)
+    n = 8000
+    noise = rng.standard_normal(n) - rng.standard_normal(n)  # a row minus an earlier one
+    misfit = np.sqrt(3.0) * np.sin(2 * np.pi * 7.3 * np.arange(n) / n)  # MSE 1.5
+    small = heldout_comparison([noise + misfit], [noise + 0.93 * misfit])
+    large = heldout_comparison([noise + misfit], [noise + 0.5 * misfit])
+    assert 0.05 < small.gain < 0.07 and small.z > RULE.min_z
+    for sigma, refused in ((1.0, True), (1.35, True)):
+        c = _judged_where(small, True)
+        excess = excess_of(c, 99.0, sigma, strict=False)
+        assert (excess <= 0.0) == (sigma > 1.0)
+        d = decide(small, excess, n_tests=1)
+        assert d.significant and d.passes is not refused and d.size_ok is not refused
+        assert decide(large, excess_of(_judged_where(large, True), 99.0, sigma, strict=False),
+                      n_tests=1).passes
+    # the words say why, with the estimate at or above the error
+    over = excess_of(_judged_where(small, True), 99.0, 1.35, strict=False)
+    assert "noise level estimated for them is at or above" in decide(small, over, 1).reasons[0]
+    # the share asked of it: 20 % of the rows' whole MSE there, of the excess elsewhere
+    assert share_needed(small, over) == pytest.approx(RULE.min_excess_share * small.mse_before)
+    assert share_needed(small, 0.7) == pytest.approx(RULE.min_excess_share * 0.7)
+    assert share_needed(small, None) == 0.0
