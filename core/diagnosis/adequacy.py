@@ -269,7 +269,10 @@ def assess(
             f"{noise_rms:.3g}); {where or 'spread over the record'}. Tried: "
             f"{', '.join(tried) or 'no effect'}.")
     trend = rate_trend(records, final_pred, rows)
-    text += _shape_words(records, shapes, fitted, rmse, rate=bool(trend))
+    from ..fitting.physicsleft import physics_left
+
+    left = physics_left(records, noise_rms).text(dict(records[0].units))
+    text += _shape_words(records, shapes, fitted, rmse, rate=bool(trend), left=left)
     if thin > 1 and shapes:
         text += f" (The other classes were fitted on every {thin}th training row.)"
     region = largest_region(records, final_pred, rows)
@@ -309,27 +312,33 @@ def _fit_shapes(records: Sequence[Recording], train: Sequence[np.ndarray],
 
 def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
                  fitted: dict[str, tuple[Any, list[np.ndarray]]], rmse: float,
-                 rate: bool = False) -> str:
+                 rate: bool = False, left: str = "") -> str:
     """What the loop-shape classes say about an inadequate final model of residual ``rmse``:
     the class that does clearly better, or that none does (and what the friction class
     finds), or that none could be fitted; ``rate``: the misfit grows with the recordings'
-    rate (:func:`rate_trend`), which names where the cause lies."""
+    rate (:func:`rate_trend`), which names where the cause lies; ``left``: what the
+    recordings show that no rate-independent memory base follows
+    (:meth:`core.fitting.physicsleft.PhysicsLeft.text`), said in every case."""
+    also = f" The recordings show physics no rate-independent base follows: {left}." if left else ""
     better = [f for f in shapes if f.rmse < 0.8 * rmse]
     if better:
         b = better[0]
         return (f" The loop shape is the likely cause: {b.physics} reaches {b.pct:.2f} % of "
                 f"range on the same rows (hyst fit --model {b.model}"
                 + "".join(f"; {f.model} {f.pct:.2f} %" for f in shapes if f is not b) + ")"
-                + _physics_of(records, *fitted[b.model]) + ".")
+                + _physics_of(records, *fitted[b.model]) + "." + also)
     if not shapes:
         return (" None of the other model classes (hyst fit --model "
                 + ", ".join(k for k, _ in loop_shape_kinds())
-                + ") could be fitted to these recordings.")
+                + ") could be fitted to these recordings." + also)
     text = (" No loop-shape class does clearly better (" + ", ".join(
         f"{f.model} {f.pct:.2f} %" for f in shapes) + "): the cause lies outside the "
         "models tried" + (", in the rate-dependence above (every class tried is "
                           "rate-independent)." if rate else
+                          f"; the recordings show what it is: {left}." if left else
                           "; recordings that separate time, rate and level would tell."))
+    if rate and left:
+        text += also
     named = [f for f in shapes if getattr(fitted[f.model][0], "features_", None) is not None
              and fitted[f.model][0].features_.gap > 0]
     if named:  # the friction class still names what it found in these loops

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fitting.cycles import input_cycles
+from ..fitting.cycles import repeating_run
 from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
 from .registry import SignatureRows
@@ -59,24 +59,7 @@ def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
 def longest_repeating_run(u: np.ndarray) -> tuple[tuple[int, int], ...]:
     """The longest run of consecutive repeating cycles (:func:`repeated_cycles` without its
     :data:`MIN_CYCLES` floor; empty when the input has no whole cycle)."""
-    u = np.asarray(u, dtype=np.float64)
-    cyc = input_cycles(u)
-    if cyc is None:
-        return ()
-    span = float(np.ptp(u))
-    T = cyc.period
-    best: list[tuple[int, int]] = []
-    run: list[tuple[int, int]] = []
-    for a, b in cyc.spans():
-        if run:
-            p = run[-1][0]
-            if abs(a - p - T) > START_TOL * T or np.sqrt(
-                    np.mean((u[a:b] - u[p : p + T]) ** 2)) > CYCLE_TOL * span:
-                run = []
-        run.append((a, b))
-        if len(run) > len(best):
-            best = list(run)
-    return tuple(best)
+    return repeating_run(u, CYCLE_TOL, START_TOL)
 
 
 def cycle_to_cycle(records: list[Recording]) -> SignatureRows | None:

@@ -27,7 +27,7 @@ import numpy as np
 from .._typing import Float1D
 
 __all__ = ["LINE_BINS", "REARM", "InputCycles", "fundamental_hz", "harmonic_bins", "input_cycles",
-           "line_hz"]
+           "line_hz", "repeating_run"]
 
 #: How far (fraction of the input range) the input must fall below its median before the
 #: next upward crossing counts.
@@ -92,6 +92,40 @@ def input_cycles(u: Float1D) -> InputCycles | None:
     if period < 4 or whole.size < 1:
         return None
     return InputCycles(period, whole)
+
+
+def repeating_run(u: Float1D, tol: float, start_tol: float) -> tuple[tuple[int, int], ...]:
+    """The longest run of consecutive identical cycles of ``u`` (:func:`input_cycles`), as
+    ``(start, stop)`` sample ranges one period long; empty without a whole cycle.
+
+    Parameters
+    ----------
+    u : ndarray, shape (N,)
+        Input samples.
+    tol : float
+        A cycle repeats the one before when their inputs' RMS difference is below this
+        share of the input's range ...
+    start_tol : float
+        ... and it starts one period after it within this share of the period.
+    """
+    u = np.asarray(u, dtype=np.float64)
+    cyc = input_cycles(u)
+    if cyc is None:
+        return ()
+    span = float(np.ptp(u))
+    period = cyc.period
+    best: list[tuple[int, int]] = []
+    run: list[tuple[int, int]] = []
+    for a, b in cyc.spans():
+        if run:
+            p = run[-1][0]
+            if abs(a - p - period) > start_tol * period or np.sqrt(
+                    np.mean((u[a:b] - u[p:p + period]) ** 2)) > tol * span:
+                run = []
+        run.append((a, b))
+        if len(run) > len(best):
+            best = list(run)
+    return tuple(best)
 
 
 def fundamental_hz(u: Float1D, dt: float) -> float:

@@ -28,6 +28,7 @@ from .adequacy import Misfit, misfit
 from .choice import AUTO, BaseChoice, choose_base
 from .extrapolation import Extrapolation, extrapolation
 from .orientation import loop_orientation
+from .physicsleft import physics_left_sentence
 from .steadystate import SteadyStart
 
 if TYPE_CHECKING:
@@ -321,7 +322,8 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
             said = miss.text(pct, "" if choice is None else choice.advice,
                              dict(recs[0].units)).rstrip()
             msgs = (*msgs, said + ("" if said.endswith(".") else ".")
-                    + _rate_text(est, recs, rows, preds) + _left_text(est, recs, preds))
+                    + _rate_text(est, recs, rows, preds) + _left_text(est, recs, preds)
+                    + physics_left_sentence(recs, miss.floor))
     inv = _inverse_text(est.report_, dict(recs[0].units))
     return extra, (msgs if inv is None else (*msgs, inv))
 
