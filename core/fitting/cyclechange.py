@@ -102,7 +102,8 @@ class CycleChange:
                 f"{self.t_span[0]:.4g} to {self.t_span[1]:.4g} s, its peak-to-peak output "
                 f"changes by {self.per_cycle_pct:+.2f} % per cycle (z = {self.z:.1f}){area}; "
                 "a rate-independent memory base repeats a repeated cycle exactly (a drift "
-                "or creep would shift the loop's mean, not its size)")
+                "or creep would shift the loop's mean, not its size); fit the cycles after the "
+                "loop has settled, or a model whose loop changes with the energy dissipated")
 
 
 def _fit_slope(k: np.ndarray, v: np.ndarray, floor_se: float) -> tuple[float, float]:

@@ -245,7 +245,9 @@ class Masing:
                 f"noise; {where}; most on {worst.recording} after the reversal at t = "
                 f"{worst.t_reversal:.4g} s, over {worst.window:.4g}{ui} of input travel): "
                 f"{shape}, or the recordings did not start from rest in a demagnetized "
-                "state")
+                "state. No play- or stop-operator base can follow it: the material's own law "
+                "(a non-Masing steel or pinched element model) would, or the fit can be kept "
+                "to loops of one size")
 
 
 def masing(records: Sequence[Recording], noise: float) -> Masing:
