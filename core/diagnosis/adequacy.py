@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..fitting.adequacy import rate_trend, rate_words
+from ..fitting.estimator import without_compensation_scores
 from ..recordings import Recording
 from ..warning_filters import FILTERS
 
@@ -139,7 +140,8 @@ def _fit_shape(kind: str, records: Sequence[Recording], train, test, free: bool)
     est = estimator_class(kind)(constraint="slopes" if free else "nonnegative")
     us = [r.u for r in records]
     ys = [r.y for r in records]
-    with FILTERS, warnings.catch_warnings():
+    # (only the predictions are read: the fit's report does not run its inverse)
+    with FILTERS, warnings.catch_warnings(), without_compensation_scores():
         warnings.simplefilter("ignore")
         est.fit(us, ys, train=list(train), test=list(test))
     pred = est.predict(us)

@@ -168,6 +168,7 @@ def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[n
     import warnings
 
     from ..exceptions import ParameterError
+    from ..fitting.estimator import without_compensation_scores
     from ..fitting.stop import StopPIRegressor
     from ..warning_filters import FILTERS
 
@@ -179,7 +180,8 @@ def fit_stop_gap(records: list[Recording], train: list[np.ndarray], test: list[n
     us = [records[k].u for k in use]
     ys = [records[k].y for k in use]
     try:
-        with FILTERS, warnings.catch_warnings():
+        # (only the model is read: the fit's report does not run its inverse)
+        with FILTERS, warnings.catch_warnings(), without_compensation_scores():
             warnings.simplefilter("ignore")
             est.fit(us if multi else us[0], ys if multi else ys[0],
                     train=[train[k] for k in use] if multi else train[use[0]],

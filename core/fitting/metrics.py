@@ -237,6 +237,7 @@ def evaluate_fit(
     test_labels: Sequence[int] = (),
     invertible: bool = True,
     chunk: int = EVAL_CHUNK,
+    compensation: bool = True,
 ) -> tuple[PartStats, PartStats | None, float, float]:
     """One streaming pass: modelling errors, compensation and inverse-input errors.
 
@@ -256,6 +257,10 @@ def evaluate_fit(
         Whether to run the inverse (compensation and inverse-input errors are NaN if not).
     chunk : int
         Samples per chunk.
+    compensation : bool
+        With ``invertible``, also run the inverse (compensation and inverse-input errors);
+        ``False`` only forms it (a model without an inverse raises as with ``True``) and
+        leaves those errors NaN.
 
     Returns
     -------
@@ -272,6 +277,8 @@ def evaluate_fit(
     for seg in segments:
         model = model_for(seg.u)
         inv = model.inverse() if invertible else None
+        if not compensation:
+            inv = None
         st = st_inv = st_fw = None
         for s0 in range(0, seg.u.size, chunk):
             s1 = min(seg.u.size, s0 + chunk)
@@ -304,7 +311,7 @@ def evaluate_fit(
     train = acc_tr.stats()
     if train is None:  # pragma: no cover - guarded by the regressors
         raise ValueError("no training samples to evaluate")
-    if not invertible:
+    if not (invertible and compensation):
         comp_max = comp_rmse = float("nan")
     else:
         comp_rmse = float(np.sqrt(comp_sse / comp_n)) if comp_n else float("nan")

@@ -108,3 +108,28 @@ def test_the_friction_damper_verdict_claims_no_non_masing_or_cyclic_change() -> 
     final = StopPIRegressor().fit(rec.u, rec.y, train=train, test=~train).predict(rec.u)
     ad = assess([rec], [train], [~train], [final], 0.03, ["delay"], free_weights=True)
     assert "non-Masing" not in ad.text and "cycle to cycle under" not in ad.text
+
+
+def test_the_other_classes_are_fitted_without_running_their_inverse() -> None:
+    """The check reads each class's predictions only: its fit does not score the inverse
+    (the report's compensation errors are left NaN), and predicts as a scored fit does."""
+    import warnings
+
+    from core.diagnosis.adequacy import _fit_shape
+    from core.models import estimator_class
+    from core.pi import PIModel
+    from core.recordings import Recording
+
+    t = np.arange(3000) / 1000.0
+    u = 5.0 * np.sin(2 * np.pi * t) * (1.0 + t / 3.0)
+    y = PIModel(0.5, [1.0, 2.0, 3.0], [0.2, 0.1, 0.05])(u)
+    rec = Recording(t, u, y, "sine")
+    train = t < 2.0
+    est, pred = _fit_shape("mpi", [rec], [train], [~train], False)
+    assert np.isnan(est.report_.compensation_rmse)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scored = estimator_class("mpi")(constraint="nonnegative").fit(
+            [u], [y], train=[train], test=[~train])
+    assert np.isfinite(scored.report_.compensation_rmse)
+    np.testing.assert_array_equal(pred[0], scored.predict([u])[0])
