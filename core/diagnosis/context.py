@@ -79,6 +79,11 @@ class FitContext:
         #: estimate the candidates' parameter uncertainties (profile curvature); off where
         #: only the parameters are used (cross-fitting folds)
         self.uncertainty = True
+        #: acceptance rule 14's residuals of one current fit per held-out event window
+        #: (:func:`~core.diagnosis.judge.event_gains`): ``"cur"`` the fit they are of and the
+        #: settings it was refitted under, then ``(a, b)`` its residuals on window ``a:b``
+        #: refitted without it; every candidate judged on that fit reads the same ones
+        self.event_residuals: dict = {}
         #: a cross-fitting fold: the candidate's structure fitted on all the training rows,
         #: whose nonlinear parameters a one-parameter search starts from
         #: (:func:`core.diagnosis.candidates.scalar_search`); None elsewhere

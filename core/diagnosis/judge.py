@@ -193,9 +193,16 @@ def event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
     step or reversal to the next) of the one recording (:func:`held_out_windows`): each
     window held out in turn, both structures refitted on the training rows outside it
     (their nonlinear parameters kept) and scored on all its rows; on a long recording, the
-    windows' test rows scored with the fits on the training rows."""
+    windows' test rows scored with the fits on the training rows. ``cur``'s refits are kept
+    on ``ctx`` for the next candidate judged on it (:attr:`FitContext.event_residuals`)."""
     rec = ctx.records[0]
     wins, scored = held_out_windows(rec, ctx.test[0])
+    memo = ctx.event_residuals
+    of = memo.get("cur")
+    now = (ctx.iterations, ctx.strict, ctx.within_strict)
+    if of is None or of[0] is not cur or of[1] != now:
+        memo.clear()
+        memo["cur"] = (cur, now)
     out = []
     for a, b in wins:
         if scored:
@@ -206,7 +213,9 @@ def event_gains(ctx: FitContext, cur: Fit, new: Fit) -> list[float]:
             ev = np.zeros(rec.n_samples, dtype=bool)
             ev[a:b] = True
             sub = FitContext(ctx.records, [ctx.train[0] & ~ev], [ev], parent=ctx)
-            e0 = (rec.y - sub.fit(cur.structure, cur).pred[0])[ev]
+            e0 = memo.get((a, b))
+            if e0 is None:
+                e0 = memo[(a, b)] = (rec.y - sub.fit(cur.structure, cur).pred[0])[ev]
             e1 = (rec.y - sub.fit(new.structure, new).pred[0])[ev]
         before = float(np.mean(e0**2))
         out.append(1.0 - float(np.mean(e1**2)) / before if before > 0 else 0.0)

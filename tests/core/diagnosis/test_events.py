@@ -52,9 +52,15 @@ def _lagged_sine(seed: int) -> Recording:
     return Recording(t=t, u=u, y=y, name="lagged-sine")
 
 
-def test_a_lag_seen_after_every_reversal_is_named() -> None:
-    res = diagnose(_lagged_sine(3), n_operators=10, effects=["lag"], auto_resolution=False)
-    assert [e.name for e in res.effects] == ["lag"]
+@pytest.fixture(scope="module")
+def lagged_diagnosis():
+    """The lag-only diagnosis of :func:`_lagged_sine` (seed 3), run once for the module
+    (its readers do not change it)."""
+    return diagnose(_lagged_sine(3), n_operators=10, effects=["lag"], auto_resolution=False)
+
+
+def test_a_lag_seen_after_every_reversal_is_named(lagged_diagnosis) -> None:
+    assert [e.name for e in lagged_diagnosis.effects] == ["lag"]
 
 
 def test_the_same_lag_seen_after_one_event_only_is_not_named(monkeypatch) -> None:
@@ -69,15 +75,41 @@ def test_the_same_lag_seen_after_one_event_only_is_not_named(monkeypatch) -> Non
     assert [s["effect"] for s in res.suggestive] == ["lag"]
 
 
-@pytest.mark.parametrize("seed", [3])
-def test_event_gains_of_a_real_lag_are_positive_after_most_events(seed: int) -> None:
-    res = diagnose(_lagged_sine(seed), n_operators=10, effects=["lag"], auto_resolution=False)
+def test_event_gains_of_a_real_lag_are_positive_after_most_events(lagged_diagnosis) -> None:
+    res = lagged_diagnosis
     from core.diagnosis.context import FitContext
 
     ctx = FitContext(res.records, res.train, res.test)
     g = judge.event_gains(ctx, res.baseline, res.final)
     assert len(g) >= 8
     assert sum(x >= RULE.min_gain for x in g) >= 0.75 * len(g)
+
+
+def test_the_current_models_refits_serve_every_candidate_judged_on_it(lagged_diagnosis,
+                                                                       monkeypatch) -> None:
+    """Rule 14 refits the current model once per held-out event window, not once per
+    candidate: a second candidate judged on the same current model refits only itself and
+    gets the gains a first one would."""
+    from core.diagnosis.context import FitContext
+
+    res = lagged_diagnosis
+    ctx = FitContext(res.records, res.train, res.test)
+    fitted = []
+    real = FitContext.fit
+
+    def counting(self, s, cur=None):
+        if self is not ctx:
+            fitted.append(s)
+        return real(self, s, cur)
+
+    monkeypatch.setattr(FitContext, "fit", counting)
+    g = judge.event_gains(ctx, res.baseline, res.final)
+    n = len(g)
+    assert fitted.count(res.baseline.structure) == n == fitted.count(res.final.structure)
+    fitted.clear()
+    assert judge.event_gains(ctx, res.baseline, res.final) == g
+    assert fitted.count(res.baseline.structure) == 0
+    assert fitted.count(res.final.structure) == n
 
 
 def test_rule_15_separability_needs_steps_or_rates() -> None:
