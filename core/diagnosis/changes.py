@@ -182,7 +182,7 @@ def weights_on_changes(ctx: FitContext, s: Structure, names: tuple[str, ...],
         return ()
     A = np.column_stack((D[:, sup], d))
     w = np.zeros(D.shape[1])
-    sol = solve_constrained(lower[sup], gram=A.T @ A)
+    sol = solve_constrained(lower[sup], gram=A.T @ A, cond_limit=COND_LIMIT)
     if sol.cond > COND_LIMIT:  # (nearly collinear slow lags: from the triangular factor)
         sol = solve_constrained(lower[sup], factor=r_factor(A))
     w[sup] = sol.theta

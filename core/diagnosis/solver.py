@@ -194,7 +194,8 @@ def solve(s: Structure, X: np.ndarray, G: np.ndarray, lower: np.ndarray, nb: int
                                              s.level_smooth * float(dg[:nb].mean()))))
     if pin.size:
         G += pin.T @ pin
-    sol = solve_constrained(lower, gram=G)
+    # (an ill-conditioned Gram matrix only gives the condition number)
+    sol = solve_constrained(lower, gram=G, cond_limit=COND_LIMIT)
     if sol.cond > COND_LIMIT:
         sol = solve_constrained(lower, factor=r_factor(np.vstack((X, pin)) if pin.size else X))
     return sol.theta

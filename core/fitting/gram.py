@@ -404,6 +404,7 @@ def solve_constrained(
     *,
     gram: Float2D | None = None,
     factor: Float2D | None = None,
+    cond_limit: float = float("inf"),
 ) -> ConstrainedSolution:
     """Least squares with lower bounds from an augmented Gram matrix or triangular factor.
 
@@ -418,6 +419,10 @@ def solve_constrained(
     gram : ndarray of shape (m, m), optional
     factor : ndarray of shape (m, m), optional
         Exactly one of ``gram`` / ``factor``.
+    cond_limit : float
+        Above this condition number the bounded solve is not made: ``theta`` and ``sse``
+        are NaN, ``cond`` is set (for a caller that then solves from a triangular factor
+        instead, which discards this solution).
 
     Returns
     -------
@@ -457,6 +462,9 @@ def solve_constrained(
     sv = np.linalg.svd(Rp, compute_uv=False)
     ratio = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
     cond = ratio * ratio if ratio < 1e150 else float("inf")  # no overflow warning
+    if cond > cond_limit:
+        return ConstrainedSolution(theta=np.full(p, np.nan), sse=float("nan"), cond=cond,
+                                   active=np.zeros(p, dtype=bool))
     zb = R[nf:p, p]
     Rb = R[nf:p, nf:p]
     if p - nf > 0:

@@ -67,3 +67,27 @@ def test_nnls_checked_keeps_the_minimum_when_scipy_stops_short(monkeypatch):
     monkeypatch.setattr(gram, "_active_set_from", lambda *a, **k: None)
     x, rnorm = gram.nnls_checked(R, z, 1000)
     assert rnorm == pytest.approx(best, rel=1e-9)
+
+
+def test_a_gram_matrix_beyond_the_condition_limit_only_gives_its_condition_number(
+        monkeypatch):
+    """With ``cond_limit`` below the condition number the bounded solve is not made (the
+    caller solves from a triangular factor instead); within it, the solution is the one
+    without a limit."""
+    rng = np.random.default_rng(5)
+    A = rng.standard_normal((200, 4))
+    A[:, 3] = A[:, 2] + 1e-7 * rng.standard_normal(200)  # nearly collinear: cond ~ 1e13
+    y = A @ np.array([1.0, 0.5, 0.2, 0.3]) + 0.01 * rng.standard_normal(200)
+    Ay = np.column_stack((A, y))
+    lower = np.array([-np.inf, 0.0, 0.0, 0.0])
+    full = gram.solve_constrained(lower, gram=Ay.T @ Ay)
+    assert full.cond > 1e10
+    calls = []
+    real = gram.nnls_checked
+    monkeypatch.setattr(gram, "nnls_checked", lambda *a: calls.append(1) or real(*a))
+    cut = gram.solve_constrained(lower, gram=Ay.T @ Ay, cond_limit=1e10)
+    assert cut.cond == full.cond and np.isnan(cut.theta).all() and np.isnan(cut.sse)
+    assert calls == []
+    kept = gram.solve_constrained(lower, gram=Ay.T @ Ay, cond_limit=10 * full.cond)
+    np.testing.assert_array_equal(kept.theta, full.theta)
+    assert kept.sse == full.sse and calls == [1]
