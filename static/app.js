@@ -63,7 +63,8 @@ async function main() {
   }
   showPresetDesc();
   const kindTitle = caps.fit_kind_titles || {};  // the registry's words, not its names
-  $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(kindTitle[k] || k, k)));
+  $("fit-kind").replaceChildren(...caps.fit_kinds.map((k) => new Option(kindTitle[k] || k, k)),
+    new Option("Automatic choice (the model hyst fit chooses)", "auto"));
   $("samples").max = caps.limits.max_samples;
   $("n").max = caps.limits.max_operators;
   $("fit-n").max = caps.limits.max_operators;

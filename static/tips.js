@@ -29,7 +29,7 @@ const TIPS = {
   "timing-resample": "Interpolate the samples onto evenly spaced time stamps (the step shown)",
   "timing-keep": "Use the time stamps as they are in the file",
   "use-csv": "Load the recording with this column mapping",
-  "run-pick": "Which run of the file to use, or all rows as one recording",
+  "run-pick": "Which run of the file to use, every run as its own loop (fitted together), or all rows as one recording",
   "fit-kind": "Which model type the fit identifies",
   "fit-n": "Number of operators of the fitted model",
   fit: "Fit the chosen model to the recording (it replaces the session's model)",

@@ -106,7 +106,7 @@ export async function useCsv(run) {
     setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples${r.time_steps ? `; ${r.time_steps}` : ""}.`, true);
     state.diagFigure = null;  // the diagnosis of another recording is gone
     $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
-    showRuns(r.runs || [], run === "all" ? "all" : r.run);
+    showRuns(r.runs || [], run === "all" || run === "each" ? run : r.run);
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {
@@ -143,6 +143,7 @@ function showRuns(runs, kept) {
   $("runs").hidden = runs.length < 2;
   if (runs.length < 2) return;
   pick.replaceChildren(...runs.map((r) => new Option(`run ${r}`, String(r))),
+    new Option(`all ${runs.length} runs, each its own loop (fitted together, as hyst fit does)`, "each"),
     new Option(`all ${runs.length} runs as one recording`, "all"));
   pick.value = kept === null || kept === undefined ? String(runs[0]) : String(kept);
 }

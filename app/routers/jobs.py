@@ -57,7 +57,7 @@ def start_job(request: Request, session: Session, settings: Settings, kind: str,
         except ValidationError as exc:
             raise HTTPException(422, exc.errors(include_url=False, include_context=False)
                                 ) from None
-        if body.n > settings.max_operators:
+        if body.n is not None and body.n > settings.max_operators:
             raise HTTPException(
                 422, f"n = {body.n} exceeds max_operators = {settings.max_operators}")
         task = tasks.fit_task(session, body.n, body.kind, body.apply)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.services.analysis.diagnosis import SessionDiagnosis
+from app.services.analysis.fit_words import fit_words
 from app.services.analysis.fitting import FitResult
 from app.services.analysis.recordings import TIMING_CHOICES, CsvPreview, Timing
 from app.services.explore.config import Config, SignalSpec
@@ -224,8 +225,11 @@ class FitIn(BaseModel):
     """Fit request on the session's uploaded recording."""
 
     model_config = ConfigDict(extra="forbid")
-    kind: str = Field("pi", description="model kind to fit, see GET /api/capabilities")
-    n: int = Field(10, ge=1, description="number of play operators (limit: max_operators)")
+    kind: str = Field("pi", description="model kind to fit, see GET /api/capabilities, or "
+                                         "'auto': the model hyst fit chooses")
+    n: int | None = Field(10, ge=1, description="number of play operators (limit: "
+                                                "max_operators); null: chosen by "
+                                                "cross-validation, as hyst fit does")
     apply: bool = Field(True, description="make the fitted model the session's model")
 
 
@@ -482,7 +486,8 @@ def _finite(x: Any) -> Any:
 def fit_report_json(fit: FitResult) -> dict[str, Any]:
     """The ``report`` of :class:`FitOut`: the outcome's ``FitReport.to_dict()`` (NaN as
     ``null``) plus the errors on the whole recording, the number of operators asked for,
-    the kind and the output unit in words."""
+    the kind, the output unit in words and what the page says about the fit
+    (:func:`~app.services.analysis.fit_words.fit_words`)."""
     return {
         **_finite(fit.outcome.report.to_dict()),
         "rms_error": fit.rms_error,
@@ -491,6 +496,7 @@ def fit_report_json(fit: FitResult) -> dict[str, Any]:
         "n_operators": fit.n_operators,
         "kind": fit.outcome.kind,
         "output_unit": fit.output_unit,
+        "words": dataclasses.asdict(fit_words(fit.outcome, fit.output_unit)),
     }
 
 

@@ -7,6 +7,7 @@ as a job whose progress bar and message move, and Cancel stops it (the server's 
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -84,8 +85,9 @@ def test_fit_job_result_shown(browser: Any, live_server: dict, shot: Any) -> Non
     # the page shows the job's own result: its RMS error and its overlay figure
     rms = job.result.rms_error  # typed in the server, JSON at the REST edge
     shown = page.inner_text("#report")
-    assert shown.startswith("Fit: RMS error ")
-    assert float(shown.split()[3].rstrip(",")) == pytest.approx(rms, rel=1e-3)
+    assert shown.startswith("Fit: Classical PI model, 8 operators. Held-out error"), shown
+    every_row = re.search(r"On every row: RMS error ([\d.e+-]+)", shown)
+    assert every_row and float(every_row.group(1)) == pytest.approx(rms, rel=1e-3), shown
     names = page.evaluate("() => document.getElementById('figure')._fullData.map(t => t.name)")
     assert names == [t.get("name") for t in job.result.figure.data]
     fitted = _session(app, page).fitted  # a core Model in the session, JSON in the job

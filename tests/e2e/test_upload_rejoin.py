@@ -28,7 +28,9 @@ def test_cleaning_notes_and_run_picker(browser: Any, live_server: dict, tmp_path
     assert not any("run=" in n for n in notes), notes  # no API argument names
     page.wait_for_selector("#runs:not([hidden])")
     options = page.locator("#run-pick option").all_inner_texts()
-    assert options == ["run 0", "run 1", "run 2", "run 3", "all 4 runs as one recording"]
+    assert options == ["run 0", "run 1", "run 2", "run 3",
+                       "all 4 runs, each its own loop (fitted together, as hyst fit does)",
+                       "all 4 runs as one recording"]
     assert page.input_value("#run-pick") == "0"
     shot(page, "web-upload-runs")
     page.select_option("#run-pick", "2")

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
+from app.services.analysis.loops import file_recordings
 from app.services.runs.inputs import CommandError, parse_window
 from app.services.words import unit_words
 
@@ -38,6 +39,7 @@ __all__ = [
     "fit_result",
     "FitSource",
     "fit_source",
+    "fitted_output",
     "say_fit",
     "time_window",
 ]
@@ -76,7 +78,7 @@ class FitResult:
         return None if n is None else int(n)
 
 
-def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
+def fit_recording(rec: Recording, n: int | None, kind: str = "pi") -> FitOutcome:
     """Fit a model of ``kind`` with ``n`` operators to ``rec``: the outcome without its
     estimator: what a session keeps (:meth:`~app.services.session.sessions.Session.set_fit`;
     it pickles, so a job's worker sends it back as it is; the store keeps its parameter set
@@ -87,7 +89,10 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
     held out and the initial memory as the kind's default (``"exclude"``: the training rows
     before the wipe-out time left out of the weight fit, where the kind can; the report's
     ``memory_note`` says so). Its ``model`` is the fitted output offset included, as a
-    chain.
+    chain. ``n`` ``None`` chooses the number of operators by cross-validation and ``kind``
+    ``"auto"`` the model (``hyst fit``'s defaults). The recordings fitted are those ``hyst
+    fit`` reads from the file (:func:`.loops.file_recordings`): each run of an upload that
+    kept them all, on sample numbers where the file has no time column.
 
     Raises
     ------
@@ -97,15 +102,30 @@ def fit_recording(rec: Recording, n: int, kind: str = "pi") -> FitOutcome:
     """
     from core.fitting import fit_recordings
 
-    out = fit_recordings([rec], kind, n_operators=n)
+    out = fit_recordings(file_recordings(rec), kind, n_operators=n)
     return replace(out, estimator=None)
+
+
+def fitted_output(out: FitOutcome, rec: Recording) -> np.ndarray:
+    """The output of the fit ``out``'s model over ``rec``, shape ``(n_samples,)``: each run
+    (:func:`.loops.file_recordings`) started as the fit started it: from the memory its own
+    cycle leaves when it is in periodic steady state (the warm-up run first, its output
+    dropped), else relaxed at its first sample."""
+    from core.fitting.steadystate import SteadyStart
+
+    runs = file_recordings(rec)
+    start = SteadyStart.of(runs)
+    warm = start.warm or tuple(np.zeros(0) for _ in runs)
+    return np.concatenate([np.asarray(out.model(np.concatenate((w, r.u))))[w.size:]
+                           for w, r in zip(warm, runs, strict=True)])
 
 
 def fit_result(out: FitOutcome, rec: Recording, figure: FigureJSON | None = None
                ) -> FitResult:
     """The :class:`FitResult` of the fit ``out`` of ``rec``: its model's errors on the whole
-    recording, the output unit in words, and ``figure``."""
-    res = rec.y - out.model(rec.u)
+    recording (each run started as the fit started it: :func:`fitted_output`), the output
+    unit in words, and ``figure``."""
+    res = rec.y - fitted_output(out, rec)
     rms = float(np.sqrt(np.mean(res**2)))
     return FitResult(out, rms, float(np.max(np.abs(res))),
                      float(100 * rms / (float(np.ptp(rec.y)) or 1.0)),

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app.services.analysis.columns import column_spec
+from app.services.analysis.loops import keep_runs
 from app.services.runs.inputs import CommandError, existing_file
 from core.csvio import CSVError, CsvOptions, UnevenTimeError, inspect_csv_text, read_csv_text
 from core.recordings import Recording
@@ -228,7 +229,9 @@ def read_upload(
     Columns are names or 0-based indices (digit strings count as indices); unmapped roles
     are chosen by the core reader. A file without a time column gets ``t = k * dt``. A file
     with a run column holds several recordings: ``run`` chooses one by its id, ``"all"``
-    reads every row as one recording in file order; without ``run`` the first run is kept.
+    reads every row as one recording in file order, ``"each"`` too with each row marked by
+    its run (:func:`.loops.keep_runs`: a fit fits the runs as separate recordings, as ``hyst
+    fit FILE`` does); without ``run`` the first run is kept.
     Either way a cleaning note says which run was kept and how to choose another.
 
     Uneven time stamps need a choice: ``timing="resample"`` interpolates onto an even grid
@@ -254,10 +257,15 @@ def read_upload(
         resample = True if step is None else float(step)
     try:
         options = CsvOptions(time=column_spec(t_col), input=column_spec(u_col),
-                             output=column_spec(y_col), run=False if run == "all" else None,
+                             output=column_spec(y_col), run=None,
                              max_rows=max_samples, resample=resample,
                              uneven="keep" if timing == "keep" else "error")
         recs = read_csv_text(content, options, name=name)
+        if run in ("all", "each"):  # every row as one recording (the runs read above)
+            split = recs
+            recs = read_csv_text(content, replace(options, run=False), name=name)
+            if run == "each" and len(split) > 1:
+                recs = [keep_runs(recs[0], split)]
     except UnevenTimeError as exc:
         raise UnevenUpload(Timing.of(exc), exc.source) from None
     except CSVError as exc:
@@ -269,8 +277,9 @@ def read_upload(
                            "without the choice to resample", source=exc.source) from None
         raise
     recs = [replace(r, cleaning=tuple(_words(c) for c in r.cleaning)) for r in recs]
-    runs = tuple(str(r.run) for r in recs) if len(recs) > 1 or recs[0].run is not None else ()
-    if run not in (None, "all"):
+    read = split if run in ("all", "each") else recs
+    runs = tuple(str(r.run) for r in read) if len(read) > 1 or read[0].run is not None else ()
+    if run not in (None, "all", "each"):
         if str(run) not in runs:
             raise CSVError(
                 f"run={run!r} is not in this file; its runs are {', '.join(runs) or 'none'}"
@@ -279,20 +288,33 @@ def read_upload(
         rec = recs[runs.index(str(run))]
     else:
         rec = recs[0]
-    if run == "all":
-        rec = replace(rec, cleaning=(*rec.cleaning, "read every row as one recording "
-                                     "(run=all): a run column, if any, was not used"))
-    elif len(runs) > 1:
-        col = rec.columns.get("run", "run")
-        rec = replace(rec, name=f"{name} (run {rec.run}; {runs.index(str(rec.run)) + 1} of "
-                                f"{len(runs)})",
-                      cleaning=(*rec.cleaning, f"the file holds {len(runs)} runs (column "
-                                f"{col!r}: {', '.join(runs)}); kept run {rec.run}; pass "
-                                "run=<id> to choose another or run=all to read every row"))
+    rec = _kept(rec, run, runs, name)
     if not rec.has_time:
         rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})
     return Upload(rec, runs, _time_steps(rec))
 
+
+
+def _kept(rec: Recording, run: str | None, runs: tuple[str, ...], name: str) -> Recording:
+    """``rec`` named for what of the file's ``runs`` it keeps, with a cleaning note saying so
+    (``run``: :func:`read_upload`'s choice)."""
+    col = rec.columns.get("run", "run")
+    if run == "each" and len(runs) > 1:
+        return replace(rec, name=f"{name} (all {len(runs)} runs, each its own loop)",
+                       cleaning=(*rec.cleaning, f"kept all {len(runs)} runs of the file "
+                                 f"(column {col!r}: {', '.join(runs)}), each its own loop: a "
+                                 "fit fits them together, each run starting on its own, as "
+                                 "hyst fit reads the file"))
+    if run in ("all", "each"):
+        return replace(rec, cleaning=(*rec.cleaning, "read every row as one recording "
+                                      "(run=all): a run column, if any, was not used"))
+    if len(runs) > 1:
+        return replace(rec, name=f"{name} (run {rec.run}; {runs.index(str(rec.run)) + 1} of "
+                                 f"{len(runs)})",
+                       cleaning=(*rec.cleaning, f"the file holds {len(runs)} runs (column "
+                                 f"{col!r}: {', '.join(runs)}); kept run {rec.run}; pass "
+                                 "run=<id> to choose another or run=all to read every row"))
+    return rec
 
 def _time_steps(rec: Recording) -> str | None:
     """What the reader did with uneven time stamps (from its cleaning notes), in words."""

@@ -31,20 +31,25 @@ __all__ = ["Refused", "diagnose_task", "fit_task", "run_diagnosis", "run_figures
            "run_result"]
 
 
-def run_fit(rec: Recording, n: int, kind: str, *, progress: Progress) -> FitResult:
+def run_fit(rec: Recording, n: int | None, kind: str, *, progress: Progress) -> FitResult:
     """Fit ``rec`` (:func:`.fitting.fit_recording`) and draw the overlay figure: the typed
     :class:`~app.services.analysis.fitting.FitResult` (the outcome without its estimator,
     the errors on the whole recording, the figure) goes back to the server as it is, which
     keeps the outcome in the session (:func:`fit_task`)."""
-    from app.services.analysis.fitting import fit_recording, fit_result
+    from app.services.analysis.fitting import fit_recording, fit_result, fitted_output
+    from app.services.analysis.loops import on_samples
     from app.services.explore import figures as F
     from app.services.words import type_words
 
-    name = type_words(kind)
-    progress(0.05, f"fitting a {name[:1].lower() + name[1:]} with {n} operators")
+    what = ("choosing the model as hyst fit does" if kind == "auto" else
+            f"fitting a {type_words(kind)[:1].lower() + type_words(kind)[1:]}")
+    many = "choosing the number of operators" if n is None else f"with {n} operators"
+    progress(0.05, f"{what}, {many}")
     out = fit_recording(rec, n, kind)
     progress(0.9, "building the figure")
-    fig = F.fit_figure(rec, out.model(rec.u), f"fitted: {name}, {n} operators")
+    used = out.report.extra.get("n_operators", n)
+    fig = F.fit_figure(on_samples(rec), fitted_output(out, rec),
+                       f"fitted: {type_words(out.kind)}, {used} operators")
     return fit_result(out, rec, fig)
 
 
@@ -120,7 +125,7 @@ def _recording(session: Session, what: str) -> Recording:
     return rec
 
 
-def fit_task(session: Session, n: int, kind: str, apply: bool) -> Task:
+def fit_task(session: Session, n: int | None, kind: str, apply: bool) -> Task:
     """The task of a fit of ``session``'s recording; kept: the fit is stored (the diagnosis
     dropped; with ``apply`` the fitted model becomes the session's model). The job's result
     is the typed :class:`~app.services.analysis.fitting.FitResult` (the REST API's JSON of
