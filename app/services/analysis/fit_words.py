@@ -24,15 +24,20 @@ _COMMANDS = (
     (re.compile(r"\bfit --model (\S+?)([,;.)]?)(?=\s|$)"), r"choose \1 in the fit menu\2"),
     (re.compile(r"--model (\S+?)([,;.)]?)(?=\s|$)"), r"\1 (fit menu)\2"),
     (re.compile(r"--constraint slopes"), "with weights of either sign"),
-    (re.compile(r"--train and --test windows"), "a recording to hold out"),
+    # (the page holds out the last 20 %: other windows and memory rules are the command's)
+    (re.compile(r"choose --train and --test windows"),
+     "fit the file with the command line's hyst fit and its --train and --test windows"),
+    (re.compile(r"(?<!hyst fit )--initial-memory keep"),
+     "the command line's hyst fit --initial-memory keep"),
     (re.compile(r"\bhyst diagnose\b"), "the diagnosis (Run diagnosis)"),
-    (re.compile(r"\bhyst fit\b"), "the fit"),
+    (re.compile(r"\bmin_slope\b"), "minimum slope"),
 )
 
 
 def page_words(text: str) -> str:
-    """``text`` of a fit report in the page's words: the model types in words and the
-    command line's options as the page's controls."""
+    """``text`` of a fit report in the page's words: the model types in words, the command
+    line's options as the page's controls, and advice the page cannot follow (other
+    held-out windows, the initial-memory rule) as the command line's."""
     for pattern, repl in _COMMANDS:
         text = pattern.sub(repl, text)
     return in_words(text)

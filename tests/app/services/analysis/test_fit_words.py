@@ -19,11 +19,15 @@ def _leaks(text: str) -> list[str]:
 def test_command_line_words_become_the_page_s() -> None:
     text = ("No other base tried predicted better; hyst diagnose may name the missing "
             "effect. Another fit kind (--model auto chooses one), or fit --model stop-pi, "
-            "or --model bouc-wen; choose --train and --test windows")
+            "or --model bouc-wen; choose --train and --test windows; loop slope S1 sits on "
+            "its lower bound min_slope = 1.6e-06: consider a larger min_slope")
     said = page_words(text)
-    for word in ("--", "hyst diagnose", "stop-pi", "bouc-wen"):
+    for word in ("--model", "--constraint", "hyst diagnose", "stop-pi", "bouc-wen",
+                 "min_slope"):
         assert word not in said, (word, said)
     assert "Run diagnosis" in said and "fit menu" in said
+    # the windows the page cannot choose: the command line's, said so
+    assert "the command line's hyst fit and its --train and --test windows" in said
     assert _leaks(said) == [], said
 
 
