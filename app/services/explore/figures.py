@@ -155,6 +155,8 @@ def _unit(units: dict[str, str] | None, role: str) -> str:
 
 def _ax(units: dict[str, str] | None, role: str, label: str | None = None) -> dict[str, Any]:
     """An axis title with quantity and unit, e.g. ``input u [V]``."""
+    if role == "time" and label is None and _unit(units, role) == "sample":
+        return {"text": "sample number (the file has no time column)"}
     text = label or {"time": "time t", "input": "input u", "output": "output y"}[role]
     return {"text": f"{text} [{_unit(units, role)}]"}
 
@@ -385,14 +387,24 @@ def _wrap(text: str, width: int = 90) -> str:
 
 
 def fit_figure(rec: Recording, y_fit: np.ndarray, label: str = "fit") -> FigureJSON:
-    """Measured vs fitted output over time and the residual, plus the loop overlay."""
+    """Measured vs fitted output over time and the residual, plus the loop overlay; a
+    recording that holds several runs of its file (extra channel ``"run position"``, see
+    :mod:`app.services.analysis.loops`) is drawn with a gap between runs, never a line
+    joining the end of one loop to the start of the next."""
     idx = decimate_index(rec.u, MAX_POINTS)
-    t = _num(rec.t[idx])
     res = rec.y - y_fit
+    position = rec.extra.get("run position")
+    cut = (np.flatnonzero(np.diff(np.asarray(position)[idx]) != 0) + 1
+           if position is not None else np.zeros(0, dtype=int))
+
+    def gapped(a: np.ndarray) -> dict[str, str]:
+        return _num(np.insert(np.asarray(a, dtype=float)[idx], cut, np.nan))
+
+    u = gapped(rec.u)
     data = [
-        _line(_num(rec.u[idx]), _num(rec.y[idx]), "measured", _GREY, xaxis="x", yaxis="y"),
-        _line(_num(rec.u[idx]), _num(y_fit[idx]), label, _ORANGE, xaxis="x", yaxis="y"),
-        _line(t, _num(res[idx]), "residual y − ŷ", _RED, xaxis="x2", yaxis="y2"),
+        _line(u, gapped(rec.y), "measured", _GREY, xaxis="x", yaxis="y"),
+        _line(u, gapped(y_fit), label, _ORANGE, xaxis="x", yaxis="y"),
+        _line(gapped(rec.t), gapped(res), "residual y − ŷ", _RED, xaxis="x2", yaxis="y2"),
     ]
     rms = float(np.sqrt(np.mean(res**2)))
     un = dict(rec.units)

@@ -56,3 +56,36 @@ def test_the_time_views_legend_goes_above_in_projector_mode() -> None:
     assert fig.layout["legend"]["yref"] == "container" and fig.layout["legend"]["y"] == 0
     leg = F.large_text(fig).layout["legend"]
     assert leg["yref"] == "paper" and leg["y"] >= 1 and leg["yanchor"] == "bottom"
+
+
+def test_a_fit_of_several_loops_draws_each_loop_apart_on_sample_numbers() -> None:
+    """Two closed loops of one file kept together (each row marked by its run, as an upload
+    of every run keeps them): the overlay and the residual break between the loops (NaN
+    gaps: no line from the end of one loop to the start of the next), every measured point
+    is drawn once, and a file without a time column gets a sample axis, not 'time'."""
+    from dataclasses import replace
+
+    from app.services.analysis.loops import RUN_POSITION, on_samples
+    from core.recordings import Recording
+
+    k = np.arange(200)
+    u = np.concatenate([np.cos(2 * np.pi * k / 200), 3.0 * np.cos(2 * np.pi * k / 200)])
+    y = np.tanh(u)
+    rec = Recording(np.arange(400) * 1e-3, u, y, "loops.csv", units={"input": "A/m",
+                                                                   "output": "T"})
+    rec = replace(rec, extra={RUN_POSITION: np.repeat([0.0, 1.0], 200)},
+                  columns={**rec.columns, "time": ""})
+    fig = F.fit_figure(on_samples(rec), 0.9 * y, "fit").to_dict()
+    measured, fitted, residual = fig["data"]
+    for trace in (measured, fitted, residual):
+        x, yy = F.values(trace["x"]), F.values(trace["y"])
+        gaps = np.flatnonzero(np.isnan(yy))
+        assert gaps.size == 1 and np.isnan(x[gaps[0]])  # one gap, between the two loops
+        assert x[gaps[0] - 1] == pytest.approx(u[199] if trace is not residual else 199)
+    np.testing.assert_allclose(np.sort(F.values(measured["y"])[~np.isnan(
+        F.values(measured["y"]))]), np.sort(y[F.decimate_index(u)]), rtol=1e-6)
+    assert fig["layout"]["xaxis2"]["title"]["text"].startswith("sample number")
+    # one run, with a time column: no gap, and the time axis in seconds
+    one = F.fit_figure(Recording(rec.t[:200], u[:200], y[:200], "one"), y[:200]).to_dict()
+    assert not np.isnan(F.values(one["data"][0]["y"])).any()
+    assert one["layout"]["xaxis2"]["title"]["text"] == "time t [s]"
