@@ -77,9 +77,11 @@ def settling_limit(pred: Sequence[Float1D], res: Sequence[Float1D],
     -------
     float
         ``gamma`` (a fraction of a step per decade); ``inf`` when the lags do not change
-        from cycle to cycle over the pairs (or there are none), ``0`` when the residual
-        does not change.
+        from cycle to cycle over the pairs (or there are no pairs or no lags), ``0`` when the
+        residual does not change.
     """
+    if not len(taus):
+        return math.inf
     dl2, de2, n = 0.0, 0.0, 0
     for p, e, (a, b), h in zip(pred, res, pairs, dt, strict=True):
         if not len(a):

@@ -170,7 +170,8 @@ class BaseChoice:
         for name, (k, c) in CANDIDATE_KINDS.items():
             if k == kind and (k != "pi" or c == self.constraint) and name in self.cv_mse:
                 return self.cv_mse[name]
-        return None
+        # a constraint the user gave: the PI was scored with it, under the name "pi"
+        return self.cv_mse.get("pi") if kind == "pi" else None
 
     @property
     def better(self) -> tuple[str, float] | None:
@@ -368,7 +369,8 @@ def choose_base(
         mse_map = (score(MAP, "mpi", "nonnegative", n_operators)
                    if gain_p >= PREISACH_MIN_GAIN or not orient.clockwise else float("inf"))
         gain_m = 1.0 - mse_map / base
-        if gain_p >= PREISACH_MIN_GAIN and 1.0 - mse_p / mse_map >= PREISACH_OVER_MAP:
+        if gain_p >= PREISACH_MIN_GAIN and 1.0 - mse_p / max(mse_map, 1e-300) >= \
+                PREISACH_OVER_MAP:
             kind, gain = "preisach", gain_p
         elif gain_m >= PREISACH_MIN_GAIN and not orient.clockwise:
             kind, gain = "mpi", gain_m  # (a play-based map: counter-clockwise loops only)

@@ -426,10 +426,8 @@ def _extrapolation(est: Any, recs: Sequence[Recording], rows: _FitRows,
     excluded = isinstance(mem, dict) and bool(mem.get("excluded_train_rows"))
     if excluded:
         assert isinstance(mem, dict)
-        # (the wipe-out times count the warm-up samples of a steady-state start)
-        shift = mem.get("warm_up_samples") or [0] * len(fitted)
-        fitted = [m & (np.arange(m.size) >= int(tw) - int(w))
-                  for m, tw, w in zip(fitted, mem["wipeout_index"], shift, strict=True)]
+        fitted = [m & (np.arange(m.size) >= int(tw))
+                  for m, tw in zip(fitted, mem["wipeout_index"], strict=True)]
     return extrapolation([r.u for r in recs], [r.t for r in recs], fitted,
                          list(prep.test_masks), [r.name for r in recs],
                          [r.has_time for r in recs], excluded=excluded)

@@ -116,7 +116,11 @@ def warm_up(history: tuple[float, ...], first: float,
     from the memory the recording's own cycle leaves.
 
     The model starts relaxed at input 0 (as ``hyst diagnose``'s play operators start before
-    their virtual history), follows a straight ramp of ``n`` samples to each extreme of
+    their virtual history), or, where the cycle does not reach 0 (a unipolar drive), at the
+    cycle's input nearest 0, so that the warm-up never travels further than the cycle does
+    (the estimators place their thresholds on the travels of the input they are fitted on,
+    warm-up included: a ramp from 0 to a cycle at 10-150 V would widen them past every
+    travel of the recording). It follows a straight ramp of ``n`` samples to each extreme of
     ``history`` in turn and then towards ``first``, stopping one step short of it (the
     recording's first sample follows). The operators narrower than half the cycle's input
     range end in the state the cycle leaves whatever came before; the wider ones, which the
@@ -135,12 +139,13 @@ def warm_up(history: tuple[float, ...], first: float,
     Returns
     -------
     ndarray of shape (m,)
-        The warm-up input, starting at 0 (``m = n * (len(history) + 1)``; 0 when
-        ``history`` is empty).
+        The warm-up input, starting at 0 or the cycle's input nearest 0
+        (``m = n * (len(history) + 1)``; 0 when ``history`` is empty).
     """
     if not history:
         return np.zeros(0)
-    points = [0.0, *map(float, history), float(first)]
+    start = float(np.clip(0.0, min(history), max(history)))
+    points = [start, *map(float, history), float(first)]
     legs = [np.linspace(a, b, n, endpoint=False) for a, b in zip(points[:-1], points[1:],
                                                                strict=True)]
     return np.concatenate(legs)
@@ -234,15 +239,20 @@ class SteadyStart:
         text = (f"initial memory: {which} in periodic steady state (a closed loop, or one "
                 "input cycle repeated with its output already repeating), so the model starts "
                 "from the memory its own cycle leaves, as hyst diagnose starts it: relaxed at "
-                "input 0, then run through the cycle's two extremes to the first sample "
+                "input 0 (or at the cycle's input nearest 0 where the cycle does not reach it), "
+                "then run through the cycle's two extremes to the first sample "
                 f"({hist}; ramps of {WARM_UP_SAMPLES} samples, neither fitted nor scored). "
-                "Replay a recording with the saved model the same way: 0, the extremes, then "
-                "the recording")
+                "Replay a recording with the saved model the same way: that start, the "
+                "extremes, then the recording")
         if len(steady) == len(recs):
             text += ". Every row is used for the weights (no unknown initial memory)"
         elif "summary" in note:
             text += (". The other recordings start relaxed at their first sample "
                      f"({note['summary']})")
+        if isinstance(note.get("wipeout_index"), list):
+            # the estimator counted the warm-up rows: in the recordings' own numbering
+            note["wipeout_index"] = [max(int(tw) - int(w.size), 0) for tw, w in zip(
+                note["wipeout_index"], self.warm, strict=True)]
         note.update(summary=text, steady_state=[list(h) for h in self.history],
                     warm_up_samples=[int(w.size) for w in self.warm])
         return note

@@ -133,3 +133,12 @@ def test_fit_and_diagnosis_choose_one_family_on_the_steel_loops() -> None:
     map); the fit's PI with an output map is the same family."""
     recs = _bh("M130-27s_GO_steel")
     assert choose_base(recs).family == _diagnosis_family(recs) == "pi"
+
+
+def test_the_advice_with_a_constraint_the_user_gave_compares_the_pi_it_fitted() -> None:
+    """With ``--constraint slopes`` the PI is scored with it under the name "pi" (no
+    free-sign candidate is tried): a clearly better Preisach is still named."""
+    ccw = LoopOrientation("counter-clockwise", 1.0, 0.5)
+    got = BaseChoice("pi", "slopes", ccw, {"pi": 1.0, "preisach": 0.7, MAP: 0.85,
+                                           "bouc-wen": 1.1}, "folds").advice
+    assert "No other base" not in got and "preisach predicted the recordings 30 % better" in got

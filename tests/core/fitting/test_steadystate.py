@@ -89,3 +89,34 @@ def test_warm_up_ramps_through_the_extremes_to_the_first_sample() -> None:
     assert np.allclose(w, [0.0, -0.25, -0.5, -0.75, -1.0, -0.25, 0.5, 1.25, 2.0, 1.625, 1.25,
                            0.875])
     assert warm_up((), 0.5).size == 0
+
+
+def test_a_unipolar_cycle_warms_up_inside_its_range_and_keeps_its_thresholds() -> None:
+    """A steady cycle that does not reach input 0 (a drive at 2-4, like a unipolar piezo
+    amplifier): the warm-up starts at the cycle's input nearest 0, never further than the
+    cycle travels, so the plays are placed on the cycle's own travels (all narrower than its
+    half-range of 1) and the fit is as good as that of the same rows started relaxed."""
+    k = np.arange(4 * N)
+    u = 3.0 + np.cos(2 * np.pi * k / N)
+    y = _plant(np.concatenate((u[:N], u)), np.zeros(R.size))[N:]
+    y = y + 5e-4 * np.ptp(y) * np.random.default_rng(3).standard_normal(y.size)
+    rec = Recording(np.arange(y.size, dtype=float), u, y, "unipolar", has_time=False)
+    assert sorted(steady_state_history(rec)) == [2.0, 4.0]
+    w = SteadyStart.of([rec]).warm[0]
+    assert w[0] == 2.0 and w.min() >= 2.0 and w.max() <= 4.0
+    out = fit_recordings(rec, "pi", n_operators=12)
+    r = np.asarray(out.parameter_set.model.to_dict()["stages"][0]["thresholds"])
+    assert r.max() < 1.0  # (a ramp from 0 placed them up to 1.8: half never moved)
+    # the same recording with its first rows perturbed (not in steady state: relaxed start)
+    rough = Recording(rec.t, np.concatenate((np.full(30, 3.0), u[30:])), y, "rough",
+                      has_time=False)
+    ref = fit_recordings(rough, "pi", n_operators=12)
+    assert out.report.test.rmse < 2.0 * ref.report.test.rmse
+    # the stored wipe-out time counts the recording's own rows, not the warm-up's
+    tw = out.report.extra["initial_memory"].get("wipeout_index")
+    assert tw is None or max(tw) <= rec.n_samples
+
+
+def test_warm_up_of_a_cycle_around_zero_starts_at_zero() -> None:
+    assert warm_up((-1.0, 2.0), 0.5, n=2)[0] == 0.0
+    assert warm_up((5.0, 7.0), 6.0, n=2)[0] == 5.0 and warm_up((-7.0, -5.0), -6.0, n=2)[0] == -5.0
