@@ -67,6 +67,7 @@ import numpy as np
 from ..exceptions import NotInvertibleError, ParameterError
 from ..recordings import Recording
 from ..warning_filters import FILTERS
+from .estimator import without_compensation_scores
 from .orientation import LoopOrientation, loop_orientation
 from .steadystate import SteadyStart
 
@@ -283,7 +284,7 @@ def _cv_mse(kind: str, constraint: str, recs: Sequence[Recording],
         est = cls(n_operators=n_operators, constraint=constraint, initial_memory="keep",
                   **CANDIDATE_OPTIONS.get(kind, {}))
         try:
-            with FILTERS, warnings.catch_warnings():
+            with FILTERS, warnings.catch_warnings(), without_compensation_scores():
                 warnings.simplefilter("ignore")
                 if len(use) > 1:
                     est.fit([us[k] for k in use], [ys[k] for k in use],

@@ -142,3 +142,23 @@ def test_the_advice_with_a_constraint_the_user_gave_compares_the_pi_it_fitted() 
     got = BaseChoice("pi", "slopes", ccw, {"pi": 1.0, "preisach": 0.7, MAP: 0.85,
                                            "bouc-wen": 1.1}, "folds").advice
     assert "No other base" not in got and "preisach predicted the recordings 30 % better" in got
+
+
+def test_the_candidates_are_fitted_without_running_their_inverse(monkeypatch) -> None:
+    """The choice reads only each candidate's predictions: every candidate fit runs with the
+    compensation scores off (the inverse is built, not run over every sample), and the
+    choice is the one a scored run makes."""
+    import core.fitting.estimator as E
+
+    recs = _bh("MnZn_HP_ferrite")
+    scored = []
+    fit = E.Estimator.fit
+
+    def spy(self, *a, **k):
+        scored.append(E._COMPENSATION_SCORED.get())
+        return fit(self, *a, **k)
+
+    monkeypatch.setattr(E.Estimator, "fit", spy)
+    got = choose_base(recs)
+    assert scored and not any(scored)
+    assert got.kind == "gpi-tanh"
