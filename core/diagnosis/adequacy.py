@@ -321,7 +321,9 @@ def _shape_words(records: Sequence[Recording], shapes: list[LoopShapeFit],
     rate (:func:`rate_trend`), which names where the cause lies; ``left``: what the
     recordings show that no rate-independent memory base follows
     (:meth:`core.fitting.physicsleft.PhysicsLeft.text`), said in every case."""
-    also = f" The recordings show physics no rate-independent base follows: {left}." if left else ""
+    from ..fitting.physicsleft import left_sentence
+
+    also = left_sentence(left)
     better = [f for f in shapes if f.rmse < 0.8 * rmse]
     if better:
         b = better[0]

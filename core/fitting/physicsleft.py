@@ -20,7 +20,7 @@ from ..recordings import Recording
 from .cyclechange import CycleChange, cycle_change
 from .masing import Masing, masing
 
-__all__ = ["PhysicsLeft", "physics_left", "physics_left_sentence"]
+__all__ = ["PhysicsLeft", "left_sentence", "physics_left", "physics_left_sentence"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,12 @@ def physics_left_sentence(records: Sequence[Recording], noise: float) -> str:
     """:func:`physics_left`'s finding as a sentence of a misfit warning, in the recordings'
     units (``""`` when neither test finds anything): what ``hyst fit`` and the diagnosis's
     adequacy verdict both add after where the residual is largest."""
-    text = physics_left(records, noise).text(dict(records[0].units)) if records else ""
-    return (f" The recordings show physics no rate-independent base follows: {text}."
-            if text else "")
+    return left_sentence(physics_left(records, noise).text(dict(records[0].units))
+                         if records else "")
+
+
+def left_sentence(text: str) -> str:
+    """``text`` (:meth:`PhysicsLeft.text`) as the sentence both commands add, with its
+    leading space; ``""`` for an empty ``text``."""
+    return f" The recordings show physics no rate-independent base follows: {text}." if text \
+        else ""
