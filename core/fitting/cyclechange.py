@@ -79,6 +79,8 @@ class CycleChange:
         ``per_cycle_pct`` over its standard error.
     changes : bool
         ``|z| >= CHANGE_Z`` and the change over the cycles is at least :data:`MIN_CHANGE`.
+    timed : bool
+        The recording has a time axis (``t_span`` in s); else ``t_span`` counts samples.
     """
 
     recording: str
@@ -89,6 +91,7 @@ class CycleChange:
     mean_per_cycle: float
     z: float
     changes: bool
+    timed: bool = True
 
     def text(self) -> str:
         """The finding in words (``""`` when the loop repeats)."""
@@ -98,8 +101,10 @@ class CycleChange:
         area = ("" if not np.isfinite(self.area_per_cycle_pct) else
                 f", its enclosed area by {self.area_per_cycle_pct:+.2f} % per cycle")
         return (f"the loop changes from cycle to cycle under a repeated input ({how}): on "
-                f"{self.recording}, over {self.cycles} identical input cycles from t = "
-                f"{self.t_span[0]:.4g} to {self.t_span[1]:.4g} s, its peak-to-peak output "
+                f"{self.recording}, over {self.cycles} identical input cycles "
+                + (f"from t = {self.t_span[0]:.4g} to {self.t_span[1]:.4g} s" if self.timed else
+                   f"from sample {self.t_span[0]:.0f} to {self.t_span[1]:.0f}")
+                + ", its peak-to-peak output "
                 f"changes by {self.per_cycle_pct:+.2f} % per cycle (z = {self.z:.1f}){area}; "
                 "a rate-independent memory base repeats a repeated cycle exactly (a drift "
                 "or creep would shift the loop's mean, not its size); fit the cycles after the "
@@ -163,7 +168,7 @@ def cycle_change_of(rec: Recording, noise: float) -> CycleChange | None:
         np.ptp(us)) else float("nan")
     t = np.asarray(rec.t)
     return CycleChange(rec.name, len(run), (float(t[run[0][0]]), float(t[run[-1][1] - 1])),
-                       100.0 * slope, area_pct, mslope, z, bool(changes))
+                       100.0 * slope, area_pct, mslope, z, bool(changes), bool(rec.has_time))
 
 
 def cycle_change(records: Sequence[Recording], noise: float) -> CycleChange | None:

@@ -101,6 +101,8 @@ class MasingCheck:
         ``departure`` over the noise it carries (``sqrt(5)`` noise floors).
     pinched : bool
         The branch is S-shaped (module docstring).
+    timed : bool
+        The recording has a time axis (``t_reversal`` in s); else it counts samples.
     """
 
     recording: str
@@ -112,6 +114,7 @@ class MasingCheck:
     departure_pct: float
     ratio: float
     pinched: bool
+    timed: bool = True
 
 
 def _slope_dips(x: np.ndarray, f: np.ndarray) -> bool:
@@ -196,7 +199,7 @@ def masing_check(rec: Recording, noise: float) -> MasingCheck | None:
     t = float(rec.t[a1])
     return MasingCheck(rec.name, t, float(x0[-1]), window, rise, dep, 100.0 * dep / rise,
                        dep / carried if carried > 0 else float("inf"),
-                       _slope_dips(x1[m], f1[m]))
+                       _slope_dips(x1[m], f1[m]), bool(rec.has_time))
 
 
 @dataclass(frozen=True)
@@ -242,8 +245,10 @@ class Masing:
                 f"curve doubled (Masing's rule, which every play- or stop-operator base "
                 f"follows); it departs from it by {self.departure_pct:.1f} % of its rise "
                 f"(median over {len(self.checks)} recordings, {self.ratio:.0f} times the "
-                f"noise; {where}; most on {worst.recording} after the reversal at t = "
-                f"{worst.t_reversal:.4g} s, over {worst.window:.4g}{ui} of input travel): "
+                f"noise; {where}; most on {worst.recording} after the reversal at "
+                + (f"t = {worst.t_reversal:.4g} s" if worst.timed else
+                   f"sample {worst.t_reversal:.0f}")
+                + f", over {worst.window:.4g}{ui} of input travel): "
                 f"{shape}, or the recordings did not start from rest in a demagnetized "
                 "state. No play- or stop-operator base can follow it: the material's own law "
                 "(a non-Masing steel or pinched element model) would, or the fit can be kept "

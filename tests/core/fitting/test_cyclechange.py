@@ -54,3 +54,14 @@ def test_no_repeated_cycles_no_test() -> None:
     t = np.arange(0, 3.0, 1e-3)
     u = 75.0 - 75.0 * np.exp(-t) * np.cos(2 * np.pi * t)
     assert cycle_change([Recording(t, u, u.copy(), "decaying")], NOISE) is None
+
+
+def test_without_a_time_axis_the_cycles_are_given_by_their_samples() -> None:
+    from dataclasses import replace
+
+    plant = make_base("bouc-wen-baber-noori", delta_nu=0.0005, delta_eta=0.0005)
+    rec = _rec(plant)
+    said = cycle_change_of(replace(rec, t=np.arange(rec.n_samples, dtype=float),
+                                   has_time=False), NOISE).text()
+    assert "cycles from sample " in said and "t = " not in said
+    assert "cycles from t = " in cycle_change_of(rec, NOISE).text()

@@ -76,3 +76,12 @@ def test_a_recording_that_starts_on_its_steady_loop_is_not_tested() -> None:
     y = plant(warm)[-u.size:]
     m = masing([Recording(t, u, y, "steady")], NOISE)
     assert m.checks == () and not m.non_masing
+
+
+def test_without_a_time_axis_the_reversal_is_given_by_its_sample() -> None:
+    from dataclasses import replace
+
+    recs = [replace(r, t=np.arange(r.n_samples, dtype=float), has_time=False)
+            for r in _records(make_base("menegotto-pinto"))]
+    said = masing(recs, NOISE).text({"input": "V", "output": "um"})
+    assert "after the reversal at sample " in said and "t = " not in said
