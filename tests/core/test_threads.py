@@ -66,7 +66,8 @@ def test_fit_recordings_runs_on_one_thread_and_restores(monkeypatch):
     monkeypatch.setattr(fit_entry, "prepare", probe)
     with threadpool_limits(limits=2):
         fit_recordings(_recording(), "pi", n_operators=6)
-        assert seen == [{1}] and _blas_threads() == {2}
+        # (the fit reads its rows more than once: every read ran on one thread)
+        assert seen and all(s == {1} for s in seen) and _blas_threads() == {2}
         # inside a block that asked for 2, a call without threads= keeps the block's limit
         with numeric_threads(2):
             fit_recordings(_recording(), "pi", n_operators=6)
