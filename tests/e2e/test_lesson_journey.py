@@ -205,17 +205,27 @@ def test_a_step_that_changes_only_its_texts_is_not_drawn_again(browser: Any,
               "prompt": f"Prompt {k}."} for k in (1, 2)]
     steps.append({"title": "In time", "preset": "paper001-example1", "view": "time",
                   "prompt": "Prompt 3."})
+    # body[data-plotted] is only cleared here, before each move: it then names the moved-to
+    # step's figure once plotly has drawn (or skipped) it. Left as it was, it still named the
+    # figure before the move, the wait ended before the move's drawing and a late redraw
+    # (step 1 at the lesson's height) was counted against step 2.
+    drawn = ("([n, fig]) => document.body.dataset.lessonStep === n && "
+             "document.body.dataset.plotted === `${fig}@${document.body.dataset.ready}`")
+    unplotted = "() => { delete document.body.dataset.plotted; }"
     try:
+        page.wait_for_function("() => window.Plotly && document.body.dataset.plotted === "
+                               "`loop@${document.body.dataset.ready}`")
+        page.evaluate(unplotted)
         _teach(url, "POST", "api/teacher/lesson",
                {"lesson": {"title": "Texts only", "steps": steps}})
-        drawn = ("([n, fig]) => document.body.dataset.lessonStep === n && "
-                 "document.body.dataset.plotted === `${fig}@${document.body.dataset.ready}`")
         page.wait_for_function(drawn, arg=["1", "loop"])
         page.evaluate(REDRAWS)
+        page.evaluate(unplotted)
         _teach(url, "POST", "api/teacher/lesson/step", {"move": 1})
         page.wait_for_function(drawn, arg=["2", "loop"])
         assert page.inner_text("#lesson-prompt") == "Prompt 2."
         assert page.evaluate("window.__reacts.length") == 0  # the same figure: not redrawn
+        page.evaluate(unplotted)
         _teach(url, "POST", "api/teacher/lesson/step", {"move": 1})
         page.wait_for_function(drawn, arg=["3", "time"])
         reacts = page.evaluate("window.__reacts")
