@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fitting.cyclechange import CYCLE_TOL, START_TOL
 from ..fitting.cycles import repeating_run
 from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
@@ -22,11 +23,10 @@ __all__ = ["CYCLE_TOL", "HISTORY_TOL", "MIN_CYCLES", "MIN_SAME_BRANCHES", "START
 
 #: Fewest identical input cycles that make a slow trend testable inside one recording.
 MIN_CYCLES = 4
-#: Tolerance (fraction of the input range, RMS) within which one cycle repeats the next.
-CYCLE_TOL = 0.02
-#: A cycle follows the one before it when it starts one period after it within this share
-#: of the period (no rest or missing cycle in between).
-START_TOL = 0.05
+# CYCLE_TOL (fraction of the input range, RMS, within which one cycle repeats the next) and
+# START_TOL (a cycle follows the one before it when it starts one period after it within
+# this share of the period: no rest or missing cycle in between) are the fit's
+# (core.fitting.cyclechange), so both commands find the same repeated cycles.
 
 
 def repeated_cycles(u: np.ndarray) -> tuple[tuple[int, int], ...]:
