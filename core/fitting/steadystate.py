@@ -124,7 +124,7 @@ def warm_up(history: tuple[float, ...], first: float,
     ``history`` in turn and then towards ``first``, stopping one step short of it (the
     recording's first sample follows). The operators narrower than half the cycle's input
     range end in the state the cycle leaves whatever came before; the wider ones, which the
-    cycle never moves across, keep what the ramp from 0 left them.
+    cycle never moves across, keep what the ramp from the start left them.
 
     Parameters
     ----------
