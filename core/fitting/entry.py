@@ -297,7 +297,7 @@ def _notes(est: Any, recs: Sequence[Recording], rows: _FitRows, kind: str,
     extra = dict(est.report_.extra)
     if start.warm:
         extra["initial_memory"] = start.note(recs, extra.get("initial_memory"))
-    preds = start.predict(est, recs)
+    preds = start.predict(est.predict, recs)
     feats = getattr(est, "features_", None)  # a stop-operator branch, in the data's units
     if feats is not None:
         extra["branch"] = feats.text(recs[0].units.get("input") or "input units",

@@ -13,7 +13,7 @@ extremes. The detection (:func:`steady_state_history`) is shared by both.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -218,11 +218,13 @@ class SteadyStart:
                 extra_units={}, lines=None))
         return out
 
-    def predict(self, est: Any, recs: Sequence[Recording]) -> list[np.ndarray]:
-        """A fitted estimator's output on each of ``recs``, each started as it was fitted
-        (its warm-up run first, its output there dropped)."""
+    def predict(self, run: Callable[[np.ndarray], Any], recs: Sequence[Recording]
+                ) -> list[np.ndarray]:
+        """The output of ``run`` (a fitted estimator's ``predict``, or a saved model called
+        on an input) on each of ``recs``, each started as it was fitted (its warm-up run
+        first, its output there dropped)."""
         warm = self.warm or tuple(np.zeros(0) for _ in recs)
-        return [np.asarray(est.predict(np.concatenate((w, r.u))))[w.size:]
+        return [np.asarray(run(np.concatenate((w, r.u))))[w.size:]
                 for w, r in zip(warm, recs, strict=True)]
 
     def note(self, recs: Sequence[Recording], memory: Any) -> dict[str, Any]:

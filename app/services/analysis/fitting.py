@@ -114,10 +114,7 @@ def fitted_output(out: FitOutcome, rec: Recording) -> np.ndarray:
     from core.fitting.steadystate import SteadyStart
 
     runs = file_recordings(rec)
-    start = SteadyStart.of(runs)
-    warm = start.warm or tuple(np.zeros(0) for _ in runs)
-    return np.concatenate([np.asarray(out.model(np.concatenate((w, r.u))))[w.size:]
-                           for w, r in zip(warm, runs, strict=True)])
+    return np.concatenate(SteadyStart.of(runs).predict(out.model, runs))
 
 
 def fit_result(out: FitOutcome, rec: Recording, figure: FigureJSON | None = None
