@@ -129,12 +129,12 @@ def _same_key(a: tuple[float, ...], b: tuple[float, ...], tol: float) -> bool:
 def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
                    ) -> list[tuple[int, int]]:
     """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`: the
-    branches (from the second on: the first sets the memory) grouped by input history (each
-    with the first branch whose key it matches), a branch kept only at that branch's rate
-    (its length in samples, ``lengths``, within :data:`START_TOL` and two samples; the last
-    branch, cut by the record's end, at most that long: the branches an earlier branch of
-    the same history was compared with before the pairing), and in each group of ``N`` in
-    time order
+    branches (from the second on: the first sets the memory) grouped by input history and
+    rate (each with the first group whose first branch has its key and its rate: its length
+    in samples, ``lengths``, within :data:`START_TOL` and two samples; the last branch, cut
+    by the record's end, at most that long; a branch with no such group starts its own, so
+    the branches of one history at another rate are paired among themselves, never with a
+    branch at the first one's rate), and in each group of ``N`` in time order
     the ``i``-th paired with the ``(i + ceil(N / 2))``-th, each branch in one pair at most.
     Returned in the order of the later branch."""
     groups: list[list[int]] = []
@@ -147,7 +147,7 @@ def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
             if (abs(lengths[k] - n0) <= START_TOL * n0 + 2 if k < last
                     else lengths[k] <= (1 + START_TOL) * n0 + 2):
                 g.append(k)
-            break
+                break
         else:
             groups.append([k])
     pairs: list[tuple[int, int]] = []

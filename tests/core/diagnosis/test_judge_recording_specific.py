@@ -18,13 +18,18 @@ def test_a_level_that_does_not_generalise_leaves_the_round_to_its_lookalike() ->
     passes too; one drift per recording, the up-then-down staircase's second-degree one
     following its input (correlation -0.94), makes each recording predicted from the others
     worse (leave-one-recording-out, own levels: MSE +12 %), so rule 8 took it out of the
-    final model and nothing was named. Now it is refused in round 1 with those numbers and
-    the offset is named, ambiguous with it."""
+    final model and nothing was named. Now it is refused in round 1 and the offset is named,
+    ambiguous with it. Since the multisine's branches at every rate are compared (76
+    branches, not 2: same_history groups each history at each rate), the drift is already
+    not significant there (z 2.3) before rule 8 is asked; rule 8's own numbers are still
+    recorded and checked below."""
     from benchmarks.diagnosis.generator import make_weak
 
     res = diagnose(make_weak("drift", "white1", 100).records, effects=["drift", "offset"])
     r1 = {r.effect: r for r in res.rounds if r.round == 1}
-    assert not r1["drift"].passes and "acceptance rule 8" in r1["drift"].reasons[0]
+    assert not r1["drift"].passes
+    assert ("acceptance rule 8" in r1["drift"].reasons[0]
+            or "not significant" in r1["drift"].reasons[0])
     assert "same input history" in r1["drift"].evidence
     assert r1["offset"].decision == "accepted"
     assert [(f.name, f.ambiguous_with) for f in res.effects] == [("offset", ["drift"])]

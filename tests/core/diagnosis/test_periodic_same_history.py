@@ -141,17 +141,23 @@ def test_a_drift_on_the_shipped_damper_record_is_named_and_its_null_is_not() -> 
     assert abs((got - ref) - truth) <= 0.25 * truth
 
 
-def test_branches_at_the_first_ones_rate_are_paired_among_themselves() -> None:
-    """Four cycles at 1 Hz, then four at 10 Hz, the same amplitude: the branches of one
-    history are kept at the rate of its first branch only (as each was compared with that
-    first branch before), so the slow ones are paired with slow ones and the fast ones
-    with nothing (grouped by history alone, the pairs half a group apart would join a slow
-    branch to a fast one, whose rows are not compared, and the slow cycles would test
-    nothing)."""
-    t = np.arange(int(4.4 * FS)) / FS
+def test_branches_at_each_rate_are_paired_among_themselves() -> None:
+    """Four cycles at 1 Hz, then forty at 10 Hz, the same amplitude: the branches of one
+    history are grouped by rate as well, so the slow ones are paired with slow ones and the
+    fast ones with fast ones, never a slow with a fast one (grouped by history alone, the
+    pairs half a group apart would join a slow branch to a fast one, whose rows are not
+    compared). Before, a branch whose history matched a group at another rate was dropped
+    (the fast cycles tested nothing; on the development benchmark's fast recording, 20, 50
+    and 100 Hz at one amplitude, only the 20 Hz branches were paired)."""
+    t = np.arange(int(8.0 * FS)) / FS
     u = np.where(t < 4.0, 60 * np.sin(2 * np.pi * t), 60 * np.sin(2 * np.pi * 10 * (t - 4.0)))
     sig = same_history([Recording(t=t, u=u, y=PLANT(u), name="slow-then-fast")])
     assert sig is not None and sig.previous is not None
     w = np.flatnonzero(sig.masks[0])
-    assert np.all(t[w] < 4.0) and np.all(t[sig.previous[0][w]] < 4.0)
-    assert np.sum(t[w] < 4.0) > 0.5 * FS
+    slow = t[w] < 4.0
+    assert np.all(slow == (t[sig.previous[0][w]] < 4.0))
+    assert np.sum(slow) > 0.5 * FS
+    # the forty fast cycles' branches in pairs
+    # half a group apart: about half their rows compared
+    assert np.sum(~slow) > 0.4 * 4.0 * FS
+    assert np.max(np.abs(u[w] - u[sig.previous[0][w]])) <= 0.02 * np.ptp(u)
