@@ -15,7 +15,12 @@ import pytest
 
 from core.datasets import load_dataset
 from core.diagnosis import diagnose
-from core.diagnosis.periodic import MIN_SAME_BRANCHES, repeated_cycles, same_history
+from core.diagnosis.periodic import (
+    MIN_SAME_BRANCHES,
+    _history_pairs,
+    repeated_cycles,
+    same_history,
+)
 from core.pi import PIModel
 from core.recordings import Recording
 
@@ -161,3 +166,16 @@ def test_branches_at_each_rate_are_paired_among_themselves() -> None:
     # half a group apart: about half their rows compared
     assert np.sum(~slow) > 0.4 * 4.0 * FS
     assert np.max(np.abs(u[w] - u[sig.previous[0][w]])) <= 0.02 * np.ptp(u)
+
+
+def test_each_history_at_each_rate_is_one_group() -> None:
+    """Branches of one input history at two rates, interleaved (lengths 100 and 10 samples),
+    and of another history at the slow rate: three groups, each paired half a group apart
+    (pairs known by construction, listed in the order of the later branch). Before, the
+    fast branches matched the history of the first slow group, failed its rate and were
+    dropped: only the slow pairs came out."""
+    up, down = (1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0)
+    keys = [(), up, up, up, up, up, up, up, up, down, down]
+    lengths = [50, 100, 10, 100, 10, 100, 10, 100, 10, 100, 100]
+    # up at 100: 1, 3, 5, 7; up at 10: 2, 4, 6, 8; down at 100: 9, 10
+    assert _history_pairs(keys, lengths, 0.01) == [(1, 5), (2, 6), (3, 7), (4, 8), (9, 10)]
