@@ -50,7 +50,8 @@ from core.base import Model
 from core.recordings import Recording
 from core.stages import Asymmetry, Creep, Delay, Drift, Lag, Offset, Resonance
 
-__all__ = ["BASES", "FAMILY_EFFECTS", "MULTI_EFFECTS", "SIZES", "STAGE_ORDER", "STROKE",
+__all__ = ["BASES", "CONCEALMENT_RECORDINGS", "FAMILY_EFFECTS", "MULTI_EFFECTS", "SIZES",
+           "STAGE_ORDER", "STROKE",
            "TIME_EFFECTS", "BoucWen", "BoucWenBaberNoori", "Duhem", "MaxwellSlip",
            "MenegottoPinto", "Preisach",
            "family_signals", "make_base", "make_family", "parameter_recovery",
@@ -660,6 +661,9 @@ def family_signals() -> list[tuple[str, np.ndarray, np.ndarray]]:
 
 
 # ----------------------------------------------------------------------------- hidden effects
+#: Recordings over which a scenario's ``concealment_pct`` is measured: the slow, full-stroke
+#: ones (here and in :mod:`benchmarks.diagnosis.bipolar`).
+CONCEALMENT_RECORDINGS = ("slow", "decaying", "growing")
 SIZES = ("large", "small", "eighth")
 #: Creep lags (s) and the total creep fraction at size "large" (split equally).
 CREEP_TAUS = (0.005, 0.1, 5.0)
@@ -742,16 +746,19 @@ def _hidden_of(effect: str | None, size: str) -> dict[str, dict[str, Any]]:
 
 
 def make_family(base: str, effect: str | None = None, size: str = "large",
-                noise: float = 0.002, seed: int = 0) -> Scenario:
-    """The four recordings of :func:`family_signals` through base family ``base`` followed by
-    the hidden ``effect`` (``None`` or ``"null"``: none) at ``size``.
+                noise: float = 0.002, seed: int = 0,
+                signals: list[tuple[str, np.ndarray, np.ndarray]] | None = None) -> Scenario:
+    """The four recordings of :func:`family_signals` (or ``signals``, ``(name, t, u)`` each,
+    ``t`` in s and ``u`` in V) through base family ``base`` followed by the hidden
+    ``effect`` (``None`` or ``"null"``: none) at ``size``.
 
     ``effect`` is one name of :data:`FAMILY_EFFECTS` or several joined by ``+`` (also
     :data:`MULTI_EFFECTS`; applied in :data:`STAGE_ORDER`, each at ``size`` where it has that
     size and at ``"large"`` otherwise; ``rate`` only alone). ``noise`` is the white noise
     sigma as a fraction of the stroke (0.002: 0.2 um). The noise depends on ``seed`` only
     (its own stream), the drift's wander phase on a second stream. ``concealment_pct`` is the
-    max |effect| over the slow and decaying recordings in % of the stroke. ``extras``:
+    max |effect| over the recordings named in :data:`CONCEALMENT_RECORDINGS` in % of the
+    stroke. ``extras``:
     ``hidden`` (name -> truth parameters), ``base``, ``base_params``, ``size``, ``family_id``
     (``base/effect/size/seed``).
     """
@@ -771,7 +778,7 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
     rng_drift = np.random.default_rng([seed, 1])
     sigma = noise * STROKE
     recs, truths, worst = [], [], 0.0
-    for k, (name, t, u) in enumerate(family_signals()):
+    for k, (name, t, u) in enumerate(family_signals() if signals is None else signals):
         dt = float(t[1] - t[0])
         y0 = plant(u, dt=dt)
         if effect == "rate":
@@ -788,7 +795,7 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
         else:
             y_clean = y0
             truths.append(plant)
-        if name in ("slow", "decaying"):
+        if name in CONCEALMENT_RECORDINGS:
             worst = max(worst, float(np.max(np.abs(y_clean - y0))) / STROKE * 100)
         y = y_clean + sigma * rng_noise.standard_normal(u.size)
         recs.append(Recording(t, u, y, name))

@@ -9,8 +9,12 @@ score, one table for both sets, so their numbers can stand side by side.
     ``large`` (seed 500) and two nulls each (seeds 500, 501), and each of their four
     recordings alone as a single-recording null (seed 500); the same cases on the non-Masing
     ``menegotto-pinto`` steel (round 4) and on the pinched ``bouc-wen-baber-noori`` element
-    (round 5); and (round 6) the measured-base class at sizes the sealed class does not use
-    (:data:`benchmarks.diagnosis.measured.DEV_MEASURED_CASES`) (:data:`DEV_CASES`).
+    (round 5); (round 6) the measured-base class at sizes the sealed class does not use
+    (:data:`benchmarks.diagnosis.measured.DEV_MEASURED_CASES`); and (session 21) the
+    ``menegotto-pinto``, ``bouc-wen-baber-noori`` and ``bouc-wen-1`` plants driven by the
+    bipolar recordings of :mod:`benchmarks.diagnosis.bipolar` (inputs through 0 V, growing
+    amplitude: classes ``bipolar non-PI base`` and ``single-recording bipolar null``), with
+    the same effects, nulls and single-recording nulls (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -50,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.diagnosis.bipolar import BIPOLAR_RECORDINGS
 from benchmarks.diagnosis.classes import RECOVERY_TOLERANCE
 from benchmarks.diagnosis.families import TIME_EFFECTS, jsonable
 from benchmarks.diagnosis.measured import DEV_MEASURED_CASES
@@ -63,6 +68,9 @@ _DEV_FAMILY_EFFECTS = ("delay", "resonance", "creep", "drift")
 _DEV_NON_MASING_BASES = ("menegotto-pinto",)
 #: A pinched law (round 5 of issue 30).
 _DEV_PINCHED_BASES = ("bouc-wen-baber-noori",)
+#: Bases driven by the bipolar recordings of ``bipolar.py`` (session 21 of issue 30): the
+#: non-Masing and pinched plants, and a Masing control.
+_DEV_BIPOLAR_BASES = ("menegotto-pinto", "bouc-wen-baber-noori", "bouc-wen-1")
 _DEV_PI_EFFECTS = ("delay", "lag", "resonance", "rate", "creep", "drift", "asymmetry",
                    "offset", "initial-memory")
 
@@ -88,11 +96,20 @@ DEV_CASES: tuple[str, ...] = (
       for r in ("slow", "fast", "decaying", "staircase")),
     # round 6: the shipped measured recordings with effects at other sizes than the sealed
     *DEV_MEASURED_CASES,
+    # session 21: bipolar inputs of growing amplitude (bipolar.py) on the non-Masing and
+    # pinched plants and a Masing control
+    *(f"dev/family-bipolar/{b}/null/{s}" for b in _DEV_BIPOLAR_BASES for s in (500, 501)),
+    *(f"dev/family-bipolar/{b}/{e}/large/500" for b in _DEV_BIPOLAR_BASES
+      for e in _DEV_FAMILY_EFFECTS),
+    *(f"dev/family-bipolar-single/{b}/{r}/500" for b in _DEV_BIPOLAR_BASES
+      for r in BIPOLAR_RECORDINGS),
 )
 
 _QUANTITY = {"delay": "delay_s", "lag": "tau_s", "resonance": "freq_hz"}
-CLASSES = ("PI plant", "non-PI base", "single-recording non-PI null", "measured base")
-_NON_PI = ("non-PI base", "single-recording non-PI null")
+CLASSES = ("PI plant", "non-PI base", "single-recording non-PI null", "bipolar non-PI base",
+           "single-recording bipolar null", "measured base")
+_NON_PI = ("non-PI base", "single-recording non-PI null", "bipolar non-PI base",
+           "single-recording bipolar null")
 
 
 def _sealed_cases() -> tuple[str, ...]:
@@ -115,9 +132,39 @@ def case_class(case: str) -> str:
         return "measured base"
     if case.startswith(("dev/pi/", "sealed/pi/")):
         return "PI plant"
+    if case.startswith("dev/family-bipolar-single/"):
+        return "single-recording bipolar null"
+    if case.startswith("dev/family-bipolar/"):
+        return "bipolar non-PI base"
     if case.startswith(("dev/family-single/", "sealed/opensees-single/")):
         return "single-recording non-PI null"
     return "non-PI base"
+
+
+#: Case-id kinds of the non-PI family cases -> (bipolar recordings, one recording alone).
+_FAMILY_KINDS = {"family": (False, False), "family-single": (False, True),
+                 "family-bipolar": (True, False), "family-bipolar-single": (True, True)}
+
+
+def _family_case(case: str) -> Any:
+    """A ``dev/family...`` case: ``<kind>/<base>/<effect>/<size>/<seed>``,
+    ``<kind>/<base>/null/<seed>`` or (single) ``<kind>/<base>/<recording>/<seed>``, on the
+    recordings of ``families.py`` or (bipolar) ``bipolar.py``."""
+    from benchmarks.diagnosis.bipolar import make_bipolar
+    from benchmarks.diagnosis.families import make_family
+
+    parts = case.split("/")
+    bipolar, single = _FAMILY_KINDS[parts[1]]
+    make = make_bipolar if bipolar else make_family
+    if single or parts[3] == "null":
+        sc = make(parts[2], None, noise=0.002, seed=int(parts[4]))
+    else:
+        sc = make(parts[2], parts[3], parts[4], noise=0.002, seed=int(parts[5]))
+    if single:
+        sc.records = [r for r in sc.records if r.name == parts[3]]
+        if len(sc.records) != 1:
+            raise ValueError(f"unknown recording {parts[3]!r} in case {case!r}")
+    return sc
 
 
 def build(case: str) -> Any:
@@ -133,20 +180,8 @@ def build(case: str) -> Any:
         if parts[2] == "null":
             return make_scenario(None, "white1", int(parts[3]))
         return make_scenario(parts[2], "white1", int(parts[4]), level=parts[3])
-    if parts[0] == "dev" and parts[1] == "family-single":
-        from benchmarks.diagnosis.families import make_family
-
-        sc = make_family(parts[2], None, noise=0.002, seed=int(parts[4]))
-        sc.records = [r for r in sc.records if r.name == parts[3]]
-        if len(sc.records) != 1:
-            raise ValueError(f"unknown recording {parts[3]!r} in case {case!r}")
-        return sc
-    if parts[0] == "dev" and parts[1] == "family":
-        from benchmarks.diagnosis.families import make_family
-
-        if parts[3] == "null":
-            return make_family(parts[2], None, noise=0.002, seed=int(parts[4]))
-        return make_family(parts[2], parts[3], parts[4], noise=0.002, seed=int(parts[5]))
+    if parts[0] == "dev" and parts[1] in _FAMILY_KINDS:
+        return _family_case(case)
     from benchmarks.diagnosis.sealed import make_sealed
 
     return make_sealed(case)
