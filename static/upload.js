@@ -106,7 +106,7 @@ export async function useCsv(run) {
     setMsg("csv-msg", `Loaded ${r.name}: ${r.samples} samples${r.time_steps ? `; ${r.time_steps}` : ""}.`, true);
     state.diagFigure = null;  // the diagnosis of another recording is gone
     $("csv-notes").replaceChildren(...(r.notes || []).map((n) => el("li", { textContent: plain(n) })));
-    showRuns(r.runs || [], run === "all" || run === "each" ? run : r.run);
+    showRuns(r.runs || [], r.run);  // the server says what it kept (by default every run)
     $("use-recording").checked = true;
     onControlChange();
   } catch (e) {

@@ -96,7 +96,7 @@ async def upload_recording(
         "samples": rec.n_samples,
         "notes": list(rec.cleaning),
         "runs": list(up.runs),
-        "run": None if rec.run is None else str(rec.run),
+        "run": up.kept,
         "time_steps": up.time_steps,
         "t_range": [float(rec.t[0]), float(rec.t[-1])],
         "u_range": [float(np.min(rec.u)), float(np.max(rec.u))],

@@ -287,7 +287,7 @@ def where_improved(
         ok = np.isfinite(TS)
         if ok.any() and W[ok].sum() > 0:
             out["median_since_step_s"] = _wmedian(TS[ok], W[ok])
-    out["summary"] = _summary(out, total)
+    out["summary"] = _summary(out, total, all(r.has_time for r in records))
     return out
 
 
@@ -302,13 +302,17 @@ def _wmedian(x: Float1D, w: Float1D) -> float:
     return float(x[o[min(np.searchsorted(cw, 0.5 * cw[-1]), x.size - 1)]])
 
 
-def _summary(w: dict[str, Any], total: float) -> str:
+def _summary(w: dict[str, Any], total: float, timed: bool = True) -> str:
+    """:func:`where_improved`'s sentence; ``timed``: the recordings have a time axis (else
+    its times are sample numbers and are said so)."""
     if total <= 0 or not w.get("time_windows"):
         return "no localised improvement"
     tw = w["time_windows"]
+    unit = "s" if timed else "samples"
     parts = [
         "half of the error reduction lies in "
-        + ", ".join(f"{n} {a:g}-{b:g} s" for n, a, b, _ in tw[:3])
+        + ", ".join(f"{n} {a:g}-{b:g} s" if timed else f"{n} samples {a:g}-{b:g}"
+                    for n, a, b, _ in tw[:3])
         + (" ..." if len(tw) > 3 else "")
     ]
     if "input_range" in w:
@@ -319,5 +323,5 @@ def _summary(w: dict[str, Any], total: float) -> str:
         k = max(br, key=br.get)
         parts.append(f"mostly {k} ({100 * br[k]:.0f} %)" if br[k] > 0.6 else "on both branches")
     if "median_since_reversal_s" in w:
-        parts.append(f"median {w['median_since_reversal_s']:.3g} s after a reversal")
+        parts.append(f"median {w['median_since_reversal_s']:.3g} {unit} after a reversal")
     return "; ".join(parts)

@@ -100,10 +100,17 @@ def test_run_column_is_chosen_and_said(client: TestClient, code: str) -> None:
     r = upload(client, code, body)
     assert r.status_code == 201
     j = r.json()
-    assert j["runs"] == ["1", "2"] and j["run"] == "1" and j["samples"] == 200
-    assert any("holds 2 runs" in n and "run=" in n for n in j["notes"])
+    # by default every run is kept, each its own loop, as hyst fit and hyst diagnose read it
+    assert j["runs"] == ["1", "2"] and j["run"] == "each" and j["samples"] == 400
+    assert any("all 2 runs" in n and "each its own loop" in n for n in j["notes"])
     r2 = upload(client, code, body, run="2")
-    assert r2.status_code == 201 and r2.json()["run"] == "2"
+    assert r2.status_code == 201 and r2.json()["run"] == "2" and r2.json()["samples"] == 200
+    assert any("holds 2 runs" in n and "run=" in n for n in r2.json()["notes"])
+    # the two runs each start at t = 0: their rows are no one recording, and the error says so
+    r3 = upload(client, code, body, run="all")
+    assert r3.status_code == 422
+    assert "each start their own time" in r3.json()["detail"]["message"]
+    assert "each its own loop" in r3.json()["detail"]["message"]
     bad = upload(client, code, body, run="7")
     assert bad.status_code == 422 and "1, 2" in bad.json()["detail"]["message"]
 

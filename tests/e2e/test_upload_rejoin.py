@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from app.services.analysis.loops import split_runs
+
 from .test_web_journeys import _clean, _open, _session, _text_has
 
 BH = Path(__file__).resolve().parents[2] / "examples" / "data" / "bh_loops" / "MnZn_ferrite.csv"
@@ -21,9 +23,10 @@ def test_cleaning_notes_and_run_picker(browser: Any, live_server: dict, tmp_path
     assert page.input_value("#u-col") == "3" and page.input_value("#y-col") == "4"
     assert page.input_value("#t-col") == ""  # no time column: the reader decides
     page.click("#use-csv")
-    _text_has(page, "csv-msg", "129 samples")
+    # by default every loop is kept, each its own, as hyst fit and hyst diagnose read the file
+    _text_has(page, "csv-msg", "516 samples")
     notes = page.locator("#csv-notes li").all_inner_texts()
-    assert any("4 runs" in n and "kept run 0" in n for n in notes), notes
+    assert any("all 4 runs" in n and "each its own loop" in n for n in notes), notes
     assert any("sample index" in n for n in notes), notes
     assert not any("run=" in n for n in notes), notes  # no API argument names
     page.wait_for_selector("#runs:not([hidden])")
@@ -31,10 +34,14 @@ def test_cleaning_notes_and_run_picker(browser: Any, live_server: dict, tmp_path
     assert options == ["run 0", "run 1", "run 2", "run 3",
                        "all 4 runs, each its own loop (fitted together, as hyst fit does)",
                        "all 4 runs as one recording"]
-    assert page.input_value("#run-pick") == "0"
+    assert page.input_value("#run-pick") == "each"
+    assert len(split_runs(_session(app, page).recording)) == 4
     shot(page, "web-upload-runs")
     page.select_option("#run-pick", "2")
     _text_has(page, "csv-msg", "run 2")
+    notes = page.locator("#csv-notes li").all_inner_texts()
+    assert any("4 runs" in n and "kept run 2" in n for n in notes), notes
+    assert not any("run=" in n for n in notes), notes
     rec = _session(app, page).recording
     assert str(rec.run) == "2" and rec.n_samples == 129
     # every loop of run 2 is the file's rows with loop == 2

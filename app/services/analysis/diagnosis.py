@@ -246,17 +246,20 @@ def run_diagnosis(rec: Recording, model: Model,
     """:func:`core.diagnosis.diagnose` of ``rec``: the core's ``DiagnosisResult`` with its
     findings in words, in the recording's units (:class:`SessionDiagnosis`).
 
-    The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10).
+    The baseline has as many operators as the PI part of ``model`` (4 to 25, else 10). An
+    upload of every run of a file (:mod:`.loops`) is diagnosed run by run, each its own
+    recording, as ``hyst diagnose FILE`` reads the file (:func:`.loops.file_recordings`).
     ``progress`` is passed
     on to :func:`~core.diagnosis.diagnose` (a job's worker passes it to the server; a cancel
     kills the worker, :mod:`.worker`).
     """
+    from app.services.analysis.loops import file_recordings
     from app.services.explore.simulation import pi_part
     from core.diagnosis import diagnose
 
     pi = pi_part(model)
     n = int(min(25, max(4, pi.n if pi is not None else 10)))
-    result = diagnose((rec.t, rec.u, rec.y), "pi", n_operators=n, progress=progress)
+    result = diagnose(file_recordings(rec), "pi", n_operators=n, progress=progress)
     return session_diagnosis(result, rec.units)
 
 

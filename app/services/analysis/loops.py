@@ -20,39 +20,67 @@ if TYPE_CHECKING:
 
     from core.recordings import Recording
 
-__all__ = ["RUN_POSITION", "file_recordings", "keep_runs", "on_samples", "split_runs"]
+__all__ = ["RUN_POSITION", "RUN_TIME", "file_recordings", "keep_runs", "on_samples", "split_runs"]
 
 #: The extra channel of a recording that holds every run of its file: the 0-based position
 #: of each row's run in the file (its ``columns["run"]`` names the file's run column).
 RUN_POSITION = "run position"
+#: The extra channel of such a recording with each row's time as its run gives it (the
+#: recording's own times lay the runs one after the other: :func:`keep_runs`).
+RUN_TIME = "run time"
 
 
-def keep_runs(whole: Recording, runs: Sequence[Recording]) -> Recording:
-    """``whole`` (every row of a file, read as one recording) with each row marked by the
-    position of its run among ``runs`` (the same file read run by run; rows are matched by
-    their source line).
+def keep_runs(runs: Sequence[Recording]) -> Recording:
+    """Every run of a file (``runs``: the file read run by run, in file order) in one
+    recording, each row marked by the position of its run (:data:`RUN_POSITION`).
+
+    A file's runs usually each start their own clock (``t`` from 0 again), so the runs are
+    laid one after the other: each run's times are shifted to start one sample step after
+    the previous run ends, and its times as the file gives them are kept in the extra
+    channel :data:`RUN_TIME`, which :func:`split_runs` gives back. Cleaning notes are the
+    runs' notes, each once, in order.
 
     Raises
     ------
     ValueError
-        A row of ``whole`` is in none of ``runs`` (the reads disagree).
+        ``runs`` is empty.
     """
-    if whole.lines is None or any(r.lines is None for r in runs):
-        raise ValueError("the runs cannot be matched to the rows: no source lines")
-    line_run = {int(line): k for k, r in enumerate(runs) for line in np.asarray(r.lines)}
-    try:
-        position = np.array([line_run[int(x)] for x in np.asarray(whole.lines)], dtype=float)
-    except KeyError as exc:
-        raise ValueError(f"line {exc.args[0]} is in no run of the file") from None
-    col = runs[0].columns.get("run", "run")
-    return replace(whole, extra={**whole.extra, RUN_POSITION: position},
-                   columns={**whole.columns, "run": col}, run=None)
+    if not runs:
+        raise ValueError("a file's runs are needed to keep them together")
+    first = runs[0]
+    ts: list[np.ndarray] = []
+    start = 0.0
+    for k, r in enumerate(runs):
+        t = np.asarray(r.t, dtype=float)
+        if k:
+            start = ts[-1][-1] + _step(ts[-1]) - t[0]
+        ts.append(t + start)
+    position = np.concatenate([np.full(r.n_samples, float(k)) for k, r in enumerate(runs)])
+    notes = tuple(dict.fromkeys(c for r in runs for c in r.cleaning))
+    extra = {key: np.concatenate([np.asarray(r.extra[key]) for r in runs])
+             for key in first.extra if all(key in r.extra for r in runs)}
+    lines = (None if any(r.lines is None for r in runs)
+             else np.concatenate([np.asarray(r.lines) for r in runs]))
+    col = first.columns.get("run", "run")
+    return replace(first, t=np.concatenate(ts), u=np.concatenate([r.u for r in runs]),
+                   y=np.concatenate([r.y for r in runs]), lines=lines, cleaning=notes,
+                   extra={**extra, col: np.concatenate([np.full(r.n_samples, str(r.run))
+                                                        for r in runs]),
+                          RUN_POSITION: position,
+                          RUN_TIME: np.concatenate([np.asarray(r.t, dtype=float)
+                                                    for r in runs])},
+                   columns={**first.columns, "run": col}, run=None)
+
+
+def _step(t: np.ndarray) -> float:
+    """The median sample step of the times ``t`` (1 for a single sample)."""
+    return float(np.median(np.diff(t))) if t.size > 1 else 1.0
 
 
 def split_runs(rec: Recording) -> list[Recording]:
     """The runs a recording of :func:`keep_runs` holds, each as its own recording (named as
-    ``hyst fit`` names them: ``"<file> <run column>=<run id>"``; times are not shifted);
-    ``[rec]`` for any other recording."""
+    ``hyst fit`` names them: ``"<file> <run column>=<run id>"``, at the times the file gives
+    them, :data:`RUN_TIME`); ``[rec]`` for any other recording."""
     position = rec.extra.get(RUN_POSITION)
     if position is None:
         return [rec]
@@ -63,8 +91,10 @@ def split_runs(rec: Recording) -> list[Recording]:
     for k in np.unique(np.asarray(position)):
         m = np.asarray(position) == k
         run_id = _run_id(ids, m, int(k))
-        extra = {key: np.asarray(v)[m] for key, v in rec.extra.items() if key != RUN_POSITION}
-        out.append(replace(rec, t=rec.t[m], u=rec.u[m], y=rec.y[m], extra=extra,
+        extra = {key: np.asarray(v)[m] for key, v in rec.extra.items()
+                 if key not in (RUN_POSITION, RUN_TIME)}
+        t = np.asarray(rec.extra.get(RUN_TIME, rec.t), dtype=float)[m]
+        out.append(replace(rec, t=t, u=rec.u[m], y=rec.y[m], extra=extra,
                            lines=None if rec.lines is None else np.asarray(rec.lines)[m],
                            name=f"{stem} {col}={run_id}", run=run_id))
     return out

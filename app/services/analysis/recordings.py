@@ -183,11 +183,15 @@ class Upload:
         Run ids of the file's run column in file order (empty without one).
     time_steps : str or None
         What was done with uneven time stamps, in words (``None``: they were even).
+    kept : str or None
+        What of the runs was kept: a run id, ``"each"`` (every run, each its own loop),
+        ``"all"`` (every row as one recording); ``None`` for a file without runs.
     """
 
     recording: Recording
     runs: tuple[str, ...] = ()
     time_steps: str | None = None
+    kept: str | None = None
 
 
 def _binary(exc: CSVError) -> bool:
@@ -230,9 +234,10 @@ def read_upload(
     are chosen by the core reader. A file without a time column gets ``t = k * dt``. A file
     with a run column holds several recordings: ``run`` chooses one by its id, ``"all"``
     reads every row as one recording in file order, ``"each"`` too with each row marked by
-    its run (:func:`.loops.keep_runs`: a fit fits the runs as separate recordings, as ``hyst
-    fit FILE`` does); without ``run`` the first run is kept.
-    Either way a cleaning note says which run was kept and how to choose another.
+    its run (:func:`.loops.keep_runs`: a fit and a diagnosis take the runs as separate
+    recordings, as ``hyst fit FILE`` and ``hyst diagnose FILE`` do); without ``run`` a file
+    of several runs is read as ``"each"``, so the browser and the command line see the same
+    recordings. Either way a cleaning note says what was kept.
 
     Uneven time stamps need a choice: ``timing="resample"`` interpolates onto an even grid
     of ``step`` seconds (the median spacing, 3 significant digits, when ``step`` is None),
@@ -260,12 +265,7 @@ def read_upload(
                              output=column_spec(y_col), run=None,
                              max_rows=max_samples, resample=resample,
                              uneven="keep" if timing == "keep" else "error")
-        recs = read_csv_text(content, options, name=name)
-        if run in ("all", "each"):  # every row as one recording (the runs read above)
-            split = recs
-            recs = read_csv_text(content, replace(options, run=False), name=name)
-            if run == "each" and len(split) > 1:
-                recs = [keep_runs(recs[0], split)]
+        recs, split, run = _read_runs(content, options, name, run)
     except UnevenTimeError as exc:
         raise UnevenUpload(Timing.of(exc), exc.source) from None
     except CSVError as exc:
@@ -277,7 +277,7 @@ def read_upload(
                            "without the choice to resample", source=exc.source) from None
         raise
     recs = [replace(r, cleaning=tuple(_words(c) for c in r.cleaning)) for r in recs]
-    read = split if run in ("all", "each") else recs
+    read = split
     runs = tuple(str(r.run) for r in read) if len(read) > 1 or read[0].run is not None else ()
     if run not in (None, "all", "each"):
         if str(run) not in runs:
@@ -291,8 +291,36 @@ def read_upload(
     rec = _kept(rec, run, runs, name)
     if not rec.has_time:
         rec = replace(rec, t=rec.t * dt, has_time=True, units={**rec.units, "time": "s"})
-    return Upload(rec, runs, _time_steps(rec))
+    kept = (str(rec.run) if rec.run is not None else run) if runs else None
+    return Upload(rec, runs, _time_steps(rec), kept)
 
+
+
+def _read_runs(content: str | bytes, options: CsvOptions, name: str, run: str | None
+               ) -> tuple[list[Recording], list[Recording], str | None]:
+    """The recordings of :func:`read_upload` before a run is picked: ``(recs, split, run)``
+    with ``split`` the file read run by run and ``run`` the choice (``None`` for a file of
+    several runs becomes ``"each"``: every run, each its own loop, as ``hyst fit`` reads it).
+    ``"each"`` lays the runs one after the other (:func:`.loops.keep_runs`), ``"all"`` reads
+    every row as one recording, which a file whose runs each restart their time cannot be.
+    """
+    split = read_csv_text(content, options, name=name)
+    if run is None and len(split) > 1:
+        run = "each"
+    if run == "each" and len(split) > 1:
+        return [keep_runs(split)], split, run
+    if run not in ("all", "each"):
+        return split, split, run
+    try:
+        return read_csv_text(content, replace(options, run=False), name=name), split, run
+    except CSVError as exc:
+        if len(split) > 1 and "time stamps must strictly increase" in str(exc):
+            raise CSVError(
+                f"{exc.source}: the file's {len(split)} runs each start their own time, so "
+                "its rows cannot be read as one recording with one time axis; keep all "
+                f"{len(split)} runs, each its own loop, or choose one run",
+                source=exc.source) from None
+        raise
 
 
 def _kept(rec: Recording, run: str | None, runs: tuple[str, ...], name: str) -> Recording:
