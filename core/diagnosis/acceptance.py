@@ -6,8 +6,9 @@ A candidate is accepted when **all** of these hold (missing-physics notes §5, N
    ``min_excess_share`` (20 %) of the current model's excess over the white-noise floor.
    Where the evidence rows' MSE is not above the floor (the noise level estimated for them
    is at or above their error, which a significant improvement contradicts), the share is
-   counted over their whole MSE instead of being met by any reduction
-   (:func:`share_needed`).
+   counted over their whole MSE instead of being met by any reduction; where the excess is
+   positive but below ``min_gain`` of the MSE, the floor is trusted in part, so that what is
+   asked rises to that without a jump (:func:`share_needed`).
 2. *Significance*: the batch-means Diebold–Mariano statistic ``z >= min_z`` (3), or the
    Wilcoxon signed-rank test of the batch means gives ``p < sign_p / K`` (Bonferroni over the
    ``K`` candidates tested in the round).
@@ -155,7 +156,19 @@ class AcceptRule:
     min_gain : float
         Smallest relative held-out MSE reduction.
     min_excess_share : float
-        Smallest share of the excess MSE over the noise floor that must be removed.
+        Smallest share of the excess MSE over the noise floor that must be removed. Where
+        the excess is not positive the floor estimate is contradicted (any significant
+        reduction goes below it) and the share is counted over the rows' whole MSE, the
+        floor taken as unknown. Between the two, continuously: ``min_gain`` is the smallest
+        reduction, as a share of the rows' MSE, that counts at all, so where the floor leaves
+        less than ``min_gain`` of the MSE to explain, every reduction that counts removes
+        more than the whole excess, which a right floor forbids, and the smaller the excess
+        the more the floor is in doubt. There the floor is counted with the weight
+        ``excess / (min_gain * MSE)``: whole where the excess is ``min_gain`` of the MSE
+        (a reduction of ``min_gain`` removes exactly the excess), none where it is 0 (the
+        share is then ``min_excess_share`` of the whole MSE, as beyond). Before, the floor
+        was whole down to an excess of 0, so that only ``min_gain`` was asked there, and
+        the share jumped to ``min_excess_share`` of the MSE at 0 (:func:`share_needed`).
     min_z : float
         Diebold–Mariano z that suffices on its own.
     sign_p : float
@@ -387,10 +400,25 @@ def share_needed(h: HeldOut, excess: float | None, rule: AcceptRule = RULE) -> f
     recording's quantisation or chatter counted as noise), so the estimate says nothing
     about how much of the error is left to explain; the share is then counted over the rows'
     whole MSE (``h.mse_before``; the floor taken as unknown, zero), not met by any reduction.
+
+    Where ``excess`` is positive but below ``min_gain`` of ``h.mse_before`` (``q = excess /
+    mse_before < min_gain``), a reduction that meets ``min_gain`` removes more than the
+    whole excess the floor leaves, so the floor is in doubt too, the more the smaller
+    ``q``: it is counted with the weight ``q / min_gain``, and the share is
+    ``min_excess_share * (mse_before - (q / min_gain) * (mse_before - excess))``, the share
+    of the excess at ``q = min_gain`` and of the whole MSE at ``q = 0``, continuous in the
+    excess (see :attr:`AcceptRule.min_excess_share`). With ``min_gain`` (also required),
+    the reduction asked rises from 5 % of the MSE at ``q`` about 0.04 to 20 % at 0.
     """
     if excess is None:
         return 0.0
-    return rule.min_excess_share * (excess if excess > 0.0 else h.mse_before)
+    m = h.mse_before
+    if excess <= 0.0:
+        return rule.min_excess_share * m
+    if excess >= rule.min_gain * m or not m > 0.0:
+        return rule.min_excess_share * excess
+    weight = excess / (rule.min_gain * m)
+    return rule.min_excess_share * (m - weight * (m - excess))
 
 
 def size_ok(h: HeldOut, excess: float | None, rule: AcceptRule = RULE,
@@ -459,6 +487,12 @@ def decide(
             why = (f"removes less than {100 * rule.min_excess_share:.0f} % of these rows' "
                    "mean squared error (the noise level estimated for them is at or above "
                    "that error, so it cannot say how much of it is left to explain)")
+        elif excess is not None and excess < rule.min_gain * h.mse_before:
+            why = (f"removes less than {100 * share_needed(h, excess, rule) / h.mse_before:.1f}"
+                   " % of these rows' mean squared error (the noise level estimated for "
+                   f"them leaves only {100 * excess / h.mse_before:.1f} % of that error to "
+                   f"explain, less than the {100 * rule.min_gain:.0f} % any reduction must "
+                   "remove, so it is trusted only in part)")
         if elsewhere is not None and np.isfinite(elsewhere.gain):
             why += f" (not waived: {harm_words(elsewhere, rule)})"
         reasons.append(why)

@@ -212,5 +212,42 @@ def test_an_overestimated_noise_level_does_not_meet_the_share_by_itself() -> Non
     assert "noise level estimated for them is at or above" in decide(small, over, 1).reasons[0]
     # the share asked of it: 20 % of the rows' whole MSE there, of the excess elsewhere
     assert share_needed(small, over) == pytest.approx(RULE.min_excess_share * small.mse_before)
-    assert share_needed(small, 0.7) == pytest.approx(RULE.min_excess_share * 0.7)
+    half = 0.5 * small.mse_before  # a floor well below the MSE: trusted
+    assert share_needed(small, half) == pytest.approx(RULE.min_excess_share * half)
     assert share_needed(small, None) == 0.0
+
+
+def test_the_share_asked_rises_without_a_jump_as_the_floor_reaches_the_mse() -> None:
+    """The reduction the excess share asks, as the estimated floor ``f`` goes from half the
+    rows' MSE ``M`` past ``M``: 20 % of the excess ``M - f`` while the floor leaves at least
+    the 5 % minimum gain to explain, 20 % of ``M`` once it reaches ``M`` (the estimate
+    contradicted), and no jump between. Before, the share fell to almost nothing just below
+    ``f = M`` (the minimum gain decided) and jumped to 20 % of ``M`` at it: a candidate
+    removing 10 % passed with the floor at 0.999 M and failed at 1.001 M."""
+    m = 1.0
+    floors = np.linspace(0.5, 1.2, 7001)  # steps of 1e-4 M
+    need = np.array([share_needed(_h(m, 0.9, 8.0), m - f) for f in floors])
+    assert np.max(np.abs(np.diff(need))) < 1e-3 * m  # the former jump was 0.2 M
+    # the two ends: a fifth of the excess where the floor leaves at least the minimum gain
+    # to explain, a fifth of the whole MSE where it is at or above the MSE
+    low, high = floors <= m * (1.0 - RULE.min_gain), floors >= 1.0
+    assert np.allclose(need[low], RULE.min_excess_share * (m - floors[low]))
+    assert np.allclose(need[high], RULE.min_excess_share * m)
+    # from the floor at which the minimum gain removes the whole excess upwards, the floor
+    # estimate is what the verdict turns on
+    band = floors[floors >= m * (1.0 - RULE.min_gain)]
+    for gain in np.linspace(RULE.min_gain + 0.005, RULE.min_excess_share - 0.005, 15):
+        h = _h(m, m * (1.0 - gain), 8.0)
+        ok = np.array([size_ok(h, m - f) for f in band])
+        # one verdict on either side of the former jump, and one change of verdict as the
+        # floor rises: passes while the floor leaves the minimum gain to explain, fails
+        # once it reaches the MSE
+        assert size_ok(h, m - 0.999) == size_ok(h, m - 1.001)
+        assert ok[0] and not ok[-1] and np.count_nonzero(np.diff(ok.astype(int))) == 1
+    # a larger reduction stands a floor closer to the MSE
+    last_ok = [band[[size_ok(_h(m, m * (1 - g), 8.0), m - f) for f in band]].max()
+               for g in (0.06, 0.1, 0.15, 0.19)]
+    assert np.all(np.diff(last_ok) > 0)
+    # the words say how little the floor leaves and what share of the MSE was asked
+    why = decide(_h(m, 0.9, 8.0), m - 0.98, n_tests=1).reasons[0]
+    assert "leaves only 2.0 % of that error" in why and "trusted only in part" in why
