@@ -19,7 +19,6 @@ from .acceptance import (
     decide,
     earns_place,
     enough_events,
-    floor_mse,
     generalises,
     harmless_elsewhere,
     split_supports_transport,
@@ -39,13 +38,12 @@ from .scoring import adds_levels, recording_specific, shared_loro
 from .screening import RANKING_SPAN
 from .search import candidate_evidence, same_signature_rows, search_round
 from .specs import FAMILY_PRIORITY
-from .state import Candidate, Run, round_row
+from .state import Candidate, Run, excess_of, round_row
 from .stats import HeldOut, heldout_comparison
 from .structure import Fit
 
-__all__ = ["MIN_EVENT_ROWS", "choose", "event_gains", "excess_of",
-           "fewer_parameters_on_same_rows", "judge_round", "lookahead", "needs_earning",
-           "remaining"]
+__all__ = ["MIN_EVENT_ROWS", "choose", "event_gains", "fewer_parameters_on_same_rows",
+           "judge_round", "lookahead", "needs_earning", "remaining"]
 
 
 def judge_round(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundRow],
@@ -364,17 +362,6 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
     row = replace(t_rows[0], evidence=f"{t_rows[0].evidence}, judged on top of {p} (the two "
                   f"hide each other; {p} passes on top of {t.name})")
     return {**cands, t.name: c}, [r for r in rows if r.effect != t.name] + [row], [t.name]
-
-
-def excess_of(c: Candidate, mse_cur: float, noise: float, strict: bool) -> float:
-    """The excess over the noise floor the share rule of candidate ``c`` is counted in
-    (output units²): the MSE of its evidence rows (``c.heldout.mse_before`` with strict
-    hold-out, between recordings or on its signature rows; else ``mse_cur``, the current
-    model's test-row MSE) minus the floor of those rows
-    (:func:`~core.diagnosis.acceptance.floor_mse`: twice ``noise²`` on rows compared with an
-    earlier row, ``noise`` the white-noise RMS in output units)."""
-    before = c.heldout.mse_before if strict or c.between or c.where else mse_cur
-    return before - floor_mse(noise, c.differenced)
 
 
 def _sized(c: Candidate, excess: float) -> Candidate:

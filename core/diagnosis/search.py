@@ -19,9 +19,9 @@ from .candidates import build_candidate
 from .context import FitContext
 from .crossfitting import compare_heldout, crossfit_candidate, screen_gain
 from .registry import EFFECTS, SignatureRows
-from .results import RoundRow
+from .results import RoundRow, pooled_mse
 from .specs import FAMILY_PRIORITY
-from .state import Candidate, Run, deferred_row
+from .state import Candidate, Run, deferred_row, excess_of
 from .stats import HeldOut, heldout_comparison, with_where
 from .structure import Fit
 
@@ -65,6 +65,9 @@ def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
     order = sorted(todo, key=lambda n: FAMILY_PRIORITY[EFFECTS[n].family]) if (
         ctx.strict) else todo
     lead: tuple[str, float] | None = None
+    # the current model's test-row MSE, which the excess is counted in where the evidence
+    # rows are the test rows (state.excess_of, as the judge counts it)
+    mse_cur = pooled_mse(ctx.test_res(cur))
     cands: dict[str, Candidate] = {}
     deferred: list[RoundRow] = []
     for i, name in enumerate(order):
@@ -88,8 +91,8 @@ def search_round(run: Run, cur: Fit, todo: list[str], rnd: int
         c = judged
         cands[name] = c
         cv = c.crossfit.parameter_cv if c.crossfit is not None else None
-        if ctx.strict and decide(c.heldout, c.heldout.mse_before - run.noise**2, len(todo),
-                                 cv).passes:
+        if ctx.strict and decide(c.heldout, excess_of(c, mse_cur, run.noise, ctx.strict),
+                                 len(todo), cv).passes:
             lead = _new_lead(lead, name, c.heldout.gain)
     return cands, deferred
 

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from .acceptance import RULE, Decision
+from .acceptance import RULE, Decision, floor_mse
 from .between import BetweenPlan, BetweenRecordings
 from .context import FitContext
 from .crossfitting import CrossFit
@@ -21,7 +21,8 @@ from .specs import Untestable
 from .stats import HeldOut
 from .structure import Fit
 
-__all__ = ["Candidate", "Progress", "Run", "deferred_row", "evidence_label", "round_row"]
+__all__ = ["Candidate", "Progress", "Run", "deferred_row", "evidence_label", "excess_of",
+           "round_row"]
 
 
 class Progress:
@@ -100,6 +101,19 @@ class Candidate:
     def evidence_rows(self) -> HeldOut:
         """The comparison the significance rule uses (cross-fitted when available)."""
         return self.crossfit.pooled if self.crossfit is not None else self.heldout
+
+
+def excess_of(c: Candidate, mse_cur: float, noise: float, strict: bool) -> float:
+    """The excess over the noise floor the share rule of candidate ``c`` is counted in, the
+    one definition the judge's verdict (:func:`~core.diagnosis.judge.judge_round`) and the
+    search's leading family (:func:`~core.diagnosis.search.search_round`) both use
+    (output units²): the MSE of its evidence rows (``c.heldout.mse_before`` with strict
+    hold-out, between recordings or on its signature rows; else ``mse_cur``, the current
+    model's test-row MSE) minus the floor of those rows
+    (:func:`~core.diagnosis.acceptance.floor_mse`: twice ``noise²`` on rows compared with an
+    earlier row, ``noise`` the white-noise RMS in output units)."""
+    before = c.heldout.mse_before if strict or c.between or c.where else mse_cur
+    return before - floor_mse(noise, c.differenced)
 
 
 @dataclass

@@ -25,8 +25,7 @@ from core.diagnosis.acceptance import (
     share_needed,
     size_ok,
 )
-from core.diagnosis.judge import excess_of
-from core.diagnosis.state import Candidate
+from core.diagnosis.state import Candidate, excess_of
 from core.diagnosis.stats import HeldOut, heldout_comparison
 from core.diagnosis.structure import Fit
 from core.pi import PIModel

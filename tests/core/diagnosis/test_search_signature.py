@@ -2,7 +2,7 @@
 compared with an earlier row of the same input history (a drift from cycle to cycle of a
 repeated input) is marked ``differenced``: the white noise enters such a change twice, so
 the excess its 20 % share is counted in subtracts 2 noise², not noise²
-(:func:`~core.diagnosis.acceptance.floor_mse`, :func:`~core.diagnosis.judge.excess_of`)."""
+(:func:`~core.diagnosis.acceptance.floor_mse`, :func:`~core.diagnosis.state.excess_of`)."""
 
 from __future__ import annotations
 
@@ -15,10 +15,9 @@ from core.diagnosis.context import FitContext
 from core.diagnosis.crossfitting import screen_gain
 from core.diagnosis.data import split_masks
 from core.diagnosis.grid import baseline_thresholds
-from core.diagnosis.judge import excess_of
 from core.diagnosis.registry import EFFECTS
 from core.diagnosis.search import _on_its_signature
-from core.diagnosis.state import Candidate
+from core.diagnosis.state import Candidate, excess_of
 from core.diagnosis.structure import Structure
 from core.pi import PIModel
 from core.recordings import Recording
@@ -59,3 +58,45 @@ def test_a_candidate_judged_cycle_to_cycle_counts_the_noise_twice() -> None:
     assert excess_of(judged, 9.0, noise, strict=False) == pytest.approx(
         judged.heldout.mse_before - 2 * noise**2)
     assert floor_mse(noise, True) == 2 * noise**2
+
+
+def test_the_search_leads_with_the_excess_the_judge_counts(monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    """With strict hold-out the search lets a passing family bound the later ones
+    (search_round's lead); it decides that with the excess the judge's verdict counts
+    (state.excess_of), not its own: on rows compared with an earlier row the floor is twice
+    the noise variance. Before, the search subtracted noise² once: a candidate removing 0.12
+    of an MSE of 1 with noise 0.5 met the share for the judge (20 % of 0.5) but not for the
+    lead (20 % of 0.75)."""
+    from types import SimpleNamespace
+
+    from core.diagnosis import judge, search
+    from core.diagnosis.acceptance import decide as real_decide
+    from core.diagnosis.stats import HeldOut
+
+    noise = 0.5
+    held = HeldOut(1.0, 0.88, 0.12, 8.0, 1e-9, 40)
+    rec = _periodic()
+    seen: list[tuple[float, bool]] = []
+
+    def spy(h, excess, *args, **kwargs):  # type: ignore[no-untyped-def]
+        d = real_decide(h, excess, *args, **kwargs)
+        seen.append((excess, d.passes))
+        return d
+
+    monkeypatch.setattr(search, "build_candidate", lambda ctx, name, cur: (None, {}, {}))
+    monkeypatch.setattr(search, "screen_gain", lambda fit, cur: held)
+    monkeypatch.setattr(search, "candidate_evidence", lambda run, cur, c, rnd, frac: Candidate(
+        c.name, c.fit, {}, {}, heldout=held, where="test rows one cycle apart",
+        differenced=True))
+    monkeypatch.setattr(search, "decide", spy)
+    ctx = SimpleNamespace(strict=True, test_res=lambda f: [rec.y[:10] * 0.0 + 3.0])
+    run = SimpleNamespace(ctx=ctx, noise=noise, step=lambda *a: None)
+    cur = SimpleNamespace(pred=[rec.y])
+    cands, _ = search.search_round(run, cur, ["drift"], 0)  # type: ignore[arg-type]
+    judged = cands["drift"]
+    # the judge's excess: its verdict counts it with this same function
+    assert judge.excess_of is excess_of
+    want = excess_of(judged, 9.0, noise, strict=True)
+    assert want == pytest.approx(held.mse_before - floor_mse(noise, True)) == 0.5
+    assert seen == [(pytest.approx(want), True)]
