@@ -11,13 +11,38 @@ from .misspecification import BASE_NAMES, describe_alternative
 if TYPE_CHECKING:
     from .results import DiagnosisResult, EffectFinding
 
-__all__ = ["ALL_ROWS_WORDS", "summary_text"]
+__all__ = ["ALL_ROWS_WORDS", "final_fit_words", "summary_text"]
 
 #: What the report says beside an effect whose term was to be fitted on its changes from
 #: cycle to cycle and was fitted on all the training rows
 #: (:attr:`~core.diagnosis.results.EffectFinding.fitted_on_all_rows`).
 ALL_ROWS_WORDS = ("fitted on all the training rows: fitted on its changes from cycle to "
                   "cycle it left the training rows worse than without it")
+
+
+def final_fit_words(res: DiagnosisResult, e: EffectFinding) -> str | None:
+    """What the report says when the final model fitted the term of the accepted effect
+    ``e`` otherwise than the fit its parameters come from, else ``None``.
+
+    The effect's line gives the parameters of the fit it was judged with, and beside them
+    whether that fit fell back to all the training rows
+    (:attr:`~core.diagnosis.results.EffectFinding.fitted_on_all_rows`). The final model,
+    refitted with every effect named (:attr:`~core.diagnosis.results.DiagnosisResult.final`,
+    :attr:`~core.diagnosis.structure.Fit.raw_fallback`), may have fitted the same term the
+    other way; the model the user gets is that one, so the report says so.
+    """
+    if e.name not in res.final.structure.effects:
+        return None
+    fell_back = e.name in res.final.raw_fallback
+    if fell_back == e.fitted_on_all_rows:
+        return None
+    if fell_back:
+        return ("in the final model, refitted with every effect named, this term was "
+                f"{ALL_ROWS_WORDS}; the values above are from the fit it was judged with, "
+                "on its changes from cycle to cycle")
+    return ("the final model, refitted with every effect named, did not need to fit this "
+            "term on all the training rows; the values above are from the fit it was judged "
+            "with, which did")
 
 
 def summary_text(res: DiagnosisResult) -> str:  # noqa: C901 - one branch per report section
@@ -138,6 +163,8 @@ def _effect_lines(res: DiagnosisResult, i: int, e: EffectFinding, yr: float) -> 
         f"   added: {e.equation}",
     ]
     lines += [f"   caveat: {c}" for c in e.caveats]
+    if (other := final_fit_words(res, e)) is not None:
+        lines.append(f"   final model: {other}")
     lines += _base_dependence(e)
     lines += _recording_dependence(e)
     if e.loro is not None:

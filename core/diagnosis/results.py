@@ -159,7 +159,11 @@ class EffectFinding:
     ambiguous_parameters: list[str] = field(default_factory=list)
     #: the effect's term was to be fitted on changes between rows of the same input history
     #: (from cycle to cycle) and was fitted on all the training rows instead, because that
-    #: fit left the training rows worse than no such term (:attr:`Fit.raw_fallback`)
+    #: fit left the training rows worse than no such term (:attr:`Fit.raw_fallback`), in
+    #: the fit the effect was judged with, which :attr:`parameters` come from (its term's
+    #: coefficients); the final model's own fallback is :attr:`DiagnosisResult.final`'s
+    #: ``raw_fallback``, and the report says when the two differ
+    #: (:func:`~core.diagnosis.report.final_fit_words`)
     fitted_on_all_rows: bool = False
 
     def to_dict(self, y_range: float) -> dict[str, Any]:

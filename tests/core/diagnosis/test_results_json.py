@@ -341,3 +341,31 @@ def test_any_round_row_round_trips() -> None:
         same(row, read_document(json.loads(text), "x", 1, (RoundRow,), RoundRow), "row")
 
     check()
+
+
+def test_the_report_says_when_the_final_model_fitted_the_term_otherwise(saturation_and_lag
+                                                                        ) -> None:
+    """The effect's line gives the parameters of the fit it was judged with and whether that
+    fit fell back to all the training rows; the final model, refitted with every effect
+    named, may have fitted the term the other way, and the model the user gets is that one:
+    the report says so in both directions, and nothing when the two agree. Before, the
+    final model's fallback was in the JSON only."""
+    from core.diagnosis.report import ALL_ROWS_WORDS
+
+    res = copy.copy(saturation_and_lag)
+    name = res.effects[0].name
+    assert name in res.final.structure.effects
+    assert "final model: " not in res.summary()
+
+    def said(judged: bool, final: bool) -> list[str]:
+        r = copy.copy(res)
+        r.effects = [dataclasses.replace(res.effects[0], fitted_on_all_rows=judged),
+                     *res.effects[1:]]
+        r.final = dataclasses.replace(res.final, raw_fallback=(name,) if final else ())
+        return [t for t in r.summary().splitlines() if t.startswith("   final model: ")]
+
+    assert said(False, False) == [] and said(True, True) == []
+    (fell,) = said(False, True)
+    assert ALL_ROWS_WORDS in fell and "judged with, on its changes from cycle to cycle" in fell
+    (kept,) = said(True, False)
+    assert ALL_ROWS_WORDS not in kept and "did not need to fit this term on all" in kept
