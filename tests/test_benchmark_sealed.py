@@ -298,6 +298,40 @@ def test_a_miss_counts_as_located_only_with_its_parameter_within_tolerance() -> 
     assert score_rows([null])[0]["located"] is None
 
 
+def test_located_is_scored_against_the_null_s_own_estimate_as_the_parameters_are() -> None:
+    """On a measured base whose null already names a delay (0.4 ms), a concealed 1 ms dead
+    time that is only suggested is located when the suggestion is near 1.4 ms (the truth
+    plus the null's own estimate, the reference of the parameter column), not when it is
+    near 1 ms. Before, the located column compared against the raw 1 ms: 1.35 ms was +35 %
+    (not located) and 1.0 ms exactly right."""
+    from benchmarks.diagnosis.sets import score_rows, summarise_set
+
+    null = {**_row("dev/measured/piezo/null", ["initial-memory", "delay"],
+                   params={"delay": {"delay_s": 4e-4}}), "set": "dev", "suggestive": [],
+            "untestable": [], "elapsed_s": 1.0}
+
+    def run(said: float | None, named: bool = False) -> dict:
+        found = ["initial-memory"] + (["delay"] if named else [])
+        r = {**_row("dev/measured/piezo/delay/small", found, {"delay": {"delay_s": 1e-3}},
+                    params={"delay": {"delay_s": said}}), "set": "dev"}
+        return {**r, "untestable_parameters": {}, "after_steps": None, "suggestive": [],
+                "untestable": [], "elapsed_s": 1.0,
+                "suggestive_parameters": {} if said is None else {"delay": {"delay_s": said}}}
+
+    near, raw = (score_rows([null, {**run(x), "id": k}])[1]
+                 for k, x in (("near", 1.35e-3), ("raw", 1.0e-3)))
+    assert near["located"] and not raw["located"]
+    # the parameter column of a named delay has the same reference
+    named = score_rows([null, run(1.35e-3, named=True)])[1]
+    assert named["params"][0]["truth"] == pytest.approx(1.4e-3) and named["params"][0]["ok"]
+    # the per-run table says it against the same reference
+    assert "sugg. delay delay_s 0.00135 vs 0.0014 (-3.6 %)" in summarise_set(
+        [null, {**run(1.35e-3), "id": "near"}])
+    # a null that does not name a delay leaves the truth as it is
+    plain = {**null, "found": ["initial-memory"], "claims": null["claims"][:1]}
+    assert score_rows([plain, run(1.0e-3)])[1]["located"]
+
+
 def test_a_measured_case_runs_through_the_diagnosis_and_the_table() -> None:
     from benchmarks.diagnosis.sets import SETS, run_case, summarise_set
 

@@ -276,32 +276,45 @@ def score_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         wrong = [n for n in new if n != hid and _counts(r, n) and not _ambiguous_with(r, n, hid)]
         q = _QUANTITY.get(hid)
         if q and named:
-            truth = float(r["hidden"][hid][q])
-            if hid in ("delay", "lag"):
-                truth += _estimate(ref if hid in base_names else None, q)
+            truth = _reference(r, ref, hid, q)
             found = next(float(c["parameters"][q]) for c in r["claims"] if c["name"] == hid)
             err = (found - truth) / truth
             v["params"].append({"quantity": q, "truth": truth, "found": found, "rel_err": err,
                                 "ok": abs(err) <= RECOVERY_TOLERANCE[q]})
         v.update(top1=top, named=named, flagged=flagged, wrong=wrong)
-        v["located"] = _located(r, v)
+        v["located"] = _located(r, v, ref)
+        v["said"] = said_parameters(r, ref)
         out.append(v)
     return out
 
 
-def said_parameters(r: dict[str, Any]) -> list[str]:
+def _reference(r: dict[str, Any], ref: dict[str, Any] | None, hid: str, q: str) -> float:
+    """What run ``r``'s quantity ``q`` of its hidden effect ``hid`` is scored against: the
+    truth, plus, for a delay or a lag on a measured base whose null ``ref`` names the same
+    effect, the null's own estimate (a dead time added to a recording that already shows
+    one). The one reference of the parameter column and of the located column."""
+    truth = float(r["hidden"][hid][q])
+    if hid in ("delay", "lag") and ref is not None and hid in ref["found"]:
+        truth += _estimate(ref, q)
+    return truth
+
+
+def said_parameters(r: dict[str, Any], ref: dict[str, Any] | None = None) -> list[str]:
     """Each hidden effect's quantity (delay, lag time constant, mode frequency) where run
     ``r`` gives it without naming the effect: said untestable, suggested in the last round,
     or suggested by the input steps, each against the truth (``"untestable resonance
-    freq_hz 45.56 vs 45 (+1.2 %)"``), in the order of the hidden effects. Information for
+    freq_hz 45.56 vs 45 (+1.2 %)"``; on a measured base with its null ``ref``, against the
+    reference of :func:`_reference`), in the order of the hidden effects. Information for
     the per-run table only; rows written before these keys were recorded give nothing."""
     return [f"{how} {hid} {q} {found:.4g} vs {truth:.4g} ({100 * (found - truth) / truth:+.1f} %)"
-            for how, hid, q, found, truth in _said(r)]
+            for how, hid, q, found, truth in _said(r, ref)]
 
 
-def _said(r: dict[str, Any]) -> list[tuple[str, str, str, float, float]]:
-    """``(how, effect, quantity, found, truth)`` of every parameter run ``r`` gives for a
-    hidden effect it does not name (see :func:`said_parameters`)."""
+def _said(r: dict[str, Any], ref: dict[str, Any] | None = None
+          ) -> list[tuple[str, str, str, float, float]]:
+    """``(how, effect, quantity, found, reference)`` of every parameter run ``r`` gives for
+    a hidden effect it does not name (see :func:`said_parameters`; ``reference``: that of
+    :func:`_reference` with the null ``ref``)."""
     steps = r.get("after_steps") or {}
     out = []
     for hid, truths in r["hidden"].items():
@@ -311,18 +324,21 @@ def _said(r: dict[str, Any]) -> list[tuple[str, str, str, float, float]]:
         said = [("untestable", (r.get("untestable_parameters") or {}).get(hid, {})),
                 ("sugg.", (r.get("suggestive_parameters") or {}).get(hid, {})),
                 ("steps", steps.get("parameters", {}) if steps.get("effect") == hid else {})]
-        out += [(how, hid, q, float(p[q]), float(truths[q]))
-                for how, p in said if isinstance(p.get(q), (int, float))]
+        if q in truths:
+            truth = _reference(r, ref, hid, q)
+            out += [(how, hid, q, float(p[q]), truth)
+                    for how, p in said if isinstance(p.get(q), (int, float))]
     return out
 
 
-def _located(r: dict[str, Any], v: dict[str, Any]) -> bool:
+def _located(r: dict[str, Any], v: dict[str, Any], ref: dict[str, Any] | None = None) -> bool:
     """Whether effect run ``r`` (verdict ``v``) is neither named nor flagged but gives the
     hidden effect's parameter within :data:`RECOVERY_TOLERANCE` (said untestable or
-    suggested)."""
+    suggested) of the reference the parameter column uses (:func:`_reference`: on a measured
+    base, the truth plus the null ``ref``'s own estimate of a delay or lag it names)."""
     return bool(v["hidden"]) and not (v["named"] or v["flagged"]) and any(
         abs(found - truth) <= RECOVERY_TOLERANCE[q] * abs(truth)
-        for _, hid, q, found, truth in _said(r) if hid == v["hidden"])
+        for _, hid, q, found, truth in _said(r, ref) if hid == v["hidden"])
 
 
 def _frac(k: int, n: int) -> str:
@@ -387,7 +403,7 @@ def summarise_set(rows: list[dict[str, Any]]) -> str:
                 verdict += "; null not run"
         par = "; ".join([f"{p['quantity']} {p['found']:.4g} vs {p['truth']:.4g} "
                          f"({100 * p['rel_err']:+.0f} %{'' if p['ok'] else ', OFF'})"
-                         for p in v["params"]] + said_parameters(r))
+                         for p in v["params"]] + v.get("said", []))
         lines.append(f"| {r['id']} | {v['hidden'] or '-'} | {named or 'none'}"
                      + (f"; {'; '.join(extra)}" if extra else "")
                      + f" | {verdict} | {par or '-'} | {r['elapsed_s']:.0f} |")
