@@ -38,6 +38,10 @@ __all__ = [
     "pi_batch",
     "pi_output_fast",
     "level_segments_rows",
+    "mp_advance",
+    "mp_inverse",
+    "mp_output",
+    "mp_unit",
     "pi_output_strict",
     "play_matrix",
     "preisach_inverse",
@@ -629,3 +633,165 @@ def bouc_wen_inverse(  # noqa: C901 - a compiled kernel: one loop, calls out of 
         out[k] = v
         x = v
     return x
+
+
+# ---------------------------------------------------------------------------------------
+# Menegotto-Pinto smooth stop elements (model in core.nonmasing)
+#
+# State vector (length 3 + 5 n): the last input, the branch direction (+1, -1; 0 before the
+# first move from the virgin state), the input at the last reversal, then per element the
+# element output s_i, its value at the last reversal s_r,i, the largest and the smallest
+# input reached at a reversal so far (+r_i and -r_i before any excursion) and the branch's
+# curvature R_i.
+
+
+@njit(cache=True, nogil=True, inline="always")
+def mp_unit(x, rr):  # pragma: no cover - compiled
+    """``x / (1 + |x|^R)^(1/R)``, written so that a large ``R`` neither overflows nor
+    underflows (``|x| > 1`` through ``|x|^-R``)."""
+    ax = abs(x)
+    if ax <= 1.0:
+        return x / (1.0 + ax**rr) ** (1.0 / rr)
+    v = 1.0 / (1.0 + ax ** (-rr)) ** (1.0 / rr)
+    return v if x > 0.0 else -v
+
+
+@njit(cache=True, nogil=True)
+def mp_advance(v, r, r0, c1, c2, st):  # pragma: no cover - compiled
+    """Move the elements' state ``st`` (layout above) to the input ``v``: a reversal where
+    the input's direction changes starts a new branch of each element from its present
+    output, with the curvature of its previous excursion; then each element's output on
+    its branch at ``v``."""
+    n = r.shape[0]
+    u = st[0]
+    d = st[1]
+    du = v - u
+    nd = 1.0 if du > 0.0 else (-1.0 if du < 0.0 else 0.0)
+    if nd != 0.0 and nd != d:
+        for i in range(n):
+            b = 3 + 5 * i
+            if d > 0.0:
+                if u > st[b + 2]:
+                    st[b + 2] = u
+            elif d < 0.0:
+                if u < st[b + 3]:
+                    st[b + 3] = u
+            sr = st[b]
+            st[b + 1] = sr
+            ua = u + nd * r[i] - sr  # where the unit line from the reversal meets nd r_i
+            um = st[b + 2] if nd > 0.0 else st[b + 3]
+            xi = abs(um - ua) / r[i]
+            st[b + 4] = r0[i] * (1.0 - c1[i] * xi / (c2[i] + xi))
+        st[1] = nd
+        st[2] = u
+        d = nd
+    st[0] = v
+    if d != 0.0:
+        ur = st[2]
+        for i in range(n):
+            b = 3 + 5 * i
+            sr = st[b + 1]
+            span = d * r[i] - sr
+            if span != 0.0:
+                st[b] = sr + span * mp_unit((v - ur) / span, st[b + 4])
+
+
+@njit(cache=True, nogil=True)
+def mp_output(u, r, w, k, r0, c1, c2, st, out):  # pragma: no cover - compiled
+    """``y = k u + sum_i w_i s_i[u]`` of a bank of Menegotto-Pinto elements; ``st``
+    (layout above) is updated in place."""
+    n = r.shape[0]
+    for t in range(u.shape[0]):
+        mp_advance(u[t], r, r0, c1, c2, st)
+        y = k * u[t]
+        for i in range(n):
+            y += w[i] * st[3 + 5 * i]
+        out[t] = y
+
+
+@njit(cache=True, nogil=True)
+def _mp_at(v, r, w, k, r0, c1, c2, st, work):  # pragma: no cover - compiled
+    """Output at the input ``v`` from the state ``st`` (left unchanged; ``work`` is
+    overwritten)."""
+    for j in range(st.shape[0]):
+        work[j] = st[j]
+    mp_advance(v, r, r0, c1, c2, work)
+    y = k * v
+    for i in range(r.shape[0]):
+        y += w[i] * work[3 + 5 * i]
+    return y
+
+
+@njit(cache=True, nogil=True)
+def mp_inverse(  # noqa: C901 - a compiled kernel: one loop, calls out of it cost per sample
+    y, r, w, k, r0, c1, c2, mlo, mhi, st, work, out
+):  # pragma: no cover - compiled
+    """Per-sample inverse of :func:`mp_output` (branch slopes in ``[mlo, mhi]``,
+    ``mlo > 0``): from the state the output is a continuous increasing function of the next
+    input, so the input is bracketed from the slopes and found by regula falsi (Illinois)
+    safeguarded by bisection, to adjacent doubles; then the state advances to it."""
+    n = r.shape[0]
+    for t in range(y.shape[0]):
+        yt = y[t]
+        x = st[0]
+        f0 = k * x
+        for i in range(n):
+            f0 += w[i] * st[3 + 5 * i]
+        dd = yt - f0
+        v = x
+        if dd != 0.0:
+            if dd > 0.0:
+                a = x + dd / mhi
+                b = x + dd / mlo
+            else:
+                a = x + dd / mlo
+                b = x + dd / mhi
+            fa = _mp_at(a, r, w, k, r0, c1, c2, st, work) - yt
+            fb = _mp_at(b, r, w, k, r0, c1, c2, st, work) - yt
+            w0 = abs(dd) / mlo
+            ww = w0
+            for _ in range(60):  # round-off at the bracket's ends: widen it
+                if fa <= 0.0:
+                    break
+                a -= ww
+                ww *= 2.0
+                fa = _mp_at(a, r, w, k, r0, c1, c2, st, work) - yt
+            ww = w0
+            for _ in range(60):
+                if fb >= 0.0:
+                    break
+                b += ww
+                ww *= 2.0
+                fb = _mp_at(b, r, w, k, r0, c1, c2, st, work) - yt
+            ga = fa
+            gb = fb
+            side = 0
+            for it in range(200):
+                if ga == 0.0 or gb == 0.0:
+                    break
+                if it % 4 == 3 or ga == gb:
+                    tt = 0.5 * (a + b)  # a bisection every fourth step: a sure shrink
+                else:
+                    tt = (a * gb - b * ga) / (gb - ga)
+                if not (tt > a and tt < b):
+                    tt = 0.5 * (a + b)
+                    if not (tt > a and tt < b):
+                        break
+                ft = _mp_at(tt, r, w, k, r0, c1, c2, st, work) - yt
+                if ft <= 0.0:
+                    a = tt
+                    fa = ft
+                    ga = ft
+                    if side == -1:
+                        gb *= 0.5
+                    side = -1
+                else:
+                    b = tt
+                    fb = ft
+                    gb = ft
+                    if side == 1:
+                        ga *= 0.5
+                    side = 1
+            v = a if abs(fa) <= abs(fb) else b
+        mp_advance(v, r, r0, c1, c2, st)
+        out[t] = v

@@ -24,6 +24,7 @@ from . import (  # noqa: F401
     digitized_deadzone,
     gpi,
     lti,
+    nonmasing,
     pi,
     preisach,
     stages,

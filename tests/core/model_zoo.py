@@ -18,6 +18,7 @@ from core.digitized import DigitizedPI
 from core.digitized_deadzone import DigitizedDeadZone, DigitizedModifiedPI
 from core.gpi import DeadZoneGPI, ModifiedPI, TanhEnvelope, TanhGPI
 from core.lti import LinearSystem
+from core.nonmasing import MenegottoPintoModel
 from core.pi import PIModel
 from core.preisach import PreisachModel, RateDependentPreisach
 from core.stages import (
@@ -66,6 +67,10 @@ STOP_PI = StopPIModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], state0=[0.1, -0.2,
 #: The same behind a backlash gap 0.4 wide (a friction damper with a loose joint).
 STOP_GAP = StopPIModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], state0=[0.1, -0.2, 0.3],
                        gap=0.4)
+#: A Menegotto-Pinto bank (non-Masing, clockwise loops; input about ±3): a rounder knee
+#: after larger excursions.
+MENEGOTTO_PINTO = MenegottoPintoModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], [20.0, 8.0, 3.0],
+                                      [0.9, 0.5, 0.0], [0.15, 0.5, 1.0])
 #: Sample spacing used with the dynamic models (s).
 DT = 1e-4
 
@@ -136,6 +141,8 @@ def _zoo() -> dict[str, Model]:
         "rate-preisach-inverse": RATE_PREISACH.inverse(),
         "stop-pi": STOP_PI,
         "stop-pi-gap-inverse": STOP_GAP.inverse(),
+        "menegotto-pinto": MENEGOTTO_PINTO,
+        "menegotto-pinto-inverse": MENEGOTTO_PINTO.inverse(),
     }
     out["lti_inverse"] = LinearSystem([1e-4, 1.0], [1e-3, 1.0]).inverse()
     out["digitized-deadzone"] = DigitizedDeadZone.from_deadzone_map(g)
