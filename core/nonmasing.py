@@ -95,11 +95,15 @@ class MenegottoPintoModel(Model):
     curvature_scale : array_like of shape (n,)
         ``cR2 > 0`` of each element: the excursion (in yield levels) at which half of that
         rounding is reached.
+    history : array_like of shape (m,), optional
+        A virtual input history (input units) run from the virgin state at input 0 before
+        the first sample: the memory the record starts with (none by default).
 
     Notes
     -----
     The state (``Response.state``) is a vector of :func:`state_size` numbers; the default
-    is the virgin state at input 0 (every element at 0, no branch yet).
+    is the state the ``history`` leaves from the virgin state at input 0 (every element at
+    0, no branch yet).
 
     Examples
     --------
@@ -132,6 +136,9 @@ class MenegottoPintoModel(Model):
               "the drop, > 0", title="Curvature scales cR2_i",
               control=Control("cR2{i}", "1", (0.01, 2.0), step=0.01, relative=False,
                               lower=0.0, strict=True)),
+        Field("history", "numbers", optional=True, doc="virtual input history before the "
+              "first sample, run from rest at 0 (input units)", title="Input history u_k",
+              control=Control("u{i}", "input", (-1.25, 1.25))),
     )
     k: float
     thresholds: Float1D
@@ -139,6 +146,7 @@ class MenegottoPintoModel(Model):
     curvature: Float1D
     curvature_drop: Float1D
     curvature_scale: Float1D
+    history: Float1D | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "k", as_finite_scalar(self.k, "k"))
@@ -159,6 +167,9 @@ class MenegottoPintoModel(Model):
         for name, v in (("thresholds", r), ("weights", w), ("curvature", r0),
                         ("curvature_drop", c1), ("curvature_scale", c2)):
             object.__setattr__(self, name, v)
+        if self.history is not None:
+            h = as_vector(self.history, "history", min_length=0)
+            object.__setattr__(self, "history", h if h.size else None)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -186,7 +197,7 @@ class MenegottoPintoModel(Model):
         return self.slope_bounds()[0] > 0
 
     # ------------------------------------------------------------------ simulation
-    def default_state(self) -> Float1D:
+    def virgin_state(self) -> Float1D:
         """The virgin state at input 0: every element at 0, no branch yet, excursions
         ``±r_i`` (shape ``(3 + 5 n,)``, :func:`state_size`)."""
         st = np.zeros(state_size(self.n))
@@ -194,6 +205,15 @@ class MenegottoPintoModel(Model):
         body[:, 2] = self.thresholds
         body[:, 3] = -self.thresholds
         body[:, 4] = self.curvature
+        return st
+
+    def default_state(self) -> Float1D:
+        """The state the :attr:`history` leaves from :meth:`virgin_state` (that state
+        without one), shape ``(3 + 5 n,)``."""
+        st = self.virgin_state()
+        if self.history is not None:
+            kernels.mp_output(np.ascontiguousarray(self.history), *self._args(), st,
+                              np.empty(self.history.size))
         return st
 
     def _state(self, state: Any) -> Float1D:
@@ -217,7 +237,7 @@ class MenegottoPintoModel(Model):
 
     def element_outputs(self, u: ArrayLike, state: ArrayLike | None = None) -> np.ndarray:
         """Each element's output ``s_i[u]``, shape ``(N, n)`` (input units, ``|s_i| < r_i``),
-        from ``state`` (the virgin state by default)."""
+        from ``state`` (:meth:`default_state` by default)."""
         uu = as_input_signal(u)
         st = self._state(self.default_state() if state is None else state)
         r, c0, c1, c2 = (self.thresholds, self.curvature, self.curvature_drop,

@@ -129,3 +129,16 @@ def test_bad_parameters_are_refused(kw: dict, msg: str) -> None:
             "curvature_drop": [0.5] * 3, "curvature_scale": [0.15] * 3} | kw
     with pytest.raises(ParameterError, match=msg):
         MenegottoPintoModel(**args)
+
+
+def test_a_history_sets_the_starting_memory() -> None:
+    """``history`` is the record's virtual past: the model with it is the model without it
+    continued from the state the history leaves."""
+    hist = np.array([0.0, 2.5, -1.0, 0.7])
+    u = turning_points(11, 1500)
+    plain = _bank(0.2, W, 12.0, 0.7)
+    m = MenegottoPintoModel(0.2, R, W, [12.0] * 3, [0.7] * 3, [0.15] * 3, history=hist)
+    after = plain.simulate(hist).state
+    np.testing.assert_array_equal(m(u), plain.simulate(u, state=after).y)
+    np.testing.assert_array_equal(model_from_dict(m.to_dict())(u), m(u))
+    np.testing.assert_allclose(m.inverse()(m(u)), u, rtol=0, atol=1e-9 * np.ptp(u))
