@@ -18,7 +18,7 @@ from ..operators import play_bank
 from ..preisach import level_segments
 from ..recordings import Recording
 from ..stages import rd_play_bank
-from .bases import bouc_wen_bank
+from .bases import element_bank
 from .cache_budget import BANK, DERIVED, FIT, CacheBudget
 from .events import event_starts
 from .rowkernels import bank_rows_times, play_rows, row_selector
@@ -307,7 +307,8 @@ class BankCache:
 
     def _bouc_wen_bank(self, k: int, rec: Recording, hist: tuple, shape: tuple,
                        elements: tuple, upto: int | None) -> np.ndarray:
-        """The bank of a Bouc-Wen base (:func:`core.diagnosis.bases.bouc_wen_bank`), always
+        """The bank of a Bouc-Wen or Menegotto-Pinto base
+        (:func:`core.diagnosis.bases.element_bank`), always
         computed over the whole recording and memoised apart from the play banks (its RK4
         elements cost some hundred times a play: a search met each one again and again).
         Banks without a virtual history are kept; those of a history search within the cache
@@ -316,7 +317,7 @@ class BankCache:
         key = (k, hist, shape, elements, rec.n_samples, float(rec.u[-1]))
         B = self.budget.get(self.bw, key)
         if B is None:
-            B = bouc_wen_bank(apply_shape(shape, rec.u), elements,
+            B = element_bank(apply_shape(shape, rec.u), elements,
                               apply_shape(shape, hist) if hist else None)
             if hist:
                 self.budget.put(self.bw, key, B, B.nbytes, FIT)

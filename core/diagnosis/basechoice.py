@@ -2,8 +2,9 @@
 
 :func:`fit_baseline` fits the PI (sign-constrained or with weights of either sign) and
 doubles its play grid while the held-out fit improves; :func:`choose_base_family` tries the
-stop-operator base on clockwise loops, a Preisach base (:func:`choose_base`) and a Bouc-Wen
-base, each cross-validated by predicting every recording from the others.
+stop-operator base on clockwise loops, a Preisach base (:func:`choose_base`), a Bouc-Wen
+base and a Menegotto-Pinto base (non-Masing loops), each cross-validated by predicting every
+recording from the others.
 """
 
 from __future__ import annotations
@@ -21,7 +22,16 @@ from ..fitting.stop import branch_features
 from ..stop import StopPIModel
 from .acceptance import RULE
 from .adequacy import fold_mse
-from .bases import BW_MIN_GAIN, bouc_wen_elements, fit_stop_gap, saturations, stop_stage
+from .bases import (
+    BW_MIN_GAIN,
+    MP_MIN_GAIN,
+    base_elements,
+    bouc_wen_elements,
+    fit_stop_gap,
+    menegotto_pinto_elements,
+    saturations,
+    stop_stage,
+)
 from .candidates import build_candidate
 from .context import FitContext
 from .crossfitting import compare_heldout
@@ -249,10 +259,11 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
 def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
                        ) -> tuple[Fit, BaseChoice]:
     """The stop-operator base on clockwise loops (:func:`_stop_base`), then
-    :func:`choose_base` against it, then a Bouc-Wen base cross-validated on the same folds
-    (each recording predicted from the others, training rows only): it replaces the chosen
-    base when it lowers the MSE there by :data:`BW_MIN_GAIN` against the PI (or stop) base
-    and beats the chosen base."""
+    :func:`choose_base` against it, then a Bouc-Wen base and a Menegotto-Pinto base (of the
+    training rows' loop orientation) cross-validated on the same folds (each recording
+    predicted from the others, training rows only): each replaces the chosen base when it
+    lowers the MSE there by its margin (:data:`BW_MIN_GAIN`, :data:`MP_MIN_GAIN`) against
+    the PI (or stop) base and more than the chosen base did."""
     got = _stop_base(ctx, base)
     ref, stop = (got[0], got[1]) if got is not None else (base, None)
     best, choice = choose_base(ctx, ref, n_operators)
@@ -275,6 +286,30 @@ def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
                       default=0.0) if choice.kind == "preisach" else 0.0
     tried = (*choice.tried, {"base": "bouc-wen", "operators": len(el), "level_segments": 1,
                              "smoothness": 0.0, "cv_mse_reduction": float(h.gain)})
+    kind = choice.kind
     if h.gain >= BW_MIN_GAIN and h.gain > chosen_gain:
-        return fb, BaseChoice("bouc-wen", tried, choice.folds or len(folds), stop)
-    return best, BaseChoice(choice.kind, tried, choice.folds or len(folds), stop)
+        best, kind, chosen_gain = fb, "bouc-wen", float(h.gain)
+    got_mp = _menegotto_pinto_base(ctx, sub, ref, span)
+    if got_mp is not None:
+        fm, gm = got_mp
+        tried = (*tried, {"base": "menegotto-pinto", "operators": len(fm.structure.bouc_wen),
+                          "level_segments": 1, "smoothness": 0.0, "cv_mse_reduction": gm})
+        if gm >= MP_MIN_GAIN and gm > chosen_gain:
+            best, kind = fm, "menegotto-pinto"
+    return best, BaseChoice(kind, tried, choice.folds or len(folds), stop)
+
+
+def _menegotto_pinto_base(ctx: FitContext, sub: FitContext, ref: Fit, span: float
+                          ) -> tuple[Fit, float] | None:
+    """The Menegotto-Pinto base (:func:`~core.diagnosis.bases.menegotto_pinto_elements` over
+    the training input range ``span``, clockwise or counter-clockwise as the training rows'
+    loops run, weights ``>= 0``) and its MSE reduction against ``ref`` on the folds of
+    ``sub``; ``None`` with too few training rows per weight."""
+    recs = ctx.records
+    s0 = ref.structure
+    clockwise = loop_orientation([r.u for r in recs], [r.y for r in recs], ctx.train).clockwise
+    el = menegotto_pinto_elements(span, 1.0 if clockwise else -1.0)
+    if MIN_ROWS_PER_WEIGHT * (len(el) + 3) > ctx.n_train:
+        return None
+    fm = ctx.fit(Structure(base_elements(el), s0.history, bouc_wen=el))
+    return fm, float(compare_heldout(sub, ref, fm).gain)

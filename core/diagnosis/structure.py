@@ -33,7 +33,14 @@ from ..recordings import Recording
 from ..stages import InitialMemory, RateDependentPI, SignedGain, discretised_tf
 from ..validation import filled
 from .bankcache import BankCache, basis_of, basis_rows, recent, split_levels
-from .bases import bouc_wen_model, initial_state, stop_model
+from .bases import (
+    MP,
+    bouc_wen_model,
+    element_family,
+    initial_state,
+    menegotto_pinto_model,
+    stop_model,
+)
 from .grid import baseline_thresholds
 from .registry import (
     EFFECTS,
@@ -157,7 +164,10 @@ class Structure:
         the hysteresis columns come from the elements' variables ``z_j`` instead of plays
         (nonnegative weights: an invertible hardening loop; either sign with
         ``free_weights``), and ``thresholds`` hold each element's saturation
-        ``(beta + gamma)^(-1/n)``; ``()`` = a PI or Preisach base.
+        ``(beta + gamma)^(-1/n)``; ``()`` = a PI or Preisach base. Or the elements
+        ``(MP, sign, r, R0, cR1, cR2)`` of a Menegotto-Pinto base (non-Masing loops:
+        :func:`core.diagnosis.bases.menegotto_pinto_elements`), the same way: columns of
+        fixed-shape elements, ``thresholds`` their yield levels, weights ``>= 0``.
     """
 
     thresholds: tuple[float, ...]
@@ -169,13 +179,14 @@ class Structure:
     shape: tuple = ()
     levels: tuple[float, ...] = ()
     level_smooth: float = 0.0
-    bouc_wen: tuple[tuple[float, float, float], ...] = ()
+    bouc_wen: tuple[tuple[Any, ...], ...] = ()
 
     @property
     def base_kind(self) -> str:
-        """The base hysteresis: ``"bouc-wen"``, ``"preisach"`` (level-dependent memory),
-        ``"stop-pi"`` (stop operators behind a backlash gap) or ``"pi"``."""
-        return ("bouc-wen" if self.bouc_wen else "preisach" if self.levels
+        """The base hysteresis: ``"bouc-wen"``, ``"menegotto-pinto"``, ``"preisach"``
+        (level-dependent memory), ``"stop-pi"`` (stop operators behind a backlash gap) or
+        ``"pi"``."""
+        return (element_family(self.bouc_wen) if self.bouc_wen else "preisach" if self.levels
                 else "stop-pi" if self.stop else "pi")
 
     @property
@@ -1143,7 +1154,15 @@ def _hysteresis(s: Structure, k: int, p0: float, pw: Float1D) -> Model:
         stop = hysteresis_model(loop_shape(s.shape), stop_model(gap, r, p0, pw, z0))
         # (the slip force by direction: the gain of each sign of the force after the bank)
         return stop if not s.signed else Chain.of(stop, SignedGain(1.0, signed_ratio(s.shape)))
-    if s.bouc_wen:
+    if s.bouc_wen and element_family(s.bouc_wen) == MP:
+        # weights >= 0 on the clockwise or counter-clockwise columns; the virtual history
+        # (on the mapped input) is the model's own
+        hyst = menegotto_pinto_model(max(p0, 0.0), np.maximum(pw, 0.0), s.bouc_wen,
+                                     apply_shape(s.shape, np.asarray(s.history[k]))
+                                     if s.history[k] else None)
+        if s.shape:
+            hyst = hysteresis_model(s.shape, hyst)
+    elif s.bouc_wen:
         # a virtual history sets the elements' start state (on the mapped input)
         st = initial_state(s.bouc_wen, apply_shape(s.shape, np.asarray(s.history[k]))
                            if s.history[k] else None)
