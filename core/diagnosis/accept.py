@@ -76,14 +76,16 @@ def accept_best(run: Run, cur: Fit, cands: dict[str, Candidate], passing: list[s
                                   "experiment": EFFECTS[hidden].experiment})
     if (EFFECTS[named].dynamics is not None and new.structure.bouc_wen
             and run.rate_testable):
-        # rate-dependent plays are not modelled on a Bouc-Wen base (on a Preisach base they
-        # are: the rate candidate widens the levelled plays' thresholds): say so rather than
-        # let the dynamics stand in for them unchallenged
+        # rate-dependent plays are not modelled on a Bouc-Wen or Menegotto-Pinto base (on a
+        # Preisach base they are: the rate candidate widens the levelled plays' thresholds):
+        # say so rather than let the dynamics stand in for them unchallenged
         rate = rate_effect()
+        base = ("Menegotto-Pinto" if new.structure.base_kind == "menegotto-pinto"
+                else "Bouc-Wen")
         run.findings[-1].ambiguous_with.append(rate)
         run.ambiguous.append({
             "effects": [named, rate], "chosen": named,
-            "reason": "on a Bouc-Wen base rate-dependent hysteresis is not modelled, so "
+            "reason": f"on a {base} base rate-dependent hysteresis is not modelled, so "
             f"{named} was not compared with it",
             "experiment": DECIDING_EXPERIMENT.get(frozenset({named, rate}),
                                                   EFFECTS[rate].experiment)})

@@ -185,7 +185,8 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
     u_unit, y_unit = _unit(units, "input"), _unit(units, "output")
     findings: list[str] = []
     base_doc, final = d.get("baseline", {}), d.get("final", {})
-    base_name = {"preisach": "Preisach", "bouc-wen": "Bouc-Wen"}.get(base_doc.get("model"), "PI")
+    base_name = {"preisach": "Preisach", "bouc-wen": "Bouc-Wen",
+                 "menegotto-pinto": "Menegotto-Pinto"}.get(base_doc.get("model"), "PI")
     b, f = base_doc.get("heldout_rmse"), final.get("heldout_rmse")
     bp, fp = base_doc.get("heldout_rmse_pct"), final.get("heldout_rmse_pct")
     if isinstance(b, int | float) and isinstance(bp, int | float):
@@ -225,7 +226,7 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
     if adequacy.get("adequate") is False and adequacy.get("text"):
         findings.append(f"Not explained: {_with_units(in_words(adequacy['text']), y_unit)}")
     choice = base_doc.get("base_choice") or {}
-    if choice.get("kind") in ("preisach", "bouc-wen", "stop-pi"):
+    if choice.get("kind") in ("preisach", "bouc-wen", "stop-pi", "menegotto-pinto"):
         findings.append(f"Base model: {in_words(str(choice.get('text', '')))}")
     for r in d.get("recording_specific", []):
         findings.append("Seen in this recording only, so not claimed: "
