@@ -114,6 +114,7 @@ class MenegottoPintoModel(Model):
     """
 
     type_name: ClassVar[str] = "menegotto-pinto"
+    estimator: ClassVar[str | None] = "core.fitting:MenegottoPintoRegressor"
     fields: ClassVar[tuple[Field, ...]] = (
         Field("k", "number", doc="slope once every element has yielded (output/input)",
               title="Hardening slope k", scale_with=("weights",),

@@ -47,6 +47,8 @@ PHYSICS: dict[str, str] = {
                 "(Preisach density varying along (alpha+beta)/2)",
     "stop-pi": "friction: Maxwell-slip elements (stop operators) that slide on a friction "
                "plateau, behind a backlash gap where the fit finds one",
+    "menegotto-pinto": "non-Masing loops: smooth stop elements whose knee rounds after a "
+                       "large excursion (a steel's Menegotto-Pinto law)",
 }
 
 

@@ -60,6 +60,8 @@ import numpy as np
 from .._typing import Float1D
 from ..boucwen import BoucWenModel, BoucWenState
 from ..fitting.choice import BW_MIN_GAIN as _BW_MIN_GAIN
+from ..fitting.choice import MP_MIN_GAIN as _MP_MIN_GAIN
+from ..fitting.nonmasing import MP_GRID as _MP_GRID
 from ..nonmasing import MenegottoPintoModel
 from ..recordings import Recording
 from ..stop import StopPIModel
@@ -284,17 +286,13 @@ MP = "menegotto-pinto"
 #: A Menegotto-Pinto base replaces the chosen base when it lowers the MSE of predicting each
 #: recording from the others by at least this share against the PI (or stop) base and beats
 #: the chosen base: the same margin as the Bouc-Wen bank's (:data:`BW_MIN_GAIN`), a choice of
-#: the base, not a physics claim.
-MP_MIN_GAIN = BW_MIN_GAIN
+#: the base, not a physics claim. One value shared with ``hyst fit --model auto``.
+MP_MIN_GAIN = _MP_MIN_GAIN
 
-#: The generic grid of Menegotto-Pinto elements: yield levels as a fraction of the training
-#: input range (a factor 2 apart) and shapes ``(R0, cR1, cR2)``: the steel values of
-#: Filippou et al. (1983) (a knee rounding with the plastic excursion, non-Masing) and a
-#: soft Masing knee (``cR1 = 0``). Literature values, not fitted to the benchmark's plants.
-MP_GRID: dict[str, tuple] = {
-    "yield": (0.025, 0.05, 0.1, 0.2, 0.4),
-    "shape": ((20.0, 0.925, 0.15), (4.0, 0.0, 1.0)),
-}
+#: The generic grid of Menegotto-Pinto elements (yield levels as fractions of the training
+#: input range, literature shapes), shared with ``hyst fit``'s Menegotto-Pinto kind
+#: (:data:`core.fitting.nonmasing.MP_GRID`).
+MP_GRID = _MP_GRID
 
 
 def menegotto_pinto_elements(span: float, sign: float) -> tuple[tuple, ...]:

@@ -12,6 +12,8 @@ attributes ``model_``, ``full_model_`` (offsets included, exact ``inverse()``), 
   normal equations of its level-segment columns.
 * :class:`BoucWenRegressor` — rate-independent Bouc-Wen bank: bounded least squares on a
   grid of element shapes, the kept shapes polished (variable projection).
+* :class:`MenegottoPintoRegressor` — Menegotto-Pinto bank of smooth stop elements
+  (non-Masing loops): bounded least squares on a fixed element grid.
 * :class:`StopPIRegressor` — stop-operator Prandtl model (Maxwell-slip elements) for
   clockwise, friction-like loops; the PI estimator with stop operators.
 
@@ -44,6 +46,7 @@ from .entry import EmptyWindowError, FitOutcome, TimeWindow, fit_recordings
 from .gpi import DeadZoneGPIRegressor, ModifiedPIRegressor, TanhGPIRegressor
 from .gram import Segment, solve_constrained, stream_gram, stream_tsqr
 from .metrics import FitReport, PartStats
+from .nonmasing import MenegottoPintoRegressor
 from .orientation import LoopOrientation, loop_orientation
 from .pi import PIRegressor, fit_linear_pi
 from .preisach import PreisachRegressor
@@ -52,6 +55,7 @@ from .thresholds import place_thresholds, reversal_indices, wipeout_index
 
 __all__ = [
     "BoucWenRegressor",
+    "MenegottoPintoRegressor",
     "DeadZoneGPIRegressor",
     "DigitizedPIRegressor",
     "EmptyWindowError",

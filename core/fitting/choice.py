@@ -17,7 +17,10 @@ at the held-out rows the report scores):
    diagnosis keeps the PI there too): a Preisach base replaces the PI when it lowers that
    MSE by :data:`PREISACH_MIN_GAIN` and beats the PI with a static output map (``mpi``) by
    :data:`PREISACH_OVER_MAP`; a Bouc-Wen base then replaces the chosen one when it lowers
-   the PI's MSE by :data:`BW_MIN_GAIN` and by more than the Preisach did.
+   the PI's MSE by :data:`BW_MIN_GAIN` and by more than the Preisach did, and a
+   Menegotto-Pinto bank (non-Masing loops, :mod:`core.fitting.nonmasing`) replaces the
+   chosen one when it lowers the PI's MSE by :data:`MP_MIN_GAIN` and by more than the
+   chosen one did.
 3. **Loop shape.** With two or more recordings of counter-clockwise loops, the PI with a
    static output map (``mpi``: Kuhnen's modified PI) replaces the PI when it lowers the
    PI's MSE by :data:`PREISACH_MIN_GAIN` and the Preisach does not beat it by
@@ -71,7 +74,7 @@ from .estimator import without_compensation_scores
 from .orientation import LoopOrientation, loop_orientation
 from .steadystate import SteadyStart
 
-__all__ = ["AUTO", "BLOWN_UP", "BW_MIN_GAIN", "FAMILIES", "FREE_SIGN_GAIN", "MAP",
+__all__ = ["AUTO", "BLOWN_UP", "BW_MIN_GAIN", "FAMILIES", "FREE_SIGN_GAIN", "MAP", "MP_MIN_GAIN",
            "PREISACH_MIN_GAIN", "PREISACH_OVER_MAP", "TANH", "BaseChoice", "base_family",
            "choose_base"]
 
@@ -90,6 +93,11 @@ PREISACH_OVER_MAP = 0.3
 #: more than the Preisach did); measured on the diagnosis benchmark, see
 #: :mod:`core.diagnosis.bases`.
 BW_MIN_GAIN = 0.35
+#: A Menegotto-Pinto base (non-Masing loops: :mod:`core.fitting.nonmasing`) replaces the
+#: chosen one when it lowers the PI's MSE by this share and by more than the chosen base
+#: did: the Bouc-Wen bank's margin (another bank of fixed-shape elements, linear in its
+#: weights), shared with the diagnosis (:mod:`core.diagnosis.bases`).
+MP_MIN_GAIN = BW_MIN_GAIN
 #: A candidate's cross-validated MSE above this many times the variance of the training
 #: output (an RMS error ten times the output's spread: worse than predicting its mean by
 #: far) is a fit that blew up, reported as failed (the free-sign PI on the one shipped
@@ -104,7 +112,8 @@ TANH = "gpi-tanh (saturating play envelopes)"
 CANDIDATE_KINDS: dict[str, tuple[str, str]] = {
     "pi": ("pi", "nonnegative"), "pi (free-sign weights)": ("pi", "slopes"),
     "preisach": ("preisach", "nonnegative"), MAP: ("mpi", "nonnegative"),
-    TANH: ("gpi-tanh", "nonnegative"), "bouc-wen": ("bouc-wen", "nonnegative")}
+    TANH: ("gpi-tanh", "nonnegative"), "bouc-wen": ("bouc-wen", "nonnegative"),
+    "menegotto-pinto": ("menegotto-pinto", "nonnegative")}
 #: Play operators of the PI candidates when the fit chooses its own (the diagnosis's
 #: baseline default, ``hyst diagnose --operators``).
 PI_OPERATORS = 25
@@ -121,7 +130,8 @@ SIGN_BLOCKS = 3
 #: a static output map is the diagnosis's PI base with a loop shape that its effect search
 #: names (module docstring, rule 3); so is the PI with saturating play envelopes (rule 4).
 FAMILIES: dict[str, str] = {"pi": "pi", "stop-pi": "stop-pi", "preisach": "preisach",
-                            "bouc-wen": "bouc-wen", "mpi": "pi", "gpi-tanh": "pi"}
+                            "bouc-wen": "bouc-wen", "mpi": "pi", "gpi-tanh": "pi",
+                            "menegotto-pinto": "menegotto-pinto"}
 
 
 def base_family(kind: str) -> str:
@@ -385,7 +395,11 @@ def choose_base(
         mse_b = score("bouc-wen", "bouc-wen", "nonnegative", None)
         gain_b = 1.0 - mse_b / base
         if gain_b >= BW_MIN_GAIN and gain_b > gain:
-            kind = "bouc-wen"
-    if kind in ("preisach", "bouc-wen", "mpi", "gpi-tanh"):
+            kind, gain = "bouc-wen", gain_b
+        mse_mp = score("menegotto-pinto", "menegotto-pinto", "nonnegative", None)
+        gain_mp = 1.0 - mse_mp / base
+        if gain_mp >= MP_MIN_GAIN and gain_mp > gain:
+            kind = "menegotto-pinto"
+    if kind in ("preisach", "bouc-wen", "mpi", "gpi-tanh", "menegotto-pinto"):
         sign = "nonnegative"
     return BaseChoice(kind, sign, orient, scores, how, tuple(failed))

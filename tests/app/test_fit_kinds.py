@@ -59,7 +59,7 @@ def test_the_fit_kinds_are_the_types_that_declare_an_estimator() -> None:
     kinds = fit_kinds()
     assert kinds[0] == DEFAULT_FIT_KIND == "pi"
     assert set(kinds) == {"pi", "gpi-deadzone", "mpi", "gpi-tanh", "digitized", "preisach",
-                          "bouc-wen", "stop-pi"}
+                          "bouc-wen", "stop-pi", "menegotto-pinto"}
     # the chain inherits nothing: a declaration is per class, not inherited by subclasses
     assert "probe-pi" not in kinds and "chain" not in kinds
     with pytest.raises(ValueError, match=r"fit kind 'lag' is not available; use one of pi, "):
