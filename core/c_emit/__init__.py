@@ -7,7 +7,19 @@ one module here, ``@register_c_stage(TheClass)`` on a function ``(model, ctx) ->
 and its import below.
 """
 
-from . import boucwen, digitized, dynamics, gpi, lti, pi, preisach, rate, static, stop
+from . import (
+    boucwen,
+    digitized,
+    dynamics,
+    gpi,
+    lti,
+    nonmasing,
+    pi,
+    preisach,
+    rate,
+    static,
+    stop,
+)
 
-__all__ = ["boucwen", "digitized", "dynamics", "gpi", "lti", "pi", "preisach", "rate", "static",
-           "stop"]
+__all__ = ["boucwen", "digitized", "dynamics", "gpi", "lti", "nonmasing", "pi", "preisach",
+           "rate", "static", "stop"]

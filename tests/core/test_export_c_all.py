@@ -36,6 +36,7 @@ EXACT = {
     "gpi-deadzone", "mpi", "tanh-envelope", "gpi-tanh", "lti",
     "lti_inverse", "digitized-deadzone", "preisach", "preisach-inverse", "bouc-wen",
     "bouc-wen-inverse", "rate-preisach", "rate-preisach-inverse", "stop-pi", "diag-friction-gap",
+    "menegotto-pinto", "menegotto-pinto-inverse",
 }
 CASES: dict[str, Model] = {**ZOO, **DIAGNOSED}
 
