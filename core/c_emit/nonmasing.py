@@ -162,7 +162,11 @@ def _parts(model: MenegottoPintoModel, ctx: StageContext, solve: bool
             "                side = 1;",
             "            }",
             "        }",
-            "        v = fabs(fa) <= fabs(fb) ? a : b;",
+            "        if (fa == 0.0) v = a;",
+            "        else if (fb == 0.0) v = b;",
+            "        else v = dd > 0.0 ? a : b;  /* short of the target: a held one never "
+            "steps back */",
+            "        if ((v - x) * dd < 0.0) v = x;  /* round-off against the target's side */",
             "    }",
             f"    {c}advance(v, st);",
             "    return v;",
