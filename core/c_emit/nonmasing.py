@@ -45,6 +45,9 @@ def _parts(model: MenegottoPintoModel, ctx: StageContext, solve: bool
         f"static const double {c}C1[{n}] = {c_array(model.curvature_drop)};",
         f"static const double {c}C2[{n}] = {c_array(model.curvature_scale)};",
     ]
+    hist = model.history if model.history is not None else np.zeros(0)
+    if hist.size:  # the memory the record starts with: run from rest at every reset
+        consts.append(f"static const double {c}H[{hist.size}] = {c_array(hist)};")
     if solve:
         consts += [f"static const double {c}MLO = {c_double(lo)};",
                    f"static const double {c}MHI = {c_double(hi)};"]
@@ -179,6 +182,8 @@ def _parts(model: MenegottoPintoModel, ctx: StageContext, solve: bool
         f"    st->{f}st[6 + 5 * i] = -{c}R[i];",
         f"    st->{f}st[7 + 5 * i] = {c}C0[i];",
         "}",
+        *([f"for (i = 0; i < {hist.size}u; ++i) {c}advance({c}H[i], st->{f}st);"]
+          if hist.size else []),
     ]
     tune = [
         f"{c}K = $k[0];",

@@ -43,9 +43,13 @@ STEEL = MenegottoPintoModel(0.02, [2e-3], [0.98], [20.0], [0.925], [0.15])
 #: Sharp knees (R0 at its largest: |e*|^R0 overflows a double past e* = 1.001).
 SHARP = MenegottoPintoModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], [1e6, 1e6, 1e6],
                             [0.5, 0.5, 0.5], [0.15, 0.15, 0.15])
+#: A bank that starts with memory (the diagnosis gives a recording's start as a history run
+#: from rest): the C state at reset is the one the history leaves.
+MEMORY = MenegottoPintoModel(0.3, [0.25, 0.6, 1.2], [1.5, 0.8, 0.4], [20.0, 8.0, 3.0],
+                             [0.9, 0.5, 0.0], [0.15, 0.5, 1.0], history=[2.5, -1.7, 0.9])
 MODELS: dict[str, tuple[MenegottoPintoModel, float]] = {  # model, input amplitude
     "clockwise": (CLOCKWISE, 3.0), "counter": (COUNTER, 3.0), "steel": (STEEL, 0.012),
-    "sharp": (SHARP, 3.0)}
+    "sharp": (SHARP, 3.0), "memory": (MEMORY, 3.0)}
 N = 20_000
 
 
@@ -315,4 +319,33 @@ def test_fmu_stepped_retuned_refused_and_reset(tmp_path, version, inverse) -> No
     m.start()
     again, _ = _stepped(m, x[:300], 1, 0.0)
     np.testing.assert_allclose(again, running.simulate(x[:300]).y, rtol=0, atol=1e-9 * scale)
+    m.close()
+
+
+@pytest.mark.parametrize("inverse", [False, True], ids=["model", "compensator"])
+def test_fmu_of_a_bank_with_memory_starts_where_its_history_leaves_it(tmp_path,
+                                                                       inverse) -> None:
+    """The FMU of a bank that starts with memory (a history run from rest) starts, and
+    restarts after a reset, from the state that history leaves, as Python's model."""
+    if GCC is None:
+        pytest.skip("gcc not installed")
+    model = MEMORY
+    fmu = build_fmu(model, tmp_path / "mp.fmu", fmi_version=3, inverse=inverse, dt=DT)
+    assert validate_fmu(str(fmu)) == []
+    u = growing(600, 2.0)
+    x = model(u) if inverse else u
+    running = model.inverse() if inverse else model
+    want = running.simulate(x).y
+    virgin = MenegottoPintoModel(model.k, model.thresholds, model.weights, model.curvature,
+                                 model.curvature_drop, model.curvature_scale)
+    scale = float(np.ptp(want))
+    # the memory matters: the same bank from rest answers otherwise
+    assert np.max(np.abs((virgin.inverse() if inverse else virgin).simulate(x).y - want)) \
+        > 1e-3 * scale
+    m = LoggedMaster(fmu, tmp_path / "x")
+    for _ in range(2):  # first use, then after a reset
+        m.start()
+        got, _ = _stepped(m, x, 1, 0.0)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * scale)
+        m.fmu.reset()
     m.close()
