@@ -115,15 +115,15 @@ def file_recordings(rec: Recording) -> list[Recording]:
     (:func:`split_runs`), and, for a file without a time column (the upload gave it steps of
     ``dt``), each on its sample numbers counted from 0 without a time axis, so that a fit's
     words give samples, never rates or times the file does not hold."""
-    runs = split_runs(rec)
-    return runs if rec.columns.get("time", "") != "" else [on_samples(r) for r in runs]
+    return [on_samples(r) for r in split_runs(rec)]
 
 
 def on_samples(rec: Recording) -> Recording:
     """``rec`` on its sample numbers counted from 0, without a time axis (time unit
-    ``"sample"``), where its file has no time column (the upload's steps of ``dt`` are no
-    measurement); as it is otherwise."""
-    if rec.columns.get("time", "") != "" or not rec.has_time:
+    ``"sample"``), where its file has no time column (the reader maps the time role to no
+    column, ``columns["time"] == ""``; the upload's steps of ``dt`` are no measurement); as
+    it is otherwise, a recording made in code (no column map) included."""
+    if rec.columns.get("time") != "" or not rec.has_time:
         return rec
     return replace(rec, t=np.arange(rec.n_samples, dtype=float), has_time=False,
                    units={**rec.units, "time": "sample"})

@@ -100,3 +100,17 @@ def test_the_explorer_diagnoses_every_loop_as_hyst_diagnose_reads_the_file() -> 
     for g, w in zip(got, want, strict=True):
         np.testing.assert_array_equal(g.u, w.u)
         assert not g.has_time and not w.has_time
+
+
+def test_a_recording_made_in_code_keeps_its_time() -> None:
+    """Only a file without a time column is put on sample numbers; a recording made in
+    code (no column map) keeps its time axis for the fit and the diagnosis."""
+    from core.recordings import Recording
+
+    t = np.arange(200) * 2e-3
+    rec = Recording(t, np.sin(t), np.sin(t), name="made")
+    (got,) = file_recordings(rec)
+    assert got.has_time and np.array_equal(got.t, t)
+    up = read_upload(BH.read_bytes(), run="0", name=BH.name).recording
+    (loop,) = file_recordings(up)
+    assert not loop.has_time and np.array_equal(loop.t, np.arange(129))
