@@ -522,6 +522,22 @@ def bouc_wen_output(
         x = u[k]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _illinois(t, ft, a, b, fa, fb, ga, gb, side):  # pragma: no cover - compiled
+    """One step of the Illinois (modified regula falsi) solve of an increasing function
+    bracketed by ``[a, b]`` (``f(a) <= 0 < f(b)``): the new point ``t`` with ``f(t) = ft``
+    replaces the end on its side, and the other end's weight ``ga``/``gb`` is halved when the
+    same side is replaced twice in a row (``side``: -1 the low end, 1 the high end last).
+    Returns ``(a, b, fa, fb, ga, gb, side)``."""
+    if ft <= 0.0:
+        if side == -1:
+            gb *= 0.5
+        return t, b, ft, fb, ft, gb, -1
+    if side == 1:
+        ga *= 0.5
+    return a, t, fa, ft, ga, ft, 1
+
+
 @njit(cache=True, nogil=True)
 def _bw_at(v, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt):  # pragma: no cover - compiled
     """Output at input ``v`` reached from ``(x, z)``; the variables there go to ``zt``."""
@@ -614,20 +630,7 @@ def bouc_wen_inverse(  # noqa: C901 - a compiled kernel: one loop, calls out of 
                     if not (t > a and t < b):
                         break
                 ft = _bw_at(t, x, k0, c, beta, gamma, n, zlim, h, kmax, z, zt) - yk
-                if ft <= 0.0:
-                    a = t
-                    fa = ft
-                    ga = ft
-                    if side == -1:
-                        gb *= 0.5
-                    side = -1
-                else:
-                    b = t
-                    fb = ft
-                    gb = ft
-                    if side == 1:
-                        ga *= 0.5
-                    side = 1
+                a, b, fa, fb, ga, gb, side = _illinois(t, ft, a, b, fa, fb, ga, gb, side)
             v = a if -fa <= fb else b
         _bw_move(v - x, beta, gamma, n, zlim, h, kmax, z)
         out[k] = v
@@ -782,20 +785,7 @@ def mp_inverse(  # noqa: C901 - a compiled kernel: one loop, calls out of it cos
                     if not (tt > a and tt < b):
                         break
                 ft = _mp_at(tt, r, w, k, r0, c1, c2, st, work) - yt
-                if ft <= 0.0:
-                    a = tt
-                    fa = ft
-                    ga = ft
-                    if side == -1:
-                        gb *= 0.5
-                    side = -1
-                else:
-                    b = tt
-                    fb = ft
-                    gb = ft
-                    if side == 1:
-                        ga *= 0.5
-                    side = 1
+                a, b, fa, fb, ga, gb, side = _illinois(tt, ft, a, b, fa, fb, ga, gb, side)
             if fa == 0.0:
                 v = a
             elif fb == 0.0:
