@@ -21,6 +21,10 @@ ALLOWED = {
     "tests/test_compensation_loop.py": "journey: diagnose -> invert -> track, CLI and C",
     "tests/test_benchmark_families.py": "checks benchmarks/diagnosis/families.py's plants",
     "tests/test_benchmark_sealed.py": "checks the sealed set's builders (benchmarks/diagnosis)",
+    "tests/test_benchmark_bipolar.py": "checks the bipolar development class "
+                                       "(benchmarks/diagnosis/bipolar.py)",
+    "tests/test_benchmark_ceiling.py": "checks the told-the-name ceiling "
+                                       "(benchmarks/diagnosis/ceiling.py)",
     "tests/test_import_hygiene.py": "a rule over every core module",
     "tests/test_layout.py": "this rule",
     "tests/test_layers.py": "the import-linter contracts over core and app",
