@@ -86,11 +86,16 @@ export class ModelControls {
     this.shape = null;
     this.pending = new Map();  // path -> the slider's newest move not yet clamped
     this.clamping = false;
+    this.shown = 0;  // models shown from outside: a clamp reply from before one is stale
   }
 
   // Show `model` (a change that did not come from these sliders): the sliders are rebuilt
   // from the server's description when the structure changed, else moved to the values.
   async show(model) {
+    // moves not yet clamped, and replies on their way, belong to the model this replaces:
+    // dropped, so that they neither write into it nor clear what its change said
+    this.pending.clear();
+    this.shown += 1;
     this.model = structuredClone(model);
     const same = this.desc && this.shape === shape(model);
     if (same && this.#setValues()) return;
@@ -247,12 +252,14 @@ export class ModelControls {
         const [path, m] = this.pending.entries().next().value;
         this.pending.delete(path);
         let done;
+        const shown = this.shown;
         try {
           done = await this.api("POST", "/api/controls/clamp", { model: this.model, path, value: m.value });
         } catch (e) {
-          this.onChange(e.message);
+          if (shown === this.shown) this.onChange(e.message);
           continue;
         }
+        if (shown !== this.shown) continue;  // another model was shown meanwhile
         // else a newer move is pending; a slider whose spec was replaced meanwhile (a new
         // model's structure) shows the new model's value, not this reply on the old scale
         if (!this.pending.has(path) && this.byPath.get(path) === m.s) {

@@ -217,7 +217,9 @@ class BaseChoice:
         Per alternative ``{"base", "operators", "level_segments", "smoothness",
         "cv_mse_reduction"}``: its MSE reduction against the PI base on the left-out
         recordings (``operators``: plays, or Bouc-Wen elements); the static-map alternatives
-        also ``"preisach_mse_reduction_over_it"``.
+        also ``"preisach_mse_reduction_over_it"`` or
+        ``"menegotto_pinto_mse_reduction_over_it"`` (the richer base's MSE reduction against
+        them), and where that is below the margin the same ``..._with_dynamics``.
     folds : int
         Left-out recordings.
     stop : dict, optional
@@ -255,9 +257,11 @@ class BaseChoice:
             if t["base"] in ("bouc-wen", "menegotto-pinto"):
                 return (f"{t['base']} ({t['operators']} elements) MSE "
                         f"{-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
+            rich, over = next((k.removesuffix("_mse_reduction_over_it"), v)
+                              for k, v in t.items() if k.endswith("_mse_reduction_over_it"))
+            who = {"preisach": "Preisach", "menegotto_pinto": "Menegotto-Pinto"}[rich]
             return (f"{t['base']} MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %, the "
-                    f"Preisach {-100 * t['preisach_mse_reduction_over_it'] + 0.0:+.0f} % "
-                    "against it")
+                    f"{who} {-100 * over + 0.0:+.0f} % against it")
 
         alts = "; ".join(one(t) for t in self.tried)
         how = f"each of {self.folds} recordings predicted from the others"
