@@ -88,6 +88,12 @@ class FitContext:
         #: whose nonlinear parameters a one-parameter search starts from
         #: (:func:`core.diagnosis.candidates.scalar_search`); None elsewhere
         self.start: Structure | None = None
+        #: the recordings depart from Masing's rule beyond their noise
+        #: (:attr:`core.fitting.masing.Masing.departs`) and the base obeys it (a play, stop
+        #: or Preisach base): a history's first visit still settles, so a change with time
+        #: is judged between branches of the same history only from its second visit on
+        #: (:func:`~core.diagnosis.periodic.same_history`)
+        self.unsettled_memory: bool = parent is not None and parent.unsettled_memory
 
     def _sub_cache(self, parent: BankCache) -> BankCache:
         """The cache of a sub-context: play banks and projections do not depend on the rows

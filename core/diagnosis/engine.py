@@ -55,6 +55,7 @@ import numpy as np
 
 from ..csvio import ColumnSpec
 from ..exceptions import ParameterError
+from ..fitting.masing import masing
 from ..validation import filled
 from .accept import accept_best
 from .adequacy import assess
@@ -238,11 +239,20 @@ def _baseline(ctx: FitContext, base: str, n_operators: int, auto_resolution: boo
     return base_fit, requested, base_choice
 
 
+#: Bases that obey Masing's rule (their branches after a reversal are the first loading
+#: doubled): where the recordings break it, such a base cannot follow how a history's first
+#: visit settles (:attr:`~core.diagnosis.context.FitContext.unsettled_memory`).
+MASING_BASES = ("pi", "stop-pi", "preisach")
+
+
 def _start_run(ctx: FitContext, base_fit: Fit, todo: list[str], max_effects: int,
                windows: bool, say: Progress) -> tuple[Run, list[str]]:
     """The run's state before the first round (noise floor, untestable effects, the
     between-recordings plan) and the effects left to test once the untestable are out."""
-    run_ = Run(ctx, _noise_rms(ctx, base_fit), untestable_effects(ctx), max_effects,
+    noise = _noise_rms(ctx, base_fit)
+    ctx.unsettled_memory = (base_fit.structure.base_kind in MASING_BASES
+                            and masing(ctx.records, noise).departs)
+    run_ = Run(ctx, noise, untestable_effects(ctx), max_effects,
                between_plan(ctx, windows=windows), say=say,
                across_recordings=len(ctx.records) >= 2 and not windows)
     if base_fit.structure.stop and rate_effect() in todo and \

@@ -126,8 +126,8 @@ def _same_key(a: tuple[float, ...], b: tuple[float, ...], tol: float) -> bool:
         np.abs(np.subtract(a[1:], b[1:])))) <= tol
 
 
-def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
-                   ) -> list[tuple[int, int]]:
+def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float,
+                   settled_only: bool = False) -> list[tuple[int, int]]:
     """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`: the
     branches (from the second on: the first sets the memory) grouped by input history and
     rate (each with the first group whose first branch has its key and its rate: its length
@@ -136,7 +136,9 @@ def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
     the branches of one history at another rate are paired among themselves, never with a
     branch at the first one's rate), and in each group of ``N`` in time order
     the ``i``-th paired with the ``(i + ceil(N / 2))``-th, each branch in one pair at most.
-    Returned in the order of the later branch."""
+    ``settled_only``: each group's first branch (the history's first visit) is paired with
+    nothing, as the first cycle in :func:`cycle_to_cycle`. Returned in the order of the
+    later branch."""
     groups: list[list[int]] = []
     last = len(keys) - 1
     for k in range(1, len(keys)):
@@ -152,13 +154,16 @@ def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float
             groups.append([k])
     pairs: list[tuple[int, int]] = []
     for g in groups:
+        if settled_only:
+            g = g[1:]
         h = (len(g) + 1) // 2
         pairs.extend((g[i], g[i + h]) for i in range(len(g) - h)
                      if _same_key(keys[g[i]], keys[g[i + h]], tol))
     return sorted(pairs, key=lambda jk: jk[1])
 
 
-def same_history(records: list[Recording]) -> SignatureRows | None:
+def same_history(records: list[Recording], settled_only: bool = False
+                 ) -> SignatureRows | None:
     """Where a slow change with time shows apart from the model's bias in recordings whose
     input revisits its states without repeating a whole cycle (a tapered sine whose
     amplitude ramps up and down, a few cycles at constant amplitude between): rows are
@@ -185,6 +190,15 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
     0.4) and a steady trend shows only over one branch's time. Disjoint pairs half a group
     apart are independent and span the longest times that keep them so.
 
+    ``settled_only``: a history's first visit is compared with nothing (its rows neither
+    tested nor a reference). Where the recordings break Masing's rule and the base cannot
+    follow them (:attr:`~core.diagnosis.context.FitContext.unsettled_memory`), a branch's
+    output is not yet fixed by its history on the first visit: a non-Masing element's state
+    at a reversal still carries the excursions before it, so the first cycle at a new
+    amplitude differs from the second, the same way a drift over one cycle's time would
+    (a Menegotto-Pinto null under a growing sine, two cycles per amplitude: `drift` named,
+    z 6.4).
+
     ``None`` when fewer than :data:`MIN_SAME_BRANCHES` branches over all the recordings are
     paired with an earlier one (the first excursions set the memory and are compared with
     nothing; a decaying or growing sine never revisits a state)."""
@@ -203,7 +217,7 @@ def same_history(records: list[Recording]) -> SignatureRows | None:
         bounds = [*rv.tolist(), u.size - 1]
         keys = _memory_keys(u, rv, tol)
         lengths = [bounds[k + 1] - bounds[k] for k in range(len(keys))]
-        for j, k in _history_pairs(keys, lengths, tol):
+        for j, k in _history_pairs(keys, lengths, tol, settled_only):
             a, b = bounds[k] + 1, bounds[k + 1] + 1
             ja, jb = bounds[j] + 1, bounds[j + 1] + 1
             if b - a < 2 or jb - ja < 2:

@@ -227,6 +227,14 @@ class Masing:
     non_masing: bool
     pinched: bool
 
+    @property
+    def departs(self) -> bool:
+        """The median departure is at least :data:`MASING_RATIO` times the noise it carries,
+        however small a share of the rise: a memory that does not follow Masing's rule
+        (a Bouc-Wen element's too, module docstring), though a play or stop base may still
+        fit its loops closely."""
+        return bool(self.ratio >= MASING_RATIO)
+
     def text(self, units: dict[str, str] | None = None) -> str:
         """The finding in words (``""`` when the rule holds or was not tested; ``units``: the
         recordings' ``"input"`` and ``"output"`` units)."""

@@ -35,8 +35,16 @@ def _untestable(ctx: FitContext) -> str | None:
     if total >= SINGLE_DRIFT_S or len(ctx.records) != 1:
         return None
     r = ctx.records[0]
-    if repeated_cycles(r.u) or same_history(ctx.records) is not None:
+    if repeated_cycles(r.u) or same_history(ctx.records, ctx.unsettled_memory) is not None:
         return None
+    if ctx.unsettled_memory and same_history(ctx.records) is not None:
+        return (f"the single {total:.3g} s record revisits the input history of earlier "
+                "branches only once each, and its loops depart from Masing's rule (the branch "
+                "after a reversal is not the first loading doubled) beyond the noise, which "
+                "the base model cannot follow: on a history's first return the plant's memory "
+                "may still be settling from the excursions before it, a change a slow drift "
+                "would also make, so the two cannot be told apart (each input cycle repeated "
+                "three times, or several recordings, would separate them)")
     run = longest_repeating_run(r.u)
     if len(run) >= 2:
         # the input does repeat, but too few times for a trend (the first cycle sets the
@@ -60,7 +68,7 @@ def _signature(ctx: FitContext) -> SignatureRows | None:
     branch's input history (:func:`~core.diagnosis.periodic.same_history`: a base that
     misses the loop misses it the same way on both, a drift does not); ``None`` (every test
     row) when no input revisits its history often enough."""
-    return cycle_to_cycle(ctx.records) or same_history(ctx.records)
+    return cycle_to_cycle(ctx.records) or same_history(ctx.records, ctx.unsettled_memory)
 
 
 def _columns(degree: int, rows: TermRows) -> np.ndarray:
