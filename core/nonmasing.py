@@ -132,7 +132,7 @@ class MenegottoPintoModel(Model):
         Field("curvature_drop", "numbers", doc="rounding of the knee after a plastic "
               "excursion, 0 (Masing) to < 1", title="Curvature drops cR1_i",
               control=Control("cR1{i}", "1", (0.0, 0.99), step=0.01, relative=False,
-                              lower=0.0, upper=1.0)),
+                              lower=0.0, upper=0.99)),
         Field("curvature_scale", "numbers", doc="excursion (in yield levels) giving half "
               "the drop, > 0", title="Curvature scales cR2_i",
               control=Control("cR2{i}", "1", (0.01, 2.0), step=0.01, relative=False,
@@ -224,6 +224,16 @@ class MenegottoPintoModel(Model):
         if d not in (-1.0, 0.0, 1.0):
             raise ParameterError(f"state[1] (the branch direction) must be -1, 0 or 1, got "
                                  f"{d:g}")
+        el = st[3:].reshape(self.n, 5)
+        if not np.all(np.isfinite(st)):
+            raise ParameterError("the state must hold finite numbers only")
+        bad = np.flatnonzero(~(el[:, 4] > 0.0) | (np.abs(el[:, 0]) > self.thresholds))
+        if bad.size:
+            i = int(bad[0])
+            raise ParameterError(
+                f"state of element {i}: its curvature (entry {3 + 5 * i + 4}) must be > 0 and "
+                f"its output (entry {3 + 5 * i}) at most its yield level {self.thresholds[i]:g} "
+                f"in size, got {el[i, 4]:g} and {el[i, 0]:g}")
         return st
 
     def _args(self) -> tuple[Any, ...]:

@@ -52,3 +52,17 @@ def test_a_measured_run_is_told_its_null_s_names() -> None:
         assert ceiling.null_names("dev/family/preisach/drift/large/500") == []
     finally:
         ceiling._NULL_NAMES.pop("dev/measured/piezo/null")
+
+
+def test_the_runs_told_their_name_are_effect_runs_with_one_hidden_effect() -> None:
+    """On the whole development set the ceiling takes only runs that hide one effect: its
+    single-recording nulls (ids without '/null') made told_the_name raise on the first
+    one. Each run kept is checked on what the set builds for it (one of each class)."""
+    from benchmarks.diagnosis.sets import SETS, build, case_class
+
+    runs = ceiling.effect_runs("dev")
+    left = [c for c in SETS["dev"]() if c not in runs]
+    assert any(case_class(c).startswith("single-recording") for c in left)
+    firsts = {case_class(c): c for c in reversed(runs)}
+    for case in firsts.values():
+        assert len(build(case).extras.get("hidden", {})) == 1, case

@@ -170,7 +170,8 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
 
 def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
                          tried: list[dict[str, Any]], rich_name: str) -> bool:
-    """Whether the PI base ``ref`` with a static output map or loop shape (each effect of
+    """Whether the base ``ref`` (the PI, or the stop base of clockwise loops, on which no
+    shape is built) with a static output map or loop shape (each effect of
     the ``"static"`` family: asymmetry, saturation, dead-zone), which the effect search
     names instead, predicts the folds of ``sub`` within :data:`PREISACH_OVER_MAP` of the
     richer base ``rich`` (notes §4.2: does a static map reconcile the loops?). A shape that

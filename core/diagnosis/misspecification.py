@@ -93,8 +93,9 @@ def alternative_bases(ctx: FitContext, s: Structure) -> list[tuple[str, Structur
     the generic element grid (:func:`core.diagnosis.bases.bouc_wen_elements`) over the
     training input range (not with rate-dependent plays, which it does not model). The
     chosen base's own discretisation is arbitrary too: its play thresholds (and a Preisach
-    base's level knots) moved down by half their spacing, or its Bouc-Wen saturations by a
-    factor sqrt(2) (half the grid's factor 2), as the creep bank is shifted half a decade.
+    base's level knots) moved down by half their spacing, or its Bouc-Wen saturations (a
+    Menegotto-Pinto base's yield levels) by a factor sqrt(2) (half the grid's factor 2), as
+    the creep bank is shifted half a decade.
     Every other part of ``s`` (loop shape, effects, histories) is kept.
     """
     recs, tr = ctx.records, ctx.train

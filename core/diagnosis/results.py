@@ -615,7 +615,8 @@ class DiagnosisResult:
             "model": self.baseline.structure.base_kind,
             "base_choice": None if self.base_choice is None else self.base_choice.to_dict(),
             "n_operators": len(self.baseline.structure.thresholds),
-            # a Bouc-Wen base: its elements (beta, gamma, n), the operators' count
+            # a fixed-shape element base: its elements (Bouc-Wen: the tagged beta, gamma,
+            # n; Menegotto-Pinto: the tagged sign, yield and shape), the operators' count
             **({("menegotto_pinto_elements" if self.baseline.structure.base_kind
                  == "menegotto-pinto" else "bouc_wen_elements"):
                 [list(e) for e in self.baseline.structure.bouc_wen]}

@@ -96,7 +96,10 @@ BW_MIN_GAIN = 0.35
 #: A Menegotto-Pinto base (non-Masing loops: :mod:`core.fitting.nonmasing`) replaces the
 #: chosen one when it lowers the PI's MSE by this share and by more than the chosen base
 #: did: the Bouc-Wen bank's margin (another bank of fixed-shape elements, linear in its
-#: weights), shared with the diagnosis (:mod:`core.diagnosis.bases`).
+#: weights), shared with the diagnosis (:mod:`core.diagnosis.bases`); like the Preisach it
+#: must also lower by PREISACH_OVER_MAP the MSE of the PI with a static output map or a
+#: loop shape, where one was tried (the shipped ferrite: the bank -45 % against the PI, the
+#: tanh envelope far better still).
 MP_MIN_GAIN = BW_MIN_GAIN
 #: A candidate's cross-validated MSE above this many times the variance of the training
 #: output (an RMS error ten times the output's spread: worse than predicting its mean by
@@ -385,6 +388,7 @@ def choose_base(
             kind, gain = "preisach", gain_p
         elif gain_m >= PREISACH_MIN_GAIN and not orient.clockwise:
             kind, gain = "mpi", gain_m  # (a play-based map: counter-clockwise loops only)
+        mse_g = float("inf")
         if not orient.clockwise:  # (play envelopes: counter-clockwise loops only)
             mse_g = score(TANH, "gpi-tanh", "nonnegative", n_operators)
             chosen = {"preisach": mse_p, "mpi": mse_map}.get(kind, base)
@@ -398,7 +402,12 @@ def choose_base(
             kind, gain = "bouc-wen", gain_b
         mse_mp = score("menegotto-pinto", "menegotto-pinto", "nonnegative", None)
         gain_mp = 1.0 - mse_mp / base
-        if gain_mp >= MP_MIN_GAIN and gain_mp > gain:
+        # like the Preisach, it must also beat the PI with a static output map or a loop
+        # shape where they were tried (the diagnosis's rule: basechoice._a_loop_shape_rivals)
+        shapes = min(mse_map, mse_g)
+        if (gain_mp >= MP_MIN_GAIN and gain_mp > gain
+                and (not np.isfinite(shapes)
+                     or 1.0 - mse_mp / max(shapes, 1e-300) >= PREISACH_OVER_MAP)):
             kind = "menegotto-pinto"
     if kind in ("preisach", "bouc-wen", "mpi", "gpi-tanh", "menegotto-pinto"):
         sign = "nonnegative"

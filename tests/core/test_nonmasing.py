@@ -3,6 +3,8 @@ stress-strain law and Masing's rule; its inverse, state and JSON."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -142,3 +144,19 @@ def test_a_history_sets_the_starting_memory() -> None:
     np.testing.assert_array_equal(m(u), plain.simulate(u, state=after).y)
     np.testing.assert_array_equal(model_from_dict(m.to_dict())(u), m(u))
     np.testing.assert_allclose(m.inverse()(m(u)), u, rtol=0, atol=1e-9 * np.ptp(u))
+
+
+def test_a_state_with_a_curvature_of_zero_or_an_output_past_the_yield_is_refused() -> None:
+    """A state supplied by hand is checked before the kernel runs it: a curvature of 0 (the
+    kernel divides by it) or an element's output beyond its yield level is refused with the
+    entry named, not raised from inside the compiled loop."""
+    m = MenegottoPintoModel(0.1, [1.0, 2.0], [0.5, 0.5], [20.0, 20.0], [0.9, 0.9],
+                            [0.15, 0.15])
+    good = m.default_state()
+    for entry, value, words in ((3 + 5 + 4, 0.0, "curvature (entry 12)"),
+                                (3, 1.5, "output (entry 3)")):
+        st = np.array(good, dtype=float)
+        st[entry] = value
+        with pytest.raises(ParameterError, match=re.escape(words)):
+            m.simulate(np.linspace(0.0, 1.0, 5), state=st)
+    m.simulate(np.linspace(0.0, 1.0, 5), state=good)

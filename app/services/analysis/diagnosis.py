@@ -100,13 +100,23 @@ def _param_text(params: dict[str, Any], u_unit: str, effect: str = "", y_unit: s
     return "; ".join(parts)
 
 
-def _where_text(where: dict[str, Any], u_unit: str) -> str:
-    """Where an effect's error reduction lies, from its fields (times in s, input range
-    with its unit)."""
+#: The words for a diagnosis's base (:attr:`~core.diagnosis.structure.Structure.base_kind`),
+#: as in "the PI model".
+BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator", "preisach": "Preisach",
+              "bouc-wen": "Bouc-Wen", "menegotto-pinto": "Menegotto-Pinto"}
+
+
+def _where_text(where: dict[str, Any], u_unit: str, timed: bool = True,
+                named: bool = False) -> str:
+    """Where an effect's error reduction lies, from its fields (times in s, or sample
+    numbers where the recordings have no time axis (``timed`` false); the recording's name
+    before each stretch when there are several (``named``); input range with its unit)."""
     out = []
     wins = where.get("time_windows") or []
     if wins:
-        shown = ", ".join(f"{w[1]:.3g}–{w[2]:.3g} s" for w in wins[:3])
+        shown = ", ".join((f"{w[0]} " if named else "")
+                          + (f"{w[1]:.3g}–{w[2]:.3g} s" if timed
+                             else f"samples {w[1]:.0f}–{w[2]:.0f}") for w in wins[:3])
         more = f" and {len(wins) - 3} more stretches" if len(wins) > 3 else ""
         out.append(f"half of the improvement lies in {shown}{more} of the recording")
     rng = where.get("input_range")
@@ -114,7 +124,8 @@ def _where_text(where: dict[str, Any], u_unit: str) -> str:
         out.append(f"at inputs from {_qty(rng[0], u_unit)} to {_qty(rng[1], u_unit)}")
     since = where.get("median_since_reversal_s")
     if isinstance(since, int | float):
-        out.append(f"typically {since:.3g} s after the input turned")
+        out.append(f"typically {since:.3g} {'s' if timed else 'samples'} after the input "
+                   "turned")
     return "; ".join(out)
 
 
@@ -183,10 +194,11 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
         The recording's units (``input``, ``output``), as read from the CSV.
     """
     u_unit, y_unit = _unit(units, "input"), _unit(units, "output")
+    recs = d.get("recordings") or []
+    timed = all(r.get("time_axis", True) for r in recs)
     findings: list[str] = []
     base_doc, final = d.get("baseline", {}), d.get("final", {})
-    base_name = {"preisach": "Preisach", "bouc-wen": "Bouc-Wen",
-                 "menegotto-pinto": "Menegotto-Pinto"}.get(base_doc.get("model"), "PI")
+    base_name = BASE_NAMES.get(base_doc.get("model"), "PI")
     b, f = base_doc.get("heldout_rmse"), final.get("heldout_rmse")
     bp, fp = base_doc.get("heldout_rmse_pct"), final.get("heldout_rmse_pct")
     if isinstance(b, int | float) and isinstance(bp, int | float):
@@ -208,7 +220,7 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
             text += (f": added to the effects before it, it lowers the held-out error by "
                      f"{100 * (before - after) / before:.0f} %")
         text += "."
-        where = _where_text(e.get("where") or {}, u_unit)
+        where = _where_text(e.get("where") or {}, u_unit, timed, len(recs) > 1)
         if where:
             text += f" {_cap(where)}."
         if e.get("explanation"):

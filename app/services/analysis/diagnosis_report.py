@@ -44,8 +44,11 @@ def figures(res: Any, units: dict[str, str] | None = None) -> dict[str, go.Figur
     recs = res.records
     units = {**(recs[0].units if recs else {}), **{k: v for k, v in (units or {}).items() if v}}
     n = len(recs)
-    loops = make_subplots(rows=1, cols=n, subplot_titles=[r.name for r in recs])
-    resid = make_subplots(rows=n, cols=1, subplot_titles=[r.name for r in recs],
+    # run ids come from uploaded files: plotly reads a title's tags (its <a>, <b>, ...), so
+    # they are given as text (entities plotly shows as the characters)
+    titles = [html.escape(r.name) for r in recs]
+    loops = make_subplots(rows=1, cols=n, subplot_titles=titles)
+    resid = make_subplots(rows=n, cols=1, subplot_titles=titles,
                           shared_xaxes=False)
     for k, r in enumerate(recs):
         s = _dec(r.n_samples)

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from app.services.analysis.diagnosis import diagnosis_html
+from app.services.analysis.diagnosis import BASE_NAMES, diagnosis_html
 from app.services.analysis.recordings import CsvPreview, Upload, csv_preview, read_upload
 from app.services.explore import controls as C
 from app.services.explore import figures as F
@@ -301,8 +301,9 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     if result is None:
         return None
     rec = replace(result.records[0], units={**result.records[0].units, **_units(session)})
-    preisach = result.baseline.structure.base_kind == "preisach"
-    base = "Preisach model" if preisach else "PI model"
+    base = f"{BASE_NAMES.get(result.baseline.structure.base_kind, 'base')} model"
+    if len(result.records) > 1:  # the figure draws the first recording
+        base += f" ({result.records[0].name}, the first of {len(result.records)} runs)"
     effects = [e.name for e in result.effects]
     final = f"with {', '.join(e.replace('-', ' ') for e in effects)}" if effects else \
         "no effect added"

@@ -196,3 +196,23 @@ def test_the_command_lines_report_says_the_fitted_values_in_words() -> None:
                                                "the lower (its stretch) = -0.05 output units")
     lag = SimpleNamespace(name="lag", uncertainty={}, ambiguous_parameters=())
     assert _param_text(lag, "tau_s", 0.002, {}) == "tau_s = 0.002"
+
+
+def test_where_an_effect_acts_is_in_samples_without_a_time_axis_and_names_the_run() -> None:
+    """A diagnosis of a file's runs without a time column: the stretches where an effect
+    acts are sample numbers of a named run, not seconds (before: '12–40 s'); with a time
+    axis and one recording, seconds and no name. The base is named by its kind."""
+    where = {"time_windows": [["loop=1", 12.0, 40.0, 0.5]], "input_range": [-2.0, 3.0],
+             "median_since_reversal_s": 7.0}
+    e = [{"name": "saturation", "heldout_rmse_before": 0.767, "heldout_rmse_after": 0.102,
+          "parameters": {}, "where": where}]
+    runs = [{"name": "loop=0", "time_axis": False}, {"name": "loop=1", "time_axis": False}]
+    doc = {**_doc(e), "recordings": runs,
+           "baseline": {**_doc(e)["baseline"], "model": "menegotto-pinto"}}
+    text = "\n".join(diagnosis_summary(doc, {"input": "A/m", "output": "T"}).findings)
+    assert "loop=1 samples 12–40" in text and "7 samples after the input turned" in text
+    assert " s " not in text.replace("samples", "")
+    assert "the Menegotto-Pinto model" in text
+    doc = {**_doc(e), "recordings": [{"name": "r", "time_axis": True}]}
+    text = "\n".join(diagnosis_summary(doc, {"input": "V", "output": "um"}).findings)
+    assert "12–40 s" in text and "r 12" not in text and "7 s after" in text
