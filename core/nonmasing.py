@@ -52,7 +52,8 @@ from .base import SAMPLE_BYTES, Control, Field, Model, RunCost, register_model
 from .exceptions import NotInvertibleError, ParameterError
 from .validation import as_finite_scalar, as_input_signal, as_vector
 
-__all__ = ["MAX_CURVATURE", "MenegottoPintoInverse", "MenegottoPintoModel", "state_size"]
+__all__ = ["MAX_CURVATURE", "MenegottoPintoInverse", "MenegottoPintoModel", "oriented_bank",
+           "oriented_columns", "state_size"]
 
 #: Largest curvature ``R0`` accepted (a knee within ``ln 2 / R0`` of a sharp corner: 7e-7 of
 #: the yield level; larger values only add round-off).
@@ -61,6 +62,27 @@ MAX_CURVATURE = 1e6
 _PRICED_SOLVES = 30.0
 #: Work units of one element's update (a power and a division, more at a reversal).
 _ELEMENT_WORK = 24.0
+
+
+def oriented_columns(u: Float1D, elements: np.ndarray, clockwise: bool) -> np.ndarray:
+    """The columns a bank is fitted on in its loops' orientation, shape ``(N, n)``: the
+    elements' outputs ``s_i(u)`` (``elements``, :meth:`MenegottoPintoModel.element_outputs`)
+    for clockwise loops, the smooth plays ``u - s_i(u)`` for counter-clockwise ones, so that
+    weights ``>= 0`` on them give an invertible bank (:func:`oriented_bank`)."""
+    return elements if clockwise else np.asarray(u, dtype=np.float64)[:, None] - elements
+
+
+def oriented_bank(k: float, v: Float1D, thresholds: Float1D, curvature: Float1D,
+                  curvature_drop: Float1D, curvature_scale: Float1D, clockwise: bool,
+                  history: Float1D | None = None) -> MenegottoPintoModel:
+    """The bank of slope ``k`` and weights ``v`` on :func:`oriented_columns` (``k u + sum
+    v_i c_i``): clockwise ``k`` and ``w = v``; counter-clockwise ``k + sum v`` and
+    ``w = -v`` (``u - s_i``: a smooth play), other parameters as
+    :class:`MenegottoPintoModel`'s."""
+    vv = np.asarray(v, dtype=np.float64)
+    return MenegottoPintoModel(float(k) if clockwise else float(k + vv.sum()), thresholds,
+                               vv if clockwise else -vv, curvature, curvature_drop,
+                               curvature_scale, history=history)
 
 
 def state_size(n: int) -> int:

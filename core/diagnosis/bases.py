@@ -62,7 +62,8 @@ from ..boucwen import BoucWenModel, BoucWenState
 from ..fitting.choice import BW_MIN_GAIN as _BW_MIN_GAIN
 from ..fitting.choice import MP_MIN_GAIN as _MP_MIN_GAIN
 from ..fitting.nonmasing import MP_GRID as _MP_GRID
-from ..nonmasing import MenegottoPintoModel
+from ..fitting.nonmasing import grid_elements
+from ..nonmasing import MenegottoPintoModel, oriented_bank, oriented_columns
 from ..recordings import Recording
 from ..stop import StopPIModel
 
@@ -299,8 +300,8 @@ def menegotto_pinto_elements(span: float, sign: float) -> tuple[tuple, ...]:
     """``(MP, sign, r, R0, cR1, cR2)`` of the elements of :data:`MP_GRID` for the input range
     ``span`` (> 0, input units); ``sign`` +1 for clockwise loops (columns ``s_i``), -1 for
     counter-clockwise ones (the smooth plays ``u - s_i``)."""
-    return tuple((MP, float(sign), float(frac * span), *(float(x) for x in shape))
-                 for shape in MP_GRID["shape"] for frac in MP_GRID["yield"])
+    return tuple((MP, float(sign), *(float(x) for x in row))
+                 for row in zip(*grid_elements(span), strict=True))
 
 
 def element_family(elements: tuple) -> str:
@@ -329,10 +330,8 @@ def menegotto_pinto_model(k: float, w: Float1D, elements: tuple,
     counter-clockwise (columns ``u - s_i``) ``k = k' + sum w`` and ``-w``; started after the
     virtual input history ``hist`` (from the virgin state at 0)."""
     sign, r, r0, c1, c2 = _mp_parts(elements)
-    w = np.asarray(w, dtype=np.float64)
-    kk = float(k) if sign > 0 else float(k + w.sum())
     h = None if hist is None or not len(hist) else np.asarray(hist, dtype=np.float64)
-    return MenegottoPintoModel(kk, r, sign * w, r0, c1, c2, history=h)
+    return oriented_bank(k, w, r, r0, c1, c2, sign > 0, history=h)
 
 
 def element_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> np.ndarray:
@@ -347,7 +346,7 @@ def element_bank(w: Float1D, elements: tuple, hist: Float1D | None = None) -> np
     S = menegotto_pinto_model(1.0, np.zeros(len(elements)), elements, hist).element_outputs(w)
     B = np.empty((w.size, len(elements) + 1))
     B[:, 0] = w
-    B[:, 1:] = S if sign > 0 else w[:, None] - S
+    B[:, 1:] = oriented_columns(w, S, sign > 0)
     return B
 
 

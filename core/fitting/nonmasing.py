@@ -32,7 +32,7 @@ import numpy as np
 from .._typing import Float1D, Float2D
 from ..base import Chain
 from ..exceptions import FitWarning, ParameterError, UnsupportedOptionError
-from ..nonmasing import MenegottoPintoModel
+from ..nonmasing import MenegottoPintoModel, oriented_bank, oriented_columns
 from ..stages import Offset
 from ._data import masked_range, prepare
 from .boucwen import _gram, _solve
@@ -63,11 +63,7 @@ def grid_elements(span: float) -> tuple[Float1D, Float1D, Float1D, Float1D]:
 def _columns(us: Sequence[Float1D], bank: MenegottoPintoModel, clockwise: bool
              ) -> list[Float2D]:
     """``s_i(u)`` (clockwise) or ``u - s_i(u)`` of each recording, from the virgin state."""
-    out = []
-    for u in us:
-        S = bank.element_outputs(u)
-        out.append(S if clockwise else u[:, None] - S)
-    return out
+    return [oriented_columns(u, bank.element_outputs(u), clockwise) for u in us]
 
 
 @dataclass(eq=False, repr=False)
@@ -147,11 +143,9 @@ class MenegottoPintoRegressor(Estimator):
             warnings.warn(f"nearly collinear Menegotto-Pinto elements (cond = {cond:.2g}): "
                           "fewer elements (n_operators) may suit this input travel",
                           FitWarning, stacklevel=3)
-        v = theta[2 + keep]
-        k = float(theta[1]) if cw else float(theta[1] + np.sum(v))
         self.offset_ = float(theta[0])
-        self.model_ = MenegottoPintoModel(k, r[keep], v if cw else -v, r0[keep], c1[keep],
-                                          c2[keep])
+        self.model_ = oriented_bank(float(theta[1]), theta[2 + keep], r[keep], r0[keep],
+                                    c1[keep], c2[keep], cw)
         self.full_model_ = Chain.of(self.model_, Offset(self.offset_))
         self.report_ = self._scored_report(
             prep.segments(1),
