@@ -36,8 +36,8 @@ def untestable_effects(ctx: FitContext) -> list[Untestable]:
         why = (f"{', '.join(untimed)} {'has' if len(untimed) == 1 else 'have'} no time axis "
                "(sample index only, e.g. a quasi-static loop), so effects that depend on time, "
                "rate or frequency cannot be told apart from the loop itself")
-        out = [Untestable(n, why, "the same recording with its time stamps (or --time "
-                          "COLUMN, or the sampling rate)") for n in time_effects()]
+        out = [Untestable(n, why, "the same recording with its time stamps (a time "
+                          "column, or the sampling rate)") for n in time_effects()]
     return out + spec_untestable(ctx, {u.name for u in out})
 
 

@@ -9,6 +9,7 @@ it, computed here), says in words that each loop starts from the memory its own 
 words every warning without a name of the code (``app.services.words.internal_names``) or a
 command-line option, and never invents a time axis (no seconds or speeds: the file has
 none). The exported JSON holds the fitted model; the C code compiles where gcc is installed.
+The diagnosis of the same loops names saturation and says where it acts in sample numbers.
 """
 
 from __future__ import annotations
@@ -95,6 +96,26 @@ def test_bh_loops_fit_automatically_and_export(browser: Any, live_server: dict, 
             r = subprocess.run(["gcc", "-std=c99", "-fsyntax-only", str(c_code)],
                                capture_output=True, text=True, timeout=60)
             assert r.returncode == 0, r.stderr[:2000]
+
+        # the diagnosis of the same loops: saturation named (the Menegotto-Pinto bank is
+        # not taken where the PI with a tanh envelope predicts the loops far better), and
+        # where it acts said in sample numbers of a named loop, never in seconds
+        page.click("#diagnose")
+        page.wait_for_selector("#diagnosis", timeout=180_000)
+        page.wait_for_function("() => /saturat/i.test("
+                               "document.getElementById('diagnosis').innerText)",
+                               timeout=180_000)
+        diag = page.inner_text("#diagnosis")
+        assert "samples" in diag and not re.search(r"\d s\b", diag), diag
+        assert "--" not in diag, diag  # no command-line option in the browser
+        # the residuals' axis: sample numbers, not a time in seconds
+        titles = page.evaluate("() => [...document.querySelectorAll('#figure .g-x2title')]"
+                               ".map(e => e.textContent)")
+        assert any("sample number" in t for t in titles), titles
+        assert not any("[s]" in t for t in titles), titles
+        assert _leaks(diag) == [], _leaks(diag)
+        page.locator("#diagnosis").scroll_into_view_if_needed()
+        shot(page, "bh-loops-diagnosis")
         _clean(page, log)
     finally:
         ctx.close()

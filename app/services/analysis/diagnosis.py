@@ -117,8 +117,10 @@ def _where_text(where: dict[str, Any], u_unit: str, timed: bool = True,
         shown = ", ".join((f"{w[0]} " if named else "")
                           + (f"{w[1]:.3g}–{w[2]:.3g} s" if timed
                              else f"samples {w[1]:.0f}–{w[2]:.0f}") for w in wins[:3])
-        more = f" and {len(wins) - 3} more stretches" if len(wins) > 3 else ""
-        out.append(f"half of the improvement lies in {shown}{more} of the recording")
+        k = len(wins) - 3
+        more = f" and {k} more stretch{'es' if k > 1 else ''}" if k > 0 else ""
+        out.append(f"half of the improvement lies in {shown}{more} of the "
+                   f"recording{'s' if named else ''}")
     rng = where.get("input_range")
     if rng and len(rng) == 2:
         out.append(f"at inputs from {_qty(rng[0], u_unit)} to {_qty(rng[1], u_unit)}")

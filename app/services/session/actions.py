@@ -300,7 +300,11 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     result = session.diagnosis_result
     if result is None:
         return None
-    rec = replace(result.records[0], units={**result.records[0].units, **_units(session)})
+    first = result.records[0]
+    units = {**first.units, **_units(session)}
+    if not first.has_time:  # sample numbers (a file without a time column), not seconds
+        units["time"] = "sample"
+    rec = replace(first, units=units)
     base = f"{BASE_NAMES.get(result.baseline.structure.base_kind, 'base')} model"
     if len(result.records) > 1:  # the figure draws the first recording
         base += f" ({result.records[0].name}, the first of {len(result.records)} runs)"
