@@ -249,11 +249,24 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
         words = " or ".join(_effect_words(x) for x in a.get("effects", []))
         findings.append(in_words(_because(f"Cannot tell {words} apart", a.get("reason"),
                                           "To decide, record", a.get("experiment"))))
-    for u in d.get("untestable", []):
-        findings.append(in_words(_because(
-            f"{_cap(_effect_words(u.get('name')))} cannot be tested with this recording",
-            u.get("reason"), "It would need", u.get("experiment"))))
+    findings.extend(_untestable_words(d.get("untestable", [])))
     return DiagnosisSummary(tuple(findings), bp, fp, tuple(final.get("effects", [])))
+
+
+def _untestable_words(untestable: list[dict[str, Any]]) -> list[str]:
+    """The untestable effects in sentences: those that cannot be tested for one reason
+    (every time effect of a file without a time axis) in one sentence that names them all,
+    in the order of their first mention."""
+    groups: dict[tuple[str, str], list[str]] = {}
+    for u in untestable:
+        key = (str(u.get("reason") or ""), str(u.get("experiment") or ""))
+        groups.setdefault(key, []).append(_effect_words(u.get("name")))
+    out = []
+    for (reason, experiment), names in groups.items():
+        listed = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+        out.append(in_words(_because(f"{_cap(listed)} cannot be tested with this recording",
+                                     reason, "It would need", experiment)))
+    return out
 
 
 def run_diagnosis(rec: Recording, model: Model,

@@ -216,3 +216,18 @@ def test_where_an_effect_acts_is_in_samples_without_a_time_axis_and_names_the_ru
     doc = {**_doc(e), "recordings": [{"name": "r", "time_axis": True}]}
     text = "\n".join(diagnosis_summary(doc, {"input": "V", "output": "um"}).findings)
     assert "12–40 s" in text and "r 12" not in text and "7 s after" in text
+
+
+def test_effects_untestable_for_one_reason_are_said_once() -> None:
+    """A file without a time axis: six time effects untestable for the same reason are one
+    sentence naming them all (before: six sentences with the same reason); an effect with
+    its own reason keeps its own."""
+    why, need = "the runs have no time axis", "the same recording with its time stamps"
+    untestable = [{"name": n, "reason": why, "experiment": need}
+                  for n in ("delay", "lag", "resonance")]
+    untestable.append({"name": "offset", "reason": "one recording", "experiment": "several"})
+    found = diagnosis_summary({**_doc([]), "untestable": untestable}).findings
+    said = [f for f in found if "cannot be tested" in f]
+    assert len(said) == 2, said
+    assert said[0].count(why) == 1 and " and " in said[0].split("cannot")[0]
+    assert "one recording" in said[1]
