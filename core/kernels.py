@@ -40,6 +40,7 @@ __all__ = [
     "level_segments_rows",
     "mp_advance",
     "mp_inverse",
+    "mp_elements",
     "mp_output",
     "mp_unit",
     "pi_output_strict",
@@ -710,6 +711,17 @@ def mp_output(u, r, w, k, r0, c1, c2, st, out):  # pragma: no cover - compiled
         for i in range(n):
             y += w[i] * st[3 + 5 * i]
         out[t] = y
+
+
+@njit(cache=True, nogil=True)
+def mp_elements(u, r, r0, c1, c2, st, out):  # pragma: no cover - compiled
+    """Each element's output ``s_i[u_t]`` into ``out`` (shape ``(N, n)``), as
+    :func:`mp_output` runs the elements; ``st`` (layout above) is updated in place."""
+    n = r.shape[0]
+    for t in range(u.shape[0]):
+        mp_advance(u[t], r, r0, c1, c2, st)
+        for i in range(n):
+            out[t, i] = st[3 + 5 * i]
 
 
 @njit(cache=True, nogil=True)

@@ -276,9 +276,8 @@ class MenegottoPintoModel(Model):
         r, c0, c1, c2 = (self.thresholds, self.curvature, self.curvature_drop,
                          self.curvature_scale)
         out = np.empty((uu.size, self.n))
-        for t in range(uu.size):
-            kernels.mp_advance(float(uu[t]), r, c0, c1, c2, st)
-            out[t] = st[3::5]
+        kernels.mp_elements(np.ascontiguousarray(uu, dtype=np.float64), r, c0, c1, c2, st,
+                            out)
         return out
 
     def cost(self, samples: int, dt: float | None) -> RunCost:
