@@ -21,12 +21,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fmpy.validation import validate_fmu
 
 from core.base import Model
 from core.export_c import CExportError, generate_c
+from core.export_fmu import build_fmu
 from core.nonmasing import MenegottoPintoModel
 from core.paramset import ParameterSet, ParameterSetError, load_parameter_set
 from tests.core.model_zoo import DT, turning_points
+from tests.core.test_export_fmu_stepping import DISCARD, LoggedMaster
 
 GCC = shutil.which("gcc")
 needs_gcc = pytest.mark.skipif(GCC is None, reason="gcc not installed: cannot compile C export")
@@ -254,11 +257,8 @@ def test_every_number_in_the_code_is_a_parameter_written_exactly() -> None:
 
 
 # ----------------------------------------------------------------------------- FMU
-fmpy = pytest.importorskip("fmpy")
-from fmpy.validation import validate_fmu  # noqa: E402
-
-from core.export_fmu import build_fmu  # noqa: E402
-from tests.core.test_export_fmu_stepping import DISCARD, LoggedMaster  # noqa: E402
+# (fmpy is a dev dependency: imported at the top, so that a missing one fails the module
+# instead of skipping its C tests with it)
 
 
 def _stepped(m: LoggedMaster, x: np.ndarray, per: int, t: float) -> tuple[np.ndarray, float]:
