@@ -89,7 +89,7 @@ the two reads a source), :mod:`~core.csvio.reader` (recordings and runs) and
 from __future__ import annotations
 
 from .dialect import MAX_LINE_CHARS
-from .errors import CSVError, UnevenTimeError
+from .errors import CSVError, TimeOrderError, UnevenTimeError
 from .inputs import InputSignal, read_input, read_input_text
 from .load import inspect_csv, inspect_csv_text
 from .names import ColumnInfo, parse_column_name
@@ -111,6 +111,7 @@ __all__ = [
     "CsvOptions",
     "InputSignal",
     "Source",
+    "TimeOrderError",
     "UnevenTimeError",
     "inspect_csv",
     "inspect_csv_text",

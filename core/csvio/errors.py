@@ -35,6 +35,12 @@ class CSVError(ParameterError):
         self.column_index = column_index
 
 
+class TimeOrderError(CSVError):
+    """The chosen time column does not strictly increase (a duplicated or decreasing time
+    stamp): a caller that reads several runs as one recording tells runs that each restart
+    their clock by this class, not by the message."""
+
+
 class UnevenTimeError(CSVError):
     """The time stamps of a recording are unevenly spaced and no choice was made.
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .errors import CSVError, UnevenTimeError
+from .errors import CSVError, TimeOrderError, UnevenTimeError
 from .names import TIME_SCALE, ColumnInfo
 from .numbers import decimals
 from .options import CsvOptions
@@ -70,7 +70,7 @@ def check_time(
             f"line {b} repeats t = {t[i + 1]:g} s of line {a}" if d[i] == 0 else
             f"line {b} has t = {t[i + 1]:g} s after t = {t[i]:g} s at line {a}"
         )
-        raise CSVError(
+        raise TimeOrderError(
             f"{label}: time stamps must strictly increase, but {step}{where} ({what} time "
             f"stamp in column {tcol.label()}); remove the duplicated/out-of-order rows or sort "
             "the file by time",

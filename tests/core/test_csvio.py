@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from core.csvio import (
     CSVError,
+    TimeOrderError,
     inspect_csv,
     parse_column_name,
     read_csv,
@@ -355,11 +356,11 @@ def test_rounded_time_stamps_are_not_uneven():
 
 def test_duplicated_and_decreasing_time_stamps_name_the_line():
     text = with_line(table(), 12, f"{T[9]:.6f},1.0,2.0")  # t of line 11 again
-    with pytest.raises(CSVError, match=r"line 12 repeats t = 0\.09 s of line 11 \(duplicated "
+    with pytest.raises(TimeOrderError, match=r"line 12 repeats t = 0\.09 s of line 11 \(duplicated "
                                        r"time stamp in column 't_s'"):
         read_csv(text)
     text = with_line(table(), 12, "0.05,1.0,2.0")
-    with pytest.raises(CSVError, match=r"line 12 has t = 0\.05 s after t = 0\.09 s at line 11"
+    with pytest.raises(TimeOrderError, match=r"line 12 has t = 0\.05 s after t = 0\.09 s at line 11"
                                        r".*decreasing"):
         read_csv(text)
 

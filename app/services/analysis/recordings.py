@@ -18,7 +18,14 @@ from typing import TYPE_CHECKING, Any
 from app.services.analysis.columns import column_spec
 from app.services.analysis.loops import keep_runs
 from app.services.runs.inputs import CommandError, existing_file
-from core.csvio import CSVError, CsvOptions, UnevenTimeError, inspect_csv_text, read_csv_text
+from core.csvio import (
+    CSVError,
+    CsvOptions,
+    TimeOrderError,
+    UnevenTimeError,
+    inspect_csv_text,
+    read_csv_text,
+)
 from core.recordings import Recording
 
 if TYPE_CHECKING:
@@ -313,8 +320,8 @@ def _read_runs(content: str | bytes, options: CsvOptions, name: str, run: str | 
         return split, split, run
     try:
         return read_csv_text(content, replace(options, run=False), name=name), split, run
-    except CSVError as exc:
-        if len(split) > 1 and "time stamps must strictly increase" in str(exc):
+    except TimeOrderError as exc:
+        if len(split) > 1:
             raise CSVError(
                 f"{exc.source}: the file's {len(split)} runs each start their own time, so "
                 "its rows cannot be read as one recording with one time axis; keep all "
