@@ -82,11 +82,10 @@ export class ModelControls {
     this.inputs = new Map();
     this.groups = new Map();  // group key -> its <details>, kept across rebuilds
     this.labels = new Map();  // slider path -> { label, input, out, ref }, kept likewise
-    this.seq = 0;
+    this.seq = 0;  // models shown from outside: a reply asked for before the newest is stale
     this.shape = null;
     this.pending = new Map();  // path -> the slider's newest move not yet clamped
     this.clamping = false;
-    this.shown = 0;  // models shown from outside: a clamp reply from before one is stale
   }
 
   // Show `model` (a change that did not come from these sliders): the sliders are rebuilt
@@ -95,11 +94,10 @@ export class ModelControls {
     // moves not yet clamped, and replies on their way, belong to the model this replaces:
     // dropped, so that they neither write into it nor clear what its change said
     this.pending.clear();
-    this.shown += 1;
+    const seq = ++this.seq;
     this.model = structuredClone(model);
     const same = this.desc && this.shape === shape(model);
     if (same && this.#setValues()) return;
-    const seq = ++this.seq;
     let desc;
     try {
       desc = await this.api("POST", "/api/controls", { model });
@@ -252,14 +250,14 @@ export class ModelControls {
         const [path, m] = this.pending.entries().next().value;
         this.pending.delete(path);
         let done;
-        const shown = this.shown;
+        const seq = this.seq;
         try {
           done = await this.api("POST", "/api/controls/clamp", { model: this.model, path, value: m.value });
         } catch (e) {
-          if (shown === this.shown) this.onChange(e.message);
+          if (seq === this.seq) this.onChange(e.message);
           continue;
         }
-        if (shown !== this.shown) continue;  // another model was shown meanwhile
+        if (seq !== this.seq) continue;  // another model was shown meanwhile
         // else a newer move is pending; a slider whose spec was replaced meanwhile (a new
         // model's structure) shows the new model's value, not this reply on the old scale
         if (!this.pending.has(path) && this.byPath.get(path) === m.s) {
