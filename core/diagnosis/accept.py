@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from .acceptance import RULE
+from .bases import BASE_KINDS
 from .context import FitContext
 from .crossfitting import compare_heldout
 from .finding import lookalikes_of, make_finding
@@ -80,8 +81,7 @@ def accept_best(run: Run, cur: Fit, cands: dict[str, Candidate], passing: list[s
         # Preisach base they are: the rate candidate widens the levelled plays' thresholds):
         # say so rather than let the dynamics stand in for them unchallenged
         rate = rate_effect()
-        base = ("Menegotto-Pinto" if new.structure.base_kind == "menegotto-pinto"
-                else "Bouc-Wen")
+        base = BASE_KINDS[new.structure.base_kind].short
         run.findings[-1].ambiguous_with.append(rate)
         run.ambiguous.append({
             "effects": [named, rate], "chosen": named,

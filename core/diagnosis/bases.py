@@ -1,5 +1,7 @@
 """Base hysteresis families other than the PI for the diagnosis: a Bouc-Wen bank, a
-Menegotto-Pinto bank (non-Masing loops) and the stop-operator base of clockwise loops.
+Menegotto-Pinto bank (non-Masing loops) and the stop-operator base of clockwise loops; and
+the declaration of every base kind a diagnosis may have, the PI and the Preisach base
+included, with its words (:class:`BaseKind`, :data:`BASE_KINDS`).
 
 A Bouc-Wen base is the registered :class:`~core.boucwen.BoucWenModel`
 ``y = k u + sum_j c_j z_j`` with rate-independent Bouc-Wen elements
@@ -55,6 +57,10 @@ asymmetry is no longer named as an ``asymmetry`` effect.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
 import numpy as np
 
 from .._typing import Float1D
@@ -68,12 +74,14 @@ from ..recordings import Recording
 from ..stop import StopPIModel
 
 __all__ = [
+    "BASE_KINDS",
     "BW_GRID",
     "GAP",
     "BW_MIN_GAIN",
     "MP",
     "MP_GRID",
     "MP_MIN_GAIN",
+    "BaseKind",
     "base_elements",
     "element_family",
     "elements_like",
@@ -283,6 +291,45 @@ def stop_model(stage: tuple, r: Float1D, p0: float, pw: Float1D,
 #: (``Structure.bouc_wen``): ``(MP, sign, r, R0, cR1, cR2)``, where the Bouc-Wen elements are
 #: ``(beta, gamma, n)``.
 MP = "menegotto-pinto"
+
+
+# ---------------------------------------------------------------------------------------
+# The base kinds (each declared once, with its words)
+
+@dataclass(frozen=True)
+class BaseKind:
+    """One base hysteresis kind of a diagnosis
+    (:attr:`~core.diagnosis.structure.Structure.base_kind`, the ``kind`` of
+    :class:`~core.diagnosis.results.BaseChoice`), declared once with its words.
+
+    Attributes
+    ----------
+    name : str
+        The kind as the JSON documents write it (``"pi"``, ``"stop-pi"``, ...), the family
+        name of :func:`core.fitting.choice.base_family`.
+    short : str
+        Its short name, as in "the PI model" or "the Menegotto-Pinto ... against it" (the
+        explorer's findings, the base choice's words).
+    long : str
+        Its name with what it is made of, as the report names an alternative base ("a
+        stop-operator (Maxwell-slip, backlash gap) base").
+    """
+
+    name: str
+    short: str
+    long: str
+
+
+#: Every base kind of a diagnosis by name (:class:`BaseKind`): what the report
+#: (:mod:`core.diagnosis.misspecification`, :mod:`core.diagnosis.results`) and the explorer
+#: (:mod:`app.services.analysis.diagnosis`) call each.
+BASE_KINDS: Mapping[str, BaseKind] = MappingProxyType({k.name: k for k in (
+    BaseKind("pi", "PI", "PI"),
+    BaseKind("stop-pi", "stop-operator", "stop-operator (Maxwell-slip, backlash gap)"),
+    BaseKind("preisach", "Preisach", "Preisach"),
+    BaseKind("bouc-wen", "Bouc-Wen", "Bouc-Wen"),
+    BaseKind(MP, "Menegotto-Pinto", "Menegotto-Pinto (non-Masing smooth stop elements)"),
+)})
 
 #: A Menegotto-Pinto base replaces the chosen base when it lowers the MSE of predicting each
 #: recording from the others by at least this share against the PI (or stop) base and beats

@@ -46,20 +46,22 @@ from typing import Any
 
 import numpy as np
 
-from .bases import BW_MIN_GAIN, base_elements, bouc_wen_elements, elements_like, saturations
+from .bases import (
+    BASE_KINDS,
+    BW_MIN_GAIN,
+    base_elements,
+    bouc_wen_elements,
+    elements_like,
+    saturations,
+)
 from .context import FitContext
 from .registry import EFFECTS
 from .screening import ranking_span
 from .shapes import apply_shape, loop_shape, shape_thresholds
 from .structure import Fit, Structure, dynamics_stages, pack_dynamics
 
-__all__ = ["BASE_NAMES", "alternative_bases", "base_sensitivity", "describe_alternative",
+__all__ = ["alternative_bases", "base_sensitivity", "describe_alternative", "long_name",
            "recording_jackknife"]
-
-#: How the report names each base kind.
-BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator (Maxwell-slip, backlash gap)",
-              "preisach": "Preisach", "bouc-wen": "Bouc-Wen",
-              "menegotto-pinto": "Menegotto-Pinto (non-Masing smooth stop elements)"}
 
 #: (level segments, smoothness) of the Preisach base among the alternatives (the first of
 #: the bases the base choice tries, :data:`core.diagnosis.basechoice.PREISACH_GRID`).
@@ -386,5 +388,12 @@ def recording_jackknife(ctx: FitContext, name: str, cur: Fit, params: dict[str, 
 def describe_alternative(kind: str, chosen: str) -> str:
     """``kind`` of :func:`alternative_bases` in words (``chosen``: the chosen base's kind)."""
     if kind == SHIFTED:
-        return f"the {BASE_NAMES.get(chosen, chosen)} with its grid shifted half a step"
-    return f"a {BASE_NAMES.get(kind, kind)} base"
+        return f"the {long_name(chosen)} with its grid shifted half a step"
+    return f"a {long_name(kind)} base"
+
+
+def long_name(kind: str) -> str:
+    """How the report names base kind ``kind`` (:attr:`BaseKind.long
+    <core.diagnosis.bases.BaseKind.long>`; an unknown kind by itself)."""
+    k = BASE_KINDS.get(kind)
+    return kind if k is None else k.long

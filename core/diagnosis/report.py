@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .misspecification import BASE_NAMES, describe_alternative
+from .misspecification import describe_alternative, long_name
 
 if TYPE_CHECKING:
     from .results import DiagnosisResult, EffectFinding
@@ -232,7 +232,7 @@ def _base_dependence(e: Any) -> list[str]:
         sys_s, stat = bs["sigma"].get(k), bs["sigma_statistical"].get(k)
         if sys_s is None or (isinstance(stat, float) and stat >= sys_s):
             continue
-        chosen = BASE_NAMES.get(bs["base"], bs["base"])
+        chosen = long_name(bs["base"])
         alts = ", ".join(f"{_fmt(p[k])} on {describe_alternative(b, bs['base'])}"
                          for b, p in bs["per_base"].items())
         out.append(f"   {k} depends on the base model: {_fmt(e.parameters[k])} on the "

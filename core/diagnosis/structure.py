@@ -185,7 +185,8 @@ class Structure:
     def base_kind(self) -> str:
         """The base hysteresis: ``"bouc-wen"``, ``"menegotto-pinto"``, ``"preisach"``
         (level-dependent memory), ``"stop-pi"`` (stop operators behind a backlash gap) or
-        ``"pi"``."""
+        ``"pi"``: a key of :data:`~core.diagnosis.bases.BASE_KINDS`, which declares each
+        kind with its words."""
         return (element_family(self.bouc_wen) if self.bouc_wen else "preisach" if self.levels
                 else "stop-pi" if self.stop else "pi")
 

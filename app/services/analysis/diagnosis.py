@@ -30,6 +30,7 @@ if TYPE_CHECKING:  # core.diagnosis is imported when a diagnosis runs
 __all__ = [
     "DiagnosisSummary",
     "SessionDiagnosis",
+    "base_name",
     "diagnose_files",
     "diagnosis_html",
     "diagnosis_json",
@@ -100,10 +101,14 @@ def _param_text(params: dict[str, Any], u_unit: str, effect: str = "", y_unit: s
     return "; ".join(parts)
 
 
-#: The words for a diagnosis's base (:attr:`~core.diagnosis.structure.Structure.base_kind`),
-#: as in "the PI model".
-BASE_NAMES = {"pi": "PI", "stop-pi": "stop-operator", "preisach": "Preisach",
-              "bouc-wen": "Bouc-Wen", "menegotto-pinto": "Menegotto-Pinto"}
+def base_name(kind: object, default: str = "PI") -> str:
+    """The words for a diagnosis's base kind (:attr:`~core.diagnosis.structure.Structure.base_kind`,
+    the JSON document's ``baseline.model``), as in "the PI model": its short name as core
+    declares it (:data:`core.diagnosis.bases.BASE_KINDS`); ``default`` for an unknown kind."""
+    from core.diagnosis.bases import BASE_KINDS
+
+    k = BASE_KINDS.get(kind) if isinstance(kind, str) else None
+    return default if k is None else k.short
 
 
 def _where_text(where: dict[str, Any], u_unit: str, timed: bool = True,
@@ -200,11 +205,11 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
     timed = all(r.get("time_axis", True) for r in recs)
     findings: list[str] = []
     base_doc, final = d.get("baseline", {}), d.get("final", {})
-    base_name = BASE_NAMES.get(base_doc.get("model"), "PI")
+    base_words = base_name(base_doc.get("model"))
     b, f = base_doc.get("heldout_rmse"), final.get("heldout_rmse")
     bp, fp = base_doc.get("heldout_rmse_pct"), final.get("heldout_rmse_pct")
     if isinstance(b, int | float) and isinstance(bp, int | float):
-        text = (f"On the rows the fit never saw, the {base_name} model is off by "
+        text = (f"On the rows the fit never saw, the {base_words} model is off by "
                 f"{_qty(b, y_unit)} RMS ({bp:.3g} % of the output range)")
         if final.get("effects") and isinstance(f, int | float) and isinstance(fp, int | float):
             text += (f"; with {', '.join(_effect_words(e) for e in final['effects'])} added, "
@@ -234,13 +239,13 @@ def diagnosis_summary(d: dict[str, Any], units: Mapping[str, str] | None = None
     # (the residual against the noise floor: "explains the data" only when it is at it)
     adequacy = d.get("adequacy") or {}
     if not d.get("effects"):
-        findings.append(f"No missing physics detected: the {base_name} model explains "
+        findings.append(f"No missing physics detected: the {base_words} model explains "
                         "the data" if adequacy.get("adequate") is True else
                         "No effect of the list improved the held-out fit significantly.")
     if adequacy.get("adequate") is False and adequacy.get("text"):
         findings.append(f"Not explained: {_with_units(in_words(adequacy['text']), y_unit)}")
     choice = base_doc.get("base_choice") or {}
-    if choice.get("kind") in ("preisach", "bouc-wen", "stop-pi", "menegotto-pinto"):
+    if choice.get("kind") not in (None, "pi"):  # a base other than the PI was chosen
         findings.append(f"Base model: {in_words(str(choice.get('text', '')))}")
     for r in d.get("recording_specific", []):
         findings.append("Seen in this recording only, so not claimed: "

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from app.services.analysis.diagnosis import BASE_NAMES, diagnosis_html
+from app.services.analysis.diagnosis import base_name, diagnosis_html
 from app.services.analysis.recordings import CsvPreview, Upload, csv_preview, read_upload
 from app.services.explore import controls as C
 from app.services.explore import figures as F
@@ -305,7 +305,7 @@ def diagnosis_figure(session: Session) -> F.FigureJSON | None:
     if not first.has_time:  # sample numbers (a file without a time column), not seconds
         units["time"] = "sample"
     rec = replace(first, units=units)
-    base = f"{BASE_NAMES.get(result.baseline.structure.base_kind, 'base')} model"
+    base = f"{base_name(result.baseline.structure.base_kind, 'base')} model"
     if len(result.records) > 1:  # the figure draws the first recording
         base += f" ({result.records[0].name}, the first of {len(result.records)} runs)"
     effects = [e.name for e in result.effects]

@@ -53,3 +53,16 @@ def test_the_suggestive_section_reads_the_typed_rows(tmp_path: Path) -> None:
         assert (f"<li>{r.effect}: held-out MSE -{100 * r.heldout_mse_reduction:.0f} %, "
                 f"DM z = {r.dm_z:.2f}, signed-rank p = {r.signed_rank_p:.2g}") in text
     assert text.count("; with the cross-fitted training blocks DM z = 1.23</li>") == 1
+
+
+def test_the_base_is_named_as_core_declares_it() -> None:
+    """The explorer's words for a base kind are core's declaration
+    (:data:`core.diagnosis.bases.BASE_KINDS`), in the findings too."""
+    from app.services.analysis.diagnosis import base_name, diagnosis_summary
+    from core.diagnosis.bases import BASE_KINDS
+
+    assert {k: base_name(k) for k in BASE_KINDS} == {k: v.short for k, v in BASE_KINDS.items()}
+    assert base_name(None) == "PI" and base_name("no-such-base", "base") == "base"
+    s = diagnosis_summary({"baseline": {"model": "stop-pi", "heldout_rmse": 0.1,
+                                        "heldout_rmse_pct": 1.0}})
+    assert s.findings[0].startswith("On the rows the fit never saw, the stop-operator model")
