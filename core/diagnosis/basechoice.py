@@ -10,7 +10,6 @@ recording from the others.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 
@@ -37,7 +36,7 @@ from .context import FitContext
 from .crossfitting import compare_heldout
 from .grid import baseline_thresholds
 from .registry import EFFECTS, output_dynamics
-from .results import BaseChoice
+from .results import BaseChoice, BaseRival, BaseTrial, StopBase
 from .shapes import loop_shape, shape_thresholds
 from .specs import Untestable
 from .structure import Fit, Structure
@@ -136,7 +135,8 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
     lo, hi = min(float(x.min()) for x in w), max(float(x.max()) for x in w)
     n_p = max(4, min(25, n_operators))
     r = baseline_thresholds(ctx.records, ctx.train, n_p)
-    best, h_best, tried = base, None, []
+    best, h_best = base, None
+    tried: list[BaseTrial] = []
     for m, smooth in PREISACH_GRID:
         if MIN_ROWS_PER_WEIGHT * ((n_p + 1) * m + 2) > ctx.n_train:
             continue  # too few training rows per weight
@@ -145,8 +145,7 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
                        level_smooth=smooth)
         fp = ctx.fit(sp)
         h = compare_heldout(sub, base, fp)
-        tried.append({"base": "preisach", "operators": n_p, "level_segments": m,
-                      "smoothness": smooth, "cv_mse_reduction": float(h.gain)})
+        tried.append(BaseTrial("preisach", n_p, m, smooth, float(h.gain)))
         if h.gain >= PREISACH_MIN_GAIN and (h_best is None or h.gain > h_best.gain):
             best, h_best = fp, h
     if h_best is None:
@@ -156,11 +155,9 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
     mse_mpi = fold_mse("mpi", ctx.records, folds, s0.free_weights)
     if np.isfinite(mse_mpi):
         over = 1.0 - h_best.mse_after / max(mse_mpi, 1e-300)
-        tried.append({"base": "mpi (static output map)", "operators": 0, "level_segments": 1,
-                      "smoothness": 0.0,
-                      "cv_mse_reduction": float(1.0 - mse_mpi / max(h_best.mse_before,
-                                                                    1e-300)),
-                      "preisach_mse_reduction_over_it": float(over)})
+        tried.append(BaseTrial("mpi (static output map)", 0, 1, 0.0,
+                               float(1.0 - mse_mpi / max(h_best.mse_before, 1e-300)),
+                               BaseRival("preisach", float(over))))
         if over < PREISACH_OVER_MAP:
             return base, BaseChoice(s0.base_kind, tuple(tried), len(folds))
     if _a_loop_shape_rivals(ctx, sub, base, best, tried, "preisach"):
@@ -169,7 +166,7 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
 
 
 def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
-                         tried: list[dict[str, Any]], rich_name: str) -> bool:
+                         tried: list[BaseTrial], rich_name: str) -> bool:
     """Whether the base ``ref`` (the PI, or the stop base of clockwise loops, on which no
     shape is built) with a static output map or loop shape (each effect of
     the ``"static"`` family: asymmetry, saturation, dead-zone), which the effect search
@@ -177,9 +174,9 @@ def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
     richer base ``rich`` (notes §4.2: does a static map reconcile the loops?). A shape that
     comes that close is compared with ``rich`` again, each with the output dynamics that
     predicts its folds best: an output dynamics stage (a resonance of the fast recordings)
-    may dominate both misfits. Appends one row per shape to ``tried`` (the key
-    ``f"{rich_name}_mse_reduction_over_it"``: ``rich``'s MSE reduction against it)."""
-    key = f"{rich_name.replace('-', '_')}_mse_reduction_over_it"
+    may dominate both misfits. Appends one row per shape to ``tried`` (its
+    :class:`~core.diagnosis.results.BaseRival` ``rich_name``, the kind of ``rich``: ``rich``'s
+    MSE reduction against it)."""
     rich_dyn: Fit | None = None
     for name in (n for n, e in EFFECTS.items() if e.family == "static"):
         got = build_candidate(ctx, name, ref)
@@ -187,15 +184,14 @@ def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
             continue
         alt = got[0]
         over = compare_heldout(sub, alt, rich).gain
-        tried.append({"base": f"pi + {name}", "operators": len(ref.structure.thresholds),
-                      "level_segments": 1, "smoothness": 0.0,
-                      "cv_mse_reduction": float(compare_heldout(sub, ref, alt).gain),
-                      key: float(over)})
+        tried.append(BaseTrial(f"pi + {name}", len(ref.structure.thresholds), 1, 0.0,
+                               float(compare_heldout(sub, ref, alt).gain),
+                               BaseRival(rich_name, float(over))))
         if over >= PREISACH_OVER_MAP:
             continue
         rich_dyn = rich_dyn or _with_output_dynamics(ctx, sub, rich)
         over_dyn = compare_heldout(sub, _with_output_dynamics(ctx, sub, alt), rich_dyn).gain
-        tried[-1][f"{key}_with_dynamics"] = float(over_dyn)
+        tried[-1] = replace(tried[-1], rival=BaseRival(rich_name, float(over), float(over_dyn)))
         if over_dyn < PREISACH_OVER_MAP:
             return True
     return False
@@ -228,7 +224,7 @@ RATE_ON_STOP = Untestable(
      "decade apart"),
 )
 
-def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
+def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, StopBase] | None:
     """The stop-operator base of clockwise loops (:mod:`core.diagnosis.bases`), or ``None``
     on counter-clockwise ones: the loops' orientation and the backlash gap are the fit
     side's (:func:`core.fitting.orientation.loop_orientation` on the training rows,
@@ -262,11 +258,9 @@ def _stop_base(ctx: FitContext, base: Fit) -> tuple[Fit, dict[str, Any]] | None:
     hyst = m0.stages[0] if isinstance(m0, Chain) else m0
     assert isinstance(hyst, StopPIModel)
     plateau = float(branch_features(hyst).plateau)
-    info = {"gap": float(model.gap), "elements": len(r), "friction_plateau": plateau,
-            "heldout_mse_reduction": float(1.0 - h.mse_before / max(h.mse_after, 1e-300)),
-            "chosen": bool(chosen)}
-    if ratio != 1.0:
-        info |= {"slip_force_ratio": ratio, "friction_plateau_falling": plateau * ratio}
+    info = StopBase(float(model.gap), len(r), plateau,
+                    float(1.0 - h.mse_before / max(h.mse_after, 1e-300)), bool(chosen),
+                    None if ratio == 1.0 else float(ratio))
     return (fs if chosen else base), info
 
 
@@ -299,20 +293,18 @@ def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
     sb = Structure(saturations(el), s0.history, free_weights=s0.free_weights, bouc_wen=el)
     fb = ctx.fit(sb)
     h = compare_heldout(sub, ref, fb)
-    chosen_gain = max((t["cv_mse_reduction"] for t in choice.tried if t["base"] == "preisach"),
+    chosen_gain = max((t.cv_mse_reduction for t in choice.tried if t.base == "preisach"),
                       default=0.0) if choice.kind == "preisach" else 0.0
-    tried = (*choice.tried, {"base": "bouc-wen", "operators": len(el), "level_segments": 1,
-                             "smoothness": 0.0, "cv_mse_reduction": float(h.gain)})
+    tried = (*choice.tried, BaseTrial("bouc-wen", len(el), 1, 0.0, float(h.gain)))
     kind = choice.kind
     if h.gain >= BW_MIN_GAIN and h.gain > chosen_gain:
         best, kind, chosen_gain = fb, "bouc-wen", float(h.gain)
     got_mp = _menegotto_pinto_base(ctx, sub, ref, span)
     if got_mp is not None:
         fm, gm = got_mp
-        tried = (*tried, {"base": "menegotto-pinto", "operators": len(fm.structure.bouc_wen),
-                          "level_segments": 1, "smoothness": 0.0, "cv_mse_reduction": gm})
+        tried = (*tried, BaseTrial("menegotto-pinto", len(fm.structure.bouc_wen), 1, 0.0, gm))
         if gm >= MP_MIN_GAIN and gm > chosen_gain:
-            rows: list[dict[str, Any]] = []
+            rows: list[BaseTrial] = []
             if not _a_loop_shape_rivals(ctx, sub, ref, fm, rows, "menegotto-pinto"):
                 best, kind = fm, "menegotto-pinto"
             tried = (*tried, *rows)

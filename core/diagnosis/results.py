@@ -16,6 +16,7 @@ from ..fitting.metrics import percent_of_range
 from ..recordings import Recording
 from .acceptance import RULE
 from .adequacy import Adequacy
+from .bases import BASE_KINDS, MP
 from .between import BetweenPlan
 from .candidates import build_candidate
 from .context import FitContext
@@ -25,8 +26,9 @@ from .specs import Untestable
 from .stats import HeldOut, ljung_box
 from .structure import Fit, PIStageOutputs, Structure
 
-__all__ = ["ACCEPT_RULE", "RESULT_FORMAT", "RESULT_VERSION", "BaseChoice", "DiagnosisResult",
-           "EffectFinding", "RecordingSpecific", "RoundRow", "Untestable", "pooled_mse"]
+__all__ = ["ACCEPT_RULE", "RESULT_FORMAT", "RESULT_VERSION", "BaseChoice", "BaseRival",
+           "BaseTrial", "DiagnosisResult", "EffectFinding", "RecordingSpecific", "RoundRow",
+           "StopBase", "Untestable", "pooled_mse"]
 
 
 #: Acceptance thresholds (documented in the JSON output; :data:`core.diagnosis.acceptance.RULE`).
@@ -202,6 +204,166 @@ class EffectFinding:
 
 
 @dataclass(frozen=True)
+class BaseRival:
+    """The richer base a static-map alternative of the base choice was compared with (a row
+    of :attr:`BaseChoice.tried` whose base is the PI with a static output map or a loop
+    shape, which the effect search names instead).
+
+    Attributes
+    ----------
+    base : str
+        The richer base's kind (``"preisach"`` or ``"menegotto-pinto"``: a key of
+        :data:`~core.diagnosis.bases.BASE_KINDS`).
+    mse_reduction : float
+        Its MSE reduction against the alternative, each recording predicted from the others.
+    mse_reduction_with_dynamics : float, optional
+        The same with each of the two followed by the output dynamics stage that predicts
+        its folds best, where :attr:`mse_reduction` is below the margin
+        (:data:`~core.fitting.choice.PREISACH_OVER_MAP`); ``None`` where not compared so.
+    """
+
+    base: str
+    mse_reduction: float
+    mse_reduction_with_dynamics: float | None = None
+
+    @property
+    def key(self) -> str:
+        """The JSON key of :attr:`mse_reduction` in the row's JSON form
+        (``"preisach_mse_reduction_over_it"``, ``"menegotto_pinto_..."``)."""
+        return f"{self.base.replace('-', '_')}_mse_reduction_over_it"
+
+
+@dataclass(frozen=True)
+class BaseTrial:
+    """One alternative of the base choice and how it predicted the recordings (a row of
+    :attr:`BaseChoice.tried`).
+
+    Attributes
+    ----------
+    base : str
+        What was tried: a base kind (``"preisach"``, ``"bouc-wen"``, ``"menegotto-pinto"``)
+        or a static-map alternative (``"mpi (static output map)"``, ``"pi + saturation"``).
+    operators : int
+        Its plays, or its elements (Bouc-Wen, Menegotto-Pinto); 0 for the modified PI.
+    level_segments : int
+        Level segments of a Preisach base (1 otherwise).
+    smoothness : float
+        Smoothness of a Preisach base's level segments (0 otherwise).
+    cv_mse_reduction : float
+        Its MSE reduction against the PI (or stop) base, each recording predicted from the
+        others.
+    rival : BaseRival, optional
+        For a static-map alternative, the richer base it was compared with.
+    cv_mse_reduction_with_dynamics : float, optional
+        :attr:`cv_mse_reduction` with each base followed by the output dynamics stage that
+        predicts its folds best (where the base choice compares them so); ``None`` where
+        not.
+    """
+
+    base: str
+    operators: int
+    level_segments: int
+    smoothness: float
+    cv_mse_reduction: float
+    rival: BaseRival | None = None
+    cv_mse_reduction_with_dynamics: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form (a row of ``tried`` of :meth:`BaseChoice.to_dict`): ``{"base",
+        "operators", "level_segments", "smoothness", "cv_mse_reduction"}``, with a rival its
+        ``"<rival>_mse_reduction_over_it"`` and, where compared so, the same
+        ``..._with_dynamics``, and ``"cv_mse_reduction_with_dynamics"`` where set."""
+        d: dict[str, Any] = {"base": self.base, "operators": self.operators,
+                             "level_segments": self.level_segments,
+                             "smoothness": self.smoothness,
+                             "cv_mse_reduction": self.cv_mse_reduction}
+        if self.cv_mse_reduction_with_dynamics is not None:
+            d["cv_mse_reduction_with_dynamics"] = self.cv_mse_reduction_with_dynamics
+        r = self.rival
+        if r is not None:
+            d[r.key] = r.mse_reduction
+            if r.mse_reduction_with_dynamics is not None:
+                d[f"{r.key}_with_dynamics"] = r.mse_reduction_with_dynamics
+        return d
+
+    def text(self) -> str:
+        """The row in words, as the base choice's :attr:`~BaseChoice.text` lists it."""
+        mse = f"MSE {-100 * self.cv_mse_reduction + 0.0:+.0f} %"
+        if self.base == "preisach":
+            return (f"preisach ({self.operators} plays x {self.level_segments} level "
+                    f"segments) {mse}")
+        if self.base in ("bouc-wen", MP):
+            return f"{self.base} ({self.operators} elements) {mse}"
+        r = self.rival
+        if r is None:
+            return f"{self.base} {mse}"
+        who = BASE_KINDS[r.base].short if r.base in BASE_KINDS else r.base
+        return f"{self.base} {mse}, the {who} {-100 * r.mse_reduction + 0.0:+.0f} % against it"
+
+
+@dataclass(frozen=True)
+class StopBase:
+    """The stop-operator base of clockwise loops as the base choice tried it
+    (:attr:`BaseChoice.stop`; :mod:`core.diagnosis.bases`).
+
+    Attributes
+    ----------
+    gap : float
+        The backlash gap's width (input units).
+    elements : int
+        Stop operators in the bank.
+    friction_plateau : float
+        The friction plateau (output units; where the force is positive, when the slip
+        force depends on the sliding direction).
+    heldout_mse_reduction : float
+        Its held-out MSE reduction against the PI with weights of either sign.
+    chosen : bool
+        It replaced the PI baseline.
+    slip_force_ratio : float, optional
+        ``g- / g+`` where the slip force depends on the sliding direction
+        (:class:`~core.stages.SignedGain` after the bank, as ``hyst fit`` finds it);
+        ``None`` with one gain.
+    """
+
+    gap: float
+    elements: int
+    friction_plateau: float
+    heldout_mse_reduction: float
+    chosen: bool
+    slip_force_ratio: float | None = None
+
+    @property
+    def friction_plateau_falling(self) -> float | None:
+        """The plateau where the force is negative (output units), with a
+        :attr:`slip_force_ratio`; else ``None``."""
+        r = self.slip_force_ratio
+        return None if r is None else self.friction_plateau * r
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form (``stop`` of :meth:`BaseChoice.to_dict`): ``{"gap", "elements",
+        "friction_plateau", "heldout_mse_reduction", "chosen"}``, and
+        ``"slip_force_ratio"`` and ``"friction_plateau_falling"`` with two gains."""
+        d: dict[str, Any] = {"gap": self.gap, "elements": self.elements,
+                             "friction_plateau": self.friction_plateau,
+                             "heldout_mse_reduction": self.heldout_mse_reduction,
+                             "chosen": self.chosen}
+        if self.slip_force_ratio is not None:
+            d |= {"slip_force_ratio": self.slip_force_ratio,
+                  "friction_plateau_falling": self.friction_plateau_falling}
+        return d
+
+    def plateau_words(self, unit: str = "output units") -> str:
+        """The friction plateau in words (in ``unit``, the output's): one height, or one for
+        each sign of the force where the slip force depends on the sliding direction."""
+        p, ratio = self.friction_plateau, self.slip_force_ratio
+        if ratio is None:
+            return f"friction plateau {p:.4g} {unit}"
+        return (f"the slip force depends on the sliding direction: friction plateau {p:.4g} "
+                f"{unit} where the force is positive and {p * ratio:.4g} {unit} where it is "
+                f"negative, {ratio:.3g} times as large")
+
+
+@dataclass(frozen=True)
 class BaseChoice:
     """How the base hysteresis was chosen (each recording predicted from the others).
 
@@ -212,31 +374,23 @@ class BaseChoice:
         ``"preisach"`` (level-dependent memory, E10), ``"bouc-wen"`` (a bank of Bouc-Wen
         elements, :mod:`core.diagnosis.bases`) or ``"menegotto-pinto"`` (a bank of smooth
         stop elements with a non-Masing knee, the same module): the family names of
-        :func:`core.fitting.choice.base_family`.
-    tried : tuple of dict
-        Per alternative ``{"base", "operators", "level_segments", "smoothness",
-        "cv_mse_reduction"}``: its MSE reduction against the PI base on the left-out
-        recordings (``operators``: plays, or Bouc-Wen elements); the static-map alternatives
-        also ``"preisach_mse_reduction_over_it"`` or
-        ``"menegotto_pinto_mse_reduction_over_it"`` (the richer base's MSE reduction against
-        them), and where that is below the margin the same ``..._with_dynamics``.
+        :func:`core.fitting.choice.base_family`, declared in
+        :data:`core.diagnosis.bases.BASE_KINDS`.
+    tried : tuple of BaseTrial
+        Each alternative and its MSE reduction against the PI (or stop) base on the
+        left-out recordings; the static-map alternatives with the richer base they were
+        compared with (:class:`BaseRival`).
     folds : int
         Left-out recordings.
-    stop : dict, optional
-        On clockwise loops, the stop-operator base tried first (:mod:`core.diagnosis.bases`):
-        ``{"gap", "friction_plateau", "elements", "heldout_mse_reduction", "chosen"}`` (gap in
-        input units, plateau in output units, the held-out MSE reduction against the PI
-        with weights of either sign), and where the slip force depends on the sliding
-        direction (:class:`~core.stages.SignedGain` after the bank, as ``hyst fit`` finds
-        it) ``"slip_force_ratio"`` (``g- / g+``) and ``"friction_plateau_falling"`` (the
-        plateau where the force is negative, output units); ``None`` on counter-clockwise
-        loops.
+    stop : StopBase, optional
+        On clockwise loops, the stop-operator base tried first; ``None`` on
+        counter-clockwise loops.
     """
 
     kind: str
-    tried: tuple[dict[str, Any], ...]
+    tried: tuple[BaseTrial, ...]
     folds: int
-    stop: dict[str, Any] | None = None
+    stop: StopBase | None = None
 
     @property
     def text(self) -> str:
@@ -249,31 +403,17 @@ class BaseChoice:
         ``"output"``: a recording's :attr:`~core.recordings.Recording.units`)."""
         ui = (units or {}).get("input") or "input units"
         uo = (units or {}).get("output") or "output units"
-
-        def one(t: dict[str, Any]) -> str:
-            if t["base"] == "preisach":
-                return (f"preisach ({t['operators']} plays x {t['level_segments']} level "
-                        f"segments) MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
-            if t["base"] in ("bouc-wen", "menegotto-pinto"):
-                return (f"{t['base']} ({t['operators']} elements) MSE "
-                        f"{-100 * t['cv_mse_reduction'] + 0.0:+.0f} %")
-            rich, over = next((k.removesuffix("_mse_reduction_over_it"), v)
-                              for k, v in t.items() if k.endswith("_mse_reduction_over_it"))
-            who = {"preisach": "Preisach", "menegotto_pinto": "Menegotto-Pinto"}[rich]
-            return (f"{t['base']} MSE {-100 * t['cv_mse_reduction'] + 0.0:+.0f} %, the "
-                    f"{who} {-100 * over + 0.0:+.0f} % against it")
-
-        alts = "; ".join(one(t) for t in self.tried)
+        alts = "; ".join(t.text() for t in self.tried)
         how = f"each of {self.folds} recordings predicted from the others"
         st = self.stop
         if self.kind == "stop-pi" and st is not None:
-            gap = (f"behind a backlash gap {st['gap']:.4g} {ui} wide (the force stays "
-                   "at zero while the input crosses it)" if st["gap"] > 0 else
+            gap = (f"behind a backlash gap {st.gap:.4g} {ui} wide (the force stays "
+                   "at zero while the input crosses it)" if st.gap > 0 else
                    "without a backlash gap")
-            return (f"stop operators (Maxwell-slip elements, {_plateau_words(st, uo)}) {gap}: "
+            return (f"stop operators (Maxwell-slip elements, {st.plateau_words(uo)}) {gap}: "
                     "the loops run "
                     "clockwise, as hyst fit --model auto chooses it; held-out MSE "
-                    f"{-100 * st['heldout_mse_reduction'] + 0.0:+.0f} % against the PI with "
+                    f"{-100 * st.heldout_mse_reduction + 0.0:+.0f} % against the PI with "
                     "weights of either sign"
                     + (f"; no other base predicted the recordings clearly better ({how}, "
                        f"against it: {alts})" if self.tried else "")
@@ -300,23 +440,12 @@ class BaseChoice:
                 f"against the PI: {alts})")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "tried": [dict(t) for t in self.tried],
-                "folds": self.folds, "stop": None if self.stop is None else dict(self.stop),
+        """The JSON form (``baseline.base_choice`` of :meth:`DiagnosisResult.to_dict`):
+        ``{"kind", "tried", "folds", "stop", "text"}``, the rows and the stop base as their
+        own ``to_dict`` writes them."""
+        return {"kind": self.kind, "tried": [t.to_dict() for t in self.tried],
+                "folds": self.folds, "stop": None if self.stop is None else self.stop.to_dict(),
                 "text": self.text}
-
-
-def _plateau_words(stop: dict[str, Any], unit: str = "output units") -> str:
-    """The stop base's friction plateau in words (in ``unit``, the output's): one height,
-    or one for each sign of the force where the slip force depends on the sliding
-    direction."""
-    p = stop["friction_plateau"]
-    ratio = stop.get("slip_force_ratio", 1.0)
-    if ratio == 1.0:
-        return f"friction plateau {p:.4g} {unit}"
-    return (f"the slip force depends on the sliding direction: friction plateau {p:.4g} "
-            f"{unit} where the force is positive and "
-            f"{stop['friction_plateau_falling']:.4g} {unit} where it is negative, "
-            f"{ratio:.3g} times as large")
 
 
 @dataclass(frozen=True)
@@ -691,35 +820,94 @@ class DiagnosisResult:
 #: The ``format`` and the version of :meth:`DiagnosisResult.to_json` (a later version is
 #: refused on reading).
 RESULT_FORMAT = "hysteresis-explorer/diagnosis-result"
-RESULT_VERSION = 2
+RESULT_VERSION = 3
 
 
 def _upgraded(doc: Any) -> Any:
-    """A :meth:`DiagnosisResult.to_json` document of version 1 as version 2 writes it: its
-    ``untestable`` entries, plain ``{"name", "reason", "experiment"}`` objects then, become
-    :class:`~core.diagnosis.specs.Untestable` (no parameters). Anything else is returned as
-    it is (a damaged document is told by the reader)."""
+    """A :meth:`DiagnosisResult.to_json` document of an earlier version as
+    :data:`RESULT_VERSION` writes it, step by step: version 1's ``untestable`` entries, plain
+    ``{"name", "reason", "experiment"}`` objects then, become
+    :class:`~core.diagnosis.specs.Untestable` (no parameters); version 2's base choice,
+    whose ``tried`` rows and ``stop`` were plain objects (:meth:`BaseChoice.to_dict`'s
+    keys), becomes :class:`BaseTrial` / :class:`BaseRival` rows and a :class:`StopBase`.
+    Anything else is returned as it is (a damaged document is told by the reader)."""
     try:
         fields = doc["result"]["fields"]
-        entries = fields["untestable"]
-        # exactly the integer 1: True == 1, and the reader refuses a boolean version
-        old = type(doc["version"]) is int and doc["version"] == 1 and isinstance(entries, list)
+        # exactly an integer: True == 1, and the reader refuses a boolean version
+        version = doc["version"] if type(doc["version"]) is int else None
     except (KeyError, TypeError):
         return doc
-    if not old:
-        return doc
-    new = [{"$type": "Untestable", "fields": dict(u)}
-           if isinstance(u, dict) and set(u) == {"name", "reason", "experiment"} else u
-           for u in entries]
-    return {**doc, "version": 2,
-            "result": {**doc["result"], "fields": {**fields, "untestable": new}}}
+    if version == 1:
+        entries = fields.get("untestable") if isinstance(fields, dict) else None
+        if not isinstance(entries, list):
+            return doc
+        new = [{"$type": "Untestable", "fields": dict(u)}
+               if isinstance(u, dict) and set(u) == {"name", "reason", "experiment"} else u
+               for u in entries]
+        fields = {**fields, "untestable": new}
+        doc, version = {**doc, "version": 2, "result": {**doc["result"], "fields": fields}}, 2
+    if version == 2:
+        bc = fields.get("base_choice") if isinstance(fields, dict) else None
+        if isinstance(bc, dict) and bc.get("$type") == "BaseChoice" \
+                and isinstance(bc.get("fields"), dict):
+            bc = {**bc, "fields": _base_choice_v3(bc["fields"])}
+            fields = {**fields, "base_choice": bc}
+        doc = {**doc, "version": 3, "result": {**doc["result"], "fields": fields}}
+    return doc
+
+
+#: The keys of a version 2 document's base-choice row (:func:`_base_choice_v3`).
+_TRIAL_KEYS = ("base", "operators", "level_segments", "smoothness", "cv_mse_reduction")
+#: The keys of a version 2 document's stop base.
+_STOP_KEYS = ("gap", "elements", "friction_plateau", "heldout_mse_reduction", "chosen")
+
+
+def _base_choice_v3(fields: dict[str, Any]) -> dict[str, Any]:
+    """The fields of a version 2 :class:`BaseChoice` (encoded) as version 3 holds them: each
+    row of ``tried`` a :class:`BaseTrial` (its ``"<rival>_mse_reduction_over_it"`` key and
+    the same ``..._with_dynamics`` a :class:`BaseRival`), ``stop`` a :class:`StopBase`
+    (``friction_plateau_falling``, the plateau times the ratio, is derived now). A row or a
+    stop of other keys is left as it is, for the reader to refuse."""
+    out = dict(fields)
+    tried = fields.get("tried")
+    rows = tried.get("$tuple") if isinstance(tried, dict) else None
+    if isinstance(rows, list):
+        out["tried"] = {"$tuple": [_trial_v3(t) for t in rows]}
+    st = fields.get("stop")
+    if isinstance(st, dict) and "$type" not in st and set(_STOP_KEYS) <= set(st) \
+            <= {*_STOP_KEYS, "slip_force_ratio", "friction_plateau_falling"}:
+        out["stop"] = {"$type": "StopBase", "fields": {
+            **{k: st[k] for k in _STOP_KEYS},
+            **({"slip_force_ratio": st["slip_force_ratio"]} if "slip_force_ratio" in st
+               else {})}}
+    return out
+
+
+def _trial_v3(t: Any) -> Any:
+    """One version 2 row of ``tried`` (a plain object) as a :class:`BaseTrial`."""
+    if not isinstance(t, dict) or "$type" in t or not set(_TRIAL_KEYS) <= set(t):
+        return t
+    rest = {k: v for k, v in t.items() if k not in _TRIAL_KEYS}
+    over = [k for k in rest if k.endswith("_mse_reduction_over_it")]
+    if len(over) > 1 or set(rest) - {*over, *(f"{k}_with_dynamics" for k in over)}:
+        return t
+    rival = None
+    if over:
+        k = over[0]
+        rival = {"$type": "BaseRival", "fields": {
+            "base": k.removesuffix("_mse_reduction_over_it").replace("_", "-"),
+            "mse_reduction": rest[k],
+            "mse_reduction_with_dynamics": rest.get(f"{k}_with_dynamics")}}
+    return {"$type": "BaseTrial", "fields": {**{k: t[k] for k in _TRIAL_KEYS},
+                                             "rival": rival}}
 
 
 def _json_types() -> tuple[type, ...]:
     """The dataclasses a :meth:`DiagnosisResult.to_json` document may hold."""
     from .adequacy import LoopShapeFit
 
-    return (DiagnosisResult, EffectFinding, RoundRow, BaseChoice, RecordingSpecific, Fit,
+    return (DiagnosisResult, EffectFinding, RoundRow, BaseChoice, BaseTrial, BaseRival,
+            StopBase, RecordingSpecific, Fit,
             Structure, Adequacy, LoopShapeFit, BetweenPlan, HeldOut, Recording, StepSuggestion,
             Untestable)
 

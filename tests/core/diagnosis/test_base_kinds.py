@@ -1,5 +1,5 @@
 """Each base kind of a diagnosis is declared once (:data:`core.diagnosis.bases.BASE_KINDS`),
-and every name the report gives a base comes from that declaration."""
+and every name the report and the base choice give a base comes from that declaration."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from core.diagnosis.bases import (
     stop_stage,
 )
 from core.diagnosis.misspecification import describe_alternative, long_name
+from core.diagnosis.results import BaseChoice, BaseRival, BaseTrial, StopBase
 from core.diagnosis.structure import Structure
 from core.stop import StopPIModel
 
@@ -27,8 +28,31 @@ def test_every_kind_a_structure_has_is_declared() -> None:
     assert all(name == k.name for name, k in BASE_KINDS.items())
 
 
-def test_the_report_names_bases_by_the_declaration() -> None:
+def test_the_report_and_the_base_choice_name_bases_by_the_declaration() -> None:
     assert long_name("stop-pi") == BASE_KINDS["stop-pi"].long
     assert describe_alternative("menegotto-pinto", "pi") == \
         f"a {BASE_KINDS['menegotto-pinto'].long} base"
     assert long_name("no-such-base") == "no-such-base"
+    row = BaseTrial("pi + saturation", 25, 1, 0.0, 0.9, BaseRival("menegotto-pinto", -0.5))
+    choice = BaseChoice("pi", (row,), 4)
+    assert f"the {BASE_KINDS['menegotto-pinto'].short} +50 % against it" in choice.text
+
+
+def test_the_rows_json_form_keeps_its_keys() -> None:
+    """A row's and a stop base's JSON form (``hyst diagnose --json``) are the objects the
+    base choice always wrote: the rival's gain under ``"<rival>_mse_reduction_over_it"``,
+    with output dynamics the same key ``..._with_dynamics``; the stop base's falling
+    plateau the plateau times the ratio."""
+    row = BaseTrial("pi + asymmetry", 25, 1, 0.0, 0.5,
+                    BaseRival("menegotto-pinto", 0.1, 0.05))
+    assert row.to_dict() == {"base": "pi + asymmetry", "operators": 25, "level_segments": 1,
+                             "smoothness": 0.0, "cv_mse_reduction": 0.5,
+                             "menegotto_pinto_mse_reduction_over_it": 0.1,
+                             "menegotto_pinto_mse_reduction_over_it_with_dynamics": 0.05}
+    assert BaseTrial("bouc-wen", 16, 1, 0.0, 0.2, cv_mse_reduction_with_dynamics=0.3
+                     ).to_dict()["cv_mse_reduction_with_dynamics"] == 0.3
+    st = StopBase(0.1, 25, 2.0, 0.4, True, 1.5)
+    assert st.to_dict() == {"gap": 0.1, "elements": 25, "friction_plateau": 2.0,
+                            "heldout_mse_reduction": 0.4, "chosen": True,
+                            "slip_force_ratio": 1.5, "friction_plateau_falling": 3.0}
+    assert "3 output units where it is negative" in st.plateau_words()

@@ -50,8 +50,8 @@ def test_a_steel_plant_gets_the_menegotto_pinto_base_and_its_drift_is_named(stee
     model's base is the registered model, which inverts."""
     res = steel_drift
     assert res.base_choice.kind == "menegotto-pinto"
-    mp = [t for t in res.base_choice.tried if t["base"] == "menegotto-pinto"]
-    assert mp[0]["cv_mse_reduction"] >= MP_MIN_GAIN
+    mp = [t for t in res.base_choice.tried if t.base == "menegotto-pinto"]
+    assert mp[0].cv_mse_reduction >= MP_MIN_GAIN
     base = res.to_dict()["baseline"]
     assert base["model"] == "menegotto-pinto"
     rng = max(float(np.ptp(r.y)) for r in res.records)
@@ -79,10 +79,11 @@ def test_the_bank_does_not_replace_a_pi_a_loop_shape_explains() -> None:
     path = Path(__file__).parents[3] / "examples" / "data" / "bh_loops" / "MnZn_HP_ferrite.csv"
     res = diagnose([path], effects=["saturation"])
     assert len(res.records) == 4
-    mp = [t for t in res.base_choice.tried if t["base"] == "menegotto-pinto"]
-    assert mp[0]["cv_mse_reduction"] >= MP_MIN_GAIN
-    sat = [t for t in res.base_choice.tried if t["base"] == "pi + saturation"]
-    assert sat[0]["menegotto_pinto_mse_reduction_over_it"] < PREISACH_OVER_MAP
+    mp = [t for t in res.base_choice.tried if t.base == "menegotto-pinto"]
+    assert mp[0].cv_mse_reduction >= MP_MIN_GAIN
+    sat = [t for t in res.base_choice.tried if t.base == "pi + saturation"]
+    assert sat[0].rival is not None and sat[0].rival.base == "menegotto-pinto"
+    assert sat[0].rival.mse_reduction < PREISACH_OVER_MAP
     assert res.base_choice.kind == "pi"
     assert [e.name for e in res.effects] == ["saturation"]
     assert "the Menegotto-Pinto" in res.base_choice.text

@@ -64,7 +64,7 @@ def test_a_gap_plant_gets_the_stop_base_and_its_model_inverts_and_exports() -> N
     res = _diagnose(u, y)
     assert res.base_choice is not None and res.base_choice.kind == "stop-pi"
     assert res.base_choice.stop is not None
-    assert res.base_choice.stop["gap"] == pytest.approx(0.08, rel=0.1)
+    assert res.base_choice.stop.gap == pytest.approx(0.08, rel=0.1)
     assert "backlash gap" in res.base_choice.text
     # held-out residual near the noise (0.002 against a range of ~2.2)
     assert res.heldout_rmse(res.baseline) < 0.005
@@ -91,7 +91,7 @@ def test_a_fixed_travel_dead_band_keeps_the_pi_with_weights_of_either_sign() -> 
     y = plant(u) + 0.002 * np.random.default_rng(0).standard_normal(u.size)
     res = _diagnose(u, y)
     assert res.base_choice is not None and res.base_choice.stop is not None
-    assert res.base_choice.kind == "pi" and res.base_choice.stop["chosen"] is False
+    assert res.base_choice.kind == "pi" and res.base_choice.stop.chosen is False
     assert res.baseline.structure.free_weights
 
 
@@ -169,11 +169,11 @@ def test_a_signed_plant_gets_the_fits_gains_and_its_model_inverts_and_exports() 
     bc = res.base_choice
     assert bc is not None and bc.kind == "stop-pi" and bc.stop is not None
     # the fit side's decision (core.fitting.stop, SIGNED_MIN_GAIN), carried by the base
-    assert bc.stop["slip_force_ratio"] == pytest.approx(1.6, rel=0.05)
-    assert bc.stop["friction_plateau_falling"] == pytest.approx(
-        bc.stop["friction_plateau"] * bc.stop["slip_force_ratio"])
+    assert bc.stop.slip_force_ratio == pytest.approx(1.6, rel=0.05)
+    assert bc.stop.friction_plateau_falling == pytest.approx(
+        bc.stop.friction_plateau * bc.stop.slip_force_ratio)
     assert "where it is negative" in bc.text and "sliding direction" in res.summary()
-    assert bc.stop["gap"] == pytest.approx(0.1, rel=0.15)
+    assert bc.stop.gap == pytest.approx(0.1, rel=0.15)
     assert res.heldout_rmse(res.baseline) < 4 * sigma  # 2.9 sigmas
     model = res.model
     assert [type(st) for st in model.stages[:2]] == [StopPIModel, SignedGain]
@@ -193,7 +193,9 @@ def test_a_symmetric_gap_plant_keeps_one_gain() -> None:
     y = plant(u) + 0.002 * np.random.default_rng(0).standard_normal(u.size)
     res = _diagnose(u, y)
     assert res.base_choice is not None and res.base_choice.stop is not None
-    assert "slip_force_ratio" not in res.base_choice.stop
+    assert res.base_choice.stop.slip_force_ratio is None
+    assert res.base_choice.stop.friction_plateau_falling is None
+    assert "slip_force_ratio" not in res.base_choice.stop.to_dict()
     assert not res.baseline.structure.signed
     assert not any(isinstance(st, SignedGain) for st in res.model.stages)
 
@@ -209,7 +211,7 @@ def test_the_36_lb_damper_base_carries_its_slip_force_by_direction() -> None:
         res = diagnose(str(DAMPER / "1Hz36lbtension0.5amplitude.csv"))
     bc = res.base_choice
     assert bc is not None and bc.kind == "stop-pi" and bc.stop is not None
-    assert 1.4 < bc.stop["slip_force_ratio"] < 1.9
+    assert 1.4 < bc.stop.slip_force_ratio < 1.9
     assert 100 * res.heldout_rmse(res.baseline) / res.y_range < 4.0
     assert [e.name for e in res.effects] == []
     # the base's plateau and gap in the recording's units (before: "output units", "input

@@ -25,7 +25,7 @@ def preisach_null():
 def test_a_preisach_plant_gets_a_preisach_base_and_no_effect(preisach_null) -> None:
     res = preisach_null
     assert res.base_choice.kind == "preisach"
-    assert max(t["cv_mse_reduction"] for t in res.base_choice.tried) >= PREISACH_MIN_GAIN
+    assert max(t.cv_mse_reduction for t in res.base_choice.tried) >= PREISACH_MIN_GAIN
     assert res.effects == []
     assert res.baseline.structure.levels
     # the saved model holds the registered Preisach stage, and inverts
@@ -44,9 +44,9 @@ def test_a_pi_plant_keeps_its_pi_base() -> None:
     its margin."""
     res = diagnose(make_scenario(None, "white1", 1000).records)
     assert res.base_choice.kind == "pi"
-    assert all(t["cv_mse_reduction"] < PREISACH_MIN_GAIN for t in res.base_choice.tried)
-    bw = [t for t in res.base_choice.tried if t["base"] == "bouc-wen"]
-    assert len(bw) == 1 and bw[0]["cv_mse_reduction"] < BW_MIN_GAIN
+    assert all(t.cv_mse_reduction < PREISACH_MIN_GAIN for t in res.base_choice.tried)
+    bw = [t for t in res.base_choice.tried if t.base == "bouc-wen"]
+    assert len(bw) == 1 and bw[0].cv_mse_reduction < BW_MIN_GAIN
     assert res.effects == []
     # the report says which bases were tried and how they did, not only when one replaces
     # the PI (a user whose model stays inadequate should see that the others were tried)
@@ -87,10 +87,10 @@ def test_a_static_output_map_is_named_not_taken_for_level_dependent_memory(make,
     (notes 4.2). Without that comparison both became 'level-dependent memory'."""
     res = diagnose(make().records)
     assert res.base_choice.kind == "pi"
-    pre = [t for t in res.base_choice.tried if t["base"] == "preisach"]
-    assert max(t["cv_mse_reduction"] for t in pre) >= PREISACH_MIN_GAIN
-    assert any(t.get("preisach_mse_reduction_over_it", 1.0) < 0.3
-               for t in res.base_choice.tried)
+    pre = [t for t in res.base_choice.tried if t.base == "preisach"]
+    assert max(t.cv_mse_reduction for t in pre) >= PREISACH_MIN_GAIN
+    assert any(t.rival is not None and t.rival.base == "preisach"
+               and t.rival.mse_reduction < 0.3 for t in res.base_choice.tried)
     assert [e.name for e in res.effects][:1] == [name]
 
 
@@ -124,8 +124,8 @@ def test_a_bouc_wen_plant_gets_a_bouc_wen_base_and_no_effect(bouc_wen_null) -> N
     inverts and exports to C."""
     res = bouc_wen_null
     assert res.base_choice.kind == "bouc-wen"
-    bw = [t for t in res.base_choice.tried if t["base"] == "bouc-wen"]
-    assert bw[0]["cv_mse_reduction"] >= BW_MIN_GAIN
+    bw = [t for t in res.base_choice.tried if t.base == "bouc-wen"]
+    assert bw[0].cv_mse_reduction >= BW_MIN_GAIN
     assert res.effects == []
     assert res.to_dict()["baseline"]["model"] == "bouc-wen"
     assert "Bouc-Wen" in res.summary()

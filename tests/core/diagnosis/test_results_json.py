@@ -20,7 +20,7 @@ import pytest
 from core.base import Chain, Model
 from core.diagnosis import diagnose
 from core.diagnosis.results import RESULT_FORMAT as FORMAT
-from core.diagnosis.results import DiagnosisResult
+from core.diagnosis.results import RESULT_VERSION, DiagnosisResult
 from core.diagnosis.typed_json import DocumentError
 
 PIEZO = Path(__file__).parents[3] / "examples" / "data" / "piezo" / "piezo_150V_1Hz.csv"
@@ -175,7 +175,8 @@ def _version_1() -> dict:
 def test_a_version_1_document_still_reads() -> None:
     """A version 1 document (a stored session's result, written by the version 1 writer)
     reads: its untestable entries typed (:class:`~core.diagnosis.specs.Untestable`, no
-    parameters), the report's entries those stored, and written again it is version 2."""
+    parameters), the report's entries those stored, and written again it is the version
+    written now."""
     from core.diagnosis.specs import Untestable
 
     doc = _version_1()
@@ -190,13 +191,82 @@ def test_a_version_1_document_still_reads() -> None:
     assert not any(e.fitted_on_all_rows for e in res.effects)
     assert res.to_dict()["untestable"] == stored
     again = json.loads(json.dumps(res.to_json()))
-    assert again["version"] == 2
+    assert again["version"] == RESULT_VERSION == 3
     same(res, DiagnosisResult.from_json(again))
     # the same entries in a version 2 document are damaged, not read
     v2 = copy.deepcopy(doc)
     v2["version"] = 2
     with pytest.raises(DocumentError):
         DiagnosisResult.from_json(v2)
+
+
+def _version_2() -> dict:
+    """A document as version 2 stored it: ``DiagnosisResult.to_json`` of main 01959c4 (its
+    writer, the base choice's ``tried`` rows and ``stop`` plain objects) of
+    ``diagnose([examples/data/bh_loops/MnZn_HP_ferrite.csv], effects=["saturation"])``
+    (four loops: the Preisach, Bouc-Wen and Menegotto-Pinto bases tried, the PI with a loop
+    shape compared with the Menegotto-Pinto bank, once also with output dynamics)."""
+    path = Path(__file__).parent / "data" / "diagnosis_result_v2.json.gz"
+    with gzip.open(path, "rt", encoding="utf-8") as f:
+        doc: dict = json.load(f)
+    return doc
+
+
+def _choice(doc: dict) -> dict:
+    return _fields(doc)["base_choice"]["fields"]
+
+
+def test_a_version_2_document_still_reads() -> None:
+    """A version 2 document reads: its base choice's rows typed (:class:`BaseTrial`, the
+    richer base each static-map alternative was compared with a :class:`BaseRival`), the
+    report's rows those stored (keys and numbers), and written again it is version 3."""
+    from core.diagnosis.results import BaseRival, BaseTrial
+
+    doc = _version_2()
+    stored = _choice(doc)["tried"]["$tuple"]
+    assert doc["version"] == 2 and len(stored) == 5
+    assert all(isinstance(t, dict) and "$type" not in t for t in stored)
+    res = DiagnosisResult.from_json(copy.deepcopy(doc))
+    bc = res.base_choice
+    assert bc is not None and all(type(t) is BaseTrial for t in bc.tried)
+    assert [t.base for t in bc.tried] == ["preisach", "bouc-wen", "menegotto-pinto",
+                                          "pi + asymmetry", "pi + saturation"]
+    assert bc.tried[3].rival == BaseRival("menegotto-pinto", stored[3][
+        "menegotto_pinto_mse_reduction_over_it"])
+    assert bc.tried[4].rival is not None and bc.tried[4].rival.mse_reduction_with_dynamics \
+        == stored[4]["menegotto_pinto_mse_reduction_over_it_with_dynamics"]
+    assert res.to_dict()["baseline"]["base_choice"]["tried"] == stored
+    assert "the Menegotto-Pinto -99 % against it" in bc.text
+    again = json.loads(json.dumps(res.to_json()))
+    assert again["version"] == 3
+    same(res, DiagnosisResult.from_json(again))
+    # the same rows in a version 3 document are damaged, not read
+    v3 = copy.deepcopy(doc)
+    v3["version"] = 3
+    with pytest.raises(DocumentError, match="tried"):
+        DiagnosisResult.from_json(v3)
+
+
+def test_a_version_2_stop_base_still_reads() -> None:
+    """A version 2 stop base (a plain object; with two slip forces also
+    ``slip_force_ratio`` and ``friction_plateau_falling``, the plateau times the ratio)
+    reads as a :class:`StopBase`, whose JSON form is the object stored."""
+    from core.diagnosis.results import StopBase
+
+    for extra in ({}, {"slip_force_ratio": 1.5, "friction_plateau_falling": 3.0}):
+        stop = {"gap": 0.1, "elements": 25, "friction_plateau": 2.0,
+                "heldout_mse_reduction": 0.4, "chosen": True, **extra}
+        doc = _version_2()
+        _choice(doc)["stop"] = copy.deepcopy(stop)
+        res = DiagnosisResult.from_json(doc)
+        assert res.base_choice is not None and type(res.base_choice.stop) is StopBase
+        assert res.base_choice.stop.to_dict() == stop
+        assert res.to_dict()["baseline"]["base_choice"]["stop"] == stop
+    # a stop of other keys is damage
+    doc = _version_2()
+    _choice(doc)["stop"] = {"gap": 0.1}
+    with pytest.raises(DocumentError, match="stop"):
+        DiagnosisResult.from_json(doc)
 
 
 def test_a_boolean_version_is_not_version_1() -> None:
@@ -266,8 +336,8 @@ def _fields(doc: dict) -> dict:
 
 def test_damaged_documents_are_refused_saying_where(periodic_set) -> None:
     doc = json.loads(json.dumps(periodic_set.to_json()))
-    assert doc["format"] == FORMAT and doc["version"] == 2
-    assert "newer" in _damaged(doc, lambda d: d.update(version=3))
+    assert doc["format"] == FORMAT and doc["version"] == 3
+    assert "newer" in _damaged(doc, lambda d: d.update(version=4))
     assert "format" in _damaged(doc, lambda d: d.update(format="hysteresis-explorer/model"))
     assert _damaged(doc, lambda d: _fields(d).pop("split")).endswith("lacks its field 'split'")
     assert "has no field 'colour'" in _damaged(doc, lambda d: _fields(d).update(colour=1))
