@@ -14,7 +14,9 @@ score, one table for both sets, so their numbers can stand side by side.
     ``menegotto-pinto``, ``bouc-wen-baber-noori`` and ``bouc-wen-1`` plants driven by the
     bipolar recordings of :mod:`benchmarks.diagnosis.bipolar` (inputs through 0 V, growing
     amplitude: classes ``bipolar non-PI base`` and ``single-recording bipolar null``), with
-    the same effects, nulls and single-recording nulls (:data:`DEV_CASES`).
+    the same effects, nulls and single-recording nulls; and (session 23) a growing triangle
+    at one input rate alone (:mod:`benchmarks.diagnosis.triangle`) on four bases, two nulls
+    and a drift each (class ``growing-triangle non-PI base``) (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -58,6 +60,7 @@ from benchmarks.diagnosis.bipolar import BIPOLAR_RECORDINGS
 from benchmarks.diagnosis.classes import RECOVERY_TOLERANCE
 from benchmarks.diagnosis.families import TIME_EFFECTS, jsonable
 from benchmarks.diagnosis.measured import DEV_MEASURED_CASES
+from benchmarks.diagnosis.triangle import TRIANGLE_BASES
 
 __all__ = ["DEV_CASES", "RECOVERY_TOLERANCE", "SETS", "build", "case_class", "run_case",
            "said_parameters", "score_rows", "side_by_side", "summarise_set"]
@@ -103,13 +106,16 @@ DEV_CASES: tuple[str, ...] = (
       for e in _DEV_FAMILY_EFFECTS),
     *(f"dev/family-bipolar-single/{b}/{r}/500" for b in _DEV_BIPOLAR_BASES
       for r in BIPOLAR_RECORDINGS),
+    # session 23: one growing triangle at one input rate alone (triangle.py), a drift
+    *(f"dev/family-triangle/{b}/null/{s}" for b in TRIANGLE_BASES for s in (500, 501)),
+    *(f"dev/family-triangle/{b}/drift/large/500" for b in TRIANGLE_BASES),
 )
 
 _QUANTITY = {"delay": "delay_s", "lag": "tau_s", "resonance": "freq_hz"}
 CLASSES = ("PI plant", "non-PI base", "single-recording non-PI null", "bipolar non-PI base",
-           "single-recording bipolar null", "measured base")
+           "single-recording bipolar null", "growing-triangle non-PI base", "measured base")
 _NON_PI = ("non-PI base", "single-recording non-PI null", "bipolar non-PI base",
-           "single-recording bipolar null")
+           "single-recording bipolar null", "growing-triangle non-PI base")
 
 
 def _sealed_cases() -> tuple[str, ...]:
@@ -136,26 +142,32 @@ def case_class(case: str) -> str:
         return "single-recording bipolar null"
     if case.startswith("dev/family-bipolar/"):
         return "bipolar non-PI base"
+    if case.startswith("dev/family-triangle/"):
+        return "growing-triangle non-PI base"
     if case.startswith(("dev/family-single/", "sealed/opensees-single/")):
         return "single-recording non-PI null"
     return "non-PI base"
 
 
-#: Case-id kinds of the non-PI family cases -> (bipolar recordings, one recording alone).
-_FAMILY_KINDS = {"family": (False, False), "family-single": (False, True),
-                 "family-bipolar": (True, False), "family-bipolar-single": (True, True)}
+#: Case-id kinds of the non-PI family cases -> (recordings: ``families.py``, ``bipolar.py``
+#: or ``triangle.py``, one recording alone).
+_FAMILY_KINDS = {"family": ("family", False), "family-single": ("family", True),
+                 "family-bipolar": ("bipolar", False),
+                 "family-bipolar-single": ("bipolar", True),
+                 "family-triangle": ("triangle", False)}
 
 
 def _family_case(case: str) -> Any:
     """A ``dev/family...`` case: ``<kind>/<base>/<effect>/<size>/<seed>``,
     ``<kind>/<base>/null/<seed>`` or (single) ``<kind>/<base>/<recording>/<seed>``, on the
-    recordings of ``families.py`` or (bipolar) ``bipolar.py``."""
+    recordings of ``families.py``, ``bipolar.py`` or ``triangle.py``."""
     from benchmarks.diagnosis.bipolar import make_bipolar
     from benchmarks.diagnosis.families import make_family
+    from benchmarks.diagnosis.triangle import make_triangle
 
     parts = case.split("/")
-    bipolar, single = _FAMILY_KINDS[parts[1]]
-    make = make_bipolar if bipolar else make_family
+    signals, single = _FAMILY_KINDS[parts[1]]
+    make = {"family": make_family, "bipolar": make_bipolar, "triangle": make_triangle}[signals]
     if single or parts[3] == "null":
         sc = make(parts[2], None, noise=0.002, seed=int(parts[4]))
     else:
