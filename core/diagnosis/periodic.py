@@ -126,28 +126,66 @@ def _same_key(a: tuple[float, ...], b: tuple[float, ...], tol: float) -> bool:
         np.abs(np.subtract(a[1:], b[1:])))) <= tol
 
 
-def _history_pairs(keys: list[tuple[float, ...]], lengths: list[int], tol: float,
+def _samples_to_travel(branch: np.ndarray, travel: float) -> int:
+    """Samples from a branch's reversal (``branch[0]``) until the input has moved ``travel``
+    (input units) away from it; ``branch.size - 1`` if it never does."""
+    moved = np.maximum.accumulate(np.abs(branch - branch[0]))
+    return min(int(np.searchsorted(moved, travel)), branch.size - 1)
+
+
+def _same_rate(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """Whether two branches (each the input from its reversal to its end, shape (n_a,) and
+    (n_b,)) move at the same rate over their common stretch: the samples each needs to
+    travel the shorter one's input travel (less ``tol``, so that noise on the extremum
+    does not decide it) agree within :data:`START_TOL` of the first branch's and two
+    samples. A branch that goes on to a larger extremum than the other (a growing cycle)
+    is compared up to the other's end only, as is the last one, cut by the record's end."""
+    travel = min(float(np.max(np.abs(a - a[0]))), float(np.max(np.abs(b - b[0])))) - tol
+    if travel <= 0:
+        return True
+    na, nb = _samples_to_travel(a, travel), _samples_to_travel(b, travel)
+    return abs(nb - na) <= START_TOL * na + 2
+
+
+def _history_pairs(keys: list[tuple[float, ...]], branches: list[np.ndarray], tol: float,
                    settled_only: bool = False) -> list[tuple[int, int]]:
-    """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`: the
-    branches (from the second on: the first sets the memory) grouped by input history and
-    rate (each with the first group whose first branch has its key and its rate: its length
-    in samples, ``lengths``, within :data:`START_TOL` and two samples; the last branch, cut
-    by the record's end, at most that long; a branch with no such group starts its own, so
-    the branches of one history at another rate are paired among themselves, never with a
-    branch at the first one's rate), and in each group of ``N`` in time order
-    the ``i``-th paired with the ``(i + ceil(N / 2))``-th, each branch in one pair at most.
-    ``settled_only``: each group's first branch (the history's first visit) is paired with
-    nothing, as the first cycle in :func:`cycle_to_cycle`. Returned in the order of the
-    later branch."""
+    """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`.
+
+    The branches (from the second on: the first sets the memory) are grouped by input
+    history and rate: each joins the first group whose first branch has its key and moves
+    at its rate over their common stretch (:func:`_same_rate`: the same number of samples,
+    within :data:`START_TOL` and two, from the reversal to the shorter branch's travel, so
+    that a branch going on to a larger extremum, as in a cycle growing at one rate, or cut
+    by the record's end, joins the branches of its history before it); a branch with no
+    such group starts its own, so the branches of one history at another rate are paired
+    among themselves, never with a branch at the first one's rate. In each group of ``N``,
+    in time order, the ``i``-th is paired with the ``(i + ceil(N / 2))``-th, each branch in
+    one pair at most. ``settled_only``: each group's first branch (the history's first
+    visit) is paired with nothing, as the first cycle in :func:`cycle_to_cycle`.
+
+    Parameters
+    ----------
+    keys : list of tuple of float
+        Per branch, its memory key (:func:`_memory_keys`; branch 0, before the first
+        reversal, is never paired).
+    branches : list of ndarray
+        Per branch, the input from its reversal to its end (both samples included), shape
+        (n_k + 1,) for a branch of ``n_k`` samples.
+    tol : float
+        Input tolerance (input units) of the keys and of the travel.
+    settled_only : bool
+        Leave each group's first branch unpaired.
+
+    Returns
+    -------
+    list of (int, int)
+        Branch indices ``(earlier, later)``, in the order of the later branch.
+    """
     groups: list[list[int]] = []
-    last = len(keys) - 1
     for k in range(1, len(keys)):
         for g in groups:
-            if not _same_key(keys[g[0]], keys[k], tol):
-                continue
-            n0 = lengths[g[0]]
-            if (abs(lengths[k] - n0) <= START_TOL * n0 + 2 if k < last
-                    else lengths[k] <= (1 + START_TOL) * n0 + 2):
+            if (_same_key(keys[g[0]], keys[k], tol)
+                    and _same_rate(branches[g[0]], branches[k], tol)):
                 g.append(k)
                 break
         else:
@@ -177,9 +215,11 @@ def same_history(records: list[Recording], settled_only: bool = False
     (the noise twice), however large the misfit. Each row is compared with the paired
     branch's row nearest its input value (within :data:`HISTORY_TOL`).
 
-    The pairs (:func:`_history_pairs`): the ``N`` branches of one history, in time order,
-    the first half each with the one ``ceil(N / 2)`` places later, so that every branch is
-    in one pair at most. The test on these rows
+    The pairs (:func:`_history_pairs`): the ``N`` branches of one history at one rate (the
+    same number of samples from the reversal over their common stretch, so that in a cycle
+    growing at one input rate the branch going on to a larger extremum is paired with the
+    one before it), in time order, the first half each with the one ``ceil(N / 2)`` places
+    later, so that every branch is in one pair at most. The test on these rows
     (:func:`~core.diagnosis.stats.heldout_comparison`) takes its batch means as
     independent; they are, under the null, only if no branch's noise enters two
     differences. Against one shared reference (``e_k - e_1`` for every later ``k``) every
@@ -216,8 +256,8 @@ def same_history(records: list[Recording], settled_only: bool = False
         rv = reversal_indices(u, 0.1 * span)
         bounds = [*rv.tolist(), u.size - 1]
         keys = _memory_keys(u, rv, tol)
-        lengths = [bounds[k + 1] - bounds[k] for k in range(len(keys))]
-        for j, k in _history_pairs(keys, lengths, tol, settled_only):
+        branches = [u[bounds[k]:bounds[k + 1] + 1] for k in range(len(keys))]
+        for j, k in _history_pairs(keys, branches, tol, settled_only):
             a, b = bounds[k] + 1, bounds[k + 1] + 1
             ja, jb = bounds[j] + 1, bounds[j + 1] + 1
             if b - a < 2 or jb - ja < 2:

@@ -168,17 +168,23 @@ def test_branches_at_each_rate_are_paired_among_themselves() -> None:
     assert np.max(np.abs(u[w] - u[sig.previous[0][w]])) <= 0.02 * np.ptp(u)
 
 
+def _legs(samples: list[int], travel: float = 1.0) -> list[np.ndarray]:
+    """Branches as straight legs from their reversal: ``samples[k]`` samples over ``travel``
+    (input units) each, shape (samples[k] + 1,)."""
+    return [np.linspace(0.0, travel, n + 1) for n in samples]
+
+
 def test_each_history_at_each_rate_is_one_group() -> None:
-    """Branches of one input history at two rates, interleaved (lengths 100 and 10 samples),
-    and of another history at the slow rate: three groups, each paired half a group apart
-    (pairs known by construction, listed in the order of the later branch). Before, the
-    fast branches matched the history of the first slow group, failed its rate and were
-    dropped: only the slow pairs came out."""
+    """Branches of one input history at two rates, interleaved (the same travel in 100 and
+    in 10 samples), and of another history at the slow rate: three groups, each paired
+    half a group apart (pairs known by construction, listed in the order of the later
+    branch). Before, the fast branches matched the history of the first slow group, failed
+    its rate and were dropped: only the slow pairs came out."""
     up, down = (1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0)
     keys = [(), up, up, up, up, up, up, up, up, down, down]
-    lengths = [50, 100, 10, 100, 10, 100, 10, 100, 10, 100, 100]
+    legs = _legs([50, 100, 10, 100, 10, 100, 10, 100, 10, 100, 100])
     # up at 100: 1, 3, 5, 7; up at 10: 2, 4, 6, 8; down at 100: 9, 10
-    assert _history_pairs(keys, lengths, 0.01) == [(1, 5), (2, 6), (3, 7), (4, 8), (9, 10)]
+    assert _history_pairs(keys, legs, 0.01) == [(1, 5), (2, 6), (3, 7), (4, 8), (9, 10)]
 
 
 def test_settled_only_compares_no_history_s_first_visit() -> None:
@@ -187,9 +193,9 @@ def test_settled_only_compares_no_history_s_first_visit() -> None:
     with none."""
     up, down = (1.0, 0.0, 0.0, 1.0), (0.0, 1.0, 0.0, 1.0)
     keys = [(), up, up, up, up, up, down, down]
-    lengths = [50, 100, 100, 100, 100, 100, 100, 100]
-    assert _history_pairs(keys, lengths, 0.01) == [(1, 4), (2, 5), (6, 7)]
-    assert _history_pairs(keys, lengths, 0.01, settled_only=True) == [(2, 4), (3, 5)]
+    legs = _legs([50, 100, 100, 100, 100, 100, 100, 100])
+    assert _history_pairs(keys, legs, 0.01) == [(1, 4), (2, 5), (6, 7)]
+    assert _history_pairs(keys, legs, 0.01, settled_only=True) == [(2, 4), (3, 5)]
 
 
 @pytest.mark.slow
