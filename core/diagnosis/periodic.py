@@ -135,11 +135,12 @@ def _samples_to_travel(branch: np.ndarray, travel: float) -> int:
 
 def _same_rate(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
     """Whether two branches (each the input from its reversal to its end, shape (n_a,) and
-    (n_b,)) move at the same rate over their common stretch: the samples each needs to
+    (n_b,)) move at one input rate over their common stretch: the samples each needs to
     travel the shorter one's input travel (less ``tol``, so that noise on the extremum
     does not decide it) agree within :data:`START_TOL` of the first branch's and two
-    samples. A branch that goes on to a larger extremum than the other (a growing cycle)
-    is compared up to the other's end only, as is the last one, cut by the record's end."""
+    samples. A branch that goes on to a larger extremum than the other (a cycle growing at
+    one rate) is compared up to the other's end only, as is the last one, cut by the
+    record's end."""
     travel = min(float(np.max(np.abs(a - a[0]))), float(np.max(np.abs(b - b[0])))) - tol
     if travel <= 0:
         return True
@@ -152,13 +153,20 @@ def _history_pairs(keys: list[tuple[float, ...]], branches: list[np.ndarray], to
     """The ``(earlier, later)`` pairs of branches compared by :func:`same_history`.
 
     The branches (from the second on: the first sets the memory) are grouped by input
-    history and rate: each joins the first group whose first branch has its key and moves
-    at its rate over their common stretch (:func:`_same_rate`: the same number of samples,
-    within :data:`START_TOL` and two, from the reversal to the shorter branch's travel, so
-    that a branch going on to a larger extremum, as in a cycle growing at one rate, or cut
-    by the record's end, joins the branches of its history before it); a branch with no
-    such group starts its own, so the branches of one history at another rate are paired
-    among themselves, never with a branch at the first one's rate. In each group of ``N``,
+    history and rate: each joins the first group whose first branch has its key and its
+    rate, either as long in samples (within :data:`START_TOL` and two: one period of a
+    sine or triangle at one frequency, whose amplitude may grow or taper at the next
+    reversal) or moving alike over their common stretch (:func:`_same_rate`: the same
+    number of samples from the reversal to the shorter branch's travel, within
+    :data:`START_TOL` and two: one input rate, so that a branch going on to a larger
+    extremum, as in a triangle growing at one rate, joins the branch of its history before
+    it); the last branch, cut by the record's end, by the second alone (its length is not
+    its rate: a fast branch cut short can be as long as a slow one). A branch with no such
+    group starts its own, so the branches of one history at another rate are paired among
+    themselves, never with a branch at the first one's rate (the per-row check of
+    :func:`same_history`, the same time since the reversal, drops the rows of a group's
+    pair where the two part, as after the mid-point of a sine whose amplitude grows at the
+    next reversal). In each group of ``N``,
     in time order, the ``i``-th is paired with the ``(i + ceil(N / 2))``-th, each branch in
     one pair at most. ``settled_only``: each group's first branch (the history's first
     visit) is paired with nothing, as the first cycle in :func:`cycle_to_cycle`.
@@ -182,10 +190,13 @@ def _history_pairs(keys: list[tuple[float, ...]], branches: list[np.ndarray], to
         Branch indices ``(earlier, later)``, in the order of the later branch.
     """
     groups: list[list[int]] = []
+    last = len(keys) - 1
     for k in range(1, len(keys)):
         for g in groups:
+            n0, nk = branches[g[0]].size, branches[k].size
             if (_same_key(keys[g[0]], keys[k], tol)
-                    and _same_rate(branches[g[0]], branches[k], tol)):
+                    and ((k < last and abs(nk - n0) <= START_TOL * n0 + 2)
+                         or _same_rate(branches[g[0]], branches[k], tol))):
                 g.append(k)
                 break
         else:
@@ -215,13 +226,13 @@ def same_history(records: list[Recording], settled_only: bool = False
     (the noise twice), however large the misfit. Each row is compared with the paired
     branch's row nearest its input value (within :data:`HISTORY_TOL`).
 
-    The pairs (:func:`_history_pairs`): the ``N`` branches of one history at one rate (the
-    same number of samples from the reversal over their common stretch, so that in a cycle
-    growing at one input rate the branch going on to a larger extremum is paired with the
-    one before it), in time order, the first half each with the one ``ceil(N / 2)`` places
-    later, so that every branch is in one pair at most. The test on these rows
-    (:func:`~core.diagnosis.stats.heldout_comparison`) takes its batch means as
-    independent; they are, under the null, only if no branch's noise enters two
+    The pairs (:func:`_history_pairs`): the ``N`` branches of one history at one rate (as
+    long in samples, or the same number of samples from the reversal over their common
+    stretch, so that in a cycle growing at one input rate the branch going on to a larger
+    extremum is paired with the one before it), in time order, the first half each with
+    the one ``ceil(N / 2)`` places later, so that every branch is in one pair at most.
+    The test on these rows (:func:`~core.diagnosis.stats.heldout_comparison`) takes its
+    batch means as independent; they are, under the null, only if no branch's noise enters two
     differences. Against one shared reference (``e_k - e_1`` for every later ``k``) every
     two differences correlate by +1/2: the variance of their mean grows with the square of
     their number while the batch means estimate it as growing linearly, so the z of pure
