@@ -1,7 +1,7 @@
 """The rate condition of :func:`core.diagnosis.periodic.same_history`'s pairing (issue 30):
-two branches of one input history are paired when they move at the same rate over their
-common stretch (from the reversal to the shorter one's end), not when their whole lengths
-agree.
+two branches of one input history are grouped when they move at the same rate over their
+common stretch (from the reversal to the shorter one's end), not only when their whole
+lengths agree; the last branch, cut by the record's end, only by the first.
 
 Before, a growing cyclic protocol at one input rate (a triangle whose amplitude steps up
 every two cycles) had its rising branch from each negative peak in two groups: the second
@@ -127,7 +127,8 @@ def test_a_last_branch_cut_at_another_rate_joins_no_group() -> None:
     record's end: its history is that of the slow rises, but it travels its 100 V in a
     fifth of their samples, so it is paired with none of them. Before, a last branch was
     taken into the first group of its history when it was at most as long: the fast one
-    was, and shifted the slow pairs."""
+    was, and shifted the slow pairs (the development set's unipolar fast recording, 20, 50
+    and 100 Hz, had its last 100 Hz branch in the 20 Hz group)."""
     targets = [100.0, -100.0] * 4 + [0.0]
     u, ends = _legs(targets, [200.0] * 8 + [1000.0])
     pairs, bounds = _pairs(u)
