@@ -160,16 +160,15 @@ def _history_pairs(keys: list[tuple[float, ...]], branches: list[np.ndarray], to
     number of samples from the reversal to the shorter branch's travel, within
     :data:`START_TOL` and two: one input rate, so that a branch going on to a larger
     extremum, as in a triangle growing at one rate, joins the branch of its history before
-    it); the last branch, cut by the record's end, by the second alone (its length is not
-    its rate: a fast branch cut short can be as long as a slow one). A branch with no such
-    group starts its own, so the branches of one history at another rate are paired among
-    themselves, never with a branch at the first one's rate (the per-row check of
-    :func:`same_history`, the same time since the reversal, drops the rows of a group's
-    pair where the two part, as after the mid-point of a sine whose amplitude grows at the
-    next reversal). In each group of ``N``,
-    in time order, the ``i``-th is paired with the ``(i + ceil(N / 2))``-th, each branch in
-    one pair at most. ``settled_only``: each group's first branch (the history's first
-    visit) is paired with nothing, as the first cycle in :func:`cycle_to_cycle`.
+    it); the last branch, cut by the record's end, when it is at most as long or by the
+    second. A branch with no such group starts its own, so the branches of one history at
+    another rate are paired among themselves, never with a branch at the first one's rate
+    (the per-row check of :func:`same_history`, the same time since the reversal, drops the
+    rows of a group's pair where the two part, as after the mid-point of a sine whose
+    amplitude grows at the next reversal). In each group of ``N``, in time order, the
+    ``i``-th is paired with the ``(i + ceil(N / 2))``-th, each branch in one pair at most.
+    ``settled_only``: each group's first branch (the history's first visit) is paired with
+    nothing, as the first cycle in :func:`cycle_to_cycle`.
 
     Parameters
     ----------
@@ -194,9 +193,10 @@ def _history_pairs(keys: list[tuple[float, ...]], branches: list[np.ndarray], to
     for k in range(1, len(keys)):
         for g in groups:
             n0, nk = branches[g[0]].size, branches[k].size
+            as_long = (abs(nk - n0) <= START_TOL * n0 + 2 if k < last
+                       else nk <= (1 + START_TOL) * n0 + 2)
             if (_same_key(keys[g[0]], keys[k], tol)
-                    and ((k < last and abs(nk - n0) <= START_TOL * n0 + 2)
-                         or _same_rate(branches[g[0]], branches[k], tol))):
+                    and (as_long or _same_rate(branches[g[0]], branches[k], tol))):
                 g.append(k)
                 break
         else:

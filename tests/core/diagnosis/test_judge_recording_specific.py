@@ -82,34 +82,31 @@ def test_a_level_that_does_not_generalise_leaves_the_round_to_its_lookalike() ->
 
 
 @pytest.mark.slow
-def test_a_drift_refused_by_rule_8_is_refused_again_on_top_of_the_offset() -> None:
+def test_a_drift_too_weak_where_it_is_judged_is_refused_by_rule_8_on_top_of_the_offset(
+        ) -> None:
     """The benchmark's own three recordings with the weak drift (decaying sine, multisine at
-    1, 10, 50 and 100 Hz and a 1 Hz triangle, staircase; seed 101). Its multisine's
-    branches are compared at each of its rates: the drift passes round 1's size and
-    significance and rule 8 refuses it at the choice; the offset is accepted alone. On top
-    of the offset the drift passes size and significance again and rule 8 refuses it again,
-    with its numbers kept and reported. (Seed 100 was used before the pairing took a
-    branch's rate over its common stretch with the group's first: the 1 Hz sine's branches
-    were then grouped with the 1 Hz triangle's, of the same length, whose rows the per-row
-    rate check drops, so round 1 refused the drift as not significant; now the sine's two
-    branches are compared with each other a second apart and it passes.)"""
+    1, 10, 50 and 100 Hz, staircase). Its multisine's branches are compared at each of its
+    rates, mostly half a second or less apart: the drift's change over that is small
+    against the noise and round 1 refuses it as not significant; the offset is accepted
+    alone. On top of the offset the drift passes significance in round 2 and rule 8
+    refuses it at the choice, with its numbers kept and reported (without rule 8 at the
+    choice it is refused there as not earned, rule 4, and nothing says it is
+    recording-specific: checked by disabling it)."""
     from benchmarks.diagnosis.generator import make_weak
 
-    res = diagnose(make_weak("drift", "white1", 101).records, effects=["drift", "offset"])
+    res = diagnose(make_weak("drift", "white1", 100).records, effects=["drift", "offset"])
     r1 = {r.effect: r for r in res.rounds if r.round == 1}
+    assert not r1["drift"].passes and "not significant" in r1["drift"].reasons[0]
     assert "same input history" in r1["drift"].evidence
-    for drift in [r1["drift"], *(r for r in res.rounds if r.round > 1 and r.effect == "drift")]:
-        assert drift.heldout_mse_reduction >= RULE.min_gain and drift.dm_z >= RULE.min_z
-        assert not drift.passes and "acceptance rule 8" in drift.reasons[0]
     assert r1["offset"].decision == "accepted"
-    assert any(r.round > 1 and r.effect == "drift" for r in res.rounds)
+    later = [r for r in res.rounds if r.round > 1 and r.effect == "drift"]
+    assert any(not r.passes and "acceptance rule 8" in r.reasons[0] for r in later)
     assert [(f.name, f.ambiguous_with) for f in res.effects] == [("offset", ["drift"])]
     assert res.final.structure.term("offset") and not res.final.structure.term("drift")
     spec = {r.name: r for r in res.recording_specific}
     assert list(spec) == ["drift"]
     assert spec["drift"].loro_mse_reduction < -RULE.max_loro_loss
     assert "Recording-specific, not claimed: drift" in res.summary()
-
 
 
 def test_rule_8_at_the_choice_needs_several_recordings_and_no_windows() -> None:

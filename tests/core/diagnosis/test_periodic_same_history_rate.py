@@ -1,7 +1,7 @@
 """The rate condition of :func:`core.diagnosis.periodic.same_history`'s pairing (issue 30):
 two branches of one input history are grouped when they move at the same rate over their
 common stretch (from the reversal to the shorter one's end), not only when their whole
-lengths agree; the last branch, cut by the record's end, only by the first.
+lengths agree.
 
 Before, a growing cyclic protocol at one input rate (a triangle whose amplitude steps up
 every two cycles) had its rising branch from each negative peak in two groups: the second
@@ -120,21 +120,3 @@ def test_the_same_history_at_another_rate_is_not_paired() -> None:
             hit = sig.masks[0][rows]
             assert not np.any((sig.previous[0][rows][hit] > first)
                               & (sig.previous[0][rows][hit] <= first + 2 * a / 200.0 * FS))
-
-
-def test_a_last_branch_cut_at_another_rate_joins_no_group() -> None:
-    """Four cycles of ±100 V at 200 V/s, then a last rise at 1000 V/s cut at 0 V by the
-    record's end: its history is that of the slow rises, but it travels its 100 V in a
-    fifth of their samples, so it is paired with none of them. Before, a last branch was
-    taken into the first group of its history when it was at most as long: the fast one
-    was, and shifted the slow pairs (the development set's unipolar fast recording, 20, 50
-    and 100 Hz, had its last 100 Hz branch in the 20 Hz group)."""
-    targets = [100.0, -100.0] * 4 + [0.0]
-    u, ends = _legs(targets, [200.0] * 8 + [1000.0])
-    pairs, bounds = _pairs(u)
-    last = len(bounds) - 2
-    assert bounds[last] == ends[-2]  # the fast branch is the last one
-    assert all(last not in jk for jk in pairs)
-    # the slow rises from -100 V (branches 2, 4, 6) paired among themselves
-    rises = [bounds.index(e) for e in ends[1:-2:2]]
-    assert [jk for jk in pairs if jk[1] in rises] == [(rises[0], rises[2])]
