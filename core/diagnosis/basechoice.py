@@ -292,23 +292,59 @@ def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
         return best, choice
     sb = Structure(saturations(el), s0.history, free_weights=s0.free_weights, bouc_wen=el)
     fb = ctx.fit(sb)
-    h = compare_heldout(sub, ref, fb)
+    footing = _EqualFooting(ctx, sub, ref)
+    gb_plain = float(compare_heldout(sub, ref, fb).gain)
+    gb, gb_dyn = footing.gain(fb, gb_plain, BW_MIN_GAIN)
     chosen_gain = max((t.cv_mse_reduction for t in choice.tried if t.base == "preisach"),
                       default=0.0) if choice.kind == "preisach" else 0.0
-    tried = (*choice.tried, BaseTrial("bouc-wen", len(el), 1, 0.0, float(h.gain)))
+    tried = (*choice.tried, BaseTrial("bouc-wen", len(el), 1, 0.0, gb_plain,
+                                      cv_mse_reduction_with_dynamics=gb_dyn))
     kind = choice.kind
-    if h.gain >= BW_MIN_GAIN and h.gain > chosen_gain:
-        best, kind, chosen_gain = fb, "bouc-wen", float(h.gain)
+    if gb >= BW_MIN_GAIN and gb > chosen_gain:
+        best, kind, chosen_gain = fb, "bouc-wen", gb
     got_mp = _menegotto_pinto_base(ctx, sub, ref, span)
     if got_mp is not None:
-        fm, gm = got_mp
-        tried = (*tried, BaseTrial("menegotto-pinto", len(fm.structure.bouc_wen), 1, 0.0, gm))
+        fm, gm_plain = got_mp
+        gm, gm_dyn = footing.gain(fm, gm_plain, MP_MIN_GAIN)
+        tried = (*tried, BaseTrial("menegotto-pinto", len(fm.structure.bouc_wen), 1, 0.0,
+                                   gm_plain, cv_mse_reduction_with_dynamics=gm_dyn))
         if gm >= MP_MIN_GAIN and gm > chosen_gain:
             rows: list[BaseTrial] = []
             if not _a_loop_shape_rivals(ctx, sub, ref, fm, rows, "menegotto-pinto"):
                 best, kind = fm, "menegotto-pinto"
             tried = (*tried, *rows)
     return best, BaseChoice(kind, tried, choice.folds or len(folds), stop)
+
+
+class _EqualFooting:
+    """A richer base's MSE reduction against the reference base ``ref`` on the folds of
+    ``sub``, compared again, where it falls short of its margin, with each base given the
+    output dynamics stage that predicts its folds best (:func:`_with_output_dynamics`).
+
+    An output dynamics stage (a resonance after the actuator, a delay) leaves the same error
+    in both bases' predictions, and that shared error dilutes the richer base's reduction:
+    with ``E_d`` added to both, ``1 - (E_rich + E_d) / (E_ref + E_d)`` falls towards 0 while
+    its sign stays. So a base that is better (a positive reduction) but short of its margin
+    is compared again without the shared error; one that is no better is not (its reduction
+    cannot change sign by it, and the comparison costs two dynamics searches). Measured on
+    the development Menegotto-Pinto steel under bipolar input with a 200 Hz mode: the bank
+    lowers the stop base's MSE by 33 % (margin 35 %), and by 48 % with each base given its
+    best output dynamics; the reference's own stage is searched once and shared."""
+
+    def __init__(self, ctx: FitContext, sub: FitContext, ref: Fit) -> None:
+        self.ctx, self.sub, self.ref = ctx, sub, ref
+        self._ref_dyn: Fit | None = None
+
+    def gain(self, rich: Fit, plain: float, margin: float) -> tuple[float, float | None]:
+        """``(reduction used, reduction with dynamics or None)`` for the reduction ``plain``
+        of ``rich`` against the reference and the margin it must reach."""
+        if not 0.0 < plain < margin:
+            return float(plain), None
+        if self._ref_dyn is None:
+            self._ref_dyn = _with_output_dynamics(self.ctx, self.sub, self.ref)
+        rich_dyn = _with_output_dynamics(self.ctx, self.sub, rich)
+        with_dyn = float(compare_heldout(self.sub, self._ref_dyn, rich_dyn).gain)
+        return max(float(plain), with_dyn), with_dyn
 
 
 def _menegotto_pinto_base(ctx: FitContext, sub: FitContext, ref: Fit, span: float

@@ -256,8 +256,9 @@ class BaseTrial:
         For a static-map alternative, the richer base it was compared with.
     cv_mse_reduction_with_dynamics : float, optional
         :attr:`cv_mse_reduction` with each base followed by the output dynamics stage that
-        predicts its folds best (where the base choice compares them so); ``None`` where
-        not.
+        predicts its folds best: a bank base better than the PI (or stop) base but short
+        of its margin (:class:`~core.diagnosis.basechoice._EqualFooting`); ``None`` where
+        not compared so.
     """
 
     base: str
@@ -293,7 +294,10 @@ class BaseTrial:
             return (f"preisach ({self.operators} plays x {self.level_segments} level "
                     f"segments) {mse}")
         if self.base in ("bouc-wen", MP):
-            return f"{self.base} ({self.operators} elements) {mse}"
+            dyn = self.cv_mse_reduction_with_dynamics
+            return (f"{self.base} ({self.operators} elements) {mse}"
+                    + ("" if dyn is None else
+                       f", {-100 * dyn + 0.0:+.0f} % with each its best output dynamics"))
         r = self.rival
         if r is None:
             return f"{self.base} {mse}"
