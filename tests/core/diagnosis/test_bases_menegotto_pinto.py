@@ -102,9 +102,9 @@ def test_a_mode_in_the_fast_recordings_does_not_hide_the_bank() -> None:
     sc = make_bipolar("menegotto-pinto", "resonance", "large", seed=500)
     truth = sc.extras["hidden"]["resonance"]
     res = diagnose(sc.records, effects=["resonance"])
-    mp = [t for t in res.base_choice.tried if t["base"] == "menegotto-pinto"]
-    assert 0.0 < mp[0]["cv_mse_reduction"] < MP_MIN_GAIN
-    assert mp[0]["cv_mse_reduction_with_dynamics"] >= MP_MIN_GAIN
+    mp = [t for t in res.base_choice.tried if t.base == "menegotto-pinto"]
+    assert 0.0 < mp[0].cv_mse_reduction < MP_MIN_GAIN
+    assert mp[0].cv_mse_reduction_with_dynamics >= MP_MIN_GAIN
     assert res.base_choice.kind == "menegotto-pinto"
     assert "with each its best output dynamics" in res.base_choice.text
     assert [e.name for e in res.effects] == ["resonance"]
