@@ -329,7 +329,12 @@ class _EqualFooting:
     cannot change sign by it, and the comparison costs two dynamics searches). Measured on
     the development Menegotto-Pinto steel under bipolar input with a 200 Hz mode: the bank
     lowers the stop base's MSE by 33 % (margin 35 %), and by 48 % with each base given its
-    best output dynamics; the reference's own stage is searched once and shared."""
+    best output dynamics; the reference's own stage is searched once and shared.
+
+    The Bouc-Wen and Menegotto-Pinto banks are compared this way. The Preisach base is not:
+    its second margin is against the PI with a static output map fitted by the fit side's
+    own estimator (:func:`~core.diagnosis.adequacy.fold_mse`), which has no output dynamics
+    stage to give it."""
 
     def __init__(self, ctx: FitContext, sub: FitContext, ref: Fit) -> None:
         self.ctx, self.sub, self.ref = ctx, sub, ref
