@@ -55,7 +55,10 @@ gap this fit finds (:mod:`core.diagnosis.bases`), and calls it by the same famil
 
 The margins are the diagnosis's: ``core.diagnosis.bases`` takes :data:`BW_MIN_GAIN` from
 here and ``tests/core/fitting/test_choice.py`` checks the engine's own constants against
-these.
+these. One difference: the diagnosis models output dynamics (a delay, a lag, a mode), so a
+bank short of its margin gets a second look there with each base given its best output
+stage (:class:`core.diagnosis.basechoice._EqualFooting`); the fit kinds have no such stage,
+so on recordings a mode dominates the two commands may keep different bases.
 """
 
 from __future__ import annotations
