@@ -25,6 +25,8 @@ ALLOWED = {
                                        "(benchmarks/diagnosis/bipolar.py)",
     "tests/test_benchmark_ceiling.py": "checks the told-the-name ceiling "
                                        "(benchmarks/diagnosis/ceiling.py)",
+    "tests/test_benchmark_triangle.py": "checks the growing-triangle development class "
+                                        "(benchmarks/diagnosis/triangle.py)",
     "tests/test_import_hygiene.py": "a rule over every core module",
     "tests/test_layout.py": "this rule",
     "tests/test_layers.py": "the import-linter contracts over core and app",
