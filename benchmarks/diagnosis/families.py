@@ -747,7 +747,8 @@ def _hidden_of(effect: str | None, size: str) -> dict[str, dict[str, Any]]:
 
 def make_family(base: str, effect: str | None = None, size: str = "large",
                 noise: float = 0.002, seed: int = 0,
-                signals: list[tuple[str, np.ndarray, np.ndarray]] | None = None) -> Scenario:
+                signals: list[tuple[str, np.ndarray, np.ndarray]] | None = None,
+                concealed_over: tuple[str, ...] = CONCEALMENT_RECORDINGS) -> Scenario:
     """The four recordings of :func:`family_signals` (or ``signals``, ``(name, t, u)`` each,
     ``t`` in s and ``u`` in V) through base family ``base`` followed by the hidden
     ``effect`` (``None`` or ``"null"``: none) at ``size``.
@@ -757,8 +758,8 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
     size and at ``"large"`` otherwise; ``rate`` only alone). ``noise`` is the white noise
     sigma as a fraction of the stroke (0.002: 0.2 um). The noise depends on ``seed`` only
     (its own stream), the drift's wander phase on a second stream. ``concealment_pct`` is the
-    max |effect| over the recordings named in :data:`CONCEALMENT_RECORDINGS` in % of the
-    stroke. ``extras``:
+    max |effect| over the recordings named in ``concealed_over`` (by default
+    :data:`CONCEALMENT_RECORDINGS`) in % of the stroke. ``extras``:
     ``hidden`` (name -> truth parameters), ``base``, ``base_params``, ``size``, ``family_id``
     (``base/effect/size/seed``).
     """
@@ -795,7 +796,7 @@ def make_family(base: str, effect: str | None = None, size: str = "large",
         else:
             y_clean = y0
             truths.append(plant)
-        if name in CONCEALMENT_RECORDINGS:
+        if name in concealed_over:
             worst = max(worst, float(np.max(np.abs(y_clean - y0))) / STROKE * 100)
         y = y_clean + sigma * rng_noise.standard_normal(u.size)
         recs.append(Recording(t, u, y, name))

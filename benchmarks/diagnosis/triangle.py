@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.diagnosis.families import STROKE, make_family
+from benchmarks.diagnosis.families import make_family
 from benchmarks.diagnosis.generator import Scenario
 
 __all__ = ["TRIANGLE_AMPLITUDES", "TRIANGLE_BASES", "TRIANGLE_RATE", "growing_triangle",
@@ -60,14 +60,7 @@ def make_triangle(base: str, effect: str | None = None, size: str = "large",
     over this recording: the largest change the hidden effect makes to the base's output,
     in % of the stroke)."""
     t, u = growing_triangle()
-    sc = make_family(base, effect, size, noise=noise, seed=seed, signals=[("triangle", t, u)])
+    sc = make_family(base, effect, size, noise=noise, seed=seed, signals=[("triangle", t, u)],
+                     concealed_over=("triangle",))
     sc.extras["excitation"] = "growing triangle"
-    truth = sc.truth[0]
-    if isinstance(truth, tuple):
-        dt = float(t[1] - t[0])
-        y0 = truth[0](u, dt=dt)
-        y = y0
-        for stage in truth[1:]:
-            y = stage(y, dt=dt)
-        sc.concealment_pct = float(np.max(np.abs(y - y0))) / STROKE * 100
     return sc
