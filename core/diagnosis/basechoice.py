@@ -9,6 +9,7 @@ recording from the others.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -166,7 +167,8 @@ def choose_base(ctx: FitContext, base: Fit, n_operators: int) -> tuple[Fit, Base
 
 
 def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
-                         tried: list[BaseTrial], rich_name: str) -> bool:
+                         tried: list[BaseTrial], rich_name: str,
+                         dynamics: Callable[[Fit], Fit] | None = None) -> bool:
     """Whether the base ``ref`` (the PI, or the stop base of clockwise loops, on which no
     shape is built) with a static output map or loop shape (each effect of
     the ``"static"`` family: asymmetry, saturation, dead-zone), which the effect search
@@ -176,7 +178,12 @@ def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
     predicts its folds best: an output dynamics stage (a resonance of the fast recordings)
     may dominate both misfits. Appends one row per shape to ``tried`` (its
     :class:`~core.diagnosis.results.BaseRival` ``rich_name``, the kind of ``rich``: ``rich``'s
-    MSE reduction against it)."""
+    MSE reduction against it). ``dynamics``: a fit with its best output dynamics stage
+    (:func:`_with_output_dynamics` on ``sub`` by default; the base choice passes its
+    :meth:`_EqualFooting.with_dynamics`, which has searched ``rich``'s already)."""
+    if dynamics is None:
+        def dynamics(f: Fit) -> Fit:
+            return _with_output_dynamics(ctx, sub, f)
     rich_dyn: Fit | None = None
     for name in (n for n, e in EFFECTS.items() if e.family == "static"):
         got = build_candidate(ctx, name, ref)
@@ -189,8 +196,8 @@ def _a_loop_shape_rivals(ctx: FitContext, sub: FitContext, ref: Fit, rich: Fit,
                                BaseRival(rich_name, float(over))))
         if over >= PREISACH_OVER_MAP:
             continue
-        rich_dyn = rich_dyn or _with_output_dynamics(ctx, sub, rich)
-        over_dyn = compare_heldout(sub, _with_output_dynamics(ctx, sub, alt), rich_dyn).gain
+        rich_dyn = rich_dyn or dynamics(rich)
+        over_dyn = compare_heldout(sub, dynamics(alt), rich_dyn).gain
         tried[-1] = replace(tried[-1], rival=BaseRival(rich_name, float(over), float(over_dyn)))
         if over_dyn < PREISACH_OVER_MAP:
             return True
@@ -317,7 +324,8 @@ def choose_base_family(ctx: FitContext, base: Fit, n_operators: int
                                    gm_plain, cv_mse_reduction_with_dynamics=gm_dyn))
         if gm >= MP_MIN_GAIN and gm_plain > chosen_gain:
             rows: list[BaseTrial] = []
-            if not _a_loop_shape_rivals(ctx, sub, ref, fm, rows, "menegotto-pinto"):
+            if not _a_loop_shape_rivals(ctx, sub, ref, fm, rows, "menegotto-pinto",
+                                        footing.with_dynamics):
                 best, kind = fm, "menegotto-pinto"
             tried = (*tried, *rows)
     return best, BaseChoice(kind, tried, choice.folds or len(folds), stop)
@@ -336,7 +344,7 @@ class _EqualFooting:
     cannot change sign by it, and the comparison costs two dynamics searches). Measured on
     the development Menegotto-Pinto steel under bipolar input with a 200 Hz mode: the bank
     lowers the stop base's MSE by 33 % (margin 35 %), and by 48 % with each base given its
-    best output dynamics; the reference's own stage is searched once and shared.
+    best output dynamics; each base's stage is searched once (:meth:`with_dynamics`) and shared.
 
     The Bouc-Wen and Menegotto-Pinto banks are compared this way. The Preisach base is not:
     its second margin is against the PI with a static output map fitted by the fit side's
@@ -345,17 +353,24 @@ class _EqualFooting:
 
     def __init__(self, ctx: FitContext, sub: FitContext, ref: Fit) -> None:
         self.ctx, self.sub, self.ref = ctx, sub, ref
-        self._ref_dyn: Fit | None = None
+        self._dyn: dict[int, tuple[Fit, Fit]] = {}
+
+    def with_dynamics(self, fit: Fit) -> Fit:
+        """``fit`` with its best output dynamics stage (:func:`_with_output_dynamics`),
+        searched once per fit."""
+        hit = self._dyn.get(id(fit))
+        if hit is None or hit[0] is not fit:
+            hit = (fit, _with_output_dynamics(self.ctx, self.sub, fit))
+            self._dyn[id(fit)] = hit
+        return hit[1]
 
     def gain(self, rich: Fit, plain: float, margin: float) -> tuple[float, float | None]:
         """``(reduction used, reduction with dynamics or None)`` for the reduction ``plain``
         of ``rich`` against the reference and the margin it must reach."""
         if not 0.0 < plain < margin:
             return float(plain), None
-        if self._ref_dyn is None:
-            self._ref_dyn = _with_output_dynamics(self.ctx, self.sub, self.ref)
-        rich_dyn = _with_output_dynamics(self.ctx, self.sub, rich)
-        with_dyn = float(compare_heldout(self.sub, self._ref_dyn, rich_dyn).gain)
+        with_dyn = float(compare_heldout(self.sub, self.with_dynamics(self.ref),
+                                         self.with_dynamics(rich)).gain)
         return max(float(plain), with_dyn), with_dyn
 
 
