@@ -53,6 +53,23 @@ def grid_frequencies(fmin: float, fmax: float) -> np.ndarray:
     return np.geomspace(fmin, fmax, n)
 
 
+#: Structure evaluations of the Nelder-Mead refinement from the grid's best point.
+SEARCH_MAXFEV = 32
+
+
+def _simplex_steps(fs: np.ndarray, zs: np.ndarray) -> np.ndarray:
+    """The initial simplex of the refinement, as steps from the grid's best point in
+    ``(log f, log zeta)``: half a grid step in frequency and half a grid step (in the log)
+    down in damping, so that the search spans the cell the grid left it in. Scipy's default
+    simplex (5 % of each coordinate: a third of the frequency grid's step, a twentieth of
+    the damping's) with 16 evaluations stopped the development Menegotto-Pinto steel's
+    200 Hz, zeta 0.05 mode at zeta 0.16 from the grid's 0.2 (training RSS 256 times the
+    truth's); from this simplex 32 evaluations end within 1 % of both."""
+    hf = 0.5 * float(np.log(fs[1] / fs[0]))
+    hz = 0.5 * float(np.min(np.diff(np.log(zs))))
+    return np.array([[0.0, 0.0], [hf, 0.0], [0.0, -hz]])
+
+
 def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
     """A second-order mode after the PI: grid over (f_n, zeta), then Nelder-Mead."""
     s = cur.structure
@@ -94,8 +111,10 @@ def _build(ctx: FitContext, cur: Fit) -> Candidate | None:
             return np.inf
         return ctx.rss(s.with_(dynamics=("resonance", f_, z_)), cur)
 
-    r = so.minimize(obj, [np.log(best[1]), np.log(best[2])], method="Nelder-Mead",
-                    options={"maxfev": 16, "xatol": 0.03, "fatol": 1e-9})
+    x0 = np.array([np.log(best[1]), np.log(best[2])])
+    r = so.minimize(obj, x0, method="Nelder-Mead",
+                    options={"maxfev": SEARCH_MAXFEV, "xatol": 0.03, "fatol": 1e-9,
+                             "initial_simplex": x0 + _simplex_steps(fs, zs)})
     f_, z_ = (float(np.exp(r.x[0])), float(np.exp(r.x[1]))) if r.fun < best[0] else (
         float(best[1]), float(best[2]))
     fit = ctx.fit(s.with_(dynamics=("resonance", f_, z_)), cur)
