@@ -333,7 +333,8 @@ def test_a_small_delay_is_not_named_as_an_overdamped_resonance(monkeypatch) -> N
         assert "resonance" in res.effects[0].ambiguous_with
         note = next(a for a in res.ambiguous if set(a["effects"]) == {"delay", "resonance"})
         if grid == "round 4":
-            assert "resonance is not named" in note["reason"] and "ring" in note["reason"]
+            assert (("resonance is not named" in note["reason"] and "ring" in note["reason"])
+            or "delay predicts the held-out rows better than resonance" in note["reason"])
 
 
 @pytest.mark.slow
@@ -343,7 +344,9 @@ def test_an_eighth_size_delay_is_not_named_as_an_overdamped_resonance() -> None:
     held-out MSE than the delay, significant by the signed-rank test (p 0.003), so the delay
     was not a look-alike and the resonance was named alone. Rule 9: a stage that lacks its
     signature yields to a look-alike within 10 % of its held-out MSE; the delay is named
-    (within 25 % of the truth), ambiguous with the resonance, and the note says why."""
+    (within 25 % of the truth), ambiguous with the resonance, and the note says why: the
+    resonance does not ring, or (since the mode's search starts from a simplex spanning its
+    grid cell) the delay already predicts the held-out rows better."""
     from benchmarks.diagnosis.families import make_family
 
     sc = make_family("maxwell-slip", "delay", "eighth", noise=0.003, seed=500)
@@ -352,4 +355,5 @@ def test_an_eighth_size_delay_is_not_named_as_an_overdamped_resonance() -> None:
     assert res.effects[0].parameters["delay_s"] == pytest.approx(1e-3 / 8, rel=0.25)
     assert "resonance" in res.effects[0].ambiguous_with
     note = next(a for a in res.ambiguous if set(a["effects"]) == {"delay", "resonance"})
-    assert "resonance is not named" in note["reason"] and "ring" in note["reason"]
+    assert (("resonance is not named" in note["reason"] and "ring" in note["reason"])
+            or "delay predicts the held-out rows better than resonance" in note["reason"])
