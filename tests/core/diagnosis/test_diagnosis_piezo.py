@@ -96,13 +96,16 @@ def test_no_windows_the_saved_model_is_refitted_on_every_row(piezo) -> None:
 #: training cycles, core.diagnosis.changes, instead of beside the base on the raw rows,
 #: where they took its misfit: z -22.393 -> 0.551, -10.579 -> -0.847, -6.387 -> -0.196,
 #: -2.112 -> -0.847; still rejected, every other number unchanged)
+#: (the resonance's two numbers since its refinement starts from a simplex spanning the grid
+#: cell, 32 evaluations: -0.052 -> 0.084 and 7.405 -> 7.165; still rejected, every other
+#: number unchanged)
 PIEZO_TESTED = [
-    (1, "delay", False, 0.176), (1, "lag", False, -0.296), (1, "resonance", False, -0.052),
+    (1, "delay", False, 0.176), (1, "lag", False, -0.296), (1, "resonance", False, 0.084),
     (1, "creep", False, 0.551), (1, "drift", False, -0.847), (1, "asymmetry", False, 1.441),
     (1, "initial-memory", True, 18.670), (1, "saturation", True, 19.907),
     (1, "dead-zone", True, 16.965), (1, "resolution:50", True, 2.261),
     (1, "resolution:100", False, 2.329), (2, "delay", False, 7.288), (2, "lag", False, 7.431),
-    (2, "resonance", False, 7.405), (2, "creep", False, -0.196), (2, "drift", False, -0.847),
+    (2, "resonance", False, 7.165), (2, "creep", False, -0.196), (2, "drift", False, -0.847),
     (2, "asymmetry", False, 2.967),
     (2, "saturation", False, 2.269), (2, "dead-zone", False, -5.813)]
 
