@@ -236,3 +236,36 @@ def test_the_search_ranks_a_true_mode_above_none_on_a_preisach_base() -> None:
     true = ctx.rss(s.with_(dynamics=("resonance", 346.0, 0.05)), cur)
     wrong = ctx.rss(s.with_(dynamics=("resonance", 3730.0, 0.34)), cur)
     assert true < 0.8 * min(none, wrong)
+
+
+def test_the_resolution_refinement_counts_a_preisach_base_s_weights() -> None:
+    """The refinement after an accepted effect doubles the play grid while the bank's weights
+    stay within its ceiling (4 x 25 in the diagnosis): on a Preisach base they are the plays
+    times the level segments, so 25 plays x 5 segments (125 weights) are not doubled, while
+    a PI of 25 plays is tried at 50. Counted in plays, the development Preisach plant with a
+    200 Hz mode was refined to 100 plays x 5 segments and its diagnosis took 8 times the CPU
+    time."""
+    from benchmarks.diagnosis.families import make_base
+    from core.diagnosis.accept import _refine_resolution
+    from core.diagnosis.context import FitContext
+    from core.diagnosis.data import split_masks
+    from core.diagnosis.grid import baseline_thresholds
+    from core.diagnosis.structure import Structure
+    from core.recordings import Recording
+
+    plant = make_base("preisach", n_grid=40)
+    fs = 2000.0
+    t = np.arange(0, 2.0, 1 / fs)
+    u = 75.0 - 75.0 * np.cos(2 * np.pi * t)
+    recs = [Recording(t, u, plant(u, dt=1 / fs) + np.random.default_rng(1).normal(0, 0.2, t.size),
+                      "slow")]
+    tr, te, _ = split_masks(recs, None, None)
+    ctx = FitContext(recs, tr, te)
+    r = tuple(float(x) for x in baseline_thresholds(recs, tr, 25))
+    pi = ctx.fit(Structure(r, ((),)))
+    preisach = ctx.fit(Structure(r, ((),), levels=(30.0, 60.0, 90.0, 120.0), level_smooth=0.01))
+    rows: list = []
+    assert _refine_resolution(ctx, preisach, 100, rows, 1) is preisach
+    assert rows == []
+    _refine_resolution(ctx, pi, 100, rows, 1)
+    assert rows[0].effect == "resolution:50"
