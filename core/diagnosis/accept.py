@@ -18,7 +18,7 @@ from .results import RoundRow
 from .shapes import shape_thresholds
 from .specs import DECIDING_EXPERIMENT
 from .state import Candidate, Run
-from .structure import Fit, Structure, dynamics_stages
+from .structure import Fit, dynamics_stages
 
 __all__ = ["accept_best"]
 
@@ -117,9 +117,17 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list[Round
                        ) -> Fit:
     """Once an effect is in, the baseline may turn out under-resolved: double the play grid
     while the held-out fit improves (``resolution_gain`` and ``resolution_z`` of
-    :class:`~core.diagnosis.acceptance.AcceptRule`) and the play bank's weights stay within
-    ``n_max`` (:func:`_bank_weights`)."""
-    while not fit.structure.bouc_wen and _bank_weights(fit.structure, 2) <= n_max:
+    :class:`~core.diagnosis.acceptance.AcceptRule`) as long as the doubled bank's weights stay
+    within ``n_max`` (:attr:`~core.diagnosis.structure.Structure.play_weights`: plays times
+    level segments on a Preisach base, not the plays, since every later structure fit costs
+    about the square of its columns). A Preisach base of 25 plays x 3 or 5 level segments
+    (75 or 125 weights) is then not refined within the ceiling of 100. Counted in plays, the
+    development Preisach plant with a 200 Hz mode (25 plays x 5 segments, 132 columns) was
+    refined to 100 plays (507 columns, held-out MSE -3.2 % and -2.3 %) once its mode was
+    fitted from a simplex spanning the grid cell, and its diagnosis took 8 times the CPU
+    time (292 s against 37 s; three fifths of it in the recordings' spread, whose fits of
+    one recording fell back to a QR factor of 0.7 s each)."""
+    while not fit.structure.bouc_wen and 2 * fit.structure.play_weights <= n_max:
         n2 = 2 * len(fit.structure.thresholds)
         r = shape_thresholds(fit.structure.shape, ctx.records, ctx.train, n2)  # w units
         f2 = ctx.fit(fit.structure.with_(thresholds=tuple(float(x) for x in r)), fit)
@@ -133,16 +141,3 @@ def _refine_resolution(ctx: FitContext, fit: Fit, n_max: int, rounds: list[Round
         fit = f2
     return fit
 
-
-def _bank_weights(s: Structure, factor: int = 1) -> int:
-    """Weights of the play bank of ``s`` with its grid ``factor`` times as fine: one a play,
-    or one a play and level segment on a Preisach base. The refinement's ceiling counts
-    these, not the plays: every later structure fit of the diagnosis costs about the square
-    of its columns. A Preisach base of 25 plays x 3 or 5 level segments (75 or 125 weights)
-    is then not refined within the ceiling of 100. Counted in plays, the development
-    Preisach plant with a 200 Hz mode (25 plays x 5 segments, 132 columns) was refined to
-    100 plays (507 columns, held-out MSE -3.2 % and -2.3 %) once its mode was fitted from a
-    simplex spanning the grid cell, and its diagnosis took 8 times the CPU time (292 s
-    against 37 s; three fifths of it in the recordings' spread, whose fits of one recording
-    fell back to a QR factor of 0.7 s each)."""
-    return factor * len(s.thresholds) * (len(s.levels) + 1)

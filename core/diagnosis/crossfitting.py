@@ -231,8 +231,7 @@ def recording_spread(ctx: FitContext, name: str, cur: Fit, without: Structure
     recs, tr = ctx.records, ctx.train
     none = [np.zeros(r.n_samples, dtype=bool) for r in recs]
     # a recording fitted alone needs rows for every weight (short periodic records do not)
-    need = SPREAD_ROWS_PER_WEIGHT * (len(without.thresholds) * (len(without.levels) + 1)
-                                     + without.bank_width + 4)
+    need = SPREAD_ROWS_PER_WEIGHT * (without.play_weights + without.bank_width + 4)
     only = [[m if k == j else none[k] for k, m in enumerate(tr)]
             for j in range(len(recs)) if tr[j].sum() >= need]
     if len(only) < 2:

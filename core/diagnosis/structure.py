@@ -254,6 +254,13 @@ class Structure:
         return any(t.sample_spacing for t in self._terms_on())
 
     @property
+    def play_weights(self) -> int:
+        """Weights of the play bank: one a play, or one a play and level segment on a
+        Preisach base (what the resolution refinement's ceiling and the recordings' spread
+        count; the reversible play and the static terms not included)."""
+        return len(self.thresholds) * (len(self.levels) + 1)
+
+    @property
     def bank_width(self) -> int:
         """Weights of the static terms whose width grows with their settings (a lag bank)."""
         return sum(t.width(v, 1) for (_, v), t in zip(self.terms, self._terms_on(),
