@@ -17,6 +17,22 @@ Materials (:data:`MATERIALS`; strain in units of 1e-3 (mm/m), stress in MPa):
     ``Hysteretic`` with pinching (pinchX 0.8, pinchY 0.2), envelope 300 MPa at 1.5 mm/m and
     420 MPa at 6 mm/m on both sides, no damage.
 
+Development materials (:data:`DEV_MATERIALS`, the same three OpenSees laws with other
+parameters, for rules to be tuned on; the sealed ones above are not):
+
+``os-boucwen-dev``
+    ``BoucWen``: post-yield ratio 0.05, initial stiffness 150 MPa per mm/m, n 1, gamma 0.6,
+    beta 0.4, A0 1.
+``os-steel02-dev``
+    ``Steel02``: yield 300 MPa, E0 180 MPa per mm/m, hardening 1 %, R0 15, cR1 0.9,
+    cR2 0.1.
+``os-pinched-dev``
+    ``Hysteretic`` with pinching (pinchX 0.6, pinchY 0.35), envelope 250 MPa at 1.2 mm/m and
+    380 MPa at 7 mm/m on both sides, no damage.
+
+:class:`StrainDriven` drives one of them from a voltage-like input (the development
+recordings of :mod:`benchmarks.diagnosis.bipolar`, ±150 V -> ±6 mm/m).
+
 ``openseespy`` is imported only when a material runs (:func:`opensees`), so nothing here is
 needed to import ``core`` or this module. The Linux wheel ships ``libblas.so.3`` beside its
 ``liblapack.so.3`` without a search path between them; :func:`opensees` loads it first.
@@ -27,12 +43,13 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-__all__ = ["MATERIALS", "OpenSeesMaterial", "opensees", "opensees_available"]
+__all__ = ["DEV_MATERIALS", "MATERIALS", "OpenSeesMaterial", "StrainDriven", "opensees",
+           "opensees_available"]
 
 
 def opensees() -> Any:
@@ -96,3 +113,39 @@ MATERIALS: dict[str, OpenSeesMaterial] = {
     "os-pinched": OpenSeesMaterial("Hysteretic", (300.0, 1.5, 420.0, 6.0, -300.0, -1.5,
                                                   -420.0, -6.0, 0.8, 0.2, 0.0, 0.0, 0.0)),
 }
+
+#: Development material name -> OpenSees material (the laws of :data:`MATERIALS` with other
+#: parameters; rules may be tuned on these).
+DEV_MATERIALS: dict[str, OpenSeesMaterial] = {
+    "os-boucwen-dev": OpenSeesMaterial("BoucWen", (0.05, 150.0, 1.0, 0.6, 0.4, 1.0, 0.0, 0.0,
+                                                   0.0)),
+    "os-steel02-dev": OpenSeesMaterial("Steel02", (300.0, 180.0, 0.01, 15.0, 0.9, 0.1)),
+    "os-pinched-dev": OpenSeesMaterial("Hysteretic", (250.0, 1.2, 380.0, 7.0, -250.0, -1.2,
+                                                      -380.0, -7.0, 0.6, 0.35, 0.0, 0.0, 0.0)),
+}
+
+
+@dataclass
+class StrainDriven:
+    """A development material of :data:`DEV_MATERIALS` driven by a voltage-like input:
+    ``gain * material(strain_per_volt * u)`` (the plant interface of
+    :data:`benchmarks.diagnosis.families.BASES`: ``gain`` is set by ``make_base``).
+
+    Parameters
+    ----------
+    material : str
+        A key of :data:`DEV_MATERIALS`.
+    strain_per_volt : float
+        Strain (mm/m) per input unit: 0.04 takes ±150 V to ±6 mm/m.
+    gain : float
+        Output per MPa.
+    """
+
+    material: str
+    strain_per_volt: float = 0.04
+    gain: float = field(default=1.0)
+
+    def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
+        """The output along input ``u`` (shape ``(n,)``), from the virgin state."""
+        law = DEV_MATERIALS[self.material]
+        return self.gain * law(self.strain_per_volt * np.asarray(u, dtype=np.float64))

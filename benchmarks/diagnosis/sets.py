@@ -16,7 +16,12 @@ score, one table for both sets, so their numbers can stand side by side.
     amplitude: classes ``bipolar non-PI base`` and ``single-recording bipolar null``), with
     the same effects, nulls and single-recording nulls; and (session 23) a growing triangle
     at one input rate alone (:mod:`benchmarks.diagnosis.triangle`) on four bases, two nulls
-    and a drift each (class ``growing-triangle non-PI base``) (:data:`DEV_CASES`).
+    and a drift each (class ``growing-triangle non-PI base``); and (session 25) plants from an
+    independent implementation, the three OpenSees laws of the sealed set with other
+    parameters (:data:`benchmarks.diagnosis.opensees_plants.DEV_MATERIALS`), driven by the
+    bipolar recordings, with the same effects, nulls (seeds 1700, 1701) and single-recording
+    nulls (classes ``OpenSees non-PI base`` and ``single-recording OpenSees null``)
+    (:data:`DEV_CASES`).
 ``sealed``
     :data:`benchmarks.diagnosis.sealed.SEALED_CASES`: other seeds, ranges, excitations,
     OpenSees plants, and the measured-base class.
@@ -58,7 +63,7 @@ import numpy as np
 
 from benchmarks.diagnosis.bipolar import BIPOLAR_RECORDINGS
 from benchmarks.diagnosis.classes import RECOVERY_TOLERANCE
-from benchmarks.diagnosis.families import TIME_EFFECTS, jsonable
+from benchmarks.diagnosis.families import OPENSEES_DEV_BASES, TIME_EFFECTS, jsonable
 from benchmarks.diagnosis.measured import DEV_MEASURED_CASES
 from benchmarks.diagnosis.triangle import TRIANGLE_BASES
 
@@ -109,13 +114,21 @@ DEV_CASES: tuple[str, ...] = (
     # session 23: one growing triangle at one input rate alone (triangle.py), a drift
     *(f"dev/family-triangle/{b}/null/{s}" for b in TRIANGLE_BASES for s in (500, 501)),
     *(f"dev/family-triangle/{b}/drift/large/500" for b in TRIANGLE_BASES),
+    # session 25: OpenSees laws with other parameters than the sealed set's, bipolar inputs
+    *(f"dev/opensees/{b}/null/{s}" for b in OPENSEES_DEV_BASES for s in (1700, 1701)),
+    *(f"dev/opensees/{b}/{e}/large/1700" for b in OPENSEES_DEV_BASES
+      for e in _DEV_FAMILY_EFFECTS),
+    *(f"dev/opensees-single/{b}/{r}/1700" for b in OPENSEES_DEV_BASES
+      for r in BIPOLAR_RECORDINGS),
 )
 
 _QUANTITY = {"delay": "delay_s", "lag": "tau_s", "resonance": "freq_hz"}
 CLASSES = ("PI plant", "non-PI base", "single-recording non-PI null", "bipolar non-PI base",
-           "single-recording bipolar null", "growing-triangle non-PI base", "measured base")
+           "single-recording bipolar null", "growing-triangle non-PI base",
+           "OpenSees non-PI base", "single-recording OpenSees null", "measured base")
 _NON_PI = ("non-PI base", "single-recording non-PI null", "bipolar non-PI base",
-           "single-recording bipolar null", "growing-triangle non-PI base")
+           "single-recording bipolar null", "growing-triangle non-PI base",
+           "OpenSees non-PI base", "single-recording OpenSees null")
 
 
 def _sealed_cases() -> tuple[str, ...]:
@@ -144,6 +157,10 @@ def case_class(case: str) -> str:
         return "bipolar non-PI base"
     if case.startswith("dev/family-triangle/"):
         return "growing-triangle non-PI base"
+    if case.startswith("dev/opensees-single/"):
+        return "single-recording OpenSees null"
+    if case.startswith("dev/opensees/"):
+        return "OpenSees non-PI base"
     if case.startswith(("dev/family-single/", "sealed/opensees-single/")):
         return "single-recording non-PI null"
     return "non-PI base"
@@ -154,7 +171,9 @@ def case_class(case: str) -> str:
 _FAMILY_KINDS = {"family": ("family", False), "family-single": ("family", True),
                  "family-bipolar": ("bipolar", False),
                  "family-bipolar-single": ("bipolar", True),
-                 "family-triangle": ("triangle", False)}
+                 "family-triangle": ("triangle", False),
+                 # the OpenSees development laws on the bipolar recordings
+                 "opensees": ("bipolar", False), "opensees-single": ("bipolar", True)}
 
 
 def _family_case(case: str) -> Any:
