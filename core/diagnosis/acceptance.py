@@ -373,19 +373,21 @@ def harmless_beyond_noise(h: HeldOut | None, rule: AcceptRule = RULE) -> bool:
     return bool(np.isfinite(b) and b <= rule.max_harm_elsewhere)
 
 
-def floor_mse(noise: float, differenced: bool) -> float:
+def floor_mse(noise: float, factor: float = 1.0) -> float:
     """The white-noise floor of the MSE the excess share is counted above (output units²).
 
     ``noise``: the white-noise level (output units, RMS; the one estimate of
-    :func:`~core.diagnosis.stats.noise_floor`). ``differenced``: the rows are compared as
-    each row's change from an earlier row
+    :func:`~core.diagnosis.stats.noise_floor`). ``factor``: the white-noise variance of a
+    compared value in units of one row's
+    (:attr:`~core.diagnosis.registry.SignatureRows.noise_factor`): 1 for rows as they are;
+    2 for rows compared as each row's change from an earlier row
     (:attr:`~core.diagnosis.registry.SignatureRows.previous`), ``e[t] - e[previous[t]]``,
-    where the noise of both rows enters (independent, far apart): the floor is then
-    ``2 noise²``, else ``noise²``. With the floor counted once on those rows, the excess
+    where the noise of both rows enters (independent, far apart); ``2 / block`` for changes
+    between means of ``block`` rows. With the floor counted once on changes, the excess
     held one noise variance that no effect can remove, and the 20 % share asked the effect
     to remove a fifth of it too.
     """
-    return (2.0 if differenced else 1.0) * noise**2
+    return factor * noise**2
 
 
 def share_needed(h: HeldOut, excess: float | None, rule: AcceptRule = RULE) -> float:

@@ -25,7 +25,7 @@ from .candidates import build_candidate
 from .context import FitContext
 from .registry import EFFECTS
 from .stats import HeldOut, heldout_comparison
-from .structure import Fit, Structure, build_model, fit_structure, legendre_columns
+from .structure import Fit, Structure, build_model, legendre_columns
 
 __all__ = ["LORO_RULE", "NONLINEAR_PARAMS", "SHARED_RULE", "BetweenPlan", "amplitudes_differ",
            "between_plan", "between_recordings", "leave_one_recording_out", "recording_amplitudes",
@@ -215,8 +215,13 @@ def left_out_residual(ctx: FitContext, s: Structure, j: int,
     # a periodic steady-state recording keeps the memory its own cycle leaves
     own = s.history[j] if s.history[j] and s.history[j] == steady_state_history(rec) else ()
     sj = s.with_(history=tuple(own if k == j else h for k, h in enumerate(s.history)))
-    f = fit_structure(sj, recs, _others(ctx, j), ctx.cache)
-    assert isinstance(f, Fit)
+    # fitted as the diagnosis fits it (FitContext.fit): a term judged on changes between
+    # rows of the same input history (creep inside the holds, a drift from cycle to cycle)
+    # has its weights from those changes of the other recordings, not from their raw rows,
+    # where its columns would also take the base's misfit
+    others = FitContext(recs, _others(ctx, j), [np.zeros(r.n_samples, dtype=bool)
+                                                for r in recs], parent=ctx)
+    f = others.fit(sj)
     # the static terms' own coefficients of recording j (a level) are unknown to the fit
     coef = {}
     for name, c in f.terms.items():

@@ -75,7 +75,7 @@ def changed_terms(ctx: FitContext, s: Structure) -> tuple[tuple[str, ...], Signa
     is then judged on cross-fitted raw training blocks, not on changes.
 
     Not the rows paired between branches of the same input history
-    (:func:`~core.diagnosis.periodic.same_history`, ``SignatureRows.beyond_history``): their
+    (:func:`~core.diagnosis.periodic.same_history`, ``SignatureRows.raw_fit``): their
     training pairs cover a short stretch of each recording (on the development
     Menegotto-Pinto plant with a concealed drift, 0.2 s of the 3 s sine, the held-out pairs
     all later), so a polynomial in time fitted on them is extrapolated to the rows it is
@@ -90,7 +90,7 @@ def changed_terms(ctx: FitContext, s: Structure) -> tuple[tuple[str, ...], Signa
     for name, _ in s.terms:
         spec = EFFECTS[name]
         sig = spec.signature(ctx) if spec.signature is not None else None
-        if sig is None or sig.previous is None or sig.beyond_history:
+        if sig is None or sig.previous is None or sig.raw_fit:
             # (rows paired by their history between branches, not whole cycles: see above)
             continue
         if first is None:

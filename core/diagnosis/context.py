@@ -42,6 +42,17 @@ def _fit_bytes(f: Fit) -> int:
     return pred + sum(np.asarray(v).nbytes for v in f.x_pi)
 
 
+def block_means(e: Float1D, block: int) -> Float1D:
+    """The mean of ``e`` (shape ``(n,)``) over the ``block`` rows ending at each row (the
+    first ``block - 1`` rows: over the rows there are); ``e`` itself for ``block`` 1."""
+    if block <= 1:
+        return e
+    c = np.concatenate(([0.0], np.cumsum(e)))
+    hi = np.arange(1, e.size + 1)
+    lo = np.maximum(hi - block, 0)
+    return (c[hi] - c[lo]) / (hi - lo)
+
+
 class FitContext:
     """Recordings, train/test rows, cross-fitting folds and the shared play-bank cache of one
     diagnosis; :meth:`fit` solves a structure on the training rows."""
@@ -179,13 +190,15 @@ class FitContext:
 
     def signature_res(self, f: Fit, sig: SignatureRows) -> list[Float1D]:
         """The residuals of ``f`` on the test rows an effect's signature lives in (``sig``):
-        each row's change from the row one cycle before where ``sig.previous`` gives one,
-        else as they are."""
+        each row's change from the row one cycle before where ``sig.previous`` gives one
+        (with ``sig.block`` rows: the change of the residual's mean over the ``block`` rows
+        ending at each), else as they are."""
         where = [m & t for m, t in zip(sig.masks, self.test, strict=True)]
         if sig.previous is not None:
             out = []
-            for r, p, w, prev in zip(self.records, f.pred, where, sig.previous, strict=True):
-                e = r.y - p
+            for k, (r, p, w, prev) in enumerate(zip(self.records, f.pred, where,
+                                                    sig.previous, strict=True)):
+                e = block_means(r.y - p, sig.block_of(k))
                 out.append(e[w] - e[prev[w]])
             return out
         return self.test_res(f, where)

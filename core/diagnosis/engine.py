@@ -279,7 +279,7 @@ def _rounds(run_: Run, cur: Fit, todo: list[str], max_effects: int, n_max: int
             run_.rounds.extend(rows)
             break
         best = fewer_parameters_on_same_rows(
-            run_.ctx, cands, passing, choose(passing, {n: cands[n].heldout.gain for n in passing}))
+            run_.ctx, cands, passing, choose(passing, {n: cands[n].choice_gain for n in passing}))
         cur = accept_best(run_, cur, cands, passing, best, rows, rnd, n_max)
         todo = remaining(todo, best)
     return cur, todo

@@ -345,7 +345,7 @@ def lookahead(run: Run, cur: Fit, cands: dict[str, Candidate], rows: list[RoundR
     run.step(rnd, 0.8, f"the others on top of {t.name}")
     sub, sub_rows = search_round(run, t.fit, remaining(todo, t.name), rnd)
     ok = judge_round(run, t.fit, sub, sub_rows, rnd, (t.name,))[2] if sub else []
-    p = choose(ok, {n: sub[n].heldout.gain for n in ok}) if ok else None
+    p = choose(ok, {n: sub[n].choice_gain for n in ok}) if ok else None
     if p is None or p not in cands:
         return none
     base_p = cands[p].fit

@@ -297,4 +297,4 @@ def same_history(records: list[Recording], settled_only: bool = False
                                 f"direction and unwiped extrema, each branch compared "
                                 f"once; "
                                 f"{'; '.join(spans[:3])}{'; ...' if len(spans) > 3 else ''})",
-                         previous=prevs, beyond_history=True)
+                         previous=prevs, beyond_history=True, raw_fit=True)

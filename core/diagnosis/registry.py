@@ -220,6 +220,13 @@ class SignatureRows:
         row's residual is compared as its change from that row's (``e[t] - e[previous[t]]``):
         a rate-independent model repeats itself from cycle to cycle, so its misfit, however
         large, cancels, and what is left is what changed with time (the noise twice).
+    block : tuple of int
+        With ``previous``, per recording (empty: 1 in each): each compared value is the mean
+        of the residual over ``block`` rows ending at the row (``e`` over
+        ``t - block + 1 .. t``), against the same mean
+        ending at ``previous[t]`` (:func:`~core.diagnosis.effects.creep.hold_signature`:
+        inside a hold, a slow change over a block grows with it while the mean's noise
+        falls); 1: the rows' own residuals.
     beyond_history : bool
         The rows are compared with rows of the same input history picked from the history
         itself (value, direction, unwiped extrema: :func:`~core.diagnosis.periodic.same_history`),
@@ -227,12 +234,41 @@ class SignatureRows:
         state and history alone: acceptance rule 17 is met by the evidence and not repeated on
         every test row (where a tapered input's reversal values change with time and the
         history part takes a drift). False from cycle to cycle (rule 17 kept as before).
+        True inside the holds after input changes too
+        (:func:`~core.diagnosis.effects.creep.hold_signature`): the input's value and
+        history do not change along a hold.
+    raw_fit : bool
+        With ``previous``: the term is solved on the raw training rows with the rest of the
+        structure, not on the changes between these rows
+        (:func:`~core.diagnosis.changes.changed_terms`): the pairs between branches of the
+        same input history cover a short stretch of each recording, and a polynomial in
+        time fitted on them is extrapolated to the rows it is judged on.
     """
 
     masks: list[np.ndarray]
     words: str
     previous: list[np.ndarray] | None = None
+    block: tuple[int, ...] = ()
     beyond_history: bool = False
+    raw_fit: bool = False
+
+    @property
+    def noise_factor(self) -> float:
+        """The white-noise variance of a compared value, in units of one row's: 1 for the
+        rows' own residuals, 2 for a change between two rows (the noise of both enters),
+        ``2 / block`` for a change between two means of ``block`` rows (the mean over the
+        compared rows of every recording where the blocks differ)."""
+        if self.previous is None:
+            return 1.0
+        if not self.block:
+            return 2.0
+        n = np.array([m.sum() for m in self.masks], dtype=np.float64)
+        f = 2.0 / np.asarray(self.block, dtype=np.float64)
+        return float(f @ n / n.sum()) if n.sum() > 0 else float(f.mean())
+
+    def block_of(self, k: int) -> int:
+        """The block (rows) of recording ``k``."""
+        return self.block[k] if self.block else 1
 
 
 @dataclass(frozen=True)

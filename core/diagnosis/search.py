@@ -169,8 +169,10 @@ def _on_its_signature(ctx: FitContext, cur: Fit, c: Candidate) -> Candidate | No
     h = heldout_comparison(ctx.signature_res(cur, sig), ctx.signature_res(c.fit, sig))
     other = (heldout_comparison(ctx.test_res(cur, rest), ctx.test_res(c.fit, rest))
              if sum(int(r.sum()) for r in rest) >= MIN_SIGNATURE_ROWS else None)
+    overall = heldout_comparison(ctx.test_res(cur), ctx.test_res(c.fit))
     return replace(c, heldout=h, where=f"test rows {sig.words}", elsewhere=other,
-                   beyond_history=sig.beyond_history, differenced=sig.previous is not None)
+                   overall=overall, beyond_history=sig.beyond_history,
+                   noise_factor=sig.noise_factor)
 
 
 def same_signature_rows(ctx: FitContext, c: Candidate, o: Candidate) -> SignatureRows | None:

@@ -67,10 +67,14 @@ class Candidate:
     where: str | None = None
     #: the comparison on the other test rows when judged where it lives (rule 13)
     elsewhere: HeldOut | None = None
-    #: judged where it lives on rows compared as changes from an earlier row
-    #: (:attr:`~core.diagnosis.registry.SignatureRows.previous`): the noise floor there is
-    #: twice the noise variance (:func:`~core.diagnosis.acceptance.floor_mse`)
-    differenced: bool = False
+    #: the comparison on all the test rows when judged where it lives, which the choice
+    #: between families reads (:attr:`choice_gain`)
+    overall: HeldOut | None = None
+    #: judged where it lives: the white-noise variance of a compared value in units of one
+    #: row's (:attr:`~core.diagnosis.registry.SignatureRows.noise_factor`: 2 on rows compared
+    #: as changes from an earlier row), what the noise floor there is counted in
+    #: (:func:`~core.diagnosis.acceptance.floor_mse`)
+    noise_factor: float = 1.0
     #: judged where it lives on rows compared within the same input history
     #: (:attr:`~core.diagnosis.registry.SignatureRows.beyond_history`): acceptance rule 17
     #: is met by that evidence
@@ -90,12 +94,22 @@ class Candidate:
         return replace(self, heldout=judged.heldout, size_ok=judged.size_ok,
                        share_waived=judged.share_waived, decision=judged.decision,
                        verdict=judged.verdict, given=given, where=judged.where,
-                       elsewhere=judged.elsewhere, beyond_history=judged.beyond_history,
-                       differenced=judged.differenced)
+                       elsewhere=judged.elsewhere, overall=judged.overall,
+                       beyond_history=judged.beyond_history,
+                       noise_factor=judged.noise_factor)
 
     @property
     def family(self) -> str:
         return EFFECTS[self.name].family
+
+    @property
+    def choice_gain(self) -> float:
+        """The held-out MSE reduction the choice between passing candidates of different
+        families compares (:func:`~core.diagnosis.judge.choose`): on all the test rows,
+        ``overall``'s for a candidate judged where its signature lives (its own comparison
+        is on other rows, a creep's on changes inside the holds, and a share of one row set
+        says nothing against a share of another), else its own comparison's."""
+        return (self.overall or self.heldout).gain
 
     @property
     def evidence_rows(self) -> HeldOut:
@@ -111,9 +125,10 @@ def excess_of(c: Candidate, mse_cur: float, noise: float, strict: bool) -> float
     hold-out, between recordings or on its signature rows; else ``mse_cur``, the current
     model's test-row MSE) minus the floor of those rows
     (:func:`~core.diagnosis.acceptance.floor_mse`: twice ``noise²`` on rows compared with an
-    earlier row, ``noise`` the white-noise RMS in output units)."""
+    earlier row, ``2 / block`` times it on means of ``block`` rows compared so, ``noise`` the
+    white-noise RMS in output units)."""
     before = c.heldout.mse_before if strict or c.between or c.where else mse_cur
-    return before - floor_mse(noise, c.differenced)
+    return before - floor_mse(noise, c.noise_factor)
 
 
 @dataclass

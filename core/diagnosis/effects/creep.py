@@ -67,6 +67,61 @@ def cycle_signature(ctx: FitContext) -> SignatureRows | None:
     return cycle_to_cycle(ctx.records)
 
 
+#: The block inside a hold whose residual means are compared (:func:`hold_signature`), as a
+#: share of the bank's fastest lag (at least one sample of its recording): the lag itself,
+#: 10 ms of a bank from 10 ms, 10 rows at 1 kHz. The bank holds nothing faster than its
+#: fastest lag; a block as long shows every lag of the bank move from one block to the next
+#: while its mean cuts the noise by its rows. With a tenth of it (one row at 1 kHz) the
+#: family's small creep (2 % of a step at 0.2 % noise) on the Bouc-Wen n = 2 plant was not
+#: named: changes between single rows carry two rows' noise.
+HOLD_BLOCK_SHARE = 1.0
+
+
+def hold_signature(ctx: FitContext) -> SignatureRows | None:
+    """With a hold, where creep shows apart from the model's bias: inside the holds after
+    input changes (:func:`_has_hold`) the input's value and history do not change, so a
+    rate-independent base holds its output still and its misfit, however large, stays
+    what it was, while the output keeps creeping, about linearly in log(time). Each hold is
+    cut into consecutive blocks as long as the bank's fastest lag (:data:`HOLD_BLOCK_SHARE`),
+    and the residual's mean over each block is compared with its mean over the block at half
+    its time into the hold (:attr:`~core.diagnosis.registry.SignatureRows.block`,
+    ``previous``): an octave of hold time apart, over which a logarithmic creep moves the
+    output by the same amount wherever in the hold, and each block the reference of two
+    others at most. Blocks as long as the bank's fastest lag keep the motion of each of its
+    lags while their means cut the noise (a change between two single rows carries two
+    rows' noise, which buries a creep of a few per cent of a step). ``None`` without a hold
+    and with explicit windows (strict hold-out: the evidence is the cross-fitted training
+    blocks)."""
+    if ctx.strict or not _has_hold(ctx):
+        return None
+    fastest = min(bank_taus(ctx), default=0.0)
+    masks, previous, blocks = [], [], []
+    for r, c in zip(ctx.records, ctx.coords, strict=True):
+        block = max(1, int(round(HOLD_BLOCK_SHARE * fastest / r.dt)))
+        m = np.zeros(r.n_samples, dtype=bool)
+        prev = np.full(r.n_samples, -1, dtype=np.int64)
+        for h0, n, _ in c.holds:
+            ends = np.arange(h0 + block - 1, h0 + n, block)  # each block's last row
+            k = np.arange(1, ends.size)
+            m[ends[k]] = True
+            prev[ends[k]] = ends[k // 2]  # the block at half its time into the hold
+        masks.append(m)
+        previous.append(prev)
+        blocks.append(block)
+    n_holds = sum(len(c.holds) for c in ctx.coords)
+    return SignatureRows(masks, f"inside the {n_holds} hold{'s' if n_holds != 1 else ''} "
+                                f"after input changes (the residual's mean over "
+                                f"{1000 * HOLD_BLOCK_SHARE * fastest:.3g} ms blocks, each "
+                                f"against the block at half its time into the hold)",
+                         previous=previous, block=tuple(blocks), beyond_history=True)
+
+
+def _signature(ctx: FitContext) -> SignatureRows | None:
+    """Where creep is judged: inside the holds (:func:`hold_signature`), else from cycle to
+    cycle of a repeated input (:func:`cycle_signature`), else every test row."""
+    return hold_signature(ctx) or cycle_signature(ctx)
+
+
 def bank_taus(ctx: FitContext) -> tuple[float, ...]:
     """The bank's time constants (s): one per decade from 10 dt (>= 10 ms) to the record
     length (judged from cycle to cycle, :func:`cycle_signature`: to the decade at or above
@@ -138,7 +193,7 @@ register(DiagnosableEffect(
     structure_field="terms",
     term=TERM,
     untestable=_untestable,
-    signature=cycle_signature,
+    signature=_signature,
     linear=True,
     stage_order=3,
     sign_locked=True,

@@ -119,19 +119,19 @@ def test_batch_means_that_follow_each_other_count_as_fewer_batches() -> None:
     assert not harmless_beyond_noise(HeldOut(1.0, 1.0, 0.0, 0.0, 0.5, 40, 0.001, 8.0))
 
 
-def _judged_where(h: HeldOut, differenced: bool) -> Candidate:
+def _judged_where(h: HeldOut, noise_factor: float) -> Candidate:
     return Candidate("drift", cast(Fit, None), {}, {}, heldout=h, where="test rows (here)",
-                     differenced=differenced)
+                     noise_factor=noise_factor)
 
 
 def test_the_floor_of_differenced_rows_counts_the_noise_twice() -> None:
     """On rows compared with an earlier row, e[t] - e[previous[t]], the white noise enters
     twice: the excess the share is counted in is their MSE minus 2 noise², not noise²."""
     noise = 0.5  # noise² = 0.25
-    assert floor_mse(noise, True) == 2 * floor_mse(noise, False) == 0.5
+    assert floor_mse(noise, 2.0) == 2 * floor_mse(noise) == 0.5
     h = _h(1.0, 0.88, 4.0)  # removes 0.12
-    diff = excess_of(_judged_where(h, True), 9.0, noise, strict=False)
-    plain = excess_of(_judged_where(h, False), 9.0, noise, strict=False)
+    diff = excess_of(_judged_where(h, 2.0), 9.0, noise, strict=False)
+    plain = excess_of(_judged_where(h, 1.0), 9.0, noise, strict=False)
     assert diff == 0.5 and plain == 0.75
     assert size_ok(h, diff)  # 0.12 >= 20 % of 0.5
     assert not size_ok(h, plain)  # 0.12 < 20 % of 0.75
@@ -199,15 +199,15 @@ def test_an_overestimated_noise_level_does_not_meet_the_share_by_itself() -> Non
     large = heldout_comparison([noise + misfit], [noise + 0.5 * misfit])
     assert 0.05 < small.gain < 0.07 and small.z > RULE.min_z
     for sigma, refused in ((1.0, True), (1.35, True)):
-        c = _judged_where(small, True)
+        c = _judged_where(small, 2.0)
         excess = excess_of(c, 99.0, sigma, strict=False)
         assert (excess <= 0.0) == (sigma > 1.0)
         d = decide(small, excess, n_tests=1)
         assert d.significant and d.passes is not refused and d.size_ok is not refused
-        assert decide(large, excess_of(_judged_where(large, True), 99.0, sigma, strict=False),
+        assert decide(large, excess_of(_judged_where(large, 2.0), 99.0, sigma, strict=False),
                       n_tests=1).passes
     # the words say why, with the estimate at or above the error
-    over = excess_of(_judged_where(small, True), 99.0, 1.35, strict=False)
+    over = excess_of(_judged_where(small, 2.0), 99.0, 1.35, strict=False)
     assert "noise level estimated for them is at or above" in decide(small, over, 1).reasons[0]
     # the share asked of it: 20 % of the rows' whole MSE there, of the excess elsewhere
     assert share_needed(small, over) == pytest.approx(RULE.min_excess_share * small.mse_before)

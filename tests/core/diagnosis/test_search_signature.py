@@ -1,6 +1,6 @@
 """A candidate judged where it lives (core.diagnosis.search._on_its_signature) on rows
 compared with an earlier row of the same input history (a drift from cycle to cycle of a
-repeated input) is marked ``differenced``: the white noise enters such a change twice, so
+repeated input) is marked with a noise factor of 2: the white noise enters such a change twice, so
 the excess its 20 % share is counted in subtracts 2 noise², not noise²
 (:func:`~core.diagnosis.acceptance.floor_mse`, :func:`~core.diagnosis.state.excess_of`)."""
 
@@ -53,11 +53,11 @@ def test_a_candidate_judged_cycle_to_cycle_counts_the_noise_twice() -> None:
     judged = _on_its_signature(ctx, cur, Candidate("drift", *got,
                                                    heldout=screen_gain(got[0], cur)))
     assert judged is not None and judged.where is not None
-    assert judged.differenced
+    assert judged.noise_factor == 2.0
     noise = 0.1
     assert excess_of(judged, 9.0, noise, strict=False) == pytest.approx(
         judged.heldout.mse_before - 2 * noise**2)
-    assert floor_mse(noise, True) == 2 * noise**2
+    assert floor_mse(noise, 2.0) == 2 * noise**2
 
 
 def test_the_search_leads_with_the_excess_the_judge_counts(monkeypatch: pytest.MonkeyPatch
@@ -88,7 +88,7 @@ def test_the_search_leads_with_the_excess_the_judge_counts(monkeypatch: pytest.M
     monkeypatch.setattr(search, "screen_gain", lambda fit, cur: held)
     monkeypatch.setattr(search, "candidate_evidence", lambda run, cur, c, rnd, frac: Candidate(
         c.name, c.fit, {}, {}, heldout=held, where="test rows one cycle apart",
-        differenced=True))
+        noise_factor=2.0))
     monkeypatch.setattr(search, "decide", spy)
     ctx = SimpleNamespace(strict=True, test_res=lambda f: [rec.y[:10] * 0.0 + 3.0])
     run = SimpleNamespace(ctx=ctx, noise=noise, step=lambda *a: None)
@@ -98,5 +98,5 @@ def test_the_search_leads_with_the_excess_the_judge_counts(monkeypatch: pytest.M
     # the judge's excess: its verdict counts it with this same function
     assert judge.excess_of is excess_of
     want = excess_of(judged, 9.0, noise, strict=True)
-    assert want == pytest.approx(held.mse_before - floor_mse(noise, True)) == 0.5
+    assert want == pytest.approx(held.mse_before - floor_mse(noise, 2.0)) == 0.5
     assert seen == [(pytest.approx(want), True)]

@@ -11,6 +11,8 @@ from dataclasses import fields
 import pytest
 
 from core.diagnosis.acceptance import Decision
+from core.diagnosis.judge import choose
+from core.diagnosis.specs import FAMILY_PRIORITY
 from core.diagnosis.state import Candidate
 from core.diagnosis.stats import HeldOut
 
@@ -38,7 +40,7 @@ def _pair() -> tuple[Candidate, Candidate]:
                        between="predictions of the fit on top of creep",
                        share_waived=True, decision=_decision(True),
                        where="cycle to cycle (on top of creep)", elsewhere=_held(0.01, 0.4),
-                       beyond_history=True, differenced=True)
+                       overall=_held(0.03, 1.5), beyond_history=True, noise_factor=2.0)
     return alone, on_top
 
 
@@ -50,7 +52,8 @@ def test_the_judgement_comes_from_the_comparison_that_decided() -> None:
     assert c.crossfit == alone.crossfit and c.between == alone.between
     assert c.given == "creep"
     for f in ("heldout", "size_ok", "share_waived", "decision",
-              "verdict", "where", "elsewhere", "beyond_history", "differenced"):
+              "verdict", "where", "elsewhere", "overall", "beyond_history",
+              "noise_factor"):
         assert getattr(c, f) == getattr(on_top, f), f
 
 
@@ -72,3 +75,20 @@ def test_another_effects_judgement_is_refused() -> None:
         alone.judged_as(Candidate("creep", *(getattr(on_top, n) for n in
                                              ("fit", "parameters", "uncertainty", "heldout"))),
                         given="offset")
+
+
+def test_families_are_chosen_between_on_all_the_test_rows() -> None:
+    """A creep judged inside the holds (79 % of the MSE of the changes there) and a rate
+    judged on every test row (60 %) both pass. Their shares are of different rows; on all
+    the test rows the creep removes 95 %. Rate's family comes first and keeps its place
+    unless the other explains 1.5 times as much: compared on the same rows, creep does."""
+    creep = Candidate("creep", fit="creep", parameters={}, uncertainty={},
+                      heldout=_held(0.79, 8.0), where="inside the holds",
+                      overall=_held(0.95, 6.0))
+    rate = Candidate("rate", fit="rate", parameters={}, uncertainty={}, heldout=_held(0.60, 2.5))
+    assert creep.choice_gain == 0.95 and rate.choice_gain == 0.60
+    assert FAMILY_PRIORITY[rate.family] < FAMILY_PRIORITY[creep.family]
+    cands = {"creep": creep, "rate": rate}
+    assert choose(list(cands), {n: c.choice_gain for n, c in cands.items()}) == "creep"
+    # the shares of different rows would have kept the rate
+    assert choose(list(cands), {n: c.heldout.gain for n, c in cands.items()}) == "rate"
