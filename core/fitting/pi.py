@@ -383,6 +383,11 @@ class PIRegressor(Estimator):
             return place_thresholds(prep.us, n, self.thresholds, self.r_max)
         return as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
 
+    def _orientation(self, prep: Prepared) -> LoopOrientation:
+        """The loops' orientation on the training rows (:func:`loop_orientation`), which
+        the constraint (:meth:`_constraint_for`) and the report's line read."""
+        return loop_orientation(prep.us, prep.ys, prep.train_masks)
+
     def _constraint_for(self, orientation: LoopOrientation) -> str:
         """The constraint the weights are solved under: ``"nonnegative"`` becomes
         ``"stop"`` on clockwise loops (:func:`constraint_transform`)."""
@@ -421,7 +426,7 @@ class PIRegressor(Estimator):
         )
         prep_all = prep
         prep, memory_note = exclude_before_wipeout(prep, self.initial_memory)
-        self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
+        self.orientation_ = self._orientation(prep)
         self.constraint_ = self._constraint_for(self.orientation_)
         eps = self._min_slope(prep)
         cv_scores: dict[int, float | None] = {}
