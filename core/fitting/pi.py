@@ -261,8 +261,9 @@ def cv_choice_note(scores: dict[int, float | None], n: int, tolerance: float) ->
 
 @dataclass(frozen=True, eq=False)
 class _Design:
-    """The weight fit's design: ``n`` thresholds, their per-label Gram matrices over
-    ``segments`` and the labels trained and tested on."""
+    """The weight fit's design: ``n`` thresholds, the Gram matrices over ``segments`` of
+    the labels trained on (none of the held-out label, which is scored by simulation) and
+    the labels trained and tested on."""
 
     n: int
     thresholds: Float1D
@@ -382,6 +383,11 @@ class PIRegressor(Estimator):
             return place_thresholds(prep.us, n, self.thresholds, self.r_max)
         return as_vector(self.thresholds, "thresholds", positive=True, increasing=True)
 
+    def _orientation(self, prep: Prepared) -> LoopOrientation:
+        """The loops' orientation on the training rows (:func:`loop_orientation`), which
+        the constraint (:meth:`_constraint_for`) and the report's line read."""
+        return loop_orientation(prep.us, prep.ys, prep.train_masks)
+
     def _constraint_for(self, orientation: LoopOrientation) -> str:
         """The constraint the weights are solved under: ``"nonnegative"`` becomes
         ``"stop"`` on clockwise loops (:func:`constraint_transform`)."""
@@ -420,7 +426,7 @@ class PIRegressor(Estimator):
         )
         prep_all = prep
         prep, memory_note = exclude_before_wipeout(prep, self.initial_memory)
-        self.orientation_ = loop_orientation(prep.us, prep.ys, prep.train_masks)
+        self.orientation_ = self._orientation(prep)
         self.constraint_ = self._constraint_for(self.orientation_)
         eps = self._min_slope(prep)
         cv_scores: dict[int, float | None] = {}
@@ -439,7 +445,9 @@ class PIRegressor(Estimator):
             n = int(filled(n_fixed))  # set where no candidate could be cross-validated
             segs = prep.segments(1)
             r = r_exp if r_exp is not None else self._thresholds_for(prep, n)
-            design = _Design(n, r, stream_gram(segs, r, n_labels=2, chunk=self.chunk), segs,
+            # the training rows' Gram only (label 0): the weights are solved on it, the
+            # held-out rows (label 1) are scored by simulation, never from a Gram matrix
+            design = _Design(n, r, stream_gram(segs, r, n_labels=1, chunk=self.chunk), segs,
                              (0,), 1)
         n, r = design.n, design.thresholds
         fit = fit_linear_pi(
@@ -512,7 +520,7 @@ class PIRegressor(Estimator):
                 cv_scores[n] = None
                 continue
             r = self._thresholds_for(prep, n)
-            gram = stream_gram(segs, r, n_labels=K + 1, chunk=self.chunk)
+            gram = stream_gram(segs, r, n_labels=K, chunk=self.chunk)  # (not the held-out K)
             lower, keep, T = self._lower(n, eps)
             sse = _cv_sse(gram[:, keep][:, :, keep], K, lower, T)
             cv_scores[n] = float(np.sqrt(sse / prep.n_train))

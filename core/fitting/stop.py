@@ -390,6 +390,7 @@ class StopPIRegressor(PIRegressor):
                 break  # the elements' input no longer moves: converged
             last = vs
             est = _GapStep(**params)
+            est.served_orientation_ = self.orientation_
             with FILTERS, warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 est.fit(vs if prep.multi else vs[0], prep.ys if prep.multi else prep.ys[0],
@@ -445,3 +446,12 @@ class _GapStep(StopPIRegressor):
     it keeps is scored on the input itself (``_take_gap``)."""
 
     scores_fit: ClassVar[bool] = False
+    #: The orientation of the fit the search serves (the loops of its input itself), set by
+    #: :meth:`StopPIRegressor._gap_fit` and taken as the step's own: the step's orientation
+    #: on the elements' input is read by nothing (the stop bank's constraint does not depend
+    #: on it, :meth:`StopPIRegressor._constraint_for`, and the step is not scored), so it is
+    #: not computed (an eighth of the search's time on the pinched steel plant).
+    served_orientation_: LoopOrientation
+
+    def _orientation(self, prep: Any) -> LoopOrientation:
+        return self.served_orientation_

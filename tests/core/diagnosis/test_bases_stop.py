@@ -57,11 +57,19 @@ def test_the_bank_on_the_gap_input_recovers_a_stop_plant_exactly() -> None:
     np.testing.assert_allclose(fit.pred[0], y, atol=1e-8 * np.ptp(y))
 
 
-def test_a_gap_plant_gets_the_stop_base_and_its_model_inverts_and_exports() -> None:
+@pytest.fixture(scope="module")
+def gap_plant_diagnosis() -> tuple[np.ndarray, DiagnosisResult]:
+    """A symmetric stop plant behind a 0.08 gap, 0.2 % noise, and its diagnosis (the input
+    and the result): one diagnosis for the two tests that read it (neither changes it)."""
     plant = StopPIModel(0.1, [0.05, 0.15, 0.3], [1.0, 0.5, 0.8], gap=0.08)
     u = _input()
     y = plant(u) + 0.002 * np.random.default_rng(0).standard_normal(u.size)
-    res = _diagnose(u, y)
+    return u, _diagnose(u, y)
+
+
+def test_a_gap_plant_gets_the_stop_base_and_its_model_inverts_and_exports(
+        gap_plant_diagnosis) -> None:
+    u, res = gap_plant_diagnosis
     assert res.base_choice is not None and res.base_choice.kind == "stop-pi"
     assert res.base_choice.stop is not None
     assert res.base_choice.stop.gap == pytest.approx(0.08, rel=0.1)
@@ -187,11 +195,8 @@ def test_a_signed_plant_gets_the_fits_gains_and_its_model_inverts_and_exports() 
     np.testing.assert_array_equal(back.model(u), model(u))
 
 
-def test_a_symmetric_gap_plant_keeps_one_gain() -> None:
-    plant = StopPIModel(0.1, [0.05, 0.15, 0.3], [1.0, 0.5, 0.8], gap=0.08)
-    u = _input()
-    y = plant(u) + 0.002 * np.random.default_rng(0).standard_normal(u.size)
-    res = _diagnose(u, y)
+def test_a_symmetric_gap_plant_keeps_one_gain(gap_plant_diagnosis) -> None:
+    _, res = gap_plant_diagnosis
     assert res.base_choice is not None and res.base_choice.stop is not None
     assert res.base_choice.stop.slip_force_ratio is None
     assert res.base_choice.stop.friction_plateau_falling is None

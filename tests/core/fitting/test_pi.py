@@ -281,3 +281,39 @@ def test_blocked_cv_scores_equal_refits_on_transformed_columns(rng):
         r = (Xs[b] @ T)[:, :-1] @ theta - Xs[b][:, -1]
         ref += float(r @ r)
     assert _cv_sse(gram, blocks, lower, T) == pytest.approx(ref, rel=1e-9)
+
+
+@pytest.mark.parametrize("n_operators", [None, 6])
+def test_the_fit_streams_no_gram_of_its_held_out_rows_and_finds_the_same(n_operators, rng,
+                                                                          monkeypatch):
+    """The weights are solved on the training blocks' Gram matrices only, so the fit no longer
+    streams one for the held-out label (its rows are scored by simulation). Against the
+    fit that streams it too (every ``stream_gram`` call given one label more, the computation
+    before): bit for bit the same model, cross-validation scores and report, by
+    cross-validation (``None``) and with a fixed number of operators."""
+    import core.fitting.pi as pi
+
+    u = _tapered(9000) + 0.01 * rng.normal(size=9000)
+    y = TRUE(u) + 0.01 * rng.normal(size=u.size)
+    test = np.arange(u.size) >= 6000
+    streamed: list[int] = []
+    original = pi.stream_gram
+
+    def counted(*args, n_labels, **kwargs):
+        streamed.append(n_labels)
+        return original(*args, n_labels=n_labels, **kwargs)
+
+    monkeypatch.setattr(pi, "stream_gram", counted)
+    fast = PIRegressor(n_operators=n_operators).fit(u, y, train=~test, test=test)
+    k = 1 if n_operators else fast.cv_blocks  # the training labels 0..k-1; k is held out
+    assert streamed and set(streamed) == {k}
+
+    def with_held_out(*args, n_labels, **kwargs):
+        return original(*args, n_labels=n_labels + 1, **kwargs)
+
+    monkeypatch.setattr(pi, "stream_gram", with_held_out)
+    before = PIRegressor(n_operators=n_operators).fit(u, y, train=~test, test=test)
+    assert json.dumps(fast.full_model_.to_dict()) == json.dumps(before.full_model_.to_dict())
+    assert fast.cv_scores_ == before.cv_scores_
+    assert json.dumps(fast.report_.to_dict(), sort_keys=True) == json.dumps(
+        before.report_.to_dict(), sort_keys=True)

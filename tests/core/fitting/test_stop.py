@@ -242,6 +242,40 @@ def test_the_gap_search_finds_the_same_without_scoring_its_steps(gap_plant_fit,
         est.report_.to_dict(), sort_keys=True)
 
 
+def test_the_gap_search_finds_the_same_without_its_unread_parts(gap_plant_fit,
+                                                                 monkeypatch) -> None:
+    """The weight fits of the gap search stream the training rows' Gram matrix alone (the
+    held-out rows are never solved on) and take the orientation of the fit they serve
+    (``_GapStep._orientation``: the stop constraint does not read it): against the search
+    streaming the held-out Gram too (every ``stream_gram`` call of the PI fit given one
+    label more) and computing each step's orientation on the elements' input, as before,
+    the same chosen width, model, widths' training MSEs and report, bit for bit."""
+    import json
+
+    from core.fitting import pi, stop
+
+    u, y, _, est = gap_plant_fit
+    original = pi.stream_gram
+    oriented: list[bool] = []
+
+    def with_held_out(*args, n_labels, **kwargs):
+        return original(*args, n_labels=n_labels + 1, **kwargs)
+
+    def own_orientation(step, prep):
+        oriented.append(step.served_orientation_.clockwise)
+        return pi.PIRegressor._orientation(step, prep)
+
+    monkeypatch.setattr(pi, "stream_gram", with_held_out)
+    monkeypatch.setattr(stop._GapStep, "_orientation", own_orientation)
+    before = StopPIRegressor().fit(u, y)
+    assert len(oriented) > len(stop.GAP_GRID) and all(oriented)  # every step, served clockwise
+    assert before.model_.gap == est.model_.gap
+    assert json.dumps(before.full_model_.to_dict()) == json.dumps(est.full_model_.to_dict())
+    assert before.gap_scores_ == est.gap_scores_
+    assert json.dumps(before.report_.to_dict(), sort_keys=True) == json.dumps(
+        est.report_.to_dict(), sort_keys=True)
+
+
 def test_a_gap_too_small_to_matter_is_not_named() -> None:
     # a 0.006 wide gap (0.6 % of the travel) under 1 % noise: the best width lowers the
     # training MSE by about 3 %, less than GAP_MIN_GAIN
