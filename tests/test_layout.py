@@ -27,6 +27,8 @@ ALLOWED = {
                                        "(benchmarks/diagnosis/ceiling.py)",
     "tests/test_benchmark_triangle.py": "checks the growing-triangle development class "
                                         "(benchmarks/diagnosis/triangle.py)",
+    "tests/test_benchmark_opensees_dev.py": "checks the OpenSees development class "
+                                            "(benchmarks/diagnosis/opensees_plants.py)",
     "tests/test_import_hygiene.py": "a rule over every core module",
     "tests/test_layout.py": "this rule",
     "tests/test_layers.py": "the import-linter contracts over core and app",
