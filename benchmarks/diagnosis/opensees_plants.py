@@ -43,7 +43,7 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -143,7 +143,7 @@ class StrainDriven:
 
     material: str
     strain_per_volt: float = 0.04
-    gain: float = field(default=1.0)
+    gain: float = 1.0
 
     def __call__(self, u: np.ndarray, dt: float | None = None) -> np.ndarray:
         """The output along input ``u`` (shape ``(n,)``), from the virgin state."""
